@@ -1,0 +1,42 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/stereo_calibration.h>
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace planar_grid {
+
+void
+StereoCalibration::validate(const std::string& source) const
+{
+  std::ostringstream problem;
+  if (!std::isfinite(focal_length_px) || focal_length_px <= 0.0)
+    problem << "focal length must be a positive number of pixels, got "
+            << focal_length_px;
+  else if (!std::isfinite(baseline_m) || baseline_m <= 0.0)
+    problem << "baseline must be a positive number of metres, got " << baseline_m;
+  else if (!std::isfinite(cx_px) || !std::isfinite(cy_px))
+    problem << "principal point must be finite, got (" << cx_px << ", " << cy_px << ")";
+  else if (width < 0 || height < 0)
+    problem << "image size must not be negative, got " << width << "x" << height;
+  if (!problem.str().empty())
+    throw IOError(source + ": invalid stereo calibration: " + problem.str());
+}
+
+double
+StereoCalibration::depthFromDisparity(double disparity_px) const
+{
+  if (disparity_px <= 0.0)
+    return std::numeric_limits<double>::infinity();
+  return focal_length_px * baseline_m / disparity_px;
+}
+
+double
+StereoCalibration::depthError(double depth_m, double disparity_error_px) const
+{
+  return depth_m * depth_m / (baseline_m * focal_length_px) * disparity_error_px;
+}
+
+} // namespace planar_grid
