@@ -10,39 +10,64 @@
 namespace planar_grid {
 
 /** \brief Camera poses world_T_camera, one per frame: a camera-frame point p (x right,
-  * y down, z forward, metres) is at world_T_camera * p in the world frame. \ingroup odometry */
-using Trajectory = std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>;
+ * y down, z forward, metres) is at world_T_camera * p in the world frame.
+ * \ingroup odometry */
+using Trajectory
+  = std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>;
 
 /** \brief Reads a Karlsruhe `insdata.txt` (one line per frame:
-  * timestamp_ns lat_deg lon_deg alt_m x_m y_m z_m roll pitch yaw) into camera poses.
-  *
-  * Only the metric positions (x, y, z; z up) are used: the angle columns are not
-  * trustworthy (the yaw jumps by about 2 rad at frame 97), so the heading is taken from
-  * the track (central difference over neighbours at least \a heading_baseline_m apart), and
-  * the camera looks level along it. The world frame is the local x, y, z frame shifted so
-  * that frame 0 is at the origin; z is up.
-  * \param[in] path the insdata.txt file
-  * \param[in] heading_baseline_m the shortest chord used to estimate the heading, metres
-  * \return one pose per line
-  * \throws planar_grid::IOError naming file:line when the file is missing, a line has
-  *         fewer than 7 numbers, or the track never moves */
-Trajectory
-loadKarlsruheInsData(const std::string& path, double heading_baseline_m = 1.0);
+ * timestamp_ns lat_deg lon_deg alt_m x_m y_m z_m roll pitch yaw) into camera poses.
+ *
+ * Only the metric positions (x, y, z; z up) are used: the angle columns are not
+ * trustworthy (the yaw jumps by about 2 rad at frame 97), so the heading is taken from
+ * the track. For each frame it is the direction from the nearest earlier to the nearest
+ * later frame whose horizontal chord to it is at least \a heading_baseline_m (central
+ * difference); at the ends of the track, where one of them does not exist, the frame
+ * itself takes its place (one-sided difference). The camera looks level along the
+ * heading: its x axis points right, y down (world -z), z forward; its origin is the
+ * INS position. The world frame is the local x, y, z frame shifted so that frame 0 is
+ * at the origin; z is up. Blank lines are skipped.
+ * \param[in] path the insdata.txt file
+ * \param[in] heading_baseline_m the shortest horizontal chord used to estimate the
+ *            heading, metres (> 0)
+ * \return one pose per non-blank line, in file order
+ * \throws planar_grid::IOError naming file:line when the file is missing or empty, a
+ *         line has fewer than 7 numbers or a token that is not a finite number, or the
+ *         track never moves \a heading_baseline_m away from a frame
+ * \throws planar_grid::Exception when \a heading_baseline_m is not positive
+ * \ingroup odometry */
+Trajectory loadKarlsruheInsData(const std::string& path,
+                                double heading_baseline_m = 1.0);
 
 /** \brief Reads a KITTI poses file: one line per frame, 12 numbers, the row-major 3x4
-  * matrix world_T_camera. \throws planar_grid::IOError naming file:line on malformed lines. */
-Trajectory
-loadKittiPoses(const std::string& path);
+ * matrix world_T_camera. Blank lines are skipped.
+ * \param[in] path the poses file
+ * \return one pose per non-blank line (empty for an empty file)
+ * \throws planar_grid::IOError naming the file when it is missing, and file:line when a
+ *         line does not hold exactly 12 finite numbers or its 3x3 part is not a proper
+ *         rotation (orthonormal to 1e-4, determinant > 0)
+ * \ingroup odometry */
+Trajectory loadKittiPoses(const std::string& path);
 
-/** \brief Writes a KITTI poses file (12 numbers per line, full precision), atomically.
-  * \throws planar_grid::IOError when it cannot be written */
-void
-saveKittiPoses(const std::string& path, const Trajectory& trajectory);
+/** \brief Writes a KITTI poses file (12 numbers per line, 17 significant digits, so
+ * that loadKittiPoses() gives back the same doubles), atomically (see
+ * planar_grid::writeTextFileAtomically()).
+ * \param[in] path the poses file
+ * \param[in] trajectory the poses world_T_camera
+ * \throws planar_grid::IOError when it cannot be written (an existing file is left as
+ *         it was)
+ * \throws planar_grid::Exception when a pose is not finite
+ * \ingroup odometry */
+void saveKittiPoses(const std::string& path, const Trajectory& trajectory);
 
 /** \brief The pose stored in a PCD file's VIEWPOINT field (sensor origin and
-  * orientation, pcl::PointCloud::sensor_origin_ / sensor_orientation_) as world_T_sensor.
-  * \throws planar_grid::IOError when the file cannot be read */
-Eigen::Isometry3d
-loadPCDViewpoint(const std::string& path);
+ * orientation, pcl::PointCloud::sensor_origin_ / sensor_orientation_) as
+ * world_T_sensor. Only the header is read (pcl::PCDReader::readHeader), not the points.
+ * PCD stores the viewpoint in single precision, so the pose is exact to about 1e-7
+ * relative. \param[in] path the PCD file \return world_T_sensor (identity for the
+ * default VIEWPOINT 0 0 0 1 0 0 0) \throws planar_grid::IOError when the file is
+ * missing, its header cannot be parsed, or the VIEWPOINT is not finite or has a zero
+ * quaternion \ingroup odometry */
+Eigen::Isometry3d loadPCDViewpoint(const std::string& path);
 
 } // namespace planar_grid

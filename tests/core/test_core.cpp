@@ -1,0 +1,242 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/atomic_file.h>
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/stereo_calibration.h>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+/** \brief The Karlsruhe calibration (data README: f from P1_roi, B = 368.2632 / f). */
+planar_grid::StereoCalibration
+karlsruheCalibration()
+{
+  planar_grid::StereoCalibration calibration;
+  calibration.focal_length_px = 645.2401;
+  calibration.cx_px = 635.9587;
+  calibration.cy_px = 194.1291;
+  calibration.baseline_m = 0.5707;
+  calibration.width = 1344;
+  calibration.height = 372;
+  return calibration;
+}
+
+std::string
+readAll(const fs::path& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in),
+                     std::istreambuf_iterator<char>());
+}
+
+/** \brief A fresh, empty folder per test, removed afterwards. */
+class AtomicFileTest : public ::testing::Test {
+protected:
+  void SetUp() override
+  {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path()
+           / ("planar_grid_test_core_" + std::string(info->name()) + "_"
+              + std::to_string(static_cast<long>(::getpid())));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override
+  {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+  /** \brief Number of entries in the test folder (to spot leftover temporary files). */
+  std::size_t entries() const
+  {
+    return static_cast<std::size_t>(
+      std::distance(fs::directory_iterator(dir_), fs::directory_iterator()));
+  }
+  /** \brief Writes \a content to \a path directly (the "existing file"). */
+  static void writePlain(const fs::path& path, const std::string& content)
+  {
+    std::ofstream out(path, std::ios::binary);
+    out << content;
+  }
+
+  /** \brief The test's own folder. */
+  fs::path dir_;
+};
+
+} // namespace
+
+// ---------------------------------------------------------------- StereoCalibration
+
+TEST(StereoCalibration, ValidateAcceptsKarlsruhe)
+{
+  EXPECT_NO_THROW(karlsruheCalibration().validate("calib.txt"));
+}
+
+TEST(StereoCalibration, ValidateRejectsBadValuesNamingSource)
+{
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  auto expectRejected = [](const planar_grid::StereoCalibration& calibration) {
+    try {
+      calibration.validate("my_calib.txt");
+      ADD_FAILURE() << "validate() accepted an invalid calibration";
+    } catch (const planar_grid::IOError& e) {
+      EXPECT_NE(std::string(e.what()).find("my_calib.txt"), std::string::npos)
+        << e.what();
+    }
+  };
+  planar_grid::StereoCalibration calibration = karlsruheCalibration();
+  calibration.focal_length_px = 0.0;
+  expectRejected(calibration);
+  calibration = karlsruheCalibration();
+  calibration.focal_length_px = nan;
+  expectRejected(calibration);
+  calibration = karlsruheCalibration();
+  calibration.baseline_m = -0.5707;
+  expectRejected(calibration);
+  calibration = karlsruheCalibration();
+  calibration.baseline_m = std::numeric_limits<double>::infinity();
+  expectRejected(calibration);
+  calibration = karlsruheCalibration();
+  calibration.cx_px = nan;
+  expectRejected(calibration);
+  calibration = karlsruheCalibration();
+  calibration.height = -1;
+  expectRejected(calibration);
+  // A default-constructed calibration (f = B = 0) is invalid too.
+  expectRejected(planar_grid::StereoCalibration{});
+}
+
+TEST(StereoCalibration, DepthFromDisparityKarlsruhe)
+{
+  const planar_grid::StereoCalibration calibration = karlsruheCalibration();
+  // z = f B / d = 645.2401 * 0.5707 / 10 = 368.23852507 / 10 = 36.823852507 m.
+  // Tolerance 1e-9 m: one multiplication and one division in double precision.
+  EXPECT_NEAR(calibration.depthFromDisparity(10.0), 36.823852507, 1e-9);
+  // Halving the disparity doubles the depth.
+  EXPECT_NEAR(calibration.depthFromDisparity(5.0), 2.0 * 36.823852507, 1e-9);
+  // No disparity (or a negative, invalid one) is a point at infinity.
+  EXPECT_TRUE(std::isinf(calibration.depthFromDisparity(0.0)));
+  EXPECT_TRUE(std::isinf(calibration.depthFromDisparity(-1.0)));
+}
+
+TEST(StereoCalibration, DepthErrorKarlsruhe)
+{
+  const planar_grid::StereoCalibration calibration = karlsruheCalibration();
+  // dz = z^2 / (B f) * dd = 100 / (0.5707 * 645.2401) * 0.5 = 0.135781556 m at z = 10
+  // m. Tolerance 1e-9 m: a handful of double operations on numbers near 1.
+  const double expected = 100.0 / (0.5707 * 645.2401) * 0.5;
+  EXPECT_NEAR(expected, 0.135781556, 1e-9);
+  EXPECT_NEAR(calibration.depthError(10.0, 0.5), expected, 1e-12);
+  // The default disparity error is 0.5 px.
+  EXPECT_NEAR(calibration.depthError(10.0), expected, 1e-12);
+  // Quadratic in depth: 4x the error at twice the distance.
+  EXPECT_NEAR(calibration.depthError(20.0, 0.5), 4.0 * expected, 1e-12);
+}
+
+// ---------------------------------------------------------------- ConfigError
+
+TEST(ConfigError, WhatIsFileLineColumnMessage)
+{
+  const planar_grid::ConfigError error("config/karlsruhe.yaml", 12, 5,
+                                       "unknown key 'foo'");
+  EXPECT_STREQ(error.what(), "config/karlsruhe.yaml:12:5: unknown key 'foo'");
+  EXPECT_EQ(error.file(), "config/karlsruhe.yaml");
+  EXPECT_EQ(error.line(), 12);
+  EXPECT_EQ(error.column(), 5);
+}
+
+TEST(ConfigError, UnknownPartsAreOmitted)
+{
+  EXPECT_STREQ(planar_grid::ConfigError("a.yaml", 3, 0, "bad").what(), "a.yaml:3: bad");
+  EXPECT_STREQ(planar_grid::ConfigError("a.yaml", 0, 0, "bad").what(), "a.yaml: bad");
+  EXPECT_STREQ(planar_grid::ConfigError("", 2, 1, "bad").what(), "<yaml>:2:1: bad");
+}
+
+TEST(ConfigError, IsAPlanarGridException)
+{
+  try {
+    throw planar_grid::ConfigError("a.yaml", 1, 1, "bad");
+  } catch (const planar_grid::Exception& e) {
+    EXPECT_STREQ(e.what(), "a.yaml:1:1: bad");
+    return;
+  }
+  ADD_FAILURE() << "ConfigError was not caught as planar_grid::Exception";
+}
+
+// ---------------------------------------------------------------- atomic files
+
+TEST_F(AtomicFileTest, SuccessWritesTheFile)
+{
+  const fs::path target = dir_ / "out.txt";
+  planar_grid::writeTextFileAtomically(target.string(), "hello\n");
+  EXPECT_EQ(readAll(target), "hello\n");
+  EXPECT_EQ(entries(), 1u); // only the target, no temporary file left
+  // Replacing an existing file works too.
+  planar_grid::writeTextFileAtomically(target.string(), "world\n");
+  EXPECT_EQ(readAll(target), "world\n");
+  EXPECT_EQ(entries(), 1u);
+}
+
+TEST_F(AtomicFileTest, WriterReturningFalseLeavesExistingFile)
+{
+  const fs::path target = dir_ / "out.txt";
+  writePlain(target, "old");
+  EXPECT_THROW(planar_grid::writeFileAtomically(target.string(),
+                                                [](const std::string& tmp) {
+                                                  std::ofstream(tmp) << "half";
+                                                  return false;
+                                                }),
+               planar_grid::IOError);
+  EXPECT_EQ(readAll(target), "old");
+  EXPECT_EQ(entries(), 1u);
+}
+
+TEST_F(AtomicFileTest, WriterThrowingLeavesExistingFile)
+{
+  const fs::path target = dir_ / "out.txt";
+  writePlain(target, "old");
+  EXPECT_THROW(planar_grid::writeFileAtomically(target.string(),
+                                                [](const std::string& tmp) -> bool {
+                                                  std::ofstream(tmp) << "half";
+                                                  throw std::runtime_error(
+                                                    "disk on fire");
+                                                }),
+               std::runtime_error);
+  EXPECT_EQ(readAll(target), "old");
+  EXPECT_EQ(entries(), 1u);
+}
+
+TEST_F(AtomicFileTest, WriterThatWritesNothingFails)
+{
+  const fs::path target = dir_ / "out.txt";
+  EXPECT_THROW(planar_grid::writeFileAtomically(
+                 target.string(), [](const std::string&) { return true; }),
+               planar_grid::IOError);
+  EXPECT_FALSE(fs::exists(target));
+  EXPECT_EQ(entries(), 0u);
+}
+
+TEST_F(AtomicFileTest, MissingFolderThrowsNamingIt)
+{
+  const fs::path missing = dir_ / "no_such_folder";
+  const fs::path target = missing / "out.txt";
+  try {
+    planar_grid::writeTextFileAtomically(target.string(), "x");
+    ADD_FAILURE() << "no exception for a missing folder";
+  } catch (const planar_grid::IOError& e) {
+    EXPECT_NE(std::string(e.what()).find(missing.string()), std::string::npos)
+      << e.what();
+  }
+  EXPECT_FALSE(fs::exists(missing));
+}
