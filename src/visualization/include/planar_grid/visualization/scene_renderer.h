@@ -14,111 +14,141 @@ namespace planar_grid {
 
 /** \brief How a cloud is coloured. \ingroup visualization */
 enum class ColorMode {
-  /** By world z (height), with a perceptual colour map over the cloud's z range. */
+  /** By world z (height) with the Turbo colour map (blue low, green, yellow, red high;
+   * its near-black ends left out) over the cloud's 2nd..98th percentile of z, so that
+   * a few outliers do not wash it out. */
   HEIGHT,
-  /** By the intensity field (grey). */
+  /** By the intensity field, grey from dark (2nd percentile) to white (98th
+   * percentile); a constant intensity renders mid grey. */
   INTENSITY,
   /** One fixed colour. */
   SOLID
 };
 
 /** \brief A VTK camera: where it is, what it looks at, which way is up (world frame,
-  * metres) and the vertical view angle (degrees). \ingroup visualization */
+ * metres) and the vertical view angle (degrees). \ingroup visualization */
 struct CameraParameters {
-  Eigen::Vector3d position{0.0, 0.0, 10.0};
-  Eigen::Vector3d focal_point{0.0, 0.0, 0.0};
-  Eigen::Vector3d view_up{0.0, 1.0, 0.0};
-  double view_angle_deg{30.0};
+  /** \brief Camera centre, metres. */
+  Eigen::Vector3d position{ 0.0, 0.0, 10.0 };
+  /** \brief The point looked at, metres; must differ from position. */
+  Eigen::Vector3d focal_point{ 0.0, 0.0, 0.0 };
+  /** \brief Up direction in the image; not parallel to the viewing direction. */
+  Eigen::Vector3d view_up{ 0.0, 1.0, 0.0 };
+  /** \brief Vertical field of view, degrees, in (0, 180). */
+  double view_angle_deg{ 30.0 };
 };
 
 /** \brief Camera presets framing everything added so far. \ingroup visualization */
 enum class CameraPreset {
-  /** Looking straight down -z (a map view), x to the right. */
+  /** Looking straight down -z (a map view), x to the right, y up in the image. */
   TOP,
-  /** From above and behind the scene's centre at 45 degrees. */
+  /** From above and behind (-y) the scene's centre at 45 degrees elevation, looking
+   * along +y, z up in the image. */
   OBLIQUE
 };
 
-/** \brief Renders data (clouds, trajectories) with VTK, interactively or offscreen to PNG.
-  * It takes data, never algorithms (S34). Only this target links VTK.
-  * Debian's VTK 9.1 needs an X server even offscreen: call ensureDisplay() first.
-  * \ingroup visualization */
+/** \brief Renders data (clouds, trajectories) with VTK, interactively or offscreen to
+ * PNG. It takes data, never algorithms (S34). Only this target links VTK. Debian's
+ * VTK 9.1 needs an X server even offscreen: call ensureDisplay() first. Without any
+ * camera call, the scene is framed with CameraPreset::TOP; the background is black. An
+ * empty scene renders as background only. \ingroup visualization */
 class SceneRenderer {
 public:
+  /** \brief An empty scene; opens no window (no display is needed until rendering). */
   SceneRenderer();
+  /** \brief Releases the VTK objects. */
   ~SceneRenderer();
   SceneRenderer(const SceneRenderer&) = delete;
-  SceneRenderer&
-  operator=(const SceneRenderer&) = delete;
+  SceneRenderer& operator=(const SceneRenderer&) = delete;
 
-  /** \brief Adds a cloud; NaN points are skipped.
-    * \param[in] cloud points in the world frame, metres
-    * \param[in] mode colouring
-    * \param[in] point_size_px rendered point size, px
-    * \param[in] rgb colour for ColorMode::SOLID, components in [0, 1] */
-  void
-  addPointCloud(const pcl::PointCloud<pcl::PointXYZI>& cloud,
-                ColorMode mode = ColorMode::HEIGHT,
-                double point_size_px = 2.0,
-                const Eigen::Vector3d& rgb = Eigen::Vector3d(1.0, 1.0, 1.0));
+  /** \brief Adds a cloud; NaN points are skipped. Copies the data once into VTK arrays
+   * (no per-point allocation), so clouds of millions of points are fine.
+   * \param[in] cloud points in the world frame, metres
+   * \param[in] mode colouring
+   * \param[in] point_size_px rendered point size, px, > 0
+   * \param[in] rgb colour for ColorMode::SOLID, components in [0, 1]
+   * \note A cloud without finite points adds nothing and prints a PCL_WARN.
+   * \throws planar_grid::Exception when point_size_px <= 0 */
+  void addPointCloud(const pcl::PointCloud<pcl::PointXYZI>& cloud,
+                     ColorMode mode = ColorMode::HEIGHT,
+                     double point_size_px = 2.0,
+                     const Eigen::Vector3d& rgb = Eigen::Vector3d(1.0, 1.0, 1.0));
 
   /** \brief Adds a polyline through camera positions (world frame, metres).
-    * \param[in] positions the positions in order
-    * \param[in] rgb line colour, components in [0, 1]
-    * \param[in] line_width_px line width, px */
-  void
-  addTrajectory(const std::vector<Eigen::Vector3d>& positions,
-                const Eigen::Vector3d& rgb = Eigen::Vector3d(1.0, 0.2, 0.2),
-                double line_width_px = 3.0);
+   * \param[in] positions the positions in order
+   * \param[in] rgb line colour, components in [0, 1]
+   * \param[in] line_width_px line width, px, > 0
+   * \note Non-finite positions are skipped; with fewer than 2 left nothing is added
+   *       and a PCL_WARN is printed.
+   * \throws planar_grid::Exception when line_width_px <= 0 */
+  void addTrajectory(const std::vector<Eigen::Vector3d>& positions,
+                     const Eigen::Vector3d& rgb = Eigen::Vector3d(1.0, 0.2, 0.2),
+                     double line_width_px = 3.0);
 
-  /** \brief Adds a text label in the top-left corner. */
-  void
-  addText(const std::string& text);
+  /** \brief Adds a white text label in the top-left corner; further labels stack
+   * below it.
+   * \param[in] text the label */
+  void addText(const std::string& text);
 
-  /** \brief Sets the background colour, components in [0, 1]. */
-  void
-  setBackground(const Eigen::Vector3d& rgb);
+  /** \brief Sets the background colour (default black).
+   * \param[in] rgb components in [0, 1] */
+  void setBackground(const Eigen::Vector3d& rgb);
 
-  /** \brief Uses an explicit camera. */
-  void
-  setCamera(const CameraParameters& camera);
+  /** \brief Uses an explicit camera (replaces any preset).
+   * \param[in] camera the camera
+   * \throws planar_grid::Exception when a vector is not finite, position equals
+   *         focal_point, view_up is zero or parallel to the viewing direction, or the
+   *         view angle is outside (0, 180) degrees */
+  void setCamera(const CameraParameters& camera);
 
-  /** \brief Frames everything added so far from a preset direction. */
-  void
-  setCamera(CameraPreset preset);
+  /** \brief Frames everything in the scene from a preset direction (replaces any
+   * explicit camera); the framing is computed at render time, for the image size.
+   * \param[in] preset the direction */
+  void setCamera(CameraPreset preset);
 
   /** \brief Renders offscreen and writes a PNG (vtkWindowToImageFilter + vtkPNGWriter,
-    * as pcl::visualization::PCLVisualizer::saveScreenshot), atomically.
-    * \param[in] path the PNG file
-    * \param[in] width_px image width, px
-    * \param[in] height_px image height, px
-    * \throws planar_grid::Exception when there is no display (see ensureDisplay()) or the
-    *         file cannot be written */
-  void
-  saveSnapshot(const std::string& path, int width_px = 1600, int height_px = 1000);
+   * as pcl::visualization::PCLVisualizer::saveScreenshot), atomically.
+   * \param[in] path the PNG file
+   * \param[in] width_px image width, px, > 0
+   * \param[in] height_px image height, px, > 0
+   * \throws planar_grid::Exception when there is no display (see ensureDisplay()) or
+   *         the size is not positive; planar_grid::IOError when the file cannot be
+   *         written (its folder is missing, ...), leaving no file behind */
+  void saveSnapshot(const std::string& path, int width_px = 1600, int height_px = 1000);
 
-  /** \brief Opens an interactive window and returns when it is closed.
-    * \throws planar_grid::Exception when there is no display */
-  void
-  show(int width_px = 1280, int height_px = 800);
+  /** \brief Opens an interactive window (trackball camera: left drag rotates, wheel
+   * zooms, 'q' quits) and returns when it is closed.
+   * \param[in] width_px window width, px, > 0
+   * \param[in] height_px window height, px, > 0
+   * \throws planar_grid::Exception when there is no display or the size is not
+   *         positive */
+  void show(int width_px = 1280, int height_px = 800);
 
 private:
+  /** \brief The VTK objects (VTK stays out of this header, S7). */
   struct Impl;
+  /** \brief The implementation. */
   std::unique_ptr<Impl> impl_;
 };
 
 /** \brief True when an X display can be opened (DISPLAY is set and answers).
-  * \ingroup visualization */
-bool
-hasDisplay();
+ * \return whether VTK can render (on screen or offscreen)
+ * \note The first successful check keeps its X connection open until the process
+ *       exits, so that the X server (e.g. Xvfb) cannot reset between this check and
+ *       VTK's own connection (VTK aborts when it cannot connect).
+ * \ingroup visualization */
+bool hasDisplay();
 
-/** \brief Makes sure VTK can render: returns when a display is available; otherwise, when
-  * `xvfb-run` is on the PATH, re-executes the current program under `xvfb-run -a` with the
-  * same arguments (it does not return then); otherwise throws planar_grid::Exception
-  * saying to install xvfb and run the command under `xvfb-run -a`. Never lets VTK abort
-  * the process for lack of a display.
-  * \param[in] argc, argv the program's arguments, as given to main */
-void
-ensureDisplay(int argc, char** argv);
+/** \brief Makes sure VTK can render: returns when a display is available; otherwise,
+ * when `xvfb-run` is on the PATH, re-executes the current program under `xvfb-run -a`
+ * with the same arguments (it does not return then); otherwise throws
+ * planar_grid::Exception saying to install xvfb and run the command under `xvfb-run
+ * -a`. Never lets VTK abort the process for lack of a display. The re-executed program
+ * has PLANAR_GRID_UNDER_XVFB=1 in its environment; when that is set and there is still
+ * no display, it throws instead of re-executing again. \param[in] argc the argument
+ * count, as given to main \param[in] argv the program's arguments, as given to main
+ * \throws planar_grid::Exception when no display can be provided
+ * \ingroup visualization */
+void ensureDisplay(int argc, char** argv);
 
 } // namespace planar_grid

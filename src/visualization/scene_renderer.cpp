@@ -1,0 +1,506 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/atomic_file.h>
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/visualization/scene_renderer.h>
+
+#include <pcl/common/point_tests.h>
+#include <pcl/console/print.h>
+
+#include <vtkActor.h>
+#include <vtkCamera.h>
+#include <vtkCellArray.h>
+#include <vtkFloatArray.h>
+#include <vtkIdTypeArray.h>
+#include <vtkInteractorStyleTrackballCamera.h>
+#include <vtkMath.h>
+#include <vtkNew.h>
+#include <vtkPNGWriter.h>
+#include <vtkPointData.h>
+#include <vtkPoints.h>
+#include <vtkPolyData.h>
+#include <vtkPolyDataMapper.h>
+#include <vtkProperty.h>
+#include <vtkRenderWindow.h>
+#include <vtkRenderWindowInteractor.h>
+#include <vtkRenderer.h>
+#include <vtkSmartPointer.h>
+#include <vtkTextActor.h>
+#include <vtkTextProperty.h>
+#include <vtkUnsignedCharArray.h>
+#include <vtkWindowToImageFilter.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <utility>
+
+namespace planar_grid {
+
+namespace {
+
+/** \brief Fraction of the sorted values cut at each end of a colour ramp, so that a few
+ * outliers do not squeeze the colours of everything else into one end of the map. */
+constexpr double RAMP_TAIL = 0.02;
+
+/** \brief The part of the Turbo map used for HEIGHT: its near-black ends would vanish
+ * on the default black background. Low is blue (75, 74, 200), high red (155, 15, 0). */
+constexpr double TURBO_LOW = 0.08;
+constexpr double TURBO_HIGH = 0.95;
+
+/** \brief Height of one text line, as a fraction of the window height. */
+constexpr double TEXT_LINE_STEP = 0.05;
+
+/** \brief Margin around the framed bounds of a camera preset (1 = tight). */
+constexpr double FRAME_MARGIN = 1.05;
+
+/** \brief Elevation of CameraPreset::OBLIQUE above the horizontal, radians (45 deg). */
+constexpr double OBLIQUE_ELEVATION_RAD = 0.7853981633974483;
+
+/** \brief A colour component in [0, 1] as a byte. */
+unsigned char
+toByte(double value)
+{
+  return static_cast<unsigned char>(std::lround(std::clamp(value, 0.0, 1.0) * 255.0));
+}
+
+/** \brief The Turbo colour map (A. Mikhailov, Google, 2019; Apache-2.0) through R. Du's
+ * published polynomial fit, for t in [0, 1]: dark blue, cyan, green, yellow, red. */
+std::array<unsigned char, 3>
+turbo(double t)
+{
+  t = std::clamp(t, 0.0, 1.0);
+  const double t2 = t * t, t3 = t2 * t, t4 = t2 * t2, t5 = t4 * t;
+  const double r = 0.13572138 + 4.61539260 * t - 42.66032258 * t2 + 132.13108234 * t3
+                   - 152.94239396 * t4 + 59.28637943 * t5;
+  const double g = 0.09140261 + 2.19418839 * t + 4.84296658 * t2 - 14.18503333 * t3
+                   + 4.27729857 * t4 + 2.82956604 * t5;
+  const double b = 0.10667330 + 12.64194608 * t - 60.58204836 * t2 + 110.36276771 * t3
+                   - 89.90310912 * t4 + 27.34824973 * t5;
+  return { toByte(r), toByte(g), toByte(b) };
+}
+
+/** \brief The RAMP_TAIL and 1 - RAMP_TAIL quantiles of \a values (reordered in place).
+ * \return {low, high}; equal when all values are (nearly) equal */
+std::pair<float, float>
+robustRange(std::vector<float>& values)
+{
+  const std::size_t n = values.size();
+  const auto lo_index
+    = static_cast<std::size_t>(RAMP_TAIL * static_cast<double>(n - 1));
+  const auto hi_index
+    = static_cast<std::size_t>((1.0 - RAMP_TAIL) * static_cast<double>(n - 1));
+  std::nth_element(values.begin(),
+                   values.begin() + static_cast<std::ptrdiff_t>(lo_index),
+                   values.end());
+  const float lo = values[lo_index];
+  std::nth_element(values.begin() + static_cast<std::ptrdiff_t>(lo_index),
+                   values.begin() + static_cast<std::ptrdiff_t>(hi_index),
+                   values.end());
+  const float hi = values[hi_index];
+  return { lo, hi };
+}
+
+/** \brief Position of \a value in [lo, hi] as a fraction in [0, 1]; 0.5 when the range
+ * is empty. */
+double
+rampFraction(float value, float lo, float hi)
+{
+  if (!(hi > lo))
+    return 0.5;
+  return std::clamp(static_cast<double>(value - lo) / static_cast<double>(hi - lo), 0.0,
+                    1.0);
+}
+
+/** \brief True when all three components are finite. */
+bool
+isFinite(const Eigen::Vector3d& v)
+{
+  return v.allFinite();
+}
+
+} // namespace
+
+struct SceneRenderer::Impl {
+  /** \brief Holds every actor and the camera; moved between render windows. */
+  vtkNew<vtkRenderer> renderer;
+  /** \brief The explicit camera, when one was set. */
+  CameraParameters camera;
+  /** \brief True when setCamera(const CameraParameters&) was called last. */
+  bool has_explicit_camera{ false };
+  /** \brief The preset applied at render time when no explicit camera is set. */
+  CameraPreset preset{ CameraPreset::TOP };
+  /** \brief Number of text lines added so far (they stack downwards). */
+  int text_lines{ 0 };
+
+  /** \brief Places the camera for a \a width_px x \a height_px image. */
+  void applyCamera(int width_px, int height_px);
+
+  /** \brief A render window of the given size holding the renderer. */
+  vtkSmartPointer<vtkRenderWindow>
+  makeWindow(int width_px, int height_px, bool offscreen);
+
+  /** \brief Detaches the renderer from \a window and releases the window's resources.
+   */
+  void releaseWindow(vtkRenderWindow* window);
+};
+
+void
+SceneRenderer::Impl::applyCamera(int width_px, int height_px)
+{
+  vtkCamera* cam = renderer->GetActiveCamera();
+  if (has_explicit_camera) {
+    cam->SetPosition(camera.position.data());
+    cam->SetFocalPoint(camera.focal_point.data());
+    cam->SetViewUp(camera.view_up.data());
+    cam->SetViewAngle(camera.view_angle_deg);
+    cam->OrthogonalizeViewUp();
+    renderer->ResetCameraClippingRange();
+    return;
+  }
+
+  double bounds[6];
+  renderer->ComputeVisiblePropBounds(bounds);
+  if (!vtkMath::AreBoundsInitialized(bounds)) {
+    // Nothing to frame: a unit box at the origin keeps the camera well defined.
+    bounds[0] = bounds[2] = bounds[4] = -0.5;
+    bounds[1] = bounds[3] = bounds[5] = 0.5;
+  }
+  const Eigen::Vector3d lo(bounds[0], bounds[2], bounds[4]);
+  const Eigen::Vector3d hi(bounds[1], bounds[3], bounds[5]);
+  const Eigen::Vector3d centre = 0.5 * (lo + hi);
+  const double aspect = static_cast<double>(width_px) / static_cast<double>(height_px);
+  const double tan_half_v = std::tan(0.5 * camera.view_angle_deg * M_PI / 180.0);
+  const double tan_half_h = tan_half_v * aspect;
+
+  Eigen::Vector3d direction; // from the focal point towards the camera, unit
+  Eigen::Vector3d view_up;   // unit, orthogonal to direction
+  if (preset == CameraPreset::TOP) {
+    direction = Eigen::Vector3d::UnitZ();
+    view_up = Eigen::Vector3d::UnitY();
+  } else {
+    // Above and behind (-y) the centre, looking forwards (+y) and down.
+    const double c = std::cos(OBLIQUE_ELEVATION_RAD),
+                 s = std::sin(OBLIQUE_ELEVATION_RAD);
+    direction = Eigen::Vector3d(0.0, -c, s);
+    view_up = Eigen::Vector3d(0.0, s, c);
+  }
+  const Eigen::Vector3d right = view_up.cross(direction);
+  // The smallest distance from the centre at which all 8 corners of the bounds are
+  // inside both fields of view: a corner at depth q.d towards the camera and offsets
+  // q.r, q.u needs distance >= q.d + |q.r| / tan_half_h and >= q.d + |q.u| /
+  // tan_half_v.
+  double distance = 0.0;
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Vector3d p((corner & 1) != 0 ? hi.x() : lo.x(),
+                            (corner & 2) != 0 ? hi.y() : lo.y(),
+                            (corner & 4) != 0 ? hi.z() : lo.z());
+    const Eigen::Vector3d q = p - centre;
+    const double depth = q.dot(direction);
+    distance = std::max(distance, depth + std::abs(q.dot(right)) / tan_half_h);
+    distance = std::max(distance, depth + std::abs(q.dot(view_up)) / tan_half_v);
+  }
+  distance = std::max(FRAME_MARGIN * distance, 1e-3);
+  const Eigen::Vector3d position = centre + distance * direction;
+  cam->SetFocalPoint(centre.data());
+  cam->SetPosition(position.data());
+  cam->SetViewUp(view_up.data());
+  cam->SetViewAngle(camera.view_angle_deg);
+  cam->OrthogonalizeViewUp();
+  renderer->ResetCameraClippingRange(bounds);
+}
+
+vtkSmartPointer<vtkRenderWindow>
+SceneRenderer::Impl::makeWindow(int width_px, int height_px, bool offscreen)
+{
+  auto window = vtkSmartPointer<vtkRenderWindow>::New();
+  window->SetOffScreenRendering(offscreen ? 1 : 0);
+  // No multisampling: snapshots show exactly the colours that were set.
+  window->SetMultiSamples(0);
+  window->SetSize(width_px, height_px);
+  window->SetWindowName("planar_grid_viewer");
+  window->AddRenderer(renderer);
+  applyCamera(width_px, height_px);
+  return window;
+}
+
+void
+SceneRenderer::Impl::releaseWindow(vtkRenderWindow* window)
+{
+  window->RemoveRenderer(renderer);
+  window->Finalize();
+}
+
+SceneRenderer::SceneRenderer() : impl_(std::make_unique<Impl>())
+{
+  impl_->renderer->SetBackground(0.0, 0.0, 0.0);
+}
+
+SceneRenderer::~SceneRenderer() = default;
+
+void
+SceneRenderer::addPointCloud(const pcl::PointCloud<pcl::PointXYZI>& cloud,
+                             ColorMode mode,
+                             double point_size_px,
+                             const Eigen::Vector3d& rgb)
+{
+  if (!(point_size_px > 0.0))
+    throw Exception(
+      "[planar_grid::SceneRenderer::addPointCloud] point size must be > 0 "
+      "px, got "
+      + std::to_string(point_size_px));
+  std::size_t n_finite = 0;
+  for (const auto& p : cloud.points)
+    if (pcl::isFinite(p))
+      ++n_finite;
+  if (n_finite == 0) {
+    PCL_WARN("[planar_grid::SceneRenderer::addPointCloud] The cloud has no finite "
+             "points (%zu points in all); nothing added.\n",
+             cloud.size());
+    return;
+  }
+  const auto n = static_cast<vtkIdType>(n_finite);
+
+  // Coordinates, written straight into VTK's float array.
+  vtkNew<vtkFloatArray> coords;
+  coords->SetNumberOfComponents(3);
+  coords->SetNumberOfTuples(n);
+  float* xyz = coords->WritePointer(0, 3 * n);
+  // One vertex cell per point, given as offsets + connectivity (no per-cell inserts).
+  vtkNew<vtkIdTypeArray> offsets;
+  offsets->SetNumberOfValues(n + 1);
+  vtkIdType* offset = offsets->WritePointer(0, n + 1);
+  vtkNew<vtkIdTypeArray> connectivity;
+  connectivity->SetNumberOfValues(n);
+  vtkIdType* ids = connectivity->WritePointer(0, n);
+
+  // Values for the colour ramp (z or intensity), only for the modes that need one.
+  std::vector<float> ramp_values;
+  if (mode != ColorMode::SOLID)
+    ramp_values.reserve(n_finite);
+
+  vtkIdType i = 0;
+  for (const auto& p : cloud.points) {
+    if (!pcl::isFinite(p))
+      continue;
+    xyz[3 * i] = p.x;
+    xyz[3 * i + 1] = p.y;
+    xyz[3 * i + 2] = p.z;
+    offset[i] = i;
+    ids[i] = i;
+    if (mode == ColorMode::HEIGHT)
+      ramp_values.push_back(p.z);
+    else if (mode == ColorMode::INTENSITY)
+      ramp_values.push_back(p.intensity);
+    ++i;
+  }
+  offset[n] = n;
+
+  vtkNew<vtkPoints> points;
+  points->SetData(coords);
+  vtkNew<vtkCellArray> vertices;
+  vertices->SetData(offsets, connectivity);
+  vtkNew<vtkPolyData> poly;
+  poly->SetPoints(points);
+  poly->SetVerts(vertices);
+
+  vtkNew<vtkPolyDataMapper> mapper;
+  vtkNew<vtkActor> actor;
+  if (mode == ColorMode::SOLID) {
+    mapper->ScalarVisibilityOff();
+    actor->GetProperty()->SetColor(rgb.x(), rgb.y(), rgb.z());
+  } else {
+    std::vector<float> sorted = ramp_values; // robustRange reorders its input
+    const auto [lo, hi] = robustRange(sorted);
+    sorted.clear();
+    sorted.shrink_to_fit();
+    vtkNew<vtkUnsignedCharArray> colors;
+    colors->SetName("colors");
+    colors->SetNumberOfComponents(3);
+    colors->SetNumberOfTuples(n);
+    unsigned char* c = colors->WritePointer(0, 3 * n);
+    for (vtkIdType k = 0; k < n; ++k) {
+      const double t = rampFraction(ramp_values[static_cast<std::size_t>(k)], lo, hi);
+      if (mode == ColorMode::HEIGHT) {
+        const auto color = turbo(TURBO_LOW + (TURBO_HIGH - TURBO_LOW) * t);
+        c[3 * k] = color[0];
+        c[3 * k + 1] = color[1];
+        c[3 * k + 2] = color[2];
+      } else {
+        // Grey from 0.2 (darkest, still visible on black) to 1.0; a constant intensity
+        // (e.g. a cloud without that field) renders at 0.6.
+        const unsigned char grey = toByte(0.2 + 0.8 * t);
+        c[3 * k] = c[3 * k + 1] = c[3 * k + 2] = grey;
+      }
+    }
+    poly->GetPointData()->SetScalars(colors);
+    mapper->ScalarVisibilityOn();
+    mapper->SetColorModeToDirectScalars();
+    mapper->SetScalarModeToUsePointData();
+  }
+  mapper->SetInputData(poly);
+  actor->SetMapper(mapper);
+  actor->GetProperty()->SetPointSize(static_cast<float>(point_size_px));
+  // Points carry no normals: draw their colours as given.
+  actor->GetProperty()->LightingOff();
+  impl_->renderer->AddActor(actor);
+}
+
+void
+SceneRenderer::addTrajectory(const std::vector<Eigen::Vector3d>& positions,
+                             const Eigen::Vector3d& rgb,
+                             double line_width_px)
+{
+  if (!(line_width_px > 0.0))
+    throw Exception(
+      "[planar_grid::SceneRenderer::addTrajectory] line width must be > 0 "
+      "px, got "
+      + std::to_string(line_width_px));
+  vtkNew<vtkPoints> points;
+  points->SetDataTypeToDouble();
+  points->Allocate(static_cast<vtkIdType>(positions.size()));
+  for (const auto& p : positions)
+    if (isFinite(p))
+      points->InsertNextPoint(p.data());
+  const vtkIdType n = points->GetNumberOfPoints();
+  if (n < 2) {
+    PCL_WARN("[planar_grid::SceneRenderer::addTrajectory] Fewer than 2 finite "
+             "positions (%zu given); nothing added.\n",
+             positions.size());
+    return;
+  }
+  vtkNew<vtkCellArray> lines;
+  lines->AllocateExact(1, n);
+  lines->InsertNextCell(n);
+  for (vtkIdType k = 0; k < n; ++k)
+    lines->InsertCellPoint(k);
+  vtkNew<vtkPolyData> poly;
+  poly->SetPoints(points);
+  poly->SetLines(lines);
+
+  vtkNew<vtkPolyDataMapper> mapper;
+  mapper->SetInputData(poly);
+  mapper->ScalarVisibilityOff();
+  vtkNew<vtkActor> actor;
+  actor->SetMapper(mapper);
+  actor->GetProperty()->SetColor(rgb.x(), rgb.y(), rgb.z());
+  actor->GetProperty()->SetLineWidth(static_cast<float>(line_width_px));
+  actor->GetProperty()->LightingOff();
+  impl_->renderer->AddActor(actor);
+}
+
+void
+SceneRenderer::addText(const std::string& text)
+{
+  vtkNew<vtkTextActor> actor;
+  actor->SetInput(text.c_str());
+  actor->GetPositionCoordinate()->SetCoordinateSystemToNormalizedViewport();
+  actor->SetPosition(0.01, 0.98 - TEXT_LINE_STEP * impl_->text_lines);
+  vtkTextProperty* property = actor->GetTextProperty();
+  property->SetFontSize(18);
+  property->SetColor(1.0, 1.0, 1.0);
+  property->SetVerticalJustificationToTop();
+  property->SetJustificationToLeft();
+  ++impl_->text_lines;
+  impl_->renderer->AddActor2D(actor);
+}
+
+void
+SceneRenderer::setBackground(const Eigen::Vector3d& rgb)
+{
+  impl_->renderer->SetBackground(rgb.x(), rgb.y(), rgb.z());
+}
+
+void
+SceneRenderer::setCamera(const CameraParameters& camera)
+{
+  if (!isFinite(camera.position) || !isFinite(camera.focal_point)
+      || !isFinite(camera.view_up))
+    throw Exception("[planar_grid::SceneRenderer::setCamera] camera vectors must be "
+                    "finite");
+  const Eigen::Vector3d direction = camera.focal_point - camera.position;
+  if (direction.norm() <= 0.0)
+    throw Exception("[planar_grid::SceneRenderer::setCamera] position and focal point "
+                    "must differ");
+  if (camera.view_up.cross(direction).norm()
+      <= 1e-9 * direction.norm() * camera.view_up.norm())
+    throw Exception("[planar_grid::SceneRenderer::setCamera] view_up must be non-zero "
+                    "and not parallel to the viewing direction");
+  if (!(camera.view_angle_deg > 0.0 && camera.view_angle_deg < 180.0))
+    throw Exception("[planar_grid::SceneRenderer::setCamera] view angle must be in (0, "
+                    "180) degrees, got "
+                    + std::to_string(camera.view_angle_deg));
+  impl_->camera = camera;
+  impl_->has_explicit_camera = true;
+}
+
+void
+SceneRenderer::setCamera(CameraPreset preset)
+{
+  impl_->preset = preset;
+  impl_->has_explicit_camera = false;
+}
+
+void
+SceneRenderer::saveSnapshot(const std::string& path, int width_px, int height_px)
+{
+  if (width_px <= 0 || height_px <= 0)
+    throw Exception("[planar_grid::SceneRenderer::saveSnapshot] image size must be "
+                    "positive, got "
+                    + std::to_string(width_px) + "x" + std::to_string(height_px));
+  if (!hasDisplay())
+    throw Exception(
+      "cannot save " + path
+      + ": no X display: VTK 9.1 from Debian renders offscreen only "
+        "through an X server; install xvfb (apt-get install xvfb) and run "
+        "under `xvfb-run -a <command>`");
+  vtkSmartPointer<vtkRenderWindow> window
+    = impl_->makeWindow(width_px, height_px, true);
+  try {
+    window->Render();
+    vtkNew<vtkWindowToImageFilter> grab;
+    grab->SetInput(window);
+    grab->SetInputBufferTypeToRGB();
+    grab->ReadFrontBufferOff(); // the back buffer holds the frame just rendered
+    grab->Update();
+    writeFileAtomically(path, [&grab](const std::string& tmp_path) {
+      vtkNew<vtkPNGWriter> writer;
+      writer->SetFileName(tmp_path.c_str());
+      writer->SetInputConnection(grab->GetOutputPort());
+      writer->Write();
+      return writer->GetErrorCode() == 0;
+    });
+  } catch (...) {
+    impl_->releaseWindow(window);
+    throw;
+  }
+  impl_->releaseWindow(window);
+}
+
+void
+SceneRenderer::show(int width_px, int height_px)
+{
+  if (width_px <= 0 || height_px <= 0)
+    throw Exception("[planar_grid::SceneRenderer::show] window size must be positive, "
+                    "got "
+                    + std::to_string(width_px) + "x" + std::to_string(height_px));
+  if (!hasDisplay())
+    throw Exception("cannot open the viewer window: no X display (DISPLAY is unset or "
+                    "does not answer); the interactive viewer needs a screen, "
+                    "snapshots can be rendered under `xvfb-run -a <command>`");
+  vtkSmartPointer<vtkRenderWindow> window
+    = impl_->makeWindow(width_px, height_px, false);
+  vtkNew<vtkRenderWindowInteractor> interactor;
+  vtkNew<vtkInteractorStyleTrackballCamera> style;
+  interactor->SetRenderWindow(window);
+  interactor->SetInteractorStyle(style);
+  interactor->Initialize();
+  window->Render();
+  interactor->Start(); // returns when the window is closed (or on 'q')
+  interactor->SetRenderWindow(nullptr);
+  impl_->releaseWindow(window);
+}
+
+} // namespace planar_grid

@@ -1,0 +1,336 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/visualization/scene_renderer.h>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+#include <vtkImageData.h>
+#include <vtkNew.h>
+#include <vtkPNGReader.h>
+#include <vtkSmartPointer.h>
+
+#include <array>
+#include <cstdlib>
+#include <filesystem>
+#include <limits>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+/** \brief An RGB image read back from a PNG; row 0 is the TOP row of the picture. */
+struct Image {
+  int width{ 0 };
+  int height{ 0 };
+  vtkSmartPointer<vtkImageData> data;
+
+  std::array<int, 3> at(int x, int y_from_top) const
+  {
+    // VTK images start at the bottom-left corner.
+    const auto* p = static_cast<const unsigned char*>(
+      data->GetScalarPointer(x, height - 1 - y_from_top, 0));
+    return { p[0], p[1], p[2] };
+  }
+};
+
+Image
+readPNG(const std::string& path)
+{
+  vtkNew<vtkPNGReader> reader;
+  reader->SetFileName(path.c_str());
+  reader->Update();
+  Image image;
+  image.data = reader->GetOutput();
+  const int* dims = image.data->GetDimensions();
+  image.width = dims[0];
+  image.height = dims[1];
+  return image;
+}
+
+bool
+isRed(const std::array<int, 3>& c)
+{
+  return c[0] > 200 && c[1] < 60 && c[2] < 60;
+}
+
+bool
+isBlack(const std::array<int, 3>& c)
+{
+  return c[0] < 10 && c[1] < 10 && c[2] < 10;
+}
+
+/** \brief A flat square patch in the z = 0 plane, \a side metres wide, centred on
+ * (cx, cy), 101 x 101 points (spacing side / 100). */
+pcl::PointCloud<pcl::PointXYZI>
+squarePatch(double cx, double cy, double side)
+{
+  pcl::PointCloud<pcl::PointXYZI> cloud;
+  for (int i = 0; i <= 100; ++i)
+    for (int j = 0; j <= 100; ++j) {
+      pcl::PointXYZI p;
+      p.x = static_cast<float>(cx + side * (i / 100.0 - 0.5));
+      p.y = static_cast<float>(cy + side * (j / 100.0 - 0.5));
+      p.z = 0.0f;
+      p.intensity = 0.0f;
+      cloud.push_back(p);
+    }
+  return cloud;
+}
+
+/** \brief Looks down -z at the origin from 10 m; with a 30 degree vertical view angle
+ * the image spans 2 * 10 * tan(15 deg) = 5.36 m vertically. */
+planar_grid::CameraParameters
+topCamera()
+{
+  planar_grid::CameraParameters camera;
+  camera.position = Eigen::Vector3d(0.0, 0.0, 10.0);
+  camera.focal_point = Eigen::Vector3d(0.0, 0.0, 0.0);
+  camera.view_up = Eigen::Vector3d(0.0, 1.0, 0.0);
+  camera.view_angle_deg = 30.0;
+  return camera;
+}
+
+class SceneRendererTest : public ::testing::Test {
+protected:
+  void SetUp() override
+  {
+    if (!planar_grid::hasDisplay())
+      GTEST_SKIP() << "no X display; run under xvfb-run -a";
+    const std::string name
+      = std::string("planar_grid_test_viz_")
+        + ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_"
+        + std::to_string(::getpid());
+    dir_ = fs::temp_directory_path() / name;
+    fs::create_directories(dir_);
+  }
+
+  void TearDown() override
+  {
+    std::error_code ec;
+    if (!dir_.empty())
+      fs::remove_all(dir_, ec);
+  }
+
+  /** \brief A per-test folder, removed afterwards. */
+  fs::path dir_;
+};
+
+TEST_F(SceneRendererTest, SnapshotHasRequestedSizeAndRedPatchAtCentre)
+{
+  planar_grid::SceneRenderer renderer;
+  renderer.setBackground(Eigen::Vector3d(0.0, 0.0, 0.0));
+  // 2 m square at the origin: about 2 / 5.36 = 37% of the image height, centred.
+  renderer.addPointCloud(squarePatch(0.0, 0.0, 2.0), planar_grid::ColorMode::SOLID, 4.0,
+                         Eigen::Vector3d(1.0, 0.0, 0.0));
+  renderer.setCamera(topCamera());
+  const std::string path = (dir_ / "centre.png").string();
+  renderer.saveSnapshot(path, 320, 240);
+
+  ASSERT_TRUE(fs::exists(path));
+  const Image image = readPNG(path);
+  ASSERT_EQ(image.width, 320);
+  ASSERT_EQ(image.height, 240);
+
+  int red = 0, background = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      const auto c = image.at(x, y);
+      red += isRed(c) ? 1 : 0;
+      background += isBlack(c) ? 1 : 0;
+    }
+  // The patch covers about (0.37 * 240)^2 = 89^2 px, i.e. ~7900 px of 76800; allow for
+  // the gaps between points.
+  EXPECT_GT(red, 3000);
+  EXPECT_LT(red, 20000);
+  EXPECT_EQ(red + background, image.width * image.height) << "only red and background";
+
+  EXPECT_TRUE(isRed(image.at(160, 120)));
+  EXPECT_TRUE(isBlack(image.at(2, 2)));
+  EXPECT_TRUE(isBlack(image.at(317, 2)));
+  EXPECT_TRUE(isBlack(image.at(2, 237)));
+  EXPECT_TRUE(isBlack(image.at(317, 237)));
+  // Everything red lies within the projected square (half side 0.37 * 240 / 2 = 45 px
+  // around the centre, plus the point size).
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x)
+      if (isRed(image.at(x, y))) {
+        EXPECT_LT(std::abs(x - 160), 50) << "x=" << x << " y=" << y;
+        EXPECT_LT(std::abs(y - 120), 50) << "x=" << x << " y=" << y;
+      }
+}
+
+TEST_F(SceneRendererTest, PatchShiftedRightAppearsOnlyInRightHalf)
+{
+  planar_grid::SceneRenderer renderer;
+  // 1 m square centred 1.5 m to the right of the focal point (+x is image right with
+  // view_up +y when looking down -z): image x = 160 + 1.5 / 5.36 * 240 = 227 px.
+  renderer.addPointCloud(squarePatch(1.5, 0.0, 1.0), planar_grid::ColorMode::SOLID, 4.0,
+                         Eigen::Vector3d(1.0, 0.0, 0.0));
+  renderer.setCamera(topCamera());
+  const std::string path = (dir_ / "right.png").string();
+  renderer.saveSnapshot(path, 320, 240);
+
+  const Image image = readPNG(path);
+  ASSERT_EQ(image.width, 320);
+  ASSERT_EQ(image.height, 240);
+  int red_left = 0, red_right = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x)
+      if (isRed(image.at(x, y)))
+        ++(x < image.width / 2 ? red_left : red_right);
+  EXPECT_EQ(red_left, 0);
+  EXPECT_GT(red_right, 1000);
+  EXPECT_TRUE(isRed(image.at(227, 120)));
+  EXPECT_TRUE(isBlack(image.at(160, 120)));
+}
+
+TEST_F(SceneRendererTest, SnapshotIntoMissingFolderThrowsAndLeavesNothing)
+{
+  planar_grid::SceneRenderer renderer;
+  renderer.addPointCloud(squarePatch(0.0, 0.0, 1.0), planar_grid::ColorMode::SOLID);
+  const fs::path missing = dir_ / "no_such_folder";
+  EXPECT_THROW(renderer.saveSnapshot((missing / "x.png").string(), 64, 48),
+               planar_grid::Exception);
+  EXPECT_FALSE(fs::exists(missing));
+  EXPECT_TRUE(fs::is_empty(dir_)) << "no temporary file left behind";
+}
+
+TEST_F(SceneRendererTest, HeightColoringSeparatesLowAndHighPoints)
+{
+  // Two patches seen from above: the left one at z = 0, the right one at z = 1 m.
+  pcl::PointCloud<pcl::PointXYZI> cloud = squarePatch(-1.2, 0.0, 1.0);
+  pcl::PointCloud<pcl::PointXYZI> high = squarePatch(1.2, 0.0, 1.0);
+  for (auto& p : high.points)
+    p.z = 1.0f;
+  cloud += high;
+  planar_grid::SceneRenderer renderer;
+  renderer.addPointCloud(cloud, planar_grid::ColorMode::HEIGHT, 4.0);
+  renderer.setCamera(topCamera());
+  const std::string path = (dir_ / "height.png").string();
+  renderer.saveSnapshot(path, 320, 240);
+
+  const Image image = readPNG(path);
+  // Centres at x = 160 -+ 1.2 / 5.36 * 240 = 106 / 214 px (the high one slightly
+  // further out, being closer to the camera).
+  const auto low_color = image.at(106, 120);
+  const auto high_color = image.at(214, 120);
+  ASSERT_FALSE(isBlack(low_color));
+  ASSERT_FALSE(isBlack(high_color));
+  // Turbo: low is blue-ish (blue > red), high is red-ish (red > blue).
+  EXPECT_GT(low_color[2], low_color[0]);
+  EXPECT_GT(high_color[0], high_color[2]);
+  EXPECT_NE(low_color, high_color);
+}
+
+TEST_F(SceneRendererTest, PresetsFrameTheWholeScene)
+{
+  planar_grid::SceneRenderer renderer;
+  // A 40 m x 10 m area far from the origin: the preset must find it.
+  pcl::PointCloud<pcl::PointXYZI> cloud = squarePatch(100.0, 50.0, 10.0);
+  for (auto& p : cloud.points)
+    p.x = 100.0f + 4.0f * (p.x - 100.0f);
+  renderer.addPointCloud(cloud, planar_grid::ColorMode::SOLID, 2.0,
+                         Eigen::Vector3d(1.0, 0.0, 0.0));
+  for (const auto preset :
+       { planar_grid::CameraPreset::TOP, planar_grid::CameraPreset::OBLIQUE }) {
+    renderer.setCamera(preset);
+    const std::string path = (dir_ / "preset.png").string();
+    renderer.saveSnapshot(path, 320, 240);
+    const Image image = readPNG(path);
+    int red = 0;
+    bool red_on_border = false;
+    for (int y = 0; y < image.height; ++y)
+      for (int x = 0; x < image.width; ++x)
+        if (isRed(image.at(x, y))) {
+          ++red;
+          red_on_border
+            |= x == 0 || y == 0 || x == image.width - 1 || y == image.height - 1;
+        }
+    EXPECT_GT(red, 2000) << "preset " << static_cast<int>(preset);
+    EXPECT_FALSE(red_on_border)
+      << "preset " << static_cast<int>(preset) << " cuts the scene";
+    EXPECT_TRUE(isRed(image.at(160, 120))) << "preset " << static_cast<int>(preset);
+  }
+}
+
+TEST_F(SceneRendererTest, TrajectoryAndTextRender)
+{
+  planar_grid::SceneRenderer renderer;
+  renderer.addTrajectory(
+    { Eigen::Vector3d(-2.0, 0.0, 0.0), Eigen::Vector3d(2.0, 0.0, 0.0) },
+    Eigen::Vector3d(0.0, 1.0, 0.0), 5.0);
+  renderer.addText("trajectory");
+  renderer.setCamera(topCamera());
+  const std::string path = (dir_ / "trajectory.png").string();
+  renderer.saveSnapshot(path, 320, 240);
+  const Image image = readPNG(path);
+  // The horizontal line through the centre is green.
+  const auto c = image.at(160, 120);
+  EXPECT_GT(c[1], 200);
+  EXPECT_LT(c[0], 60);
+  // Text in the top-left corner: some non-background pixels there.
+  int text_pixels = 0;
+  for (int y = 0; y < 40; ++y)
+    for (int x = 0; x < 160; ++x)
+      text_pixels += isBlack(image.at(x, y)) ? 0 : 1;
+  EXPECT_GT(text_pixels, 20);
+}
+
+TEST_F(SceneRendererTest, DegenerateInputAddsNothingAndStillRenders)
+{
+  planar_grid::SceneRenderer renderer;
+  pcl::PointCloud<pcl::PointXYZI> empty;
+  renderer.addPointCloud(empty);
+  pcl::PointCloud<pcl::PointXYZI> nans = squarePatch(0.0, 0.0, 1.0);
+  for (auto& p : nans.points)
+    p.x = std::numeric_limits<float>::quiet_NaN();
+  renderer.addPointCloud(nans);
+  renderer.addTrajectory({ Eigen::Vector3d::Zero() });
+  renderer.setCamera(planar_grid::CameraPreset::OBLIQUE);
+  const std::string path = (dir_ / "empty.png").string();
+  renderer.saveSnapshot(path, 64, 48);
+  const Image image = readPNG(path);
+  ASSERT_EQ(image.width, 64);
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x)
+      ASSERT_TRUE(isBlack(image.at(x, y)));
+}
+
+} // namespace
+
+TEST(SceneRenderer, InvalidParametersThrow)
+{
+  // No display needed: nothing is rendered.
+  planar_grid::SceneRenderer renderer;
+  planar_grid::CameraParameters camera;
+  camera.focal_point = camera.position;
+  EXPECT_THROW(renderer.setCamera(camera), planar_grid::Exception);
+  camera = planar_grid::CameraParameters();
+  camera.view_up = Eigen::Vector3d(0.0, 0.0, 1.0); // parallel to the view direction
+  EXPECT_THROW(renderer.setCamera(camera), planar_grid::Exception);
+  camera = planar_grid::CameraParameters();
+  camera.view_angle_deg = 0.0;
+  EXPECT_THROW(renderer.setCamera(camera), planar_grid::Exception);
+  EXPECT_THROW(renderer.addPointCloud(squarePatch(0.0, 0.0, 1.0),
+                                      planar_grid::ColorMode::SOLID, 0.0),
+               planar_grid::Exception);
+  EXPECT_THROW(renderer.saveSnapshot("x.png", 0, 10), planar_grid::Exception);
+}
+
+TEST(SceneRenderer, WithoutDisplayHasDisplayIsFalseAndSnapshotThrows)
+{
+  const char* saved = std::getenv("DISPLAY");
+  const std::string saved_display = saved != nullptr ? saved : "";
+  ::unsetenv("DISPLAY");
+  EXPECT_FALSE(planar_grid::hasDisplay());
+  planar_grid::SceneRenderer renderer;
+  renderer.addPointCloud(squarePatch(0.0, 0.0, 1.0));
+  const fs::path path
+    = fs::temp_directory_path()
+      / ("planar_grid_test_viz_nodisplay_" + std::to_string(::getpid()) + ".png");
+  EXPECT_THROW(renderer.saveSnapshot(path.string(), 64, 48), planar_grid::Exception);
+  EXPECT_FALSE(fs::exists(path));
+  if (saved != nullptr)
+    ::setenv("DISPLAY", saved_display.c_str(), 1);
+}

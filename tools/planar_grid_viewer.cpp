@@ -1,0 +1,290 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// planar_grid_viewer: shows PCD clouds interactively or renders them to a PNG snapshot.
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/visualization/scene_renderer.h>
+
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/common/io.h>
+#include <pcl/console/parse.h>
+#include <pcl/console/print.h>
+#include <pcl/console/time.h>
+#include <pcl/conversions.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/point_types.h>
+
+#include <charconv>
+#include <cstdlib>
+#include <exception>
+#include <filesystem>
+#include <set>
+#include <string>
+#include <system_error>
+#include <vector>
+
+using pcl::console::print_error;
+using pcl::console::print_highlight;
+using pcl::console::print_info;
+using pcl::console::print_value;
+
+namespace {
+
+// Defaults, printed by the help.
+constexpr int DEFAULT_WIDTH_PX = 1600;
+constexpr int DEFAULT_HEIGHT_PX = 1000;
+constexpr double DEFAULT_POINT_SIZE_PX = 2.0;
+const char* const DEFAULT_CAMERA = "oblique";
+const char* const DEFAULT_COLOR = "height";
+
+/** \brief The effective options. */
+struct ViewerOptions {
+  std::vector<std::string> clouds;
+  std::string snapshot;
+  std::string camera_name{ DEFAULT_CAMERA };
+  bool explicit_camera{ false };
+  planar_grid::CameraParameters camera;
+  planar_grid::CameraPreset preset{ planar_grid::CameraPreset::OBLIQUE };
+  int width_px{ DEFAULT_WIDTH_PX };
+  int height_px{ DEFAULT_HEIGHT_PX };
+  std::string color_name{ DEFAULT_COLOR };
+  planar_grid::ColorMode color{ planar_grid::ColorMode::HEIGHT };
+  double point_size_px{ DEFAULT_POINT_SIZE_PX };
+};
+
+void
+printHelp(const char* program)
+{
+  print_info(
+    "Shows PCD point clouds with VTK, or renders them offscreen to a PNG.\n\n");
+  print_info("Syntax is: %s <cloud.pcd> [more.pcd ...] <options>\n", program);
+  print_info("  where options are:\n");
+  print_info(
+    "    --snapshot <out.png>  render offscreen and write a PNG instead of opening "
+    "a window (default: open a window)\n");
+  print_info("    --camera <c>          top | oblique | px,py,pz,fx,fy,fz,ux,uy,uz "
+             "(position, focal point, view up; metres) (default: ");
+  print_value("%s", DEFAULT_CAMERA);
+  print_info(")\n");
+  print_info("    --size <W>x<H>        image or window size, px (default: ");
+  print_value("%dx%d", DEFAULT_WIDTH_PX, DEFAULT_HEIGHT_PX);
+  print_info(")\n");
+  print_info("    --color <mode>        height | intensity | solid (default: ");
+  print_value("%s", DEFAULT_COLOR);
+  print_info(")\n");
+  print_info("    --point-size <N>      point size, px, > 0 (default: ");
+  print_value("%g", DEFAULT_POINT_SIZE_PX);
+  print_info(")\n");
+  print_info("    -h, --help            this help\n\n");
+  print_info("Snapshots need an X server (Debian's VTK 9.1); without one the viewer "
+             "re-runs itself under `xvfb-run -a` when xvfb is installed.\n");
+}
+
+/** \brief Parses "<W>x<H>" (both positive integers, nothing else). */
+bool
+parseSize(const std::string& text, int& width_px, int& height_px)
+{
+  const char* const end = text.data() + text.size();
+  const auto w = std::from_chars(text.data(), end, width_px);
+  if (w.ec != std::errc() || w.ptr == end || *w.ptr != 'x')
+    return false;
+  const auto h = std::from_chars(w.ptr + 1, end, height_px);
+  return h.ec == std::errc() && h.ptr == end && width_px > 0 && height_px > 0;
+}
+
+/** \brief Reads every option; throws planar_grid::Exception on a malformed one (S28).
+ * \param[out] help set when -h/--help was given */
+ViewerOptions
+parseOptions(int argc, char** argv, bool& help)
+{
+  using pcl::console::find_argument;
+  using pcl::console::parse_argument;
+  using planar_grid::Exception;
+  ViewerOptions options;
+  help = pcl::console::find_switch(argc, argv, "-h")
+         || pcl::console::find_switch(argc, argv, "--help");
+  if (help)
+    return options;
+
+  // argv indices accounted for; anything else is an unknown argument.
+  std::set<int> used;
+  const auto option_with_value = [&](const char* name) {
+    const int index = find_argument(argc, argv, name);
+    if (index < 0)
+      return false;
+    if (index + 1 >= argc)
+      throw Exception(std::string(name) + " needs a value");
+    used.insert(index);
+    used.insert(index + 1);
+    return true;
+  };
+
+  for (const int index :
+       pcl::console::parse_file_extension_argument(argc, argv, ".pcd")) {
+    options.clouds.emplace_back(argv[index]);
+    used.insert(index);
+  }
+
+  if (option_with_value("--snapshot")) {
+    parse_argument(argc, argv, "--snapshot", options.snapshot);
+    if (std::filesystem::path(options.snapshot).extension() != ".png")
+      throw Exception("--snapshot expects a .png file, got '" + options.snapshot + "'");
+  }
+
+  if (option_with_value("--camera")) {
+    parse_argument(argc, argv, "--camera", options.camera_name);
+    if (options.camera_name == "top") {
+      options.preset = planar_grid::CameraPreset::TOP;
+    } else if (options.camera_name == "oblique") {
+      options.preset = planar_grid::CameraPreset::OBLIQUE;
+    } else {
+      std::vector<double> values;
+      pcl::console::parse_x_arguments(argc, argv, "--camera", values);
+      if (values.size() != 9)
+        throw Exception("--camera expects top, oblique or 9 comma-separated numbers "
+                        "px,py,pz,fx,fy,fz,ux,uy,uz; got '"
+                        + options.camera_name + "'");
+      options.explicit_camera = true;
+      options.camera.position = Eigen::Vector3d(values[0], values[1], values[2]);
+      options.camera.focal_point = Eigen::Vector3d(values[3], values[4], values[5]);
+      options.camera.view_up = Eigen::Vector3d(values[6], values[7], values[8]);
+    }
+  }
+
+  if (option_with_value("--size")) {
+    std::string size;
+    parse_argument(argc, argv, "--size", size);
+    if (!parseSize(size, options.width_px, options.height_px))
+      throw Exception("--size expects <W>x<H> with positive integers in px (e.g. "
+                      "1600x1000); got '"
+                      + size + "'");
+  }
+
+  if (option_with_value("--color")) {
+    parse_argument(argc, argv, "--color", options.color_name);
+    if (options.color_name == "height")
+      options.color = planar_grid::ColorMode::HEIGHT;
+    else if (options.color_name == "intensity")
+      options.color = planar_grid::ColorMode::INTENSITY;
+    else if (options.color_name == "solid")
+      options.color = planar_grid::ColorMode::SOLID;
+    else
+      throw Exception("--color expects height, intensity or solid; got '"
+                      + options.color_name + "'");
+  }
+
+  if (option_with_value("--point-size")) {
+    // parse_argument returns -1 for a value with junk in it ("2px") or out of range.
+    if (parse_argument(argc, argv, "--point-size", options.point_size_px) < 0
+        || !(options.point_size_px > 0.0))
+      throw Exception(std::string("--point-size expects a number > 0 (px); got '")
+                      + argv[find_argument(argc, argv, "--point-size") + 1] + "'");
+  }
+
+  for (int i = 1; i < argc; ++i)
+    if (used.count(i) == 0)
+      throw Exception(std::string("unknown argument '") + argv[i]
+                      + "' (clouds must be .pcd files; see --help)");
+  if (options.clouds.empty())
+    throw Exception("no input cloud given (expected one or more .pcd files)");
+  return options;
+}
+
+/** \brief Loads one PCD as PointXYZI (clouds without intensity get intensity 0).
+ * \throws planar_grid::IOError when the file cannot be read or has no x, y, z */
+pcl::PointCloud<pcl::PointXYZI>
+loadCloud(const std::string& path)
+{
+  pcl::console::TicToc timer;
+  timer.tic();
+  print_highlight("Loading ");
+  print_value("%s ", path.c_str());
+  pcl::PCLPointCloud2 blob;
+  if (pcl::io::loadPCDFile(path, blob) < 0) {
+    print_info("[failed]\n");
+    throw planar_grid::IOError(path + ": cannot load the PCD file");
+  }
+  if (pcl::getFieldIndex(blob, "x") < 0 || pcl::getFieldIndex(blob, "y") < 0
+      || pcl::getFieldIndex(blob, "z") < 0) {
+    print_info("[failed]\n");
+    throw planar_grid::IOError(path + ": the PCD file has no x, y, z fields");
+  }
+  pcl::PointCloud<pcl::PointXYZI> cloud;
+  if (pcl::getFieldIndex(blob, "intensity") >= 0) {
+    pcl::fromPCLPointCloud2(blob, cloud);
+  } else {
+    // Not an error: intensity is 0 (and fromPCLPointCloud2 would warn about the field).
+    pcl::PointCloud<pcl::PointXYZ> xyz;
+    pcl::fromPCLPointCloud2(blob, xyz);
+    pcl::copyPointCloud(xyz, cloud);
+  }
+  print_info("[done, ");
+  print_value("%g", timer.toc());
+  print_info(" ms : ");
+  print_value("%zu", static_cast<std::size_t>(cloud.size()));
+  print_info(" points]\n");
+  return cloud;
+}
+
+int
+run(int argc, char** argv)
+{
+  bool help = false;
+  const ViewerOptions options = parseOptions(argc, argv, help);
+  if (help) {
+    printHelp(argv[0]);
+    return EXIT_SUCCESS;
+  }
+  // Before loading anything: this may re-execute the program under xvfb-run.
+  if (!options.snapshot.empty())
+    planar_grid::ensureDisplay(argc, argv);
+  else if (!planar_grid::hasDisplay())
+    throw planar_grid::Exception(
+      "no X display for the interactive window (DISPLAY is unset or does not answer); "
+      "to render a picture without a screen use --snapshot out.png");
+
+  print_info("Camera: ");
+  print_value("%s", options.camera_name.c_str());
+  print_info(", size: ");
+  print_value("%dx%d", options.width_px, options.height_px);
+  print_info(" px, color: ");
+  print_value("%s", options.color_name.c_str());
+  print_info(", point size: ");
+  print_value("%g", options.point_size_px);
+  print_info(" px\n");
+
+  planar_grid::SceneRenderer renderer;
+  for (const auto& path : options.clouds)
+    renderer.addPointCloud(loadCloud(path), options.color, options.point_size_px);
+  if (options.explicit_camera)
+    renderer.setCamera(options.camera);
+  else
+    renderer.setCamera(options.preset);
+
+  if (!options.snapshot.empty()) {
+    pcl::console::TicToc timer;
+    timer.tic();
+    print_highlight("Rendering ");
+    print_value("%s ", options.snapshot.c_str());
+    renderer.saveSnapshot(options.snapshot, options.width_px, options.height_px);
+    print_info("[done, ");
+    print_value("%g", timer.toc());
+    print_info(" ms]\n");
+  } else {
+    renderer.show(options.width_px, options.height_px);
+  }
+  return EXIT_SUCCESS;
+}
+
+} // namespace
+
+int
+main(int argc, char** argv)
+{
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    print_error("[planar_grid_viewer] %s\n", e.what());
+  } catch (...) {
+    print_error("[planar_grid_viewer] unknown error\n");
+  }
+  return EXIT_FAILURE;
+}
