@@ -42,7 +42,10 @@ public:
   };
 
   /** \brief Throws planar_grid::Exception for parameters OpenCV would reject. */
-  explicit DisparityEstimator(const Params& params = Params());
+  explicit DisparityEstimator(const Params& params);
+  /** \brief Uses the default Params. (Two constructors rather than a default argument:
+    * GCC rejects `= Params()` for a nested struct with member initialisers.) */
+  DisparityEstimator();
   ~DisparityEstimator();
   DisparityEstimator(DisparityEstimator&&) noexcept;
   DisparityEstimator&
@@ -53,7 +56,11 @@ public:
     * \param[in] right rectified right image, same size and type
     * \param[out] disparity CV_32FC1, left image size, in pixels; pixels without a valid
     *             match are NaN
-    * \throws planar_grid::Exception when the images are empty or differ in size or type */
+    * \throws planar_grid::Exception when the images are empty or differ in size or type
+    * \note Colour input is converted to grey first (P1/P2 defaults assume one channel).
+    *       A textureless region gets min_disparity_px (SGBM's tie-break), which for the
+    *       default 0 means "infinitely far" and is dropped by disparityToPointCloud().
+    * \note Not thread-safe on one object: cv::StereoSGBM keeps work buffers. */
   void
   compute(const cv::Mat& left, const cv::Mat& right, cv::Mat& disparity) const;
 

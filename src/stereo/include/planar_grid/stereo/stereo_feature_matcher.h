@@ -47,7 +47,13 @@ struct StereoFeatures {
 /** \brief Detects key points in both images, matches each left descriptor to the right
   * image along the epipolar row (|dy| <= max_row_difference_px,
   * 0 < disparity <= max_disparity_px) with Lowe's ratio test, and triangulates the matches
-  * with the disparity. Uses OpenCV's SIFT or ORB. \ingroup stereo */
+  * with the disparity. Uses OpenCV's SIFT or ORB. \ingroup stereo
+  * \note A left key point with a single candidate in its epipolar band passes the ratio
+  *       test. Each right key point is used at most once: the match with the smaller
+  *       descriptor distance keeps it. Right key points are bucketed by row, so the cost
+  *       is about N_left x (candidates per band), not N_left x N_right.
+  * \note ORB key points are integer positions on pyramid levels of scale 1.2^level, so
+  *       ORB disparities are quantised to 1.2^level px; SIFT's are sub-pixel. */
 class StereoFeatureMatcher {
 public:
   struct Params {
@@ -66,7 +72,10 @@ public:
   };
 
   /** \brief Throws planar_grid::Exception for out-of-range parameters. */
-  explicit StereoFeatureMatcher(const Params& params = Params());
+  explicit StereoFeatureMatcher(const Params& params);
+  /** \brief Uses the default Params. (Two constructors rather than a default argument:
+    * GCC rejects `= Params()` for a nested struct with member initialisers.) */
+  StereoFeatureMatcher();
 
   /** \brief Detects, matches and triangulates.
     * \param[in] left rectified left image, CV_8UC1 or CV_8UC3

@@ -1,0 +1,336 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/stereo/calibration_io.h>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <yaml-cpp/yaml.h>
+
+#include <array>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+namespace planar_grid {
+
+namespace {
+
+/** \brief A 3x4 projection matrix, row-major. */
+using ProjectionMatrix = std::array<double, 12>;
+
+/** \brief Reads the 3x4 rows \a left_key and \a right_key ("P1_roi:") of a plain-text
+ * calib.txt (one "key: 12 numbers" per line) into \a left and \a right. */
+void
+readTextProjectionRows(const std::string& path,
+                       const std::string& left_key,
+                       const std::string& right_key,
+                       ProjectionMatrix& left,
+                       ProjectionMatrix& right)
+{
+  std::ifstream file(path);
+  if (!file)
+    throw IOError(path + ": cannot open the calibration file");
+  bool found_left = false;
+  bool found_right = false;
+  std::string line;
+  while (std::getline(file, line)) {
+    std::istringstream row(line);
+    std::string key;
+    if (!(row >> key) || (key != left_key && key != right_key))
+      continue;
+    ProjectionMatrix& p = (key == left_key) ? left : right;
+    for (double& value : p)
+      if (!(row >> value))
+        throw IOError(path + ": row '" + key
+                      + "' must hold 12 numbers (3x4, row-major)");
+    (key == left_key ? found_left : found_right) = true;
+  }
+  if (!found_left)
+    throw IOError(path + ": missing row '" + left_key + "'");
+  if (!found_right)
+    throw IOError(path + ": missing row '" + right_key + "'");
+}
+
+/** \brief Rectified intrinsics from the left and right 3x4 projection matrices of a
+ * rectified pair: f = P_l(0,0), cx = P_l(0,2), cy = P_l(1,2), B = -P_r(0,3) / P_r(0,0).
+ */
+StereoCalibration
+calibrationFromProjections(const ProjectionMatrix& left, const ProjectionMatrix& right)
+{
+  StereoCalibration calibration;
+  calibration.focal_length_px = left[0];
+  calibration.cx_px = left[2];
+  calibration.cy_px = left[6];
+  // P_r(0,0) == 0 gives a non-finite baseline, which validate() rejects.
+  calibration.baseline_m = -right[3] / right[0];
+  return calibration;
+}
+
+/** \brief yaml-cpp's LoadFile with the failure turned into an IOError naming the file.
+ * \note OpenCV-written YAML (EuRoC, rtabmap) starts with "%YAML:1.0"; yaml-cpp 0.7
+ *       treats it as an unknown directive and ignores it (checked on the shared data),
+ *       so the file is loaded as is. */
+YAML::Node
+loadYamlFile(const std::string& path)
+{
+  {
+    std::ifstream probe(path);
+    if (!probe)
+      throw IOError(path + ": cannot open the calibration file");
+  }
+  try {
+    return YAML::LoadFile(path);
+  } catch (const YAML::Exception& e) {
+    throw IOError(path + ": not valid YAML: " + e.what());
+  }
+}
+
+/** \brief The child \a key of \a node, which must exist. */
+YAML::Node
+requireField(const YAML::Node& node, const std::string& key, const std::string& path)
+{
+  if (!node.IsMap() || !node[key])
+    throw IOError(path + ": missing field '" + key + "'");
+  return node[key];
+}
+
+/** \brief A scalar field converted to T. */
+template <typename T>
+T
+readScalar(const YAML::Node& node, const std::string& key, const std::string& path)
+{
+  const YAML::Node value = requireField(node, key, path);
+  try {
+    return value.as<T>();
+  } catch (const YAML::Exception&) {
+    throw IOError(path + ": field '" + key + "' is not a valid number");
+  }
+}
+
+/** \brief A sequence field of exactly \a count numbers. */
+std::vector<double>
+readNumbers(const YAML::Node& node,
+            const std::string& key,
+            std::size_t count,
+            const std::string& path)
+{
+  const YAML::Node value = requireField(node, key, path);
+  std::vector<double> numbers;
+  try {
+    numbers = value.as<std::vector<double>>();
+  } catch (const YAML::Exception&) {
+    throw IOError(path + ": field '" + key + "' must be a list of numbers");
+  }
+  if (numbers.size() != count)
+    throw IOError(path + ": field '" + key + "' must hold " + std::to_string(count)
+                  + " numbers, got " + std::to_string(numbers.size()));
+  return numbers;
+}
+
+/** \brief An OpenCV matrix node {rows, cols, data} of the given shape. */
+std::vector<double>
+readMatrix(const YAML::Node& node,
+           const std::string& key,
+           int rows,
+           int cols,
+           const std::string& path)
+{
+  const YAML::Node matrix = requireField(node, key, path);
+  const int file_rows = readScalar<int>(matrix, "rows", path);
+  const int file_cols = readScalar<int>(matrix, "cols", path);
+  if (file_rows != rows || file_cols != cols)
+    throw IOError(path + ": field '" + key + "' must be " + std::to_string(rows) + "x"
+                  + std::to_string(cols) + ", got " + std::to_string(file_rows) + "x"
+                  + std::to_string(file_cols));
+  return readNumbers(matrix, "data", static_cast<std::size_t>(rows * cols), path);
+}
+
+StereoCameraModel
+loadTextCalibration(const std::string& path,
+                    const std::string& left_key,
+                    const std::string& right_key)
+{
+  ProjectionMatrix left{}, right{};
+  readTextProjectionRows(path, left_key, right_key, left, right);
+  StereoCameraModel model;
+  model.calibration = calibrationFromProjections(left, right);
+  return model;
+}
+
+StereoCameraModel
+loadRosCameraInfo(const std::string& left_path, const std::string& right_path)
+{
+  const YAML::Node left = loadYamlFile(left_path);
+  const YAML::Node right = loadYamlFile(right_path);
+  ProjectionMatrix p_left{}, p_right{};
+  const std::vector<double> left_data
+    = readMatrix(left, "projection_matrix", 3, 4, left_path);
+  const std::vector<double> right_data
+    = readMatrix(right, "projection_matrix", 3, 4, right_path);
+  std::copy(left_data.begin(), left_data.end(), p_left.begin());
+  std::copy(right_data.begin(), right_data.end(), p_right.begin());
+
+  StereoCameraModel model;
+  model.calibration = calibrationFromProjections(p_left, p_right);
+  model.calibration.width = readScalar<int>(left, "image_width", left_path);
+  model.calibration.height = readScalar<int>(left, "image_height", left_path);
+  const int right_width = readScalar<int>(right, "image_width", right_path);
+  const int right_height = readScalar<int>(right, "image_height", right_path);
+  if (right_width != model.calibration.width
+      || right_height != model.calibration.height)
+    throw IOError(right_path + ": image size " + std::to_string(right_width) + "x"
+                  + std::to_string(right_height) + " differs from the left camera's ("
+                  + left_path + ")");
+  model.calibration.validate(right_path);
+  return model;
+}
+
+/** \brief One EuRoC camera: intrinsics, distortion, size and camera-to-body pose. */
+struct EurocCamera {
+  cv::Matx33d camera_matrix;
+  cv::Mat distortion;
+  cv::Size size;
+  cv::Matx44d body_T_camera;
+};
+
+EurocCamera
+readEurocCamera(const std::string& path)
+{
+  const YAML::Node node = loadYamlFile(path);
+  const std::vector<double> intrinsics = readNumbers(node, "intrinsics", 4, path);
+  const YAML::Node distortion_node
+    = requireField(node, "distortion_coefficients", path);
+  std::vector<double> distortion;
+  try {
+    distortion = distortion_node.as<std::vector<double>>();
+  } catch (const YAML::Exception&) {
+    throw IOError(path + ": field 'distortion_coefficients' must be a list of numbers");
+  }
+  // radial-tangential: k1 k2 p1 p2 [k3]
+  if (distortion.size() != 4 && distortion.size() != 5)
+    throw IOError(path + ": field 'distortion_coefficients' must hold 4 or 5 numbers");
+  const std::vector<double> resolution = readNumbers(node, "resolution", 2, path);
+  const std::vector<double> pose = readMatrix(node, "T_BS", 4, 4, path);
+
+  EurocCamera camera;
+  camera.camera_matrix = cv::Matx33d(intrinsics[0], 0.0, intrinsics[2], 0.0,
+                                     intrinsics[1], intrinsics[3], 0.0, 0.0, 1.0);
+  if (!(intrinsics[0] > 0.0) || !(intrinsics[1] > 0.0))
+    throw IOError(path + ": field 'intrinsics' needs positive focal lengths fu, fv");
+  camera.distortion = cv::Mat(distortion, true).reshape(1, 1);
+  camera.size
+    = cv::Size(static_cast<int>(resolution[0]), static_cast<int>(resolution[1]));
+  if (camera.size.width <= 0 || camera.size.height <= 0)
+    throw IOError(path + ": field 'resolution' must be a positive width and height");
+  for (int i = 0; i < 16; ++i)
+    camera.body_T_camera(i / 4, i % 4) = pose[static_cast<std::size_t>(i)];
+  return camera;
+}
+
+StereoCameraModel
+loadEuroc(const std::string& left_path, const std::string& right_path)
+{
+  const EurocCamera left = readEurocCamera(left_path);
+  const EurocCamera right = readEurocCamera(right_path);
+  if (left.size != right.size)
+    throw IOError(right_path + ": resolution differs from the left camera's ("
+                  + left_path + ")");
+
+  // Pose of cam1 in cam0: T_BS(cam0)^-1 * T_BS(cam1). OpenCV wants the opposite
+  // transform, taking cam0 points into cam1: X1 = R X0 + T.
+  const cv::Matx44d left_T_right = left.body_T_camera.inv() * right.body_T_camera;
+  const cv::Matx44d right_T_left = left_T_right.inv();
+  const cv::Matx33d rotation = right_T_left.get_minor<3, 3>(0, 0);
+  const cv::Vec3d translation(right_T_left(0, 3), right_T_left(1, 3),
+                              right_T_left(2, 3));
+
+  cv::Mat r1, r2, p1, p2, q;
+  cv::stereoRectify(left.camera_matrix, left.distortion, right.camera_matrix,
+                    right.distortion, left.size, rotation, translation, r1, r2, p1, p2,
+                    q, cv::CALIB_ZERO_DISPARITY, 0.0);
+
+  StereoCameraModel model;
+  cv::initUndistortRectifyMap(left.camera_matrix, left.distortion, r1, p1, left.size,
+                              CV_32FC1, model.rectifier.map_left_x,
+                              model.rectifier.map_left_y);
+  cv::initUndistortRectifyMap(right.camera_matrix, right.distortion, r2, p2, right.size,
+                              CV_32FC1, model.rectifier.map_right_x,
+                              model.rectifier.map_right_y);
+
+  StereoCalibration& calibration = model.calibration;
+  calibration.focal_length_px = p1.at<double>(0, 0);
+  calibration.cx_px = p1.at<double>(0, 2);
+  calibration.cy_px = p1.at<double>(1, 2);
+  calibration.baseline_m = -p2.at<double>(0, 3) / p2.at<double>(0, 0);
+  calibration.width = left.size.width;
+  calibration.height = left.size.height;
+  return model;
+}
+
+} // namespace
+
+CalibrationFormat
+calibrationFormatFromString(const std::string& name)
+{
+  if (name == "karlsruhe")
+    return CalibrationFormat::KARLSRUHE;
+  if (name == "kitti")
+    return CalibrationFormat::KITTI;
+  if (name == "ros_camera_info")
+    return CalibrationFormat::ROS_CAMERA_INFO;
+  if (name == "euroc")
+    return CalibrationFormat::EUROC;
+  throw Exception("unknown calibration format '" + name
+                  + "'; known formats: karlsruhe, kitti, ros_camera_info, euroc");
+}
+
+void
+StereoRectifier::rectify(const cv::Mat& left,
+                         const cv::Mat& right,
+                         cv::Mat& left_rectified,
+                         cv::Mat& right_rectified) const
+{
+  if (empty()) {
+    left.copyTo(left_rectified);
+    right.copyTo(right_rectified);
+    return;
+  }
+  if (left.size() != map_left_x.size() || right.size() != map_right_x.size())
+    throw Exception("StereoRectifier::rectify: the images must be "
+                    + std::to_string(map_left_x.cols) + "x"
+                    + std::to_string(map_left_x.rows)
+                    + ", the size the calibration was made for");
+  cv::remap(left, left_rectified, map_left_x, map_left_y, cv::INTER_LINEAR);
+  cv::remap(right, right_rectified, map_right_x, map_right_y, cv::INTER_LINEAR);
+}
+
+StereoCameraModel
+loadStereoCalibration(CalibrationFormat format,
+                      const std::string& path,
+                      const std::string& right_path)
+{
+  StereoCameraModel model;
+  switch (format) {
+    case CalibrationFormat::KARLSRUHE:
+      model = loadTextCalibration(path, "P1_roi:", "P2_roi:");
+      break;
+    case CalibrationFormat::KITTI:
+      model = loadTextCalibration(path, "P0:", "P1:");
+      break;
+    case CalibrationFormat::ROS_CAMERA_INFO:
+      if (right_path.empty())
+        throw IOError(path
+                      + ": the ROS camera_info format needs the right camera's file");
+      model = loadRosCameraInfo(path, right_path);
+      break;
+    case CalibrationFormat::EUROC:
+      if (right_path.empty())
+        throw IOError(path + ": the EuRoC format needs the right camera's file");
+      model = loadEuroc(path, right_path);
+      break;
+  }
+  model.calibration.validate(path);
+  return model;
+}
+
+} // namespace planar_grid

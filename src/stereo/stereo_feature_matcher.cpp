@@ -1,0 +1,192 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/stereo/stereo_feature_matcher.h>
+
+#include <opencv2/core/hal/hal.hpp>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace planar_grid {
+
+namespace {
+
+cv::Mat
+toGrey(const cv::Mat& image)
+{
+  if (image.channels() == 1)
+    return image;
+  cv::Mat grey;
+  cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  return grey;
+}
+
+/** \brief Descriptor distance: L2 for SIFT (CV_32F rows), Hamming for ORB (CV_8U). */
+float
+descriptorDistance(const cv::Mat& a, int row_a, const cv::Mat& b, int row_b)
+{
+  if (a.type() == CV_32F)
+    return std::sqrt(
+      cv::hal::normL2Sqr_(a.ptr<float>(row_a), b.ptr<float>(row_b), a.cols));
+  return static_cast<float>(cv::hal::normHamming(a.ptr<std::uint8_t>(row_a),
+                                                 b.ptr<std::uint8_t>(row_b), a.cols));
+}
+
+} // namespace
+
+FeatureType
+featureTypeFromString(const std::string& name)
+{
+  if (name == "sift")
+    return FeatureType::SIFT;
+  if (name == "orb")
+    return FeatureType::ORB;
+  throw Exception("unknown feature type '" + name + "'; known types: sift, orb");
+}
+
+StereoFeatureMatcher::StereoFeatureMatcher() : StereoFeatureMatcher(Params()) {}
+
+StereoFeatureMatcher::StereoFeatureMatcher(const Params& params) : params_(params)
+{
+  const std::string prefix = "StereoFeatureMatcher: ";
+  if (params_.max_features <= 0)
+    throw Exception(prefix + "max_features must be positive");
+  if (!(params_.ratio > 0.0 && params_.ratio <= 1.0))
+    throw Exception(prefix + "ratio must be in (0, 1]");
+  if (!(params_.max_row_difference_px >= 0.0))
+    throw Exception(prefix + "max_row_difference_px must be >= 0");
+  if (!(params_.max_disparity_px > 0.0))
+    throw Exception(prefix + "max_disparity_px must be positive");
+  if (!(params_.max_range_m > 0.0))
+    throw Exception(prefix + "max_range_m must be positive");
+}
+
+void
+StereoFeatureMatcher::match(const cv::Mat& left,
+                            const cv::Mat& right,
+                            const StereoCalibration& calibration,
+                            StereoFeatures& features) const
+{
+  features = StereoFeatures();
+  if (left.empty() || right.empty())
+    throw Exception("StereoFeatureMatcher::match: empty input image");
+  if (left.size() != right.size())
+    throw Exception("StereoFeatureMatcher::match: the left and right images differ in "
+                    "size");
+  if ((left.type() != CV_8UC1 && left.type() != CV_8UC3) || left.type() != right.type())
+    throw Exception("StereoFeatureMatcher::match: images must both be CV_8UC1 or both "
+                    "CV_8UC3");
+  calibration.validate("StereoFeatureMatcher::match");
+
+  cv::Ptr<cv::Feature2D> detector;
+  if (params_.feature_type == FeatureType::SIFT)
+    detector = cv::SIFT::create(params_.max_features);
+  else
+    detector = cv::ORB::create(params_.max_features);
+
+  std::vector<cv::KeyPoint> keypoints_left, keypoints_right;
+  cv::Mat descriptors_left, descriptors_right;
+  detector->detectAndCompute(toGrey(left), cv::noArray(), keypoints_left,
+                             descriptors_left);
+  detector->detectAndCompute(toGrey(right), cv::noArray(), keypoints_right,
+                             descriptors_right);
+  if (keypoints_left.empty() || keypoints_right.empty())
+    return;
+
+  // Right key points bucketed by integer row, so that each left key point only looks at
+  // the rows within max_row_difference_px of its own.
+  const int height = left.rows;
+  std::vector<std::vector<int>> rows(static_cast<std::size_t>(height));
+  for (std::size_t j = 0; j < keypoints_right.size(); ++j) {
+    const int row = std::clamp(static_cast<int>(std::lround(keypoints_right[j].pt.y)),
+                               0, height - 1);
+    rows[static_cast<std::size_t>(row)].push_back(static_cast<int>(j));
+  }
+
+  const float max_dy = static_cast<float>(params_.max_row_difference_px);
+  const float max_disparity = static_cast<float>(params_.max_disparity_px);
+  const float ratio = static_cast<float>(params_.ratio);
+  const float infinity = std::numeric_limits<float>::infinity();
+
+  // Best right match per left key point (-1: none), and the owner of each right key
+  // point (uniqueness: the left key point with the smallest distance keeps it).
+  std::vector<int> match_of_left(keypoints_left.size(), -1);
+  std::vector<float> distance_of_left(keypoints_left.size(), infinity);
+  std::vector<int> owner_of_right(keypoints_right.size(), -1);
+  std::vector<float> owner_distance(keypoints_right.size(), infinity);
+
+  for (std::size_t i = 0; i < keypoints_left.size(); ++i) {
+    const cv::Point2f& pl = keypoints_left[i].pt;
+    const int first_row = std::max(0, static_cast<int>(std::floor(pl.y - max_dy)) - 1);
+    const int last_row
+      = std::min(height - 1, static_cast<int>(std::ceil(pl.y + max_dy)) + 1);
+    float best = infinity, second = infinity;
+    int best_j = -1;
+    for (int row = first_row; row <= last_row; ++row) {
+      for (const int j : rows[static_cast<std::size_t>(row)]) {
+        const cv::Point2f& pr = keypoints_right[static_cast<std::size_t>(j)].pt;
+        const float disparity = pl.x - pr.x;
+        if (std::abs(pl.y - pr.y) > max_dy || !(disparity > 0.0f)
+            || disparity > max_disparity)
+          continue;
+        const float distance = descriptorDistance(descriptors_left, static_cast<int>(i),
+                                                  descriptors_right, j);
+        if (distance < best) {
+          second = best;
+          best = distance;
+          best_j = j;
+        } else if (distance < second) {
+          second = distance;
+        }
+      }
+    }
+    // Lowe's ratio test; a single candidate on the epipolar band passes (second = inf).
+    if (best_j < 0 || !(best < ratio * second))
+      continue;
+    match_of_left[i] = best_j;
+    distance_of_left[i] = best;
+    const std::size_t j = static_cast<std::size_t>(best_j);
+    if (best < owner_distance[j]) {
+      owner_distance[j] = best;
+      owner_of_right[j] = static_cast<int>(i);
+    }
+  }
+
+  const double f = calibration.focal_length_px;
+  const double fb = f * calibration.baseline_m;
+  const double max_range_sq = params_.max_range_m * params_.max_range_m;
+  std::vector<int> kept;
+  kept.reserve(keypoints_left.size());
+  for (std::size_t i = 0; i < keypoints_left.size(); ++i) {
+    const int j = match_of_left[i];
+    if (j < 0 || owner_of_right[static_cast<std::size_t>(j)] != static_cast<int>(i))
+      continue;
+    const cv::KeyPoint& kl = keypoints_left[i];
+    const cv::KeyPoint& kr = keypoints_right[static_cast<std::size_t>(j)];
+    const double disparity = static_cast<double>(kl.pt.x) - kr.pt.x;
+    const double z = fb / disparity;
+    const double x = (kl.pt.x - calibration.cx_px) * z / f;
+    const double y = (kl.pt.y - calibration.cy_px) * z / f;
+    if (x * x + y * y + z * z > max_range_sq)
+      continue;
+    kept.push_back(static_cast<int>(i));
+    features.points.push_back(pcl::PointXYZ(
+      static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)));
+    features.keypoints_left.push_back(kl);
+    features.keypoints_right.push_back(kr);
+    features.disparities.push_back(static_cast<float>(disparity));
+  }
+
+  features.descriptors.create(static_cast<int>(kept.size()), descriptors_left.cols,
+                              descriptors_left.type());
+  for (std::size_t k = 0; k < kept.size(); ++k)
+    descriptors_left.row(kept[k]).copyTo(features.descriptors.row(static_cast<int>(k)));
+  features.points.width = static_cast<std::uint32_t>(features.points.size());
+  features.points.height = 1;
+  features.points.is_dense = true;
+}
+
+} // namespace planar_grid

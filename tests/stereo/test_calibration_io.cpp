@@ -1,0 +1,221 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/stereo/calibration_io.h>
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace {
+
+using planar_grid::CalibrationFormat;
+using planar_grid::IOError;
+using planar_grid::loadStereoCalibration;
+
+const std::string DATA_DIR = PLANAR_GRID_DATA_DIR;
+const std::string KARLSRUHE_CALIB
+  = DATA_DIR + "/karlsruhe_2010_03_09_drive_0023/calib.txt";
+
+/** \brief A fresh temporary folder per test, removed afterwards. */
+class CalibrationIOFiles : public ::testing::Test {
+protected:
+  void SetUp() override
+  {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = std::filesystem::temp_directory_path()
+           / (std::string("planar_grid_calibration_io_") + info->name());
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+  }
+
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+
+  /** \brief Writes \a content into the temporary folder; returns the path. */
+  std::string write(const std::string& name, const std::string& content) const
+  {
+    const std::string path = (dir_ / name).string();
+    std::ofstream(path) << content;
+    return path;
+  }
+
+  /** \brief Expects loadStereoCalibration to throw IOError naming \a path and
+   * containing \a detail. */
+  static void expectIOError(CalibrationFormat format,
+                            const std::string& path,
+                            const std::string& detail,
+                            const std::string& right_path = "")
+  {
+    try {
+      loadStereoCalibration(format, path, right_path);
+      FAIL() << "no IOError for " << path;
+    } catch (const IOError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(path), std::string::npos) << what;
+      EXPECT_NE(what.find(detail), std::string::npos) << what;
+    }
+  }
+
+  std::filesystem::path dir_;
+};
+
+// The truth is the published calibration (../shared/data/README.md): the P1_roi/P2_roi
+// rows store f, cx, cy with 7 significant digits, so 1e-4 is a print-rounding bound.
+TEST(CalibrationIO, ReadsKarlsruhe)
+{
+  const auto model
+    = loadStereoCalibration(CalibrationFormat::KARLSRUHE, KARLSRUHE_CALIB);
+  EXPECT_NEAR(model.calibration.focal_length_px, 645.2401, 1e-4);
+  EXPECT_NEAR(model.calibration.cx_px, 635.9587, 1e-4);
+  EXPECT_NEAR(model.calibration.cy_px, 194.1291, 1e-4);
+  // B = 368.2632 / 645.2401 = 0.570738 m.
+  EXPECT_NEAR(model.calibration.baseline_m, 0.5707, 1e-4);
+  // The file gives no image size, and the images need no rectification.
+  EXPECT_EQ(model.calibration.width, 0);
+  EXPECT_EQ(model.calibration.height, 0);
+  EXPECT_TRUE(model.rectifier.empty());
+}
+
+// rtabmap camera_info: f = 487.60873 px, B = 58.3627 / 487.60873 = 0.11969 m (README).
+TEST(CalibrationIO, ReadsRosCameraInfoPair)
+{
+  const auto model
+    = loadStereoCalibration(CalibrationFormat::ROS_CAMERA_INFO,
+                            DATA_DIR + "/rtabmap_stereo_rect/stereo_left.yaml",
+                            DATA_DIR + "/rtabmap_stereo_rect/stereo_right.yaml");
+  EXPECT_NEAR(model.calibration.focal_length_px, 487.60873, 1e-4);
+  EXPECT_NEAR(model.calibration.cx_px, 318.11621, 1e-4);
+  EXPECT_NEAR(model.calibration.cy_px, 249.44424, 1e-4);
+  EXPECT_NEAR(model.calibration.baseline_m, 0.11969, 1e-5);
+  EXPECT_EQ(model.calibration.width, 640);
+  EXPECT_EQ(model.calibration.height, 480);
+  EXPECT_TRUE(model.rectifier.empty());
+}
+
+// EuRoC: the README's figures for OpenCV stereoRectify (alpha = 0) are "about f = 436.2
+// px and B = 0.1101 m"; +-2 px and +-2 mm allow for OpenCV-version differences in the
+// alpha = 0 crop while still catching a wrong relative pose (the raw cam0-cam1 distance
+// is 0.110 m, and a transposed rotation or a swapped inverse changes f by tens of px).
+TEST(CalibrationIO, ReadsAndRectifiesEuRoCPair)
+{
+  const auto model = loadStereoCalibration(
+    CalibrationFormat::EUROC, DATA_DIR + "/euroc_v1_01_pairs/sensorLeft.yaml",
+    DATA_DIR + "/euroc_v1_01_pairs/sensorRight.yaml");
+  EXPECT_NEAR(model.calibration.focal_length_px, 436.2, 2.0);
+  EXPECT_NEAR(model.calibration.baseline_m, 0.1101, 0.002);
+  EXPECT_EQ(model.calibration.width, 752);
+  EXPECT_EQ(model.calibration.height, 480);
+  // The rectified principal point stays inside the 752x480 image.
+  EXPECT_GT(model.calibration.cx_px, 0.0);
+  EXPECT_LT(model.calibration.cx_px, 752.0);
+  EXPECT_GT(model.calibration.cy_px, 0.0);
+  EXPECT_LT(model.calibration.cy_px, 480.0);
+
+  ASSERT_FALSE(model.rectifier.empty());
+  for (const cv::Mat* map :
+       { &model.rectifier.map_left_x, &model.rectifier.map_left_y,
+         &model.rectifier.map_right_x, &model.rectifier.map_right_y }) {
+    EXPECT_EQ(map->cols, 752);
+    EXPECT_EQ(map->rows, 480);
+    EXPECT_EQ(map->type(), CV_32FC1);
+  }
+  // Rectification maps a raw pair to a pair of the same size.
+  const cv::Mat raw(480, 752, CV_8UC1, cv::Scalar(128));
+  cv::Mat left, right;
+  model.rectifier.rectify(raw, raw, left, right);
+  EXPECT_EQ(left.size(), raw.size());
+  EXPECT_EQ(right.size(), raw.size());
+  EXPECT_THROW(model.rectifier.rectify(cv::Mat(10, 10, CV_8UC1), raw, left, right),
+               planar_grid::Exception);
+}
+
+// KITTI odometry calib.txt (sequence 00 values): P0 is the left camera, P1 the right
+// one; B = 386.1448 / 718.856 = 0.537166 m.
+TEST_F(CalibrationIOFiles, ReadsKitti)
+{
+  const std::string path = write(
+    "calib.txt",
+    "P0: 7.188560000000e+02 0.000000000000e+00 6.071928000000e+02 0.000000000000e+00 "
+    "0.000000000000e+00 7.188560000000e+02 1.852157000000e+02 0.000000000000e+00 "
+    "0.000000000000e+00 0.000000000000e+00 1.000000000000e+00 0.000000000000e+00\n"
+    "P1: 7.188560000000e+02 0.000000000000e+00 6.071928000000e+02 -3.861448000000e+02 "
+    "0.000000000000e+00 7.188560000000e+02 1.852157000000e+02 0.000000000000e+00 "
+    "0.000000000000e+00 0.000000000000e+00 1.000000000000e+00 0.000000000000e+00\n"
+    "P2: 7.188560000000e+02 0.000000000000e+00 6.071928000000e+02 4.538225000000e+01 "
+    "0.000000000000e+00 7.188560000000e+02 1.852157000000e+02 -1.130887000000e-01 "
+    "0.000000000000e+00 0.000000000000e+00 1.000000000000e+00 3.779761000000e-03\n");
+  const auto model = loadStereoCalibration(CalibrationFormat::KITTI, path);
+  EXPECT_NEAR(model.calibration.focal_length_px, 718.856, 1e-9);
+  EXPECT_NEAR(model.calibration.cx_px, 607.1928, 1e-9);
+  EXPECT_NEAR(model.calibration.cy_px, 185.2157, 1e-9);
+  EXPECT_NEAR(model.calibration.baseline_m, 386.1448 / 718.856, 1e-12);
+}
+
+TEST_F(CalibrationIOFiles, MissingFileThrowsIOError)
+{
+  const std::string path = (dir_ / "no_such_calib.txt").string();
+  expectIOError(CalibrationFormat::KARLSRUHE, path, "cannot open");
+  expectIOError(CalibrationFormat::KITTI, path, "cannot open");
+  expectIOError(CalibrationFormat::ROS_CAMERA_INFO, path, "cannot open", path);
+  expectIOError(CalibrationFormat::EUROC, path, "cannot open", path);
+}
+
+TEST_F(CalibrationIOFiles, MissingRowThrowsIOError)
+{
+  const std::string path
+    = write("calib.txt", "P1_roi: 645.2 0 635.9 0 0 645.2 194.1 0 0 0 1 0\n");
+  expectIOError(CalibrationFormat::KARLSRUHE, path, "P2_roi");
+  // A row with fewer than 12 numbers names the row.
+  const std::string short_row
+    = write("short.txt", "P1_roi: 645.2 0 635.9 0 0 645.2 194.1 0 0 0 1 0\n"
+                         "P2_roi: 645.2 0 635.9 -368.3\n");
+  expectIOError(CalibrationFormat::KARLSRUHE, short_row, "P2_roi");
+}
+
+TEST_F(CalibrationIOFiles, NonPositiveFocalOrBaselineThrowsIOError)
+{
+  const std::string zero_focal
+    = write("zero_focal.txt", "P1_roi: 0 0 635.9 0 0 645.2 194.1 0 0 0 1 0\n"
+                              "P2_roi: 645.2 0 635.9 -368.3 0 645.2 194.1 0 0 0 1 0\n");
+  expectIOError(CalibrationFormat::KARLSRUHE, zero_focal, "focal length");
+  // P2[0,3] > 0: the "right" camera sits to the left, negative baseline.
+  const std::string negative_baseline = write(
+    "negative_baseline.txt", "P0: 718.8 0 607.2 0 0 718.8 185.2 0 0 0 1 0\n"
+                             "P1: 718.8 0 607.2 386.1 0 718.8 185.2 0 0 0 1 0\n");
+  expectIOError(CalibrationFormat::KITTI, negative_baseline, "baseline");
+  const std::string zero_baseline
+    = write("zero_baseline.txt", "P0: 718.8 0 607.2 0 0 718.8 185.2 0 0 0 1 0\n"
+                                 "P1: 718.8 0 607.2 0 0 718.8 185.2 0 0 0 1 0\n");
+  expectIOError(CalibrationFormat::KITTI, zero_baseline, "baseline");
+}
+
+TEST_F(CalibrationIOFiles, MissingYamlFieldThrowsIOError)
+{
+  const std::string left = write("left.yaml", "image_width: 640\nimage_height: 480\n");
+  const std::string right = DATA_DIR + "/rtabmap_stereo_rect/stereo_right.yaml";
+  expectIOError(CalibrationFormat::ROS_CAMERA_INFO, left, "projection_matrix", right);
+  // EuRoC file without T_BS.
+  const std::string euroc
+    = write("sensor.yaml", "%YAML:1.0\n"
+                           "resolution: [752, 480]\n"
+                           "intrinsics: [458.6, 457.3, 367.2, 248.4]\n"
+                           "distortion_coefficients: [0, 0, 0, 0]\n");
+  expectIOError(CalibrationFormat::EUROC, euroc, "T_BS", euroc);
+}
+
+TEST(CalibrationIO, FormatFromString)
+{
+  EXPECT_EQ(planar_grid::calibrationFormatFromString("karlsruhe"),
+            CalibrationFormat::KARLSRUHE);
+  EXPECT_EQ(planar_grid::calibrationFormatFromString("kitti"),
+            CalibrationFormat::KITTI);
+  EXPECT_EQ(planar_grid::calibrationFormatFromString("ros_camera_info"),
+            CalibrationFormat::ROS_CAMERA_INFO);
+  EXPECT_EQ(planar_grid::calibrationFormatFromString("euroc"),
+            CalibrationFormat::EUROC);
+  EXPECT_THROW(planar_grid::calibrationFormatFromString("middlebury"),
+               planar_grid::Exception);
+}
+
+} // namespace
