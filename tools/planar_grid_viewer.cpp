@@ -13,6 +13,7 @@
 #include <pcl/point_types.h>
 
 #include <charconv>
+#include <cmath>
 #include <cstdlib>
 #include <exception>
 #include <filesystem>
@@ -90,6 +91,28 @@ parseSize(const std::string& text, int& width_px, int& height_px)
   return h.ec == std::errc() && h.ptr == end && width_px > 0 && height_px > 0;
 }
 
+/** \brief Parses comma-separated numbers, each complete ("1,2,x" and "1,,2" fail).
+ * pcl::console::parse_x_arguments would turn junk into 0 with atof (S28). */
+bool
+parseNumbers(const std::string& text, std::vector<double>& values)
+{
+  values.clear();
+  const char* p = text.data();
+  const char* const end = text.data() + text.size();
+  while (true) {
+    double value = 0.0;
+    const auto result = std::from_chars(p, end, value);
+    if (result.ec != std::errc() || !std::isfinite(value))
+      return false;
+    values.push_back(value);
+    if (result.ptr == end)
+      return true;
+    if (*result.ptr != ',')
+      return false;
+    p = result.ptr + 1;
+  }
+}
+
 /** \brief Reads every option; throws planar_grid::Exception on a malformed one (S28).
  * \param[out] help set when -h/--help was given */
 ViewerOptions
@@ -137,8 +160,7 @@ parseOptions(int argc, char** argv, bool& help)
       options.preset = planar_grid::CameraPreset::OBLIQUE;
     } else {
       std::vector<double> values;
-      pcl::console::parse_x_arguments(argc, argv, "--camera", values);
-      if (values.size() != 9)
+      if (!parseNumbers(options.camera_name, values) || values.size() != 9)
         throw Exception("--camera expects top, oblique or 9 comma-separated numbers "
                         "px,py,pz,fx,fy,fz,ux,uy,uz; got '"
                         + options.camera_name + "'");
@@ -252,12 +274,14 @@ run(int argc, char** argv)
   print_info(" px\n");
 
   planar_grid::SceneRenderer renderer;
-  for (const auto& path : options.clouds)
-    renderer.addPointCloud(loadCloud(path), options.color, options.point_size_px);
+  // The camera first: an invalid explicit camera fails before any loading; presets
+  // frame the clouds at render time.
   if (options.explicit_camera)
     renderer.setCamera(options.camera);
   else
     renderer.setCamera(options.preset);
+  for (const auto& path : options.clouds)
+    renderer.addPointCloud(loadCloud(path), options.color, options.point_size_px);
 
   if (!options.snapshot.empty()) {
     pcl::console::TicToc timer;
