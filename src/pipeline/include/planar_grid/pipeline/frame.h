@@ -1,0 +1,50 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <planar_grid/core/stereo_calibration.h>
+#include <planar_grid/stereo/stereo_feature_matcher.h>
+
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <Eigen/Geometry>
+#include <opencv2/core/mat.hpp>
+
+#include <string>
+
+namespace planar_grid {
+
+/** \brief Everything one frame carries through the stages. \ingroup pipeline */
+struct Frame {
+  using Cloud = pcl::PointCloud<pcl::PointXYZI>;
+
+  /** \brief Position in the run (0-based) and the index in the input's file names. */
+  std::size_t sequence_number{0};
+  int file_index{0};
+  /** \brief A name for messages (the left image or PCD file). */
+  std::string name;
+
+  /** \brief Rectified images (stereo input only). */
+  cv::Mat left, right;
+  /** \brief Rectified intrinsics (stereo input only). */
+  StereoCalibration calibration;
+  /** \brief Disparity in px, CV_32FC1, NaN = invalid (after stereo_disparity). */
+  cv::Mat disparity;
+
+  /** \brief The working cloud: in the camera frame (x right, y down, z forward, metres)
+    * until transform_to_world, in the world frame after it. */
+  Cloud::Ptr cloud;
+  /** \brief True once `cloud` is in the world frame. */
+  bool cloud_in_world_frame{false};
+
+  /** \brief Matched 3D key feature points in the camera frame (after feature_matching). */
+  StereoFeatures features;
+
+  /** \brief world_T_camera when the input gives poses. */
+  Eigen::Isometry3d world_T_camera{Eigen::Isometry3d::Identity()};
+  bool has_pose{false};
+
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+};
+
+} // namespace planar_grid

@@ -1,0 +1,96 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <planar_grid/pipeline/param_table.h>
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace planar_grid {
+
+/** \brief Where frames come from. \ingroup pipeline */
+struct InputConfig {
+  enum class Type {
+    /** Rectified (or raw, with a calibration that rectifies) stereo image pairs. */
+    STEREO_SEQUENCE,
+    /** PCD files, each with its VIEWPOINT as the sensor pose. */
+    PCD_FILES
+  };
+  Type type{Type::STEREO_SEQUENCE};
+
+  /** \brief Left / right image paths with one printf-style index field (%d or %0Nd),
+    * resolved against the config file's folder. */
+  std::string left_images;
+  std::string right_images;
+  /** \brief Index of the first frame in the file names. */
+  int first_index{0};
+  /** \brief Number of frames; 0 = every index until the first missing left image. */
+  int frame_count{0};
+
+  /** \brief Calibration: format (karlsruhe, kitti, ros_camera_info, euroc) and file(s). */
+  std::string calibration_format;
+  std::string calibration_file;
+  std::string calibration_right_file;
+
+  /** \brief Poses: "none", "karlsruhe_insdata", "kitti" (world_T_camera per frame) or, for
+    * PCD input, "viewpoint" (default there). */
+  std::string poses_format{"none"};
+  std::string poses_file;
+
+  /** \brief PCD input: files or glob patterns, resolved against the config's folder and
+    * sorted by name within each pattern. */
+  std::vector<std::string> pcd_files;
+};
+
+/** \brief One configured stage: its type, its parsed parameters, and where it was given.
+  * \ingroup pipeline */
+struct StageConfig {
+  std::string type;
+  ParamValues params;
+  int line{0};
+  int column{0};
+};
+
+/** \brief What the run writes, in `folder` (resolved against the current directory;
+  * overridable with --output). \ingroup pipeline */
+struct OutputConfig {
+  std::string folder{"output"};
+  /** \brief Accumulated world cloud, binary-compressed PCD ("" = none). */
+  std::string cloud{"world_cloud.pcd"};
+  /** \brief Machine-readable report. */
+  std::string report{"report.json"};
+  /** \brief Camera poses used, KITTI format ("" = none). */
+  std::string trajectory{"trajectory.txt"};
+  /** \brief PNG snapshot of the result ("" = none). */
+  std::string snapshot{"snapshot.png"};
+  /** \brief Snapshot camera: "top" or "oblique". */
+  std::string snapshot_camera{"top"};
+  /** \brief Snapshot size in pixels. */
+  std::array<int, 2> snapshot_size_px{{1600, 1000}};
+};
+
+/** \brief A whole pipeline configuration (schema in config/example.yaml). \ingroup pipeline */
+struct PipelineConfig {
+  /** \brief The file it was loaded from. */
+  std::string source_file;
+  InputConfig input;
+  std::vector<StageConfig> stages;
+  OutputConfig output;
+};
+
+/** \brief Loads and validates a pipeline YAML file strictly (S31): unknown keys, unknown
+  * stage types (the message lists the known ones), wrong types and out-of-range values
+  * are planar_grid::ConfigError with file:line:col. Relative input paths are resolved
+  * against the file's folder. \throws planar_grid::ConfigError, planar_grid::IOError */
+PipelineConfig
+loadPipelineConfig(const std::string& path);
+
+/** \brief As loadPipelineConfig() from YAML text; \a source_name is used in messages and
+  * \a base_folder to resolve relative paths. */
+PipelineConfig
+parsePipelineConfig(const std::string& yaml_text,
+                    const std::string& source_name,
+                    const std::string& base_folder);
+
+} // namespace planar_grid

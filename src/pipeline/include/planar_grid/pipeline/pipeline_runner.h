@@ -1,0 +1,124 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <planar_grid/pipeline/frame_source.h>
+#include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/stage.h>
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace planar_grid {
+
+/** \brief Per-stage timing and point counts of a run. \ingroup pipeline */
+struct StageReport {
+  std::string type;
+  std::size_t frames{0};
+  /** \brief Wall time in the stage, milliseconds: sum and worst frame. */
+  double total_ms{0.0};
+  double max_ms{0.0};
+  /** \brief Valid points entering and leaving the stage, summed over frames (for stages
+    * that work on the cloud). */
+  std::uint64_t points_in{0};
+  std::uint64_t points_out{0};
+  /** \brief Matched 3D features per frame, summed (feature_matching). */
+  std::uint64_t features{0};
+
+  double
+  meanMs() const
+  {
+    return frames ? total_ms / static_cast<double>(frames) : 0.0;
+  }
+};
+
+/** \brief What a run did. \ingroup pipeline */
+struct RunReport {
+  std::string config_file;
+  std::string input_description;
+  std::size_t first_frame{0};
+  std::size_t frames{0};
+  /** \brief Wall time of the whole run including loading, seconds. */
+  double seconds{0.0};
+  /** \brief Time spent loading (and rectifying) frames, milliseconds. */
+  double load_ms{0.0};
+  std::vector<StageReport> stages;
+  /** \brief Points in the accumulated world cloud at the end. */
+  std::size_t world_cloud_points{0};
+  /** \brief Output files written, by kind (cloud, trajectory, snapshot, report). */
+  std::vector<std::pair<std::string, std::string>> outputs;
+
+  double
+  framesPerSecond() const
+  {
+    return seconds > 0.0 ? static_cast<double>(frames) / seconds : 0.0;
+  }
+
+  /** \brief The report as JSON text (the report.json schema). */
+  std::string
+  toJson() const;
+
+  /** \brief The per-stage timing table for the terminal. */
+  std::string
+  timingTable() const;
+};
+
+/** \brief Runs a configured pipeline over a range of frames. \ingroup pipeline */
+class PipelineRunner {
+public:
+  /** \brief Called after each frame: frames done, frames in total, seconds elapsed. */
+  using ProgressCallback = std::function<void(std::size_t, std::size_t, double)>;
+
+  /** \brief Builds the stages and opens the input.
+    * \throws planar_grid::ConfigError, planar_grid::IOError */
+  explicit PipelineRunner(const PipelineConfig& config);
+  ~PipelineRunner();
+
+  /** \brief Number of frames in the input. */
+  std::size_t
+  frameCount() const;
+
+  /** \brief Restricts the run to frames [begin, end) (0-based positions).
+    * \throws planar_grid::Exception when the range is empty or outside the input */
+  void
+  setFrameRange(std::size_t begin, std::size_t end);
+
+  void
+  setProgressCallback(ProgressCallback callback)
+  {
+    progress_ = std::move(callback);
+  }
+
+  /** \brief Runs every frame of the range through every stage.
+    * \throws planar_grid::Exception naming the frame and stage on failure */
+  RunReport
+  run();
+
+  /** \brief The shared state (accumulated world cloud) after run(). */
+  const PipelineState&
+  state() const
+  {
+    return state_;
+  }
+
+  /** \brief The poses of the frames that ran (world_T_camera), in order. */
+  const Trajectory&
+  trajectory() const
+  {
+    return trajectory_;
+  }
+
+private:
+  PipelineConfig config_;
+  std::unique_ptr<FrameSource> source_;
+  std::vector<std::unique_ptr<Stage>> stages_;
+  std::size_t begin_{0};
+  std::size_t end_{0};
+  ProgressCallback progress_;
+  PipelineState state_;
+  Trajectory trajectory_;
+};
+
+} // namespace planar_grid

@@ -1,0 +1,71 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <planar_grid/pipeline/frame.h>
+#include <planar_grid/pipeline/param_table.h>
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace planar_grid {
+
+/** \brief What the stages share across frames: the accumulated world cloud. \ingroup pipeline */
+struct PipelineState {
+  /** \brief The accumulated cloud in the world frame (accumulate stage). */
+  Frame::Cloud::Ptr world_cloud{new Frame::Cloud};
+};
+
+/** \brief One step of the pipeline, applied to every frame in order. \ingroup pipeline */
+class Stage {
+public:
+  virtual ~Stage() = default;
+
+  /** \brief Processes one frame.
+    * \throws planar_grid::Exception when the frame cannot be processed (e.g. the stage
+    *         receives 0 points, S32); the run stops with a message naming the frame */
+  virtual void
+  process(Frame& frame, PipelineState& state) = 0;
+
+  /** \brief Called once after the last frame. */
+  virtual void
+  finish(PipelineState& /*state*/)
+  {}
+
+  /** \brief Points this stage measures in and out of each frame (for the report): the
+    * working cloud's valid points by default. */
+  virtual bool
+  countsCloudPoints() const
+  {
+    return true;
+  }
+};
+
+/** \brief A stage type: its name, what it does, its parameter table and a factory.
+  * \ingroup pipeline */
+struct StageInfo {
+  std::string type;
+  std::string description;
+  std::vector<ParamSpec> params;
+  /** \brief What the stage needs from the input, checked before the run: poses. */
+  bool needs_poses{false};
+  /** \brief Needs stereo images (not PCD input). */
+  bool needs_stereo{false};
+  std::function<std::unique_ptr<Stage>(const ParamValues&)> create;
+};
+
+/** \brief Every stage type, in a fixed order (the registry; no static-initialiser
+  * registration, S45). */
+const std::vector<StageInfo>&
+stageRegistry();
+
+/** \brief The registry entry of \a type, or nullptr. */
+const StageInfo*
+findStage(const std::string& type);
+
+/** \brief The known stage types, comma-separated (for error messages). */
+std::string
+knownStageTypes();
+
+} // namespace planar_grid

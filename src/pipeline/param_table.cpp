@@ -1,0 +1,298 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/pipeline/param_table.h>
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+namespace planar_grid {
+
+namespace {
+
+std::string
+formatNumber(double value)
+{
+  std::ostringstream out;
+  out << std::setprecision(10) << value;
+  return out.str();
+}
+
+std::string
+typeName(const ParamSpec& spec)
+{
+  switch (spec.type) {
+    case ParamSpec::Type::DOUBLE:
+      return "number";
+    case ParamSpec::Type::INT:
+      return "integer";
+    case ParamSpec::Type::BOOL:
+      return "true/false";
+    case ParamSpec::Type::CHOICE:
+      break;
+  }
+  std::string list;
+  for (const auto& c : spec.choices)
+    list += (list.empty() ? "" : "|") + c;
+  return "one of " + list;
+}
+
+std::string
+rangeText(const ParamSpec& spec)
+{
+  if (spec.type == ParamSpec::Type::DOUBLE || spec.type == ParamSpec::Type::INT)
+    return "[" + formatNumber(spec.min) + ", " + formatNumber(spec.max) + "]";
+  return "";
+}
+
+[[noreturn]] void
+fail(const std::string& file, const YAML::Node& node, const std::string& message)
+{
+  const YAML::Mark mark = node.Mark();
+  throw ConfigError(file,
+                    mark.is_null() ? 0 : mark.line + 1,
+                    mark.is_null() ? 0 : mark.column + 1,
+                    message);
+}
+
+} // namespace
+
+ParamSpec
+ParamSpec::real(const std::string& key,
+                double default_value,
+                double min,
+                double max,
+                const std::string& unit,
+                const std::string& description)
+{
+  ParamSpec s;
+  s.key = key;
+  s.type = Type::DOUBLE;
+  s.default_value = formatNumber(default_value);
+  s.min = min;
+  s.max = max;
+  s.unit = unit;
+  s.description = description;
+  return s;
+}
+
+ParamSpec
+ParamSpec::integer(const std::string& key,
+                   int default_value,
+                   int min,
+                   int max,
+                   const std::string& unit,
+                   const std::string& description)
+{
+  ParamSpec s = real(key, default_value, min, max, unit, description);
+  s.type = Type::INT;
+  return s;
+}
+
+ParamSpec
+ParamSpec::flag(const std::string& key, bool default_value, const std::string& description)
+{
+  ParamSpec s;
+  s.key = key;
+  s.type = Type::BOOL;
+  s.default_value = default_value ? "true" : "false";
+  s.description = description;
+  return s;
+}
+
+ParamSpec
+ParamSpec::choice(const std::string& key,
+                  const std::string& default_value,
+                  const std::vector<std::string>& choices,
+                  const std::string& description)
+{
+  ParamSpec s;
+  s.key = key;
+  s.type = Type::CHOICE;
+  s.default_value = default_value;
+  s.choices = choices;
+  s.description = description;
+  return s;
+}
+
+double
+ParamValues::getDouble(const std::string& key) const
+{
+  const auto it = values_.find(key);
+  if (it == values_.end() || !std::holds_alternative<double>(it->second))
+    throw Exception("ParamValues: no number parameter '" + key + "'");
+  return std::get<double>(it->second);
+}
+
+int
+ParamValues::getInt(const std::string& key) const
+{
+  const auto it = values_.find(key);
+  if (it == values_.end() || !std::holds_alternative<int>(it->second))
+    throw Exception("ParamValues: no integer parameter '" + key + "'");
+  return std::get<int>(it->second);
+}
+
+bool
+ParamValues::getBool(const std::string& key) const
+{
+  const auto it = values_.find(key);
+  if (it == values_.end() || !std::holds_alternative<bool>(it->second))
+    throw Exception("ParamValues: no true/false parameter '" + key + "'");
+  return std::get<bool>(it->second);
+}
+
+const std::string&
+ParamValues::getChoice(const std::string& key) const
+{
+  const auto it = values_.find(key);
+  if (it == values_.end() || !std::holds_alternative<std::string>(it->second))
+    throw Exception("ParamValues: no choice parameter '" + key + "'");
+  return std::get<std::string>(it->second);
+}
+
+void
+ParamValues::set(const std::string& key, std::variant<double, int, bool, std::string> value)
+{
+  values_[key] = std::move(value);
+}
+
+std::string
+ParamValues::toString(const std::string& key) const
+{
+  const auto it = values_.find(key);
+  if (it == values_.end())
+    return "";
+  return std::visit(
+    [](const auto& v) -> std::string {
+      using V = std::decay_t<decltype(v)>;
+      if constexpr (std::is_same_v<V, std::string>)
+        return v;
+      else if constexpr (std::is_same_v<V, bool>)
+        return v ? "true" : "false";
+      else
+        return formatNumber(static_cast<double>(v));
+    },
+    it->second);
+}
+
+ParamValues
+defaultParams(const std::vector<ParamSpec>& specs)
+{
+  ParamValues values;
+  for (const auto& spec : specs) {
+    switch (spec.type) {
+      case ParamSpec::Type::DOUBLE:
+        values.set(spec.key, std::stod(spec.default_value));
+        break;
+      case ParamSpec::Type::INT:
+        values.set(spec.key, std::stoi(spec.default_value));
+        break;
+      case ParamSpec::Type::BOOL:
+        values.set(spec.key, spec.default_value == "true");
+        break;
+      case ParamSpec::Type::CHOICE:
+        values.set(spec.key, spec.default_value);
+        break;
+    }
+  }
+  return values;
+}
+
+ParamValues
+parseParams(const YAML::Node& node,
+            const std::vector<ParamSpec>& specs,
+            const std::string& file,
+            const std::string& stage_type)
+{
+  ParamValues values = defaultParams(specs);
+  if (!node || node.IsNull())
+    return values;
+  if (!node.IsMap())
+    fail(file, node, "params of stage '" + stage_type + "' must be a map of key: value");
+
+  for (const auto& item : node) {
+    const std::string key = item.first.as<std::string>();
+    const auto spec = std::find_if(
+      specs.begin(), specs.end(), [&key](const ParamSpec& s) { return s.key == key; });
+    if (spec == specs.end()) {
+      std::string known;
+      for (const auto& s : specs)
+        known += (known.empty() ? "" : ", ") + s.key;
+      fail(file,
+           item.first,
+           "unknown parameter '" + key + "' of stage '" + stage_type + "'; known: " +
+             (known.empty() ? std::string("(none)") : known));
+    }
+    const YAML::Node& value = item.second;
+    const std::string where = "parameter '" + key + "' of stage '" + stage_type + "'";
+    if (!value.IsScalar())
+      fail(file, value, where + " must be " + typeName(*spec));
+    try {
+      switch (spec->type) {
+        case ParamSpec::Type::DOUBLE: {
+          const double v = value.as<double>();
+          if (!std::isfinite(v) || v < spec->min || v > spec->max)
+            fail(file,
+                 value,
+                 where + " = " + value.Scalar() + " is out of range " + rangeText(*spec) +
+                   (spec->unit.empty() ? "" : " " + spec->unit));
+          values.set(key, v);
+          break;
+        }
+        case ParamSpec::Type::INT: {
+          const int v = value.as<int>();
+          if (v < spec->min || v > spec->max)
+            fail(file,
+                 value,
+                 where + " = " + value.Scalar() + " is out of range " + rangeText(*spec) +
+                   (spec->unit.empty() ? "" : " " + spec->unit));
+          values.set(key, v);
+          break;
+        }
+        case ParamSpec::Type::BOOL:
+          values.set(key, value.as<bool>());
+          break;
+        case ParamSpec::Type::CHOICE: {
+          const std::string v = value.as<std::string>();
+          if (std::find(spec->choices.begin(), spec->choices.end(), v) ==
+              spec->choices.end())
+            fail(file, value, where + " = '" + v + "' must be " + typeName(*spec));
+          values.set(key, v);
+          break;
+        }
+      }
+    }
+    catch (const YAML::BadConversion&) {
+      fail(file, value, where + " = '" + value.Scalar() + "' must be " + typeName(*spec));
+    }
+  }
+  return values;
+}
+
+std::string
+describeParams(const std::vector<ParamSpec>& specs)
+{
+  std::ostringstream out;
+  if (specs.empty())
+    out << "    (no parameters)\n";
+  for (const auto& spec : specs) {
+    out << "    " << std::left << std::setw(28) << spec.key << " " << std::setw(12)
+        << typeName(spec).substr(0, 40);
+    if (spec.type == ParamSpec::Type::CHOICE)
+      out << "";
+    out << " default " << spec.default_value;
+    const std::string range = rangeText(spec);
+    if (!range.empty())
+      out << ", range " << range;
+    if (!spec.unit.empty())
+      out << " " << spec.unit;
+    out << "\n        " << spec.description << "\n";
+  }
+  return out.str();
+}
+
+} // namespace planar_grid

@@ -1,0 +1,343 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/stage.h>
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace planar_grid {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+/** Reads one YAML file's values with their places, for strict checks. */
+class Reader {
+public:
+  Reader(std::string file, std::string base_folder)
+  : file_(std::move(file)), base_folder_(std::move(base_folder))
+  {}
+
+  [[noreturn]] void
+  fail(const YAML::Node& node, const std::string& message) const
+  {
+    const YAML::Mark mark = node.Mark();
+    throw ConfigError(file_,
+                      mark.is_null() ? 0 : mark.line + 1,
+                      mark.is_null() ? 0 : mark.column + 1,
+                      message);
+  }
+
+  void
+  requireMap(const YAML::Node& node, const std::string& what) const
+  {
+    if (!node.IsMap())
+      fail(node, what + " must be a map of key: value");
+  }
+
+  /** Every key of \a node must be in \a allowed. */
+  void
+  checkKeys(const YAML::Node& node,
+            const std::vector<std::string>& allowed,
+            const std::string& what) const
+  {
+    requireMap(node, what);
+    for (const auto& item : node) {
+      const std::string key = item.first.as<std::string>();
+      if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
+        std::string list;
+        for (const auto& a : allowed)
+          list += (list.empty() ? "" : ", ") + a;
+        fail(item.first, "unknown key '" + key + "' in " + what + "; expected one of: " + list);
+      }
+    }
+  }
+
+  std::string
+  string(const YAML::Node& parent, const std::string& key, const std::string& what) const
+  {
+    const YAML::Node node = parent[key];
+    if (!node)
+      fail(parent, what + " needs the key '" + key + "'");
+    if (!node.IsScalar())
+      fail(node, what + "." + key + " must be a string");
+    return node.as<std::string>();
+  }
+
+  std::string
+  optionalString(const YAML::Node& parent,
+                 const std::string& key,
+                 const std::string& fallback,
+                 const std::string& what) const
+  {
+    return parent[key] ? string(parent, key, what) : fallback;
+  }
+
+  int
+  integer(const YAML::Node& parent,
+          const std::string& key,
+          int fallback,
+          int min,
+          int max,
+          const std::string& what) const
+  {
+    const YAML::Node node = parent[key];
+    if (!node)
+      return fallback;
+    int v = 0;
+    try {
+      if (!node.IsScalar())
+        throw YAML::BadConversion(node.Mark());
+      v = node.as<int>();
+    }
+    catch (const YAML::BadConversion&) {
+      fail(node, what + "." + key + " must be an integer");
+    }
+    if (v < min || v > max)
+      fail(node,
+           what + "." + key + " = " + std::to_string(v) + " is out of range [" +
+             std::to_string(min) + ", " + std::to_string(max) + "]");
+    return v;
+  }
+
+  /** A path, resolved against the config file's folder when relative. */
+  std::string
+  path(const YAML::Node& parent, const std::string& key, const std::string& what) const
+  {
+    return resolve(string(parent, key, what));
+  }
+
+  std::string
+  resolve(const std::string& p) const
+  {
+    if (p.empty() || fs::path(p).is_absolute())
+      return p;
+    return (fs::path(base_folder_) / p).lexically_normal().string();
+  }
+
+private:
+  std::string file_;
+  std::string base_folder_;
+};
+
+InputConfig
+parseInput(const Reader& r, const YAML::Node& node)
+{
+  InputConfig input;
+  const std::string type = r.string(node, "type", "input");
+  if (type == "stereo_sequence") {
+    r.checkKeys(node,
+                {"type",
+                 "left_images",
+                 "right_images",
+                 "first_index",
+                 "frame_count",
+                 "calibration",
+                 "poses"},
+                "input (stereo_sequence)");
+    input.type = InputConfig::Type::STEREO_SEQUENCE;
+    input.left_images = r.path(node, "left_images", "input");
+    input.right_images = r.path(node, "right_images", "input");
+    input.first_index = r.integer(node, "first_index", 0, 0, 100000000, "input");
+    input.frame_count = r.integer(node, "frame_count", 0, 0, 100000000, "input");
+    const YAML::Node calib = node["calibration"];
+    if (!calib)
+      r.fail(node, "input needs the key 'calibration' (format and file)");
+    r.checkKeys(calib, {"format", "file", "right_file"}, "input.calibration");
+    input.calibration_format = r.string(calib, "format", "input.calibration");
+    const std::vector<std::string> formats{"karlsruhe", "kitti", "ros_camera_info", "euroc"};
+    if (std::find(formats.begin(), formats.end(), input.calibration_format) == formats.end())
+      r.fail(calib["format"],
+             "input.calibration.format '" + input.calibration_format +
+               "' is unknown; expected one of: karlsruhe, kitti, ros_camera_info, euroc");
+    input.calibration_file = r.path(calib, "file", "input.calibration");
+    const bool pair = input.calibration_format == "ros_camera_info" ||
+                      input.calibration_format == "euroc";
+    if (pair)
+      input.calibration_right_file = r.path(calib, "right_file", "input.calibration");
+    else if (calib["right_file"])
+      r.fail(calib["right_file"],
+             "input.calibration.right_file is only for ros_camera_info and euroc");
+    for (const auto* key : {"left_images", "right_images"}) {
+      const std::string pattern = node[key].as<std::string>();
+      if (pattern.find('%') == std::string::npos)
+        r.fail(node[key],
+               std::string("input.") + key +
+                 " needs one index field such as %06d in the file name");
+    }
+  }
+  else if (type == "pcd_files") {
+    r.checkKeys(node, {"type", "files", "poses"}, "input (pcd_files)");
+    input.type = InputConfig::Type::PCD_FILES;
+    input.poses_format = "viewpoint";
+    const YAML::Node files = node["files"];
+    if (!files)
+      r.fail(node, "input needs the key 'files' (a list of PCD files or glob patterns)");
+    if (files.IsScalar())
+      input.pcd_files.push_back(r.resolve(files.as<std::string>()));
+    else if (files.IsSequence()) {
+      for (const auto& f : files) {
+        if (!f.IsScalar())
+          r.fail(f, "input.files entries must be strings");
+        input.pcd_files.push_back(r.resolve(f.as<std::string>()));
+      }
+    }
+    else
+      r.fail(files, "input.files must be a string or a list of strings");
+    if (input.pcd_files.empty())
+      r.fail(files, "input.files is empty");
+  }
+  else
+    r.fail(node["type"],
+           "input.type '" + type + "' is unknown; expected stereo_sequence or pcd_files");
+
+  if (const YAML::Node poses = node["poses"]) {
+    r.checkKeys(poses, {"format", "file"}, "input.poses");
+    input.poses_format = r.string(poses, "format", "input.poses");
+    const std::vector<std::string> formats =
+      input.type == InputConfig::Type::PCD_FILES
+        ? std::vector<std::string>{"viewpoint", "kitti", "none"}
+        : std::vector<std::string>{"karlsruhe_insdata", "kitti", "none"};
+    if (std::find(formats.begin(), formats.end(), input.poses_format) == formats.end()) {
+      std::string list;
+      for (const auto& f : formats)
+        list += (list.empty() ? "" : ", ") + f;
+      r.fail(poses["format"],
+             "input.poses.format '" + input.poses_format +
+               "' is unknown for this input; expected one of: " + list);
+    }
+    const bool needs_file =
+      input.poses_format == "karlsruhe_insdata" || input.poses_format == "kitti";
+    if (needs_file)
+      input.poses_file = r.path(poses, "file", "input.poses");
+    else if (poses["file"])
+      r.fail(poses["file"], "input.poses.file is not used by format " + input.poses_format);
+  }
+  return input;
+}
+
+OutputConfig
+parseOutput(const Reader& r, const YAML::Node& node)
+{
+  OutputConfig out;
+  r.checkKeys(node,
+              {"folder",
+               "cloud",
+               "report",
+               "trajectory",
+               "snapshot",
+               "snapshot_camera",
+               "snapshot_size_px"},
+              "output");
+  out.folder = r.optionalString(node, "folder", out.folder, "output");
+  out.cloud = r.optionalString(node, "cloud", out.cloud, "output");
+  out.report = r.optionalString(node, "report", out.report, "output");
+  out.trajectory = r.optionalString(node, "trajectory", out.trajectory, "output");
+  out.snapshot = r.optionalString(node, "snapshot", out.snapshot, "output");
+  out.snapshot_camera =
+    r.optionalString(node, "snapshot_camera", out.snapshot_camera, "output");
+  if (out.snapshot_camera != "top" && out.snapshot_camera != "oblique")
+    r.fail(node["snapshot_camera"], "output.snapshot_camera must be top or oblique");
+  if (out.report.empty())
+    r.fail(node["report"], "output.report must name a file");
+  if (const YAML::Node size = node["snapshot_size_px"]) {
+    if (!size.IsSequence() || size.size() != 2)
+      r.fail(size, "output.snapshot_size_px must be [width, height]");
+    for (std::size_t i = 0; i < 2; ++i) {
+      int v = 0;
+      try {
+        v = size[i].as<int>();
+      }
+      catch (const YAML::BadConversion&) {
+        r.fail(size[i], "output.snapshot_size_px entries must be integers");
+      }
+      if (v < 16 || v > 8192)
+        r.fail(size[i], "output.snapshot_size_px entries must be in [16, 8192]");
+      out.snapshot_size_px[i] = v;
+    }
+  }
+  return out;
+}
+
+PipelineConfig
+parseRoot(const YAML::Node& root, const std::string& source, const std::string& base)
+{
+  const Reader r(source, base);
+  if (!root || root.IsNull())
+    throw ConfigError(source, 0, 0, "the file is empty; expected input:, pipeline:, output:");
+  r.checkKeys(root, {"input", "pipeline", "output"}, "the top level");
+  PipelineConfig config;
+  config.source_file = source;
+
+  const YAML::Node input = root["input"];
+  if (!input)
+    r.fail(root, "the top level needs the key 'input'");
+  r.requireMap(input, "input");
+  config.input = parseInput(r, input);
+
+  const YAML::Node stages = root["pipeline"];
+  if (!stages)
+    r.fail(root, "the top level needs the key 'pipeline' (a list of {type, params})");
+  if (!stages.IsSequence() || stages.size() == 0)
+    r.fail(stages, "pipeline must be a non-empty list of {type, params}");
+  for (const auto& stage : stages) {
+    r.checkKeys(stage, {"type", "params"}, "a pipeline stage");
+    StageConfig sc;
+    sc.type = r.string(stage, "type", "a pipeline stage");
+    sc.line = stage.Mark().line + 1;
+    sc.column = stage.Mark().column + 1;
+    const StageInfo* info = findStage(sc.type);
+    if (!info)
+      r.fail(stage["type"],
+             "unknown stage type '" + sc.type + "'; known types: " + knownStageTypes());
+    if (info->needs_stereo && config.input.type != InputConfig::Type::STEREO_SEQUENCE)
+      r.fail(stage["type"], "stage '" + sc.type + "' needs a stereo_sequence input");
+    if (info->needs_poses && config.input.poses_format == "none")
+      r.fail(stage["type"],
+             "stage '" + sc.type + "' needs poses; set input.poses (format and file)");
+    sc.params = parseParams(stage["params"], info->params, source, sc.type);
+    config.stages.push_back(std::move(sc));
+  }
+
+  if (const YAML::Node output = root["output"])
+    config.output = parseOutput(r, output);
+  return config;
+}
+
+} // namespace
+
+PipelineConfig
+parsePipelineConfig(const std::string& yaml_text,
+                    const std::string& source_name,
+                    const std::string& base_folder)
+{
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  }
+  catch (const YAML::ParserException& e) {
+    throw ConfigError(source_name, e.mark.line + 1, e.mark.column + 1, e.msg);
+  }
+  return parseRoot(root, source_name, base_folder);
+}
+
+PipelineConfig
+loadPipelineConfig(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw IOError(path + ": cannot open the configuration file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  const fs::path p(path);
+  const std::string base =
+    p.has_parent_path() ? p.parent_path().string() : std::string(".");
+  return parsePipelineConfig(text.str(), path, base);
+}
+
+} // namespace planar_grid

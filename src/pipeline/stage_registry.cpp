@@ -1,0 +1,67 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "stages.h"
+
+#include <planar_grid/core/exceptions.h>
+
+#include <cmath>
+
+namespace planar_grid {
+
+const std::vector<StageInfo>&
+stageRegistry()
+{
+  // Built once, in pipeline order; later issues add plane segmentation, cuboids,
+  // occupancy and the map here.
+  static const std::vector<StageInfo> registry{
+    stages::stereoDisparityInfo(),
+    stages::featureMatchingInfo(),
+    stages::voxelGridInfo(),
+    stages::statisticalOutlierRemovalInfo(),
+    stages::transformToWorldInfo(),
+    stages::accumulateInfo(),
+  };
+  return registry;
+}
+
+const StageInfo*
+findStage(const std::string& type)
+{
+  for (const auto& info : stageRegistry())
+    if (info.type == type)
+      return &info;
+  return nullptr;
+}
+
+std::string
+knownStageTypes()
+{
+  std::string list;
+  for (const auto& info : stageRegistry())
+    list += (list.empty() ? "" : ", ") + info.type;
+  return list;
+}
+
+namespace stages {
+
+std::size_t
+countValidPoints(const pcl::PointCloud<pcl::PointXYZI>& cloud)
+{
+  if (cloud.is_dense)
+    return cloud.size();
+  std::size_t n = 0;
+  for (const auto& p : cloud.points)
+    n += std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+  return n;
+}
+
+void
+requirePoints(const Frame& frame, const char* stage_type)
+{
+  if (!frame.cloud || countValidPoints(*frame.cloud) == 0)
+    throw Exception(std::string("stage '") + stage_type + "' received 0 points in frame " +
+                    frame.name + " (" + std::to_string(frame.sequence_number) +
+                    "); check the earlier stages' parameters and the input");
+}
+
+} // namespace stages
+} // namespace planar_grid

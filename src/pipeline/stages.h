@@ -1,0 +1,37 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Internal: the factories of the built-in stages, one file per concern (S43).
+#pragma once
+
+#include <planar_grid/pipeline/stage.h>
+
+namespace planar_grid {
+namespace stages {
+
+// stereo_stages.cpp
+StageInfo
+stereoDisparityInfo();
+StageInfo
+featureMatchingInfo();
+
+// filter_stages.cpp
+StageInfo
+voxelGridInfo();
+StageInfo
+statisticalOutlierRemovalInfo();
+
+// world_stages.cpp
+StageInfo
+transformToWorldInfo();
+StageInfo
+accumulateInfo();
+
+/** Valid (finite) points of a cloud. */
+std::size_t
+countValidPoints(const pcl::PointCloud<pcl::PointXYZI>& cloud);
+
+/** Throws planar_grid::Exception when the frame's cloud has no valid point (S32). */
+void
+requirePoints(const Frame& frame, const char* stage_type);
+
+} // namespace stages
+} // namespace planar_grid

@@ -1,0 +1,153 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "stages.h"
+
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/stereo/disparity_estimator.h>
+#include <planar_grid/stereo/point_cloud_from_disparity.h>
+#include <planar_grid/stereo/stereo_feature_matcher.h>
+
+namespace planar_grid {
+namespace stages {
+
+namespace {
+
+class StereoDisparityStage : public Stage {
+public:
+  StereoDisparityStage(const DisparityEstimator::Params& params, double max_range_m)
+  : estimator_(params), max_range_m_(max_range_m)
+  {}
+
+  void
+  process(Frame& frame, PipelineState& /*state*/) override
+  {
+    if (frame.left.empty() || frame.right.empty())
+      throw Exception("stage 'stereo_disparity' needs a stereo pair; frame " + frame.name +
+                      " has none");
+    estimator_.compute(frame.left, frame.right, frame.disparity);
+    frame.cloud.reset(new Frame::Cloud);
+    disparityToPointCloud(
+      frame.disparity, frame.left, frame.calibration, max_range_m_, *frame.cloud);
+    frame.cloud_in_world_frame = false;
+  }
+
+private:
+  DisparityEstimator estimator_;
+  double max_range_m_;
+};
+
+class FeatureMatchingStage : public Stage {
+public:
+  explicit FeatureMatchingStage(const StereoFeatureMatcher::Params& params)
+  : matcher_(params)
+  {}
+
+  void
+  process(Frame& frame, PipelineState& /*state*/) override
+  {
+    matcher_.match(frame.left, frame.right, frame.calibration, frame.features);
+  }
+
+  bool
+  countsCloudPoints() const override
+  {
+    return false;
+  }
+
+private:
+  StereoFeatureMatcher matcher_;
+};
+
+} // namespace
+
+StageInfo
+stereoDisparityInfo()
+{
+  StageInfo info;
+  info.type = "stereo_disparity";
+  info.description =
+    "Dense disparity with OpenCV StereoSGBM, reprojected to an organized cloud in the "
+    "left camera frame (x right, y down, z forward; NaN = invalid).";
+  info.needs_stereo = true;
+  const DisparityEstimator::Params d;
+  info.params = {
+    ParamSpec::integer("min_disparity_px", d.min_disparity_px, -256, 256, "px",
+                       "Smallest disparity searched."),
+    ParamSpec::integer("num_disparities_px", d.num_disparities_px, 16, 512, "px",
+                       "Number of disparities searched; a multiple of 16."),
+    ParamSpec::integer("block_size_px", d.block_size_px, 1, 11, "px",
+                       "Matched block side; odd."),
+    ParamSpec::integer("p1", d.p1, 0, 100000, "",
+                       "SGBM penalty for 1 px disparity changes; 0 = 8*channels*block^2."),
+    ParamSpec::integer("p2", d.p2, 0, 400000, "",
+                       "SGBM penalty for larger changes; 0 = 32*channels*block^2."),
+    ParamSpec::integer("disp12_max_diff_px", d.disp12_max_diff_px, -1, 64, "px",
+                       "Left-right consistency tolerance; -1 disables the check."),
+    ParamSpec::integer("pre_filter_cap", d.pre_filter_cap, 1, 255, "",
+                       "Clip of the x-derivative pre-filter."),
+    ParamSpec::integer("uniqueness_ratio_percent", d.uniqueness_ratio_percent, 0, 100,
+                       "percent", "Margin by which the best cost must win."),
+    ParamSpec::integer("speckle_window_size_px", d.speckle_window_size_px, 0, 10000,
+                       "px", "Largest speckle region removed as noise; 0 disables."),
+    ParamSpec::integer("speckle_range_px", d.speckle_range_px, 0, 64, "px",
+                       "Largest disparity variation inside a speckle component."),
+    ParamSpec::flag("full_dp", d.full_dp, "8-direction SGBM (slower) instead of 5."),
+    ParamSpec::real("max_range_m", 40.0, 0.1, 1000.0, "m",
+                    "Points farther than this are invalid (stereo error grows as z^2)."),
+  };
+  info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
+    DisparityEstimator::Params p;
+    p.min_disparity_px = v.getInt("min_disparity_px");
+    p.num_disparities_px = v.getInt("num_disparities_px");
+    p.block_size_px = v.getInt("block_size_px");
+    p.p1 = v.getInt("p1");
+    p.p2 = v.getInt("p2");
+    p.disp12_max_diff_px = v.getInt("disp12_max_diff_px");
+    p.pre_filter_cap = v.getInt("pre_filter_cap");
+    p.uniqueness_ratio_percent = v.getInt("uniqueness_ratio_percent");
+    p.speckle_window_size_px = v.getInt("speckle_window_size_px");
+    p.speckle_range_px = v.getInt("speckle_range_px");
+    p.full_dp = v.getBool("full_dp");
+    return std::make_unique<StereoDisparityStage>(p, v.getDouble("max_range_m"));
+  };
+  return info;
+}
+
+StageInfo
+featureMatchingInfo()
+{
+  StageInfo info;
+  info.type = "feature_matching";
+  info.description =
+    "Key feature points (SIFT or ORB; the paper's SURF is not in Debian's OpenCV) "
+    "matched left to right along the epipolar row with Lowe's ratio test and "
+    "triangulated to 3D.";
+  info.needs_stereo = true;
+  const StereoFeatureMatcher::Params f;
+  info.params = {
+    ParamSpec::choice("feature_type", "sift", {"sift", "orb"}, "Detector and descriptor."),
+    ParamSpec::integer("max_features", f.max_features, 10, 100000, "",
+                       "Most key points detected per image."),
+    ParamSpec::real("ratio", f.ratio, 0.1, 1.0, "",
+                    "Lowe's ratio test: best / second-best distance below this."),
+    ParamSpec::real("max_row_difference_px", f.max_row_difference_px, 0.0, 10.0, "px",
+                    "Largest row difference of a match (rectified images)."),
+    ParamSpec::real("max_disparity_px", f.max_disparity_px, 1.0, 1024.0, "px",
+                    "Largest disparity accepted."),
+    ParamSpec::real("max_range_m", f.max_range_m, 0.1, 1000.0, "m",
+                    "Features farther than this are dropped."),
+  };
+  info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
+    StereoFeatureMatcher::Params p;
+    p.feature_type = featureTypeFromString(v.getChoice("feature_type"));
+    p.max_features = v.getInt("max_features");
+    p.ratio = v.getDouble("ratio");
+    p.max_row_difference_px = v.getDouble("max_row_difference_px");
+    p.max_disparity_px = v.getDouble("max_disparity_px");
+    p.max_range_m = v.getDouble("max_range_m");
+    return std::make_unique<FeatureMatchingStage>(p);
+  };
+  return info;
+}
+
+} // namespace stages
+} // namespace planar_grid

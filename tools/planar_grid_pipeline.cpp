@@ -1,0 +1,248 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// planar_grid_pipeline: runs a YAML-configured PlanarGrid pipeline over a stereo sequence
+// or PCD files and writes the world cloud, trajectory, report.json and a snapshot.
+
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/pipeline_runner.h>
+#include <planar_grid/pipeline/run_outputs.h>
+#include <planar_grid/pipeline/stage.h>
+#ifdef PLANAR_GRID_WITH_VIEWER
+#include <planar_grid/core/atomic_file.h>
+#include <planar_grid/visualization/scene_renderer.h>
+#endif
+
+#include <pcl/console/parse.h>
+#include <pcl/console/print.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <sstream>
+#include <unistd.h>
+
+using namespace pcl::console;
+
+namespace {
+
+void
+printHelp(const char* program)
+{
+  print_info("Syntax: %s --config FILE.yaml [options]\n", program);
+  print_info("  Runs the pipeline a YAML file describes (schema: config/example.yaml).\n");
+  print_info("  Options:\n");
+  print_info("    --config FILE.yaml   the pipeline configuration (required)\n");
+  print_info("    --frames A:B         run frames A..B-1 (0-based positions in the input);\n"
+             "                         A: or :B leave a side open (default: all frames)\n");
+  print_info("    --output DIR         write outputs here (default: output.folder of the "
+             "YAML)\n");
+  print_info("    --no-snapshot        do not render the PNG snapshot (default: render it "
+             "when output.snapshot is set)\n");
+  print_info("    --list-stages        print every stage type with its parameters, "
+             "defaults, units and ranges, then exit\n");
+  print_info("    -v                   verbose (PCL debug output)\n");
+  print_info("    -h, --help           this help\n");
+}
+
+void
+listStages()
+{
+  std::ostringstream out;
+  out << "Stage types (use as `- type: NAME` with `params:` in the pipeline list):\n";
+  for (const auto& info : planar_grid::stageRegistry()) {
+    out << "\n  " << info.type << (info.needs_poses ? "   [needs input poses]" : "")
+        << (info.needs_stereo ? "   [needs stereo input]" : "") << "\n      "
+        << info.description << "\n";
+    out << planar_grid::describeParams(info.params);
+  }
+  std::cout << out.str();
+}
+
+/** Parses "A:B", "A:" or ":B" against n frames into [begin, end). */
+void
+parseFrameRange(const std::string& text, std::size_t n, std::size_t& begin, std::size_t& end)
+{
+  const auto colon = text.find(':');
+  if (colon == std::string::npos)
+    throw planar_grid::Exception("--frames '" + text + "' must be A:B");
+  const auto parse_side = [&text](const std::string& side, std::size_t fallback) {
+    if (side.empty())
+      return fallback;
+    std::istringstream in(side);
+    long long v = -1;
+    char extra = 0;
+    if (!(in >> v) || (in >> extra) || v < 0)
+      throw planar_grid::Exception("--frames '" + text +
+                                   "' must be A:B with non-negative integers");
+    return static_cast<std::size_t>(v);
+  };
+  begin = parse_side(text.substr(0, colon), 0);
+  end = parse_side(text.substr(colon + 1), n);
+}
+
+class ProgressBar {
+public:
+  explicit ProgressBar(bool interactive) : interactive_(interactive) {}
+
+  void
+  update(std::size_t done, std::size_t total, double seconds)
+  {
+    const double fps = seconds > 0.0 ? static_cast<double>(done) / seconds : 0.0;
+    const double eta = fps > 0.0 ? static_cast<double>(total - done) / fps : 0.0;
+    if (interactive_) {
+      const int width = 30;
+      const int filled = static_cast<int>(width * done / std::max<std::size_t>(total, 1));
+      std::fprintf(stderr,
+                   "\r[%s%s] %zu/%zu  %.2f frames/s  ETA %.0f s ",
+                   std::string(static_cast<std::size_t>(filled), '#').c_str(),
+                   std::string(static_cast<std::size_t>(width - filled), ' ').c_str(),
+                   done,
+                   total,
+                   fps,
+                   eta);
+      if (done == total)
+        std::fprintf(stderr, "\n");
+    }
+    else {
+      // Not a terminal (CI, a log file): one line per 10 % instead of redrawing.
+      const std::size_t step = std::max<std::size_t>(total / 10, 1);
+      if (done % step == 0 || done == total)
+        std::fprintf(stderr,
+                     "frame %zu/%zu  %.2f frames/s  ETA %.0f s\n",
+                     done,
+                     total,
+                     fps,
+                     eta);
+    }
+    std::fflush(stderr);
+  }
+
+private:
+  bool interactive_;
+};
+
+int
+run(int argc, char** argv)
+{
+  if (argc < 2 || find_switch(argc, argv, "-h") || find_switch(argc, argv, "--help")) {
+    printHelp(argv[0]);
+    return argc < 2 ? EXIT_FAILURE : EXIT_SUCCESS;
+  }
+  if (find_switch(argc, argv, "--list-stages")) {
+    listStages();
+    return EXIT_SUCCESS;
+  }
+  if (find_switch(argc, argv, "-v"))
+    setVerbosityLevel(L_DEBUG);
+
+  // Every argument must be a known option (S28): a typo is an error, not a default.
+  const std::vector<std::string> with_value{"--config", "--frames", "--output"};
+  const std::vector<std::string> switches{"--no-snapshot", "-v"};
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (std::find(with_value.begin(), with_value.end(), a) != with_value.end()) {
+      if (i + 1 >= argc)
+        throw planar_grid::Exception("option " + a + " needs a value");
+      ++i;
+    }
+    else if (std::find(switches.begin(), switches.end(), a) == switches.end())
+      throw planar_grid::Exception("unknown argument '" + a + "' (see --help)");
+  }
+
+  std::string config_path, frames_text, output_folder;
+  if (parse_argument(argc, argv, "--config", config_path) < 0 || config_path.empty())
+    throw planar_grid::Exception("--config FILE.yaml is required (see --help)");
+  parse_argument(argc, argv, "--frames", frames_text);
+  parse_argument(argc, argv, "--output", output_folder);
+
+  planar_grid::PipelineConfig config = planar_grid::loadPipelineConfig(config_path);
+  if (!output_folder.empty())
+    config.output.folder = output_folder;
+  if (find_switch(argc, argv, "--no-snapshot"))
+    config.output.snapshot.clear();
+
+#ifdef PLANAR_GRID_WITH_VIEWER
+  // Before the long run: VTK needs an X server; re-run under xvfb-run if there is none.
+  if (!config.output.snapshot.empty())
+    planar_grid::ensureDisplay(argc, argv);
+#else
+  if (!config.output.snapshot.empty()) {
+    print_warn("Built without the viewer (PLANAR_GRID_BUILD_VIEWER=OFF): no snapshot.\n");
+    config.output.snapshot.clear();
+  }
+#endif
+
+  print_info("Configuration: ");
+  print_value("%s", config_path.c_str());
+  print_info(" (%zu stages)\n", config.stages.size());
+  for (const auto& sc : config.stages) {
+    std::string params;
+    for (const auto& [key, value] : sc.params.values())
+      params += (params.empty() ? "" : ", ") + key + "=" + sc.params.toString(key);
+    print_info("  %-28s %s\n", sc.type.c_str(), params.c_str());
+  }
+
+  planar_grid::PipelineRunner runner(config);
+  std::size_t begin = 0, end = runner.frameCount();
+  if (!frames_text.empty()) {
+    parseFrameRange(frames_text, runner.frameCount(), begin, end);
+    runner.setFrameRange(begin, end);
+  }
+  print_info("Input: %s; running frames %zu:%zu\n",
+             config.input.left_images.empty() ? "PCD files" : "stereo sequence",
+             begin,
+             end);
+
+  ProgressBar bar(::isatty(STDERR_FILENO) != 0);
+  runner.setProgressCallback(
+    [&bar](std::size_t done, std::size_t total, double s) { bar.update(done, total, s); });
+  planar_grid::RunReport report = runner.run();
+
+  planar_grid::writeRunOutputs(config.output, runner, report);
+#ifdef PLANAR_GRID_WITH_VIEWER
+  if (!config.output.snapshot.empty()) {
+    const std::string path = planar_grid::outputPath(config.output, config.output.snapshot);
+    planar_grid::SceneRenderer renderer;
+    renderer.setBackground(Eigen::Vector3d(1.0, 1.0, 1.0));
+    if (runner.state().world_cloud && !runner.state().world_cloud->empty())
+      renderer.addPointCloud(*runner.state().world_cloud, planar_grid::ColorMode::HEIGHT);
+    std::vector<Eigen::Vector3d> positions;
+    for (const auto& pose : runner.trajectory())
+      positions.push_back(pose.translation());
+    if (positions.size() > 1)
+      renderer.addTrajectory(positions);
+    renderer.addText(config_path + ": " + std::to_string(report.frames) + " frames, " +
+                     std::to_string(report.world_cloud_points) + " points");
+    renderer.setCamera(config.output.snapshot_camera == "oblique"
+                         ? planar_grid::CameraPreset::OBLIQUE
+                         : planar_grid::CameraPreset::TOP);
+    renderer.saveSnapshot(path, config.output.snapshot_size_px[0],
+                          config.output.snapshot_size_px[1]);
+    report.outputs.emplace_back("snapshot", path);
+  }
+#endif
+  planar_grid::writeRunReport(config.output, report);
+
+  std::cout << "\n" << report.timingTable() << "\nOutputs:\n";
+  for (const auto& [kind, path] : report.outputs)
+    std::cout << "  " << kind << ": " << path << "\n";
+  return EXIT_SUCCESS;
+}
+
+} // namespace
+
+int
+main(int argc, char** argv)
+{
+  try {
+    return run(argc, argv);
+  }
+  catch (const std::exception& e) {
+    print_error("planar_grid_pipeline: %s\n", e.what());
+  }
+  catch (...) {
+    print_error("planar_grid_pipeline: unknown error\n");
+  }
+  return EXIT_FAILURE;
+}
