@@ -1,0 +1,246 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/stage.h>
+
+#include <yaml-cpp/yaml.h>
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+using planar_grid::ConfigError;
+using planar_grid::parsePipelineConfig;
+
+namespace {
+
+const std::string SOURCE_DIR = PLANAR_GRID_SOURCE_DIR;
+
+// A valid stereo input block; the tests append a pipeline to it.
+const std::string INPUT = R"(input:
+  type: stereo_sequence
+  left_images: left/%06d.png
+  right_images: right/%06d.png
+  calibration:
+    format: karlsruhe
+    file: calib.txt
+)";
+
+/** Parses \a yaml and returns the ConfigError it raises (fails the test if none). */
+ConfigError
+errorOf(const std::string& yaml)
+{
+  try {
+    parsePipelineConfig(yaml, "test.yaml", "/base");
+  }
+  catch (const ConfigError& e) {
+    return e;
+  }
+  ADD_FAILURE() << "no ConfigError for:\n" << yaml;
+  return ConfigError("", 0, 0, "");
+}
+
+} // namespace
+
+TEST(PipelineConfig, ExampleAndMainJobLoad)
+{
+  // The documented schema and the main job must always load (S29).
+  for (const char* name : {"example.yaml", "karlsruhe.yaml"}) {
+    const auto config = planar_grid::loadPipelineConfig(SOURCE_DIR + "/config/" + name);
+    EXPECT_FALSE(config.stages.empty()) << name;
+  }
+  const auto k = planar_grid::loadPipelineConfig(SOURCE_DIR + "/config/karlsruhe.yaml");
+  EXPECT_EQ(k.input.calibration_format, "karlsruhe");
+  EXPECT_EQ(k.input.poses_format, "karlsruhe_insdata");
+  ASSERT_EQ(k.stages.size(), 6u);
+  EXPECT_EQ(k.stages.front().type, "stereo_disparity");
+  EXPECT_EQ(k.stages.front().params.getInt("num_disparities_px"), 128);
+  EXPECT_EQ(k.stages.back().type, "accumulate");
+}
+
+TEST(PipelineConfig, RelativePathsResolveAgainstTheFileFolder)
+{
+  const auto c = parsePipelineConfig(INPUT + "pipeline:\n  - type: voxel_grid\n",
+                                     "test.yaml", "/base/config");
+  EXPECT_EQ(c.input.left_images, "/base/config/left/%06d.png");
+  EXPECT_EQ(c.input.calibration_file, "/base/config/calib.txt");
+}
+
+TEST(PipelineConfig, DefaultsFillMissingParams)
+{
+  const auto c = parsePipelineConfig(
+    INPUT + "pipeline:\n  - type: voxel_grid\n    params: {leaf_size_m: 0.2}\n", "t", "/");
+  ASSERT_EQ(c.stages.size(), 1u);
+  EXPECT_DOUBLE_EQ(c.stages[0].params.getDouble("leaf_size_m"), 0.2);
+  EXPECT_EQ(c.stages[0].params.getInt("min_points_per_voxel"), 1); // the table default
+}
+
+TEST(PipelineConfig, UnknownTopLevelKeyHasLineAndColumn)
+{
+  const auto e = errorOf(INPUT + "pipeline:\n  - type: voxel_grid\nbogus: 1\n");
+  // INPUT has 7 lines, pipeline 2 more: "bogus" is on line 10, column 1.
+  EXPECT_EQ(e.line(), 10);
+  EXPECT_EQ(e.column(), 1);
+  EXPECT_NE(std::string(e.what()).find("test.yaml:10:1"), std::string::npos) << e.what();
+  EXPECT_NE(std::string(e.what()).find("bogus"), std::string::npos);
+}
+
+TEST(PipelineConfig, UnknownStageTypeListsKnownTypes)
+{
+  const auto e = errorOf(INPUT + "pipeline:\n  - type: voxel_gird\n");
+  EXPECT_EQ(e.line(), 9);
+  EXPECT_EQ(e.column(), 11);
+  const std::string what = e.what();
+  EXPECT_NE(what.find("voxel_gird"), std::string::npos);
+  for (const auto& info : planar_grid::stageRegistry())
+    EXPECT_NE(what.find(info.type), std::string::npos) << "missing " << info.type;
+}
+
+TEST(PipelineConfig, UnknownParamKeyIsAnError)
+{
+  const auto e =
+    errorOf(INPUT + "pipeline:\n  - type: voxel_grid\n    params:\n      leaf_size: 0.1\n");
+  EXPECT_EQ(e.line(), 11);
+  EXPECT_EQ(e.column(), 7);
+  EXPECT_NE(std::string(e.what()).find("leaf_size_m"), std::string::npos)
+    << "the message should list the known key: " << e.what();
+}
+
+TEST(PipelineConfig, WrongTypeIsAnError)
+{
+  const auto e = errorOf(
+    INPUT + "pipeline:\n  - type: stereo_disparity\n    params:\n      block_size_px: five\n");
+  EXPECT_EQ(e.line(), 11);
+  EXPECT_EQ(e.column(), 22);
+  EXPECT_NE(std::string(e.what()).find("integer"), std::string::npos) << e.what();
+  // A fraction is not an integer either.
+  const auto f = errorOf(
+    INPUT + "pipeline:\n  - type: stereo_disparity\n    params:\n      block_size_px: 5.5\n");
+  EXPECT_EQ(f.line(), 11);
+}
+
+TEST(PipelineConfig, OutOfRangeAndNegativeSizesAreErrors)
+{
+  const auto e = errorOf(
+    INPUT + "pipeline:\n  - type: voxel_grid\n    params:\n      leaf_size_m: -0.1\n");
+  EXPECT_EQ(e.line(), 11);
+  EXPECT_NE(std::string(e.what()).find("out of range"), std::string::npos) << e.what();
+  const auto r = errorOf(
+    INPUT + "pipeline:\n  - type: feature_matching\n    params:\n      ratio: 1.5\n");
+  EXPECT_EQ(r.line(), 11);
+  const auto c = errorOf(
+    INPUT + "pipeline:\n  - type: feature_matching\n    params:\n      feature_type: surf\n");
+  EXPECT_NE(std::string(c.what()).find("sift"), std::string::npos) << c.what();
+}
+
+TEST(PipelineConfig, StagesNeedingPosesNeedPoses)
+{
+  const auto e = errorOf(INPUT + "pipeline:\n  - type: transform_to_world\n");
+  EXPECT_EQ(e.line(), 9);
+  EXPECT_NE(std::string(e.what()).find("poses"), std::string::npos);
+  // With poses it loads.
+  const std::string with_poses =
+    INPUT + "  poses: {format: kitti, file: poses.txt}\npipeline:\n"
+            "  - type: transform_to_world\n";
+  EXPECT_NO_THROW(parsePipelineConfig(with_poses, "t", "/"));
+}
+
+TEST(PipelineConfig, BadInputBlocksAreErrors)
+{
+  // Missing calibration.
+  auto e = errorOf("input:\n  type: stereo_sequence\n  left_images: a%d.png\n"
+                   "  right_images: b%d.png\npipeline:\n  - type: voxel_grid\n");
+  EXPECT_NE(std::string(e.what()).find("calibration"), std::string::npos);
+  // Unknown calibration format, at its value.
+  e = errorOf("input:\n  type: stereo_sequence\n  left_images: a%d.png\n"
+              "  right_images: b%d.png\n  calibration: {format: middlebury, file: c}\n"
+              "pipeline:\n  - type: voxel_grid\n");
+  EXPECT_EQ(e.line(), 5);
+  EXPECT_NE(std::string(e.what()).find("karlsruhe"), std::string::npos);
+  // A pattern without an index field.
+  e = errorOf("input:\n  type: stereo_sequence\n  left_images: left.png\n"
+              "  right_images: b%d.png\n  calibration: {format: kitti, file: c}\n"
+              "pipeline:\n  - type: voxel_grid\n");
+  EXPECT_EQ(e.line(), 3);
+  // Negative frame count.
+  e = errorOf(INPUT + "  frame_count: -3\npipeline:\n  - type: voxel_grid\n");
+  EXPECT_EQ(e.line(), 8);
+  // Unknown input type.
+  e = errorOf("input:\n  type: rosbag\npipeline:\n  - type: voxel_grid\n");
+  EXPECT_EQ(e.line(), 2);
+  // Stereo stages on PCD input.
+  e = errorOf("input:\n  type: pcd_files\n  files: [a.pcd]\npipeline:\n"
+              "  - type: stereo_disparity\n");
+  EXPECT_EQ(e.line(), 5);
+}
+
+TEST(PipelineConfig, EmptyOrMalformedYaml)
+{
+  auto e = errorOf("");
+  EXPECT_NE(std::string(e.what()).find("empty"), std::string::npos);
+  e = errorOf("input: [unclosed\n");
+  EXPECT_GT(e.line(), 0) << "a YAML syntax error carries its place: " << e.what();
+  e = errorOf(INPUT + "pipeline: []\n");
+  EXPECT_NE(std::string(e.what()).find("non-empty"), std::string::npos);
+  EXPECT_THROW(planar_grid::loadPipelineConfig("/nonexistent/config.yaml"),
+               planar_grid::IOError);
+}
+
+TEST(PipelineConfig, OutputBlock)
+{
+  const auto c = parsePipelineConfig(
+    INPUT + "pipeline:\n  - type: voxel_grid\noutput:\n  folder: out\n"
+            "  snapshot_size_px: [800, 600]\n  snapshot_camera: oblique\n",
+    "t", "/");
+  EXPECT_EQ(c.output.folder, "out");
+  EXPECT_EQ(c.output.snapshot_size_px[0], 800);
+  EXPECT_EQ(c.output.snapshot_camera, "oblique");
+  const auto e =
+    errorOf(INPUT + "pipeline:\n  - type: voxel_grid\noutput:\n  snapshot_size_px: [0, 600]\n");
+  EXPECT_EQ(e.line(), 11);
+}
+
+TEST(ParamTable, EveryDefaultIsInsideItsRange)
+{
+  // The tables drive both the parser and --list-stages; a default outside its own range
+  // would make the documented default unusable.
+  for (const auto& info : planar_grid::stageRegistry()) {
+    for (const auto& spec : info.params) {
+      if (spec.type == planar_grid::ParamSpec::Type::DOUBLE ||
+          spec.type == planar_grid::ParamSpec::Type::INT) {
+        const double d = std::stod(spec.default_value);
+        EXPECT_GE(d, spec.min) << info.type << "." << spec.key;
+        EXPECT_LE(d, spec.max) << info.type << "." << spec.key;
+      }
+      if (spec.type == planar_grid::ParamSpec::Type::CHOICE)
+        EXPECT_NE(std::find(spec.choices.begin(), spec.choices.end(), spec.default_value),
+                  spec.choices.end());
+      // S21: dimensional keys carry their unit.
+      if (spec.unit == "m")
+        EXPECT_EQ(spec.key.substr(spec.key.size() - 2), "_m") << spec.key;
+      if (spec.unit == "px")
+        EXPECT_EQ(spec.key.substr(spec.key.size() - 3), "_px") << spec.key;
+    }
+    // Every stage builds from its defaults.
+    EXPECT_NO_THROW(info.create(planar_grid::defaultParams(info.params))) << info.type;
+  }
+}
+
+TEST(ParamTable, DumpAndReloadGivesTheSameValues)
+{
+  // S40: YAML load, dump, load again gives the same.
+  const auto* info = planar_grid::findStage("stereo_disparity");
+  ASSERT_NE(info, nullptr);
+  const YAML::Node node = YAML::Load("{num_disparities_px: 64, max_range_m: 12.5, full_dp: true}");
+  const auto a = planar_grid::parseParams(node, info->params, "t", info->type);
+  YAML::Node dumped;
+  for (const auto& spec : info->params)
+    dumped[spec.key] = a.toString(spec.key);
+  const auto b = planar_grid::parseParams(YAML::Load(YAML::Dump(dumped)), info->params, "t",
+                                          info->type);
+  for (const auto& spec : info->params)
+    EXPECT_EQ(a.toString(spec.key), b.toString(spec.key)) << spec.key;
+  EXPECT_EQ(b.getInt("num_disparities_px"), 64);
+  EXPECT_DOUBLE_EQ(b.getDouble("max_range_m"), 12.5);
+  EXPECT_TRUE(b.getBool("full_dp"));
+}

@@ -1,0 +1,240 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/pipeline_runner.h>
+#include <planar_grid/pipeline/run_outputs.h>
+
+#include <pcl/io/pcd_io.h>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+namespace fs = std::filesystem;
+using planar_grid::parsePipelineConfig;
+
+namespace {
+
+const std::string DATA = PLANAR_GRID_DATA_DIR;
+const std::string KARLSRUHE = DATA + "/karlsruhe_2010_03_09_drive_0023";
+
+/** A fresh temporary folder per test, removed afterwards. */
+class PipelineRunnerTest : public ::testing::Test {
+protected:
+  void
+  SetUp() override
+  {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() /
+           ("planar_grid_runner_" + std::string(info->name()) + "_" +
+            std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void
+  TearDown() override
+  {
+    fs::remove_all(dir_);
+  }
+
+  /** The Karlsruhe input with absolute paths, optionally other left images / poses. */
+  std::string
+  karlsruheInput(const std::string& left = "", const std::string& poses_file = "") const
+  {
+    return "input:\n  type: stereo_sequence\n  left_images: " +
+           (left.empty() ? KARLSRUHE + "/left/I1_%06d.png" : left) +
+           "\n  right_images: " + KARLSRUHE + "/right/I2_%06d.png\n" +
+           "  first_index: 10\n  frame_count: 2\n" +
+           "  calibration: {format: karlsruhe, file: " + KARLSRUHE + "/calib.txt}\n" +
+           "  poses: {format: " + (poses_file.empty() ? "karlsruhe_insdata" : "kitti") +
+           ", file: " + (poses_file.empty() ? KARLSRUHE + "/insdata.txt" : poses_file) +
+           "}\n";
+  }
+
+  fs::path dir_;
+};
+
+const std::string STAGES = R"(pipeline:
+  - type: stereo_disparity
+    params: {num_disparities_px: 128, max_range_m: 30.0}
+  - type: voxel_grid
+    params: {leaf_size_m: 0.2}
+  - type: transform_to_world
+  - type: accumulate
+    params: {leaf_size_m: 0.2}
+)";
+
+} // namespace
+
+TEST_F(PipelineRunnerTest, TwoRealKarlsruheFramesGiveAWorldCloud)
+{
+  auto config = parsePipelineConfig(karlsruheInput() + STAGES, "t.yaml", "/");
+  config.output.folder = (dir_ / "out").string();
+  planar_grid::PipelineRunner runner(config);
+  ASSERT_EQ(runner.frameCount(), 2u);
+  std::vector<std::size_t> progress;
+  runner.setProgressCallback(
+    [&progress](std::size_t done, std::size_t, double) { progress.push_back(done); });
+  auto report = runner.run();
+  EXPECT_EQ(report.frames, 2u);
+  EXPECT_EQ(progress, (std::vector<std::size_t>{1, 2}));
+  ASSERT_EQ(report.stages.size(), 4u);
+  // SGBM at 128 disparities gives ~280k valid points per frame on this sequence (the
+  // issue's reference figure); demand at least 150k so a broken matcher fails.
+  EXPECT_GT(report.stages[0].points_out / 2, 150000u);
+  // voxel_grid must reduce, and the report must say so.
+  EXPECT_LT(report.stages[1].points_out, report.stages[1].points_in);
+  ASSERT_EQ(runner.trajectory().size(), 2u);
+
+  // The world cloud is in the world frame: z up, the camera ~1.6 m above the road, so the
+  // road (the lowest dense layer) lies below the camera, and points lie ahead of the
+  // camera along its viewing direction (the pose's z axis).
+  const auto& world = *runner.state().world_cloud;
+  ASSERT_GT(world.size(), 10000u);
+  const Eigen::Isometry3d pose = runner.trajectory().front();
+  const Eigen::Vector3d forward = pose.rotation().col(2);
+  std::size_t ahead = 0, below = 0;
+  for (const auto& p : world.points) {
+    const Eigen::Vector3d v = p.getVector3fMap().cast<double>() - pose.translation();
+    ahead += v.dot(forward) > 0.0;
+    below += v.z() < 0.0;
+  }
+  EXPECT_GT(ahead, world.size() * 95 / 100);
+  EXPECT_GT(below, world.size() / 4);
+
+  // Outputs: PCD readable with the same count, trajectory, and a JSON report listing them.
+  planar_grid::writeRunOutputs(config.output, runner, report);
+  planar_grid::writeRunReport(config.output, report);
+  pcl::PointCloud<pcl::PointXYZI> loaded;
+  ASSERT_EQ(pcl::io::loadPCDFile((dir_ / "out/world_cloud.pcd").string(), loaded), 0);
+  EXPECT_EQ(loaded.size(), world.size());
+  std::ifstream in(dir_ / "out/report.json");
+  const auto json = nlohmann::json::parse(in);
+  EXPECT_EQ(json["frames"], 2);
+  EXPECT_EQ(json["stages"].size(), 4u);
+  EXPECT_EQ(json["stages"][1]["type"], "voxel_grid");
+  EXPECT_GT(json["stages"][0]["ms_per_frame"].get<double>(), 0.0);
+  EXPECT_EQ(json["outputs"]["cloud"], (dir_ / "out/world_cloud.pcd").string());
+  // No temporary files are left behind.
+  for (const auto& entry : fs::directory_iterator(dir_ / "out"))
+    EXPECT_EQ(entry.path().filename().string().find(".tmp"), std::string::npos);
+}
+
+TEST_F(PipelineRunnerTest, FrameRangeIsChecked)
+{
+  planar_grid::PipelineRunner runner(
+    parsePipelineConfig(karlsruheInput() + STAGES, "t.yaml", "/"));
+  EXPECT_THROW(runner.setFrameRange(1, 1), planar_grid::Exception); // empty
+  EXPECT_THROW(runner.setFrameRange(0, 3), planar_grid::Exception); // past the end
+  EXPECT_NO_THROW(runner.setFrameRange(1, 2));
+  EXPECT_EQ(runner.run().frames, 1u);
+}
+
+TEST_F(PipelineRunnerTest, MissingImageNamesTheFile)
+{
+  // Frame 11's left image is missing: the error names it, and nothing is half-done.
+  fs::create_directories(dir_ / "left");
+  fs::copy_file(KARLSRUHE + "/left/I1_000010.png", dir_ / "left/I1_000010.png");
+  auto config = parsePipelineConfig(
+    karlsruheInput((dir_ / "left/I1_%06d.png").string()) + STAGES, "t.yaml", "/");
+  planar_grid::PipelineRunner runner(config);
+  try {
+    runner.run();
+    FAIL() << "a missing image must stop the run";
+  }
+  catch (const planar_grid::IOError& e) {
+    EXPECT_NE(std::string(e.what()).find("I1_000011.png"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(PipelineRunnerTest, UnreadableAndMismatchedImagesAreErrors)
+{
+  fs::create_directories(dir_ / "left");
+  // Frame 10: not an image. Frame 11: a left image of another size than the right one.
+  std::ofstream(dir_ / "left/I1_000010.png") << "not a png";
+  const cv::Mat small = cv::imread(KARLSRUHE + "/left/I1_000011.png", cv::IMREAD_GRAYSCALE)(
+    cv::Rect(0, 0, 640, 300));
+  cv::imwrite((dir_ / "left/I1_000011.png").string(), small);
+  auto config = parsePipelineConfig(
+    karlsruheInput((dir_ / "left/I1_%06d.png").string()) + STAGES, "t.yaml", "/");
+  planar_grid::PipelineRunner runner(config);
+  runner.setFrameRange(0, 1);
+  try {
+    runner.run();
+    FAIL();
+  }
+  catch (const planar_grid::IOError& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot read"), std::string::npos) << e.what();
+  }
+  runner.setFrameRange(1, 2);
+  try {
+    runner.run();
+    FAIL();
+  }
+  catch (const planar_grid::IOError& e) {
+    EXPECT_NE(std::string(e.what()).find("differs"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(PipelineRunnerTest, PoseFileShorterThanTheFramesIsAnError)
+{
+  // 11 poses, but frames 10 and 11 need 12.
+  std::ofstream poses(dir_ / "poses.txt");
+  for (int i = 0; i < 11; ++i)
+    poses << "1 0 0 0 0 1 0 0 0 0 1 " << i << "\n";
+  poses.close();
+  const auto config = parsePipelineConfig(
+    karlsruheInput("", (dir_ / "poses.txt").string()) + STAGES, "t.yaml", "/");
+  try {
+    planar_grid::PipelineRunner runner(config);
+    FAIL() << "a short pose file must be rejected before the run";
+  }
+  catch (const planar_grid::IOError& e) {
+    EXPECT_NE(std::string(e.what()).find("poses.txt"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(PipelineRunnerTest, ZeroPointsStopTheRunNamingFrameAndStage)
+{
+  // A max range below the nearest point leaves no valid point: voxel_grid fails fast (S32).
+  const std::string stages = "pipeline:\n  - type: stereo_disparity\n"
+                             "    params: {max_range_m: 0.1}\n  - type: voxel_grid\n";
+  planar_grid::PipelineRunner runner(
+    parsePipelineConfig(karlsruheInput() + stages, "t.yaml", "/"));
+  try {
+    runner.run();
+    FAIL();
+  }
+  catch (const planar_grid::Exception& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("voxel_grid"), std::string::npos) << what;
+    EXPECT_NE(what.find("I1_000010.png"), std::string::npos) << what;
+    EXPECT_NE(what.find("0 points"), std::string::npos) << what;
+  }
+}
+
+TEST_F(PipelineRunnerTest, PCDFilesWithViewpointPoses)
+{
+  // Two real PCL clouds; the second saved with a known VIEWPOINT translation: after
+  // transform_to_world its points are shifted by it.
+  pcl::PointCloud<pcl::PointXYZI> cloud;
+  ASSERT_EQ(pcl::io::loadPCDFile(DATA + "/pcl_clouds/pairwise/capture0001.pcd", cloud), 0);
+  cloud.sensor_origin_ = Eigen::Vector4f(0, 0, 0, 1);
+  cloud.sensor_orientation_ = Eigen::Quaternionf::Identity();
+  pcl::io::savePCDFileBinary((dir_ / "a.pcd").string(), cloud);
+  cloud.sensor_origin_ = Eigen::Vector4f(5, 0, 0, 1);
+  pcl::io::savePCDFileBinary((dir_ / "b.pcd").string(), cloud);
+  const std::string yaml = "input:\n  type: pcd_files\n  files: [" + (dir_ / "*.pcd").string() +
+                           "]\npipeline:\n  - type: voxel_grid\n    params: {leaf_size_m: 0.05}\n"
+                           "  - type: transform_to_world\n";
+  planar_grid::PipelineRunner runner(parsePipelineConfig(yaml, "t.yaml", "/"));
+  ASSERT_EQ(runner.frameCount(), 2u);
+  runner.run();
+  ASSERT_EQ(runner.trajectory().size(), 2u);
+  EXPECT_NEAR(runner.trajectory()[1].translation().x(), 5.0, 1e-6);
+  EXPECT_NEAR(runner.trajectory()[0].translation().norm(), 0.0, 1e-6);
+}
