@@ -5,6 +5,7 @@
 #include <planar_grid/stereo/stereo_feature_matcher.h>
 
 #include <gtest/gtest.h>
+#include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
@@ -13,6 +14,7 @@
 #include <iostream>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -240,6 +242,100 @@ TEST_F(StereoFeatureMatcherKarlsruhe, RealPairAgreesWithSGBM)
     EXPECT_GT(features.size(), type == FeatureType::SIFT ? 400u : 300u) << name;
     EXPECT_GT(compared, features.size() / 2) << name;
     EXPECT_LT(median_difference, type == FeatureType::SIFT ? 0.02 : 0.05) << name;
+  }
+}
+
+/** \brief Brute-force reference of the matcher (S38): every left key point against
+ * every right key point, same constraints, ratio test and uniqueness rule. Returns the
+ * (left index, right index) pairs before the range cut. */
+std::vector<std::pair<int, int>>
+bruteForceMatches(const std::vector<cv::KeyPoint>& keypoints_left,
+                  const cv::Mat& descriptors_left,
+                  const std::vector<cv::KeyPoint>& keypoints_right,
+                  const cv::Mat& descriptors_right,
+                  const StereoFeatureMatcher::Params& params)
+{
+  const int norm
+    = params.feature_type == FeatureType::SIFT ? cv::NORM_L2 : cv::NORM_HAMMING;
+  std::vector<int> match_of_left(keypoints_left.size(), -1);
+  std::vector<double> owner_distance(keypoints_right.size(),
+                                     std::numeric_limits<double>::infinity());
+  std::vector<int> owner(keypoints_right.size(), -1);
+  for (std::size_t i = 0; i < keypoints_left.size(); ++i) {
+    double best = std::numeric_limits<double>::infinity(), second = best;
+    int best_j = -1;
+    for (std::size_t j = 0; j < keypoints_right.size(); ++j) {
+      const double dy = keypoints_left[i].pt.y - keypoints_right[j].pt.y;
+      const double d = keypoints_left[i].pt.x - keypoints_right[j].pt.x;
+      if (std::abs(dy) > params.max_row_difference_px || !(d > 0.0)
+          || d > params.max_disparity_px)
+        continue;
+      const double distance
+        = cv::norm(descriptors_left.row(static_cast<int>(i)),
+                   descriptors_right.row(static_cast<int>(j)), norm);
+      if (distance < best) {
+        second = best;
+        best = distance;
+        best_j = static_cast<int>(j);
+      } else if (distance < second) {
+        second = distance;
+      }
+    }
+    if (best_j < 0 || !(best < params.ratio * second))
+      continue;
+    match_of_left[i] = best_j;
+    if (best < owner_distance[static_cast<std::size_t>(best_j)]) {
+      owner_distance[static_cast<std::size_t>(best_j)] = best;
+      owner[static_cast<std::size_t>(best_j)] = static_cast<int>(i);
+    }
+  }
+  std::vector<std::pair<int, int>> matches;
+  for (std::size_t i = 0; i < keypoints_left.size(); ++i)
+    if (match_of_left[i] >= 0
+        && owner[static_cast<std::size_t>(match_of_left[i])] == static_cast<int>(i))
+      matches.emplace_back(static_cast<int>(i), match_of_left[i]);
+  return matches;
+}
+
+// Oracle (S38): the row-bucketed matcher gives exactly the brute-force matches on the
+// real pair (same detector run, so the same key points; a large max_range_m so the
+// range cut removes nothing). Compared by key point positions. SIFT and ORB; the
+// descriptor distances tie-break identically (strict <), so the sets must be equal.
+TEST_F(StereoFeatureMatcherKarlsruhe, BucketedMatchingEqualsBruteForce)
+{
+  for (const FeatureType type : { FeatureType::SIFT, FeatureType::ORB }) {
+    auto params = paramsFor(type);
+    params.max_range_m = 1e6;
+    StereoFeatures features;
+    StereoFeatureMatcher(params).match(left_, right_, calibration_, features);
+
+    cv::Ptr<cv::Feature2D> detector;
+    if (type == FeatureType::SIFT)
+      detector = cv::SIFT::create(params.max_features);
+    else
+      detector = cv::ORB::create(params.max_features);
+    std::vector<cv::KeyPoint> keypoints_left, keypoints_right;
+    cv::Mat descriptors_left, descriptors_right;
+    detector->detectAndCompute(left_, cv::noArray(), keypoints_left, descriptors_left);
+    detector->detectAndCompute(right_, cv::noArray(), keypoints_right,
+                               descriptors_right);
+    const auto expected = bruteForceMatches(keypoints_left, descriptors_left,
+                                            keypoints_right, descriptors_right, params);
+
+    ASSERT_EQ(features.size(), expected.size())
+      << (type == FeatureType::SIFT ? "SIFT" : "ORB");
+    for (std::size_t k = 0; k < expected.size(); ++k) {
+      const cv::Point2f& el
+        = keypoints_left[static_cast<std::size_t>(expected[k].first)].pt;
+      const cv::Point2f& er
+        = keypoints_right[static_cast<std::size_t>(expected[k].second)].pt;
+      EXPECT_EQ(features.keypoints_left[k].pt, el);
+      EXPECT_EQ(features.keypoints_right[k].pt, er);
+      // Descriptor rows are copied for the kept matches.
+      EXPECT_EQ(cv::norm(features.descriptors.row(static_cast<int>(k)),
+                         descriptors_left.row(expected[k].first), cv::NORM_INF),
+                0.0);
+    }
   }
 }
 
