@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
 
 using planar_grid::ConfigError;
@@ -212,14 +213,17 @@ TEST(ParamTable, EveryDefaultIsInsideItsRange)
         EXPECT_GE(d, spec.min) << info.type << "." << spec.key;
         EXPECT_LE(d, spec.max) << info.type << "." << spec.key;
       }
-      if (spec.type == planar_grid::ParamSpec::Type::CHOICE)
+      if (spec.type == planar_grid::ParamSpec::Type::CHOICE) {
         EXPECT_NE(std::find(spec.choices.begin(), spec.choices.end(), spec.default_value),
                   spec.choices.end());
+      }
       // S21: dimensional keys carry their unit.
-      if (spec.unit == "m")
+      if (spec.unit == "m") {
         EXPECT_EQ(spec.key.substr(spec.key.size() - 2), "_m") << spec.key;
-      if (spec.unit == "px")
+      }
+      if (spec.unit == "px") {
         EXPECT_EQ(spec.key.substr(spec.key.size() - 3), "_px") << spec.key;
+      }
     }
     // Every stage builds from its defaults.
     EXPECT_NO_THROW(info.create(planar_grid::defaultParams(info.params))) << info.type;
