@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
+# Fails when a tracked C++ file is not formatted with the project's .clang-format (S9).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+command -v clang-format >/dev/null || { echo "check_format: clang-format not installed" >&2; exit 1; }
+bad=()
+while IFS= read -r f; do
+  clang-format --dry-run -Werror "$f" >/dev/null 2>&1 || bad+=("$f")
+done < <(git ls-files '*.h' '*.hpp' '*.cpp')
+if [ ${#bad[@]} -gt 0 ]; then
+  echo "check_format: not formatted with .clang-format (run clang-format -i):" >&2
+  printf '  %s\n' "${bad[@]}" >&2
+  exit 1
+fi
