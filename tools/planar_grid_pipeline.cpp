@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// planar_grid_pipeline: runs a YAML-configured PlanarGrid pipeline over a stereo sequence
-// or PCD files and writes the world cloud, trajectory, report.json and a snapshot.
+// planar_grid_pipeline: runs a YAML-configured PlanarGrid pipeline over a stereo
+// sequence or PCD files and writes the world cloud, trajectory, report.json and a
+// snapshot.
 
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/pipeline_config.h>
@@ -15,12 +16,13 @@
 #include <pcl/console/parse.h>
 #include <pcl/console/print.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
 #include <sstream>
-#include <unistd.h>
 
 using namespace pcl::console;
 
@@ -30,15 +32,19 @@ void
 printHelp(const char* program)
 {
   print_info("Syntax: %s --config FILE.yaml [options]\n", program);
-  print_info("  Runs the pipeline a YAML file describes (schema: config/example.yaml).\n");
+  print_info(
+    "  Runs the pipeline a YAML file describes (schema: config/example.yaml).\n");
   print_info("  Options:\n");
   print_info("    --config FILE.yaml   the pipeline configuration (required)\n");
-  print_info("    --frames A:B         run frames A..B-1 (0-based positions in the input);\n"
-             "                         A: or :B leave a side open (default: all frames)\n");
-  print_info("    --output DIR         write outputs here (default: output.folder of the "
-             "YAML)\n");
-  print_info("    --no-snapshot        do not render the PNG snapshot (default: render it "
-             "when output.snapshot is set)\n");
+  print_info(
+    "    --frames A:B         run frames A..B-1 (0-based positions in the input);\n"
+    "                         A: or :B leave a side open (default: all frames)\n");
+  print_info(
+    "    --output DIR         write outputs here (default: output.folder of the "
+    "YAML)\n");
+  print_info(
+    "    --no-snapshot        do not render the PNG snapshot (default: render it "
+    "when output.snapshot is set)\n");
   print_info("    --list-stages        print every stage type with its parameters, "
              "defaults, units and ranges, then exit\n");
   print_info("    -v                   verbose (PCL debug output)\n");
@@ -61,7 +67,10 @@ listStages()
 
 /** Parses "A:B", "A:" or ":B" against n frames into [begin, end). */
 void
-parseFrameRange(const std::string& text, std::size_t n, std::size_t& begin, std::size_t& end)
+parseFrameRange(const std::string& text,
+                std::size_t n,
+                std::size_t& begin,
+                std::size_t& end)
 {
   const auto colon = text.find(':');
   if (colon == std::string::npos)
@@ -73,8 +82,8 @@ parseFrameRange(const std::string& text, std::size_t n, std::size_t& begin, std:
     long long v = -1;
     char extra = 0;
     if (!(in >> v) || (in >> extra) || v < 0)
-      throw planar_grid::Exception("--frames '" + text +
-                                   "' must be A:B with non-negative integers");
+      throw planar_grid::Exception("--frames '" + text
+                                   + "' must be A:B with non-negative integers");
     return static_cast<std::size_t>(v);
   };
   begin = parse_side(text.substr(0, colon), 0);
@@ -85,35 +94,26 @@ class ProgressBar {
 public:
   explicit ProgressBar(bool interactive) : interactive_(interactive) {}
 
-  void
-  update(std::size_t done, std::size_t total, double seconds)
+  void update(std::size_t done, std::size_t total, double seconds)
   {
     const double fps = seconds > 0.0 ? static_cast<double>(done) / seconds : 0.0;
     const double eta = fps > 0.0 ? static_cast<double>(total - done) / fps : 0.0;
     if (interactive_) {
       const int width = 30;
-      const int filled = static_cast<int>(width * done / std::max<std::size_t>(total, 1));
-      std::fprintf(stderr,
-                   "\r[%s%s] %zu/%zu  %.2f frames/s  ETA %.0f s ",
+      const int filled =
+        static_cast<int>(width * done / std::max<std::size_t>(total, 1));
+      std::fprintf(stderr, "\r[%s%s] %zu/%zu  %.2f frames/s  ETA %.0f s ",
                    std::string(static_cast<std::size_t>(filled), '#').c_str(),
                    std::string(static_cast<std::size_t>(width - filled), ' ').c_str(),
-                   done,
-                   total,
-                   fps,
-                   eta);
+                   done, total, fps, eta);
       if (done == total)
         std::fprintf(stderr, "\n");
-    }
-    else {
+    } else {
       // Not a terminal (CI, a log file): one line per 10 % instead of redrawing.
       const std::size_t step = std::max<std::size_t>(total / 10, 1);
       if (done % step == 0 || done == total)
-        std::fprintf(stderr,
-                     "frame %zu/%zu  %.2f frames/s  ETA %.0f s\n",
-                     done,
-                     total,
-                     fps,
-                     eta);
+        std::fprintf(stderr, "frame %zu/%zu  %.2f frames/s  ETA %.0f s\n", done, total,
+                     fps, eta);
     }
     std::fflush(stderr);
   }
@@ -145,8 +145,7 @@ run(int argc, char** argv)
       if (i + 1 >= argc)
         throw planar_grid::Exception("option " + a + " needs a value");
       ++i;
-    }
-    else if (std::find(switches.begin(), switches.end(), a) == switches.end())
+    } else if (std::find(switches.begin(), switches.end(), a) == switches.end())
       throw planar_grid::Exception("unknown argument '" + a + "' (see --help)");
   }
 
@@ -168,7 +167,8 @@ run(int argc, char** argv)
     planar_grid::ensureDisplay(argc, argv);
 #else
   if (!config.output.snapshot.empty()) {
-    print_warn("Built without the viewer (PLANAR_GRID_BUILD_VIEWER=OFF): no snapshot.\n");
+    print_warn(
+      "Built without the viewer (PLANAR_GRID_BUILD_VIEWER=OFF): no snapshot.\n");
     config.output.snapshot.clear();
   }
 #endif
@@ -190,30 +190,32 @@ run(int argc, char** argv)
     runner.setFrameRange(begin, end);
   }
   print_info("Input: %s; running frames %zu:%zu\n",
-             config.input.left_images.empty() ? "PCD files" : "stereo sequence",
-             begin,
+             config.input.left_images.empty() ? "PCD files" : "stereo sequence", begin,
              end);
 
   ProgressBar bar(::isatty(STDERR_FILENO) != 0);
-  runner.setProgressCallback(
-    [&bar](std::size_t done, std::size_t total, double s) { bar.update(done, total, s); });
+  runner.setProgressCallback([&bar](std::size_t done, std::size_t total, double s) {
+    bar.update(done, total, s);
+  });
   planar_grid::RunReport report = runner.run();
 
   planar_grid::writeRunOutputs(config.output, runner, report);
 #ifdef PLANAR_GRID_WITH_VIEWER
   if (!config.output.snapshot.empty()) {
-    const std::string path = planar_grid::outputPath(config.output, config.output.snapshot);
+    const std::string path =
+      planar_grid::outputPath(config.output, config.output.snapshot);
     planar_grid::SceneRenderer renderer;
     renderer.setBackground(Eigen::Vector3d(1.0, 1.0, 1.0));
     if (runner.state().world_cloud && !runner.state().world_cloud->empty())
-      renderer.addPointCloud(*runner.state().world_cloud, planar_grid::ColorMode::HEIGHT);
+      renderer.addPointCloud(*runner.state().world_cloud,
+                             planar_grid::ColorMode::HEIGHT);
     std::vector<Eigen::Vector3d> positions;
     for (const auto& pose : runner.trajectory())
       positions.push_back(pose.translation());
     if (positions.size() > 1)
       renderer.addTrajectory(positions);
-    renderer.addText(config_path + ": " + std::to_string(report.frames) + " frames, " +
-                     std::to_string(report.world_cloud_points) + " points");
+    renderer.addText(config_path + ": " + std::to_string(report.frames) + " frames, "
+                     + std::to_string(report.world_cloud_points) + " points");
     renderer.setCamera(config.output.snapshot_camera == "oblique"
                          ? planar_grid::CameraPreset::OBLIQUE
                          : planar_grid::CameraPreset::TOP);
@@ -237,11 +239,9 @@ main(int argc, char** argv)
 {
   try {
     return run(argc, argv);
-  }
-  catch (const std::exception& e) {
+  } catch (const std::exception& e) {
     print_error("planar_grid_pipeline: %s\n", e.what());
-  }
-  catch (...) {
+  } catch (...) {
     print_error("planar_grid_pipeline: unknown error\n");
   }
   return EXIT_FAILURE;

@@ -40,15 +40,15 @@ const char* const DEFAULT_COLOR = "height";
 struct ViewerOptions {
   std::vector<std::string> clouds;
   std::string snapshot;
-  std::string camera_name{ DEFAULT_CAMERA };
-  bool explicit_camera{ false };
+  std::string camera_name{DEFAULT_CAMERA};
+  bool explicit_camera{false};
   planar_grid::CameraParameters camera;
-  planar_grid::CameraPreset preset{ planar_grid::CameraPreset::OBLIQUE };
-  int width_px{ DEFAULT_WIDTH_PX };
-  int height_px{ DEFAULT_HEIGHT_PX };
-  std::string color_name{ DEFAULT_COLOR };
-  planar_grid::ColorMode color{ planar_grid::ColorMode::HEIGHT };
-  double point_size_px{ DEFAULT_POINT_SIZE_PX };
+  planar_grid::CameraPreset preset{planar_grid::CameraPreset::OBLIQUE};
+  int width_px{DEFAULT_WIDTH_PX};
+  int height_px{DEFAULT_HEIGHT_PX};
+  std::string color_name{DEFAULT_COLOR};
+  planar_grid::ColorMode color{planar_grid::ColorMode::HEIGHT};
+  double point_size_px{DEFAULT_POINT_SIZE_PX};
 };
 
 void

@@ -2,12 +2,13 @@
 #include <planar_grid/core/atomic_file.h>
 #include <planar_grid/core/exceptions.h>
 
+#include <unistd.h>
+
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <unistd.h>
 
 namespace planar_grid {
 
@@ -22,13 +23,13 @@ writeFileAtomically(const std::string& path,
   if (!fs::is_directory(dir, ec))
     throw IOError(path + ": cannot write: folder " + dir.string() + " does not exist");
   // Same folder as the target so that rename() is atomic on POSIX file systems.
-  const fs::path tmp = dir / ("." + target.filename().string() + ".tmp." +
-                              std::to_string(static_cast<long>(::getpid())));
+  const fs::path tmp = dir
+                       / ("." + target.filename().string() + ".tmp."
+                          + std::to_string(static_cast<long>(::getpid())));
   bool ok = false;
   try {
     ok = write(tmp.string());
-  }
-  catch (...) {
+  } catch (...) {
     fs::remove(tmp, ec);
     throw;
   }

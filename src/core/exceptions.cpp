@@ -5,7 +5,10 @@ namespace planar_grid {
 
 namespace {
 std::string
-formatLocation(const std::string& file, int line, int column, const std::string& message)
+formatLocation(const std::string& file,
+               int line,
+               int column,
+               const std::string& message)
 {
   std::string where = file.empty() ? std::string("<yaml>") : file;
   if (line > 0) {
@@ -20,11 +23,9 @@ formatLocation(const std::string& file, int line, int column, const std::string&
 ConfigError::ConfigError(const std::string& file,
                          int line,
                          int column,
-                         const std::string& message)
-: Exception(formatLocation(file, line, column, message))
-, file_(file)
-, line_(line)
-, column_(column)
+                         const std::string& message) :
+    Exception(formatLocation(file, line, column, message)),
+    file_(file), line_(line), column_(column)
 {}
 
 } // namespace planar_grid

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "stages.h"
-
 #include <pcl/filters/statistical_outlier_removal.h>
 #include <pcl/filters/voxel_grid.h>
+
+#include "stages.h"
 
 namespace planar_grid {
 namespace stages {
@@ -15,11 +15,11 @@ public:
   {
     const auto leaf = static_cast<float>(leaf_size_m);
     filter_.setLeafSize(leaf, leaf, leaf);
-    filter_.setMinimumPointsNumberPerVoxel(static_cast<unsigned int>(min_points_per_voxel));
+    filter_.setMinimumPointsNumberPerVoxel(
+      static_cast<unsigned int>(min_points_per_voxel));
   }
 
-  void
-  process(Frame& frame, PipelineState& /*state*/) override
+  void process(Frame& frame, PipelineState& /*state*/) override
   {
     requirePoints(frame, "voxel_grid");
     Frame::Cloud::Ptr out(new Frame::Cloud);
@@ -40,8 +40,7 @@ public:
     filter_.setStddevMulThresh(stddev_mul_thresh);
   }
 
-  void
-  process(Frame& frame, PipelineState& /*state*/) override
+  void process(Frame& frame, PipelineState& /*state*/) override
   {
     requirePoints(frame, "statistical_outlier_removal");
     Frame::Cloud::Ptr out(new Frame::Cloud);
@@ -61,7 +60,8 @@ voxelGridInfo()
 {
   StageInfo info;
   info.type = "voxel_grid";
-  info.description = "pcl::VoxelGrid: one centroid per occupied voxel of the working cloud.";
+  info.description =
+    "pcl::VoxelGrid: one centroid per occupied voxel of the working cloud.";
   info.params = {
     ParamSpec::real("leaf_size_m", 0.05, 0.001, 10.0, "m", "Voxel edge length."),
     ParamSpec::integer("min_points_per_voxel", 1, 1, 100000, "",
@@ -80,7 +80,8 @@ statisticalOutlierRemovalInfo()
   StageInfo info;
   info.type = "statistical_outlier_removal";
   info.description =
-    "pcl::StatisticalOutlierRemoval: drops points whose mean distance to their k nearest "
+    "pcl::StatisticalOutlierRemoval: drops points whose mean distance to their k "
+    "nearest "
     "neighbours exceeds the global mean by more than stddev_mul_thresh standard "
     "deviations.";
   info.params = {

@@ -5,11 +5,11 @@
 
 #include <pcl/io/pcd_io.h>
 
+#include <glob.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
 #include <filesystem>
-#include <glob.h>
 #include <iomanip>
 #include <sstream>
 
@@ -34,17 +34,17 @@ public:
     int width = 0;
     while (i < pattern.size() && std::isdigit(static_cast<unsigned char>(pattern[i])))
       width = width * 10 + (pattern[i++] - '0');
-    if (pos == std::string::npos || i >= pattern.size() || pattern[i] != 'd' ||
-        pattern.find('%', i + 1) != std::string::npos || width > 12)
-      throw IOError(pattern + ": a file pattern needs exactly one index field, %d or %0Nd");
+    if (pos == std::string::npos || i >= pattern.size() || pattern[i] != 'd'
+        || pattern.find('%', i + 1) != std::string::npos || width > 12)
+      throw IOError(pattern
+                    + ": a file pattern needs exactly one index field, %d or %0Nd");
     prefix_ = pattern.substr(0, pos);
     suffix_ = pattern.substr(i + 1);
     width_ = width;
     fill_ = zero ? '0' : ' ';
   }
 
-  std::string
-  format(int index) const
+  std::string format(int index) const
   {
     std::ostringstream out;
     out << prefix_ << std::setw(width_) << std::setfill(fill_) << index << suffix_;
@@ -71,11 +71,14 @@ readImage(const std::string& path)
 
 class StereoSequenceSource : public FrameSource {
 public:
-  explicit StereoSequenceSource(const InputConfig& input)
-  : left_(input.left_images), right_(input.right_images), first_index_(input.first_index)
+  explicit StereoSequenceSource(const InputConfig& input) :
+      left_(input.left_images), right_(input.right_images),
+      first_index_(input.first_index)
   {
-    const CalibrationFormat format = calibrationFormatFromString(input.calibration_format);
-    model_ = loadStereoCalibration(format, input.calibration_file, input.calibration_right_file);
+    const CalibrationFormat format =
+      calibrationFormatFromString(input.calibration_format);
+    model_ = loadStereoCalibration(format, input.calibration_file,
+                                   input.calibration_right_file);
 
     if (input.frame_count > 0)
       count_ = static_cast<std::size_t>(input.frame_count);
@@ -85,34 +88,40 @@ public:
         ++count_;
     }
     if (count_ == 0)
-      throw IOError(left_.format(first_index_) + ": no left image found (input.left_images)");
+      throw IOError(left_.format(first_index_)
+                    + ": no left image found (input.left_images)");
 
-    if (input.poses_format == "karlsruhe_insdata")
+    if (input.poses_format == "karlsruhe_insdata") {
       poses_ = loadKarlsruheInsData(input.poses_file);
-    else if (input.poses_format == "kitti")
+      // The insdata poses are level along the track, at the GPS/INS position. The
+      // camera looks down by camera_pitch_rad (a rotation about its x axis) and sits
+      // camera_height_m above the road, which then lies at world z = 0.
+      const Eigen::Isometry3d mount(
+        Eigen::AngleAxisd(-input.camera_pitch_rad, Eigen::Vector3d::UnitX()));
+      for (auto& pose : poses_) {
+        pose = pose * mount;
+        pose.translation().z() += input.camera_height_m;
+      }
+    } else if (input.poses_format == "kitti")
       poses_ = loadKittiPoses(input.poses_file);
     if (!poses_.empty()) {
       const std::size_t needed = static_cast<std::size_t>(first_index_) + count_;
       if (poses_.size() < needed)
-        throw IOError(input.poses_file + ": has " + std::to_string(poses_.size()) +
-                      " poses, but the frames need " + std::to_string(needed) +
-                      " (first_index + frame count)");
+        throw IOError(input.poses_file + ": has " + std::to_string(poses_.size())
+                      + " poses, but the frames need " + std::to_string(needed)
+                      + " (first_index + frame count)");
       poses_.erase(poses_.begin(), poses_.begin() + first_index_);
       poses_.resize(count_);
     }
-    description_ = std::to_string(count_) + " stereo pairs " + left_.format(first_index_) +
-                   " ... (f = " + std::to_string(model_.calibration.focal_length_px) +
-                   " px, B = " + std::to_string(model_.calibration.baseline_m) + " m)";
+    description_ =
+      std::to_string(count_) + " stereo pairs " + left_.format(first_index_)
+      + " ... (f = " + std::to_string(model_.calibration.focal_length_px)
+      + " px, B = " + std::to_string(model_.calibration.baseline_m) + " m)";
   }
 
-  std::size_t
-  size() const override
-  {
-    return count_;
-  }
+  std::size_t size() const override { return count_; }
 
-  void
-  load(std::size_t i, Frame& frame) const override
+  void load(std::size_t i, Frame& frame) const override
   {
     const int index = first_index_ + static_cast<int>(i);
     const std::string left_path = left_.format(index);
@@ -120,21 +129,20 @@ public:
     cv::Mat left = readImage(left_path);
     cv::Mat right = readImage(right_path);
     if (left.size() != right.size())
-      throw IOError(right_path + ": size " + std::to_string(right.cols) + "x" +
-                    std::to_string(right.rows) + " differs from the left image's " +
-                    std::to_string(left.cols) + "x" + std::to_string(left.rows));
+      throw IOError(right_path + ": size " + std::to_string(right.cols) + "x"
+                    + std::to_string(right.rows) + " differs from the left image's "
+                    + std::to_string(left.cols) + "x" + std::to_string(left.rows));
     const auto& calib = model_.calibration;
-    if (model_.rectifier.empty() && calib.width > 0 && calib.height > 0 &&
-        (left.cols != calib.width || left.rows != calib.height))
-      throw IOError(left_path + ": size " + std::to_string(left.cols) + "x" +
-                    std::to_string(left.rows) + " differs from the calibration's " +
-                    std::to_string(calib.width) + "x" + std::to_string(calib.height));
+    if (model_.rectifier.empty() && calib.width > 0 && calib.height > 0
+        && (left.cols != calib.width || left.rows != calib.height))
+      throw IOError(left_path + ": size " + std::to_string(left.cols) + "x"
+                    + std::to_string(left.rows) + " differs from the calibration's "
+                    + std::to_string(calib.width) + "x" + std::to_string(calib.height));
     if (!model_.rectifier.empty()) {
       if (left.size() != model_.rectifier.map_left_x.size())
         throw IOError(left_path + ": size differs from the calibration's image size");
       model_.rectifier.rectify(left, right, frame.left, frame.right);
-    }
-    else {
+    } else {
       frame.left = left;
       frame.right = right;
     }
@@ -148,17 +156,9 @@ public:
       frame.world_T_camera = poses_[i];
   }
 
-  std::string
-  describe() const override
-  {
-    return description_;
-  }
+  std::string describe() const override { return description_; }
 
-  const Trajectory&
-  poses() const override
-  {
-    return poses_;
-  }
+  const Trajectory& poses() const override { return poses_; }
 
 private:
   IndexPattern left_, right_;
@@ -189,26 +189,21 @@ public:
     if (input.poses_format == "kitti") {
       poses_ = loadKittiPoses(input.poses_file);
       if (poses_.size() < files_.size())
-        throw IOError(input.poses_file + ": has " + std::to_string(poses_.size()) +
-                      " poses, but there are " + std::to_string(files_.size()) +
-                      " PCD files");
+        throw IOError(input.poses_file + ": has " + std::to_string(poses_.size())
+                      + " poses, but there are " + std::to_string(files_.size())
+                      + " PCD files");
       poses_.resize(files_.size());
-    }
-    else if (input.poses_format == "viewpoint") {
+    } else if (input.poses_format == "viewpoint") {
       for (const auto& f : files_)
         poses_.push_back(loadPCDViewpoint(f));
     }
-    description_ = std::to_string(files_.size()) + " PCD files " + files_.front() + " ...";
+    description_ =
+      std::to_string(files_.size()) + " PCD files " + files_.front() + " ...";
   }
 
-  std::size_t
-  size() const override
-  {
-    return files_.size();
-  }
+  std::size_t size() const override { return files_.size(); }
 
-  void
-  load(std::size_t i, Frame& frame) const override
+  void load(std::size_t i, Frame& frame) const override
   {
     const std::string& path = files_[i];
     Frame::Cloud::Ptr cloud(new Frame::Cloud);
@@ -227,17 +222,9 @@ public:
       frame.world_T_camera = poses_[i];
   }
 
-  std::string
-  describe() const override
-  {
-    return description_;
-  }
+  std::string describe() const override { return description_; }
 
-  const Trajectory&
-  poses() const override
-  {
-    return poses_;
-  }
+  const Trajectory& poses() const override { return poses_; }
 
 private:
   std::vector<std::string> files_;

@@ -52,10 +52,8 @@ rangeText(const ParamSpec& spec)
 fail(const std::string& file, const YAML::Node& node, const std::string& message)
 {
   const YAML::Mark mark = node.Mark();
-  throw ConfigError(file,
-                    mark.is_null() ? 0 : mark.line + 1,
-                    mark.is_null() ? 0 : mark.column + 1,
-                    message);
+  throw ConfigError(file, mark.is_null() ? 0 : mark.line + 1,
+                    mark.is_null() ? 0 : mark.column + 1, message);
 }
 
 } // namespace
@@ -93,7 +91,9 @@ ParamSpec::integer(const std::string& key,
 }
 
 ParamSpec
-ParamSpec::flag(const std::string& key, bool default_value, const std::string& description)
+ParamSpec::flag(const std::string& key,
+                bool default_value,
+                const std::string& description)
 {
   ParamSpec s;
   s.key = key;
@@ -155,7 +155,8 @@ ParamValues::getChoice(const std::string& key) const
 }
 
 void
-ParamValues::set(const std::string& key, std::variant<double, int, bool, std::string> value)
+ParamValues::set(const std::string& key,
+                 std::variant<double, int, bool, std::string> value)
 {
   values_[key] = std::move(value);
 }
@@ -212,20 +213,20 @@ parseParams(const YAML::Node& node,
   if (!node || node.IsNull())
     return values;
   if (!node.IsMap())
-    fail(file, node, "params of stage '" + stage_type + "' must be a map of key: value");
+    fail(file, node,
+         "params of stage '" + stage_type + "' must be a map of key: value");
 
   for (const auto& item : node) {
     const std::string key = item.first.as<std::string>();
-    const auto spec = std::find_if(
-      specs.begin(), specs.end(), [&key](const ParamSpec& s) { return s.key == key; });
+    const auto spec = std::find_if(specs.begin(), specs.end(),
+                                   [&key](const ParamSpec& s) { return s.key == key; });
     if (spec == specs.end()) {
       std::string known;
       for (const auto& s : specs)
         known += (known.empty() ? "" : ", ") + s.key;
-      fail(file,
-           item.first,
-           "unknown parameter '" + key + "' of stage '" + stage_type + "'; known: " +
-             (known.empty() ? std::string("(none)") : known));
+      fail(file, item.first,
+           "unknown parameter '" + key + "' of stage '" + stage_type
+             + "'; known: " + (known.empty() ? std::string("(none)") : known));
     }
     const YAML::Node& value = item.second;
     const std::string where = "parameter '" + key + "' of stage '" + stage_type + "'";
@@ -236,20 +237,18 @@ parseParams(const YAML::Node& node,
         case ParamSpec::Type::DOUBLE: {
           const double v = value.as<double>();
           if (!std::isfinite(v) || v < spec->min || v > spec->max)
-            fail(file,
-                 value,
-                 where + " = " + value.Scalar() + " is out of range " + rangeText(*spec) +
-                   (spec->unit.empty() ? "" : " " + spec->unit));
+            fail(file, value,
+                 where + " = " + value.Scalar() + " is out of range " + rangeText(*spec)
+                   + (spec->unit.empty() ? "" : " " + spec->unit));
           values.set(key, v);
           break;
         }
         case ParamSpec::Type::INT: {
           const int v = value.as<int>();
           if (v < spec->min || v > spec->max)
-            fail(file,
-                 value,
-                 where + " = " + value.Scalar() + " is out of range " + rangeText(*spec) +
-                   (spec->unit.empty() ? "" : " " + spec->unit));
+            fail(file, value,
+                 where + " = " + value.Scalar() + " is out of range " + rangeText(*spec)
+                   + (spec->unit.empty() ? "" : " " + spec->unit));
           values.set(key, v);
           break;
         }
@@ -258,16 +257,16 @@ parseParams(const YAML::Node& node,
           break;
         case ParamSpec::Type::CHOICE: {
           const std::string v = value.as<std::string>();
-          if (std::find(spec->choices.begin(), spec->choices.end(), v) ==
-              spec->choices.end())
+          if (std::find(spec->choices.begin(), spec->choices.end(), v)
+              == spec->choices.end())
             fail(file, value, where + " = '" + v + "' must be " + typeName(*spec));
           values.set(key, v);
           break;
         }
       }
-    }
-    catch (const YAML::BadConversion&) {
-      fail(file, value, where + " = '" + value.Scalar() + "' must be " + typeName(*spec));
+    } catch (const YAML::BadConversion&) {
+      fail(file, value,
+           where + " = '" + value.Scalar() + "' must be " + typeName(*spec));
     }
   }
   return values;

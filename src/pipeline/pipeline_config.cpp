@@ -6,6 +6,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -19,32 +20,27 @@ namespace fs = std::filesystem;
 /** Reads one YAML file's values with their places, for strict checks. */
 class Reader {
 public:
-  Reader(std::string file, std::string base_folder)
-  : file_(std::move(file)), base_folder_(std::move(base_folder))
+  Reader(std::string file, std::string base_folder) :
+      file_(std::move(file)), base_folder_(std::move(base_folder))
   {}
 
-  [[noreturn]] void
-  fail(const YAML::Node& node, const std::string& message) const
+  [[noreturn]] void fail(const YAML::Node& node, const std::string& message) const
   {
     const YAML::Mark mark = node.Mark();
-    throw ConfigError(file_,
-                      mark.is_null() ? 0 : mark.line + 1,
-                      mark.is_null() ? 0 : mark.column + 1,
-                      message);
+    throw ConfigError(file_, mark.is_null() ? 0 : mark.line + 1,
+                      mark.is_null() ? 0 : mark.column + 1, message);
   }
 
-  void
-  requireMap(const YAML::Node& node, const std::string& what) const
+  void requireMap(const YAML::Node& node, const std::string& what) const
   {
     if (!node.IsMap())
       fail(node, what + " must be a map of key: value");
   }
 
   /** Every key of \a node must be in \a allowed. */
-  void
-  checkKeys(const YAML::Node& node,
-            const std::vector<std::string>& allowed,
-            const std::string& what) const
+  void checkKeys(const YAML::Node& node,
+                 const std::vector<std::string>& allowed,
+                 const std::string& what) const
   {
     requireMap(node, what);
     for (const auto& item : node) {
@@ -53,13 +49,15 @@ public:
         std::string list;
         for (const auto& a : allowed)
           list += (list.empty() ? "" : ", ") + a;
-        fail(item.first, "unknown key '" + key + "' in " + what + "; expected one of: " + list);
+        fail(item.first,
+             "unknown key '" + key + "' in " + what + "; expected one of: " + list);
       }
     }
   }
 
-  std::string
-  string(const YAML::Node& parent, const std::string& key, const std::string& what) const
+  std::string string(const YAML::Node& parent,
+                     const std::string& key,
+                     const std::string& what) const
   {
     const YAML::Node node = parent[key];
     if (!node)
@@ -69,22 +67,20 @@ public:
     return node.as<std::string>();
   }
 
-  std::string
-  optionalString(const YAML::Node& parent,
-                 const std::string& key,
-                 const std::string& fallback,
-                 const std::string& what) const
+  std::string optionalString(const YAML::Node& parent,
+                             const std::string& key,
+                             const std::string& fallback,
+                             const std::string& what) const
   {
     return parent[key] ? string(parent, key, what) : fallback;
   }
 
-  int
-  integer(const YAML::Node& parent,
-          const std::string& key,
-          int fallback,
-          int min,
-          int max,
-          const std::string& what) const
+  int integer(const YAML::Node& parent,
+              const std::string& key,
+              int fallback,
+              int min,
+              int max,
+              const std::string& what) const
   {
     const YAML::Node node = parent[key];
     if (!node)
@@ -94,14 +90,39 @@ public:
       if (!node.IsScalar())
         throw YAML::BadConversion(node.Mark());
       v = node.as<int>();
-    }
-    catch (const YAML::BadConversion&) {
+    } catch (const YAML::BadConversion&) {
       fail(node, what + "." + key + " must be an integer");
     }
     if (v < min || v > max)
-      fail(node,
-           what + "." + key + " = " + std::to_string(v) + " is out of range [" +
-             std::to_string(min) + ", " + std::to_string(max) + "]");
+      fail(node, what + "." + key + " = " + std::to_string(v) + " is out of range ["
+                   + std::to_string(min) + ", " + std::to_string(max) + "]");
+    return v;
+  }
+
+  double real(const YAML::Node& parent,
+              const std::string& key,
+              double fallback,
+              double min,
+              double max,
+              const std::string& what) const
+  {
+    const YAML::Node node = parent[key];
+    if (!node)
+      return fallback;
+    double v = 0.0;
+    try {
+      if (!node.IsScalar())
+        throw YAML::BadConversion(node.Mark());
+      v = node.as<double>();
+    } catch (const YAML::BadConversion&) {
+      fail(node, what + "." + key + " must be a number");
+    }
+    if (!std::isfinite(v) || v < min || v > max) {
+      std::ostringstream msg;
+      msg << what << "." << key << " = " << v << " is out of range [" << min << ", "
+          << max << "]";
+      fail(node, msg.str());
+    }
     return v;
   }
 
@@ -112,8 +133,7 @@ public:
     return resolve(string(parent, key, what));
   }
 
-  std::string
-  resolve(const std::string& p) const
+  std::string resolve(const std::string& p) const
   {
     if (p.empty() || fs::path(p).is_absolute())
       return p;
@@ -132,13 +152,8 @@ parseInput(const Reader& r, const YAML::Node& node)
   const std::string type = r.string(node, "type", "input");
   if (type == "stereo_sequence") {
     r.checkKeys(node,
-                {"type",
-                 "left_images",
-                 "right_images",
-                 "first_index",
-                 "frame_count",
-                 "calibration",
-                 "poses"},
+                {"type", "left_images", "right_images", "first_index", "frame_count",
+                 "calibration", "poses"},
                 "input (stereo_sequence)");
     input.type = InputConfig::Type::STEREO_SEQUENCE;
     input.left_images = r.path(node, "left_images", "input");
@@ -150,14 +165,17 @@ parseInput(const Reader& r, const YAML::Node& node)
       r.fail(node, "input needs the key 'calibration' (format and file)");
     r.checkKeys(calib, {"format", "file", "right_file"}, "input.calibration");
     input.calibration_format = r.string(calib, "format", "input.calibration");
-    const std::vector<std::string> formats{"karlsruhe", "kitti", "ros_camera_info", "euroc"};
-    if (std::find(formats.begin(), formats.end(), input.calibration_format) == formats.end())
-      r.fail(calib["format"],
-             "input.calibration.format '" + input.calibration_format +
-               "' is unknown; expected one of: karlsruhe, kitti, ros_camera_info, euroc");
+    const std::vector<std::string> formats{"karlsruhe", "kitti", "ros_camera_info",
+                                           "euroc"};
+    if (std::find(formats.begin(), formats.end(), input.calibration_format)
+        == formats.end())
+      r.fail(
+        calib["format"],
+        "input.calibration.format '" + input.calibration_format
+          + "' is unknown; expected one of: karlsruhe, kitti, ros_camera_info, euroc");
     input.calibration_file = r.path(calib, "file", "input.calibration");
-    const bool pair = input.calibration_format == "ros_camera_info" ||
-                      input.calibration_format == "euroc";
+    const bool pair = input.calibration_format == "ros_camera_info"
+                      || input.calibration_format == "euroc";
     if (pair)
       input.calibration_right_file = r.path(calib, "right_file", "input.calibration");
     else if (calib["right_file"])
@@ -166,18 +184,17 @@ parseInput(const Reader& r, const YAML::Node& node)
     for (const auto* key : {"left_images", "right_images"}) {
       const std::string pattern = node[key].as<std::string>();
       if (pattern.find('%') == std::string::npos)
-        r.fail(node[key],
-               std::string("input.") + key +
-                 " needs one index field such as %06d in the file name");
+        r.fail(node[key], std::string("input.") + key
+                            + " needs one index field such as %06d in the file name");
     }
-  }
-  else if (type == "pcd_files") {
+  } else if (type == "pcd_files") {
     r.checkKeys(node, {"type", "files", "poses"}, "input (pcd_files)");
     input.type = InputConfig::Type::PCD_FILES;
     input.poses_format = "viewpoint";
     const YAML::Node files = node["files"];
     if (!files)
-      r.fail(node, "input needs the key 'files' (a list of PCD files or glob patterns)");
+      r.fail(node,
+             "input needs the key 'files' (a list of PCD files or glob patterns)");
     if (files.IsScalar())
       input.pcd_files.push_back(r.resolve(files.as<std::string>()));
     else if (files.IsSequence()) {
@@ -186,37 +203,46 @@ parseInput(const Reader& r, const YAML::Node& node)
           r.fail(f, "input.files entries must be strings");
         input.pcd_files.push_back(r.resolve(f.as<std::string>()));
       }
-    }
-    else
+    } else
       r.fail(files, "input.files must be a string or a list of strings");
     if (input.pcd_files.empty())
       r.fail(files, "input.files is empty");
-  }
-  else
-    r.fail(node["type"],
-           "input.type '" + type + "' is unknown; expected stereo_sequence or pcd_files");
+  } else
+    r.fail(node["type"], "input.type '" + type
+                           + "' is unknown; expected stereo_sequence or pcd_files");
 
   if (const YAML::Node poses = node["poses"]) {
-    r.checkKeys(poses, {"format", "file"}, "input.poses");
+    r.checkKeys(poses, {"format", "file", "camera_height_m", "camera_pitch_rad"},
+                "input.poses");
     input.poses_format = r.string(poses, "format", "input.poses");
     const std::vector<std::string> formats =
       input.type == InputConfig::Type::PCD_FILES
         ? std::vector<std::string>{"viewpoint", "kitti", "none"}
         : std::vector<std::string>{"karlsruhe_insdata", "kitti", "none"};
-    if (std::find(formats.begin(), formats.end(), input.poses_format) == formats.end()) {
+    if (std::find(formats.begin(), formats.end(), input.poses_format)
+        == formats.end()) {
       std::string list;
       for (const auto& f : formats)
         list += (list.empty() ? "" : ", ") + f;
       r.fail(poses["format"],
-             "input.poses.format '" + input.poses_format +
-               "' is unknown for this input; expected one of: " + list);
+             "input.poses.format '" + input.poses_format
+               + "' is unknown for this input; expected one of: " + list);
     }
     const bool needs_file =
       input.poses_format == "karlsruhe_insdata" || input.poses_format == "kitti";
     if (needs_file)
       input.poses_file = r.path(poses, "file", "input.poses");
     else if (poses["file"])
-      r.fail(poses["file"], "input.poses.file is not used by format " + input.poses_format);
+      r.fail(poses["file"],
+             "input.poses.file is not used by format " + input.poses_format);
+    for (const char* key : {"camera_height_m", "camera_pitch_rad"})
+      if (poses[key] && input.poses_format != "karlsruhe_insdata")
+        r.fail(poses[key],
+               std::string("input.poses.") + key + " is only for karlsruhe_insdata");
+    input.camera_height_m =
+      r.real(poses, "camera_height_m", 0.0, 0.0, 10.0, "input.poses");
+    input.camera_pitch_rad =
+      r.real(poses, "camera_pitch_rad", 0.0, -1.5, 1.5, "input.poses");
   }
   return input;
 }
@@ -226,12 +252,7 @@ parseOutput(const Reader& r, const YAML::Node& node)
 {
   OutputConfig out;
   r.checkKeys(node,
-              {"folder",
-               "cloud",
-               "report",
-               "trajectory",
-               "snapshot",
-               "snapshot_camera",
+              {"folder", "cloud", "report", "trajectory", "snapshot", "snapshot_camera",
                "snapshot_size_px"},
               "output");
   out.folder = r.optionalString(node, "folder", out.folder, "output");
@@ -252,8 +273,7 @@ parseOutput(const Reader& r, const YAML::Node& node)
       int v = 0;
       try {
         v = size[i].as<int>();
-      }
-      catch (const YAML::BadConversion&) {
+      } catch (const YAML::BadConversion&) {
         r.fail(size[i], "output.snapshot_size_px entries must be integers");
       }
       if (v < 16 || v > 8192)
@@ -269,7 +289,8 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
 {
   const Reader r(source, base);
   if (!root || root.IsNull())
-    throw ConfigError(source, 0, 0, "the file is empty; expected input:, pipeline:, output:");
+    throw ConfigError(source, 0, 0,
+                      "the file is empty; expected input:, pipeline:, output:");
   r.checkKeys(root, {"input", "pipeline", "output"}, "the top level");
   PipelineConfig config;
   config.source_file = source;
@@ -319,8 +340,7 @@ parsePipelineConfig(const std::string& yaml_text,
   YAML::Node root;
   try {
     root = YAML::Load(yaml_text);
-  }
-  catch (const YAML::ParserException& e) {
+  } catch (const YAML::ParserException& e) {
     throw ConfigError(source_name, e.mark.line + 1, e.mark.column + 1, e.msg);
   }
   return parseRoot(root, source_name, base_folder);

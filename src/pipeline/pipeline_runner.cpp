@@ -1,6 +1,4 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "stages.h"
-
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 
@@ -12,6 +10,8 @@
 #include <iomanip>
 #include <sstream>
 
+#include "stages.h"
+
 namespace planar_grid {
 
 PipelineRunner::PipelineRunner(const PipelineConfig& config) : config_(config)
@@ -19,18 +19,14 @@ PipelineRunner::PipelineRunner(const PipelineConfig& config) : config_(config)
   for (const auto& sc : config_.stages) {
     const StageInfo* info = findStage(sc.type);
     if (!info)
-      throw ConfigError(config_.source_file,
-                        sc.line,
-                        sc.column,
-                        "unknown stage type '" + sc.type + "'; known types: " +
-                          knownStageTypes());
+      throw ConfigError(config_.source_file, sc.line, sc.column,
+                        "unknown stage type '" + sc.type
+                          + "'; known types: " + knownStageTypes());
     try {
       stages_.push_back(info->create(sc.params));
-    }
-    catch (const ConfigError&) {
+    } catch (const ConfigError&) {
       throw;
-    }
-    catch (const Exception& e) {
+    } catch (const Exception& e) {
       // A combination of parameters the stage rejects (e.g. SGBM constraints).
       throw ConfigError(config_.source_file, sc.line, sc.column,
                         "stage '" + sc.type + "': " + e.what());
@@ -53,12 +49,12 @@ void
 PipelineRunner::setFrameRange(std::size_t begin, std::size_t end)
 {
   if (begin >= end)
-    throw Exception("the frame range " + std::to_string(begin) + ":" +
-                    std::to_string(end) + " is empty");
+    throw Exception("the frame range " + std::to_string(begin) + ":"
+                    + std::to_string(end) + " is empty");
   if (end > source_->size())
-    throw Exception("the frame range " + std::to_string(begin) + ":" +
-                    std::to_string(end) + " goes past the input's " +
-                    std::to_string(source_->size()) + " frames");
+    throw Exception("the frame range " + std::to_string(begin) + ":"
+                    + std::to_string(end) + " goes past the input's "
+                    + std::to_string(source_->size()) + " frames");
   begin_ = begin;
   end_ = end;
 }
@@ -102,10 +98,9 @@ PipelineRunner::run()
       const auto t = Clock::now();
       try {
         stages_[s]->process(frame, state_);
-      }
-      catch (const Exception& e) {
-        throw Exception("frame " + frame.name + " (" + std::to_string(i) + "), stage '" +
-                        sr.type + "': " + e.what());
+      } catch (const Exception& e) {
+        throw Exception("frame " + frame.name + " (" + std::to_string(i) + "), stage '"
+                        + sr.type + "': " + e.what());
       }
       const double ms = ms_since(t);
       sr.total_ms += ms;
@@ -168,13 +163,14 @@ RunReport::timingTable() const
   out << std::fixed;
   out << std::left << std::setw(30) << "stage" << std::right << std::setw(12)
       << "ms/frame" << std::setw(10) << "max ms" << std::setw(14) << "pts in/frame"
-      << std::setw(15) << "pts out/frame" << std::setw(10) << "removed" << "\n";
+      << std::setw(15) << "pts out/frame" << std::setw(10) << "removed"
+      << "\n";
   const auto per_frame = [](std::uint64_t v, std::size_t n) {
     return n ? static_cast<double>(v) / static_cast<double>(n) : 0.0;
   };
-  out << std::left << std::setw(30) << "(load + rectify)" << std::right
-      << std::setw(12) << std::setprecision(1)
-      << (frames ? load_ms / static_cast<double>(frames) : 0.0) << "\n";
+  out << std::left << std::setw(30) << "(load + rectify)" << std::right << std::setw(12)
+      << std::setprecision(1) << (frames ? load_ms / static_cast<double>(frames) : 0.0)
+      << "\n";
   double sum = 0.0;
   for (const auto& s : stages) {
     sum += s.meanMs();
@@ -182,14 +178,15 @@ RunReport::timingTable() const
         << std::setprecision(1) << s.meanMs() << std::setw(10) << s.max_ms;
     if (s.points_in > 0 || s.points_out > 0) {
       const double removed =
-        s.points_in ? 100.0 * (1.0 - static_cast<double>(s.points_out) /
-                                       static_cast<double>(s.points_in))
-                    : 0.0;
+        s.points_in
+          ? 100.0
+              * (1.0
+                 - static_cast<double>(s.points_out) / static_cast<double>(s.points_in))
+          : 0.0;
       out << std::setw(14) << std::setprecision(0) << per_frame(s.points_in, s.frames)
           << std::setw(15) << per_frame(s.points_out, s.frames) << std::setw(9)
           << std::setprecision(1) << removed << "%";
-    }
-    else if (s.features > 0)
+    } else if (s.features > 0)
       out << std::setw(14) << "" << std::setw(15) << std::setprecision(0)
           << per_frame(s.features, s.frames) << "  features";
     out << "\n";

@@ -27,7 +27,9 @@ createFolder(const std::string& folder)
 } // namespace
 
 void
-writeRunOutputs(const OutputConfig& output, const PipelineRunner& runner, RunReport& report)
+writeRunOutputs(const OutputConfig& output,
+                const PipelineRunner& runner,
+                RunReport& report)
 {
   createFolder(output.folder);
   if (!output.cloud.empty()) {

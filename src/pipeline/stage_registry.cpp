@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "stages.h"
-
 #include <planar_grid/core/exceptions.h>
 
 #include <cmath>
+
+#include "stages.h"
 
 namespace planar_grid {
 
@@ -13,12 +13,9 @@ stageRegistry()
   // Built once, in pipeline order; later issues add plane segmentation, cuboids,
   // occupancy and the map here.
   static const std::vector<StageInfo> registry{
-    stages::stereoDisparityInfo(),
-    stages::featureMatchingInfo(),
-    stages::voxelGridInfo(),
-    stages::statisticalOutlierRemovalInfo(),
-    stages::transformToWorldInfo(),
-    stages::accumulateInfo(),
+    stages::stereoDisparityInfo(),  stages::featureMatchingInfo(),
+    stages::voxelGridInfo(),        stages::statisticalOutlierRemovalInfo(),
+    stages::transformToWorldInfo(), stages::accumulateInfo(),
   };
   return registry;
 }
@@ -58,9 +55,10 @@ void
 requirePoints(const Frame& frame, const char* stage_type)
 {
   if (!frame.cloud || countValidPoints(*frame.cloud) == 0)
-    throw Exception(std::string("stage '") + stage_type + "' received 0 points in frame " +
-                    frame.name + " (" + std::to_string(frame.sequence_number) +
-                    "); check the earlier stages' parameters and the input");
+    throw Exception(std::string("stage '") + stage_type
+                    + "' received 0 points in frame " + frame.name + " ("
+                    + std::to_string(frame.sequence_number)
+                    + "); check the earlier stages' parameters and the input");
 }
 
 } // namespace stages

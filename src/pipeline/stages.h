@@ -8,30 +8,22 @@ namespace planar_grid {
 namespace stages {
 
 // stereo_stages.cpp
-StageInfo
-stereoDisparityInfo();
-StageInfo
-featureMatchingInfo();
+StageInfo stereoDisparityInfo();
+StageInfo featureMatchingInfo();
 
 // filter_stages.cpp
-StageInfo
-voxelGridInfo();
-StageInfo
-statisticalOutlierRemovalInfo();
+StageInfo voxelGridInfo();
+StageInfo statisticalOutlierRemovalInfo();
 
 // world_stages.cpp
-StageInfo
-transformToWorldInfo();
-StageInfo
-accumulateInfo();
+StageInfo transformToWorldInfo();
+StageInfo accumulateInfo();
 
 /** Valid (finite) points of a cloud. */
-std::size_t
-countValidPoints(const pcl::PointCloud<pcl::PointXYZI>& cloud);
+std::size_t countValidPoints(const pcl::PointCloud<pcl::PointXYZI>& cloud);
 
 /** Throws planar_grid::Exception when the frame's cloud has no valid point (S32). */
-void
-requirePoints(const Frame& frame, const char* stage_type);
+void requirePoints(const Frame& frame, const char* stage_type);
 
 } // namespace stages
 } // namespace planar_grid

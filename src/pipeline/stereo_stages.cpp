@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "stages.h"
-
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/stereo/disparity_estimator.h>
 #include <planar_grid/stereo/point_cloud_from_disparity.h>
 #include <planar_grid/stereo/stereo_feature_matcher.h>
+
+#include "stages.h"
 
 namespace planar_grid {
 namespace stages {
@@ -13,20 +13,19 @@ namespace {
 
 class StereoDisparityStage : public Stage {
 public:
-  StereoDisparityStage(const DisparityEstimator::Params& params, double max_range_m)
-  : estimator_(params), max_range_m_(max_range_m)
+  StereoDisparityStage(const DisparityEstimator::Params& params, double max_range_m) :
+      estimator_(params), max_range_m_(max_range_m)
   {}
 
-  void
-  process(Frame& frame, PipelineState& /*state*/) override
+  void process(Frame& frame, PipelineState& /*state*/) override
   {
     if (frame.left.empty() || frame.right.empty())
-      throw Exception("stage 'stereo_disparity' needs a stereo pair; frame " + frame.name +
-                      " has none");
+      throw Exception("stage 'stereo_disparity' needs a stereo pair; frame "
+                      + frame.name + " has none");
     estimator_.compute(frame.left, frame.right, frame.disparity);
     frame.cloud.reset(new Frame::Cloud);
-    disparityToPointCloud(
-      frame.disparity, frame.left, frame.calibration, max_range_m_, *frame.cloud);
+    disparityToPointCloud(frame.disparity, frame.left, frame.calibration, max_range_m_,
+                          *frame.cloud);
     frame.cloud_in_world_frame = false;
   }
 
@@ -37,21 +36,16 @@ private:
 
 class FeatureMatchingStage : public Stage {
 public:
-  explicit FeatureMatchingStage(const StereoFeatureMatcher::Params& params)
-  : matcher_(params)
+  explicit FeatureMatchingStage(const StereoFeatureMatcher::Params& params) :
+      matcher_(params)
   {}
 
-  void
-  process(Frame& frame, PipelineState& /*state*/) override
+  void process(Frame& frame, PipelineState& /*state*/) override
   {
     matcher_.match(frame.left, frame.right, frame.calibration, frame.features);
   }
 
-  bool
-  countsCloudPoints() const override
-  {
-    return false;
-  }
+  bool countsCloudPoints() const override { return false; }
 
 private:
   StereoFeatureMatcher matcher_;
@@ -64,9 +58,9 @@ stereoDisparityInfo()
 {
   StageInfo info;
   info.type = "stereo_disparity";
-  info.description =
-    "Dense disparity with OpenCV StereoSGBM, reprojected to an organized cloud in the "
-    "left camera frame (x right, y down, z forward; NaN = invalid).";
+  info.description = "Dense disparity with OpenCV StereoSGBM, reprojected to an "
+                     "organized cloud in the "
+                     "left camera frame (x right, y down, z forward; NaN = invalid).";
   info.needs_stereo = true;
   const DisparityEstimator::Params d;
   info.params = {
@@ -76,8 +70,9 @@ stereoDisparityInfo()
                        "Number of disparities searched; a multiple of 16."),
     ParamSpec::integer("block_size_px", d.block_size_px, 1, 11, "px",
                        "Matched block side; odd."),
-    ParamSpec::integer("p1", d.p1, 0, 100000, "",
-                       "SGBM penalty for 1 px disparity changes; 0 = 8*channels*block^2."),
+    ParamSpec::integer(
+      "p1", d.p1, 0, 100000, "",
+      "SGBM penalty for 1 px disparity changes; 0 = 8*channels*block^2."),
     ParamSpec::integer("p2", d.p2, 0, 400000, "",
                        "SGBM penalty for larger changes; 0 = 32*channels*block^2."),
     ParamSpec::integer("disp12_max_diff_px", d.disp12_max_diff_px, -1, 64, "px",
@@ -91,8 +86,9 @@ stereoDisparityInfo()
     ParamSpec::integer("speckle_range_px", d.speckle_range_px, 0, 64, "px",
                        "Largest disparity variation inside a speckle component."),
     ParamSpec::flag("full_dp", d.full_dp, "8-direction SGBM (slower) instead of 5."),
-    ParamSpec::real("max_range_m", 40.0, 0.1, 1000.0, "m",
-                    "Points farther than this are invalid (stereo error grows as z^2)."),
+    ParamSpec::real(
+      "max_range_m", 40.0, 0.1, 1000.0, "m",
+      "Points farther than this are invalid (stereo error grows as z^2)."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     DisparityEstimator::Params p;
@@ -124,7 +120,8 @@ featureMatchingInfo()
   info.needs_stereo = true;
   const StereoFeatureMatcher::Params f;
   info.params = {
-    ParamSpec::choice("feature_type", "sift", {"sift", "orb"}, "Detector and descriptor."),
+    ParamSpec::choice("feature_type", "sift", {"sift", "orb"},
+                      "Detector and descriptor."),
     ParamSpec::integer("max_features", f.max_features, 10, 100000, "",
                        "Most key points detected per image."),
     ParamSpec::real("ratio", f.ratio, 0.1, 1.0, "",

@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "stages.h"
-
 #include <planar_grid/core/exceptions.h>
 
 #include <pcl/common/transforms.h>
 #include <pcl/filters/voxel_grid.h>
+
+#include "stages.h"
 
 namespace planar_grid {
 namespace stages {
@@ -13,20 +13,22 @@ namespace {
 
 class TransformToWorldStage : public Stage {
 public:
-  void
-  process(Frame& frame, PipelineState& /*state*/) override
+  void process(Frame& frame, PipelineState& /*state*/) override
   {
     requirePoints(frame, "transform_to_world");
     if (!frame.has_pose)
-      throw Exception("stage 'transform_to_world': frame " + frame.name + " has no pose");
+      throw Exception("stage 'transform_to_world': frame " + frame.name
+                      + " has no pose");
     if (frame.cloud_in_world_frame)
-      throw Exception("stage 'transform_to_world': the cloud of frame " + frame.name +
-                      " is already in the world frame (stage listed twice?)");
+      throw Exception("stage 'transform_to_world': the cloud of frame " + frame.name
+                      + " is already in the world frame (stage listed twice?)");
     Frame::Cloud::Ptr out(new Frame::Cloud);
-    pcl::transformPointCloud(*frame.cloud, *out, frame.world_T_camera.cast<float>().matrix());
+    pcl::transformPointCloud(*frame.cloud, *out,
+                             frame.world_T_camera.cast<float>().matrix());
     // Keep the sensor pose with the cloud (S33).
     out->sensor_origin_ << frame.world_T_camera.translation().cast<float>(), 1.0f;
-    out->sensor_orientation_ = Eigen::Quaternionf(frame.world_T_camera.rotation().cast<float>());
+    out->sensor_orientation_ =
+      Eigen::Quaternionf(frame.world_T_camera.rotation().cast<float>());
     frame.cloud = out;
     frame.cloud_in_world_frame = true;
   }
@@ -34,12 +36,11 @@ public:
 
 class AccumulateStage : public Stage {
 public:
-  AccumulateStage(double leaf_size_m, int downsample_every_n_frames)
-  : leaf_size_m_(leaf_size_m), every_(downsample_every_n_frames)
+  AccumulateStage(double leaf_size_m, int downsample_every_n_frames) :
+      leaf_size_m_(leaf_size_m), every_(downsample_every_n_frames)
   {}
 
-  void
-  process(Frame& frame, PipelineState& state) override
+  void process(Frame& frame, PipelineState& state) override
   {
     requirePoints(frame, "accumulate");
     if (!frame.cloud_in_world_frame)
@@ -54,22 +55,16 @@ public:
       downsample(state);
   }
 
-  void
-  finish(PipelineState& state) override
+  void finish(PipelineState& state) override
   {
     if (frames_since_downsample_ > 0)
       downsample(state);
   }
 
-  bool
-  countsCloudPoints() const override
-  {
-    return true;
-  }
+  bool countsCloudPoints() const override { return true; }
 
 private:
-  void
-  downsample(PipelineState& state)
+  void downsample(PipelineState& state)
   {
     frames_since_downsample_ = 0;
     if (leaf_size_m_ <= 0.0 || state.world_cloud->empty())
@@ -96,7 +91,8 @@ transformToWorldInfo()
   StageInfo info;
   info.type = "transform_to_world";
   info.description =
-    "Moves the working cloud from the camera frame to the world frame with the frame's "
+    "Moves the working cloud from the camera frame to the world frame with the "
+    "frame's "
     "pose (pcl::transformPointCloud); keeps the sensor origin and orientation.";
   info.needs_poses = true;
   info.create = [](const ParamValues&) -> std::unique_ptr<Stage> {
@@ -110,9 +106,10 @@ accumulateInfo()
 {
   StageInfo info;
   info.type = "accumulate";
-  info.description =
-    "Appends each world-frame cloud to the accumulated world cloud, voxel-downsampled "
-    "(pcl::VoxelGrid) every few frames so memory stays bounded by the scene, not the run.";
+  info.description = "Appends each world-frame cloud to the accumulated world cloud, "
+                     "voxel-downsampled "
+                     "(pcl::VoxelGrid) every few frames so memory stays bounded by the "
+                     "scene, not the run.";
   info.params = {
     ParamSpec::real("leaf_size_m", 0.1, 0.0, 10.0, "m",
                     "Voxel edge of the accumulated cloud; 0 keeps every point."),

@@ -163,10 +163,10 @@ loadRosCameraInfo(const std::string& left_path, const std::string& right_path)
   const YAML::Node left = loadYamlFile(left_path);
   const YAML::Node right = loadYamlFile(right_path);
   ProjectionMatrix p_left{}, p_right{};
-  const std::vector<double> left_data
-    = readMatrix(left, "projection_matrix", 3, 4, left_path);
-  const std::vector<double> right_data
-    = readMatrix(right, "projection_matrix", 3, 4, right_path);
+  const std::vector<double> left_data =
+    readMatrix(left, "projection_matrix", 3, 4, left_path);
+  const std::vector<double> right_data =
+    readMatrix(right, "projection_matrix", 3, 4, right_path);
   std::copy(left_data.begin(), left_data.end(), p_left.begin());
   std::copy(right_data.begin(), right_data.end(), p_right.begin());
 
@@ -198,8 +198,8 @@ readEurocCamera(const std::string& path)
 {
   const YAML::Node node = loadYamlFile(path);
   const std::vector<double> intrinsics = readNumbers(node, "intrinsics", 4, path);
-  const YAML::Node distortion_node
-    = requireField(node, "distortion_coefficients", path);
+  const YAML::Node distortion_node =
+    requireField(node, "distortion_coefficients", path);
   std::vector<double> distortion;
   try {
     distortion = distortion_node.as<std::vector<double>>();
@@ -218,8 +218,8 @@ readEurocCamera(const std::string& path)
   if (!(intrinsics[0] > 0.0) || !(intrinsics[1] > 0.0))
     throw IOError(path + ": field 'intrinsics' needs positive focal lengths fu, fv");
   camera.distortion = cv::Mat(distortion, true).reshape(1, 1);
-  camera.size
-    = cv::Size(static_cast<int>(resolution[0]), static_cast<int>(resolution[1]));
+  camera.size =
+    cv::Size(static_cast<int>(resolution[0]), static_cast<int>(resolution[1]));
   if (camera.size.width <= 0 || camera.size.height <= 0)
     throw IOError(path + ": field 'resolution' must be a positive width and height");
   for (int i = 0; i < 16; ++i)

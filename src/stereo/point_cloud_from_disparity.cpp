@@ -46,8 +46,8 @@ disparityToPointCloud(const cv::Mat& disparity,
   cloud.is_dense = false;
 
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  const float fb
-    = static_cast<float>(calibration.focal_length_px * calibration.baseline_m);
+  const float fb =
+    static_cast<float>(calibration.focal_length_px * calibration.baseline_m);
   const float inv_f = static_cast<float>(1.0 / calibration.focal_length_px);
   const float cx = static_cast<float>(calibration.cx_px);
   const float cy = static_cast<float>(calibration.cy_px);

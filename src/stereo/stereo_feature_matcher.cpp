@@ -101,8 +101,8 @@ StereoFeatureMatcher::match(const cv::Mat& left,
   const int height = left.rows;
   std::vector<std::vector<int>> rows(static_cast<std::size_t>(height));
   for (std::size_t j = 0; j < keypoints_right.size(); ++j) {
-    const int row = std::clamp(static_cast<int>(std::lround(keypoints_right[j].pt.y)),
-                               0, height - 1);
+    const int row =
+      std::clamp(static_cast<int>(std::lround(keypoints_right[j].pt.y)), 0, height - 1);
     rows[static_cast<std::size_t>(row)].push_back(static_cast<int>(j));
   }
 
@@ -121,8 +121,8 @@ StereoFeatureMatcher::match(const cv::Mat& left,
   for (std::size_t i = 0; i < keypoints_left.size(); ++i) {
     const cv::Point2f& pl = keypoints_left[i].pt;
     const int first_row = std::max(0, static_cast<int>(std::floor(pl.y - max_dy)) - 1);
-    const int last_row
-      = std::min(height - 1, static_cast<int>(std::ceil(pl.y + max_dy)) + 1);
+    const int last_row =
+      std::min(height - 1, static_cast<int>(std::ceil(pl.y + max_dy)) + 1);
     float best = infinity, second = infinity;
     int best_j = -1;
     for (int row = first_row; row <= last_row; ++row) {

@@ -25,9 +25,9 @@ namespace {
 constexpr const char* UNDER_XVFB_ENV = "PLANAR_GRID_UNDER_XVFB";
 
 /** \brief What to do when there is no display, for every message below. */
-constexpr const char* NO_DISPLAY_HINT
-  = "no X display: VTK 9.1 from Debian renders offscreen only through an X server; "
-    "install xvfb (apt-get install xvfb) and run under `xvfb-run -a <command>`";
+constexpr const char* NO_DISPLAY_HINT =
+  "no X display: VTK 9.1 from Debian renders offscreen only through an X server; "
+  "install xvfb (apt-get install xvfb) and run under `xvfb-run -a <command>`";
 
 } // namespace
 
@@ -41,7 +41,7 @@ hasDisplay()
    * Keeping ours open means the server never resets under us. */
   struct KeptConnection {
     std::mutex mutex;
-    Display* display{ nullptr };
+    Display* display{nullptr};
     std::string name;
     ~KeptConnection()
     {
@@ -95,7 +95,7 @@ ensureDisplay(int argc, char** argv)
   if (ec || self.empty())
     self = argv[0];
 
-  std::vector<std::string> args{ "xvfb-run", "-a", self };
+  std::vector<std::string> args{"xvfb-run", "-a", self};
   for (int i = 1; i < argc; ++i)
     args.emplace_back(argv[i]);
   std::vector<char*> exec_argv;

@@ -79,7 +79,7 @@ turbo(double t)
                    + 4.27729857 * t4 + 2.82956604 * t5;
   const double b = 0.10667330 + 12.64194608 * t - 60.58204836 * t2 + 110.36276771 * t3
                    - 89.90310912 * t4 + 27.34824973 * t5;
-  return { toByte(r), toByte(g), toByte(b) };
+  return {toByte(r), toByte(g), toByte(b)};
 }
 
 /** \brief The RAMP_TAIL and 1 - RAMP_TAIL quantiles of \a values (reordered in place).
@@ -88,10 +88,10 @@ std::pair<float, float>
 robustRange(std::vector<float>& values)
 {
   const std::size_t n = values.size();
-  const auto lo_index
-    = static_cast<std::size_t>(RAMP_TAIL * static_cast<double>(n - 1));
-  const auto hi_index
-    = static_cast<std::size_t>((1.0 - RAMP_TAIL) * static_cast<double>(n - 1));
+  const auto lo_index =
+    static_cast<std::size_t>(RAMP_TAIL * static_cast<double>(n - 1));
+  const auto hi_index =
+    static_cast<std::size_t>((1.0 - RAMP_TAIL) * static_cast<double>(n - 1));
   std::nth_element(values.begin(),
                    values.begin() + static_cast<std::ptrdiff_t>(lo_index),
                    values.end());
@@ -100,7 +100,7 @@ robustRange(std::vector<float>& values)
                    values.begin() + static_cast<std::ptrdiff_t>(hi_index),
                    values.end());
   const float hi = values[hi_index];
-  return { lo, hi };
+  return {lo, hi};
 }
 
 /** \brief Position of \a value in [lo, hi] as a fraction in [0, 1]; 0.5 when the range
@@ -129,11 +129,11 @@ struct SceneRenderer::Impl {
   /** \brief The explicit camera, when one was set. */
   CameraParameters camera;
   /** \brief True when setCamera(const CameraParameters&) was called last. */
-  bool has_explicit_camera{ false };
+  bool has_explicit_camera{false};
   /** \brief The preset applied at render time when no explicit camera is set. */
-  CameraPreset preset{ CameraPreset::TOP };
+  CameraPreset preset{CameraPreset::TOP};
   /** \brief Number of text lines added so far (they stack downwards). */
-  int text_lines{ 0 };
+  int text_lines{0};
 
   /** \brief Places the camera for a \a width_px x \a height_px image. */
   void applyCamera(int width_px, int height_px);
@@ -456,8 +456,8 @@ SceneRenderer::saveSnapshot(const std::string& path, int width_px, int height_px
       + ": no X display: VTK 9.1 from Debian renders offscreen only "
         "through an X server; install xvfb (apt-get install xvfb) and run "
         "under `xvfb-run -a <command>`");
-  vtkSmartPointer<vtkRenderWindow> window
-    = impl_->makeWindow(width_px, height_px, true);
+  vtkSmartPointer<vtkRenderWindow> window =
+    impl_->makeWindow(width_px, height_px, true);
   try {
     window->Render();
     vtkNew<vtkWindowToImageFilter> grab;
@@ -490,8 +490,8 @@ SceneRenderer::show(int width_px, int height_px)
     throw Exception("cannot open the viewer window: no X display (DISPLAY is unset or "
                     "does not answer); the interactive viewer needs a screen, "
                     "snapshots can be rendered under `xvfb-run -a <command>`");
-  vtkSmartPointer<vtkRenderWindow> window
-    = impl_->makeWindow(width_px, height_px, false);
+  vtkSmartPointer<vtkRenderWindow> window =
+    impl_->makeWindow(width_px, height_px, false);
   vtkNew<vtkRenderWindowInteractor> interactor;
   vtkNew<vtkInteractorStyleTrackballCamera> style;
   interactor->SetRenderWindow(window);

@@ -136,8 +136,8 @@ TEST_F(TrajectoryIOKarlsruhe, PathLengthMatchesTheDataReadme)
 {
   double length_m = 0.0;
   for (std::size_t i = 1; i < trajectory_.size(); ++i)
-    length_m
-      += (trajectory_[i].translation() - trajectory_[i - 1].translation()).norm();
+    length_m +=
+      (trajectory_[i].translation() - trajectory_[i - 1].translation()).norm();
   // The data README gives 93.7 m (rounded to 0.1 m). +-0.5 m (0.5 %) allows for the
   // rounding yet catches wrong columns (lat/lon degrees would give ~0.001 m) or a
   // dropped line (the median step is 0.74 m).
@@ -167,8 +167,8 @@ TEST_F(TrajectoryIOKarlsruhe, CameraLooksAlongTheTrack)
   ASSERT_EQ(trajectory_.size(), 112u);
   // The first 60 frames drive a straight street heading about -5 degrees (x east-ish).
   // The camera's z axis must point along the motion, its x axis to the right of it.
-  const Eigen::Vector3d motion
-    = (trajectory_[10].translation() - trajectory_[0].translation()).normalized();
+  const Eigen::Vector3d motion =
+    (trajectory_[10].translation() - trajectory_[0].translation()).normalized();
   const Eigen::Matrix3d r = trajectory_[5].linear();
   // cos(angle) > 0.99 (angle < 8 degrees) between optical axis and motion: the
   // heading baseline is 1 m, so the frame-5 heading and the 0..10 chord agree closely.
@@ -221,8 +221,8 @@ TEST_F(TrajectoryIOKarlsruhe, HeadingIsSmoothThroughTheYawColumnJump)
 TEST_F(TrajectoryIOKarlsruhe, LongerBaselineGivesSameTurn)
 {
   // The heading estimate must not depend much on its baseline on a smooth track.
-  const planar_grid::Trajectory smooth
-    = planar_grid::loadKarlsruheInsData(karlsruheInsData(), 3.0);
+  const planar_grid::Trajectory smooth =
+    planar_grid::loadKarlsruheInsData(karlsruheInsData(), 3.0);
   ASSERT_EQ(smooth.size(), trajectory_.size());
   // Tolerance 0.1 rad (~6 degrees): the 3 m chord cuts the corner, the 1 m one less.
   for (std::size_t i = 0; i < smooth.size(); ++i)
@@ -307,13 +307,13 @@ TEST_F(TrajectoryIOFiles, InsDataErrorsNameFileAndLine)
 
 TEST_F(TrajectoryIOFiles, KittiRoundTripIsExact)
 {
-  planar_grid::Trajectory trajectory
-    = planar_grid::loadKarlsruheInsData(karlsruheInsData());
+  planar_grid::Trajectory trajectory =
+    planar_grid::loadKarlsruheInsData(karlsruheInsData());
   // Plus a pose with a general 3D rotation and awkward decimals.
   Eigen::Isometry3d tilted = Eigen::Isometry3d::Identity();
-  tilted.linear()
-    = Eigen::AngleAxisd(0.3141592653589793, Eigen::Vector3d(1.0, 2.0, 3.0).normalized())
-        .toRotationMatrix();
+  tilted.linear() =
+    Eigen::AngleAxisd(0.3141592653589793, Eigen::Vector3d(1.0, 2.0, 3.0).normalized())
+      .toRotationMatrix();
   tilted.translation() = Eigen::Vector3d(1.0 / 3.0, -2.0e-7, 12345.678901234567);
   trajectory.push_back(tilted);
 
@@ -358,18 +358,18 @@ TEST_F(TrajectoryIOFiles, KittiReadsTwelveNumbersRowMajor)
 TEST_F(TrajectoryIOFiles, KittiMalformedLineNamesFileAndLine)
 {
   const std::string identity = "1 0 0 0 0 1 0 0 0 0 1 0\n";
-  const std::string eleven
-    = writeFile("eleven.txt", identity + identity + "1 0 0 0 0 1 0 0 0 0 1\n");
+  const std::string eleven =
+    writeFile("eleven.txt", identity + identity + "1 0 0 0 0 1 0 0 0 0 1\n");
   EXPECT_TRUE(
     contains(ioErrorOf([&] { planar_grid::loadKittiPoses(eleven); }), eleven + ":3:"));
 
-  const std::string thirteen
-    = writeFile("thirteen.txt", "1 0 0 0 0 1 0 0 0 0 1 0 7\n" + identity);
+  const std::string thirteen =
+    writeFile("thirteen.txt", "1 0 0 0 0 1 0 0 0 0 1 0 7\n" + identity);
   EXPECT_TRUE(contains(ioErrorOf([&] { planar_grid::loadKittiPoses(thirteen); }),
                        thirteen + ":1:"));
 
-  const std::string word
-    = writeFile("word.txt", identity + "1 0 0 0 0 one 0 0 0 0 1 0\n");
+  const std::string word =
+    writeFile("word.txt", identity + "1 0 0 0 0 one 0 0 0 0 1 0\n");
   EXPECT_TRUE(
     contains(ioErrorOf([&] { planar_grid::loadKittiPoses(word); }), word + ":2:"));
 
@@ -431,14 +431,14 @@ TEST(TrajectoryIOPCDViewpoint, RealOfficeCloudViewpoint)
   // quaternion (w, x, y, z) = (0, 1, 0, 0), a half turn about x, i.e. the rotation
   // diag(1, -1, -1). Small integers: exact, so 1e-12 only absorbs the float -> double
   // conversion (which is exact too).
-  const std::string path
-    = std::string(PLANAR_GRID_DATA_DIR) + "/pcl_clouds/office1.pcd";
+  const std::string path =
+    std::string(PLANAR_GRID_DATA_DIR) + "/pcl_clouds/office1.pcd";
   // Start from a different pose so that the checks below see what was loaded.
   Eigen::Isometry3d pose(Eigen::Translation3d(1.0, 2.0, 3.0));
   ASSERT_NO_THROW(pose = planar_grid::loadPCDViewpoint(path));
   EXPECT_LT(pose.translation().norm(), 1e-12);
-  const Eigen::Matrix3d half_turn_about_x
-    = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
+  const Eigen::Matrix3d half_turn_about_x =
+    Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
   EXPECT_LT((pose.linear() - half_turn_about_x).cwiseAbs().maxCoeff(), 1e-12)
     << pose.matrix();
 }

@@ -3,9 +3,8 @@
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/stage.h>
 
-#include <yaml-cpp/yaml.h>
-
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <string>
@@ -33,8 +32,7 @@ errorOf(const std::string& yaml)
 {
   try {
     parsePipelineConfig(yaml, "test.yaml", "/base");
-  }
-  catch (const ConfigError& e) {
+  } catch (const ConfigError& e) {
     return e;
   }
   ADD_FAILURE() << "no ConfigError for:\n" << yaml;
@@ -70,7 +68,8 @@ TEST(PipelineConfig, RelativePathsResolveAgainstTheFileFolder)
 TEST(PipelineConfig, DefaultsFillMissingParams)
 {
   const auto c = parsePipelineConfig(
-    INPUT + "pipeline:\n  - type: voxel_grid\n    params: {leaf_size_m: 0.2}\n", "t", "/");
+    INPUT + "pipeline:\n  - type: voxel_grid\n    params: {leaf_size_m: 0.2}\n", "t",
+    "/");
   ASSERT_EQ(c.stages.size(), 1u);
   EXPECT_DOUBLE_EQ(c.stages[0].params.getDouble("leaf_size_m"), 0.2);
   EXPECT_EQ(c.stages[0].params.getInt("min_points_per_voxel"), 1); // the table default
@@ -82,7 +81,8 @@ TEST(PipelineConfig, UnknownTopLevelKeyHasLineAndColumn)
   // INPUT has 7 lines, pipeline 2 more: "bogus" is on line 10, column 1.
   EXPECT_EQ(e.line(), 10);
   EXPECT_EQ(e.column(), 1);
-  EXPECT_NE(std::string(e.what()).find("test.yaml:10:1"), std::string::npos) << e.what();
+  EXPECT_NE(std::string(e.what()).find("test.yaml:10:1"), std::string::npos)
+    << e.what();
   EXPECT_NE(std::string(e.what()).find("bogus"), std::string::npos);
 }
 
@@ -99,8 +99,8 @@ TEST(PipelineConfig, UnknownStageTypeListsKnownTypes)
 
 TEST(PipelineConfig, UnknownParamKeyIsAnError)
 {
-  const auto e =
-    errorOf(INPUT + "pipeline:\n  - type: voxel_grid\n    params:\n      leaf_size: 0.1\n");
+  const auto e = errorOf(
+    INPUT + "pipeline:\n  - type: voxel_grid\n    params:\n      leaf_size: 0.1\n");
   EXPECT_EQ(e.line(), 11);
   EXPECT_EQ(e.column(), 7);
   EXPECT_NE(std::string(e.what()).find("leaf_size_m"), std::string::npos)
@@ -109,14 +109,16 @@ TEST(PipelineConfig, UnknownParamKeyIsAnError)
 
 TEST(PipelineConfig, WrongTypeIsAnError)
 {
-  const auto e = errorOf(
-    INPUT + "pipeline:\n  - type: stereo_disparity\n    params:\n      block_size_px: five\n");
+  const auto e = errorOf(INPUT
+                         + "pipeline:\n  - type: stereo_disparity\n    params:\n      "
+                           "block_size_px: five\n");
   EXPECT_EQ(e.line(), 11);
   EXPECT_EQ(e.column(), 22);
   EXPECT_NE(std::string(e.what()).find("integer"), std::string::npos) << e.what();
   // A fraction is not an integer either.
   const auto f = errorOf(
-    INPUT + "pipeline:\n  - type: stereo_disparity\n    params:\n      block_size_px: 5.5\n");
+    INPUT
+    + "pipeline:\n  - type: stereo_disparity\n    params:\n      block_size_px: 5.5\n");
   EXPECT_EQ(f.line(), 11);
 }
 
@@ -130,7 +132,8 @@ TEST(PipelineConfig, OutOfRangeAndNegativeSizesAreErrors)
     INPUT + "pipeline:\n  - type: feature_matching\n    params:\n      ratio: 1.5\n");
   EXPECT_EQ(r.line(), 11);
   const auto c = errorOf(
-    INPUT + "pipeline:\n  - type: feature_matching\n    params:\n      feature_type: surf\n");
+    INPUT
+    + "pipeline:\n  - type: feature_matching\n    params:\n      feature_type: surf\n");
   EXPECT_NE(std::string(c.what()).find("sift"), std::string::npos) << c.what();
 }
 
@@ -141,8 +144,9 @@ TEST(PipelineConfig, StagesNeedingPosesNeedPoses)
   EXPECT_NE(std::string(e.what()).find("poses"), std::string::npos);
   // With poses it loads.
   const std::string with_poses =
-    INPUT + "  poses: {format: kitti, file: poses.txt}\npipeline:\n"
-            "  - type: transform_to_world\n";
+    INPUT
+    + "  poses: {format: kitti, file: poses.txt}\npipeline:\n"
+      "  - type: transform_to_world\n";
   EXPECT_NO_THROW(parsePipelineConfig(with_poses, "t", "/"));
 }
 
@@ -190,14 +194,15 @@ TEST(PipelineConfig, EmptyOrMalformedYaml)
 TEST(PipelineConfig, OutputBlock)
 {
   const auto c = parsePipelineConfig(
-    INPUT + "pipeline:\n  - type: voxel_grid\noutput:\n  folder: out\n"
-            "  snapshot_size_px: [800, 600]\n  snapshot_camera: oblique\n",
+    INPUT
+      + "pipeline:\n  - type: voxel_grid\noutput:\n  folder: out\n"
+        "  snapshot_size_px: [800, 600]\n  snapshot_camera: oblique\n",
     "t", "/");
   EXPECT_EQ(c.output.folder, "out");
   EXPECT_EQ(c.output.snapshot_size_px[0], 800);
   EXPECT_EQ(c.output.snapshot_camera, "oblique");
-  const auto e =
-    errorOf(INPUT + "pipeline:\n  - type: voxel_grid\noutput:\n  snapshot_size_px: [0, 600]\n");
+  const auto e = errorOf(
+    INPUT + "pipeline:\n  - type: voxel_grid\noutput:\n  snapshot_size_px: [0, 600]\n");
   EXPECT_EQ(e.line(), 11);
 }
 
@@ -207,15 +212,16 @@ TEST(ParamTable, EveryDefaultIsInsideItsRange)
   // would make the documented default unusable.
   for (const auto& info : planar_grid::stageRegistry()) {
     for (const auto& spec : info.params) {
-      if (spec.type == planar_grid::ParamSpec::Type::DOUBLE ||
-          spec.type == planar_grid::ParamSpec::Type::INT) {
+      if (spec.type == planar_grid::ParamSpec::Type::DOUBLE
+          || spec.type == planar_grid::ParamSpec::Type::INT) {
         const double d = std::stod(spec.default_value);
         EXPECT_GE(d, spec.min) << info.type << "." << spec.key;
         EXPECT_LE(d, spec.max) << info.type << "." << spec.key;
       }
       if (spec.type == planar_grid::ParamSpec::Type::CHOICE) {
-        EXPECT_NE(std::find(spec.choices.begin(), spec.choices.end(), spec.default_value),
-                  spec.choices.end());
+        EXPECT_NE(
+          std::find(spec.choices.begin(), spec.choices.end(), spec.default_value),
+          spec.choices.end());
       }
       // S21: dimensional keys carry their unit.
       if (spec.unit == "m") {
@@ -235,13 +241,14 @@ TEST(ParamTable, DumpAndReloadGivesTheSameValues)
   // S40: YAML load, dump, load again gives the same.
   const auto* info = planar_grid::findStage("stereo_disparity");
   ASSERT_NE(info, nullptr);
-  const YAML::Node node = YAML::Load("{num_disparities_px: 64, max_range_m: 12.5, full_dp: true}");
+  const YAML::Node node =
+    YAML::Load("{num_disparities_px: 64, max_range_m: 12.5, full_dp: true}");
   const auto a = planar_grid::parseParams(node, info->params, "t", info->type);
   YAML::Node dumped;
   for (const auto& spec : info->params)
     dumped[spec.key] = a.toString(spec.key);
-  const auto b = planar_grid::parseParams(YAML::Load(YAML::Dump(dumped)), info->params, "t",
-                                          info->type);
+  const auto b = planar_grid::parseParams(YAML::Load(YAML::Dump(dumped)), info->params,
+                                          "t", info->type);
   for (const auto& spec : info->params)
     EXPECT_EQ(a.toString(spec.key), b.toString(spec.key)) << spec.key;
   EXPECT_EQ(b.getInt("num_disparities_px"), 64);

@@ -6,13 +6,14 @@
 
 #include <pcl/io/pcd_io.h>
 
+#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include <gtest/gtest.h>
-
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 
 namespace fs = std::filesystem;
 using planar_grid::parsePipelineConfig;
@@ -25,34 +26,31 @@ const std::string KARLSRUHE = DATA + "/karlsruhe_2010_03_09_drive_0023";
 /** A fresh temporary folder per test, removed afterwards. */
 class PipelineRunnerTest : public ::testing::Test {
 protected:
-  void
-  SetUp() override
+  void SetUp() override
   {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("planar_grid_runner_" + std::string(info->name()) + "_" +
-            std::to_string(::getpid()));
+    dir_ = fs::temp_directory_path()
+           / ("planar_grid_runner_" + std::string(info->name()) + "_"
+              + std::to_string(::getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
-  void
-  TearDown() override
-  {
-    fs::remove_all(dir_);
-  }
+  void TearDown() override { fs::remove_all(dir_); }
 
   /** The Karlsruhe input with absolute paths, optionally other left images / poses. */
-  std::string
-  karlsruheInput(const std::string& left = "", const std::string& poses_file = "") const
+  std::string karlsruheInput(const std::string& left = "",
+                             const std::string& poses_file = "") const
   {
-    return "input:\n  type: stereo_sequence\n  left_images: " +
-           (left.empty() ? KARLSRUHE + "/left/I1_%06d.png" : left) +
-           "\n  right_images: " + KARLSRUHE + "/right/I2_%06d.png\n" +
-           "  first_index: 10\n  frame_count: 2\n" +
-           "  calibration: {format: karlsruhe, file: " + KARLSRUHE + "/calib.txt}\n" +
-           "  poses: {format: " + (poses_file.empty() ? "karlsruhe_insdata" : "kitti") +
-           ", file: " + (poses_file.empty() ? KARLSRUHE + "/insdata.txt" : poses_file) +
-           "}\n";
+    return "input:\n  type: stereo_sequence\n  left_images: "
+           + (left.empty() ? KARLSRUHE + "/left/I1_%06d.png" : left)
+           + "\n  right_images: " + KARLSRUHE + "/right/I2_%06d.png\n"
+           + "  first_index: 10\n  frame_count: 2\n"
+           + "  calibration: {format: karlsruhe, file: " + KARLSRUHE + "/calib.txt}\n"
+           + "  poses: {format: " + (poses_file.empty() ? "karlsruhe_insdata" : "kitti")
+           + ", file: " + (poses_file.empty() ? KARLSRUHE + "/insdata.txt" : poses_file)
+           + (poses_file.empty() ? ", camera_height_m: 1.57, camera_pitch_rad: 0.09"
+                                 : "")
+           + "}\n";
   }
 
   fs::path dir_;
@@ -90,9 +88,9 @@ TEST_F(PipelineRunnerTest, TwoRealKarlsruheFramesGiveAWorldCloud)
   EXPECT_LT(report.stages[1].points_out, report.stages[1].points_in);
   ASSERT_EQ(runner.trajectory().size(), 2u);
 
-  // The world cloud is in the world frame: z up, the camera ~1.6 m above the road, so the
-  // road (the lowest dense layer) lies below the camera, and points lie ahead of the
-  // camera along its viewing direction (the pose's z axis).
+  // The world cloud is in the world frame: z up, the camera ~1.6 m above the road, so
+  // the road (the lowest dense layer) lies below the camera, and points lie ahead of
+  // the camera along its viewing direction (the pose's z axis).
   const auto& world = *runner.state().world_cloud;
   ASSERT_GT(world.size(), 10000u);
   const Eigen::Isometry3d pose = runner.trajectory().front();
@@ -106,7 +104,36 @@ TEST_F(PipelineRunnerTest, TwoRealKarlsruheFramesGiveAWorldCloud)
   EXPECT_GT(ahead, world.size() * 95 / 100);
   EXPECT_GT(below, world.size() / 4);
 
-  // Outputs: PCD readable with the same count, trajectory, and a JSON report listing them.
+  // With the camera mount (1.57 m high, pitched 0.09 rad down; config/karlsruhe.yaml)
+  // the road ahead is level near z = 0: in the road strip within 2 m of the track, the
+  // median heights 4-8 m and 11-15 m ahead differ by < 0.15 m. Without the pitch the
+  // far strip would be ~0.6 m lower (0.09 rad * 7 m between the strips' centres).
+  const Eigen::Vector3d right = pose.rotation().col(0);
+  std::vector<float> near_z, far_z;
+  for (const auto& p : world.points) {
+    const Eigen::Vector3d v = p.getVector3fMap().cast<double>() - pose.translation();
+    const double along = v.dot(forward), across = std::abs(v.dot(right));
+    if (across < 2.0 && p.z < 0.5) {
+      if (along > 4.0 && along < 8.0)
+        near_z.push_back(p.z);
+      if (along > 11.0 && along < 15.0)
+        far_z.push_back(p.z);
+    }
+  }
+  ASSERT_GT(near_z.size(), 100u);
+  ASSERT_GT(far_z.size(), 50u);
+  const auto median = [](std::vector<float> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  const float near_median = median(near_z), far_median = median(far_z);
+  std::cout << "road height near " << near_median << " m, far " << far_median << " m\n";
+  EXPECT_NEAR(far_median - near_median, 0.0, 0.15);
+  // The absolute level also carries the GPS/INS altitude change since frame 0.
+  EXPECT_NEAR(near_median, 0.0, 0.3);
+
+  // Outputs: PCD readable with the same count, trajectory, and a JSON report listing
+  // them.
   planar_grid::writeRunOutputs(config.output, runner, report);
   planar_grid::writeRunReport(config.output, report);
   pcl::PointCloud<pcl::PointXYZI> loaded;
@@ -145,9 +172,9 @@ TEST_F(PipelineRunnerTest, MissingImageNamesTheFile)
   try {
     runner.run();
     FAIL() << "a missing image must stop the run";
-  }
-  catch (const planar_grid::IOError& e) {
-    EXPECT_NE(std::string(e.what()).find("I1_000011.png"), std::string::npos) << e.what();
+  } catch (const planar_grid::IOError& e) {
+    EXPECT_NE(std::string(e.what()).find("I1_000011.png"), std::string::npos)
+      << e.what();
   }
 }
 
@@ -156,8 +183,8 @@ TEST_F(PipelineRunnerTest, UnreadableAndMismatchedImagesAreErrors)
   fs::create_directories(dir_ / "left");
   // Frame 10: not an image. Frame 11: a left image of another size than the right one.
   std::ofstream(dir_ / "left/I1_000010.png") << "not a png";
-  const cv::Mat small = cv::imread(KARLSRUHE + "/left/I1_000011.png", cv::IMREAD_GRAYSCALE)(
-    cv::Rect(0, 0, 640, 300));
+  const cv::Mat small = cv::imread(KARLSRUHE + "/left/I1_000011.png",
+                                   cv::IMREAD_GRAYSCALE)(cv::Rect(0, 0, 640, 300));
   cv::imwrite((dir_ / "left/I1_000011.png").string(), small);
   auto config = parsePipelineConfig(
     karlsruheInput((dir_ / "left/I1_%06d.png").string()) + STAGES, "t.yaml", "/");
@@ -166,16 +193,14 @@ TEST_F(PipelineRunnerTest, UnreadableAndMismatchedImagesAreErrors)
   try {
     runner.run();
     FAIL();
-  }
-  catch (const planar_grid::IOError& e) {
+  } catch (const planar_grid::IOError& e) {
     EXPECT_NE(std::string(e.what()).find("cannot read"), std::string::npos) << e.what();
   }
   runner.setFrameRange(1, 2);
   try {
     runner.run();
     FAIL();
-  }
-  catch (const planar_grid::IOError& e) {
+  } catch (const planar_grid::IOError& e) {
     EXPECT_NE(std::string(e.what()).find("differs"), std::string::npos) << e.what();
   }
 }
@@ -192,15 +217,15 @@ TEST_F(PipelineRunnerTest, PoseFileShorterThanTheFramesIsAnError)
   try {
     planar_grid::PipelineRunner runner(config);
     FAIL() << "a short pose file must be rejected before the run";
-  }
-  catch (const planar_grid::IOError& e) {
+  } catch (const planar_grid::IOError& e) {
     EXPECT_NE(std::string(e.what()).find("poses.txt"), std::string::npos) << e.what();
   }
 }
 
 TEST_F(PipelineRunnerTest, ZeroPointsStopTheRunNamingFrameAndStage)
 {
-  // A max range below the nearest point leaves no valid point: voxel_grid fails fast (S32).
+  // A max range below the nearest point leaves no valid point: voxel_grid fails fast
+  // (S32).
   const std::string stages = "pipeline:\n  - type: stereo_disparity\n"
                              "    params: {max_range_m: 0.1}\n  - type: voxel_grid\n";
   planar_grid::PipelineRunner runner(
@@ -208,8 +233,7 @@ TEST_F(PipelineRunnerTest, ZeroPointsStopTheRunNamingFrameAndStage)
   try {
     runner.run();
     FAIL();
-  }
-  catch (const planar_grid::Exception& e) {
+  } catch (const planar_grid::Exception& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("voxel_grid"), std::string::npos) << what;
     EXPECT_NE(what.find("I1_000010.png"), std::string::npos) << what;
@@ -222,15 +246,17 @@ TEST_F(PipelineRunnerTest, PCDFilesWithViewpointPoses)
   // Two real PCL clouds; the second saved with a known VIEWPOINT translation: after
   // transform_to_world its points are shifted by it.
   pcl::PointCloud<pcl::PointXYZI> cloud;
-  ASSERT_EQ(pcl::io::loadPCDFile(DATA + "/pcl_clouds/pairwise/capture0001.pcd", cloud), 0);
+  ASSERT_EQ(pcl::io::loadPCDFile(DATA + "/pcl_clouds/pairwise/capture0001.pcd", cloud),
+            0);
   cloud.sensor_origin_ = Eigen::Vector4f(0, 0, 0, 1);
   cloud.sensor_orientation_ = Eigen::Quaternionf::Identity();
   pcl::io::savePCDFileBinary((dir_ / "a.pcd").string(), cloud);
   cloud.sensor_origin_ = Eigen::Vector4f(5, 0, 0, 1);
   pcl::io::savePCDFileBinary((dir_ / "b.pcd").string(), cloud);
-  const std::string yaml = "input:\n  type: pcd_files\n  files: [" + (dir_ / "*.pcd").string() +
-                           "]\npipeline:\n  - type: voxel_grid\n    params: {leaf_size_m: 0.05}\n"
-                           "  - type: transform_to_world\n";
+  const std::string yaml =
+    "input:\n  type: pcd_files\n  files: [" + (dir_ / "*.pcd").string()
+    + "]\npipeline:\n  - type: voxel_grid\n    params: {leaf_size_m: 0.05}\n"
+      "  - type: transform_to_world\n";
   planar_grid::PipelineRunner runner(parsePipelineConfig(yaml, "t.yaml", "/"));
   ASSERT_EQ(runner.frameCount(), 2u);
   runner.run();

@@ -15,8 +15,8 @@ using planar_grid::IOError;
 using planar_grid::loadStereoCalibration;
 
 const std::string DATA_DIR = PLANAR_GRID_DATA_DIR;
-const std::string KARLSRUHE_CALIB
-  = DATA_DIR + "/karlsruhe_2010_03_09_drive_0023/calib.txt";
+const std::string KARLSRUHE_CALIB =
+  DATA_DIR + "/karlsruhe_2010_03_09_drive_0023/calib.txt";
 
 /** \brief A fresh temporary folder per test, removed afterwards. */
 class CalibrationIOFiles : public ::testing::Test {
@@ -64,8 +64,8 @@ protected:
 // rows store f, cx, cy with 7 significant digits, so 1e-4 is a print-rounding bound.
 TEST(CalibrationIO, ReadsKarlsruhe)
 {
-  const auto model
-    = loadStereoCalibration(CalibrationFormat::KARLSRUHE, KARLSRUHE_CALIB);
+  const auto model =
+    loadStereoCalibration(CalibrationFormat::KARLSRUHE, KARLSRUHE_CALIB);
   EXPECT_NEAR(model.calibration.focal_length_px, 645.2401, 1e-4);
   EXPECT_NEAR(model.calibration.cx_px, 635.9587, 1e-4);
   EXPECT_NEAR(model.calibration.cy_px, 194.1291, 1e-4);
@@ -80,10 +80,10 @@ TEST(CalibrationIO, ReadsKarlsruhe)
 // rtabmap camera_info: f = 487.60873 px, B = 58.3627 / 487.60873 = 0.11969 m (README).
 TEST(CalibrationIO, ReadsRosCameraInfoPair)
 {
-  const auto model
-    = loadStereoCalibration(CalibrationFormat::ROS_CAMERA_INFO,
-                            DATA_DIR + "/rtabmap_stereo_rect/stereo_left.yaml",
-                            DATA_DIR + "/rtabmap_stereo_rect/stereo_right.yaml");
+  const auto model =
+    loadStereoCalibration(CalibrationFormat::ROS_CAMERA_INFO,
+                          DATA_DIR + "/rtabmap_stereo_rect/stereo_left.yaml",
+                          DATA_DIR + "/rtabmap_stereo_rect/stereo_right.yaml");
   EXPECT_NEAR(model.calibration.focal_length_px, 487.60873, 1e-4);
   EXPECT_NEAR(model.calibration.cx_px, 318.11621, 1e-4);
   EXPECT_NEAR(model.calibration.cy_px, 249.44424, 1e-4);
@@ -114,8 +114,8 @@ TEST(CalibrationIO, ReadsAndRectifiesEuRoCPair)
 
   ASSERT_FALSE(model.rectifier.empty());
   for (const cv::Mat* map :
-       { &model.rectifier.map_left_x, &model.rectifier.map_left_y,
-         &model.rectifier.map_right_x, &model.rectifier.map_right_y }) {
+       {&model.rectifier.map_left_x, &model.rectifier.map_left_y,
+        &model.rectifier.map_right_x, &model.rectifier.map_right_y}) {
     EXPECT_EQ(map->cols, 752);
     EXPECT_EQ(map->rows, 480);
     EXPECT_EQ(map->type(), CV_32FC1);
@@ -163,30 +163,30 @@ TEST_F(CalibrationIOFiles, MissingFileThrowsIOError)
 
 TEST_F(CalibrationIOFiles, MissingRowThrowsIOError)
 {
-  const std::string path
-    = write("calib.txt", "P1_roi: 645.2 0 635.9 0 0 645.2 194.1 0 0 0 1 0\n");
+  const std::string path =
+    write("calib.txt", "P1_roi: 645.2 0 635.9 0 0 645.2 194.1 0 0 0 1 0\n");
   expectIOError(CalibrationFormat::KARLSRUHE, path, "P2_roi");
   // A row with fewer than 12 numbers names the row.
-  const std::string short_row
-    = write("short.txt", "P1_roi: 645.2 0 635.9 0 0 645.2 194.1 0 0 0 1 0\n"
-                         "P2_roi: 645.2 0 635.9 -368.3\n");
+  const std::string short_row =
+    write("short.txt", "P1_roi: 645.2 0 635.9 0 0 645.2 194.1 0 0 0 1 0\n"
+                       "P2_roi: 645.2 0 635.9 -368.3\n");
   expectIOError(CalibrationFormat::KARLSRUHE, short_row, "P2_roi");
 }
 
 TEST_F(CalibrationIOFiles, NonPositiveFocalOrBaselineThrowsIOError)
 {
-  const std::string zero_focal
-    = write("zero_focal.txt", "P1_roi: 0 0 635.9 0 0 645.2 194.1 0 0 0 1 0\n"
-                              "P2_roi: 645.2 0 635.9 -368.3 0 645.2 194.1 0 0 0 1 0\n");
+  const std::string zero_focal =
+    write("zero_focal.txt", "P1_roi: 0 0 635.9 0 0 645.2 194.1 0 0 0 1 0\n"
+                            "P2_roi: 645.2 0 635.9 -368.3 0 645.2 194.1 0 0 0 1 0\n");
   expectIOError(CalibrationFormat::KARLSRUHE, zero_focal, "focal length");
   // P2[0,3] > 0: the "right" camera sits to the left, negative baseline.
-  const std::string negative_baseline = write(
-    "negative_baseline.txt", "P0: 718.8 0 607.2 0 0 718.8 185.2 0 0 0 1 0\n"
-                             "P1: 718.8 0 607.2 386.1 0 718.8 185.2 0 0 0 1 0\n");
+  const std::string negative_baseline =
+    write("negative_baseline.txt", "P0: 718.8 0 607.2 0 0 718.8 185.2 0 0 0 1 0\n"
+                                   "P1: 718.8 0 607.2 386.1 0 718.8 185.2 0 0 0 1 0\n");
   expectIOError(CalibrationFormat::KITTI, negative_baseline, "baseline");
-  const std::string zero_baseline
-    = write("zero_baseline.txt", "P0: 718.8 0 607.2 0 0 718.8 185.2 0 0 0 1 0\n"
-                                 "P1: 718.8 0 607.2 0 0 718.8 185.2 0 0 0 1 0\n");
+  const std::string zero_baseline =
+    write("zero_baseline.txt", "P0: 718.8 0 607.2 0 0 718.8 185.2 0 0 0 1 0\n"
+                               "P1: 718.8 0 607.2 0 0 718.8 185.2 0 0 0 1 0\n");
   expectIOError(CalibrationFormat::KITTI, zero_baseline, "baseline");
 }
 
@@ -196,11 +196,11 @@ TEST_F(CalibrationIOFiles, MissingYamlFieldThrowsIOError)
   const std::string right = DATA_DIR + "/rtabmap_stereo_rect/stereo_right.yaml";
   expectIOError(CalibrationFormat::ROS_CAMERA_INFO, left, "projection_matrix", right);
   // EuRoC file without T_BS.
-  const std::string euroc
-    = write("sensor.yaml", "%YAML:1.0\n"
-                           "resolution: [752, 480]\n"
-                           "intrinsics: [458.6, 457.3, 367.2, 248.4]\n"
-                           "distortion_coefficients: [0, 0, 0, 0]\n");
+  const std::string euroc =
+    write("sensor.yaml", "%YAML:1.0\n"
+                         "resolution: [752, 480]\n"
+                         "intrinsics: [458.6, 457.3, 367.2, 248.4]\n"
+                         "distortion_coefficients: [0, 0, 0, 0]\n");
   expectIOError(CalibrationFormat::EUROC, euroc, "T_BS", euroc);
 }
 

@@ -128,22 +128,22 @@ TEST(DisparityEstimator, RejectsInvalidParams)
 {
   DisparityEstimator::Params params;
   params.num_disparities_px = 100; // not a multiple of 16
-  EXPECT_THROW(DisparityEstimator{ params }, planar_grid::Exception);
+  EXPECT_THROW(DisparityEstimator{params}, planar_grid::Exception);
   params.num_disparities_px = 0;
-  EXPECT_THROW(DisparityEstimator{ params }, planar_grid::Exception);
+  EXPECT_THROW(DisparityEstimator{params}, planar_grid::Exception);
   params = DisparityEstimator::Params();
   params.block_size_px = 4; // even
-  EXPECT_THROW(DisparityEstimator{ params }, planar_grid::Exception);
+  EXPECT_THROW(DisparityEstimator{params}, planar_grid::Exception);
   params.block_size_px = 13; // > 11
-  EXPECT_THROW(DisparityEstimator{ params }, planar_grid::Exception);
+  EXPECT_THROW(DisparityEstimator{params}, planar_grid::Exception);
   params = DisparityEstimator::Params();
   params.p1 = 600;
   params.p2 = 500; // p2 must exceed p1
-  EXPECT_THROW(DisparityEstimator{ params }, planar_grid::Exception);
+  EXPECT_THROW(DisparityEstimator{params}, planar_grid::Exception);
   params = DisparityEstimator::Params();
   params.uniqueness_ratio_percent = 101;
-  EXPECT_THROW(DisparityEstimator{ params }, planar_grid::Exception);
-  EXPECT_NO_THROW(DisparityEstimator{ DisparityEstimator::Params() });
+  EXPECT_THROW(DisparityEstimator{params}, planar_grid::Exception);
+  EXPECT_NO_THROW(DisparityEstimator{DisparityEstimator::Params()});
 }
 
 TEST(DisparityEstimator, RejectsBadImages)

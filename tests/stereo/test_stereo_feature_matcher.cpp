@@ -24,8 +24,8 @@ using planar_grid::StereoCalibration;
 using planar_grid::StereoFeatureMatcher;
 using planar_grid::StereoFeatures;
 
-const std::string KARLSRUHE_DIR
-  = std::string(PLANAR_GRID_DATA_DIR) + "/karlsruhe_2010_03_09_drive_0023";
+const std::string KARLSRUHE_DIR =
+  std::string(PLANAR_GRID_DATA_DIR) + "/karlsruhe_2010_03_09_drive_0023";
 
 /** \brief Karlsruhe frame 10 and its calibration, loaded once per test. */
 class StereoFeatureMatcherKarlsruhe : public ::testing::Test {
@@ -36,10 +36,10 @@ protected:
     right_ = cv::imread(KARLSRUHE_DIR + "/right/I2_000010.png", cv::IMREAD_UNCHANGED);
     ASSERT_FALSE(left_.empty());
     ASSERT_FALSE(right_.empty());
-    calibration_
-      = planar_grid::loadStereoCalibration(planar_grid::CalibrationFormat::KARLSRUHE,
-                                           KARLSRUHE_DIR + "/calib.txt")
-          .calibration;
+    calibration_ =
+      planar_grid::loadStereoCalibration(planar_grid::CalibrationFormat::KARLSRUHE,
+                                         KARLSRUHE_DIR + "/calib.txt")
+        .calibration;
   }
 
   /** \brief The left image shifted left by \a shift_px columns (blank on the right): a
@@ -123,13 +123,13 @@ TEST_F(StereoFeatureMatcherKarlsruhe, SIFTRecoversKnownShift)
     const cv::KeyPoint& kr = features.keypoints_right[i];
     const int octave = static_cast<signed char>(kl.octave & 0xff);
     const double step_px = std::pow(2.0, octave);
-    const float error
-      = std::abs(features.disparities[i] - static_cast<float>(shift_px));
+    const float error =
+      std::abs(features.disparities[i] - static_cast<float>(shift_px));
     EXPECT_LE(std::abs(kl.pt.y - kr.pt.y), 1.0f);
     const float margin_px = 3.0f * kr.size;
-    const bool clear_of_border
-      = kr.pt.x > margin_px
-        && kr.pt.x < static_cast<float>(left_.cols - shift_px) - margin_px;
+    const bool clear_of_border =
+      kr.pt.x > margin_px
+      && kr.pt.x < static_cast<float>(left_.cols - shift_px) - margin_px;
     if (octave <= 3 && clear_of_border) {
       ++exact_checked;
       EXPECT_LE(error, 0.5f) << "at " << kl.pt << " octave " << octave;
@@ -162,8 +162,8 @@ TEST_F(StereoFeatureMatcherKarlsruhe, ORBRecoversKnownShift)
   std::size_t exact_checked = 0, beyond_step = 0;
   for (std::size_t i = 0; i < features.size(); ++i) {
     const cv::KeyPoint& kl = features.keypoints_left[i];
-    const float error
-      = std::abs(features.disparities[i] - static_cast<float>(shift_px));
+    const float error =
+      std::abs(features.disparities[i] - static_cast<float>(shift_px));
     EXPECT_LE(std::abs(kl.pt.y - features.keypoints_right[i].pt.y), 1.0f);
     if (kl.octave <= 1) {
       ++exact_checked;
@@ -202,8 +202,8 @@ medianRelativeDepthDifference(const StereoFeatures& features,
   compared = differences.size();
   if (differences.empty())
     return std::numeric_limits<double>::infinity();
-  const auto middle
-    = differences.begin() + static_cast<std::ptrdiff_t>(differences.size() / 2);
+  const auto middle =
+    differences.begin() + static_cast<std::ptrdiff_t>(differences.size() / 2);
   std::nth_element(differences.begin(), middle, differences.end());
   return *middle;
 }
@@ -222,7 +222,7 @@ TEST_F(StereoFeatureMatcherKarlsruhe, RealPairAgreesWithSGBM)
 {
   cv::Mat disparity;
   planar_grid::DisparityEstimator().compute(left_, right_, disparity);
-  for (const FeatureType type : { FeatureType::SIFT, FeatureType::ORB }) {
+  for (const FeatureType type : {FeatureType::SIFT, FeatureType::ORB}) {
     const auto params = paramsFor(type);
     const StereoFeatureMatcher matcher(params);
     StereoFeatures features;
@@ -233,8 +233,8 @@ TEST_F(StereoFeatureMatcherKarlsruhe, RealPairAgreesWithSGBM)
                                 .count();
     expectConsistent(features, params, calibration_);
     std::size_t compared = 0;
-    const double median_difference
-      = medianRelativeDepthDifference(features, disparity, calibration_, compared);
+    const double median_difference =
+      medianRelativeDepthDifference(features, disparity, calibration_, compared);
     const char* name = type == FeatureType::SIFT ? "SIFT" : "ORB";
     std::cout << "[ Karlsruhe 10 ] " << name << ": " << features.size()
               << " matches in " << elapsed_ms << " ms; median |dz|/z vs SGBM "
@@ -255,8 +255,8 @@ bruteForceMatches(const std::vector<cv::KeyPoint>& keypoints_left,
                   const cv::Mat& descriptors_right,
                   const StereoFeatureMatcher::Params& params)
 {
-  const int norm
-    = params.feature_type == FeatureType::SIFT ? cv::NORM_L2 : cv::NORM_HAMMING;
+  const int norm =
+    params.feature_type == FeatureType::SIFT ? cv::NORM_L2 : cv::NORM_HAMMING;
   std::vector<int> match_of_left(keypoints_left.size(), -1);
   std::vector<double> owner_distance(keypoints_right.size(),
                                      std::numeric_limits<double>::infinity());
@@ -270,9 +270,9 @@ bruteForceMatches(const std::vector<cv::KeyPoint>& keypoints_left,
       if (std::abs(dy) > params.max_row_difference_px || !(d > 0.0)
           || d > params.max_disparity_px)
         continue;
-      const double distance
-        = cv::norm(descriptors_left.row(static_cast<int>(i)),
-                   descriptors_right.row(static_cast<int>(j)), norm);
+      const double distance =
+        cv::norm(descriptors_left.row(static_cast<int>(i)),
+                 descriptors_right.row(static_cast<int>(j)), norm);
       if (distance < best) {
         second = best;
         best = distance;
@@ -303,7 +303,7 @@ bruteForceMatches(const std::vector<cv::KeyPoint>& keypoints_left,
 // descriptor distances tie-break identically (strict <), so the sets must be equal.
 TEST_F(StereoFeatureMatcherKarlsruhe, BucketedMatchingEqualsBruteForce)
 {
-  for (const FeatureType type : { FeatureType::SIFT, FeatureType::ORB }) {
+  for (const FeatureType type : {FeatureType::SIFT, FeatureType::ORB}) {
     auto params = paramsFor(type);
     params.max_range_m = 1e6;
     StereoFeatures features;
@@ -325,10 +325,10 @@ TEST_F(StereoFeatureMatcherKarlsruhe, BucketedMatchingEqualsBruteForce)
     ASSERT_EQ(features.size(), expected.size())
       << (type == FeatureType::SIFT ? "SIFT" : "ORB");
     for (std::size_t k = 0; k < expected.size(); ++k) {
-      const cv::Point2f& el
-        = keypoints_left[static_cast<std::size_t>(expected[k].first)].pt;
-      const cv::Point2f& er
-        = keypoints_right[static_cast<std::size_t>(expected[k].second)].pt;
+      const cv::Point2f& el =
+        keypoints_left[static_cast<std::size_t>(expected[k].first)].pt;
+      const cv::Point2f& er =
+        keypoints_right[static_cast<std::size_t>(expected[k].second)].pt;
       EXPECT_EQ(features.keypoints_left[k].pt, el);
       EXPECT_EQ(features.keypoints_right[k].pt, er);
       // Descriptor rows are copied for the kept matches.
@@ -346,7 +346,7 @@ TEST(StereoFeatureMatcher, BlankImagesGiveNoFeatures)
   calibration.focal_length_px = 500.0;
   calibration.baseline_m = 0.5;
   const cv::Mat blank(200, 300, CV_8UC1, cv::Scalar(100));
-  for (const FeatureType type : { FeatureType::SIFT, FeatureType::ORB }) {
+  for (const FeatureType type : {FeatureType::SIFT, FeatureType::ORB}) {
     StereoFeatureMatcher::Params params;
     params.feature_type = type;
     StereoFeatures features;
@@ -374,13 +374,13 @@ TEST(StereoFeatureMatcher, RejectsBadInput)
 
   StereoFeatureMatcher::Params params;
   params.ratio = 0.0;
-  EXPECT_THROW(StereoFeatureMatcher{ params }, planar_grid::Exception);
+  EXPECT_THROW(StereoFeatureMatcher{params}, planar_grid::Exception);
   params = StereoFeatureMatcher::Params();
   params.max_features = 0;
-  EXPECT_THROW(StereoFeatureMatcher{ params }, planar_grid::Exception);
+  EXPECT_THROW(StereoFeatureMatcher{params}, planar_grid::Exception);
   params = StereoFeatureMatcher::Params();
   params.max_disparity_px = -1.0;
-  EXPECT_THROW(StereoFeatureMatcher{ params }, planar_grid::Exception);
+  EXPECT_THROW(StereoFeatureMatcher{params}, planar_grid::Exception);
 
   EXPECT_EQ(planar_grid::featureTypeFromString("sift"), FeatureType::SIFT);
   EXPECT_EQ(planar_grid::featureTypeFromString("orb"), FeatureType::ORB);

@@ -21,8 +21,8 @@ namespace fs = std::filesystem;
 
 /** \brief An RGB image read back from a PNG; row 0 is the TOP row of the picture. */
 struct Image {
-  int width{ 0 };
-  int height{ 0 };
+  int width{0};
+  int height{0};
   vtkSmartPointer<vtkImageData> data;
 
   std::array<int, 3> at(int x, int y_from_top) const
@@ -30,7 +30,7 @@ struct Image {
     // VTK images start at the bottom-left corner.
     const auto* p = static_cast<const unsigned char*>(
       data->GetScalarPointer(x, height - 1 - y_from_top, 0));
-    return { p[0], p[1], p[2] };
+    return {p[0], p[1], p[2]};
   }
 };
 
@@ -97,10 +97,10 @@ protected:
   {
     if (!planar_grid::hasDisplay())
       GTEST_SKIP() << "no X display; run under xvfb-run -a";
-    const std::string name
-      = std::string("planar_grid_test_viz_")
-        + ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_"
-        + std::to_string(::getpid());
+    const std::string name =
+      std::string("planar_grid_test_viz_")
+      + ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_"
+      + std::to_string(::getpid());
     dir_ = fs::temp_directory_path() / name;
     fs::create_directories(dir_);
   }
@@ -233,7 +233,7 @@ TEST_F(SceneRendererTest, PresetsFrameTheWholeScene)
   renderer.addPointCloud(cloud, planar_grid::ColorMode::SOLID, 2.0,
                          Eigen::Vector3d(1.0, 0.0, 0.0));
   for (const auto preset :
-       { planar_grid::CameraPreset::TOP, planar_grid::CameraPreset::OBLIQUE }) {
+       {planar_grid::CameraPreset::TOP, planar_grid::CameraPreset::OBLIQUE}) {
     renderer.setCamera(preset);
     const std::string path = (dir_ / "preset.png").string();
     renderer.saveSnapshot(path, 320, 240);
@@ -244,8 +244,8 @@ TEST_F(SceneRendererTest, PresetsFrameTheWholeScene)
       for (int x = 0; x < image.width; ++x)
         if (isRed(image.at(x, y))) {
           ++red;
-          red_on_border
-            |= x == 0 || y == 0 || x == image.width - 1 || y == image.height - 1;
+          red_on_border |=
+            x == 0 || y == 0 || x == image.width - 1 || y == image.height - 1;
         }
     EXPECT_GT(red, 2000) << "preset " << static_cast<int>(preset);
     EXPECT_FALSE(red_on_border)
@@ -258,7 +258,7 @@ TEST_F(SceneRendererTest, TrajectoryAndTextRender)
 {
   planar_grid::SceneRenderer renderer;
   renderer.addTrajectory(
-    { Eigen::Vector3d(-2.0, 0.0, 0.0), Eigen::Vector3d(2.0, 0.0, 0.0) },
+    {Eigen::Vector3d(-2.0, 0.0, 0.0), Eigen::Vector3d(2.0, 0.0, 0.0)},
     Eigen::Vector3d(0.0, 1.0, 0.0), 5.0);
   renderer.addText("trajectory");
   renderer.setCamera(topCamera());
@@ -286,7 +286,7 @@ TEST_F(SceneRendererTest, DegenerateInputAddsNothingAndStillRenders)
   for (auto& p : nans.points)
     p.x = std::numeric_limits<float>::quiet_NaN();
   renderer.addPointCloud(nans);
-  renderer.addTrajectory({ Eigen::Vector3d::Zero() });
+  renderer.addTrajectory({Eigen::Vector3d::Zero()});
   renderer.setCamera(planar_grid::CameraPreset::OBLIQUE);
   const std::string path = (dir_ / "empty.png").string();
   renderer.saveSnapshot(path, 64, 48);
@@ -326,9 +326,9 @@ TEST(SceneRenderer, WithoutDisplayHasDisplayIsFalseAndSnapshotThrows)
   EXPECT_FALSE(planar_grid::hasDisplay());
   planar_grid::SceneRenderer renderer;
   renderer.addPointCloud(squarePatch(0.0, 0.0, 1.0));
-  const fs::path path
-    = fs::temp_directory_path()
-      / ("planar_grid_test_viz_nodisplay_" + std::to_string(::getpid()) + ".png");
+  const fs::path path =
+    fs::temp_directory_path()
+    / ("planar_grid_test_viz_nodisplay_" + std::to_string(::getpid()) + ".png");
   EXPECT_THROW(renderer.saveSnapshot(path.string(), 64, 48), planar_grid::Exception);
   EXPECT_FALSE(fs::exists(path));
   if (saved != nullptr)

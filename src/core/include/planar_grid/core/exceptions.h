@@ -7,42 +7,33 @@
 namespace planar_grid {
 
 /** \brief Base of every exception PlanarGrid throws (S25): programmer, configuration
-  * and I/O errors, never data-dependent failures inside an algorithm.
-  * \ingroup core */
+ * and I/O errors, never data-dependent failures inside an algorithm.
+ * \ingroup core */
 class Exception : public std::runtime_error {
 public:
   explicit Exception(const std::string& what) : std::runtime_error(what) {}
 };
 
 /** \brief A configuration error at a place in a YAML file.
-  * what() reads "<file>:<line>:<col>: <message>" (line and column 1-based, as editors
-  * count; omitted when unknown). \ingroup core */
+ * what() reads "<file>:<line>:<col>: <message>" (line and column 1-based, as editors
+ * count; omitted when unknown). \ingroup core */
 class ConfigError : public Exception {
 public:
   /** \param[in] file the YAML file ("" when parsed from a string)
-    * \param[in] line 1-based line, or 0 when unknown
-    * \param[in] column 1-based column, or 0 when unknown
-    * \param[in] message what was wrong and what was expected */
-  ConfigError(const std::string& file, int line, int column, const std::string& message);
+   * \param[in] line 1-based line, or 0 when unknown
+   * \param[in] column 1-based column, or 0 when unknown
+   * \param[in] message what was wrong and what was expected */
+  ConfigError(const std::string& file,
+              int line,
+              int column,
+              const std::string& message);
 
   /** \brief The file named in the error ("" when none). */
-  const std::string&
-  file() const
-  {
-    return file_;
-  }
+  const std::string& file() const { return file_; }
   /** \brief 1-based line, 0 when unknown. */
-  int
-  line() const
-  {
-    return line_;
-  }
+  int line() const { return line_; }
   /** \brief 1-based column, 0 when unknown. */
-  int
-  column() const
-  {
-    return column_;
-  }
+  int column() const { return column_; }
 
 private:
   std::string file_;
@@ -51,7 +42,7 @@ private:
 };
 
 /** \brief A file that is missing, unreadable, truncated or malformed; what() names it.
-  * \ingroup core */
+ * \ingroup core */
 class IOError : public Exception {
 public:
   explicit IOError(const std::string& what) : Exception(what) {}

@@ -6,12 +6,12 @@
 namespace planar_grid {
 
 /** \brief Intrinsics of a rectified stereo pair: both cameras share the focal length
-  * and principal point, and the right camera sits baseline_m along +x of the left one.
-  *
-  * A pixel (u, v) of the left image with disparity d (px) lies at
-  * z = focal_length_px * baseline_m / d, x = (u - cx_px) z / focal_length_px,
-  * y = (v - cy_px) z / focal_length_px in the left camera frame (x right, y down,
-  * z forward, metres). \ingroup core */
+ * and principal point, and the right camera sits baseline_m along +x of the left one.
+ *
+ * A pixel (u, v) of the left image with disparity d (px) lies at
+ * z = focal_length_px * baseline_m / d, x = (u - cx_px) z / focal_length_px,
+ * y = (v - cy_px) z / focal_length_px in the left camera frame (x right, y down,
+ * z forward, metres). \ingroup core */
 struct StereoCalibration {
   /** \brief Focal length of the rectified cameras, in pixels (> 0). */
   double focal_length_px{0.0};
@@ -27,19 +27,16 @@ struct StereoCalibration {
   int height{0};
 
   /** \brief Throws planar_grid::IOError naming \a source when the focal length or
-    * baseline is not a finite positive number, or the image size is negative.
-    * \param[in] source the file the calibration came from, for the message */
-  void
-  validate(const std::string& source) const;
+   * baseline is not a finite positive number, or the image size is negative.
+   * \param[in] source the file the calibration came from, for the message */
+  void validate(const std::string& source) const;
 
   /** \brief Depth in metres of a disparity in pixels (z = f B / d); +inf for d <= 0. */
-  double
-  depthFromDisparity(double disparity_px) const;
+  double depthFromDisparity(double disparity_px) const;
 
   /** \brief Stereo depth error in metres at depth z for a disparity error in pixels:
-    * dz = z^2 / (B f) * dd (paper, Sec. III-D, after eq. 4). */
-  double
-  depthError(double depth_m, double disparity_error_px = 0.5) const;
+   * dz = z^2 / (B f) * dd (paper, Sec. III-D, after eq. 4). */
+  double depthError(double depth_m, double disparity_error_px = 0.5) const;
 };
 
 } // namespace planar_grid

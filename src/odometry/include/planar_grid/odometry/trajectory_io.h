@@ -12,8 +12,8 @@ namespace planar_grid {
 /** \brief Camera poses world_T_camera, one per frame: a camera-frame point p (x right,
  * y down, z forward, metres) is at world_T_camera * p in the world frame.
  * \ingroup odometry */
-using Trajectory
-  = std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>;
+using Trajectory =
+  std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>;
 
 /** \brief Reads a Karlsruhe `insdata.txt` (one line per frame:
  * timestamp_ns lat_deg lon_deg alt_m x_m y_m z_m roll pitch yaw) into camera poses.

@@ -32,12 +32,13 @@ struct Frame {
   cv::Mat disparity;
 
   /** \brief The working cloud: in the camera frame (x right, y down, z forward, metres)
-    * until transform_to_world, in the world frame after it. */
+   * until transform_to_world, in the world frame after it. */
   Cloud::Ptr cloud;
   /** \brief True once `cloud` is in the world frame. */
   bool cloud_in_world_frame{false};
 
-  /** \brief Matched 3D key feature points in the camera frame (after feature_matching). */
+  /** \brief Matched 3D key feature points in the camera frame (after feature_matching).
+   */
   StereoFeatures features;
 
   /** \brief world_T_camera when the input gives poses. */

@@ -17,29 +17,24 @@ public:
   virtual ~FrameSource() = default;
 
   /** \brief Number of frames. */
-  virtual std::size_t
-  size() const = 0;
+  virtual std::size_t size() const = 0;
 
-  /** \brief Loads frame \a i (0-based) into \a frame (images or cloud, calibration, pose).
-    * \throws planar_grid::IOError naming the file when it is missing, unreadable, or of
-    *         the wrong size */
-  virtual void
-  load(std::size_t i, Frame& frame) const = 0;
+  /** \brief Loads frame \a i (0-based) into \a frame (images or cloud, calibration,
+   * pose). \throws planar_grid::IOError naming the file when it is missing, unreadable,
+   * or of the wrong size */
+  virtual void load(std::size_t i, Frame& frame) const = 0;
 
   /** \brief A short description for the console ("112 stereo pairs from ..."). */
-  virtual std::string
-  describe() const = 0;
+  virtual std::string describe() const = 0;
 
   /** \brief The poses of all frames (empty when the input has none). */
-  virtual const Trajectory&
-  poses() const = 0;
+  virtual const Trajectory& poses() const = 0;
 };
 
 /** \brief The frame source of an input configuration: checks that the files exist, that
-  * the calibration loads and that there are as many poses as frames (a shorter pose file
-  * is an error) before any frame is processed.
-  * \throws planar_grid::IOError, planar_grid::ConfigError */
-std::unique_ptr<FrameSource>
-createFrameSource(const InputConfig& input);
+ * the calibration loads and that there are as many poses as frames (a shorter pose file
+ * is an error) before any frame is processed.
+ * \throws planar_grid::IOError, planar_grid::ConfigError */
+std::unique_ptr<FrameSource> createFrameSource(const InputConfig& input);
 
 } // namespace planar_grid

@@ -20,7 +20,7 @@ struct InputConfig {
   Type type{Type::STEREO_SEQUENCE};
 
   /** \brief Left / right image paths with one printf-style index field (%d or %0Nd),
-    * resolved against the config file's folder. */
+   * resolved against the config file's folder. */
   std::string left_images;
   std::string right_images;
   /** \brief Index of the first frame in the file names. */
@@ -28,23 +28,31 @@ struct InputConfig {
   /** \brief Number of frames; 0 = every index until the first missing left image. */
   int frame_count{0};
 
-  /** \brief Calibration: format (karlsruhe, kitti, ros_camera_info, euroc) and file(s). */
+  /** \brief Calibration: format (karlsruhe, kitti, ros_camera_info, euroc) and file(s).
+   */
   std::string calibration_format;
   std::string calibration_file;
   std::string calibration_right_file;
 
-  /** \brief Poses: "none", "karlsruhe_insdata", "kitti" (world_T_camera per frame) or, for
-    * PCD input, "viewpoint" (default there). */
+  /** \brief Poses: "none", "karlsruhe_insdata", "kitti" (world_T_camera per frame) or,
+   * for PCD input, "viewpoint" (default there). */
   std::string poses_format{"none"};
   std::string poses_file;
+  /** \brief karlsruhe_insdata only: the camera's height above the road, metres (the
+   * world origin is put on the road below the first pose, so the ground is at z = 0).
+   */
+  double camera_height_m{0.0};
+  /** \brief karlsruhe_insdata only: the camera's downward pitch from level, radians
+   * (positive = looking down); the insdata poses are level along the track. */
+  double camera_pitch_rad{0.0};
 
   /** \brief PCD input: files or glob patterns, resolved against the config's folder and
-    * sorted by name within each pattern. */
+   * sorted by name within each pattern. */
   std::vector<std::string> pcd_files;
 };
 
-/** \brief One configured stage: its type, its parsed parameters, and where it was given.
-  * \ingroup pipeline */
+/** \brief One configured stage: its type, its parsed parameters, and where it was
+ * given. \ingroup pipeline */
 struct StageConfig {
   std::string type;
   ParamValues params;
@@ -53,7 +61,7 @@ struct StageConfig {
 };
 
 /** \brief What the run writes, in `folder` (resolved against the current directory;
-  * overridable with --output). \ingroup pipeline */
+ * overridable with --output). \ingroup pipeline */
 struct OutputConfig {
   std::string folder{"output"};
   /** \brief Accumulated world cloud, binary-compressed PCD ("" = none). */
@@ -70,7 +78,8 @@ struct OutputConfig {
   std::array<int, 2> snapshot_size_px{{1600, 1000}};
 };
 
-/** \brief A whole pipeline configuration (schema in config/example.yaml). \ingroup pipeline */
+/** \brief A whole pipeline configuration (schema in config/example.yaml). \ingroup
+ * pipeline */
 struct PipelineConfig {
   /** \brief The file it was loaded from. */
   std::string source_file;
@@ -79,18 +88,17 @@ struct PipelineConfig {
   OutputConfig output;
 };
 
-/** \brief Loads and validates a pipeline YAML file strictly (S31): unknown keys, unknown
-  * stage types (the message lists the known ones), wrong types and out-of-range values
-  * are planar_grid::ConfigError with file:line:col. Relative input paths are resolved
-  * against the file's folder. \throws planar_grid::ConfigError, planar_grid::IOError */
-PipelineConfig
-loadPipelineConfig(const std::string& path);
+/** \brief Loads and validates a pipeline YAML file strictly (S31): unknown keys,
+ * unknown stage types (the message lists the known ones), wrong types and out-of-range
+ * values are planar_grid::ConfigError with file:line:col. Relative input paths are
+ * resolved against the file's folder. \throws planar_grid::ConfigError,
+ * planar_grid::IOError */
+PipelineConfig loadPipelineConfig(const std::string& path);
 
-/** \brief As loadPipelineConfig() from YAML text; \a source_name is used in messages and
-  * \a base_folder to resolve relative paths. */
-PipelineConfig
-parsePipelineConfig(const std::string& yaml_text,
-                    const std::string& source_name,
-                    const std::string& base_folder);
+/** \brief As loadPipelineConfig() from YAML text; \a source_name is used in messages
+ * and \a base_folder to resolve relative paths. */
+PipelineConfig parsePipelineConfig(const std::string& yaml_text,
+                                   const std::string& source_name,
+                                   const std::string& base_folder);
 
 } // namespace planar_grid

@@ -21,14 +21,13 @@ struct StageReport {
   double total_ms{0.0};
   double max_ms{0.0};
   /** \brief Valid points entering and leaving the stage, summed over frames (for stages
-    * that work on the cloud). */
+   * that work on the cloud). */
   std::uint64_t points_in{0};
   std::uint64_t points_out{0};
   /** \brief Matched 3D features per frame, summed (feature_matching). */
   std::uint64_t features{0};
 
-  double
-  meanMs() const
+  double meanMs() const
   {
     return frames ? total_ms / static_cast<double>(frames) : 0.0;
   }
@@ -50,19 +49,16 @@ struct RunReport {
   /** \brief Output files written, by kind (cloud, trajectory, snapshot, report). */
   std::vector<std::pair<std::string, std::string>> outputs;
 
-  double
-  framesPerSecond() const
+  double framesPerSecond() const
   {
     return seconds > 0.0 ? static_cast<double>(frames) / seconds : 0.0;
   }
 
   /** \brief The report as JSON text (the report.json schema). */
-  std::string
-  toJson() const;
+  std::string toJson() const;
 
   /** \brief The per-stage timing table for the terminal. */
-  std::string
-  timingTable() const;
+  std::string timingTable() const;
 };
 
 /** \brief Runs a configured pipeline over a range of frames. \ingroup pipeline */
@@ -72,43 +68,31 @@ public:
   using ProgressCallback = std::function<void(std::size_t, std::size_t, double)>;
 
   /** \brief Builds the stages and opens the input.
-    * \throws planar_grid::ConfigError, planar_grid::IOError */
+   * \throws planar_grid::ConfigError, planar_grid::IOError */
   explicit PipelineRunner(const PipelineConfig& config);
   ~PipelineRunner();
 
   /** \brief Number of frames in the input. */
-  std::size_t
-  frameCount() const;
+  std::size_t frameCount() const;
 
   /** \brief Restricts the run to frames [begin, end) (0-based positions).
-    * \throws planar_grid::Exception when the range is empty or outside the input */
-  void
-  setFrameRange(std::size_t begin, std::size_t end);
+   * \throws planar_grid::Exception when the range is empty or outside the input */
+  void setFrameRange(std::size_t begin, std::size_t end);
 
-  void
-  setProgressCallback(ProgressCallback callback)
+  void setProgressCallback(ProgressCallback callback)
   {
     progress_ = std::move(callback);
   }
 
   /** \brief Runs every frame of the range through every stage.
-    * \throws planar_grid::Exception naming the frame and stage on failure */
-  RunReport
-  run();
+   * \throws planar_grid::Exception naming the frame and stage on failure */
+  RunReport run();
 
   /** \brief The shared state (accumulated world cloud) after run(). */
-  const PipelineState&
-  state() const
-  {
-    return state_;
-  }
+  const PipelineState& state() const { return state_; }
 
   /** \brief The poses of the frames that ran (world_T_camera), in order. */
-  const Trajectory&
-  trajectory() const
-  {
-    return trajectory_;
-  }
+  const Trajectory& trajectory() const { return trajectory_; }
 
 private:
   PipelineConfig config_;

@@ -11,39 +11,34 @@
 
 namespace planar_grid {
 
-/** \brief What the stages share across frames: the accumulated world cloud. \ingroup pipeline */
+/** \brief What the stages share across frames: the accumulated world cloud. \ingroup
+ * pipeline */
 struct PipelineState {
   /** \brief The accumulated cloud in the world frame (accumulate stage). */
   Frame::Cloud::Ptr world_cloud{new Frame::Cloud};
 };
 
-/** \brief One step of the pipeline, applied to every frame in order. \ingroup pipeline */
+/** \brief One step of the pipeline, applied to every frame in order. \ingroup pipeline
+ */
 class Stage {
 public:
   virtual ~Stage() = default;
 
   /** \brief Processes one frame.
-    * \throws planar_grid::Exception when the frame cannot be processed (e.g. the stage
-    *         receives 0 points, S32); the run stops with a message naming the frame */
-  virtual void
-  process(Frame& frame, PipelineState& state) = 0;
+   * \throws planar_grid::Exception when the frame cannot be processed (e.g. the stage
+   *         receives 0 points, S32); the run stops with a message naming the frame */
+  virtual void process(Frame& frame, PipelineState& state) = 0;
 
   /** \brief Called once after the last frame. */
-  virtual void
-  finish(PipelineState& /*state*/)
-  {}
+  virtual void finish(PipelineState& /*state*/) {}
 
   /** \brief Points this stage measures in and out of each frame (for the report): the
-    * working cloud's valid points by default. */
-  virtual bool
-  countsCloudPoints() const
-  {
-    return true;
-  }
+   * working cloud's valid points by default. */
+  virtual bool countsCloudPoints() const { return true; }
 };
 
 /** \brief A stage type: its name, what it does, its parameter table and a factory.
-  * \ingroup pipeline */
+ * \ingroup pipeline */
 struct StageInfo {
   std::string type;
   std::string description;
@@ -56,16 +51,13 @@ struct StageInfo {
 };
 
 /** \brief Every stage type, in a fixed order (the registry; no static-initialiser
-  * registration, S45). */
-const std::vector<StageInfo>&
-stageRegistry();
+ * registration, S45). */
+const std::vector<StageInfo>& stageRegistry();
 
 /** \brief The registry entry of \a type, or nullptr. */
-const StageInfo*
-findStage(const std::string& type);
+const StageInfo* findStage(const std::string& type);
 
 /** \brief The known stage types, comma-separated (for error messages). */
-std::string
-knownStageTypes();
+std::string knownStageTypes();
 
 } // namespace planar_grid

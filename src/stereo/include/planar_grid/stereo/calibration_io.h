@@ -11,27 +11,27 @@ namespace planar_grid {
 
 /** \brief The calibration file formats PlanarGrid reads. \ingroup stereo */
 enum class CalibrationFormat {
-  /** Karlsruhe stereo sequences' calib.txt: rows "P1_roi:" and "P2_roi:" (3x4, row-major)
-    * for the cropped rectified images. */
+  /** Karlsruhe stereo sequences' calib.txt: rows "P1_roi:" and "P2_roi:" (3x4,
+   * row-major) for the cropped rectified images. */
   KARLSRUHE,
   /** KITTI odometry calib.txt: rows "P0:" and "P1:" (3x4, row-major), rectified. */
   KITTI,
   /** A pair of ROS camera_info YAML files (rectified): left and right, with
-    * image_width, image_height and projection_matrix (3x4); B = -P_right[0,3] / P_right[0,0]. */
+   * image_width, image_height and projection_matrix (3x4); B = -P_right[0,3] /
+   * P_right[0,0]. */
   ROS_CAMERA_INFO,
   /** A pair of EuRoC sensor.yaml files: intrinsics [fu, fv, cu, cv], radial-tangential
-    * distortion, resolution and T_BS (camera to body); distorted and not rectified, so
-    * they are rectified here with OpenCV (stereoRectify, alpha = 0). */
+   * distortion, resolution and T_BS (camera to body); distorted and not rectified, so
+   * they are rectified here with OpenCV (stereoRectify, alpha = 0). */
   EUROC
 };
 
 /** \brief Parses "karlsruhe", "kitti", "ros_camera_info" or "euroc"; throws
-  * planar_grid::Exception listing the known names otherwise. */
-CalibrationFormat
-calibrationFormatFromString(const std::string& name);
+ * planar_grid::Exception listing the known names otherwise. */
+CalibrationFormat calibrationFormatFromString(const std::string& name);
 
 /** \brief Undistortion and rectification maps for a raw stereo pair (empty for pairs
-  * that are already rectified). \ingroup stereo */
+ * that are already rectified). \ingroup stereo */
 struct StereoRectifier {
   /** \brief cv::initUndistortRectifyMap maps (CV_32FC1) of the left camera. */
   cv::Mat map_left_x, map_left_y;
@@ -39,26 +39,21 @@ struct StereoRectifier {
   cv::Mat map_right_x, map_right_y;
 
   /** \brief True when the pair needs no rectification. */
-  bool
-  empty() const
-  {
-    return map_left_x.empty();
-  }
+  bool empty() const { return map_left_x.empty(); }
 
   /** \brief Remaps a raw pair into the rectified pair (bilinear); copies when empty().
-    * \param[in] left raw left image, the size the calibration was made for
-    * \param[in] right raw right image, same size
-    * \param[out] left_rectified rectified left image
-    * \param[out] right_rectified rectified right image */
-  void
-  rectify(const cv::Mat& left,
-          const cv::Mat& right,
-          cv::Mat& left_rectified,
-          cv::Mat& right_rectified) const;
+   * \param[in] left raw left image, the size the calibration was made for
+   * \param[in] right raw right image, same size
+   * \param[out] left_rectified rectified left image
+   * \param[out] right_rectified rectified right image */
+  void rectify(const cv::Mat& left,
+               const cv::Mat& right,
+               cv::Mat& left_rectified,
+               cv::Mat& right_rectified) const;
 };
 
 /** \brief A calibrated stereo camera: the rectified intrinsics and, for raw pairs, the
-  * maps that rectify its images. \ingroup stereo */
+ * maps that rectify its images. \ingroup stereo */
 struct StereoCameraModel {
   /** \brief Rectified intrinsics (f, cx, cy in px, baseline in m, image size). */
   StereoCalibration calibration;
@@ -67,16 +62,16 @@ struct StereoCameraModel {
 };
 
 /** \brief Loads a stereo calibration.
-  * \param[in] format the file format
-  * \param[in] path the calibration file (KARLSRUHE, KITTI) or the left camera's file
-  *            (ROS_CAMERA_INFO, EUROC)
-  * \param[in] right_path the right camera's file (ROS_CAMERA_INFO, EUROC); ignored otherwise
-  * \return the rectified model; its calibration passes StereoCalibration::validate()
-  * \throws planar_grid::IOError naming the file (and the field) when the file is missing,
-  *         unreadable, lacks a field, or gives a non-positive focal length or baseline */
-StereoCameraModel
-loadStereoCalibration(CalibrationFormat format,
-                      const std::string& path,
-                      const std::string& right_path = "");
+ * \param[in] format the file format
+ * \param[in] path the calibration file (KARLSRUHE, KITTI) or the left camera's file
+ *            (ROS_CAMERA_INFO, EUROC)
+ * \param[in] right_path the right camera's file (ROS_CAMERA_INFO, EUROC); ignored
+ * otherwise \return the rectified model; its calibration passes
+ * StereoCalibration::validate() \throws planar_grid::IOError naming the file (and the
+ * field) when the file is missing, unreadable, lacks a field, or gives a non-positive
+ * focal length or baseline */
+StereoCameraModel loadStereoCalibration(CalibrationFormat format,
+                                        const std::string& path,
+                                        const std::string& right_path = "");
 
 } // namespace planar_grid

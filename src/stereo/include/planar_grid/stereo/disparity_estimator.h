@@ -12,7 +12,7 @@ class StereoSGBM;
 namespace planar_grid {
 
 /** \brief Dense disparity of a rectified pair with OpenCV's semi-global block matching
-  * (cv::StereoSGBM, Hirschmueller 2008). \ingroup stereo */
+ * (cv::StereoSGBM, Hirschmueller 2008). \ingroup stereo */
 class DisparityEstimator {
 public:
   /** \brief cv::StereoSGBM parameters; names follow OpenCV's, units in the suffix. */
@@ -37,39 +37,34 @@ public:
     int speckle_window_size_px{100};
     /** Largest disparity variation inside a connected component, px. */
     int speckle_range_px{2};
-    /** Full 8-direction SGBM (slower) instead of 5 directions (cv::StereoSGBM::MODE_SGBM). */
+    /** Full 8-direction SGBM (slower) instead of 5 directions
+     * (cv::StereoSGBM::MODE_SGBM). */
     bool full_dp{false};
   };
 
   /** \brief Throws planar_grid::Exception for parameters OpenCV would reject. */
   explicit DisparityEstimator(const Params& params);
   /** \brief Uses the default Params. (Two constructors rather than a default argument:
-    * GCC rejects `= Params()` for a nested struct with member initialisers.) */
+   * GCC rejects `= Params()` for a nested struct with member initialisers.) */
   DisparityEstimator();
   ~DisparityEstimator();
   DisparityEstimator(DisparityEstimator&&) noexcept;
-  DisparityEstimator&
-  operator=(DisparityEstimator&&) noexcept;
+  DisparityEstimator& operator=(DisparityEstimator&&) noexcept;
 
   /** \brief Computes the disparity of the left image.
-    * \param[in] left rectified left image, CV_8UC1 or CV_8UC3
-    * \param[in] right rectified right image, same size and type
-    * \param[out] disparity CV_32FC1, left image size, in pixels; pixels without a valid
-    *             match are NaN
-    * \throws planar_grid::Exception when the images are empty or differ in size or type
-    * \note Colour input is converted to grey first (P1/P2 defaults assume one channel).
-    *       A textureless region gets min_disparity_px (SGBM's tie-break), which for the
-    *       default 0 means "infinitely far" and is dropped by disparityToPointCloud().
-    * \note Not thread-safe on one object: cv::StereoSGBM keeps work buffers. */
-  void
-  compute(const cv::Mat& left, const cv::Mat& right, cv::Mat& disparity) const;
+   * \param[in] left rectified left image, CV_8UC1 or CV_8UC3
+   * \param[in] right rectified right image, same size and type
+   * \param[out] disparity CV_32FC1, left image size, in pixels; pixels without a valid
+   *             match are NaN
+   * \throws planar_grid::Exception when the images are empty or differ in size or type
+   * \note Colour input is converted to grey first (P1/P2 defaults assume one channel).
+   *       A textureless region gets min_disparity_px (SGBM's tie-break), which for the
+   *       default 0 means "infinitely far" and is dropped by disparityToPointCloud().
+   * \note Not thread-safe on one object: cv::StereoSGBM keeps work buffers. */
+  void compute(const cv::Mat& left, const cv::Mat& right, cv::Mat& disparity) const;
 
   /** \brief The parameters in use. */
-  const Params&
-  getParams() const
-  {
-    return params_;
-  }
+  const Params& getParams() const { return params_; }
 
 private:
   Params params_;

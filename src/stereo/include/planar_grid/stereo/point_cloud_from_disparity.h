@@ -11,21 +11,20 @@
 namespace planar_grid {
 
 /** \brief Reprojects a disparity image into an organized cloud in the left camera frame
-  * (x right, y down, z forward, metres): z = f B / d, x = (u - cx) z / f,
-  * y = (v - cy) z / f. \ingroup stereo
-  * \param[in] disparity CV_32FC1 disparity in pixels (NaN or <= 0 = invalid)
-  * \param[in] intensity CV_8UC1 or CV_8UC3 image of the same size whose grey value
-  *            (0..255) fills the intensity field; may be empty (intensity 0)
-  * \param[in] calibration rectified intrinsics
-  * \param[in] max_range_m points farther than this (Euclidean range, metres) are invalid
-  * \param[out] cloud width x height organized cloud, is_dense = false; invalid pixels are
-  *             NaN (PCL's convention)
-  * \throws planar_grid::Exception when the sizes or types do not match */
-void
-disparityToPointCloud(const cv::Mat& disparity,
-                      const cv::Mat& intensity,
-                      const StereoCalibration& calibration,
-                      double max_range_m,
-                      pcl::PointCloud<pcl::PointXYZI>& cloud);
+ * (x right, y down, z forward, metres): z = f B / d, x = (u - cx) z / f,
+ * y = (v - cy) z / f. \ingroup stereo
+ * \param[in] disparity CV_32FC1 disparity in pixels (NaN or <= 0 = invalid)
+ * \param[in] intensity CV_8UC1 or CV_8UC3 image of the same size whose grey value
+ *            (0..255) fills the intensity field; may be empty (intensity 0)
+ * \param[in] calibration rectified intrinsics
+ * \param[in] max_range_m points farther than this (Euclidean range, metres) are invalid
+ * \param[out] cloud width x height organized cloud, is_dense = false; invalid pixels
+ * are NaN (PCL's convention) \throws planar_grid::Exception when the sizes or types do
+ * not match */
+void disparityToPointCloud(const cv::Mat& disparity,
+                           const cv::Mat& intensity,
+                           const StereoCalibration& calibration,
+                           double max_range_m,
+                           pcl::PointCloud<pcl::PointXYZI>& cloud);
 
 } // namespace planar_grid

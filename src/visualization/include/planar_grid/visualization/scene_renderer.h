@@ -29,13 +29,13 @@ enum class ColorMode {
  * metres) and the vertical view angle (degrees). \ingroup visualization */
 struct CameraParameters {
   /** \brief Camera centre, metres. */
-  Eigen::Vector3d position{ 0.0, 0.0, 10.0 };
+  Eigen::Vector3d position{0.0, 0.0, 10.0};
   /** \brief The point looked at, metres; must differ from position. */
-  Eigen::Vector3d focal_point{ 0.0, 0.0, 0.0 };
+  Eigen::Vector3d focal_point{0.0, 0.0, 0.0};
   /** \brief Up direction in the image; not parallel to the viewing direction. */
-  Eigen::Vector3d view_up{ 0.0, 1.0, 0.0 };
+  Eigen::Vector3d view_up{0.0, 1.0, 0.0};
   /** \brief Vertical field of view, degrees, in (0, 180). */
-  double view_angle_deg{ 30.0 };
+  double view_angle_deg{30.0};
 };
 
 /** \brief Camera presets framing everything added so far. \ingroup visualization */
