@@ -1,0 +1,413 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
+
+#include <pcl/common/centroid.h>
+#include <pcl/common/eigen.h>
+#include <pcl/common/point_tests.h>
+#include <pcl/console/print.h>
+#include <pcl/sample_consensus/msac.h>
+#include <pcl/sample_consensus/prosac.h>
+#include <pcl/sample_consensus/ransac.h>
+#include <pcl/sample_consensus/sac_model_plane.h>
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <numeric>
+#include <random>
+
+namespace planar_grid {
+
+namespace detail {
+
+/** \brief Flips [a, b, c, d] so that the origin lies on the positive side
+ * (a o_x + b o_y + c o_z + d >= 0). */
+inline void
+orientTowards(Eigen::Vector4f& plane, const Eigen::Vector3f& origin)
+{
+  if (plane.head<3>().dot(origin) + plane[3] < 0.0f)
+    plane = -plane;
+}
+
+/** \brief Least-squares plane (PCA) of the indexed points: the eigenvector of the
+ * smallest eigenvalue of the covariance; false when fewer than 3 points. */
+template <typename PointT>
+bool
+fitPlanePCA(const pcl::PointCloud<PointT>& cloud,
+            const pcl::Indices& indices,
+            Eigen::Vector4f& plane,
+            Eigen::Vector4f& centroid)
+{
+  if (indices.size() < 3)
+    return false;
+  Eigen::Matrix3f covariance;
+  if (pcl::computeMeanAndCovarianceMatrix(cloud, indices, covariance, centroid) < 3)
+    return false;
+  float eigen_value = 0.0f;
+  Eigen::Vector3f eigen_vector;
+  pcl::eigen33(covariance, eigen_value, eigen_vector);
+  if (!eigen_vector.allFinite() || !(eigen_vector.norm() > 0.0f))
+    return false;
+  eigen_vector.normalize();
+  plane.head<3>() = eigen_vector;
+  plane[3] = -eigen_vector.dot(centroid.head<3>());
+  return true;
+}
+
+/** \brief Struct-of-arrays store of the unassigned finite input points, so that the
+ * eq. 11 pass over ~10^5 points is one branch-free, vectorisable loop per plane. */
+struct DensePoints {
+  std::vector<float> x, y, z;
+  pcl::Indices index;
+  std::vector<std::uint8_t> mask;
+
+  std::size_t size() const { return index.size(); }
+
+  /** \brief mask[k] = 1 iff |a x + b y + c z + d| <= t (eq. 11, unit normal); returns
+   * the number of such points. */
+  std::size_t select(const Eigen::Vector4f& plane, float t)
+  {
+    const float a = plane[0], b = plane[1], c = plane[2], d = plane[3];
+    const std::size_t n = size();
+    mask.resize(n);
+    const float* px = x.data();
+    const float* py = y.data();
+    const float* pz = z.data();
+    std::uint8_t* m = mask.data();
+    std::size_t count = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const float dist = std::abs(a * px[k] + b * py[k] + c * pz[k] + d);
+      const std::uint8_t in = dist <= t ? 1 : 0;
+      m[k] = in;
+      count += in;
+    }
+    return count;
+  }
+
+  /** \brief The input indices of the selected points (mask == 1), in store order. */
+  void selected(pcl::Indices& out) const
+  {
+    out.clear();
+    for (std::size_t k = 0; k < size(); ++k)
+      if (mask[k])
+        out.push_back(index[k]);
+  }
+
+  /** \brief Removes the selected points (stable, in place). */
+  void removeSelected()
+  {
+    std::size_t w = 0;
+    for (std::size_t k = 0; k < size(); ++k) {
+      if (mask[k])
+        continue;
+      x[w] = x[k];
+      y[w] = y[k];
+      z[w] = z[k];
+      index[w] = index[k];
+      ++w;
+    }
+    x.resize(w);
+    y.resize(w);
+    z.resize(w);
+    index.resize(w);
+  }
+};
+
+} // namespace detail
+
+template <typename PointT>
+bool
+SACMultiPlaneSegmentation<PointT>::initCompute()
+{
+  if (!pcl::PCLBase<PointT>::initCompute()) {
+    PCL_ERROR("[planar_grid::%s::segment] No input cloud given.\n",
+              getClassName().c_str());
+    return false;
+  }
+  const char* bad = nullptr;
+  if (!(distance_threshold_ > 0.0))
+    bad = "distance_threshold must be > 0 m";
+  else if (sample_distance_threshold_set_ && !(sample_distance_threshold_ > 0.0))
+    bad = "sample_distance_threshold must be > 0 m";
+  else if (max_planes_ < 1)
+    bad = "max_planes must be >= 1";
+  else if (min_inliers_ < 3)
+    bad = "min_inliers must be >= 3";
+  else if (min_sample_inliers_ < 3)
+    bad = "min_sample_inliers must be >= 3";
+  else if (!(min_remaining_fraction_ >= 0.0 && min_remaining_fraction_ < 1.0))
+    bad = "min_remaining_fraction must be in [0, 1)";
+  else if (max_iterations_ < 1)
+    bad = "max_iterations must be >= 1";
+  else if (!(probability_ > 0.0 && probability_ < 1.0))
+    bad = "probability must be in (0, 1)";
+  else if (!(merge_angle_threshold_ >= 0.0 && merge_angle_threshold_ <= M_PI / 2.0))
+    bad = "merge_angle_threshold must be in [0, pi/2] rad";
+  else if (!(merge_distance_threshold_ >= 0.0))
+    bad = "merge_distance_threshold must be >= 0 m";
+  else if (!up_axis_.allFinite() || !(up_axis_.norm() > 0.0f))
+    bad = "up_axis must be finite and non-zero";
+  else if (max_sample_size_ < 3)
+    bad = "max_sample_size must be >= 3";
+  if (bad != nullptr) {
+    PCL_ERROR("[planar_grid::%s::segment] Invalid parameter: %s.\n",
+              getClassName().c_str(), bad);
+    pcl::PCLBase<PointT>::deinitCompute();
+    return false;
+  }
+  return true;
+}
+
+template <typename PointT>
+void
+SACMultiPlaneSegmentation<PointT>::segment(PlanarSegments& planes)
+{
+  planes.clear();
+  if (!initCompute())
+    return;
+  applySegmentation(planes);
+  this->deinitCompute();
+}
+
+template <typename PointT>
+void
+SACMultiPlaneSegmentation<PointT>::segment(
+  std::vector<pcl::ModelCoefficients>& model_coefficients,
+  std::vector<pcl::PointIndices>& inliers)
+{
+  model_coefficients.clear();
+  inliers.clear();
+  PlanarSegments planes;
+  segment(planes);
+  model_coefficients.reserve(planes.size());
+  inliers.reserve(planes.size());
+  for (auto& plane : planes) {
+    model_coefficients.push_back(std::move(plane.model_coefficients));
+    inliers.push_back(std::move(plane.inliers));
+  }
+}
+
+template <typename PointT>
+void
+SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
+{
+  planes.clear();
+  const Eigen::Vector3f origin = input_->sensor_origin_.template head<3>();
+  const Eigen::Vector3f up = up_axis_.normalized();
+  const auto d_t = static_cast<float>(distance_threshold_);
+  const auto sample_t = static_cast<float>(getSampleDistanceThreshold());
+  std::mt19937 rng(seed_);
+
+  // The unassigned finite input points (within the indices), struct of arrays.
+  detail::DensePoints dense;
+  dense.x.reserve(indices_->size());
+  dense.y.reserve(indices_->size());
+  dense.z.reserve(indices_->size());
+  dense.index.reserve(indices_->size());
+  for (const auto i : *indices_) {
+    const PointT& p = (*input_)[i];
+    if (!pcl::isXYZFinite(p))
+      continue;
+    dense.x.push_back(p.x);
+    dense.y.push_back(p.y);
+    dense.z.push_back(p.z);
+    dense.index.push_back(i);
+  }
+  if (dense.size() < 3) {
+    PCL_WARN("[planar_grid::%s::segment] Fewer than 3 finite input points (%zu).\n",
+             getClassName().c_str(), dense.size());
+    return;
+  }
+
+  // The sample the hypotheses come from: the sample cloud, or a seeded subsample.
+  PointCloudConstPtr sample_cloud = sample_cloud_ ? sample_cloud_ : input_;
+  pcl::Indices remaining;
+  if (sample_cloud_) {
+    for (std::size_t i = 0; i < sample_cloud_->size(); ++i)
+      if (pcl::isXYZFinite((*sample_cloud_)[i]))
+        remaining.push_back(static_cast<pcl::index_t>(i));
+  } else {
+    remaining = dense.index;
+    const auto wanted = std::min(remaining.size(), std::size_t(max_sample_size_));
+    for (std::size_t k = 0; k < wanted; ++k) { // partial Fisher-Yates
+      std::uniform_int_distribution<std::size_t> pick(k, remaining.size() - 1);
+      std::swap(remaining[k], remaining[pick(rng)]);
+    }
+    remaining.resize(wanted);
+    std::sort(remaining.begin(), remaining.end());
+  }
+  const std::size_t initial_sample = remaining.size();
+  if (initial_sample < 3) {
+    PCL_WARN("[planar_grid::%s::segment] Fewer than 3 finite sample points (%zu).\n",
+             getClassName().c_str(), initial_sample);
+    return;
+  }
+
+  // Colinear (or coincident) samples span no plane: PCA's middle eigenvalue is ~0.
+  {
+    Eigen::Matrix3f covariance;
+    Eigen::Vector4f centroid;
+    pcl::computeMeanAndCovarianceMatrix(*sample_cloud, remaining, covariance, centroid);
+    const Eigen::Vector3f eigen_values =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f>(covariance, Eigen::EigenvaluesOnly)
+        .eigenvalues();
+    if (!(eigen_values[1] > 1e-6f * eigen_values[2])) {
+      PCL_WARN("[planar_grid::%s::segment] The sample points are colinear.\n",
+               getClassName().c_str());
+      return;
+    }
+  }
+
+  std::vector<std::uint8_t> sample_taken(sample_cloud->size(), 0);
+  pcl::Indices sac_inliers;
+  const int max_rounds = 3 * max_planes_;
+  for (int round = 0;
+       round < max_rounds && static_cast<int>(planes.size()) < max_planes_; ++round) {
+    if (remaining.size() < 3
+        || static_cast<double>(remaining.size())
+             < min_remaining_fraction_ * initial_sample)
+      break;
+    // The seed reaches PCL's fixed-seed (12345) estimators through the sample order.
+    std::shuffle(remaining.begin(), remaining.end(), rng);
+    auto model = std::make_shared<pcl::SampleConsensusModelPlane<PointT>>(
+      sample_cloud, remaining, false);
+    std::shared_ptr<pcl::SampleConsensus<PointT>> sac;
+    switch (method_) {
+      case SACMethod::MSAC:
+        sac = std::make_shared<pcl::MEstimatorSampleConsensus<PointT>>(model);
+        break;
+      case SACMethod::PROSAC:
+        sac = std::make_shared<pcl::ProgressiveSampleConsensus<PointT>>(model);
+        break;
+      case SACMethod::RANSAC:
+      default:
+        sac = std::make_shared<pcl::RandomSampleConsensus<PointT>>(model);
+        break;
+    }
+    sac->setDistanceThreshold(sample_t);
+    sac->setMaxIterations(max_iterations_);
+    sac->setProbability(probability_);
+    if (!sac->computeModel())
+      break;
+    Eigen::VectorXf coefficients;
+    sac->getModelCoefficients(coefficients);
+    sac->getInliers(sac_inliers);
+    if (coefficients.size() != 4 || !coefficients.allFinite()
+        || static_cast<int>(sac_inliers.size()) < min_sample_inliers_)
+      break;
+    Eigen::Vector4f plane = coefficients.head<4>();
+    plane /= plane.head<3>().norm();
+    detail::orientTowards(plane, origin);
+
+    // Eq. 11 over the unassigned dense points; refit (PCA) and reselect.
+    std::size_t count = dense.select(plane, d_t);
+    PlanarSegment segment;
+    if (optimize_coefficients_ && count >= 3) {
+      dense.selected(segment.inliers.indices);
+      Eigen::Vector4f refit, centroid;
+      if (detail::fitPlanePCA(*input_, segment.inliers.indices, refit, centroid)) {
+        detail::orientTowards(refit, origin);
+        plane = refit;
+        count = dense.select(plane, d_t);
+      }
+    }
+
+    // Remove the sample inliers: the estimator's, and those of the final plane.
+    for (const auto i : sac_inliers)
+      sample_taken[i] = 1;
+    remaining.erase(std::remove_if(remaining.begin(), remaining.end(),
+                                   [&](pcl::index_t i) {
+                                     if (sample_taken[i])
+                                       return true;
+                                     const PointT& p = (*sample_cloud)[i];
+                                     return std::abs(plane[0] * p.x + plane[1] * p.y
+                                                     + plane[2] * p.z + plane[3])
+                                            <= sample_t;
+                                   }),
+                    remaining.end());
+
+    if (static_cast<int>(count) < min_inliers_) {
+      PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with %zu < %d inliers.\n",
+                getClassName().c_str(), count, min_inliers_);
+      continue;
+    }
+    dense.selected(segment.inliers.indices);
+    dense.removeSelected();
+    segment.model_coefficients.values.assign(plane.data(), plane.data() + 4);
+    segment.sample_inliers = sac_inliers.size();
+    planes.push_back(std::move(segment));
+  }
+
+  // Merge near-duplicate planes (normals within eps_angle, offsets within distance).
+  if (merge_planes_) {
+    const double cos_eps = std::cos(merge_angle_threshold_);
+    bool merged = true;
+    while (merged) {
+      merged = false;
+      for (std::size_t i = 0; i < planes.size() && !merged; ++i) {
+        for (std::size_t j = i + 1; j < planes.size() && !merged; ++j) {
+          const auto& ci = planes[i].model_coefficients.values;
+          const auto& cj = planes[j].model_coefficients.values;
+          const double dot = ci[0] * cj[0] + ci[1] * cj[1] + ci[2] * cj[2];
+          const double d_j = dot < 0.0 ? -cj[3] : cj[3];
+          if (std::abs(dot) < cos_eps
+              || std::abs(ci[3] - d_j) > merge_distance_threshold_)
+            continue;
+          PlanarSegment& a = planes[i];
+          PlanarSegment& b = planes[j];
+          auto& ind = a.inliers.indices;
+          ind.insert(ind.end(), b.inliers.indices.begin(), b.inliers.indices.end());
+          Eigen::Vector4f refit, centroid;
+          if (optimize_coefficients_
+              && detail::fitPlanePCA(*input_, ind, refit, centroid)) {
+            detail::orientTowards(refit, origin);
+            a.model_coefficients.values.assign(refit.data(), refit.data() + 4);
+          } else if (b.inliers.indices.size() > ind.size() - b.inliers.indices.size()) {
+            a.model_coefficients.values = b.model_coefficients.values;
+          }
+          a.sample_inliers += b.sample_inliers;
+          planes.erase(planes.begin() + static_cast<std::ptrdiff_t>(j));
+          merged = true;
+        }
+      }
+    }
+  }
+
+  // Per-plane extras: sorted inliers, centroid, eqs. 2-3 tilt, headers.
+  for (auto& segment : planes) {
+    auto& ind = segment.inliers.indices;
+    std::sort(ind.begin(), ind.end());
+    pcl::compute3DCentroid(*input_, ind, segment.centroid);
+    segment.centroid[3] = 1.0f;
+    const auto& c = segment.model_coefficients.values;
+    const Eigen::Vector3f normal(c[0], c[1], c[2]);
+    // Eq. 2 with the up axis in place of z: c_i = n . up (|n| = 1).
+    const double c_up = std::max(-1.0f, std::min(1.0f, normal.dot(up)));
+    segment.tilt_rad = std::acos(c_up);
+    // Eq. 3: theta for c > 0, theta - pi for c < 0, pi/2 for a vertical plane.
+    if (c_up > 0.0)
+      segment.normalized_tilt_rad = segment.tilt_rad;
+    else if (c_up < 0.0)
+      segment.normalized_tilt_rad = segment.tilt_rad - M_PI;
+    else
+      segment.normalized_tilt_rad = M_PI / 2.0;
+    segment.model_coefficients.header = input_->header;
+    segment.inliers.header = input_->header;
+  }
+  std::stable_sort(planes.begin(), planes.end(),
+                   [](const PlanarSegment& l, const PlanarSegment& r) {
+                     return l.inliers.indices.size() > r.inliers.indices.size();
+                   });
+  if (planes.empty())
+    PCL_WARN("[planar_grid::%s::segment] No plane with >= %d inliers.\n",
+             getClassName().c_str(), min_inliers_);
+}
+
+} // namespace planar_grid
+
+#define PLANAR_GRID_INSTANTIATE_SACMultiPlaneSegmentation(T) \
+  template class planar_grid::SACMultiPlaneSegmentation<T>;

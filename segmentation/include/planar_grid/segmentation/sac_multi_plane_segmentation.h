@@ -1,0 +1,322 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <pcl/ModelCoefficients.h>
+#include <pcl/PointIndices.h>
+#include <pcl/pcl_base.h>
+#include <pcl/pcl_macros.h>
+#include <pcl/point_cloud.h>
+
+#include <Eigen/Core>
+#include <Eigen/StdVector>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace planar_grid {
+
+/** \brief The sample consensus estimator used for every plane hypothesis.
+ * \ingroup segmentation */
+enum class SACMethod {
+  /** \brief pcl::RandomSampleConsensus (the paper's multi-RANSAC, Sec. III-C). */
+  RANSAC,
+  /** \brief pcl::MEstimatorSampleConsensus (truncated quadratic cost). */
+  MSAC,
+  /** \brief pcl::ProgressiveSampleConsensus; the sample order is taken as the quality
+   * order (a seeded shuffle unless the sample cloud is already sorted). */
+  PROSAC
+};
+
+/** \brief One plane found by SACMultiPlaneSegmentation, on the pattern of
+ * pcl::PlanarRegion. \ingroup segmentation */
+struct PlanarSegment {
+  /** \brief [a, b, c, d] of eq. 1 with (a, b, c) a unit normal and d in meters; the
+   * normal points toward the input cloud's sensor origin (a o_x + b o_y + c o_z + d
+   * >= 0; for the default origin (0,0,0) this is d >= 0). */
+  pcl::ModelCoefficients model_coefficients;
+  /** \brief Dense inliers: indices into the input cloud of the points whose eq. 11
+   * distance to the plane is <= the distance threshold, sorted ascending. */
+  pcl::PointIndices inliers;
+  /** \brief Centroid of the dense inliers (x, y, z, 1), in meters. */
+  Eigen::Vector4f centroid{Eigen::Vector4f::Zero()};
+  /** \brief theta of eq. 2: angle between the normal and the up axis, in radians,
+   * in [0, pi]. 0 for a floor, pi/2 for a wall. */
+  double tilt_rad{0.0};
+  /** \brief The normalised tilt of eq. 3, in radians, in (-pi/2, pi/2]: theta when
+   * c > 0, theta - pi when c < 0, pi/2 for a vertical plane (c == 0), where c is the
+   * normal's component along the up axis. */
+  double normalized_tilt_rad{0.0};
+  /** \brief Number of sample-cloud points the sample consensus found on the plane. */
+  std::size_t sample_inliers{0};
+
+  PCL_MAKE_ALIGNED_OPERATOR_NEW
+};
+
+/** \brief A vector of PlanarSegment with Eigen's aligned allocator (S16). */
+using PlanarSegments =
+  std::vector<PlanarSegment, Eigen::aligned_allocator<PlanarSegment>>;
+
+/** \brief True when the segment is a ground candidate: its normal is within eps_angle
+ * of the up axis (either direction). \ingroup segmentation
+ * \param[in] segment a plane from SACMultiPlaneSegmentation
+ * \param[in] up_axis the up direction (need not be unit length; zero gives false)
+ * \param[in] eps_angle_rad the largest angle between the normal and the up axis, in
+ * radians, in [0, pi/2] \return whether the plane is near-horizontal */
+inline bool
+isGroundCandidate(const PlanarSegment& segment,
+                  const Eigen::Vector3f& up_axis,
+                  double eps_angle_rad)
+{
+  const auto& c = segment.model_coefficients.values;
+  const float up_norm = up_axis.norm();
+  if (c.size() != 4 || !(up_norm > 0.0f))
+    return false;
+  const Eigen::Vector3f normal(c[0], c[1], c[2]);
+  const double n_norm = normal.norm();
+  if (!(n_norm > 0.0))
+    return false;
+  const double cos_angle = std::abs(normal.dot(up_axis)) / (n_norm * up_norm);
+  return std::acos(std::min(1.0, cos_angle)) <= eps_angle_rad;
+}
+
+/** \brief Multi-plane segmentation by repeated sample consensus (the multi-RANSAC of
+ * Sec. III-C of Zhang et al., "Planar occupancy grid mapping", eqs. 1-3) with the dense
+ * inlier selection of Sec. III-F, eq. 11.
+ *
+ * Plane hypotheses come from a sparse sample cloud (the 3D key feature points, as in
+ * the paper) when setSampleCloud() is given, else from a seeded random subsample of at
+ * most getMaxSampleSize() finite points of the input cloud (within the indices). Each
+ * round runs pcl::SampleConsensusModelPlane under the chosen SACMethod on the remaining
+ * sample points, selects the dense inliers of the input cloud (eq. 11, distance <=
+ * d_T) that no earlier plane took, optionally refits the plane to them by PCA and
+ * reselects, then removes the plane's sample and dense inliers. Planes with fewer than
+ * min_inliers dense inliers are dropped (their sample inliers are still removed). The
+ * loop stops after max_planes planes, when the sample consensus finds fewer than
+ * min_sample_inliers, when fewer than min_remaining_fraction of the sample points
+ * remain, or after 3 max_planes rounds. Near-duplicate planes are then merged.
+ *
+ * Determinism: PCL's estimators are built with random = false (fixed seed 12345);
+ * setSeed() seeds a std::mt19937 that draws the input subsample and shuffles the sample
+ * indices before every round, so the same input and seed give the same output.
+ *
+ * Empty or degenerate input (no input, empty cloud, only NaNs, fewer than 3 points,
+ * colinear points) or invalid parameters give an empty output and a PCL_ERROR or
+ * PCL_WARN; segment() never throws for bad data.
+ * \ingroup segmentation */
+template <typename PointT>
+class SACMultiPlaneSegmentation : public pcl::PCLBase<PointT> {
+public:
+  using Ptr = std::shared_ptr<SACMultiPlaneSegmentation<PointT>>;
+  using ConstPtr = std::shared_ptr<const SACMultiPlaneSegmentation<PointT>>;
+  using PointCloud = pcl::PointCloud<PointT>;
+  using PointCloudPtr = typename PointCloud::Ptr;
+  using PointCloudConstPtr = typename PointCloud::ConstPtr;
+
+  SACMultiPlaneSegmentation() = default;
+  ~SACMultiPlaneSegmentation() override = default;
+
+  /** \brief Sets the sparse cloud the plane hypotheses are drawn from (e.g. stereo
+   * feature points in the input cloud's frame); nullptr (the default) hypothesises
+   * from a subsample of the input cloud. All its finite points are used.
+   * \param[in] cloud the sample cloud */
+  void setSampleCloud(const PointCloudConstPtr& cloud) { sample_cloud_ = cloud; }
+  /** \brief Returns the sample cloud (nullptr when none is set). */
+  PointCloudConstPtr getSampleCloud() const { return sample_cloud_; }
+
+  /** \brief Sets d_T of eq. 11, the largest point-to-plane distance of a dense inlier.
+   * \param[in] distance_threshold_m in meters, > 0 (default 0.05, the paper's value) */
+  void setDistanceThreshold(double distance_threshold_m)
+  {
+    distance_threshold_ = distance_threshold_m;
+  }
+  /** \brief Returns d_T of eq. 11, in meters. */
+  double getDistanceThreshold() const { return distance_threshold_; }
+
+  /** \brief Sets the inlier threshold of the sample consensus on the sample cloud.
+   * \param[in] distance_threshold_m in meters, > 0 (default: unset, i.e. equal to the
+   * distance threshold). Stereo features are noisier than the dense cloud, so a larger
+   * value can help. */
+  void setSampleDistanceThreshold(double distance_threshold_m)
+  {
+    sample_distance_threshold_ = distance_threshold_m;
+    sample_distance_threshold_set_ = true;
+  }
+  /** \brief Returns the sample consensus threshold in meters (the distance threshold
+   * unless set). */
+  double getSampleDistanceThreshold() const
+  {
+    return sample_distance_threshold_set_ ? sample_distance_threshold_
+                                          : distance_threshold_;
+  }
+
+  /** \brief Sets the largest number of planes returned (before merging).
+   * \param[in] max_planes >= 1 (default 8) */
+  void setMaxPlanes(int max_planes) { max_planes_ = max_planes; }
+  /** \brief Returns the largest number of planes. */
+  int getMaxPlanes() const { return max_planes_; }
+
+  /** \brief Sets the fewest dense inliers a plane needs to be kept.
+   * \param[in] min_inliers >= 3 (default 500) */
+  void setMinInliers(int min_inliers) { min_inliers_ = min_inliers; }
+  /** \brief Returns the fewest dense inliers of a plane. */
+  int getMinInliers() const { return min_inliers_; }
+
+  /** \brief Sets the fewest sample inliers a hypothesis needs; fewer ends the loop.
+   * \param[in] min_sample_inliers >= 3 (default 15) */
+  void setMinSampleInliers(int min_sample_inliers)
+  {
+    min_sample_inliers_ = min_sample_inliers;
+  }
+  /** \brief Returns the fewest sample inliers of a hypothesis. */
+  int getMinSampleInliers() const { return min_sample_inliers_; }
+
+  /** \brief Sets the remaining fraction of sample points below which the loop stops.
+   * \param[in] fraction in [0, 1) (default 0.05) */
+  void setMinRemainingFraction(double fraction) { min_remaining_fraction_ = fraction; }
+  /** \brief Returns the remaining-fraction stop criterion, in [0, 1). */
+  double getMinRemainingFraction() const { return min_remaining_fraction_; }
+
+  /** \brief Sets the sample consensus iteration cap per plane.
+   * \param[in] max_iterations >= 1 (default 1000) */
+  void setMaxIterations(int max_iterations) { max_iterations_ = max_iterations; }
+  /** \brief Returns the sample consensus iteration cap per plane. */
+  int getMaxIterations() const { return max_iterations_; }
+
+  /** \brief Sets the probability of drawing at least one outlier-free sample.
+   * \param[in] probability in (0, 1) (default 0.99) */
+  void setProbability(double probability) { probability_ = probability; }
+  /** \brief Returns the sample consensus probability, in (0, 1). */
+  double getProbability() const { return probability_; }
+
+  /** \brief Sets the sample consensus estimator.
+   * \param[in] method RANSAC (default), MSAC or PROSAC */
+  void setMethodType(SACMethod method) { method_ = method; }
+  /** \brief Returns the sample consensus estimator. */
+  SACMethod getMethodType() const { return method_; }
+
+  /** \brief Sets whether each plane is refitted (PCA, least squares) to its dense
+   * inliers, which are then reselected with the refitted plane.
+   * \param[in] optimize default true */
+  void setOptimizeCoefficients(bool optimize) { optimize_coefficients_ = optimize; }
+  /** \brief Returns whether planes are refitted to their dense inliers. */
+  bool getOptimizeCoefficients() const { return optimize_coefficients_; }
+
+  /** \brief Sets whether near-duplicate planes are merged (inliers united, refitted).
+   * \param[in] merge default true */
+  void setMergePlanes(bool merge) { merge_planes_ = merge; }
+  /** \brief Returns whether near-duplicate planes are merged. */
+  bool getMergePlanes() const { return merge_planes_; }
+
+  /** \brief Sets the largest angle between the normals of two planes that merge.
+   * \param[in] eps_angle_rad in radians, in [0, pi/2] (default 0.1) */
+  void setMergeAngleThreshold(double eps_angle_rad)
+  {
+    merge_angle_threshold_ = eps_angle_rad;
+  }
+  /** \brief Returns the merge angle threshold, in radians. */
+  double getMergeAngleThreshold() const { return merge_angle_threshold_; }
+
+  /** \brief Sets the largest difference of the Hessian offsets d of two planes that
+   * merge. \param[in] distance_threshold_m in meters, >= 0 (default 0.1) */
+  void setMergeDistanceThreshold(double distance_threshold_m)
+  {
+    merge_distance_threshold_ = distance_threshold_m;
+  }
+  /** \brief Returns the merge offset threshold, in meters. */
+  double getMergeDistanceThreshold() const { return merge_distance_threshold_; }
+
+  /** \brief Sets the up axis of eqs. 2-3 (the paper's z axis); it is normalised.
+   * \param[in] axis non-zero (default (0, 0, 1); (0, -1, 0) for a camera frame) */
+  void setUpAxis(const Eigen::Vector3f& axis) { up_axis_ = axis; }
+  /** \brief Returns the up axis as set. */
+  Eigen::Vector3f getUpAxis() const { return up_axis_; }
+
+  /** \brief Sets the seed of the subsample and of the per-round sample shuffles.
+   * \param[in] seed any value (default 0) */
+  void setSeed(unsigned seed) { seed_ = seed; }
+  /** \brief Returns the seed. */
+  unsigned getSeed() const { return seed_; }
+
+  /** \brief Sets the size of the input subsample used when no sample cloud is set.
+   * \param[in] max_sample_size >= 3 (default 20000 points) */
+  void setMaxSampleSize(int max_sample_size) { max_sample_size_ = max_sample_size; }
+  /** \brief Returns the size of the input subsample, in points. */
+  int getMaxSampleSize() const { return max_sample_size_; }
+
+  /** \brief Segments the input cloud (within the indices) into planes.
+   * \param[out] planes the planes, sorted by descending dense inlier count; empty on
+   * degenerate input or invalid parameters. Headers are the input's. */
+  void segment(PlanarSegments& planes);
+
+  /** \brief Segments the input cloud into planes, as pcl::SACSegmentation does.
+   * \param[out] model_coefficients [a, b, c, d] per plane (unit normal, d in meters)
+   * \param[out] inliers dense inliers (eq. 11) per plane, parallel to
+   * model_coefficients, sorted by descending size */
+  void segment(std::vector<pcl::ModelCoefficients>& model_coefficients,
+               std::vector<pcl::PointIndices>& inliers);
+
+protected:
+  using pcl::PCLBase<PointT>::input_;
+  using pcl::PCLBase<PointT>::indices_;
+
+  /** \brief Base initCompute plus the parameter checks of S23; PCL_ERROR if false. */
+  bool initCompute();
+
+  /** \brief The algorithm; called between initCompute() and deinitCompute(). */
+  virtual void applySegmentation(PlanarSegments& planes);
+
+  /** \brief Returns the class name for messages. */
+  const std::string& getClassName() const { return class_name_; }
+
+  /** \brief Class name used in messages. */
+  std::string class_name_{"SACMultiPlaneSegmentation"};
+  /** \brief Cloud the hypotheses are drawn from, or nullptr. */
+  PointCloudConstPtr sample_cloud_;
+  /** \brief d_T of eq. 11, in meters. */
+  double distance_threshold_{0.05};
+  /** \brief Sample consensus threshold, in meters (when set). */
+  double sample_distance_threshold_{0.05};
+  /** \brief Whether sample_distance_threshold_ was set. */
+  bool sample_distance_threshold_set_{false};
+  /** \brief Largest number of planes. */
+  int max_planes_{8};
+  /** \brief Fewest dense inliers of a kept plane. */
+  int min_inliers_{500};
+  /** \brief Fewest sample inliers of a hypothesis. */
+  int min_sample_inliers_{15};
+  /** \brief Remaining sample fraction below which the loop stops. */
+  double min_remaining_fraction_{0.05};
+  /** \brief Sample consensus iteration cap. */
+  int max_iterations_{1000};
+  /** \brief Sample consensus probability. */
+  double probability_{0.99};
+  /** \brief Sample consensus estimator. */
+  SACMethod method_{SACMethod::RANSAC};
+  /** \brief Refit planes to their dense inliers. */
+  bool optimize_coefficients_{true};
+  /** \brief Merge near-duplicate planes. */
+  bool merge_planes_{true};
+  /** \brief Merge angle threshold, in radians. */
+  double merge_angle_threshold_{0.1};
+  /** \brief Merge offset threshold, in meters. */
+  double merge_distance_threshold_{0.1};
+  /** \brief Up axis of eqs. 2-3. */
+  Eigen::Vector3f up_axis_{0.0f, 0.0f, 1.0f};
+  /** \brief Seed of the subsample and shuffles. */
+  unsigned seed_{0};
+  /** \brief Input subsample size without a sample cloud, in points. */
+  int max_sample_size_{20000};
+
+public:
+  PCL_MAKE_ALIGNED_OPERATOR_NEW
+};
+
+} // namespace planar_grid
+
+#ifdef PCL_NO_PRECOMPILE
+#include <planar_grid/segmentation/impl/sac_multi_plane_segmentation.hpp>
+#endif

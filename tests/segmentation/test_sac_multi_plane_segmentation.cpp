@@ -1,0 +1,479 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
+
+#include <pcl/common/io.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/point_types.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace {
+
+using planar_grid::PlanarSegment;
+using planar_grid::PlanarSegments;
+using planar_grid::SACMultiPlaneSegmentation;
+
+constexpr double DEG = M_PI / 180.0;
+
+/** A synthetic scene with known planes and per-point truth labels (-1 = outlier). */
+template <typename PointT> struct Scene {
+  typename pcl::PointCloud<PointT>::Ptr cloud{new pcl::PointCloud<PointT>};
+  std::vector<int> labels;
+  std::vector<Eigen::Vector4d> planes; // [a,b,c,d], unit normal toward the origin
+};
+
+template <typename PointT>
+PointT
+makePoint(const Eigen::Vector3d& p)
+{
+  PointT q;
+  q.x = static_cast<float>(p.x());
+  q.y = static_cast<float>(p.y());
+  q.z = static_cast<float>(p.z());
+  return q;
+}
+
+// Points on the plane through `origin` spanned by u (length su) and v (length sv),
+// with Gaussian noise sigma_m along the normal u x v.
+template <typename PointT>
+void
+addPatch(Scene<PointT>& scene,
+         int label,
+         const Eigen::Vector3d& origin,
+         const Eigen::Vector3d& u,
+         const Eigen::Vector3d& v,
+         int count,
+         double sigma_m,
+         std::mt19937& rng)
+{
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::normal_distribution<double> noise(0.0, sigma_m);
+  const Eigen::Vector3d n = u.cross(v).normalized();
+  for (int k = 0; k < count; ++k) {
+    const Eigen::Vector3d p = origin + unit(rng) * u + unit(rng) * v + noise(rng) * n;
+    scene.cloud->push_back(makePoint<PointT>(p));
+    scene.labels.push_back(label);
+  }
+}
+
+// Floor z = -1.5, walls x = 4 and y = 4 (90 deg apart), a ramp tilted 30 deg rising
+// toward -x; sigma 0.01 m; 20% uniform outliers in the box [-5,5]x[-5,5]x[-2,2].
+// The patches stop >= 0.1 m short of each other's planes so no truth point is within
+// d_T = 0.05 m of a second truth plane.
+template <typename PointT>
+Scene<PointT>
+makeScene(unsigned seed)
+{
+  Scene<PointT> scene;
+  std::mt19937 rng(seed);
+  const double s30 = std::sin(30 * DEG), c30 = std::cos(30 * DEG);
+  const double t30 = std::tan(30 * DEG);
+  scene.planes = {Eigen::Vector4d(0, 0, 1, 1.5), Eigen::Vector4d(-1, 0, 0, 4),
+                  Eigen::Vector4d(0, -1, 0, 4),
+                  Eigen::Vector4d(s30, 0, c30, (1.5 + 1.2 * t30) * c30)};
+  addPatch(scene, 0, {-0.5, -3, -1.5}, {4, 0, 0}, {0, 6.5, 0}, 3000, 0.01, rng);
+  addPatch(scene, 1, {4, -3, -1.3}, {0, 0, 2.8}, {0, 6, 0}, 2500, 0.01, rng);
+  addPatch(scene, 2, {-3, 4, -1.3}, {6, 0, 0}, {0, 0, 2.8}, 2500, 0.01, rng);
+  // Ramp: x in [-4, -1.2], z = -1.5 + (-1.2 - x) tan 30.
+  addPatch(scene, 3, {-1.2, -3, -1.5}, {0, 3, 0}, Eigen::Vector3d(-2.8, 0, 2.8 * t30),
+           2000, 0.01, rng);
+  std::uniform_real_distribution<double> xy(-5, 5), z(-2, 2);
+  for (int k = 0; k < 2500; ++k) { // 2500 / 12500 = 20%
+    scene.cloud->push_back(makePoint<PointT>({xy(rng), xy(rng), z(rng)}));
+    scene.labels.push_back(-1);
+  }
+  return scene;
+}
+
+double
+normalAngle(const pcl::ModelCoefficients& c, const Eigen::Vector4d& truth)
+{
+  const Eigen::Vector3d n(c.values[0], c.values[1], c.values[2]);
+  return std::acos(std::min(1.0, n.normalized().dot(truth.head<3>())));
+}
+
+// Index of the found plane nearest in normal to `truth`, or -1.
+int
+match(const PlanarSegments& planes, const Eigen::Vector4d& truth)
+{
+  int best = -1;
+  double best_angle = 1e9;
+  for (std::size_t i = 0; i < planes.size(); ++i) {
+    const double a = normalAngle(planes[i].model_coefficients, truth);
+    if (a < best_angle) {
+      best_angle = a;
+      best = static_cast<int>(i);
+    }
+  }
+  return best;
+}
+
+template <typename PointT>
+void
+expectSceneRecovered(const Scene<PointT>& scene, const PlanarSegments& planes)
+{
+  ASSERT_EQ(planes.size(), scene.planes.size());
+  for (std::size_t t = 0; t < scene.planes.size(); ++t) {
+    const int i = match(planes, scene.planes[t]);
+    ASSERT_GE(i, 0);
+    const PlanarSegment& p = planes[i];
+    // 2 deg / 0.02 m: >= 2000 points with sigma 0.01 m fit the plane far better
+    // (PCA error ~ sigma / sqrt(n) / extent); the bounds leave room for the outliers.
+    EXPECT_LT(normalAngle(p.model_coefficients, scene.planes[t]), 2 * DEG) << t;
+    EXPECT_NEAR(p.model_coefficients.values[3], scene.planes[t][3], 0.02) << t;
+    std::size_t true_positives = 0, truth = 0;
+    for (const auto k : p.inliers.indices)
+      true_positives += scene.labels[k] == static_cast<int>(t) ? 1 : 0;
+    for (const int l : scene.labels)
+      truth += l == static_cast<int>(t) ? 1 : 0;
+    // Precision > 0.9: outliers in the 0.1 m slab are ~2.5% of 2500 per plane.
+    // Recall > 0.9: d_T = 5 sigma keeps ~all noisy truth points.
+    EXPECT_GT(double(true_positives) / p.inliers.indices.size(), 0.9) << t;
+    EXPECT_GT(double(true_positives) / truth, 0.9) << t;
+  }
+}
+
+template <typename PointT>
+class SACMultiPlaneSegmentationTyped : public ::testing::Test {};
+using PointTypes = ::testing::Types<pcl::PointXYZ, pcl::PointXYZI, pcl::PointXYZRGB>;
+TYPED_TEST_SUITE(SACMultiPlaneSegmentationTyped, PointTypes);
+
+TYPED_TEST(SACMultiPlaneSegmentationTyped, SyntheticSceneFindsEveryPlane)
+{
+  const auto scene = makeScene<TypeParam>(42);
+  SACMultiPlaneSegmentation<TypeParam> seg;
+  seg.setInputCloud(scene.cloud);
+  seg.setSeed(7);
+  PlanarSegments planes;
+  seg.segment(planes);
+  expectSceneRecovered(scene, planes);
+  for (std::size_t i = 1; i < planes.size(); ++i)
+    EXPECT_GE(planes[i - 1].inliers.indices.size(), planes[i].inliers.indices.size());
+
+  // Eqs. 2-3 with up = z: floor 0; walls pi/2 (eq. 3 maps c ~ 0 to ~ +-pi/2, so the
+  // magnitude is checked); ramp 30 deg, c > 0 so eq. 3 keeps it. 2 deg = the normal
+  // tolerance above.
+  const auto& floor = planes[match(planes, scene.planes[0])];
+  EXPECT_NEAR(floor.tilt_rad, 0.0, 2 * DEG);
+  EXPECT_NEAR(floor.normalized_tilt_rad, 0.0, 2 * DEG);
+  for (int w : {1, 2}) {
+    const auto& wall = planes[match(planes, scene.planes[w])];
+    EXPECT_NEAR(wall.tilt_rad, M_PI / 2, 2 * DEG);
+    EXPECT_NEAR(std::abs(wall.normalized_tilt_rad), M_PI / 2, 2 * DEG);
+  }
+  const auto& ramp = planes[match(planes, scene.planes[3])];
+  EXPECT_NEAR(ramp.tilt_rad, 30 * DEG, 2 * DEG);
+  EXPECT_NEAR(ramp.normalized_tilt_rad, 30 * DEG, 2 * DEG);
+  EXPECT_TRUE(planar_grid::isGroundCandidate(floor, {0, 0, 1}, 5 * DEG));
+  EXPECT_FALSE(planar_grid::isGroundCandidate(ramp, {0, 0, 1}, 5 * DEG));
+}
+
+TEST(SACMultiPlaneSegmentation, MethodsMSACAndPROSACFindEveryPlane)
+{
+  const auto scene = makeScene<pcl::PointXYZ>(42);
+  for (auto method : {planar_grid::SACMethod::MSAC, planar_grid::SACMethod::PROSAC}) {
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    seg.setInputCloud(scene.cloud);
+    seg.setMethodType(method);
+    PlanarSegments planes;
+    seg.segment(planes);
+    expectSceneRecovered(scene, planes);
+  }
+}
+
+// Eq. 3's sign: a downward-facing plane above the origin (an overhang) has its normal
+// toward the origin, c = -cos 30 < 0, so theta = 150 deg and vartheta = -30 deg.
+TEST(SACMultiPlaneSegmentation, Eq3SignConventionForDownwardNormal)
+{
+  Scene<pcl::PointXYZ> scene;
+  std::mt19937 rng(3);
+  const double t30 = std::tan(30 * DEG);
+  addPatch(scene, 0, {-1, -1, 2}, {0, 2, 0}, Eigen::Vector3d(2, 0, 2 * t30), 2000, 0.01,
+           rng);
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  seg.setInputCloud(scene.cloud);
+  PlanarSegments planes;
+  seg.segment(planes);
+  ASSERT_EQ(planes.size(), 1u);
+  EXPECT_GT(planes[0].model_coefficients.values[3], 0.0f); // toward the origin
+  EXPECT_LT(planes[0].model_coefficients.values[2], 0.0f);
+  EXPECT_NEAR(planes[0].tilt_rad, 150 * DEG, 1 * DEG);
+  EXPECT_NEAR(planes[0].normalized_tilt_rad, -30 * DEG, 1 * DEG);
+}
+
+// A 500-point sample (4% of the cloud, outliers included) yields the same planes as
+// hypothesising from the dense cloud: same truth checks, and per plane the normals
+// agree within 1 deg and the dense inlier sets within 5% (Jaccard > 0.95).
+TEST(SACMultiPlaneSegmentation, SampleCloudGivesSamePlanesAsDensePath)
+{
+  const auto scene = makeScene<pcl::PointXYZ>(42);
+  pcl::PointCloud<pcl::PointXYZ>::Ptr sample(new pcl::PointCloud<pcl::PointXYZ>);
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<std::size_t> pick(0, scene.cloud->size() - 1);
+  for (int k = 0; k < 500; ++k)
+    sample->push_back((*scene.cloud)[pick(rng)]);
+
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  seg.setInputCloud(scene.cloud);
+  PlanarSegments dense_planes, sample_planes;
+  seg.segment(dense_planes);
+  seg.setSampleCloud(sample);
+  seg.segment(sample_planes);
+  expectSceneRecovered(scene, sample_planes);
+  ASSERT_EQ(dense_planes.size(), sample_planes.size());
+  for (const auto& truth : scene.planes) {
+    const auto& a = dense_planes[match(dense_planes, truth)];
+    const auto& b = sample_planes[match(sample_planes, truth)];
+    Eigen::Vector4d nb(b.model_coefficients.values[0], b.model_coefficients.values[1],
+                       b.model_coefficients.values[2], 0);
+    EXPECT_LT(normalAngle(a.model_coefficients, nb), 1 * DEG);
+    std::vector<int> common;
+    std::set_intersection(a.inliers.indices.begin(), a.inliers.indices.end(),
+                          b.inliers.indices.begin(), b.inliers.indices.end(),
+                          std::back_inserter(common));
+    const double uni =
+      a.inliers.indices.size() + b.inliers.indices.size() - common.size();
+    EXPECT_GT(common.size() / uni, 0.95);
+  }
+}
+
+TEST(SACMultiPlaneSegmentation, SameSeedGivesIdenticalOutput)
+{
+  const auto scene = makeScene<pcl::PointXYZ>(5);
+  std::vector<pcl::ModelCoefficients> c1, c2;
+  std::vector<pcl::PointIndices> i1, i2;
+  for (auto* out : {&c1, &c2}) {
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    seg.setInputCloud(scene.cloud);
+    seg.setSeed(1234);
+    seg.segment(*out, out == &c1 ? i1 : i2);
+  }
+  ASSERT_EQ(c1.size(), 4u);
+  ASSERT_EQ(c1.size(), c2.size());
+  for (std::size_t i = 0; i < c1.size(); ++i) {
+    EXPECT_EQ(c1[i].values, c2[i].values);
+    EXPECT_EQ(i1[i].indices, i2[i].indices);
+  }
+}
+
+// One wall split into two 1500-point patches 4 m long (y in [-5,-1] and [1,5]) whose
+// planes differ by 0.5 deg (rotation about the z axis through (2, 0, 0)). d_T = 2 mm
+// (sigma 0.3 mm): the second patch is >= 1 m * tan 0.5 deg = 8.7 mm off the first
+// plane, and a compromise plane (0.25 deg off both) keeps only |y - y_c| <=
+// 2 mm / tan 0.25 deg = 0.46 m of each patch, i.e. 23% + 23% < 100% of one patch, so
+// RANSAC returns the two patches as two planes.
+TEST(SACMultiPlaneSegmentation, MergesNearDuplicatePlanes)
+{
+  Scene<pcl::PointXYZ> scene;
+  std::mt19937 rng(9);
+  const double r = 0.5 * DEG;
+  addPatch(scene, 0, {2, -5, 0}, {0, 4, 0}, {0, 0, 2}, 1500, 0.0003, rng);
+  addPatch(scene, 1, Eigen::Vector3d(2 - std::sin(r), std::cos(r), 0),
+           Eigen::Vector3d(-4 * std::sin(r), 4 * std::cos(r), 0), {0, 0, 2}, 1500,
+           0.0003, rng);
+  for (bool merge : {true, false}) {
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    seg.setInputCloud(scene.cloud);
+    seg.setDistanceThreshold(0.002);
+    seg.setMinInliers(200);
+    seg.setMergePlanes(merge);
+    PlanarSegments planes;
+    seg.segment(planes);
+    ASSERT_EQ(planes.size(), merge ? 1u : 2u);
+    if (merge)
+      EXPECT_EQ(planes[0].inliers.indices.size(), 3000u);
+    else
+      EXPECT_EQ(planes[0].inliers.indices.size() + planes[1].inliers.indices.size(),
+                3000u);
+  }
+}
+
+// S38: every reported inlier satisfies eq. 11 and every point that satisfies eq. 11 for
+// a plane is assigned (to it or to an earlier plane), checked by a brute-force double
+// loop; with one plane the sets are equal. Points within 1e-5 m of the threshold are
+// skipped (float vs double rounding).
+TEST(SACMultiPlaneSegmentation, DenseInlierSelectionMatchesBruteForce)
+{
+  Scene<pcl::PointXYZ> scene;
+  std::mt19937 rng(21);
+  addPatch(scene, 0, {-2, -2, -1}, {4, 0, 0}, {0, 4, 0.3}, 1500, 0.03, rng);
+  addPatch(scene, 1, {3, -2, -1}, {0, 4, 0}, {0, 0, 3}, 1500, 0.03, rng);
+  std::uniform_real_distribution<double> box(-4, 4);
+  for (int k = 0; k < 3000; ++k) {
+    scene.cloud->push_back(makePoint<pcl::PointXYZ>({box(rng), box(rng), box(rng)}));
+    scene.labels.push_back(-1);
+  }
+  const double d_t = 0.05;
+  for (int max_planes : {1, 2}) {
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    seg.setInputCloud(scene.cloud);
+    seg.setMergePlanes(false);
+    seg.setMaxPlanes(max_planes);
+    seg.setMinInliers(100);
+    PlanarSegments planes;
+    seg.segment(planes);
+    ASSERT_EQ(planes.size(), static_cast<std::size_t>(max_planes));
+    std::vector<int> owner(scene.cloud->size(), -1);
+    for (std::size_t i = 0; i < planes.size(); ++i)
+      for (const auto k : planes[i].inliers.indices)
+        owner[k] = static_cast<int>(i);
+    for (std::size_t i = 0; i < planes.size(); ++i) {
+      const auto& c = planes[i].model_coefficients.values;
+      for (std::size_t k = 0; k < scene.cloud->size(); ++k) {
+        const auto& p = (*scene.cloud)[k];
+        const double dist =
+          std::abs(double(c[0]) * p.x + double(c[1]) * p.y + double(c[2]) * p.z + c[3])
+          / std::sqrt(double(c[0]) * c[0] + double(c[1]) * c[1] + double(c[2]) * c[2]);
+        if (std::abs(dist - d_t) < 1e-5)
+          continue;
+        if (owner[k] == static_cast<int>(i)) {
+          EXPECT_LE(dist, d_t) << k;
+        } else if (dist <= d_t) {
+          EXPECT_NE(owner[k], -1) << k;
+        }
+      }
+    }
+  }
+}
+
+TEST(SACMultiPlaneSegmentation, RespectsIndices)
+{
+  const auto scene = makeScene<pcl::PointXYZ>(42);
+  pcl::IndicesPtr indices(new pcl::Indices);
+  for (std::size_t k = 0; k < scene.labels.size(); ++k)
+    if (scene.labels[k] == 0 || scene.labels[k] == 1)
+      indices->push_back(static_cast<int>(k));
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  seg.setInputCloud(scene.cloud);
+  seg.setIndices(indices);
+  PlanarSegments planes;
+  seg.segment(planes);
+  ASSERT_EQ(planes.size(), 2u);
+  for (const auto& p : planes)
+    for (const auto k : p.inliers.indices)
+      EXPECT_TRUE(scene.labels[k] == 0 || scene.labels[k] == 1);
+}
+
+// Office scene from PCL's data (organized Kinect, camera frame: x right, y down,
+// z forward, so up = -y). Measured with seed 0: see docs/SEGMENTATION.md.
+TEST(SACMultiPlaneSegmentation, OfficeKinectCloudFindsFloorAndWalls)
+{
+  pcl::PointCloud<pcl::PointXYZRGB>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZRGB>);
+  const std::string path =
+    std::string(PLANAR_GRID_DATA_DIR) + "/pcl_clouds/office1.pcd";
+  if (pcl::io::loadPCDFile(path, *cloud) != 0)
+    GTEST_SKIP() << "missing " << path;
+  SACMultiPlaneSegmentation<pcl::PointXYZRGB> seg;
+  seg.setInputCloud(cloud);
+  const Eigen::Vector3f up(0, -1, 0);
+  seg.setUpAxis(up);
+  PlanarSegments planes;
+  seg.segment(planes);
+  ASSERT_GE(planes.size(), 3u);
+  int floors = 0;
+  std::vector<Eigen::Vector3f> walls;
+  for (const auto& p : planes) {
+    const auto& c = p.model_coefficients.values;
+    const Eigen::Vector3f n(c[0], c[1], c[2]);
+    std::printf("plane: n = (%.3f %.3f %.3f) d = %.3f m, %zu inliers, tilt %.1f deg\n",
+                n.x(), n.y(), n.z(), c[3], p.inliers.indices.size(), p.tilt_rad / DEG);
+    // 15 deg: the Kinect's depth noise and the camera's unknown roll/pitch.
+    if (p.tilt_rad < 15 * DEG)
+      ++floors;
+    else if (std::abs(p.tilt_rad - M_PI / 2) < 15 * DEG)
+      walls.push_back(n);
+  }
+  EXPECT_GE(floors, 1);
+  ASSERT_GE(walls.size(), 2u);
+  // Some pair of walls is near-perpendicular (80-100 deg) or near-parallel (< 10 deg).
+  bool structured_pair = false;
+  for (std::size_t i = 0; i < walls.size(); ++i) {
+    for (std::size_t j = i + 1; j < walls.size(); ++j) {
+      const double angle =
+        std::acos(std::min(1.0f, std::abs(walls[i].dot(walls[j])))) / DEG;
+      std::printf("walls %zu-%zu: %.1f deg\n", i, j, angle);
+      structured_pair = structured_pair || angle > 80.0 || angle < 10.0;
+    }
+  }
+  EXPECT_TRUE(structured_pair);
+}
+
+// S39: each degenerate input gives empty output and no crash.
+TEST(SACMultiPlaneSegmentation, DegenerateInputsGiveEmptyOutput)
+{
+  using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+  PlanarSegments planes(1);
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  seg.segment(planes); // no input
+  EXPECT_TRUE(planes.empty());
+
+  auto run = [&](const Cloud::Ptr& cloud) {
+    planes.resize(1);
+    seg.setInputCloud(cloud);
+    seg.segment(planes);
+    return planes.size();
+  };
+  Cloud::Ptr empty(new Cloud);
+  EXPECT_EQ(run(empty), 0u);
+
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  Cloud::Ptr all_nan(new Cloud);
+  for (int k = 0; k < 1000; ++k)
+    all_nan->push_back(pcl::PointXYZ(nan, nan, nan));
+  EXPECT_EQ(run(all_nan), 0u);
+
+  Cloud::Ptr two(new Cloud);
+  two->push_back(pcl::PointXYZ(0, 0, 0));
+  two->push_back(pcl::PointXYZ(1, 0, 0));
+  EXPECT_EQ(run(two), 0u);
+
+  Cloud::Ptr colinear(new Cloud);
+  for (int k = 0; k < 1000; ++k)
+    colinear->push_back(pcl::PointXYZ(0.01f * k, 0.02f * k, 0.0f));
+  EXPECT_EQ(run(colinear), 0u);
+
+  std::vector<pcl::ModelCoefficients> coefficients(1);
+  std::vector<pcl::PointIndices> inliers(1);
+  seg.segment(coefficients, inliers);
+  EXPECT_TRUE(coefficients.empty());
+  EXPECT_TRUE(inliers.empty());
+}
+
+TEST(SACMultiPlaneSegmentation, InvalidParametersGiveEmptyOutput)
+{
+  const auto scene = makeScene<pcl::PointXYZ>(42);
+  const std::vector<std::function<void(SACMultiPlaneSegmentation<pcl::PointXYZ>&)>>
+    invalid = {
+      [](auto& s) { s.setDistanceThreshold(0.0); },
+      [](auto& s) { s.setSampleDistanceThreshold(-1.0); },
+      [](auto& s) { s.setMaxPlanes(0); },
+      [](auto& s) { s.setMinInliers(2); },
+      [](auto& s) { s.setMinSampleInliers(0); },
+      [](auto& s) { s.setMinRemainingFraction(1.0); },
+      [](auto& s) { s.setMaxIterations(0); },
+      [](auto& s) { s.setProbability(1.5); },
+      [](auto& s) { s.setMergeAngleThreshold(-0.1); },
+      [](auto& s) { s.setMergeDistanceThreshold(-0.1); },
+      [](auto& s) { s.setUpAxis(Eigen::Vector3f::Zero()); },
+      [](auto& s) { s.setMaxSampleSize(2); },
+    };
+  for (std::size_t i = 0; i < invalid.size(); ++i) {
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    seg.setInputCloud(scene.cloud);
+    invalid[i](seg);
+    PlanarSegments planes(1);
+    seg.segment(planes);
+    EXPECT_TRUE(planes.empty()) << i;
+  }
+}
+
+} // namespace
