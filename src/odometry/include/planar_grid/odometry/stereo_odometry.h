@@ -1,0 +1,235 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <planar_grid/odometry/trajectory_io.h>
+#include <planar_grid/stereo/stereo_feature_matcher.h>
+
+#include <pcl/memory.h>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core/types.hpp>
+
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace planar_grid {
+
+/** \brief Result of one frame-to-frame motion estimate (paper eq. 8).
+ * \ingroup odometry */
+struct OdometryResult {
+  /** \brief Camera motion [R|T] of eq. 8: a point seen at x_cur in the current camera
+   * frame is at x_prev = R x_cur + T in the previous one, so this is also the pose of
+   * the current camera in the previous camera's frame (metres). Identity when invalid.
+   */
+  Eigen::Isometry3d previous_T_current{Eigen::Isometry3d::Identity()};
+  /** \brief Correspondences within the RANSAC distance threshold of the final motion.
+   */
+  std::size_t inliers{0};
+  /** \brief Descriptor matches that passed the ratio and mutual checks. */
+  std::size_t correspondences{0};
+  /** \brief False when the motion could not be estimated (see reason). */
+  bool valid{false};
+  /** \brief Why the estimate is invalid; empty when valid. */
+  std::string reason;
+
+  PCL_MAKE_ALIGNED_OPERATOR_NEW
+};
+
+/** \brief Frame-to-frame stereo visual odometry (paper eq. 8): matches the descriptors
+ * of the 3D key features of two frames (cv::BFMatcher, L2 for SIFT, Hamming for ORB,
+ * Lowe's ratio test and a mutual check), estimates the rigid motion with RANSAC
+ * (pcl::SampleConsensusModelRegistration + pcl::RandomSampleConsensus) and refines it
+ * on the inliers with pcl::registration::TransformationEstimationSVD.
+ *
+ * Degenerate input never passes silently: fewer than 3 correspondences, matched points
+ * on one line (or a single point), a RANSAC failure or fewer than min_inliers inliers
+ * give OdometryResult::valid = false with a reason and a PCL_WARN.
+ * \ingroup odometry */
+class StereoOdometry {
+public:
+  using Ptr = std::shared_ptr<StereoOdometry>;
+  using ConstPtr = std::shared_ptr<const StereoOdometry>;
+
+  /** \brief Parameters, with their valid ranges. */
+  struct Params {
+    /** Lowe's ratio: best / second-best descriptor distance must be below it; (0, 1].
+     */
+    double ratio{0.8};
+    /** Keep a match only when it is also the best match in the other direction. */
+    bool mutual_check{true};
+    /** Largest descriptor distance of a match (L2 for SIFT, Hamming bits for ORB);
+     * 0 disables the check; >= 0. */
+    double max_descriptor_distance{0.0};
+    /** RANSAC inlier threshold: largest 3D distance between a previous point and the
+     * transformed current point, metres; > 0. A single threshold for all depths: the
+     * stereo depth error grows with z^2, so far points mostly end up as outliers and
+     * the motion is carried by the near ones. */
+    double distance_threshold_m{0.1};
+    /** Most RANSAC iterations; >= 1. */
+    int max_iterations{2000};
+    /** RANSAC probability of drawing one outlier-free sample; (0, 1). */
+    double probability{0.99};
+    /** Fewest inliers for a valid motion; >= 3. */
+    int min_inliers{20};
+    /** Seed of the RANSAC sampler (S19): the same input and seed give the same motion.
+     */
+    unsigned seed{12345u};
+  };
+
+  /** \brief Throws planar_grid::Exception for out-of-range parameters (S25). */
+  explicit StereoOdometry(const Params& params);
+  /** \brief Uses the default Params. */
+  StereoOdometry();
+
+  /** \brief Estimates the camera motion between two frames (eq. 8).
+   * \param[in] previous the features of the earlier frame (camera frame, metres)
+   * \param[in] current the features of the later frame
+   * \return the motion previous_T_current, inlier and correspondence counts; valid =
+   * false with a reason (and a PCL_WARN) when it cannot be estimated */
+  OdometryResult estimate(const StereoFeatures& previous,
+                          const StereoFeatures& current) const;
+
+  /** \brief Matches the descriptors of two frames: k = 2 nearest neighbours with
+   * cv::BFMatcher, Lowe's ratio test, optional maximum distance and mutual check.
+   * \param[in] previous the earlier frame's features (queryIdx of the matches)
+   * \param[in] current the later frame's features (trainIdx of the matches)
+   * \param[out] matches the accepted matches (empty when either frame has no
+   * descriptors or their types differ; then a PCL_WARN is printed) */
+  void matchDescriptors(const StereoFeatures& previous,
+                        const StereoFeatures& current,
+                        std::vector<cv::DMatch>& matches) const;
+
+  /** \brief The parameters. */
+  const Params& getParams() const { return params_; }
+
+private:
+  /** \brief The parameters (validated in the constructor). */
+  Params params_;
+};
+
+/** \brief Constant-velocity motion model of the camera (paper eq. 9): the next motion
+ * is predicted to equal the last one, m_k, with Gaussian error of covariance Q_k =
+ * diag(sigma_translation_m^2 x 3, sigma_rotation_rad^2 x 3) over the 6-vector
+ * (translation, rotation vector) of predicted^-1 * measured. Before any motion is added
+ * the prediction is the identity (standing still). \ingroup odometry */
+class ConstantVelocityMotionModel {
+public:
+  /** \brief Standard deviations of the motion error per frame. */
+  struct Params {
+    /** Standard deviation of each translation component, metres; > 0. */
+    double sigma_translation_m{0.1};
+    /** Standard deviation of each rotation-vector component, radians; > 0. */
+    double sigma_rotation_rad{0.02};
+  };
+
+  /** \brief Throws planar_grid::Exception for non-positive sigmas. */
+  explicit ConstantVelocityMotionModel(const Params& params);
+  /** \brief Uses the default Params. */
+  ConstantVelocityMotionModel();
+
+  /** \brief Records the latest frame-to-frame motion previous_T_current (metres). */
+  void addMotion(const Eigen::Isometry3d& previous_T_current);
+
+  /** \brief Forgets the motion: the prediction becomes the identity again. */
+  void reset();
+
+  /** \brief True once a motion was added. */
+  bool hasMotion() const { return has_motion_; }
+
+  /** \brief The predicted next motion m_k (eq. 9): the last motion added, or the
+   * identity. */
+  const Eigen::Isometry3d& getPredictedMotion() const { return last_motion_; }
+
+  /** \brief Predicts the next camera pose (eq. 9): world_T_current * m_k.
+   * \param[in] world_T_current the current camera pose
+   * \return the predicted world_T_next */
+  Eigen::Isometry3d predict(const Eigen::Isometry3d& world_T_current) const;
+
+  /** \brief Q_k: the 6x6 diagonal covariance of the motion error (translation in m^2,
+   * then rotation vector in rad^2). */
+  Eigen::Matrix<double, 6, 6> getCovariance() const;
+
+  /** \brief Squared Mahalanobis distance of a measured motion from the prediction:
+   * d^2 = e^T Q_k^-1 e with e = (t, r) of m_k^-1 * measured (t in metres, r the
+   * rotation vector in radians). 0 for the prediction itself. \param[in]
+   * measured_motion a measured previous_T_current \return d^2 (dimensionless, >= 0) */
+  double mahalanobisSquared(const Eigen::Isometry3d& measured_motion) const;
+
+  /** \brief Unnormalised Gaussian likelihood exp(-d^2 / 2) of a measured motion
+   * (eq. 9), in (0, 1]; 1 for the prediction itself. \param[in] measured_motion a
+   * measured previous_T_current */
+  double motionLikelihood(const Eigen::Isometry3d& measured_motion) const;
+
+  /** \brief The parameters. */
+  const Params& getParams() const { return params_; }
+
+  PCL_MAKE_ALIGNED_OPERATOR_NEW
+
+private:
+  /** \brief The standard deviations. */
+  Params params_;
+  /** \brief The last motion added (identity before any). */
+  Eigen::Isometry3d last_motion_{Eigen::Isometry3d::Identity()};
+  /** \brief Whether a motion was added since construction or reset(). */
+  bool has_motion_{false};
+};
+
+/** \brief Chains frame-to-frame motions (eq. 8) into camera poses world_T_camera; the
+ * first frame is the world origin. When a frame's motion is invalid, the
+ * constant-velocity prediction (eq. 9) takes its place, the frame index is recorded as
+ * flagged (getFlaggedFrames()) and a PCL_WARN names it; it is never dropped silently.
+ * \ingroup odometry */
+class VisualOdometry {
+public:
+  using Ptr = std::shared_ptr<VisualOdometry>;
+  using ConstPtr = std::shared_ptr<const VisualOdometry>;
+
+  /** \brief Throws planar_grid::Exception for invalid parameters. */
+  VisualOdometry(const StereoOdometry::Params& odometry_params,
+                 const ConstantVelocityMotionModel::Params& motion_params);
+  /** \brief Uses the default parameters. */
+  VisualOdometry();
+
+  /** \brief Adds the next frame: estimates its motion from the previous frame and
+   * appends its pose to the trajectory. \param[in] features the frame's features
+   * \return the frame's odometry result (for the first frame: valid, identity, no
+   * correspondences) */
+  const OdometryResult& addFrame(const StereoFeatures& features);
+
+  /** \brief Camera poses world_T_camera, one per frame added (metres). */
+  const Trajectory& getTrajectory() const { return trajectory_; }
+
+  /** \brief One result per frame added (index 0: the first frame). */
+  const std::vector<OdometryResult, Eigen::aligned_allocator<OdometryResult>>&
+  getResults() const
+  {
+    return results_;
+  }
+
+  /** \brief Indices of the frames whose motion was invalid and replaced by the
+   * prediction. */
+  const std::vector<std::size_t>& getFlaggedFrames() const { return flagged_frames_; }
+
+  /** \brief The motion model (its last motion is the prediction for the next frame).
+   */
+  const ConstantVelocityMotionModel& getMotionModel() const { return motion_model_; }
+
+private:
+  /** \brief The frame-to-frame estimator. */
+  StereoOdometry odometry_;
+  /** \brief The constant-velocity model that bridges invalid frames. */
+  ConstantVelocityMotionModel motion_model_;
+  /** \brief The previous frame's features. */
+  StereoFeatures previous_;
+  /** \brief Poses world_T_camera. */
+  Trajectory trajectory_;
+  /** \brief One result per frame. */
+  std::vector<OdometryResult, Eigen::aligned_allocator<OdometryResult>> results_;
+  /** \brief Frames whose motion was predicted. */
+  std::vector<std::size_t> flagged_frames_;
+};
+
+} // namespace planar_grid

@@ -1,0 +1,335 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/odometry/stereo_odometry.h>
+
+#include <pcl/common/centroid.h>
+#include <pcl/console/print.h>
+#include <pcl/registration/transformation_estimation_svd.h>
+#include <pcl/sample_consensus/ransac.h>
+#include <pcl/sample_consensus/sac_model_registration.h>
+
+#include <Eigen/Eigenvalues>
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+
+#include <cmath>
+#include <sstream>
+
+namespace planar_grid {
+
+namespace {
+
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+
+/** \brief SampleConsensusModelRegistration whose sampler takes a seed (S19); PCL's
+ * model only offers a fixed seed or the time. */
+class SeededRegistrationModel
+    : public pcl::SampleConsensusModelRegistration<pcl::PointXYZ> {
+public:
+  SeededRegistrationModel(const Cloud::ConstPtr& cloud, unsigned seed) :
+      pcl::SampleConsensusModelRegistration<pcl::PointXYZ>(cloud, false)
+  {
+    rng_alg_.seed(seed);
+  }
+};
+
+/** \brief Points within 1 mm of one line (or fewer than 2 points): the rotation about
+ * that line is not observable. */
+bool
+isColinear(const Cloud& cloud)
+{
+  if (cloud.size() < 2)
+    return true;
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  Eigen::Vector4d centroid = Eigen::Vector4d::Zero();
+  if (pcl::computeMeanAndCovarianceMatrix(cloud, covariance, centroid) < 2)
+    return true;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance,
+                                                              Eigen::EigenvaluesOnly);
+  const Eigen::Vector3d eigenvalues = solver.eigenvalues(); // ascending
+  const double middle = std::max(eigenvalues[1], 0.0);
+  return std::sqrt(middle) < 1e-3 || middle < 1e-10 * eigenvalues[2];
+}
+
+/** \brief The 16 row-major coefficients of a 4x4 transform, as the registration model
+ * stores them. */
+Eigen::VectorXf
+toCoefficients(const Eigen::Matrix4d& transform)
+{
+  Eigen::VectorXf coefficients(16);
+  for (int row = 0; row < 4; ++row)
+    for (int col = 0; col < 4; ++col)
+      coefficients[row * 4 + col] = static_cast<float>(transform(row, col));
+  return coefficients;
+}
+
+OdometryResult
+invalidResult(std::size_t correspondences,
+              std::size_t inliers,
+              const std::string& reason)
+{
+  OdometryResult result;
+  result.correspondences = correspondences;
+  result.inliers = inliers;
+  result.valid = false;
+  result.reason = reason;
+  PCL_WARN("[planar_grid::StereoOdometry::estimate] %s\n", reason.c_str());
+  return result;
+}
+
+} // namespace
+
+StereoOdometry::StereoOdometry(const Params& params) : params_(params)
+{
+  std::ostringstream error;
+  if (!(params.ratio > 0.0 && params.ratio <= 1.0))
+    error << "ratio must be in (0, 1], got " << params.ratio;
+  else if (!(params.max_descriptor_distance >= 0.0))
+    error << "max_descriptor_distance must be >= 0, got "
+          << params.max_descriptor_distance;
+  else if (!(params.distance_threshold_m > 0.0))
+    error << "distance_threshold_m must be > 0, got " << params.distance_threshold_m;
+  else if (params.max_iterations < 1)
+    error << "max_iterations must be >= 1, got " << params.max_iterations;
+  else if (!(params.probability > 0.0 && params.probability < 1.0))
+    error << "probability must be in (0, 1), got " << params.probability;
+  else if (params.min_inliers < 3)
+    error << "min_inliers must be >= 3, got " << params.min_inliers;
+  if (!error.str().empty())
+    throw Exception("StereoOdometry: " + error.str());
+}
+
+StereoOdometry::StereoOdometry() : StereoOdometry(Params()) {}
+
+void
+StereoOdometry::matchDescriptors(const StereoFeatures& previous,
+                                 const StereoFeatures& current,
+                                 std::vector<cv::DMatch>& matches) const
+{
+  matches.clear();
+  if (previous.descriptors.empty() || current.descriptors.empty())
+    return;
+  if (previous.descriptors.type() != current.descriptors.type()
+      || previous.descriptors.cols != current.descriptors.cols) {
+    PCL_WARN("[planar_grid::StereoOdometry::matchDescriptors] The two frames' "
+             "descriptors differ in type or length; no matches.\n");
+    return;
+  }
+  const int norm =
+    previous.descriptors.depth() == CV_8U ? cv::NORM_HAMMING : cv::NORM_L2;
+  cv::BFMatcher matcher(norm, false);
+  std::vector<std::vector<cv::DMatch>> knn;
+  matcher.knnMatch(previous.descriptors, current.descriptors, knn, 2);
+  std::vector<cv::DMatch> reverse;
+  if (params_.mutual_check)
+    matcher.match(current.descriptors, previous.descriptors, reverse);
+
+  for (const auto& candidates : knn) {
+    if (candidates.empty())
+      continue;
+    const cv::DMatch& best = candidates[0];
+    // A single candidate (the other frame has one feature) passes the ratio test.
+    if (candidates.size() > 1
+        && !(best.distance < params_.ratio * candidates[1].distance))
+      continue;
+    if (params_.max_descriptor_distance > 0.0
+        && best.distance > params_.max_descriptor_distance)
+      continue;
+    if (params_.mutual_check
+        && (best.trainIdx >= static_cast<int>(reverse.size())
+            || reverse[static_cast<std::size_t>(best.trainIdx)].trainIdx
+                 != best.queryIdx))
+      continue;
+    matches.push_back(best);
+  }
+}
+
+OdometryResult
+StereoOdometry::estimate(const StereoFeatures& previous,
+                         const StereoFeatures& current) const
+{
+  std::vector<cv::DMatch> matches;
+  matchDescriptors(previous, current, matches);
+
+  // Source: current points; target: previous points. The registration model estimates
+  // target = T * source, which is previous_T_current (eq. 8).
+  auto source = std::make_shared<Cloud>();
+  auto target = std::make_shared<Cloud>();
+  source->reserve(matches.size());
+  target->reserve(matches.size());
+  for (const auto& match : matches) {
+    const auto query = static_cast<std::size_t>(match.queryIdx);
+    const auto train = static_cast<std::size_t>(match.trainIdx);
+    if (query >= previous.points.size() || train >= current.points.size())
+      continue;
+    const pcl::PointXYZ& p = previous.points[query];
+    const pcl::PointXYZ& c = current.points[train];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)
+        || !std::isfinite(c.x) || !std::isfinite(c.y) || !std::isfinite(c.z))
+      continue;
+    target->push_back(p);
+    source->push_back(c);
+  }
+  const std::size_t correspondences = source->size();
+
+  if (correspondences < 3)
+    return invalidResult(correspondences, 0,
+                         "Only " + std::to_string(correspondences)
+                           + " correspondences; a rigid motion needs at least 3.");
+  if (isColinear(*source) || isColinear(*target))
+    return invalidResult(correspondences, 0,
+                         "The " + std::to_string(correspondences)
+                           + " matched points lie on one line; the motion is not "
+                             "observable.");
+
+  auto model = std::make_shared<SeededRegistrationModel>(source, params_.seed);
+  model->setInputTarget(target);
+  pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, params_.distance_threshold_m);
+  ransac.setMaxIterations(params_.max_iterations);
+  ransac.setProbability(params_.probability);
+  if (!ransac.computeModel())
+    return invalidResult(correspondences, 0,
+                         "RANSAC found no motion among "
+                           + std::to_string(correspondences) + " correspondences.");
+  pcl::Indices inliers;
+  ransac.getInliers(inliers);
+
+  // Refine on the inliers (least squares, SVD), re-select the inliers of the refined
+  // motion and refine once more.
+  pcl::registration::TransformationEstimationSVD<pcl::PointXYZ, pcl::PointXYZ, double>
+    svd;
+  Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();
+  for (int pass = 0; pass < 2 && inliers.size() >= 3; ++pass) {
+    svd.estimateRigidTransformation(*source, inliers, *target, inliers, transform);
+    pcl::Indices refined;
+    model->selectWithinDistance(toCoefficients(transform), params_.distance_threshold_m,
+                                refined);
+    if (refined.size() < 3)
+      break;
+    inliers.swap(refined);
+  }
+
+  if (inliers.size() < static_cast<std::size_t>(params_.min_inliers))
+    return invalidResult(correspondences, inliers.size(),
+                         "Only " + std::to_string(inliers.size()) + " of "
+                           + std::to_string(correspondences)
+                           + " correspondences are inliers; min_inliers is "
+                           + std::to_string(params_.min_inliers) + ".");
+  Cloud inlier_cloud(*source, inliers);
+  if (isColinear(inlier_cloud))
+    return invalidResult(correspondences, inliers.size(),
+                         "The " + std::to_string(inliers.size())
+                           + " inliers lie on one line; the motion is not observable.");
+
+  OdometryResult result;
+  result.previous_T_current.matrix() = transform;
+  // Re-orthonormalise the rotation (SVD gives it to double precision already).
+  result.previous_T_current.linear() =
+    Eigen::Quaterniond(transform.topLeftCorner<3, 3>()).normalized().toRotationMatrix();
+  result.correspondences = correspondences;
+  result.inliers = inliers.size();
+  result.valid = true;
+  return result;
+}
+
+ConstantVelocityMotionModel::ConstantVelocityMotionModel(const Params& params) :
+    params_(params)
+{
+  if (!(params.sigma_translation_m > 0.0) || !(params.sigma_rotation_rad > 0.0))
+    throw Exception("ConstantVelocityMotionModel: sigma_translation_m and "
+                    "sigma_rotation_rad must be > 0");
+}
+
+ConstantVelocityMotionModel::ConstantVelocityMotionModel() :
+    ConstantVelocityMotionModel(Params())
+{}
+
+void
+ConstantVelocityMotionModel::addMotion(const Eigen::Isometry3d& previous_T_current)
+{
+  last_motion_ = previous_T_current;
+  has_motion_ = true;
+}
+
+void
+ConstantVelocityMotionModel::reset()
+{
+  last_motion_ = Eigen::Isometry3d::Identity();
+  has_motion_ = false;
+}
+
+Eigen::Isometry3d
+ConstantVelocityMotionModel::predict(const Eigen::Isometry3d& world_T_current) const
+{
+  return world_T_current * last_motion_;
+}
+
+Eigen::Matrix<double, 6, 6>
+ConstantVelocityMotionModel::getCovariance() const
+{
+  Eigen::Matrix<double, 6, 1> diagonal;
+  const double t2 = params_.sigma_translation_m * params_.sigma_translation_m;
+  const double r2 = params_.sigma_rotation_rad * params_.sigma_rotation_rad;
+  diagonal << t2, t2, t2, r2, r2, r2;
+  return diagonal.asDiagonal();
+}
+
+double
+ConstantVelocityMotionModel::mahalanobisSquared(
+  const Eigen::Isometry3d& measured_motion) const
+{
+  const Eigen::Isometry3d error = last_motion_.inverse() * measured_motion;
+  const Eigen::AngleAxisd rotation(error.linear());
+  const Eigen::Vector3d rotation_vector = rotation.angle() * rotation.axis();
+  return error.translation().squaredNorm()
+           / (params_.sigma_translation_m * params_.sigma_translation_m)
+         + rotation_vector.squaredNorm()
+             / (params_.sigma_rotation_rad * params_.sigma_rotation_rad);
+}
+
+double
+ConstantVelocityMotionModel::motionLikelihood(
+  const Eigen::Isometry3d& measured_motion) const
+{
+  return std::exp(-0.5 * mahalanobisSquared(measured_motion));
+}
+
+VisualOdometry::VisualOdometry(
+  const StereoOdometry::Params& odometry_params,
+  const ConstantVelocityMotionModel::Params& motion_params) :
+    odometry_(odometry_params),
+    motion_model_(motion_params)
+{}
+
+VisualOdometry::VisualOdometry() :
+    VisualOdometry(StereoOdometry::Params(), ConstantVelocityMotionModel::Params())
+{}
+
+const OdometryResult&
+VisualOdometry::addFrame(const StereoFeatures& features)
+{
+  if (trajectory_.empty()) {
+    OdometryResult first;
+    first.valid = true;
+    trajectory_.push_back(Eigen::Isometry3d::Identity());
+    results_.push_back(first);
+  } else {
+    OdometryResult result = odometry_.estimate(previous_, features);
+    Eigen::Isometry3d motion = result.previous_T_current;
+    if (result.valid) {
+      motion_model_.addMotion(motion);
+    } else {
+      motion = motion_model_.getPredictedMotion();
+      flagged_frames_.push_back(trajectory_.size());
+      PCL_WARN("[planar_grid::VisualOdometry::addFrame] Frame %zu: %s The "
+               "constant-velocity prediction takes its place.\n",
+               trajectory_.size(), result.reason.c_str());
+    }
+    trajectory_.push_back(trajectory_.back() * motion);
+    results_.push_back(result);
+  }
+  previous_ = features;
+  return results_.back();
+}
+
+} // namespace planar_grid

@@ -1,0 +1,342 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/odometry/stereo_odometry.h>
+#include <planar_grid/odometry/trajectory_io.h>
+#include <planar_grid/odometry/trajectory_metrics.h>
+#include <planar_grid/stereo/calibration_io.h>
+#include <planar_grid/stereo/stereo_feature_matcher.h>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace {
+
+using planar_grid::ConstantVelocityMotionModel;
+using planar_grid::OdometryResult;
+using planar_grid::StereoFeatureMatcher;
+using planar_grid::StereoFeatures;
+using planar_grid::StereoOdometry;
+using planar_grid::Trajectory;
+using planar_grid::VisualOdometry;
+
+const std::string KARLSRUHE_DIR =
+  std::string(PLANAR_GRID_DATA_DIR) + "/karlsruhe_2010_03_09_drive_0023";
+const double DEG = M_PI / 180.0;
+
+/** \brief Rotation angle of a transform, degrees. */
+double
+angleDeg(const Eigen::Isometry3d& transform)
+{
+  return Eigen::AngleAxisd(transform.linear()).angle() / DEG;
+}
+
+/** \brief A known motion previous_T_current: 3 deg yaw, 1 deg pitch, 0.8 m forward. */
+Eigen::Isometry3d
+knownMotion()
+{
+  Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
+  motion.linear() = (Eigen::AngleAxisd(3.0 * DEG, Eigen::Vector3d::UnitY())
+                     * Eigen::AngleAxisd(1.0 * DEG, Eigen::Vector3d::UnitX()))
+                      .toRotationMatrix();
+  motion.translation() = Eigen::Vector3d(0.1, -0.05, 0.8);
+  return motion;
+}
+
+/** \brief The same features seen after the camera moved by previous_T_current: each
+ * point becomes current_T_previous * point; descriptors and key points are kept. */
+StereoFeatures
+moved(const StereoFeatures& features, const Eigen::Isometry3d& previous_T_current)
+{
+  StereoFeatures result = features;
+  const Eigen::Isometry3f current_T_previous =
+    previous_T_current.inverse().cast<float>();
+  for (auto& point : result.points)
+    point.getVector3fMap() = current_T_previous * point.getVector3fMap();
+  return result;
+}
+
+/** \brief SIFT features of Karlsruhe frames 10 and 11, computed once. */
+class StereoOdometryKarlsruhe : public ::testing::Test {
+protected:
+  static void SetUpTestSuite()
+  {
+    const planar_grid::StereoCameraModel model = planar_grid::loadStereoCalibration(
+      planar_grid::CalibrationFormat::KARLSRUHE, KARLSRUHE_DIR + "/calib.txt");
+    const StereoFeatureMatcher matcher;
+    for (int frame = 10; frame <= 11; ++frame) {
+      char name[32];
+      std::snprintf(name, sizeof(name), "%06d.png", frame);
+      const cv::Mat left =
+        cv::imread(KARLSRUHE_DIR + "/left/I1_" + name, cv::IMREAD_GRAYSCALE);
+      const cv::Mat right =
+        cv::imread(KARLSRUHE_DIR + "/right/I2_" + name, cv::IMREAD_GRAYSCALE);
+      matcher.match(left, right, model.calibration, frame == 10 ? frame10_ : frame11_);
+    }
+  }
+
+  static StereoFeatures frame10_;
+  static StereoFeatures frame11_;
+};
+
+StereoFeatures StereoOdometryKarlsruhe::frame10_;
+StereoFeatures StereoOdometryKarlsruhe::frame11_;
+
+TEST_F(StereoOdometryKarlsruhe, RecoversSyntheticMotionOfRealFeatures)
+{
+  ASSERT_GT(frame10_.size(), 100u);
+  const Eigen::Isometry3d truth = knownMotion();
+  const StereoOdometry odometry;
+  const OdometryResult result = odometry.estimate(frame10_, moved(frame10_, truth));
+  ASSERT_TRUE(result.valid) << result.reason;
+  // Noise-free points (float precision): < 1 cm and < 0.1 deg.
+  const Eigen::Isometry3d error = truth.inverse() * result.previous_T_current;
+  EXPECT_LT(error.translation().norm(), 0.01);
+  EXPECT_LT(angleDeg(error), 0.1);
+  // Every feature matches itself, except the few whose descriptor is not distinct
+  // enough for the ratio test against a near-duplicate.
+  EXPECT_GT(result.correspondences, frame10_.size() * 9 / 10);
+  EXPECT_EQ(result.inliers, result.correspondences);
+}
+
+TEST_F(StereoOdometryKarlsruhe, RecoversMotionWithThirtyPercentOutliers)
+{
+  const Eigen::Isometry3d truth = knownMotion();
+  StereoFeatures current = moved(frame10_, truth);
+  // Shuffle the 3D points of 30 % of the features among themselves: their descriptors
+  // still match, but to the wrong points (outliers).
+  std::vector<std::size_t> chosen(current.size());
+  std::iota(chosen.begin(), chosen.end(), 0u);
+  std::mt19937 rng(42);
+  std::shuffle(chosen.begin(), chosen.end(), rng);
+  chosen.resize(current.size() * 3 / 10);
+  std::vector<std::size_t> permuted = chosen;
+  std::shuffle(permuted.begin(), permuted.end(), rng);
+  const auto points = current.points;
+  for (std::size_t k = 0; k < chosen.size(); ++k)
+    current.points[chosen[k]] = points[permuted[k]];
+
+  const StereoOdometry odometry;
+  const OdometryResult result = odometry.estimate(frame10_, current);
+  ASSERT_TRUE(result.valid) << result.reason;
+  const Eigen::Isometry3d error = truth.inverse() * result.previous_T_current;
+  EXPECT_LT(error.translation().norm(), 0.01);
+  EXPECT_LT(angleDeg(error), 0.1);
+  // About 70 % inliers (a shuffled point can land within 0.1 m of its true place).
+  EXPECT_LT(result.inliers, result.correspondences * 8 / 10);
+  EXPECT_GT(result.inliers, result.correspondences * 6 / 10);
+}
+
+TEST_F(StereoOdometryKarlsruhe, RealFrames10To11MatchTheInsDistance)
+{
+  const Trajectory ins =
+    planar_grid::loadKarlsruheInsData(KARLSRUHE_DIR + "/insdata.txt");
+  ASSERT_GT(ins.size(), 11u);
+  const double ins_distance = (ins[11].translation() - ins[10].translation()).norm();
+  const StereoOdometry odometry;
+  const OdometryResult result = odometry.estimate(frame10_, frame11_);
+  ASSERT_TRUE(result.valid) << result.reason;
+  EXPECT_NEAR(result.previous_T_current.translation().norm(), ins_distance, 0.2);
+  // The camera drives forward (+z) and barely turns between two frames.
+  EXPECT_GT(result.previous_T_current.translation().z(), 0.0);
+  EXPECT_LT(angleDeg(result.previous_T_current), 5.0);
+}
+
+TEST_F(StereoOdometryKarlsruhe, FewerThanThreeMatchesIsInvalid)
+{
+  StereoFeatures two;
+  two.points.push_back(frame10_.points[0]);
+  two.points.push_back(frame10_.points[1]);
+  two.keypoints_left = {frame10_.keypoints_left[0], frame10_.keypoints_left[1]};
+  two.descriptors = frame10_.descriptors.rowRange(0, 2).clone();
+  const StereoOdometry odometry;
+  const OdometryResult result = odometry.estimate(two, moved(two, knownMotion()));
+  EXPECT_FALSE(result.valid);
+  EXPECT_LE(result.correspondences, 2u);
+  EXPECT_NE(result.reason.find("at least 3"), std::string::npos) << result.reason;
+  EXPECT_TRUE(result.previous_T_current.isApprox(Eigen::Isometry3d::Identity()));
+
+  const OdometryResult empty = odometry.estimate(StereoFeatures(), StereoFeatures());
+  EXPECT_FALSE(empty.valid);
+  EXPECT_FALSE(empty.reason.empty());
+}
+
+TEST_F(StereoOdometryKarlsruhe, ColinearPointsAreInvalid)
+{
+  StereoFeatures line = frame10_;
+  // Every point on one line through (0, 0, 5) m along (1, 0.2, 0.5).
+  for (std::size_t i = 0; i < line.points.size(); ++i) {
+    const float s = 0.01f * static_cast<float>(i);
+    line.points[i] = pcl::PointXYZ(s, 0.2f * s, 5.0f + 0.5f * s);
+  }
+  const StereoOdometry odometry;
+  const OdometryResult result = odometry.estimate(line, moved(line, knownMotion()));
+  EXPECT_FALSE(result.valid);
+  EXPECT_NE(result.reason.find("line"), std::string::npos) << result.reason;
+}
+
+TEST_F(StereoOdometryKarlsruhe, VisualOdometryFlagsAnInvalidFrame)
+{
+  const Eigen::Isometry3d motion = knownMotion();
+  const StereoFeatures f1 = moved(frame10_, motion);
+  const StereoFeatures f3 = moved(f1, motion * motion);
+  VisualOdometry odometry;
+  odometry.addFrame(frame10_);
+  odometry.addFrame(f1);
+  odometry.addFrame(StereoFeatures()); // no features: invalid, predicted
+  odometry.addFrame(f3);               // no features in the previous frame either
+  ASSERT_EQ(odometry.getTrajectory().size(), 4u);
+  EXPECT_EQ(odometry.getFlaggedFrames(), (std::vector<std::size_t>{2, 3}));
+  EXPECT_FALSE(odometry.getResults()[2].valid);
+  // Frames 2 and 3 take the constant-velocity prediction: pose k = motion^k.
+  Eigen::Isometry3d expected = Eigen::Isometry3d::Identity();
+  for (std::size_t k = 0; k < 4; ++k) {
+    const Eigen::Isometry3d error = expected.inverse() * odometry.getTrajectory()[k];
+    EXPECT_LT(error.translation().norm(), 0.01) << "frame " << k;
+    EXPECT_LT(angleDeg(error), 0.1) << "frame " << k;
+    expected = expected * motion;
+  }
+}
+
+TEST(StereoOdometry, RejectsInvalidParameters)
+{
+  StereoOdometry::Params params;
+  params.ratio = 0.0;
+  EXPECT_THROW(StereoOdometry{params}, planar_grid::Exception);
+  params = StereoOdometry::Params();
+  params.distance_threshold_m = -1.0;
+  EXPECT_THROW(StereoOdometry{params}, planar_grid::Exception);
+  params = StereoOdometry::Params();
+  params.min_inliers = 2;
+  EXPECT_THROW(StereoOdometry{params}, planar_grid::Exception);
+  ConstantVelocityMotionModel::Params motion;
+  motion.sigma_rotation_rad = 0.0;
+  EXPECT_THROW(ConstantVelocityMotionModel{motion}, planar_grid::Exception);
+}
+
+TEST(ConstantVelocityMotionModel, PredictsTheThirdOfThreeEqualMotions)
+{
+  const Eigen::Isometry3d motion = knownMotion();
+  const Eigen::Isometry3d pose0 = Eigen::Isometry3d::Identity();
+  const Eigen::Isometry3d pose1 = pose0 * motion;
+  const Eigen::Isometry3d pose2 = pose1 * motion;
+  const Eigen::Isometry3d pose3 = pose2 * motion;
+  ConstantVelocityMotionModel model;
+  EXPECT_FALSE(model.hasMotion());
+  EXPECT_TRUE(model.predict(pose2).isApprox(pose2)); // standing still before any motion
+  model.addMotion(pose0.inverse() * pose1);
+  model.addMotion(pose1.inverse() * pose2);
+  EXPECT_TRUE(model.hasMotion());
+  EXPECT_TRUE(model.predict(pose2).isApprox(pose3, 1e-12));
+}
+
+TEST(ConstantVelocityMotionModel, MahalanobisIsZeroAtThePredictionAndGrows)
+{
+  ConstantVelocityMotionModel::Params params;
+  params.sigma_translation_m = 0.1;
+  params.sigma_rotation_rad = 0.02;
+  ConstantVelocityMotionModel model(params);
+  const Eigen::Isometry3d motion = knownMotion();
+  model.addMotion(motion);
+  EXPECT_NEAR(model.mahalanobisSquared(motion), 0.0, 1e-12);
+  EXPECT_NEAR(model.motionLikelihood(motion), 1.0, 1e-12);
+
+  // 0.1 m off along x (one sigma): d^2 = 1; 0.2 m: d^2 = 4.
+  Eigen::Isometry3d shifted = motion * Eigen::Translation3d(0.1, 0.0, 0.0);
+  EXPECT_NEAR(model.mahalanobisSquared(shifted), 1.0, 1e-9);
+  EXPECT_NEAR(model.motionLikelihood(shifted), std::exp(-0.5), 1e-9);
+  shifted = motion * Eigen::Translation3d(0.2, 0.0, 0.0);
+  EXPECT_NEAR(model.mahalanobisSquared(shifted), 4.0, 1e-9);
+  // 0.04 rad about y (two sigmas): d^2 = 4.
+  const Eigen::Isometry3d turned =
+    motion * Eigen::AngleAxisd(0.04, Eigen::Vector3d::UnitY());
+  EXPECT_NEAR(model.mahalanobisSquared(turned), 4.0, 1e-9);
+  EXPECT_LT(model.motionLikelihood(turned), model.motionLikelihood(motion));
+
+  const Eigen::Matrix<double, 6, 6> covariance = model.getCovariance();
+  EXPECT_DOUBLE_EQ(covariance(0, 0), 0.01);
+  EXPECT_DOUBLE_EQ(covariance(5, 5), 0.0004);
+  EXPECT_DOUBLE_EQ(covariance(0, 1), 0.0);
+}
+
+/** \brief Poses 1 m apart along x, frames 0..60, and the same scaled by 1.01. */
+class TrajectoryMetricsLine : public ::testing::Test {
+protected:
+  void SetUp() override
+  {
+    for (int k = 0; k <= 60; ++k) {
+      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+      pose.translation() = Eigen::Vector3d(k, 0.0, 0.0);
+      ground_truth_.push_back(pose);
+      pose.translation() = Eigen::Vector3d(1.01 * k, 0.0, 0.0);
+      estimated_.push_back(pose);
+    }
+  }
+
+  Trajectory ground_truth_;
+  Trajectory estimated_;
+};
+
+TEST_F(TrajectoryMetricsLine, ScaleErrorOfOnePercentGivesOnePercentRTE)
+{
+  // Every segment of L m spans exactly L frames; the estimate travels 1.01 L, so the
+  // error is 0.01 L / L = 1 %. Segments: 61 - L start frames.
+  const auto errors = planar_grid::relativeTranslationError(estimated_, ground_truth_,
+                                                            {10.0, 20.0, 50.0, 100.0});
+  ASSERT_EQ(errors.size(), 4u);
+  EXPECT_EQ(errors[0].segments, 51u);
+  EXPECT_EQ(errors[1].segments, 41u);
+  EXPECT_EQ(errors[2].segments, 11u);
+  EXPECT_EQ(errors[3].segments, 0u); // longer than the path
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(errors[static_cast<std::size_t>(i)].mean_error_percent, 1.0, 1e-9);
+  }
+  EXPECT_NEAR(planar_grid::meanRelativeTranslationError(errors), 1.0, 1e-9);
+}
+
+TEST_F(TrajectoryMetricsLine, ATEMatchesTheHandComputedValue)
+{
+  // The rigid alignment only shifts the centroid 30.3 m onto 30 m: residual at frame k
+  // is 0.01 (k - 30), so ATE = 0.01 sqrt(sum_{m=-30..30} m^2 / 61) = 0.01 sqrt(310).
+  EXPECT_NEAR(planar_grid::absoluteTrajectoryError(estimated_, ground_truth_),
+              0.01 * std::sqrt(310.0), 1e-9);
+  EXPECT_NEAR(planar_grid::absoluteTrajectoryError(ground_truth_, ground_truth_), 0.0,
+              1e-9);
+}
+
+TEST_F(TrajectoryMetricsLine, AlignmentUndoesARigidMotion)
+{
+  // A rotated and shifted copy of an L-shaped path aligns back exactly.
+  Trajectory path = ground_truth_;
+  for (std::size_t k = 31; k < path.size(); ++k)
+    path[k].translation() = Eigen::Vector3d(30.0, static_cast<double>(k) - 30.0, 0.0);
+  Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
+  offset.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  offset.translation() = Eigen::Vector3d(5.0, -2.0, 1.0);
+  Trajectory moved_path;
+  for (const auto& pose : path)
+    moved_path.push_back(offset * pose);
+  const Eigen::Isometry3d gt_T_est = planar_grid::alignPositions(moved_path, path);
+  EXPECT_TRUE(gt_T_est.isApprox(offset.inverse(), 1e-9));
+  EXPECT_NEAR(planar_grid::absoluteTrajectoryError(moved_path, path), 0.0, 1e-9);
+  const auto errors = planar_grid::relativeTranslationError(moved_path, path, {10.0});
+  EXPECT_NEAR(errors[0].mean_error_percent, 0.0, 1e-9);
+}
+
+TEST(TrajectoryMetrics, RejectsMismatchedInput)
+{
+  Trajectory three(3, Eigen::Isometry3d::Identity());
+  Trajectory four(4, Eigen::Isometry3d::Identity());
+  EXPECT_THROW(planar_grid::absoluteTrajectoryError(three, four),
+               planar_grid::Exception);
+  EXPECT_THROW(planar_grid::relativeTranslationError(three, three, {0.0}),
+               planar_grid::Exception);
+}
+
+} // namespace

@@ -1,0 +1,422 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// planar_grid_odometry_eval: stereo visual odometry (paper eq. 8) on real data, against
+// the Karlsruhe INS positions or the EuRoC V1_01 ground-truth poses.
+#include <planar_grid/core/atomic_file.h>
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/odometry/stereo_odometry.h>
+#include <planar_grid/odometry/trajectory_io.h>
+#include <planar_grid/odometry/trajectory_metrics.h>
+#include <planar_grid/stereo/calibration_io.h>
+#include <planar_grid/stereo/stereo_feature_matcher.h>
+
+#include <pcl/console/parse.h>
+#include <pcl/console/print.h>
+#include <pcl/console/time.h>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+using planar_grid::StereoFeatureMatcher;
+using planar_grid::StereoFeatures;
+using planar_grid::StereoOdometry;
+
+void
+printHelp(const char* program)
+{
+  pcl::console::print_info(
+    "Stereo visual odometry (paper eq. 8) evaluated on real data.\n"
+    "Usage: %s --sequence karlsruhe|euroc [options]\n"
+    "  --sequence NAME    karlsruhe (112 frames, INS positions) or euroc (pairs 2 -> "
+    "3)\n"
+    "  --data DIR         data folder (default ../shared/data)\n"
+    "  --features NAME    sift or orb (default sift)\n"
+    "  --threshold_m X    RANSAC distance threshold, metres (default 0.1)\n"
+    "  --output FILE      write the figures as JSON (default: none)\n"
+    "  -h                 this help\n",
+    program);
+}
+
+/** \brief Reads a grey image; throws when it is missing. */
+cv::Mat
+readImage(const std::string& path)
+{
+  cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  if (image.empty())
+    throw planar_grid::IOError("cannot read image " + path);
+  return image;
+}
+
+/** \brief printf into a std::string. */
+std::string
+formatPath(const std::string& pattern, int index)
+{
+  std::vector<char> buffer(pattern.size() + 32);
+  std::snprintf(buffer.data(), buffer.size(), pattern.c_str(), index);
+  return buffer.data();
+}
+
+double
+median(std::vector<double> values)
+{
+  if (values.empty())
+    return 0.0;
+  std::sort(values.begin(), values.end());
+  return values[values.size() / 2];
+}
+
+double
+mean(const std::vector<double>& values)
+{
+  if (values.empty())
+    return 0.0;
+  double sum = 0.0;
+  for (const double value : values)
+    sum += value;
+  return sum / static_cast<double>(values.size());
+}
+
+nlohmann::json
+timingJson(const std::vector<double>& values)
+{
+  return {
+    {"mean_ms", mean(values)},
+    {"median_ms", median(values)},
+    {"max_ms", values.empty() ? 0.0 : *std::max_element(values.begin(), values.end())}};
+}
+
+nlohmann::json
+runKarlsruhe(const std::string& data_dir,
+             const StereoFeatureMatcher& matcher,
+             const StereoOdometry::Params& odometry_params)
+{
+  const std::string dir = data_dir + "/karlsruhe_2010_03_09_drive_0023";
+  const planar_grid::StereoCameraModel model = planar_grid::loadStereoCalibration(
+    planar_grid::CalibrationFormat::KARLSRUHE, dir + "/calib.txt");
+  const planar_grid::Trajectory ground_truth =
+    planar_grid::loadKarlsruheInsData(dir + "/insdata.txt");
+  pcl::console::print_info("Loaded %zu INS poses from %s/insdata.txt\n",
+                           ground_truth.size(), dir.c_str());
+
+  planar_grid::VisualOdometry odometry(
+    odometry_params, planar_grid::ConstantVelocityMotionModel::Params());
+  std::vector<double> feature_ms, odometry_ms, features, inliers;
+  pcl::console::TicToc timer;
+  for (std::size_t frame = 0; frame < ground_truth.size(); ++frame) {
+    const int index = static_cast<int>(frame);
+    const cv::Mat left = readImage(formatPath(dir + "/left/I1_%06d.png", index));
+    const cv::Mat right = readImage(formatPath(dir + "/right/I2_%06d.png", index));
+    StereoFeatures current;
+    timer.tic();
+    matcher.match(left, right, model.calibration, current);
+    feature_ms.push_back(timer.toc());
+    timer.tic();
+    const planar_grid::OdometryResult& result = odometry.addFrame(current);
+    const double elapsed = timer.toc();
+    features.push_back(static_cast<double>(current.size()));
+    if (frame > 0) {
+      odometry_ms.push_back(elapsed);
+      inliers.push_back(static_cast<double>(result.inliers));
+    }
+    pcl::console::print_info(
+      "frame %3zu: %4zu features [%6.1f ms], %4zu matches, %4zu inliers [%5.1f ms]%s\n",
+      frame, current.size(), feature_ms.back(), result.correspondences, result.inliers,
+      elapsed, result.valid ? "" : " FLAGGED");
+  }
+
+  const planar_grid::Trajectory& estimated = odometry.getTrajectory();
+  const std::vector<double> lengths{10.0, 20.0, 30.0, 40.0, 50.0};
+  const auto rte =
+    planar_grid::relativeTranslationError(estimated, ground_truth, lengths);
+  const double ate = planar_grid::absoluteTrajectoryError(estimated, ground_truth);
+  double path_gt = 0.0, path_est = 0.0;
+  for (std::size_t i = 1; i < estimated.size(); ++i) {
+    path_gt +=
+      (ground_truth[i].translation() - ground_truth[i - 1].translation()).norm();
+    path_est += (estimated[i].translation() - estimated[i - 1].translation()).norm();
+  }
+
+  nlohmann::json json;
+  json["sequence"] = "karlsruhe_2010_03_09_drive_0023";
+  json["frames"] = estimated.size();
+  json["flagged_frames"] = odometry.getFlaggedFrames();
+  json["path_length_gt_m"] = path_gt;
+  json["path_length_estimated_m"] = path_est;
+  json["ate_rmse_m"] = ate;
+  json["rte_percent"] = planar_grid::meanRelativeTranslationError(rte);
+  for (const auto& error : rte) {
+    json["rte_by_length"].push_back({{"segment_length_m", error.segment_length_m},
+                                     {"segments", error.segments},
+                                     {"mean_error_percent", error.mean_error_percent}});
+  }
+  json["features_per_frame_mean"] = mean(features);
+  json["inliers_per_frame_mean"] = mean(inliers);
+  json["feature_extraction_and_stereo_matching"] = timingJson(feature_ms);
+  json["odometry"] = timingJson(odometry_ms);
+
+  pcl::console::print_info("Karlsruhe: %zu frames, GT path %.2f m, estimated %.2f m\n",
+                           estimated.size(), path_gt, path_est);
+  for (const auto& error : rte)
+    pcl::console::print_info("  RTE %4.0f m: %6.3f %% over %zu segments\n",
+                             error.segment_length_m, error.mean_error_percent,
+                             error.segments);
+  pcl::console::print_info("  RTE (all segments): %.3f %%, ATE RMSE: %.3f m\n",
+                           json["rte_percent"].get<double>(), ate);
+  pcl::console::print_info("  features+stereo: mean %.1f ms; odometry: mean %.1f ms, "
+                           "median %.1f ms, max %.1f ms\n",
+                           mean(feature_ms), mean(odometry_ms), median(odometry_ms),
+                           json["odometry"]["max_ms"].get<double>());
+  pcl::console::print_info("  flagged frames: %zu\n",
+                           odometry.getFlaggedFrames().size());
+  return json;
+}
+
+/** \brief One EuRoC camera as sensor.yaml gives it. */
+struct EurocCamera {
+  Eigen::Isometry3d body_T_camera{Eigen::Isometry3d::Identity()};
+  cv::Matx33d camera_matrix{cv::Matx33d::eye()};
+  std::vector<double> distortion;
+  cv::Size size;
+};
+
+std::vector<double>
+readNumbers(const YAML::Node& root,
+            const std::string& key,
+            std::size_t count,
+            const std::string& path)
+{
+  const YAML::Node node = key == "T_BS" ? root["T_BS"]["data"] : root[key];
+  if (!node || !node.IsSequence() || node.size() != count)
+    throw planar_grid::IOError(path + ": " + key + " must hold " + std::to_string(count)
+                               + " numbers");
+  std::vector<double> values;
+  for (std::size_t i = 0; i < count; ++i)
+    values.push_back(node[i].as<double>());
+  return values;
+}
+
+EurocCamera
+readEurocCamera(const std::string& path)
+{
+  const YAML::Node root = YAML::LoadFile(path);
+  EurocCamera camera;
+  const std::vector<double> pose = readNumbers(root, "T_BS", 16, path);
+  for (std::size_t i = 0; i < 16; ++i)
+    camera.body_T_camera.matrix()(static_cast<Eigen::Index>(i / 4),
+                                  static_cast<Eigen::Index>(i % 4)) = pose[i];
+  const std::vector<double> intrinsics = readNumbers(root, "intrinsics", 4, path);
+  camera.camera_matrix = cv::Matx33d(intrinsics[0], 0, intrinsics[2], 0, intrinsics[1],
+                                     intrinsics[3], 0, 0, 1);
+  camera.distortion = readNumbers(root, "distortion_coefficients", 4, path);
+  const std::vector<double> resolution = readNumbers(root, "resolution", 2, path);
+  camera.size =
+    cv::Size(static_cast<int>(resolution[0]), static_cast<int>(resolution[1]));
+  return camera;
+}
+
+/** \brief The rotation R1 from cam0 to the rectified left camera (x_rect = R1 x_cam0),
+ * computed as loadStereoCalibration(EUROC) computes it (cv::stereoRectify,
+ * CALIB_ZERO_DISPARITY, alpha = 0); the camera model does not keep it. */
+Eigen::Matrix3d
+rectifiedTCam0(const EurocCamera& left, const EurocCamera& right)
+{
+  const Eigen::Isometry3d right_T_left =
+    right.body_T_camera.inverse() * left.body_T_camera;
+  cv::Matx33d rotation;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      rotation(r, c) = right_T_left.linear()(r, c);
+  const cv::Vec3d translation(right_T_left.translation().x(),
+                              right_T_left.translation().y(),
+                              right_T_left.translation().z());
+  cv::Mat r1, r2, p1, p2, q;
+  cv::stereoRectify(left.camera_matrix, left.distortion, right.camera_matrix,
+                    right.distortion, left.size, rotation, translation, r1, r2, p1, p2,
+                    q, cv::CALIB_ZERO_DISPARITY, 0.0);
+  Eigen::Matrix3d result;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      result(r, c) = r1.at<double>(r, c);
+  return result;
+}
+
+/** \brief world_T_body of one pair from gt_body_poses.txt. */
+Eigen::Isometry3d
+readBodyPose(const std::string& path, int pair)
+{
+  std::ifstream file(path);
+  if (!file)
+    throw planar_grid::IOError("cannot open " + path);
+  std::string line;
+  while (std::getline(file, line)) {
+    if (line.empty() || line[0] == '#')
+      continue;
+    std::istringstream stream(line);
+    int image = -1;
+    long long timestamp_ns = 0;
+    double qw, qx, qy, qz, x, y, z;
+    if (!(stream >> image >> timestamp_ns >> qw >> qx >> qy >> qz >> x >> y >> z))
+      throw planar_grid::IOError(path + ": malformed line '" + line + "'");
+    if (image != pair)
+      continue;
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = Eigen::Quaterniond(qw, qx, qy, qz).normalized().toRotationMatrix();
+    pose.translation() = Eigen::Vector3d(x, y, z);
+    return pose;
+  }
+  throw planar_grid::IOError(path + ": no pose for pair " + std::to_string(pair));
+}
+
+nlohmann::json
+runEuroc(const std::string& data_dir,
+         const StereoFeatureMatcher& matcher,
+         const StereoOdometry::Params& odometry_params)
+{
+  const std::string dir = data_dir + "/euroc_v1_01_pairs";
+  const planar_grid::StereoCameraModel model = planar_grid::loadStereoCalibration(
+    planar_grid::CalibrationFormat::EUROC, dir + "/sensorLeft.yaml",
+    dir + "/sensorRight.yaml");
+  const EurocCamera cam0 = readEurocCamera(dir + "/sensorLeft.yaml");
+  const EurocCamera cam1 = readEurocCamera(dir + "/sensorRight.yaml");
+  const Eigen::Isometry3d body_T_camera = cam0.body_T_camera;
+  const int pairs[2] = {2, 3};
+  StereoFeatures features[2];
+  std::vector<double> feature_ms;
+  pcl::console::TicToc timer;
+  for (int k = 0; k < 2; ++k) {
+    cv::Mat left, right;
+    model.rectifier.rectify(
+      readImage(dir + "/left_img_" + std::to_string(pairs[k]) + ".png"),
+      readImage(dir + "/right_img_" + std::to_string(pairs[k]) + ".png"), left, right);
+    timer.tic();
+    matcher.match(left, right, model.calibration, features[k]);
+    feature_ms.push_back(timer.toc());
+  }
+  const StereoOdometry odometry(odometry_params);
+  timer.tic();
+  const planar_grid::OdometryResult result =
+    odometry.estimate(features[0], features[1]);
+  const double odometry_ms = timer.toc();
+
+  const Eigen::Isometry3d world_T_camera2 =
+    readBodyPose(dir + "/gt_body_poses.txt", 2) * body_T_camera;
+  const Eigen::Isometry3d world_T_camera3 =
+    readBodyPose(dir + "/gt_body_poses.txt", 3) * body_T_camera;
+  // The features live in the rectified left camera frame, rotated by R1 against cam0:
+  // the true motion in that frame is R1 * (cam0_2_T_cam0_3) * R1^T.
+  Eigen::Isometry3d rect_T_cam0 = Eigen::Isometry3d::Identity();
+  rect_T_cam0.linear() = rectifiedTCam0(cam0, cam1);
+  const Eigen::Isometry3d truth =
+    rect_T_cam0 * world_T_camera2.inverse() * world_T_camera3 * rect_T_cam0.inverse();
+
+  nlohmann::json json;
+  json["sequence"] = "euroc_v1_01_pairs 2 -> 3";
+  json["features"] = {features[0].size(), features[1].size()};
+  json["correspondences"] = result.correspondences;
+  json["inliers"] = result.inliers;
+  json["valid"] = result.valid;
+  json["reason"] = result.reason;
+  json["gt_translation_m"] = truth.translation().norm();
+  json["gt_rotation_deg"] = Eigen::AngleAxisd(truth.linear()).angle() * 180.0 / M_PI;
+  json["feature_extraction_and_stereo_matching_ms"] = mean(feature_ms);
+  json["odometry_ms"] = odometry_ms;
+  if (result.valid) {
+    const Eigen::Isometry3d estimate = result.previous_T_current;
+    json["estimated_translation_m"] = estimate.translation().norm();
+    json["estimated_rotation_deg"] =
+      Eigen::AngleAxisd(estimate.linear()).angle() * 180.0 / M_PI;
+    const Eigen::Isometry3d error = truth.inverse() * estimate;
+    json["translation_error_m"] = error.translation().norm();
+    json["rotation_error_deg"] =
+      Eigen::AngleAxisd(error.linear()).angle() * 180.0 / M_PI;
+    pcl::console::print_info(
+      "EuRoC 2 -> 3: %zu matches, %zu inliers; GT |t| %.3f m, %.2f deg; estimated "
+      "|t| %.3f m, %.2f deg; error %.3f m, %.2f deg [odometry %.1f ms]\n",
+      result.correspondences, result.inliers, json["gt_translation_m"].get<double>(),
+      json["gt_rotation_deg"].get<double>(),
+      json["estimated_translation_m"].get<double>(),
+      json["estimated_rotation_deg"].get<double>(),
+      json["translation_error_m"].get<double>(),
+      json["rotation_error_deg"].get<double>(), odometry_ms);
+  } else {
+    pcl::console::print_warn("EuRoC 2 -> 3: odometry invalid: %s\n",
+                             result.reason.c_str());
+  }
+  return json;
+}
+
+} // namespace
+
+int
+main(int argc, char** argv)
+{
+  try {
+    if (pcl::console::find_switch(argc, argv, "-h")
+        || pcl::console::find_switch(argc, argv, "--help")) {
+      printHelp(argv[0]);
+      return EXIT_SUCCESS;
+    }
+    std::string sequence, data_dir = "../shared/data", features_name = "sift", output;
+    if (pcl::console::parse_argument(argc, argv, "--sequence", sequence) < 0) {
+      printHelp(argv[0]);
+      pcl::console::print_error("--sequence is required\n");
+      return EXIT_FAILURE;
+    }
+    pcl::console::parse_argument(argc, argv, "--data", data_dir);
+    pcl::console::parse_argument(argc, argv, "--features", features_name);
+    pcl::console::parse_argument(argc, argv, "--output", output);
+    StereoOdometry::Params odometry_params;
+    if (pcl::console::find_switch(argc, argv, "--threshold_m")
+        && pcl::console::parse_argument(argc, argv, "--threshold_m",
+                                        odometry_params.distance_threshold_m)
+             < 0) {
+      pcl::console::print_error("--threshold_m needs a number\n");
+      return EXIT_FAILURE;
+    }
+
+    StereoFeatureMatcher::Params matcher_params;
+    matcher_params.feature_type = planar_grid::featureTypeFromString(features_name);
+    const StereoFeatureMatcher matcher(matcher_params);
+    pcl::console::print_info(
+      "Sequence %s, data %s, features %s, RANSAC threshold %.3f m, ratio %.2f, "
+      "mutual check %s, max_iterations %d, min_inliers %d\n",
+      sequence.c_str(), data_dir.c_str(), features_name.c_str(),
+      odometry_params.distance_threshold_m, odometry_params.ratio,
+      odometry_params.mutual_check ? "on" : "off", odometry_params.max_iterations,
+      odometry_params.min_inliers);
+
+    nlohmann::json json;
+    if (sequence == "karlsruhe")
+      json = runKarlsruhe(data_dir, matcher, odometry_params);
+    else if (sequence == "euroc")
+      json = runEuroc(data_dir, matcher, odometry_params);
+    else {
+      pcl::console::print_error("Unknown --sequence '%s' (karlsruhe, euroc)\n",
+                                sequence.c_str());
+      return EXIT_FAILURE;
+    }
+    json["features_type"] = features_name;
+    json["ransac_distance_threshold_m"] = odometry_params.distance_threshold_m;
+    if (!output.empty()) {
+      planar_grid::writeTextFileAtomically(output, json.dump(2) + "\n");
+      pcl::console::print_info("Wrote %s\n", output.c_str());
+    }
+    return EXIT_SUCCESS;
+  } catch (const std::exception& error) {
+    pcl::console::print_error("planar_grid_odometry_eval: %s\n", error.what());
+    return EXIT_FAILURE;
+  }
+}
