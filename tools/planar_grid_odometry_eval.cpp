@@ -162,6 +162,19 @@ runKarlsruhe(const std::string& data_dir,
                                      {"segments", error.segments},
                                      {"mean_error_percent", error.mean_error_percent}});
   }
+  for (std::size_t i = 1; i < estimated.size(); ++i) {
+    const planar_grid::OdometryResult& result = odometry.getResults()[i];
+    json["per_frame"].push_back(
+      {{"frame", i},
+       {"valid", result.valid},
+       {"correspondences", result.correspondences},
+       {"inliers", result.inliers},
+       {"step_estimated_m",
+        (estimated[i].translation() - estimated[i - 1].translation()).norm()},
+       {"step_gt_m",
+        (ground_truth[i].translation() - ground_truth[i - 1].translation()).norm()},
+       {"odometry_ms", odometry_ms[i - 1]}});
+  }
   json["features_per_frame_mean"] = mean(features);
   json["inliers_per_frame_mean"] = mean(inliers);
   json["feature_extraction_and_stereo_matching"] = timingJson(feature_ms);
