@@ -201,6 +201,9 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
   const auto d_t = static_cast<float>(distance_threshold_);
   const auto sample_t = static_cast<float>(getSampleDistanceThreshold());
   std::mt19937 rng(seed_);
+  // Local dense refinement: slab half-width in units of d_T, and subsample size.
+  constexpr float LOCAL_SLAB_FACTOR = 4.0f;
+  constexpr std::size_t LOCAL_SAMPLE_SIZE = 5000;
 
   // The unassigned finite input points (within the indices), struct of arrays.
   detail::DensePoints dense;
@@ -303,9 +306,41 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
     plane /= plane.head<3>().norm();
     detail::orientTowards(plane, origin);
 
+    PlanarSegment segment;
+    // Local dense refinement: the sample (stereo features) is noisy, so its plane can
+    // be tilted against the dense surface. RANSAC at d_T on a seeded subsample of the
+    // unassigned dense points within a wide slab around the hypothesis re-estimates
+    // it where the dense points are.
+    if (optimize_coefficients_) {
+      const float slab = std::max(sample_t, LOCAL_SLAB_FACTOR * d_t);
+      if (dense.select(plane, slab) >= 3) {
+        dense.selected(segment.inliers.indices);
+        auto& local = segment.inliers.indices;
+        const std::size_t wanted = std::min(local.size(), LOCAL_SAMPLE_SIZE);
+        for (std::size_t k = 0; k < wanted; ++k) {
+          std::uniform_int_distribution<std::size_t> pick(k, local.size() - 1);
+          std::swap(local[k], local[pick(rng)]);
+        }
+        local.resize(wanted);
+        auto local_model = std::make_shared<pcl::SampleConsensusModelPlane<PointT>>(
+          input_, local, false);
+        pcl::RandomSampleConsensus<PointT> local_sac(local_model, d_t);
+        local_sac.setMaxIterations(max_iterations_);
+        local_sac.setProbability(probability_);
+        Eigen::VectorXf local_coefficients;
+        if (local_sac.computeModel()) {
+          local_sac.getModelCoefficients(local_coefficients);
+          if (local_coefficients.size() == 4 && local_coefficients.allFinite()) {
+            plane = local_coefficients.head<4>();
+            plane /= plane.head<3>().norm();
+            detail::orientTowards(plane, origin);
+          }
+        }
+      }
+    }
+
     // Eq. 11 over the unassigned dense points; refit (PCA) and reselect.
     std::size_t count = dense.select(plane, d_t);
-    PlanarSegment segment;
     if (optimize_coefficients_ && count >= 3) {
       dense.selected(segment.inliers.indices);
       Eigen::Vector4f refit, centroid;
