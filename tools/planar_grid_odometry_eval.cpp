@@ -45,6 +45,8 @@ printHelp(const char* program)
     "  --data DIR         data folder (default ../shared/data)\n"
     "  --features NAME    sift or orb (default sift)\n"
     "  --threshold_m X    RANSAC distance threshold, metres (default 0.1)\n"
+    "  --reference_depth_m X  depth beyond which the threshold grows with z^2 and\n"
+    "                     the refinement is weighted, metres; 0 = off (default 0)\n"
     "  --output FILE      write the figures as JSON (default: none)\n"
     "  -h                 this help\n",
     program);
@@ -400,11 +402,19 @@ main(int argc, char** argv)
       return EXIT_FAILURE;
     }
 
+    if (pcl::console::find_switch(argc, argv, "--reference_depth_m")
+        && pcl::console::parse_argument(argc, argv, "--reference_depth_m",
+                                        odometry_params.reference_depth_m)
+             < 0) {
+      pcl::console::print_error("--reference_depth_m needs a number\n");
+      return EXIT_FAILURE;
+    }
     StereoFeatureMatcher::Params matcher_params;
     matcher_params.feature_type = planar_grid::featureTypeFromString(features_name);
     const StereoFeatureMatcher matcher(matcher_params);
     pcl::console::print_info(
-      "Sequence %s, data %s, features %s, RANSAC threshold %.3f m, ratio %.2f, "
+      "Sequence %s, data %s, features %s, RANSAC threshold %.3f m, reference depth "
+      "%.1f m, ratio %.2f, "
       "mutual check %s, max_iterations %d, min_inliers %d\n",
       sequence.c_str(), data_dir.c_str(), features_name.c_str(),
       odometry_params.distance_threshold_m, odometry_params.ratio,
@@ -423,6 +433,7 @@ main(int argc, char** argv)
     }
     json["features_type"] = features_name;
     json["ransac_distance_threshold_m"] = odometry_params.distance_threshold_m;
+    json["reference_depth_m"] = odometry_params.reference_depth_m;
     if (!output.empty()) {
       planar_grid::writeTextFileAtomically(output, json.dump(2) + "\n");
       pcl::console::print_info("Wrote %s\n", output.c_str());

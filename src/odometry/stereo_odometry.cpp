@@ -12,8 +12,10 @@
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <utility>
 
 namespace planar_grid {
 
@@ -21,17 +23,126 @@ namespace {
 
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 
-/** \brief SampleConsensusModelRegistration whose sampler takes a seed (S19); PCL's
- * model only offers a fixed seed or the time. */
-class SeededRegistrationModel
+/** \brief SampleConsensusModelRegistration whose sampler takes a seed (S19; PCL's
+ * model only offers a fixed seed or the time) and whose point-to-point distances are
+ * divided by a per-correspondence scale (1 for a fixed threshold, larger for far
+ * points whose stereo depth is less certain). Correspondence i is source point i and
+ * target point i. */
+class ScaledRegistrationModel
     : public pcl::SampleConsensusModelRegistration<pcl::PointXYZ> {
 public:
-  SeededRegistrationModel(const Cloud::ConstPtr& cloud, unsigned seed) :
-      pcl::SampleConsensusModelRegistration<pcl::PointXYZ>(cloud, false)
+  ScaledRegistrationModel(const Cloud::ConstPtr& source,
+                          const Cloud::ConstPtr& target,
+                          std::vector<float> scales,
+                          unsigned seed) :
+      pcl::SampleConsensusModelRegistration<pcl::PointXYZ>(source, false),
+      source_(source), target_points_(target), scales_(std::move(scales))
   {
     rng_alg_.seed(seed);
+    setInputTarget(target);
   }
+
+  void getDistancesToModel(const Eigen::VectorXf& model_coefficients,
+                           std::vector<double>& distances) const override
+  {
+    distances.resize(source_->size());
+    const Eigen::Matrix4f transform = toMatrix(model_coefficients);
+    for (std::size_t i = 0; i < source_->size(); ++i)
+      distances[i] = scaledDistance(transform, i);
+  }
+
+  void selectWithinDistance(const Eigen::VectorXf& model_coefficients,
+                            const double threshold,
+                            pcl::Indices& inliers) override
+  {
+    inliers.clear();
+    error_sqr_dists_.clear();
+    if (model_coefficients.size() != 16)
+      return;
+    const Eigen::Matrix4f transform = toMatrix(model_coefficients);
+    for (std::size_t i = 0; i < source_->size(); ++i) {
+      const double distance = scaledDistance(transform, i);
+      if (distance < threshold) {
+        inliers.push_back(static_cast<pcl::index_t>(i));
+        error_sqr_dists_.push_back(distance * distance);
+      }
+    }
+  }
+
+  std::size_t countWithinDistance(const Eigen::VectorXf& model_coefficients,
+                                  const double threshold) const override
+  {
+    if (model_coefficients.size() != 16)
+      return 0;
+    const Eigen::Matrix4f transform = toMatrix(model_coefficients);
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < source_->size(); ++i)
+      if (scaledDistance(transform, i) < threshold)
+        ++count;
+    return count;
+  }
+
+private:
+  static Eigen::Matrix4f toMatrix(const Eigen::VectorXf& coefficients)
+  {
+    Eigen::Matrix4f transform = Eigen::Matrix4f::Identity();
+    if (coefficients.size() == 16)
+      for (int row = 0; row < 4; ++row)
+        transform.row(row) = coefficients.segment<4>(row * 4).transpose();
+    return transform;
+  }
+
+  double scaledDistance(const Eigen::Matrix4f& transform, std::size_t i) const
+  {
+    const Eigen::Vector3f moved =
+      transform.topLeftCorner<3, 3>() * (*source_)[i].getVector3fMap()
+      + transform.topRightCorner<3, 1>();
+    return static_cast<double>((moved - (*target_points_)[i].getVector3fMap()).norm()
+                               / scales_[i]);
+  }
+
+  Cloud::ConstPtr source_;
+  Cloud::ConstPtr target_points_;
+  std::vector<float> scales_;
 };
+
+/** \brief Weighted least-squares rigid transform target = T * source over the given
+ * correspondences (weighted Kabsch/Umeyama without scale, SVD). */
+Eigen::Matrix4d
+weightedRigidTransform(const Cloud& source,
+                       const Cloud& target,
+                       const pcl::Indices& indices,
+                       const std::vector<float>& weights)
+{
+  double total = 0.0;
+  Eigen::Vector3d source_mean = Eigen::Vector3d::Zero();
+  Eigen::Vector3d target_mean = Eigen::Vector3d::Zero();
+  for (const auto index : indices) {
+    const auto i = static_cast<std::size_t>(index);
+    const double w = weights[i];
+    total += w;
+    source_mean += w * source[i].getVector3fMap().cast<double>();
+    target_mean += w * target[i].getVector3fMap().cast<double>();
+  }
+  source_mean /= total;
+  target_mean /= total;
+  Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();
+  for (const auto index : indices) {
+    const auto i = static_cast<std::size_t>(index);
+    cross += weights[i] * (target[i].getVector3fMap().cast<double>() - target_mean)
+             * (source[i].getVector3fMap().cast<double>() - source_mean).transpose();
+  }
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU
+                                                       | Eigen::ComputeFullV);
+  Eigen::Matrix3d sign = Eigen::Matrix3d::Identity();
+  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0)
+    sign(2, 2) = -1.0;
+  Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();
+  transform.topLeftCorner<3, 3>() = svd.matrixU() * sign * svd.matrixV().transpose();
+  transform.topRightCorner<3, 1>() =
+    target_mean - transform.topLeftCorner<3, 3>() * source_mean;
+  return transform;
+}
 
 /** \brief Points within 1 mm of one line (or fewer than 2 points): the rotation about
  * that line is not observable. */
@@ -89,6 +200,8 @@ StereoOdometry::StereoOdometry(const Params& params) : params_(params)
           << params.max_descriptor_distance;
   else if (!(params.distance_threshold_m > 0.0))
     error << "distance_threshold_m must be > 0, got " << params.distance_threshold_m;
+  else if (!(params.reference_depth_m >= 0.0))
+    error << "reference_depth_m must be >= 0, got " << params.reference_depth_m;
   else if (params.max_iterations < 1)
     error << "max_iterations must be >= 1, got " << params.max_iterations;
   else if (!(params.probability > 0.0 && params.probability < 1.0))
@@ -182,8 +295,19 @@ StereoOdometry::estimate(const StereoFeatures& previous,
                            + " matched points lie on one line; the motion is not "
                              "observable.");
 
-  auto model = std::make_shared<SeededRegistrationModel>(source, params_.seed);
-  model->setInputTarget(target);
+  // Per-correspondence threshold scale: the stereo depth error grows with z^2.
+  std::vector<float> scales(correspondences, 1.0f);
+  std::vector<float> weights(correspondences, 1.0f);
+  if (params_.reference_depth_m > 0.0) {
+    for (std::size_t i = 0; i < correspondences; ++i) {
+      const double depth = std::max((*source)[i].z, (*target)[i].z);
+      const double ratio = std::max(1.0, depth / params_.reference_depth_m);
+      scales[i] = static_cast<float>(ratio * ratio);
+      weights[i] = 1.0f / (scales[i] * scales[i]);
+    }
+  }
+  auto model =
+    std::make_shared<ScaledRegistrationModel>(source, target, scales, params_.seed);
   pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, params_.distance_threshold_m);
   ransac.setMaxIterations(params_.max_iterations);
   ransac.setProbability(params_.probability);
@@ -200,7 +324,10 @@ StereoOdometry::estimate(const StereoFeatures& previous,
     svd;
   Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();
   for (int pass = 0; pass < 2 && inliers.size() >= 3; ++pass) {
-    svd.estimateRigidTransformation(*source, inliers, *target, inliers, transform);
+    if (params_.reference_depth_m > 0.0)
+      transform = weightedRigidTransform(*source, *target, inliers, weights);
+    else
+      svd.estimateRigidTransformation(*source, inliers, *target, inliers, transform);
     pcl::Indices refined;
     model->selectWithinDistance(toCoefficients(transform), params_.distance_threshold_m,
                                 refined);

@@ -133,6 +133,29 @@ TEST_F(StereoOdometryKarlsruhe, RecoversMotionWithThirtyPercentOutliers)
   EXPECT_GT(result.inliers, result.correspondences * 6 / 10);
 }
 
+TEST_F(StereoOdometryKarlsruhe, DepthScaledThresholdRecoversMotionWithOutliers)
+{
+  // Same data as above, but with the threshold growing as (z / 10 m)^2 beyond 10 m
+  // and the weighted SVD refinement.
+  const Eigen::Isometry3d truth = knownMotion();
+  StereoFeatures current = moved(frame10_, truth);
+  std::mt19937 rng(7);
+  std::vector<std::size_t> order(current.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::shuffle(order.begin(), order.end(), rng);
+  // 30 % outliers: their points moved 5 m sideways.
+  for (std::size_t k = 0; k < current.size() * 3 / 10; ++k)
+    current.points[order[k]].x += 5.0f;
+  StereoOdometry::Params params;
+  params.reference_depth_m = 10.0;
+  const OdometryResult result = StereoOdometry(params).estimate(frame10_, current);
+  ASSERT_TRUE(result.valid) << result.reason;
+  const Eigen::Isometry3d error = truth.inverse() * result.previous_T_current;
+  EXPECT_LT(error.translation().norm(), 0.01);
+  EXPECT_LT(angleDeg(error), 0.1);
+  EXPECT_LT(result.inliers, result.correspondences * 8 / 10);
+}
+
 TEST_F(StereoOdometryKarlsruhe, RealFrames10To11MatchTheInsDistance)
 {
   const Trajectory ins =
@@ -214,6 +237,9 @@ TEST(StereoOdometry, RejectsInvalidParameters)
   EXPECT_THROW(StereoOdometry{params}, planar_grid::Exception);
   params = StereoOdometry::Params();
   params.min_inliers = 2;
+  EXPECT_THROW(StereoOdometry{params}, planar_grid::Exception);
+  params = StereoOdometry::Params();
+  params.reference_depth_m = -1.0;
   EXPECT_THROW(StereoOdometry{params}, planar_grid::Exception);
   ConstantVelocityMotionModel::Params motion;
   motion.sigma_rotation_rad = 0.0;

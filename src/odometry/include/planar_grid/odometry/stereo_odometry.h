@@ -64,10 +64,16 @@ public:
      * 0 disables the check; >= 0. */
     double max_descriptor_distance{0.0};
     /** RANSAC inlier threshold: largest 3D distance between a previous point and the
-     * transformed current point, metres; > 0. A single threshold for all depths: the
-     * stereo depth error grows with z^2, so far points mostly end up as outliers and
-     * the motion is carried by the near ones. */
+     * transformed current point (for points nearer than reference_depth_m), metres;
+     * > 0. */
     double distance_threshold_m{0.1};
+    /** Depth scaling of the threshold, metres; >= 0. When > 0, correspondence i's
+     * distance is divided by s_i = max(1, z_i / reference_depth_m)^2 (z_i the larger of
+     * its two depths; the stereo depth error grows with z^2) before the comparison
+     * with distance_threshold_m, and the least-squares refinement weights it by
+     * 1 / s_i^2 (weighted SVD). When 0, one threshold holds for all depths and the
+     * refinement is pcl::registration::TransformationEstimationSVD. */
+    double reference_depth_m{0.0};
     /** Most RANSAC iterations; >= 1. */
     int max_iterations{2000};
     /** RANSAC probability of drawing one outlier-free sample; (0, 1). */
