@@ -91,11 +91,14 @@ isGroundCandidate(const PlanarSegment& segment,
  * the paper) when setSampleCloud() is given, else from a seeded random subsample of at
  * most getMaxSampleSize() finite points of the input cloud (within the indices). Each
  * round runs pcl::SampleConsensusModelPlane under the chosen SACMethod on the remaining
- * sample points, selects the dense inliers of the input cloud (eq. 11, distance <=
- * d_T) that no earlier plane took, optionally refits the plane to them by PCA and
- * reselects, then removes the plane's sample and dense inliers. Planes with fewer than
- * min_inliers dense inliers are dropped (their sample inliers are still removed). The
- * loop stops after max_planes planes, when the sample consensus finds fewer than
+ * sample points; when optimize_coefficients is set, re-estimates the hypothesis by
+ * pcl::RandomSampleConsensus at d_T on a seeded subsample (<= 5000) of the unassigned
+ * dense points within max(sample_distance_threshold, 10 d_T) of it (the features are
+ * noisy); selects the dense inliers of the input cloud (eq. 11, distance <= d_T) that
+ * no earlier plane took, optionally refits the plane to them by PCA and reselects, then
+ * removes the plane's sample and dense inliers. Planes with fewer than min_inliers
+ * dense inliers are dropped (their sample inliers are still removed). The loop stops
+ * after max_planes planes, when the sample consensus finds fewer than
  * min_sample_inliers, when fewer than min_remaining_fraction of the sample points
  * remain, or after 3 max_planes rounds. Near-duplicate planes are then merged.
  *
@@ -198,8 +201,9 @@ public:
   /** \brief Returns the sample consensus estimator. */
   SACMethod getMethodType() const { return method_; }
 
-  /** \brief Sets whether each plane is refitted (PCA, least squares) to its dense
-   * inliers, which are then reselected with the refitted plane.
+  /** \brief Sets whether each hypothesis is re-estimated on the dense points near it
+   * (local RANSAC, see the class description) and each plane refitted (PCA, least
+   * squares) to its dense inliers, which are then reselected with the refitted plane.
    * \param[in] optimize default true */
   void setOptimizeCoefficients(bool optimize) { optimize_coefficients_ = optimize; }
   /** \brief Returns whether planes are refitted to their dense inliers. */

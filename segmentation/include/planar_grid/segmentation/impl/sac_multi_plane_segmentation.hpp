@@ -202,7 +202,7 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
   const auto sample_t = static_cast<float>(getSampleDistanceThreshold());
   std::mt19937 rng(seed_);
   // Local dense refinement: slab half-width in units of d_T, and subsample size.
-  constexpr float LOCAL_SLAB_FACTOR = 4.0f;
+  constexpr float LOCAL_SLAB_FACTOR = 10.0f;
   constexpr std::size_t LOCAL_SAMPLE_SIZE = 5000;
 
   // The unassigned finite input points (within the indices), struct of arrays.
