@@ -47,6 +47,8 @@ printHelp(const char* program)
     "  --threshold_m X    RANSAC distance threshold, metres (default 0.1)\n"
     "  --reference_depth_m X  depth beyond which the threshold grows with z^2 and\n"
     "                     the refinement is weighted, metres; 0 = off (default 0)\n"
+    "  --no_reprojection  skip the stereo reprojection refinement (3D RANSAC + SVD "
+    "only)\n"
     "  --output FILE      write the figures as JSON (default: none)\n"
     "  -h                 this help\n",
     program);
@@ -103,7 +105,8 @@ timingJson(const std::vector<double>& values)
 nlohmann::json
 runKarlsruhe(const std::string& data_dir,
              const StereoFeatureMatcher& matcher,
-             const StereoOdometry::Params& odometry_params)
+             const StereoOdometry::Params& odometry_params,
+             bool reprojection)
 {
   const std::string dir = data_dir + "/karlsruhe_2010_03_09_drive_0023";
   const planar_grid::StereoCameraModel model = planar_grid::loadStereoCalibration(
@@ -115,6 +118,8 @@ runKarlsruhe(const std::string& data_dir,
 
   planar_grid::VisualOdometry odometry(
     odometry_params, planar_grid::ConstantVelocityMotionModel::Params());
+  if (reprojection)
+    odometry.setCalibration(model.calibration);
   std::vector<double> feature_ms, odometry_ms, features, inliers;
   pcl::console::TicToc timer;
   for (std::size_t frame = 0; frame < ground_truth.size(); ++frame) {
@@ -298,7 +303,8 @@ readBodyPose(const std::string& path, int pair)
 nlohmann::json
 runEuroc(const std::string& data_dir,
          const StereoFeatureMatcher& matcher,
-         const StereoOdometry::Params& odometry_params)
+         const StereoOdometry::Params& odometry_params,
+         bool reprojection)
 {
   const std::string dir = data_dir + "/euroc_v1_01_pairs";
   const planar_grid::StereoCameraModel model = planar_grid::loadStereoCalibration(
@@ -320,7 +326,9 @@ runEuroc(const std::string& data_dir,
     matcher.match(left, right, model.calibration, features[k]);
     feature_ms.push_back(timer.toc());
   }
-  const StereoOdometry odometry(odometry_params);
+  StereoOdometry odometry(odometry_params);
+  if (reprojection)
+    odometry.setCalibration(model.calibration);
   timer.tic();
   const planar_grid::OdometryResult result =
     odometry.estimate(features[0], features[1]);
@@ -409,6 +417,8 @@ main(int argc, char** argv)
       pcl::console::print_error("--reference_depth_m needs a number\n");
       return EXIT_FAILURE;
     }
+    const bool reprojection =
+      !pcl::console::find_switch(argc, argv, "--no_reprojection");
     StereoFeatureMatcher::Params matcher_params;
     matcher_params.feature_type = planar_grid::featureTypeFromString(features_name);
     const StereoFeatureMatcher matcher(matcher_params);
@@ -423,9 +433,9 @@ main(int argc, char** argv)
 
     nlohmann::json json;
     if (sequence == "karlsruhe")
-      json = runKarlsruhe(data_dir, matcher, odometry_params);
+      json = runKarlsruhe(data_dir, matcher, odometry_params, reprojection);
     else if (sequence == "euroc")
-      json = runEuroc(data_dir, matcher, odometry_params);
+      json = runEuroc(data_dir, matcher, odometry_params, reprojection);
     else {
       pcl::console::print_error("Unknown --sequence '%s' (karlsruhe, euroc)\n",
                                 sequence.c_str());
@@ -434,6 +444,7 @@ main(int argc, char** argv)
     json["features_type"] = features_name;
     json["ransac_distance_threshold_m"] = odometry_params.distance_threshold_m;
     json["reference_depth_m"] = odometry_params.reference_depth_m;
+    json["reprojection_refinement"] = reprojection;
     if (!output.empty()) {
       planar_grid::writeTextFileAtomically(output, json.dump(2) + "\n");
       pcl::console::print_info("Wrote %s\n", output.c_str());

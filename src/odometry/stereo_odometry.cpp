@@ -13,6 +13,7 @@
 #include <opencv2/features2d.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <sstream>
 #include <utility>
@@ -174,6 +175,113 @@ toCoefficients(const Eigen::Matrix4d& transform)
   return coefficients;
 }
 
+/** \brief Stereo reprojection residuals of one correspondence: the previous point
+ * projected into the current left and right images and the current point into the
+ * previous ones, minus the matched key points (8 values, pixels). False when a point
+ * falls behind a camera. */
+bool
+reprojectionResiduals(const Eigen::Isometry3d& previous_T_current,
+                      const StereoCalibration& calibration,
+                      const Eigen::Vector3d& previous_point,
+                      const Eigen::Vector3d& current_point,
+                      const cv::KeyPoint* keypoints[4],
+                      Eigen::Matrix<double, 8, 1>& residuals)
+{
+  const Eigen::Vector3d in_current = previous_T_current.inverse() * previous_point;
+  const Eigen::Vector3d in_previous = previous_T_current * current_point;
+  if (in_current.z() < 0.1 || in_previous.z() < 0.1)
+    return false;
+  const double f = calibration.focal_length_px;
+  const auto project = [&](const Eigen::Vector3d& p, const cv::KeyPoint* left,
+                           const cv::KeyPoint* right, int offset) {
+    const double v = f * p.y() / p.z() + calibration.cy_px;
+    residuals[offset] = f * p.x() / p.z() + calibration.cx_px - left->pt.x;
+    residuals[offset + 1] = v - left->pt.y;
+    residuals[offset + 2] =
+      f * (p.x() - calibration.baseline_m) / p.z() + calibration.cx_px - right->pt.x;
+    residuals[offset + 3] = v - right->pt.y;
+  };
+  project(in_current, keypoints[2], keypoints[3], 0);
+  project(in_previous, keypoints[0], keypoints[1], 4);
+  return true;
+}
+
+/** \brief A small motion exp(delta) applied on the left: rotation vector delta[0..2]
+ * (radians), translation delta[3..5] (metres). */
+Eigen::Isometry3d
+perturbation(const Eigen::Matrix<double, 6, 1>& delta)
+{
+  Eigen::Isometry3d result = Eigen::Isometry3d::Identity();
+  const double angle = delta.head<3>().norm();
+  if (angle > 0.0)
+    result.linear() =
+      Eigen::AngleAxisd(angle, delta.head<3>() / angle).toRotationMatrix();
+  result.translation() = delta.tail<3>();
+  return result;
+}
+
+/** \brief The key points of one correspondence: previous left, previous right,
+ * current left, current right. */
+using StereoKeypoints = std::array<const cv::KeyPoint*, 4>;
+
+/** \brief Gauss-Newton on the stereo reprojection error of the given correspondences,
+ * with Huber weights (1 px) and numerical derivatives; 10 iterations at most. */
+Eigen::Isometry3d
+refineReprojection(Eigen::Isometry3d motion,
+                   const StereoCalibration& calibration,
+                   const Cloud& source,
+                   const Cloud& target,
+                   const std::vector<StereoKeypoints>& keypoints,
+                   const pcl::Indices& inliers)
+{
+  const double step = 1e-6;
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    Eigen::Matrix<double, 6, 6> hessian = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> gradient = Eigen::Matrix<double, 6, 1>::Zero();
+    std::size_t used = 0;
+    for (const auto index : inliers) {
+      const auto i = static_cast<std::size_t>(index);
+      const Eigen::Vector3d previous_point = target[i].getVector3fMap().cast<double>();
+      const Eigen::Vector3d current_point = source[i].getVector3fMap().cast<double>();
+      const cv::KeyPoint* points[4] = {keypoints[i][0], keypoints[i][1],
+                                       keypoints[i][2], keypoints[i][3]};
+      Eigen::Matrix<double, 8, 1> residuals, plus, minus;
+      if (!reprojectionResiduals(motion, calibration, previous_point, current_point,
+                                 points, residuals))
+        continue;
+      Eigen::Matrix<double, 8, 6> jacobian;
+      bool ok = true;
+      for (int k = 0; k < 6 && ok; ++k) {
+        Eigen::Matrix<double, 6, 1> delta = Eigen::Matrix<double, 6, 1>::Zero();
+        delta[k] = step;
+        ok = reprojectionResiduals(perturbation(delta) * motion, calibration,
+                                   previous_point, current_point, points, plus)
+             && reprojectionResiduals(perturbation(-delta) * motion, calibration,
+                                      previous_point, current_point, points, minus);
+        jacobian.col(k) = (plus - minus) / (2.0 * step);
+      }
+      if (!ok)
+        continue;
+      for (int m = 0; m < 8; ++m) {
+        const double magnitude = std::abs(residuals[m]);
+        const double weight = magnitude <= 1.0 ? 1.0 : 1.0 / magnitude;
+        hessian += weight * jacobian.row(m).transpose() * jacobian.row(m);
+        gradient += weight * jacobian.row(m).transpose() * residuals[m];
+      }
+      ++used;
+    }
+    if (used < 3)
+      break;
+    const Eigen::Matrix<double, 6, 1> delta = -hessian.ldlt().solve(gradient);
+    if (!delta.allFinite())
+      break;
+    motion = perturbation(delta) * motion;
+    if (delta.norm() < 1e-10)
+      break;
+  }
+  return motion;
+}
+
 OdometryResult
 invalidResult(std::size_t correspondences,
               std::size_t inliers,
@@ -202,6 +310,9 @@ StereoOdometry::StereoOdometry(const Params& params) : params_(params)
     error << "distance_threshold_m must be > 0, got " << params.distance_threshold_m;
   else if (!(params.reference_depth_m >= 0.0))
     error << "reference_depth_m must be >= 0, got " << params.reference_depth_m;
+  else if (!(params.reprojection_threshold_px > 0.0))
+    error << "reprojection_threshold_px must be > 0, got "
+          << params.reprojection_threshold_px;
   else if (params.max_iterations < 1)
     error << "max_iterations must be >= 1, got " << params.max_iterations;
   else if (!(params.probability > 0.0 && params.probability < 1.0))
@@ -213,6 +324,14 @@ StereoOdometry::StereoOdometry(const Params& params) : params_(params)
 }
 
 StereoOdometry::StereoOdometry() : StereoOdometry(Params()) {}
+
+void
+StereoOdometry::setCalibration(const StereoCalibration& calibration)
+{
+  calibration.validate("StereoOdometry::setCalibration");
+  calibration_ = calibration;
+  has_calibration_ = true;
+}
 
 void
 StereoOdometry::matchDescriptors(const StereoFeatures& previous,
@@ -268,6 +387,7 @@ StereoOdometry::estimate(const StereoFeatures& previous,
   // target = T * source, which is previous_T_current (eq. 8).
   auto source = std::make_shared<Cloud>();
   auto target = std::make_shared<Cloud>();
+  std::vector<StereoKeypoints> keypoints;
   source->reserve(matches.size());
   target->reserve(matches.size());
   for (const auto& match : matches) {
@@ -282,6 +402,13 @@ StereoOdometry::estimate(const StereoFeatures& previous,
       continue;
     target->push_back(p);
     source->push_back(c);
+    if (query < previous.keypoints_left.size()
+        && query < previous.keypoints_right.size()
+        && train < current.keypoints_left.size()
+        && train < current.keypoints_right.size())
+      keypoints.push_back(
+        {&previous.keypoints_left[query], &previous.keypoints_right[query],
+         &current.keypoints_left[train], &current.keypoints_right[train]});
   }
   const std::size_t correspondences = source->size();
 
@@ -334,6 +461,34 @@ StereoOdometry::estimate(const StereoFeatures& previous,
     if (refined.size() < 3)
       break;
     inliers.swap(refined);
+  }
+
+  if (has_calibration_ && inliers.size() >= 3) {
+    if (keypoints.size() != correspondences) {
+      PCL_WARN("[planar_grid::StereoOdometry::estimate] Key points missing; the "
+               "reprojection refinement is skipped.\n");
+    } else {
+      Eigen::Isometry3d motion(transform);
+      for (int round = 0; round < 2; ++round) {
+        motion = refineReprojection(motion, calibration_, *source, *target, keypoints,
+                                    inliers);
+        pcl::Indices selected;
+        for (std::size_t i = 0; i < correspondences; ++i) {
+          const cv::KeyPoint* points[4] = {keypoints[i][0], keypoints[i][1],
+                                           keypoints[i][2], keypoints[i][3]};
+          Eigen::Matrix<double, 8, 1> residuals;
+          if (reprojectionResiduals(
+                motion, calibration_, (*target)[i].getVector3fMap().cast<double>(),
+                (*source)[i].getVector3fMap().cast<double>(), points, residuals)
+              && residuals.cwiseAbs().maxCoeff() < params_.reprojection_threshold_px)
+            selected.push_back(static_cast<pcl::index_t>(i));
+        }
+        if (selected.size() < 3)
+          break;
+        inliers.swap(selected);
+      }
+      transform = motion.matrix();
+    }
   }
 
   if (inliers.size() < static_cast<std::size_t>(params_.min_inliers))

@@ -62,6 +62,27 @@ moved(const StereoFeatures& features, const Eigen::Isometry3d& previous_T_curren
   return result;
 }
 
+/** \brief The features with their key points replaced by the exact stereo
+ * projections of their points (left and right image, pixels). */
+StereoFeatures
+projected(const StereoFeatures& features,
+          const planar_grid::StereoCalibration& calibration)
+{
+  StereoFeatures result = features;
+  const double f = calibration.focal_length_px;
+  result.keypoints_right = result.keypoints_left;
+  for (std::size_t i = 0; i < result.points.size(); ++i) {
+    const pcl::PointXYZ& p = result.points[i];
+    const float v = static_cast<float>(f * p.y / p.z + calibration.cy_px);
+    result.keypoints_left[i].pt =
+      cv::Point2f(static_cast<float>(f * p.x / p.z + calibration.cx_px), v);
+    result.keypoints_right[i].pt = cv::Point2f(
+      static_cast<float>(f * (p.x - calibration.baseline_m) / p.z + calibration.cx_px),
+      v);
+  }
+  return result;
+}
+
 /** \brief SIFT features of Karlsruhe frames 10 and 11, computed once. */
 class StereoOdometryKarlsruhe : public ::testing::Test {
 protected:
@@ -69,6 +90,7 @@ protected:
   {
     const planar_grid::StereoCameraModel model = planar_grid::loadStereoCalibration(
       planar_grid::CalibrationFormat::KARLSRUHE, KARLSRUHE_DIR + "/calib.txt");
+    calibration_ = model.calibration;
     const StereoFeatureMatcher matcher;
     for (int frame = 10; frame <= 11; ++frame) {
       char name[32];
@@ -83,10 +105,12 @@ protected:
 
   static StereoFeatures frame10_;
   static StereoFeatures frame11_;
+  static planar_grid::StereoCalibration calibration_;
 };
 
 StereoFeatures StereoOdometryKarlsruhe::frame10_;
 StereoFeatures StereoOdometryKarlsruhe::frame11_;
+planar_grid::StereoCalibration StereoOdometryKarlsruhe::calibration_;
 
 TEST_F(StereoOdometryKarlsruhe, RecoversSyntheticMotionOfRealFeatures)
 {
@@ -156,6 +180,35 @@ TEST_F(StereoOdometryKarlsruhe, DepthScaledThresholdRecoversMotionWithOutliers)
   EXPECT_LT(result.inliers, result.correspondences * 8 / 10);
 }
 
+TEST_F(StereoOdometryKarlsruhe, ReprojectionRefinementRecoversMotionWithOutliers)
+{
+  // Key points consistent with the points in both frames; 30 % of the current points
+  // (and their key points) shuffled among themselves.
+  const Eigen::Isometry3d truth = knownMotion();
+  const StereoFeatures previous = projected(frame10_, calibration_);
+  StereoFeatures current = moved(frame10_, truth);
+  std::mt19937 rng(11);
+  std::vector<std::size_t> chosen(current.size());
+  std::iota(chosen.begin(), chosen.end(), 0u);
+  std::shuffle(chosen.begin(), chosen.end(), rng);
+  chosen.resize(current.size() * 3 / 10);
+  std::vector<std::size_t> permuted = chosen;
+  std::shuffle(permuted.begin(), permuted.end(), rng);
+  const auto points = current.points;
+  for (std::size_t k = 0; k < chosen.size(); ++k)
+    current.points[chosen[k]] = points[permuted[k]];
+  current = projected(current, calibration_);
+  StereoOdometry odometry;
+  odometry.setCalibration(calibration_);
+  const OdometryResult result = odometry.estimate(previous, current);
+  ASSERT_TRUE(result.valid) << result.reason;
+  const Eigen::Isometry3d error = truth.inverse() * result.previous_T_current;
+  EXPECT_LT(error.translation().norm(), 0.01);
+  EXPECT_LT(angleDeg(error), 0.1);
+  EXPECT_LT(result.inliers, result.correspondences * 8 / 10);
+  EXPECT_GT(result.inliers, result.correspondences * 6 / 10);
+}
+
 TEST_F(StereoOdometryKarlsruhe, RealFrames10To11MatchTheInsDistance)
 {
   const Trajectory ins =
@@ -169,6 +222,14 @@ TEST_F(StereoOdometryKarlsruhe, RealFrames10To11MatchTheInsDistance)
   // The camera drives forward (+z) and barely turns between two frames.
   EXPECT_GT(result.previous_T_current.translation().z(), 0.0);
   EXPECT_LT(angleDeg(result.previous_T_current), 5.0);
+
+  // The same with the reprojection refinement.
+  StereoOdometry refined;
+  refined.setCalibration(calibration_);
+  const OdometryResult refined_result = refined.estimate(frame10_, frame11_);
+  ASSERT_TRUE(refined_result.valid) << refined_result.reason;
+  EXPECT_NEAR(refined_result.previous_T_current.translation().norm(), ins_distance,
+              0.2);
 }
 
 TEST_F(StereoOdometryKarlsruhe, FewerThanThreeMatchesIsInvalid)
@@ -241,6 +302,11 @@ TEST(StereoOdometry, RejectsInvalidParameters)
   params = StereoOdometry::Params();
   params.reference_depth_m = -1.0;
   EXPECT_THROW(StereoOdometry{params}, planar_grid::Exception);
+  params = StereoOdometry::Params();
+  params.reprojection_threshold_px = 0.0;
+  EXPECT_THROW(StereoOdometry{params}, planar_grid::Exception);
+  EXPECT_THROW(StereoOdometry().setCalibration(planar_grid::StereoCalibration()),
+               planar_grid::Exception);
   ConstantVelocityMotionModel::Params motion;
   motion.sigma_rotation_rad = 0.0;
   EXPECT_THROW(ConstantVelocityMotionModel{motion}, planar_grid::Exception);

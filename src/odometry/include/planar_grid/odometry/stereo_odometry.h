@@ -74,6 +74,9 @@ public:
      * 1 / s_i^2 (weighted SVD). When 0, one threshold holds for all depths and the
      * refinement is pcl::registration::TransformationEstimationSVD. */
     double reference_depth_m{0.0};
+    /** Largest stereo reprojection error of an inlier in the refinement that runs
+     * when a calibration is set (setCalibration()), pixels; > 0. */
+    double reprojection_threshold_px{2.0};
     /** Most RANSAC iterations; >= 1. */
     int max_iterations{2000};
     /** RANSAC probability of drawing one outlier-free sample; (0, 1). */
@@ -89,6 +92,17 @@ public:
   explicit StereoOdometry(const Params& params);
   /** \brief Uses the default Params. */
   StereoOdometry();
+
+  /** \brief Sets the rectified stereo calibration of the features. From then on
+   * estimate() refines the RANSAC motion by minimising the stereo reprojection error
+   * (Gauss-Newton, Huber weights of 1 px): each previous point is projected into the
+   * current left and right images and each current point into the previous ones,
+   * against the matched key points. The inliers are then the correspondences whose
+   * largest reprojection error is below reprojection_threshold_px. Without a
+   * calibration only the 3D refinement runs.
+   * \param[in] calibration the calibration the features were triangulated with
+   * \throws planar_grid::Exception when it is not valid */
+  void setCalibration(const StereoCalibration& calibration);
 
   /** \brief Estimates the camera motion between two frames (eq. 8).
    * \param[in] previous the features of the earlier frame (camera frame, metres)
@@ -114,6 +128,12 @@ public:
 private:
   /** \brief The parameters (validated in the constructor). */
   Params params_;
+  /** \brief The calibration for the reprojection refinement (valid if
+   * has_calibration_).
+   */
+  StereoCalibration calibration_;
+  /** \brief Whether setCalibration() was called. */
+  bool has_calibration_{false};
 };
 
 /** \brief Constant-velocity motion model of the camera (paper eq. 9): the next motion
@@ -204,6 +224,13 @@ public:
    * \return the frame's odometry result (for the first frame: valid, identity, no
    * correspondences) */
   const OdometryResult& addFrame(const StereoFeatures& features);
+
+  /** \brief Enables the reprojection refinement (StereoOdometry::setCalibration()).
+   * \param[in] calibration the calibration the features were triangulated with */
+  void setCalibration(const StereoCalibration& calibration)
+  {
+    odometry_.setCalibration(calibration);
+  }
 
   /** \brief Camera poses world_T_camera, one per frame added (metres). */
   const Trajectory& getTrajectory() const { return trajectory_; }
