@@ -68,7 +68,7 @@ printHelp(const char* program)
   print_info("    --size <W>x<H>        image or window size, px (default: ");
   print_value("%dx%d", DEFAULT_WIDTH_PX, DEFAULT_HEIGHT_PX);
   print_info(")\n");
-  print_info("    --color <mode>        height | intensity | solid (default: ");
+  print_info("    --color <mode>        height | intensity | solid | label (default: ");
   print_value("%s", DEFAULT_COLOR);
   print_info(")\n");
   print_info("    --point-size <N>      point size, px, > 0 (default: ");
@@ -188,8 +188,10 @@ parseOptions(int argc, char** argv, bool& help)
       options.color = planar_grid::ColorMode::INTENSITY;
     else if (options.color_name == "solid")
       options.color = planar_grid::ColorMode::SOLID;
+    else if (options.color_name == "label")
+      options.color = planar_grid::ColorMode::LABEL;
     else
-      throw Exception("--color expects height, intensity or solid; got '"
+      throw Exception("--color expects height, intensity, solid or label; got '"
                       + options.color_name + "'");
   }
 
@@ -232,6 +234,19 @@ loadCloud(const std::string& path)
   pcl::PointCloud<pcl::PointXYZI> cloud;
   if (pcl::getFieldIndex(blob, "intensity") >= 0) {
     pcl::fromPCLPointCloud2(blob, cloud);
+  } else if (pcl::getFieldIndex(blob, "label") >= 0) {
+    // A labelled cloud (e.g. the pipeline's planes.pcd): the label goes into intensity,
+    // which --color label draws.
+    pcl::PointCloud<pcl::PointXYZL> labelled;
+    pcl::fromPCLPointCloud2(blob, labelled);
+    cloud.resize(labelled.size());
+    for (std::size_t i = 0; i < labelled.size(); ++i) {
+      cloud[i].getVector3fMap() = labelled[i].getVector3fMap();
+      cloud[i].intensity = static_cast<float>(labelled[i].label);
+    }
+    cloud.width = labelled.width;
+    cloud.height = labelled.height;
+    cloud.is_dense = labelled.is_dense;
   } else {
     // Not an error: intensity is 0 (and fromPCLPointCloud2 would warn about the field).
     pcl::PointCloud<pcl::PointXYZ> xyz;

@@ -114,6 +114,53 @@ rampFraction(float value, float lo, float hi)
                     1.0);
 }
 
+/** \brief A distinct colour per integer label: 12 hues a golden-ratio step apart, at
+ * two saturation/value levels so neighbouring labels differ strongly. */
+std::array<unsigned char, 3>
+labelColor(float label)
+{
+  const long id = std::lround(label);
+  const double hue = std::fmod(0.618033988749895 * static_cast<double>(id % 12), 1.0);
+  const double s = (id / 12) % 2 == 0 ? 0.85 : 0.55;
+  const double v = (id / 12) % 2 == 0 ? 0.95 : 0.75;
+  // HSV to RGB.
+  const double h6 = hue * 6.0;
+  const int sector = static_cast<int>(h6) % 6;
+  const double f = h6 - std::floor(h6);
+  const double p = v * (1.0 - s), q = v * (1.0 - s * f), t = v * (1.0 - s * (1.0 - f));
+  double r = v, g = t, b = p;
+  switch (sector) {
+    case 1:
+      r = q;
+      g = v;
+      b = p;
+      break;
+    case 2:
+      r = p;
+      g = v;
+      b = t;
+      break;
+    case 3:
+      r = p;
+      g = q;
+      b = v;
+      break;
+    case 4:
+      r = t;
+      g = p;
+      b = v;
+      break;
+    case 5:
+      r = v;
+      g = p;
+      b = q;
+      break;
+    default:
+      break;
+  }
+  return {toByte(r), toByte(g), toByte(b)};
+}
+
 /** \brief True when all three components are finite. */
 bool
 isFinite(const Eigen::Vector3d& v)
@@ -292,7 +339,7 @@ SceneRenderer::addPointCloud(const pcl::PointCloud<pcl::PointXYZI>& cloud,
     ids[i] = i;
     if (mode == ColorMode::HEIGHT)
       ramp_values.push_back(p.z);
-    else if (mode == ColorMode::INTENSITY)
+    else if (mode == ColorMode::INTENSITY || mode == ColorMode::LABEL)
       ramp_values.push_back(p.intensity);
     ++i;
   }
@@ -323,7 +370,12 @@ SceneRenderer::addPointCloud(const pcl::PointCloud<pcl::PointXYZI>& cloud,
     unsigned char* c = colors->WritePointer(0, 3 * n);
     for (vtkIdType k = 0; k < n; ++k) {
       const double t = rampFraction(ramp_values[static_cast<std::size_t>(k)], lo, hi);
-      if (mode == ColorMode::HEIGHT) {
+      if (mode == ColorMode::LABEL) {
+        const auto color = labelColor(ramp_values[static_cast<std::size_t>(k)]);
+        c[3 * k] = color[0];
+        c[3 * k + 1] = color[1];
+        c[3 * k + 2] = color[2];
+      } else if (mode == ColorMode::HEIGHT) {
         const auto color = turbo(TURBO_LOW + (TURBO_HIGH - TURBO_LOW) * t);
         c[3 * k] = color[0];
         c[3 * k + 1] = color[1];
@@ -392,7 +444,7 @@ SceneRenderer::addTrajectory(const std::vector<Eigen::Vector3d>& positions,
 }
 
 void
-SceneRenderer::addText(const std::string& text)
+SceneRenderer::addText(const std::string& text, const Eigen::Vector3d& rgb)
 {
   vtkNew<vtkTextActor> actor;
   actor->SetInput(text.c_str());
@@ -400,7 +452,7 @@ SceneRenderer::addText(const std::string& text)
   actor->SetPosition(0.01, 0.98 - TEXT_LINE_STEP * impl_->text_lines);
   vtkTextProperty* property = actor->GetTextProperty();
   property->SetFontSize(18);
-  property->SetColor(1.0, 1.0, 1.0);
+  property->SetColor(rgb.x(), rgb.y(), rgb.z());
   property->SetVerticalJustificationToTop();
   property->SetJustificationToLeft();
   ++impl_->text_lines;

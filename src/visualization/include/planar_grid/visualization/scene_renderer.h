@@ -22,7 +22,10 @@ enum class ColorMode {
    * percentile); a constant intensity renders mid grey. */
   INTENSITY,
   /** One fixed colour. */
-  SOLID
+  SOLID,
+  /** By the integer value of the intensity field taken as a label (e.g. a plane id):
+   * one of 12 distinct colours per label (golden-ratio hue steps). */
+  LABEL
 };
 
 /** \brief A VTK camera: where it is, what it looks at, which way is up (world frame,
@@ -85,10 +88,12 @@ public:
                      const Eigen::Vector3d& rgb = Eigen::Vector3d(1.0, 0.2, 0.2),
                      double line_width_px = 3.0);
 
-  /** \brief Adds a white text label in the top-left corner; further labels stack
-   * below it.
-   * \param[in] text the label */
-  void addText(const std::string& text);
+  /** \brief Adds a text label in the top-left corner; further labels stack below it.
+   * \param[in] text the label
+   * \param[in] rgb text colour, components in [0, 1] (white by default; use a dark
+   * colour on a light background) */
+  void addText(const std::string& text,
+               const Eigen::Vector3d& rgb = Eigen::Vector3d(1.0, 1.0, 1.0));
 
   /** \brief Sets the background colour (default black).
    * \param[in] rgb components in [0, 1] */
