@@ -122,6 +122,64 @@ private:
   bool interactive_;
 };
 
+#ifdef PLANAR_GRID_WITH_VIEWER
+/** Renders the configured snapshots: the world cloud by height with the trajectory, and
+ * the planes one colour each over the world cloud in grey. */
+void
+saveSnapshots(const planar_grid::PipelineConfig& config,
+              const std::string& config_path,
+              const planar_grid::PipelineRunner& runner,
+              planar_grid::RunReport& report)
+{
+  const auto& state = runner.state();
+  const auto preset = config.output.snapshot_camera == "oblique"
+                        ? planar_grid::CameraPreset::OBLIQUE
+                        : planar_grid::CameraPreset::TOP;
+  std::vector<Eigen::Vector3d> positions;
+  for (const auto& pose : runner.trajectory())
+    positions.push_back(pose.translation());
+  const Eigen::Vector3d white(1.0, 1.0, 1.0), dark(0.1, 0.1, 0.1);
+  const auto render = [&](const std::string& name, const std::string& kind,
+                          bool planes) {
+    if (name.empty())
+      return;
+    if (planes && state.plane_cloud->empty())
+      return;
+    const std::string path = planar_grid::outputPath(config.output, name);
+    planar_grid::SceneRenderer renderer;
+    renderer.setBackground(white);
+    if (!state.world_cloud->empty())
+      renderer.addPointCloud(*state.world_cloud,
+                             planes ? planar_grid::ColorMode::SOLID
+                                    : planar_grid::ColorMode::HEIGHT,
+                             planes ? 1.0 : 2.0, Eigen::Vector3d(0.8, 0.8, 0.8));
+    std::size_t plane_count = 0;
+    if (planes) {
+      pcl::PointCloud<pcl::PointXYZI> labelled;
+      labelled.resize(state.plane_cloud->size());
+      for (std::size_t i = 0; i < labelled.size(); ++i) {
+        labelled[i].getVector3fMap() = (*state.plane_cloud)[i].getVector3fMap();
+        labelled[i].intensity = static_cast<float>((*state.plane_cloud)[i].label);
+      }
+      renderer.addPointCloud(labelled, planar_grid::ColorMode::LABEL, 2.0);
+      plane_count = state.plane_models.size();
+    }
+    if (positions.size() > 1)
+      renderer.addTrajectory(positions);
+    renderer.addText(config_path + ": " + std::to_string(report.frames) + " frames, "
+                       + std::to_string(report.world_cloud_points) + " points"
+                       + (planes ? ", " + std::to_string(plane_count) + " planes" : ""),
+                     dark);
+    renderer.setCamera(preset);
+    renderer.saveSnapshot(path, config.output.snapshot_size_px[0],
+                          config.output.snapshot_size_px[1]);
+    report.outputs.emplace_back(kind, path);
+  };
+  render(config.output.snapshot, "snapshot", false);
+  render(config.output.planes_snapshot, "planes_snapshot", true);
+}
+#endif
+
 int
 run(int argc, char** argv)
 {
@@ -158,18 +216,21 @@ run(int argc, char** argv)
   planar_grid::PipelineConfig config = planar_grid::loadPipelineConfig(config_path);
   if (!output_folder.empty())
     config.output.folder = output_folder;
-  if (find_switch(argc, argv, "--no-snapshot"))
+  if (find_switch(argc, argv, "--no-snapshot")) {
     config.output.snapshot.clear();
+    config.output.planes_snapshot.clear();
+  }
 
 #ifdef PLANAR_GRID_WITH_VIEWER
   // Before the long run: VTK needs an X server; re-run under xvfb-run if there is none.
-  if (!config.output.snapshot.empty())
+  if (!config.output.snapshot.empty() || !config.output.planes_snapshot.empty())
     planar_grid::ensureDisplay(argc, argv);
 #else
-  if (!config.output.snapshot.empty()) {
+  if (!config.output.snapshot.empty() || !config.output.planes_snapshot.empty()) {
     print_warn(
       "Built without the viewer (PLANAR_GRID_BUILD_VIEWER=OFF): no snapshot.\n");
     config.output.snapshot.clear();
+    config.output.planes_snapshot.clear();
   }
 #endif
 
@@ -201,28 +262,7 @@ run(int argc, char** argv)
 
   planar_grid::writeRunOutputs(config.output, runner, report);
 #ifdef PLANAR_GRID_WITH_VIEWER
-  if (!config.output.snapshot.empty()) {
-    const std::string path =
-      planar_grid::outputPath(config.output, config.output.snapshot);
-    planar_grid::SceneRenderer renderer;
-    renderer.setBackground(Eigen::Vector3d(1.0, 1.0, 1.0));
-    if (runner.state().world_cloud && !runner.state().world_cloud->empty())
-      renderer.addPointCloud(*runner.state().world_cloud,
-                             planar_grid::ColorMode::HEIGHT);
-    std::vector<Eigen::Vector3d> positions;
-    for (const auto& pose : runner.trajectory())
-      positions.push_back(pose.translation());
-    if (positions.size() > 1)
-      renderer.addTrajectory(positions);
-    renderer.addText(config_path + ": " + std::to_string(report.frames) + " frames, "
-                     + std::to_string(report.world_cloud_points) + " points");
-    renderer.setCamera(config.output.snapshot_camera == "oblique"
-                         ? planar_grid::CameraPreset::OBLIQUE
-                         : planar_grid::CameraPreset::TOP);
-    renderer.saveSnapshot(path, config.output.snapshot_size_px[0],
-                          config.output.snapshot_size_px[1]);
-    report.outputs.emplace_back("snapshot", path);
-  }
+  saveSnapshots(config, config_path, runner, report);
 #endif
   planar_grid::writeRunReport(config.output, report);
 

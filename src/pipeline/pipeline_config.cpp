@@ -252,14 +252,17 @@ parseOutput(const Reader& r, const YAML::Node& node)
 {
   OutputConfig out;
   r.checkKeys(node,
-              {"folder", "cloud", "report", "trajectory", "snapshot", "snapshot_camera",
-               "snapshot_size_px"},
+              {"folder", "cloud", "planes", "report", "trajectory", "snapshot",
+               "planes_snapshot", "snapshot_camera", "snapshot_size_px"},
               "output");
   out.folder = r.optionalString(node, "folder", out.folder, "output");
   out.cloud = r.optionalString(node, "cloud", out.cloud, "output");
   out.report = r.optionalString(node, "report", out.report, "output");
   out.trajectory = r.optionalString(node, "trajectory", out.trajectory, "output");
   out.snapshot = r.optionalString(node, "snapshot", out.snapshot, "output");
+  out.planes = r.optionalString(node, "planes", out.planes, "output");
+  out.planes_snapshot =
+    r.optionalString(node, "planes_snapshot", out.planes_snapshot, "output");
   out.snapshot_camera =
     r.optionalString(node, "snapshot_camera", out.snapshot_camera, "output");
   if (out.snapshot_camera != "top" && out.snapshot_camera != "oblique")

@@ -81,6 +81,7 @@ PipelineRunner::run()
   trajectory_.clear();
 
   const std::size_t total = end_ - begin_;
+  std::vector<std::pair<std::string, double>> counter_values;
   for (std::size_t i = begin_; i < end_; ++i) {
     Frame frame;
     const auto load_start = Clock::now();
@@ -108,7 +109,10 @@ PipelineRunner::run()
       ++sr.frames;
       if (counts && frame.cloud)
         sr.points_out += stages::countValidPoints(*frame.cloud);
-      sr.features += frame.features.size();
+      counter_values.clear();
+      stages_[s]->counters(frame, counter_values);
+      for (const auto& [name, value] : counter_values)
+        sr.addCounter(name, value);
     }
     ++report.frames;
     if (progress_)
@@ -120,8 +124,20 @@ PipelineRunner::run()
     report.stages[s].total_ms += ms_since(t);
   }
   report.world_cloud_points = state_.world_cloud ? state_.world_cloud->size() : 0;
+  report.planes = state_.plane_models.size();
   report.seconds = ms_since(start) / 1000.0;
   return report;
+}
+
+void
+StageReport::addCounter(const std::string& name, double value)
+{
+  for (auto& [key, sum] : counters)
+    if (key == name) {
+      sum += value;
+      return;
+    }
+  counters.emplace_back(name, value);
 }
 
 std::string
@@ -136,6 +152,7 @@ RunReport::toJson() const
   j["frames_per_second"] = framesPerSecond();
   j["load_ms_per_frame"] = frames ? load_ms / static_cast<double>(frames) : 0.0;
   j["world_cloud_points"] = world_cloud_points;
+  j["planes"] = planes;
   auto& js = j["stages"] = nlohmann::ordered_json::array();
   for (const auto& s : stages) {
     nlohmann::ordered_json e;
@@ -146,8 +163,10 @@ RunReport::toJson() const
     e["total_ms"] = s.total_ms;
     e["points_in"] = s.points_in;
     e["points_out"] = s.points_out;
-    if (s.features > 0)
-      e["features"] = s.features;
+    for (const auto& [name, value] : s.counters) {
+      e[name] = value;
+      e[name + "_per_frame"] = s.frames ? value / static_cast<double>(s.frames) : 0.0;
+    }
     js.push_back(e);
   }
   auto& jo = j["outputs"] = nlohmann::ordered_json::object();
@@ -186,16 +205,19 @@ RunReport::timingTable() const
       out << std::setw(14) << std::setprecision(0) << per_frame(s.points_in, s.frames)
           << std::setw(15) << per_frame(s.points_out, s.frames) << std::setw(9)
           << std::setprecision(1) << removed << "%";
-    } else if (s.features > 0)
-      out << std::setw(14) << "" << std::setw(15) << std::setprecision(0)
-          << per_frame(s.features, s.frames) << "  features";
+    } else
+      out << std::setw(39) << "";
+    // The stage's own figures, per frame (e.g. "480 features", "5.2 planes").
+    for (const auto& [name, value] : s.counters)
+      out << "  " << std::setprecision(1)
+          << (s.frames ? value / static_cast<double>(s.frames) : 0.0) << " " << name;
     out << "\n";
   }
   out << std::left << std::setw(30) << "total (stages)" << std::right << std::setw(12)
       << std::setprecision(1) << sum << "\n";
   out << frames << " frames in " << std::setprecision(1) << seconds << " s ("
       << std::setprecision(2) << framesPerSecond() << " frames/s); world cloud "
-      << world_cloud_points << " points\n";
+      << world_cloud_points << " points, " << planes << " run-wide planes\n";
   return out.str();
 }
 

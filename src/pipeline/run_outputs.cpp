@@ -43,6 +43,17 @@ writeRunOutputs(const OutputConfig& output,
       report.outputs.emplace_back("cloud", path);
     }
   }
+  if (!output.planes.empty()) {
+    const auto& planes = runner.state().plane_cloud;
+    if (planes && !planes->empty()) {
+      const std::string path = outputPath(output, output.planes);
+      writeFileAtomically(path, [&planes](const std::string& tmp) {
+        pcl::PCDWriter writer;
+        return writer.writeBinaryCompressed(tmp, *planes) == 0;
+      });
+      report.outputs.emplace_back("planes", path);
+    }
+  }
   if (!output.trajectory.empty() && !runner.trajectory().empty()) {
     const std::string path = outputPath(output, output.trajectory);
     saveKittiPoses(path, runner.trajectory());

@@ -15,7 +15,8 @@ stageRegistry()
   static const std::vector<StageInfo> registry{
     stages::stereoDisparityInfo(),  stages::featureMatchingInfo(),
     stages::voxelGridInfo(),        stages::statisticalOutlierRemovalInfo(),
-    stages::transformToWorldInfo(), stages::accumulateInfo(),
+    stages::transformToWorldInfo(), stages::multiPlaneSegmentationInfo(),
+    stages::groundRemovalInfo(),    stages::accumulateInfo(),
   };
   return registry;
 }

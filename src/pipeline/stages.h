@@ -15,6 +15,10 @@ StageInfo featureMatchingInfo();
 StageInfo voxelGridInfo();
 StageInfo statisticalOutlierRemovalInfo();
 
+// segmentation_stages.cpp
+StageInfo multiPlaneSegmentationInfo();
+StageInfo groundRemovalInfo();
+
 // world_stages.cpp
 StageInfo transformToWorldInfo();
 StageInfo accumulateInfo();

@@ -47,6 +47,12 @@ public:
 
   bool countsCloudPoints() const override { return false; }
 
+  void counters(const Frame& frame,
+                std::vector<std::pair<std::string, double>>& values) const override
+  {
+    values.emplace_back("features", static_cast<double>(frame.features.size()));
+  }
+
 private:
   StereoFeatureMatcher matcher_;
 };

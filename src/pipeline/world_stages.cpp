@@ -2,7 +2,12 @@
 #include <planar_grid/core/exceptions.h>
 
 #include <pcl/common/transforms.h>
+#include <pcl/filters/uniform_sampling.h>
 #include <pcl/filters/voxel_grid.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
 
 #include "stages.h"
 
@@ -36,8 +41,14 @@ public:
 
 class AccumulateStage : public Stage {
 public:
-  AccumulateStage(double leaf_size_m, int downsample_every_n_frames) :
-      leaf_size_m_(leaf_size_m), every_(downsample_every_n_frames)
+  AccumulateStage(double leaf_size_m,
+                  int downsample_every_n_frames,
+                  double plane_merge_angle_rad,
+                  double plane_merge_distance_m) :
+      leaf_size_m_(leaf_size_m),
+      every_(downsample_every_n_frames),
+      cos_merge_angle_(static_cast<float>(std::cos(plane_merge_angle_rad))),
+      merge_distance_m_(static_cast<float>(plane_merge_distance_m))
   {}
 
   void process(Frame& frame, PipelineState& state) override
@@ -51,6 +62,22 @@ public:
     for (const auto& p : frame.cloud->points)
       if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
         world.push_back(p);
+    // The planes' inliers, labelled with the run-wide plane they belong to.
+    auto& planes = *state.plane_cloud;
+    for (const auto& plane : frame.planes) {
+      if (plane.model_coefficients.values.size() != 4)
+        continue;
+      const auto id = static_cast<std::uint32_t>(
+        associatePlane(Eigen::Vector4f(plane.model_coefficients.values.data()),
+                       plane.inliers.indices.size(), state));
+      for (const auto i : plane.inliers.indices) {
+        const auto& p = (*frame.cloud)[static_cast<std::size_t>(i)];
+        pcl::PointXYZL q;
+        q.getVector3fMap() = p.getVector3fMap();
+        q.label = id;
+        planes.push_back(q);
+      }
+    }
     if (++frames_since_downsample_ >= every_)
       downsample(state);
   }
@@ -64,6 +91,42 @@ public:
   bool countsCloudPoints() const override { return true; }
 
 private:
+  /** The run-wide plane with the same coefficients within tolerance (normals within
+   * plane_merge_angle_rad, either orientation; offsets within plane_merge_distance_m),
+   * updated by the inlier-weighted mean; a new one when none matches. Returns its id.
+   */
+  std::size_t
+  associatePlane(Eigen::Vector4f c, std::size_t inliers, PipelineState& state) const
+  {
+    std::size_t best = state.plane_models.size();
+    float best_distance = std::numeric_limits<float>::max();
+    for (std::size_t k = 0; k < state.plane_models.size(); ++k) {
+      const Eigen::Vector4f& m = state.plane_models[k];
+      const Eigen::Vector4f oriented = m.head<3>().dot(c.head<3>()) < 0.0f ? -c : c;
+      if (m.head<3>().dot(oriented.head<3>()) < cos_merge_angle_)
+        continue;
+      const float distance = std::abs(m[3] - oriented[3]);
+      if (distance <= merge_distance_m_ && distance < best_distance) {
+        best = k;
+        best_distance = distance;
+      }
+    }
+    if (best == state.plane_models.size()) {
+      state.plane_models.push_back(c);
+      state.plane_inlier_counts.push_back(inliers);
+      return best;
+    }
+    Eigen::Vector4f& m = state.plane_models[best];
+    if (m.head<3>().dot(c.head<3>()) < 0.0f)
+      c = -c;
+    const auto w_old = static_cast<float>(state.plane_inlier_counts[best]);
+    const auto w_new = static_cast<float>(inliers);
+    m = (w_old * m + w_new * c) / std::max(w_old + w_new, 1.0f);
+    m /= m.head<3>().norm();
+    state.plane_inlier_counts[best] += inliers;
+    return best;
+  }
+
   void downsample(PipelineState& state)
   {
     frames_since_downsample_ = 0;
@@ -76,10 +139,21 @@ private:
     Frame::Cloud::Ptr out(new Frame::Cloud);
     grid.filter(*out);
     state.world_cloud = out;
+    if (!state.plane_cloud->empty()) {
+      // Labels must not be averaged: keep the point nearest each voxel's centre.
+      pcl::UniformSampling<pcl::PointXYZL> sampling;
+      sampling.setRadiusSearch(leaf_size_m_);
+      sampling.setInputCloud(state.plane_cloud);
+      pcl::PointCloud<pcl::PointXYZL>::Ptr planes(new pcl::PointCloud<pcl::PointXYZL>);
+      sampling.filter(*planes);
+      state.plane_cloud = planes;
+    }
   }
 
   double leaf_size_m_;
   int every_;
+  float cos_merge_angle_;
+  float merge_distance_m_;
   int frames_since_downsample_{0};
 };
 
@@ -115,10 +189,16 @@ accumulateInfo()
                     "Voxel edge of the accumulated cloud; 0 keeps every point."),
     ParamSpec::integer("downsample_every_n_frames", 5, 1, 100000, "",
                        "How often the accumulated cloud is downsampled."),
+    ParamSpec::real(
+      "plane_merge_angle_rad", 0.1, 0.0, 1.5708, "rad",
+      "A frame's plane joins a run-wide plane whose normal is this close..."),
+    ParamSpec::real("plane_merge_distance_m", 0.2, 0.0, 10.0, "m",
+                    "... and whose offset d is this close; else it starts a new one."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
-    return std::make_unique<AccumulateStage>(v.getDouble("leaf_size_m"),
-                                             v.getInt("downsample_every_n_frames"));
+    return std::make_unique<AccumulateStage>(
+      v.getDouble("leaf_size_m"), v.getInt("downsample_every_n_frames"),
+      v.getDouble("plane_merge_angle_rad"), v.getDouble("plane_merge_distance_m"));
   };
   return info;
 }

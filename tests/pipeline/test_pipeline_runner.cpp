@@ -264,3 +264,64 @@ TEST_F(PipelineRunnerTest, PCDFilesWithViewpointPoses)
   EXPECT_NEAR(runner.trajectory()[1].translation().x(), 5.0, 1e-6);
   EXPECT_NEAR(runner.trajectory()[0].translation().norm(), 0.0, 1e-6);
 }
+
+TEST_F(PipelineRunnerTest, GroundRemovalOnRealFramesTakesOutALevelRoad)
+{
+  // Frames 10-11 with the paper's stages: planes from the SIFT features, then the
+  // ground.
+  const std::string stages = R"(pipeline:
+  - type: stereo_disparity
+    params: {num_disparities_px: 128, max_range_m: 30.0}
+  - type: feature_matching
+  - type: voxel_grid
+    params: {leaf_size_m: 0.1}
+  - type: transform_to_world
+  - type: multi_plane_segmentation
+    params: {min_inliers: 300, sample_distance_threshold_m: 0.15}
+  - type: ground_removal
+  - type: accumulate
+    params: {leaf_size_m: 0.1}
+)";
+  planar_grid::PipelineRunner runner(
+    parsePipelineConfig(karlsruheInput() + stages, "t.yaml", "/"));
+  const auto report = runner.run();
+  ASSERT_EQ(report.stages.size(), 7u);
+  const auto& segmentation = report.stages[4];
+  const auto& ground = report.stages[5];
+  ASSERT_EQ(segmentation.type, "multi_plane_segmentation");
+  ASSERT_EQ(ground.type, "ground_removal");
+  // A street scene has the road and several facades / car sides: at least 2 planes a
+  // frame, and the ground found in both frames.
+  ASSERT_FALSE(segmentation.counters.empty());
+  EXPECT_EQ(segmentation.counters[0].first, "planes");
+  EXPECT_GE(segmentation.counters[0].second, 4.0); // summed over the 2 frames
+  EXPECT_EQ(ground.counters[0].first, "ground_found");
+  EXPECT_DOUBLE_EQ(ground.counters[0].second, 2.0);
+  // The road is a large share of a street view: removing it removes > 15% of the
+  // points.
+  EXPECT_LT(static_cast<double>(ground.points_out),
+            0.85 * static_cast<double>(ground.points_in));
+
+  // The accumulated world cloud keeps almost nothing of the road near the track. The
+  // strip 4-15 m ahead within 2 m of the track is 4 m x 11 m = 44 m^2 of road, ~4400
+  // voxels at 0.1 m; with the ground removed, fewer than 5% of that (220 points) may
+  // remain within d_T = 0.05 m of the road height measured above (0.17 m).
+  const auto& world = *runner.state().world_cloud;
+  const Eigen::Isometry3d pose = runner.trajectory().front();
+  std::size_t strip = 0, on_road = 0;
+  for (const auto& p : world.points) {
+    const Eigen::Vector3d v = p.getVector3fMap().cast<double>() - pose.translation();
+    const double along = v.dot(pose.rotation().col(2));
+    if (std::abs(v.dot(pose.rotation().col(0))) < 2.0 && along > 4.0 && along < 15.0) {
+      ++strip;
+      on_road += std::abs(p.z - 0.17) < 0.05;
+    }
+  }
+  EXPECT_LT(on_road, 220u) << "of " << strip << " points in the strip";
+  // Planes seen in both frames are associated: fewer run-wide planes than frame planes.
+  EXPECT_GT(report.planes, 0u);
+  // counters are sums over the 2 frames; 2 of the frame planes were the ground.
+  const double frame_planes = segmentation.counters[0].second - 2.0;
+  EXPECT_LT(static_cast<double>(report.planes), frame_planes);
+  EXPECT_FALSE(runner.state().plane_cloud->empty());
+}

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <planar_grid/core/stereo_calibration.h>
+#include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 #include <planar_grid/stereo/stereo_feature_matcher.h>
 
 #include <pcl/point_cloud.h>
@@ -40,6 +41,14 @@ struct Frame {
   /** \brief Matched 3D key feature points in the camera frame (after feature_matching).
    */
   StereoFeatures features;
+
+  /** \brief Planes of the working cloud, their inliers index `cloud` (after
+   * multi_plane_segmentation; ground_removal takes the ground out). */
+  PlanarSegments planes;
+  /** \brief The ground plane [a, b, c, d] in the cloud's frame, when ground_removal
+   * found one; its points are no longer in `cloud`. */
+  Eigen::Vector4f ground_coefficients{Eigen::Vector4f::Zero()};
+  bool has_ground{false};
 
   /** \brief world_T_camera when the input gives poses. */
   Eigen::Isometry3d world_T_camera{Eigen::Isometry3d::Identity()};

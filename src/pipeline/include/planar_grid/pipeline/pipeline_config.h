@@ -66,6 +66,11 @@ struct OutputConfig {
   std::string folder{"output"};
   /** \brief Accumulated world cloud, binary-compressed PCD ("" = none). */
   std::string cloud{"world_cloud.pcd"};
+  /** \brief Accumulated plane inliers with a `label` field (run-wide plane id),
+   * binary-compressed PCD ("" = none; written when a segmentation stage ran). */
+  std::string planes{"planes.pcd"};
+  /** \brief PNG snapshot of the planes, one colour per plane ("" = none). */
+  std::string planes_snapshot{"planes.png"};
   /** \brief Machine-readable report. */
   std::string report{"report.json"};
   /** \brief Camera poses used, KITTI format ("" = none). */

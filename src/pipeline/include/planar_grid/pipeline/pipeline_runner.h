@@ -24,8 +24,12 @@ struct StageReport {
    * that work on the cloud). */
   std::uint64_t points_in{0};
   std::uint64_t points_out{0};
-  /** \brief Matched 3D features per frame, summed (feature_matching). */
-  std::uint64_t features{0};
+  /** \brief The stage's named figures (Stage::counters), summed over frames, in the
+   * order the stage first reported them (e.g. feature_matching: "features"). */
+  std::vector<std::pair<std::string, double>> counters;
+
+  /** \brief Adds \a value to the counter \a name. */
+  void addCounter(const std::string& name, double value);
 
   double meanMs() const
   {
@@ -46,6 +50,8 @@ struct RunReport {
   std::vector<StageReport> stages;
   /** \brief Points in the accumulated world cloud at the end. */
   std::size_t world_cloud_points{0};
+  /** \brief Run-wide planes after association across frames (accumulate stage). */
+  std::size_t planes{0};
   /** \brief Output files written, by kind (cloud, trajectory, snapshot, report). */
   std::vector<std::pair<std::string, std::string>> outputs;
 

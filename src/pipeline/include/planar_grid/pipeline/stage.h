@@ -4,6 +4,7 @@
 #include <planar_grid/pipeline/frame.h>
 #include <planar_grid/pipeline/param_table.h>
 
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -16,6 +17,15 @@ namespace planar_grid {
 struct PipelineState {
   /** \brief The accumulated cloud in the world frame (accumulate stage). */
   Frame::Cloud::Ptr world_cloud{new Frame::Cloud};
+  /** \brief The accumulated inliers of the non-ground planes, world frame, labelled
+   * with the run-wide plane id (accumulate stage, after multi_plane_segmentation). */
+  pcl::PointCloud<pcl::PointXYZL>::Ptr plane_cloud{new pcl::PointCloud<pcl::PointXYZL>};
+  /** \brief The run-wide planes [a, b, c, d] (unit normal, metres) in the world frame;
+   * the label of a plane is its index. A frame's plane joins the run-wide plane with
+   * the same coefficients within tolerance instead of starting a new one. */
+  std::vector<Eigen::Vector4f, Eigen::aligned_allocator<Eigen::Vector4f>> plane_models;
+  /** \brief Dense inliers merged into each run-wide plane so far (its weight). */
+  std::vector<std::size_t> plane_inlier_counts;
 };
 
 /** \brief One step of the pipeline, applied to every frame in order. \ingroup pipeline
@@ -31,6 +41,12 @@ public:
 
   /** \brief Called once after the last frame. */
   virtual void finish(PipelineState& /*state*/) {}
+
+  /** \brief Named per-frame figures of the last processed frame (e.g. "planes"), summed
+   * over the run into the report. */
+  virtual void counters(const Frame& /*frame*/,
+                        std::vector<std::pair<std::string, double>>& /*values*/) const
+  {}
 
   /** \brief Points this stage measures in and out of each frame (for the report): the
    * working cloud's valid points by default. */
