@@ -182,6 +182,12 @@ runKarlsruhe(const std::string& data_dir,
         (ground_truth[i].translation() - ground_truth[i - 1].translation()).norm()},
        {"odometry_ms", odometry_ms[i - 1]}});
   }
+  for (std::size_t i = 0; i < estimated.size(); ++i) {
+    const Eigen::Vector3d p = estimated[i].translation();
+    const Eigen::Vector3d g = ground_truth[i].translation();
+    json["positions_estimated_m"].push_back({p.x(), p.y(), p.z()});
+    json["positions_gt_m"].push_back({g.x(), g.y(), g.z()});
+  }
   json["features_per_frame_mean"] = mean(features);
   json["inliers_per_frame_mean"] = mean(inliers);
   json["feature_extraction_and_stereo_matching"] = timingJson(feature_ms);
