@@ -16,6 +16,7 @@
 #include <pcl/common/point_tests.h>
 #include <pcl/filters/extract_indices.h>
 #include <pcl/filters/filter.h>
+#include <pcl/filters/voxel_grid.h>
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/method_types.h>
 #include <pcl/sample_consensus/model_types.h>
@@ -39,6 +40,7 @@ constexpr int MAX_PLANES = 6;
 struct Frame {
   Cloud::Ptr dense{new Cloud};
   Cloud::Ptr features{new Cloud};
+  Cloud::Ptr voxelised{new Cloud}; // dense, NaNs removed, 0.1 m VoxelGrid (pipeline)
   std::size_t finite{0};
   bool ok{false};
 };
@@ -72,13 +74,20 @@ frame()
     for (const auto& p : *out.dense)
       out.finite += pcl::isFinite(p) ? 1 : 0;
     out.ok = out.finite > 0;
+    Cloud::Ptr finite_cloud(new Cloud);
+    pcl::Indices unused;
+    pcl::removeNaNFromPointCloud(*out.dense, *finite_cloud, unused);
+    pcl::VoxelGrid<pcl::PointXYZI> voxel_grid;
+    voxel_grid.setInputCloud(finite_cloud);
+    voxel_grid.setLeafSize(0.1f, 0.1f, 0.1f);
+    voxel_grid.filter(*out.voxelised);
     return out;
   }();
   return f;
 }
 
 void
-BM_PCLSACSegmentationLoop(benchmark::State& state)
+runPCLLoop(benchmark::State& state, bool voxelised)
 {
   const Frame& f = frame();
   if (!f.ok) {
@@ -90,7 +99,8 @@ BM_PCLSACSegmentationLoop(benchmark::State& state)
     covered = planes = 0;
     Cloud::Ptr remaining(new Cloud);
     pcl::Indices unused;
-    pcl::removeNaNFromPointCloud(*f.dense, *remaining, unused);
+    pcl::removeNaNFromPointCloud(voxelised ? *f.voxelised : *f.dense, *remaining,
+                                 unused);
     pcl::SACSegmentation<pcl::PointXYZI> seg;
     seg.setOptimizeCoefficients(true);
     seg.setModelType(pcl::SACMODEL_PLANE);
@@ -116,9 +126,22 @@ BM_PCLSACSegmentationLoop(benchmark::State& state)
     }
     benchmark::DoNotOptimize(remaining);
   }
-  state.counters["points"] = static_cast<double>(f.finite);
+  const std::size_t points = voxelised ? f.voxelised->size() : f.finite;
+  state.counters["points"] = static_cast<double>(points);
   state.counters["planes"] = static_cast<double>(planes);
-  state.counters["coverage"] = static_cast<double>(covered) / f.finite;
+  state.counters["coverage"] = static_cast<double>(covered) / points;
+}
+
+void
+BM_PCLSACSegmentationLoop(benchmark::State& state)
+{
+  runPCLLoop(state, false);
+}
+
+void
+BM_PCLSACSegmentationLoopVoxelised(benchmark::State& state)
+{
+  runPCLLoop(state, true);
 }
 
 void
@@ -133,6 +156,7 @@ runOurs(benchmark::State& state, bool with_features, double sample_threshold_m)
   for (auto _ : state) {
     planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZI> seg;
     seg.setInputCloud(f.dense);
+    seg.setUpAxis(Eigen::Vector3f(0.0f, -1.0f, 0.0f));
     if (with_features)
       seg.setSampleCloud(f.features);
     if (sample_threshold_m > 0.0)
@@ -163,6 +187,43 @@ BM_SACMultiPlaneSegmentationFeatures(benchmark::State& state)
   runOurs(state, true, 0.01 * static_cast<double>(state.range(0)));
 }
 
+/** \brief The pipeline's setting (config/karlsruhe.yaml): the 0.1 m voxelised cloud
+ * (~40k points), SIFT sample cloud, sample threshold 0.15 m, 8 planes, min_inliers
+ * 300 (the pipeline's statistical outlier removal is left out). */
+void
+BM_SACMultiPlaneSegmentationVoxelisedPipeline(benchmark::State& state)
+{
+  const Frame& f = frame();
+  if (!f.ok) {
+    state.SkipWithError("Karlsruhe frame 10 not found");
+    return;
+  }
+  std::size_t covered = 0, planes_found = 0;
+  for (auto _ : state) {
+    planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZI> seg;
+    seg.setInputCloud(f.voxelised);
+    seg.setSampleCloud(f.features);
+    seg.setUpAxis(Eigen::Vector3f(0.0f, -1.0f, 0.0f));
+    seg.setDistanceThreshold(DISTANCE_THRESHOLD_M);
+    seg.setSampleDistanceThreshold(0.15);
+    seg.setMaxIterations(MAX_ITERATIONS);
+    seg.setMaxPlanes(8);
+    seg.setMinInliers(300);
+    planar_grid::PlanarSegments planes;
+    seg.segment(planes);
+    covered = 0;
+    for (const auto& p : planes)
+      covered += p.inliers.indices.size();
+    planes_found = planes.size();
+    benchmark::DoNotOptimize(planes);
+  }
+  state.counters["points"] = static_cast<double>(f.voxelised->size());
+  state.counters["sample_points"] = static_cast<double>(f.features->size());
+  state.counters["planes"] = static_cast<double>(planes_found);
+  state.counters["coverage"] =
+    static_cast<double>(covered) / static_cast<double>(f.voxelised->size());
+}
+
 void
 BM_SACMultiPlaneSegmentationDenseSubsample(benchmark::State& state)
 {
@@ -179,5 +240,7 @@ BENCHMARK(BM_SACMultiPlaneSegmentationFeatures)
   ->Arg(40)
   ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_SACMultiPlaneSegmentationDenseSubsample)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PCLSACSegmentationLoopVoxelised)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SACMultiPlaneSegmentationVoxelisedPipeline)->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

@@ -1,5 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
+// detail::countWithinDistance and detail::ransacPlane (the local refinement fast path)
+#include <planar_grid/segmentation/impl/sac_multi_plane_segmentation.hpp>
 
 #include <pcl/common/io.h>
 #include <pcl/io/pcd_io.h>
@@ -343,6 +345,68 @@ TEST(SACMultiPlaneSegmentation, DenseInlierSelectionMatchesBruteForce)
       }
     }
   }
+}
+
+// S38 for the local refinement's fast path: the blocked, early-exit count equals a
+// brute-force count whenever it exceeds the bar (and is <= the bar otherwise), and the
+// SoA RANSAC reports the exact inlier count of the plane it returns.
+TEST(SACMultiPlaneSegmentation, LocalRansacFastPathMatchesBruteForce)
+{
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> box(-3.0f, 3.0f);
+  std::normal_distribution<float> noise(0.0f, 0.01f);
+  std::vector<float> x, y, z;
+  const Eigen::Vector3f normal = Eigen::Vector3f(0.2f, -1.0f, 0.1f).normalized();
+  const float offset = 1.5f;
+  for (int k = 0; k < 3000; ++k) { // 2000 on the plane n . p + offset = 0, 1000 not
+    Eigen::Vector3f p(box(rng), box(rng), box(rng));
+    if (k < 2000)
+      p -= normal * (normal.dot(p) + offset - noise(rng));
+    x.push_back(p.x());
+    y.push_back(p.y());
+    z.push_back(p.z());
+  }
+  const float t = 0.05f;
+  const auto bruteForce = [&](const Eigen::Vector4f& plane) {
+    std::size_t count = 0;
+    for (std::size_t k = 0; k < x.size(); ++k)
+      count +=
+        std::abs(plane[0] * x[k] + plane[1] * y[k] + plane[2] * z[k] + plane[3]) <= t
+          ? 1
+          : 0;
+    return count;
+  };
+  const Eigen::Vector4f truth(normal.x(), normal.y(), normal.z(), offset);
+  const Eigen::Vector4f tilted = Eigen::Vector4f(0.3f, -1.0f, 0.0f, 1.2f).normalized();
+  for (const Eigen::Vector4f& plane : {truth, tilted}) {
+    const std::size_t exact = bruteForce(plane);
+    for (std::size_t bar : {std::size_t(0), std::size_t(10), exact - 1, exact,
+                            exact + 1, std::size_t(2900)}) {
+      const std::size_t fast = planar_grid::detail::countWithinDistance(
+        x.data(), y.data(), z.data(), x.size(), plane, t, bar);
+      if (bar == 0 || exact > bar) {
+        EXPECT_EQ(fast, exact) << bar;
+      } else {
+        EXPECT_LE(fast, bar) << bar;
+      }
+    }
+  }
+  std::mt19937 ransac_rng(7), ransac_rng_again(7);
+  Eigen::Vector4f plane, plane_again;
+  const std::size_t count =
+    planar_grid::detail::ransacPlane(x, y, z, t, 1000, 0.99, ransac_rng, plane);
+  const std::size_t count_again = planar_grid::detail::ransacPlane(
+    x, y, z, t, 1000, 0.99, ransac_rng_again, plane_again);
+  EXPECT_EQ(count, bruteForce(plane));
+  EXPECT_GE(count, 1900u);
+  EXPECT_NEAR(std::abs(plane.head<3>().dot(normal)), 1.0, 1.0 - std::cos(2.0 * DEG));
+  EXPECT_EQ(count_again, count);
+  EXPECT_EQ(plane_again, plane);
+  // Fewer than 3 points: no plane.
+  const std::vector<float> two{0.0f, 1.0f};
+  EXPECT_EQ(
+    planar_grid::detail::ransacPlane(two, two, two, t, 1000, 0.99, ransac_rng, plane),
+    0u);
 }
 
 TEST(SACMultiPlaneSegmentation, RespectsIndices)

@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numeric>
 #include <random>
 
@@ -116,6 +117,91 @@ struct DensePoints {
     index.resize(w);
   }
 };
+
+/** \brief Number of points (SoA) with |a x + b y + c z + d| <= t, counting in blocks
+ * and stopping as soon as the count cannot exceed `to_beat` (then the partial count,
+ * <= to_beat, is returned). With to_beat = 0 every point is counted, so the result is
+ * exact whenever it is > to_beat: a RANSAC that keeps a hypothesis only when its count
+ * is > the best so far chooses exactly what a full count would choose. */
+inline std::size_t
+countWithinDistance(const float* px,
+                    const float* py,
+                    const float* pz,
+                    std::size_t n,
+                    const Eigen::Vector4f& plane,
+                    float t,
+                    std::size_t to_beat)
+{
+  constexpr std::size_t BLOCK = 256;
+  const float a = plane[0], b = plane[1], c = plane[2], d = plane[3];
+  std::size_t count = 0;
+  for (std::size_t begin = 0; begin < n; begin += BLOCK) {
+    const std::size_t end = std::min(n, begin + BLOCK);
+    std::uint32_t block_count = 0;
+    for (std::size_t k = begin; k < end; ++k)
+      block_count += std::abs(a * px[k] + b * py[k] + c * pz[k] + d) <= t ? 1u : 0u;
+    count += block_count;
+    if (to_beat > 0 && count + (n - end) <= to_beat)
+      return count;
+  }
+  return count;
+}
+
+/** \brief Plain RANSAC for a plane on struct-of-arrays points, drawing minimal samples
+ * with `rng`: the hypothesis with the most points within t wins; the iteration count
+ * adapts as in pcl::RandomSampleConsensus (k = log(1 - p) / log(1 - w^3), capped at
+ * max_iterations). Used for the local dense refinement, where PCL's
+ * SampleConsensusModelPlane over an AoS index list cost most of the run time.
+ * \return the inlier count of `plane` (unit normal), 0 when no valid sample was found
+ */
+inline std::size_t
+ransacPlane(const std::vector<float>& x,
+            const std::vector<float>& y,
+            const std::vector<float>& z,
+            float t,
+            int max_iterations,
+            double probability,
+            std::mt19937& rng,
+            Eigen::Vector4f& plane)
+{
+  const std::size_t n = x.size();
+  if (n < 3)
+    return 0;
+  std::uniform_int_distribution<std::size_t> pick(0, n - 1);
+  const double log_probability = std::log(1.0 - probability);
+  double k = max_iterations;
+  std::size_t best = 0;
+  int skipped = 0;
+  const int max_skip = 10 * max_iterations;
+  for (int iteration = 0; iteration < k && iteration < max_iterations;) {
+    const std::size_t i0 = pick(rng), i1 = pick(rng), i2 = pick(rng);
+    const Eigen::Vector3f p0(x[i0], y[i0], z[i0]);
+    const Eigen::Vector3f normal = (Eigen::Vector3f(x[i1], y[i1], z[i1]) - p0)
+                                     .cross(Eigen::Vector3f(x[i2], y[i2], z[i2]) - p0);
+    const float norm = normal.norm();
+    if (i0 == i1 || i0 == i2 || i1 == i2 || !(norm > 1e-12f)) {
+      if (++skipped > max_skip)
+        break;
+      continue;
+    }
+    ++iteration;
+    Eigen::Vector4f candidate;
+    candidate.head<3>() = normal / norm;
+    candidate[3] = -candidate.head<3>().dot(p0);
+    const std::size_t count =
+      countWithinDistance(x.data(), y.data(), z.data(), n, candidate, t, best);
+    if (count <= best)
+      continue;
+    best = count;
+    plane = candidate;
+    const double w = static_cast<double>(best) / static_cast<double>(n);
+    const double p_no_outliers =
+      std::max(std::numeric_limits<double>::epsilon(),
+               std::min(1.0 - w * w * w, 1.0 - std::numeric_limits<double>::epsilon()));
+    k = log_probability / std::log(p_no_outliers);
+  }
+  return best;
+}
 
 } // namespace detail
 
@@ -267,6 +353,8 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
 
   std::vector<std::uint8_t> sample_taken(sample_cloud->size(), 0);
   pcl::Indices sac_inliers;
+  std::vector<std::size_t> slab_points;
+  std::vector<float> local_x, local_y, local_z;
   const int max_rounds = 3 * max_planes_;
   for (int round = 0;
        round < max_rounds && static_cast<int>(planes.size()) < max_planes_; ++round) {
@@ -314,27 +402,30 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
     if (optimize_coefficients_) {
       const float slab = std::max(sample_t, LOCAL_SLAB_FACTOR * d_t);
       if (dense.select(plane, slab) >= 3) {
-        dense.selected(segment.inliers.indices);
-        auto& local = segment.inliers.indices;
-        const std::size_t wanted = std::min(local.size(), LOCAL_SAMPLE_SIZE);
+        // Store positions of the slab points, a seeded subsample of them, as SoA.
+        slab_points.clear();
+        for (std::size_t k = 0; k < dense.size(); ++k)
+          if (dense.mask[k])
+            slab_points.push_back(k);
+        const std::size_t wanted = std::min(slab_points.size(), LOCAL_SAMPLE_SIZE);
         for (std::size_t k = 0; k < wanted; ++k) {
-          std::uniform_int_distribution<std::size_t> pick(k, local.size() - 1);
-          std::swap(local[k], local[pick(rng)]);
+          std::uniform_int_distribution<std::size_t> pick(k, slab_points.size() - 1);
+          std::swap(slab_points[k], slab_points[pick(rng)]);
         }
-        local.resize(wanted);
-        auto local_model = std::make_shared<pcl::SampleConsensusModelPlane<PointT>>(
-          input_, local, false);
-        pcl::RandomSampleConsensus<PointT> local_sac(local_model, d_t);
-        local_sac.setMaxIterations(max_iterations_);
-        local_sac.setProbability(probability_);
-        Eigen::VectorXf local_coefficients;
-        if (local_sac.computeModel()) {
-          local_sac.getModelCoefficients(local_coefficients);
-          if (local_coefficients.size() == 4 && local_coefficients.allFinite()) {
-            plane = local_coefficients.head<4>();
-            plane /= plane.head<3>().norm();
-            detail::orientTowards(plane, origin);
-          }
+        local_x.resize(wanted);
+        local_y.resize(wanted);
+        local_z.resize(wanted);
+        for (std::size_t k = 0; k < wanted; ++k) {
+          local_x[k] = dense.x[slab_points[k]];
+          local_y[k] = dense.y[slab_points[k]];
+          local_z[k] = dense.z[slab_points[k]];
+        }
+        Eigen::Vector4f local_plane;
+        if (detail::ransacPlane(local_x, local_y, local_z, d_t, max_iterations_,
+                                probability_, rng, local_plane)
+            > 0) {
+          plane = local_plane;
+          detail::orientTowards(plane, origin);
         }
       }
     }
