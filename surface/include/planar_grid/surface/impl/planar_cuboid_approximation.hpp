@@ -1,0 +1,512 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <planar_grid/surface/planar_cuboid_approximation.h>
+
+#include <pcl/common/point_tests.h>
+#include <pcl/console/print.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace planar_grid {
+
+template <typename PointT>
+Eigen::Vector3f
+PlanarCuboidApproximation<PointT>::getHorizontalReference() const
+{
+  const float up_norm = up_axis_.norm();
+  if (!up_axis_.allFinite() || !(up_norm > 0.0f))
+    return Eigen::Vector3f::Zero();
+  const Eigen::Vector3f up = up_axis_ / up_norm;
+  Eigen::Vector3f best = Eigen::Vector3f::Zero();
+  float best_norm = -1.0f;
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Vector3f axis = Eigen::Vector3f::Unit(k);
+    const Eigen::Vector3f projected = axis - up * up.dot(axis);
+    // "longest" with a margin so that ties keep the earlier axis deterministically
+    if (projected.norm() > best_norm + 1e-6f) {
+      best = projected;
+      best_norm = projected.norm();
+    }
+  }
+  return best / best_norm;
+}
+
+template <typename PointT>
+bool
+PlanarCuboidApproximation<PointT>::initCompute()
+{
+  if (!pcl::PCLBase<PointT>::initCompute()) {
+    PCL_ERROR("[planar_grid::%s::approximate] No input cloud given.\n",
+              getClassName().c_str());
+    return false;
+  }
+  const char* bad = nullptr;
+  if (!(min_cell_size_ > 0.0) || !std::isfinite(min_cell_size_))
+    bad = "min_cell_size must be finite and > 0 m";
+  else if (!(density_threshold_ > 0.0 && density_threshold_ <= 1.0))
+    bad = "density_threshold must be in (0, 1]";
+  else if (!(min_width_ >= 0.0) || !std::isfinite(min_width_))
+    bad = "min_width must be finite and >= 0 m";
+  else if (!(min_height_ >= 0.0) || !std::isfinite(min_height_))
+    bad = "min_height must be finite and >= 0 m";
+  else if (!(thickness_ > 0.0) || !std::isfinite(thickness_))
+    bad = "thickness must be finite and > 0 m";
+  else if (min_points_per_cell_ < 1)
+    bad = "min_points_per_cell must be >= 1";
+  else if (!up_axis_.allFinite() || !(up_axis_.norm() > 0.0f))
+    bad = "up_axis must be finite and non-zero";
+  else if (!getSensorOrigin().allFinite())
+    bad = "sensor_origin must be finite";
+  if (bad != nullptr) {
+    PCL_ERROR("[planar_grid::%s::approximate] Invalid parameter: %s.\n",
+              getClassName().c_str(), bad);
+    pcl::PCLBase<PointT>::deinitCompute();
+    return false;
+  }
+  if (input_->empty() || indices_->empty()) {
+    PCL_WARN("[planar_grid::%s::approximate] Empty input cloud.\n",
+             getClassName().c_str());
+    pcl::PCLBase<PointT>::deinitCompute();
+    return false;
+  }
+  return true;
+}
+
+template <typename PointT>
+void
+PlanarCuboidApproximation<PointT>::approximate(PlanarCuboids& cuboids)
+{
+  cuboids.clear();
+  if (!initCompute())
+    return;
+  applyApproximation(cuboids);
+  this->deinitCompute();
+}
+
+template <typename PointT>
+double
+PlanarCuboidApproximation<PointT>::setUpRaster(float u_min,
+                                               float u_max,
+                                               float v_min,
+                                               float v_max)
+{
+  double cell = min_cell_size_;
+  double nu = std::floor((static_cast<double>(u_max) - u_min) / cell) + 1.0;
+  double nv = std::floor((static_cast<double>(v_max) - v_min) / cell) + 1.0;
+  while (nu * nv > static_cast<double>(MAX_RASTER_CELLS)) {
+    cell *= 2.0;
+    nu = std::floor((static_cast<double>(u_max) - u_min) / cell) + 1.0;
+    nv = std::floor((static_cast<double>(v_max) - v_min) / cell) + 1.0;
+  }
+  if (cell != min_cell_size_)
+    PCL_WARN("[planar_grid::%s::approximate] A cluster spans %g x %g m; its raster "
+             "cell is coarsened to %g m.\n",
+             getClassName().c_str(), static_cast<double>(u_max - u_min),
+             static_cast<double>(v_max - v_min), cell);
+  nu_ = static_cast<int>(nu);
+  nv_ = static_cast<int>(nv);
+  u_origin_ = u_min;
+  v_origin_ = v_min;
+  occupied_.assign(static_cast<std::size_t>(nu_) * static_cast<std::size_t>(nv_), 0);
+  return cell;
+}
+
+template <typename PointT>
+void
+PlanarCuboidApproximation<PointT>::splitUnits(double cell_m)
+{
+  const std::size_t stride = static_cast<std::size_t>(nu_) + 1;
+  integral_.assign(stride * (static_cast<std::size_t>(nv_) + 1), 0);
+  for (int v = 0; v < nv_; ++v) {
+    std::uint32_t row_sum = 0;
+    const std::uint8_t* occ = occupied_.data() + static_cast<std::size_t>(v) * nu_;
+    std::uint32_t* above = integral_.data() + static_cast<std::size_t>(v) * stride;
+    std::uint32_t* here = above + stride;
+    for (int u = 0; u < nu_; ++u) {
+      row_sum += occ[u];
+      here[u + 1] = above[u + 1] + row_sum;
+    }
+  }
+  const auto occupiedIn = [&](int u0, int v0, int u1, int v1) {
+    return integral_[static_cast<std::size_t>(v1) * stride + u1]
+           - integral_[static_cast<std::size_t>(v0) * stride + u1]
+           - integral_[static_cast<std::size_t>(v1) * stride + u0]
+           + integral_[static_cast<std::size_t>(v0) * stride + u0];
+  };
+
+  units_.clear();
+  int root = 1;
+  while (root < std::max(nu_, nv_))
+    root *= 2;
+  std::vector<Unit> stack;
+  stack.reserve(64);
+  stack.push_back(Unit{0, 0, root});
+  while (!stack.empty()) {
+    const Unit unit = stack.back();
+    stack.pop_back();
+    if (unit.u0 >= nu_ || unit.v0 >= nv_)
+      continue;
+    const int u1 = std::min(unit.u0 + unit.side, nu_);
+    const int v1 = std::min(unit.v0 + unit.side, nv_);
+    const std::uint32_t occupied = occupiedIn(unit.u0, unit.v0, u1, v1);
+    if (occupied == 0)
+      continue; // empty parts are dropped
+    // Fig. 8, lines 7-8: D = S_PO / S_PA, W and H of the (square) unit
+    const double area = static_cast<double>(unit.side) * unit.side;
+    const double density = static_cast<double>(occupied) / area;
+    const double size_m = unit.side * cell_m;
+    const bool split = density < density_threshold_ && size_m > min_width_ + 1e-9
+                       && size_m > min_height_ + 1e-9 && unit.side > 1;
+    if (!split) {
+      units_.push_back(unit);
+      continue;
+    }
+    const int half = unit.side / 2;
+    stack.push_back(Unit{unit.u0, unit.v0, half});
+    stack.push_back(Unit{unit.u0 + half, unit.v0, half});
+    stack.push_back(Unit{unit.u0, unit.v0 + half, half});
+    stack.push_back(Unit{unit.u0 + half, unit.v0 + half, half});
+  }
+}
+
+template <typename PointT>
+void
+PlanarCuboidApproximation<PointT>::applyApproximation(PlanarCuboids& cuboids)
+{
+  const PointCloud& cloud = *input_;
+  const std::size_t n = cloud.size();
+  const Eigen::Vector3f origin = getSensorOrigin();
+
+  state_.assign(n, 0);
+  std::size_t available = 0;
+  for (const auto index : *indices_) {
+    if (index < 0 || static_cast<std::size_t>(index) >= n || state_[index] != 0)
+      continue;
+    if (pcl::isFinite(cloud[index])) {
+      state_[index] = 1;
+      ++available;
+    }
+  }
+  if (available == 0) {
+    PCL_WARN("[planar_grid::%s::approximate] No finite point in the input.\n",
+             getClassName().c_str());
+    return;
+  }
+  remainder_.clear();
+  remainder_.reserve(available);
+
+  for (std::size_t i = 0; i < planes_.size(); ++i) {
+    const auto& c = planes_[i].model_coefficients.values;
+    if (c.size() != 4 || !std::isfinite(c[0]) || !std::isfinite(c[1])
+        || !std::isfinite(c[2]) || !std::isfinite(c[3])) {
+      PCL_WARN("[planar_grid::%s::approximate] Plane %zu: model_coefficients are "
+               "not 4 finite values; skipped.\n",
+               getClassName().c_str(), i);
+      continue;
+    }
+    Eigen::Vector3f normal(c[0], c[1], c[2]);
+    const float norm = normal.norm();
+    if (!(norm > 1e-6f)) {
+      PCL_WARN("[planar_grid::%s::approximate] Plane %zu: zero normal; skipped.\n",
+               getClassName().c_str(), i);
+      continue;
+    }
+    normal /= norm;
+    float d = c[3] / norm;
+    if (normal.dot(origin) + d < 0.0f) { // face the sensor (front = positive side)
+      normal = -normal;
+      d = -d;
+    }
+    plane_points_.clear();
+    for (const auto index : planes_[i].inliers.indices) {
+      if (index < 0 || static_cast<std::size_t>(index) >= n || state_[index] != 1)
+        continue;
+      state_[index] = 2;
+      plane_points_.push_back(index);
+    }
+    if (plane_points_.empty()) {
+      PCL_WARN("[planar_grid::%s::approximate] Plane %zu: no usable inliers; "
+               "skipped.\n",
+               getClassName().c_str(), i);
+      continue;
+    }
+    approximatePlane(static_cast<int>(i), normal, d, cuboids);
+  }
+
+  for (const auto index : *indices_) {
+    if (index >= 0 && static_cast<std::size_t>(index) < n && state_[index] == 1) {
+      state_[index] = 3;
+      remainder_.push_back(index);
+    }
+  }
+  approximateRemainder(cuboids);
+}
+
+template <typename PointT>
+void
+PlanarCuboidApproximation<PointT>::approximatePlane(int plane_id,
+                                                    const Eigen::Vector3f& normal,
+                                                    float d,
+                                                    PlanarCuboids& cuboids)
+{
+  const PointCloud& cloud = *input_;
+  const Eigen::Vector3f up = up_axis_.normalized();
+  // Horizontal axis: the plane's direction perpendicular to the up axis; for a
+  // (near-)horizontal plane, the horizontal reference e1 projected onto the plane.
+  Eigen::Vector3f horizontal = up.cross(normal);
+  if (horizontal.norm() < 1e-3f) {
+    const Eigen::Vector3f e1 = getHorizontalReference();
+    horizontal = e1 - normal * normal.dot(e1);
+  }
+  horizontal.normalize();
+  const Eigen::Vector3f vertical = normal.cross(horizontal);
+
+  const std::size_t m = plane_points_.size();
+  coords_.resize(m);
+  float u_min = std::numeric_limits<float>::max(), u_max = -u_min;
+  float v_min = u_min, v_max = -u_min;
+  for (std::size_t k = 0; k < m; ++k) {
+    const Eigen::Vector3f p = cloud[plane_points_[k]].getVector3fMap();
+    const Eigen::Vector3f q(horizontal.dot(p), vertical.dot(p), normal.dot(p) + d);
+    coords_[k] = q;
+    u_min = std::min(u_min, q.x());
+    u_max = std::max(u_max, q.x());
+    v_min = std::min(v_min, q.y());
+    v_max = std::max(v_max, q.y());
+  }
+  const double cell = setUpRaster(u_min, u_max, v_min, v_max);
+  const float inv_cell = static_cast<float>(1.0 / cell);
+  cell_of_point_.resize(m);
+  for (std::size_t k = 0; k < m; ++k) {
+    const int iu = std::min(
+      nu_ - 1, std::max(0, static_cast<int>((coords_[k].x() - u_origin_) * inv_cell)));
+    const int iv = std::min(
+      nv_ - 1, std::max(0, static_cast<int>((coords_[k].y() - v_origin_) * inv_cell)));
+    const int cell_index = iv * nu_ + iu;
+    cell_of_point_[k] = cell_index;
+    occupied_[cell_index] = 1;
+  }
+  splitUnits(cell);
+
+  // Covered raster cells (-2) = union of the kept units.
+  label_.assign(occupied_.size(), -1);
+  for (const Unit& unit : units_) {
+    const int u1 = std::min(unit.u0 + unit.side, nu_);
+    const int v1 = std::min(unit.v0 + unit.side, nv_);
+    for (int v = unit.v0; v < v1; ++v)
+      std::fill(label_.begin() + static_cast<std::ptrdiff_t>(v) * nu_ + unit.u0,
+                label_.begin() + static_cast<std::ptrdiff_t>(v) * nu_ + u1, -2);
+  }
+
+  // Merge (Fig. 6(b)): horizontal runs per raster row (equal heights), then runs with
+  // equal u-extent in consecutive rows (equal widths) grow into one rectangle.
+  struct Run {
+    int u0, u1, rect;
+  };
+  struct Rect {
+    int u0, u1, v0, v1;
+  };
+  std::vector<Run> previous, current;
+  std::vector<Rect> rects;
+  for (int v = 0; v < nv_; ++v) {
+    current.clear();
+    int* row = label_.data() + static_cast<std::size_t>(v) * nu_;
+    std::size_t j = 0;
+    for (int u = 0; u < nu_;) {
+      if (row[u] != -2) {
+        ++u;
+        continue;
+      }
+      int u_end = u;
+      while (u_end < nu_ && row[u_end] == -2)
+        ++u_end;
+      while (j < previous.size() && previous[j].u0 < u)
+        ++j;
+      int rect = -1;
+      if (j < previous.size() && previous[j].u0 == u && previous[j].u1 == u_end) {
+        rect = previous[j].rect;
+        rects[rect].v1 = v + 1;
+      } else {
+        rect = static_cast<int>(rects.size());
+        rects.push_back(Rect{u, u_end, v, v + 1});
+      }
+      std::fill(row + u, row + u_end, rect);
+      current.push_back(Run{u, u_end, rect});
+      u = u_end;
+    }
+    std::swap(previous, current);
+  }
+
+  // Per rectangle: inlier count and (u, v, w) extent.
+  struct Extent {
+    std::size_t count{0};
+    Eigen::Vector3f lo{Eigen::Vector3f::Constant(std::numeric_limits<float>::max())};
+    Eigen::Vector3f hi{Eigen::Vector3f::Constant(-std::numeric_limits<float>::max())};
+  };
+  std::vector<Extent> extents(rects.size());
+  for (std::size_t k = 0; k < m; ++k) {
+    Extent& e = extents[label_[cell_of_point_[k]]];
+    ++e.count;
+    e.lo = e.lo.cwiseMin(coords_[k]);
+    e.hi = e.hi.cwiseMax(coords_[k]);
+  }
+  const float cell_f = static_cast<float>(cell);
+  const float thickness = static_cast<float>(thickness_);
+  for (std::size_t r = 0; r < rects.size(); ++r) {
+    const Extent& e = extents[r];
+    if (e.count < static_cast<std::size_t>(min_points_per_cell_))
+      continue;
+    // Tighten to the inliers; keep at least one raster cell, inside the rectangle.
+    const auto tighten = [cell_f](float lo, float hi, float r_lo, float r_hi) {
+      if (hi - lo >= cell_f)
+        return std::make_pair(lo, hi);
+      const float mid = 0.5f * (lo + hi);
+      float a = mid - 0.5f * cell_f;
+      a = std::max(r_lo, std::min(a, r_hi - cell_f));
+      return std::make_pair(std::min(a, lo), std::max(a + cell_f, hi));
+    };
+    const auto u = tighten(e.lo.x(), e.hi.x(), u_origin_ + rects[r].u0 * cell_f,
+                           u_origin_ + rects[r].u1 * cell_f);
+    const auto v = tighten(e.lo.y(), e.hi.y(), v_origin_ + rects[r].v0 * cell_f,
+                           v_origin_ + rects[r].v1 * cell_f);
+    // Fig. 6(c): face at the front-most inlier, extruded to the back.
+    const float front = e.hi.z();
+    const float back = std::min(e.lo.z(), front - thickness);
+    PlanarCuboid cuboid;
+    cuboid.normal = normal;
+    cuboid.horizontal_axis = horizontal;
+    cuboid.width_m = u.second - u.first;
+    cuboid.height_m = v.second - v.first;
+    cuboid.thickness_m = front - back;
+    cuboid.centre = horizontal * (0.5f * (u.first + u.second))
+                    + vertical * (0.5f * (v.first + v.second))
+                    + normal * (0.5f * (front + back) - d);
+    cuboid.plane_id = plane_id;
+    cuboid.point_count = e.count;
+    cuboid.is_planar = true;
+    cuboids.push_back(cuboid);
+  }
+  // Inliers of dropped rectangles join the non-planar remainder.
+  for (std::size_t k = 0; k < m; ++k)
+    if (extents[label_[cell_of_point_[k]]].count
+        < static_cast<std::size_t>(min_points_per_cell_)) {
+      state_[plane_points_[k]] = 3;
+      remainder_.push_back(plane_points_[k]);
+    }
+}
+
+template <typename PointT>
+void
+PlanarCuboidApproximation<PointT>::approximateRemainder(PlanarCuboids& cuboids)
+{
+  const std::size_t m = remainder_.size();
+  if (m == 0)
+    return;
+  const PointCloud& cloud = *input_;
+  const Eigen::Vector3f up = up_axis_.normalized();
+  const Eigen::Vector3f e1 = getHorizontalReference();
+  const Eigen::Vector3f e2 = up.cross(e1);
+
+  coords_.resize(m);
+  float a_min = std::numeric_limits<float>::max(), a_max = -a_min;
+  float b_min = a_min, b_max = -a_min;
+  for (std::size_t k = 0; k < m; ++k) {
+    const Eigen::Vector3f p = cloud[remainder_[k]].getVector3fMap();
+    const Eigen::Vector3f q(e1.dot(p), up.dot(p), e2.dot(p));
+    coords_[k] = q;
+    a_min = std::min(a_min, q.x());
+    a_max = std::max(a_max, q.x());
+    b_min = std::min(b_min, q.y());
+    b_max = std::max(b_max, q.y());
+  }
+  const double cell = setUpRaster(a_min, a_max, b_min, b_max);
+  const float inv_cell = static_cast<float>(1.0 / cell);
+  cell_of_point_.resize(m);
+  for (std::size_t k = 0; k < m; ++k) {
+    const int ia = std::min(
+      nu_ - 1, std::max(0, static_cast<int>((coords_[k].x() - u_origin_) * inv_cell)));
+    const int ib = std::min(
+      nv_ - 1, std::max(0, static_cast<int>((coords_[k].y() - v_origin_) * inv_cell)));
+    const int cell_index = ib * nu_ + ia;
+    cell_of_point_[k] = cell_index;
+    occupied_[cell_index] = 1;
+  }
+  splitUnits(cell); // Fig. 7(a): split about the centre; never merged
+
+  label_.assign(occupied_.size(), -1);
+  for (std::size_t i = 0; i < units_.size(); ++i) {
+    const Unit& unit = units_[i];
+    const int u1 = std::min(unit.u0 + unit.side, nu_);
+    const int v1 = std::min(unit.v0 + unit.side, nv_);
+    for (int v = unit.v0; v < v1; ++v)
+      std::fill(label_.begin() + static_cast<std::ptrdiff_t>(v) * nu_ + unit.u0,
+                label_.begin() + static_cast<std::ptrdiff_t>(v) * nu_ + u1,
+                static_cast<int>(i));
+  }
+  // Counting sort of the points by unit.
+  std::vector<std::size_t> offset(units_.size() + 1, 0);
+  for (std::size_t k = 0; k < m; ++k)
+    ++offset[label_[cell_of_point_[k]] + 1];
+  for (std::size_t i = 0; i < units_.size(); ++i)
+    offset[i + 1] += offset[i];
+  std::vector<std::size_t> order(m);
+  {
+    std::vector<std::size_t> next(offset.begin(), offset.end() - 1);
+    for (std::size_t k = 0; k < m; ++k)
+      order[next[label_[cell_of_point_[k]]]++] = k;
+  }
+
+  const float cell_f = static_cast<float>(cell);
+  const float thickness = static_cast<float>(thickness_);
+  const auto widen = [](float& lo, float& hi, float size) {
+    if (hi - lo < size) {
+      const float mid = 0.5f * (lo + hi);
+      lo = mid - 0.5f * size;
+      hi = mid + 0.5f * size;
+    }
+  };
+  for (std::size_t i = 0; i < units_.size(); ++i) {
+    const auto first = order.begin() + static_cast<std::ptrdiff_t>(offset[i]);
+    const auto last = order.begin() + static_cast<std::ptrdiff_t>(offset[i + 1]);
+    std::sort(first, last, [this](std::size_t x, std::size_t y) {
+      return coords_[x].z() < coords_[y].z();
+    });
+    // Cut along the depth e2 at gaps wider than one raster cell.
+    for (auto begin = first; begin != last;) {
+      Eigen::Vector3f lo = coords_[*begin], hi = lo;
+      auto end = begin + 1;
+      while (end != last && coords_[*end].z() - coords_[*(end - 1)].z() <= cell_f) {
+        lo = lo.cwiseMin(coords_[*end]);
+        hi = hi.cwiseMax(coords_[*end]);
+        ++end;
+      }
+      const auto count = static_cast<std::size_t>(end - begin);
+      begin = end;
+      if (count < static_cast<std::size_t>(min_points_per_cell_))
+        continue;
+      widen(lo.x(), hi.x(), cell_f);
+      widen(lo.y(), hi.y(), cell_f);
+      widen(lo.z(), hi.z(), thickness);
+      PlanarCuboid cuboid;
+      cuboid.normal = -e2;
+      cuboid.horizontal_axis = e1; // vertical = -e2 x e1 = up
+      cuboid.width_m = hi.x() - lo.x();
+      cuboid.height_m = hi.y() - lo.y();
+      cuboid.thickness_m = hi.z() - lo.z();
+      const Eigen::Vector3f mid = 0.5f * (lo + hi);
+      cuboid.centre = e1 * mid.x() + up * mid.y() + e2 * mid.z();
+      cuboid.plane_id = -1;
+      cuboid.point_count = count;
+      cuboid.is_planar = false;
+      cuboids.push_back(cuboid);
+    }
+  }
+}
+
+} // namespace planar_grid
+
+#define PLANAR_GRID_INSTANTIATE_PlanarCuboidApproximation(T) \
+  template class planar_grid::PlanarCuboidApproximation<T>;

@@ -1,0 +1,262 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <planar_grid/core/planar_cuboid.h>
+#include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
+
+#include <pcl/pcl_base.h>
+#include <pcl/pcl_macros.h>
+#include <pcl/point_cloud.h>
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace planar_grid {
+
+/** \brief Grid approximation and combination of Sec. III-F (Figs. 6-8) of Zhang et
+ * al., "Planar occupancy grid mapping": turns a ground-free cloud and its planes into
+ * oriented rectangular cuboids (PlanarCuboid).
+ *
+ * Planar clusters (Fig. 6): the inliers of each plane are expressed in plane
+ * coordinates (u along the plane's horizontal axis, v along its vertical axis) and
+ * rastered at min_cell_size_m (a raster cell is occupied by >= 1 point). A quadtree
+ * splits the unit, starting from the bounding square of 2^k raster cells at the
+ * cluster's (u, v) minimum, into four equal parts about its centre while
+ * D = S_PO / S_PA < D_T and W > W_T and H > H_T (Fig. 8, line 8), where S_PO is the
+ * occupied raster area and S_PA the unit area; empty parts are dropped and a unit
+ * stops splitting at one raster cell. The kept units are then merged exactly on the
+ * raster: first horizontally (maximal runs of covered cells along u in each raster row:
+ * equal heights), then vertically (runs with equal u-extent in consecutive rows: equal
+ * widths), giving the largest rectangles of Fig. 6(b). Each rectangle is tightened to
+ * the (u, v) extent of its inliers and extruded along the normal to the back
+ * (Fig. 6(c)): the face is at the front-most inlier (toward the sensor) and the box
+ * reaches at least thickness_m behind it and behind every inlier. Rectangles with
+ * fewer than min_points_per_cell inliers are dropped and their points join the
+ * non-planar remainder.
+ *
+ * Non-planar remainder (Fig. 7): the remaining finite points (within the indices) are
+ * split the same way, in the up-aligned frame (e1 horizontal, up vertical, e2 = up x
+ * e1 horizontal depth; see getHorizontalReference()): a quadtree on the (e1, up)
+ * raster, then each leaf's points are cut along e2 wherever consecutive depths are more
+ * than min_cell_size_m apart, so that no box spans free space between separate
+ * surfaces. Every part with >= min_points_per_cell points becomes a cuboid bounding
+ * its points (each extent at least min_cell_size_m along e1 and up and thickness_m
+ * along e2); these are never merged and may overlap slightly.
+ *
+ * With min_points_per_cell = 1 every finite input point within the indices lies in
+ * some cuboid. The run time is linear in the number of points plus the raster area
+ * (plus an O(n log n) depth sort of the non-planar points within each leaf).
+ *
+ * Empty or degenerate input (no input, empty cloud, only NaNs) or invalid parameters
+ * give an empty output and a PCL_ERROR/PCL_WARN; planes with bad coefficients or no
+ * usable inliers are skipped with a PCL_WARN (their points are treated as non-planar).
+ * approximate() never throws for bad data.
+ * \ingroup surface */
+template <typename PointT>
+class PlanarCuboidApproximation : public pcl::PCLBase<PointT> {
+public:
+  using Ptr = std::shared_ptr<PlanarCuboidApproximation<PointT>>;
+  using ConstPtr = std::shared_ptr<const PlanarCuboidApproximation<PointT>>;
+  using PointCloud = pcl::PointCloud<PointT>;
+  using PointCloudPtr = typename PointCloud::Ptr;
+  using PointCloudConstPtr = typename PointCloud::ConstPtr;
+
+  PlanarCuboidApproximation() = default;
+  ~PlanarCuboidApproximation() override = default;
+
+  /** \brief Sets the planes of the input cloud (e.g. from SACMultiPlaneSegmentation);
+   * their inliers index the input cloud. A point in the inliers of several planes
+   * goes to the first. An empty list (the default) makes every point non-planar.
+   * \param[in] planes model_coefficients [a, b, c, d] (unit normal, d in meters) and
+   * inliers per plane */
+  void setPlanes(const PlanarSegments& planes) { planes_ = planes; }
+  /** \brief Returns the planes. */
+  const PlanarSegments& getPlanes() const { return planes_; }
+
+  /** \brief Sets the up axis (the paper's z axis); it is normalised.
+   * \param[in] axis non-zero (default (0, 0, 1); (0, -1, 0) for a camera frame) */
+  void setUpAxis(const Eigen::Vector3f& axis) { up_axis_ = axis; }
+  /** \brief Returns the up axis as set. */
+  Eigen::Vector3f getUpAxis() const { return up_axis_; }
+
+  /** \brief Sets the sensor origin that decides the front of each plane (the box is
+   * extruded away from it). Unset, the input cloud's sensor_origin_ is used.
+   * \param[in] origin in meters, in the cloud's frame */
+  void setSensorOrigin(const Eigen::Vector3f& origin)
+  {
+    sensor_origin_ = origin;
+    sensor_origin_set_ = true;
+  }
+  /** \brief Returns the sensor origin in meters (the cloud's when unset, or zero
+   * without input). */
+  Eigen::Vector3f getSensorOrigin() const
+  {
+    if (sensor_origin_set_ || !input_)
+      return sensor_origin_;
+    return input_->sensor_origin_.template head<3>();
+  }
+
+  /** \brief Sets the raster resolution, which is also the smallest unit side.
+   * \param[in] min_cell_size_m in meters, > 0 (default 0.1) */
+  void setMinCellSize(double min_cell_size_m) { min_cell_size_ = min_cell_size_m; }
+  /** \brief Returns the raster resolution, in meters. */
+  double getMinCellSize() const { return min_cell_size_; }
+
+  /** \brief Sets D_T of Fig. 8: a unit splits only while its split density
+   * D = S_PO / S_PA (occupied raster area over unit area) is below it.
+   * \param[in] density_threshold in (0, 1] (default 0.9) */
+  void setDensityThreshold(double density_threshold)
+  {
+    density_threshold_ = density_threshold;
+  }
+  /** \brief Returns D_T, in (0, 1]. */
+  double getDensityThreshold() const { return density_threshold_; }
+
+  /** \brief Sets W_T of Fig. 8: a unit splits only while its width W > W_T.
+   * \param[in] min_width_m in meters, >= 0 (default 0.1, i.e. split down to single
+   * raster cells; a unit never splits below one raster cell) */
+  void setMinWidth(double min_width_m) { min_width_ = min_width_m; }
+  /** \brief Returns W_T, in meters. */
+  double getMinWidth() const { return min_width_; }
+
+  /** \brief Sets H_T of Fig. 8: a unit splits only while its height H > H_T.
+   * \param[in] min_height_m in meters, >= 0 (default 0.1) */
+  void setMinHeight(double min_height_m) { min_height_ = min_height_m; }
+  /** \brief Returns H_T, in meters. */
+  double getMinHeight() const { return min_height_; }
+
+  /** \brief Sets the smallest extrusion of a planar cuboid behind its face, and the
+   * smallest depth of a non-planar cuboid (Fig. 6(c)).
+   * \param[in] thickness_m in meters, > 0 (default 0.1) */
+  void setThickness(double thickness_m) { thickness_ = thickness_m; }
+  /** \brief Returns the smallest thickness, in meters. */
+  double getThickness() const { return thickness_; }
+
+  /** \brief Sets the fewest points of an output cuboid (a merged planar rectangle or
+   * a non-planar part).
+   * \param[in] min_points_per_cell >= 1 (default 3) */
+  void setMinPointsPerCell(int min_points_per_cell)
+  {
+    min_points_per_cell_ = min_points_per_cell;
+  }
+  /** \brief Returns the fewest points of a cuboid. */
+  int getMinPointsPerCell() const { return min_points_per_cell_; }
+
+  /** \brief Returns the fixed horizontal reference e1 used for non-planar cuboids and
+   * for horizontal planes: the first of the x, y, z unit axes whose component
+   * perpendicular to the up axis is longest, projected and normalised. For up =
+   * (0, 0, 1) it is x (and e2 = y); for the camera up (0, -1, 0) it is x (e2 = z).
+   * \return a unit vector perpendicular to the normalised up axis, or zero when the
+   * up axis is invalid */
+  Eigen::Vector3f getHorizontalReference() const;
+
+  /** \brief Builds the cuboids (Fig. 8).
+   * \param[out] cuboids planar cuboids (in plane order, then row order) followed by
+   * the non-planar ones; empty on degenerate input or invalid parameters */
+  void approximate(PlanarCuboids& cuboids);
+
+protected:
+  using pcl::PCLBase<PointT>::input_;
+  using pcl::PCLBase<PointT>::indices_;
+
+  /** \brief A square quadtree unit on a raster: corner cell and side, in cells. */
+  struct Unit {
+    /** \brief First raster column. */
+    int u0;
+    /** \brief First raster row. */
+    int v0;
+    /** \brief Side in raster cells (a power of two). */
+    int side;
+  };
+
+  /** \brief Base initCompute plus the parameter checks of S23; PCL_ERROR if false. */
+  bool initCompute();
+
+  /** \brief The algorithm; called between initCompute() and deinitCompute(). */
+  virtual void applyApproximation(PlanarCuboids& cuboids);
+
+  /** \brief Quadtree split of Fig. 8 over the occupancy of the current raster
+   * (occupied_, nu_ x nv_ cells of cell_m meters); fills units_ with the kept
+   * leaves. */
+  void splitUnits(double cell_m);
+
+  /** \brief Builds the cuboids of one plane from the points in plane_points_. */
+  void approximatePlane(int plane_id,
+                        const Eigen::Vector3f& normal,
+                        float d,
+                        PlanarCuboids& cuboids);
+
+  /** \brief Builds the non-planar cuboids of the points in remainder_. */
+  void approximateRemainder(PlanarCuboids& cuboids);
+
+  /** \brief Sizes the raster for the (u, v) extent; returns the raster cell size in
+   * meters (min_cell_size_, doubled while the raster would exceed MAX_RASTER_CELLS). */
+  double setUpRaster(float u_min, float u_max, float v_min, float v_max);
+
+  /** \brief Returns the class name for messages. */
+  const std::string& getClassName() const { return class_name_; }
+
+  /** \brief Largest number of raster cells of one cluster. */
+  static constexpr std::size_t MAX_RASTER_CELLS = std::size_t{1} << 24;
+
+  /** \brief Class name used in messages. */
+  std::string class_name_{"PlanarCuboidApproximation"};
+  /** \brief The planes of the input cloud. */
+  PlanarSegments planes_;
+  /** \brief Up axis. */
+  Eigen::Vector3f up_axis_{0.0f, 0.0f, 1.0f};
+  /** \brief Sensor origin in meters, when set. */
+  Eigen::Vector3f sensor_origin_{Eigen::Vector3f::Zero()};
+  /** \brief Whether sensor_origin_ was set. */
+  bool sensor_origin_set_{false};
+  /** \brief Raster resolution and smallest unit side, in meters. */
+  double min_cell_size_{0.1};
+  /** \brief D_T of Fig. 8, in (0, 1]. */
+  double density_threshold_{0.9};
+  /** \brief W_T of Fig. 8, in meters. */
+  double min_width_{0.1};
+  /** \brief H_T of Fig. 8, in meters. */
+  double min_height_{0.1};
+  /** \brief Smallest thickness, in meters. */
+  double thickness_{0.1};
+  /** \brief Fewest points of a cuboid. */
+  int min_points_per_cell_{3};
+
+  // Scratch buffers, reused across planes and calls (no per-point allocations).
+  /** \brief Per input point: 0 excluded, 1 available, 2 taken by a plane. */
+  std::vector<std::uint8_t> state_;
+  /** \brief Indices of the current cluster's points. */
+  std::vector<int> plane_points_;
+  /** \brief (u, v, w) coordinates of the current cluster's points, in meters. */
+  std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> coords_;
+  /** \brief Raster cell of each point of the current cluster. */
+  std::vector<int> cell_of_point_;
+  /** \brief Indices of the non-planar remainder. */
+  std::vector<int> remainder_;
+  /** \brief Raster width and height in cells. */
+  int nu_{0}, nv_{0};
+  /** \brief Raster origin (u, v), in meters. */
+  float u_origin_{0.0f}, v_origin_{0.0f};
+  /** \brief Occupancy of the raster (row-major, nu_ x nv_). */
+  std::vector<std::uint8_t> occupied_;
+  /** \brief Summed-area table of occupied_, (nu_ + 1) x (nv_ + 1). */
+  std::vector<std::uint32_t> integral_;
+  /** \brief Kept quadtree leaves. */
+  std::vector<Unit> units_;
+  /** \brief Label per raster cell (rectangle or leaf id, -1 none). */
+  std::vector<int> label_;
+
+public:
+  PCL_MAKE_ALIGNED_OPERATOR_NEW
+};
+
+} // namespace planar_grid
+
+#ifdef PCL_NO_PRECOMPILE
+#include <planar_grid/surface/impl/planar_cuboid_approximation.hpp>
+#endif
