@@ -1,0 +1,220 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// PlanarCuboidApproximation (paper Sec. III-F, Figs. 6-8) on Karlsruhe frames (SGBM
+// cloud, max range 30 m, 0.1 m VoxelGrid, SACMultiPlaneSegmentation, ground planes
+// removed) and on office1.pcd (0.05 m VoxelGrid). Arg 0: the min cell size in cm
+// (10-50). Counters: cuboids, voxels = occupied cells of pcl::VoxelGrid at the same
+// size on the same (ground-free) points, eta = 1 - cuboids / voxels (combination
+// efficiency), planar = planar cuboids, points.
+#include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
+#include <planar_grid/stereo/calibration_io.h>
+#include <planar_grid/stereo/disparity_estimator.h>
+#include <planar_grid/stereo/point_cloud_from_disparity.h>
+#include <planar_grid/surface/planar_cuboid_approximation.h>
+
+#include <pcl/common/io.h>
+#include <pcl/filters/filter.h>
+#include <pcl/filters/voxel_grid.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/point_types.h>
+
+#include <benchmark/benchmark.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include <cstdio>
+#include <map>
+#include <string>
+
+namespace {
+
+using Cloud = pcl::PointCloud<pcl::PointXYZI>;
+
+constexpr double DISTANCE_THRESHOLD_M = 0.05; // the paper's d_T (eq. 11)
+constexpr double MAX_RANGE_M = 30.0;
+constexpr double GROUND_EPS_RAD = 15.0 * M_PI / 180.0;
+
+/** \brief One ground-free scene: points, planes (ground candidates removed). */
+struct Scene {
+  Cloud::Ptr cloud{new Cloud};
+  planar_grid::PlanarSegments planes;
+  bool ok{false};
+};
+
+/** \brief Removes the points of the ground-candidate planes (up = -y, camera frame)
+ * from the cloud and returns the other planes re-indexed. */
+void
+removeGround(const Cloud& in, const planar_grid::PlanarSegments& planes, Scene& out)
+{
+  const Eigen::Vector3f up(0.0f, -1.0f, 0.0f);
+  std::vector<int> new_index(in.size(), 0);
+  for (const auto& p : planes)
+    if (planar_grid::isGroundCandidate(p, up, GROUND_EPS_RAD))
+      for (const auto i : p.inliers.indices)
+        new_index[i] = -1;
+  for (std::size_t i = 0; i < in.size(); ++i)
+    if (new_index[i] == 0) {
+      new_index[i] = static_cast<int>(out.cloud->size());
+      out.cloud->push_back(in[i]);
+    }
+  for (const auto& p : planes) {
+    if (planar_grid::isGroundCandidate(p, up, GROUND_EPS_RAD))
+      continue;
+    planar_grid::PlanarSegment q = p;
+    q.inliers.indices.clear();
+    for (const auto i : p.inliers.indices)
+      q.inliers.indices.push_back(new_index[i]);
+    out.planes.push_back(q);
+  }
+  out.ok = !out.cloud->empty();
+}
+
+void
+segmentAndRemoveGround(const Cloud::Ptr& cloud, Scene& out)
+{
+  planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZI> seg;
+  seg.setInputCloud(cloud);
+  seg.setUpAxis(Eigen::Vector3f(0.0f, -1.0f, 0.0f));
+  seg.setDistanceThreshold(DISTANCE_THRESHOLD_M);
+  seg.setMinInliers(100);
+  planar_grid::PlanarSegments planes;
+  seg.segment(planes);
+  removeGround(*cloud, planes, out);
+}
+
+const Scene&
+karlsruhe(int frame)
+{
+  static std::map<int, Scene> scenes;
+  auto it = scenes.find(frame);
+  if (it != scenes.end())
+    return it->second;
+  Scene& out = scenes[frame];
+  const std::string dir =
+    std::string(PLANAR_GRID_DATA_DIR) + "/karlsruhe_2010_03_09_drive_0023";
+  char name[32];
+  std::snprintf(name, sizeof(name), "%06d.png", frame);
+  cv::Mat left = cv::imread(dir + "/left/I1_" + name, cv::IMREAD_GRAYSCALE);
+  cv::Mat right = cv::imread(dir + "/right/I2_" + name, cv::IMREAD_GRAYSCALE);
+  if (left.empty() || right.empty())
+    return out;
+  const auto model = planar_grid::loadStereoCalibration(
+    planar_grid::CalibrationFormat::KARLSRUHE, dir + "/calib.txt");
+  if (!model.rectifier.empty()) {
+    cv::Mat l, r;
+    model.rectifier.rectify(left, right, l, r);
+    left = l;
+    right = r;
+  }
+  cv::Mat disparity;
+  planar_grid::DisparityEstimator().compute(left, right, disparity);
+  Cloud dense;
+  planar_grid::disparityToPointCloud(disparity, left, model.calibration, MAX_RANGE_M,
+                                     dense);
+  Cloud::Ptr finite(new Cloud);
+  pcl::Indices unused;
+  pcl::removeNaNFromPointCloud(dense, *finite, unused);
+  Cloud::Ptr voxelised(new Cloud);
+  pcl::VoxelGrid<pcl::PointXYZI> voxel_grid;
+  voxel_grid.setInputCloud(finite);
+  voxel_grid.setLeafSize(0.1f, 0.1f, 0.1f);
+  voxel_grid.filter(*voxelised);
+  segmentAndRemoveGround(voxelised, out);
+  return out;
+}
+
+const Scene&
+office()
+{
+  static const Scene scene = [] {
+    Scene out;
+    pcl::PointCloud<pcl::PointXYZRGB> raw;
+    if (pcl::io::loadPCDFile(
+          std::string(PLANAR_GRID_DATA_DIR) + "/pcl_clouds/office1.pcd", raw)
+        != 0)
+      return out;
+    Cloud::Ptr xyz(new Cloud);
+    pcl::copyPointCloud(raw, *xyz);
+    Cloud::Ptr finite(new Cloud);
+    pcl::Indices unused;
+    pcl::removeNaNFromPointCloud(*xyz, *finite, unused);
+    Cloud::Ptr voxelised(new Cloud);
+    pcl::VoxelGrid<pcl::PointXYZI> voxel_grid;
+    voxel_grid.setInputCloud(finite);
+    voxel_grid.setLeafSize(0.05f, 0.05f, 0.05f);
+    voxel_grid.filter(*voxelised);
+    segmentAndRemoveGround(voxelised, out);
+    return out;
+  }();
+  return scene;
+}
+
+void
+run(benchmark::State& state, const Scene& scene)
+{
+  if (!scene.ok) {
+    state.SkipWithError("data not found");
+    return;
+  }
+  const double cell_m = 0.01 * static_cast<double>(state.range(0));
+  Cloud voxels;
+  pcl::VoxelGrid<pcl::PointXYZI> voxel_grid;
+  voxel_grid.setInputCloud(scene.cloud);
+  const auto leaf = static_cast<float>(cell_m);
+  voxel_grid.setLeafSize(leaf, leaf, leaf);
+  voxel_grid.filter(voxels);
+
+  planar_grid::PlanarCuboidApproximation<pcl::PointXYZI> approx;
+  approx.setInputCloud(scene.cloud);
+  approx.setPlanes(scene.planes);
+  approx.setUpAxis(Eigen::Vector3f(0.0f, -1.0f, 0.0f));
+  approx.setMinCellSize(cell_m);
+  approx.setMinWidth(cell_m);
+  approx.setMinHeight(cell_m);
+  approx.setThickness(cell_m);
+  planar_grid::PlanarCuboids cuboids;
+  for (auto _ : state) {
+    approx.approximate(cuboids);
+    benchmark::DoNotOptimize(cuboids.data());
+  }
+  std::size_t planar = 0;
+  for (const auto& c : cuboids)
+    planar += c.is_planar ? 1 : 0;
+  state.counters["points"] = static_cast<double>(scene.cloud->size());
+  state.counters["planes"] = static_cast<double>(scene.planes.size());
+  state.counters["cuboids"] = static_cast<double>(cuboids.size());
+  state.counters["planar"] = static_cast<double>(planar);
+  state.counters["voxels"] = static_cast<double>(voxels.size());
+  state.counters["eta"] =
+    1.0 - static_cast<double>(cuboids.size()) / static_cast<double>(voxels.size());
+}
+
+void
+BM_PlanarCuboidApproximationKarlsruhe10(benchmark::State& state)
+{
+  run(state, karlsruhe(10));
+}
+
+void
+BM_PlanarCuboidApproximationKarlsruhe60(benchmark::State& state)
+{
+  run(state, karlsruhe(60));
+}
+
+void
+BM_PlanarCuboidApproximationOffice1(benchmark::State& state)
+{
+  run(state, office());
+}
+
+} // namespace
+
+BENCHMARK(BM_PlanarCuboidApproximationKarlsruhe10)
+  ->DenseRange(10, 50, 10)
+  ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PlanarCuboidApproximationKarlsruhe60)
+  ->DenseRange(10, 50, 10)
+  ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PlanarCuboidApproximationOffice1)
+  ->DenseRange(10, 50, 10)
+  ->Unit(benchmark::kMillisecond);
+
+BENCHMARK_MAIN();
