@@ -22,6 +22,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
+#include <numeric>
 #include <sstream>
 
 using namespace pcl::console;
@@ -155,11 +156,26 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
                              planes ? 1.0 : 2.0, Eigen::Vector3d(0.8, 0.8, 0.8));
     std::size_t plane_count = 0;
     if (planes) {
+      // Colour the largest run-wide planes (by inliers merged over the run), one colour
+      // each; smaller ones (car sides, bushes) stay grey so the facades stand out.
+      constexpr std::size_t COLOURED_PLANES = 24;
+      std::vector<std::size_t> order(state.plane_inlier_counts.size());
+      std::iota(order.begin(), order.end(), 0);
+      std::sort(order.begin(), order.end(), [&state](std::size_t a, std::size_t b) {
+        return state.plane_inlier_counts[a] > state.plane_inlier_counts[b];
+      });
+      std::vector<int> colour_of(order.size(), -1);
+      for (std::size_t r = 0; r < std::min(order.size(), COLOURED_PLANES); ++r)
+        colour_of[order[r]] = static_cast<int>(r);
       pcl::PointCloud<pcl::PointXYZI> labelled;
-      labelled.resize(state.plane_cloud->size());
-      for (std::size_t i = 0; i < labelled.size(); ++i) {
-        labelled[i].getVector3fMap() = (*state.plane_cloud)[i].getVector3fMap();
-        labelled[i].intensity = static_cast<float>((*state.plane_cloud)[i].label);
+      labelled.reserve(state.plane_cloud->size());
+      for (const auto& p : state.plane_cloud->points) {
+        if (p.label >= colour_of.size() || colour_of[p.label] < 0)
+          continue;
+        pcl::PointXYZI q;
+        q.getVector3fMap() = p.getVector3fMap();
+        q.intensity = static_cast<float>(colour_of[p.label]);
+        labelled.push_back(q);
       }
       renderer.addPointCloud(labelled, planar_grid::ColorMode::LABEL, 2.0);
       plane_count = state.plane_models.size();
@@ -168,7 +184,9 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
       renderer.addTrajectory(positions);
     renderer.addText(config_path + ": " + std::to_string(report.frames) + " frames, "
                        + std::to_string(report.world_cloud_points) + " points"
-                       + (planes ? ", " + std::to_string(plane_count) + " planes" : ""),
+                       + (planes ? ", " + std::to_string(plane_count)
+                                     + " planes (the 24 largest coloured)"
+                                 : ""),
                      dark);
     renderer.setCamera(preset);
     renderer.saveSnapshot(path, config.output.snapshot_size_px[0],
