@@ -92,7 +92,8 @@ isGroundCandidate(const PlanarSegment& segment,
  * most getMaxSampleSize() finite points of the input cloud (within the indices). Each
  * round runs pcl::SampleConsensusModelPlane under the chosen SACMethod on the remaining
  * sample points; when optimize_coefficients is set, re-estimates the hypothesis by
- * pcl::RandomSampleConsensus at d_T on a seeded subsample (<= 5000) of the unassigned
+ * a plain RANSAC at d_T (struct of arrays, early-exit counting, seeded; PCL's adaptive
+ * iteration count) on a seeded subsample (<= 5000) of the unassigned
  * dense points within max(sample_distance_threshold, 10 d_T) of it (the features are
  * noisy); selects the dense inliers of the input cloud (eq. 11, distance <= d_T) that
  * no earlier plane took, optionally refits the plane to them by PCA and reselects, then
