@@ -9,6 +9,7 @@
 #include <vtkActor.h>
 #include <vtkCamera.h>
 #include <vtkCellArray.h>
+#include <vtkCellData.h>
 #include <vtkFloatArray.h>
 #include <vtkIdTypeArray.h>
 #include <vtkInteractorStyleTrackballCamera.h>
@@ -397,6 +398,72 @@ SceneRenderer::addPointCloud(const pcl::PointCloud<pcl::PointXYZI>& cloud,
   actor->GetProperty()->SetPointSize(static_cast<float>(point_size_px));
   // Points carry no normals: draw their colours as given.
   actor->GetProperty()->LightingOff();
+  impl_->renderer->AddActor(actor);
+}
+
+void
+SceneRenderer::addCuboids(const PlanarCuboids& cuboids,
+                          bool wireframe,
+                          double opacity,
+                          const Eigen::Vector3d& non_planar_rgb)
+{
+  if (!(opacity > 0.0 && opacity <= 1.0))
+    throw Exception(
+      "[planar_grid::SceneRenderer::addCuboids] opacity must be in (0, 1], "
+      "got "
+      + std::to_string(opacity));
+  if (cuboids.empty())
+    return;
+  const auto n = static_cast<vtkIdType>(cuboids.size());
+  vtkNew<vtkPoints> points;
+  points->SetDataTypeToFloat();
+  points->SetNumberOfPoints(8 * n);
+  vtkNew<vtkCellArray> quads;
+  quads->AllocateExact(6 * n, 24 * n);
+  vtkNew<vtkUnsignedCharArray> colors;
+  colors->SetNumberOfComponents(3);
+  colors->SetNumberOfTuples(6 * n);
+  unsigned char* c = colors->WritePointer(0, 18 * n);
+  const std::array<unsigned char, 3> grey{
+    toByte(non_planar_rgb.x()), toByte(non_planar_rgb.y()), toByte(non_planar_rgb.z())};
+  // Corner order of PlanarCuboid::corners(): face 0-3, back 4-7 (same winding).
+  static constexpr vtkIdType FACES[6][4] = {{0, 1, 2, 3}, {4, 7, 6, 5}, {0, 4, 5, 1},
+                                            {1, 5, 6, 2}, {2, 6, 7, 3}, {3, 7, 4, 0}};
+  for (vtkIdType k = 0; k < n; ++k) {
+    const PlanarCuboid& cuboid = cuboids[static_cast<std::size_t>(k)];
+    const auto corners = cuboid.corners();
+    for (vtkIdType j = 0; j < 8; ++j) {
+      const Eigen::Vector3f& q = corners[static_cast<std::size_t>(j)];
+      points->SetPoint(8 * k + j, q.x(), q.y(), q.z());
+    }
+    const auto rgb =
+      cuboid.plane_id >= 0 ? labelColor(static_cast<float>(cuboid.plane_id)) : grey;
+    for (const auto& face : FACES) {
+      const vtkIdType ids[4] = {8 * k + face[0], 8 * k + face[1], 8 * k + face[2],
+                                8 * k + face[3]};
+      quads->InsertNextCell(4, ids);
+      c[0] = rgb[0];
+      c[1] = rgb[1];
+      c[2] = rgb[2];
+      c += 3;
+    }
+  }
+  vtkNew<vtkPolyData> poly;
+  poly->SetPoints(points);
+  poly->SetPolys(quads);
+  poly->GetCellData()->SetScalars(colors);
+  vtkNew<vtkPolyDataMapper> mapper;
+  mapper->SetInputData(poly);
+  mapper->ScalarVisibilityOn();
+  mapper->SetColorModeToDirectScalars();
+  mapper->SetScalarModeToUseCellData();
+  vtkNew<vtkActor> actor;
+  actor->SetMapper(mapper);
+  actor->GetProperty()->SetOpacity(opacity);
+  if (wireframe) {
+    actor->GetProperty()->SetRepresentationToWireframe();
+    actor->GetProperty()->LightingOff();
+  }
   impl_->renderer->AddActor(actor);
 }
 

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/planar_cuboid.h>
+
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
@@ -76,6 +78,19 @@ public:
                      ColorMode mode = ColorMode::HEIGHT,
                      double point_size_px = 2.0,
                      const Eigen::Vector3d& rgb = Eigen::Vector3d(1.0, 1.0, 1.0));
+
+  /** \brief Adds cuboids (PlanarCuboid, paper Figs. 6-7) as oriented boxes, all in one
+   * VTK actor (six quads each).
+   * Planar cells take one colour per plane_id (the ColorMode::LABEL palette),
+   * non-planar cells (plane_id < 0) \a non_planar_rgb. \param[in] cuboids the cells,
+   * world frame, metres \param[in] wireframe draw the edges only \param[in] opacity in
+   * (0, 1] \param[in] non_planar_rgb colour of the non-planar cells, components in [0,
+   * 1] \throws planar_grid::Exception when opacity is outside (0, 1] */
+  void
+  addCuboids(const PlanarCuboids& cuboids,
+             bool wireframe = false,
+             double opacity = 1.0,
+             const Eigen::Vector3d& non_planar_rgb = Eigen::Vector3d(0.6, 0.6, 0.6));
 
   /** \brief Adds a polyline through camera positions (world frame, metres).
    * \param[in] positions the positions in order
