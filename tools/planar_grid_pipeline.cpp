@@ -195,6 +195,26 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
   };
   render(config.output.snapshot, "snapshot", false);
   render(config.output.planes_snapshot, "planes_snapshot", true);
+  if (!config.output.cuboids_snapshot.empty() && !state.cuboids.empty()) {
+    const std::string path =
+      planar_grid::outputPath(config.output, config.output.cuboids_snapshot);
+    planar_grid::SceneRenderer renderer;
+    renderer.setBackground(white);
+    renderer.addCuboids(state.cuboids);
+    if (positions.size() > 1)
+      renderer.addTrajectory(positions);
+    std::size_t planar = 0;
+    for (const auto& c : state.cuboids)
+      planar += c.is_planar;
+    renderer.addText(config_path + ": " + std::to_string(state.cuboids.size())
+                       + " cuboids (" + std::to_string(planar)
+                       + " planar, coloured by plane; non-planar grey)",
+                     dark);
+    renderer.setCamera(preset);
+    renderer.saveSnapshot(path, config.output.snapshot_size_px[0],
+                          config.output.snapshot_size_px[1]);
+    report.outputs.emplace_back("cuboids_snapshot", path);
+  }
 }
 #endif
 
@@ -237,18 +257,22 @@ run(int argc, char** argv)
   if (find_switch(argc, argv, "--no-snapshot")) {
     config.output.snapshot.clear();
     config.output.planes_snapshot.clear();
+    config.output.cuboids_snapshot.clear();
   }
 
 #ifdef PLANAR_GRID_WITH_VIEWER
   // Before the long run: VTK needs an X server; re-run under xvfb-run if there is none.
-  if (!config.output.snapshot.empty() || !config.output.planes_snapshot.empty())
+  if (!config.output.snapshot.empty() || !config.output.planes_snapshot.empty()
+      || !config.output.cuboids_snapshot.empty())
     planar_grid::ensureDisplay(argc, argv);
 #else
-  if (!config.output.snapshot.empty() || !config.output.planes_snapshot.empty()) {
+  if (!config.output.snapshot.empty() || !config.output.planes_snapshot.empty()
+      || !config.output.cuboids_snapshot.empty()) {
     print_warn(
       "Built without the viewer (PLANAR_GRID_BUILD_VIEWER=OFF): no snapshot.\n");
     config.output.snapshot.clear();
     config.output.planes_snapshot.clear();
+    config.output.cuboids_snapshot.clear();
   }
 #endif
 

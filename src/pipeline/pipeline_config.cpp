@@ -253,7 +253,8 @@ parseOutput(const Reader& r, const YAML::Node& node)
   OutputConfig out;
   r.checkKeys(node,
               {"folder", "cloud", "planes", "report", "trajectory", "snapshot",
-               "planes_snapshot", "snapshot_camera", "snapshot_size_px"},
+               "planes_snapshot", "cuboids_snapshot", "snapshot_camera",
+               "snapshot_size_px"},
               "output");
   out.folder = r.optionalString(node, "folder", out.folder, "output");
   out.cloud = r.optionalString(node, "cloud", out.cloud, "output");
@@ -263,6 +264,8 @@ parseOutput(const Reader& r, const YAML::Node& node)
   out.planes = r.optionalString(node, "planes", out.planes, "output");
   out.planes_snapshot =
     r.optionalString(node, "planes_snapshot", out.planes_snapshot, "output");
+  out.cuboids_snapshot =
+    r.optionalString(node, "cuboids_snapshot", out.cuboids_snapshot, "output");
   out.snapshot_camera =
     r.optionalString(node, "snapshot_camera", out.snapshot_camera, "output");
   if (out.snapshot_camera != "top" && out.snapshot_camera != "oblique")

@@ -16,7 +16,8 @@ stageRegistry()
     stages::stereoDisparityInfo(),  stages::featureMatchingInfo(),
     stages::voxelGridInfo(),        stages::statisticalOutlierRemovalInfo(),
     stages::transformToWorldInfo(), stages::multiPlaneSegmentationInfo(),
-    stages::groundRemovalInfo(),    stages::accumulateInfo(),
+    stages::groundRemovalInfo(),    stages::planarCuboidApproximationInfo(),
+    stages::accumulateInfo(),
   };
   return registry;
 }

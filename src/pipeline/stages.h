@@ -19,6 +19,9 @@ StageInfo statisticalOutlierRemovalInfo();
 StageInfo multiPlaneSegmentationInfo();
 StageInfo groundRemovalInfo();
 
+// surface_stages.cpp
+StageInfo planarCuboidApproximationInfo();
+
 // world_stages.cpp
 StageInfo transformToWorldInfo();
 StageInfo accumulateInfo();

@@ -64,12 +64,15 @@ public:
         world.push_back(p);
     // The planes' inliers, labelled with the run-wide plane they belong to.
     auto& planes = *state.plane_cloud;
-    for (const auto& plane : frame.planes) {
+    std::vector<int> run_wide_id(frame.planes.size(), -1);
+    for (std::size_t k = 0; k < frame.planes.size(); ++k) {
+      const auto& plane = frame.planes[k];
       if (plane.model_coefficients.values.size() != 4)
         continue;
       const auto id = static_cast<std::uint32_t>(
         associatePlane(Eigen::Vector4f(plane.model_coefficients.values.data()),
                        plane.inliers.indices.size(), state));
+      run_wide_id[k] = static_cast<int>(id);
       for (const auto i : plane.inliers.indices) {
         const auto& p = (*frame.cloud)[static_cast<std::size_t>(i)];
         pcl::PointXYZL q;
@@ -77,6 +80,13 @@ public:
         q.label = id;
         planes.push_back(q);
       }
+    }
+    // The frame's cells, relabelled with the run-wide plane ids.
+    for (auto cuboid : frame.cuboids) {
+      const auto k = static_cast<std::size_t>(cuboid.plane_id);
+      if (cuboid.plane_id >= 0)
+        cuboid.plane_id = k < run_wide_id.size() ? run_wide_id[k] : -1;
+      state.cuboids.push_back(cuboid);
     }
     if (++frames_since_downsample_ >= every_)
       downsample(state);

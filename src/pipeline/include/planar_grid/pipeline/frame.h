@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/planar_cuboid.h>
 #include <planar_grid/core/stereo_calibration.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 #include <planar_grid/stereo/stereo_feature_matcher.h>
@@ -45,6 +46,9 @@ struct Frame {
   /** \brief Planes of the working cloud, their inliers index `cloud` (after
    * multi_plane_segmentation; ground_removal takes the ground out). */
   PlanarSegments planes;
+  /** \brief The frame's cells (after planar_cuboid_approximation), in the cloud's
+   * frame; plane_id indexes `planes` (-1 for non-planar cells). */
+  PlanarCuboids cuboids;
   /** \brief The ground plane [a, b, c, d] in the cloud's frame, when ground_removal
    * found one; its points are no longer in `cloud`. */
   Eigen::Vector4f ground_coefficients{Eigen::Vector4f::Zero()};

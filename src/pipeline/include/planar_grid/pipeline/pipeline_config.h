@@ -71,6 +71,8 @@ struct OutputConfig {
   std::string planes{"planes.pcd"};
   /** \brief PNG snapshot of the planes, one colour per plane ("" = none). */
   std::string planes_snapshot{"planes.png"};
+  /** \brief PNG snapshot of the cuboid cells, coloured by plane ("" = none). */
+  std::string cuboids_snapshot{"cuboids.png"};
   /** \brief Machine-readable report. */
   std::string report{"report.json"};
   /** \brief Camera poses used, KITTI format ("" = none). */

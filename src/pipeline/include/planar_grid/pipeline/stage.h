@@ -26,6 +26,10 @@ struct PipelineState {
   std::vector<Eigen::Vector4f, Eigen::aligned_allocator<Eigen::Vector4f>> plane_models;
   /** \brief Dense inliers merged into each run-wide plane so far (its weight). */
   std::vector<std::size_t> plane_inlier_counts;
+  /** \brief The accumulated cells of every frame in the world frame; plane_id is the
+   * run-wide plane id (-1 non-planar). Merging cells across frames into one map is the
+   * map's job (PlanarGridMap); here they are kept as produced. */
+  PlanarCuboids cuboids;
 };
 
 /** \brief One step of the pipeline, applied to every frame in order. \ingroup pipeline
