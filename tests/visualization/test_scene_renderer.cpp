@@ -185,6 +185,43 @@ TEST_F(SceneRendererTest, PatchShiftedRightAppearsOnlyInRightHalf)
   EXPECT_TRUE(isBlack(image.at(160, 120)));
 }
 
+TEST_F(SceneRendererTest, CuboidsRenderWhereTheyAreAndNonPlanarIsGrey)
+{
+  // A planar cuboid (plane 0) 1 m x 1 m facing up at x = -1.5 m and a non-planar one
+  // (plane_id -1) at x = +1.5 m, seen from the top camera: image x = 160 -+ 1.5 / 5.36
+  // * 240 = 93 and 227 px. The planar one takes the label palette's colour for plane 0
+  // (not background, not grey); the non-planar one the grey given.
+  planar_grid::PlanarCuboids cuboids(2);
+  for (int k = 0; k < 2; ++k) {
+    auto& c = cuboids[static_cast<std::size_t>(k)];
+    c.centre = Eigen::Vector3f(k == 0 ? -1.5f : 1.5f, 0.0f, -0.05f);
+    c.normal = Eigen::Vector3f::UnitZ();
+    c.horizontal_axis = Eigen::Vector3f::UnitX();
+    c.width_m = c.height_m = 1.0f;
+    c.thickness_m = 0.1f;
+    c.plane_id = k == 0 ? 0 : -1;
+    c.is_planar = k == 0;
+  }
+  planar_grid::SceneRenderer renderer;
+  renderer.setBackground(Eigen::Vector3d(0.0, 0.0, 0.0));
+  renderer.addCuboids(cuboids, false, 1.0, Eigen::Vector3d(0.5, 0.5, 0.5));
+  renderer.setCamera(topCamera());
+  const std::string path = (dir_ / "cuboids.png").string();
+  renderer.saveSnapshot(path, 320, 240);
+  const Image image = readPNG(path);
+  const auto planar = image.at(93, 120);
+  const auto non_planar = image.at(227, 120);
+  EXPECT_FALSE(isBlack(planar));
+  EXPECT_FALSE(planar[0] == planar[1] && planar[1] == planar[2]) << "a hue, not grey";
+  // Grey (lighting may darken it, but the three channels stay equal).
+  EXPECT_FALSE(isBlack(non_planar));
+  EXPECT_NEAR(non_planar[0], non_planar[1], 2);
+  EXPECT_NEAR(non_planar[1], non_planar[2], 2);
+  EXPECT_TRUE(isBlack(image.at(160, 120))) << "nothing between the two";
+  EXPECT_TRUE(isBlack(image.at(160, 10)));
+  EXPECT_THROW(renderer.addCuboids(cuboids, false, 0.0), planar_grid::Exception);
+}
+
 TEST_F(SceneRendererTest, SnapshotIntoMissingFolderThrowsAndLeavesNothing)
 {
   planar_grid::SceneRenderer renderer;
