@@ -218,7 +218,7 @@ parseInput(const Reader& r, const YAML::Node& node)
     const std::vector<std::string> formats =
       input.type == InputConfig::Type::PCD_FILES
         ? std::vector<std::string>{"viewpoint", "kitti", "none"}
-        : std::vector<std::string>{"karlsruhe_insdata", "kitti", "none"};
+        : std::vector<std::string>{"odometry", "karlsruhe_insdata", "kitti", "none"};
     if (std::find(formats.begin(), formats.end(), input.poses_format)
         == formats.end()) {
       std::string list;
@@ -327,6 +327,18 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
     if (info->needs_poses && config.input.poses_format == "none")
       r.fail(stage["type"],
              "stage '" + sc.type + "' needs poses; set input.poses (format and file)");
+    const bool odometry = config.input.poses_format == "odometry";
+    const bool have_odometry =
+      std::any_of(config.stages.begin(), config.stages.end(),
+                  [](const StageConfig& s) { return s.type == "visual_odometry"; });
+    if (info->needs_poses && odometry && !have_odometry)
+      r.fail(stage["type"], "stage '" + sc.type
+                              + "' needs poses: with input.poses.format odometry, put "
+                                "'visual_odometry' before it");
+    if (sc.type == "visual_odometry" && !odometry)
+      r.fail(stage["type"],
+             "stage 'visual_odometry' makes the poses: set input.poses.format to "
+             "odometry");
     sc.params = parseParams(stage["params"], info->params, source, sc.type);
     config.stages.push_back(std::move(sc));
   }

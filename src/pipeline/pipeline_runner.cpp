@@ -88,8 +88,6 @@ PipelineRunner::run()
     source_->load(i, frame);
     frame.sequence_number = i;
     report.load_ms += ms_since(load_start);
-    if (frame.has_pose)
-      trajectory_.push_back(frame.world_T_camera);
 
     for (std::size_t s = 0; s < stages_.size(); ++s) {
       StageReport& sr = report.stages[s];
@@ -114,6 +112,9 @@ PipelineRunner::run()
       for (const auto& [name, value] : counter_values)
         sr.addCounter(name, value);
     }
+    // After the stages: visual_odometry sets the pose of frames whose input has none.
+    if (frame.has_pose)
+      trajectory_.push_back(frame.world_T_camera);
     ++report.frames;
     if (progress_)
       progress_(i - begin_ + 1, total, ms_since(start) / 1000.0);

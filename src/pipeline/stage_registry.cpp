@@ -13,11 +13,18 @@ stageRegistry()
   // Built once, in pipeline order; later issues add plane segmentation, cuboids,
   // occupancy and the map here.
   static const std::vector<StageInfo> registry{
-    stages::stereoDisparityInfo(),  stages::featureMatchingInfo(),
-    stages::voxelGridInfo(),        stages::statisticalOutlierRemovalInfo(),
-    stages::transformToWorldInfo(), stages::multiPlaneSegmentationInfo(),
-    stages::groundRemovalInfo(),    stages::planarCuboidApproximationInfo(),
+    // clang-format off
+    stages::stereoDisparityInfo(),
+    stages::featureMatchingInfo(),
+    stages::visualOdometryInfo(),
+    stages::voxelGridInfo(),
+    stages::statisticalOutlierRemovalInfo(),
+    stages::transformToWorldInfo(),
+    stages::multiPlaneSegmentationInfo(),
+    stages::groundRemovalInfo(),
+    stages::planarCuboidApproximationInfo(),
     stages::accumulateInfo(),
+    // clang-format on
   };
   return registry;
 }

@@ -11,6 +11,9 @@ namespace stages {
 StageInfo stereoDisparityInfo();
 StageInfo featureMatchingInfo();
 
+// odometry_stages.cpp
+StageInfo visualOdometryInfo();
+
 // filter_stages.cpp
 StageInfo voxelGridInfo();
 StageInfo statisticalOutlierRemovalInfo();

@@ -44,7 +44,8 @@ errorOf(const std::string& yaml)
 TEST(PipelineConfig, ExampleAndMainJobLoad)
 {
   // The documented schema and the main job must always load (S29).
-  for (const char* name : {"example.yaml", "karlsruhe.yaml"}) {
+  for (const char* name :
+       {"example.yaml", "karlsruhe.yaml", "karlsruhe_odometry.yaml"}) {
     const auto config = planar_grid::loadPipelineConfig(SOURCE_DIR + "/config/" + name);
     EXPECT_FALSE(config.stages.empty()) << name;
   }
@@ -148,6 +149,25 @@ TEST(PipelineConfig, StagesNeedingPosesNeedPoses)
     + "  poses: {format: kitti, file: poses.txt}\npipeline:\n"
       "  - type: transform_to_world\n";
   EXPECT_NO_THROW(parsePipelineConfig(with_poses, "t", "/"));
+}
+
+TEST(PipelineConfig, OdometryPosesNeedTheVisualOdometryStageFirst)
+{
+  const std::string input = INPUT + "  poses: {format: odometry}\n";
+  // transform_to_world without visual_odometry before it: no poses to use.
+  auto e = errorOf(input + "pipeline:\n  - type: transform_to_world\n");
+  EXPECT_NE(std::string(e.what()).find("visual_odometry"), std::string::npos);
+  // In the right order it loads.
+  EXPECT_NO_THROW(parsePipelineConfig(
+    input
+      + "pipeline:\n  - type: feature_matching\n  - type: visual_odometry\n"
+        "  - type: transform_to_world\n",
+    "t", "/"));
+  // visual_odometry with poses from a file would fight over the poses.
+  e = errorOf(INPUT
+              + "  poses: {format: kitti, file: p.txt}\npipeline:\n"
+                "  - type: visual_odometry\n");
+  EXPECT_NE(std::string(e.what()).find("odometry"), std::string::npos);
 }
 
 TEST(PipelineConfig, BadInputBlocksAreErrors)

@@ -345,3 +345,42 @@ TEST_F(PipelineRunnerTest, GroundRemovalOnRealFramesTakesOutALevelRoad)
   for (const auto& c : runner.state().cuboids)
     EXPECT_LT(c.plane_id, static_cast<int>(report.planes));
 }
+
+TEST_F(PipelineRunnerTest, VisualOdometryPosesFollowTheInsTrack)
+{
+  // Frames 10-12 with poses from the visual odometry: the first camera sits at the
+  // configured mount (1.57 m above the origin, level heading +x), and each step's
+  // length agrees with the GPS/INS step within 0.15 m (INS steps here are 1.26-1.39 m;
+  // the odometry's steps are within 5% on this sequence, docs/ODOMETRY.md).
+  const std::string yaml =
+    "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE
+    + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE
+    + "/right/I2_%06d.png\n  first_index: 10\n  frame_count: 3\n"
+      "  calibration: {format: karlsruhe, file: "
+    + KARLSRUHE
+    + "/calib.txt}\n  poses: {format: odometry}\n"
+      "pipeline:\n  - type: feature_matching\n  - type: visual_odometry\n"
+      "    params: {initial_height_m: 1.57, initial_pitch_rad: 0.09}\n";
+  planar_grid::PipelineRunner runner(parsePipelineConfig(yaml, "t.yaml", "/"));
+  const auto report = runner.run();
+  const auto& trajectory = runner.trajectory();
+  ASSERT_EQ(trajectory.size(), 3u);
+  EXPECT_NEAR(trajectory[0].translation().z(), 1.57, 1e-9);
+  EXPECT_NEAR(trajectory[0].translation().head<2>().norm(), 0.0, 1e-9);
+  // Camera z (forward) along world +x, tilted 0.09 rad down.
+  EXPECT_NEAR(trajectory[0].rotation().col(2).x(), std::cos(0.09), 1e-9);
+  EXPECT_NEAR(trajectory[0].rotation().col(2).z(), -std::sin(0.09), 1e-9);
+  const auto ins = planar_grid::loadKarlsruheInsData(KARLSRUHE + "/insdata.txt");
+  for (std::size_t k = 1; k < 3; ++k) {
+    const double step =
+      (trajectory[k].translation() - trajectory[k - 1].translation()).norm();
+    const double ins_step =
+      (ins[10 + k].translation() - ins[9 + k].translation()).norm();
+    EXPECT_NEAR(step, ins_step, 0.15) << "step " << k;
+  }
+  // The stage reports its inliers and no flagged frame on this well-textured stretch.
+  ASSERT_EQ(report.stages[1].type, "visual_odometry");
+  EXPECT_EQ(report.stages[1].counters[2].first, "flagged");
+  EXPECT_DOUBLE_EQ(report.stages[1].counters[2].second, 0.0);
+  EXPECT_GT(report.stages[1].counters[1].second, 2 * 20.0);
+}
