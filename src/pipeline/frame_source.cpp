@@ -69,7 +69,27 @@ readImage(const std::string& path)
   return image;
 }
 
-class StereoSequenceSource : public FrameSource {
+/** What both sources share: the poses of their frames and a description. */
+class FrameSourceBase : public FrameSource {
+public:
+  std::string describe() const override { return description_; }
+
+  const Trajectory& poses() const override { return poses_; }
+
+protected:
+  /** Gives frame \a i its pose when the input has poses. */
+  void assignPose(std::size_t i, Frame& frame) const
+  {
+    frame.has_pose = !poses_.empty();
+    if (frame.has_pose)
+      frame.world_T_camera = poses_[i];
+  }
+
+  Trajectory poses_;
+  std::string description_;
+};
+
+class StereoSequenceSource : public FrameSourceBase {
 public:
   explicit StereoSequenceSource(const InputConfig& input) :
       left_(input.left_images), right_(input.right_images),
@@ -151,25 +171,17 @@ public:
     frame.calibration = calib;
     frame.cloud.reset();
     frame.cloud_in_world_frame = false;
-    frame.has_pose = !poses_.empty();
-    if (frame.has_pose)
-      frame.world_T_camera = poses_[i];
+    assignPose(i, frame);
   }
-
-  std::string describe() const override { return description_; }
-
-  const Trajectory& poses() const override { return poses_; }
 
 private:
   IndexPattern left_, right_;
   int first_index_;
   std::size_t count_{0};
   StereoCameraModel model_;
-  Trajectory poses_;
-  std::string description_;
 };
 
-class PCDFileSource : public FrameSource {
+class PCDFileSource : public FrameSourceBase {
 public:
   explicit PCDFileSource(const InputConfig& input)
   {
@@ -217,19 +229,11 @@ public:
     cloud->sensor_origin_ = Eigen::Vector4f(0, 0, 0, 1);
     cloud->sensor_orientation_ = Eigen::Quaternionf::Identity();
     frame.cloud = cloud;
-    frame.has_pose = !poses_.empty();
-    if (frame.has_pose)
-      frame.world_T_camera = poses_[i];
+    assignPose(i, frame);
   }
-
-  std::string describe() const override { return description_; }
-
-  const Trajectory& poses() const override { return poses_; }
 
 private:
   std::vector<std::string> files_;
-  Trajectory poses_;
-  std::string description_;
 };
 
 } // namespace

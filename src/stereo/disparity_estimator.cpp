@@ -8,6 +8,8 @@
 #include <limits>
 #include <string>
 
+#include "grey_image.h"
+
 namespace planar_grid {
 
 namespace {
@@ -55,18 +57,6 @@ validateParams(const DisparityEstimator::Params& params)
                     + "speckle_window_size_px and speckle_range_px must be >= 0");
 }
 
-/** \brief The grey version of a CV_8UC1 / CV_8UC3 (BGR) image, shared when already
- * grey. */
-cv::Mat
-toGrey(const cv::Mat& image)
-{
-  if (image.channels() == 1)
-    return image;
-  cv::Mat grey;
-  cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-  return grey;
-}
-
 } // namespace
 
 DisparityEstimator::DisparityEstimator() : DisparityEstimator(Params()) {}
@@ -104,7 +94,7 @@ DisparityEstimator::compute(const cv::Mat& left,
     throw Exception("DisparityEstimator::compute: images must be CV_8UC1 or CV_8UC3");
 
   cv::Mat fixed_point; // CV_16S, disparity * 16
-  sgbm_->compute(toGrey(left), toGrey(right), fixed_point);
+  sgbm_->compute(detail::toGrey(left), detail::toGrey(right), fixed_point);
 
   // SGBM marks failures with (min_disparity - 1) * 16; anything below the search range
   // is invalid.

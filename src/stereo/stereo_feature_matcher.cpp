@@ -10,19 +10,11 @@
 #include <cmath>
 #include <limits>
 
+#include "grey_image.h"
+
 namespace planar_grid {
 
 namespace {
-
-cv::Mat
-toGrey(const cv::Mat& image)
-{
-  if (image.channels() == 1)
-    return image;
-  cv::Mat grey;
-  cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-  return grey;
-}
 
 /** \brief Descriptor distance: L2 for SIFT (CV_32F rows), Hamming for ORB (CV_8U). */
 float
@@ -89,9 +81,9 @@ StereoFeatureMatcher::match(const cv::Mat& left,
 
   std::vector<cv::KeyPoint> keypoints_left, keypoints_right;
   cv::Mat descriptors_left, descriptors_right;
-  detector->detectAndCompute(toGrey(left), cv::noArray(), keypoints_left,
+  detector->detectAndCompute(detail::toGrey(left), cv::noArray(), keypoints_left,
                              descriptors_left);
-  detector->detectAndCompute(toGrey(right), cv::noArray(), keypoints_right,
+  detector->detectAndCompute(detail::toGrey(right), cv::noArray(), keypoints_right,
                              descriptors_right);
   if (keypoints_left.empty() || keypoints_right.empty())
     return;
