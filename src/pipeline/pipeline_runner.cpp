@@ -208,10 +208,15 @@ RunReport::timingTable() const
           << std::setprecision(1) << removed << "%";
     } else
       out << std::setw(39) << "";
-    // The stage's own figures, per frame (e.g. "480 features", "5.2 planes").
-    for (const auto& [name, value] : s.counters)
-      out << "  " << std::setprecision(1)
-          << (s.frames ? value / static_cast<double>(s.frames) : 0.0) << " " << name;
+    // The stage's own figures, per frame (e.g. "480 features", "5.2 planes"); rare
+    // events (below one per frame, e.g. flagged frames) as a total too, so that 2 in
+    // 112 frames does not read as 0.0.
+    for (const auto& [name, value] : s.counters) {
+      const double mean = s.frames ? value / static_cast<double>(s.frames) : 0.0;
+      out << "  " << std::setprecision(1) << mean << " " << name;
+      if (mean < 1.0 && value > 0.0)
+        out << " (" << std::setprecision(0) << value << " in all)";
+    }
     out << "\n";
   }
   out << std::left << std::setw(30) << "total (stages)" << std::right << std::setw(12)
