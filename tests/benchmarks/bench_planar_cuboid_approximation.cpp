@@ -24,6 +24,8 @@
 #include <map>
 #include <string>
 
+#include "karlsruhe_frame.h"
+
 namespace {
 
 using Cloud = pcl::PointCloud<pcl::PointXYZI>;
@@ -88,27 +90,11 @@ karlsruhe(int frame)
   if (it != scenes.end())
     return it->second;
   Scene& out = scenes[frame];
-  const std::string dir =
-    std::string(PLANAR_GRID_DATA_DIR) + "/karlsruhe_2010_03_09_drive_0023";
-  char name[32];
-  std::snprintf(name, sizeof(name), "%06d.png", frame);
-  cv::Mat left = cv::imread(dir + "/left/I1_" + name, cv::IMREAD_GRAYSCALE);
-  cv::Mat right = cv::imread(dir + "/right/I2_" + name, cv::IMREAD_GRAYSCALE);
-  if (left.empty() || right.empty())
+  const auto pair = planar_grid::bench::loadKarlsruhePair(frame);
+  if (!pair.ok)
     return out;
-  const auto model = planar_grid::loadStereoCalibration(
-    planar_grid::CalibrationFormat::KARLSRUHE, dir + "/calib.txt");
-  if (!model.rectifier.empty()) {
-    cv::Mat l, r;
-    model.rectifier.rectify(left, right, l, r);
-    left = l;
-    right = r;
-  }
-  cv::Mat disparity;
-  planar_grid::DisparityEstimator().compute(left, right, disparity);
   Cloud dense;
-  planar_grid::disparityToPointCloud(disparity, left, model.calibration, MAX_RANGE_M,
-                                     dense);
+  planar_grid::bench::denseCloud(pair, MAX_RANGE_M, dense);
   Cloud::Ptr finite(new Cloud);
   pcl::Indices unused;
   pcl::removeNaNFromPointCloud(dense, *finite, unused);

@@ -28,6 +28,8 @@
 #include <memory>
 #include <string>
 
+#include "karlsruhe_frame.h"
+
 namespace {
 
 using Cloud = pcl::PointCloud<pcl::PointXYZI>;
@@ -50,26 +52,13 @@ frame()
 {
   static const Frame f = [] {
     Frame out;
-    const std::string dir =
-      std::string(PLANAR_GRID_DATA_DIR) + "/karlsruhe_2010_03_09_drive_0023";
-    cv::Mat left = cv::imread(dir + "/left/I1_000010.png", cv::IMREAD_GRAYSCALE);
-    cv::Mat right = cv::imread(dir + "/right/I2_000010.png", cv::IMREAD_GRAYSCALE);
-    if (left.empty() || right.empty())
+    const auto pair = planar_grid::bench::loadKarlsruhePair(10);
+    if (!pair.ok)
       return out;
-    const auto model = planar_grid::loadStereoCalibration(
-      planar_grid::CalibrationFormat::KARLSRUHE, dir + "/calib.txt");
-    if (!model.rectifier.empty()) {
-      cv::Mat l, r;
-      model.rectifier.rectify(left, right, l, r);
-      left = l;
-      right = r;
-    }
-    cv::Mat disparity;
-    planar_grid::DisparityEstimator().compute(left, right, disparity);
-    planar_grid::disparityToPointCloud(disparity, left, model.calibration, 40.0,
-                                       *out.dense);
+    planar_grid::bench::denseCloud(pair, 40.0, *out.dense);
     planar_grid::StereoFeatures features;
-    planar_grid::StereoFeatureMatcher().match(left, right, model.calibration, features);
+    planar_grid::StereoFeatureMatcher().match(pair.left, pair.right,
+                                              pair.model.calibration, features);
     pcl::copyPointCloud(features.points, *out.features);
     for (const auto& p : *out.dense)
       out.finite += pcl::isFinite(p) ? 1 : 0;
