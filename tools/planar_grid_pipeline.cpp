@@ -21,6 +21,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <iostream>
 #include <numeric>
 #include <sstream>
@@ -139,82 +140,80 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
   std::vector<Eigen::Vector3d> positions;
   for (const auto& pose : runner.trajectory())
     positions.push_back(pose.translation());
-  const Eigen::Vector3d white(1.0, 1.0, 1.0), dark(0.1, 0.1, 0.1);
-  const auto render = [&](const std::string& name, const std::string& kind,
-                          bool planes) {
-    if (name.empty())
-      return;
-    if (planes && state.plane_cloud->empty())
-      return;
-    const std::string path = planar_grid::outputPath(config.output, name);
-    planar_grid::SceneRenderer renderer;
-    renderer.setBackground(white);
+  const Eigen::Vector3d grey(0.8, 0.8, 0.8), dark(0.1, 0.1, 0.1);
+  // One snapshot: white background, the content, the trajectory, a label, the preset
+  // camera; \a add_content draws the content and returns the label.
+  const auto render =
+    [&](const std::string& name, const std::string& kind,
+        const std::function<std::string(planar_grid::SceneRenderer&)>& add_content) {
+      if (name.empty())
+        return;
+      const std::string path = planar_grid::outputPath(config.output, name);
+      planar_grid::SceneRenderer renderer;
+      renderer.setBackground(Eigen::Vector3d(1.0, 1.0, 1.0));
+      const std::string label = add_content(renderer);
+      if (positions.size() > 1)
+        renderer.addTrajectory(positions);
+      renderer.addText(config_path + ": " + label, dark);
+      renderer.setCamera(preset);
+      renderer.saveSnapshot(path, config.output.snapshot_size_px[0],
+                            config.output.snapshot_size_px[1]);
+      report.outputs.emplace_back(kind, path);
+    };
+  const std::string frames_and_points = std::to_string(report.frames) + " frames, "
+                                        + std::to_string(report.world_cloud_points)
+                                        + " points";
+
+  render(config.output.snapshot, "snapshot", [&](planar_grid::SceneRenderer& r) {
     if (!state.world_cloud->empty())
-      renderer.addPointCloud(*state.world_cloud,
-                             planes ? planar_grid::ColorMode::SOLID
-                                    : planar_grid::ColorMode::HEIGHT,
-                             planes ? 1.0 : 2.0, Eigen::Vector3d(0.8, 0.8, 0.8));
-    std::size_t plane_count = 0;
-    if (planes) {
-      // Colour the largest run-wide planes (by inliers merged over the run), one colour
-      // each; smaller ones (car sides, bushes) stay grey so the facades stand out.
-      constexpr std::size_t COLOURED_PLANES = 24;
-      std::vector<std::size_t> order(state.plane_inlier_counts.size());
-      std::iota(order.begin(), order.end(), 0);
-      std::sort(order.begin(), order.end(), [&state](std::size_t a, std::size_t b) {
-        return state.plane_inlier_counts[a] > state.plane_inlier_counts[b];
+      r.addPointCloud(*state.world_cloud, planar_grid::ColorMode::HEIGHT, 2.0);
+    return frames_and_points;
+  });
+
+  if (!state.plane_cloud->empty())
+    render(
+      config.output.planes_snapshot, "planes_snapshot",
+      [&](planar_grid::SceneRenderer& r) {
+        if (!state.world_cloud->empty())
+          r.addPointCloud(*state.world_cloud, planar_grid::ColorMode::SOLID, 1.0, grey);
+        // Colour the largest run-wide planes (by inliers merged over the run), one
+        // colour each; smaller ones (car sides, bushes) stay grey so the facades
+        // stand out.
+        constexpr std::size_t COLOURED_PLANES = 24;
+        std::vector<std::size_t> order(state.plane_inlier_counts.size());
+        std::iota(order.begin(), order.end(), 0);
+        std::sort(order.begin(), order.end(), [&state](std::size_t a, std::size_t b) {
+          return state.plane_inlier_counts[a] > state.plane_inlier_counts[b];
+        });
+        std::vector<int> colour_of(order.size(), -1);
+        for (std::size_t k = 0; k < std::min(order.size(), COLOURED_PLANES); ++k)
+          colour_of[order[k]] = static_cast<int>(k);
+        pcl::PointCloud<pcl::PointXYZI> labelled;
+        labelled.reserve(state.plane_cloud->size());
+        for (const auto& p : state.plane_cloud->points) {
+          if (p.label >= colour_of.size() || colour_of[p.label] < 0)
+            continue;
+          pcl::PointXYZI q;
+          q.getVector3fMap() = p.getVector3fMap();
+          q.intensity = static_cast<float>(colour_of[p.label]);
+          labelled.push_back(q);
+        }
+        r.addPointCloud(labelled, planar_grid::ColorMode::LABEL, 2.0);
+        return frames_and_points + ", " + std::to_string(state.plane_models.size())
+               + " planes (the 24 largest coloured)";
       });
-      std::vector<int> colour_of(order.size(), -1);
-      for (std::size_t r = 0; r < std::min(order.size(), COLOURED_PLANES); ++r)
-        colour_of[order[r]] = static_cast<int>(r);
-      pcl::PointCloud<pcl::PointXYZI> labelled;
-      labelled.reserve(state.plane_cloud->size());
-      for (const auto& p : state.plane_cloud->points) {
-        if (p.label >= colour_of.size() || colour_of[p.label] < 0)
-          continue;
-        pcl::PointXYZI q;
-        q.getVector3fMap() = p.getVector3fMap();
-        q.intensity = static_cast<float>(colour_of[p.label]);
-        labelled.push_back(q);
-      }
-      renderer.addPointCloud(labelled, planar_grid::ColorMode::LABEL, 2.0);
-      plane_count = state.plane_models.size();
-    }
-    if (positions.size() > 1)
-      renderer.addTrajectory(positions);
-    renderer.addText(config_path + ": " + std::to_string(report.frames) + " frames, "
-                       + std::to_string(report.world_cloud_points) + " points"
-                       + (planes ? ", " + std::to_string(plane_count)
-                                     + " planes (the 24 largest coloured)"
-                                 : ""),
-                     dark);
-    renderer.setCamera(preset);
-    renderer.saveSnapshot(path, config.output.snapshot_size_px[0],
-                          config.output.snapshot_size_px[1]);
-    report.outputs.emplace_back(kind, path);
-  };
-  render(config.output.snapshot, "snapshot", false);
-  render(config.output.planes_snapshot, "planes_snapshot", true);
-  if (!config.output.cuboids_snapshot.empty() && !state.cuboids.empty()) {
-    const std::string path =
-      planar_grid::outputPath(config.output, config.output.cuboids_snapshot);
-    planar_grid::SceneRenderer renderer;
-    renderer.setBackground(white);
-    renderer.addCuboids(state.cuboids);
-    if (positions.size() > 1)
-      renderer.addTrajectory(positions);
-    std::size_t planar = 0;
-    for (const auto& c : state.cuboids)
-      planar += c.is_planar;
-    renderer.addText(config_path + ": " + std::to_string(state.cuboids.size())
-                       + " cuboids (" + std::to_string(planar)
-                       + " planar, coloured by plane; non-planar grey)",
-                     dark);
-    renderer.setCamera(preset);
-    renderer.saveSnapshot(path, config.output.snapshot_size_px[0],
-                          config.output.snapshot_size_px[1]);
-    report.outputs.emplace_back("cuboids_snapshot", path);
-  }
+
+  if (!state.cuboids.empty())
+    render(config.output.cuboids_snapshot, "cuboids_snapshot",
+           [&](planar_grid::SceneRenderer& r) {
+             r.addCuboids(state.cuboids);
+             std::size_t planar = 0;
+             for (const auto& c : state.cuboids)
+               planar += c.is_planar;
+             return std::to_string(state.cuboids.size()) + " cuboids ("
+                    + std::to_string(planar)
+                    + " planar, coloured by plane; non-planar grey)";
+           });
 }
 #endif
 

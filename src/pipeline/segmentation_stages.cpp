@@ -14,23 +14,6 @@ namespace stages {
 
 namespace {
 
-/** The up axis of the frame's cloud: world +z, or -y of the camera frame. */
-Eigen::Vector3f
-upAxis(const Frame& frame)
-{
-  return frame.cloud_in_world_frame ? Eigen::Vector3f::UnitZ()
-                                    : Eigen::Vector3f(0.0f, -1.0f, 0.0f);
-}
-
-/** The sensor origin in the frame of the cloud. */
-Eigen::Vector3f
-sensorOrigin(const Frame& frame)
-{
-  if (frame.cloud_in_world_frame)
-    return frame.world_T_camera.translation().cast<float>();
-  return Eigen::Vector3f::Zero();
-}
-
 class MultiPlaneSegmentationStage : public Stage {
 public:
   MultiPlaneSegmentationStage(const ParamValues& v) :

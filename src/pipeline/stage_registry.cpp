@@ -60,6 +60,21 @@ countValidPoints(const pcl::PointCloud<pcl::PointXYZI>& cloud)
   return n;
 }
 
+Eigen::Vector3f
+upAxis(const Frame& frame)
+{
+  return frame.cloud_in_world_frame ? Eigen::Vector3f::UnitZ()
+                                    : Eigen::Vector3f(0.0f, -1.0f, 0.0f);
+}
+
+Eigen::Vector3f
+sensorOrigin(const Frame& frame)
+{
+  if (frame.cloud_in_world_frame)
+    return frame.world_T_camera.translation().cast<float>();
+  return Eigen::Vector3f::Zero();
+}
+
 void
 requirePoints(const Frame& frame, const char* stage_type)
 {

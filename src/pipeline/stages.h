@@ -32,6 +32,12 @@ StageInfo accumulateInfo();
 /** Valid (finite) points of a cloud. */
 std::size_t countValidPoints(const pcl::PointCloud<pcl::PointXYZI>& cloud);
 
+/** The up axis of the frame's cloud: world +z, or -y of the camera frame. */
+Eigen::Vector3f upAxis(const Frame& frame);
+
+/** The sensor origin in the frame of the cloud (metres). */
+Eigen::Vector3f sensorOrigin(const Frame& frame);
+
 /** Throws planar_grid::Exception when the frame's cloud has no valid point (S32). */
 void requirePoints(const Frame& frame, const char* stage_type);
 

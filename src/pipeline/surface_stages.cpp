@@ -30,13 +30,8 @@ public:
     requirePoints(frame, "planar_cuboid_approximation");
     approximation_.setInputCloud(frame.cloud);
     approximation_.setPlanes(frame.planes);
-    if (frame.cloud_in_world_frame) {
-      approximation_.setUpAxis(Eigen::Vector3f::UnitZ());
-      approximation_.setSensorOrigin(frame.world_T_camera.translation().cast<float>());
-    } else {
-      approximation_.setUpAxis(Eigen::Vector3f(0.0f, -1.0f, 0.0f));
-      approximation_.setSensorOrigin(Eigen::Vector3f::Zero());
-    }
+    approximation_.setUpAxis(upAxis(frame));
+    approximation_.setSensorOrigin(sensorOrigin(frame));
     approximation_.approximate(frame.cuboids);
     voxels_ = countOccupiedVoxels(*frame.cloud);
   }

@@ -98,8 +98,6 @@ public:
       downsample(state);
   }
 
-  bool countsCloudPoints() const override { return true; }
-
 private:
   /** The run-wide plane with the same coefficients within tolerance (normals within
    * plane_merge_angle_rad, either orientation; offsets within plane_merge_distance_m),
