@@ -1,0 +1,222 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <pcl/memory.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <type_traits>
+#include <unordered_map>
+#include <vector>
+
+namespace planar_grid {
+
+/** \brief The state of a cell of the explicit space layer, with the paper's 2-bit
+ * labels (Sec. IV: 00 free, 01 occupied, 10 unknown; 11 marks an inner octree node in
+ * the file). \ingroup map */
+enum class SpaceState : std::uint8_t { FREE = 0, OCCUPIED = 1, UNKNOWN = 2 };
+
+/** \brief "free", "occupied" or "unknown". \ingroup map */
+std::string
+toString(SpaceState state);
+
+/** \brief Parses "free", "occupied" or "unknown".
+ * \throws planar_grid::Exception for any other name \ingroup map */
+SpaceState
+spaceStateFromString(const std::string& name);
+
+/** \brief A pinhole depth image: depth along the optical axis per pixel, row-major.
+ * Camera frame: x right, y down, z forward (meters). \ingroup map */
+struct DepthImage {
+  /** \brief Size in pixels (> 0 for a usable image). */
+  int width{0}, height{0};
+  /** \brief Intrinsics, pixels. */
+  float fx{0.0f}, fy{0.0f}, cx{0.0f}, cy{0.0f};
+  /** \brief width x height depths, meters; NaN or <= 0 = no measurement. */
+  std::vector<float> depth_m;
+
+  /** \brief Depth at pixel (u, v), meters (no bounds check). */
+  [[nodiscard]] float
+  at(int u, int v) const
+  {
+    return depth_m[static_cast<std::size_t>(v) * static_cast<std::size_t>(width)
+                   + static_cast<std::size_t>(u)];
+  }
+
+  /** \brief Renders points given in the camera frame into a depth image with a
+   * z-buffer (the nearest point wins per pixel); works for organized and unorganized
+   * clouds. Points behind the camera or non-finite are skipped.
+   * \param[in] cloud points in the camera frame, meters
+   * \param[in] width, height image size, pixels (> 0)
+   * \param[in] fx, fy, cx, cy intrinsics, pixels (fx, fy > 0)
+   * \return the depth image
+   * \throws planar_grid::Exception for a non-positive size or focal length */
+  static DepthImage
+  fromPointCloud(const pcl::PointCloud<pcl::PointXYZ>& cloud,
+                 int width,
+                 int height,
+                 float fx,
+                 float fy,
+                 float cx,
+                 float cy);
+};
+
+/** \brief The explicit space layer of the planar grid map (the paper's "local explicit
+ * modelling space", Sec. III-F, Fig. 5c): voxels of edge resolution_m that are free (in
+ * front of the measured surface), occupied (at it) or unknown (behind it: occluded),
+ * inside each camera frustum up to max_range_m. Space never inside any view has the
+ * prior state.
+ *
+ * Integration projects the voxels of the frustum into the depth image (no ray per
+ * point): a voxel whose centre depth is below the smallest measured depth over its
+ * footprint minus surface_margin_m is free, one behind the measured depth plus the
+ * margin is unknown (occluded), and the voxel of each back-projected valid pixel is
+ * occupied. A voxel's newest observation replaces the older one; "no information" (a
+ * pixel without a measurement, an occluded voxel) never overwrites a known state.
+ *
+ * Storage is sparse: blocks of 8 x 8 x 8 voxels in a hash map, 2 bits per voxel; a
+ * block whose voxels all have one state is stored as that state only, and a block all
+ * at the prior is not stored (pruned), so the representation is canonical: two grids
+ * with the same state everywhere hold the same blocks.
+ * \ingroup map */
+class ExplicitSpaceGrid {
+public:
+  /** \brief Parameters with defaults and valid ranges. */
+  struct Params {
+    /** Voxel edge, meters; > 0 (the paper's minimum cell, 0.1 m). */
+    double resolution_m{0.1};
+    /** Largest depth integrated per view, meters; > 0. */
+    double max_range_m{25.0};
+    /** Half-thickness of the measured surface, meters; >= 0. 0 selects one voxel
+     * diagonal / 2 (resolution_m sqrt(3) / 2). */
+    double surface_margin_m{0.0};
+    /** State of space never inside a view: the paper treats it as free; UNKNOWN is
+     * the conservative choice. */
+    SpaceState prior{SpaceState::UNKNOWN};
+  };
+
+  /** \brief Integer voxel coordinates: floor(p / resolution_m) per axis. */
+  using VoxelKey = Eigen::Vector3i;
+
+  /** \brief Throws planar_grid::Exception for out-of-range parameters. */
+  explicit ExplicitSpaceGrid(const Params& params);
+  ExplicitSpaceGrid(const ExplicitSpaceGrid&) = delete;
+  ExplicitSpaceGrid& operator=(const ExplicitSpaceGrid&) = delete;
+  ExplicitSpaceGrid(ExplicitSpaceGrid&&) = default;
+  ExplicitSpaceGrid& operator=(ExplicitSpaceGrid&&) = default;
+  ~ExplicitSpaceGrid();
+
+  /** \brief The parameters. */
+  const Params& getParams() const { return params_; }
+
+  /** \brief Integrates one view.
+   * \param[in] depth the depth image (an empty or zero-sized image is a no-op with a
+   * PCL_WARN)
+   * \param[in] world_T_camera the camera pose (camera x right, y down, z forward),
+   * meters */
+  void integrateDepthImage(const DepthImage& depth,
+                           const Eigen::Isometry3d& world_T_camera);
+
+  /** \brief Key of the voxel containing \a point (meters). */
+  [[nodiscard]] VoxelKey toKey(const Eigen::Vector3f& point) const;
+  /** \brief Centre of voxel \a key, meters. */
+  [[nodiscard]] Eigen::Vector3f toCentre(const VoxelKey& key) const;
+
+  /** \brief State of the voxel containing \a point (the prior where nothing is
+   * stored; non-finite points give the prior). */
+  [[nodiscard]] SpaceState getState(const Eigen::Vector3f& point) const;
+  /** \brief State of voxel \a key. */
+  [[nodiscard]] SpaceState getState(const VoxelKey& key) const;
+  /** \brief Sets one voxel (tests, file reading, merging). */
+  void setState(const VoxelKey& key, SpaceState state);
+
+  /** \brief Walks the voxels along a ray (Amanatides-Woo) to the first occupied one.
+   * \param[in] origin start, meters
+   * \param[in] direction direction (any length > 0)
+   * \param[in] max_range_m largest distance walked, meters
+   * \param[out] hit centre of the first occupied voxel, meters
+   * \return true when an occupied voxel was found within max_range_m */
+  bool castRay(const Eigen::Vector3f& origin,
+               const Eigen::Vector3f& direction,
+               double max_range_m,
+               Eigen::Vector3f& hit) const;
+
+  /** \brief Calls f(key, state) for every voxel whose state differs from the prior,
+   * in a deterministic order (blocks sorted by key, voxels x fastest). */
+  template <typename F>
+  void forEachVoxel(F&& f) const;
+
+  /** \brief Number of voxels in \a state that differ from the prior (0 for the prior
+   * state itself). */
+  [[nodiscard]] std::size_t getVoxelCount(SpaceState state) const;
+  /** \brief Number of stored blocks. */
+  [[nodiscard]] std::size_t getBlockCount() const;
+  /** \brief Bytes held: block payloads plus hash-map nodes and buckets. */
+  [[nodiscard]] std::size_t getMemoryBytes() const;
+  /** \brief Inclusive bounds of the stored voxels (keys); false when empty. */
+  bool getBounds(VoxelKey& min_key, VoxelKey& max_key) const;
+
+  /** \brief Encodes the layer as an octree bit stream (Sec. IV): a small fixed header
+   * (root key, depth, prior, fixed little-endian byte order) followed by one 2-bit
+   * label per node in depth-first order (00 free, 01 occupied, 10 unknown, 11 inner
+   * node with 8 children), 4 labels per byte. Regions without stored blocks are leaves
+   * with the prior's label.
+   * \param[out] bytes the encoding (appended to) */
+  void serialize(std::vector<std::uint8_t>& bytes) const;
+
+  /** \brief Replaces the content by a decoding of serialize()'s output.
+   * \param[in] data, size the encoded bytes
+   * \throws planar_grid::IOError when the bytes are truncated, have trailing data, an
+   * inner label at voxel level, a depth over 21, or a label 11 where a leaf is needed;
+   * the grid is unchanged on error */
+  void deserialize(const std::uint8_t* data, std::size_t size);
+
+  /** \brief Writes the non-prior voxels to an OctoMap binary tree (.bt, liboctomap's
+   * OcTree::writeBinary): occupied voxels as occupied nodes, free ones as free; unknown
+   * voxels are left out (unknown in OctoMap). Atomic (temporary file, rename).
+   * \throws planar_grid::IOError when the file cannot be written */
+  void exportOctoMap(const std::string& path) const;
+
+  /** \brief True when both grids have the same resolution, prior and state in every
+   * voxel. */
+  [[nodiscard]] bool operator==(const ExplicitSpaceGrid& other) const;
+  [[nodiscard]] bool operator!=(const ExplicitSpaceGrid& other) const
+  {
+    return !(*this == other);
+  }
+
+  /** \brief Removes every voxel (everything at the prior again). */
+  void clear();
+
+private:
+  struct Impl;
+  /** \brief Blocks and scratch buffers (pimpl keeps the hash map out of this header).
+   */
+  std::unique_ptr<Impl> impl_;
+  /** \brief The parameters (validated). */
+  Params params_;
+  /** \brief Visits the non-prior voxels (implementation of forEachVoxel). */
+  void visitVoxels(void (*visit)(void*, const VoxelKey&, SpaceState),
+                   void* context) const;
+};
+
+template <typename F>
+void
+ExplicitSpaceGrid::forEachVoxel(F&& f) const
+{
+  visitVoxels(
+    [](void* context, const VoxelKey& key, SpaceState state) {
+      (*static_cast<std::remove_reference_t<F>*>(context))(key, state);
+    },
+    const_cast<void*>(static_cast<const void*>(&f)));
+}
+
+} // namespace planar_grid

@@ -1,0 +1,165 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <planar_grid/map/explicit_space_grid.h>
+#include <planar_grid/map/surface_layer.h>
+
+#include <Eigen/Geometry>
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace planar_grid {
+
+/** \brief Memory held by a PlanarGridMap, bytes. \ingroup map */
+struct MapMemory {
+  /** \brief The surface layer (cuboids, plane rasters, non-planar cells). */
+  std::size_t surface_bytes{0};
+  /** \brief The explicit space layer (blocks, hash map). */
+  std::size_t space_bytes{0};
+  /** \brief surface_bytes + space_bytes. */
+  std::size_t total_bytes{0};
+};
+
+/** \brief The planar grid map of Zhang et al. (Sec. III-F, Fig. 5c, Sec. IV): a surface
+ * layer of plane-aligned cuboids with occupancy probabilities (SurfaceLayer) and an
+ * explicit space layer of free / occupied / unknown voxels inside the camera views
+ * (ExplicitSpaceGrid), with one file format.
+ *
+ * Queries combine the layers: a point inside a cuboid of the surface layer takes the
+ * cuboid's probability (occupied when >= occupancy_thres); elsewhere the space layer's
+ * state decides. Rays stop at the nearer of the first occupied voxel and the first
+ * occupied cuboid.
+ *
+ * File (S35, OctoMap's discipline): a text header of "key value" lines,
+ * \code
+ * # Planar grid map file
+ * version 1
+ * id PlanarGridMap
+ * resolution_m 0.1
+ * prior unknown
+ * bounds_m min_x min_y min_z max_x max_y max_z
+ * voxels free occupied unknown
+ * planes P
+ * cuboids C
+ * space_bytes S
+ * surface_bytes T
+ * checksum_crc32 0x........
+ * data
+ * \endcode
+ * then S bytes of the space layer's octree bit stream (2-bit labels) and T bytes of
+ * the surface layer, little-endian. The reader checks the magic line, the version,
+ * every key, resolution_m > 0, the section sizes against the file length (before it
+ * allocates), the CRC-32 of the data, and that the decoded counts match the header.
+ * \ingroup map */
+class PlanarGridMap {
+public:
+  /** \brief Parameters of both layers. The surface and space resolutions must agree
+   * (the map's minimum cell size). */
+  struct Params {
+    /** The explicit space layer. */
+    ExplicitSpaceGrid::Params space;
+    /** The surface layer. */
+    SurfaceLayer::Params surface;
+  };
+
+  /** \brief Throws planar_grid::Exception for invalid parameters (including
+   * different resolutions). */
+  explicit PlanarGridMap(const Params& params);
+  PlanarGridMap(const PlanarGridMap&) = delete;
+  PlanarGridMap& operator=(const PlanarGridMap&) = delete;
+  PlanarGridMap(PlanarGridMap&&) = default;
+  PlanarGridMap& operator=(PlanarGridMap&&) = default;
+  ~PlanarGridMap() = default;
+
+  /** \brief The parameters. */
+  const Params& getParams() const { return params_; }
+  /** \brief The minimum cell size, meters. */
+  [[nodiscard]] double getResolution() const { return params_.space.resolution_m; }
+
+  /** \brief Merges one frame's cells and feature occupancies into the surface layer
+   * (see SurfaceLayer::integrate()). */
+  void integrateSurface(const PlanarCuboids& cuboids,
+                        const PlaneModels& planes,
+                        const pcl::PointCloud<pcl::PointXYZ>& features,
+                        const std::vector<float>& probabilities)
+  {
+    surface_.integrate(cuboids, planes, features, probabilities);
+  }
+
+  /** \brief Integrates one view into the explicit space layer (see
+   * ExplicitSpaceGrid::integrateDepthImage()). */
+  void integrateDepthImage(const DepthImage& depth,
+                           const Eigen::Isometry3d& world_T_camera)
+  {
+    space_.integrateDepthImage(depth, world_T_camera);
+  }
+
+  /** \brief State at \a point: OCCUPIED inside a cuboid with probability >=
+   * occupancy_thres, FREE inside one below it, else the space layer's state. */
+  [[nodiscard]] SpaceState getState(const Eigen::Vector3f& point) const;
+
+  /** \brief Occupancy probability at \a point: the cuboid's probability inside a
+   * cuboid; else 0.971 / 0.1192 / 0.5 (OctoMap's clamping bounds) for an occupied /
+   * free / unknown voxel. */
+  [[nodiscard]] float getOccupancy(const Eigen::Vector3f& point) const;
+
+  /** \brief Casts a ray to the first occupied cell of either layer.
+   * \param[in] origin, direction the ray (direction of any length > 0), meters
+   * \param[in] max_range_m largest distance, meters
+   * \param[out] hit the entry point into the occupied cuboid or the occupied voxel's
+   * centre, meters
+   * \return true on a hit within max_range_m */
+  bool castRay(const Eigen::Vector3f& origin,
+               const Eigen::Vector3f& direction,
+               double max_range_m,
+               Eigen::Vector3f& hit) const;
+
+  /** \brief The surface layer. */
+  const SurfaceLayer& getSurfaceLayer() const { return surface_; }
+  /** \brief The explicit space layer. */
+  const ExplicitSpaceGrid& getSpaceLayer() const { return space_; }
+  /** \brief The explicit space layer (e.g. to set voxels in tests). */
+  ExplicitSpaceGrid& getSpaceLayer() { return space_; }
+
+  /** \brief Memory held, bytes. */
+  [[nodiscard]] MapMemory getMemory() const;
+
+  /** \brief Writes the map file (format in the class brief) to a temporary file in the
+   * same folder, then renames it over \a path: a crash never leaves a half-written map.
+   * \throws planar_grid::IOError when it cannot be written */
+  void save(const std::string& path) const;
+
+  /** \brief Reads a map file written by save().
+   * \throws planar_grid::IOError naming the file and what is wrong for a missing,
+   * truncated or corrupt file, an unknown version or a bad header value */
+  static PlanarGridMap load(const std::string& path);
+
+  /** \brief Writes the space layer as an OctoMap .bt (ExplicitSpaceGrid::exportOctoMap).
+   */
+  void exportOctoMap(const std::string& path) const { space_.exportOctoMap(path); }
+  /** \brief Writes the cuboids as .ply or .vtk (SurfaceLayer::exportMesh). */
+  void exportMesh(const std::string& path) const { surface_.exportMesh(path); }
+
+  /** \brief True when both layers are equal. */
+  [[nodiscard]] bool operator==(const PlanarGridMap& other) const
+  {
+    return space_ == other.space_ && surface_ == other.surface_;
+  }
+  [[nodiscard]] bool operator!=(const PlanarGridMap& other) const
+  {
+    return !(*this == other);
+  }
+
+private:
+  /** \brief The parameters (validated). */
+  Params params_;
+  /** \brief The surface layer. */
+  SurfaceLayer surface_;
+  /** \brief The explicit space layer. */
+  ExplicitSpaceGrid space_;
+};
+
+} // namespace planar_grid
