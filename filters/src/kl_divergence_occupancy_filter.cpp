@@ -1,1 +1,98 @@
 // SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/filters/kl_divergence_occupancy_filter.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace planar_grid {
+
+// The non-template free functions are compiled whatever PCL_NO_PRECOMPILE says.
+
+OccupancyUpdateRule
+occupancyUpdateRuleFromString(const std::string& name)
+{
+  if (name == "kl_divergence")
+    return OccupancyUpdateRule::KL_DIVERGENCE;
+  if (name == "log_odds")
+    return OccupancyUpdateRule::LOG_ODDS;
+  throw Exception("Unknown occupancy update rule '" + name
+                  + "' (known: kl_divergence, log_odds)");
+}
+
+std::string
+toString(OccupancyUpdateRule rule)
+{
+  switch (rule) {
+    case OccupancyUpdateRule::KL_DIVERGENCE:
+      return "kl_divergence";
+    case OccupancyUpdateRule::LOG_ODDS:
+      return "log_odds";
+  }
+  return "unknown";
+}
+
+double
+rangeOccupancyProbability(double range_m,
+                          double mean_range_m,
+                          double depth_m,
+                          double focal_length_px,
+                          double baseline_m,
+                          double disparity_error_px)
+{
+  if (!(std::isfinite(range_m) && std::isfinite(mean_range_m) && std::isfinite(depth_m)
+        && std::isfinite(focal_length_px) && std::isfinite(baseline_m)
+        && std::isfinite(disparity_error_px)))
+    return 0.0;
+  if (!(depth_m > 0.0 && focal_length_px > 0.0 && baseline_m > 0.0
+        && disparity_error_px > 0.0))
+    return 0.0;
+  if (range_m == mean_range_m)
+    return 1.0;
+  // dz = z^2 / (B f) dd; dr = (r_bar / z) dz (eq. 4).
+  const double depth_error_m =
+    depth_m * depth_m / (baseline_m * focal_length_px) * disparity_error_px;
+  const double range_error_m = mean_range_m / depth_m * depth_error_m;
+  if (!(range_error_m > 0.0))
+    return 0.0;
+  const double t = (range_m - mean_range_m) / range_error_m;
+  return std::exp(-0.5 * t * t);
+}
+
+double
+bernoulliKLDivergence(double p, double q)
+{
+  if (std::isnan(p) || std::isnan(q))
+    return std::numeric_limits<double>::quiet_NaN();
+  p = std::min(std::max(p, 0.0), 1.0);
+  q = std::min(std::max(q, KL_PROBABILITY_EPS), 1.0 - KL_PROBABILITY_EPS);
+  // 0 ln 0 = 0: a term with a zero weight vanishes.
+  const double occupied = p > 0.0 ? p * std::log(p / q) : 0.0;
+  const double free = p < 1.0 ? (1.0 - p) * std::log((1.0 - p) / (1.0 - q)) : 0.0;
+  return occupied + free;
+}
+
+double
+klDivergenceUpdate(double p, double q, double offset_nats)
+{
+  double energy = std::abs(bernoulliKLDivergence(p, q));
+  if (p <= 0.5 && q <= 0.5)
+    energy += offset_nats;
+  return std::exp(-energy);
+}
+
+} // namespace planar_grid
+
+#ifndef PCL_NO_PRECOMPILE
+#include <planar_grid/filters/impl/kl_divergence_occupancy_filter.hpp>
+
+#include <pcl/impl/instantiate.hpp>
+#include <pcl/point_types.h>
+
+// S6: the point types of PLANAR_GRID_POINT_TYPES (top-level CMakeLists.txt).
+template class planar_grid::KLDivergenceOccupancyFilter<pcl::PointXYZ>;
+template class planar_grid::KLDivergenceOccupancyFilter<pcl::PointXYZI>;
+template class planar_grid::KLDivergenceOccupancyFilter<pcl::PointXYZRGB>;
+#endif // PCL_NO_PRECOMPILE

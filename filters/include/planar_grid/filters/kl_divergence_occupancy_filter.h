@@ -27,12 +27,16 @@ enum class OccupancyUpdateRule {
 
 /** \brief Parses "kl_divergence" or "log_odds".
  * \throws planar_grid::Exception for any other name \ingroup filters */
-OccupancyUpdateRule
-occupancyUpdateRuleFromString(const std::string& name);
+OccupancyUpdateRule occupancyUpdateRuleFromString(const std::string& name);
 
 /** \brief The name occupancyUpdateRuleFromString() accepts for \a rule. */
-std::string
-toString(OccupancyUpdateRule rule);
+std::string toString(OccupancyUpdateRule rule);
+
+/** \brief The probability guard of the KL rule: bernoulliKLDivergence() moves q into
+ * [KL_PROBABILITY_EPS, 1 - KL_PROBABILITY_EPS] before taking logarithms, so that q = 0
+ * (a motion likelihood m that underflowed) or q = 1 gives a large but finite
+ * divergence instead of inf / NaN. \ingroup filters */
+constexpr double KL_PROBABILITY_EPS = 1e-9;
 
 /** \brief Eq. 4 of the paper, unclamped: the sampled Gaussian occupancy of one feature.
  *
@@ -43,32 +47,32 @@ toString(OccupancyUpdateRule rule);
  * \param[in] focal_length_px f, pixels (> 0)
  * \param[in] baseline_m B, meters (> 0)
  * \param[in] disparity_error_px dd, pixels (> 0)
- * \return the probability in [0, 1] (1 when r == r_bar)
+ * \return the probability in [0, 1]: 1 when r == r_bar (a feature alone in its
+ * neighbourhood), 0 when an argument is non-finite or out of its range
  * \ingroup filters */
-double
-rangeOccupancyProbability(double range_m,
-                          double mean_range_m,
-                          double depth_m,
-                          double focal_length_px,
-                          double baseline_m,
-                          double disparity_error_px);
+double rangeOccupancyProbability(double range_m,
+                                 double mean_range_m,
+                                 double depth_m,
+                                 double focal_length_px,
+                                 double baseline_m,
+                                 double disparity_error_px);
 
-/** \brief The Kullback-Leibler divergence of two Bernoulli distributions (eq. 6):
+/** \brief The Kullback-Leibler divergence of two Bernoulli distributions (eqs. 5-6
+ * read for one feature with the two outcomes occupied / free):
  * D = p ln(p / q) + (1 - p) ln((1 - p) / (1 - q)), in nats.
- * \param[in] p the stored probability, in (0, 1)
- * \param[in] q the new probability, in (0, 1)
- * \return D >= 0, in nats \ingroup filters */
-double
-bernoulliKLDivergence(double p, double q);
+ * \param[in] p the stored probability, in [0, 1] (0 ln 0 is taken as 0)
+ * \param[in] q the new probability, in [0, 1]; moved into
+ * [KL_PROBABILITY_EPS, 1 - KL_PROBABILITY_EPS] before the logarithms
+ * \return D >= 0 (up to rounding), in nats; NaN when p or q is NaN \ingroup filters */
+double bernoulliKLDivergence(double p, double q);
 
-/** \brief One KL update (eqs. 5-10): E = |D| + A when p <= 0.5 and q <= 0.5, else |D|;
- * returns exp(-E) (not clamped).
- * \param[in] p the stored probability, in (0, 1)
- * \param[in] q the new observation's probability (p_new m), in (0, 1)
- * \param[in] offset_nats A, nats (>= 0; the paper's 1.07)
- * \return the updated probability in (0, 1] \ingroup filters */
-double
-klDivergenceUpdate(double p, double q, double offset_nats);
+/** \brief One KL update (eq. 10): E = |D| + A when p <= 0.5 and q <= 0.5, else |D|,
+ * with D = bernoulliKLDivergence(p, q); returns exp(-E) (not clamped). \param[in] p the
+ * stored probability, in [0, 1] \param[in] q the new observation's probability (p_new
+ * m, eq. 7), in [0, 1] \param[in] offset_nats A, nats (>= 0; the paper's 1.07) \return
+ * the updated probability in (0, 1]; <= exp(-A) when p <= 0.5 and q <= 0.5 \ingroup
+ * filters */
+double klDivergenceUpdate(double p, double q, double offset_nats);
 
 /** \brief Occupancy probability of stereo key feature points (paper Sec. III-D, eq. 4)
  * updated across frames with the Kullback-Leibler rule (Sec. III-E, eqs. 5-10), as a
@@ -80,22 +84,40 @@ klDivergenceUpdate(double p, double q, double offset_nats);
  *   frame: x right, y down, z forward), so the features may be given in the camera
  *   frame (identity pose) or in the world frame with the camera pose set, as PCL
  *   clouds carry it;
- * - a feature whose track is new gets eq. 4: r = |X - sensor_origin|, z its depth, r_bar
- *   the mean range of the frame's features in the same neighbourhood cell (a cube of
- *   edge neighbourhood_size_m in the sensor frame), clamped to [prob_min, prob_max];
- * - a feature whose track was seen before gets q = p_new m with p_new eq. 4 in this
- *   frame and m the motion likelihood (setMotionLikelihood(), eq. 9), and its
- *   probability becomes klDivergenceUpdate(p, q, A) (or the log-odds rule), clamped;
- * - tracks not seen in the frame keep their probability.
+ * - every valid feature gets p_new of eq. 4: r = |X - sensor_origin|, z its depth in
+ *   the sensor frame, r_bar the mean range of the frame's valid features in the same
+ *   neighbourhood cell (a cube of edge neighbourhood_size_m, axis-aligned in the
+ *   sensor frame), clamped to [clamping_thres_min, clamping_thres_max];
+ * - a feature whose track is new (or that has no track) takes p_new;
+ * - a feature whose track was seen before gets q = p_new m with m the motion
+ *   likelihood (setMotionLikelihood(), eq. 9), and its probability becomes
+ *   klDivergenceUpdate(p, q, A) (or the log-odds rule), clamped;
+ * - tracks not seen in the frame keep their probability; a track id that occurs twice
+ *   in one frame is updated once (by its first occurrence).
  * Tracks are given by setTrackIds() (one id per input point, e.g. from descriptor
  * matching); without ids a feature joins the nearest stored track within
- * association_radius_m in the input's coordinates (pcl::search::KdTree), else starts a
- * new one. Calling filter() again on the same input (cloud, indices, ids and motion
- * likelihood unchanged) only re-selects; it does not update twice.
+ * association_radius_m in the input's coordinates (a spatial hash of cubes of that
+ * edge, searched over the 27 cubes around the feature) that no earlier feature of the
+ * same frame took, else starts a new one. Association by position is meaningful for
+ * world-frame input (or a still camera). Calling filter() again on the same input
+ * (same cloud and indices pointers, ids and motion likelihood not set again) only
+ * re-selects, with the current occupancy_thres and setNegative(); it does not update
+ * twice. setParams() does not start a new frame.
  *
- * Empty input or input without valid points gives empty output and a PCL_WARN; a
- * non-finite point gets probability 0 and is never kept; invalid parameters or stereo
- * parameters not set give empty output and a PCL_ERROR (S24).
+ * Internally each track stores its log-odds (S22; OctoMap): the KL rule converts to a
+ * probability, updates and converts back, the log-odds rule adds log_odds(prob_hit) or
+ * log_odds(prob_miss). The cost per frame is O(N) in the number of input features
+ * (hash tables for the neighbourhood cells, the tracks and the association cubes; the
+ * per-point work buffers are reused across frames).
+ *
+ * Degenerate input: no input cloud leaves the output untouched (pcl::Filter returns
+ * before applyFilter()); an empty cloud or empty indices give empty output and a
+ * PCL_WARN; a non-finite point or one at depth z <= 0 in the sensor frame is invalid:
+ * probability 0, no track, never kept (also with setNegative(true); it goes to the
+ * removed indices), and input without valid points gives empty output and a PCL_WARN;
+ * invalid parameters, stereo parameters not set, a motion likelihood outside [0, 1]
+ * or track ids of the wrong size give empty output and a PCL_ERROR, and the tracks
+ * are left unchanged (S24).
  * \ingroup filters */
 template <typename PointT>
 class KLDivergenceOccupancyFilter : public pcl::FilterIndices<PointT> {
@@ -114,25 +136,31 @@ public:
   using PointCloudPtr = typename PointCloud::Ptr;
   using PointCloudConstPtr = typename PointCloud::ConstPtr;
 
-  /** \brief Parameters with their defaults and valid ranges. */
+  /** \brief Parameters with their defaults and valid ranges (checked when filter()
+   * starts, S23). */
   struct Params {
-    /** dd of eq. 4: disparity error, pixels; > 0. */
+    /** dd of eq. 4: disparity error, pixels; > 0. The paper's 0.5. */
     double disparity_error_px{0.5};
     /** Edge of the neighbourhood cell over which r_bar is averaged, meters; > 0. */
     double neighbourhood_size_m{0.5};
-    /** Lower clamp of the probability (OctoMap's clamping_thres_min); in (0, 0.5). */
+    /** Lower clamp of the probability (OctoMap's clamping_thres_min); in (0, 0.5).
+     * 0.1192 = log-odds -2. */
     double clamping_thres_min{0.1192};
-    /** Upper clamp of the probability (OctoMap's clamping_thres_max); in (0.5, 1). */
+    /** Upper clamp of the probability (OctoMap's clamping_thres_max); in (0.5, 1).
+     * 0.971 = log-odds 3.5. */
     double clamping_thres_max{0.971};
-    /** A feature is kept when its probability >= occupancy_thres; in [0, 1]. */
+    /** A feature is kept when its probability >= occupancy_thres; in [0, 1]. 0.5 =
+     * log-odds 0. */
     double occupancy_thres{0.5};
     /** A of eq. 10, nats; >= 0. exp(-1.07) = 0.343. */
     double kl_offset_nats{1.07};
     /** The update rule of a re-observed track. */
     OccupancyUpdateRule update_rule{OccupancyUpdateRule::KL_DIVERGENCE};
-    /** Log-odds rule: probability of a hit (q >= 0.5), in (0.5, 1); OctoMap's 0.7. */
+    /** Log-odds rule: probability of a hit (q >= 0.5), in (0.5, 1); OctoMap's 0.7 =
+     * log-odds 0.847. */
     double prob_hit{0.7};
-    /** Log-odds rule: probability of a miss (q < 0.5), in (0, 0.5); OctoMap's 0.4. */
+    /** Log-odds rule: probability of a miss (q < 0.5), in (0, 0.5); OctoMap's 0.4 =
+     * log-odds -0.405. */
     double prob_miss{0.4};
     /** Association without track ids: largest distance to a stored track, in the
      * input's units (meters); > 0. */
@@ -143,60 +171,65 @@ public:
   KLDivergenceOccupancyFilter();
   ~KLDivergenceOccupancyFilter() override = default;
 
-  /** \brief Sets the parameters; they are validated when filter() starts (S23). */
-  void setParams(const Params& params) { params_ = params; markInputChanged(); }
+  /** \brief Sets the parameters; they are validated when filter() starts (S23). They
+   * apply from the next update on; this does not start a new frame (filtering the same
+   * input again re-selects with the new occupancy_thres). */
+  void setParams(const Params& params) { params_ = params; }
   /** \brief The parameters. */
   const Params& getParams() const { return params_; }
 
-  /** \brief Sets the rectified stereo rig of eq. 4.
+  /** \brief Sets the rectified stereo rig of eq. 4 (validated when filter() starts).
    * \param[in] focal_length_px f, pixels (> 0)
    * \param[in] baseline_m B, meters (> 0) */
   void setStereoParameters(double focal_length_px, double baseline_m);
 
-  /** \brief Sets the input cloud (one frame of features); marks a new frame. */
+  /** \brief Sets the input cloud (one frame of features); marks a new frame.
+   * \param[in] cloud the features, in the camera frame or in the world frame with
+   * sensor_origin_ / sensor_orientation_ holding the camera pose (meters) */
   void setInputCloud(const PointCloudConstPtr& cloud) override;
 
   /** \brief Sets one track id per point of the input cloud (not per index), >= 0; the
-   * same id in a later frame is the same feature observed again. An id of -1 marks a
-   * feature that belongs to no track (it gets eq. 4 and is not stored). An empty
-   * vector selects association by position. A size other than the input's gives
-   * empty output and a PCL_ERROR. */
+   * same id in a later frame is the same feature observed again. A negative id (-1)
+   * marks a feature that belongs to no track (it gets eq. 4 and is not stored). An
+   * empty vector selects association by position. A size other than the input's gives
+   * empty output and a PCL_ERROR. Marks a new frame.
+   * \param[in] track_ids the ids, parallel to the input cloud */
   void setTrackIds(const std::vector<std::int64_t>& track_ids);
 
   /** \brief Sets m of eq. 9 for this frame: the likelihood of the estimated motion
-   * under the motion model, exp(-0.5 Mahalanobis^2), in (0, 1]; 1 when the poses are
-   * given. Applies to the next update only. */
+   * under the motion model, exp(-0.5 Mahalanobis^2), in [0, 1]; 1 when the poses are
+   * given. Applies to the next update only (then it returns to 1). Marks a new frame.
+   * \param[in] motion_likelihood m, in [0, 1] */
   void setMotionLikelihood(double motion_likelihood);
 
-  /** \brief Forgets every track. */
+  /** \brief Forgets every track (and the frame count); the next filter() integrates
+   * its input as a first frame. */
   void reset();
 
   /** \brief The probability of each input point after the last update (size of the
-   * input cloud; 0 for points outside the indices or non-finite). */
-  const std::vector<float>&
-  getProbabilities() const
-  {
-    return probabilities_;
-  }
+   * input cloud; 0 for points outside the indices, invalid or after a failure), in
+   * [0, 1]. */
+  const std::vector<float>& getProbabilities() const { return probabilities_; }
 
   /** \brief The track id of each input point after the last update (size of the input
-   * cloud; -1 for points outside the indices, non-finite or without a track). */
-  const std::vector<std::int64_t>&
-  getAssignedTrackIds() const
+   * cloud; -1 for points outside the indices, invalid or without a track). */
+  const std::vector<std::int64_t>& getAssignedTrackIds() const
   {
     return assigned_track_ids_;
   }
 
   /** \brief Looks up a track's probability.
    * \param[in] track_id the id
-   * \param[out] probability its probability, in [0, 1]
+   * \param[out] probability its probability, in [clamping_thres_min,
+   * clamping_thres_max]; unchanged when the track is unknown
    * \return false when the track is unknown */
   bool getTrackProbability(std::int64_t track_id, float& probability) const;
 
   /** \brief Number of tracks stored. */
   std::size_t getTrackCount() const { return tracks_.size(); }
 
-  /** \brief Memory held by the tracks, bytes (estimate from the containers' sizes). */
+  /** \brief Memory held by the tracks, the association hash and the work buffers,
+   * bytes (estimate from the containers' sizes and bucket counts). */
   std::size_t getMemoryBytes() const;
 
 protected:
@@ -205,18 +238,52 @@ protected:
 
   /** \brief One stored feature track. */
   struct Track {
-    /** \brief Probability in [clamping_thres_min, clamping_thres_max]. */
-    float probability{0.5f};
-    /** \brief Last observed position, in the input's coordinates. */
+    /** \brief Log-odds of the probability, within the clamping thresholds' log-odds. */
+    float log_odds{0.0f};
+    /** \brief Last observed position, in the input's coordinates (meters). */
     Eigen::Vector3f position{Eigen::Vector3f::Zero()};
     /** \brief Number of observations. */
     std::uint32_t observations{0};
-    /** \brief Frame of the last observation (count of updates so far). */
+    /** \brief Frame of the last observation (1 for the first integrated frame). */
     std::uint32_t last_frame{0};
   };
 
+  /** \brief One neighbourhood cell of the frame in the open-addressing table. */
+  struct CellSum {
+    /** \brief Packed cell coordinates. */
+    std::uint64_t key{0};
+    /** \brief Sum of the ranges of the cell's features, meters. */
+    double range_sum_m{0.0};
+    /** \brief Number of features in the cell (0: slot empty). */
+    std::uint32_t count{0};
+  };
+
+  /** \brief Checks the parameters, stereo parameters, motion likelihood and track ids
+   * against the input. \return nullptr when valid, else what is wrong */
+  const char* checkParameters() const;
+
+  /** \brief Computes eq. 4 for the indexed points and updates the tracks (one frame).
+   * \return the number of valid points */
+  std::size_t integrate();
+
+  /** \brief Finds the nearest stored track within association_radius_m of \a position
+   * not yet observed in this frame. \return its id, or -1 */
+  std::int64_t associate(const Eigen::Vector3f& position) const;
+
+  /** \brief Packed key of the association cube of \a position. */
+  std::uint64_t associationKey(const Eigen::Vector3f& position) const;
+
+  /** \brief Rebuilds the association hash from all tracks. */
+  void rebuildAssociationCells();
+
+  /** \brief Moves track \a id from association cube \a old_key to \a new_key. */
+  void moveAssociation(std::int64_t id, std::uint64_t old_key, std::uint64_t new_key);
+
   /** \brief Marks the input as not yet integrated. */
   void markInputChanged() { input_integrated_ = false; }
+
+  /** \brief Clears the per-point outputs to the input's size (zeros / -1). */
+  void resetOutputs();
 
   /** \brief The parameters. */
   Params params_;
@@ -226,20 +293,39 @@ protected:
   double baseline_m_{0.0};
   /** \brief Per-point track ids of the input (empty: association by position). */
   std::vector<std::int64_t> track_ids_;
-  /** \brief m of eq. 9 for the next update. */
+  /** \brief m of eq. 9 for the next update, in [0, 1]. */
   double motion_likelihood_{1.0};
   /** \brief Tracks by id. */
   std::unordered_map<std::int64_t, Track> tracks_;
-  /** \brief Next id for tracks created by association. */
+  /** \brief Association by position: ids of the tracks in each cube of edge
+   * association_radius_m (valid when association_cells_valid_). */
+  std::unordered_map<std::uint64_t, std::vector<std::int64_t>> association_cells_;
+  /** \brief Whether association_cells_ matches the tracks' positions. */
+  bool association_cells_valid_{false};
+  /** \brief The cube edge association_cells_ was built with, meters. */
+  double association_cell_size_m_{0.0};
+  /** \brief Next id for tracks created by association (above every id seen). */
   std::int64_t next_track_id_{0};
-  /** \brief Number of updates so far. */
+  /** \brief Number of integrated frames so far. */
   std::uint32_t frame_count_{0};
   /** \brief Whether the current input was integrated already. */
   bool input_integrated_{false};
+  /** \brief The input cloud integrated last. */
+  PointCloudConstPtr integrated_input_;
+  /** \brief The indices integrated last. */
+  pcl::IndicesConstPtr integrated_indices_;
   /** \brief Per-point probabilities of the last update. */
   std::vector<float> probabilities_;
   /** \brief Per-point track ids of the last update. */
   std::vector<std::int64_t> assigned_track_ids_;
+  /** \brief Work buffer: open-addressing table of the frame's neighbourhood cells. */
+  std::vector<CellSum> cells_;
+  /** \brief Work buffer: range (meters) of each indexed point. */
+  std::vector<double> ranges_m_;
+  /** \brief Work buffer: depth (meters) of each indexed point, <= 0 when invalid. */
+  std::vector<double> depths_m_;
+  /** \brief Work buffer: slot in cells_ of each indexed point. */
+  std::vector<std::uint32_t> cell_slots_;
 
 public:
   PCL_MAKE_ALIGNED_OPERATOR_NEW

@@ -1,0 +1,476 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <planar_grid/core/log_odds.h>
+#include <planar_grid/filters/kl_divergence_occupancy_filter.h>
+
+#include <pcl/common/point_tests.h>
+#include <pcl/console/print.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+
+namespace planar_grid {
+
+namespace detail {
+
+/** \brief Integer cell coordinate of \a value for cells of edge 1 / inv_size, clamped
+ * to the 21 bits a packed key holds (+-2^20 cells). */
+inline std::int64_t
+cellCoordinate(double value, double inv_size)
+{
+  constexpr double LIMIT = 1048575.0; // 2^20 - 1
+  const double c = std::floor(value * inv_size);
+  return static_cast<std::int64_t>(std::min(std::max(c, -LIMIT), LIMIT));
+}
+
+/** \brief Packs three cell coordinates of cellCoordinate() into one 63-bit key. */
+inline std::uint64_t
+packCell(std::int64_t ix, std::int64_t iy, std::int64_t iz)
+{
+  constexpr std::int64_t OFFSET = 1048576; // 2^20
+  constexpr std::uint64_t MASK = 0x1FFFFF;
+  return (static_cast<std::uint64_t>(ix + OFFSET) & MASK)
+         | ((static_cast<std::uint64_t>(iy + OFFSET) & MASK) << 21)
+         | ((static_cast<std::uint64_t>(iz + OFFSET) & MASK) << 42);
+}
+
+/** \brief splitmix64's finaliser: a well-mixed hash of a packed cell key. */
+inline std::uint64_t
+mixKey(std::uint64_t key)
+{
+  key ^= key >> 30;
+  key *= 0xbf58476d1ce4e5b9ULL;
+  key ^= key >> 27;
+  key *= 0x94d049bb133111ebULL;
+  key ^= key >> 31;
+  return key;
+}
+
+} // namespace detail
+
+template <typename PointT>
+KLDivergenceOccupancyFilter<PointT>::KLDivergenceOccupancyFilter()
+{
+  filter_name_ = "KLDivergenceOccupancyFilter";
+}
+
+template <typename PointT>
+void
+KLDivergenceOccupancyFilter<PointT>::setStereoParameters(double focal_length_px,
+                                                         double baseline_m)
+{
+  focal_length_px_ = focal_length_px;
+  baseline_m_ = baseline_m;
+}
+
+template <typename PointT>
+void
+KLDivergenceOccupancyFilter<PointT>::setInputCloud(const PointCloudConstPtr& cloud)
+{
+  pcl::FilterIndices<PointT>::setInputCloud(cloud);
+  markInputChanged();
+}
+
+template <typename PointT>
+void
+KLDivergenceOccupancyFilter<PointT>::setTrackIds(
+  const std::vector<std::int64_t>& track_ids)
+{
+  track_ids_ = track_ids;
+  markInputChanged();
+}
+
+template <typename PointT>
+void
+KLDivergenceOccupancyFilter<PointT>::setMotionLikelihood(double motion_likelihood)
+{
+  motion_likelihood_ = motion_likelihood;
+  markInputChanged();
+}
+
+template <typename PointT>
+void
+KLDivergenceOccupancyFilter<PointT>::reset()
+{
+  tracks_.clear();
+  association_cells_.clear();
+  association_cells_valid_ = false;
+  next_track_id_ = 0;
+  frame_count_ = 0;
+  markInputChanged();
+  integrated_input_.reset();
+  integrated_indices_.reset();
+  probabilities_.clear();
+  assigned_track_ids_.clear();
+}
+
+template <typename PointT>
+bool
+KLDivergenceOccupancyFilter<PointT>::getTrackProbability(std::int64_t track_id,
+                                                         float& probability) const
+{
+  const auto it = tracks_.find(track_id);
+  if (it == tracks_.end())
+    return false;
+  probability = static_cast<float>(toProbability(it->second.log_odds));
+  return true;
+}
+
+template <typename PointT>
+std::size_t
+KLDivergenceOccupancyFilter<PointT>::getMemoryBytes() const
+{
+  // A node of an unordered_map holds the value and a next pointer (libstdc++ also
+  // caches no hash for integer keys); each bucket is one pointer.
+  std::size_t bytes =
+    tracks_.size() * (sizeof(std::pair<const std::int64_t, Track>) + sizeof(void*))
+    + tracks_.bucket_count() * sizeof(void*);
+  for (const auto& cell : association_cells_)
+    bytes +=
+      sizeof(cell) + sizeof(void*) + cell.second.capacity() * sizeof(std::int64_t);
+  bytes += association_cells_.bucket_count() * sizeof(void*);
+  bytes += cells_.capacity() * sizeof(CellSum) + ranges_m_.capacity() * sizeof(double)
+           + depths_m_.capacity() * sizeof(double)
+           + cell_slots_.capacity() * sizeof(std::uint32_t)
+           + probabilities_.capacity() * sizeof(float)
+           + assigned_track_ids_.capacity() * sizeof(std::int64_t)
+           + track_ids_.capacity() * sizeof(std::int64_t);
+  return bytes;
+}
+
+template <typename PointT>
+const char*
+KLDivergenceOccupancyFilter<PointT>::checkParameters() const
+{
+  const Params& p = params_;
+  if (!(std::isfinite(focal_length_px_) && focal_length_px_ > 0.0
+        && std::isfinite(baseline_m_) && baseline_m_ > 0.0))
+    return "stereo parameters not set (setStereoParameters(f > 0 px, B > 0 m))";
+  if (!(std::isfinite(p.disparity_error_px) && p.disparity_error_px > 0.0))
+    return "disparity_error_px must be > 0 px";
+  if (!(std::isfinite(p.neighbourhood_size_m) && p.neighbourhood_size_m > 0.0))
+    return "neighbourhood_size_m must be > 0 m";
+  if (!(p.clamping_thres_min > 0.0 && p.clamping_thres_min < 0.5))
+    return "clamping_thres_min must be in (0, 0.5)";
+  if (!(p.clamping_thres_max > 0.5 && p.clamping_thres_max < 1.0))
+    return "clamping_thres_max must be in (0.5, 1)";
+  if (!(p.occupancy_thres >= 0.0 && p.occupancy_thres <= 1.0))
+    return "occupancy_thres must be in [0, 1]";
+  if (!(std::isfinite(p.kl_offset_nats) && p.kl_offset_nats >= 0.0))
+    return "kl_offset_nats must be >= 0 nats";
+  if (p.update_rule != OccupancyUpdateRule::KL_DIVERGENCE
+      && p.update_rule != OccupancyUpdateRule::LOG_ODDS)
+    return "update_rule must be KL_DIVERGENCE or LOG_ODDS";
+  if (!(p.prob_hit > 0.5 && p.prob_hit < 1.0))
+    return "prob_hit must be in (0.5, 1)";
+  if (!(p.prob_miss > 0.0 && p.prob_miss < 0.5))
+    return "prob_miss must be in (0, 0.5)";
+  if (!(std::isfinite(p.association_radius_m) && p.association_radius_m > 0.0))
+    return "association_radius_m must be > 0 m";
+  if (!(motion_likelihood_ >= 0.0 && motion_likelihood_ <= 1.0))
+    return "the motion likelihood must be in [0, 1]";
+  if (!track_ids_.empty() && track_ids_.size() != input_->size())
+    return "the track ids must be one per input point";
+  return nullptr;
+}
+
+template <typename PointT>
+void
+KLDivergenceOccupancyFilter<PointT>::resetOutputs()
+{
+  const std::size_t n = input_ ? input_->size() : 0;
+  probabilities_.assign(n, 0.0f);
+  assigned_track_ids_.assign(n, -1);
+}
+
+template <typename PointT>
+std::uint64_t
+KLDivergenceOccupancyFilter<PointT>::associationKey(
+  const Eigen::Vector3f& position) const
+{
+  const double inv = 1.0 / association_cell_size_m_;
+  return detail::packCell(detail::cellCoordinate(position.x(), inv),
+                          detail::cellCoordinate(position.y(), inv),
+                          detail::cellCoordinate(position.z(), inv));
+}
+
+template <typename PointT>
+void
+KLDivergenceOccupancyFilter<PointT>::rebuildAssociationCells()
+{
+  association_cells_.clear();
+  association_cell_size_m_ = params_.association_radius_m;
+  for (const auto& track : tracks_)
+    association_cells_[associationKey(track.second.position)].push_back(track.first);
+  association_cells_valid_ = true;
+}
+
+template <typename PointT>
+void
+KLDivergenceOccupancyFilter<PointT>::moveAssociation(std::int64_t id,
+                                                     std::uint64_t old_key,
+                                                     std::uint64_t new_key)
+{
+  if (old_key == new_key)
+    return;
+  const auto it = association_cells_.find(old_key);
+  if (it != association_cells_.end()) {
+    std::vector<std::int64_t>& ids = it->second;
+    const auto pos = std::find(ids.begin(), ids.end(), id);
+    if (pos != ids.end()) {
+      *pos = ids.back();
+      ids.pop_back();
+    }
+    if (ids.empty())
+      association_cells_.erase(it);
+  }
+  association_cells_[new_key].push_back(id);
+}
+
+template <typename PointT>
+std::int64_t
+KLDivergenceOccupancyFilter<PointT>::associate(const Eigen::Vector3f& position) const
+{
+  const double inv = 1.0 / association_cell_size_m_;
+  const std::int64_t cx = detail::cellCoordinate(position.x(), inv);
+  const std::int64_t cy = detail::cellCoordinate(position.y(), inv);
+  const std::int64_t cz = detail::cellCoordinate(position.z(), inv);
+  const double radius = params_.association_radius_m;
+  double best_sq = radius * radius;
+  std::int64_t best = -1;
+  // The cubes have edge = radius, so every track within the radius is in one of the
+  // 27 cubes around the feature's.
+  for (std::int64_t dz = -1; dz <= 1; ++dz)
+    for (std::int64_t dy = -1; dy <= 1; ++dy)
+      for (std::int64_t dx = -1; dx <= 1; ++dx) {
+        const auto it =
+          association_cells_.find(detail::packCell(cx + dx, cy + dy, cz + dz));
+        if (it == association_cells_.end())
+          continue;
+        for (const std::int64_t id : it->second) {
+          const Track& track = tracks_.at(id);
+          if (track.last_frame == frame_count_)
+            continue; // taken by an earlier feature of this frame
+          const Eigen::Vector3f offset = track.position - position;
+          const double d_sq = static_cast<double>(offset.squaredNorm());
+          if (d_sq <= best_sq && (best < 0 || d_sq < best_sq || id < best)) {
+            best_sq = d_sq;
+            best = id;
+          }
+        }
+      }
+  return best;
+}
+
+template <typename PointT>
+std::size_t
+KLDivergenceOccupancyFilter<PointT>::integrate()
+{
+  const PointCloud& cloud = *input_;
+  const pcl::Indices& indices = *indices_;
+  const std::size_t n = indices.size();
+  ranges_m_.resize(n);
+  depths_m_.resize(n);
+  cell_slots_.resize(n);
+
+  // Sensor pose of the input: p_sensor = R^T (p - origin).
+  const Eigen::Vector3d origin =
+    input_->sensor_origin_.template head<3>().template cast<double>();
+  const Eigen::Matrix3d rotation_t = input_->sensor_orientation_.template cast<double>()
+                                       .normalized()
+                                       .toRotationMatrix()
+                                       .transpose();
+
+  // Open-addressing table of the neighbourhood cells, >= 2n slots (power of two).
+  std::size_t capacity = 16;
+  while (capacity < 2 * n)
+    capacity *= 2;
+  if (cells_.size() < capacity)
+    cells_.resize(capacity);
+  std::fill(cells_.begin(), cells_.begin() + static_cast<std::ptrdiff_t>(capacity),
+            CellSum{});
+  const std::size_t mask = capacity - 1;
+  const double inv_size = 1.0 / params_.neighbourhood_size_m;
+
+  // Pass 1: range, depth and cell of every valid point; the cells' range sums.
+  std::size_t valid = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    depths_m_[k] = 0.0;
+    const pcl::index_t index = indices[k];
+    if (index < 0 || static_cast<std::size_t>(index) >= cloud.size())
+      continue;
+    const PointT& point = cloud[index];
+    if (!pcl::isXYZFinite(point))
+      continue;
+    const Eigen::Vector3d sensor =
+      rotation_t * (point.getVector3fMap().template cast<double>() - origin);
+    if (!(sensor.z() > 0.0))
+      continue;
+    ranges_m_[k] = sensor.norm();
+    depths_m_[k] = sensor.z();
+    const std::uint64_t key =
+      detail::packCell(detail::cellCoordinate(sensor.x(), inv_size),
+                       detail::cellCoordinate(sensor.y(), inv_size),
+                       detail::cellCoordinate(sensor.z(), inv_size));
+    std::size_t slot = detail::mixKey(key) & mask;
+    while (cells_[slot].count != 0 && cells_[slot].key != key)
+      slot = (slot + 1) & mask;
+    cells_[slot].key = key;
+    cells_[slot].range_sum_m += ranges_m_[k];
+    ++cells_[slot].count;
+    cell_slots_[k] = static_cast<std::uint32_t>(slot);
+    ++valid;
+  }
+  if (valid == 0)
+    return 0;
+
+  ++frame_count_;
+  const bool by_position = track_ids_.empty();
+  if (by_position) {
+    if (!association_cells_valid_
+        || association_cell_size_m_ != params_.association_radius_m)
+      rebuildAssociationCells();
+  } else {
+    association_cells_valid_ = false; // positions change without the hash
+  }
+
+  const double p_min = params_.clamping_thres_min;
+  const double p_max = params_.clamping_thres_max;
+  const double log_odds_min = toLogOdds(p_min);
+  const double log_odds_max = toLogOdds(p_max);
+  const double log_odds_hit = toLogOdds(params_.prob_hit);
+  const double log_odds_miss = toLogOdds(params_.prob_miss);
+  const double m = motion_likelihood_;
+
+  // Pass 2: eq. 4, then the track's first value or its update (eqs. 5-10).
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!(depths_m_[k] > 0.0))
+      continue;
+    const std::size_t index = static_cast<std::size_t>(indices[k]);
+    const CellSum& cell = cells_[cell_slots_[k]];
+    const double mean_range_m = cell.range_sum_m / cell.count;
+    const double p_new =
+      std::min(std::max(rangeOccupancyProbability(
+                          ranges_m_[k], mean_range_m, depths_m_[k], focal_length_px_,
+                          baseline_m_, params_.disparity_error_px),
+                        p_min),
+               p_max);
+    const Eigen::Vector3f position = cloud[index].getVector3fMap();
+
+    std::int64_t id = -1;
+    if (by_position)
+      id = associate(position);
+    else
+      id = track_ids_[index];
+    if (by_position && id < 0)
+      id = next_track_id_; // a new track
+    if (id < 0) {
+      probabilities_[index] = static_cast<float>(p_new);
+      continue;
+    }
+    next_track_id_ = std::max(next_track_id_, id + 1);
+    assigned_track_ids_[index] = id;
+
+    const auto found = tracks_.find(id);
+    if (found == tracks_.end()) {
+      Track& track = tracks_[id];
+      track.log_odds = static_cast<float>(toLogOdds(p_new));
+      track.position = position;
+      track.observations = 1;
+      track.last_frame = frame_count_;
+      if (by_position)
+        association_cells_[associationKey(position)].push_back(id);
+      probabilities_[index] = static_cast<float>(p_new);
+      continue;
+    }
+    Track& track = found->second;
+    if (track.last_frame != frame_count_) {
+      const double q = p_new * m; // eq. 7
+      double log_odds = track.log_odds;
+      if (params_.update_rule == OccupancyUpdateRule::KL_DIVERGENCE) {
+        const double p = toProbability(log_odds);
+        const double updated = klDivergenceUpdate(p, q, params_.kl_offset_nats);
+        log_odds = toLogOdds(std::min(std::max(updated, p_min), p_max));
+      } else {
+        log_odds += q >= 0.5 ? log_odds_hit : log_odds_miss;
+        log_odds = std::min(std::max(log_odds, log_odds_min), log_odds_max);
+      }
+      track.log_odds = static_cast<float>(log_odds);
+      if (by_position)
+        moveAssociation(id, associationKey(track.position), associationKey(position));
+      track.position = position;
+      ++track.observations;
+      track.last_frame = frame_count_;
+    }
+    probabilities_[index] = static_cast<float>(toProbability(track.log_odds));
+  }
+  return valid;
+}
+
+template <typename PointT>
+void
+KLDivergenceOccupancyFilter<PointT>::applyFilter(pcl::Indices& indices)
+{
+  indices.clear();
+  removed_indices_->clear();
+
+  const char* bad = checkParameters();
+  if (bad != nullptr) {
+    PCL_ERROR("[planar_grid::%s::filter] Invalid parameter: %s.\n",
+              this->getClassName().c_str(), bad);
+    resetOutputs();
+    markInputChanged();
+    return;
+  }
+  if (input_->empty() || indices_->empty()) {
+    PCL_WARN("[planar_grid::%s::filter] Empty input.\n", this->getClassName().c_str());
+    resetOutputs();
+    markInputChanged();
+    return;
+  }
+
+  if (!input_integrated_ || input_ != integrated_input_
+      || indices_ != integrated_indices_) {
+    resetOutputs();
+    const std::size_t valid = integrate();
+    input_integrated_ = true;
+    integrated_input_ = input_;
+    integrated_indices_ = indices_;
+    motion_likelihood_ = 1.0; // m applies to one update only
+    if (valid == 0) {
+      PCL_WARN("[planar_grid::%s::filter] No finite point in front of the sensor.\n",
+               this->getClassName().c_str());
+      return;
+    }
+  }
+
+  // Selection. A valid point's probability is >= clamping_thres_min > 0, so 0 marks an
+  // invalid one; invalid points are never kept, in either mode.
+  indices.reserve(indices_->size());
+  for (const pcl::index_t index : *indices_) {
+    const bool in_range =
+      index >= 0 && static_cast<std::size_t>(index) < input_->size();
+    const float probability = in_range ? probabilities_[index] : 0.0f;
+    bool keep = false;
+    if (probability > 0.0f) {
+      keep = static_cast<double>(probability) >= params_.occupancy_thres;
+      if (negative_)
+        keep = !keep;
+    }
+    if (keep)
+      indices.push_back(index);
+    else if (extract_removed_indices_)
+      removed_indices_->push_back(index);
+  }
+}
+
+} // namespace planar_grid
+
+#define PLANAR_GRID_INSTANTIATE_KLDivergenceOccupancyFilter(T) \
+  template class planar_grid::KLDivergenceOccupancyFilter<T>;
