@@ -114,10 +114,15 @@ isGroundCandidate(const PlanarSegment& segment,
 template <typename PointT>
 class SACMultiPlaneSegmentation : public pcl::PCLBase<PointT> {
 public:
+  /** \brief Shared pointer to a SACMultiPlaneSegmentation. */
   using Ptr = std::shared_ptr<SACMultiPlaneSegmentation<PointT>>;
+  /** \brief Shared pointer to a const SACMultiPlaneSegmentation. */
   using ConstPtr = std::shared_ptr<const SACMultiPlaneSegmentation<PointT>>;
+  /** \brief The input cloud type. */
   using PointCloud = pcl::PointCloud<PointT>;
+  /** \brief Shared pointer to an input cloud. */
   using PointCloudPtr = typename PointCloud::Ptr;
+  /** \brief Shared pointer to a const input cloud. */
   using PointCloudConstPtr = typename PointCloud::ConstPtr;
 
   SACMultiPlaneSegmentation() = default;

@@ -60,10 +60,15 @@ namespace planar_grid {
 template <typename PointT>
 class PlanarCuboidApproximation : public pcl::PCLBase<PointT> {
 public:
+  /** \brief Shared pointer to a PlanarCuboidApproximation. */
   using Ptr = std::shared_ptr<PlanarCuboidApproximation<PointT>>;
+  /** \brief Shared pointer to a const PlanarCuboidApproximation. */
   using ConstPtr = std::shared_ptr<const PlanarCuboidApproximation<PointT>>;
+  /** \brief The input cloud type. */
   using PointCloud = pcl::PointCloud<PointT>;
+  /** \brief Shared pointer to an input cloud. */
   using PointCloudPtr = typename PointCloud::Ptr;
+  /** \brief Shared pointer to a const input cloud. */
   using PointCloudConstPtr = typename PointCloud::ConstPtr;
 
   PlanarCuboidApproximation() = default;
@@ -238,10 +243,14 @@ protected:
   std::vector<int> cell_of_point_;
   /** \brief Indices of the non-planar remainder. */
   std::vector<int> remainder_;
-  /** \brief Raster width and height in cells. */
-  int nu_{0}, nv_{0};
-  /** \brief Raster origin (u, v), in meters. */
-  float u_origin_{0.0f}, v_origin_{0.0f};
+  /** \brief Raster width (along u), in cells. */
+  int nu_{0};
+  /** \brief Raster height (along v), in cells. */
+  int nv_{0};
+  /** \brief Raster origin along u, in meters. */
+  float u_origin_{0.0f};
+  /** \brief Raster origin along v, in meters. */
+  float v_origin_{0.0f};
   /** \brief Occupancy of the raster (row-major, nu_ x nv_). */
   std::vector<std::uint8_t> occupied_;
   /** \brief Summed-area table of occupied_, (nu_ + 1) x (nv_ + 1). */

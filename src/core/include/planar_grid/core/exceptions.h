@@ -11,6 +11,8 @@ namespace planar_grid {
  * \ingroup core */
 class Exception : public std::runtime_error {
 public:
+  /** \brief An exception with the message \a what.
+   * \param[in] what the full message, returned by what() */
   explicit Exception(const std::string& what) : std::runtime_error(what) {}
 };
 
@@ -45,6 +47,8 @@ private:
  * \ingroup core */
 class IOError : public Exception {
 public:
+  /** \brief An I/O error with the message \a what.
+   * \param[in] what the message; it names the file and what was wrong with it */
   explicit IOError(const std::string& what) : Exception(what) {}
 };
 

@@ -50,7 +50,9 @@ struct OdometryResult {
  * \ingroup odometry */
 class StereoOdometry {
 public:
+  /** \brief Shared pointer to a StereoOdometry. */
   using Ptr = std::shared_ptr<StereoOdometry>;
+  /** \brief Shared pointer to a const StereoOdometry. */
   using ConstPtr = std::shared_ptr<const StereoOdometry>;
 
   /** \brief Parameters, with their valid ranges. */
@@ -210,7 +212,9 @@ private:
  * \ingroup odometry */
 class VisualOdometry {
 public:
+  /** \brief Shared pointer to a VisualOdometry. */
   using Ptr = std::shared_ptr<VisualOdometry>;
+  /** \brief Shared pointer to a const VisualOdometry. */
   using ConstPtr = std::shared_ptr<const VisualOdometry>;
 
   /** \brief Throws planar_grid::Exception for invalid parameters. */

@@ -16,16 +16,19 @@ namespace planar_grid {
  * S21), type, default, range and meaning. The same table drives the strict parser and
  * `planar_grid_pipeline --list-stages` (S31). \ingroup pipeline */
 struct ParamSpec {
+  /** \brief The value type: a real number, an integer, a flag or one of choices. */
   enum class Type { DOUBLE, INT, BOOL, CHOICE };
 
   /** \brief YAML key, snake_case, ending in its unit (_m, _px, _rad, ...) when it has
    * one. */
   std::string key;
+  /** \brief Value type. */
   Type type{Type::DOUBLE};
   /** \brief Default value, as text (a number, true/false, or one of choices). */
   std::string default_value;
-  /** \brief Inclusive range for DOUBLE and INT. */
+  /** \brief Inclusive lower bound for DOUBLE and INT, in the parameter's unit. */
   double min{0.0};
+  /** \brief Inclusive upper bound for DOUBLE and INT, in the parameter's unit. */
   double max{0.0};
   /** \brief Unit in words ("m", "px", "probability", "" for counts and flags). */
   std::string unit;
@@ -34,20 +37,47 @@ struct ParamSpec {
   /** \brief Allowed values for CHOICE. */
   std::vector<std::string> choices;
 
+  /** \brief A real-valued parameter.
+   * \param[in] key YAML key ending in its unit
+   * \param[in] default_value the default, within [min, max]
+   * \param[in] min inclusive lower bound
+   * \param[in] max inclusive upper bound
+   * \param[in] unit the unit in words
+   * \param[in] description one line on what it does
+   * \return the specification */
   static ParamSpec real(const std::string& key,
                         double default_value,
                         double min,
                         double max,
                         const std::string& unit,
                         const std::string& description);
+  /** \brief An integer parameter.
+   * \param[in] key YAML key ending in its unit, if any
+   * \param[in] default_value the default, within [min, max]
+   * \param[in] min inclusive lower bound
+   * \param[in] max inclusive upper bound
+   * \param[in] unit the unit in words ("" for counts)
+   * \param[in] description one line on what it does
+   * \return the specification */
   static ParamSpec integer(const std::string& key,
                            int default_value,
                            int min,
                            int max,
                            const std::string& unit,
                            const std::string& description);
+  /** \brief A boolean parameter.
+   * \param[in] key YAML key
+   * \param[in] default_value the default
+   * \param[in] description one line on what it does
+   * \return the specification */
   static ParamSpec
   flag(const std::string& key, bool default_value, const std::string& description);
+  /** \brief A parameter that takes one of a list of names.
+   * \param[in] key YAML key
+   * \param[in] default_value the default, one of \a choices
+   * \param[in] choices the allowed names
+   * \param[in] description one line on what it does
+   * \return the specification */
   static ParamSpec choice(const std::string& key,
                           const std::string& default_value,
                           const std::vector<std::string>& choices,
@@ -59,9 +89,17 @@ struct ParamSpec {
  * not in the table (a programming error). \ingroup pipeline */
 class ParamValues {
 public:
+  /** \brief Returns the value of a DOUBLE parameter.
+   * \param[in] key the YAML key \return the value, in the key's unit */
   double getDouble(const std::string& key) const;
+  /** \brief Returns the value of an INT parameter.
+   * \param[in] key the YAML key \return the value */
   int getInt(const std::string& key) const;
+  /** \brief Returns the value of a BOOL parameter.
+   * \param[in] key the YAML key \return the value */
   bool getBool(const std::string& key) const;
+  /** \brief Returns the value of a CHOICE parameter.
+   * \param[in] key the YAML key \return one of the spec's choices */
   const std::string& getChoice(const std::string& key) const;
 
   /** \brief Stores a value (used by the parser). */

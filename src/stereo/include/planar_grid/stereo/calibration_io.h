@@ -33,10 +33,14 @@ CalibrationFormat calibrationFormatFromString(const std::string& name);
 /** \brief Undistortion and rectification maps for a raw stereo pair (empty for pairs
  * that are already rectified). \ingroup stereo */
 struct StereoRectifier {
-  /** \brief cv::initUndistortRectifyMap maps (CV_32FC1) of the left camera. */
-  cv::Mat map_left_x, map_left_y;
-  /** \brief cv::initUndistortRectifyMap maps (CV_32FC1) of the right camera. */
-  cv::Mat map_right_x, map_right_y;
+  /** \brief cv::initUndistortRectifyMap x map (CV_32FC1), left camera, pixels. */
+  cv::Mat map_left_x;
+  /** \brief cv::initUndistortRectifyMap y map (CV_32FC1), left camera, pixels. */
+  cv::Mat map_left_y;
+  /** \brief cv::initUndistortRectifyMap x map (CV_32FC1), right camera, pixels. */
+  cv::Mat map_right_x;
+  /** \brief cv::initUndistortRectifyMap y map (CV_32FC1), right camera, pixels. */
+  cv::Mat map_right_y;
 
   /** \brief True when the pair needs no rectification. */
   bool empty() const { return map_left_x.empty(); }

@@ -48,8 +48,11 @@ public:
    * GCC rejects `= Params()` for a nested struct with member initialisers.) */
   DisparityEstimator();
   ~DisparityEstimator();
-  DisparityEstimator(DisparityEstimator&&) noexcept;
-  DisparityEstimator& operator=(DisparityEstimator&&) noexcept;
+  /** \brief Moves the matcher and its parameters; \a other is left empty. */
+  DisparityEstimator(DisparityEstimator&& other) noexcept;
+  /** \brief Moves the matcher and its parameters; \a other is left empty.
+   * \return *this */
+  DisparityEstimator& operator=(DisparityEstimator&& other) noexcept;
 
   /** \brief Computes the disparity of the left image.
    * \param[in] left rectified left image, CV_8UC1 or CV_8UC3

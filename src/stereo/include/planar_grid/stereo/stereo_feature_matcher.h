@@ -37,6 +37,7 @@ struct StereoFeatures {
   /** \brief One descriptor row per feature (CV_32F for SIFT, CV_8U for ORB). */
   cv::Mat descriptors;
 
+  /** \brief Returns the number of matched features (the size of every vector). */
   std::size_t size() const { return keypoints_left.size(); }
 };
 
@@ -52,6 +53,7 @@ struct StereoFeatures {
  * to 1.2^level px; SIFT's are sub-pixel. */
 class StereoFeatureMatcher {
 public:
+  /** \brief Parameters with their defaults and valid ranges. */
   struct Params {
     /** Detector and descriptor. */
     FeatureType feature_type{FeatureType::SIFT};
@@ -85,6 +87,7 @@ public:
              const StereoCalibration& calibration,
              StereoFeatures& features) const;
 
+  /** \brief Returns the parameters. */
   const Params& getParams() const { return params_; }
 
 private:
