@@ -12,6 +12,7 @@ PACKAGES=(
   liboctomap-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   xvfb xauth clang-format git
+  doxygen
 )
 
 missing=()
