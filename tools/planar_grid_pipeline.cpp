@@ -203,16 +203,29 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
                + " planes (the 24 largest coloured)";
       });
 
-  if (!state.cuboids.empty())
+  // The cells: the map's merged cuboids when a map was built, else every frame's.
+  const planar_grid::PlanarCuboids& cuboids =
+    state.map ? state.map->getSurfaceLayer().getCuboids() : state.cuboids;
+  if (!cuboids.empty())
     render(config.output.cuboids_snapshot, "cuboids_snapshot",
            [&](planar_grid::SceneRenderer& r) {
-             r.addCuboids(state.cuboids);
+             r.addCuboids(cuboids);
              std::size_t planar = 0;
-             for (const auto& c : state.cuboids)
+             for (const auto& c : cuboids)
                planar += c.is_planar;
-             return std::to_string(state.cuboids.size()) + " cuboids ("
-                    + std::to_string(planar)
+             return std::to_string(cuboids.size()) + (state.map ? " map" : "")
+                    + " cuboids (" + std::to_string(planar)
                     + " planar, coloured by plane; non-planar grey)";
+           });
+
+  if (state.map)
+    render(config.output.map_snapshot, "map_snapshot",
+           [&](planar_grid::SceneRenderer& r) {
+             const auto drawn = r.addMap(*state.map);
+             return std::to_string(drawn.cuboids)
+                    + " cuboids coloured by occupancy (blue 0, green 0.5, red 1), "
+                    + std::to_string(drawn.occupied_voxel_boxes)
+                    + " other occupied voxels grey, unknown space violet";
            });
 }
 #endif
@@ -257,21 +270,24 @@ run(int argc, char** argv)
     config.output.snapshot.clear();
     config.output.planes_snapshot.clear();
     config.output.cuboids_snapshot.clear();
+    config.output.map_snapshot.clear();
   }
 
 #ifdef PLANAR_GRID_WITH_VIEWER
   // Before the long run: VTK needs an X server; re-run under xvfb-run if there is none.
   if (!config.output.snapshot.empty() || !config.output.planes_snapshot.empty()
-      || !config.output.cuboids_snapshot.empty())
+      || !config.output.cuboids_snapshot.empty() || !config.output.map_snapshot.empty())
     planar_grid::ensureDisplay(argc, argv);
 #else
   if (!config.output.snapshot.empty() || !config.output.planes_snapshot.empty()
-      || !config.output.cuboids_snapshot.empty()) {
+      || !config.output.cuboids_snapshot.empty()
+      || !config.output.map_snapshot.empty()) {
     print_warn(
       "Built without the viewer (PLANAR_GRID_BUILD_VIEWER=OFF): no snapshot.\n");
     config.output.snapshot.clear();
     config.output.planes_snapshot.clear();
     config.output.cuboids_snapshot.clear();
+    config.output.map_snapshot.clear();
   }
 #endif
 

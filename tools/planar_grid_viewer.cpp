@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// planar_grid_viewer: shows PCD clouds interactively or renders them to a PNG snapshot.
+// planar_grid_viewer: shows PCD clouds and planar grid maps (.pgmap) interactively or
+// renders them to a PNG snapshot.
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/visualization/scene_renderer.h>
 
 #include <pcl/PCLPointCloud2.h>
@@ -39,6 +41,7 @@ const char* const DEFAULT_COLOR = "height";
 /** \brief The effective options. */
 struct ViewerOptions {
   std::vector<std::string> clouds;
+  std::vector<std::string> maps;
   std::string snapshot;
   std::string camera_name{DEFAULT_CAMERA};
   bool explicit_camera{false};
@@ -55,8 +58,11 @@ void
 printHelp(const char* program)
 {
   print_info(
-    "Shows PCD point clouds with VTK, or renders them offscreen to a PNG.\n\n");
-  print_info("Syntax is: %s <cloud.pcd> [more.pcd ...] <options>\n", program);
+    "Shows PCD point clouds and planar grid maps (.pgmap, written by the pipeline's "
+    "map_integration) with VTK, or renders them offscreen to a PNG. A map shows its "
+    "cuboids coloured by occupancy (blue 0, green 0.5, red 1), its other occupied "
+    "voxels grey and its unknown space translucent violet.\n\n");
+  print_info("Syntax is: %s <cloud.pcd | map.pgmap> [more ...] <options>\n", program);
   print_info("  where options are:\n");
   print_info(
     "    --snapshot <out.png>  render offscreen and write a PNG instead of opening "
@@ -145,6 +151,11 @@ parseOptions(int argc, char** argv, bool& help)
     options.clouds.emplace_back(argv[index]);
     used.insert(index);
   }
+  for (const int index :
+       pcl::console::parse_file_extension_argument(argc, argv, ".pgmap")) {
+    options.maps.emplace_back(argv[index]);
+    used.insert(index);
+  }
 
   if (option_with_value("--snapshot")) {
     parse_argument(argc, argv, "--snapshot", options.snapshot);
@@ -206,9 +217,9 @@ parseOptions(int argc, char** argv, bool& help)
   for (int i = 1; i < argc; ++i)
     if (used.count(i) == 0)
       throw Exception(std::string("unknown argument '") + argv[i]
-                      + "' (clouds must be .pcd files; see --help)");
-  if (options.clouds.empty())
-    throw Exception("no input cloud given (expected one or more .pcd files)");
+                      + "' (inputs must be .pcd or .pgmap files; see --help)");
+  if (options.clouds.empty() && options.maps.empty())
+    throw Exception("no input given (expected .pcd clouds or .pgmap maps)");
   return options;
 }
 
@@ -297,6 +308,19 @@ run(int argc, char** argv)
     renderer.setCamera(options.preset);
   for (const auto& path : options.clouds)
     renderer.addPointCloud(loadCloud(path), options.color, options.point_size_px);
+  for (const auto& path : options.maps) {
+    pcl::console::TicToc timer;
+    timer.tic();
+    print_highlight("Loading ");
+    print_value("%s ", path.c_str());
+    const auto map = planar_grid::PlanarGridMap::load(path);
+    const auto drawn = renderer.addMap(map);
+    print_info("[done, ");
+    print_value("%g", timer.toc());
+    print_info(" ms : %zu cuboids, %zu occupied voxels outside them, %zu unknown "
+               "boxes]\n",
+               drawn.cuboids, drawn.occupied_voxel_boxes, drawn.unknown_boxes);
+  }
 
   if (!options.snapshot.empty()) {
     pcl::console::TicToc timer;

@@ -1,1 +1,375 @@
 // SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/atomic_file.h>
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/map/planar_grid_map.h>
+
+#include <pcl/console/print.h>
+
+#include <boost/crc.hpp>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <iterator>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+
+namespace planar_grid {
+
+namespace {
+
+constexpr const char* MAGIC_LINE = "# Planar grid map file";
+constexpr int FORMAT_VERSION = 1;
+/** The text header is small; anything longer is not a map file. */
+constexpr std::size_t MAX_HEADER_BYTES = 64 * 1024;
+/** OctoMap's default clamping bounds, the probabilities of a known voxel. */
+constexpr float PROB_OCCUPIED_VOXEL = 0.971f;
+constexpr float PROB_FREE_VOXEL = 0.1192f;
+
+std::uint32_t
+crc32(const std::uint8_t* data, std::size_t size)
+{
+  boost::crc_32_type crc;
+  crc.process_bytes(data, size);
+  return crc.checksum();
+}
+
+PlanarGridMap::Params
+validated(const PlanarGridMap::Params& params)
+{
+  const double a = params.space.resolution_m;
+  const double b = params.surface.resolution_m;
+  if (!(std::abs(a - b) <= 1e-9 * std::max(std::abs(a), std::abs(b))))
+    throw Exception("PlanarGridMap: the space layer's resolution_m ("
+                    + std::to_string(a) + ") and the surface layer's ("
+                    + std::to_string(b) + ") must be equal");
+  return params;
+}
+
+/** Full-precision text of a double (round-trips exactly). */
+std::string
+exact(double value)
+{
+  std::ostringstream out;
+  out << std::setprecision(17) << value;
+  return out.str();
+}
+
+/** The "key value..." lines of a map file header. */
+class HeaderReader {
+public:
+  HeaderReader(std::string path, std::map<std::string, std::string> values) :
+      path_(std::move(path)), values_(std::move(values))
+  {}
+
+  double number(const std::string& key)
+  {
+    std::istringstream in(require(key));
+    double value = 0.0;
+    std::string rest;
+    if (!(in >> value) || (in >> rest) || !std::isfinite(value))
+      fail("'" + key + "' must be one finite number, got '" + values_.at(key) + "'");
+    return value;
+  }
+
+  std::uint64_t count(const std::string& key)
+  {
+    const std::string& text = require(key);
+    if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos
+        || text.size() > 19)
+      fail("'" + key + "' must be a non-negative integer, got '" + text + "'");
+    return std::stoull(text);
+  }
+
+  std::vector<std::uint64_t> counts(const std::string& key, std::size_t n)
+  {
+    std::istringstream in(require(key));
+    std::vector<std::uint64_t> out;
+    std::string word;
+    while (in >> word) {
+      if (word.find_first_not_of("0123456789") != std::string::npos || word.size() > 19)
+        fail("'" + key + "' must hold non-negative integers, got '" + word + "'");
+      out.push_back(std::stoull(word));
+    }
+    if (out.size() != n)
+      fail("'" + key + "' must hold " + std::to_string(n) + " integers");
+    return out;
+  }
+
+  const std::string& require(const std::string& key)
+  {
+    const auto it = values_.find(key);
+    if (it == values_.end())
+      fail("the header has no '" + key + "' line");
+    used_.insert(key);
+    return it->second;
+  }
+
+  void warnUnused() const
+  {
+    for (const auto& kv : values_)
+      if (!used_.count(kv.first))
+        PCL_WARN("[planar_grid::PlanarGridMap::load] %s: unknown header key '%s' "
+                 "ignored.\n",
+                 path_.c_str(), kv.first.c_str());
+  }
+
+  [[noreturn]] void fail(const std::string& what) const
+  {
+    throw IOError("map file " + path_ + ": " + what);
+  }
+
+private:
+  std::string path_;
+  std::map<std::string, std::string> values_;
+  std::set<std::string> used_;
+};
+
+} // namespace
+
+PlanarGridMap::PlanarGridMap(const Params& params) :
+    params_(validated(params)), surface_(params.surface), space_(params.space)
+{}
+
+SpaceState
+PlanarGridMap::getState(const Eigen::Vector3f& point) const
+{
+  if (const PlanarCuboid* cuboid = surface_.findCuboid(point))
+    return cuboid->probability >= params_.surface.occupancy_thres ? SpaceState::OCCUPIED
+                                                                  : SpaceState::FREE;
+  return space_.getState(point);
+}
+
+float
+PlanarGridMap::getOccupancy(const Eigen::Vector3f& point) const
+{
+  if (const PlanarCuboid* cuboid = surface_.findCuboid(point))
+    return cuboid->probability;
+  switch (space_.getState(point)) {
+    case SpaceState::OCCUPIED:
+      return PROB_OCCUPIED_VOXEL;
+    case SpaceState::FREE:
+      return PROB_FREE_VOXEL;
+    case SpaceState::UNKNOWN:
+      break;
+  }
+  return 0.5f;
+}
+
+bool
+PlanarGridMap::castRay(const Eigen::Vector3f& origin,
+                       const Eigen::Vector3f& direction,
+                       double max_range_m,
+                       Eigen::Vector3f& hit) const
+{
+  const float norm = direction.norm();
+  if (!(norm > 0.0f) || !origin.allFinite() || !direction.allFinite())
+    return false;
+  const Eigen::Vector3f unit = direction / norm;
+  Eigen::Vector3f voxel_hit;
+  const bool has_voxel = space_.castRay(origin, unit, max_range_m, voxel_hit);
+  float cuboid_distance = 0.0f;
+  std::size_t index = 0;
+  const bool has_cuboid =
+    surface_.castRay(origin, unit, max_range_m, cuboid_distance, index);
+  if (has_cuboid && (!has_voxel || cuboid_distance <= (voxel_hit - origin).norm())) {
+    hit = origin + unit * cuboid_distance;
+    return true;
+  }
+  if (has_voxel)
+    hit = voxel_hit;
+  return has_voxel;
+}
+
+MapMemory
+PlanarGridMap::getMemory() const
+{
+  MapMemory memory;
+  memory.surface_bytes = surface_.getMemoryBytes();
+  memory.space_bytes = space_.getMemoryBytes();
+  memory.total_bytes = memory.surface_bytes + memory.space_bytes;
+  return memory;
+}
+
+void
+PlanarGridMap::save(const std::string& path) const
+{
+  std::vector<std::uint8_t> data;
+  space_.serialize(data);
+  const std::size_t space_bytes = data.size();
+  surface_.serialize(data);
+  const std::size_t surface_bytes = data.size() - space_bytes;
+
+  ExplicitSpaceGrid::VoxelKey min_key, max_key;
+  Eigen::Vector3d min_m = Eigen::Vector3d::Zero(), max_m = Eigen::Vector3d::Zero();
+  const double res = getResolution();
+  if (space_.getBounds(min_key, max_key)) {
+    min_m = min_key.cast<double>() * res;
+    max_m = (max_key.cast<double>() + Eigen::Vector3d::Ones()) * res;
+  }
+
+  const auto& sp = params_.space;
+  const auto& su = params_.surface;
+  std::ostringstream header;
+  header << MAGIC_LINE << "\n"
+         << "version " << FORMAT_VERSION << "\n"
+         << "id PlanarGridMap\n"
+         << "resolution_m " << exact(res) << "\n"
+         << "max_range_m " << exact(sp.max_range_m) << "\n"
+         << "surface_margin_m " << exact(sp.surface_margin_m) << "\n"
+         << "prior " << toString(sp.prior) << "\n"
+         << "thickness_m " << exact(su.thickness_m) << "\n"
+         << "plane_merge_angle_rad " << exact(su.plane_merge_angle_rad) << "\n"
+         << "plane_merge_distance_m " << exact(su.plane_merge_distance_m) << "\n"
+         << "occupancy_thres " << exact(su.occupancy_thres) << "\n"
+         << "feature_distance_m " << exact(su.feature_distance_m) << "\n"
+         << "bounds_m " << exact(min_m.x()) << " " << exact(min_m.y()) << " "
+         << exact(min_m.z()) << " " << exact(max_m.x()) << " " << exact(max_m.y())
+         << " " << exact(max_m.z()) << "\n"
+         << "voxels " << space_.getVoxelCount(SpaceState::FREE) << " "
+         << space_.getVoxelCount(SpaceState::OCCUPIED) << " "
+         << space_.getVoxelCount(SpaceState::UNKNOWN) << "\n"
+         << "planes " << surface_.getPlanes().size() << "\n"
+         << "cuboids " << surface_.getCuboids().size() << "\n"
+         << "space_bytes " << space_bytes << "\n"
+         << "surface_bytes " << surface_bytes << "\n";
+  char crc_text[16];
+  std::snprintf(crc_text, sizeof(crc_text), "0x%08x", crc32(data.data(), data.size()));
+  header << "checksum_crc32 " << crc_text << "\n"
+         << "data\n";
+  const std::string text = header.str();
+
+  writeFileAtomically(path, [&](const std::string& temporary) {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    out.write(text.data(), static_cast<std::streamsize>(text.size()));
+    out.write(reinterpret_cast<const char*>(data.data()),
+              static_cast<std::streamsize>(data.size()));
+    out.close();
+    return static_cast<bool>(out);
+  });
+}
+
+PlanarGridMap
+PlanarGridMap::load(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw IOError("map file " + path + ": cannot be opened for reading");
+  in.seekg(0, std::ios::end);
+  const std::streamoff length = in.tellg();
+  in.seekg(0, std::ios::beg);
+  if (length < 0)
+    throw IOError("map file " + path + ": cannot determine its size");
+  const auto file_size = static_cast<std::uint64_t>(length);
+
+  // The text header, line by line, up to "data".
+  std::string line;
+  if (!std::getline(in, line) || line != MAGIC_LINE)
+    throw IOError("map file " + path + ": not a planar grid map (first line must be '"
+                  + std::string(MAGIC_LINE) + "')");
+  std::map<std::string, std::string> values;
+  std::uint64_t header_bytes = line.size() + 1;
+  bool found_data = false;
+  int line_number = 1;
+  while (std::getline(in, line)) {
+    ++line_number;
+    header_bytes += line.size() + 1;
+    if (header_bytes > MAX_HEADER_BYTES)
+      throw IOError("map file " + path + ": no 'data' line in the first "
+                    + std::to_string(MAX_HEADER_BYTES) + " bytes");
+    if (line == "data") {
+      found_data = true;
+      break;
+    }
+    if (line.empty() || line[0] == '#')
+      continue;
+    const auto space = line.find(' ');
+    const std::string key = line.substr(0, space);
+    const std::string value = space == std::string::npos ? "" : line.substr(space + 1);
+    if (!values.emplace(key, value).second)
+      throw IOError("map file " + path + ":" + std::to_string(line_number)
+                    + ": header key '" + key + "' given twice");
+  }
+  if (!found_data)
+    throw IOError("map file " + path + ": truncated header (no 'data' line)");
+
+  HeaderReader header(path, std::move(values));
+  const auto version = header.count("version");
+  if (version != FORMAT_VERSION)
+    header.fail("version " + std::to_string(version)
+                + " is not supported (this "
+                  "reader knows version "
+                + std::to_string(FORMAT_VERSION) + ")");
+  if (header.require("id") != "PlanarGridMap")
+    header.fail("id must be 'PlanarGridMap'");
+
+  Params params;
+  params.space.resolution_m = header.number("resolution_m");
+  if (!(params.space.resolution_m > 0.0))
+    header.fail("resolution_m must be > 0");
+  params.surface.resolution_m = params.space.resolution_m;
+  params.space.max_range_m = header.number("max_range_m");
+  params.space.surface_margin_m = header.number("surface_margin_m");
+  try {
+    params.space.prior = spaceStateFromString(header.require("prior"));
+  } catch (const Exception& e) {
+    header.fail(std::string("prior: ") + e.what());
+  }
+  params.surface.thickness_m = header.number("thickness_m");
+  params.surface.plane_merge_angle_rad = header.number("plane_merge_angle_rad");
+  params.surface.plane_merge_distance_m = header.number("plane_merge_distance_m");
+  params.surface.occupancy_thres = header.number("occupancy_thres");
+  params.surface.feature_distance_m = header.number("feature_distance_m");
+  header.require("bounds_m"); // informative; the layers carry their own extent
+  const auto voxels = header.counts("voxels", 3);
+  const auto planes = header.count("planes");
+  const auto cuboids = header.count("cuboids");
+  const auto space_bytes = header.count("space_bytes");
+  const auto surface_bytes = header.count("surface_bytes");
+  const std::string crc_text = header.require("checksum_crc32");
+  header.warnUnused();
+
+  // Sizes against the file length before allocating anything.
+  const std::uint64_t remaining = file_size - header_bytes;
+  if (space_bytes > remaining || surface_bytes > remaining - space_bytes)
+    header.fail("truncated: the header announces " + std::to_string(space_bytes) + " + "
+                + std::to_string(surface_bytes) + " data bytes, the file has "
+                + std::to_string(remaining));
+  if (space_bytes + surface_bytes != remaining)
+    header.fail(std::to_string(remaining - space_bytes - surface_bytes)
+                + " bytes of trailing data after the announced sections");
+  std::vector<std::uint8_t> data(static_cast<std::size_t>(remaining));
+  if (!data.empty()
+      && !in.read(reinterpret_cast<char*>(data.data()),
+                  static_cast<std::streamsize>(data.size())))
+    header.fail("could not read the data section");
+  char expected[16];
+  std::snprintf(expected, sizeof(expected), "0x%08x", crc32(data.data(), data.size()));
+  if (crc_text != expected)
+    header.fail("checksum mismatch (header " + crc_text + ", data " + expected
+                + "): the file is corrupt");
+
+  PlanarGridMap map = [&]() {
+    try {
+      PlanarGridMap decoded(params);
+      decoded.space_.deserialize(data.data(), static_cast<std::size_t>(space_bytes));
+      decoded.surface_.deserialize(data.data() + space_bytes,
+                                   static_cast<std::size_t>(surface_bytes));
+      return decoded;
+    } catch (const Exception& e) {
+      header.fail(e.what());
+    }
+  }();
+  if (map.space_.getVoxelCount(SpaceState::FREE) != voxels[0]
+      || map.space_.getVoxelCount(SpaceState::OCCUPIED) != voxels[1]
+      || map.space_.getVoxelCount(SpaceState::UNKNOWN) != voxels[2])
+    header.fail("the decoded voxel counts differ from the header's 'voxels'");
+  if (map.surface_.getPlanes().size() != planes
+      || map.surface_.getCuboids().size() != cuboids)
+    header.fail("the decoded plane or cuboid count differs from the header's");
+  return map;
+}
+
+} // namespace planar_grid

@@ -247,6 +247,13 @@ parseInput(const Reader& r, const YAML::Node& node)
   return input;
 }
 
+bool
+endsWith(const std::string& text, const std::string& suffix)
+{
+  return text.size() >= suffix.size()
+         && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
 OutputConfig
 parseOutput(const Reader& r, const YAML::Node& node)
 {
@@ -254,7 +261,7 @@ parseOutput(const Reader& r, const YAML::Node& node)
   r.checkKeys(node,
               {"folder", "cloud", "planes", "report", "trajectory", "snapshot",
                "planes_snapshot", "cuboids_snapshot", "snapshot_camera",
-               "snapshot_size_px"},
+               "snapshot_size_px", "map", "map_octomap", "map_mesh", "map_snapshot"},
               "output");
   out.folder = r.optionalString(node, "folder", out.folder, "output");
   out.cloud = r.optionalString(node, "cloud", out.cloud, "output");
@@ -266,6 +273,13 @@ parseOutput(const Reader& r, const YAML::Node& node)
     r.optionalString(node, "planes_snapshot", out.planes_snapshot, "output");
   out.cuboids_snapshot =
     r.optionalString(node, "cuboids_snapshot", out.cuboids_snapshot, "output");
+  out.map = r.optionalString(node, "map", out.map, "output");
+  out.map_octomap = r.optionalString(node, "map_octomap", out.map_octomap, "output");
+  out.map_mesh = r.optionalString(node, "map_mesh", out.map_mesh, "output");
+  if (!out.map_mesh.empty() && !endsWith(out.map_mesh, ".ply")
+      && !endsWith(out.map_mesh, ".vtk"))
+    r.fail(node["map_mesh"], "output.map_mesh must end in .ply or .vtk");
+  out.map_snapshot = r.optionalString(node, "map_snapshot", out.map_snapshot, "output");
   out.snapshot_camera =
     r.optionalString(node, "snapshot_camera", out.snapshot_camera, "output");
   if (out.snapshot_camera != "top" && out.snapshot_camera != "oblique")

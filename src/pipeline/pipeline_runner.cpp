@@ -79,6 +79,8 @@ PipelineRunner::run()
   }
   state_ = PipelineState();
   trajectory_.clear();
+  for (auto& stage : stages_)
+    stage->start(state_);
 
   const std::size_t total = end_ - begin_;
   std::vector<std::pair<std::string, double>> counter_values;
@@ -126,6 +128,30 @@ PipelineRunner::run()
   }
   report.world_cloud_points = state_.world_cloud ? state_.world_cloud->size() : 0;
   report.planes = state_.plane_models.size();
+  if (state_.map) {
+    const PlanarGridMap& map = *state_.map;
+    const MapMemory memory = map.getMemory();
+    const auto& space = map.getSpaceLayer();
+    const auto& surface = map.getSurfaceLayer();
+    std::size_t planar = 0;
+    for (const auto& c : surface.getCuboids())
+      planar += c.is_planar;
+    report.map_summary = {
+      {"resolution_m", map.getResolution()},
+      {"cuboids", static_cast<double>(surface.getCuboids().size())},
+      {"planar_cuboids", static_cast<double>(planar)},
+      {"planes", static_cast<double>(surface.getPlanes().size())},
+      {"plane_cells", static_cast<double>(surface.getCellCount())},
+      {"free_voxels", static_cast<double>(space.getVoxelCount(SpaceState::FREE))},
+      {"occupied_voxels",
+       static_cast<double>(space.getVoxelCount(SpaceState::OCCUPIED))},
+      {"unknown_voxels", static_cast<double>(space.getVoxelCount(SpaceState::UNKNOWN))},
+      {"space_blocks", static_cast<double>(space.getBlockCount())},
+      {"surface_bytes", static_cast<double>(memory.surface_bytes)},
+      {"space_bytes", static_cast<double>(memory.space_bytes)},
+      {"total_bytes", static_cast<double>(memory.total_bytes)},
+    };
+  }
   report.seconds = ms_since(start) / 1000.0;
   return report;
 }
@@ -169,6 +195,11 @@ RunReport::toJson() const
       e[name + "_per_frame"] = s.frames ? value / static_cast<double>(s.frames) : 0.0;
     }
     js.push_back(e);
+  }
+  if (!map_summary.empty()) {
+    auto& jm = j["map"] = nlohmann::ordered_json::object();
+    for (const auto& [name, value] : map_summary)
+      jm[name] = value;
   }
   auto& jo = j["outputs"] = nlohmann::ordered_json::object();
   for (const auto& [kind, path] : outputs)
@@ -224,6 +255,13 @@ RunReport::timingTable() const
   out << frames << " frames in " << std::setprecision(1) << seconds << " s ("
       << std::setprecision(2) << framesPerSecond() << " frames/s); world cloud "
       << world_cloud_points << " points, " << planes << " run-wide planes\n";
+  if (!map_summary.empty()) {
+    out << "map:";
+    for (const auto& [name, value] : map_summary)
+      out << " " << name << " " << std::setprecision(name == "resolution_m" ? 2 : 0)
+          << value;
+    out << "\n";
+  }
   return out.str();
 }
 

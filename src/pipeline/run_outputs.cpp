@@ -54,6 +54,23 @@ writeRunOutputs(const OutputConfig& output,
       report.outputs.emplace_back("planes", path);
     }
   }
+  if (const auto& map = runner.state().map) {
+    if (!output.map.empty()) {
+      const std::string path = outputPath(output, output.map);
+      map->save(path);
+      report.outputs.emplace_back("map", path);
+    }
+    if (!output.map_octomap.empty()) {
+      const std::string path = outputPath(output, output.map_octomap);
+      map->exportOctoMap(path);
+      report.outputs.emplace_back("map_octomap", path);
+    }
+    if (!output.map_mesh.empty()) {
+      const std::string path = outputPath(output, output.map_mesh);
+      map->exportMesh(path);
+      report.outputs.emplace_back("map_mesh", path);
+    }
+  }
   if (!output.trajectory.empty() && !runner.trajectory().empty()) {
     const std::string path = outputPath(output, output.trajectory);
     saveKittiPoses(path, runner.trajectory());

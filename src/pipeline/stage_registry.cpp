@@ -10,12 +10,12 @@ namespace planar_grid {
 const std::vector<StageInfo>&
 stageRegistry()
 {
-  // Built once, in pipeline order; later issues add plane segmentation, cuboids,
-  // occupancy and the map here.
+  // Built once, in pipeline order.
   static const std::vector<StageInfo> registry{
     // clang-format off
     stages::stereoDisparityInfo(),
     stages::featureMatchingInfo(),
+    stages::klOccupancyFilterInfo(),
     stages::visualOdometryInfo(),
     stages::voxelGridInfo(),
     stages::statisticalOutlierRemovalInfo(),
@@ -23,6 +23,7 @@ stageRegistry()
     stages::multiPlaneSegmentationInfo(),
     stages::groundRemovalInfo(),
     stages::planarCuboidApproximationInfo(),
+    stages::mapIntegrationInfo(),
     stages::accumulateInfo(),
     // clang-format on
   };

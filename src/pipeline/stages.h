@@ -25,6 +25,10 @@ StageInfo groundRemovalInfo();
 // surface_stages.cpp
 StageInfo planarCuboidApproximationInfo();
 
+// map_stages.cpp
+StageInfo klOccupancyFilterInfo();
+StageInfo mapIntegrationInfo();
+
 // world_stages.cpp
 StageInfo transformToWorldInfo();
 StageInfo accumulateInfo();

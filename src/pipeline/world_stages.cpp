@@ -81,8 +81,9 @@ public:
         planes.push_back(q);
       }
     }
-    // The frame's cells, relabelled with the run-wide plane ids.
-    for (auto cuboid : frame.cuboids) {
+    // The frame's cells, relabelled with the run-wide plane ids, unless a map merges
+    // them across frames (map_integration).
+    for (auto cuboid : state.map ? PlanarCuboids() : frame.cuboids) {
       const auto k = static_cast<std::size_t>(cuboid.plane_id);
       if (cuboid.plane_id >= 0)
         cuboid.plane_id = k < run_wide_id.size() ? run_wide_id[k] : -1;

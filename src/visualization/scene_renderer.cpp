@@ -36,6 +36,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <unordered_set>
 #include <utility>
 
 namespace planar_grid {
@@ -407,6 +408,16 @@ SceneRenderer::addCuboids(const PlanarCuboids& cuboids,
                           double opacity,
                           const Eigen::Vector3d& non_planar_rgb)
 {
+  addCuboids(cuboids, CuboidColorMode::PLANE, wireframe, opacity, non_planar_rgb);
+}
+
+void
+SceneRenderer::addCuboids(const PlanarCuboids& cuboids,
+                          CuboidColorMode mode,
+                          bool wireframe,
+                          double opacity,
+                          const Eigen::Vector3d& rgb)
+{
   if (!(opacity > 0.0 && opacity <= 1.0))
     throw Exception(
       "[planar_grid::SceneRenderer::addCuboids] opacity must be in (0, 1], "
@@ -424,8 +435,8 @@ SceneRenderer::addCuboids(const PlanarCuboids& cuboids,
   colors->SetNumberOfComponents(3);
   colors->SetNumberOfTuples(6 * n);
   unsigned char* c = colors->WritePointer(0, 18 * n);
-  const std::array<unsigned char, 3> grey{
-    toByte(non_planar_rgb.x()), toByte(non_planar_rgb.y()), toByte(non_planar_rgb.z())};
+  const std::array<unsigned char, 3> fixed{toByte(rgb.x()), toByte(rgb.y()),
+                                           toByte(rgb.z())};
   // Corner order of PlanarCuboid::corners(): face 0-3, back 4-7 (same winding).
   static constexpr vtkIdType FACES[6][4] = {{0, 1, 2, 3}, {4, 7, 6, 5}, {0, 4, 5, 1},
                                             {1, 5, 6, 2}, {2, 6, 7, 3}, {3, 7, 4, 0}};
@@ -436,15 +447,18 @@ SceneRenderer::addCuboids(const PlanarCuboids& cuboids,
       const Eigen::Vector3f& q = corners[static_cast<std::size_t>(j)];
       points->SetPoint(8 * k + j, q.x(), q.y(), q.z());
     }
-    const auto rgb =
-      cuboid.plane_id >= 0 ? labelColor(static_cast<float>(cuboid.plane_id)) : grey;
+    std::array<unsigned char, 3> color = fixed;
+    if (mode == CuboidColorMode::PLANE && cuboid.plane_id >= 0)
+      color = labelColor(static_cast<float>(cuboid.plane_id));
+    else if (mode == CuboidColorMode::OCCUPANCY)
+      color = turbo(static_cast<double>(cuboid.probability));
     for (const auto& face : FACES) {
       const vtkIdType ids[4] = {8 * k + face[0], 8 * k + face[1], 8 * k + face[2],
                                 8 * k + face[3]};
       quads->InsertNextCell(4, ids);
-      c[0] = rgb[0];
-      c[1] = rgb[1];
-      c[2] = rgb[2];
+      c[0] = color[0];
+      c[1] = color[1];
+      c[2] = color[2];
       c += 3;
     }
   }
@@ -460,11 +474,70 @@ SceneRenderer::addCuboids(const PlanarCuboids& cuboids,
   vtkNew<vtkActor> actor;
   actor->SetMapper(mapper);
   actor->GetProperty()->SetOpacity(opacity);
+  if (opacity < 1.0)
+    actor->GetProperty()->BackfaceCullingOn();
   if (wireframe) {
     actor->GetProperty()->SetRepresentationToWireframe();
     actor->GetProperty()->LightingOff();
   }
   impl_->renderer->AddActor(actor);
+}
+
+MapRenderSummary
+SceneRenderer::addMap(const PlanarGridMap& map,
+                      double unknown_opacity,
+                      std::size_t max_voxel_boxes)
+{
+  if (!(unknown_opacity >= 0.0 && unknown_opacity <= 1.0))
+    throw Exception("[planar_grid::SceneRenderer::addMap] unknown_opacity must be in "
+                    "[0, 1], got "
+                    + std::to_string(unknown_opacity));
+  MapRenderSummary summary;
+  const auto& surface = map.getSurfaceLayer();
+  const auto& space = map.getSpaceLayer();
+  addCuboids(surface.getCuboids(), CuboidColorMode::OCCUPANCY);
+  summary.cuboids = surface.getCuboids().size();
+
+  // Occupied voxels that no cuboid covers, as small dark boxes; unknown space gathered
+  // into coarse boxes of 8 voxels (one per 8^3 region holding any unknown voxel).
+  const auto res = static_cast<float>(map.getResolution());
+  const float coarse = 8.0f * res;
+  PlanarCuboids occupied, unknown;
+  std::unordered_set<std::int64_t> unknown_regions;
+  const auto box = [](const Eigen::Vector3f& centre, float edge) {
+    PlanarCuboid c;
+    c.centre = centre;
+    c.normal = Eigen::Vector3f::UnitZ();
+    c.horizontal_axis = Eigen::Vector3f::UnitX();
+    c.width_m = c.height_m = c.thickness_m = edge;
+    return c;
+  };
+  space.forEachVoxel([&](const ExplicitSpaceGrid::VoxelKey& key, SpaceState state) {
+    if (state == SpaceState::OCCUPIED) {
+      if (occupied.size() >= max_voxel_boxes)
+        return;
+      const Eigen::Vector3f centre = space.toCentre(key);
+      if (!surface.findCuboid(centre))
+        occupied.push_back(box(centre, res));
+    } else if (state == SpaceState::UNKNOWN && unknown_opacity > 0.0) {
+      const Eigen::Vector3i region(key.x() >> 3, key.y() >> 3, key.z() >> 3);
+      const std::int64_t id =
+        ((static_cast<std::int64_t>(region.x()) & 0x1FFFFF) << 42)
+        | ((static_cast<std::int64_t>(region.y()) & 0x1FFFFF) << 21)
+        | (static_cast<std::int64_t>(region.z()) & 0x1FFFFF);
+      if (unknown_regions.insert(id).second && unknown.size() < max_voxel_boxes)
+        unknown.push_back(box(
+          (region.cast<float>() + Eigen::Vector3f::Constant(0.5f)) * coarse, coarse));
+    }
+  });
+  summary.occupied_voxel_boxes = occupied.size();
+  summary.unknown_boxes = unknown.size();
+  addCuboids(occupied, CuboidColorMode::SOLID, false, 1.0,
+             Eigen::Vector3d(0.3, 0.3, 0.3));
+  if (!unknown.empty())
+    addCuboids(unknown, CuboidColorMode::SOLID, false, unknown_opacity,
+               Eigen::Vector3d(0.55, 0.35, 0.75));
+  return summary;
 }
 
 void

@@ -346,6 +346,91 @@ TEST_F(PipelineRunnerTest, GroundRemovalOnRealFramesTakesOutALevelRoad)
     EXPECT_LT(c.plane_id, static_cast<int>(report.planes));
 }
 
+TEST_F(PipelineRunnerTest, OccupancyAndMapOnRealFrames)
+{
+  // Frames 10-11 through the whole paper pipeline with the occupancy of the features
+  // and the map: the map file is written, loads back equal, and its figures are in the
+  // report.
+  const std::string stages = R"(pipeline:
+  - type: stereo_disparity
+    params: {num_disparities_px: 128, max_range_m: 30.0}
+  - type: feature_matching
+  - type: kl_occupancy_filter
+  - type: voxel_grid
+    params: {leaf_size_m: 0.1}
+  - type: transform_to_world
+  - type: multi_plane_segmentation
+    params: {min_inliers: 300, sample_distance_threshold_m: 0.15}
+  - type: ground_removal
+  - type: planar_cuboid_approximation
+    params: {min_cell_size_m: 0.1}
+  - type: map_integration
+    params: {resolution_m: 0.1, max_range_m: 25.0}
+  - type: accumulate
+    params: {leaf_size_m: 0.1}
+output:
+  folder: )" + (dir_ / "out").string()
+                             + R"(
+  snapshot: ""
+  planes_snapshot: ""
+  cuboids_snapshot: ""
+  map_snapshot: ""
+)";
+  const auto config = parsePipelineConfig(karlsruheInput() + stages, "t.yaml", "/");
+  planar_grid::PipelineRunner runner(config);
+  auto report = runner.run();
+  ASSERT_EQ(report.stages.size(), 10u);
+
+  // The features: every one has a probability in the clamp range; in the second frame
+  // many are the same tracks again (the car moves ~1.3 m between frames).
+  const auto& kl = report.stages[2];
+  ASSERT_EQ(kl.type, "kl_occupancy_filter");
+  ASSERT_GE(kl.counters.size(), 4u);
+  EXPECT_EQ(kl.counters[0].first, "features");
+  EXPECT_EQ(kl.counters[1].first, "reobserved");
+  EXPECT_GT(kl.counters[0].second, 500.0);
+  EXPECT_GT(kl.counters[1].second, 100.0);
+  EXPECT_EQ(kl.counters[3].first, "mean_probability");
+  const double mean_p = kl.counters[3].second / 2.0;
+  EXPECT_GE(mean_p, 0.1192);
+  EXPECT_LE(mean_p, 0.971);
+
+  // The map: cuboids merged across the two frames (fewer than the frames produced),
+  // free, occupied and unknown voxels, memory.
+  ASSERT_TRUE(runner.state().map);
+  const planar_grid::PlanarGridMap& map = *runner.state().map;
+  const auto& cells = report.stages[8];
+  ASSERT_EQ(cells.type, "planar_cuboid_approximation");
+  const double frame_cuboids = cells.counters[0].second;
+  const std::size_t map_cuboids = map.getSurfaceLayer().getCuboids().size();
+  EXPECT_GT(map_cuboids, 0u);
+  EXPECT_LT(static_cast<double>(map_cuboids), frame_cuboids);
+  const auto& space = map.getSpaceLayer();
+  EXPECT_GT(space.getVoxelCount(planar_grid::SpaceState::FREE), 100000u);
+  EXPECT_GT(space.getVoxelCount(planar_grid::SpaceState::OCCUPIED), 10000u);
+  // The camera's own position is free space (it saw through it).
+  const Eigen::Vector3f camera = runner.trajectory().back().translation().cast<float>();
+  const Eigen::Vector3f ahead =
+    camera + 3.0f * runner.trajectory().back().rotation().col(2).cast<float>();
+  EXPECT_EQ(map.getState(ahead), planar_grid::SpaceState::FREE);
+  // No cuboid piles up in the accumulate stage when a map merges them.
+  EXPECT_TRUE(runner.state().cuboids.empty());
+
+  planar_grid::writeRunOutputs(config.output, runner, report);
+  planar_grid::writeRunReport(config.output, report);
+  const auto loaded =
+    planar_grid::PlanarGridMap::load((dir_ / "out" / "map.pgmap").string());
+  EXPECT_TRUE(loaded == map);
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "out" / "map.bt"));
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "out" / "map_cuboids.ply"));
+  std::ifstream json_file((dir_ / "out" / "report.json").string());
+  const auto json = nlohmann::json::parse(json_file);
+  ASSERT_TRUE(json.contains("map"));
+  EXPECT_EQ(json["map"]["cuboids"].get<double>(), static_cast<double>(map_cuboids));
+  EXPECT_EQ(json["map"]["total_bytes"].get<double>(),
+            static_cast<double>(map.getMemory().total_bytes));
+}
+
 TEST_F(PipelineRunnerTest, VisualOdometryPosesFollowTheInsTrack)
 {
   // Frames 10-12 with poses from the visual odometry: the first camera sits at the

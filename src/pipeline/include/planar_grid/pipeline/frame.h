@@ -12,7 +12,9 @@
 #include <Eigen/Geometry>
 #include <opencv2/core/mat.hpp>
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 namespace planar_grid {
 
@@ -42,6 +44,11 @@ struct Frame {
   /** \brief Matched 3D key feature points in the camera frame (after feature_matching).
    */
   StereoFeatures features;
+  /** \brief Occupancy probability of each feature, in [0, 1] (after
+   * kl_occupancy_filter; empty before). */
+  std::vector<float> feature_probabilities;
+  /** \brief Track id of each feature across frames (after kl_occupancy_filter). */
+  std::vector<std::int64_t> feature_track_ids;
 
   /** \brief Planes of the working cloud, their inliers index `cloud` (after
    * multi_plane_segmentation; ground_removal takes the ground out). */

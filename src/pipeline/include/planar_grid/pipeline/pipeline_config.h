@@ -73,6 +73,16 @@ struct OutputConfig {
   std::string planes_snapshot{"planes.png"};
   /** \brief PNG snapshot of the cuboid cells, coloured by plane ("" = none). */
   std::string cuboids_snapshot{"cuboids.png"};
+  /** \brief The map file (PlanarGridMap::save(); written when map_integration ran;
+   * "" = none). */
+  std::string map{"map.pgmap"};
+  /** \brief The map's space layer as an OctoMap binary tree, .bt ("" = none). */
+  std::string map_octomap{"map.bt"};
+  /** \brief The map's cuboids as a mesh, .ply or .vtk ("" = none). */
+  std::string map_mesh{"map_cuboids.ply"};
+  /** \brief PNG snapshot of the map: cuboids coloured by occupancy, unknown space
+   * translucent ("" = none). */
+  std::string map_snapshot{"map.png"};
   /** \brief Machine-readable report. */
   std::string report{"report.json"};
   /** \brief Camera poses used, KITTI format ("" = none). */

@@ -52,6 +52,9 @@ struct RunReport {
   std::size_t world_cloud_points{0};
   /** \brief Run-wide planes after association across frames (accumulate stage). */
   std::size_t planes{0};
+  /** \brief Figures of the map at the end (map_integration stage): cell counts and
+   * memory in bytes, by name; empty without a map. */
+  std::vector<std::pair<std::string, double>> map_summary;
   /** \brief Output files written, by kind (cloud, trajectory, snapshot, report). */
   std::vector<std::pair<std::string, std::string>> outputs;
 

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/frame.h>
 #include <planar_grid/pipeline/param_table.h>
 
@@ -26,10 +27,12 @@ struct PipelineState {
   std::vector<Eigen::Vector4f, Eigen::aligned_allocator<Eigen::Vector4f>> plane_models;
   /** \brief Dense inliers merged into each run-wide plane so far (its weight). */
   std::vector<std::size_t> plane_inlier_counts;
-  /** \brief The accumulated cells of every frame in the world frame; plane_id is the
-   * run-wide plane id (-1 non-planar). Merging cells across frames into one map is the
-   * map's job (PlanarGridMap); here they are kept as produced. */
+  /** \brief The accumulated cells of every frame in the world frame as produced;
+   * plane_id is the run-wide plane id (-1 non-planar). Only filled when no
+   * map_integration stage keeps a map (which merges cells across frames instead). */
   PlanarCuboids cuboids;
+  /** \brief The map (map_integration stage; null without it). */
+  std::shared_ptr<PlanarGridMap> map;
 };
 
 /** \brief One step of the pipeline, applied to every frame in order. \ingroup pipeline
@@ -42,6 +45,9 @@ public:
    * \throws planar_grid::Exception when the frame cannot be processed (e.g. the stage
    *         receives 0 points, S32); the run stops with a message naming the frame */
   virtual void process(Frame& frame, PipelineState& state) = 0;
+
+  /** \brief Called once before the first frame (e.g. to create shared state). */
+  virtual void start(PipelineState& /*state*/) {}
 
   /** \brief Called once after the last frame. */
   virtual void finish(PipelineState& /*state*/) {}

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <planar_grid/core/planar_cuboid.h>
+#include <planar_grid/map/planar_grid_map.h>
 
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -52,6 +53,26 @@ enum class CameraPreset {
   OBLIQUE
 };
 
+/** \brief How addCuboids() colours the cells. \ingroup visualization */
+enum class CuboidColorMode {
+  /** \brief One colour per plane_id (the LABEL palette); non-planar cells grey. */
+  PLANE,
+  /** \brief By the cell's occupancy probability (Turbo ramp over [0, 1]). */
+  OCCUPANCY,
+  /** \brief One given colour. */
+  SOLID
+};
+
+/** \brief What SceneRenderer::addMap() drew. \ingroup visualization */
+struct MapRenderSummary {
+  /** \brief Cuboids of the surface layer. */
+  std::size_t cuboids{0};
+  /** \brief Occupied voxels not covered by a cuboid. */
+  std::size_t occupied_voxel_boxes{0};
+  /** \brief Coarse boxes of unknown space. */
+  std::size_t unknown_boxes{0};
+};
+
 /** \brief Renders data (clouds, trajectories) with VTK, interactively or offscreen to
  * PNG. It takes data, never algorithms (S34). Only this target links VTK. Debian's
  * VTK 9.1 needs an X server even offscreen: call ensureDisplay() first. Without any
@@ -91,6 +112,32 @@ public:
              bool wireframe = false,
              double opacity = 1.0,
              const Eigen::Vector3d& non_planar_rgb = Eigen::Vector3d(0.6, 0.6, 0.6));
+
+  /** \brief Adds cuboids as oriented boxes, coloured by \a mode: PLANE as the
+   * overload above (non-planar cells \a rgb), OCCUPANCY by probability on the Turbo
+   * ramp (0 dark blue, 0.5 green, 1 red), SOLID all \a rgb. A translucent actor
+   * (opacity < 1) culls back faces. \param[in] cuboids the cells, world frame, metres
+   * \param[in] mode colouring \param[in] wireframe draw the edges only
+   * \param[in] opacity in (0, 1] \param[in] rgb colour, components in [0, 1]
+   * \throws planar_grid::Exception when opacity is outside (0, 1] */
+  void addCuboids(const PlanarCuboids& cuboids,
+                  CuboidColorMode mode,
+                  bool wireframe = false,
+                  double opacity = 1.0,
+                  const Eigen::Vector3d& rgb = Eigen::Vector3d(0.6, 0.6, 0.6));
+
+  /** \brief Adds a PlanarGridMap: the surface layer's cuboids coloured by occupancy
+   * (Turbo ramp), the occupied voxels of the space layer that no cuboid covers as dark
+   * grey boxes, and the unknown space as translucent violet boxes of 8 voxels' edge
+   * (one per 8^3-voxel region holding an unknown voxel). Free space is not drawn.
+   * \param[in] map the map
+   * \param[in] unknown_opacity opacity of the unknown boxes, in [0, 1] (0: not drawn)
+   * \param[in] max_voxel_boxes most occupied-voxel and unknown boxes drawn (each)
+   * \return what was drawn
+   * \throws planar_grid::Exception when unknown_opacity is outside [0, 1] */
+  MapRenderSummary addMap(const PlanarGridMap& map,
+                          double unknown_opacity = 0.15,
+                          std::size_t max_voxel_boxes = 2000000);
 
   /** \brief Adds a polyline through camera positions (world frame, metres).
    * \param[in] positions the positions in order

@@ -1,0 +1,384 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The occupancy of the features (kl_occupancy_filter, paper Sec. III-D/E) and the map
+// (map_integration, Sec. III-F, Fig. 5c).
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/filters/kl_divergence_occupancy_filter.h>
+#include <planar_grid/map/planar_grid_map.h>
+#include <planar_grid/odometry/stereo_odometry.h>
+
+#include <pcl/common/transforms.h>
+
+#include <cmath>
+#include <limits>
+
+#include "stages.h"
+
+namespace planar_grid {
+namespace stages {
+
+namespace {
+
+class KLOccupancyFilterStage : public Stage {
+public:
+  KLOccupancyFilterStage(
+    const KLDivergenceOccupancyFilter<pcl::PointXYZ>::Params& params,
+    const StereoOdometry::Params& matching,
+    const ConstantVelocityMotionModel::Params& motion,
+    bool use_motion_likelihood) :
+      matcher_(matching),
+      motion_model_(motion), use_motion_likelihood_(use_motion_likelihood)
+  {
+    filter_.setParams(params);
+  }
+
+  void process(Frame& frame, PipelineState& /*state*/) override
+  {
+    if (frame.left.empty())
+      throw Exception("stage 'kl_occupancy_filter' needs stereo input");
+    frame.feature_probabilities.clear();
+    frame.feature_track_ids.clear();
+    kept_ = 0;
+    reobserved_ = 0;
+    motion_likelihood_ = 1.0;
+    const std::size_t n = frame.features.size();
+    if (n == 0) {
+      // Nothing matched in this frame (e.g. a blank image): the tracks wait.
+      previous_ = StereoFeatures();
+      previous_ids_.clear();
+      return;
+    }
+    // Track ids: a feature whose descriptor matches one of the previous frame's (ratio
+    // test + mutual check, as the odometry) continues that feature's track.
+    std::vector<std::int64_t> ids(n, -1);
+    if (previous_.size() > 0) {
+      matches_.clear();
+      matcher_.matchDescriptors(previous_, frame.features, matches_);
+      for (const auto& m : matches_) {
+        ids[static_cast<std::size_t>(m.trainIdx)] =
+          previous_ids_[static_cast<std::size_t>(m.queryIdx)];
+        ++reobserved_;
+      }
+    }
+    for (auto& id : ids)
+      if (id < 0)
+        id = next_track_id_++;
+
+    // m of eq. 9: the likelihood of this frame's motion under the motion model, when
+    // the poses are estimated; 1 when they are given (GPS/INS, files).
+    if (use_motion_likelihood_ && frame.has_pose && has_previous_pose_) {
+      const Eigen::Isometry3d motion = previous_pose_.inverse() * frame.world_T_camera;
+      motion_likelihood_ = motion_model_.motionLikelihood(motion);
+      motion_model_.addMotion(motion);
+    }
+    has_previous_pose_ = frame.has_pose;
+    previous_pose_ = frame.world_T_camera;
+
+    pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(
+      new pcl::PointCloud<pcl::PointXYZ>(frame.features.points));
+    filter_.setStereoParameters(frame.calibration.focal_length_px,
+                                frame.calibration.baseline_m);
+    filter_.setInputCloud(cloud);
+    filter_.setTrackIds(ids);
+    filter_.setMotionLikelihood(motion_likelihood_);
+    pcl::Indices kept;
+    filter_.filter(kept);
+    kept_ = kept.size();
+    frame.feature_probabilities = filter_.getProbabilities();
+    frame.feature_track_ids = ids;
+    probability_sum_ = 0.0;
+    for (const float p : frame.feature_probabilities)
+      probability_sum_ += p;
+    previous_ = frame.features;
+    previous_ids_ = std::move(ids);
+  }
+
+  bool countsCloudPoints() const override { return false; }
+
+  void counters(const Frame& frame,
+                std::vector<std::pair<std::string, double>>& values) const override
+  {
+    const double n = static_cast<double>(frame.features.size());
+    values.emplace_back("features", n);
+    values.emplace_back("reobserved", static_cast<double>(reobserved_));
+    values.emplace_back("occupied", static_cast<double>(kept_));
+    values.emplace_back("mean_probability", n > 0 ? probability_sum_ / n : 0.0);
+    values.emplace_back("motion_likelihood", motion_likelihood_);
+  }
+
+private:
+  KLDivergenceOccupancyFilter<pcl::PointXYZ> filter_;
+  StereoOdometry matcher_;
+  ConstantVelocityMotionModel motion_model_;
+  bool use_motion_likelihood_;
+  StereoFeatures previous_;
+  std::vector<std::int64_t> previous_ids_;
+  std::vector<cv::DMatch> matches_;
+  std::int64_t next_track_id_{0};
+  Eigen::Isometry3d previous_pose_{Eigen::Isometry3d::Identity()};
+  bool has_previous_pose_{false};
+  std::size_t kept_{0};
+  std::size_t reobserved_{0};
+  double probability_sum_{0.0};
+  double motion_likelihood_{1.0};
+};
+
+class MapIntegrationStage : public Stage {
+public:
+  MapIntegrationStage(const PlanarGridMap::Params& params,
+                      int depth_width_px,
+                      int depth_height_px,
+                      double depth_focal_length_px) :
+      params_(params),
+      depth_width_px_(depth_width_px), depth_height_px_(depth_height_px),
+      depth_focal_length_px_(static_cast<float>(depth_focal_length_px))
+  {
+    PlanarGridMap check(params_); // rejects bad parameters when the run is built
+  }
+
+  void start(PipelineState& state) override
+  {
+    state.map = std::make_shared<PlanarGridMap>(params_);
+  }
+
+  void process(Frame& frame, PipelineState& state) override
+  {
+    if (!frame.has_pose)
+      throw Exception("stage 'map_integration': frame " + frame.name + " has no pose");
+    if (!frame.cloud_in_world_frame)
+      throw Exception("stage 'map_integration' needs world-frame cells: put "
+                      "'transform_to_world' (and the segmentation and cuboid stages) "
+                      "before it");
+    PlanarGridMap& map = *state.map;
+
+    // The surface layer: the frame's cells, planes and feature occupancies.
+    planes_.clear();
+    for (const auto& plane : frame.planes)
+      planes_.emplace_back(plane.model_coefficients.values.size() == 4
+                             ? Eigen::Vector4f(plane.model_coefficients.values.data())
+                             : Eigen::Vector4f::Zero());
+    features_world_.clear();
+    probabilities_.clear();
+    if (!frame.feature_probabilities.empty()
+        && frame.feature_probabilities.size() == frame.features.size()) {
+      pcl::transformPointCloud(frame.features.points, features_world_,
+                               frame.world_T_camera.cast<float>().matrix());
+      probabilities_ = frame.feature_probabilities;
+    }
+    map.integrateSurface(frame.cuboids, planes_, features_world_, probabilities_);
+
+    // The explicit space layer: the depth image of the view.
+    if (!frame.disparity.empty())
+      depthFromDisparity(frame);
+    else
+      depthFromCloud(frame);
+    map.integrateDepthImage(depth_, frame.world_T_camera);
+    cuboids_ = map.getSurfaceLayer().getCuboids().size();
+    total_bytes_ = map.getMemory().total_bytes;
+  }
+
+  bool countsCloudPoints() const override { return false; }
+
+  void counters(const Frame& /*frame*/,
+                std::vector<std::pair<std::string, double>>& values) const override
+  {
+    values.emplace_back("depth_pixels", static_cast<double>(depth_pixels_));
+    values.emplace_back("map_cuboids", static_cast<double>(cuboids_));
+    values.emplace_back("map_kB", static_cast<double>(total_bytes_) / 1024.0);
+  }
+
+private:
+  /** Depth f B / d of every valid disparity (stereo input). */
+  void depthFromDisparity(const Frame& frame)
+  {
+    const auto& calib = frame.calibration;
+    const cv::Mat& disparity = frame.disparity;
+    depth_.width = disparity.cols;
+    depth_.height = disparity.rows;
+    depth_.fx = depth_.fy = static_cast<float>(calib.focal_length_px);
+    depth_.cx = static_cast<float>(calib.cx_px);
+    depth_.cy = static_cast<float>(calib.cy_px);
+    depth_.depth_m.assign(static_cast<std::size_t>(disparity.rows)
+                            * static_cast<std::size_t>(disparity.cols),
+                          std::numeric_limits<float>::quiet_NaN());
+    const auto fb = static_cast<float>(calib.focal_length_px * calib.baseline_m);
+    depth_pixels_ = 0;
+    for (int v = 0; v < disparity.rows; ++v) {
+      const float* row = disparity.ptr<float>(v);
+      float* out =
+        depth_.depth_m.data()
+        + static_cast<std::size_t>(v) * static_cast<std::size_t>(disparity.cols);
+      for (int u = 0; u < disparity.cols; ++u)
+        if (row[u] > 0.0f && std::isfinite(row[u])) {
+          out[u] = fb / row[u];
+          ++depth_pixels_;
+        }
+    }
+  }
+
+  /** PCD input: the world cloud back in the sensor frame, rendered by a virtual
+   * pinhole camera. */
+  void depthFromCloud(const Frame& frame)
+  {
+    camera_cloud_.clear();
+    const Eigen::Matrix4f camera_T_world =
+      frame.world_T_camera.inverse().cast<float>().matrix();
+    camera_cloud_.reserve(frame.cloud->size());
+    for (const auto& p : frame.cloud->points) {
+      pcl::PointXYZ q;
+      q.getVector4fMap() = camera_T_world * Eigen::Vector4f(p.x, p.y, p.z, 1.0f);
+      camera_cloud_.push_back(q);
+    }
+    depth_ = DepthImage::fromPointCloud(
+      camera_cloud_, depth_width_px_, depth_height_px_, depth_focal_length_px_,
+      depth_focal_length_px_, 0.5f * static_cast<float>(depth_width_px_),
+      0.5f * static_cast<float>(depth_height_px_));
+    depth_pixels_ = 0;
+    for (const float d : depth_.depth_m)
+      depth_pixels_ += (d > 0.0f && std::isfinite(d));
+  }
+
+  PlanarGridMap::Params params_;
+  int depth_width_px_;
+  int depth_height_px_;
+  float depth_focal_length_px_;
+  PlaneModels planes_;
+  pcl::PointCloud<pcl::PointXYZ> features_world_;
+  pcl::PointCloud<pcl::PointXYZ> camera_cloud_;
+  std::vector<float> probabilities_;
+  DepthImage depth_;
+  std::size_t depth_pixels_{0};
+  std::size_t cuboids_{0};
+  std::size_t total_bytes_{0};
+};
+
+} // namespace
+
+StageInfo
+klOccupancyFilterInfo()
+{
+  StageInfo info;
+  info.type = "kl_occupancy_filter";
+  info.description =
+    "planar_grid::KLDivergenceOccupancyFilter (paper Sec. III-D/E): each matched 3D "
+    "key "
+    "feature gets the sampled-Gaussian occupancy of eq. 4 over its stereo range error; "
+    "features matched again in later frames (descriptor matching, ratio test and "
+    "mutual "
+    "check, one track per feature) are updated with the Kullback-Leibler rule "
+    "(eqs. 5-10) or OctoMap's log-odds rule. Needs feature_matching before it.";
+  info.needs_stereo = true;
+  const KLDivergenceOccupancyFilter<pcl::PointXYZ>::Params d;
+  const ConstantVelocityMotionModel::Params md;
+  info.params = {
+    ParamSpec::choice("update_rule", "kl_divergence", {"kl_divergence", "log_odds"},
+                      "Update of a re-observed feature: eqs. 5-10 or OctoMap's "
+                      "log-odds."),
+    ParamSpec::real("disparity_error_px", d.disparity_error_px, 0.01, 10.0, "px",
+                    "dd of eq. 4."),
+    ParamSpec::real("neighbourhood_size_m", d.neighbourhood_size_m, 0.01, 100.0, "m",
+                    "Cell over which r_bar of eq. 4 is averaged."),
+    ParamSpec::real("clamping_thres_min", d.clamping_thres_min, 0.001, 0.499,
+                    "probability", "Lower clamp of the probability."),
+    ParamSpec::real("clamping_thres_max", d.clamping_thres_max, 0.501, 0.999,
+                    "probability", "Upper clamp of the probability."),
+    ParamSpec::real("occupancy_thres", d.occupancy_thres, 0.0, 1.0, "probability",
+                    "A feature is occupied when its probability reaches it."),
+    ParamSpec::real("kl_offset_nats", d.kl_offset_nats, 0.0, 10.0, "nats",
+                    "A of eq. 10."),
+    ParamSpec::real("prob_hit", d.prob_hit, 0.501, 0.999, "probability",
+                    "Log-odds rule: a hit (q >= 0.5)."),
+    ParamSpec::real("prob_miss", d.prob_miss, 0.001, 0.499, "probability",
+                    "Log-odds rule: a miss (q < 0.5)."),
+    ParamSpec::real("match_ratio", 0.8, 0.1, 1.0, "",
+                    "Lowe's ratio of the frame-to-frame descriptor matching."),
+    ParamSpec::flag("use_motion_likelihood", false,
+                    "m of eq. 9 from the poses' motion against a constant-velocity "
+                    "model (for estimated poses); false: m = 1 (given poses)."),
+    ParamSpec::real("sigma_translation_m", md.sigma_translation_m, 1e-6, 100.0, "m",
+                    "Q_k of eq. 9: standard deviation of each translation component."),
+    ParamSpec::real("sigma_rotation_rad", md.sigma_rotation_rad, 1e-6, 10.0, "rad",
+                    "Q_k of eq. 9: standard deviation of each rotation component."),
+  };
+  info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
+    KLDivergenceOccupancyFilter<pcl::PointXYZ>::Params p;
+    p.update_rule = occupancyUpdateRuleFromString(v.getChoice("update_rule"));
+    p.disparity_error_px = v.getDouble("disparity_error_px");
+    p.neighbourhood_size_m = v.getDouble("neighbourhood_size_m");
+    p.clamping_thres_min = v.getDouble("clamping_thres_min");
+    p.clamping_thres_max = v.getDouble("clamping_thres_max");
+    p.occupancy_thres = v.getDouble("occupancy_thres");
+    p.kl_offset_nats = v.getDouble("kl_offset_nats");
+    p.prob_hit = v.getDouble("prob_hit");
+    p.prob_miss = v.getDouble("prob_miss");
+    StereoOdometry::Params matching;
+    matching.ratio = v.getDouble("match_ratio");
+    ConstantVelocityMotionModel::Params motion;
+    motion.sigma_translation_m = v.getDouble("sigma_translation_m");
+    motion.sigma_rotation_rad = v.getDouble("sigma_rotation_rad");
+    return std::make_unique<KLOccupancyFilterStage>(p, matching, motion,
+                                                    v.getBool("use_motion_likelihood"));
+  };
+  return info;
+}
+
+StageInfo
+mapIntegrationInfo()
+{
+  StageInfo info;
+  info.type = "map_integration";
+  info.description =
+    "planar_grid::PlanarGridMap (paper Sec. III-F, Fig. 5c): merges each frame's "
+    "world-frame cuboids into the map's planes (the occupancy of a cell is the mean "
+    "probability of the features in it), and marks the voxels of the camera frustum "
+    "free, occupied or unknown (occluded) from the depth image. Needs "
+    "transform_to_world before it; the output section writes the map file.";
+  info.needs_poses = true;
+  const PlanarGridMap::Params d;
+  info.params = {
+    ParamSpec::real("resolution_m", d.space.resolution_m, 0.01, 10.0, "m",
+                    "Minimum cell size of both layers (the paper's 0.1 m)."),
+    ParamSpec::real("max_range_m", d.space.max_range_m, 0.1, 1000.0, "m",
+                    "Depth up to which a view marks space."),
+    ParamSpec::real("surface_margin_m", d.space.surface_margin_m, 0.0, 10.0, "m",
+                    "Half-thickness of the measured surface; 0: half a voxel "
+                    "diagonal."),
+    ParamSpec::choice("prior", toString(d.space.prior), {"unknown", "free"},
+                      "State of space never inside a view (the paper: free)."),
+    ParamSpec::real("thickness_m", d.surface.thickness_m, 0.001, 10.0, "m",
+                    "Extrusion of the map's planar cuboids behind their face."),
+    ParamSpec::real("plane_merge_angle_rad", d.surface.plane_merge_angle_rad, 0.001,
+                    1.5, "rad", "Largest normal angle between one plane's views."),
+    ParamSpec::real("plane_merge_distance_m", d.surface.plane_merge_distance_m, 0.001,
+                    10.0, "m", "Largest offset difference between one plane's views."),
+    ParamSpec::real("occupancy_thres", d.surface.occupancy_thres, 0.01, 0.99,
+                    "probability", "Cells at or above it are occupied."),
+    ParamSpec::real("feature_distance_m", d.surface.feature_distance_m, 0.0, 10.0, "m",
+                    "A feature counts for a plane cell within this distance."),
+    ParamSpec::integer("depth_width_px", 640, 1, 100000, "px",
+                       "PCD input: width of the virtual depth camera."),
+    ParamSpec::integer("depth_height_px", 480, 1, 100000, "px",
+                       "PCD input: height of the virtual depth camera."),
+    ParamSpec::real("depth_focal_length_px", 525.0, 1.0, 100000.0, "px",
+                    "PCD input: focal length of the virtual depth camera."),
+  };
+  info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
+    PlanarGridMap::Params p;
+    p.space.resolution_m = v.getDouble("resolution_m");
+    p.surface.resolution_m = p.space.resolution_m;
+    p.space.max_range_m = v.getDouble("max_range_m");
+    p.space.surface_margin_m = v.getDouble("surface_margin_m");
+    p.space.prior = spaceStateFromString(v.getChoice("prior"));
+    p.surface.thickness_m = v.getDouble("thickness_m");
+    p.surface.plane_merge_angle_rad = v.getDouble("plane_merge_angle_rad");
+    p.surface.plane_merge_distance_m = v.getDouble("plane_merge_distance_m");
+    p.surface.occupancy_thres = v.getDouble("occupancy_thres");
+    p.surface.feature_distance_m = v.getDouble("feature_distance_m");
+    return std::make_unique<MapIntegrationStage>(p, v.getInt("depth_width_px"),
+                                                 v.getInt("depth_height_px"),
+                                                 v.getDouble("depth_focal_length_px"));
+  };
+  return info;
+}
+
+} // namespace stages
+} // namespace planar_grid
