@@ -167,8 +167,10 @@ public:
     double association_radius_m{0.2};
   };
 
-  /** \brief Empty filter with the default Params; stereo parameters must be set. */
-  KLDivergenceOccupancyFilter();
+  /** \brief Empty filter with the default Params; stereo parameters must be set.
+   * \param[in] extract_removed_indices whether filter() also records the removed
+   * indices (getRemovedIndices()), as PCL's filters take it */
+  explicit KLDivergenceOccupancyFilter(bool extract_removed_indices = false);
   ~KLDivergenceOccupancyFilter() override = default;
 
   /** \brief Sets the parameters; they are validated when filter() starts (S23). They

@@ -55,7 +55,9 @@ mixKey(std::uint64_t key)
 } // namespace detail
 
 template <typename PointT>
-KLDivergenceOccupancyFilter<PointT>::KLDivergenceOccupancyFilter()
+KLDivergenceOccupancyFilter<PointT>::KLDivergenceOccupancyFilter(
+  bool extract_removed_indices) :
+    pcl::FilterIndices<PointT>(extract_removed_indices)
 {
   filter_name_ = "KLDivergenceOccupancyFilter";
 }
