@@ -1,1 +1,1336 @@
 // SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/atomic_file.h>
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/map/explicit_space_grid.h>
+
+#include <pcl/console/print.h>
+
+#include <octomap/OcTree.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <sstream>
+#include <utility>
+
+namespace planar_grid {
+
+namespace {
+
+/** \brief Edge of a block, voxels. */
+constexpr int BLOCK_EDGE = 8;
+/** \brief log2(BLOCK_EDGE). */
+constexpr int BLOCK_SHIFT = 3;
+/** \brief Voxels per block. */
+constexpr int BLOCK_VOXELS = 512;
+/** \brief Code of a block whose voxels are not all in one state. */
+constexpr std::uint8_t MIXED = 3;
+/** \brief Label of an inner octree node in the bit stream. */
+constexpr std::uint8_t INNER_LABEL = 3;
+/** \brief Bytes of the bit stream header: root key (3 x int32), depth (uint8), prior
+ * (uint8), label count (uint64), little-endian. */
+constexpr std::size_t HEADER_BYTES = 22;
+/** \brief Deepest octree the bit stream may describe (root edge 2^21 voxels). */
+constexpr int MAX_DEPTH = 21;
+/** \brief Most blocks a decoded stream may create (2^22 blocks = 2^31 voxels); larger
+ * non-prior leaves are rejected as corrupt before anything is allocated. */
+constexpr std::uint64_t MAX_DECODED_BLOCKS = std::uint64_t{1} << 22;
+/** \brief Largest |voxel key| handled, so that block arithmetic never overflows. */
+constexpr double MAX_KEY = 1073741824.0; // 2^30
+/** \brief Nearest camera depth considered, meters (avoids the projection pole). */
+constexpr float NEAR_Z = 1e-3f;
+
+/** \brief A 64-bit word holding 32 copies of the 2-bit code \a s. */
+constexpr std::uint64_t
+pattern(std::uint8_t s)
+{
+  return static_cast<std::uint64_t>(s) * 0x5555555555555555ULL;
+}
+
+/** \brief Block coordinates: floor(voxel key / 8). */
+struct BlockKey {
+  int x, y, z;
+  bool operator==(const BlockKey& o) const { return x == o.x && y == o.y && z == o.z; }
+  bool operator<(const BlockKey& o) const
+  {
+    if (z != o.z)
+      return z < o.z;
+    if (y != o.y)
+      return y < o.y;
+    return x < o.x;
+  }
+};
+
+struct BlockKeyHash {
+  std::size_t operator()(const BlockKey& k) const noexcept
+  {
+    const auto h = static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.x))
+                     * 0x9E3779B97F4A7C15ULL
+                   ^ static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.y))
+                       * 0xC2B2AE3D27D4EB4FULL
+                   ^ static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.z))
+                       * 0x165667B19E3779F9ULL;
+    return static_cast<std::size_t>(h ^ (h >> 29));
+  }
+};
+
+/** \brief 512 voxels x 2 bits; voxel i = x + 8 y + 64 z sits at bits 2 (i % 32) of
+ * word i / 32. */
+using Payload = std::array<std::uint64_t, 16>;
+
+/** \brief One block: a uniform state, or MIXED with a payload. */
+struct Block {
+  std::uint8_t uniform{MIXED};
+  std::unique_ptr<Payload> bits;
+
+  std::uint8_t get(int i) const
+  {
+    if (uniform != MIXED)
+      return uniform;
+    return static_cast<std::uint8_t>(
+      ((*bits)[static_cast<std::size_t>(i >> 5)] >> ((i & 31) * 2)) & 3u);
+  }
+  /** \brief Requires a MIXED block. */
+  void set(int i, std::uint8_t s)
+  {
+    auto& w = (*bits)[static_cast<std::size_t>(i >> 5)];
+    const int shift = (i & 31) * 2;
+    w = (w & ~(std::uint64_t{3} << shift)) | (static_cast<std::uint64_t>(s) << shift);
+  }
+  void makeMixed()
+  {
+    if (uniform == MIXED)
+      return;
+    if (!bits)
+      bits = std::make_unique<Payload>();
+    bits->fill(pattern(uniform));
+    uniform = MIXED;
+  }
+  void makeUniform(std::uint8_t s)
+  {
+    uniform = s;
+    bits.reset();
+  }
+  /** \brief Turns a MIXED block whose voxels agree into a uniform one. */
+  void compact()
+  {
+    if (uniform != MIXED)
+      return;
+    const std::uint64_t w0 = (*bits)[0];
+    const auto s = static_cast<std::uint8_t>(w0 & 3u);
+    if (w0 != pattern(s))
+      return;
+    for (const auto w : *bits)
+      if (w != w0)
+        return;
+    makeUniform(s);
+  }
+  bool operator==(const Block& o) const
+  {
+    if (uniform != o.uniform)
+      return false;
+    return uniform != MIXED || *bits == *o.bits;
+  }
+};
+
+using BlockMap = std::unordered_map<BlockKey, Block, BlockKeyHash>;
+
+/** \brief Voxels of each code in a MIXED block. */
+std::array<std::size_t, 4>
+countCodes(const Payload& p)
+{
+  std::array<std::size_t, 4> n{};
+  constexpr std::uint64_t LOW = 0x5555555555555555ULL;
+  for (const auto w : p) {
+    const std::uint64_t lo = w & LOW, hi = (w >> 1) & LOW;
+    n[0] += static_cast<std::size_t>(__builtin_popcountll(~(lo | hi) & LOW));
+    n[1] += static_cast<std::size_t>(__builtin_popcountll(lo & ~hi));
+    n[2] += static_cast<std::size_t>(__builtin_popcountll(hi & ~lo));
+    n[3] += static_cast<std::size_t>(__builtin_popcountll(lo & hi));
+  }
+  return n;
+}
+
+/** \brief floor(a / 8) for negative a too. */
+inline int
+blockOf(int a)
+{
+  return a >> BLOCK_SHIFT; // arithmetic shift: floor for negative keys (C++20, GCC)
+}
+
+inline int
+localOf(int a)
+{
+  return a & (BLOCK_EDGE - 1);
+}
+
+void
+putU32(std::vector<std::uint8_t>& b, std::uint32_t v)
+{
+  for (int i = 0; i < 4; ++i)
+    b.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+}
+
+std::uint64_t
+getLE(const std::uint8_t* p, int n)
+{
+  std::uint64_t v = 0;
+  for (int i = 0; i < n; ++i)
+    v |= static_cast<std::uint64_t>(p[i]) << (8 * i);
+  return v;
+}
+
+/** \brief Depth pyramids of a depth image, over the measured (valid) pixels only:
+ * min_level (+inf where a cell has no measurement), max_level (0 there), and, per
+ * level j, hole[j][k]: the max over 2^k x 2^k cells of min_level[j], finite only when
+ * every level-j cell of the region holds a measurement. */
+struct DepthPyramid {
+  std::vector<std::vector<float>> min_level, max_level;
+  std::vector<std::vector<std::vector<float>>> hole;
+  std::vector<int> w, h;
+
+  static void reduce(const std::vector<float>& src,
+                     int sw,
+                     int sh,
+                     bool take_max,
+                     std::vector<float>& dst)
+  {
+    const int nw = (sw + 1) / 2, nh = (sh + 1) / 2;
+    dst.resize(static_cast<std::size_t>(nw) * static_cast<std::size_t>(nh));
+    for (int v = 0; v < nh; ++v) {
+      const auto r0 = static_cast<std::size_t>(2 * v) * static_cast<std::size_t>(sw);
+      const auto r1 = static_cast<std::size_t>(std::min(2 * v + 1, sh - 1))
+                      * static_cast<std::size_t>(sw);
+      for (int u = 0; u < nw; ++u) {
+        const auto c0 = static_cast<std::size_t>(2 * u);
+        const auto c1 = static_cast<std::size_t>(std::min(2 * u + 1, sw - 1));
+        const float a = src[r0 + c0], b = src[r0 + c1], c = src[r1 + c0],
+                    d = src[r1 + c1];
+        dst[static_cast<std::size_t>(v) * static_cast<std::size_t>(nw)
+            + static_cast<std::size_t>(u)] =
+          take_max ? std::max(std::max(a, b), std::max(c, d))
+                   : std::min(std::min(a, b), std::min(c, d));
+      }
+    }
+  }
+
+  void build(const DepthImage& image, float& max_valid_depth)
+  {
+    const float inf = std::numeric_limits<float>::infinity();
+    min_level.resize(1);
+    max_level.resize(1);
+    w.assign(1, image.width);
+    h.assign(1, image.height);
+    auto& m0 = min_level[0];
+    auto& x0 = max_level[0];
+    m0.resize(image.depth_m.size());
+    x0.resize(image.depth_m.size());
+    max_valid_depth = 0.0f;
+    for (std::size_t i = 0; i < m0.size(); ++i) {
+      const float d = image.depth_m[i];
+      const bool valid = std::isfinite(d) && d > 0.0f;
+      m0[i] = valid ? d : inf;
+      x0[i] = valid ? d : 0.0f;
+      if (valid)
+        max_valid_depth = std::max(max_valid_depth, d);
+    }
+    while (w.back() > 1 || h.back() > 1) {
+      std::vector<float> nmin, nmax;
+      reduce(min_level.back(), w.back(), h.back(), false, nmin);
+      reduce(max_level.back(), w.back(), h.back(), true, nmax);
+      min_level.push_back(std::move(nmin));
+      max_level.push_back(std::move(nmax));
+      w.push_back((w.back() + 1) / 2);
+      h.push_back((h.back() + 1) / 2);
+    }
+    hole.resize(w.size());
+    for (std::size_t j = 0; j < w.size(); ++j) {
+      auto& hj = hole[j];
+      hj.resize(w.size() - j);
+      hj[0] = min_level[j];
+      for (std::size_t k = 1; k < hj.size(); ++k)
+        reduce(hj[k - 1], w[j + k - 1], h[j + k - 1], true, hj[k]);
+    }
+  }
+
+  int levels() const { return static_cast<int>(w.size()); }
+
+  /** \brief Smallest level whose cells are at least \a size pixels wide. */
+  int levelFor(int size) const
+  {
+    int l = 0;
+    while ((1 << l) < size && l + 1 < levels())
+      ++l;
+    return l;
+  }
+
+  /** \brief Min and max of the valid depths over the level-l cells covering the
+   * clamped rectangle [u0, u1] x [v0, v1]. */
+  void query(int l, int u0, int v0, int u1, int v1, float& mn, float& mx) const
+  {
+    const auto& lmin = min_level[static_cast<std::size_t>(l)];
+    const auto& lmax = max_level[static_cast<std::size_t>(l)];
+    const auto lw = static_cast<std::size_t>(w[static_cast<std::size_t>(l)]);
+    mn = std::numeric_limits<float>::infinity();
+    mx = 0.0f;
+    for (int cv = v0 >> l; cv <= (v1 >> l); ++cv) {
+      const std::size_t row = static_cast<std::size_t>(cv) * lw;
+      for (int cu = u0 >> l; cu <= (u1 >> l); ++cu) {
+        mn = std::min(mn, lmin[row + static_cast<std::size_t>(cu)]);
+        mx = std::max(mx, lmax[row + static_cast<std::size_t>(cu)]);
+      }
+    }
+  }
+
+  /** \brief Clamps a pixel rectangle into the image; false when it misses it. */
+  bool clampRect(int& u0, int& v0, int& u1, int& v1) const
+  {
+    u0 = std::max(u0, 0);
+    v0 = std::max(v0, 0);
+    u1 = std::min(u1, w[0] - 1);
+    v1 = std::min(v1, h[0] - 1);
+    return u0 <= u1 && v0 <= v1;
+  }
+
+  /** \brief Min and max valid depth over (a superset of) a clamped rectangle. */
+  void queryRect(int u0, int v0, int u1, int v1, float& mn, float& mx) const
+  {
+    // cells of a quarter of the size: at most 5 x 5 of them, a tight superset
+    query(levelFor((std::max(u1 - u0 + 1, v1 - v0 + 1) + 3) / 4), u0, v0, u1, v1, mn,
+          mx);
+  }
+
+  /** \brief True when every level-j cell meeting the clamped rectangle holds a
+   * measurement. */
+  bool noHoles(int j, int u0, int v0, int u1, int v1) const
+  {
+    j = std::min(j, levels() - 1);
+    const int l = std::max(levelFor((std::max(u1 - u0 + 1, v1 - v0 + 1) + 3) / 4), j);
+    const auto& hk = hole[static_cast<std::size_t>(j)][static_cast<std::size_t>(l - j)];
+    const auto lw = static_cast<std::size_t>(w[static_cast<std::size_t>(l)]);
+    for (int cv = v0 >> l; cv <= (v1 >> l); ++cv)
+      for (int cu = u0 >> l; cu <= (u1 >> l); ++cu)
+        if (!std::isfinite(
+              hk[static_cast<std::size_t>(cv) * lw + static_cast<std::size_t>(cu)]))
+          return false;
+    return true;
+  }
+};
+
+/** \brief Observation of one voxel in one view. */
+enum Observation : std::uint8_t { OBS_FREE = 0, OBS_OCCLUDED = 2, OBS_NONE = 3 };
+
+} // namespace
+
+struct ExplicitSpaceGrid::Impl {
+  BlockMap blocks;
+  DepthPyramid pyramid;
+  std::array<std::uint8_t, BLOCK_VOXELS> observation{};
+};
+
+// ---------------------------------------------------------------------------------
+
+std::string
+toString(SpaceState state)
+{
+  switch (state) {
+    case SpaceState::FREE:
+      return "free";
+    case SpaceState::OCCUPIED:
+      return "occupied";
+    case SpaceState::UNKNOWN:
+      return "unknown";
+  }
+  return "invalid";
+}
+
+SpaceState
+spaceStateFromString(const std::string& name)
+{
+  if (name == "free")
+    return SpaceState::FREE;
+  if (name == "occupied")
+    return SpaceState::OCCUPIED;
+  if (name == "unknown")
+    return SpaceState::UNKNOWN;
+  throw Exception("Unknown space state '" + name
+                  + "' (expected free, occupied or unknown)");
+}
+
+DepthImage
+DepthImage::fromPointCloud(const pcl::PointCloud<pcl::PointXYZ>& cloud,
+                           int width,
+                           int height,
+                           float fx,
+                           float fy,
+                           float cx,
+                           float cy)
+{
+  if (width <= 0 || height <= 0)
+    throw Exception("DepthImage::fromPointCloud: image size must be positive, got "
+                    + std::to_string(width) + " x " + std::to_string(height));
+  if (!(fx > 0.0f) || !(fy > 0.0f) || !std::isfinite(fx) || !std::isfinite(fy)
+      || !std::isfinite(cx) || !std::isfinite(cy))
+    throw Exception("DepthImage::fromPointCloud: focal lengths must be finite and "
+                    "positive, principal point finite");
+  DepthImage image;
+  image.width = width;
+  image.height = height;
+  image.fx = fx;
+  image.fy = fy;
+  image.cx = cx;
+  image.cy = cy;
+  image.depth_m.assign(static_cast<std::size_t>(width)
+                         * static_cast<std::size_t>(height),
+                       std::numeric_limits<float>::quiet_NaN());
+  for (const auto& p : cloud.points) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)
+        || !(p.z > 0.0f))
+      continue;
+    const float u = std::floor(fx * p.x / p.z + cx + 0.5f);
+    const float v = std::floor(fy * p.y / p.z + cy + 0.5f);
+    if (!(u >= 0.0f && u < static_cast<float>(width) && v >= 0.0f
+          && v < static_cast<float>(height)))
+      continue;
+    float& d =
+      image.depth_m[static_cast<std::size_t>(v) * static_cast<std::size_t>(width)
+                    + static_cast<std::size_t>(u)];
+    if (!(d <= p.z)) // NaN (empty) or farther
+      d = p.z;
+  }
+  return image;
+}
+
+// ---------------------------------------------------------------------------------
+
+ExplicitSpaceGrid::ExplicitSpaceGrid(const Params& params) :
+    impl_(std::make_unique<Impl>()), params_(params)
+{
+  if (!(params.resolution_m > 0.0) || !std::isfinite(params.resolution_m))
+    throw Exception("ExplicitSpaceGrid: resolution_m must be finite and > 0, got "
+                    + std::to_string(params.resolution_m));
+  if (!(params.max_range_m > 0.0) || !std::isfinite(params.max_range_m))
+    throw Exception("ExplicitSpaceGrid: max_range_m must be finite and > 0, got "
+                    + std::to_string(params.max_range_m));
+  if (!(params.surface_margin_m >= 0.0) || !std::isfinite(params.surface_margin_m))
+    throw Exception("ExplicitSpaceGrid: surface_margin_m must be finite and >= 0, got "
+                    + std::to_string(params.surface_margin_m));
+  if (params.prior != SpaceState::FREE && params.prior != SpaceState::UNKNOWN)
+    throw Exception("ExplicitSpaceGrid: prior must be free or unknown, got "
+                    + toString(params.prior));
+}
+
+ExplicitSpaceGrid::~ExplicitSpaceGrid() = default;
+ExplicitSpaceGrid::ExplicitSpaceGrid(ExplicitSpaceGrid&&) noexcept = default;
+ExplicitSpaceGrid& ExplicitSpaceGrid::operator=(ExplicitSpaceGrid&&) noexcept = default;
+
+ExplicitSpaceGrid::VoxelKey
+ExplicitSpaceGrid::toKey(const Eigen::Vector3f& point) const
+{
+  VoxelKey key;
+  for (int a = 0; a < 3; ++a) {
+    const double k = std::floor(static_cast<double>(point[a]) / params_.resolution_m);
+    key[a] = static_cast<int>(std::clamp(k, -MAX_KEY, MAX_KEY));
+  }
+  return key;
+}
+
+Eigen::Vector3f
+ExplicitSpaceGrid::toCentre(const VoxelKey& key) const
+{
+  return ((key.cast<double>().array() + 0.5) * params_.resolution_m).cast<float>();
+}
+
+SpaceState
+ExplicitSpaceGrid::getState(const Eigen::Vector3f& point) const
+{
+  if (!point.allFinite())
+    return params_.prior;
+  for (int a = 0; a < 3; ++a)
+    if (std::abs(static_cast<double>(point[a]) / params_.resolution_m) >= MAX_KEY)
+      return params_.prior;
+  return getState(toKey(point));
+}
+
+SpaceState
+ExplicitSpaceGrid::getState(const VoxelKey& key) const
+{
+  const auto it =
+    impl_->blocks.find({blockOf(key.x()), blockOf(key.y()), blockOf(key.z())});
+  if (it == impl_->blocks.end())
+    return params_.prior;
+  return static_cast<SpaceState>(
+    it->second.get(localOf(key.x()) + 8 * localOf(key.y()) + 64 * localOf(key.z())));
+}
+
+void
+ExplicitSpaceGrid::setState(const VoxelKey& key, SpaceState state)
+{
+  if (state != SpaceState::FREE && state != SpaceState::OCCUPIED
+      && state != SpaceState::UNKNOWN)
+    throw Exception("ExplicitSpaceGrid::setState: invalid state");
+  const BlockKey bk{blockOf(key.x()), blockOf(key.y()), blockOf(key.z())};
+  const int i = localOf(key.x()) + 8 * localOf(key.y()) + 64 * localOf(key.z());
+  const auto s = static_cast<std::uint8_t>(state);
+  auto it = impl_->blocks.find(bk);
+  if (it == impl_->blocks.end()) {
+    if (state == params_.prior)
+      return;
+    Block b;
+    b.uniform = static_cast<std::uint8_t>(params_.prior);
+    it = impl_->blocks.emplace(bk, std::move(b)).first;
+  }
+  Block& b = it->second;
+  if (b.get(i) == s)
+    return;
+  b.makeMixed();
+  b.set(i, s);
+  b.compact();
+  if (b.uniform == static_cast<std::uint8_t>(params_.prior))
+    impl_->blocks.erase(it);
+}
+
+void
+ExplicitSpaceGrid::clear()
+{
+  impl_->blocks.clear();
+}
+
+// ---------------------------------------------------------------------------------
+
+void
+ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
+                                       const Eigen::Isometry3d& world_T_camera)
+{
+  if (depth.width <= 0 || depth.height <= 0 || depth.depth_m.empty()) {
+    PCL_WARN("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] Empty depth image, "
+             "nothing integrated.\n");
+    return;
+  }
+  if (depth.depth_m.size()
+        != static_cast<std::size_t>(depth.width)
+             * static_cast<std::size_t>(depth.height)
+      || !(depth.fx > 0.0f) || !(depth.fy > 0.0f) || !std::isfinite(depth.fx)
+      || !std::isfinite(depth.fy) || !std::isfinite(depth.cx)
+      || !std::isfinite(depth.cy) || !world_T_camera.matrix().allFinite()) {
+    PCL_ERROR("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] Inconsistent "
+              "depth image (%d x %d with %zu depths, fx %g, fy %g) or pose; nothing "
+              "integrated.\n",
+              depth.width, depth.height, depth.depth_m.size(),
+              static_cast<double>(depth.fx), static_cast<double>(depth.fy));
+    return;
+  }
+
+  BlockMap& blocks = impl_->blocks;
+  DepthPyramid& pyr = impl_->pyramid;
+  float max_valid_depth = 0.0f;
+  pyr.build(depth, max_valid_depth);
+
+  const float res = static_cast<float>(params_.resolution_m);
+  const float max_range = static_cast<float>(params_.max_range_m);
+  const float margin =
+    params_.surface_margin_m > 0.0
+      ? static_cast<float>(params_.surface_margin_m)
+      : static_cast<float>(params_.resolution_m * std::sqrt(3.0) / 2.0);
+  const auto prior = static_cast<std::uint8_t>(params_.prior);
+  const bool mark_occluded = params_.prior != SpaceState::UNKNOWN;
+  // With an unknown prior, occlusion changes nothing: only space up to the farthest
+  // measurement can change.
+  const float z_far =
+    mark_occluded ? max_range : std::min(max_range, max_valid_depth + margin);
+  const int W = depth.width, H = depth.height;
+  const float fx = depth.fx, fy = depth.fy, cx = depth.cx, cy = depth.cy;
+
+  const Eigen::Isometry3f w_T_c = world_T_camera.cast<float>();
+  const Eigen::Matrix3f R_cw = w_T_c.linear().transpose();
+  const Eigen::Vector3f t_cw = -(R_cw * w_T_c.translation());
+
+  // Voxels of the measured surface: every valid pixel within max_range back-projected.
+  // Done first into a list, applied after the free / occluded pass so that it wins.
+  if (max_valid_depth > 0.0f && z_far > NEAR_Z) {
+    // Frustum bounding box in the world frame.
+    Eigen::Vector3f lo = w_T_c.translation(), hi = lo;
+    for (const float u : {-0.5f, static_cast<float>(W) - 0.5f})
+      for (const float v : {-0.5f, static_cast<float>(H) - 0.5f}) {
+        const Eigen::Vector3f pc((u - cx) / fx * z_far, (v - cy) / fy * z_far, z_far);
+        const Eigen::Vector3f pw = w_T_c * pc;
+        lo = lo.cwiseMin(pw);
+        hi = hi.cwiseMax(pw);
+      }
+    const double span =
+      static_cast<double>((hi - lo).maxCoeff()) / params_.resolution_m;
+    if (span > 1e6
+        || std::abs(lo.cast<double>().maxCoeff()) / params_.resolution_m > 1e9
+        || std::abs(lo.cast<double>().minCoeff()) / params_.resolution_m > 1e9
+        || std::abs(hi.cast<double>().maxCoeff()) / params_.resolution_m > 1e9
+        || std::abs(hi.cast<double>().minCoeff()) / params_.resolution_m > 1e9) {
+      PCL_ERROR("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] Frustum of "
+                "%g voxels across or far from the origin; nothing integrated.\n",
+                span);
+      return;
+    }
+    const VoxelKey klo = toKey(lo), khi = toKey(hi);
+    const BlockKey blo{blockOf(klo.x()), blockOf(klo.y()), blockOf(klo.z())};
+    const BlockKey bhi{blockOf(khi.x()), blockOf(khi.y()), blockOf(khi.z())};
+
+    const float block_edge = res * BLOCK_EDGE;
+    const Eigen::Vector3f ex = R_cw.col(0) * res, ey = R_cw.col(1) * res,
+                          ez = R_cw.col(2) * res;
+    const float half_diag_px = std::max(fx, fy) * res * 0.8660254f;
+    const float u_end = static_cast<float>(W) - 0.5f,
+                v_end = static_cast<float>(H) - 0.5f;
+    const int max_r = std::max(W, H);
+    auto& obs = impl_->observation;
+    std::size_t n_visited = 0, n_fast = 0, n_slow = 0;
+
+    enum class Cube { NONE, FREE, OCCLUDED, SPLIT };
+    struct CubeInfo {
+      int r{0};                       // footprint radius of its voxels, pixels
+      int u0{0}, v0{0}, u1{0}, v1{0}; // pixel region (clamped)
+    };
+    // Classifies the cube of s^3 voxels whose min corner is c (camera frame).
+    const auto classify = [&](const Eigen::Vector3f& c, float s, CubeInfo& info) {
+      const Eigen::Vector3f sx = s * ex, sy = s * ey, sz = s * ez;
+      std::array<Eigen::Vector3f, 8> corners;
+      float zmin = std::numeric_limits<float>::infinity(), zmax = -zmin;
+      for (int i = 0; i < 8; ++i) {
+        auto& p = corners[static_cast<std::size_t>(i)];
+        p = c;
+        if (i & 1)
+          p += sx;
+        if (i & 2)
+          p += sy;
+        if (i & 4)
+          p += sz;
+        zmin = std::min(zmin, p.z());
+        zmax = std::max(zmax, p.z());
+      }
+      if (zmax <= NEAR_Z || zmin > z_far)
+        return Cube::NONE;
+      if (zmin <= NEAR_Z) { // straddles the camera plane: voxel by voxel
+        info = {max_r, 0, 0, W - 1, H - 1};
+        return Cube::SPLIT;
+      }
+      float umin = std::numeric_limits<float>::infinity(), umax = -umin, vmin = umin,
+            vmax = -umin;
+      for (const auto& p : corners) {
+        const float inv = 1.0f / p.z();
+        const float u = fx * p.x() * inv + cx, v = fy * p.y() * inv + cy;
+        umin = std::min(umin, u);
+        umax = std::max(umax, u);
+        vmin = std::min(vmin, v);
+        vmax = std::max(vmax, v);
+      }
+      if (umax < -0.5f || vmax < -0.5f || umin >= u_end || vmin >= v_end)
+        return Cube::NONE;
+      const bool inside =
+        umin >= -0.5f && vmin >= -0.5f && umax < u_end && vmax < v_end;
+      info.r = std::min(static_cast<int>(std::ceil(half_diag_px / zmin)), max_r);
+      info.u0 = static_cast<int>(std::floor(umin + 0.5f)) - info.r;
+      info.v0 = static_cast<int>(std::floor(vmin + 0.5f)) - info.r;
+      info.u1 = static_cast<int>(std::floor(umax + 0.5f)) + info.r;
+      info.v1 = static_cast<int>(std::floor(vmax + 0.5f)) + info.r;
+      pyr.clampRect(info.u0, info.v0, info.u1, info.v1);
+      float mn, mx;
+      pyr.queryRect(info.u0, info.v0, info.u1, info.v1, mn, mx);
+      if (std::isinf(mn))
+        return Cube::NONE; // no measurement under the cube: no information
+      if (zmax < mn - margin) {
+        if (!inside || zmax > max_range)
+          return Cube::SPLIT;
+        // every voxel's footprint must hold a measurement: it contains a whole cell
+        // of level j
+        const int r_far = static_cast<int>(half_diag_px / zmax);
+        int j = 0;
+        while ((2 << j) <= r_far + 1)
+          ++j;
+        return pyr.noHoles(j, info.u0, info.v0, info.u1, info.v1) ? Cube::FREE
+                                                                  : Cube::SPLIT;
+      }
+      if (zmin > mx + margin) { // behind every measurement of the region
+        if (!mark_occluded)
+          return Cube::NONE;
+        return inside && zmax <= max_range
+                   && pyr.noHoles(0, info.u0, info.v0, info.u1, info.v1)
+                 ? Cube::OCCLUDED
+                 : Cube::SPLIT;
+      }
+      return Cube::SPLIT;
+    };
+    // Voxel-by-voxel observations of the 4^3 cube at local offset o of a block whose
+    // min corner is c0.
+    const auto perVoxel = [&](const Eigen::Vector3f& c0, int ox, int oy, int oz,
+                              const CubeInfo& info, bool& any) {
+      const int r = info.r;
+      const int level = pyr.levelFor(r + 1); // at most 3 x 3 cells per footprint
+      const float* depth0 = pyr.min_level[0].data();
+      for (int z = oz; z < oz + 4; ++z)
+        for (int y = oy; y < oy + 4; ++y) {
+          Eigen::Vector3f p = c0 + (static_cast<float>(ox) + 0.5f) * ex
+                              + (static_cast<float>(y) + 0.5f) * ey
+                              + (static_cast<float>(z) + 0.5f) * ez;
+          std::uint8_t* o = &obs[static_cast<std::size_t>(ox + 8 * y + 64 * z)];
+          for (int x = 0; x < 4; ++x, p += ex) {
+            const float zc = p.z();
+            if (zc <= NEAR_Z || zc > max_range)
+              continue;
+            const float inv = 1.0f / zc;
+            const float u = fx * p.x() * inv + cx, v = fy * p.y() * inv + cy;
+            if (!(u >= -0.5f && u < u_end && v >= -0.5f && v < v_end))
+              continue;
+            const int ui = static_cast<int>(u + 0.5f), vi = static_cast<int>(v + 0.5f);
+            float fmin, fmax;
+            pyr.query(level, std::max(ui - r, 0), std::max(vi - r, 0),
+                      std::min(ui + r, W - 1), std::min(vi + r, H - 1), fmin, fmax);
+            if (zc < fmin - margin) {
+              o[x] = OBS_FREE;
+              any = true;
+            } else if (mark_occluded) {
+              const float d =
+                depth0[static_cast<std::size_t>(vi) * static_cast<std::size_t>(W)
+                       + static_cast<std::size_t>(ui)];
+              if (std::isfinite(d) && zc > d + margin) {
+                o[x] = OBS_OCCLUDED;
+                any = true;
+              }
+            }
+          }
+        }
+    };
+    const auto fillCube = [&](int ox, int oy, int oz, int s, std::uint8_t value) {
+      for (int z = oz; z < oz + s; ++z)
+        for (int y = oy; y < oy + s; ++y)
+          std::fill_n(&obs[static_cast<std::size_t>(ox + 8 * y + 64 * z)], s, value);
+    };
+
+    for (int bz = blo.z; bz <= bhi.z; ++bz)
+      for (int by = blo.y; by <= bhi.y; ++by)
+        for (int bx = blo.x; bx <= bhi.x; ++bx) {
+          const Eigen::Vector3f c0 =
+            R_cw
+              * Eigen::Vector3f(static_cast<float>(bx) * block_edge,
+                                static_cast<float>(by) * block_edge,
+                                static_cast<float>(bz) * block_edge)
+            + t_cw;
+          CubeInfo info;
+          const Cube kind = classify(c0, static_cast<float>(BLOCK_EDGE), info);
+          if (kind == Cube::NONE)
+            continue;
+          ++n_visited;
+          const BlockKey bk{bx, by, bz};
+          if (kind == Cube::FREE) {
+            // Whole block in front of the surface: free without per-voxel work.
+            ++n_fast;
+            if (prior == static_cast<std::uint8_t>(SpaceState::FREE))
+              blocks.erase(bk);
+            else
+              blocks[bk].makeUniform(static_cast<std::uint8_t>(SpaceState::FREE));
+            continue;
+          }
+          bool any = false;
+          if (kind == Cube::OCCLUDED) {
+            if (blocks.find(bk) == blocks.end()) {
+              blocks[bk].makeUniform(static_cast<std::uint8_t>(SpaceState::UNKNOWN));
+              continue;
+            }
+            obs.fill(OBS_OCCLUDED);
+            any = true;
+          } else {
+            obs.fill(OBS_NONE);
+            for (int c = 0; c < 8; ++c) {
+              const int ox = (c & 1) * 4, oy = ((c >> 1) & 1) * 4,
+                        oz = ((c >> 2) & 1) * 4;
+              const Eigen::Vector3f cc = c0 + static_cast<float>(ox) * ex
+                                         + static_cast<float>(oy) * ey
+                                         + static_cast<float>(oz) * ez;
+              CubeInfo sub;
+              const Cube sk = classify(cc, 4.0f, sub);
+              if (sk == Cube::NONE)
+                continue;
+              any = true;
+              if (sk == Cube::FREE)
+                fillCube(ox, oy, oz, 4, OBS_FREE);
+              else if (sk == Cube::OCCLUDED)
+                fillCube(ox, oy, oz, 4, OBS_OCCLUDED);
+              else {
+                ++n_slow;
+                perVoxel(c0, ox, oy, oz, sub, any);
+              }
+            }
+          }
+          if (!any)
+            continue;
+          auto it = blocks.find(bk);
+          if (it == blocks.end()) {
+            Block b;
+            b.uniform = prior;
+            it = blocks.emplace(bk, std::move(b)).first;
+          }
+          Block& b = it->second;
+          b.makeMixed();
+          for (int i = 0; i < BLOCK_VOXELS; ++i) {
+            const std::uint8_t ob = obs[static_cast<std::size_t>(i)];
+            if (ob == OBS_FREE)
+              b.set(i, ob);
+            else if (ob == OBS_OCCLUDED && b.get(i) == prior)
+              b.set(i, ob);
+          }
+          b.compact();
+          if (b.uniform == prior)
+            blocks.erase(it);
+        }
+    PCL_DEBUG("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] %zu blocks "
+              "seen, %zu free as a whole, %zu 4^3 cubes voxel by voxel.\n",
+              n_visited, n_fast, n_slow);
+  }
+
+  // Occupied: the voxel of every measured pixel within max_range.
+  std::vector<BlockKey> touched;
+  BlockKey cached_key{0, 0, 0};
+  Block* cached = nullptr;
+  const float inv_res = 1.0f / res;
+  for (int v = 0; v < H; ++v) {
+    const float yn = (static_cast<float>(v) - cy) / fy;
+    const float* row =
+      &pyr.min_level[0][static_cast<std::size_t>(v) * static_cast<std::size_t>(W)];
+    for (int u = 0; u < W; ++u) {
+      const float d = row[u];
+      if (!(d <= max_range)) // +inf marks no measurement
+        continue;
+      const Eigen::Vector3f pc((static_cast<float>(u) - cx) / fx * d, yn * d, d);
+      const Eigen::Vector3f pw = (w_T_c * pc) * inv_res;
+      if (!(pw.cwiseAbs().maxCoeff() < static_cast<float>(MAX_KEY)))
+        continue;
+      const int kx = static_cast<int>(std::floor(pw.x())),
+                ky = static_cast<int>(std::floor(pw.y())),
+                kz = static_cast<int>(std::floor(pw.z()));
+      const BlockKey bk{blockOf(kx), blockOf(ky), blockOf(kz)};
+      if (!cached || !(bk == cached_key)) {
+        auto it = blocks.find(bk);
+        if (it == blocks.end()) {
+          Block b;
+          b.uniform = prior;
+          it = blocks.emplace(bk, std::move(b)).first;
+        }
+        cached = &it->second;
+        cached_key = bk;
+        touched.push_back(bk);
+      }
+      cached->makeMixed();
+      cached->set(localOf(kx) + 8 * localOf(ky) + 64 * localOf(kz),
+                  static_cast<std::uint8_t>(SpaceState::OCCUPIED));
+    }
+  }
+  for (const auto& bk : touched) {
+    auto it = blocks.find(bk);
+    if (it == blocks.end())
+      continue;
+    it->second.compact();
+    if (it->second.uniform == prior)
+      blocks.erase(it);
+  }
+}
+
+// ---------------------------------------------------------------------------------
+
+bool
+ExplicitSpaceGrid::castRay(const Eigen::Vector3f& origin,
+                           const Eigen::Vector3f& direction,
+                           double max_range_m,
+                           Eigen::Vector3f& hit) const
+{
+  const double n = static_cast<double>(direction.norm());
+  if (!origin.allFinite() || !direction.allFinite() || !(n > 0.0)
+      || !(max_range_m >= 0.0) || !std::isfinite(max_range_m))
+    return false;
+  const double res = params_.resolution_m;
+  Eigen::Vector3d o = origin.cast<double>() / res;
+  const Eigen::Vector3d d = direction.cast<double>() / n;
+  const double max_t = max_range_m / res; // in voxel units
+  if (o.cwiseAbs().maxCoeff() + max_t >= MAX_KEY)
+    return false;
+  std::array<int, 3> key, step;
+  std::array<double, 3> t_max, t_delta;
+  for (int a = 0; a < 3; ++a) {
+    key[static_cast<std::size_t>(a)] = static_cast<int>(std::floor(o[a]));
+    if (d[a] > 0.0) {
+      step[static_cast<std::size_t>(a)] = 1;
+      t_delta[static_cast<std::size_t>(a)] = 1.0 / d[a];
+      t_max[static_cast<std::size_t>(a)] = (std::floor(o[a]) + 1.0 - o[a]) / d[a];
+    } else if (d[a] < 0.0) {
+      step[static_cast<std::size_t>(a)] = -1;
+      t_delta[static_cast<std::size_t>(a)] = -1.0 / d[a];
+      t_max[static_cast<std::size_t>(a)] = (std::floor(o[a]) - o[a]) / d[a];
+    } else {
+      step[static_cast<std::size_t>(a)] = 0;
+      t_delta[static_cast<std::size_t>(a)] = std::numeric_limits<double>::infinity();
+      t_max[static_cast<std::size_t>(a)] = std::numeric_limits<double>::infinity();
+    }
+  }
+  const auto occupied = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
+  const bool prior_occupied = params_.prior == SpaceState::OCCUPIED;
+  BlockKey cached_key{0, 0, 0};
+  const Block* cached = nullptr;
+  bool cached_valid = false;
+  while (true) {
+    const BlockKey bk{blockOf(key[0]), blockOf(key[1]), blockOf(key[2])};
+    if (!cached_valid || !(bk == cached_key)) {
+      const auto it = impl_->blocks.find(bk);
+      cached = it == impl_->blocks.end() ? nullptr : &it->second;
+      cached_key = bk;
+      cached_valid = true;
+    }
+    const bool occ =
+      cached ? cached->get(localOf(key[0]) + 8 * localOf(key[1]) + 64 * localOf(key[2]))
+                 == occupied
+             : prior_occupied;
+    if (occ) {
+      hit = toCentre(VoxelKey(key[0], key[1], key[2]));
+      return true;
+    }
+    int a = 0;
+    if (t_max[1] < t_max[static_cast<std::size_t>(a)])
+      a = 1;
+    if (t_max[2] < t_max[static_cast<std::size_t>(a)])
+      a = 2;
+    const auto sa = static_cast<std::size_t>(a);
+    if (t_max[sa] > max_t)
+      return false;
+    key[sa] += step[sa];
+    t_max[sa] += t_delta[sa];
+  }
+}
+
+// ---------------------------------------------------------------------------------
+
+void
+ExplicitSpaceGrid::visitVoxels(void (*visit)(void*, const VoxelKey&, SpaceState),
+                               void* context) const
+{
+  std::vector<std::pair<BlockKey, const Block*>> sorted;
+  sorted.reserve(impl_->blocks.size());
+  for (const auto& kv : impl_->blocks)
+    sorted.emplace_back(kv.first, &kv.second);
+  std::sort(sorted.begin(), sorted.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  const auto prior = static_cast<std::uint8_t>(params_.prior);
+  for (const auto& [bk, block] : sorted)
+    for (int i = 0; i < BLOCK_VOXELS; ++i) {
+      const std::uint8_t s = block->get(i);
+      if (s == prior)
+        continue;
+      const VoxelKey key(bk.x * BLOCK_EDGE + (i & 7),
+                         bk.y * BLOCK_EDGE + ((i >> 3) & 7),
+                         bk.z * BLOCK_EDGE + (i >> 6));
+      visit(context, key, static_cast<SpaceState>(s));
+    }
+}
+
+std::size_t
+ExplicitSpaceGrid::getVoxelCount(SpaceState state) const
+{
+  if (state == params_.prior)
+    return 0;
+  const auto s = static_cast<std::size_t>(state);
+  std::size_t n = 0;
+  for (const auto& kv : impl_->blocks) {
+    const Block& b = kv.second;
+    if (b.uniform == MIXED)
+      n += countCodes(*b.bits)[s];
+    else if (b.uniform == s)
+      n += BLOCK_VOXELS;
+  }
+  return n;
+}
+
+std::size_t
+ExplicitSpaceGrid::getBlockCount() const
+{
+  return impl_->blocks.size();
+}
+
+std::size_t
+ExplicitSpaceGrid::getMemoryBytes() const
+{
+  // libstdc++ node: next pointer + value (the hash is not cached: noexcept hasher).
+  const std::size_t node = sizeof(void*) + sizeof(BlockMap::value_type);
+  std::size_t bytes = impl_->blocks.size() * node
+                      + impl_->blocks.bucket_count() * sizeof(void*) + sizeof(BlockMap);
+  for (const auto& kv : impl_->blocks)
+    if (kv.second.uniform == MIXED)
+      bytes += sizeof(Payload);
+  return bytes;
+}
+
+bool
+ExplicitSpaceGrid::getBounds(VoxelKey& min_key, VoxelKey& max_key) const
+{
+  if (impl_->blocks.empty())
+    return false;
+  Eigen::Vector3i lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
+  Eigen::Vector3i hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
+  for (const auto& kv : impl_->blocks) {
+    const Eigen::Vector3i b(kv.first.x, kv.first.y, kv.first.z);
+    lo = lo.cwiseMin(b);
+    hi = hi.cwiseMax(b);
+  }
+  min_key = lo * BLOCK_EDGE;
+  max_key = hi * BLOCK_EDGE + Eigen::Vector3i::Constant(BLOCK_EDGE - 1);
+  return true;
+}
+
+bool
+ExplicitSpaceGrid::operator==(const ExplicitSpaceGrid& other) const
+{
+  if (params_.resolution_m != other.params_.resolution_m
+      || params_.prior != other.params_.prior
+      || impl_->blocks.size() != other.impl_->blocks.size())
+    return false;
+  for (const auto& kv : impl_->blocks) {
+    const auto it = other.impl_->blocks.find(kv.first);
+    if (it == other.impl_->blocks.end() || !(it->second == kv.second))
+      return false;
+  }
+  return true;
+}
+
+// ---------------------------------------------------------------------------------
+// Octree bit stream
+
+namespace {
+
+/** \brief Writes 2-bit labels, 4 per byte, first label in the low bits. */
+struct LabelWriter {
+  std::vector<std::uint8_t> bytes;
+  std::uint64_t count{0};
+  void put(std::uint8_t label)
+  {
+    const int slot = static_cast<int>(count & 3u);
+    if (slot == 0)
+      bytes.push_back(0);
+    bytes.back() = static_cast<std::uint8_t>(bytes.back() | (label << (2 * slot)));
+    ++count;
+  }
+};
+
+/** \brief Packs relative block coordinates (each < 2^18) into one integer. */
+inline std::uint64_t
+packRel(std::uint64_t x, std::uint64_t y, std::uint64_t z)
+{
+  return x | (y << 21) | (z << 42);
+}
+
+/** \brief Emits the sub-octree of a mixed block region: cube of edge 2^level voxels at
+ * local (x, y, z). */
+void
+emitInBlock(const Block& b, int level, int x, int y, int z, LabelWriter& out)
+{
+  const int e = 1 << level;
+  const std::uint8_t s0 = b.get(x + 8 * y + 64 * z);
+  bool uniform = true;
+  for (int k = z; k < z + e && uniform; ++k)
+    for (int j = y; j < y + e && uniform; ++j)
+      for (int i = x; i < x + e; ++i)
+        if (b.get(i + 8 * j + 64 * k) != s0) {
+          uniform = false;
+          break;
+        }
+  if (uniform) {
+    out.put(s0);
+    return;
+  }
+  out.put(INNER_LABEL);
+  const int h = e / 2;
+  for (int c = 0; c < 8; ++c)
+    emitInBlock(b, level - 1, x + (c & 1) * h, y + ((c >> 1) & 1) * h,
+                z + ((c >> 2) & 1) * h, out);
+}
+
+} // namespace
+
+void
+ExplicitSpaceGrid::serialize(std::vector<std::uint8_t>& bytes) const
+{
+  const BlockMap& blocks = impl_->blocks;
+  const auto prior = static_cast<std::uint8_t>(params_.prior);
+  Eigen::Vector3i root = Eigen::Vector3i::Zero();
+  int depth = 0;
+  LabelWriter out;
+  if (blocks.empty())
+    out.put(prior);
+  else {
+    Eigen::Vector3i lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
+    Eigen::Vector3i hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
+    for (const auto& kv : blocks) {
+      const Eigen::Vector3i b(kv.first.x, kv.first.y, kv.first.z);
+      lo = lo.cwiseMin(b);
+      hi = hi.cwiseMax(b);
+    }
+    const std::int64_t extent = static_cast<std::int64_t>((hi - lo).maxCoeff()) + 1;
+    int block_levels = 0; // root edge in blocks = 2^block_levels
+    while ((std::int64_t{1} << block_levels) < extent)
+      ++block_levels;
+    depth = block_levels + BLOCK_SHIFT;
+    if (depth > MAX_DEPTH)
+      throw Exception("ExplicitSpaceGrid::serialize: the layer spans "
+                      + std::to_string(extent) + " blocks, more than the 2^"
+                      + std::to_string(MAX_DEPTH) + "-voxel octree the format allows");
+    root = lo * BLOCK_EDGE;
+    // Summaries per level (0 = blocks): uniform state or MIXED; absent = prior.
+    std::vector<std::unordered_map<std::uint64_t, std::uint8_t>> summary(
+      static_cast<std::size_t>(block_levels) + 1);
+    std::unordered_map<std::uint64_t, const Block*> by_rel;
+    by_rel.reserve(blocks.size());
+    summary[0].reserve(blocks.size());
+    for (const auto& kv : blocks) {
+      const auto rel = packRel(static_cast<std::uint64_t>(kv.first.x - lo.x()),
+                               static_cast<std::uint64_t>(kv.first.y - lo.y()),
+                               static_cast<std::uint64_t>(kv.first.z - lo.z()));
+      by_rel.emplace(rel, &kv.second);
+      summary[0].emplace(rel, kv.second.uniform);
+    }
+    constexpr std::uint64_t MASK = (std::uint64_t{1} << 21) - 1;
+    for (int l = 1; l <= block_levels; ++l) {
+      // count of children and their common uniform state (MIXED when they differ)
+      std::unordered_map<std::uint64_t, std::pair<int, std::uint8_t>> acc;
+      for (const auto& [rel, code] : summary[static_cast<std::size_t>(l - 1)]) {
+        const auto parent = packRel((rel & MASK) >> 1, ((rel >> 21) & MASK) >> 1,
+                                    ((rel >> 42) & MASK) >> 1);
+        auto [it, fresh] = acc.emplace(parent, std::make_pair(0, code));
+        ++it->second.first;
+        if (!fresh && it->second.second != code)
+          it->second.second = MIXED;
+      }
+      auto& level = summary[static_cast<std::size_t>(l)];
+      level.reserve(acc.size());
+      for (const auto& [rel, a] : acc)
+        level.emplace(rel, a.first == 8 ? a.second : MIXED);
+    }
+    // Depth-first emission, children x fastest, then y, then z.
+    struct Emitter {
+      const std::vector<std::unordered_map<std::uint64_t, std::uint8_t>>& summary;
+      const std::unordered_map<std::uint64_t, const Block*>& by_rel;
+      std::uint8_t prior;
+      LabelWriter& out;
+      void emit(int l, std::uint64_t x, std::uint64_t y, std::uint64_t z)
+      {
+        const auto& level = summary[static_cast<std::size_t>(l)];
+        const auto it = level.find(packRel(x, y, z));
+        if (it == level.end()) {
+          out.put(prior);
+          return;
+        }
+        if (it->second != MIXED) {
+          out.put(it->second);
+          return;
+        }
+        if (l == 0) {
+          const Block& b = *by_rel.at(packRel(x, y, z));
+          emitInBlock(b, BLOCK_SHIFT, 0, 0, 0, out);
+          return;
+        }
+        out.put(INNER_LABEL);
+        for (std::uint64_t c = 0; c < 8; ++c)
+          emit(l - 1, 2 * x + (c & 1), 2 * y + ((c >> 1) & 1), 2 * z + ((c >> 2) & 1));
+      }
+    } emitter{summary, by_rel, prior, out};
+    emitter.emit(block_levels, 0, 0, 0);
+  }
+  for (int a = 0; a < 3; ++a)
+    putU32(bytes, static_cast<std::uint32_t>(root[a]));
+  bytes.push_back(static_cast<std::uint8_t>(depth));
+  bytes.push_back(prior);
+  for (int i = 0; i < 8; ++i)
+    bytes.push_back(static_cast<std::uint8_t>(out.count >> (8 * i)));
+  bytes.insert(bytes.end(), out.bytes.begin(), out.bytes.end());
+}
+
+namespace {
+
+/** \brief A leaf of a decoded stream whose state differs from the prior. */
+struct DecodedLeaf {
+  int level;
+  std::int64_t x, y, z; // min voxel key
+  std::uint8_t state;
+};
+
+struct StreamParser {
+  const std::uint8_t* labels;
+  std::uint64_t count;
+  std::uint64_t next{0};
+  std::uint8_t prior;
+  std::uint64_t blocks_needed{0};
+  std::vector<DecodedLeaf> leaves;
+
+  std::uint8_t read()
+  {
+    if (next >= count)
+      throw IOError("space layer stream: truncated octree (more nodes than the "
+                    + std::to_string(count) + " labels announced)");
+    const std::uint8_t l =
+      static_cast<std::uint8_t>((labels[next >> 2] >> (2 * (next & 3u))) & 3u);
+    ++next;
+    return l;
+  }
+
+  void parse(int level, std::int64_t x, std::int64_t y, std::int64_t z)
+  {
+    const std::uint8_t label = read();
+    if (label == INNER_LABEL) {
+      if (level == 0)
+        throw IOError("space layer stream: inner-node label 11 at voxel level (label "
+                      + std::to_string(next - 1) + ")");
+      const std::int64_t h = std::int64_t{1} << (level - 1);
+      for (int c = 0; c < 8; ++c)
+        parse(level - 1, x + (c & 1) * h, y + ((c >> 1) & 1) * h,
+              z + ((c >> 2) & 1) * h);
+      return;
+    }
+    if (label == prior)
+      return;
+    if (level >= BLOCK_SHIFT) {
+      const std::uint64_t n = std::uint64_t{1} << (3 * (level - BLOCK_SHIFT));
+      if (n > MAX_DECODED_BLOCKS || blocks_needed + n > MAX_DECODED_BLOCKS)
+        throw IOError("space layer stream: non-prior leaves cover more than "
+                      + std::to_string(MAX_DECODED_BLOCKS) + " blocks");
+      blocks_needed += n;
+    } else if (++blocks_needed > MAX_DECODED_BLOCKS)
+      throw IOError("space layer stream: too many blocks");
+    leaves.push_back({level, x, y, z, label});
+  }
+};
+
+} // namespace
+
+void
+ExplicitSpaceGrid::deserialize(const std::uint8_t* data, std::size_t size)
+{
+  if (size < HEADER_BYTES || data == nullptr)
+    throw IOError("space layer stream: " + std::to_string(size)
+                  + " bytes, fewer than the " + std::to_string(HEADER_BYTES)
+                  + "-byte header");
+  std::array<std::int64_t, 3> root{};
+  for (int a = 0; a < 3; ++a)
+    root[static_cast<std::size_t>(a)] =
+      static_cast<std::int32_t>(static_cast<std::uint32_t>(getLE(data + 4 * a, 4)));
+  const int depth = data[12];
+  const std::uint8_t prior = data[13];
+  const std::uint64_t count = getLE(data + 14, 8);
+  if (depth > MAX_DEPTH)
+    throw IOError("space layer stream: octree depth " + std::to_string(depth)
+                  + " exceeds " + std::to_string(MAX_DEPTH));
+  if (prior != static_cast<std::uint8_t>(SpaceState::FREE)
+      && prior != static_cast<std::uint8_t>(SpaceState::UNKNOWN))
+    throw IOError("space layer stream: prior label " + std::to_string(prior)
+                  + " is neither free (0) nor unknown (2)");
+  for (int a = 0; a < 3; ++a) {
+    const std::int64_t r = root[static_cast<std::size_t>(a)];
+    if (r % BLOCK_EDGE != 0)
+      throw IOError("space layer stream: root key " + std::to_string(r)
+                    + " is not a multiple of the 8-voxel block");
+    if (r + (std::int64_t{1} << depth) - 1 > std::numeric_limits<std::int32_t>::max())
+      throw IOError("space layer stream: octree exceeds the 32-bit key range");
+  }
+  const std::size_t payload = size - HEADER_BYTES;
+  if (count == 0 || count > static_cast<std::uint64_t>(payload) * 4)
+    throw IOError("space layer stream: " + std::to_string(count) + " labels need "
+                  + std::to_string((count + 3) / 4) + " bytes, "
+                  + std::to_string(payload) + " present (truncated or corrupt)");
+  if ((count + 3) / 4 != payload)
+    throw IOError("space layer stream: " + std::to_string(payload - (count + 3) / 4)
+                  + " trailing bytes after " + std::to_string(count) + " labels");
+  const std::uint8_t* labels = data + HEADER_BYTES;
+  if ((count & 3u) != 0 && (labels[payload - 1] >> (2 * (count & 3u))) != 0)
+    throw IOError("space layer stream: non-zero padding bits after the last label");
+
+  StreamParser parser{labels, count, 0, prior, 0, {}};
+  parser.parse(depth, root[0], root[1], root[2]);
+  if (parser.next != count)
+    throw IOError("space layer stream: the octree ends after "
+                  + std::to_string(parser.next) + " of " + std::to_string(count)
+                  + " labels (trailing labels)");
+
+  // Validated: build the new content, then swap it in.
+  auto impl = std::make_unique<Impl>();
+  BlockMap& blocks = impl->blocks;
+  blocks.reserve(static_cast<std::size_t>(parser.blocks_needed));
+  for (const auto& leaf : parser.leaves) {
+    if (leaf.level >= BLOCK_SHIFT) {
+      const std::int64_t nb = std::int64_t{1} << (leaf.level - BLOCK_SHIFT);
+      for (std::int64_t k = 0; k < nb; ++k)
+        for (std::int64_t j = 0; j < nb; ++j)
+          for (std::int64_t i = 0; i < nb; ++i) {
+            const BlockKey bk{static_cast<int>((leaf.x >> BLOCK_SHIFT) + i),
+                              static_cast<int>((leaf.y >> BLOCK_SHIFT) + j),
+                              static_cast<int>((leaf.z >> BLOCK_SHIFT) + k)};
+            blocks[bk].makeUniform(leaf.state);
+          }
+      continue;
+    }
+    const BlockKey bk{static_cast<int>(leaf.x >> BLOCK_SHIFT),
+                      static_cast<int>(leaf.y >> BLOCK_SHIFT),
+                      static_cast<int>(leaf.z >> BLOCK_SHIFT)};
+    auto it = blocks.find(bk);
+    if (it == blocks.end()) {
+      Block b;
+      b.uniform = prior;
+      it = blocks.emplace(bk, std::move(b)).first;
+    }
+    Block& b = it->second;
+    b.makeMixed();
+    const int e = 1 << leaf.level;
+    const int lx = static_cast<int>(leaf.x & 7), ly = static_cast<int>(leaf.y & 7),
+              lz = static_cast<int>(leaf.z & 7);
+    for (int k = lz; k < lz + e; ++k)
+      for (int j = ly; j < ly + e; ++j)
+        for (int i = lx; i < lx + e; ++i)
+          b.set(i + 8 * j + 64 * k, leaf.state);
+  }
+  for (auto it = blocks.begin(); it != blocks.end();) {
+    it->second.compact();
+    if (it->second.uniform == prior)
+      it = blocks.erase(it);
+    else
+      ++it;
+  }
+  impl_ = std::move(impl);
+  params_.prior = static_cast<SpaceState>(prior);
+}
+
+// ---------------------------------------------------------------------------------
+
+void
+ExplicitSpaceGrid::exportOctoMap(const std::string& path) const
+{
+  octomap::OcTree tree(params_.resolution_m);
+  const float occupied_log_odds = tree.getClampingThresMaxLog();
+  const float free_log_odds = tree.getClampingThresMinLog();
+  constexpr int OFFSET = 32768; // OctoMap's tree_max_val at depth 16
+  std::size_t skipped = 0;
+  forEachVoxel([&](const VoxelKey& key, SpaceState state) {
+    if (state == SpaceState::UNKNOWN)
+      return;
+    const Eigen::Vector3i k = key + Eigen::Vector3i::Constant(OFFSET);
+    if ((k.array() < 0).any() || (k.array() > 65535).any()) {
+      ++skipped;
+      return;
+    }
+    const octomap::OcTreeKey ok(static_cast<octomap::key_type>(k.x()),
+                                static_cast<octomap::key_type>(k.y()),
+                                static_cast<octomap::key_type>(k.z()));
+    tree.setNodeValue(
+      ok, state == SpaceState::OCCUPIED ? occupied_log_odds : free_log_odds, true);
+  });
+  if (skipped > 0)
+    PCL_WARN("[planar_grid::ExplicitSpaceGrid::exportOctoMap] %zu voxels outside "
+             "OctoMap's 2^16-voxel key range left out.\n",
+             skipped);
+  tree.updateInnerOccupancy();
+  writeFileAtomically(path, [&tree](const std::string& temporary) {
+    return tree.writeBinary(temporary);
+  });
+}
+
+} // namespace planar_grid

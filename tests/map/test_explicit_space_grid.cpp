@@ -1,2 +1,729 @@
 // SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/map/explicit_space_grid.h>
+#include <planar_grid/stereo/calibration_io.h>
+#include <planar_grid/stereo/disparity_estimator.h>
+
+#include <pcl/console/print.h>
+
 #include <gtest/gtest.h>
+#include <octomap/OcTree.h>
+#include <opencv2/imgcodecs.hpp>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <random>
+#include <set>
+#include <tuple>
+#include <vector>
+
+namespace {
+
+using planar_grid::DepthImage;
+using planar_grid::ExplicitSpaceGrid;
+using planar_grid::SpaceState;
+using Key = ExplicitSpaceGrid::VoxelKey;
+
+/** \brief std::map key for voxel keys. */
+std::tuple<int, int, int>
+tup(const Key& k)
+{
+  return {k.x(), k.y(), k.z()};
+}
+
+ExplicitSpaceGrid::Params
+params(SpaceState prior, double resolution_m = 0.1, double max_range_m = 25.0)
+{
+  ExplicitSpaceGrid::Params p;
+  p.resolution_m = resolution_m;
+  p.max_range_m = max_range_m;
+  p.prior = prior;
+  return p;
+}
+
+/** \brief Random voxels in [-range, range)^3 with random states; the oracle map holds
+ * the last state set per voxel. */
+void
+fillRandom(ExplicitSpaceGrid& grid,
+           std::map<std::tuple<int, int, int>, SpaceState>& oracle,
+           int n,
+           int range,
+           unsigned seed)
+{
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> coord(-range, range - 1);
+  std::uniform_int_distribution<int> state(0, 2);
+  for (int i = 0; i < n; ++i) {
+    const Key k(coord(rng), coord(rng), coord(rng));
+    const auto s = static_cast<SpaceState>(state(rng));
+    grid.setState(k, s);
+    oracle[tup(k)] = s;
+  }
+}
+
+/** \brief Analytic depth image of a box room seen from its inside (camera frame: x
+ * right, y down, z forward): walls x = +-4, floor y = 2, ceiling y = -2, front wall z =
+ * 8 (open behind the camera), and an occluder box x, y in [-0.6, 0.6], z in [3, 4]. */
+DepthImage
+renderBoxRoom()
+{
+  DepthImage image;
+  image.width = 160;
+  image.height = 120;
+  image.fx = image.fy = 100.0f;
+  image.cx = 79.5f;
+  image.cy = 59.5f;
+  image.depth_m.resize(160 * 120);
+  for (int v = 0; v < image.height; ++v)
+    for (int u = 0; u < image.width; ++u) {
+      const double xn = (u - image.cx) / image.fx, yn = (v - image.cy) / image.fy;
+      double z = 8.0; // front wall
+      if (xn != 0.0)
+        z = std::min(z, 4.0 / std::abs(xn));
+      if (yn != 0.0)
+        z = std::min(z, 2.0 / std::abs(yn));
+      // occluder front face at z = 3 (its sides are hidden behind it from the centre)
+      if (std::abs(xn * 3.0) <= 0.6 && std::abs(yn * 3.0) <= 0.6)
+        z = std::min(z, 3.0);
+      image.depth_m[static_cast<std::size_t>(v * image.width + u)] =
+        static_cast<float>(z);
+    }
+  return image;
+}
+
+/** \brief The pose used for the room: a general rotation and translation. */
+Eigen::Isometry3d
+roomPose()
+{
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1.0, 0.1).normalized())
+                 .toRotationMatrix();
+  T.translation() = Eigen::Vector3d(1.3, -0.4, 2.1);
+  return T;
+}
+
+/** \brief Depth of the room along the ray through camera point \a pc. */
+double
+roomDepthAlong(const DepthImage& image, const Eigen::Vector3d& pc)
+{
+  const int u =
+    static_cast<int>(std::floor(image.fx * pc.x() / pc.z() + image.cx + 0.5));
+  const int v =
+    static_cast<int>(std::floor(image.fy * pc.y() / pc.z() + image.cy + 0.5));
+  if (u < 0 || v < 0 || u >= image.width || v >= image.height)
+    return -1.0;
+  return image.at(u, v);
+}
+
+} // namespace
+
+TEST(ExplicitSpaceGrid, StateNames)
+{
+  for (const auto s : {SpaceState::FREE, SpaceState::OCCUPIED, SpaceState::UNKNOWN})
+    EXPECT_EQ(planar_grid::spaceStateFromString(planar_grid::toString(s)), s);
+  EXPECT_THROW(planar_grid::spaceStateFromString("maybe"), planar_grid::Exception);
+}
+
+TEST(ExplicitSpaceGrid, ParametersOutOfRangeThrow)
+{
+  auto p = params(SpaceState::UNKNOWN);
+  p.resolution_m = 0.0;
+  EXPECT_THROW(ExplicitSpaceGrid{p}, planar_grid::Exception);
+  p = params(SpaceState::UNKNOWN);
+  p.resolution_m = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(ExplicitSpaceGrid{p}, planar_grid::Exception);
+  p = params(SpaceState::UNKNOWN);
+  p.max_range_m = -1.0;
+  EXPECT_THROW(ExplicitSpaceGrid{p}, planar_grid::Exception);
+  p = params(SpaceState::UNKNOWN);
+  p.surface_margin_m = -0.1;
+  EXPECT_THROW(ExplicitSpaceGrid{p}, planar_grid::Exception);
+  p = params(SpaceState::OCCUPIED); // an occupied prior is not a valid choice
+  EXPECT_THROW(ExplicitSpaceGrid{p}, planar_grid::Exception);
+  EXPECT_NO_THROW(ExplicitSpaceGrid{params(SpaceState::FREE)});
+  EXPECT_THROW(DepthImage::fromPointCloud({}, 0, 10, 1.0f, 1.0f, 0.0f, 0.0f),
+               planar_grid::Exception);
+  EXPECT_THROW(DepthImage::fromPointCloud({}, 10, 10, 0.0f, 1.0f, 0.0f, 0.0f),
+               planar_grid::Exception);
+}
+
+TEST(ExplicitSpaceGrid, GetStateMatchesMapOracle)
+{
+  for (const auto prior : {SpaceState::UNKNOWN, SpaceState::FREE}) {
+    ExplicitSpaceGrid grid(params(prior));
+    std::map<std::tuple<int, int, int>, SpaceState> oracle;
+    fillRandom(grid, oracle, 3000, 20, 7u);
+    // every voxel of the cube (and a margin) against the map
+    for (int z = -22; z < 22; ++z)
+      for (int y = -22; y < 22; ++y)
+        for (int x = -22; x < 22; ++x) {
+          const auto it = oracle.find({x, y, z});
+          const SpaceState expected = it == oracle.end() ? prior : it->second;
+          ASSERT_EQ(grid.getState(Key(x, y, z)), expected) << x << " " << y << " " << z;
+        }
+    // points: the voxel containing a random point, via toKey
+    std::mt19937 rng(11u);
+    std::uniform_real_distribution<float> coord(-2.2f, 2.2f);
+    for (int i = 0; i < 5000; ++i) {
+      const Eigen::Vector3f p(coord(rng), coord(rng), coord(rng));
+      const Key k = grid.toKey(p);
+      EXPECT_TRUE((grid.toCentre(k) - p).cwiseAbs().maxCoeff() <= 0.05f + 1e-5f);
+      const auto it = oracle.find(tup(k));
+      EXPECT_EQ(grid.getState(p), it == oracle.end() ? prior : it->second);
+    }
+    EXPECT_EQ(grid.getState(Eigen::Vector3f(std::nanf(""), 0.0f, 0.0f)), prior);
+    // counts and forEachVoxel against the map
+    std::map<SpaceState, std::size_t> counts;
+    std::size_t visited = 0;
+    for (const auto& kv : oracle)
+      if (kv.second != prior)
+        ++counts[kv.second];
+    grid.forEachVoxel([&](const Key& k, SpaceState s) {
+      ++visited;
+      const auto it = oracle.find(tup(k));
+      ASSERT_NE(it, oracle.end());
+      EXPECT_EQ(it->second, s);
+    });
+    EXPECT_EQ(visited, counts[SpaceState::FREE] + counts[SpaceState::OCCUPIED]
+                         + counts[SpaceState::UNKNOWN]);
+    for (const auto s : {SpaceState::FREE, SpaceState::OCCUPIED, SpaceState::UNKNOWN})
+      EXPECT_EQ(grid.getVoxelCount(s), s == prior ? 0u : counts[s]);
+  }
+}
+
+TEST(ExplicitSpaceGrid, CastRayMatchesBruteForce)
+{
+  ExplicitSpaceGrid grid(params(SpaceState::UNKNOWN, 0.25));
+  std::map<std::tuple<int, int, int>, SpaceState> oracle;
+  fillRandom(grid, oracle, 400, 12, 3u);
+  const float res = 0.25f;
+  std::mt19937 rng(5u);
+  std::uniform_real_distribution<float> coord(-3.0f, 3.0f);
+  std::normal_distribution<float> dir(0.0f, 1.0f);
+  int hits = 0;
+  for (int trial = 0; trial < 500; ++trial) {
+    const Eigen::Vector3f o(coord(rng), coord(rng), coord(rng));
+    const Eigen::Vector3f d =
+      Eigen::Vector3f(dir(rng), dir(rng), dir(rng)).normalized();
+    const double max_range = 4.0;
+    // brute force: the occupied voxel whose box the ray enters first (slab test)
+    double best_t = std::numeric_limits<double>::infinity();
+    Eigen::Vector3f best_centre = Eigen::Vector3f::Zero();
+    for (const auto& [k, s] : oracle) {
+      if (s != SpaceState::OCCUPIED)
+        continue;
+      const Key key(std::get<0>(k), std::get<1>(k), std::get<2>(k));
+      double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
+      for (int a = 0; a < 3; ++a) {
+        const double lo = key[a] * static_cast<double>(res), hi = lo + res;
+        if (d[a] == 0.0f) {
+          if (o[a] < lo || o[a] >= hi)
+            t1 = -1.0;
+          continue;
+        }
+        double ta = (lo - o[a]) / d[a], tb = (hi - o[a]) / d[a];
+        if (ta > tb)
+          std::swap(ta, tb);
+        t0 = std::max(t0, ta);
+        t1 = std::min(t1, tb);
+      }
+      if (t0 < t1 && t0 <= max_range && t0 < best_t) {
+        best_t = t0;
+        best_centre = grid.toCentre(key);
+      }
+    }
+    Eigen::Vector3f hit;
+    const bool found = grid.castRay(o, d * 3.0f, max_range, hit);
+    ASSERT_EQ(found, std::isfinite(best_t)) << "trial " << trial;
+    if (found) {
+      ++hits;
+      EXPECT_TRUE((hit - best_centre).norm() < 1e-4f) << "trial " << trial;
+    }
+  }
+  EXPECT_GT(hits, 50); // the random set is dense enough for many hits
+  Eigen::Vector3f hit;
+  EXPECT_FALSE(
+    grid.castRay(Eigen::Vector3f::Zero(), Eigen::Vector3f::Zero(), 5.0, hit));
+}
+
+TEST(ExplicitSpaceGrid, CountsAndMemoryConsistent)
+{
+  ExplicitSpaceGrid grid(params(SpaceState::UNKNOWN));
+  EXPECT_EQ(grid.getBlockCount(), 0u);
+  Key lo, hi;
+  EXPECT_FALSE(grid.getBounds(lo, hi));
+  const std::size_t empty_bytes = grid.getMemoryBytes();
+  // one whole block free: stored as one uniform block (no payload)
+  for (int z = 0; z < 8; ++z)
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x)
+        grid.setState(Key(x, y, z), SpaceState::FREE);
+  EXPECT_EQ(grid.getBlockCount(), 1u);
+  EXPECT_EQ(grid.getVoxelCount(SpaceState::FREE), 512u);
+  const std::size_t uniform_bytes = grid.getMemoryBytes();
+  EXPECT_GT(uniform_bytes, empty_bytes);
+  // one voxel occupied: the block needs its 128-byte payload
+  grid.setState(Key(3, 3, 3), SpaceState::OCCUPIED);
+  EXPECT_EQ(grid.getVoxelCount(SpaceState::FREE), 511u);
+  EXPECT_EQ(grid.getVoxelCount(SpaceState::OCCUPIED), 1u);
+  EXPECT_GE(grid.getMemoryBytes(), uniform_bytes + 128u);
+  // a second block far away, negative keys
+  grid.setState(Key(-100, -1, -9), SpaceState::UNKNOWN); // the prior: nothing stored
+  EXPECT_EQ(grid.getBlockCount(), 1u);
+  grid.setState(Key(-100, -1, -9), SpaceState::OCCUPIED);
+  EXPECT_EQ(grid.getBlockCount(), 2u);
+  ASSERT_TRUE(grid.getBounds(lo, hi));
+  EXPECT_EQ(lo, Key(-104, -8, -16)); // block-aligned: -100 lies in block [-104, -97]
+  EXPECT_EQ(hi, Key(7, 7, 7));
+  // back to the prior: the blocks are dropped
+  grid.setState(Key(-100, -1, -9), SpaceState::UNKNOWN);
+  grid.setState(Key(3, 3, 3), SpaceState::FREE);
+  EXPECT_EQ(grid.getBlockCount(), 1u);
+  EXPECT_EQ(grid.getMemoryBytes(), uniform_bytes);
+  grid.clear();
+  EXPECT_EQ(grid.getBlockCount(), 0u);
+  EXPECT_EQ(grid.getVoxelCount(SpaceState::FREE), 0u);
+  EXPECT_EQ(grid.getVoxelCount(SpaceState::UNKNOWN), 0u); // the prior is never counted
+}
+
+TEST(ExplicitSpaceGrid, SerializeRoundTrip)
+{
+  for (const auto prior : {SpaceState::UNKNOWN, SpaceState::FREE}) {
+    ExplicitSpaceGrid grid(params(prior));
+    std::map<std::tuple<int, int, int>, SpaceState> oracle;
+    fillRandom(grid, oracle, 2000, 30, 13u);
+    // plus uniform blocks and a large uniform region (inner leaves above block level)
+    for (int z = 64; z < 96; ++z)
+      for (int y = -32; y < 0; ++y)
+        for (int x = 0; x < 32; ++x)
+          grid.setState(Key(x, y, z), SpaceState::OCCUPIED);
+    std::vector<std::uint8_t> bytes;
+    grid.serialize(bytes);
+    ExplicitSpaceGrid read(
+      params(prior == SpaceState::FREE ? SpaceState::UNKNOWN : SpaceState::FREE));
+    read.deserialize(bytes.data(), bytes.size());
+    EXPECT_EQ(read.getParams().prior, prior); // the prior comes from the stream
+    EXPECT_TRUE(read == grid);
+    std::vector<std::uint8_t> again;
+    read.serialize(again);
+    EXPECT_EQ(again, bytes);
+    // flip one voxel: unequal
+    const Key k(1, 2, 3);
+    read.setState(k, grid.getState(k) == SpaceState::OCCUPIED ? SpaceState::FREE
+                                                              : SpaceState::OCCUPIED);
+    EXPECT_TRUE(read != grid);
+  }
+  // an empty grid is one prior leaf
+  ExplicitSpaceGrid empty(params(SpaceState::FREE));
+  std::vector<std::uint8_t> bytes;
+  empty.serialize(bytes);
+  EXPECT_EQ(bytes.size(), 23u); // 22-byte header + 1 label byte
+  ExplicitSpaceGrid read(params(SpaceState::FREE));
+  read.setState(Key(0, 0, 0), SpaceState::OCCUPIED);
+  read.deserialize(bytes.data(), bytes.size());
+  EXPECT_TRUE(read == empty);
+  // different resolution: unequal
+  ExplicitSpaceGrid coarse(params(SpaceState::FREE, 0.2));
+  EXPECT_TRUE(coarse != empty);
+}
+
+TEST(ExplicitSpaceGrid, TruncatedStreamRejected)
+{
+  ExplicitSpaceGrid grid(params(SpaceState::UNKNOWN));
+  std::map<std::tuple<int, int, int>, SpaceState> oracle;
+  fillRandom(grid, oracle, 60, 10, 21u);
+  std::vector<std::uint8_t> bytes;
+  grid.serialize(bytes);
+  ASSERT_GT(bytes.size(), 30u);
+  ExplicitSpaceGrid read(params(SpaceState::UNKNOWN));
+  read.setState(Key(0, 0, 0), SpaceState::OCCUPIED);
+  for (std::size_t n = 0; n < bytes.size(); ++n)
+    EXPECT_THROW(read.deserialize(bytes.data(), n), planar_grid::IOError) << n;
+  // the grid is unchanged after each rejection
+  EXPECT_EQ(read.getState(Key(0, 0, 0)), SpaceState::OCCUPIED);
+  EXPECT_EQ(read.getBlockCount(), 1u);
+  // trailing byte
+  auto longer = bytes;
+  longer.push_back(0);
+  EXPECT_THROW(read.deserialize(longer.data(), longer.size()), planar_grid::IOError);
+}
+
+TEST(ExplicitSpaceGrid, CorruptStreamRejected)
+{
+  const auto header = [](int depth, int prior, std::uint64_t count) {
+    std::vector<std::uint8_t> b(22, 0);
+    b[12] = static_cast<std::uint8_t>(depth);
+    b[13] = static_cast<std::uint8_t>(prior);
+    for (int i = 0; i < 8; ++i)
+      b[static_cast<std::size_t>(14 + i)] = static_cast<std::uint8_t>(count >> (8 * i));
+    return b;
+  };
+  ExplicitSpaceGrid grid(params(SpaceState::UNKNOWN));
+  // depth 22 > 21
+  auto b = header(22, 2, 1);
+  b.push_back(2);
+  EXPECT_THROW(grid.deserialize(b.data(), b.size()), planar_grid::IOError);
+  // prior label 01 (occupied) or 11 is not a prior
+  b = header(0, 1, 1);
+  b.push_back(1);
+  EXPECT_THROW(grid.deserialize(b.data(), b.size()), planar_grid::IOError);
+  // label 11 at voxel level
+  b = header(0, 2, 1);
+  b.push_back(3);
+  EXPECT_THROW(grid.deserialize(b.data(), b.size()), planar_grid::IOError);
+  // inner root with too few labels for its children
+  b = header(1, 2, 4);
+  b.push_back(0x03);
+  EXPECT_THROW(grid.deserialize(b.data(), b.size()), planar_grid::IOError);
+  // label count far beyond the data (must not allocate)
+  b = header(3, 2, std::numeric_limits<std::uint64_t>::max());
+  b.push_back(0);
+  EXPECT_THROW(grid.deserialize(b.data(), b.size()), planar_grid::IOError);
+  // a 2^21-voxel occupied leaf: too many blocks, rejected before allocating
+  b = header(21, 2, 1);
+  b.push_back(1);
+  EXPECT_THROW(grid.deserialize(b.data(), b.size()), planar_grid::IOError);
+  // root key not block-aligned
+  b = header(3, 2, 1);
+  b[0] = 3;
+  b.push_back(1);
+  EXPECT_THROW(grid.deserialize(b.data(), b.size()), planar_grid::IOError);
+  // valid: depth 3, one occupied leaf = one uniform block
+  b = header(3, 2, 1);
+  b.push_back(1);
+  ASSERT_NO_THROW(grid.deserialize(b.data(), b.size()));
+  EXPECT_EQ(grid.getVoxelCount(SpaceState::OCCUPIED), 512u);
+  EXPECT_EQ(grid.getBlockCount(), 1u);
+}
+
+TEST(ExplicitSpaceGrid, RandomByteFlipsNeverCrash)
+{
+  ExplicitSpaceGrid grid(params(SpaceState::FREE));
+  std::map<std::tuple<int, int, int>, SpaceState> oracle;
+  fillRandom(grid, oracle, 200, 16, 31u);
+  std::vector<std::uint8_t> bytes;
+  grid.serialize(bytes);
+  std::mt19937 rng(99u);
+  std::uniform_int_distribution<std::size_t> pos(0, bytes.size() - 1);
+  std::uniform_int_distribution<int> bit(0, 7);
+  int rejected = 0, accepted = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    auto corrupt = bytes;
+    const int flips = 1 + trial % 3;
+    for (int f = 0; f < flips; ++f)
+      corrupt[pos(rng)] ^= static_cast<std::uint8_t>(1u << bit(rng));
+    ExplicitSpaceGrid read(params(SpaceState::FREE));
+    try {
+      read.deserialize(corrupt.data(), corrupt.size());
+      ++accepted;
+      // a valid grid: it re-encodes and decodes to itself
+      std::vector<std::uint8_t> again;
+      read.serialize(again);
+      ExplicitSpaceGrid twice(params(SpaceState::FREE));
+      twice.deserialize(again.data(), again.size());
+      EXPECT_TRUE(twice == read);
+    } catch (const planar_grid::IOError&) {
+      ++rejected;
+    }
+  }
+  EXPECT_GT(rejected, 0);
+  EXPECT_EQ(rejected + accepted, 2000);
+}
+
+TEST(ExplicitSpaceGrid, DepthImageZBufferKeepsNearest)
+{
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  cloud.push_back({0.0f, 0.0f, 5.0f});
+  cloud.push_back({0.0f, 0.0f, 2.0f}); // same pixel, nearer: wins
+  cloud.push_back({0.0f, 0.0f, 3.0f});
+  cloud.push_back({0.5f, 0.0f, 1.0f});  // pixel (u = 10 * 0.5 + 4.5 -> 10 >= 10): out
+  cloud.push_back({0.1f, 0.1f, -1.0f}); // behind the camera: skipped
+  cloud.push_back({std::nanf(""), 0.0f, 1.0f});
+  cloud.push_back(
+    {0.2f, -0.1f, 2.0f}); // u = 10 * 0.1 + 4.5 = 5.5 -> 6, v = 4.5 - 0.5 = 4
+  const DepthImage image =
+    DepthImage::fromPointCloud(cloud, 10, 10, 10.0f, 10.0f, 4.5f, 4.5f);
+  EXPECT_EQ(image.width, 10);
+  EXPECT_EQ(image.depth_m.size(), 100u);
+  EXPECT_FLOAT_EQ(image.at(5, 5), 2.0f); // u = 4.5 -> floor(4.5 + 0.5) = 5
+  EXPECT_FLOAT_EQ(image.at(6, 4), 2.0f);
+  int valid = 0;
+  for (const float d : image.depth_m)
+    valid += std::isfinite(d) ? 1 : 0;
+  EXPECT_EQ(valid, 2);
+}
+
+TEST(ExplicitSpaceGrid, EmptyAndInvalidImagesChangeNothing)
+{
+  ExplicitSpaceGrid grid(params(SpaceState::FREE));
+  grid.setState(Key(0, 0, 20), SpaceState::OCCUPIED);
+  grid.integrateDepthImage(DepthImage{}, Eigen::Isometry3d::Identity());
+  DepthImage nan_image = renderBoxRoom();
+  std::fill(nan_image.depth_m.begin(), nan_image.depth_m.end(), std::nanf(""));
+  grid.integrateDepthImage(nan_image, Eigen::Isometry3d::Identity());
+  std::fill(nan_image.depth_m.begin(), nan_image.depth_m.end(), -1.0f);
+  grid.integrateDepthImage(nan_image, Eigen::Isometry3d::Identity());
+  DepthImage wrong_size = renderBoxRoom();
+  wrong_size.depth_m.pop_back();
+  grid.integrateDepthImage(wrong_size, Eigen::Isometry3d::Identity());
+  EXPECT_EQ(grid.getBlockCount(), 1u);
+  EXPECT_EQ(grid.getVoxelCount(SpaceState::OCCUPIED), 1u);
+  EXPECT_EQ(grid.getVoxelCount(SpaceState::UNKNOWN), 0u);
+}
+
+/** \brief A box room with an occluder seen from one general pose, for both priors. */
+TEST(ExplicitSpaceGrid, BoxRoomFreeOccupiedUnknown)
+{
+  const DepthImage image = renderBoxRoom();
+  const Eigen::Isometry3d T = roomPose();
+  for (const auto prior : {SpaceState::UNKNOWN, SpaceState::FREE}) {
+    ExplicitSpaceGrid grid(params(prior, 0.1, 20.0));
+    grid.integrateDepthImage(image, T);
+    const auto state = [&](const Eigen::Vector3d& pc) {
+      return grid.getState((T * pc).cast<float>().eval());
+    };
+    // Named points (camera frame).
+    EXPECT_EQ(state({0.0, 0.0, 2.0}), SpaceState::FREE);    // in front of the occluder
+    EXPECT_EQ(state({2.5, 0.3, 6.0}), SpaceState::FREE);    // beside its shadow
+    EXPECT_EQ(state({0.0, 0.0, 6.0}), SpaceState::UNKNOWN); // in its shadow
+    EXPECT_EQ(state({2.5, 0.3, 9.0}), SpaceState::UNKNOWN); // behind the front wall
+    EXPECT_EQ(state({0.0, 0.0, -2.0}), prior);              // behind the camera
+    EXPECT_EQ(state({30.0, 0.0, 5.0}), prior);              // far outside the frustum
+    // Random points: in front of the surface by > 0.3 m -> free; in the occluder's
+    // shadow and > 0.3 m behind it -> unknown; outside the frustum -> the prior.
+    std::mt19937 rng(17u);
+    std::uniform_real_distribution<double> ux(-6.0, 6.0), uy(-3.0, 3.0), uz(-3.0, 12.0);
+    int n_free = 0, ok_free = 0, n_shadow = 0, ok_shadow = 0, n_out = 0, ok_out = 0;
+    for (int i = 0; i < 40000; ++i) {
+      const Eigen::Vector3d pc(ux(rng), uy(rng), uz(rng));
+      const SpaceState s = state(pc);
+      // outside: behind the camera, or projecting 2 px outside the image
+      const bool behind = pc.z() < -0.2;
+      const double u = image.fx * pc.x() / pc.z() + image.cx,
+                   v = image.fy * pc.y() / pc.z() + image.cy;
+      const double pad = image.fx * 0.09 / std::max(pc.z(), 0.1) + 2.0;
+      if (behind
+          || (pc.z() > 0.2
+              && (u < -pad || v < -pad || u > image.width + pad
+                  || v > image.height + pad))) {
+        ++n_out;
+        ok_out += s == prior ? 1 : 0;
+        continue;
+      }
+      if (pc.z() < 0.5)
+        continue;
+      // min and max room depth over a window twice a voxel's footprint: the truth
+      // for a voxel, not only for its centre ray
+      if (roomDepthAlong(image, pc) < 0.0)
+        continue;
+      const int cu = static_cast<int>(std::floor(u + 0.5)),
+                cv = static_cast<int>(std::floor(v + 0.5));
+      const int k = static_cast<int>(std::ceil(2.0 * image.fx * 0.0866 / pc.z())) + 1;
+      double dmin = 1e9, dmax = 0.0;
+      for (int wv = std::max(cv - k, 0); wv <= std::min(cv + k, image.height - 1); ++wv)
+        for (int wu = std::max(cu - k, 0); wu <= std::min(cu + k, image.width - 1);
+             ++wu) {
+          dmin = std::min(dmin, static_cast<double>(image.at(wu, wv)));
+          dmax = std::max(dmax, static_cast<double>(image.at(wu, wv)));
+        }
+      if (pc.z() < dmin - 0.2) {
+        ++n_free;
+        ok_free += s == SpaceState::FREE ? 1 : 0;
+      } else if (dmax < 3.01 && pc.z() > 3.3 && pc.z() < 7.5) {
+        ++n_shadow;
+        ok_shadow += s == SpaceState::UNKNOWN ? 1 : 0;
+      }
+    }
+    EXPECT_GT(n_free, 2000);
+    EXPECT_GT(n_shadow, 20);
+    EXPECT_GT(n_out, 5000);
+    // 98 %: the integration's footprint is a superset (mip cells) of the window
+    EXPECT_GE(ok_free, n_free * 98 / 100) << "prior " << planar_grid::toString(prior);
+    EXPECT_EQ(ok_shadow, n_shadow) << "prior " << planar_grid::toString(prior);
+    EXPECT_EQ(ok_out, n_out);
+    // Occupied: every wall sample's voxel (all pixels are measured, pixel spacing below
+    // the voxel edge), and the count matches the distinct voxels of the pixels.
+    std::set<std::tuple<int, int, int>> surface;
+    for (int v = 0; v < image.height; ++v)
+      for (int u = 0; u < image.width; ++u) {
+        const double d = image.at(u, v);
+        const Eigen::Vector3d pc((u - image.cx) / image.fx * d,
+                                 (v - image.cy) / image.fy * d, d);
+        surface.insert(tup(grid.toKey((T * pc).cast<float>().eval())));
+      }
+    std::size_t occupied_hits = 0;
+    for (const auto& k : surface)
+      occupied_hits +=
+        grid.getState(Key(std::get<0>(k), std::get<1>(k), std::get<2>(k)))
+            == SpaceState::OCCUPIED
+          ? 1
+          : 0;
+    EXPECT_GE(occupied_hits, surface.size() * 99 / 100);
+    const double ratio =
+      static_cast<double>(grid.getVoxelCount(SpaceState::OCCUPIED)) / surface.size();
+    EXPECT_GT(ratio, 0.98);
+    EXPECT_LT(ratio, 1.02);
+    if (prior == SpaceState::FREE)
+      EXPECT_GT(grid.getVoxelCount(SpaceState::UNKNOWN), 1000u);
+    else
+      EXPECT_GT(grid.getVoxelCount(SpaceState::FREE), 50000u);
+  }
+}
+
+/** \brief Newest free / occupied observation wins; occlusion never erases them. */
+TEST(ExplicitSpaceGrid, OcclusionKeepsKnownStates)
+{
+  const DepthImage image = renderBoxRoom();
+  ExplicitSpaceGrid grid(params(SpaceState::UNKNOWN, 0.1, 20.0));
+  // a voxel in the occluder's shadow, known free and one known occupied beforehand
+  const Key shadow_free = grid.toKey(Eigen::Vector3f(0.05f, 0.05f, 6.0f));
+  const Key shadow_occ = grid.toKey(Eigen::Vector3f(-0.2f, 0.1f, 5.0f));
+  const Key seen = grid.toKey(Eigen::Vector3f(0.0f, 0.0f, 2.0f));
+  grid.setState(shadow_free, SpaceState::FREE);
+  grid.setState(shadow_occ, SpaceState::OCCUPIED);
+  grid.setState(seen, SpaceState::OCCUPIED);
+  grid.integrateDepthImage(image, Eigen::Isometry3d::Identity());
+  EXPECT_EQ(grid.getState(shadow_free), SpaceState::FREE);
+  EXPECT_EQ(grid.getState(shadow_occ), SpaceState::OCCUPIED);
+  EXPECT_EQ(grid.getState(seen), SpaceState::FREE); // newest observation
+  // prior free: occluded space at the prior becomes unknown, occupied stays
+  ExplicitSpaceGrid free_prior(params(SpaceState::FREE, 0.1, 20.0));
+  free_prior.setState(shadow_occ, SpaceState::OCCUPIED);
+  free_prior.integrateDepthImage(image, Eigen::Isometry3d::Identity());
+  EXPECT_EQ(free_prior.getState(shadow_occ), SpaceState::OCCUPIED);
+  EXPECT_EQ(free_prior.getState(shadow_free), SpaceState::UNKNOWN);
+}
+
+TEST(ExplicitSpaceGrid, ExportOctoMapReadsBack)
+{
+  ExplicitSpaceGrid grid(params(SpaceState::UNKNOWN, 0.2));
+  std::map<std::tuple<int, int, int>, SpaceState> oracle;
+  fillRandom(grid, oracle, 500, 10, 41u);
+  const auto dir = std::filesystem::temp_directory_path()
+                   / ("planar_grid_space_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "space.bt").string();
+  grid.exportOctoMap(path);
+  octomap::OcTree tree(0.2);
+  ASSERT_TRUE(tree.readBinary(path));
+  EXPECT_DOUBLE_EQ(tree.getResolution(), 0.2);
+  std::size_t occupied = 0;
+  grid.forEachVoxel([&](const Key& k, SpaceState s) {
+    const Eigen::Vector3f c = grid.toCentre(k);
+    const octomap::OcTreeNode* node = tree.search(c.x(), c.y(), c.z());
+    if (s == SpaceState::UNKNOWN) {
+      EXPECT_EQ(node, nullptr);
+      return;
+    }
+    ASSERT_NE(node, nullptr);
+    EXPECT_EQ(tree.isNodeOccupied(node), s == SpaceState::OCCUPIED);
+    occupied += s == SpaceState::OCCUPIED ? 1 : 0;
+  });
+  // the tree holds no other occupied voxels
+  tree.expand();
+  std::size_t tree_occupied = 0;
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it)
+    tree_occupied += tree.isNodeOccupied(*it) ? 1 : 0;
+  EXPECT_EQ(tree_occupied, occupied);
+  EXPECT_GT(occupied, 100u);
+  std::filesystem::remove_all(dir);
+  EXPECT_THROW(grid.exportOctoMap("/nonexistent_folder_planar_grid/x.bt"),
+               planar_grid::IOError);
+}
+
+/** \brief Real data: Karlsruhe frame 10 (SGBM disparity, depth = f B / d) at 0.1 m. */
+TEST(ExplicitSpaceGrid, KarlsruheFrame10)
+{
+  const std::string dir =
+    std::string(PLANAR_GRID_DATA_DIR) + "/karlsruhe_2010_03_09_drive_0023";
+  const cv::Mat left = cv::imread(dir + "/left/I1_000010.png", cv::IMREAD_GRAYSCALE);
+  const cv::Mat right = cv::imread(dir + "/right/I2_000010.png", cv::IMREAD_GRAYSCALE);
+  if (left.empty() || right.empty())
+    GTEST_SKIP() << "Karlsruhe data not found in " << dir;
+  const auto model = planar_grid::loadStereoCalibration(
+    planar_grid::CalibrationFormat::KARLSRUHE, dir + "/calib.txt");
+  const auto& calib = model.calibration;
+  cv::Mat disparity;
+  planar_grid::DisparityEstimator().compute(left, right, disparity);
+  DepthImage image;
+  image.width = disparity.cols;
+  image.height = disparity.rows;
+  image.fx = image.fy = static_cast<float>(calib.focal_length_px);
+  image.cx = static_cast<float>(calib.cx_px);
+  image.cy = static_cast<float>(calib.cy_px);
+  image.depth_m.resize(static_cast<std::size_t>(image.width * image.height));
+  for (int v = 0; v < image.height; ++v)
+    for (int u = 0; u < image.width; ++u) {
+      const float d = disparity.at<float>(v, u);
+      image.depth_m[static_cast<std::size_t>(v * image.width + u)] =
+        d > 0.0f ? static_cast<float>(calib.focal_length_px * calib.baseline_m / d)
+                 : std::numeric_limits<float>::quiet_NaN();
+    }
+  ExplicitSpaceGrid grid(params(SpaceState::UNKNOWN, 0.1, 25.0));
+  if (std::getenv("PLANAR_GRID_DEBUG"))
+    pcl::console::setVerbosityLevel(pcl::console::L_DEBUG);
+  const auto t0 = std::chrono::steady_clock::now();
+  grid.integrateDepthImage(image, Eigen::Isometry3d::Identity());
+  const double ms =
+    std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+      .count();
+  std::printf(
+    "[ info ] frame 10: %.1f ms, %zu free, %zu occupied, %zu blocks, %zu bytes\n", ms,
+    grid.getVoxelCount(SpaceState::FREE), grid.getVoxelCount(SpaceState::OCCUPIED),
+    grid.getBlockCount(), grid.getMemoryBytes());
+
+  // Occupied: the distinct voxels of the valid pixels within 25 m.
+  std::set<std::tuple<int, int, int>> surface;
+  int free_checked = 0, free_ok = 0;
+  for (int v = 0; v < image.height; ++v)
+    for (int u = 0; u < image.width; ++u) {
+      const float d = image.at(u, v);
+      if (!(d > 0.0f) || d > 25.0f)
+        continue;
+      const Eigen::Vector3f pc((u - image.cx) / image.fx * d,
+                               (v - image.cy) / image.fy * d, d);
+      surface.insert(tup(grid.toKey(pc)));
+      // lower middle of the image: the road ahead; half way to it is free
+      if (v > image.height * 3 / 4 && u > image.width / 3 && u < image.width * 2 / 3
+          && d > 5.0f && d < 20.0f && (u + v) % 7 == 0) {
+        ++free_checked;
+        free_ok +=
+          grid.getState(Eigen::Vector3f(pc * 0.5f)) == SpaceState::FREE ? 1 : 0;
+      }
+    }
+  const double ratio =
+    static_cast<double>(grid.getVoxelCount(SpaceState::OCCUPIED)) / surface.size();
+  EXPECT_GT(ratio, 0.95);
+  EXPECT_LT(ratio, 1.05);
+  EXPECT_GT(surface.size(), 20000u);
+  EXPECT_GT(free_checked, 100);
+  EXPECT_GE(free_ok, free_checked * 95 / 100);
+  EXPECT_GT(grid.getVoxelCount(SpaceState::FREE), 500000u);
+  // Everything outside the frustum (slack: one voxel's footprint) is at the prior:
+  // every stored voxel's centre projects into the image within 25 m.
+  std::size_t outside = 0;
+  grid.forEachVoxel([&](const Key& k, SpaceState) {
+    const Eigen::Vector3f c = grid.toCentre(k);
+    const float slack_m = 0.0867f; // half the voxel diagonal
+    if (c.z() < -slack_m || c.z() > 25.0f + slack_m) {
+      ++outside;
+      return;
+    }
+    const float z = std::max(c.z(), 0.05f);
+    const float pad = image.fx * slack_m / z + 1.0f;
+    const float u = image.fx * c.x() / z + image.cx,
+                v = image.fy * c.y() / z + image.cy;
+    if (u < -pad || v < -pad || u > image.width + pad || v > image.height + pad)
+      ++outside;
+  });
+  EXPECT_EQ(outside, 0u);
+  EXPECT_EQ(grid.getState(Eigen::Vector3f(0.0f, 0.0f, -3.0f)), SpaceState::UNKNOWN);
+  EXPECT_EQ(grid.getState(Eigen::Vector3f(0.0f, -20.0f, 5.0f)), SpaceState::UNKNOWN);
+}

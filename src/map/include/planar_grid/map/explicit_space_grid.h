@@ -25,13 +25,11 @@ namespace planar_grid {
 enum class SpaceState : std::uint8_t { FREE = 0, OCCUPIED = 1, UNKNOWN = 2 };
 
 /** \brief "free", "occupied" or "unknown". \ingroup map */
-std::string
-toString(SpaceState state);
+std::string toString(SpaceState state);
 
 /** \brief Parses "free", "occupied" or "unknown".
  * \throws planar_grid::Exception for any other name \ingroup map */
-SpaceState
-spaceStateFromString(const std::string& name);
+SpaceState spaceStateFromString(const std::string& name);
 
 /** \brief A pinhole depth image: depth along the optical axis per pixel, row-major.
  * Camera frame: x right, y down, z forward (meters). \ingroup map */
@@ -44,8 +42,7 @@ struct DepthImage {
   std::vector<float> depth_m;
 
   /** \brief Depth at pixel (u, v), meters (no bounds check). */
-  [[nodiscard]] float
-  at(int u, int v) const
+  [[nodiscard]] float at(int u, int v) const
   {
     return depth_m[static_cast<std::size_t>(v) * static_cast<std::size_t>(width)
                    + static_cast<std::size_t>(u)];
@@ -59,14 +56,13 @@ struct DepthImage {
    * \param[in] fx, fy, cx, cy intrinsics, pixels (fx, fy > 0)
    * \return the depth image
    * \throws planar_grid::Exception for a non-positive size or focal length */
-  static DepthImage
-  fromPointCloud(const pcl::PointCloud<pcl::PointXYZ>& cloud,
-                 int width,
-                 int height,
-                 float fx,
-                 float fy,
-                 float cx,
-                 float cy);
+  static DepthImage fromPointCloud(const pcl::PointCloud<pcl::PointXYZ>& cloud,
+                                   int width,
+                                   int height,
+                                   float fx,
+                                   float fy,
+                                   float cx,
+                                   float cy);
 };
 
 /** \brief The explicit space layer of the planar grid map (the paper's "local explicit
@@ -79,8 +75,15 @@ struct DepthImage {
  * point): a voxel whose centre depth is below the smallest measured depth over its
  * footprint minus surface_margin_m is free, one behind the measured depth plus the
  * margin is unknown (occluded), and the voxel of each back-projected valid pixel is
- * occupied. A voxel's newest observation replaces the older one; "no information" (a
- * pixel without a measurement, an occluded voxel) never overwrites a known state.
+ * occupied. Free and occupied observations replace older ones (newest wins); "no
+ * information" (outside the image, beyond max_range_m, a footprint without any
+ * measurement) changes nothing; an occluded voxel becomes unknown only where it holds
+ * the prior. With prior UNKNOWN, occlusion therefore never erases a known state; with
+ * prior FREE a voxel observed free equals the prior (canonical storage), so a later
+ * occlusion turns it unknown. The footprint is approximated by min-depth mip cells (a
+ * superset of at most ~1.5x the voxel's projected size, conservative for "free"); whole
+ * 8^3 blocks and 4^3 sub-cubes in front of (or behind) every measurement of their
+ * footprint are decided at once, the rest voxel by voxel.
  *
  * Storage is sparse: blocks of 8 x 8 x 8 voxels in a hash map, 2 bits per voxel; a
  * block whose voxels all have one state is stored as that state only, and a block all
@@ -110,8 +113,10 @@ public:
   explicit ExplicitSpaceGrid(const Params& params);
   ExplicitSpaceGrid(const ExplicitSpaceGrid&) = delete;
   ExplicitSpaceGrid& operator=(const ExplicitSpaceGrid&) = delete;
-  ExplicitSpaceGrid(ExplicitSpaceGrid&&) = default;
-  ExplicitSpaceGrid& operator=(ExplicitSpaceGrid&&) = default;
+  /** \brief Moves (defined in the .cpp, where Impl is complete). */
+  ExplicitSpaceGrid(ExplicitSpaceGrid&&) noexcept;
+  /** \brief Move assignment (defined in the .cpp, where Impl is complete). */
+  ExplicitSpaceGrid& operator=(ExplicitSpaceGrid&&) noexcept;
   ~ExplicitSpaceGrid();
 
   /** \brief The parameters. */
@@ -151,8 +156,7 @@ public:
 
   /** \brief Calls f(key, state) for every voxel whose state differs from the prior,
    * in a deterministic order (blocks sorted by key, voxels x fastest). */
-  template <typename F>
-  void forEachVoxel(F&& f) const;
+  template <typename F> void forEachVoxel(F&& f) const;
 
   /** \brief Number of voxels in \a state that differ from the prior (0 for the prior
    * state itself). */
@@ -161,7 +165,8 @@ public:
   [[nodiscard]] std::size_t getBlockCount() const;
   /** \brief Bytes held: block payloads plus hash-map nodes and buckets. */
   [[nodiscard]] std::size_t getMemoryBytes() const;
-  /** \brief Inclusive bounds of the stored voxels (keys); false when empty. */
+  /** \brief Inclusive bounds of the stored blocks, in voxel keys (block-aligned:
+   * min_key multiples of 8, max_key = 8 k + 7); false when nothing is stored. */
   bool getBounds(VoxelKey& min_key, VoxelKey& max_key) const;
 
   /** \brief Encodes the layer as an octree bit stream (Sec. IV): a small fixed header
@@ -169,14 +174,22 @@ public:
    * label per node in depth-first order (00 free, 01 occupied, 10 unknown, 11 inner
    * node with 8 children), 4 labels per byte. Regions without stored blocks are leaves
    * with the prior's label.
-   * \param[out] bytes the encoding (appended to) */
+   * Header (22 bytes): root key int32 x3 (block-aligned min corner of the smallest
+   * power-of-two cube covering the stored blocks), depth uint8 (root edge 2^depth
+   * voxels), prior uint8, label count uint64; children in x, y, z order (x fastest);
+   * first label of a byte in its low bits.
+   * \param[out] bytes the encoding (appended to)
+   * \throws planar_grid::Exception when the stored blocks span more than 2^21 voxels */
   void serialize(std::vector<std::uint8_t>& bytes) const;
 
   /** \brief Replaces the content by a decoding of serialize()'s output.
    * \param[in] data, size the encoded bytes
    * \throws planar_grid::IOError when the bytes are truncated, have trailing data, an
    * inner label at voxel level, a depth over 21, or a label 11 where a leaf is needed;
-   * the grid is unchanged on error */
+   * a root key that is not a multiple of 8, a prior other than free/unknown,
+   * non-zero padding bits, or leaves that would create more than 2^22 blocks (checked
+   * before allocating); the grid is unchanged on error. The prior is taken from the
+   * stream; the resolution is the grid's own. */
   void deserialize(const std::uint8_t* data, std::size_t size);
 
   /** \brief Writes the non-prior voxels to an OctoMap binary tree (.bt, liboctomap's
