@@ -1,0 +1,104 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// ExplicitSpaceGrid::integrateDepthImage vs octomap::OcTree::insertPointCloud on
+// Karlsruhe frame 10 (SGBM disparity, depth = f B / d) at 0.1 m, 25 m max range.
+#include <planar_grid/map/explicit_space_grid.h>
+
+#include <benchmark/benchmark.h>
+#include <octomap/OcTree.h>
+
+#include <limits>
+
+#include "karlsruhe_frame.h"
+
+namespace {
+
+using planar_grid::DepthImage;
+using planar_grid::ExplicitSpaceGrid;
+
+/** \brief Frame 10 as a depth image (computed once). */
+const DepthImage&
+frame10()
+{
+  static const DepthImage image = [] {
+    DepthImage d;
+    const auto pair = planar_grid::bench::loadKarlsruhePair(10);
+    if (!pair.ok)
+      return d;
+    cv::Mat disparity;
+    planar_grid::DisparityEstimator().compute(pair.left, pair.right, disparity);
+    const auto& c = pair.model.calibration;
+    d.width = disparity.cols;
+    d.height = disparity.rows;
+    d.fx = d.fy = static_cast<float>(c.focal_length_px);
+    d.cx = static_cast<float>(c.cx_px);
+    d.cy = static_cast<float>(c.cy_px);
+    d.depth_m.resize(static_cast<std::size_t>(d.width * d.height));
+    for (int v = 0; v < d.height; ++v)
+      for (int u = 0; u < d.width; ++u) {
+        const float disp = disparity.at<float>(v, u);
+        d.depth_m[static_cast<std::size_t>(v * d.width + u)] =
+          disp > 0.0f ? static_cast<float>(c.focal_length_px * c.baseline_m / disp)
+                      : std::numeric_limits<float>::quiet_NaN();
+      }
+    return d;
+  }();
+  return image;
+}
+
+void
+BM_ExplicitSpaceGridIntegrate(benchmark::State& state)
+{
+  const DepthImage& image = frame10();
+  if (image.depth_m.empty()) {
+    state.SkipWithError("Karlsruhe frame 10 not found");
+    return;
+  }
+  ExplicitSpaceGrid::Params p;
+  p.resolution_m = 0.1;
+  p.max_range_m = 25.0;
+  p.prior = static_cast<planar_grid::SpaceState>(state.range(0));
+  std::size_t bytes = 0, blocks = 0;
+  for (auto _ : state) {
+    ExplicitSpaceGrid grid(p);
+    grid.integrateDepthImage(image, Eigen::Isometry3d::Identity());
+    bytes = grid.getMemoryBytes();
+    blocks = grid.getBlockCount();
+    benchmark::DoNotOptimize(blocks);
+  }
+  state.counters["memory_bytes"] = static_cast<double>(bytes);
+  state.counters["blocks"] = static_cast<double>(blocks);
+}
+// Arg: prior (2 = unknown, the default; 0 = free: occluded space is written too)
+BENCHMARK(BM_ExplicitSpaceGridIntegrate)->Arg(2)->Arg(0)->Unit(benchmark::kMillisecond);
+
+void
+BM_OctoMapInsertPointCloud(benchmark::State& state)
+{
+  const DepthImage& image = frame10();
+  if (image.depth_m.empty()) {
+    state.SkipWithError("Karlsruhe frame 10 not found");
+    return;
+  }
+  octomap::Pointcloud cloud;
+  for (int v = 0; v < image.height; ++v)
+    for (int u = 0; u < image.width; ++u) {
+      const float d = image.at(u, v);
+      if (!(d > 0.0f) || d > 25.0f)
+        continue;
+      cloud.push_back((u - image.cx) / image.fx * d, (v - image.cy) / image.fy * d, d);
+    }
+  std::size_t bytes = 0;
+  for (auto _ : state) {
+    octomap::OcTree tree(0.1);
+    tree.insertPointCloud(cloud, octomap::point3d(0, 0, 0), 25.0);
+    bytes = tree.memoryUsage();
+    benchmark::DoNotOptimize(bytes);
+  }
+  state.counters["memory_bytes"] = static_cast<double>(bytes);
+  state.counters["points"] = static_cast<double>(cloud.size());
+}
+BENCHMARK(BM_OctoMapInsertPointCloud)->Unit(benchmark::kMillisecond)->Iterations(2);
+
+} // namespace
+
+BENCHMARK_MAIN();
