@@ -1,5 +1,9 @@
 # SPDX-License-Identifier: BSD-3-Clause
-# Helpers shared by every target (S3, S4): warnings and sanitizers per target, nothing global.
+# Helpers shared by every target (S3, S4): warnings and sanitizers per target, nothing global;
+# install and export of every module in one place (issue #9).
+
+include(GNUInstallDirs)
+include(CMakePackageConfigHelpers)
 
 function(planar_grid_set_warnings target)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic)
@@ -9,15 +13,151 @@ function(planar_grid_set_warnings target)
   endif()
 endfunction()
 
-# planar_grid_add_library(<module> SOURCES ... DEPENDS ...): the library planar_grid_<module>
-# with include/ as its public include directory.
+# planar_grid_add_library(<module> SOURCES ... DEPENDS ... PRIVATE_DEPENDS ...): the library
+# planar_grid_<module> with include/ as its public include directory. It is installed with
+# its headers (including impl/*.hpp, for PCL_NO_PRECOMPILE users) and exported as
+# PlanarGrid::<module>, the COMPONENT <module> of find_package(PlanarGrid). DEPENDS and
+# PRIVATE_DEPENDS are recorded so that the package config finds exactly the packages
+# the requested components need (planar_grid_install_package()).
 function(planar_grid_add_library module)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPENDS;PRIVATE_DEPENDS" ${ARGN})
   set(target planar_grid_${module})
   add_library(${target} ${ARG_SOURCES})
+  add_library(PlanarGrid::${module} ALIAS ${target})
+  set_target_properties(${target} PROPERTIES EXPORT_NAME ${module})
   target_include_directories(${target} PUBLIC
     $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
     $<INSTALL_INTERFACE:include>)
+  # Users of the installed package get C++17 from the target, not from their own flags.
+  target_compile_features(${target} PUBLIC cxx_std_17)
   target_link_libraries(${target} PUBLIC ${ARG_DEPENDS} PRIVATE ${ARG_PRIVATE_DEPENDS})
   planar_grid_set_warnings(${target})
+
+  install(TARGETS ${target} EXPORT PlanarGridTargets
+    ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+  if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/include/planar_grid)
+    install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/include/planar_grid
+      DESTINATION include
+      FILES_MATCHING PATTERN "*.h" PATTERN "*.hpp")
+  endif()
+  set_property(GLOBAL APPEND PROPERTY PLANAR_GRID_MODULES ${module})
+  set_property(GLOBAL PROPERTY PLANAR_GRID_${module}_LINKS ${ARG_DEPENDS} ${ARG_PRIVATE_DEPENDS})
+endfunction()
+
+# planar_grid_install_tools(<target>...): installs the existing executables to bin/.
+function(planar_grid_install_tools)
+  foreach(tool IN LISTS ARGN)
+    if(TARGET ${tool})
+      install(TARGETS ${tool} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+    endif()
+  endforeach()
+endfunction()
+
+# Maps one link item of a module to what the package config must find for it. Sets, in the
+# caller: _pg_kind (module | pcl | opencv | vtk | package | skip) and _pg_name.
+macro(_planar_grid_classify_link item)
+  set(_pg_kind skip)
+  set(_pg_name "")
+  if("${item}" MATCHES "^planar_grid_(.+)$")
+    set(_pg_kind module)
+    set(_pg_name ${CMAKE_MATCH_1})
+  elseif("${item}" MATCHES "^pcl_(.+)$")
+    set(_pg_kind pcl)
+    set(_pg_name ${CMAKE_MATCH_1})
+  elseif("${item}" MATCHES "^opencv_(.+)$")
+    set(_pg_kind opencv)
+    set(_pg_name ${CMAKE_MATCH_1})
+  elseif("${item}" MATCHES "^VTK::(.+)$")
+    set(_pg_kind vtk)
+    set(_pg_name ${CMAKE_MATCH_1})
+  elseif("${item}" STREQUAL "Eigen3::Eigen")
+    set(_pg_kind package)
+    set(_pg_name "Eigen3 3.3 NO_MODULE")
+  elseif("${item}" STREQUAL "yaml-cpp")
+    set(_pg_kind package)
+    set(_pg_name "yaml-cpp")
+  elseif("${item}" MATCHES "^nlohmann_json::")
+    set(_pg_kind package)
+    set(_pg_name "nlohmann_json 3")
+  elseif("${item}" STREQUAL "octomap" OR "${item}" STREQUAL "octomath")
+    set(_pg_kind package)
+    set(_pg_name "octomap")
+  elseif("${item}" MATCHES "^X11::")
+    set(_pg_kind package)
+    set(_pg_name "X11")
+  elseif("${item}" STREQUAL "Threads::Threads")
+    set(_pg_kind package)
+    set(_pg_name "Threads")
+  elseif("${item}" MATCHES "^OpenMP::")
+    set(_pg_kind package)
+    set(_pg_name "OpenMP")
+  else()
+    message(AUTHOR_WARNING "planar_grid_install_package: no find_dependency known for the "
+      "link item '${item}'; add it to _planar_grid_classify_link in cmake/PlanarGridTarget.cmake")
+  endif()
+endmacro()
+
+# planar_grid_install_package(): PlanarGridTargets.cmake (namespace PlanarGrid::),
+# PlanarGridConfig.cmake with one COMPONENT per module and the dependencies each needs,
+# and PlanarGridConfigVersion.cmake, in <prefix>/lib/cmake/PlanarGrid. Call it once, after
+# every module was added.
+function(planar_grid_install_package)
+  get_property(modules GLOBAL PROPERTY PLANAR_GRID_MODULES)
+  set(table "")
+  foreach(module IN LISTS modules)
+    get_property(links GLOBAL PROPERTY PLANAR_GRID_${module}_LINKS)
+    set(deps "")
+    set(pcl "")
+    set(opencv "")
+    set(vtk "")
+    set(packages "")
+    foreach(item IN LISTS links)
+      _planar_grid_classify_link("${item}")
+      if(_pg_kind STREQUAL "module")
+        list(APPEND deps ${_pg_name})
+      elseif(_pg_kind STREQUAL "pcl")
+        list(APPEND pcl ${_pg_name})
+      elseif(_pg_kind STREQUAL "opencv")
+        list(APPEND opencv ${_pg_name})
+      elseif(_pg_kind STREQUAL "vtk")
+        list(APPEND vtk ${_pg_name})
+      elseif(_pg_kind STREQUAL "package")
+        list(APPEND packages "${_pg_name}")
+      endif()
+    endforeach()
+    foreach(list_name deps pcl opencv vtk packages)
+      if(${list_name})
+        list(REMOVE_DUPLICATES ${list_name})
+      endif()
+    endforeach()
+    # Packages are stored with '|' in place of ';' so that "Eigen3 3.3 NO_MODULE" stays one item.
+    string(REPLACE " " "|" packages "${packages}")
+    string(APPEND table
+      "set(_PlanarGrid_${module}_modules \"${deps}\")\n"
+      "set(_PlanarGrid_${module}_pcl \"${pcl}\")\n"
+      "set(_PlanarGrid_${module}_opencv \"${opencv}\")\n"
+      "set(_PlanarGrid_${module}_vtk \"${vtk}\")\n"
+      "set(_PlanarGrid_${module}_packages \"${packages}\")\n")
+  endforeach()
+  set(PLANAR_GRID_MODULE_LIST "${modules}")
+  set(PLANAR_GRID_COMPONENT_TABLE "${table}")
+
+  set(config_dir ${CMAKE_INSTALL_LIBDIR}/cmake/PlanarGrid)
+  configure_package_config_file(
+    ${PROJECT_SOURCE_DIR}/cmake/PlanarGridConfig.cmake.in
+    ${PROJECT_BINARY_DIR}/PlanarGridConfig.cmake
+    INSTALL_DESTINATION ${config_dir})
+  write_basic_package_version_file(
+    ${PROJECT_BINARY_DIR}/PlanarGridConfigVersion.cmake
+    VERSION ${PROJECT_VERSION}
+    COMPATIBILITY SameMinorVersion)
+  install(EXPORT PlanarGridTargets
+    NAMESPACE PlanarGrid::
+    DESTINATION ${config_dir})
+  install(FILES
+    ${PROJECT_BINARY_DIR}/PlanarGridConfig.cmake
+    ${PROJECT_BINARY_DIR}/PlanarGridConfigVersion.cmake
+    DESTINATION ${config_dir})
 endfunction()
