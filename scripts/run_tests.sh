@@ -13,3 +13,7 @@ cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release -DPLANAR_GRID_BUILD_TESTS=
 cmake --build "$BUILD_DIR" -j2
 cd "$BUILD_DIR"
 ctest -j2 --output-on-failure --timeout 600
+cd - >/dev/null
+# The installed package and the examples built against it (issue #9), then the API docs.
+bash scripts/check_install.sh "$BUILD_DIR"
+bash scripts/build_docs.sh "$BUILD_DIR/docs"
