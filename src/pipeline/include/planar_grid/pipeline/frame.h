@@ -20,16 +20,20 @@ namespace planar_grid {
 
 /** \brief Everything one frame carries through the stages. \ingroup pipeline */
 struct Frame {
+  /** \brief The working cloud type (intensity = grey value for stereo input). */
   using Cloud = pcl::PointCloud<pcl::PointXYZI>;
 
-  /** \brief Position in the run (0-based) and the index in the input's file names. */
+  /** \brief Position in the run (0-based). */
   std::size_t sequence_number{0};
+  /** \brief Index in the input's file names. */
   int file_index{0};
   /** \brief A name for messages (the left image or PCD file). */
   std::string name;
 
-  /** \brief Rectified images (stereo input only). */
-  cv::Mat left, right;
+  /** \brief Rectified left image (stereo input only). */
+  cv::Mat left;
+  /** \brief Rectified right image (stereo input only). */
+  cv::Mat right;
   /** \brief Rectified intrinsics (stereo input only). */
   StereoCalibration calibration;
   /** \brief Disparity in px, CV_32FC1, NaN = invalid (after stereo_disparity). */
@@ -59,10 +63,12 @@ struct Frame {
   /** \brief The ground plane [a, b, c, d] in the cloud's frame, when ground_removal
    * found one; its points are no longer in `cloud`. */
   Eigen::Vector4f ground_coefficients{Eigen::Vector4f::Zero()};
+  /** \brief True when ground_coefficients holds a ground plane. */
   bool has_ground{false};
 
   /** \brief world_T_camera when the input gives poses. */
   Eigen::Isometry3d world_T_camera{Eigen::Isometry3d::Identity()};
+  /** \brief True when world_T_camera holds the frame's pose. */
   bool has_pose{false};
 
   EIGEN_MAKE_ALIGNED_OPERATOR_NEW

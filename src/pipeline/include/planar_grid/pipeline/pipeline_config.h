@@ -11,32 +11,37 @@ namespace planar_grid {
 
 /** \brief Where frames come from. \ingroup pipeline */
 struct InputConfig {
+  /** \brief The kind of input. */
   enum class Type {
     /** Rectified (or raw, with a calibration that rectifies) stereo image pairs. */
     STEREO_SEQUENCE,
     /** PCD files, each with its VIEWPOINT as the sensor pose. */
     PCD_FILES
   };
+  /** \brief The kind of input. */
   Type type{Type::STEREO_SEQUENCE};
 
-  /** \brief Left / right image paths with one printf-style index field (%d or %0Nd),
+  /** \brief Left image paths with one printf-style index field (%d or %0Nd),
    * resolved against the config file's folder. */
   std::string left_images;
+  /** \brief Right image paths, as left_images. */
   std::string right_images;
   /** \brief Index of the first frame in the file names. */
   int first_index{0};
   /** \brief Number of frames; 0 = every index until the first missing left image. */
   int frame_count{0};
 
-  /** \brief Calibration: format (karlsruhe, kitti, ros_camera_info, euroc) and file(s).
-   */
+  /** \brief Calibration format: karlsruhe, kitti, ros_camera_info or euroc. */
   std::string calibration_format;
+  /** \brief Calibration file (the left camera's for ros_camera_info and euroc). */
   std::string calibration_file;
+  /** \brief The right camera's calibration file (ros_camera_info and euroc only). */
   std::string calibration_right_file;
 
   /** \brief Poses: "none", "karlsruhe_insdata", "kitti" (world_T_camera per frame) or,
    * for PCD input, "viewpoint" (default there). */
   std::string poses_format{"none"};
+  /** \brief Poses file ("" for none and viewpoint). */
   std::string poses_file;
   /** \brief karlsruhe_insdata only: the camera's height above the road, metres (the
    * world origin is put on the road below the first pose, so the ground is at z = 0).
@@ -54,15 +59,20 @@ struct InputConfig {
 /** \brief One configured stage: its type, its parsed parameters, and where it was
  * given. \ingroup pipeline */
 struct StageConfig {
+  /** \brief Stage type, a name of the stage registry. */
   std::string type;
+  /** \brief Parsed parameters, every key of the stage's table present. */
   ParamValues params;
+  /** \brief 1-based line of the stage in the config file (0 when unknown). */
   int line{0};
+  /** \brief 1-based column of the stage in the config file (0 when unknown). */
   int column{0};
 };
 
 /** \brief What the run writes, in `folder` (resolved against the current directory;
  * overridable with --output). \ingroup pipeline */
 struct OutputConfig {
+  /** \brief Output folder. */
   std::string folder{"output"};
   /** \brief Accumulated world cloud, binary-compressed PCD ("" = none). */
   std::string cloud{"world_cloud.pcd"};
@@ -95,13 +105,16 @@ struct OutputConfig {
   std::array<int, 2> snapshot_size_px{{1600, 1000}};
 };
 
-/** \brief A whole pipeline configuration (schema in config/example.yaml). \ingroup
- * pipeline */
+/** \brief A whole pipeline configuration (schema in config/example.yaml).
+ * \ingroup pipeline */
 struct PipelineConfig {
   /** \brief The file it was loaded from. */
   std::string source_file;
+  /** \brief Where frames come from. */
   InputConfig input;
+  /** \brief The stages, in run order. */
   std::vector<StageConfig> stages;
+  /** \brief What the run writes. */
   OutputConfig output;
 };
 

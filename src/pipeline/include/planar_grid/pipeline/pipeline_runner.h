@@ -15,14 +15,18 @@ namespace planar_grid {
 
 /** \brief Per-stage timing and point counts of a run. \ingroup pipeline */
 struct StageReport {
+  /** \brief Stage type. */
   std::string type;
+  /** \brief Frames the stage ran on. */
   std::size_t frames{0};
-  /** \brief Wall time in the stage, milliseconds: sum and worst frame. */
+  /** \brief Wall time in the stage, summed over frames, milliseconds. */
   double total_ms{0.0};
+  /** \brief Wall time of the stage's slowest frame, milliseconds. */
   double max_ms{0.0};
-  /** \brief Valid points entering and leaving the stage, summed over frames (for stages
-   * that work on the cloud). */
+  /** \brief Valid points entering the stage, summed over frames (for stages that work
+   * on the cloud). */
   std::uint64_t points_in{0};
+  /** \brief Valid points leaving the stage, summed over frames. */
   std::uint64_t points_out{0};
   /** \brief The stage's named figures (Stage::counters), summed over frames, in the
    * order the stage first reported them (e.g. feature_matching: "features"). */
@@ -31,6 +35,7 @@ struct StageReport {
   /** \brief Adds \a value to the counter \a name. */
   void addCounter(const std::string& name, double value);
 
+  /** \brief Returns the mean wall time per frame, milliseconds (0 without frames). */
   double meanMs() const
   {
     return frames ? total_ms / static_cast<double>(frames) : 0.0;
@@ -39,14 +44,19 @@ struct StageReport {
 
 /** \brief What a run did. \ingroup pipeline */
 struct RunReport {
+  /** \brief The configuration file of the run. */
   std::string config_file;
+  /** \brief One line on the input (kind, folder, frame count). */
   std::string input_description;
+  /** \brief First frame of the run (0-based position in the input). */
   std::size_t first_frame{0};
+  /** \brief Frames run. */
   std::size_t frames{0};
   /** \brief Wall time of the whole run including loading, seconds. */
   double seconds{0.0};
   /** \brief Time spent loading (and rectifying) frames, milliseconds. */
   double load_ms{0.0};
+  /** \brief One report per stage, in run order. */
   std::vector<StageReport> stages;
   /** \brief Points in the accumulated world cloud at the end. */
   std::size_t world_cloud_points{0};
@@ -58,6 +68,7 @@ struct RunReport {
   /** \brief Output files written, by kind (cloud, trajectory, snapshot, report). */
   std::vector<std::pair<std::string, std::string>> outputs;
 
+  /** \brief Returns frames per second of wall time (0 when no time was measured). */
   double framesPerSecond() const
   {
     return seconds > 0.0 ? static_cast<double>(frames) / seconds : 0.0;
@@ -88,6 +99,8 @@ public:
    * \throws planar_grid::Exception when the range is empty or outside the input */
   void setFrameRange(std::size_t begin, std::size_t end);
 
+  /** \brief Sets the function called after each frame (none by default).
+   * \param[in] callback receives frames done, frames in total, seconds elapsed */
   void setProgressCallback(ProgressCallback callback)
   {
     progress_ = std::move(callback);

@@ -13,8 +13,8 @@
 
 namespace planar_grid {
 
-/** \brief What the stages share across frames: the accumulated world cloud. \ingroup
- * pipeline */
+/** \brief What the stages share across frames: the accumulated world cloud.
+ * \ingroup pipeline */
 struct PipelineState {
   /** \brief The accumulated cloud in the world frame (accumulate stage). */
   Frame::Cloud::Ptr world_cloud{new Frame::Cloud};
@@ -66,13 +66,17 @@ public:
 /** \brief A stage type: its name, what it does, its parameter table and a factory.
  * \ingroup pipeline */
 struct StageInfo {
+  /** \brief The stage type, as written in the YAML `type:` key. */
   std::string type;
+  /** \brief One line on what the stage does. */
   std::string description;
+  /** \brief The parameter table (keys with units, defaults, ranges). */
   std::vector<ParamSpec> params;
   /** \brief What the stage needs from the input, checked before the run: poses. */
   bool needs_poses{false};
   /** \brief Needs stereo images (not PCD input). */
   bool needs_stereo{false};
+  /** \brief Builds the stage from its parsed parameters. */
   std::function<std::unique_ptr<Stage>(const ParamValues&)> create;
 };
 
