@@ -24,88 +24,14 @@
 #include <map>
 #include <string>
 
-#include "karlsruhe_frame.h"
+#include "karlsruhe_scene.h"
 
 namespace {
 
-using Cloud = pcl::PointCloud<pcl::PointXYZI>;
-
-constexpr double DISTANCE_THRESHOLD_M = 0.05; // the paper's d_T (eq. 11)
-constexpr double MAX_RANGE_M = 30.0;
-constexpr double GROUND_EPS_RAD = 15.0 * M_PI / 180.0;
-
-/** \brief One ground-free scene: points, planes (ground candidates removed). */
-struct Scene {
-  Cloud::Ptr cloud{new Cloud};
-  planar_grid::PlanarSegments planes;
-  bool ok{false};
-};
-
-/** \brief Removes the points of the ground-candidate planes (up = -y, camera frame)
- * from the cloud and returns the other planes re-indexed. */
-void
-removeGround(const Cloud& in, const planar_grid::PlanarSegments& planes, Scene& out)
-{
-  const Eigen::Vector3f up(0.0f, -1.0f, 0.0f);
-  std::vector<int> new_index(in.size(), 0);
-  for (const auto& p : planes)
-    if (planar_grid::isGroundCandidate(p, up, GROUND_EPS_RAD))
-      for (const auto i : p.inliers.indices)
-        new_index[i] = -1;
-  for (std::size_t i = 0; i < in.size(); ++i)
-    if (new_index[i] == 0) {
-      new_index[i] = static_cast<int>(out.cloud->size());
-      out.cloud->push_back(in[i]);
-    }
-  for (const auto& p : planes) {
-    if (planar_grid::isGroundCandidate(p, up, GROUND_EPS_RAD))
-      continue;
-    planar_grid::PlanarSegment q = p;
-    q.inliers.indices.clear();
-    for (const auto i : p.inliers.indices)
-      q.inliers.indices.push_back(new_index[i]);
-    out.planes.push_back(q);
-  }
-  out.ok = !out.cloud->empty();
-}
-
-void
-segmentAndRemoveGround(const Cloud::Ptr& cloud, Scene& out)
-{
-  planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZI> seg;
-  seg.setInputCloud(cloud);
-  seg.setUpAxis(Eigen::Vector3f(0.0f, -1.0f, 0.0f));
-  seg.setDistanceThreshold(DISTANCE_THRESHOLD_M);
-  seg.setMinInliers(100);
-  planar_grid::PlanarSegments planes;
-  seg.segment(planes);
-  removeGround(*cloud, planes, out);
-}
-
-const Scene&
-karlsruhe(int frame)
-{
-  static std::map<int, Scene> scenes;
-  auto it = scenes.find(frame);
-  if (it != scenes.end())
-    return it->second;
-  Scene& out = scenes[frame];
-  const auto pair = planar_grid::bench::loadKarlsruhePair(frame);
-  if (!pair.ok)
-    return out;
-  Cloud dense;
-  planar_grid::bench::denseCloud(pair, MAX_RANGE_M, dense);
-  Cloud::Ptr finite(new Cloud);
-  pcl::Indices unused;
-  pcl::removeNaNFromPointCloud(dense, *finite, unused);
-  Cloud::Ptr voxelised(new Cloud);
-  pcl::VoxelGrid<pcl::PointXYZI> voxel_grid;
-  voxel_grid.setInputCloud(finite);
-  voxel_grid.setLeafSize(0.1f, 0.1f, 0.1f);
-  voxel_grid.filter(*voxelised);
-  segmentAndRemoveGround(voxelised, out);
-  return out;
-}
+using planar_grid::bench::Cloud;
+using planar_grid::bench::karlsruhe;
+using planar_grid::bench::Scene;
+using planar_grid::bench::segmentAndRemoveGround;
 
 const Scene&
 office()
