@@ -70,8 +70,8 @@ double bernoulliKLDivergence(double p, double q);
  * with D = bernoulliKLDivergence(p, q); returns exp(-E) (not clamped). \param[in] p the
  * stored probability, in [0, 1] \param[in] q the new observation's probability (p_new
  * m, eq. 7), in [0, 1] \param[in] offset_nats A, nats (>= 0; the paper's 1.07) \return
- * the updated probability in (0, 1]; <= exp(-A) when p <= 0.5 and q <= 0.5 \ingroup
- * filters */
+ * the updated probability in (0, 1]; <= exp(-A) when p <= 0.5 and q <= 0.5
+ * \ingroup filters */
 double klDivergenceUpdate(double p, double q, double offset_nats);
 
 /** \brief Occupancy probability of stereo key feature points (paper Sec. III-D, eq. 4)
@@ -122,6 +122,7 @@ double klDivergenceUpdate(double p, double q, double offset_nats);
 template <typename PointT>
 class KLDivergenceOccupancyFilter : public pcl::FilterIndices<PointT> {
 protected:
+  /** \brief The input cloud type. */
   using PointCloud = typename pcl::FilterIndices<PointT>::PointCloud;
   using pcl::FilterIndices<PointT>::filter_name_;
   using pcl::FilterIndices<PointT>::input_;
@@ -131,9 +132,13 @@ protected:
   using pcl::FilterIndices<PointT>::removed_indices_;
 
 public:
+  /** \brief Shared pointer to a filter. */
   using Ptr = std::shared_ptr<KLDivergenceOccupancyFilter<PointT>>;
+  /** \brief Shared pointer to a const filter. */
   using ConstPtr = std::shared_ptr<const KLDivergenceOccupancyFilter<PointT>>;
+  /** \brief Shared pointer to an input cloud. */
   using PointCloudPtr = typename PointCloud::Ptr;
+  /** \brief Shared pointer to a const input cloud. */
   using PointCloudConstPtr = typename PointCloud::ConstPtr;
 
   /** \brief Parameters with their defaults and valid ranges (checked when filter()

@@ -70,8 +70,10 @@ public:
   explicit PlanarGridMap(const Params& params);
   PlanarGridMap(const PlanarGridMap&) = delete;
   PlanarGridMap& operator=(const PlanarGridMap&) = delete;
-  PlanarGridMap(PlanarGridMap&&) = default;
-  PlanarGridMap& operator=(PlanarGridMap&&) = default;
+  /** \brief Moves the map (maps are heavy: no copies, S18). */
+  PlanarGridMap(PlanarGridMap&&) noexcept = default;
+  /** \brief Moves the map. */
+  PlanarGridMap& operator=(PlanarGridMap&&) noexcept = default;
   ~PlanarGridMap() = default;
 
   /** \brief The parameters. */
@@ -148,6 +150,7 @@ public:
   {
     return space_ == other.space_ && surface_ == other.surface_;
   }
+  /** \brief True when a layer differs. */
   [[nodiscard]] bool operator!=(const PlanarGridMap& other) const
   {
     return !(*this == other);
