@@ -13,6 +13,7 @@
 #include <cstring>
 #include <limits>
 #include <sstream>
+#include <thread>
 #include <utility>
 
 namespace planar_grid {
@@ -218,37 +219,38 @@ struct DepthPyramid {
 
   void build(const DepthImage& image, float& max_valid_depth)
   {
+    // Buffers are kept between views (no reallocation, no fresh pages).
     const float inf = std::numeric_limits<float>::infinity();
-    min_level.resize(1);
-    max_level.resize(1);
     w.assign(1, image.width);
     h.assign(1, image.height);
+    while (w.back() > 1 || h.back() > 1) {
+      w.push_back((w.back() + 1) / 2);
+      h.push_back((h.back() + 1) / 2);
+    }
+    const std::size_t n_levels = w.size();
+    min_level.resize(n_levels);
+    max_level.resize(n_levels);
     auto& m0 = min_level[0];
     auto& x0 = max_level[0];
     m0.resize(image.depth_m.size());
     x0.resize(image.depth_m.size());
-    max_valid_depth = 0.0f;
+    float max_depth = 0.0f;
     for (std::size_t i = 0; i < m0.size(); ++i) {
       const float d = image.depth_m[i];
       const bool valid = std::isfinite(d) && d > 0.0f;
       m0[i] = valid ? d : inf;
       x0[i] = valid ? d : 0.0f;
-      if (valid)
-        max_valid_depth = std::max(max_valid_depth, d);
+      max_depth = valid ? std::max(max_depth, d) : max_depth;
     }
-    while (w.back() > 1 || h.back() > 1) {
-      std::vector<float> nmin, nmax;
-      reduce(min_level.back(), w.back(), h.back(), false, nmin);
-      reduce(max_level.back(), w.back(), h.back(), true, nmax);
-      min_level.push_back(std::move(nmin));
-      max_level.push_back(std::move(nmax));
-      w.push_back((w.back() + 1) / 2);
-      h.push_back((h.back() + 1) / 2);
+    max_valid_depth = max_depth;
+    for (std::size_t l = 1; l < n_levels; ++l) {
+      reduce(min_level[l - 1], w[l - 1], h[l - 1], false, min_level[l]);
+      reduce(max_level[l - 1], w[l - 1], h[l - 1], true, max_level[l]);
     }
-    hole.resize(w.size());
-    for (std::size_t j = 0; j < w.size(); ++j) {
+    hole.resize(n_levels);
+    for (std::size_t j = 0; j < n_levels; ++j) {
       auto& hj = hole[j];
-      hj.resize(w.size() - j);
+      hj.resize(n_levels - j);
       hj[0] = min_level[j];
       for (std::size_t k = 1; k < hj.size(); ++k)
         reduce(hj[k - 1], w[j + k - 1], h[j + k - 1], true, hj[k]);
@@ -319,15 +321,124 @@ struct DepthPyramid {
   }
 };
 
-/** \brief Observation of one voxel in one view. */
-enum Observation : std::uint8_t { OBS_FREE = 0, OBS_OCCLUDED = 2, OBS_NONE = 3 };
+/** \brief What one view says of one block: free or occluded as a whole, or per voxel
+ * (bit x + 8 y of word z; a voxel in neither mask is not observed). */
+struct BlockResult {
+  enum Kind : std::uint8_t { ALL_FREE, ALL_OCCLUDED, MASKS };
+  BlockKey key{0, 0, 0};
+  Kind kind{MASKS};
+  std::array<std::uint64_t, BLOCK_EDGE> free{}, occluded{};
+};
+
+/** \brief Counters of the free / occluded pass (debug output). */
+struct Counters {
+  std::size_t visited{0}, fast{0}, slow{0};
+};
+
+/** \brief Bit i of \a b moved to bit 2 i. */
+inline std::uint64_t
+spreadBits(std::uint32_t b)
+{
+  std::uint64_t x = b;
+  x = (x | (x << 16)) & 0x0000FFFF0000FFFFULL;
+  x = (x | (x << 8)) & 0x00FF00FF00FF00FFULL;
+  x = (x | (x << 4)) & 0x0F0F0F0F0F0F0F0FULL;
+  x = (x | (x << 2)) & 0x3333333333333333ULL;
+  x = (x | (x << 1)) & 0x5555555555555555ULL;
+  return x;
+}
+
+/** \brief Camera and thresholds of the per-voxel test (copied to locals). */
+struct VoxelKernel {
+  float fx, fy, cx, cy, u_end, v_end, max_range, margin;
+  int W, H;
+  bool mark_occluded;
+  const float* depth0; // min_level[0]: the measured depth per pixel, +inf for none
+};
+
+/** \brief Per-voxel observations of the 4^3 cube at local offset (ox, oy, oz) of the
+ * block whose min corner is c0 (camera frame, voxel axes ex, ey, ez): free when the
+ * centre is in front of the smallest depth over the level cells meeting its footprint
+ * (radius r pixels) minus the margin, occluded (only with mark_occluded) when behind
+ * its pixel's depth plus the margin. Sets bits x + 8 y of words z. */
+void
+observeCube(const VoxelKernel& kernel,
+            const float* lmin,
+            int level_width,
+            int level,
+            int r,
+            const Eigen::Vector3f& c0,
+            const Eigen::Vector3f& ex,
+            const Eigen::Vector3f& ey,
+            const Eigen::Vector3f& ez,
+            int ox,
+            int oy,
+            int oz,
+            std::array<std::uint64_t, BLOCK_EDGE>& free_mask,
+            std::array<std::uint64_t, BLOCK_EDGE>& occluded_mask)
+{
+  const float fx = kernel.fx, fy = kernel.fy, cx = kernel.cx, cy = kernel.cy;
+  const float u_end = kernel.u_end, v_end = kernel.v_end;
+  const float max_range = kernel.max_range, margin = kernel.margin;
+  const int W = kernel.W, H = kernel.H;
+  const bool mark_occluded = kernel.mark_occluded;
+  const float* const depth0 = kernel.depth0;
+  const float inf = std::numeric_limits<float>::infinity();
+  const auto lw = static_cast<std::ptrdiff_t>(level_width);
+  const float exx = ex.x(), exy = ex.y(), exz = ex.z();
+  for (int z = oz; z < oz + 4; ++z)
+    for (int y = oy; y < oy + 4; ++y) {
+      const Eigen::Vector3f p0 = c0 + (static_cast<float>(ox) + 0.5f) * ex
+                                 + (static_cast<float>(y) + 0.5f) * ey
+                                 + (static_cast<float>(z) + 0.5f) * ez;
+      float px = p0.x(), py = p0.y(), pz = p0.z();
+      std::uint64_t free_bits = 0, occ_bits = 0;
+      for (int x = 0; x < 4; ++x, px += exx, py += exy, pz += exz) {
+        const float zc = pz;
+        if (zc <= NEAR_Z || zc > max_range)
+          continue;
+        const float inv = 1.0f / zc;
+        const float u = fx * px * inv + cx, v = fy * py * inv + cy;
+        if (!(u >= -0.5f && u < u_end && v >= -0.5f && v < v_end))
+          continue;
+        const int ui = static_cast<int>(u + 0.5f), vi = static_cast<int>(v + 0.5f);
+        // smallest valid depth over the level cells meeting the footprint (at most
+        // 3 x 3; repeated cells keep it branch-free)
+        const int cu0 = std::max(ui - r, 0) >> level,
+                  cu2 = std::min(ui + r, W - 1) >> level;
+        const int cv0 = std::max(vi - r, 0) >> level,
+                  cv2 = std::min(vi + r, H - 1) >> level;
+        const int cu1 = std::min(cu0 + 1, cu2), cv1 = std::min(cv0 + 1, cv2);
+        const float* r0 = lmin + cv0 * lw;
+        const float* r1 = lmin + cv1 * lw;
+        const float* r2 = lmin + cv2 * lw;
+        const float fmin =
+          std::min(std::min(std::min(std::min(r0[cu0], r0[cu1]), r0[cu2]),
+                            std::min(std::min(r1[cu0], r1[cu1]), r1[cu2])),
+                   std::min(std::min(r2[cu0], r2[cu1]), r2[cu2]));
+        // branch-free: the outcome is unpredictable in mixed regions
+        const bool is_free = zc < fmin - margin;
+        bool is_occluded = false;
+        if (mark_occluded) { // loop-invariant branch
+          const float d = depth0[static_cast<std::ptrdiff_t>(vi) * W
+                                 + static_cast<std::ptrdiff_t>(ui)];
+          is_occluded = !is_free && d < inf && zc > d + margin;
+        }
+        free_bits |= static_cast<std::uint64_t>(is_free) << (ox + x);
+        occ_bits |= static_cast<std::uint64_t>(is_occluded) << (ox + x);
+      }
+      free_mask[static_cast<std::size_t>(z)] |= free_bits << (8 * y);
+      occluded_mask[static_cast<std::size_t>(z)] |= occ_bits << (8 * y);
+    }
+}
 
 } // namespace
 
 struct ExplicitSpaceGrid::Impl {
   BlockMap blocks;
   DepthPyramid pyramid;
-  std::array<std::uint8_t, BLOCK_VOXELS> observation{};
+  /** \brief Per-thread observations of the blocks of the last view. */
+  std::vector<std::vector<BlockResult>> results;
 };
 
 // ---------------------------------------------------------------------------------
@@ -582,8 +693,6 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
     const float u_end = static_cast<float>(W) - 0.5f,
                 v_end = static_cast<float>(H) - 0.5f;
     const int max_r = std::max(W, H);
-    auto& obs = impl_->observation;
-    std::size_t n_visited = 0, n_fast = 0, n_slow = 0;
 
     enum class Cube { NONE, FREE, OCCLUDED, SPLIT };
     struct CubeInfo {
@@ -659,131 +768,174 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
       }
       return Cube::SPLIT;
     };
+    const VoxelKernel kernel{
+      fx,        fy,     cx, cy, u_end,         v_end,
+      max_range, margin, W,  H,  mark_occluded, pyr.min_level[0].data()};
     // Voxel-by-voxel observations of the 4^3 cube at local offset o of a block whose
-    // min corner is c0.
+    // min corner is c0, as bits (x + 8 y) of words z of the free / occluded masks.
     const auto perVoxel = [&](const Eigen::Vector3f& c0, int ox, int oy, int oz,
-                              const CubeInfo& info, bool& any) {
-      const int r = info.r;
-      const int level = pyr.levelFor(r + 1); // at most 3 x 3 cells per footprint
-      const float* depth0 = pyr.min_level[0].data();
-      for (int z = oz; z < oz + 4; ++z)
-        for (int y = oy; y < oy + 4; ++y) {
-          Eigen::Vector3f p = c0 + (static_cast<float>(ox) + 0.5f) * ex
-                              + (static_cast<float>(y) + 0.5f) * ey
-                              + (static_cast<float>(z) + 0.5f) * ez;
-          std::uint8_t* o = &obs[static_cast<std::size_t>(ox + 8 * y + 64 * z)];
-          for (int x = 0; x < 4; ++x, p += ex) {
-            const float zc = p.z();
-            if (zc <= NEAR_Z || zc > max_range)
-              continue;
-            const float inv = 1.0f / zc;
-            const float u = fx * p.x() * inv + cx, v = fy * p.y() * inv + cy;
-            if (!(u >= -0.5f && u < u_end && v >= -0.5f && v < v_end))
-              continue;
-            const int ui = static_cast<int>(u + 0.5f), vi = static_cast<int>(v + 0.5f);
-            float fmin, fmax;
-            pyr.query(level, std::max(ui - r, 0), std::max(vi - r, 0),
-                      std::min(ui + r, W - 1), std::min(vi + r, H - 1), fmin, fmax);
-            if (zc < fmin - margin) {
-              o[x] = OBS_FREE;
-              any = true;
-            } else if (mark_occluded) {
-              const float d =
-                depth0[static_cast<std::size_t>(vi) * static_cast<std::size_t>(W)
-                       + static_cast<std::size_t>(ui)];
-              if (std::isfinite(d) && zc > d + margin) {
-                o[x] = OBS_OCCLUDED;
-                any = true;
-              }
-            }
-          }
-        }
+                              const CubeInfo& info, BlockResult& res) {
+      const int level = pyr.levelFor(info.r + 1); // at most 3 x 3 cells per footprint
+      observeCube(kernel, pyr.min_level[static_cast<std::size_t>(level)].data(),
+                  pyr.w[static_cast<std::size_t>(level)], level, info.r, c0, ex, ey, ez,
+                  ox, oy, oz, res.free, res.occluded);
     };
-    const auto fillCube = [&](int ox, int oy, int oz, int s, std::uint8_t value) {
-      for (int z = oz; z < oz + s; ++z)
-        for (int y = oy; y < oy + s; ++y)
-          std::fill_n(&obs[static_cast<std::size_t>(ox + 8 * y + 64 * z)], s, value);
+    // Bits of the 4^3 cube at local offset o in the masks.
+    const auto cubeBits = [](std::array<std::uint64_t, BLOCK_EDGE>& mask, int ox,
+                             int oy, int oz) {
+      const std::uint64_t rows = std::uint64_t{0xF0F0F0F} << (ox + 8 * oy);
+      for (int z = oz; z < oz + 4; ++z)
+        mask[static_cast<std::size_t>(z)] |= rows;
+    };
+    // The observations of block (bx, by, bz); false when the view says nothing of it.
+    const auto observeBlock = [&](int bx, int by, int bz, BlockResult& res,
+                                  Counters& counters) {
+      const Eigen::Vector3f c0 =
+        R_cw
+          * Eigen::Vector3f(static_cast<float>(bx) * block_edge,
+                            static_cast<float>(by) * block_edge,
+                            static_cast<float>(bz) * block_edge)
+        + t_cw;
+      CubeInfo info;
+      const Cube kind = classify(c0, static_cast<float>(BLOCK_EDGE), info);
+      if (kind == Cube::NONE)
+        return false;
+      ++counters.visited;
+      res.key = {bx, by, bz};
+      if (kind == Cube::FREE) {
+        ++counters.fast;
+        res.kind = BlockResult::ALL_FREE;
+        return true;
+      }
+      if (kind == Cube::OCCLUDED) {
+        res.kind = BlockResult::ALL_OCCLUDED;
+        return true;
+      }
+      res.kind = BlockResult::MASKS;
+      res.free.fill(0);
+      res.occluded.fill(0);
+      bool any = false;
+      for (int c = 0; c < 8; ++c) {
+        const int ox = (c & 1) * 4, oy = ((c >> 1) & 1) * 4, oz = ((c >> 2) & 1) * 4;
+        const Eigen::Vector3f cc = c0 + static_cast<float>(ox) * ex
+                                   + static_cast<float>(oy) * ey
+                                   + static_cast<float>(oz) * ez;
+        CubeInfo sub;
+        const Cube sk = classify(cc, 4.0f, sub);
+        if (sk == Cube::NONE)
+          continue;
+        if (sk == Cube::FREE) {
+          cubeBits(res.free, ox, oy, oz);
+          any = true;
+        } else if (sk == Cube::OCCLUDED) {
+          cubeBits(res.occluded, ox, oy, oz);
+          any = true;
+        } else {
+          ++counters.slow;
+          perVoxel(c0, ox, oy, oz, sub, res);
+        }
+      }
+      if (!any)
+        for (int z = 0; z < BLOCK_EDGE; ++z)
+          any = any || res.free[static_cast<std::size_t>(z)] != 0
+                || res.occluded[static_cast<std::size_t>(z)] != 0;
+      return any;
     };
 
-    for (int bz = blo.z; bz <= bhi.z; ++bz)
-      for (int by = blo.y; by <= bhi.y; ++by)
-        for (int bx = blo.x; bx <= bhi.x; ++bx) {
-          const Eigen::Vector3f c0 =
-            R_cw
-              * Eigen::Vector3f(static_cast<float>(bx) * block_edge,
-                                static_cast<float>(by) * block_edge,
-                                static_cast<float>(bz) * block_edge)
-            + t_cw;
-          CubeInfo info;
-          const Cube kind = classify(c0, static_cast<float>(BLOCK_EDGE), info);
-          if (kind == Cube::NONE)
-            continue;
-          ++n_visited;
-          const BlockKey bk{bx, by, bz};
-          if (kind == Cube::FREE) {
-            // Whole block in front of the surface: free without per-voxel work.
-            ++n_fast;
-            if (prior == static_cast<std::uint8_t>(SpaceState::FREE))
-              blocks.erase(bk);
-            else
-              blocks[bk].makeUniform(static_cast<std::uint8_t>(SpaceState::FREE));
-            continue;
-          }
-          bool any = false;
-          if (kind == Cube::OCCLUDED) {
-            if (blocks.find(bk) == blocks.end()) {
-              blocks[bk].makeUniform(static_cast<std::uint8_t>(SpaceState::UNKNOWN));
-              continue;
-            }
-            obs.fill(OBS_OCCLUDED);
-            any = true;
-          } else {
-            obs.fill(OBS_NONE);
-            for (int c = 0; c < 8; ++c) {
-              const int ox = (c & 1) * 4, oy = ((c >> 1) & 1) * 4,
-                        oz = ((c >> 2) & 1) * 4;
-              const Eigen::Vector3f cc = c0 + static_cast<float>(ox) * ex
-                                         + static_cast<float>(oy) * ey
-                                         + static_cast<float>(oz) * ez;
-              CubeInfo sub;
-              const Cube sk = classify(cc, 4.0f, sub);
-              if (sk == Cube::NONE)
-                continue;
-              any = true;
-              if (sk == Cube::FREE)
-                fillCube(ox, oy, oz, 4, OBS_FREE);
-              else if (sk == Cube::OCCLUDED)
-                fillCube(ox, oy, oz, 4, OBS_OCCLUDED);
-              else {
-                ++n_slow;
-                perVoxel(c0, ox, oy, oz, sub, any);
-              }
-            }
-          }
-          if (!any)
-            continue;
-          auto it = blocks.find(bk);
-          if (it == blocks.end()) {
-            Block b;
-            b.uniform = prior;
-            it = blocks.emplace(bk, std::move(b)).first;
-          }
-          Block& b = it->second;
-          b.makeMixed();
-          for (int i = 0; i < BLOCK_VOXELS; ++i) {
-            const std::uint8_t ob = obs[static_cast<std::size_t>(i)];
-            if (ob == OBS_FREE)
-              b.set(i, ob);
-            else if (ob == OBS_OCCLUDED && b.get(i) == prior)
-              b.set(i, ob);
-          }
-          b.compact();
-          if (b.uniform == prior)
-            blocks.erase(it);
+    // Observe the blocks of the frustum's bounding box (slabs of z split between the
+    // threads, each slab's blocks in x-fastest order: the concatenation is the
+    // single-threaded order), then apply the observations one block at a time.
+    const int n_slabs = bhi.z - blo.z + 1;
+    const int n_threads = std::max(1, std::min(num_threads_, n_slabs));
+    auto& per_thread = impl_->results;
+    per_thread.resize(static_cast<std::size_t>(n_threads));
+    std::vector<Counters> counters(static_cast<std::size_t>(n_threads));
+    const auto work = [&](int t) {
+      auto& out = per_thread[static_cast<std::size_t>(t)];
+      out.clear();
+      const int z0 =
+        blo.z + static_cast<int>(static_cast<long long>(n_slabs) * t / n_threads);
+      const int z1 =
+        blo.z + static_cast<int>(static_cast<long long>(n_slabs) * (t + 1) / n_threads);
+      BlockResult res;
+      for (int bz = z0; bz < z1; ++bz)
+        for (int by = blo.y; by <= bhi.y; ++by)
+          for (int bx = blo.x; bx <= bhi.x; ++bx)
+            if (observeBlock(bx, by, bz, res, counters[static_cast<std::size_t>(t)]))
+              out.push_back(res);
+    };
+    if (n_threads == 1)
+      work(0);
+    else {
+      std::vector<std::thread> threads;
+      for (int t = 1; t < n_threads; ++t)
+        threads.emplace_back(work, t);
+      work(0);
+      for (auto& th : threads)
+        th.join();
+    }
+
+    const auto free_code = static_cast<std::uint8_t>(SpaceState::FREE);
+    const auto unknown_code = static_cast<std::uint8_t>(SpaceState::UNKNOWN);
+    constexpr std::uint64_t LOW = 0x5555555555555555ULL;
+    for (const auto& list : per_thread)
+      for (const BlockResult& res : list) {
+        const BlockKey& bk = res.key;
+        if (res.kind == BlockResult::ALL_FREE) {
+          // Whole block in front of the surface: free without per-voxel work.
+          if (prior == free_code)
+            blocks.erase(bk);
+          else
+            blocks[bk].makeUniform(free_code);
+          continue;
         }
+        auto it = blocks.find(bk);
+        if (res.kind == BlockResult::ALL_OCCLUDED && it == blocks.end()) {
+          blocks[bk].makeUniform(unknown_code);
+          continue;
+        }
+        if (it == blocks.end()) {
+          Block b;
+          b.uniform = prior;
+          it = blocks.emplace(bk, std::move(b)).first;
+        }
+        Block& b = it->second;
+        b.makeMixed();
+        Payload& words = *b.bits;
+        for (int k = 0; k < 16; ++k) {
+          // voxels 32 k .. 32 k + 31: half of mask word k / 2
+          const int shift = (k & 1) * 32;
+          const std::uint64_t fs =
+            res.kind == BlockResult::ALL_OCCLUDED
+              ? 0
+              : spreadBits(static_cast<std::uint32_t>(
+                res.free[static_cast<std::size_t>(k >> 1)] >> shift));
+          const std::uint64_t os =
+            res.kind == BlockResult::ALL_OCCLUDED
+              ? LOW
+              : spreadBits(static_cast<std::uint32_t>(
+                res.occluded[static_cast<std::size_t>(k >> 1)] >> shift));
+          std::uint64_t w = words[static_cast<std::size_t>(k)];
+          const std::uint64_t x = w ^ pattern(prior);
+          const std::uint64_t at_prior = ~(x | (x >> 1)) & LOW;
+          const std::uint64_t occ = os & at_prior; // occluded turns only the prior
+          w &= ~((fs | occ) * 3);                  // free = 00
+          w |= occ * unknown_code;                 // unknown = 10
+          words[static_cast<std::size_t>(k)] = w;
+        }
+        b.compact();
+        if (b.uniform == prior)
+          blocks.erase(it);
+      }
+    Counters total;
+    for (const auto& c : counters) {
+      total.visited += c.visited;
+      total.fast += c.fast;
+      total.slow += c.slow;
+    }
     PCL_DEBUG("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] %zu blocks "
               "seen, %zu free as a whole, %zu 4^3 cubes voxel by voxel.\n",
-              n_visited, n_fast, n_slow);
+              total.visited, total.fast, total.slow);
   }
 
   // Occupied: the voxel of every measured pixel within max_range.

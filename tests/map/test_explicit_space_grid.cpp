@@ -24,6 +24,13 @@
 #include <tuple>
 #include <vector>
 
+namespace planar_grid {
+/** \brief Test access to the thread count of integrateDepthImage() (a friend). */
+struct ExplicitSpaceGridThreads {
+  static void set(ExplicitSpaceGrid& grid, int n) { grid.num_threads_ = n; }
+};
+} // namespace planar_grid
+
 namespace {
 
 using planar_grid::DepthImage;
@@ -599,6 +606,54 @@ TEST(ExplicitSpaceGrid, OcclusionKeepsKnownStates)
   free_prior.integrateDepthImage(image, Eigen::Isometry3d::Identity());
   EXPECT_EQ(free_prior.getState(shadow_occ), SpaceState::OCCUPIED);
   EXPECT_EQ(free_prior.getState(shadow_free), SpaceState::UNKNOWN);
+}
+
+/** \brief The result does not depend on the number of threads: byte-identical
+ * streams, equal grids and equal memory for 1, 2, 3 and 7 threads, both priors, two
+ * overlapping views (the second over known states), a room with holes punched into the
+ * depth image. */
+TEST(ExplicitSpaceGrid, ThreadCountDoesNotChangeTheResult)
+{
+  DepthImage holes = renderBoxRoom();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  for (auto& d : holes.depth_m)
+    if (unit(rng) < 0.2f)
+      d = std::numeric_limits<float>::quiet_NaN();
+    else if (unit(rng) < 0.1f)
+      d *= 0.5f + unit(rng);
+  Eigen::Isometry3d second = Eigen::Isometry3d::Identity();
+  second.linear() =
+    Eigen::AngleAxisd(-0.5, Eigen::Vector3d(0.3, -1.0, 0.4).normalized())
+      .toRotationMatrix();
+  second.translation() = Eigen::Vector3d(-0.7, 0.3, 0.9);
+  for (const SpaceState prior : {SpaceState::UNKNOWN, SpaceState::FREE}) {
+    std::vector<std::uint8_t> reference;
+    std::size_t reference_memory = 0;
+    ExplicitSpaceGrid single(params(prior, 0.1, 12.0));
+    for (const int threads : {1, 2, 3, 7}) {
+      ExplicitSpaceGrid grid(params(prior, 0.1, 12.0));
+      planar_grid::ExplicitSpaceGridThreads::set(grid, threads);
+      grid.integrateDepthImage(holes, roomPose());
+      grid.integrateDepthImage(renderBoxRoom(), second);
+      std::vector<std::uint8_t> bytes;
+      grid.serialize(bytes);
+      if (threads == 1) {
+        reference = bytes;
+        reference_memory = grid.getMemoryBytes();
+        single.deserialize(bytes.data(), bytes.size());
+        // something besides the prior was written
+        EXPECT_GT(grid.getVoxelCount(prior == SpaceState::FREE ? SpaceState::UNKNOWN
+                                                               : SpaceState::FREE),
+                  1000u);
+        continue;
+      }
+      EXPECT_EQ(bytes, reference)
+        << threads << " threads, prior " << planar_grid::toString(prior);
+      EXPECT_TRUE(grid == single) << threads << " threads";
+      EXPECT_EQ(grid.getMemoryBytes(), reference_memory) << threads << " threads";
+    }
+  }
 }
 
 TEST(ExplicitSpaceGrid, ExportOctoMapReadsBack)

@@ -216,6 +216,11 @@ private:
   std::unique_ptr<Impl> impl_;
   /** \brief The parameters (validated). */
   Params params_;
+  /** \brief Threads of integrateDepthImage()'s free / occluded pass (>= 1); the
+   * result is the same for any count. Not public API: set by tests and benchmarks
+   * through the friend ExplicitSpaceGridThreads. */
+  int num_threads_{1};
+  friend struct ExplicitSpaceGridThreads;
   /** \brief Visits the non-prior voxels (implementation of forEachVoxel). */
   void visitVoxels(void (*visit)(void*, const VoxelKey&, SpaceState),
                    void* context) const;
