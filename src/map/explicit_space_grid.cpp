@@ -386,22 +386,78 @@ observeCube(const VoxelKernel& kernel,
   const float inf = std::numeric_limits<float>::infinity();
   const auto lw = static_cast<std::ptrdiff_t>(level_width);
   const float exx = ex.x(), exy = ex.y(), exz = ex.z();
-  for (int z = oz; z < oz + 4; ++z)
-    for (int y = oy; y < oy + 4; ++y) {
+  // Projections of the 64 centres (index x + 4 y + 16 z, local to the cube).
+  std::array<float, 64> zs;
+  std::array<int, 64> us, vs;
+  std::uint64_t valid = 0; // in range and inside the image
+  for (int z = 0; z < 4; ++z)
+    for (int y = 0; y < 4; ++y) {
       const Eigen::Vector3f p0 = c0 + (static_cast<float>(ox) + 0.5f) * ex
-                                 + (static_cast<float>(y) + 0.5f) * ey
-                                 + (static_cast<float>(z) + 0.5f) * ez;
+                                 + (static_cast<float>(oy + y) + 0.5f) * ey
+                                 + (static_cast<float>(oz + z) + 0.5f) * ez;
       float px = p0.x(), py = p0.y(), pz = p0.z();
-      std::uint64_t free_bits = 0, occ_bits = 0;
       for (int x = 0; x < 4; ++x, px += exx, py += exy, pz += exz) {
+        const int i = x + 4 * y + 16 * z;
         const float zc = pz;
+        zs[static_cast<std::size_t>(i)] = zc;
+        us[static_cast<std::size_t>(i)] = 0;
+        vs[static_cast<std::size_t>(i)] = 0;
         if (zc <= NEAR_Z || zc > max_range)
           continue;
         const float inv = 1.0f / zc;
         const float u = fx * px * inv + cx, v = fy * py * inv + cy;
         if (!(u >= -0.5f && u < u_end && v >= -0.5f && v < v_end))
           continue;
-        const int ui = static_cast<int>(u + 0.5f), vi = static_cast<int>(v + 0.5f);
+        us[static_cast<std::size_t>(i)] = static_cast<int>(u + 0.5f);
+        vs[static_cast<std::size_t>(i)] = static_cast<int>(v + 0.5f);
+        valid |= std::uint64_t{1} << i;
+      }
+    }
+  // Smallest valid depth over the level cells meeting the footprints of the voxels
+  // of \a group (all valid): a lower bound of each voxel's own minimum, so a group
+  // centre depth below it minus the margin makes each of them free, exactly as the
+  // per-voxel test would.
+  const auto groupFree = [&](std::uint64_t group) {
+    int umin = W, umax = -1, vmin = H, vmax = -1;
+    float zmax = 0.0f;
+    for (std::uint64_t g = group; g != 0; g &= g - 1) {
+      const auto i = static_cast<std::size_t>(__builtin_ctzll(g));
+      umin = std::min(umin, us[i]);
+      umax = std::max(umax, us[i]);
+      vmin = std::min(vmin, vs[i]);
+      vmax = std::max(vmax, vs[i]);
+      zmax = std::max(zmax, zs[i]);
+    }
+    const int cu0 = std::max(umin - r, 0) >> level,
+              cu2 = std::min(umax + r, W - 1) >> level;
+    const int cv0 = std::max(vmin - r, 0) >> level,
+              cv2 = std::min(vmax + r, H - 1) >> level;
+    for (int cv = cv0; cv <= cv2; ++cv) {
+      const float* row = lmin + cv * lw;
+      for (int cu = cu0; cu <= cu2; ++cu)
+        if (!(zmax < row[cu] - margin))
+          return false;
+    }
+    return true;
+  };
+  std::uint64_t free_bits = 0, occ_bits = 0;
+  constexpr std::uint64_t ALL = ~std::uint64_t{0};
+  if (valid == ALL && groupFree(ALL))
+    free_bits = ALL;
+  else
+    for (int g = 0; g < 8; ++g) {
+      // the 2 x 2 x 2 group at (2 (g & 1), 2 ((g >> 1) & 1), 2 (g >> 2))
+      const std::uint64_t group = std::uint64_t{0x330033}
+                                  << (2 * (g & 1) + 8 * ((g >> 1) & 1) + 32 * (g >> 2));
+      if ((valid & group) == group && groupFree(group)) {
+        free_bits |= group;
+        continue;
+      }
+      for (std::uint64_t todo = valid & group; todo != 0; todo &= todo - 1) {
+        const int i = __builtin_ctzll(todo);
+        const auto si = static_cast<std::size_t>(i);
+        const int ui = us[si], vi = vs[si];
+        const float zc = zs[si];
         // smallest valid depth over the level cells meeting the footprint (at most
         // 3 x 3; repeated cells keep it branch-free)
         const int cu0 = std::max(ui - r, 0) >> level,
@@ -424,11 +480,17 @@ observeCube(const VoxelKernel& kernel,
                                  + static_cast<std::ptrdiff_t>(ui)];
           is_occluded = !is_free && d < inf && zc > d + margin;
         }
-        free_bits |= static_cast<std::uint64_t>(is_free) << (ox + x);
-        occ_bits |= static_cast<std::uint64_t>(is_occluded) << (ox + x);
+        free_bits |= static_cast<std::uint64_t>(is_free) << i;
+        occ_bits |= static_cast<std::uint64_t>(is_occluded) << i;
       }
-      free_mask[static_cast<std::size_t>(z)] |= free_bits << (8 * y);
-      occluded_mask[static_cast<std::size_t>(z)] |= occ_bits << (8 * y);
+    }
+  // cube bits x + 4 y + 16 z to block bits (ox + x) + 8 (oy + y) of word oz + z
+  for (int z = 0; z < 4; ++z)
+    for (int y = 0; y < 4; ++y) {
+      const int shift = 4 * y + 16 * z, to = ox + 8 * (oy + y);
+      free_mask[static_cast<std::size_t>(oz + z)] |= ((free_bits >> shift) & 15u) << to;
+      occluded_mask[static_cast<std::size_t>(oz + z)] |= ((occ_bits >> shift) & 15u)
+                                                         << to;
     }
 }
 
