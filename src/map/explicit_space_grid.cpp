@@ -850,6 +850,16 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
         mask[static_cast<std::size_t>(z)] |= rows;
     };
     // The observations of block (bx, by, bz); false when the view says nothing of it.
+    // Inward unit normals of the frustum's side planes (through the camera centre,
+    // along the image border u = -0.5, u = W - 0.5, v = -0.5, v = H - 0.5).
+    const std::array<Eigen::Vector3f, 4> side_normals{
+      Eigen::Vector3f(fx, 0.0f, cx + 0.5f).normalized(),
+      Eigen::Vector3f(-fx, 0.0f, u_end - cx).normalized(),
+      Eigen::Vector3f(0.0f, fy, cy + 0.5f).normalized(),
+      Eigen::Vector3f(0.0f, -fy, v_end - cy).normalized()};
+    const Eigen::Vector3f block_half = (ex + ey + ez) * (0.5f * BLOCK_EDGE);
+    // half block diagonal plus slack for rounding
+    const float reject_radius = block_half.norm() * 1.01f + 1e-3f;
     const auto observeBlock = [&](int bx, int by, int bz, BlockResult& res,
                                   Counters& counters) {
       const Eigen::Vector3f c0 =
@@ -858,6 +868,16 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
                             static_cast<float>(by) * block_edge,
                             static_cast<float>(bz) * block_edge)
         + t_cw;
+      // Blocks whose bounding sphere lies (with slack) beyond the depth range or
+      // outside a side plane of the frustum project outside the image: classify()
+      // would say NONE; skip its 8 projections.
+      const Eigen::Vector3f centre = c0 + block_half;
+      if (centre.z() + reject_radius <= NEAR_Z || centre.z() - reject_radius > z_far)
+        return false;
+      if (centre.z() - reject_radius > NEAR_Z)
+        for (const auto& n : side_normals)
+          if (n.dot(centre) < -reject_radius)
+            return false;
       CubeInfo info;
       const Cube kind = classify(c0, static_cast<float>(BLOCK_EDGE), info);
       if (kind == Cube::NONE)
