@@ -27,6 +27,8 @@ namespace {
 /** \brief Raster cells per face beyond which a face is skipped (a corrupt or
  * absurdly large cuboid). */
 constexpr double MAX_FACE_CELLS = 1e7;
+/** \brief Largest |raster index| (int32 with a margin). */
+constexpr double MAX_CELL_INDEX = 2.0e9;
 /** \brief Largest coordinate accepted, meters (corrupt data guard). */
 constexpr float MAX_COORDINATE_M = 1e7f;
 /** \brief Spatial-index bins per cuboid beyond which it goes to the "large" list. */
@@ -290,8 +292,8 @@ validate(const SurfaceLayer::Params& p)
   const auto bad = [](const std::string& what) {
     throw Exception("SurfaceLayer: invalid parameter " + what);
   };
-  if (!(p.resolution_m > 0.0) || !std::isfinite(p.resolution_m))
-    bad("resolution_m (must be finite and > 0 m)");
+  if (!(p.resolution_m >= 1e-3 && p.resolution_m <= 100.0))
+    bad("resolution_m (must be in [0.001, 100] m)");
   if (!(p.thickness_m > 0.0) || !std::isfinite(p.thickness_m))
     bad("thickness_m (must be finite and > 0 m)");
   if (!(p.plane_merge_angle_rad > 0.0 && p.plane_merge_angle_rad < M_PI / 2))
@@ -524,17 +526,25 @@ SurfaceLayer::Impl::ensureIndex(const Params& params)
     return;
   impl.bins.clear();
   impl.large.clear();
-  impl.bin_m = static_cast<float>(4.0 * params.resolution_m);
-  const float inv = 1.0f / impl.bin_m;
   impl.bounds_min = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
   impl.bounds_max = -impl.bounds_min;
+  for (const auto& cuboid : impl.all_cuboids) {
+    Eigen::Vector3f lo, hi;
+    cuboidBounds(cuboid, lo, hi);
+    impl.bounds_min = impl.bounds_min.cwiseMin((lo.array() - 1e-4f).matrix());
+    impl.bounds_max = impl.bounds_max.cwiseMax((hi.array() + 1e-4f).matrix());
+  }
+  // Bins of 4 cells; never more than 1e5 bins across the map's extent (a ray walks at
+  // most ~3e5 bins), whatever the data.
+  const float span =
+    impl.all_cuboids.empty() ? 0.0f : (impl.bounds_max - impl.bounds_min).maxCoeff();
+  impl.bin_m = std::max(static_cast<float>(4.0 * params.resolution_m), span * 1e-5f);
+  const float inv = 1.0f / impl.bin_m;
   for (std::size_t c = 0; c < impl.all_cuboids.size(); ++c) {
     Eigen::Vector3f lo, hi;
     cuboidBounds(impl.all_cuboids[c], lo, hi);
     lo.array() -= 1e-4f;
     hi.array() += 1e-4f;
-    impl.bounds_min = impl.bounds_min.cwiseMin(lo);
-    impl.bounds_max = impl.bounds_max.cwiseMax(hi);
     const Eigen::Vector3d a = (lo * inv).cast<double>().array().floor();
     const Eigen::Vector3d b = (hi * inv).cast<double>().array().floor();
     const Eigen::Vector3d span = b - a + Eigen::Vector3d::Ones();
@@ -560,6 +570,8 @@ SurfaceLayer::SurfaceLayer(const Params& params) :
 }
 
 SurfaceLayer::~SurfaceLayer() = default;
+SurfaceLayer::SurfaceLayer(SurfaceLayer&&) noexcept = default;
+SurfaceLayer& SurfaceLayer::operator=(SurfaceLayer&&) noexcept = default;
 
 void
 SurfaceLayer::clear()
@@ -697,7 +709,9 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
     const double j1 = std::floor((v_hi + tol) * inv_r - 0.5);
     if (i1 < i0 || j1 < j0)
       continue;
-    if ((i1 - i0 + 1) * (j1 - j0 + 1) > MAX_FACE_CELLS) {
+    if ((i1 - i0 + 1) * (j1 - j0 + 1) > MAX_FACE_CELLS || std::abs(i0) > MAX_CELL_INDEX
+        || std::abs(i1) > MAX_CELL_INDEX || std::abs(j0) > MAX_CELL_INDEX
+        || std::abs(j1) > MAX_CELL_INDEX) {
       skipped = true;
       continue;
     }
@@ -766,8 +780,12 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
         if (std::abs(mp.normal.dot(p) + mp.d) > feature_distance)
           continue;
         const Eigen::Vector3f q = p - mp.origin;
-        const auto i = static_cast<std::int32_t>(std::floor(q.dot(mp.u_axis) * inv_r));
-        const auto j = static_cast<std::int32_t>(std::floor(q.dot(mp.v_axis) * inv_r));
+        const double fi = std::floor(q.dot(mp.u_axis) * inv_r);
+        const double fj = std::floor(q.dot(mp.v_axis) * inv_r);
+        if (std::abs(fi) > MAX_CELL_INDEX || std::abs(fj) > MAX_CELL_INDEX)
+          continue;
+        const auto i = static_cast<std::int32_t>(fi);
+        const auto j = static_cast<std::int32_t>(fj);
         const auto it = mp.cells.find(cellKey(i, j));
         if (it == mp.cells.end())
           continue;
@@ -844,10 +862,6 @@ SurfaceLayer::findCuboid(const Eigen::Vector3f& point) const
   Impl& impl = *impl_;
   impl.ensureIndex(params_);
   const float inv = 1.0f / impl.bin_m;
-  const auto it =
-    impl.bins.find(binKey(static_cast<std::int64_t>(std::floor(point.x() * inv)),
-                          static_cast<std::int64_t>(std::floor(point.y() * inv)),
-                          static_cast<std::int64_t>(std::floor(point.z() * inv))));
   const std::uint32_t* best = nullptr;
   const auto consider = [&](const std::uint32_t& c) {
     if ((best == nullptr || c < *best) && impl.all_cuboids[c].contains(point))
@@ -855,6 +869,10 @@ SurfaceLayer::findCuboid(const Eigen::Vector3f& point) const
   };
   if ((point.array() >= impl.bounds_min.array()).all()
       && (point.array() <= impl.bounds_max.array()).all()) {
+    const auto it =
+      impl.bins.find(binKey(static_cast<std::int64_t>(std::floor(point.x() * inv)),
+                            static_cast<std::int64_t>(std::floor(point.y() * inv)),
+                            static_cast<std::int64_t>(std::floor(point.z() * inv))));
     if (it != impl.bins.end())
       for (const auto& c : it->second)
         consider(c);

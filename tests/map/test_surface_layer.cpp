@@ -1,2 +1,782 @@
 // SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/map/surface_layer.h>
+#include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
+#include <planar_grid/surface/planar_cuboid_approximation.h>
+
+#include <pcl/PolygonMesh.h>
+#include <pcl/common/transforms.h>
+#include <pcl/filters/voxel_grid.h>
+#include <pcl/io/ply_io.h>
+#include <pcl/io/vtk_lib_io.h>
+
 #include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "../benchmarks/karlsruhe_frame.h"
+
+namespace {
+
+using planar_grid::IOError;
+using planar_grid::PlanarCuboid;
+using planar_grid::PlanarCuboids;
+using planar_grid::PlaneModels;
+using planar_grid::SurfaceLayer;
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+
+/** A plane with the layer's 2D frame convention (u = z x n normalised, or x projected
+ * for a horizontal plane; v = n x u; origin -d n), computed independently here. */
+struct PlaneFrame {
+  Eigen::Vector3f n, u, v, origin;
+  float d;
+  PlaneFrame(const Eigen::Vector3f& normal, float offset) :
+      n(normal.normalized()), d(offset)
+  {
+    u = Eigen::Vector3f::UnitZ().cross(n);
+    if (u.norm() < 1e-3f)
+      u = Eigen::Vector3f::UnitX() - n * n.x();
+    u.normalize();
+    v = n.cross(u);
+    origin = -d * n;
+  }
+  Eigen::Vector3f at(float s, float t) const { return origin + u * s + v * t; }
+  Eigen::Vector4f model() const { return {n.x(), n.y(), n.z(), d}; }
+};
+
+/** A planar cuboid of plane_id whose face is the rectangle [u0, u1] x [v0, v1] of
+ * \a frame, extruded by thickness behind it. */
+PlanarCuboid
+faceCuboid(const PlaneFrame& frame,
+           int plane_id,
+           float u0,
+           float u1,
+           float v0,
+           float v1,
+           float thickness = 0.1f)
+{
+  PlanarCuboid c;
+  c.normal = frame.n;
+  c.horizontal_axis = frame.u;
+  c.width_m = u1 - u0;
+  c.height_m = v1 - v0;
+  c.thickness_m = thickness;
+  c.centre =
+    frame.at(0.5f * (u0 + u1), 0.5f * (v0 + v1)) - frame.n * (0.5f * thickness);
+  c.plane_id = plane_id;
+  c.is_planar = true;
+  return c;
+}
+
+/** Wall at y = 5 facing a sensor at the origin: n = (0, -1, 0), d = 5. */
+PlaneFrame
+wallFrame()
+{
+  return PlaneFrame(Eigen::Vector3f(0.0f, -1.0f, 0.0f), 5.0f);
+}
+
+/** A rectangle of a cuboid in the (u, v) coordinates of \a frame. */
+struct Rect {
+  float u0, u1, v0, v1;
+};
+Rect
+rectIn(const PlaneFrame& frame, const PlanarCuboid& c)
+{
+  const Eigen::Vector3f fc = c.faceCentre() - frame.origin;
+  const float uc = fc.dot(frame.u), vc = fc.dot(frame.v);
+  return {uc - 0.5f * c.width_m, uc + 0.5f * c.width_m, vc - 0.5f * c.height_m,
+          vc + 0.5f * c.height_m};
+}
+
+SurfaceLayer::Params
+defaultParams()
+{
+  return SurfaceLayer::Params{};
+}
+
+bool
+sameCuboids(const PlanarCuboids& a, const PlanarCuboids& b)
+{
+  if (a.size() != b.size())
+    return false;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    const PlanarCuboid& x = a[k];
+    const PlanarCuboid& y = b[k];
+    if (!x.centre.isApprox(y.centre, 1e-6f) || !x.normal.isApprox(y.normal, 1e-6f)
+        || !x.horizontal_axis.isApprox(y.horizontal_axis, 1e-6f)
+        || x.width_m != y.width_m || x.height_m != y.height_m
+        || x.thickness_m != y.thickness_m || x.plane_id != y.plane_id
+        || x.is_planar != y.is_planar
+        || std::abs(x.probability - y.probability) > 1e-6f)
+      return false;
+  }
+  return true;
+}
+
+// Frame A: L shape [0, 2] x [0, 1] + [0, 1] x [1, 2] on the wall. Frame B: [1.5, 3] x
+// [0, 1.5] on the wall tilted by 0.02 rad about u and moved 0.03 m (within the 0.1 rad
+// / 0.15 m tolerances). Union: 3 + 2.25 - 0.5 (overlap [1.5, 2] x [0, 1]) = 4.75 m^2,
+// i.e. 475 cells of 0.1 m; rows v in [0, 1) run u in [0, 3], rows [1, 1.5) run
+// [0, 1] and [1.5, 3], rows [1.5, 2) run [0, 1]: 3 rectangles after the merge.
+TEST(SurfaceLayer, OverlappingFramesOfOneWallMergeIntoOnePlane)
+{
+  const PlaneFrame a = wallFrame();
+  const Eigen::Vector3f n_b = Eigen::AngleAxisf(0.02f, a.u) * a.n;
+  const PlaneFrame b_plane(n_b, -n_b.dot(a.origin + a.n * 0.03f));
+  SurfaceLayer layer(defaultParams());
+  const Cloud no_features;
+  layer.integrate({faceCuboid(a, 0, 0, 2, 0, 1), faceCuboid(a, 0, 0, 1, 1, 2)},
+                  PlaneModels{a.model()}, no_features, {});
+  // frame B's rectangle: the same (u, v) of the map frame, lifted onto plane B
+  PlanarCuboid cb = faceCuboid(b_plane, 0, 0, 1.5f, 0, 1.5f);
+  const Eigen::Vector3f target = a.at(2.25f, 0.75f);
+  const float s = -(n_b.dot(target) + b_plane.d) / n_b.dot(a.n);
+  cb.centre = target + a.n * s - n_b * 0.05f;
+  layer.integrate({cb}, PlaneModels{b_plane.model()}, no_features, {});
+
+  ASSERT_EQ(layer.getPlanes().size(), 1u);
+  const PlanarCuboids& cuboids = layer.getCuboids();
+  ASSERT_EQ(cuboids.size(), 3u);
+  EXPECT_EQ(layer.getCellCount(), 475u);
+  double area = 0.0;
+  std::vector<Rect> rects;
+  for (const auto& c : cuboids) {
+    EXPECT_EQ(c.plane_id, 0);
+    EXPECT_TRUE(c.is_planar);
+    EXPECT_NEAR(c.thickness_m, 0.1f, 1e-6f);
+    EXPECT_GT(c.normal.dot(a.n), 0.999f); // the map plane keeps frame A's normal
+    area += c.faceArea();
+    rects.push_back(rectIn(a, c));
+  }
+  EXPECT_NEAR(area, 4.75, 0.1 * 3.0); // within one cell row of the union's width
+  EXPECT_NEAR(area, 4.75, 1e-4);      // edges on cell boundaries: exact
+  for (std::size_t i = 0; i < rects.size(); ++i)
+    for (std::size_t j = i + 1; j < rects.size(); ++j) {
+      const float du =
+        std::min(rects[i].u1, rects[j].u1) - std::max(rects[i].u0, rects[j].u0);
+      const float dv =
+        std::min(rects[i].v1, rects[j].v1) - std::max(rects[i].v0, rects[j].v0);
+      EXPECT_FALSE(du > 1e-4f && dv > 1e-4f) << "cuboids " << i << " and " << j;
+    }
+  // every cell centre of the union is in exactly one cuboid, others in none
+  for (int i = -2; i < 32; ++i)
+    for (int j = -2; j < 22; ++j) {
+      const float u = (i + 0.5f) * 0.1f, v = (j + 0.5f) * 0.1f;
+      const bool in_a =
+        (u < 2 && v < 1 && u > 0 && v > 0) || (u < 1 && v < 2 && u > 0 && v > 0);
+      const bool in_b = u > 1.5f && u < 3 && v > 0 && v < 1.5f;
+      const Eigen::Vector3f p = a.at(u, v) - a.n * 0.05f;
+      int hits = 0;
+      for (const auto& c : cuboids)
+        hits += c.contains(p) ? 1 : 0;
+      EXPECT_EQ(hits, (in_a || in_b) ? 1 : 0) << "u " << u << " v " << v;
+    }
+}
+
+TEST(SurfaceLayer, DifferentPlanesStaySeparate)
+{
+  const PlaneFrame a = wallFrame();
+  // 0.3 rad away (tolerance 0.1 rad), and a parallel wall 0.5 m behind (0.15 m).
+  const PlaneFrame turned(Eigen::AngleAxisf(0.3f, Eigen::Vector3f::UnitZ()) * a.n,
+                          5.0f);
+  const PlaneFrame behind(a.n, 5.5f);
+  SurfaceLayer layer(defaultParams());
+  const Cloud none;
+  layer.integrate({faceCuboid(a, 0, 0, 1, 0, 1), faceCuboid(turned, 1, 0, 1, 0, 1),
+                   faceCuboid(behind, 2, 0, 1, 0, 1)},
+                  PlaneModels{a.model(), turned.model(), behind.model()}, none, {});
+  EXPECT_EQ(layer.getPlanes().size(), 3u);
+  EXPECT_EQ(layer.getCuboids().size(), 3u);
+  // a plane within tolerance in a second frame joins the first
+  const PlaneFrame close(a.n, 5.1f);
+  layer.integrate({faceCuboid(close, 0, 1, 2, 0, 1)}, PlaneModels{close.model()}, none,
+                  {});
+  EXPECT_EQ(layer.getPlanes().size(), 3u);
+  // the plane model given with the opposite sign is oriented by its cuboids' normal
+  layer.integrate({faceCuboid(a, 0, 2, 3, 0, 1)}, PlaneModels{-a.model()}, none, {});
+  EXPECT_EQ(layer.getPlanes().size(), 3u);
+  EXPECT_EQ(layer.getCuboids().size(), 3u); // [0, 3] x [0, 1] on the first wall
+}
+
+/** A frame: two planes, non-planar boxes and features, seeded. */
+void
+makeFrame(unsigned seed,
+          PlanarCuboids& cuboids,
+          PlaneModels& planes,
+          Cloud& features,
+          std::vector<float>& probabilities)
+{
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> uni(0.0f, 1.0f);
+  const PlaneFrame wall = wallFrame();
+  const PlaneFrame floor_plane(Eigen::Vector3f::UnitZ(), 0.2f); // z = -0.2
+  planes = {wall.model(), floor_plane.model()};
+  cuboids.clear();
+  for (int k = 0; k < 6; ++k) {
+    const float u0 = 4.0f * uni(rng) - 2.0f, v0 = 2.0f * uni(rng);
+    cuboids.push_back(
+      faceCuboid(wall, 0, u0, u0 + 0.2f + uni(rng), v0, v0 + 0.2f + uni(rng)));
+    const float x0 = 4.0f * uni(rng) - 2.0f, y0 = 3.0f * uni(rng);
+    cuboids.push_back(
+      faceCuboid(floor_plane, 1, x0, x0 + 0.3f + uni(rng), y0, y0 + 0.3f + uni(rng)));
+  }
+  for (int k = 0; k < 8; ++k) {
+    PlanarCuboid c;
+    c.centre =
+      Eigen::Vector3f(4.0f * uni(rng) - 2.0f, 1.0f + 2.0f * uni(rng), 0.2f + uni(rng));
+    c.normal = -Eigen::Vector3f::UnitY();
+    c.horizontal_axis = Eigen::Vector3f::UnitX();
+    c.width_m = 0.1f + 0.3f * uni(rng);
+    c.height_m = 0.1f + 0.3f * uni(rng);
+    c.thickness_m = 0.1f + 0.3f * uni(rng);
+    cuboids.push_back(c);
+  }
+  features.clear();
+  probabilities.clear();
+  for (int k = 0; k < 300; ++k) {
+    const PlanarCuboid& c = cuboids[static_cast<std::size_t>(k) % cuboids.size()];
+    const Eigen::Vector3f p = c.centre
+                              + c.horizontal_axis * (c.width_m * (uni(rng) - 0.5f))
+                              + c.verticalAxis() * (c.height_m * (uni(rng) - 0.5f))
+                              + c.normal * (c.thickness_m * 0.5f);
+    pcl::PointXYZ q;
+    q.getVector3fMap() = p;
+    features.push_back(q);
+    probabilities.push_back(uni(rng));
+  }
+}
+
+TEST(SurfaceLayer, SameFrameTwiceEqualsOnce)
+{
+  PlanarCuboids cuboids;
+  PlaneModels planes;
+  Cloud features;
+  std::vector<float> probabilities;
+  makeFrame(7, cuboids, planes, features, probabilities);
+  SurfaceLayer once(defaultParams()), twice(defaultParams());
+  once.integrate(cuboids, planes, features, probabilities);
+  twice.integrate(cuboids, planes, features, probabilities);
+  (void)twice.getCuboids(); // memory with the cuboid cache built, as below
+  const std::size_t cells = twice.getCellCount();
+  const std::size_t bytes = twice.getMemoryBytes();
+  twice.integrate(cuboids, planes, features, probabilities);
+  EXPECT_TRUE(sameCuboids(once.getCuboids(), twice.getCuboids()));
+  EXPECT_EQ(once.getPlanes().size(), twice.getPlanes().size());
+  std::printf("memory once %zu bytes, twice %zu bytes (%zu before)\n",
+              once.getMemoryBytes(), twice.getMemoryBytes(), bytes);
+  EXPECT_EQ(twice.getCellCount(), cells);
+  EXPECT_EQ(twice.getCellCount(), once.getCellCount());
+  EXPECT_LE(twice.getMemoryBytes(), bytes + bytes / 10);
+  EXPECT_GT(once.getMemoryBytes(), once.getCellCount() * 12);
+}
+
+// Row of 3 cells [0, 0.3] x [0, 0.1] on the wall, occupancy_thres 0.6. Features: cell 0
+// gets 0.9 and 0.7 (mean 0.8), cell 2 gets 0.2; cell 1 has none and takes the mean of
+// its valued neighbours (0.8 + 0.2) / 2 = 0.5. Classes: occupied (0.8), free (0.5,
+// 0.2): cuboids [0, 0.1] with 0.8 and [0.1, 0.3] with (0.5 + 0.2) / 2 = 0.35.
+TEST(SurfaceLayer, OccupancyIsMeanOfFeaturesElseOfNeighbours)
+{
+  SurfaceLayer::Params params;
+  params.occupancy_thres = 0.6;
+  SurfaceLayer layer(params);
+  const PlaneFrame wall = wallFrame();
+  Cloud features;
+  std::vector<float> probabilities;
+  const auto add = [&](const Eigen::Vector3f& p, float probability) {
+    pcl::PointXYZ q;
+    q.getVector3fMap() = p;
+    features.push_back(q);
+    probabilities.push_back(probability);
+  };
+  add(wall.at(0.03f, 0.05f) + wall.n * 0.02f, 0.9f);
+  add(wall.at(0.07f, 0.02f) - wall.n * 0.05f, 0.7f);
+  add(wall.at(0.25f, 0.05f), 0.2f);
+  add(wall.at(0.15f, 0.05f) + wall.n * 0.3f, 1.0f); // beyond feature_distance_m
+  add(wall.at(0.55f, 0.05f), 1.0f);                 // outside the observed cells
+  layer.integrate({faceCuboid(wall, 0, 0.0f, 0.3f, 0.0f, 0.1f)},
+                  PlaneModels{wall.model()}, features, probabilities);
+  const PlanarCuboids& cuboids = layer.getCuboids();
+  ASSERT_EQ(cuboids.size(), 2u);
+  EXPECT_NEAR(cuboids[0].width_m, 0.1f, 1e-5f);
+  EXPECT_NEAR(cuboids[0].probability, 0.8f, 1e-6f);
+  EXPECT_EQ(cuboids[0].point_count, 2u);
+  EXPECT_NEAR(cuboids[1].width_m, 0.2f, 1e-5f);
+  EXPECT_NEAR(cuboids[1].probability, 0.35f, 1e-6f);
+  EXPECT_EQ(cuboids[1].point_count, 1u);
+
+  // non-planar: mean of the features inside the box, 0.5 without any
+  SurfaceLayer boxes(params);
+  PlanarCuboid box;
+  box.centre = Eigen::Vector3f(0, 2, 1);
+  box.width_m = box.height_m = box.thickness_m = 0.2f;
+  box.normal = -Eigen::Vector3f::UnitY();
+  PlanarCuboid empty_box = box;
+  empty_box.centre.x() = 3.0f;
+  features.clear();
+  probabilities.clear();
+  add(Eigen::Vector3f(0.05f, 2.0f, 1.05f), 0.3f);
+  add(Eigen::Vector3f(-0.05f, 2.05f, 0.95f), 0.5f);
+  boxes.integrate({box, empty_box}, PlaneModels{}, features, probabilities);
+  ASSERT_EQ(boxes.getCuboids().size(), 2u);
+  EXPECT_NEAR(boxes.getCuboids()[0].probability, 0.4f, 1e-6f);
+  EXPECT_NEAR(boxes.getCuboids()[1].probability, 0.5f, 1e-6f);
+  EXPECT_FALSE(boxes.getCuboids()[0].is_planar);
+  EXPECT_EQ(boxes.getCuboids()[0].plane_id, -1);
+  // the same box again replaces the cell: no pile-up
+  boxes.integrate({box}, PlaneModels{}, features, probabilities);
+  EXPECT_EQ(boxes.getCuboids().size(), 2u);
+}
+
+TEST(SurfaceLayer, FeaturelessPlaneKeepsHalfAndDifferentClassesAreNotMerged)
+{
+  const PlaneFrame wall = wallFrame();
+  SurfaceLayer layer(defaultParams());
+  Cloud features;
+  std::vector<float> probabilities;
+  // 4 x 2 cells: columns 0-1 occupied (0.9), columns 2-3 free (0.1); the featureless
+  // cells of each column pair take their neighbours' means: 0.9 / 0.1 in the same
+  // columns except the border pair (cells at i = 1 / 2 see both sides).
+  for (int i = 0; i < 4; ++i) {
+    pcl::PointXYZ q;
+    q.getVector3fMap() = wall.at(0.05f + 0.1f * i, 0.05f);
+    features.push_back(q);
+    probabilities.push_back(i < 2 ? 0.9f : 0.1f);
+  }
+  layer.integrate({faceCuboid(wall, 0, 0, 0.4f, 0, 0.2f)}, PlaneModels{wall.model()},
+                  features, probabilities);
+  // row 0: 0.9 0.9 | 0.1 0.1 (features). Row 1 featureless: (0, 1) neighbours 0.9, 0.9
+  // -> 0.9; (1, 1): 0.9, 0.9, 0.1 -> 0.633; (2, 1): 0.9, 0.1, 0.1 -> 0.367; (3, 1):
+  // 0.1. Occupied: i < 2 in both rows -> one 0.2 x 0.2 rectangle; free the other.
+  const PlanarCuboids& cuboids = layer.getCuboids();
+  ASSERT_EQ(cuboids.size(), 2u);
+  EXPECT_NEAR(cuboids[0].faceArea(), 0.04f, 1e-5f);
+  EXPECT_NEAR(cuboids[0].probability, (0.9f + 0.9f + 0.9f + (1.9f / 3.0f)) / 4.0f,
+              1e-5f);
+  EXPECT_NEAR(cuboids[1].probability, (0.1f + 0.1f + 0.1f + (1.1f / 3.0f)) / 4.0f,
+              1e-5f);
+
+  SurfaceLayer bare(defaultParams());
+  bare.integrate({faceCuboid(wall, 0, 0, 0.4f, 0, 0.2f)}, PlaneModels{wall.model()},
+                 Cloud(), {});
+  ASSERT_EQ(bare.getCuboids().size(), 1u);
+  EXPECT_FLOAT_EQ(bare.getCuboids()[0].probability, 0.5f);
+}
+
+/** Independent slab test in double: entry distance or -1. */
+double
+slabEntry(const PlanarCuboid& c, const Eigen::Vector3f& o, const Eigen::Vector3f& d)
+{
+  const Eigen::Vector3d axes[3] = {c.horizontal_axis.cast<double>(),
+                                   c.verticalAxis().cast<double>(),
+                                   c.normal.cast<double>()};
+  const double half[3] = {0.5 * c.width_m, 0.5 * c.height_m, 0.5 * c.thickness_m};
+  const Eigen::Vector3d rel = (o - c.centre).cast<double>();
+  const Eigen::Vector3d dir = d.cast<double>().normalized();
+  double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 3; ++k) {
+    const double p = rel.dot(axes[k]), q = dir.dot(axes[k]);
+    if (std::abs(q) < 1e-12) {
+      if (std::abs(p) > half[k])
+        return -1.0;
+      continue;
+    }
+    double a = (-half[k] - p) / q, b = (half[k] - p) / q;
+    if (a > b)
+      std::swap(a, b);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, b);
+  }
+  return t0 <= t1 ? t0 : -1.0;
+}
+
+TEST(SurfaceLayer, FindCuboidAndCastRayMatchBruteForce)
+{
+  SurfaceLayer layer(defaultParams());
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    PlanarCuboids cuboids;
+    PlaneModels planes;
+    Cloud features;
+    std::vector<float> probabilities;
+    makeFrame(seed, cuboids, planes, features, probabilities);
+    layer.integrate(cuboids, planes, features, probabilities);
+  }
+  const PlanarCuboids& all = layer.getCuboids();
+  ASSERT_GT(all.size(), 20u);
+  std::size_t occupied = 0;
+  for (const auto& c : all)
+    occupied += c.probability >= 0.5f ? 1 : 0;
+  ASSERT_GT(occupied, 0u);
+  ASSERT_LT(occupied, all.size());
+
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<float> x(-2.5f, 2.5f), y(-0.5f, 5.5f), z(-0.5f, 2.5f);
+  std::size_t found = 0;
+  for (int k = 0; k < 5000; ++k) {
+    const Eigen::Vector3f p(x(rng), y(rng), z(rng));
+    const PlanarCuboid* expected = nullptr;
+    for (const auto& c : all)
+      if (c.contains(p)) {
+        expected = &c;
+        break;
+      }
+    EXPECT_EQ(layer.findCuboid(p), expected) << p.transpose();
+    found += expected != nullptr ? 1 : 0;
+  }
+  EXPECT_GT(found, 50u);
+
+  std::normal_distribution<float> gauss(0.0f, 1.0f);
+  std::size_t hits = 0;
+  for (int k = 0; k < 2000; ++k) {
+    const Eigen::Vector3f o(x(rng), y(rng) - 3.0f, z(rng));
+    const Eigen::Vector3f d(gauss(rng), gauss(rng), gauss(rng));
+    const double max_range = 8.0;
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& c : all)
+      if (c.probability >= 0.5f) {
+        const double t = slabEntry(c, o, d);
+        if (t >= 0.0 && t <= max_range)
+          best = std::min(best, t);
+      }
+    float distance = -1.0f;
+    std::size_t index = 0;
+    const bool hit = layer.castRay(o, d * 3.0f, max_range, distance, index);
+    // rays grazing within 1e-4 m of a box may differ between float and double
+    if (std::isfinite(best) != hit) {
+      EXPECT_TRUE(false) << "ray " << k << " expected " << best;
+      continue;
+    }
+    if (!hit)
+      continue;
+    ++hits;
+    EXPECT_NEAR(distance, best, 1e-3);
+    ASSERT_LT(index, all.size());
+    EXPECT_GE(all[index].probability, 0.5f);
+    EXPECT_NEAR(slabEntry(all[index], o, d), best, 1e-3);
+  }
+  EXPECT_GT(hits, 50u);
+  float distance = 0.0f;
+  std::size_t index = 0;
+  EXPECT_FALSE(layer.castRay(Eigen::Vector3f::Zero(), Eigen::Vector3f::Zero(), 10.0,
+                             distance, index));
+  EXPECT_EQ(layer.findCuboid(Eigen::Vector3f::Constant(NAN)), nullptr);
+}
+
+SurfaceLayer
+smallLayer()
+{
+  SurfaceLayer layer(defaultParams());
+  PlanarCuboids cuboids;
+  PlaneModels planes;
+  Cloud features;
+  std::vector<float> probabilities;
+  makeFrame(3, cuboids, planes, features, probabilities);
+  cuboids.resize(4);
+  cuboids.push_back(cuboids.back());
+  cuboids.back().is_planar = false;
+  cuboids.back().plane_id = -1;
+  for (auto& c : cuboids) {
+    c.width_m = std::min(c.width_m, 0.3f);
+    c.height_m = std::min(c.height_m, 0.3f);
+  }
+  layer.integrate(cuboids, planes, features, probabilities);
+  return layer;
+}
+
+TEST(SurfaceLayer, SerializeRoundTrip)
+{
+  PlanarCuboids cuboids;
+  PlaneModels planes;
+  Cloud features;
+  std::vector<float> probabilities;
+  makeFrame(11, cuboids, planes, features, probabilities);
+  SurfaceLayer layer(defaultParams());
+  layer.integrate(cuboids, planes, features, probabilities);
+  std::vector<std::uint8_t> bytes;
+  layer.serialize(bytes);
+  SurfaceLayer::Params other_params;
+  other_params.resolution_m = 0.3;
+  SurfaceLayer copy(other_params);
+  EXPECT_TRUE(copy != layer);
+  copy.deserialize(bytes.data(), bytes.size());
+  EXPECT_TRUE(copy == layer);
+  EXPECT_EQ(copy.getParams().resolution_m, 0.1);
+  EXPECT_TRUE(sameCuboids(copy.getCuboids(), layer.getCuboids()));
+  std::vector<std::uint8_t> again;
+  copy.serialize(again);
+  EXPECT_EQ(again, bytes);
+  // one changed value: one more feature on the wall
+  Cloud one;
+  pcl::PointXYZ q;
+  q.getVector3fMap() = cuboids[0].faceCentre();
+  one.push_back(q);
+  copy.integrate({cuboids[0]}, PlaneModels{planes[0]}, one, {0.25f});
+  EXPECT_TRUE(copy != layer);
+  // empty layer
+  SurfaceLayer empty(defaultParams()), empty_copy(defaultParams());
+  bytes.clear();
+  empty.serialize(bytes);
+  empty_copy.deserialize(bytes.data(), bytes.size());
+  EXPECT_TRUE(empty == empty_copy);
+}
+
+TEST(SurfaceLayer, TruncatedOrCorruptDataThrowsIOErrorOrLoads)
+{
+  const SurfaceLayer layer = smallLayer();
+  std::vector<std::uint8_t> bytes;
+  layer.serialize(bytes);
+  ASSERT_LT(bytes.size(), 4000u);
+  SurfaceLayer target(defaultParams());
+  for (std::size_t n = 0; n < bytes.size(); ++n) {
+    EXPECT_THROW(target.deserialize(bytes.data(), n), IOError) << n;
+    EXPECT_EQ(target.getCellCount(), 0u); // unchanged on error
+  }
+  std::vector<std::uint8_t> longer = bytes;
+  longer.push_back(0);
+  EXPECT_THROW(target.deserialize(longer.data(), longer.size()), IOError);
+  EXPECT_THROW(target.deserialize(nullptr, 10), IOError);
+  std::mt19937 rng(5);
+  std::size_t loaded = 0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    std::vector<std::uint8_t> bad = bytes;
+    const int flips = 1 + trial % 3;
+    for (int f = 0; f < flips; ++f)
+      bad[rng() % bad.size()] ^= static_cast<std::uint8_t>(1u << (rng() % 8));
+    SurfaceLayer victim(defaultParams());
+    try {
+      victim.deserialize(bad.data(), bad.size());
+    } catch (const IOError&) {
+      EXPECT_EQ(victim.getCellCount(), 0u);
+      continue;
+    }
+    ++loaded; // a valid layer: every query works
+    const PlanarCuboids& cuboids = victim.getCuboids();
+    for (const auto& c : cuboids)
+      (void)victim.findCuboid(c.centre);
+    float distance = 0.0f;
+    std::size_t index = 0;
+    (void)victim.castRay(Eigen::Vector3f::Zero(), Eigen::Vector3f::UnitY(), 20.0,
+                         distance, index);
+    std::vector<std::uint8_t> out;
+    victim.serialize(out);
+    EXPECT_GT(victim.getMemoryBytes(), 0u);
+  }
+  EXPECT_GT(loaded, 0u);
+}
+
+TEST(SurfaceLayer, ExportMeshPlyAndVtk)
+{
+  const SurfaceLayer layer = smallLayer();
+  const std::size_t n = layer.getCuboids().size();
+  ASSERT_GT(n, 0u);
+  const std::string dir = ::testing::TempDir();
+  for (const std::string ext : {".ply", ".vtk"}) {
+    const std::string path = dir + "/surface_layer_test" + ext;
+    layer.exportMesh(path);
+    pcl::PolygonMesh mesh;
+    if (ext == ".ply")
+      ASSERT_EQ(pcl::io::loadPLYFile(path, mesh), 0);
+    else
+      ASSERT_GT(pcl::io::loadPolygonFileVTK(path, mesh), 0);
+    EXPECT_EQ(mesh.polygons.size(), 12 * n) << ext;
+    EXPECT_EQ(static_cast<std::size_t>(mesh.cloud.width) * mesh.cloud.height, 8 * n)
+      << ext;
+    std::remove(path.c_str());
+  }
+  EXPECT_THROW(layer.exportMesh(dir + "/surface_layer_test.obj"), IOError);
+  EXPECT_THROW(layer.exportMesh(dir + "/no_such_folder/x.ply"), IOError);
+}
+
+TEST(SurfaceLayer, InvalidParametersThrow)
+{
+  const auto check = [](void (*change)(SurfaceLayer::Params&)) {
+    SurfaceLayer::Params p;
+    change(p);
+    EXPECT_THROW(SurfaceLayer layer(p), planar_grid::Exception);
+  };
+  check([](SurfaceLayer::Params& p) { p.resolution_m = 0.0; });
+  check([](SurfaceLayer::Params& p) { p.resolution_m = NAN; });
+  check([](SurfaceLayer::Params& p) { p.resolution_m = 1e-6; });
+  check([](SurfaceLayer::Params& p) { p.thickness_m = -0.1; });
+  check([](SurfaceLayer::Params& p) { p.plane_merge_angle_rad = 0.0; });
+  check([](SurfaceLayer::Params& p) { p.plane_merge_angle_rad = 2.0; });
+  check([](SurfaceLayer::Params& p) { p.plane_merge_distance_m = 0.0; });
+  check([](SurfaceLayer::Params& p) { p.occupancy_thres = 1.0; });
+  check([](SurfaceLayer::Params& p) { p.occupancy_thres = 0.0; });
+  check([](SurfaceLayer::Params& p) { p.feature_distance_m = -1.0; });
+  EXPECT_NO_THROW(SurfaceLayer layer(defaultParams()));
+}
+
+TEST(SurfaceLayer, DegenerateInputs)
+{
+  SurfaceLayer layer(defaultParams());
+  layer.integrate({}, {}, Cloud(), {});
+  EXPECT_TRUE(layer.getCuboids().empty());
+  EXPECT_EQ(layer.getCellCount(), 0u);
+  EXPECT_EQ(layer.findCuboid(Eigen::Vector3f::Zero()), nullptr);
+  float distance = 0.0f;
+  std::size_t index = 0;
+  EXPECT_FALSE(layer.castRay(Eigen::Vector3f::Zero(), Eigen::Vector3f::UnitX(), 10.0,
+                             distance, index));
+  const PlaneFrame wall = wallFrame();
+  PlanarCuboid out_of_range = faceCuboid(wall, 5, 0, 1, 0, 1); // plane 5 of 1
+  PlanarCuboid nan_box = faceCuboid(wall, 0, 0, 1, 0, 1);
+  nan_box.centre.x() = NAN;
+  Cloud features;
+  features.push_back(pcl::PointXYZ(0.5f, 5.0f, 0.5f));
+  // probabilities of the wrong size: features ignored
+  layer.integrate({out_of_range, nan_box}, PlaneModels{wall.model()}, features, {});
+  ASSERT_EQ(layer.getCuboids().size(), 1u);
+  EXPECT_FALSE(layer.getCuboids()[0].is_planar);
+  EXPECT_FLOAT_EQ(layer.getCuboids()[0].probability, 0.5f);
+  layer.clear();
+  EXPECT_TRUE(layer.getCuboids().empty());
+  EXPECT_TRUE(layer.getPlanes().empty());
+}
+
+/** Segmentation + cuboids of a cloud in a world frame (up = z), sensor at \a origin. */
+void
+approximate(const pcl::PointCloud<pcl::PointXYZI>::Ptr& cloud,
+            const Eigen::Vector3f& origin,
+            PlanarCuboids& cuboids,
+            PlaneModels& planes)
+{
+  planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZI> seg;
+  seg.setInputCloud(cloud);
+  seg.setUpAxis(Eigen::Vector3f::UnitZ());
+  seg.setDistanceThreshold(0.05);
+  seg.setMaxPlanes(8);
+  seg.setMinInliers(300);
+  seg.setSeed(1);
+  planar_grid::PlanarSegments segments;
+  seg.segment(segments);
+  planar_grid::PlanarCuboidApproximation<pcl::PointXYZI> approx;
+  approx.setInputCloud(cloud);
+  approx.setPlanes(segments);
+  approx.setUpAxis(Eigen::Vector3f::UnitZ());
+  approx.setSensorOrigin(origin);
+  approx.approximate(cuboids);
+  planes.clear();
+  for (const auto& s : segments) {
+    const auto& v = s.model_coefficients.values;
+    planes.emplace_back(v[0], v[1], v[2], v[3]);
+  }
+}
+
+// Real data: Karlsruhe frame 10 (SGBM cloud to 20 m, 0.1 m voxels) in a world frame
+// (up = z, camera 1.57 m high, pitched 0.09 rad down, as config/karlsruhe.yaml), seen
+// twice, plus the same frame processed after a known rigid motion of the world (0.4 m,
+// 0.05 rad yaw) and mapped back: the planes match, the rasters merge.
+TEST(SurfaceLayer, KarlsruheFramesMergeIntoFewerCuboids)
+{
+  const auto pair = planar_grid::bench::loadKarlsruhePair(10);
+  if (!pair.ok)
+    GTEST_SKIP() << "Karlsruhe frame 10 missing under " << PLANAR_GRID_DATA_DIR;
+  pcl::PointCloud<pcl::PointXYZI> dense;
+  planar_grid::bench::denseCloud(pair, 20.0, dense);
+  // camera (x right, y down, z forward) -> world (x right, y forward, z up)
+  Eigen::Matrix3f axes;
+  axes << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+  Eigen::Affine3f world_T_camera = Eigen::Affine3f::Identity();
+  world_T_camera.linear() =
+    Eigen::AngleAxisf(-0.09f, Eigen::Vector3f::UnitX()).toRotationMatrix() * axes;
+  world_T_camera.translation() = Eigen::Vector3f(0, 0, 1.57f);
+  pcl::PointCloud<pcl::PointXYZI>::Ptr world(new pcl::PointCloud<pcl::PointXYZI>);
+  {
+    pcl::PointCloud<pcl::PointXYZI>::Ptr finite(new pcl::PointCloud<pcl::PointXYZI>);
+    for (const auto& p : dense)
+      if (std::isfinite(p.x))
+        finite->push_back(p);
+    pcl::PointCloud<pcl::PointXYZI>::Ptr moved(new pcl::PointCloud<pcl::PointXYZI>);
+    pcl::transformPointCloud(*finite, *moved, world_T_camera);
+    pcl::VoxelGrid<pcl::PointXYZI> grid;
+    grid.setInputCloud(moved);
+    grid.setLeafSize(0.1f, 0.1f, 0.1f);
+    grid.filter(*world);
+  }
+  const Eigen::Vector3f sensor = world_T_camera.translation();
+  PlanarCuboids cuboids_a, cuboids_b;
+  PlaneModels planes_a, planes_b;
+  approximate(world, sensor, cuboids_a, planes_a);
+  ASSERT_GE(planes_a.size(), 2u);
+
+  Eigen::Affine3f motion = Eigen::Affine3f::Identity();
+  motion.linear() =
+    Eigen::AngleAxisf(0.05f, Eigen::Vector3f::UnitZ()).toRotationMatrix();
+  motion.translation() = Eigen::Vector3f(0.4f, 0.23f, 0.0f);
+  pcl::PointCloud<pcl::PointXYZI>::Ptr moved(new pcl::PointCloud<pcl::PointXYZI>);
+  pcl::transformPointCloud(*world, *moved, motion);
+  approximate(moved, motion * sensor, cuboids_b, planes_b);
+  const Eigen::Affine3f back = motion.inverse();
+  for (auto& c : cuboids_b) {
+    c.centre = back * c.centre;
+    c.normal = back.linear() * c.normal;
+    c.horizontal_axis = back.linear() * c.horizontal_axis;
+  }
+  for (auto& p : planes_b) {
+    const Eigen::Vector3f n = back.linear() * p.head<3>();
+    // n' . x' + d = 0 with x' = motion x: n . x + (n' . t + d) = 0
+    p = Eigen::Vector4f(n.x(), n.y(), n.z(),
+                        p[3] + p.head<3>().dot(motion.translation()));
+  }
+  std::size_t planar_a = 0, planar_b = 0;
+  for (const auto& c : cuboids_a)
+    planar_a += c.is_planar ? 1 : 0;
+  for (const auto& c : cuboids_b)
+    planar_b += c.is_planar ? 1 : 0;
+
+  SurfaceLayer layer(defaultParams());
+  const auto t0 = std::chrono::steady_clock::now();
+  layer.integrate(cuboids_a, planes_a, Cloud(), {});
+  const auto t1 = std::chrono::steady_clock::now();
+  const std::size_t once = layer.getCuboids().size();
+  const auto t2 = std::chrono::steady_clock::now();
+  layer.integrate(cuboids_a, planes_a, Cloud(), {});
+  EXPECT_EQ(layer.getCuboids().size(), once);
+  layer.integrate(cuboids_b, planes_b, Cloud(), {});
+  const PlanarCuboids& merged = layer.getCuboids();
+  std::printf("Karlsruhe frame 10: A %zu cuboids (%zu planar, %zu planes), B %zu (%zu "
+              "planar, %zu planes); layer after A %zu, after A+A+B %zu cuboids, %zu "
+              "planes, %zu cells, %zu bytes; integrate A %.2f ms, rebuild %.2f ms\n",
+              cuboids_a.size(), planar_a, planes_a.size(), cuboids_b.size(), planar_b,
+              planes_b.size(), once, merged.size(), layer.getPlanes().size(),
+              layer.getCellCount(), layer.getMemoryBytes(),
+              std::chrono::duration<double, std::milli>(t1 - t0).count(),
+              std::chrono::duration<double, std::milli>(t2 - t1).count());
+  EXPECT_LT(merged.size(), cuboids_a.size() + cuboids_b.size());
+  EXPECT_LT(layer.getPlanes().size(), planes_a.size() + planes_b.size());
+  // coverage: the centre of every planar face of both frames lies in a planar cuboid
+  // of the layer, in-plane within 0.05 m (half a cell: faces are marked by cell
+  // centres); along the normal within 0.2 m, since the layer keeps the plane of the
+  // first frame and its face on the plane, while a frame's face sits at its front-most
+  // inlier (measured: up to 0.12 m in front on the road at 20 m).
+  std::size_t covered = 0, total = 0;
+  for (const PlanarCuboids* frame : {&cuboids_a, &cuboids_b})
+    for (const auto& c : *frame) {
+      if (!c.is_planar)
+        continue;
+      ++total;
+      const Eigen::Vector3f p = c.faceCentre();
+      bool hit = false;
+      for (const auto& m : merged) {
+        const Eigen::Vector3f q = p - m.centre;
+        if (m.is_planar
+            && std::abs(q.dot(m.horizontal_axis)) <= 0.5f * m.width_m + 0.05f
+            && std::abs(q.dot(m.verticalAxis())) <= 0.5f * m.height_m + 0.05f
+            && std::abs(q.dot(m.normal)) <= 0.5f * m.thickness_m + 0.2f) {
+          hit = true;
+          break;
+        }
+      }
+      covered += hit ? 1 : 0;
+    }
+  std::printf("planar faces covered: %zu / %zu\n", covered, total);
+  EXPECT_GE(covered, total * 95 / 100);
+}
+
+} // namespace

@@ -20,7 +20,8 @@ namespace planar_grid {
 
 /** \brief Plane models [a, b, c, d] (unit normal, meters), aligned allocator (S16).
  * \ingroup map */
-using PlaneModels = std::vector<Eigen::Vector4f, Eigen::aligned_allocator<Eigen::Vector4f>>;
+using PlaneModels =
+  std::vector<Eigen::Vector4f, Eigen::aligned_allocator<Eigen::Vector4f>>;
 
 /** \brief The surface layer of the planar grid map (paper Sec. III-F): the planar and
  * non-planar cuboids of every frame, in the world frame, merged across frames so that
@@ -46,7 +47,8 @@ class SurfaceLayer {
 public:
   /** \brief Parameters with defaults and valid ranges. */
   struct Params {
-    /** Raster cell edge in each plane, meters; > 0 (the paper's minimum cell). */
+    /** Raster cell edge in each plane, meters; in [0.001, 100] (the paper's minimum
+     * cell). */
     double resolution_m{0.1};
     /** Extrusion of the planar cuboids behind their face, meters; > 0. */
     double thickness_m{0.1};
@@ -67,8 +69,11 @@ public:
   explicit SurfaceLayer(const Params& params);
   SurfaceLayer(const SurfaceLayer&) = delete;
   SurfaceLayer& operator=(const SurfaceLayer&) = delete;
-  SurfaceLayer(SurfaceLayer&&) = default;
-  SurfaceLayer& operator=(SurfaceLayer&&) = default;
+  /** \brief Moves (defined in the .cpp, where Impl is complete; the moved-from layer
+   * may only be destroyed or assigned to). */
+  SurfaceLayer(SurfaceLayer&&) noexcept;
+  /** \brief Move assignment (see the move constructor). */
+  SurfaceLayer& operator=(SurfaceLayer&&) noexcept;
   ~SurfaceLayer();
 
   /** \brief The parameters. */
