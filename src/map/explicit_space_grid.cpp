@@ -185,8 +185,9 @@ getLE(const std::uint8_t* p, int n)
 
 /** \brief Depth pyramids of a depth image, over the measured (valid) pixels only:
  * min_level (+inf where a cell has no measurement), max_level (0 there), and, per
- * level j, hole[j][k]: the max over 2^k x 2^k cells of min_level[j], finite only when
- * every level-j cell of the region holds a measurement. */
+ * level j, hole[j][k] (k >= 1; k = 0 is min_level[j] itself): the max over 2^k x 2^k
+ * cells of min_level[j], finite only when every level-j cell of the region holds a
+ * measurement. */
 struct DepthPyramid {
   std::vector<std::vector<float>> min_level, max_level;
   std::vector<std::vector<std::vector<float>>> hole;
@@ -250,10 +251,10 @@ struct DepthPyramid {
     hole.resize(n_levels);
     for (std::size_t j = 0; j < n_levels; ++j) {
       auto& hj = hole[j];
-      hj.resize(n_levels - j);
-      hj[0] = min_level[j];
+      hj.resize(n_levels - j); // hj[0] stays empty: it would be min_level[j]
       for (std::size_t k = 1; k < hj.size(); ++k)
-        reduce(hj[k - 1], w[j + k - 1], h[j + k - 1], true, hj[k]);
+        reduce(k == 1 ? min_level[j] : hj[k - 1], w[j + k - 1], h[j + k - 1], true,
+               hj[k]);
     }
   }
 
@@ -310,7 +311,9 @@ struct DepthPyramid {
   {
     j = std::min(j, levels() - 1);
     const int l = std::max(levelFor((std::max(u1 - u0 + 1, v1 - v0 + 1) + 3) / 4), j);
-    const auto& hk = hole[static_cast<std::size_t>(j)][static_cast<std::size_t>(l - j)];
+    const auto& hk =
+      l == j ? min_level[static_cast<std::size_t>(j)]
+             : hole[static_cast<std::size_t>(j)][static_cast<std::size_t>(l - j)];
     const auto lw = static_cast<std::size_t>(w[static_cast<std::size_t>(l)]);
     for (int cv = v0 >> l; cv <= (v1 >> l); ++cv)
       for (int cu = u0 >> l; cu <= (u1 >> l); ++cu)

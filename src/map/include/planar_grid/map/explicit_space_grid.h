@@ -83,7 +83,11 @@ struct DepthImage {
  * occlusion turns it unknown. The footprint is approximated by min-depth mip cells (a
  * superset of at most ~1.5x the voxel's projected size, conservative for "free"); whole
  * 8^3 blocks and 4^3 sub-cubes in front of (or behind) every measurement of their
- * footprint are decided at once, the rest voxel by voxel.
+ * footprint are decided at once, the rest voxel by voxel. In that per-voxel step a 4^3
+ * cube, then each of its 2^3 groups, is marked free at once when all its centres are
+ * in the image and in front of the minimum over the union of their footprint cells (a
+ * lower bound of each voxel's own minimum, so the result is the voxel-by-voxel one).
+ * A view's observations are gathered per block as bit masks and applied word-wise.
  *
  * Storage is sparse: blocks of 8 x 8 x 8 voxels in a hash map, 2 bits per voxel; a
  * block whose voxels all have one state is stored as that state only, and a block all
