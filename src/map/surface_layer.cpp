@@ -353,8 +353,13 @@ rebuildPlane(MapPlane& plane, int plane_id, const SurfaceLayer::Params& params)
     if (cell.feature_count > 0)
       value[k] = static_cast<float>(cell.probability_sum / cell.feature_count);
   }
-  std::vector<std::array<std::ptrdiff_t, 8>> neighbours(n);
-  for (std::size_t k = 0; k < n; ++k) {
+  std::size_t valued_cells = 0;
+  for (std::size_t k = 0; k < n; ++k)
+    valued_cells += count[k] > 0 ? 1 : 0;
+  // neighbours only matter when valued and featureless cells coexist
+  const bool propagate = valued_cells > 0 && valued_cells < n;
+  std::vector<std::array<std::ptrdiff_t, 8>> neighbours(propagate ? n : 0);
+  for (std::size_t k = 0; propagate && k < n; ++k) {
     const std::int32_t i = keyI(keys[k]), j = keyJ(keys[k]);
     int m = 0;
     for (int dj = -1; dj <= 1; ++dj)
@@ -363,7 +368,7 @@ rebuildPlane(MapPlane& plane, int plane_id, const SurfaceLayer::Params& params)
           neighbours[k][m++] = indexOf(i + di, j + dj);
   }
   std::vector<std::size_t> layer, next;
-  for (std::size_t k = 0; k < n; ++k)
+  for (std::size_t k = 0; propagate && k < n; ++k)
     if (std::isnan(value[k]))
       for (const auto nb : neighbours[k])
         if (nb >= 0 && !std::isnan(value[nb])) {
@@ -371,7 +376,7 @@ rebuildPlane(MapPlane& plane, int plane_id, const SurfaceLayer::Params& params)
           break;
         }
   std::vector<float> layer_values;
-  std::vector<std::uint8_t> queued(n, 0);
+  std::vector<std::uint8_t> queued(propagate ? n : 0, 0);
   for (const auto k : layer)
     queued[k] = 1;
   while (!layer.empty()) {
@@ -951,7 +956,6 @@ SurfaceLayer::castRay(const Eigen::Vector3f& origin,
         t_next[k] = std::numeric_limits<float>::infinity();
       }
     }
-    float t_cell = t0;
     // at most the bins along the clipped segment (+ slack), never unbounded
     const double max_steps = 3.0 * (t1 - t0) / bin + 8.0;
     for (double s = 0; s < max_steps; ++s) {
@@ -968,11 +972,9 @@ SurfaceLayer::castRay(const Eigen::Vector3f& origin,
       // a hit entering before this bin's exit cannot be beaten by later bins
       if (best_t <= t_exit || t_exit > t1)
         break;
-      t_cell = t_exit;
       cell[k] += step[k];
       t_next[k] += t_delta[k];
     }
-    (void)t_cell;
   }
   if (!(best_t <= max_t))
     return false;

@@ -27,21 +27,41 @@ using PlaneModels =
  * non-planar cuboids of every frame, in the world frame, merged across frames so that
  * the map grows with the surface seen, not with the number of frames.
  *
- * - Planes: a frame's plane joins the map's plane whose unit normal is within
- *   plane_merge_angle_rad and whose offset d is within plane_merge_distance_m (the
- *   nearest such), else it starts a new map plane. Each map plane has a fixed 2D frame
- *   (set when it is created) and a sparse raster of square cells of edge resolution_m
- *   in it. A frame's planar cuboid marks the raster cells whose centres fall inside its
- *   face; the plane's cuboids are then rebuilt from the raster by the paper's merge
- *   (runs along the horizontal axis first, then equal runs stacked vertically) over
- *   cells of one occupancy class (probability >= occupancy_thres or below), each
- *   rectangle extruded by thickness_m behind the face (Fig. 6c).
- * - Non-planar cuboids (Fig. 7) are kept per (quantised centre, size): a cell of a new
- *   frame replaces the one with the same key, so repeated views do not pile up.
- * - Occupancy (end of Sec. III-F): a cell's probability is the mean probability of the
- *   features that fell inside it (all frames); a cell with none takes the mean of its
- *   8 neighbours that have a value (propagated outward); a plane without features
- *   keeps 0.5. A cuboid's probability is the mean over its cells.
+ * - Planes: a frame's plane, oriented like its cuboids' normals (toward that frame's
+ *   sensor), joins the map plane whose unit normal is within plane_merge_angle_rad of
+ *   it (same orientation: the two faces of a wall stay separate) and whose offset d is
+ *   within plane_merge_distance_m (the nearest in d), else it starts a new map plane.
+ *   A map plane keeps the coefficients it was created with. Its fixed 2D frame: origin
+ *   -d n on the plane, u = z x n normalised (world x projected when the plane is
+ *   horizontal), v = n x u, the same convention as PlanarCuboidApproximation for
+ *   up = +z. Its sparse raster holds square cells of edge resolution_m, cell (i, j)
+ *   covering [i, i + 1) x [j, j + 1) resolution_m in (u, v).
+ * - A frame's planar cuboid marks the raster cells whose centres fall inside its face
+ *   (projected along the map normal, tolerance 1 % of a cell). The plane's cuboids
+ *   are rebuilt from the raster (lazily, on the next query, only for planes touched
+ *   since) by the paper's merge (Fig. 6b: maximal runs along u first, then runs with
+ *   equal extent stacked along v) over cells of one occupancy class (probability >=
+ *   occupancy_thres or below); each rectangle's face lies on the map plane and is
+ *   extruded by thickness_m behind it (Fig. 6c). The raster is a set, so the same
+ *   frame integrated twice gives the same cuboids as once.
+ * - Non-planar cuboids (Fig. 7), and cuboids whose plane_id is -1, out of range or
+ *   not is_planar, are kept per key (centre quantised to resolution_m cells, extents
+ *   rounded to resolution_m): a cell of a new frame replaces the one with the same key
+ *   (geometry and feature sums), so repeated views do not pile up.
+ * - Occupancy (end of Sec. III-F): a planar cell's probability is the mean probability
+ *   of the features that fell inside it (all frames; a feature counts when it is
+ *   within feature_distance_m of a plane of its frame and its cell is already
+ *   observed); a cell with none takes the mean of its 8 neighbours that have a value,
+ *   propagated outward layer by layer; cells not reached (a plane without features)
+ *   keep 0.5. A planar cuboid's probability is the mean over its cells and its
+ *   point_count the number of features in it. A non-planar cuboid's probability is
+ *   the mean of its frame's features inside the box, 0.5 without any (neighbours of
+ *   non-planar cells are not defined on a raster).
+ * - Queries use a spatial hash of the cuboids' bounding boxes (bins of 4 cells),
+ *   rebuilt lazily; const methods are safe to call from several threads (a mutex
+ *   guards the rebuild), integrate() is not.
+ * - Invalid input (non-finite cuboids or features, probabilities outside [0, 1], a
+ *   face of more than 1e7 cells) is skipped with a PCL_WARN; integrate() never throws.
  * \ingroup map */
 class SurfaceLayer {
 public:
@@ -98,13 +118,18 @@ public:
   const PlanarCuboids& getCuboids() const;
   /** \brief The map's planes [a, b, c, d], world frame. */
   const PlaneModels& getPlanes() const;
-  /** \brief Number of raster cells over all planes. */
+  /** \brief Number of cells: observed raster cells over all planes plus non-planar
+   * cells. */
   [[nodiscard]] std::size_t getCellCount() const;
-  /** \brief Bytes held (rasters, non-planar cells, cuboids, planes). */
+  /** \brief Bytes held: hash-map buckets and nodes (rasters, non-planar index,
+   * spatial index) and vector capacities (planes, non-planar cells, cached cuboids),
+   * as currently built (the caches are built by the queries). */
   [[nodiscard]] std::size_t getMemoryBytes() const;
 
-  /** \brief The cuboid containing \a point, or nullptr (the first found when cuboids
-   * overlap). */
+  /** \brief The cuboid containing \a point (PlanarCuboid::contains, boundary
+   * included), or nullptr; when several contain it, the one with the lowest index in
+   * getCuboids(). The pointer is valid until the next integrate(), deserialize() or
+   * clear(). */
   [[nodiscard]] const PlanarCuboid* findCuboid(const Eigen::Vector3f& point) const;
 
   /** \brief First cuboid hit by a ray whose probability >= occupancy_thres.
@@ -112,19 +137,29 @@ public:
    * \param[in] max_range_m largest distance, meters
    * \param[out] distance_m distance to the entry point, meters
    * \param[out] index index of the cuboid in getCuboids()
-   * \return true on a hit */
+   * \return true on a hit (entry distance <= max_range_m; 0 when the origin is inside
+   * an occupied cuboid); false for a zero or non-finite direction or origin, and
+   * the outputs are then untouched */
   bool castRay(const Eigen::Vector3f& origin,
                const Eigen::Vector3f& direction,
                double max_range_m,
                float& distance_m,
                std::size_t& index) const;
 
-  /** \brief Encodes the layer (planes, their frames and rasters, the non-planar cells)
-   * in a fixed little-endian layout. \param[out] bytes appended to */
+  /** \brief Encodes the layer in a fixed little-endian layout: u32 magic "PGSL",
+   * u32 version 1, the six Params as f64; u64 planes, per plane f32 a, b, c, d, u64
+   * cells, per cell i32 i, i32 j, f64 probability sum, u32 feature count (sorted by
+   * row, column); u64 non-planar cells, per cell f32 centre[3], normal[3],
+   * horizontal_axis[3], width, height, thickness, f64 probability sum, u32 feature
+   * count. The plane frames and cuboids are derived, not stored.
+   * \param[out] bytes appended to */
   void serialize(std::vector<std::uint8_t>& bytes) const;
-  /** \brief Replaces the content by a decoding of serialize()'s output; every count is
-   * checked against the remaining bytes before anything is allocated.
-   * \throws planar_grid::IOError on truncated or inconsistent data (layer unchanged) */
+  /** \brief Replaces the content and the parameters by a decoding of serialize()'s
+   * output (exactly \a size bytes); every count is checked against the remaining bytes
+   * before anything is allocated, and every value (parameter ranges, unit normals,
+   * finite coordinates <= 1e7 m, probability sums in [0, count], no duplicate cells).
+   * \throws planar_grid::IOError on truncated, trailing or inconsistent data (layer
+   * unchanged) */
   void deserialize(const std::uint8_t* data, std::size_t size);
 
   /** \brief Writes the cuboids as a mesh (12 triangles per box, per-face colour by
