@@ -7,6 +7,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <array>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 #include <vector>
@@ -14,6 +15,9 @@
 namespace planar_grid {
 
 namespace {
+
+/** \brief Largest image width or height accepted from a calibration file, pixels. */
+constexpr double MAX_IMAGE_SIDE_PX = 10000.0;
 
 /** \brief A 3x4 projection matrix, row-major. */
 using ProjectionMatrix = std::array<double, 12>;
@@ -124,6 +128,9 @@ readNumbers(const YAML::Node& node,
   if (numbers.size() != count)
     throw IOError(path + ": field '" + key + "' must hold " + std::to_string(count)
                   + " numbers, got " + std::to_string(numbers.size()));
+  for (const double number : numbers)
+    if (!std::isfinite(number))
+      throw IOError(path + ": field '" + key + "' holds a non-finite number");
   return numbers;
 }
 
@@ -218,10 +225,13 @@ readEurocCamera(const std::string& path)
   if (!(intrinsics[0] > 0.0) || !(intrinsics[1] > 0.0))
     throw IOError(path + ": field 'intrinsics' needs positive focal lengths fu, fv");
   camera.distortion = cv::Mat(distortion, true).reshape(1, 1);
+  // The rectification maps take 16 bytes per pixel: the bound keeps them below 2 GB.
+  if (!(resolution[0] >= 1.0 && resolution[0] <= MAX_IMAGE_SIDE_PX)
+      || !(resolution[1] >= 1.0 && resolution[1] <= MAX_IMAGE_SIDE_PX))
+    throw IOError(path + ": field 'resolution' must be a width and height in [1, "
+                  + std::to_string(MAX_IMAGE_SIDE_PX) + "] pixels");
   camera.size =
     cv::Size(static_cast<int>(resolution[0]), static_cast<int>(resolution[1]));
-  if (camera.size.width <= 0 || camera.size.height <= 0)
-    throw IOError(path + ": field 'resolution' must be a positive width and height");
   for (int i = 0; i < 16; ++i)
     camera.body_T_camera(i / 4, i % 4) = pose[static_cast<std::size_t>(i)];
   return camera;
@@ -244,18 +254,31 @@ loadEuroc(const std::string& left_path, const std::string& right_path)
   const cv::Vec3d translation(right_T_left(0, 3), right_T_left(1, 3),
                               right_T_left(2, 3));
 
-  cv::Mat r1, r2, p1, p2, q;
-  cv::stereoRectify(left.camera_matrix, left.distortion, right.camera_matrix,
-                    right.distortion, left.size, rotation, translation, r1, r2, p1, p2,
-                    q, cv::CALIB_ZERO_DISPARITY, 0.0);
+  if (!(cv::norm(translation) > 0.0))
+    throw IOError(right_path
+                  + ": field 'T_BS' puts the right camera at the left one's "
+                    "place ("
+                  + left_path + "): the baseline is zero");
 
+  cv::Mat r1, r2, p1, p2, q;
   StereoCameraModel model;
-  cv::initUndistortRectifyMap(left.camera_matrix, left.distortion, r1, p1, left.size,
-                              CV_32FC1, model.rectifier.map_left_x,
-                              model.rectifier.map_left_y);
-  cv::initUndistortRectifyMap(right.camera_matrix, right.distortion, r2, p2, right.size,
-                              CV_32FC1, model.rectifier.map_right_x,
-                              model.rectifier.map_right_y);
+  // OpenCV asserts on degenerate input (a singular T_BS, a distortion it cannot
+  // invert): that is a bad file, reported as such (S26: one exception type for the
+  // caller).
+  try {
+    cv::stereoRectify(left.camera_matrix, left.distortion, right.camera_matrix,
+                      right.distortion, left.size, rotation, translation, r1, r2, p1,
+                      p2, q, cv::CALIB_ZERO_DISPARITY, 0.0);
+    cv::initUndistortRectifyMap(left.camera_matrix, left.distortion, r1, p1, left.size,
+                                CV_32FC1, model.rectifier.map_left_x,
+                                model.rectifier.map_left_y);
+    cv::initUndistortRectifyMap(right.camera_matrix, right.distortion, r2, p2,
+                                right.size, CV_32FC1, model.rectifier.map_right_x,
+                                model.rectifier.map_right_y);
+  } catch (const cv::Exception& e) {
+    throw IOError(left_path + ", " + right_path
+                  + ": cannot rectify the pair (OpenCV: " + e.what() + ")");
+  }
 
   StereoCalibration& calibration = model.calibration;
   calibration.focal_length_px = p1.at<double>(0, 0);
