@@ -6,6 +6,7 @@
 #include <pcl/console/print.h>
 
 #include <boost/crc.hpp>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -48,13 +49,13 @@ validated(const PlanarGridMap::Params& params)
   return params;
 }
 
-/** Full-precision text of a double (round-trips exactly). */
+/** Shortest text of a double that reads back to the same value (std::to_chars). */
 std::string
 exact(double value)
 {
-  std::ostringstream out;
-  out << std::setprecision(17) << value;
-  return out.str();
+  char buffer[64];
+  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
+  return std::string(buffer, result.ptr);
 }
 
 /** The "key value..." lines of a map file header. */

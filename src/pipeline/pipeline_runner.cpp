@@ -130,12 +130,12 @@ PipelineRunner::run()
   report.planes = state_.plane_models.size();
   if (state_.map) {
     const PlanarGridMap& map = *state_.map;
-    const MapMemory memory = map.getMemory();
     const auto& space = map.getSpaceLayer();
     const auto& surface = map.getSurfaceLayer();
     std::size_t planar = 0;
-    for (const auto& c : surface.getCuboids())
+    for (const auto& c : surface.getCuboids()) // rebuilds the cuboids if stale
       planar += c.is_planar;
+    const MapMemory memory = map.getMemory(); // after the rebuild
     report.map_summary = {
       {"resolution_m", map.getResolution()},
       {"cuboids", static_cast<double>(surface.getCuboids().size())},

@@ -52,7 +52,7 @@ TEST(PipelineConfig, ExampleAndMainJobLoad)
   const auto k = planar_grid::loadPipelineConfig(SOURCE_DIR + "/config/karlsruhe.yaml");
   EXPECT_EQ(k.input.calibration_format, "karlsruhe");
   EXPECT_EQ(k.input.poses_format, "karlsruhe_insdata");
-  ASSERT_EQ(k.stages.size(), 9u);
+  ASSERT_EQ(k.stages.size(), 11u);
   EXPECT_EQ(k.stages.front().type, "stereo_disparity");
   EXPECT_EQ(k.stages.front().params.getInt("num_disparities_px"), 128);
   EXPECT_EQ(k.stages.back().type, "accumulate");

@@ -139,7 +139,8 @@ public:
    * truncated or corrupt file, an unknown version or a bad header value */
   static PlanarGridMap load(const std::string& path);
 
-  /** \brief Writes the space layer as an OctoMap .bt (ExplicitSpaceGrid::exportOctoMap).
+  /** \brief Writes the space layer as an OctoMap .bt
+   * (ExplicitSpaceGrid::exportOctoMap).
    */
   void exportOctoMap(const std::string& path) const { space_.exportOctoMap(path); }
   /** \brief Writes the cuboids as .ply or .vtk (SurfaceLayer::exportMesh). */
