@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <set>
 #include <sstream>
 
 namespace planar_grid {
@@ -216,8 +217,13 @@ parseParams(const YAML::Node& node,
     fail(file, node,
          "params of stage '" + stage_type + "' must be a map of key: value");
 
+  std::set<std::string> seen;
   for (const auto& item : node) {
     const std::string key = item.first.as<std::string>();
+    // yaml-cpp keeps both of two equal keys and lookups find the first: refuse them.
+    if (!seen.insert(key).second)
+      fail(file, item.first,
+           "parameter '" + key + "' of stage '" + stage_type + "' is given twice");
     const auto spec = std::find_if(specs.begin(), specs.end(),
                                    [&key](const ParamSpec& s) { return s.key == key; });
     if (spec == specs.end()) {

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 namespace planar_grid {
@@ -43,8 +44,12 @@ public:
                  const std::string& what) const
   {
     requireMap(node, what);
+    std::set<std::string> seen;
     for (const auto& item : node) {
       const std::string key = item.first.as<std::string>();
+      // yaml-cpp keeps both of two equal keys and lookups find the first: refuse them.
+      if (!seen.insert(key).second)
+        fail(item.first, "key '" + key + "' is given twice in " + what);
       if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
         std::string list;
         for (const auto& a : allowed)

@@ -242,9 +242,7 @@ TEST(ReliabilityConfig, AbsurdValuesAreErrorsAtTheirLine)
   }
 }
 
-// Not yet: yaml-cpp keeps one of two equal keys and pipeline_config.cpp does not check
-// (docs/RELIABILITY.md, open item).
-TEST(ReliabilityConfig, DISABLED_DuplicateKeyIsAnError)
+TEST(ReliabilityConfig, DuplicateKeyIsAnError)
 {
   // yaml-cpp keeps one of two equal keys silently; the strict loader must not.
   const std::string yaml = "input:\n  type: pcd_files\n  files: [a.pcd]\npipeline:\n"
@@ -252,6 +250,11 @@ TEST(ReliabilityConfig, DISABLED_DuplicateKeyIsAnError)
                            "      leaf_size_m: 0.1\n      leaf_size_m: 0.2\n";
   const auto e = configErrorOf(yaml);
   EXPECT_NE(std::string(e.what()).find("leaf_size_m"), std::string::npos) << e.what();
+  EXPECT_EQ(e.line(), 8) << e.what();
+  // The same in a section of the file.
+  const auto f = configErrorOf("input:\n  type: pcd_files\n  files: [a.pcd]\n"
+                               "  files: [b.pcd]\npipeline:\n  - type: voxel_grid\n");
+  EXPECT_NE(std::string(f.what()).find("twice"), std::string::npos) << f.what();
 }
 
 TEST(ReliabilityConfig, WrongTypesForBlocksAreErrors)
