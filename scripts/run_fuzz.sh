@@ -20,15 +20,6 @@ command -v clang++ >/dev/null || { echo "run_fuzz: clang++ not installed" >&2; e
 
 configure=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DPLANAR_GRID_BUILD_FUZZERS=ON
            -DPLANAR_GRID_BUILD_TESTS=ON -DPLANAR_GRID_BUILD_VIEWER=OFF)
-if ! grep -q 'add_subdirectory(fuzz)' tests/CMakeLists.txt; then
-  # tests/CMakeLists.txt does not add tests/fuzz yet: add it at the end of the top-level
-  # folder instead (same targets, same flags).
-  mkdir -p "$BUILD_DIR"
-  hook="$(pwd)/$BUILD_DIR/add_fuzz_subdirectory.cmake"
-  echo 'cmake_language(DEFER DIRECTORY "${CMAKE_SOURCE_DIR}" CALL include
-  "${CMAKE_SOURCE_DIR}/tests/fuzz/CMakeLists.txt")' >"$hook"
-  configure+=("-DCMAKE_PROJECT_INCLUDE=$hook")
-fi
 echo "run_fuzz: configuring $BUILD_DIR (clang, libFuzzer + ASan + UBSan)"
 CC=clang CXX=clang++ cmake -S . -B "$BUILD_DIR" "${configure[@]}" >/dev/null
 echo "run_fuzz: building ${targets[*]}"
