@@ -8,7 +8,7 @@
 //   PlanarGridMap::integrateSurface (cuboids + feature occupancies),
 //   the depth image from the disparity (f B / d) and PlanarGridMap::integrateDepthImage
 //   (explicit free / occupied / unknown space to 25 m at 0.1 m),
-//   on a fresh map each iteration.
+//   on a fresh map each iteration. Arg prior: 2 = unknown (default), 0 = free (paper).
 // BM_OctoMapInsertPointCloud: octomap::OcTree(0.1)::insertPointCloud of every finite
 //   SGBM point of the same frame (max range 25 m, OctoMap's default sensor model), on a
 //   fresh tree each iteration.
@@ -63,6 +63,9 @@ BM_PlanarGridMapUpdate(benchmark::State& state)
   params.space.resolution_m = RESOLUTION_M;
   params.surface.resolution_m = RESOLUTION_M;
   params.space.max_range_m = MAP_MAX_RANGE_M;
+  // Arg 0: the prior, 2 = unknown (our default), 0 = free (the paper's; occluded space
+  // is then stored explicitly as unknown).
+  params.space.prior = static_cast<planar_grid::SpaceState>(state.range(0));
   planar_grid::PlaneModels planes;
   for (const auto& p : scene.planes)
     planes.emplace_back(p.model_coefficients.values.data());
@@ -117,7 +120,12 @@ BM_PlanarGridMapUpdate(benchmark::State& state)
   state.counters["voxels"] = static_cast<double>(voxels);
   state.counters["features"] = static_cast<double>(f.size());
 }
-BENCHMARK(BM_PlanarGridMapUpdate)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_PlanarGridMapUpdate)
+  ->ArgName("prior")
+  ->Arg(2)
+  ->Arg(0)
+  ->Unit(benchmark::kMillisecond)
+  ->MinTime(2.0);
 
 void
 BM_OctoMapInsertPointCloud(benchmark::State& state)
