@@ -34,10 +34,18 @@ SpaceState spaceStateFromString(const std::string& name);
 /** \brief A pinhole depth image: depth along the optical axis per pixel, row-major.
  * Camera frame: x right, y down, z forward (meters). \ingroup map */
 struct DepthImage {
-  /** \brief Size in pixels (> 0 for a usable image). */
-  int width{0}, height{0};
-  /** \brief Intrinsics, pixels. */
-  float fx{0.0f}, fy{0.0f}, cx{0.0f}, cy{0.0f};
+  /** \brief Width in pixels (> 0 for a usable image). */
+  int width{0};
+  /** \brief Height in pixels (> 0 for a usable image). */
+  int height{0};
+  /** \brief Horizontal focal length, pixels (> 0). */
+  float fx{0.0f};
+  /** \brief Vertical focal length, pixels (> 0). */
+  float fy{0.0f};
+  /** \brief Principal point column, pixels. */
+  float cx{0.0f};
+  /** \brief Principal point row, pixels. */
+  float cy{0.0f};
   /** \brief width x height depths, meters; NaN or <= 0 = no measurement. */
   std::vector<float> depth_m;
 
@@ -205,6 +213,7 @@ public:
   /** \brief True when both grids have the same resolution, prior and state in every
    * voxel. */
   [[nodiscard]] bool operator==(const ExplicitSpaceGrid& other) const;
+  /** \brief True when a voxel's state, the resolution or the prior differ. */
   [[nodiscard]] bool operator!=(const ExplicitSpaceGrid& other) const
   {
     return !(*this == other);
