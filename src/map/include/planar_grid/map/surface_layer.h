@@ -171,6 +171,7 @@ public:
   /** \brief True when the parameters, planes, rasters and non-planar cells are equal.
    */
   [[nodiscard]] bool operator==(const SurfaceLayer& other) const;
+  /** \brief True when the parameters, planes, rasters or non-planar cells differ. */
   [[nodiscard]] bool operator!=(const SurfaceLayer& other) const
   {
     return !(*this == other);
