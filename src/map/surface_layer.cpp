@@ -229,6 +229,9 @@ struct NonPlanarCell {
   PlanarCuboid cuboid;
   double probability_sum{0.0};
   std::uint32_t feature_count{0};
+  /** integrate() call that stored it (cells of the same frame never replace each
+   * other). */
+  std::uint32_t generation{0};
   PCL_MAKE_ALIGNED_OPERATOR_NEW
 };
 
@@ -238,7 +241,11 @@ struct SurfaceLayer::Impl {
   std::vector<MapPlane, Eigen::aligned_allocator<MapPlane>> planes;
   PlaneModels plane_models;
   std::vector<NonPlanarCell, Eigen::aligned_allocator<NonPlanarCell>> non_planar;
-  std::unordered_map<NonPlanarKey, std::uint32_t, NonPlanarKeyHash> non_planar_index;
+  /** Spatial hash of the non-planar cells' bounding boxes (bins of 4 cells; cells
+   * spanning more than MAX_BINS_PER_CUBOID bins in np_large), for the replacement. */
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> np_bins;
+  std::vector<std::uint32_t> np_large;
+  std::uint32_t generation{0};
 
   // Caches (rebuilt under mutex by ensureBuilt()).
   std::mutex mutex;
@@ -256,7 +263,18 @@ struct SurfaceLayer::Impl {
   {
     cache_valid = false;
     index_valid = false;
+    // a stale query index is freed (rebuilt on the next query)
+    decltype(bins)().swap(bins);
+    decltype(large)().swap(large);
   }
+  /** Calls f(bin key) for the bins of the bounding box of \a c grown by \a grow;
+   * returns false (nothing called) when they exceed MAX_BINS_PER_CUBOID. */
+  template <typename F>
+  bool forNonPlanarBins(const PlanarCuboid& c, float grow, float bin, F f) const;
+  void addNonPlanarBins(std::uint32_t index, float bin);
+  void eraseNonPlanarBins(std::uint32_t index, float bin, std::uint32_t replacement);
+  /** Removes non_planar[index] (the last cell moves to its place). */
+  void removeNonPlanar(std::uint32_t index, float bin);
   /** Rebuilds dirty planes and the concatenated cuboids; caller holds the mutex. */
   void ensureCuboids(const Params& params);
   /** Builds the spatial hash over all cuboids; caller holds the mutex. */
@@ -284,6 +302,80 @@ cuboidBounds(const PlanarCuboid& c, Eigen::Vector3f& lo, Eigen::Vector3f& hi)
   lo = c.centre - half;
   hi = c.centre + half;
 }
+
+} // namespace
+
+template <typename F>
+bool
+SurfaceLayer::Impl::forNonPlanarBins(const PlanarCuboid& c,
+                                     float grow,
+                                     float bin,
+                                     F f) const
+{
+  Eigen::Vector3f lo, hi;
+  cuboidBounds(c, lo, hi);
+  lo.array() -= grow;
+  hi.array() += grow;
+  const Eigen::Vector3d a = (lo / bin).cast<double>().array().floor();
+  const Eigen::Vector3d b = (hi / bin).cast<double>().array().floor();
+  if (!((b - a + Eigen::Vector3d::Ones()).prod() <= MAX_BINS_PER_CUBOID))
+    return false;
+  for (auto x = static_cast<std::int64_t>(a.x()); x <= static_cast<std::int64_t>(b.x());
+       ++x)
+    for (auto y = static_cast<std::int64_t>(a.y());
+         y <= static_cast<std::int64_t>(b.y()); ++y)
+      for (auto z = static_cast<std::int64_t>(a.z());
+           z <= static_cast<std::int64_t>(b.z()); ++z)
+        f(binKey(x, y, z));
+  return true;
+}
+
+void
+SurfaceLayer::Impl::addNonPlanarBins(std::uint32_t index, float bin)
+{
+  if (!forNonPlanarBins(non_planar[index].cuboid, 0.0f, bin,
+                        [&](std::uint64_t key) { np_bins[key].push_back(index); }))
+    np_large.push_back(index);
+}
+
+void
+SurfaceLayer::Impl::eraseNonPlanarBins(std::uint32_t index,
+                                       float bin,
+                                       std::uint32_t replacement)
+{
+  const auto update = [&](std::vector<std::uint32_t>& v) {
+    const auto it = std::find(v.begin(), v.end(), index);
+    if (it == v.end())
+      return;
+    if (replacement == std::numeric_limits<std::uint32_t>::max())
+      v.erase(it);
+    else
+      *it = replacement;
+  };
+  if (!forNonPlanarBins(non_planar[index].cuboid, 0.0f, bin, [&](std::uint64_t key) {
+        const auto it = np_bins.find(key);
+        if (it == np_bins.end())
+          return;
+        update(it->second);
+        if (it->second.empty())
+          np_bins.erase(it);
+      }))
+    update(np_large);
+}
+
+void
+SurfaceLayer::Impl::removeNonPlanar(std::uint32_t index, float bin)
+{
+  const auto last = static_cast<std::uint32_t>(non_planar.size() - 1);
+  eraseNonPlanarBins(index, bin, std::numeric_limits<std::uint32_t>::max());
+  if (index != last) {
+    eraseNonPlanarBins(last, bin, index);
+    non_planar[index] = non_planar[last];
+  }
+  non_planar.pop_back();
+}
+
+namespace {
 
 /** \brief Validates parameters (S23); throws planar_grid::Exception. */
 void
@@ -664,6 +756,10 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
   // 2. Planar cuboids mark the map plane's cells whose centres fall inside the face.
   // Non-planar cuboids replace the cell with the same key.
   std::vector<std::uint32_t> frame_non_planar;
+  std::vector<NonPlanarCell, Eigen::aligned_allocator<NonPlanarCell>> incoming;
+  std::unordered_map<NonPlanarKey, std::size_t, NonPlanarKeyHash> frame_keys;
+  const std::uint32_t generation = ++impl.generation;
+  const auto np_bin = static_cast<float>(4.0 * r);
   bool skipped = false;
   for (const PlanarCuboid& c : cuboids) {
     if (!finiteVector(c.centre) || !c.normal.allFinite()
@@ -681,18 +777,12 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
       cell.cuboid = c;
       cell.cuboid.plane_id = -1;
       cell.cuboid.is_planar = false;
-      const NonPlanarKey key = nonPlanarKey(c, r);
-      const auto it = impl.non_planar_index.find(key);
-      std::uint32_t index;
-      if (it != impl.non_planar_index.end()) {
-        index = it->second;
-        impl.non_planar[index] = cell;
-      } else {
-        index = static_cast<std::uint32_t>(impl.non_planar.size());
-        impl.non_planar.push_back(cell);
-        impl.non_planar_index.emplace(key, index);
-      }
-      frame_non_planar.push_back(index);
+      cell.generation = generation;
+      const auto inserted = frame_keys.emplace(nonPlanarKey(c, r), incoming.size());
+      if (inserted.second)
+        incoming.push_back(cell);
+      else
+        incoming[inserted.first->second] = cell; // same key twice in one frame
       continue;
     }
     MapPlane& mp = impl.planes[static_cast<std::size_t>(
@@ -740,6 +830,49 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
   if (skipped)
     PCL_WARN("[planar_grid::SurfaceLayer::integrate] Skipped cuboids with non-finite "
              "or absurd (> 1e7 m or > 1e7 cells) geometry.\n");
+
+  // 2b. Non-planar replacement (header): every stored cell of an earlier frame whose
+  // centre lies in a new cuboid grown by half a cell, or that contains the new
+  // cuboid's centre, is removed; then the new cells are appended.
+  {
+    const float half_cell = static_cast<float>(0.5 * r);
+    std::vector<std::uint32_t> doomed;
+    const auto test = [&](const PlanarCuboid& nw, std::uint32_t index) {
+      const NonPlanarCell& old = impl.non_planar[index];
+      if (old.generation != generation
+          && (nw.contains(old.cuboid.centre, half_cell)
+              || old.cuboid.contains(nw.centre)))
+        doomed.push_back(index);
+    };
+    for (const NonPlanarCell& cell : incoming) {
+      const PlanarCuboid& nw = cell.cuboid;
+      const bool binned =
+        impl.forNonPlanarBins(nw, half_cell, np_bin, [&](std::uint64_t key) {
+          const auto it = impl.np_bins.find(key);
+          if (it != impl.np_bins.end())
+            for (const auto index : it->second)
+              test(nw, index);
+        });
+      if (binned)
+        for (const auto index : impl.np_large)
+          test(nw, index);
+      else
+        for (std::size_t index = 0; index < impl.non_planar.size(); ++index)
+          test(nw, static_cast<std::uint32_t>(index));
+    }
+    std::sort(doomed.begin(), doomed.end());
+    doomed.erase(std::unique(doomed.begin(), doomed.end()), doomed.end());
+    // highest first: the cell moved into a freed slot is never one still to remove
+    for (auto it = doomed.rbegin(); it != doomed.rend(); ++it)
+      impl.removeNonPlanar(*it, np_bin);
+    impl.non_planar.reserve(impl.non_planar.size() + incoming.size());
+    for (const NonPlanarCell& cell : incoming) {
+      const auto index = static_cast<std::uint32_t>(impl.non_planar.size());
+      impl.non_planar.push_back(cell);
+      impl.addNonPlanarBins(index, np_bin);
+      frame_non_planar.push_back(index);
+    }
+  }
 
   // 3. Features: each adds its probability to the observed cell it falls in on every
   // touched plane within feature_distance_m, and to this frame's non-planar cells
@@ -850,7 +983,10 @@ SurfaceLayer::getMemoryBytes() const
   bytes += vectorBytes(impl.planes) + vectorBytes(impl.plane_models);
   for (const auto& plane : impl.planes)
     bytes += hashMapBytes(plane.cells) + vectorBytes(plane.cuboids);
-  bytes += vectorBytes(impl.non_planar) + hashMapBytes(impl.non_planar_index);
+  bytes += vectorBytes(impl.non_planar) + hashMapBytes(impl.np_bins)
+           + vectorBytes(impl.np_large);
+  for (const auto& kv : impl.np_bins)
+    bytes += vectorBytes(kv.second);
   bytes +=
     vectorBytes(impl.all_cuboids) + hashMapBytes(impl.bins) + vectorBytes(impl.large);
   for (const auto& kv : impl.bins)
@@ -1109,6 +1245,7 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
     impl->planes.push_back(std::move(mp));
   }
   const std::size_t non_planar_count = rd.getCount(NON_PLANAR_BYTES, "non-planar cell");
+  std::unordered_map<NonPlanarKey, std::uint32_t, NonPlanarKeyHash> non_planar_keys;
   impl->non_planar.reserve(non_planar_count);
   for (std::size_t k = 0; k < non_planar_count; ++k) {
     NonPlanarCell cell;
@@ -1137,10 +1274,13 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
     c.plane_id = -1;
     c.is_planar = false;
     const auto key = nonPlanarKey(c, params.resolution_m);
-    if (!impl->non_planar_index.emplace(key, static_cast<std::uint32_t>(k)).second)
+    if (!non_planar_keys.emplace(key, static_cast<std::uint32_t>(k)).second)
       throw IOError("surface layer: duplicate non-planar cell " + std::to_string(k));
     impl->non_planar.push_back(cell);
   }
+  const auto np_bin = static_cast<float>(4.0 * params.resolution_m);
+  for (std::size_t k = 0; k < impl->non_planar.size(); ++k)
+    impl->addNonPlanarBins(static_cast<std::uint32_t>(k), np_bin);
   if (rd.remaining() != 0)
     throw IOError("surface layer: " + std::to_string(rd.remaining())
                   + " unexpected trailing bytes");

@@ -639,6 +639,64 @@ TEST(SurfaceLayer, DegenerateInputs)
   EXPECT_TRUE(layer.getPlanes().empty());
 }
 
+/** Non-planar boxes (up-aligned, axis-parallel) of edge \a edge tiling the cube
+ * [x0, x0 + 2] x [0, 2] x [0, 2]. */
+PlanarCuboids
+tiledBoxes(float x0, float edge)
+{
+  PlanarCuboids boxes;
+  const int n = static_cast<int>(std::lround(2.0f / edge));
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < n; ++b)
+      for (int c = 0; c < n; ++c) {
+        PlanarCuboid box;
+        box.normal = Eigen::Vector3f::UnitY();
+        box.horizontal_axis = Eigen::Vector3f::UnitX();
+        box.width_m = box.height_m = box.thickness_m = edge;
+        box.centre =
+          Eigen::Vector3f(x0 + (a + 0.5f) * edge, (b + 0.5f) * edge, (c + 0.5f) * edge);
+        boxes.push_back(box);
+      }
+  return boxes;
+}
+
+// The same 2 m cube split into 8 boxes of 1 m by one frame and 64 boxes of 0.5 m
+// (shifted by 0.03 m) by another: after both frames, in either order, the layer holds
+// exactly the later frame's cells (bound: no more than one frame's worth), and a box
+// outside the cube seen only by the first frame is kept.
+TEST(SurfaceLayer, NonPlanarCellsOfANewFrameReplaceOverlappedOnes)
+{
+  const PlanarCuboids coarse = tiledBoxes(0.0f, 1.0f);
+  const PlanarCuboids fine = tiledBoxes(0.03f, 0.5f);
+  PlanarCuboids elsewhere = tiledBoxes(10.0f, 2.0f); // one box, x in [10, 12]
+  for (const bool coarse_first : {true, false}) {
+    SurfaceLayer layer(defaultParams());
+    PlanarCuboids first = coarse_first ? coarse : fine;
+    const PlanarCuboids& second = coarse_first ? fine : coarse;
+    first.push_back(elsewhere[0]);
+    layer.integrate(first, {}, Cloud(), {});
+    EXPECT_EQ(layer.getCellCount(), first.size());
+    layer.integrate(second, {}, Cloud(), {});
+    EXPECT_EQ(layer.getCellCount(), second.size() + 1) << coarse_first;
+    const PlanarCuboids& out = layer.getCuboids();
+    float volume = 0.0f;
+    for (const PlanarCuboid& c : out)
+      volume += c.volume();
+    EXPECT_NEAR(volume, 8.0f + 8.0f, 1e-3f); // the cube once + the box elsewhere
+    EXPECT_NE(layer.findCuboid(Eigen::Vector3f(11.0f, 1.0f, 1.0f)), nullptr);
+    // the same second frame again changes nothing; the round trip keeps the cells
+    layer.integrate(second, {}, Cloud(), {});
+    EXPECT_EQ(layer.getCellCount(), second.size() + 1);
+    std::vector<std::uint8_t> bytes;
+    layer.serialize(bytes);
+    SurfaceLayer copy(defaultParams());
+    copy.deserialize(bytes.data(), bytes.size());
+    EXPECT_TRUE(copy == layer);
+    copy.integrate(first, {}, Cloud(), {});
+    EXPECT_EQ(copy.getCellCount(), first.size());
+  }
+}
+
 /** Segmentation + cuboids of a cloud in a world frame (up = z), sensor at \a origin. */
 void
 approximate(const pcl::PointCloud<pcl::PointXYZI>::Ptr& cloud,

@@ -45,9 +45,17 @@ using PlaneModels =
  *   extruded by thickness_m behind it (Fig. 6c). The raster is a set, so the same
  *   frame integrated twice gives the same cuboids as once.
  * - Non-planar cuboids (Fig. 7), and cuboids whose plane_id is -1, out of range or
- *   not is_planar, are kept per key (centre quantised to resolution_m cells, extents
- *   rounded to resolution_m): a cell of a new frame replaces the one with the same key
- *   (geometry and feature sums), so repeated views do not pile up.
+ *   not is_planar, are stored as given; the newest view wins, as in the space layer:
+ *   a non-planar cuboid of a new frame removes every stored non-planar cell of an
+ *   earlier frame that it overlaps substantially, i.e. whose centre lies inside the
+ *   new box grown by resolution_m / 2 on every side, or whose box contains the new
+ *   box's centre (so a region re-split differently by the next frame's quadtree is
+ *   replaced, not piled up; a stored cell that no new cell overlaps so is kept).
+ *   Cells of the same frame never remove each other, except that of two with the
+ *   same key (centre quantised to resolution_m cells, extents rounded to
+ *   resolution_m) the later is kept. Candidates come from a spatial hash of the
+ *   stored cells' bounding boxes (bins of 4 cells), so integrate() costs O(new
+ *   cells x cells per bin).
  * - Occupancy (end of Sec. III-F): a planar cell's probability is the mean probability
  *   of the features that fell inside it (all frames; a feature counts when it is
  *   within feature_distance_m of a plane of its frame and its cell is already
@@ -58,7 +66,7 @@ using PlaneModels =
  *   the mean of its frame's features inside the box, 0.5 without any (neighbours of
  *   non-planar cells are not defined on a raster).
  * - Queries use a spatial hash of the cuboids' bounding boxes (bins of 4 cells),
- *   rebuilt lazily; const methods are safe to call from several threads (a mutex
+ *   rebuilt lazily and freed by integrate() (it is stale then); const methods are safe to call from several threads (a mutex
  *   guards the rebuild), integrate() is not.
  * - Invalid input (non-finite cuboids or features, probabilities outside [0, 1], a
  *   face of more than 1e7 cells) is skipped with a PCL_WARN; integrate() never throws.
