@@ -536,6 +536,56 @@ spaceStateFromString(const std::string& name)
 }
 
 DepthImage
+DepthImage::fromDisparity(const float* disparity,
+                          int width,
+                          int height,
+                          std::size_t row_stride_bytes,
+                          const StereoCalibration& calibration)
+{
+  if (width <= 0 || height <= 0 || disparity == nullptr)
+    throw Exception("DepthImage::fromDisparity: image size must be positive, got "
+                    + std::to_string(width) + "x" + std::to_string(height));
+  if (row_stride_bytes < static_cast<std::size_t>(width) * sizeof(float))
+    throw Exception("DepthImage::fromDisparity: row stride "
+                    + std::to_string(row_stride_bytes)
+                    + " bytes is shorter than a row");
+  if (!(calibration.focal_length_px > 0.0) || !(calibration.baseline_m > 0.0))
+    throw Exception("DepthImage::fromDisparity: the calibration needs focal_length_px "
+                    "> 0 and baseline_m > 0");
+  DepthImage image;
+  image.width = width;
+  image.height = height;
+  image.fx = image.fy = static_cast<float>(calibration.focal_length_px);
+  image.cx = static_cast<float>(calibration.cx_px);
+  image.cy = static_cast<float>(calibration.cy_px);
+  image.depth_m.assign(static_cast<std::size_t>(width)
+                         * static_cast<std::size_t>(height),
+                       std::numeric_limits<float>::quiet_NaN());
+  const auto fb =
+    static_cast<float>(calibration.focal_length_px * calibration.baseline_m);
+  const auto* bytes = reinterpret_cast<const unsigned char*>(disparity);
+  for (int v = 0; v < height; ++v) {
+    const auto* row = reinterpret_cast<const float*>(
+      bytes + static_cast<std::size_t>(v) * row_stride_bytes);
+    float* out = image.depth_m.data()
+                 + static_cast<std::size_t>(v) * static_cast<std::size_t>(width);
+    for (int u = 0; u < width; ++u)
+      if (row[u] > 0.0f && std::isfinite(row[u]))
+        out[u] = fb / row[u];
+  }
+  return image;
+}
+
+std::size_t
+DepthImage::countValid() const
+{
+  std::size_t n = 0;
+  for (const float d : depth_m)
+    n += (d > 0.0f && std::isfinite(d));
+  return n;
+}
+
+DepthImage
 DepthImage::fromPointCloud(const pcl::PointCloud<pcl::PointXYZ>& cloud,
                            int width,
                            int height,

@@ -190,29 +190,11 @@ private:
   /** Depth f B / d of every valid disparity (stereo input). */
   void depthFromDisparity(const Frame& frame)
   {
-    const auto& calib = frame.calibration;
     const cv::Mat& disparity = frame.disparity;
-    depth_.width = disparity.cols;
-    depth_.height = disparity.rows;
-    depth_.fx = depth_.fy = static_cast<float>(calib.focal_length_px);
-    depth_.cx = static_cast<float>(calib.cx_px);
-    depth_.cy = static_cast<float>(calib.cy_px);
-    depth_.depth_m.assign(static_cast<std::size_t>(disparity.rows)
-                            * static_cast<std::size_t>(disparity.cols),
-                          std::numeric_limits<float>::quiet_NaN());
-    const auto fb = static_cast<float>(calib.focal_length_px * calib.baseline_m);
-    depth_pixels_ = 0;
-    for (int v = 0; v < disparity.rows; ++v) {
-      const float* row = disparity.ptr<float>(v);
-      float* out =
-        depth_.depth_m.data()
-        + static_cast<std::size_t>(v) * static_cast<std::size_t>(disparity.cols);
-      for (int u = 0; u < disparity.cols; ++u)
-        if (row[u] > 0.0f && std::isfinite(row[u])) {
-          out[u] = fb / row[u];
-          ++depth_pixels_;
-        }
-    }
+    depth_ =
+      DepthImage::fromDisparity(disparity.ptr<float>(0), disparity.cols, disparity.rows,
+                                disparity.step, frame.calibration);
+    depth_pixels_ = depth_.countValid();
   }
 
   /** PCD input: the world cloud back in the sensor frame, rendered by a virtual
@@ -232,9 +214,7 @@ private:
       camera_cloud_, depth_width_px_, depth_height_px_, depth_focal_length_px_,
       depth_focal_length_px_, 0.5f * static_cast<float>(depth_width_px_),
       0.5f * static_cast<float>(depth_height_px_));
-    depth_pixels_ = 0;
-    for (const float d : depth_.depth_m)
-      depth_pixels_ += (d > 0.0f && std::isfinite(d));
+    depth_pixels_ = depth_.countValid();
   }
 
   PlanarGridMap::Params params_;

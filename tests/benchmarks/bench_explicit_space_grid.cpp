@@ -33,20 +33,9 @@ frame10()
       return d;
     cv::Mat disparity;
     planar_grid::DisparityEstimator().compute(pair.left, pair.right, disparity);
-    const auto& c = pair.model.calibration;
-    d.width = disparity.cols;
-    d.height = disparity.rows;
-    d.fx = d.fy = static_cast<float>(c.focal_length_px);
-    d.cx = static_cast<float>(c.cx_px);
-    d.cy = static_cast<float>(c.cy_px);
-    d.depth_m.resize(static_cast<std::size_t>(d.width * d.height));
-    for (int v = 0; v < d.height; ++v)
-      for (int u = 0; u < d.width; ++u) {
-        const float disp = disparity.at<float>(v, u);
-        d.depth_m[static_cast<std::size_t>(v * d.width + u)] =
-          disp > 0.0f ? static_cast<float>(c.focal_length_px * c.baseline_m / disp)
-                      : std::numeric_limits<float>::quiet_NaN();
-      }
+    d =
+      DepthImage::fromDisparity(disparity.ptr<float>(0), disparity.cols, disparity.rows,
+                                disparity.step, pair.model.calibration);
     return d;
   }();
   return image;

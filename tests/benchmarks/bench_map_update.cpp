@@ -90,22 +90,9 @@ BM_PlanarGridMapUpdate(benchmark::State& state)
     filter.filter(occupied);
     map.integrateSurface(cuboids, planes, f.points, filter.getProbabilities());
     // Explicit space (Fig. 5c) from the depth image.
-    planar_grid::DepthImage depth;
-    depth.width = scene.disparity.cols;
-    depth.height = scene.disparity.rows;
-    depth.fx = depth.fy = static_cast<float>(calibration.focal_length_px);
-    depth.cx = static_cast<float>(calibration.cx_px);
-    depth.cy = static_cast<float>(calibration.cy_px);
-    depth.depth_m.assign(static_cast<std::size_t>(depth.width * depth.height),
-                         std::numeric_limits<float>::quiet_NaN());
-    const auto fb =
-      static_cast<float>(calibration.focal_length_px * calibration.baseline_m);
-    for (int v = 0; v < depth.height; ++v) {
-      const float* row = scene.disparity.ptr<float>(v);
-      for (int u = 0; u < depth.width; ++u)
-        if (row[u] > 0.0f && std::isfinite(row[u]))
-          depth.depth_m[static_cast<std::size_t>(v * depth.width + u)] = fb / row[u];
-    }
+    const auto depth = planar_grid::DepthImage::fromDisparity(
+      scene.disparity.ptr<float>(0), scene.disparity.cols, scene.disparity.rows,
+      scene.disparity.step, calibration);
     map.integrateDepthImage(depth, Eigen::Isometry3d::Identity());
     benchmark::DoNotOptimize(map);
     bytes = map.getMemory().total_bytes;

@@ -707,20 +707,8 @@ TEST(ExplicitSpaceGrid, KarlsruheFrame10)
   const auto& calib = model.calibration;
   cv::Mat disparity;
   planar_grid::DisparityEstimator().compute(left, right, disparity);
-  DepthImage image;
-  image.width = disparity.cols;
-  image.height = disparity.rows;
-  image.fx = image.fy = static_cast<float>(calib.focal_length_px);
-  image.cx = static_cast<float>(calib.cx_px);
-  image.cy = static_cast<float>(calib.cy_px);
-  image.depth_m.resize(static_cast<std::size_t>(image.width * image.height));
-  for (int v = 0; v < image.height; ++v)
-    for (int u = 0; u < image.width; ++u) {
-      const float d = disparity.at<float>(v, u);
-      image.depth_m[static_cast<std::size_t>(v * image.width + u)] =
-        d > 0.0f ? static_cast<float>(calib.focal_length_px * calib.baseline_m / d)
-                 : std::numeric_limits<float>::quiet_NaN();
-    }
+  const DepthImage image = DepthImage::fromDisparity(
+    disparity.ptr<float>(0), disparity.cols, disparity.rows, disparity.step, calib);
   ExplicitSpaceGrid grid(params(SpaceState::UNKNOWN, 0.1, 25.0));
   if (std::getenv("PLANAR_GRID_DEBUG"))
     pcl::console::setVerbosityLevel(pcl::console::L_DEBUG);
@@ -781,4 +769,37 @@ TEST(ExplicitSpaceGrid, KarlsruheFrame10)
   EXPECT_EQ(outside, 0u);
   EXPECT_EQ(grid.getState(Eigen::Vector3f(0.0f, 0.0f, -3.0f)), SpaceState::UNKNOWN);
   EXPECT_EQ(grid.getState(Eigen::Vector3f(0.0f, -20.0f, 5.0f)), SpaceState::UNKNOWN);
+}
+
+TEST(DepthImage, FromDisparityIsFocalTimesBaselineOverDisparity)
+{
+  // f B = 100 px * 0.5 m = 50 px m: d = 10 px -> 5 m, 5 px -> 10 m, 20 px -> 2.5 m;
+  // 0, negative and NaN disparities are no measurement. Rows padded to 4 floats.
+  planar_grid::StereoCalibration calib;
+  calib.focal_length_px = 100.0;
+  calib.baseline_m = 0.5;
+  calib.cx_px = 1.0;
+  calib.cy_px = 0.5;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float disparity[8] = {0.0f, 10.0f, nan, 99.0f, 5.0f, -1.0f, 20.0f, 99.0f};
+  const DepthImage image =
+    DepthImage::fromDisparity(disparity, 3, 2, 4 * sizeof(float), calib);
+  ASSERT_EQ(image.width, 3);
+  ASSERT_EQ(image.height, 2);
+  EXPECT_FLOAT_EQ(image.fx, 100.0f);
+  EXPECT_FLOAT_EQ(image.cx, 1.0f);
+  EXPECT_TRUE(std::isnan(image.at(0, 0)));
+  EXPECT_FLOAT_EQ(image.at(1, 0), 5.0f);
+  EXPECT_TRUE(std::isnan(image.at(2, 0)));
+  EXPECT_FLOAT_EQ(image.at(0, 1), 10.0f);
+  EXPECT_TRUE(std::isnan(image.at(1, 1)));
+  EXPECT_FLOAT_EQ(image.at(2, 1), 2.5f);
+  EXPECT_EQ(image.countValid(), 3u);
+  EXPECT_THROW(DepthImage::fromDisparity(disparity, 3, 2, 8, calib),
+               planar_grid::Exception); // stride shorter than a row
+  EXPECT_THROW(DepthImage::fromDisparity(disparity, 0, 2, 16, calib),
+               planar_grid::Exception);
+  calib.baseline_m = 0.0;
+  EXPECT_THROW(DepthImage::fromDisparity(disparity, 3, 2, 16, calib),
+               planar_grid::Exception);
 }

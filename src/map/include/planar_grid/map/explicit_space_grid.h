@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/stereo_calibration.h>
+
 #include <pcl/memory.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -55,6 +57,27 @@ struct DepthImage {
     return depth_m[static_cast<std::size_t>(v) * static_cast<std::size_t>(width)
                    + static_cast<std::size_t>(u)];
   }
+
+  /** \brief Converts a disparity image of a rectified stereo pair into depth,
+   * f B / d per pixel (the pinhole of the left camera).
+   * \param[in] disparity row-major disparities, pixels (<= 0 or non-finite: no
+   * measurement)
+   * \param[in] width, height image size, pixels (> 0)
+   * \param[in] row_stride_bytes bytes from one row to the next (>= width * 4), e.g.
+   * cv::Mat::step for a CV_32FC1 image
+   * \param[in] calibration the rectified rig (focal_length_px, cx_px, cy_px,
+   * baseline_m > 0)
+   * \return the depth image, meters
+   * \throws planar_grid::Exception for a non-positive size, a short stride or an
+   * invalid calibration */
+  static DepthImage fromDisparity(const float* disparity,
+                                  int width,
+                                  int height,
+                                  std::size_t row_stride_bytes,
+                                  const StereoCalibration& calibration);
+
+  /** \brief Number of pixels with a measurement (finite depth > 0). */
+  [[nodiscard]] std::size_t countValid() const;
 
   /** \brief Renders points given in the camera frame into a depth image with a
    * z-buffer (the nearest point wins per pixel); works for organized and unorganized
