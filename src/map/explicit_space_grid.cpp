@@ -1469,6 +1469,11 @@ struct StreamParser {
       if (level == 0)
         throw IOError("space layer stream: inner-node label 11 at voxel level (label "
                       + std::to_string(next - 1) + ")");
+      // An inner node at block level is one mixed block, however many leaves it holds
+      // (they are contiguous in depth-first order).
+      if (level == BLOCK_SHIFT && ++blocks_needed > MAX_DECODED_BLOCKS)
+        throw IOError("space layer stream: more than "
+                      + std::to_string(MAX_DECODED_BLOCKS) + " blocks");
       const std::int64_t h = std::int64_t{1} << (level - 1);
       for (int c = 0; c < 8; ++c)
         parse(level - 1, x + (c & 1) * h, y + ((c >> 1) & 1) * h,
@@ -1483,8 +1488,8 @@ struct StreamParser {
         throw IOError("space layer stream: non-prior leaves cover more than "
                       + std::to_string(MAX_DECODED_BLOCKS) + " blocks");
       blocks_needed += n;
-    } else if (++blocks_needed > MAX_DECODED_BLOCKS)
-      throw IOError("space layer stream: too many blocks");
+    }
+    // A leaf below block level lies in a mixed block counted at its inner node.
     leaves.push_back({level, x, y, z, label});
   }
 };

@@ -803,3 +803,25 @@ TEST(DepthImage, FromDisparityIsFocalTimesBaselineOverDisparity)
   EXPECT_THROW(DepthImage::fromDisparity(disparity, 3, 2, 16, calib),
                planar_grid::Exception);
 }
+
+TEST(ExplicitSpaceGrid, ManyMixedBlocksRoundTrip)
+{
+  // 9,216 blocks, each a checkerboard of occupied and prior voxels: 512 leaves per
+  // block, 4.7 million leaves in all, more than the 2^22 blocks the reader allows; the
+  // limit counts blocks, not leaves, so this (real maps have such blocks) must load.
+  ExplicitSpaceGrid grid(params(SpaceState::UNKNOWN, 0.1, 25.0));
+  for (int bx = 0; bx < 24; ++bx)
+    for (int by = 0; by < 24; ++by)
+      for (int bz = 0; bz < 16; ++bz)
+        for (int i = 0; i < 512; i += 2) {
+          const int x = i & 7, y = (i >> 3) & 7, z = i >> 6;
+          grid.setState(Key(8 * bx + x + ((y + z) & 1), 8 * by + y, 8 * bz + z),
+                        SpaceState::OCCUPIED);
+        }
+  ASSERT_EQ(grid.getBlockCount(), 24u * 24u * 16u);
+  std::vector<std::uint8_t> bytes;
+  grid.serialize(bytes);
+  ExplicitSpaceGrid decoded(params(SpaceState::UNKNOWN, 0.1, 25.0));
+  decoded.deserialize(bytes.data(), bytes.size());
+  EXPECT_TRUE(decoded == grid);
+}
