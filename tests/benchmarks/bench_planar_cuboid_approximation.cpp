@@ -31,7 +31,6 @@ namespace {
 using planar_grid::bench::Cloud;
 using planar_grid::bench::karlsruhe;
 using planar_grid::bench::Scene;
-using planar_grid::bench::segmentAndRemoveGround;
 
 const Scene&
 office()
@@ -43,17 +42,9 @@ office()
           std::string(PLANAR_GRID_DATA_DIR) + "/pcl_clouds/office1.pcd", raw)
         != 0)
       return out;
-    Cloud::Ptr xyz(new Cloud);
-    pcl::copyPointCloud(raw, *xyz);
-    Cloud::Ptr finite(new Cloud);
-    pcl::Indices unused;
-    pcl::removeNaNFromPointCloud(*xyz, *finite, unused);
-    Cloud::Ptr voxelised(new Cloud);
-    pcl::VoxelGrid<pcl::PointXYZI> voxel_grid;
-    voxel_grid.setInputCloud(finite);
-    voxel_grid.setLeafSize(0.05f, 0.05f, 0.05f);
-    voxel_grid.filter(*voxelised);
-    segmentAndRemoveGround(voxelised, out);
+    Cloud xyz;
+    pcl::copyPointCloud(raw, xyz);
+    planar_grid::bench::voxeliseAndSegment(xyz, 0.05f, out);
     return out;
   }();
   return scene;

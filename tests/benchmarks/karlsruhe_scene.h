@@ -29,8 +29,8 @@ struct Scene {
   /** \brief The stereo pair and its SGBM disparity (karlsruhe() only). */
   KarlsruhePair pair;
   cv::Mat disparity;
-  /** \brief Every finite SGBM point to MAX_RANGE_M, before the VoxelGrid (karlsruhe()
-   * only). */
+  /** \brief Every finite point before the VoxelGrid (SGBM to MAX_RANGE_M for
+   * karlsruhe()). */
   Cloud::Ptr dense{new Cloud};
   bool ok{false};
 };
@@ -76,6 +76,25 @@ segmentAndRemoveGround(const Cloud::Ptr& cloud, Scene& out)
   removeGround(*cloud, planes, out);
 }
 
+/** \brief Drops the non-finite points of \a cloud (kept in out.dense), voxelises them
+ * with pcl::VoxelGrid at \a leaf_size_m and segments the result with the ground
+ * removed.
+ */
+inline void
+voxeliseAndSegment(const Cloud& cloud, float leaf_size_m, Scene& out)
+{
+  Cloud::Ptr finite(new Cloud);
+  pcl::Indices unused;
+  pcl::removeNaNFromPointCloud(cloud, *finite, unused);
+  out.dense = finite;
+  Cloud::Ptr voxelised(new Cloud);
+  pcl::VoxelGrid<pcl::PointXYZI> voxel_grid;
+  voxel_grid.setInputCloud(finite);
+  voxel_grid.setLeafSize(leaf_size_m, leaf_size_m, leaf_size_m);
+  voxel_grid.filter(*voxelised);
+  segmentAndRemoveGround(voxelised, out);
+}
+
 inline const Scene&
 karlsruhe(int frame)
 {
@@ -92,16 +111,7 @@ karlsruhe(int frame)
   Cloud dense;
   disparityToPointCloud(out.disparity, pair.left, pair.model.calibration, MAX_RANGE_M,
                         dense);
-  Cloud::Ptr finite(new Cloud);
-  pcl::Indices unused;
-  pcl::removeNaNFromPointCloud(dense, *finite, unused);
-  out.dense = finite;
-  Cloud::Ptr voxelised(new Cloud);
-  pcl::VoxelGrid<pcl::PointXYZI> voxel_grid;
-  voxel_grid.setInputCloud(finite);
-  voxel_grid.setLeafSize(0.1f, 0.1f, 0.1f);
-  voxel_grid.filter(*voxelised);
-  segmentAndRemoveGround(voxelised, out);
+  voxeliseAndSegment(dense, 0.1f, out);
   return out;
 }
 

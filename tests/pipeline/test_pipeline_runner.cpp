@@ -265,25 +265,36 @@ TEST_F(PipelineRunnerTest, PCDFilesWithViewpointPoses)
   EXPECT_NEAR(runner.trajectory()[0].translation().norm(), 0.0, 1e-6);
 }
 
+/** The paper's stages (stereo, features, planes, ground, cells, accumulate) as YAML,
+ * with the feature occupancy and the map when \a with_map. */
+static std::string
+paperStages(bool with_map)
+{
+  return std::string("pipeline:\n"
+                     "  - type: stereo_disparity\n"
+                     "    params: {num_disparities_px: 128, max_range_m: 30.0}\n"
+                     "  - type: feature_matching\n")
+         + (with_map ? "  - type: kl_occupancy_filter\n" : "")
+         + "  - type: voxel_grid\n"
+           "    params: {leaf_size_m: 0.1}\n"
+           "  - type: transform_to_world\n"
+           "  - type: multi_plane_segmentation\n"
+           "    params: {min_inliers: 300, sample_distance_threshold_m: 0.15}\n"
+           "  - type: ground_removal\n"
+           "  - type: planar_cuboid_approximation\n"
+           "    params: {min_cell_size_m: 0.1}\n"
+         + (with_map ? "  - type: map_integration\n"
+                       "    params: {resolution_m: 0.1, max_range_m: 25.0}\n"
+                     : "")
+         + "  - type: accumulate\n"
+           "    params: {leaf_size_m: 0.1}\n";
+}
+
 TEST_F(PipelineRunnerTest, GroundRemovalOnRealFramesTakesOutALevelRoad)
 {
   // Frames 10-11 with the paper's stages: planes from the SIFT features, then the
   // ground.
-  const std::string stages = R"(pipeline:
-  - type: stereo_disparity
-    params: {num_disparities_px: 128, max_range_m: 30.0}
-  - type: feature_matching
-  - type: voxel_grid
-    params: {leaf_size_m: 0.1}
-  - type: transform_to_world
-  - type: multi_plane_segmentation
-    params: {min_inliers: 300, sample_distance_threshold_m: 0.15}
-  - type: ground_removal
-  - type: planar_cuboid_approximation
-    params: {min_cell_size_m: 0.1}
-  - type: accumulate
-    params: {leaf_size_m: 0.1}
-)";
+  const std::string stages = paperStages(false);
   planar_grid::PipelineRunner runner(
     parsePipelineConfig(karlsruheInput() + stages, "t.yaml", "/"));
   const auto report = runner.run();
@@ -351,24 +362,7 @@ TEST_F(PipelineRunnerTest, OccupancyAndMapOnRealFrames)
   // Frames 10-11 through the whole paper pipeline with the occupancy of the features
   // and the map: the map file is written, loads back equal, and its figures are in the
   // report.
-  const std::string stages = R"(pipeline:
-  - type: stereo_disparity
-    params: {num_disparities_px: 128, max_range_m: 30.0}
-  - type: feature_matching
-  - type: kl_occupancy_filter
-  - type: voxel_grid
-    params: {leaf_size_m: 0.1}
-  - type: transform_to_world
-  - type: multi_plane_segmentation
-    params: {min_inliers: 300, sample_distance_threshold_m: 0.15}
-  - type: ground_removal
-  - type: planar_cuboid_approximation
-    params: {min_cell_size_m: 0.1}
-  - type: map_integration
-    params: {resolution_m: 0.1, max_range_m: 25.0}
-  - type: accumulate
-    params: {leaf_size_m: 0.1}
-output:
+  const std::string stages = paperStages(true) + R"(output:
   folder: )" + (dir_ / "out").string()
                              + R"(
   snapshot: ""
