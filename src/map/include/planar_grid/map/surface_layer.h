@@ -66,8 +66,8 @@ using PlaneModels =
  *   the mean of its frame's features inside the box, 0.5 without any (neighbours of
  *   non-planar cells are not defined on a raster).
  * - Queries use a spatial hash of the cuboids' bounding boxes (bins of 4 cells),
- *   rebuilt lazily and freed by integrate() (it is stale then); const methods are safe to call from several threads (a mutex
- *   guards the rebuild), integrate() is not.
+ *   rebuilt lazily and freed by integrate() (it is stale then); const methods are safe
+ * to call from several threads (a mutex guards the rebuild), integrate() is not.
  * - Invalid input (non-finite cuboids or features, probabilities outside [0, 1], a
  *   face of more than 1e7 cells) is skipped with a PCL_WARN; integrate() never throws.
  * \ingroup map */
