@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <iterator>
 
 namespace fs = std::filesystem;
 using planar_grid::parsePipelineConfig;
@@ -425,6 +426,21 @@ TEST_F(PipelineRunnerTest, OccupancyAndMapOnRealFrames)
   EXPECT_EQ(json["map"]["cuboids"].get<double>(), static_cast<double>(map_cuboids));
   EXPECT_EQ(json["map"]["total_bytes"].get<double>(),
             static_cast<double>(reported_bytes));
+
+  // Determinism (issue 8): the same input and seeds give a byte-identical map file.
+  auto again_config = config;
+  again_config.output.folder = (dir_ / "again").string();
+  planar_grid::PipelineRunner again(again_config);
+  auto again_report = again.run();
+  planar_grid::writeRunOutputs(again_config.output, again, again_report);
+  const auto bytes = [](const fs::path& file) {
+    std::ifstream in(file.string(), std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in),
+                       std::istreambuf_iterator<char>());
+  };
+  const std::string first = bytes(dir_ / "out" / "map.pgmap");
+  ASSERT_FALSE(first.empty());
+  EXPECT_TRUE(first == bytes(dir_ / "again" / "map.pgmap"));
 }
 
 TEST_F(PipelineRunnerTest, VisualOdometryPosesFollowTheInsTrack)
