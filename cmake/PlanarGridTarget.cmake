@@ -10,6 +10,12 @@ function(planar_grid_set_warnings target)
   if(PLANAR_GRID_SANITIZE)
     target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer)
     target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+    # Eigen turns its "malloc is already aligned" path off under __SANITIZE_ADDRESS__
+    # and frees with its hand-made aligned free, while Debian's PCL (built without
+    # ASan) allocated with plain malloc: a false heap-buffer-overflow whenever a cloud
+    # filled inside libpcl_* is freed in our code. glibc's and ASan's malloc both align
+    # to 16 bytes, so keep Eigen on the plain path like the system libraries.
+    target_compile_definitions(${target} PRIVATE EIGEN_MALLOC_ALREADY_ALIGNED=1)
   endif()
 endfunction()
 

@@ -561,13 +561,15 @@ rebuildPlane(MapPlane& plane, int plane_id, const SurfaceLayer::Params& params)
   const float thickness = static_cast<float>(params.thickness_m);
   plane.cuboids.reserve(rects.size());
   for (const Rect& rect : rects) {
-    const double u_mid = 0.5 * (rect.i0 + rect.i1) * r;
-    const double v_mid = 0.5 * (rect.j0 + rect.j1) * r;
+    // In double: corrupt (but accepted) raster keys near the int range must not
+    // overflow.
+    const double u_mid = 0.5 * (static_cast<double>(rect.i0) + rect.i1) * r;
+    const double v_mid = 0.5 * (static_cast<double>(rect.j0) + rect.j1) * r;
     PlanarCuboid c;
     c.normal = plane.normal;
     c.horizontal_axis = plane.u_axis;
-    c.width_m = static_cast<float>((rect.i1 - rect.i0) * r);
-    c.height_m = static_cast<float>((rect.j1 - rect.j0) * r);
+    c.width_m = static_cast<float>((static_cast<double>(rect.i1) - rect.i0) * r);
+    c.height_m = static_cast<float>((static_cast<double>(rect.j1) - rect.j0) * r);
     c.thickness_m = thickness;
     c.centre = plane.origin + plane.u_axis * static_cast<float>(u_mid)
                + plane.v_axis * static_cast<float>(v_mid)

@@ -3,6 +3,8 @@
 #include <planar_grid/pipeline/frame_source.h>
 #include <planar_grid/stereo/calibration_io.h>
 
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/conversions.h>
 #include <pcl/io/pcd_io.h>
 
 #include <glob.h>
@@ -219,8 +221,13 @@ public:
   {
     const std::string& path = files_[i];
     Frame::Cloud::Ptr cloud(new Frame::Cloud);
-    if (pcl::io::loadPCDFile(path, *cloud) < 0)
+    // Read the blob first: PCL's conversion indexes point 0 of an empty cloud (UB that
+    // UBSan reports), so a PCD without points is converted only when it has some.
+    pcl::PCLPointCloud2 blob;
+    if (pcl::io::loadPCDFile(path, blob) < 0)
       throw IOError(path + ": cannot read the PCD file");
+    if (static_cast<std::size_t>(blob.width) * blob.height > 0)
+      pcl::fromPCLPointCloud2(blob, *cloud);
     frame = Frame();
     frame.sequence_number = i;
     frame.file_index = static_cast<int>(i);
