@@ -75,25 +75,15 @@ public:
     return value;
   }
 
-  std::uint64_t count(const std::string& key)
-  {
-    const std::string& text = require(key);
-    if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos
-        || text.size() > 19)
-      fail("'" + key + "' must be a non-negative integer, got '" + text + "'");
-    return std::stoull(text);
-  }
+  std::uint64_t count(const std::string& key) { return parseCount(key, require(key)); }
 
   std::vector<std::uint64_t> counts(const std::string& key, std::size_t n)
   {
     std::istringstream in(require(key));
     std::vector<std::uint64_t> out;
     std::string word;
-    while (in >> word) {
-      if (word.find_first_not_of("0123456789") != std::string::npos || word.size() > 19)
-        fail("'" + key + "' must hold non-negative integers, got '" + word + "'");
-      out.push_back(std::stoull(word));
-    }
+    while (in >> word)
+      out.push_back(parseCount(key, word));
     if (out.size() != n)
       fail("'" + key + "' must hold " + std::to_string(n) + " integers");
     return out;
@@ -115,6 +105,15 @@ public:
         PCL_WARN("[planar_grid::PlanarGridMap::load] %s: unknown header key '%s' "
                  "ignored.\n",
                  path_.c_str(), kv.first.c_str());
+  }
+
+  /** One non-negative integer of \a key's value (at most 19 digits: fits 64 bits). */
+  std::uint64_t parseCount(const std::string& key, const std::string& text) const
+  {
+    if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos
+        || text.size() > 19)
+      fail("'" + key + "' must hold non-negative integers, got '" + text + "'");
+    return std::stoull(text);
   }
 
   [[noreturn]] void fail(const std::string& what) const
