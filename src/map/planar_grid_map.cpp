@@ -194,7 +194,7 @@ PlanarGridMap::getMemory() const
 }
 
 void
-PlanarGridMap::save(const std::string& path) const
+PlanarGridMap::serialize(std::string& bytes) const
 {
   std::vector<std::uint8_t> data;
   space_.serialize(data);
@@ -239,13 +239,18 @@ PlanarGridMap::save(const std::string& path) const
   std::snprintf(crc_text, sizeof(crc_text), "0x%08x", crc32(data.data(), data.size()));
   header << "checksum_crc32 " << crc_text << "\n"
          << "data\n";
-  const std::string text = header.str();
+  bytes = header.str();
+  bytes.append(reinterpret_cast<const char*>(data.data()), data.size());
+}
 
+void
+PlanarGridMap::save(const std::string& path) const
+{
+  std::string bytes;
+  serialize(bytes);
   writeFileAtomically(path, [&](const std::string& temporary) {
     std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out.write(text.data(), static_cast<std::streamsize>(text.size()));
-    out.write(reinterpret_cast<const char*>(data.data()),
-              static_cast<std::streamsize>(data.size()));
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     out.close();
     return static_cast<bool>(out);
   });
@@ -254,15 +259,21 @@ PlanarGridMap::save(const std::string& path) const
 PlanarGridMap
 PlanarGridMap::load(const std::string& path)
 {
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
+  std::ifstream file(path, std::ios::binary);
+  if (!file)
     throw IOError("map file " + path + ": cannot be opened for reading");
-  in.seekg(0, std::ios::end);
-  const std::streamoff length = in.tellg();
-  in.seekg(0, std::ios::beg);
-  if (length < 0)
-    throw IOError("map file " + path + ": cannot determine its size");
-  const auto file_size = static_cast<std::uint64_t>(length);
+  std::ostringstream content;
+  content << file.rdbuf();
+  if (file.bad())
+    throw IOError("map file " + path + ": read error");
+  return deserialize(content.str(), path);
+}
+
+PlanarGridMap
+PlanarGridMap::deserialize(const std::string& bytes, const std::string& path)
+{
+  std::istringstream in(bytes);
+  const auto file_size = static_cast<std::uint64_t>(bytes.size());
 
   // The text header, line by line, up to "data".
   std::string line;

@@ -139,6 +139,17 @@ public:
    * truncated or corrupt file, an unknown version or a bad header value */
   static PlanarGridMap load(const std::string& path);
 
+  /** \brief The content of the map file save() writes (text header and data
+   * sections), in memory (e.g. to embed the map in a pipeline checkpoint).
+   * \param[out] bytes replaced by the file content */
+  void serialize(std::string& bytes) const;
+
+  /** \brief Decodes serialize()'s output with every check of load().
+   * \param[in] bytes the file content
+   * \param[in] name names the data in error messages (a file path)
+   * \throws planar_grid::IOError as load() */
+  static PlanarGridMap deserialize(const std::string& bytes, const std::string& name);
+
   /** \brief Writes the space layer as an OctoMap .bt
    * (ExplicitSpaceGrid::exportOctoMap).
    */
