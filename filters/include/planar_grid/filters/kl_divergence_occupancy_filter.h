@@ -235,6 +235,20 @@ public:
   /** \brief Number of tracks stored. */
   std::size_t getTrackCount() const { return tracks_.size(); }
 
+  /** \brief Appends the state carried across frames (for pipeline checkpoints): a
+   * little-endian section of u32 magic "PGKT", u32 version 1, u32 frame count, i64 next
+   * id, u64 tracks, then per track (sorted by id) i64 id, f32 log-odds, f32 position
+   * x, y, z (meters), u32 observations, u32 last frame. Parameters, stereo parameters
+   * and per-frame outputs are not included.
+   * \param[out] bytes appended to */
+  void serializeTracks(std::vector<std::uint8_t>& bytes) const;
+
+  /** \brief Replaces the tracks by serializeTracks()' output (exactly \a size bytes);
+   * the next filter() continues as the filter that wrote them would.
+   * \throws planar_grid::IOError on truncated, trailing or invalid data (non-finite
+   * values, a duplicate id); the tracks are then unchanged */
+  void deserializeTracks(const std::uint8_t* data, std::size_t size);
+
   /** \brief Memory held by the tracks, the association hash and the work buffers,
    * bytes (estimate from the containers' sizes and bucket counts). */
   std::size_t getMemoryBytes() const;

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/byte_io.h>
 #include <planar_grid/core/log_odds.h>
 #include <planar_grid/filters/kl_divergence_occupancy_filter.h>
 
@@ -51,6 +52,10 @@ mixKey(std::uint64_t key)
   key ^= key >> 31;
   return key;
 }
+
+/** \brief Magic ("PGKT") and version of the track section. */
+constexpr std::uint32_t TRACKS_MAGIC = 0x544B4750u;
+constexpr std::uint32_t TRACKS_VERSION = 1;
 
 } // namespace detail
 
@@ -110,6 +115,70 @@ KLDivergenceOccupancyFilter<PointT>::reset()
   integrated_indices_.reset();
   probabilities_.clear();
   assigned_track_ids_.clear();
+}
+
+template <typename PointT>
+void
+KLDivergenceOccupancyFilter<PointT>::serializeTracks(
+  std::vector<std::uint8_t>& bytes) const
+{
+  ByteWriter w(bytes);
+  w.put(detail::TRACKS_MAGIC);
+  w.put(detail::TRACKS_VERSION);
+  w.put(frame_count_);
+  w.put(next_track_id_);
+  w.put(static_cast<std::uint64_t>(tracks_.size()));
+  std::vector<std::int64_t> ids;
+  ids.reserve(tracks_.size());
+  for (const auto& kv : tracks_)
+    ids.push_back(kv.first);
+  std::sort(ids.begin(), ids.end());
+  for (const auto id : ids) {
+    const Track& t = tracks_.find(id)->second;
+    w.put(id);
+    w.put(t.log_odds);
+    for (int k = 0; k < 3; ++k)
+      w.put(t.position[k]);
+    w.put(t.observations);
+    w.put(t.last_frame);
+  }
+}
+
+template <typename PointT>
+void
+KLDivergenceOccupancyFilter<PointT>::deserializeTracks(const std::uint8_t* data,
+                                                       std::size_t size)
+{
+  ByteReader r(data, size, "KL filter tracks");
+  if (r.get<std::uint32_t>() != detail::TRACKS_MAGIC)
+    r.fail("not a track section (magic)");
+  if (r.get<std::uint32_t>() != detail::TRACKS_VERSION)
+    r.fail("unsupported version");
+  const auto frame_count = r.get<std::uint32_t>();
+  const auto next_id = r.get<std::int64_t>();
+  constexpr std::size_t TRACK_BYTES = 8 + 4 * 4 + 4 + 4;
+  const std::size_t n = r.getCount(TRACK_BYTES, "track");
+  std::unordered_map<std::int64_t, Track> tracks;
+  tracks.reserve(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const auto id = r.get<std::int64_t>();
+    Track t;
+    t.log_odds = r.get<float>();
+    for (int c = 0; c < 3; ++c)
+      t.position[c] = r.get<float>();
+    t.observations = r.get<std::uint32_t>();
+    t.last_frame = r.get<std::uint32_t>();
+    if (id < 0 || !std::isfinite(t.log_odds) || !t.position.allFinite())
+      r.fail("invalid track " + std::to_string(id));
+    if (!tracks.emplace(id, t).second)
+      r.fail("track id " + std::to_string(id) + " given twice");
+  }
+  if (r.remaining() != 0)
+    r.fail(std::to_string(r.remaining()) + " bytes of trailing data");
+  reset();
+  tracks_ = std::move(tracks);
+  frame_count_ = frame_count;
+  next_track_id_ = next_id;
 }
 
 template <typename PointT>
