@@ -47,6 +47,13 @@ printHelp(const char* program)
   print_info(
     "    --no-snapshot        do not render the PNG snapshot (default: render it "
     "when output.snapshot is set)\n");
+  print_info(
+    "    --checkpoint-every N write the checkpoint (output.checkpoint) every N "
+    "frames;\n"
+    "                         0 = never (default: output.checkpoint_every_n_frames)\n");
+  print_info(
+    "    --resume             continue from the checkpoint in the output folder: the\n"
+    "                         same map as an uninterrupted run (same configuration)\n");
   print_info("    --list-stages        print every stage type with its parameters, "
              "defaults, units and ranges, then exit\n");
   print_info("    -v                   verbose (PCL debug output)\n");
@@ -245,8 +252,9 @@ run(int argc, char** argv)
     setVerbosityLevel(L_DEBUG);
 
   // Every argument must be a known option (S28): a typo is an error, not a default.
-  const std::vector<std::string> with_value{"--config", "--frames", "--output"};
-  const std::vector<std::string> switches{"--no-snapshot", "-v"};
+  const std::vector<std::string> with_value{"--config", "--frames", "--output",
+                                            "--checkpoint-every"};
+  const std::vector<std::string> switches{"--no-snapshot", "--resume", "-v"};
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (std::find(with_value.begin(), with_value.end(), a) != with_value.end()) {
@@ -266,6 +274,17 @@ run(int argc, char** argv)
   planar_grid::PipelineConfig config = planar_grid::loadPipelineConfig(config_path);
   if (!output_folder.empty())
     config.output.folder = output_folder;
+  std::string every_text;
+  if (parse_argument(argc, argv, "--checkpoint-every", every_text) >= 0) {
+    std::istringstream in(every_text);
+    long long every = -1;
+    char extra = 0;
+    if (!(in >> every) || (in >> extra) || every < 0)
+      throw planar_grid::Exception("--checkpoint-every '" + every_text
+                                   + "' must be a non-negative integer");
+    config.output.checkpoint_every_n_frames = static_cast<std::size_t>(every);
+  }
+  const bool resume = find_switch(argc, argv, "--resume");
   if (find_switch(argc, argv, "--no-snapshot")) {
     config.output.snapshot.clear();
     config.output.planes_snapshot.clear();
@@ -306,6 +325,24 @@ run(int argc, char** argv)
   if (!frames_text.empty()) {
     parseFrameRange(frames_text, runner.frameCount(), begin, end);
     runner.setFrameRange(begin, end);
+  }
+  const std::string checkpoint_path =
+    config.output.checkpoint.empty()
+      ? std::string()
+      : planar_grid::outputPath(config.output, config.output.checkpoint);
+  if (resume) {
+    if (checkpoint_path.empty())
+      throw planar_grid::Exception("--resume needs output.checkpoint (a file name)");
+    const std::size_t next = runner.resumeFrom(checkpoint_path);
+    print_info("Resuming from ");
+    print_value("%s", checkpoint_path.c_str());
+    print_info(" at frame position %zu\n", next);
+  }
+  if (config.output.checkpoint_every_n_frames > 0) {
+    runner.setCheckpoint(checkpoint_path, config.output.checkpoint_every_n_frames);
+    print_info("Checkpoint every %zu frames: ",
+               config.output.checkpoint_every_n_frames);
+    print_value("%s\n", checkpoint_path.c_str());
   }
   print_info("Input: %s; running frames %zu:%zu\n",
              config.input.left_images.empty() ? "PCD files" : "stereo sequence", begin,

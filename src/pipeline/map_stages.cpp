@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The occupancy of the features (kl_occupancy_filter, paper Sec. III-D/E) and the map
 // (map_integration, Sec. III-F, Fig. 5c).
+#include <planar_grid/core/byte_io.h>
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/filters/kl_divergence_occupancy_filter.h>
 #include <planar_grid/map/planar_grid_map.h>
@@ -17,6 +18,108 @@ namespace planar_grid {
 namespace stages {
 
 namespace {
+
+void
+putPose(ByteWriter& w, const Eigen::Isometry3d& pose)
+{
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c)
+      w.put(pose.matrix()(r, c));
+}
+
+Eigen::Isometry3d
+getPose(ByteReader& r)
+{
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  for (int row = 0; row < 3; ++row)
+    for (int c = 0; c < 4; ++c)
+      pose.matrix()(row, c) = r.get<double>();
+  if (!pose.matrix().allFinite())
+    r.fail("non-finite pose");
+  return pose;
+}
+
+void
+putKeypoints(ByteWriter& w, const std::vector<cv::KeyPoint>& keypoints)
+{
+  w.put(static_cast<std::uint64_t>(keypoints.size()));
+  for (const auto& k : keypoints) {
+    w.put(k.pt.x);
+    w.put(k.pt.y);
+    w.put(k.size);
+    w.put(k.angle);
+    w.put(k.response);
+    w.put(static_cast<std::int32_t>(k.octave));
+    w.put(static_cast<std::int32_t>(k.class_id));
+  }
+}
+
+void
+getKeypoints(ByteReader& r, std::vector<cv::KeyPoint>& keypoints)
+{
+  keypoints.resize(r.getCount(7 * 4, "keypoint"));
+  for (auto& k : keypoints) {
+    k.pt.x = r.get<float>();
+    k.pt.y = r.get<float>();
+    k.size = r.get<float>();
+    k.angle = r.get<float>();
+    k.response = r.get<float>();
+    k.octave = r.get<std::int32_t>();
+    k.class_id = r.get<std::int32_t>();
+  }
+}
+
+/** The features a stage keeps from the previous frame (points, key points, disparities,
+ * descriptors), for checkpoints. */
+void
+putFeatures(ByteWriter& w, const StereoFeatures& f)
+{
+  w.put(static_cast<std::uint64_t>(f.points.size()));
+  for (const auto& p : f.points) {
+    w.put(p.x);
+    w.put(p.y);
+    w.put(p.z);
+  }
+  putKeypoints(w, f.keypoints_left);
+  putKeypoints(w, f.keypoints_right);
+  w.putVector(f.disparities);
+  const cv::Mat d =
+    f.descriptors.isContinuous() ? f.descriptors : f.descriptors.clone();
+  w.put(static_cast<std::int32_t>(d.rows));
+  w.put(static_cast<std::int32_t>(d.cols));
+  w.put(static_cast<std::int32_t>(d.type()));
+  w.putBytes(d.data, d.empty() ? 0 : d.total() * d.elemSize());
+}
+
+void
+getFeatures(ByteReader& r, StereoFeatures& f)
+{
+  f = StereoFeatures();
+  const std::size_t n = r.getCount(3 * 4, "feature point");
+  f.points.resize(n);
+  for (auto& p : f.points) {
+    p.x = r.get<float>();
+    p.y = r.get<float>();
+    p.z = r.get<float>();
+  }
+  getKeypoints(r, f.keypoints_left);
+  getKeypoints(r, f.keypoints_right);
+  r.getVector(f.disparities, "disparity");
+  const auto rows = r.get<std::int32_t>();
+  const auto cols = r.get<std::int32_t>();
+  const auto type = r.get<std::int32_t>();
+  std::size_t size = 0;
+  const std::uint8_t* data = r.getBytes(size, "descriptor");
+  if (rows < 0 || cols < 0 || (type != CV_8U && type != CV_32F))
+    r.fail("invalid descriptor matrix");
+  const std::size_t element = type == CV_8U ? 1 : 4;
+  if (size != static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols) * element)
+    r.fail("descriptor bytes do not match their size");
+  if (rows > 0 && cols > 0)
+    cv::Mat(rows, cols, type, const_cast<std::uint8_t*>(data)).copyTo(f.descriptors);
+  if (f.keypoints_left.size() != n || f.descriptors.rows != static_cast<int>(n))
+    r.fail("feature arrays of different lengths");
+}
 
 class KLOccupancyFilterStage : public Stage {
 public:
@@ -103,6 +206,52 @@ public:
     values.emplace_back("occupied", static_cast<double>(kept_));
     values.emplace_back("mean_probability", n > 0 ? probability_sum_ / n : 0.0);
     values.emplace_back("motion_likelihood", motion_likelihood_);
+  }
+
+  /** The tracks, the previous frame's features and ids, the previous pose and the
+   * motion model's last motion. */
+  void saveState(std::vector<std::uint8_t>& bytes) const override
+  {
+    ByteWriter w(bytes);
+    std::vector<std::uint8_t> tracks;
+    filter_.serializeTracks(tracks);
+    w.putVector(tracks);
+    putFeatures(w, previous_);
+    w.putVector(previous_ids_);
+    w.put(next_track_id_);
+    w.put(static_cast<std::uint8_t>(has_previous_pose_));
+    putPose(w, previous_pose_);
+    w.put(static_cast<std::uint8_t>(motion_model_.hasMotion()));
+    putPose(w, motion_model_.getPredictedMotion());
+  }
+
+  void loadState(const std::uint8_t* data, std::size_t size) override
+  {
+    ByteReader r(data, size, "checkpoint: kl_occupancy_filter state");
+    std::size_t tracks_size = 0;
+    const std::uint8_t* tracks = r.getBytes(tracks_size, "track section");
+    StereoFeatures previous;
+    getFeatures(r, previous);
+    std::vector<std::int64_t> ids;
+    r.getVector(ids, "track id");
+    if (ids.size() != previous.size())
+      r.fail("track ids and features of different lengths");
+    const auto next_id = r.get<std::int64_t>();
+    const bool has_previous_pose = r.get<std::uint8_t>() != 0;
+    const Eigen::Isometry3d previous_pose = getPose(r);
+    const bool has_motion = r.get<std::uint8_t>() != 0;
+    const Eigen::Isometry3d motion = getPose(r);
+    if (r.remaining() != 0)
+      r.fail(std::to_string(r.remaining()) + " bytes of trailing data");
+    filter_.deserializeTracks(tracks, tracks_size);
+    previous_ = std::move(previous);
+    previous_ids_ = std::move(ids);
+    next_track_id_ = next_id;
+    has_previous_pose_ = has_previous_pose;
+    previous_pose_ = previous_pose;
+    motion_model_.reset();
+    if (has_motion)
+      motion_model_.addMotion(motion);
   }
 
 private:

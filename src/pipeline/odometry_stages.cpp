@@ -57,6 +57,10 @@ public:
     values.emplace_back("flagged", last_.valid ? 0.0 : 1.0);
   }
 
+  /** The odometry's previous frame, trajectory and motion model are not written to
+   * checkpoints yet: a run with this stage cannot be resumed. */
+  bool supportsCheckpoint() const override { return false; }
+
 private:
   VisualOdometry odometry_;
   bool reprojection_refinement_;

@@ -266,7 +266,8 @@ parseOutput(const Reader& r, const YAML::Node& node)
   r.checkKeys(node,
               {"folder", "cloud", "planes", "report", "trajectory", "snapshot",
                "planes_snapshot", "cuboids_snapshot", "snapshot_camera",
-               "snapshot_size_px", "map", "map_octomap", "map_mesh", "map_snapshot"},
+               "snapshot_size_px", "map", "map_octomap", "map_mesh", "map_snapshot",
+               "checkpoint", "checkpoint_every_n_frames"},
               "output");
   out.folder = r.optionalString(node, "folder", out.folder, "output");
   out.cloud = r.optionalString(node, "cloud", out.cloud, "output");
@@ -291,6 +292,21 @@ parseOutput(const Reader& r, const YAML::Node& node)
     r.fail(node["snapshot_camera"], "output.snapshot_camera must be top or oblique");
   if (out.report.empty())
     r.fail(node["report"], "output.report must name a file");
+  out.checkpoint = r.optionalString(node, "checkpoint", out.checkpoint, "output");
+  if (const YAML::Node every = node["checkpoint_every_n_frames"]) {
+    long long v = -1;
+    try {
+      v = every.as<long long>();
+    } catch (const YAML::BadConversion&) {
+      r.fail(every, "output.checkpoint_every_n_frames must be an integer");
+    }
+    if (v < 0 || v > 1000000)
+      r.fail(every, "output.checkpoint_every_n_frames must be in [0, 1000000]");
+    out.checkpoint_every_n_frames = static_cast<std::size_t>(v);
+    if (v > 0 && out.checkpoint.empty())
+      r.fail(every,
+             "output.checkpoint_every_n_frames needs output.checkpoint (a file)");
+  }
   if (const YAML::Node size = node["snapshot_size_px"]) {
     if (!size.IsSequence() || size.size() != 2)
       r.fail(size, "output.snapshot_size_px must be [width, height]");

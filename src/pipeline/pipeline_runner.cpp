@@ -5,14 +5,44 @@
 #include <pcl/common/time.h>
 
 #include <nlohmann/json.hpp>
+#include <sys/resource.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <fstream>
 #include <iomanip>
 #include <sstream>
 
+#include "resume_data.h"
 #include "stages.h"
 
 namespace planar_grid {
+
+namespace {
+
+/** Resident memory of the process now (/proc/self/statm), bytes; 0 when unknown. */
+std::uint64_t
+residentMemoryBytes()
+{
+  std::ifstream statm("/proc/self/statm");
+  std::uint64_t size = 0, resident = 0;
+  if (!(statm >> size >> resident))
+    return 0;
+  return resident * static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
+}
+
+/** Peak resident memory of the process (getrusage ru_maxrss, KiB on Linux), bytes. */
+std::uint64_t
+peakResidentMemoryBytes()
+{
+  struct rusage usage {};
+  if (::getrusage(RUSAGE_SELF, &usage) != 0)
+    return 0;
+  return static_cast<std::uint64_t>(usage.ru_maxrss) * 1024u;
+}
+
+} // namespace
 
 PipelineRunner::PipelineRunner(const PipelineConfig& config) : config_(config)
 {
@@ -82,9 +112,32 @@ PipelineRunner::run()
   for (auto& stage : stages_)
     stage->start(state_);
 
+  std::size_t first = begin_;
+  double previous_seconds = 0.0;
+  if (resume_) {
+    // A resumed run: the state and the report as they were after the checkpoint's
+    // frame.
+    ResumeData& resume = *resume_;
+    report.frames = resume.report.frames;
+    report.load_ms = resume.report.load_ms;
+    report.stages = std::move(resume.report.stages);
+    report.rss_samples = std::move(resume.report.rss_samples);
+    report.checkpoints_written = resume.report.checkpoints_written;
+    previous_seconds = resume.report.seconds;
+    state_ = std::move(resume.state);
+    trajectory_ = std::move(resume.trajectory);
+    for (std::size_t s = 0; s < stages_.size(); ++s)
+      stages_[s]->loadState(resume.stage_states[s].data(),
+                            resume.stage_states[s].size());
+    first = resume.next_frame;
+    report.resumed_at_frame = first;
+    resume_.reset();
+  }
+
   const std::size_t total = end_ - begin_;
+  const std::size_t rss_every = std::max<std::size_t>(total / 20, 1);
   std::vector<std::pair<std::string, double>> counter_values;
-  for (std::size_t i = begin_; i < end_; ++i) {
+  for (std::size_t i = first; i < end_; ++i) {
     Frame frame;
     const auto load_start = Clock::now();
     source_->load(i, frame);
@@ -118,8 +171,18 @@ PipelineRunner::run()
     if (frame.has_pose)
       trajectory_.push_back(frame.world_T_camera);
     ++report.frames;
+    const std::size_t done = i - begin_ + 1;
+    if (done % rss_every == 0 || i + 1 == end_)
+      report.rss_samples.emplace_back(i, residentMemoryBytes());
+    if (checkpoint_every_ > 0 && (done % checkpoint_every_ == 0 || i + 1 == end_)) {
+      const auto t = Clock::now();
+      ++report.checkpoints_written;
+      report.seconds = previous_seconds + ms_since(start) / 1000.0;
+      writeCheckpoint(i + 1, report);
+      report.checkpoint_ms += ms_since(t);
+    }
     if (progress_)
-      progress_(i - begin_ + 1, total, ms_since(start) / 1000.0);
+      progress_(done, total, ms_since(start) / 1000.0);
   }
   for (std::size_t s = 0; s < stages_.size(); ++s) {
     const auto t = Clock::now();
@@ -152,7 +215,8 @@ PipelineRunner::run()
       {"total_bytes", static_cast<double>(memory.total_bytes)},
     };
   }
-  report.seconds = ms_since(start) / 1000.0;
+  report.peak_rss_bytes = peakResidentMemoryBytes();
+  report.seconds = previous_seconds + ms_since(start) / 1000.0;
   return report;
 }
 
@@ -196,6 +260,15 @@ RunReport::toJson() const
     }
     js.push_back(e);
   }
+  auto& jmem = j["memory"] = nlohmann::ordered_json::object();
+  jmem["peak_rss_bytes"] = peak_rss_bytes;
+  auto& jsamples = jmem["rss_bytes_after_frame"] = nlohmann::ordered_json::array();
+  for (const auto& [frame, bytes] : rss_samples)
+    jsamples.push_back(nlohmann::ordered_json::array({frame, bytes}));
+  if (resumed_at_frame > 0)
+    j["resumed_at_frame"] = resumed_at_frame;
+  j["checkpoints_written"] = checkpoints_written;
+  j["checkpoint_ms"] = checkpoint_ms;
   if (!map_summary.empty()) {
     auto& jm = j["map"] = nlohmann::ordered_json::object();
     for (const auto& [name, value] : map_summary)
@@ -255,6 +328,13 @@ RunReport::timingTable() const
   out << frames << " frames in " << std::setprecision(1) << seconds << " s ("
       << std::setprecision(2) << framesPerSecond() << " frames/s); world cloud "
       << world_cloud_points << " points, " << planes << " run-wide planes\n";
+  if (resumed_at_frame > 0)
+    out << "resumed from a checkpoint at frame position " << resumed_at_frame << "\n";
+  if (checkpoints_written > 0)
+    out << checkpoints_written << " checkpoints written (" << std::setprecision(1)
+        << checkpoint_ms << " ms in all)\n";
+  out << "peak resident memory " << std::setprecision(1)
+      << static_cast<double>(peak_rss_bytes) / (1024.0 * 1024.0) << " MiB\n";
   if (!map_summary.empty()) {
     out << "map:";
     for (const auto& [name, value] : map_summary)

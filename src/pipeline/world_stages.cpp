@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/byte_io.h>
 #include <planar_grid/core/exceptions.h>
 
 #include <pcl/common/transforms.h>
@@ -97,6 +98,21 @@ public:
   {
     if (frames_since_downsample_ > 0)
       downsample(state);
+  }
+
+  /** The frames since the last downsampling (the clouds are in PipelineState). */
+  void saveState(std::vector<std::uint8_t>& bytes) const override
+  {
+    ByteWriter(bytes).put(static_cast<std::int32_t>(frames_since_downsample_));
+  }
+
+  void loadState(const std::uint8_t* data, std::size_t size) override
+  {
+    ByteReader r(data, size, "checkpoint: accumulate state");
+    const auto frames = r.get<std::int32_t>();
+    if (frames < 0 || r.remaining() != 0)
+      r.fail("invalid state");
+    frames_since_downsample_ = frames;
   }
 
 private:

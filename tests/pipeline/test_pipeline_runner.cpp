@@ -481,3 +481,127 @@ TEST_F(PipelineRunnerTest, VisualOdometryPosesFollowTheInsTrack)
   EXPECT_DOUBLE_EQ(report.stages[1].counters[2].second, 0.0);
   EXPECT_GT(report.stages[1].counters[1].second, 2 * 20.0);
 }
+
+TEST_F(PipelineRunnerTest, ResumedRunGivesTheSameMapAsAnUninterruptedOne)
+{
+  // Issue 8, no lost work: Karlsruhe frames 10-12 through the paper pipeline with the
+  // map, once straight through and once stopped after frame 10 (checkpoint) and resumed
+  // by a new runner; the maps, clouds, planes and poses are identical, and the resumed
+  // report covers all three frames.
+  std::string input = karlsruheInput();
+  input.replace(input.find("frame_count: 2"), 14, "frame_count: 3");
+  const auto config = parsePipelineConfig(input + paperStages(true), "t.yaml", "/");
+  const std::string checkpoint = (dir_ / "ck" / "checkpoint.pgck").string();
+
+  planar_grid::PipelineRunner straight(config);
+  const auto straight_report = straight.run();
+
+  planar_grid::PipelineRunner first(config);
+  first.setFrameRange(0, 1);
+  first.setCheckpoint(checkpoint, 1);
+  EXPECT_EQ(first.run().checkpoints_written, 1u);
+  ASSERT_TRUE(fs::exists(checkpoint));
+
+  planar_grid::PipelineRunner resumed(config);
+  EXPECT_EQ(resumed.resumeFrom(checkpoint), 1u);
+  const auto report = resumed.run();
+  EXPECT_EQ(report.resumed_at_frame, 1u);
+  EXPECT_EQ(report.frames, 3u);
+  for (const auto& stage : report.stages)
+    EXPECT_EQ(stage.frames, 3u) << stage.type;
+  // The KL filter's counters continue: the same sums as the straight run.
+  ASSERT_EQ(report.stages[2].type, "kl_occupancy_filter");
+  EXPECT_EQ(report.stages[2].counters, straight_report.stages[2].counters);
+
+  ASSERT_TRUE(straight.state().map && resumed.state().map);
+  std::string a, b;
+  straight.state().map->serialize(a);
+  resumed.state().map->serialize(b);
+  EXPECT_GT(a.size(), 100000u);
+  EXPECT_TRUE(a == b) << "the resumed map differs from the uninterrupted one";
+  EXPECT_TRUE(*straight.state().map == *resumed.state().map);
+  const auto& wa = *straight.state().world_cloud;
+  const auto& wb = *resumed.state().world_cloud;
+  ASSERT_EQ(wa.size(), wb.size());
+  for (std::size_t i = 0; i < wa.size(); ++i)
+    ASSERT_EQ(wa[i].getVector4fMap(), wb[i].getVector4fMap()) << i;
+  EXPECT_EQ(straight.state().plane_models.size(), resumed.state().plane_models.size());
+  EXPECT_EQ(straight.state().plane_cloud->size(), resumed.state().plane_cloud->size());
+  ASSERT_EQ(straight.trajectory().size(), resumed.trajectory().size());
+  for (std::size_t i = 0; i < straight.trajectory().size(); ++i)
+    EXPECT_TRUE(straight.trajectory()[i].isApprox(resumed.trajectory()[i], 0.0));
+}
+
+TEST_F(PipelineRunnerTest, CorruptOrForeignCheckpointsAreRefused)
+{
+  std::string input = karlsruheInput();
+  input.replace(input.find("frame_count: 2"), 14, "frame_count: 1");
+  const std::string stages = "pipeline:\n  - type: feature_matching\n"
+                             "  - type: kl_occupancy_filter\n";
+  const auto config = parsePipelineConfig(input + stages, "t.yaml", "/");
+  const std::string checkpoint = (dir_ / "checkpoint.pgck").string();
+  {
+    planar_grid::PipelineRunner runner(config);
+    runner.setCheckpoint(checkpoint, 5); // and after the last frame
+    runner.run();
+  }
+  const auto expectRefused = [&](const std::string& path, const std::string& why) {
+    planar_grid::PipelineRunner runner(config);
+    try {
+      runner.resumeFrom(path);
+      FAIL() << "no error for " << why;
+    } catch (const planar_grid::IOError& e) {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+    }
+  };
+  // The last frame of the input is done: nothing is left to run.
+  expectRefused(checkpoint, "nothing left to run");
+  std::string bytes;
+  {
+    std::ifstream in(checkpoint, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  ASSERT_GT(bytes.size(), 1000u);
+  const auto write = [&](const std::string& name, const std::string& content) {
+    const std::string path = (dir_ / name).string();
+    std::ofstream(path, std::ios::binary) << content;
+    return path;
+  };
+  std::string flipped = bytes;
+  flipped[bytes.size() / 2] = static_cast<char>(flipped[bytes.size() / 2] ^ 0x10);
+  expectRefused(write("flipped.pgck", flipped), "checksum mismatch");
+  expectRefused(write("truncated.pgck", bytes.substr(0, bytes.size() / 3)),
+                "checksum mismatch");
+  expectRefused(write("empty.pgck", ""), "truncated");
+  expectRefused((dir_ / "missing.pgck").string(), "cannot be opened");
+
+  // Another pipeline (one parameter differs) refuses the checkpoint.
+  const auto other = parsePipelineConfig(
+    input + stages + "    params: {neighbourhood_size_m: 0.4}\n", "t.yaml", "/");
+  planar_grid::PipelineRunner runner(other);
+  EXPECT_THROW(
+    {
+      try {
+        runner.resumeFrom(checkpoint);
+      } catch (const planar_grid::IOError& e) {
+        EXPECT_NE(std::string(e.what()).find("different pipeline"), std::string::npos);
+        throw;
+      }
+    },
+    planar_grid::IOError);
+
+  // A stage whose state is not checkpointed yet is a configuration error, up front.
+  const auto odometry = parsePipelineConfig(
+    "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE
+      + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE
+      + "/right/I2_%06d.png\n  frame_count: 2\n  calibration: {format: karlsruhe, "
+        "file: "
+      + KARLSRUHE
+      + "/calib.txt}\n  poses: {format: odometry}\n"
+        "pipeline:\n  - type: feature_matching\n  - type: visual_odometry\n",
+    "t.yaml", "/");
+  planar_grid::PipelineRunner vo(odometry);
+  EXPECT_THROW(vo.setCheckpoint(checkpoint, 1), planar_grid::ConfigError);
+  EXPECT_NO_THROW(vo.setCheckpoint(checkpoint, 0));
+}

@@ -4,6 +4,7 @@
 #include <planar_grid/pipeline/param_table.h>
 
 #include <array>
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -93,6 +94,12 @@ struct OutputConfig {
   /** \brief PNG snapshot of the map: cuboids coloured by occupancy, unknown space
    * translucent ("" = none). */
   std::string map_snapshot{"map.png"};
+  /** \brief The checkpoint file (PipelineRunner::setCheckpoint(); resumed with
+   * planar_grid_pipeline --resume). */
+  std::string checkpoint{"checkpoint.pgck"};
+  /** \brief Write the checkpoint every this many frames (0 = never; the tool's
+   * --checkpoint-every overrides it). */
+  std::size_t checkpoint_every_n_frames{0};
   /** \brief Machine-readable report. */
   std::string report{"report.json"};
   /** \brief Camera poses used, KITTI format ("" = none). */

@@ -65,6 +65,19 @@ struct RunReport {
   /** \brief Figures of the map at the end (map_integration stage): cell counts and
    * memory in bytes, by name; empty without a map. */
   std::vector<std::pair<std::string, double>> map_summary;
+  /** \brief Peak resident memory of the process at the end of the run (getrusage
+   * ru_maxrss), bytes. */
+  std::uint64_t peak_rss_bytes{0};
+  /** \brief Resident memory (/proc/self/statm) after frames of the run: (frame
+   * position, bytes), about 20 samples over the run, to show whether memory grows with
+   * the frames or with the map. */
+  std::vector<std::pair<std::size_t, std::uint64_t>> rss_samples;
+  /** \brief Frame position the run resumed at from a checkpoint (0: not resumed). */
+  std::size_t resumed_at_frame{0};
+  /** \brief Checkpoints written during the run (including before a resume). */
+  std::size_t checkpoints_written{0};
+  /** \brief Wall time spent writing checkpoints in this process, milliseconds. */
+  double checkpoint_ms{0.0};
   /** \brief Output files written, by kind (cloud, trajectory, snapshot, report). */
   std::vector<std::pair<std::string, std::string>> outputs;
 
@@ -106,6 +119,26 @@ public:
     progress_ = std::move(callback);
   }
 
+  /** \brief Writes a checkpoint to \a path every \a every_n_frames frames of the run
+   * (and after its last frame): the whole state carried across frames (the map, the
+   * accumulated clouds and planes, the stages' state such as the feature tracks, the
+   * trajectory and the report so far) in one file, replaced atomically (temporary file,
+   * rename), so that a process killed at any time leaves the previous checkpoint
+   * intact. 0 frames: no checkpoints.
+   * \throws planar_grid::ConfigError when a stage cannot be checkpointed
+   * (Stage::supportsCheckpoint()) */
+  void setCheckpoint(const std::string& path, std::size_t every_n_frames);
+
+  /** \brief Continues the run from a checkpoint written by a run of the same stages,
+   * parameters and input: run() restores the state and starts at the frame after the
+   * checkpoint, and gives the same map as an uninterrupted run. Call before run(); the
+   * end of the range stays as set (setFrameRange()).
+   * \param[in] path the checkpoint file
+   * \return the frame position the run continues at
+   * \throws planar_grid::IOError for a missing, corrupt or foreign checkpoint (other
+   * stages, parameters or input), naming the file */
+  std::size_t resumeFrom(const std::string& path);
+
   /** \brief Runs every frame of the range through every stage.
    * \throws planar_grid::Exception naming the frame and stage on failure */
   RunReport run();
@@ -117,6 +150,14 @@ public:
   const Trajectory& trajectory() const { return trajectory_; }
 
 private:
+  struct ResumeData;
+
+  /** \brief The stages, their parameters and the input, as text: a checkpoint is only
+   * resumed by the pipeline that wrote it. */
+  std::string fingerprint() const;
+  /** \brief Writes the checkpoint after frame position \a next_frame - 1. */
+  void writeCheckpoint(std::size_t next_frame, const RunReport& report) const;
+
   PipelineConfig config_;
   std::unique_ptr<FrameSource> source_;
   std::vector<std::unique_ptr<Stage>> stages_;
@@ -125,6 +166,9 @@ private:
   ProgressCallback progress_;
   PipelineState state_;
   Trajectory trajectory_;
+  std::string checkpoint_path_;
+  std::size_t checkpoint_every_{0};
+  std::unique_ptr<ResumeData> resume_;
 };
 
 } // namespace planar_grid

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/frame.h>
 #include <planar_grid/pipeline/param_table.h>
@@ -61,6 +62,25 @@ public:
   /** \brief Points this stage measures in and out of each frame (for the report): the
    * working cloud's valid points by default. */
   virtual bool countsCloudPoints() const { return true; }
+
+  /** \brief Whether a checkpoint can hold this stage's state across frames, so that a
+   * resumed run continues exactly as an uninterrupted one (true for stages without
+   * such state, which is the default). */
+  virtual bool supportsCheckpoint() const { return true; }
+
+  /** \brief Appends the state the stage carries from one frame to the next (a
+   * checkpoint); stages without such state append nothing.
+   * \param[out] bytes appended to */
+  virtual void saveState(std::vector<std::uint8_t>& /*bytes*/) const {}
+
+  /** \brief Restores what saveState() wrote (exactly \a size bytes), after start().
+   * \throws planar_grid::IOError on invalid data */
+  virtual void loadState(const std::uint8_t* /*data*/, std::size_t size)
+  {
+    if (size != 0)
+      throw IOError("checkpoint: " + std::to_string(size)
+                    + " bytes of state for a stage that keeps none");
+  }
 };
 
 /** \brief A stage type: its name, what it does, its parameter table and a factory.

@@ -1,0 +1,412 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Checkpoints of a pipeline run (issue 8, no lost work): everything carried from one
+// frame to the next in one file, written atomically, and the resume that reads it back.
+#include <planar_grid/core/atomic_file.h>
+#include <planar_grid/core/byte_io.h>
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/pipeline/pipeline_runner.h>
+
+#include <pcl/console/print.h>
+
+#include <signal.h>
+#include <unistd.h>
+
+#include <boost/crc.hpp>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "resume_data.h"
+
+namespace planar_grid {
+
+namespace {
+
+/** Magic ("PGCK") and version of the checkpoint file. */
+constexpr std::uint32_t CHECKPOINT_MAGIC = 0x4B434750u;
+constexpr std::uint32_t CHECKPOINT_VERSION = 1;
+/** Coordinates beyond this are corrupt data, meters. */
+constexpr float MAX_COORDINATE_M = 1e7f;
+
+std::uint32_t
+crc32(const std::uint8_t* data, std::size_t size)
+{
+  boost::crc_32_type crc;
+  crc.process_bytes(data, size);
+  return crc.checksum();
+}
+
+void
+putPose(ByteWriter& w, const Eigen::Isometry3d& pose)
+{
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c)
+      w.put(pose.matrix()(r, c));
+}
+
+Eigen::Isometry3d
+getPose(ByteReader& r)
+{
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  for (int row = 0; row < 3; ++row)
+    for (int c = 0; c < 4; ++c)
+      pose.matrix()(row, c) = r.get<double>();
+  if (!pose.matrix().allFinite())
+    r.fail("non-finite pose");
+  return pose;
+}
+
+Eigen::Vector3f
+getPoint(ByteReader& r)
+{
+  Eigen::Vector3f p;
+  for (int k = 0; k < 3; ++k)
+    p[k] = r.get<float>();
+  // Accumulated clouds hold finite points only.
+  if (!p.allFinite() || p.cwiseAbs().maxCoeff() > MAX_COORDINATE_M)
+    r.fail("invalid point coordinates");
+  return p;
+}
+
+void
+putVector3(ByteWriter& w, const Eigen::Vector3f& v)
+{
+  for (int k = 0; k < 3; ++k)
+    w.put(v[k]);
+}
+
+void
+putCuboids(ByteWriter& w, const PlanarCuboids& cuboids)
+{
+  w.put(static_cast<std::uint64_t>(cuboids.size()));
+  for (const auto& c : cuboids) {
+    putVector3(w, c.centre);
+    putVector3(w, c.normal);
+    putVector3(w, c.horizontal_axis);
+    w.put(c.width_m);
+    w.put(c.height_m);
+    w.put(c.thickness_m);
+    w.put(static_cast<std::int32_t>(c.plane_id));
+    w.put(static_cast<std::uint64_t>(c.point_count));
+    w.put(static_cast<std::uint8_t>(c.is_planar));
+    w.put(c.probability);
+  }
+}
+
+void
+getCuboids(ByteReader& r, PlanarCuboids& cuboids)
+{
+  constexpr std::size_t CUBOID_BYTES = 9 * 4 + 3 * 4 + 4 + 8 + 1 + 4;
+  cuboids.resize(r.getCount(CUBOID_BYTES, "cuboid"));
+  for (auto& c : cuboids) {
+    c.centre = getPoint(r);
+    c.normal = getPoint(r);
+    c.horizontal_axis = getPoint(r);
+    c.width_m = r.get<float>();
+    c.height_m = r.get<float>();
+    c.thickness_m = r.get<float>();
+    c.plane_id = r.get<std::int32_t>();
+    c.point_count = static_cast<std::size_t>(r.get<std::uint64_t>());
+    c.is_planar = r.get<std::uint8_t>() != 0;
+    c.probability = r.get<float>();
+    if (!(c.width_m >= 0.0f && c.height_m >= 0.0f && c.thickness_m >= 0.0f
+          && c.probability >= 0.0f && c.probability <= 1.0f))
+      r.fail("invalid cuboid");
+  }
+}
+
+/** Removes the temporary files writeFileAtomically() left beside \a path when a process
+ * writing it was killed: ".<name>.tmp.<pid>" whose process no longer exists. */
+void
+removeStaleTemporaries(const std::string& path)
+{
+  namespace fs = std::filesystem;
+  const fs::path target(path);
+  const fs::path folder = target.has_parent_path() ? target.parent_path() : ".";
+  const std::string prefix = "." + target.filename().string() + ".tmp.";
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(folder, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind(prefix, 0) != 0)
+      continue;
+    const std::string pid_text = name.substr(prefix.size());
+    if (pid_text.empty()
+        || pid_text.find_first_not_of("0123456789") != std::string::npos
+        || pid_text.size() > 9)
+      continue;
+    const auto pid = static_cast<pid_t>(std::stol(pid_text));
+    if (pid != ::getpid() && ::kill(pid, 0) != 0 && errno == ESRCH) {
+      fs::remove(entry.path(), ec);
+      PCL_WARN("[planar_grid::PipelineRunner] removed %s, left by a run that was "
+               "killed while writing a checkpoint.\n",
+               entry.path().c_str());
+    }
+  }
+}
+
+} // namespace
+
+std::string
+PipelineRunner::fingerprint() const
+{
+  std::ostringstream out;
+  out << "input " << source_->describe() << "\n";
+  for (const auto& sc : config_.stages) {
+    out << "stage " << sc.type;
+    for (const auto& kv : sc.params.values())
+      out << " " << kv.first << "=" << sc.params.toString(kv.first);
+    out << "\n";
+  }
+  return out.str();
+}
+
+void
+PipelineRunner::setCheckpoint(const std::string& path, std::size_t every_n_frames)
+{
+  if (every_n_frames > 0) {
+    if (path.empty())
+      throw ConfigError(config_.source_file, 0, 0,
+                        "checkpoints need a file name (output.checkpoint)");
+    for (std::size_t s = 0; s < stages_.size(); ++s)
+      if (!stages_[s]->supportsCheckpoint())
+        throw ConfigError(config_.source_file, config_.stages[s].line,
+                          config_.stages[s].column,
+                          "stage '" + config_.stages[s].type
+                            + "' cannot be checkpointed yet (its state across frames "
+                              "is not written); run without checkpoints");
+  }
+  if (every_n_frames > 0) {
+    const auto folder = std::filesystem::path(path).parent_path();
+    std::error_code ec;
+    if (!folder.empty())
+      std::filesystem::create_directories(folder, ec);
+    if (ec)
+      throw IOError(folder.string()
+                    + ": cannot create the checkpoint folder: " + ec.message());
+    removeStaleTemporaries(path);
+  }
+  checkpoint_path_ = path;
+  checkpoint_every_ = every_n_frames;
+}
+
+void
+PipelineRunner::writeCheckpoint(std::size_t next_frame, const RunReport& report) const
+{
+  std::vector<std::uint8_t> bytes;
+  ByteWriter w(bytes);
+  w.put(CHECKPOINT_MAGIC);
+  w.put(CHECKPOINT_VERSION);
+  w.putString(fingerprint());
+  w.put(static_cast<std::uint64_t>(begin_));
+  w.put(static_cast<std::uint64_t>(next_frame));
+
+  // The report so far, so that the resumed run reports the whole run.
+  w.put(static_cast<std::uint64_t>(report.frames));
+  w.put(report.load_ms);
+  w.put(report.seconds);
+  w.put(static_cast<std::uint64_t>(report.checkpoints_written));
+  w.put(static_cast<std::uint64_t>(report.stages.size()));
+  for (const auto& s : report.stages) {
+    w.putString(s.type);
+    w.put(static_cast<std::uint64_t>(s.frames));
+    w.put(s.total_ms);
+    w.put(s.max_ms);
+    w.put(s.points_in);
+    w.put(s.points_out);
+    w.put(static_cast<std::uint64_t>(s.counters.size()));
+    for (const auto& [name, value] : s.counters) {
+      w.putString(name);
+      w.put(value);
+    }
+  }
+  w.put(static_cast<std::uint64_t>(report.rss_samples.size()));
+  for (const auto& [frame, rss] : report.rss_samples) {
+    w.put(static_cast<std::uint64_t>(frame));
+    w.put(rss);
+  }
+
+  w.put(static_cast<std::uint64_t>(trajectory_.size()));
+  for (const auto& pose : trajectory_)
+    putPose(w, pose);
+
+  // The shared state.
+  const auto& world = *state_.world_cloud;
+  w.put(static_cast<std::uint64_t>(world.size()));
+  for (const auto& p : world.points) {
+    putVector3(w, p.getVector3fMap());
+    w.put(p.intensity);
+  }
+  const auto& planes = *state_.plane_cloud;
+  w.put(static_cast<std::uint64_t>(planes.size()));
+  for (const auto& p : planes.points) {
+    putVector3(w, p.getVector3fMap());
+    w.put(p.label);
+  }
+  w.put(static_cast<std::uint64_t>(state_.plane_models.size()));
+  for (const auto& m : state_.plane_models)
+    for (int k = 0; k < 4; ++k)
+      w.put(m[k]);
+  w.put(static_cast<std::uint64_t>(state_.plane_inlier_counts.size()));
+  for (const auto n : state_.plane_inlier_counts)
+    w.put(static_cast<std::uint64_t>(n));
+  putCuboids(w, state_.cuboids);
+  w.put(static_cast<std::uint8_t>(state_.map != nullptr));
+  if (state_.map) {
+    std::string map_bytes;
+    state_.map->serialize(map_bytes);
+    w.putString(map_bytes);
+  }
+
+  // Each stage's own state.
+  w.put(static_cast<std::uint64_t>(stages_.size()));
+  std::vector<std::uint8_t> stage_bytes;
+  for (std::size_t s = 0; s < stages_.size(); ++s) {
+    w.putString(config_.stages[s].type);
+    stage_bytes.clear();
+    stages_[s]->saveState(stage_bytes);
+    w.putVector(stage_bytes);
+  }
+  w.put(crc32(bytes.data(), bytes.size()));
+
+  writeFileAtomically(checkpoint_path_, [&bytes](const std::string& temporary) {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    out.write(reinterpret_cast<const char*>(bytes.data()),
+              static_cast<std::streamsize>(bytes.size()));
+    out.close();
+    return static_cast<bool>(out);
+  });
+}
+
+std::size_t
+PipelineRunner::resumeFrom(const std::string& path)
+{
+  std::ifstream file(path, std::ios::binary);
+  if (!file)
+    throw IOError("checkpoint " + path + ": cannot be opened for reading");
+  std::ostringstream content;
+  content << file.rdbuf();
+  const std::string text = content.str();
+  const auto* data = reinterpret_cast<const std::uint8_t*>(text.data());
+  const std::string what = "checkpoint " + path;
+  if (text.size() < 12)
+    throw IOError(what + ": truncated (" + std::to_string(text.size()) + " bytes)");
+  std::uint32_t stored_crc = 0;
+  std::memcpy(&stored_crc, data + text.size() - 4, 4);
+  if (crc32(data, text.size() - 4) != stored_crc)
+    throw IOError(what + ": checksum mismatch: the file is corrupt or truncated");
+
+  ByteReader r(data, text.size() - 4, what);
+  if (r.get<std::uint32_t>() != CHECKPOINT_MAGIC)
+    r.fail("not a planar_grid_pipeline checkpoint");
+  if (const auto version = r.get<std::uint32_t>(); version != CHECKPOINT_VERSION)
+    r.fail("version " + std::to_string(version)
+           + " is not supported (this reader knows "
+           + std::to_string(CHECKPOINT_VERSION) + ")");
+  if (r.getString("fingerprint") != fingerprint())
+    r.fail("written by a different pipeline (its stages, parameters or input differ "
+           "from this configuration's); resume with the configuration that wrote it");
+
+  auto resume = std::make_unique<ResumeData>();
+  resume->first_frame = static_cast<std::size_t>(r.get<std::uint64_t>());
+  resume->next_frame = static_cast<std::size_t>(r.get<std::uint64_t>());
+  if (resume->next_frame <= resume->first_frame || resume->next_frame > source_->size())
+    r.fail("frame positions " + std::to_string(resume->first_frame) + ".."
+           + std::to_string(resume->next_frame) + " do not fit the input's "
+           + std::to_string(source_->size()) + " frames");
+
+  RunReport& report = resume->report;
+  report.frames = static_cast<std::size_t>(r.get<std::uint64_t>());
+  report.load_ms = r.get<double>();
+  report.seconds = r.get<double>();
+  report.checkpoints_written = static_cast<std::size_t>(r.get<std::uint64_t>());
+  const std::size_t stage_count = r.getCount(8, "stage report");
+  if (stage_count != stages_.size())
+    r.fail("stage count differs");
+  for (std::size_t s = 0; s < stage_count; ++s) {
+    StageReport sr;
+    sr.type = r.getString("stage type");
+    sr.frames = static_cast<std::size_t>(r.get<std::uint64_t>());
+    sr.total_ms = r.get<double>();
+    sr.max_ms = r.get<double>();
+    sr.points_in = r.get<std::uint64_t>();
+    sr.points_out = r.get<std::uint64_t>();
+    const std::size_t counters = r.getCount(16, "counter");
+    for (std::size_t c = 0; c < counters; ++c) {
+      std::string name = r.getString("counter name");
+      sr.counters.emplace_back(std::move(name), r.get<double>());
+    }
+    report.stages.push_back(std::move(sr));
+  }
+  const std::size_t samples = r.getCount(16, "memory sample");
+  for (std::size_t k = 0; k < samples; ++k) {
+    const auto frame = static_cast<std::size_t>(r.get<std::uint64_t>());
+    report.rss_samples.emplace_back(frame, r.get<std::uint64_t>());
+  }
+
+  const std::size_t poses = r.getCount(12 * 8, "pose");
+  for (std::size_t k = 0; k < poses; ++k)
+    resume->trajectory.push_back(getPose(r));
+
+  PipelineState& state = resume->state;
+  const std::size_t world_points = r.getCount(16, "world cloud point");
+  state.world_cloud->resize(world_points);
+  for (auto& p : state.world_cloud->points) {
+    p.getVector3fMap() = getPoint(r);
+    p.intensity = r.get<float>();
+  }
+  const std::size_t plane_points = r.getCount(16, "plane cloud point");
+  state.plane_cloud->resize(plane_points);
+  for (auto& p : state.plane_cloud->points) {
+    p.getVector3fMap() = getPoint(r);
+    p.label = r.get<std::uint32_t>();
+  }
+  const std::size_t models = r.getCount(16, "plane model");
+  for (std::size_t k = 0; k < models; ++k) {
+    Eigen::Vector4f m;
+    for (int c = 0; c < 4; ++c)
+      m[c] = r.get<float>();
+    if (!m.allFinite())
+      r.fail("non-finite plane model");
+    state.plane_models.push_back(m);
+  }
+  const std::size_t counts = r.getCount(8, "plane inlier count");
+  if (counts != models)
+    r.fail("plane models and inlier counts of different lengths");
+  for (std::size_t k = 0; k < counts; ++k)
+    state.plane_inlier_counts.push_back(
+      static_cast<std::size_t>(r.get<std::uint64_t>()));
+  getCuboids(r, state.cuboids);
+  if (r.get<std::uint8_t>() != 0) {
+    // Decoded here, with every check of a map file, so that a corrupt map is reported
+    // before the run starts.
+    state.map = std::make_shared<PlanarGridMap>(
+      PlanarGridMap::deserialize(r.getString("map"), path + " (embedded map)"));
+  }
+
+  const std::size_t stage_states = r.getCount(16, "stage state");
+  if (stage_states != stages_.size())
+    r.fail("stage count differs");
+  for (std::size_t s = 0; s < stage_states; ++s) {
+    if (r.getString("stage type") != config_.stages[s].type)
+      r.fail("stage " + std::to_string(s) + " differs");
+    std::vector<std::uint8_t> bytes;
+    r.getVector(bytes, "stage state");
+    resume->stage_states.push_back(std::move(bytes));
+  }
+  if (r.remaining() != 0)
+    r.fail(std::to_string(r.remaining()) + " bytes of trailing data");
+
+  begin_ = resume->first_frame;
+  if (end_ <= resume->next_frame)
+    throw IOError(what + ": the checkpoint is after frame position "
+                  + std::to_string(resume->next_frame - 1)
+                  + ", at or past the end of the range (" + std::to_string(end_)
+                  + "): nothing left to run");
+  const std::size_t next = resume->next_frame;
+  resume_ = std::move(resume);
+  return next;
+}
+
+} // namespace planar_grid
