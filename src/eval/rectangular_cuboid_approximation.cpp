@@ -139,6 +139,8 @@ RectangularCuboidApproximation::compute(const StandardVoxelGrid& grid,
           table.cover(x + i, y + j, z + k);
     boxes.push_back({v.index, Eigen::Vector3i(sx, sy, sz), cls == 2});
   }
+  // The memory figure is capacity x sizeof: drop the growth slack of push_back.
+  boxes.shrink_to_fit();
 }
 
 std::size_t

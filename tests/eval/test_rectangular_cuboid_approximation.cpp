@@ -112,6 +112,8 @@ TEST(RectangularCuboidApproximation, CoversEveryObservedVoxelOnceByClass)
     SCOPED_TRACE(seed);
     expectExactCover(grid, boxes);
     EXPECT_LT(boxes.size(), grid.getVoxelCount()); // something was merged
+    EXPECT_EQ(RectangularCuboidApproximation::getMemoryBytes(boxes),
+              boxes.size() * sizeof(AxisAlignedBox)); // shrunk to fit
     // Boxes come in the (z, y, x) order of their min_index.
     for (std::size_t i = 1; i < boxes.size(); ++i) {
       const auto& a = boxes[i - 1].min_index;

@@ -46,7 +46,8 @@ public:
 
   /** \brief Covers the observed voxels of \a grid with boxes.
    * \param[in] grid the standard voxel grid
-   * \param[out] boxes the boxes (replaced) */
+   * \param[out] boxes the boxes (replaced; shrunk to fit, so that getMemoryBytes()
+   * counts the boxes, not the vector's growth slack) */
   void compute(const StandardVoxelGrid& grid, AxisAlignedBoxes& boxes) const;
 
   /** \brief Bytes held by \a boxes: capacity x sizeof(AxisAlignedBox) (28 bytes: two
