@@ -245,12 +245,69 @@ private:
 
 } // namespace
 
+/** The frames of another source, repeated count times; pass k's positions are offset
+ * by k times the offset. */
+class RepeatedSource : public FrameSource {
+public:
+  RepeatedSource(std::unique_ptr<FrameSource> source,
+                 std::size_t count,
+                 const Eigen::Vector3d& offset_m) :
+      source_(std::move(source)),
+      count_(count), offset_m_(offset_m)
+  {
+    const std::size_t n = source_->size();
+    for (std::size_t pass = 0; pass < count_ && !source_->poses().empty(); ++pass)
+      for (std::size_t i = 0; i < n; ++i) {
+        Eigen::Isometry3d pose = source_->poses()[i];
+        pose.translation() += static_cast<double>(pass) * offset_m_;
+        poses_.push_back(pose);
+      }
+    std::ostringstream text;
+    text << source_->describe() << ", " << count_ << " passes, offset ["
+         << offset_m_.x() << ", " << offset_m_.y() << ", " << offset_m_.z()
+         << "] m per pass";
+    description_ = text.str();
+  }
+
+  std::size_t size() const override { return source_->size() * count_; }
+
+  void load(std::size_t i, Frame& frame) const override
+  {
+    const std::size_t n = source_->size();
+    const std::size_t pass = i / n;
+    source_->load(i % n, frame);
+    if (frame.has_pose)
+      frame.world_T_camera.translation() += static_cast<double>(pass) * offset_m_;
+    if (pass > 0)
+      frame.name += " (pass " + std::to_string(pass + 1) + ")";
+  }
+
+  std::string describe() const override { return description_; }
+
+  const Trajectory& poses() const override { return poses_; }
+
+private:
+  std::unique_ptr<FrameSource> source_;
+  std::size_t count_;
+  Eigen::Vector3d offset_m_;
+  Trajectory poses_;
+  std::string description_;
+};
+
 std::unique_ptr<FrameSource>
 createFrameSource(const InputConfig& input)
 {
+  std::unique_ptr<FrameSource> source;
   if (input.type == InputConfig::Type::PCD_FILES)
-    return std::make_unique<PCDFileSource>(input);
-  return std::make_unique<StereoSequenceSource>(input);
+    source = std::make_unique<PCDFileSource>(input);
+  else
+    source = std::make_unique<StereoSequenceSource>(input);
+  if (input.repeat_count > 1)
+    source = std::make_unique<RepeatedSource>(
+      std::move(source), static_cast<std::size_t>(input.repeat_count),
+      Eigen::Vector3d(input.repeat_offset_m[0], input.repeat_offset_m[1],
+                      input.repeat_offset_m[2]));
+  return source;
 }
 
 } // namespace planar_grid

@@ -158,7 +158,7 @@ parseInput(const Reader& r, const YAML::Node& node)
   if (type == "stereo_sequence") {
     r.checkKeys(node,
                 {"type", "left_images", "right_images", "first_index", "frame_count",
-                 "calibration", "poses"},
+                 "calibration", "poses", "repeat"},
                 "input (stereo_sequence)");
     input.type = InputConfig::Type::STEREO_SEQUENCE;
     input.left_images = r.path(node, "left_images", "input");
@@ -193,7 +193,7 @@ parseInput(const Reader& r, const YAML::Node& node)
                             + " needs one index field such as %06d in the file name");
     }
   } else if (type == "pcd_files") {
-    r.checkKeys(node, {"type", "files", "poses"}, "input (pcd_files)");
+    r.checkKeys(node, {"type", "files", "poses", "repeat"}, "input (pcd_files)");
     input.type = InputConfig::Type::PCD_FILES;
     input.poses_format = "viewpoint";
     const YAML::Node files = node["files"];
@@ -215,6 +215,26 @@ parseInput(const Reader& r, const YAML::Node& node)
   } else
     r.fail(node["type"], "input.type '" + type
                            + "' is unknown; expected stereo_sequence or pcd_files");
+
+  if (const YAML::Node repeat = node["repeat"]) {
+    r.checkKeys(repeat, {"count", "offset_m"}, "input.repeat");
+    input.repeat_count = r.integer(repeat, "count", 1, 1, 10000, "input.repeat");
+    if (const YAML::Node offset = repeat["offset_m"]) {
+      if (!offset.IsSequence() || offset.size() != 3)
+        r.fail(offset, "input.repeat.offset_m must be [x, y, z] in meters");
+      for (std::size_t k = 0; k < 3; ++k) {
+        double v = 0.0;
+        try {
+          v = offset[k].as<double>();
+        } catch (const YAML::BadConversion&) {
+          r.fail(offset[k], "input.repeat.offset_m entries must be numbers");
+        }
+        if (!std::isfinite(v) || std::abs(v) > 1e5)
+          r.fail(offset[k], "input.repeat.offset_m entries must be in [-1e5, 1e5] m");
+        input.repeat_offset_m[k] = v;
+      }
+    }
+  }
 
   if (const YAML::Node poses = node["poses"]) {
     r.checkKeys(poses, {"format", "file", "camera_height_m", "camera_pitch_rad"},

@@ -203,6 +203,39 @@ TEST_F(ReliabilityTest, PCDFilesRunInNameOrderWithinAPattern)
   }
 }
 
+TEST_F(ReliabilityTest, RepeatedInputRunsEveryPassWithOffsetPoses)
+{
+  // input.repeat (the long-run test): 2 files x 3 passes = 6 frames in order, pass k's
+  // poses offset by k x offset_m; a bad repeat block is a ConfigError at its line.
+  auto cloud = wall();
+  save("a.pcd", cloud);
+  cloud.sensor_origin_ = Eigen::Vector4f(5, 0, 0, 1);
+  save("b.pcd", cloud);
+  const std::string input = "input:\n  type: pcd_files\n  files: ["
+                            + (dir_ / "*.pcd").string()
+                            + "]\n  repeat: {count: 3, offset_m: [0, 100, 0]}\n";
+  PipelineRunner runner(parsePipelineConfig(
+    input + "pipeline:\n  - type: transform_to_world\n", "t.yaml", "/"));
+  ASSERT_EQ(runner.frameCount(), 6u);
+  const auto report = runner.run();
+  EXPECT_EQ(report.frames, 6u);
+  ASSERT_EQ(runner.trajectory().size(), 6u);
+  for (std::size_t i = 0; i < 6; ++i) {
+    EXPECT_NEAR(runner.trajectory()[i].translation().x(), i % 2 == 0 ? 0.0 : 5.0, 1e-6);
+    EXPECT_NEAR(runner.trajectory()[i].translation().y(), 100.0 * (i / 2), 1e-6);
+  }
+  // 20 memory samples at most, the last after the last frame.
+  ASSERT_FALSE(report.rss_samples.empty());
+  EXPECT_EQ(report.rss_samples.back().first, 5u);
+  EXPECT_GT(report.peak_rss_bytes, 0u);
+  const auto zero = configErrorOf(
+    "input:\n  type: pcd_files\n  files: [a.pcd]\n  repeat: {count: 0}\n");
+  EXPECT_EQ(zero.line(), 4) << zero.what();
+  const auto offset = configErrorOf("input:\n  type: pcd_files\n  files: [a.pcd]\n  "
+                                    "repeat: {count: 2, offset_m: [1, 2]}\n");
+  EXPECT_EQ(offset.line(), 4) << offset.what();
+}
+
 TEST_F(ReliabilityTest, PoseFileShorterThanThePCDFilesIsAnError)
 {
   save("a.pcd", wall());

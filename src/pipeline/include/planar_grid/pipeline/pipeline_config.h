@@ -55,6 +55,13 @@ struct InputConfig {
   /** \brief PCD input: files or glob patterns, resolved against the config's folder and
    * sorted by name within each pattern. */
   std::vector<std::string> pcd_files;
+
+  /** \brief Passes over the frames (input.repeat.count, >= 1): the input is run this
+   * many times in a row, e.g. to test a long run (issue 8). */
+  int repeat_count{1};
+  /** \brief Added to the poses' positions once per pass after the first, meters
+   * (input.repeat.offset_m; zero: each pass revisits the same place). */
+  std::array<double, 3> repeat_offset_m{{0.0, 0.0, 0.0}};
 };
 
 /** \brief One configured stage: its type, its parsed parameters, and where it was
