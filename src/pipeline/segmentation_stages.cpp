@@ -60,14 +60,7 @@ public:
                                  frame.world_T_camera.cast<float>().matrix());
     }
     segmentation_.setSampleCloud(sample);
-    // PCL's plane model reports every degenerate (collinear) random sample with
-    // PCL_ERROR, hundreds per frame on stereo features; they are expected and handled
-    // by RANSAC. Keep them quiet unless debugging (-v).
-    const auto verbosity = pcl::console::getVerbosityLevel();
-    if (verbosity < pcl::console::L_DEBUG)
-      pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
     segmentation_.segment(frame.planes);
-    pcl::console::setVerbosityLevel(verbosity);
     if (frame.planes.empty())
       PCL_WARN("[planar_grid::multi_plane_segmentation] No plane found in frame %s.\n",
                frame.name.c_str());

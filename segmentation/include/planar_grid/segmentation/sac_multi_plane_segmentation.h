@@ -109,7 +109,9 @@ isGroundCandidate(const PlanarSegment& segment,
  *
  * Empty or degenerate input (no input, empty cloud, only NaNs, fewer than 3 points,
  * colinear points) or invalid parameters give an empty output and a PCL_ERROR or
- * PCL_WARN; segment() never throws for bad data.
+ * PCL_WARN; segment() never throws for bad data. Degenerate minimal samples
+ * (coincident or colinear points, e.g. duplicated features) are rejected silently
+ * (PCL_DEBUG), and the loop stops when the remaining sample points are colinear.
  * \ingroup segmentation */
 template <typename PointT>
 class SACMultiPlaneSegmentation : public pcl::PCLBase<PointT> {

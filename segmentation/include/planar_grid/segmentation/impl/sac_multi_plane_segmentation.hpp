@@ -59,6 +59,56 @@ fitPlanePCA(const pcl::PointCloud<PointT>& cloud,
   return true;
 }
 
+/** \brief True when the indexed points span a plane: the middle eigenvalue of their
+ * covariance is > 1e-6 of the largest (false for coincident or colinear points). */
+template <typename PointT>
+bool
+spansPlane(const pcl::PointCloud<PointT>& cloud, const pcl::Indices& indices)
+{
+  if (indices.size() < 3)
+    return false;
+  Eigen::Matrix3f covariance;
+  Eigen::Vector4f centroid;
+  pcl::computeMeanAndCovarianceMatrix(cloud, indices, covariance, centroid);
+  const Eigen::Vector3f eigen_values =
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f>(covariance, Eigen::EigenvaluesOnly)
+      .eigenvalues();
+  return eigen_values[1] > 1e-6f * eigen_values[2];
+}
+
+/** \brief pcl::SampleConsensusModelPlane that rejects a degenerate minimal sample
+ * (coincident or colinear points: |(p1 - p0) x (p2 - p0)| below Eigen's float
+ * dummy_precision, PCL's own test) with PCL_DEBUG instead of PCL_ERROR. PCL's model
+ * prints an error for every such draw, and the sample consensus simply draws again, so
+ * stereo features with duplicated positions (one SIFT keypoint, two orientations)
+ * flooded the console; here the rejection is the expected, silent path. */
+template <typename PointT>
+class QuietPlaneModel : public pcl::SampleConsensusModelPlane<PointT> {
+public:
+  QuietPlaneModel(const typename pcl::PointCloud<PointT>::ConstPtr& cloud,
+                  const pcl::Indices& indices) :
+      pcl::SampleConsensusModelPlane<PointT>(cloud, indices, false)
+  {}
+
+protected:
+  bool isSampleGood(const pcl::Indices& samples) const override
+  {
+    if (samples.size() != 3)
+      return false;
+    const auto& cloud = *this->input_;
+    const Eigen::Vector3f p0 = cloud[samples[0]].getVector3fMap();
+    const Eigen::Vector3f p1 = cloud[samples[1]].getVector3fMap();
+    const Eigen::Vector3f p2 = cloud[samples[2]].getVector3fMap();
+    if ((p1 - p0).cross(p2 - p0).stableNorm()
+        < Eigen::NumTraits<float>::dummy_precision()) {
+      PCL_DEBUG("[planar_grid::SACMultiPlaneSegmentation] Rejected a degenerate "
+                "(coincident or colinear) sample.\n");
+      return false;
+    }
+    return true;
+  }
+};
+
 /** \brief Struct-of-arrays store of the unassigned finite input points, so that the
  * eq. 11 pass over ~10^5 points is one branch-free, vectorisable loop per plane. */
 struct DensePoints {
@@ -337,18 +387,10 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
   }
 
   // Colinear (or coincident) samples span no plane: PCA's middle eigenvalue is ~0.
-  {
-    Eigen::Matrix3f covariance;
-    Eigen::Vector4f centroid;
-    pcl::computeMeanAndCovarianceMatrix(*sample_cloud, remaining, covariance, centroid);
-    const Eigen::Vector3f eigen_values =
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f>(covariance, Eigen::EigenvaluesOnly)
-        .eigenvalues();
-    if (!(eigen_values[1] > 1e-6f * eigen_values[2])) {
-      PCL_WARN("[planar_grid::%s::segment] The sample points are colinear.\n",
-               getClassName().c_str());
-      return;
-    }
+  if (!detail::spansPlane(*sample_cloud, remaining)) {
+    PCL_WARN("[planar_grid::%s::segment] The sample points are colinear.\n",
+             getClassName().c_str());
+    return;
   }
 
   std::vector<std::uint8_t> sample_taken(sample_cloud->size(), 0);
@@ -362,10 +404,18 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
         || static_cast<double>(remaining.size())
              < min_remaining_fraction_ * initial_sample)
       break;
+    // What is left of the sample may be colinear (e.g. features along one edge): every
+    // minimal sample would be degenerate, so stop instead of drawing in vain.
+    if (!detail::spansPlane(*sample_cloud, remaining)) {
+      PCL_DEBUG("[planar_grid::%s::segment] The remaining %zu sample points are "
+                "colinear; stopping.\n",
+                getClassName().c_str(), remaining.size());
+      break;
+    }
     // The seed reaches PCL's fixed-seed (12345) estimators through the sample order.
     std::shuffle(remaining.begin(), remaining.end(), rng);
-    auto model = std::make_shared<pcl::SampleConsensusModelPlane<PointT>>(
-      sample_cloud, remaining, false);
+    auto model =
+      std::make_shared<detail::QuietPlaneModel<PointT>>(sample_cloud, remaining);
     std::shared_ptr<pcl::SampleConsensus<PointT>> sac;
     switch (method_) {
       case SACMethod::MSAC:
