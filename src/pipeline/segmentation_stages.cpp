@@ -32,6 +32,8 @@ public:
                                 : method == "prosac" ? SACMethod::PROSAC
                                                      : SACMethod::RANSAC);
     segmentation_.setOptimizeCoefficients(v.getBool("optimize_coefficients"));
+    segmentation_.setDenseHypothesis(v.getBool("dense_hypothesis"));
+    segmentation_.setLocalOptimizationIterations(v.getInt("lo_iterations"));
     segmentation_.setMergePlanes(v.getBool("merge_planes"));
     segmentation_.setMergeAngleThreshold(v.getDouble("merge_angle_rad"));
     segmentation_.setMergeDistanceThreshold(v.getDouble("merge_distance_m"));
@@ -204,6 +206,11 @@ multiPlaneSegmentationInfo()
                       "PCL sample consensus estimator."),
     ParamSpec::flag("optimize_coefficients", true,
                     "Least-squares refit of each plane on its dense inliers."),
+    ParamSpec::flag("dense_hypothesis", true,
+                    "Each round also hypothesises a plane from a dense subsample; the "
+                    "one with more inliers is kept."),
+    ParamSpec::integer("lo_iterations", 50, 0, 100000, "",
+                       "Local optimisation (LO-RANSAC) samples per plane; 0 = off."),
     ParamSpec::flag("merge_planes", true, "Merge near-duplicate planes."),
     ParamSpec::real("merge_angle_rad", 0.1, 0.0, 1.5708, "rad",
                     "Planes whose normals differ less than this may merge."),

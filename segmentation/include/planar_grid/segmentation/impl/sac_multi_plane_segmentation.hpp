@@ -253,6 +253,52 @@ ransacPlane(const std::vector<float>& x,
   return best;
 }
 
+/** \brief Local optimisation of a plane (the LO step of LO-RANSAC, Chum, Matas and
+ * Kittler, DAGM 2003): `iterations` minimal samples drawn with `rng` from the points
+ * within t of the starting plane, each counted over all points (SoA, early exit); a
+ * sample plane with more points within t replaces the plane. Only a strictly better
+ * count is accepted, so the count never decreases.
+ * \return the exact number of points within t of the returned `plane` */
+inline std::size_t
+optimizePlane(const std::vector<float>& x,
+              const std::vector<float>& y,
+              const std::vector<float>& z,
+              float t,
+              int iterations,
+              std::mt19937& rng,
+              Eigen::Vector4f& plane)
+{
+  const std::size_t n = x.size();
+  std::vector<std::size_t> inliers;
+  for (std::size_t k = 0; k < n; ++k)
+    if (std::abs(plane[0] * x[k] + plane[1] * y[k] + plane[2] * z[k] + plane[3]) <= t)
+      inliers.push_back(k);
+  std::size_t best = inliers.size();
+  if (best < 3)
+    return best;
+  std::uniform_int_distribution<std::size_t> pick(0, inliers.size() - 1);
+  for (int iteration = 0; iteration < iterations; ++iteration) {
+    const std::size_t i0 = inliers[pick(rng)], i1 = inliers[pick(rng)],
+                      i2 = inliers[pick(rng)];
+    const Eigen::Vector3f p0(x[i0], y[i0], z[i0]);
+    const Eigen::Vector3f normal = (Eigen::Vector3f(x[i1], y[i1], z[i1]) - p0)
+                                     .cross(Eigen::Vector3f(x[i2], y[i2], z[i2]) - p0);
+    const float norm = normal.norm();
+    if (!(norm > 1e-12f))
+      continue;
+    Eigen::Vector4f candidate;
+    candidate.head<3>() = normal / norm;
+    candidate[3] = -candidate.head<3>().dot(p0);
+    const std::size_t count =
+      countWithinDistance(x.data(), y.data(), z.data(), n, candidate, t, best);
+    if (count > best) {
+      best = count;
+      plane = candidate;
+    }
+  }
+  return best;
+}
+
 } // namespace detail
 
 template <typename PointT>
@@ -289,6 +335,8 @@ SACMultiPlaneSegmentation<PointT>::initCompute()
     bad = "up_axis must be finite and non-zero";
   else if (max_sample_size_ < 3)
     bad = "max_sample_size must be >= 3";
+  else if (lo_iterations_ < 0)
+    bad = "lo_iterations must be >= 0";
   if (bad != nullptr) {
     PCL_ERROR("[planar_grid::%s::segment] Invalid parameter: %s.\n",
               getClassName().c_str(), bad);
@@ -337,7 +385,8 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
   const auto d_t = static_cast<float>(distance_threshold_);
   const auto sample_t = static_cast<float>(getSampleDistanceThreshold());
   std::mt19937 rng(seed_);
-  // Local dense refinement: slab half-width in units of d_T, and subsample size.
+  // Local dense refinement: slab half-width in units of d_T; subsample size of it and
+  // of the dense hypothesis.
   constexpr float LOCAL_SLAB_FACTOR = 10.0f;
   constexpr std::size_t LOCAL_SAMPLE_SIZE = 5000;
 
@@ -480,6 +529,43 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
       }
     }
 
+    // Dense hypothesis: a plain RANSAC at d_T on a seeded subsample (drawn with
+    // replacement) of all unassigned dense points; the plane with more eq. 11 inliers
+    // over the store is kept. It finds the large planes the sample has few points on
+    // (a road with little texture).
+    bool dense_won = false;
+    if (dense_hypothesis_ && dense.size() >= 3) {
+      const std::size_t n = dense.size();
+      const std::size_t wanted = std::min(n, LOCAL_SAMPLE_SIZE);
+      std::uniform_int_distribution<std::size_t> pick(0, n - 1);
+      local_x.resize(wanted);
+      local_y.resize(wanted);
+      local_z.resize(wanted);
+      for (std::size_t k = 0; k < wanted; ++k) {
+        const std::size_t j = pick(rng);
+        local_x[k] = dense.x[j];
+        local_y[k] = dense.y[j];
+        local_z[k] = dense.z[j];
+      }
+      Eigen::Vector4f dense_plane;
+      if (detail::ransacPlane(local_x, local_y, local_z, d_t, max_iterations_,
+                              probability_, rng, dense_plane)
+            > 0
+          && detail::countWithinDistance(dense.x.data(), dense.y.data(), dense.z.data(),
+                                         n, dense_plane, d_t, 0)
+               > detail::countWithinDistance(dense.x.data(), dense.y.data(),
+                                             dense.z.data(), n, plane, d_t, 0)) {
+        plane = dense_plane;
+        detail::orientTowards(plane, origin);
+        dense_won = true;
+      }
+    }
+    // Local optimisation (LO-RANSAC) of the kept hypothesis on all unassigned points.
+    if (lo_iterations_ > 0) {
+      detail::optimizePlane(dense.x, dense.y, dense.z, d_t, lo_iterations_, rng, plane);
+      detail::orientTowards(plane, origin);
+    }
+
     // Eq. 11 over the unassigned dense points; refit (PCA) and reselect.
     std::size_t count = dense.select(plane, d_t);
     if (optimize_coefficients_ && count >= 3) {
@@ -492,9 +578,13 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
       }
     }
 
-    // Remove the sample inliers: the estimator's, and those of the final plane.
-    for (const auto i : sac_inliers)
-      sample_taken[i] = 1;
+    // Remove the sample inliers: the estimator's (unless the dense hypothesis won: they
+    // lie on another plane, which a later round can still find), and those of the
+    // final plane.
+    if (!dense_won)
+      for (const auto i : sac_inliers)
+        sample_taken[i] = 1;
+    const std::size_t sample_before = remaining.size();
     remaining.erase(std::remove_if(remaining.begin(), remaining.end(),
                                    [&](pcl::index_t i) {
                                      if (sample_taken[i])
@@ -514,7 +604,8 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
     dense.selected(segment.inliers.indices);
     dense.removeSelected();
     segment.model_coefficients.values.assign(plane.data(), plane.data() + 4);
-    segment.sample_inliers = sac_inliers.size();
+    segment.sample_inliers =
+      dense_won ? sample_before - remaining.size() : sac_inliers.size();
     planes.push_back(std::move(segment));
   }
 
