@@ -27,6 +27,7 @@
 #include <benchmark/benchmark.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <memory>
@@ -178,7 +179,50 @@ struct Setting {
   double sample_threshold_m{0.0}; // 0: = d_T
   int max_planes{MAX_PLANES};
   int min_inliers{500};
+  unsigned seed{0};
 };
+
+/** \brief Runs one setting once; returns the planes. */
+planar_grid::PlanarSegments
+segmentOnce(const Frame& f, const Setting& setting)
+{
+  planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZI> seg;
+  seg.setInputCloud(setting.voxelised ? f.voxelised : f.dense);
+  seg.setUpAxis(Eigen::Vector3f(0.0f, -1.0f, 0.0f));
+  if (setting.features)
+    seg.setSampleCloud(f.features);
+  if (setting.sample_threshold_m > 0.0)
+    seg.setSampleDistanceThreshold(setting.sample_threshold_m);
+  seg.setDistanceThreshold(DISTANCE_THRESHOLD_M);
+  seg.setMaxIterations(MAX_ITERATIONS);
+  seg.setMaxPlanes(setting.max_planes);
+  seg.setMinInliers(setting.min_inliers);
+  seg.setDenseHypothesis(setting.dense_hypothesis);
+  seg.setLocalOptimizationIterations(setting.lo_iterations);
+  seg.setMergePlanes(setting.merge);
+  seg.setSeed(setting.seed);
+  planar_grid::PlanarSegments planes;
+  seg.segment(planes);
+  return planes;
+}
+
+/** \brief Points within d_T of the plane that reports them, each counted once. */
+std::size_t
+coveredPoints(const Cloud& cloud, const planar_grid::PlanarSegments& planes)
+{
+  std::vector<std::uint8_t> seen(cloud.size(), 0);
+  std::size_t covered = 0;
+  for (const auto& plane : planes) {
+    pcl::Indices fresh;
+    for (const auto i : plane.inliers.indices)
+      if (!seen[static_cast<std::size_t>(i)]) {
+        seen[static_cast<std::size_t>(i)] = 1;
+        fresh.push_back(i);
+      }
+    covered += countWithinThreshold(cloud, fresh, plane.model_coefficients.values);
+  }
+  return covered;
+}
 
 void
 runOurs(benchmark::State& state, const Setting& setting)
@@ -188,48 +232,62 @@ runOurs(benchmark::State& state, const Setting& setting)
     state.SkipWithError("Karlsruhe frame 10 not found");
     return;
   }
-  const Cloud::Ptr& cloud = setting.voxelised ? f.voxelised : f.dense;
   planar_grid::PlanarSegments planes;
   for (auto _ : state) {
-    planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZI> seg;
-    seg.setInputCloud(cloud);
-    seg.setUpAxis(Eigen::Vector3f(0.0f, -1.0f, 0.0f));
-    if (setting.features)
-      seg.setSampleCloud(f.features);
-    if (setting.sample_threshold_m > 0.0)
-      seg.setSampleDistanceThreshold(setting.sample_threshold_m);
-    seg.setDistanceThreshold(DISTANCE_THRESHOLD_M);
-    seg.setMaxIterations(MAX_ITERATIONS);
-    seg.setMaxPlanes(setting.max_planes);
-    seg.setMinInliers(setting.min_inliers);
-    seg.setDenseHypothesis(setting.dense_hypothesis);
-    seg.setLocalOptimizationIterations(setting.lo_iterations);
-    seg.setMergePlanes(setting.merge);
-    seg.segment(planes);
+    planes = segmentOnce(f, setting);
     benchmark::DoNotOptimize(planes);
   }
   // Each point counted once, and only when within d_T of the plane that reports it
   // (after a merge the united inliers need not be).
-  std::vector<std::uint8_t> seen(cloud->size(), 0);
-  std::size_t covered = 0, reported = 0;
-  for (const auto& plane : planes) {
+  const Cloud& cloud = setting.voxelised ? *f.voxelised : *f.dense;
+  std::size_t reported = 0;
+  for (const auto& plane : planes)
     reported += plane.inliers.indices.size();
-    pcl::Indices fresh;
-    for (const auto i : plane.inliers.indices)
-      if (!seen[static_cast<std::size_t>(i)]) {
-        seen[static_cast<std::size_t>(i)] = 1;
-        fresh.push_back(i);
-      }
-    covered += countWithinThreshold(*cloud, fresh, plane.model_coefficients.values);
-  }
   const auto points =
     static_cast<double>(setting.voxelised ? f.voxelised->size() : f.finite);
   state.counters["points"] = points;
   state.counters["sample_points"] =
     static_cast<double>(setting.features ? f.features->size() : 0);
   state.counters["planes"] = static_cast<double>(planes.size());
-  state.counters["coverage"] = static_cast<double>(covered) / points;
+  state.counters["coverage"] =
+    static_cast<double>(coveredPoints(cloud, planes)) / points;
   state.counters["coverage_reported"] = static_cast<double>(reported) / points;
+}
+
+/** \brief The spread over seeds: one iteration runs seeds 0 .. range(0) - 1 of the
+ * default setting (full cloud, or voxelised when range(1) is 1); counters are the
+ * smallest, mean and largest coverage (the time is for all seeds together). */
+void
+BM_SACMultiPlaneSegmentationFeaturesSeeds(benchmark::State& state)
+{
+  const Frame& f = frame();
+  if (!f.ok) {
+    state.SkipWithError("Karlsruhe frame 10 not found");
+    return;
+  }
+  Setting setting;
+  setting.voxelised = state.range(1) == 1;
+  const Cloud& cloud = setting.voxelised ? *f.voxelised : *f.dense;
+  const auto points =
+    static_cast<double>(setting.voxelised ? f.voxelised->size() : f.finite);
+  const auto seeds = static_cast<unsigned>(state.range(0));
+  double smallest = 1.0, largest = 0.0, sum = 0.0;
+  for (auto _ : state) {
+    smallest = 1.0;
+    largest = sum = 0.0;
+    for (unsigned seed = 0; seed < seeds; ++seed) {
+      setting.seed = seed;
+      const auto planes = segmentOnce(f, setting);
+      const double coverage =
+        static_cast<double>(coveredPoints(cloud, planes)) / points;
+      smallest = std::min(smallest, coverage);
+      largest = std::max(largest, coverage);
+      sum += coverage;
+    }
+  }
+  state.counters["coverage_min"] = smallest;
+  state.counters["coverage_mean"] = sum / seeds;
+  state.counters["coverage_max"] = largest;
 }
 
 /** \brief The class defaults (dense hypothesis, local optimisation) with the SIFT
@@ -303,6 +361,11 @@ BENCHMARK(BM_SACMultiPlaneSegmentationFeaturesSampleOnly)
   ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_SACMultiPlaneSegmentationFeaturesMerged)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_SACMultiPlaneSegmentationDenseSubsample)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SACMultiPlaneSegmentationFeaturesSeeds)
+  ->Args({16, 0})
+  ->Args({16, 1})
+  ->Iterations(1)
+  ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_PCLSACSegmentationLoopVoxelised)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_SACMultiPlaneSegmentationVoxelised)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_SACMultiPlaneSegmentationVoxelisedPipeline)->Unit(benchmark::kMillisecond);
