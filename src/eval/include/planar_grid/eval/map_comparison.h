@@ -1,0 +1,149 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <planar_grid/pipeline/pipeline_config.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace planar_grid {
+
+/** \brief Where the ground truth of a dataset's mapping error comes from.
+ * \ingroup eval */
+struct TruthConfig {
+  /** \brief The kinds of ground truth. */
+  enum class Type {
+    /** A PCD of points sampled densely on the true surfaces (world frame, meters),
+     * e.g. the synthetic scene's truth.pcd. */
+    POINTS,
+    /** A ground-truth disparity image of the first frame (8-bit PNG, pixels, 0 =
+     * unknown, e.g. Middlebury's), converted with the frame's calibration and pose. */
+    DISPARITY,
+    /** A reference built from all frames of the dataset at fine resolution: every
+     * frame's dense stereo (or PCD) points in the world frame, in voxels of
+     * leaf_size_m; a voxel is kept (at the mean of its points) when min_views frames
+     * saw a point in it, so that one frame's stereo artifacts are not in it.
+     * Agreement with it, not truth: stated as such in the results. */
+    REFERENCE
+  };
+  Type type{Type::REFERENCE};
+  /** \brief The file (POINTS, DISPARITY). */
+  std::string file;
+  /** \brief Voxel size of the REFERENCE cloud, meters. */
+  double leaf_size_m{0.05};
+  /** \brief Frames that must see a REFERENCE voxel (1: every point counts). */
+  std::size_t min_views{2};
+};
+
+/** \brief One dataset of an evaluation: a pipeline configuration (its input and stages)
+ * and a ground truth. \ingroup eval */
+struct DatasetConfig {
+  /** \brief Name in the tables and plots. */
+  std::string name;
+  /** \brief The pipeline configuration file (input and stages; its output is unused).
+   */
+  std::string pipeline_file;
+  /** \brief The pipeline configuration, loaded. */
+  PipelineConfig pipeline;
+  /** \brief Frames [first_frame, first_frame + frame_count) every frame_step (0 count:
+   * to the end). */
+  std::size_t first_frame{0};
+  std::size_t frame_count{0};
+  std::size_t frame_step{1};
+  /** \brief Where the mapping error's truth comes from. */
+  TruthConfig truth;
+  /** \brief Angle of the scene's surfaces to the map axes, degrees (a tag for the tilt
+   * plot; negative: none). */
+  double tilt_deg{-1.0};
+};
+
+/** \brief An evaluation (planar_grid_eval --config): datasets of one environment, each
+ * mapped by SG, OG, RA and PG at several minimum cell sizes in one process.
+ * \ingroup eval */
+struct ComparisonConfig {
+  /** \brief The file it was read from. */
+  std::string source_file;
+  /** \brief "indoor" or "outdoor" (the plots' title). */
+  std::string environment{"indoor"};
+  /** \brief The minimum cell sizes, meters (the paper: 0.1 to 0.5). */
+  std::vector<double> resolutions_m{0.1, 0.2, 0.3, 0.4, 0.5};
+  /** \brief A cell sample is erroneous farther than this many cell sizes from the
+   * truth. */
+  double tolerance_cells{1.0};
+  /** \brief The datasets. */
+  std::vector<DatasetConfig> datasets;
+  /** \brief Output folder (CSV, plots). */
+  std::string output_folder{"output/eval"};
+};
+
+/** \brief Reads an evaluation configuration (schema in config/eval_indoor.yaml).
+ * Strict like the pipeline's: unknown keys, wrong types and out-of-range values are
+ * ConfigError at file:line:col; the pipeline files are loaded too.
+ * \throws planar_grid::ConfigError, planar_grid::IOError */
+ComparisonConfig loadComparisonConfig(const std::string& path);
+
+/** \brief The figures of one method on one dataset at one cell size (a row of the CSV).
+ * \ingroup eval */
+struct ComparisonRow {
+  std::string dataset;
+  std::string environment;
+  double resolution_m{0.0};
+  /** \brief SG, OG, RA or PG. */
+  std::string method;
+  /** \brief Frames mapped. */
+  std::size_t frames{0};
+  /** \brief Occupied cells (SG occupied voxels, OG occupied leaves, RA occupied boxes,
+   * PG occupied cuboids). */
+  std::size_t cells{0};
+  /** \brief All cells held (with free ones: RA free boxes, PG cuboids below the
+   * occupancy threshold; SG and OG: observed voxels / leaves). */
+  std::size_t all_cells{0};
+  /** \brief Combination efficiency against SG, eta = 1 - cells / SG cells (paper,
+   * Fig. 12). */
+  double efficiency{0.0};
+  /** \brief Memory held by the method's map, bytes (SG hash map, OG memoryUsage(), RA
+   * boxes, PG PlanarGridMap::getMemory()). */
+  std::uint64_t memory_bytes{0};
+  /** \brief Mean time per frame of the method's own work, milliseconds. */
+  double ms_per_frame{0.0};
+  /** \brief Occupied volume in samples of one cell size (mapping error). */
+  std::size_t samples{0};
+  /** \brief Samples farther than the tolerance from the truth. */
+  std::size_t erroneous{0};
+  /** \brief Mapping error e = erroneous / SG cells (paper, Fig. 13). */
+  double error{0.0};
+  /** \brief PG only: the samples and erroneous samples of its planar cuboids (the
+   * rest are the non-planar boxes of Fig. 7). */
+  std::size_t planar_samples{0};
+  std::size_t planar_erroneous{0};
+  /** \brief The dataset's tilt tag, degrees (negative: none). */
+  double tilt_deg{-1.0};
+  /** \brief "truth" or "reference" (agreement with a reference, not truth). */
+  std::string truth_kind;
+};
+
+/** \brief Runs every dataset of \a config: the frames go once through the pipeline's
+ * resolution-independent front end (stages before voxel_grid: stereo, features,
+ * occupancy filter), then for each cell size r through the rest with every size
+ * parameter set to r (voxel_grid leaf, cuboid minimum cell and thickness, map
+ * resolution; min_inliers scaled by (0.1 / r)^2), and the cloud PG's approximation
+ * receives (world frame, after ground removal) is inserted into SG and OG at r; RA is
+ * merged from SG at the end.
+ * \param[in] progress called with a line of text per dataset and cell size
+ * \return one row per dataset, cell size and method
+ * \throws planar_grid::Exception on failure */
+std::vector<ComparisonRow>
+runComparison(const ComparisonConfig& config,
+              const std::function<void(const std::string&)>& progress);
+
+/** \brief Writes the rows as CSV (header line, one row per line), atomically.
+ * \throws planar_grid::IOError */
+void saveComparisonCsv(const std::vector<ComparisonRow>& rows, const std::string& path);
+
+/** \brief The rows as a Markdown table (for docs/BENCHMARKS.md). */
+std::string comparisonMarkdown(const std::vector<ComparisonRow>& rows);
+
+} // namespace planar_grid
