@@ -308,7 +308,7 @@ loadComparisonConfig(const std::string& path)
       r.fail(node, "dataset " + ds.name
                      + " needs a truth (type: points, disparity or "
                        "reference)");
-    r.checkKeys(truth, {"type", "file", "leaf_size_m"},
+    r.checkKeys(truth, {"type", "file", "leaf_size_m", "min_views"},
                 "dataset " + ds.name + ".truth");
     const std::string type = r.string(truth, "type", "truth");
     if (type == "points")
@@ -326,6 +326,11 @@ loadComparisonConfig(const std::string& path)
     if (truth["leaf_size_m"])
       ds.truth.leaf_size_m =
         r.real(truth["leaf_size_m"], 0.005, 1.0, "truth.leaf_size_m");
+    if (truth["min_views"])
+      ds.truth.min_views = r.count(truth["min_views"], 1, "truth.min_views");
+    if ((truth["leaf_size_m"] || truth["min_views"])
+        && ds.truth.type != TruthConfig::Type::REFERENCE)
+      r.fail(truth, "truth.leaf_size_m and truth.min_views are for type reference");
     if (node["tilt_deg"])
       ds.tilt_deg = r.real(node["tilt_deg"], 0.0, 90.0, "tilt_deg");
     // The front end comes first: the split into shared and per-size stages needs it.
