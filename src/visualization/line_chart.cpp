@@ -1,5 +1,4 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include <planar_grid/core/atomic_file.h>
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/visualization/line_chart.h>
 #include <planar_grid/visualization/scene_renderer.h>
@@ -11,18 +10,18 @@
 #include <vtkContextView.h>
 #include <vtkDoubleArray.h>
 #include <vtkNew.h>
-#include <vtkPNGWriter.h>
 #include <vtkPlotLine.h>
 #include <vtkRenderWindow.h>
 #include <vtkRenderer.h>
 #include <vtkTable.h>
 #include <vtkTextProperty.h>
-#include <vtkWindowToImageFilter.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
+
+#include "render_window_png.h"
 
 namespace planar_grid {
 
@@ -181,19 +180,7 @@ saveLineChart(const LineChart& chart,
   window->SetSize(width_px, height_px);
   view->GetScene()->AddItem(xy);
   try {
-    window->Render();
-    vtkNew<vtkWindowToImageFilter> grab;
-    grab->SetInput(window);
-    grab->SetInputBufferTypeToRGB();
-    grab->ReadFrontBufferOff(); // the back buffer holds the frame just rendered
-    grab->Update();
-    writeFileAtomically(png_path, [&grab](const std::string& tmp_path) {
-      vtkNew<vtkPNGWriter> writer;
-      writer->SetFileName(tmp_path.c_str());
-      writer->SetInputConnection(grab->GetOutputPort());
-      writer->Write();
-      return writer->GetErrorCode() == 0;
-    });
+    detail::saveRenderWindowPng(window, png_path);
   } catch (...) {
     window->Finalize();
     throw;

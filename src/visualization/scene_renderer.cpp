@@ -1,5 +1,4 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include <planar_grid/core/atomic_file.h>
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/visualization/scene_renderer.h>
 
@@ -15,7 +14,6 @@
 #include <vtkInteractorStyleTrackballCamera.h>
 #include <vtkMath.h>
 #include <vtkNew.h>
-#include <vtkPNGWriter.h>
 #include <vtkPointData.h>
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
@@ -28,7 +26,6 @@
 #include <vtkTextActor.h>
 #include <vtkTextProperty.h>
 #include <vtkUnsignedCharArray.h>
-#include <vtkWindowToImageFilter.h>
 
 #include <algorithm>
 #include <array>
@@ -38,6 +35,8 @@
 #include <limits>
 #include <unordered_set>
 #include <utility>
+
+#include "render_window_png.h"
 
 namespace planar_grid {
 
@@ -651,19 +650,7 @@ SceneRenderer::saveSnapshot(const std::string& path, int width_px, int height_px
   vtkSmartPointer<vtkRenderWindow> window =
     impl_->makeWindow(width_px, height_px, true);
   try {
-    window->Render();
-    vtkNew<vtkWindowToImageFilter> grab;
-    grab->SetInput(window);
-    grab->SetInputBufferTypeToRGB();
-    grab->ReadFrontBufferOff(); // the back buffer holds the frame just rendered
-    grab->Update();
-    writeFileAtomically(path, [&grab](const std::string& tmp_path) {
-      vtkNew<vtkPNGWriter> writer;
-      writer->SetFileName(tmp_path.c_str());
-      writer->SetInputConnection(grab->GetOutputPort());
-      writer->Write();
-      return writer->GetErrorCode() == 0;
-    });
+    detail::saveRenderWindowPng(window, path);
   } catch (...) {
     impl_->releaseWindow(window);
     throw;
