@@ -1,11 +1,11 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/atomic_file.h>
+#include <planar_grid/core/byte_io.h>
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/planar_grid_map.h>
 
 #include <pcl/console/print.h>
 
-#include <boost/crc.hpp>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -28,14 +28,6 @@ constexpr std::size_t MAX_HEADER_BYTES = 64 * 1024;
 /** OctoMap's default clamping bounds, the probabilities of a known voxel. */
 constexpr float PROB_OCCUPIED_VOXEL = 0.971f;
 constexpr float PROB_FREE_VOXEL = 0.1192f;
-
-std::uint32_t
-crc32(const std::uint8_t* data, std::size_t size)
-{
-  boost::crc_32_type crc;
-  crc.process_bytes(data, size);
-  return crc.checksum();
-}
 
 PlanarGridMap::Params
 validated(const PlanarGridMap::Params& params)

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/atomic_file.h>
+#include <planar_grid/core/byte_io.h>
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/surface_layer.h>
 
@@ -107,59 +108,6 @@ rayBoxEntry(const PlanarCuboid& box,
   }
   return t0;
 }
-
-/** \brief Little-endian writer. */
-class Writer {
-public:
-  explicit Writer(std::vector<std::uint8_t>& bytes) : bytes_(bytes) {}
-  template <typename T> void put(T value)
-  {
-    static_assert(std::is_arithmetic<T>::value, "arithmetic only");
-    std::uint8_t raw[sizeof(T)];
-    std::memcpy(raw, &value, sizeof(T));
-    // the supported platforms are little-endian (checked below at compile time)
-    bytes_.insert(bytes_.end(), raw, raw + sizeof(T));
-  }
-
-private:
-  std::vector<std::uint8_t>& bytes_;
-};
-
-/** \brief Bounds-checked little-endian reader; throws IOError past the end. */
-class Reader {
-public:
-  Reader(const std::uint8_t* data, std::size_t size) : data_(data), size_(size) {}
-  template <typename T> T get()
-  {
-    if (remaining() < sizeof(T))
-      throw IOError("surface layer: truncated data at byte " + std::to_string(pos_));
-    T value;
-    std::memcpy(&value, data_ + pos_, sizeof(T));
-    pos_ += sizeof(T);
-    return value;
-  }
-  std::size_t remaining() const { return size_ - pos_; }
-  std::size_t position() const { return pos_; }
-  /** \brief Reads a count and checks that count * bytes_each bytes remain. */
-  std::size_t getCount(std::size_t bytes_each, const char* what)
-  {
-    const auto count = get<std::uint64_t>();
-    if (count > remaining() / bytes_each)
-      throw IOError(std::string("surface layer: ") + what + " count "
-                    + std::to_string(count) + " exceeds the remaining "
-                    + std::to_string(remaining()) + " bytes");
-    return static_cast<std::size_t>(count);
-  }
-
-private:
-  const std::uint8_t* data_;
-  std::size_t size_;
-  std::size_t pos_{0};
-};
-
-#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
-#error "SurfaceLayer serialization assumes a little-endian host"
-#endif
 
 bool
 finiteVector(const Eigen::Vector3f& v)
@@ -1125,7 +1073,7 @@ void
 SurfaceLayer::serialize(std::vector<std::uint8_t>& bytes) const
 {
   const Impl& impl = *impl_;
-  Writer w(bytes);
+  ByteWriter w(bytes);
   w.put(MAGIC);
   w.put(VERSION);
   w.put(params_.resolution_m);
@@ -1198,7 +1146,7 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
 {
   if (data == nullptr && size > 0)
     throw IOError("surface layer: null data");
-  Reader rd(data, size);
+  ByteReader rd(data, size, "surface layer");
   if (rd.get<std::uint32_t>() != MAGIC)
     throw IOError("surface layer: bad magic (not a surface layer section)");
   const auto version = rd.get<std::uint32_t>();

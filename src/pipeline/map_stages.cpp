@@ -20,26 +20,6 @@ namespace stages {
 namespace {
 
 void
-putPose(ByteWriter& w, const Eigen::Isometry3d& pose)
-{
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c)
-      w.put(pose.matrix()(r, c));
-}
-
-Eigen::Isometry3d
-getPose(ByteReader& r)
-{
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  for (int row = 0; row < 3; ++row)
-    for (int c = 0; c < 4; ++c)
-      pose.matrix()(row, c) = r.get<double>();
-  if (!pose.matrix().allFinite())
-    r.fail("non-finite pose");
-  return pose;
-}
-
-void
 putKeypoints(ByteWriter& w, const std::vector<cv::KeyPoint>& keypoints)
 {
   w.put(static_cast<std::uint64_t>(keypoints.size()));

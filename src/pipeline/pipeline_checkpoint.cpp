@@ -11,7 +11,6 @@
 #include <signal.h>
 #include <unistd.h>
 
-#include <boost/crc.hpp>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -29,34 +28,6 @@ constexpr std::uint32_t CHECKPOINT_MAGIC = 0x4B434750u;
 constexpr std::uint32_t CHECKPOINT_VERSION = 1;
 /** Coordinates beyond this are corrupt data, meters. */
 constexpr float MAX_COORDINATE_M = 1e7f;
-
-std::uint32_t
-crc32(const std::uint8_t* data, std::size_t size)
-{
-  boost::crc_32_type crc;
-  crc.process_bytes(data, size);
-  return crc.checksum();
-}
-
-void
-putPose(ByteWriter& w, const Eigen::Isometry3d& pose)
-{
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c)
-      w.put(pose.matrix()(r, c));
-}
-
-Eigen::Isometry3d
-getPose(ByteReader& r)
-{
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  for (int row = 0; row < 3; ++row)
-    for (int c = 0; c < 4; ++c)
-      pose.matrix()(row, c) = r.get<double>();
-  if (!pose.matrix().allFinite())
-    r.fail("non-finite pose");
-  return pose;
-}
 
 Eigen::Vector3f
 getPoint(ByteReader& r)

@@ -3,6 +3,9 @@
 
 #include <planar_grid/core/exceptions.h>
 
+#include <Eigen/Geometry>
+
+#include <boost/crc.hpp>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -144,5 +147,39 @@ private:
   std::size_t pos_{0};
   std::string what_;
 };
+
+/** \brief CRC-32 (IEEE 802.3, boost::crc_32_type) of \a size bytes: the checksum of the
+ * map file and of pipeline checkpoints. \ingroup core */
+inline std::uint32_t
+crc32(const void* data, std::size_t size)
+{
+  boost::crc_32_type crc;
+  crc.process_bytes(data, size);
+  return crc.checksum();
+}
+
+/** \brief Appends the 3x4 upper part of a rigid transform, row by row, as f64
+ * (meters). \ingroup core */
+inline void
+putPose(ByteWriter& w, const Eigen::Isometry3d& pose)
+{
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c)
+      w.put(pose.matrix()(r, c));
+}
+
+/** \brief Reads what putPose() wrote. \throws planar_grid::IOError when truncated or
+ * not finite */
+inline Eigen::Isometry3d
+getPose(ByteReader& r)
+{
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  for (int row = 0; row < 3; ++row)
+    for (int c = 0; c < 4; ++c)
+      pose.matrix()(row, c) = r.get<double>();
+  if (!pose.matrix().allFinite())
+    r.fail("non-finite pose");
+  return pose;
+}
 
 } // namespace planar_grid
