@@ -104,4 +104,45 @@ meanRelativeTranslationError(const std::vector<RelativeTranslationError>& errors
   return count > 0 ? sum / static_cast<double>(count) : 0.0;
 }
 
+Trajectory
+withReferenceStepLengths(const Trajectory& estimated, const Trajectory& reference)
+{
+  checkSizes(estimated, reference);
+  Trajectory result{estimated.front()};
+  for (std::size_t k = 1; k < estimated.size(); ++k) {
+    const Eigen::Vector3d step =
+      estimated[k].translation() - estimated[k - 1].translation();
+    const double length =
+      (reference[k].translation() - reference[k - 1].translation()).norm();
+    Eigen::Isometry3d pose = estimated[k];
+    pose.translation() = result.back().translation();
+    if (step.norm() > 0.0)
+      pose.translation() += step.normalized() * length;
+    result.push_back(pose);
+  }
+  return result;
+}
+
+Trajectory
+offsetAlongTrack(const Trajectory& trajectory, double forward_m, double left_m)
+{
+  if (trajectory.size() < 2)
+    throw Exception("offsetAlongTrack: need at least 2 poses, got "
+                    + std::to_string(trajectory.size()));
+  Trajectory result = trajectory;
+  for (std::size_t k = 0; k < trajectory.size(); ++k) {
+    const std::size_t before = k == 0 ? 0 : k - 1;
+    const std::size_t after = k + 1 < trajectory.size() ? k + 1 : k;
+    Eigen::Vector3d forward =
+      trajectory[after].translation() - trajectory[before].translation();
+    forward.z() = 0.0;
+    if (!(forward.norm() > 0.0))
+      continue; // standing still: the direction of travel is not defined
+    forward.normalize();
+    const Eigen::Vector3d left(-forward.y(), forward.x(), 0.0);
+    result[k].translation() += forward_m * forward + left_m * left;
+  }
+  return result;
+}
+
 } // namespace planar_grid

@@ -421,6 +421,43 @@ TEST_F(TrajectoryMetricsLine, AlignmentUndoesARigidMotion)
   EXPECT_NEAR(errors[0].mean_error_percent, 0.0, 1e-9);
 }
 
+TEST_F(TrajectoryMetricsLine, ReferenceStepLengthsRemoveTheScaleError)
+{
+  // The estimate runs 1 % long along the same line: with the reference's step lengths
+  // it coincides with the reference, so RTE and ATE are 0.
+  const Trajectory rechained =
+    planar_grid::withReferenceStepLengths(estimated_, ground_truth_);
+  ASSERT_EQ(rechained.size(), ground_truth_.size());
+  for (std::size_t k = 0; k < rechained.size(); ++k)
+    EXPECT_NEAR((rechained[k].translation() - ground_truth_[k].translation()).norm(),
+                0.0, 1e-9);
+  EXPECT_NEAR(planar_grid::absoluteTrajectoryError(rechained, ground_truth_), 0.0,
+              1e-9);
+}
+
+TEST(TrajectoryMetrics, OffsetAlongTrackFollowsTheTurn)
+{
+  // A quarter circle of radius 10 m turning left (counter-clockwise) in the x-y plane:
+  // 2 m forward and 1 m left of the track puts each position at radius
+  // sqrt((10 - 1)^2 + 2^2) from the centre; 0.5 deg steps, the central difference is
+  // tangent to the circle.
+  Trajectory circle;
+  for (int k = 0; k <= 180; ++k) {
+    const double angle = 0.5 * k * DEG;
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation() =
+      Eigen::Vector3d(10.0 * std::sin(angle), 10.0 - 10.0 * std::cos(angle), 1.5);
+    circle.push_back(pose);
+  }
+  const Trajectory moved = planar_grid::offsetAlongTrack(circle, 2.0, 1.0);
+  const Eigen::Vector3d centre(0.0, 10.0, 1.5);
+  for (std::size_t k = 1; k + 1 < moved.size(); ++k)
+    EXPECT_NEAR((moved[k].translation() - centre).norm(), std::sqrt(81.0 + 4.0), 1e-3)
+      << "frame " << k;
+  EXPECT_THROW(planar_grid::offsetAlongTrack(Trajectory(1), 1.0, 0.0),
+               planar_grid::Exception);
+}
+
 TEST(TrajectoryMetrics, RejectsMismatchedInput)
 {
   Trajectory three(3, Eigen::Isometry3d::Identity());

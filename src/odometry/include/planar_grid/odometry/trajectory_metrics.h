@@ -67,4 +67,31 @@ relativeTranslationError(const Trajectory& estimated,
 double
 meanRelativeTranslationError(const std::vector<RelativeTranslationError>& errors);
 
+/** \brief Diagnostic trajectory that separates direction from length errors: the
+ * positions of \a estimated re-chained with each step's direction from \a estimated
+ * and its length from \a reference (|p_ref(k) - p_ref(k-1)|); orientations are those
+ * of \a estimated. A zero-length estimated step stays zero. RTE and ATE of the result
+ * against the reference measure the direction (heading) errors alone.
+ * \param[in] estimated estimated poses
+ * \param[in] reference reference poses, same frames and count (>= 3)
+ * \return the re-chained poses (first pose = estimated[0])
+ * \throws planar_grid::Exception when the counts differ or are below 3
+ * \ingroup odometry */
+Trajectory withReferenceStepLengths(const Trajectory& estimated,
+                                    const Trajectory& reference);
+
+/** \brief Moves each position by a lever arm fixed to the direction of travel: \a
+ * forward_m along the horizontal (x, y) direction of the track at that frame (central
+ * difference of the neighbouring positions; one-sided at the ends) and \a left_m to
+ * its left (z up). For evaluating against a position sensor (GPS/INS) mounted away
+ * from the camera when its orientation is not trustworthy. Orientations are kept.
+ * \param[in] trajectory poses with z up (e.g. Karlsruhe insdata.txt), >= 2
+ * \param[in] forward_m offset along the track, metres
+ * \param[in] left_m offset to the left of the track, metres
+ * \return the moved poses
+ * \throws planar_grid::Exception when there are fewer than 2 poses
+ * \ingroup odometry */
+Trajectory
+offsetAlongTrack(const Trajectory& trajectory, double forward_m, double left_m);
+
 } // namespace planar_grid
