@@ -225,14 +225,16 @@ perturbation(const Eigen::Matrix<double, 6, 1>& delta)
 using StereoKeypoints = std::array<const cv::KeyPoint*, 4>;
 
 /** \brief Gauss-Newton on the stereo reprojection error of the given correspondences,
- * with Huber weights (1 px) and numerical derivatives; 10 iterations at most. */
+ * with Huber weights (1 px) and numerical derivatives; 10 iterations at most. With
+ * rotation_fixed only the translation changes. */
 Eigen::Isometry3d
 refineReprojection(Eigen::Isometry3d motion,
                    const StereoCalibration& calibration,
                    const Cloud& source,
                    const Cloud& target,
                    const std::vector<StereoKeypoints>& keypoints,
-                   const pcl::Indices& inliers)
+                   const pcl::Indices& inliers,
+                   bool rotation_fixed = false)
 {
   const double step = 1e-6;
   for (int iteration = 0; iteration < 10; ++iteration) {
@@ -272,7 +274,12 @@ refineReprojection(Eigen::Isometry3d motion,
     }
     if (used < 3)
       break;
-    const Eigen::Matrix<double, 6, 1> delta = -hessian.ldlt().solve(gradient);
+    Eigen::Matrix<double, 6, 1> delta = Eigen::Matrix<double, 6, 1>::Zero();
+    if (rotation_fixed)
+      delta.tail<3>() =
+        -hessian.bottomRightCorner<3, 3>().ldlt().solve(gradient.tail<3>());
+    else
+      delta = -hessian.ldlt().solve(gradient);
     if (!delta.allFinite())
       break;
     motion = perturbation(delta) * motion;
@@ -280,6 +287,136 @@ refineReprojection(Eigen::Isometry3d motion,
       break;
   }
   return motion;
+}
+
+/** \brief The cross-product matrix [v]x (so that [v]x w = v x w). */
+Eigen::Matrix3d
+skew(const Eigen::Vector3d& v)
+{
+  Eigen::Matrix3d result;
+  result << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return result;
+}
+
+/** \brief Viewing ray (x / z, y / z, 1) of a key point in the rectified camera. */
+Eigen::Vector3d
+viewingRay(const cv::KeyPoint& keypoint, const StereoCalibration& calibration)
+{
+  return {(keypoint.pt.x - calibration.cx_px) / calibration.focal_length_px,
+          (keypoint.pt.y - calibration.cy_px) / calibration.focal_length_px, 1.0};
+}
+
+/** \brief Signed Sampson distance, pixels, of one pair of left-image rays from the
+ * epipolar constraint x_prev^T E x_cur = 0 with E = [direction]x rotation, i.e. of the
+ * motion previous_T_current = [rotation | s direction] for any scale s > 0. */
+double
+sampsonDistance(const Eigen::Matrix3d& rotation,
+                const Eigen::Vector3d& direction,
+                const Eigen::Vector3d& previous_ray,
+                const Eigen::Vector3d& current_ray,
+                double focal_length_px)
+{
+  const Eigen::Matrix3d essential = skew(direction) * rotation;
+  const Eigen::Vector3d line_previous = essential * current_ray;
+  const Eigen::Vector3d line_current = essential.transpose() * previous_ray;
+  const double norm =
+    line_previous.head<2>().squaredNorm() + line_current.head<2>().squaredNorm();
+  if (!(norm > 0.0))
+    return 0.0;
+  return focal_length_px * previous_ray.dot(line_previous) / std::sqrt(norm);
+}
+
+/** \brief The rotation and unit translation direction after a 5-vector step: rotation
+ * vector delta[0..2] applied on the left (radians), direction moved by delta[3] and
+ * delta[4] along two unit vectors orthogonal to it. */
+void
+applyEpipolarStep(const Eigen::Matrix<double, 5, 1>& delta,
+                  const Eigen::Matrix3d& rotation,
+                  const Eigen::Vector3d& direction,
+                  Eigen::Matrix3d& new_rotation,
+                  Eigen::Vector3d& new_direction)
+{
+  const Eigen::Vector3d axis =
+    std::abs(direction.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d first = direction.cross(axis).normalized();
+  const Eigen::Vector3d second = direction.cross(first).normalized();
+  Eigen::Matrix<double, 6, 1> rotation_step = Eigen::Matrix<double, 6, 1>::Zero();
+  rotation_step.head<3>() = delta.head<3>();
+  new_rotation = perturbation(rotation_step).linear() * rotation;
+  new_direction = (direction + delta[3] * first + delta[4] * second).normalized();
+}
+
+/** \brief Gauss-Newton on the Sampson distances of the left key points of the given
+ * correspondences over the rotation and the translation direction (5 degrees of
+ * freedom; numerical derivatives; Huber weights of threshold_px; each
+ * correspondence weighted by (median size / size)^2 with size the larger of its two
+ * key point sizes, as the localisation error grows with the detection scale). 10
+ * iterations at most. */
+void
+refineEpipolar(Eigen::Matrix3d& rotation,
+               Eigen::Vector3d& direction,
+               const StereoCalibration& calibration,
+               const std::vector<StereoKeypoints>& keypoints,
+               const pcl::Indices& inliers,
+               double threshold_px)
+{
+  std::vector<Eigen::Vector3d> previous_rays, current_rays;
+  std::vector<double> sizes;
+  for (const auto index : inliers) {
+    const StereoKeypoints& points = keypoints[static_cast<std::size_t>(index)];
+    previous_rays.push_back(viewingRay(*points[0], calibration));
+    current_rays.push_back(viewingRay(*points[2], calibration));
+    sizes.push_back(std::max(points[0]->size, points[2]->size));
+  }
+  std::vector<double> sorted = sizes;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double median_size = sorted[sorted.size() / 2];
+  std::vector<double> weights(sizes.size(), 1.0);
+  if (median_size > 0.0)
+    for (std::size_t i = 0; i < sizes.size(); ++i)
+      if (sizes[i] > 0.0)
+        weights[i] = (median_size / sizes[i]) * (median_size / sizes[i]);
+
+  const double f = calibration.focal_length_px;
+  const double step = 1e-6;
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    Eigen::Matrix<double, 5, 5> hessian = Eigen::Matrix<double, 5, 5>::Zero();
+    Eigen::Matrix<double, 5, 1> gradient = Eigen::Matrix<double, 5, 1>::Zero();
+    for (std::size_t i = 0; i < previous_rays.size(); ++i) {
+      const double residual =
+        sampsonDistance(rotation, direction, previous_rays[i], current_rays[i], f);
+      Eigen::Matrix<double, 1, 5> jacobian;
+      for (int k = 0; k < 5; ++k) {
+        Eigen::Matrix<double, 5, 1> delta = Eigen::Matrix<double, 5, 1>::Zero();
+        Eigen::Matrix3d rotation_plus, rotation_minus;
+        Eigen::Vector3d direction_plus, direction_minus;
+        delta[k] = step;
+        applyEpipolarStep(delta, rotation, direction, rotation_plus, direction_plus);
+        applyEpipolarStep(-delta, rotation, direction, rotation_minus, direction_minus);
+        jacobian[k] = (sampsonDistance(rotation_plus, direction_plus, previous_rays[i],
+                                       current_rays[i], f)
+                       - sampsonDistance(rotation_minus, direction_minus,
+                                         previous_rays[i], current_rays[i], f))
+                      / (2.0 * step);
+      }
+      // Huber weight on the residual scaled to unit key point size.
+      const double magnitude = std::abs(residual) * std::sqrt(weights[i]);
+      const double weight =
+        weights[i] * (magnitude <= threshold_px ? 1.0 : threshold_px / magnitude);
+      hessian += weight * jacobian.transpose() * jacobian;
+      gradient += weight * jacobian.transpose() * residual;
+    }
+    const Eigen::Matrix<double, 5, 1> delta = -hessian.ldlt().solve(gradient);
+    if (!delta.allFinite())
+      break;
+    Eigen::Matrix3d new_rotation;
+    Eigen::Vector3d new_direction;
+    applyEpipolarStep(delta, rotation, direction, new_rotation, new_direction);
+    rotation = new_rotation;
+    direction = new_direction;
+    if (delta.norm() < 1e-10)
+      break;
+  }
 }
 
 OdometryResult
@@ -313,6 +450,14 @@ StereoOdometry::StereoOdometry(const Params& params) : params_(params)
   else if (!(params.reprojection_threshold_px > 0.0))
     error << "reprojection_threshold_px must be > 0, got "
           << params.reprojection_threshold_px;
+  else if (!(params.epipolar_threshold_px > 0.0))
+    error << "epipolar_threshold_px must be > 0, got " << params.epipolar_threshold_px;
+  else if (!(params.epipolar_max_rotation_change_rad > 0.0))
+    error << "epipolar_max_rotation_change_rad must be > 0, got "
+          << params.epipolar_max_rotation_change_rad;
+  else if (!(params.epipolar_min_translation_m >= 0.0))
+    error << "epipolar_min_translation_m must be >= 0, got "
+          << params.epipolar_min_translation_m;
   else if (params.max_iterations < 1)
     error << "max_iterations must be >= 1, got " << params.max_iterations;
   else if (!(params.probability > 0.0 && params.probability < 1.0))
@@ -463,15 +608,15 @@ StereoOdometry::estimate(const StereoFeatures& previous,
     inliers.swap(refined);
   }
 
+  bool epipolar_refined = false;
   if (has_calibration_ && inliers.size() >= 3) {
     if (keypoints.size() != correspondences) {
       PCL_WARN("[planar_grid::StereoOdometry::estimate] Key points missing; the "
                "reprojection refinement is skipped.\n");
     } else {
-      Eigen::Isometry3d motion(transform);
-      for (int round = 0; round < 2; ++round) {
-        motion = refineReprojection(motion, calibration_, *source, *target, keypoints,
-                                    inliers);
+      // The correspondences whose largest stereo reprojection error under a motion is
+      // below reprojection_threshold_px.
+      const auto select_inliers = [&](const Eigen::Isometry3d& motion) {
         pcl::Indices selected;
         for (std::size_t i = 0; i < correspondences; ++i) {
           const cv::KeyPoint* points[4] = {keypoints[i][0], keypoints[i][1],
@@ -483,9 +628,44 @@ StereoOdometry::estimate(const StereoFeatures& previous,
               && residuals.cwiseAbs().maxCoeff() < params_.reprojection_threshold_px)
             selected.push_back(static_cast<pcl::index_t>(i));
         }
+        return selected;
+      };
+      Eigen::Isometry3d motion(transform);
+      for (int round = 0; round < 2; ++round) {
+        motion = refineReprojection(motion, calibration_, *source, *target, keypoints,
+                                    inliers);
+        pcl::Indices selected = select_inliers(motion);
         if (selected.size() < 3)
           break;
         inliers.swap(selected);
+      }
+
+      // Rotation from the epipolar geometry of the left images, translation from the
+      // stereo reprojection with that rotation.
+      if (params_.epipolar_refinement && inliers.size() >= 5
+          && motion.translation().norm() >= params_.epipolar_min_translation_m) {
+        Eigen::Matrix3d rotation = motion.linear();
+        Eigen::Vector3d direction = motion.translation().normalized();
+        refineEpipolar(rotation, direction, calibration_, keypoints, inliers,
+                       params_.epipolar_threshold_px);
+        const double rotation_change =
+          Eigen::AngleAxisd(rotation * motion.linear().transpose()).angle();
+        const double direction_cosine =
+          direction.dot(motion.translation().normalized());
+        if (rotation.allFinite() && direction.allFinite()
+            && rotation_change <= params_.epipolar_max_rotation_change_rad
+            && direction_cosine >= std::cos(15.0 * M_PI / 180.0)) {
+          Eigen::Isometry3d epipolar = motion;
+          epipolar.linear() = rotation;
+          epipolar = refineReprojection(epipolar, calibration_, *source, *target,
+                                        keypoints, inliers, true);
+          pcl::Indices selected = select_inliers(epipolar);
+          if (selected.size() >= 3) {
+            motion = epipolar;
+            inliers.swap(selected);
+            epipolar_refined = true;
+          }
+        }
       }
       transform = motion.matrix();
     }
@@ -510,6 +690,7 @@ StereoOdometry::estimate(const StereoFeatures& previous,
     Eigen::Quaterniond(transform.topLeftCorner<3, 3>()).normalized().toRotationMatrix();
   result.correspondences = correspondences;
   result.inliers = inliers.size();
+  result.epipolar_refined = epipolar_refined;
   result.valid = true;
   return result;
 }

@@ -30,6 +30,10 @@ struct OdometryResult {
   std::size_t inliers{0};
   /** \brief Descriptor matches that passed the ratio and mutual checks. */
   std::size_t correspondences{0};
+  /** \brief True when the rotation comes from the epipolar refinement (see
+   * StereoOdometry::Params::epipolar_refinement); false when it was off, skipped
+   * (translation too short) or rejected by its guards. */
+  bool epipolar_refined{false};
   /** \brief False when the motion could not be estimated (see reason). */
   bool valid{false};
   /** \brief Why the estimate is invalid; empty when valid. */
@@ -79,6 +83,29 @@ public:
     /** Largest stereo reprojection error of an inlier in the refinement that runs
      * when a calibration is set (setCalibration()), pixels; > 0. */
     double reprojection_threshold_px{2.0};
+    /** Re-estimate the rotation from the epipolar geometry of the two left images
+     * after the stereo refinement (needs a calibration, setCalibration()): the
+     * rotation and the translation direction minimise the Sampson distance of the
+     * inliers' left key points (Gauss-Newton, Huber weights of
+     * epipolar_threshold_px, each key point weighted by (median size / size)^2),
+     * then the translation is re-fitted to the stereo reprojection error with that
+     * rotation held fixed. The epipolar constraint does not involve the disparity,
+     * so a disparity error (calibration, rectification, sub-pixel bias) cannot leak
+     * into the rotation the way it does through the triangulated points. Skipped when
+     * the stereo translation is shorter than epipolar_min_translation_m (the
+     * epipolar geometry degenerates); the stereo motion is kept when the refined
+     * rotation differs from it by more than epipolar_max_rotation_change_rad or the
+     * translation direction by more than 15 degrees. */
+    bool epipolar_refinement{true};
+    /** Huber threshold of the Sampson distance in the epipolar refinement, pixels;
+     * > 0. */
+    double epipolar_threshold_px{0.5};
+    /** Largest rotation change the epipolar refinement may make to the stereo
+     * rotation, radians; > 0. */
+    double epipolar_max_rotation_change_rad{0.02};
+    /** Shortest stereo translation for which the epipolar refinement runs, metres;
+     * >= 0. */
+    double epipolar_min_translation_m{0.05};
     /** Most RANSAC iterations; >= 1. */
     int max_iterations{2000};
     /** RANSAC probability of drawing one outlier-free sample; (0, 1). */
@@ -100,8 +127,10 @@ public:
    * (Gauss-Newton, Huber weights of 1 px): each previous point is projected into the
    * current left and right images and each current point into the previous ones,
    * against the matched key points. The inliers are then the correspondences whose
-   * largest reprojection error is below reprojection_threshold_px. Without a
-   * calibration only the 3D refinement runs.
+   * largest reprojection error is below reprojection_threshold_px. When
+   * Params::epipolar_refinement is set, the rotation is then re-estimated from the
+   * epipolar geometry of the left images. Without a calibration only the 3D
+   * refinement runs.
    * \param[in] calibration the calibration the features were triangulated with
    * \throws planar_grid::Exception when it is not valid */
   void setCalibration(const StereoCalibration& calibration);
