@@ -237,7 +237,18 @@ refineReprojection(Eigen::Isometry3d motion,
                    bool rotation_fixed = false)
 {
   const double step = 1e-6;
+  // With the rotation fixed only the translation columns of the Jacobian are needed.
+  const int first_column = rotation_fixed ? 3 : 0;
   for (int iteration = 0; iteration < 10; ++iteration) {
+    // The motions one numerical step away in each direction, shared by every
+    // correspondence of this iteration.
+    std::array<Eigen::Isometry3d, 12> perturbed;
+    for (int k = first_column; k < 6; ++k) {
+      Eigen::Matrix<double, 6, 1> delta = Eigen::Matrix<double, 6, 1>::Zero();
+      delta[k] = step;
+      perturbed[static_cast<std::size_t>(2 * k)] = perturbation(delta) * motion;
+      perturbed[static_cast<std::size_t>(2 * k + 1)] = perturbation(-delta) * motion;
+    }
     Eigen::Matrix<double, 6, 6> hessian = Eigen::Matrix<double, 6, 6>::Zero();
     Eigen::Matrix<double, 6, 1> gradient = Eigen::Matrix<double, 6, 1>::Zero();
     std::size_t used = 0;
@@ -251,15 +262,15 @@ refineReprojection(Eigen::Isometry3d motion,
       if (!reprojectionResiduals(motion, calibration, previous_point, current_point,
                                  points, residuals))
         continue;
-      Eigen::Matrix<double, 8, 6> jacobian;
+      Eigen::Matrix<double, 8, 6> jacobian = Eigen::Matrix<double, 8, 6>::Zero();
       bool ok = true;
-      for (int k = 0; k < 6 && ok; ++k) {
-        Eigen::Matrix<double, 6, 1> delta = Eigen::Matrix<double, 6, 1>::Zero();
-        delta[k] = step;
-        ok = reprojectionResiduals(perturbation(delta) * motion, calibration,
-                                   previous_point, current_point, points, plus)
-             && reprojectionResiduals(perturbation(-delta) * motion, calibration,
-                                      previous_point, current_point, points, minus);
+      for (int k = first_column; k < 6 && ok; ++k) {
+        ok =
+          reprojectionResiduals(perturbed[static_cast<std::size_t>(2 * k)], calibration,
+                                previous_point, current_point, points, plus)
+          && reprojectionResiduals(perturbed[static_cast<std::size_t>(2 * k + 1)],
+                                   calibration, previous_point, current_point, points,
+                                   minus);
         jacobian.col(k) = (plus - minus) / (2.0 * step);
       }
       if (!ok)
@@ -380,6 +391,18 @@ refineEpipolar(Eigen::Matrix3d& rotation,
   const double f = calibration.focal_length_px;
   const double step = 1e-6;
   for (int iteration = 0; iteration < 10; ++iteration) {
+    // The rotations and directions one numerical step away in each of the 5
+    // directions, shared by every correspondence of this iteration.
+    std::array<Eigen::Matrix3d, 10> rotations;
+    std::array<Eigen::Vector3d, 10> directions;
+    for (int k = 0; k < 5; ++k) {
+      Eigen::Matrix<double, 5, 1> delta = Eigen::Matrix<double, 5, 1>::Zero();
+      delta[k] = step;
+      const auto plus = static_cast<std::size_t>(2 * k);
+      applyEpipolarStep(delta, rotation, direction, rotations[plus], directions[plus]);
+      applyEpipolarStep(-delta, rotation, direction, rotations[plus + 1],
+                        directions[plus + 1]);
+    }
     Eigen::Matrix<double, 5, 5> hessian = Eigen::Matrix<double, 5, 5>::Zero();
     Eigen::Matrix<double, 5, 1> gradient = Eigen::Matrix<double, 5, 1>::Zero();
     for (std::size_t i = 0; i < previous_rays.size(); ++i) {
@@ -387,15 +410,10 @@ refineEpipolar(Eigen::Matrix3d& rotation,
         sampsonDistance(rotation, direction, previous_rays[i], current_rays[i], f);
       Eigen::Matrix<double, 1, 5> jacobian;
       for (int k = 0; k < 5; ++k) {
-        Eigen::Matrix<double, 5, 1> delta = Eigen::Matrix<double, 5, 1>::Zero();
-        Eigen::Matrix3d rotation_plus, rotation_minus;
-        Eigen::Vector3d direction_plus, direction_minus;
-        delta[k] = step;
-        applyEpipolarStep(delta, rotation, direction, rotation_plus, direction_plus);
-        applyEpipolarStep(-delta, rotation, direction, rotation_minus, direction_minus);
-        jacobian[k] = (sampsonDistance(rotation_plus, direction_plus, previous_rays[i],
-                                       current_rays[i], f)
-                       - sampsonDistance(rotation_minus, direction_minus,
+        const auto plus = static_cast<std::size_t>(2 * k);
+        jacobian[k] = (sampsonDistance(rotations[plus], directions[plus],
+                                       previous_rays[i], current_rays[i], f)
+                       - sampsonDistance(rotations[plus + 1], directions[plus + 1],
                                          previous_rays[i], current_rays[i], f))
                       / (2.0 * step);
       }
