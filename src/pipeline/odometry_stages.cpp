@@ -79,7 +79,8 @@ visualOdometryInfo()
   info.description =
     "Frame-to-frame camera motion (paper eq. 8) from the matched 3D key features: "
     "descriptor matching (ratio + mutual check), RANSAC with PCL's registration model, "
-    "SVD and stereo reprojection refinement; frames with too few inliers take the "
+    "SVD and stereo reprojection refinement, rotation from the left images' epipolar "
+    "geometry; frames with too few inliers take the "
     "constant-velocity prediction (eq. 9) and are counted as flagged. Sets the poses "
     "when input.poses.format is odometry; the world frame has z up with its origin "
     "initial_height_m below the first camera.";
@@ -97,6 +98,12 @@ visualOdometryInfo()
                        "Fewest inliers for a valid motion; else the frame is flagged."),
     ParamSpec::flag("reprojection_refinement", true,
                     "Refine the motion on the stereo reprojection error."),
+    ParamSpec::flag("epipolar_refinement", d.epipolar_refinement,
+                    "Then take the rotation from the epipolar geometry of the left "
+                    "images (free of disparity errors) and refit the translation; "
+                    "needs reprojection_refinement."),
+    ParamSpec::real("epipolar_threshold_px", d.epipolar_threshold_px, 0.01, 100.0, "px",
+                    "Huber threshold of the Sampson distance."),
     ParamSpec::integer("seed", static_cast<int>(d.seed), 0, 2147483647, "",
                        "RANSAC seed (reproducible runs)."),
     ParamSpec::real("initial_height_m", 0.0, 0.0, 10.0, "m",
@@ -111,6 +118,8 @@ visualOdometryInfo()
     p.reprojection_threshold_px = v.getDouble("reprojection_threshold_px");
     p.max_iterations = v.getInt("max_iterations");
     p.min_inliers = v.getInt("min_inliers");
+    p.epipolar_refinement = v.getBool("epipolar_refinement");
+    p.epipolar_threshold_px = v.getDouble("epipolar_threshold_px");
     p.seed = static_cast<unsigned>(v.getInt("seed"));
     return std::make_unique<VisualOdometryStage>(
       p, v.getBool("reprojection_refinement"), v.getDouble("initial_height_m"),
