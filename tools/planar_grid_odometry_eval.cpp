@@ -26,6 +26,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -48,7 +49,14 @@ printHelp(const char* program)
     "  --reference_depth_m X  depth beyond which the threshold grows with z^2 and\n"
     "                     the refinement is weighted, metres; 0 = off (default 0)\n"
     "  --no_reprojection  skip the stereo reprojection refinement (3D RANSAC + SVD "
-    "only)\n"
+    "only;\n"
+    "                     the epipolar refinement needs it and is skipped too)\n"
+    "  --no_epipolar      skip the epipolar rotation refinement (default: on)\n"
+    "  --ins_lever_arm_m F,L  karlsruhe: also evaluate against the INS positions "
+    "moved\n"
+    "                     F m forward and L m left along the track (the INS is not at\n"
+    "                     the camera); the headline figures stay against insdata.txt\n"
+    "                     (default: none)\n"
     "  --output FILE      write the figures as JSON (default: none)\n"
     "  -h                 this help\n",
     program);
@@ -102,11 +110,47 @@ timingJson(const std::vector<double>& values)
     {"max_ms", values.empty() ? 0.0 : *std::max_element(values.begin(), values.end())}};
 }
 
+/** \brief Heading change (degrees, about the vertical) between the first and the last
+ * \a window steps of a track: for the estimate, the camera's horizontal direction of
+ * travel (x, z of the first camera frame); for the INS, its (x, y) steps. */
+double
+headingChangeDeg(const planar_grid::Trajectory& trajectory,
+                 bool camera_frame,
+                 int window)
+{
+  const auto direction = [&](std::size_t from, std::size_t to) {
+    const Eigen::Vector3d step =
+      trajectory[to].translation() - trajectory[from].translation();
+    return camera_frame ? std::atan2(step.x(), step.z())
+                        : -std::atan2(step.y(), step.x());
+  };
+  const std::size_t n = trajectory.size();
+  const auto w = static_cast<std::size_t>(window);
+  double change = direction(n - 1 - w, n - 1) - direction(0, w);
+  while (change > M_PI)
+    change -= 2.0 * M_PI;
+  while (change < -M_PI)
+    change += 2.0 * M_PI;
+  return change * 180.0 / M_PI;
+}
+
+/** \brief RTE (all segments, percent) and ATE (metres) of a trajectory. */
+std::pair<double, double>
+rteAndAte(const planar_grid::Trajectory& estimated,
+          const planar_grid::Trajectory& reference)
+{
+  const auto rte = planar_grid::relativeTranslationError(
+    estimated, reference, {10.0, 20.0, 30.0, 40.0, 50.0});
+  return {planar_grid::meanRelativeTranslationError(rte),
+          planar_grid::absoluteTrajectoryError(estimated, reference)};
+}
+
 nlohmann::json
 runKarlsruhe(const std::string& data_dir,
              const StereoFeatureMatcher& matcher,
              const StereoOdometry::Params& odometry_params,
-             bool reprojection)
+             bool reprojection,
+             const std::vector<double>& lever_arm_m)
 {
   const std::string dir = data_dir + "/karlsruhe_2010_03_09_drive_0023";
   const planar_grid::StereoCameraModel model = planar_grid::loadStereoCalibration(
@@ -164,6 +208,32 @@ runKarlsruhe(const std::string& data_dir,
   json["path_length_estimated_m"] = path_est;
   json["ate_rmse_m"] = ate;
   json["rte_percent"] = planar_grid::meanRelativeTranslationError(rte);
+  // Diagnostics: the heading change over the sequence (the INS's from its track, over
+  // the first and last 5 steps; straight at both ends), and the errors left when the
+  // estimated step directions are re-chained with the INS step lengths (direction
+  // errors only).
+  json["heading_change_estimated_deg"] = headingChangeDeg(estimated, true, 5);
+  json["heading_change_ins_track_deg"] = headingChangeDeg(ground_truth, false, 5);
+  const auto direction_only = rteAndAte(
+    planar_grid::withReferenceStepLengths(estimated, ground_truth), ground_truth);
+  json["rte_with_ins_step_lengths_percent"] = direction_only.first;
+  json["ate_with_ins_step_lengths_m"] = direction_only.second;
+  std::size_t epipolar = 0;
+  for (const auto& result : odometry.getResults())
+    epipolar += result.epipolar_refined ? 1 : 0;
+  json["epipolar_refined_frames"] = epipolar;
+  if (lever_arm_m.size() == 2) {
+    const planar_grid::Trajectory moved =
+      planar_grid::offsetAlongTrack(ground_truth, lever_arm_m[0], lever_arm_m[1]);
+    const auto with_arm = rteAndAte(estimated, moved);
+    const auto with_arm_direction =
+      rteAndAte(planar_grid::withReferenceStepLengths(estimated, moved), moved);
+    json["ins_lever_arm_m"] = lever_arm_m;
+    json["lever_arm_rte_percent"] = with_arm.first;
+    json["lever_arm_ate_m"] = with_arm.second;
+    json["lever_arm_rte_with_ins_step_lengths_percent"] = with_arm_direction.first;
+    json["lever_arm_ate_with_ins_step_lengths_m"] = with_arm_direction.second;
+  }
   for (const auto& error : rte) {
     json["rte_by_length"].push_back({{"segment_length_m", error.segment_length_m},
                                      {"segments", error.segments},
@@ -176,6 +246,7 @@ runKarlsruhe(const std::string& data_dir,
        {"valid", result.valid},
        {"correspondences", result.correspondences},
        {"inliers", result.inliers},
+       {"epipolar_refined", result.epipolar_refined},
        {"step_estimated_m",
         (estimated[i].translation() - estimated[i - 1].translation()).norm()},
        {"step_gt_m",
@@ -205,8 +276,26 @@ runKarlsruhe(const std::string& data_dir,
                            "median %.1f ms, max %.1f ms\n",
                            mean(feature_ms), mean(odometry_ms), median(odometry_ms),
                            json["odometry"]["max_ms"].get<double>());
-  pcl::console::print_info("  flagged frames: %zu\n",
-                           odometry.getFlaggedFrames().size());
+  std::string flagged;
+  for (const std::size_t frame : odometry.getFlaggedFrames())
+    flagged += " " + std::to_string(frame);
+  pcl::console::print_info("  flagged frames: %zu%s; epipolar-refined frames: %zu\n",
+                           odometry.getFlaggedFrames().size(), flagged.c_str(),
+                           epipolar);
+  pcl::console::print_info(
+    "  heading change: estimated %.2f deg, INS track %.2f deg; with the INS step "
+    "lengths (direction errors only): RTE %.3f %%, ATE %.3f m\n",
+    json["heading_change_estimated_deg"].get<double>(),
+    json["heading_change_ins_track_deg"].get<double>(), direction_only.first,
+    direction_only.second);
+  if (lever_arm_m.size() == 2)
+    pcl::console::print_info(
+      "  against the INS moved %.2f m forward, %.2f m left: RTE %.3f %%, ATE %.3f m; "
+      "with its step lengths: RTE %.3f %%, ATE %.3f m\n",
+      lever_arm_m[0], lever_arm_m[1], json["lever_arm_rte_percent"].get<double>(),
+      json["lever_arm_ate_m"].get<double>(),
+      json["lever_arm_rte_with_ins_step_lengths_percent"].get<double>(),
+      json["lever_arm_ate_with_ins_step_lengths_m"].get<double>());
   return json;
 }
 
@@ -356,6 +445,7 @@ runEuroc(const std::string& data_dir,
   json["features"] = {features[0].size(), features[1].size()};
   json["correspondences"] = result.correspondences;
   json["inliers"] = result.inliers;
+  json["epipolar_refined"] = result.epipolar_refined;
   json["valid"] = result.valid;
   json["reason"] = result.reason;
   json["gt_translation_m"] = truth.translation().norm();
@@ -425,21 +515,35 @@ main(int argc, char** argv)
     }
     const bool reprojection =
       !pcl::console::find_switch(argc, argv, "--no_reprojection");
+    odometry_params.epipolar_refinement =
+      !pcl::console::find_switch(argc, argv, "--no_epipolar");
+    std::vector<double> lever_arm_m;
+    if (pcl::console::find_switch(argc, argv, "--ins_lever_arm_m")
+        && (pcl::console::parse_x_arguments(argc, argv, "--ins_lever_arm_m",
+                                            lever_arm_m)
+              < 0
+            || lever_arm_m.size() != 2)) {
+      pcl::console::print_error("--ins_lever_arm_m needs two numbers: F,L\n");
+      return EXIT_FAILURE;
+    }
     StereoFeatureMatcher::Params matcher_params;
     matcher_params.feature_type = planar_grid::featureTypeFromString(features_name);
     const StereoFeatureMatcher matcher(matcher_params);
     pcl::console::print_info(
       "Sequence %s, data %s, features %s, RANSAC threshold %.3f m, reference depth "
-      "%.1f m, ratio %.2f, "
-      "mutual check %s, max_iterations %d, min_inliers %d\n",
+      "%.1f m, ratio %.2f, mutual check %s, max_iterations %d, min_inliers %d, "
+      "reprojection refinement %s, epipolar refinement %s\n",
       sequence.c_str(), data_dir.c_str(), features_name.c_str(),
-      odometry_params.distance_threshold_m, odometry_params.ratio,
-      odometry_params.mutual_check ? "on" : "off", odometry_params.max_iterations,
-      odometry_params.min_inliers);
+      odometry_params.distance_threshold_m, odometry_params.reference_depth_m,
+      odometry_params.ratio, odometry_params.mutual_check ? "on" : "off",
+      odometry_params.max_iterations, odometry_params.min_inliers,
+      reprojection ? "on" : "off",
+      reprojection && odometry_params.epipolar_refinement ? "on" : "off");
 
     nlohmann::json json;
     if (sequence == "karlsruhe")
-      json = runKarlsruhe(data_dir, matcher, odometry_params, reprojection);
+      json =
+        runKarlsruhe(data_dir, matcher, odometry_params, reprojection, lever_arm_m);
     else if (sequence == "euroc")
       json = runEuroc(data_dir, matcher, odometry_params, reprojection);
     else {
@@ -451,6 +555,7 @@ main(int argc, char** argv)
     json["ransac_distance_threshold_m"] = odometry_params.distance_threshold_m;
     json["reference_depth_m"] = odometry_params.reference_depth_m;
     json["reprojection_refinement"] = reprojection;
+    json["epipolar_refinement"] = reprojection && odometry_params.epipolar_refinement;
     if (!output.empty()) {
       planar_grid::writeTextFileAtomically(output, json.dump(2) + "\n");
       pcl::console::print_info("Wrote %s\n", output.c_str());
