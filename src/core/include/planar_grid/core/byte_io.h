@@ -92,7 +92,8 @@ public:
   }
 
   /** \brief Reads a length-prefixed byte block; returns a pointer into the data.
-   * \param[out] size its length */
+   * \param[out] size its length
+   * \param[in] item names the block in error messages */
   const std::uint8_t* getBytes(std::size_t& size, const char* item)
   {
     size = getCount(1, item);

@@ -71,7 +71,7 @@ public:
   /** \brief Appends the state the stage carries from one frame to the next (a
    * checkpoint); stages without such state append nothing.
    * \param[out] bytes appended to */
-  virtual void saveState(std::vector<std::uint8_t>& /*bytes*/) const {}
+  virtual void saveState(std::vector<std::uint8_t>& bytes) const { (void)bytes; }
 
   /** \brief Restores what saveState() wrote (exactly \a size bytes), after start().
    * \throws planar_grid::IOError on invalid data */
