@@ -52,6 +52,9 @@ printHelp(const char* program)
     "only;\n"
     "                     the epipolar refinement needs it and is skipped too)\n"
     "  --no_epipolar      skip the epipolar rotation refinement (default: on)\n"
+    "  --step_analysis    karlsruhe: per section of the drive, the INS, estimated and\n"
+    "                     near-only (disparity >= 40 px, z <= 9.2 m) / far-only (< 20\n"
+    "                     px, z > 18 m) step lengths (default: off)\n"
     "  --ins_lever_arm_m F,L  karlsruhe: also evaluate against the INS positions "
     "moved\n"
     "                     F m forward and L m left along the track (the INS is not at\n"
@@ -145,12 +148,43 @@ rteAndAte(const planar_grid::Trajectory& estimated,
           planar_grid::absoluteTrajectoryError(estimated, reference)};
 }
 
+/** \brief The features whose disparity lies in [min_px, max_px). */
+StereoFeatures
+disparityBand(const StereoFeatures& features, double min_px, double max_px)
+{
+  StereoFeatures band;
+  std::vector<int> rows;
+  for (std::size_t i = 0; i < features.size(); ++i) {
+    if (features.disparities[i] < min_px || features.disparities[i] >= max_px)
+      continue;
+    rows.push_back(static_cast<int>(i));
+    band.points.push_back(features.points[i]);
+    band.keypoints_left.push_back(features.keypoints_left[i]);
+    band.keypoints_right.push_back(features.keypoints_right[i]);
+    band.disparities.push_back(features.disparities[i]);
+  }
+  band.descriptors.create(static_cast<int>(rows.size()), features.descriptors.cols,
+                          features.descriptors.type());
+  for (std::size_t k = 0; k < rows.size(); ++k)
+    features.descriptors.row(rows[k]).copyTo(band.descriptors.row(static_cast<int>(k)));
+  return band;
+}
+
+/** \brief Step lengths of one section of the drive (sums over its frame pairs). */
+struct SectionSteps {
+  std::size_t first_frame, last_frame;
+  const char* what;
+  std::size_t pairs{0};
+  double ins{0.0}, estimated{0.0}, near{0.0}, far{0.0};
+};
+
 nlohmann::json
 runKarlsruhe(const std::string& data_dir,
              const StereoFeatureMatcher& matcher,
              const StereoOdometry::Params& odometry_params,
              bool reprojection,
-             const std::vector<double>& lever_arm_m)
+             const std::vector<double>& lever_arm_m,
+             bool step_analysis)
 {
   const std::string dir = data_dir + "/karlsruhe_2010_03_09_drive_0023";
   const planar_grid::StereoCameraModel model = planar_grid::loadStereoCalibration(
@@ -165,6 +199,16 @@ runKarlsruhe(const std::string& data_dir,
   if (reprojection)
     odometry.setCalibration(model.calibration);
   std::vector<double> feature_ms, odometry_ms, features, inliers;
+  // --step_analysis: the same estimator on near-only and far-only features; a pair
+  // counts in its section when the chained, near and far estimates are all valid.
+  StereoOdometry band_odometry(odometry_params);
+  if (reprojection)
+    band_odometry.setCalibration(model.calibration);
+  std::vector<SectionSteps> sections{{1, 35, "fast straight, 12 m/s"},
+                                     {36, 60, "braking, 8-11 m/s"},
+                                     {61, 100, "90 deg right turn, 5 m/s"},
+                                     {101, 111, "after the turn, 6 m/s"}};
+  StereoFeatures previous;
   pcl::console::TicToc timer;
   for (std::size_t frame = 0; frame < ground_truth.size(); ++frame) {
     const int index = static_cast<int>(frame);
@@ -186,6 +230,24 @@ runKarlsruhe(const std::string& data_dir,
       "frame %3zu: %4zu features [%6.1f ms], %4zu matches, %4zu inliers [%5.1f ms]%s\n",
       frame, current.size(), feature_ms.back(), result.correspondences, result.inliers,
       elapsed, result.valid ? "" : " FLAGGED");
+    if (step_analysis && frame > 0 && result.valid) {
+      const planar_grid::OdometryResult near = band_odometry.estimate(
+        disparityBand(previous, 40.0, 1e9), disparityBand(current, 40.0, 1e9));
+      const planar_grid::OdometryResult far = band_odometry.estimate(
+        disparityBand(previous, 0.0, 20.0), disparityBand(current, 0.0, 20.0));
+      for (SectionSteps& section : sections)
+        if (near.valid && far.valid && frame >= section.first_frame
+            && frame <= section.last_frame) {
+          ++section.pairs;
+          section.ins +=
+            (ground_truth[frame].translation() - ground_truth[frame - 1].translation())
+              .norm();
+          section.estimated += result.previous_T_current.translation().norm();
+          section.near += near.previous_T_current.translation().norm();
+          section.far += far.previous_T_current.translation().norm();
+        }
+    }
+    previous = std::move(current);
   }
 
   const planar_grid::Trajectory& estimated = odometry.getTrajectory();
@@ -288,6 +350,24 @@ runKarlsruhe(const std::string& data_dir,
     json["heading_change_estimated_deg"].get<double>(),
     json["heading_change_ins_track_deg"].get<double>(), direction_only.first,
     direction_only.second);
+  for (const SectionSteps& section : sections) {
+    if (!step_analysis)
+      break;
+    json["step_analysis"].push_back({{"first_frame", section.first_frame},
+                                     {"last_frame", section.last_frame},
+                                     {"section", section.what},
+                                     {"pairs", section.pairs},
+                                     {"ins_m", section.ins},
+                                     {"estimated_m", section.estimated},
+                                     {"near_only_m", section.near},
+                                     {"far_only_m", section.far}});
+    const double ins = section.ins > 0.0 ? section.ins : 1.0;
+    pcl::console::print_info(
+      "  frames %3zu-%3zu (%s): %zu pairs, INS %.2f m; estimated x%.3f, near-only "
+      "x%.3f, far-only x%.3f of the INS\n",
+      section.first_frame, section.last_frame, section.what, section.pairs, section.ins,
+      section.estimated / ins, section.near / ins, section.far / ins);
+  }
   if (lever_arm_m.size() == 2)
     pcl::console::print_info(
       "  against the INS moved %.2f m forward, %.2f m left: RTE %.3f %%, ATE %.3f m; "
@@ -542,8 +622,8 @@ main(int argc, char** argv)
 
     nlohmann::json json;
     if (sequence == "karlsruhe")
-      json =
-        runKarlsruhe(data_dir, matcher, odometry_params, reprojection, lever_arm_m);
+      json = runKarlsruhe(data_dir, matcher, odometry_params, reprojection, lever_arm_m,
+                          pcl::console::find_switch(argc, argv, "--step_analysis"));
     else if (sequence == "euroc")
       json = runEuroc(data_dir, matcher, odometry_params, reprojection);
     else {
