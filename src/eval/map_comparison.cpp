@@ -54,6 +54,8 @@ public:
       fail(node, what + " must be a map of key: value");
     std::set<std::string> seen;
     for (const auto& item : node) {
+      if (!item.first.IsScalar())
+        fail(item.first, "a key in " + what + " must be a plain name");
       const std::string key = item.first.as<std::string>();
       if (!seen.insert(key).second)
         fail(item.first, "key '" + key + "' is given twice in " + what);
@@ -249,17 +251,11 @@ struct Lane {
 
 } // namespace
 
+namespace {
+
 ComparisonConfig
-loadComparisonConfig(const std::string& path)
+parseComparison(const YAML::Node& root, const std::string& path)
 {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw IOError(path + ": cannot be read");
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(path, e.mark.line + 1, e.mark.column + 1, e.msg);
-  }
   const Reader r(path);
   ComparisonConfig config;
   config.source_file = path;
@@ -347,6 +343,27 @@ loadComparisonConfig(const std::string& path)
     config.datasets.push_back(std::move(ds));
   }
   return config;
+}
+
+} // namespace
+
+ComparisonConfig
+loadComparisonConfig(const std::string& path)
+{
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    throw IOError(path + ": cannot be read");
+  } catch (const YAML::ParserException& e) {
+    throw ConfigError(path, e.mark.line + 1, e.mark.column + 1, e.msg);
+  }
+  try {
+    return parseComparison(root, path);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(path, e.mark.is_null() ? 0 : e.mark.line + 1,
+                      e.mark.is_null() ? 0 : e.mark.column + 1, e.msg);
+  }
 }
 
 std::vector<ComparisonRow>

@@ -219,6 +219,9 @@ parseParams(const YAML::Node& node,
 
   std::set<std::string> seen;
   for (const auto& item : node) {
+    if (!item.first.IsScalar())
+      fail(file, item.first,
+           "a parameter name of stage '" + stage_type + "' must be a plain name");
     const std::string key = item.first.as<std::string>();
     // yaml-cpp keeps both of two equal keys and lookups find the first: refuse them.
     if (!seen.insert(key).second)

@@ -46,6 +46,8 @@ public:
     requireMap(node, what);
     std::set<std::string> seen;
     for (const auto& item : node) {
+      if (!item.first.IsScalar())
+        fail(item.first, "a key in " + what + " must be a plain name");
       const std::string key = item.first.as<std::string>();
       // yaml-cpp keeps both of two equal keys and lookups find the first: refuse them.
       if (!seen.insert(key).second)
@@ -416,7 +418,14 @@ parsePipelineConfig(const std::string& yaml_text,
   } catch (const YAML::ParserException& e) {
     throw ConfigError(source_name, e.mark.line + 1, e.mark.column + 1, e.msg);
   }
-  return parseRoot(root, source_name, base_folder);
+  try {
+    return parseRoot(root, source_name, base_folder);
+  } catch (const YAML::Exception& e) {
+    // A conversion the schema checks did not foresee (found by fuzz_pipeline_config):
+    // still an error at the node's line:col, never a yaml-cpp exception.
+    throw ConfigError(source_name, e.mark.is_null() ? 0 : e.mark.line + 1,
+                      e.mark.is_null() ? 0 : e.mark.column + 1, e.msg);
+  }
 }
 
 PipelineConfig

@@ -275,6 +275,31 @@ TEST(ReliabilityConfig, AbsurdValuesAreErrorsAtTheirLine)
   }
 }
 
+TEST(ReliabilityConfig, NonScalarKeysAreConfigErrors)
+{
+  // Found by fuzz_pipeline_config: a key that is a list or a map made yaml-cpp's
+  // conversion throw YAML::TypedBadConversion out of the loader. Now a ConfigError at
+  // the key, at the top level, in a block and among a stage's parameters.
+  const auto top = configErrorOf("? [a, b]\n: 1\n");
+  EXPECT_EQ(top.line(), 1) << top.what();
+  EXPECT_NE(std::string(top.what()).find("plain name"), std::string::npos)
+    << top.what();
+  const auto input = configErrorOf("input:\n  ? {x: 1}\n  : pcd_files\n");
+  EXPECT_EQ(input.line(), 2) << input.what();
+  const auto params = configErrorOf(
+    "input:\n  type: pcd_files\n  files: [a.pcd]\npipeline:\n  - type: voxel_grid\n"
+    "    params:\n      ? [leaf_size_m]\n      : 0.1\n");
+  EXPECT_EQ(params.line(), 7) << params.what();
+  // The fuzzer's input itself (tests/fuzz/corpus/fuzz_pipeline_config/).
+  std::ifstream in(
+    std::string(PLANAR_GRID_SOURCE_DIR)
+    + "/tests/fuzz/corpus/fuzz_pipeline_config/crash_non_scalar_key.yaml");
+  const std::string text((std::istreambuf_iterator<char>(in)),
+                         std::istreambuf_iterator<char>());
+  ASSERT_FALSE(text.empty());
+  EXPECT_THROW(parsePipelineConfig(text, "crash.yaml", "/"), planar_grid::ConfigError);
+}
+
 TEST(ReliabilityConfig, DuplicateKeyIsAnError)
 {
   // yaml-cpp keeps one of two equal keys silently; the strict loader must not.
