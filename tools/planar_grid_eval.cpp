@@ -34,7 +34,8 @@ printHelp(const char* program)
     "  Maps the datasets of EVAL.yaml (schema: config/eval_indoor.yaml) with SG, "
     "OG, RA and PG\n  at each minimum cell size and writes eval.csv, eval.md "
     "and, unless --no-plots,\n  cells.png, efficiency.png, memory.png, error.png "
-    "(and tilt.png for tilt-tagged datasets).\n");
+    "(and tilt.png for tilt-tagged datasets);\n  with places (the paper's Sec. "
+    "IV-B) also places.csv and places_*.png, the means over the places.\n");
 }
 
 #ifdef PLANAR_GRID_WITH_VIEWER
@@ -44,6 +45,8 @@ void
 savePlots(const std::vector<planar_grid::ComparisonRow>& rows,
           const planar_grid::ComparisonConfig& config,
           const std::string& folder,
+          const std::string& prefix,
+          const std::string& over,
           std::vector<std::string>& written)
 {
   using Row = planar_grid::ComparisonRow;
@@ -72,7 +75,7 @@ savePlots(const std::vector<planar_grid::ComparisonRow>& rows,
   for (const auto& m : metrics) {
     planar_grid::LineChart chart;
     chart.title = config.environment + ": " + m.label + ", mean of "
-                  + std::to_string(datasets.size()) + " dataset(s)";
+                  + std::to_string(datasets.size()) + " dataset(s)" + over;
     chart.x_label = "minimum cell size (m)";
     chart.y_label = m.label;
     chart.log_y = m.log_y;
@@ -96,7 +99,8 @@ savePlots(const std::vector<planar_grid::ComparisonRow>& rows,
       }
       chart.series.push_back(series);
     }
-    const std::string path = (std::filesystem::path(folder) / m.file).string();
+    const std::string path =
+      (std::filesystem::path(folder) / (prefix + m.file)).string();
     planar_grid::saveLineChart(chart, path);
     written.push_back(path);
   }
@@ -126,7 +130,8 @@ savePlots(const std::vector<planar_grid::ComparisonRow>& rows,
       tilt.series.push_back(series);
   }
   if (!tilt.series.empty()) {
-    const std::string path = (std::filesystem::path(folder) / "tilt.png").string();
+    const std::string path =
+      (std::filesystem::path(folder) / (prefix + "tilt.png")).string();
     planar_grid::saveLineChart(tilt, path);
     written.push_back(path);
   }
@@ -180,19 +185,32 @@ run(int argc, char** argv)
   const auto rows = planar_grid::runComparison(
     config, [](const std::string& line) { std::cout << "  " << line << std::endl; });
 
+  std::vector<planar_grid::ComparisonRow> whole, places;
+  for (const auto& row : rows)
+    (row.place < 0 ? whole : places).push_back(row);
   std::vector<std::string> written;
   const std::string csv =
     (std::filesystem::path(config.output_folder) / "eval.csv").string();
-  planar_grid::saveComparisonCsv(rows, csv);
+  planar_grid::saveComparisonCsv(whole, csv);
   written.push_back(csv);
+  if (!places.empty()) {
+    const std::string places_csv =
+      (std::filesystem::path(config.output_folder) / "places.csv").string();
+    planar_grid::saveComparisonCsv(places, places_csv);
+    written.push_back(places_csv);
+  }
   const std::string table = planar_grid::comparisonMarkdown(rows);
   const std::string md =
     (std::filesystem::path(config.output_folder) / "eval.md").string();
   planar_grid::writeTextFileAtomically(md, table);
   written.push_back(md);
 #ifdef PLANAR_GRID_WITH_VIEWER
-  if (plots)
-    savePlots(rows, config, config.output_folder, written);
+  if (plots) {
+    savePlots(whole, config, config.output_folder, "", "", written);
+    if (!places.empty())
+      savePlots(places, config, config.output_folder, "places_",
+                " at " + std::to_string(config.places) + " places", written);
+  }
 #endif
   std::cout << "\n" << table << "\nOutputs:\n";
   for (const auto& path : written)

@@ -22,11 +22,14 @@
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
+#include <iterator>
 #include <map>
 #include <memory>
 #include <set>
 #include <sstream>
 #include <unordered_map>
+#include <utility>
+#include <vector>
 
 namespace planar_grid {
 
@@ -259,9 +262,18 @@ parseComparison(const YAML::Node& root, const std::string& path)
   const Reader r(path);
   ComparisonConfig config;
   config.source_file = path;
-  r.checkKeys(root,
-              {"environment", "resolutions_m", "tolerance_cells", "datasets", "output"},
-              "the evaluation configuration");
+  r.checkKeys(
+    root,
+    {"environment", "resolutions_m", "tolerance_cells", "places", "datasets", "output"},
+    "the evaluation configuration");
+  if (const YAML::Node places = root["places"]) {
+    r.checkKeys(places, {"count", "radius_m"}, "places");
+    if (places["count"])
+      config.places = r.count(places["count"], 0, "places.count");
+    if (places["radius_m"])
+      config.place_radius_m =
+        r.real(places["radius_m"], 0.0, 1000.0, "places.radius_m");
+  }
   if (root["environment"]) {
     config.environment = r.string(root, "environment", "the configuration");
     if (config.environment != "indoor" && config.environment != "outdoor")
@@ -366,6 +378,174 @@ loadComparisonConfig(const std::string& path)
   }
 }
 
+namespace {
+
+/** The ground truth of \a ds (TruthConfig); \a first_frame gives the DISPARITY truth
+ * its calibration and pose, \a reference holds the REFERENCE voxels. */
+std::unique_ptr<GroundTruthSurface>
+buildTruth(const DatasetConfig& ds,
+           const Frame& first_frame,
+           const ReferenceVoxels& reference,
+           std::string& truth_kind)
+{
+  pcl::PointCloud<pcl::PointXYZ>::Ptr truth_points(new pcl::PointCloud<pcl::PointXYZ>);
+  truth_kind = "truth";
+  switch (ds.truth.type) {
+    case TruthConfig::Type::POINTS:
+      if (pcl::io::loadPCDFile(ds.truth.file, *truth_points) != 0)
+        throw IOError(ds.truth.file + ": cannot read the truth points (PCD)");
+      break;
+    case TruthConfig::Type::DISPARITY: {
+      const cv::Mat gt = cv::imread(ds.truth.file, cv::IMREAD_UNCHANGED);
+      if (gt.empty() || gt.type() != CV_8UC1)
+        throw IOError(ds.truth.file + ": not an 8-bit disparity image");
+      const StereoCalibration& c = first_frame.calibration;
+      const Eigen::Matrix4f world_T = first_frame.world_T_camera.matrix().cast<float>();
+      for (int v = 0; v < gt.rows; ++v)
+        for (int u = 0; u < gt.cols; ++u) {
+          const int d = gt.at<std::uint8_t>(v, u);
+          if (d == 0)
+            continue;
+          const double z = c.depthFromDisparity(d);
+          const Eigen::Vector4f p(
+            static_cast<float>((u - c.cx_px) * z / c.focal_length_px),
+            static_cast<float>((v - c.cy_px) * z / c.focal_length_px),
+            static_cast<float>(z), 1.0f);
+          const Eigen::Vector4f q = world_T * p;
+          truth_points->push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
+        }
+      break;
+    }
+    case TruthConfig::Type::REFERENCE:
+      reference.getPoints(ds.truth.min_views, *truth_points);
+      truth_kind = "reference";
+      break;
+  }
+  if (truth_points->empty())
+    throw Exception("dataset " + ds.name + ": the truth has no points");
+  return std::make_unique<GroundTruthSurface>(truth_points);
+}
+
+/** Milliseconds of each method's own work, to be reported per frame. */
+struct MethodTimes {
+  double sg{0.0}, og{0.0}, pg{0.0};
+};
+
+/** SG, OG, RA and PG of \a lane as they stand, against \a truth: over the whole map
+ * (\a region null) or the cells reaching into \a region (the paper's places). RA is
+ * merged from SG here; \a ra_divisor spreads its merge time (frames of the mean). The
+ * memory is always the whole map's. Rows in the order SG, OG, RA, PG; \a planar gets
+ * PG's planar cuboids (count, occupied) for the progress line. */
+std::vector<ComparisonRow>
+measureLane(Lane& lane,
+            const ComparisonRow& base,
+            const GroundTruthSurface& truth,
+            double tolerance_m,
+            const MappingErrorRegion* region,
+            const MethodTimes& ms,
+            double ra_divisor,
+            std::pair<std::size_t, std::size_t>& planar_counts)
+{
+  using Clock = std::chrono::steady_clock;
+  const double r = lane.resolution_m;
+  const auto apply = [region](ComparisonRow& row, const MappingError& e) {
+    row.samples = e.samples;
+    row.erroneous = e.erroneous;
+    if (region)
+      row.cells = e.cells;
+  };
+
+  ComparisonRow sg = base;
+  sg.method = "SG";
+  sg.cells = lane.sg->getOccupiedCount();
+  sg.all_cells = lane.sg->getVoxelCount();
+  sg.memory_bytes = lane.sg->getMemoryBytes();
+  sg.ms_per_frame = ms.sg;
+  apply(sg, region ? evaluateVoxels(*lane.sg, truth, tolerance_m, *region)
+                   : evaluateVoxels(*lane.sg, truth, tolerance_m));
+
+  ComparisonRow og = base;
+  og.method = "OG";
+  lane.og->prune();
+  for (auto it = lane.og->begin_leafs(); it != lane.og->end_leafs(); ++it) {
+    ++og.all_cells;
+    og.cells += lane.og->isNodeOccupied(*it);
+  }
+  og.memory_bytes = lane.og->memoryUsage();
+  og.ms_per_frame = ms.og;
+  apply(og, region ? evaluateOcTree(*lane.og, truth, tolerance_m, *region)
+                   : evaluateOcTree(*lane.og, truth, tolerance_m));
+
+  ComparisonRow ra = base;
+  ra.method = "RA";
+  AxisAlignedBoxes boxes;
+  const auto t = Clock::now();
+  RectangularCuboidApproximation().compute(*lane.sg, boxes);
+  // RA's map is built from the voxel grid: its time is SG's plus the merge.
+  ra.ms_per_frame = ms.sg + msSince(t) / ra_divisor;
+  for (const auto& b : boxes)
+    ra.cells += b.occupied;
+  ra.all_cells = boxes.size();
+  ra.memory_bytes = RectangularCuboidApproximation::getMemoryBytes(boxes);
+  apply(ra, region ? evaluateBoxes(boxes, r, truth, tolerance_m, *region)
+                   : evaluateBoxes(boxes, r, truth, tolerance_m));
+
+  ComparisonRow pg = base;
+  pg.method = "PG";
+  pg.ms_per_frame = ms.pg;
+  if (!lane.state.map)
+    throw Exception("dataset " + base.dataset
+                    + ": the pipeline has no map_integration stage (PG is its map)");
+  const PlanarGridMap& map = *lane.state.map;
+  const PlanarCuboids& cuboids = map.getSurfaceLayer().getCuboids();
+  const double thres = map.getParams().surface.occupancy_thres;
+  for (const auto& c : cuboids)
+    pg.cells += c.probability >= thres;
+  pg.all_cells = cuboids.size();
+  pg.memory_bytes = map.getMemory().total_bytes;
+  apply(pg, region ? evaluateCuboids(cuboids, thres, r, truth, tolerance_m, *region)
+                   : evaluateCuboids(cuboids, thres, r, truth, tolerance_m));
+  PlanarCuboids planar;
+  planar_counts = {0, 0};
+  for (const auto& c : cuboids)
+    if (c.is_planar) {
+      planar.push_back(c);
+      planar_counts.second += c.probability >= thres;
+    }
+  planar_counts.first = planar.size();
+  const MappingError planar_error =
+    region ? evaluateCuboids(planar, thres, r, truth, tolerance_m, *region)
+           : evaluateCuboids(planar, thres, r, truth, tolerance_m);
+  pg.planar_samples = planar_error.samples;
+  pg.planar_erroneous = planar_error.erroneous;
+
+  std::vector<ComparisonRow> rows{sg, og, ra, pg};
+  for (ComparisonRow& row : rows) {
+    row.efficiency =
+      sg.cells > 0
+        ? 1.0 - static_cast<double>(row.cells) / static_cast<double>(sg.cells)
+        : 0.0;
+    row.error = sg.cells > 0
+                  ? static_cast<double>(row.erroneous) / static_cast<double>(sg.cells)
+                  : 0.0;
+  }
+  return rows;
+}
+
+/** The places of \a frames processed frames: \a places of them evenly spaced, the
+ * last at the last frame; place k is after processed frame floor((k + 1) n / P) - 1. */
+std::vector<std::size_t>
+placeFrames(std::size_t frames, std::size_t places)
+{
+  std::vector<std::size_t> out;
+  const std::size_t p = std::min(frames, places);
+  for (std::size_t k = 0; k < p; ++k)
+    out.push_back((k + 1) * frames / p - 1);
+  return out;
+}
+
+} // namespace
+
 std::vector<ComparisonRow>
 runComparison(const ComparisonConfig& config,
               const std::function<void(const std::string&)>& progress)
@@ -379,21 +559,31 @@ runComparison(const ComparisonConfig& config,
                          : source->size();
     if (ds.first_frame >= end)
       throw Exception("dataset " + ds.name + ": no frames in the range");
+    const std::size_t total =
+      (end - ds.first_frame + ds.frame_step - 1) / ds.frame_step;
+    const std::vector<std::size_t> places = placeFrames(total, config.places);
 
+    // The front end has no size parameter; it is created at the first cell size.
+    const double resolution = config.resolutions_m.front();
+    const auto createFrontEnd =
+      [&ds, resolution](std::vector<std::unique_ptr<Stage>>& stages,
+                        std::vector<std::string>& types) {
+        for (const auto& sc : ds.pipeline.stages)
+          if (isFrontEnd(sc.type)) {
+            stages.push_back(createAtResolution(sc, resolution));
+            types.push_back(sc.type);
+          }
+      };
     std::vector<std::unique_ptr<Stage>> front;
     std::vector<std::string> front_types;
+    createFrontEnd(front, front_types);
     std::vector<Lane> lanes(config.resolutions_m.size());
     for (std::size_t k = 0; k < lanes.size(); ++k) {
       Lane& lane = lanes[k];
       lane.resolution_m = config.resolutions_m[k];
       for (const auto& sc : ds.pipeline.stages) {
-        if (isFrontEnd(sc.type)) {
-          if (k == 0) {
-            front.push_back(createAtResolution(sc, lane.resolution_m));
-            front_types.push_back(sc.type);
-          }
+        if (isFrontEnd(sc.type))
           continue;
-        }
         lane.stages.push_back(createAtResolution(sc, lane.resolution_m));
         lane.types.push_back(sc.type);
       }
@@ -402,36 +592,68 @@ runComparison(const ComparisonConfig& config,
       lane.sg = std::make_unique<StandardVoxelGrid>(sg);
       lane.og = std::make_unique<octomap::OcTree>(lane.resolution_m);
     }
-    PipelineState front_state;
-    for (auto& s : front)
-      s->start(front_state);
-    for (auto& lane : lanes)
-      for (auto& s : lane.stages)
-        s->start(lane.state);
 
+    // The places are measured while the frames run, so a reference built from all
+    // frames must exist first: a pass of a second front end over the frames builds it
+    // (the same deterministic stages give the same points).
     ReferenceVoxels reference(ds.truth.leaf_size_m);
+    const bool reference_first =
+      ds.truth.type == TruthConfig::Type::REFERENCE && !places.empty();
+    if (reference_first) {
+      std::vector<std::unique_ptr<Stage>> pre;
+      std::vector<std::string> pre_types;
+      createFrontEnd(pre, pre_types);
+      PipelineState pre_state;
+      for (auto& st : pre)
+        st->start(pre_state);
+      for (std::size_t i = ds.first_frame; i < end; i += ds.frame_step) {
+        Frame frame;
+        source->load(i, frame);
+        frame.sequence_number = i;
+        for (auto& st : pre)
+          st->process(frame, pre_state);
+        reference.addFrame(worldPoints(frame));
+      }
+      if (progress)
+        progress(ds.name + ": reference of " + std::to_string(total)
+                 + " frames built for the places");
+    }
+
+    PipelineState front_state;
+    for (auto& st : front)
+      st->start(front_state);
+    for (auto& lane : lanes)
+      for (auto& st : lane.stages)
+        st->start(lane.state);
+
+    std::unique_ptr<GroundTruthSurface> truth;
+    std::string truth_kind;
     Frame first_frame;
     std::size_t frames = 0;
+    std::size_t next_place = 0;
     for (std::size_t i = ds.first_frame; i < end; i += ds.frame_step) {
       Frame frame;
       source->load(i, frame);
       frame.sequence_number = i;
       double kl_ms = 0.0;
-      for (std::size_t s = 0; s < front.size(); ++s) {
+      for (std::size_t st = 0; st < front.size(); ++st) {
         const auto t = Clock::now();
-        front[s]->process(frame, front_state);
-        if (front_types[s] == "kl_occupancy_filter")
+        front[st]->process(frame, front_state);
+        if (front_types[st] == "kl_occupancy_filter")
           kl_ms += msSince(t); // the occupancy of the features is PG's work
       }
       if (frames == 0)
         first_frame = frame;
-      if (ds.truth.type == TruthConfig::Type::REFERENCE)
+      if (ds.truth.type == TruthConfig::Type::REFERENCE && !reference_first)
         reference.addFrame(worldPoints(frame));
-      for (auto& lane : lanes) {
+      std::vector<MethodTimes> frame_ms(lanes.size());
+      for (std::size_t k = 0; k < lanes.size(); ++k) {
+        Lane& lane = lanes[k];
+        MethodTimes& fms = frame_ms[k];
         Frame f = frame;
         if (frame.cloud)
           f.cloud.reset(new Frame::Cloud(*frame.cloud));
-        lane.pg_ms += kl_ms;
+        fms.pg += kl_ms;
         bool inserted = false;
         const auto insertBaselines = [&]() {
           // SG and OG get the cloud PG's approximation gets.
@@ -439,7 +661,7 @@ runComparison(const ComparisonConfig& config,
           const Eigen::Vector3f origin = f.world_T_camera.translation().cast<float>();
           auto t = Clock::now();
           lane.sg->insertPointCloud(points, origin);
-          lane.sg_ms += msSince(t);
+          fms.sg += msSince(t);
           t = Clock::now();
           octomap::Pointcloud scan;
           scan.reserve(points.size());
@@ -447,75 +669,68 @@ runComparison(const ComparisonConfig& config,
             scan.push_back(p.x, p.y, p.z);
           lane.og->insertPointCloud(
             scan, octomap::point3d(origin.x(), origin.y(), origin.z()));
-          lane.og_ms += msSince(t);
+          fms.og += msSince(t);
           inserted = true;
         };
-        for (std::size_t s = 0; s < lane.stages.size(); ++s) {
-          if (lane.types[s] == "planar_cuboid_approximation")
+        for (std::size_t st = 0; st < lane.stages.size(); ++st) {
+          if (lane.types[st] == "planar_cuboid_approximation")
             insertBaselines();
           const auto t = Clock::now();
           try {
-            lane.stages[s]->process(f, lane.state);
+            lane.stages[st]->process(f, lane.state);
           } catch (const Exception& e) {
             throw Exception("dataset " + ds.name + ", frame " + f.name + ", cell size "
                             + std::to_string(lane.resolution_m) + " m, stage '"
-                            + lane.types[s] + "': " + e.what());
+                            + lane.types[st] + "': " + e.what());
           }
-          if (lane.types[s] != "accumulate")
-            lane.pg_ms += msSince(t);
+          if (lane.types[st] != "accumulate")
+            fms.pg += msSince(t);
         }
         if (!inserted)
           insertBaselines();
+        lane.pg_ms += fms.pg;
+        lane.sg_ms += fms.sg;
+        lane.og_ms += fms.og;
+      }
+
+      // A place (paper Sec. IV-B): the cells near the camera, this frame's times.
+      if (next_place < places.size() && places[next_place] == frames) {
+        if (!truth)
+          truth = buildTruth(ds, first_frame, reference, truth_kind);
+        MappingErrorRegion region;
+        region.centre_m = frame.world_T_camera.translation().cast<float>();
+        region.max_distance_m = config.place_radius_m;
+        for (std::size_t k = 0; k < lanes.size(); ++k) {
+          ComparisonRow base;
+          base.dataset = ds.name;
+          base.environment = config.environment;
+          base.resolution_m = lanes[k].resolution_m;
+          base.frames = frames + 1;
+          base.tilt_deg = ds.tilt_deg;
+          base.truth_kind = truth_kind;
+          base.place = static_cast<int>(next_place);
+          base.frame = i;
+          base.region_radius_m = config.place_radius_m;
+          std::pair<std::size_t, std::size_t> planar_counts;
+          for (const auto& row : measureLane(
+                 lanes[k], base, *truth, config.tolerance_cells * lanes[k].resolution_m,
+                 config.place_radius_m > 0.0 ? &region : nullptr, frame_ms[k], 1.0,
+                 planar_counts))
+            rows.push_back(row);
+        }
+        ++next_place;
       }
       ++frames;
     }
     for (auto& lane : lanes)
-      for (auto& s : lane.stages)
-        s->finish(lane.state);
+      for (auto& st : lane.stages)
+        st->finish(lane.state);
+    if (!truth)
+      truth = buildTruth(ds, first_frame, reference, truth_kind);
 
-    // The truth.
-    pcl::PointCloud<pcl::PointXYZ>::Ptr truth_points(
-      new pcl::PointCloud<pcl::PointXYZ>);
-    std::string truth_kind = "truth";
-    switch (ds.truth.type) {
-      case TruthConfig::Type::POINTS:
-        if (pcl::io::loadPCDFile(ds.truth.file, *truth_points) != 0)
-          throw IOError(ds.truth.file + ": cannot read the truth points (PCD)");
-        break;
-      case TruthConfig::Type::DISPARITY: {
-        const cv::Mat gt = cv::imread(ds.truth.file, cv::IMREAD_UNCHANGED);
-        if (gt.empty() || gt.type() != CV_8UC1)
-          throw IOError(ds.truth.file + ": not an 8-bit disparity image");
-        const StereoCalibration& c = first_frame.calibration;
-        const Eigen::Matrix4f world_T =
-          first_frame.world_T_camera.matrix().cast<float>();
-        for (int v = 0; v < gt.rows; ++v)
-          for (int u = 0; u < gt.cols; ++u) {
-            const int d = gt.at<std::uint8_t>(v, u);
-            if (d == 0)
-              continue;
-            const double z = c.depthFromDisparity(d);
-            const Eigen::Vector4f p(
-              static_cast<float>((u - c.cx_px) * z / c.focal_length_px),
-              static_cast<float>((v - c.cy_px) * z / c.focal_length_px),
-              static_cast<float>(z), 1.0f);
-            const Eigen::Vector4f q = world_T * p;
-            truth_points->push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
-          }
-        break;
-      }
-      case TruthConfig::Type::REFERENCE:
-        reference.getPoints(ds.truth.min_views, *truth_points);
-        truth_kind = "reference";
-        break;
-    }
-    if (truth_points->empty())
-      throw Exception("dataset " + ds.name + ": the truth has no points");
-    const GroundTruthSurface truth(truth_points);
-
+    // The whole map after the last frame; times are means per frame.
     for (auto& lane : lanes) {
       const double r = lane.resolution_m;
-      const double tolerance = config.tolerance_cells * r;
       const auto n = static_cast<double>(frames);
       ComparisonRow base;
       base.dataset = ds.name;
@@ -524,93 +739,26 @@ runComparison(const ComparisonConfig& config,
       base.frames = frames;
       base.tilt_deg = ds.tilt_deg;
       base.truth_kind = truth_kind;
-
-      ComparisonRow sg = base;
-      sg.method = "SG";
-      sg.cells = lane.sg->getOccupiedCount();
-      sg.all_cells = lane.sg->getVoxelCount();
-      sg.memory_bytes = lane.sg->getMemoryBytes();
-      sg.ms_per_frame = lane.sg_ms / n;
-      const MappingError sg_error = evaluateVoxels(*lane.sg, truth, tolerance);
-      sg.samples = sg_error.samples;
-      sg.erroneous = sg_error.erroneous;
-
-      ComparisonRow og = base;
-      og.method = "OG";
-      lane.og->prune();
-      for (auto it = lane.og->begin_leafs(); it != lane.og->end_leafs(); ++it) {
-        ++og.all_cells;
-        og.cells += lane.og->isNodeOccupied(*it);
-      }
-      og.memory_bytes = lane.og->memoryUsage();
-      og.ms_per_frame = lane.og_ms / n;
-      const MappingError og_error = evaluateOcTree(*lane.og, truth, tolerance);
-      og.samples = og_error.samples;
-      og.erroneous = og_error.erroneous;
-
-      ComparisonRow ra = base;
-      ra.method = "RA";
-      AxisAlignedBoxes boxes;
-      const auto t = Clock::now();
-      RectangularCuboidApproximation().compute(*lane.sg, boxes);
-      // RA's map is built from the voxel grid: its time is SG's plus the merge, which
-      // runs once here (spread over the frames).
-      ra.ms_per_frame = (lane.sg_ms + msSince(t)) / n;
-      for (const auto& b : boxes)
-        ra.cells += b.occupied;
-      ra.all_cells = boxes.size();
-      ra.memory_bytes = RectangularCuboidApproximation::getMemoryBytes(boxes);
-      const MappingError ra_error = evaluateBoxes(boxes, r, truth, tolerance);
-      ra.samples = ra_error.samples;
-      ra.erroneous = ra_error.erroneous;
-
-      ComparisonRow pg = base;
-      pg.method = "PG";
-      pg.ms_per_frame = lane.pg_ms / n;
-      if (!lane.state.map)
-        throw Exception(
-          "dataset " + ds.name
-          + ": the pipeline has no map_integration stage (PG is its map)");
-      const PlanarGridMap& map = *lane.state.map;
-      const PlanarCuboids& cuboids = map.getSurfaceLayer().getCuboids();
-      const double thres = map.getParams().surface.occupancy_thres;
-      for (const auto& c : cuboids)
-        pg.cells += c.probability >= thres;
-      pg.all_cells = cuboids.size();
-      pg.memory_bytes = map.getMemory().total_bytes;
-      const MappingError pg_error =
-        evaluateCuboids(cuboids, thres, r, truth, tolerance);
-      pg.samples = pg_error.samples;
-      pg.erroneous = pg_error.erroneous;
-      PlanarCuboids planar;
-      std::size_t planar_occupied = 0;
-      for (const auto& c : cuboids)
-        if (c.is_planar) {
-          planar.push_back(c);
-          planar_occupied += c.probability >= thres;
-        }
-      const MappingError planar_error =
-        evaluateCuboids(planar, thres, r, truth, tolerance);
-      pg.planar_samples = planar_error.samples;
-      pg.planar_erroneous = planar_error.erroneous;
-
-      for (ComparisonRow* row : {&sg, &og, &ra, &pg}) {
-        row->efficiency =
-          sg.cells > 0
-            ? 1.0 - static_cast<double>(row->cells) / static_cast<double>(sg.cells)
-            : 0.0;
-        row->error = sg.cells > 0 ? static_cast<double>(row->erroneous)
-                                      / static_cast<double>(sg.cells)
-                                  : 0.0;
-        rows.push_back(*row);
-      }
+      base.frame = ds.first_frame + (frames - 1) * ds.frame_step;
+      MethodTimes mean;
+      mean.sg = lane.sg_ms / n;
+      mean.og = lane.og_ms / n;
+      mean.pg = lane.pg_ms / n;
+      std::pair<std::size_t, std::size_t> planar_counts;
+      const std::vector<ComparisonRow> measured =
+        measureLane(lane, base, *truth, config.tolerance_cells * r, nullptr, mean, n,
+                    planar_counts);
+      rows.insert(rows.end(), measured.begin(), measured.end());
       if (progress) {
+        const ComparisonRow& sg = measured[0];
+        const ComparisonRow& pg = measured[3];
         std::ostringstream line;
         line << std::fixed << std::setprecision(2) << ds.name << " @ " << r << " m, "
-             << frames << " frames: cells SG " << sg.cells << ", OG " << og.cells
-             << ", RA " << ra.cells << ", PG " << pg.cells << " (of " << pg.all_cells
-             << "; planar " << planar.size() << ", occupied " << planar_occupied
-             << "); error SG " << sg.error << ", PG " << pg.error << " (planar "
+             << frames << " frames: cells SG " << sg.cells << ", OG "
+             << measured[1].cells << ", RA " << measured[2].cells << ", PG " << pg.cells
+             << " (of " << pg.all_cells << "; planar " << planar_counts.first
+             << ", occupied " << planar_counts.second << "); error SG " << sg.error
+             << ", PG " << pg.error << " (planar "
              << static_cast<double>(pg.planar_erroneous)
                   / static_cast<double>(std::max<std::size_t>(sg.cells, 1))
              << ")";
@@ -627,7 +775,7 @@ saveComparisonCsv(const std::vector<ComparisonRow>& rows, const std::string& pat
   std::ostringstream out;
   out << "dataset,environment,tilt_deg,resolution_m,method,frames,cells,all_cells,"
          "efficiency,memory_bytes,ms_per_frame,samples,erroneous,error,truth,"
-         "planar_samples,planar_erroneous\n";
+         "planar_samples,planar_erroneous,place,frame,region_radius_m\n";
   out << std::setprecision(10);
   for (const auto& r : rows)
     out << r.dataset << "," << r.environment << "," << r.tilt_deg << ","
@@ -635,7 +783,7 @@ saveComparisonCsv(const std::vector<ComparisonRow>& rows, const std::string& pat
         << r.all_cells << "," << r.efficiency << "," << r.memory_bytes << ","
         << r.ms_per_frame << "," << r.samples << "," << r.erroneous << "," << r.error
         << "," << r.truth_kind << "," << r.planar_samples << "," << r.planar_erroneous
-        << "\n";
+        << "," << r.place << "," << r.frame << "," << r.region_radius_m << "\n";
   writeTextFileAtomically(path, out.str());
 }
 
@@ -647,13 +795,66 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
     << "| dataset | cell m | method | cells | eta | memory kB | ms/frame | error e |\n"
        "|---|---|---|---|---|---|---|---|\n";
   out << std::fixed;
-  for (const auto& r : rows)
+  for (const auto& r : rows) {
+    if (r.place >= 0)
+      continue;
     out << "| " << r.dataset << (r.truth_kind == "reference" ? " (ref.)" : "") << " | "
         << std::setprecision(1) << r.resolution_m << " | " << r.method << " | "
         << r.cells << " | " << std::setprecision(3) << r.efficiency << " | "
         << std::setprecision(1) << static_cast<double>(r.memory_bytes) / 1024.0 << " | "
         << std::setprecision(1) << r.ms_per_frame << " | " << std::setprecision(4)
         << r.error << " |\n";
+  }
+  // The places: means over each dataset's places (the paper's Figs. 12-14).
+  struct Sum {
+    std::size_t places{0};
+    double cells{0.0}, efficiency{0.0}, memory_kb{0.0}, ms{0.0}, error{0.0};
+    double radius_m{0.0};
+    bool reference{false};
+  };
+  std::vector<std::pair<std::string, Sum>> sums;
+  for (const auto& r : rows) {
+    if (r.place < 0)
+      continue;
+    std::ostringstream key;
+    key << r.dataset << "|" << std::setprecision(3) << r.resolution_m << "|"
+        << r.method;
+    auto it = std::find_if(sums.begin(), sums.end(),
+                           [&key](const auto& kv) { return kv.first == key.str(); });
+    if (it == sums.end()) {
+      sums.emplace_back(key.str(), Sum{});
+      it = std::prev(sums.end());
+    }
+    Sum& sum = it->second;
+    ++sum.places;
+    sum.cells += static_cast<double>(r.cells);
+    sum.efficiency += r.efficiency;
+    sum.memory_kb += static_cast<double>(r.memory_bytes) / 1024.0;
+    sum.ms += r.ms_per_frame;
+    sum.error += r.error;
+    sum.radius_m = r.region_radius_m;
+    sum.reference = r.truth_kind == "reference";
+  }
+  if (sums.empty())
+    return out.str();
+  out << "\nMeans over the places (cells and error within the radius of the camera at "
+         "each place; memory of the whole map then; ms of that frame):\n\n"
+         "| dataset | places | radius m | cell m | method | cells | eta | memory kB | "
+         "ms/frame | error e |\n"
+         "|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& [key, sum] : sums) {
+    std::vector<std::string> parts;
+    std::istringstream split(key);
+    for (std::string part; std::getline(split, part, '|');)
+      parts.push_back(part);
+    const auto n = static_cast<double>(sum.places);
+    out << "| " << parts[0] << (sum.reference ? " (ref.)" : "") << " | " << sum.places
+        << " | " << std::setprecision(1) << sum.radius_m << " | " << parts[1] << " | "
+        << parts[2] << " | " << std::setprecision(0) << sum.cells / n << " | "
+        << std::setprecision(3) << sum.efficiency / n << " | " << std::setprecision(1)
+        << sum.memory_kb / n << " | " << sum.ms / n << " | " << std::setprecision(4)
+        << sum.error / n << " |\n";
+  }
   return out.str();
 }
 

@@ -81,14 +81,24 @@ struct Counter {
   double tolerance_m;
   const MappingErrorRegion* region;
   MappingError error;
+  /** Whether the current cell has a counted sample. */
+  bool cell_counted{false};
 
   void add(const Eigen::Vector3f& sample)
   {
     if (region != nullptr && !region->contains(sample))
       return;
+    cell_counted = true;
     ++error.samples;
     if (static_cast<double>(truth.distance(sample)) > tolerance_m)
       ++error.erroneous;
+  }
+
+  /** Ends the samples of one cell: counts it when one of them was counted. */
+  void closeCell()
+  {
+    error.cells += cell_counted;
+    cell_counted = false;
   }
 };
 
@@ -117,8 +127,10 @@ voxels(const StandardVoxelGrid& grid,
   Counter counter{truth, tolerance_m, region, {}};
   pcl::PointCloud<pcl::PointXYZ> centres;
   grid.getOccupiedCentres(centres);
-  for (const auto& c : centres.points)
+  for (const auto& c : centres.points) {
     counter.add(c.getVector3fMap());
+    counter.closeCell();
+  }
   return counter.error;
 }
 
@@ -133,9 +145,11 @@ boxes(const AxisAlignedBoxes& boxes,
   checkTolerance(tolerance_m);
   Counter counter{truth, tolerance_m, region, {}};
   for (const auto& box : boxes)
-    if (box.occupied)
+    if (box.occupied) {
       addVoxelLattice(box.min_index.cast<double>() * resolution_m, box.size,
                       resolution_m, counter);
+      counter.closeCell();
+    }
   return counter.error;
 }
 
@@ -198,6 +212,7 @@ cuboids(const PlanarCuboids& cuboids,
         }
       }
     }
+    counter.closeCell();
   }
   if (skipped > 0)
     PCL_WARN(
@@ -225,6 +240,7 @@ ocTree(const octomap::OcTree& tree,
     const Eigen::Vector3d min_m = Eigen::Vector3d(centre.x(), centre.y(), centre.z())
                                   - Eigen::Vector3d::Constant(0.5 * it.getSize());
     addVoxelLattice(min_m, Eigen::Vector3i::Constant(n), r, counter);
+    counter.closeCell();
   }
   return counter.error;
 }

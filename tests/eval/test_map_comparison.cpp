@@ -87,6 +87,8 @@ TEST_F(MapComparisonTest, ConfigurationErrorsNameTheLine)
   EXPECT_EQ(lineOf("resolutions_m: [0.1, -0.2]\n" + ds), 1);
   EXPECT_EQ(lineOf("resolution_m: [0.1]\n" + ds), 1); // unknown key
   EXPECT_EQ(lineOf(ds + "    frames: {step: 0}\n"), 5);
+  EXPECT_EQ(lineOf("places: {count: 10, radius: 5.0}\n" + ds), 1); // unknown key
+  EXPECT_EQ(lineOf("places: {count: -1}\n" + ds), 1);
   EXPECT_EQ(lineOf("datasets:\n  - name: a\n    pipeline: " + pipeline
                    + "\n    truth: {type: exact}\n"),
             4);
@@ -188,6 +190,106 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
   EXPECT_EQ(lines, 8);
   EXPECT_NE(planar_grid::comparisonMarkdown(rows).find("| wall | 0.1 | PG |"),
             std::string::npos);
+}
+
+TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
+{
+  // Two frames seen from the origin: a wall 4 m ahead (+x), then a wall 20 m to the
+  // side (+y, its rays miss the first wall). Places: 5 asked for, 2 frames, so one
+  // place after each frame, radius 8 m around the camera.
+  // The oracle: a StandardVoxelGrid fed each frame's voxelised cloud in order. At both
+  // places only the first wall is within 8 m, so both places count its SG cells; the
+  // whole map at the end counts both walls; all_cells and memory are the whole map's.
+  const auto near_wall = wall(0.0, 0.0, 0.02);
+  auto far_wall = wall(1.5708, 0.0, 0.02);
+  for (auto& p : far_wall.points)
+    p.y += 16.0f; // 4 m -> 20 m from the origin
+  ASSERT_EQ(pcl::io::savePCDFileBinary((dir_ / "near.pcd").string(), near_wall), 0);
+  ASSERT_EQ(pcl::io::savePCDFileBinary((dir_ / "far.pcd").string(), far_wall), 0);
+  pcl::PointCloud<pcl::PointXYZ> both = near_wall;
+  both += far_wall;
+  ASSERT_EQ(pcl::io::savePCDFileBinary((dir_ / "truth.pcd").string(), both), 0);
+  const std::string pipeline = write(
+    "p.yaml", "input:\n  type: pcd_files\n  files: [" + (dir_ / "near.pcd").string()
+                + ", " + (dir_ / "far.pcd").string()
+                + "]\npipeline:\n"
+                  "  - type: voxel_grid\n    params: {leaf_size_m: 0.1}\n"
+                  "  - type: transform_to_world\n"
+                  "  - type: multi_plane_segmentation\n"
+                  "    params: {sample: cloud, min_inliers: 100}\n"
+                  "  - type: planar_cuboid_approximation\n"
+                  "  - type: map_integration\n");
+  const auto config = planar_grid::loadComparisonConfig(
+    write("e.yaml", "resolutions_m: [0.2]\nplaces: {count: 5, radius_m: 8.0}\n"
+                    "datasets:\n  - name: walls\n    pipeline: "
+                      + pipeline + "\n    truth: {type: points, file: "
+                      + (dir_ / "truth.pcd").string() + "}\n"));
+  EXPECT_EQ(config.places, 5u);
+  EXPECT_DOUBLE_EQ(config.place_radius_m, 8.0);
+  const auto rows = planar_grid::runComparison(config, nullptr);
+  ASSERT_EQ(rows.size(), 12u); // 2 places x 4 methods, then the whole map x 4
+  std::map<std::pair<int, std::string>, planar_grid::ComparisonRow> by;
+  for (const auto& r : rows)
+    by[{r.place, r.method}] = r;
+  ASSERT_EQ(by.size(), 12u);
+
+  const auto voxelised = [](const pcl::PointCloud<pcl::PointXYZ>& cloud) {
+    pcl::PointCloud<pcl::PointXYZ>::Ptr input(
+      new pcl::PointCloud<pcl::PointXYZ>(cloud));
+    pcl::PointCloud<pcl::PointXYZ> out;
+    pcl::VoxelGrid<pcl::PointXYZ> grid;
+    grid.setLeafSize(0.2f, 0.2f, 0.2f);
+    grid.setInputCloud(input);
+    grid.filter(out);
+    return out;
+  };
+  planar_grid::StandardVoxelGrid::Params params;
+  params.resolution_m = 0.2;
+  planar_grid::StandardVoxelGrid oracle(params);
+  oracle.insertPointCloud(voxelised(near_wall), Eigen::Vector3f::Zero());
+  const std::size_t near_cells = oracle.getOccupiedCount();
+  const std::size_t after_first = oracle.getVoxelCount();
+  oracle.insertPointCloud(voxelised(far_wall), Eigen::Vector3f::Zero());
+  ASSERT_GT(oracle.getOccupiedCount(), near_cells + 50);
+
+  const auto& sg0 = by.at({0, "SG"});
+  const auto& sg1 = by.at({1, "SG"});
+  const auto& sg = by.at({-1, "SG"});
+  EXPECT_EQ(sg0.frame, 0u);
+  EXPECT_EQ(sg0.frames, 1u);
+  EXPECT_EQ(sg1.frame, 1u);
+  EXPECT_EQ(sg1.frames, 2u);
+  EXPECT_DOUBLE_EQ(sg0.region_radius_m, 8.0);
+  EXPECT_EQ(sg0.cells, near_cells);
+  EXPECT_EQ(sg0.all_cells, after_first);
+  EXPECT_EQ(sg1.cells, near_cells);
+  EXPECT_EQ(sg1.all_cells, oracle.getVoxelCount());
+  EXPECT_EQ(sg.cells, oracle.getOccupiedCount());
+  EXPECT_EQ(sg.place, -1);
+  EXPECT_EQ(sg.frames, 2u);
+  EXPECT_GT(sg1.memory_bytes, sg0.memory_bytes);
+  EXPECT_EQ(sg1.memory_bytes, sg.memory_bytes);
+  // OG equals SG at the places too; PG and RA count fewer cells near the camera at the
+  // second place than in the whole map, and PG's planar cells are on the truth.
+  EXPECT_EQ(by.at({0, "OG"}).cells, near_cells);
+  EXPECT_EQ(by.at({1, "OG"}).cells, near_cells);
+  for (const std::string method : {"RA", "PG"}) {
+    EXPECT_GT(by.at({1, method}).cells, 0u) << method;
+    EXPECT_LT(by.at({1, method}).cells, by.at({-1, method}).cells) << method;
+    EXPECT_EQ(by.at({0, method}).cells, by.at({1, method}).cells) << method;
+  }
+  for (int place : {0, 1, -1}) {
+    EXPECT_EQ(by.at({place, "SG"}).erroneous, 0u) << place;
+    EXPECT_EQ(by.at({place, "PG"}).planar_erroneous, 0u) << place;
+    EXPECT_DOUBLE_EQ(by.at({place, "PG"}).efficiency,
+                     1.0
+                       - static_cast<double>(by.at({place, "PG"}).cells)
+                           / static_cast<double>(by.at({place, "SG"}).cells));
+  }
+  EXPECT_NE(
+    planar_grid::comparisonMarkdown(rows).find("| walls | 2 | 8.0 | 0.2 | PG |"),
+    std::string::npos)
+    << planar_grid::comparisonMarkdown(rows);
 }
 
 } // namespace

@@ -259,6 +259,7 @@ TEST(MappingError, RegionOfInterest)
     planar_grid::evaluateBoxes(boxes, RESOLUTION_M, truth, TOLERANCE_M, box_region);
   EXPECT_EQ(e.samples, 100u);
   EXPECT_EQ(e.erroneous, 50u);
+  EXPECT_EQ(e.cells, 2u); // both boxes reach into the region
   // Ball of 0.35 m around (1, 1, 1.05): centres (0.05 + 0.1 i, 0.05 + 0.1 j) within it,
   // counted by brute force; the upper layer is outside.
   MappingErrorRegion ball;
@@ -276,17 +277,28 @@ TEST(MappingError, RegionOfInterest)
   e = planar_grid::evaluateBoxes(boxes, RESOLUTION_M, truth, TOLERANCE_M, ball);
   EXPECT_EQ(e.samples, inside);
   EXPECT_EQ(e.erroneous, 0u);
-  // The same region for voxels, cuboids and the octree.
+  EXPECT_EQ(e.cells, 1u); // only the lower box
+  // The same region for voxels, cuboids and the octree; a voxel is one cell.
   const StandardVoxelGrid grid = planeGrid(10);
-  EXPECT_EQ(planar_grid::evaluateVoxels(grid, truth, TOLERANCE_M, ball).samples,
-            inside);
+  const MappingError voxels =
+    planar_grid::evaluateVoxels(grid, truth, TOLERANCE_M, ball);
+  EXPECT_EQ(voxels.samples, inside);
+  EXPECT_EQ(voxels.cells, inside);
+  EXPECT_EQ(planar_grid::evaluateVoxels(grid, truth, TOLERANCE_M).cells, 100u);
   PlanarCuboids cuboids;
   cuboids.push_back(cuboid(Eigen::Vector3f(1.0f, 1.0f, 1.05f), Eigen::Vector3f::UnitZ(),
                            Eigen::Vector3f::UnitX(), 1.0f, 1.0f, 0.1f));
-  EXPECT_EQ(
-    planar_grid::evaluateCuboids(cuboids, 0.5, RESOLUTION_M, truth, TOLERANCE_M, ball)
-      .samples,
-    inside);
+  const MappingError in_cuboids =
+    planar_grid::evaluateCuboids(cuboids, 0.5, RESOLUTION_M, truth, TOLERANCE_M, ball);
+  EXPECT_EQ(in_cuboids.samples, inside);
+  EXPECT_EQ(in_cuboids.cells, 1u);
+  MappingErrorRegion far_away;
+  far_away.centre_m = Eigen::Vector3f(10.0f, 10.0f, 10.0f);
+  far_away.max_distance_m = 1.0;
+  EXPECT_EQ(planar_grid::evaluateCuboids(cuboids, 0.5, RESOLUTION_M, truth, TOLERANCE_M,
+                                         far_away)
+              .cells,
+            0u);
   octomap::OcTree tree(RESOLUTION_M);
   for (int y = 5; y < 15; ++y)
     for (int x = 5; x < 15; ++x)
@@ -294,8 +306,11 @@ TEST(MappingError, RegionOfInterest)
                                            static_cast<octomap::key_type>(y + 32768),
                                            static_cast<octomap::key_type>(10 + 32768)),
                         tree.getClampingThresMaxLog());
-  EXPECT_EQ(planar_grid::evaluateOcTree(tree, truth, TOLERANCE_M, ball).samples,
-            inside);
+  const MappingError leaves =
+    planar_grid::evaluateOcTree(tree, truth, TOLERANCE_M, ball);
+  EXPECT_EQ(leaves.samples, inside);
+  EXPECT_LE(leaves.cells, inside); // pruned leaves may hold several samples
+  EXPECT_GE(leaves.cells, 1u);
   EXPECT_EQ(planar_grid::evaluateOcTree(tree, truth, TOLERANCE_M).samples, 100u);
 }
 

@@ -73,6 +73,14 @@ struct ComparisonConfig {
   /** \brief A cell sample is erroneous farther than this many cell sizes from the
    * truth. */
   double tolerance_cells{1.0};
+  /** \brief The paper's places (Sec. IV-B, Figs. 10-14: "10 places along the robot
+   * motion path"): up to this many frames of each dataset, evenly spaced, the last at
+   * its last frame, are measured while the frames run (0: none, only the whole map at
+   * the end). */
+  std::size_t places{0};
+  /** \brief At a place, cells and error count only within this distance of the camera
+   * ("the occupied grid in a small range near the robot"), meters; 0: the whole map. */
+  double place_radius_m{0.0};
   /** \brief The datasets. */
   std::vector<DatasetConfig> datasets;
   /** \brief Output folder (CSV, plots). */
@@ -123,17 +131,32 @@ struct ComparisonRow {
   double tilt_deg{-1.0};
   /** \brief "truth" or "reference" (agreement with a reference, not truth). */
   std::string truth_kind;
+  /** \brief -1: the whole map after the last frame (ms_per_frame is the mean); k >= 0:
+   * the k-th place (ComparisonConfig::places): the map as it stood after \a frame,
+   * cells, samples, erroneous, efficiency and error within region_radius_m of the
+   * camera (MappingError::cells), all_cells and memory_bytes of the whole map,
+   * ms_per_frame of that frame alone (RA: SG's plus a merge of the whole grid). */
+  int place{-1};
+  /** \brief Sequence number of the frame the row describes (the last one for place -1).
+   */
+  std::size_t frame{0};
+  /** \brief The places' radius, meters (0: the whole map). */
+  double region_radius_m{0.0};
 };
 
-/** \brief Runs every dataset of \a config: the frames go once through the pipeline's
+/** \brief Runs every dataset of \a config (rows of its places as the frames run, then
+ * of the whole map at the end): the frames go once through the pipeline's
  * resolution-independent front end (stages before voxel_grid: stereo, features,
  * occupancy filter), then for each cell size r through the rest with every size
  * parameter set to r (voxel_grid leaf, cuboid minimum cell and thickness, map
  * resolution; min_inliers scaled by (0.1 / r)^2), and the cloud PG's approximation
  * receives (world frame, after ground removal) is inserted into SG and OG at r; RA is
- * merged from SG at the end.
+ * merged from SG at each place and at the end. With places and a REFERENCE truth, a
+ * first pass of a second front end over the frames builds the reference, since the
+ * places need it while the frames run.
  * \param[in] progress called with a line of text per dataset and cell size
- * \return one row per dataset, cell size and method
+ * \return per dataset: the place rows (place >= 0; per place, cell size and method),
+ * then one row per cell size and method for the whole map (place = -1)
  * \throws planar_grid::Exception on failure */
 std::vector<ComparisonRow>
 runComparison(const ComparisonConfig& config,

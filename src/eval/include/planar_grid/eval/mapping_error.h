@@ -64,6 +64,10 @@ struct MappingError {
   std::size_t samples{0};
   /** \brief Samples farther than tolerance_m from the truth. */
   std::size_t erroneous{0};
+  /** \brief Cells (voxels, leaves, boxes, cuboids) with at least one sample counted:
+   * with a region, the method's cells in it (the paper's local cell count, Sec. IV-B);
+   * without, every occupied cell evaluated. */
+  std::size_t cells{0};
 };
 
 /** \brief Optional region of interest of the mapping error ("the occupied grid in a
