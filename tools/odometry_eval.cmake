@@ -5,5 +5,5 @@
 add_executable(planar_grid_odometry_eval planar_grid_odometry_eval.cpp)
 target_link_libraries(planar_grid_odometry_eval PRIVATE
   planar_grid_odometry planar_grid_stereo planar_grid_core pcl_common
-  nlohmann_json::nlohmann_json yaml-cpp ${OpenCV_LIBS})
+  nlohmann_json::nlohmann_json ${OpenCV_LIBS})
 planar_grid_set_warnings(planar_grid_odometry_eval)

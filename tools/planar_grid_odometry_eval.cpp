@@ -14,17 +14,13 @@
 #include <pcl/console/time.h>
 
 #include <nlohmann/json.hpp>
-#include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
-#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -379,102 +375,6 @@ runKarlsruhe(const std::string& data_dir,
   return json;
 }
 
-/** \brief One EuRoC camera as sensor.yaml gives it. */
-struct EurocCamera {
-  Eigen::Isometry3d body_T_camera{Eigen::Isometry3d::Identity()};
-  cv::Matx33d camera_matrix{cv::Matx33d::eye()};
-  std::vector<double> distortion;
-  cv::Size size;
-};
-
-std::vector<double>
-readNumbers(const YAML::Node& root,
-            const std::string& key,
-            std::size_t count,
-            const std::string& path)
-{
-  const YAML::Node node = key == "T_BS" ? root["T_BS"]["data"] : root[key];
-  if (!node || !node.IsSequence() || node.size() != count)
-    throw planar_grid::IOError(path + ": " + key + " must hold " + std::to_string(count)
-                               + " numbers");
-  std::vector<double> values;
-  for (std::size_t i = 0; i < count; ++i)
-    values.push_back(node[i].as<double>());
-  return values;
-}
-
-EurocCamera
-readEurocCamera(const std::string& path)
-{
-  const YAML::Node root = YAML::LoadFile(path);
-  EurocCamera camera;
-  const std::vector<double> pose = readNumbers(root, "T_BS", 16, path);
-  for (std::size_t i = 0; i < 16; ++i)
-    camera.body_T_camera.matrix()(static_cast<Eigen::Index>(i / 4),
-                                  static_cast<Eigen::Index>(i % 4)) = pose[i];
-  const std::vector<double> intrinsics = readNumbers(root, "intrinsics", 4, path);
-  camera.camera_matrix = cv::Matx33d(intrinsics[0], 0, intrinsics[2], 0, intrinsics[1],
-                                     intrinsics[3], 0, 0, 1);
-  camera.distortion = readNumbers(root, "distortion_coefficients", 4, path);
-  const std::vector<double> resolution = readNumbers(root, "resolution", 2, path);
-  camera.size =
-    cv::Size(static_cast<int>(resolution[0]), static_cast<int>(resolution[1]));
-  return camera;
-}
-
-/** \brief The rotation R1 from cam0 to the rectified left camera (x_rect = R1 x_cam0),
- * computed as loadStereoCalibration(EUROC) computes it (cv::stereoRectify,
- * CALIB_ZERO_DISPARITY, alpha = 0); the camera model does not keep it. */
-Eigen::Matrix3d
-rectifiedTCam0(const EurocCamera& left, const EurocCamera& right)
-{
-  const Eigen::Isometry3d right_T_left =
-    right.body_T_camera.inverse() * left.body_T_camera;
-  cv::Matx33d rotation;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c)
-      rotation(r, c) = right_T_left.linear()(r, c);
-  const cv::Vec3d translation(right_T_left.translation().x(),
-                              right_T_left.translation().y(),
-                              right_T_left.translation().z());
-  cv::Mat r1, r2, p1, p2, q;
-  cv::stereoRectify(left.camera_matrix, left.distortion, right.camera_matrix,
-                    right.distortion, left.size, rotation, translation, r1, r2, p1, p2,
-                    q, cv::CALIB_ZERO_DISPARITY, 0.0);
-  Eigen::Matrix3d result;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c)
-      result(r, c) = r1.at<double>(r, c);
-  return result;
-}
-
-/** \brief world_T_body of one pair from gt_body_poses.txt. */
-Eigen::Isometry3d
-readBodyPose(const std::string& path, int pair)
-{
-  std::ifstream file(path);
-  if (!file)
-    throw planar_grid::IOError("cannot open " + path);
-  std::string line;
-  while (std::getline(file, line)) {
-    if (line.empty() || line[0] == '#')
-      continue;
-    std::istringstream stream(line);
-    int image = -1;
-    long long timestamp_ns = 0;
-    double qw, qx, qy, qz, x, y, z;
-    if (!(stream >> image >> timestamp_ns >> qw >> qx >> qy >> qz >> x >> y >> z))
-      throw planar_grid::IOError(path + ": malformed line '" + line + "'");
-    if (image != pair)
-      continue;
-    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    pose.linear() = Eigen::Quaterniond(qw, qx, qy, qz).normalized().toRotationMatrix();
-    pose.translation() = Eigen::Vector3d(x, y, z);
-    return pose;
-  }
-  throw planar_grid::IOError(path + ": no pose for pair " + std::to_string(pair));
-}
-
 nlohmann::json
 runEuroc(const std::string& data_dir,
          const StereoFeatureMatcher& matcher,
@@ -485,9 +385,8 @@ runEuroc(const std::string& data_dir,
   const planar_grid::StereoCameraModel model = planar_grid::loadStereoCalibration(
     planar_grid::CalibrationFormat::EUROC, dir + "/sensorLeft.yaml",
     dir + "/sensorRight.yaml");
-  const EurocCamera cam0 = readEurocCamera(dir + "/sensorLeft.yaml");
-  const EurocCamera cam1 = readEurocCamera(dir + "/sensorRight.yaml");
-  const Eigen::Isometry3d body_T_camera = cam0.body_T_camera;
+  const planar_grid::IndexedPoses body_poses =
+    planar_grid::loadEurocBodyPoses(dir + "/gt_body_poses.txt");
   const int pairs[2] = {2, 3};
   StereoFeatures features[2];
   std::vector<double> feature_ms;
@@ -509,14 +408,16 @@ runEuroc(const std::string& data_dir,
     odometry.estimate(features[0], features[1]);
   const double odometry_ms = timer.toc();
 
-  const Eigen::Isometry3d world_T_camera2 =
-    readBodyPose(dir + "/gt_body_poses.txt", 2) * body_T_camera;
-  const Eigen::Isometry3d world_T_camera3 =
-    readBodyPose(dir + "/gt_body_poses.txt", 3) * body_T_camera;
+  for (const int pair : pairs)
+    if (body_poses.count(pair) == 0)
+      throw planar_grid::IOError(dir + "/gt_body_poses.txt: no pose for pair "
+                                 + std::to_string(pair));
+  const Eigen::Isometry3d world_T_camera2 = body_poses.at(2) * model.body_T_left;
+  const Eigen::Isometry3d world_T_camera3 = body_poses.at(3) * model.body_T_left;
   // The features live in the rectified left camera frame, rotated by R1 against cam0:
   // the true motion in that frame is R1 * (cam0_2_T_cam0_3) * R1^T.
   Eigen::Isometry3d rect_T_cam0 = Eigen::Isometry3d::Identity();
-  rect_T_cam0.linear() = rectifiedTCam0(cam0, cam1);
+  rect_T_cam0.linear() = model.rectified_R_left;
   const Eigen::Isometry3d truth =
     rect_T_cam0 * world_T_camera2.inverse() * world_T_camera3 * rect_T_cam0.inverse();
 

@@ -219,6 +219,53 @@ loadKittiPoses(const std::string& path)
   return trajectory;
 }
 
+IndexedPoses
+loadEurocBodyPoses(const std::string& path)
+{
+  std::ifstream in = openForReading(path);
+  // Columns: image timestamp_ns qw qx qy qz x_m y_m z_m.
+  constexpr std::size_t EUROC_COLUMNS = 9;
+  // The file gives the quaternions to 6 digits; a norm far from 1 is a wrong column.
+  constexpr double UNIT_NORM_TOLERANCE = 1e-3;
+  constexpr double ZERO_NORM = 1e-9;
+
+  IndexedPoses poses;
+  std::string line;
+  std::size_t line_number = 0;
+  while (std::getline(in, line)) {
+    ++line_number;
+    const std::size_t first = line.find_first_not_of(" \t\r\n\v\f");
+    if (first == std::string::npos || line[first] == '#')
+      continue;
+    const std::vector<double> numbers = parseNumbers(path, line_number, line);
+    if (numbers.size() != EUROC_COLUMNS)
+      throw IOError(where(path, line_number,
+                          "expected 9 numbers (image timestamp_ns qw qx qy qz x_m "
+                          "y_m z_m), got "
+                            + std::to_string(numbers.size())));
+    const double image = numbers[0];
+    if (image < 0.0 || image > 1e9 || image != std::floor(image))
+      throw IOError(
+        where(path, line_number, "the image index must be a non-negative integer"));
+    const int index = static_cast<int>(image);
+    const Eigen::Quaterniond q(numbers[2], numbers[3], numbers[4], numbers[5]);
+    if (q.norm() < ZERO_NORM)
+      throw IOError(where(path, line_number, "zero quaternion"));
+    if (std::abs(q.norm() - 1.0) > UNIT_NORM_TOLERANCE)
+      throw IOError(
+        where(path, line_number, "the quaternion (qw qx qy qz) is not of unit norm"));
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = q.normalized().toRotationMatrix();
+    pose.translation() = Eigen::Vector3d(numbers[6], numbers[7], numbers[8]);
+    if (!poses.emplace(index, pose).second)
+      throw IOError(where(path, line_number,
+                          "image index " + std::to_string(index) + " appears twice"));
+  }
+  if (in.bad())
+    throw IOError(path + ": read error");
+  return poses;
+}
+
 void
 saveKittiPoses(const std::string& path, const Trajectory& trajectory)
 {

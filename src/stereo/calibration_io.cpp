@@ -280,6 +280,14 @@ loadEuroc(const std::string& left_path, const std::string& right_path)
                   + ": cannot rectify the pair (OpenCV: " + e.what() + ")");
   }
 
+  for (int row = 0; row < 3; ++row)
+    for (int col = 0; col < 3; ++col)
+      model.rectified_R_left(row, col) = r1.at<double>(row, col);
+  model.body_T_left.matrix() = Eigen::Matrix4d::Identity();
+  for (int row = 0; row < 3; ++row)
+    for (int col = 0; col < 4; ++col)
+      model.body_T_left.matrix()(row, col) = left.body_T_camera(row, col);
+
   StereoCalibration& calibration = model.calibration;
   calibration.focal_length_px = p1.at<double>(0, 0);
   calibration.cx_px = p1.at<double>(0, 2);

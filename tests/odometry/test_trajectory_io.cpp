@@ -390,6 +390,81 @@ TEST_F(TrajectoryIOFiles, KittiSaveToMissingFolderThrows)
   EXPECT_THROW(planar_grid::saveKittiPoses(path, trajectory), planar_grid::IOError);
 }
 
+// ---------------------------------------------------------------- EuRoC body poses
+
+// The real file (data README): pair 2's line is
+// "2 1403715400762142976 0.3394 -0.672895 -0.492724 -0.435018 -0.662997
+// -0.495046 1.3473".
+TEST(TrajectoryIOEuroc, ReadsTheRealGroundTruth)
+{
+  const planar_grid::IndexedPoses poses = planar_grid::loadEurocBodyPoses(
+    std::string(PLANAR_GRID_DATA_DIR) + "/euroc_v1_01_pairs/gt_body_poses.txt");
+  ASSERT_EQ(poses.size(), 4u);
+  for (int index = 0; index < 4; ++index)
+    ASSERT_EQ(poses.count(index), 1u) << index;
+  const Eigen::Isometry3d& pose = poses.at(2);
+  EXPECT_NEAR(pose.translation().x(), -0.662997, 1e-9);
+  EXPECT_NEAR(pose.translation().y(), -0.495046, 1e-9);
+  EXPECT_NEAR(pose.translation().z(), 1.347300, 1e-9);
+  const Eigen::Matrix3d rotation = pose.linear();
+  EXPECT_LT((rotation * rotation.transpose() - Eigen::Matrix3d::Identity())
+              .cwiseAbs()
+              .maxCoeff(),
+            1e-12);
+  EXPECT_NEAR(rotation.determinant(), 1.0, 1e-12);
+  // The rotation is the file's quaternion (w first), normalized.
+  const Eigen::Quaterniond q =
+    Eigen::Quaterniond(0.3394, -0.672895, -0.492724, -0.435018).normalized();
+  EXPECT_LT((rotation - q.toRotationMatrix()).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST_F(TrajectoryIOFiles, EurocBodyPosesSkipCommentsAndBlankLines)
+{
+  const std::string path =
+    writeFile("gt.txt", "# image timestamp_ns qw qx qy qz x y z\n"
+                        "\n"
+                        "7 100 1 0 0 0 1 2 3\n"
+                        "  # indented comment\n"
+                        "3 200 0 0 0 1 -1 -2 -3\n");
+  const planar_grid::IndexedPoses poses = planar_grid::loadEurocBodyPoses(path);
+  ASSERT_EQ(poses.size(), 2u);
+  EXPECT_TRUE(poses.at(7).linear().isIdentity(1e-15));
+  EXPECT_TRUE(poses.at(7).translation().isApprox(Eigen::Vector3d(1, 2, 3)));
+  // q = (0, 0, 0, 1): half a turn about z.
+  EXPECT_NEAR(poses.at(3).linear()(0, 0), -1.0, 1e-15);
+  EXPECT_NEAR(poses.at(3).linear()(1, 1), -1.0, 1e-15);
+  EXPECT_NEAR(poses.at(3).linear()(2, 2), 1.0, 1e-15);
+  EXPECT_TRUE(planar_grid::loadEurocBodyPoses(writeFile("empty.txt", "")).empty());
+}
+
+TEST_F(TrajectoryIOFiles, EurocBodyPosesMalformedLineNamesFileAndLine)
+{
+  const std::string good = "0 100 1 0 0 0 0 0 0\n";
+  const auto expectError = [&](const std::string& name, const std::string& content,
+                               const std::string& location, const std::string& detail) {
+    const std::string path = writeFile(name, content);
+    const std::string what = ioErrorOf([&] { planar_grid::loadEurocBodyPoses(path); });
+    EXPECT_TRUE(contains(what, path + location)) << name;
+    EXPECT_TRUE(contains(what, detail)) << name;
+  };
+  expectError("eight.txt", good + "1 100 1 0 0 0 0 0\n", ":2:", "expected 9 numbers");
+  expectError("ten.txt", "0 100 1 0 0 0 0 0 0 5\n", ":1:", "expected 9 numbers");
+  expectError("word.txt", good + "1 100 1 0 zero 0 0 0 0\n", ":2:", "expected numbers");
+  expectError("inf.txt", "0 100 1 0 0 0 inf 0 0\n", ":1:", "");
+  expectError("huge.txt", "0 100 1 0 0 0 1e999 0 0\n", ":1:", "");
+  expectError("zero_q.txt", good + "# c\n1 100 0 0 0 0 0 0 0\n",
+              ":3:", "zero quaternion");
+  expectError("half_q.txt", "0 100 0.5 0 0 0 0 0 0\n", ":1:", "unit norm");
+  expectError("duplicate.txt", good + "1 100 1 0 0 0 0 0 0\n" + good,
+              ":3:", "image index 0 appears twice");
+  expectError("negative.txt", "-1 100 1 0 0 0 0 0 0\n", ":1:", "non-negative integer");
+  expectError("fraction.txt", "1.5 100 1 0 0 0 0 0 0\n", ":1:", "non-negative integer");
+
+  const std::string missing = (dir_ / "missing.txt").string();
+  EXPECT_TRUE(
+    contains(ioErrorOf([&] { planar_grid::loadEurocBodyPoses(missing); }), missing));
+}
+
 // ---------------------------------------------------------------- PCD viewpoint
 
 TEST_F(TrajectoryIOFiles, PCDViewpointRoundTrip)

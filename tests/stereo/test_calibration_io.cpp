@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -128,6 +129,70 @@ TEST(CalibrationIO, ReadsAndRectifiesEuRoCPair)
   EXPECT_EQ(right.size(), raw.size());
   EXPECT_THROW(model.rectifier.rectify(cv::Mat(10, 10, CV_8UC1), raw, left, right),
                planar_grid::Exception);
+}
+
+// EuRoC T_BS (camera to body) of cam0 and cam1, as sensorLeft.yaml and
+// sensorRight.yaml give them (row-major 4x4).
+Eigen::Isometry3d
+eurocBodyTCamera(const double (&data)[12])
+{
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  for (int i = 0; i < 12; ++i)
+    pose.matrix()(i / 4, i % 4) = data[i];
+  return pose;
+}
+
+const double EUROC_T_BS_LEFT[12] = {
+  0.0148655429818,  -0.999880929698,  0.00414029679422, -0.0216401454975,
+  0.999557249008,   0.0149672133247,  0.025715529948,   -0.064676986768,
+  -0.0257744366974, 0.00375618835797, 0.999660727178,   0.00981073058949};
+const double EUROC_T_BS_RIGHT[12] = {
+  0.0125552670891,  -0.999755099723, 0.0182237714554, -0.0198435579556,
+  0.999598781151,   0.0130119051815, 0.0251588363115, 0.0453689425024,
+  -0.0253898008918, 0.0179005838253, 0.999517347078,  0.00786212447038};
+
+// body_T_left is sensorLeft.yaml's T_BS; rectified_R_left is a rotation that puts the
+// right camera's centre on the rectified x axis at the baseline (what stereoRectify
+// with CALIB_ZERO_DISPARITY must do, checked from the raw extrinsics alone) and turns
+// the raw optical axis only slightly (the two EuRoC cameras are nearly parallel).
+TEST(CalibrationIO, EuRoCModelKeepsExtrinsicsAndRectifyingRotation)
+{
+  const auto model = loadStereoCalibration(
+    CalibrationFormat::EUROC, DATA_DIR + "/euroc_v1_01_pairs/sensorLeft.yaml",
+    DATA_DIR + "/euroc_v1_01_pairs/sensorRight.yaml");
+  const Eigen::Isometry3d body_T_left = eurocBodyTCamera(EUROC_T_BS_LEFT);
+  const Eigen::Isometry3d body_T_right = eurocBodyTCamera(EUROC_T_BS_RIGHT);
+  EXPECT_LT((model.body_T_left.matrix() - body_T_left.matrix()).cwiseAbs().maxCoeff(),
+            1e-15);
+
+  const Eigen::Matrix3d& r1 = model.rectified_R_left;
+  EXPECT_LT((r1 * r1.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(),
+            1e-9);
+  EXPECT_NEAR(r1.determinant(), 1.0, 1e-9);
+
+  // The right camera's centre in the raw left frame, then in the rectified one: on
+  // the +x axis, at the calibration's baseline.
+  const Eigen::Vector3d right_centre =
+    (body_T_left.inverse() * body_T_right).translation();
+  const Eigen::Vector3d rectified_centre = r1 * right_centre;
+  EXPECT_NEAR(rectified_centre.x(), model.calibration.baseline_m, 1e-6);
+  EXPECT_NEAR(rectified_centre.y(), 0.0, 1e-9);
+  EXPECT_NEAR(rectified_centre.z(), 0.0, 1e-9);
+
+  // The raw optical axis moves by less than 2 degrees: the cameras are nearly parallel
+  // (their T_BS rotations differ by about 1 deg), and stereoRectify turns each by
+  // about half of that plus the small turn that lines x up with the baseline.
+  const Eigen::Vector3d axis = r1 * Eigen::Vector3d::UnitZ();
+  EXPECT_GT(axis.z(), std::cos(2.0 * M_PI / 180.0));
+}
+
+// The rectified formats need no rectification and give no extrinsics.
+TEST(CalibrationIO, RectifiedFormatsHaveIdentityExtrinsics)
+{
+  const auto model =
+    loadStereoCalibration(CalibrationFormat::KARLSRUHE, KARLSRUHE_CALIB);
+  EXPECT_TRUE(model.rectified_R_left.isIdentity(0.0));
+  EXPECT_TRUE(model.body_T_left.matrix().isIdentity(0.0));
 }
 
 // KITTI odometry calib.txt (sequence 00 values): P0 is the left camera, P1 the right

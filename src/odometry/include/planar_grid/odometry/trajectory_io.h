@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/StdVector>
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,28 @@ Trajectory loadKarlsruheInsData(const std::string& path,
  *         rotation (orthonormal to 1e-4, determinant > 0)
  * \ingroup odometry */
 Trajectory loadKittiPoses(const std::string& path);
+
+/** \brief Body poses by image index, world_T_body. \ingroup odometry */
+using IndexedPoses =
+  std::map<int,
+           Eigen::Isometry3d,
+           std::less<int>,
+           Eigen::aligned_allocator<std::pair<const int, Eigen::Isometry3d>>>;
+
+/** \brief Reads the EuRoC ground-truth body poses of a set of image pairs
+ * (euroc_v1_01_pairs/gt_body_poses.txt): one line per image,
+ * `image timestamp_ns qw qx qy qz x_m y_m z_m`, the pose world_T_body (Vicon world
+ * frame, z up) of the image with that index. Blank lines and lines starting with '#'
+ * are skipped; the timestamp is not used. The camera pose follows from the body pose
+ * and the camera's T_BS (StereoCameraModel::body_T_left).
+ * \param[in] path the poses file
+ * \return world_T_body by image index (empty for a file without poses)
+ * \throws planar_grid::IOError naming the file when it is missing, and file:line when
+ *         a line does not hold exactly 9 finite numbers, its image index is not a
+ *         non-negative integer or repeats an earlier line's, or its quaternion is zero
+ *         or not of unit norm (to 1e-3)
+ * \ingroup odometry */
+IndexedPoses loadEurocBodyPoses(const std::string& path);
 
 /** \brief Writes a KITTI poses file (12 numbers per line, 17 significant digits, so
  * that loadKittiPoses() gives back the same doubles), atomically (see

@@ -3,6 +3,7 @@
 
 #include <planar_grid/core/stereo_calibration.h>
 
+#include <Eigen/Geometry>
 #include <opencv2/core/mat.hpp>
 
 #include <string>
@@ -63,6 +64,17 @@ struct StereoCameraModel {
   StereoCalibration calibration;
   /** \brief Maps for raw (unrectified) pairs; empty for rectified ones. */
   StereoRectifier rectifier;
+  /** \brief Rotation from the raw left camera to the rectified left camera, R1 of
+   * cv::stereoRectify: x_rect = rectified_R_left * x_left_raw (both x right, y down,
+   * z forward). Identity for formats that are already rectified. The pose of the
+   * rectified camera is therefore body_T_left * rectified_R_left^T. */
+  Eigen::Matrix3d rectified_R_left{Eigen::Matrix3d::Identity()};
+  /** \brief Pose of the raw left camera in the body (IMU) frame, EuRoC T_BS of the
+   * left camera: a left-camera point p is at body_T_left * p in the body frame.
+   * Identity for formats without extrinsics. */
+  Eigen::Isometry3d body_T_left{Eigen::Isometry3d::Identity()};
+
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
 };
 
 /** \brief Loads a stereo calibration.
