@@ -126,7 +126,9 @@ public:
       }
     } else if (input.poses_format == "kitti")
       poses_ = loadKittiPoses(input.poses_file);
-    if (!poses_.empty()) {
+    if (input.poses_format == "euroc_groundtruth")
+      loadEurocPoses(input.poses_file);
+    else if (!poses_.empty()) {
       const std::size_t needed = static_cast<std::size_t>(first_index_) + count_;
       if (poses_.size() < needed)
         throw IOError(input.poses_file + ": has " + std::to_string(poses_.size())
@@ -177,6 +179,25 @@ public:
   }
 
 private:
+  /** Fills poses_ (one per frame) from EuRoC world_T_body poses keyed by image index:
+   * the pipeline's camera is the rectified left camera, so world_T_camera =
+   * world_T_body * body_T_left * rectified_R_left^T. */
+  void loadEurocPoses(const std::string& path)
+  {
+    const IndexedPoses body_poses = loadEurocBodyPoses(path);
+    Eigen::Isometry3d left_T_rectified = Eigen::Isometry3d::Identity();
+    left_T_rectified.linear() = model_.rectified_R_left.transpose();
+    const Eigen::Isometry3d body_T_camera = model_.body_T_left * left_T_rectified;
+    for (std::size_t k = 0; k < count_; ++k) {
+      const int index = first_index_ + static_cast<int>(k);
+      const auto pose = body_poses.find(index);
+      if (pose == body_poses.end())
+        throw IOError(path + ": no pose for image index " + std::to_string(index) + " ("
+                      + left_.format(index) + ")");
+      poses_.push_back(pose->second * body_T_camera);
+    }
+  }
+
   IndexPattern left_, right_;
   int first_index_;
   std::size_t count_{0};

@@ -245,7 +245,8 @@ parseInput(const Reader& r, const YAML::Node& node)
     const std::vector<std::string> formats =
       input.type == InputConfig::Type::PCD_FILES
         ? std::vector<std::string>{"viewpoint", "kitti", "none"}
-        : std::vector<std::string>{"odometry", "karlsruhe_insdata", "kitti", "none"};
+        : std::vector<std::string>{"odometry", "karlsruhe_insdata", "kitti",
+                                   "euroc_groundtruth", "none"};
     if (std::find(formats.begin(), formats.end(), input.poses_format)
         == formats.end()) {
       std::string list;
@@ -255,8 +256,15 @@ parseInput(const Reader& r, const YAML::Node& node)
              "input.poses.format '" + input.poses_format
                + "' is unknown for this input; expected one of: " + list);
     }
-    const bool needs_file =
-      input.poses_format == "karlsruhe_insdata" || input.poses_format == "kitti";
+    // The ground truth is the body's pose: the camera's comes from the EuRoC T_BS and
+    // rectification, which only the euroc calibration gives.
+    if (input.poses_format == "euroc_groundtruth"
+        && input.calibration_format != "euroc")
+      r.fail(poses["format"], "input.poses.format euroc_groundtruth needs "
+                              "input.calibration.format euroc (the cameras' T_BS)");
+    const bool needs_file = input.poses_format == "karlsruhe_insdata"
+                            || input.poses_format == "kitti"
+                            || input.poses_format == "euroc_groundtruth";
     if (needs_file)
       input.poses_file = r.path(poses, "file", "input.poses");
     else if (poses["file"])

@@ -199,6 +199,53 @@ TEST(PipelineConfig, BadInputBlocksAreErrors)
   EXPECT_EQ(e.line(), 5);
 }
 
+TEST(PipelineConfig, EurocGroundTruthPoses)
+{
+  const std::string input = "input:\n  type: stereo_sequence\n  left_images: l%d.png\n"
+                            "  right_images: r%d.png\n  calibration:\n"
+                            "    format: euroc\n    file: l.yaml\n"
+                            "    right_file: r.yaml\n";
+  // Stereo input: accepted with a file, resolved against the config's folder.
+  const auto config = parsePipelineConfig(
+    input
+      + "  poses: {format: euroc_groundtruth, file: gt_body_poses.txt}\n"
+        "pipeline:\n  - type: voxel_grid\n",
+    "test.yaml", "/base");
+  EXPECT_EQ(config.input.poses_format, "euroc_groundtruth");
+  EXPECT_EQ(config.input.poses_file, "/base/gt_body_poses.txt");
+  // It needs the file.
+  auto e = errorOf(input
+                   + "  poses: {format: euroc_groundtruth}\n"
+                     "pipeline:\n  - type: voxel_grid\n");
+  EXPECT_EQ(e.line(), 9);
+  EXPECT_NE(std::string(e.what()).find("file"), std::string::npos) << e.what();
+  // Karlsruhe's mounting keys are not for it.
+  e = errorOf(input
+              + "  poses: {format: euroc_groundtruth, file: gt.txt, camera_height_m: "
+                "1}\npipeline:\n  - type: voxel_grid\n");
+  EXPECT_EQ(e.line(), 9);
+  // The camera's pose needs the EuRoC extrinsics, which only the euroc calibration has.
+  e = errorOf(INPUT
+              + "  poses: {format: euroc_groundtruth, file: gt.txt}\n"
+                "pipeline:\n  - type: voxel_grid\n");
+  EXPECT_EQ(e.line(), 8);
+  EXPECT_NE(std::string(e.what()).find("calibration.format euroc"), std::string::npos)
+    << e.what();
+  // PCD input has no stereo calibration to take the camera's T_BS from.
+  e = errorOf("input:\n  type: pcd_files\n  files: [a.pcd]\n"
+              "  poses: {format: euroc_groundtruth, file: gt.txt}\n"
+              "pipeline:\n  - type: voxel_grid\n");
+  EXPECT_EQ(e.line(), 4);
+
+  // The EuRoC evaluation config uses it.
+  const auto euroc =
+    planar_grid::loadPipelineConfig(SOURCE_DIR + "/config/eval/euroc.yaml");
+  EXPECT_EQ(euroc.input.calibration_format, "euroc");
+  EXPECT_EQ(euroc.input.poses_format, "euroc_groundtruth");
+  EXPECT_EQ(euroc.input.first_index, 2);
+  EXPECT_EQ(euroc.input.frame_count, 2);
+}
+
 TEST(PipelineConfig, EmptyOrMalformedYaml)
 {
   auto e = errorOf("");

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/pipeline/frame_source.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 #include <planar_grid/pipeline/run_outputs.h>
@@ -11,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -220,6 +222,75 @@ TEST_F(PipelineRunnerTest, PoseFileShorterThanTheFramesIsAnError)
     FAIL() << "a short pose file must be rejected before the run";
   } catch (const planar_grid::IOError& e) {
     EXPECT_NE(std::string(e.what()).find("poses.txt"), std::string::npos) << e.what();
+  }
+}
+
+/** The EuRoC V1_01 pairs from \a first_index with their ground-truth poses. */
+std::string
+eurocInput(int first_index, int frame_count, const std::string& poses_file)
+{
+  const std::string euroc = DATA + "/euroc_v1_01_pairs";
+  return "input:\n  type: stereo_sequence\n  left_images: " + euroc
+         + "/left_img_%d.png\n  right_images: " + euroc + "/right_img_%d.png\n"
+         + "  first_index: " + std::to_string(first_index) + "\n  frame_count: "
+         + std::to_string(frame_count) + "\n" + "  calibration: {format: euroc, file: "
+         + euroc + "/sensorLeft.yaml, right_file: " + euroc + "/sensorRight.yaml}\n"
+         + "  poses: {format: euroc_groundtruth, file: " + poses_file + "}\n";
+}
+
+// Pairs 2 and 3 with the Vicon poses: the camera motion is the one
+// planar_grid_odometry_eval prints as the EuRoC ground truth (0.317 m, 15.58 deg, in
+// the rectified left camera frame), and the camera of pair 2 sits at the body's height
+// in the z-up Vicon world.
+TEST_F(PipelineRunnerTest, EurocGroundTruthPosesAreTheRectifiedLeftCamera)
+{
+  const std::string gt = DATA + "/euroc_v1_01_pairs/gt_body_poses.txt";
+  const auto config = parsePipelineConfig(eurocInput(2, 2, gt) + STAGES, "t.yaml", "/");
+  const auto source = planar_grid::createFrameSource(config.input);
+  ASSERT_EQ(source->size(), 2u);
+  ASSERT_EQ(source->poses().size(), 2u);
+  planar_grid::Frame frame;
+  source->load(0, frame);
+  ASSERT_TRUE(frame.has_pose);
+  EXPECT_EQ(frame.file_index, 2);
+  const Eigen::Isometry3d world_T_camera2 = frame.world_T_camera;
+  EXPECT_TRUE(world_T_camera2.isApprox(source->poses()[0], 1e-15));
+  source->load(1, frame);
+  const Eigen::Isometry3d world_T_camera3 = frame.world_T_camera;
+
+  const Eigen::Isometry3d motion = world_T_camera2.inverse() * world_T_camera3;
+  EXPECT_NEAR(motion.translation().norm(), 0.317, 0.002);
+  EXPECT_NEAR(Eigen::AngleAxisd(motion.linear()).angle() * 180.0 / M_PI, 15.58, 0.05);
+
+  // The body is at z = 1.3473 m (gt_body_poses.txt); the camera is a few cm from it.
+  EXPECT_GT(world_T_camera2.translation().z(), 1.3);
+  EXPECT_LT(world_T_camera2.translation().z(), 1.4);
+  const Eigen::Matrix3d rotation = world_T_camera2.linear();
+  EXPECT_NEAR(rotation.determinant(), 1.0, 1e-9);
+  // Measured: the optical axis (column 2) of pair 2 is (0.27, 0.88, -0.38), about 22
+  // deg below the horizon; the image's down axis (column 1) has z = -0.92, so the
+  // camera is upright in the z-up world, and its x axis stays near the horizontal.
+  // A camera frame that is not the optical one (the body's, or a transposed R1) fails
+  // these.
+  const double pitch_down_deg = std::asin(-rotation(2, 2)) * 180.0 / M_PI;
+  EXPECT_GT(pitch_down_deg, 15.0);
+  EXPECT_LT(pitch_down_deg, 30.0);
+  EXPECT_LT(rotation(2, 1), -0.85);
+  EXPECT_LT(std::abs(rotation(2, 0)), 0.1);
+}
+
+TEST_F(PipelineRunnerTest, EurocGroundTruthWithoutThePairsPoseIsAnError)
+{
+  // The file has poses for images 0 to 3; frames 3 and 4 need image 4's.
+  const std::string gt = DATA + "/euroc_v1_01_pairs/gt_body_poses.txt";
+  const auto config = parsePipelineConfig(eurocInput(3, 2, gt) + STAGES, "t.yaml", "/");
+  try {
+    planar_grid::createFrameSource(config.input);
+    FAIL() << "a missing pose must be rejected before the run";
+  } catch (const planar_grid::IOError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(gt), std::string::npos) << what;
+    EXPECT_NE(what.find("image index 4"), std::string::npos) << what;
   }
 }
 

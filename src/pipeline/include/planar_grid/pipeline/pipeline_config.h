@@ -39,8 +39,12 @@ struct InputConfig {
   /** \brief The right camera's calibration file (ros_camera_info and euroc only). */
   std::string calibration_right_file;
 
-  /** \brief Poses: "none", "karlsruhe_insdata", "kitti" (world_T_camera per frame) or,
-   * for PCD input, "viewpoint" (default there). */
+  /** \brief Poses: "none", "odometry" (estimated by an odometry stage),
+   * "karlsruhe_insdata", "kitti" (world_T_camera per frame), "euroc_groundtruth"
+   * (stereo input only: EuRoC gt_body_poses.txt, world_T_body by image index, with the
+   * euroc calibration's T_BS and rectification: world_T_camera = world_T_body *
+   * body_T_left * rectified_R_left^T) or, for PCD input, "viewpoint" (default there).
+   */
   std::string poses_format{"none"};
   /** \brief Poses file ("" for none and viewpoint). */
   std::string poses_file;
