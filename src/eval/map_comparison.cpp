@@ -133,7 +133,9 @@ isFrontEnd(const std::string& type)
          || type == "kl_occupancy_filter" || type == "visual_odometry";
 }
 
-/** The pipeline stage \a sc with every size parameter set to \a r. */
+/** The pipeline stage \a sc at cell size \a r: its parameters marked CELL_SIZE in
+ * its table are set to r, those marked POINTS_PER_AREA scaled by (0.1 / r)^2
+ * (ParamSpec::CellSizeScaling). */
 std::unique_ptr<Stage>
 createAtResolution(const StageConfig& sc, double r)
 {
@@ -141,18 +143,20 @@ createAtResolution(const StageConfig& sc, double r)
   if (!info)
     throw Exception("unknown stage type '" + sc.type + "'");
   ParamValues params = sc.params;
-  const auto has = [&params](const std::string& key) {
-    return params.values().count(key) > 0;
-  };
-  for (const char* key : {"leaf_size_m", "min_cell_size_m", "min_width_m",
-                          "min_height_m", "resolution_m", "thickness_m"})
-    if (has(key) && sc.type != "statistical_outlier_removal")
-      params.set(key, r);
-  if (sc.type == "multi_plane_segmentation" && has("min_inliers")) {
-    // The same surface area: the voxel count falls with the square of the cell size.
-    const double scaled = params.getInt("min_inliers") * (0.1 / r) * (0.1 / r);
-    params.set("min_inliers", std::max(10, static_cast<int>(std::lround(scaled))));
-  }
+  for (const ParamSpec& spec : info->params)
+    switch (spec.cell_size_scaling) {
+      case ParamSpec::CellSizeScaling::NONE:
+        break;
+      case ParamSpec::CellSizeScaling::CELL_SIZE:
+        params.set(spec.key, r);
+        break;
+      case ParamSpec::CellSizeScaling::POINTS_PER_AREA: {
+        // The same surface area: the voxel count falls with the square of the size.
+        const double scaled = params.getInt(spec.key) * (0.1 / r) * (0.1 / r);
+        params.set(spec.key, std::max(10, static_cast<int>(std::lround(scaled))));
+        break;
+      }
+    }
   return info->create(params);
 }
 

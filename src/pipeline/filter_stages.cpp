@@ -63,7 +63,8 @@ voxelGridInfo()
   info.description =
     "pcl::VoxelGrid: one centroid per occupied voxel of the working cloud.";
   info.params = {
-    ParamSpec::real("leaf_size_m", 0.05, 0.001, 10.0, "m", "Voxel edge length."),
+    ParamSpec::real("leaf_size_m", 0.05, 0.001, 10.0, "m", "Voxel edge length.")
+      .scalesWithCellSize(),
     ParamSpec::integer("min_points_per_voxel", 1, 1, 100000, "",
                        "Voxels with fewer points are dropped."),
   };

@@ -445,7 +445,8 @@ mapIntegrationInfo()
   const PlanarGridMap::Params d;
   info.params = {
     ParamSpec::real("resolution_m", d.space.resolution_m, 0.01, 10.0, "m",
-                    "Minimum cell size of both layers (the paper's 0.1 m)."),
+                    "Minimum cell size of both layers (the paper's 0.1 m).")
+      .scalesWithCellSize(),
     ParamSpec::real("max_range_m", d.space.max_range_m, 0.1, 1000.0, "m",
                     "Depth up to which a view marks space."),
     ParamSpec::real("surface_margin_m", d.space.surface_margin_m, 0.0, 10.0, "m",
@@ -454,7 +455,8 @@ mapIntegrationInfo()
     ParamSpec::choice("prior", toString(d.space.prior), {"unknown", "free"},
                       "State of space never inside a view (the paper: free)."),
     ParamSpec::real("thickness_m", d.surface.thickness_m, 0.001, 10.0, "m",
-                    "Extrusion of the map's planar cuboids behind their face."),
+                    "Extrusion of the map's planar cuboids behind their face.")
+      .scalesWithCellSize(),
     ParamSpec::real("plane_merge_angle_rad", d.surface.plane_merge_angle_rad, 0.001,
                     1.5, "rad", "Largest normal angle between one plane's views."),
     ParamSpec::real("plane_merge_distance_m", d.surface.plane_merge_distance_m, 0.001,

@@ -195,7 +195,8 @@ multiPlaneSegmentationInfo()
       "RANSAC inlier threshold on the sample (stereo features are noisier)."),
     ParamSpec::integer("max_planes", 8, 1, 100, "", "Most planes per frame."),
     ParamSpec::integer("min_inliers", 500, 3, 100000000, "",
-                       "A plane needs at least this many dense inliers."),
+                       "A plane needs at least this many dense inliers.")
+      .scalesWithCellSize(ParamSpec::CellSizeScaling::POINTS_PER_AREA),
     ParamSpec::integer("min_sample_inliers", 15, 3, 1000000, "",
                        "A hypothesis needs at least this many sample inliers."),
     ParamSpec::real("min_remaining_fraction", 0.05, 0.0, 1.0, "",

@@ -94,15 +94,19 @@ planarCuboidApproximationInfo()
   info.params = {
     ParamSpec::real(
       "min_cell_size_m", 0.1, 0.01, 10.0, "m",
-      "Smallest cell side and raster resolution (the paper's minimum grid)."),
+      "Smallest cell side and raster resolution (the paper's minimum grid).")
+      .scalesWithCellSize(),
     ParamSpec::real("density_threshold", 0.9, 0.01, 1.0, "",
                     "D_T: a unit whose occupied-area fraction D is below it is split."),
     ParamSpec::real("min_width_m", 0.1, 0.0, 100.0, "m",
-                    "W_T: a unit is split only while wider than this."),
+                    "W_T: a unit is split only while wider than this.")
+      .scalesWithCellSize(),
     ParamSpec::real("min_height_m", 0.1, 0.0, 100.0, "m",
-                    "H_T: a unit is split only while higher than this."),
+                    "H_T: a unit is split only while higher than this.")
+      .scalesWithCellSize(),
     ParamSpec::real("thickness_m", 0.1, 0.001, 10.0, "m",
-                    "Extrusion behind the surface along the normal."),
+                    "Extrusion behind the surface along the normal.")
+      .scalesWithCellSize(),
     ParamSpec::integer("min_points_per_cell", 3, 1, 1000000, "",
                        "Cells with fewer points are dropped."),
   };

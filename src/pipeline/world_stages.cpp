@@ -211,7 +211,8 @@ accumulateInfo()
                      "scene, not the run.";
   info.params = {
     ParamSpec::real("leaf_size_m", 0.1, 0.0, 10.0, "m",
-                    "Voxel edge of the accumulated cloud; 0 keeps every point."),
+                    "Voxel edge of the accumulated cloud; 0 keeps every point.")
+      .scalesWithCellSize(),
     ParamSpec::integer("downsample_every_n_frames", 5, 1, 100000, "",
                        "How often the accumulated cloud is downsampled."),
     ParamSpec::real(

@@ -4,6 +4,7 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/eval/map_comparison.h>
 #include <planar_grid/eval/standard_voxel_grid.h>
+#include <planar_grid/pipeline/stage.h>
 
 #include <pcl/filters/voxel_grid.h>
 #include <pcl/io/pcd_io.h>
@@ -290,6 +291,38 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
     planar_grid::comparisonMarkdown(rows).find("| walls | 2 | 8.0 | 0.2 | PG |"),
     std::string::npos)
     << planar_grid::comparisonMarkdown(rows);
+}
+
+TEST(StageTables, SayWhichParametersFollowTheCellSize)
+{
+  // The evaluation sets a stage's cell-size parameters to r from the stage's own table;
+  // a size parameter left unmarked would silently stay at its configured value.
+  using Scaling = planar_grid::ParamSpec::CellSizeScaling;
+  const auto scalingOf = [](const std::string& type, const std::string& key) {
+    const planar_grid::StageInfo* info = planar_grid::findStage(type);
+    EXPECT_NE(info, nullptr) << type;
+    for (const auto& spec : info->params)
+      if (spec.key == key)
+        return spec.cell_size_scaling;
+    ADD_FAILURE() << type << " has no parameter " << key;
+    return Scaling::NONE;
+  };
+  EXPECT_EQ(scalingOf("voxel_grid", "leaf_size_m"), Scaling::CELL_SIZE);
+  EXPECT_EQ(scalingOf("map_integration", "resolution_m"), Scaling::CELL_SIZE);
+  EXPECT_EQ(scalingOf("map_integration", "thickness_m"), Scaling::CELL_SIZE);
+  EXPECT_EQ(scalingOf("map_integration", "max_range_m"), Scaling::NONE);
+  for (const char* key :
+       {"min_cell_size_m", "min_width_m", "min_height_m", "thickness_m"})
+    EXPECT_EQ(scalingOf("planar_cuboid_approximation", key), Scaling::CELL_SIZE) << key;
+  EXPECT_EQ(scalingOf("multi_plane_segmentation", "min_inliers"),
+            Scaling::POINTS_PER_AREA);
+  EXPECT_EQ(scalingOf("statistical_outlier_removal", "mean_k"), Scaling::NONE);
+  // Every stage: a length parameter marked CELL_SIZE is in meters.
+  for (const auto& info : planar_grid::stageRegistry())
+    for (const auto& spec : info.params)
+      if (spec.cell_size_scaling == Scaling::CELL_SIZE) {
+        EXPECT_EQ(spec.unit, "m") << info.type << "." << spec.key;
+      }
 }
 
 } // namespace

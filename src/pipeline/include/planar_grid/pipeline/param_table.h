@@ -37,6 +37,32 @@ struct ParamSpec {
   /** \brief Allowed values for CHOICE. */
   std::vector<std::string> choices;
 
+  /** \brief How a parameter follows the map's minimum cell size r, for tools that run
+   * one configuration at several cell sizes (planar_grid_eval, paper Sec. IV-B). */
+  enum class CellSizeScaling {
+    /** Independent of the cell size. */
+    NONE,
+    /** A length that is the cell size (a voxel edge, a minimum cell, a thickness):
+     * set to r, in meters. */
+    CELL_SIZE,
+    /** A count of points on a surface, given for 0.1 m cells: scaled by (0.1 / r)^2
+     * (the same area holds that many fewer voxels), at least 10. */
+    POINTS_PER_AREA
+  };
+  /** \brief How the parameter follows the cell size (NONE by default). */
+  CellSizeScaling cell_size_scaling{CellSizeScaling::NONE};
+
+  /** \brief This specification, marked as following the cell size.
+   * \param[in] scaling how it follows
+   * \return a copy with cell_size_scaling = \a scaling */
+  ParamSpec
+  scalesWithCellSize(CellSizeScaling scaling = CellSizeScaling::CELL_SIZE) const
+  {
+    ParamSpec spec = *this;
+    spec.cell_size_scaling = scaling;
+    return spec;
+  }
+
   /** \brief A real-valued parameter.
    * \param[in] key YAML key ending in its unit
    * \param[in] default_value the default, within [min, max]
