@@ -5,6 +5,8 @@
 #include <planar_grid/core/atomic_file.h>
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/eval/map_comparison.h>
+
+#include "cli.h"
 #ifdef PLANAR_GRID_WITH_VIEWER
 #include <planar_grid/visualization/line_chart.h>
 #include <planar_grid/visualization/scene_renderer.h>
@@ -147,15 +149,7 @@ run(int argc, char** argv)
   }
   const std::vector<std::string> with_value{"--config", "--output"};
   const std::vector<std::string> switches{"--no-plots", "-v"};
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (std::find(with_value.begin(), with_value.end(), a) != with_value.end()) {
-      if (i + 1 >= argc)
-        throw planar_grid::Exception("option " + a + " needs a value");
-      ++i;
-    } else if (std::find(switches.begin(), switches.end(), a) == switches.end())
-      throw planar_grid::Exception("unknown argument '" + a + "' (see --help)");
-  }
+  planar_grid::cli::checkArguments(argc, argv, with_value, switches);
   if (find_switch(argc, argv, "-v"))
     setVerbosityLevel(L_DEBUG);
   else
@@ -223,12 +217,5 @@ run(int argc, char** argv)
 int
 main(int argc, char** argv)
 {
-  try {
-    return run(argc, argv);
-  } catch (const std::exception& e) {
-    print_error("planar_grid_eval: %s\n", e.what());
-  } catch (...) {
-    print_error("planar_grid_eval: unknown error\n");
-  }
-  return EXIT_FAILURE;
+  return planar_grid::cli::runMain("planar_grid_eval", run, argc, argv);
 }

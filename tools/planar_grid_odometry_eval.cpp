@@ -25,6 +25,8 @@
 #include <utility>
 #include <vector>
 
+#include "cli.h"
+
 namespace {
 
 using planar_grid::StereoFeatureMatcher;
@@ -458,17 +460,20 @@ runEuroc(const std::string& data_dir,
   return json;
 }
 
-} // namespace
-
 int
-main(int argc, char** argv)
+run(int argc, char** argv)
 {
-  try {
+  {
     if (pcl::console::find_switch(argc, argv, "-h")
         || pcl::console::find_switch(argc, argv, "--help")) {
       printHelp(argv[0]);
       return EXIT_SUCCESS;
     }
+    planar_grid::cli::checkArguments(
+      argc, argv,
+      {"--sequence", "--data", "--features", "--output", "--threshold_m",
+       "--reference_depth_m", "--ins_lever_arm_m"},
+      {"--no_reprojection", "--no_epipolar", "--step_analysis"});
     std::string sequence, data_dir = "../shared/data", features_name = "sift", output;
     if (pcl::console::parse_argument(argc, argv, "--sequence", sequence) < 0) {
       printHelp(argv[0]);
@@ -542,8 +547,13 @@ main(int argc, char** argv)
       pcl::console::print_info("Wrote %s\n", output.c_str());
     }
     return EXIT_SUCCESS;
-  } catch (const std::exception& error) {
-    pcl::console::print_error("planar_grid_odometry_eval: %s\n", error.what());
-    return EXIT_FAILURE;
   }
+}
+
+} // namespace
+
+int
+main(int argc, char** argv)
+{
+  return planar_grid::cli::runMain("planar_grid_odometry_eval", run, argc, argv);
 }

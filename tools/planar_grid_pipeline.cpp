@@ -8,6 +8,8 @@
 #include <planar_grid/pipeline/pipeline_runner.h>
 #include <planar_grid/pipeline/run_outputs.h>
 #include <planar_grid/pipeline/stage.h>
+
+#include "cli.h"
 #ifdef PLANAR_GRID_WITH_VIEWER
 #include <planar_grid/core/atomic_file.h>
 #include <planar_grid/visualization/scene_renderer.h>
@@ -255,15 +257,7 @@ run(int argc, char** argv)
   const std::vector<std::string> with_value{"--config", "--frames", "--output",
                                             "--checkpoint-every"};
   const std::vector<std::string> switches{"--no-snapshot", "--resume", "-v"};
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (std::find(with_value.begin(), with_value.end(), a) != with_value.end()) {
-      if (i + 1 >= argc)
-        throw planar_grid::Exception("option " + a + " needs a value");
-      ++i;
-    } else if (std::find(switches.begin(), switches.end(), a) == switches.end())
-      throw planar_grid::Exception("unknown argument '" + a + "' (see --help)");
-  }
+  planar_grid::cli::checkArguments(argc, argv, with_value, switches);
 
   std::string config_path, frames_text, output_folder;
   if (parse_argument(argc, argv, "--config", config_path) < 0 || config_path.empty())
@@ -371,12 +365,5 @@ run(int argc, char** argv)
 int
 main(int argc, char** argv)
 {
-  try {
-    return run(argc, argv);
-  } catch (const std::exception& e) {
-    print_error("planar_grid_pipeline: %s\n", e.what());
-  } catch (...) {
-    print_error("planar_grid_pipeline: unknown error\n");
-  }
-  return EXIT_FAILURE;
+  return planar_grid::cli::runMain("planar_grid_pipeline", run, argc, argv);
 }

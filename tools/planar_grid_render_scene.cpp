@@ -17,6 +17,8 @@
 #include <set>
 #include <string>
 
+#include "cli.h"
+
 using pcl::console::print_error;
 using pcl::console::print_highlight;
 using pcl::console::print_info;
@@ -214,12 +216,5 @@ run(int argc, char** argv)
 int
 main(int argc, char** argv)
 {
-  try {
-    return run(argc, argv);
-  } catch (const std::exception& e) {
-    print_error("[planar_grid_render_scene] %s\n", e.what());
-  } catch (...) {
-    print_error("[planar_grid_render_scene] unknown error\n");
-  }
-  return EXIT_FAILURE;
+  return planar_grid::cli::runMain("planar_grid_render_scene", run, argc, argv);
 }

@@ -24,6 +24,8 @@
 #include <system_error>
 #include <vector>
 
+#include "cli.h"
+
 using pcl::console::print_error;
 using pcl::console::print_highlight;
 using pcl::console::print_info;
@@ -342,12 +344,5 @@ run(int argc, char** argv)
 int
 main(int argc, char** argv)
 {
-  try {
-    return run(argc, argv);
-  } catch (const std::exception& e) {
-    print_error("[planar_grid_viewer] %s\n", e.what());
-  } catch (...) {
-    print_error("[planar_grid_viewer] unknown error\n");
-  }
-  return EXIT_FAILURE;
+  return planar_grid::cli::runMain("planar_grid_viewer", run, argc, argv);
 }
