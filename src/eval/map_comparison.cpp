@@ -9,6 +9,7 @@
 #include <planar_grid/eval/standard_voxel_grid.h>
 #include <planar_grid/pipeline/frame_source.h>
 #include <planar_grid/pipeline/stage.h>
+#include <planar_grid/pipeline/yaml_reader.h>
 
 #include <pcl/common/transforms.h>
 #include <pcl/io/pcd_io.h>
@@ -36,94 +37,6 @@ namespace planar_grid {
 namespace {
 
 namespace fs = std::filesystem;
-
-/** Strict YAML access with file:line:col errors (the evaluation's small schema). */
-class Reader {
-public:
-  explicit Reader(std::string file) : file_(std::move(file)) {}
-
-  [[noreturn]] void fail(const YAML::Node& node, const std::string& message) const
-  {
-    const YAML::Mark mark = node.Mark();
-    throw ConfigError(file_, mark.is_null() ? 0 : mark.line + 1,
-                      mark.is_null() ? 0 : mark.column + 1, message);
-  }
-
-  void checkKeys(const YAML::Node& node,
-                 const std::vector<std::string>& allowed,
-                 const std::string& what) const
-  {
-    if (!node.IsMap())
-      fail(node, what + " must be a map of key: value");
-    std::set<std::string> seen;
-    for (const auto& item : node) {
-      if (!item.first.IsScalar())
-        fail(item.first, "a key in " + what + " must be a plain name");
-      const std::string key = item.first.as<std::string>();
-      if (!seen.insert(key).second)
-        fail(item.first, "key '" + key + "' is given twice in " + what);
-      if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
-        std::string list;
-        for (const auto& a : allowed)
-          list += (list.empty() ? "" : ", ") + a;
-        fail(item.first, "unknown key '" + key + "' in " + what
-                           + " (expected one of: " + list + ")");
-      }
-    }
-  }
-
-  std::string string(const YAML::Node& parent,
-                     const std::string& key,
-                     const std::string& what) const
-  {
-    const YAML::Node node = parent[key];
-    if (!node)
-      fail(parent, what + " needs the key '" + key + "'");
-    if (!node.IsScalar())
-      fail(node, what + "." + key + " must be a string");
-    return node.as<std::string>();
-  }
-
-  double
-  real(const YAML::Node& node, double lo, double hi, const std::string& what) const
-  {
-    double v = 0.0;
-    try {
-      v = node.as<double>();
-    } catch (const YAML::BadConversion&) {
-      fail(node, what + " must be a number");
-    }
-    if (!std::isfinite(v) || v < lo || v > hi)
-      fail(node, what + " must be in [" + std::to_string(lo) + ", " + std::to_string(hi)
-                   + "]");
-    return v;
-  }
-
-  std::size_t count(const YAML::Node& node, long long lo, const std::string& what) const
-  {
-    long long v = -1;
-    try {
-      v = node.as<long long>();
-    } catch (const YAML::BadConversion&) {
-      fail(node, what + " must be an integer");
-    }
-    if (v < lo || v > 100000000)
-      fail(node, what + " must be an integer >= " + std::to_string(lo));
-    return static_cast<std::size_t>(v);
-  }
-
-  /** A path relative to the configuration file's folder. */
-  std::string path(const std::string& text) const
-  {
-    const fs::path p(text);
-    if (p.is_absolute())
-      return p.string();
-    return (fs::path(file_).parent_path() / p).lexically_normal().string();
-  }
-
-private:
-  std::string file_;
-};
 
 /** The stages that do not depend on the cell size: run once per frame. */
 bool
@@ -263,21 +176,27 @@ namespace {
 ComparisonConfig
 parseComparison(const YAML::Node& root, const std::string& path)
 {
-  const Reader r(path);
+  const YamlReader r(path, fs::path(path).parent_path().string());
+  const auto count = [&r](const YAML::Node& node, long long min,
+                          const std::string& what) {
+    return static_cast<std::size_t>(r.integerValue(node, min, 100000000, what));
+  };
   ComparisonConfig config;
   config.source_file = path;
   r.checkKeys(
     root,
     {"environment", "resolutions_m", "tolerance_cells", "places", "datasets", "output"},
     "the evaluation configuration");
-  if (const YAML::Node places = root["places"]) {
+  const auto parsePlaces = [&](const YAML::Node& places, std::size_t& places_count,
+                               double& radius_m) {
     r.checkKeys(places, {"count", "radius_m"}, "places");
     if (places["count"])
-      config.places = r.count(places["count"], 0, "places.count");
+      places_count = count(places["count"], 0, "places.count");
     if (places["radius_m"])
-      config.place_radius_m =
-        r.real(places["radius_m"], 0.0, 1000.0, "places.radius_m");
-  }
+      radius_m = r.realValue(places["radius_m"], 0.0, 1000.0, "places.radius_m");
+  };
+  if (const YAML::Node places = root["places"])
+    parsePlaces(places, config.places, config.place_radius_m);
   if (root["environment"]) {
     config.environment = r.string(root, "environment", "the configuration");
     if (config.environment != "indoor" && config.environment != "outdoor")
@@ -288,11 +207,12 @@ parseComparison(const YAML::Node& root, const std::string& path)
       r.fail(res, "resolutions_m must be a non-empty list of cell sizes in meters");
     config.resolutions_m.clear();
     for (const auto& v : res)
-      config.resolutions_m.push_back(r.real(v, 0.01, 10.0, "resolutions_m entries"));
+      config.resolutions_m.push_back(
+        r.realValue(v, 0.01, 10.0, "resolutions_m entries"));
   }
   if (root["tolerance_cells"])
     config.tolerance_cells =
-      r.real(root["tolerance_cells"], 0.1, 10.0, "tolerance_cells");
+      r.realValue(root["tolerance_cells"], 0.1, 10.0, "tolerance_cells");
   if (const YAML::Node out = root["output"]) {
     r.checkKeys(out, {"folder"}, "output");
     config.output_folder = r.string(out, "folder", "output");
@@ -301,19 +221,24 @@ parseComparison(const YAML::Node& root, const std::string& path)
   if (!datasets || !datasets.IsSequence() || datasets.size() == 0)
     r.fail(datasets ? datasets : root, "datasets must be a non-empty list");
   for (const auto& node : datasets) {
-    r.checkKeys(node, {"name", "pipeline", "frames", "truth", "tilt_deg"}, "a dataset");
+    r.checkKeys(node, {"name", "pipeline", "frames", "truth", "tilt_deg", "places"},
+                "a dataset");
     DatasetConfig ds;
+    ds.places = config.places;
+    ds.place_radius_m = config.place_radius_m;
+    if (const YAML::Node places = node["places"])
+      parsePlaces(places, ds.places, ds.place_radius_m);
     ds.name = r.string(node, "name", "a dataset");
-    ds.pipeline_file = r.path(r.string(node, "pipeline", "dataset " + ds.name));
+    ds.pipeline_file = r.resolve(r.string(node, "pipeline", "dataset " + ds.name));
     ds.pipeline = loadPipelineConfig(ds.pipeline_file);
     if (const YAML::Node frames = node["frames"]) {
       r.checkKeys(frames, {"first", "count", "step"}, "dataset " + ds.name + ".frames");
       if (frames["first"])
-        ds.first_frame = r.count(frames["first"], 0, "frames.first");
+        ds.first_frame = count(frames["first"], 0, "frames.first");
       if (frames["count"])
-        ds.frame_count = r.count(frames["count"], 0, "frames.count");
+        ds.frame_count = count(frames["count"], 0, "frames.count");
       if (frames["step"])
-        ds.frame_step = r.count(frames["step"], 1, "frames.step");
+        ds.frame_step = count(frames["step"], 1, "frames.step");
     }
     const YAML::Node truth = node["truth"];
     if (!truth)
@@ -332,19 +257,19 @@ parseComparison(const YAML::Node& root, const std::string& path)
     else
       r.fail(truth["type"], "truth.type must be points, disparity or reference");
     if (ds.truth.type != TruthConfig::Type::REFERENCE)
-      ds.truth.file = r.path(r.string(truth, "file", "truth"));
+      ds.truth.file = r.resolve(r.string(truth, "file", "truth"));
     else if (truth["file"])
       r.fail(truth["file"], "truth.file is not used by type reference");
     if (truth["leaf_size_m"])
       ds.truth.leaf_size_m =
-        r.real(truth["leaf_size_m"], 0.005, 1.0, "truth.leaf_size_m");
+        r.realValue(truth["leaf_size_m"], 0.005, 1.0, "truth.leaf_size_m");
     if (truth["min_views"])
-      ds.truth.min_views = r.count(truth["min_views"], 1, "truth.min_views");
+      ds.truth.min_views = count(truth["min_views"], 1, "truth.min_views");
     if ((truth["leaf_size_m"] || truth["min_views"])
         && ds.truth.type != TruthConfig::Type::REFERENCE)
       r.fail(truth, "truth.leaf_size_m and truth.min_views are for type reference");
     if (node["tilt_deg"])
-      ds.tilt_deg = r.real(node["tilt_deg"], 0.0, 90.0, "tilt_deg");
+      ds.tilt_deg = r.realValue(node["tilt_deg"], 0.0, 90.0, "tilt_deg");
     // The front end comes first: the split into shared and per-size stages needs it.
     bool back = false;
     for (const auto& sc : ds.pipeline.stages) {
@@ -565,7 +490,7 @@ runComparison(const ComparisonConfig& config,
       throw Exception("dataset " + ds.name + ": no frames in the range");
     const std::size_t total =
       (end - ds.first_frame + ds.frame_step - 1) / ds.frame_step;
-    const std::vector<std::size_t> places = placeFrames(total, config.places);
+    const std::vector<std::size_t> places = placeFrames(total, ds.places);
 
     // The front end has no size parameter; it is created at the first cell size.
     const double resolution = config.resolutions_m.front();
@@ -703,7 +628,7 @@ runComparison(const ComparisonConfig& config,
           truth = buildTruth(ds, first_frame, reference, truth_kind);
         MappingErrorRegion region;
         region.centre_m = frame.world_T_camera.translation().cast<float>();
-        region.max_distance_m = config.place_radius_m;
+        region.max_distance_m = ds.place_radius_m;
         for (std::size_t k = 0; k < lanes.size(); ++k) {
           ComparisonRow base;
           base.dataset = ds.name;
@@ -714,11 +639,11 @@ runComparison(const ComparisonConfig& config,
           base.truth_kind = truth_kind;
           base.place = static_cast<int>(next_place);
           base.frame = i;
-          base.region_radius_m = config.place_radius_m;
+          base.region_radius_m = ds.place_radius_m;
           std::pair<std::size_t, std::size_t> planar_counts;
           for (const auto& row : measureLane(
                  lanes[k], base, *truth, config.tolerance_cells * lanes[k].resolution_m,
-                 config.place_radius_m > 0.0 ? &region : nullptr, frame_ms[k], 1.0,
+                 ds.place_radius_m > 0.0 ? &region : nullptr, frame_ms[k], 1.0,
                  planar_counts))
             rows.push_back(row);
         }

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/param_table.h>
+#include <planar_grid/pipeline/yaml_reader.h>
 
 #include <yaml-cpp/yaml.h>
 
@@ -47,14 +48,6 @@ rangeText(const ParamSpec& spec)
   if (spec.type == ParamSpec::Type::DOUBLE || spec.type == ParamSpec::Type::INT)
     return "[" + formatNumber(spec.min) + ", " + formatNumber(spec.max) + "]";
   return "";
-}
-
-[[noreturn]] void
-fail(const std::string& file, const YAML::Node& node, const std::string& message)
-{
-  const YAML::Mark mark = node.Mark();
-  throw ConfigError(file, mark.is_null() ? 0 : mark.line + 1,
-                    mark.is_null() ? 0 : mark.column + 1, message);
 }
 
 } // namespace
@@ -213,71 +206,61 @@ parseParams(const YAML::Node& node,
   ParamValues values = defaultParams(specs);
   if (!node || node.IsNull())
     return values;
-  if (!node.IsMap())
-    fail(file, node,
-         "params of stage '" + stage_type + "' must be a map of key: value");
-
-  std::set<std::string> seen;
-  for (const auto& item : node) {
-    if (!item.first.IsScalar())
-      fail(file, item.first,
-           "a parameter name of stage '" + stage_type + "' must be a plain name");
-    const std::string key = item.first.as<std::string>();
-    // yaml-cpp keeps both of two equal keys and lookups find the first: refuse them.
-    if (!seen.insert(key).second)
-      fail(file, item.first,
-           "parameter '" + key + "' of stage '" + stage_type + "' is given twice");
-    const auto spec = std::find_if(specs.begin(), specs.end(),
-                                   [&key](const ParamSpec& s) { return s.key == key; });
-    if (spec == specs.end()) {
-      std::string known;
-      for (const auto& s : specs)
-        known += (known.empty() ? "" : ", ") + s.key;
-      fail(file, item.first,
-           "unknown parameter '" + key + "' of stage '" + stage_type
-             + "'; known: " + (known.empty() ? std::string("(none)") : known));
-    }
-    const YAML::Node& value = item.second;
-    const std::string where = "parameter '" + key + "' of stage '" + stage_type + "'";
-    if (!value.IsScalar())
-      fail(file, value, where + " must be " + typeName(*spec));
-    try {
-      switch (spec->type) {
-        case ParamSpec::Type::DOUBLE: {
-          const double v = value.as<double>();
-          if (!std::isfinite(v) || v < spec->min || v > spec->max)
-            fail(file, value,
-                 where + " = " + value.Scalar() + " is out of range " + rangeText(*spec)
-                   + (spec->unit.empty() ? "" : " " + spec->unit));
-          values.set(key, v);
-          break;
-        }
-        case ParamSpec::Type::INT: {
-          const int v = value.as<int>();
-          if (v < spec->min || v > spec->max)
-            fail(file, value,
-                 where + " = " + value.Scalar() + " is out of range " + rangeText(*spec)
-                   + (spec->unit.empty() ? "" : " " + spec->unit));
-          values.set(key, v);
-          break;
-        }
-        case ParamSpec::Type::BOOL:
-          values.set(key, value.as<bool>());
-          break;
-        case ParamSpec::Type::CHOICE: {
-          const std::string v = value.as<std::string>();
-          if (std::find(spec->choices.begin(), spec->choices.end(), v)
-              == spec->choices.end())
-            fail(file, value, where + " = '" + v + "' must be " + typeName(*spec));
-          values.set(key, v);
-          break;
-        }
+  const YamlReader reader(file, "");
+  reader.forEachKey(
+    node, "params of stage '" + stage_type + "'",
+    [&](const std::string& key, const YAML::Node& key_node, const YAML::Node& value) {
+      const auto spec =
+        std::find_if(specs.begin(), specs.end(),
+                     [&key](const ParamSpec& s) { return s.key == key; });
+      if (spec == specs.end()) {
+        std::string known;
+        for (const auto& s : specs)
+          known += (known.empty() ? "" : ", ") + s.key;
+        reader.fail(key_node,
+                    "unknown parameter '" + key + "' of stage '" + stage_type
+                      + "'; known: " + (known.empty() ? std::string("(none)") : known));
       }
-    } catch (const YAML::BadConversion&) {
-      fail(file, value,
-           where + " = '" + value.Scalar() + "' must be " + typeName(*spec));
-    }
-  }
+      const std::string where = "parameter '" + key + "' of stage '" + stage_type + "'";
+      if (!value.IsScalar())
+        reader.fail(value, where + " must be " + typeName(*spec));
+      try {
+        switch (spec->type) {
+          case ParamSpec::Type::DOUBLE: {
+            const double v = value.as<double>();
+            if (!std::isfinite(v) || v < spec->min || v > spec->max)
+              reader.fail(value, where + " = " + value.Scalar() + " is out of range "
+                                   + rangeText(*spec)
+                                   + (spec->unit.empty() ? "" : " " + spec->unit));
+            values.set(key, v);
+            break;
+          }
+          case ParamSpec::Type::INT: {
+            const int v = value.as<int>();
+            if (v < spec->min || v > spec->max)
+              reader.fail(value, where + " = " + value.Scalar() + " is out of range "
+                                   + rangeText(*spec)
+                                   + (spec->unit.empty() ? "" : " " + spec->unit));
+            values.set(key, v);
+            break;
+          }
+          case ParamSpec::Type::BOOL:
+            values.set(key, value.as<bool>());
+            break;
+          case ParamSpec::Type::CHOICE: {
+            const std::string v = value.as<std::string>();
+            if (std::find(spec->choices.begin(), spec->choices.end(), v)
+                == spec->choices.end())
+              reader.fail(value, where + " = '" + v + "' must be " + typeName(*spec));
+            values.set(key, v);
+            break;
+          }
+        }
+      } catch (const YAML::BadConversion&) {
+        reader.fail(value,
+                    where + " = '" + value.Scalar() + "' must be " + typeName(*spec));
+      }
+    });
   return values;
 }
 

@@ -2,6 +2,7 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/stage.h>
+#include <planar_grid/pipeline/yaml_reader.h>
 
 #include <yaml-cpp/yaml.h>
 
@@ -18,139 +19,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/** Reads one YAML file's values with their places, for strict checks. */
-class Reader {
-public:
-  Reader(std::string file, std::string base_folder) :
-      file_(std::move(file)), base_folder_(std::move(base_folder))
-  {}
-
-  [[noreturn]] void fail(const YAML::Node& node, const std::string& message) const
-  {
-    const YAML::Mark mark = node.Mark();
-    throw ConfigError(file_, mark.is_null() ? 0 : mark.line + 1,
-                      mark.is_null() ? 0 : mark.column + 1, message);
-  }
-
-  void requireMap(const YAML::Node& node, const std::string& what) const
-  {
-    if (!node.IsMap())
-      fail(node, what + " must be a map of key: value");
-  }
-
-  /** Every key of \a node must be in \a allowed. */
-  void checkKeys(const YAML::Node& node,
-                 const std::vector<std::string>& allowed,
-                 const std::string& what) const
-  {
-    requireMap(node, what);
-    std::set<std::string> seen;
-    for (const auto& item : node) {
-      if (!item.first.IsScalar())
-        fail(item.first, "a key in " + what + " must be a plain name");
-      const std::string key = item.first.as<std::string>();
-      // yaml-cpp keeps both of two equal keys and lookups find the first: refuse them.
-      if (!seen.insert(key).second)
-        fail(item.first, "key '" + key + "' is given twice in " + what);
-      if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
-        std::string list;
-        for (const auto& a : allowed)
-          list += (list.empty() ? "" : ", ") + a;
-        fail(item.first,
-             "unknown key '" + key + "' in " + what + "; expected one of: " + list);
-      }
-    }
-  }
-
-  std::string string(const YAML::Node& parent,
-                     const std::string& key,
-                     const std::string& what) const
-  {
-    const YAML::Node node = parent[key];
-    if (!node)
-      fail(parent, what + " needs the key '" + key + "'");
-    if (!node.IsScalar())
-      fail(node, what + "." + key + " must be a string");
-    return node.as<std::string>();
-  }
-
-  std::string optionalString(const YAML::Node& parent,
-                             const std::string& key,
-                             const std::string& fallback,
-                             const std::string& what) const
-  {
-    return parent[key] ? string(parent, key, what) : fallback;
-  }
-
-  int integer(const YAML::Node& parent,
-              const std::string& key,
-              int fallback,
-              int min,
-              int max,
-              const std::string& what) const
-  {
-    const YAML::Node node = parent[key];
-    if (!node)
-      return fallback;
-    int v = 0;
-    try {
-      if (!node.IsScalar())
-        throw YAML::BadConversion(node.Mark());
-      v = node.as<int>();
-    } catch (const YAML::BadConversion&) {
-      fail(node, what + "." + key + " must be an integer");
-    }
-    if (v < min || v > max)
-      fail(node, what + "." + key + " = " + std::to_string(v) + " is out of range ["
-                   + std::to_string(min) + ", " + std::to_string(max) + "]");
-    return v;
-  }
-
-  double real(const YAML::Node& parent,
-              const std::string& key,
-              double fallback,
-              double min,
-              double max,
-              const std::string& what) const
-  {
-    const YAML::Node node = parent[key];
-    if (!node)
-      return fallback;
-    double v = 0.0;
-    try {
-      if (!node.IsScalar())
-        throw YAML::BadConversion(node.Mark());
-      v = node.as<double>();
-    } catch (const YAML::BadConversion&) {
-      fail(node, what + "." + key + " must be a number");
-    }
-    if (!std::isfinite(v) || v < min || v > max) {
-      std::ostringstream msg;
-      msg << what << "." << key << " = " << v << " is out of range [" << min << ", "
-          << max << "]";
-      fail(node, msg.str());
-    }
-    return v;
-  }
-
-  /** A path, resolved against the config file's folder when relative. */
-  std::string
-  path(const YAML::Node& parent, const std::string& key, const std::string& what) const
-  {
-    return resolve(string(parent, key, what));
-  }
-
-  std::string resolve(const std::string& p) const
-  {
-    if (p.empty() || fs::path(p).is_absolute())
-      return p;
-    return (fs::path(base_folder_) / p).lexically_normal().string();
-  }
-
-private:
-  std::string file_;
-  std::string base_folder_;
-};
+using Reader = YamlReader;
 
 InputConfig
 parseInput(const Reader& r, const YAML::Node& node)

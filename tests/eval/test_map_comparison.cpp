@@ -291,6 +291,28 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
     planar_grid::comparisonMarkdown(rows).find("| walls | 2 | 8.0 | 0.2 | PG |"),
     std::string::npos)
     << planar_grid::comparisonMarkdown(rows);
+
+  // A dataset's own places override the top level's: radius 0 is the whole map, so the
+  // last place is the whole map after the last frame.
+  const auto whole = planar_grid::loadComparisonConfig(
+    write("w.yaml", "resolutions_m: [0.2]\nplaces: {count: 5, radius_m: 8.0}\n"
+                    "datasets:\n  - name: walls\n    pipeline: "
+                      + pipeline
+                      + "\n    places: {radius_m: 0}\n    truth: {type: points, file: "
+                      + (dir_ / "truth.pcd").string() + "}\n"));
+  ASSERT_EQ(whole.datasets.size(), 1u);
+  EXPECT_EQ(whole.datasets[0].places, 5u);
+  EXPECT_DOUBLE_EQ(whole.datasets[0].place_radius_m, 0.0);
+  std::map<std::pair<int, std::string>, planar_grid::ComparisonRow> by_whole;
+  for (const auto& r : planar_grid::runComparison(whole, nullptr))
+    by_whole[{r.place, r.method}] = r;
+  for (const std::string method : {"SG", "OG", "RA", "PG"}) {
+    EXPECT_EQ(by_whole.at({1, method}).cells, by_whole.at({-1, method}).cells)
+      << method;
+    EXPECT_EQ(by_whole.at({1, method}).samples, by_whole.at({-1, method}).samples)
+      << method;
+  }
+  EXPECT_EQ(by_whole.at({1, "SG"}).cells, oracle.getOccupiedCount());
 }
 
 TEST(StageTables, SayWhichParametersFollowTheCellSize)

@@ -2,12 +2,15 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/stage.h>
+#include <planar_grid/pipeline/yaml_reader.h>
 
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <functional>
 #include <string>
+#include <utility>
 
 using planar_grid::ConfigError;
 using planar_grid::parsePipelineConfig;
@@ -321,4 +324,60 @@ TEST(ParamTable, DumpAndReloadGivesTheSameValues)
   EXPECT_EQ(b.getInt("num_disparities_px"), 64);
   EXPECT_DOUBLE_EQ(b.getDouble("max_range_m"), 12.5);
   EXPECT_TRUE(b.getBool("full_dp"));
+}
+
+TEST(YamlReader, ErrorsNameTheNodeAndWhatWasExpected)
+{
+  const planar_grid::YamlReader reader("conf.yaml", "/data/configs");
+  // line:col of the failing node, 1-based, and the message's expectation.
+  const auto where = [&](const std::function<void()>& read, const std::string& expect) {
+    try {
+      read();
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("conf.yaml"), std::string::npos);
+      EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
+      return std::make_pair(e.line(), e.column());
+    }
+    ADD_FAILURE() << "no ConfigError, expected: " << expect;
+    return std::make_pair(-1, -1);
+  };
+  const YAML::Node twice = YAML::Load("a: 1\nb: 2\na: 3\n");
+  EXPECT_EQ(where(
+              [&] {
+                reader.checkKeys(twice, {"a", "b"}, "top");
+              },
+              "given twice"),
+            std::make_pair(3, 1));
+  const YAML::Node unknown = YAML::Load("a: 1\n  \nc: 2\n");
+  EXPECT_EQ(where(
+              [&] {
+                reader.checkKeys(unknown, {"a", "b"}, "top");
+              },
+              "expected one of: a, b"),
+            std::make_pair(3, 1));
+  const YAML::Node list_key = YAML::Load("[x]: 1\n");
+  EXPECT_EQ(
+    where([&] { reader.checkKeys(list_key, {"a"}, "top"); }, "plain name").first, 1);
+  const YAML::Node values = YAML::Load("r: 2.5\nn: 1.5\ns: [1]\nbig: 7\n");
+  EXPECT_DOUBLE_EQ(reader.real(values, "r", 0.0, 0.0, 3.0, "top"), 2.5);
+  EXPECT_DOUBLE_EQ(reader.real(values, "absent", 9.0, 0.0, 3.0, "top"), 9.0);
+  EXPECT_EQ(where([&] { reader.real(values, "r", 0.0, 0.0, 2.0, "top"); },
+                  "top.r = 2.5 is out of range [0, 2]"),
+            std::make_pair(1, 4));
+  EXPECT_EQ(where([&] { reader.integer(values, "n", 0, 0, 9, "top"); },
+                  "top.n must be an integer"),
+            std::make_pair(2, 4));
+  EXPECT_EQ(where([&] { reader.string(values, "s", "top"); }, "top.s must be a string"),
+            std::make_pair(3, 4));
+  EXPECT_EQ(where([&] { reader.integerValue(values["big"], 0, 5, "big"); },
+                  "big = 7 is out of range [0, 5]"),
+            std::make_pair(4, 6));
+  EXPECT_EQ(where([&] { reader.string(values, "missing", "top"); },
+                  "top needs the key 'missing'")
+              .first,
+            1);
+  EXPECT_EQ(reader.resolve("left/%d.png"), "/data/configs/left/%d.png");
+  EXPECT_EQ(reader.resolve("../x.yaml"), "/data/x.yaml");
+  EXPECT_EQ(reader.resolve("/abs/x.yaml"), "/abs/x.yaml");
+  EXPECT_EQ(reader.resolve(""), "");
 }

@@ -58,6 +58,11 @@ struct DatasetConfig {
   /** \brief Angle of the scene's surfaces to the map axes, degrees (a tag for the tilt
    * plot; negative: none). */
   double tilt_deg{-1.0};
+  /** \brief The dataset's places and their radius (ComparisonConfig::places and
+   * place_radius_m unless the dataset gives its own: a single view, say, whose whole
+   * map is near the camera). */
+  std::size_t places{0};
+  double place_radius_m{0.0};
 };
 
 /** \brief An evaluation (planar_grid_eval --config): datasets of one environment, each
