@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/byte_io.h>
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/odometry/stereo_odometry.h>
 
@@ -811,6 +812,87 @@ VisualOdometry::addFrame(const StereoFeatures& features)
   }
   previous_ = features;
   return results_.back();
+}
+
+namespace {
+
+/** "PGVO", little-endian. */
+constexpr std::uint32_t VO_STATE_MAGIC = 0x4f564750u;
+constexpr std::uint32_t VO_STATE_VERSION = 1u;
+
+} // namespace
+
+void
+VisualOdometry::serializeState(std::vector<std::uint8_t>& bytes) const
+{
+  ByteWriter w(bytes);
+  w.put(VO_STATE_MAGIC);
+  w.put(VO_STATE_VERSION);
+  putStereoFeatures(w, previous_);
+  w.put(static_cast<std::uint64_t>(trajectory_.size()));
+  for (std::size_t i = 0; i < trajectory_.size(); ++i) {
+    const OdometryResult& result = results_[i];
+    putPose(w, trajectory_[i]);
+    putPose(w, result.previous_T_current);
+    w.put(static_cast<std::uint64_t>(result.inliers));
+    w.put(static_cast<std::uint64_t>(result.correspondences));
+    w.put(static_cast<std::uint8_t>(result.epipolar_refined));
+    w.put(static_cast<std::uint8_t>(result.valid));
+    w.putString(result.reason);
+  }
+  const std::vector<std::uint64_t> flagged(flagged_frames_.begin(),
+                                           flagged_frames_.end());
+  w.putVector(flagged);
+  w.put(static_cast<std::uint8_t>(motion_model_.hasMotion()));
+  putPose(w, motion_model_.getPredictedMotion());
+}
+
+void
+VisualOdometry::deserializeState(const std::uint8_t* data, std::size_t size)
+{
+  ByteReader r(data, size, "visual odometry state");
+  if (r.get<std::uint32_t>() != VO_STATE_MAGIC)
+    r.fail("not a visual odometry section (magic)");
+  if (r.get<std::uint32_t>() != VO_STATE_VERSION)
+    r.fail("unsupported version");
+  StereoFeatures previous;
+  getStereoFeatures(r, previous);
+  // Each frame holds at least two poses, two counts, two flags and a reason length.
+  constexpr std::size_t FRAME_BYTES = 2 * 12 * 8 + 2 * 8 + 2 + 8;
+  const std::size_t n = r.getCount(FRAME_BYTES, "frame");
+  Trajectory trajectory;
+  std::vector<OdometryResult, Eigen::aligned_allocator<OdometryResult>> results;
+  trajectory.reserve(n);
+  results.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    trajectory.push_back(getPose(r));
+    OdometryResult result;
+    result.previous_T_current = getPose(r);
+    result.inliers = static_cast<std::size_t>(r.get<std::uint64_t>());
+    result.correspondences = static_cast<std::size_t>(r.get<std::uint64_t>());
+    result.epipolar_refined = r.get<std::uint8_t>() != 0;
+    result.valid = r.get<std::uint8_t>() != 0;
+    result.reason = r.getString("reason");
+    results.push_back(std::move(result));
+  }
+  std::vector<std::uint64_t> flagged;
+  r.getVector(flagged, "flagged frame");
+  for (std::size_t k = 0; k < flagged.size(); ++k)
+    if (flagged[k] == 0 || flagged[k] >= n || (k > 0 && flagged[k] <= flagged[k - 1]))
+      r.fail("flagged frame " + std::to_string(flagged[k]) + " out of range or order");
+  const bool has_motion = r.get<std::uint8_t>() != 0;
+  const Eigen::Isometry3d motion = getPose(r);
+  if (r.remaining() != 0)
+    r.fail(std::to_string(r.remaining()) + " bytes of trailing data");
+
+  // Everything is read and checked; only now is the object changed.
+  previous_ = std::move(previous);
+  trajectory_ = std::move(trajectory);
+  results_ = std::move(results);
+  flagged_frames_.assign(flagged.begin(), flagged.end());
+  motion_model_.reset();
+  if (has_motion)
+    motion_model_.addMotion(motion);
 }
 
 } // namespace planar_grid

@@ -57,9 +57,22 @@ public:
     values.emplace_back("flagged", last_.valid ? 0.0 : 1.0);
   }
 
-  /** The odometry's previous frame, trajectory and motion model are not written to
-   * checkpoints yet: a run with this stage cannot be resumed. */
-  bool supportsCheckpoint() const override { return false; }
+  /** The odometry's run state (VisualOdometry::serializeState(): the previous frame's
+   * features, the trajectory, the per-frame results, the flagged frames and the motion
+   * model). The last result (the counters) is the odometry's last one; the
+   * calibration is set again from the next frame, and the first camera's pose follows
+   * from the parameters. */
+  void saveState(std::vector<std::uint8_t>& bytes) const override
+  {
+    odometry_.serializeState(bytes);
+  }
+
+  void loadState(const std::uint8_t* data, std::size_t size) override
+  {
+    odometry_.deserializeState(data, size);
+    last_ =
+      odometry_.getResults().empty() ? OdometryResult() : odometry_.getResults().back();
+  }
 
 private:
   VisualOdometry odometry_;

@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/byte_io.h>
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/stereo/stereo_feature_matcher.h>
 
@@ -179,6 +180,90 @@ StereoFeatureMatcher::match(const cv::Mat& left,
   features.points.width = static_cast<std::uint32_t>(features.points.size());
   features.points.height = 1;
   features.points.is_dense = true;
+}
+
+namespace {
+
+void
+putKeypoints(ByteWriter& w, const std::vector<cv::KeyPoint>& keypoints)
+{
+  w.put(static_cast<std::uint64_t>(keypoints.size()));
+  for (const auto& k : keypoints) {
+    w.put(k.pt.x);
+    w.put(k.pt.y);
+    w.put(k.size);
+    w.put(k.angle);
+    w.put(k.response);
+    w.put(static_cast<std::int32_t>(k.octave));
+    w.put(static_cast<std::int32_t>(k.class_id));
+  }
+}
+
+void
+getKeypoints(ByteReader& r, std::vector<cv::KeyPoint>& keypoints)
+{
+  keypoints.resize(r.getCount(7 * 4, "keypoint"));
+  for (auto& k : keypoints) {
+    k.pt.x = r.get<float>();
+    k.pt.y = r.get<float>();
+    k.size = r.get<float>();
+    k.angle = r.get<float>();
+    k.response = r.get<float>();
+    k.octave = r.get<std::int32_t>();
+    k.class_id = r.get<std::int32_t>();
+  }
+}
+
+} // namespace
+
+void
+putStereoFeatures(ByteWriter& w, const StereoFeatures& f)
+{
+  w.put(static_cast<std::uint64_t>(f.points.size()));
+  for (const auto& p : f.points) {
+    w.put(p.x);
+    w.put(p.y);
+    w.put(p.z);
+  }
+  putKeypoints(w, f.keypoints_left);
+  putKeypoints(w, f.keypoints_right);
+  w.putVector(f.disparities);
+  const cv::Mat d =
+    f.descriptors.isContinuous() ? f.descriptors : f.descriptors.clone();
+  w.put(static_cast<std::int32_t>(d.rows));
+  w.put(static_cast<std::int32_t>(d.cols));
+  w.put(static_cast<std::int32_t>(d.type()));
+  w.putBytes(d.data, d.empty() ? 0 : d.total() * d.elemSize());
+}
+
+void
+getStereoFeatures(ByteReader& r, StereoFeatures& f)
+{
+  f = StereoFeatures();
+  const std::size_t n = r.getCount(3 * 4, "feature point");
+  f.points.resize(n);
+  for (auto& p : f.points) {
+    p.x = r.get<float>();
+    p.y = r.get<float>();
+    p.z = r.get<float>();
+  }
+  getKeypoints(r, f.keypoints_left);
+  getKeypoints(r, f.keypoints_right);
+  r.getVector(f.disparities, "disparity");
+  const auto rows = r.get<std::int32_t>();
+  const auto cols = r.get<std::int32_t>();
+  const auto type = r.get<std::int32_t>();
+  std::size_t size = 0;
+  const std::uint8_t* data = r.getBytes(size, "descriptor");
+  if (rows < 0 || cols < 0 || (type != CV_8U && type != CV_32F))
+    r.fail("invalid descriptor matrix");
+  const std::size_t element = type == CV_8U ? 1 : 4;
+  if (size != static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols) * element)
+    r.fail("descriptor bytes do not match their size");
+  if (rows > 0 && cols > 0)
+    cv::Mat(rows, cols, type, const_cast<std::uint8_t*>(data)).copyTo(f.descriptors);
+  if (f.keypoints_left.size() != n || f.descriptors.rows != static_cast<int>(n))
+    r.fail("feature arrays of different lengths");
 }
 
 } // namespace planar_grid

@@ -11,6 +11,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <numeric>
 #include <random>
 #include <string>
@@ -362,6 +364,123 @@ TEST_F(StereoOdometryKarlsruhe, VisualOdometryFlagsAnInvalidFrame)
     EXPECT_LT(angleDeg(error), 0.1) << "frame " << k;
     expected = expected * motion;
   }
+}
+
+TEST_F(StereoOdometryKarlsruhe, RestoredStateContinuesAsAnUninterruptedRun)
+{
+  // Real frames 10 and 11, then frame 11 moved on (key points projected with the
+  // calibration), an empty frame and the frame after it (both flagged, bridged by the
+  // motion model), then a valid frame again. One odometry runs straight through;
+  // another is serialised after each frame in turn and restored into a third, which
+  // takes the rest: the same poses, results and flagged frames.
+  const Eigen::Isometry3d m = knownMotion();
+  const std::vector<StereoFeatures> frames = {
+    frame10_,
+    frame11_,
+    projected(moved(frame11_, m), calibration_),
+    StereoFeatures(),
+    projected(moved(frame11_, m * m * m), calibration_),
+    projected(moved(frame11_, m * m * m * m), calibration_),
+  };
+  VisualOdometry straight;
+  straight.setCalibration(calibration_);
+  for (const auto& f : frames)
+    straight.addFrame(f);
+  EXPECT_EQ(straight.getFlaggedFrames(), (std::vector<std::size_t>{3, 4}));
+  EXPECT_TRUE(straight.getResults().back().valid)
+    << straight.getResults().back().reason;
+
+  for (std::size_t cut = 1; cut < frames.size(); ++cut) {
+    SCOPED_TRACE("serialised after frame " + std::to_string(cut - 1));
+    VisualOdometry first;
+    first.setCalibration(calibration_);
+    for (std::size_t k = 0; k < cut; ++k)
+      first.addFrame(frames[k]);
+    std::vector<std::uint8_t> bytes;
+    first.serializeState(bytes);
+    // The previous frame's SIFT descriptors (128 floats each) at least.
+    EXPECT_GT(bytes.size(), frames[cut - 1].size() * 128 * 4);
+    if (cut == 2)
+      RecordProperty("state_bytes_after_two_frames", std::to_string(bytes.size()));
+
+    VisualOdometry resumed;
+    resumed.setCalibration(calibration_);
+    resumed.deserializeState(bytes.data(), bytes.size());
+    std::vector<std::uint8_t> again;
+    resumed.serializeState(again);
+    EXPECT_TRUE(again == bytes) << "a restored state serialises differently";
+    for (std::size_t k = cut; k < frames.size(); ++k)
+      resumed.addFrame(frames[k]);
+
+    EXPECT_EQ(resumed.getFlaggedFrames(), straight.getFlaggedFrames());
+    ASSERT_EQ(resumed.getTrajectory().size(), frames.size());
+    for (std::size_t k = 0; k < frames.size(); ++k) {
+      EXPECT_TRUE(resumed.getTrajectory()[k].matrix()
+                  == straight.getTrajectory()[k].matrix())
+        << "frame " << k;
+      const OdometryResult& a = straight.getResults()[k];
+      const OdometryResult& b = resumed.getResults()[k];
+      EXPECT_TRUE(a.previous_T_current.matrix() == b.previous_T_current.matrix());
+      EXPECT_EQ(a.inliers, b.inliers);
+      EXPECT_EQ(a.correspondences, b.correspondences);
+      EXPECT_EQ(a.epipolar_refined, b.epipolar_refined);
+      EXPECT_EQ(a.valid, b.valid);
+      EXPECT_EQ(a.reason, b.reason);
+    }
+    EXPECT_TRUE(resumed.getMotionModel().getPredictedMotion().matrix()
+                == straight.getMotionModel().getPredictedMotion().matrix());
+  }
+}
+
+TEST_F(StereoOdometryKarlsruhe, TruncatedOrCorruptStateIsAnIOErrorAndChangesNothing)
+{
+  VisualOdometry source;
+  source.addFrame(frame10_);
+  source.addFrame(frame11_);
+  std::vector<std::uint8_t> bytes;
+  source.serializeState(bytes);
+
+  VisualOdometry target;
+  target.addFrame(frame11_);
+  std::vector<std::uint8_t> before;
+  target.serializeState(before);
+  const auto expectRefused = [&](const std::vector<std::uint8_t>& data,
+                                 const std::string& why) {
+    EXPECT_THROW(target.deserializeState(data.data(), data.size()),
+                 planar_grid::IOError)
+      << why;
+    std::vector<std::uint8_t> after;
+    target.serializeState(after);
+    EXPECT_TRUE(after == before) << "half-restored after " << why;
+  };
+  // Cuts in the header, the features, the descriptors, the frames and the motion
+  // model, and one byte short.
+  for (std::size_t k = 0; k < 64; ++k) {
+    const std::size_t size = bytes.size() * k / 64;
+    expectRefused(std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + size),
+                  "truncated to " + std::to_string(size) + " bytes");
+  }
+  for (std::size_t n = 1; n <= 16; ++n)
+    expectRefused(std::vector<std::uint8_t>(bytes.begin(), bytes.end() - n),
+                  "truncated by " + std::to_string(n) + " bytes");
+  std::vector<std::uint8_t> trailing = bytes;
+  trailing.push_back(0);
+  expectRefused(trailing, "trailing data");
+  std::vector<std::uint8_t> magic = bytes;
+  magic[0] = static_cast<std::uint8_t>(magic[0] ^ 0x01);
+  expectRefused(magic, "bad magic");
+  std::vector<std::uint8_t> version = bytes;
+  version[4] = 2;
+  expectRefused(version, "unknown version");
+  // A non-finite last motion (the last 8 bytes are its z translation).
+  std::vector<std::uint8_t> nan = bytes;
+  const double not_a_number = std::nan("");
+  std::memcpy(nan.data() + nan.size() - 8, &not_a_number, 8);
+  expectRefused(nan, "non-finite motion");
+
+  // The intact bytes restore.
+  target.deserializeState(bytes.data(), bytes.size());
+  EXPECT_EQ(target.getTrajectory().size(), 2u);
 }
 
 TEST(StereoOdometry, RejectsInvalidParameters)

@@ -603,6 +603,69 @@ TEST_F(PipelineRunnerTest, ResumedRunGivesTheSameMapAsAnUninterruptedOne)
     EXPECT_TRUE(straight.trajectory()[i].isApprox(resumed.trajectory()[i], 0.0));
 }
 
+TEST_F(PipelineRunnerTest, ResumedOdometryRunGivesTheSameTrajectoryAndMap)
+{
+  // As ResumedRunGivesTheSameMapAsAnUninterruptedOne, with the poses from the visual
+  // odometry (input.poses.format odometry, visual_odometry after feature_matching):
+  // Karlsruhe frames 10-12, straight through and stopped after frame 10 and resumed;
+  // the odometry's previous features, trajectory and motion model come from the
+  // checkpoint, so the trajectory and the map bytes equal the straight run's.
+  const std::string input =
+    "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE
+    + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE
+    + "/right/I2_%06d.png\n  first_index: 10\n  frame_count: 3\n"
+      "  calibration: {format: karlsruhe, file: "
+    + KARLSRUHE + "/calib.txt}\n  poses: {format: odometry}\n";
+  std::string stages = paperStages(true);
+  const std::string features = "  - type: feature_matching\n";
+  stages.insert(stages.find(features) + features.size(),
+                "  - type: visual_odometry\n"
+                "    params: {initial_height_m: 1.57, initial_pitch_rad: 0.09}\n");
+  const auto config = parsePipelineConfig(input + stages, "t.yaml", "/");
+  const std::string checkpoint = (dir_ / "ck" / "checkpoint.pgck").string();
+
+  planar_grid::PipelineRunner straight(config);
+  const auto straight_report = straight.run();
+
+  planar_grid::PipelineRunner first(config);
+  first.setFrameRange(0, 1);
+  first.setCheckpoint(checkpoint, 1);
+  EXPECT_EQ(first.run().checkpoints_written, 1u);
+  ASSERT_TRUE(fs::exists(checkpoint));
+  RecordProperty("checkpoint_bytes", std::to_string(fs::file_size(checkpoint)));
+
+  planar_grid::PipelineRunner resumed(config);
+  EXPECT_EQ(resumed.resumeFrom(checkpoint), 1u);
+  const auto report = resumed.run();
+  EXPECT_EQ(report.frames, 3u);
+  ASSERT_EQ(report.stages[2].type, "visual_odometry");
+  EXPECT_EQ(report.stages[2].frames, 3u);
+  EXPECT_EQ(report.stages[2].counters, straight_report.stages[2].counters);
+  EXPECT_DOUBLE_EQ(report.stages[2].counters[2].second, 0.0); // no flagged frame
+
+  ASSERT_EQ(straight.trajectory().size(), 3u);
+  ASSERT_EQ(resumed.trajectory().size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i)
+    EXPECT_TRUE(straight.trajectory()[i].matrix() == resumed.trajectory()[i].matrix())
+      << "pose " << i;
+  // The odometry moved the camera (about 1.3 m per frame here).
+  EXPECT_GT(
+    (straight.trajectory()[2].translation() - straight.trajectory()[0].translation())
+      .norm(),
+    2.0);
+  ASSERT_TRUE(straight.state().map && resumed.state().map);
+  std::string a, b;
+  straight.state().map->serialize(a);
+  resumed.state().map->serialize(b);
+  EXPECT_GT(a.size(), 100000u);
+  EXPECT_TRUE(a == b) << "the resumed map differs from the uninterrupted one";
+  const auto& wa = *straight.state().world_cloud;
+  const auto& wb = *resumed.state().world_cloud;
+  ASSERT_EQ(wa.size(), wb.size());
+  for (std::size_t i = 0; i < wa.size(); ++i)
+    ASSERT_EQ(wa[i].getVector4fMap(), wb[i].getVector4fMap()) << i;
+}
+
 TEST_F(PipelineRunnerTest, CorruptOrForeignCheckpointsAreRefused)
 {
   std::string input = karlsruheInput();
@@ -662,7 +725,8 @@ TEST_F(PipelineRunnerTest, CorruptOrForeignCheckpointsAreRefused)
     },
     planar_grid::IOError);
 
-  // A stage whose state is not checkpointed yet is a configuration error, up front.
+  // A pipeline with the visual odometry (its state is checkpointed too) accepts
+  // checkpoints; a checkpoint without a file name is a configuration error.
   const auto odometry = parsePipelineConfig(
     "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE
       + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE
@@ -673,6 +737,7 @@ TEST_F(PipelineRunnerTest, CorruptOrForeignCheckpointsAreRefused)
         "pipeline:\n  - type: feature_matching\n  - type: visual_odometry\n",
     "t.yaml", "/");
   planar_grid::PipelineRunner vo(odometry);
-  EXPECT_THROW(vo.setCheckpoint(checkpoint, 1), planar_grid::ConfigError);
+  EXPECT_NO_THROW(vo.setCheckpoint(checkpoint, 1));
   EXPECT_NO_THROW(vo.setCheckpoint(checkpoint, 0));
+  EXPECT_THROW(vo.setCheckpoint("", 1), planar_grid::ConfigError);
 }

@@ -11,6 +11,7 @@
 #include <opencv2/core/types.hpp>
 
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -282,6 +283,26 @@ public:
   /** \brief The motion model (its last motion is the prediction for the next frame).
    */
   const ConstantVelocityMotionModel& getMotionModel() const { return motion_model_; }
+
+  /** \brief Appends the run state (for pipeline checkpoints): everything that the
+   * next addFrame() calls and the getters depend on. A little-endian section of u32
+   * magic "PGVO", u32 version 1; the previous frame's features (putStereoFeatures());
+   * u64 frame count, then per frame its pose world_T_camera and its result (the motion
+   * previous_T_current, each as the 3x4 f64 of putPose(), metres; u64 inliers, u64
+   * correspondences, u8 epipolar_refined, u8 valid, the reason as u64 length and
+   * characters); the flagged frame indices as u64 byte count and u64 values; the motion
+   * model's u8 has_motion and last motion (putPose()). The parameters and the
+   * calibration (constructor, setCalibration()) are not included; the RANSAC seed is a
+   * parameter and does not change from frame to frame, so no sampler state is needed.
+   * \param[out] bytes appended to */
+  void serializeState(std::vector<std::uint8_t>& bytes) const;
+
+  /** \brief Replaces the run state by serializeState()'s output (exactly \a size
+   * bytes): the next addFrame() continues as the odometry that wrote it would.
+   * \throws planar_grid::IOError on truncated, trailing or invalid data (bad magic or
+   * version, non-finite poses, inconsistent features, a flagged index out of range or
+   * out of order); the object is then unchanged */
+  void deserializeState(const std::uint8_t* data, std::size_t size);
 
 private:
   /** \brief The frame-to-frame estimator. */

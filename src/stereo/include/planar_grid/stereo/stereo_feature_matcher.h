@@ -14,6 +14,9 @@
 
 namespace planar_grid {
 
+class ByteReader;
+class ByteWriter;
+
 /** \brief Key feature detectors. The paper uses SURF, which is patented and absent from
  * Debian's OpenCV; SIFT is the default, ORB the fast option. \ingroup stereo */
 enum class FeatureType { SIFT, ORB };
@@ -40,6 +43,25 @@ struct StereoFeatures {
   /** \brief Returns the number of matched features (the size of every vector). */
   std::size_t size() const { return keypoints_left.size(); }
 };
+
+/** \brief Appends \a features to a little-endian byte section (pipeline checkpoints):
+ * u64 point count and per point f32 x, y, z (metres); the left, then the right key
+ * points, each as u64 count and per key point f32 pt.x, pt.y, size, angle, response,
+ * i32 octave, class_id; the disparities as u64 byte count and f32 values (px); the
+ * descriptors as i32 rows, cols, OpenCV type, u64 byte count and the row-major bytes.
+ * \param[out] w the writer appended to
+ * \param[in] features the features
+ * \ingroup stereo */
+void putStereoFeatures(ByteWriter& w, const StereoFeatures& features);
+
+/** \brief Reads what putStereoFeatures() wrote.
+ * \param[in,out] r the reader
+ * \param[out] features replaced by the features read
+ * \throws planar_grid::IOError on truncated or inconsistent data (a descriptor type
+ * other than CV_8U or CV_32F, bytes that do not match the matrix size, points, left key
+ * points and descriptor rows of different lengths)
+ * \ingroup stereo */
+void getStereoFeatures(ByteReader& r, StereoFeatures& features);
 
 /** \brief Detects key points in both images, matches each left descriptor to the right
  * image along the epipolar row (|dy| <= max_row_difference_px,
