@@ -67,6 +67,22 @@ wall(double yaw_rad, double lean_rad, double step_m)
   return cloud;
 }
 
+/** A pipeline of PCD frames \a files (comma-separated) through the planar stages: the
+ * voxel grid at 0.1 m (set to r by the evaluation), segmentation of the cloud,
+ * cuboids and the map. */
+std::string
+planarPipeline(const std::string& files)
+{
+  return "input:\n  type: pcd_files\n  files: [" + files
+         + "]\npipeline:\n"
+           "  - type: voxel_grid\n    params: {leaf_size_m: 0.1}\n"
+           "  - type: transform_to_world\n"
+           "  - type: multi_plane_segmentation\n"
+           "    params: {sample: cloud, min_inliers: 100}\n"
+           "  - type: planar_cuboid_approximation\n"
+           "  - type: map_integration\n";
+}
+
 TEST_F(MapComparisonTest, ConfigurationErrorsNameTheLine)
 {
   const std::string pipeline =
@@ -118,15 +134,8 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
   const auto cloud = wall(0.5236, 0.3491, 0.02);
   ASSERT_EQ(pcl::io::savePCDFileBinary((dir_ / "wall.pcd").string(), cloud), 0);
   ASSERT_EQ(pcl::io::savePCDFileBinary((dir_ / "truth.pcd").string(), cloud), 0);
-  const std::string pipeline = write(
-    "p.yaml", "input:\n  type: pcd_files\n  files: [" + (dir_ / "wall.pcd").string()
-                + "]\npipeline:\n"
-                  "  - type: voxel_grid\n    params: {leaf_size_m: 0.1}\n"
-                  "  - type: transform_to_world\n"
-                  "  - type: multi_plane_segmentation\n"
-                  "    params: {sample: cloud, min_inliers: 100}\n"
-                  "  - type: planar_cuboid_approximation\n"
-                  "  - type: map_integration\n");
+  const std::string pipeline =
+    write("p.yaml", planarPipeline((dir_ / "wall.pcd").string()));
   const auto config = planar_grid::loadComparisonConfig(write(
     "e.yaml", "resolutions_m: [0.1, 0.2]\ndatasets:\n  - name: wall\n    pipeline: "
                 + pipeline + "\n    truth: {type: points, file: "
@@ -210,16 +219,9 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
   pcl::PointCloud<pcl::PointXYZ> both = near_wall;
   both += far_wall;
   ASSERT_EQ(pcl::io::savePCDFileBinary((dir_ / "truth.pcd").string(), both), 0);
-  const std::string pipeline = write(
-    "p.yaml", "input:\n  type: pcd_files\n  files: [" + (dir_ / "near.pcd").string()
-                + ", " + (dir_ / "far.pcd").string()
-                + "]\npipeline:\n"
-                  "  - type: voxel_grid\n    params: {leaf_size_m: 0.1}\n"
-                  "  - type: transform_to_world\n"
-                  "  - type: multi_plane_segmentation\n"
-                  "    params: {sample: cloud, min_inliers: 100}\n"
-                  "  - type: planar_cuboid_approximation\n"
-                  "  - type: map_integration\n");
+  const std::string pipeline =
+    write("p.yaml", planarPipeline((dir_ / "near.pcd").string() + ", "
+                                   + (dir_ / "far.pcd").string()));
   const auto config = planar_grid::loadComparisonConfig(
     write("e.yaml", "resolutions_m: [0.2]\nplaces: {count: 5, radius_m: 8.0}\n"
                     "datasets:\n  - name: walls\n    pipeline: "
