@@ -26,13 +26,6 @@ where(const std::string& path, std::size_t line_number, const std::string& messa
   return path + ":" + std::to_string(line_number) + ": " + message;
 }
 
-/** \brief True when \a line holds only white space. */
-bool
-isBlank(const std::string& line)
-{
-  return line.find_first_not_of(" \t\r\n\v\f") == std::string::npos;
-}
-
 /** \brief Every white-space separated number on \a line; IOError naming file:line
  * when a token is not a number or a number is not finite. */
 std::vector<double>
@@ -66,6 +59,31 @@ openForReading(const std::string& path)
   if (!in)
     throw IOError(path + ": cannot open for reading");
   return in;
+}
+
+/** \brief Reads the text file \a path line by line and calls
+ * visit(line_number, numbers) with the numbers (parseNumbers()) of every line that is
+ * not blank and, with \a skip_comments, does not start with '#'.
+ * \return the number of lines read
+ * \throws IOError for a missing or unreadable file, a read error or a token that is not
+ * a finite number (file:line) */
+template <typename Visit>
+std::size_t
+forEachNumberLine(const std::string& path, bool skip_comments, Visit visit)
+{
+  std::ifstream in = openForReading(path);
+  std::string line;
+  std::size_t line_number = 0;
+  while (std::getline(in, line)) {
+    ++line_number;
+    const std::size_t first = line.find_first_not_of(" \t\r\n\v\f");
+    if (first == std::string::npos || (skip_comments && line[first] == '#'))
+      continue;
+    visit(line_number, parseNumbers(path, line_number, line));
+  }
+  if (in.bad())
+    throw IOError(path + ": read error");
+  return line_number;
 }
 
 /** \brief Heading (yaw about +z, radians) of the planar direction \a from -> \a to. */
@@ -112,31 +130,23 @@ loadKarlsruheInsData(const std::string& path, double heading_baseline_m)
                     + ": heading_baseline_m must be a positive number of metres, got "
                     + std::to_string(heading_baseline_m));
 
-  std::ifstream in = openForReading(path);
   // Columns: timestamp_ns lat_deg lon_deg alt_m x_m y_m z_m roll pitch yaw.
   constexpr std::size_t MIN_COLUMNS = 7;
   constexpr std::size_t X_COLUMN = 4;
 
   std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>> positions;
   std::vector<std::size_t> line_numbers;
-  std::string line;
-  std::size_t line_number = 0;
-  while (std::getline(in, line)) {
-    ++line_number;
-    if (isBlank(line))
-      continue;
-    const std::vector<double> numbers = parseNumbers(path, line_number, line);
-    if (numbers.size() < MIN_COLUMNS)
-      throw IOError(where(path, line_number,
-                          "expected at least 7 numbers (timestamp_ns lat_deg lon_deg "
-                          "alt_m x_m y_m z_m ...), got "
-                            + std::to_string(numbers.size())));
-    positions.emplace_back(numbers[X_COLUMN], numbers[X_COLUMN + 1],
-                           numbers[X_COLUMN + 2]);
-    line_numbers.push_back(line_number);
-  }
-  if (in.bad())
-    throw IOError(path + ": read error");
+  const std::size_t line_number = forEachNumberLine(
+    path, false, [&](std::size_t number, const std::vector<double>& numbers) {
+      if (numbers.size() < MIN_COLUMNS)
+        throw IOError(where(path, number,
+                            "expected at least 7 numbers (timestamp_ns lat_deg lon_deg "
+                            "alt_m x_m y_m z_m ...), got "
+                              + std::to_string(numbers.size())));
+      positions.emplace_back(numbers[X_COLUMN], numbers[X_COLUMN + 1],
+                             numbers[X_COLUMN + 2]);
+      line_numbers.push_back(number);
+    });
   if (positions.empty())
     throw IOError(where(path, line_number, "no poses in the file"));
 
@@ -182,47 +192,38 @@ loadKarlsruheInsData(const std::string& path, double heading_baseline_m)
 Trajectory
 loadKittiPoses(const std::string& path)
 {
-  std::ifstream in = openForReading(path);
   constexpr std::size_t KITTI_COLUMNS = 12;
   // KITTI files are often written with 6 significant digits, so the stored rotations
   // are orthonormal to about 1e-6; anything far off is not a rotation at all.
   constexpr double ORTHONORMALITY_TOLERANCE = 1e-4;
 
   Trajectory trajectory;
-  std::string line;
-  std::size_t line_number = 0;
-  while (std::getline(in, line)) {
-    ++line_number;
-    if (isBlank(line))
-      continue;
-    const std::vector<double> numbers = parseNumbers(path, line_number, line);
-    if (numbers.size() != KITTI_COLUMNS)
-      throw IOError(where(path, line_number,
-                          "expected 12 numbers (row-major 3x4 world_T_camera), got "
-                            + std::to_string(numbers.size())));
-    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    for (int row = 0; row < 3; ++row)
-      for (int col = 0; col < 4; ++col)
-        pose.matrix()(row, col) = numbers[static_cast<std::size_t>(row * 4 + col)];
-    const Eigen::Matrix3d rotation = pose.linear();
-    if ((rotation.transpose() * rotation - Eigen::Matrix3d::Identity())
-            .cwiseAbs()
-            .maxCoeff()
-          > ORTHONORMALITY_TOLERANCE
-        || rotation.determinant() <= 0.0)
-      throw IOError(
-        where(path, line_number, "the 3x3 part is not a proper rotation matrix"));
-    trajectory.push_back(pose);
-  }
-  if (in.bad())
-    throw IOError(path + ": read error");
+  forEachNumberLine(
+    path, false, [&](std::size_t line_number, const std::vector<double>& numbers) {
+      if (numbers.size() != KITTI_COLUMNS)
+        throw IOError(where(path, line_number,
+                            "expected 12 numbers (row-major 3x4 world_T_camera), got "
+                              + std::to_string(numbers.size())));
+      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+      for (int row = 0; row < 3; ++row)
+        for (int col = 0; col < 4; ++col)
+          pose.matrix()(row, col) = numbers[static_cast<std::size_t>(row * 4 + col)];
+      const Eigen::Matrix3d rotation = pose.linear();
+      if ((rotation.transpose() * rotation - Eigen::Matrix3d::Identity())
+              .cwiseAbs()
+              .maxCoeff()
+            > ORTHONORMALITY_TOLERANCE
+          || rotation.determinant() <= 0.0)
+        throw IOError(
+          where(path, line_number, "the 3x3 part is not a proper rotation matrix"));
+      trajectory.push_back(pose);
+    });
   return trajectory;
 }
 
 IndexedPoses
 loadEurocBodyPoses(const std::string& path)
 {
-  std::ifstream in = openForReading(path);
   // Columns: image timestamp_ns qw qx qy qz x_m y_m z_m.
   constexpr std::size_t EUROC_COLUMNS = 9;
   // The file gives the quaternions to 6 digits; a norm far from 1 is a wrong column.
@@ -230,39 +231,31 @@ loadEurocBodyPoses(const std::string& path)
   constexpr double ZERO_NORM = 1e-9;
 
   IndexedPoses poses;
-  std::string line;
-  std::size_t line_number = 0;
-  while (std::getline(in, line)) {
-    ++line_number;
-    const std::size_t first = line.find_first_not_of(" \t\r\n\v\f");
-    if (first == std::string::npos || line[first] == '#')
-      continue;
-    const std::vector<double> numbers = parseNumbers(path, line_number, line);
-    if (numbers.size() != EUROC_COLUMNS)
-      throw IOError(where(path, line_number,
-                          "expected 9 numbers (image timestamp_ns qw qx qy qz x_m "
-                          "y_m z_m), got "
-                            + std::to_string(numbers.size())));
-    const double image = numbers[0];
-    if (image < 0.0 || image > 1e9 || image != std::floor(image))
-      throw IOError(
-        where(path, line_number, "the image index must be a non-negative integer"));
-    const int index = static_cast<int>(image);
-    const Eigen::Quaterniond q(numbers[2], numbers[3], numbers[4], numbers[5]);
-    if (q.norm() < ZERO_NORM)
-      throw IOError(where(path, line_number, "zero quaternion"));
-    if (std::abs(q.norm() - 1.0) > UNIT_NORM_TOLERANCE)
-      throw IOError(
-        where(path, line_number, "the quaternion (qw qx qy qz) is not of unit norm"));
-    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    pose.linear() = q.normalized().toRotationMatrix();
-    pose.translation() = Eigen::Vector3d(numbers[6], numbers[7], numbers[8]);
-    if (!poses.emplace(index, pose).second)
-      throw IOError(where(path, line_number,
-                          "image index " + std::to_string(index) + " appears twice"));
-  }
-  if (in.bad())
-    throw IOError(path + ": read error");
+  forEachNumberLine(
+    path, true, [&](std::size_t line_number, const std::vector<double>& numbers) {
+      if (numbers.size() != EUROC_COLUMNS)
+        throw IOError(where(path, line_number,
+                            "expected 9 numbers (image timestamp_ns qw qx qy qz x_m "
+                            "y_m z_m), got "
+                              + std::to_string(numbers.size())));
+      const double image = numbers[0];
+      if (image < 0.0 || image > 1e9 || image != std::floor(image))
+        throw IOError(
+          where(path, line_number, "the image index must be a non-negative integer"));
+      const int index = static_cast<int>(image);
+      const Eigen::Quaterniond q(numbers[2], numbers[3], numbers[4], numbers[5]);
+      if (q.norm() < ZERO_NORM)
+        throw IOError(where(path, line_number, "zero quaternion"));
+      if (std::abs(q.norm() - 1.0) > UNIT_NORM_TOLERANCE)
+        throw IOError(
+          where(path, line_number, "the quaternion (qw qx qy qz) is not of unit norm"));
+      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+      pose.linear() = q.normalized().toRotationMatrix();
+      pose.translation() = Eigen::Vector3d(numbers[6], numbers[7], numbers[8]);
+      if (!poses.emplace(index, pose).second)
+        throw IOError(where(path, line_number,
+                            "image index " + std::to_string(index) + " appears twice"));
+    });
   return poses;
 }
 
