@@ -573,6 +573,70 @@ TEST(SACMultiPlaneSegmentation, DenseHypothesisIncreasesCoverageWithPrecisionKep
 // and holds 300 colinear points, which can be all that is left of the sample after the
 // planes. With PCL's model and without the per-round span check, the two runs printed
 // 1.2 kB and 88 kB (~1000 lines) of PCL errors; now nothing.
+TEST(SACMultiPlaneSegmentation, DepthNoiseWidensEq11WithRangeOnly)
+{
+  // Two walls facing the sensor at the origin: one at 3 m with +-4 cm noise, one at
+  // 12 m with uniform depth noise of +-0.2 m (a far stereo surface). With the
+  // coefficient c, eq. 11's threshold is max(d_T, c r^2): c = 0.002 / m gives 0.05 m
+  // (d_T) up to 5 m and 0.29-0.33 m at 12-13 m.
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> near_noise(-0.04f, 0.04f),
+    far_noise(-0.2f, 0.2f);
+  for (float x = -2.0f; x < 2.0f; x += 0.05f)
+    for (float y = -1.0f; y < 1.0f; y += 0.05f) {
+      cloud->push_back(pcl::PointXYZ(x, y, 3.0f + near_noise(rng)));
+      cloud->push_back(pcl::PointXYZ(x + 6.0f, y, 12.0f + far_noise(rng)));
+    }
+  // Outliers 0.15 m in front of the near wall: within the far wall's threshold,
+  // outside the near one's.
+  for (float x = -2.0f; x < 2.0f; x += 0.2f)
+    cloud->push_back(pcl::PointXYZ(x, 0.5f, 2.85f));
+  const std::size_t per_wall = (cloud->size() - 20) / 2;
+  const auto run = [&](double coefficient) {
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    seg.setInputCloud(cloud);
+    seg.setDistanceThreshold(0.05);
+    seg.setMinInliers(500);
+    seg.setMaxPlanes(2);
+    seg.setMergePlanes(false);
+    seg.setDepthNoiseCoefficient(coefficient);
+    PlanarSegments planes;
+    seg.segment(planes);
+    return planes;
+  };
+  const auto wallOf = [&](const PlanarSegments& planes,
+                          float z) -> const PlanarSegment* {
+    for (const auto& p : planes)
+      if (std::abs(std::abs(p.model_coefficients.values[3]) - z) < 0.5f)
+        return &p;
+    return nullptr;
+  };
+  const PlanarSegments fixed = run(0.0);
+  const PlanarSegments ranged = run(0.002);
+  const PlanarSegment* far_fixed = wallOf(fixed, 12.0f);
+  const PlanarSegment* far_ranged = wallOf(ranged, 12.0f);
+  const PlanarSegment* near_ranged = wallOf(ranged, 3.0f);
+  ASSERT_NE(far_ranged, nullptr);
+  ASSERT_NE(near_ranged, nullptr);
+  // Fixed d_T keeps about a quarter of the far wall (0.1 of its 0.4 m spread).
+  const std::size_t far_fixed_count = far_fixed ? far_fixed->inliers.indices.size() : 0;
+  EXPECT_LT(far_fixed_count, per_wall / 2);
+  // With the range model the whole far wall is one plane ...
+  EXPECT_GE(far_ranged->inliers.indices.size(), per_wall * 98 / 100);
+  // ... while the near wall keeps d_T: its inliers are its own points, not the
+  // outliers 0.15 m in front of it.
+  EXPECT_GE(near_ranged->inliers.indices.size(), per_wall * 98 / 100);
+  EXPECT_LE(near_ranged->inliers.indices.size(), per_wall);
+  // A negative or non-finite coefficient is refused.
+  SACMultiPlaneSegmentation<pcl::PointXYZ> bad;
+  bad.setInputCloud(cloud);
+  bad.setDepthNoiseCoefficient(-1.0);
+  PlanarSegments none;
+  bad.segment(none);
+  EXPECT_TRUE(none.empty());
+}
+
 TEST(SACMultiPlaneSegmentation, DegenerateSamplesAreRejectedQuietly)
 {
   const auto scene = makeScene<pcl::PointXYZ>(42);

@@ -155,6 +155,22 @@ public:
   /** \brief Returns d_T of eq. 11, in meters. */
   double getDistanceThreshold() const { return distance_threshold_; }
 
+  /** \brief Sets the stereo depth noise of the dense points, so that eq. 11's
+   * threshold grows with range as the depth error of Sec. III-D does: a dense point at
+   * distance r from the input cloud's sensor origin is an inlier within
+   * max(d_T, coefficient r^2) of a plane, where coefficient r^2 is the stereo depth
+   * error Delta z = z^2 Delta d / (B f) (eq. 4, with r for z). With d_T = 0.05 m, a
+   * 0.5 px disparity error and B f = 368 px m (Karlsruhe), the threshold grows beyond
+   * d_T from 6 m and is 0.14 m at 10 m. Hypotheses are still drawn and scored at d_T.
+   * \param[in] coefficient_per_m Delta d / (B f), in 1/m, >= 0 (default 0: the
+   * paper's fixed d_T) */
+  void setDepthNoiseCoefficient(double coefficient_per_m)
+  {
+    depth_noise_coefficient_ = coefficient_per_m;
+  }
+  /** \brief Returns the depth noise coefficient, in 1/m (0: fixed d_T). */
+  double getDepthNoiseCoefficient() const { return depth_noise_coefficient_; }
+
   /** \brief Sets the inlier threshold of the sample consensus on the sample cloud.
    * \param[in] distance_threshold_m in meters, > 0 (default: unset, i.e. equal to the
    * distance threshold). Stereo features are noisier than the dense cloud, so a larger
@@ -329,6 +345,8 @@ protected:
   PointCloudConstPtr sample_cloud_;
   /** \brief d_T of eq. 11, in meters. */
   double distance_threshold_{0.05};
+  /** \brief Delta d / (B f) of the range-dependent eq. 11 threshold, in 1/m. */
+  double depth_noise_coefficient_{0.0};
   /** \brief Sample consensus threshold, in meters (when set). */
   double sample_distance_threshold_{0.05};
   /** \brief Whether sample_distance_threshold_ was set. */

@@ -113,10 +113,31 @@ protected:
  * eq. 11 pass over ~10^5 points is one branch-free, vectorisable loop per plane. */
 struct DensePoints {
   std::vector<float> x, y, z;
+  /** Per-point eq. 11 threshold (range-dependent); empty: the fixed d_T. */
+  std::vector<float> threshold;
   pcl::Indices index;
   std::vector<std::uint8_t> mask;
 
   std::size_t size() const { return index.size(); }
+
+  /** \brief Eq. 11 with the per-point thresholds (the fixed \a t when there are
+   * none): mask[k] = 1 iff |a x + b y + c z + d| <= threshold[k]; returns the count. */
+  std::size_t selectInliers(const Eigen::Vector4f& plane, float t)
+  {
+    if (threshold.empty())
+      return select(plane, t);
+    const std::size_t n = size();
+    mask.resize(n);
+    std::size_t count = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const float dist =
+        std::abs(plane[0] * x[k] + plane[1] * y[k] + plane[2] * z[k] + plane[3]);
+      const std::uint8_t in = dist <= threshold[k] ? 1 : 0;
+      mask[k] = in;
+      count += in;
+    }
+    return count;
+  }
 
   /** \brief mask[k] = 1 iff |a x + b y + c z + d| <= t (eq. 11, unit normal); returns
    * the number of such points. */
@@ -158,12 +179,16 @@ struct DensePoints {
       x[w] = x[k];
       y[w] = y[k];
       z[w] = z[k];
+      if (!threshold.empty())
+        threshold[w] = threshold[k];
       index[w] = index[k];
       ++w;
     }
     x.resize(w);
     y.resize(w);
     z.resize(w);
+    if (!threshold.empty())
+      threshold.resize(w);
     index.resize(w);
   }
 };
@@ -315,6 +340,9 @@ SACMultiPlaneSegmentation<PointT>::initCompute()
     bad = "distance_threshold must be > 0 m";
   else if (sample_distance_threshold_set_ && !(sample_distance_threshold_ > 0.0))
     bad = "sample_distance_threshold must be > 0 m";
+  else if (!(depth_noise_coefficient_ >= 0.0)
+           || !std::isfinite(depth_noise_coefficient_))
+    bad = "depth_noise_coefficient must be finite and >= 0 1/m";
   else if (max_planes_ < 1)
     bad = "max_planes must be >= 1";
   else if (min_inliers_ < 3)
@@ -404,6 +432,16 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
     dense.y.push_back(p.y);
     dense.z.push_back(p.z);
     dense.index.push_back(i);
+  }
+  if (depth_noise_coefficient_ > 0.0) {
+    // Eq. 11 at the stereo depth error of each point's range (eq. 4's Delta z).
+    const auto coefficient = static_cast<float>(depth_noise_coefficient_);
+    dense.threshold.resize(dense.size());
+    for (std::size_t k = 0; k < dense.size(); ++k) {
+      const float r2 =
+        (Eigen::Vector3f(dense.x[k], dense.y[k], dense.z[k]) - origin).squaredNorm();
+      dense.threshold[k] = std::max(d_t, coefficient * r2);
+    }
   }
   if (dense.size() < 3) {
     PCL_WARN("[planar_grid::%s::segment] Fewer than 3 finite input points (%zu).\n",
@@ -551,10 +589,7 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
       if (detail::ransacPlane(local_x, local_y, local_z, d_t, max_iterations_,
                               probability_, rng, dense_plane)
             > 0
-          && detail::countWithinDistance(dense.x.data(), dense.y.data(), dense.z.data(),
-                                         n, dense_plane, d_t, 0)
-               > detail::countWithinDistance(dense.x.data(), dense.y.data(),
-                                             dense.z.data(), n, plane, d_t, 0)) {
+          && dense.selectInliers(dense_plane, d_t) > dense.selectInliers(plane, d_t)) {
         plane = dense_plane;
         detail::orientTowards(plane, origin);
         dense_won = true;
@@ -567,14 +602,14 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
     }
 
     // Eq. 11 over the unassigned dense points; refit (PCA) and reselect.
-    std::size_t count = dense.select(plane, d_t);
+    std::size_t count = dense.selectInliers(plane, d_t);
     if (optimize_coefficients_ && count >= 3) {
       dense.selected(segment.inliers.indices);
       Eigen::Vector4f refit, centroid;
       if (detail::fitPlanePCA(*input_, segment.inliers.indices, refit, centroid)) {
         detail::orientTowards(refit, origin);
         plane = refit;
-        count = dense.select(plane, d_t);
+        count = dense.selectInliers(plane, d_t);
       }
     }
 
