@@ -44,9 +44,14 @@ namespace planar_grid {
  * e1 horizontal depth; see getHorizontalReference()): a quadtree on the (e1, up)
  * raster, then each leaf's points are cut along e2 wherever consecutive depths are more
  * than min_cell_size_m apart, so that no box spans free space between separate
- * surfaces. Every part with >= min_points_per_cell points becomes a cuboid bounding
- * its points (each extent at least min_cell_size_m along e1 and up and thickness_m
- * along e2); these are never merged and may overlap slightly.
+ * surfaces. Every part with >= min_points_per_cell points is split further in 3D
+ * (octree steps on a lattice of min_cell_size_m voxels anchored at the part's
+ * minimum) until each box's share of occupied voxels reaches D_T (or
+ * setNonPlanarDensityThreshold()) or the box is one voxel: a box never spans space its
+ * points leave empty (noisy stereo spreads a surface's points over a depth range much
+ * larger than a cell). Each box bounds its points (each extent at least min_cell_size_m
+ * along e1 and up and thickness_m along e2, so it reaches at most half a cell beyond
+ * them); these are never merged and may overlap slightly.
  *
  * With min_points_per_cell = 1 every finite input point within the indices lies in
  * some cuboid. The run time is linear in the number of points plus the raster area
@@ -121,6 +126,15 @@ public:
   }
   /** \brief Returns D_T, in (0, 1]. */
   double getDensityThreshold() const { return density_threshold_; }
+  /** \brief Sets the share of occupied lattice voxels a non-planar box (Fig. 7) must
+   * reach before it stops splitting in 3D: lower values give fewer, emptier boxes.
+   * \param[in] density_threshold in (0, 1], or 0 (the default) for D_T */
+  void setNonPlanarDensityThreshold(double density_threshold)
+  {
+    non_planar_density_threshold_ = density_threshold;
+  }
+  /** \brief Returns the non-planar box density threshold (0: D_T). */
+  double getNonPlanarDensityThreshold() const { return non_planar_density_threshold_; }
 
   /** \brief Sets W_T of Fig. 8: a unit splits only while its width W > W_T.
    * \param[in] min_width_m in meters, >= 0 (default 0.1, i.e. split down to single
@@ -198,6 +212,15 @@ protected:
 
   /** \brief Builds the non-planar cuboids of the points in remainder_. */
   void approximateRemainder(PlanarCuboids& cuboids);
+  /** \brief Splits one depth-cut part of the remainder (indices into coords_, in
+   * (e1, up, e2) meters) into boxes its points support: octree steps on a lattice of
+   * edge \a cell until a box's share of occupied lattice voxels reaches D_T or the box
+   * is one voxel; each box bounds its points, widened to \a cell (thickness_m along
+   * e2). */
+  void splitNonPlanarPart(std::vector<std::size_t>::iterator first,
+                          std::vector<std::size_t>::iterator last,
+                          float cell,
+                          PlanarCuboids& cuboids);
 
   /** \brief Sizes the raster for the (u, v) extent; returns the raster cell size in
    * meters (min_cell_size_, doubled while the raster would exceed MAX_RASTER_CELLS). */
@@ -223,6 +246,8 @@ protected:
   double min_cell_size_{0.1};
   /** \brief D_T of Fig. 8, in (0, 1]. */
   double density_threshold_{0.9};
+  /** \brief Occupied share a non-planar box must reach, in (0, 1]; 0: D_T. */
+  double non_planar_density_threshold_{0.0};
   /** \brief W_T of Fig. 8, in meters. */
   double min_width_{0.1};
   /** \brief H_T of Fig. 8, in meters. */

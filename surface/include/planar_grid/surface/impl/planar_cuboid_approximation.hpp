@@ -7,6 +7,7 @@
 #include <pcl/console/print.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -48,6 +49,9 @@ PlanarCuboidApproximation<PointT>::initCompute()
     bad = "min_cell_size must be finite and > 0 m";
   else if (!(density_threshold_ > 0.0 && density_threshold_ <= 1.0))
     bad = "density_threshold must be in (0, 1]";
+  else if (!(non_planar_density_threshold_ >= 0.0
+             && non_planar_density_threshold_ <= 1.0))
+    bad = "non_planar_density_threshold must be 0 or in (0, 1]";
   else if (!(min_width_ >= 0.0) || !std::isfinite(min_width_))
     bad = "min_width must be finite and >= 0 m";
   else if (!(min_height_ >= 0.0) || !std::isfinite(min_height_))
@@ -460,48 +464,170 @@ PlanarCuboidApproximation<PointT>::approximateRemainder(PlanarCuboids& cuboids)
   }
 
   const float cell_f = static_cast<float>(cell);
-  const float thickness = static_cast<float>(thickness_);
-  const auto widen = [](float& lo, float& hi, float size) {
-    if (hi - lo < size) {
-      const float mid = 0.5f * (lo + hi);
-      lo = mid - 0.5f * size;
-      hi = mid + 0.5f * size;
-    }
-  };
   for (std::size_t i = 0; i < units_.size(); ++i) {
     const auto first = order.begin() + static_cast<std::ptrdiff_t>(offset[i]);
     const auto last = order.begin() + static_cast<std::ptrdiff_t>(offset[i + 1]);
     std::sort(first, last, [this](std::size_t x, std::size_t y) {
       return coords_[x].z() < coords_[y].z();
     });
-    // Cut along the depth e2 at gaps wider than one raster cell.
+    // Cut along the depth e2 at gaps wider than one raster cell; each part with
+    // enough points is then split in 3D until its boxes are supported.
     for (auto begin = first; begin != last;) {
-      Eigen::Vector3f lo = coords_[*begin], hi = lo;
       auto end = begin + 1;
-      while (end != last && coords_[*end].z() - coords_[*(end - 1)].z() <= cell_f) {
-        lo = lo.cwiseMin(coords_[*end]);
-        hi = hi.cwiseMax(coords_[*end]);
+      while (end != last && coords_[*end].z() - coords_[*(end - 1)].z() <= cell_f)
         ++end;
-      }
       const auto count = static_cast<std::size_t>(end - begin);
+      if (count >= static_cast<std::size_t>(min_points_per_cell_))
+        splitNonPlanarPart(begin, end, cell_f, cuboids);
       begin = end;
-      if (count < static_cast<std::size_t>(min_points_per_cell_))
-        continue;
-      widen(lo.x(), hi.x(), cell_f);
-      widen(lo.y(), hi.y(), cell_f);
-      widen(lo.z(), hi.z(), thickness);
+    }
+  }
+}
+
+template <typename PointT>
+void
+PlanarCuboidApproximation<PointT>::splitNonPlanarPart(
+  std::vector<std::size_t>::iterator first,
+  std::vector<std::size_t>::iterator last,
+  float cell,
+  PlanarCuboids& cuboids)
+{
+  const Eigen::Vector3f up = up_axis_.normalized();
+  const Eigen::Vector3f e1 = getHorizontalReference();
+  const Eigen::Vector3f e2 = up.cross(e1);
+  const float thickness = static_cast<float>(thickness_);
+  const double box_density = non_planar_density_threshold_ > 0.0
+                               ? non_planar_density_threshold_
+                               : density_threshold_;
+  Eigen::Vector3f lo = coords_[*first];
+  for (auto it = first; it != last; ++it)
+    lo = lo.cwiseMin(coords_[*it]);
+  // Voxel of each point on a lattice of edge `cell` anchored at the part's minimum.
+  const auto voxelOf = [&](std::size_t k) {
+    const Eigen::Vector3f q = (coords_[k] - lo) / cell;
+    return Eigen::Vector3i(static_cast<int>(q.x()), static_cast<int>(q.y()),
+                           static_cast<int>(q.z()));
+  };
+  struct Box {
+    Eigen::Vector3i lo, hi;    // voxel range [lo, hi)
+    std::ptrdiff_t begin, end; // range in `part`
+  };
+  std::vector<std::size_t> part(first, last);
+  std::vector<Eigen::Vector3i, Eigen::aligned_allocator<Eigen::Vector3i>> voxel(
+    part.size());
+  Eigen::Vector3i extent = Eigen::Vector3i::Ones();
+  for (std::size_t k = 0; k < part.size(); ++k) {
+    voxel[k] = voxelOf(part[k]);
+    extent = extent.cwiseMax(voxel[k] + Eigen::Vector3i::Ones());
+  }
+  std::vector<std::uint64_t> keys;
+  const auto occupiedVoxels = [&](const Box& box) {
+    keys.clear();
+    for (auto k = box.begin; k < box.end; ++k) {
+      const Eigen::Vector3i& v = voxel[static_cast<std::size_t>(k)];
+      keys.push_back((static_cast<std::uint64_t>(v.x()) << 42)
+                     | (static_cast<std::uint64_t>(v.y()) << 21)
+                     | static_cast<std::uint64_t>(v.z()));
+    }
+    std::sort(keys.begin(), keys.end());
+    return static_cast<std::size_t>(std::unique(keys.begin(), keys.end())
+                                    - keys.begin());
+  };
+  // Order the part's points and voxels together so that a box is a contiguous range.
+  std::vector<std::size_t> perm(part.size());
+  std::vector<Box> stack{
+    Box{Eigen::Vector3i::Zero(), extent, 0, static_cast<std::ptrdiff_t>(part.size())}};
+  while (!stack.empty()) {
+    const Box box = stack.back();
+    stack.pop_back();
+    const Eigen::Vector3i size = box.hi - box.lo;
+    const double volume = static_cast<double>(size.x()) * size.y() * size.z();
+    const double density = static_cast<double>(occupiedVoxels(box)) / volume;
+    if (density >= box_density || volume <= 1.0) {
+      Eigen::Vector3f b_lo = coords_[part[static_cast<std::size_t>(box.begin)]];
+      Eigen::Vector3f b_hi = b_lo;
+      for (auto k = box.begin; k < box.end; ++k) {
+        b_lo = b_lo.cwiseMin(coords_[part[static_cast<std::size_t>(k)]]);
+        b_hi = b_hi.cwiseMax(coords_[part[static_cast<std::size_t>(k)]]);
+      }
+      const auto widen = [](float& a, float& b, float min_size) {
+        if (b - a < min_size) {
+          const float mid = 0.5f * (a + b);
+          a = mid - 0.5f * min_size;
+          b = mid + 0.5f * min_size;
+        }
+      };
+      widen(b_lo.x(), b_hi.x(), cell);
+      widen(b_lo.y(), b_hi.y(), cell);
+      widen(b_lo.z(), b_hi.z(), thickness);
       PlanarCuboid cuboid;
       cuboid.normal = -e2;
       cuboid.horizontal_axis = e1; // vertical = -e2 x e1 = up
-      cuboid.width_m = hi.x() - lo.x();
-      cuboid.height_m = hi.y() - lo.y();
-      cuboid.thickness_m = hi.z() - lo.z();
-      const Eigen::Vector3f mid = 0.5f * (lo + hi);
+      cuboid.width_m = b_hi.x() - b_lo.x();
+      cuboid.height_m = b_hi.y() - b_lo.y();
+      cuboid.thickness_m = b_hi.z() - b_lo.z();
+      const Eigen::Vector3f mid = 0.5f * (b_lo + b_hi);
       cuboid.centre = e1 * mid.x() + up * mid.y() + e2 * mid.z();
       cuboid.plane_id = -1;
-      cuboid.point_count = count;
+      cuboid.point_count = static_cast<std::size_t>(box.end - box.begin);
       cuboid.is_planar = false;
       cuboids.push_back(cuboid);
+      continue;
+    }
+    // Split every axis longer than one voxel at its middle (an octree step).
+    const Eigen::Vector3i mid = box.lo + (size.array() / 2).max(1).matrix();
+    const auto child = [&](std::size_t k) {
+      const Eigen::Vector3i& v = voxel[k];
+      return (size.x() > 1 && v.x() >= mid.x() ? 1 : 0)
+             | (size.y() > 1 && v.y() >= mid.y() ? 2 : 0)
+             | (size.z() > 1 && v.z() >= mid.z() ? 4 : 0);
+    };
+    std::array<std::ptrdiff_t, 9> bucket{};
+    for (auto k = box.begin; k < box.end; ++k)
+      ++bucket[static_cast<std::size_t>(child(static_cast<std::size_t>(k))) + 1];
+    for (std::size_t c = 0; c < 8; ++c)
+      bucket[c + 1] += bucket[c];
+    std::array<std::ptrdiff_t, 8> next{};
+    for (std::size_t c = 0; c < 8; ++c)
+      next[c] = box.begin + bucket[c];
+    for (auto k = box.begin; k < box.end; ++k)
+      perm[static_cast<std::size_t>(
+        next[static_cast<std::size_t>(child(static_cast<std::size_t>(k)))]++)] =
+        static_cast<std::size_t>(k);
+    {
+      std::vector<std::size_t> moved_part(
+        static_cast<std::size_t>(box.end - box.begin));
+      std::vector<Eigen::Vector3i, Eigen::aligned_allocator<Eigen::Vector3i>>
+        moved_voxel(moved_part.size());
+      for (auto k = box.begin; k < box.end; ++k) {
+        const std::size_t from = perm[static_cast<std::size_t>(k)];
+        moved_part[static_cast<std::size_t>(k - box.begin)] = part[from];
+        moved_voxel[static_cast<std::size_t>(k - box.begin)] = voxel[from];
+      }
+      std::copy(moved_part.begin(), moved_part.end(), part.begin() + box.begin);
+      std::copy(moved_voxel.begin(), moved_voxel.end(), voxel.begin() + box.begin);
+    }
+    for (int c = 0; c < 8; ++c) {
+      const std::ptrdiff_t b = box.begin + bucket[static_cast<std::size_t>(c)];
+      const std::ptrdiff_t e = box.begin + bucket[static_cast<std::size_t>(c) + 1];
+      if (b == e)
+        continue;
+      Box sub;
+      sub.begin = b;
+      sub.end = e;
+      for (int axis = 0; axis < 3; ++axis) {
+        if (size[axis] <= 1) {
+          sub.lo[axis] = box.lo[axis];
+          sub.hi[axis] = box.hi[axis];
+        } else if ((c >> axis) & 1) {
+          sub.lo[axis] = mid[axis];
+          sub.hi[axis] = box.hi[axis];
+        } else {
+          sub.lo[axis] = box.lo[axis];
+          sub.hi[axis] = mid[axis];
+        }
+      }
+      stack.push_back(sub);
     }
   }
 }
