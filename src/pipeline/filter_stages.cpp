@@ -1,6 +1,12 @@
 // SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+
+#include <pcl/common/point_tests.h>
 #include <pcl/filters/statistical_outlier_removal.h>
 #include <pcl/filters/voxel_grid.h>
+
+#include <cmath>
+#include <limits>
 
 #include "stages.h"
 
@@ -53,7 +59,93 @@ private:
   pcl::StatisticalOutlierRemoval<pcl::PointXYZI> filter_;
 };
 
+class DepthErrorFilterStage : public Stage {
+public:
+  DepthErrorFilterStage(double disparity_error_px, double max_depth_error_m) :
+      disparity_error_px_(disparity_error_px), max_depth_error_m_(max_depth_error_m)
+  {}
+
+  void process(Frame& frame, PipelineState& /*state*/) override
+  {
+    requirePoints(frame, "depth_error_filter");
+    const double bf = frame.calibration.baseline_m * frame.calibration.focal_length_px;
+    if (!(bf > 0.0))
+      throw Exception("stage 'depth_error_filter' needs a stereo calibration (frame "
+                      + frame.name + " has none)");
+    // Eq. 4: Delta z = z^2 Delta d / (B f) <= max  <=>  z <= sqrt(max B f / Delta d).
+    const auto max_depth =
+      static_cast<float>(std::sqrt(max_depth_error_m_ * bf / disparity_error_px_));
+    max_depth_m_ = max_depth;
+    Eigen::Matrix4f camera_T_cloud = Eigen::Matrix4f::Identity();
+    if (frame.cloud_in_world_frame)
+      camera_T_cloud = frame.world_T_camera.inverse().matrix().cast<float>();
+    const Eigen::RowVector4f depth_row = camera_T_cloud.row(2);
+    auto& cloud = *frame.cloud;
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    removed_ = 0;
+    if (cloud.isOrganized()) {
+      for (auto& p : cloud.points)
+        if (pcl::isFinite(p) && depth_row.dot(p.getVector4fMap()) > max_depth) {
+          p.x = p.y = p.z = nan;
+          ++removed_;
+        }
+      cloud.is_dense = false;
+      return;
+    }
+    Frame::Cloud::Ptr out(new Frame::Cloud);
+    out->header = cloud.header;
+    out->sensor_origin_ = cloud.sensor_origin_;
+    out->sensor_orientation_ = cloud.sensor_orientation_;
+    out->reserve(cloud.size());
+    for (const auto& p : cloud.points) {
+      if (pcl::isFinite(p) && depth_row.dot(p.getVector4fMap()) > max_depth) {
+        ++removed_;
+        continue;
+      }
+      out->push_back(p);
+    }
+    out->is_dense = cloud.is_dense;
+    frame.cloud = out;
+  }
+
+  void counters(const Frame& /*frame*/,
+                std::vector<std::pair<std::string, double>>& values) const override
+  {
+    values.emplace_back("max_depth_m", static_cast<double>(max_depth_m_));
+    values.emplace_back("far_points", static_cast<double>(removed_));
+  }
+
+private:
+  double disparity_error_px_;
+  double max_depth_error_m_;
+  float max_depth_m_{0.0f};
+  std::size_t removed_{0};
+};
+
 } // namespace
+
+StageInfo
+depthErrorFilterInfo()
+{
+  StageInfo info;
+  info.type = "depth_error_filter";
+  info.description =
+    "Drops the points whose stereo depth error (eq. 4: Delta z = z^2 Delta d / (B f), "
+    "z the depth along the optical axis) exceeds max_depth_error_m, so that they make "
+    "no planes or cells; the disparity image, which the map's free space is carved "
+    "from, keeps them. Needs stereo input (its calibration).";
+  info.params = {
+    ParamSpec::real("disparity_error_px", 0.5, 0.01, 10.0, "px",
+                    "Delta d of eq. 4 (the paper's 0.5 px)."),
+    ParamSpec::real("max_depth_error_m", 0.3, 0.001, 100.0, "m",
+                    "Largest depth error Delta z of a point that is kept."),
+  };
+  info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
+    return std::make_unique<DepthErrorFilterStage>(v.getDouble("disparity_error_px"),
+                                                   v.getDouble("max_depth_error_m"));
+  };
+  return info;
+}
 
 StageInfo
 voxelGridInfo()

@@ -17,6 +17,7 @@ stageRegistry()
     stages::featureMatchingInfo(),
     stages::klOccupancyFilterInfo(),
     stages::visualOdometryInfo(),
+    stages::depthErrorFilterInfo(),
     stages::voxelGridInfo(),
     stages::statisticalOutlierRemovalInfo(),
     stages::transformToWorldInfo(),

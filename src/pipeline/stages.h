@@ -15,6 +15,7 @@ StageInfo featureMatchingInfo();
 StageInfo visualOdometryInfo();
 
 // filter_stages.cpp
+StageInfo depthErrorFilterInfo();
 StageInfo voxelGridInfo();
 StageInfo statisticalOutlierRemovalInfo();
 
