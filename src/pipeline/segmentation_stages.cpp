@@ -2,10 +2,15 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 
+#include <pcl/common/point_tests.h>
 #include <pcl/common/transforms.h>
 #include <pcl/console/print.h>
 
 #include <cmath>
+#include <cstdint>
+#include <limits>
+#include <unordered_map>
+#include <vector>
 
 #include "stages.h"
 
@@ -17,7 +22,8 @@ namespace {
 class MultiPlaneSegmentationStage : public Stage {
 public:
   MultiPlaneSegmentationStage(const ParamValues& v) :
-      use_features_(v.getChoice("sample") == "features")
+      use_features_(v.getChoice("sample") == "features"),
+      depth_noise_disparity_px_(v.getDouble("depth_noise_disparity_px"))
   {
     segmentation_.setDistanceThreshold(v.getDouble("distance_threshold_m"));
     segmentation_.setSampleDistanceThreshold(
@@ -45,6 +51,12 @@ public:
     requirePoints(frame, "multi_plane_segmentation");
     segmentation_.setInputCloud(frame.cloud);
     segmentation_.setUpAxis(upAxis(frame));
+    // Eq. 4's stereo depth error Delta z = z^2 Delta d / (B f) widens eq. 11 with
+    // range.
+    const double bf = frame.calibration.baseline_m * frame.calibration.focal_length_px;
+    segmentation_.setDepthNoiseCoefficient(depth_noise_disparity_px_ > 0.0 && bf > 0.0
+                                             ? depth_noise_disparity_px_ / bf
+                                             : 0.0);
     pcl::PointCloud<pcl::PointXYZI>::Ptr sample;
     if (use_features_) {
       if (frame.features.size() < 3)
@@ -83,12 +95,24 @@ public:
 private:
   SACMultiPlaneSegmentation<pcl::PointXYZI> segmentation_;
   bool use_features_;
+  double depth_noise_disparity_px_;
+};
+
+/** Parameters of the terrain removal (ground_removal stage). */
+struct TerrainParams {
+  double eps_angle_rad{0.2};
+  double min_sensor_height_m{0.3};
+  double terrain_max_slope_rad{0.3};
+  double terrain_max_step_m{0.3};
+  double terrain_height_m{0.2};
+  double terrain_cell_m{1.0};
 };
 
 class GroundRemovalStage : public Stage {
 public:
-  GroundRemovalStage(double eps_angle_rad, double min_sensor_height_m) :
-      cos_eps_(std::cos(eps_angle_rad)), min_sensor_height_m_(min_sensor_height_m)
+  explicit GroundRemovalStage(const TerrainParams& p) :
+      params_(p), cos_eps_(static_cast<float>(std::cos(p.eps_angle_rad))),
+      cos_slope_(static_cast<float>(std::cos(p.terrain_max_slope_rad)))
   {}
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -96,22 +120,26 @@ public:
     requirePoints(frame, "ground_removal");
     frame.has_ground = false;
     removed_ = 0;
+    terrain_planes_ = 0;
     const Eigen::Vector3f up = upAxis(frame);
     const Eigen::Vector3f origin = sensorOrigin(frame);
     // The dominant plane (planes are sorted by inlier count) that faces up within
     // eps_angle and lies at least min_sensor_height below the sensor.
+    const auto upward = [&](std::size_t k, Eigen::Vector4f& c) {
+      const auto& values = frame.planes[k].model_coefficients.values;
+      if (values.size() != 4)
+        return false;
+      c = Eigen::Vector4f(values[0], values[1], values[2], values[3]);
+      if (c.head<3>().dot(up) < 0.0f)
+        c = -c; // normal up: the sensor's signed distance is its height above the plane
+      return true;
+    };
     std::size_t ground = frame.planes.size();
     Eigen::Vector4f coefficients = Eigen::Vector4f::Zero();
     for (std::size_t k = 0; k < frame.planes.size(); ++k) {
-      const auto& values = frame.planes[k].model_coefficients.values;
-      if (values.size() != 4)
-        continue;
-      Eigen::Vector4f c(values[0], values[1], values[2], values[3]);
-      if (c.head<3>().dot(up) < 0.0f)
-        c = -c; // normal up: the sensor's signed distance is its height above the plane
-      if (c.head<3>().dot(up) < cos_eps_)
-        continue;
-      if (c.head<3>().dot(origin) + c[3] < min_sensor_height_m_)
+      Eigen::Vector4f c;
+      if (!upward(k, c) || c.head<3>().dot(up) < cos_eps_
+          || c.head<3>().dot(origin) + c[3] < params_.min_sensor_height_m)
         continue;
       ground = k;
       coefficients = c;
@@ -119,45 +147,142 @@ public:
     }
     if (ground == frame.planes.size())
       return;
-
     frame.has_ground = true;
     frame.ground_coefficients = coefficients;
-    const auto& ground_indices = frame.planes[ground].inliers.indices;
-    removed_ = ground_indices.size();
     auto& cloud = *frame.cloud;
+    const auto height = [&](std::size_t i) {
+      return coefficients.head<3>().dot(cloud[i].getVector3fMap()) + coefficients[3];
+    };
+
+    // Terrain planes: the ground, and every plane within terrain_max_slope of the up
+    // axis whose lowest inlier is within terrain_max_step of a terrain plane already
+    // found (sidewalks, lawns, ramps rising from the road); repeated until none joins.
+    std::vector<std::uint8_t> terrain(frame.planes.size(), 0);
+    terrain[ground] = 1;
+    std::vector<float> lowest(frame.planes.size(), 0.0f), level(frame.planes.size());
+    for (std::size_t k = 0; k < frame.planes.size(); ++k) {
+      float lo = std::numeric_limits<float>::max();
+      double sum = 0.0;
+      for (const auto i : frame.planes[k].inliers.indices) {
+        const float h = height(static_cast<std::size_t>(i));
+        lo = std::min(lo, h);
+        sum += h;
+      }
+      lowest[k] = lo;
+      level[k] = frame.planes[k].inliers.indices.empty()
+                   ? 0.0f
+                   : static_cast<float>(
+                     sum / static_cast<double>(frame.planes[k].inliers.indices.size()));
+    }
+    for (bool joined = params_.terrain_max_slope_rad > 0.0; joined;) {
+      joined = false;
+      for (std::size_t k = 0; k < frame.planes.size(); ++k) {
+        Eigen::Vector4f c;
+        if (terrain[k] || !upward(k, c) || c.head<3>().dot(up) < cos_slope_)
+          continue;
+        for (std::size_t t = 0; t < frame.planes.size(); ++t)
+          if (terrain[t] && lowest[k] <= level[t] + params_.terrain_max_step_m) {
+            terrain[k] = 1;
+            joined = true;
+            break;
+          }
+      }
+    }
+
+    // The terrain's height per cell of terrain_cell_m (in the ground plane's frame):
+    // the highest mean height of the terrain planes' inliers in that cell. A point that
+    // is in no plane is terrain when it is at most terrain_height above it (or above
+    // the ground plane where no terrain plane reaches).
+    Eigen::Vector3f a1 = up.unitOrthogonal();
+    const Eigen::Vector3f normal = coefficients.head<3>();
+    a1 = (a1 - normal * normal.dot(a1)).normalized();
+    const Eigen::Vector3f a2 = normal.cross(a1);
+    const float inv_cell = static_cast<float>(1.0 / params_.terrain_cell_m);
+    const auto cellOf = [&](std::size_t i) {
+      const Eigen::Vector3f p = cloud[i].getVector3fMap();
+      const auto x = static_cast<std::int64_t>(std::floor(a1.dot(p) * inv_cell));
+      const auto y = static_cast<std::int64_t>(std::floor(a2.dot(p) * inv_cell));
+      return (static_cast<std::uint64_t>(x + (1 << 30)) << 32)
+             | static_cast<std::uint64_t>(y + (1 << 30));
+    };
+    struct Level {
+      double sum{0.0};
+      std::size_t count{0};
+    };
+    std::unordered_map<std::uint64_t, float> cell_level;
+    std::unordered_map<std::uint64_t, Level> plane_cell;
+    std::vector<std::uint8_t> in_plane(cloud.size(), 0);
+    for (std::size_t k = 0; k < frame.planes.size(); ++k) {
+      plane_cell.clear();
+      for (const auto i : frame.planes[k].inliers.indices) {
+        in_plane[static_cast<std::size_t>(i)] = terrain[k] ? 2 : 1;
+        if (terrain[k]) {
+          Level& l = plane_cell[cellOf(static_cast<std::size_t>(i))];
+          l.sum += height(static_cast<std::size_t>(i));
+          ++l.count;
+        }
+      }
+      for (const auto& kv : plane_cell) {
+        const auto mean = static_cast<float>(kv.second.sum / kv.second.count);
+        const auto it = cell_level.emplace(kv.first, mean).first;
+        it->second = std::max(it->second, mean);
+      }
+    }
+    std::vector<std::uint8_t> remove(cloud.size(), 0);
+    const auto terrain_height = static_cast<float>(params_.terrain_height_m);
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if (in_plane[i] == 2) {
+        remove[i] = 1;
+        continue;
+      }
+      if (in_plane[i] == 1 || !pcl::isFinite(cloud[i]))
+        continue;
+      const auto it = cell_level.find(cellOf(i));
+      const float base = it == cell_level.end() ? 0.0f : std::max(0.0f, it->second);
+      remove[i] = height(i) <= base + terrain_height ? 1 : 0;
+    }
+    for (std::size_t k = 0; k < frame.planes.size(); ++k)
+      terrain_planes_ += terrain[k];
+
     if (cloud.isOrganized()) {
-      // Keep the image structure: ground points become NaN, other indices stay valid.
+      // Keep the image structure: terrain points become NaN, other indices stay valid.
       const float nan = std::numeric_limits<float>::quiet_NaN();
-      for (const auto i : ground_indices)
-        cloud[static_cast<std::size_t>(i)].x = cloud[static_cast<std::size_t>(i)].y =
-          cloud[static_cast<std::size_t>(i)].z = nan;
+      for (std::size_t i = 0; i < cloud.size(); ++i)
+        if (remove[i]) {
+          cloud[i].x = cloud[i].y = cloud[i].z = nan;
+          ++removed_;
+        }
       cloud.is_dense = false;
     } else {
       // Compact the cloud and renumber the other planes' inliers.
-      std::vector<int> new_index(cloud.size(), 0);
-      for (const auto i : ground_indices)
-        new_index[static_cast<std::size_t>(i)] = -1;
+      std::vector<int> new_index(cloud.size(), -1);
       Frame::Cloud::Ptr out(new Frame::Cloud);
       out->header = cloud.header;
       out->sensor_origin_ = cloud.sensor_origin_;
       out->sensor_orientation_ = cloud.sensor_orientation_;
-      out->reserve(cloud.size() - ground_indices.size());
+      out->reserve(cloud.size());
       for (std::size_t i = 0; i < cloud.size(); ++i) {
-        if (new_index[i] < 0)
+        if (remove[i]) {
+          ++removed_;
           continue;
+        }
         new_index[i] = static_cast<int>(out->size());
         out->push_back(cloud[i]);
       }
       out->is_dense = cloud.is_dense;
       for (std::size_t k = 0; k < frame.planes.size(); ++k) {
-        if (k == ground)
+        if (terrain[k])
           continue;
         for (auto& i : frame.planes[k].inliers.indices)
           i = new_index[static_cast<std::size_t>(i)];
       }
       frame.cloud = out;
     }
-    frame.planes.erase(frame.planes.begin() + static_cast<std::ptrdiff_t>(ground));
+    std::size_t kept = 0;
+    for (std::size_t k = 0; k < frame.planes.size(); ++k)
+      if (!terrain[k])
+        frame.planes[kept++] = std::move(frame.planes[k]);
+    frame.planes.resize(kept);
   }
 
   void counters(const Frame& frame,
@@ -165,12 +290,15 @@ public:
   {
     values.emplace_back("ground_found", frame.has_ground ? 1.0 : 0.0);
     values.emplace_back("ground_points", static_cast<double>(removed_));
+    values.emplace_back("terrain_planes", static_cast<double>(terrain_planes_));
   }
 
 private:
+  TerrainParams params_;
   float cos_eps_;
-  float min_sensor_height_m_;
+  float cos_slope_;
   std::size_t removed_{0};
+  std::size_t terrain_planes_{0};
 };
 
 } // namespace
@@ -190,6 +318,10 @@ multiPlaneSegmentationInfo()
     ParamSpec::real(
       "distance_threshold_m", 0.05, 0.001, 1.0, "m",
       "d_T of eq. 11: dense points this close to a plane are its inliers."),
+    ParamSpec::real(
+      "depth_noise_disparity_px", 0.0, 0.0, 10.0, "px",
+      "Stereo input: Delta d of eq. 4; a dense point is an inlier within max(d_T, "
+      "Delta z) with Delta z = r^2 Delta d / (B f) at its range r (0: fixed d_T)."),
     ParamSpec::real(
       "sample_distance_threshold_m", 0.1, 0.001, 1.0, "m",
       "RANSAC inlier threshold on the sample (stereo features are noisier)."),
@@ -234,20 +366,43 @@ groundRemovalInfo()
   StageInfo info;
   info.type = "ground_removal";
   info.description =
-    "Removes the ground before the approximation (paper Sec. III-F): the dominant "
-    "plane "
-    "from multi_plane_segmentation whose normal is within eps_angle_rad of the up axis "
-    "and that lies at least min_sensor_height_m below the sensor; its coefficients are "
-    "kept with the frame.";
+    "Removes the terrain before the approximation (paper Sec. III-F, its second "
+    "assumption): the ground is the dominant plane from multi_plane_segmentation whose "
+    "normal is within eps_angle_rad of the up axis and that lies at least "
+    "min_sensor_height_m below the sensor (its coefficients are kept with the frame); "
+    "every plane within terrain_max_slope_rad of the up axis whose lowest inlier is "
+    "within terrain_max_step_m of a terrain plane's mean height is terrain too "
+    "(sidewalks, lawns, ramps), and so is every point in no plane that lies at most "
+    "terrain_height_m above the terrain (per terrain_cell_m cell). Inliers of the "
+    "other planes (walls, down to their feet) and points higher up (cars, poles) "
+    "stay.";
+  const TerrainParams d;
   info.params = {
-    ParamSpec::real("eps_angle_rad", 0.2, 0.0, 1.5708, "rad",
+    ParamSpec::real("eps_angle_rad", d.eps_angle_rad, 0.0, 1.5708, "rad",
                     "Largest angle between the ground normal and the up axis."),
-    ParamSpec::real("min_sensor_height_m", 0.3, 0.0, 100.0, "m",
+    ParamSpec::real("min_sensor_height_m", d.min_sensor_height_m, 0.0, 100.0, "m",
                     "The sensor must be at least this high above the ground plane."),
+    ParamSpec::real("terrain_max_slope_rad", d.terrain_max_slope_rad, 0.0, 1.5708,
+                    "rad",
+                    "Largest angle between a terrain plane's normal and the up axis "
+                    "(0: the ground plane is the only terrain plane)."),
+    ParamSpec::real("terrain_max_step_m", d.terrain_max_step_m, 0.0, 10.0, "m",
+                    "Largest step from a terrain plane up to the next (a curb)."),
+    ParamSpec::real("terrain_height_m", d.terrain_height_m, 0.0, 10.0, "m",
+                    "Points in no plane up to this height above the terrain are "
+                    "terrain (0: none)."),
+    ParamSpec::real("terrain_cell_m", d.terrain_cell_m, 0.05, 100.0, "m",
+                    "Cell of the terrain height map."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
-    return std::make_unique<GroundRemovalStage>(v.getDouble("eps_angle_rad"),
-                                                v.getDouble("min_sensor_height_m"));
+    TerrainParams p;
+    p.eps_angle_rad = v.getDouble("eps_angle_rad");
+    p.min_sensor_height_m = v.getDouble("min_sensor_height_m");
+    p.terrain_max_slope_rad = v.getDouble("terrain_max_slope_rad");
+    p.terrain_max_step_m = v.getDouble("terrain_max_step_m");
+    p.terrain_height_m = v.getDouble("terrain_height_m");
+    p.terrain_cell_m = v.getDouble("terrain_cell_m");
+    return std::make_unique<GroundRemovalStage>(p);
   };
   return info;
 }

