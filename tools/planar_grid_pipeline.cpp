@@ -13,6 +13,7 @@
 #ifdef PLANAR_GRID_WITH_VIEWER
 #include <planar_grid/core/atomic_file.h>
 #include <planar_grid/visualization/scene_renderer.h>
+#include <planar_grid/visualization/street_camera.h>
 #endif
 
 #include <pcl/console/parse.h>
@@ -26,6 +27,7 @@
 #include <functional>
 #include <iostream>
 #include <numeric>
+#include <optional>
 #include <sstream>
 
 using namespace pcl::console;
@@ -47,8 +49,9 @@ printHelp(const char* program)
     "    --output DIR         write outputs here (default: output.folder of the "
     "YAML)\n");
   print_info(
-    "    --no-snapshot        do not render the PNG snapshot (default: render it "
-    "when output.snapshot is set)\n");
+    "    --no-snapshot        do not render the PNG snapshots (default: render "
+    "those output names: snapshot, planes_snapshot, cuboids_snapshot,\n"
+    "                         cuboids_street_snapshot, map_snapshot)\n");
   print_info(
     "    --checkpoint-every N write the checkpoint (output.checkpoint) every N "
     "frames;\n"
@@ -134,8 +137,50 @@ private:
 };
 
 #ifdef PLANAR_GRID_WITH_VIEWER
-/** Renders the configured snapshots: the world cloud by height with the trajectory, and
- * the planes one colour each over the world cloud in grey. */
+/** The street camera of output.street_view: fixed, or following \a trajectory. Nothing,
+ * with a warning, when it follows the trajectory and there is no pose. \a description
+ * says where it is, for the snapshots' labels. */
+std::optional<planar_grid::CameraParameters>
+streetViewCamera(const planar_grid::StreetViewConfig& view,
+                 const planar_grid::Trajectory& trajectory,
+                 std::string& description)
+{
+  const Eigen::Vector3d up(view.up[0], view.up[1], view.up[2]);
+  std::ostringstream text;
+  text.precision(3);
+  if (view.fixed) {
+    planar_grid::CameraParameters camera;
+    camera.position = Eigen::Vector3d(view.position_m.data());
+    camera.focal_point = Eigen::Vector3d(view.focal_point_m.data());
+    camera.view_up = up;
+    camera.view_angle_deg = view.view_angle_deg;
+    text << "fixed camera at (" << camera.position.transpose() << ") m";
+    description = text.str();
+    return camera;
+  }
+  if (trajectory.empty()) {
+    print_warn("No camera pose for the street view (no frame had a pose): the street "
+               "snapshots are skipped.\n");
+    return std::nullopt;
+  }
+  planar_grid::StreetCameraParameters parameters;
+  parameters.pose_fraction = view.pose_fraction;
+  parameters.pitch_rad = view.pitch_rad;
+  parameters.look_ahead_m = view.look_ahead_m;
+  parameters.view_angle_deg = view.view_angle_deg;
+  parameters.world_up = up;
+  const std::size_t index =
+    planar_grid::streetCameraPoseIndex(trajectory.size(), view.pose_fraction);
+  text << "street view from behind pose " << index << " of " << trajectory.size()
+       << ", " << view.pitch_rad * 180.0 / M_PI << " deg down, " << view.look_ahead_m
+       << " m ahead";
+  description = text.str();
+  return planar_grid::streetCamera(trajectory, parameters);
+}
+
+/** Renders the configured snapshots: the world cloud by height with the trajectory, the
+ * planes one colour each over the world cloud in grey, the cuboids by plane (also seen
+ * along the street) and the map by occupancy. */
 void
 saveSnapshots(const planar_grid::PipelineConfig& config,
               const std::string& config_path,
@@ -146,14 +191,36 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
   const auto preset = config.output.snapshot_camera == "oblique"
                         ? planar_grid::CameraPreset::OBLIQUE
                         : planar_grid::CameraPreset::TOP;
+  // The cells: the map's merged cuboids when a map was built, else every frame's.
+  const planar_grid::PlanarCuboids& cuboids =
+    state.map ? state.map->getSurfaceLayer().getCuboids() : state.cuboids;
+  std::optional<planar_grid::CameraParameters> street;
+  std::string street_description;
+  if (config.output.snapshot_camera == "street"
+      || (!config.output.cuboids_street_snapshot.empty() && !cuboids.empty())) {
+    street = streetViewCamera(config.output.street_view, runner.trajectory(),
+                              street_description);
+    if (street) {
+      print_info("Street camera: ");
+      print_value("%s", street_description.c_str());
+      print_info(": position (%.2f, %.2f, %.2f) m, focal point (%.2f, %.2f, %.2f) m\n",
+                 street->position.x(), street->position.y(), street->position.z(),
+                 street->focal_point.x(), street->focal_point.y(),
+                 street->focal_point.z());
+    } else if (config.output.snapshot_camera == "street") {
+      print_warn("snapshot_camera street without a pose: the snapshots use top.\n");
+    }
+  }
+  const bool all_street = config.output.snapshot_camera == "street" && street;
   std::vector<Eigen::Vector3d> positions;
   for (const auto& pose : runner.trajectory())
     positions.push_back(pose.translation());
   const Eigen::Vector3d grey(0.8, 0.8, 0.8), dark(0.1, 0.1, 0.1);
   // One snapshot: white background, the content, the trajectory, a label, the preset
-  // camera; \a add_content draws the content and returns the label.
+  // camera or, when \a along_street, the street camera; \a add_content draws the
+  // content and returns the label.
   const auto render =
-    [&](const std::string& name, const std::string& kind,
+    [&](const std::string& name, const std::string& kind, bool along_street,
         const std::function<std::string(planar_grid::SceneRenderer&)>& add_content) {
       if (name.empty())
         return;
@@ -164,7 +231,12 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
       if (positions.size() > 1)
         renderer.addTrajectory(positions);
       renderer.addText(config_path + ": " + label, dark);
-      renderer.setCamera(preset);
+      if (along_street) {
+        renderer.addText(street_description, dark);
+        renderer.setCamera(*street);
+      } else {
+        renderer.setCamera(preset);
+      }
       renderer.saveSnapshot(path, config.output.snapshot_size_px[0],
                             config.output.snapshot_size_px[1]);
       report.outputs.emplace_back(kind, path);
@@ -173,15 +245,16 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
                                         + std::to_string(report.world_cloud_points)
                                         + " points";
 
-  render(config.output.snapshot, "snapshot", [&](planar_grid::SceneRenderer& r) {
-    if (!state.world_cloud->empty())
-      r.addPointCloud(*state.world_cloud, planar_grid::ColorMode::HEIGHT, 2.0);
-    return frames_and_points;
-  });
+  render(config.output.snapshot, "snapshot", all_street,
+         [&](planar_grid::SceneRenderer& r) {
+           if (!state.world_cloud->empty())
+             r.addPointCloud(*state.world_cloud, planar_grid::ColorMode::HEIGHT, 2.0);
+           return frames_and_points;
+         });
 
   if (!state.plane_cloud->empty())
     render(
-      config.output.planes_snapshot, "planes_snapshot",
+      config.output.planes_snapshot, "planes_snapshot", all_street,
       [&](planar_grid::SceneRenderer& r) {
         if (!state.world_cloud->empty())
           r.addPointCloud(*state.world_cloud, planar_grid::ColorMode::SOLID, 1.0, grey);
@@ -212,23 +285,23 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
                + " planes (the 24 largest coloured)";
       });
 
-  // The cells: the map's merged cuboids when a map was built, else every frame's.
-  const planar_grid::PlanarCuboids& cuboids =
-    state.map ? state.map->getSurfaceLayer().getCuboids() : state.cuboids;
-  if (!cuboids.empty())
-    render(config.output.cuboids_snapshot, "cuboids_snapshot",
-           [&](planar_grid::SceneRenderer& r) {
-             r.addCuboids(cuboids);
-             std::size_t planar = 0;
-             for (const auto& c : cuboids)
-               planar += c.is_planar;
-             return std::to_string(cuboids.size()) + (state.map ? " map" : "")
-                    + " cuboids (" + std::to_string(planar)
-                    + " planar, coloured by plane; non-planar grey)";
-           });
+  const auto add_cuboids = [&](planar_grid::SceneRenderer& r) {
+    r.addCuboids(cuboids);
+    std::size_t planar = 0;
+    for (const auto& c : cuboids)
+      planar += c.is_planar;
+    return std::to_string(cuboids.size()) + (state.map ? " map" : "") + " cuboids ("
+           + std::to_string(planar) + " planar, coloured by plane; non-planar grey)";
+  };
+  if (!cuboids.empty()) {
+    render(config.output.cuboids_snapshot, "cuboids_snapshot", all_street, add_cuboids);
+    if (street)
+      render(config.output.cuboids_street_snapshot, "cuboids_street_snapshot", true,
+             add_cuboids);
+  }
 
   if (state.map)
-    render(config.output.map_snapshot, "map_snapshot",
+    render(config.output.map_snapshot, "map_snapshot", all_street,
            [&](planar_grid::SceneRenderer& r) {
              const auto drawn = r.addMap(*state.map);
              return std::to_string(drawn.cuboids)
@@ -279,28 +352,29 @@ run(int argc, char** argv)
     config.output.checkpoint_every_n_frames = static_cast<std::size_t>(every);
   }
   const bool resume = find_switch(argc, argv, "--resume");
-  if (find_switch(argc, argv, "--no-snapshot")) {
-    config.output.snapshot.clear();
-    config.output.planes_snapshot.clear();
-    config.output.cuboids_snapshot.clear();
-    config.output.map_snapshot.clear();
-  }
+  // Every PNG snapshot the output block names.
+  std::vector<std::string*> snapshots{
+    &config.output.snapshot, &config.output.planes_snapshot,
+    &config.output.cuboids_snapshot, &config.output.cuboids_street_snapshot,
+    &config.output.map_snapshot};
+  const auto any_snapshot = [&snapshots] {
+    return std::any_of(snapshots.begin(), snapshots.end(),
+                       [](const std::string* name) { return !name->empty(); });
+  };
+  if (find_switch(argc, argv, "--no-snapshot"))
+    for (std::string* name : snapshots)
+      name->clear();
 
 #ifdef PLANAR_GRID_WITH_VIEWER
   // Before the long run: VTK needs an X server; re-run under xvfb-run if there is none.
-  if (!config.output.snapshot.empty() || !config.output.planes_snapshot.empty()
-      || !config.output.cuboids_snapshot.empty() || !config.output.map_snapshot.empty())
+  if (any_snapshot())
     planar_grid::ensureDisplay(argc, argv);
 #else
-  if (!config.output.snapshot.empty() || !config.output.planes_snapshot.empty()
-      || !config.output.cuboids_snapshot.empty()
-      || !config.output.map_snapshot.empty()) {
+  if (any_snapshot()) {
     print_warn(
       "Built without the viewer (PLANAR_GRID_BUILD_VIEWER=OFF): no snapshot.\n");
-    config.output.snapshot.clear();
-    config.output.planes_snapshot.clear();
-    config.output.cuboids_snapshot.clear();
-    config.output.map_snapshot.clear();
+    for (std::string* name : snapshots)
+      name->clear();
   }
 #endif
 

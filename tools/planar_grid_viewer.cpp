@@ -3,7 +3,9 @@
 // renders them to a PNG snapshot.
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/planar_grid_map.h>
+#include <planar_grid/odometry/trajectory_io.h>
 #include <planar_grid/visualization/scene_renderer.h>
+#include <planar_grid/visualization/street_camera.h>
 
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/common/io.h>
@@ -20,6 +22,7 @@
 #include <exception>
 #include <filesystem>
 #include <set>
+#include <sstream>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -39,6 +42,8 @@ constexpr int DEFAULT_HEIGHT_PX = 1000;
 constexpr double DEFAULT_POINT_SIZE_PX = 2.0;
 const char* const DEFAULT_CAMERA = "oblique";
 const char* const DEFAULT_COLOR = "height";
+/** \brief The street camera's defaults are the library's. */
+const planar_grid::StreetCameraParameters DEFAULT_STREET;
 
 /** \brief The effective options. */
 struct ViewerOptions {
@@ -49,6 +54,10 @@ struct ViewerOptions {
   bool explicit_camera{false};
   planar_grid::CameraParameters camera;
   planar_grid::CameraPreset preset{planar_grid::CameraPreset::OBLIQUE};
+  /** \brief --camera street: the camera follows the --trajectory. */
+  bool street_camera{false};
+  planar_grid::StreetCameraParameters street{DEFAULT_STREET};
+  std::string trajectory;
   int width_px{DEFAULT_WIDTH_PX};
   int height_px{DEFAULT_HEIGHT_PX};
   std::string color_name{DEFAULT_COLOR};
@@ -69,10 +78,33 @@ printHelp(const char* program)
   print_info(
     "    --snapshot <out.png>  render offscreen and write a PNG instead of opening "
     "a window (default: open a window)\n");
-  print_info("    --camera <c>          top | oblique | px,py,pz,fx,fy,fz,ux,uy,uz "
-             "(position, focal point, view up; metres) (default: ");
+  print_info("    --camera <c>          top | oblique | street | "
+             "px,py,pz,fx,fy,fz,ux,uy,uz (position, focal point, view up; metres) "
+             "(default: ");
   print_value("%s", DEFAULT_CAMERA);
   print_info(")\n");
+  print_info("                          street: from above and behind a pose of the "
+             "--trajectory, looking along the direction of travel\n");
+  print_info("    --trajectory <poses.txt>  camera poses, KITTI format (the pipeline's "
+             "trajectory.txt), drawn as a red line; needed by --camera street "
+             "(default: none)\n");
+  print_info(
+    "    --pose-fraction <f>   street: the pose followed, as a fraction of the "
+    "trajectory in [0, 1] (0 first, 1 last) (default: ");
+  print_value("%.3f", DEFAULT_STREET.pose_fraction);
+  print_info(")\n");
+  print_info("    --pitch-rad <a>       street: downward pitch of the view, rad "
+             "(default: ");
+  print_value("%g", DEFAULT_STREET.pitch_rad);
+  print_info(")\n");
+  print_info("    --look-ahead-m <d>    street: street in view ahead of the pose, m "
+             "(default: ");
+  print_value("%g", DEFAULT_STREET.look_ahead_m);
+  print_info(")\n");
+  print_info("    --up <x,y,z>          street: the world's up direction (default: ");
+  print_value("%g,%g,%g", DEFAULT_STREET.world_up.x(), DEFAULT_STREET.world_up.y(),
+              DEFAULT_STREET.world_up.z());
+  print_info("; KITTI worlds: 0,-1,0)\n");
   print_info("    --size <W>x<H>        image or window size, px (default: ");
   print_value("%dx%d", DEFAULT_WIDTH_PX, DEFAULT_HEIGHT_PX);
   print_info(")\n");
@@ -171,10 +203,13 @@ parseOptions(int argc, char** argv, bool& help)
       options.preset = planar_grid::CameraPreset::TOP;
     } else if (options.camera_name == "oblique") {
       options.preset = planar_grid::CameraPreset::OBLIQUE;
+    } else if (options.camera_name == "street") {
+      options.street_camera = true;
     } else {
       std::vector<double> values;
       if (!parseNumbers(options.camera_name, values) || values.size() != 9)
-        throw Exception("--camera expects top, oblique or 9 comma-separated numbers "
+        throw Exception("--camera expects top, oblique, street or 9 comma-separated "
+                        "numbers "
                         "px,py,pz,fx,fy,fz,ux,uy,uz; got '"
                         + options.camera_name + "'");
       options.explicit_camera = true;
@@ -183,6 +218,45 @@ parseOptions(int argc, char** argv, bool& help)
       options.camera.view_up = Eigen::Vector3d(values[6], values[7], values[8]);
     }
   }
+
+  if (option_with_value("--trajectory"))
+    parse_argument(argc, argv, "--trajectory", options.trajectory);
+  // The street camera's placement: each option only with --camera street, where it is
+  // used, so that a forgotten --camera street is not silently ignored.
+  const auto street_option = [&](const char* name, double& value, double min,
+                                 double max) {
+    if (!option_with_value(name))
+      return;
+    const std::string text = argv[find_argument(argc, argv, name) + 1];
+    std::vector<double> values;
+    if (!parseNumbers(text, values) || values.size() != 1 || !(values[0] >= min)
+        || !(values[0] <= max)) {
+      std::ostringstream message;
+      message << name << " expects a number in [" << min << ", " << max << "]; got '"
+              << text << "'";
+      throw Exception(message.str());
+    }
+    if (!options.street_camera)
+      throw Exception(std::string(name) + " is only used with --camera street");
+    value = values[0];
+  };
+  street_option("--pose-fraction", options.street.pose_fraction, 0.0, 1.0);
+  street_option("--pitch-rad", options.street.pitch_rad, 0.0, 1.6);
+  street_option("--look-ahead-m", options.street.look_ahead_m, 1.0, 1000.0);
+  if (option_with_value("--up")) {
+    const std::string text = argv[find_argument(argc, argv, "--up") + 1];
+    std::vector<double> values;
+    if (!parseNumbers(text, values) || values.size() != 3
+        || Eigen::Vector3d(values[0], values[1], values[2]).norm() == 0.0)
+      throw Exception("--up expects 3 comma-separated numbers, not all 0; got '" + text
+                      + "'");
+    if (!options.street_camera)
+      throw Exception("--up is only used with --camera street");
+    options.street.world_up = Eigen::Vector3d(values[0], values[1], values[2]);
+  }
+  if (options.street_camera && options.trajectory.empty())
+    throw Exception("--camera street needs --trajectory <poses.txt> (KITTI format, "
+                    "e.g. the pipeline's trajectory.txt)");
 
   if (option_with_value("--size")) {
     std::string size;
@@ -308,6 +382,37 @@ run(int argc, char** argv)
     renderer.setCamera(options.camera);
   else
     renderer.setCamera(options.preset);
+  if (!options.trajectory.empty()) {
+    print_highlight("Loading ");
+    print_value("%s ", options.trajectory.c_str());
+    const planar_grid::Trajectory trajectory =
+      planar_grid::loadKittiPoses(options.trajectory);
+    print_info("[done : ");
+    print_value("%zu", trajectory.size());
+    print_info(" poses]\n");
+    std::vector<Eigen::Vector3d> positions;
+    for (const auto& pose : trajectory)
+      positions.push_back(pose.translation());
+    renderer.addTrajectory(positions);
+    if (options.street_camera) {
+      if (trajectory.empty())
+        throw planar_grid::IOError(options.trajectory
+                                   + ": no pose for --camera street to follow");
+      const planar_grid::CameraParameters camera =
+        planar_grid::streetCamera(trajectory, options.street);
+      print_info("Street camera behind pose ");
+      print_value("%zu", planar_grid::streetCameraPoseIndex(
+                           trajectory.size(), options.street.pose_fraction));
+      print_info(": position ");
+      print_value("(%.2f, %.2f, %.2f)", camera.position.x(), camera.position.y(),
+                  camera.position.z());
+      print_info(" m, focal point ");
+      print_value("(%.2f, %.2f, %.2f)", camera.focal_point.x(), camera.focal_point.y(),
+                  camera.focal_point.z());
+      print_info(" m\n");
+      renderer.setCamera(camera);
+    }
+  }
   for (const auto& path : options.clouds)
     renderer.addPointCloud(loadCloud(path), options.color, options.point_size_px);
   for (const auto& path : options.maps) {

@@ -4,6 +4,7 @@
 #include <planar_grid/pipeline/stage.h>
 #include <planar_grid/pipeline/yaml_reader.h>
 
+#include <Eigen/Geometry>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -158,15 +159,98 @@ endsWith(const std::string& text, const std::string& suffix)
          && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
+/** \brief Three finite numbers in [-1e6, 1e6] from the list \a node. */
+std::array<double, 3>
+vector3(const Reader& r, const YAML::Node& node, const std::string& what)
+{
+  if (!node.IsSequence() || node.size() != 3)
+    r.fail(node, what + " must be a list [x, y, z]");
+  std::array<double, 3> v{};
+  for (std::size_t k = 0; k < 3; ++k)
+    v[k] = r.realValue(node[k], -1e6, 1e6, what + " entries");
+  return v;
+}
+
+double
+norm(const std::array<double, 3>& v)
+{
+  return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+}
+
+StreetViewConfig
+parseStreetView(const Reader& r, const YAML::Node& node)
+{
+  const std::string what = "output.street_view";
+  r.requireMap(node, what);
+  r.checkKeys(node,
+              {"pose_fraction", "pitch_rad", "look_ahead_m", "view_angle_deg", "up",
+               "position_m", "focal_point_m"},
+              what);
+  StreetViewConfig view;
+  view.view_angle_deg =
+    r.real(node, "view_angle_deg", view.view_angle_deg, 5.0, 120.0, what);
+  if (const YAML::Node up = node["up"]) {
+    view.up = vector3(r, up, what + ".up");
+    if (!(norm(view.up) > 0.0))
+      r.fail(up, what + ".up must not be zero");
+  }
+  const YAML::Node position = node["position_m"];
+  const YAML::Node focal_point = node["focal_point_m"];
+  if (position || focal_point) {
+    // A fixed camera: the keys that place a following camera have no meaning.
+    if (!position || !focal_point)
+      r.fail(position ? position : focal_point,
+             what + ": a fixed camera needs both position_m and focal_point_m");
+    for (const char* key : {"pose_fraction", "pitch_rad", "look_ahead_m"})
+      if (node[key])
+        r.fail(node[key], what + "." + key
+                            + " is not used by a fixed camera (position_m, "
+                              "focal_point_m); give one or the other");
+    view.fixed = true;
+    view.position_m = vector3(r, position, what + ".position_m");
+    view.focal_point_m = vector3(r, focal_point, what + ".focal_point_m");
+    const Eigen::Vector3d direction = Eigen::Vector3d(view.focal_point_m.data())
+                                      - Eigen::Vector3d(view.position_m.data());
+    const Eigen::Vector3d up(view.up.data());
+    if (!(direction.norm() > 1e-6))
+      r.fail(focal_point, what + ".focal_point_m must differ from position_m");
+    if (up.normalized().cross(direction.normalized()).norm() < 1e-6)
+      r.fail(node["up"] ? node["up"] : focal_point,
+             what
+               + ".up must not be parallel to the viewing direction "
+                 "(focal_point_m - position_m)");
+    return view;
+  }
+  view.pose_fraction =
+    r.real(node, "pose_fraction", view.pose_fraction, 0.0, 1.0, what);
+  view.look_ahead_m =
+    r.real(node, "look_ahead_m", view.look_ahead_m, 1.0, 1000.0, what);
+  view.pitch_rad = r.real(node, "pitch_rad", view.pitch_rad, 0.0, 1.6, what);
+  // The image's top edge must look down at the street and its bottom edge forwards.
+  const double half_view_rad = 0.5 * view.view_angle_deg * M_PI / 180.0;
+  if (!(view.pitch_rad > half_view_rad
+        && view.pitch_rad < 0.5 * M_PI - half_view_rad)) {
+    std::ostringstream msg;
+    msg << what << ".pitch_rad = " << view.pitch_rad << " must be in (" << half_view_rad
+        << ", " << 0.5 * M_PI - half_view_rad << ") for view_angle_deg "
+        << view.view_angle_deg
+        << ": more than half the view angle (the top of the image looks down) and "
+           "less than pi/2 minus half of it (the bottom looks forwards)";
+    r.fail(node["pitch_rad"] ? node["pitch_rad"] : node, msg.str());
+  }
+  return view;
+}
+
 OutputConfig
-parseOutput(const Reader& r, const YAML::Node& node)
+parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
 {
   OutputConfig out;
   r.checkKeys(node,
               {"folder", "cloud", "planes", "report", "trajectory", "snapshot",
-               "planes_snapshot", "cuboids_snapshot", "snapshot_camera",
-               "snapshot_size_px", "map", "map_octomap", "map_mesh", "map_snapshot",
-               "checkpoint", "checkpoint_every_n_frames"},
+               "planes_snapshot", "cuboids_snapshot", "cuboids_street_snapshot",
+               "snapshot_camera", "street_view", "snapshot_size_px", "map",
+               "map_octomap", "map_mesh", "map_snapshot", "checkpoint",
+               "checkpoint_every_n_frames"},
               "output");
   out.folder = r.optionalString(node, "folder", out.folder, "output");
   out.cloud = r.optionalString(node, "cloud", out.cloud, "output");
@@ -187,8 +271,30 @@ parseOutput(const Reader& r, const YAML::Node& node)
   out.map_snapshot = r.optionalString(node, "map_snapshot", out.map_snapshot, "output");
   out.snapshot_camera =
     r.optionalString(node, "snapshot_camera", out.snapshot_camera, "output");
-  if (out.snapshot_camera != "top" && out.snapshot_camera != "oblique")
-    r.fail(node["snapshot_camera"], "output.snapshot_camera must be top or oblique");
+  if (out.snapshot_camera != "top" && out.snapshot_camera != "oblique"
+      && out.snapshot_camera != "street")
+    r.fail(node["snapshot_camera"],
+           "output.snapshot_camera must be top, oblique or street");
+  out.cuboids_street_snapshot = r.optionalString(node, "cuboids_street_snapshot",
+                                                 out.cuboids_street_snapshot, "output");
+  if (const YAML::Node view = node["street_view"])
+    out.street_view = parseStreetView(r, view);
+  // The street camera is used by the street snapshot, and by all of them with
+  // snapshot_camera: street; street_view is then its camera, otherwise unused.
+  const bool street_used =
+    !out.cuboids_street_snapshot.empty() || out.snapshot_camera == "street";
+  if (node["street_view"] && !street_used)
+    r.fail(node["street_view"],
+           "output.street_view is not used: it is the camera of "
+           "output.cuboids_street_snapshot and of snapshot_camera: street");
+  // Following the trajectory needs one; without poses the clouds stay in the camera
+  // frame, where no up direction is known.
+  if (street_used && !out.street_view.fixed && input.poses_format == "none")
+    r.fail(!out.cuboids_street_snapshot.empty() ? node["cuboids_street_snapshot"]
+                                                : node["snapshot_camera"],
+           "the street camera follows the trajectory, and input.poses is none: set "
+           "input.poses or a fixed camera (output.street_view.position_m and "
+           "focal_point_m)");
   if (out.report.empty())
     r.fail(node["report"], "output.report must name a file");
   out.checkpoint = r.optionalString(node, "checkpoint", out.checkpoint, "output");
@@ -278,7 +384,7 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
   }
 
   if (const YAML::Node output = root["output"])
-    config.output = parseOutput(r, output);
+    config.output = parseOutput(r, output, config.input);
   return config;
 }
 

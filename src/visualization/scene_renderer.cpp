@@ -60,6 +60,10 @@ constexpr double FRAME_MARGIN = 1.05;
 /** \brief Elevation of CameraPreset::OBLIQUE above the horizontal, radians (45 deg). */
 constexpr double OBLIQUE_ELEVATION_RAD = 0.7853981633974483;
 
+/** \brief Share of a cuboid's colour lit regardless of the light's direction (ambient);
+ * the rest is diffuse. */
+constexpr double CUBOID_AMBIENT = 0.4;
+
 /** \brief A colour component in [0, 1] as a byte. */
 unsigned char
 toByte(double value)
@@ -478,6 +482,12 @@ SceneRenderer::addCuboids(const PlanarCuboids& cuboids,
   if (wireframe) {
     actor->GetProperty()->SetRepresentationToWireframe();
     actor->GetProperty()->LightingOff();
+  } else {
+    // Part of the colour does not depend on the light: a face seen at a grazing angle
+    // (a facade seen along the street) keeps its colour instead of turning black. A
+    // face looked at straight on is as bright as with diffuse light alone.
+    actor->GetProperty()->SetAmbient(CUBOID_AMBIENT);
+    actor->GetProperty()->SetDiffuse(1.0 - CUBOID_AMBIENT);
   }
   impl_->renderer->AddActor(actor);
 }

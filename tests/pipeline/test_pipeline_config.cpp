@@ -8,6 +8,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <array>
 #include <functional>
 #include <string>
 #include <utility>
@@ -55,7 +56,7 @@ TEST(PipelineConfig, ExampleAndMainJobLoad)
   const auto k = planar_grid::loadPipelineConfig(SOURCE_DIR + "/config/karlsruhe.yaml");
   EXPECT_EQ(k.input.calibration_format, "karlsruhe");
   EXPECT_EQ(k.input.poses_format, "karlsruhe_insdata");
-  ASSERT_EQ(k.stages.size(), 11u);
+  ASSERT_EQ(k.stages.size(), 12u);
   EXPECT_EQ(k.stages.front().type, "stereo_disparity");
   EXPECT_EQ(k.stages.front().params.getInt("num_disparities_px"), 128);
   EXPECT_EQ(k.stages.back().type, "accumulate");
@@ -274,6 +275,137 @@ TEST(PipelineConfig, OutputBlock)
   const auto e = errorOf(
     INPUT + "pipeline:\n  - type: voxel_grid\noutput:\n  snapshot_size_px: [0, 600]\n");
   EXPECT_EQ(e.line(), 11);
+}
+
+TEST(PipelineConfig, StreetView)
+{
+  // INPUT with poses (line 8): the street camera follows them. Lines 9-11 are
+  // pipeline:, the stage and output:; the street keys start at line 12.
+  const std::string head = INPUT
+                           + "  poses: {format: karlsruhe_insdata, file: ins.txt}\n"
+                             "pipeline:\n  - type: voxel_grid\noutput:\n";
+  // Defaults: no street snapshot, the camera a third of the way along, 0.5 rad down.
+  auto c = parsePipelineConfig(head + "  folder: out\n", "t", "/");
+  EXPECT_TRUE(c.output.cuboids_street_snapshot.empty());
+  EXPECT_DOUBLE_EQ(c.output.street_view.pose_fraction, 1.0 / 3.0);
+  EXPECT_DOUBLE_EQ(c.output.street_view.pitch_rad, 0.5);
+  EXPECT_DOUBLE_EQ(c.output.street_view.look_ahead_m, 40.0);
+  EXPECT_DOUBLE_EQ(c.output.street_view.view_angle_deg, 45.0);
+  EXPECT_EQ(c.output.street_view.up, (std::array<double, 3>{{0.0, 0.0, 1.0}}));
+  EXPECT_FALSE(c.output.street_view.fixed);
+
+  // Following the trajectory, every key given.
+  c = parsePipelineConfig(head
+                            + "  cuboids_street_snapshot: street.png\n"
+                              "  street_view:\n"
+                              "    pose_fraction: 0\n"
+                              "    pitch_rad: 0.5\n"
+                              "    look_ahead_m: 60\n"
+                              "    view_angle_deg: 40\n"
+                              "    up: [0, -1, 0]\n",
+                          "t", "/");
+  EXPECT_EQ(c.output.cuboids_street_snapshot, "street.png");
+  EXPECT_DOUBLE_EQ(c.output.street_view.pose_fraction, 0.0);
+  EXPECT_DOUBLE_EQ(c.output.street_view.pitch_rad, 0.5);
+  EXPECT_DOUBLE_EQ(c.output.street_view.look_ahead_m, 60.0);
+  EXPECT_DOUBLE_EQ(c.output.street_view.view_angle_deg, 40.0);
+  EXPECT_EQ(c.output.street_view.up, (std::array<double, 3>{{0.0, -1.0, 0.0}}));
+
+  // A fixed camera, and every snapshot along the street.
+  c = parsePipelineConfig(head
+                            + "  snapshot_camera: street\n"
+                              "  street_view:\n"
+                              "    position_m: [-10, 0, 12]\n"
+                              "    focal_point_m: [20, 0, 1.5]\n"
+                              "    up: [0, 0, 1]\n",
+                          "t", "/");
+  EXPECT_EQ(c.output.snapshot_camera, "street");
+  EXPECT_TRUE(c.output.street_view.fixed);
+  EXPECT_EQ(c.output.street_view.position_m,
+            (std::array<double, 3>{{-10.0, 0.0, 12.0}}));
+  EXPECT_EQ(c.output.street_view.focal_point_m,
+            (std::array<double, 3>{{20.0, 0.0, 1.5}}));
+  // A fixed camera needs no poses.
+  c = parsePipelineConfig(INPUT
+                            + "pipeline:\n  - type: voxel_grid\noutput:\n"
+                              "  cuboids_street_snapshot: street.png\n"
+                              "  street_view: {position_m: [0, 0, 5], "
+                              "focal_point_m: [0, 10, 0]}\n",
+                          "t", "/");
+  EXPECT_TRUE(c.output.street_view.fixed);
+}
+
+TEST(PipelineConfig, StreetViewErrorsNameLineAndColumn)
+{
+  const std::string head = INPUT
+                           + "  poses: {format: karlsruhe_insdata, file: ins.txt}\n"
+                             "pipeline:\n  - type: voxel_grid\noutput:\n"
+                             "  cuboids_street_snapshot: street.png\n"
+                             "  street_view:\n";
+  // Each case: the body of street_view (from line 14), the line:col and the words the
+  // message must hold.
+  const auto expect = [&](const std::string& body, int line, int column,
+                          const std::string& words) {
+    const ConfigError e = errorOf(head + body);
+    EXPECT_EQ(e.file(), "test.yaml");
+    EXPECT_EQ(e.line(), line) << e.what();
+    EXPECT_EQ(e.column(), column) << e.what();
+    EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+  };
+  expect("    pose_fraction: 1.5\n", 14, 20,
+         "pose_fraction = 1.5 is out of range [0, 1]");
+  expect("    pose_fraction: third\n", 14, 20, "pose_fraction must be a number");
+  expect("    look_ahead_m: 0\n", 14, 19, "look_ahead_m = 0 is out of range");
+  expect("    view_angle_deg: 170\n", 14, 21, "view_angle_deg = 170 is out of range");
+  // Below half the 45 degree view angle (0.39 rad) the top of the image looks up;
+  // above pi/2 minus that (1.18 rad) the bottom looks backwards.
+  expect("    pitch_rad: 0.2\n", 14, 16, "more than half the view angle");
+  expect("    pitch_rad: 1.4\n", 14, 16, "less than pi/2 minus half");
+  // A wider view needs a steeper pitch: 0.45 rad is less than half of 60 degrees.
+  expect("    view_angle_deg: 60\n    pitch_rad: 0.45\n", 15, 16, "pitch_rad");
+  expect("    up: [0, 0, 0]\n", 14, 9, "up must not be zero");
+  expect("    up: [0, 1]\n", 14, 9, "up must be a list [x, y, z]");
+  expect("    up: [0, x, 1]\n", 14, 13, "up entries must be a number");
+  expect("    pitch: 0.5\n", 14, 5, "pitch");
+  expect("    position_m: [0, 0, 10]\n", 14, 17,
+         "needs both position_m and focal_point_m");
+  expect("    position_m: [0, 0, 10]\n    focal_point_m: [0, 0, 10]\n", 15, 20,
+         "must differ from position_m");
+  expect("    position_m: [0, 0, 10]\n    focal_point_m: [0, 0, 0]\n", 15, 20,
+         "not be parallel to the viewing direction");
+  expect("    position_m: [0, 0, 10]\n    focal_point_m: [10, 0, 0]\n"
+         "    pitch_rad: 0.5\n",
+         16, 16, "not used by a fixed camera");
+  expect("    position_m: [0, 0, 1e9]\n    focal_point_m: [10, 0, 0]\n", 14, 24,
+         "out of range");
+  expect("    pose_fraction: [0.5]\n", 14, 20, "must be a number");
+
+  // snapshot_camera names a known camera.
+  auto e = errorOf(INPUT
+                   + "pipeline:\n  - type: voxel_grid\noutput:\n"
+                     "  snapshot_camera: side\n");
+  EXPECT_EQ(e.line(), 11);
+  EXPECT_EQ(e.column(), 20);
+  EXPECT_NE(std::string(e.what()).find("top, oblique or street"), std::string::npos);
+  // Following the trajectory needs poses.
+  e = errorOf(INPUT
+              + "pipeline:\n  - type: voxel_grid\noutput:\n"
+                "  cuboids_street_snapshot: street.png\n");
+  EXPECT_EQ(e.line(), 11);
+  EXPECT_EQ(e.column(), 28);
+  EXPECT_NE(std::string(e.what()).find("input.poses is none"), std::string::npos);
+  e = errorOf(INPUT
+              + "pipeline:\n  - type: voxel_grid\noutput:\n"
+                "  snapshot_camera: street\n");
+  EXPECT_EQ(e.line(), 11);
+  // A street_view no snapshot uses is an error, not silently ignored.
+  e = errorOf(INPUT
+              + "  poses: {format: karlsruhe_insdata, file: ins.txt}\n"
+                "pipeline:\n  - type: voxel_grid\noutput:\n"
+                "  street_view: {pitch_rad: 0.5}\n");
+  EXPECT_EQ(e.line(), 12);
+  EXPECT_EQ(e.column(), 16);
+  EXPECT_NE(std::string(e.what()).find("street_view is not used"), std::string::npos);
 }
 
 TEST(ParamTable, EveryDefaultIsInsideItsRange)

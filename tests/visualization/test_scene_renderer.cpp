@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/visualization/scene_renderer.h>
+#include <planar_grid/visualization/street_camera.h>
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -9,7 +10,9 @@
 #include <vtkPNGReader.h>
 #include <vtkSmartPointer.h>
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <limits>
@@ -332,6 +335,112 @@ TEST_F(SceneRendererTest, DegenerateInputAddsNothingAndStillRenders)
   for (int y = 0; y < image.height; ++y)
     for (int x = 0; x < image.width; ++x)
       ASSERT_TRUE(isBlack(image.at(x, y)));
+}
+
+TEST_F(SceneRendererTest, StreetCameraLooksAlongTheTravelFromBehindThePose)
+{
+  // A z-up street along +x; the camera follows the pose at (20, 0, 1.5) with pitch
+  // 0.45 rad, view angle 30 deg, 40 m ahead: it sits 11.3 m behind and 9.8 m above
+  // the pose, the pose at the bottom edge of the image, the point 40 m ahead at the
+  // top edge. Markers: 0.6 m cubes of points at the pose's height, each its own
+  // colour (points are unlit, so the colours come out exactly).
+  const Eigen::Vector3d pose(20.0, 0.0, 1.5);
+  const auto cube = [](const Eigen::Vector3d& centre) {
+    pcl::PointCloud<pcl::PointXYZI> cloud;
+    for (int i = -3; i <= 3; ++i)
+      for (int j = -3; j <= 3; ++j)
+        for (int k = -3; k <= 3; ++k) {
+          pcl::PointXYZI p;
+          p.getVector3fMap() = (centre + 0.1 * Eigen::Vector3d(i, j, k)).cast<float>();
+          p.intensity = 0.0f;
+          cloud.push_back(p);
+        }
+    return cloud;
+  };
+  planar_grid::SceneRenderer renderer;
+  const auto add = [&](const Eigen::Vector3d& offset, const Eigen::Vector3d& rgb) {
+    renderer.addPointCloud(cube(pose + offset), planar_grid::ColorMode::SOLID, 3.0,
+                           rgb);
+  };
+  add(Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d(1.0, 0.0, 0.0));   // near: red
+  add(Eigen::Vector3d(30.0, 0.0, 0.0), Eigen::Vector3d(0.0, 1.0, 0.0));  // far: green
+  add(Eigen::Vector3d(15.0, 5.0, 0.0), Eigen::Vector3d(0.0, 0.0, 1.0));  // left: blue
+  add(Eigen::Vector3d(15.0, -5.0, 0.0), Eigen::Vector3d(1.0, 0.0, 1.0)); // right
+  add(Eigen::Vector3d(-5.0, 0.0, 0.0), Eigen::Vector3d(0.0, 1.0, 1.0));  // behind
+  planar_grid::PoseVector track;
+  for (int k = 0; k <= 60; ++k) {
+    Eigen::Isometry3d p = Eigen::Isometry3d::Identity();
+    p.translation() = Eigen::Vector3d(k, 0.0, 1.5);
+    track.push_back(p);
+  }
+  planar_grid::StreetCameraParameters parameters;
+  parameters.pose_fraction = 1.0 / 3.0; // pose round(60 / 3) = 20, at x = 20 m
+  parameters.pitch_rad = 0.45;
+  parameters.view_angle_deg = 30.0;
+  parameters.look_ahead_m = 40.0;
+  renderer.setCamera(planar_grid::streetCamera(track, parameters));
+  const std::string path = (dir_ / "street.png").string();
+  renderer.saveSnapshot(path, 400, 250);
+  const Image image = readPNG(path);
+  ASSERT_EQ(image.width, 400);
+  ASSERT_EQ(image.height, 250);
+
+  // Per colour: pixel count, mean row and column, and the column range.
+  struct Blob {
+    int count{0};
+    double row{0.0}, column{0.0};
+    int min_column{1000}, max_column{-1};
+  };
+  const std::array<std::array<int, 3>, 5> colours{
+    {{255, 0, 0}, {0, 255, 0}, {0, 0, 255}, {255, 0, 255}, {0, 255, 255}}};
+  std::array<Blob, 5> blobs;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      const auto c = image.at(x, y);
+      for (std::size_t b = 0; b < blobs.size(); ++b) {
+        bool match = true;
+        for (std::size_t k = 0; k < 3; ++k)
+          match = match && std::abs(c[k] - colours[b][k]) < 40;
+        if (!match)
+          continue;
+        Blob& blob = blobs[b];
+        ++blob.count;
+        blob.row += y;
+        blob.column += x;
+        blob.min_column = std::min(blob.min_column, x);
+        blob.max_column = std::max(blob.max_column, x);
+      }
+    }
+  for (auto& blob : blobs)
+    if (blob.count > 0) {
+      blob.row /= blob.count;
+      blob.column /= blob.count;
+    }
+  const Blob &near = blobs[0], &far = blobs[1], &left = blobs[2], &right = blobs[3],
+             &behind = blobs[4];
+  // Near (2 m ahead): 36.3 deg below the horizontal, 10.5 deg below the optical axis:
+  // row 125 + 125 tan(10.5 deg) / tan(15 deg) = 212, centre column 200.
+  ASSERT_GT(near.count, 20);
+  EXPECT_NEAR(near.row, 212.0, 12.0);
+  EXPECT_NEAR(near.column, 200.0, 8.0);
+  // Far (30 m ahead): 13.3 deg below the horizontal, 12.5 deg above the axis: row
+  // 125 - 125 tan(12.5 deg) / tan(15 deg) = 22.
+  ASSERT_GT(far.count, 5);
+  EXPECT_NEAR(far.row, 22.0, 12.0);
+  EXPECT_NEAR(far.column, 200.0, 8.0);
+  // Left of the travel direction (+y with z up, driving +x) is left in the image: 5 m
+  // aside at a depth of 28.0 m along the optical axis is 5 / 28.0 * 125 / tan(15 deg)
+  // = 83 px from the centre column, at row 81 both.
+  ASSERT_GT(left.count, 5);
+  ASSERT_GT(right.count, 5);
+  EXPECT_LT(left.max_column, 190);
+  EXPECT_GT(right.min_column, 210);
+  EXPECT_NEAR(left.column, 117.0, 8.0);
+  EXPECT_NEAR(right.column, 283.0, 8.0);
+  EXPECT_NEAR(left.row, 81.0, 8.0);
+  EXPECT_NEAR(left.row, right.row, 3.0);
+  // 5 m behind the pose is below the bottom edge: not in view.
+  EXPECT_EQ(behind.count, 0);
 }
 
 } // namespace

@@ -81,6 +81,33 @@ struct StageConfig {
   int column{0};
 };
 
+/** \brief The camera of the street snapshots (output.street_view): either following
+ * the trajectory from above and behind one of its poses, looking along the direction
+ * of travel (planar_grid::streetCamera(), whose defaults these are), or fixed. All in
+ * the world frame. \ingroup pipeline */
+struct StreetViewConfig {
+  /** \brief Which pose the camera follows, as a fraction of the trajectory, in [0, 1]
+   * (pose index round(f * (n - 1)); 0 the first pose, 1 the last). */
+  double pose_fraction{1.0 / 3.0};
+  /** \brief Downward pitch of the view below the horizontal, radians; more than half
+   * the view angle and less than pi/2 minus half of it. */
+  double pitch_rad{0.5};
+  /** \brief Street ahead of the pose in view (up to the image's top edge), metres. */
+  double look_ahead_m{40.0};
+  /** \brief Vertical field of view, degrees, in [5, 120]. */
+  double view_angle_deg{45.0};
+  /** \brief The world's up direction (non-zero; need not be unit); for a fixed camera
+   * the up direction of the image. */
+  std::array<double, 3> up{{0.0, 0.0, 1.0}};
+  /** \brief True when position_m and focal_point_m were given: a fixed camera instead
+   * of following the trajectory. */
+  bool fixed{false};
+  /** \brief Fixed camera: its position, metres. */
+  std::array<double, 3> position_m{{0.0, 0.0, 0.0}};
+  /** \brief Fixed camera: the point it looks at, metres (differs from position_m). */
+  std::array<double, 3> focal_point_m{{0.0, 0.0, 0.0}};
+};
+
 /** \brief What the run writes, in `folder` (resolved against the current directory;
  * overridable with --output). \ingroup pipeline */
 struct OutputConfig {
@@ -95,6 +122,9 @@ struct OutputConfig {
   std::string planes_snapshot{"planes.png"};
   /** \brief PNG snapshot of the cuboid cells, coloured by plane ("" = none). */
   std::string cuboids_snapshot{"cuboids.png"};
+  /** \brief PNG snapshot of the cuboid cells, coloured by plane, seen along the street
+   * with the street_view camera ("" = none). */
+  std::string cuboids_street_snapshot;
   /** \brief The map file (PlanarGridMap::save(); written when map_integration ran;
    * "" = none). */
   std::string map{"map.pgmap"};
@@ -117,8 +147,11 @@ struct OutputConfig {
   std::string trajectory{"trajectory.txt"};
   /** \brief PNG snapshot of the result ("" = none). */
   std::string snapshot{"snapshot.png"};
-  /** \brief Snapshot camera: "top" or "oblique". */
+  /** \brief Camera of snapshot, planes_snapshot, cuboids_snapshot and map_snapshot:
+   * "top", "oblique" (both frame the whole scene) or "street" (street_view). */
   std::string snapshot_camera{"top"};
+  /** \brief The camera of the street snapshots. */
+  StreetViewConfig street_view;
   /** \brief Snapshot size in pixels. */
   std::array<int, 2> snapshot_size_px{{1600, 1000}};
 };
