@@ -106,7 +106,7 @@ planarCuboidApproximationInfo()
       .scalesWithCellSize(),
     ParamSpec::real("density_threshold", 0.9, 0.01, 1.0, "",
                     "D_T: a unit whose occupied-area fraction D is below it is split."),
-    ParamSpec::real("non_planar_density_threshold", 0.0, 0.0, 1.0, "",
+    ParamSpec::real("non_planar_density_threshold", 0.25, 0.0, 1.0, "",
                     "Occupied share of its 3D lattice a non-planar box (Fig. 7) must "
                     "reach before it stops splitting (0: density_threshold)."),
     ParamSpec::real("min_width_m", 0.1, 0.0, 100.0, "m",
