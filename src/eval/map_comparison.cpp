@@ -24,6 +24,7 @@
 #include <filesystem>
 #include <iomanip>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <memory>
 #include <set>
@@ -167,6 +168,10 @@ struct Lane {
   std::unique_ptr<StandardVoxelGrid> sg;
   std::unique_ptr<octomap::OcTree> og;
   double pg_ms{0.0}, sg_ms{0.0}, og_ms{0.0};
+  /** The truth voxelized at the lane's cell size (built when first measured). */
+  std::unique_ptr<TruthVoxels> truth_voxels;
+  /** Time spent on the completeness and planar share (and the truth voxels), ms. */
+  double completeness_ms{0.0};
 };
 
 } // namespace
@@ -383,6 +388,20 @@ measureLane(Lane& lane,
     if (region)
       row.cells = e.cells;
   };
+  // The completeness counts the truth voxels in the region (all without one) against
+  // every occupied cell of the map; its time is kept apart from the methods'.
+  const MappingErrorRegion everywhere;
+  const MappingErrorRegion& truth_region = region ? *region : everywhere;
+  auto completeness_start = Clock::now();
+  if (!lane.truth_voxels)
+    lane.truth_voxels = std::make_unique<TruthVoxels>(truth, r);
+  const TruthVoxels& truth_voxels = *lane.truth_voxels;
+  const auto applyCompleteness = [&](ComparisonRow& row, const Completeness& c) {
+    row.truth_voxels = c.truth_voxels;
+    row.covered_voxels = c.covered;
+    row.completeness = c.ratio();
+  };
+  lane.completeness_ms += msSince(completeness_start);
 
   ComparisonRow sg = base;
   sg.method = "SG";
@@ -392,6 +411,10 @@ measureLane(Lane& lane,
   sg.ms_per_frame = ms.sg;
   apply(sg, region ? evaluateVoxels(*lane.sg, truth, tolerance_m, *region)
                    : evaluateVoxels(*lane.sg, truth, tolerance_m));
+  completeness_start = Clock::now();
+  applyCompleteness(
+    sg, evaluateCompleteness(*lane.sg, truth_voxels, tolerance_m, truth_region));
+  lane.completeness_ms += msSince(completeness_start);
 
   ComparisonRow og = base;
   og.method = "OG";
@@ -404,6 +427,10 @@ measureLane(Lane& lane,
   og.ms_per_frame = ms.og;
   apply(og, region ? evaluateOcTree(*lane.og, truth, tolerance_m, *region)
                    : evaluateOcTree(*lane.og, truth, tolerance_m));
+  completeness_start = Clock::now();
+  applyCompleteness(
+    og, evaluateCompleteness(*lane.og, truth_voxels, tolerance_m, truth_region));
+  lane.completeness_ms += msSince(completeness_start);
 
   ComparisonRow ra = base;
   ra.method = "RA";
@@ -418,6 +445,10 @@ measureLane(Lane& lane,
   ra.memory_bytes = RectangularCuboidApproximation::getMemoryBytes(boxes);
   apply(ra, region ? evaluateBoxes(boxes, r, truth, tolerance_m, *region)
                    : evaluateBoxes(boxes, r, truth, tolerance_m));
+  completeness_start = Clock::now();
+  applyCompleteness(
+    ra, evaluateCompleteness(boxes, r, truth_voxels, tolerance_m, truth_region));
+  lane.completeness_ms += msSince(completeness_start);
 
   ComparisonRow pg = base;
   pg.method = "PG";
@@ -447,6 +478,15 @@ measureLane(Lane& lane,
            : evaluateCuboids(planar, thres, r, truth, tolerance_m);
   pg.planar_samples = planar_error.samples;
   pg.planar_erroneous = planar_error.erroneous;
+  completeness_start = Clock::now();
+  applyCompleteness(
+    pg, evaluateCompleteness(cuboids, thres, truth_voxels, tolerance_m, truth_region));
+  const Completeness planar_share =
+    evaluatePlanarShare(cuboids, thres, truth_voxels, tolerance_m, truth_region);
+  pg.nonground_voxels = planar_share.truth_voxels;
+  pg.planar_covered_voxels = planar_share.covered;
+  pg.planar_share = planar_share.ratio();
+  lane.completeness_ms += msSince(completeness_start);
 
   std::vector<ComparisonRow> rows{sg, og, ra, pg};
   for (ComparisonRow& row : rows) {
@@ -690,7 +730,12 @@ runComparison(const ComparisonConfig& config,
              << ", PG " << pg.error << " (planar "
              << static_cast<double>(pg.planar_erroneous)
                   / static_cast<double>(std::max<std::size_t>(sg.cells, 1))
-             << ")";
+             << "); completeness SG " << sg.completeness << ", OG "
+             << measured[1].completeness << ", RA " << measured[2].completeness
+             << ", PG " << pg.completeness << " (of " << sg.truth_voxels
+             << " truth voxels); PG planar share " << pg.planar_share << " (of "
+             << pg.nonground_voxels << " non-ground); completeness measured in "
+             << std::setprecision(2) << lane.completeness_ms / 1000.0 << " s";
         progress(line.str());
       }
     }
@@ -704,15 +749,32 @@ saveComparisonCsv(const std::vector<ComparisonRow>& rows, const std::string& pat
   std::ostringstream out;
   out << "dataset,environment,tilt_deg,resolution_m,method,frames,cells,all_cells,"
          "efficiency,memory_bytes,ms_per_frame,samples,erroneous,error,truth,"
-         "planar_samples,planar_erroneous,place,frame,region_radius_m\n";
+         "planar_samples,planar_erroneous,place,frame,region_radius_m,completeness,"
+         "planar_share,truth_voxels,covered_voxels,nonground_voxels,"
+         "planar_covered_voxels\n";
   out << std::setprecision(10);
-  for (const auto& r : rows)
+  // NaN (no truth voxels; the planar share of SG, OG and RA) is an empty field, as
+  // are PG's planar counts in the other methods' rows.
+  const auto ratio = [](double value) {
+    std::ostringstream field;
+    field << std::setprecision(10);
+    if (std::isfinite(value))
+      field << value;
+    return field.str();
+  };
+  for (const auto& r : rows) {
+    const bool pg = r.method == "PG";
     out << r.dataset << "," << r.environment << "," << r.tilt_deg << ","
         << r.resolution_m << "," << r.method << "," << r.frames << "," << r.cells << ","
         << r.all_cells << "," << r.efficiency << "," << r.memory_bytes << ","
         << r.ms_per_frame << "," << r.samples << "," << r.erroneous << "," << r.error
         << "," << r.truth_kind << "," << r.planar_samples << "," << r.planar_erroneous
-        << "," << r.place << "," << r.frame << "," << r.region_radius_m << "\n";
+        << "," << r.place << "," << r.frame << "," << r.region_radius_m << ","
+        << ratio(r.completeness) << "," << ratio(r.planar_share) << ","
+        << r.truth_voxels << "," << r.covered_voxels << ","
+        << (pg ? std::to_string(r.nonground_voxels) : std::string()) << ","
+        << (pg ? std::to_string(r.planar_covered_voxels) : std::string()) << "\n";
+  }
   writeTextFileAtomically(path, out.str());
 }
 
@@ -720,9 +782,18 @@ std::string
 comparisonMarkdown(const std::vector<ComparisonRow>& rows)
 {
   std::ostringstream out;
-  out
-    << "| dataset | cell m | method | cells | eta | memory kB | ms/frame | error e |\n"
-       "|---|---|---|---|---|---|---|---|\n";
+  // A ratio with 3 decimals, "-" where it is undefined (NaN).
+  const auto ratio = [](double value) {
+    std::ostringstream cell;
+    if (std::isfinite(value))
+      cell << std::fixed << std::setprecision(3) << value;
+    else
+      cell << "-";
+    return cell.str();
+  };
+  out << "| dataset | cell m | method | cells | eta | memory kB | ms/frame | error e | "
+         "completeness | planar share |\n"
+         "|---|---|---|---|---|---|---|---|---|---|\n";
   out << std::fixed;
   for (const auto& r : rows) {
     if (r.place >= 0)
@@ -732,12 +803,16 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
         << r.cells << " | " << std::setprecision(3) << r.efficiency << " | "
         << std::setprecision(1) << static_cast<double>(r.memory_bytes) / 1024.0 << " | "
         << std::setprecision(1) << r.ms_per_frame << " | " << std::setprecision(4)
-        << r.error << " |\n";
+        << r.error << " | " << ratio(r.completeness) << " | " << ratio(r.planar_share)
+        << " |\n";
   }
   // The places: means over each dataset's places (the paper's Figs. 12-14).
   struct Sum {
     std::size_t places{0};
     double cells{0.0}, efficiency{0.0}, memory_kb{0.0}, ms{0.0}, error{0.0};
+    /** Sums and counts of the defined (finite) completeness and planar share. */
+    double completeness{0.0}, planar_share{0.0};
+    std::size_t completeness_places{0}, planar_share_places{0};
     double radius_m{0.0};
     bool reference{false};
   };
@@ -761,16 +836,25 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
     sum.memory_kb += static_cast<double>(r.memory_bytes) / 1024.0;
     sum.ms += r.ms_per_frame;
     sum.error += r.error;
+    if (std::isfinite(r.completeness)) {
+      sum.completeness += r.completeness;
+      ++sum.completeness_places;
+    }
+    if (std::isfinite(r.planar_share)) {
+      sum.planar_share += r.planar_share;
+      ++sum.planar_share_places;
+    }
     sum.radius_m = r.region_radius_m;
     sum.reference = r.truth_kind == "reference";
   }
   if (sums.empty())
     return out.str();
   out << "\nMeans over the places (cells and error within the radius of the camera at "
-         "each place; memory of the whole map then; ms of that frame):\n\n"
+         "each place; memory of the whole map then; ms of that frame; completeness and "
+         "planar share over the places that have truth voxels within the radius):\n\n"
          "| dataset | places | radius m | cell m | method | cells | eta | memory kB | "
-         "ms/frame | error e |\n"
-         "|---|---|---|---|---|---|---|---|---|---|\n";
+         "ms/frame | error e | completeness | planar share |\n"
+         "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& [key, sum] : sums) {
     std::vector<std::string> parts;
     std::istringstream split(key);
@@ -782,7 +866,15 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
         << parts[2] << " | " << std::setprecision(0) << sum.cells / n << " | "
         << std::setprecision(3) << sum.efficiency / n << " | " << std::setprecision(1)
         << sum.memory_kb / n << " | " << sum.ms / n << " | " << std::setprecision(4)
-        << sum.error / n << " |\n";
+        << sum.error / n << " | "
+        << ratio(sum.completeness_places > 0
+                   ? sum.completeness / static_cast<double>(sum.completeness_places)
+                   : std::numeric_limits<double>::quiet_NaN())
+        << " | "
+        << ratio(sum.planar_share_places > 0
+                   ? sum.planar_share / static_cast<double>(sum.planar_share_places)
+                   : std::numeric_limits<double>::quiet_NaN())
+        << " |\n";
   }
   return out.str();
 }

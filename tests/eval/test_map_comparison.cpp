@@ -17,7 +17,9 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
 #include <string>
+#include <vector>
 
 namespace fs = std::filesystem;
 
@@ -184,6 +186,27 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
     EXPECT_GT(og.memory_bytes, 0u);
     EXPECT_DOUBLE_EQ(pg.tilt_deg, 30.0);
     EXPECT_EQ(pg.truth_kind, "truth");
+    // Completeness: SG's occupied voxels are those of the truth's own points (each
+    // input voxel's centroid lies in it), so it covers every truth voxel; OG and RA
+    // hold SG's occupied voxels. PG's cuboids cover most of the wall, its planar ones
+    // most of the wall above its lowest 0.3 m (the "ground" of a column without
+    // floor).
+    EXPECT_GT(sg.truth_voxels, 0u);
+    for (const auto* row : {&og, &ra, &pg})
+      EXPECT_EQ(row->truth_voxels, sg.truth_voxels) << row->method;
+    EXPECT_EQ(sg.covered_voxels, sg.truth_voxels) << r;
+    EXPECT_DOUBLE_EQ(sg.completeness, 1.0) << r;
+    EXPECT_DOUBLE_EQ(og.completeness, 1.0) << r;
+    EXPECT_DOUBLE_EQ(ra.completeness, 1.0) << r;
+    EXPECT_GT(pg.completeness, 0.9) << r;
+    EXPECT_LE(pg.completeness, 1.0) << r;
+    EXPECT_GT(pg.nonground_voxels, 0u);
+    EXPECT_LT(pg.nonground_voxels, pg.truth_voxels);
+    EXPECT_GT(pg.planar_share, 0.9) << r;
+    EXPECT_DOUBLE_EQ(pg.planar_share, static_cast<double>(pg.planar_covered_voxels)
+                                        / static_cast<double>(pg.nonground_voxels));
+    for (const auto* row : {&sg, &og, &ra})
+      EXPECT_TRUE(std::isnan(row->planar_share)) << row->method;
   }
   // A smaller cell size gives more SG cells.
   EXPECT_GT(by.at({0.1, "SG"}).cells, by.at({0.2, "SG"}).cells);
@@ -194,12 +217,37 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
   std::string header;
   std::getline(in, header);
   EXPECT_EQ(header.rfind("dataset,environment,tilt_deg,resolution_m,method", 0), 0u);
+  // The completeness columns come after the earlier ones; the planar share and PG's
+  // planar counts are empty in the other methods' rows.
+  const std::string tail = ",place,frame,region_radius_m,completeness,planar_share,"
+                           "truth_voxels,covered_voxels,nonground_voxels,"
+                           "planar_covered_voxels";
+  ASSERT_GE(header.size(), tail.size());
+  EXPECT_EQ(header.substr(header.size() - tail.size()), tail);
   int lines = 0;
-  for (std::string line; std::getline(in, line);)
+  for (std::string line; std::getline(in, line);) {
     ++lines;
+    std::vector<std::string> fields;
+    std::istringstream split(line);
+    for (std::string field; std::getline(split, field, ',');)
+      fields.push_back(field);
+    if (line.back() == ',')
+      fields.emplace_back();
+    ASSERT_EQ(fields.size(), 26u) << line;
+    const bool pg = fields[4] == "PG";
+    if (pg)
+      EXPECT_FALSE(fields[20].empty()) << line;
+    else
+      EXPECT_EQ(fields[20], "1") << line; // SG, OG and RA cover every truth voxel
+    EXPECT_EQ(fields[21].empty(), !pg) << line;
+    EXPECT_EQ(fields[24].empty(), !pg) << line;
+    EXPECT_EQ(fields[25].empty(), !pg) << line;
+  }
   EXPECT_EQ(lines, 8);
-  EXPECT_NE(planar_grid::comparisonMarkdown(rows).find("| wall | 0.1 | PG |"),
-            std::string::npos);
+  const std::string md = planar_grid::comparisonMarkdown(rows);
+  EXPECT_NE(md.find("| wall | 0.1 | PG |"), std::string::npos);
+  EXPECT_NE(md.find("| error e | completeness | planar share |"), std::string::npos);
+  EXPECT_NE(md.find("| 1.000 | - |"), std::string::npos) << md; // SG's row
 }
 
 TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
@@ -281,7 +329,17 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
     EXPECT_LT(by.at({1, method}).cells, by.at({-1, method}).cells) << method;
     EXPECT_EQ(by.at({0, method}).cells, by.at({1, method}).cells) << method;
   }
+  // Completeness at the places counts the truth voxels near the camera (the near
+  // wall's), in the whole map all of them (both walls, about twice as many); SG
+  // covers every one.
+  EXPECT_GT(by.at({0, "SG"}).truth_voxels, 0u);
+  EXPECT_EQ(by.at({0, "SG"}).truth_voxels, by.at({1, "SG"}).truth_voxels);
+  EXPECT_GT(by.at({-1, "SG"}).truth_voxels, 3 * by.at({1, "SG"}).truth_voxels / 2);
   for (int place : {0, 1, -1}) {
+    EXPECT_DOUBLE_EQ(by.at({place, "SG"}).completeness, 1.0) << place;
+    EXPECT_GT(by.at({place, "PG"}).completeness, 0.5) << place;
+    EXPECT_GT(by.at({place, "PG"}).planar_share, 0.5) << place;
+    EXPECT_TRUE(std::isnan(by.at({place, "RA"}).planar_share)) << place;
     EXPECT_EQ(by.at({place, "SG"}).erroneous, 0u) << place;
     EXPECT_EQ(by.at({place, "PG"}).planar_erroneous, 0u) << place;
     EXPECT_DOUBLE_EQ(by.at({place, "PG"}).efficiency,
@@ -289,10 +347,14 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
                        - static_cast<double>(by.at({place, "PG"}).cells)
                            / static_cast<double>(by.at({place, "SG"}).cells));
   }
-  EXPECT_NE(
-    planar_grid::comparisonMarkdown(rows).find("| walls | 2 | 8.0 | 0.2 | PG |"),
-    std::string::npos)
-    << planar_grid::comparisonMarkdown(rows);
+  const std::string md = planar_grid::comparisonMarkdown(rows);
+  EXPECT_NE(md.find("| walls | 2 | 8.0 | 0.2 | PG |"), std::string::npos) << md;
+  // The place means end with the completeness and the planar share ("-" for SG).
+  const std::size_t sg_places = md.find("| walls | 2 | 8.0 | 0.2 | SG |");
+  ASSERT_NE(sg_places, std::string::npos) << md;
+  const std::string sg_line =
+    md.substr(sg_places, md.find('\n', sg_places) - sg_places);
+  EXPECT_EQ(sg_line.substr(sg_line.size() - 13), "| 1.000 | - |") << sg_line;
 
   // A dataset's own places override the top level's: radius 0 is the whole map, so the
   // last place is the whole map after the last frame.

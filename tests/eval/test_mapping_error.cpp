@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/eval/mapping_error.h>
+#include <planar_grid/eval/rectangular_cuboid_approximation.h>
 
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>
@@ -10,18 +11,22 @@
 #include <cstddef>
 #include <limits>
 #include <random>
+#include <set>
+#include <tuple>
 #include <vector>
 
 namespace {
 
 using planar_grid::AxisAlignedBox;
 using planar_grid::AxisAlignedBoxes;
+using planar_grid::Completeness;
 using planar_grid::GroundTruthSurface;
 using planar_grid::MappingError;
 using planar_grid::MappingErrorRegion;
 using planar_grid::PlanarCuboid;
 using planar_grid::PlanarCuboids;
 using planar_grid::StandardVoxelGrid;
+using planar_grid::TruthVoxels;
 using planar_grid::VoxelIndex;
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 
@@ -342,6 +347,547 @@ TEST(MappingError, RejectsBadArguments)
   bad.push_back(cuboid(Eigen::Vector3f::Constant(NAN), Eigen::Vector3f::UnitZ(),
                        Eigen::Vector3f::UnitX(), 1.0f, 1.0f, 0.1f));
   EXPECT_EQ(planar_grid::evaluateCuboids(bad, 0.5, 0.1, truth, 0.1).samples, 0u);
+}
+
+// The completeness and the planar share, against brute-force oracles.
+
+/** \brief A solid box for the oracle: centre, orthonormal axes, half extents. */
+struct OracleBox {
+  Eigen::Vector3d centre;
+  Eigen::Matrix3d axes; // columns
+  Eigen::Vector3d half;
+};
+
+/** \brief Euclidean distance from \a p to the solid box, through its closest point
+ * (the clamp of \a p into the box). */
+double
+oracleDistance(const OracleBox& box, const Eigen::Vector3d& p)
+{
+  Eigen::Vector3d closest = box.centre;
+  for (int k = 0; k < 3; ++k) {
+    const double along = (p - box.centre).dot(box.axes.col(k));
+    closest += std::clamp(along, -box.half[k], box.half[k]) * box.axes.col(k);
+  }
+  return (p - closest).norm();
+}
+
+OracleBox
+oracleVoxel(const VoxelIndex& index, double r)
+{
+  return {(index.cast<double>().array() + 0.5).matrix() * r,
+          Eigen::Matrix3d::Identity(), Eigen::Vector3d::Constant(0.5 * r)};
+}
+
+OracleBox
+oracleCuboid(const PlanarCuboid& c)
+{
+  OracleBox box;
+  box.centre = c.centre.cast<double>();
+  box.axes.col(0) = c.horizontal_axis.cast<double>();
+  box.axes.col(1) = c.verticalAxis().cast<double>();
+  box.axes.col(2) = c.normal.cast<double>();
+  box.half = 0.5 * Eigen::Vector3d(c.width_m, c.height_m, c.thickness_m);
+  return box;
+}
+
+/** \brief The oracle's truth voxels: floor(p / r) of every point, and for each the
+ * ground flag by brute force over all of them (lowest centre of its 1 m column). */
+struct OracleTruth {
+  std::vector<VoxelIndex> voxels;
+  std::vector<bool> ground;
+};
+
+OracleTruth
+oracleTruth(const Cloud& points, double r)
+{
+  std::set<std::tuple<int, int, int>> unique;
+  for (const auto& p : points.points)
+    unique.emplace(static_cast<int>(std::floor(static_cast<double>(p.x) / r)),
+                   static_cast<int>(std::floor(static_cast<double>(p.y) / r)),
+                   static_cast<int>(std::floor(static_cast<double>(p.z) / r)));
+  OracleTruth out;
+  for (const auto& [x, y, z] : unique)
+    out.voxels.emplace_back(x, y, z);
+  const auto centre = [r](const VoxelIndex& v) {
+    return Eigen::Vector3d((v.cast<double>().array() + 0.5).matrix() * r);
+  };
+  for (const VoxelIndex& v : out.voxels) {
+    const Eigen::Vector3d c = centre(v);
+    double lowest = c.z();
+    for (const VoxelIndex& w : out.voxels) {
+      const Eigen::Vector3d d = centre(w);
+      if (std::floor(d.x()) == std::floor(c.x())
+          && std::floor(d.y()) == std::floor(c.y()))
+        lowest = std::min(lowest, d.z());
+    }
+    out.ground.push_back(c.z() - lowest <= 0.3 + 1e-6);
+  }
+  return out;
+}
+
+/** \brief Brute-force completeness: truth voxels (in the region, non-ground ones only
+ * with \a nonground_only) whose centre is within \a tolerance_m of one of \a boxes. */
+Completeness
+oracleCompleteness(const OracleTruth& truth,
+                   double r,
+                   const std::vector<OracleBox>& boxes,
+                   double tolerance_m,
+                   const MappingErrorRegion& region = {},
+                   bool nonground_only = false)
+{
+  Completeness out;
+  for (std::size_t i = 0; i < truth.voxels.size(); ++i) {
+    const Eigen::Vector3d c =
+      (truth.voxels[i].cast<double>().array() + 0.5).matrix() * r;
+    if ((nonground_only && truth.ground[i]) || !region.contains(c.cast<float>()))
+      continue;
+    ++out.truth_voxels;
+    for (const auto& box : boxes)
+      if (oracleDistance(box, c) <= tolerance_m) {
+        ++out.covered;
+        break;
+      }
+  }
+  return out;
+}
+
+std::vector<OracleBox>
+oracleCuboids(const PlanarCuboids& cuboids, bool planar_only)
+{
+  std::vector<OracleBox> out;
+  for (const auto& c : cuboids)
+    if (c.probability >= 0.5f && (!planar_only || c.is_planar))
+      out.push_back(oracleCuboid(c));
+  return out;
+}
+
+/** \brief Points every 0.02 m (offset 0.01 m) on origin + s u + t v, s in [0,
+ * width_m), t in [0, height_m). */
+void
+addRectangle(Cloud& cloud,
+             const Eigen::Vector3f& origin,
+             const Eigen::Vector3f& u,
+             const Eigen::Vector3f& v,
+             float width_m,
+             float height_m)
+{
+  for (float t = 0.01f; t < height_m; t += 0.02f)
+    for (float s = 0.01f; s < width_m; s += 0.02f) {
+      const Eigen::Vector3f p = origin + s * u + t * v;
+      cloud.push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+    }
+}
+
+/** \brief A wall in the plane x = 1.05 m (the centres of voxel layer 10 at 0.1 m),
+ * y and z in [0, 2): 20 x 20 truth voxels at 0.1 m. */
+Cloud::Ptr
+wallPoints()
+{
+  Cloud::Ptr cloud(new Cloud);
+  addRectangle(*cloud, Eigen::Vector3f(1.05f, 0.0f, 0.0f), Eigen::Vector3f::UnitY(),
+               Eigen::Vector3f::UnitZ(), 2.0f, 2.0f);
+  return cloud;
+}
+
+TEST(TruthVoxels, VoxelizesAndFindsTheGroundLikeTheOracle)
+{
+  // A floor (z = 0) over x, y in [0, 3) and a wall x = 1.55 m from the floor to
+  // z = 2 m, both sampled every 0.02 m, voxelized at 0.1 m.
+  Cloud::Ptr cloud(new Cloud);
+  addRectangle(*cloud, Eigen::Vector3f(0.0f, 0.0f, 0.0f), Eigen::Vector3f::UnitX(),
+               Eigen::Vector3f::UnitY(), 3.0f, 3.0f);
+  addRectangle(*cloud, Eigen::Vector3f(1.55f, 0.0f, 0.0f), Eigen::Vector3f::UnitY(),
+               Eigen::Vector3f::UnitZ(), 3.0f, 2.0f);
+  const GroundTruthSurface truth(cloud);
+  EXPECT_EQ(truth.getPoints()->size(), cloud->size());
+  const TruthVoxels voxels(truth, RESOLUTION_M);
+  const OracleTruth oracle = oracleTruth(*cloud, RESOLUTION_M);
+  ASSERT_EQ(voxels.size(), oracle.voxels.size());
+  // Floor 30 x 30 voxels; the wall's 30 x 20 share their bottom row with the floor.
+  EXPECT_EQ(voxels.size(), 900u + 30u * 19u);
+  std::set<std::tuple<int, int, int>> got;
+  std::size_t ground = 0;
+  for (std::size_t i = 0; i < voxels.size(); ++i) {
+    const VoxelIndex& k = voxels.getIndex(i);
+    got.emplace(k.x(), k.y(), k.z());
+    const auto at = std::find(oracle.voxels.begin(), oracle.voxels.end(), k);
+    ASSERT_NE(at, oracle.voxels.end());
+    EXPECT_EQ(voxels.isGround(i),
+              oracle.ground[static_cast<std::size_t>(at - oracle.voxels.begin())])
+      << k.transpose();
+    EXPECT_NEAR(voxels.getCentre(i).z(), (k.z() + 0.5) * 0.1, 1e-6);
+    ground += voxels.isGround(i) ? 1 : 0;
+  }
+  EXPECT_EQ(got.size(), voxels.size());
+  // Ground: the floor, and the wall up to 0.3 m above it (centres 0.15, 0.25, 0.35:
+  // 3 rows of 30; the row at 0.45 m is not).
+  EXPECT_EQ(voxels.getGroundCount(), 900u + 3u * 30u);
+  EXPECT_EQ(ground, voxels.getGroundCount());
+  EXPECT_THROW(TruthVoxels(truth, 0.0), planar_grid::Exception);
+}
+
+TEST(Completeness, CuboidCoveringHalfAWall)
+{
+  const Cloud::Ptr cloud = wallPoints();
+  const GroundTruthSurface truth(cloud);
+  const TruthVoxels voxels(truth, RESOLUTION_M);
+  ASSERT_EQ(voxels.size(), 400u);
+  // A cuboid on the wall over y in [0, 1) (0.1 m thick, centred on it): the 10 voxel
+  // columns under it (centres y = 0.05 .. 0.95) and the next one (1.05, 0.05 m from its
+  // edge) are within 0.1 m; the one after (1.15) is 0.15 m away. So 11 of 20 columns:
+  // 0.55 exactly. At a tolerance of 0.04 m only the 10 columns under it: 0.5.
+  PlanarCuboids cuboids;
+  cuboids.push_back(cuboid(Eigen::Vector3f(1.05f, 0.5f, 1.0f), Eigen::Vector3f::UnitX(),
+                           Eigen::Vector3f::UnitY(), 1.0f, 2.0f, 0.1f));
+  Completeness c =
+    planar_grid::evaluateCompleteness(cuboids, 0.5, voxels, RESOLUTION_M);
+  EXPECT_EQ(c.truth_voxels, 400u);
+  EXPECT_EQ(c.covered, 11u * 20u);
+  EXPECT_DOUBLE_EQ(c.ratio(), 0.55);
+  c = planar_grid::evaluateCompleteness(cuboids, 0.5, voxels, 0.04);
+  EXPECT_EQ(c.covered, 10u * 20u);
+  EXPECT_DOUBLE_EQ(c.ratio(), 0.5);
+  // Moved 0.3 m off the wall along its normal: the wall is 0.25 m from its back face.
+  PlanarCuboids off = cuboids;
+  off[0].centre.x() += 0.3f;
+  EXPECT_EQ(planar_grid::evaluateCompleteness(off, 0.5, voxels, RESOLUTION_M).covered,
+            0u);
+  EXPECT_EQ(planar_grid::evaluateCompleteness(off, 0.5, voxels, 0.26).covered,
+            11u * 20u); // y up to 1.05 is within 0.26 m (sqrt(0.25^2 + 0.05^2) = 0.255)
+  // Below the occupancy threshold: not a cell of the map.
+  cuboids[0].probability = 0.4f;
+  EXPECT_EQ(
+    planar_grid::evaluateCompleteness(cuboids, 0.5, voxels, RESOLUTION_M).covered, 0u);
+}
+
+TEST(Completeness, CuboidsMatchTheBruteForceOracle)
+{
+  // Random truth points in a 3 m cube and random cuboids (any orientation, size,
+  // probability, planar or not), random regions: counts equal the oracle's.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> coord(0.0f, 3.0f);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  std::uniform_real_distribution<float> extent(0.0f, 1.2f);
+  std::uniform_real_distribution<float> probability(0.2f, 1.0f);
+  for (int trial = 0; trial < 6; ++trial) {
+    Cloud::Ptr cloud(new Cloud);
+    for (int i = 0; i < 3000; ++i)
+      cloud->push_back(pcl::PointXYZ(coord(rng), coord(rng), coord(rng) * 0.5f));
+    const GroundTruthSurface truth(cloud);
+    const double r = trial % 2 == 0 ? 0.1 : 0.25;
+    const double tolerance_m = r * (0.5 + 0.25 * trial); // 0.5 to 1.75 cells
+    const TruthVoxels voxels(truth, r);
+    const OracleTruth oracle = oracleTruth(*cloud, r);
+    ASSERT_EQ(voxels.size(), oracle.voxels.size());
+    PlanarCuboids cuboids;
+    for (int k = 0; k < 25; ++k) {
+      const Eigen::Vector3f n =
+        Eigen::Vector3f(unit(rng), unit(rng), unit(rng)).normalized();
+      const Eigen::Vector3f u =
+        n.cross(Eigen::Vector3f(unit(rng), unit(rng), unit(rng))).normalized();
+      PlanarCuboid c =
+        cuboid(Eigen::Vector3f(coord(rng), coord(rng), coord(rng) * 0.5f), n, u,
+               extent(rng), extent(rng), extent(rng) * 0.3f, probability(rng));
+      c.is_planar = k % 3 != 0;
+      cuboids.push_back(c);
+    }
+    MappingErrorRegion ball;
+    ball.centre_m = Eigen::Vector3f(1.5f, 1.5f, 0.5f);
+    ball.max_distance_m = 1.2;
+    for (const MappingErrorRegion& region : {MappingErrorRegion{}, ball}) {
+      const Completeness all =
+        planar_grid::evaluateCompleteness(cuboids, 0.5, voxels, tolerance_m, region);
+      const Completeness all_oracle = oracleCompleteness(
+        oracle, r, oracleCuboids(cuboids, false), tolerance_m, region);
+      EXPECT_EQ(all.truth_voxels, all_oracle.truth_voxels) << trial;
+      EXPECT_EQ(all.covered, all_oracle.covered) << trial;
+      EXPECT_GT(all.covered, 0u) << trial;
+      EXPECT_LT(all.covered, all.truth_voxels) << trial;
+      const Completeness planar =
+        planar_grid::evaluatePlanarShare(cuboids, 0.5, voxels, tolerance_m, region);
+      const Completeness planar_oracle = oracleCompleteness(
+        oracle, r, oracleCuboids(cuboids, true), tolerance_m, region, true);
+      EXPECT_EQ(planar.truth_voxels, planar_oracle.truth_voxels) << trial;
+      EXPECT_EQ(planar.covered, planar_oracle.covered) << trial;
+      EXPECT_LT(planar.truth_voxels, all.truth_voxels) << trial; // ground left out
+    }
+  }
+}
+
+TEST(Completeness, LatticeMethodsMatchTheBruteForceOracle)
+{
+  // Random occupied voxels (SG), their boxes (RA) and an octree holding them (OG),
+  // random truth points, several tolerances: counts equal the oracle's (the distance
+  // from a truth voxel's centre to the nearest occupied voxel cube).
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<int> index(-6, 25);
+  std::uniform_real_distribution<float> coord(-0.6f, 2.6f);
+  Cloud occupied_points;
+  std::set<std::tuple<int, int, int>> occupied;
+  for (int k = 0; k < 150; ++k) {
+    const VoxelIndex v(index(rng), index(rng), index(rng) / 4);
+    occupied.emplace(v.x(), v.y(), v.z());
+    occupied_points.push_back(pcl::PointXYZ(static_cast<float>((v.x() + 0.5) * 0.1),
+                                            static_cast<float>((v.y() + 0.5) * 0.1),
+                                            static_cast<float>((v.z() + 0.5) * 0.1)));
+  }
+  StandardVoxelGrid::Params params;
+  params.resolution_m = RESOLUTION_M;
+  StandardVoxelGrid grid(params);
+  grid.insertPointCloud(occupied_points, Eigen::Vector3f(1.0f, 1.0f, 30.0f));
+  ASSERT_EQ(grid.getOccupiedCount(), occupied.size()); // one scan: end points win
+  AxisAlignedBoxes boxes;
+  planar_grid::RectangularCuboidApproximation().compute(grid, boxes);
+  octomap::OcTree tree(RESOLUTION_M);
+  for (const auto& [x, y, z] : occupied)
+    tree.setNodeValue(octomap::OcTreeKey(static_cast<octomap::key_type>(x + 32768),
+                                         static_cast<octomap::key_type>(y + 32768),
+                                         static_cast<octomap::key_type>(z + 32768)),
+                      tree.getClampingThresMaxLog());
+  std::vector<OracleBox> oracle_voxels;
+  for (const auto& [x, y, z] : occupied)
+    oracle_voxels.push_back(oracleVoxel(VoxelIndex(x, y, z), RESOLUTION_M));
+
+  Cloud::Ptr cloud(new Cloud);
+  for (int i = 0; i < 4000; ++i)
+    cloud->push_back(pcl::PointXYZ(coord(rng), coord(rng), coord(rng) * 0.3f));
+  const GroundTruthSurface truth(cloud);
+  const TruthVoxels voxels(truth, RESOLUTION_M);
+  const OracleTruth oracle = oracleTruth(*cloud, RESOLUTION_M);
+  MappingErrorRegion box_region;
+  box_region.min_m = Eigen::Vector3f(0.3f, -1.0f, -1.0f);
+  box_region.max_m = Eigen::Vector3f(1.7f, 1.2f, 1.0f);
+  // (No tolerance equals a distance from a voxel centre to a cube, 0.1 sqrt(sum e^2)
+  // with e in {0, 0.5, 1.5, ...}, where rounding would decide.)
+  for (const double tolerance_m : {0.0, 0.04, 0.06, 0.1, 0.16, 0.22, 0.33})
+    for (const MappingErrorRegion& region : {MappingErrorRegion{}, box_region}) {
+      const Completeness expected =
+        oracleCompleteness(oracle, RESOLUTION_M, oracle_voxels, tolerance_m, region);
+      ASSERT_GT(expected.covered, 0u);
+      ASSERT_LT(expected.covered, expected.truth_voxels);
+      const Completeness sg =
+        planar_grid::evaluateCompleteness(grid, voxels, tolerance_m, region);
+      const Completeness ra = planar_grid::evaluateCompleteness(
+        boxes, RESOLUTION_M, voxels, tolerance_m, region);
+      const Completeness og =
+        planar_grid::evaluateCompleteness(tree, voxels, tolerance_m, region);
+      for (const Completeness& c : {sg, ra, og}) {
+        EXPECT_EQ(c.truth_voxels, expected.truth_voxels) << tolerance_m;
+        EXPECT_EQ(c.covered, expected.covered) << tolerance_m;
+      }
+    }
+  // At exactly one cell the 27 voxels around a truth voxel cover it (a corner
+  // neighbour's cube is 0.087 m from the centre), two cells along an axis do not
+  // (0.15 m).
+  Cloud::Ptr one(new Cloud);
+  one->push_back(pcl::PointXYZ(0.05f, 0.05f, 0.05f));
+  const TruthVoxels single(GroundTruthSurface{one}, RESOLUTION_M);
+  for (const auto& [offset, covered] :
+       {std::pair{VoxelIndex(1, 1, 1), 1u}, std::pair{VoxelIndex(-1, 1, -1), 1u},
+        std::pair{VoxelIndex(2, 0, 0), 0u}, std::pair{VoxelIndex(0, -2, 1), 0u}}) {
+    AxisAlignedBoxes b{{offset, Eigen::Vector3i(1, 1, 1), true}};
+    EXPECT_EQ(
+      planar_grid::evaluateCompleteness(b, RESOLUTION_M, single, RESOLUTION_M).covered,
+      covered)
+      << offset.transpose();
+  }
+}
+
+TEST(Completeness, PrunedOcTreeLeavesCoverTheirVoxels)
+{
+  // An occupied 8 x 8 x 2 block (x, y 0 .. 7, z layers 10 and 11), pruned into
+  // 2 x 2 x 2 leaves, against truth voxels at x = 0, 7 (over the block), 8 (next to
+  // it), 9 (two voxels beyond) in layers 10 (the block's), 12 (next to it) and 13 (two
+  // layers above), at a tolerance of one cell (the 27 neighbours).
+  octomap::OcTree tree(RESOLUTION_M);
+  for (int z = 10; z < 12; ++z)
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x)
+        tree.setNodeValue(octomap::OcTreeKey(static_cast<octomap::key_type>(x + 32768),
+                                             static_cast<octomap::key_type>(y + 32768),
+                                             static_cast<octomap::key_type>(z + 32768)),
+                          tree.getClampingThresMaxLog());
+  tree.updateInnerOccupancy();
+  tree.prune();
+  ASSERT_LT(tree.getNumLeafNodes(), 128u);
+  Cloud::Ptr cloud(new Cloud);
+  for (const int z : {10, 12, 13})
+    for (const int x : {0, 7, 8, 9})
+      cloud->push_back(pcl::PointXYZ(static_cast<float>((x + 0.5) * 0.1), 0.35f,
+                                     static_cast<float>((z + 0.5) * 0.1)));
+  const TruthVoxels voxels(GroundTruthSurface{cloud}, RESOLUTION_M);
+  ASSERT_EQ(voxels.size(), 12u);
+  // Layer 10: x 0 and 7 inside, 8 adjacent, 9 not; layer 12: x 0, 7 adjacent, 8
+  // diagonally, 9 not; layer 13: none.
+  EXPECT_EQ(planar_grid::evaluateCompleteness(tree, voxels, RESOLUTION_M).covered, 6u);
+}
+
+TEST(Completeness, GridHoldingTheTruthVoxelsIsCompleteAndAnEmptyMapIsNot)
+{
+  const Cloud::Ptr cloud = wallPoints();
+  const GroundTruthSurface truth(cloud);
+  const TruthVoxels voxels(truth, RESOLUTION_M);
+  ASSERT_EQ(voxels.size(), 400u);
+  // SG fed the truth voxels' centres in one scan: its occupied voxels are exactly
+  // the truth voxels.
+  StandardVoxelGrid::Params params;
+  params.resolution_m = RESOLUTION_M;
+  StandardVoxelGrid grid(params);
+  Cloud centres;
+  for (std::size_t i = 0; i < voxels.size(); ++i) {
+    const Eigen::Vector3f c = voxels.getCentre(i);
+    centres.push_back(pcl::PointXYZ(c.x(), c.y(), c.z()));
+  }
+  grid.insertPointCloud(centres, Eigen::Vector3f(-3.0f, 1.0f, 1.0f));
+  ASSERT_EQ(grid.getOccupiedCount(), 400u);
+  for (const double tolerance_m : {0.0, RESOLUTION_M}) {
+    const Completeness c = planar_grid::evaluateCompleteness(grid, voxels, tolerance_m);
+    EXPECT_EQ(c.truth_voxels, 400u);
+    EXPECT_EQ(c.covered, 400u);
+    EXPECT_DOUBLE_EQ(c.ratio(), 1.0);
+  }
+  // The same wall 0.2 m behind (two voxel layers): not within 0.1 m.
+  Cloud behind = centres;
+  for (auto& p : behind.points)
+    p.x += 0.2f;
+  StandardVoxelGrid displaced(params);
+  displaced.insertPointCloud(behind, Eigen::Vector3f(-3.0f, 1.0f, 1.0f));
+  EXPECT_EQ(planar_grid::evaluateCompleteness(displaced, voxels, RESOLUTION_M).covered,
+            0u);
+  // Empty maps: every truth voxel counted, none covered.
+  const StandardVoxelGrid empty(params);
+  const octomap::OcTree empty_tree(RESOLUTION_M);
+  for (const Completeness& c :
+       {planar_grid::evaluateCompleteness(empty, voxels, RESOLUTION_M),
+        planar_grid::evaluateCompleteness(AxisAlignedBoxes{}, RESOLUTION_M, voxels,
+                                          RESOLUTION_M),
+        planar_grid::evaluateCompleteness(empty_tree, voxels, RESOLUTION_M),
+        planar_grid::evaluateCompleteness(PlanarCuboids{}, 0.5, voxels,
+                                          RESOLUTION_M)}) {
+    EXPECT_EQ(c.truth_voxels, 400u);
+    EXPECT_EQ(c.covered, 0u);
+    EXPECT_DOUBLE_EQ(c.ratio(), 0.0);
+  }
+  // A region holding no truth voxel: nothing counted, the ratio undefined.
+  MappingErrorRegion far_away;
+  far_away.centre_m = Eigen::Vector3f(50.0f, 0.0f, 0.0f);
+  far_away.max_distance_m = 1.0;
+  const Completeness none =
+    planar_grid::evaluateCompleteness(grid, voxels, RESOLUTION_M, far_away);
+  EXPECT_EQ(none.truth_voxels, 0u);
+  EXPECT_TRUE(std::isnan(none.ratio()));
+}
+
+TEST(Completeness, PlanarShareOfAWallOnFlatGround)
+{
+  // Flat ground (z = 0) over x, y in [0, 4) and a wall x = 2.05 m (voxel layer
+  // 20), y in [0, 4), z in [0, 2): at 0.1 m the ground is the floor layer and the
+  // wall's rows up to 0.3 m above it (centres 0.05 .. 0.35: 4 rows, the bottom one
+  // shared with the floor); the non-ground truth is the wall's rows 4 .. 19: 16 x 40.
+  Cloud::Ptr cloud(new Cloud);
+  addRectangle(*cloud, Eigen::Vector3f::Zero(), Eigen::Vector3f::UnitX(),
+               Eigen::Vector3f::UnitY(), 4.0f, 4.0f);
+  addRectangle(*cloud, Eigen::Vector3f(2.05f, 0.0f, 0.0f), Eigen::Vector3f::UnitY(),
+               Eigen::Vector3f::UnitZ(), 4.0f, 2.0f);
+  const GroundTruthSurface truth(cloud);
+  const TruthVoxels voxels(truth, RESOLUTION_M);
+  ASSERT_EQ(voxels.size(), 1600u + 40u * 19u);
+  EXPECT_EQ(voxels.getGroundCount(), 1600u + 40u * 3u);
+  const OracleTruth oracle = oracleTruth(*cloud, RESOLUTION_M);
+
+  // Planar cuboids over the wall only (two halves along y): all of the non-ground
+  // truth is covered; the ground does not count.
+  PlanarCuboids wall;
+  wall.push_back(cuboid(Eigen::Vector3f(2.05f, 1.0f, 1.0f), Eigen::Vector3f::UnitX(),
+                        Eigen::Vector3f::UnitY(), 2.0f, 2.0f, 0.1f));
+  wall.push_back(cuboid(Eigen::Vector3f(2.05f, 3.0f, 1.0f), Eigen::Vector3f::UnitX(),
+                        Eigen::Vector3f::UnitY(), 2.0f, 2.0f, 0.1f));
+  Completeness share =
+    planar_grid::evaluatePlanarShare(wall, 0.5, voxels, RESOLUTION_M);
+  EXPECT_EQ(share.truth_voxels, 16u * 40u);
+  EXPECT_EQ(share.covered, 16u * 40u);
+  EXPECT_DOUBLE_EQ(share.ratio(), 1.0);
+  // Its completeness counts the ground too: the wall's own 800 voxels and the floor
+  // voxels beside it (x centres 1.95 and 2.15 are 0.05 m from its faces; the floor
+  // under it is the wall's bottom row): 800 + 2 x 40.
+  const Completeness complete =
+    planar_grid::evaluateCompleteness(wall, 0.5, voxels, RESOLUTION_M);
+  EXPECT_EQ(complete.covered, 800u + 80u);
+  EXPECT_EQ(
+    complete.covered,
+    oracleCompleteness(oracle, RESOLUTION_M, oracleCuboids(wall, false), RESOLUTION_M)
+      .covered);
+
+  // The same cuboids non-planar (Fig. 7 boxes): planar share 0, completeness alike.
+  PlanarCuboids boxes = wall;
+  for (auto& c : boxes)
+    c.is_planar = false;
+  share = planar_grid::evaluatePlanarShare(boxes, 0.5, voxels, RESOLUTION_M);
+  EXPECT_EQ(share.truth_voxels, 16u * 40u);
+  EXPECT_EQ(share.covered, 0u);
+  EXPECT_EQ(planar_grid::evaluateCompleteness(boxes, 0.5, voxels, RESOLUTION_M).covered,
+            complete.covered);
+
+  // A planar cuboid on the ground only: the lowest non-ground wall row (centre 0.45 m)
+  // is 0.35 m above its top face: planar share 0, while it covers the floor.
+  PlanarCuboids floor;
+  floor.push_back(cuboid(Eigen::Vector3f(2.0f, 2.0f, 0.05f), Eigen::Vector3f::UnitZ(),
+                         Eigen::Vector3f::UnitX(), 4.0f, 4.0f, 0.1f));
+  EXPECT_EQ(planar_grid::evaluatePlanarShare(floor, 0.5, voxels, RESOLUTION_M).covered,
+            0u);
+  EXPECT_GT(planar_grid::evaluateCompleteness(floor, 0.5, voxels, RESOLUTION_M).covered,
+            1600u);
+
+  // Half the wall's height (z in [1, 2)): rows 9 .. 19 within 0.1 m (9's centre 0.95
+  // is 0.05 m below the cuboid): 11 of the 16 non-ground rows.
+  PlanarCuboids upper;
+  upper.push_back(cuboid(Eigen::Vector3f(2.05f, 2.0f, 1.5f), Eigen::Vector3f::UnitX(),
+                         Eigen::Vector3f::UnitY(), 4.0f, 1.0f, 0.1f));
+  share = planar_grid::evaluatePlanarShare(upper, 0.5, voxels, RESOLUTION_M);
+  EXPECT_EQ(share.covered, 11u * 40u);
+  EXPECT_DOUBLE_EQ(share.ratio(), 11.0 / 16.0);
+  // A region: the ball of 1 m around (2.05, 2, 1.5), against the oracle.
+  MappingErrorRegion ball;
+  ball.centre_m = Eigen::Vector3f(2.05f, 2.0f, 1.5f);
+  ball.max_distance_m = 1.0;
+  share = planar_grid::evaluatePlanarShare(upper, 0.5, voxels, RESOLUTION_M, ball);
+  const Completeness expected = oracleCompleteness(
+    oracle, RESOLUTION_M, oracleCuboids(upper, true), RESOLUTION_M, ball, true);
+  EXPECT_EQ(share.truth_voxels, expected.truth_voxels);
+  EXPECT_EQ(share.covered, expected.covered);
+  EXPECT_LT(share.truth_voxels, 16u * 40u);
+}
+
+TEST(Completeness, RejectsBadArguments)
+{
+  const Cloud::Ptr cloud = wallPoints();
+  const TruthVoxels voxels(GroundTruthSurface{cloud}, RESOLUTION_M);
+  StandardVoxelGrid::Params params;
+  params.resolution_m = 0.2;
+  const StandardVoxelGrid coarse(params); // another cell size than the truth voxels
+  EXPECT_THROW(planar_grid::evaluateCompleteness(coarse, voxels, 0.1),
+               planar_grid::Exception);
+  const octomap::OcTree tree(0.2);
+  EXPECT_THROW(planar_grid::evaluateCompleteness(tree, voxels, 0.1),
+               planar_grid::Exception);
+  EXPECT_THROW(
+    planar_grid::evaluateCompleteness(AxisAlignedBoxes{}, 0.2, voxels, RESOLUTION_M),
+    planar_grid::Exception);
+  EXPECT_THROW(planar_grid::evaluateCompleteness(AxisAlignedBoxes{}, 0.1, voxels, -0.1),
+               planar_grid::Exception);
+  EXPECT_THROW(planar_grid::evaluateCompleteness(AxisAlignedBoxes{}, 0.1, voxels, 2.0),
+               planar_grid::Exception); // 20 cells: above the lattice's limit
+  EXPECT_THROW(planar_grid::evaluateCompleteness(PlanarCuboids{}, 1.5, voxels, 0.1),
+               planar_grid::Exception);
+  EXPECT_THROW(planar_grid::evaluatePlanarShare(PlanarCuboids{}, 0.5, voxels, NAN),
+               planar_grid::Exception);
+  // A non-finite cuboid is skipped.
+  PlanarCuboids bad;
+  bad.push_back(cuboid(Eigen::Vector3f::Constant(NAN), Eigen::Vector3f::UnitX(),
+                       Eigen::Vector3f::UnitY(), 1.0f, 1.0f, 0.1f));
+  bad.push_back(cuboid(Eigen::Vector3f(1.05f, 1.0f, 1.0f), Eigen::Vector3f::UnitX(),
+                       Eigen::Vector3f::UnitY(), -1.0f, 1.0f, 0.1f));
+  EXPECT_EQ(planar_grid::evaluateCompleteness(bad, 0.5, voxels, 0.1).covered, 0u);
 }
 
 } // namespace

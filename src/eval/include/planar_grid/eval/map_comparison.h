@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -147,6 +148,27 @@ struct ComparisonRow {
   std::size_t frame{0};
   /** \brief The places' radius, meters (0: the whole map). */
   double region_radius_m{0.0};
+  /** \brief Truth voxels counted by the completeness: the truth points voxelized at
+   * the cell size (TruthVoxels); at a place those within region_radius_m of the
+   * camera. */
+  std::size_t truth_voxels{0};
+  /** \brief Of them, those whose centre lies within the tolerance (tolerance_cells x
+   * the cell size) of an occupied cell of the method (evaluateCompleteness()). */
+  std::size_t covered_voxels{0};
+  /** \brief Completeness covered_voxels / truth_voxels in [0, 1]: the share of the
+   * truth the method's occupied cells reach (it falls when a method drops data, which
+   * lowers the error); NaN without truth voxels. */
+  double completeness{std::numeric_limits<double>::quiet_NaN()};
+  /** \brief PG only: the non-ground truth voxels (TruthVoxels::isGround; at a place,
+   * within the radius). */
+  std::size_t nonground_voxels{0};
+  /** \brief PG only: of them, those within the tolerance of an occupied planar cuboid
+   * (evaluatePlanarShare()). */
+  std::size_t planar_covered_voxels{0};
+  /** \brief PG only: planar share planar_covered_voxels / nonground_voxels in [0, 1],
+   * how much of the truth above the ground PG's planar cells explain; NaN for SG, OG
+   * and RA and without non-ground truth voxels. */
+  double planar_share{std::numeric_limits<double>::quiet_NaN()};
 };
 
 /** \brief Runs every dataset of \a config (rows of its places as the frames run, then

@@ -11,8 +11,10 @@
 #include <Eigen/Core>
 
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <memory>
+#include <vector>
 
 namespace octomap {
 class OcTree;
@@ -50,6 +52,8 @@ public:
   [[nodiscard]] float distance(const Eigen::Vector3f& point) const;
   /** \brief Number of truth points (the finite ones). */
   [[nodiscard]] std::size_t size() const;
+  /** \brief The truth points (the finite ones of the constructor's cloud), meters. */
+  [[nodiscard]] PointCloudConstPtr getPoints() const;
 
 private:
   struct Impl;
@@ -182,5 +186,176 @@ MappingError evaluateOcTree(const octomap::OcTree& tree,
                             const GroundTruthSurface& truth,
                             double tolerance_m,
                             const MappingErrorRegion& region);
+
+/** \brief The truth's occupied voxels at one cell size, for the completeness: the
+ * truth points voxelized at resolution_m (a point p lies in the voxel of index
+ * floor(p / resolution_m) per axis, the lattice of StandardVoxelGrid and OctoMap), one
+ * entry per voxel holding a point, at its centre (index + 1/2) resolution_m.
+ *
+ * Each voxel is also classified as ground or not, independently of the pipeline's own
+ * ground removal: the world's up axis is +z; the voxels are grouped into vertical
+ * columns of GROUND_COLUMN_SIZE_M x GROUND_COLUMN_SIZE_M (x, y) by the voxel centre,
+ * and a voxel is ground when its centre z is at most GROUND_HEIGHT_M above the lowest
+ * voxel centre of its column. A column without a floor (a wall seen above nothing)
+ * counts its lowest GROUND_HEIGHT_M as ground.
+ *
+ * Voxels are ordered by (z, y, x) index (deterministic). A truth point whose index is
+ * outside [-(2^20 - 1), 2^20 - 1] per axis (StandardVoxelGrid::MAX_INDEX: 104.8 km at
+ * 0.1 m) is left out with a PCL_WARN.
+ * \ingroup eval */
+class TruthVoxels {
+public:
+  /** \brief Edge of the (x, y) columns of the ground test, meters. */
+  static constexpr double GROUND_COLUMN_SIZE_M = 1.0;
+  /** \brief Height above the lowest truth voxel of its column up to which a truth
+   * voxel is ground, meters (inclusive; a 1e-6 m margin absorbs the rounding of whole
+   * multiples of the cell size such as 3 x 0.1 m). */
+  static constexpr double GROUND_HEIGHT_M = 0.3;
+
+  /** \brief Voxelizes the points of \a truth.
+   * \param[in] truth the ground truth
+   * \param[in] resolution_m voxel edge, meters, > 0
+   * \throws planar_grid::Exception for resolution_m <= 0 or not finite */
+  TruthVoxels(const GroundTruthSurface& truth, double resolution_m);
+
+  /** \brief Voxel edge, meters. */
+  [[nodiscard]] double getResolution() const { return resolution_m_; }
+  /** \brief Number of truth voxels. */
+  [[nodiscard]] std::size_t size() const { return indices_.size(); }
+  /** \brief Number of ground voxels among them. */
+  [[nodiscard]] std::size_t getGroundCount() const { return ground_count_; }
+  /** \brief Index of voxel \a i (i < size()). */
+  [[nodiscard]] const VoxelIndex& getIndex(std::size_t i) const { return indices_[i]; }
+  /** \brief Centre of voxel \a i, meters. */
+  [[nodiscard]] Eigen::Vector3f getCentre(std::size_t i) const;
+  /** \brief Whether voxel \a i is ground (see the class description). */
+  [[nodiscard]] bool isGround(std::size_t i) const { return ground_[i] != 0; }
+
+private:
+  /** \brief Voxel edge, meters. */
+  double resolution_m_;
+  /** \brief The voxels' indices, sorted by (z, y, x). */
+  std::vector<VoxelIndex> indices_;
+  /** \brief 1 for a ground voxel, parallel to indices_. */
+  std::vector<std::uint8_t> ground_;
+  /** \brief Number of ground voxels. */
+  std::size_t ground_count_{0};
+};
+
+/** \brief Completeness of one method: how much of the truth its occupied cells cover.
+ * A method cannot lower it by dropping data, as it can the mapping error.
+ * \ingroup eval */
+struct Completeness {
+  /** \brief Truth voxels counted (TruthVoxels; with a region, those whose centre is in
+   * it; for the planar share, the non-ground ones). */
+  std::size_t truth_voxels{0};
+  /** \brief Of them, those whose centre lies within the tolerance of an occupied cell.
+   */
+  std::size_t covered{0};
+
+  /** \brief covered / truth_voxels in [0, 1]; NaN without truth voxels. */
+  [[nodiscard]] double ratio() const
+  {
+    return truth_voxels > 0
+             ? static_cast<double>(covered) / static_cast<double>(truth_voxels)
+             : std::numeric_limits<double>::quiet_NaN();
+  }
+};
+
+/** \brief Completeness of SG: the share of the truth voxels whose centre lies within
+ * \a tolerance_m (Euclidean) of an occupied voxel (StandardVoxelGrid::isOccupied) taken
+ * as a solid cube.
+ *
+ * A truth voxel of index k is covered when one of the voxels k + d is occupied (looked
+ * up in the grid's hash map), for the offsets d whose cube is within tolerance_m of
+ * the centre: resolution_m |max(|d| - 1/2, 0)| <= tolerance_m (componentwise; at
+ * tolerance_m = resolution_m these are the 27 voxels sharing at least a corner with
+ * the truth voxel; a voxel two steps away is 1.5 resolution_m away), nearest first.
+ * Exact, since the truth voxels and SG share the lattice.
+ * \param[in] grid the standard voxel grid
+ * \param[in] truth the truth voxels, at the grid's resolution
+ * \param[in] tolerance_m meters, >= 0
+ * \param[in] region only the truth voxels whose centre is in it are counted (the
+ * occupied cells count wherever they are); default: all
+ * \throws planar_grid::Exception for tolerance_m < 0, NaN or above 16 resolution_m,
+ * or a truth resolution other than the grid's
+ * \ingroup eval */
+Completeness evaluateCompleteness(const StandardVoxelGrid& grid,
+                                  const TruthVoxels& truth,
+                                  double tolerance_m,
+                                  const MappingErrorRegion& region = {});
+
+/** \brief Completeness of RA: as the StandardVoxelGrid overload, the occupied cells
+ * being the voxels of the occupied boxes (a box is the union of its voxels), collected
+ * in a hash set of voxel indices (those within reach of a counted truth voxel).
+ * \param[in] boxes RA's boxes
+ * \param[in] resolution_m voxel edge of the grid the boxes came from, meters, > 0;
+ * the truth voxels' resolution
+ * \param[in] truth the truth voxels
+ * \param[in] tolerance_m meters, >= 0
+ * \param[in] region only the truth voxels whose centre is in it are counted
+ * \throws planar_grid::Exception for resolution_m <= 0, tolerance_m < 0 or above 16
+ * resolution_m, or a truth resolution other than resolution_m
+ * \ingroup eval */
+Completeness evaluateCompleteness(const AxisAlignedBoxes& boxes,
+                                  double resolution_m,
+                                  const TruthVoxels& truth,
+                                  double tolerance_m,
+                                  const MappingErrorRegion& region = {});
+
+/** \brief Completeness of OG: as the StandardVoxelGrid overload, the occupied cells
+ * being the occupied leaves (tree.isNodeOccupied) of any depth, a leaf being the
+ * union of its voxels of the tree's resolution, collected in a hash set of voxel
+ * indices (the leaves in the box of voxels within reach of a counted truth voxel).
+ * \param[in] tree the octree
+ * \param[in] truth the truth voxels, at the tree's resolution
+ * \param[in] tolerance_m meters, >= 0
+ * \param[in] region only the truth voxels whose centre is in it are counted
+ * \throws planar_grid::Exception for tolerance_m < 0 or above 16 resolution_m, or a
+ * truth resolution other than the tree's
+ * \ingroup eval */
+Completeness evaluateCompleteness(const octomap::OcTree& tree,
+                                  const TruthVoxels& truth,
+                                  double tolerance_m,
+                                  const MappingErrorRegion& region = {});
+
+/** \brief Completeness of PG: the share of the truth voxels whose centre lies within
+ * \a tolerance_m (Euclidean) of an occupied cuboid (probability >= occupancy_thres)
+ * taken as a solid oriented box (the exact Euclidean distance from the centre to the
+ * box, not to the cuboid's error samples: a thin or tilted cuboid covers what its
+ * volume reaches).
+ *
+ * The cuboids are put in a hash of cubic buckets of edge 2 (resolution + tolerance_m)
+ * (each in the buckets that its box grown by tolerance_m may reach); a truth voxel's
+ * centre is tested against the cuboids of its bucket.
+ * \param[in] cuboids PG's cuboids (world frame)
+ * \param[in] occupancy_thres probability in [0, 1]
+ * \param[in] truth the truth voxels (any resolution)
+ * \param[in] tolerance_m meters, >= 0
+ * \param[in] region only the truth voxels whose centre is in it are counted
+ * \throws planar_grid::Exception for tolerance_m < 0 or an occupancy_thres outside
+ * [0, 1]
+ * \note a cuboid with non-finite fields or a negative extent is skipped with a
+ * PCL_WARN
+ * \ingroup eval */
+Completeness evaluateCompleteness(const PlanarCuboids& cuboids,
+                                  double occupancy_thres,
+                                  const TruthVoxels& truth,
+                                  double tolerance_m,
+                                  const MappingErrorRegion& region = {});
+
+/** \brief Planar share of PG: the completeness of its occupied planar cuboids
+ * (PlanarCuboid::is_planar, probability >= occupancy_thres) over the non-ground truth
+ * voxels (TruthVoxels::isGround false): how much of the truth above the ground the
+ * planar cells explain. Same distance test and arguments as the PlanarCuboids
+ * overload of evaluateCompleteness().
+ * \return truth_voxels = non-ground truth voxels (in the region), covered = those
+ * within tolerance_m of an occupied planar cuboid
+ * \ingroup eval */
+Completeness evaluatePlanarShare(const PlanarCuboids& cuboids,
+                                 double occupancy_thres,
+                                 const TruthVoxels& truth,
+                                 double tolerance_m,
+                                 const MappingErrorRegion& region = {});
 
 } // namespace planar_grid
