@@ -11,6 +11,8 @@
 #include <pcl/io/ply_io.h>
 #include <pcl/io/vtk_io.h>
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <array>
 #include <cctype>
@@ -36,7 +38,9 @@ constexpr float MAX_COORDINATE_M = 1e7f;
 constexpr double MAX_BINS_PER_CUBOID = 4096.0;
 /** \brief Section magic ("PGSL") and version of serialize(). */
 constexpr std::uint32_t MAGIC = 0x4C534750u;
-constexpr std::uint32_t VERSION = 1;
+constexpr std::uint32_t VERSION = 2;
+/** \brief Largest Params::close_gaps_cells. */
+constexpr int MAX_CLOSE_GAPS_CELLS = 32;
 
 /** \brief Key of raster cell (i, j), ordered by row j then column i. */
 inline std::uint64_t
@@ -115,42 +119,262 @@ finiteVector(const Eigen::Vector3f& v)
   return v.allFinite() && v.cwiseAbs().maxCoeff() <= MAX_COORDINATE_M;
 }
 
-/** \brief One raster cell: sum and count of the feature probabilities inside it. */
-struct RasterCell {
-  double probability_sum{0.0};
-  std::uint32_t feature_count{0};
-  bool operator==(const RasterCell& o) const
+/** \brief Largest feature count of a raster cell (u16); beyond it the sum is rescaled
+ * so that the mean stays that of all features. */
+constexpr std::uint32_t MAX_FEATURE_COUNT = 65535u;
+
+/** \brief A map plane's observed cells: three parallel arrays sorted by cellKey (row
+ * j, then column i), 14 bytes per cell. */
+struct Raster {
+  std::vector<std::uint64_t> keys;
+  /** Sum of the probabilities of the features in the cell. */
+  std::vector<float> probability_sums;
+  /** Number of features in the cell (saturating at MAX_FEATURE_COUNT). */
+  std::vector<std::uint16_t> feature_counts;
+
+  std::size_t size() const { return keys.size(); }
+
+  /** Index of \a key, or -1. */
+  std::ptrdiff_t find(std::uint64_t key) const
   {
-    return probability_sum == o.probability_sum && feature_count == o.feature_count;
+    const auto it = std::lower_bound(keys.begin(), keys.end(), key);
+    return (it != keys.end() && *it == key) ? it - keys.begin() : -1;
+  }
+
+  /** Adds the cells of \a sorted_keys (sorted, unique) not yet present, without
+   * evidence; the arrays are reallocated to their exact size. Returns the number
+   * added. */
+  std::size_t insert(const std::vector<std::uint64_t>& sorted_keys)
+  {
+    std::size_t fresh = 0;
+    for (std::size_t a = 0, b = 0; b < sorted_keys.size();) {
+      if (a < keys.size() && keys[a] < sorted_keys[b])
+        ++a;
+      else {
+        fresh += (a < keys.size() && keys[a] == sorted_keys[b]) ? 0 : 1;
+        ++b;
+      }
+    }
+    if (fresh == 0)
+      return 0;
+    std::vector<std::uint64_t> k;
+    std::vector<float> s;
+    std::vector<std::uint16_t> c;
+    const std::size_t total = keys.size() + fresh;
+    k.reserve(total);
+    s.reserve(total);
+    c.reserve(total);
+    std::size_t a = 0, b = 0;
+    while (a < keys.size() || b < sorted_keys.size()) {
+      if (b == sorted_keys.size() || (a < keys.size() && keys[a] <= sorted_keys[b])) {
+        if (b < sorted_keys.size() && keys[a] == sorted_keys[b])
+          ++b;
+        k.push_back(keys[a]);
+        s.push_back(probability_sums[a]);
+        c.push_back(feature_counts[a]);
+        ++a;
+      } else {
+        k.push_back(sorted_keys[b++]);
+        s.push_back(0.0f);
+        c.push_back(0);
+      }
+    }
+    keys.swap(k);
+    probability_sums.swap(s);
+    feature_counts.swap(c);
+    return fresh;
+  }
+
+  /** Adds \a count features of probability sum \a sum to cell \a index; past
+   * MAX_FEATURE_COUNT the sum is rescaled to keep the mean of all features. */
+  void addEvidence(std::size_t index, double sum, std::uint32_t count)
+  {
+    if (count == 0)
+      return;
+    const std::uint32_t total = feature_counts[index] + count;
+    double new_sum = static_cast<double>(probability_sums[index]) + sum;
+    if (total > MAX_FEATURE_COUNT) {
+      new_sum *= static_cast<double>(MAX_FEATURE_COUNT) / total;
+      feature_counts[index] = static_cast<std::uint16_t>(MAX_FEATURE_COUNT);
+    } else {
+      feature_counts[index] = static_cast<std::uint16_t>(total);
+    }
+    probability_sums[index] =
+      static_cast<float>(std::min(new_sum, static_cast<double>(feature_counts[index])));
+  }
+
+  bool operator==(const Raster& o) const
+  {
+    return keys == o.keys && probability_sums == o.probability_sums
+           && feature_counts == o.feature_counts;
+  }
+
+  std::size_t bytes() const
+  {
+    return keys.capacity() * sizeof(std::uint64_t)
+           + probability_sums.capacity() * sizeof(float)
+           + feature_counts.capacity() * sizeof(std::uint16_t);
   }
 };
 
-/** \brief A map plane: coefficients as created, its fixed 2D frame, raster and cached
- * cuboids. */
+/** \brief Area moments of a map plane's evidence (the faces of the planar cuboids it
+ * received), in double about an anchor point so that planes far from the world
+ * origin keep their precision: weight = sum of the face areas, sum = sum of
+ * area (centre - anchor), sum_sq = sum of area ((centre - anchor)(centre - anchor)^T
+ * + width^2 / 12 h h^T + height^2 / 12 v v^T), the exact moments of the rectangles. */
+struct PlaneMoments {
+  Eigen::Vector3d anchor{Eigen::Vector3d::Zero()};
+  double weight{0.0};
+  Eigen::Vector3d sum{Eigen::Vector3d::Zero()};
+  Eigen::Matrix3d sum_sq{Eigen::Matrix3d::Zero()};
+
+  /** Adds the face of \a c with weight its area plus \a min_weight (so that a face of
+   * zero area still counts as a point). The first face sets the anchor. */
+  void addFace(const PlanarCuboid& c, double min_weight)
+  {
+    const double w = c.width_m, h = c.height_m;
+    const double area = w * h + min_weight;
+    const Eigen::Vector3d centre = c.faceCentre().cast<double>();
+    if (weight == 0.0)
+      anchor = centre;
+    const Eigen::Vector3d rel = centre - anchor;
+    const Eigen::Vector3d hx = c.horizontal_axis.cast<double>();
+    const Eigen::Vector3d vy = c.verticalAxis().cast<double>();
+    weight += area;
+    sum += area * rel;
+    sum_sq += area
+              * (rel * rel.transpose() + (w * w / 12.0) * hx * hx.transpose()
+                 + (h * h / 12.0) * vy * vy.transpose());
+    symmetrise();
+  }
+
+  /** Adds \a other (its moments moved to this anchor). */
+  void add(const PlaneMoments& other)
+  {
+    if (other.weight == 0.0)
+      return;
+    if (weight == 0.0) {
+      *this = other;
+      return;
+    }
+    const Eigen::Vector3d delta = other.anchor - anchor;
+    sum_sq += other.sum_sq + other.sum * delta.transpose()
+              + delta * other.sum.transpose()
+              + other.weight * delta * delta.transpose();
+    sum += other.sum + other.weight * delta;
+    weight += other.weight;
+    symmetrise();
+  }
+
+  /** Makes sum_sq exactly symmetric (rounding in the products above is not), so that
+   * the 6 values the file stores restore it bit for bit. */
+  void symmetrise()
+  {
+    const Eigen::Matrix3d s = 0.5 * (sum_sq + sum_sq.transpose());
+    sum_sq = s;
+  }
+
+  /** Weighted mean squared distance of the evidence to the plane n . x + d = 0,
+   * square meters (0 without evidence). */
+  double meanSquaredDistance(const Eigen::Vector3d& n, double d) const
+  {
+    if (!(weight > 0.0))
+      return 0.0;
+    const double c = n.dot(anchor) + d;
+    const double e =
+      n.dot((sum_sq / weight) * n) + 2.0 * c * n.dot(sum / weight) + c * c;
+    return std::max(0.0, e);
+  }
+
+  bool operator==(const PlaneMoments& o) const
+  {
+    return anchor == o.anchor && weight == o.weight && sum == o.sum
+           && sum_sq == o.sum_sq;
+  }
+};
+
+/** \brief A rectangle of a plane's cover, in raster cells [i0, i1) x [j0, j1), with
+ * the mean probability of its cells and the number of features in it (24 bytes). */
+struct RasterRect {
+  std::int32_t i0, i1, j0, j1;
+  float probability;
+  std::uint32_t point_count;
+};
+
+/** \brief A map plane: its fixed raster frame, its refined (least-squares) plane, the
+ * evidence moments, the raster and the cached cover. */
 struct MapPlane {
-  Eigen::Vector3f normal{Eigen::Vector3f::UnitZ()};
-  float d{0.0f};
+  /** The raster frame: the plane it was created on, origin -frame_d frame_normal,
+   * u = z x n normalised (x projected for a horizontal plane), v = n x u. */
+  Eigen::Vector3f frame_normal{Eigen::Vector3f::UnitZ()};
+  float frame_d{0.0f};
   Eigen::Vector3f origin{Eigen::Vector3f::Zero()};
   Eigen::Vector3f u_axis{Eigen::Vector3f::UnitX()};
   Eigen::Vector3f v_axis{Eigen::Vector3f::UnitY()};
-  /** Observed cells (key cellKey(i, j)). */
-  std::unordered_map<std::uint64_t, RasterCell> cells;
-  /** Cached cuboids of this plane (valid when !dirty). */
-  PlanarCuboids cuboids;
+  /** The refined plane; the faces' horizontal axis on it (u projected along the
+   * normal, normalised) and the lengths of the projections of u and v. */
+  Eigen::Vector3f normal{Eigen::Vector3f::UnitZ()};
+  float d{0.0f};
+  Eigen::Vector3f place_u{Eigen::Vector3f::UnitX()};
+  float scale_u{1.0f}, scale_v{1.0f};
+  PlaneMoments moments;
+  Raster raster;
+  /** Bounding box of the observed cells (valid when the raster is not empty). */
+  std::int32_t i_min{0}, i_max{-1}, j_min{0}, j_max{-1};
+  /** Cached cover (valid when !dirty). */
+  std::vector<RasterRect> rects;
   bool dirty{true};
 
-  /** Sets the coefficients and derives the frame (header: u = up x n or projected x,
-   * v = n x u, origin = -d n). */
-  void setPlane(const Eigen::Vector3f& n, float offset)
+  void setFrame(const Eigen::Vector3f& n, float offset)
   {
-    normal = n;
-    d = offset;
+    frame_normal = n;
+    frame_d = offset;
     origin = -offset * n;
     Eigen::Vector3f u = Eigen::Vector3f::UnitZ().cross(n);
     if (u.norm() < 1e-3f)
       u = Eigen::Vector3f::UnitX() - n * n.x();
     u_axis = u.normalized();
     v_axis = n.cross(u_axis);
+  }
+  /** Sets the refined plane (its normal is within plane_merge_angle_rad / 2 of the
+   * frame's after every integrate(), re-anchored otherwise). */
+  void setRefined(const Eigen::Vector3f& n, float offset)
+  {
+    normal = n;
+    d = offset;
+    const Eigen::Vector3f pu = u_axis - n * n.dot(u_axis);
+    scale_u = pu.norm();
+    // (u lies in the plane up to the angle between the normals, < pi / 2)
+    place_u = scale_u > 1e-6f ? Eigen::Vector3f(pu / scale_u) : u_axis;
+    scale_v = (v_axis - n * n.dot(v_axis)).norm();
+  }
+  void updateBounds()
+  {
+    if (raster.keys.empty()) {
+      i_min = j_min = 0;
+      i_max = j_max = -1;
+      return;
+    }
+    j_min = keyJ(raster.keys.front());
+    j_max = keyJ(raster.keys.back());
+    i_min = std::numeric_limits<std::int32_t>::max();
+    i_max = std::numeric_limits<std::int32_t>::min();
+    for (const auto key : raster.keys) {
+      i_min = std::min(i_min, keyI(key));
+      i_max = std::max(i_max, keyI(key));
+    }
+  }
+  /** Raster coordinates (in cells) of a world point projected on the frame. */
+  Eigen::Vector2d toRaster(const Eigen::Vector3f& p, double inv_r) const
+  {
+    const Eigen::Vector3f q = p - origin;
+    return {q.dot(u_axis) * inv_r, q.dot(v_axis) * inv_r};
+  }
+  /** World point of the centre of cell (i, j) on the frame's plane. */
+  Eigen::Vector3f cellCentre(std::int64_t i, std::int64_t j, double r) const
+  {
+    return origin + u_axis * static_cast<float>((static_cast<double>(i) + 0.5) * r)
+           + v_axis * static_cast<float>((static_cast<double>(j) + 0.5) * r);
   }
   PCL_MAKE_ALIGNED_OPERATOR_NEW
 };
@@ -187,6 +411,7 @@ struct NonPlanarCell {
 
 struct SurfaceLayer::Impl {
   std::vector<MapPlane, Eigen::aligned_allocator<MapPlane>> planes;
+  /** The refined planes, as returned by getPlanes(). */
   PlaneModels plane_models;
   std::vector<NonPlanarCell, Eigen::aligned_allocator<NonPlanarCell>> non_planar;
   /** Spatial hash of the non-planar cells' bounding boxes (bins of 4 cells; cells
@@ -344,6 +569,12 @@ validate(const SurfaceLayer::Params& p)
     bad("occupancy_thres (must be a probability in (0, 1))");
   if (!(p.feature_distance_m >= 0.0) || !std::isfinite(p.feature_distance_m))
     bad("feature_distance_m (must be finite and >= 0 m)");
+  if (p.close_gaps_cells < 0 || p.close_gaps_cells > MAX_CLOSE_GAPS_CELLS)
+    bad("close_gaps_cells (must be in [0, " + std::to_string(MAX_CLOSE_GAPS_CELLS)
+        + "] cells)");
+  if (p.merge_rule != SurfaceMergeRule::PAPER
+      && p.merge_rule != SurfaceMergeRule::MIN_RECTANGLES)
+    bad("merge_rule (must be paper or min_rectangles)");
 }
 
 NonPlanarKey
@@ -361,57 +592,611 @@ nonPlanarKey(const PlanarCuboid& c, double resolution_m)
                        r(c.thickness_m * inv)}};
 }
 
-/** \brief Rebuilds the cuboids of one plane: occupancy per cell (features' mean,
- * else propagated neighbours' mean, else 0.5), then the horizontal-then-vertical
- * merge of cells of one occupancy class. */
-void
-rebuildPlane(MapPlane& plane, int plane_id, const SurfaceLayer::Params& params)
+/** \brief Least-squares plane of the evidence \a m: the normal is the eigenvector of
+ * the smallest eigenvalue of the covariance, oriented like \a current_normal, used
+ * when the evidence spans a plane (middle eigenvalue >= 4 x the smallest, > 0) and
+ * within the angle whose cosine is \a cos_max_angle of \a current_normal (else
+ * \a current_normal is kept); d puts the plane through the centroid. Returns false
+ * (outputs untouched) without evidence or for non-finite results. */
+bool
+fitPlane(const PlaneMoments& m,
+         const Eigen::Vector3f& current_normal,
+         double cos_max_angle,
+         Eigen::Vector3d& normal,
+         double& d)
 {
-  plane.cuboids.clear();
+  if (!(m.weight > 0.0) || !std::isfinite(m.weight))
+    return false;
+  const Eigen::Vector3d mean = m.sum / m.weight;
+  const Eigen::Matrix3d covariance = m.sum_sq / m.weight - mean * mean.transpose();
+  if (!mean.allFinite() || !covariance.allFinite())
+    return false;
+  Eigen::Vector3d n = current_normal.cast<double>().normalized();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
+  if (solver.info() == Eigen::Success) {
+    const Eigen::Vector3d ev = solver.eigenvalues(); // ascending
+    if (ev(1) > 0.0 && ev(1) >= 4.0 * std::max(0.0, ev(0))) {
+      Eigen::Vector3d e = solver.eigenvectors().col(0).normalized();
+      if (e.dot(n) < 0.0)
+        e = -e;
+      if (e.allFinite() && e.dot(n) >= cos_max_angle)
+        n = e;
+    }
+  }
+  const double offset = -n.dot(m.anchor + mean);
+  if (!n.allFinite() || !std::isfinite(offset) || std::abs(offset) > MAX_COORDINATE_M)
+    return false;
+  normal = n;
+  d = offset;
+  return true;
+}
+
+/** \brief Refits the plane of \a plane from its moments (kept when the fit fails). */
+void
+refitPlane(MapPlane& plane, double cos_angle)
+{
+  Eigen::Vector3d n;
+  double d = 0.0;
+  if (fitPlane(plane.moments, plane.normal, cos_angle, n, d))
+    plane.setRefined(n.cast<float>().normalized(), static_cast<float>(d));
+}
+
+/** \brief True when one plane explains two evidence sets: \a a (normal \a na, a map
+ * plane) and \a b (normal \a nb): the normals within the merge angle, and the
+ * least-squares plane of both together within the merge angle of each normal and
+ * within the merge distance (root mean square) of each set. \a rms_b is then the
+ * root mean square distance of \a b to that plane, meters. */
+bool
+explainedByOnePlane(const PlaneMoments& a,
+                    const Eigen::Vector3f& na,
+                    const PlaneMoments& b,
+                    const Eigen::Vector3f& nb,
+                    const SurfaceLayer::Params& params,
+                    double cos_angle,
+                    double& rms_b)
+{
+  if (!(na.dot(nb) >= cos_angle) || !(a.weight > 0.0) || !(b.weight > 0.0))
+    return false;
+  PlaneMoments joint = a;
+  joint.add(b);
+  Eigen::Vector3d n;
+  double d = 0.0;
+  if (!fitPlane(joint, na, cos_angle, n, d) || !(n.dot(nb.cast<double>()) >= cos_angle))
+    return false;
+  const double limit = params.plane_merge_distance_m * params.plane_merge_distance_m;
+  const double ea = a.meanSquaredDistance(n, d);
+  const double eb = b.meanSquaredDistance(n, d);
+  if (!(ea <= limit) || !(eb <= limit))
+    return false;
+  rms_b = std::sqrt(eb);
+  return true;
+}
+
+/** \brief Cells inside a gap of at most \a max_gap cells between two observed cells
+ * of one row or one column (the closing of Params::close_gaps_cells); \a keys sorted
+ * by row, then column. The result is sorted, unique and disjoint from \a keys. */
+std::vector<std::uint64_t>
+closeGaps(const std::vector<std::uint64_t>& keys, int max_gap)
+{
+  std::vector<std::uint64_t> filled;
+  if (max_gap <= 0 || keys.size() < 2)
+    return filled;
+  // Rows: consecutive keys of one row.
+  for (std::size_t k = 0; k + 1 < keys.size(); ++k) {
+    const std::int32_t j = keyJ(keys[k]);
+    if (keyJ(keys[k + 1]) != j)
+      continue;
+    const std::int64_t a = keyI(keys[k]), b = keyI(keys[k + 1]);
+    if (b - a - 1 >= 1 && b - a - 1 <= max_gap)
+      for (std::int64_t i = a + 1; i < b; ++i)
+        filled.push_back(cellKey(static_cast<std::int32_t>(i), j));
+  }
+  // Columns: the same on the transposed keys (column i, then row j).
+  std::vector<std::uint64_t> transposed(keys.size());
+  for (std::size_t k = 0; k < keys.size(); ++k)
+    transposed[k] = cellKey(keyJ(keys[k]), keyI(keys[k]));
+  std::sort(transposed.begin(), transposed.end());
+  for (std::size_t k = 0; k + 1 < transposed.size(); ++k) {
+    const std::int32_t i = keyJ(transposed[k]);
+    if (keyJ(transposed[k + 1]) != i)
+      continue;
+    const std::int64_t a = keyI(transposed[k]), b = keyI(transposed[k + 1]);
+    if (b - a - 1 >= 1 && b - a - 1 <= max_gap)
+      for (std::int64_t j = a + 1; j < b; ++j)
+        filled.push_back(cellKey(i, static_cast<std::int32_t>(j)));
+  }
+  std::sort(filled.begin(), filled.end());
+  filled.erase(std::unique(filled.begin(), filled.end()), filled.end());
+  return filled;
+}
+
+/** \brief A rectangle of raster cells [i0, i1) x [j0, j1). */
+struct CellRect {
+  std::int32_t i0, i1, j0, j1;
+};
+
+/** \brief The paper's merge (Fig. 6b): maximal runs of one class along u per row,
+ * then runs with the same [i0, i1) and class in consecutive rows stacked into one
+ * rectangle. \a keys sorted by row, then column; \a cls the class of each. */
+std::vector<CellRect>
+paperCover(const std::vector<std::uint64_t>& keys, const std::vector<std::uint8_t>& cls)
+{
+  struct Run {
+    std::int32_t i0, i1;
+    std::uint8_t cls;
+    std::size_t rect;
+  };
+  std::vector<CellRect> rects;
+  std::vector<Run> previous, current;
+  std::int64_t previous_row = std::numeric_limits<std::int64_t>::min();
+  const std::size_t n = keys.size();
+  for (std::size_t k = 0; k < n;) {
+    const std::int32_t j = keyJ(keys[k]);
+    if (static_cast<std::int64_t>(j) != previous_row + 1)
+      previous.clear();
+    current.clear();
+    std::size_t p = 0;
+    while (k < n && keyJ(keys[k]) == j) {
+      const std::uint8_t c = cls[k];
+      const std::int32_t i0 = keyI(keys[k]);
+      std::int64_t i1 = static_cast<std::int64_t>(i0) + 1;
+      std::size_t e = k + 1;
+      while (e < n && keyJ(keys[e]) == j && keyI(keys[e]) == i1 && cls[e] == c) {
+        ++i1;
+        ++e;
+      }
+      const auto end = static_cast<std::int32_t>(i1);
+      while (p < previous.size() && previous[p].i0 < i0)
+        ++p;
+      std::size_t rect;
+      if (p < previous.size() && previous[p].i0 == i0 && previous[p].i1 == end
+          && previous[p].cls == c) {
+        rect = previous[p].rect;
+        rects[rect].j1 = j + 1;
+      } else {
+        rect = rects.size();
+        rects.push_back(CellRect{i0, end, j, j + 1});
+      }
+      current.push_back(Run{i0, end, c, rect});
+      k = e;
+    }
+    std::swap(previous, current);
+    previous_row = j;
+  }
+  return rects;
+}
+
+/** \brief A minimum partition into rectangles of one 4-connected component \a keys
+ * (inside the box of w x h cells at (i_lo, j_lo)), by the classical construction for
+ * rectilinear polygons with holes (Lipski et al. 1979; Ohtsuki 1982; Ferrari et al.
+ * 1979): a reflex (concave) corner of the region is a grid point with 3 of its 4
+ * cells in it; a chord joins two reflex corners facing each other along a grid line
+ * through the region's interior; a largest set of pairwise non-intersecting chords
+ * (the complement of a minimum vertex cover of the bipartite intersection graph of
+ * horizontal and vertical chords, by Koenig's theorem from a maximum matching) is
+ * cut, then every reflex corner not yet resolved is cut horizontally until the
+ * boundary or a cut. That gives the fewest rectangles: reflex corners - chords + 1 -
+ * holes. Returns an empty vector if a region is not a rectangle (not expected; the
+ * caller then keeps the paper's cover). */
+std::vector<CellRect>
+minimumPartition(const std::vector<std::uint64_t>& keys,
+                 std::int64_t i_lo,
+                 std::int64_t j_lo,
+                 std::int64_t w,
+                 std::int64_t h)
+{
+  const auto W = static_cast<std::size_t>(w);
+  const auto H = static_cast<std::size_t>(h);
+  std::vector<std::uint8_t> inside(W * H, 0);
+  for (const auto key : keys)
+    inside[static_cast<std::size_t>(keyJ(key) - j_lo) * W
+           + static_cast<std::size_t>(keyI(key) - i_lo)] = 1;
+  const auto in = [&](std::int64_t x, std::int64_t y) {
+    return x >= 0 && y >= 0 && x < w && y < h
+           && inside[static_cast<std::size_t>(y) * W + static_cast<std::size_t>(x)]
+                != 0;
+  };
+  // Cuts: cut_right[c] separates cell c = (x, y) from (x + 1, y); cut_up[c] from
+  // (x, y + 1).
+  std::vector<std::uint8_t> cut_right(W * H, 0), cut_up(W * H, 0);
+  const auto cell = [W](std::int64_t x, std::int64_t y) {
+    return static_cast<std::size_t>(y) * W + static_cast<std::size_t>(x);
+  };
+  // Grid point (x, y), x in [0, w], y in [0, h], is the corner shared by the cells
+  // (x - 1, y - 1), (x, y - 1), (x - 1, y), (x, y).
+  const auto count_in = [&](std::int64_t x, std::int64_t y) {
+    return (in(x - 1, y - 1) ? 1 : 0) + (in(x, y - 1) ? 1 : 0) + (in(x - 1, y) ? 1 : 0)
+           + (in(x, y) ? 1 : 0);
+  };
+  struct Reflex {
+    std::int64_t x, y;
+    int dx, dy; // directions of its horizontal and vertical extensions
+  };
+  std::vector<Reflex> reflex;
+  for (std::int64_t y = 0; y <= h; ++y)
+    for (std::int64_t x = 0; x <= w; ++x)
+      if (count_in(x, y) == 3) {
+        const bool west_out = !in(x - 1, y - 1) || !in(x - 1, y);
+        const bool south_out = !in(x - 1, y - 1) || !in(x, y - 1);
+        reflex.push_back(Reflex{x, y, west_out ? 1 : -1, south_out ? 1 : -1});
+      }
+  // a point's reflex index, -1 otherwise
+  std::vector<std::int32_t> reflex_at((W + 1) * (H + 1), -1);
+  for (std::size_t k = 0; k < reflex.size(); ++k)
+    reflex_at[static_cast<std::size_t>(reflex[k].y) * (W + 1)
+              + static_cast<std::size_t>(reflex[k].x)] = static_cast<std::int32_t>(k);
+  const auto reflexAt = [&](std::int64_t x, std::int64_t y) {
+    return reflex_at[static_cast<std::size_t>(y) * (W + 1)
+                     + static_cast<std::size_t>(x)];
+  };
+  // Chords: from each reflex corner extending +x (+y), walk through interior points
+  // to the first boundary point; a chord when that is a reflex corner.
+  struct Chord {
+    std::int64_t fixed, lo, hi; // y (x) of the line, x (y) range of the points
+    std::int32_t a, b;          // its reflex corners
+  };
+  std::vector<Chord> horizontal, vertical;
+  for (std::size_t k = 0; k < reflex.size(); ++k) {
+    const Reflex& p = reflex[k];
+    if (p.dx == 1) {
+      std::int64_t x = p.x + 1;
+      while (x <= w && in(x - 1, p.y - 1) && in(x - 1, p.y) && count_in(x, p.y) == 4)
+        ++x;
+      if (x <= w && in(x - 1, p.y - 1) && in(x - 1, p.y) && reflexAt(x, p.y) >= 0
+          && reflex[static_cast<std::size_t>(reflexAt(x, p.y))].dx == -1)
+        horizontal.push_back(
+          Chord{p.y, p.x, x, static_cast<std::int32_t>(k), reflexAt(x, p.y)});
+    }
+    if (p.dy == 1) {
+      std::int64_t y = p.y + 1;
+      while (y <= h && in(p.x - 1, y - 1) && in(p.x, y - 1) && count_in(p.x, y) == 4)
+        ++y;
+      if (y <= h && in(p.x - 1, y - 1) && in(p.x, y - 1) && reflexAt(p.x, y) >= 0
+          && reflex[static_cast<std::size_t>(reflexAt(p.x, y))].dy == -1)
+        vertical.push_back(
+          Chord{p.x, p.y, y, static_cast<std::int32_t>(k), reflexAt(p.x, y)});
+    }
+  }
+  // Bipartite intersection graph (touching counts: a shared corner can take only
+  // one chord) and a maximum matching (augmenting paths, iterative).
+  std::vector<std::vector<std::uint32_t>> adjacent(horizontal.size());
+  for (std::size_t a = 0; a < horizontal.size(); ++a)
+    for (std::size_t b = 0; b < vertical.size(); ++b)
+      if (vertical[b].fixed >= horizontal[a].lo && vertical[b].fixed <= horizontal[a].hi
+          && horizontal[a].fixed >= vertical[b].lo
+          && horizontal[a].fixed <= vertical[b].hi)
+        adjacent[a].push_back(static_cast<std::uint32_t>(b));
+  constexpr std::uint32_t NONE = std::numeric_limits<std::uint32_t>::max();
+  std::vector<std::uint32_t> match_h(horizontal.size(), NONE),
+    match_v(vertical.size(), NONE);
+  {
+    std::vector<std::uint32_t> seen(vertical.size(), NONE);
+    std::vector<std::pair<std::uint32_t, std::size_t>> stack; // (h, next edge)
+    for (std::size_t root = 0; root < horizontal.size(); ++root) {
+      stack.assign(1, {static_cast<std::uint32_t>(root), 0});
+      bool found = false;
+      while (!stack.empty() && !found) {
+        auto& [a, next] = stack.back();
+        if (next == adjacent[a].size()) {
+          stack.pop_back();
+          continue;
+        }
+        const std::uint32_t b = adjacent[a][next++];
+        if (seen[b] == static_cast<std::uint32_t>(root))
+          continue;
+        seen[b] = static_cast<std::uint32_t>(root);
+        if (match_v[b] == NONE) {
+          // augment along the stack: each h on it takes the v it went through
+          std::uint32_t v = b;
+          for (auto it = stack.rbegin(); it != stack.rend(); ++it) {
+            const std::uint32_t u = it->first;
+            const std::uint32_t previous = match_h[u];
+            match_h[u] = v;
+            match_v[v] = u;
+            v = previous;
+          }
+          found = true;
+        } else {
+          stack.push_back({match_v[b], 0});
+        }
+      }
+    }
+  }
+  // Koenig: Z = vertices reachable from unmatched horizontal chords by alternating
+  // paths; the largest independent set is (horizontal in Z) + (vertical not in Z).
+  std::vector<std::uint8_t> z_h(horizontal.size(), 0), z_v(vertical.size(), 0);
+  {
+    std::vector<std::uint32_t> queue;
+    for (std::size_t a = 0; a < horizontal.size(); ++a)
+      if (match_h[a] == NONE) {
+        z_h[a] = 1;
+        queue.push_back(static_cast<std::uint32_t>(a));
+      }
+    for (std::size_t q = 0; q < queue.size(); ++q)
+      for (const auto b : adjacent[queue[q]])
+        if (z_v[b] == 0) {
+          z_v[b] = 1;
+          const std::uint32_t a = match_v[b];
+          if (a != NONE && z_h[a] == 0) {
+            z_h[a] = 1;
+            queue.push_back(a);
+          }
+        }
+  }
+  std::vector<std::uint8_t> resolved(reflex.size(), 0);
+  for (std::size_t a = 0; a < horizontal.size(); ++a)
+    if (z_h[a] != 0) {
+      const Chord& c = horizontal[a];
+      for (std::int64_t x = c.lo; x < c.hi; ++x)
+        cut_up[cell(x, c.fixed - 1)] = 1;
+      resolved[static_cast<std::size_t>(c.a)] =
+        resolved[static_cast<std::size_t>(c.b)] = 1;
+    }
+  for (std::size_t b = 0; b < vertical.size(); ++b)
+    if (z_v[b] == 0) {
+      const Chord& c = vertical[b];
+      for (std::int64_t y = c.lo; y < c.hi; ++y)
+        cut_right[cell(c.fixed - 1, y)] = 1;
+      resolved[static_cast<std::size_t>(c.a)] =
+        resolved[static_cast<std::size_t>(c.b)] = 1;
+    }
+  // Every other reflex corner: a horizontal cut to the boundary or the first cut.
+  // (A cut touching a reflex corner lies on one of its extensions: it is resolved.)
+  const auto verticalCutAt = [&](std::int64_t x, std::int64_t y) {
+    return (in(x - 1, y) && in(x, y) && cut_right[cell(x - 1, y)] != 0)
+           || (in(x - 1, y - 1) && in(x, y - 1) && cut_right[cell(x - 1, y - 1)] != 0);
+  };
+  const auto touchesCut = [&](std::int64_t x, std::int64_t y) {
+    return verticalCutAt(x, y)
+           || (in(x - 1, y - 1) && in(x - 1, y) && cut_up[cell(x - 1, y - 1)] != 0)
+           || (in(x, y - 1) && in(x, y) && cut_up[cell(x, y - 1)] != 0);
+  };
+  for (std::size_t k = 0; k < reflex.size(); ++k) {
+    if (resolved[k] != 0 || touchesCut(reflex[k].x, reflex[k].y))
+      continue;
+    const Reflex& p = reflex[k];
+    for (std::int64_t x = p.x;;) {
+      const std::int64_t column = p.dx == 1 ? x : x - 1;
+      if (!in(column, p.y - 1) || !in(column, p.y)
+          || cut_up[cell(column, p.y - 1)] != 0)
+        break;
+      cut_up[cell(column, p.y - 1)] = 1;
+      x += p.dx;
+      if (count_in(x, p.y) != 4 || verticalCutAt(x, p.y))
+        break;
+    }
+  }
+  // The regions between cuts; each must be a rectangle.
+  std::vector<std::uint32_t> region(W * H, NONE);
+  std::vector<CellRect> rects;
+  std::vector<std::size_t> queue;
+  for (std::int64_t y0 = 0; y0 < h; ++y0)
+    for (std::int64_t x0 = 0; x0 < w; ++x0) {
+      if (!in(x0, y0) || region[cell(x0, y0)] != NONE)
+        continue;
+      const auto id = static_cast<std::uint32_t>(rects.size());
+      std::int64_t x_min = x0, x_max = x0, y_min = y0, y_max = y0;
+      std::size_t cells = 0;
+      queue.assign(1, cell(x0, y0));
+      region[cell(x0, y0)] = id;
+      for (std::size_t q = 0; q < queue.size(); ++q) {
+        const auto x = static_cast<std::int64_t>(queue[q] % W);
+        const auto y = static_cast<std::int64_t>(queue[q] / W);
+        ++cells;
+        x_min = std::min(x_min, x);
+        x_max = std::max(x_max, x);
+        y_min = std::min(y_min, y);
+        y_max = std::max(y_max, y);
+        const auto visit = [&](std::int64_t nx, std::int64_t ny, bool blocked) {
+          if (!blocked && in(nx, ny) && region[cell(nx, ny)] == NONE) {
+            region[cell(nx, ny)] = id;
+            queue.push_back(cell(nx, ny));
+          }
+        };
+        visit(x + 1, y, x + 1 < w && cut_right[cell(x, y)] != 0);
+        visit(x - 1, y, x > 0 && cut_right[cell(x - 1, y)] != 0);
+        visit(x, y + 1, y + 1 < h && cut_up[cell(x, y)] != 0);
+        visit(x, y - 1, y > 0 && cut_up[cell(x, y - 1)] != 0);
+      }
+      if (static_cast<std::int64_t>(cells) != (x_max - x_min + 1) * (y_max - y_min + 1))
+        return {};
+      rects.push_back(CellRect{static_cast<std::int32_t>(i_lo + x_min),
+                               static_cast<std::int32_t>(i_lo + x_max + 1),
+                               static_cast<std::int32_t>(j_lo + y_min),
+                               static_cast<std::int32_t>(j_lo + y_max + 1)});
+    }
+  return rects;
+}
+
+/** \brief The MIN_RECTANGLES cover: per 4-connected component of one class, the
+ * minimum partition, or the paper's cover of the component when that is as small
+ * (always when it is one rectangle) or when the component's bounding box is much
+ * larger than its cells (a sparse staircase, where a dense grid would cost too
+ * much). */
+std::vector<CellRect>
+minRectangleCover(const std::vector<std::uint64_t>& keys,
+                  const std::vector<std::uint8_t>& cls)
+{
+  const std::size_t n = keys.size();
+  std::vector<std::uint32_t> parent(n);
+  for (std::size_t k = 0; k < n; ++k)
+    parent[k] = static_cast<std::uint32_t>(k);
+  const auto root = [&parent](std::uint32_t k) {
+    while (parent[k] != k) {
+      parent[k] = parent[parent[k]];
+      k = parent[k];
+    }
+    return k;
+  };
+  const auto unite = [&](std::size_t a, std::size_t b) {
+    const std::uint32_t ra = root(static_cast<std::uint32_t>(a));
+    const std::uint32_t rb = root(static_cast<std::uint32_t>(b));
+    if (ra != rb)
+      parent[std::max(ra, rb)] = std::min(ra, rb);
+  };
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::int32_t i = keyI(keys[k]), j = keyJ(keys[k]);
+    if (k + 1 < n && keyJ(keys[k + 1]) == j
+        && static_cast<std::int64_t>(keyI(keys[k + 1]))
+             == static_cast<std::int64_t>(i) + 1
+        && cls[k + 1] == cls[k])
+      unite(k, k + 1);
+    if (static_cast<std::int64_t>(j) + 1 > MAX_CELL_INDEX)
+      continue;
+    const std::uint64_t up = cellKey(i, j + 1);
+    const auto it = std::lower_bound(keys.begin() + static_cast<std::ptrdiff_t>(k) + 1,
+                                     keys.end(), up);
+    if (it != keys.end() && *it == up
+        && cls[static_cast<std::size_t>(it - keys.begin())] == cls[k])
+      unite(k, static_cast<std::size_t>(it - keys.begin()));
+  }
+  // Components numbered by their first cell; members in key order.
+  std::vector<std::uint32_t> component(n);
+  std::vector<std::uint32_t> id_of_root(n, std::numeric_limits<std::uint32_t>::max());
+  std::vector<std::size_t> sizes;
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::uint32_t rt = root(static_cast<std::uint32_t>(k));
+    if (id_of_root[rt] == std::numeric_limits<std::uint32_t>::max()) {
+      id_of_root[rt] = static_cast<std::uint32_t>(sizes.size());
+      sizes.push_back(0);
+    }
+    component[k] = id_of_root[rt];
+    ++sizes[component[k]];
+  }
+  std::vector<std::size_t> start(sizes.size() + 1, 0);
+  for (std::size_t c = 0; c < sizes.size(); ++c)
+    start[c + 1] = start[c] + sizes[c];
+  std::vector<std::uint64_t> members(n);
+  {
+    std::vector<std::size_t> fill(start.begin(), start.end() - 1);
+    for (std::size_t k = 0; k < n; ++k)
+      members[fill[component[k]]++] = keys[k];
+  }
+  std::vector<CellRect> rects;
+  std::vector<std::uint64_t> sub;
+  std::vector<std::uint8_t> one_class;
+  for (std::size_t c = 0; c < sizes.size(); ++c) {
+    sub.assign(members.begin() + static_cast<std::ptrdiff_t>(start[c]),
+               members.begin() + static_cast<std::ptrdiff_t>(start[c + 1]));
+    one_class.assign(sub.size(), 0);
+    std::vector<CellRect> paper = paperCover(sub, one_class);
+    if (paper.size() > 1) {
+      std::int64_t i_lo = keyI(sub.front()), i_hi = i_lo;
+      for (const auto key : sub) {
+        i_lo = std::min<std::int64_t>(i_lo, keyI(key));
+        i_hi = std::max<std::int64_t>(i_hi, keyI(key));
+      }
+      const std::int64_t j_lo = keyJ(sub.front()), j_hi = keyJ(sub.back());
+      const std::int64_t w = i_hi - i_lo + 1, h = j_hi - j_lo + 1;
+      // a 4-connected component of m cells spans at most m x m cells
+      if (static_cast<double>(w) * static_cast<double>(h)
+          <= 8.0 * static_cast<double>(sub.size()) + 4096.0) {
+        std::vector<CellRect> fewest = minimumPartition(sub, i_lo, j_lo, w, h);
+        if (!fewest.empty() && fewest.size() < paper.size())
+          paper.swap(fewest);
+      }
+    }
+    rects.insert(rects.end(), paper.begin(), paper.end());
+  }
+  return rects;
+}
+
+/** \brief Rebuilds the cover of one plane: the gap closing, the occupancy per cell
+ * (features' mean, else the propagated neighbours' mean, else 0.5), then the cover of
+ * Params::merge_rule over cells of one occupancy class, with each rectangle's mean
+ * probability and feature count, sorted by first row, then first column. */
+void
+rebuildPlane(MapPlane& plane, const SurfaceLayer::Params& params)
+{
+  std::vector<RasterRect>().swap(plane.rects);
   plane.dirty = false;
-  const std::size_t n = plane.cells.size();
-  if (n == 0)
+  const Raster& raster = plane.raster;
+  if (raster.size() == 0)
     return;
+  const std::vector<std::uint64_t> filled =
+    closeGaps(raster.keys, params.close_gaps_cells);
+  const std::size_t n = raster.size() + filled.size();
   std::vector<std::uint64_t> keys;
   keys.reserve(n);
-  for (const auto& kv : plane.cells)
-    keys.push_back(kv.first);
-  std::sort(keys.begin(), keys.end()); // row j, then column i
-  const auto indexOf = [&keys](std::int32_t i, std::int32_t j) -> std::ptrdiff_t {
-    const std::uint64_t k = cellKey(i, j);
-    const auto it = std::lower_bound(keys.begin(), keys.end(), k);
-    return (it != keys.end() && *it == k) ? it - keys.begin() : -1;
-  };
-
-  // Occupancy (paper, end of III-F): features' mean; featureless cells take the mean
-  // of their valued 8-neighbours, layer by layer outward; unreachable cells 0.5.
-  std::vector<float> value(n, std::numeric_limits<float>::quiet_NaN());
-  std::vector<std::uint32_t> count(n, 0);
-  for (std::size_t k = 0; k < n; ++k) {
-    const RasterCell& cell = plane.cells.find(keys[k])->second;
-    count[k] = cell.feature_count;
-    if (cell.feature_count > 0)
-      value[k] = static_cast<float>(cell.probability_sum / cell.feature_count);
+  // Occupancy (paper, end of III-F): features' mean; featureless and filled cells take
+  // the mean of their valued 8-neighbours, layer by layer outward; unreachable cells
+  // 0.5.
+  std::vector<float> value;
+  std::vector<std::uint32_t> count;
+  value.reserve(n);
+  count.reserve(n);
+  for (std::size_t a = 0, b = 0; a < raster.size() || b < filled.size();) {
+    if (b == filled.size() || (a < raster.size() && raster.keys[a] < filled[b])) {
+      keys.push_back(raster.keys[a]);
+      const std::uint32_t features = raster.feature_counts[a];
+      count.push_back(features);
+      value.push_back(features > 0 ? static_cast<float>(
+                        static_cast<double>(raster.probability_sums[a]) / features)
+                                   : std::numeric_limits<float>::quiet_NaN());
+      ++a;
+    } else {
+      keys.push_back(filled[b++]);
+      count.push_back(0);
+      value.push_back(std::numeric_limits<float>::quiet_NaN());
+    }
   }
   std::size_t valued_cells = 0;
   for (std::size_t k = 0; k < n; ++k)
     valued_cells += count[k] > 0 ? 1 : 0;
   // neighbours only matter when valued and featureless cells coexist
   const bool propagate = valued_cells > 0 && valued_cells < n;
+  // The 8 neighbours (row below, same row, row above; by column), -1 when absent,
+  // by one sweep over the rows with a pointer into the row below and the row above.
   std::vector<std::array<std::ptrdiff_t, 8>> neighbours(propagate ? n : 0);
-  for (std::size_t k = 0; propagate && k < n; ++k) {
-    const std::int32_t i = keyI(keys[k]), j = keyJ(keys[k]);
-    int m = 0;
-    for (int dj = -1; dj <= 1; ++dj)
-      for (int di = -1; di <= 1; ++di)
-        if (di != 0 || dj != 0)
-          neighbours[k][m++] = indexOf(i + di, j + dj);
+  for (std::size_t start = 0; propagate && start < n;) {
+    const std::int64_t j = keyJ(keys[start]);
+    std::size_t end = start;
+    while (end < n && keyJ(keys[end]) == j)
+      ++end;
+    // rows j - 1 and j + 1: [lo, hi) ranges, empty when absent
+    std::size_t below_lo = start, below_hi = start, above_lo = end, above_hi = end;
+    if (start > 0 && keyJ(keys[start - 1]) == j - 1) {
+      below_hi = start;
+      below_lo = start - 1;
+      while (below_lo > 0 && keyJ(keys[below_lo - 1]) == j - 1)
+        --below_lo;
+    }
+    if (end < n && keyJ(keys[end]) == j + 1) {
+      above_hi = end;
+      while (above_hi < n && keyJ(keys[above_hi]) == j + 1)
+        ++above_hi;
+    }
+    std::size_t pb = below_lo, pa = above_lo;
+    for (std::size_t k = start; k < end; ++k) {
+      const std::int64_t i = keyI(keys[k]);
+      const auto find3 = [&](std::size_t& p, std::size_t hi, std::ptrdiff_t* out) {
+        while (p < hi && keyI(keys[p]) < i - 1)
+          ++p;
+        for (std::int64_t di = -1; di <= 1; ++di) {
+          std::ptrdiff_t found = -1;
+          for (std::size_t q = p; q < hi && q <= p + 2; ++q)
+            if (keyI(keys[q]) == i + di)
+              found = static_cast<std::ptrdiff_t>(q);
+          out[di + 1] = found;
+        }
+      };
+      std::array<std::ptrdiff_t, 8>& nb = neighbours[k];
+      find3(pb, below_hi, nb.data());
+      nb[3] = (k > start && keyI(keys[k - 1]) == i - 1)
+                ? static_cast<std::ptrdiff_t>(k - 1)
+                : -1;
+      nb[4] = (k + 1 < end && keyI(keys[k + 1]) == i + 1)
+                ? static_cast<std::ptrdiff_t>(k + 1)
+                : -1;
+      find3(pa, above_hi, nb.data() + 5);
+    }
+    start = end;
   }
   std::vector<std::size_t> layer, next;
   for (std::size_t k = 0; propagate && k < n; ++k)
     if (std::isnan(value[k]))
       for (const auto nb : neighbours[k])
-        if (nb >= 0 && !std::isnan(value[nb])) {
+        if (nb >= 0 && !std::isnan(value[static_cast<std::size_t>(nb)])) {
           layer.push_back(k);
           break;
         }
@@ -425,8 +1210,8 @@ rebuildPlane(MapPlane& plane, int plane_id, const SurfaceLayer::Params& params)
       double sum = 0.0;
       int valued = 0;
       for (const auto nb : neighbours[layer[l]])
-        if (nb >= 0 && !std::isnan(value[nb])) {
-          sum += value[nb];
+        if (nb >= 0 && !std::isnan(value[static_cast<std::size_t>(nb)])) {
+          sum += value[static_cast<std::size_t>(nb)];
           ++valued;
         }
       layer_values[l] = static_cast<float>(sum / valued);
@@ -436,8 +1221,9 @@ rebuildPlane(MapPlane& plane, int plane_id, const SurfaceLayer::Params& params)
     next.clear();
     for (const auto k : layer)
       for (const auto nb : neighbours[k])
-        if (nb >= 0 && std::isnan(value[nb]) && queued[nb] == 0) {
-          queued[nb] = 1;
+        if (nb >= 0 && std::isnan(value[static_cast<std::size_t>(nb)])
+            && queued[static_cast<std::size_t>(nb)] == 0) {
+          queued[static_cast<std::size_t>(nb)] = 1;
           next.push_back(static_cast<std::size_t>(nb));
         }
     std::swap(layer, next);
@@ -446,88 +1232,197 @@ rebuildPlane(MapPlane& plane, int plane_id, const SurfaceLayer::Params& params)
     if (std::isnan(v))
       v = 0.5f;
 
-  // Merge (Fig. 6(b)): maximal runs along u of one class per row, then runs with the
-  // same [i0, i1) and class in consecutive rows are stacked into one rectangle.
-  struct Run {
-    std::int32_t i0, i1;
-    bool occupied;
-    std::size_t rect;
-  };
-  struct Rect {
-    std::int32_t i0, i1, j0, j1;
-    double probability_sum;
-    std::size_t feature_count;
-    std::size_t cells;
-  };
-  std::vector<Rect> rects;
-  std::vector<Run> previous, current;
-  std::int32_t previous_row = 0;
-  const double thres = params.occupancy_thres;
-  for (std::size_t k = 0; k < n;) {
-    const std::int32_t j = keyJ(keys[k]);
-    if (j != previous_row + 1)
-      previous.clear();
-    current.clear();
-    std::size_t p = 0;
-    while (k < n && keyJ(keys[k]) == j) {
-      const bool occupied = value[k] >= thres;
-      const std::int32_t i0 = keyI(keys[k]);
-      std::int32_t i1 = i0 + 1;
-      double sum = value[k];
-      std::size_t features = count[k];
-      std::size_t e = k + 1;
-      while (e < n && keyJ(keys[e]) == j && keyI(keys[e]) == i1
-             && (value[e] >= thres) == occupied) {
-        sum += value[e];
-        features += count[e];
-        ++i1;
-        ++e;
+  std::vector<std::uint8_t> cls(n);
+  for (std::size_t k = 0; k < n; ++k)
+    cls[k] = value[k] >= params.occupancy_thres ? 1 : 0;
+  std::vector<CellRect> cover = params.merge_rule == SurfaceMergeRule::PAPER
+                                  ? paperCover(keys, cls)
+                                  : minRectangleCover(keys, cls);
+  std::sort(cover.begin(), cover.end(), [](const CellRect& a, const CellRect& b) {
+    return a.j0 != b.j0 ? a.j0 < b.j0 : a.i0 < b.i0;
+  });
+  plane.rects.reserve(cover.size());
+  for (const CellRect& rect : cover) {
+    double sum = 0.0;
+    std::uint64_t features = 0, cells = 0;
+    for (std::int64_t j = rect.j0; j < rect.j1; ++j) {
+      auto k = static_cast<std::size_t>(
+        std::lower_bound(keys.begin(), keys.end(),
+                         cellKey(rect.i0, static_cast<std::int32_t>(j)))
+        - keys.begin());
+      for (std::int64_t i = rect.i0; i < rect.i1 && k < n; ++i, ++k) {
+        if (keys[k]
+            != cellKey(static_cast<std::int32_t>(i), static_cast<std::int32_t>(j)))
+          break; // unreachable: the cover holds only cells of the raster
+        sum += value[k];
+        features += count[k];
+        ++cells;
       }
-      while (p < previous.size() && previous[p].i0 < i0)
-        ++p;
-      std::size_t rect;
-      if (p < previous.size() && previous[p].i0 == i0 && previous[p].i1 == i1
-          && previous[p].occupied == occupied) {
-        rect = previous[p].rect;
-        rects[rect].j1 = j + 1;
-        rects[rect].probability_sum += sum;
-        rects[rect].feature_count += features;
-        rects[rect].cells += static_cast<std::size_t>(i1 - i0);
-      } else {
-        rect = rects.size();
-        rects.push_back(
-          Rect{i0, i1, j, j + 1, sum, features, static_cast<std::size_t>(i1 - i0)});
-      }
-      current.push_back(Run{i0, i1, occupied, rect});
-      k = e;
     }
-    std::swap(previous, current);
-    previous_row = j;
+    plane.rects.push_back(
+      RasterRect{rect.i0, rect.i1, rect.j0, rect.j1,
+                 static_cast<float>(cells > 0 ? sum / static_cast<double>(cells) : 0.5),
+                 static_cast<std::uint32_t>(std::min<std::uint64_t>(
+                   features, std::numeric_limits<std::uint32_t>::max()))});
   }
+}
 
-  const double r = params.resolution_m;
-  const float thickness = static_cast<float>(params.thickness_m);
-  plane.cuboids.reserve(rects.size());
-  for (const Rect& rect : rects) {
-    // In double: corrupt (but accepted) raster keys near the int range must not
-    // overflow.
-    const double u_mid = 0.5 * (static_cast<double>(rect.i0) + rect.i1) * r;
-    const double v_mid = 0.5 * (static_cast<double>(rect.j0) + rect.j1) * r;
-    PlanarCuboid c;
-    c.normal = plane.normal;
-    c.horizontal_axis = plane.u_axis;
-    c.width_m = static_cast<float>((static_cast<double>(rect.i1) - rect.i0) * r);
-    c.height_m = static_cast<float>((static_cast<double>(rect.j1) - rect.j0) * r);
-    c.thickness_m = thickness;
-    c.centre = plane.origin + plane.u_axis * static_cast<float>(u_mid)
-               + plane.v_axis * static_cast<float>(v_mid)
-               - plane.normal * (0.5f * thickness);
-    c.plane_id = plane_id;
-    c.point_count = rect.feature_count;
-    c.is_planar = true;
-    c.probability = static_cast<float>(rect.probability_sum / rect.cells);
-    plane.cuboids.push_back(c);
+/** \brief The cuboid of rectangle \a rect of \a plane: the raster frame projected
+ * onto the refined plane along its normal (the centre projected, the horizontal axis
+ * u projected and normalised, the extents scaled by the projections of u and v,
+ * factors within cos(plane_merge_angle_rad) of 1, so that rectangles adjacent in the
+ * raster stay adjacent up to a shear of the order of the angle squared), extruded by
+ * \a thickness behind the face. */
+PlanarCuboid
+rectCuboid(const MapPlane& plane,
+           const RasterRect& rect,
+           int plane_id,
+           double r,
+           float thickness)
+{
+  // In double: corrupt (but accepted) raster keys near the int range must not
+  // overflow.
+  const double u_mid = 0.5 * (static_cast<double>(rect.i0) + rect.i1) * r;
+  const double v_mid = 0.5 * (static_cast<double>(rect.j0) + rect.j1) * r;
+  const Eigen::Vector3f on_frame = plane.origin
+                                   + plane.u_axis * static_cast<float>(u_mid)
+                                   + plane.v_axis * static_cast<float>(v_mid);
+  const Eigen::Vector3f on_plane =
+    on_frame - plane.normal * (plane.normal.dot(on_frame) + plane.d);
+  PlanarCuboid c;
+  c.normal = plane.normal;
+  c.horizontal_axis = plane.place_u;
+  c.width_m =
+    static_cast<float>((static_cast<double>(rect.i1) - rect.i0) * r * plane.scale_u);
+  c.height_m =
+    static_cast<float>((static_cast<double>(rect.j1) - rect.j0) * r * plane.scale_v);
+  c.thickness_m = thickness;
+  c.centre = on_plane - plane.normal * (0.5f * thickness);
+  c.plane_id = plane_id;
+  c.point_count = rect.point_count;
+  c.is_planar = true;
+  c.probability = rect.probability;
+  return c;
+}
+
+/** \brief Raster index of a coordinate in cells, or false when beyond
+ * MAX_CELL_INDEX. */
+bool
+cellIndex(double coordinate, std::int64_t& index)
+{
+  const double f = std::floor(coordinate);
+  if (!(std::abs(f) <= MAX_CELL_INDEX))
+    return false;
+  index = static_cast<std::int64_t>(f);
+  return true;
+}
+
+/** \brief Adds the cells of \a src to \a dst (another frame of about the same plane):
+ * every dst cell whose centre, projected onto src's frame, falls in an observed src
+ * cell is observed, and the features of a src cell go to the dst cell containing its
+ * centre (observed too, so no evidence is lost). */
+void
+reprojectRaster(const MapPlane& src, MapPlane& dst, double r)
+{
+  const double inv_r = 1.0 / r;
+  std::vector<std::uint64_t> keys;
+  keys.reserve(src.raster.size() * 2);
+  struct Evidence {
+    std::uint64_t key;
+    double sum;
+    std::uint32_t count;
+  };
+  std::vector<Evidence> evidence;
+  for (std::size_t k = 0; k < src.raster.size(); ++k) {
+    const std::int64_t i = keyI(src.raster.keys[k]), j = keyJ(src.raster.keys[k]);
+    const Eigen::Vector2d f = dst.toRaster(src.cellCentre(i, j, r), inv_r);
+    std::int64_t ci = 0, cj = 0;
+    if (!cellIndex(f.x(), ci) || !cellIndex(f.y(), cj))
+      continue;
+    const std::uint64_t key =
+      cellKey(static_cast<std::int32_t>(ci), static_cast<std::int32_t>(cj));
+    keys.push_back(key);
+    if (src.raster.feature_counts[k] > 0)
+      evidence.push_back(
+        Evidence{key, src.raster.probability_sums[k], src.raster.feature_counts[k]});
+    for (std::int64_t dj = -1; dj <= 1; ++dj)
+      for (std::int64_t di = -1; di <= 1; ++di) {
+        const std::int64_t a = ci + di, b = cj + dj;
+        if ((di == 0 && dj == 0) || std::abs(a) > MAX_CELL_INDEX
+            || std::abs(b) > MAX_CELL_INDEX)
+          continue;
+        const Eigen::Vector2d s = src.toRaster(dst.cellCentre(a, b, r), inv_r);
+        if (std::floor(s.x()) == static_cast<double>(i)
+            && std::floor(s.y()) == static_cast<double>(j))
+          keys.push_back(
+            cellKey(static_cast<std::int32_t>(a), static_cast<std::int32_t>(b)));
+      }
   }
+  std::sort(keys.begin(), keys.end());
+  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+  dst.raster.insert(keys);
+  for (const Evidence& e : evidence)
+    dst.raster.addEvidence(static_cast<std::size_t>(dst.raster.find(e.key)), e.sum,
+                           e.count);
+  dst.updateBounds();
+  dst.dirty = true;
+}
+
+/** \brief True when the rasters of \a a and \a b overlap or are adjacent: a cell
+ * centre of the smaller, projected onto the other's frame, falls in or next to (8
+ * neighbours) an observed cell of it. */
+bool
+rastersTouch(const MapPlane& a, const MapPlane& b, double r)
+{
+  if (a.raster.size() == 0 || b.raster.size() == 0)
+    return false;
+  const MapPlane& small = a.raster.size() <= b.raster.size() ? a : b;
+  const MapPlane& big = &small == &a ? b : a;
+  const double inv_r = 1.0 / r;
+  // The bounding boxes first.
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::max());
+  Eigen::Vector2d hi = -lo;
+  for (const std::int64_t i : {static_cast<std::int64_t>(small.i_min) - 1,
+                               static_cast<std::int64_t>(small.i_max) + 1})
+    for (const std::int64_t j : {static_cast<std::int64_t>(small.j_min) - 1,
+                                 static_cast<std::int64_t>(small.j_max) + 1}) {
+      const Eigen::Vector2d f = big.toRaster(small.cellCentre(i, j, r), inv_r);
+      lo = lo.cwiseMin(f);
+      hi = hi.cwiseMax(f);
+    }
+  if (!(hi.x() >= big.i_min - 2.0 && lo.x() <= big.i_max + 3.0
+        && hi.y() >= big.j_min - 2.0 && lo.y() <= big.j_max + 3.0))
+    return false;
+  for (const auto key : small.raster.keys) {
+    const Eigen::Vector2d f =
+      big.toRaster(small.cellCentre(keyI(key), keyJ(key), r), inv_r);
+    std::int64_t ci = 0, cj = 0;
+    if (!cellIndex(f.x(), ci) || !cellIndex(f.y(), cj))
+      continue;
+    for (std::int64_t dj = -1; dj <= 1; ++dj)
+      for (std::int64_t di = -1; di <= 1; ++di) {
+        const std::int64_t x = ci + di, y = cj + dj;
+        if (std::abs(x) <= MAX_CELL_INDEX && std::abs(y) <= MAX_CELL_INDEX
+            && big.raster.find(
+                 cellKey(static_cast<std::int32_t>(x), static_cast<std::int32_t>(y)))
+                 >= 0)
+          return true;
+      }
+  }
+  return false;
+}
+
+/** \brief Moves the raster of \a plane into a frame of its refined plane (when the
+ * refined normal has drifted from the frame's). */
+void
+reanchor(MapPlane& plane, double r)
+{
+  MapPlane fresh;
+  fresh.setFrame(plane.normal, plane.d);
+  fresh.setRefined(plane.normal, plane.d);
+  fresh.moments = plane.moments;
+  reprojectRaster(plane, fresh, r);
+  plane = std::move(fresh);
 }
 
 } // namespace
@@ -541,16 +1436,18 @@ SurfaceLayer::Impl::ensureCuboids(const Params& params)
   if (impl.cache_valid)
     return;
   std::size_t total = impl.non_planar.size();
-  for (std::size_t p = 0; p < impl.planes.size(); ++p) {
-    if (impl.planes[p].dirty)
-      rebuildPlane(impl.planes[p], static_cast<int>(p), params);
-    total += impl.planes[p].cuboids.size();
+  for (auto& plane : impl.planes) {
+    if (plane.dirty)
+      rebuildPlane(plane, params);
+    total += plane.rects.size();
   }
   impl.all_cuboids.clear();
   impl.all_cuboids.reserve(total);
-  for (const auto& plane : impl.planes)
-    impl.all_cuboids.insert(impl.all_cuboids.end(), plane.cuboids.begin(),
-                            plane.cuboids.end());
+  const auto thickness = static_cast<float>(params.thickness_m);
+  for (std::size_t p = 0; p < impl.planes.size(); ++p)
+    for (const RasterRect& rect : impl.planes[p].rects)
+      impl.all_cuboids.push_back(rectCuboid(impl.planes[p], rect, static_cast<int>(p),
+                                            params.resolution_m, thickness));
   for (const auto& cell : impl.non_planar) {
     PlanarCuboid c = cell.cuboid;
     c.probability = cell.feature_count > 0
@@ -637,9 +1534,21 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
   const double inv_r = 1.0 / r;
   const float tol = static_cast<float>(0.01 * r);
   const double cos_angle = std::cos(params_.plane_merge_angle_rad);
+  // a face of zero area still counts, as a point
+  const double min_face_weight = 1e-6 * r * r;
+  const auto valid_geometry = [](const PlanarCuboid& c) {
+    return finiteVector(c.centre) && c.normal.allFinite()
+           && c.horizontal_axis.allFinite() && std::isfinite(c.width_m)
+           && std::isfinite(c.height_m) && std::isfinite(c.thickness_m)
+           && c.width_m >= 0.0f && c.height_m >= 0.0f && c.thickness_m >= 0.0f;
+  };
+  // the faces whose cells are marked below (larger ones are skipped there)
+  const auto usable_face = [&valid_geometry, r](const PlanarCuboid& c) {
+    return valid_geometry(c)
+           && static_cast<double>(c.width_m) * c.height_m <= MAX_FACE_CELLS * r * r;
+  };
 
-  // 1. Frame plane -> map plane (oriented like the frame's cuboids, toward its
-  //    sensor; the nearest map plane within the angle and offset tolerances, else new).
+  // 1. Frame planes, oriented like the frame's cuboids (toward its sensor).
   std::vector<int> map_of_frame(planes.size(), -1);
   std::vector<bool> orientation_known(planes.size(), false);
   std::vector<Eigen::Vector4f, Eigen::aligned_allocator<Eigen::Vector4f>> oriented(
@@ -671,40 +1580,54 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
     PCL_WARN("[planar_grid::SurfaceLayer::integrate] Cuboids with a plane_id outside "
              "the %zu valid planes are treated as non-planar.\n",
              planes.size());
+
+  // 2. The area moments of each frame plane's faces.
+  std::vector<PlaneMoments> frame_moments(planes.size());
+  for (const PlanarCuboid& c : cuboids)
+    if (c.is_planar && c.plane_id >= 0
+        && static_cast<std::size_t>(c.plane_id) < planes.size()
+        && orientation_known[static_cast<std::size_t>(c.plane_id)] && usable_face(c))
+      frame_moments[static_cast<std::size_t>(c.plane_id)].addFace(c, min_face_weight);
+
+  // 3. Frame plane -> map plane: the map plane that explains the frame's faces best
+  //    together with its own evidence (header), else a new one. The frame's moments
+  //    join the map plane at once, so that a second frame plane of the same surface
+  //    is tested against them.
   std::vector<int> touched;
   for (std::size_t p = 0; p < planes.size(); ++p) {
-    if (!orientation_known[p])
+    if (!orientation_known[p] || !(frame_moments[p].weight > 0.0))
       continue;
     const Eigen::Vector3f n = oriented[p].head<3>();
     const float d = oriented[p][3];
     int best = -1;
-    float best_dd = std::numeric_limits<float>::max();
+    double best_rms = std::numeric_limits<double>::infinity();
     for (std::size_t m = 0; m < impl.planes.size(); ++m) {
       const MapPlane& mp = impl.planes[m];
-      const float dd = std::abs(mp.d - d);
-      if (mp.normal.dot(n) >= cos_angle && dd <= params_.plane_merge_distance_m
-          && dd < best_dd) {
+      double rms = 0.0;
+      if (explainedByOnePlane(mp.moments, mp.normal, frame_moments[p], n, params_,
+                              cos_angle, rms)
+          && rms < best_rms) {
         best = static_cast<int>(m);
-        best_dd = dd;
+        best_rms = rms;
       }
     }
     if (best < 0) {
       MapPlane mp;
-      mp.setPlane(n.normalized(), d);
+      mp.setFrame(n, d);
+      mp.setRefined(n, d);
       impl.planes.push_back(std::move(mp));
-      impl.plane_models.emplace_back(impl.planes.back().normal.x(),
-                                     impl.planes.back().normal.y(),
-                                     impl.planes.back().normal.z(), d);
       best = static_cast<int>(impl.planes.size()) - 1;
     }
     map_of_frame[p] = best;
-    impl.planes[static_cast<std::size_t>(best)].dirty = true;
+    impl.planes[static_cast<std::size_t>(best)].moments.add(frame_moments[p]);
     if (std::find(touched.begin(), touched.end(), best) == touched.end())
       touched.push_back(best);
   }
+  std::sort(touched.begin(), touched.end());
 
-  // 2. Planar cuboids mark the map plane's cells whose centres fall inside the face.
+  // 4. Planar cuboids mark the map plane's cells whose centres fall inside the face.
   // Non-planar cuboids replace the cell with the same key.
+  std::vector<std::vector<std::uint64_t>> marked(impl.planes.size());
   std::vector<std::uint32_t> frame_non_planar;
   std::vector<NonPlanarCell, Eigen::aligned_allocator<NonPlanarCell>> incoming;
   std::unordered_map<NonPlanarKey, std::size_t, NonPlanarKeyHash> frame_keys;
@@ -712,16 +1635,17 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
   const auto np_bin = static_cast<float>(4.0 * r);
   bool skipped = false;
   for (const PlanarCuboid& c : cuboids) {
-    if (!finiteVector(c.centre) || !c.normal.allFinite()
-        || !c.horizontal_axis.allFinite() || !std::isfinite(c.width_m)
-        || !std::isfinite(c.height_m) || !std::isfinite(c.thickness_m)
-        || c.width_m < 0.0f || c.height_m < 0.0f || c.thickness_m < 0.0f) {
+    if (!valid_geometry(c)) {
       skipped = true;
       continue;
     }
     const bool planar = c.is_planar && c.plane_id >= 0
                         && static_cast<std::size_t>(c.plane_id) < planes.size()
-                        && map_of_frame[static_cast<std::size_t>(c.plane_id)] >= 0;
+                        && orientation_known[static_cast<std::size_t>(c.plane_id)];
+    if (planar && map_of_frame[static_cast<std::size_t>(c.plane_id)] < 0) {
+      skipped = true; // its plane had only absurd faces (> 1e7 cells)
+      continue;
+    }
     if (!planar) {
       NonPlanarCell cell;
       cell.cuboid = c;
@@ -735,8 +1659,9 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
         incoming[inserted.first->second] = cell; // same key twice in one frame
       continue;
     }
-    MapPlane& mp = impl.planes[static_cast<std::size_t>(
-      map_of_frame[static_cast<std::size_t>(c.plane_id)])];
+    const auto m =
+      static_cast<std::size_t>(map_of_frame[static_cast<std::size_t>(c.plane_id)]);
+    const MapPlane& mp = impl.planes[m];
     const auto face = c.face();
     float u_lo = std::numeric_limits<float>::max(), u_hi = -u_lo;
     float v_lo = u_lo, v_hi = -u_lo;
@@ -764,7 +1689,6 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
     const Eigen::Vector3f h = c.horizontal_axis;
     const Eigen::Vector3f vert = c.verticalAxis();
     const float hw = 0.5f * c.width_m + tol, hh = 0.5f * c.height_m + tol;
-    mp.dirty = true;
     for (auto j = static_cast<std::int32_t>(j0); j <= static_cast<std::int32_t>(j1);
          ++j) {
       const Eigen::Vector3f row =
@@ -773,15 +1697,28 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
            ++i) {
         const Eigen::Vector3f q = row + mp.u_axis * static_cast<float>((i + 0.5) * r);
         if (std::abs(q.dot(h)) <= hw && std::abs(q.dot(vert)) <= hh)
-          mp.cells.try_emplace(cellKey(i, j));
+          marked[m].push_back(cellKey(i, j));
       }
     }
   }
   if (skipped)
     PCL_WARN("[planar_grid::SurfaceLayer::integrate] Skipped cuboids with non-finite "
              "or absurd (> 1e7 m or > 1e7 cells) geometry.\n");
+  // The marked cells join the rasters, and the touched planes are refitted to their
+  // evidence.
+  for (const int t : touched) {
+    MapPlane& mp = impl.planes[static_cast<std::size_t>(t)];
+    std::vector<std::uint64_t>& keys = marked[static_cast<std::size_t>(t)];
+    std::sort(keys.begin(), keys.end());
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    if (mp.raster.insert(keys) > 0)
+      mp.updateBounds();
+    std::vector<std::uint64_t>().swap(keys);
+    refitPlane(mp, cos_angle);
+    mp.dirty = true;
+  }
 
-  // 2b. Non-planar replacement (header): every stored cell of an earlier frame whose
+  // 4b. Non-planar replacement (header): every stored cell of an earlier frame whose
   // centre lies in a new cuboid grown by half a cell, or that contains the new
   // cuboid's centre, is removed; then the new cells are appended.
   {
@@ -827,6 +1764,10 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
   // 3. Features: each adds its probability to the observed cell it falls in on every
   // touched plane within feature_distance_m, and to this frame's non-planar cells
   // containing it.
+
+  // 5. Features: each adds its probability to the observed cell it falls in on every
+  // touched plane within feature_distance_m, and to this frame's non-planar cells
+  // containing it.
   if (!features.empty() && probabilities.size() != features.size()) {
     PCL_WARN("[planar_grid::SurfaceLayer::integrate] %zu probabilities for %zu "
              "features; features ignored.\n",
@@ -867,18 +1808,14 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
         MapPlane& mp = impl.planes[static_cast<std::size_t>(m)];
         if (std::abs(mp.normal.dot(p) + mp.d) > feature_distance)
           continue;
-        const Eigen::Vector3f q = p - mp.origin;
-        const double fi = std::floor(q.dot(mp.u_axis) * inv_r);
-        const double fj = std::floor(q.dot(mp.v_axis) * inv_r);
-        if (std::abs(fi) > MAX_CELL_INDEX || std::abs(fj) > MAX_CELL_INDEX)
+        const Eigen::Vector2d cell = mp.toRaster(p, inv_r);
+        std::int64_t i = 0, j = 0;
+        if (!cellIndex(cell.x(), i) || !cellIndex(cell.y(), j))
           continue;
-        const auto i = static_cast<std::int32_t>(fi);
-        const auto j = static_cast<std::int32_t>(fj);
-        const auto it = mp.cells.find(cellKey(i, j));
-        if (it == mp.cells.end())
-          continue;
-        it->second.probability_sum += prob;
-        ++it->second.feature_count;
+        const std::ptrdiff_t k = mp.raster.find(
+          cellKey(static_cast<std::int32_t>(i), static_cast<std::int32_t>(j)));
+        if (k >= 0)
+          mp.raster.addEvidence(static_cast<std::size_t>(k), prob, 1);
       }
       const auto add = [&](std::uint32_t index) {
         NonPlanarCell& cell = impl.non_planar[index];
@@ -898,6 +1835,61 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
         add(index);
     }
   }
+
+  // 6. Map planes that converged merge (header): a touched plane and any other that
+  // one plane explains and whose rasters overlap or touch. The plane with more
+  // evidence survives (lower index on a tie). Each merge removes a plane, so this
+  // ends.
+  for (bool merged = true; merged;) {
+    merged = false;
+    for (std::size_t ti = 0; ti < touched.size() && !merged; ++ti) {
+      const auto t = static_cast<std::size_t>(touched[ti]);
+      for (std::size_t m = 0; m < impl.planes.size() && !merged; ++m) {
+        const MapPlane& a = impl.planes[t];
+        const MapPlane& b = impl.planes[m];
+        double rms = 0.0;
+        if (m == t
+            || !explainedByOnePlane(a.moments, a.normal, b.moments, b.normal, params_,
+                                    cos_angle, rms)
+            || !rastersTouch(a, b, r))
+          continue;
+        std::size_t keep = t, gone = m;
+        if (b.moments.weight > a.moments.weight
+            || (b.moments.weight == a.moments.weight && m < t))
+          std::swap(keep, gone);
+        MapPlane& survivor = impl.planes[keep];
+        reprojectRaster(impl.planes[gone], survivor, r);
+        survivor.moments.add(impl.planes[gone].moments);
+        refitPlane(survivor, cos_angle);
+        impl.planes.erase(impl.planes.begin() + static_cast<std::ptrdiff_t>(gone));
+        const auto shift = [gone](std::size_t x) {
+          return static_cast<int>(x > gone ? x - 1 : x);
+        };
+        std::vector<int> next;
+        for (const int x : touched)
+          if (static_cast<std::size_t>(x) != gone)
+            next.push_back(shift(static_cast<std::size_t>(x)));
+        if (std::find(next.begin(), next.end(), shift(keep)) == next.end())
+          next.push_back(shift(keep));
+        std::sort(next.begin(), next.end());
+        touched.swap(next);
+        merged = true;
+      }
+    }
+  }
+
+  // 7. A refined normal that drifted from its raster frame's takes a new frame.
+  const double cos_reanchor = std::cos(0.5 * params_.plane_merge_angle_rad);
+  for (const int t : touched) {
+    MapPlane& mp = impl.planes[static_cast<std::size_t>(t)];
+    if (mp.normal.dot(mp.frame_normal) < cos_reanchor)
+      reanchor(mp, r);
+  }
+  impl.plane_models.resize(impl.planes.size());
+  for (std::size_t p = 0; p < impl.planes.size(); ++p)
+    impl.plane_models[p] =
+      Eigen::Vector4f(impl.planes[p].normal.x(), impl.planes[p].normal.y(),
+                      impl.planes[p].normal.z(), impl.planes[p].d);
   impl.invalidate();
 }
 
@@ -920,7 +1912,7 @@ SurfaceLayer::getCellCount() const
 {
   std::size_t n = impl_->non_planar.size();
   for (const auto& plane : impl_->planes)
-    n += plane.cells.size();
+    n += plane.raster.size();
   return n;
 }
 
@@ -932,7 +1924,7 @@ SurfaceLayer::getMemoryBytes() const
   std::size_t bytes = sizeof(SurfaceLayer) + sizeof(Impl);
   bytes += vectorBytes(impl.planes) + vectorBytes(impl.plane_models);
   for (const auto& plane : impl.planes)
-    bytes += hashMapBytes(plane.cells) + vectorBytes(plane.cuboids);
+    bytes += plane.raster.bytes() + vectorBytes(plane.rects);
   bytes += vectorBytes(impl.non_planar) + hashMapBytes(impl.np_bins)
            + vectorBytes(impl.np_large);
   for (const auto& kv : impl.np_bins)
@@ -1082,24 +2074,32 @@ SurfaceLayer::serialize(std::vector<std::uint8_t>& bytes) const
   w.put(params_.plane_merge_distance_m);
   w.put(params_.occupancy_thres);
   w.put(params_.feature_distance_m);
+  w.put(static_cast<std::uint32_t>(params_.close_gaps_cells));
+  w.put(static_cast<std::uint8_t>(params_.merge_rule));
   w.put(static_cast<std::uint64_t>(impl.planes.size()));
-  std::vector<std::uint64_t> keys;
   for (const auto& plane : impl.planes) {
-    w.put(plane.normal.x());
-    w.put(plane.normal.y());
-    w.put(plane.normal.z());
+    for (int k = 0; k < 3; ++k)
+      w.put(plane.frame_normal[k]);
+    w.put(plane.frame_d);
+    for (int k = 0; k < 3; ++k)
+      w.put(plane.normal[k]);
     w.put(plane.d);
-    w.put(static_cast<std::uint64_t>(plane.cells.size()));
-    keys.clear();
-    for (const auto& kv : plane.cells)
-      keys.push_back(kv.first);
-    std::sort(keys.begin(), keys.end());
-    for (const auto key : keys) {
-      const RasterCell& cell = plane.cells.find(key)->second;
-      w.put(keyI(key));
-      w.put(keyJ(key));
-      w.put(cell.probability_sum);
-      w.put(cell.feature_count);
+    const PlaneMoments& m = plane.moments;
+    for (int k = 0; k < 3; ++k)
+      w.put(m.anchor[k]);
+    w.put(m.weight);
+    for (int k = 0; k < 3; ++k)
+      w.put(m.sum[k]);
+    for (int a = 0; a < 3; ++a)
+      for (int b = a; b < 3; ++b)
+        w.put(m.sum_sq(a, b));
+    const Raster& raster = plane.raster;
+    w.put(static_cast<std::uint64_t>(raster.size()));
+    for (std::size_t k = 0; k < raster.size(); ++k) {
+      w.put(keyI(raster.keys[k]));
+      w.put(keyJ(raster.keys[k]));
+      w.put(raster.probability_sums[k]);
+      w.put(raster.feature_counts[k]);
     }
   }
   w.put(static_cast<std::uint64_t>(impl.non_planar.size()));
@@ -1120,16 +2120,18 @@ SurfaceLayer::serialize(std::vector<std::uint8_t>& bytes) const
 }
 
 namespace {
-constexpr std::size_t PLANE_BYTES = 4 * sizeof(float) + sizeof(std::uint64_t);
+constexpr std::size_t PLANE_BYTES =
+  8 * sizeof(float) + 13 * sizeof(double) + sizeof(std::uint64_t);
 constexpr std::size_t CELL_BYTES =
-  2 * sizeof(std::int32_t) + sizeof(double) + sizeof(std::uint32_t);
+  2 * sizeof(std::int32_t) + sizeof(float) + sizeof(std::uint16_t);
 constexpr std::size_t NON_PLANAR_BYTES =
   12 * sizeof(float) + sizeof(double) + sizeof(std::uint32_t);
 
 void
 checkSum(double sum, std::uint32_t count, const char* what)
 {
-  if (!std::isfinite(sum) || sum < -1e-9 || sum > count * (1.0 + 1e-9) + 1e-9)
+  // float sums of probabilities <= 1 may exceed the count by rounding only
+  if (!std::isfinite(sum) || sum < -1e-9 || sum > count * (1.0 + 1e-5) + 1e-9)
     throw IOError(std::string("surface layer: ") + what
                   + " probability sum outside [0, feature count]");
 }
@@ -1150,6 +2152,10 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
   if (rd.get<std::uint32_t>() != MAGIC)
     throw IOError("surface layer: bad magic (not a surface layer section)");
   const auto version = rd.get<std::uint32_t>();
+  if (version == 1)
+    throw IOError("surface layer: version 1 section (written before the map planes "
+                  "kept their evidence moments) is not supported by this reader "
+                  "(version 2); run the mapping again");
   if (version != VERSION)
     throw IOError("surface layer: unsupported version " + std::to_string(version));
   Params params;
@@ -1159,39 +2165,80 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
   params.plane_merge_distance_m = rd.get<double>();
   params.occupancy_thres = rd.get<double>();
   params.feature_distance_m = rd.get<double>();
+  const auto close_gaps = rd.get<std::uint32_t>();
+  const auto rule = rd.get<std::uint8_t>();
+  if (close_gaps > static_cast<std::uint32_t>(MAX_CLOSE_GAPS_CELLS))
+    throw IOError("surface layer: close_gaps_cells " + std::to_string(close_gaps)
+                  + " out of range");
+  if (rule > static_cast<std::uint8_t>(SurfaceMergeRule::MIN_RECTANGLES))
+    throw IOError("surface layer: unknown merge_rule " + std::to_string(rule));
+  params.close_gaps_cells = static_cast<int>(close_gaps);
+  params.merge_rule = static_cast<SurfaceMergeRule>(rule);
   try {
     validate(params);
   } catch (const Exception& e) {
     throw IOError(std::string("surface layer: ") + e.what());
   }
+  const double cos_angle = std::cos(params.plane_merge_angle_rad);
   auto impl = std::make_unique<Impl>();
   const std::size_t plane_count = rd.getCount(PLANE_BYTES, "plane");
   impl->planes.reserve(plane_count);
   impl->plane_models.reserve(plane_count);
   for (std::size_t p = 0; p < plane_count; ++p) {
-    Eigen::Vector3f n;
-    n.x() = rd.get<float>();
-    n.y() = rd.get<float>();
-    n.z() = rd.get<float>();
+    const std::string which = "surface layer: plane " + std::to_string(p);
+    Eigen::Vector3f frame_normal, normal;
+    for (int k = 0; k < 3; ++k)
+      frame_normal[k] = rd.get<float>();
+    const auto frame_d = rd.get<float>();
+    for (int k = 0; k < 3; ++k)
+      normal[k] = rd.get<float>();
     const auto d = rd.get<float>();
-    if (!unitVector(n) || !std::isfinite(d) || std::abs(d) > MAX_COORDINATE_M)
-      throw IOError("surface layer: plane " + std::to_string(p)
-                    + " has a non-unit normal or a bad offset");
+    if (!unitVector(frame_normal) || !unitVector(normal) || !std::isfinite(frame_d)
+        || !std::isfinite(d) || std::abs(frame_d) > MAX_COORDINATE_M
+        || std::abs(d) > MAX_COORDINATE_M)
+      throw IOError(which + " has a non-unit normal or a bad offset");
+    if (!(normal.dot(frame_normal) >= cos_angle))
+      throw IOError(which
+                    + ": its plane is more than plane_merge_angle_rad from its "
+                      "raster frame");
     MapPlane mp;
-    mp.setPlane(n, d);
+    mp.setFrame(frame_normal, frame_d);
+    mp.setRefined(normal, d);
+    PlaneMoments& m = mp.moments;
+    for (int k = 0; k < 3; ++k)
+      m.anchor[k] = rd.get<double>();
+    m.weight = rd.get<double>();
+    for (int k = 0; k < 3; ++k)
+      m.sum[k] = rd.get<double>();
+    for (int a = 0; a < 3; ++a)
+      for (int b = a; b < 3; ++b)
+        m.sum_sq(a, b) = m.sum_sq(b, a) = rd.get<double>();
+    if (!m.anchor.allFinite() || m.anchor.cwiseAbs().maxCoeff() > MAX_COORDINATE_M
+        || !(m.weight > 0.0) || !std::isfinite(m.weight) || !m.sum.allFinite()
+        || !m.sum_sq.allFinite())
+      throw IOError(which + " has invalid evidence moments");
     const std::size_t cell_count = rd.getCount(CELL_BYTES, "cell");
-    mp.cells.reserve(cell_count);
+    mp.raster.keys.reserve(cell_count);
+    mp.raster.probability_sums.reserve(cell_count);
+    mp.raster.feature_counts.reserve(cell_count);
     for (std::size_t c = 0; c < cell_count; ++c) {
       const auto i = rd.get<std::int32_t>();
       const auto j = rd.get<std::int32_t>();
-      RasterCell cell;
-      cell.probability_sum = rd.get<double>();
-      cell.feature_count = rd.get<std::uint32_t>();
-      checkSum(cell.probability_sum, cell.feature_count, "cell");
-      if (!mp.cells.emplace(cellKey(i, j), cell).second)
-        throw IOError("surface layer: duplicate cell in plane " + std::to_string(p));
+      const auto sum = rd.get<float>();
+      const auto count = rd.get<std::uint16_t>();
+      if (std::abs(static_cast<double>(i)) > MAX_CELL_INDEX
+          || std::abs(static_cast<double>(j)) > MAX_CELL_INDEX)
+        throw IOError(which + ": cell index out of range");
+      const std::uint64_t key = cellKey(i, j);
+      if (!mp.raster.keys.empty() && !(key > mp.raster.keys.back()))
+        throw IOError(which + ": cells not sorted or duplicated");
+      checkSum(sum, count, "cell");
+      mp.raster.keys.push_back(key);
+      mp.raster.probability_sums.push_back(sum);
+      mp.raster.feature_counts.push_back(count);
     }
-    impl->plane_models.emplace_back(n.x(), n.y(), n.z(), d);
+    mp.updateBounds();
+    impl->plane_models.emplace_back(normal.x(), normal.y(), normal.z(), d);
     impl->planes.push_back(std::move(mp));
   }
   const std::size_t non_planar_count = rd.getCount(NON_PLANAR_BYTES, "non-planar cell");
@@ -1293,16 +2340,21 @@ SurfaceLayer::operator==(const SurfaceLayer& other) const
       || a.plane_merge_angle_rad != b.plane_merge_angle_rad
       || a.plane_merge_distance_m != b.plane_merge_distance_m
       || a.occupancy_thres != b.occupancy_thres
-      || a.feature_distance_m != b.feature_distance_m)
+      || a.feature_distance_m != b.feature_distance_m
+      || a.close_gaps_cells != b.close_gaps_cells || a.merge_rule != b.merge_rule)
     return false;
   const Impl& x = *impl_;
   const Impl& y = *other.impl_;
   if (x.planes.size() != y.planes.size() || x.non_planar.size() != y.non_planar.size())
     return false;
-  for (std::size_t p = 0; p < x.planes.size(); ++p)
-    if (x.planes[p].normal != y.planes[p].normal || x.planes[p].d != y.planes[p].d
-        || x.planes[p].cells != y.planes[p].cells)
+  for (std::size_t p = 0; p < x.planes.size(); ++p) {
+    const MapPlane& u = x.planes[p];
+    const MapPlane& v = y.planes[p];
+    if (u.frame_normal != v.frame_normal || u.frame_d != v.frame_d
+        || u.normal != v.normal || u.d != v.d || !(u.moments == v.moments)
+        || !(u.raster == v.raster))
       return false;
+  }
   for (std::size_t k = 0; k < x.non_planar.size(); ++k) {
     const NonPlanarCell& c = x.non_planar[k];
     const NonPlanarCell& e = y.non_planar[k];
@@ -1315,6 +2367,23 @@ SurfaceLayer::operator==(const SurfaceLayer& other) const
       return false;
   }
   return true;
+}
+
+std::string
+toString(SurfaceMergeRule rule)
+{
+  return rule == SurfaceMergeRule::PAPER ? "paper" : "min_rectangles";
+}
+
+SurfaceMergeRule
+surfaceMergeRuleFromString(const std::string& name)
+{
+  if (name == "paper")
+    return SurfaceMergeRule::PAPER;
+  if (name == "min_rectangles")
+    return SurfaceMergeRule::MIN_RECTANGLES;
+  throw Exception("Unknown surface merge rule '" + name
+                  + "' (expected paper or min_rectangles)");
 }
 
 } // namespace planar_grid

@@ -378,7 +378,16 @@ mapIntegrationInfo()
     ParamSpec::real("plane_merge_angle_rad", d.surface.plane_merge_angle_rad, 0.001,
                     1.5, "rad", "Largest normal angle between one plane's views."),
     ParamSpec::real("plane_merge_distance_m", d.surface.plane_merge_distance_m, 0.001,
-                    10.0, "m", "Largest offset difference between one plane's views."),
+                    10.0, "m",
+                    "Largest RMS distance of a view's faces (and of the plane's "
+                    "evidence) to the least-squares plane of both."),
+    ParamSpec::integer("close_gaps_cells", d.surface.close_gaps_cells, 0, 32, "cells",
+                       "Gaps of up to this many cells between observed cells of a "
+                       "plane's row or column are filled before the merge; 0: none."),
+    ParamSpec::choice("merge_rule", toString(d.surface.merge_rule),
+                      {"paper", "min_rectangles"},
+                      "Cover of a plane's cells: the paper's runs stacked by equal "
+                      "extent (Fig. 6b), or the fewest rectangles."),
     ParamSpec::real("occupancy_thres", d.surface.occupancy_thres, 0.01, 0.99,
                     "probability", "Cells at or above it are occupied."),
     ParamSpec::real("feature_distance_m", d.surface.feature_distance_m, 0.0, 10.0, "m",
@@ -402,6 +411,8 @@ mapIntegrationInfo()
     p.surface.plane_merge_distance_m = v.getDouble("plane_merge_distance_m");
     p.surface.occupancy_thres = v.getDouble("occupancy_thres");
     p.surface.feature_distance_m = v.getDouble("feature_distance_m");
+    p.surface.close_gaps_cells = v.getInt("close_gaps_cells");
+    p.surface.merge_rule = surfaceMergeRuleFromString(v.getChoice("merge_rule"));
     return std::make_unique<MapIntegrationStage>(p, v.getInt("depth_width_px"),
                                                  v.getInt("depth_height_px"),
                                                  v.getDouble("depth_focal_length_px"));

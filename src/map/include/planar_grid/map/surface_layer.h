@@ -23,27 +23,94 @@ namespace planar_grid {
 using PlaneModels =
   std::vector<Eigen::Vector4f, Eigen::aligned_allocator<Eigen::Vector4f>>;
 
-/** \brief The surface layer of the planar grid map (paper Sec. III-F): the planar and
- * non-planar cuboids of every frame, in the world frame, merged across frames so that
- * the map grows with the surface seen, not with the number of frames.
+/** \brief How the surface layer covers a map plane's raster with rectangles (the
+ * merge of Fig. 6b). \ingroup map */
+enum class SurfaceMergeRule : std::uint8_t {
+  /** The paper's rule (Fig. 6b): maximal runs of one occupancy class along the plane's
+   * horizontal axis u, then runs with exactly equal extent in consecutive rows stacked
+   * along v. Where consecutive rows differ by one cell it leaves slivers. */
+  PAPER = 0,
+  /** The fewest rectangles: per 4-connected component of one occupancy class, a
+   * minimum partition into rectangles (the classical construction for rectilinear
+   * polygons with holes: cut a largest set of non-crossing chords between facing
+   * reflex corners, found by bipartite matching, then one cut per remaining reflex
+   * corner). Never more rectangles than PAPER, fewer where the paper's exact
+   * equal-extent stacking leaves slivers (ragged borders, bumps, holes). A component
+   * whose bounding box exceeds 8 times its cells plus 4096 (a long diagonal
+   * staircase, where the dense grid of the construction would cost too much) keeps
+   * the paper's cover. */
+  MIN_RECTANGLES = 1
+};
+
+/** \brief "paper" or "min_rectangles". \ingroup map */
+std::string toString(SurfaceMergeRule rule);
+
+/** \brief Parses "paper" or "min_rectangles".
+ * \throws planar_grid::Exception for any other name \ingroup map */
+SurfaceMergeRule surfaceMergeRuleFromString(const std::string& name);
+
+/** \brief The surface layer of the planar grid map (paper Sec. III-F, Figs. 6-8): the
+ * planar and non-planar cuboids of every frame, in the world frame, merged across
+ * frames so that the map grows with the surface seen, not with the number of frames.
  *
- * - Planes: a frame's plane, oriented like its cuboids' normals (toward that frame's
- *   sensor), joins the map plane whose unit normal is within plane_merge_angle_rad of
- *   it (same orientation: the two faces of a wall stay separate) and whose offset d is
- *   within plane_merge_distance_m (the nearest in d), else it starts a new map plane.
- *   A map plane keeps the coefficients it was created with. Its fixed 2D frame: origin
- *   -d n on the plane, u = z x n normalised (world x projected when the plane is
- *   horizontal), v = n x u, the same convention as PlanarCuboidApproximation for
- *   up = +z. Its sparse raster holds square cells of edge resolution_m, cell (i, j)
- *   covering [i, i + 1) x [j, j + 1) resolution_m in (u, v).
- * - A frame's planar cuboid marks the raster cells whose centres fall inside its face
- *   (projected along the map normal, tolerance 1 % of a cell). The plane's cuboids
- *   are rebuilt from the raster (lazily, on the next query, only for planes touched
- *   since) by the paper's merge (Fig. 6b: maximal runs along u first, then runs with
- *   equal extent stacked along v) over cells of one occupancy class (probability >=
- *   occupancy_thres or below); each rectangle's face lies on the map plane and is
- *   extruded by thickness_m behind it (Fig. 6c). The raster is a set, so the same
- *   frame integrated twice gives the same cuboids as once.
+ * - Evidence: each map plane accumulates the area moments of the faces of the planar
+ *   cuboids it received (weight = face area in m^2, the face's centre and its
+ *   in-plane spread width^2 / 12 and height^2 / 12 along its axes: the exact first
+ *   and second moments of the face rectangles), kept in double about an anchor (the
+ *   first face's centre). Its plane [a, b, c, d] (getPlanes()) is the least-squares
+ *   plane of that evidence: the normal is the eigenvector of the smallest eigenvalue
+ *   of the covariance (refitted when the middle eigenvalue is at least 4 times the
+ *   smallest, i.e. the evidence spans a plane, and within plane_merge_angle_rad of the
+ *   current normal; otherwise the normal is kept), and d puts the plane through the
+ *   centroid. So the plane converges to the surface as frames accumulate, instead of
+ *   keeping the first frame's estimate.
+ * - Association: a frame's plane, oriented like its cuboids' normals (toward that
+ *   frame's sensor), joins a map plane when one plane explains both: their normals
+ *   are within plane_merge_angle_rad (same orientation: the two faces of a wall stay
+ *   separate), and the least-squares plane of the map plane's evidence together with
+ *   the frame's faces has each of the two within plane_merge_distance_m (root mean
+ *   square distance of the area-weighted faces to that plane, i.e. the distance where
+ *   the faces are, not a difference of offsets d). Among several such map planes the
+ *   one nearest to the frame's faces wins (lowest index on a tie); with none, the
+ *   frame's plane starts a new map plane.
+ * - Map planes that converge are merged: after a frame, a plane it touched and any
+ *   other plane that pass the same test and whose rasters overlap or are adjacent (a
+ *   cell centre of one projects into or next to an observed cell of the other)
+ *   become one. The plane with more evidence (lower index on a tie) survives; the
+ *   other's raster is re-projected into the survivor's frame (every cell whose
+ *   centre falls in an observed cell of the other is observed; the feature sums of a
+ *   cell go to the cell containing its centre) and its moments are added.
+ * - Raster frame: a map plane has a fixed 2D frame taken from the plane when it was
+ *   created: origin -d n on that plane, u = z x n normalised (world x projected when
+ *   the plane is horizontal), v = n x u, the convention of
+ *   PlanarCuboidApproximation for up = +z. Its sparse raster holds square cells of
+ *   edge resolution_m, cell (i, j) covering [i, i + 1) x [j, j + 1) resolution_m in
+ *   (u, v). The frame stays fixed as the plane is refined (re-anchoring would move
+ *   cells), unless the refined normal drifts more than plane_merge_angle_rad / 2 from
+ *   the frame's normal: then the raster is re-projected into a frame of the refined
+ *   plane.
+ * - Cells: a frame's planar cuboid marks the raster cells whose centres fall inside
+ *   its face (projected along the normal of the raster frame, tolerance 1 % of a
+ *   cell).
+ * - Cuboids (rebuilt lazily on the next query, only for planes changed since):
+ *   first the observed cells are closed over gaps of up to close_gaps_cells cells
+ *   (every run of unobserved cells of at most that length between two observed cells
+ *   of one row or of one column is filled: the union of the morphological closings
+ *   with a horizontal and a vertical segment of close_gaps_cells + 1 cells; a gap
+ *   open on one side, like a ragged border, is not filled). Filled cells carry no
+ *   evidence; they take their neighbours' occupancy like any cell without features
+ *   and are not counted by getCellCount(). Then the cells are covered by rectangles
+ *   of one occupancy class (probability >= occupancy_thres or below) with merge_rule,
+ *   exactly: every observed or filled cell lies in one rectangle, no other cell in
+ *   any. Each rectangle's face is placed on the refined plane: the raster frame is
+ *   projected onto it along the plane's normal (the rectangle's centre projected, its
+ *   horizontal axis u projected and normalised, width and height scaled by the
+ *   lengths of the projected u and v, within cos(plane_merge_angle_rad / 2) of 1), so
+ *   rectangles adjacent in the raster stay adjacent up to a shear of the order of
+ *   the angle squared (at most 0.15 mm per metre for a refined plane 1 degree off
+ *   the frame). It is extruded by thickness_m behind the face (Fig. 6c).
+ *   Rectangles are listed by their first row, then first column. The raster is a
+ *   set, so the same frame integrated twice gives the same cells and cuboids as once.
  * - Non-planar cuboids (Fig. 7), and cuboids whose plane_id is -1, out of range or
  *   not is_planar, are stored as given; the newest view wins, as in the space layer:
  *   a non-planar cuboid of a new frame removes every stored non-planar cell of an
@@ -58,16 +125,20 @@ using PlaneModels =
  *   cells x cells per bin).
  * - Occupancy (end of Sec. III-F): a planar cell's probability is the mean probability
  *   of the features that fell inside it (all frames; a feature counts when it is
- *   within feature_distance_m of a plane of its frame and its cell is already
+ *   within feature_distance_m of a map plane the frame touched and its cell is
  *   observed); a cell with none takes the mean of its 8 neighbours that have a value,
  *   propagated outward layer by layer; cells not reached (a plane without features)
- *   keep 0.5. A planar cuboid's probability is the mean over its cells and its
- *   point_count the number of features in it. A non-planar cuboid's probability is
- *   the mean of its frame's features inside the box, 0.5 without any (neighbours of
- *   non-planar cells are not defined on a raster).
+ *   keep 0.5. A cell stores its probability sum as a float and its feature count as
+ *   a 16-bit count; past 65535 features the count stays at 65535 and the sum is
+ *   rescaled to keep the mean. A planar cuboid's probability is the mean over its
+ *   cells and its point_count the number of features in it. A non-planar cuboid's
+ *   probability is the mean of its frame's features inside the box, 0.5 without any
+ *   (neighbours of non-planar cells are not defined on a raster).
+ * - Memory: a raster is three sorted arrays (cell key 8 B, probability sum 4 B,
+ *   feature count 2 B: 14 B per observed cell), plus 24 B per cached rectangle.
  * - Queries use a spatial hash of the cuboids' bounding boxes (bins of 4 cells),
  *   rebuilt lazily and freed by integrate() (it is stale then); const methods are safe
- * to call from several threads (a mutex guards the rebuild), integrate() is not.
+ *   to call from several threads (a mutex guards the rebuild), integrate() is not.
  * - Invalid input (non-finite cuboids or features, probabilities outside [0, 1], a
  *   face of more than 1e7 cells) is skipped with a PCL_WARN; integrate() never throws.
  * \ingroup map */
@@ -83,14 +154,21 @@ public:
     /** Largest angle between the normals of one plane seen in two frames, radians;
      * in (0, pi/2). */
     double plane_merge_angle_rad{0.1};
-    /** Largest difference of the offsets d of one plane seen in two frames, meters;
-     * > 0. */
+    /** Largest root mean square distance of a frame's faces (or of a map plane's
+     * evidence) to the least-squares plane fitted to them together with the map
+     * plane they join, meters; > 0. */
     double plane_merge_distance_m{0.15};
     /** Occupancy class boundary for merging cells, probability in (0, 1). */
     double occupancy_thres{0.5};
     /** A feature counts for a planar cell when within this distance of the plane,
      * meters; >= 0. */
     double feature_distance_m{0.1};
+    /** Widest gap closed in a plane's raster before the merge, in cells; in [0, 32]
+     * (0: no closing; 2: holes and notches up to 2 cells wide, i.e. 0.2 m at the
+     * paper's 0.1 m cell, are filled). */
+    int close_gaps_cells{2};
+    /** How the closed raster is covered by rectangles (the merge of Fig. 6b). */
+    SurfaceMergeRule merge_rule{SurfaceMergeRule::MIN_RECTANGLES};
   };
 
   /** \brief Throws planar_grid::Exception for out-of-range parameters. */
@@ -124,14 +202,16 @@ public:
    * plane index, into getPlanes()), then the non-planar cells (plane_id -1). Stable
    * order for the same integrations. */
   const PlanarCuboids& getCuboids() const;
-  /** \brief The map's planes [a, b, c, d], world frame. */
+  /** \brief The map's planes [a, b, c, d] (unit normal toward the sensors that saw
+   * them, d in meters), world frame: each the least-squares plane of its evidence. */
   const PlaneModels& getPlanes() const;
-  /** \brief Number of cells: observed raster cells over all planes plus non-planar
-   * cells. */
+  /** \brief Number of cells: observed raster cells over all planes (not the cells
+   * filled by the gap closing) plus non-planar cells. */
   [[nodiscard]] std::size_t getCellCount() const;
-  /** \brief Bytes held: hash-map buckets and nodes (rasters, non-planar index,
-   * spatial index) and vector capacities (planes, non-planar cells, cached cuboids),
-   * as currently built (the caches are built by the queries). */
+  /** \brief Bytes held: vector capacities (planes, rasters, cached rectangles,
+   * non-planar cells, cached cuboids) and hash-map buckets and nodes (non-planar
+   * index, spatial index), as currently built (the caches are built by the
+   * queries). */
   [[nodiscard]] std::size_t getMemoryBytes() const;
 
   /** \brief The cuboid containing \a point (PlanarCuboid::contains, boundary
@@ -155,19 +235,26 @@ public:
                std::size_t& index) const;
 
   /** \brief Encodes the layer in a fixed little-endian layout: u32 magic "PGSL",
-   * u32 version 1, the six Params as f64; u64 planes, per plane f32 a, b, c, d, u64
-   * cells, per cell i32 i, i32 j, f64 probability sum, u32 feature count (sorted by
+   * u32 version 2, the six real Params as f64, close_gaps_cells as u32, merge_rule as
+   * u8 (0 paper, 1 min_rectangles); u64 planes, per plane: the raster frame's plane
+   * f32 a, b, c, d, the refined plane f32 a, b, c, d, the evidence moments as f64
+   * (anchor[3], weight, sum[3], sum of outer products xx, xy, xz, yy, yz, zz), u64
+   * cells, per cell i32 i, i32 j, f32 probability sum, u16 feature count (sorted by
    * row, column); u64 non-planar cells, per cell f32 centre[3], normal[3],
    * horizontal_axis[3], width, height, thickness, f64 probability sum, u32 feature
-   * count. The plane frames and cuboids are derived, not stored.
+   * count. The frames' axes, the rectangles and the cuboids are derived, not stored:
+   * a decoded layer gives identical cuboids and continues identically.
    * \param[out] bytes appended to */
   void serialize(std::vector<std::uint8_t>& bytes) const;
   /** \brief Replaces the content and the parameters by a decoding of serialize()'s
    * output (exactly \a size bytes); every count is checked against the remaining bytes
    * before anything is allocated, and every value (parameter ranges, unit normals,
-   * finite coordinates <= 1e7 m, probability sums in [0, count], no duplicate cells).
-   * \throws planar_grid::IOError on truncated, trailing or inconsistent data (layer
-   * unchanged) */
+   * finite coordinates <= 1e7 m, probability sums in [0, count], cells strictly
+   * sorted, finite moments of positive weight, a refined normal within
+   * plane_merge_angle_rad of its frame's). Sections of version 1 (before the planes
+   * carried their evidence) are rejected: run the mapping again.
+   * \throws planar_grid::IOError on truncated, trailing or inconsistent data or
+   * another version (layer unchanged) */
   void deserialize(const std::uint8_t* data, std::size_t size);
 
   /** \brief Writes the cuboids as a mesh (12 triangles per box, per-face colour by
@@ -176,8 +263,8 @@ public:
    * \throws planar_grid::IOError for another extension or a write error */
   void exportMesh(const std::string& path) const;
 
-  /** \brief True when the parameters, planes, rasters and non-planar cells are equal.
-   */
+  /** \brief True when the parameters, planes (frames, refined planes, moments),
+   * rasters and non-planar cells are equal. */
   [[nodiscard]] bool operator==(const SurfaceLayer& other) const;
   /** \brief True when the parameters, planes, rasters or non-planar cells differ. */
   [[nodiscard]] bool operator!=(const SurfaceLayer& other) const
