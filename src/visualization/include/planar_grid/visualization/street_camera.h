@@ -43,8 +43,8 @@ struct StreetCameraParameters {
 };
 
 /** \brief Camera poses world_T_camera (the same type as planar_grid::Trajectory of the
- * odometry module, which the visualization headers do not include). \ingroup
- * visualization */
+ * odometry module, which the visualization headers do not include).
+ * \ingroup visualization */
 using PoseVector =
   std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>;
 
