@@ -360,6 +360,9 @@ PlanarGridMap::deserialize(const std::string& bytes, const std::string& path)
       decoded.space_.deserialize(data.data(), static_cast<std::size_t>(space_bytes));
       decoded.surface_.deserialize(data.data() + space_bytes,
                                    static_cast<std::size_t>(surface_bytes));
+      // The surface section carries all of its layer's parameters, the header only
+      // some of them (close_gaps_cells and merge_rule are in the section alone).
+      decoded.params_.surface = decoded.surface_.getParams();
       return decoded;
     } catch (const Exception& e) {
       header.fail(e.what());
