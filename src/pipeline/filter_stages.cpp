@@ -68,44 +68,24 @@ public:
   void process(Frame& frame, PipelineState& /*state*/) override
   {
     requirePoints(frame, "depth_error_filter");
-    const double bf = frame.calibration.baseline_m * frame.calibration.focal_length_px;
-    if (!(bf > 0.0))
+    // Eq. 4: Delta z = z^2 Delta d / (B f) <= max  <=>  z <= sqrt(max / Delta z(1 m)).
+    const double error_at_1m = frame.calibration.depthError(1.0, disparity_error_px_);
+    if (!(std::isfinite(error_at_1m) && error_at_1m > 0.0))
       throw Exception("stage 'depth_error_filter' needs a stereo calibration (frame "
                       + frame.name + " has none)");
-    // Eq. 4: Delta z = z^2 Delta d / (B f) <= max  <=>  z <= sqrt(max B f / Delta d).
     const auto max_depth =
-      static_cast<float>(std::sqrt(max_depth_error_m_ * bf / disparity_error_px_));
+      static_cast<float>(std::sqrt(max_depth_error_m_ / error_at_1m));
     max_depth_m_ = max_depth;
     Eigen::Matrix4f camera_T_cloud = Eigen::Matrix4f::Identity();
     if (frame.cloud_in_world_frame)
       camera_T_cloud = frame.world_T_camera.inverse().matrix().cast<float>();
     const Eigen::RowVector4f depth_row = camera_T_cloud.row(2);
-    auto& cloud = *frame.cloud;
-    const float nan = std::numeric_limits<float>::quiet_NaN();
-    removed_ = 0;
-    if (cloud.isOrganized()) {
-      for (auto& p : cloud.points)
-        if (pcl::isFinite(p) && depth_row.dot(p.getVector4fMap()) > max_depth) {
-          p.x = p.y = p.z = nan;
-          ++removed_;
-        }
-      cloud.is_dense = false;
-      return;
-    }
-    Frame::Cloud::Ptr out(new Frame::Cloud);
-    out->header = cloud.header;
-    out->sensor_origin_ = cloud.sensor_origin_;
-    out->sensor_orientation_ = cloud.sensor_orientation_;
-    out->reserve(cloud.size());
-    for (const auto& p : cloud.points) {
-      if (pcl::isFinite(p) && depth_row.dot(p.getVector4fMap()) > max_depth) {
-        ++removed_;
-        continue;
-      }
-      out->push_back(p);
-    }
-    out->is_dense = cloud.is_dense;
-    frame.cloud = out;
+    const auto& cloud = *frame.cloud;
+    far_.assign(cloud.size(), 0);
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      far_[i] =
+        pcl::isFinite(cloud[i]) && depth_row.dot(cloud[i].getVector4fMap()) > max_depth;
+    removed_ = removePoints(frame, far_);
   }
 
   void counters(const Frame& /*frame*/,
@@ -120,6 +100,8 @@ private:
   double max_depth_error_m_;
   float max_depth_m_{0.0f};
   std::size_t removed_{0};
+  /** Per point: beyond the depth bound (scratch, reused across frames). */
+  std::vector<std::uint8_t> far_;
 };
 
 } // namespace

@@ -52,11 +52,13 @@ public:
     segmentation_.setInputCloud(frame.cloud);
     segmentation_.setUpAxis(upAxis(frame));
     // Eq. 4's stereo depth error Delta z = z^2 Delta d / (B f) widens eq. 11 with
-    // range.
-    const double bf = frame.calibration.baseline_m * frame.calibration.focal_length_px;
-    segmentation_.setDepthNoiseCoefficient(depth_noise_disparity_px_ > 0.0 && bf > 0.0
-                                             ? depth_noise_disparity_px_ / bf
-                                             : 0.0);
+    // range: the coefficient is Delta z at 1 m (none without a stereo calibration).
+    const double coefficient =
+      depth_noise_disparity_px_ > 0.0
+        ? frame.calibration.depthError(1.0, depth_noise_disparity_px_)
+        : 0.0;
+    segmentation_.setDepthNoiseCoefficient(
+      std::isfinite(coefficient) && coefficient > 0.0 ? coefficient : 0.0);
     pcl::PointCloud<pcl::PointXYZI>::Ptr sample;
     if (use_features_) {
       if (frame.features.size() < 3)
@@ -244,40 +246,7 @@ public:
     for (std::size_t k = 0; k < frame.planes.size(); ++k)
       terrain_planes_ += terrain[k];
 
-    if (cloud.isOrganized()) {
-      // Keep the image structure: terrain points become NaN, other indices stay valid.
-      const float nan = std::numeric_limits<float>::quiet_NaN();
-      for (std::size_t i = 0; i < cloud.size(); ++i)
-        if (remove[i]) {
-          cloud[i].x = cloud[i].y = cloud[i].z = nan;
-          ++removed_;
-        }
-      cloud.is_dense = false;
-    } else {
-      // Compact the cloud and renumber the other planes' inliers.
-      std::vector<int> new_index(cloud.size(), -1);
-      Frame::Cloud::Ptr out(new Frame::Cloud);
-      out->header = cloud.header;
-      out->sensor_origin_ = cloud.sensor_origin_;
-      out->sensor_orientation_ = cloud.sensor_orientation_;
-      out->reserve(cloud.size());
-      for (std::size_t i = 0; i < cloud.size(); ++i) {
-        if (remove[i]) {
-          ++removed_;
-          continue;
-        }
-        new_index[i] = static_cast<int>(out->size());
-        out->push_back(cloud[i]);
-      }
-      out->is_dense = cloud.is_dense;
-      for (std::size_t k = 0; k < frame.planes.size(); ++k) {
-        if (terrain[k])
-          continue;
-        for (auto& i : frame.planes[k].inliers.indices)
-          i = new_index[static_cast<std::size_t>(i)];
-      }
-      frame.cloud = out;
-    }
+    removed_ = removePoints(frame, remove);
     std::size_t kept = 0;
     for (std::size_t k = 0; k < frame.planes.size(); ++k)
       if (!terrain[k])

@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "stages.h"
 
@@ -75,6 +77,46 @@ sensorOrigin(const Frame& frame)
   if (frame.cloud_in_world_frame)
     return frame.world_T_camera.translation().cast<float>();
   return Eigen::Vector3f::Zero();
+}
+
+std::size_t
+removePoints(Frame& frame, const std::vector<std::uint8_t>& remove)
+{
+  auto& cloud = *frame.cloud;
+  std::size_t removed = 0;
+  if (cloud.isOrganized()) {
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      if (remove[i]) {
+        cloud[i].x = cloud[i].y = cloud[i].z = nan;
+        ++removed;
+      }
+    cloud.is_dense = false;
+    return removed;
+  }
+  std::vector<int> new_index(cloud.size(), -1);
+  Frame::Cloud::Ptr out(new Frame::Cloud);
+  out->header = cloud.header;
+  out->sensor_origin_ = cloud.sensor_origin_;
+  out->sensor_orientation_ = cloud.sensor_orientation_;
+  out->reserve(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (remove[i]) {
+      ++removed;
+      continue;
+    }
+    new_index[i] = static_cast<int>(out->size());
+    out->push_back(cloud[i]);
+  }
+  out->is_dense = cloud.is_dense;
+  for (auto& plane : frame.planes) {
+    auto& indices = plane.inliers.indices;
+    for (auto& i : indices)
+      i = new_index[static_cast<std::size_t>(i)];
+    indices.erase(std::remove(indices.begin(), indices.end(), -1), indices.end());
+  }
+  frame.cloud = out;
+  return removed;
 }
 
 void

@@ -4,6 +4,9 @@
 
 #include <planar_grid/pipeline/stage.h>
 
+#include <cstdint>
+#include <vector>
+
 namespace planar_grid {
 namespace stages {
 
@@ -42,6 +45,12 @@ Eigen::Vector3f upAxis(const Frame& frame);
 
 /** The sensor origin in the frame of the cloud (metres). */
 Eigen::Vector3f sensorOrigin(const Frame& frame);
+
+/** Removes the points of the frame's cloud where \a remove is non-zero (one entry per
+ * point): an organized cloud keeps its image structure (the points become NaN, indices
+ * stay valid); any other cloud is compacted and the planes' inliers are renumbered
+ * (removed inliers are dropped). Returns the number of points removed. */
+std::size_t removePoints(Frame& frame, const std::vector<std::uint8_t>& remove);
 
 /** Throws planar_grid::Exception when the frame's cloud has no valid point (S32). */
 void requirePoints(const Frame& frame, const char* stage_type);
