@@ -59,6 +59,13 @@ printHelp(const char* program)
   print_info(
     "    --resume             continue from the checkpoint in the output folder: the\n"
     "                         same map as an uninterrupted run (same configuration)\n");
+  print_info(
+    "    --sequential         run every frame start to end on one thread (default: "
+    "the\n"
+    "                         leading frame-local stages, e.g. stereo_disparity and\n"
+    "                         feature_matching, run one frame ahead on a second "
+    "thread;\n"
+    "                         the results are the same)\n");
   print_info("    --list-stages        print every stage type with its parameters, "
              "defaults, units and ranges, then exit\n");
   print_info("    -v                   verbose (PCL debug output)\n");
@@ -329,7 +336,8 @@ run(int argc, char** argv)
   // Every argument must be a known option (S28): a typo is an error, not a default.
   const std::vector<std::string> with_value{"--config", "--frames", "--output",
                                             "--checkpoint-every"};
-  const std::vector<std::string> switches{"--no-snapshot", "--resume", "-v"};
+  const std::vector<std::string> switches{"--no-snapshot", "--resume", "--sequential",
+                                          "-v"};
   planar_grid::cli::checkArguments(argc, argv, with_value, switches);
 
   std::string config_path, frames_text, output_folder;
@@ -389,6 +397,7 @@ run(int argc, char** argv)
   }
 
   planar_grid::PipelineRunner runner(config);
+  runner.setFrameOverlap(!find_switch(argc, argv, "--sequential"));
   std::size_t begin = 0, end = runner.frameCount();
   if (!frames_text.empty()) {
     parseFrameRange(frames_text, runner.frameCount(), begin, end);
@@ -415,6 +424,10 @@ run(int argc, char** argv)
   print_info("Input: %s; running frames %zu:%zu\n",
              config.input.left_images.empty() ? "PCD files" : "stereo sequence", begin,
              end);
+  if (const std::size_t ahead = runner.frameLocalPrefix(); ahead > 0)
+    print_info("  loading and the first %zu stages run one frame ahead on a second "
+               "thread\n",
+               ahead);
 
   ProgressBar bar(::isatty(STDERR_FILENO) != 0);
   runner.setProgressCallback([&bar](std::size_t done, std::size_t total, double s) {

@@ -25,6 +25,8 @@ public:
       static_cast<unsigned int>(min_points_per_voxel));
   }
 
+  bool isFrameLocal() const override { return true; }
+
   void process(Frame& frame, PipelineState& /*state*/) override
   {
     requirePoints(frame, "voxel_grid");
@@ -46,6 +48,8 @@ public:
     filter_.setStddevMulThresh(stddev_mul_thresh);
   }
 
+  bool isFrameLocal() const override { return true; }
+
   void process(Frame& frame, PipelineState& /*state*/) override
   {
     requirePoints(frame, "statistical_outlier_removal");
@@ -64,6 +68,8 @@ public:
   DepthErrorFilterStage(double disparity_error_px, double max_depth_error_m) :
       disparity_error_px_(disparity_error_px), max_depth_error_m_(max_depth_error_m)
   {}
+
+  bool isFrameLocal() const override { return true; }
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <chrono>
 #include <fstream>
+#include <future>
 #include <iomanip>
 #include <sstream>
 
@@ -40,6 +41,62 @@ peakResidentMemoryBytes()
   if (::getrusage(RUSAGE_SELF, &usage) != 0)
     return 0;
   return static_cast<std::uint64_t>(usage.ru_maxrss) * 1024u;
+}
+
+/** What one stage did to one frame, recorded where it ran and added to the report on
+ * the main thread in frame order. */
+struct StageSample {
+  double ms{0.0};
+  std::uint64_t points_in{0};
+  std::uint64_t points_out{0};
+  std::vector<std::pair<std::string, double>> counters;
+};
+
+/** A loaded frame after the leading frame-local stages. */
+struct PreparedFrame {
+  Frame frame;
+  double load_ms{0.0};
+  std::vector<StageSample> samples;
+};
+
+/** Runs \a stage on \a frame and records its time, points and counters; failures name
+ * the frame, its position \a i and the stage. */
+StageSample
+runStage(Stage& stage,
+         const std::string& type,
+         Frame& frame,
+         PipelineState& state,
+         std::size_t i)
+{
+  using Clock = std::chrono::steady_clock;
+  StageSample sample;
+  const bool counts = stage.countsCloudPoints();
+  if (counts && frame.cloud)
+    sample.points_in = stages::countValidPoints(*frame.cloud);
+  const auto t = Clock::now();
+  try {
+    stage.process(frame, state);
+  } catch (const Exception& e) {
+    throw Exception("frame " + frame.name + " (" + std::to_string(i) + "), stage '"
+                    + type + "': " + e.what());
+  }
+  sample.ms = std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+  if (counts && frame.cloud)
+    sample.points_out = stages::countValidPoints(*frame.cloud);
+  stage.counters(frame, sample.counters);
+  return sample;
+}
+
+void
+addSample(StageReport& sr, const StageSample& sample)
+{
+  sr.total_ms += sample.ms;
+  sr.max_ms = std::max(sr.max_ms, sample.ms);
+  ++sr.frames;
+  sr.points_in += sample.points_in;
+  sr.points_out += sample.points_out;
+  for (const auto& [name, value] : sample.counters)
+    sr.addCounter(name, value);
 }
 
 } // namespace
@@ -136,37 +193,42 @@ PipelineRunner::run()
 
   const std::size_t total = end_ - begin_;
   const std::size_t rss_every = std::max<std::size_t>(total / 20, 1);
-  std::vector<std::pair<std::string, double>> counter_values;
-  for (std::size_t i = first; i < end_; ++i) {
-    Frame frame;
+  // Frame i + 1 is loaded and goes through the leading frame-local stages on a second
+  // thread while frame i goes through the rest here. Those stages touch nothing but
+  // their frame (no PipelineState: the empty state below is never read), and each runs
+  // its frames in order on one thread, so the results equal a sequential run's.
+  const std::size_t front = frameLocalPrefix();
+  const auto prepare = [this, front](std::size_t i) {
+    auto prepared = std::make_unique<PreparedFrame>();
     const auto load_start = Clock::now();
-    source_->load(i, frame);
-    frame.sequence_number = i;
-    report.load_ms += ms_since(load_start);
-
-    for (std::size_t s = 0; s < stages_.size(); ++s) {
-      StageReport& sr = report.stages[s];
-      const bool counts = stages_[s]->countsCloudPoints();
-      if (counts && frame.cloud)
-        sr.points_in += stages::countValidPoints(*frame.cloud);
-      const auto t = Clock::now();
-      try {
-        stages_[s]->process(frame, state_);
-      } catch (const Exception& e) {
-        throw Exception("frame " + frame.name + " (" + std::to_string(i) + "), stage '"
-                        + sr.type + "': " + e.what());
-      }
-      const double ms = ms_since(t);
-      sr.total_ms += ms;
-      sr.max_ms = std::max(sr.max_ms, ms);
-      ++sr.frames;
-      if (counts && frame.cloud)
-        sr.points_out += stages::countValidPoints(*frame.cloud);
-      counter_values.clear();
-      stages_[s]->counters(frame, counter_values);
-      for (const auto& [name, value] : counter_values)
-        sr.addCounter(name, value);
-    }
+    source_->load(i, prepared->frame);
+    prepared->frame.sequence_number = i;
+    prepared->load_ms =
+      std::chrono::duration<double, std::milli>(Clock::now() - load_start).count();
+    PipelineState unused;
+    for (std::size_t s = 0; s < front; ++s)
+      prepared->samples.push_back(
+        runStage(*stages_[s], config_.stages[s].type, prepared->frame, unused, i));
+    return prepared;
+  };
+  const auto launch = [&prepare, front](std::size_t i) {
+    return std::async(front > 0 ? std::launch::async : std::launch::deferred, prepare,
+                      i);
+  };
+  std::future<std::unique_ptr<PreparedFrame>> next;
+  if (first < end_)
+    next = launch(first);
+  for (std::size_t i = first; i < end_; ++i) {
+    const std::unique_ptr<PreparedFrame> prepared = next.get();
+    if (i + 1 < end_)
+      next = launch(i + 1);
+    Frame& frame = prepared->frame;
+    report.load_ms += prepared->load_ms;
+    for (std::size_t s = 0; s < front; ++s)
+      addSample(report.stages[s], prepared->samples[s]);
+    for (std::size_t s = front; s < stages_.size(); ++s)
+      addSample(report.stages[s],
+                runStage(*stages_[s], report.stages[s].type, frame, state_, i));
     // After the stages: visual_odometry sets the pose of frames whose input has none.
     if (frame.has_pose)
       trajectory_.push_back(frame.world_T_camera);
@@ -218,6 +280,16 @@ PipelineRunner::run()
   report.peak_rss_bytes = peakResidentMemoryBytes();
   report.seconds = previous_seconds + ms_since(start) / 1000.0;
   return report;
+}
+
+std::size_t
+PipelineRunner::frameLocalPrefix() const
+{
+  std::size_t front = 0;
+  if (overlap_)
+    while (front < stages_.size() && stages_[front]->isFrameLocal())
+      ++front;
+  return front;
 }
 
 void

@@ -17,6 +17,8 @@ public:
       estimator_(params), max_range_m_(max_range_m)
   {}
 
+  bool isFrameLocal() const override { return true; }
+
   void process(Frame& frame, PipelineState& /*state*/) override
   {
     if (frame.left.empty() || frame.right.empty())
@@ -39,6 +41,8 @@ public:
   explicit FeatureMatchingStage(const StereoFeatureMatcher::Params& params) :
       matcher_(params)
   {}
+
+  bool isFrameLocal() const override { return true; }
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {

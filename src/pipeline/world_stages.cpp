@@ -19,6 +19,8 @@ namespace {
 
 class TransformToWorldStage : public Stage {
 public:
+  bool isFrameLocal() const override { return true; }
+
   void process(Frame& frame, PipelineState& /*state*/) override
   {
     requirePoints(frame, "transform_to_world");

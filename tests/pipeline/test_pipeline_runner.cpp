@@ -743,3 +743,86 @@ TEST_F(PipelineRunnerTest, CorruptOrForeignCheckpointsAreRefused)
   EXPECT_NO_THROW(vo.setCheckpoint(checkpoint, 0));
   EXPECT_THROW(vo.setCheckpoint("", 1), planar_grid::ConfigError);
 }
+
+TEST_F(PipelineRunnerTest, OverlappedFramesGiveTheSameResultsAsASequentialRun)
+{
+  // Karlsruhe frames 10-13 through the paper pipeline with the map: once with the
+  // stereo and feature stages of frame t + 1 running on a second thread while frame t
+  // is mapped (the default) and once sequentially. The map bytes, the clouds, the
+  // planes, the poses and every stage's points and counters are identical.
+  std::string input = karlsruheInput();
+  input.replace(input.find("frame_count: 2"), 14, "frame_count: 4");
+  const auto config = parsePipelineConfig(input + paperStages(true), "t.yaml", "/");
+
+  planar_grid::PipelineRunner overlapped(config);
+  EXPECT_EQ(overlapped.frameLocalPrefix(), 2u); // stereo_disparity, feature_matching
+  const auto a_report = overlapped.run();
+  planar_grid::PipelineRunner sequential(config);
+  sequential.setFrameOverlap(false);
+  EXPECT_EQ(sequential.frameLocalPrefix(), 0u);
+  const auto b_report = sequential.run();
+
+  ASSERT_EQ(a_report.frames, 4u);
+  ASSERT_EQ(b_report.frames, 4u);
+  ASSERT_EQ(a_report.stages.size(), b_report.stages.size());
+  for (std::size_t s = 0; s < a_report.stages.size(); ++s) {
+    const auto& x = a_report.stages[s];
+    const auto& y = b_report.stages[s];
+    EXPECT_EQ(x.frames, 4u) << x.type;
+    EXPECT_EQ(x.points_in, y.points_in) << x.type;
+    EXPECT_EQ(x.points_out, y.points_out) << x.type;
+    EXPECT_EQ(x.counters, y.counters) << x.type;
+  }
+  EXPECT_GT(a_report.stages[1].counters.at(0).second, 4 * 100.0); // features found
+
+  ASSERT_TRUE(overlapped.state().map && sequential.state().map);
+  std::string a, b;
+  overlapped.state().map->serialize(a);
+  sequential.state().map->serialize(b);
+  EXPECT_GT(a.size(), 100000u);
+  EXPECT_TRUE(a == b) << "the overlapped run's map differs from the sequential one";
+  const auto& wa = *overlapped.state().world_cloud;
+  const auto& wb = *sequential.state().world_cloud;
+  ASSERT_GT(wa.size(), 10000u);
+  ASSERT_EQ(wa.size(), wb.size());
+  for (std::size_t i = 0; i < wa.size(); ++i)
+    ASSERT_EQ(wa[i].getVector4fMap(), wb[i].getVector4fMap()) << i;
+  ASSERT_EQ(overlapped.state().plane_models.size(),
+            sequential.state().plane_models.size());
+  for (std::size_t p = 0; p < overlapped.state().plane_models.size(); ++p)
+    EXPECT_EQ(overlapped.state().plane_models[p], sequential.state().plane_models[p]);
+  ASSERT_EQ(overlapped.trajectory().size(), 4u);
+  for (std::size_t i = 0; i < 4; ++i)
+    EXPECT_TRUE(overlapped.trajectory()[i].matrix()
+                == sequential.trajectory()[i].matrix());
+}
+
+TEST_F(PipelineRunnerTest, AFailingFrameAheadStopsTheRunAfterTheFramesBeforeIt)
+{
+  // The third left image is missing: it is loaded on the second thread while frame 11
+  // is mapped. The run still fails naming the file, after frames 10 and 11, as a
+  // sequential run does.
+  const fs::path left = dir_ / "left";
+  fs::create_directories(left);
+  for (const int index : {10, 11})
+    fs::copy_file(KARLSRUHE + "/left/I1_0000" + std::to_string(index) + ".png",
+                  left / ("I1_0000" + std::to_string(index) + ".png"));
+  std::string input = karlsruheInput((left / "I1_%06d.png").string());
+  input.replace(input.find("frame_count: 2"), 14, "frame_count: 3");
+  for (const bool overlap : {true, false}) {
+    planar_grid::PipelineRunner runner(
+      parsePipelineConfig(input + STAGES, "t.yaml", "/"));
+    runner.setFrameOverlap(overlap);
+    std::size_t done = 0;
+    runner.setProgressCallback(
+      [&done](std::size_t d, std::size_t, double) { done = d; });
+    try {
+      runner.run();
+      ADD_FAILURE() << "a missing image must stop the run";
+    } catch (const planar_grid::Exception& e) {
+      EXPECT_NE(std::string(e.what()).find("I1_000012.png"), std::string::npos)
+        << e.what();
+    }
+    EXPECT_EQ(done, 2u) << (overlap ? "overlapped" : "sequential");
+  }
+}

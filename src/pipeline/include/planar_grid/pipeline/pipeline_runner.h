@@ -119,6 +119,19 @@ public:
     progress_ = std::move(callback);
   }
 
+  /** \brief Runs the leading frame-local stages (Stage::isFrameLocal(): in the main
+   * job stereo_disparity and feature_matching) and the loading of frame t + 1 on a
+   * second thread while the other stages map frame t (on by default). The stages see
+   * the same frames in the same order, so the map, clouds, trajectory and report
+   * figures are identical to a sequential run; only the wall time differs. A pipeline
+   * whose first stage keeps state across frames runs sequentially either way.
+   * \param[in] overlap false runs every frame start to end on the calling thread */
+  void setFrameOverlap(bool overlap) { overlap_ = overlap; }
+
+  /** \brief Number of leading stages that run ahead on the second thread (0 when the
+   * overlap is off or the first stage is not frame-local). */
+  std::size_t frameLocalPrefix() const;
+
   /** \brief Writes a checkpoint to \a path every \a every_n_frames frames of the run
    * (and after its last frame): the whole state carried across frames (the map, the
    * accumulated clouds and planes, the stages' state such as the feature tracks, the
@@ -169,6 +182,7 @@ private:
   std::string checkpoint_path_;
   std::size_t checkpoint_every_{0};
   std::unique_ptr<ResumeData> resume_;
+  bool overlap_{true};
 };
 
 } // namespace planar_grid

@@ -63,6 +63,12 @@ public:
    * working cloud's valid points by default. */
   virtual bool countsCloudPoints() const { return true; }
 
+  /** \brief Whether process() reads and writes only the frame (and the stage's own
+   * scratch buffers), never PipelineState or anything carried from an earlier frame.
+   * The runner runs the leading frame-local stages of a pipeline one frame ahead on a
+   * second thread (PipelineRunner::setFrameOverlap()); false by default. */
+  virtual bool isFrameLocal() const { return false; }
+
   /** \brief Whether a checkpoint can hold this stage's state across frames, so that a
    * resumed run continues exactly as an uninterrupted one (true for stages without
    * such state, which is the default). */
