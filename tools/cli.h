@@ -8,6 +8,8 @@
 
 #include <pcl/console/print.h>
 
+#include <malloc.h>
+
 #include <algorithm>
 #include <cstdlib>
 #include <exception>
@@ -41,9 +43,24 @@ checkArguments(int argc,
   }
 }
 
-/** \brief Runs a tool's \a run: its return value is the exit status; an exception is
- * printed as "name: message" (pcl::console::print_error) and exits with
- * EXIT_FAILURE.
+/** \brief Keeps freed memory in the process for the next frame instead of returning
+ * it to the kernel. The stages allocate and free images, pyramids and clouds of tens of
+ * MB every frame; with glibc's defaults those come from fresh mmap() pages each time,
+ * and the page faults cost a fifth of the pipeline's CPU time (perf, Karlsruhe). Blocks
+ * up to 32 MiB (glibc's largest mmap threshold) come from the heap, and the heap is
+ * trimmed only when 1 GiB lies free at its top. Results are unchanged; the peak resident
+ * memory grows by what one frame frees (about 20 MB in the main job).
+ * Source: glibc mallopt(M_MMAP_THRESHOLD, M_TRIM_THRESHOLD). */
+inline void
+keepFreedMemory()
+{
+  mallopt(M_MMAP_THRESHOLD, 32 * 1024 * 1024);
+  mallopt(M_TRIM_THRESHOLD, 1024 * 1024 * 1024);
+}
+
+/** \brief Runs a tool's \a run after keepFreedMemory(): its return value is the exit
+ * status; an exception is printed as "name: message" (pcl::console::print_error) and
+ * exits with EXIT_FAILURE.
  * \param[in] name the program name for the message
  * \param[in] run the tool's body
  * \param[in] argc, argv the command line, passed on */
@@ -51,6 +68,7 @@ template <typename Run>
 int
 runMain(const char* name, Run run, int argc, char** argv)
 {
+  keepFreedMemory();
   try {
     return run(argc, argv);
   } catch (const std::exception& e) {
