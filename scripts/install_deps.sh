@@ -9,7 +9,7 @@ PACKAGES=(
   libpcl-dev libeigen3-dev libflann-dev
   libopencv-dev libvtk9-dev
   libyaml-cpp-dev nlohmann-json3-dev
-  liboctomap-dev
+  liboctomap-dev libnanoflann-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   xvfb xauth clang-format git
   doxygen

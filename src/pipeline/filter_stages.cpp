@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/filters/fast_statistical_outlier_removal.h>
 
 #include <pcl/common/point_tests.h>
-#include <pcl/filters/statistical_outlier_removal.h>
 #include <pcl/filters/voxel_grid.h>
 
 #include <cmath>
@@ -60,7 +60,7 @@ public:
   }
 
 private:
-  pcl::StatisticalOutlierRemoval<pcl::PointXYZI> filter_;
+  FastStatisticalOutlierRemoval<pcl::PointXYZI> filter_;
 };
 
 class DepthErrorFilterStage : public Stage {
@@ -161,10 +161,10 @@ statisticalOutlierRemovalInfo()
   StageInfo info;
   info.type = "statistical_outlier_removal";
   info.description =
-    "pcl::StatisticalOutlierRemoval: drops points whose mean distance to their k "
-    "nearest "
-    "neighbours exceeds the global mean by more than stddev_mul_thresh standard "
-    "deviations.";
+    "pcl::StatisticalOutlierRemoval's filter (FastStatisticalOutlierRemoval, the same "
+    "points kept, nanoflann's kd-tree): drops points whose mean distance to their k "
+    "nearest neighbours exceeds the global mean by more than stddev_mul_thresh "
+    "standard deviations.";
   info.params = {
     ParamSpec::integer("mean_k", 20, 1, 1000, "", "Neighbours per point."),
     ParamSpec::real("stddev_mul_thresh", 2.0, 0.0, 100.0, "",

@@ -1,0 +1,62 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <pcl/filters/filter_indices.h>
+#include <pcl/point_cloud.h>
+
+#include <string>
+
+namespace planar_grid {
+
+/** \brief pcl::StatisticalOutlierRemoval's filter with a faster neighbour search: the
+ * same points kept, in the same order, for the same parameters.
+ *
+ * For each point, the mean Euclidean distance to its mean_k nearest neighbours (the
+ * point itself excluded) is computed; a point whose mean distance exceeds
+ * mean + stddev_mul_thresh * stddev over the finite points is an outlier. As in PCL, a
+ * non-finite point gets the mean distance 0 and is kept, and setNegative() returns the
+ * outliers instead. The output cloud is built by pcl::FilterIndices, as for PCL's
+ * filter.
+ *
+ * The k nearest neighbours come from nanoflann's exact kd-tree (the library wrapped;
+ * about 4x faster than PCL's KdTreeFLANN on a 0.1 m voxel-grid frame of Karlsruhe, see
+ * docs/BENCHMARKS.md) instead of pcl::search::KdTree; distances are the same single
+ * precision squared distances summed over x, y, z, so the classification equals PCL's.
+ * Instantiated for pcl::PointXYZ, pcl::PointXYZI and pcl::PointXYZRGB.
+ * \ingroup filters */
+template <typename PointT>
+class FastStatisticalOutlierRemoval : public pcl::FilterIndices<PointT> {
+public:
+  using PointCloud = typename pcl::FilterIndices<PointT>::PointCloud;
+
+  /** \param[in] extract_removed_indices keep the removed indices (getRemovedIndices())
+   */
+  explicit FastStatisticalOutlierRemoval(bool extract_removed_indices = false) :
+      pcl::FilterIndices<PointT>(extract_removed_indices)
+  {
+    this->filter_name_ = "FastStatisticalOutlierRemoval";
+  }
+
+  /** \brief Number of nearest neighbours whose mean distance is tested (>= 1; 1 by
+   * default, as PCL). */
+  void setMeanK(int mean_k) { mean_k_ = mean_k; }
+  /** \brief The number of neighbours. */
+  int getMeanK() const { return mean_k_; }
+
+  /** \brief Multiplier of the standard deviation of the mean distances in the
+   * threshold mean + std_mul * stddev (0 by default, as PCL). */
+  void setStddevMulThresh(double std_mul) { std_mul_ = std_mul; }
+  /** \brief The multiplier. */
+  double getStddevMulThresh() const { return std_mul_; }
+
+protected:
+  /** \brief Indices of the kept points (or, with setNegative(true), the outliers).
+   * \throws planar_grid::Exception for mean_k < 1 */
+  void applyFilter(pcl::Indices& indices) override;
+
+private:
+  int mean_k_{1};
+  double std_mul_{0.0};
+};
+
+} // namespace planar_grid
