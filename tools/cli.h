@@ -48,9 +48,9 @@ checkArguments(int argc,
  * MB every frame; with glibc's defaults those come from fresh mmap() pages each time,
  * and the page faults cost a fifth of the pipeline's CPU time (perf, Karlsruhe). Blocks
  * up to 32 MiB (glibc's largest mmap threshold) come from the heap, and the heap is
- * trimmed only when 1 GiB lies free at its top. Results are unchanged; the peak resident
- * memory grows by what one frame frees (about 20 MB in the main job).
- * Source: glibc mallopt(M_MMAP_THRESHOLD, M_TRIM_THRESHOLD). */
+ * trimmed only when 1 GiB lies free at its top. Results are unchanged; the peak
+ * resident memory grows by what one frame frees (about 20 MB in the main job). Source:
+ * glibc mallopt(M_MMAP_THRESHOLD, M_TRIM_THRESHOLD). */
 inline void
 keepFreedMemory()
 {
