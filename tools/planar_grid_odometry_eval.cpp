@@ -38,11 +38,13 @@ printHelp(const char* program)
 {
   pcl::console::print_info(
     "Stereo visual odometry (paper eq. 8) evaluated on real data.\n"
-    "Usage: %s --sequence karlsruhe|euroc [options]\n"
-    "  --sequence NAME    karlsruhe (112 frames, INS positions) or euroc (pairs 2 -> "
-    "3)\n"
+    "Usage: %s --sequence karlsruhe|kitti|euroc [options]\n"
+    "  --sequence NAME    karlsruhe (112 frames, INS positions), kitti (the 51-frame\n"
+    "                     snippet, ground-truth poses) or euroc (pairs 2 -> 3)\n"
     "  --data DIR         data folder (default ../shared/data)\n"
-    "  --features NAME    sift or orb (default sift)\n"
+    "  --features NAME    sift, orb or orb_grid (default sift)\n"
+    "  --max_features N   most key points per image (default 2000)\n"
+    "  --max_range_m X    features farther than this are dropped, metres (default 40)\n"
     "  --threshold_m X    RANSAC distance threshold, metres (default 0.1)\n"
     "  --reference_depth_m X  depth beyond which the threshold grows with z^2 and\n"
     "                     the refinement is weighted, metres; 0 = off (default 0)\n"
@@ -377,6 +379,87 @@ runKarlsruhe(const std::string& data_dir,
   return json;
 }
 
+/** \brief The KITTI odometry snippet (51 frames): RTE / ATE against its ground-truth
+ * poses, computed as for Karlsruhe. */
+nlohmann::json
+runKitti(const std::string& data_dir,
+         const StereoFeatureMatcher& matcher,
+         const StereoOdometry::Params& odometry_params,
+         bool reprojection)
+{
+  const std::string dir = data_dir + "/kitti_odometry_snippet_2";
+  const planar_grid::StereoCameraModel model = planar_grid::loadStereoCalibration(
+    planar_grid::CalibrationFormat::KITTI, dir + "/calib.txt");
+  const planar_grid::Trajectory ground_truth =
+    planar_grid::loadKittiPoses(dir + "/poses.txt");
+  planar_grid::VisualOdometry odometry(
+    odometry_params, planar_grid::ConstantVelocityMotionModel::Params());
+  if (reprojection)
+    odometry.setCalibration(model.calibration);
+  std::vector<double> feature_ms, odometry_ms, features;
+  pcl::console::TicToc timer;
+  for (std::size_t frame = 0; frame < ground_truth.size(); ++frame) {
+    const int index = static_cast<int>(frame);
+    const cv::Mat left = readImage(formatPath(dir + "/image_l/%06d.png", index));
+    const cv::Mat right = readImage(formatPath(dir + "/image_r/%06d.png", index));
+    StereoFeatures current;
+    timer.tic();
+    matcher.match(left, right, model.calibration, current);
+    feature_ms.push_back(timer.toc());
+    timer.tic();
+    const planar_grid::OdometryResult& result = odometry.addFrame(current);
+    odometry_ms.push_back(timer.toc());
+    features.push_back(static_cast<double>(current.size()));
+    pcl::console::print_info(
+      "frame %3zu: %4zu features [%6.1f ms], %4zu matches, %4zu inliers [%5.1f ms]%s\n",
+      frame, current.size(), feature_ms.back(), result.correspondences, result.inliers,
+      odometry_ms.back(), result.valid ? "" : " FLAGGED");
+  }
+  const planar_grid::Trajectory& estimated = odometry.getTrajectory();
+  const auto rte = planar_grid::relativeTranslationError(
+    estimated, ground_truth, {10.0, 20.0, 30.0, 40.0, 50.0});
+  const double ate = planar_grid::absoluteTrajectoryError(estimated, ground_truth);
+  double path_gt = 0.0, path_est = 0.0;
+  for (std::size_t i = 1; i < estimated.size(); ++i) {
+    path_gt +=
+      (ground_truth[i].translation() - ground_truth[i - 1].translation()).norm();
+    path_est += (estimated[i].translation() - estimated[i - 1].translation()).norm();
+  }
+  nlohmann::json json;
+  json["sequence"] = "kitti_odometry_snippet_2";
+  json["frames"] = estimated.size();
+  json["flagged_frames"] = odometry.getFlaggedFrames();
+  json["path_length_gt_m"] = path_gt;
+  json["path_length_estimated_m"] = path_est;
+  json["ate_rmse_m"] = ate;
+  json["rte_percent"] = planar_grid::meanRelativeTranslationError(rte);
+  json["heading_change_estimated_deg"] = headingChangeDeg(estimated, true, 5);
+  json["heading_change_gt_deg"] = headingChangeDeg(ground_truth, true, 5);
+  for (const auto& error : rte)
+    json["rte_by_length"].push_back({{"segment_length_m", error.segment_length_m},
+                                     {"segments", error.segments},
+                                     {"mean_error_percent", error.mean_error_percent}});
+  json["features_per_frame_mean"] = mean(features);
+  json["feature_extraction_and_stereo_matching"] = timingJson(feature_ms);
+  json["odometry"] = timingJson(odometry_ms);
+  pcl::console::print_info("KITTI: %zu frames, GT path %.2f m, estimated %.2f m\n",
+                           estimated.size(), path_gt, path_est);
+  for (const auto& error : rte)
+    pcl::console::print_info("  RTE %4.0f m: %6.3f %% over %zu segments\n",
+                             error.segment_length_m, error.mean_error_percent,
+                             error.segments);
+  pcl::console::print_info("  RTE (all segments): %.3f %%, ATE RMSE: %.3f m\n",
+                           json["rte_percent"].get<double>(), ate);
+  pcl::console::print_info(
+    "  heading change: estimated %.2f deg, ground truth %.2f deg; flagged frames: "
+    "%zu\n",
+    json["heading_change_estimated_deg"].get<double>(),
+    json["heading_change_gt_deg"].get<double>(), odometry.getFlaggedFrames().size());
+  pcl::console::print_info("  features+stereo: mean %.1f ms; odometry: mean %.1f ms\n",
+                           mean(feature_ms), mean(odometry_ms));
+  return json;
+}
+
 nlohmann::json
 runEuroc(const std::string& data_dir,
          const StereoFeatureMatcher& matcher,
@@ -471,8 +554,8 @@ run(int argc, char** argv)
     }
     planar_grid::cli::checkArguments(
       argc, argv,
-      {"--sequence", "--data", "--features", "--output", "--threshold_m",
-       "--reference_depth_m", "--ins_lever_arm_m"},
+      {"--sequence", "--data", "--features", "--max_features", "--max_range_m",
+       "--output", "--threshold_m", "--reference_depth_m", "--ins_lever_arm_m"},
       {"--no_reprojection", "--no_epipolar", "--step_analysis"});
     std::string sequence, data_dir = "../shared/data", features_name = "sift", output;
     if (pcl::console::parse_argument(argc, argv, "--sequence", sequence) < 0) {
@@ -514,6 +597,20 @@ run(int argc, char** argv)
     }
     StereoFeatureMatcher::Params matcher_params;
     matcher_params.feature_type = planar_grid::featureTypeFromString(features_name);
+    if (pcl::console::find_switch(argc, argv, "--max_features")
+        && pcl::console::parse_argument(argc, argv, "--max_features",
+                                        matcher_params.max_features)
+             < 0) {
+      pcl::console::print_error("--max_features needs a number\n");
+      return EXIT_FAILURE;
+    }
+    if (pcl::console::find_switch(argc, argv, "--max_range_m")
+        && pcl::console::parse_argument(argc, argv, "--max_range_m",
+                                        matcher_params.max_range_m)
+             < 0) {
+      pcl::console::print_error("--max_range_m needs a number\n");
+      return EXIT_FAILURE;
+    }
     const StereoFeatureMatcher matcher(matcher_params);
     pcl::console::print_info(
       "Sequence %s, data %s, features %s, RANSAC threshold %.3f m, reference depth "
@@ -530,14 +627,18 @@ run(int argc, char** argv)
     if (sequence == "karlsruhe")
       json = runKarlsruhe(data_dir, matcher, odometry_params, reprojection, lever_arm_m,
                           pcl::console::find_switch(argc, argv, "--step_analysis"));
+    else if (sequence == "kitti")
+      json = runKitti(data_dir, matcher, odometry_params, reprojection);
     else if (sequence == "euroc")
       json = runEuroc(data_dir, matcher, odometry_params, reprojection);
     else {
-      pcl::console::print_error("Unknown --sequence '%s' (karlsruhe, euroc)\n",
+      pcl::console::print_error("Unknown --sequence '%s' (karlsruhe, kitti, euroc)\n",
                                 sequence.c_str());
       return EXIT_FAILURE;
     }
     json["features_type"] = features_name;
+    json["max_features"] = matcher_params.max_features;
+    json["max_range_m"] = matcher_params.max_range_m;
     json["ransac_distance_threshold_m"] = odometry_params.distance_threshold_m;
     json["reference_depth_m"] = odometry_params.reference_depth_m;
     json["reprojection_refinement"] = reprojection;

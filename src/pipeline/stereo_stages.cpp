@@ -68,18 +68,30 @@ stereoDisparityInfo()
 {
   StageInfo info;
   info.type = "stereo_disparity";
-  info.description = "Dense disparity with OpenCV StereoSGBM, reprojected to an "
-                     "organized cloud in the "
-                     "left camera frame (x right, y down, z forward; NaN = invalid).";
+  info.description =
+    "Dense disparity with an OpenCV matcher (StereoSGBM in one of its modes, or "
+    "StereoBM), optionally at half resolution, reprojected to an organized cloud in "
+    "the left camera frame (x right, y down, z forward; NaN = invalid).";
   info.needs_stereo = true;
   const DisparityEstimator::Params d;
   info.params = {
+    ParamSpec::choice("algorithm", toString(d.algorithm),
+                      {"sgbm", "sgbm_3way", "sgbm_hh", "sgbm_hh4", "block_matching"},
+                      "OpenCV matcher: StereoSGBM 5-path (single-threaded), 3-way "
+                      "(parallel), 8-path, 4-path, or StereoBM (local SAD, parallel)."),
+    ParamSpec::integer("downscale", d.downscale, 1, 2, "",
+                       "Image scale divisor: 2 matches half-resolution images; the "
+                       "output stays full resolution, in full-resolution px."),
+    ParamSpec::integer("num_threads", d.num_threads, 0, 64, "",
+                       "OpenCV threads while matching (speed only, never the result); "
+                       "0 = OpenCV's process-wide setting."),
     ParamSpec::integer("min_disparity_px", d.min_disparity_px, -256, 256, "px",
-                       "Smallest disparity searched."),
+                       "Smallest disparity searched; a multiple of downscale."),
     ParamSpec::integer("num_disparities_px", d.num_disparities_px, 16, 512, "px",
-                       "Number of disparities searched; a multiple of 16."),
-    ParamSpec::integer("block_size_px", d.block_size_px, 1, 11, "px",
-                       "Matched block side; odd."),
+                       "Number of disparities searched; a multiple of 16 * downscale."),
+    ParamSpec::integer("block_size_px", d.block_size_px, 1, 21, "px",
+                       "Matched block side in matched-image px; odd, 1..11 for the "
+                       "SGBM modes, 5..21 for block_matching."),
     ParamSpec::integer(
       "p1", d.p1, 0, 100000, "",
       "SGBM penalty for 1 px disparity changes; 0 = 8*channels*block^2."),
@@ -87,21 +99,36 @@ stereoDisparityInfo()
                        "SGBM penalty for larger changes; 0 = 32*channels*block^2."),
     ParamSpec::integer("disp12_max_diff_px", d.disp12_max_diff_px, -1, 64, "px",
                        "Left-right consistency tolerance; -1 disables the check."),
-    ParamSpec::integer("pre_filter_cap", d.pre_filter_cap, 1, 255, "",
-                       "Clip of the x-derivative pre-filter."),
+    ParamSpec::integer("pre_filter_cap", d.pre_filter_cap, 1, 63, "",
+                       "SGBM modes: clip of the x-derivative pre-filter."),
     ParamSpec::integer("uniqueness_ratio_percent", d.uniqueness_ratio_percent, 0, 100,
                        "percent", "Margin by which the best cost must win."),
     ParamSpec::integer("speckle_window_size_px", d.speckle_window_size_px, 0, 10000,
                        "px", "Largest speckle region removed as noise; 0 disables."),
     ParamSpec::integer("speckle_range_px", d.speckle_range_px, 0, 64, "px",
                        "Largest disparity variation inside a speckle component."),
-    ParamSpec::flag("full_dp", d.full_dp, "8-direction SGBM (slower) instead of 5."),
+    ParamSpec::flag("full_dp", d.full_dp,
+                    "Legacy: true = algorithm sgbm_hh (only with algorithm sgbm)."),
+    ParamSpec::choice("bm_pre_filter", toString(d.bm_pre_filter),
+                      {"xsobel", "normalized_response"},
+                      "block_matching: pre-filter of both images."),
+    ParamSpec::integer("bm_pre_filter_cap", d.bm_pre_filter_cap, 1, 31, "",
+                       "block_matching: clip of the pre-filter output (above 31 "
+                       "OpenCV 4.6's StereoBM is not repeatable)."),
+    ParamSpec::integer("bm_pre_filter_size_px", d.bm_pre_filter_size_px, 5, 255, "px",
+                       "block_matching: normalized_response window side; odd."),
+    ParamSpec::integer("bm_texture_threshold", d.bm_texture_threshold, 0, 100000, "",
+                       "block_matching: blocks with less pre-filtered texture (sum of "
+                       "absolute values) are invalid; 0 disables."),
     ParamSpec::real(
       "max_range_m", 40.0, 0.1, 1000.0, "m",
       "Points farther than this are invalid (stereo error grows as z^2)."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     DisparityEstimator::Params p;
+    p.algorithm = disparityAlgorithmFromString(v.getChoice("algorithm"));
+    p.downscale = v.getInt("downscale");
+    p.num_threads = v.getInt("num_threads");
     p.min_disparity_px = v.getInt("min_disparity_px");
     p.num_disparities_px = v.getInt("num_disparities_px");
     p.block_size_px = v.getInt("block_size_px");
@@ -113,6 +140,10 @@ stereoDisparityInfo()
     p.speckle_window_size_px = v.getInt("speckle_window_size_px");
     p.speckle_range_px = v.getInt("speckle_range_px");
     p.full_dp = v.getBool("full_dp");
+    p.bm_pre_filter = blockMatchingPreFilterFromString(v.getChoice("bm_pre_filter"));
+    p.bm_pre_filter_cap = v.getInt("bm_pre_filter_cap");
+    p.bm_pre_filter_size_px = v.getInt("bm_pre_filter_size_px");
+    p.bm_texture_threshold = v.getInt("bm_texture_threshold");
     return std::make_unique<StereoDisparityStage>(p, v.getDouble("max_range_m"));
   };
   return info;
@@ -124,16 +155,21 @@ featureMatchingInfo()
   StageInfo info;
   info.type = "feature_matching";
   info.description =
-    "Key feature points (SIFT or ORB; the paper's SURF is not in Debian's OpenCV) "
-    "matched left to right along the epipolar row with Lowe's ratio test and "
-    "triangulated to 3D.";
+    "Key feature points (SIFT, ORB, or orb_grid: FAST corners bucketed over a grid, "
+    "upright ORB descriptors and sub-pixel disparities; the paper's SURF is not in "
+    "Debian's OpenCV) matched left to right along the epipolar row with Lowe's ratio "
+    "test and triangulated to 3D.";
   info.needs_stereo = true;
   const StereoFeatureMatcher::Params f;
   info.params = {
-    ParamSpec::choice("feature_type", "sift", {"sift", "orb"},
-                      "Detector and descriptor."),
+    ParamSpec::choice("feature_type", "sift", {"sift", "orb", "orb_grid"},
+                      "Detector and descriptor: sift (sub-pixel, slow), orb (OpenCV "
+                      "defaults, quantised disparities), orb_grid (fast front end for "
+                      "the odometry)."),
     ParamSpec::integer("max_features", f.max_features, 10, 100000, "",
-                       "Most key points detected per image."),
+                       "Most key points detected per image (orb_grid: in the left "
+                       "image, spread evenly over the grid cells; the right image "
+                       "keeps up to twice as many)."),
     ParamSpec::real("ratio", f.ratio, 0.1, 1.0, "",
                     "Lowe's ratio test: best / second-best distance below this."),
     ParamSpec::real("max_row_difference_px", f.max_row_difference_px, 0.0, 10.0, "px",
@@ -142,6 +178,19 @@ featureMatchingInfo()
                     "Largest disparity accepted."),
     ParamSpec::real("max_range_m", f.max_range_m, 0.1, 1000.0, "m",
                     "Features farther than this are dropped."),
+    ParamSpec::integer("bucket_size_px", f.bucket_size_px, 8, 1024, "px",
+                       "orb_grid: side of the square grid cells; each keeps its "
+                       "strongest FAST corners (even coverage)."),
+    ParamSpec::integer("fast_threshold", f.fast_threshold, 1, 255, "grey levels",
+                       "orb_grid: cv::FAST segment-test threshold (8-bit intensity "
+                       "difference)."),
+    ParamSpec::integer("subpixel_window_px", f.subpixel_window_px, 3, 31, "px",
+                       "orb_grid: window side of the sub-pixel disparity refinement "
+                       "(zero-mean SSD parabola along the row); odd."),
+    ParamSpec::integer("subpixel_search_px", f.subpixel_search_px, 1, 8, "px",
+                       "orb_grid: the refinement searches +- this many columns around "
+                       "the matched right key point; a minimum at the end drops the "
+                       "match."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     StereoFeatureMatcher::Params p;
@@ -151,6 +200,10 @@ featureMatchingInfo()
     p.max_row_difference_px = v.getDouble("max_row_difference_px");
     p.max_disparity_px = v.getDouble("max_disparity_px");
     p.max_range_m = v.getDouble("max_range_m");
+    p.bucket_size_px = v.getInt("bucket_size_px");
+    p.fast_threshold = v.getInt("fast_threshold");
+    p.subpixel_window_px = v.getInt("subpixel_window_px");
+    p.subpixel_search_px = v.getInt("subpixel_search_px");
     return std::make_unique<FeatureMatchingStage>(p);
   };
   return info;

@@ -23,11 +23,16 @@ constexpr double MAX_IMAGE_SIDE_PX = 10000.0;
 using ProjectionMatrix = std::array<double, 12>;
 
 /** \brief Reads the 3x4 rows \a left_key and \a right_key ("P1_roi:") of a plain-text
- * calib.txt (one "key: 12 numbers" per line) into \a left and \a right. */
+ * calib.txt (one "key: 12 numbers" per line) into \a left and \a right. With
+ * \a unlabelled_fallback, a file without either key whose lines are bare rows of 12
+ * numbers (some KITTI odometry excerpts strip the "P0:" / "P1:" labels) gives its first
+ * two such rows as \a left and \a right; a file mixing labelled and unlabelled rows,
+ * or with fewer than two unlabelled rows, is an IOError. */
 void
 readTextProjectionRows(const std::string& path,
                        const std::string& left_key,
                        const std::string& right_key,
+                       bool unlabelled_fallback,
                        ProjectionMatrix& left,
                        ProjectionMatrix& right)
 {
@@ -36,18 +41,43 @@ readTextProjectionRows(const std::string& path,
     throw IOError(path + ": cannot open the calibration file");
   bool found_left = false;
   bool found_right = false;
+  bool any_label = false;
+  std::vector<ProjectionMatrix> unlabelled;
   std::string line;
   while (std::getline(file, line)) {
     std::istringstream row(line);
     std::string key;
-    if (!(row >> key) || (key != left_key && key != right_key))
+    if (!(row >> key))
       continue;
+    if (key != left_key && key != right_key) {
+      // A bare row: exactly 12 numbers and nothing else.
+      std::istringstream numbers(line);
+      ProjectionMatrix p{};
+      bool complete = true;
+      for (double& value : p)
+        complete = complete && static_cast<bool>(numbers >> value);
+      std::string rest;
+      if (complete && !(numbers >> rest))
+        unlabelled.push_back(p);
+      else
+        any_label = true;
+      continue;
+    }
+    any_label = true;
     ProjectionMatrix& p = (key == left_key) ? left : right;
     for (double& value : p)
       if (!(row >> value))
         throw IOError(path + ": row '" + key
                       + "' must hold 12 numbers (3x4, row-major)");
     (key == left_key ? found_left : found_right) = true;
+  }
+  if (unlabelled_fallback && !found_left && !found_right && !any_label) {
+    if (unlabelled.size() < 2)
+      throw IOError(path + ": no '" + left_key + "' / '" + right_key
+                    + "' rows and fewer than two unlabelled rows of 12 numbers");
+    left = unlabelled[0];
+    right = unlabelled[1];
+    return;
   }
   if (!found_left)
     throw IOError(path + ": missing row '" + left_key + "'");
@@ -155,10 +185,11 @@ readMatrix(const YAML::Node& node,
 StereoCameraModel
 loadTextCalibration(const std::string& path,
                     const std::string& left_key,
-                    const std::string& right_key)
+                    const std::string& right_key,
+                    bool unlabelled_fallback)
 {
   ProjectionMatrix left{}, right{};
-  readTextProjectionRows(path, left_key, right_key, left, right);
+  readTextProjectionRows(path, left_key, right_key, unlabelled_fallback, left, right);
   StereoCameraModel model;
   model.calibration = calibrationFromProjections(left, right);
   return model;
@@ -343,10 +374,10 @@ loadStereoCalibration(CalibrationFormat format,
   StereoCameraModel model;
   switch (format) {
     case CalibrationFormat::KARLSRUHE:
-      model = loadTextCalibration(path, "P1_roi:", "P2_roi:");
+      model = loadTextCalibration(path, "P1_roi:", "P2_roi:", false);
       break;
     case CalibrationFormat::KITTI:
-      model = loadTextCalibration(path, "P0:", "P1:");
+      model = loadTextCalibration(path, "P0:", "P1:", true);
       break;
     case CalibrationFormat::ROS_CAMERA_INFO:
       if (right_path.empty())

@@ -3,8 +3,11 @@
 #include <planar_grid/stereo/disparity_estimator.h>
 
 #include <opencv2/calib3d.hpp>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <limits>
 #include <string>
 
@@ -13,6 +16,9 @@
 namespace planar_grid {
 
 namespace {
+
+const std::string ALGORITHM_NAMES =
+  "sgbm, sgbm_3way, sgbm_hh, sgbm_hh4, block_matching";
 
 /** \brief SGBM's smoothness penalties for one grey channel: OpenCV's recommended
  * 8 * block^2 and 32 * block^2 unless set. */
@@ -28,54 +34,305 @@ effectiveP2(const DisparityEstimator::Params& params)
   return params.p2 > 0 ? params.p2 : 32 * params.block_size_px * params.block_size_px;
 }
 
+/** \brief A length along the disparity axis at the matched scale: \a value_px / \a
+ * downscale rounded up, so that a tolerance never shrinks to 0; negative values (a
+ * disabled check) stay negative. */
+int
+scaledTolerance(int value_px, int downscale)
+{
+  if (value_px <= 0)
+    return value_px;
+  return (value_px + downscale - 1) / downscale;
+}
+
+bool
+isOdd(int value)
+{
+  return value % 2 != 0;
+}
+
 void
 validateParams(const DisparityEstimator::Params& params)
 {
   const std::string prefix = "DisparityEstimator: ";
-  if (params.num_disparities_px <= 0 || params.num_disparities_px % 16 != 0)
-    throw Exception(prefix
-                    + "num_disparities_px must be a positive multiple of 16, got "
+  if (params.downscale != 1 && params.downscale != 2)
+    throw Exception(prefix + "downscale must be 1 or 2, got "
+                    + std::to_string(params.downscale));
+  if (params.num_threads < 0 || params.num_threads > 64)
+    throw Exception(prefix + "num_threads must be in [0, 64], got "
+                    + std::to_string(params.num_threads));
+  const int disparity_step = 16 * params.downscale;
+  if (params.num_disparities_px <= 0 || params.num_disparities_px % disparity_step != 0)
+    throw Exception(prefix + "num_disparities_px must be a positive multiple of "
+                    + std::to_string(disparity_step) + " (16 * downscale), got "
                     + std::to_string(params.num_disparities_px));
+  if (params.min_disparity_px % params.downscale != 0)
+    throw Exception(prefix + "min_disparity_px must be a multiple of downscale, got "
+                    + std::to_string(params.min_disparity_px));
+  if (params.uniqueness_ratio_percent < 0 || params.uniqueness_ratio_percent > 100)
+    throw Exception(prefix + "uniqueness_ratio_percent must be in [0, 100], got "
+                    + std::to_string(params.uniqueness_ratio_percent));
+  if (params.speckle_window_size_px < 0 || params.speckle_range_px < 0)
+    throw Exception(prefix
+                    + "speckle_window_size_px and speckle_range_px must be >= 0");
+  if (params.full_dp && params.algorithm != DisparityAlgorithm::SGBM)
+    throw Exception(prefix
+                    + "full_dp is the legacy spelling of algorithm sgbm_hh and "
+                      "is only valid with algorithm sgbm, not "
+                    + toString(params.algorithm));
+
+  if (params.algorithm == DisparityAlgorithm::BLOCK_MATCHING) {
+    // Above block 21 or pre-filter cap 31 OpenCV 4.6's StereoBM leaves its SIMD path
+    // for a generic one whose output changes from run to run (measured on Karlsruhe:
+    // up to ~100 pixels differ between two identical calls).
+    if (params.block_size_px < 5 || params.block_size_px > 21
+        || !isOdd(params.block_size_px))
+      throw Exception(prefix
+                      + "block_size_px must be odd and in [5, 21] for block_matching, "
+                        "got "
+                      + std::to_string(params.block_size_px));
+    if (params.bm_pre_filter_cap < 1 || params.bm_pre_filter_cap > 31)
+      throw Exception(prefix + "bm_pre_filter_cap must be in [1, 31], got "
+                      + std::to_string(params.bm_pre_filter_cap));
+    if (params.bm_pre_filter_size_px < 5 || params.bm_pre_filter_size_px > 255
+        || !isOdd(params.bm_pre_filter_size_px))
+      throw Exception(prefix + "bm_pre_filter_size_px must be odd and in [5, 255], got "
+                      + std::to_string(params.bm_pre_filter_size_px));
+    if (params.bm_texture_threshold < 0)
+      throw Exception(prefix + "bm_texture_threshold must be >= 0, got "
+                      + std::to_string(params.bm_texture_threshold));
+    return;
+  }
   if (params.block_size_px < 1 || params.block_size_px > 11
-      || params.block_size_px % 2 == 0)
+      || !isOdd(params.block_size_px))
     throw Exception(prefix + "block_size_px must be odd and in [1, 11], got "
                     + std::to_string(params.block_size_px));
+  if (params.pre_filter_cap < 1 || params.pre_filter_cap > 63)
+    throw Exception(prefix + "pre_filter_cap must be in [1, 63], got "
+                    + std::to_string(params.pre_filter_cap));
   if (params.p1 < 0 || params.p2 < 0)
     throw Exception(prefix + "p1 and p2 must be >= 0 (0 = OpenCV's default)");
   if (effectiveP2(params) <= effectiveP1(params))
     throw Exception(prefix + "p2 (" + std::to_string(effectiveP2(params))
                     + ") must be greater than p1 ("
                     + std::to_string(effectiveP1(params)) + ")");
-  if (params.uniqueness_ratio_percent < 0 || params.uniqueness_ratio_percent > 100)
-    throw Exception(prefix + "uniqueness_ratio_percent must be in [0, 100], got "
-                    + std::to_string(params.uniqueness_ratio_percent));
-  if (params.pre_filter_cap < 1 || params.pre_filter_cap > 63)
-    throw Exception(prefix + "pre_filter_cap must be in [1, 63], got "
-                    + std::to_string(params.pre_filter_cap));
-  if (params.speckle_window_size_px < 0 || params.speckle_range_px < 0)
-    throw Exception(prefix
-                    + "speckle_window_size_px and speckle_range_px must be >= 0");
+}
+
+int
+sgbmMode(const DisparityEstimator::Params& params)
+{
+  switch (params.algorithm) {
+    case DisparityAlgorithm::SGBM_3WAY:
+      return cv::StereoSGBM::MODE_SGBM_3WAY;
+    case DisparityAlgorithm::SGBM_HH:
+      return cv::StereoSGBM::MODE_HH;
+    case DisparityAlgorithm::SGBM_HH4:
+      return cv::StereoSGBM::MODE_HH4;
+    default:
+      return params.full_dp ? cv::StereoSGBM::MODE_HH : cv::StereoSGBM::MODE_SGBM;
+  }
+}
+
+/** \brief Sets OpenCV's process-wide thread count for one scope and restores it; no-op
+ * for 0 or when the count is already the requested one (re-creating OpenCV's thread
+ * pool is not free). */
+class ScopedOpenCVThreads {
+public:
+  explicit ScopedOpenCVThreads(int num_threads)
+  {
+    if (num_threads <= 0)
+      return;
+    const int current = cv::getNumThreads();
+    if (current == num_threads)
+      return;
+    previous_ = current;
+    cv::setNumThreads(num_threads);
+  }
+  ~ScopedOpenCVThreads()
+  {
+    if (previous_ > 0)
+      cv::setNumThreads(previous_);
+  }
+  ScopedOpenCVThreads(const ScopedOpenCVThreads&) = delete;
+  ScopedOpenCVThreads& operator=(const ScopedOpenCVThreads&) = delete;
+
+private:
+  int previous_{0};
+};
+
+/** \brief OpenCV's CV_16S fixed-point disparity (16 * px, values below
+ * min_disparity * 16 invalid) as px times \a scale, NaN where invalid. */
+void
+fixedPointToFloat(const cv::Mat& fixed_point,
+                  int min_disparity_px,
+                  float scale,
+                  cv::Mat& disparity)
+{
+  const int min_valid = min_disparity_px * 16;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float factor = scale / 16.0f;
+  disparity.create(fixed_point.size(), CV_32FC1);
+  for (int v = 0; v < fixed_point.rows; ++v) {
+    const short* in = fixed_point.ptr<short>(v);
+    float* out = disparity.ptr<float>(v);
+    for (int u = 0; u < fixed_point.cols; ++u)
+      out[u] = in[u] < min_valid ? nan : static_cast<float>(in[u]) * factor;
+  }
+}
+
+/** \brief Upsamples a half-resolution disparity image (already in full-resolution px)
+ * by exactly 2 into \a full (size \a full_size, at most twice \a half's).
+ *
+ * Full pixel u sits at half-resolution coordinate u / 2 - 0.25 (pixel centres). It is
+ * interpolated bilinearly when its four half-resolution neighbours are valid and span
+ * at most 2 px (a smooth surface); otherwise it takes the half-resolution pixel that
+ * contains it, so that depth edges stay sharp and NaN does not spread. */
+void
+upsampleDisparity(const cv::Mat& half, const cv::Size& full_size, cv::Mat& full)
+{
+  const float max_span_px = 2.0f;
+  full.create(full_size, CV_32FC1);
+  const int last_col = half.cols - 1;
+  const int last_row = half.rows - 1;
+  for (int v = 0; v < full.rows; ++v) {
+    // v even: between half rows v/2 - 1 and v/2, weight 0.75 on the lower; v odd:
+    // between (v-1)/2 and (v+1)/2, weight 0.25 on the lower.
+    const int y0 = (v % 2 == 0) ? v / 2 - 1 : v / 2;
+    const float wy = (v % 2 == 0) ? 0.75f : 0.25f;
+    const float* row0 = half.ptr<float>(std::clamp(y0, 0, last_row));
+    const float* row1 = half.ptr<float>(std::clamp(y0 + 1, 0, last_row));
+    const float* nearest_row = half.ptr<float>(std::min(v / 2, last_row));
+    float* out = full.ptr<float>(v);
+    for (int u = 0; u < full.cols; ++u) {
+      const int x0 = (u % 2 == 0) ? u / 2 - 1 : u / 2;
+      const float wx = (u % 2 == 0) ? 0.75f : 0.25f;
+      const int xa = std::clamp(x0, 0, last_col);
+      const int xb = std::clamp(x0 + 1, 0, last_col);
+      const float d00 = row0[xa], d01 = row0[xb], d10 = row1[xa], d11 = row1[xb];
+      const bool all_valid =
+        !std::isnan(d00) && !std::isnan(d01) && !std::isnan(d10) && !std::isnan(d11);
+      const float lo = std::min(std::min(d00, d01), std::min(d10, d11));
+      const float hi = std::max(std::max(d00, d01), std::max(d10, d11));
+      if (all_valid && hi - lo <= max_span_px)
+        out[u] = (1.0f - wy) * ((1.0f - wx) * d00 + wx * d01)
+                 + wy * ((1.0f - wx) * d10 + wx * d11);
+      else
+        out[u] = nearest_row[std::min(u / 2, last_col)];
+    }
+  }
 }
 
 } // namespace
+
+DisparityAlgorithm
+disparityAlgorithmFromString(const std::string& name)
+{
+  if (name == "sgbm")
+    return DisparityAlgorithm::SGBM;
+  if (name == "sgbm_3way")
+    return DisparityAlgorithm::SGBM_3WAY;
+  if (name == "sgbm_hh")
+    return DisparityAlgorithm::SGBM_HH;
+  if (name == "sgbm_hh4")
+    return DisparityAlgorithm::SGBM_HH4;
+  if (name == "block_matching")
+    return DisparityAlgorithm::BLOCK_MATCHING;
+  throw Exception("unknown disparity algorithm '" + name
+                  + "'; known algorithms: " + ALGORITHM_NAMES);
+}
+
+std::string
+toString(DisparityAlgorithm algorithm)
+{
+  switch (algorithm) {
+    case DisparityAlgorithm::SGBM:
+      return "sgbm";
+    case DisparityAlgorithm::SGBM_3WAY:
+      return "sgbm_3way";
+    case DisparityAlgorithm::SGBM_HH:
+      return "sgbm_hh";
+    case DisparityAlgorithm::SGBM_HH4:
+      return "sgbm_hh4";
+    case DisparityAlgorithm::BLOCK_MATCHING:
+      return "block_matching";
+  }
+  return "sgbm";
+}
+
+BlockMatchingPreFilter
+blockMatchingPreFilterFromString(const std::string& name)
+{
+  if (name == "xsobel")
+    return BlockMatchingPreFilter::XSOBEL;
+  if (name == "normalized_response")
+    return BlockMatchingPreFilter::NORMALIZED_RESPONSE;
+  throw Exception("unknown block matching pre-filter '" + name
+                  + "'; known pre-filters: xsobel, normalized_response");
+}
+
+std::string
+toString(BlockMatchingPreFilter pre_filter)
+{
+  return pre_filter == BlockMatchingPreFilter::XSOBEL ? "xsobel"
+                                                      : "normalized_response";
+}
 
 DisparityEstimator::DisparityEstimator() : DisparityEstimator(Params()) {}
 
 DisparityEstimator::DisparityEstimator(const Params& params) : params_(params)
 {
   validateParams(params_);
-  sgbm_ = cv::StereoSGBM::create(
-    params_.min_disparity_px, params_.num_disparities_px, params_.block_size_px,
-    effectiveP1(params_), effectiveP2(params_), params_.disp12_max_diff_px,
-    params_.pre_filter_cap, params_.uniqueness_ratio_percent,
-    params_.speckle_window_size_px, params_.speckle_range_px,
-    params_.full_dp ? cv::StereoSGBM::MODE_HH : cv::StereoSGBM::MODE_SGBM);
+  // The matcher works at the matched scale: disparities, disparity tolerances and the
+  // speckle area shrink with the image; block and pre-filter windows are in matched
+  // pixels by definition.
+  const int s = params_.downscale;
+  const int min_disparity = params_.min_disparity_px / s;
+  const int num_disparities = params_.num_disparities_px / s;
+  const int disp12_max_diff = scaledTolerance(params_.disp12_max_diff_px, s);
+  const int speckle_window = params_.speckle_window_size_px / (s * s);
+  const int speckle_range = scaledTolerance(params_.speckle_range_px, s);
+  if (params_.algorithm == DisparityAlgorithm::BLOCK_MATCHING) {
+    cv::Ptr<cv::StereoBM> bm =
+      cv::StereoBM::create(num_disparities, params_.block_size_px);
+    bm->setMinDisparity(min_disparity);
+    bm->setPreFilterType(params_.bm_pre_filter == BlockMatchingPreFilter::XSOBEL
+                           ? cv::StereoBM::PREFILTER_XSOBEL
+                           : cv::StereoBM::PREFILTER_NORMALIZED_RESPONSE);
+    bm->setPreFilterSize(params_.bm_pre_filter_size_px);
+    bm->setPreFilterCap(params_.bm_pre_filter_cap);
+    bm->setTextureThreshold(params_.bm_texture_threshold);
+    bm->setUniquenessRatio(params_.uniqueness_ratio_percent);
+    bm->setDisp12MaxDiff(disp12_max_diff);
+    bm->setSpeckleWindowSize(speckle_window);
+    bm->setSpeckleRange(speckle_range);
+    matcher_ = bm;
+  } else {
+    matcher_ = cv::StereoSGBM::create(
+      min_disparity, num_disparities, params_.block_size_px, effectiveP1(params_),
+      effectiveP2(params_), disp12_max_diff, params_.pre_filter_cap,
+      params_.uniqueness_ratio_percent, speckle_window, speckle_range,
+      sgbmMode(params_));
+  }
 }
 
 DisparityEstimator::~DisparityEstimator() = default;
 DisparityEstimator::DisparityEstimator(DisparityEstimator&&) noexcept = default;
 DisparityEstimator&
 DisparityEstimator::operator=(DisparityEstimator&&) noexcept = default;
+
+void
+DisparityEstimator::computeFixedPoint(const cv::Mat& left_grey,
+                                      const cv::Mat& right_grey,
+                                      cv::Mat& fixed_point) const
+{
+  if (params_.algorithm == DisparityAlgorithm::BLOCK_MATCHING
+      && std::min(left_grey.rows, left_grey.cols) < params_.block_size_px)
+    throw Exception("DisparityEstimator::compute: the "
+                    + std::string(params_.downscale == 2 ? "downscaled " : "")
+                    + "images are smaller than block_size_px");
+  const ScopedOpenCVThreads threads(params_.num_threads);
+  matcher_->compute(left_grey, right_grey, fixed_point);
+}
 
 void
 DisparityEstimator::compute(const cv::Mat& left,
@@ -94,19 +351,33 @@ DisparityEstimator::compute(const cv::Mat& left,
     throw Exception("DisparityEstimator::compute: images must be CV_8UC1 or CV_8UC3");
 
   cv::Mat fixed_point; // CV_16S, disparity * 16
-  sgbm_->compute(detail::toGrey(left), detail::toGrey(right), fixed_point);
-
-  // SGBM marks failures with (min_disparity - 1) * 16; anything below the search range
-  // is invalid.
-  const int min_valid = params_.min_disparity_px * 16;
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  disparity.create(fixed_point.size(), CV_32FC1);
-  for (int v = 0; v < fixed_point.rows; ++v) {
-    const short* in = fixed_point.ptr<short>(v);
-    float* out = disparity.ptr<float>(v);
-    for (int u = 0; u < fixed_point.cols; ++u)
-      out[u] = in[u] < min_valid ? nan : static_cast<float>(in[u]) / 16.0f;
+  if (params_.downscale == 1) {
+    computeFixedPoint(detail::toGrey(left), detail::toGrey(right), fixed_point);
+    fixedPointToFloat(fixed_point, params_.min_disparity_px, 1.0f, disparity);
+    return;
   }
+
+  // Half resolution: pad an odd side by one replicated pixel so that the shrink is
+  // exactly 2 (pixel u of the input covers half pixel u / 2), match, convert to input
+  // pixels (x 2), upsample and crop the padding.
+  const int pad_right = left.cols % 2;
+  const int pad_bottom = left.rows % 2;
+  auto shrink = [&](const cv::Mat& image) {
+    cv::Mat grey = detail::toGrey(image);
+    if (pad_right != 0 || pad_bottom != 0)
+      cv::copyMakeBorder(grey, grey, 0, pad_bottom, 0, pad_right, cv::BORDER_REPLICATE);
+    cv::Mat half;
+    cv::resize(grey, half, cv::Size(grey.cols / 2, grey.rows / 2), 0.0, 0.0,
+               cv::INTER_AREA);
+    return half;
+  };
+  computeFixedPoint(shrink(left), shrink(right), fixed_point);
+  cv::Mat half_disparity;
+  fixedPointToFloat(fixed_point, params_.min_disparity_px / 2, 2.0f, half_disparity);
+  cv::Mat padded;
+  upsampleDisparity(half_disparity,
+                    cv::Size(2 * fixed_point.cols, 2 * fixed_point.rows), padded);
+  padded(cv::Rect(0, 0, left.cols, left.rows)).copyTo(disparity);
 }
 
 } // namespace planar_grid

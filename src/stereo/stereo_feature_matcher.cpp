@@ -28,6 +28,82 @@ descriptorDistance(const cv::Mat& a, int row_a, const cv::Mat& b, int row_b)
                                                  b.ptr<std::uint8_t>(row_b), a.cols));
 }
 
+/** \brief ORB's patch side, px (its default; the descriptor samples within it). */
+constexpr int ORB_PATCH_SIZE_PX = 31;
+
+/** \brief Margin without ORB_GRID key points, px: the upright BRIEF pattern reaches 13
+ * px from the key point and cv::ORB smooths with a 7x7 Gaussian, so 16 px keeps every
+ * sample inside the image. */
+constexpr int ORB_GRID_BORDER_PX = 16;
+
+/** \brief Sub-pixel column of the right image's match of the left key point \a left_pt
+ * (rectified pair, so on the left key point's row): the zero-mean SSD between the
+ * window around \a left_pt and the right image's windows at integer shifts
+ * -search..+search from column \a right_x, then the vertex of the parabola through the
+ * costs at the best shift and its two neighbours. Windows are cut with
+ * cv::getRectSubPix (bilinear, border replicated). \return false when the best shift is
+ * at the end of the search range, the costs have no strict minimum there, or the best
+ * cost exceeds half the left window's zero-mean energy (no reliable sub-pixel match) */
+bool
+refineRightColumn(const cv::Mat& left,
+                  const cv::Mat& right,
+                  const cv::Point2f& left_pt,
+                  float right_x,
+                  int window_px,
+                  int search_px,
+                  float& refined_x)
+{
+  cv::Mat left_window, right_strip;
+  cv::getRectSubPix(left, cv::Size(window_px, window_px), left_pt, left_window, CV_32F);
+  cv::getRectSubPix(right, cv::Size(window_px + 2 * search_px, window_px),
+                    cv::Point2f(right_x, left_pt.y), right_strip, CV_32F);
+  const int shifts = 2 * search_px + 1;
+  std::vector<double> cost(static_cast<std::size_t>(shifts));
+  const double n = static_cast<double>(window_px) * window_px;
+  for (int k = 0; k < shifts; ++k) {
+    // Zero-mean SSD = sum (l - r)^2 - n (mean_l - mean_r)^2: robust to a brightness
+    // offset between the two cameras.
+    double sum_sq = 0.0, sum = 0.0;
+    for (int r = 0; r < window_px; ++r) {
+      const float* l = left_window.ptr<float>(r);
+      const float* q = right_strip.ptr<float>(r) + k;
+      for (int c = 0; c < window_px; ++c) {
+        const double d = static_cast<double>(l[c]) - q[c];
+        sum_sq += d * d;
+        sum += d;
+      }
+    }
+    cost[static_cast<std::size_t>(k)] = sum_sq - sum * sum / n;
+  }
+  const auto best =
+    static_cast<int>(std::min_element(cost.begin(), cost.end()) - cost.begin());
+  if (best == 0 || best == shifts - 1)
+    return false;
+  // The windows must agree: a best cost above half the left window's own zero-mean
+  // energy (normalised cross-correlation below about 0.75) is a descriptor mismatch
+  // or a window without texture, not a sub-pixel match.
+  double energy = 0.0, left_sum = 0.0;
+  for (int r = 0; r < window_px; ++r) {
+    const float* l = left_window.ptr<float>(r);
+    for (int c = 0; c < window_px; ++c) {
+      energy += static_cast<double>(l[c]) * l[c];
+      left_sum += l[c];
+    }
+  }
+  energy -= left_sum * left_sum / n;
+  if (!(cost[static_cast<std::size_t>(best)] <= 0.5 * energy))
+    return false;
+  const double c_minus = cost[static_cast<std::size_t>(best - 1)];
+  const double c_0 = cost[static_cast<std::size_t>(best)];
+  const double c_plus = cost[static_cast<std::size_t>(best + 1)];
+  const double curvature = c_minus - 2.0 * c_0 + c_plus;
+  if (!(curvature > 0.0))
+    return false;
+  const double offset = 0.5 * (c_minus - c_plus) / curvature;
+  refined_x = right_x + static_cast<float>(best - search_px + offset);
+  return true;
+}
+
 } // namespace
 
 FeatureType
@@ -37,7 +113,66 @@ featureTypeFromString(const std::string& name)
     return FeatureType::SIFT;
   if (name == "orb")
     return FeatureType::ORB;
-  throw Exception("unknown feature type '" + name + "'; known types: sift, orb");
+  if (name == "orb_grid")
+    return FeatureType::ORB_GRID;
+  throw Exception("unknown feature type '" + name
+                  + "'; known types: sift, orb, orb_grid");
+}
+
+void
+detectGridFastKeypoints(const cv::Mat& grey,
+                        int bucket_size_px,
+                        int max_per_cell,
+                        int fast_threshold,
+                        int border_px,
+                        std::vector<cv::KeyPoint>& keypoints)
+{
+  keypoints.clear();
+  const std::string prefix = "detectGridFastKeypoints: ";
+  if (bucket_size_px < 1)
+    throw Exception(prefix + "bucket_size_px must be >= 1");
+  if (max_per_cell < 1)
+    throw Exception(prefix + "max_per_cell must be >= 1");
+  if (fast_threshold < 1 || fast_threshold > 255)
+    throw Exception(prefix + "fast_threshold must be in [1, 255]");
+  if (border_px < 0)
+    throw Exception(prefix + "border_px must be >= 0");
+  if (grey.empty())
+    return;
+  if (grey.type() != CV_8UC1)
+    throw Exception(prefix + "the image must be CV_8UC1");
+
+  std::vector<cv::KeyPoint> corners;
+  cv::FAST(grey, corners, fast_threshold, true);
+  const int cols = (grey.cols + bucket_size_px - 1) / bucket_size_px;
+  const int rows = (grey.rows + bucket_size_px - 1) / bucket_size_px;
+  std::vector<std::vector<cv::KeyPoint>> cells(static_cast<std::size_t>(cols * rows));
+  for (const cv::KeyPoint& corner : corners) {
+    const int x = static_cast<int>(corner.pt.x);
+    const int y = static_cast<int>(corner.pt.y);
+    if (x < border_px || y < border_px || x >= grey.cols - border_px
+        || y >= grey.rows - border_px)
+      continue;
+    cells[static_cast<std::size_t>((y / bucket_size_px) * cols + x / bucket_size_px)]
+      .push_back(corner);
+  }
+  const auto cap = static_cast<std::size_t>(max_per_cell);
+  for (std::vector<cv::KeyPoint>& cell : cells) {
+    // Stable: equal responses keep cv::FAST's order, so the result is deterministic.
+    std::stable_sort(cell.begin(), cell.end(),
+                     [](const cv::KeyPoint& a, const cv::KeyPoint& b) {
+                       return a.response > b.response;
+                     });
+    if (cell.size() > cap)
+      cell.resize(cap);
+    for (cv::KeyPoint& k : cell) {
+      k.size = static_cast<float>(ORB_PATCH_SIZE_PX);
+      k.angle = 0.0f;
+      k.octave = 0;
+      k.class_id = -1;
+      keypoints.push_back(k);
+    }
+  }
 }
 
 StereoFeatureMatcher::StereoFeatureMatcher() : StereoFeatureMatcher(Params()) {}
@@ -55,6 +190,15 @@ StereoFeatureMatcher::StereoFeatureMatcher(const Params& params) : params_(param
     throw Exception(prefix + "max_disparity_px must be positive");
   if (!(params_.max_range_m > 0.0))
     throw Exception(prefix + "max_range_m must be positive");
+  if (params_.bucket_size_px < 8 || params_.bucket_size_px > 1024)
+    throw Exception(prefix + "bucket_size_px must be in [8, 1024]");
+  if (params_.fast_threshold < 1 || params_.fast_threshold > 255)
+    throw Exception(prefix + "fast_threshold must be in [1, 255]");
+  if (params_.subpixel_window_px < 3 || params_.subpixel_window_px > 31
+      || params_.subpixel_window_px % 2 == 0)
+    throw Exception(prefix + "subpixel_window_px must be odd and in [3, 31]");
+  if (params_.subpixel_search_px < 1 || params_.subpixel_search_px > 8)
+    throw Exception(prefix + "subpixel_search_px must be in [1, 8]");
 }
 
 void
@@ -74,18 +218,42 @@ StereoFeatureMatcher::match(const cv::Mat& left,
                     "CV_8UC3");
   calibration.validate("StereoFeatureMatcher::match");
 
-  cv::Ptr<cv::Feature2D> detector;
-  if (params_.feature_type == FeatureType::SIFT)
-    detector = cv::SIFT::create(params_.max_features);
-  else
-    detector = cv::ORB::create(params_.max_features);
-
+  const cv::Mat grey_left = detail::toGrey(left);
+  const cv::Mat grey_right = detail::toGrey(right);
+  const bool grid = params_.feature_type == FeatureType::ORB_GRID;
   std::vector<cv::KeyPoint> keypoints_left, keypoints_right;
   cv::Mat descriptors_left, descriptors_right;
-  detector->detectAndCompute(detail::toGrey(left), cv::noArray(), keypoints_left,
-                             descriptors_left);
-  detector->detectAndCompute(detail::toGrey(right), cv::noArray(), keypoints_right,
-                             descriptors_right);
+  if (grid) {
+    const int cells =
+      ((left.cols + params_.bucket_size_px - 1) / params_.bucket_size_px)
+      * ((left.rows + params_.bucket_size_px - 1) / params_.bucket_size_px);
+    const int per_cell = (params_.max_features + cells - 1) / cells;
+    // The right image keeps twice as many corners per cell: its cells hold other scene
+    // parts than the left ones (disparity), and a left corner whose right twin was cut
+    // cannot be matched.
+    detectGridFastKeypoints(grey_left, params_.bucket_size_px, per_cell,
+                            params_.fast_threshold, ORB_GRID_BORDER_PX, keypoints_left);
+    detectGridFastKeypoints(grey_right, params_.bucket_size_px, 2 * per_cell,
+                            params_.fast_threshold, ORB_GRID_BORDER_PX,
+                            keypoints_right);
+    // One level, upright (the key points carry angle 0); edgeThreshold = the border
+    // above, so cv::ORB drops none of the key points.
+    const cv::Ptr<cv::ORB> orb =
+      cv::ORB::create(params_.max_features, 1.2f, 1, ORB_GRID_BORDER_PX, 0, 2,
+                      cv::ORB::HARRIS_SCORE, ORB_PATCH_SIZE_PX, params_.fast_threshold);
+    orb->compute(grey_left, keypoints_left, descriptors_left);
+    orb->compute(grey_right, keypoints_right, descriptors_right);
+  } else {
+    cv::Ptr<cv::Feature2D> detector;
+    if (params_.feature_type == FeatureType::SIFT)
+      detector = cv::SIFT::create(params_.max_features);
+    else
+      detector = cv::ORB::create(params_.max_features);
+    detector->detectAndCompute(grey_left, cv::noArray(), keypoints_left,
+                               descriptors_left);
+    detector->detectAndCompute(grey_right, cv::noArray(), keypoints_right,
+                               descriptors_right);
+  }
   if (keypoints_left.empty() || keypoints_right.empty())
     return;
 
@@ -158,8 +326,18 @@ StereoFeatureMatcher::match(const cv::Mat& left,
     if (j < 0 || owner_of_right[static_cast<std::size_t>(j)] != static_cast<int>(i))
       continue;
     const cv::KeyPoint& kl = keypoints_left[i];
-    const cv::KeyPoint& kr = keypoints_right[static_cast<std::size_t>(j)];
+    cv::KeyPoint kr = keypoints_right[static_cast<std::size_t>(j)];
+    if (grid) {
+      float refined_x = 0.0f;
+      if (!refineRightColumn(grey_left, grey_right, kl.pt, kr.pt.x,
+                             params_.subpixel_window_px, params_.subpixel_search_px,
+                             refined_x))
+        continue;
+      kr.pt = cv::Point2f(refined_x, kl.pt.y);
+    }
     const double disparity = static_cast<double>(kl.pt.x) - kr.pt.x;
+    if (!(disparity > 0.0) || disparity > params_.max_disparity_px)
+      continue;
     const double z = fb / disparity;
     const double x = (kl.pt.x - calibration.cx_px) * z / f;
     const double y = (kl.pt.y - calibration.cy_px) * z / f;

@@ -217,6 +217,50 @@ TEST_F(CalibrationIOFiles, ReadsKitti)
   EXPECT_NEAR(model.calibration.baseline_m, 386.1448 / 718.856, 1e-12);
 }
 
+// Some KITTI excerpts strip the row labels: two bare rows of 12 numbers are P0 (left)
+// and P1 (right). The shared snippet is such a file (and has no final newline); its
+// values are the sequence 00 ones above, B = 386.1448 / 718.856 m.
+TEST_F(CalibrationIOFiles, ReadsUnlabelledKitti)
+{
+  const std::string path =
+    write("calib.txt", "718.856 0 607.1928 0 0 718.856 185.2157 0 0 0 1 0\n"
+                       "718.856 0 607.1928 -386.1448 0 718.856 185.2157 0 0 0 1 0");
+  const auto model = loadStereoCalibration(CalibrationFormat::KITTI, path);
+  EXPECT_NEAR(model.calibration.focal_length_px, 718.856, 1e-9);
+  EXPECT_NEAR(model.calibration.cx_px, 607.1928, 1e-9);
+  EXPECT_NEAR(model.calibration.cy_px, 185.2157, 1e-9);
+  EXPECT_NEAR(model.calibration.baseline_m, 386.1448 / 718.856, 1e-12);
+
+  const auto snippet = loadStereoCalibration(
+    CalibrationFormat::KITTI, DATA_DIR + "/kitti_odometry_snippet_2/calib.txt");
+  EXPECT_NEAR(snippet.calibration.focal_length_px, 718.856, 1e-9);
+  EXPECT_NEAR(snippet.calibration.cx_px, 607.1928, 1e-9);
+  EXPECT_NEAR(snippet.calibration.cy_px, 185.2157, 1e-9);
+  EXPECT_NEAR(snippet.calibration.baseline_m, 386.1448 / 718.856, 1e-12);
+}
+
+// One bare row is not a stereo pair, a bare row of 11 numbers is not a projection
+// matrix, and a labelled file keeps requiring its labels (no silent guess).
+TEST_F(CalibrationIOFiles, BadUnlabelledKittiThrowsIOError)
+{
+  const std::string one_row =
+    write("one_row.txt", "718.856 0 607.1928 0 0 718.856 185.2157 0 0 0 1 0\n");
+  expectIOError(CalibrationFormat::KITTI, one_row, "unlabelled");
+  const std::string short_rows =
+    write("short_rows.txt", "718.856 0 607.1928 0 0 718.856 185.2157 0 0 0 1\n"
+                            "718.856 0 607.1928 -386.1 0 718.856 185.2157 0 0 0 1\n");
+  expectIOError(CalibrationFormat::KITTI, short_rows, "P0:");
+  const std::string mixed =
+    write("mixed.txt", "P0: 718.856 0 607.1928 0 0 718.856 185.2157 0 0 0 1 0\n"
+                       "718.856 0 607.1928 -386.1 0 718.856 185.2157 0 0 0 1 0\n");
+  expectIOError(CalibrationFormat::KITTI, mixed, "P1:");
+  // Karlsruhe files are always labelled.
+  const std::string bare =
+    write("bare.txt", "645.2 0 635.9 0 0 645.2 194.1 0 0 0 1 0\n"
+                      "645.2 0 635.9 -368.3 0 645.2 194.1 0 0 0 1 0\n");
+  expectIOError(CalibrationFormat::KARLSRUHE, bare, "P1_roi");
+}
+
 TEST_F(CalibrationIOFiles, MissingFileThrowsIOError)
 {
   const std::string path = (dir_ / "no_such_calib.txt").string();

@@ -11,19 +11,13 @@
 #include <string>
 #include <vector>
 
+#include "disparity_metrics.h"
+
 namespace {
 
 using planar_grid::DisparityEstimator;
 
 const std::string ALOE_DIR = std::string(PLANAR_GRID_DATA_DIR) + "/middlebury_aloe";
-
-double
-median(std::vector<double> values)
-{
-  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
-  std::nth_element(values.begin(), middle, values.end());
-  return *middle;
-}
 
 /** \brief Middlebury 2006 Aloe, full size (Scharstein & Pal, CVPR 2007): 1282x1110 JPEG
  * pair, 8-bit ground-truth disparity (0 = unknown). Checked on the data: the GT image
@@ -52,36 +46,19 @@ TEST(DisparityEstimator, MiddleburyAloeAccuracy)
   ASSERT_EQ(disparity.type(), CV_32FC1);
   ASSERT_EQ(disparity.size(), left.size());
 
-  std::size_t known = 0, valid = 0, bad1 = 0, bad2 = 0;
-  double error_sum = 0.0;
-  std::vector<double> ratios;
-  for (int v = 0; v < truth.rows; ++v)
-    for (int u = 0; u < truth.cols; ++u) {
-      const int gt = truth.at<std::uint8_t>(v, u);
-      if (gt == 0)
-        continue;
-      ++known;
-      const float d = disparity.at<float>(v, u);
-      if (std::isnan(d))
-        continue;
-      ++valid;
-      const double error = std::abs(static_cast<double>(d) - gt);
-      error_sum += error;
-      bad1 += error > 1.0;
-      bad2 += error > 2.0;
-      ratios.push_back(static_cast<double>(d) / gt);
-    }
-  ASSERT_GT(valid, 0u);
-  const double density = static_cast<double>(valid) / static_cast<double>(known);
-  const double bad1_rate = static_cast<double>(bad1) / static_cast<double>(valid);
-  const double bad2_rate = static_cast<double>(bad2) / static_cast<double>(valid);
-  const double epe_px = error_sum / static_cast<double>(valid);
+  const planar_grid::test::DisparityErrors errors =
+    planar_grid::test::compareWithGroundTruth(disparity, truth);
+  ASSERT_GT(errors.valid, 0u);
+  const double density = errors.density;
+  const double bad1_rate = errors.bad1;
+  const double bad2_rate = errors.bad2;
+  const double epe_px = errors.epe_px;
   std::cout << "[ Aloe ] density " << density << " bad1 " << bad1_rate << " bad2 "
             << bad2_rate << " EPE " << epe_px << " px, median SGBM/GT "
-            << median(ratios) << "\n";
+            << errors.median_ratio << "\n";
 
   // The GT scale: SGBM and GT agree in the median to well under 1 %.
-  EXPECT_NEAR(median(ratios), 1.0, 0.01);
+  EXPECT_NEAR(errors.median_ratio, 1.0, 0.01);
   // Measured (OpenCV 4.6, Release): density 0.720, bad1 7.6 %, bad2 3.3 %, EPE 1.20 px.
   // Bounds sit ~30 % above the measured error rates and 0.07 below the density, so a
   // regression (wrong scale, wrong P1/P2, grey conversion lost, invalid pixels counted

@@ -15,7 +15,8 @@ enum class CalibrationFormat {
   /** Karlsruhe stereo sequences' calib.txt: rows "P1_roi:" and "P2_roi:" (3x4,
    * row-major) for the cropped rectified images. */
   KARLSRUHE,
-  /** KITTI odometry calib.txt: rows "P0:" and "P1:" (3x4, row-major), rectified. */
+  /** KITTI odometry calib.txt: rows "P0:" and "P1:" (3x4, row-major), rectified; a
+   * file without labels gives them as its first two rows of 12 numbers. */
   KITTI,
   /** A pair of ROS camera_info YAML files (rectified): left and right, with
    * image_width, image_height and projection_matrix (3x4); B = -P_right[0,3] /

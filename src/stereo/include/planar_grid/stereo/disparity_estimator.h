@@ -4,48 +4,138 @@
 #include <opencv2/core/mat.hpp>
 
 #include <memory>
+#include <string>
 
 namespace cv {
-class StereoSGBM;
+class StereoMatcher;
 }
 
 namespace planar_grid {
 
-/** \brief Dense disparity of a rectified pair with OpenCV's semi-global block matching
- * (cv::StereoSGBM, Hirschmueller 2008). \ingroup stereo */
+/** \brief Dense stereo matchers wrapped by DisparityEstimator. All are OpenCV
+ * (calib3d, no contrib). \ingroup stereo */
+enum class DisparityAlgorithm {
+  /** cv::StereoSGBM, MODE_SGBM: semi-global block matching (Hirschmueller 2008) along 5
+   * directions; single-threaded. */
+  SGBM,
+  /** cv::StereoSGBM, MODE_SGBM_3WAY: 3 directions per pass, parallel over image
+   * stripes (cv::parallel_for_). */
+  SGBM_3WAY,
+  /** cv::StereoSGBM, MODE_HH: the full 8-direction SGM (slowest, most memory). */
+  SGBM_HH,
+  /** cv::StereoSGBM, MODE_HH4: 4 directions, parallel over rows and columns. */
+  SGBM_HH4,
+  /** cv::StereoBM: local sum-of-absolute-differences block matching (Konolige 1997)
+   * with a texture threshold; parallel over stripes. */
+  BLOCK_MATCHING
+};
+
+/** \brief Parses "sgbm", "sgbm_3way", "sgbm_hh", "sgbm_hh4" or "block_matching".
+ * \throws planar_grid::Exception for any other name, listing the known ones */
+DisparityAlgorithm disparityAlgorithmFromString(const std::string& name);
+
+/** \brief The name disparityAlgorithmFromString() parses back to \a algorithm. */
+std::string toString(DisparityAlgorithm algorithm);
+
+/** \brief StereoBM's pre-filter of both images (cv::StereoBM::PREFILTER_*). \ingroup
+ * stereo */
+enum class BlockMatchingPreFilter {
+  /** Horizontal Sobel derivative, clipped to +-bm_pre_filter_cap (PREFILTER_XSOBEL).
+   */
+  XSOBEL,
+  /** Each pixel minus the mean of its bm_pre_filter_size_px window, clipped to
+   * +-bm_pre_filter_cap (PREFILTER_NORMALIZED_RESPONSE). */
+  NORMALIZED_RESPONSE
+};
+
+/** \brief Parses "xsobel" or "normalized_response".
+ * \throws planar_grid::Exception for any other name */
+BlockMatchingPreFilter blockMatchingPreFilterFromString(const std::string& name);
+
+/** \brief The name blockMatchingPreFilterFromString() parses back to \a pre_filter. */
+std::string toString(BlockMatchingPreFilter pre_filter);
+
+/** \brief Dense disparity of a rectified pair with one of OpenCV's matchers:
+ * semi-global block matching (cv::StereoSGBM, Hirschmueller 2008, in four modes) or
+ * local block matching (cv::StereoBM), optionally on half-resolution images.
+ *
+ * The output is always a CV_32FC1 image of the input's size whose values are
+ * disparities in pixels of the input images; NaN marks pixels without a valid match.
+ * Results depend only on the parameters and the images: within the ranges enforced
+ * here, OpenCV 4.6's matchers give the same output for any thread count and on every
+ * call (checked by a test on 1 and 2 threads).
+ * \ingroup stereo */
 class DisparityEstimator {
 public:
-  /** \brief cv::StereoSGBM parameters; names follow OpenCV's, units in the suffix. */
+  /** \brief Matcher parameters; names follow OpenCV's, units in the suffix. Every
+   * length in pixels refers to the input images unless stated otherwise. */
   struct Params {
-    /** Smallest disparity searched, px. */
+    /** Which OpenCV matcher runs. */
+    DisparityAlgorithm algorithm{DisparityAlgorithm::SGBM};
+    /** Image scale divisor, 1 or 2. With 2 both images are shrunk by half (cv::resize,
+     * INTER_AREA), matched with half the disparity range, and the disparities are
+     * scaled back: the output has the input's size and disparities in input pixels.
+     * About 5-10x faster, but the sub-pixel step is 1/8 px instead of 1/16 px and the
+     * sub-pixel error about twice as large (0.22 against 0.09 px median on a synthetic
+     * slanted plane). */
+    int downscale{1};
+    /** OpenCV threads used while computing (cv::setNumThreads for the duration of
+     * compute(), then restored); 0 leaves OpenCV's process-wide setting (by default
+     * the number of cores). Affects speed only, never the result. 0..64. */
+    int num_threads{0};
+    /** Smallest disparity searched, px; a multiple of \a downscale. */
     int min_disparity_px{0};
-    /** Number of disparities searched, px; a positive multiple of 16. */
+    /** Number of disparities searched, px; a positive multiple of 16 * downscale. */
     int num_disparities_px{128};
-    /** Matched block side, px; odd, 1..11. */
+    /** Matched block side, px of the matched (possibly downscaled) image; odd, 1..11
+     * for the SGBM modes, 5..21 for BLOCK_MATCHING (OpenCV 4.6's StereoBM falls back
+     * to a generic path above 21 that gives different results from run to run). */
     int block_size_px{5};
-    /** Smoothness penalty for disparity changes of 1 px; 0 = 8 * channels * block^2. */
+    /** SGBM smoothness penalty for disparity changes of 1 px; 0 = 8 * block^2 (OpenCV's
+     * recommendation for one channel). Ignored by BLOCK_MATCHING. */
     int p1{0};
-    /** Smoothness penalty for larger changes; 0 = 32 * channels * block^2; > p1. */
+    /** SGBM penalty for larger changes; 0 = 32 * block^2; > p1. Ignored by
+     * BLOCK_MATCHING. */
     int p2{0};
-    /** Left-right check tolerance, px; < 0 disables it. */
+    /** Left-right check tolerance, px; < 0 disables it. Halved (rounded up) for
+     * downscale 2. */
     int disp12_max_diff_px{1};
-    /** Clip of the x-derivative pre-filter. */
+    /** SGBM modes: clip of the x-derivative pre-filter, 1..63. (BLOCK_MATCHING uses
+     * bm_pre_filter_cap.) */
     int pre_filter_cap{63};
     /** Margin in percent by which the best cost must win; 0..100. */
     int uniqueness_ratio_percent{10};
-    /** Largest speckle region treated as noise, px; 0 disables speckle filtering. */
+    /** Largest speckle region treated as noise, px (an area: divided by 4 for
+     * downscale 2); 0 disables speckle filtering. */
     int speckle_window_size_px{100};
-    /** Largest disparity variation inside a connected component, px. */
+    /** Largest disparity variation inside a connected component, px (halved, rounded
+     * up, for downscale 2). */
     int speckle_range_px{2};
-    /** Full 8-direction SGBM (slower) instead of 5 directions
-     * (cv::StereoSGBM::MODE_SGBM). */
+    /** Legacy switch for full 8-direction SGBM: true is the same as algorithm SGBM_HH
+     * and is only valid with algorithm SGBM. */
     bool full_dp{false};
+    /** BLOCK_MATCHING only: the pre-filter of both images. */
+    BlockMatchingPreFilter bm_pre_filter{BlockMatchingPreFilter::XSOBEL};
+    /** BLOCK_MATCHING only: clip of the pre-filter output, 1..31 (OpenCV 4.6's
+     * StereoBM takes a generic path above 31 that gives different results from run to
+     * run; 31 is OpenCV's default). */
+    int bm_pre_filter_cap{31};
+    /** BLOCK_MATCHING only: window side of the NORMALIZED_RESPONSE pre-filter, px of
+     * the matched image; odd, 5..255. */
+    int bm_pre_filter_size_px{9};
+    /** BLOCK_MATCHING only: a pixel whose block has a sum of absolute pre-filtered
+     * values below this is invalid (textureless); 0 disables the check. >= 0. */
+    int bm_texture_threshold{10};
   };
 
-  /** \brief Throws planar_grid::Exception for parameters OpenCV would reject. */
+  /** \brief Builds the matcher.
+   * \param[in] params the parameters
+   * \throws planar_grid::Exception for parameters OpenCV would reject or that are
+   *         outside the ranges documented in Params (e.g. an even block size) */
   explicit DisparityEstimator(const Params& params);
-  /** \brief Uses the default Params. (Two constructors rather than a default argument:
-   * GCC rejects `= Params()` for a nested struct with member initialisers.) */
+  /** \brief Uses the default Params (5-direction SGBM, 128 disparities, block 5).
+   * (Two constructors rather than a default argument: GCC rejects `= Params()` for a
+   * nested struct with member initialisers.) */
   DisparityEstimator();
   ~DisparityEstimator();
   /** \brief Moves the matcher and its parameters; \a other is left empty. */
@@ -57,21 +147,35 @@ public:
   /** \brief Computes the disparity of the left image.
    * \param[in] left rectified left image, CV_8UC1 or CV_8UC3
    * \param[in] right rectified right image, same size and type
-   * \param[out] disparity CV_32FC1, left image size, in pixels; pixels without a valid
-   *             match are NaN
-   * \throws planar_grid::Exception when the images are empty or differ in size or type
+   * \param[out] disparity CV_32FC1, left image size, in pixels of the input images;
+   *             pixels without a valid match are NaN
+   * \throws planar_grid::Exception when the images are empty or differ in size or type,
+   *         or are too small for the block size (BLOCK_MATCHING)
    * \note Colour input is converted to grey first (P1/P2 defaults assume one channel).
-   *       A textureless region gets min_disparity_px (SGBM's tie-break), which for the
-   *       default 0 means "infinitely far" and is dropped by disparityToPointCloud().
-   * \note Not thread-safe on one object: cv::StereoSGBM keeps work buffers. */
+   *       With the SGBM modes a textureless region gets min_disparity_px (SGBM's
+   *       tie-break), which for the default 0 means "infinitely far" and is dropped by
+   *       disparityToPointCloud(); BLOCK_MATCHING marks it NaN (texture threshold).
+   * \note The band of num_disparities_px columns at the left edge has no match and is
+   *       NaN.
+   * \note Not thread-safe on one object: the OpenCV matcher keeps work buffers. With
+   *       num_threads > 0 it changes OpenCV's process-wide thread count while it runs,
+   *       so other threads should not change it at the same time. */
   void compute(const cv::Mat& left, const cv::Mat& right, cv::Mat& disparity) const;
 
   /** \brief The parameters in use. */
   const Params& getParams() const { return params_; }
 
 private:
+  /** \brief Matches the (possibly downscaled) grey pair into OpenCV's CV_16S disparity
+   * (16 * px, invalid below min_disparity * 16). */
+  void computeFixedPoint(const cv::Mat& left_grey,
+                         const cv::Mat& right_grey,
+                         cv::Mat& fixed_point) const;
+
+  /** \brief The parameters as given. */
   Params params_;
-  cv::Ptr<cv::StereoSGBM> sgbm_;
+  /** \brief cv::StereoSGBM or cv::StereoBM, configured for the matched image scale. */
+  cv::Ptr<cv::StereoMatcher> matcher_;
 };
 
 } // namespace planar_grid

@@ -18,10 +18,26 @@ class ByteReader;
 class ByteWriter;
 
 /** \brief Key feature detectors. The paper uses SURF, which is patented and absent from
- * Debian's OpenCV; SIFT is the default, ORB the fast option. \ingroup stereo */
-enum class FeatureType { SIFT, ORB };
+ * Debian's OpenCV; SIFT is the default, ORB the fast option, ORB_GRID the fast front
+ * end for the odometry. \ingroup stereo */
+enum class FeatureType {
+  /** OpenCV cv::SIFT: sub-pixel, scale-invariant, L2 descriptors (slow). */
+  SIFT,
+  /** OpenCV cv::ORB at its defaults: 8 pyramid levels of scale 1.2, FAST corners ranked
+   * by the Harris response over the whole image, oriented BRIEF; integer positions on
+   * each level, so disparities are quantised. */
+  ORB,
+  /** cv::FAST corners at full resolution, bucketed over a grid of square cells (at most
+   * ceil(max_features / cells) per cell, strongest first) so that the whole image is
+   * covered, upright ORB descriptors (cv::ORB::compute, one level, angle 0: rectified
+   * cameras on a car do not roll), and the disparity of every match refined to
+   * sub-pixel by a parabola through the zero-mean SSD of a window along the rectified
+   * row. */
+  ORB_GRID
+};
 
-/** \brief Parses "sift" or "orb"; throws planar_grid::Exception otherwise. */
+/** \brief Parses "sift", "orb" or "orb_grid"; throws planar_grid::Exception otherwise.
+ */
 FeatureType featureTypeFromString(const std::string& name);
 
 /** \brief Key feature points matched left to right and triangulated (paper Sec. III-C:
@@ -63,6 +79,29 @@ void putStereoFeatures(ByteWriter& w, const StereoFeatures& features);
  * \ingroup stereo */
 void getStereoFeatures(ByteReader& r, StereoFeatures& features);
 
+/** \brief FAST corners bucketed over a grid (the ORB_GRID detector): cv::FAST with
+ * non-maximum suppression on the whole image, then in every bucket_size_px square cell
+ * (the last column and row of cells are cut by the image) the \a max_per_cell corners
+ * with the highest FAST response (ties: the earlier corner in cv::FAST's row-major
+ * order). Corners closer than \a border_px to the image border are dropped first.
+ * \param[in] grey 8-bit grey image (CV_8UC1), any size
+ * \param[in] bucket_size_px side of the cells, px, >= 1
+ * \param[in] max_per_cell most corners kept per cell, >= 1
+ * \param[in] fast_threshold cv::FAST threshold, grey levels, in [1, 255]
+ * \param[in] border_px margin without corners, px, >= 0
+ * \param[out] keypoints the corners, cell by cell (row-major over the cells), strongest
+ * first in each cell; integer positions (px), octave 0, angle 0, size 31 px (the ORB
+ * patch), response = FAST score
+ * \throws planar_grid::Exception when \a grey is not CV_8UC1 or a parameter is out of
+ * range (an empty image gives no corners)
+ * \ingroup stereo */
+void detectGridFastKeypoints(const cv::Mat& grey,
+                             int bucket_size_px,
+                             int max_per_cell,
+                             int fast_threshold,
+                             int border_px,
+                             std::vector<cv::KeyPoint>& keypoints);
+
 /** \brief Detects key points in both images, matches each left descriptor to the right
  * image along the epipolar row (|dy| <= max_row_difference_px,
  * 0 < disparity <= max_disparity_px) with Lowe's ratio test, and triangulates the
@@ -72,7 +111,16 @@ void getStereoFeatures(ByteReader& r, StereoFeatures& features);
  * keeps it. Right key points are bucketed by row, so the cost is about N_left x
  * (candidates per band), not N_left x N_right. \note ORB key points are integer
  * positions on pyramid levels of scale 1.2^level, so ORB disparities are quantised
- * to 1.2^level px; SIFT's are sub-pixel. */
+ * to 1.2^level px; SIFT's are sub-pixel. \note ORB_GRID refines each match: the right
+ * key point's column is moved to the sub-pixel minimum of the zero-mean sum of squared
+ * differences between a subpixel_window_px square around the left key point and the
+ * right image along the left key point's row (shifts of at most subpixel_search_px
+ * around the matched right key point, then a parabola through the three costs around
+ * the best shift), and its row is set to the left key point's row. Matches whose best
+ * shift lies at the end of the search range, whose cost has no minimum, or whose best
+ * cost exceeds half the left window's zero-mean energy (the windows disagree: a
+ * descriptor mismatch or no texture along the row) are dropped.
+ * The left key points stay at integer pixel positions. */
 class StereoFeatureMatcher {
 public:
   /** \brief Parameters with their defaults and valid ranges. */
@@ -90,9 +138,24 @@ public:
     double max_disparity_px{128.0};
     /** Features farther than this (Euclidean range, metres) are dropped. */
     double max_range_m{40.0};
+    /** ORB_GRID: side of the square grid cells over which the key points are
+     * bucketed, px; [8, 1024]. The cells of the last column and row are cut by the
+     * image border. */
+    int bucket_size_px{32};
+    /** ORB_GRID: cv::FAST threshold (intensity difference of the segment test, grey
+     * levels of an 8-bit image); [1, 255]. Low, since bucketing keeps only the
+     * strongest corners of each cell. */
+    int fast_threshold{10};
+    /** ORB_GRID: side of the square window of the sub-pixel disparity refinement, px;
+     * odd, [3, 31]. */
+    int subpixel_window_px{9};
+    /** ORB_GRID: the refinement searches the right image's row within +-this many
+     * columns of the matched right key point, px; [1, 8]. */
+    int subpixel_search_px{2};
   };
 
-  /** \brief Throws planar_grid::Exception for out-of-range parameters. */
+  /** \brief Throws planar_grid::Exception for out-of-range parameters (the ORB_GRID
+   * ones are checked for every feature type). */
   explicit StereoFeatureMatcher(const Params& params);
   /** \brief Uses the default Params. (Two constructors rather than a default argument:
    * GCC rejects `= Params()` for a nested struct with member initialisers.) */
@@ -103,7 +166,9 @@ public:
    * \param[in] right rectified right image, same size and type
    * \param[in] calibration rectified intrinsics
    * \param[out] features the matched features (empty when none)
-   * \throws planar_grid::Exception when the images are empty or differ in size */
+   * \throws planar_grid::Exception when the images are empty or differ in size
+   * \note SIFT: cv::SIFT::detectAndCompute; ORB: cv::ORB::detectAndCompute; ORB_GRID:
+   * cv::FAST, cv::ORB::compute and cv::getRectSubPix (the refinement windows). */
   void match(const cv::Mat& left,
              const cv::Mat& right,
              const StereoCalibration& calibration,
