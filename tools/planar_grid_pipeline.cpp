@@ -314,7 +314,11 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
              return std::to_string(drawn.cuboids)
                     + " cuboids coloured by occupancy (blue 0, green 0.5, red 1), "
                     + std::to_string(drawn.occupied_voxel_boxes)
-                    + " other occupied voxels grey, unknown space violet";
+                    + " other occupied voxels grey, "
+                    + (drawn.unknown_boxes > 0
+                         ? std::string("occluded (unknown) space violet")
+                         : std::string("space never measured free or occupied is "
+                                       "unknown (prior), not drawn"));
            });
 }
 #endif
