@@ -29,6 +29,7 @@ namespace planar_grid {
 template <typename PointT>
 class FastStatisticalOutlierRemoval : public pcl::FilterIndices<PointT> {
 public:
+  /** \brief The filtered cloud type, pcl::PointCloud<PointT>. */
   using PointCloud = typename pcl::FilterIndices<PointT>::PointCloud;
 
   /** \param[in] extract_removed_indices keep the removed indices (getRemovedIndices())

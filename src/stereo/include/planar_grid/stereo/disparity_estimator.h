@@ -37,8 +37,8 @@ DisparityAlgorithm disparityAlgorithmFromString(const std::string& name);
 /** \brief The name disparityAlgorithmFromString() parses back to \a algorithm. */
 std::string toString(DisparityAlgorithm algorithm);
 
-/** \brief StereoBM's pre-filter of both images (cv::StereoBM::PREFILTER_*). \ingroup
- * stereo */
+/** \brief StereoBM's pre-filter of both images (cv::StereoBM::PREFILTER_*).
+ * \ingroup stereo */
 enum class BlockMatchingPreFilter {
   /** Horizontal Sobel derivative, clipped to +-bm_pre_filter_cap (PREFILTER_XSOBEL).
    */
