@@ -178,6 +178,49 @@ struct SectionSteps {
   double ins{0.0}, estimated{0.0}, near{0.0}, far{0.0};
 };
 
+/** \brief The errors of the odometry's trajectory against a reference with one pose
+ * per frame: frames, flagged frames, both path lengths (m), ATE RMSE (m), the mean RTE
+ * (%) and the RTE by segment length (10-50 m), as JSON; printed under \a title. */
+nlohmann::json
+trajectoryErrors(const std::string& sequence,
+                 const planar_grid::VisualOdometry& odometry,
+                 const planar_grid::Trajectory& reference,
+                 const char* title)
+{
+  const planar_grid::Trajectory& estimated = odometry.getTrajectory();
+  const auto rte = planar_grid::relativeTranslationError(
+    estimated, reference, {10.0, 20.0, 30.0, 40.0, 50.0});
+  const double ate = planar_grid::absoluteTrajectoryError(estimated, reference);
+  double path_reference = 0.0, path_estimated = 0.0;
+  for (std::size_t i = 1; i < estimated.size(); ++i) {
+    path_reference +=
+      (reference[i].translation() - reference[i - 1].translation()).norm();
+    path_estimated +=
+      (estimated[i].translation() - estimated[i - 1].translation()).norm();
+  }
+  nlohmann::json json;
+  json["sequence"] = sequence;
+  json["frames"] = estimated.size();
+  json["flagged_frames"] = odometry.getFlaggedFrames();
+  json["path_length_gt_m"] = path_reference;
+  json["path_length_estimated_m"] = path_estimated;
+  json["ate_rmse_m"] = ate;
+  json["rte_percent"] = planar_grid::meanRelativeTranslationError(rte);
+  for (const auto& error : rte)
+    json["rte_by_length"].push_back({{"segment_length_m", error.segment_length_m},
+                                     {"segments", error.segments},
+                                     {"mean_error_percent", error.mean_error_percent}});
+  pcl::console::print_info("%s: %zu frames, GT path %.2f m, estimated %.2f m\n", title,
+                           estimated.size(), path_reference, path_estimated);
+  for (const auto& error : rte)
+    pcl::console::print_info("  RTE %4.0f m: %6.3f %% over %zu segments\n",
+                             error.segment_length_m, error.mean_error_percent,
+                             error.segments);
+  pcl::console::print_info("  RTE (all segments): %.3f %%, ATE RMSE: %.3f m\n",
+                           json["rte_percent"].get<double>(), ate);
+  return json;
+}
+
 nlohmann::json
 runKarlsruhe(const std::string& data_dir,
              const StereoFeatureMatcher& matcher,
@@ -251,25 +294,8 @@ runKarlsruhe(const std::string& data_dir,
   }
 
   const planar_grid::Trajectory& estimated = odometry.getTrajectory();
-  const std::vector<double> lengths{10.0, 20.0, 30.0, 40.0, 50.0};
-  const auto rte =
-    planar_grid::relativeTranslationError(estimated, ground_truth, lengths);
-  const double ate = planar_grid::absoluteTrajectoryError(estimated, ground_truth);
-  double path_gt = 0.0, path_est = 0.0;
-  for (std::size_t i = 1; i < estimated.size(); ++i) {
-    path_gt +=
-      (ground_truth[i].translation() - ground_truth[i - 1].translation()).norm();
-    path_est += (estimated[i].translation() - estimated[i - 1].translation()).norm();
-  }
-
-  nlohmann::json json;
-  json["sequence"] = "karlsruhe_2010_03_09_drive_0023";
-  json["frames"] = estimated.size();
-  json["flagged_frames"] = odometry.getFlaggedFrames();
-  json["path_length_gt_m"] = path_gt;
-  json["path_length_estimated_m"] = path_est;
-  json["ate_rmse_m"] = ate;
-  json["rte_percent"] = planar_grid::meanRelativeTranslationError(rte);
+  nlohmann::json json = trajectoryErrors("karlsruhe_2010_03_09_drive_0023", odometry,
+                                         ground_truth, "Karlsruhe");
   // Diagnostics: the heading change over the sequence (the INS's from its track, over
   // the first and last 5 steps; straight at both ends), and the errors left when the
   // estimated step directions are re-chained with the INS step lengths (direction
@@ -296,11 +322,6 @@ runKarlsruhe(const std::string& data_dir,
     json["lever_arm_rte_with_ins_step_lengths_percent"] = with_arm_direction.first;
     json["lever_arm_ate_with_ins_step_lengths_m"] = with_arm_direction.second;
   }
-  for (const auto& error : rte) {
-    json["rte_by_length"].push_back({{"segment_length_m", error.segment_length_m},
-                                     {"segments", error.segments},
-                                     {"mean_error_percent", error.mean_error_percent}});
-  }
   for (std::size_t i = 1; i < estimated.size(); ++i) {
     const planar_grid::OdometryResult& result = odometry.getResults()[i];
     json["per_frame"].push_back(
@@ -326,14 +347,6 @@ runKarlsruhe(const std::string& data_dir,
   json["feature_extraction_and_stereo_matching"] = timingJson(feature_ms);
   json["odometry"] = timingJson(odometry_ms);
 
-  pcl::console::print_info("Karlsruhe: %zu frames, GT path %.2f m, estimated %.2f m\n",
-                           estimated.size(), path_gt, path_est);
-  for (const auto& error : rte)
-    pcl::console::print_info("  RTE %4.0f m: %6.3f %% over %zu segments\n",
-                             error.segment_length_m, error.mean_error_percent,
-                             error.segments);
-  pcl::console::print_info("  RTE (all segments): %.3f %%, ATE RMSE: %.3f m\n",
-                           json["rte_percent"].get<double>(), ate);
   pcl::console::print_info("  features+stereo: mean %.1f ms; odometry: mean %.1f ms, "
                            "median %.1f ms, max %.1f ms\n",
                            mean(feature_ms), mean(odometry_ms), median(odometry_ms),
@@ -416,40 +429,13 @@ runKitti(const std::string& data_dir,
       odometry_ms.back(), result.valid ? "" : " FLAGGED");
   }
   const planar_grid::Trajectory& estimated = odometry.getTrajectory();
-  const auto rte = planar_grid::relativeTranslationError(
-    estimated, ground_truth, {10.0, 20.0, 30.0, 40.0, 50.0});
-  const double ate = planar_grid::absoluteTrajectoryError(estimated, ground_truth);
-  double path_gt = 0.0, path_est = 0.0;
-  for (std::size_t i = 1; i < estimated.size(); ++i) {
-    path_gt +=
-      (ground_truth[i].translation() - ground_truth[i - 1].translation()).norm();
-    path_est += (estimated[i].translation() - estimated[i - 1].translation()).norm();
-  }
-  nlohmann::json json;
-  json["sequence"] = "kitti_odometry_snippet_2";
-  json["frames"] = estimated.size();
-  json["flagged_frames"] = odometry.getFlaggedFrames();
-  json["path_length_gt_m"] = path_gt;
-  json["path_length_estimated_m"] = path_est;
-  json["ate_rmse_m"] = ate;
-  json["rte_percent"] = planar_grid::meanRelativeTranslationError(rte);
+  nlohmann::json json =
+    trajectoryErrors("kitti_odometry_snippet_2", odometry, ground_truth, "KITTI");
   json["heading_change_estimated_deg"] = headingChangeDeg(estimated, true, 5);
   json["heading_change_gt_deg"] = headingChangeDeg(ground_truth, true, 5);
-  for (const auto& error : rte)
-    json["rte_by_length"].push_back({{"segment_length_m", error.segment_length_m},
-                                     {"segments", error.segments},
-                                     {"mean_error_percent", error.mean_error_percent}});
   json["features_per_frame_mean"] = mean(features);
   json["feature_extraction_and_stereo_matching"] = timingJson(feature_ms);
   json["odometry"] = timingJson(odometry_ms);
-  pcl::console::print_info("KITTI: %zu frames, GT path %.2f m, estimated %.2f m\n",
-                           estimated.size(), path_gt, path_est);
-  for (const auto& error : rte)
-    pcl::console::print_info("  RTE %4.0f m: %6.3f %% over %zu segments\n",
-                             error.segment_length_m, error.mean_error_percent,
-                             error.segments);
-  pcl::console::print_info("  RTE (all segments): %.3f %%, ATE RMSE: %.3f m\n",
-                           json["rte_percent"].get<double>(), ate);
   pcl::console::print_info(
     "  heading change: estimated %.2f deg, ground truth %.2f deg; flagged frames: "
     "%zu\n",
