@@ -33,15 +33,16 @@ realCloud(const std::string& file, float leaf_m)
   return out;
 }
 
-/** PCL's filter, the oracle: its kept indices. */
+/** The kept indices of a statistical outlier filter: PCL's (the oracle) or ours. */
+template <typename Filter>
 pcl::Indices
-pclInliers(const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& cloud,
-           int mean_k,
-           double std_mul,
-           bool negative,
-           const pcl::IndicesPtr& indices = nullptr)
+keptBy(const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& cloud,
+       int mean_k,
+       double std_mul,
+       bool negative,
+       const pcl::IndicesPtr& indices = nullptr)
 {
-  pcl::StatisticalOutlierRemoval<pcl::PointXYZ> sor;
+  Filter sor;
   sor.setInputCloud(cloud);
   if (indices)
     sor.setIndices(indices);
@@ -53,24 +54,8 @@ pclInliers(const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& cloud,
   return kept;
 }
 
-pcl::Indices
-fastInliers(const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& cloud,
-            int mean_k,
-            double std_mul,
-            bool negative,
-            const pcl::IndicesPtr& indices = nullptr)
-{
-  planar_grid::FastStatisticalOutlierRemoval<pcl::PointXYZ> sor;
-  sor.setInputCloud(cloud);
-  if (indices)
-    sor.setIndices(indices);
-  sor.setMeanK(mean_k);
-  sor.setStddevMulThresh(std_mul);
-  sor.setNegative(negative);
-  pcl::Indices kept;
-  sor.filter(kept);
-  return kept;
-}
+using PCLFilter = pcl::StatisticalOutlierRemoval<pcl::PointXYZ>;
+using FastFilter = planar_grid::FastStatisticalOutlierRemoval<pcl::PointXYZ>;
 
 } // namespace
 
@@ -85,13 +70,13 @@ TEST(FastStatisticalOutlierRemoval, KeepsExactlyWhatPCLKeepsOnRealScans)
     for (const int mean_k : {1, 8, 20, 50})
       for (const double std_mul : {0.0, 1.0, 2.0})
         for (const bool negative : {false, true}) {
-          const auto expected = pclInliers(cloud, mean_k, std_mul, negative);
-          const auto got = fastInliers(cloud, mean_k, std_mul, negative);
+          const auto expected = keptBy<PCLFilter>(cloud, mean_k, std_mul, negative);
+          const auto got = keptBy<FastFilter>(cloud, mean_k, std_mul, negative);
           ASSERT_EQ(got, expected) << file << " mean_k " << mean_k << " std_mul "
                                    << std_mul << " negative " << negative;
         }
     // The filter does something: at mean_k 20, 2 sigma, some points go.
-    const auto kept = fastInliers(cloud, 20, 2.0, false);
+    const auto kept = keptBy<FastFilter>(cloud, 20, 2.0, false);
     EXPECT_LT(kept.size(), cloud->size()) << file;
     EXPECT_GT(kept.size(), cloud->size() * 9 / 10) << file;
   }
@@ -109,10 +94,11 @@ TEST(FastStatisticalOutlierRemoval, NonFinitePointsAndIndicesAsPCL)
   pcl::IndicesPtr subset(new pcl::Indices);
   for (std::size_t i = 0; i < cloud->size(); i += 3)
     subset->push_back(static_cast<pcl::index_t>(i));
-  EXPECT_EQ(fastInliers(cloud, 10, 1.0, false), pclInliers(cloud, 10, 1.0, false));
-  EXPECT_EQ(fastInliers(cloud, 10, 1.0, false, subset),
-            pclInliers(cloud, 10, 1.0, false, subset));
-  const auto kept = fastInliers(cloud, 10, 1.0, false);
+  EXPECT_EQ(keptBy<FastFilter>(cloud, 10, 1.0, false),
+            keptBy<PCLFilter>(cloud, 10, 1.0, false));
+  EXPECT_EQ(keptBy<FastFilter>(cloud, 10, 1.0, false, subset),
+            keptBy<PCLFilter>(cloud, 10, 1.0, false, subset));
+  const auto kept = keptBy<FastFilter>(cloud, 10, 1.0, false);
   EXPECT_NE(std::find(kept.begin(), kept.end(), 97), kept.end());
 
   // The output cloud as PCL's filter(PointCloud&) builds it.
