@@ -552,22 +552,20 @@ run(int argc, char** argv)
     pcl::console::parse_argument(argc, argv, "--data", data_dir);
     pcl::console::parse_argument(argc, argv, "--features", features_name);
     pcl::console::parse_argument(argc, argv, "--output", output);
+    // An option given without a parseable number is an error; an absent one keeps the
+    // default.
+    const auto optionalNumber = [argc, argv](const char* name, auto& value) {
+      if (pcl::console::find_switch(argc, argv, name)
+          && pcl::console::parse_argument(argc, argv, name, value) < 0) {
+        pcl::console::print_error("%s needs a number\n", name);
+        return false;
+      }
+      return true;
+    };
     StereoOdometry::Params odometry_params;
-    if (pcl::console::find_switch(argc, argv, "--threshold_m")
-        && pcl::console::parse_argument(argc, argv, "--threshold_m",
-                                        odometry_params.distance_threshold_m)
-             < 0) {
-      pcl::console::print_error("--threshold_m needs a number\n");
+    if (!optionalNumber("--threshold_m", odometry_params.distance_threshold_m)
+        || !optionalNumber("--reference_depth_m", odometry_params.reference_depth_m))
       return EXIT_FAILURE;
-    }
-
-    if (pcl::console::find_switch(argc, argv, "--reference_depth_m")
-        && pcl::console::parse_argument(argc, argv, "--reference_depth_m",
-                                        odometry_params.reference_depth_m)
-             < 0) {
-      pcl::console::print_error("--reference_depth_m needs a number\n");
-      return EXIT_FAILURE;
-    }
     const bool reprojection =
       !pcl::console::find_switch(argc, argv, "--no_reprojection");
     odometry_params.epipolar_refinement =
@@ -583,20 +581,9 @@ run(int argc, char** argv)
     }
     StereoFeatureMatcher::Params matcher_params;
     matcher_params.feature_type = planar_grid::featureTypeFromString(features_name);
-    if (pcl::console::find_switch(argc, argv, "--max_features")
-        && pcl::console::parse_argument(argc, argv, "--max_features",
-                                        matcher_params.max_features)
-             < 0) {
-      pcl::console::print_error("--max_features needs a number\n");
+    if (!optionalNumber("--max_features", matcher_params.max_features)
+        || !optionalNumber("--max_range_m", matcher_params.max_range_m))
       return EXIT_FAILURE;
-    }
-    if (pcl::console::find_switch(argc, argv, "--max_range_m")
-        && pcl::console::parse_argument(argc, argv, "--max_range_m",
-                                        matcher_params.max_range_m)
-             < 0) {
-      pcl::console::print_error("--max_range_m needs a number\n");
-      return EXIT_FAILURE;
-    }
     const StereoFeatureMatcher matcher(matcher_params);
     pcl::console::print_info(
       "Sequence %s, data %s, features %s, RANSAC threshold %.3f m, reference depth "
