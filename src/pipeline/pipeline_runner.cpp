@@ -198,14 +198,13 @@ PipelineRunner::run()
   // their frame (no PipelineState: the empty state below is never read), and each runs
   // its frames in order on one thread, so the results equal a sequential run's.
   const std::size_t front = frameLocalPrefix();
-  const auto prepare = [this, front](std::size_t i) {
+  PipelineState unused; // one prepare() runs at a time: the next starts after get()
+  const auto prepare = [this, front, &unused, &ms_since](std::size_t i) {
     auto prepared = std::make_unique<PreparedFrame>();
     const auto load_start = Clock::now();
     source_->load(i, prepared->frame);
     prepared->frame.sequence_number = i;
-    prepared->load_ms =
-      std::chrono::duration<double, std::milli>(Clock::now() - load_start).count();
-    PipelineState unused;
+    prepared->load_ms = ms_since(load_start);
     for (std::size_t s = 0; s < front; ++s)
       prepared->samples.push_back(
         runStage(*stages_[s], config_.stages[s].type, prepared->frame, unused, i));
