@@ -10,6 +10,8 @@
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/stage.h>
 
+#include <pcl/filters/statistical_outlier_removal.h>
+
 #include <benchmark/benchmark.h>
 
 #include <memory>
@@ -90,9 +92,38 @@ BM_Stage(benchmark::State& st)
     st.counters["points_in"] = static_cast<double>(p.inputs[s].cloud->size());
 }
 
+/** PCL's StatisticalOutlierRemoval, the peer of the statistical_outlier_removal stage
+ * (FastStatisticalOutlierRemoval, the same kept points), on the same input cloud with
+ * the stage's parameters from config/karlsruhe.yaml (mean_k 20, 2 sigma). */
+void
+BM_PclStatisticalOutlierRemoval(benchmark::State& st)
+{
+  Prepared& p = prepared();
+  std::size_t s = 0;
+  while (s < p.types.size() && p.types[s] != "statistical_outlier_removal")
+    ++s;
+  if (s == p.types.size()) {
+    st.SkipWithError("config/karlsruhe.yaml has no statistical_outlier_removal");
+    return;
+  }
+  pcl::StatisticalOutlierRemoval<pcl::PointXYZI> filter;
+  filter.setMeanK(20);
+  filter.setStddevMulThresh(2.0);
+  filter.setInputCloud(p.inputs[s].cloud);
+  for (auto _ : st) {
+    Frame::Cloud out;
+    filter.filter(out);
+    benchmark::DoNotOptimize(out);
+  }
+  st.counters["points_in"] = static_cast<double>(p.inputs[s].cloud->size());
+}
+
 } // namespace
 
-// The 11 stages of config/karlsruhe.yaml, in order.
-BENCHMARK(BM_Stage)->DenseRange(0, 10)->Unit(benchmark::kMillisecond)->UseRealTime();
+// The 12 stages of config/karlsruhe.yaml, in order.
+BENCHMARK(BM_Stage)->DenseRange(0, 11)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_PclStatisticalOutlierRemoval)
+  ->Unit(benchmark::kMillisecond)
+  ->UseRealTime();
 
 BENCHMARK_MAIN();
