@@ -4,31 +4,184 @@
 
 #include <pcl/point_types.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <nanoflann.hpp>
+#include <numeric>
+#include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace planar_grid {
 
 namespace {
 
-/** nanoflann's view of the finite points of a cloud (x, y, z). */
-template <typename PointT> struct CloudAdaptor {
-  const pcl::PointCloud<PointT>& cloud;
-  const std::vector<std::uint32_t>& finite;
+/** nanoflann's view of packed x, y, z triples: distance computations read one
+ * contiguous array instead of the cloud through an index list. */
+struct PackedPoints {
+  std::vector<float> xyz;
 
-  std::size_t kdtree_get_point_count() const { return finite.size(); }
-  float kdtree_get_pt(std::size_t i, std::size_t dim) const
-  {
-    const PointT& p = cloud[finite[i]];
-    return dim == 0 ? p.x : (dim == 1 ? p.y : p.z);
-  }
+  std::size_t kdtree_get_point_count() const { return xyz.size() / 3; }
+  float kdtree_get_pt(std::size_t i, std::size_t dim) const { return xyz[3 * i + dim]; }
   template <typename BoundingBox> bool kdtree_get_bbox(BoundingBox&) const
   {
     return false;
   }
 };
+
+/** Integer cell coordinates packed into one key, 21 bits per axis. */
+std::uint64_t
+cellKey(std::int64_t x, std::int64_t y, std::int64_t z)
+{
+  constexpr std::int64_t OFFSET = std::int64_t{1} << 20;
+  return (static_cast<std::uint64_t>(x + OFFSET) << 42)
+         | (static_cast<std::uint64_t>(y + OFFSET) << 21)
+         | static_cast<std::uint64_t>(z + OFFSET);
+}
+
+/** The squared distance as nanoflann's L2_Simple_Adaptor computes it: single
+ * precision, summed over x, y, z in that order. */
+inline float
+squaredDistance(const float* a, const float* b)
+{
+  float result = 0.0f;
+  for (int i = 0; i < 3; ++i) {
+    const float diff = a[i] - b[i];
+    result += diff * diff;
+  }
+  return result;
+}
+
+/** The cell edge as a multiple of the median k-th neighbour distance: small enough for
+ * few candidates, large enough that most points of a surface are answered by cells. */
+constexpr double CELL_EDGE_PER_KTH_DISTANCE = 1.25;
+
+/** \brief Mean distances of the queried points to their k - 1 nearest other points,
+ * found among the points of the 3 x 3 x 3 cells around each point's cell.
+ *
+ * A point is answered (done[j] set) only when its k-th distance (itself included) is
+ * shorter than the distance from the point to the outside of those cells: no point
+ * elsewhere can then be nearer, and the k smallest distances are the kd-tree's. Their
+ * sum of single precision distances in double precision is exact, whatever their
+ * order, so mean_distance[j] equals the tree's answer bit for bit. The other points
+ * are left to the tree. */
+template <typename Tree>
+void
+meanDistancesInCells(const std::vector<float>& xyz,
+                     const Tree& tree,
+                     const std::vector<char>& queried,
+                     std::size_t k,
+                     int mean_k,
+                     std::vector<float>& mean_distance,
+                     std::vector<char>& done)
+{
+  const std::size_t n = xyz.size() / 3;
+  // The cell edge from the median k-th neighbour distance of a sample.
+  std::vector<float> kth_sq;
+  std::vector<std::uint32_t> nn_indices(k);
+  std::vector<float> nn_dists(k);
+  const std::size_t step = std::max<std::size_t>(1, n / 256);
+  for (std::size_t j = 0; j < n; j += step) {
+    nanoflann::KNNResultSet<float, std::uint32_t> result(k);
+    result.init(nn_indices.data(), nn_dists.data());
+    tree.findNeighbors(result, &xyz[3 * j], nanoflann::SearchParams());
+    kth_sq.push_back(nn_dists[result.size() - 1]);
+  }
+  const auto median = kth_sq.begin() + static_cast<std::ptrdiff_t>(kth_sq.size() / 2);
+  std::nth_element(kth_sq.begin(), median, kth_sq.end());
+  const double edge =
+    CELL_EDGE_PER_KTH_DISTANCE * std::sqrt(static_cast<double>(*median));
+  if (!(edge > 0.0) || !std::isfinite(edge))
+    return;
+
+  // Every point's cell, and the points sorted by cell.
+  constexpr double MAX_CELL = static_cast<double>((1 << 20) - 2);
+  std::vector<std::int64_t> cell(3 * n);
+  std::vector<std::uint64_t> keys(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    for (std::size_t d = 0; d < 3; ++d) {
+      const double c = std::floor(static_cast<double>(xyz[3 * j + d]) / edge);
+      if (!(std::abs(c) <= MAX_CELL))
+        return; // the cloud is too large for the keys: the tree answers all
+      cell[3 * j + d] = static_cast<std::int64_t>(c);
+    }
+    keys[j] = cellKey(cell[3 * j], cell[3 * j + 1], cell[3 * j + 2]);
+  }
+  std::vector<std::uint32_t> order(n);
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(),
+            [&keys](std::uint32_t a, std::uint32_t b) { return keys[a] < keys[b]; });
+  std::unordered_map<std::uint64_t, std::pair<std::size_t, std::size_t>> runs;
+  runs.reserve(n);
+  for (std::size_t b = 0; b < n;) {
+    std::size_t e = b + 1;
+    while (e < n && keys[order[e]] == keys[order[b]])
+      ++e;
+    runs.emplace(keys[order[b]], std::make_pair(b, e));
+    b = e;
+  }
+
+  std::vector<float> candidates, d2;
+  for (std::size_t b = 0; b < n;) {
+    const auto [run_begin, run_end] = runs.at(keys[order[b]]);
+    b = run_end;
+    if (std::none_of(order.begin() + static_cast<std::ptrdiff_t>(run_begin),
+                     order.begin() + static_cast<std::ptrdiff_t>(run_end),
+                     [&queried](std::uint32_t j) { return queried[j] != 0; }))
+      continue;
+    const std::int64_t* c = &cell[3 * order[run_begin]];
+    candidates.clear();
+    for (std::int64_t dz = -1; dz <= 1; ++dz)
+      for (std::int64_t dy = -1; dy <= 1; ++dy)
+        for (std::int64_t dx = -1; dx <= 1; ++dx) {
+          const auto it = runs.find(cellKey(c[0] + dx, c[1] + dy, c[2] + dz));
+          if (it == runs.end())
+            continue;
+          for (std::size_t i = it->second.first; i < it->second.second; ++i) {
+            const float* p = &xyz[3 * order[i]];
+            candidates.insert(candidates.end(), p, p + 3);
+          }
+        }
+    const std::size_t m = candidates.size() / 3;
+    if (m < k)
+      continue;
+    d2.resize(m);
+    for (std::size_t i = run_begin; i < run_end; ++i) {
+      const std::uint32_t j = order[i];
+      if (!queried[j])
+        continue;
+      const float* q = &xyz[3 * j];
+      // Distance from q to the outside of the 3 x 3 x 3 cells, with a margin for
+      // the rounding of the single precision distances; only candidates within it
+      // can be among the k nearest.
+      double guard = edge;
+      for (std::size_t d = 0; d < 3; ++d) {
+        const double lo = static_cast<double>(c[d]) * edge;
+        const double x = static_cast<double>(q[d]);
+        guard = std::min(guard, edge + std::min(x - lo, lo + edge - x));
+      }
+      const double guard_sq = guard * guard * (1.0 - 2e-6);
+      std::size_t inside = 0;
+      for (std::size_t t = 0; t < m; ++t) {
+        const float dist = squaredDistance(q, &candidates[3 * t]);
+        d2[inside] = dist;
+        inside += static_cast<double>(dist) < guard_sq ? 1 : 0;
+      }
+      if (inside < k)
+        continue;
+      const auto kth = d2.begin() + static_cast<std::ptrdiff_t>(k - 1);
+      std::nth_element(d2.begin(), kth,
+                       d2.begin() + static_cast<std::ptrdiff_t>(inside));
+      double dist_sum = 0.0;
+      for (auto it = d2.begin(); it <= kth; ++it)
+        dist_sum += std::sqrt(*it);
+      mean_distance[j] = static_cast<float>(dist_sum / mean_k);
+      done[j] = 1;
+    }
+  }
+}
 
 } // namespace
 
@@ -41,41 +194,60 @@ FastStatisticalOutlierRemoval<PointT>::applyFilter(pcl::Indices& indices)
                     + std::to_string(mean_k_));
   const auto& cloud = *this->input_;
   const pcl::Indices& input_indices = *this->indices_;
-  std::vector<std::uint32_t> finite;
-  finite.reserve(cloud.size());
-  for (std::size_t i = 0; i < cloud.size(); ++i)
-    if (std::isfinite(cloud[i].x) && std::isfinite(cloud[i].y)
-        && std::isfinite(cloud[i].z))
-      finite.push_back(static_cast<std::uint32_t>(i));
+  // The tree holds every finite point of the cloud, as PCL's searcher does; packed
+  // in cloud order, so that the tree and its answers are those of the cloud itself.
+  constexpr std::uint32_t NOT_FINITE = std::numeric_limits<std::uint32_t>::max();
+  std::vector<std::uint32_t> packed_of(cloud.size(), NOT_FINITE);
+  PackedPoints packed;
+  packed.xyz.reserve(3 * cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const PointT& p = cloud[i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      continue;
+    packed_of[i] = static_cast<std::uint32_t>(packed.xyz.size() / 3);
+    packed.xyz.insert(packed.xyz.end(), {p.x, p.y, p.z});
+  }
+  const std::size_t n_packed = packed.kdtree_get_point_count();
 
-  using Adaptor = CloudAdaptor<PointT>;
-  using Tree =
-    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Adaptor>,
-                                        Adaptor, 3, std::uint32_t>;
-  const Adaptor adaptor{cloud, finite};
-  const Tree tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+  using Tree = nanoflann::KDTreeSingleIndexAdaptor<
+    nanoflann::L2_Simple_Adaptor<float, PackedPoints>, PackedPoints, 3, std::uint32_t>;
+  const Tree tree(3, packed, nanoflann::KDTreeSingleIndexAdaptorParams(10));
 
+  std::vector<char> queried(n_packed, 0);
+  for (const auto index : input_indices)
+    if (packed_of[static_cast<std::size_t>(index)] != NOT_FINITE)
+      queried[packed_of[static_cast<std::size_t>(index)]] = 1;
   // One more neighbour than mean_k: the query point is its own nearest neighbour.
   const auto k = static_cast<std::size_t>(mean_k_) + 1;
+  std::vector<float> mean_distance(n_packed, 0.0f);
+  std::vector<char> done(n_packed, 0);
+  if (n_packed > k)
+    meanDistancesInCells(packed.xyz, tree, queried, k, mean_k_, mean_distance, done);
+
+  // The points the cells could not answer exactly, from the tree, in its leaf order
+  // (consecutive queries visit the same nodes).
   std::vector<std::uint32_t> nn_indices(k);
   std::vector<float> nn_dists(k);
+  for (const auto j : tree.vAcc) {
+    if (!queried[j] || done[j])
+      continue;
+    nanoflann::KNNResultSet<float, std::uint32_t> result(k);
+    result.init(nn_indices.data(), nn_dists.data());
+    tree.findNeighbors(result, &packed.xyz[3 * j], nanoflann::SearchParams());
+    const std::size_t found = result.size();
+    double dist_sum = 0.0;
+    for (std::size_t n = 1; n < found; ++n)
+      dist_sum += std::sqrt(nn_dists[n]);
+    mean_distance[j] = static_cast<float>(dist_sum / mean_k_);
+  }
+
   std::vector<float> distances(input_indices.size(), 0.0f);
   int valid_distances = 0;
   for (std::size_t i = 0; i < input_indices.size(); ++i) {
-    const PointT& p = cloud[input_indices[i]];
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+    const std::uint32_t j = packed_of[static_cast<std::size_t>(input_indices[i])];
+    if (j == NOT_FINITE)
       continue;
-    const float query[3] = {p.x, p.y, p.z};
-    nanoflann::KNNResultSet<float, std::uint32_t> result(k);
-    result.init(nn_indices.data(), nn_dists.data());
-    tree.findNeighbors(result, query, nanoflann::SearchParams());
-    const std::size_t found = result.size();
-    if (found == 0)
-      continue;
-    double dist_sum = 0.0;
-    for (std::size_t j = 1; j < found; ++j)
-      dist_sum += std::sqrt(nn_dists[j]);
-    distances[i] = static_cast<float>(dist_sum / mean_k_);
+    distances[i] = mean_distance[j];
     ++valid_distances;
   }
 

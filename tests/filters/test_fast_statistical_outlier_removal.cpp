@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <string>
 
@@ -118,6 +119,42 @@ TEST(FastStatisticalOutlierRemoval, NonFinitePointsAndIndicesAsPCL)
     ASSERT_TRUE(a[i].getVector3fMap() == b[i].getVector3fMap()
                 || (std::isnan(a[i].x) && std::isnan(b[i].x)))
       << i;
+}
+
+TEST(FastStatisticalOutlierRemoval, LatticesDuplicatesAndScatteredPointsAsPCL)
+{
+  // Exact lattices (many equal distances, points on the search cells' faces), repeated
+  // points, a sparse scatter far from the surfaces and a cloud smaller than mean_k:
+  // the same kept indices as PCL at every mean_k, with the threshold at the mean
+  // itself (std_mul 0), where any change in a mean distance would show.
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  for (int i = 0; i < 60; ++i)
+    for (int j = 0; j < 40; ++j) {
+      cloud->push_back(pcl::PointXYZ(0.1f * i, 0.1f * j, 0.0f));  // floor
+      cloud->push_back(pcl::PointXYZ(0.1f * i, 4.0f, 0.05f * j)); // wall, finer
+    }
+  for (std::size_t i = 0; i < cloud->size(); i += 7)
+    cloud->push_back((*cloud)[i]); // repeated points
+  std::uint32_t state = 12345u;
+  const auto uniform = [&state](float lo, float hi) {
+    state = state * 1664525u + 1013904223u;
+    return lo + (hi - lo) * static_cast<float>(state >> 8) / 16777216.0f;
+  };
+  for (int i = 0; i < 300; ++i)
+    cloud->push_back(
+      pcl::PointXYZ(uniform(-5.0f, 11.0f), uniform(-5.0f, 9.0f), uniform(0.5f, 6.0f)));
+  for (const int mean_k : {1, 5, 20, 60})
+    for (const double std_mul : {0.0, 1.0})
+      for (const bool negative : {false, true})
+        ASSERT_EQ(keptBy<FastFilter>(cloud, mean_k, std_mul, negative),
+                  keptBy<PCLFilter>(cloud, mean_k, std_mul, negative))
+          << "mean_k " << mean_k << " std_mul " << std_mul << " negative " << negative;
+
+  pcl::PointCloud<pcl::PointXYZ>::Ptr few(new pcl::PointCloud<pcl::PointXYZ>);
+  for (int i = 0; i < 6; ++i)
+    few->push_back(pcl::PointXYZ(0.3f * static_cast<float>(i * i), 0.0f, 0.1f * i));
+  EXPECT_EQ(keptBy<FastFilter>(few, 10, 0.0, false),
+            keptBy<PCLFilter>(few, 10, 0.0, false));
 }
 
 TEST(FastStatisticalOutlierRemoval, AnIsolatedPointIsRemovedAndReported)

@@ -18,13 +18,16 @@ namespace planar_grid {
  * outliers instead. The output cloud is built by pcl::FilterIndices, as for PCL's
  * filter.
  *
- * The k nearest neighbours come from nanoflann's exact kd-tree (the library wrapped)
- * instead of pcl::search::KdTree: 26.0 against PCL's 76.9 ms on a 0.1 m voxel-grid
- * frame of Karlsruhe (18,170 points, mean_k 20; bench_pipeline_stages,
- * docs/BENCHMARKS.md). Distances are the same single
- * precision squared distances summed over x, y, z, so the classification equals PCL's
- * on an unorganized cloud. An organized cloud is searched exactly here, where PCL uses
- * pcl::search::OrganizedNeighbor's image-window search.
+ * The k nearest neighbours of most points are found among the points of the 3 x 3 x 3
+ * cells (edge 1.25 times the median k-th neighbour distance of a sample) around the
+ * point's cell, accepted only when the k-th distance is shorter than the distance to
+ * the outside of those cells, so that no other point can be nearer; the rest come from
+ * nanoflann's exact kd-tree (the library wrapped) instead of pcl::search::KdTree.
+ * Distances are the same single precision squared distances summed over x, y, z, and
+ * their sums are exact in double precision, so the classification equals PCL's on an
+ * unorganized cloud. An organized cloud is searched exactly here, where PCL uses
+ * pcl::search::OrganizedNeighbor's image-window search. Timings against PCL's filter
+ * on a Karlsruhe frame are in docs/BENCHMARKS.md (bench_pipeline_stages).
  * Instantiated for pcl::PointXYZ, pcl::PointXYZI and pcl::PointXYZRGB.
  * \ingroup filters */
 template <typename PointT>
