@@ -4,6 +4,8 @@
 #include <planar_grid/stereo/point_cloud_from_disparity.h>
 #include <planar_grid/stereo/stereo_feature_matcher.h>
 
+#include <opencv2/core/utility.hpp>
+
 #include "stages.h"
 
 namespace planar_grid {
@@ -11,13 +13,44 @@ namespace stages {
 
 namespace {
 
+/** The estimator's parameters without its per-call thread switch: the stage sets
+ * OpenCV's thread count once for the run instead. */
+DisparityEstimator::Params
+withoutThreadSwitch(DisparityEstimator::Params params)
+{
+  params.num_threads = 0;
+  return params;
+}
+
 class StereoDisparityStage : public Stage {
 public:
   StereoDisparityStage(const DisparityEstimator::Params& params, double max_range_m) :
-      estimator_(params), max_range_m_(max_range_m)
+      estimator_(withoutThreadSwitch(params)), num_threads_(params.num_threads),
+      max_range_m_(max_range_m)
   {}
+  StereoDisparityStage(const StereoDisparityStage&) = delete;
+  StereoDisparityStage& operator=(const StereoDisparityStage&) = delete;
+  ~StereoDisparityStage() override { restoreThreads(); }
 
   bool isFrameLocal() const override { return true; }
+
+  // OpenCV's thread count is process-wide, and changing it while another thread is
+  // inside cv::parallel_for_ (this stage runs beside the mapping stages when frames
+  // overlap) can leave both spinning in the thread pool. So it is set once, on the
+  // runner's thread before the first frame, and restored after the last.
+  void start(PipelineState& /*state*/) override
+  {
+    restoreThreads();
+    if (num_threads_ <= 0)
+      return;
+    const int current = cv::getNumThreads();
+    if (current != num_threads_) {
+      previous_threads_ = current;
+      cv::setNumThreads(num_threads_);
+    }
+  }
+
+  void finish(PipelineState& /*state*/) override { restoreThreads(); }
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
@@ -32,7 +65,16 @@ public:
   }
 
 private:
+  void restoreThreads()
+  {
+    if (previous_threads_ > 0)
+      cv::setNumThreads(previous_threads_);
+    previous_threads_ = 0;
+  }
+
   DisparityEstimator estimator_;
+  int num_threads_;
+  int previous_threads_{0};
   double max_range_m_;
 };
 
@@ -83,8 +125,10 @@ stereoDisparityInfo()
                        "Image scale divisor: 2 matches half-resolution images; the "
                        "output stays full resolution, in full-resolution px."),
     ParamSpec::integer("num_threads", d.num_threads, 0, 64, "",
-                       "OpenCV threads while matching (speed only, never the result); "
-                       "0 = OpenCV's process-wide setting."),
+                       "OpenCV threads for the whole run (OpenCV's setting is "
+                       "process-wide: every stage's OpenCV calls use it), set before "
+                       "the first frame and restored after the last; speed only, "
+                       "never the result; 0 = leave OpenCV's setting."),
     ParamSpec::integer("min_disparity_px", d.min_disparity_px, -256, 256, "px",
                        "Smallest disparity searched; a multiple of downscale."),
     ParamSpec::integer("num_disparities_px", d.num_disparities_px, 16, 512, "px",

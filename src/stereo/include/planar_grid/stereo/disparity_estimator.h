@@ -81,7 +81,9 @@ public:
     int downscale{1};
     /** OpenCV threads used while computing (cv::setNumThreads for the duration of
      * compute(), then restored); 0 leaves OpenCV's process-wide setting (by default
-     * the number of cores). Affects speed only, never the result. 0..64. */
+     * the number of cores). Affects speed only, never the result. 0..64. The setting
+     * is process-wide: with another thread running OpenCV code at the same time,
+     * leave 0 here and call cv::setNumThreads once beforehand. */
     int num_threads{0};
     /** Smallest disparity searched, px; a multiple of \a downscale. */
     int min_disparity_px{0};
