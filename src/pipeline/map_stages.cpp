@@ -220,7 +220,9 @@ public:
       depthFromCloud(frame);
     map.integrateDepthImage(depth_, frame.world_T_camera);
     cuboids_ = map.getSurfaceLayer().getCuboids().size();
-    total_bytes_ = map.getMemory().total_bytes;
+    // The block count is O(1); the map's bytes (a walk over every block) are
+    // reported once, at the end of the run.
+    space_blocks_ = map.getSpaceLayer().getBlockCount();
   }
 
   bool countsCloudPoints() const override { return false; }
@@ -230,7 +232,7 @@ public:
   {
     values.emplace_back("depth_pixels", static_cast<double>(depth_pixels_));
     values.emplace_back("map_cuboids", static_cast<double>(cuboids_));
-    values.emplace_back("map_kB", static_cast<double>(total_bytes_) / 1024.0);
+    values.emplace_back("space_blocks", static_cast<double>(space_blocks_));
   }
 
 private:
@@ -275,7 +277,7 @@ private:
   DepthImage depth_;
   std::size_t depth_pixels_{0};
   std::size_t cuboids_{0};
-  std::size_t total_bytes_{0};
+  std::size_t space_blocks_{0};
 };
 
 } // namespace

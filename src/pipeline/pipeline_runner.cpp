@@ -52,9 +52,25 @@ struct StageSample {
   std::vector<std::pair<std::string, double>> counters;
 };
 
+/** The valid points of the cloud a stage left behind. The next stage starts from the
+ * same cloud, unchanged (nothing runs between two stages of a frame), so its count of
+ * the points in is this one. */
+struct CloudCount {
+  const Frame::Cloud* cloud{nullptr};
+  const void* data{nullptr};
+  std::size_t size{0};
+  std::uint64_t valid{0};
+
+  bool counts(const Frame::Cloud& c) const
+  {
+    return &c == cloud && c.points.data() == data && c.size() == size;
+  }
+};
+
 /** A loaded frame after the leading frame-local stages. */
 struct PreparedFrame {
   Frame frame;
+  CloudCount last_count;
   double load_ms{0.0};
   std::vector<StageSample> samples;
 };
@@ -66,13 +82,16 @@ runStage(Stage& stage,
          const std::string& type,
          Frame& frame,
          PipelineState& state,
-         std::size_t i)
+         std::size_t i,
+         CloudCount& last_count)
 {
   using Clock = std::chrono::steady_clock;
   StageSample sample;
   const bool counts = stage.countsCloudPoints();
   if (counts && frame.cloud)
-    sample.points_in = stages::countValidPoints(*frame.cloud);
+    sample.points_in = last_count.counts(*frame.cloud)
+                         ? last_count.valid
+                         : stages::countValidPoints(*frame.cloud);
   const auto t = Clock::now();
   try {
     stage.process(frame, state);
@@ -81,8 +100,12 @@ runStage(Stage& stage,
                     + type + "': " + e.what());
   }
   sample.ms = std::chrono::duration<double, std::milli>(Clock::now() - t).count();
-  if (counts && frame.cloud)
+  if (counts && frame.cloud) {
     sample.points_out = stages::countValidPoints(*frame.cloud);
+    last_count = {frame.cloud.get(), frame.cloud->points.data(), frame.cloud->size(),
+                  sample.points_out};
+  } else
+    last_count = {};
   stage.counters(frame, sample.counters);
   return sample;
 }
@@ -206,8 +229,9 @@ PipelineRunner::run()
     prepared->frame.sequence_number = i;
     prepared->load_ms = ms_since(load_start);
     for (std::size_t s = 0; s < front; ++s)
-      prepared->samples.push_back(
-        runStage(*stages_[s], config_.stages[s].type, prepared->frame, unused, i));
+      prepared->samples.push_back(runStage(*stages_[s], config_.stages[s].type,
+                                           prepared->frame, unused, i,
+                                           prepared->last_count));
     return prepared;
   };
   const auto launch = [&prepare, front](std::size_t i) {
@@ -226,8 +250,8 @@ PipelineRunner::run()
     for (std::size_t s = 0; s < front; ++s)
       addSample(report.stages[s], prepared->samples[s]);
     for (std::size_t s = front; s < stages_.size(); ++s)
-      addSample(report.stages[s],
-                runStage(*stages_[s], report.stages[s].type, frame, state_, i));
+      addSample(report.stages[s], runStage(*stages_[s], report.stages[s].type, frame,
+                                           state_, i, prepared->last_count));
     // After the stages: visual_odometry sets the pose of frames whose input has none.
     if (frame.has_pose)
       trajectory_.push_back(frame.world_T_camera);
