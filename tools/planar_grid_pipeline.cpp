@@ -429,8 +429,8 @@ run(int argc, char** argv)
              config.input.left_images.empty() ? "PCD files" : "stereo sequence", begin,
              end);
   if (const std::size_t ahead = runner.frameLocalPrefix(); ahead > 0)
-    print_info("  loading and the first %zu stages run one frame ahead on a second "
-               "thread\n",
+    print_info("  loading and up to the first %zu stages run one frame ahead on a "
+               "second thread (as many as balance the threads' measured times)\n",
                ahead);
 
   ProgressBar bar(::isatty(STDERR_FILENO) != 0);

@@ -122,6 +122,30 @@ addSample(StageReport& sr, const StageSample& sample)
     sr.addCounter(name, value);
 }
 
+/** The number of leading stages to run ahead from now on: \a ahead, or one fewer when
+ * moving the last of them to the mapping thread shortens the longer of the two
+ * threads' mean frame times by more than a millisecond (after a few frames, so that
+ * start-up costs do not decide). */
+std::size_t
+balancedReadAhead(const RunReport& report, std::size_t ahead)
+{
+  constexpr std::size_t MIN_FRAMES = 8;
+  constexpr double MIN_GAIN_MS = 1.0;
+  if (ahead <= 1 || report.frames < MIN_FRAMES)
+    return ahead;
+  const auto mean = [&report](std::size_t s) {
+    const StageReport& sr = report.stages[s];
+    return sr.frames ? sr.total_ms / static_cast<double>(sr.frames) : 0.0;
+  };
+  double front = report.load_ms / static_cast<double>(report.frames), back = 0.0;
+  for (std::size_t s = 0; s < report.stages.size(); ++s)
+    (s < ahead ? front : back) += mean(s);
+  const double moved = mean(ahead - 1);
+  return std::max(front - moved, back + moved) + MIN_GAIN_MS < std::max(front, back)
+           ? ahead - 1
+           : ahead;
+}
+
 } // namespace
 
 PipelineRunner::PipelineRunner(const PipelineConfig& config) : config_(config)
@@ -219,43 +243,49 @@ PipelineRunner::run()
   // Frame i + 1 is loaded and goes through the leading frame-local stages on a second
   // thread while frame i goes through the rest here. Those stages touch nothing but
   // their frame (no PipelineState: the empty state below is never read), and each runs
-  // its frames in order on one thread, so the results equal a sequential run's.
-  const std::size_t front = frameLocalPrefix();
+  // its frames in order, one frame at a time, so the results equal a sequential run's.
+  // How many of them run ahead is balanced by their measured times: it starts at all
+  // of them and only shrinks, so a stage that frame i runs here (s >= its count) is
+  // never one that frame i + 1 runs on the other thread at the same time.
+  std::size_t ahead = frameLocalPrefix();
   PipelineState unused; // one prepare() runs at a time: the next starts after get()
-  const auto prepare = [this, front, &unused, &ms_since](std::size_t i) {
+  const auto prepare = [this, &unused, &ms_since](std::size_t i, std::size_t n) {
     auto prepared = std::make_unique<PreparedFrame>();
     const auto load_start = Clock::now();
     source_->load(i, prepared->frame);
     prepared->frame.sequence_number = i;
     prepared->load_ms = ms_since(load_start);
-    for (std::size_t s = 0; s < front; ++s)
+    for (std::size_t s = 0; s < n; ++s)
       prepared->samples.push_back(runStage(*stages_[s], config_.stages[s].type,
                                            prepared->frame, unused, i,
                                            prepared->last_count));
     return prepared;
   };
-  const auto launch = [&prepare, front](std::size_t i) {
-    return std::async(front > 0 ? std::launch::async : std::launch::deferred, prepare,
-                      i);
+  const auto launch = [&prepare](std::size_t i, std::size_t n) {
+    return std::async(n > 0 ? std::launch::async : std::launch::deferred, prepare, i,
+                      n);
   };
   std::future<std::unique_ptr<PreparedFrame>> next;
   if (first < end_)
-    next = launch(first);
+    next = launch(first, ahead);
   for (std::size_t i = first; i < end_; ++i) {
     const std::unique_ptr<PreparedFrame> prepared = next.get();
     if (i + 1 < end_)
-      next = launch(i + 1);
+      next = launch(i + 1, ahead);
     Frame& frame = prepared->frame;
     report.load_ms += prepared->load_ms;
-    for (std::size_t s = 0; s < front; ++s)
+    const std::size_t ran_ahead = prepared->samples.size();
+    for (std::size_t s = 0; s < ran_ahead; ++s)
       addSample(report.stages[s], prepared->samples[s]);
-    for (std::size_t s = front; s < stages_.size(); ++s)
+    for (std::size_t s = ran_ahead; s < stages_.size(); ++s)
       addSample(report.stages[s], runStage(*stages_[s], report.stages[s].type, frame,
                                            state_, i, prepared->last_count));
     // After the stages: visual_odometry sets the pose of frames whose input has none.
     if (frame.has_pose)
       trajectory_.push_back(frame.world_T_camera);
     ++report.frames;
+    ahead = balancedReadAhead(report, ahead);
+    report.read_ahead_stages = ahead;
     const std::size_t done = i - begin_ + 1;
     if (done % rss_every == 0 || i + 1 == end_)
       report.rss_samples.emplace_back(i, residentMemoryBytes());
@@ -337,6 +367,7 @@ RunReport::toJson() const
   j["seconds"] = seconds;
   j["frames_per_second"] = framesPerSecond();
   j["load_ms_per_frame"] = frames ? load_ms / static_cast<double>(frames) : 0.0;
+  j["read_ahead_stages"] = read_ahead_stages;
   j["world_cloud_points"] = world_cloud_points;
   j["planes"] = planes;
   auto& js = j["stages"] = nlohmann::ordered_json::array();

@@ -56,6 +56,10 @@ struct RunReport {
   double seconds{0.0};
   /** \brief Time spent loading (and rectifying) frames, milliseconds. */
   double load_ms{0.0};
+  /** \brief Leading frame-local stages that ran one frame ahead on the second thread
+   * at the end of the run (their number is balanced by the measured times; 0 when
+   * frames do not overlap). */
+  std::size_t read_ahead_stages{0};
   /** \brief One report per stage, in run order. */
   std::vector<StageReport> stages;
   /** \brief Points in the accumulated world cloud at the end. */
@@ -128,8 +132,10 @@ public:
    * \param[in] overlap false runs every frame start to end on the calling thread */
   void setFrameOverlap(bool overlap) { overlap_ = overlap; }
 
-  /** \brief Number of leading stages that run ahead on the second thread (0 when the
-   * overlap is off or the first stage is not frame-local). */
+  /** \brief Number of leading stages that may run ahead on the second thread (0 when
+   * the overlap is off or the first stage is not frame-local). The run starts with all
+   * of them ahead and moves the last ones to the calling thread while that shortens
+   * the longer thread's mean frame time (RunReport::read_ahead_stages). */
   std::size_t frameLocalPrefix() const;
 
   /** \brief Writes a checkpoint to \a path every \a every_n_frames frames of the run
