@@ -4,11 +4,13 @@
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 #include <planar_grid/pipeline/run_outputs.h>
+#include <planar_grid/pipeline/stage.h>
 
 #include <pcl/io/pcd_io.h>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
@@ -825,4 +827,30 @@ TEST_F(PipelineRunnerTest, AFailingFrameAheadStopsTheRunAfterTheFramesBeforeIt)
     }
     EXPECT_EQ(done, 2u) << (overlap ? "overlapped" : "sequential");
   }
+}
+
+TEST(StereoDisparityStage, SetsOpenCVThreadsOnceForTheRun)
+{
+  // OpenCV's thread count is process-wide: the stage sets it when the run starts (on
+  // the runner's thread) and restores it when the run ends, instead of switching it
+  // around every frame on the read-ahead thread while the mapping thread may be inside
+  // cv::parallel_for_.
+  const auto* info = planar_grid::findStage("stereo_disparity");
+  ASSERT_NE(info, nullptr);
+  const int before = cv::getNumThreads();
+  const int wanted = before == 1 ? 2 : 1;
+  planar_grid::ParamValues params = planar_grid::defaultParams(info->params);
+  params.set("num_threads", wanted);
+  {
+    const auto stage = info->create(params);
+    planar_grid::PipelineState state;
+    stage->start(state);
+    EXPECT_EQ(cv::getNumThreads(), wanted);
+    stage->finish(state);
+    EXPECT_EQ(cv::getNumThreads(), before);
+    // A run that stops early (an error in a frame) restores it when the stage goes.
+    stage->start(state);
+    EXPECT_EQ(cv::getNumThreads(), wanted);
+  }
+  EXPECT_EQ(cv::getNumThreads(), before);
 }
