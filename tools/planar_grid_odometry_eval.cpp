@@ -52,6 +52,14 @@ printHelp(const char* program)
     "only;\n"
     "                     the epipolar refinement needs it and is skipped too)\n"
     "  --no_epipolar      skip the epipolar rotation refinement (default: on)\n"
+    "  --no_disparity_offset  do not estimate the disparity offset with the motion\n"
+    "                     (default: estimated, see StereoOdometry::Params)\n"
+    "  --disparity_offset_px X  the offset's prior (or, with --no_disparity_offset,\n"
+    "                     fixed) value: true disparity = measured + X, px (default 0)\n"
+    "  --disparity_offset_sigma_px X  the prior's standard deviation, px (default 1)\n"
+    "  --disparity_offset_memory X  share of the offset's information carried to the\n"
+    "                     next frame pair, [0, 1] (default 0.8; 1: one offset per "
+    "run)\n"
     "  --step_analysis    karlsruhe: per section of the drive, the INS, estimated and\n"
     "                     near-only (disparity >= 40 px, z <= 9.2 m) / far-only (< 20\n"
     "                     px, z > 18 m) step lengths (default: off)\n"
@@ -218,6 +226,28 @@ trajectoryErrors(const std::string& sequence,
                              error.segments);
   pcl::console::print_info("  RTE (all segments): %.3f %%, ATE RMSE: %.3f m\n",
                            json["rte_percent"].get<double>(), ate);
+  // The disparity offset the odometry ended with; its standard deviation is for
+  // reprojection residuals of 1 px (the real ones are smaller, so it is an upper
+  // bound).
+  json["disparity_offset_px"] = odometry.getDisparityOffset();
+  const double information = odometry.getDisparityOffsetInformation();
+  json["disparity_offset_sd_px"] =
+    information > 0.0 ? 1.0 / std::sqrt(information) : 0.0;
+  pcl::console::print_info("  disparity offset: %+.3f px (sd %.3f px)\n",
+                           odometry.getDisparityOffset(),
+                           json["disparity_offset_sd_px"].get<double>());
+  for (std::size_t i = 1; i < estimated.size(); ++i) {
+    const planar_grid::OdometryResult& result = odometry.getResults()[i];
+    json["per_frame_motion"].push_back(
+      {{"frame", i},
+       {"valid", result.valid},
+       {"inliers", result.inliers},
+       {"step_estimated_m",
+        (estimated[i].translation() - estimated[i - 1].translation()).norm()},
+       {"step_reference_m",
+        (reference[i].translation() - reference[i - 1].translation()).norm()},
+       {"disparity_offset_px", result.disparity_offset_px}});
+  }
   return json;
 }
 
@@ -541,8 +571,11 @@ run(int argc, char** argv)
     planar_grid::cli::checkArguments(
       argc, argv,
       {"--sequence", "--data", "--features", "--max_features", "--max_range_m",
-       "--output", "--threshold_m", "--reference_depth_m", "--ins_lever_arm_m"},
-      {"--no_reprojection", "--no_epipolar", "--step_analysis"});
+       "--output", "--threshold_m", "--reference_depth_m", "--ins_lever_arm_m",
+       "--disparity_offset_px", "--disparity_offset_memory",
+       "--disparity_offset_sigma_px"},
+      {"--no_reprojection", "--no_epipolar", "--step_analysis",
+       "--no_disparity_offset"});
     std::string sequence, data_dir = "../shared/data", features_name = "sift", output;
     if (pcl::console::parse_argument(argc, argv, "--sequence", sequence) < 0) {
       printHelp(argv[0]);
@@ -564,8 +597,15 @@ run(int argc, char** argv)
     };
     StereoOdometry::Params odometry_params;
     if (!optionalNumber("--threshold_m", odometry_params.distance_threshold_m)
-        || !optionalNumber("--reference_depth_m", odometry_params.reference_depth_m))
+        || !optionalNumber("--reference_depth_m", odometry_params.reference_depth_m)
+        || !optionalNumber("--disparity_offset_px", odometry_params.disparity_offset_px)
+        || !optionalNumber("--disparity_offset_memory",
+                           odometry_params.disparity_offset_memory)
+        || !optionalNumber("--disparity_offset_sigma_px",
+                           odometry_params.disparity_offset_sigma_px))
       return EXIT_FAILURE;
+    odometry_params.estimate_disparity_offset =
+      !pcl::console::find_switch(argc, argv, "--no_disparity_offset");
     const bool reprojection =
       !pcl::console::find_switch(argc, argv, "--no_reprojection");
     odometry_params.epipolar_refinement =
@@ -588,13 +628,16 @@ run(int argc, char** argv)
     pcl::console::print_info(
       "Sequence %s, data %s, features %s, RANSAC threshold %.3f m, reference depth "
       "%.1f m, ratio %.2f, mutual check %s, max_iterations %d, min_inliers %d, "
-      "reprojection refinement %s, epipolar refinement %s\n",
+      "reprojection refinement %s, epipolar refinement %s, disparity offset %s "
+      "(prior %.2f px)\n",
       sequence.c_str(), data_dir.c_str(), features_name.c_str(),
       odometry_params.distance_threshold_m, odometry_params.reference_depth_m,
       odometry_params.ratio, odometry_params.mutual_check ? "on" : "off",
       odometry_params.max_iterations, odometry_params.min_inliers,
       reprojection ? "on" : "off",
-      reprojection && odometry_params.epipolar_refinement ? "on" : "off");
+      reprojection && odometry_params.epipolar_refinement ? "on" : "off",
+      reprojection && odometry_params.estimate_disparity_offset ? "estimated" : "fixed",
+      odometry_params.disparity_offset_px);
 
     nlohmann::json json;
     if (sequence == "karlsruhe")
@@ -616,6 +659,9 @@ run(int argc, char** argv)
     json["reference_depth_m"] = odometry_params.reference_depth_m;
     json["reprojection_refinement"] = reprojection;
     json["epipolar_refinement"] = reprojection && odometry_params.epipolar_refinement;
+    json["disparity_offset_estimated"] =
+      reprojection && odometry_params.estimate_disparity_offset;
+    json["disparity_offset_prior_px"] = odometry_params.disparity_offset_px;
     if (!output.empty()) {
       planar_grid::writeTextFileAtomically(output, json.dump(2) + "\n");
       pcl::console::print_info("Wrote %s\n", output.c_str());

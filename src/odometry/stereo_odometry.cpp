@@ -176,18 +176,53 @@ toCoefficients(const Eigen::Matrix4d& transform)
   return coefficients;
 }
 
+/** \brief The key points of one correspondence: previous left, previous right,
+ * current left, current right. */
+using StereoKeypoints = std::array<const cv::KeyPoint*, 4>;
+
+/** \brief The point of a left and a right key point in the rectified left camera
+ * frame (metres), with \a offset_px added to their disparity u_left - u_right:
+ * z = f B / (d + offset), x = (u_left - cx) z / f, y = (v_left - cy) z / f, as
+ * StereoFeatureMatcher triangulates with no offset. False when the corrected
+ * disparity is below 0.1 px. */
+bool
+triangulate(const cv::KeyPoint& left,
+            const cv::KeyPoint& right,
+            const StereoCalibration& calibration,
+            double offset_px,
+            Eigen::Vector3d& point)
+{
+  const double disparity =
+    static_cast<double>(left.pt.x) - static_cast<double>(right.pt.x) + offset_px;
+  if (!(disparity >= 0.1))
+    return false;
+  const double scale = calibration.baseline_m / disparity;
+  point = Eigen::Vector3d((left.pt.x - calibration.cx_px) * scale,
+                          (left.pt.y - calibration.cy_px) * scale,
+                          calibration.focal_length_px * scale);
+  return true;
+}
+
 /** \brief Stereo reprojection residuals of one correspondence: the previous point
  * projected into the current left and right images and the current point into the
- * previous ones, minus the matched key points (8 values, pixels). False when a point
- * falls behind a camera. */
+ * previous ones, minus the matched key points (8 values, pixels). Both points are
+ * triangulated from their key points with the disparity offset \a offset_px (true
+ * disparity = measured + offset), and the right projections carry the same offset
+ * (a measured right column is the true one + offset), so that the offset acts as the
+ * difference of the two rectified cameras' principal point columns. False when a
+ * disparity is too small or a point falls behind a camera. */
 bool
 reprojectionResiduals(const Eigen::Isometry3d& previous_T_current,
                       const StereoCalibration& calibration,
-                      const Eigen::Vector3d& previous_point,
-                      const Eigen::Vector3d& current_point,
-                      const cv::KeyPoint* keypoints[4],
+                      double offset_px,
+                      const StereoKeypoints& keypoints,
                       Eigen::Matrix<double, 8, 1>& residuals)
 {
+  Eigen::Vector3d previous_point, current_point;
+  if (!triangulate(*keypoints[0], *keypoints[1], calibration, offset_px, previous_point)
+      || !triangulate(*keypoints[2], *keypoints[3], calibration, offset_px,
+                      current_point))
+    return false;
   const Eigen::Vector3d in_current = previous_T_current.inverse() * previous_point;
   const Eigen::Vector3d in_previous = previous_T_current * current_point;
   if (in_current.z() < 0.1 || in_previous.z() < 0.1)
@@ -198,8 +233,8 @@ reprojectionResiduals(const Eigen::Isometry3d& previous_T_current,
     const double v = f * p.y() / p.z() + calibration.cy_px;
     residuals[offset] = f * p.x() / p.z() + calibration.cx_px - left->pt.x;
     residuals[offset + 1] = v - left->pt.y;
-    residuals[offset + 2] =
-      f * (p.x() - calibration.baseline_m) / p.z() + calibration.cx_px - right->pt.x;
+    residuals[offset + 2] = f * (p.x() - calibration.baseline_m) / p.z()
+                            + calibration.cx_px + offset_px - right->pt.x;
     residuals[offset + 3] = v - right->pt.y;
   };
   project(in_current, keypoints[2], keypoints[3], 0);
@@ -221,25 +256,37 @@ perturbation(const Eigen::Matrix<double, 6, 1>& delta)
   return result;
 }
 
-/** \brief The key points of one correspondence: previous left, previous right,
- * current left, current right. */
-using StereoKeypoints = std::array<const cv::KeyPoint*, 4>;
+/** \brief The disparity offset of a reprojection refinement: its value (px) and its
+ * information (1 / variance, px^-2, for residuals of unit variance in pixels). */
+struct OffsetEstimate {
+  double offset_px{0.0};
+  double information{0.0};
+};
 
 /** \brief Gauss-Newton on the stereo reprojection error of the given correspondences,
  * with Huber weights (1 px) and numerical derivatives; 10 iterations at most. With
- * rotation_fixed only the translation changes. */
+ * rotation_fixed only the translation changes. \a offset holds the disparity offset
+ * the refinement starts from. With \a estimate_offset the offset is a seventh unknown
+ * with the Gaussian prior \a prior (its information is the prior's weight), and
+ * \a offset receives the estimate and its information (the prior's plus the data's,
+ * the Schur complement of the motion); without it \a offset is left as it is. */
 Eigen::Isometry3d
 refineReprojection(Eigen::Isometry3d motion,
                    const StereoCalibration& calibration,
-                   const Cloud& source,
-                   const Cloud& target,
                    const std::vector<StereoKeypoints>& keypoints,
                    const pcl::Indices& inliers,
-                   bool rotation_fixed = false)
+                   bool rotation_fixed,
+                   bool estimate_offset,
+                   const OffsetEstimate& prior,
+                   OffsetEstimate& offset)
 {
+  using Matrix7d = Eigen::Matrix<double, 7, 7>;
+  using Vector7d = Eigen::Matrix<double, 7, 1>;
   const double step = 1e-6;
-  // With the rotation fixed only the translation columns of the Jacobian are needed.
+  // Unknowns: rotation vector (0-2), translation (3-5), disparity offset (6). With the
+  // rotation fixed only the translation columns of the Jacobian are needed.
   const int first_column = rotation_fixed ? 3 : 0;
+  const int last_column = estimate_offset ? 7 : 6;
   for (int iteration = 0; iteration < 10; ++iteration) {
     // The motions one numerical step away in each direction, shared by every
     // correspondence of this iteration.
@@ -250,28 +297,28 @@ refineReprojection(Eigen::Isometry3d motion,
       perturbed[static_cast<std::size_t>(2 * k)] = perturbation(delta) * motion;
       perturbed[static_cast<std::size_t>(2 * k + 1)] = perturbation(-delta) * motion;
     }
-    Eigen::Matrix<double, 6, 6> hessian = Eigen::Matrix<double, 6, 6>::Zero();
-    Eigen::Matrix<double, 6, 1> gradient = Eigen::Matrix<double, 6, 1>::Zero();
+    Matrix7d hessian = Matrix7d::Zero();
+    Vector7d gradient = Vector7d::Zero();
     std::size_t used = 0;
     for (const auto index : inliers) {
-      const auto i = static_cast<std::size_t>(index);
-      const Eigen::Vector3d previous_point = target[i].getVector3fMap().cast<double>();
-      const Eigen::Vector3d current_point = source[i].getVector3fMap().cast<double>();
-      const cv::KeyPoint* points[4] = {keypoints[i][0], keypoints[i][1],
-                                       keypoints[i][2], keypoints[i][3]};
+      const StereoKeypoints& points = keypoints[static_cast<std::size_t>(index)];
       Eigen::Matrix<double, 8, 1> residuals, plus, minus;
-      if (!reprojectionResiduals(motion, calibration, previous_point, current_point,
-                                 points, residuals))
+      if (!reprojectionResiduals(motion, calibration, offset.offset_px, points,
+                                 residuals))
         continue;
-      Eigen::Matrix<double, 8, 6> jacobian = Eigen::Matrix<double, 8, 6>::Zero();
+      Eigen::Matrix<double, 8, 7> jacobian = Eigen::Matrix<double, 8, 7>::Zero();
       bool ok = true;
-      for (int k = first_column; k < 6 && ok; ++k) {
-        ok =
-          reprojectionResiduals(perturbed[static_cast<std::size_t>(2 * k)], calibration,
-                                previous_point, current_point, points, plus)
-          && reprojectionResiduals(perturbed[static_cast<std::size_t>(2 * k + 1)],
-                                   calibration, previous_point, current_point, points,
-                                   minus);
+      for (int k = first_column; k < last_column && ok; ++k) {
+        if (k < 6)
+          ok = reprojectionResiduals(perturbed[static_cast<std::size_t>(2 * k)],
+                                     calibration, offset.offset_px, points, plus)
+               && reprojectionResiduals(perturbed[static_cast<std::size_t>(2 * k + 1)],
+                                        calibration, offset.offset_px, points, minus);
+        else
+          ok = reprojectionResiduals(motion, calibration, offset.offset_px + step,
+                                     points, plus)
+               && reprojectionResiduals(motion, calibration, offset.offset_px - step,
+                                        points, minus);
         jacobian.col(k) = (plus - minus) / (2.0 * step);
       }
       if (!ok)
@@ -286,15 +333,28 @@ refineReprojection(Eigen::Isometry3d motion,
     }
     if (used < 3)
       break;
-    Eigen::Matrix<double, 6, 1> delta = Eigen::Matrix<double, 6, 1>::Zero();
-    if (rotation_fixed)
-      delta.tail<3>() =
-        -hessian.bottomRightCorner<3, 3>().ldlt().solve(gradient.tail<3>());
-    else
-      delta = -hessian.ldlt().solve(gradient);
+    if (estimate_offset) {
+      // The data's information on the offset once the motion is free (Schur
+      // complement), plus the prior's.
+      const int n = 6 - first_column;
+      const Eigen::MatrixXd motion_block =
+        hessian.block(first_column, first_column, n, n);
+      const Eigen::VectorXd cross = hessian.block(first_column, 6, n, 1);
+      const double data_information =
+        hessian(6, 6) - cross.dot(motion_block.ldlt().solve(cross));
+      offset.information = prior.information + std::max(0.0, data_information);
+      hessian(6, 6) += prior.information;
+      gradient[6] += prior.information * (offset.offset_px - prior.offset_px);
+    }
+    const int n = last_column - first_column;
+    Vector7d delta = Vector7d::Zero();
+    delta.segment(first_column, n) = -hessian.block(first_column, first_column, n, n)
+                                        .ldlt()
+                                        .solve(gradient.segment(first_column, n));
     if (!delta.allFinite())
       break;
-    motion = perturbation(delta) * motion;
+    motion = perturbation(delta.head<6>()) * motion;
+    offset.offset_px += delta[6];
     if (delta.norm() < 1e-10)
       break;
   }
@@ -477,6 +537,17 @@ StereoOdometry::StereoOdometry(const Params& params) : params_(params)
   else if (!(params.epipolar_min_translation_m >= 0.0))
     error << "epipolar_min_translation_m must be >= 0, got "
           << params.epipolar_min_translation_m;
+  else if (!(std::abs(params.disparity_offset_px) <= 20.0))
+    error << "disparity_offset_px must be in [-20, 20], got "
+          << params.disparity_offset_px;
+  else if (!(params.disparity_offset_sigma_px > 0.0)
+           || !std::isfinite(params.disparity_offset_sigma_px))
+    error << "disparity_offset_sigma_px must be > 0, got "
+          << params.disparity_offset_sigma_px;
+  else if (!(params.disparity_offset_memory >= 0.0
+             && params.disparity_offset_memory <= 1.0))
+    error << "disparity_offset_memory must be in [0, 1], got "
+          << params.disparity_offset_memory;
   else if (params.max_iterations < 1)
     error << "max_iterations must be >= 1, got " << params.max_iterations;
   else if (!(params.probability > 0.0 && params.probability < 1.0))
@@ -544,6 +615,17 @@ OdometryResult
 StereoOdometry::estimate(const StereoFeatures& previous,
                          const StereoFeatures& current) const
 {
+  const double sigma = params_.disparity_offset_sigma_px;
+  return estimate(previous, current, params_.disparity_offset_px,
+                  1.0 / (sigma * sigma));
+}
+
+OdometryResult
+StereoOdometry::estimate(const StereoFeatures& previous,
+                         const StereoFeatures& current,
+                         double disparity_offset_px,
+                         double disparity_offset_information) const
+{
   std::vector<cv::DMatch> matches;
   matchDescriptors(previous, current, matches);
 
@@ -575,6 +657,21 @@ StereoOdometry::estimate(const StereoFeatures& previous,
          &current.keypoints_left[train], &current.keypoints_right[train]});
   }
   const std::size_t correspondences = source->size();
+  const bool use_keypoints = has_calibration_ && keypoints.size() == correspondences;
+  // With a disparity offset the 3D points of the RANSAC are triangulated again from
+  // their key points with it.
+  if (use_keypoints && disparity_offset_px != 0.0) {
+    for (std::size_t i = 0; i < correspondences; ++i) {
+      Eigen::Vector3d p, c;
+      if (triangulate(*keypoints[i][0], *keypoints[i][1], calibration_,
+                      disparity_offset_px, p)
+          && triangulate(*keypoints[i][2], *keypoints[i][3], calibration_,
+                         disparity_offset_px, c)) {
+        (*target)[i].getVector3fMap() = p.cast<float>();
+        (*source)[i].getVector3fMap() = c.cast<float>();
+      }
+    }
+  }
 
   if (correspondences < 3)
     return invalidResult(correspondences, 0,
@@ -628,22 +725,24 @@ StereoOdometry::estimate(const StereoFeatures& previous,
   }
 
   bool epipolar_refined = false;
+  // The disparity offset's prior, and its estimate once refined.
+  const OffsetEstimate prior{disparity_offset_px, disparity_offset_information};
+  OffsetEstimate offset = prior;
+  const bool estimate_offset = params_.estimate_disparity_offset;
   if (has_calibration_ && inliers.size() >= 3) {
-    if (keypoints.size() != correspondences) {
+    if (!use_keypoints) {
       PCL_WARN("[planar_grid::StereoOdometry::estimate] Key points missing; the "
                "reprojection refinement is skipped.\n");
     } else {
       // The correspondences whose largest stereo reprojection error under a motion is
       // below reprojection_threshold_px.
-      const auto select_inliers = [&](const Eigen::Isometry3d& motion) {
+      const auto select_inliers = [&](const Eigen::Isometry3d& motion,
+                                      double offset_px) {
         pcl::Indices selected;
         for (std::size_t i = 0; i < correspondences; ++i) {
-          const cv::KeyPoint* points[4] = {keypoints[i][0], keypoints[i][1],
-                                           keypoints[i][2], keypoints[i][3]};
           Eigen::Matrix<double, 8, 1> residuals;
-          if (reprojectionResiduals(
-                motion, calibration_, (*target)[i].getVector3fMap().cast<double>(),
-                (*source)[i].getVector3fMap().cast<double>(), points, residuals)
+          if (reprojectionResiduals(motion, calibration_, offset_px, keypoints[i],
+                                    residuals)
               && residuals.cwiseAbs().maxCoeff() < params_.reprojection_threshold_px)
             selected.push_back(static_cast<pcl::index_t>(i));
         }
@@ -651,16 +750,16 @@ StereoOdometry::estimate(const StereoFeatures& previous,
       };
       Eigen::Isometry3d motion(transform);
       for (int round = 0; round < 2; ++round) {
-        motion = refineReprojection(motion, calibration_, *source, *target, keypoints,
-                                    inliers);
-        pcl::Indices selected = select_inliers(motion);
+        motion = refineReprojection(motion, calibration_, keypoints, inliers, false,
+                                    estimate_offset, prior, offset);
+        pcl::Indices selected = select_inliers(motion, offset.offset_px);
         if (selected.size() < 3)
           break;
         inliers.swap(selected);
       }
 
-      // Rotation from the epipolar geometry of the left images, translation from the
-      // stereo reprojection with that rotation.
+      // Rotation from the epipolar geometry of the left images, translation (and the
+      // disparity offset) from the stereo reprojection with that rotation.
       if (params_.epipolar_refinement && inliers.size() >= 5
           && motion.translation().norm() >= params_.epipolar_min_translation_m) {
         Eigen::Matrix3d rotation = motion.linear();
@@ -676,11 +775,13 @@ StereoOdometry::estimate(const StereoFeatures& previous,
             && direction_cosine >= std::cos(15.0 * M_PI / 180.0)) {
           Eigen::Isometry3d epipolar = motion;
           epipolar.linear() = rotation;
-          epipolar = refineReprojection(epipolar, calibration_, *source, *target,
-                                        keypoints, inliers, true);
-          pcl::Indices selected = select_inliers(epipolar);
+          OffsetEstimate epipolar_offset = offset;
+          epipolar = refineReprojection(epipolar, calibration_, keypoints, inliers,
+                                        true, estimate_offset, prior, epipolar_offset);
+          pcl::Indices selected = select_inliers(epipolar, epipolar_offset.offset_px);
           if (selected.size() >= 3) {
             motion = epipolar;
+            offset = epipolar_offset;
             inliers.swap(selected);
             epipolar_refined = true;
           }
@@ -710,6 +811,8 @@ StereoOdometry::estimate(const StereoFeatures& previous,
   result.correspondences = correspondences;
   result.inliers = inliers.size();
   result.epipolar_refined = epipolar_refined;
+  result.disparity_offset_px = offset.offset_px;
+  result.disparity_offset_information = offset.information;
   result.valid = true;
   return result;
 }
@@ -780,7 +883,11 @@ VisualOdometry::VisualOdometry(
   const StereoOdometry::Params& odometry_params,
   const ConstantVelocityMotionModel::Params& motion_params) :
     odometry_(odometry_params),
-    motion_model_(motion_params)
+    motion_model_(motion_params),
+    disparity_offset_px_(odometry_params.disparity_offset_px),
+    disparity_offset_information_(1.0
+                                  / (odometry_params.disparity_offset_sigma_px
+                                     * odometry_params.disparity_offset_sigma_px))
 {}
 
 VisualOdometry::VisualOdometry() :
@@ -796,11 +903,24 @@ VisualOdometry::addFrame(const StereoFeatures& features)
     trajectory_.push_back(Eigen::Isometry3d::Identity());
     results_.push_back(first);
   } else {
-    OdometryResult result = odometry_.estimate(previous_, features);
+    OdometryResult result = odometry_.estimate(
+      previous_, features, disparity_offset_px_, disparity_offset_information_);
     Eigen::Isometry3d motion = result.previous_T_current;
     if (result.valid) {
       motion_model_.addMotion(motion);
+      // The posterior of the disparity offset is the next pair's prior.
+      if (std::isfinite(result.disparity_offset_px)
+          && std::isfinite(result.disparity_offset_information)) {
+        const double sigma = odometry_.getParams().disparity_offset_sigma_px;
+        disparity_offset_px_ = result.disparity_offset_px;
+        disparity_offset_information_ =
+          std::max(odometry_.getParams().disparity_offset_memory
+                     * result.disparity_offset_information,
+                   1.0 / (sigma * sigma));
+      }
     } else {
+      result.disparity_offset_px = disparity_offset_px_;
+      result.disparity_offset_information = disparity_offset_information_;
       motion = motion_model_.getPredictedMotion();
       flagged_frames_.push_back(trajectory_.size());
       PCL_WARN("[planar_grid::VisualOdometry::addFrame] Frame %zu: %s The "
@@ -818,7 +938,7 @@ namespace {
 
 /** "PGVO", little-endian. */
 constexpr std::uint32_t VO_STATE_MAGIC = 0x4f564750u;
-constexpr std::uint32_t VO_STATE_VERSION = 1u;
+constexpr std::uint32_t VO_STATE_VERSION = 2u;
 
 } // namespace
 
@@ -838,6 +958,8 @@ VisualOdometry::serializeState(std::vector<std::uint8_t>& bytes) const
     w.put(static_cast<std::uint64_t>(result.correspondences));
     w.put(static_cast<std::uint8_t>(result.epipolar_refined));
     w.put(static_cast<std::uint8_t>(result.valid));
+    w.put(result.disparity_offset_px);
+    w.put(result.disparity_offset_information);
     w.putString(result.reason);
   }
   const std::vector<std::uint64_t> flagged(flagged_frames_.begin(),
@@ -845,6 +967,8 @@ VisualOdometry::serializeState(std::vector<std::uint8_t>& bytes) const
   w.putVector(flagged);
   w.put(static_cast<std::uint8_t>(motion_model_.hasMotion()));
   putPose(w, motion_model_.getPredictedMotion());
+  w.put(disparity_offset_px_);
+  w.put(disparity_offset_information_);
 }
 
 void
@@ -857,8 +981,9 @@ VisualOdometry::deserializeState(const std::uint8_t* data, std::size_t size)
     r.fail("unsupported version");
   StereoFeatures previous;
   getStereoFeatures(r, previous);
-  // Each frame holds at least two poses, two counts, two flags and a reason length.
-  constexpr std::size_t FRAME_BYTES = 2 * 12 * 8 + 2 * 8 + 2 + 8;
+  // Each frame holds at least two poses, two counts, two flags, the disparity offset
+  // and its information and a reason length.
+  constexpr std::size_t FRAME_BYTES = 2 * 12 * 8 + 2 * 8 + 2 + 2 * 8 + 8;
   const std::size_t n = r.getCount(FRAME_BYTES, "frame");
   Trajectory trajectory;
   std::vector<OdometryResult, Eigen::aligned_allocator<OdometryResult>> results;
@@ -872,6 +997,12 @@ VisualOdometry::deserializeState(const std::uint8_t* data, std::size_t size)
     result.correspondences = static_cast<std::size_t>(r.get<std::uint64_t>());
     result.epipolar_refined = r.get<std::uint8_t>() != 0;
     result.valid = r.get<std::uint8_t>() != 0;
+    result.disparity_offset_px = r.get<double>();
+    result.disparity_offset_information = r.get<double>();
+    if (!std::isfinite(result.disparity_offset_px)
+        || !(result.disparity_offset_information >= 0.0)
+        || !std::isfinite(result.disparity_offset_information))
+      r.fail("frame " + std::to_string(i) + ": invalid disparity offset");
     result.reason = r.getString("reason");
     results.push_back(std::move(result));
   }
@@ -882,6 +1013,11 @@ VisualOdometry::deserializeState(const std::uint8_t* data, std::size_t size)
       r.fail("flagged frame " + std::to_string(flagged[k]) + " out of range or order");
   const bool has_motion = r.get<std::uint8_t>() != 0;
   const Eigen::Isometry3d motion = getPose(r);
+  const double disparity_offset_px = r.get<double>();
+  const double disparity_offset_information = r.get<double>();
+  if (!std::isfinite(disparity_offset_px) || !(disparity_offset_information >= 0.0)
+      || !std::isfinite(disparity_offset_information))
+    r.fail("invalid disparity offset");
   if (r.remaining() != 0)
     r.fail(std::to_string(r.remaining()) + " bytes of trailing data");
 
@@ -893,6 +1029,8 @@ VisualOdometry::deserializeState(const std::uint8_t* data, std::size_t size)
   motion_model_.reset();
   if (has_motion)
     motion_model_.addMotion(motion);
+  disparity_offset_px_ = disparity_offset_px;
+  disparity_offset_information_ = disparity_offset_information;
 }
 
 } // namespace planar_grid

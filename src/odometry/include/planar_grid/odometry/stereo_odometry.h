@@ -35,6 +35,14 @@ struct OdometryResult {
    * StereoOdometry::Params::epipolar_refinement); false when it was off, skipped
    * (translation too short) or rejected by its guards. */
   bool epipolar_refined{false};
+  /** \brief The disparity offset the motion was estimated with, pixels: the true
+   * disparity is the measured one plus this (see
+   * StereoOdometry::Params::estimate_disparity_offset). The prior's value when the
+   * reprojection refinement did not run. */
+  double disparity_offset_px{0.0};
+  /** \brief Information (1 / variance, px^-2, for reprojection residuals of 1 px
+   * standard deviation) of disparity_offset_px: the prior's plus this frame pair's. */
+  double disparity_offset_information{0.0};
   /** \brief False when the motion could not be estimated (see reason). */
   bool valid{false};
   /** \brief Why the estimate is invalid; empty when valid. */
@@ -107,6 +115,37 @@ public:
     /** Shortest stereo translation for which the epipolar refinement runs, metres;
      * >= 0. */
     double epipolar_min_translation_m{0.05};
+    /** Estimate a disparity offset together with the motion in the reprojection
+     * refinement (needs a calibration, setCalibration()): the true disparity is
+     * taken as the measured one plus an offset (the difference of the two rectified
+     * cameras' principal point columns, which a rectification error shifts; the
+     * negative of Middlebury's doffs), the points are triangulated with it and the
+     * right-image projections carry it. Points triangulated from disparities that
+     * are short by the offset are too far by about z offset / d (8 % at 20 px for
+     * +1.5 px), and a motion fitted to such fixed points is too long by the same
+     * factor; the offset is observable from two frames because the left-image motion
+     * of a point follows its true inverse depth (d + offset) / (f B), whatever the
+     * disparity says. The offset is a seventh Gauss-Newton unknown with the Gaussian
+     * prior disparity_offset_px +- disparity_offset_sigma_px (estimate()), which
+     * VisualOdometry replaces frame by frame by the previous pair's posterior (see
+     * disparity_offset_memory). Off: the offset stays at disparity_offset_px. */
+    bool estimate_disparity_offset{true};
+    /** Disparity offset of the features, pixels (true disparity = measured +
+     * offset): the prior mean of the estimate, or the offset used when it is not
+     * estimated; in [-20, 20]. */
+    double disparity_offset_px{0.0};
+    /** Standard deviation of the disparity offset's prior at the first frame pair,
+     * pixels, for reprojection residuals of 1 px standard deviation; > 0. */
+    double disparity_offset_sigma_px{1.0};
+    /** Share of the disparity offset's information that VisualOdometry carries from
+     * one frame pair to the next as its prior; [0, 1]. 1 averages over the whole run
+     * (a constant offset), smaller values follow an offset that changes, over about
+     * 1 / (1 - memory) frame pairs; the prior never gets weaker than
+     * disparity_offset_sigma_px around the last estimate. The default, 0.8 (about 5
+     * frame pairs), is a compromise between the KITTI snippet, whose offset is
+     * constant (1 is best there), and Karlsruhe, whose per-pair estimates change
+     * with the speed (0 is best there; docs/ODOMETRY.md). */
+    double disparity_offset_memory{0.8};
     /** Most RANSAC iterations; >= 1. */
     int max_iterations{2000};
     /** RANSAC probability of drawing one outlier-free sample; (0, 1). */
@@ -143,6 +182,21 @@ public:
    * false with a reason (and a PCL_WARN) when it cannot be estimated */
   OdometryResult estimate(const StereoFeatures& previous,
                           const StereoFeatures& current) const;
+
+  /** \brief As estimate(previous, current), with the prior of the disparity offset
+   * given instead of taken from the parameters (VisualOdometry passes the previous
+   * frame pair's posterior).
+   * \param[in] previous the features of the earlier frame (camera frame, metres)
+   * \param[in] current the features of the later frame
+   * \param[in] disparity_offset_px the prior mean of the disparity offset, pixels
+   * (the offset used when Params::estimate_disparity_offset is off)
+   * \param[in] disparity_offset_information the prior's information, px^-2 (>= 0)
+   * \return as estimate(previous, current); disparity_offset_px and
+   * disparity_offset_information hold the posterior */
+  OdometryResult estimate(const StereoFeatures& previous,
+                          const StereoFeatures& current,
+                          double disparity_offset_px,
+                          double disparity_offset_information) const;
 
   /** \brief Matches the descriptors of two frames: k = 2 nearest neighbours with
    * cv::BFMatcher, Lowe's ratio test, optional maximum distance and mutual check.
@@ -284,14 +338,25 @@ public:
    */
   const ConstantVelocityMotionModel& getMotionModel() const { return motion_model_; }
 
+  /** \brief The disparity offset estimated so far, pixels (true disparity = measured
+   * + offset; StereoOdometry::Params::estimate_disparity_offset): the last valid frame
+   * pair's posterior, the prior of the next one. Params::disparity_offset_px before
+   * any. */
+  double getDisparityOffset() const { return disparity_offset_px_; }
+
+  /** \brief The information of getDisparityOffset(), px^-2. */
+  double getDisparityOffsetInformation() const { return disparity_offset_information_; }
+
   /** \brief Appends the run state (for pipeline checkpoints): everything that the
    * next addFrame() calls and the getters depend on. A little-endian section of u32
-   * magic "PGVO", u32 version 1; the previous frame's features (putStereoFeatures());
+   * magic "PGVO", u32 version 2; the previous frame's features (putStereoFeatures());
    * u64 frame count, then per frame its pose world_T_camera and its result (the motion
    * previous_T_current, each as the 3x4 f64 of putPose(), metres; u64 inliers, u64
-   * correspondences, u8 epipolar_refined, u8 valid, the reason as u64 length and
-   * characters); the flagged frame indices as u64 byte count and u64 values; the motion
-   * model's u8 has_motion and last motion (putPose()). The parameters and the
+   * correspondences, u8 epipolar_refined, u8 valid, f64 disparity_offset_px, f64
+   * disparity_offset_information, the reason as u64 length and characters); the
+   * flagged frame indices as u64 byte count and u64 values; the motion model's u8
+   * has_motion and last motion (putPose()); the disparity offset and its information
+   * (f64 px, f64 px^-2). The parameters and the
    * calibration (constructor, setCalibration()) are not included; the RANSAC seed is a
    * parameter and does not change from frame to frame, so no sampler state is needed.
    * \param[out] bytes appended to */
@@ -317,6 +382,10 @@ private:
   std::vector<OdometryResult, Eigen::aligned_allocator<OdometryResult>> results_;
   /** \brief Frames whose motion was predicted. */
   std::vector<std::size_t> flagged_frames_;
+  /** \brief The disparity offset so far (the next frame pair's prior), pixels. */
+  double disparity_offset_px_{0.0};
+  /** \brief Its information, px^-2. */
+  double disparity_offset_information_{0.0};
 };
 
 } // namespace planar_grid
