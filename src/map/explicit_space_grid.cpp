@@ -1120,6 +1120,122 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
   }
 }
 
+void
+ExplicitSpaceGrid::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& points,
+                                       const Eigen::Vector3f& sensor_origin)
+{
+  if (!sensor_origin.allFinite())
+    throw Exception("ExplicitSpaceGrid::integratePointCloud: non-finite sensor origin");
+  const double res = params_.resolution_m;
+  const double max_t = params_.max_range_m / res; // voxel units
+  const Eigen::Vector3d o = sensor_origin.cast<double>() / res;
+  if (o.cwiseAbs().maxCoeff() + max_t >= MAX_KEY) {
+    PCL_ERROR("[planar_grid::ExplicitSpaceGrid::integratePointCloud] Sensor origin "
+              "too far from the map's origin; nothing integrated.\n");
+    return;
+  }
+  BlockMap& blocks = impl_->blocks;
+  const auto prior = static_cast<std::uint8_t>(params_.prior);
+  std::vector<BlockKey> touched;
+  BlockKey cached_key{0, 0, 0};
+  Block* cached = nullptr;
+  const auto set = [&](int kx, int ky, int kz, std::uint8_t state) {
+    const BlockKey bk{blockOf(kx), blockOf(ky), blockOf(kz)};
+    if (!cached || !(bk == cached_key)) {
+      auto it = blocks.find(bk);
+      if (it == blocks.end()) {
+        Block b;
+        b.uniform = prior;
+        it = blocks.emplace(bk, std::move(b)).first;
+      }
+      cached = &it->second;
+      cached_key = bk;
+      touched.push_back(bk);
+    }
+    const int i = localOf(kx) + 8 * localOf(ky) + 64 * localOf(kz);
+    if (cached->get(i) == state)
+      return;
+    cached->makeMixed();
+    cached->set(i, state);
+  };
+
+  // Free: every voxel a ray crosses before its point's voxel (3D DDA, Amanatides and
+  // Woo), up to max_range_m.
+  const auto free_code = static_cast<std::uint8_t>(SpaceState::FREE);
+  const std::array<int, 3> origin_key{static_cast<int>(std::floor(o.x())),
+                                      static_cast<int>(std::floor(o.y())),
+                                      static_cast<int>(std::floor(o.z()))};
+  for (const auto& p : points) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      continue;
+    const Eigen::Vector3d e = p.getVector3fMap().cast<double>() / res;
+    const Eigen::Vector3d v = e - o;
+    const double length = v.norm();
+    if (!(length > 0.0))
+      continue;
+    const Eigen::Vector3d d = v / length;
+    const double t_end = std::min(length, max_t);
+    const bool hits = length <= max_t;
+    std::array<int, 3> end_key{};
+    if (hits)
+      end_key = {static_cast<int>(std::floor(e.x())),
+                 static_cast<int>(std::floor(e.y())),
+                 static_cast<int>(std::floor(e.z()))};
+    std::array<int, 3> key = origin_key, step{};
+    std::array<double, 3> t_max{}, t_delta{};
+    for (std::size_t a = 0; a < 3; ++a) {
+      const double oa = o[static_cast<Eigen::Index>(a)];
+      const double da = d[static_cast<Eigen::Index>(a)];
+      if (da > 0.0) {
+        step[a] = 1;
+        t_delta[a] = 1.0 / da;
+        t_max[a] = (std::floor(oa) + 1.0 - oa) / da;
+      } else if (da < 0.0) {
+        step[a] = -1;
+        t_delta[a] = -1.0 / da;
+        t_max[a] = (std::floor(oa) - oa) / da;
+      } else {
+        t_delta[a] = t_max[a] = std::numeric_limits<double>::infinity();
+      }
+    }
+    double t = 0.0;
+    while (t <= t_end) {
+      if (hits && key == end_key)
+        break;
+      set(key[0], key[1], key[2], free_code);
+      std::size_t a = 0;
+      if (t_max[1] < t_max[a])
+        a = 1;
+      if (t_max[2] < t_max[a])
+        a = 2;
+      t = t_max[a];
+      key[a] += step[a];
+      t_max[a] += t_delta[a];
+    }
+  }
+  // Occupied: the voxel of every point within range.
+  const auto occupied = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
+  for (const auto& p : points) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      continue;
+    const Eigen::Vector3d e = p.getVector3fMap().cast<double>() / res;
+    if ((e - o).norm() > max_t)
+      continue;
+    set(static_cast<int>(std::floor(e.x())), static_cast<int>(std::floor(e.y())),
+        static_cast<int>(std::floor(e.z())), occupied);
+  }
+  std::sort(touched.begin(), touched.end());
+  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+  for (const auto& bk : touched) {
+    auto it = blocks.find(bk);
+    if (it == blocks.end())
+      continue;
+    it->second.compact();
+    if (it->second.uniform == prior)
+      blocks.erase(it);
+  }
+}
+
 // ---------------------------------------------------------------------------------
 
 bool

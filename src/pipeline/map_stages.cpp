@@ -171,12 +171,21 @@ private:
 
 class MapIntegrationStage : public Stage {
 public:
+  /** How the explicit space layer sees a frame. */
+  enum class SensorModel {
+    AUTO,    // the disparity image's pinhole camera for stereo, rays for point clouds
+    PINHOLE, // a pinhole camera: the disparity's, or a virtual one for point clouds
+    RAYS     // a ray from the sensor origin to every point of the working cloud
+  };
+
   MapIntegrationStage(const PlanarGridMap::Params& params,
+                      SensorModel sensor_model,
                       int depth_width_px,
                       int depth_height_px,
                       double depth_focal_length_px) :
       params_(params),
-      depth_width_px_(depth_width_px), depth_height_px_(depth_height_px),
+      sensor_model_(sensor_model), depth_width_px_(depth_width_px),
+      depth_height_px_(depth_height_px),
       depth_focal_length_px_(static_cast<float>(depth_focal_length_px))
   {
     PlanarGridMap check(params_); // rejects bad parameters when the run is built
@@ -213,12 +222,29 @@ public:
     }
     map.integrateSurface(frame.cuboids, planes_, features_world_, probabilities_);
 
-    // The explicit space layer: the depth image of the view.
-    if (!frame.disparity.empty())
-      depthFromDisparity(frame);
-    else
-      depthFromCloud(frame);
-    map.integrateDepthImage(depth_, frame.world_T_camera);
+    // The explicit space layer: the view's depth image through its pinhole camera, or
+    // a ray from the sensor origin to every point.
+    const bool rays =
+      sensor_model_ == SensorModel::RAYS
+      || (sensor_model_ == SensorModel::AUTO && frame.disparity.empty());
+    if (rays) {
+      // Every measured point: the ground and the points of no cell too.
+      const Frame::Cloud& measured =
+        frame.measured_cloud ? *frame.measured_cloud : *frame.cloud;
+      rays_cloud_.clear();
+      rays_cloud_.reserve(measured.size());
+      for (const auto& p : measured.points)
+        rays_cloud_.push_back(pcl::PointXYZ(p.x, p.y, p.z));
+      depth_pixels_ = rays_cloud_.size();
+      map.integratePointCloud(rays_cloud_,
+                              frame.world_T_camera.translation().cast<float>());
+    } else {
+      if (!frame.disparity.empty())
+        depthFromDisparity(frame);
+      else
+        depthFromCloud(frame);
+      map.integrateDepthImage(depth_, frame.world_T_camera);
+    }
     cuboids_ = map.getSurfaceLayer().getCuboids().size();
     // The block count is O(1); the map's bytes (a walk over every block) are
     // reported once, at the end of the run.
@@ -267,12 +293,14 @@ private:
   }
 
   PlanarGridMap::Params params_;
+  SensorModel sensor_model_;
   int depth_width_px_;
   int depth_height_px_;
   float depth_focal_length_px_;
   PlaneModels planes_;
   pcl::PointCloud<pcl::PointXYZ> features_world_;
   pcl::PointCloud<pcl::PointXYZ> camera_cloud_;
+  pcl::PointCloud<pcl::PointXYZ> rays_cloud_;
   std::vector<float> probabilities_;
   DepthImage depth_;
   std::size_t depth_pixels_{0};
@@ -394,12 +422,23 @@ mapIntegrationInfo()
                     "probability", "Cells at or above it are occupied."),
     ParamSpec::real("feature_distance_m", d.surface.feature_distance_m, 0.0, 10.0, "m",
                     "A feature counts for a plane cell within this distance."),
+    ParamSpec::choice("sensor_model", "auto", {"auto", "pinhole", "rays"},
+                      "How the explicit space layer sees a frame: pinhole = the "
+                      "disparity image's camera (stereo) or a virtual depth camera "
+                      "(point clouds, the depth_* keys); rays = a ray from the sensor "
+                      "origin to every point of the working cloud, for any field of "
+                      "view (a 360 degree LiDAR scan); auto = pinhole for stereo, rays "
+                      "for point clouds."),
     ParamSpec::integer("depth_width_px", 640, 1, 100000, "px",
-                       "PCD input: width of the virtual depth camera."),
-    ParamSpec::integer("depth_height_px", 480, 1, 100000, "px",
-                       "PCD input: height of the virtual depth camera."),
+                       "sensor_model pinhole, point clouds: width of the virtual depth "
+                       "camera."),
+    ParamSpec::integer(
+      "depth_height_px", 480, 1, 100000, "px",
+      "sensor_model pinhole, point clouds: height of the virtual depth "
+      "camera."),
     ParamSpec::real("depth_focal_length_px", 525.0, 1.0, 100000.0, "px",
-                    "PCD input: focal length of the virtual depth camera."),
+                    "sensor_model pinhole, point clouds: focal length of the virtual "
+                    "depth camera."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     PlanarGridMap::Params p;
@@ -415,9 +454,14 @@ mapIntegrationInfo()
     p.surface.feature_distance_m = v.getDouble("feature_distance_m");
     p.surface.close_gaps_cells = v.getInt("close_gaps_cells");
     p.surface.merge_rule = surfaceMergeRuleFromString(v.getChoice("merge_rule"));
-    return std::make_unique<MapIntegrationStage>(p, v.getInt("depth_width_px"),
-                                                 v.getInt("depth_height_px"),
-                                                 v.getDouble("depth_focal_length_px"));
+    const std::string model = v.getChoice("sensor_model");
+    const auto sensor_model = model == "rays" ? MapIntegrationStage::SensorModel::RAYS
+                              : model == "pinhole"
+                                ? MapIntegrationStage::SensorModel::PINHOLE
+                                : MapIntegrationStage::SensorModel::AUTO;
+    return std::make_unique<MapIntegrationStage>(
+      p, sensor_model, v.getInt("depth_width_px"), v.getInt("depth_height_px"),
+      v.getDouble("depth_focal_length_px"));
   };
   return info;
 }

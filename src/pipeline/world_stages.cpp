@@ -39,6 +39,10 @@ public:
       Eigen::Quaternionf(frame.world_T_camera.rotation().cast<float>());
     frame.cloud = out;
     frame.cloud_in_world_frame = true;
+    // The later stages take points out of the working cloud (in place when it is
+    // organized): the map's ray casting keeps its own copy of what was measured.
+    if (frame.disparity.empty())
+      frame.measured_cloud.reset(new Frame::Cloud(*out));
   }
 };
 

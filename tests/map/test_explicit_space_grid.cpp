@@ -825,3 +825,97 @@ TEST(ExplicitSpaceGrid, ManyMixedBlocksRoundTrip)
   decoded.deserialize(bytes.data(), bytes.size());
   EXPECT_TRUE(decoded == grid);
 }
+
+TEST(ExplicitSpaceGrid, ScanRaysMatchABruteForceSegmentOracle)
+{
+  // A 360 degree scan of a 6 x 4 x 3 m box room from an off-centre sensor, with a
+  // 2.5 m range so that some rays end in range and others are cut: every voxel a
+  // segment truly crosses (a slab test of the segment against each voxel of its
+  // bounding box) before its point's voxel is FREE, every point's voxel in range is
+  // OCCUPIED, and nothing else changes.
+  const double res = 0.1, max_range = 2.5;
+  ExplicitSpaceGrid grid(params(SpaceState::UNKNOWN, res, max_range));
+  const Eigen::Vector3d origin(0.2317, 0.1713, 1.3129);
+  const Eigen::Vector3d lo(-3.0, -2.0, 0.0), hi(3.0, 2.0, 3.0);
+  pcl::PointCloud<pcl::PointXYZ> scan;
+  std::mt19937 rng(5u);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  while (scan.size() < 400) {
+    Eigen::Vector3d d(unit(rng), unit(rng), unit(rng));
+    if (d.norm() > 1.0 || d.norm() < 0.1)
+      continue;
+    d.normalize();
+    double t_exit = std::numeric_limits<double>::infinity(); // leaving the room
+    for (int a = 0; a < 3; ++a)
+      if (d[a] != 0.0)
+        t_exit = std::min(t_exit, ((d[a] > 0.0 ? hi[a] : lo[a]) - origin[a]) / d[a]);
+    const Eigen::Vector3d p = origin + 0.999999 * t_exit * d;
+    scan.push_back(pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()),
+                                 static_cast<float>(p.z())));
+  }
+  scan.push_back(pcl::PointXYZ(std::nanf(""), 0.0f, 0.0f)); // skipped
+  grid.integratePointCloud(scan, origin.cast<float>());
+
+  std::set<std::tuple<int, int, int>> free_keys, occupied_keys;
+  // The sensor origin as the grid receives it (single precision).
+  const Eigen::Vector3d o = origin.cast<float>().cast<double>() / res;
+  for (const auto& pt : scan) {
+    if (!std::isfinite(pt.x))
+      continue;
+    const Eigen::Vector3d e = pt.getVector3fMap().cast<double>() / res;
+    const double length = (e - o).norm();
+    const double t_end = std::min(length, max_range / res);
+    const Eigen::Vector3d d = (e - o) / length;
+    const bool hits = length <= max_range / res;
+    const std::tuple<int, int, int> end{static_cast<int>(std::floor(e.x())),
+                                        static_cast<int>(std::floor(e.y())),
+                                        static_cast<int>(std::floor(e.z()))};
+    if (hits)
+      occupied_keys.insert(end);
+    const Eigen::Vector3d a = o, b = o + t_end * d;
+    const Eigen::Vector3i kmin = a.cwiseMin(b).array().floor().cast<int>();
+    const Eigen::Vector3i kmax = a.cwiseMax(b).array().floor().cast<int>();
+    for (int z = kmin.z(); z <= kmax.z(); ++z)
+      for (int y = kmin.y(); y <= kmax.y(); ++y)
+        for (int x = kmin.x(); x <= kmax.x(); ++x) {
+          // Slab test: the segment's parameters inside voxel (x, y, z).
+          double t0 = 0.0, t1 = t_end;
+          const Eigen::Vector3d vlo(x, y, z);
+          for (int k = 0; k < 3; ++k) {
+            if (d[k] == 0.0)
+              continue;
+            double ta = (vlo[k] - o[k]) / d[k], tb = (vlo[k] + 1.0 - o[k]) / d[k];
+            if (ta > tb)
+              std::swap(ta, tb);
+            t0 = std::max(t0, ta);
+            t1 = std::min(t1, tb);
+          }
+          if (t1 - t0 > 1e-9 && !(hits && std::make_tuple(x, y, z) == end))
+            free_keys.insert({x, y, z});
+        }
+  }
+  ASSERT_GT(occupied_keys.size(), 50u);
+  ASSERT_GT(free_keys.size(), 1000u);
+  std::size_t checked_free = 0, checked_occupied = 0;
+  for (int z = -2; z <= 32; ++z)
+    for (int y = -22; y <= 22; ++y)
+      for (int x = -32; x <= 32; ++x) {
+        const auto k = std::make_tuple(x, y, z);
+        SpaceState expected = SpaceState::UNKNOWN;
+        if (occupied_keys.count(k)) {
+          expected = SpaceState::OCCUPIED;
+          ++checked_occupied;
+        } else if (free_keys.count(k)) {
+          expected = SpaceState::FREE;
+          ++checked_free;
+        }
+        ASSERT_EQ(grid.getState(Key(x, y, z)), expected) << x << " " << y << " " << z;
+      }
+  EXPECT_EQ(checked_occupied, occupied_keys.size());
+  EXPECT_EQ(checked_free + checked_occupied,
+            grid.getVoxelCount(SpaceState::FREE)
+              + grid.getVoxelCount(SpaceState::OCCUPIED));
+  EXPECT_THROW(
+    grid.integratePointCloud(scan, Eigen::Vector3f(std::nanf(""), 0.0f, 0.0f)),
+    planar_grid::Exception);
+}

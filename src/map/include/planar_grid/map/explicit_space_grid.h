@@ -165,6 +165,19 @@ public:
   void integrateDepthImage(const DepthImage& depth,
                            const Eigen::Isometry3d& world_T_camera);
 
+  /** \brief Integrates one scan by ray casting, the sensor model of an unorganized
+   * cloud (a 360 degree LiDAR scan, or any cloud without an image): the voxels each ray
+   * crosses from \a sensor_origin to its point become FREE, and the voxel of every
+   * point within max_range_m becomes OCCUPIED (after the free ones, so that a point
+   * wins over another ray through its voxel, as in OctoMap's insertPointCloud). A ray
+   * to a point beyond max_range_m clears space up to max_range_m only. Non-finite
+   * points are skipped. Space behind the points is not observed: it keeps its state.
+   * \param[in] points the scan's points in the world frame, meters
+   * \param[in] sensor_origin where the rays start (the scan's sensor origin), meters
+   * \throws planar_grid::Exception for a non-finite origin */
+  void integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& points,
+                           const Eigen::Vector3f& sensor_origin);
+
   /** \brief Key of the voxel containing \a point (meters). */
   [[nodiscard]] VoxelKey toKey(const Eigen::Vector3f& point) const;
   /** \brief Centre of voxel \a key, meters. */

@@ -99,6 +99,14 @@ public:
     space_.integrateDepthImage(depth, world_T_camera);
   }
 
+  /** \brief Integrates a scan into the explicit space layer by ray casting (see
+   * ExplicitSpaceGrid::integratePointCloud()): points in the world frame, meters. */
+  void integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& points,
+                           const Eigen::Vector3f& sensor_origin)
+  {
+    space_.integratePointCloud(points, sensor_origin);
+  }
+
   /** \brief State at \a point: OCCUPIED inside a cuboid with probability >=
    * occupancy_thres, FREE inside one below it, else the space layer's state. */
   [[nodiscard]] SpaceState getState(const Eigen::Vector3f& point) const;

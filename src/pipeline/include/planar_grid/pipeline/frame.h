@@ -44,6 +44,11 @@ struct Frame {
   Cloud::Ptr cloud;
   /** \brief True once `cloud` is in the world frame. */
   bool cloud_in_world_frame{false};
+  /** \brief Point-cloud input only: the working cloud as transform_to_world left it
+   * (world frame, meters), before segmentation and ground removal take points out:
+   * every measured point, for the map's ray casting (stereo frames give their
+   * disparity image instead). Empty before transform_to_world. */
+  Cloud::ConstPtr measured_cloud;
 
   /** \brief Matched 3D key feature points in the camera frame (after feature_matching).
    */
