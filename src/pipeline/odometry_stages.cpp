@@ -119,6 +119,17 @@ visualOdometryInfo()
                     "Huber threshold of the Sampson distance."),
     ParamSpec::integer("seed", static_cast<int>(d.seed), 0, 2147483647, "",
                        "RANSAC seed (reproducible runs)."),
+    ParamSpec::flag("estimate_disparity_offset", d.estimate_disparity_offset,
+                    "Estimate the features' disparity offset (true = measured + "
+                    "offset) with the motion; needs reprojection_refinement."),
+    ParamSpec::real("disparity_offset_px", d.disparity_offset_px, -20.0, 20.0, "px",
+                    "The offset's prior mean at the first frame pair, or the offset "
+                    "used when it is not estimated."),
+    ParamSpec::real("disparity_offset_sigma_px", d.disparity_offset_sigma_px, 0.001,
+                    100.0, "px", "Standard deviation of the offset's first prior."),
+    ParamSpec::real("disparity_offset_memory", d.disparity_offset_memory, 0.0, 1.0, "",
+                    "Share of the offset's information carried to the next frame "
+                    "pair: 1 = one offset for the run, 0 = each pair on its own."),
     ParamSpec::real("initial_height_m", 0.0, 0.0, 10.0, "m",
                     "Height of the first camera above the world origin (the road)."),
     ParamSpec::real("initial_pitch_rad", 0.0, -1.5, 1.5, "rad",
@@ -134,6 +145,10 @@ visualOdometryInfo()
     p.epipolar_refinement = v.getBool("epipolar_refinement");
     p.epipolar_threshold_px = v.getDouble("epipolar_threshold_px");
     p.seed = static_cast<unsigned>(v.getInt("seed"));
+    p.estimate_disparity_offset = v.getBool("estimate_disparity_offset");
+    p.disparity_offset_px = v.getDouble("disparity_offset_px");
+    p.disparity_offset_sigma_px = v.getDouble("disparity_offset_sigma_px");
+    p.disparity_offset_memory = v.getDouble("disparity_offset_memory");
     return std::make_unique<VisualOdometryStage>(
       p, v.getBool("reprojection_refinement"), v.getDouble("initial_height_m"),
       v.getDouble("initial_pitch_rad"));
