@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: BSD-3-Clause
-# planar_grid_eval (issue #7): SG, OG, RA and PG on the same frames, CSV and plots.
+# planar_grid_eval: SG, OG, RA and PG on the same frames, CSV and plots.
 add_executable(planar_grid_eval_tool planar_grid_eval.cpp)
 set_target_properties(planar_grid_eval_tool PROPERTIES OUTPUT_NAME planar_grid_eval)
 target_link_libraries(planar_grid_eval_tool PRIVATE planar_grid_eval pcl_common)

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // planar_grid_render_scene: renders a synthetic stereo sequence with known surfaces (a
-// corridor or a room, issue #7) and writes it with its calibration, poses, ground truth
+// corridor or a room) and writes it with its calibration, poses, ground truth
 // and a pipeline configuration.
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/visualization/scene_renderer.h>
@@ -87,7 +87,8 @@ printHelp(const char* program)
     "itself under `xvfb-run -a` when xvfb is installed.\n");
 }
 
-/** \brief Reads every option; throws planar_grid::Exception on a malformed one (S28).
+/** \brief Reads every option; throws planar_grid::Exception on a malformed one
+ * (a malformed number is an error, never 0).
  * \param[out] help set when -h/--help was given */
 RenderOptions
 parseOptions(int argc, char** argv, bool& help)

@@ -550,7 +550,7 @@ SurfaceLayer::Impl::removeNonPlanar(std::uint32_t index, float bin)
 
 namespace {
 
-/** \brief Validates parameters (S23); throws planar_grid::Exception. */
+/** \brief Validates parameters; throws planar_grid::Exception. */
 void
 validate(const SurfaceLayer::Params& p)
 {

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Checkpoints of a pipeline run (issue 8, no lost work): everything carried from one
-// frame to the next in one file, written atomically, and the resume that reads it back.
+// Checkpoints of a pipeline run, so that a killed run loses no work: everything carried
+// from one frame to the next in one file, written atomically, and the resume that reads
+// it back.
 #include <planar_grid/core/atomic_file.h>
 #include <planar_grid/core/byte_io.h>
 #include <planar_grid/core/exceptions.h>

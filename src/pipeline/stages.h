@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Internal: the factories of the built-in stages, one file per concern (S43).
+// Internal: the factories of the built-in stages, one file per concern.
 #pragma once
 
 #include <planar_grid/pipeline/stage.h>
@@ -52,7 +52,8 @@ Eigen::Vector3f sensorOrigin(const Frame& frame);
  * (removed inliers are dropped). Returns the number of points removed. */
 std::size_t removePoints(Frame& frame, const std::vector<std::uint8_t>& remove);
 
-/** Throws planar_grid::Exception when the frame's cloud has no valid point (S32). */
+/** Throws planar_grid::Exception when the frame's cloud has no valid point: a stage
+ * given nothing would otherwise pass nothing on without a word. */
 void requirePoints(const Frame& frame, const char* stage_type);
 
 } // namespace stages

@@ -33,7 +33,7 @@ public:
     Frame::Cloud::Ptr out(new Frame::Cloud);
     pcl::transformPointCloud(*frame.cloud, *out,
                              frame.world_T_camera.cast<float>().matrix());
-    // Keep the sensor pose with the cloud (S33).
+    // Keep the sensor pose with the cloud, where PCL clouds carry it.
     out->sensor_origin_ << frame.world_T_camera.translation().cast<float>(), 1.0f;
     out->sensor_orientation_ =
       Eigen::Quaternionf(frame.world_T_camera.rotation().cast<float>());

@@ -117,7 +117,7 @@ double klDivergenceUpdate(double p, double q, double offset_nats);
  * removed indices), and input without valid points gives empty output and a PCL_WARN;
  * invalid parameters, stereo parameters not set, a motion likelihood outside [0, 1]
  * or track ids of the wrong size give empty output and a PCL_ERROR, and the tracks
- * are left unchanged (S24).
+ * are left unchanged, as PCL filters report bad input.
  * \ingroup filters */
 template <typename PointT>
 class KLDivergenceOccupancyFilter : public pcl::FilterIndices<PointT> {
@@ -178,7 +178,7 @@ public:
   explicit KLDivergenceOccupancyFilter(bool extract_removed_indices = false);
   ~KLDivergenceOccupancyFilter() override = default;
 
-  /** \brief Sets the parameters; they are validated when filter() starts (S23). They
+  /** \brief Sets the parameters; they are validated when filter() starts. They
    * apply from the next update on; this does not start a new frame (filtering the same
    * input again re-selects with the new occupancy_thres). */
   void setParams(const Params& params) { params_ = params; }

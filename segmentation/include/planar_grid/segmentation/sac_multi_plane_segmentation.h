@@ -61,7 +61,8 @@ struct PlanarSegment {
   PCL_MAKE_ALIGNED_OPERATOR_NEW
 };
 
-/** \brief A vector of PlanarSegment with Eigen's aligned allocator (S16). */
+/** \brief A vector of PlanarSegment with Eigen's aligned allocator (its
+ * fixed-size vectorizable members need it in std::vector). */
 using PlanarSegments =
   std::vector<PlanarSegment, Eigen::aligned_allocator<PlanarSegment>>;
 
@@ -89,8 +90,9 @@ isGroundCandidate(const PlanarSegment& segment,
 }
 
 /** \brief Multi-plane segmentation by repeated sample consensus (the multi-RANSAC of
- * Sec. III-C of Zhang et al., "Planar occupancy grid mapping", eqs. 1-3) with the dense
- * inlier selection of Sec. III-F, eq. 11.
+ * Sec. III-C of the paper ("Efficient Planar Surface-Based 3D Mapping Method for Mobile
+ * Robots Using Stereo Vision"), eqs. 1-3) with the dense inlier selection of Sec.
+ * III-F, eq. 11.
  *
  * Plane hypotheses come from a sparse sample cloud (the 3D key feature points, as in
  * the paper) when setSampleCloud() is given, else from a seeded random subsample of at

@@ -18,9 +18,10 @@
 
 namespace planar_grid {
 
-/** \brief Grid approximation and combination of Sec. III-F (Figs. 6-8) of Zhang et
- * al., "Planar occupancy grid mapping": turns a ground-free cloud and its planes into
- * oriented rectangular cuboids (PlanarCuboid).
+/** \brief Grid approximation and combination of Sec. III-F (Figs. 6-8) of the paper
+ * ("Efficient Planar Surface-Based 3D Mapping Method for Mobile Robots Using Stereo
+ * Vision"): turns a ground-free cloud and its planes into oriented rectangular cuboids
+ * (PlanarCuboid).
  *
  * Planar clusters (Fig. 6): the inliers of each plane are expressed in plane
  * coordinates (u along the plane's horizontal axis, v along its vertical axis) and

@@ -6,7 +6,7 @@
 
 namespace planar_grid {
 
-/** \brief Base of every exception PlanarGrid throws (S25): programmer, configuration
+/** \brief Base of every exception PlanarGrid throws: programmer, configuration
  * and I/O errors, never data-dependent failures inside an algorithm.
  * \ingroup core */
 class Exception : public std::runtime_error {

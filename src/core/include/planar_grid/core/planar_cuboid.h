@@ -15,7 +15,8 @@
 namespace planar_grid {
 
 /** \brief One oriented rectangular cuboid of the planar grid map: a grid approximation
- * of Sec. III-F of Zhang et al., "Planar occupancy grid mapping" (Figs. 6(c) and 7).
+ * of Sec. III-F of the paper ("Efficient Planar Surface-Based 3D Mapping Method for
+ * Mobile Robots Using Stereo Vision") (Figs. 6(c) and 7).
  *
  * The box is spanned by three orthonormal axes: the unit \a normal, the in-plane
  * \a horizontal_axis (perpendicular to the normal) and the derived vertical axis
@@ -111,7 +112,8 @@ struct PlanarCuboid {
   PCL_MAKE_ALIGNED_OPERATOR_NEW
 };
 
-/** \brief A vector of PlanarCuboid with Eigen's aligned allocator (S16).
+/** \brief A vector of PlanarCuboid with Eigen's aligned allocator (its
+ * fixed-size vectorizable members need it in std::vector).
  * \ingroup core */
 using PlanarCuboids = std::vector<PlanarCuboid, Eigen::aligned_allocator<PlanarCuboid>>;
 

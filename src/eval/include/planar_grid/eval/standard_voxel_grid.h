@@ -20,9 +20,10 @@ namespace planar_grid {
 using VoxelIndex = Eigen::Vector3i;
 
 /** \brief SG, the standard occupancy voxel grid of the comparison in Sec. IV-B of
- * Zhang et al., "Planar occupancy grid mapping" (Figs. 12-14): one log-odds value per
- * observed cubic voxel of edge resolution_m, in a hash map keyed by the packed index
- * (3 x 21 bits, z in the high bits).
+ * the paper ("Efficient Planar Surface-Based 3D Mapping Method for Mobile Robots Using
+ * Stereo Vision") (Figs. 12-14): one log-odds value per observed cubic voxel of edge
+ * resolution_m, in a hash map keyed by the packed index (3 x 21 bits, z in the high
+ * bits).
  *
  * The sensor model and update are OctoMap's (Hornung et al. 2013, liboctomap 1.9
  * OccupancyOcTreeBase): probabilities at the boundary, log-odds inside; an observed

@@ -18,7 +18,8 @@
 
 namespace planar_grid {
 
-/** \brief Plane models [a, b, c, d] (unit normal, meters), aligned allocator (S16).
+/** \brief Plane models [a, b, c, d] (unit normal, meters), aligned allocator
+ * (fixed-size vectorizable Eigen types need it in std::vector).
  * \ingroup map */
 using PlaneModels =
   std::vector<Eigen::Vector4f, Eigen::aligned_allocator<Eigen::Vector4f>>;

@@ -152,12 +152,12 @@ public:
     double probability{0.99};
     /** Fewest inliers for a valid motion; >= 3. */
     int min_inliers{20};
-    /** Seed of the RANSAC sampler (S19): the same input and seed give the same motion.
+    /** Seed of the RANSAC sampler: the same input and seed give the same motion.
      */
     unsigned seed{12345u};
   };
 
-  /** \brief Throws planar_grid::Exception for out-of-range parameters (S25). */
+  /** \brief Throws planar_grid::Exception for out-of-range parameters. */
   explicit StereoOdometry(const Params& params);
   /** \brief Uses the default Params. */
   StereoOdometry();

@@ -12,9 +12,10 @@ class Node;
 
 namespace planar_grid {
 
-/** \brief One parameter of a pipeline stage: its YAML key (with the unit as suffix,
- * S21), type, default, range and meaning. The same table drives the strict parser and
- * `planar_grid_pipeline --list-stages` (S31). \ingroup pipeline */
+/** \brief One parameter of a pipeline stage: its YAML key (with the unit as suffix),
+ * type, default, range and meaning. The same table drives the strict parser and
+ * `planar_grid_pipeline --list-stages`, so that the documentation cannot drift from
+ * what is accepted. \ingroup pipeline */
 struct ParamSpec {
   /** \brief The value type: a real number, an integer, a flag or one of choices. */
   enum class Type { DOUBLE, INT, BOOL, CHOICE };

@@ -74,7 +74,8 @@ struct MapRenderSummary {
 };
 
 /** \brief Renders data (clouds, trajectories) with VTK, interactively or offscreen to
- * PNG. It takes data, never algorithms (S34). Only this target links VTK. Debian's
+ * PNG. It takes data, never algorithms, so that drawing
+ * cannot change a result. Only this target links VTK. Debian's
  * VTK 9.1 needs an X server even offscreen: call ensureDisplay() first. Without any
  * camera call, the scene is framed with CameraPreset::TOP; the background is black. An
  * empty scene renders as background only. \ingroup visualization */

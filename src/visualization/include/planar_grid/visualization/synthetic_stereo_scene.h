@@ -60,8 +60,8 @@ struct SyntheticPlane {
   std::uint64_t texture_seed{0};
 };
 
-/** \brief A synthetic stereo sequence with exactly known surfaces, for ground truth
- * (issue #7): a corridor or a room of textured planar polygons rendered with VTK
+/** \brief A synthetic stereo sequence with exactly known surfaces, for ground truth:
+ * a corridor or a room of textured planar polygons rendered with VTK
  * offscreen into rectified left/right grey images with a Karlsruhe-like calibration,
  * along a known straight camera path.
  *
@@ -115,7 +115,7 @@ public:
     double baseline_m{0.5707};
     /** \brief Texel size of the procedural textures, metres, in [0.002, 0.1]. */
     double texel_m{0.01};
-    /** \brief Seed of the textures (S19): the same seed renders the same images. */
+    /** \brief Seed of the textures: the same seed renders the same images. */
     std::uint64_t seed{1};
   };
 
