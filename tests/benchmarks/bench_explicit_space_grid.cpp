@@ -1,12 +1,18 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // ExplicitSpaceGrid::integrateDepthImage vs octomap::OcTree::insertPointCloud on
-// Karlsruhe frame 10 (SGBM disparity, depth = f B / d) at 0.1 m, 25 m max range.
+// Karlsruhe frame 10 (SGBM disparity, depth = f B / d) at 0.1 m, 25 m max range; and
+// ExplicitSpaceGrid::integratePointCloud (ray casting) vs insertPointCloud on PCL's
+// room_scan1.pcd (a 360 degree LiDAR scan, voxel grid 0.05 m) at 0.1 m.
 #include <planar_grid/map/explicit_space_grid.h>
+
+#include <pcl/filters/voxel_grid.h>
+#include <pcl/io/pcd_io.h>
 
 #include <benchmark/benchmark.h>
 #include <octomap/OcTree.h>
 
 #include <limits>
+#include <string>
 
 #include "karlsruhe_frame.h"
 
@@ -103,6 +109,77 @@ BM_OctoMapInsertPointCloud(benchmark::State& state)
   state.counters["points"] = static_cast<double>(cloud.size());
 }
 BENCHMARK(BM_OctoMapInsertPointCloud)->Unit(benchmark::kMillisecond)->Iterations(2);
+
+/** \brief room_scan1.pcd through a 0.05 m voxel grid (loaded once); its sensor origin
+ * is the PCD's VIEWPOINT, the scan's frame is the world frame. */
+const pcl::PointCloud<pcl::PointXYZ>&
+roomScan()
+{
+  static const pcl::PointCloud<pcl::PointXYZ> scan = [] {
+    pcl::PointCloud<pcl::PointXYZ>::Ptr raw(new pcl::PointCloud<pcl::PointXYZ>);
+    pcl::PointCloud<pcl::PointXYZ> out;
+    if (pcl::io::loadPCDFile(
+          std::string(PLANAR_GRID_DATA_DIR) + "/pcl_clouds/room_scan1.pcd", *raw)
+        != 0)
+      return out;
+    pcl::VoxelGrid<pcl::PointXYZ> grid;
+    grid.setLeafSize(0.05f, 0.05f, 0.05f);
+    grid.setInputCloud(raw);
+    grid.filter(out);
+    out.sensor_origin_ = raw->sensor_origin_;
+    return out;
+  }();
+  return scan;
+}
+
+void
+BM_ExplicitSpaceGridRays(benchmark::State& state)
+{
+  const auto& scan = roomScan();
+  if (scan.empty()) {
+    state.SkipWithError("room_scan1.pcd not found");
+    return;
+  }
+  ExplicitSpaceGrid::Params p;
+  p.resolution_m = 0.1;
+  p.max_range_m = 25.0;
+  std::size_t bytes = 0, blocks = 0;
+  for (auto _ : state) {
+    ExplicitSpaceGrid grid(p);
+    grid.integratePointCloud(scan, scan.sensor_origin_.head<3>());
+    bytes = grid.getMemoryBytes();
+    blocks = grid.getBlockCount();
+    benchmark::DoNotOptimize(blocks);
+  }
+  state.counters["memory_bytes"] = static_cast<double>(bytes);
+  state.counters["points"] = static_cast<double>(scan.size());
+}
+BENCHMARK(BM_ExplicitSpaceGridRays)->Unit(benchmark::kMillisecond);
+
+void
+BM_OctoMapInsertScan(benchmark::State& state)
+{
+  const auto& scan = roomScan();
+  if (scan.empty()) {
+    state.SkipWithError("room_scan1.pcd not found");
+    return;
+  }
+  octomap::Pointcloud cloud;
+  for (const auto& q : scan)
+    cloud.push_back(q.x, q.y, q.z);
+  const octomap::point3d origin(scan.sensor_origin_.x(), scan.sensor_origin_.y(),
+                                scan.sensor_origin_.z());
+  std::size_t bytes = 0;
+  for (auto _ : state) {
+    octomap::OcTree tree(0.1);
+    tree.insertPointCloud(cloud, origin, 25.0);
+    bytes = tree.memoryUsage();
+    benchmark::DoNotOptimize(bytes);
+  }
+  state.counters["memory_bytes"] = static_cast<double>(bytes);
+  state.counters["points"] = static_cast<double>(cloud.size());
+}
+BENCHMARK(BM_OctoMapInsertScan)->Unit(benchmark::kMillisecond);
 
 } // namespace
 
