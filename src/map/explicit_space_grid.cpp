@@ -1709,6 +1709,21 @@ ExplicitSpaceGrid::deserialize(const std::uint8_t* data, std::size_t size)
 
 // ---------------------------------------------------------------------------------
 
+namespace {
+/** \brief Collapses, bottom-up, every node of \a node's subtree whose eight children
+ * are leaves of one value (OctoMap's pruning, at every depth). */
+void
+pruneSubtree(octomap::OcTree& tree, octomap::OcTreeNode* node)
+{
+  if (!tree.nodeHasChildren(node))
+    return;
+  for (unsigned child = 0; child < 8; ++child)
+    if (tree.nodeChildExists(node, child))
+      pruneSubtree(tree, tree.getNodeChild(node, child));
+  tree.pruneNode(node);
+}
+} // namespace
+
 void
 ExplicitSpaceGrid::exportOctoMap(const std::string& path) const
 {
@@ -1716,26 +1731,70 @@ ExplicitSpaceGrid::exportOctoMap(const std::string& path) const
   const float occupied_log_odds = tree.getClampingThresMaxLog();
   const float free_log_odds = tree.getClampingThresMinLog();
   constexpr int OFFSET = 32768; // OctoMap's tree_max_val at depth 16
+  // A block (8^3 voxels, aligned to multiples of 8 like OFFSET) is one OctoMap node
+  // three levels above the voxels.
+  const unsigned block_depth = tree.getTreeDepth() - BLOCK_SHIFT;
+  const auto prior = static_cast<std::uint8_t>(params_.prior);
+  const auto unknown = static_cast<std::uint8_t>(SpaceState::UNKNOWN);
+  const auto occupied = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
+  std::vector<std::pair<BlockKey, const Block*>> sorted;
+  sorted.reserve(impl_->blocks.size());
+  for (const auto& kv : impl_->blocks)
+    sorted.emplace_back(kv.first, &kv.second);
+  std::sort(sorted.begin(), sorted.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
   std::size_t skipped = 0;
-  forEachVoxel([&](const VoxelKey& key, SpaceState state) {
-    if (state == SpaceState::UNKNOWN)
-      return;
-    const Eigen::Vector3i k = key + Eigen::Vector3i::Constant(OFFSET);
-    if ((k.array() < 0).any() || (k.array() > 65535).any()) {
-      ++skipped;
-      return;
+  for (const auto& [bk, block] : sorted) {
+    const Eigen::Vector3i base = Eigen::Vector3i(bk.x, bk.y, bk.z) * BLOCK_EDGE
+                                 + Eigen::Vector3i::Constant(OFFSET);
+    if ((base.array() < 0).any() || (base.array() > 65535 - (BLOCK_EDGE - 1)).any()) {
+      for (int i = 0; i < BLOCK_VOXELS; ++i)
+        skipped += block->get(i) != prior && block->get(i) != unknown ? 1 : 0;
+      continue;
     }
-    const octomap::OcTreeKey ok(static_cast<octomap::key_type>(k.x()),
-                                static_cast<octomap::key_type>(k.y()),
-                                static_cast<octomap::key_type>(k.z()));
-    tree.setNodeValue(
-      ok, state == SpaceState::OCCUPIED ? occupied_log_odds : free_log_odds, true);
-  });
+    const auto keyOf = [&base](int i) {
+      return octomap::OcTreeKey(
+        static_cast<octomap::key_type>(base.x() + (i & 7)),
+        static_cast<octomap::key_type>(base.y() + ((i >> 3) & 7)),
+        static_cast<octomap::key_type>(base.z() + (i >> 6)));
+    };
+    if (block->uniform != MIXED && tree.getRoot() != nullptr) {
+      if (block->uniform == unknown || block->uniform == prior)
+        continue;
+      // The whole block as one leaf at its depth, created down from the root (blocks
+      // are disjoint, so the path never runs through a leaf).
+      const octomap::OcTreeKey key = keyOf(0);
+      octomap::OcTreeNode* node = tree.getRoot();
+      for (unsigned depth = 0; depth < block_depth; ++depth) {
+        const unsigned child = octomap::computeChildIdx(
+          key, static_cast<int>(tree.getTreeDepth() - 1 - depth));
+        if (!tree.nodeChildExists(node, child))
+          tree.createNodeChild(node, child);
+        node = tree.getNodeChild(node, child);
+      }
+      node->setLogOdds(block->uniform == occupied ? occupied_log_odds : free_log_odds);
+      continue;
+    }
+    for (int i = 0; i < BLOCK_VOXELS; ++i) {
+      const std::uint8_t state = block->get(i);
+      if (state == prior || state == unknown)
+        continue;
+      tree.setNodeValue(keyOf(i), state == occupied ? occupied_log_odds : free_log_odds,
+                        true);
+    }
+    // Collapse the block's uniform parts now, so that the tree never holds every voxel.
+    if (octomap::OcTreeNode* node = tree.search(keyOf(0), block_depth))
+      pruneSubtree(tree, node);
+  }
   if (skipped > 0)
     PCL_WARN("[planar_grid::ExplicitSpaceGrid::exportOctoMap] %zu voxels outside "
              "OctoMap's 2^16-voxel key range left out.\n",
              skipped);
   tree.updateInnerOccupancy();
+  // OcTree::prune() stops at the first depth where nothing collapses, which here can
+  // come before the whole blocks' depth; collapse every level instead.
+  if (tree.getRoot() != nullptr)
+    pruneSubtree(tree, tree.getRoot());
   writeFileAtomically(path, [&tree](const std::string& temporary) {
     return tree.writeBinary(temporary);
   });

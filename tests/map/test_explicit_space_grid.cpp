@@ -919,3 +919,48 @@ TEST(ExplicitSpaceGrid, ScanRaysMatchABruteForceSegmentOracle)
     grid.integratePointCloud(scan, Eigen::Vector3f(std::nanf(""), 0.0f, 0.0f)),
     planar_grid::Exception);
 }
+
+TEST(ExplicitSpaceGrid, ExportOctoMapWholeBlocks)
+{
+  // Uniform blocks go to the tree as whole nodes (eight free blocks side by side, one
+  // occupied block), mixed blocks voxel by voxel: read back with liboctomap, every
+  // voxel has the grid's state, and the free and occupied volumes match the grid's
+  // counts.
+  ExplicitSpaceGrid grid(params(SpaceState::UNKNOWN, 0.2));
+  std::map<std::tuple<int, int, int>, SpaceState> oracle;
+  fillRandom(grid, oracle, 500, 10, 43u);
+  const auto fill = [&grid](const Key& lo, const Key& hi, SpaceState s) {
+    for (int z = lo.z(); z <= hi.z(); ++z)
+      for (int y = lo.y(); y <= hi.y(); ++y)
+        for (int x = lo.x(); x <= hi.x(); ++x)
+          grid.setState(Key(x, y, z), s);
+  };
+  fill(Key(32, 32, 32), Key(47, 47, 47), SpaceState::FREE);     // 2 x 2 x 2 blocks
+  fill(Key(64, 32, 32), Key(71, 39, 39), SpaceState::OCCUPIED); // one block
+  fill(Key(-48, 32, 32), Key(-41, 39, 39), SpaceState::FREE);   // negative keys
+  const auto dir = std::filesystem::temp_directory_path()
+                   / ("planar_grid_blocks_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "space.bt").string();
+  grid.exportOctoMap(path);
+  octomap::OcTree tree(0.2);
+  ASSERT_TRUE(tree.readBinary(path));
+  std::filesystem::remove_all(dir);
+  grid.forEachVoxel([&](const Key& k, SpaceState s) {
+    const Eigen::Vector3f c = grid.toCentre(k);
+    const octomap::OcTreeNode* node = tree.search(c.x(), c.y(), c.z());
+    if (s == SpaceState::UNKNOWN) {
+      ASSERT_EQ(node, nullptr);
+      return;
+    }
+    ASSERT_NE(node, nullptr) << k.transpose();
+    ASSERT_EQ(tree.isNodeOccupied(node), s == SpaceState::OCCUPIED) << k.transpose();
+  });
+  tree.expand();
+  std::size_t free_voxels = 0, occupied_voxels = 0;
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it)
+    (tree.isNodeOccupied(*it) ? occupied_voxels : free_voxels) += 1;
+  EXPECT_EQ(free_voxels, grid.getVoxelCount(SpaceState::FREE));
+  EXPECT_EQ(occupied_voxels, grid.getVoxelCount(SpaceState::OCCUPIED));
+  EXPECT_GE(free_voxels, 16u * 16u * 16u + 512u);
+}
