@@ -31,10 +31,13 @@ calib_time: derived for planar_grid_eval (Middlebury 2006 focal length and basel
 P1_roi: 3740 0 640.5 0 0 3740 554.5 0 0 0 1 0
 P2_roi: 3740 0 640.5 -598.4 0 3740 554.5 0 0 0 1 0
 CALIB
-echo "1 0 0 0 0 1 0 0 0 0 1 0" > "$OUT/prep/aloe/poses.txt"
-# rtabmap pair 50: camera (x right, y down, z forward) to a z-up world, 1.2 m high; the
-# KITTI file needs a line per index up to 50.
-for _ in $(seq 0 50); do echo "0 0 1 0 -1 0 0 0 0 -1 0 1.2"; done > "$OUT/prep/rtabmap_poses.txt"
+# KITTI files hold poses in KITTI's world, the first camera's optical frame (x right,
+# y down, z forward); the reader turns them to the z-up world (docs/INPUTS.md).
+# Aloe: the world is the camera frame itself (z-up world_T_camera = identity).
+echo "0 -1 0 0 0 0 -1 0 1 0 0 0" > "$OUT/prep/aloe/poses.txt"
+# rtabmap pair 50: a level camera 1.2 m above the floor (z-up world: camera z along +x,
+# 1.2 m up); the KITTI file needs a line per index up to 50.
+for _ in $(seq 0 50); do echo "1 0 0 0 0 1 0 -1.2 0 0 1 0"; done > "$OUT/prep/rtabmap_poses.txt"
 
 for eval in indoor tilt outdoor; do
   build/tools/planar_grid_eval --config "config/eval_$eval.yaml"

@@ -433,8 +433,14 @@ runKitti(const std::string& data_dir,
   const std::string dir = data_dir + "/kitti_odometry_snippet_2";
   const planar_grid::StereoCameraModel model = planar_grid::loadStereoCalibration(
     planar_grid::CalibrationFormat::KITTI, dir + "/calib.txt");
-  const planar_grid::Trajectory ground_truth =
+  // The odometry's trajectory starts at the identity in the first camera's optical
+  // frame, KITTI's own world; the reader gives the z-up world, so go back.
+  planar_grid::Trajectory ground_truth =
     planar_grid::loadKittiPoses(dir + "/poses.txt");
+  const Eigen::Isometry3d optical_T_z_up =
+    planar_grid::zUpWorldFrom(planar_grid::WorldConvention::OPTICAL).inverse();
+  for (auto& pose : ground_truth)
+    pose = optical_T_z_up * pose;
   planar_grid::VisualOdometry odometry(
     odometry_params, planar_grid::ConstantVelocityMotionModel::Params());
   if (reprojection)

@@ -104,7 +104,7 @@ printHelp(const char* program)
   print_info("    --up <x,y,z>          street: the world's up direction (default: ");
   print_value("%g,%g,%g", DEFAULT_STREET.world_up.x(), DEFAULT_STREET.world_up.y(),
               DEFAULT_STREET.world_up.z());
-  print_info("; KITTI worlds: 0,-1,0)\n");
+  print_info("; every pose reader gives a z-up world)\n");
   print_info("    --size <W>x<H>        image or window size, px (default: ");
   print_value("%dx%d", DEFAULT_WIDTH_PX, DEFAULT_HEIGHT_PX);
   print_info(")\n");

@@ -189,9 +189,35 @@ loadKarlsruheInsData(const std::string& path, double heading_baseline_m)
   return trajectory;
 }
 
+Eigen::Isometry3d
+zUpWorldFrom(WorldConvention convention)
+{
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  // Columns: where the convention's x, y and z axes point in the z-up world (x
+  // forward, y left, z up).
+  switch (convention) {
+    case WorldConvention::Z_UP:
+      break;
+    case WorldConvention::OPTICAL: // right, down, forward
+      rotation.col(0) = -Eigen::Vector3d::UnitY();
+      rotation.col(1) = -Eigen::Vector3d::UnitZ();
+      rotation.col(2) = Eigen::Vector3d::UnitX();
+      break;
+    case WorldConvention::Y_UP: // right, up, backward
+      rotation.col(0) = -Eigen::Vector3d::UnitY();
+      rotation.col(1) = Eigen::Vector3d::UnitZ();
+      rotation.col(2) = -Eigen::Vector3d::UnitX();
+      break;
+  }
+  Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
+  transform.linear() = rotation;
+  return transform;
+}
+
 Trajectory
 loadKittiPoses(const std::string& path)
 {
+  const Eigen::Isometry3d z_up_T_optical = zUpWorldFrom(WorldConvention::OPTICAL);
   constexpr std::size_t KITTI_COLUMNS = 12;
   // KITTI files are often written with 6 significant digits, so the stored rotations
   // are orthonormal to about 1e-6; anything far off is not a rotation at all.
@@ -216,7 +242,7 @@ loadKittiPoses(const std::string& path)
           || rotation.determinant() <= 0.0)
         throw IOError(
           where(path, line_number, "the 3x3 part is not a proper rotation matrix"));
-      trajectory.push_back(pose);
+      trajectory.push_back(z_up_T_optical * pose);
     });
   return trajectory;
 }
@@ -265,8 +291,10 @@ saveKittiPoses(const std::string& path, const Trajectory& trajectory)
   std::ostringstream out;
   // 17 significant digits: every double survives the text round trip exactly.
   out << std::setprecision(17);
+  const Eigen::Isometry3d optical_T_z_up =
+    zUpWorldFrom(WorldConvention::OPTICAL).inverse();
   for (std::size_t i = 0; i < trajectory.size(); ++i) {
-    const Eigen::Matrix4d& m = trajectory[i].matrix();
+    const Eigen::Matrix4d m = (optical_T_z_up * trajectory[i]).matrix();
     if (!m.topRows<3>().allFinite())
       throw Exception(path + ": pose " + std::to_string(i) + " is not finite");
     for (int row = 0; row < 3; ++row)
@@ -307,6 +335,18 @@ loadPCDViewpoint(const std::string& path)
   pose.linear() = orientation.cast<double>().normalized().toRotationMatrix();
   pose.translation() = origin.head<3>().cast<double>();
   return pose;
+}
+
+bool
+isDefaultPCDViewpoint(const Eigen::Isometry3d& sensor_pose)
+{
+  constexpr double TOLERANCE = 1e-6;
+  if (sensor_pose.translation().norm() > TOLERANCE)
+    return false;
+  const Eigen::Matrix3d& rotation = sensor_pose.linear();
+  const Eigen::Matrix3d grabber = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
+  return (rotation - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < TOLERANCE
+         || (rotation - grabber).cwiseAbs().maxCoeff() < TOLERANCE;
 }
 
 } // namespace planar_grid

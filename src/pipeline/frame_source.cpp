@@ -1,16 +1,24 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/odometry/cloud_registration.h>
+#include <planar_grid/odometry/floor_alignment.h>
 #include <planar_grid/pipeline/frame_source.h>
 #include <planar_grid/stereo/calibration_io.h>
 
 #include <pcl/PCLPointCloud2.h>
+#include <pcl/common/io.h>
+#include <pcl/common/transforms.h>
+#include <pcl/console/print.h>
+#include <pcl/console/time.h>
 #include <pcl/conversions.h>
 #include <pcl/io/pcd_io.h>
+#include <pcl/point_types_conversion.h>
 
 #include <glob.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
@@ -204,6 +212,42 @@ private:
   StereoCameraModel model_;
 };
 
+/** Reads a PCD file into the working cloud type. PCL's conversion warns once per
+ * missing field, so a cloud without intensity is read as the fields it has: colour
+ * becomes the grey intensity (pcl::PointXYZRGBtoXYZI), bare XYZ gets intensity 0. */
+void
+loadPCDCloud(const std::string& path, Frame::Cloud& cloud)
+{
+  // Read the blob first: PCL's conversion indexes point 0 of an empty cloud (UB that
+  // UBSan reports), so a PCD without points is converted only when it has some.
+  pcl::PCLPointCloud2 blob;
+  if (pcl::io::loadPCDFile(path, blob) < 0)
+    throw IOError(path + ": cannot read the PCD file");
+  cloud.clear();
+  if (static_cast<std::size_t>(blob.width) * blob.height == 0)
+    return;
+  const auto has = [&blob](const std::string& name) {
+    return std::any_of(blob.fields.begin(), blob.fields.end(),
+                       [&name](const pcl::PCLPointField& f) { return f.name == name; });
+  };
+  if (has("intensity"))
+    pcl::fromPCLPointCloud2(blob, cloud);
+  else if (has("rgb") || has("rgba")) {
+    pcl::PointCloud<pcl::PointXYZRGB> colour;
+    pcl::fromPCLPointCloud2(blob, colour);
+    cloud.resize(colour.size());
+    for (std::size_t i = 0; i < colour.size(); ++i)
+      pcl::PointXYZRGBtoXYZI(colour[i], cloud[i]);
+    cloud.width = colour.width;
+    cloud.height = colour.height;
+    cloud.is_dense = colour.is_dense;
+  } else {
+    pcl::PointCloud<pcl::PointXYZ> xyz;
+    pcl::fromPCLPointCloud2(blob, xyz);
+    pcl::copyPointCloud(xyz, cloud);
+  }
+}
+
 class PCDFileSource : public FrameSourceBase {
 public:
   explicit PCDFileSource(const InputConfig& input)
@@ -221,6 +265,8 @@ public:
       std::sort(matched.begin(), matched.end());
       files_.insert(files_.end(), matched.begin(), matched.end());
     }
+    description_ =
+      std::to_string(files_.size()) + " PCD files " + files_.front() + " ...";
     if (input.poses_format == "kitti") {
       poses_ = loadKittiPoses(input.poses_file);
       if (poses_.size() < files_.size())
@@ -228,12 +274,10 @@ public:
                       + " poses, but there are " + std::to_string(files_.size())
                       + " PCD files");
       poses_.resize(files_.size());
-    } else if (input.poses_format == "viewpoint") {
-      for (const auto& f : files_)
-        poses_.push_back(loadPCDViewpoint(f));
-    }
-    description_ =
-      std::to_string(files_.size()) + " PCD files " + files_.front() + " ...";
+    } else if (input.poses_format == "viewpoint")
+      poseFromViewpoints(input);
+    else if (input.poses_format == "registration")
+      poseByRegistration(input);
   }
 
   std::size_t size() const override { return files_.size(); }
@@ -242,18 +286,12 @@ public:
   {
     const std::string& path = files_[i];
     Frame::Cloud::Ptr cloud(new Frame::Cloud);
-    // Read the blob first: PCL's conversion indexes point 0 of an empty cloud (UB that
-    // UBSan reports), so a PCD without points is converted only when it has some.
-    pcl::PCLPointCloud2 blob;
-    if (pcl::io::loadPCDFile(path, blob) < 0)
-      throw IOError(path + ": cannot read the PCD file");
-    if (static_cast<std::size_t>(blob.width) * blob.height > 0)
-      pcl::fromPCLPointCloud2(blob, *cloud);
+    loadPCDCloud(path, *cloud);
     frame = Frame();
     frame.sequence_number = i;
     frame.file_index = static_cast<int>(i);
     frame.name = fs::path(path).filename().string();
-    // The points are in the sensor frame; the VIEWPOINT is the sensor pose (PCL).
+    // The points are in the sensor frame; the pose is world_T_sensor.
     cloud->sensor_origin_ = Eigen::Vector4f(0, 0, 0, 1);
     cloud->sensor_orientation_ = Eigen::Quaternionf::Identity();
     frame.cloud = cloud;
@@ -261,6 +299,174 @@ public:
   }
 
 private:
+  /** The sensor frame's up and forward directions when no pose gives them: sensor_up
+   * when given; else an organized cloud, or one with the VIEWPOINT of PCL's depth
+   * camera grabbers, is a camera's optical frame (up -y, forward z), and any other a
+   * z-up scanner's (up z, forward x). */
+  void sensorAxes(const InputConfig& input,
+                  const Frame::Cloud& first,
+                  const Eigen::Isometry3d& viewpoint,
+                  Eigen::Vector3d& up,
+                  Eigen::Vector3d& forward) const
+  {
+    const bool grabber =
+      (viewpoint.linear() - Eigen::Matrix3d::Identity()).norm() > 1e-6;
+    if (first.height > 1 || grabber) {
+      up = -Eigen::Vector3d::UnitY();
+      forward = Eigen::Vector3d::UnitZ();
+    } else {
+      up = Eigen::Vector3d::UnitZ();
+      forward = Eigen::Vector3d::UnitX();
+    }
+    if (input.has_sensor_up) {
+      up = Eigen::Vector3d(input.sensor_up.data()).normalized();
+      // Any axis not along up serves as the forward direction.
+      if (std::abs(up.dot(forward)) > 0.9)
+        forward =
+          std::abs(up.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    }
+  }
+
+  /** world_T_sensor of a sensor whose cloud \a points (its own frame) fixes "up": the
+   * floor below it levels it (origin on the floor), or input.sensor_up does (origin at
+   * the sensor). */
+  Eigen::Isometry3d levelled(const InputConfig& input,
+                             const pcl::PointCloud<pcl::PointXYZ>& points,
+                             const Eigen::Vector3d& up,
+                             const Eigen::Vector3d& forward,
+                             const std::string& what) const
+  {
+    if (input.has_sensor_up) {
+      const Eigen::Vector4f horizontal(static_cast<float>(up.x()),
+                                       static_cast<float>(up.y()),
+                                       static_cast<float>(up.z()), 0.0f);
+      return levelSensorPose(horizontal, forward);
+    }
+    Eigen::Vector4f floor;
+    std::size_t inliers = 0;
+    if (!estimateFloorPlane(points, Eigen::Vector3f::Zero(), up.cast<float>(),
+                            FloorEstimationParams(), floor, inliers)) {
+      PCL_WARN("[planar_grid::FrameSource] %s: no floor or ground plane found to tell "
+               "which way is up; the sensor frame's nominal up (%g, %g, %g) is taken. "
+               "Set input.sensor_up to give it.\n",
+               what.c_str(), up.x(), up.y(), up.z());
+      return levelSensorPose(Eigen::Vector4f(static_cast<float>(up.x()),
+                                             static_cast<float>(up.y()),
+                                             static_cast<float>(up.z()), 0.0f),
+                             forward);
+    }
+    const double tilt_deg =
+      std::acos(std::min(
+        1.0, static_cast<double>(floor.head<3>().cast<double>().dot(up.normalized()))))
+      * 180.0 / M_PI;
+    PCL_INFO("[planar_grid::FrameSource] %s: floor %.2f m below the sensor, its normal "
+             "%.1f deg from the sensor's nominal up; levelled on it.\n",
+             what.c_str(), static_cast<double>(floor[3]), tilt_deg);
+    return levelSensorPose(floor, forward);
+  }
+
+  /** Poses from the VIEWPOINTs: PCL writes them in the y-up world of its visualizer.
+   * Identical ones (PCL's constant defaults, or one pose repeated) fix no motion, and
+   * a single file with a default VIEWPOINT is levelled on its floor. */
+  void poseFromViewpoints(const InputConfig& input)
+  {
+    Trajectory viewpoints;
+    for (const auto& f : files_)
+      viewpoints.push_back(loadPCDViewpoint(f));
+    bool identical = true;
+    for (const auto& v : viewpoints)
+      identical =
+        identical
+        && (v.matrix() - viewpoints.front().matrix()).cwiseAbs().maxCoeff() < 1e-6;
+    if (files_.size() > 1 && identical)
+      throw IOError(files_.front() + " ... (" + std::to_string(files_.size())
+                    + " PCD files): every VIEWPOINT is the same, so the motion between "
+                      "the frames is unknown and their clouds would be stacked "
+                      "unregistered; set input.poses.format to registration, or give "
+                      "the poses (format kitti)");
+    if (isDefaultPCDViewpoint(viewpoints.front())) {
+      if (input.has_sensor_up || files_.size() == 1) {
+        Frame::Cloud cloud;
+        loadPCDCloud(files_.front(), cloud);
+        pcl::PointCloud<pcl::PointXYZ> points;
+        pcl::copyPointCloud(cloud, points);
+        Eigen::Vector3d up, forward;
+        sensorAxes(input, cloud, viewpoints.front(), up, forward);
+        poses_.push_back(levelled(input, points, up, forward, files_.front()));
+        return;
+      }
+    } else if (input.has_sensor_up)
+      throw IOError(files_.front()
+                    + ": input.sensor_up is not used: the VIEWPOINTs are poses that "
+                      "fix the up direction");
+    const Eigen::Isometry3d z_up_T_y_up = zUpWorldFrom(WorldConvention::Y_UP);
+    for (const auto& v : viewpoints)
+      poses_.push_back(z_up_T_y_up * v);
+  }
+
+  /** Poses by frame-to-frame registration (GICP, FPFH guess), levelled on the floor of
+   * the registered clouds. */
+  void poseByRegistration(const InputConfig& input)
+  {
+    CloudRegistrationParams params;
+    params.leaf_size_m = input.registration_leaf_size_m;
+    params.max_correspondence_distance_m =
+      input.registration_max_correspondence_distance_m;
+    params.feature_initial_guess = input.registration_feature_initial_guess;
+    pcl::console::TicToc timer;
+    timer.tic();
+    Frame::Cloud first;
+    loadPCDCloud(files_.front(), first);
+    pcl::PointCloud<pcl::PointXYZ>::Ptr previous(new pcl::PointCloud<pcl::PointXYZ>);
+    pcl::copyPointCloud(first, *previous);
+    // The registered clouds in the first sensor's frame, for the floor.
+    pcl::PointCloud<pcl::PointXYZ> merged = *previous;
+    Trajectory first_T_sensor{Eigen::Isometry3d::Identity()};
+    Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
+    std::size_t flagged = 0;
+    for (std::size_t i = 1; i < files_.size(); ++i) {
+      Frame::Cloud cloud;
+      loadPCDCloud(files_[i], cloud);
+      pcl::PointCloud<pcl::PointXYZ>::Ptr current(new pcl::PointCloud<pcl::PointXYZ>);
+      pcl::copyPointCloud(cloud, *current);
+      // Start from the previous frame's motion (a steadily panning or moving sensor).
+      const CloudRegistrationResult result =
+        registerCloud(*current, *previous, motion, params);
+      motion = result.target_T_source;
+      first_T_sensor.push_back(first_T_sensor.back() * motion);
+      const bool bad = !(result.residual_m <= input.registration_max_residual_m)
+                       || result.overlap < 0.2;
+      flagged += bad;
+      const std::string name = fs::path(files_[i]).filename().string();
+      const std::string onto = fs::path(files_[i - 1]).filename().string();
+      const char* guess = result.feature_guess_used ? " (FPFH initial guess)" : "";
+      if (bad)
+        PCL_WARN("[planar_grid::FrameSource] Registered %s onto %s: residual %.4f m, "
+                 "overlap %.2f%s; FLAGGED: residual above input.poses.max_residual_m "
+                 "or overlap below 0.2.\n",
+                 name.c_str(), onto.c_str(), result.residual_m, result.overlap, guess);
+      else
+        PCL_INFO("[planar_grid::FrameSource] Registered %s onto %s: residual %.4f m, "
+                 "overlap %.2f%s.\n",
+                 name.c_str(), onto.c_str(), result.residual_m, result.overlap, guess);
+      pcl::PointCloud<pcl::PointXYZ> moved;
+      pcl::transformPointCloud(*current, moved,
+                               first_T_sensor.back().cast<float>().matrix());
+      merged += moved;
+      previous = current;
+    }
+    Eigen::Vector3d up, forward;
+    sensorAxes(input, first, loadPCDViewpoint(files_.front()), up, forward);
+    const Eigen::Isometry3d world_T_first =
+      levelled(input, merged, up, forward, files_.front() + " (registered)");
+    for (const auto& pose : first_T_sensor)
+      poses_.push_back(world_T_first * pose);
+    PCL_INFO("[planar_grid::FrameSource] Registered %zu PCD files [done, %g ms; %zu "
+             "flagged]\n",
+             files_.size(), timer.toc(), flagged);
+    description_ += " (registered, " + std::to_string(flagged) + " flagged)";
+  }
+
   std::vector<std::string> files_;
 };
 

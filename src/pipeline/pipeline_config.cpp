@@ -22,6 +22,10 @@ namespace fs = std::filesystem;
 
 using Reader = YamlReader;
 
+std::array<double, 3>
+vector3(const Reader& r, const YAML::Node& node, const std::string& what);
+double norm(const std::array<double, 3>& v);
+
 InputConfig
 parseInput(const Reader& r, const YAML::Node& node)
 {
@@ -65,7 +69,8 @@ parseInput(const Reader& r, const YAML::Node& node)
                             + " needs one index field such as %06d in the file name");
     }
   } else if (type == "pcd_files") {
-    r.checkKeys(node, {"type", "files", "poses", "repeat"}, "input (pcd_files)");
+    r.checkKeys(node, {"type", "files", "poses", "repeat", "sensor_up"},
+                "input (pcd_files)");
     input.type = InputConfig::Type::PCD_FILES;
     input.poses_format = "viewpoint";
     const YAML::Node files = node["files"];
@@ -84,6 +89,12 @@ parseInput(const Reader& r, const YAML::Node& node)
       r.fail(files, "input.files must be a string or a list of strings");
     if (input.pcd_files.empty())
       r.fail(files, "input.files is empty");
+    if (const YAML::Node up = node["sensor_up"]) {
+      input.sensor_up = vector3(r, up, "input.sensor_up");
+      if (!(norm(input.sensor_up) > 1e-9))
+        r.fail(up, "input.sensor_up must not be zero");
+      input.has_sensor_up = true;
+    }
   } else
     r.fail(node["type"], "input.type '" + type
                            + "' is unknown; expected stereo_sequence or pcd_files");
@@ -109,12 +120,15 @@ parseInput(const Reader& r, const YAML::Node& node)
   }
 
   if (const YAML::Node poses = node["poses"]) {
-    r.checkKeys(poses, {"format", "file", "camera_height_m", "camera_pitch_rad"},
+    r.checkKeys(poses,
+                {"format", "file", "camera_height_m", "camera_pitch_rad", "leaf_size_m",
+                 "max_correspondence_distance_m", "feature_initial_guess",
+                 "max_residual_m"},
                 "input.poses");
     input.poses_format = r.string(poses, "format", "input.poses");
     const std::vector<std::string> formats =
       input.type == InputConfig::Type::PCD_FILES
-        ? std::vector<std::string>{"viewpoint", "kitti", "none"}
+        ? std::vector<std::string>{"viewpoint", "registration", "kitti", "none"}
         : std::vector<std::string>{"odometry", "karlsruhe_insdata", "kitti",
                                    "euroc_groundtruth", "none"};
     if (std::find(formats.begin(), formats.end(), input.poses_format)
@@ -144,11 +158,36 @@ parseInput(const Reader& r, const YAML::Node& node)
       if (poses[key] && input.poses_format != "karlsruhe_insdata")
         r.fail(poses[key],
                std::string("input.poses.") + key + " is only for karlsruhe_insdata");
+    for (const char* key : {"leaf_size_m", "max_correspondence_distance_m",
+                            "feature_initial_guess", "max_residual_m"})
+      if (poses[key] && input.poses_format != "registration")
+        r.fail(poses[key],
+               std::string("input.poses.") + key + " is only for registration");
+    input.registration_leaf_size_m = r.real(
+      poses, "leaf_size_m", input.registration_leaf_size_m, 0.005, 2.0, "input.poses");
+    input.registration_max_correspondence_distance_m = r.real(
+      poses, "max_correspondence_distance_m",
+      input.registration_max_correspondence_distance_m, 0.01, 10.0, "input.poses");
+    input.registration_max_residual_m =
+      r.real(poses, "max_residual_m", input.registration_max_residual_m, 0.001, 10.0,
+             "input.poses");
+    if (const YAML::Node guess = poses["feature_initial_guess"]) {
+      try {
+        input.registration_feature_initial_guess = guess.as<bool>();
+      } catch (const YAML::BadConversion&) {
+        r.fail(guess, "input.poses.feature_initial_guess must be true or false");
+      }
+    }
     input.camera_height_m =
       r.real(poses, "camera_height_m", 0.0, 0.0, 10.0, "input.poses");
     input.camera_pitch_rad =
       r.real(poses, "camera_pitch_rad", 0.0, -1.5, 1.5, "input.poses");
   }
+  // Poses from a file fix the up direction themselves.
+  if (input.has_sensor_up && input.poses_format != "viewpoint"
+      && input.poses_format != "registration")
+    r.fail(node["sensor_up"], "input.sensor_up is only used with input.poses.format "
+                              "viewpoint or registration (poses that do not fix up)");
   return input;
 }
 
@@ -380,6 +419,19 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
              "stage 'visual_odometry' makes the poses: set input.poses.format to "
              "odometry");
     sc.params = parseParams(stage["params"], info->params, source, sc.type);
+    // Key features come from stereo matching; a point-cloud input has none, so its
+    // planes are hypothesised on the cloud itself unless the file asks otherwise.
+    if (sc.type == "multi_plane_segmentation"
+        && config.input.type != InputConfig::Type::STEREO_SEQUENCE) {
+      const YAML::Node params = stage["params"];
+      if (params && params.IsMap() && params["sample"]
+          && sc.params.getChoice("sample") == "features")
+        r.fail(params["sample"],
+               "multi_plane_segmentation: sample: features needs the stereo "
+               "key features (a stereo_sequence input with feature_matching); "
+               "use sample: cloud on a pcd_files input");
+      sc.params.set("sample", std::string("cloud"));
+    }
     config.stages.push_back(std::move(sc));
   }
 

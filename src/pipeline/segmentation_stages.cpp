@@ -319,7 +319,8 @@ multiPlaneSegmentationInfo()
     ParamSpec::real("merge_distance_m", 0.1, 0.0, 10.0, "m",
                     "... and whose offsets differ less than this."),
     ParamSpec::choice("sample", "features", {"features", "cloud"},
-                      "Hypotheses from the 3D key features (paper) or the cloud."),
+                      "Hypotheses from the 3D key features (paper) or the cloud; on "
+                      "pcd_files input the default is cloud (no stereo features)."),
     ParamSpec::integer("seed", 0, 0, 2147483647, "",
                        "Random seed (reproducible runs)."),
   };

@@ -347,12 +347,70 @@ TEST_F(TrajectoryIOFiles, KittiReadsTwelveNumbersRowMajor)
                                                   "0 -1 0 4 1 0 0 5 0 0 1 6\n");
   const planar_grid::Trajectory loaded = planar_grid::loadKittiPoses(path);
   ASSERT_EQ(loaded.size(), 2u); // the blank line is skipped
-  EXPECT_EQ(loaded[0].translation(), Eigen::Vector3d(1.5, -2.0, 3.0));
-  EXPECT_EQ(loaded[1].translation(), Eigen::Vector3d(4.0, 5.0, 6.0));
+  // Back in KITTI's own world (the reader gives the z-up world) the numbers are the
+  // file's, exactly: the conversion is a signed permutation.
+  const Eigen::Isometry3d optical_T_z_up =
+    planar_grid::zUpWorldFrom(planar_grid::WorldConvention::OPTICAL).inverse();
+  const Eigen::Isometry3d first = optical_T_z_up * loaded[0];
+  const Eigen::Isometry3d second = optical_T_z_up * loaded[1];
+  EXPECT_EQ(first.translation(), Eigen::Vector3d(1.5, -2.0, 3.0));
+  EXPECT_EQ(second.translation(), Eigen::Vector3d(4.0, 5.0, 6.0));
   // Row-major: the second line's first row is (0 -1 0 | 4).
-  EXPECT_EQ(loaded[1].linear()(0, 1), -1.0);
-  EXPECT_EQ(loaded[1].linear()(1, 0), 1.0);
+  EXPECT_EQ(second.linear()(0, 1), -1.0);
+  EXPECT_EQ(second.linear()(1, 0), 1.0);
   EXPECT_TRUE(planar_grid::loadKittiPoses(writeFile("empty.txt", "")).empty());
+}
+
+TEST_F(TrajectoryIOFiles, KittiWorldBecomesZUp)
+{
+  // KITTI's world is the first camera's optical frame: the identity is a level camera,
+  // and (0, -1.65, 10) is 10 m ahead of it and 1.65 m higher (y points down).
+  const std::string path =
+    writeFile("poses.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 -1.65 0 0 1 10\n");
+  const planar_grid::Trajectory loaded = planar_grid::loadKittiPoses(path);
+  ASSERT_EQ(loaded.size(), 2u);
+  // In the z-up world the first camera looks along +x, its x axis (right) is -y and
+  // its y axis (down) is -z. Exact: the entries are 0 and +-1.
+  EXPECT_EQ(loaded[0].linear().col(0), Eigen::Vector3d(0.0, -1.0, 0.0));
+  EXPECT_EQ(loaded[0].linear().col(1), Eigen::Vector3d(0.0, 0.0, -1.0));
+  EXPECT_EQ(loaded[0].linear().col(2), Eigen::Vector3d(1.0, 0.0, 0.0));
+  EXPECT_EQ(loaded[0].translation(), Eigen::Vector3d::Zero());
+  EXPECT_EQ(loaded[1].translation(), Eigen::Vector3d(10.0, 0.0, 1.65));
+  // The ground below the first camera (1.65 m down its y axis) is at z = -1.65.
+  EXPECT_EQ(loaded[0] * Eigen::Vector3d(0.0, 1.65, 0.0), Eigen::Vector3d(0, 0, -1.65));
+}
+
+TEST(TrajectoryIOConventions, EveryConventionIsAProperRotationToZUp)
+{
+  using planar_grid::WorldConvention;
+  EXPECT_TRUE(planar_grid::zUpWorldFrom(WorldConvention::Z_UP).matrix().isIdentity());
+  for (const auto convention : {WorldConvention::OPTICAL, WorldConvention::Y_UP}) {
+    const Eigen::Matrix3d r = planar_grid::zUpWorldFrom(convention).linear();
+    EXPECT_TRUE((r.transpose() * r).isIdentity(0.0));
+    EXPECT_EQ(r.determinant(), 1.0);
+  }
+  // The y-up world's up (+y) is z-up's up, its backward (+z) is z-up's -x.
+  const Eigen::Isometry3d y_up = planar_grid::zUpWorldFrom(WorldConvention::Y_UP);
+  EXPECT_EQ(y_up * Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ());
+  EXPECT_EQ(y_up * Eigen::Vector3d::UnitZ(), -Eigen::Vector3d::UnitX());
+  // PCL's grabber VIEWPOINT (a half turn about x) in the y-up world is a level camera
+  // looking along +x, exactly as a level optical camera in KITTI's world.
+  const Eigen::Matrix3d grabber = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
+  EXPECT_EQ(y_up.linear() * grabber,
+            planar_grid::zUpWorldFrom(WorldConvention::OPTICAL).linear());
+}
+
+TEST(TrajectoryIOConventions, DefaultPCDViewpoints)
+{
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  EXPECT_TRUE(planar_grid::isDefaultPCDViewpoint(pose));
+  pose.linear() = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
+  EXPECT_TRUE(planar_grid::isDefaultPCDViewpoint(pose));
+  // Moved 1 mm, or turned 0.01 rad: a measured pose.
+  pose.translation().x() = 1e-3;
+  EXPECT_FALSE(planar_grid::isDefaultPCDViewpoint(pose));
+  pose = Eigen::Isometry3d(Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitZ()));
+  EXPECT_FALSE(planar_grid::isDefaultPCDViewpoint(pose));
 }
 
 TEST_F(TrajectoryIOFiles, KittiMalformedLineNamesFileAndLine)

@@ -513,3 +513,65 @@ TEST(YamlReader, ErrorsNameTheNodeAndWhatWasExpected)
   EXPECT_EQ(reader.resolve("/abs/x.yaml"), "/abs/x.yaml");
   EXPECT_EQ(reader.resolve(""), "");
 }
+
+TEST(PipelineConfig, FeatureSampleOnPCDInputIsAnErrorAtItsLine)
+{
+  const std::string pcd = "input:\n  type: pcd_files\n  files: [a.pcd]\n";
+  // Asked for explicitly: an error at the key's line.
+  const auto e = errorOf(pcd
+                         + "pipeline:\n  - type: multi_plane_segmentation\n"
+                           "    params: {sample: features}\n");
+  EXPECT_EQ(e.line(), 6) << e.what();
+  EXPECT_NE(std::string(e.what()).find("sample: cloud"), std::string::npos) << e.what();
+  // Left at its default: the planes are hypothesised on the cloud.
+  const auto config = parsePipelineConfig(
+    pcd + "pipeline:\n  - type: multi_plane_segmentation\n", "t.yaml", "/");
+  ASSERT_EQ(config.stages.size(), 1u);
+  EXPECT_EQ(config.stages[0].params.getChoice("sample"), "cloud");
+  // Stereo input keeps the paper's default.
+  const auto stereo = parsePipelineConfig(
+    INPUT + "pipeline:\n  - type: multi_plane_segmentation\n", "t.yaml", "/");
+  EXPECT_EQ(stereo.stages[0].params.getChoice("sample"), "features");
+  // The stereo feature occupancy needs stereo input too.
+  const auto kl =
+    errorOf(pcd + "pipeline:\n  - type: voxel_grid\n  - type: kl_occupancy_filter\n");
+  EXPECT_EQ(kl.line(), 6) << kl.what();
+}
+
+TEST(PipelineConfig, RegistrationPosesAndSensorUp)
+{
+  const std::string pcd = "input:\n  type: pcd_files\n  files: [a.pcd, b.pcd]\n";
+  const std::string stages = "pipeline:\n  - type: voxel_grid\n";
+  const auto config = parsePipelineConfig(
+    pcd
+      + "  sensor_up: [0, 0, 2]\n  poses: {format: registration, leaf_size_m: 0.1, "
+        "max_correspondence_distance_m: 1.0, feature_initial_guess: false, "
+        "max_residual_m: 0.02}\n"
+      + stages,
+    "t.yaml", "/");
+  EXPECT_EQ(config.input.poses_format, "registration");
+  EXPECT_TRUE(config.input.has_sensor_up);
+  EXPECT_EQ(config.input.sensor_up[2], 2.0);
+  EXPECT_EQ(config.input.registration_leaf_size_m, 0.1);
+  EXPECT_EQ(config.input.registration_max_correspondence_distance_m, 1.0);
+  EXPECT_FALSE(config.input.registration_feature_initial_guess);
+  EXPECT_EQ(config.input.registration_max_residual_m, 0.02);
+  // Each error at its line: a zero up, a registration key with another format, an
+  // out-of-range leaf, sensor_up with poses from a file, registration on stereo input.
+  EXPECT_EQ(errorOf(pcd + "  sensor_up: [0, 0, 0]\n" + stages).line(), 4);
+  EXPECT_EQ(errorOf(pcd + "  sensor_up: [0, 1]\n" + stages).line(), 4);
+  EXPECT_EQ(
+    errorOf(pcd + "  poses: {format: viewpoint, leaf_size_m: 0.1}\n" + stages).line(),
+    4);
+  EXPECT_EQ(
+    errorOf(pcd + "  poses: {format: registration, leaf_size_m: 0}\n" + stages).line(),
+    4);
+  EXPECT_EQ(errorOf(pcd + "  sensor_up: [0, 0, 1]\n  poses: {format: kitti, file: p}\n"
+                    + stages)
+              .line(),
+            4);
+  const auto stereo = errorOf(INPUT + "  poses: {format: registration}\n" + stages);
+  EXPECT_NE(std::string(stereo.what()).find("unknown for this input"),
+            std::string::npos)
+    << stereo.what();
+}

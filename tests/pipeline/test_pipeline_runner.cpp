@@ -335,7 +335,8 @@ TEST_F(PipelineRunnerTest, PCDFilesWithViewpointPoses)
   ASSERT_EQ(runner.frameCount(), 2u);
   runner.run();
   ASSERT_EQ(runner.trajectory().size(), 2u);
-  EXPECT_NEAR(runner.trajectory()[1].translation().x(), 5.0, 1e-6);
+  // The VIEWPOINT is in PCL's y-up world: its x (right) is the z-up world's -y.
+  EXPECT_NEAR(runner.trajectory()[1].translation().y(), -5.0, 1e-6);
   EXPECT_NEAR(runner.trajectory()[0].translation().norm(), 0.0, 1e-6);
 }
 

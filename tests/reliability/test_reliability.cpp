@@ -185,7 +185,8 @@ TEST_F(ReliabilityTest, PCDFilesRunInNameOrderWithinAPattern)
 {
   // Frames are the files sorted by name within each pattern, patterns in the order
   // given (config/example.yaml): with the VIEWPOINT x of a.pcd = 0 and of b.pcd = 5,
-  // "*.pcd" runs a then b, and the list [b.pcd, a.pcd] runs b then a.
+  // "*.pcd" runs a then b, and the list [b.pcd, a.pcd] runs b then a. The VIEWPOINT
+  // is in PCL's y-up world, whose x (right) is the z-up world's -y.
   auto cloud = wall();
   save("a.pcd", cloud);
   cloud.sensor_origin_ = Eigen::Vector4f(5, 0, 0, 1);
@@ -198,8 +199,8 @@ TEST_F(ReliabilityTest, PCDFilesRunInNameOrderWithinAPattern)
     PipelineRunner runner(parsePipelineConfig(pcdConfig(files) + world, "t.yaml", "/"));
     runner.run();
     ASSERT_EQ(runner.trajectory().size(), 2u) << files;
-    EXPECT_NEAR(runner.trajectory()[0].translation().x(), first_x, 1e-6) << files;
-    EXPECT_NEAR(runner.trajectory()[1].translation().x(), 5.0 - first_x, 1e-6) << files;
+    EXPECT_NEAR(runner.trajectory()[0].translation().y(), -first_x, 1e-6) << files;
+    EXPECT_NEAR(runner.trajectory()[1].translation().y(), first_x - 5.0, 1e-6) << files;
   }
 }
 
@@ -220,9 +221,11 @@ TEST_F(ReliabilityTest, RepeatedInputRunsEveryPassWithOffsetPoses)
   const auto report = runner.run();
   EXPECT_EQ(report.frames, 6u);
   ASSERT_EQ(runner.trajectory().size(), 6u);
+  // b.pcd's VIEWPOINT x = 5 (PCL's y-up world) is the z-up world's y = -5.
   for (std::size_t i = 0; i < 6; ++i) {
-    EXPECT_NEAR(runner.trajectory()[i].translation().x(), i % 2 == 0 ? 0.0 : 5.0, 1e-6);
-    EXPECT_NEAR(runner.trajectory()[i].translation().y(), 100.0 * (i / 2), 1e-6);
+    EXPECT_NEAR(runner.trajectory()[i].translation().x(), 0.0, 1e-6);
+    EXPECT_NEAR(runner.trajectory()[i].translation().y(),
+                (i % 2 == 0 ? 0.0 : -5.0) + 100.0 * static_cast<double>(i / 2), 1e-6);
   }
   // 20 memory samples at most, the last after the last frame.
   ASSERT_FALSE(report.rss_samples.empty());

@@ -33,8 +33,14 @@ public:
 
 /** \brief The frame source of an input configuration: checks that the files exist, that
  * the calibration loads and that there are as many poses as frames (a shorter pose file
- * is an error) before any frame is processed.
- * \throws planar_grid::IOError, planar_grid::ConfigError */
+ * is an error) before any frame is processed. Every pose is in the z-up world
+ * (docs/INPUTS.md): KITTI poses and PCD VIEWPOINTs are converted from their own
+ * conventions; PCD files whose VIEWPOINTs fix no pose are levelled on their floor
+ * (planar_grid::estimateFloorPlane()) or by input.sensor_up, and with
+ * input.poses.format registration they are first registered frame to frame
+ * (planar_grid::registerCloud(), which reads every file once here).
+ * \throws planar_grid::IOError, also for several PCD files whose VIEWPOINTs are all the
+ * same under format viewpoint (their motion is unknown); planar_grid::ConfigError */
 std::unique_ptr<FrameSource> createFrameSource(const InputConfig& input);
 
 } // namespace planar_grid

@@ -40,11 +40,13 @@ struct InputConfig {
   std::string calibration_right_file;
 
   /** \brief Poses: "none", "odometry" (estimated by an odometry stage),
-   * "karlsruhe_insdata", "kitti" (world_T_camera per frame), "euroc_groundtruth"
-   * (stereo input only: EuRoC gt_body_poses.txt, world_T_body by image index, with the
-   * euroc calibration's T_BS and rectification: world_T_camera = world_T_body *
-   * body_T_left * rectified_R_left^T) or, for PCD input, "viewpoint" (default there).
-   */
+   * "karlsruhe_insdata", "kitti" (world_T_camera per frame in KITTI's world, the first
+   * camera's optical frame; converted to the z-up world), "euroc_groundtruth" (stereo
+   * input only: EuRoC gt_body_poses.txt, world_T_body by image index, with the euroc
+   * calibration's T_BS and rectification: world_T_camera = world_T_body * body_T_left *
+   * rectified_R_left^T) or, for PCD input, "viewpoint" (default there: the VIEWPOINTs,
+   * see docs/INPUTS.md) and "registration" (frame-to-frame GICP). Every reader gives
+   * poses in the z-up world. */
   std::string poses_format{"none"};
   /** \brief Poses file ("" for none and viewpoint). */
   std::string poses_file;
@@ -59,6 +61,27 @@ struct InputConfig {
   /** \brief PCD input: files or glob patterns, resolved against the config's folder and
    * sorted by name within each pattern. */
   std::vector<std::string> pcd_files;
+
+  /** \brief PCD input: the up direction in the first file's sensor frame
+   * (input.sensor_up, non-zero, need not be unit), used where no pose fixes "up"
+   * (registration, or one file with PCL's default VIEWPOINT) instead of estimating it
+   * from the floor. */
+  std::array<double, 3> sensor_up{{0.0, 0.0, 0.0}};
+  /** \brief True when input.sensor_up was given. */
+  bool has_sensor_up{false};
+
+  /** \brief registration only: voxel edge the clouds are registered at, metres
+   * (input.poses.leaf_size_m). */
+  double registration_leaf_size_m{0.05};
+  /** \brief registration only: the coarse GICP pass's correspondence distance, metres
+   * (input.poses.max_correspondence_distance_m). */
+  double registration_max_correspondence_distance_m{0.5};
+  /** \brief registration only: also try an FPFH feature guess
+   * (input.poses.feature_initial_guess). */
+  bool registration_feature_initial_guess{true};
+  /** \brief registration only: a pair whose point-to-plane residual exceeds this is
+   * flagged with a warning, metres (input.poses.max_residual_m). */
+  double registration_max_residual_m{0.05};
 
   /** \brief Passes over the frames (input.repeat.count, >= 1): the input is run this
    * many times in a row, e.g. to test a long run (issue 8). */
