@@ -1128,6 +1128,10 @@ ExplicitSpaceGrid::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& poi
     throw Exception("ExplicitSpaceGrid::integratePointCloud: non-finite sensor origin");
   const double res = params_.resolution_m;
   const double max_t = params_.max_range_m / res; // voxel units
+  const double margin =
+    (params_.surface_margin_m > 0.0 ? params_.surface_margin_m
+                                    : params_.resolution_m * std::sqrt(3.0) / 2.0)
+    / res;
   const Eigen::Vector3d o = sensor_origin.cast<double>() / res;
   if (o.cwiseAbs().maxCoeff() + max_t >= MAX_KEY) {
     PCL_ERROR("[planar_grid::ExplicitSpaceGrid::integratePointCloud] Sensor origin "
@@ -1136,6 +1140,8 @@ ExplicitSpaceGrid::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& poi
   }
   BlockMap& blocks = impl_->blocks;
   const auto prior = static_cast<std::uint8_t>(params_.prior);
+  const auto free_code = static_cast<std::uint8_t>(SpaceState::FREE);
+  const auto occupied_code = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
   std::vector<BlockKey> touched;
   BlockKey cached_key{0, 0, 0};
   Block* cached = nullptr;
@@ -1153,7 +1159,11 @@ ExplicitSpaceGrid::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& poi
       touched.push_back(bk);
     }
     const int i = localOf(kx) + 8 * localOf(ky) + 64 * localOf(kz);
-    if (cached->get(i) == state)
+    const std::uint8_t current = cached->get(i);
+    // A ray passing through an occupied voxel leaves it occupied: one hit outweighs one
+    // miss, as in OctoMap's sensor model (log-odds +0.85 against -0.41), and rays from
+    // another scan graze floors and walls near their points.
+    if (current == state || (current == occupied_code && state == free_code))
       return;
     cached->makeMixed();
     cached->set(i, state);
@@ -1161,7 +1171,6 @@ ExplicitSpaceGrid::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& poi
 
   // Free: every voxel a ray crosses before its point's voxel (3D DDA, Amanatides and
   // Woo), up to max_range_m.
-  const auto free_code = static_cast<std::uint8_t>(SpaceState::FREE);
   const std::array<int, 3> origin_key{static_cast<int>(std::floor(o.x())),
                                       static_cast<int>(std::floor(o.y())),
                                       static_cast<int>(std::floor(o.z()))};
@@ -1174,7 +1183,10 @@ ExplicitSpaceGrid::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& poi
     if (!(length > 0.0))
       continue;
     const Eigen::Vector3d d = v / length;
-    const double t_end = std::min(length, max_t);
+    // A hit clears space up to the surface margin before it, as integrateDepthImage
+    // does in front of the measured depth: rays that graze a surface near their own
+    // point do not erase it.
+    const double t_end = std::min(length - margin, max_t);
     const bool hits = length <= max_t;
     std::array<int, 3> end_key{};
     if (hits)
@@ -1214,7 +1226,6 @@ ExplicitSpaceGrid::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& poi
     }
   }
   // Occupied: the voxel of every point within range.
-  const auto occupied = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
   for (const auto& p : points) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
       continue;
@@ -1222,7 +1233,7 @@ ExplicitSpaceGrid::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& poi
     if ((e - o).norm() > max_t)
       continue;
     set(static_cast<int>(std::floor(e.x())), static_cast<int>(std::floor(e.y())),
-        static_cast<int>(std::floor(e.z())), occupied);
+        static_cast<int>(std::floor(e.z())), occupied_code);
   }
   std::sort(touched.begin(), touched.end());
   touched.erase(std::unique(touched.begin(), touched.end()), touched.end());

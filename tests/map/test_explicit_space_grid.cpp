@@ -831,8 +831,8 @@ TEST(ExplicitSpaceGrid, ScanRaysMatchABruteForceSegmentOracle)
   // A 360 degree scan of a 6 x 4 x 3 m box room from an off-centre sensor, with a
   // 2.5 m range so that some rays end in range and others are cut: every voxel a
   // segment truly crosses (a slab test of the segment against each voxel of its
-  // bounding box) before its point's voxel is FREE, every point's voxel in range is
-  // OCCUPIED, and nothing else changes.
+  // bounding box) before the surface margin in front of its point is FREE, every
+  // point's voxel in range is OCCUPIED, and nothing else changes.
   const double res = 0.1, max_range = 2.5;
   ExplicitSpaceGrid grid(params(SpaceState::UNKNOWN, res, max_range));
   const Eigen::Vector3d origin(0.2317, 0.1713, 1.3129);
@@ -864,9 +864,10 @@ TEST(ExplicitSpaceGrid, ScanRaysMatchABruteForceSegmentOracle)
       continue;
     const Eigen::Vector3d e = pt.getVector3fMap().cast<double>() / res;
     const double length = (e - o).norm();
-    const double t_end = std::min(length, max_range / res);
-    const Eigen::Vector3d d = (e - o) / length;
     const bool hits = length <= max_range / res;
+    // A hit clears up to the surface margin (half a voxel diagonal) before its point.
+    const double t_end = std::min(length - std::sqrt(3.0) / 2.0, max_range / res);
+    const Eigen::Vector3d d = (e - o) / length;
     const std::tuple<int, int, int> end{static_cast<int>(std::floor(e.x())),
                                         static_cast<int>(std::floor(e.y())),
                                         static_cast<int>(std::floor(e.z()))};
@@ -915,6 +916,15 @@ TEST(ExplicitSpaceGrid, ScanRaysMatchABruteForceSegmentOracle)
   EXPECT_EQ(checked_free + checked_occupied,
             grid.getVoxelCount(SpaceState::FREE)
               + grid.getVoxelCount(SpaceState::OCCUPIED));
+  // A second scan from elsewhere: its rays cross voxels the first scan saw occupied,
+  // which stay occupied (one hit outweighs one miss), while the free space it crosses
+  // grows.
+  const std::size_t free_before = grid.getVoxelCount(SpaceState::FREE);
+  grid.integratePointCloud(scan, Eigen::Vector3f(-1.9f, 1.3f, 0.6f));
+  for (const auto& k : occupied_keys)
+    ASSERT_EQ(grid.getState(Key(std::get<0>(k), std::get<1>(k), std::get<2>(k))),
+              SpaceState::OCCUPIED);
+  EXPECT_GT(grid.getVoxelCount(SpaceState::FREE), free_before);
   EXPECT_THROW(
     grid.integratePointCloud(scan, Eigen::Vector3f(std::nanf(""), 0.0f, 0.0f)),
     planar_grid::Exception);

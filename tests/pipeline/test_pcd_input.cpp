@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/odometry/floor_alignment.h>
 #include <planar_grid/odometry/trajectory_io.h>
 #include <planar_grid/pipeline/frame_source.h>
@@ -426,6 +427,42 @@ TEST_F(PCDInputTest, RealRoomScansAreRegistered)
             << floorTiltDeg(worldCloud(a), a.world_T_camera.translation()) << " deg\n";
   EXPECT_LE(residual, 0.05);
   EXPECT_LT(floorTiltDeg(worldCloud(a), a.world_T_camera.translation()), 2.0);
+}
+
+TEST_F(PCDInputTest, RealRoomScansMapWithTheirPointsInOccupiedVoxels)
+{
+  const std::string scan1 = CLOUDS + "/room_scan1.pcd";
+  if (!haveData(scan1))
+    GTEST_SKIP() << scan1 << " not found";
+  // config/room_scans.yaml, as shipped: the two LiDAR scans registered and mapped, the
+  // explicit space by a ray to every point. Then the scans' own points, moved by their
+  // poses, lie in occupied voxels (the ground's too).
+  auto config = planar_grid::loadPipelineConfig(std::string(PLANAR_GRID_SOURCE_DIR)
+                                                + "/config/room_scans.yaml");
+  config.output.folder = (dir_ / "out").string();
+  planar_grid::PipelineRunner runner(config);
+  runner.run();
+  ASSERT_TRUE(runner.state().map);
+  const auto& space = runner.state().map->getSpaceLayer();
+  const auto frames = planar_grid::createFrameSource(config.input);
+  for (std::size_t i = 0; i < frames->size(); ++i) {
+    planar_grid::Frame frame;
+    frames->load(i, frame);
+    std::size_t points = 0, occupied = 0;
+    for (const auto& p : worldCloud(frame)) {
+      if (!pcl::isFinite(p))
+        continue;
+      ++points;
+      occupied += space.getState(Eigen::Vector3f(p.x, p.y, p.z))
+                      == planar_grid::SpaceState::OCCUPIED
+                    ? 1
+                    : 0;
+    }
+    const double share = static_cast<double>(occupied) / static_cast<double>(points);
+    std::cout << "room scan " << i + 1 << ": " << occupied << " of " << points
+              << " points in occupied voxels (" << share << ")\n";
+    EXPECT_GE(share, 0.8) << "scan " << i + 1;
+  }
 }
 
 TEST_F(PCDInputTest, RealKittiGroundTruthGroundInEveryFrame)
