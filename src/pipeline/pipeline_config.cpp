@@ -369,6 +369,54 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
   return out;
 }
 
+/** The paper's minimum cell is one quantity: the cells' min_cell_size_m and the map's
+ * resolution_m (and their thickness_m). A key the map stage leaves out takes the cuboid
+ * stage's value; two values set apart are an error at the map stage's key. */
+void
+shareCellSize(const YamlReader& r,
+              const YAML::Node& stage_nodes,
+              std::vector<StageConfig>& stages)
+{
+  const auto find = [&stages](const std::string& type) -> std::ptrdiff_t {
+    for (std::size_t i = 0; i < stages.size(); ++i)
+      if (stages[i].type == type)
+        return static_cast<std::ptrdiff_t>(i);
+    return -1;
+  };
+  const std::ptrdiff_t cells = find("planar_cuboid_approximation");
+  const std::ptrdiff_t map = find("map_integration");
+  if (cells < 0 || map < 0)
+    return;
+  const YAML::Node cell_params = stage_nodes[static_cast<std::size_t>(cells)]["params"];
+  const YAML::Node map_params = stage_nodes[static_cast<std::size_t>(map)]["params"];
+  StageConfig& cell_stage = stages[static_cast<std::size_t>(cells)];
+  StageConfig& map_stage = stages[static_cast<std::size_t>(map)];
+  for (const auto& [cell_key, map_key] :
+       {std::pair<std::string, std::string>{"min_cell_size_m", "resolution_m"},
+        std::pair<std::string, std::string>{"thickness_m", "thickness_m"}}) {
+    const double cell_value = cell_stage.params.getDouble(cell_key);
+    const bool map_set = map_params && map_params.IsMap() && map_params[map_key];
+    if (!map_set) {
+      map_stage.params.set(map_key, cell_value);
+      continue;
+    }
+    const double map_value = map_stage.params.getDouble(map_key);
+    if (std::abs(map_value - cell_value) > 1e-9 * std::max(1.0, std::abs(cell_value))) {
+      const bool cell_set = cell_params && cell_params.IsMap() && cell_params[cell_key];
+      r.fail(
+        map_params[map_key],
+        "map_integration: " + map_key + " " + map_stage.params.toString(map_key)
+          + " differs from planar_cuboid_approximation's " + cell_key + " "
+          + cell_stage.params.toString(cell_key)
+          + (cell_set
+               ? " (line " + std::to_string(cell_params[cell_key].Mark().line + 1) + ")"
+               : " (its default)")
+          + ": the map's raster and the cells share the paper's minimum cell; leave "
+            "the map's key out to take the cells' value");
+    }
+  }
+}
+
 PipelineConfig
 parseRoot(const YAML::Node& root, const std::string& source, const std::string& base)
 {
@@ -434,6 +482,7 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
     }
     config.stages.push_back(std::move(sc));
   }
+  shareCellSize(r, stages, config.stages);
 
   if (const YAML::Node output = root["output"])
     config.output = parseOutput(r, output, config.input);

@@ -575,3 +575,27 @@ TEST(PipelineConfig, RegistrationPosesAndSensorUp)
             std::string::npos)
     << stereo.what();
 }
+
+TEST(PipelineConfig, TheCellsAndTheMapShareTheMinimumCell)
+{
+  const std::string head = INPUT
+                           + "  poses: {format: kitti, file: poses.txt}\npipeline:\n"
+                             "  - type: planar_cuboid_approximation\n"
+                             "    params: {min_cell_size_m: 0.2, thickness_m: 0.15}\n";
+  // The map stage without the keys takes the cells' values.
+  const auto c = parsePipelineConfig(head + "  - type: map_integration\n", "t", "/");
+  ASSERT_EQ(c.stages.size(), 2u);
+  EXPECT_DOUBLE_EQ(c.stages[1].params.getDouble("resolution_m"), 0.2);
+  EXPECT_DOUBLE_EQ(c.stages[1].params.getDouble("thickness_m"), 0.15);
+  // The same value twice is fine; another one is an error at the map's key.
+  EXPECT_NO_THROW(parsePipelineConfig(
+    head + "  - type: map_integration\n    params: {resolution_m: 0.2}\n", "t", "/"));
+  const auto e =
+    errorOf(head + "  - type: map_integration\n    params:\n      resolution_m: 0.1\n");
+  EXPECT_EQ(e.line(), 14);
+  EXPECT_NE(std::string(e.what()).find("min_cell_size_m"), std::string::npos)
+    << e.what();
+  const auto t =
+    errorOf(head + "  - type: map_integration\n    params: {thickness_m: 0.3}\n");
+  EXPECT_NE(std::string(t.what()).find("thickness_m"), std::string::npos) << t.what();
+}
