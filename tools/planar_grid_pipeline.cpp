@@ -4,6 +4,7 @@
 // snapshot.
 
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/output_transaction.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 #include <planar_grid/pipeline/run_outputs.h>
@@ -192,7 +193,8 @@ void
 saveSnapshots(const planar_grid::PipelineConfig& config,
               const std::string& config_path,
               const planar_grid::PipelineRunner& runner,
-              planar_grid::RunReport& report)
+              planar_grid::RunReport& report,
+              planar_grid::OutputTransaction& outputs)
 {
   const auto& state = runner.state();
   const auto preset = config.output.snapshot_camera == "oblique"
@@ -231,7 +233,6 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
         const std::function<std::string(planar_grid::SceneRenderer&)>& add_content) {
       if (name.empty())
         return;
-      const std::string path = planar_grid::outputPath(config.output, name);
       planar_grid::SceneRenderer renderer;
       renderer.setBackground(Eigen::Vector3d(1.0, 1.0, 1.0));
       const std::string label = add_content(renderer);
@@ -244,9 +245,11 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
       } else {
         renderer.setCamera(preset);
       }
-      renderer.saveSnapshot(path, config.output.snapshot_size_px[0],
-                            config.output.snapshot_size_px[1]);
-      report.outputs.emplace_back(kind, path);
+      report.outputs.emplace_back(
+        kind, outputs.write(name, [&](const std::string& path) {
+          renderer.saveSnapshot(path, config.output.snapshot_size_px[0],
+                                config.output.snapshot_size_px[1]);
+        }));
     };
   const std::string frames_and_points = std::to_string(report.frames) + " frames, "
                                         + std::to_string(report.world_cloud_points)
@@ -433,17 +436,23 @@ run(int argc, char** argv)
                "second thread (as many as balance the threads' measured times)\n",
                ahead);
 
+  // The outputs replace the previous ones in the folder as one set (staged, then
+  // committed); opening the set here also finishes a commit a killed run left, removes
+  // its leftovers, and finds an unwritable folder before the first frame.
+  planar_grid::OutputTransaction outputs(config.output.folder);
+
   ProgressBar bar(::isatty(STDERR_FILENO) != 0);
   runner.setProgressCallback([&bar](std::size_t done, std::size_t total, double s) {
     bar.update(done, total, s);
   });
   planar_grid::RunReport report = runner.run();
 
-  planar_grid::writeRunOutputs(config.output, runner, report);
+  planar_grid::writeRunOutputs(config.output, runner, report, outputs);
 #ifdef PLANAR_GRID_WITH_VIEWER
-  saveSnapshots(config, config_path, runner, report);
+  saveSnapshots(config, config_path, runner, report, outputs);
 #endif
-  planar_grid::writeRunReport(config.output, report);
+  planar_grid::writeRunReport(config.output, report, outputs);
+  outputs.commit();
 
   std::cout << "\n" << report.timingTable() << "\nOutputs:\n";
   for (const auto& [kind, path] : report.outputs)

@@ -4,6 +4,7 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/odometry/trajectory_io.h>
+#include <planar_grid/visualization/pcd_file_check.h>
 #include <planar_grid/visualization/scene_renderer.h>
 #include <planar_grid/visualization/street_camera.h>
 
@@ -309,6 +310,7 @@ loadCloud(const std::string& path)
   print_highlight("Loading ");
   print_value("%s ", path.c_str());
   pcl::PCLPointCloud2 blob;
+  planar_grid::checkPCDFile(path); // PCL's reader crashes on files that are not PCD
   if (pcl::io::loadPCDFile(path, blob) < 0) {
     print_info("[failed]\n");
     throw planar_grid::IOError(path + ": cannot load the PCD file");
@@ -357,6 +359,9 @@ run(int argc, char** argv)
     printHelp(argv[0]);
     return EXIT_SUCCESS;
   }
+  // Bad input files fail before a window or an X server is started.
+  for (const auto& path : options.clouds)
+    planar_grid::checkPCDFile(path);
   // Before loading anything: this may re-execute the program under xvfb-run.
   if (!options.snapshot.empty())
     planar_grid::ensureDisplay(argc, argv);

@@ -22,7 +22,27 @@ namespace planar_grid {
 namespace {
 
 constexpr const char* MAGIC_LINE = "# Planar grid map file";
-constexpr int FORMAT_VERSION = 1;
+/** Version 2: the checksum covers the header lines before it as well as the data.
+ * Version 1 (the checksum covers the data only) is still read. */
+constexpr std::uint64_t FORMAT_VERSION = 2;
+/** The oldest version read. */
+constexpr std::uint64_t OLDEST_FORMAT_VERSION = 1;
+
+/** CRC-32 of \a header_size header bytes followed by \a data_size data bytes (version
+ * 2); of the data alone with \a header_size 0 (version 1). */
+std::string
+checksumText(const char* header,
+             std::size_t header_size,
+             const std::uint8_t* data,
+             std::size_t data_size)
+{
+  boost::crc_32_type crc;
+  crc.process_bytes(header, header_size);
+  crc.process_bytes(data, data_size);
+  char text[16];
+  std::snprintf(text, sizeof(text), "0x%08x", crc.checksum());
+  return text;
+}
 /** The text header is small; anything longer is not a map file. */
 constexpr std::size_t MAX_HEADER_BYTES = 64 * 1024;
 /** OctoMap's default clamping bounds, the probabilities of a known voxel. */
@@ -227,11 +247,12 @@ PlanarGridMap::serialize(std::string& bytes) const
          << "cuboids " << surface_.getCuboids().size() << "\n"
          << "space_bytes " << space_bytes << "\n"
          << "surface_bytes " << surface_bytes << "\n";
-  char crc_text[16];
-  std::snprintf(crc_text, sizeof(crc_text), "0x%08x", crc32(data.data(), data.size()));
-  header << "checksum_crc32 " << crc_text << "\n"
-         << "data\n";
+  // The checksum covers every header byte before its own line, then the data: a
+  // changed header value (resolution_m) is refused like a changed data byte.
   bytes = header.str();
+  bytes += "checksum_crc32 "
+           + checksumText(bytes.data(), bytes.size(), data.data(), data.size()) + "\n"
+           + "data\n";
   bytes.append(reinterpret_cast<const char*>(data.data()), data.size());
 }
 
@@ -276,8 +297,16 @@ PlanarGridMap::deserialize(const std::string& bytes, const std::string& path)
   std::uint64_t header_bytes = line.size() + 1;
   bool found_data = false;
   int line_number = 1;
+  // Where the checksum line starts and its line number: in version 2 it is the last
+  // line before "data" and covers the header bytes before it.
+  std::uint64_t checksum_line_start = 0;
+  int checksum_line = 0;
   while (std::getline(in, line)) {
     ++line_number;
+    if (line.rfind("checksum_crc32 ", 0) == 0) {
+      checksum_line_start = header_bytes;
+      checksum_line = line_number;
+    }
     header_bytes += line.size() + 1;
     if (header_bytes > MAX_HEADER_BYTES)
       throw IOError("map file " + path + ": no 'data' line in the first "
@@ -300,11 +329,18 @@ PlanarGridMap::deserialize(const std::string& bytes, const std::string& path)
 
   HeaderReader header(path, std::move(values));
   const auto version = header.count("version");
-  if (version != FORMAT_VERSION)
+  if (version < OLDEST_FORMAT_VERSION || version > FORMAT_VERSION)
     header.fail("version " + std::to_string(version)
-                + " is not supported (this "
-                  "reader knows version "
+                + " is not supported (this reader knows versions "
+                + std::to_string(OLDEST_FORMAT_VERSION) + " to "
                 + std::to_string(FORMAT_VERSION) + ")");
+  if (version >= 2 && checksum_line != line_number - 1)
+    header.fail("the checksum_crc32 line must be the last line before 'data'");
+  if (version < 2)
+    PCL_WARN("[planar_grid::PlanarGridMap::load] %s: a version %d map file, whose "
+             "checksum covers the data only; saving it again writes version %d, which "
+             "covers the header too.\n",
+             path.c_str(), static_cast<int>(version), static_cast<int>(FORMAT_VERSION));
   if (header.require("id") != "PlanarGridMap")
     header.fail("id must be 'PlanarGridMap'");
 
@@ -348,10 +384,10 @@ PlanarGridMap::deserialize(const std::string& bytes, const std::string& path)
       && !in.read(reinterpret_cast<char*>(data.data()),
                   static_cast<std::streamsize>(data.size())))
     header.fail("could not read the data section");
-  char expected[16];
-  std::snprintf(expected, sizeof(expected), "0x%08x", crc32(data.data(), data.size()));
+  const std::string expected = checksumText(
+    bytes.data(), version >= 2 ? checksum_line_start : 0, data.data(), data.size());
   if (crc_text != expected)
-    header.fail("checksum mismatch (header " + crc_text + ", data " + expected
+    header.fail("checksum mismatch (file " + crc_text + ", content " + expected
                 + "): the file is corrupt");
 
   PlanarGridMap map = [&]() {

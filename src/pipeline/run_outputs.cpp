@@ -24,6 +24,65 @@ createFolder(const std::string& folder)
   if (ec || !std::filesystem::is_directory(folder))
     throw IOError(folder + ": cannot create the output folder: " + ec.message());
 }
+
+/** Writes the output \a name with a function given the path to write; returns the
+ * path to report. */
+using OutputWriter =
+  std::function<std::string(const std::string& name,
+                            const std::function<void(const std::string&)>& write)>;
+
+template <typename PointT>
+void
+writeCompressedPCD(const std::string& path, const pcl::PointCloud<PointT>& cloud)
+{
+  writeFileAtomically(path, [&cloud](const std::string& tmp) {
+    pcl::PCDWriter writer;
+    return writer.writeBinaryCompressed(tmp, cloud) == 0;
+  });
+}
+
+void
+writeOutputs(const OutputConfig& output,
+             const PipelineRunner& runner,
+             RunReport& report,
+             const OutputWriter& write)
+{
+  if (!output.cloud.empty()) {
+    const auto& cloud = runner.state().world_cloud;
+    if (cloud && !cloud->empty())
+      report.outputs.emplace_back(
+        "cloud", write(output.cloud, [&cloud](const std::string& path) {
+          writeCompressedPCD(path, *cloud);
+        }));
+  }
+  if (!output.planes.empty()) {
+    const auto& planes = runner.state().plane_cloud;
+    if (planes && !planes->empty())
+      report.outputs.emplace_back(
+        "planes", write(output.planes, [&planes](const std::string& path) {
+          writeCompressedPCD(path, *planes);
+        }));
+  }
+  if (const auto& map = runner.state().map) {
+    if (!output.map.empty())
+      report.outputs.emplace_back(
+        "map", write(output.map, [&map](const std::string& path) { map->save(path); }));
+    if (!output.map_octomap.empty())
+      report.outputs.emplace_back(
+        "map_octomap", write(output.map_octomap, [&map](const std::string& path) {
+          map->exportOctoMap(path);
+        }));
+    if (!output.map_mesh.empty())
+      report.outputs.emplace_back(
+        "map_mesh", write(output.map_mesh,
+                          [&map](const std::string& path) { map->exportMesh(path); }));
+  }
+  if (!output.trajectory.empty() && !runner.trajectory().empty())
+    report.outputs.emplace_back(
+      "trajectory", write(output.trajectory, [&runner](const std::string& path) {
+        saveKittiPoses(path, runner.trajectory());
+      }));
+}
 } // namespace
 
 void
@@ -32,50 +91,26 @@ writeRunOutputs(const OutputConfig& output,
                 RunReport& report)
 {
   createFolder(output.folder);
-  if (!output.cloud.empty()) {
-    const std::string path = outputPath(output, output.cloud);
-    const auto& cloud = runner.state().world_cloud;
-    if (cloud && !cloud->empty()) {
-      writeFileAtomically(path, [&cloud](const std::string& tmp) {
-        pcl::PCDWriter writer;
-        return writer.writeBinaryCompressed(tmp, *cloud) == 0;
-      });
-      report.outputs.emplace_back("cloud", path);
-    }
-  }
-  if (!output.planes.empty()) {
-    const auto& planes = runner.state().plane_cloud;
-    if (planes && !planes->empty()) {
-      const std::string path = outputPath(output, output.planes);
-      writeFileAtomically(path, [&planes](const std::string& tmp) {
-        pcl::PCDWriter writer;
-        return writer.writeBinaryCompressed(tmp, *planes) == 0;
-      });
-      report.outputs.emplace_back("planes", path);
-    }
-  }
-  if (const auto& map = runner.state().map) {
-    if (!output.map.empty()) {
-      const std::string path = outputPath(output, output.map);
-      map->save(path);
-      report.outputs.emplace_back("map", path);
-    }
-    if (!output.map_octomap.empty()) {
-      const std::string path = outputPath(output, output.map_octomap);
-      map->exportOctoMap(path);
-      report.outputs.emplace_back("map_octomap", path);
-    }
-    if (!output.map_mesh.empty()) {
-      const std::string path = outputPath(output, output.map_mesh);
-      map->exportMesh(path);
-      report.outputs.emplace_back("map_mesh", path);
-    }
-  }
-  if (!output.trajectory.empty() && !runner.trajectory().empty()) {
-    const std::string path = outputPath(output, output.trajectory);
-    saveKittiPoses(path, runner.trajectory());
-    report.outputs.emplace_back("trajectory", path);
-  }
+  writeOutputs(output, runner, report,
+               [&output](const std::string& name,
+                         const std::function<void(const std::string&)>& write) {
+                 const std::string path = outputPath(output, name);
+                 write(path);
+                 return path;
+               });
+}
+
+void
+writeRunOutputs(const OutputConfig& output,
+                const PipelineRunner& runner,
+                RunReport& report,
+                OutputTransaction& transaction)
+{
+  writeOutputs(output, runner, report,
+               [&transaction](const std::string& name,
+                              const std::function<void(const std::string&)>& write) {
+                 return transaction.write(name, write);
+               });
 }
 
 void
@@ -85,6 +120,18 @@ writeRunReport(const OutputConfig& output, RunReport& report)
   const std::string path = outputPath(output, output.report);
   report.outputs.emplace_back("report", path);
   writeTextFileAtomically(path, report.toJson());
+}
+
+void
+writeRunReport(const OutputConfig& output,
+               RunReport& report,
+               OutputTransaction& transaction)
+{
+  report.outputs.emplace_back("report", transaction.finalPath(output.report));
+  const std::string json = report.toJson();
+  transaction.write(output.report, [&json](const std::string& path) {
+    writeTextFileAtomically(path, json);
+  });
 }
 
 } // namespace planar_grid

@@ -34,7 +34,8 @@ readTextProjectionRows(const std::string& path,
                        const std::string& right_key,
                        bool unlabelled_fallback,
                        ProjectionMatrix& left,
-                       ProjectionMatrix& right)
+                       ProjectionMatrix& right,
+                       int& right_line)
 {
   std::ifstream file(path);
   if (!file)
@@ -43,8 +44,12 @@ readTextProjectionRows(const std::string& path,
   bool found_right = false;
   bool any_label = false;
   std::vector<ProjectionMatrix> unlabelled;
+  std::vector<int> unlabelled_lines;
+  int left_line = 0;
+  int line_number = 0;
   std::string line;
   while (std::getline(file, line)) {
+    ++line_number;
     std::istringstream row(line);
     std::string key;
     if (!(row >> key))
@@ -57,13 +62,21 @@ readTextProjectionRows(const std::string& path,
       for (double& value : p)
         complete = complete && static_cast<bool>(numbers >> value);
       std::string rest;
-      if (complete && !(numbers >> rest))
+      if (complete && !(numbers >> rest)) {
         unlabelled.push_back(p);
-      else
+        unlabelled_lines.push_back(line_number);
+      } else
         any_label = true;
       continue;
     }
     any_label = true;
+    // A row given twice would silently take the later one.
+    int& first_line = key == left_key ? left_line : right_line;
+    if (first_line > 0)
+      throw IOError(path + ":" + std::to_string(line_number) + ": row '" + key
+                    + "' is given twice (first at line " + std::to_string(first_line)
+                    + ")");
+    first_line = line_number;
     ProjectionMatrix& p = (key == left_key) ? left : right;
     for (double& value : p)
       if (!(row >> value))
@@ -77,12 +90,35 @@ readTextProjectionRows(const std::string& path,
                     + "' rows and fewer than two unlabelled rows of 12 numbers");
     left = unlabelled[0];
     right = unlabelled[1];
+    right_line = unlabelled_lines[1];
     return;
   }
   if (!found_left)
     throw IOError(path + ": missing row '" + left_key + "'");
   if (!found_right)
     throw IOError(path + ": missing row '" + right_key + "'");
+}
+
+/** \brief The baselines of real stereo rigs lie between a few millimetres (phone and
+ * endoscope cameras) and a few tens of metres (wide-baseline rigs); a value outside
+ * [1 mm, 100 m] is a wrong unit or a corrupt row, and would scale every depth by it. */
+constexpr double MIN_BASELINE_M = 1e-3;
+constexpr double MAX_BASELINE_M = 100.0;
+
+/** \brief Throws an IOError naming \a where when \a baseline_m is a positive finite
+ * number outside [MIN_BASELINE_M, MAX_BASELINE_M]; other values are left to
+ * StereoCalibration::validate(). */
+void
+checkBaselineRange(const std::string& where, double baseline_m)
+{
+  if (std::isfinite(baseline_m) && baseline_m > 0.0
+      && (baseline_m < MIN_BASELINE_M || baseline_m > MAX_BASELINE_M)) {
+    std::ostringstream text;
+    text << where << ": the baseline is " << baseline_m << " m, outside ["
+         << MIN_BASELINE_M << ", " << MAX_BASELINE_M
+         << "] m for a stereo rig (a wrong unit or a corrupt value)";
+    throw IOError(text.str());
+  }
 }
 
 /** \brief Rectified intrinsics from the left and right 3x4 projection matrices of a
@@ -125,6 +161,12 @@ requireField(const YAML::Node& node, const std::string& key, const std::string& 
 {
   if (!node.IsMap() || !node[key])
     throw IOError(path + ": missing field '" + key + "'");
+  // yaml-cpp keeps both entries of a key given twice and answers with one of them.
+  int seen = 0;
+  for (const auto& entry : node)
+    if (entry.first.IsScalar() && entry.first.Scalar() == key && ++seen == 2)
+      throw IOError(path + ":" + std::to_string(entry.first.Mark().line + 1)
+                    + ": field '" + key + "' is given twice");
   return node[key];
 }
 
@@ -189,9 +231,13 @@ loadTextCalibration(const std::string& path,
                     bool unlabelled_fallback)
 {
   ProjectionMatrix left{}, right{};
-  readTextProjectionRows(path, left_key, right_key, unlabelled_fallback, left, right);
+  int right_line = 0;
+  readTextProjectionRows(path, left_key, right_key, unlabelled_fallback, left, right,
+                         right_line);
   StereoCameraModel model;
   model.calibration = calibrationFromProjections(left, right);
+  checkBaselineRange(path + ":" + std::to_string(right_line),
+                     model.calibration.baseline_m);
   return model;
 }
 
@@ -391,6 +437,7 @@ loadStereoCalibration(CalibrationFormat format,
       model = loadEuroc(path, right_path);
       break;
   }
+  checkBaselineRange(path, model.calibration.baseline_m);
   model.calibration.validate(path);
   return model;
 }

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <boost/crc.hpp>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -167,6 +168,56 @@ TEST_F(PlanarGridMapTest, CorruptDataFailsTheChecksumAndNamesTheFile)
   }
 }
 
+TEST_F(PlanarGridMapTest, EveryFlippedByteIsRefused)
+{
+  PlanarGridMap map(params());
+  fill(map);
+  const std::string file = path("map.pgmap");
+  map.save(file);
+  const std::vector<char> bytes = readAll(file);
+  // Every byte, header included, changed in two ways (its lowest bit, all its bits):
+  // each change is an IOError naming the file, never a map with other parameters
+  // (e.g. resolution_m 0.1 read as 0.3) and never a crash.
+  for (std::size_t i = 0; i < bytes.size(); ++i)
+    for (const char mask : {'\x01', '\xff'}) {
+      std::vector<char> corrupt = bytes;
+      corrupt[i] = static_cast<char>(corrupt[i] ^ mask);
+      writeAll(file, corrupt);
+      try {
+        PlanarGridMap::load(file);
+        ADD_FAILURE() << "byte " << i << " ('" << bytes[i] << "') changed was accepted";
+      } catch (const planar_grid::IOError& e) {
+        EXPECT_NE(std::string(e.what()).find(file), std::string::npos) << e.what();
+      }
+    }
+}
+
+TEST_F(PlanarGridMapTest, VersionOneFilesAreStillRead)
+{
+  PlanarGridMap map(params());
+  fill(map);
+  const std::string file = path("map.pgmap");
+  map.save(file);
+  const std::vector<char> bytes = readAll(file);
+  std::string text(bytes.begin(), bytes.end());
+  // A version 1 file: the same header with its CRC over the data only.
+  const std::size_t data = text.find("\ndata\n") + 6;
+  const std::size_t crc = text.find("checksum_crc32 0x") + 17;
+  boost::crc_32_type data_crc;
+  data_crc.process_bytes(text.data() + data, text.size() - data);
+  char hex[16];
+  std::snprintf(hex, sizeof(hex), "%08x", data_crc.checksum());
+  text.replace(crc, 8, hex);
+  text.replace(text.find("version 2"), 9, "version 1");
+  writeAll(file, std::vector<char>(text.begin(), text.end()));
+  EXPECT_TRUE(PlanarGridMap::load(file) == map);
+  // A version 2 file relabelled version 1 keeps its header-covering CRC: refused.
+  std::string relabelled(bytes.begin(), bytes.end());
+  relabelled.replace(relabelled.find("version 2"), 9, "version 1");
+  writeAll(file, std::vector<char>(relabelled.begin(), relabelled.end()));
+  EXPECT_THROW(PlanarGridMap::load(file), planar_grid::IOError);
+}
+
 TEST_F(PlanarGridMapTest, BadHeadersAreRejected)
 {
   PlanarGridMap map(params());
@@ -193,15 +244,16 @@ TEST_F(PlanarGridMapTest, BadHeadersAreRejected)
     }
   };
   expectError(replaced("# Planar grid map file", "# Something else"), "first line");
-  expectError(replaced("version 1", "version 2"), "version 2");
+  expectError(replaced("version 2", "version 3"), "version 3");
   expectError(replaced("resolution_m 0.1", "resolution_m 0"), "resolution_m");
   expectError(replaced("resolution_m 0.1", "resolution_m -0.1"), "resolution_m");
   expectError(replaced("resolution_m 0.1", "resolution_m abc"), "resolution_m");
   expectError(replaced("prior unknown", "prior maybe"), "prior");
   expectError(replaced("id PlanarGridMap\n", ""), "'id'");
-  expectError(replaced("planes 1", "planes 2"), "plane");
+  expectError(replaced("planes 1", "planes 2"), "checksum");
   expectError(replaced("space_bytes ", "space_bytes 9"), "truncated");
-  expectError(replaced("version 1\n", "version 1\nversion 1\n"), "twice");
+  expectError(replaced("version 2\n", "version 2\nversion 2\n"), "twice");
+  expectError(replaced("checksum_crc32", "# a comment\nchecksum_crc32"), "checksum");
   expectError(replaced("\ndata\n", "\n"), "data");
   EXPECT_THROW(PlanarGridMap::load(path("missing.pgmap")), planar_grid::IOError);
 }

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 namespace {
@@ -297,6 +298,51 @@ TEST_F(CalibrationIOFiles, NonPositiveFocalOrBaselineThrowsIOError)
     write("zero_baseline.txt", "P0: 718.8 0 607.2 0 0 718.8 185.2 0 0 0 1 0\n"
                                "P1: 718.8 0 607.2 0 0 718.8 185.2 0 0 0 1 0\n");
   expectIOError(CalibrationFormat::KITTI, zero_baseline, "baseline");
+}
+
+TEST_F(CalibrationIOFiles, ImplausibleBaselineNamesFileAndLine)
+{
+  // Karlsruhe's P2_roi with P(0,3) = -645.2e-9: B = 1e-9 m (1 nm) instead of 0.57 m;
+  // every depth would be 5.7e8 times too small.
+  const std::string nanometre =
+    write("nanometre.txt", "# calib\n"
+                           "P1_roi: 645.2 0 635.9 0 0 645.2 194.1 0 0 0 1 0\n"
+                           "P2_roi: 645.2 0 635.9 -645.2e-9 0 645.2 194.1 0 0 0 1 0\n");
+  expectIOError(CalibrationFormat::KARLSRUHE, nanometre,
+                ":3: the baseline is 1e-09 m, outside [0.001, 100] m");
+  // 386 km: millimetres read as metres, times a thousand over.
+  const std::string huge =
+    write("huge.txt", "P0: 718.8 0 607.2 0 0 718.8 185.2 0 0 0 1 0\n"
+                      "P1: 718.8 0 607.2 -277520000 0 718.8 185.2 0 0 0 1 0\n");
+  expectIOError(CalibrationFormat::KITTI, huge, ":2: the baseline is");
+  // The real baselines (0.57 m, 0.54 m) pass: the other tests read them.
+}
+
+TEST_F(CalibrationIOFiles, DuplicatedRowOrFieldNamesFileAndLine)
+{
+  // A second P2_roi row used to replace the first silently.
+  const std::string twice =
+    write("twice.txt", "P1_roi: 645.2 0 635.9 0 0 645.2 194.1 0 0 0 1 0\n"
+                       "P2_roi: 645.2 0 635.9 -368.3 0 645.2 194.1 0 0 0 1 0\n"
+                       "P2_roi: 645.2 0 635.9 -36.83 0 645.2 194.1 0 0 0 1 0\n");
+  expectIOError(CalibrationFormat::KARLSRUHE, twice,
+                ":3: row 'P2_roi:' is given twice (first at line 2)");
+  const std::string kitti_twice =
+    write("kitti_twice.txt", "P0: 718.8 0 607.2 0 0 718.8 185.2 0 0 0 1 0\n"
+                             "P0: 718.8 0 607.2 0 0 718.8 185.2 0 0 0 1 0\n"
+                             "P1: 718.8 0 607.2 -386.1 0 718.8 185.2 0 0 0 1 0\n");
+  expectIOError(CalibrationFormat::KITTI, kitti_twice,
+                ":2: row 'P0:' is given twice (first at line 1)");
+  // A YAML field given twice (yaml-cpp keeps both and answers with one).
+  const std::string right = DATA_DIR + "/rtabmap_stereo_rect/stereo_right.yaml";
+  std::ifstream in(right);
+  const std::string text((std::istreambuf_iterator<char>(in)),
+                         std::istreambuf_iterator<char>());
+  const auto at = text.find("projection_matrix:");
+  ASSERT_NE(at, std::string::npos);
+  const std::string left = write("left_twice.yaml", text + "\n" + text.substr(at));
+  expectIOError(CalibrationFormat::ROS_CAMERA_INFO, left,
+                "field 'projection_matrix' is given twice", right);
 }
 
 TEST_F(CalibrationIOFiles, MissingYamlFieldThrowsIOError)

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/output_transaction.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 
@@ -8,11 +9,32 @@
 
 namespace planar_grid {
 
-/** \brief Writes what a run produced into \a output.folder (created if needed): the
- * world cloud as binary-compressed PCD and the trajectory in KITTI format, each to a
- * temporary file renamed into place, and records them in \a report.outputs. The report
- * itself is written by writeRunReport(), last, so that it lists every output. \throws
- * planar_grid::IOError naming the file that could not be written \ingroup pipeline */
+/** \brief Stages what a run produced in \a transaction (see OutputTransaction): the
+ * world cloud and the planes as binary-compressed PCD, the map (.pgmap), its OctoMap
+ * (.bt) and mesh (.ply) exports and the trajectory in KITTI format, each under its name
+ * in \a output, and records their final paths in \a report.outputs. Nothing in the
+ * output folder changes until transaction.commit(). The report itself is staged by
+ * writeRunReport(), last, so that it lists every output.
+ * \throws planar_grid::IOError naming the output file (its final path) and the cause
+ * of a failed write (a full disk, the file size limit, ...); the previous outputs stay
+ * \ingroup pipeline */
+void writeRunOutputs(const OutputConfig& output,
+                     const PipelineRunner& runner,
+                     RunReport& report,
+                     OutputTransaction& transaction);
+
+/** \brief Stages report.json (RunReport::toJson()) in \a transaction and records its
+ * final path. \throws planar_grid::IOError as writeRunOutputs() */
+void writeRunReport(const OutputConfig& output,
+                    RunReport& report,
+                    OutputTransaction& transaction);
+
+/** \brief Writes the same files as the transaction overload straight into \a
+ * output.folder (created if needed), each replaced atomically on its own: a failure
+ * part way leaves the earlier files new and the later ones old. Prefer the
+ * transaction overload for a folder a reader must find consistent.
+ * \throws planar_grid::IOError naming the file that could not be written and the
+ * cause */
 void writeRunOutputs(const OutputConfig& output,
                      const PipelineRunner& runner,
                      RunReport& report);

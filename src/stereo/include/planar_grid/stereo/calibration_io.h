@@ -86,7 +86,8 @@ struct StereoCameraModel {
  * otherwise \return the rectified model; its calibration passes
  * StereoCalibration::validate() \throws planar_grid::IOError naming the file (and the
  * field) when the file is missing, unreadable, lacks a field, or gives a non-positive
- * focal length or baseline */
+ * focal length or baseline; with the file and line (text formats) when a row or field
+ * is given twice, or the baseline lies outside [0.001, 100] m */
 StereoCameraModel loadStereoCalibration(CalibrationFormat format,
                                         const std::string& path,
                                         const std::string& right_path = "");
