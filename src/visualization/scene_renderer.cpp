@@ -33,6 +33,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <tuple>
 #include <unordered_set>
 #include <utility>
 
@@ -521,13 +522,13 @@ SceneRenderer::addMap(const PlanarGridMap& map,
     c.width_m = c.height_m = c.thickness_m = edge;
     return c;
   };
+  std::vector<ExplicitSpaceGrid::VoxelKey> occupied_keys;
   space.forEachVoxel([&](const ExplicitSpaceGrid::VoxelKey& key, SpaceState state) {
     if (state == SpaceState::OCCUPIED) {
-      if (occupied.size() >= max_voxel_boxes)
+      if (occupied_keys.size() >= max_voxel_boxes)
         return;
-      const Eigen::Vector3f centre = space.toCentre(key);
-      if (!surface.findCuboid(centre))
-        occupied.push_back(box(centre, res));
+      if (!surface.findCuboid(space.toCentre(key)))
+        occupied_keys.push_back(key);
     } else if (state == SpaceState::UNKNOWN && unknown_opacity > 0.0) {
       const Eigen::Vector3i region(key.x() >> 3, key.y() >> 3, key.z() >> 3);
       const std::int64_t id =
@@ -539,7 +540,49 @@ SceneRenderer::addMap(const PlanarGridMap& map,
           (region.cast<float>() + Eigen::Vector3f::Constant(0.5f)) * coarse, coarse));
     }
   });
-  summary.occupied_voxel_boxes = occupied.size();
+  // The occupied voxels drawn as few boxes: runs along x, then equal runs in
+  // consecutive rows of y joined (the same volume, a fraction of the polygons: a
+  // street map holds a million voxels).
+  struct Run {
+    int x0, x1, y0, y1, z;
+  };
+  std::sort(occupied_keys.begin(), occupied_keys.end(),
+            [](const auto& a, const auto& b) {
+              return std::make_tuple(a.z(), a.y(), a.x())
+                     < std::make_tuple(b.z(), b.y(), b.x());
+            });
+  std::vector<Run> runs;
+  for (const auto& k : occupied_keys) {
+    if (!runs.empty() && runs.back().z == k.z() && runs.back().y0 == k.y()
+        && runs.back().x1 + 1 == k.x())
+      runs.back().x1 = k.x();
+    else
+      runs.push_back(Run{k.x(), k.x(), k.y(), k.y(), k.z()});
+  }
+  std::sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) {
+    return std::make_tuple(a.z, a.x0, a.x1, a.y0)
+           < std::make_tuple(b.z, b.x0, b.x1, b.y0);
+  });
+  std::vector<Run> rects;
+  for (const Run& r : runs) {
+    if (!rects.empty() && rects.back().z == r.z && rects.back().x0 == r.x0
+        && rects.back().x1 == r.x1 && rects.back().y1 + 1 == r.y0)
+      rects.back().y1 = r.y0;
+    else
+      rects.push_back(r);
+  }
+  occupied.reserve(rects.size());
+  for (const Run& r : rects) {
+    PlanarCuboid c = box(Eigen::Vector3f::Zero(), res);
+    c.centre = Eigen::Vector3f(0.5f * static_cast<float>(r.x0 + r.x1 + 1),
+                               0.5f * static_cast<float>(r.y0 + r.y1 + 1),
+                               static_cast<float>(r.z) + 0.5f)
+               * res;
+    c.width_m = static_cast<float>(r.x1 - r.x0 + 1) * res;  // along x
+    c.height_m = static_cast<float>(r.y1 - r.y0 + 1) * res; // along y
+    occupied.push_back(c);
+  }
+  summary.occupied_voxel_boxes = occupied_keys.size();
   summary.unknown_boxes = unknown.size();
   addCuboids(occupied, CuboidColorMode::SOLID, false, 1.0,
              Eigen::Vector3d(0.3, 0.3, 0.3));

@@ -129,7 +129,8 @@ public:
 
   /** \brief Adds a PlanarGridMap: the surface layer's cuboids coloured by occupancy
    * (Turbo ramp), the occupied voxels of the space layer that no cuboid covers as dark
-   * grey boxes, and the unknown space as translucent violet boxes of 8 voxels' edge
+   * grey boxes (runs along x and equal runs of consecutive rows joined: the same volume
+   * in a fraction of the polygons), and the unknown space as translucent violet boxes of 8 voxels' edge
    * (one per 8^3-voxel region holding an unknown voxel). Free space is not drawn.
    * \param[in] map the map
    * \param[in] unknown_opacity opacity of the unknown boxes, in [0, 1] (0: not drawn)
