@@ -73,10 +73,12 @@ wall(double yaw_rad, double lean_rad, double step_m)
  * voxel grid at 0.1 m (set to r by the evaluation), segmentation of the cloud,
  * cuboids and the map. */
 std::string
-planarPipeline(const std::string& files)
+planarPipeline(const std::string& files, const std::string& poses = "")
 {
-  return "input:\n  type: pcd_files\n  files: [" + files
-         + "]\npipeline:\n"
+  return "input:\n  type: pcd_files\n  files: [" + files + "]\n"
+         + (poses.empty() ? std::string()
+                          : "  poses: {format: kitti, file: " + poses + "}\n")
+         + "pipeline:\n"
            "  - type: voxel_grid\n    params: {leaf_size_m: 0.1}\n"
            "  - type: transform_to_world\n"
            "  - type: multi_plane_segmentation\n"
@@ -262,14 +264,29 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
   auto far_wall = wall(1.5708, 0.0, 0.02);
   for (auto& p : far_wall.points)
     p.y += 16.0f; // 4 m -> 20 m from the origin
-  ASSERT_EQ(pcl::io::savePCDFileBinary((dir_ / "near.pcd").string(), near_wall), 0);
-  ASSERT_EQ(pcl::io::savePCDFileBinary((dir_ / "far.pcd").string(), far_wall), 0);
+  // Both frames are taken at the origin, so they carry their pose in a KITTI file
+  // (identical VIEWPOINTs would be refused as unregistered): the identity camera pose,
+  // which the reader turns into the z-up world; the files hold the points in that
+  // camera's optical frame (x right, y down, z forward), so that the world sees them
+  // where the truth has them.
+  const auto optical = [](const pcl::PointCloud<pcl::PointXYZ>& world) {
+    pcl::PointCloud<pcl::PointXYZ> camera;
+    for (const auto& p : world.points)
+      camera.push_back(pcl::PointXYZ(-p.y, -p.z, p.x));
+    return camera;
+  };
+  ASSERT_EQ(
+    pcl::io::savePCDFileBinary((dir_ / "near.pcd").string(), optical(near_wall)), 0);
+  ASSERT_EQ(pcl::io::savePCDFileBinary((dir_ / "far.pcd").string(), optical(far_wall)),
+            0);
+  write("poses.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1 0\n");
   pcl::PointCloud<pcl::PointXYZ> both = near_wall;
   both += far_wall;
   ASSERT_EQ(pcl::io::savePCDFileBinary((dir_ / "truth.pcd").string(), both), 0);
   const std::string pipeline =
     write("p.yaml", planarPipeline((dir_ / "near.pcd").string() + ", "
-                                   + (dir_ / "far.pcd").string()));
+                                     + (dir_ / "far.pcd").string(),
+                                   (dir_ / "poses.txt").string()));
   const auto config = planar_grid::loadComparisonConfig(
     write("e.yaml", "resolutions_m: [0.2]\nplaces: {count: 5, radius_m: 8.0}\n"
                     "datasets:\n  - name: walls\n    pipeline: "
@@ -297,10 +314,19 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
   planar_grid::StandardVoxelGrid::Params params;
   params.resolution_m = 0.2;
   planar_grid::StandardVoxelGrid oracle(params);
-  oracle.insertPointCloud(voxelised(near_wall), Eigen::Vector3f::Zero());
+  // The pipeline voxelises each frame in its camera's frame, then moves it to the
+  // world.
+  const auto world = [](const pcl::PointCloud<pcl::PointXYZ>& camera) {
+    pcl::PointCloud<pcl::PointXYZ> out;
+    for (const auto& p : camera.points)
+      out.push_back(pcl::PointXYZ(p.z, -p.x, -p.y));
+    return out;
+  };
+  oracle.insertPointCloud(world(voxelised(optical(near_wall))),
+                          Eigen::Vector3f::Zero());
   const std::size_t near_cells = oracle.getOccupiedCount();
   const std::size_t after_first = oracle.getVoxelCount();
-  oracle.insertPointCloud(voxelised(far_wall), Eigen::Vector3f::Zero());
+  oracle.insertPointCloud(world(voxelised(optical(far_wall))), Eigen::Vector3f::Zero());
   ASSERT_GT(oracle.getOccupiedCount(), near_cells + 50);
 
   const auto& sg0 = by.at({0, "SG"});
