@@ -340,7 +340,7 @@ run(int argc, char** argv)
   if (find_switch(argc, argv, "-v"))
     setVerbosityLevel(L_DEBUG);
 
-  // Every argument must be a known option (S28): a typo is an error, not a default.
+  // Every argument must be a known option: a typo is an error, not a default.
   const std::vector<std::string> with_value{"--config", "--frames", "--output",
                                             "--checkpoint-every"};
   const std::vector<std::string> switches{"--no-snapshot", "--resume", "--sequential",

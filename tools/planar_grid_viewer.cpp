@@ -133,7 +133,7 @@ parseSize(const std::string& text, int& width_px, int& height_px)
 }
 
 /** \brief Parses comma-separated numbers, each complete ("1,2,x" and "1,,2" fail).
- * pcl::console::parse_x_arguments would turn junk into 0 with atof (S28). */
+ * pcl::console::parse_x_arguments would turn junk into 0 with atof. */
 bool
 parseNumbers(const std::string& text, std::vector<double>& values)
 {
@@ -154,7 +154,8 @@ parseNumbers(const std::string& text, std::vector<double>& values)
   }
 }
 
-/** \brief Reads every option; throws planar_grid::Exception on a malformed one (S28).
+/** \brief Reads every option; throws planar_grid::Exception on a malformed one
+ * (a malformed number is an error, never 0).
  * \param[out] help set when -h/--help was given */
 ViewerOptions
 parseOptions(int argc, char** argv, bool& help)

@@ -281,6 +281,34 @@ EurocCamera
 readEurocCamera(const std::string& path)
 {
   const YAML::Node node = loadYamlFile(path);
+  // The rectification below is OpenCV's pinhole model with radial-tangential
+  // distortion; another model (EuRoC's Kalibr files also say "equidistant" for
+  // fisheye lenses, "omni") would be rectified wrongly without a word, so it is
+  // refused by name. Files without the fields are taken as pinhole, radial-tangential.
+  const auto optionalName = [&node, &path](const char* key, const char* fallback) {
+    const YAML::Node field = node[key];
+    if (!field)
+      return std::string(fallback);
+    if (!field.IsScalar())
+      throw IOError(path + ": field '" + key + "' must be a name");
+    return field.as<std::string>();
+  };
+  const std::string camera_model = optionalName("camera_model", "pinhole");
+  if (camera_model != "pinhole")
+    throw IOError(path + ": camera_model '" + camera_model
+                  + "' is not supported; only 'pinhole' cameras are rectified");
+  const std::string distortion_model =
+    optionalName("distortion_model", "radial-tangential");
+  if (distortion_model != "radial-tangential" && distortion_model != "radtan")
+    throw IOError(
+      path + ": distortion_model '" + distortion_model
+      + "' is not supported (only radial-tangential is rectified"
+      + (distortion_model == "equidistant"
+           ? "; equidistant is the fisheye model: rectify the images first, "
+             "e.g. with cv::fisheye::stereoRectify, and give them with a "
+             "ros_camera_info calibration"
+           : std::string())
+      + ")");
   const std::vector<double> intrinsics = readNumbers(node, "intrinsics", 4, path);
   const YAML::Node distortion_node =
     requireField(node, "distortion_coefficients", path);

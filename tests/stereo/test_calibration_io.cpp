@@ -359,6 +359,35 @@ TEST_F(CalibrationIOFiles, MissingYamlFieldThrowsIOError)
   expectIOError(CalibrationFormat::EUROC, euroc, "T_BS", euroc);
 }
 
+TEST_F(CalibrationIOFiles, FisheyeAndOtherModelsAreRefusedByName)
+{
+  // The real EuRoC pair with its left camera's model changed: an equidistant (fisheye)
+  // distortion or a non-pinhole camera would be rectified wrongly, so each is refused
+  // with its name; the unchanged file loads.
+  const std::string left = DATA_DIR + "/euroc_v1_01_pairs/sensorLeft.yaml";
+  const std::string right = DATA_DIR + "/euroc_v1_01_pairs/sensorRight.yaml";
+  std::ifstream in(left);
+  const std::string text((std::istreambuf_iterator<char>(in)),
+                         std::istreambuf_iterator<char>());
+  ASSERT_NE(text.find("distortion_model: radial-tangential"), std::string::npos);
+  const auto replaced = [&text](const std::string& from, const std::string& to) {
+    std::string out = text;
+    out.replace(out.find(from), from.size(), to);
+    return out;
+  };
+  const std::string fisheye =
+    write("fisheye.yaml", replaced("distortion_model: radial-tangential",
+                                   "distortion_model: equidistant"));
+  expectIOError(CalibrationFormat::EUROC, fisheye, "distortion_model 'equidistant'",
+                right);
+  expectIOError(CalibrationFormat::EUROC, fisheye, "fisheye", right);
+  const std::string omni =
+    write("omni.yaml", replaced("camera_model: pinhole", "camera_model: omni"));
+  expectIOError(CalibrationFormat::EUROC, omni, "camera_model 'omni'", right);
+  EXPECT_NO_THROW(
+    planar_grid::loadStereoCalibration(CalibrationFormat::EUROC, left, right));
+}
+
 TEST(CalibrationIO, FormatFromString)
 {
   EXPECT_EQ(planar_grid::calibrationFormatFromString("karlsruhe"),

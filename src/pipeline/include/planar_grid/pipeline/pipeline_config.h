@@ -84,7 +84,7 @@ struct InputConfig {
   double registration_max_residual_m{0.05};
 
   /** \brief Passes over the frames (input.repeat.count, >= 1): the input is run this
-   * many times in a row, e.g. to test a long run (issue 8). */
+   * many times in a row, e.g. to test a long run. */
   int repeat_count{1};
   /** \brief Added to the poses' positions once per pass after the first, meters
    * (input.repeat.offset_m; zero: each pass revisits the same place). */
@@ -192,7 +192,7 @@ struct PipelineConfig {
   OutputConfig output;
 };
 
-/** \brief Loads and validates a pipeline YAML file strictly (S31): unknown keys,
+/** \brief Loads and validates a pipeline YAML file strictly: unknown keys,
  * unknown stage types (the message lists the known ones), wrong types and out-of-range
  * values are planar_grid::ConfigError with file:line:col. Relative input paths are
  * resolved against the file's folder. \throws planar_grid::ConfigError,
