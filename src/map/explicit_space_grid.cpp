@@ -167,6 +167,104 @@ localOf(int a)
   return a & (BLOCK_EDGE - 1);
 }
 
+/** \brief Voxel-by-voxel write access to the blocks, for writes that stay in one block
+ * for a while (a row of pixels, a ray): remembers the last block, creates missing ones
+ * at the prior, and compacts the touched blocks at the end (dropping those back at the
+ * prior), so that the representation stays canonical. */
+class BlockCursor {
+public:
+  BlockCursor(BlockMap& blocks, std::uint8_t prior) : blocks_(blocks), prior_(prior) {}
+
+  /** \brief The block of voxel (kx, ky, kz), created at the prior when missing; \a i
+   * is set to the voxel's index in it. */
+  Block& at(int kx, int ky, int kz, int& i)
+  {
+    const BlockKey bk{blockOf(kx), blockOf(ky), blockOf(kz)};
+    if (!cached_ || !(bk == cached_key_)) {
+      auto it = blocks_.find(bk);
+      if (it == blocks_.end()) {
+        Block b;
+        b.uniform = prior_;
+        it = blocks_.emplace(bk, std::move(b)).first;
+      }
+      cached_ = &it->second;
+      cached_key_ = bk;
+      touched_.push_back(bk);
+    }
+    i = localOf(kx) + 8 * localOf(ky) + 64 * localOf(kz);
+    return *cached_;
+  }
+
+  /** \brief Compacts every touched block and erases those at the prior. */
+  void compactTouched()
+  {
+    std::sort(touched_.begin(), touched_.end());
+    touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
+    for (const auto& bk : touched_) {
+      auto it = blocks_.find(bk);
+      if (it == blocks_.end())
+        continue;
+      it->second.compact();
+      if (it->second.uniform == prior_)
+        blocks_.erase(it);
+    }
+    touched_.clear();
+    cached_ = nullptr;
+  }
+
+private:
+  BlockMap& blocks_;
+  std::uint8_t prior_;
+  std::vector<BlockKey> touched_;
+  BlockKey cached_key_{0, 0, 0};
+  Block* cached_{nullptr};
+};
+
+/** \brief The start of a 3D DDA walk (Amanatides and Woo) from \a o along the unit
+ * direction \a d, both in voxel units: the first voxel, the step per axis, the ray
+ * parameter of the first boundary crossed per axis and the parameter between two. */
+struct DdaWalk {
+  std::array<int, 3> key{}, step{};
+  std::array<double, 3> t_max{}, t_delta{};
+
+  DdaWalk(const Eigen::Vector3d& o, const Eigen::Vector3d& d)
+  {
+    for (std::size_t a = 0; a < 3; ++a) {
+      const double oa = o[static_cast<Eigen::Index>(a)];
+      const double da = d[static_cast<Eigen::Index>(a)];
+      key[a] = static_cast<int>(std::floor(oa));
+      if (da > 0.0) {
+        step[a] = 1;
+        t_delta[a] = 1.0 / da;
+        t_max[a] = (std::floor(oa) + 1.0 - oa) / da;
+      } else if (da < 0.0) {
+        step[a] = -1;
+        t_delta[a] = -1.0 / da;
+        t_max[a] = (std::floor(oa) - oa) / da;
+      } else {
+        t_delta[a] = t_max[a] = std::numeric_limits<double>::infinity();
+      }
+    }
+  }
+
+  /** \brief The parameter where the ray enters the next voxel. */
+  double next() const { return std::min({t_max[0], t_max[1], t_max[2]}); }
+
+  /** \brief Moves to the next voxel; returns the parameter where the ray enters it. */
+  double advance()
+  {
+    std::size_t a = 0;
+    if (t_max[1] < t_max[a])
+      a = 1;
+    if (t_max[2] < t_max[a])
+      a = 2;
+    const double t = t_max[a];
+    key[a] += step[a];
+    t_max[a] += t_delta[a];
+    return t;
+  }
+};
+
 void
 putU32(std::vector<std::uint8_t>& b, std::uint32_t v)
 {
@@ -1074,9 +1172,7 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
   }
 
   // Occupied: the voxel of every measured pixel within max_range.
-  std::vector<BlockKey> touched;
-  BlockKey cached_key{0, 0, 0};
-  Block* cached = nullptr;
+  BlockCursor cursor(blocks, prior);
   const float inv_res = 1.0f / res;
   for (int v = 0; v < H; ++v) {
     const float yn = (static_cast<float>(v) - cy) / fy;
@@ -1090,34 +1186,15 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
       const Eigen::Vector3f pw = (w_T_c * pc) * inv_res;
       if (!(pw.cwiseAbs().maxCoeff() < static_cast<float>(MAX_KEY)))
         continue;
-      const int kx = static_cast<int>(std::floor(pw.x())),
-                ky = static_cast<int>(std::floor(pw.y())),
-                kz = static_cast<int>(std::floor(pw.z()));
-      const BlockKey bk{blockOf(kx), blockOf(ky), blockOf(kz)};
-      if (!cached || !(bk == cached_key)) {
-        auto it = blocks.find(bk);
-        if (it == blocks.end()) {
-          Block b;
-          b.uniform = prior;
-          it = blocks.emplace(bk, std::move(b)).first;
-        }
-        cached = &it->second;
-        cached_key = bk;
-        touched.push_back(bk);
-      }
-      cached->makeMixed();
-      cached->set(localOf(kx) + 8 * localOf(ky) + 64 * localOf(kz),
-                  static_cast<std::uint8_t>(SpaceState::OCCUPIED));
+      int i = 0;
+      Block& block = cursor.at(static_cast<int>(std::floor(pw.x())),
+                               static_cast<int>(std::floor(pw.y())),
+                               static_cast<int>(std::floor(pw.z())), i);
+      block.makeMixed();
+      block.set(i, static_cast<std::uint8_t>(SpaceState::OCCUPIED));
     }
   }
-  for (const auto& bk : touched) {
-    auto it = blocks.find(bk);
-    if (it == blocks.end())
-      continue;
-    it->second.compact();
-    if (it->second.uniform == prior)
-      blocks.erase(it);
-  }
+  cursor.compactTouched();
 }
 
 void
@@ -1142,38 +1219,22 @@ ExplicitSpaceGrid::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& poi
   const auto prior = static_cast<std::uint8_t>(params_.prior);
   const auto free_code = static_cast<std::uint8_t>(SpaceState::FREE);
   const auto occupied_code = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
-  std::vector<BlockKey> touched;
-  BlockKey cached_key{0, 0, 0};
-  Block* cached = nullptr;
+  BlockCursor cursor(blocks, prior);
   const auto set = [&](int kx, int ky, int kz, std::uint8_t state) {
-    const BlockKey bk{blockOf(kx), blockOf(ky), blockOf(kz)};
-    if (!cached || !(bk == cached_key)) {
-      auto it = blocks.find(bk);
-      if (it == blocks.end()) {
-        Block b;
-        b.uniform = prior;
-        it = blocks.emplace(bk, std::move(b)).first;
-      }
-      cached = &it->second;
-      cached_key = bk;
-      touched.push_back(bk);
-    }
-    const int i = localOf(kx) + 8 * localOf(ky) + 64 * localOf(kz);
-    const std::uint8_t current = cached->get(i);
+    int i = 0;
+    Block& block = cursor.at(kx, ky, kz, i);
+    const std::uint8_t current = block.get(i);
     // A ray passing through an occupied voxel leaves it occupied: one hit outweighs one
     // miss, as in OctoMap's sensor model (log-odds +0.85 against -0.41), and rays from
     // another scan graze floors and walls near their points.
     if (current == state || (current == occupied_code && state == free_code))
       return;
-    cached->makeMixed();
-    cached->set(i, state);
+    block.makeMixed();
+    block.set(i, state);
   };
 
   // Free: every voxel a ray crosses before its point's voxel (3D DDA, Amanatides and
   // Woo), up to max_range_m.
-  const std::array<int, 3> origin_key{static_cast<int>(std::floor(o.x())),
-                                      static_cast<int>(std::floor(o.y())),
-                                      static_cast<int>(std::floor(o.z()))};
   for (const auto& p : points) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
       continue;
@@ -1193,36 +1254,13 @@ ExplicitSpaceGrid::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& poi
       end_key = {static_cast<int>(std::floor(e.x())),
                  static_cast<int>(std::floor(e.y())),
                  static_cast<int>(std::floor(e.z()))};
-    std::array<int, 3> key = origin_key, step{};
-    std::array<double, 3> t_max{}, t_delta{};
-    for (std::size_t a = 0; a < 3; ++a) {
-      const double oa = o[static_cast<Eigen::Index>(a)];
-      const double da = d[static_cast<Eigen::Index>(a)];
-      if (da > 0.0) {
-        step[a] = 1;
-        t_delta[a] = 1.0 / da;
-        t_max[a] = (std::floor(oa) + 1.0 - oa) / da;
-      } else if (da < 0.0) {
-        step[a] = -1;
-        t_delta[a] = -1.0 / da;
-        t_max[a] = (std::floor(oa) - oa) / da;
-      } else {
-        t_delta[a] = t_max[a] = std::numeric_limits<double>::infinity();
-      }
-    }
+    DdaWalk walk(o, d);
     double t = 0.0;
     while (t <= t_end) {
-      if (hits && key == end_key)
+      if (hits && walk.key == end_key)
         break;
-      set(key[0], key[1], key[2], free_code);
-      std::size_t a = 0;
-      if (t_max[1] < t_max[a])
-        a = 1;
-      if (t_max[2] < t_max[a])
-        a = 2;
-      t = t_max[a];
-      key[a] += step[a];
-      t_max[a] += t_delta[a];
+      set(walk.key[0], walk.key[1], walk.key[2], free_code);
+      t = walk.advance();
     }
   }
   // Occupied: the voxel of every point within range.
@@ -1235,16 +1273,7 @@ ExplicitSpaceGrid::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& poi
     set(static_cast<int>(std::floor(e.x())), static_cast<int>(std::floor(e.y())),
         static_cast<int>(std::floor(e.z())), occupied_code);
   }
-  std::sort(touched.begin(), touched.end());
-  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
-  for (const auto& bk : touched) {
-    auto it = blocks.find(bk);
-    if (it == blocks.end())
-      continue;
-    it->second.compact();
-    if (it->second.uniform == prior)
-      blocks.erase(it);
-  }
+  cursor.compactTouched();
 }
 
 // ---------------------------------------------------------------------------------
@@ -1260,35 +1289,19 @@ ExplicitSpaceGrid::castRay(const Eigen::Vector3f& origin,
       || !(max_range_m >= 0.0) || !std::isfinite(max_range_m))
     return false;
   const double res = params_.resolution_m;
-  Eigen::Vector3d o = origin.cast<double>() / res;
+  const Eigen::Vector3d o = origin.cast<double>() / res;
   const Eigen::Vector3d d = direction.cast<double>() / n;
   const double max_t = max_range_m / res; // in voxel units
   if (o.cwiseAbs().maxCoeff() + max_t >= MAX_KEY)
     return false;
-  std::array<int, 3> key, step;
-  std::array<double, 3> t_max, t_delta;
-  for (int a = 0; a < 3; ++a) {
-    key[static_cast<std::size_t>(a)] = static_cast<int>(std::floor(o[a]));
-    if (d[a] > 0.0) {
-      step[static_cast<std::size_t>(a)] = 1;
-      t_delta[static_cast<std::size_t>(a)] = 1.0 / d[a];
-      t_max[static_cast<std::size_t>(a)] = (std::floor(o[a]) + 1.0 - o[a]) / d[a];
-    } else if (d[a] < 0.0) {
-      step[static_cast<std::size_t>(a)] = -1;
-      t_delta[static_cast<std::size_t>(a)] = -1.0 / d[a];
-      t_max[static_cast<std::size_t>(a)] = (std::floor(o[a]) - o[a]) / d[a];
-    } else {
-      step[static_cast<std::size_t>(a)] = 0;
-      t_delta[static_cast<std::size_t>(a)] = std::numeric_limits<double>::infinity();
-      t_max[static_cast<std::size_t>(a)] = std::numeric_limits<double>::infinity();
-    }
-  }
+  DdaWalk walk(o, d);
   const auto occupied = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
   const bool prior_occupied = params_.prior == SpaceState::OCCUPIED;
   BlockKey cached_key{0, 0, 0};
   const Block* cached = nullptr;
   bool cached_valid = false;
   while (true) {
+    const std::array<int, 3>& key = walk.key;
     const BlockKey bk{blockOf(key[0]), blockOf(key[1]), blockOf(key[2])};
     if (!cached_valid || !(bk == cached_key)) {
       const auto it = impl_->blocks.find(bk);
@@ -1304,16 +1317,9 @@ ExplicitSpaceGrid::castRay(const Eigen::Vector3f& origin,
       hit = toCentre(VoxelKey(key[0], key[1], key[2]));
       return true;
     }
-    int a = 0;
-    if (t_max[1] < t_max[static_cast<std::size_t>(a)])
-      a = 1;
-    if (t_max[2] < t_max[static_cast<std::size_t>(a)])
-      a = 2;
-    const auto sa = static_cast<std::size_t>(a);
-    if (t_max[sa] > max_t)
+    if (walk.next() > max_t)
       return false;
-    key[sa] += step[sa];
-    t_max[sa] += t_delta[sa];
+    walk.advance();
   }
 }
 
