@@ -167,6 +167,20 @@ localOf(int a)
   return a & (BLOCK_EDGE - 1);
 }
 
+/** \brief The blocks in key order (z, then y, then x), for the outputs that must not
+ * depend on the hash map's order. */
+std::vector<std::pair<BlockKey, const Block*>>
+sortedBlocks(const BlockMap& blocks)
+{
+  std::vector<std::pair<BlockKey, const Block*>> sorted;
+  sorted.reserve(blocks.size());
+  for (const auto& kv : blocks)
+    sorted.emplace_back(kv.first, &kv.second);
+  std::sort(sorted.begin(), sorted.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  return sorted;
+}
+
 /** \brief Voxel-by-voxel write access to the blocks, for writes that stay in one block
  * for a while (a row of pixels, a ray): remembers the last block, creates missing ones
  * at the prior, and compacts the touched blocks at the end (dropping those back at the
@@ -1329,12 +1343,7 @@ void
 ExplicitSpaceGrid::visitVoxels(void (*visit)(void*, const VoxelKey&, SpaceState),
                                void* context) const
 {
-  std::vector<std::pair<BlockKey, const Block*>> sorted;
-  sorted.reserve(impl_->blocks.size());
-  for (const auto& kv : impl_->blocks)
-    sorted.emplace_back(kv.first, &kv.second);
-  std::sort(sorted.begin(), sorted.end(),
-            [](const auto& a, const auto& b) { return a.first < b.first; });
+  const auto sorted = sortedBlocks(impl_->blocks);
   const auto prior = static_cast<std::uint8_t>(params_.prior);
   for (const auto& [bk, block] : sorted)
     for (int i = 0; i < BLOCK_VOXELS; ++i) {
@@ -1754,12 +1763,7 @@ ExplicitSpaceGrid::exportOctoMap(const std::string& path) const
   const auto prior = static_cast<std::uint8_t>(params_.prior);
   const auto unknown = static_cast<std::uint8_t>(SpaceState::UNKNOWN);
   const auto occupied = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
-  std::vector<std::pair<BlockKey, const Block*>> sorted;
-  sorted.reserve(impl_->blocks.size());
-  for (const auto& kv : impl_->blocks)
-    sorted.emplace_back(kv.first, &kv.second);
-  std::sort(sorted.begin(), sorted.end(),
-            [](const auto& a, const auto& b) { return a.first < b.first; });
+  const auto sorted = sortedBlocks(impl_->blocks);
   std::size_t skipped = 0;
   for (const auto& [bk, block] : sorted) {
     const Eigen::Vector3i base = Eigen::Vector3i(bk.x, bk.y, bk.z) * BLOCK_EDGE
