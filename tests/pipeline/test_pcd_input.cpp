@@ -12,8 +12,10 @@
 #include <pcl/filters/voxel_grid.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/kdtree/kdtree_flann.h>
+#include <pcl/sample_consensus/ransac.h>
+#include <pcl/sample_consensus/sac_model_parallel_plane.h>
+#include <pcl/sample_consensus/sac_model_plane.h>
 #include <pcl/search/kdtree.h>
-#include <pcl/segmentation/sac_segmentation.h>
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -86,6 +88,43 @@ floorTiltDeg(const Cloud& world, const Eigen::Vector3d& sensor_origin)
         planar_grid::FloorEstimationParams(), floor, inliers))
     return 90.0;
   return planar_grid::planeTiltFromHorizontal(floor) * 180.0 / PI;
+}
+
+/** \brief A RANSAC plane (PCL's plane model and estimator, refitted to its inliers, as
+ * pcl::SACSegmentation with optimized coefficients does), optionally parallel to
+ * \a axis within \a eps_rad. The model is created here, not inside PCL's library:
+ * SACSegmentation allocates it there and frees it in the caller, which
+ * AddressSanitizer reports as a malloc / operator delete mismatch. */
+bool
+fitPlane(const Cloud::ConstPtr& cloud,
+         double threshold_m,
+         const Eigen::Vector3f* axis,
+         double eps_rad,
+         pcl::Indices& inliers,
+         Eigen::Vector4f& plane)
+{
+  pcl::SampleConsensusModel<pcl::PointXYZ>::Ptr model;
+  if (axis) {
+    pcl::SampleConsensusModelParallelPlane<pcl::PointXYZ>::Ptr parallel(
+      new pcl::SampleConsensusModelParallelPlane<pcl::PointXYZ>(cloud));
+    parallel->setAxis(*axis);
+    parallel->setEpsAngle(eps_rad);
+    model = parallel;
+  } else
+    model.reset(new pcl::SampleConsensusModelPlane<pcl::PointXYZ>(cloud));
+  pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, threshold_m);
+  ransac.setMaxIterations(50); // SACSegmentation's default
+  if (!ransac.computeModel())
+    return false;
+  ransac.getInliers(inliers);
+  Eigen::VectorXf coefficients, refined;
+  ransac.getModelCoefficients(coefficients);
+  model->optimizeModelCoefficients(inliers, coefficients, refined);
+  model->selectWithinDistance(refined, threshold_m, inliers);
+  if (refined.size() != 4)
+    return false;
+  plane = refined.head<4>();
+  return true;
 }
 
 /** \brief RMS point-to-plane distance, metres, from \a source's points (voxels of
@@ -335,19 +374,12 @@ TEST_F(PCDInputTest, RealPairwiseCapturesMapToOneOffice)
   grid.filter(*remaining);
   int walls = 0;
   for (int attempt = 0; attempt < 8; ++attempt) {
-    pcl::SACSegmentation<pcl::PointXYZ> segmentation;
-    segmentation.setModelType(pcl::SACMODEL_PARALLEL_PLANE);
-    segmentation.setAxis(Eigen::Vector3f::UnitZ());
-    segmentation.setEpsAngle(10.0 * PI / 180.0);
-    segmentation.setDistanceThreshold(0.03);
-    segmentation.setOptimizeCoefficients(true);
-    segmentation.setInputCloud(remaining);
+    const Eigen::Vector3f up = Eigen::Vector3f::UnitZ();
     pcl::PointIndices::Ptr inliers(new pcl::PointIndices);
-    pcl::ModelCoefficients c;
-    segmentation.segment(*inliers, c);
-    if (inliers->indices.size() < 2000)
+    Eigen::Vector4f plane;
+    if (!fitPlane(remaining, 0.03, &up, 10.0 * PI / 180.0, inliers->indices, plane)
+        || inliers->indices.size() < 2000)
       break;
-    const Eigen::Vector4f plane(c.values.data());
     Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
     for (const auto i : inliers->indices)
       centroid += (*remaining)[static_cast<std::size_t>(i)].getVector3fMap();
@@ -369,16 +401,9 @@ TEST_F(PCDInputTest, RealPairwiseCapturesMapToOneOffice)
     *remaining = rest;
     if (near->size() < 500)
       continue; // not seen in the last capture
-    pcl::SACSegmentation<pcl::PointXYZ> refit;
-    refit.setModelType(pcl::SACMODEL_PLANE);
-    refit.setDistanceThreshold(0.03);
-    refit.setOptimizeCoefficients(true);
-    refit.setInputCloud(near);
-    pcl::PointIndices refit_inliers;
-    pcl::ModelCoefficients r;
-    refit.segment(refit_inliers, r);
-    ASSERT_EQ(r.values.size(), 4u);
-    Eigen::Vector4f again(r.values.data());
+    pcl::Indices refit_inliers;
+    Eigen::Vector4f again;
+    ASSERT_TRUE(fitPlane(near, 0.03, nullptr, 0.0, refit_inliers, again));
     if (again.head<3>().dot(plane.head<3>()) < 0.0f)
       again = -again;
     const double angle_deg =
