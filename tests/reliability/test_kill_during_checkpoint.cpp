@@ -16,44 +16,22 @@
 #include <string>
 #include <vector>
 
+#include "karlsruhe_job.h"
+
 namespace fs = std::filesystem;
 
 namespace {
-
-const std::string KARLSRUHE =
-  std::string(PLANAR_GRID_DATA_DIR) + "/karlsruhe_2010_03_09_drive_0023";
 
 /** Karlsruhe frames 10-15 through the paper pipeline with the map, a checkpoint after
  * every frame, no snapshots. */
 std::string
 config(const fs::path& output)
 {
-  return "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE
-         + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE
-         + "/right/I2_%06d.png\n  first_index: 10\n  frame_count: 6\n"
-           "  calibration: {format: karlsruhe, file: "
-         + KARLSRUHE
-         + "/calib.txt}\n  poses: {format: karlsruhe_insdata, file: " + KARLSRUHE
-         + "/insdata.txt, camera_height_m: 1.57, camera_pitch_rad: 0.09}\n"
-           "pipeline:\n"
-           "  - type: stereo_disparity\n"
-           "    params: {num_disparities_px: 128, max_range_m: 30.0}\n"
-           "  - type: feature_matching\n"
-           "    params: {max_disparity_px: 128, max_range_m: 30.0}\n"
-           "  - type: kl_occupancy_filter\n"
-           "  - type: voxel_grid\n    params: {leaf_size_m: 0.1}\n"
-           "  - type: transform_to_world\n"
-           "  - type: multi_plane_segmentation\n"
-           "    params: {min_inliers: 300, sample: features}\n"
-           "  - type: ground_removal\n"
-           "  - type: planar_cuboid_approximation\n"
-           "  - type: map_integration\n    params: {prior: free}\n"
-           "  - type: accumulate\n"
-           "output:\n  folder: "
-         + output.string()
-         + "\n  snapshot: \"\"\n  planes_snapshot: \"\"\n  cuboids_snapshot: \"\"\n"
-           "  map_snapshot: \"\"\n  map_octomap: \"\"\n  map_mesh: \"\"\n"
-           "  checkpoint: checkpoint.pgck\n  checkpoint_every_n_frames: 1\n";
+  return planar_grid::test::karlsruheJob(
+    6, output,
+    "  snapshot: \"\"\n  planes_snapshot: \"\"\n  cuboids_snapshot: \"\"\n"
+    "  map_snapshot: \"\"\n  map_octomap: \"\"\n  map_mesh: \"\"\n"
+    "  checkpoint: checkpoint.pgck\n  checkpoint_every_n_frames: 1\n");
 }
 
 /** Starts planar_grid_pipeline with \a args (output to /dev/null); returns its pid. */
