@@ -328,6 +328,13 @@ public:
   void segment(std::vector<pcl::ModelCoefficients>& model_coefficients,
                std::vector<pcl::PointIndices>& inliers);
 
+  /** \brief Checks the parameters against their documented ranges, as segment() does
+   * before it starts (it then reports the same text with PCL_ERROR and gives no
+   * planes).
+   * \return nullptr when every parameter is valid, else what is wrong (e.g.
+   * "distance_threshold must be > 0 m") */
+  const char* checkParameters() const;
+
 protected:
   using pcl::PCLBase<PointT>::input_;
   using pcl::PCLBase<PointT>::indices_;

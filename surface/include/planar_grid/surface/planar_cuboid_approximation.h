@@ -180,6 +180,12 @@ public:
    * the non-planar ones; empty on degenerate input or invalid parameters */
   void approximate(PlanarCuboids& cuboids);
 
+  /** \brief Checks the parameters against their documented ranges, as approximate()
+   * does before it starts (it then reports the same text with PCL_ERROR and gives no
+   * cuboids). \return nullptr when every parameter is valid, else what is wrong (e.g.
+   * "thickness must be finite and > 0 m") */
+  const char* checkParameters() const;
+
 protected:
   using pcl::PCLBase<PointT>::input_;
   using pcl::PCLBase<PointT>::indices_;

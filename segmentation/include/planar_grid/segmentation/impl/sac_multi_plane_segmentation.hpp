@@ -327,14 +327,9 @@ optimizePlane(const std::vector<float>& x,
 } // namespace detail
 
 template <typename PointT>
-bool
-SACMultiPlaneSegmentation<PointT>::initCompute()
+const char*
+SACMultiPlaneSegmentation<PointT>::checkParameters() const
 {
-  if (!pcl::PCLBase<PointT>::initCompute()) {
-    PCL_ERROR("[planar_grid::%s::segment] No input cloud given.\n",
-              getClassName().c_str());
-    return false;
-  }
   const char* bad = nullptr;
   if (!(distance_threshold_ > 0.0))
     bad = "distance_threshold must be > 0 m";
@@ -365,6 +360,19 @@ SACMultiPlaneSegmentation<PointT>::initCompute()
     bad = "max_sample_size must be >= 3";
   else if (lo_iterations_ < 0)
     bad = "lo_iterations must be >= 0";
+  return bad;
+}
+
+template <typename PointT>
+bool
+SACMultiPlaneSegmentation<PointT>::initCompute()
+{
+  if (!pcl::PCLBase<PointT>::initCompute()) {
+    PCL_ERROR("[planar_grid::%s::segment] No input cloud given.\n",
+              getClassName().c_str());
+    return false;
+  }
+  const char* bad = checkParameters();
   if (bad != nullptr) {
     PCL_ERROR("[planar_grid::%s::segment] Invalid parameter: %s.\n",
               getClassName().c_str(), bad);

@@ -36,14 +36,9 @@ PlanarCuboidApproximation<PointT>::getHorizontalReference() const
 }
 
 template <typename PointT>
-bool
-PlanarCuboidApproximation<PointT>::initCompute()
+const char*
+PlanarCuboidApproximation<PointT>::checkParameters() const
 {
-  if (!pcl::PCLBase<PointT>::initCompute()) {
-    PCL_ERROR("[planar_grid::%s::approximate] No input cloud given.\n",
-              getClassName().c_str());
-    return false;
-  }
   const char* bad = nullptr;
   if (!(min_cell_size_ > 0.0) || !std::isfinite(min_cell_size_))
     bad = "min_cell_size must be finite and > 0 m";
@@ -64,6 +59,19 @@ PlanarCuboidApproximation<PointT>::initCompute()
     bad = "up_axis must be finite and non-zero";
   else if (!getSensorOrigin().allFinite())
     bad = "sensor_origin must be finite";
+  return bad;
+}
+
+template <typename PointT>
+bool
+PlanarCuboidApproximation<PointT>::initCompute()
+{
+  if (!pcl::PCLBase<PointT>::initCompute()) {
+    PCL_ERROR("[planar_grid::%s::approximate] No input cloud given.\n",
+              getClassName().c_str());
+    return false;
+  }
+  const char* bad = checkParameters();
   if (bad != nullptr) {
     PCL_ERROR("[planar_grid::%s::approximate] Invalid parameter: %s.\n",
               getClassName().c_str(), bad);
