@@ -1,0 +1,965 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// SACMultiPlaneSegmentation, PlanarCuboidApproximation and KLDivergenceOccupancyFilter
+// on numpy arrays (instantiated for pcl::PointXYZ), with their results as arrays.
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/filters/kl_divergence_occupancy_filter.h>
+#include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
+#include <planar_grid/surface/planar_cuboid_approximation.h>
+
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "planar_grid_python.h"
+
+namespace planar_grid {
+namespace python {
+
+namespace {
+
+using Segmentation = SACMultiPlaneSegmentation<pcl::PointXYZ>;
+using Approximation = PlanarCuboidApproximation<pcl::PointXYZ>;
+
+/** The filter with its parameter check public, so that Python gets the library's text
+ * as a ValueError instead of an empty result and a console message. */
+class OccupancyFilter : public KLDivergenceOccupancyFilter<pcl::PointXYZ> {
+public:
+  using KLDivergenceOccupancyFilter<pcl::PointXYZ>::checkParameters;
+};
+
+std::string
+methodName(SACMethod method)
+{
+  switch (method) {
+    case SACMethod::MSAC:
+      return "msac";
+    case SACMethod::PROSAC:
+      return "prosac";
+    case SACMethod::RANSAC:
+      break;
+  }
+  return "ransac";
+}
+
+SACMethod
+methodFromName(const std::string& name)
+{
+  if (name == "ransac")
+    return SACMethod::RANSAC;
+  if (name == "msac")
+    return SACMethod::MSAC;
+  if (name == "prosac")
+    return SACMethod::PROSAC;
+  throw py::value_error("SACMultiPlaneSegmentation: method '" + name
+                        + "' must be ransac, msac or prosac");
+}
+
+/** (K, n) float64 array from a per-item function filling n values. */
+template <typename Container, typename Fill>
+py::array_t<double>
+rows(const Container& items, py::ssize_t n, Fill fill)
+{
+  py::array_t<double> out({static_cast<py::ssize_t>(items.size()), n});
+  auto o = out.template mutable_unchecked<2>();
+  for (std::size_t i = 0; i < items.size(); ++i)
+    fill(items[i], &o(static_cast<py::ssize_t>(i), 0));
+  return out;
+}
+
+/** (K,) array of type T from a per-item function. */
+template <typename T, typename Container, typename Get>
+py::array_t<T>
+column(const Container& items, Get get)
+{
+  py::array_t<T> out(static_cast<py::ssize_t>(items.size()));
+  auto o = out.template mutable_unchecked<1>();
+  for (std::size_t i = 0; i < items.size(); ++i)
+    o(static_cast<py::ssize_t>(i)) = static_cast<T>(get(items[i]));
+  return out;
+}
+
+template <typename Vector>
+void
+put3(const Vector& v, double* out)
+{
+  out[0] = v[0];
+  out[1] = v[1];
+  out[2] = v[2];
+}
+
+/** Planes from (K, 4) coefficients and K index arrays (for the approximation). */
+Planes
+makePlanes(const DoubleArray& model_coefficients,
+           const std::vector<IndexArray>& inliers)
+{
+  const bool empty = model_coefficients.size() == 0 && inliers.empty();
+  if (!empty && (model_coefficients.ndim() != 2 || model_coefficients.shape(1) != 4))
+    throw py::value_error(
+      "PlanarSegments: model_coefficients must be a (K, 4) array of "
+      "[a, b, c, d] (unit normal, d in meters)");
+  const auto k =
+    empty ? std::size_t{0} : static_cast<std::size_t>(model_coefficients.shape(0));
+  if (inliers.size() != k)
+    throw py::value_error("PlanarSegments: " + std::to_string(inliers.size())
+                          + " inlier arrays for " + std::to_string(k)
+                          + " planes; give one per plane");
+  Planes planes;
+  planes.segments.resize(k);
+  for (std::size_t i = 0; i < k; ++i) {
+    auto& segment = planes.segments[i];
+    const auto c = model_coefficients.unchecked<2>();
+    for (py::ssize_t j = 0; j < 4; ++j)
+      segment.model_coefficients.values.push_back(
+        static_cast<float>(c(static_cast<py::ssize_t>(i), j)));
+    const IndexArray& ids = inliers[i];
+    if (ids.ndim() != 1)
+      throw py::value_error("PlanarSegments: inliers[" + std::to_string(i)
+                            + "] must be a 1-D array of point indices");
+    const auto v = ids.unchecked<1>();
+    for (py::ssize_t j = 0; j < v.shape(0); ++j) {
+      if (v(j) < 0 || v(j) > std::numeric_limits<int>::max())
+        throw py::value_error("PlanarSegments: inliers[" + std::to_string(i)
+                              + "] holds the negative or too large index "
+                              + std::to_string(v(j)));
+      segment.inliers.indices.push_back(static_cast<int>(v(j)));
+    }
+  }
+  return planes;
+}
+
+void
+bindPlanes(py::module_& m)
+{
+  py::class_<Planes>(m, "PlanarSegments",
+                     R"doc(Planes found by SACMultiPlaneSegmentation.
+
+Parallel arrays, one row per plane, sorted by descending inlier count (the C++
+planar_grid::PlanarSegments). len() is the number of planes K.
+
+Parameters
+----------
+model_coefficients : array_like, shape (K, 4)
+    [a, b, c, d] per plane (eq. 1): unit normal (a, b, c) and offset d in meters.
+inliers : sequence of K array_like of int
+    Indices of each plane's points in the cloud it is used with.
+
+Notes
+-----
+Built by hand, the centroids, tilts and sample inlier counts are zero; only the
+coefficients and inliers are used by PlanarCuboidApproximation.approximate().
+)doc")
+    .def(py::init(&makePlanes), py::arg("model_coefficients"), py::arg("inliers"))
+    .def("__len__", [](const Planes& p) { return p.segments.size(); })
+    .def("__repr__",
+         [](const Planes& p) {
+           return "<planar_grid.PlanarSegments: " + std::to_string(p.segments.size())
+                  + " planes>";
+         })
+    .def_property_readonly(
+      "model_coefficients",
+      [](const Planes& p) {
+        return rows(p.segments, 4, [](const PlanarSegment& s, double* out) {
+          for (std::size_t j = 0; j < 4; ++j)
+            out[j] = j < s.model_coefficients.values.size()
+                       ? s.model_coefficients.values[j]
+                       : 0.0;
+        });
+      },
+      "numpy.ndarray, shape (K, 4), float64: [a, b, c, d] per plane; (a, b, c) is a "
+      "unit "
+      "normal pointing toward the sensor origin, d in meters (a x + b y + c z + d = "
+      "0).")
+    .def_property_readonly(
+      "normals",
+      [](const Planes& p) {
+        return rows(p.segments, 3, [](const PlanarSegment& s, double* out) {
+          for (std::size_t j = 0; j < 3; ++j)
+            out[j] = j < s.model_coefficients.values.size()
+                       ? s.model_coefficients.values[j]
+                       : 0.0;
+        });
+      },
+      "numpy.ndarray, shape (K, 3), float64: the unit normals (a, b, c).")
+    .def_property_readonly(
+      "inliers",
+      [](const Planes& p) {
+        py::list out;
+        for (const auto& s : p.segments) {
+          py::array_t<std::int64_t> ids(
+            static_cast<py::ssize_t>(s.inliers.indices.size()));
+          std::copy(s.inliers.indices.begin(), s.inliers.indices.end(),
+                    ids.mutable_data());
+          out.append(ids);
+        }
+        return out;
+      },
+      "list of K numpy.ndarray of int64: each plane's dense inliers (eq. 11: distance "
+      "<= d_T), indices into the segmented points, ascending.")
+    .def_property_readonly(
+      "centroids",
+      [](const Planes& p) {
+        return rows(p.segments, 3,
+                    [](const PlanarSegment& s, double* out) { put3(s.centroid, out); });
+      },
+      "numpy.ndarray, shape (K, 3), float64: centroid of each plane's inliers, meters.")
+    .def_property_readonly(
+      "tilt_rad",
+      [](const Planes& p) {
+        return column<double>(p.segments,
+                              [](const PlanarSegment& s) { return s.tilt_rad; });
+      },
+      "numpy.ndarray, shape (K,), float64: theta of eq. 2, the angle between the "
+      "normal "
+      "and the up axis, radians in [0, pi] (0 floor, pi/2 wall).")
+    .def_property_readonly(
+      "normalized_tilt_rad",
+      [](const Planes& p) {
+        return column<double>(
+          p.segments, [](const PlanarSegment& s) { return s.normalized_tilt_rad; });
+      },
+      "numpy.ndarray, shape (K,), float64: the normalised tilt of eq. 3, radians in "
+      "(-pi/2, pi/2].")
+    .def_property_readonly(
+      "sample_inliers",
+      [](const Planes& p) {
+        return column<std::int64_t>(
+          p.segments, [](const PlanarSegment& s) { return s.sample_inliers; });
+      },
+      "numpy.ndarray, shape (K,), int64: points of the sample cloud on each plane.");
+}
+
+void
+bindCuboids(py::module_& m)
+{
+  py::class_<Cuboids>(m, "Cuboids",
+                      R"doc(Oriented cuboids (planar_grid::PlanarCuboid), as arrays.
+
+One row per cuboid; len() is their number M. Each box is spanned by the unit
+horizontal axis, the vertical axis (normal x horizontal axis) and the unit normal,
+with extents width, height and thickness along them about its centre. A planar
+cuboid's normal points toward the sensor and its face is at the measured surface; the
+box reaches thickness_m behind it. Returned by PlanarCuboidApproximation.approximate(),
+PlanarGridMap.cuboids and run_pipeline().
+)doc")
+    .def("__len__", [](const Cuboids& c) { return c.cuboids.size(); })
+    .def("__repr__",
+         [](const Cuboids& c) {
+           const auto planar =
+             std::count_if(c.cuboids.begin(), c.cuboids.end(),
+                           [](const PlanarCuboid& q) { return q.is_planar; });
+           return "<planar_grid.Cuboids: " + std::to_string(c.cuboids.size())
+                  + " cuboids, " + std::to_string(planar) + " planar>";
+         })
+    .def_property_readonly(
+      "centres",
+      [](const Cuboids& c) {
+        return rows(c.cuboids, 3,
+                    [](const PlanarCuboid& q, double* out) { put3(q.centre, out); });
+      },
+      "numpy.ndarray, shape (M, 3), float64: box centres, meters.")
+    .def_property_readonly(
+      "normals",
+      [](const Cuboids& c) {
+        return rows(c.cuboids, 3,
+                    [](const PlanarCuboid& q, double* out) { put3(q.normal, out); });
+      },
+      "numpy.ndarray, shape (M, 3), float64: unit face normals (toward the sensor for "
+      "a "
+      "planar cuboid).")
+    .def_property_readonly(
+      "horizontal_axes",
+      [](const Cuboids& c) {
+        return rows(c.cuboids, 3, [](const PlanarCuboid& q, double* out) {
+          put3(q.horizontal_axis, out);
+        });
+      },
+      "numpy.ndarray, shape (M, 3), float64: unit in-plane horizontal axes.")
+    .def_property_readonly(
+      "vertical_axes",
+      [](const Cuboids& c) {
+        return rows(c.cuboids, 3, [](const PlanarCuboid& q, double* out) {
+          put3(q.verticalAxis(), out);
+        });
+      },
+      "numpy.ndarray, shape (M, 3), float64: vertical axes, normal x horizontal axis.")
+    .def_property_readonly(
+      "extents_m",
+      [](const Cuboids& c) {
+        return rows(c.cuboids, 3, [](const PlanarCuboid& q, double* out) {
+          out[0] = q.width_m;
+          out[1] = q.height_m;
+          out[2] = q.thickness_m;
+        });
+      },
+      "numpy.ndarray, shape (M, 3), float64: width, height and thickness, meters, "
+      "along "
+      "the columns of rotations.")
+    .def_property_readonly(
+      "rotations",
+      [](const Cuboids& c) {
+        py::array_t<double> out(
+          {static_cast<py::ssize_t>(c.cuboids.size()), py::ssize_t{3}, py::ssize_t{3}});
+        auto o = out.mutable_unchecked<3>();
+        for (std::size_t i = 0; i < c.cuboids.size(); ++i) {
+          const auto& q = c.cuboids[i];
+          const Eigen::Vector3f axes[3] = {q.horizontal_axis, q.verticalAxis(),
+                                           q.normal};
+          for (py::ssize_t col = 0; col < 3; ++col)
+            for (py::ssize_t row = 0; row < 3; ++row)
+              o(static_cast<py::ssize_t>(i), row, col) = axes[col][row];
+        }
+        return out;
+      },
+      "numpy.ndarray, shape (M, 3, 3), float64: per box the rotation whose columns are "
+      "the horizontal axis, the vertical axis and the normal (box frame to world), as "
+      "open3d.geometry.OrientedBoundingBox(centre, R, extent) takes it with extents_m.")
+    .def_property_readonly(
+      "corners",
+      [](const Cuboids& c) {
+        py::array_t<double> out(
+          {static_cast<py::ssize_t>(c.cuboids.size()), py::ssize_t{8}, py::ssize_t{3}});
+        auto o = out.mutable_unchecked<3>();
+        for (std::size_t i = 0; i < c.cuboids.size(); ++i) {
+          const auto corners = c.cuboids[i].corners();
+          for (py::ssize_t k = 0; k < 8; ++k)
+            for (py::ssize_t d = 0; d < 3; ++d)
+              o(static_cast<py::ssize_t>(i), k, d) =
+                corners[static_cast<std::size_t>(k)][d];
+        }
+        return out;
+      },
+      "numpy.ndarray, shape (M, 8, 3), float64: the corners, meters: the face's four "
+      "(-w,-h), (+w,-h), (+w,+h), (-w,+h) in (horizontal, vertical) half-extents, then "
+      "the same four at the back.")
+    .def_property_readonly(
+      "min_bounds",
+      [](const Cuboids& c) {
+        return rows(c.cuboids, 3, [](const PlanarCuboid& q, double* out) {
+          Eigen::Vector3f low =
+            Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+          for (const auto& corner : q.corners())
+            low = low.cwiseMin(corner);
+          put3(low, out);
+        });
+      },
+      "numpy.ndarray, shape (M, 3), float64: axis-aligned lower corner of each box, "
+      "meters.")
+    .def_property_readonly(
+      "max_bounds",
+      [](const Cuboids& c) {
+        return rows(c.cuboids, 3, [](const PlanarCuboid& q, double* out) {
+          Eigen::Vector3f high =
+            Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest());
+          for (const auto& corner : q.corners())
+            high = high.cwiseMax(corner);
+          put3(high, out);
+        });
+      },
+      "numpy.ndarray, shape (M, 3), float64: axis-aligned upper corner of each box, "
+      "meters.")
+    .def_property_readonly(
+      "plane_ids",
+      [](const Cuboids& c) {
+        return column<std::int64_t>(c.cuboids,
+                                    [](const PlanarCuboid& q) { return q.plane_id; });
+      },
+      "numpy.ndarray, shape (M,), int64: index of the cuboid's plane (into the planes "
+      "given "
+      "to the approximation, or the map's planes), -1 for a non-planar cuboid.")
+    .def_property_readonly(
+      "is_planar",
+      [](const Cuboids& c) {
+        return column<bool>(c.cuboids,
+                            [](const PlanarCuboid& q) { return q.is_planar; });
+      },
+      "numpy.ndarray, shape (M,), bool: True for a split-and-merged planar cuboid "
+      "(Fig. 6), "
+      "False for a non-planar one (Fig. 7).")
+    .def_property_readonly(
+      "point_counts",
+      [](const Cuboids& c) {
+        return column<std::int64_t>(
+          c.cuboids, [](const PlanarCuboid& q) { return q.point_count; });
+      },
+      "numpy.ndarray, shape (M,), int64: points (or, in a map, features) each cuboid "
+      "was "
+      "built from.")
+    .def_property_readonly(
+      "probabilities",
+      [](const Cuboids& c) {
+        return column<double>(c.cuboids,
+                              [](const PlanarCuboid& q) { return q.probability; });
+      },
+      "numpy.ndarray, shape (M,), float64: occupancy probability in [0, 1] (0.5 "
+      "unknown).")
+    .def_property_readonly(
+      "volumes_m3",
+      [](const Cuboids& c) {
+        return column<double>(c.cuboids,
+                              [](const PlanarCuboid& q) { return q.volume(); });
+      },
+      "numpy.ndarray, shape (M,), float64: volumes, cubic meters.");
+}
+
+void
+bindSegmentation(py::module_& m)
+{
+  using Class = py::class_<Segmentation, std::unique_ptr<Segmentation>>;
+  Class cls(m, "SACMultiPlaneSegmentation",
+            R"doc(Multi-plane segmentation by repeated sample consensus.
+
+planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZ>: the multi-RANSAC of the paper
+(Zhang et al., Sec. III-C, eqs. 1-3) with the dense inlier selection of eq. 11. Plane
+hypotheses come from ``sample_points`` (e.g. stereo key features) when given, else from
+a seeded subsample of the points; each plane's dense inliers are the points within
+``distance_threshold_m`` of it that no earlier plane took.
+
+Parameters
+----------
+**params
+    Any of the properties below, e.g. ``distance_threshold_m=0.05, max_planes=8,
+    min_inliers=500, seed=0``. An unknown name is a TypeError; a value out of its
+    range a ValueError (the library's range check, with its message).
+
+Notes
+-----
+Deterministic: the same points, parameters and seed give the same planes. Degenerate
+input (no points, only NaN, colinear points) gives no plane.
+)doc");
+  ParamBinder<Segmentation, std::unique_ptr<Segmentation>> params(
+    cls, "SACMultiPlaneSegmentation",
+    [](const Segmentation& s) { return s.checkParameters(); });
+  params
+    .param<double>(
+      "distance_threshold_m", &Segmentation::getDistanceThreshold,
+      &Segmentation::setDistanceThreshold,
+      "float: d_T of eq. 11, the largest point-to-plane distance of a dense "
+      "inlier, meters, > 0 (default 0.05).")
+    .param<double>(
+      "sample_distance_threshold_m", &Segmentation::getSampleDistanceThreshold,
+      &Segmentation::setSampleDistanceThreshold,
+      "float: inlier threshold of the sample consensus on the sample points, "
+      "meters, > 0 (default: distance_threshold_m).")
+    .param<double>(
+      "depth_noise_coefficient_per_m", &Segmentation::getDepthNoiseCoefficient,
+      &Segmentation::setDepthNoiseCoefficient,
+      "float: Delta d / (B f), 1/m, >= 0: a point at range r from the sensor "
+      "origin is an inlier within max(d_T, coefficient r^2) (default 0).")
+    .param<int>("max_planes", &Segmentation::getMaxPlanes, &Segmentation::setMaxPlanes,
+                "int: the most planes returned (before merging), >= 1 (default 8).")
+    .param<int>("min_inliers", &Segmentation::getMinInliers,
+                &Segmentation::setMinInliers,
+                "int: the fewest dense inliers of a kept plane, >= 3 (default 500).")
+    .param<int>(
+      "min_sample_inliers", &Segmentation::getMinSampleInliers,
+      &Segmentation::setMinSampleInliers,
+      "int: the fewest sample inliers of a hypothesis; fewer ends the search, "
+      ">= 3 (default 15).")
+    .param<double>("min_remaining_fraction", &Segmentation::getMinRemainingFraction,
+                   &Segmentation::setMinRemainingFraction,
+                   "float: the search stops when less than this fraction of the sample "
+                   "remains, in [0, 1) (default 0.05).")
+    .param<int>("max_iterations", &Segmentation::getMaxIterations,
+                &Segmentation::setMaxIterations,
+                "int: sample consensus iterations per plane, >= 1 (default 1000).")
+    .param<double>("probability", &Segmentation::getProbability,
+                   &Segmentation::setProbability,
+                   "float: probability of drawing one outlier-free sample, in (0, 1) "
+                   "(default 0.99).")
+    .param<std::string>(
+      "method", [](const Segmentation& s) { return methodName(s.getMethodType()); },
+      [](Segmentation& s, const std::string& name) {
+        s.setMethodType(methodFromName(name));
+      },
+      "str: the estimator, 'ransac' (default), 'msac' or 'prosac' (PCL's).")
+    .param<bool>(
+      "optimize_coefficients", &Segmentation::getOptimizeCoefficients,
+      &Segmentation::setOptimizeCoefficients,
+      "bool: re-estimate each hypothesis on the dense points and refit each plane "
+      "to its inliers (default True).")
+    .param<bool>("dense_hypothesis", &Segmentation::getDenseHypothesis,
+                 &Segmentation::setDenseHypothesis,
+                 "bool: each round also hypothesises a plane from the dense points "
+                 "(default True).")
+    .param<int>(
+      "lo_iterations", &Segmentation::getLocalOptimizationIterations,
+      &Segmentation::setLocalOptimizationIterations,
+      "int: local optimisation (LO-RANSAC) samples per plane, >= 0 (default 50).")
+    .param<bool>("merge_planes", &Segmentation::getMergePlanes,
+                 &Segmentation::setMergePlanes,
+                 "bool: merge near-duplicate planes (default True).")
+    .param<double>("merge_angle_rad", &Segmentation::getMergeAngleThreshold,
+                   &Segmentation::setMergeAngleThreshold,
+                   "float: largest angle between the normals of two planes that merge, "
+                   "radians, in [0, pi/2] (default 0.1).")
+    .param<double>(
+      "merge_distance_m", &Segmentation::getMergeDistanceThreshold,
+      &Segmentation::setMergeDistanceThreshold,
+      "float: largest difference of the offsets d of two planes that merge, "
+      "meters, >= 0 (default 0.1).")
+    .param<DoubleArray>(
+      "up_axis", [](const Segmentation& s) { return toArray(s.getUpAxis()); },
+      [](Segmentation& s, const DoubleArray& axis) {
+        s.setUpAxis(toVector3f(axis, "up_axis"));
+      },
+      "array_like, shape (3,): the up direction of eqs. 2-3, non-zero "
+      "(default (0, 0, 1); (0, -1, 0) in a camera frame).")
+    .param<unsigned>("seed", &Segmentation::getSeed, &Segmentation::setSeed,
+                     "int: seed of the subsample and the sample shuffles (default 0).")
+    .param<int>(
+      "max_sample_size", &Segmentation::getMaxSampleSize,
+      &Segmentation::setMaxSampleSize,
+      "int: points subsampled for the hypotheses when no sample points are given, "
+      ">= 3 (default 20000).");
+  const auto setters = params.setters();
+  cls
+    .def(py::init([setters](const py::kwargs& kwargs) {
+      auto s = std::make_unique<Segmentation>();
+      ParamBinder<Segmentation, std::unique_ptr<Segmentation>>::apply(
+        *s, kwargs, setters, "SACMultiPlaneSegmentation");
+      return s;
+    }))
+    .def(
+      "segment",
+      [](Segmentation& self, const FloatArray& points, const py::object& sample_points,
+         const DoubleArray& sensor_origin) {
+        auto cloud = toCloud(points, "points");
+        cloud->sensor_origin_.head<3>() = toVector3f(sensor_origin, "sensor_origin");
+        pcl::PointCloud<pcl::PointXYZ>::Ptr sample;
+        if (!sample_points.is_none())
+          sample = toCloud(sample_points.cast<FloatArray>(), "sample_points");
+        Planes planes;
+        {
+          py::gil_scoped_release release;
+          self.setInputCloud(cloud);
+          self.setSampleCloud(sample);
+          self.segment(planes.segments);
+          self.setInputCloud(nullptr);
+          self.setSampleCloud(nullptr);
+        }
+        return planes;
+      },
+      py::arg("points"), py::kw_only(), py::arg("sample_points") = py::none(),
+      py::arg("sensor_origin") = std::vector<double>{0.0, 0.0, 0.0},
+      R"doc(Segments the points into planes.
+
+Parameters
+----------
+points : array_like, shape (N, 3)
+    x, y, z in meters (float32 internally); NaN rows are skipped.
+sample_points : array_like, shape (S, 3), optional
+    Sparse points the hypotheses are drawn from (e.g. stereo key features), meters.
+sensor_origin : array_like, shape (3,), optional
+    The normals point toward it, meters (default (0, 0, 0)).
+
+Returns
+-------
+PlanarSegments
+    The planes, sorted by descending inlier count; empty when none has min_inliers.
+
+Raises
+------
+ValueError
+    For points of another shape.
+)doc");
+}
+
+void
+bindApproximation(py::module_& m)
+{
+  using Class = py::class_<Approximation, std::unique_ptr<Approximation>>;
+  Class cls(
+    m, "PlanarCuboidApproximation",
+    R"doc(Split-and-merge grid approximation of planes and the rest by oriented cuboids.
+
+planar_grid::PlanarCuboidApproximation<pcl::PointXYZ>: Sec. III-F, Figs. 6-8 of the
+paper. Each plane's inliers are rastered at ``min_cell_size_m``, split by a quadtree
+while the occupied share is below ``density_threshold`` and merged into the largest
+rectangles, which are extruded ``thickness_m`` behind their face; the remaining points
+become non-planar boxes (Fig. 7).
+
+Parameters
+----------
+**params
+    Any of the properties below, e.g. ``min_cell_size_m=0.1, thickness_m=0.1``. An
+    unknown name is a TypeError; a value out of its range a ValueError.
+
+Notes
+-----
+With min_points_per_cell = 1 every finite input point lies in some cuboid. Empty or
+all-NaN input gives no cuboid.
+)doc");
+  ParamBinder<Approximation, std::unique_ptr<Approximation>> params(
+    cls, "PlanarCuboidApproximation",
+    [](const Approximation& a) { return a.checkParameters(); });
+  params
+    .param<double>("min_cell_size_m", &Approximation::getMinCellSize,
+                   &Approximation::setMinCellSize,
+                   "float: raster resolution and smallest unit side, meters, > 0 "
+                   "(default 0.1).")
+    .param<double>(
+      "density_threshold", &Approximation::getDensityThreshold,
+      &Approximation::setDensityThreshold,
+      "float: D_T of Fig. 8; a unit splits while its occupied share is below "
+      "it, in (0, 1] (default 0.9).")
+    .param<double>("non_planar_density_threshold",
+                   &Approximation::getNonPlanarDensityThreshold,
+                   &Approximation::setNonPlanarDensityThreshold,
+                   "float: occupied share a non-planar box must reach before it stops "
+                   "splitting, in (0, 1], or 0 for density_threshold (default 0).")
+    .param<double>("min_width_m", &Approximation::getMinWidth,
+                   &Approximation::setMinWidth,
+                   "float: W_T of Fig. 8, meters, >= 0 (default 0.1).")
+    .param<double>("min_height_m", &Approximation::getMinHeight,
+                   &Approximation::setMinHeight,
+                   "float: H_T of Fig. 8, meters, >= 0 (default 0.1).")
+    .param<double>(
+      "thickness_m", &Approximation::getThickness, &Approximation::setThickness,
+      "float: smallest extrusion behind a planar face and smallest depth of a "
+      "non-planar box, meters, > 0 (default 0.1).")
+    .param<int>("min_points_per_cell", &Approximation::getMinPointsPerCell,
+                &Approximation::setMinPointsPerCell,
+                "int: the fewest points of an output cuboid, >= 1 (default 3).")
+    .param<DoubleArray>(
+      "up_axis", [](const Approximation& a) { return toArray(a.getUpAxis()); },
+      [](Approximation& a, const DoubleArray& axis) {
+        a.setUpAxis(toVector3f(axis, "up_axis"));
+      },
+      "array_like, shape (3,): the up direction, non-zero (default "
+      "(0, 0, 1)).");
+  const auto setters = params.setters();
+  cls
+    .def(py::init([setters](const py::kwargs& kwargs) {
+      auto a = std::make_unique<Approximation>();
+      ParamBinder<Approximation, std::unique_ptr<Approximation>>::apply(
+        *a, kwargs, setters, "PlanarCuboidApproximation");
+      return a;
+    }))
+    .def(
+      "approximate",
+      [](Approximation& self, const FloatArray& points, const py::object& planes,
+         const DoubleArray& sensor_origin) {
+        auto cloud = toCloud(points, "points");
+        PlanarSegments segments;
+        if (!planes.is_none()) {
+          if (!py::isinstance<Planes>(planes))
+            throw py::type_error(
+              "PlanarCuboidApproximation: planes must be a "
+              "PlanarSegments (e.g. from SACMultiPlaneSegmentation) or "
+              "None");
+          segments = planes.cast<Planes*>()->segments;
+        }
+        for (std::size_t i = 0; i < segments.size(); ++i)
+          for (const int index : segments[i].inliers.indices)
+            if (index < 0 || static_cast<std::size_t>(index) >= cloud->size())
+              throw py::index_error("PlanarCuboidApproximation: plane "
+                                    + std::to_string(i) + " has the inlier index "
+                                    + std::to_string(index) + ", outside the "
+                                    + std::to_string(cloud->size()) + " points");
+        const Eigen::Vector3f origin = toVector3f(sensor_origin, "sensor_origin");
+        self.setSensorOrigin(origin);
+        if (const char* bad = self.checkParameters())
+          throw py::value_error(
+            std::string("PlanarCuboidApproximation: invalid parameter: ") + bad);
+        Cuboids cuboids;
+        {
+          py::gil_scoped_release release;
+          self.setInputCloud(cloud);
+          self.setPlanes(segments);
+          self.approximate(cuboids.cuboids);
+          self.setInputCloud(nullptr);
+          self.setPlanes({});
+        }
+        return cuboids;
+      },
+      py::arg("points"), py::arg("planes") = py::none(), py::kw_only(),
+      py::arg("sensor_origin") = std::vector<double>{0.0, 0.0, 0.0},
+      R"doc(Builds the cuboids of the points and their planes.
+
+Parameters
+----------
+points : array_like, shape (N, 3)
+    x, y, z in meters (e.g. the cloud without the ground).
+planes : PlanarSegments, optional
+    Planes of these points (their inliers index ``points``), e.g. from
+    SACMultiPlaneSegmentation.segment(); None makes every point non-planar.
+sensor_origin : array_like, shape (3,), optional
+    Decides the front of each plane: boxes are extruded away from it, meters (default
+    (0, 0, 0)).
+
+Returns
+-------
+Cuboids
+    Planar cuboids (in plane order, then row order), then the non-planar ones.
+
+Raises
+------
+ValueError
+    For points of another shape.
+IndexError
+    For a plane inlier outside the points.
+)doc");
+}
+
+void
+bindOccupancyFilter(py::module_& m)
+{
+  using Filter = OccupancyFilter;
+  using Params = Filter::Params;
+  using Class = py::class_<Filter, std::unique_ptr<Filter>>;
+  Class cls(m, "KLDivergenceOccupancyFilter",
+            R"doc(Occupancy probability of stereo key features across frames.
+
+planar_grid::KLDivergenceOccupancyFilter<pcl::PointXYZ>: each feature's probability of
+eq. 4 (a Gaussian of its range around the mean range of its neighbourhood, with the
+stereo depth error z^2 dd / (B f)), updated across frames by the Kullback-Leibler rule
+of eqs. 5-10 (or OctoMap's log-odds rule). Each filter() call is one frame.
+
+Parameters
+----------
+focal_length_px : float
+    f of the rectified stereo rig, pixels (> 0).
+baseline_m : float
+    B of the rig, meters (> 0).
+**params
+    Any of the properties below. An unknown name is a TypeError; a value out of its
+    range a ValueError.
+)doc");
+  ParamBinder<Filter, std::unique_ptr<Filter>> params(
+    cls, "KLDivergenceOccupancyFilter",
+    [](const Filter& f) { return f.checkParameters(); });
+#define PLANAR_GRID_FILTER_PARAM(type, field, doc)               \
+  params.param<type>(                                            \
+    #field, [](const Filter& f) { return f.getParams().field; }, \
+    [](Filter& f, type value) {                                  \
+      Params p = f.getParams();                                  \
+      p.field = value;                                           \
+      f.setParams(p);                                            \
+    },                                                           \
+    doc)
+  PLANAR_GRID_FILTER_PARAM(
+    double, disparity_error_px,
+    "float: dd of eq. 4, the disparity error, pixels, > 0 (default "
+    "0.5).");
+  PLANAR_GRID_FILTER_PARAM(
+    double, neighbourhood_size_m,
+    "float: edge of the cell over which the mean range is taken, "
+    "meters, > 0 (default 0.5).");
+  PLANAR_GRID_FILTER_PARAM(double, clamping_thres_min,
+                           "float: lower clamp of a probability, in (0, 0.5) (default "
+                           "0.1192 = log-odds -2).");
+  PLANAR_GRID_FILTER_PARAM(double, clamping_thres_max,
+                           "float: upper clamp of a probability, in (0.5, 1) (default "
+                           "0.971 = log-odds 3.5).");
+  PLANAR_GRID_FILTER_PARAM(
+    double, occupancy_thres,
+    "float: a feature is kept when its probability reaches it, in "
+    "[0, 1] (default 0.5).");
+  PLANAR_GRID_FILTER_PARAM(double, kl_offset_nats,
+                           "float: A of eq. 10, nats, >= 0 (default 1.07).");
+  PLANAR_GRID_FILTER_PARAM(double, prob_hit,
+                           "float: log-odds rule, probability of a hit, in (0.5, 1) "
+                           "(default 0.7).");
+  PLANAR_GRID_FILTER_PARAM(double, prob_miss,
+                           "float: log-odds rule, probability of a miss, in (0, 0.5) "
+                           "(default 0.4).");
+  PLANAR_GRID_FILTER_PARAM(
+    double, association_radius_m,
+    "float: without track ids, a feature joins the nearest track "
+    "within this distance, meters, > 0 (default 0.2).");
+#undef PLANAR_GRID_FILTER_PARAM
+  params.param<std::string>(
+    "update_rule", [](const Filter& f) { return toString(f.getParams().update_rule); },
+    [](Filter& f, const std::string& name) {
+      Params p = f.getParams();
+      try {
+        p.update_rule = occupancyUpdateRuleFromString(name);
+      } catch (const planar_grid::Exception& e) {
+        throw py::value_error(std::string("KLDivergenceOccupancyFilter: update_rule: ")
+                              + e.what());
+      }
+      f.setParams(p);
+    },
+    "str: the update of a re-observed track, 'kl_divergence' (eqs. 5-10, default) or "
+    "'log_odds' (OctoMap's).");
+  const auto setters = params.setters();
+  cls
+    .def(py::init([setters](double focal_length_px, double baseline_m,
+                            const py::kwargs& kwargs) {
+           auto f = std::make_unique<Filter>();
+           f->setStereoParameters(focal_length_px, baseline_m);
+           if (const char* bad = f->checkParameters())
+             throw py::value_error(std::string("KLDivergenceOccupancyFilter: ") + bad);
+           ParamBinder<Filter, std::unique_ptr<Filter>>::apply(
+             *f, kwargs, setters, "KLDivergenceOccupancyFilter");
+           return f;
+         }),
+         py::arg("focal_length_px"), py::arg("baseline_m"))
+    .def(
+      "filter",
+      [](Filter& self, const FloatArray& features, const py::object& track_ids,
+         const py::object& sensor_pose, double motion_likelihood, bool negative) {
+        auto cloud = toCloud(features, "features");
+        if (!sensor_pose.is_none()) {
+          const Eigen::Isometry3d pose =
+            toIsometry(sensor_pose.cast<DoubleArray>(), "sensor_pose");
+          cloud->sensor_origin_ << pose.translation().cast<float>(), 0.0f;
+          cloud->sensor_orientation_ =
+            Eigen::Quaternionf(pose.rotation().cast<float>());
+        }
+        std::vector<std::int64_t> ids;
+        if (!track_ids.is_none()) {
+          const auto array = track_ids.cast<IndexArray>();
+          if (array.ndim() != 1
+              || static_cast<std::size_t>(array.shape(0)) != cloud->size())
+            throw py::value_error(
+              "KLDivergenceOccupancyFilter: track_ids must be a 1-D "
+              "array with one id per feature ("
+              + std::to_string(cloud->size()) + ")");
+          ids.assign(array.data(), array.data() + array.shape(0));
+        }
+        self.setInputCloud(cloud);
+        self.setTrackIds(ids);
+        self.setMotionLikelihood(motion_likelihood);
+        self.setNegative(negative);
+        if (const char* bad = self.checkParameters())
+          throw py::value_error(std::string("KLDivergenceOccupancyFilter: ") + bad);
+        pcl::Indices kept;
+        {
+          py::gil_scoped_release release;
+          self.filter(kept);
+        }
+        py::array_t<std::int64_t> out(static_cast<py::ssize_t>(kept.size()));
+        std::copy(kept.begin(), kept.end(), out.mutable_data());
+        return out;
+      },
+      py::arg("features"), py::kw_only(), py::arg("track_ids") = py::none(),
+      py::arg("sensor_pose") = py::none(), py::arg("motion_likelihood") = 1.0,
+      py::arg("negative") = false,
+      R"doc(Integrates one frame of features and selects the occupied ones.
+
+Parameters
+----------
+features : array_like, shape (N, 3)
+    Key feature points, meters: in the camera frame (x right, y down, z forward) when
+    ``sensor_pose`` is None, else in the world frame.
+track_ids : array_like of int, shape (N,), optional
+    One track id per feature (>= 0; -1 for none); the same id in a later frame is the
+    same feature seen again. None associates features with tracks by position (within
+    association_radius_m).
+sensor_pose : array_like, shape (4, 4), optional
+    world_T_camera of the frame (rotation and translation in meters).
+motion_likelihood : float, optional
+    m of eq. 9 for this frame, probability in [0, 1] (default 1: known poses).
+negative : bool, optional
+    Return the features below the occupancy threshold instead.
+
+Returns
+-------
+numpy.ndarray, shape (K,), int64
+    Indices of the kept features (probability >= occupancy_thres).
+
+Raises
+------
+ValueError
+    For features or track_ids of another shape, or a motion likelihood outside [0, 1].
+)doc")
+    .def_property_readonly(
+      "probabilities",
+      [](const Filter& self) {
+        return column<double>(self.getProbabilities(), [](float p) { return p; });
+      },
+      "numpy.ndarray, shape (N,), float64: each feature's occupancy probability after "
+      "the "
+      "last filter(), in [0, 1] (0 for an invalid feature).")
+    .def_property_readonly(
+      "assigned_track_ids",
+      [](const Filter& self) {
+        return column<std::int64_t>(self.getAssignedTrackIds(),
+                                    [](std::int64_t id) { return id; });
+      },
+      "numpy.ndarray, shape (N,), int64: each feature's track id after the last "
+      "filter() "
+      "(-1 without a track).")
+    .def_property_readonly("track_count", &Filter::getTrackCount,
+                           "int: the number of tracks stored.")
+    .def_property_readonly("memory_bytes", &Filter::getMemoryBytes,
+                           "int: bytes held by the tracks and work buffers (estimate).")
+    .def(
+      "track_probability",
+      [](const Filter& self, std::int64_t track_id) -> py::object {
+        float probability = 0.0f;
+        if (!self.getTrackProbability(track_id, probability))
+          return py::none();
+        return py::float_(probability);
+      },
+      py::arg("track_id"),
+      "The probability of a track, in [clamping_thres_min, clamping_thres_max], or "
+      "None "
+      "for an unknown track.")
+    .def("reset", &Filter::reset,
+         "Forgets every track; the next filter() is a first frame.");
+}
+
+} // namespace
+
+void
+bindAlgorithms(py::module_& m)
+{
+  bindPlanes(m);
+  bindCuboids(m);
+  bindSegmentation(m);
+  bindApproximation(m);
+  bindOccupancyFilter(m);
+
+  m.def(
+    "range_occupancy_probability", py::vectorize(&rangeOccupancyProbability),
+    py::arg("range_m"), py::arg("mean_range_m"), py::arg("depth_m"),
+    py::arg("focal_length_px"), py::arg("baseline_m"), py::arg("disparity_error_px"),
+    R"doc(Eq. 4, unclamped: the occupancy probability of one feature (numpy-broadcast).
+
+dz = z^2 dd / (B f), dr = (r_bar / z) dz, p = exp(-0.5 ((r - r_bar) / dr)^2).
+
+Parameters
+----------
+range_m, mean_range_m, depth_m : array_like
+    r, r_bar and the depth z, meters.
+focal_length_px, baseline_m, disparity_error_px : array_like
+    f in pixels, B in meters, dd in pixels.
+
+Returns
+-------
+numpy.ndarray or float
+    Probability in [0, 1]; 0 where an argument is out of its range.
+)doc");
+  m.def(
+    "bernoulli_kl_divergence", py::vectorize(&bernoulliKLDivergence), py::arg("p"),
+    py::arg("q"),
+    R"doc(KL divergence of two Bernoulli distributions (eqs. 5-6), nats (numpy-broadcast).
+
+D = p ln(p / q) + (1 - p) ln((1 - p) / (1 - q)); q is moved into [1e-9, 1 - 1e-9].
+)doc");
+  m.def(
+    "kl_divergence_update", py::vectorize(&klDivergenceUpdate), py::arg("p"),
+    py::arg("q"), py::arg("offset_nats") = 1.07,
+    R"doc(One KL update (eq. 10): exp(-E), E = |D| + A when p <= 0.5 and q <= 0.5, else |D|.
+
+Parameters
+----------
+p, q : array_like
+    The stored and the new probability, in [0, 1].
+offset_nats : array_like, optional
+    A, nats (the paper's 1.07).
+
+Returns
+-------
+numpy.ndarray or float
+    The updated probability in (0, 1] (not clamped).
+)doc");
+}
+
+} // namespace python
+} // namespace planar_grid

@@ -1,0 +1,235 @@
+# SPDX-License-Identifier: BSD-3-Clause
+"""SACMultiPlaneSegmentation, PlanarCuboidApproximation and KLDivergenceOccupancyFilter
+through the Python module, against known planes, boxes and the paper's formulas."""
+
+import math
+
+import numpy as np
+import pytest
+
+import planar_grid as pg
+from conftest import plane_patch
+
+
+def unit(v):
+    v = np.asarray(v, dtype=float)
+    return v / np.linalg.norm(v)
+
+
+def test_tilted_plane_gives_its_normal_and_offset():
+    # 3 m x 3 m of a tilted plane with 5 mm noise, 3 m from the origin, plus 20 % outliers
+    # spread over a 6 m cube: the one plane found must be the plane, normal within 1 deg
+    # (the refit on ~3700 points with 5 mm noise is far better), d within 1 cm.
+    rng = np.random.default_rng(7)
+    normal, d = unit([0.3, -0.2, 0.9]), 3.0
+    on_plane = plane_patch(normal, d, 3.0, 0.05, rng, noise_m=0.005)
+    outliers = rng.uniform(-3.0, 3.0, size=(len(on_plane) // 5, 3))
+    points = np.vstack([on_plane, outliers])
+
+    seg = pg.SACMultiPlaneSegmentation(distance_threshold_m=0.02, min_inliers=500, seed=0)
+    planes = seg.segment(points)
+
+    assert len(planes) == 1
+    a, b, c, d_found = planes.model_coefficients[0]
+    found = np.array([a, b, c])
+    assert abs(np.linalg.norm(found) - 1.0) < 1e-5
+    # The normal points toward the sensor origin (0, 0, 0): d >= 0, so it is +normal.
+    assert d_found >= 0.0
+    assert math.degrees(math.acos(min(1.0, found @ normal))) < 1.0
+    assert d_found == pytest.approx(d, abs=0.01)
+    # Every plane point is within 4 sigma = 2 cm (the threshold), so all are inliers;
+    # the outliers within 2 cm of the plane (a slab of 4 cm in a 6 m cube: < 1 %) may join.
+    inliers = planes.inliers[0]
+    assert np.all(np.diff(inliers) > 0)
+    n_plane = len(on_plane)
+    assert np.count_nonzero(inliers < n_plane) >= 0.99 * n_plane
+    assert np.count_nonzero(inliers >= n_plane) <= 0.02 * len(outliers)
+    # Eq. 2: theta is the angle between the normal and the up axis (0, 0, 1).
+    assert planes.tilt_rad[0] == pytest.approx(math.acos(normal[2]), abs=0.02)
+    assert planes.centroids.shape == (1, 3)
+
+
+def test_floor_and_wall_are_two_planes_with_their_tilts():
+    # A floor z = -1 and a wall x = 4 (seen from the origin): normals (0, 0, 1) and
+    # (-1, 0, 0) toward the origin, tilts 0 and pi/2 (eq. 2).
+    floor = plane_patch([0, 0, 1], 1.0, 4.0, 0.05)
+    wall = plane_patch([-1, 0, 0], 4.0, 3.0, 0.05)
+    seg = pg.SACMultiPlaneSegmentation(distance_threshold_m=0.02, min_inliers=300)
+    planes = seg.segment(np.vstack([floor, wall]))
+
+    assert len(planes) == 2
+    by_tilt = np.argsort(planes.tilt_rad)
+    np.testing.assert_allclose(planes.normals[by_tilt[0]], [0, 0, 1], atol=1e-3)
+    np.testing.assert_allclose(planes.normals[by_tilt[1]], [-1, 0, 0], atol=1e-3)
+    np.testing.assert_allclose(planes.tilt_rad[by_tilt], [0.0, math.pi / 2], atol=1e-3)
+    # Sorted by descending inlier count: the floor (81 x 81 points) before the wall. The
+    # floor, found first, also takes the wall's row within d_T of its (infinite) plane.
+    wall_row = np.abs(wall[:, 2] + 1.0) <= 0.02
+    assert wall_row.sum() == 61
+    assert [len(i) for i in planes.inliers] == [len(floor) + 61, len(wall) - 61]
+    np.testing.assert_array_equal(planes.inliers[1],
+                                  len(floor) + np.flatnonzero(~wall_row))
+
+
+def test_segmentation_parameters_are_checked_by_the_library():
+    seg = pg.SACMultiPlaneSegmentation(max_planes=3)
+    assert seg.max_planes == 3
+    assert seg.distance_threshold_m == pytest.approx(0.05)
+    with pytest.raises(ValueError, match="distance_threshold must be > 0 m"):
+        seg.distance_threshold_m = -1.0
+    assert seg.distance_threshold_m == pytest.approx(0.05)  # unchanged
+    with pytest.raises(ValueError, match="probability must be in"):
+        pg.SACMultiPlaneSegmentation(probability=1.5)
+    with pytest.raises(TypeError, match="unknown parameter 'distance_threshold'"):
+        pg.SACMultiPlaneSegmentation(distance_threshold=0.1)
+    with pytest.raises(ValueError, match="method 'lmeds'"):
+        seg.method = "lmeds"
+    seg.method = "msac"
+    assert seg.method == "msac"
+    seg.up_axis = (0, -1, 0)
+    np.testing.assert_array_equal(seg.up_axis, [0, -1, 0])
+
+
+def test_segmentation_of_degenerate_input_is_empty_and_bad_shapes_raise():
+    seg = pg.SACMultiPlaneSegmentation()
+    assert len(seg.segment(np.zeros((0, 3)))) == 0
+    assert len(seg.segment(np.full((100, 3), np.nan))) == 0
+    with pytest.raises(ValueError, match=r"\(N, 3\).*shape \(10, 2\)"):
+        seg.segment(np.zeros((10, 2)))
+
+
+def test_same_seed_gives_same_planes():
+    rng = np.random.default_rng(3)
+    points = np.vstack([plane_patch([0, 0, 1], 1.0, 4.0, 0.05, rng, 0.01),
+                        rng.uniform(-2, 2, size=(2000, 3))])
+    a = pg.SACMultiPlaneSegmentation(seed=5).segment(points)
+    b = pg.SACMultiPlaneSegmentation(seed=5).segment(points)
+    np.testing.assert_array_equal(a.model_coefficients, b.model_coefficients)
+    for x, y in zip(a.inliers, b.inliers):
+        np.testing.assert_array_equal(x, y)
+
+
+def box_frame_coordinates(cuboids, points):
+    """Coordinates of every point in every box frame: (M, N, 3), along the columns of
+    rotations, relative to the centres."""
+    rel = points[None, :, :] - cuboids.centres[:, None, :]
+    return np.einsum("mnk,mkj->mnj", rel, cuboids.rotations)
+
+
+def test_wall_becomes_planar_cuboids_that_cover_every_point():
+    # A 2 m x 1 m wall at x = 3 (normal toward the origin: (-1, 0, 0)), points every
+    # 0.05 m. With min_points_per_cell = 1 every point lies in some cuboid (the class's
+    # guarantee); the faces lie on the wall and the boxes reach thickness_m behind it.
+    ys, zs = np.meshgrid(np.arange(-1.0, 1.0 + 1e-9, 0.05), np.arange(0.0, 1.0 + 1e-9, 0.05))
+    wall = np.column_stack([np.full(ys.size, 3.0), ys.ravel(), zs.ravel()])
+    planes = pg.PlanarSegments([[-1.0, 0.0, 0.0, 3.0]], [np.arange(len(wall))])
+    approx = pg.PlanarCuboidApproximation(min_cell_size_m=0.1, thickness_m=0.1,
+                                          min_points_per_cell=1)
+    cuboids = approx.approximate(wall, planes)
+
+    assert len(cuboids) >= 1
+    assert cuboids.is_planar.all()
+    np.testing.assert_array_equal(cuboids.plane_ids, 0)
+    np.testing.assert_allclose(cuboids.normals, np.tile([-1.0, 0.0, 0.0], (len(cuboids), 1)),
+                               atol=1e-6)
+    # Face at the wall (x = 3), back at x = 3 + thickness.
+    np.testing.assert_allclose(cuboids.min_bounds[:, 0], 3.0, atol=1e-5)
+    np.testing.assert_allclose(cuboids.max_bounds[:, 0], 3.1, atol=1e-5)
+    local = box_frame_coordinates(cuboids, wall)
+    inside = np.all(np.abs(local) <= cuboids.extents_m[:, None, :] / 2 + 1e-5, axis=2)
+    assert inside.any(axis=0).all()
+    # The rectangles are tightened to their points: the faces cover at most the wall's
+    # 2 m^2, and the point counts add up to the points.
+    assert (cuboids.extents_m[:, 0] * cuboids.extents_m[:, 1]).sum() <= 2.0 + 1e-4
+    assert cuboids.point_counts.sum() == len(wall)
+    # The corners are the face's four then the back's four.
+    np.testing.assert_allclose(cuboids.corners[:, :4, 0], 3.0, atol=1e-5)
+    np.testing.assert_allclose(cuboids.corners[:, 4:, 0], 3.1, atol=1e-5)
+
+
+def test_without_planes_every_point_is_in_a_non_planar_cuboid():
+    rng = np.random.default_rng(1)
+    points = rng.uniform(0.0, 1.0, size=(500, 3)) + [2.0, 0.0, 0.0]
+    cuboids = pg.PlanarCuboidApproximation(min_points_per_cell=1).approximate(points)
+    assert len(cuboids) > 0 and not cuboids.is_planar.any()
+    np.testing.assert_array_equal(cuboids.plane_ids, -1)
+    local = box_frame_coordinates(cuboids, points)
+    inside = np.all(np.abs(local) <= cuboids.extents_m[:, None, :] / 2 + 1e-5, axis=2)
+    assert inside.any(axis=0).all()
+
+
+def test_approximation_rejects_bad_planes_and_parameters():
+    points = np.zeros((10, 3))
+    with pytest.raises(IndexError, match="inlier index 10, outside the 10 points"):
+        pg.PlanarCuboidApproximation().approximate(
+            points, pg.PlanarSegments([[0, 0, 1, 0]], [[0, 10]]))
+    with pytest.raises(TypeError, match="PlanarSegments"):
+        pg.PlanarCuboidApproximation().approximate(points, [[0, 0, 1, 0]])
+    with pytest.raises(ValueError, match="thickness must be finite and > 0 m"):
+        pg.PlanarCuboidApproximation(thickness_m=0.0)
+    with pytest.raises(ValueError, match="2 inlier arrays for 1 planes"):
+        pg.PlanarSegments([[0, 0, 1, 0]], [[0], [1]])
+
+
+# Eq. 4 and eq. 10 written out here from the paper, independently of the library.
+def eq4(r, r_bar, z, f, b, dd):
+    dz = z * z / (b * f) * dd
+    dr = r_bar / z * dz
+    return np.exp(-0.5 * ((r - r_bar) / dr) ** 2)
+
+
+def eq10(p, q, a):
+    q = min(max(q, 1e-9), 1 - 1e-9)
+    kl = sum(x * math.log(x / y) for x, y in ((p, q), (1 - p, 1 - q)) if x > 0)
+    e = abs(kl) + (a if p <= 0.5 and q <= 0.5 else 0.0)
+    return math.exp(-e)
+
+
+F_PX, B_M = 645.24, 0.5707  # the Karlsruhe rig
+
+
+def test_occupancy_of_features_follows_eq4_and_the_kl_rule():
+    # Camera frame (z forward). Two features share a 0.5 m neighbourhood cell at ~10 m
+    # (r_bar is their mean range), one is alone in its cell (r = r_bar: p = 1, clamped to
+    # 0.971). Frame 2 observes the same tracks again: p <- eq. 10 with q = p_new.
+    features = np.array([[0.10, 0.10, 10.05], [0.20, 0.10, 10.40], [3.10, 0.10, 5.10]])
+    kl = pg.KLDivergenceOccupancyFilter(F_PX, B_M)
+    ids = np.array([1, 2, 3])
+    kept = kl.filter(features, track_ids=ids)
+
+    r = np.linalg.norm(features, axis=1)
+    r_bar = np.array([r[:2].mean(), r[:2].mean(), r[2]])
+    expected = np.clip(eq4(r, r_bar, features[:, 2], F_PX, B_M, 0.5), 0.1192, 0.971)
+    np.testing.assert_allclose(kl.probabilities, expected, rtol=1e-5)
+    np.testing.assert_array_equal(kept, np.flatnonzero(expected >= 0.5))
+    np.testing.assert_allclose(
+        pg.range_occupancy_probability(r, r_bar, features[:, 2], F_PX, B_M, 0.5),
+        eq4(r, r_bar, features[:, 2], F_PX, B_M, 0.5), rtol=1e-12)
+    np.testing.assert_array_equal(kl.assigned_track_ids, ids)
+    assert kl.track_count == 3
+
+    kl.filter(features, track_ids=ids)
+    second = [min(max(eq10(p, q, 1.07), 0.1192), 0.971) for p, q in zip(expected, expected)]
+    np.testing.assert_allclose(kl.probabilities, second, rtol=1e-5)
+    for track, p in zip(ids, second):
+        assert kl.track_probability(int(track)) == pytest.approx(p, rel=1e-5)
+    assert kl.track_probability(99) is None
+    assert pg.kl_divergence_update(0.3, 0.3, 1.07) == pytest.approx(eq10(0.3, 0.3, 1.07))
+
+    kl.reset()
+    assert kl.track_count == 0
+
+
+def test_occupancy_filter_errors_carry_the_library_message():
+    with pytest.raises(ValueError, match="stereo parameters not set"):
+        pg.KLDivergenceOccupancyFilter(0.0, B_M)
+    kl = pg.KLDivergenceOccupancyFilter(F_PX, B_M, occupancy_thres=0.6, update_rule="log_odds")
+    assert kl.occupancy_thres == pytest.approx(0.6) and kl.update_rule == "log_odds"
+    with pytest.raises(ValueError, match="clamping_thres_max must be in"):
+        kl.clamping_thres_max = 1.2
+    with pytest.raises(ValueError, match="motion likelihood must be in"):
+        kl.filter(np.ones((3, 3)), motion_likelihood=1.5)
+    with pytest.raises(ValueError, match="one id per feature"):
+        kl.filter(np.ones((3, 3)), track_ids=[1, 2])
+    with pytest.raises(ValueError, match="update_rule: Unknown occupancy update rule 'bayes'"):
+        kl.update_rule = "bayes"

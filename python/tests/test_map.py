@@ -1,0 +1,146 @@
+# SPDX-License-Identifier: BSD-3-Clause
+"""PlanarGridMap through the Python module: a map of known geometry built from Python,
+its state, occupancy and ray queries, and the map file round trip."""
+
+import pickle
+
+import numpy as np
+import pytest
+
+import planar_grid as pg
+from conftest import plane_patch
+
+# OctoMap's clamping bounds, the occupancy of an occupied / free voxel.
+P_OCCUPIED, P_FREE = 0.971, 0.1192
+
+
+def wall_scan():
+    """A 2 m x 2 m wall of points at x = 5.02 m seen from the origin: voxel row x in
+    [5.0, 5.1) at 0.1 m."""
+    ys, zs = np.meshgrid(np.arange(-1.0, 1.0, 0.05), np.arange(-1.0, 1.0, 0.05))
+    return np.column_stack([np.full(ys.size, 5.02), ys.ravel(), zs.ravel()])
+
+
+@pytest.fixture
+def scanned_map():
+    m = pg.PlanarGridMap(resolution_m=0.1)
+    m.integrate_point_cloud(wall_scan(), sensor_origin=[0.0, 0.0, 0.0])
+    return m
+
+
+def test_ray_cast_scan_gives_free_occupied_and_unknown_space(scanned_map):
+    m = scanned_map
+    # On a ray to the wall: free; at the wall: occupied; behind it and never seen: the
+    # prior (unknown).
+    queries = np.array([[2.55, 0.05, 0.05], [5.05, 0.05, 0.05], [7.0, 0.05, 0.05],
+                        [0.0, 0.0, -3.0]])
+    S = pg.SpaceState
+    np.testing.assert_array_equal(m.get_state(queries), [S.FREE, S.OCCUPIED, S.UNKNOWN,
+                                                         S.UNKNOWN])
+    np.testing.assert_allclose(m.get_occupancy(queries), [P_FREE, P_OCCUPIED, 0.5, 0.5],
+                               atol=1e-4)
+    # The wall is 20 x 20 voxels of the row x in [5.0, 5.1).
+    occupied = m.voxel_centres(S.OCCUPIED)
+    assert len(occupied) == 400 == m.voxel_counts["occupied"]
+    np.testing.assert_allclose(occupied[:, 0], 5.05, atol=1e-5)
+    assert m.voxel_counts["free"] > 0 and m.voxel_counts["unknown"] == 0  # unknown is the prior
+
+
+def test_rays_stop_at_the_wall(scanned_map):
+    origins = [0.0, 0.05, 0.05]
+    directions = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.1, 0.0]])
+    hit, points = scanned_map.cast_rays(origins, directions, max_range_m=20.0)
+    np.testing.assert_array_equal(hit, [True, False, True])
+    np.testing.assert_allclose(points[0], [5.05, 0.05, 0.05], atol=1e-5)
+    assert np.isnan(points[1]).all()
+    assert points[2][0] == pytest.approx(5.05, abs=1e-5)
+    hit, _ = scanned_map.cast_rays(origins, [1.0, 0.0, 0.0], max_range_m=3.0)
+    np.testing.assert_array_equal(hit, [False])
+
+
+def test_set_state_and_errors():
+    m = pg.PlanarGridMap(resolution_m=0.2, prior="free")
+    assert m.params["prior"] == "free" and m.resolution_m == pytest.approx(0.2)
+    m.set_state([[1.0, 1.0, 1.0]], "occupied")
+    m.set_state([[2.0, 2.0, 2.0]], pg.SpaceState.UNKNOWN)
+    np.testing.assert_array_equal(m.get_state([[1.05, 1.05, 1.05], [2.1, 2.1, 2.1], [9, 9, 9]]),
+                                  [1, 2, 0])
+    with pytest.raises(ValueError, match="state 7"):
+        m.set_state([[0, 0, 0]], 7)
+    with pytest.raises(ValueError, match="resolution"):
+        pg.PlanarGridMap(resolution_m=-1.0)
+    with pytest.raises(ValueError, match="prior: Unknown space state 'occupied-ish'"):
+        pg.PlanarGridMap(prior="occupied-ish")
+    with pytest.raises(ValueError, match=r"\(N, 3\)"):
+        m.get_state(np.zeros(3))
+
+
+def surface_map():
+    """A map with a wall of planar cuboids at x = 3 whose features have probability 0.9,
+    and the wall's ray-cast scan."""
+    wall = plane_patch([-1.0, 0.0, 0.0], 3.0, 2.0, 0.05)
+    planes = pg.SACMultiPlaneSegmentation(distance_threshold_m=0.02, min_inliers=100).segment(wall)
+    cuboids = pg.PlanarCuboidApproximation().approximate(wall, planes)
+    features = wall[::7]
+    m = pg.PlanarGridMap(resolution_m=0.1)
+    m.integrate_surface(cuboids, planes.model_coefficients, features,
+                        np.full(len(features), 0.9))
+    m.integrate_point_cloud(wall, sensor_origin=[0.0, 0.0, 0.0])
+    return m
+
+
+def test_surface_cuboids_carry_the_feature_occupancy():
+    m = surface_map()
+    np.testing.assert_allclose(m.planes, [[-1.0, 0.0, 0.0, 3.0]], atol=1e-4)
+    cuboids = m.cuboids
+    assert len(cuboids) > 0 and cuboids.is_planar.all()
+    # Every cell holds features of probability 0.9 (or takes its neighbours' mean).
+    np.testing.assert_allclose(cuboids.probabilities, 0.9, atol=1e-6)
+    # Inside the wall's box (behind the face at x = 3): the cuboid decides.
+    inside = [[3.05, 0.02, 0.03]]
+    assert m.get_state(inside)[0] == pg.SpaceState.OCCUPIED
+    assert m.get_occupancy(inside)[0] == pytest.approx(0.9, abs=1e-6)
+    hit, points = m.cast_rays([0.0, 0.02, 0.03], [1.0, 0.0, 0.0], 10.0)
+    assert hit[0] and points[0][0] == pytest.approx(2.95, abs=0.06)
+    memory = m.memory
+    assert memory["total_bytes"] == memory["surface_bytes"] + memory["space_bytes"] > 0
+    assert m.cell_count > 0
+
+
+def test_map_saved_from_python_loads_back_identically(tmp_path):
+    m = surface_map()
+    path = tmp_path / "wall.pgmap"
+    m.save(path)
+    loaded = pg.PlanarGridMap.load(str(path))
+    assert loaded == m
+    for name in ("centres", "extents_m", "rotations", "probabilities", "plane_ids"):
+        np.testing.assert_array_equal(getattr(loaded.cuboids, name), getattr(m.cuboids, name))
+    grid = np.random.default_rng(0).uniform([-1, -2, -2], [8, 2, 2], size=(5000, 3))
+    np.testing.assert_array_equal(loaded.get_state(grid), m.get_state(grid))
+    np.testing.assert_array_equal(loaded.get_occupancy(grid), m.get_occupancy(grid))
+    assert pickle.loads(pickle.dumps(m)) == m
+    loaded.set_state([[-5.0, -5.0, -5.0]], "occupied")
+    assert loaded != m
+
+
+def test_bad_map_files_raise_io_errors_naming_the_file(tmp_path):
+    missing = tmp_path / "missing.pgmap"
+    with pytest.raises(pg.IOError, match="missing.pgmap") as error:
+        pg.PlanarGridMap.load(missing)
+    assert isinstance(error.value, OSError) and isinstance(error.value, pg.Error)
+    path = tmp_path / "cut.pgmap"
+    surface_map().save(path)
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) - 10])
+    with pytest.raises(OSError, match="cut.pgmap"):
+        pg.PlanarGridMap.load(path)
+    with pytest.raises(pg.IOError):
+        surface_map().export_mesh(tmp_path / "mesh.obj")
+
+
+def test_exports_write_files(tmp_path):
+    m = surface_map()
+    m.export_octomap(tmp_path / "m.bt")
+    m.export_mesh(tmp_path / "m.ply")
+    assert (tmp_path / "m.bt").stat().st_size > 0
+    assert (tmp_path / "m.ply").read_bytes().startswith(b"ply")

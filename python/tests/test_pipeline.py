@@ -1,0 +1,103 @@
+# SPDX-License-Identifier: BSD-3-Clause
+"""run_pipeline() on three real Karlsruhe frames with the main job's configuration, and
+its configuration errors."""
+
+import numpy as np
+import pytest
+
+import planar_grid as pg
+
+
+@pytest.fixture(scope="module")
+def karlsruhe_run(tmp_path_factory, source_dir_module):
+    """config/karlsruhe.yaml (the main job) on frames 10-12, outputs in a temporary
+    folder."""
+    out = tmp_path_factory.mktemp("karlsruhe")
+    progress = []
+    result = pg.run_pipeline(source_dir_module / "config" / "karlsruhe.yaml", frames=(10, 13),
+                             output_folder=out,
+                             progress=lambda done, total, s: progress.append((done, total)))
+    return result, out, progress
+
+
+@pytest.fixture(scope="module")
+def source_dir_module():
+    from conftest import SOURCE_DIR, DATA_DIR
+    if not DATA_DIR.is_dir():
+        pytest.fail(f"the shared data folder {DATA_DIR} is missing (PLANAR_GRID_DATA_DIR)")
+    return SOURCE_DIR
+
+
+def test_run_gives_the_report_poses_and_map(karlsruhe_run):
+    result, out, progress = karlsruhe_run
+    assert result.frames == 3 and result.report["frames"] == 3
+    assert progress == [(1, 3), (2, 3), (3, 3)]
+    # GPS/INS poses of consecutive frames: the car moves 0.74 m a frame (median over the
+    # sequence, data README), level along the track.
+    trajectory = result.trajectory
+    assert trajectory.shape == (3, 4, 4)
+    steps = np.linalg.norm(np.diff(trajectory[:, :3, 3], axis=0), axis=1)
+    assert np.all((steps > 0.3) & (steps < 1.5))
+    np.testing.assert_allclose(trajectory[:, 3], np.tile([0, 0, 0, 1], (3, 1)))
+    m = result.map
+    assert m is not None and len(m.cuboids) > 100
+    # The cameras are in free space, not in a cell.
+    cameras = trajectory[:, :3, 3]
+    assert not np.any(m.get_state(cameras) == pg.SpaceState.OCCUPIED)
+    # A street: facades are vertical planes (normal's z component ~ 0).
+    assert np.any(np.abs(m.planes[:, 2]) < 0.1)
+    assert len(result.world_cloud) > 1000
+    assert result.world_cloud.shape[1] == 3
+    assert len(result.plane_labels) == len(result.plane_cloud)
+    assert result.plane_labels.max() < len(result.plane_models)
+    assert "multi_plane_segmentation" in result.timing_table
+
+
+def test_written_map_is_the_returned_one(karlsruhe_run):
+    result, out, _ = karlsruhe_run
+    outputs = result.outputs
+    assert outputs["map"] == str(out / "map.pgmap")
+    loaded = pg.PlanarGridMap.load(outputs["map"])
+    assert loaded == result.map
+    for kind in ("cloud", "trajectory", "report", "map_octomap", "map_mesh"):
+        assert (out / outputs[kind].split("/")[-1]).is_file(), kind
+    assert not (out / "snapshot.png").exists()  # the module renders no snapshot
+
+
+def test_points_of_the_map_surface_are_known_space(karlsruhe_run):
+    # Every cuboid centre lies in its own cuboid, so the map answers from the surface
+    # layer there: occupied or free by the cuboid's probability, never unknown.
+    result, _, _ = karlsruhe_run
+    m = result.map
+    cuboids = m.cuboids
+    states = m.get_state(cuboids.centres)
+    assert not np.any(states == pg.SpaceState.UNKNOWN)
+    occupancy = m.get_occupancy(cuboids.centres)
+    expected = np.where(states == pg.SpaceState.OCCUPIED, occupancy >= 0.5, occupancy < 0.5)
+    assert expected.all()
+
+
+def test_configuration_errors_name_the_place(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("input:\n  type: stereo_sequence\n  bogus_key_m: 1\n")
+    with pytest.raises(pg.ConfigError) as error:
+        pg.run_pipeline(bad, write_outputs=False)
+    assert isinstance(error.value, ValueError)
+    assert error.value.file.endswith("bad.yaml")
+    assert (error.value.line, error.value.column) == (3, 3)
+    assert str(error.value).startswith(f"{error.value.file}:3:3: ")
+    assert "bogus_key_m" in str(error.value)
+    with pytest.raises(pg.IOError, match="missing.yaml"):
+        pg.run_pipeline(tmp_path / "missing.yaml")
+
+
+def test_frame_range_outside_the_input_is_an_error(source_dir_module, tmp_path):
+    with pytest.raises(pg.Error, match="200"):
+        pg.run_pipeline(source_dir_module / "config" / "karlsruhe.yaml", frames=(200, 201),
+                        output_folder=tmp_path)
+
+
+def test_stage_types_list_the_registry():
+    stages = pg.stage_types()
+    assert "multi_plane_segmentation" in stages
+    assert "distance_threshold_m" in stages["multi_plane_segmentation"]
