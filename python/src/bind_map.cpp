@@ -83,6 +83,7 @@ paramsDict(const PlanarGridMap::Params& p)
   d["feature_distance_m"] = p.surface.feature_distance_m;
   d["close_gaps_cells"] = p.surface.close_gaps_cells;
   d["merge_rule"] = toString(p.surface.merge_rule);
+  d["cover_density"] = p.surface.cover_density;
   return d;
 }
 
@@ -136,8 +137,11 @@ feature_distance_m : float, optional
     A feature counts for a planar cell within this distance of the plane, meters.
 close_gaps_cells : int, optional
     Widest gap closed in a plane's raster, cells, in [0, 32] (default 2).
-merge_rule : {"min_rectangles", "paper"}, optional
+merge_rule : {"min_rectangles", "paper", "density"}, optional
     How a plane's cells are covered by rectangles (default "min_rectangles").
+cover_density : float, optional
+    With merge_rule "density": smallest share of a rectangle's cells that are the
+    plane's cells of its occupancy class, in [0.5, 1] (default 0.9, the paper's D_T).
 
 Raises
 ------
@@ -154,7 +158,8 @@ Maps are not copied (copy.copy raises); pickling goes through the map file forma
                      const std::string& prior, double thickness_m,
                      double plane_merge_angle_rad, double plane_merge_distance_m,
                      double occupancy_thres, double feature_distance_m,
-                     int close_gaps_cells, const std::string& merge_rule) {
+                     int close_gaps_cells, const std::string& merge_rule,
+                     double cover_density) {
            Map::Params p;
            p.space.resolution_m = resolution_m;
            p.space.max_range_m = max_range_m;
@@ -166,6 +171,7 @@ Maps are not copied (copy.copy raises); pickling goes through the map file forma
            p.surface.occupancy_thres = occupancy_thres;
            p.surface.feature_distance_m = feature_distance_m;
            p.surface.close_gaps_cells = close_gaps_cells;
+           p.surface.cover_density = cover_density;
            try {
              p.space.prior = spaceStateFromString(prior);
            } catch (const planar_grid::Exception& e) {
@@ -193,7 +199,8 @@ Maps are not copied (copy.copy raises); pickling goes through the map file forma
          py::arg("occupancy_thres") = d.surface.occupancy_thres,
          py::arg("feature_distance_m") = d.surface.feature_distance_m,
          py::arg("close_gaps_cells") = d.surface.close_gaps_cells,
-         py::arg("merge_rule") = toString(d.surface.merge_rule))
+         py::arg("merge_rule") = toString(d.surface.merge_rule),
+         py::arg("cover_density") = d.surface.cover_density)
     .def_static(
       "load",
       [](const py::object& path) {

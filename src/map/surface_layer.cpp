@@ -38,7 +38,7 @@ constexpr float MAX_COORDINATE_M = 1e7f;
 constexpr double MAX_BINS_PER_CUBOID = 4096.0;
 /** \brief Section magic ("PGSL") and version of serialize(). */
 constexpr std::uint32_t MAGIC = 0x4C534750u;
-constexpr std::uint32_t VERSION = 2;
+constexpr std::uint32_t VERSION = 3;
 /** \brief Largest Params::close_gaps_cells. */
 constexpr int MAX_CLOSE_GAPS_CELLS = 32;
 
@@ -573,8 +573,11 @@ validate(const SurfaceLayer::Params& p)
     bad("close_gaps_cells (must be in [0, " + std::to_string(MAX_CLOSE_GAPS_CELLS)
         + "] cells)");
   if (p.merge_rule != SurfaceMergeRule::PAPER
-      && p.merge_rule != SurfaceMergeRule::MIN_RECTANGLES)
-    bad("merge_rule (must be paper or min_rectangles)");
+      && p.merge_rule != SurfaceMergeRule::MIN_RECTANGLES
+      && p.merge_rule != SurfaceMergeRule::DENSITY)
+    bad("merge_rule (must be paper, min_rectangles or density)");
+  if (!(p.cover_density >= 0.5 && p.cover_density <= 1.0))
+    bad("cover_density (must be a share in [0.5, 1])");
 }
 
 NonPlanarKey
@@ -1008,14 +1011,19 @@ minimumPartition(const std::vector<std::uint64_t>& keys,
   return rects;
 }
 
-/** \brief The MIN_RECTANGLES cover: per 4-connected component of one class, the
- * minimum partition, or the paper's cover of the component when that is as small
- * (always when it is one rectangle) or when the component's bounding box is much
- * larger than its cells (a sparse staircase, where a dense grid would cost too
- * much). */
-std::vector<CellRect>
-minRectangleCover(const std::vector<std::uint64_t>& keys,
-                  const std::vector<std::uint8_t>& cls)
+/** \brief The 4-connected components of cells of one class: component c holds the
+ * keys members[start[c]] .. members[start[c + 1] - 1], in key order; components are
+ * numbered by their first cell. \a keys sorted by row, then column; \a cls the
+ * class of each. */
+struct CellComponents {
+  std::vector<std::uint64_t> members;
+  std::vector<std::size_t> start;
+  std::size_t size() const { return start.size() - 1; }
+};
+
+CellComponents
+cellComponents(const std::vector<std::uint64_t>& keys,
+               const std::vector<std::uint8_t>& cls)
 {
   const std::size_t n = keys.size();
   std::vector<std::uint32_t> parent(n);
@@ -1066,37 +1074,205 @@ minRectangleCover(const std::vector<std::uint64_t>& keys,
   std::vector<std::size_t> start(sizes.size() + 1, 0);
   for (std::size_t c = 0; c < sizes.size(); ++c)
     start[c + 1] = start[c] + sizes[c];
-  std::vector<std::uint64_t> members(n);
+  CellComponents out;
+  out.members.resize(n);
   {
     std::vector<std::size_t> fill(start.begin(), start.end() - 1);
     for (std::size_t k = 0; k < n; ++k)
-      members[fill[component[k]]++] = keys[k];
+      out.members[fill[component[k]]++] = keys[k];
   }
+  out.start = std::move(start);
+  return out;
+}
+
+/** \brief Whether the dense grid of a component of \a cells cells in a \a w x \a h
+ * bounding box is affordable (a 4-connected component of m cells spans at most
+ * m x m cells: a long diagonal staircase would not be). */
+bool
+denseGridAffordable(std::int64_t w, std::int64_t h, std::size_t cells)
+{
+  return static_cast<double>(w) * static_cast<double>(h)
+         <= 8.0 * static_cast<double>(cells) + 4096.0;
+}
+
+/** \brief Bounding box [i_lo, i_lo + w) x [j_lo, j_lo + h) of \a sub (sorted). */
+void
+cellBounds(const std::vector<std::uint64_t>& sub,
+           std::int64_t& i_lo,
+           std::int64_t& j_lo,
+           std::int64_t& w,
+           std::int64_t& h)
+{
+  i_lo = keyI(sub.front());
+  std::int64_t i_hi = i_lo;
+  for (const auto key : sub) {
+    i_lo = std::min<std::int64_t>(i_lo, keyI(key));
+    i_hi = std::max<std::int64_t>(i_hi, keyI(key));
+  }
+  j_lo = keyJ(sub.front());
+  w = i_hi - i_lo + 1;
+  h = keyJ(sub.back()) - j_lo + 1;
+}
+
+/** \brief The MIN_RECTANGLES cover of one component \a sub: the minimum partition,
+ * or the paper's cover when that is as small (always when it is one rectangle) or
+ * when the component's bounding box is much larger than its cells. */
+std::vector<CellRect>
+fewestRectangles(const std::vector<std::uint64_t>& sub)
+{
+  const std::vector<std::uint8_t> one_class(sub.size(), 0);
+  std::vector<CellRect> paper = paperCover(sub, one_class);
+  if (paper.size() > 1) {
+    std::int64_t i_lo, j_lo, w, h;
+    cellBounds(sub, i_lo, j_lo, w, h);
+    if (denseGridAffordable(w, h, sub.size())) {
+      std::vector<CellRect> fewest = minimumPartition(sub, i_lo, j_lo, w, h);
+      if (!fewest.empty() && fewest.size() < paper.size())
+        paper.swap(fewest);
+    }
+  }
+  return paper;
+}
+
+/** \brief The MIN_RECTANGLES cover: per 4-connected component of one class, the
+ * fewest rectangles (fewestRectangles). */
+std::vector<CellRect>
+minRectangleCover(const std::vector<std::uint64_t>& keys,
+                  const std::vector<std::uint8_t>& cls)
+{
+  const CellComponents components = cellComponents(keys, cls);
   std::vector<CellRect> rects;
   std::vector<std::uint64_t> sub;
-  std::vector<std::uint8_t> one_class;
-  for (std::size_t c = 0; c < sizes.size(); ++c) {
-    sub.assign(members.begin() + static_cast<std::ptrdiff_t>(start[c]),
-               members.begin() + static_cast<std::ptrdiff_t>(start[c + 1]));
-    one_class.assign(sub.size(), 0);
-    std::vector<CellRect> paper = paperCover(sub, one_class);
-    if (paper.size() > 1) {
-      std::int64_t i_lo = keyI(sub.front()), i_hi = i_lo;
-      for (const auto key : sub) {
-        i_lo = std::min<std::int64_t>(i_lo, keyI(key));
-        i_hi = std::max<std::int64_t>(i_hi, keyI(key));
-      }
-      const std::int64_t j_lo = keyJ(sub.front()), j_hi = keyJ(sub.back());
-      const std::int64_t w = i_hi - i_lo + 1, h = j_hi - j_lo + 1;
-      // a 4-connected component of m cells spans at most m x m cells
-      if (static_cast<double>(w) * static_cast<double>(h)
-          <= 8.0 * static_cast<double>(sub.size()) + 4096.0) {
-        std::vector<CellRect> fewest = minimumPartition(sub, i_lo, j_lo, w, h);
-        if (!fewest.empty() && fewest.size() < paper.size())
-          paper.swap(fewest);
-      }
+  for (std::size_t c = 0; c < components.size(); ++c) {
+    sub.assign(components.members.begin()
+                 + static_cast<std::ptrdiff_t>(components.start[c]),
+               components.members.begin()
+                 + static_cast<std::ptrdiff_t>(components.start[c + 1]));
+    const std::vector<CellRect> part = fewestRectangles(sub);
+    rects.insert(rects.end(), part.begin(), part.end());
+  }
+  return rects;
+}
+
+/** \brief The DENSITY cover (SurfaceMergeRule::DENSITY): per 4-connected component
+ * of raster cells (either class), rectangles grown greedily on the component's
+ * bounding box. A cell of the box is free (no raster cell), of class 0 or 1, or
+ * blocked (a raster cell of another component, or one already covered). From each
+ * uncovered cell in row-major order, a rectangle grows one column or row at a time on
+ * the side whose new strip has the largest share of cells of the seed's class (more
+ * of them on a tie; right, up, left, down on a further tie), while the strip holds
+ * such a cell and no blocked cell and at least \a density of the rectangle's cells
+ * are of the seed's class. */
+std::vector<CellRect>
+densityCover(const std::vector<std::uint64_t>& keys,
+             const std::vector<std::uint8_t>& cls,
+             double density)
+{
+  const CellComponents components =
+    cellComponents(keys, std::vector<std::uint8_t>(keys.size(), 0));
+  std::vector<CellRect> rects;
+  std::vector<std::uint64_t> sub;
+  enum : std::uint8_t { FREE = 0, CLASS_0 = 1, CLASS_1 = 2, BLOCKED = 3 };
+  std::vector<std::uint8_t> grid;
+  for (std::size_t c = 0; c < components.size(); ++c) {
+    sub.assign(components.members.begin()
+                 + static_cast<std::ptrdiff_t>(components.start[c]),
+               components.members.begin()
+                 + static_cast<std::ptrdiff_t>(components.start[c + 1]));
+    std::int64_t i_lo, j_lo, w, h;
+    cellBounds(sub, i_lo, j_lo, w, h);
+    if (!denseGridAffordable(w, h, sub.size())) {
+      const std::vector<CellRect> part = minRectangleCover(sub, [&] {
+        std::vector<std::uint8_t> sub_cls(sub.size());
+        for (std::size_t k = 0; k < sub.size(); ++k)
+          sub_cls[k] = cls[static_cast<std::size_t>(
+            std::lower_bound(keys.begin(), keys.end(), sub[k]) - keys.begin())];
+        return sub_cls;
+      }());
+      rects.insert(rects.end(), part.begin(), part.end());
+      continue;
     }
-    rects.insert(rects.end(), paper.begin(), paper.end());
+    const auto W = static_cast<std::size_t>(w);
+    grid.assign(W * static_cast<std::size_t>(h), FREE);
+    // Every raster cell in the box is blocked, then the component's own take their
+    // class.
+    for (std::int64_t y = 0; y < h; ++y) {
+      const auto j = static_cast<std::int32_t>(j_lo + y);
+      auto it = std::lower_bound(keys.begin(), keys.end(),
+                                 cellKey(static_cast<std::int32_t>(i_lo), j));
+      for (; it != keys.end() && keyJ(*it) == j && keyI(*it) < i_lo + w; ++it)
+        grid[static_cast<std::size_t>(y) * W
+             + static_cast<std::size_t>(keyI(*it) - i_lo)] = BLOCKED;
+    }
+    for (const auto key : sub) {
+      const auto k = static_cast<std::size_t>(
+        std::lower_bound(keys.begin(), keys.end(), key) - keys.begin());
+      grid[static_cast<std::size_t>(keyJ(key) - j_lo) * W
+           + static_cast<std::size_t>(keyI(key) - i_lo)] =
+        cls[k] != 0 ? CLASS_1 : CLASS_0;
+    }
+    const auto at = [&](std::int64_t x, std::int64_t y) -> std::uint8_t& {
+      return grid[static_cast<std::size_t>(y) * W + static_cast<std::size_t>(x)];
+    };
+    // Cells of class \a of in the strip x in [x0, x1), y in [y0, y1); -1 if it holds
+    // a blocked cell.
+    const auto strip = [&](std::uint8_t of, std::int64_t x0, std::int64_t x1,
+                           std::int64_t y0, std::int64_t y1) -> std::int64_t {
+      std::int64_t members = 0;
+      for (std::int64_t y = y0; y < y1; ++y)
+        for (std::int64_t x = x0; x < x1; ++x) {
+          const std::uint8_t g = at(x, y);
+          if (g == BLOCKED)
+            return -1;
+          members += g == of ? 1 : 0;
+        }
+      return members;
+    };
+    for (std::int64_t sy = 0; sy < h; ++sy)
+      for (std::int64_t sx = 0; sx < w; ++sx) {
+        const std::uint8_t of = at(sx, sy);
+        if (of != CLASS_0 && of != CLASS_1)
+          continue;
+        std::int64_t x0 = sx, x1 = sx + 1, y0 = sy, y1 = sy + 1, members = 1;
+        for (;;) {
+          // right, up, left, down
+          const std::int64_t len_u = y1 - y0, len_v = x1 - x0;
+          const std::int64_t got[4] = {x1 < w ? strip(of, x1, x1 + 1, y0, y1) : -1,
+                                       y1 < h ? strip(of, x0, x1, y1, y1 + 1) : -1,
+                                       x0 > 0 ? strip(of, x0 - 1, x0, y0, y1) : -1,
+                                       y0 > 0 ? strip(of, x0, x1, y0 - 1, y0) : -1};
+          const std::int64_t len[4] = {len_u, len_v, len_u, len_v};
+          const double area = static_cast<double>((x1 - x0) * (y1 - y0));
+          int best = -1;
+          for (int side = 0; side < 4; ++side) {
+            if (got[side] <= 0
+                || static_cast<double>(members + got[side])
+                     < density * (area + static_cast<double>(len[side])))
+              continue;
+            if (best < 0 || got[side] * len[best] > got[best] * len[side]
+                || (got[side] * len[best] == got[best] * len[side]
+                    && got[side] > got[best]))
+              best = side;
+          }
+          if (best < 0)
+            break;
+          members += got[best];
+          if (best == 0)
+            ++x1;
+          else if (best == 1)
+            ++y1;
+          else if (best == 2)
+            --x0;
+          else
+            --y0;
+        }
+        for (std::int64_t y = y0; y < y1; ++y)
+          for (std::int64_t x = x0; x < x1; ++x)
+            at(x, y) = BLOCKED;
+        rects.push_back(CellRect{
+          static_cast<std::int32_t>(i_lo + x0), static_cast<std::int32_t>(i_lo + x1),
+          static_cast<std::int32_t>(j_lo + y0), static_cast<std::int32_t>(j_lo + y1)});
+      }
   }
   return rects;
 }
@@ -1237,6 +1413,8 @@ rebuildPlane(MapPlane& plane, const SurfaceLayer::Params& params)
     cls[k] = value[k] >= params.occupancy_thres ? 1 : 0;
   std::vector<CellRect> cover = params.merge_rule == SurfaceMergeRule::PAPER
                                   ? paperCover(keys, cls)
+                                : params.merge_rule == SurfaceMergeRule::DENSITY
+                                  ? densityCover(keys, cls, params.cover_density)
                                   : minRectangleCover(keys, cls);
   std::sort(cover.begin(), cover.end(), [](const CellRect& a, const CellRect& b) {
     return a.j0 != b.j0 ? a.j0 < b.j0 : a.i0 < b.i0;
@@ -1250,10 +1428,8 @@ rebuildPlane(MapPlane& plane, const SurfaceLayer::Params& params)
         std::lower_bound(keys.begin(), keys.end(),
                          cellKey(rect.i0, static_cast<std::int32_t>(j)))
         - keys.begin());
-      for (std::int64_t i = rect.i0; i < rect.i1 && k < n; ++i, ++k) {
-        if (keys[k]
-            != cellKey(static_cast<std::int32_t>(i), static_cast<std::int32_t>(j)))
-          break; // unreachable: the cover holds only cells of the raster
+      // the DENSITY cover may hold unobserved cells: only the raster's count
+      for (; k < n && keyJ(keys[k]) == j && keyI(keys[k]) < rect.i1; ++k) {
         sum += value[k];
         features += count[k];
         ++cells;
@@ -2076,6 +2252,7 @@ SurfaceLayer::serialize(std::vector<std::uint8_t>& bytes) const
   w.put(params_.feature_distance_m);
   w.put(static_cast<std::uint32_t>(params_.close_gaps_cells));
   w.put(static_cast<std::uint8_t>(params_.merge_rule));
+  w.put(params_.cover_density);
   w.put(static_cast<std::uint64_t>(impl.planes.size()));
   for (const auto& plane : impl.planes) {
     for (int k = 0; k < 3; ++k)
@@ -2155,8 +2332,8 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
   if (version == 1)
     throw IOError("surface layer: version 1 section (written before the map planes "
                   "kept their evidence moments) is not supported by this reader "
-                  "(version 2); run the mapping again");
-  if (version != VERSION)
+                  "(versions 2 and 3); run the mapping again");
+  if (version != 2 && version != VERSION)
     throw IOError("surface layer: unsupported version " + std::to_string(version));
   Params params;
   params.resolution_m = rd.get<double>();
@@ -2170,10 +2347,13 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
   if (close_gaps > static_cast<std::uint32_t>(MAX_CLOSE_GAPS_CELLS))
     throw IOError("surface layer: close_gaps_cells " + std::to_string(close_gaps)
                   + " out of range");
-  if (rule > static_cast<std::uint8_t>(SurfaceMergeRule::MIN_RECTANGLES))
+  if (rule > static_cast<std::uint8_t>(version == 2 ? SurfaceMergeRule::MIN_RECTANGLES
+                                                    : SurfaceMergeRule::DENSITY))
     throw IOError("surface layer: unknown merge_rule " + std::to_string(rule));
   params.close_gaps_cells = static_cast<int>(close_gaps);
   params.merge_rule = static_cast<SurfaceMergeRule>(rule);
+  if (version >= 3) // version 2 had no DENSITY rule, so its value does not matter
+    params.cover_density = rd.get<double>();
   try {
     validate(params);
   } catch (const Exception& e) {
@@ -2341,7 +2521,8 @@ SurfaceLayer::operator==(const SurfaceLayer& other) const
       || a.plane_merge_distance_m != b.plane_merge_distance_m
       || a.occupancy_thres != b.occupancy_thres
       || a.feature_distance_m != b.feature_distance_m
-      || a.close_gaps_cells != b.close_gaps_cells || a.merge_rule != b.merge_rule)
+      || a.close_gaps_cells != b.close_gaps_cells || a.merge_rule != b.merge_rule
+      || a.cover_density != b.cover_density)
     return false;
   const Impl& x = *impl_;
   const Impl& y = *other.impl_;
@@ -2372,7 +2553,15 @@ SurfaceLayer::operator==(const SurfaceLayer& other) const
 std::string
 toString(SurfaceMergeRule rule)
 {
-  return rule == SurfaceMergeRule::PAPER ? "paper" : "min_rectangles";
+  switch (rule) {
+    case SurfaceMergeRule::PAPER:
+      return "paper";
+    case SurfaceMergeRule::MIN_RECTANGLES:
+      return "min_rectangles";
+    case SurfaceMergeRule::DENSITY:
+      return "density";
+  }
+  return "unknown";
 }
 
 SurfaceMergeRule
@@ -2382,8 +2571,10 @@ surfaceMergeRuleFromString(const std::string& name)
     return SurfaceMergeRule::PAPER;
   if (name == "min_rectangles")
     return SurfaceMergeRule::MIN_RECTANGLES;
+  if (name == "density")
+    return SurfaceMergeRule::DENSITY;
   throw Exception("Unknown surface merge rule '" + name
-                  + "' (expected paper or min_rectangles)");
+                  + "' (expected paper, min_rectangles or density)");
 }
 
 } // namespace planar_grid

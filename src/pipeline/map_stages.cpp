@@ -415,9 +415,14 @@ mapIntegrationInfo()
                        "Gaps of up to this many cells between observed cells of a "
                        "plane's row or column are filled before the merge; 0: none."),
     ParamSpec::choice("merge_rule", toString(d.surface.merge_rule),
-                      {"paper", "min_rectangles"},
+                      {"paper", "min_rectangles", "density"},
                       "Cover of a plane's cells: the paper's runs stacked by equal "
-                      "extent (Fig. 6b), or the fewest rectangles."),
+                      "extent (Fig. 6b), the fewest exact rectangles, or rectangles "
+                      "grown while at least cover_density of their cells are the "
+                      "plane's (the paper's D_T applied to the merge)."),
+    ParamSpec::real("cover_density", d.surface.cover_density, 0.5, 1.0, "share",
+                    "merge_rule density: smallest share of a rectangle's cells "
+                    "observed on the plane."),
     ParamSpec::real("occupancy_thres", d.surface.occupancy_thres, 0.01, 0.99,
                     "probability", "Cells at or above it are occupied."),
     ParamSpec::real("feature_distance_m", d.surface.feature_distance_m, 0.0, 10.0, "m",
@@ -454,6 +459,7 @@ mapIntegrationInfo()
     p.surface.feature_distance_m = v.getDouble("feature_distance_m");
     p.surface.close_gaps_cells = v.getInt("close_gaps_cells");
     p.surface.merge_rule = surfaceMergeRuleFromString(v.getChoice("merge_rule"));
+    p.surface.cover_density = v.getDouble("cover_density");
     const std::string model = v.getChoice("sensor_model");
     const auto sensor_model = model == "rays" ? MapIntegrationStage::SensorModel::RAYS
                               : model == "pinhole"

@@ -13,6 +13,7 @@
 #include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -813,6 +814,100 @@ TEST(SurfaceLayer, MinRectanglesCoverIsExactAndNoWorseThanThePapers)
   EXPECT_LT(rects_max, rects_paper);
 }
 
+// Oracle: random rasters (24 x 16 cells, densities 0.5-0.95, one or two occupancy
+// classes from features of probability 0.2 / 0.8 at the cell centres), no closing,
+// the density rule at D = 0.9 and at 1. Every observed cell centre lies in exactly
+// one cuboid, every unobserved one in at most one; at least D of the cell centres
+// inside each cuboid are observed cells of one class, whose class the cuboid takes
+// when it is above 0.9 (at D = 1: the cover is exact, one class per cuboid). With
+// D = 0.9 it needs fewer rectangles than min_rectangles.
+TEST(SurfaceLayer, DensityCoverHoldsTheRasterAtItsDensity)
+{
+  const PlaneFrame wall = wallFrame();
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<float> uni(0.0f, 1.0f);
+  std::size_t rects_exact = 0, rects_dense = 0, rects_fewest = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    const float density = 0.5f + 0.45f * uni(rng);
+    const bool two_classes = trial % 2 == 1;
+    std::vector<std::vector<int>> cls(24, std::vector<int>(16, -1)); // -1 unobserved
+    PlanarCuboids cuboids;
+    Cloud features;
+    std::vector<float> probabilities;
+    for (int i = 0; i < 24; ++i)
+      for (int j = 0; j < 16; ++j) {
+        if (!(uni(rng) < density))
+          continue;
+        addCell(wall, i, j, cuboids);
+        cls[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] = 1;
+        if (two_classes) {
+          const bool occupied = uni(rng) < 0.6f;
+          cls[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] =
+            occupied ? 1 : 0;
+          pcl::PointXYZ q;
+          q.getVector3fMap() = wall.at(0.1f * i + 0.05f, 0.1f * j + 0.05f);
+          features.push_back(q);
+          probabilities.push_back(occupied ? 0.8f : 0.2f);
+        }
+      }
+    for (const double cover_density : {1.0, 0.9}) {
+      SurfaceLayer::Params params;
+      params.close_gaps_cells = 0;
+      params.merge_rule = planar_grid::SurfaceMergeRule::DENSITY;
+      params.cover_density = cover_density;
+      SurfaceLayer layer(params);
+      layer.integrate(cuboids, PlaneModels{wall.model()}, features, probabilities);
+      const PlanarCuboids& out = layer.getCuboids();
+      (cover_density == 1.0 ? rects_exact : rects_dense) += out.size();
+      std::vector<int> cells_in(out.size(), 0);
+      std::vector<std::array<int, 2>> of_class(out.size(), {0, 0});
+      for (int i = -1; i <= 24; ++i)
+        for (int j = -1; j <= 16; ++j) {
+          const int c =
+            (i >= 0 && i < 24 && j >= 0 && j < 16)
+              ? cls[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)]
+              : -1;
+          const Eigen::Vector3f p =
+            wall.at(0.1f * i + 0.05f, 0.1f * j + 0.05f) - wall.n * 0.05f;
+          int hits = 0;
+          for (std::size_t k = 0; k < out.size(); ++k)
+            if (out[k].contains(p)) {
+              ++hits;
+              ++cells_in[k];
+              if (c >= 0)
+                ++of_class[k][c];
+            }
+          if (c >= 0 || cover_density == 1.0) {
+            ASSERT_EQ(hits, c >= 0 ? 1 : 0)
+              << "trial " << trial << " cell " << i << " " << j;
+          } else {
+            ASSERT_LE(hits, 1) << "trial " << trial << " cell " << i << " " << j;
+          }
+        }
+      for (std::size_t k = 0; k < out.size(); ++k) {
+        const int major = of_class[k][1] >= of_class[k][0] ? 1 : 0;
+        EXPECT_GE(static_cast<double>(of_class[k][major]),
+                  cover_density * static_cast<double>(cells_in[k]) - 1e-9)
+          << "trial " << trial << " rectangle " << k;
+        // the rectangle's probability is its cells' mean of 0.8 and 0.2
+        if (two_classes && of_class[k][1 - major] * 10 < cells_in[k]) {
+          EXPECT_EQ(out[k].probability >= 0.5f ? 1 : 0, major) << trial;
+        }
+      }
+    }
+    SurfaceLayer::Params params;
+    params.close_gaps_cells = 0;
+    params.merge_rule = planar_grid::SurfaceMergeRule::MIN_RECTANGLES;
+    SurfaceLayer layer(params);
+    layer.integrate(cuboids, PlaneModels{wall.model()}, features, probabilities);
+    rects_fewest += layer.getCuboids().size();
+  }
+  std::printf("random rasters: density 1: %zu rectangles, density 0.9: %zu, "
+              "min_rectangles: %zu\n",
+              rects_exact, rects_dense, rects_fewest);
+  EXPECT_LT(rects_dense, rects_fewest);
+}
+
 /** \a count frames of the facade [0, 10] x [0, 4] m of wallFrame(), each made of 40
  * random faces of 0.3-1.5 m a side (clipped to the facade) on the plane turned by up
  * to \a max_angle_rad about an in-plane axis through the facade centre and shifted by
@@ -894,6 +989,20 @@ TEST(SurfaceLayer, MergeRulesOnANoisyFacade)
   EXPECT_LE(rects[1][1], rects[0][1]);
   // measured 35 against 55: bound 3/4
   EXPECT_LE(4 * rects[1][1], 3 * rects[0][0]);
+  // The paper's D_T on the merge: rectangles at least 90 % observed.
+  SurfaceLayer::Params params;
+  params.merge_rule = planar_grid::SurfaceMergeRule::DENSITY;
+  params.close_gaps_cells = 2;
+  SurfaceLayer layer(params);
+  for (const Frame& f : frames)
+    layer.integrate(f.cuboids, f.planes, Cloud(), {});
+  ASSERT_EQ(layer.getPlanes().size(), 1u);
+  std::printf("noisy facade, density 0.9, close_gaps_cells 2: %zu rectangles, %.1f "
+              "observed cells per rectangle\n",
+              layer.getCuboids().size(),
+              static_cast<double>(layer.getCellCount())
+                / static_cast<double>(layer.getCuboids().size()));
+  EXPECT_LT(layer.getCuboids().size(), rects[1][1]);
 }
 
 /** A frame: two planes, non-planar boxes and features, seeded. */
@@ -1233,6 +1342,23 @@ TEST(SurfaceLayer, SerializeRoundTrip)
   paper_copy.integrate(cuboids, planes, features, probabilities);
   EXPECT_TRUE(paper_copy == paper);
   EXPECT_TRUE(sameCuboids(paper_copy.getCuboids(), paper.getCuboids()));
+  // the density rule and its share travel too, and give the same cuboids
+  SurfaceLayer::Params density_params;
+  density_params.merge_rule = planar_grid::SurfaceMergeRule::DENSITY;
+  density_params.cover_density = 0.7;
+  SurfaceLayer dense(density_params);
+  for (unsigned seed = 11; seed <= 13; ++seed) {
+    makeFrame(seed, cuboids, planes, features, probabilities);
+    dense.integrate(cuboids, planes, features, probabilities);
+  }
+  bytes.clear();
+  dense.serialize(bytes);
+  SurfaceLayer dense_copy(defaultParams());
+  dense_copy.deserialize(bytes.data(), bytes.size());
+  EXPECT_TRUE(dense_copy == dense);
+  EXPECT_EQ(dense_copy.getParams().merge_rule, planar_grid::SurfaceMergeRule::DENSITY);
+  EXPECT_EQ(dense_copy.getParams().cover_density, 0.7);
+  EXPECT_TRUE(sameCuboids(dense_copy.getCuboids(), dense.getCuboids()));
   // version 1 sections (planes without their evidence) are refused, by name
   std::vector<std::uint8_t> old_version = bytes;
   old_version[4] = 1; // the u32 version after the u32 magic
@@ -1243,6 +1369,19 @@ TEST(SurfaceLayer, SerializeRoundTrip)
     EXPECT_NE(std::string(e.what()).find("version 1"), std::string::npos) << e.what();
   }
   EXPECT_TRUE(paper_copy == paper); // unchanged
+  // version 2 sections (no density rule: no cover_density after the merge_rule byte)
+  // still load, with the default cover_density
+  std::vector<std::uint8_t> paper_bytes;
+  paper.serialize(paper_bytes);
+  const std::size_t density_at = 4 + 4 + 6 * 8 + 4 + 1;
+  std::vector<std::uint8_t> version_2(paper_bytes.begin(),
+                                      paper_bytes.begin() + density_at);
+  version_2.insert(version_2.end(), paper_bytes.begin() + density_at + 8,
+                   paper_bytes.end());
+  version_2[4] = 2;
+  SurfaceLayer from_version_2(defaultParams());
+  from_version_2.deserialize(version_2.data(), version_2.size());
+  EXPECT_TRUE(from_version_2 == paper);
   // empty layer
   SurfaceLayer empty(defaultParams()), empty_copy(defaultParams());
   bytes.clear();
@@ -1337,14 +1476,20 @@ TEST(SurfaceLayer, InvalidParametersThrow)
   check([](SurfaceLayer::Params& p) { p.feature_distance_m = -1.0; });
   check([](SurfaceLayer::Params& p) { p.close_gaps_cells = -1; });
   check([](SurfaceLayer::Params& p) { p.close_gaps_cells = 33; });
+  check([](SurfaceLayer::Params& p) { p.cover_density = 0.4; });
+  check([](SurfaceLayer::Params& p) { p.cover_density = 1.01; });
+  check([](SurfaceLayer::Params& p) { p.cover_density = NAN; });
   check([](SurfaceLayer::Params& p) {
-    p.merge_rule = static_cast<planar_grid::SurfaceMergeRule>(2);
+    p.merge_rule = static_cast<planar_grid::SurfaceMergeRule>(3);
   });
   EXPECT_EQ(planar_grid::surfaceMergeRuleFromString("paper"),
             planar_grid::SurfaceMergeRule::PAPER);
   EXPECT_EQ(planar_grid::surfaceMergeRuleFromString(
               planar_grid::toString(planar_grid::SurfaceMergeRule::MIN_RECTANGLES)),
             planar_grid::SurfaceMergeRule::MIN_RECTANGLES);
+  EXPECT_EQ(planar_grid::surfaceMergeRuleFromString(
+              planar_grid::toString(planar_grid::SurfaceMergeRule::DENSITY)),
+            planar_grid::SurfaceMergeRule::DENSITY);
   EXPECT_THROW(planar_grid::surfaceMergeRuleFromString("greedy"),
                planar_grid::Exception);
   EXPECT_NO_THROW(SurfaceLayer layer(defaultParams()));

@@ -40,13 +40,29 @@ enum class SurfaceMergeRule : std::uint8_t {
    * whose bounding box exceeds 8 times its cells plus 4096 (a long diagonal
    * staircase, where the dense grid of the construction would cost too much) keeps
    * the paper's cover. */
-  MIN_RECTANGLES = 1
+  MIN_RECTANGLES = 1,
+  /** The paper's density threshold D_T (Fig. 8: a unit is kept whole when at least
+   * D_T of it is occupied) applied to the merge: per 4-connected component of the
+   * raster, rectangles grown greedily from the first uncovered cell (rows first,
+   * then columns) one row or column at a time, each step taking the side whose new
+   * strip holds the largest share of cells of the first cell's occupancy class, as
+   * long as at least Params::cover_density of the rectangle's cells are of that
+   * class and the strip holds no cell of another component or of an earlier
+   * rectangle. Every cell of the raster lies in exactly one rectangle. A rectangle
+   * may also cover, in all up to 1 - cover_density of its area, unobserved cells
+   * (ragged borders, notches) and cells of the other class (the paper merges the
+   * split units by geometry; their occupancy is the mean of their cells), so a
+   * facade whose rows end a cell or two apart, or whose feature occupancy is
+   * speckled, is a few large rectangles instead of one sliver per row or speckle.
+   * cover_density 1 gives exact rectangles of one class. A component whose bounding
+   * box exceeds 8 times its cells plus 4096 keeps the MIN_RECTANGLES cover. */
+  DENSITY = 2
 };
 
-/** \brief "paper" or "min_rectangles". \ingroup map */
+/** \brief "paper", "min_rectangles" or "density". \ingroup map */
 std::string toString(SurfaceMergeRule rule);
 
-/** \brief Parses "paper" or "min_rectangles".
+/** \brief Parses "paper", "min_rectangles" or "density".
  * \throws planar_grid::Exception for any other name \ingroup map */
 SurfaceMergeRule surfaceMergeRuleFromString(const std::string& name);
 
@@ -101,17 +117,19 @@ SurfaceMergeRule surfaceMergeRuleFromString(const std::string& name);
  *   open on one side, like a ragged border, is not filled). Filled cells carry no
  *   evidence; they take their neighbours' occupancy like any cell without features
  *   and are not counted by getCellCount(). Then the cells are covered by rectangles
- *   of one occupancy class (probability >= occupancy_thres or below) with merge_rule,
- *   exactly: every observed or filled cell lies in one rectangle, no other cell in
- *   any. Each rectangle's face is placed on the refined plane: the raster frame is
- *   projected onto it along the plane's normal (the rectangle's centre projected, its
- *   horizontal axis u projected and normalised, width and height scaled by the
- *   lengths of the projected u and v, within cos(plane_merge_angle_rad / 2) of 1), so
- *   rectangles adjacent in the raster stay adjacent up to a shear of the order of
- *   the angle squared (at most 0.15 mm per metre for a refined plane 1 degree off
- *   the frame). It is extruded by thickness_m behind the face (Fig. 6c).
- *   Rectangles are listed by their first row, then first column. The raster is a
- *   set, so the same frame integrated twice gives the same cells and cuboids as once.
+ *   of one occupancy class (probability >= occupancy_thres or below) with merge_rule:
+ *   every observed or filled cell lies in one rectangle; PAPER and MIN_RECTANGLES
+ *   cover no other cell, DENSITY up to 1 - cover_density of each rectangle's area in
+ *   unobserved cells and cells of the other class. Each rectangle's face is placed on
+ * the refined plane: the raster frame is projected onto it along the plane's normal
+ * (the rectangle's centre projected, its horizontal axis u projected and normalised,
+ * width and height scaled by the lengths of the projected u and v, within
+ * cos(plane_merge_angle_rad / 2) of 1), so rectangles adjacent in the raster stay
+ * adjacent up to a shear of the order of the angle squared (at most 0.15 mm per metre
+ * for a refined plane 1 degree off the frame). It is extruded by thickness_m behind the
+ * face (Fig. 6c). Rectangles are listed by their first row, then first column. The
+ * raster is a set, so the same frame integrated twice gives the same cells and cuboids
+ * as once.
  * - Non-planar cuboids (Fig. 7), and cuboids whose plane_id is -1, out of range or
  *   not is_planar, are stored as given; the newest view wins, as in the space layer:
  *   a non-planar cuboid of a new frame removes every stored non-planar cell of an
@@ -170,6 +188,10 @@ public:
     int close_gaps_cells{2};
     /** How the closed raster is covered by rectangles (the merge of Fig. 6b). */
     SurfaceMergeRule merge_rule{SurfaceMergeRule::MIN_RECTANGLES};
+    /** With merge_rule DENSITY: the smallest share of a rectangle's cells that are
+     * cells of the plane's raster (observed or filled), in [0.5, 1]; 1 gives exact
+     * rectangles like the other rules. The paper's D_T. */
+    double cover_density{0.9};
   };
 
   /** \brief Throws planar_grid::Exception for out-of-range parameters. */
@@ -236,16 +258,16 @@ public:
                std::size_t& index) const;
 
   /** \brief Encodes the layer in a fixed little-endian layout: u32 magic "PGSL",
-   * u32 version 2, the six real Params as f64, close_gaps_cells as u32, merge_rule as
-   * u8 (0 paper, 1 min_rectangles); u64 planes, per plane: the raster frame's plane
-   * f32 a, b, c, d, the refined plane f32 a, b, c, d, the evidence moments as f64
-   * (anchor[3], weight, sum[3], sum of outer products xx, xy, xz, yy, yz, zz), u64
-   * cells, per cell i32 i, i32 j, f32 probability sum, u16 feature count (sorted by
-   * row, column); u64 non-planar cells, per cell f32 centre[3], normal[3],
-   * horizontal_axis[3], width, height, thickness, f64 probability sum, u32 feature
-   * count. The frames' axes, the rectangles and the cuboids are derived, not stored:
-   * a decoded layer gives identical cuboids and continues identically.
-   * \param[out] bytes appended to */
+   * u32 version 3, the six real Params as f64, close_gaps_cells as u32, merge_rule as
+   * u8 (0 paper, 1 min_rectangles, 2 density), cover_density as f64; u64 planes, per
+   * plane: the raster frame's plane f32 a, b, c, d, the refined plane f32 a, b, c, d,
+   * the evidence moments as f64 (anchor[3], weight, sum[3], sum of outer products xx,
+   * xy, xz, yy, yz, zz), u64 cells, per cell i32 i, i32 j, f32 probability sum, u16
+   * feature count (sorted by row, column); u64 non-planar cells, per cell f32
+   * centre[3], normal[3], horizontal_axis[3], width, height, thickness, f64 probability
+   * sum, u32 feature count. The frames' axes, the rectangles and the cuboids are
+   * derived, not stored: a decoded layer gives identical cuboids and continues
+   * identically. \param[out] bytes appended to */
   void serialize(std::vector<std::uint8_t>& bytes) const;
   /** \brief Replaces the content and the parameters by a decoding of serialize()'s
    * output (exactly \a size bytes); every count is checked against the remaining bytes
@@ -253,7 +275,8 @@ public:
    * finite coordinates <= 1e7 m, probability sums in [0, count], cells strictly
    * sorted, finite moments of positive weight, a refined normal within
    * plane_merge_angle_rad of its frame's). Sections of version 1 (before the planes
-   * carried their evidence) are rejected: run the mapping again.
+   * carried their evidence) are rejected: run the mapping again. Version 2 (no
+   * density rule, no cover_density) is read with the default cover_density.
    * \throws planar_grid::IOError on truncated, trailing or inconsistent data or
    * another version (layer unchanged) */
   void deserialize(const std::uint8_t* data, std::size_t size);
