@@ -735,6 +735,39 @@ TEST(SurfaceLayer, MinRectanglesIsTheMinimumPartition)
               optimum_total, paper_total);
 }
 
+/** A random 24 x 16 raster on \a wall (density 0.5-0.95; one class, or two from
+ * features of probability 0.2 / 0.8 at the cell centres): one cuboid per observed cell.
+ * Returns the class of every cell (i, j), -1 unobserved. */
+std::vector<std::vector<int>>
+randomRaster(const PlaneFrame& wall,
+             bool two_classes,
+             std::mt19937& rng,
+             PlanarCuboids& cuboids,
+             Cloud& features,
+             std::vector<float>& probabilities)
+{
+  std::uniform_real_distribution<float> uni(0.0f, 1.0f);
+  const float density = 0.5f + 0.45f * uni(rng);
+  std::vector<std::vector<int>> cls(24, std::vector<int>(16, -1));
+  for (int i = 0; i < 24; ++i)
+    for (int j = 0; j < 16; ++j) {
+      if (!(uni(rng) < density))
+        continue;
+      addCell(wall, i, j, cuboids);
+      cls[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] = 1;
+      if (two_classes) {
+        const bool occupied = uni(rng) < 0.6f;
+        cls[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] =
+          occupied ? 1 : 0;
+        pcl::PointXYZ q;
+        q.getVector3fMap() = wall.at(0.1f * i + 0.05f, 0.1f * j + 0.05f);
+        features.push_back(q);
+        probabilities.push_back(occupied ? 0.8f : 0.2f);
+      }
+    }
+  return cls;
+}
+
 // Oracle: random rasters (24 x 16 cells, densities 0.5-0.95, one or two occupancy
 // classes from features of probability 0.2 / 0.8 at the cell centres), no closing.
 // Both rules cover exactly the observed cells (every observed cell centre in exactly
@@ -744,31 +777,14 @@ TEST(SurfaceLayer, MinRectanglesCoverIsExactAndNoWorseThanThePapers)
 {
   const PlaneFrame wall = wallFrame();
   std::mt19937 rng(99);
-  std::uniform_real_distribution<float> uni(0.0f, 1.0f);
   std::size_t cells_total = 0, rects_paper = 0, rects_max = 0;
   for (int trial = 0; trial < 40; ++trial) {
-    const float density = 0.5f + 0.45f * uni(rng);
     const bool two_classes = trial % 2 == 1;
-    std::vector<std::vector<int>> cls(24, std::vector<int>(16, -1)); // -1 unobserved
     PlanarCuboids cuboids;
     Cloud features;
     std::vector<float> probabilities;
-    for (int i = 0; i < 24; ++i)
-      for (int j = 0; j < 16; ++j) {
-        if (!(uni(rng) < density))
-          continue;
-        addCell(wall, i, j, cuboids);
-        cls[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] = 1;
-        if (two_classes) {
-          const bool occupied = uni(rng) < 0.6f;
-          cls[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] =
-            occupied ? 1 : 0;
-          pcl::PointXYZ q;
-          q.getVector3fMap() = wall.at(0.1f * i + 0.05f, 0.1f * j + 0.05f);
-          features.push_back(q);
-          probabilities.push_back(occupied ? 0.8f : 0.2f);
-        }
-      }
+    const std::vector<std::vector<int>> cls =
+      randomRaster(wall, two_classes, rng, cuboids, features, probabilities);
     std::size_t counts[2] = {0, 0};
     for (const auto rule : {planar_grid::SurfaceMergeRule::PAPER,
                             planar_grid::SurfaceMergeRule::MIN_RECTANGLES}) {
@@ -825,31 +841,14 @@ TEST(SurfaceLayer, DensityCoverHoldsTheRasterAtItsDensity)
 {
   const PlaneFrame wall = wallFrame();
   std::mt19937 rng(42);
-  std::uniform_real_distribution<float> uni(0.0f, 1.0f);
   std::size_t rects_exact = 0, rects_dense = 0, rects_fewest = 0;
   for (int trial = 0; trial < 40; ++trial) {
-    const float density = 0.5f + 0.45f * uni(rng);
     const bool two_classes = trial % 2 == 1;
-    std::vector<std::vector<int>> cls(24, std::vector<int>(16, -1)); // -1 unobserved
     PlanarCuboids cuboids;
     Cloud features;
     std::vector<float> probabilities;
-    for (int i = 0; i < 24; ++i)
-      for (int j = 0; j < 16; ++j) {
-        if (!(uni(rng) < density))
-          continue;
-        addCell(wall, i, j, cuboids);
-        cls[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] = 1;
-        if (two_classes) {
-          const bool occupied = uni(rng) < 0.6f;
-          cls[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] =
-            occupied ? 1 : 0;
-          pcl::PointXYZ q;
-          q.getVector3fMap() = wall.at(0.1f * i + 0.05f, 0.1f * j + 0.05f);
-          features.push_back(q);
-          probabilities.push_back(occupied ? 0.8f : 0.2f);
-        }
-      }
+    const std::vector<std::vector<int>> cls =
+      randomRaster(wall, two_classes, rng, cuboids, features, probabilities);
     for (const double cover_density : {1.0, 0.9}) {
       SurfaceLayer::Params params;
       params.close_gaps_cells = 0;
