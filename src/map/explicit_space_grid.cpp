@@ -16,6 +16,8 @@
 #include <thread>
 #include <utility>
 
+#include "octomap_writer.h"
+
 namespace planar_grid {
 
 namespace {
@@ -26,10 +28,19 @@ constexpr int BLOCK_EDGE = 8;
 constexpr int BLOCK_SHIFT = 3;
 /** \brief Voxels per block. */
 constexpr int BLOCK_VOXELS = 512;
-/** \brief Code of a block whose voxels are not all in one state. */
-constexpr std::uint8_t MIXED = 3;
-/** \brief Label of an inner octree node in the bit stream. */
+/** \brief 2-bit code of a voxel never observed where the prior is free: it reads as
+ * free but is not free space that a view saw (codes 0-2 are the SpaceState values).
+ * With the unknown prior, never observed and occluded are one state, code 2. */
+constexpr std::uint8_t NEVER_OBSERVED = 3;
+/** \brief Block::uniform of a block whose voxels are not all in one state. */
+constexpr std::uint8_t MIXED = 4;
+/** \brief Label of an inner octree node in the bit stream (versions 1 and 2), the
+ * escape label in version 3. */
 constexpr std::uint8_t INNER_LABEL = 3;
+/** \brief Version 3: the label after the escape label of an inner node. */
+constexpr std::uint8_t ESCAPED_INNER = 3;
+/** \brief Version 3: the label after the escape label of a never-observed leaf. */
+constexpr std::uint8_t ESCAPED_NEVER_OBSERVED = 0;
 /** \brief Bytes of the bit stream header: root key (3 x int32), depth (uint8), prior
  * (uint8), label count (uint64), little-endian. */
 constexpr std::size_t HEADER_BYTES = 22;
@@ -48,6 +59,23 @@ constexpr std::uint64_t
 pattern(std::uint8_t s)
 {
   return static_cast<std::uint64_t>(s) * 0x5555555555555555ULL;
+}
+
+/** \brief The code stored for a voxel never observed: NEVER_OBSERVED with the free
+ * prior, so that observed free space stays apart from it; UNKNOWN with the unknown
+ * prior, where an occluded voxel and one never observed are the same state. */
+constexpr std::uint8_t
+priorCode(SpaceState prior)
+{
+  return prior == SpaceState::FREE ? NEVER_OBSERVED
+                                   : static_cast<std::uint8_t>(SpaceState::UNKNOWN);
+}
+
+/** \brief The state a stored code reads as. */
+constexpr SpaceState
+stateOf(std::uint8_t code, SpaceState prior)
+{
+  return code == NEVER_OBSERVED ? prior : static_cast<SpaceState>(code);
 }
 
 /** \brief Block coordinates: floor(voxel key / 8). */
@@ -799,8 +827,9 @@ ExplicitSpaceGrid::getState(const VoxelKey& key) const
     impl_->blocks.find({blockOf(key.x()), blockOf(key.y()), blockOf(key.z())});
   if (it == impl_->blocks.end())
     return params_.prior;
-  return static_cast<SpaceState>(
-    it->second.get(localOf(key.x()) + 8 * localOf(key.y()) + 64 * localOf(key.z())));
+  return stateOf(
+    it->second.get(localOf(key.x()) + 8 * localOf(key.y()) + 64 * localOf(key.z())),
+    params_.prior);
 }
 
 void
@@ -811,13 +840,14 @@ ExplicitSpaceGrid::setState(const VoxelKey& key, SpaceState state)
     throw Exception("ExplicitSpaceGrid::setState: invalid state");
   const BlockKey bk{blockOf(key.x()), blockOf(key.y()), blockOf(key.z())};
   const int i = localOf(key.x()) + 8 * localOf(key.y()) + 64 * localOf(key.z());
+  const auto prior = priorCode(params_.prior);
   const auto s = static_cast<std::uint8_t>(state);
   auto it = impl_->blocks.find(bk);
   if (it == impl_->blocks.end()) {
-    if (state == params_.prior)
+    if (s == prior)
       return;
     Block b;
-    b.uniform = static_cast<std::uint8_t>(params_.prior);
+    b.uniform = prior;
     it = impl_->blocks.emplace(bk, std::move(b)).first;
   }
   Block& b = it->second;
@@ -826,7 +856,7 @@ ExplicitSpaceGrid::setState(const VoxelKey& key, SpaceState state)
   b.makeMixed();
   b.set(i, s);
   b.compact();
-  if (b.uniform == static_cast<std::uint8_t>(params_.prior))
+  if (b.uniform == prior)
     impl_->blocks.erase(it);
 }
 
@@ -872,7 +902,7 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
     params_.surface_margin_m > 0.0
       ? static_cast<float>(params_.surface_margin_m)
       : static_cast<float>(params_.resolution_m * std::sqrt(3.0) / 2.0);
-  const auto prior = static_cast<std::uint8_t>(params_.prior);
+  const auto prior = priorCode(params_.prior);
   const bool mark_occluded = params_.prior != SpaceState::UNKNOWN;
   // With an unknown prior, occlusion changes nothing: only space up to the farthest
   // measurement can change.
@@ -1129,11 +1159,9 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
       for (const BlockResult& res : list) {
         const BlockKey& bk = res.key;
         if (res.kind == BlockResult::ALL_FREE) {
-          // Whole block in front of the surface: free without per-voxel work.
-          if (prior == free_code)
-            blocks.erase(bk);
-          else
-            blocks[bk].makeUniform(free_code);
+          // Whole block in front of the surface: free without per-voxel work (observed
+          // free is never the code of the prior).
+          blocks[bk].makeUniform(free_code);
           continue;
         }
         auto it = blocks.find(bk);
@@ -1165,9 +1193,10 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
           std::uint64_t w = words[static_cast<std::size_t>(k)];
           const std::uint64_t x = w ^ pattern(prior);
           const std::uint64_t at_prior = ~(x | (x >> 1)) & LOW;
-          const std::uint64_t occ = os & at_prior; // occluded turns only the prior
-          w &= ~((fs | occ) * 3);                  // free = 00
-          w |= occ * unknown_code;                 // unknown = 10
+          // occluded turns only the never-observed voxels unknown
+          const std::uint64_t occ = os & at_prior;
+          w &= ~((fs | occ) * 3);  // free = 00
+          w |= occ * unknown_code; // unknown = 10
           words[static_cast<std::size_t>(k)] = w;
         }
         b.compact();
@@ -1230,7 +1259,7 @@ ExplicitSpaceGrid::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& poi
     return;
   }
   BlockMap& blocks = impl_->blocks;
-  const auto prior = static_cast<std::uint8_t>(params_.prior);
+  const auto prior = priorCode(params_.prior);
   const auto free_code = static_cast<std::uint8_t>(SpaceState::FREE);
   const auto occupied_code = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
   BlockCursor cursor(blocks, prior);
@@ -1344,7 +1373,7 @@ ExplicitSpaceGrid::visitVoxels(void (*visit)(void*, const VoxelKey&, SpaceState)
                                void* context) const
 {
   const auto sorted = sortedBlocks(impl_->blocks);
-  const auto prior = static_cast<std::uint8_t>(params_.prior);
+  const auto prior = priorCode(params_.prior);
   for (const auto& [bk, block] : sorted)
     for (int i = 0; i < BLOCK_VOXELS; ++i) {
       const std::uint8_t s = block->get(i);
@@ -1353,14 +1382,14 @@ ExplicitSpaceGrid::visitVoxels(void (*visit)(void*, const VoxelKey&, SpaceState)
       const VoxelKey key(bk.x * BLOCK_EDGE + (i & 7),
                          bk.y * BLOCK_EDGE + ((i >> 3) & 7),
                          bk.z * BLOCK_EDGE + (i >> 6));
-      visit(context, key, static_cast<SpaceState>(s));
+      visit(context, key, stateOf(s, params_.prior));
     }
 }
 
 std::size_t
 ExplicitSpaceGrid::getVoxelCount(SpaceState state) const
 {
-  if (state == params_.prior)
+  if (static_cast<std::uint8_t>(state) == priorCode(params_.prior))
     return 0;
   const auto s = static_cast<std::size_t>(state);
   std::size_t n = 0;
@@ -1442,6 +1471,22 @@ struct LabelWriter {
     bytes.back() = static_cast<std::uint8_t>(bytes.back() | (label << (2 * slot)));
     ++count;
   }
+  /** \brief A leaf of stored code \a code (version 3: a never-observed leaf is the
+   * escape label followed by ESCAPED_NEVER_OBSERVED). */
+  void putLeaf(std::uint8_t code)
+  {
+    if (code == NEVER_OBSERVED) {
+      put(INNER_LABEL);
+      put(ESCAPED_NEVER_OBSERVED);
+    } else
+      put(code);
+  }
+  /** \brief An inner node (version 3: the escape label, then ESCAPED_INNER). */
+  void putInner()
+  {
+    put(INNER_LABEL);
+    put(ESCAPED_INNER);
+  }
 };
 
 /** \brief Packs relative block coordinates (each < 2^18) into one integer. */
@@ -1467,10 +1512,10 @@ emitInBlock(const Block& b, int level, int x, int y, int z, LabelWriter& out)
           break;
         }
   if (uniform) {
-    out.put(s0);
+    out.putLeaf(s0);
     return;
   }
-  out.put(INNER_LABEL);
+  out.putInner();
   const int h = e / 2;
   for (int c = 0; c < 8; ++c)
     emitInBlock(b, level - 1, x + (c & 1) * h, y + ((c >> 1) & 1) * h,
@@ -1483,12 +1528,12 @@ void
 ExplicitSpaceGrid::serialize(std::vector<std::uint8_t>& bytes) const
 {
   const BlockMap& blocks = impl_->blocks;
-  const auto prior = static_cast<std::uint8_t>(params_.prior);
+  const auto prior = priorCode(params_.prior);
   Eigen::Vector3i root = Eigen::Vector3i::Zero();
   int depth = 0;
   LabelWriter out;
   if (blocks.empty())
-    out.put(prior);
+    out.putLeaf(prior);
   else {
     Eigen::Vector3i lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
     Eigen::Vector3i hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
@@ -1548,11 +1593,11 @@ ExplicitSpaceGrid::serialize(std::vector<std::uint8_t>& bytes) const
         const auto& level = summary[static_cast<std::size_t>(l)];
         const auto it = level.find(packRel(x, y, z));
         if (it == level.end()) {
-          out.put(prior);
+          out.putLeaf(prior);
           return;
         }
         if (it->second != MIXED) {
-          out.put(it->second);
+          out.putLeaf(it->second);
           return;
         }
         if (l == 0) {
@@ -1560,7 +1605,7 @@ ExplicitSpaceGrid::serialize(std::vector<std::uint8_t>& bytes) const
           emitInBlock(b, BLOCK_SHIFT, 0, 0, 0, out);
           return;
         }
-        out.put(INNER_LABEL);
+        out.putInner();
         for (std::uint64_t c = 0; c < 8; ++c)
           emit(l - 1, 2 * x + (c & 1), 2 * y + ((c >> 1) & 1), 2 * z + ((c >> 2) & 1));
       }
@@ -1570,7 +1615,7 @@ ExplicitSpaceGrid::serialize(std::vector<std::uint8_t>& bytes) const
   for (int a = 0; a < 3; ++a)
     putU32(bytes, static_cast<std::uint32_t>(root[a]));
   bytes.push_back(static_cast<std::uint8_t>(depth));
-  bytes.push_back(prior);
+  bytes.push_back(static_cast<std::uint8_t>(params_.prior));
   for (int i = 0; i < 8; ++i)
     bytes.push_back(static_cast<std::uint8_t>(out.count >> (8 * i)));
   bytes.insert(bytes.end(), out.bytes.begin(), out.bytes.end());
@@ -1589,7 +1634,13 @@ struct StreamParser {
   const std::uint8_t* labels;
   std::uint64_t count;
   std::uint64_t next{0};
+  /** \brief The stream's prior label (0 free, 2 unknown). */
+  std::uint8_t prior_label;
+  /** \brief The code stored for a never-observed voxel (priorCode()). */
   std::uint8_t prior;
+  /** \brief Version 3 escapes inner nodes and never-observed leaves; versions 1 and 2
+   * have the inner label alone, and a leaf with the prior's label is never observed. */
+  bool escaped;
   std::uint64_t blocks_needed{0};
   std::vector<DecodedLeaf> leaves;
 
@@ -1604,12 +1655,37 @@ struct StreamParser {
     return l;
   }
 
-  void parse(int level, std::int64_t x, std::int64_t y, std::int64_t z)
+  /** \brief Returned by readNode() for an inner node (not a 2-bit code). */
+  static constexpr std::uint8_t INNER_NODE = 0xff;
+
+  /** \brief The next node: INNER_NODE, or the stored code of a leaf. */
+  std::uint8_t readNode()
   {
     const std::uint8_t label = read();
-    if (label == INNER_LABEL) {
+    if (!escaped) {
+      if (label == INNER_LABEL)
+        return INNER_NODE;
+      return label == prior_label ? prior : label;
+    }
+    if (label != INNER_LABEL)
+      return label;
+    const std::uint8_t second = read();
+    if (second == ESCAPED_INNER)
+      return INNER_NODE;
+    if (second == ESCAPED_NEVER_OBSERVED && prior == NEVER_OBSERVED)
+      return NEVER_OBSERVED;
+    throw IOError("space layer stream: label " + std::to_string(second)
+                  + " after the escape label 11 (label " + std::to_string(next - 1)
+                  + ") is neither 11 (inner node) nor, with the free prior, 00 (never "
+                    "observed)");
+  }
+
+  void parse(int level, std::int64_t x, std::int64_t y, std::int64_t z)
+  {
+    const std::uint8_t label = readNode();
+    if (label == INNER_NODE) {
       if (level == 0)
-        throw IOError("space layer stream: inner-node label 11 at voxel level (label "
+        throw IOError("space layer stream: inner node at voxel level (label "
                       + std::to_string(next - 1) + ")");
       // An inner node at block level is one mixed block, however many leaves it holds
       // (they are contiguous in depth-first order).
@@ -1639,8 +1715,15 @@ struct StreamParser {
 } // namespace
 
 void
-ExplicitSpaceGrid::deserialize(const std::uint8_t* data, std::size_t size)
+ExplicitSpaceGrid::deserialize(const std::uint8_t* data,
+                               std::size_t size,
+                               unsigned format_version)
 {
+  if (format_version < OLDEST_STREAM_VERSION || format_version > STREAM_VERSION)
+    throw IOError("space layer stream: version " + std::to_string(format_version)
+                  + " is not supported (this reader knows versions "
+                  + std::to_string(OLDEST_STREAM_VERSION) + " to "
+                  + std::to_string(STREAM_VERSION) + ")");
   if (size < HEADER_BYTES || data == nullptr)
     throw IOError("space layer stream: " + std::to_string(size)
                   + " bytes, fewer than the " + std::to_string(HEADER_BYTES)
@@ -1650,15 +1733,17 @@ ExplicitSpaceGrid::deserialize(const std::uint8_t* data, std::size_t size)
     root[static_cast<std::size_t>(a)] =
       static_cast<std::int32_t>(static_cast<std::uint32_t>(getLE(data + 4 * a, 4)));
   const int depth = data[12];
-  const std::uint8_t prior = data[13];
+  const std::uint8_t prior_label = data[13];
   const std::uint64_t count = getLE(data + 14, 8);
   if (depth > MAX_DEPTH)
     throw IOError("space layer stream: octree depth " + std::to_string(depth)
                   + " exceeds " + std::to_string(MAX_DEPTH));
-  if (prior != static_cast<std::uint8_t>(SpaceState::FREE)
-      && prior != static_cast<std::uint8_t>(SpaceState::UNKNOWN))
-    throw IOError("space layer stream: prior label " + std::to_string(prior)
+  if (prior_label != static_cast<std::uint8_t>(SpaceState::FREE)
+      && prior_label != static_cast<std::uint8_t>(SpaceState::UNKNOWN))
+    throw IOError("space layer stream: prior label " + std::to_string(prior_label)
                   + " is neither free (0) nor unknown (2)");
+  const auto prior_state = static_cast<SpaceState>(prior_label);
+  const std::uint8_t prior = priorCode(prior_state);
   for (int a = 0; a < 3; ++a) {
     const std::int64_t r = root[static_cast<std::size_t>(a)];
     if (r % BLOCK_EDGE != 0)
@@ -1679,7 +1764,7 @@ ExplicitSpaceGrid::deserialize(const std::uint8_t* data, std::size_t size)
   if ((count & 3u) != 0 && (labels[payload - 1] >> (2 * (count & 3u))) != 0)
     throw IOError("space layer stream: non-zero padding bits after the last label");
 
-  StreamParser parser{labels, count, 0, prior, 0, {}};
+  StreamParser parser{labels, count, 0, prior_label, prior, format_version >= 3, 0, {}};
   parser.parse(depth, root[0], root[1], root[2]);
   if (parser.next != count)
     throw IOError("space layer stream: the octree ends after "
@@ -1730,47 +1815,44 @@ ExplicitSpaceGrid::deserialize(const std::uint8_t* data, std::size_t size)
       ++it;
   }
   impl_ = std::move(impl);
-  params_.prior = static_cast<SpaceState>(prior);
+  params_.prior = prior_state;
 }
 
 // ---------------------------------------------------------------------------------
 
-namespace {
-/** \brief Collapses, bottom-up, every node of \a node's subtree whose eight children
- * are leaves of one value (OctoMap's pruning, at every depth). */
-void
-pruneSubtree(octomap::OcTree& tree, octomap::OcTreeNode* node)
+std::size_t
+ExplicitSpaceGrid::insertIntoOcTree(octomap::OcTree& tree) const
 {
-  if (!tree.nodeHasChildren(node))
-    return;
-  for (unsigned child = 0; child < 8; ++child)
-    if (tree.nodeChildExists(node, child))
-      pruneSubtree(tree, tree.getNodeChild(node, child));
-  tree.pruneNode(node);
-}
-} // namespace
-
-void
-ExplicitSpaceGrid::exportOctoMap(const std::string& path) const
-{
-  octomap::OcTree tree(params_.resolution_m);
+  if (std::abs(tree.getResolution() - params_.resolution_m)
+      > 1e-9 * params_.resolution_m)
+    throw Exception("ExplicitSpaceGrid::insertIntoOcTree: the tree's resolution ("
+                    + std::to_string(tree.getResolution())
+                    + " m) differs from the grid's ("
+                    + std::to_string(params_.resolution_m) + " m)");
+  if (tree.size() != 0)
+    throw Exception("ExplicitSpaceGrid::insertIntoOcTree: the tree must be empty");
   const float occupied_log_odds = tree.getClampingThresMaxLog();
   const float free_log_odds = tree.getClampingThresMinLog();
-  constexpr int OFFSET = 32768; // OctoMap's tree_max_val at depth 16
-  // A block (8^3 voxels, aligned to multiples of 8 like OFFSET) is one OctoMap node
-  // three levels above the voxels.
+  const int offset = static_cast<int>(tree.coordToKey(0.0)); // the key of coordinate 0
+  // A block (8^3 voxels, aligned to multiples of 8 like the key offset) is one
+  // OctoMap node three levels above the voxels.
   const unsigned block_depth = tree.getTreeDepth() - BLOCK_SHIFT;
-  const auto prior = static_cast<std::uint8_t>(params_.prior);
-  const auto unknown = static_cast<std::uint8_t>(SpaceState::UNKNOWN);
+  const auto free_code = static_cast<std::uint8_t>(SpaceState::FREE);
   const auto occupied = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
+  // Only what a view observed goes in: occluded and never-observed space stay out of
+  // the tree (unknown in OctoMap), whatever the prior.
+  const auto exported = [free_code, occupied](std::uint8_t code) {
+    return code == free_code || code == occupied;
+  };
   const auto sorted = sortedBlocks(impl_->blocks);
   std::size_t skipped = 0;
   for (const auto& [bk, block] : sorted) {
     const Eigen::Vector3i base = Eigen::Vector3i(bk.x, bk.y, bk.z) * BLOCK_EDGE
-                                 + Eigen::Vector3i::Constant(OFFSET);
-    if ((base.array() < 0).any() || (base.array() > 65535 - (BLOCK_EDGE - 1)).any()) {
+                                 + Eigen::Vector3i::Constant(offset);
+    if ((base.array() < 0).any()
+        || (base.array() > 2 * offset - 1 - (BLOCK_EDGE - 1)).any()) {
       for (int i = 0; i < BLOCK_VOXELS; ++i)
-        skipped += block->get(i) != prior && block->get(i) != unknown ? 1 : 0;
+        skipped += exported(block->get(i)) ? 1 : 0;
       continue;
     }
     const auto keyOf = [&base](int i) {
@@ -1779,46 +1861,96 @@ ExplicitSpaceGrid::exportOctoMap(const std::string& path) const
         static_cast<octomap::key_type>(base.y() + ((i >> 3) & 7)),
         static_cast<octomap::key_type>(base.z() + (i >> 6)));
     };
-    if (block->uniform != MIXED && tree.getRoot() != nullptr) {
-      if (block->uniform == unknown || block->uniform == prior)
-        continue;
-      // The whole block as one leaf at its depth, created down from the root (blocks
-      // are disjoint, so the path never runs through a leaf).
-      const octomap::OcTreeKey key = keyOf(0);
-      octomap::OcTreeNode* node = tree.getRoot();
-      for (unsigned depth = 0; depth < block_depth; ++depth) {
-        const unsigned child = octomap::computeChildIdx(
-          key, static_cast<int>(tree.getTreeDepth() - 1 - depth));
-        if (!tree.nodeChildExists(node, child))
-          tree.createNodeChild(node, child);
-        node = tree.getNodeChild(node, child);
+    if (block->uniform != MIXED && !exported(block->uniform))
+      continue;
+    if (block->uniform == MIXED) {
+      const auto counts = countCodes(*block->bits);
+      if (counts[free_code] + counts[occupied] == 0)
+        continue; // occluded and never-observed voxels only: nothing to create
+    }
+    if (tree.getRoot() == nullptr) {
+      // OcTree creates its root only through its updates: the first block exported
+      // voxel by voxel, then collapsed like OctoMap's pruning.
+      for (int i = 0; i < BLOCK_VOXELS; ++i) {
+        const std::uint8_t code = block->get(i);
+        if (exported(code))
+          tree.setNodeValue(keyOf(i),
+                            code == occupied ? occupied_log_odds : free_log_odds, true);
       }
+      if (octomap::OcTreeNode* node = tree.search(keyOf(0), block_depth))
+        octomap_writer::pruneSubtree(tree, node);
+      continue;
+    }
+    // The block's node at its depth, created down from the root (blocks are disjoint
+    // and the tree was empty, so the path never runs through a leaf).
+    const octomap::OcTreeKey key = keyOf(0);
+    octomap::OcTreeNode* node = tree.getRoot();
+    for (unsigned depth = 0; depth < block_depth; ++depth) {
+      const unsigned child = octomap::computeChildIdx(
+        key, static_cast<int>(tree.getTreeDepth() - 1 - depth));
+      if (!tree.nodeChildExists(node, child))
+        tree.createNodeChild(node, child);
+      node = tree.getNodeChild(node, child);
+    }
+    if (block->uniform != MIXED) {
+      // A uniform block is one leaf.
       node->setLogOdds(block->uniform == occupied ? occupied_log_odds : free_log_odds);
       continue;
     }
-    for (int i = 0; i < BLOCK_VOXELS; ++i) {
-      const std::uint8_t state = block->get(i);
-      if (state == prior || state == unknown)
-        continue;
-      tree.setNodeValue(keyOf(i), state == occupied ? occupied_log_odds : free_log_odds,
-                        true);
-    }
-    // Collapse the block's uniform parts now, so that the tree never holds every voxel.
-    if (octomap::OcTreeNode* node = tree.search(keyOf(0), block_depth))
-      pruneSubtree(tree, node);
+    // A mixed block: its sub-cubes (4^3, 2^3, voxels) built below the block's node,
+    // a sub-cube whose voxels all have one exported state as one leaf (OctoMap's
+    // pruning, done as the tree is built), one with nothing exported left out.
+    struct SubCubes {
+      octomap::OcTree& tree;
+      const Block& block;
+      float occupied_log_odds, free_log_odds;
+      std::uint8_t occupied_code, free_code;
+
+      void build(octomap::OcTreeNode* parent, int level, int x, int y, int z)
+      {
+        // parent: a cube of edge 2^level voxels at local (x, y, z); its children
+        const int h = 1 << (level - 1);
+        for (unsigned c = 0; c < 8; ++c) {
+          const int cx = x + static_cast<int>(c & 1) * h;
+          const int cy = y + static_cast<int>((c >> 1) & 1) * h;
+          const int cz = z + static_cast<int>((c >> 2) & 1) * h;
+          const std::uint8_t first = block.get(cx + 8 * cy + 64 * cz);
+          bool uniform = true;
+          bool any = false;
+          for (int k = cz; k < cz + h; ++k)
+            for (int j = cy; j < cy + h; ++j)
+              for (int i = cx; i < cx + h; ++i) {
+                const std::uint8_t code = block.get(i + 8 * j + 64 * k);
+                uniform = uniform && code == first;
+                any = any || code == occupied_code || code == free_code;
+              }
+          if (!any)
+            continue;
+          octomap::OcTreeNode* child = tree.createNodeChild(parent, c);
+          if (uniform)
+            child->setLogOdds(first == occupied_code ? occupied_log_odds
+                                                     : free_log_odds);
+          else
+            build(child, level - 1, cx, cy, cz);
+        }
+      }
+    } sub_cubes{tree, *block, occupied_log_odds, free_log_odds, occupied, free_code};
+    sub_cubes.build(node, BLOCK_SHIFT, 0, 0, 0);
   }
+  tree.updateInnerOccupancy();
+  return skipped;
+}
+
+void
+ExplicitSpaceGrid::exportOctoMap(const std::string& path) const
+{
+  octomap::OcTree tree(params_.resolution_m);
+  const std::size_t skipped = insertIntoOcTree(tree);
   if (skipped > 0)
     PCL_WARN("[planar_grid::ExplicitSpaceGrid::exportOctoMap] %zu voxels outside "
              "OctoMap's 2^16-voxel key range left out.\n",
              skipped);
-  tree.updateInnerOccupancy();
-  // OcTree::prune() stops at the first depth where nothing collapses, which here can
-  // come before the whole blocks' depth; collapse every level instead.
-  if (tree.getRoot() != nullptr)
-    pruneSubtree(tree, tree.getRoot());
-  writeFileAtomically(path, [&tree](const std::string& temporary) {
-    return tree.writeBinary(temporary);
-  });
+  octomap_writer::write(tree, path);
 }
 
 } // namespace planar_grid

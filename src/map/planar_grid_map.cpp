@@ -6,6 +6,10 @@
 
 #include <pcl/console/print.h>
 
+#include <octomap/OcTree.h>
+
+#include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -16,15 +20,20 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <unordered_set>
+
+#include "octomap_writer.h"
 
 namespace planar_grid {
 
 namespace {
 
 constexpr const char* MAGIC_LINE = "# Planar grid map file";
-/** Version 2: the checksum covers the header lines before it as well as the data.
- * Version 1 (the checksum covers the data only) is still read. */
-constexpr std::uint64_t FORMAT_VERSION = 2;
+/** Version 3: the space layer's stream keeps observed free space apart from the free
+ * prior (ExplicitSpaceGrid::STREAM_VERSION). Version 2: the checksum covers the header
+ * lines before it as well as the data. Versions 1 (the checksum covers the data only)
+ * and 2 are still read. */
+constexpr std::uint64_t FORMAT_VERSION = ExplicitSpaceGrid::STREAM_VERSION;
 /** The oldest version read. */
 constexpr std::uint64_t OLDEST_FORMAT_VERSION = 1;
 
@@ -48,6 +57,87 @@ constexpr std::size_t MAX_HEADER_BYTES = 64 * 1024;
 /** OctoMap's default clamping bounds, the probabilities of a known voxel. */
 constexpr float PROB_OCCUPIED_VOXEL = 0.971f;
 constexpr float PROB_FREE_VOXEL = 0.1192f;
+
+/** Bounds of the cuboid probabilities written to OctoMap as log-odds (finite). */
+constexpr float MIN_EXPORTED_PROBABILITY = 1e-4f;
+
+/** Calls f(key) for every voxel (edge \a resolution_m, key floor(p / resolution_m))
+ * whose centre lies in \a cuboid (PlanarCuboid::contains). The voxels are walked in
+ * columns along the axis where the cuboid's bounding box is longest, each column
+ * clipped to the box's three slabs, so a thin tilted cuboid costs its own voxels plus
+ * the columns of its footprint, not its bounding box. */
+template <typename F>
+void
+forEachVoxelInCuboid(const PlanarCuboid& cuboid, double resolution_m, F&& f)
+{
+  const auto corners = cuboid.corners();
+  Eigen::Vector3d lo = corners[0].cast<double>(), hi = lo;
+  for (const auto& c : corners) {
+    lo = lo.cwiseMin(c.cast<double>());
+    hi = hi.cwiseMax(c.cast<double>());
+  }
+  if (!lo.allFinite() || !hi.allFinite())
+    return;
+  // Keys whose centres (k + 0.5) resolution_m lie in [lo, hi].
+  const Eigen::Vector3i k_lo =
+    (lo / resolution_m - Eigen::Vector3d::Constant(0.5)).array().ceil().cast<int>();
+  const Eigen::Vector3i k_hi =
+    (hi / resolution_m - Eigen::Vector3d::Constant(0.5)).array().floor().cast<int>();
+  if ((k_hi.array() < k_lo.array()).any())
+    return;
+  int a = 0; // the column axis
+  for (int i = 1; i < 3; ++i)
+    if (k_hi[i] - k_lo[i] > k_hi[a] - k_lo[a])
+      a = i;
+  const int b = (a + 1) % 3, c = (a + 2) % 3;
+  const std::array<Eigen::Vector3d, 3> axes{cuboid.horizontal_axis.cast<double>(),
+                                            cuboid.verticalAxis().cast<double>(),
+                                            cuboid.normal.cast<double>()};
+  // Half-extents with a slack above float rounding at map coordinates (contains() is
+  // in float): the column is clipped a little wide, and contains() decides.
+  constexpr double SLACK_M = 1e-4;
+  const std::array<double, 3> half{0.5 * cuboid.width_m + SLACK_M,
+                                   0.5 * cuboid.height_m + SLACK_M,
+                                   0.5 * cuboid.thickness_m + SLACK_M};
+  const Eigen::Vector3d centre = cuboid.centre.cast<double>();
+  Eigen::Vector3i key;
+  for (int kb = k_lo[b]; kb <= k_hi[b]; ++kb)
+    for (int kc = k_lo[c]; kc <= k_hi[c]; ++kc) {
+      // The column's line: p(t) = q + t e_a, t the coordinate along axis a.
+      Eigen::Vector3d q = Eigen::Vector3d::Zero();
+      q[b] = (kb + 0.5) * resolution_m;
+      q[c] = (kc + 0.5) * resolution_m;
+      double t0 = lo[a], t1 = hi[a];
+      for (std::size_t s = 0; s < 3 && t0 <= t1; ++s) {
+        const double d0 = (q - centre).dot(axes[s]); // with t = 0
+        const double da = axes[s][a];
+        if (std::abs(da) < 1e-12) {
+          if (std::abs(d0) > half[s])
+            t1 = t0 - 1.0;
+          continue;
+        }
+        const double u = (-half[s] - d0) / da, v = (half[s] - d0) / da;
+        t0 = std::max(t0, std::min(u, v));
+        t1 = std::min(t1, std::max(u, v));
+      }
+      if (!(t0 <= t1))
+        continue;
+      // One voxel of slack on each side; contains() (in float, as findCuboid) decides.
+      const int from =
+        std::max(k_lo[a], static_cast<int>(std::ceil(t0 / resolution_m - 0.5)) - 1);
+      const int to =
+        std::min(k_hi[a], static_cast<int>(std::floor(t1 / resolution_m - 0.5)) + 1);
+      key[b] = kb;
+      key[c] = kc;
+      for (int ka = from; ka <= to; ++ka) {
+        key[a] = ka;
+        const Eigen::Vector3f p =
+          ((key.cast<double>().array() + 0.5) * resolution_m).cast<float>();
+        if (cuboid.contains(p))
+          f(key);
+      }
+    }
+}
 
 PlanarGridMap::Params
 validated(const PlanarGridMap::Params& params)
@@ -257,6 +347,45 @@ PlanarGridMap::serialize(std::string& bytes) const
 }
 
 void
+PlanarGridMap::exportOctoMap(const std::string& path) const
+{
+  const double res = getResolution();
+  octomap::OcTree tree(res);
+  tree.setOccupancyThres(params_.surface.occupancy_thres);
+  std::size_t skipped = space_.insertIntoOcTree(tree);
+  const int offset = static_cast<int>(tree.coordToKey(0.0)); // the key of coordinate 0
+  // The voxels of the cuboids, the lowest index first (findCuboid()'s rule where
+  // cuboids overlap): each takes its cuboid's occupancy.
+  std::unordered_set<std::uint64_t> taken;
+  for (const PlanarCuboid& cuboid : surface_.getCuboids()) {
+    const float p = std::clamp(cuboid.probability, MIN_EXPORTED_PROBABILITY,
+                               1.0f - MIN_EXPORTED_PROBABILITY);
+    const float log_odds = std::log(p / (1.0f - p));
+    forEachVoxelInCuboid(cuboid, res, [&](const Eigen::Vector3i& key) {
+      const Eigen::Vector3i k = key + Eigen::Vector3i::Constant(offset);
+      if ((k.array() < 0).any() || (k.array() > 2 * offset - 1).any()) {
+        ++skipped;
+        return;
+      }
+      const std::uint64_t packed = static_cast<std::uint64_t>(k.x())
+                                   | static_cast<std::uint64_t>(k.y()) << 16
+                                   | static_cast<std::uint64_t>(k.z()) << 32;
+      if (!taken.insert(packed).second)
+        return;
+      tree.setNodeValue(octomap::OcTreeKey(static_cast<octomap::key_type>(k.x()),
+                                           static_cast<octomap::key_type>(k.y()),
+                                           static_cast<octomap::key_type>(k.z())),
+                        log_odds, true);
+    });
+  }
+  if (skipped > 0)
+    PCL_WARN("[planar_grid::PlanarGridMap::exportOctoMap] %zu voxels outside "
+             "OctoMap's 2^16-voxel key range left out.\n",
+             skipped);
+  octomap_writer::write(tree, path);
+}
+
+void
 PlanarGridMap::save(const std::string& path) const
 {
   std::string bytes;
@@ -343,6 +472,7 @@ PlanarGridMap::deserialize(const std::string& bytes, const std::string& path)
              path.c_str(), static_cast<int>(version), static_cast<int>(FORMAT_VERSION));
   if (header.require("id") != "PlanarGridMap")
     header.fail("id must be 'PlanarGridMap'");
+  const bool old_free_prior = version < 3 && header.require("prior") == "free";
 
   Params params;
   params.space.resolution_m = header.number("resolution_m");
@@ -393,7 +523,8 @@ PlanarGridMap::deserialize(const std::string& bytes, const std::string& path)
   PlanarGridMap map = [&]() {
     try {
       PlanarGridMap decoded(params);
-      decoded.space_.deserialize(data.data(), static_cast<std::size_t>(space_bytes));
+      decoded.space_.deserialize(data.data(), static_cast<std::size_t>(space_bytes),
+                                 static_cast<unsigned>(version));
       decoded.surface_.deserialize(data.data() + space_bytes,
                                    static_cast<std::size_t>(surface_bytes));
       // The surface section carries all of its layer's parameters, the header only
@@ -411,6 +542,12 @@ PlanarGridMap::deserialize(const std::string& bytes, const std::string& path)
   if (map.surface_.getPlanes().size() != planes
       || map.surface_.getCuboids().size() != cuboids)
     header.fail("the decoded plane or cuboid count differs from the header's");
+  if (old_free_prior)
+    PCL_WARN("[planar_grid::PlanarGridMap::load] %s: a version %d map with the free "
+             "prior does not tell observed free space from space never observed; both "
+             "read as never observed (free by the prior, absent from OctoMap exports). "
+             "Map the data again for observed free space.\n",
+             path.c_str(), static_cast<int>(version));
   return map;
 }
 

@@ -186,11 +186,15 @@ TEST(ExplicitSpaceGrid, GetStateMatchesMapOracle)
       EXPECT_EQ(grid.getState(p), it == oracle.end() ? prior : it->second);
     }
     EXPECT_EQ(grid.getState(Eigen::Vector3f(std::nanf(""), 0.0f, 0.0f)), prior);
-    // counts and forEachVoxel against the map
+    // counts and forEachVoxel against the map: every voxel set is observed, except
+    // UNKNOWN with the unknown prior (the state of space never observed)
+    const auto observed = [prior](SpaceState s) {
+      return !(s == SpaceState::UNKNOWN && prior == SpaceState::UNKNOWN);
+    };
     std::map<SpaceState, std::size_t> counts;
     std::size_t visited = 0;
     for (const auto& kv : oracle)
-      if (kv.second != prior)
+      if (observed(kv.second))
         ++counts[kv.second];
     grid.forEachVoxel([&](const Key& k, SpaceState s) {
       ++visited;
@@ -201,7 +205,7 @@ TEST(ExplicitSpaceGrid, GetStateMatchesMapOracle)
     EXPECT_EQ(visited, counts[SpaceState::FREE] + counts[SpaceState::OCCUPIED]
                          + counts[SpaceState::UNKNOWN]);
     for (const auto s : {SpaceState::FREE, SpaceState::OCCUPIED, SpaceState::UNKNOWN})
-      EXPECT_EQ(grid.getVoxelCount(s), s == prior ? 0u : counts[s]);
+      EXPECT_EQ(grid.getVoxelCount(s), observed(s) ? counts[s] : 0u);
   }
 }
 
@@ -600,12 +604,77 @@ TEST(ExplicitSpaceGrid, OcclusionKeepsKnownStates)
   EXPECT_EQ(grid.getState(shadow_free), SpaceState::FREE);
   EXPECT_EQ(grid.getState(shadow_occ), SpaceState::OCCUPIED);
   EXPECT_EQ(grid.getState(seen), SpaceState::FREE); // newest observation
-  // prior free: occluded space at the prior becomes unknown, occupied stays
+  // prior free: occluded space never observed becomes unknown; observed free and
+  // occupied stay
   ExplicitSpaceGrid free_prior(params(SpaceState::FREE, 0.1, 20.0));
+  const Key shadow_never = grid.toKey(Eigen::Vector3f(0.05f, -0.15f, 6.0f));
   free_prior.setState(shadow_occ, SpaceState::OCCUPIED);
+  free_prior.setState(shadow_free, SpaceState::FREE);
+  EXPECT_EQ(free_prior.getVoxelCount(SpaceState::FREE), 1u); // observed, not the prior
   free_prior.integrateDepthImage(image, Eigen::Isometry3d::Identity());
   EXPECT_EQ(free_prior.getState(shadow_occ), SpaceState::OCCUPIED);
-  EXPECT_EQ(free_prior.getState(shadow_free), SpaceState::UNKNOWN);
+  EXPECT_EQ(free_prior.getState(shadow_free), SpaceState::FREE);
+  EXPECT_EQ(free_prior.getState(shadow_never), SpaceState::UNKNOWN);
+  // the free space the view saw is stored as observed: the same voxels as with the
+  // unknown prior
+  ExplicitSpaceGrid unknown_prior(params(SpaceState::UNKNOWN, 0.1, 20.0));
+  unknown_prior.integrateDepthImage(image, Eigen::Isometry3d::Identity());
+  ExplicitSpaceGrid free_only(params(SpaceState::FREE, 0.1, 20.0));
+  free_only.integrateDepthImage(image, Eigen::Isometry3d::Identity());
+  EXPECT_GT(unknown_prior.getVoxelCount(SpaceState::FREE), 10000u);
+  EXPECT_EQ(free_only.getVoxelCount(SpaceState::FREE),
+            unknown_prior.getVoxelCount(SpaceState::FREE));
+  EXPECT_EQ(free_only.getVoxelCount(SpaceState::OCCUPIED),
+            unknown_prior.getVoxelCount(SpaceState::OCCUPIED));
+  std::size_t differ = 0;
+  unknown_prior.forEachVoxel(
+    [&](const Key& k, SpaceState s) { differ += free_only.getState(k) != s ? 1 : 0; });
+  EXPECT_EQ(differ, 0u);
+}
+
+/** \brief The same bytes read as a version 2 and a version 3 stream: in version 2 a
+ * leaf with the free prior's label was never observed; in version 3 it is observed
+ * free space, and never observed has its own escaped label. */
+TEST(ExplicitSpaceGrid, VersionTwoStreamsReadFreeAsNeverObserved)
+{
+  // root (0, 0, 0), depth 3 (one block), prior free (0), one label: 00
+  std::vector<std::uint8_t> b(22, 0);
+  b[12] = 3;
+  b[14] = 1;
+  b.push_back(0x00);
+  ExplicitSpaceGrid v2(params(SpaceState::UNKNOWN));
+  v2.deserialize(b.data(), b.size(), 2);
+  EXPECT_EQ(v2.getParams().prior, SpaceState::FREE);
+  EXPECT_EQ(v2.getBlockCount(), 0u);
+  EXPECT_EQ(v2.getVoxelCount(SpaceState::FREE), 0u);
+  EXPECT_EQ(v2.getState(Key(1, 2, 3)), SpaceState::FREE);
+  ExplicitSpaceGrid v3(params(SpaceState::UNKNOWN));
+  v3.deserialize(b.data(), b.size(), 3);
+  EXPECT_EQ(v3.getBlockCount(), 1u);
+  EXPECT_EQ(v3.getVoxelCount(SpaceState::FREE), 512u);
+  // version 3, never observed: 11 then 00 (labels 3, 0: byte 0x03), two labels
+  b[14] = 2;
+  b.back() = 0x03;
+  v3.deserialize(b.data(), b.size(), 3);
+  EXPECT_EQ(v3.getBlockCount(), 0u);
+  EXPECT_EQ(v3.getState(Key(1, 2, 3)), SpaceState::FREE);
+  // ... which the unknown prior has no use for (never observed is 10 there)
+  b[13] = 2;
+  EXPECT_THROW(v3.deserialize(b.data(), b.size(), 3), planar_grid::IOError);
+  // an escape followed by 01 or 10
+  b[13] = 0;
+  b.back() = 0x07;
+  EXPECT_THROW(v3.deserialize(b.data(), b.size(), 3), planar_grid::IOError);
+  // unknown versions
+  EXPECT_THROW(v3.deserialize(b.data(), b.size(), 0), planar_grid::IOError);
+  EXPECT_THROW(v3.deserialize(b.data(), b.size(), 4), planar_grid::IOError);
+  // the empty free-prior grid writes exactly that never-observed root
+  ExplicitSpaceGrid empty(params(SpaceState::FREE));
+  std::vector<std::uint8_t> bytes;
+  empty.serialize(bytes);
+  b[12] = 0; // depth 0: the root is one voxel
+  b.back() = 0x03;
+  EXPECT_EQ(bytes, b);
 }
 
 /** \brief The result does not depend on the number of threads: byte-identical
@@ -691,6 +760,50 @@ TEST(ExplicitSpaceGrid, ExportOctoMapReadsBack)
   std::filesystem::remove_all(dir);
   EXPECT_THROW(grid.exportOctoMap("/nonexistent_folder_planar_grid/x.bt"),
                planar_grid::IOError);
+}
+
+/** \brief With the free prior the export holds what the view saw: observed free voxels
+ * free, occupied ones occupied, occluded and never-observed space absent. Against the
+ * grid voxel by voxel (read back with liboctomap). */
+TEST(ExplicitSpaceGrid, ExportOctoMapFreePriorKeepsOnlyObservedSpace)
+{
+  const DepthImage image = renderBoxRoom();
+  ExplicitSpaceGrid grid(params(SpaceState::FREE, 0.2, 12.0));
+  grid.integrateDepthImage(image, roomPose());
+  ASSERT_GT(grid.getVoxelCount(SpaceState::FREE), 1000u);
+  ASSERT_GT(grid.getVoxelCount(SpaceState::UNKNOWN), 100u);
+  const auto dir = std::filesystem::temp_directory_path()
+                   / ("planar_grid_free_prior_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "space.bt").string();
+  grid.exportOctoMap(path);
+  octomap::OcTree tree(0.2);
+  ASSERT_TRUE(tree.readBinary(path));
+  std::filesystem::remove_all(dir);
+  std::size_t unknown = 0;
+  grid.forEachVoxel([&](const Key& k, SpaceState s) {
+    const Eigen::Vector3f c = grid.toCentre(k);
+    const octomap::OcTreeNode* node = tree.search(c.x(), c.y(), c.z());
+    if (s == SpaceState::UNKNOWN) {
+      ++unknown;
+      ASSERT_EQ(node, nullptr);
+      return;
+    }
+    ASSERT_NE(node, nullptr) << k.transpose();
+    ASSERT_EQ(tree.isNodeOccupied(node), s == SpaceState::OCCUPIED) << k.transpose();
+  });
+  EXPECT_EQ(unknown, grid.getVoxelCount(SpaceState::UNKNOWN));
+  // behind the camera: never observed, free by the prior, absent from the tree
+  const Eigen::Vector3f behind =
+    (roomPose() * Eigen::Vector3d(0.0, 0.0, -2.0)).cast<float>();
+  EXPECT_EQ(grid.getState(behind), SpaceState::FREE);
+  EXPECT_EQ(tree.search(behind.x(), behind.y(), behind.z()), nullptr);
+  tree.expand();
+  std::size_t free_voxels = 0, occupied_voxels = 0;
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it)
+    (tree.isNodeOccupied(*it) ? occupied_voxels : free_voxels) += 1;
+  EXPECT_EQ(free_voxels, grid.getVoxelCount(SpaceState::FREE));
+  EXPECT_EQ(occupied_voxels, grid.getVoxelCount(SpaceState::OCCUPIED));
 }
 
 /** \brief Real data: Karlsruhe frame 10 (SGBM disparity, depth = f B / d) at 0.1 m. */

@@ -3,12 +3,16 @@
 #include <planar_grid/map/planar_grid_map.h>
 
 #include <gtest/gtest.h>
+#include <octomap/AbstractOcTree.h>
+#include <octomap/OcTree.h>
 
 #include <boost/crc.hpp>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -192,28 +196,50 @@ TEST_F(PlanarGridMapTest, EveryFlippedByteIsRefused)
     }
 }
 
-TEST_F(PlanarGridMapTest, VersionOneFilesAreStillRead)
+/** \brief Versions 1 and 2 are read. Their space stream differs from version 3 only in
+ * how inner nodes and never-observed leaves are labelled, so a map whose space layer is
+ * one uniform block (one leaf) has the same data in all three: only the version line
+ * and the checksum differ (version 2: CRC over the header before it and the data;
+ * version 1: over the data only). */
+TEST_F(PlanarGridMapTest, VersionOneAndTwoFilesAreStillRead)
 {
   PlanarGridMap map(params());
   fill(map);
+  map.getSpaceLayer().clear();
+  for (int z = 0; z < 8; ++z)
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x)
+        map.getSpaceLayer().setState(ExplicitSpaceGrid::VoxelKey(x, y, z),
+                                     SpaceState::OCCUPIED);
   const std::string file = path("map.pgmap");
   map.save(file);
   const std::vector<char> bytes = readAll(file);
-  std::string text(bytes.begin(), bytes.end());
-  // A version 1 file: the same header with its CRC over the data only.
-  const std::size_t data = text.find("\ndata\n") + 6;
-  const std::size_t crc = text.find("checksum_crc32 0x") + 17;
-  boost::crc_32_type data_crc;
-  data_crc.process_bytes(text.data() + data, text.size() - data);
-  char hex[16];
-  std::snprintf(hex, sizeof(hex), "%08x", data_crc.checksum());
-  text.replace(crc, 8, hex);
-  text.replace(text.find("version 2"), 9, "version 1");
-  writeAll(file, std::vector<char>(text.begin(), text.end()));
-  EXPECT_TRUE(PlanarGridMap::load(file) == map);
-  // A version 2 file relabelled version 1 keeps its header-covering CRC: refused.
-  std::string relabelled(bytes.begin(), bytes.end());
-  relabelled.replace(relabelled.find("version 2"), 9, "version 1");
+  const std::string current(bytes.begin(), bytes.end());
+  ASSERT_NE(current.find("version 3\n"), std::string::npos);
+  const auto withVersion = [&current](int version) {
+    std::string text = current;
+    text.replace(text.find("version 3"), 9, "version " + std::to_string(version));
+    const std::size_t data = text.find("\ndata\n") + 6;
+    const std::size_t line = text.find("checksum_crc32 0x");
+    boost::crc_32_type crc;
+    if (version >= 2)
+      crc.process_bytes(text.data(), line);
+    crc.process_bytes(text.data() + data, text.size() - data);
+    char hex[16];
+    std::snprintf(hex, sizeof(hex), "%08x", crc.checksum());
+    text.replace(line + 17, 8, hex);
+    return text;
+  };
+  for (const int version : {1, 2}) {
+    const std::string text = withVersion(version);
+    writeAll(file, std::vector<char>(text.begin(), text.end()));
+    const PlanarGridMap loaded = PlanarGridMap::load(file);
+    EXPECT_TRUE(loaded == map) << "version " << version;
+    EXPECT_EQ(loaded.getSpaceLayer().getVoxelCount(SpaceState::OCCUPIED), 512u);
+  }
+  // A version 3 file relabelled version 1 keeps its header-covering CRC: refused.
+  std::string relabelled = current;
+  relabelled.replace(relabelled.find("version 3"), 9, "version 1");
   writeAll(file, std::vector<char>(relabelled.begin(), relabelled.end()));
   EXPECT_THROW(PlanarGridMap::load(file), planar_grid::IOError);
 }
@@ -244,7 +270,8 @@ TEST_F(PlanarGridMapTest, BadHeadersAreRejected)
     }
   };
   expectError(replaced("# Planar grid map file", "# Something else"), "first line");
-  expectError(replaced("version 2", "version 3"), "version 3");
+  expectError(replaced("version 3", "version 4"), "version 4");
+  expectError(replaced("version 3", "version 0"), "version 0");
   expectError(replaced("resolution_m 0.1", "resolution_m 0"), "resolution_m");
   expectError(replaced("resolution_m 0.1", "resolution_m -0.1"), "resolution_m");
   expectError(replaced("resolution_m 0.1", "resolution_m abc"), "resolution_m");
@@ -252,7 +279,7 @@ TEST_F(PlanarGridMapTest, BadHeadersAreRejected)
   expectError(replaced("id PlanarGridMap\n", ""), "'id'");
   expectError(replaced("planes 1", "planes 2"), "checksum");
   expectError(replaced("space_bytes ", "space_bytes 9"), "truncated");
-  expectError(replaced("version 2\n", "version 2\nversion 2\n"), "twice");
+  expectError(replaced("version 3\n", "version 3\nversion 3\n"), "twice");
   expectError(replaced("checksum_crc32", "# a comment\nchecksum_crc32"), "checksum");
   expectError(replaced("\ndata\n", "\n"), "data");
   EXPECT_THROW(PlanarGridMap::load(path("missing.pgmap")), planar_grid::IOError);
@@ -322,6 +349,131 @@ TEST_F(PlanarGridMapTest, MemoryIsTheSumOfTheLayers)
   EXPECT_EQ(filled.surface_bytes, map.getSurfaceLayer().getMemoryBytes());
   EXPECT_GT(filled.space_bytes, empty.space_bytes);
   EXPECT_GT(filled.surface_bytes, empty.surface_bytes);
+}
+
+/** \brief The OctoMap export against a brute-force oracle, prior free: a voxel whose
+ * centre lies in a cuboid has the cuboid's occupancy (an upright wall at 0.9 and a
+ * wall at 53 degrees to the axes at 0.2, walked in tilted columns), the space layer's
+ * observed free and occupied voxels are free and occupied, occluded and never-observed
+ * space is absent, and nothing else is in the tree. The .ot keeps each voxel's
+ * log-odds (a float); the .bt its free / occupied state. */
+TEST_F(PlanarGridMapTest, OctoMapExportKeepsObservedSpaceAndCuboidProbabilities)
+{
+  PlanarGridMap::Params p = params();
+  p.space.prior = SpaceState::FREE;
+  PlanarGridMap map(p);
+  fill(map); // the upright wall at x = 2, features 0.9, and voxels of each state
+  {
+    // A second wall facing the origin from 3 m, normal (-0.6, -0.8, 0), features 0.2.
+    const Eigen::Vector3f normal(-0.6f, -0.8f, 0.0f);
+    const Eigen::Vector3f face(1.8f, 2.4f, 0.5f);
+    PlanarCuboid wall;
+    wall.normal = normal;
+    wall.horizontal_axis = Eigen::Vector3f(0.8f, -0.6f, 0.0f);
+    wall.width_m = 1.6f;
+    wall.height_m = 0.8f;
+    wall.thickness_m = 0.1f;
+    wall.centre = face - normal * 0.05f;
+    wall.plane_id = 0;
+    wall.is_planar = true;
+    wall.point_count = 100;
+    pcl::PointCloud<pcl::PointXYZ> features;
+    std::vector<float> probabilities;
+    for (int k = 0; k < 5; ++k) {
+      const Eigen::Vector3f q =
+        face + wall.horizontal_axis * (-0.6f + 0.3f * static_cast<float>(k));
+      features.push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
+      probabilities.push_back(0.2f);
+    }
+    map.integrateSurface(PlanarCuboids{wall},
+                         PlaneModels{Eigen::Vector4f(-0.6f, -0.8f, 0.0f, 3.0f)},
+                         features, probabilities);
+  }
+  // Observed free space through the upright wall: the cuboid decides there.
+  auto& space = map.getSpaceLayer();
+  for (int i = 15; i < 25; ++i)
+    space.setState(ExplicitSpaceGrid::VoxelKey(i, 0, 5), SpaceState::FREE);
+  const auto& cuboids = map.getSurfaceLayer().getCuboids();
+  ASSERT_GE(cuboids.size(), 2u);
+  const PlanarCuboid* tilted = map.getSurfaceLayer().findCuboid(
+    Eigen::Vector3f(1.8f, 2.4f, 0.5f) + Eigen::Vector3f(0.6f, 0.8f, 0.0f) * 0.05f);
+  ASSERT_NE(tilted, nullptr);
+  EXPECT_NEAR(tilted->probability, 0.2f, 1e-3f);
+
+  // The oracle: every voxel of a box around everything, its expected log-odds (absent:
+  // not in the map).
+  const double res = 0.1;
+  std::map<std::tuple<int, int, int>, float> expected;
+  octomap::OcTree defaults(res);
+  std::map<std::tuple<int, int, int>, SpaceState> observed;
+  space.forEachVoxel([&](const ExplicitSpaceGrid::VoxelKey& k, SpaceState s) {
+    observed[{k.x(), k.y(), k.z()}] = s;
+  });
+  std::size_t in_cuboids = 0;
+  for (int z = -20; z < 30; ++z)
+    for (int y = -20; y < 40; ++y)
+      for (int x = -20; x < 50; ++x) {
+        const ExplicitSpaceGrid::VoxelKey key(x, y, z);
+        const Eigen::Vector3f c = space.toCentre(key);
+        if (const PlanarCuboid* cuboid = map.getSurfaceLayer().findCuboid(c)) {
+          expected[{x, y, z}] =
+            std::log(cuboid->probability / (1.0f - cuboid->probability));
+          ++in_cuboids;
+          continue;
+        }
+        const auto it = observed.find({x, y, z});
+        if (it != observed.end() && it->second != SpaceState::UNKNOWN)
+          expected[{x, y, z}] = it->second == SpaceState::OCCUPIED
+                                  ? defaults.getClampingThresMaxLog()
+                                  : defaults.getClampingThresMinLog();
+      }
+  ASSERT_GT(in_cuboids, 200u); // 2 m x 1 m and 1.6 m x 0.8 m, one voxel thick
+
+  for (const std::string name : {"map.ot", "map.bt"}) {
+    const std::string file = path(name);
+    map.exportOctoMap(file);
+    std::unique_ptr<octomap::OcTree> tree;
+    if (name == "map.ot") {
+      tree.reset(dynamic_cast<octomap::OcTree*>(octomap::AbstractOcTree::read(file)));
+    } else {
+      tree = std::make_unique<octomap::OcTree>(res);
+      ASSERT_TRUE(tree->readBinary(file));
+    }
+    ASSERT_TRUE(tree) << name;
+    EXPECT_DOUBLE_EQ(tree->getResolution(), res);
+    // Every oracle voxel is in the tree with its value; the never-observed and the
+    // occluded voxels are not.
+    for (const auto& [k, log_odds] : expected) {
+      const Eigen::Vector3f c = space.toCentre(
+        ExplicitSpaceGrid::VoxelKey(std::get<0>(k), std::get<1>(k), std::get<2>(k)));
+      const octomap::OcTreeNode* node = tree->search(c.x(), c.y(), c.z());
+      ASSERT_NE(node, nullptr) << name << " " << c.transpose();
+      if (name == "map.ot") {
+        EXPECT_NEAR(node->getLogOdds(), log_odds, 1e-5f) << c.transpose();
+      }
+      EXPECT_EQ(tree->isNodeOccupied(node), log_odds >= 0.0f) << name << c.transpose();
+    }
+    for (const Eigen::Vector3f& absent :
+         {space.toCentre(ExplicitSpaceGrid::VoxelKey(-7, 3, 2)), // occluded
+          Eigen::Vector3f(-1.05f, -1.05f, -1.05f),               // never observed
+          Eigen::Vector3f(3.0f, 0.0f, 0.5f)}) {                  // behind the wall
+      EXPECT_EQ(map.getState(absent), absent.x() < -1.0f || absent.x() > 2.5f
+                                        ? SpaceState::FREE
+                                        : SpaceState::UNKNOWN);
+      EXPECT_EQ(tree->search(absent.x(), absent.y(), absent.z()), nullptr) << name;
+    }
+    // Nothing else: the tree's leaves, voxel by voxel, are the oracle's voxels.
+    tree->expand();
+    std::size_t leaves = 0;
+    for (auto it = tree->begin_leafs(); it != tree->end_leafs(); ++it) {
+      ++leaves;
+      const ExplicitSpaceGrid::VoxelKey key = space.toKey(
+        Eigen::Vector3f(static_cast<float>(it.getX()), static_cast<float>(it.getY()),
+                        static_cast<float>(it.getZ())));
+      EXPECT_EQ(expected.count({key.x(), key.y(), key.z()}), 1u) << key.transpose();
+    }
+    EXPECT_EQ(leaves, expected.size()) << name;
+  }
 }
 
 TEST_F(PlanarGridMapTest, DifferentResolutionsAreRejected)

@@ -19,6 +19,10 @@
 #include <unordered_map>
 #include <vector>
 
+namespace octomap {
+class OcTree;
+} // namespace octomap
+
 namespace planar_grid {
 
 /** \brief The state of a cell of the explicit space layer, with the paper's 2-bit
@@ -100,7 +104,9 @@ struct DepthImage {
  * modelling space", Sec. III-F, Fig. 5c): voxels of edge resolution_m that are free (in
  * front of the measured surface), occupied (at it) or unknown (behind it: occluded),
  * inside each camera frustum up to max_range_m. Space never inside any view has the
- * prior state.
+ * prior state, and stays apart from what a view observed: with the free prior a voxel
+ * seen free and one never seen both read FREE from getState(), but only the first is
+ * stored (forEachVoxel(), getVoxelCount(), the file) and exported to OctoMap.
  *
  * Integration projects the voxels of the frustum into the depth image (no ray per
  * point): a voxel whose centre depth is below the smallest measured depth over its
@@ -109,9 +115,8 @@ struct DepthImage {
  * occupied. Free and occupied observations replace older ones (newest wins); "no
  * information" (outside the image, beyond max_range_m, a footprint without any
  * measurement) changes nothing; an occluded voxel becomes unknown only where it holds
- * the prior. With prior UNKNOWN, occlusion therefore never erases a known state; with
- * prior FREE a voxel observed free equals the prior (canonical storage), so a later
- * occlusion turns it unknown. The footprint is approximated by min-depth mip cells (a
+ * the prior (was never observed). Occlusion therefore never erases an observed
+ * state, with either prior. The footprint is approximated by min-depth mip cells (a
  * superset of at most ~1.5x the voxel's projected size, conservative for "free"); whole
  * 8^3 blocks and 4^3 sub-cubes in front of (or behind) every measurement of their
  * footprint are decided at once, the rest voxel by voxel. In that per-voxel step a 4^3
@@ -120,10 +125,12 @@ struct DepthImage {
  * lower bound of each voxel's own minimum, so the result is the voxel-by-voxel one).
  * A view's observations are gathered per block as bit masks and applied word-wise.
  *
- * Storage is sparse: blocks of 8 x 8 x 8 voxels in a hash map, 2 bits per voxel; a
- * block whose voxels all have one state is stored as that state only, and a block all
- * at the prior is not stored (pruned), so the representation is canonical: two grids
- * with the same state everywhere hold the same blocks.
+ * Storage is sparse: blocks of 8 x 8 x 8 voxels in a hash map, 2 bits per voxel (00
+ * free, 01 occupied, 10 unknown, 11 never observed with the free prior; with the
+ * unknown prior, never observed is 10); a block whose voxels all have one state is
+ * stored as that state only, and a block never observed is not stored (pruned), so
+ * the representation is canonical: two grids with the same observations hold the same
+ * blocks.
  * \ingroup map */
 class ExplicitSpaceGrid {
 public:
@@ -143,6 +150,13 @@ public:
 
   /** \brief Integer voxel coordinates: floor(p / resolution_m) per axis. */
   using VoxelKey = Eigen::Vector3i;
+
+  /** \brief Version of the bit stream serialize() writes (the map file's version):
+   * 3 keeps observed free space apart from the free prior. */
+  static constexpr unsigned STREAM_VERSION = 3;
+  /** \brief Oldest stream version deserialize() reads (versions 1 and 2 share one
+   * encoding, without never-observed leaves). */
+  static constexpr unsigned OLDEST_STREAM_VERSION = 1;
 
   /** \brief Throws planar_grid::Exception for out-of-range parameters. */
   explicit ExplicitSpaceGrid(const Params& params);
@@ -183,12 +197,14 @@ public:
   /** \brief Centre of voxel \a key, meters. */
   [[nodiscard]] Eigen::Vector3f toCentre(const VoxelKey& key) const;
 
-  /** \brief State of the voxel containing \a point (the prior where nothing is
-   * stored; non-finite points give the prior). */
+  /** \brief State of the voxel containing \a point (the prior where nothing was
+   * observed; non-finite points give the prior). */
   [[nodiscard]] SpaceState getState(const Eigen::Vector3f& point) const;
   /** \brief State of voxel \a key. */
   [[nodiscard]] SpaceState getState(const VoxelKey& key) const;
-  /** \brief Sets one voxel (tests, file reading, merging). */
+  /** \brief Sets one voxel as observed in \a state (tests, file reading, merging):
+   * FREE is stored as observed free space with either prior; UNKNOWN with the unknown
+   * prior is the never-observed state (the voxel is dropped). */
   void setState(const VoxelKey& key, SpaceState state);
 
   /** \brief Walks the voxels along a ray (Amanatides-Woo) to the first occupied one.
@@ -202,12 +218,13 @@ public:
                double max_range_m,
                Eigen::Vector3f& hit) const;
 
-  /** \brief Calls f(key, state) for every voxel whose state differs from the prior,
-   * in a deterministic order (blocks sorted by key, voxels x fastest). */
+  /** \brief Calls f(key, state) for every observed voxel (free, occupied, and with
+   * the free prior unknown = occluded; never the ones never observed), in a
+   * deterministic order (blocks sorted by key, voxels x fastest). */
   template <typename F> void forEachVoxel(F&& f) const;
 
-  /** \brief Number of voxels in \a state that differ from the prior (0 for the prior
-   * state itself). */
+  /** \brief Number of observed voxels in \a state (as forEachVoxel() visits them;
+   * 0 for UNKNOWN with the unknown prior). */
   [[nodiscard]] std::size_t getVoxelCount(SpaceState state) const;
   /** \brief Number of stored blocks. */
   [[nodiscard]] std::size_t getBlockCount() const;
@@ -219,9 +236,13 @@ public:
 
   /** \brief Encodes the layer as an octree bit stream (Sec. IV): a small fixed header
    * (root key, depth, prior, fixed little-endian byte order) followed by one 2-bit
-   * label per node in depth-first order (00 free, 01 occupied, 10 unknown, 11 inner
-   * node with 8 children), 4 labels per byte. Regions without stored blocks are leaves
-   * with the prior's label.
+   * label per node in depth-first order, 4 labels per byte: 00 free, 01 occupied, 10
+   * unknown, and 11 an escape followed by a second label: 11 an inner node with 8
+   * children, 00 a never-observed leaf (only with the free prior; with the unknown
+   * prior never observed is 10). Regions without stored blocks are never-observed
+   * leaves. Version STREAM_VERSION (3); versions 1 and 2 wrote 11 alone for an inner
+   * node and the prior's label for never-observed space, so that with the free prior
+   * observed free space was not told apart.
    * Header (22 bytes): root key int32 x3 (block-aligned min corner of the smallest
    * power-of-two cube covering the stored blocks), depth uint8 (root edge 2^depth
    * voxels), prior uint8, label count uint64; children in x, y, z order (x fastest);
@@ -232,17 +253,35 @@ public:
 
   /** \brief Replaces the content by a decoding of serialize()'s output.
    * \param[in] data, size the encoded bytes
+   * \param[in] format_version the stream's version (the map file's): 3, or 1 and 2,
+   * whose free leaves with the free prior are read as never observed
    * \throws planar_grid::IOError when the bytes are truncated, have trailing data, an
-   * inner label at voxel level, a depth over 21, or a label 11 where a leaf is needed;
+   * inner node at voxel level, a depth over 21, a version outside
+   * [OLDEST_STREAM_VERSION, STREAM_VERSION], an escape followed by 01 or 10 (or by 00
+   * with the unknown prior);
    * a root key that is not a multiple of 8, a prior other than free/unknown,
    * non-zero padding bits, or leaves that would create more than 2^22 blocks (checked
    * before allocating); the grid is unchanged on error. The prior is taken from the
    * stream; the resolution is the grid's own. */
-  void deserialize(const std::uint8_t* data, std::size_t size);
+  void deserialize(const std::uint8_t* data,
+                   std::size_t size,
+                   unsigned format_version = STREAM_VERSION);
 
-  /** \brief Writes the non-prior voxels to an OctoMap binary tree (.bt, liboctomap's
-   * OcTree::writeBinary): occupied voxels as occupied nodes, free ones as free; unknown
-   * voxels are left out (unknown in OctoMap). Atomic (temporary file, rename).
+  /** \brief Inserts the observed voxels into an empty OctoMap tree: occupied voxels
+   * at the tree's clamping_thres_max (log-odds), observed free ones at
+   * clamping_thres_min; occluded (unknown) and never-observed voxels are left out
+   * (unknown in OctoMap), whatever the prior. A uniform 8^3 block becomes one node
+   * three levels above the voxels, and each block is pruned as it is inserted.
+   * \param[in,out] tree an empty octomap::OcTree of the grid's resolution_m
+   * \return the number of observed voxels left out because they lie outside OctoMap's
+   * key range (2^16 voxels per axis around the origin)
+   * \throws planar_grid::Exception for a tree of another resolution or not empty */
+  std::size_t insertIntoOcTree(octomap::OcTree& tree) const;
+
+  /** \brief Writes the observed voxels (insertIntoOcTree()) to an OctoMap file:
+   * ".ot" as the full format (AbstractOcTree::write, log-odds per node), any other
+   * name as the binary format (.bt, OcTree::writeBinary: free / occupied per node).
+   * Atomic (temporary file, rename).
    * \throws planar_grid::IOError when the file cannot be written */
   void exportOctoMap(const std::string& path) const;
 

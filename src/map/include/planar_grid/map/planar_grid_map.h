@@ -36,7 +36,7 @@ struct MapMemory {
  * File (S35, OctoMap's discipline): a text header of "key value" lines,
  * \code
  * # Planar grid map file
- * version 1
+ * version 3
  * id PlanarGridMap
  * resolution_m 0.1
  * prior unknown
@@ -49,8 +49,11 @@ struct MapMemory {
  * checksum_crc32 0x........
  * data
  * \endcode
- * then S bytes of the space layer's octree bit stream (2-bit labels) and T bytes of
- * the surface layer, little-endian. The reader checks the magic line, the version,
+ * then S bytes of the space layer's octree bit stream (2-bit labels,
+ * ExplicitSpaceGrid::serialize(), whose version is the file's) and T bytes of the
+ * surface layer, little-endian. Versions 1 and 2 are still read (their space stream
+ * cannot tell observed free space from the free prior: it reads as never observed).
+ * The reader checks the magic line, the version,
  * every key, resolution_m > 0, the section sizes against the file length (before it
  * allocates), the CRC-32 of the data, and that the decoded counts match the header.
  * \ingroup map */
@@ -158,10 +161,20 @@ public:
    * \throws planar_grid::IOError as load() */
   static PlanarGridMap deserialize(const std::string& bytes, const std::string& name);
 
-  /** \brief Writes the space layer as an OctoMap .bt
-   * (ExplicitSpaceGrid::exportOctoMap).
-   */
-  void exportOctoMap(const std::string& path) const { space_.exportOctoMap(path); }
+  /** \brief Writes the map as an OctoMap octree of resolution_m voxels, atomically.
+   * The space layer's observed voxels go in as ExplicitSpaceGrid::insertIntoOcTree()
+   * puts them (occupied at log-odds clamping_thres_max, observed free at
+   * clamping_thres_min; occluded and never-observed space absent, whatever the prior);
+   * then every voxel whose centre lies in a cuboid (PlanarCuboid::contains; the
+   * lowest-index cuboid where several do, as getOccupancy()) takes the cuboid's
+   * occupancy as log-odds, log(p / (1 - p)) with p clamped to [1e-4, 1 - 1e-4], over
+   * the space layer's state. The tree's occupancy_thres is the surface layer's.
+   * \param[in] path ".ot": OctoMap's full format (AbstractOcTree::write), which keeps
+   * each voxel's log-odds (a float); any other name (".bt"): the binary format
+   * (OcTree::writeBinary), which keeps the maximum-likelihood state only (occupied
+   * where p >= occupancy_thres, else free)
+   * \throws planar_grid::IOError when the file cannot be written */
+  void exportOctoMap(const std::string& path) const;
   /** \brief Writes the cuboids as .ply or .vtk (SurfaceLayer::exportMesh). */
   void exportMesh(const std::string& path) const { surface_.exportMesh(path); }
 
