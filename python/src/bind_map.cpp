@@ -520,7 +520,8 @@ probabilities : array_like, shape (F,)
         return out;
       },
       py::arg("state"),
-      R"doc(Centres of the voxels in a state that differ from the prior.
+      R"doc(Centres of the observed voxels in a state (never-observed space, which reads
+as the prior, is not listed).
 
 Parameters
 ----------
@@ -535,9 +536,10 @@ numpy.ndarray, shape (N, 3), float64
       "export_octomap",
       [](const Map& self, const py::object& path) { self.exportOctoMap(toPath(path)); },
       py::arg("path"),
-      "Writes the space layer as an OctoMap binary tree (.bt); raises "
-      "planar_grid.IOError "
-      "when it cannot be written.")
+      "Writes the observed space and the cuboids as an OctoMap tree: .bt (binary: "
+      "free / occupied per voxel) or .ot (full: each voxel's log-odds, a cuboid's "
+      "from its occupancy); never-observed and occluded space are left out. Raises "
+      "planar_grid.IOError when it cannot be written.")
     .def(
       "export_mesh",
       [](const Map& self, const py::object& path) { self.exportMesh(toPath(path)); },
