@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/filters/fast_statistical_outlier_removal.h>
+#include <planar_grid/point_types.h>
 
 #include <pcl/point_types.h>
 
@@ -280,6 +281,8 @@ FastStatisticalOutlierRemoval<PointT>::applyFilter(pcl::Indices& indices)
 
 } // namespace planar_grid
 
-template class planar_grid::FastStatisticalOutlierRemoval<pcl::PointXYZ>;
-template class planar_grid::FastStatisticalOutlierRemoval<pcl::PointXYZI>;
-template class planar_grid::FastStatisticalOutlierRemoval<pcl::PointXYZRGB>;
+// The template body lives only here: one explicit instantiation per point type of the
+// CMake list PLANAR_GRID_POINT_TYPES, and no other point type.
+#define PLANAR_GRID_INSTANTIATE_FastStatisticalOutlierRemoval(T) \
+  template class planar_grid::FastStatisticalOutlierRemoval<T>;
+PLANAR_GRID_INSTANTIATE(FastStatisticalOutlierRemoval, PLANAR_GRID_POINT_TYPES)

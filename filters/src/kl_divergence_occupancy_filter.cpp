@@ -87,12 +87,10 @@ klDivergenceUpdate(double p, double q, double offset_nats)
 
 #ifndef PCL_NO_PRECOMPILE
 #include <planar_grid/filters/impl/kl_divergence_occupancy_filter.hpp>
+#include <planar_grid/point_types.h>
 
-#include <pcl/impl/instantiate.hpp>
 #include <pcl/point_types.h>
 
-// S6: the point types of PLANAR_GRID_POINT_TYPES (top-level CMakeLists.txt).
-template class planar_grid::KLDivergenceOccupancyFilter<pcl::PointXYZ>;
-template class planar_grid::KLDivergenceOccupancyFilter<pcl::PointXYZI>;
-template class planar_grid::KLDivergenceOccupancyFilter<pcl::PointXYZRGB>;
+// One explicit instantiation per point type of the CMake list PLANAR_GRID_POINT_TYPES.
+PLANAR_GRID_INSTANTIATE(KLDivergenceOccupancyFilter, PLANAR_GRID_POINT_TYPES)
 #endif // PCL_NO_PRECOMPILE
