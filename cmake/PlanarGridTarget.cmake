@@ -50,6 +50,7 @@ function(planar_grid_add_library module)
   endif()
   set_property(GLOBAL APPEND PROPERTY PLANAR_GRID_MODULES ${module})
   set_property(GLOBAL PROPERTY PLANAR_GRID_${module}_LINKS ${ARG_DEPENDS} ${ARG_PRIVATE_DEPENDS})
+  set_property(GLOBAL PROPERTY PLANAR_GRID_${module}_PUBLIC_LINKS ${ARG_DEPENDS})
 endfunction()
 
 # planar_grid_install_tools(<target>...): installs the existing executables to bin/.

@@ -2,8 +2,10 @@
 # SPDX-License-Identifier: BSD-3-Clause
 # Checks the installed package (issue #9): `cmake --install` of a build into a temporary
 # prefix, then the examples project (examples/) configured with CMAKE_PREFIX_PATH=<prefix>
-# only (never the build tree), built, and run on a real PCL scan; an installed tool runs;
-# an unknown COMPONENT fails with a clear message.
+# only (never the build tree), built, and run on a real PCL scan; the same example built
+# with pkg-config and the installed planar_grid.pc alone; an installed tool runs and
+# prints its version; an unknown COMPONENT fails with a clear message. Works for static
+# and shared (BUILD_SHARED_LIBS) builds.
 #   bash scripts/check_install.sh [build folder]    (default: $BUILD_DIR, else build/)
 # The scan comes from PLANAR_GRID_DATA_DIR (default ../shared/data).
 set -euo pipefail
@@ -28,6 +30,9 @@ for f in lib/cmake/PlanarGrid/PlanarGridConfig.cmake \
   [ -e "$prefix/$f" ] || { echo "check_install: $f was not installed" >&2; exit 1; }
 done
 "$prefix/bin/planar_grid_pipeline" --list-stages >/dev/null
+version=$(sed -n 's/^CMAKE_PROJECT_VERSION:STATIC=//p' "$BUILD_DIR/CMakeCache.txt")
+[ "$("$prefix/bin/planar_grid_pipeline" --version)" = "planar_grid_pipeline $version" ] \
+  || { echo "check_install: planar_grid_pipeline --version does not print $version" >&2; exit 1; }
 
 # The examples, against the prefix only (no package registry, no build tree).
 echo "check_install: building examples/ against the installed package"
@@ -49,6 +54,52 @@ for example in segment_planes approximate_cuboids filter_features; do
   echo "check_install: $example $CLOUD"
   "$work/examples/$example" "$CLOUD"
 done
+
+# The same example with pkg-config and the installed planar_grid.pc only: its Cflags and
+# Libs (static libraries: every dependency; shared: ours and those of our public headers)
+# plus pcl_io, which the example itself uses.
+pc_dir="$prefix/lib/pkgconfig"
+[ -f "$pc_dir/planar_grid.pc" ] || { echo "check_install: planar_grid.pc was not installed" >&2; exit 1; }
+export PKG_CONFIG_PATH="$pc_dir"
+[ "$(pkg-config --modversion planar_grid)" = "$version" ] \
+  || { echo "check_install: planar_grid.pc does not give version $version" >&2; exit 1; }
+echo "check_install: building examples/segment_planes.cpp with pkg-config planar_grid"
+# shellcheck disable=SC2046  # pkg-config's output is a list of words
+g++ -std=c++17 -O1 -Wall -o "$work/segment_planes_pc" examples/segment_planes.cpp \
+  $(pkg-config --cflags --libs planar_grid pcl_io) >"$work/pc_build.log" 2>&1 \
+  || { cat "$work/pc_build.log" >&2; pkg-config --cflags --libs planar_grid >&2; exit 1; }
+if grep -q "warning:" "$work/pc_build.log"; then
+  cat "$work/pc_build.log" >&2
+  echo "check_install: the pkg-config build has warnings" >&2
+  exit 1
+fi
+# pkg-config gives no run path: shared libraries in a prefix outside the loader's are
+# found through LD_LIBRARY_PATH (or the program's own -Wl,-rpath).
+LD_LIBRARY_PATH="$prefix/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}" \
+  "$work/segment_planes_pc" "$CLOUD" >"$work/pc_run.log"
+"$work/examples/segment_planes" "$CLOUD" >"$work/cmake_run.log"
+cmp -s "$work/pc_run.log" "$work/cmake_run.log" \
+  || { diff "$work/pc_run.log" "$work/cmake_run.log" >&2; echo "check_install: the pkg-config build prints other results" >&2; exit 1; }
+unset PKG_CONFIG_PATH
+
+# The Python module, when the build has it: installed, and imported from the prefix alone
+# (the libraries are linked into it; nothing comes from the build tree).
+if grep -q '^PLANAR_GRID_BUILD_PYTHON:BOOL=ON' "$BUILD_DIR/CMakeCache.txt"; then
+  python=$(sed -n 's/^Python3_EXECUTABLE:FILEPATH=//p' "$BUILD_DIR/CMakeCache.txt")
+  module_dir="$prefix/$(sed -n 's/^PLANAR_GRID_PYTHON_INSTALL_DIR:STRING=//p' "$BUILD_DIR/CMakeCache.txt")"
+  ls "$module_dir"/planar_grid*.so >/dev/null 2>&1 \
+    || { echo "check_install: the Python module was not installed in $module_dir" >&2; exit 1; }
+  echo "check_install: import planar_grid from $module_dir"
+  (cd "$work" && PYTHONPATH="$module_dir" "$python" -c "
+import sys
+import numpy as np
+import planar_grid as pg
+assert pg.__file__.startswith(sys.argv[1]), pg.__file__
+uv = np.stack(np.meshgrid(np.arange(0, 2, 0.05), np.arange(0, 2, 0.05)), -1).reshape(-1, 2)
+planes = pg.SACMultiPlaneSegmentation(min_inliers=100).segment(np.column_stack([uv, np.ones(len(uv))]))
+assert len(planes) == 1, planes
+" "$module_dir")
+fi
 
 # An unknown component is an error that names the known ones.
 mkdir -p "$work/unknown"

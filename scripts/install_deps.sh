@@ -13,6 +13,10 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   xvfb xauth clang-format git
   doxygen
+  python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest
+  # ROS 1 bag input (optional; off in a build without them)
+  librosbag-storage-dev libsensor-msgs-dev libgeometry-msgs-dev libtf2-msgs-dev
+  libstd-msgs-dev
 )
 
 missing=()

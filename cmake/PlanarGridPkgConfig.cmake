@@ -1,0 +1,136 @@
+# SPDX-License-Identifier: BSD-3-Clause
+# planar_grid_install_pkgconfig(): <prefix>/<libdir>/pkgconfig/planar_grid.pc, for
+# projects that build with pkg-config instead of CMake (one .pc for all the modules
+# that were built). Call it once, after every module was added.
+#
+# What pkg-config can express of the two kinds of build:
+# - shared libraries (BUILD_SHARED_LIBS): Libs lists our libraries, Requires the
+#   packages whose headers our public headers include (PCL, Eigen, OpenCV, ...), and
+#   Requires.private / Libs.private the packages our libraries link privately; those
+#   are found through the libraries' own dependencies at run time, and
+#   `pkg-config --static` adds them for a static link of everything.
+# - static libraries: every dependency is needed on the link line of the program, so
+#   every package goes to Requires and Libs, and plain `pkg-config --libs` is enough.
+# Packages without a .pc file in Debian (VTK) are given as the full paths of their
+# libraries. Our libraries are listed so that each comes before the ones it uses.
+
+# Maps a link item to a pkg-config module (_pg_pc) or a linker flag or file (_pg_flag).
+macro(_planar_grid_pc_item item)
+  set(_pg_pc "")
+  set(_pg_flag "")
+  if("${item}" MATCHES "^planar_grid_")
+    # our own libraries: in Libs
+  elseif("${item}" MATCHES "^pcl_")
+    set(_pg_pc "${item}")
+  elseif("${item}" MATCHES "^opencv_")
+    set(_pg_pc opencv4)
+  elseif("${item}" STREQUAL "Eigen3::Eigen")
+    set(_pg_pc eigen3)
+  elseif("${item}" STREQUAL "yaml-cpp")
+    set(_pg_pc yaml-cpp)
+  elseif("${item}" MATCHES "^nlohmann_json::")
+    set(_pg_pc nlohmann_json)
+  elseif("${item}" STREQUAL "octomap" OR "${item}" STREQUAL "octomath")
+    set(_pg_pc octomap)
+  elseif("${item}" STREQUAL "nanoflann::nanoflann")
+    set(_pg_pc nanoflann)
+  elseif("${item}" MATCHES "^X11::")
+    set(_pg_pc x11)
+  elseif("${item}" STREQUAL "Threads::Threads")
+    set(_pg_flag "-pthread")
+  elseif("${item}" MATCHES "^OpenMP::")
+    set(_pg_flag "-fopenmp")
+  elseif("${item}" MATCHES "^VTK::" AND TARGET "${item}")
+    set(_pg_flag "$<TARGET_LINKER_FILE:${item}>")
+  elseif(NOT "${item}" STREQUAL "")
+    message(AUTHOR_WARNING "planar_grid_install_pkgconfig: no pkg-config module known "
+      "for the link item '${item}'; add it to cmake/PlanarGridPkgConfig.cmake")
+  endif()
+endmacro()
+
+# Depth-first visit of the modules' dependencies: appends \a module to the variable
+# _pg_order after every module it links.
+function(_planar_grid_pc_visit module)
+  if(module IN_LIST _pg_order)
+    set(_pg_order "${_pg_order}" PARENT_SCOPE)
+    return()
+  endif()
+  get_property(links GLOBAL PROPERTY PLANAR_GRID_${module}_LINKS)
+  foreach(item IN LISTS links)
+    if("${item}" MATCHES "^planar_grid_(.+)$" AND TARGET "${item}")
+      _planar_grid_pc_visit(${CMAKE_MATCH_1})
+    endif()
+  endforeach()
+  list(APPEND _pg_order ${module})
+  set(_pg_order "${_pg_order}" PARENT_SCOPE)
+endfunction()
+
+function(planar_grid_install_pkgconfig)
+  get_property(modules GLOBAL PROPERTY PLANAR_GRID_MODULES)
+  set(_pg_order "")
+  foreach(module IN LISTS modules)
+    _planar_grid_pc_visit(${module})
+  endforeach()
+  # Dependents first on the link line.
+  list(REVERSE _pg_order)
+  set(libs "")
+  foreach(module IN LISTS _pg_order)
+    string(APPEND libs " -lplanar_grid_${module}")
+  endforeach()
+  string(STRIP "${libs}" libs)
+
+  set(requires "")
+  set(requires_private "")
+  set(flags "")
+  set(flags_private "")
+  foreach(module IN LISTS _pg_order)
+    get_property(public GLOBAL PROPERTY PLANAR_GRID_${module}_PUBLIC_LINKS)
+    get_property(all GLOBAL PROPERTY PLANAR_GRID_${module}_LINKS)
+    foreach(item IN LISTS all)
+      _planar_grid_pc_item("${item}")
+      if(BUILD_SHARED_LIBS AND NOT item IN_LIST public)
+        list(APPEND requires_private ${_pg_pc})
+        list(APPEND flags_private ${_pg_flag})
+      else()
+        list(APPEND requires ${_pg_pc})
+        list(APPEND flags ${_pg_flag})
+      endif()
+    endforeach()
+  endforeach()
+  foreach(list_name requires requires_private flags flags_private)
+    if(${list_name})
+      list(REMOVE_DUPLICATES ${list_name})
+    endif()
+  endforeach()
+  if(requires)
+    list(REMOVE_ITEM requires_private ${requires})
+  endif()
+  string(REPLACE ";" " " PLANAR_GRID_PC_REQUIRES "${requires}")
+  string(REPLACE ";" " " PLANAR_GRID_PC_REQUIRES_PRIVATE "${requires_private}")
+  string(REPLACE ";" " " flags "${flags}")
+  string(REPLACE ";" " " PLANAR_GRID_PC_LIBS_PRIVATE "${flags_private}")
+  set(PLANAR_GRID_PC_LIBS "${libs} ${flags}")
+  string(STRIP "${PLANAR_GRID_PC_LIBS}" PLANAR_GRID_PC_LIBS)
+  if(BUILD_SHARED_LIBS)
+    set(PLANAR_GRID_PC_NOTE "Shared libraries: `pkg-config --static` adds what they link privately.")
+  else()
+    set(PLANAR_GRID_PC_NOTE "Static libraries: Requires and Libs hold every dependency.")
+  endif()
+
+  # Installed: the prefix is where the .pc file lies (pkg-config's pcfiledir), so that a
+  # relocated install (DESTDIR, a copied prefix) still points at its own files.
+  if(IS_ABSOLUTE "${CMAKE_INSTALL_LIBDIR}" OR IS_ABSOLUTE "${CMAKE_INSTALL_INCLUDEDIR}")
+    message(FATAL_ERROR "planar_grid.pc needs CMAKE_INSTALL_LIBDIR and "
+      "CMAKE_INSTALL_INCLUDEDIR relative to the prefix")
+  endif()
+  file(RELATIVE_PATH to_prefix "/${CMAKE_INSTALL_LIBDIR}/pkgconfig" "/")
+  string(REGEX REPLACE "/$" "" to_prefix "${to_prefix}")
+  set(PLANAR_GRID_PC_PREFIX "\${pcfiledir}/${to_prefix}")
+  configure_file(${PROJECT_SOURCE_DIR}/cmake/planar_grid.pc.in
+                 ${PROJECT_BINARY_DIR}/planar_grid.pc.in @ONLY)
+  # Generator expressions (VTK's library files) are resolved at generation time.
+  file(GENERATE OUTPUT ${PROJECT_BINARY_DIR}/planar_grid.pc
+       INPUT ${PROJECT_BINARY_DIR}/planar_grid.pc.in)
+  install(FILES ${PROJECT_BINARY_DIR}/planar_grid.pc
+          DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
+endfunction()
