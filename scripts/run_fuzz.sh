@@ -8,13 +8,15 @@
 # a sanitizer report, a leak, a timeout or an out-of-memory (reproducer in
 # <build>/artifacts/<target>/; rerun with `<build>/tests/fuzz/<target> <file>`).
 #   bash scripts/run_fuzz.sh [target ...]        (default: every target)
-# FUZZ_SECONDS (default 60) per target, BUILD_DIR (default build-fuzz), JOBS (default 2).
+# FUZZ_SECONDS (default 60) per target, BUILD_DIR (default build-fuzz), JOBS (default 2),
+# FUZZ_ARGS (more libFuzzer options, e.g. -runs=N).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 FUZZ_SECONDS=${FUZZ_SECONDS:-60}
 BUILD_DIR=${BUILD_DIR:-build-fuzz}
 JOBS=${JOBS:-2}
-targets=(fuzz_map_file fuzz_map_layers fuzz_pipeline_config fuzz_calibration)
+targets=(fuzz_map_file fuzz_map_layers fuzz_pipeline_config fuzz_calibration fuzz_pose_files
+         fuzz_pcd_frame fuzz_checkpoint)
 [ $# -gt 0 ] && targets=("$@")
 command -v clang++ >/dev/null || { echo "run_fuzz: clang++ not installed" >&2; exit 1; }
 
@@ -37,7 +39,7 @@ for target in "${targets[@]}"; do
   rc=0
   "$BUILD_DIR/tests/fuzz/$target" -max_total_time="$FUZZ_SECONDS" -timeout=25 \
     -rss_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$artifacts/" \
-    "$work" "tests/fuzz/corpus/$target" >"$log" 2>&1 || rc=$?
+    ${FUZZ_ARGS:-} "$work" "tests/fuzz/corpus/$target" >"$log" 2>&1 || rc=$?
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
   if [ "$rc" -ne 0 ]; then
     failed=1

@@ -6,6 +6,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -273,15 +274,23 @@ OutputTransaction::OutputTransaction(std::string folder) : folder_(std::move(fol
   fs::create_directories(folder_, ec);
   if (ec || !fs::is_directory(folder_))
     throw IOError(folder_ + ": cannot create the output folder: " + ec.message());
-  recover(folder_);
-  removeStale(folder_);
-  const fs::path staging =
-    fs::path(folder_)
-    / (STAGING_PREFIX + std::to_string(static_cast<long>(::getpid())));
-  if (::mkdir(staging.c_str(), 0755) != 0)
-    throw IOError(folder_ + ": cannot write into the output folder (creating "
-                  + staging.filename().string() + "): " + std::strerror(errno));
-  staging_ = staging.string();
+  lock();
+  try {
+    recover(folder_);
+    removeStale(folder_);
+    const fs::path staging =
+      fs::path(folder_)
+      / (STAGING_PREFIX + std::to_string(static_cast<long>(::getpid())));
+    if (::mkdir(staging.c_str(), 0755) != 0)
+      throw IOError(folder_ + ": cannot write into the output folder (creating "
+                    + staging.filename().string() + "): " + std::strerror(errno));
+    staging_ = staging.string();
+  } catch (...) {
+    // No destructor runs for a constructor that throws: release the lock here.
+    ::close(lock_fd_);
+    lock_fd_ = -1;
+    throw;
+  }
 }
 
 OutputTransaction::~OutputTransaction()
@@ -291,6 +300,50 @@ OutputTransaction::~OutputTransaction()
   if (!committed_ && !journal_written_ && !staging_.empty()) {
     std::error_code ec;
     fs::remove_all(staging_, ec);
+  }
+  // Closing the descriptor releases the lock (as the kernel does when the process
+  // dies). The lock file stays: removing it would let a third process lock a new file
+  // of the same name while a second one still waits on the old one.
+  if (lock_fd_ >= 0)
+    ::close(lock_fd_);
+}
+
+void
+OutputTransaction::lock()
+{
+  const fs::path path = fs::path(folder_) / LOCK;
+  lock_fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (lock_fd_ < 0)
+    throw IOError(folder_ + ": cannot write into the output folder (creating "
+                  + path.filename().string() + "): " + std::strerror(errno));
+  if (::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
+    const int error = errno;
+    // The holder wrote its process id into the file when it took the lock.
+    std::string holder;
+    char text[32] = {};
+    const ssize_t n = ::pread(lock_fd_, text, sizeof(text) - 1, 0);
+    if (n > 0)
+      holder.assign(text, static_cast<std::size_t>(n));
+    holder.erase(holder.find_last_not_of(" \n") + 1);
+    ::close(lock_fd_);
+    lock_fd_ = -1;
+    if (error == EWOULDBLOCK)
+      throw IOError(
+        folder_ + ": the output folder is in use by another run ("
+        + (holder.empty() ? std::string("process id unknown") : "process " + holder)
+        + " holds " + path.string()
+        + "); wait for it to finish or choose another output folder");
+    throw IOError(path.string()
+                  + ": cannot lock the output folder: " + std::strerror(error));
+  }
+  const std::string pid = std::to_string(static_cast<long>(::getpid())) + "\n";
+  if (::ftruncate(lock_fd_, 0) != 0
+      || ::pwrite(lock_fd_, pid.data(), pid.size(), 0)
+           != static_cast<ssize_t>(pid.size())) {
+    const std::string reason = std::strerror(errno);
+    ::close(lock_fd_);
+    lock_fd_ = -1;
+    throw IOError(path.string() + ": cannot write the lock file: " + reason);
   }
 }
 

@@ -1,10 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/atomic_file.h>
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/pcd_file_check.h>
 #include <planar_grid/odometry/trajectory_io.h>
-
-#include <pcl/PCLPointCloud2.h>
-#include <pcl/io/pcd_io.h>
 
 #include <cmath>
 #include <cstddef>
@@ -307,33 +305,18 @@ saveKittiPoses(const std::string& path, const Trajectory& trajectory)
 Eigen::Isometry3d
 loadPCDViewpoint(const std::string& path)
 {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec))
-    throw IOError(path + ": no such file");
-  // Only the header is read: the VIEWPOINT line holds the pose, the points are not
-  // needed.
-  pcl::PCDReader reader;
-  pcl::PCLPointCloud2 header;
-  Eigen::Vector4f origin = Eigen::Vector4f::Zero();
-  Eigen::Quaternionf orientation = Eigen::Quaternionf::Identity();
-  int pcd_version = 0;
-  int data_type = 0;
-  unsigned int data_idx = 0;
-  if (reader.readHeader(path, header, origin, orientation, pcd_version, data_type,
-                        data_idx)
-      < 0)
-    throw IOError(path + ": not a readable PCD file (bad header)");
-  // readHeader() accepts text without any PCD keyword (it only warns): a PCD file
-  // always declares its FIELDS.
-  if (header.fields.empty())
-    throw IOError(path + ": not a PCD file (no FIELDS in the header)");
-  if (!origin.head<3>().allFinite() || !orientation.coeffs().allFinite()
+  // Only the header is used: the VIEWPOINT line holds the pose. The check refuses a
+  // file that is not a PCD file and a VIEWPOINT that is not seven finite numbers
+  // (which PCL's reader would take as the identity).
+  const PCDFileInfo info = checkPCDFile(path);
+  const Eigen::Quaternionf& orientation = info.sensor_orientation;
+  if (!info.sensor_origin.head<3>().allFinite() || !orientation.coeffs().allFinite()
       || orientation.norm() < 1e-6)
     throw IOError(path + ": VIEWPOINT is not a valid pose");
 
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.linear() = orientation.cast<double>().normalized().toRotationMatrix();
-  pose.translation() = origin.head<3>().cast<double>();
+  pose.translation() = info.sensor_origin.head<3>().cast<double>();
   return pose;
 }
 

@@ -15,52 +15,58 @@ namespace stages {
 
 namespace {
 
+// The PCL filters are made for each frame: a filter kept in the stage keeps, until the
+// next frame, its input cloud and the index list PCLBase makes for it (one cloud and
+// 4 bytes per point per listed filter stage).
 class VoxelGridStage : public Stage {
 public:
-  VoxelGridStage(double leaf_size_m, int min_points_per_voxel)
-  {
-    const auto leaf = static_cast<float>(leaf_size_m);
-    filter_.setLeafSize(leaf, leaf, leaf);
-    filter_.setMinimumPointsNumberPerVoxel(
-      static_cast<unsigned int>(min_points_per_voxel));
-  }
+  VoxelGridStage(double leaf_size_m, int min_points_per_voxel) :
+      leaf_size_m_(static_cast<float>(leaf_size_m)),
+      min_points_per_voxel_(static_cast<unsigned int>(min_points_per_voxel))
+  {}
 
   bool isFrameLocal() const override { return true; }
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
     requirePoints(frame, "voxel_grid");
+    pcl::VoxelGrid<pcl::PointXYZI> filter;
+    filter.setLeafSize(leaf_size_m_, leaf_size_m_, leaf_size_m_);
+    filter.setMinimumPointsNumberPerVoxel(min_points_per_voxel_);
     Frame::Cloud::Ptr out(new Frame::Cloud);
-    filter_.setInputCloud(frame.cloud);
-    filter_.filter(*out);
+    filter.setInputCloud(frame.cloud);
+    filter.filter(*out);
     frame.cloud = out;
   }
 
 private:
-  pcl::VoxelGrid<pcl::PointXYZI> filter_;
+  float leaf_size_m_;
+  unsigned int min_points_per_voxel_;
 };
 
 class StatisticalOutlierRemovalStage : public Stage {
 public:
-  StatisticalOutlierRemovalStage(int mean_k, double stddev_mul_thresh)
-  {
-    filter_.setMeanK(mean_k);
-    filter_.setStddevMulThresh(stddev_mul_thresh);
-  }
+  StatisticalOutlierRemovalStage(int mean_k, double stddev_mul_thresh) :
+      mean_k_(mean_k), stddev_mul_thresh_(stddev_mul_thresh)
+  {}
 
   bool isFrameLocal() const override { return true; }
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
     requirePoints(frame, "statistical_outlier_removal");
+    FastStatisticalOutlierRemoval<pcl::PointXYZI> filter;
+    filter.setMeanK(mean_k_);
+    filter.setStddevMulThresh(stddev_mul_thresh_);
     Frame::Cloud::Ptr out(new Frame::Cloud);
-    filter_.setInputCloud(frame.cloud);
-    filter_.filter(*out);
+    filter.setInputCloud(frame.cloud);
+    filter.filter(*out);
     frame.cloud = out;
   }
 
 private:
-  FastStatisticalOutlierRemoval<pcl::PointXYZI> filter_;
+  int mean_k_;
+  double stddev_mul_thresh_;
 };
 
 class DepthErrorFilterStage : public Stage {
@@ -87,11 +93,12 @@ public:
       camera_T_cloud = frame.world_T_camera.inverse().matrix().cast<float>();
     const Eigen::RowVector4f depth_row = camera_T_cloud.row(2);
     const auto& cloud = *frame.cloud;
-    far_.assign(cloud.size(), 0);
+    // Per frame, not kept in the stage: the stage may be listed more than once.
+    std::vector<std::uint8_t> far(cloud.size(), 0);
     for (std::size_t i = 0; i < cloud.size(); ++i)
-      far_[i] =
+      far[i] =
         pcl::isFinite(cloud[i]) && depth_row.dot(cloud[i].getVector4fMap()) > max_depth;
-    removed_ = removePoints(frame, far_);
+    removed_ = removePoints(frame, far);
   }
 
   void counters(const Frame& /*frame*/,
@@ -106,8 +113,6 @@ private:
   double max_depth_error_m_;
   float max_depth_m_{0.0f};
   std::size_t removed_{0};
-  /** Per point: beyond the depth bound (scratch, reused across frames). */
-  std::vector<std::uint8_t> far_;
 };
 
 } // namespace

@@ -370,7 +370,15 @@ PipelineRunner::resumeFrom(const std::string& path)
   if (r.remaining() != 0)
     r.fail(std::to_string(r.remaining()) + " bytes of trailing data");
 
-  begin_ = resume->first_frame;
+  // The restored map holds the frames from the checkpoint's first one: a run over
+  // another range would report one range and map another.
+  if (resume->first_frame != begin_)
+    throw IOError(what + ": written by a run that started at frame position "
+                  + std::to_string(resume->first_frame)
+                  + ", but this run's range starts at " + std::to_string(begin_)
+                  + ": resume with the range it was written with (--frames "
+                  + std::to_string(resume->first_frame)
+                  + ":END), or start a new run without --resume");
   if (end_ <= resume->next_frame)
     throw IOError(what + ": the checkpoint is after frame position "
                   + std::to_string(resume->next_frame - 1)

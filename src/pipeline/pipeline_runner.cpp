@@ -189,6 +189,11 @@ PipelineRunner::setFrameRange(std::size_t begin, std::size_t end)
     throw Exception("the frame range " + std::to_string(begin) + ":"
                     + std::to_string(end) + " goes past the input's "
                     + std::to_string(source_->size()) + " frames");
+  if (resume_ && begin != begin_)
+    throw Exception(
+      "the frame range " + std::to_string(begin) + ":" + std::to_string(end)
+      + " does not start where the checkpoint's run " + "started (frame position "
+      + std::to_string(begin_) + "); set the range before resumeFrom()");
   begin_ = begin;
   end_ = end;
 }

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/pipeline/stage.h>
 
 #include <algorithm>
 #include <cmath>
@@ -9,25 +10,78 @@
 
 namespace planar_grid {
 
+namespace {
+
+/** \a info with its data flow declared: what it needs, what it produces, and whether
+ * it may be listed more than once. */
+StageInfo
+declare(StageInfo info,
+        std::vector<StageData> needs,
+        std::vector<StageData> produces,
+        bool repeatable = false)
+{
+  info.needs = std::move(needs);
+  info.produces = std::move(produces);
+  info.repeatable = repeatable;
+  return info;
+}
+
+} // namespace
+
+std::string
+stageDataName(StageData data)
+{
+  switch (data) {
+    case StageData::STEREO_IMAGES:
+      return "stereo images";
+    case StageData::CLOUD:
+      return "a point cloud";
+    case StageData::DISPARITY:
+      return "a disparity image";
+    case StageData::FEATURES:
+      return "stereo key features";
+    case StageData::FEATURE_OCCUPANCY:
+      return "feature occupancy probabilities";
+    case StageData::POSES:
+      return "camera poses";
+    case StageData::WORLD_FRAME:
+      return "a world-frame cloud";
+    case StageData::PLANES:
+      return "planes";
+    case StageData::CUBOIDS:
+      return "cuboids";
+    case StageData::MAP:
+      return "a map";
+    case StageData::WORLD_CLOUD:
+      return "an accumulated world cloud";
+  }
+  return "?";
+}
+
 const std::vector<StageInfo>&
 stageRegistry()
 {
-  // Built once, in pipeline order.
+  using D = StageData;
+  // Built once, in pipeline order, each with the data it needs and produces: the
+  // loader checks a pipeline's order against these before the first frame. Only the
+  // filters of the working cloud may be listed twice (e.g. a coarse and a fine
+  // voxel_grid); a second map_integration or segmentation would overwrite the first
+  // one's result.
   static const std::vector<StageInfo> registry{
     // clang-format off
-    stages::stereoDisparityInfo(),
-    stages::featureMatchingInfo(),
-    stages::klOccupancyFilterInfo(),
-    stages::visualOdometryInfo(),
-    stages::depthErrorFilterInfo(),
-    stages::voxelGridInfo(),
-    stages::statisticalOutlierRemovalInfo(),
-    stages::transformToWorldInfo(),
-    stages::multiPlaneSegmentationInfo(),
-    stages::groundRemovalInfo(),
-    stages::planarCuboidApproximationInfo(),
-    stages::mapIntegrationInfo(),
-    stages::accumulateInfo(),
+    declare(stages::stereoDisparityInfo(), {D::STEREO_IMAGES}, {D::CLOUD, D::DISPARITY}),
+    declare(stages::featureMatchingInfo(), {D::STEREO_IMAGES}, {D::FEATURES}),
+    declare(stages::klOccupancyFilterInfo(), {D::FEATURES}, {D::FEATURE_OCCUPANCY}),
+    declare(stages::visualOdometryInfo(), {D::FEATURES}, {D::POSES}),
+    declare(stages::depthErrorFilterInfo(), {D::STEREO_IMAGES, D::CLOUD}, {}, true),
+    declare(stages::voxelGridInfo(), {D::CLOUD}, {}, true),
+    declare(stages::statisticalOutlierRemovalInfo(), {D::CLOUD}, {}, true),
+    declare(stages::transformToWorldInfo(), {D::CLOUD, D::POSES}, {D::WORLD_FRAME}),
+    declare(stages::multiPlaneSegmentationInfo(), {D::CLOUD}, {D::PLANES}),
+    declare(stages::groundRemovalInfo(), {D::PLANES}, {}),
+    declare(stages::planarCuboidApproximationInfo(), {D::CLOUD, D::PLANES}, {D::CUBOIDS}),
+    declare(stages::mapIntegrationInfo(), {D::POSES, D::WORLD_FRAME, D::CUBOIDS}, {D::MAP}),
+    declare(stages::accumulateInfo(), {D::WORLD_FRAME}, {D::WORLD_CLOUD}),
     // clang-format on
   };
   return registry;

@@ -3,6 +3,10 @@
 #include <planar_grid/visualization/scene_renderer.h>
 
 #include <X11/Xlib.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -10,7 +14,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <filesystem>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -19,10 +22,6 @@
 namespace planar_grid {
 
 namespace {
-
-/** \brief Set in the environment of the re-executed program, so that a second failure
- * to find a display ends with an error instead of re-executing forever. */
-constexpr const char* UNDER_XVFB_ENV = "PLANAR_GRID_UNDER_XVFB";
 
 /** \brief What to do when there is no display, for every message below. */
 constexpr const char* NO_DISPLAY_HINT =
@@ -76,46 +75,90 @@ hasDisplay()
   return true;
 }
 
+namespace {
+
+/** Starts `Xvfb -displayfd` as a child of this process and returns its display name
+ * (":N", the number Xvfb picked among the free ones and wrote to the pipe once it
+ * accepts connections). The server gets SIGTERM when the thread that started it
+ * ends: call from the main thread. */
+std::string
+startXvfb()
+{
+  int ready[2];
+  if (::pipe2(ready, O_CLOEXEC) != 0)
+    throw Exception(std::string(NO_DISPLAY_HINT)
+                    + " (cannot create a pipe for Xvfb: " + std::strerror(errno) + ")");
+  // Everything the child needs is prepared before fork(): between fork() and exec()
+  // a multi-threaded process may only make async-signal-safe calls.
+  const pid_t parent = ::getpid();
+  const int child_fd = 3;
+  const std::string fd_text = std::to_string(child_fd);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    // Xvfb dies with this process, even on SIGKILL; and not at all if the parent is
+    // already gone.
+    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (::getppid() != parent)
+      ::_exit(127);
+    // The pipe's write end at fd 3, kept across exec; Xvfb's messages go nowhere.
+    if (::dup2(ready[1], child_fd) != child_fd)
+      ::_exit(127);
+    const int null_fd = ::open("/dev/null", O_RDWR);
+    if (null_fd >= 0) {
+      ::dup2(null_fd, STDIN_FILENO);
+      ::dup2(null_fd, STDOUT_FILENO);
+      ::dup2(null_fd, STDERR_FILENO);
+    }
+    ::execlp("Xvfb", "Xvfb", "-displayfd", fd_text.c_str(), "-screen", "0",
+             "1280x1024x24", "-nolisten", "tcp", static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  const int fork_error = errno;
+  ::close(ready[1]);
+  if (pid < 0) {
+    ::close(ready[0]);
+    throw Exception(std::string(NO_DISPLAY_HINT)
+                    + " (cannot start Xvfb: " + std::strerror(fork_error) + ")");
+  }
+  // The display number and a newline, or end of file when Xvfb did not start.
+  std::string number;
+  char c = 0;
+  ssize_t n = 0;
+  while ((n = ::read(ready[0], &c, 1)) == 1 || (n < 0 && errno == EINTR))
+    if (n == 1) {
+      if (c == '\n')
+        break;
+      number.push_back(c);
+    }
+  ::close(ready[0]);
+  if (number.empty() || number.find_first_not_of("0123456789") != std::string::npos) {
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    throw Exception(std::string(NO_DISPLAY_HINT) + " (Xvfb "
+                    + (WIFEXITED(status) && WEXITSTATUS(status) == 127
+                         ? "is not installed or could not be run"
+                         : "did not start")
+                    + ")");
+  }
+  return ":" + number;
+}
+
+} // namespace
+
 void
-ensureDisplay(int argc, char** argv)
+ensureDisplay(int /*argc*/, char** /*argv*/)
 {
   if (hasDisplay())
     return;
-  if (std::getenv(UNDER_XVFB_ENV) != nullptr)
-    throw Exception(std::string("already re-executed under xvfb-run (") + UNDER_XVFB_ENV
-                    + " is set) and still " + NO_DISPLAY_HINT);
-  if (argc < 1 || argv == nullptr)
-    throw Exception(std::string("ensureDisplay() got no program arguments; ")
+  // The server is this process's child, not a wrapper around it (xvfb-run): the exit
+  // code is the program's own, and the kernel stops the server when the program ends,
+  // however it ends (PR_SET_PDEATHSIG), so that none is left behind.
+  const std::string display = startXvfb();
+  if (::setenv("DISPLAY", display.c_str(), 1) != 0)
+    throw Exception(std::string("cannot set DISPLAY: ") + std::strerror(errno));
+  if (!hasDisplay())
+    throw Exception("Xvfb started on display " + display + " but does not answer; "
                     + NO_DISPLAY_HINT);
-
-  // argv[0] may be a bare name found through PATH or a relative path; the running
-  // binary itself is /proc/self/exe.
-  std::error_code ec;
-  std::string self = std::filesystem::read_symlink("/proc/self/exe", ec).string();
-  if (ec || self.empty())
-    self = argv[0];
-
-  std::vector<std::string> args{"xvfb-run", "-a", self};
-  for (int i = 1; i < argc; ++i)
-    args.emplace_back(argv[i]);
-  std::vector<char*> exec_argv;
-  exec_argv.reserve(args.size() + 1);
-  for (auto& arg : args)
-    exec_argv.push_back(arg.data());
-  exec_argv.push_back(nullptr);
-
-  if (::setenv(UNDER_XVFB_ENV, "1", 1) != 0)
-    throw Exception(std::string("cannot set ") + UNDER_XVFB_ENV + ": "
-                    + std::strerror(errno) + "; " + NO_DISPLAY_HINT);
-  // Whatever was printed so far must not be lost when the process image is replaced.
-  std::fflush(stdout);
-  std::fflush(stderr);
-  ::execvp("xvfb-run", exec_argv.data());
-  // Only reached when execvp failed, usually because xvfb-run is not on the PATH.
-  const std::string reason = std::strerror(errno);
-  ::unsetenv(UNDER_XVFB_ENV);
-  throw Exception(std::string(NO_DISPLAY_HINT) + " (cannot run xvfb-run: " + reason
-                  + ")");
 }
 
 } // namespace planar_grid

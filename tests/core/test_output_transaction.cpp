@@ -6,6 +6,9 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/core/output_transaction.h>
 
+#include <pcl/io/pcd_io.h>
+#include <pcl/point_types.h>
+
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/resource.h>
@@ -32,7 +35,8 @@ contents(const fs::path& folder)
 {
   std::map<std::string, std::string> files;
   for (const auto& e : fs::recursive_directory_iterator(folder)) {
-    if (!e.is_regular_file())
+    // The lock file belongs to the folder, not to an output set.
+    if (!e.is_regular_file() || e.path().filename() == OutputTransaction::LOCK)
       continue;
     std::ifstream in(e.path(), std::ios::binary);
     files[fs::relative(e.path(), folder).string()] =
@@ -352,3 +356,118 @@ TEST_F(OutputTransactionTest, BadNamesAndUnusableFoldersAreErrors)
 }
 
 } // namespace
+
+TEST_F(OutputTransactionTest, SecondRunIntoTheFolderFailsNamingTheHolder)
+{
+  const std::string own_pid = std::to_string(static_cast<long>(::getpid()));
+  {
+    OutputTransaction first(folder_.string());
+    // flock(2) locks belong to the open file: a second transaction fails even in the
+    // same process.
+    try {
+      OutputTransaction second(folder_.string());
+      ADD_FAILURE() << "no exception";
+    } catch (const planar_grid::IOError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(folder_.string()
+                          + ": the output folder is in use by another "
+                            "run (process "
+                          + own_pid + " holds"),
+                std::string::npos)
+        << what;
+    }
+    // The failed transaction touched nothing of the holder's: its staging folder is
+    // still there.
+    EXPECT_TRUE(fs::is_directory(first.getStagingFolder()));
+  }
+  // Released with the transaction: the next one opens the folder.
+  EXPECT_NO_THROW(OutputTransaction third(folder_.string()));
+}
+
+TEST_F(OutputTransactionTest, LockOfAKilledRunIsReleased)
+{
+  // A child takes the folder and waits; while it lives the folder is refused, naming
+  // its process id; once it is killed (SIGKILL: no destructor runs) the kernel has
+  // released the lock.
+  int ready[2];
+  ASSERT_EQ(::pipe(ready), 0);
+  const pid_t child = ::fork();
+  if (child == 0) {
+    ::close(ready[0]);
+    OutputTransaction holder(folder_.string());
+    const char byte = 1;
+    if (::write(ready[1], &byte, 1) != 1)
+      ::_exit(3);
+    ::pause();
+    ::_exit(0);
+  }
+  ::close(ready[1]);
+  char byte = 0;
+  ASSERT_EQ(::read(ready[0], &byte, 1), 1);
+  ::close(ready[0]);
+  try {
+    OutputTransaction second(folder_.string());
+    ADD_FAILURE() << "no exception";
+  } catch (const planar_grid::IOError& e) {
+    EXPECT_NE(
+      std::string(e.what()).find("(process " + std::to_string(child) + " holds"),
+      std::string::npos)
+      << e.what();
+  }
+  ::kill(child, SIGKILL);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status));
+  OutputTransaction after(folder_.string());
+  // The killed run's staging folder was removed by this one.
+  EXPECT_FALSE(
+    fs::exists(folder_ / (OutputTransaction::STAGING_PREFIX + std::to_string(child))));
+}
+
+TEST_F(OutputTransactionTest, PCDWriterFailureNamesTheFileAndTheCause)
+{
+  // pcl::PCDWriter's own error names neither ("[pcl::PCDWriter::writeBinaryCompressed]
+  // Error during open!"): the write names the output and the errno's cause.
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  cloud.push_back(pcl::PointXYZ(1.0f, 2.0f, 3.0f));
+  const auto write_pcd = [&cloud](const std::string& path) {
+    planar_grid::writeFileAtomically(path, [&cloud](const std::string& tmp) {
+      pcl::PCDWriter writer;
+      return writer.writeBinaryCompressed(tmp, cloud) == 0;
+    });
+  };
+  // A folder this process may not write into (as root: a child dropped to "nobody").
+  const fs::path locked = dir_ / "read_only";
+  fs::create_directories(locked);
+  fs::permissions(dir_, fs::perms::owner_all | fs::perms::group_read
+                          | fs::perms::group_exec | fs::perms::others_read
+                          | fs::perms::others_exec);
+  fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec
+                            | fs::perms::group_read | fs::perms::group_exec
+                            | fs::perms::others_read | fs::perms::others_exec);
+  const fs::path message = fs::temp_directory_path()
+                           / ("planar_grid_pcd_denied_" + std::to_string(::getpid()));
+  const int status = inChild([&] {
+    if (::geteuid() == 0 && (::setgid(65534) != 0 || ::setuid(65534) != 0))
+      ::_exit(2);
+    try {
+      write_pcd((locked / "cloud.pcd").string());
+    } catch (const planar_grid::IOError& e) {
+      std::ofstream(message) << e.what();
+      ::_exit(1);
+    }
+  });
+  fs::permissions(locked, fs::perms::owner_all);
+  ASSERT_TRUE(WIFEXITED(status)) << status;
+  ASSERT_EQ(WEXITSTATUS(status), 1);
+  std::ifstream in(message);
+  const std::string what((std::istreambuf_iterator<char>(in)),
+                         std::istreambuf_iterator<char>());
+  fs::remove(message);
+  EXPECT_NE(
+    what.find((locked / "cloud.pcd").string() + ": cannot write: Permission denied"),
+    std::string::npos)
+    << what;
+  EXPECT_NE(what.find("Error during open!"), std::string::npos) << what;
+  EXPECT_FALSE(fs::exists(locked / "cloud.pcd"));
+}

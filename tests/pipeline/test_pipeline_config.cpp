@@ -5,10 +5,13 @@
 #include <planar_grid/pipeline/yaml_reader.h>
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <array>
+#include <filesystem>
+#include <fstream>
 #include <functional>
 #include <string>
 #include <utility>
@@ -64,7 +67,7 @@ TEST(PipelineConfig, ExampleAndMainJobLoad)
 
 TEST(PipelineConfig, RelativePathsResolveAgainstTheFileFolder)
 {
-  const auto c = parsePipelineConfig(INPUT + "pipeline:\n  - type: voxel_grid\n",
+  const auto c = parsePipelineConfig(INPUT + "pipeline:\n  - type: stereo_disparity\n",
                                      "test.yaml", "/base/config");
   EXPECT_EQ(c.input.left_images, "/base/config/left/%06d.png");
   EXPECT_EQ(c.input.calibration_file, "/base/config/calib.txt");
@@ -73,11 +76,13 @@ TEST(PipelineConfig, RelativePathsResolveAgainstTheFileFolder)
 TEST(PipelineConfig, DefaultsFillMissingParams)
 {
   const auto c = parsePipelineConfig(
-    INPUT + "pipeline:\n  - type: voxel_grid\n    params: {leaf_size_m: 0.2}\n", "t",
-    "/");
-  ASSERT_EQ(c.stages.size(), 1u);
-  EXPECT_DOUBLE_EQ(c.stages[0].params.getDouble("leaf_size_m"), 0.2);
-  EXPECT_EQ(c.stages[0].params.getInt("min_points_per_voxel"), 1); // the table default
+    INPUT
+      + "pipeline:\n  - type: stereo_disparity\n  - type: voxel_grid\n    params: "
+        "{leaf_size_m: 0.2}\n",
+    "t", "/");
+  ASSERT_EQ(c.stages.size(), 2u);
+  EXPECT_DOUBLE_EQ(c.stages[1].params.getDouble("leaf_size_m"), 0.2);
+  EXPECT_EQ(c.stages[1].params.getInt("min_points_per_voxel"), 1); // the table default
 }
 
 TEST(PipelineConfig, UnknownTopLevelKeyHasLineAndColumn)
@@ -151,7 +156,7 @@ TEST(PipelineConfig, StagesNeedingPosesNeedPoses)
   const std::string with_poses =
     INPUT
     + "  poses: {format: kitti, file: poses.txt}\npipeline:\n"
-      "  - type: transform_to_world\n";
+      "  - type: stereo_disparity\n  - type: transform_to_world\n";
   EXPECT_NO_THROW(parsePipelineConfig(with_poses, "t", "/"));
 }
 
@@ -159,13 +164,14 @@ TEST(PipelineConfig, OdometryPosesNeedTheVisualOdometryStageFirst)
 {
   const std::string input = INPUT + "  poses: {format: odometry}\n";
   // transform_to_world without visual_odometry before it: no poses to use.
-  auto e = errorOf(input + "pipeline:\n  - type: transform_to_world\n");
+  auto e = errorOf(
+    input + "pipeline:\n  - type: stereo_disparity\n  - type: transform_to_world\n");
   EXPECT_NE(std::string(e.what()).find("visual_odometry"), std::string::npos);
   // In the right order it loads.
   EXPECT_NO_THROW(parsePipelineConfig(
     input
-      + "pipeline:\n  - type: feature_matching\n  - type: visual_odometry\n"
-        "  - type: transform_to_world\n",
+      + "pipeline:\n  - type: stereo_disparity\n  - type: feature_matching\n"
+        "  - type: visual_odometry\n  - type: transform_to_world\n",
     "t", "/"));
   // visual_odometry with poses from a file would fight over the poses.
   e = errorOf(INPUT
@@ -213,25 +219,25 @@ TEST(PipelineConfig, EurocGroundTruthPoses)
   const auto config = parsePipelineConfig(
     input
       + "  poses: {format: euroc_groundtruth, file: gt_body_poses.txt}\n"
-        "pipeline:\n  - type: voxel_grid\n",
+        "pipeline:\n  - type: stereo_disparity\n",
     "test.yaml", "/base");
   EXPECT_EQ(config.input.poses_format, "euroc_groundtruth");
   EXPECT_EQ(config.input.poses_file, "/base/gt_body_poses.txt");
   // It needs the file.
   auto e = errorOf(input
                    + "  poses: {format: euroc_groundtruth}\n"
-                     "pipeline:\n  - type: voxel_grid\n");
+                     "pipeline:\n  - type: stereo_disparity\n");
   EXPECT_EQ(e.line(), 9);
   EXPECT_NE(std::string(e.what()).find("file"), std::string::npos) << e.what();
   // Karlsruhe's mounting keys are not for it.
   e = errorOf(input
               + "  poses: {format: euroc_groundtruth, file: gt.txt, camera_height_m: "
-                "1}\npipeline:\n  - type: voxel_grid\n");
+                "1}\npipeline:\n  - type: stereo_disparity\n");
   EXPECT_EQ(e.line(), 9);
   // The camera's pose needs the EuRoC extrinsics, which only the euroc calibration has.
   e = errorOf(INPUT
               + "  poses: {format: euroc_groundtruth, file: gt.txt}\n"
-                "pipeline:\n  - type: voxel_grid\n");
+                "pipeline:\n  - type: stereo_disparity\n");
   EXPECT_EQ(e.line(), 8);
   EXPECT_NE(std::string(e.what()).find("calibration.format euroc"), std::string::npos)
     << e.what();
@@ -266,14 +272,15 @@ TEST(PipelineConfig, OutputBlock)
 {
   const auto c = parsePipelineConfig(
     INPUT
-      + "pipeline:\n  - type: voxel_grid\noutput:\n  folder: out\n"
+      + "pipeline:\n  - type: stereo_disparity\noutput:\n  folder: out\n"
         "  snapshot_size_px: [800, 600]\n  snapshot_camera: oblique\n",
     "t", "/");
   EXPECT_EQ(c.output.folder, "out");
   EXPECT_EQ(c.output.snapshot_size_px[0], 800);
   EXPECT_EQ(c.output.snapshot_camera, "oblique");
   const auto e = errorOf(
-    INPUT + "pipeline:\n  - type: voxel_grid\noutput:\n  snapshot_size_px: [0, 600]\n");
+    INPUT
+    + "pipeline:\n  - type: stereo_disparity\noutput:\n  snapshot_size_px: [0, 600]\n");
   EXPECT_EQ(e.line(), 11);
 }
 
@@ -283,7 +290,7 @@ TEST(PipelineConfig, StreetView)
   // pipeline:, the stage and output:; the street keys start at line 12.
   const std::string head = INPUT
                            + "  poses: {format: karlsruhe_insdata, file: ins.txt}\n"
-                             "pipeline:\n  - type: voxel_grid\noutput:\n";
+                             "pipeline:\n  - type: stereo_disparity\noutput:\n";
   // Defaults: no street snapshot, the camera a third of the way along, 0.5 rad down.
   auto c = parsePipelineConfig(head + "  folder: out\n", "t", "/");
   EXPECT_TRUE(c.output.cuboids_street_snapshot.empty());
@@ -327,7 +334,7 @@ TEST(PipelineConfig, StreetView)
             (std::array<double, 3>{{20.0, 0.0, 1.5}}));
   // A fixed camera needs no poses.
   c = parsePipelineConfig(INPUT
-                            + "pipeline:\n  - type: voxel_grid\noutput:\n"
+                            + "pipeline:\n  - type: stereo_disparity\noutput:\n"
                               "  cuboids_street_snapshot: street.png\n"
                               "  street_view: {position_m: [0, 0, 5], "
                               "focal_point_m: [0, 10, 0]}\n",
@@ -339,7 +346,7 @@ TEST(PipelineConfig, StreetViewErrorsNameLineAndColumn)
 {
   const std::string head = INPUT
                            + "  poses: {format: karlsruhe_insdata, file: ins.txt}\n"
-                             "pipeline:\n  - type: voxel_grid\noutput:\n"
+                             "pipeline:\n  - type: stereo_disparity\noutput:\n"
                              "  cuboids_street_snapshot: street.png\n"
                              "  street_view:\n";
   // Each case: the body of street_view (from line 14), the line:col and the words the
@@ -382,26 +389,26 @@ TEST(PipelineConfig, StreetViewErrorsNameLineAndColumn)
 
   // snapshot_camera names a known camera.
   auto e = errorOf(INPUT
-                   + "pipeline:\n  - type: voxel_grid\noutput:\n"
+                   + "pipeline:\n  - type: stereo_disparity\noutput:\n"
                      "  snapshot_camera: side\n");
   EXPECT_EQ(e.line(), 11);
   EXPECT_EQ(e.column(), 20);
   EXPECT_NE(std::string(e.what()).find("top, oblique or street"), std::string::npos);
   // Following the trajectory needs poses.
   e = errorOf(INPUT
-              + "pipeline:\n  - type: voxel_grid\noutput:\n"
+              + "pipeline:\n  - type: stereo_disparity\noutput:\n"
                 "  cuboids_street_snapshot: street.png\n");
   EXPECT_EQ(e.line(), 11);
   EXPECT_EQ(e.column(), 28);
   EXPECT_NE(std::string(e.what()).find("input.poses is none"), std::string::npos);
   e = errorOf(INPUT
-              + "pipeline:\n  - type: voxel_grid\noutput:\n"
+              + "pipeline:\n  - type: stereo_disparity\noutput:\n"
                 "  snapshot_camera: street\n");
   EXPECT_EQ(e.line(), 11);
   // A street_view no snapshot uses is an error, not silently ignored.
   e = errorOf(INPUT
               + "  poses: {format: karlsruhe_insdata, file: ins.txt}\n"
-                "pipeline:\n  - type: voxel_grid\noutput:\n"
+                "pipeline:\n  - type: stereo_disparity\noutput:\n"
                 "  street_view: {pitch_rad: 0.5}\n");
   EXPECT_EQ(e.line(), 12);
   EXPECT_EQ(e.column(), 16);
@@ -529,9 +536,12 @@ TEST(PipelineConfig, FeatureSampleOnPCDInputIsAnErrorAtItsLine)
   ASSERT_EQ(config.stages.size(), 1u);
   EXPECT_EQ(config.stages[0].params.getChoice("sample"), "cloud");
   // Stereo input keeps the paper's default.
-  const auto stereo = parsePipelineConfig(
-    INPUT + "pipeline:\n  - type: multi_plane_segmentation\n", "t.yaml", "/");
-  EXPECT_EQ(stereo.stages[0].params.getChoice("sample"), "features");
+  const auto stereo =
+    parsePipelineConfig(INPUT
+                          + "pipeline:\n  - type: stereo_disparity\n  - type: "
+                            "feature_matching\n  - type: multi_plane_segmentation\n",
+                        "t.yaml", "/");
+  EXPECT_EQ(stereo.stages[2].params.getChoice("sample"), "features");
   // The stereo feature occupancy needs stereo input too.
   const auto kl =
     errorOf(pcd + "pipeline:\n  - type: voxel_grid\n  - type: kl_occupancy_filter\n");
@@ -578,24 +588,222 @@ TEST(PipelineConfig, RegistrationPosesAndSensorUp)
 
 TEST(PipelineConfig, TheCellsAndTheMapShareTheMinimumCell)
 {
-  const std::string head = INPUT
-                           + "  poses: {format: kitti, file: poses.txt}\npipeline:\n"
-                             "  - type: planar_cuboid_approximation\n"
-                             "    params: {min_cell_size_m: 0.2, thickness_m: 0.15}\n";
+  // A PCD input with poses, the cloud in the world frame and its planes (lines 1-8).
+  const std::string head = "input:\n  type: pcd_files\n  files: [a.pcd]\n"
+                           "  poses: {format: kitti, file: poses.txt}\npipeline:\n"
+                           "  - type: transform_to_world\n"
+                           "  - type: multi_plane_segmentation\n"
+                           "  - type: planar_cuboid_approximation\n"
+                           "    params: {min_cell_size_m: 0.2, thickness_m: 0.15}\n";
   // The map stage without the keys takes the cells' values.
   const auto c = parsePipelineConfig(head + "  - type: map_integration\n", "t", "/");
-  ASSERT_EQ(c.stages.size(), 2u);
-  EXPECT_DOUBLE_EQ(c.stages[1].params.getDouble("resolution_m"), 0.2);
-  EXPECT_DOUBLE_EQ(c.stages[1].params.getDouble("thickness_m"), 0.15);
+  ASSERT_EQ(c.stages.size(), 4u);
+  EXPECT_DOUBLE_EQ(c.stages[3].params.getDouble("resolution_m"), 0.2);
+  EXPECT_DOUBLE_EQ(c.stages[3].params.getDouble("thickness_m"), 0.15);
   // The same value twice is fine; another one is an error at the map's key.
   EXPECT_NO_THROW(parsePipelineConfig(
     head + "  - type: map_integration\n    params: {resolution_m: 0.2}\n", "t", "/"));
   const auto e =
     errorOf(head + "  - type: map_integration\n    params:\n      resolution_m: 0.1\n");
-  EXPECT_EQ(e.line(), 14);
+  EXPECT_EQ(e.line(), 12);
   EXPECT_NE(std::string(e.what()).find("min_cell_size_m"), std::string::npos)
     << e.what();
   const auto t =
     errorOf(head + "  - type: map_integration\n    params: {thickness_m: 0.3}\n");
   EXPECT_NE(std::string(t.what()).find("thickness_m"), std::string::npos) << t.what();
+}
+
+TEST(PipelineConfig, EveryShippedConfigLoads)
+{
+  // Every pipeline file in config/ and config/eval/ passes the loader's checks (stage
+  // order, repeats); the evaluation files without a pipeline: key have their own
+  // loader.
+  std::size_t loaded = 0;
+  for (const char* folder : {"/config", "/config/eval"})
+    for (const auto& entry : std::filesystem::directory_iterator(SOURCE_DIR + folder)) {
+      if (entry.path().extension() != ".yaml")
+        continue;
+      const YAML::Node root = YAML::LoadFile(entry.path().string());
+      if (!root.IsMap() || !root["pipeline"])
+        continue;
+      EXPECT_NO_THROW(planar_grid::loadPipelineConfig(entry.path().string()))
+        << entry.path();
+      ++loaded;
+    }
+  EXPECT_GE(loaded, 14u); // 9 in config/, 5 in config/eval/
+}
+
+TEST(PipelineConfig, EveryStageNeedIsProducedByTheInputOrAStage)
+{
+  using planar_grid::StageData;
+  for (const auto& info : planar_grid::stageRegistry())
+    for (const StageData need : info.needs) {
+      const bool from_input = need == StageData::STEREO_IMAGES
+                              || need == StageData::CLOUD || need == StageData::POSES;
+      const bool from_stage = std::any_of(
+        planar_grid::stageRegistry().begin(), planar_grid::stageRegistry().end(),
+        [need](const planar_grid::StageInfo& other) {
+          return std::find(other.produces.begin(), other.produces.end(), need)
+                 != other.produces.end();
+        });
+      EXPECT_TRUE(from_input || from_stage)
+        << info.type << " needs " << planar_grid::stageDataName(need);
+    }
+}
+
+TEST(PipelineConfig, StageListedTwiceIsAnErrorAtItsLine)
+{
+  const std::string poses = "  poses: {format: kitti, file: p.txt}\n";
+  const std::string head = INPUT + poses
+                           + "pipeline:\n"                  // line 9
+                             "  - type: stereo_disparity\n" // 10
+                             "  - type: transform_to_world\n"
+                             "  - type: multi_plane_segmentation\n"
+                             "    params: {sample: cloud}\n"
+                             "  - type: planar_cuboid_approximation\n"
+                             "  - type: map_integration\n"; // 15
+  auto e = errorOf(head + "  - type: map_integration\n");
+  EXPECT_EQ(e.line(), 16);
+  EXPECT_EQ(e.column(), 11);
+  EXPECT_NE(std::string(e.what()).find("stage 'map_integration' is listed twice "
+                                       "(first at line 15)"),
+            std::string::npos)
+    << e.what();
+  // The filters may repeat: a coarse and a fine voxel grid.
+  EXPECT_NO_THROW(parsePipelineConfig(head
+                                        + "  - type: voxel_grid\n"
+                                          "  - type: voxel_grid\n"
+                                          "    params: {leaf_size_m: 0.2}\n"
+                                          "  - type: statistical_outlier_removal\n"
+                                          "  - type: statistical_outlier_removal\n",
+                                      "t", "/"));
+}
+
+TEST(PipelineConfig, StageOrderIsCheckedAgainstWhatEachStageNeeds)
+{
+  const std::string stereo =
+    INPUT + "  poses: {format: kitti, file: p.txt}\npipeline:\n";
+  // The KL filter before the feature matching that gives it its features (line 10).
+  auto e = errorOf(stereo
+                   + "  - type: stereo_disparity\n  - type: kl_occupancy_filter\n"
+                     "  - type: feature_matching\n");
+  EXPECT_EQ(e.line(), 11);
+  EXPECT_NE(std::string(e.what()).find(
+              "stage 'kl_occupancy_filter' needs stereo key features, which no earlier "
+              "stage produces: 'feature_matching' is listed after it (line 12); put "
+              "'feature_matching' before it"),
+            std::string::npos)
+    << e.what();
+  // Ground removal before the segmentation that finds the planes.
+  e = errorOf(stereo
+              + "  - type: stereo_disparity\n  - type: ground_removal\n"
+                "  - type: multi_plane_segmentation\n    params: {sample: cloud}\n");
+  EXPECT_EQ(e.line(), 11);
+  EXPECT_NE(std::string(e.what()).find("'ground_removal' needs planes"),
+            std::string::npos)
+    << e.what();
+  EXPECT_NE(std::string(e.what()).find("put 'multi_plane_segmentation' before it"),
+            std::string::npos)
+    << e.what();
+  // A map without the cuboid stage: known before the first frame, not after the last.
+  e = errorOf(stereo
+              + "  - type: stereo_disparity\n  - type: transform_to_world\n"
+                "  - type: multi_plane_segmentation\n    params: {sample: cloud}\n"
+                "  - type: map_integration\n");
+  EXPECT_EQ(e.line(), 14);
+  EXPECT_NE(std::string(e.what()).find("'map_integration' needs cuboids, which no "
+                                       "earlier stage produces: put "
+                                       "'planar_cuboid_approximation' before it"),
+            std::string::npos)
+    << e.what();
+  // The default plane sample is the key features.
+  e = errorOf(stereo
+              + "  - type: stereo_disparity\n  - type: multi_plane_segmentation\n");
+  EXPECT_NE(std::string(e.what()).find("needs stereo key features"), std::string::npos)
+    << e.what();
+  // The stereo stages on a PCD input, and what only they produce.
+  const std::string pcd = "input:\n  type: pcd_files\n  files: a.pcd\npipeline:\n";
+  e = errorOf(pcd + "  - type: voxel_grid\n  - type: feature_matching\n");
+  EXPECT_EQ(e.line(), 6);
+  EXPECT_NE(
+    std::string(e.what()).find("'feature_matching' needs stereo images: it needs "
+                               "a stereo_sequence input (a pcd_files input has "
+                               "none)"),
+    std::string::npos)
+    << e.what();
+  e = errorOf(pcd + "  - type: kl_occupancy_filter\n");
+  EXPECT_NE(std::string(e.what()).find("needs stereo key features, which only "
+                                       "'feature_matching' produces, from stereo "
+                                       "images: a pcd_files input cannot give it"),
+            std::string::npos)
+    << e.what();
+  // The right order loads.
+  EXPECT_NO_THROW(parsePipelineConfig(stereo
+                                        + "  - type: stereo_disparity\n"
+                                          "  - type: feature_matching\n"
+                                          "  - type: kl_occupancy_filter\n"
+                                          "  - type: transform_to_world\n"
+                                          "  - type: multi_plane_segmentation\n"
+                                          "  - type: ground_removal\n"
+                                          "  - type: planar_cuboid_approximation\n"
+                                          "  - type: map_integration\n",
+                                      "t", "/"));
+}
+
+TEST(PipelineConfig, AbsurdlyLongPipelineIsAnError)
+{
+  std::string yaml = "input:\n  type: pcd_files\n  files: a.pcd\npipeline:\n";
+  for (int i = 0; i < 19000; ++i)
+    yaml += "  - type: voxel_grid\n";
+  const auto e = errorOf(yaml);
+  EXPECT_EQ(e.line(), 5);
+  EXPECT_NE(std::string(e.what()).find("pipeline lists 19000 stages; at most 256"),
+            std::string::npos)
+    << e.what();
+}
+
+TEST(PipelineConfig, TabsAndDeepNestingAreClearErrors)
+{
+  // A tab in the indentation of line 3 (yaml-cpp says "end of map not found").
+  auto e = errorOf("input:\n  type: pcd_files\n\tfiles: a.pcd\npipeline:\n"
+                   "  - type: voxel_grid\n");
+  EXPECT_EQ(e.line(), 3);
+  EXPECT_EQ(e.column(), 1);
+  EXPECT_NE(std::string(e.what()).find("tab character in the indentation: YAML indents "
+                                       "with spaces"),
+            std::string::npos)
+    << e.what();
+  e = errorOf("input:\n  type: pcd_files\n  files: a.pcd\npipeline:\n"
+              "  - type: voxel_grid\n    params:\n    \t leaf_size_m: 0.1\n");
+  EXPECT_EQ(e.line(), 7);
+  EXPECT_EQ(e.column(), 5);
+  // A tab inside a value or after a comment is no indentation.
+  EXPECT_NO_THROW(parsePipelineConfig("input:\n  type: pcd_files # a\tcomment\n"
+                                      "\t# an indented comment\n  files: \"a\tb.pcd\"\n"
+                                      "pipeline:\n  - type: voxel_grid\n",
+                                      "t", "/"));
+  // 40 nested lists on line 2: deeper than the 32 levels accepted.
+  e = errorOf("input:\n  x: " + std::string(40, '[') + std::string(40, ']') + "\n");
+  EXPECT_EQ(e.line(), 2);
+  EXPECT_NE(std::string(e.what()).find("nests more than 32 levels"), std::string::npos)
+    << e.what();
+  // yaml-cpp's own guard ("bad file") at thousands of levels.
+  e = errorOf("a: " + std::string(5000, '[') + "\n");
+  EXPECT_NE(std::string(e.what()).find("levels deep here"), std::string::npos)
+    << e.what();
+  EXPECT_EQ(std::string(e.what()).find("bad file"), std::string::npos) << e.what();
+}
+
+TEST(PipelineConfig, OutputFolderThatIsAFileIsAnErrorAtItsLine)
+{
+  const auto file = std::filesystem::temp_directory_path()
+                    / ("planar_grid_output_is_a_file_" + std::to_string(::getpid()));
+  std::ofstream(file) << "x";
+  const auto e = errorOf("input:\n  type: pcd_files\n  files: a.pcd\npipeline:\n"
+                         "  - type: voxel_grid\noutput:\n  folder: "
+                         + file.string() + "\n");
+  std::filesystem::remove(file);
+  EXPECT_EQ(e.line(), 7);
+  EXPECT_NE(std::string(e.what()).find("is a file, not a folder"), std::string::npos)
+    << e.what();
 }

@@ -15,7 +15,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -97,8 +99,11 @@ std::map<std::string, std::string>
 contents(const fs::path& folder)
 {
   std::map<std::string, std::string> files;
+  // The lock file belongs to the folder (it holds the last run's process id), not to
+  // an output set.
   for (const auto& e : fs::recursive_directory_iterator(folder))
-    if (e.is_regular_file())
+    if (e.is_regular_file()
+        && e.path().filename() != planar_grid::OutputTransaction::LOCK)
       files[fs::relative(e.path(), folder).string()] = bytesOf(e.path());
   return files;
 }
@@ -310,3 +315,99 @@ TEST_F(OutputCommitTest, KilledWhileWritingOutputsLeavesTheOldOrTheNewSet)
 }
 
 } // namespace
+
+TEST(PipelineRunLock, SecondRunIntoTheFolderFailsAtOnceNamingTheHolder)
+{
+  const fs::path dir =
+    fs::temp_directory_path() / ("planar_grid_run_lock_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path folder = dir / "out";
+  std::ofstream(dir / "job.yaml") << config(folder);
+  std::string what;
+  {
+    // This process holds the folder as a running pipeline would.
+    planar_grid::OutputTransaction running(folder.string());
+    const pid_t pid =
+      start({"--config", (dir / "job.yaml").string(), "--no-snapshot"}, dir / "log");
+    EXPECT_EQ(exitCode(pid), 1);
+    what = bytesOf(dir / "log");
+    // Refused before the first frame: no progress line, no checkpoint, no output.
+    EXPECT_EQ(what.find("frame 1/3"), std::string::npos) << what;
+    EXPECT_TRUE(outputs(folder).empty());
+  }
+  EXPECT_NE(what.find(folder.string()
+                      + ": the output folder is in use by another run "
+                        "(process "
+                      + std::to_string(::getpid()) + " holds"),
+            std::string::npos)
+    << what;
+  fs::remove_all(dir);
+}
+
+TEST(PipelineOwnXvfb, FailingRunWithoutDisplayExitsWithItsOwnCodeAndLeavesNoXvfb)
+{
+  // Without DISPLAY and with snapshots to render, the tool starts its own Xvfb; a run
+  // that then fails (a reversed frame range) exits 1 with its own message, and the
+  // server goes with it.
+  if (::system("command -v Xvfb > /dev/null 2>&1") != 0)
+    GTEST_SKIP() << "Xvfb is not installed";
+  const fs::path dir =
+    fs::temp_directory_path() / ("planar_grid_own_xvfb_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ofstream(dir / "job.yaml") << config(dir / "out", false);
+  // Xvfb servers started with -displayfd (only ours are) and alive now.
+  const auto own_servers = [] {
+    std::vector<std::string> pids;
+    for (const auto& e : fs::directory_iterator("/proc")) {
+      const std::string name = e.path().filename().string();
+      if (name.find_first_not_of("0123456789") != std::string::npos)
+        continue;
+      const std::string cmdline = bytesOf(e.path() / "cmdline");
+      const std::string stat = bytesOf(e.path() / "stat");
+      const bool zombie = stat.find(") Z ") != std::string::npos;
+      if (!zombie && cmdline.rfind("Xvfb", 0) == 0
+          && cmdline.find("-displayfd") != std::string::npos)
+        pids.push_back(e.path().filename().string());
+    }
+    return pids;
+  };
+  const auto before = own_servers();
+  std::cout.flush();
+  std::fflush(nullptr);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::unsetenv("DISPLAY");
+    std::freopen((dir / "log").c_str(), "w", stdout);
+    ::dup2(STDOUT_FILENO, STDERR_FILENO);
+    std::string tool = PLANAR_GRID_PIPELINE_TOOL;
+    std::string config_arg = (dir / "job.yaml").string();
+    std::vector<char*> argv{tool.data(),
+                            const_cast<char*>("--config"),
+                            config_arg.data(),
+                            const_cast<char*>("--frames"),
+                            const_cast<char*>("2:1"),
+                            nullptr};
+    ::execv(tool.c_str(), argv.data());
+    ::_exit(127);
+  }
+  EXPECT_EQ(exitCode(pid), 1);
+  const std::string log = bytesOf(dir / "log");
+  EXPECT_NE(log.find("frame range 2:1 is empty"), std::string::npos) << log;
+  EXPECT_EQ(log.find("xvfb-run"), std::string::npos) << log;
+  // The kernel sends the server SIGTERM when the tool ends; it is gone once it has
+  // handled it (bounded wait for that, not a timing measurement).
+  std::vector<std::string> left;
+  for (int i = 0; i < 100; ++i) {
+    left.clear();
+    for (const auto& p : own_servers())
+      if (std::find(before.begin(), before.end(), p) == before.end())
+        left.push_back(p);
+    if (left.empty())
+      break;
+    ::usleep(50000);
+  }
+  EXPECT_TRUE(left.empty()) << left.size() << " Xvfb left, e.g. pid " << left.front();
+  fs::remove_all(dir);
+}

@@ -5,8 +5,10 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
+#include <planar_grid/pipeline/stage.h>
 #include <planar_grid/stereo/calibration_io.h>
 
+#include <pcl/common/io.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_types.h>
 
@@ -14,10 +16,12 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -412,4 +416,190 @@ TEST_F(ReliabilityCalibration, EuRoCNonFiniteOrHugeValuesAreIOErrors)
             std::string::npos);
   EXPECT_NE(errorOf(variant("zero_focal.yaml", "458.654", "0"), right).find("focal"),
             std::string::npos);
+}
+
+namespace {
+
+/** Replaces the first \a from in the file at \a path by \a to (header edits). */
+void
+replaceInFile(const std::string& path, const std::string& from, const std::string& to)
+{
+  std::ifstream in(path, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)),
+                    std::istreambuf_iterator<char>());
+  in.close();
+  const auto at = bytes.find(from);
+  ASSERT_NE(at, std::string::npos) << from;
+  bytes.replace(at, from.size(), to);
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+}
+
+} // namespace
+
+TEST_F(ReliabilityTest, PCDDeclaringFewerPointsThanItHoldsIsRefused)
+{
+  // 441 points written; the header says 400 (PCL would read 400 and drop the rest).
+  const std::string binary = save("binary.pcd", wall());
+  const std::string ascii = (dir_ / "ascii.pcd").string();
+  ASSERT_EQ(pcl::io::savePCDFileASCII(ascii, wall()), 0);
+  for (const std::string& path : {binary, ascii}) {
+    replaceInFile(path, "WIDTH 441", "WIDTH 400");
+    replaceInFile(path, "POINTS 441", "POINTS 400");
+  }
+  std::string what = runError(pcdConfig(binary));
+  EXPECT_NE(
+    what.find("binary.pcd: the binary data hold 441 points of 12 bytes, but the "
+              "header declares 400 points"),
+    std::string::npos)
+    << what;
+  what = runError(pcdConfig(ascii));
+  EXPECT_NE(what.find("ascii.pcd: the ASCII data hold 441 points (lines), but the "
+                      "header declares 400 points"),
+            std::string::npos)
+    << what;
+  // And more declared than held: truncated, before PCL sizes its buffer.
+  replaceInFile(ascii, "WIDTH 400", "WIDTH 900");
+  replaceInFile(ascii, "POINTS 400", "POINTS 900");
+  what = runError(pcdConfig(ascii));
+  EXPECT_NE(what.find("the file is truncated"), std::string::npos) << what;
+}
+
+TEST_F(ReliabilityTest, PCDWithoutXYZIsRefused)
+{
+  // Colour only: PCL would place every point at the origin.
+  const fs::path path = dir_ / "rgba_only.pcd";
+  std::ofstream(path)
+    << "# .PCD v0.7\nVERSION 0.7\nFIELDS rgba\nSIZE 4\nTYPE U\nCOUNT 1\n"
+       "WIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\n"
+       "DATA ascii\n4278190335\n4278255360\n";
+  const std::string what = runError(pcdConfig(path.string()));
+  EXPECT_NE(what.find("rgba_only.pcd: has no x, y, z fields (its fields: rgba)"),
+            std::string::npos)
+    << what;
+}
+
+TEST_F(ReliabilityTest, NonFiniteViewpointIsRefusedNamingTheFile)
+{
+  const std::string path = save("nan_viewpoint.pcd", wall());
+  replaceInFile(path, "VIEWPOINT 0 0 0 1 0 0 0", "VIEWPOINT nan 0 0 1 0 0 0");
+  // As a frame, and as the pose of a frame (PCL's reader took it as the identity).
+  for (const std::string poses : {"", "  poses: {format: viewpoint}\n"}) {
+    const std::string what = runError(pcdConfig(path, poses));
+    EXPECT_NE(what.find("nan_viewpoint.pcd: VIEWPOINT 'nan 0 0 1 0 0 0' is not a valid "
+                        "pose: 'nan' is not a finite number"),
+              std::string::npos)
+      << what;
+  }
+}
+
+TEST_F(ReliabilityTest, CorruptCompressedSizesAreRefusedBeforePCLAllocates)
+{
+  // A compressed PCD whose header and uncompressed size agree on 100 million points
+  // (1.2 GB) while the file holds a few hundred compressed bytes: PCL would allocate
+  // the 1.2 GB first.
+  const std::string path = (dir_ / "huge.pcd").string();
+  ASSERT_EQ(pcl::io::savePCDFileBinaryCompressed(path, wall()), 0);
+  replaceInFile(path, "WIDTH 441", "WIDTH 100000000");
+  replaceInFile(path, "POINTS 441", "POINTS 100000000");
+  {
+    std::fstream file(path, std::ios::in | std::ios::out | std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(file)),
+                      std::istreambuf_iterator<char>());
+    const std::string data_line = "DATA binary_compressed\n";
+    const auto data = bytes.find(data_line) + data_line.size();
+    const std::uint32_t unpacked = 1200000000u; // 100 million points of 12 bytes
+    file.seekp(static_cast<std::streamoff>(data + 4));
+    file.write(reinterpret_cast<const char*>(&unpacked), 4);
+  }
+  // Refused from the header, before PCL's header reader allocates the declared points.
+  const std::string what = runError(pcdConfig(path));
+  EXPECT_NE(what.find("huge.pcd: the header declares more points (POINTS '100000000', "
+                      "WIDTH '100000000', HEIGHT '1') than a file of"),
+            std::string::npos)
+    << what;
+}
+
+TEST_F(ReliabilityTest, FilterStagesDoNotKeepTheirInputCloud)
+{
+  // A filter that kept its input alive until the next frame held one whole cloud per
+  // listed stage: a generated file listing thousands of filters grew by a cloud per
+  // stage.
+  const auto config = parsePipelineConfig(
+    "input:\n  type: pcd_files\n  files: a.pcd\npipeline:\n  - type: voxel_grid\n"
+    "  - type: statistical_outlier_removal\n",
+    "t.yaml", "/");
+  for (const auto& sc : config.stages) {
+    const auto stage = planar_grid::findStage(sc.type)->create(sc.params);
+    planar_grid::Frame frame;
+    frame.cloud.reset(new planar_grid::Frame::Cloud);
+    pcl::copyPointCloud(wall(), *frame.cloud);
+    const std::weak_ptr<const planar_grid::Frame::Cloud> input = frame.cloud;
+    planar_grid::PipelineState state;
+    stage->process(frame, state);
+    EXPECT_GT(frame.cloud->size(), 0u) << sc.type;
+    EXPECT_TRUE(input.expired()) << sc.type << " keeps its input cloud";
+  }
+}
+
+TEST_F(ReliabilityTest, ResumeWithAnotherRangeStartIsRefused)
+{
+  for (const char* name : {"a.pcd", "b.pcd", "c.pcd"})
+    save(name, wall());
+  std::ofstream(dir_ / "poses.txt")
+    << "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 1 0 1 0 0 0 0 1 0\n"
+       "1 0 0 2 0 1 0 0 0 0 1 0\n";
+  const auto config = parsePipelineConfig(
+    pcdConfig((dir_ / "*.pcd").string(), "  poses: {format: kitti, file: "
+                                           + (dir_ / "poses.txt").string() + "}\n"),
+    "t.yaml", "/");
+  const std::string checkpoint = (dir_ / "checkpoint.pgck").string();
+  {
+    PipelineRunner runner(config);
+    runner.setFrameRange(1, 2);
+    runner.setCheckpoint(checkpoint, 1);
+    runner.run();
+  }
+  // The checkpoint's run started at frame 1: a range from 0 would report 0:3 and map
+  // 1:3.
+  PipelineRunner other(config);
+  other.setFrameRange(0, 3);
+  try {
+    other.resumeFrom(checkpoint);
+    ADD_FAILURE() << "no exception";
+  } catch (const planar_grid::IOError& e) {
+    EXPECT_NE(
+      std::string(e.what()).find(
+        "checkpoint.pgck: written by a run that started at frame position 1, "
+        "but this run's range starts at 0: resume with the range it was written "
+        "with (--frames 1:END)"),
+      std::string::npos)
+      << e.what();
+  }
+  // The same start, a later end: the run continues.
+  PipelineRunner longer(config);
+  longer.setFrameRange(1, 3);
+  EXPECT_EQ(longer.resumeFrom(checkpoint), 2u);
+  EXPECT_EQ(longer.run().frames, 2u);
+}
+
+TEST_F(ReliabilityTest, PCDHeaderPCLCannotReadIsAnIOErrorNamingTheFile)
+{
+  // Found by fuzz_pcd_frame: PCL's header reader allocated the declared points' bytes
+  // (std::length_error, or gigabytes), and indexed the SIZE list by the FIELDS
+  // (std::out_of_range); both escaped as exceptions naming no file.
+  const fs::path huge = dir_ / "huge_points.pcd";
+  std::ofstream(huge)
+    << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+       "WIDTH 999999999999\nHEIGHT 1\nPOINTS 999999999999\n"
+       "DATA ascii\n0 0 1\n";
+  std::string what = runError(pcdConfig(huge.string()));
+  EXPECT_NE(what.find("huge_points.pcd: the header declares more points"),
+            std::string::npos)
+    << what;
+  const fs::path short_size = dir_ / "short_size.pcd";
+  std::ofstream(short_size) << "VERSION 0.7\nFIELDS x y z\nSIZE 4\nTYPE F F F\n"
+                               "COUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n"
+                               "0 0 1\n";
+  what = runError(pcdConfig(short_size.string()));
+  EXPECT_NE(what.find("short_size.pcd: "), std::string::npos) << what;
 }

@@ -24,8 +24,12 @@ namespace planar_grid {
  * ".planar_grid_outputs", so that a file of the previous set that the new one does not
  * have (a snapshot not rendered this time) is removed with the commit.
  *
- * Opening a transaction also removes what killed runs left behind: staging folders and
- * temporary files (".<name>.tmp.<pid>") of processes that no longer run.
+ * Opening a transaction locks the folder for the transaction's life (flock(2) on
+ * ".planar_grid_lock", which the kernel releases when the process ends, however it
+ * ends): a second run into the same folder fails at once, naming the folder and the
+ * holder's process id, instead of the two overwriting each other's outputs. It also
+ * removes what killed runs left behind: staging folders and temporary files
+ * (".<name>.tmp.<pid>") of processes that no longer run.
  *
  * Not thread-safe; one transaction per folder and process at a time.
  * \ingroup core */
@@ -37,6 +41,9 @@ public:
   static constexpr const char* MANIFEST = ".planar_grid_outputs";
   /** \brief The staging folders' names: this prefix and the writer's process id. */
   static constexpr const char* STAGING_PREFIX = ".planar_grid_staging.";
+  /** \brief The lock file in the output folder: the run holding an exclusive
+   * flock(2) on it owns the folder; it holds the owner's process id. */
+  static constexpr const char* LOCK = ".planar_grid_lock";
 
   /** \brief Opens \a folder for a new output set: creates it if needed, finishes a
    * commit a killed process left (recover()), removes stale staging folders and
@@ -44,7 +51,8 @@ public:
    * \param[in] folder the output folder
    * \throws planar_grid::IOError naming the folder and the cause when it cannot be
    * created or written (a file of that name, "Permission denied", "Read-only file
-   * system"), or when a journal is unreadable */
+   * system"), when another process holds its lock ("in use by another run (process
+   * N ...)"), or when a journal is unreadable */
   explicit OutputTransaction(std::string folder);
 
   /** \brief Without commit(): removes the staging folder; the previous set stays. */
@@ -107,6 +115,8 @@ public:
 private:
   /** \brief Reports \a step to the step callback, if any. */
   void step(const std::string& name) const;
+  /** \brief Takes the folder's lock (LOCK) or throws naming the holder. */
+  void lock();
 
   /** \brief The output folder. */
   std::string folder_;
@@ -118,6 +128,8 @@ private:
   bool committed_{false};
   /** \brief Whether commit() has written its journal (the commit point). */
   bool journal_written_{false};
+  /** \brief The open lock file (flock held), or -1. */
+  int lock_fd_{-1};
   /** \brief Called after each step of commit(). */
   std::function<void(const std::string&)> step_callback_;
 };

@@ -150,12 +150,14 @@ public:
 
   /** \brief Continues the run from a checkpoint written by a run of the same stages,
    * parameters and input: run() restores the state and starts at the frame after the
-   * checkpoint, and gives the same map as an uninterrupted run. Call before run(); the
-   * end of the range stays as set (setFrameRange()).
+   * checkpoint, and gives the same map as an uninterrupted run. Call before run(),
+   * after setFrameRange(): the range must start where the checkpoint's run started (the
+   * map holds its frames from there); its end may differ (a longer run continues).
    * \param[in] path the checkpoint file
    * \return the frame position the run continues at
    * \throws planar_grid::IOError for a missing, corrupt or foreign checkpoint (other
-   * stages, parameters or input), naming the file */
+   * stages, parameters or input), one whose run started at another frame, or one at or
+   * past the end of the range, naming the file */
   std::size_t resumeFrom(const std::string& path);
 
   /** \brief Runs every frame of the range through every stage.

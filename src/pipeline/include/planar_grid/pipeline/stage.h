@@ -89,6 +89,40 @@ public:
   }
 };
 
+/** \brief What a stage reads from its frame (or the run) and what it adds: the
+ * loader checks, before the first frame, that every stage's needs are given by the
+ * input or by an earlier stage (PipelineConfig). \ingroup pipeline */
+enum class StageData {
+  /** \brief The rectified left and right images and their calibration (a
+   * stereo_sequence input). */
+  STEREO_IMAGES,
+  /** \brief The working cloud (a pcd_files input, or stereo_disparity). */
+  CLOUD,
+  /** \brief The disparity image (stereo_disparity). */
+  DISPARITY,
+  /** \brief The matched stereo key features (feature_matching). */
+  FEATURES,
+  /** \brief The features' occupancy probabilities and track ids
+   * (kl_occupancy_filter). */
+  FEATURE_OCCUPANCY,
+  /** \brief The camera pose of every frame (input.poses, or visual_odometry). */
+  POSES,
+  /** \brief The working cloud in the world frame (transform_to_world). */
+  WORLD_FRAME,
+  /** \brief The frame's planes (multi_plane_segmentation). */
+  PLANES,
+  /** \brief The frame's cells (planar_cuboid_approximation). */
+  CUBOIDS,
+  /** \brief The run's map (map_integration). */
+  MAP,
+  /** \brief The accumulated world cloud (accumulate). */
+  WORLD_CLOUD,
+};
+
+/** \brief The words for \a data in messages and in --list-stages ("stereo key
+ * features", "planes"). */
+std::string stageDataName(StageData data);
+
 /** \brief A stage type: its name, what it does, its parameter table and a factory.
  * \ingroup pipeline */
 struct StageInfo {
@@ -98,10 +132,21 @@ struct StageInfo {
   std::string description;
   /** \brief The parameter table (keys with units, defaults, ranges). */
   std::vector<ParamSpec> params;
-  /** \brief What the stage needs from the input, checked before the run: poses. */
+  /** \brief Needs camera poses (a summary for --list-stages; the loader checks
+   * `needs`). */
   bool needs_poses{false};
-  /** \brief Needs stereo images (not PCD input). */
+  /** \brief Needs stereo images, not a PCD input (a summary for --list-stages; the
+   * loader checks `needs`). */
   bool needs_stereo{false};
+  /** \brief What the stage needs from the input or an earlier stage (the registry
+   * declares it; multi_plane_segmentation with `sample: features` needs FEATURES
+   * too). */
+  std::vector<StageData> needs;
+  /** \brief What the stage adds for the later ones. */
+  std::vector<StageData> produces;
+  /** \brief Whether the stage may be listed more than once (filters of the working
+   * cloud); any other stage listed twice is a configuration error. */
+  bool repeatable{false};
   /** \brief Builds the stage from its parsed parameters. */
   std::function<std::unique_ptr<Stage>(const ParamValues&)> create;
 };

@@ -1,0 +1,55 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace planar_grid {
+
+/** \brief What checkPCDFile() read from a PCD header. \ingroup core */
+struct PCDFileInfo {
+  /** \brief The fields' names, in the file's order. */
+  std::vector<std::string> fields;
+  /** \brief WIDTH * HEIGHT: the points the header declares. */
+  std::uint64_t points{0};
+  /** \brief Bytes of one point (the fields' sizes times their counts). */
+  std::uint64_t point_bytes{0};
+  /** \brief 0 ascii, 1 binary, 2 binary_compressed (pcl::PCDReader's codes). */
+  int data_type{0};
+  /** \brief The VIEWPOINT translation (metres); w = 0. */
+  Eigen::Vector4f sensor_origin{Eigen::Vector4f::Zero()};
+  /** \brief The VIEWPOINT rotation (unit quaternion). */
+  Eigen::Quaternionf sensor_orientation{Eigen::Quaternionf::Identity()};
+
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+};
+
+/** \brief Checks that \a path is a PCD file pcl::PCDReader reads safely and completely,
+ * before it is handed to pcl::io::loadPCDFile(). PCL's reader accepts a header without
+ * any PCD keyword (an empty file, a text file, another format) and then reads past the
+ * end of the file; it allocates what the header and the compressed sizes declare
+ * before it looks at the data; it reads only the declared points of a file that holds
+ * more; it takes an unparsable VIEWPOINT as the identity; and it gives the points of a
+ * file without x, y, z fields a position of 0.
+ *
+ * The file must be a non-empty regular file whose first line that is not a comment is
+ * a PCD keyword (VERSION or FIELDS), whose header pcl::PCDReader::readHeader() reads,
+ * with at least one field of a known type and the fields x, y and z, and a VIEWPOINT
+ * (if any) of seven finite numbers with a non-zero quaternion. Its data must hold
+ * exactly the WIDTH * HEIGHT points the header declares: that many non-empty lines of
+ * ASCII data; that many points of the fields' bytes for binary data (no whole point
+ * more); for binary-compressed data, two sizes after the header whose compressed size
+ * fits in the file, whose uncompressed size equals the points' bytes, and whose ratio
+ * LZF can reach (at most 100: LZF codes at most 264 bytes in 3). \param[in] path the
+ * file \return what the header declares \throws planar_grid::IOError naming the file
+ * and the cause ("the file is empty (0 bytes)", "not a PCD file: ...", "is a planar
+ * grid map (.pgmap) file", "truncated:
+ * ...", "the compressed data ...", "the data hold N points, the header declares M",
+ * "has no x, y, z fields", "VIEWPOINT ... is not a valid pose")
+ * \ingroup core */
+PCDFileInfo checkPCDFile(const std::string& path);
+
+} // namespace planar_grid
