@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/pcd_file_check.h>
 #include <planar_grid/odometry/cloud_registration.h>
 #include <planar_grid/odometry/floor_alignment.h>
 #include <planar_grid/pipeline/frame_source.h>
@@ -22,6 +23,8 @@
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
+
+#include "ros_bag_input.h"
 
 namespace planar_grid {
 
@@ -218,10 +221,19 @@ private:
 void
 loadPCDCloud(const std::string& path, Frame::Cloud& cloud)
 {
+  // PCL's reader trusts the header: checked first (points declared against the data
+  // held, x/y/z present, the compressed sizes, the VIEWPOINT).
+  checkPCDFile(path);
   // Read the blob first: PCL's conversion indexes point 0 of an empty cloud (UB that
   // UBSan reports), so a PCD without points is converted only when it has some.
   pcl::PCLPointCloud2 blob;
-  if (pcl::io::loadPCDFile(path, blob) < 0)
+  int read = -1;
+  try {
+    read = pcl::io::loadPCDFile(path, blob);
+  } catch (const std::exception& e) {
+    throw IOError(path + ": cannot read the PCD file (" + e.what() + ")");
+  }
+  if (read < 0)
     throw IOError(path + ": cannot read the PCD file");
   cloud.clear();
   if (static_cast<std::size_t>(blob.width) * blob.height == 0)
@@ -525,7 +537,9 @@ std::unique_ptr<FrameSource>
 createFrameSource(const InputConfig& input)
 {
   std::unique_ptr<FrameSource> source;
-  if (input.type == InputConfig::Type::PCD_FILES)
+  if (!input.ros_bag.file.empty())
+    source = createRosBagSource(input);
+  else if (input.type == InputConfig::Type::PCD_FILES)
     source = std::make_unique<PCDFileSource>(input);
   else
     source = std::make_unique<StereoSequenceSource>(input);

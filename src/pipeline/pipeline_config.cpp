@@ -5,6 +5,7 @@
 #include <planar_grid/pipeline/yaml_reader.h>
 
 #include <Eigen/Geometry>
+#include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -14,6 +15,8 @@
 #include <set>
 #include <sstream>
 
+#include "ros_bag_input.h"
+
 namespace planar_grid {
 
 namespace {
@@ -21,6 +24,15 @@ namespace {
 namespace fs = std::filesystem;
 
 using Reader = YamlReader;
+
+/** The longest pipeline accepted: each stage type but the filters may appear once, so
+ * a real pipeline has about a dozen stages; a list of thousands is a generated or
+ * corrupt file. */
+constexpr std::size_t MAX_STAGES = 256;
+/** The deepest nesting of maps and lists accepted (the schema needs 4). */
+constexpr std::size_t MAX_NESTING = 32;
+/** The most nodes a document may hold, aliases counted at each use. */
+constexpr std::size_t MAX_NODES = 1000000;
 
 std::array<double, 3>
 vector3(const Reader& r, const YAML::Node& node, const std::string& what);
@@ -31,6 +43,9 @@ parseInput(const Reader& r, const YAML::Node& node)
 {
   InputConfig input;
   const std::string type = r.string(node, "type", "input");
+  // A bag's own schema: its topics, and poses from /tf.
+  if (type == "ros_bag")
+    return parseRosBagInput(r, node);
   if (type == "stereo_sequence") {
     r.checkKeys(node,
                 {"type", "left_images", "right_images", "first_index", "frame_count",
@@ -96,8 +111,9 @@ parseInput(const Reader& r, const YAML::Node& node)
       input.has_sensor_up = true;
     }
   } else
-    r.fail(node["type"], "input.type '" + type
-                           + "' is unknown; expected stereo_sequence or pcd_files");
+    r.fail(node["type"],
+           "input.type '" + type
+             + "' is unknown; expected stereo_sequence, pcd_files or ros_bag");
 
   if (const YAML::Node repeat = node["repeat"]) {
     r.checkKeys(repeat, {"count", "offset_m"}, "input.repeat");
@@ -292,6 +308,16 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
                "checkpoint_every_n_frames"},
               "output");
   out.folder = r.optionalString(node, "folder", out.folder, "output");
+  {
+    // Known now, not after the last frame (the tool checks a --output folder the same
+    // way when it opens the output set, still before the first frame).
+    std::error_code ec;
+    if (node["folder"] && fs::exists(out.folder, ec)
+        && !fs::is_directory(out.folder, ec))
+      r.fail(node["folder"], "output.folder '" + out.folder
+                               + "' is a file, not a folder: the outputs cannot be "
+                                 "written there");
+  }
   out.cloud = r.optionalString(node, "cloud", out.cloud, "output");
   out.report = r.optionalString(node, "report", out.report, "output");
   out.trajectory = r.optionalString(node, "trajectory", out.trajectory, "output");
@@ -417,6 +443,105 @@ shareCellSize(const YamlReader& r,
   }
 }
 
+/** What the input gives the first stage: stereo images (and their calibration), or a
+ * cloud; poses when input.poses reads them from a file. */
+std::vector<StageData>
+inputData(const InputConfig& input)
+{
+  std::vector<StageData> given;
+  given.push_back(input.type == InputConfig::Type::STEREO_SEQUENCE
+                    ? StageData::STEREO_IMAGES
+                    : StageData::CLOUD);
+  if (input.poses_format != "none" && input.poses_format != "odometry")
+    given.push_back(StageData::POSES);
+  return given;
+}
+
+/** The stage's needs with its parameters: planes hypothesised from the key features
+ * need them. */
+std::vector<StageData>
+stageNeeds(const StageInfo& info, const StageConfig& sc)
+{
+  std::vector<StageData> needs = info.needs;
+  if (sc.type == "multi_plane_segmentation"
+      && sc.params.getChoice("sample") == "features")
+    needs.push_back(StageData::FEATURES);
+  return needs;
+}
+
+/** Checks, in list order, that every stage's needs are given by the input or an
+ * earlier stage, and that only repeatable stages are listed twice; the error is at the
+ * stage's type and names what is missing and which stage produces it. */
+void
+checkDataFlow(const Reader& r,
+              const YAML::Node& stage_nodes,
+              const PipelineConfig& config)
+{
+  const std::vector<StageData> from_input = inputData(config.input);
+  std::vector<StageData> available = from_input;
+  const auto has = [](const std::vector<StageData>& list, StageData d) {
+    return std::find(list.begin(), list.end(), d) != list.end();
+  };
+  const bool stereo = config.input.type == InputConfig::Type::STEREO_SEQUENCE;
+  const std::string input_kind = stereo ? "a stereo_sequence" : "a pcd_files";
+  for (std::size_t i = 0; i < config.stages.size(); ++i) {
+    const StageConfig& sc = config.stages[i];
+    const StageInfo& info = *findStage(sc.type);
+    const YAML::Node type_node = stage_nodes[i]["type"];
+    if (!info.repeatable)
+      for (std::size_t k = 0; k < i; ++k)
+        if (config.stages[k].type == sc.type) {
+          std::string repeatable;
+          for (const auto& other : stageRegistry())
+            if (other.repeatable)
+              repeatable += (repeatable.empty() ? "" : ", ") + other.type;
+          r.fail(type_node, "stage '" + sc.type + "' is listed twice (first at line "
+                              + std::to_string(config.stages[k].line)
+                              + "): the later one would overwrite the earlier one's "
+                                "result; only these stages may repeat: "
+                              + repeatable);
+        }
+    // What the input can never give comes first (a missing stage of the same
+    // pipeline is the lesser error); then the order.
+    const std::vector<StageData> needs = stageNeeds(info, sc);
+    for (const bool input_only : {true, false})
+      for (const StageData need : needs) {
+        if (has(available, need))
+          continue;
+        const std::string what = "stage '" + sc.type + "' needs " + stageDataName(need);
+        if (need == StageData::STEREO_IMAGES)
+          r.fail(type_node, what + ": it needs a stereo_sequence input (" + input_kind
+                              + " input has none)");
+        if (need == StageData::POSES && config.input.poses_format == "none")
+          r.fail(type_node, what + "; set input.poses (format and file)");
+        // The stages that produce it, whether one could run on this input at all, and
+        // whether one is listed later (the wrong order).
+        std::string producers, later;
+        bool possible = false;
+        for (const auto& other : stageRegistry()) {
+          if (!has(other.produces, need))
+            continue;
+          producers += (producers.empty() ? "'" : " or '") + other.type + "'";
+          possible = possible || stereo || !has(other.needs, StageData::STEREO_IMAGES);
+          for (std::size_t k = i + 1; k < config.stages.size() && later.empty(); ++k)
+            if (config.stages[k].type == other.type)
+              later = "'" + other.type + "' is listed after it (line "
+                      + std::to_string(config.stages[k].line) + "); ";
+        }
+        if (!possible)
+          r.fail(type_node, what + ", which only " + producers
+                              + " produces, from stereo images: " + input_kind
+                              + " input cannot give it");
+        if (!input_only)
+          r.fail(type_node, what + ", which no earlier stage produces: " + later
+                              + "put " + producers + " before it");
+      }
+    for (const StageData d : info.produces)
+      if (!has(available, d))
+        available.push_back(d);
+  }
+}
+
 PipelineConfig
 parseRoot(const YAML::Node& root, const std::string& source, const std::string& base)
 {
@@ -439,6 +564,11 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
     r.fail(root, "the top level needs the key 'pipeline' (a list of {type, params})");
   if (!stages.IsSequence() || stages.size() == 0)
     r.fail(stages, "pipeline must be a non-empty list of {type, params}");
+  if (stages.size() > MAX_STAGES)
+    r.fail(stages, "pipeline lists " + std::to_string(stages.size())
+                     + " stages; at most " + std::to_string(MAX_STAGES)
+                     + " are accepted (each stage type but the filters may appear "
+                       "once; a pipeline has about a dozen)");
   for (const auto& stage : stages) {
     r.checkKeys(stage, {"type", "params"}, "a pipeline stage");
     StageConfig sc;
@@ -449,19 +579,7 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
     if (!info)
       r.fail(stage["type"],
              "unknown stage type '" + sc.type + "'; known types: " + knownStageTypes());
-    if (info->needs_stereo && config.input.type != InputConfig::Type::STEREO_SEQUENCE)
-      r.fail(stage["type"], "stage '" + sc.type + "' needs a stereo_sequence input");
-    if (info->needs_poses && config.input.poses_format == "none")
-      r.fail(stage["type"],
-             "stage '" + sc.type + "' needs poses; set input.poses (format and file)");
     const bool odometry = config.input.poses_format == "odometry";
-    const bool have_odometry =
-      std::any_of(config.stages.begin(), config.stages.end(),
-                  [](const StageConfig& s) { return s.type == "visual_odometry"; });
-    if (info->needs_poses && odometry && !have_odometry)
-      r.fail(stage["type"], "stage '" + sc.type
-                              + "' needs poses: with input.poses.format odometry, put "
-                                "'visual_odometry' before it");
     if (sc.type == "visual_odometry" && !odometry)
       r.fail(stage["type"],
              "stage 'visual_odometry' makes the poses: set input.poses.format to "
@@ -482,11 +600,67 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
     }
     config.stages.push_back(std::move(sc));
   }
+  checkDataFlow(r, stages, config);
   shareCellSize(r, stages, config.stages);
 
   if (const YAML::Node output = root["output"])
     config.output = parseOutput(r, output, config.input);
   return config;
+}
+
+/** A tab in a line's indentation (before its first other character, comments and
+ * blank lines aside) is an error at its line:col: YAML indents with spaces only, and
+ * yaml-cpp reports such a file as "end of map not found" somewhere after the tab. */
+void
+checkIndentation(const std::string& text, const std::string& source)
+{
+  int line = 1;
+  for (std::size_t start = 0; start < text.size();) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string::npos)
+      end = text.size();
+    const std::size_t first = text.find_first_not_of(" \t\r", start);
+    if (first < end && text[first] != '#') {
+      const std::size_t tab = text.find('\t', start);
+      if (tab < first)
+        throw ConfigError(source, line, static_cast<int>(tab - start) + 1,
+                          "tab character in the indentation: YAML indents with "
+                          "spaces, never tabs");
+    }
+    start = end + 1;
+    ++line;
+  }
+}
+
+/** Refuses a document nested deeper than MAX_NESTING, or one whose anchors and aliases
+ * expand to more than MAX_NODES nodes, at the node's line:col (the schema itself is at
+ * most four levels deep). */
+void
+checkNesting(const YAML::Node& node,
+             std::size_t depth,
+             std::size_t& visited,
+             const std::string& source)
+{
+  const auto fail = [&](const std::string& message) {
+    const YAML::Mark mark = node.Mark();
+    throw ConfigError(source, mark.is_null() ? 0 : mark.line + 1,
+                      mark.is_null() ? 0 : mark.column + 1, message);
+  };
+  if (depth > MAX_NESTING)
+    fail("the YAML nests more than " + std::to_string(MAX_NESTING)
+         + " levels deep here (at most " + std::to_string(MAX_NESTING)
+         + " are accepted; the schema needs 4)");
+  if (++visited > MAX_NODES)
+    fail("the YAML holds more than " + std::to_string(MAX_NODES)
+         + " nodes (counting each use of an alias); a pipeline file has a few hundred");
+  if (node.IsSequence())
+    for (const auto& item : node)
+      checkNesting(item, depth + 1, visited, source);
+  else if (node.IsMap())
+    for (const auto& item : node) {
+      checkNesting(item.first, depth + 1, visited, source);
+      checkNesting(item.second, depth + 1, visited, source);
+    }
 }
 
 } // namespace
@@ -496,12 +670,21 @@ parsePipelineConfig(const std::string& yaml_text,
                     const std::string& source_name,
                     const std::string& base_folder)
 {
+  checkIndentation(yaml_text, source_name);
   YAML::Node root;
   try {
     root = YAML::Load(yaml_text);
+  } catch (const YAML::DeepRecursion& e) {
+    // yaml-cpp's own guard against a stack overflow says "bad file".
+    throw ConfigError(source_name, e.mark.line + 1, e.mark.column + 1,
+                      "the YAML nests more than " + std::to_string(e.depth())
+                        + " levels deep here (at most " + std::to_string(MAX_NESTING)
+                        + " are accepted; the schema needs 4)");
   } catch (const YAML::ParserException& e) {
     throw ConfigError(source_name, e.mark.line + 1, e.mark.column + 1, e.msg);
   }
+  std::size_t visited = 0;
+  checkNesting(root, 0, visited, source_name);
   try {
     return parseRoot(root, source_name, base_folder);
   } catch (const YAML::Exception& e) {

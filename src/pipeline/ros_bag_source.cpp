@@ -1,0 +1,601 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/common/io.h>
+#include <pcl/console/print.h>
+#include <pcl/conversions.h>
+#include <pcl/point_types_conversion.h>
+
+#include <opencv2/imgproc.hpp>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <sstream>
+
+#include "ros_bag_input.h"
+
+namespace planar_grid {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+/** A header stamp in seconds. */
+double
+seconds(const ros::Time& stamp)
+{
+  return stamp.toSec();
+}
+
+std::string
+stampText(double t)
+{
+  std::ostringstream out;
+  out.precision(15);
+  out << t << " s";
+  return out.str();
+}
+
+/** One open bag: its file name for messages, its topics and their message types. */
+class BagFile {
+public:
+  explicit BagFile(const std::string& path) : path_(path)
+  {
+    try {
+      bag_.open(path, rosbag::bagmode::Read);
+    } catch (const rosbag::BagException& e) {
+      throw IOError(path + ": cannot read the ROS bag (" + e.what() + ")");
+    }
+    rosbag::View all(bag_);
+    for (const rosbag::ConnectionInfo* c : all.getConnections())
+      types_[c->topic] = c->datatype;
+  }
+
+  const std::string& path() const { return path_; }
+
+  rosbag::Bag& bag() { return bag_; }
+
+  bool has(const std::string& topic) const { return types_.count(topic) > 0; }
+
+  /** Throws unless \a topic is in the bag with messages of \a type; \a key is the
+   * input key that names it. */
+  void require(const std::string& topic,
+               const std::string& type,
+               const std::string& key) const
+  {
+    const auto found = types_.find(topic);
+    if (found == types_.end()) {
+      std::string topics;
+      for (const auto& [name, datatype] : types_)
+        topics += (topics.empty() ? "" : ", ") + name + " (" + datatype + ")";
+      throw IOError(path_ + ": topic '" + topic + "' (" + key
+                    + ") is not in the bag; its topics: "
+                    + (topics.empty() ? "none" : topics));
+    }
+    if (found->second != type)
+      throw IOError(path_ + ": topic '" + topic + "' (" + key + ") holds "
+                    + found->second + " messages; " + type + " is needed");
+  }
+
+private:
+  std::string path_;
+  rosbag::Bag bag_;
+  std::map<std::string, std::string> types_;
+};
+
+/** A sensor_msgs/Image as an 8-bit grey cv::Mat (copied out of the message). */
+cv::Mat
+greyImage(const sensor_msgs::Image& image, const std::string& where)
+{
+  int channels = 0;
+  int code = -1;
+  const std::string& e = image.encoding;
+  if (e == "mono8" || e == "8UC1")
+    channels = 1;
+  else if (e == "bgr8" || e == "rgb8") {
+    channels = 3;
+    code = e == "bgr8" ? cv::COLOR_BGR2GRAY : cv::COLOR_RGB2GRAY;
+  } else if (e == "bgra8" || e == "rgba8") {
+    channels = 4;
+    code = e == "bgra8" ? cv::COLOR_BGRA2GRAY : cv::COLOR_RGBA2GRAY;
+  } else
+    throw IOError(where + ": image encoding '" + e
+                  + "' is not read; expected mono8, bgr8, rgb8, bgra8 or rgba8");
+  const std::size_t row = static_cast<std::size_t>(image.width) * channels;
+  if (image.width == 0 || image.height == 0 || image.step < row
+      || image.data.size() < static_cast<std::size_t>(image.step) * image.height)
+    throw IOError(where + ": the image's size " + std::to_string(image.width) + "x"
+                  + std::to_string(image.height) + " (step "
+                  + std::to_string(image.step) + ") does not match its "
+                  + std::to_string(image.data.size()) + " bytes");
+  const cv::Mat view(static_cast<int>(image.height), static_cast<int>(image.width),
+                     CV_8UC(channels), const_cast<std::uint8_t*>(image.data.data()),
+                     image.step);
+  cv::Mat grey;
+  if (code < 0)
+    grey = view.clone();
+  else
+    cv::cvtColor(view, grey, code);
+  return grey;
+}
+
+/** A sensor_msgs/PointCloud2 as PCL's blob: the same fields, field for field. */
+pcl::PCLPointCloud2
+toPCLBlob(const sensor_msgs::PointCloud2& msg)
+{
+  pcl::PCLPointCloud2 blob;
+  blob.header.frame_id = msg.header.frame_id;
+  blob.header.seq = msg.header.seq;
+  blob.header.stamp = msg.header.stamp.toNSec() / 1000;
+  blob.height = msg.height;
+  blob.width = msg.width;
+  for (const auto& f : msg.fields) {
+    pcl::PCLPointField field;
+    field.name = f.name;
+    field.offset = f.offset;
+    field.datatype = f.datatype;
+    field.count = f.count;
+    blob.fields.push_back(field);
+  }
+  blob.is_bigendian = msg.is_bigendian;
+  blob.point_step = msg.point_step;
+  blob.row_step = msg.row_step;
+  blob.data = msg.data;
+  blob.is_dense = msg.is_dense;
+  return blob;
+}
+
+/** The working cloud of a PointCloud2: intensity when it has one, the grey of its
+ * colour (pcl::PointXYZRGBtoXYZI) when it has rgb, else intensity 0. */
+void
+cloudFromMessage(const sensor_msgs::PointCloud2& msg,
+                 const std::string& where,
+                 Frame::Cloud& cloud)
+{
+  const pcl::PCLPointCloud2 blob = toPCLBlob(msg);
+  const auto has = [&blob](const std::string& name) {
+    return std::any_of(blob.fields.begin(), blob.fields.end(),
+                       [&name](const pcl::PCLPointField& f) { return f.name == name; });
+  };
+  for (const char* axis : {"x", "y", "z"})
+    if (!has(axis))
+      throw IOError(where + ": the PointCloud2 has no field '" + axis + "'");
+  if (blob.is_bigendian)
+    throw IOError(where + ": big-endian PointCloud2 data is not read");
+  const std::size_t points = static_cast<std::size_t>(blob.width) * blob.height;
+  if (blob.point_step == 0 || blob.row_step < blob.width * blob.point_step
+      || blob.data.size() < static_cast<std::size_t>(blob.row_step) * blob.height)
+    throw IOError(where + ": the PointCloud2 declares " + std::to_string(points)
+                  + " points but holds " + std::to_string(blob.data.size()) + " bytes");
+  for (const auto& f : blob.fields)
+    if (f.offset + pcl::getFieldSize(f.datatype) * std::max<std::uint32_t>(f.count, 1)
+        > blob.point_step)
+      throw IOError(where + ": the PointCloud2 field '" + f.name
+                    + "' lies outside its point_step");
+  cloud.clear();
+  // PCL's conversion indexes point 0 even of an empty cloud.
+  if (points == 0)
+    return;
+  if (has("intensity"))
+    pcl::fromPCLPointCloud2(blob, cloud);
+  else if (has("rgb") || has("rgba")) {
+    pcl::PointCloud<pcl::PointXYZRGB> colour;
+    pcl::fromPCLPointCloud2(blob, colour);
+    cloud.resize(colour.size());
+    for (std::size_t i = 0; i < colour.size(); ++i)
+      pcl::PointXYZRGBtoXYZI(colour[i], cloud[i]);
+    cloud.width = colour.width;
+    cloud.height = colour.height;
+    cloud.is_dense = colour.is_dense;
+  } else {
+    pcl::PointCloud<pcl::PointXYZ> xyz;
+    pcl::fromPCLPointCloud2(blob, xyz);
+    pcl::copyPointCloud(xyz, cloud);
+  }
+}
+
+/** The transforms of /tf and /tf_static, by child frame: parent_T_child over time. */
+class TransformTable {
+public:
+  struct Sample {
+    double stamp;
+    Eigen::Isometry3d parent_T_child;
+  };
+  struct Edge {
+    std::string parent;
+    bool is_static{false};
+    std::vector<Sample, Eigen::aligned_allocator<Sample>> samples;
+  };
+
+  void add(const tf2_msgs::TFMessage& message, bool is_static, const std::string& where)
+  {
+    for (const auto& t : message.transforms) {
+      Edge& edge = edges_[t.child_frame_id];
+      if (!edge.parent.empty() && edge.parent != t.header.frame_id)
+        throw IOError(where + ": frame '" + t.child_frame_id + "' has two parents, '"
+                      + edge.parent + "' and '" + t.header.frame_id + "'");
+      edge.parent = t.header.frame_id;
+      edge.is_static = edge.is_static || is_static;
+      const auto& q = t.transform.rotation;
+      const auto& p = t.transform.translation;
+      const Eigen::Quaterniond rotation(q.w, q.x, q.y, q.z);
+      if (!(std::abs(rotation.norm() - 1.0) < 1e-3))
+        throw IOError(where + ": the rotation of '" + t.header.frame_id + "' -> '"
+                      + t.child_frame_id + "' is not a unit quaternion");
+      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+      pose.linear() = rotation.normalized().toRotationMatrix();
+      pose.translation() = Eigen::Vector3d(p.x, p.y, p.z);
+      edge.samples.push_back({seconds(t.header.stamp), pose});
+    }
+  }
+
+  void sort()
+  {
+    for (auto& [child, edge] : edges_)
+      std::stable_sort(
+        edge.samples.begin(), edge.samples.end(),
+        [](const Sample& a, const Sample& b) { return a.stamp < b.stamp; });
+  }
+
+  /** parent_T_child at \a t through the chain of frames from \a child up to \a parent;
+   * each moving transform is interpolated between its samples (linear, slerp), or the
+   * nearest sample within \a tolerance outside them. */
+  Eigen::Isometry3d lookup(const std::string& parent,
+                           const std::string& child,
+                           double t,
+                           double tolerance,
+                           const std::string& where) const
+  {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    std::string frame = child;
+    std::string chain = child;
+    while (frame != parent) {
+      const auto found = edges_.find(frame);
+      if (found == edges_.end() || chain.size() > 100000) {
+        std::string known;
+        for (const auto& [name, edge] : edges_)
+          known += (known.empty() ? "" : ", ") + edge.parent + " -> " + name;
+        throw IOError(where + ": no chain of transforms from '" + parent + "' to '"
+                      + child + "' (followed " + chain
+                      + " up to its root); the transforms: "
+                      + (known.empty() ? "none" : known));
+      }
+      pose = at(found->second, frame, t, tolerance, where) * pose;
+      frame = found->second.parent;
+      chain += " <- " + frame;
+    }
+    return pose;
+  }
+
+private:
+  Eigen::Isometry3d at(const Edge& edge,
+                       const std::string& child,
+                       double t,
+                       double tolerance,
+                       const std::string& where) const
+  {
+    const auto& s = edge.samples;
+    if (edge.is_static)
+      return s.back().parent_T_child;
+    if (t <= s.front().stamp || t >= s.back().stamp) {
+      const Sample& end = t <= s.front().stamp ? s.front() : s.back();
+      if (std::abs(t - end.stamp) <= tolerance)
+        return end.parent_T_child;
+      throw IOError(where + ": no transform '" + edge.parent + "' -> '" + child
+                    + "' at " + stampText(t) + ": its samples span "
+                    + stampText(s.front().stamp) + " to " + stampText(s.back().stamp)
+                    + " (input.poses.max_time_difference_s " + std::to_string(tolerance)
+                    + " s)");
+    }
+    const auto after =
+      std::upper_bound(s.begin(), s.end(), t,
+                       [](double v, const Sample& sample) { return v < sample.stamp; });
+    const Sample& b = *after;
+    const Sample& a = *(after - 1);
+    const double w = b.stamp > a.stamp ? (t - a.stamp) / (b.stamp - a.stamp) : 0.0;
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = Eigen::Quaterniond(a.parent_T_child.linear())
+                      .slerp(w, Eigen::Quaterniond(b.parent_T_child.linear()))
+                      .toRotationMatrix();
+    pose.translation() =
+      (1.0 - w) * a.parent_T_child.translation() + w * b.parent_T_child.translation();
+    return pose;
+  }
+
+  std::map<std::string, Edge> edges_;
+};
+
+/** The frames of a ROS bag: stereo pairs or clouds, kept as the bag's messages and
+ * read when loaded. */
+class RosBagSource : public FrameSource {
+public:
+  explicit RosBagSource(const InputConfig& input) :
+      config_(input.ros_bag), bag_(input.ros_bag.file)
+  {
+    name_ = fs::path(config_.file).filename().string();
+    stereo_ = input.type == InputConfig::Type::STEREO_SEQUENCE;
+    if (stereo_)
+      indexStereo();
+    else
+      indexClouds();
+    if (input.frame_count > 0
+        && static_cast<std::size_t>(input.frame_count) < stamps_.size())
+      resize(static_cast<std::size_t>(input.frame_count));
+    if (input.poses_format == "tf")
+      readPoses();
+    std::ostringstream text;
+    if (stereo_)
+      text << stamps_.size() << " stereo pairs from " << config_.file << " ("
+           << config_.left_image_topic << ", " << config_.right_image_topic
+           << "; f = " << calibration_.focal_length_px
+           << " px, B = " << calibration_.baseline_m << " m)";
+    else
+      text << stamps_.size() << " clouds from " << config_.file << " ("
+           << config_.cloud_topic << ")";
+    if (!poses_.empty())
+      text << ", poses " << config_.parent_frame << " -> " << config_.child_frame;
+    description_ = text.str();
+  }
+
+  std::size_t size() const override { return stamps_.size(); }
+
+  void load(std::size_t i, Frame& frame) const override
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    try {
+      loadMessages(i, frame);
+    } catch (const rosbag::BagException& e) {
+      throw IOError(bag_.path() + ": cannot read frame " + std::to_string(i) + " ("
+                    + e.what() + ")");
+    } catch (const ros::Exception& e) {
+      throw IOError(bag_.path() + ": cannot read frame " + std::to_string(i) + " ("
+                    + e.what() + ")");
+    }
+  }
+
+  std::string describe() const override { return description_; }
+
+  const Trajectory& poses() const override { return poses_; }
+
+private:
+  void loadMessages(std::size_t i, Frame& frame) const
+  {
+    frame = Frame();
+    frame.sequence_number = i;
+    frame.file_index = static_cast<int>(i);
+    if (stereo_) {
+      const std::string where = bag_.path() + ": " + config_.left_image_topic;
+      frame.left = readImage(left_[i], config_.left_image_topic);
+      frame.right = readImage(right_[i], config_.right_image_topic);
+      // A CameraInfo of size 0x0 does not give the size.
+      const bool sized = calibration_.width > 0 && calibration_.height > 0;
+      if ((sized
+           && (frame.left.cols != calibration_.width
+               || frame.left.rows != calibration_.height))
+          || frame.right.size() != frame.left.size())
+        throw IOError(
+          where + ": pair " + std::to_string(i) + " at " + stampText(stamps_[i])
+          + " has images of " + std::to_string(frame.left.cols) + "x"
+          + std::to_string(frame.left.rows) + " and " + std::to_string(frame.right.cols)
+          + "x" + std::to_string(frame.right.rows) + "; the CameraInfo says "
+          + std::to_string(calibration_.width) + "x"
+          + std::to_string(calibration_.height));
+      frame.calibration = calibration_;
+      frame.name = name_ + " " + config_.left_image_topic + " #" + std::to_string(i);
+    } else {
+      const auto msg = clouds_[i].instantiate<sensor_msgs::PointCloud2>();
+      const std::string where = bag_.path() + ": " + config_.cloud_topic;
+      if (!msg)
+        throw IOError(where + ": message " + std::to_string(i) + " cannot be read");
+      Frame::Cloud::Ptr cloud(new Frame::Cloud);
+      cloudFromMessage(*msg, where + " at " + stampText(stamps_[i]), *cloud);
+      cloud->sensor_origin_ = Eigen::Vector4f(0, 0, 0, 1);
+      cloud->sensor_orientation_ = Eigen::Quaternionf::Identity();
+      frame.cloud = cloud;
+      frame.name = name_ + " " + config_.cloud_topic + " #" + std::to_string(i);
+    }
+    frame.has_pose = !poses_.empty();
+    if (frame.has_pose)
+      frame.world_T_camera = poses_[i];
+  }
+
+  cv::Mat readImage(const rosbag::MessageInstance& m, const std::string& topic) const
+  {
+    const std::string where = bag_.path() + ": " + topic;
+    const auto image = m.instantiate<sensor_msgs::Image>();
+    if (!image)
+      throw IOError(where + ": a message cannot be read as sensor_msgs/Image");
+    return greyImage(*image, where + " at " + stampText(seconds(image->header.stamp)));
+  }
+
+  /** The first CameraInfo of \a topic. */
+  sensor_msgs::CameraInfo cameraInfo(const std::string& topic, const std::string& key)
+  {
+    bag_.require(topic, "sensor_msgs/CameraInfo", key);
+    rosbag::View view(bag_.bag(), rosbag::TopicQuery(topic));
+    for (const auto& m : view)
+      if (const auto info = m.instantiate<sensor_msgs::CameraInfo>())
+        return *info;
+    throw IOError(bag_.path() + ": topic '" + topic + "' (" + key
+                  + ") has no CameraInfo message");
+  }
+
+  /** Pairs each left image with the right one nearest in time (header stamps) within
+   * the tolerance, and reads the calibration from the CameraInfo. */
+  void indexStereo()
+  {
+    bag_.require(config_.left_image_topic, "sensor_msgs/Image", "input.left_image");
+    bag_.require(config_.right_image_topic, "sensor_msgs/Image", "input.right_image");
+    const auto left_info =
+      cameraInfo(config_.left_info_topic, "input.left_camera_info");
+    const auto right_info =
+      cameraInfo(config_.right_info_topic, "input.right_camera_info");
+    const std::string right_where = bag_.path() + ": " + config_.right_info_topic;
+    if (right_info.width != left_info.width || right_info.height != left_info.height)
+      throw IOError(right_where + ": image size " + std::to_string(right_info.width)
+                    + "x" + std::to_string(right_info.height)
+                    + " differs from the left CameraInfo's (" + config_.left_info_topic
+                    + ")");
+    const auto& pl = left_info.P;
+    const auto& pr = right_info.P;
+    if (std::abs(pr[0] - pl[0]) > 1e-6 * std::abs(pl[0])
+        || std::abs(pr[2] - pl[2]) > 1e-6 * std::abs(pl[0])
+        || std::abs(pr[6] - pl[6]) > 1e-6 * std::abs(pl[0]))
+      throw IOError(right_where
+                    + ": the projection P differs from the left one's in "
+                      "f, cx or cy: the pair is not rectified (give the "
+                      "rectified images' topics and CameraInfo)");
+    calibration_.focal_length_px = pl[0];
+    calibration_.cx_px = pl[2];
+    calibration_.cy_px = pl[6];
+    calibration_.baseline_m = -pr[3] / pr[0];
+    calibration_.width = static_cast<int>(left_info.width);
+    calibration_.height = static_cast<int>(left_info.height);
+    calibration_.validate(right_where);
+
+    // MessageInstance is not assignable: the messages stay where they were read and
+    // their positions are sorted by stamp.
+    std::vector<rosbag::MessageInstance> messages;
+    // Stamps in nanoseconds: a double holds a stamp of today only to 0.2 us.
+    std::vector<std::pair<std::int64_t, std::size_t>> lefts, rights;
+    rosbag::View view(bag_.bag(),
+                      rosbag::TopicQuery(std::vector<std::string>{
+                        config_.left_image_topic, config_.right_image_topic}));
+    for (const auto& m : view) {
+      const auto image = m.instantiate<sensor_msgs::Image>();
+      if (!image)
+        continue;
+      auto& list = m.getTopic() == config_.left_image_topic ? lefts : rights;
+      list.emplace_back(static_cast<std::int64_t>(image->header.stamp.toNSec()),
+                        messages.size());
+      messages.push_back(m);
+    }
+    std::stable_sort(lefts.begin(), lefts.end());
+    std::stable_sort(rights.begin(), rights.end());
+    std::size_t r = 0, unpaired = 0;
+    const auto tolerance =
+      static_cast<std::int64_t>(std::llround(config_.pair_tolerance_s * 1e9));
+    const auto distance = [](std::int64_t a, std::int64_t b) {
+      return a > b ? a - b : b - a;
+    };
+    for (const auto& [t, k] : lefts) {
+      while (r < rights.size() && rights[r].first < t - tolerance)
+        ++r;
+      // The nearest right image within the tolerance (the next one may be nearer).
+      std::size_t best = r;
+      if (r + 1 < rights.size()
+          && distance(rights[r + 1].first, t) < distance(rights[r].first, t))
+        best = r + 1;
+      if (best < rights.size() && distance(rights[best].first, t) <= tolerance) {
+        stamps_.push_back(seconds(ros::Time().fromNSec(static_cast<std::uint64_t>(t))));
+        left_.push_back(messages[k]);
+        right_.push_back(messages[rights[best].second]);
+        r = best + 1;
+      } else
+        ++unpaired;
+    }
+    if (stamps_.empty())
+      throw IOError(bag_.path() + ": no stereo pair: " + std::to_string(lefts.size())
+                    + " images on " + config_.left_image_topic + " and "
+                    + std::to_string(rights.size()) + " on " + config_.right_image_topic
+                    + " have no header stamps within "
+                    + std::to_string(config_.pair_tolerance_s)
+                    + " s of each other (input.max_pair_time_difference_s)");
+    if (unpaired > 0)
+      PCL_WARN("[planar_grid::FrameSource] %s: %zu of %zu left images have no right "
+               "image within %g s; they are skipped.\n",
+               bag_.path().c_str(), unpaired, lefts.size(), config_.pair_tolerance_s);
+  }
+
+  void indexClouds()
+  {
+    bag_.require(config_.cloud_topic, "sensor_msgs/PointCloud2", "input.cloud");
+    rosbag::View view(bag_.bag(), rosbag::TopicQuery(config_.cloud_topic));
+    std::vector<rosbag::MessageInstance> messages;
+    std::vector<std::pair<double, std::size_t>> clouds;
+    for (const auto& m : view)
+      if (const auto cloud = m.instantiate<sensor_msgs::PointCloud2>()) {
+        clouds.emplace_back(seconds(cloud->header.stamp), messages.size());
+        messages.push_back(m);
+      }
+    if (clouds.empty())
+      throw IOError(bag_.path() + ": topic '" + config_.cloud_topic
+                    + "' (input.cloud) has no message");
+    std::stable_sort(clouds.begin(), clouds.end());
+    for (const auto& [t, k] : clouds) {
+      stamps_.push_back(t);
+      clouds_.push_back(messages[k]);
+    }
+  }
+
+  void resize(std::size_t n)
+  {
+    stamps_.resize(n);
+    // pop_back: MessageInstance is not assignable, which erase would need.
+    for (auto* list : {&left_, &right_, &clouds_})
+      while (list->size() > n)
+        list->pop_back();
+  }
+
+  /** world_T_camera of every frame: parent_frame_T_child_frame at its stamp. */
+  void readPoses()
+  {
+    bag_.require(config_.tf_topic, "tf2_msgs/TFMessage", "input.poses.topic");
+    std::vector<std::string> topics{config_.tf_topic};
+    if (bag_.has(config_.tf_static_topic)) {
+      bag_.require(config_.tf_static_topic, "tf2_msgs/TFMessage",
+                   "input.poses.static_topic");
+      topics.push_back(config_.tf_static_topic);
+    }
+    TransformTable table;
+    rosbag::View view(bag_.bag(), rosbag::TopicQuery(topics));
+    for (const auto& m : view)
+      if (const auto tf = m.instantiate<tf2_msgs::TFMessage>())
+        table.add(*tf, m.getTopic() == config_.tf_static_topic,
+                  bag_.path() + ": " + m.getTopic());
+    table.sort();
+    const std::string where = bag_.path() + ": " + config_.tf_topic;
+    for (const double t : stamps_)
+      poses_.push_back(table.lookup(config_.parent_frame, config_.child_frame, t,
+                                    config_.tf_tolerance_s, where));
+  }
+
+  InputConfig::RosBag config_;
+  /** rosbag reads through one file handle: loads are serialised. */
+  mutable std::mutex mutex_;
+  mutable BagFile bag_;
+  std::string name_;
+  bool stereo_{true};
+  StereoCalibration calibration_;
+  std::vector<double> stamps_;
+  std::vector<rosbag::MessageInstance> left_, right_, clouds_;
+  Trajectory poses_;
+  std::string description_;
+};
+
+} // namespace
+
+std::unique_ptr<FrameSource>
+createRosBagSource(const InputConfig& input)
+{
+  try {
+    return std::make_unique<RosBagSource>(input);
+  } catch (const rosbag::BagException& e) {
+    throw IOError(input.ros_bag.file + ": cannot read the ROS bag (" + e.what() + ")");
+  } catch (const ros::Exception& e) {
+    throw IOError(input.ros_bag.file + ": cannot read a message of the ROS bag ("
+                  + e.what() + ")");
+  }
+}
+
+} // namespace planar_grid
