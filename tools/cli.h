@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// What every planar_grid_* tool does with its command line: reject unknown arguments,
-// and turn an exception into one "name: message" line and a non-zero exit. Header-only,
-// private to tools/.
+// What every planar_grid_* tool does with its command line: print its version for
+// --version, reject unknown arguments, and turn an exception into one "name: message"
+// line and a non-zero exit. Header-only, private to tools/.
 #pragma once
 
 #include <planar_grid/core/exceptions.h>
@@ -11,10 +11,14 @@
 #include <malloc.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <string>
 #include <vector>
+
+#include "planar_grid_version.h"
 
 namespace planar_grid {
 namespace cli {
@@ -58,9 +62,28 @@ keepFreedMemory()
   mallopt(M_TRIM_THRESHOLD, 1024 * 1024 * 1024);
 }
 
+/** \brief True when the command line asks for the version: --version anywhere (as the
+ * GNU tools, whatever else is given). */
+inline bool
+wantsVersion(int argc, char** argv)
+{
+  for (int i = 1; i < argc; ++i)
+    if (std::strcmp(argv[i], "--version") == 0)
+      return true;
+  return false;
+}
+
+/** \brief Prints "<name> <version>" (the project's version, from CMake) on stdout. */
+inline void
+printVersion(const char* name)
+{
+  std::printf("%s %s\n", name, PLANAR_GRID_VERSION_STRING);
+}
+
 /** \brief Runs a tool's \a run after keepFreedMemory(): its return value is the exit
  * status; an exception is printed as "name: message" (pcl::console::print_error) and
- * exits with EXIT_FAILURE.
+ * exits with EXIT_FAILURE. With --version it prints the name and version and exits
+ * with EXIT_SUCCESS without running \a run.
  * \param[in] name the program name for the message
  * \param[in] run the tool's body
  * \param[in] argc, argv the command line, passed on */
@@ -68,6 +91,10 @@ template <typename Run>
 int
 runMain(const char* name, Run run, int argc, char** argv)
 {
+  if (wantsVersion(argc, argv)) {
+    printVersion(name);
+    return EXIT_SUCCESS;
+  }
   keepFreedMemory();
   try {
     return run(argc, argv);

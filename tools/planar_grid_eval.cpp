@@ -38,6 +38,7 @@ printHelp(const char* program)
     "and, unless --no-plots,\n  cells.png, efficiency.png, memory.png, error.png "
     "(and tilt.png for tilt-tagged datasets);\n  with places (the paper's Sec. "
     "IV-B) also places.csv and places_*.png, the means over the places.\n");
+  print_info("  -h, --help  this help; --version  print the name and version\n");
 }
 
 #ifdef PLANAR_GRID_WITH_VIEWER
@@ -163,7 +164,7 @@ run(int argc, char** argv)
   const bool plots = !find_switch(argc, argv, "--no-plots");
 #ifdef PLANAR_GRID_WITH_VIEWER
   if (plots)
-    planar_grid::ensureDisplay(argc, argv); // VTK charts need an X server (xvfb-run)
+    planar_grid::ensureDisplay(argc, argv); // VTK charts need an X server (Xvfb)
 #else
   if (plots)
     print_warn("Built without the viewer (PLANAR_GRID_BUILD_VIEWER=OFF): no plots.\n");

@@ -69,7 +69,8 @@ printHelp(const char* program)
     "                     the camera); the headline figures stay against insdata.txt\n"
     "                     (default: none)\n"
     "  --output FILE      write the figures as JSON (default: none)\n"
-    "  -h                 this help\n",
+    "  -h                 this help\n"
+    "  --version          print the name and version\n",
     program);
 }
 

@@ -71,6 +71,7 @@ printHelp(const char* program)
              "defaults, units and ranges, then exit\n");
   print_info("    -v                   verbose (PCL debug output)\n");
   print_info("    -h, --help           this help\n");
+  print_info("    --version            print the name and version\n");
 }
 
 void
@@ -381,7 +382,7 @@ run(int argc, char** argv)
       name->clear();
 
 #ifdef PLANAR_GRID_WITH_VIEWER
-  // Before the long run: VTK needs an X server; re-run under xvfb-run if there is none.
+  // Before the long run: VTK needs an X server; start an Xvfb if there is none.
   if (any_snapshot())
     planar_grid::ensureDisplay(argc, argv);
 #else
@@ -428,9 +429,13 @@ run(int argc, char** argv)
                config.output.checkpoint_every_n_frames);
     print_value("%s\n", checkpoint_path.c_str());
   }
-  print_info("Input: %s; running frames %zu:%zu\n",
-             config.input.left_images.empty() ? "PCD files" : "stereo sequence", begin,
-             end);
+  const bool stereo =
+    config.input.type == planar_grid::InputConfig::Type::STEREO_SEQUENCE;
+  const char* input_kind =
+    !config.input.ros_bag.file.empty()
+      ? (stereo ? "ROS bag, stereo pairs" : "ROS bag, point clouds")
+      : (stereo ? "stereo sequence" : "PCD files");
+  print_info("Input: %s; running frames %zu:%zu\n", input_kind, begin, end);
   if (const std::size_t ahead = runner.frameLocalPrefix(); ahead > 0)
     print_info("  loading and up to the first %zu stages run one frame ahead on a "
                "second thread (as many as balance the threads' measured times)\n",

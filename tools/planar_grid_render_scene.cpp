@@ -81,10 +81,11 @@ printHelp(const char* program)
   print_info("    --seed S          texture seed, >= 0 (default: ");
   print_value("%ld", DEFAULT_SEED);
   print_info(")\n");
-  print_info("    -h, --help        this help\n\n");
+  print_info("    -h, --help        this help\n");
+  print_info("    --version         print the name and version\n\n");
   print_info(
-    "Rendering needs an X server (Debian's VTK 9.1); without one the tool re-runs "
-    "itself under `xvfb-run -a` when xvfb is installed.\n");
+    "Rendering needs an X server (Debian's VTK 9.1); without one the tool starts its "
+    "own Xvfb (when xvfb is installed), which ends with it.\n");
 }
 
 /** \brief Reads every option; throws planar_grid::Exception on a malformed one
@@ -178,7 +179,7 @@ run(int argc, char** argv)
   // The scene checks its parameters (the path must fit) before any rendering.
   planar_grid::SyntheticStereoScene scene(params);
 
-  // Before rendering: VTK needs an X server; re-run under xvfb-run if there is none.
+  // Before rendering: VTK needs an X server; start an Xvfb if there is none.
   planar_grid::ensureDisplay(argc, argv);
 
   print_info("Scene: ");

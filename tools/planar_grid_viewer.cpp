@@ -1,10 +1,12 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// planar_grid_viewer: shows PCD clouds and planar grid maps (.pgmap) interactively or
-// renders them to a PNG snapshot.
+// planar_grid_viewer: shows PCD clouds, planar grid maps (.pgmap), PLY meshes and
+// OctoMap octrees (.bt, .ot) interactively or renders them to a PNG snapshot.
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/pcd_file_check.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/odometry/trajectory_io.h>
-#include <planar_grid/visualization/pcd_file_check.h>
+#include <planar_grid/visualization/mesh_file.h>
+#include <planar_grid/visualization/octomap_file.h>
 #include <planar_grid/visualization/scene_renderer.h>
 #include <planar_grid/visualization/street_camera.h>
 
@@ -50,6 +52,8 @@ const planar_grid::StreetCameraParameters DEFAULT_STREET;
 struct ViewerOptions {
   std::vector<std::string> clouds;
   std::vector<std::string> maps;
+  std::vector<std::string> meshes;
+  std::vector<std::string> octrees;
   std::string snapshot;
   std::string camera_name{DEFAULT_CAMERA};
   bool explicit_camera{false};
@@ -70,11 +74,17 @@ void
 printHelp(const char* program)
 {
   print_info(
-    "Shows PCD point clouds and planar grid maps (.pgmap, written by the pipeline's "
-    "map_integration) with VTK, or renders them offscreen to a PNG. A map shows its "
+    "Shows PCD point clouds, planar grid maps (.pgmap, written by the pipeline's "
+    "map_integration), PLY meshes (e.g. the pipeline's map_cuboids.ply) and OctoMap "
+    "octrees (.bt, .ot) with VTK, or renders them offscreen to a PNG. A map shows its "
     "cuboids coloured by occupancy (blue 0, green 0.5, red 1), its other occupied "
-    "voxels grey and its unknown space translucent violet.\n\n");
-  print_info("Syntax is: %s <cloud.pcd | map.pgmap> [more ...] <options>\n", program);
+    "voxels grey and its unknown space translucent violet; a mesh has its vertex "
+    "colours (else colours by height); an octree's occupied leaves are boxes coloured "
+    "by occupancy.\n\n");
+  print_info(
+    "Syntax is: %s <cloud.pcd | map.pgmap | mesh.ply | octree.bt | octree.ot> [more "
+    "...] <options>\n",
+    program);
   print_info("  where options are:\n");
   print_info(
     "    --snapshot <out.png>  render offscreen and write a PNG instead of opening "
@@ -115,9 +125,10 @@ printHelp(const char* program)
   print_info("    --point-size <N>      point size, px, > 0 (default: ");
   print_value("%g", DEFAULT_POINT_SIZE_PX);
   print_info(")\n");
-  print_info("    -h, --help            this help\n\n");
+  print_info("    -h, --help            this help\n");
+  print_info("    --version             print the name and version\n\n");
   print_info("Snapshots need an X server (Debian's VTK 9.1); without one the viewer "
-             "re-runs itself under `xvfb-run -a` when xvfb is installed.\n");
+             "starts its own Xvfb (when xvfb is installed), which ends with it.\n");
 }
 
 /** \brief Parses "<W>x<H>" (both positive integers, nothing else). */
@@ -192,6 +203,17 @@ parseOptions(int argc, char** argv, bool& help)
     options.maps.emplace_back(argv[index]);
     used.insert(index);
   }
+  for (const int index :
+       pcl::console::parse_file_extension_argument(argc, argv, ".ply")) {
+    options.meshes.emplace_back(argv[index]);
+    used.insert(index);
+  }
+  for (const char* extension : {".bt", ".ot"})
+    for (const int index :
+         pcl::console::parse_file_extension_argument(argc, argv, extension)) {
+      options.octrees.emplace_back(argv[index]);
+      used.insert(index);
+    }
 
   if (option_with_value("--snapshot")) {
     parse_argument(argc, argv, "--snapshot", options.snapshot);
@@ -295,9 +317,12 @@ parseOptions(int argc, char** argv, bool& help)
   for (int i = 1; i < argc; ++i)
     if (used.count(i) == 0)
       throw Exception(std::string("unknown argument '") + argv[i]
-                      + "' (inputs must be .pcd or .pgmap files; see --help)");
-  if (options.clouds.empty() && options.maps.empty())
-    throw Exception("no input given (expected .pcd clouds or .pgmap maps)");
+                      + "' (inputs must be .pcd, .pgmap, .ply, .bt or .ot files; see "
+                        "--help)");
+  if (options.clouds.empty() && options.maps.empty() && options.meshes.empty()
+      && options.octrees.empty())
+    throw Exception("no input given (expected .pcd clouds, .pgmap maps, .ply meshes or "
+                    ".bt / .ot octrees)");
   return options;
 }
 
@@ -363,7 +388,11 @@ run(int argc, char** argv)
   // Bad input files fail before a window or an X server is started.
   for (const auto& path : options.clouds)
     planar_grid::checkPCDFile(path);
-  // Before loading anything: this may re-execute the program under xvfb-run.
+  for (const auto& path : options.meshes)
+    planar_grid::checkPLYFile(path);
+  for (const auto& path : options.octrees)
+    planar_grid::checkOctoMapFile(path);
+  // Before loading anything: this may start an Xvfb for the snapshot.
   if (!options.snapshot.empty())
     planar_grid::ensureDisplay(argc, argv);
   else if (!planar_grid::hasDisplay())
@@ -433,6 +462,33 @@ run(int argc, char** argv)
     print_info(" ms : %zu cuboids, %zu occupied voxels outside them, %zu unknown "
                "boxes]\n",
                drawn.cuboids, drawn.occupied_voxel_boxes, drawn.unknown_boxes);
+  }
+
+  for (const auto& path : options.meshes) {
+    pcl::console::TicToc timer;
+    timer.tic();
+    print_highlight("Loading ");
+    print_value("%s ", path.c_str());
+    const pcl::PolygonMesh mesh = planar_grid::loadPLYMesh(path);
+    const std::size_t faces = renderer.addPolygonMesh(mesh);
+    print_info("[done, ");
+    print_value("%g", timer.toc());
+    print_info(" ms : %zu vertices, %zu faces]\n",
+               static_cast<std::size_t>(mesh.cloud.width) * mesh.cloud.height, faces);
+  }
+  for (const auto& path : options.octrees) {
+    pcl::console::TicToc timer;
+    timer.tic();
+    print_highlight("Loading ");
+    print_value("%s ", path.c_str());
+    const planar_grid::OctoMapLeaves leaves = planar_grid::loadOctoMapLeaves(path);
+    renderer.addCuboids(leaves.occupied, planar_grid::CuboidColorMode::OCCUPANCY);
+    print_info("[done, ");
+    print_value("%g", timer.toc());
+    print_info(" ms : resolution %g m, %zu occupied voxels in %zu boxes, %zu free "
+               "voxels]\n",
+               leaves.resolution_m, leaves.occupied_voxels, leaves.occupied.size(),
+               leaves.free_voxels);
   }
 
   if (!options.snapshot.empty()) {

@@ -2,8 +2,11 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/visualization/scene_renderer.h>
 
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/common/io.h>
 #include <pcl/common/point_tests.h>
 #include <pcl/console/print.h>
+#include <pcl/conversions.h>
 
 #include <vtkActor.h>
 #include <vtkCamera.h>
@@ -491,6 +494,106 @@ SceneRenderer::addCuboids(const PlanarCuboids& cuboids,
     actor->GetProperty()->SetDiffuse(1.0 - CUBOID_AMBIENT);
   }
   impl_->renderer->AddActor(actor);
+}
+
+std::size_t
+SceneRenderer::addPolygonMesh(const pcl::PolygonMesh& mesh, double opacity)
+{
+  if (!(opacity > 0.0 && opacity <= 1.0))
+    throw Exception("[planar_grid::SceneRenderer::addPolygonMesh] opacity must be in "
+                    "(0, 1], got "
+                    + std::to_string(opacity));
+  if (pcl::getFieldIndex(mesh.cloud, "x") < 0 || pcl::getFieldIndex(mesh.cloud, "y") < 0
+      || pcl::getFieldIndex(mesh.cloud, "z") < 0)
+    throw Exception("[planar_grid::SceneRenderer::addPolygonMesh] the mesh's vertices "
+                    "have no x, y, z fields");
+  const bool has_rgb = pcl::getFieldIndex(mesh.cloud, "rgb") >= 0
+                       || pcl::getFieldIndex(mesh.cloud, "rgba") >= 0;
+  pcl::PointCloud<pcl::PointXYZRGB> vertices;
+  if (has_rgb) {
+    pcl::fromPCLPointCloud2(mesh.cloud, vertices);
+  } else {
+    pcl::PointCloud<pcl::PointXYZ> xyz;
+    pcl::fromPCLPointCloud2(mesh.cloud, xyz);
+    pcl::copyPointCloud(xyz, vertices);
+  }
+  const auto n = static_cast<vtkIdType>(vertices.size());
+  if (n == 0)
+    return 0;
+  vtkNew<vtkPoints> points;
+  points->SetDataTypeToFloat();
+  points->SetNumberOfPoints(n);
+  std::vector<float> heights;
+  heights.reserve(vertices.size());
+  for (vtkIdType k = 0; k < n; ++k) {
+    const auto& p = vertices[static_cast<std::size_t>(k)];
+    points->SetPoint(k, p.x, p.y, p.z);
+    if (std::isfinite(p.z))
+      heights.push_back(p.z);
+  }
+  vtkNew<vtkUnsignedCharArray> colors;
+  colors->SetNumberOfComponents(3);
+  colors->SetNumberOfTuples(n);
+  unsigned char* c = colors->WritePointer(0, 3 * n);
+  float lo = 0.0f, hi = 0.0f;
+  if (!heights.empty())
+    std::tie(lo, hi) = robustRange(heights);
+  for (vtkIdType k = 0; k < n; ++k) {
+    const auto& p = vertices[static_cast<std::size_t>(k)];
+    std::array<unsigned char, 3> color{p.r, p.g, p.b};
+    if (!has_rgb)
+      color = turbo(TURBO_LOW + (TURBO_HIGH - TURBO_LOW) * rampFraction(p.z, lo, hi));
+    c[3 * k] = color[0];
+    c[3 * k + 1] = color[1];
+    c[3 * k + 2] = color[2];
+  }
+  vtkNew<vtkCellArray> cells;
+  std::size_t faces = 0;
+  std::vector<vtkIdType> ids;
+  for (const auto& polygon : mesh.polygons) {
+    ids.clear();
+    bool finite = true;
+    for (const auto index : polygon.vertices) {
+      if (index < 0 || index >= n)
+        throw Exception("[planar_grid::SceneRenderer::addPolygonMesh] a polygon "
+                        "refers to vertex "
+                        + std::to_string(index) + " of " + std::to_string(n));
+      finite = finite && pcl::isFinite(vertices[static_cast<std::size_t>(index)]);
+      ids.push_back(static_cast<vtkIdType>(index));
+    }
+    if (!finite || ids.size() < 3)
+      continue;
+    cells->InsertNextCell(static_cast<vtkIdType>(ids.size()), ids.data());
+    ++faces;
+  }
+  vtkNew<vtkPolyData> poly;
+  poly->SetPoints(points);
+  if (mesh.polygons.empty()) {
+    for (vtkIdType k = 0; k < n; ++k)
+      if (pcl::isFinite(vertices[static_cast<std::size_t>(k)]))
+        cells->InsertNextCell(1, &k);
+    poly->SetVerts(cells);
+  } else {
+    poly->SetPolys(cells);
+  }
+  poly->GetPointData()->SetScalars(colors);
+  vtkNew<vtkPolyDataMapper> mapper;
+  mapper->SetInputData(poly);
+  mapper->ScalarVisibilityOn();
+  mapper->SetColorModeToDirectScalars();
+  mapper->SetScalarModeToUsePointData();
+  vtkNew<vtkActor> actor;
+  actor->SetMapper(mapper);
+  actor->GetProperty()->SetOpacity(opacity);
+  if (mesh.polygons.empty()) {
+    actor->GetProperty()->SetPointSize(2.0f);
+    actor->GetProperty()->LightingOff();
+  } else {
+    actor->GetProperty()->SetAmbient(CUBOID_AMBIENT);
+    actor->GetProperty()->SetDiffuse(1.0 - CUBOID_AMBIENT);
+  }
+  impl_->renderer->AddActor(actor);
+  return faces;
 }
 
 MapRenderSummary

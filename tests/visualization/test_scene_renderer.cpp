@@ -3,6 +3,8 @@
 #include <planar_grid/visualization/scene_renderer.h>
 #include <planar_grid/visualization/street_camera.h>
 
+#include <pcl/conversions.h>
+
 #include <gtest/gtest.h>
 #include <unistd.h>
 #include <vtkImageData.h>
@@ -17,6 +19,8 @@
 #include <filesystem>
 #include <limits>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace {
 
@@ -223,6 +227,45 @@ TEST_F(SceneRendererTest, CuboidsRenderWhereTheyAreAndNonPlanarIsGrey)
   EXPECT_TRUE(isBlack(image.at(160, 120))) << "nothing between the two";
   EXPECT_TRUE(isBlack(image.at(160, 10)));
   EXPECT_THROW(renderer.addCuboids(cuboids, false, 0.0), planar_grid::Exception);
+}
+
+TEST_F(SceneRendererTest, PolygonMeshRendersItsVertexColoursWhereItIs)
+{
+  // A 2 m x 2 m square of two triangles at z = 0, red vertices, centred on x = -1 m:
+  // from the top camera (5.36 m across 240 px) it covers image x = 160 - 2 / 5.36 *
+  // 240 = 70 px to 160 px; the right half of the image stays black.
+  pcl::PointCloud<pcl::PointXYZRGB> vertices;
+  for (const auto& [x, y] : std::vector<std::pair<float, float>>{
+         {-2.0f, -1.0f}, {0.0f, -1.0f}, {0.0f, 1.0f}, {-2.0f, 1.0f}}) {
+    pcl::PointXYZRGB p;
+    p.x = x;
+    p.y = y;
+    p.z = 0.0f;
+    p.r = 255;
+    p.g = p.b = 0;
+    vertices.push_back(p);
+  }
+  pcl::PolygonMesh mesh;
+  pcl::toPCLPointCloud2(vertices, mesh.cloud);
+  mesh.polygons.resize(2);
+  mesh.polygons[0].vertices = {0, 1, 2};
+  mesh.polygons[1].vertices = {0, 2, 3};
+  planar_grid::SceneRenderer renderer;
+  EXPECT_EQ(renderer.addPolygonMesh(mesh), 2u);
+  renderer.setCamera(topCamera());
+  const std::string path = (dir_ / "mesh.png").string();
+  renderer.saveSnapshot(path, 320, 240);
+  const Image image = readPNG(path);
+  const auto inside = image.at(115, 120);
+  EXPECT_GT(inside[0], 80);
+  EXPECT_LT(inside[1], 30);
+  EXPECT_LT(inside[2], 30);
+  EXPECT_TRUE(isBlack(image.at(250, 120)));
+  EXPECT_TRUE(isBlack(image.at(40, 120)));
+  // a vertex index past the end, a bad opacity
+  mesh.polygons[1].vertices = {0, 2, 4};
+  EXPECT_THROW(renderer.addPolygonMesh(mesh), planar_grid::Exception);
+  EXPECT_THROW(renderer.addPolygonMesh(mesh, 0.0), planar_grid::Exception);
 }
 
 TEST_F(SceneRendererTest, SnapshotIntoMissingFolderThrowsAndLeavesNothing)

@@ -4,6 +4,7 @@
 #include <planar_grid/core/planar_cuboid.h>
 #include <planar_grid/map/planar_grid_map.h>
 
+#include <pcl/PolygonMesh.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
@@ -140,6 +141,16 @@ public:
                           double unknown_opacity = 0.15,
                           std::size_t max_voxel_boxes = 2000000);
 
+  /** \brief Adds a polygon mesh (e.g. a PLY file read with loadPLYMesh()) as one
+   * actor: its faces coloured per vertex by the mesh's rgb fields when it has them
+   * (PLY red / green / blue), else by height (the ColorMode::HEIGHT ramp). A mesh
+   * without polygons draws its vertices as points. Faces with a non-finite vertex are
+   * skipped. \param[in] mesh vertices in mesh.cloud (x, y, z in metres, optional rgb
+   * or rgba), polygons as indices into them \param[in] opacity in (0, 1] \return the
+   * number of faces drawn \throws planar_grid::Exception when opacity is outside (0,
+   * 1], the cloud has no x, y, z or a polygon refers to a missing vertex */
+  std::size_t addPolygonMesh(const pcl::PolygonMesh& mesh, double opacity = 1.0);
+
   /** \brief Adds a polyline through camera positions (world frame, metres).
    * \param[in] positions the positions in order
    * \param[in] rgb line colour, components in [0, 1]
@@ -207,14 +218,16 @@ private:
  * \ingroup visualization */
 bool hasDisplay();
 
-/** \brief Makes sure VTK can render: returns when a display is available; otherwise,
- * when `xvfb-run` is on the PATH, re-executes the current program under `xvfb-run -a`
- * with the same arguments (it does not return then); otherwise throws
- * planar_grid::Exception saying to install xvfb and run the command under `xvfb-run
- * -a`. Never lets VTK abort the process for lack of a display. The re-executed program
- * has PLANAR_GRID_UNDER_XVFB=1 in its environment; when that is set and there is still
- * no display, it throws instead of re-executing again. \param[in] argc the argument
- * count, as given to main \param[in] argv the program's arguments, as given to main
+/** \brief Makes sure VTK can render: returns when a display is available; otherwise
+ * starts `Xvfb -displayfd` as a child of this process, sets DISPLAY to the display it
+ * picked and returns; otherwise throws planar_grid::Exception saying to install xvfb
+ * and run the command under `xvfb-run -a`. Never lets VTK abort the process for lack
+ * of a display. The program is not re-executed under a wrapper: its exit code is its
+ * own, and the kernel stops the server when the program ends, however it ends
+ * (PR_SET_PDEATHSIG), so that no Xvfb outlives it. Call it from the main thread (the
+ * server gets SIGTERM when the thread that started it ends).
+ * \param[in] argc the argument count, as given to main (unused; kept for callers)
+ * \param[in] argv the program's arguments, as given to main (unused)
  * \throws planar_grid::Exception when no display can be provided
  * \ingroup visualization */
 void ensureDisplay(int argc, char** argv);
