@@ -79,3 +79,40 @@ def test_example_builds_the_open3d_geometry_headless(wall_map):
     assert done.returncode == 0, done.stderr
     assert f"{len(m.cuboids)} cuboids" in done.stdout
     assert f"mesh of {12 * len(m.cuboids)} triangles" in done.stdout
+
+
+def test_office1_mapped_from_open3d_in_a_dozen_lines(data_dir, tmp_path):
+    """python/examples/map_pcd_with_open3d.py on PCL's office1.pcd (loaded by Open3D):
+    every scan point is in an occupied voxel, every planar cuboid lies on its plane, the
+    planes hold their inliers, and the saved map loads back equal."""
+    o3d = pytest.importorskip("open3d")  # the example needs Debian's python3-open3d
+    spec = importlib.util.spec_from_file_location(
+        "map_pcd_with_open3d", SOURCE_DIR / "python" / "examples" / "map_pcd_with_open3d.py")
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    scan = str(data_dir / "pcl_clouds" / "office1.pcd")
+    planes, cuboids, m = example.map_scan(scan, resolution_m=0.05)
+    camera = np.asarray(o3d.io.read_point_cloud(scan, remove_nan_points=True).points)
+    points = np.column_stack([camera[:, 2], -camera[:, 0], -camera[:, 1]])
+    assert len(points) > 100000
+    states = m.get_state(points)
+    assert np.mean(states == pg.SpaceState.OCCUPIED) > 0.99
+    coefficients = planes.model_coefficients
+    assert len(coefficients) >= 3
+    for k, inliers in enumerate(planes.inliers):
+        assert len(inliers) >= 2000
+        distances = np.abs(points[inliers] @ coefficients[k, :3] + coefficients[k, 3])
+        # eq. 11 selects within d_T = 0.03 m; the plane is then refitted to them
+        assert np.median(distances) <= 0.03
+        assert np.quantile(distances, 0.99) <= 0.1
+    planar = np.flatnonzero(cuboids.is_planar)
+    assert len(planar) > 0
+    # each box spans its inliers across the plane: the plane passes within the inliers'
+    # reach (0.1 m, as above) of the box's extent along the normal
+    normals = coefficients[cuboids.plane_ids[planar], :3]
+    offsets = coefficients[cuboids.plane_ids[planar], 3]
+    distances = np.abs(np.einsum("ij,ij->i", cuboids.centres[planar], normals) + offsets)
+    assert np.all(distances <= cuboids.extents_m[planar, 2] / 2 + 0.1)
+    path = tmp_path / "office1.pgmap"
+    m.save(path)
+    assert pg.PlanarGridMap.load(path) == m
