@@ -24,6 +24,7 @@
 #include <iomanip>
 #include <sstream>
 
+#include "cloud_blob.h"
 #include "ros_bag_input.h"
 
 namespace planar_grid {
@@ -215,27 +216,11 @@ private:
   StereoCameraModel model_;
 };
 
-/** Reads a PCD file into the working cloud type. PCL's conversion warns once per
- * missing field, so a cloud without intensity is read as the fields it has: colour
- * becomes the grey intensity (pcl::PointXYZRGBtoXYZI), bare XYZ gets intensity 0. */
 void
-loadPCDCloud(const std::string& path, Frame::Cloud& cloud)
+intensityCloudFromBlob(const pcl::PCLPointCloud2& blob, Frame::Cloud& cloud)
 {
-  // PCL's reader trusts the header: checked first (points declared against the data
-  // held, x/y/z present, the compressed sizes, the VIEWPOINT).
-  checkPCDFile(path);
-  // Read the blob first: PCL's conversion indexes point 0 of an empty cloud (UB that
-  // UBSan reports), so a PCD without points is converted only when it has some.
-  pcl::PCLPointCloud2 blob;
-  int read = -1;
-  try {
-    read = pcl::io::loadPCDFile(path, blob);
-  } catch (const std::exception& e) {
-    throw IOError(path + ": cannot read the PCD file (" + e.what() + ")");
-  }
-  if (read < 0)
-    throw IOError(path + ": cannot read the PCD file");
   cloud.clear();
+  // PCL's conversion indexes point 0 even of an empty cloud (UB that UBSan reports).
   if (static_cast<std::size_t>(blob.width) * blob.height == 0)
     return;
   const auto has = [&blob](const std::string& name) {
@@ -258,6 +243,29 @@ loadPCDCloud(const std::string& path, Frame::Cloud& cloud)
     pcl::fromPCLPointCloud2(blob, xyz);
     pcl::copyPointCloud(xyz, cloud);
   }
+}
+
+/** Reads a PCD file into the working cloud type. PCL's conversion warns once per
+ * missing field, so a cloud without intensity is read as the fields it has: colour
+ * becomes the grey intensity (pcl::PointXYZRGBtoXYZI), bare XYZ gets intensity 0. */
+void
+loadPCDCloud(const std::string& path, Frame::Cloud& cloud)
+{
+  // PCL's reader trusts the header: checked first (points declared against the data
+  // held, x/y/z present, the compressed sizes, the VIEWPOINT).
+  checkPCDFile(path);
+  // Read the blob first: PCL's conversion indexes point 0 of an empty cloud (UB that
+  // UBSan reports), so a PCD without points is converted only when it has some.
+  pcl::PCLPointCloud2 blob;
+  int read = -1;
+  try {
+    read = pcl::io::loadPCDFile(path, blob);
+  } catch (const std::exception& e) {
+    throw IOError(path + ": cannot read the PCD file (" + e.what() + ")");
+  }
+  if (read < 0)
+    throw IOError(path + ": cannot read the PCD file");
+  intensityCloudFromBlob(blob, cloud);
 }
 
 class PCDFileSource : public FrameSourceBase {

@@ -22,6 +22,7 @@
 #include <mutex>
 #include <sstream>
 
+#include "cloud_blob.h"
 #include "ros_bag_input.h"
 
 namespace planar_grid {
@@ -182,26 +183,7 @@ cloudFromMessage(const sensor_msgs::PointCloud2& msg,
         > blob.point_step)
       throw IOError(where + ": the PointCloud2 field '" + f.name
                     + "' lies outside its point_step");
-  cloud.clear();
-  // PCL's conversion indexes point 0 even of an empty cloud.
-  if (points == 0)
-    return;
-  if (has("intensity"))
-    pcl::fromPCLPointCloud2(blob, cloud);
-  else if (has("rgb") || has("rgba")) {
-    pcl::PointCloud<pcl::PointXYZRGB> colour;
-    pcl::fromPCLPointCloud2(blob, colour);
-    cloud.resize(colour.size());
-    for (std::size_t i = 0; i < colour.size(); ++i)
-      pcl::PointXYZRGBtoXYZI(colour[i], cloud[i]);
-    cloud.width = colour.width;
-    cloud.height = colour.height;
-    cloud.is_dense = colour.is_dense;
-  } else {
-    pcl::PointCloud<pcl::PointXYZ> xyz;
-    pcl::fromPCLPointCloud2(blob, xyz);
-    pcl::copyPointCloud(xyz, cloud);
-  }
+  intensityCloudFromBlob(blob, cloud);
 }
 
 /** The transforms of /tf and /tf_static, by child frame: parent_T_child over time. */
