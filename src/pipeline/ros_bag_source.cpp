@@ -5,7 +5,6 @@
 #include <pcl/common/io.h>
 #include <pcl/console/print.h>
 #include <pcl/conversions.h>
-#include <pcl/point_types_conversion.h>
 
 #include <opencv2/imgproc.hpp>
 #include <rosbag/bag.h>
