@@ -11,9 +11,6 @@
 
 namespace planar_grid {
 
-/** \brief True when this build reads ROS 1 bags (Debian's rosbag_storage was found). */
-bool rosBagSupported();
-
 /** \brief Parses an input map of type ros_bag (docs/INPUTS.md): the bag file, the
  * stereo topics (images and CameraInfo) or the PointCloud2 topic, frame_count and
  * input.poses (format tf, odometry for stereo, or none).

@@ -220,6 +220,11 @@ struct PipelineConfig {
   OutputConfig output;
 };
 
+/** \brief True when this build reads ROS 1 bags (input.type ros_bag: Debian's
+ * rosbag_storage was found at configure time and PLANAR_GRID_WITH_ROS_BAG is on);
+ * otherwise a ros_bag input is a planar_grid::ConfigError. */
+bool rosBagSupported();
+
 /** \brief Loads and validates a pipeline YAML file strictly: unknown keys,
  * unknown stage types (the message lists the known ones), wrong types and out-of-range
  * values are planar_grid::ConfigError with file:line:col. Relative input paths are
