@@ -96,21 +96,31 @@ struct InputConfig {
   struct RosBag {
     /** \brief The bag file, resolved against the config file's folder. */
     std::string file;
-    /** \brief Stereo: the rectified left and right sensor_msgs/Image topics. */
-    std::string left_image_topic, right_image_topic;
-    /** \brief Stereo: the left and right sensor_msgs/CameraInfo topics; their
-     * projection matrices P give f, cx, cy and B = -P_right[0][3] / P_right[0][0]. */
-    std::string left_info_topic, right_info_topic;
+    /** \brief Stereo: the rectified left sensor_msgs/Image topic. */
+    std::string left_image_topic;
+    /** \brief Stereo: the rectified right sensor_msgs/Image topic. */
+    std::string right_image_topic;
+    /** \brief Stereo: the left sensor_msgs/CameraInfo topic; its projection matrix P
+     * gives f, cx and cy. */
+    std::string left_info_topic;
+    /** \brief Stereo: the right sensor_msgs/CameraInfo topic; B = -P_right[0][3] /
+     * P_right[0][0]. */
+    std::string right_info_topic;
     /** \brief Stereo: a left and a right image pair up when their header stamps
      * differ by at most this, seconds (0: equal stamps). */
     double pair_tolerance_s{0.0};
     /** \brief Clouds: the sensor_msgs/PointCloud2 topic. */
     std::string cloud_topic;
-    /** \brief Poses (input.poses.format tf): the tf2_msgs/TFMessage topics read; the
-     * frames' pose is parent_frame_T_child_frame through the chain of transforms. */
-    std::string tf_topic{"/tf"}, tf_static_topic{"/tf_static"};
-    /** \brief Poses: the world frame (z up) and the camera's (or sensor's) frame. */
-    std::string parent_frame, child_frame;
+    /** \brief Poses (input.poses.format tf): the tf2_msgs/TFMessage topic of moving
+     * transforms; the frames' pose is parent_frame_T_child_frame through the chain of
+     * transforms. */
+    std::string tf_topic{"/tf"};
+    /** \brief Poses: the tf2_msgs/TFMessage topic of static transforms. */
+    std::string tf_static_topic{"/tf_static"};
+    /** \brief Poses: the world frame (z up). */
+    std::string parent_frame;
+    /** \brief Poses: the camera's (or sensor's) frame. */
+    std::string child_frame;
     /** \brief Poses: how far a frame's stamp may lie outside a transform's samples,
      * seconds (between samples the transform is interpolated). */
     double tf_tolerance_s{0.05};
