@@ -13,12 +13,9 @@ BUILD_DIR=${BUILD_DIR:-build-asan}
 JOBS=${JOBS:-2}
 start=$(date +%s)
 
-# The ROS 1 bag input is left out here, as the Python module is: rosbag_storage loads its
-# plugins through pluginlib / class_loader, uninstrumented libraries whose allocations
-# outlive the process; the bag reader's tests run in the Release suite.
 echo "run_sanitizers: configuring $BUILD_DIR (-DPLANAR_GRID_SANITIZE=ON, RelWithDebInfo)"
 cmake -S . -B "$BUILD_DIR" -DPLANAR_GRID_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DPLANAR_GRID_WITH_ROS_BAG=OFF >/dev/null
+  >/dev/null
 echo "run_sanitizers: building (-j$JOBS)"
 cmake --build "$BUILD_DIR" -j "$JOBS"
 
