@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/input_file.h>
 #include <planar_grid/core/pcd_file_check.h>
 
 #include <pcl/PCLPointCloud2.h>
@@ -11,7 +12,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <sstream>
@@ -243,17 +243,7 @@ countDataLines(const std::string& path, std::uint64_t offset)
 PCDFileInfo
 checkPCDFile(const std::string& path)
 {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  if (!fs::exists(path, ec))
-    throw IOError(path + ": no such file");
-  if (!fs::is_regular_file(path, ec))
-    throw IOError(path + ": not a regular file");
-  const std::uintmax_t file_size = fs::file_size(path, ec);
-  if (ec)
-    throw IOError(path + ": cannot read its size: " + ec.message());
-  if (file_size == 0)
-    throw IOError(path + ": not a PCD file: the file is empty (0 bytes)");
+  const std::uintmax_t file_size = checkInputFile(path, "a PCD file");
 
   HeaderText text;
   {

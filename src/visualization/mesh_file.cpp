@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/input_file.h>
 #include <planar_grid/visualization/mesh_file.h>
 
 #include <pcl/common/io.h>
@@ -8,7 +9,6 @@
 #include <cerrno>
 #include <cstdint>
 #include <cstring>
-#include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -48,17 +48,7 @@ struct Element {
 void
 checkPLYFile(const std::string& path)
 {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  if (!fs::exists(path, ec))
-    throw IOError(path + ": no such file");
-  if (!fs::is_regular_file(path, ec))
-    throw IOError(path + ": not a regular file");
-  const std::uintmax_t file_size = fs::file_size(path, ec);
-  if (ec)
-    throw IOError(path + ": cannot read its size: " + ec.message());
-  if (file_size == 0)
-    throw IOError(path + ": not a PLY file: the file is empty (0 bytes)");
+  const std::uintmax_t file_size = checkInputFile(path, "a PLY file");
   std::ifstream in(path, std::ios::binary);
   if (!in)
     throw IOError(path + ": cannot be opened: " + std::strerror(errno));

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/input_file.h>
 #include <planar_grid/visualization/octomap_file.h>
 
 #include <octomap/AbstractOcTree.h>
@@ -9,7 +10,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <memory>
@@ -165,12 +165,7 @@ readHeader(const std::string& path, const std::vector<char>& bytes)
 std::vector<char>
 readAll(const std::string& path)
 {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  if (!fs::exists(path, ec))
-    throw IOError(path + ": no such file");
-  if (!fs::is_regular_file(path, ec))
-    throw IOError(path + ": not a regular file");
+  checkInputFile(path, "an OctoMap file");
   std::ifstream in(path, std::ios::binary);
   if (!in)
     throw IOError(path + ": cannot be opened: " + std::strerror(errno));
