@@ -1,12 +1,15 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Writing an octomap::OcTree built by the map's export: the pruning both layers use and
-// the choice between OctoMap's two file formats. Private to src/map.
+// Writing an octomap::OcTree built by the map's export: the pruning both layers use,
+// the choice between OctoMap's two file formats and the count of what was written.
+// Private to src/map.
 #pragma once
 
 #include <planar_grid/core/atomic_file.h>
+#include <planar_grid/map/planar_grid_map.h>
 
 #include <octomap/OcTree.h>
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
 
@@ -34,21 +37,51 @@ isFullFormat(const std::string& path)
   return std::filesystem::path(path).extension() == ".ot";
 }
 
+/** \brief The nodes, leaves and voxels of \a tree, counted as liboctomap counts a tree
+ * it reads (OcTree::size(), getNumLeafNodes(), isNodeOccupied() per leaf; a leaf at
+ * depth d holds 8^(tree depth - d) voxels). */
+inline OctoMapExportSummary
+summarize(const octomap::OcTree& tree)
+{
+  OctoMapExportSummary summary;
+  summary.nodes = tree.size();
+  summary.leaf_nodes = tree.getNumLeafNodes();
+  const unsigned tree_depth = tree.getTreeDepth();
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+    const std::uint64_t voxels = std::uint64_t{1} << (3 * (tree_depth - it.getDepth()));
+    if (tree.isNodeOccupied(*it)) {
+      ++summary.occupied_leaves;
+      summary.occupied_voxels += voxels;
+    } else {
+      ++summary.free_leaves;
+      summary.free_voxels += voxels;
+    }
+  }
+  return summary;
+}
+
 /** \brief Prunes \a tree completely and writes it atomically: ".ot" as OctoMap's full
  * format (AbstractOcTree::write: every node's log-odds as a float), anything else as
  * the binary format (OcTree::writeBinary: the maximum-likelihood free / occupied state
- * of each node, 2 bits). The binary write converts \a tree to maximum likelihood.
+ * of each node, 2 bits). For the binary format \a tree is converted to maximum
+ * likelihood before the pruning, so that nodes whose voxels differ in log-odds but
+ * not in state collapse too (writeBinary's own prune() stops at the first depth where
+ * nothing collapses).
+ * \return what the file holds (summarize() of the tree as written)
  * \throws planar_grid::IOError when the file cannot be written */
-inline void
+inline OctoMapExportSummary
 write(octomap::OcTree& tree, const std::string& path)
 {
+  const bool full = isFullFormat(path);
+  if (!full)
+    tree.toMaxLikelihood();
   tree.updateInnerOccupancy();
   if (tree.getRoot() != nullptr)
     pruneSubtree(tree, tree.getRoot());
-  const bool full = isFullFormat(path);
   writeFileAtomically(path, [&tree, full](const std::string& temporary) {
     return full ? tree.write(temporary) : tree.writeBinary(temporary);
   });
+  return summarize(tree);
 }
 
 } // namespace octomap_writer

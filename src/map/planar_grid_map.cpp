@@ -346,7 +346,7 @@ PlanarGridMap::serialize(std::string& bytes) const
   bytes.append(reinterpret_cast<const char*>(data.data()), data.size());
 }
 
-void
+OctoMapExportSummary
 PlanarGridMap::exportOctoMap(const std::string& path) const
 {
   const double res = getResolution();
@@ -382,7 +382,9 @@ PlanarGridMap::exportOctoMap(const std::string& path) const
     PCL_WARN("[planar_grid::PlanarGridMap::exportOctoMap] %zu voxels outside "
              "OctoMap's 2^16-voxel key range left out.\n",
              skipped);
-  octomap_writer::write(tree, path);
+  OctoMapExportSummary summary = octomap_writer::write(tree, path);
+  summary.skipped_voxels = skipped;
+  return summary;
 }
 
 void

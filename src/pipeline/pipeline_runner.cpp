@@ -405,6 +405,11 @@ RunReport::toJson() const
     for (const auto& [name, value] : map_summary)
       jm[name] = value;
   }
+  if (!map_octomap_summary.empty()) {
+    auto& jm = j["map_octomap"] = nlohmann::ordered_json::object();
+    for (const auto& [name, value] : map_octomap_summary)
+      jm[name] = value;
+  }
   auto& jo = j["outputs"] = nlohmann::ordered_json::object();
   for (const auto& [kind, path] : outputs)
     jo[kind] = path;
@@ -471,6 +476,12 @@ RunReport::timingTable() const
     for (const auto& [name, value] : map_summary)
       out << " " << name << " " << std::setprecision(name == "resolution_m" ? 2 : 0)
           << value;
+    out << "\n";
+  }
+  if (!map_octomap_summary.empty()) {
+    out << "map_octomap:";
+    for (const auto& [name, value] : map_octomap_summary)
+      out << " " << name << " " << std::setprecision(0) << value;
     out << "\n";
   }
   return out.str();

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/atomic_file.h>
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/run_outputs.h>
 
 #include <pcl/io/pcd_io.h>
@@ -67,11 +68,23 @@ writeOutputs(const OutputConfig& output,
     if (!output.map.empty())
       report.outputs.emplace_back(
         "map", write(output.map, [&map](const std::string& path) { map->save(path); }));
-    if (!output.map_octomap.empty())
+    if (!output.map_octomap.empty()) {
+      OctoMapExportSummary written;
       report.outputs.emplace_back(
-        "map_octomap", write(output.map_octomap, [&map](const std::string& path) {
-          map->exportOctoMap(path);
+        "map_octomap",
+        write(output.map_octomap, [&map, &written](const std::string& path) {
+          written = map->exportOctoMap(path);
         }));
+      report.map_octomap_summary = {
+        {"nodes", static_cast<double>(written.nodes)},
+        {"leaf_nodes", static_cast<double>(written.leaf_nodes)},
+        {"occupied_leaves", static_cast<double>(written.occupied_leaves)},
+        {"free_leaves", static_cast<double>(written.free_leaves)},
+        {"occupied_voxels", static_cast<double>(written.occupied_voxels)},
+        {"free_voxels", static_cast<double>(written.free_voxels)},
+        {"skipped_voxels", static_cast<double>(written.skipped_voxels)},
+      };
+    }
     if (!output.map_mesh.empty())
       report.outputs.emplace_back(
         "map_mesh", write(output.map_mesh,

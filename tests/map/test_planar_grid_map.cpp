@@ -431,7 +431,7 @@ TEST_F(PlanarGridMapTest, OctoMapExportKeepsObservedSpaceAndCuboidProbabilities)
 
   for (const std::string name : {"map.ot", "map.bt"}) {
     const std::string file = path(name);
-    map.exportOctoMap(file);
+    const planar_grid::OctoMapExportSummary written = map.exportOctoMap(file);
     std::unique_ptr<octomap::OcTree> tree;
     if (name == "map.ot") {
       tree.reset(dynamic_cast<octomap::OcTree*>(octomap::AbstractOcTree::read(file)));
@@ -441,6 +441,16 @@ TEST_F(PlanarGridMapTest, OctoMapExportKeepsObservedSpaceAndCuboidProbabilities)
     }
     ASSERT_TRUE(tree) << name;
     EXPECT_DOUBLE_EQ(tree->getResolution(), res);
+    // What the export says it wrote is what liboctomap reads.
+    EXPECT_EQ(written.nodes, tree->size()) << name;
+    EXPECT_EQ(written.leaf_nodes, tree->getNumLeafNodes()) << name;
+    std::size_t expected_occupied = 0;
+    for (const auto& entry : expected)
+      expected_occupied += entry.second >= 0.0f ? 1 : 0;
+    EXPECT_EQ(written.occupied_voxels, expected_occupied) << name;
+    EXPECT_EQ(written.free_voxels, expected.size() - expected_occupied) << name;
+    EXPECT_EQ(written.occupied_leaves + written.free_leaves, written.leaf_nodes);
+    EXPECT_EQ(written.skipped_voxels, 0u);
     // Every oracle voxel is in the tree with its value; the never-observed and the
     // occluded voxels are not.
     for (const auto& [k, log_odds] : expected) {

@@ -23,6 +23,31 @@ struct MapMemory {
   std::size_t total_bytes{0};
 };
 
+/** \brief What PlanarGridMap::exportOctoMap() wrote, counted in the octree as written
+ * (after pruning, and for .bt after the conversion to maximum likelihood) the way
+ * liboctomap counts a tree it reads from that file. A leaf at depth d stands for
+ * 8^(16 - d) voxels of resolution_m (a pruned node of uniform state); occupied means
+ * OcTree::isNodeOccupied at the exported tree's occupancy_thres. \ingroup map */
+struct OctoMapExportSummary {
+  /** \brief Every node of the tree, inner and leaf (OcTree::size(), the file's "size").
+   */
+  std::size_t nodes{0};
+  /** \brief OcTree::getNumLeafNodes(). */
+  std::size_t leaf_nodes{0};
+  /** \brief Leaves that are occupied. */
+  std::size_t occupied_leaves{0};
+  /** \brief Leaves that are free (observed free space, cuboids below occupancy_thres).
+   */
+  std::size_t free_leaves{0};
+  /** \brief Voxels of resolution_m under the occupied leaves. */
+  std::uint64_t occupied_voxels{0};
+  /** \brief Voxels of resolution_m under the free leaves. */
+  std::uint64_t free_voxels{0};
+  /** \brief Voxels of the map outside OctoMap's key range (2^16 voxels along each
+   * axis, centred on the origin), left out of the file. */
+  std::uint64_t skipped_voxels{0};
+};
+
 /** \brief The planar grid map of Zhang et al. (Sec. III-F, Fig. 5c, Sec. IV): a surface
  * layer of plane-aligned cuboids with occupancy probabilities (SurfaceLayer) and an
  * explicit space layer of free / occupied / unknown voxels inside the camera views
@@ -172,9 +197,11 @@ public:
    * \param[in] path ".ot": OctoMap's full format (AbstractOcTree::write), which keeps
    * each voxel's log-odds (a float); any other name (".bt"): the binary format
    * (OcTree::writeBinary), which keeps the maximum-likelihood state only (occupied
-   * where p >= occupancy_thres, else free)
+   * where p >= occupancy_thres, else free); a reader of a .ot file judges occupancy at
+   * its own threshold (liboctomap's default 0.5)
+   * \return the nodes, leaves and voxels the file holds
    * \throws planar_grid::IOError when the file cannot be written */
-  void exportOctoMap(const std::string& path) const;
+  OctoMapExportSummary exportOctoMap(const std::string& path) const;
   /** \brief Writes the cuboids as .ply or .vtk (SurfaceLayer::exportMesh). */
   void exportMesh(const std::string& path) const { surface_.exportMesh(path); }
 

@@ -69,6 +69,12 @@ struct RunReport {
   /** \brief Figures of the map at the end (map_integration stage): cell counts and
    * memory in bytes, by name; empty without a map. */
   std::vector<std::pair<std::string, double>> map_summary;
+  /** \brief What the OctoMap export (output.map_octomap) wrote, by name: nodes,
+   * leaf_nodes, occupied_leaves, free_leaves, occupied_voxels, free_voxels,
+   * skipped_voxels (OctoMapExportSummary), as liboctomap counts the file's tree; the
+   * .bt holds the cuboids' voxels over the space layer's, so its counts differ from
+   * map_summary's. Filled by writeRunOutputs(); empty without that output. */
+  std::vector<std::pair<std::string, double>> map_octomap_summary;
   /** \brief Peak resident memory of the process at the end of the run (getrusage
    * ru_maxrss), bytes. */
   std::uint64_t peak_rss_bytes{0};
