@@ -5,6 +5,7 @@
 #include <planar_grid/pipeline/frame_source.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
+#include <planar_grid/pipeline/run_outputs.h>
 #include <planar_grid/stereo/calibration_io.h>
 
 #include <pcl/PCLPointCloud2.h>
@@ -23,7 +24,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
+
+#include "main_job_stages.h"
 
 namespace fs = std::filesystem;
 using planar_grid::parsePipelineConfig;
@@ -284,6 +288,77 @@ TEST_F(RosBagInputTest, StereoBagGivesTheFramesOfTheImageFiles)
               1e-9);
   ASSERT_GT(files.state().world_cloud->size(), 1000u);
   EXPECT_EQ(run.state().world_cloud->size(), files.state().world_cloud->size());
+}
+
+/** The bytes of the file at \a path. */
+std::string
+fileBytes(const fs::path& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  EXPECT_TRUE(in) << path;
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+TEST_F(RosBagInputTest, MainJobMapFromBagEqualsMapFromImageFiles)
+{
+  // Frames 0-9 of the main job's input through its stages, once from the PNG files and
+  // calib.txt with the insdata poses, once from a bag of the same images (mono8), their
+  // CameraInfo and those poses on /tf (world -> camera).
+  constexpr int FRAMES = 10;
+  const std::string stages = planar_grid_test::mainJobStages();
+  const auto output = [this](const std::string& name) {
+    return "output:\n  folder: " + (dir_ / name).string() + "\n  map: map.pgmap\n";
+  };
+  const std::string files_yaml =
+    planar_grid_test::mainJobImageInput(0, FRAMES) + stages + output("files");
+  const auto files_config = parsePipelineConfig(files_yaml, "t.yaml", "/");
+  const auto files_source = planar_grid::createFrameSource(files_config.input);
+  ASSERT_EQ(files_source->size(), static_cast<std::size_t>(FRAMES));
+
+  const std::string path = (dir_ / "main_job.bag").string();
+  {
+    rosbag::Bag bag(path, rosbag::bagmode::Write);
+    for (int k = 0; k < FRAMES; ++k) {
+      planar_grid::Frame frame;
+      files_source->load(static_cast<std::size_t>(k), frame);
+      ASSERT_TRUE(frame.has_pose);
+      const auto& c = frame.calibration;
+      const double t = T0 + 0.1 * k;
+      char index[32];
+      std::snprintf(index, sizeof(index), "%06d.png", k);
+      bag.write("/left/camera_info", ros::Time(t), cameraInfo(c, 0.0, t));
+      bag.write("/right/camera_info", ros::Time(t),
+                cameraInfo(c, -c.focal_length_px * c.baseline_m, t));
+      bag.write("/left/image_rect", ros::Time(t),
+                imageMessage(KARLSRUHE + "/left/I1_" + index, t, "camera"));
+      bag.write("/right/image_rect", ros::Time(t + 0.002),
+                imageMessage(KARLSRUHE + "/right/I2_" + index, t + 0.002, "camera"));
+      tf2_msgs::TFMessage tf;
+      tf.transforms.push_back(transform("world", "camera", frame.world_T_camera, t));
+      bag.write("/tf", ros::Time(t), tf);
+    }
+    bag.close();
+  }
+  const std::string bag_yaml =
+    stereoInput(path,
+                "  poses: {format: tf, parent_frame: world, child_frame: camera}\n")
+    + stages + output("bag");
+  const auto bag_config = parsePipelineConfig(bag_yaml, "t.yaml", "/");
+
+  for (const auto* config : {&files_config, &bag_config}) {
+    planar_grid::PipelineRunner runner(*config);
+    planar_grid::RunReport report = runner.run();
+    ASSERT_EQ(report.frames, static_cast<std::size_t>(FRAMES));
+    ASSERT_TRUE(runner.state().map);
+    ASSERT_GT(runner.state().map->getSurfaceLayer().getCuboids().size(), 0u);
+    planar_grid::writeRunOutputs(config->output, runner, report);
+  }
+  const std::string from_files = fileBytes(dir_ / "files" / "map.pgmap");
+  const std::string from_bag = fileBytes(dir_ / "bag" / "map.pgmap");
+  ASSERT_GT(from_files.size(), 1000u);
+  EXPECT_EQ(from_bag.size(), from_files.size());
+  EXPECT_TRUE(from_bag == from_files)
+    << "map.pgmap from the bag differs from the files'";
 }
 
 TEST_F(RosBagInputTest, CloudBagGivesThePCDCloudAndInterpolatedTfPoses)
