@@ -3,7 +3,8 @@
 # Checks the installed package (issue #9): `cmake --install` of a build into a temporary
 # prefix, then the examples project (examples/) configured with CMAKE_PREFIX_PATH=<prefix>
 # only (never the build tree), built, and run on a real PCL scan; the same example built
-# with pkg-config and the installed planar_grid.pc alone; an installed tool runs and
+# with pkg-config and the installed planar_grid.pc alone, and a pipeline run (every module
+# and the ROS bag input's libraries) linked with it; an installed tool runs and
 # prints its version; an unknown COMPONENT fails with a clear message. Works for static
 # and shared (BUILD_SHARED_LIBS) builds.
 #   bash scripts/check_install.sh [build folder]    (default: $BUILD_DIR, else build/)
@@ -80,6 +81,43 @@ LD_LIBRARY_PATH="$prefix/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}" \
 "$work/examples/segment_planes" "$CLOUD" >"$work/cmake_run.log"
 cmp -s "$work/pc_run.log" "$work/cmake_run.log" \
   || { diff "$work/pc_run.log" "$work/cmake_run.log" >&2; echo "check_install: the pkg-config build prints other results" >&2; exit 1; }
+# A pipeline run through the same flags: the pipeline pulls in every module, the stage
+# registry and the frame sources (the ROS bag one too when built), so with static
+# libraries the link needs every dependency in Libs (shared: --static adds Requires.private
+# and Libs.private, which must resolve too).
+cat >"$work/run_pipeline.cpp" <<'CPP'
+#include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/pipeline_runner.h>
+
+#include <iostream>
+
+int
+main(int argc, char** argv)
+{
+  if (argc != 2)
+    return 2;
+  const std::string yaml = std::string("input:\n  type: pcd_files\n  files: ") + argv[1]
+                           + "\n  poses: {format: none}\npipeline:\n"
+                             "  - type: voxel_grid\n    params: {leaf_size_m: 0.05}\n";
+  planar_grid::PipelineRunner runner(
+    planar_grid::parsePipelineConfig(yaml, "run_pipeline.yaml", "."));
+  const planar_grid::RunReport report = runner.run();
+  std::cout << report.frames << " frame; ROS bags "
+            << (planar_grid::rosBagSupported() ? "on" : "off") << "\n";
+  return report.frames == 1 ? 0 : 1;
+}
+CPP
+pc_flags=(--libs)
+grep -q '^BUILD_SHARED_LIBS:BOOL=ON' "$BUILD_DIR/CMakeCache.txt" && pc_flags=(--static --libs)
+echo "check_install: linking a pipeline run with pkg-config ${pc_flags[*]} planar_grid"
+# shellcheck disable=SC2046  # pkg-config's output is a list of words
+g++ -std=c++17 -O1 -Wall -o "$work/run_pipeline_pc" "$work/run_pipeline.cpp" \
+  $(pkg-config --cflags planar_grid) $(pkg-config "${pc_flags[@]}" planar_grid) \
+  >"$work/pc_pipeline.log" 2>&1 \
+  || { cat "$work/pc_pipeline.log" >&2; pkg-config "${pc_flags[@]}" planar_grid >&2; exit 1; }
+LD_LIBRARY_PATH="$prefix/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}" \
+  "$work/run_pipeline_pc" "$CLOUD" \
+  || { echo "check_install: the pipeline built with pkg-config does not run" >&2; exit 1; }
 unset PKG_CONFIG_PATH
 
 # The Python module, when the build has it: installed, and imported from the prefix alone
