@@ -44,6 +44,10 @@ public:
     segmentation_.setMergeAngleThreshold(v.getDouble("merge_angle_rad"));
     segmentation_.setMergeDistanceThreshold(v.getDouble("merge_distance_m"));
     segmentation_.setSeed(static_cast<unsigned>(v.getInt("seed")));
+    segmentation_.setMaxVisibilityConflictRatio(
+      v.getDouble("max_visibility_conflict_ratio"));
+    segmentation_.setVisibilityMargin(v.getDouble("visibility_margin_m"));
+    segmentation_.setVisibilityCell(v.getDouble("visibility_cell_m"));
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -92,6 +96,14 @@ public:
       inliers += plane.inliers.indices.size();
     values.emplace_back("planes", static_cast<double>(frame.planes.size()));
     values.emplace_back("plane_inliers", static_cast<double>(inliers));
+    if (segmentation_.getMaxVisibilityConflictRatio() > 0.0) {
+      values.emplace_back(
+        "visibility_dropped",
+        static_cast<double>(segmentation_.getVisibilityRejectedCount()));
+      values.emplace_back(
+        "visibility_removed",
+        static_cast<double>(segmentation_.getVisibilityRemovedCount()));
+    }
   }
 
 private:
@@ -323,6 +335,16 @@ multiPlaneSegmentationInfo()
                       "pcd_files input the default is cloud (no stereo features)."),
     ParamSpec::integer("seed", 0, 0, 2147483647, "",
                        "Random seed (reproducible runs)."),
+    ParamSpec::real("max_visibility_conflict_ratio", 0.0, 0.0, 1000.0, "",
+                    "Visibility test: where, around a 3 x 3 cell neighbourhood of a "
+                    "plane's footprint, more than this many points per inlier are seen "
+                    "through the plane or hide it from the camera (a slab through a "
+                    "tree's canopy), those inliers leave the plane; 0 = no test."),
+    ParamSpec::real("visibility_margin_m", 0.3, 0.0, 100.0, "m",
+                    "A point conflicts with a plane only this much (plus its eq. 11 "
+                    "threshold) off it."),
+    ParamSpec::real("visibility_cell_m", 0.2, 0.001, 100.0, "m",
+                    "Cell edge of a plane's footprint in the visibility test."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     return std::make_unique<MultiPlaneSegmentationStage>(v);

@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <functional>
 #include <limits>
+#include <map>
 #include <random>
 #include <set>
 #include <string>
@@ -848,6 +849,9 @@ TEST(SACMultiPlaneSegmentation, InvalidParametersGiveEmptyOutput)
       [](auto& s) { s.setUpAxis(Eigen::Vector3f::Zero()); },
       [](auto& s) { s.setMaxSampleSize(2); },
       [](auto& s) { s.setLocalOptimizationIterations(-1); },
+      [](auto& s) { s.setMaxVisibilityConflictRatio(-0.1); },
+      [](auto& s) { s.setVisibilityMargin(-1.0); },
+      [](auto& s) { s.setVisibilityCell(0.0); },
     };
   for (std::size_t i = 0; i < invalid.size(); ++i) {
     SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
@@ -857,6 +861,175 @@ TEST(SACMultiPlaneSegmentation, InvalidParametersGiveEmptyOutput)
     seg.segment(planes);
     EXPECT_TRUE(planes.empty()) << i;
   }
+}
+
+// A wall 4 x 3 m at 6 m in front of the sensor (at the origin, looking along +z) and,
+// beside it, a "canopy": a 3 m cube of uniformly scattered points at 0.1 m spacing.
+// RANSAC fits slabs through the cube (eq. 11 holds a 0.1 m layer of it), so without
+// the visibility test the canopy gives planes; with it, only the wall is left.
+pcl::PointCloud<pcl::PointXYZ>::Ptr
+wallAndCanopy()
+{
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> jitter(-0.01f, 0.01f), cube(0.0f, 3.0f);
+  for (float x = -5.0f; x < -1.0f; x += 0.05f)
+    for (float y = -1.5f; y < 1.5f; y += 0.05f)
+      cloud->push_back(pcl::PointXYZ(x, y, 6.0f + jitter(rng)));
+  for (int k = 0; k < 27000; ++k)
+    cloud->push_back(
+      pcl::PointXYZ(1.0f + cube(rng), -1.5f + cube(rng), 5.0f + cube(rng)));
+  cloud->sensor_origin_ = Eigen::Vector4f(0, 0, 0, 1);
+  return cloud;
+}
+
+PlanarSegments
+segmentWallAndCanopy(double max_conflict_ratio)
+{
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  seg.setInputCloud(wallAndCanopy());
+  seg.setDistanceThreshold(0.05);
+  seg.setMinInliers(400);
+  seg.setMaxPlanes(4);
+  seg.setMaxVisibilityConflictRatio(max_conflict_ratio);
+  PlanarSegments planes;
+  seg.segment(planes);
+  return planes;
+}
+
+TEST(SACMultiPlaneSegmentation, VisibilityTestTakesOutPlanesThroughAVolumeOnly)
+{
+  // The wall's plane z = 6 also cuts a 0.1 m slab (about 900 points) out of the cube:
+  // points behind and in front of those inliers conflict with them, none with the
+  // wall's. Slabs through the cube that the sensor sees edge-on (lines of sight almost
+  // in the plane) meet few conflicts in their footprint and may stay.
+  const auto isWall = [](const PlanarSegment& p) {
+    const auto& c = p.model_coefficients.values;
+    return std::abs(c[2]) > 0.99f && std::abs(std::abs(c[3]) - 6.0f) < 0.05f;
+  };
+  const std::size_t wall_points = 80 * 60;
+  const auto wallPoints = [&](const PlanarSegment& p) {
+    return static_cast<std::size_t>(
+      std::count_if(p.inliers.indices.begin(), p.inliers.indices.end(),
+                    [&](pcl::index_t i) { return i < static_cast<int>(wall_points); }));
+  };
+  struct Census {
+    const PlanarSegment* wall{nullptr};
+    std::size_t canopy_in_wall{0}, canopy_in_planes{0};
+  };
+  const auto census = [&](const PlanarSegments& planes) {
+    Census c;
+    for (const auto& p : planes) {
+      const std::size_t canopy = p.inliers.indices.size() - wallPoints(p);
+      c.canopy_in_planes += canopy;
+      if (isWall(p)) {
+        c.wall = &p;
+        c.canopy_in_wall = canopy;
+      }
+    }
+    return c;
+  };
+  const PlanarSegments without = segmentWallAndCanopy(0.0);
+  const Census before = census(without);
+  ASSERT_NE(before.wall, nullptr);
+  ASSERT_GE(before.canopy_in_wall, 500u) << "the wall's plane must cut the canopy";
+  ASSERT_GE(before.canopy_in_planes, 2000u) << "RANSAC must find slabs in the canopy";
+
+  const PlanarSegments with = segmentWallAndCanopy(0.5);
+  const Census after = census(with);
+  ASSERT_NE(after.wall, nullptr);
+  EXPECT_GE(wallPoints(*after.wall), wall_points * 98 / 100);
+  EXPECT_LE(after.canopy_in_wall, before.canopy_in_wall / 10);
+  EXPECT_LE(after.canopy_in_planes, before.canopy_in_planes / 2);
+}
+
+TEST(SACMultiPlaneSegmentation, VisibilityConflictsMatchBruteForce)
+{
+  // Random points around a tilted plane seen from a sensor off the origin, denser in
+  // x < 0 (an opaque half: few points behind it) than behind x > 0.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> box(-3.0f, 3.0f), unit(0.0f, 1.0f);
+  planar_grid::detail::DensePoints store, all;
+  for (int k = 0; k < 6000; ++k) {
+    const float x = box(rng), y = box(rng), z = 0.3f * box(rng);
+    if (x < 0.0f && z < -0.2f && unit(rng) < 0.9f)
+      continue;
+    for (auto* d : {&store, &all}) {
+      d->x.push_back(x);
+      d->y.push_back(y);
+      d->z.push_back(z + 0.2f * x);
+      d->index.push_back(k);
+    }
+  }
+  Eigen::Vector4f plane(-0.2f, 0.0f, 1.0f, 0.0f);
+  plane /= plane.head<3>().norm();
+  const Eigen::Vector3f origin(0.5f, -0.4f, 8.0f);
+  ASSERT_GT(plane.head<3>().dot(origin) + plane[3], 0.0f);
+  const float t = 0.05f, margin = 0.2f, cell = 0.25f;
+  const double ratio = 2.0;
+  store.select(plane, t);
+  const std::vector<std::uint8_t> before = store.mask;
+
+  // The same 2D frame as the implementation, from its documented construction.
+  const Eigen::Vector3f n = plane.head<3>();
+  const Eigen::Vector3f u = n.cross(Eigen::Vector3f::UnitX()).normalized();
+  const Eigen::Vector3f v = n.cross(u);
+  const auto cellOf = [&](const Eigen::Vector3f& p) {
+    return std::make_pair(static_cast<long>(std::floor(u.dot(p) / cell)),
+                          static_cast<long>(std::floor(v.dot(p) / cell)));
+  };
+  std::map<std::pair<long, long>, std::pair<std::size_t, std::size_t>> cells;
+  for (std::size_t k = 0; k < store.size(); ++k)
+    if (before[k])
+      ++cells[cellOf(Eigen::Vector3f(store.x[k], store.y[k], store.z[k]))].first;
+  for (std::size_t k = 0; k < all.size(); ++k) {
+    const Eigen::Vector3f q(all.x[k], all.y[k], all.z[k]);
+    const float sq = n.dot(q) + plane[3];
+    if (std::abs(sq) <= margin + t || sq >= n.dot(origin) + plane[3])
+      continue;
+    // Bisection along the line of sight for the crossing: between the sensor and q
+    // when q is behind the plane, beyond q (far enough to be behind) when in front.
+    Eigen::Vector3f a = origin;
+    Eigen::Vector3f b = sq < 0.0f ? q : Eigen::Vector3f(origin + 1e3f * (q - origin));
+    for (int it = 0; it < 60; ++it) {
+      const Eigen::Vector3f m = 0.5f * (a + b);
+      (n.dot(m) + plane[3] > 0.0f ? a : b) = m;
+    }
+    const auto it = cells.find(cellOf(0.5f * (a + b)));
+    if (it != cells.end())
+      ++it->second.second;
+  }
+  std::size_t expected_removed = 0;
+  std::vector<std::uint8_t> expected_mask = before;
+  for (std::size_t k = 0; k < store.size(); ++k) {
+    if (!before[k])
+      continue;
+    const auto c = cellOf(Eigen::Vector3f(store.x[k], store.y[k], store.z[k]));
+    std::size_t inliers = 0, conflicts = 0;
+    for (long di = -1; di <= 1; ++di)
+      for (long dj = -1; dj <= 1; ++dj) {
+        const auto it = cells.find({c.first + di, c.second + dj});
+        if (it != cells.end()) {
+          inliers += it->second.first;
+          conflicts += it->second.second;
+        }
+      }
+    if (static_cast<double>(conflicts) > ratio * static_cast<double>(inliers)) {
+      expected_mask[k] = 0;
+      ++expected_removed;
+    }
+  }
+  ASSERT_GT(expected_removed, 50u);
+  ASSERT_LT(expected_removed, std::count(before.begin(), before.end(), 1) - 50);
+  const std::size_t removed = planar_grid::detail::removeVisibilityConflicts(
+    store, all, t, plane, origin, margin, cell, ratio);
+  // Crossings within float rounding of a cell border may fall either way.
+  EXPECT_NEAR(static_cast<double>(removed), static_cast<double>(expected_removed),
+              0.02 * static_cast<double>(expected_removed));
+  std::size_t disagreements = 0;
+  for (std::size_t k = 0; k < store.size(); ++k)
+    disagreements += store.mask[k] != expected_mask[k] ? 1 : 0;
+  EXPECT_LE(disagreements, expected_removed / 50 + 1);
 }
 
 } // namespace

@@ -298,6 +298,51 @@ public:
   /** \brief Returns the merge offset threshold, in meters. */
   double getMergeDistanceThreshold() const { return merge_distance_threshold_; }
 
+  /** \brief Sets the visibility test. An opaque surface hides what lies behind it
+   * from the sensor. A point conflicts with a plane when it lies off the plane by more
+   * than the margin plus its eq. 11 threshold and the line of sight from the input
+   * cloud's sensor_origin_ through it meets the plane in a cell of the plane's
+   * footprint (setVisibilityCell) that holds an inlier: behind the plane it was seen
+   * through the surface, in front of it it hides the surface. A wall, a road or a car's
+   * side has next to no conflicts (what stands in front of a wall hides cells that then
+   * hold no inlier), while a slab fitted through a volume of scattered points, such as
+   * a tree's canopy, has about as many as inliers or more. Where, over a footprint cell
+   * and its 8 neighbours, the conflicts outnumber `ratio` x the inliers, the cell's
+   * inliers leave the plane (they stay for later planes or the non-planar cells); a
+   * plane left with fewer than min_inliers is dropped. Not in the paper, whose planes
+   * come from key features alone: it keeps eq. 11 from taking a slab through a volume
+   * for a surface. The clouds must be in one sensor's view (one frame).
+   * \param[in] ratio >= 0 (default 0: no test) */
+  void setMaxVisibilityConflictRatio(double ratio)
+  {
+    max_visibility_conflict_ratio_ = ratio;
+  }
+  /** \brief Returns the largest ratio of visibility conflicts to inliers of a
+   * footprint neighbourhood (0: no test). */
+  double getMaxVisibilityConflictRatio() const
+  {
+    return max_visibility_conflict_ratio_;
+  }
+
+  /** \brief Sets how far off a plane, beyond its eq. 11 threshold, a point must lie to
+   * conflict with it. \param[in] margin_m in meters, >= 0 (default 0.3) */
+  void setVisibilityMargin(double margin_m) { visibility_margin_ = margin_m; }
+  /** \brief Returns the visibility margin, in meters. */
+  double getVisibilityMargin() const { return visibility_margin_; }
+
+  /** \brief Sets the edge of the square cells of a plane's footprint in the
+   * visibility test. \param[in] cell_m in meters, > 0 (default 0.2) */
+  void setVisibilityCell(double cell_m) { visibility_cell_ = cell_m; }
+  /** \brief Returns the footprint cell edge of the visibility test, in meters. */
+  double getVisibilityCell() const { return visibility_cell_; }
+
+  /** \brief Returns how many planes the last segment() dropped in the visibility
+   * test. */
+  std::size_t getVisibilityRejectedCount() const { return visibility_rejected_; }
+  /** \brief Returns how many inliers the last segment()'s visibility test took out of
+   * the planes it kept or dropped. */
+  std::size_t getVisibilityRemovedCount() const { return visibility_removed_; }
+
   /** \brief Sets the up axis of eqs. 2-3 (the paper's z axis); it is normalised.
    * \param[in] axis non-zero (default (0, 0, 1); (0, -1, 0) for a camera frame) */
   void setUpAxis(const Eigen::Vector3f& axis) { up_axis_ = axis; }
@@ -392,6 +437,16 @@ protected:
   unsigned seed_{0};
   /** \brief Input subsample size without a sample cloud, in points. */
   int max_sample_size_{20000};
+  /** \brief Largest ratio of visibility conflicts to inliers (0: no test). */
+  double max_visibility_conflict_ratio_{0.0};
+  /** \brief Distance off a plane, beyond eq. 11, of a conflicting point, in meters. */
+  double visibility_margin_{0.3};
+  /** \brief Footprint cell edge of the visibility test, in meters. */
+  double visibility_cell_{0.2};
+  /** \brief Planes the last segment() dropped in the visibility test. */
+  std::size_t visibility_rejected_{0};
+  /** \brief Inliers the last segment()'s visibility test took out. */
+  std::size_t visibility_removed_{0};
 
 public:
   PCL_MAKE_ALIGNED_OPERATOR_NEW

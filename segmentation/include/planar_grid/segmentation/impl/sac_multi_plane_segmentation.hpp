@@ -20,6 +20,7 @@
 #include <limits>
 #include <numeric>
 #include <random>
+#include <unordered_map>
 
 namespace planar_grid {
 
@@ -193,6 +194,110 @@ struct DensePoints {
   }
 };
 
+/** \brief The visibility test of one plane. The plane's footprint is the square
+ * cells of edge `cell` (in the plane's own 2D frame) holding the projection of one of
+ * its inliers (the points of `store` whose mask is 1). A point of `all` conflicts with
+ * the plane when it lies off the plane by more than `margin` + its own eq. 11
+ * threshold (`t` where `all` has none) and the line of sight from `origin` through it
+ * meets the plane in a footprint cell: behind the plane, the point was seen through
+ * the surface; in front of it, it hides the surface that the inlier was seen on. An
+ * opaque surface seen from `origin` has next to no conflicts (an object in front of a
+ * wall hides cells that then hold no inlier), while a slab through a volume of
+ * scattered points (a tree's canopy) has about as many as inliers or more. A cell is
+ * transparent when, over it and its 8 neighbours, the conflicts outnumber `max_ratio`
+ * x the inliers; the inliers of transparent cells are taken out of the plane (their
+ * mask set to 0).
+ * \param[in] plane unit normal, oriented so that origin lies on the positive side
+ * \return the number of inliers taken out */
+inline std::size_t
+removeVisibilityConflicts(DensePoints& store,
+                          const DensePoints& all,
+                          float t,
+                          const Eigen::Vector4f& plane,
+                          const Eigen::Vector3f& origin,
+                          float margin,
+                          float cell,
+                          double max_ratio)
+{
+  const Eigen::Vector3f normal = plane.head<3>();
+  const float origin_distance = normal.dot(origin) + plane[3];
+  if (!(origin_distance > 0.0f))
+    return 0;
+  // An orthonormal frame (u, v) of the plane.
+  const Eigen::Vector3f helper =
+    std::abs(normal.x()) < 0.9f ? Eigen::Vector3f::UnitX() : Eigen::Vector3f::UnitY();
+  const Eigen::Vector3f u = normal.cross(helper).normalized();
+  const Eigen::Vector3f v = normal.cross(u);
+  const auto cellOf = [&](const Eigen::Vector3f& p) {
+    return Eigen::Vector2i(static_cast<int>(std::floor(u.dot(p) / cell)),
+                           static_cast<int>(std::floor(v.dot(p) / cell)));
+  };
+  const auto key = [](int i, int j) {
+    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(i)) << 32)
+           | static_cast<std::uint32_t>(j);
+  };
+  struct Cell {
+    int i, j;
+    std::size_t inliers{0}, conflicts{0};
+  };
+  std::vector<Cell> cells;
+  std::unordered_map<std::uint64_t, std::size_t> index_of;
+  std::vector<std::size_t> cell_of_inlier(store.size());
+  for (std::size_t k = 0; k < store.size(); ++k) {
+    if (!store.mask[k])
+      continue;
+    const Eigen::Vector2i c =
+      cellOf(Eigen::Vector3f(store.x[k], store.y[k], store.z[k]));
+    const auto inserted = index_of.emplace(key(c.x(), c.y()), cells.size());
+    if (inserted.second)
+      cells.push_back({c.x(), c.y()});
+    ++cells[inserted.first->second].inliers;
+    cell_of_inlier[k] = inserted.first->second;
+  }
+  bool any = false;
+  for (std::size_t k = 0; k < all.size(); ++k) {
+    const Eigen::Vector3f q(all.x[k], all.y[k], all.z[k]);
+    const float s = normal.dot(q) + plane[3];
+    const float off = margin + (all.threshold.empty() ? t : all.threshold[k]);
+    // Off the plane, and not beside or behind the origin (whose line of sight through
+    // q never meets the plane).
+    if (!(std::abs(s) > off) || !(s < origin_distance))
+      continue;
+    // Where the line of sight from the origin through q meets the plane: before q
+    // (lambda < 1) when q is behind it, beyond q when q is in front.
+    const float lambda = origin_distance / (origin_distance - s);
+    const Eigen::Vector2i c = cellOf(origin + lambda * (q - origin));
+    const auto it = index_of.find(key(c.x(), c.y()));
+    if (it != index_of.end()) {
+      ++cells[it->second].conflicts;
+      any = true;
+    }
+  }
+  if (!any)
+    return 0;
+  std::vector<std::uint8_t> transparent(cells.size(), 0);
+  for (std::size_t c = 0; c < cells.size(); ++c) {
+    std::size_t inliers = 0, conflicts = 0;
+    for (int di = -1; di <= 1; ++di)
+      for (int dj = -1; dj <= 1; ++dj) {
+        const auto it = index_of.find(key(cells[c].i + di, cells[c].j + dj));
+        if (it == index_of.end())
+          continue;
+        inliers += cells[it->second].inliers;
+        conflicts += cells[it->second].conflicts;
+      }
+    transparent[c] =
+      static_cast<double>(conflicts) > max_ratio * static_cast<double>(inliers) ? 1 : 0;
+  }
+  std::size_t removed = 0;
+  for (std::size_t k = 0; k < store.size(); ++k)
+    if (store.mask[k] && transparent[cell_of_inlier[k]]) {
+      store.mask[k] = 0;
+      ++removed;
+    }
+  return removed;
+}
+
 /** \brief Number of points (SoA) with |a x + b y + c z + d| <= t, counting in blocks
  * and stopping as soon as the count cannot exceed `to_beat` (then the partial count,
  * <= to_beat, is returned). With to_beat = 0 every point is counted, so the result is
@@ -360,6 +465,13 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
     bad = "max_sample_size must be >= 3";
   else if (lo_iterations_ < 0)
     bad = "lo_iterations must be >= 0";
+  else if (!(max_visibility_conflict_ratio_ >= 0.0)
+           || !std::isfinite(max_visibility_conflict_ratio_))
+    bad = "max_visibility_conflict_ratio must be finite and >= 0";
+  else if (!(visibility_margin_ >= 0.0) || !std::isfinite(visibility_margin_))
+    bad = "visibility_margin must be finite and >= 0 m";
+  else if (!(visibility_cell_ > 0.0) || !std::isfinite(visibility_cell_))
+    bad = "visibility_cell must be finite and > 0 m";
   return bad;
 }
 
@@ -416,6 +528,8 @@ void
 SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
 {
   planes.clear();
+  visibility_rejected_ = 0;
+  visibility_removed_ = 0;
   const Eigen::Vector3f origin = input_->sensor_origin_.template head<3>();
   const Eigen::Vector3f up = up_axis_.normalized();
   const auto d_t = static_cast<float>(distance_threshold_);
@@ -451,6 +565,11 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
       dense.threshold[k] = std::max(d_t, coefficient * r2);
     }
   }
+  // Every finite input point, for the visibility test (dense loses the planes'
+  // inliers as they are taken).
+  detail::DensePoints all;
+  if (max_visibility_conflict_ratio_ > 0.0)
+    all = dense;
   if (dense.size() < 3) {
     PCL_WARN("[planar_grid::%s::segment] Fewer than 3 finite input points (%zu).\n",
              getClassName().c_str(), dense.size());
@@ -643,6 +762,20 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
       PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with %zu < %d inliers.\n",
                 getClassName().c_str(), count, min_inliers_);
       continue;
+    }
+    if (max_visibility_conflict_ratio_ > 0.0) {
+      const std::size_t removed = detail::removeVisibilityConflicts(
+        dense, all, d_t, plane, origin, static_cast<float>(visibility_margin_),
+        static_cast<float>(visibility_cell_), max_visibility_conflict_ratio_);
+      visibility_removed_ += removed;
+      count -= removed;
+      if (static_cast<int>(count) < min_inliers_) {
+        PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with visibility "
+                  "conflicts at %zu of its inliers (%zu left).\n",
+                  getClassName().c_str(), removed, count);
+        ++visibility_rejected_;
+        continue;
+      }
     }
     dense.selected(segment.inliers.indices);
     dense.removeSelected();
