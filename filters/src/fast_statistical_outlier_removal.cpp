@@ -42,25 +42,21 @@ cellKey(std::int64_t x, std::int64_t y, std::int64_t z)
          | static_cast<std::uint64_t>(z + OFFSET);
 }
 
-/** The squared distance as nanoflann's L2_Simple_Adaptor computes it: single
- * precision, summed over x, y, z in that order. */
-inline float
-squaredDistance(const float* a, const float* b)
-{
-  float result = 0.0f;
-  for (int i = 0; i < 3; ++i) {
-    const float diff = a[i] - b[i];
-    result += diff * diff;
-  }
-  return result;
-}
+/** The squared distance bound of a point's selection as a multiple of its
+ * neighbour's squared k-th distance. */
+constexpr float BOUND_PER_KTH_SQ = 1.3f;
+
+/** Most candidates taken out one by one above the k nearest; with more, the k-th is
+ * selected instead. */
+constexpr std::size_t MAX_DROPPED = 10;
 
 /** The cell edge as a multiple of the median k-th neighbour distance: small enough for
  * few candidates, large enough that most points of a surface are answered by cells. */
 constexpr double CELL_EDGE_PER_KTH_DISTANCE = 1.25;
 
 /** \brief Mean distances of the queried points to their k - 1 nearest other points,
- * found among the points of the 3 x 3 x 3 cells around each point's cell.
+ * found among the points of the 3 x 3 x 3 cells around each point's cell, or else of
+ * the 5 x 5 x 5 cells.
  *
  * A point is answered (done[j] set) only when its k-th distance (itself included) is
  * shorter than the distance from the point to the outside of those cells: no point
@@ -98,7 +94,8 @@ meanDistancesInCells(const std::vector<float>& xyz,
     return;
 
   // Every point's cell, and the points sorted by cell.
-  constexpr double MAX_CELL = static_cast<double>((1 << 20) - 2);
+  // Keys of the cells up to 2 away from any point stay within 21 bits per axis.
+  constexpr double MAX_CELL = static_cast<double>((1 << 20) - 3);
   std::vector<std::int64_t> cell(3 * n);
   std::vector<std::uint64_t> keys(n);
   for (std::size_t j = 0; j < n; ++j) {
@@ -124,7 +121,108 @@ meanDistancesInCells(const std::vector<float>& xyz,
     b = e;
   }
 
-  std::vector<float> candidates, d2;
+  // The candidates of one cell, coordinate by coordinate, so that the distance loop
+  // runs over contiguous arrays.
+  std::vector<float> cand_x, cand_y, cand_z, d2, near;
+  const auto gather = [&](const std::int64_t* c, std::int64_t reach) {
+    cand_x.clear();
+    cand_y.clear();
+    cand_z.clear();
+    for (std::int64_t dz = -reach; dz <= reach; ++dz)
+      for (std::int64_t dy = -reach; dy <= reach; ++dy)
+        for (std::int64_t dx = -reach; dx <= reach; ++dx) {
+          const auto it = runs.find(cellKey(c[0] + dx, c[1] + dy, c[2] + dz));
+          if (it == runs.end())
+            continue;
+          for (std::size_t i = it->second.first; i < it->second.second; ++i) {
+            const float* p = &xyz[3 * order[i]];
+            cand_x.push_back(p[0]);
+            cand_y.push_back(p[1]);
+            cand_z.push_back(p[2]);
+          }
+        }
+    d2.resize(cand_x.size());
+    near.resize(cand_x.size());
+  };
+  // The k-th distance of the previous point of the same cell, squared: a close
+  // neighbour's k-th distance is nearly the same, so the candidates below
+  // BOUND_PER_KTH_SQ times it usually hold the k nearest, and the selection runs over
+  // those few.
+  const float first_bound_sq = BOUND_PER_KTH_SQ * *median;
+  // Answers point j from the candidates of the cells within \a reach of its cell c;
+  // false when fewer than k candidates lie within the guard.
+  const auto answer = [&](std::uint32_t j, const std::int64_t* c, std::int64_t reach,
+                          float& bound_sq) {
+    const std::size_t m = cand_x.size();
+    if (m < k)
+      return false;
+    const float* q = &xyz[3 * j];
+    // Distance from q to the outside of the cells, with a margin for the rounding of
+    // the single precision distances; only candidates within it can be among the k
+    // nearest.
+    const double r = static_cast<double>(reach);
+    double guard = std::numeric_limits<double>::max();
+    for (std::size_t d = 0; d < 3; ++d) {
+      const double lo = static_cast<double>(c[d]) * edge;
+      const double x = static_cast<double>(q[d]);
+      guard = std::min(guard, r * edge + std::min(x - lo, lo + edge - x));
+    }
+    // In single precision: the margin is far larger than the rounding of the bound.
+    const auto guard_sq = static_cast<float>(guard * guard * (1.0 - 2e-6));
+    // The candidates below the bound (and within the guard). When at least k are,
+    // they hold the k nearest: every other candidate is farther than all of them.
+    // The squared distance as nanoflann's L2_Simple_Adaptor computes it: single
+    // precision, summed over x, y, z in that order.
+    const float tight_sq = std::min(guard_sq, bound_sq);
+    const float qx = q[0], qy = q[1], qz = q[2];
+    std::size_t inside = 0;
+    for (std::size_t t = 0; t < m; ++t) {
+      const float ex = qx - cand_x[t], ey = qy - cand_y[t], ez = qz - cand_z[t];
+      float dist = ex * ex;
+      dist += ey * ey;
+      dist += ez * ez;
+      d2[t] = dist;
+      near[inside] = dist;
+      inside += dist < tight_sq ? 1 : 0;
+    }
+    if (inside < k && tight_sq < guard_sq) {
+      inside = 0;
+      for (std::size_t t = 0; t < m; ++t) {
+        near[inside] = d2[t];
+        inside += d2[t] < guard_sq ? 1 : 0;
+      }
+    }
+    if (inside < k)
+      return false;
+    // The k smallest: the few largest are taken out one at a time (most points), or
+    // the k-th is selected when many are left.
+    float kth = 0.0f;
+    if (inside - k <= MAX_DROPPED) {
+      for (std::size_t dropped = k; dropped < inside; ++dropped) {
+        std::size_t largest = 0;
+        for (std::size_t t = 1; t < inside; ++t)
+          largest = near[t] > near[largest] ? t : largest;
+        near[largest] = -1.0f;
+      }
+      for (std::size_t t = 0; t < inside; ++t)
+        kth = std::max(kth, near[t]);
+    } else {
+      const auto it = near.begin() + static_cast<std::ptrdiff_t>(k - 1);
+      std::nth_element(near.begin(), it,
+                       near.begin() + static_cast<std::ptrdiff_t>(inside));
+      kth = *it;
+      std::fill(it + 1, near.begin() + static_cast<std::ptrdiff_t>(inside), -1.0f);
+    }
+    double dist_sum = 0.0;
+    for (std::size_t t = 0; t < inside; ++t)
+      dist_sum += near[t] >= 0.0f ? std::sqrt(near[t]) : 0.0f;
+    mean_distance[j] = static_cast<float>(dist_sum / mean_k);
+    done[j] = 1;
+    bound_sq = BOUND_PER_KTH_SQ * kth;
+    return true;
+  };
+
+  std::vector<std::uint32_t> missed;
   for (std::size_t b = 0; b < n;) {
     const auto [run_begin, run_end] = runs.at(keys[order[b]]);
     b = run_end;
@@ -133,54 +231,22 @@ meanDistancesInCells(const std::vector<float>& xyz,
                      [&queried](std::uint32_t j) { return queried[j] != 0; }))
       continue;
     const std::int64_t* c = &cell[3 * order[run_begin]];
-    candidates.clear();
-    for (std::int64_t dz = -1; dz <= 1; ++dz)
-      for (std::int64_t dy = -1; dy <= 1; ++dy)
-        for (std::int64_t dx = -1; dx <= 1; ++dx) {
-          const auto it = runs.find(cellKey(c[0] + dx, c[1] + dy, c[2] + dz));
-          if (it == runs.end())
-            continue;
-          for (std::size_t i = it->second.first; i < it->second.second; ++i) {
-            const float* p = &xyz[3 * order[i]];
-            candidates.insert(candidates.end(), p, p + 3);
-          }
-        }
-    const std::size_t m = candidates.size() / 3;
-    if (m < k)
-      continue;
-    d2.resize(m);
+    // The 3 x 3 x 3 cells answer most points; the 5 x 5 x 5 cells most of the rest,
+    // where the points are sparse (and so are the candidates).
+    gather(c, 1);
+    missed.clear();
+    float bound_sq = first_bound_sq;
     for (std::size_t i = run_begin; i < run_end; ++i) {
       const std::uint32_t j = order[i];
-      if (!queried[j])
-        continue;
-      const float* q = &xyz[3 * j];
-      // Distance from q to the outside of the 3 x 3 x 3 cells, with a margin for
-      // the rounding of the single precision distances; only candidates within it
-      // can be among the k nearest.
-      double guard = edge;
-      for (std::size_t d = 0; d < 3; ++d) {
-        const double lo = static_cast<double>(c[d]) * edge;
-        const double x = static_cast<double>(q[d]);
-        guard = std::min(guard, edge + std::min(x - lo, lo + edge - x));
-      }
-      const double guard_sq = guard * guard * (1.0 - 2e-6);
-      std::size_t inside = 0;
-      for (std::size_t t = 0; t < m; ++t) {
-        const float dist = squaredDistance(q, &candidates[3 * t]);
-        d2[inside] = dist;
-        inside += static_cast<double>(dist) < guard_sq ? 1 : 0;
-      }
-      if (inside < k)
-        continue;
-      const auto kth = d2.begin() + static_cast<std::ptrdiff_t>(k - 1);
-      std::nth_element(d2.begin(), kth,
-                       d2.begin() + static_cast<std::ptrdiff_t>(inside));
-      double dist_sum = 0.0;
-      for (auto it = d2.begin(); it <= kth; ++it)
-        dist_sum += std::sqrt(*it);
-      mean_distance[j] = static_cast<float>(dist_sum / mean_k);
-      done[j] = 1;
+      if (queried[j] && !answer(j, c, 1, bound_sq))
+        missed.push_back(j);
     }
+    if (missed.empty())
+      continue;
+    gather(c, 2);
+    bound_sq = first_bound_sq;
+    for (const std::uint32_t j : missed)
+      answer(j, c, 2, bound_sq);
   }
 }
 

@@ -157,6 +157,34 @@ TEST(FastStatisticalOutlierRemoval, LatticesDuplicatesAndScatteredPointsAsPCL)
             keptBy<PCLFilter>(few, 10, 0.0, false));
 }
 
+TEST(FastStatisticalOutlierRemoval, DensityFallingWithRangeAsPCL)
+{
+  // A road and a facade sampled as a stereo camera sees them: the spacing grows with
+  // the range from 0.1 m to over 1 m, with 1 cm of noise. The near points are answered
+  // by the 3 x 3 x 3 search cells, those a few times sparser than the median by the
+  // 5 x 5 x 5 cells and the sparsest by the kd-tree; the threshold at the mean itself
+  // (std_mul 0) shows any change in a mean distance.
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  std::uint32_t state = 777u;
+  const auto noise = [&state] {
+    state = state * 1664525u + 1013904223u;
+    return 0.01f * (static_cast<float>(state >> 8) / 16777216.0f - 0.5f);
+  };
+  for (float z = 2.0f; z < 40.0f; z += 0.1f * (1.0f + z * z / 64.0f)) {
+    const float step = 0.1f * (1.0f + z * z / 64.0f);
+    for (float x = -6.0f; x <= 6.0f; x += step)
+      cloud->push_back(pcl::PointXYZ(x + noise(), 1.5f + noise(), z));
+    for (float y = -4.0f; y <= 1.5f; y += step)
+      cloud->push_back(pcl::PointXYZ(6.0f + noise(), y, z + noise()));
+  }
+  ASSERT_GT(cloud->size(), 2000u);
+  for (const int mean_k : {5, 20})
+    for (const double std_mul : {0.0, 2.0})
+      ASSERT_EQ(keptBy<FastFilter>(cloud, mean_k, std_mul, false),
+                keptBy<PCLFilter>(cloud, mean_k, std_mul, false))
+        << "mean_k " << mean_k << " std_mul " << std_mul;
+}
+
 TEST(FastStatisticalOutlierRemoval, AnIsolatedPointIsRemovedAndReported)
 {
   // A 10 x 10 lattice of 0.1 m and one point 5 m away: the far point is the outlier,

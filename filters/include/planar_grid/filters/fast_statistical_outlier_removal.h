@@ -20,9 +20,10 @@ namespace planar_grid {
  *
  * The k nearest neighbours of most points are found among the points of the 3 x 3 x 3
  * cells (edge 1.25 times the median k-th neighbour distance of a sample) around the
- * point's cell, accepted only when the k-th distance is shorter than the distance to
- * the outside of those cells, so that no other point can be nearer; the rest come from
- * nanoflann's exact kd-tree (the library wrapped) instead of pcl::search::KdTree.
+ * point's cell, or else of the 5 x 5 x 5 cells, accepted only when the k-th distance is
+ * shorter than the distance to the outside of those cells, so that no other point can
+ * be nearer; the few left come from nanoflann's exact kd-tree (the library wrapped)
+ * instead of pcl::search::KdTree.
  * Distances are the same single precision squared distances summed over x, y, z, and
  * their sums are exact in double precision, so the classification equals PCL's on an
  * unorganized cloud. An organized cloud is searched exactly here, where PCL uses
