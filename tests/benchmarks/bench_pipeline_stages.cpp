@@ -6,6 +6,7 @@
 // alone on a copy of its input. Wall time per iteration; stateful stages (the KL
 // filter, the map) see the same frame again on every iteration.
 //   build-bench/tests/benchmarks/bench_pipeline_stages
+#include <planar_grid/filters/fast_statistical_outlier_removal.h>
 #include <planar_grid/pipeline/frame_source.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/stage.h>
@@ -118,6 +119,72 @@ BM_PclStatisticalOutlierRemoval(benchmark::State& st)
   st.counters["points_in"] = static_cast<double>(p.inputs[s].cloud->size());
 }
 
+/** The statistical_outlier_removal stage's input (the 0.1 m voxel grid's output) of
+ * every 8th Karlsruhe frame, from the main job's stereo_disparity, depth_error_filter
+ * and voxel_grid stages: the filter's cost over a sequence rather than one frame. */
+const std::vector<Frame::Cloud::ConstPtr>&
+outlierRemovalInputs()
+{
+  static const std::vector<Frame::Cloud::ConstPtr> clouds = [] {
+    std::vector<Frame::Cloud::ConstPtr> out;
+    const auto config = planar_grid::loadPipelineConfig(
+      std::string(PLANAR_GRID_SOURCE_DIR) + "/config/karlsruhe.yaml");
+    const auto source = planar_grid::createFrameSource(config.input);
+    std::vector<std::unique_ptr<Stage>> stages;
+    for (const auto& sc : config.stages)
+      if (sc.type == "stereo_disparity" || sc.type == "depth_error_filter"
+          || sc.type == "voxel_grid")
+        stages.push_back(planar_grid::findStage(sc.type)->create(sc.params));
+    PipelineState state;
+    for (auto& s : stages)
+      s->start(state);
+    for (std::size_t i = 0; i < source->size(); i += 8) {
+      Frame frame;
+      source->load(i, frame);
+      frame.sequence_number = i;
+      for (auto& s : stages)
+        s->process(frame, state);
+      out.push_back(frame.cloud);
+    }
+    for (auto& s : stages)
+      s->finish(state);
+    return out;
+  }();
+  return clouds;
+}
+
+/** FastStatisticalOutlierRemoval (range(0) = 0) or PCL's StatisticalOutlierRemoval
+ * (1) with the main job's parameters (mean_k 20, 2 sigma) over outlierRemovalInputs():
+ * the time of one iteration is that of all the frames (counter "frames"). Both keep the
+ * same points (test_filters). */
+void
+BM_OutlierRemovalSequence(benchmark::State& st)
+{
+  const auto& clouds = outlierRemovalInputs();
+  const bool pcl_filter = st.range(0) == 1;
+  st.SetLabel(pcl_filter ? "pcl::StatisticalOutlierRemoval"
+                         : "FastStatisticalOutlierRemoval");
+  for (auto _ : st)
+    for (const auto& cloud : clouds) {
+      pcl::Indices kept;
+      if (pcl_filter) {
+        pcl::StatisticalOutlierRemoval<pcl::PointXYZI> filter;
+        filter.setMeanK(20);
+        filter.setStddevMulThresh(2.0);
+        filter.setInputCloud(cloud);
+        filter.filter(kept);
+      } else {
+        planar_grid::FastStatisticalOutlierRemoval<pcl::PointXYZI> filter;
+        filter.setMeanK(20);
+        filter.setStddevMulThresh(2.0);
+        filter.setInputCloud(cloud);
+        filter.filter(kept);
+      }
+      benchmark::DoNotOptimize(kept);
+    }
+  st.counters["frames"] = static_cast<double>(clouds.size());
+}
+
 } // namespace
 
 // The 12 stages of config/karlsruhe.yaml, in order.
@@ -125,5 +192,11 @@ BENCHMARK(BM_Stage)->DenseRange(0, 11)->Unit(benchmark::kMillisecond)->UseRealTi
 BENCHMARK(BM_PclStatisticalOutlierRemoval)
   ->Unit(benchmark::kMillisecond)
   ->UseRealTime();
+
+BENCHMARK(BM_OutlierRemovalSequence)
+  ->Arg(0)
+  ->Arg(1)
+  ->Unit(benchmark::kMillisecond)
+  ->MeasureProcessCPUTime();
 
 BENCHMARK_MAIN();
