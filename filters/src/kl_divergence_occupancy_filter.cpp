@@ -34,6 +34,45 @@ toString(OccupancyUpdateRule rule)
   return "unknown";
 }
 
+RangeErrorModel
+rangeErrorModelFromString(const std::string& name)
+{
+  if (name == "stereo")
+    return RangeErrorModel::STEREO;
+  if (name == "depth_quadratic")
+    return RangeErrorModel::DEPTH_QUADRATIC;
+  if (name == "range")
+    return RangeErrorModel::RANGE;
+  throw Exception("Unknown range error model '" + name
+                  + "' (known: stereo, depth_quadratic, range)");
+}
+
+std::string
+toString(RangeErrorModel model)
+{
+  switch (model) {
+    case RangeErrorModel::STEREO:
+      return "stereo";
+    case RangeErrorModel::DEPTH_QUADRATIC:
+      return "depth_quadratic";
+    case RangeErrorModel::RANGE:
+      return "range";
+  }
+  return "unknown";
+}
+
+double
+sampledGaussianOccupancy(double range_m, double mean_range_m, double range_error_m)
+{
+  if (!(std::isfinite(range_m) && std::isfinite(mean_range_m)
+        && std::isfinite(range_error_m) && range_error_m > 0.0))
+    return 0.0;
+  if (range_m == mean_range_m)
+    return 1.0;
+  const double t = (range_m - mean_range_m) / range_error_m;
+  return std::exp(-0.5 * t * t);
+}
+
 double
 rangeOccupancyProbability(double range_m,
                           double mean_range_m,
@@ -54,11 +93,8 @@ rangeOccupancyProbability(double range_m,
   // dz = z^2 / (B f) dd; dr = (r_bar / z) dz (eq. 4).
   const double depth_error_m =
     depth_m * depth_m / (baseline_m * focal_length_px) * disparity_error_px;
-  const double range_error_m = mean_range_m / depth_m * depth_error_m;
-  if (!(range_error_m > 0.0))
-    return 0.0;
-  const double t = (range_m - mean_range_m) / range_error_m;
-  return std::exp(-0.5 * t * t);
+  return sampledGaussianOccupancy(range_m, mean_range_m,
+                                  mean_range_m / depth_m * depth_error_m);
 }
 
 double

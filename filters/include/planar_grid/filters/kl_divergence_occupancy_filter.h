@@ -32,6 +32,27 @@ OccupancyUpdateRule occupancyUpdateRuleFromString(const std::string& name);
 /** \brief The name occupancyUpdateRuleFromString() accepts for \a rule. */
 std::string toString(OccupancyUpdateRule rule);
 
+/** \brief The range error Delta r of eq. 4, by sensor. \ingroup filters */
+enum class RangeErrorModel {
+  /** \brief The paper's stereo camera: Delta z = z^2 / (B f) Delta d and
+   * Delta r = (r_bar / z) Delta z (the stereo parameters and disparity_error_px). */
+  STEREO,
+  /** \brief A depth camera (RGB-D, structured light or time of flight): Delta z =
+   * k z^2 with k = depth_error_coefficient_per_m, and Delta r = (r_bar / z) Delta z,
+   * the stereo form with k in place of Delta d / (B f). */
+  DEPTH_QUADRATIC,
+  /** \brief A range sensor (LiDAR): Delta r = range_error_m, the same at every range
+   * and in every direction (a 360 degree scan: no optical axis is needed). */
+  RANGE
+};
+
+/** \brief Parses "stereo", "depth_quadratic" or "range".
+ * \throws planar_grid::Exception for any other name \ingroup filters */
+RangeErrorModel rangeErrorModelFromString(const std::string& name);
+
+/** \brief The name rangeErrorModelFromString() accepts for \a model. */
+std::string toString(RangeErrorModel model);
+
 /** \brief The probability guard of the KL rule: bernoulliKLDivergence() moves q into
  * [KL_PROBABILITY_EPS, 1 - KL_PROBABILITY_EPS] before taking logarithms, so that q = 0
  * (a motion likelihood m that underflowed) or q = 1 gives a large but finite
@@ -57,6 +78,16 @@ double rangeOccupancyProbability(double range_m,
                                  double baseline_m,
                                  double disparity_error_px);
 
+/** \brief Eq. 4 of the paper for a given range error, unclamped: the sampled Gaussian
+ * p = exp(-0.5 ((r - r_bar) / Delta r)^2), for any sensor's Delta r.
+ * \param[in] range_m r, meters
+ * \param[in] mean_range_m r_bar, the mean range of the neighbourhood, meters
+ * \param[in] range_error_m Delta r, meters (> 0)
+ * \return the probability in [0, 1]: 1 when r == r_bar, 0 when an argument is
+ * non-finite or Delta r <= 0 \ingroup filters */
+double
+sampledGaussianOccupancy(double range_m, double mean_range_m, double range_error_m);
+
 /** \brief The Kullback-Leibler divergence of two Bernoulli distributions (eqs. 5-6
  * read for one feature with the two outcomes occupied / free):
  * D = p ln(p / q) + (1 - p) ln((1 - p) / (1 - q)), in nats.
@@ -79,6 +110,10 @@ double klDivergenceUpdate(double p, double q, double offset_nats);
  * pcl::FilterIndices: filter() keeps the features whose track probability reaches the
  * occupancy threshold (or, with setNegative(true), removes them).
  *
+ * Eq. 4's range error Delta r is the paper's stereo model by default; Params::
+ * range_error_model selects a depth camera's (Delta z = k z^2) or a range sensor's
+ * (constant Delta r) instead, for features of RGB-D or LiDAR clouds (RangeErrorModel).
+ *
  * Each call of filter() on a new input integrates the input as one frame:
  * - the sensor pose is the input cloud's sensor_origin_ / sensor_orientation_ (camera
  *   frame: x right, y down, z forward), so the features may be given in the camera
@@ -87,7 +122,8 @@ double klDivergenceUpdate(double p, double q, double offset_nats);
  * - every valid feature gets p_new of eq. 4: r = |X - sensor_origin|, z its depth in
  *   the sensor frame, r_bar the mean range of the frame's valid features in the same
  *   neighbourhood cell (a cube of edge neighbourhood_size_m, axis-aligned in the
- *   sensor frame), clamped to [clamping_thres_min, clamping_thres_max];
+ *   sensor frame), clamped to [clamping_thres_min, clamping_thres_max] (with the RANGE
+ *   model z is not used: any point at r > 0 is valid, whatever its direction);
  * - a feature whose track is new (or that has no track) takes p_new;
  * - a feature whose track was seen before gets q = p_new m with m the motion
  *   likelihood (setMotionLikelihood(), eq. 9), and its probability becomes
@@ -115,7 +151,8 @@ double klDivergenceUpdate(double p, double q, double offset_nats);
  * PCL_WARN; a non-finite point or one at depth z <= 0 in the sensor frame is invalid:
  * probability 0, no track, never kept (also with setNegative(true); it goes to the
  * removed indices), and input without valid points gives empty output and a PCL_WARN;
- * invalid parameters, stereo parameters not set, a motion likelihood outside [0, 1]
+ * invalid parameters, stereo parameters not set (STEREO model), a motion likelihood
+ * outside [0, 1]
  * or track ids of the wrong size give empty output and a PCL_ERROR, and the tracks
  * are left unchanged, as PCL filters report bad input.
  * \ingroup filters */
@@ -170,6 +207,15 @@ public:
     /** Association without track ids: largest distance to a stored track, in the
      * input's units (meters); > 0. */
     double association_radius_m{0.2};
+    /** The sensor model of eq. 4's range error. */
+    RangeErrorModel range_error_model{RangeErrorModel::STEREO};
+    /** DEPTH_QUADRATIC: k of Delta z = k z^2, 1/m; > 0. 0.0016 / m is 4 cm at 5 m, the
+     * Kinect's random depth error measured by Khoshelham and Elberink (Sensors 12(2),
+     * 2012). */
+    double depth_error_coefficient_per_m{0.0016};
+    /** RANGE: Delta r, meters; > 0. 0.03 m is the +-3 cm range accuracy of common
+     * 16-32 beam 3D LiDARs. */
+    double range_error_m{0.03};
   };
 
   /** \brief Empty filter with the default Params; stereo parameters must be set.
@@ -185,7 +231,8 @@ public:
   /** \brief The parameters. */
   const Params& getParams() const { return params_; }
 
-  /** \brief Sets the rectified stereo rig of eq. 4 (validated when filter() starts).
+  /** \brief Sets the rectified stereo rig of eq. 4 (validated when filter() starts;
+   * needed by the STEREO range error model only).
    * \param[in] focal_length_px f, pixels (> 0)
    * \param[in] baseline_m B, meters (> 0) */
   void setStereoParameters(double focal_length_px, double baseline_m);
@@ -343,7 +390,8 @@ protected:
   std::vector<CellSum> cells_;
   /** \brief Work buffer: range (meters) of each indexed point. */
   std::vector<double> ranges_m_;
-  /** \brief Work buffer: depth (meters) of each indexed point, <= 0 when invalid. */
+  /** \brief Work buffer: depth (meters) of each indexed point (its range with the
+   * RANGE model), <= 0 when invalid. */
   std::vector<double> depths_m_;
   /** \brief Work buffer: slot in cells_ of each indexed point. */
   std::vector<std::uint32_t> cell_slots_;

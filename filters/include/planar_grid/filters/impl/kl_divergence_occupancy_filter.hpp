@@ -220,9 +220,19 @@ const char*
 KLDivergenceOccupancyFilter<PointT>::checkParameters() const
 {
   const Params& p = params_;
-  if (!(std::isfinite(focal_length_px_) && focal_length_px_ > 0.0
-        && std::isfinite(baseline_m_) && baseline_m_ > 0.0))
+  if (p.range_error_model != RangeErrorModel::STEREO
+      && p.range_error_model != RangeErrorModel::DEPTH_QUADRATIC
+      && p.range_error_model != RangeErrorModel::RANGE)
+    return "range_error_model must be STEREO, DEPTH_QUADRATIC or RANGE";
+  if (p.range_error_model == RangeErrorModel::STEREO
+      && !(std::isfinite(focal_length_px_) && focal_length_px_ > 0.0
+           && std::isfinite(baseline_m_) && baseline_m_ > 0.0))
     return "stereo parameters not set (setStereoParameters(f > 0 px, B > 0 m))";
+  if (!(std::isfinite(p.depth_error_coefficient_per_m)
+        && p.depth_error_coefficient_per_m > 0.0))
+    return "depth_error_coefficient_per_m must be > 0 1/m";
+  if (!(std::isfinite(p.range_error_m) && p.range_error_m > 0.0))
+    return "range_error_m must be > 0 m";
   if (!(std::isfinite(p.disparity_error_px) && p.disparity_error_px > 0.0))
     return "disparity_error_px must be > 0 px";
   if (!(std::isfinite(p.neighbourhood_size_m) && p.neighbourhood_size_m > 0.0))
@@ -370,6 +380,7 @@ KLDivergenceOccupancyFilter<PointT>::integrate()
   const double inv_size = 1.0 / params_.neighbourhood_size_m;
 
   // Pass 1: range, depth and cell of every valid point; the cells' range sums.
+  const bool range_model = params_.range_error_model == RangeErrorModel::RANGE;
   std::size_t valid = 0;
   for (std::size_t k = 0; k < n; ++k) {
     depths_m_[k] = 0.0;
@@ -381,10 +392,13 @@ KLDivergenceOccupancyFilter<PointT>::integrate()
       continue;
     const Eigen::Vector3d sensor =
       rotation_t * (point.getVector3fMap().template cast<double>() - origin);
-    if (!(sensor.z() > 0.0))
+    // A camera sees only what is in front of it; a range sensor measures in every
+    // direction, so there only the range must be positive.
+    const double depth_m = range_model ? sensor.norm() : sensor.z();
+    if (!(depth_m > 0.0))
       continue;
     ranges_m_[k] = sensor.norm();
-    depths_m_[k] = sensor.z();
+    depths_m_[k] = depth_m;
     const std::uint64_t key =
       detail::packCell(detail::cellCoordinate(sensor.x(), inv_size),
                        detail::cellCoordinate(sensor.y(), inv_size),
@@ -426,12 +440,25 @@ KLDivergenceOccupancyFilter<PointT>::integrate()
     const std::size_t index = static_cast<std::size_t>(indices[k]);
     const CellSum& cell = cells_[cell_slots_[k]];
     const double mean_range_m = cell.range_sum_m / cell.count;
-    const double p_new =
-      std::min(std::max(rangeOccupancyProbability(
-                          ranges_m_[k], mean_range_m, depths_m_[k], focal_length_px_,
-                          baseline_m_, params_.disparity_error_px),
-                        p_min),
-               p_max);
+    double p_eq4 = 0.0;
+    switch (params_.range_error_model) {
+      case RangeErrorModel::STEREO:
+        p_eq4 = rangeOccupancyProbability(ranges_m_[k], mean_range_m, depths_m_[k],
+                                          focal_length_px_, baseline_m_,
+                                          params_.disparity_error_px);
+        break;
+      case RangeErrorModel::DEPTH_QUADRATIC:
+        // dz = k z^2, dr = (r_bar / z) dz = r_bar k z.
+        p_eq4 = sampledGaussianOccupancy(
+          ranges_m_[k], mean_range_m,
+          mean_range_m * params_.depth_error_coefficient_per_m * depths_m_[k]);
+        break;
+      case RangeErrorModel::RANGE:
+        p_eq4 =
+          sampledGaussianOccupancy(ranges_m_[k], mean_range_m, params_.range_error_m);
+        break;
+    }
+    const double p_new = std::min(std::max(p_eq4, p_min), p_max);
     const Eigen::Vector3f position = cloud[index].getVector3fMap();
 
     std::int64_t id = -1;
