@@ -21,37 +21,74 @@ namespace {
 
 class KLOccupancyFilterStage : public Stage {
 public:
+  /** The range error of eq. 4 by sensor; AUTO follows the frame's features. */
+  enum class ErrorModel {
+    AUTO,   // stereo for stereo input; depth camera for key features of a cloud's
+            // image; range sensor for point features (no descriptors)
+    STEREO, // the paper's: the frame's stereo calibration and disparity_error_px
+    DEPTH_QUADRATIC, // dz = k z^2 (depth_error_coefficient_per_m)
+    RANGE            // dr = range_error_m
+  };
+
   KLOccupancyFilterStage(
     const KLDivergenceOccupancyFilter<pcl::PointXYZ>::Params& params,
+    ErrorModel error_model,
     const StereoOdometry::Params& matching,
     const ConstantVelocityMotionModel::Params& motion,
     bool use_motion_likelihood) :
-      matcher_(matching),
-      motion_model_(motion), use_motion_likelihood_(use_motion_likelihood)
+      params_(params),
+      error_model_(error_model), matcher_(matching), motion_model_(motion),
+      use_motion_likelihood_(use_motion_likelihood)
   {
     filter_.setParams(params);
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
-    if (frame.left.empty())
-      throw Exception("stage 'kl_occupancy_filter' needs stereo input");
+    const bool stereo = !frame.left.empty();
+    const bool descriptors =
+      frame.features.descriptors.rows > 0
+      && static_cast<std::size_t>(frame.features.descriptors.rows)
+           == frame.features.size();
+    RangeErrorModel model = RangeErrorModel::STEREO;
+    switch (error_model_) {
+      case ErrorModel::AUTO:
+        model = stereo        ? RangeErrorModel::STEREO
+                : descriptors ? RangeErrorModel::DEPTH_QUADRATIC
+                              : RangeErrorModel::RANGE;
+        break;
+      case ErrorModel::STEREO:
+        if (!stereo)
+          throw Exception("stage 'kl_occupancy_filter': range_error_model stereo "
+                          "needs a stereo calibration; frame "
+                          + frame.name + " has none");
+        break;
+      case ErrorModel::DEPTH_QUADRATIC:
+        model = RangeErrorModel::DEPTH_QUADRATIC;
+        break;
+      case ErrorModel::RANGE:
+        model = RangeErrorModel::RANGE;
+        break;
+    }
+    model_ = model;
     frame.feature_probabilities.clear();
     frame.feature_track_ids.clear();
     kept_ = 0;
     reobserved_ = 0;
     motion_likelihood_ = 1.0;
     const std::size_t n = frame.features.size();
-    if (n == 0) {
+    if (n == 0 || frame.features.points.size() != n) {
       // Nothing matched in this frame (e.g. a blank image): the tracks wait.
       previous_ = StereoFeatures();
       previous_ids_.clear();
       return;
     }
     // Track ids: a feature whose descriptor matches one of the previous frame's (ratio
-    // test + mutual check, as the odometry) continues that feature's track.
+    // test + mutual check, as the odometry) continues that feature's track. Features
+    // without descriptors (the points of a scan) are associated by position instead,
+    // in the world frame (the filter's association radius).
     std::vector<std::int64_t> ids(n, -1);
-    if (previous_.size() > 0) {
+    if (descriptors && previous_.size() > 0) {
       matches_.clear();
       matcher_.matchDescriptors(previous_, frame.features, matches_);
       for (const auto& m : matches_) {
@@ -74,23 +111,53 @@ public:
     has_previous_pose_ = frame.has_pose;
     previous_pose_ = frame.world_T_camera;
 
-    pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(
-      new pcl::PointCloud<pcl::PointXYZ>(frame.features.points));
-    filter_.setStereoParameters(frame.calibration.focal_length_px,
-                                frame.calibration.baseline_m);
+    pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+    if (descriptors || !frame.has_pose) {
+      *cloud = frame.features.points;
+    } else {
+      // In the world frame with the camera pose as the sensor pose: the filter takes
+      // eq. 4 in the sensor frame and associates the points across frames in the
+      // world.
+      pcl::transformPointCloud(frame.features.points, *cloud,
+                               frame.world_T_camera.cast<float>().matrix());
+      cloud->sensor_origin_.head<3>() =
+        frame.world_T_camera.translation().cast<float>();
+      cloud->sensor_origin_[3] = 1.0f;
+      cloud->sensor_orientation_ =
+        Eigen::Quaternionf(frame.world_T_camera.rotation().cast<float>());
+    }
+    params_.range_error_model = model;
+    filter_.setParams(params_);
+    if (model == RangeErrorModel::STEREO)
+      filter_.setStereoParameters(frame.calibration.focal_length_px,
+                                  frame.calibration.baseline_m);
     filter_.setInputCloud(cloud);
-    filter_.setTrackIds(ids);
+    if (descriptors)
+      filter_.setTrackIds(ids);
+    else
+      filter_.setTrackIds({});
     filter_.setMotionLikelihood(motion_likelihood_);
+    // Tracks made by position association are numbered from 0 up, so the ones that
+    // existed before this frame are those below the current count.
+    const auto first_new_id = static_cast<std::int64_t>(filter_.getTrackCount());
     pcl::Indices kept;
     filter_.filter(kept);
     kept_ = kept.size();
     frame.feature_probabilities = filter_.getProbabilities();
-    frame.feature_track_ids = ids;
+    frame.feature_track_ids = descriptors ? ids : filter_.getAssignedTrackIds();
     probability_sum_ = 0.0;
     for (const float p : frame.feature_probabilities)
       probability_sum_ += p;
-    previous_ = frame.features;
-    previous_ids_ = std::move(ids);
+    if (descriptors) {
+      previous_ = frame.features;
+      previous_ids_ = std::move(ids);
+    } else {
+      // Re-observed by position: the filter's tracks are the memory.
+      for (const auto id : frame.feature_track_ids)
+        reobserved_ += id >= 0 && id < first_new_id ? 1 : 0;
+      previous_ = StereoFeatures();
+      previous_ids_.clear();
+    }
   }
 
   bool countsCloudPoints() const override { return false; }
@@ -104,6 +171,8 @@ public:
     values.emplace_back("occupied", static_cast<double>(kept_));
     values.emplace_back("mean_probability", n > 0 ? probability_sum_ / n : 0.0);
     values.emplace_back("motion_likelihood", motion_likelihood_);
+    // 0 stereo, 1 depth camera, 2 range sensor: the range error eq. 4 used.
+    values.emplace_back("range_error_model", static_cast<double>(model_));
   }
 
   /** The tracks, the previous frame's features and ids, the previous pose and the
@@ -153,6 +222,9 @@ public:
   }
 
 private:
+  KLDivergenceOccupancyFilter<pcl::PointXYZ>::Params params_;
+  ErrorModel error_model_;
+  RangeErrorModel model_{RangeErrorModel::STEREO};
   KLDivergenceOccupancyFilter<pcl::PointXYZ> filter_;
   StereoOdometry matcher_;
   ConstantVelocityMotionModel motion_model_;
@@ -316,22 +388,37 @@ klOccupancyFilterInfo()
   StageInfo info;
   info.type = "kl_occupancy_filter";
   info.description =
-    "planar_grid::KLDivergenceOccupancyFilter (paper Sec. III-D/E): each matched 3D "
-    "key "
-    "feature gets the sampled-Gaussian occupancy of eq. 4 over its stereo range error; "
-    "features matched again in later frames (descriptor matching, ratio test and "
-    "mutual "
-    "check, one track per feature) are updated with the Kullback-Leibler rule "
-    "(eqs. 5-10) or OctoMap's log-odds rule. Needs feature_matching before it.";
-  info.needs_stereo = true;
+    "planar_grid::KLDivergenceOccupancyFilter (paper Sec. III-D/E): each 3D key "
+    "feature gets the sampled-Gaussian occupancy of eq. 4 over its sensor's range "
+    "error (stereo, depth camera or range sensor); features matched again in later "
+    "frames (descriptor matching, ratio test and mutual check, one track per feature; "
+    "features without descriptors by position in the world) are updated with the "
+    "Kullback-Leibler rule (eqs. 5-10) or OctoMap's log-odds rule. Needs "
+    "feature_matching (stereo) or cloud_features (point clouds) before it.";
   const KLDivergenceOccupancyFilter<pcl::PointXYZ>::Params d;
   const ConstantVelocityMotionModel::Params md;
   info.params = {
     ParamSpec::choice("update_rule", "kl_divergence", {"kl_divergence", "log_odds"},
                       "Update of a re-observed feature: eqs. 5-10 or OctoMap's "
                       "log-odds."),
+    ParamSpec::choice("range_error_model", "auto",
+                      {"auto", "stereo", "depth_quadratic", "range"},
+                      "dr of eq. 4: stereo = the paper's (r_bar / z) z^2 / (B f) dd "
+                      "with the frame's calibration; depth_quadratic = (r_bar / z) k "
+                      "z^2 (a depth camera); range = range_error_m (a LiDAR); auto = "
+                      "stereo for stereo input, depth_quadratic for key features of a "
+                      "cloud's image, range for point features."),
     ParamSpec::real("disparity_error_px", d.disparity_error_px, 0.01, 10.0, "px",
-                    "dd of eq. 4."),
+                    "dd of eq. 4 (stereo)."),
+    ParamSpec::real("depth_error_coefficient_per_m", d.depth_error_coefficient_per_m,
+                    1e-6, 1.0, "1/m",
+                    "k of dz = k z^2 (depth_quadratic); the default is 4 cm at 5 m, "
+                    "the Kinect's (Khoshelham and Elberink 2012)."),
+    ParamSpec::real("range_error_m", d.range_error_m, 1e-4, 10.0, "m",
+                    "dr of eq. 4 (range): the sensor's range standard deviation."),
+    ParamSpec::real("association_radius_m", 0.1, 0.001, 10.0, "m",
+                    "Features without descriptors: a feature continues the nearest "
+                    "track within this distance in the world."),
     ParamSpec::real("neighbourhood_size_m", d.neighbourhood_size_m, 0.01, 100.0, "m",
                     "Cell over which r_bar of eq. 4 is averaged."),
     ParamSpec::real("clamping_thres_min", d.clamping_thres_min, 0.001, 0.499,
@@ -360,6 +447,15 @@ klOccupancyFilterInfo()
     KLDivergenceOccupancyFilter<pcl::PointXYZ>::Params p;
     p.update_rule = occupancyUpdateRuleFromString(v.getChoice("update_rule"));
     p.disparity_error_px = v.getDouble("disparity_error_px");
+    p.depth_error_coefficient_per_m = v.getDouble("depth_error_coefficient_per_m");
+    p.range_error_m = v.getDouble("range_error_m");
+    p.association_radius_m = v.getDouble("association_radius_m");
+    const std::string model = v.getChoice("range_error_model");
+    using Model = KLOccupancyFilterStage::ErrorModel;
+    const Model error_model = model == "stereo"            ? Model::STEREO
+                              : model == "depth_quadratic" ? Model::DEPTH_QUADRATIC
+                              : model == "range"           ? Model::RANGE
+                                                           : Model::AUTO;
     p.neighbourhood_size_m = v.getDouble("neighbourhood_size_m");
     p.clamping_thres_min = v.getDouble("clamping_thres_min");
     p.clamping_thres_max = v.getDouble("clamping_thres_max");
@@ -372,7 +468,7 @@ klOccupancyFilterInfo()
     ConstantVelocityMotionModel::Params motion;
     motion.sigma_translation_m = v.getDouble("sigma_translation_m");
     motion.sigma_rotation_rad = v.getDouble("sigma_rotation_rad");
-    return std::make_unique<KLOccupancyFilterStage>(p, matching, motion,
+    return std::make_unique<KLOccupancyFilterStage>(p, error_model, matching, motion,
                                                     v.getBool("use_motion_likelihood"));
   };
   return info;

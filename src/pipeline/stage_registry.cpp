@@ -39,7 +39,7 @@ stageDataName(StageData data)
     case StageData::DISPARITY:
       return "a disparity image";
     case StageData::FEATURES:
-      return "stereo key features";
+      return "key features";
     case StageData::FEATURE_OCCUPANCY:
       return "feature occupancy probabilities";
     case StageData::POSES:
@@ -71,8 +71,9 @@ stageRegistry()
     // clang-format off
     declare(stages::stereoDisparityInfo(), {D::STEREO_IMAGES}, {D::CLOUD, D::DISPARITY}),
     declare(stages::featureMatchingInfo(), {D::STEREO_IMAGES}, {D::FEATURES}),
+    declare(stages::cloudFeaturesInfo(), {D::CLOUD}, {D::FEATURES}),
     declare(stages::klOccupancyFilterInfo(), {D::FEATURES}, {D::FEATURE_OCCUPANCY}),
-    declare(stages::visualOdometryInfo(), {D::FEATURES}, {D::POSES}),
+    declare(stages::visualOdometryInfo(), {D::STEREO_IMAGES, D::FEATURES}, {D::POSES}),
     declare(stages::depthErrorFilterInfo(), {D::STEREO_IMAGES, D::CLOUD}, {}, true),
     declare(stages::voxelGridInfo(), {D::CLOUD}, {}, true),
     declare(stages::statisticalOutlierRemovalInfo(), {D::CLOUD}, {}, true),

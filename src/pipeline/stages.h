@@ -14,6 +14,9 @@ namespace stages {
 StageInfo stereoDisparityInfo();
 StageInfo featureMatchingInfo();
 
+// cloud_feature_stages.cpp
+StageInfo cloudFeaturesInfo();
+
 // odometry_stages.cpp
 StageInfo visualOdometryInfo();
 

@@ -542,7 +542,7 @@ TEST(PipelineConfig, FeatureSampleOnPCDInputIsAnErrorAtItsLine)
                             "feature_matching\n  - type: multi_plane_segmentation\n",
                         "t.yaml", "/");
   EXPECT_EQ(stereo.stages[2].params.getChoice("sample"), "features");
-  // The stereo feature occupancy needs stereo input too.
+  // The feature occupancy needs a stage giving the features (cloud_features).
   const auto kl =
     errorOf(pcd + "pipeline:\n  - type: voxel_grid\n  - type: kl_occupancy_filter\n");
   EXPECT_EQ(kl.line(), 6) << kl.what();
@@ -698,9 +698,9 @@ TEST(PipelineConfig, StageOrderIsCheckedAgainstWhatEachStageNeeds)
                      "  - type: feature_matching\n");
   EXPECT_EQ(e.line(), 11);
   EXPECT_NE(std::string(e.what()).find(
-              "stage 'kl_occupancy_filter' needs stereo key features, which no earlier "
+              "stage 'kl_occupancy_filter' needs key features, which no earlier "
               "stage produces: 'feature_matching' is listed after it (line 12); put "
-              "'feature_matching' before it"),
+              "'feature_matching' or 'cloud_features' before it"),
             std::string::npos)
     << e.what();
   // Ground removal before the segmentation that finds the planes.
@@ -728,7 +728,7 @@ TEST(PipelineConfig, StageOrderIsCheckedAgainstWhatEachStageNeeds)
   // The default plane sample is the key features.
   e = errorOf(stereo
               + "  - type: stereo_disparity\n  - type: multi_plane_segmentation\n");
-  EXPECT_NE(std::string(e.what()).find("needs stereo key features"), std::string::npos)
+  EXPECT_NE(std::string(e.what()).find("needs key features"), std::string::npos)
     << e.what();
   // The stereo stages on a PCD input, and what only they produce.
   const std::string pcd = "input:\n  type: pcd_files\n  files: a.pcd\npipeline:\n";
@@ -740,10 +740,11 @@ TEST(PipelineConfig, StageOrderIsCheckedAgainstWhatEachStageNeeds)
                                "none)"),
     std::string::npos)
     << e.what();
+  // The feature occupancy on a point cloud takes its features from cloud_features.
   e = errorOf(pcd + "  - type: kl_occupancy_filter\n");
-  EXPECT_NE(std::string(e.what()).find("needs stereo key features, which only "
-                                       "'feature_matching' produces, from stereo "
-                                       "images: a pcd_files input cannot give it"),
+  EXPECT_NE(std::string(e.what()).find("needs key features, which no earlier stage "
+                                       "produces: put 'feature_matching' or "
+                                       "'cloud_features' before it"),
             std::string::npos)
     << e.what();
   // The right order loads.

@@ -100,7 +100,8 @@ enum class StageData {
   CLOUD,
   /** \brief The disparity image (stereo_disparity). */
   DISPARITY,
-  /** \brief The matched stereo key features (feature_matching). */
+  /** \brief The 3D key features (feature_matching from stereo, cloud_features from a
+   * point cloud). */
   FEATURES,
   /** \brief The features' occupancy probabilities and track ids
    * (kl_occupancy_filter). */
