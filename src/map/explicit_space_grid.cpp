@@ -14,6 +14,7 @@
 #include <limits>
 #include <sstream>
 #include <thread>
+#include <unordered_map>
 #include <utility>
 
 #include "octomap_writer.h"
@@ -32,7 +33,7 @@ constexpr int BLOCK_VOXELS = 512;
  * free but is not free space that a view saw (codes 0-2 are the SpaceState values).
  * With the unknown prior, never observed and occluded are one state, code 2. */
 constexpr std::uint8_t NEVER_OBSERVED = 3;
-/** \brief Block::uniform of a block whose voxels are not all in one state. */
+/** \brief The "uniform code" of a block whose voxels are not all in one state. */
 constexpr std::uint8_t MIXED = 4;
 /** \brief Label of an inner octree node in the bit stream (versions 1 and 2), the
  * escape label in version 3. */
@@ -109,64 +110,7 @@ struct BlockKeyHash {
  * word i / 32. */
 using Payload = std::array<std::uint64_t, 16>;
 
-/** \brief One block: a uniform state, or MIXED with a payload. */
-struct Block {
-  std::uint8_t uniform{MIXED};
-  std::unique_ptr<Payload> bits;
-
-  std::uint8_t get(int i) const
-  {
-    if (uniform != MIXED)
-      return uniform;
-    return static_cast<std::uint8_t>(
-      ((*bits)[static_cast<std::size_t>(i >> 5)] >> ((i & 31) * 2)) & 3u);
-  }
-  /** \brief Requires a MIXED block. */
-  void set(int i, std::uint8_t s)
-  {
-    auto& w = (*bits)[static_cast<std::size_t>(i >> 5)];
-    const int shift = (i & 31) * 2;
-    w = (w & ~(std::uint64_t{3} << shift)) | (static_cast<std::uint64_t>(s) << shift);
-  }
-  void makeMixed()
-  {
-    if (uniform == MIXED)
-      return;
-    if (!bits)
-      bits = std::make_unique<Payload>();
-    bits->fill(pattern(uniform));
-    uniform = MIXED;
-  }
-  void makeUniform(std::uint8_t s)
-  {
-    uniform = s;
-    bits.reset();
-  }
-  /** \brief Turns a MIXED block whose voxels agree into a uniform one. */
-  void compact()
-  {
-    if (uniform != MIXED)
-      return;
-    const std::uint64_t w0 = (*bits)[0];
-    const auto s = static_cast<std::uint8_t>(w0 & 3u);
-    if (w0 != pattern(s))
-      return;
-    for (const auto w : *bits)
-      if (w != w0)
-        return;
-    makeUniform(s);
-  }
-  bool operator==(const Block& o) const
-  {
-    if (uniform != o.uniform)
-      return false;
-    return uniform != MIXED || *bits == *o.bits;
-  }
-};
-
-using BlockMap = std::unordered_map<BlockKey, Block, BlockKeyHash>;
-
-/** \brief Voxels of each code in a MIXED block. */
+/** \brief Voxels of each code in a payload. */
 std::array<std::size_t, 4>
 countCodes(const Payload& p)
 {
@@ -182,6 +126,247 @@ countCodes(const Payload& p)
   return n;
 }
 
+/** \brief True when the 2-bit codes of \a p are all equal; \a code is set to the
+ * first. */
+bool
+isUniform(const Payload& p, std::uint8_t& code)
+{
+  const std::uint64_t w0 = p[0];
+  code = static_cast<std::uint8_t>(w0 & 3u);
+  if (w0 != pattern(code))
+    return false;
+  for (const auto w : p)
+    if (w != w0)
+      return false;
+  return true;
+}
+
+/** \brief One block decoded: a uniform state, or MIXED with every voxel's code. */
+struct DenseBlock {
+  std::uint8_t uniform{MIXED};
+  Payload bits{};
+
+  std::uint8_t get(int i) const
+  {
+    if (uniform != MIXED)
+      return uniform;
+    return static_cast<std::uint8_t>(
+      (bits[static_cast<std::size_t>(i >> 5)] >> ((i & 31) * 2)) & 3u);
+  }
+};
+
+// Compact form of a mixed block, a fixed two-level octree below the block:
+//   byte 0     mask of the mixed 4^3 cubes (bit c: the cube at (4 (c & 1),
+//              4 ((c >> 1) & 1), 4 (c >> 2)))
+//   bytes 1-2  the 2-bit code of each uniform cube (bits 2 c; 0 for a mixed cube)
+//   3 bytes per mixed cube, in cube order: mask of its mixed 2^3 cells (bit d: the
+//              cell at offset (2 (d & 1), 2 ((d >> 1) & 1), 2 (d >> 2)) in the cube),
+//              then the 2-bit codes of its uniform cells (bits 2 d; 0 when mixed)
+//   2 bytes per mixed cell, in cube then cell order: the codes of its 8 voxels
+//              (voxel (x, y, z) of the cell at bits 2 (x + 2 y + 4 z))
+// The encoding of a payload is unique, so equal blocks have equal bytes.
+
+/** \brief Largest compact block: 3 + 8 x 3 + 64 x 2 bytes. */
+constexpr std::size_t MAX_COMPACT_BYTES = 155;
+
+/** \brief 16 bits holding 8 copies of the 2-bit code \a s. */
+constexpr std::uint32_t
+cellPattern(std::uint32_t s)
+{
+  return s * 0x5555u;
+}
+
+/** \brief Local voxel index of the corner of cell d of cube c. */
+constexpr int
+cellOrigin(int c, int d)
+{
+  return (4 * (c & 1) + 2 * (d & 1)) + 8 * (4 * ((c >> 1) & 1) + 2 * ((d >> 1) & 1))
+         + 64 * (4 * (c >> 2) + 2 * (d >> 2));
+}
+
+/** \brief The 8 codes of the 2^3 cell whose corner voxel is \a i0 (x of i0 even): two
+ * voxels of a row are 4 consecutive bits of one word. */
+inline std::uint32_t
+cellValue(const Payload& p, int i0)
+{
+  std::uint32_t v = 0;
+  for (int k = 0; k < 4; ++k) { // k = dy + 2 dz
+    const int i = i0 + 8 * (k & 1) + 64 * (k >> 1);
+    v |= static_cast<std::uint32_t>(
+           (p[static_cast<std::size_t>(i >> 5)] >> (2 * (i & 31))) & 15u)
+         << (4 * k);
+  }
+  return v;
+}
+
+/** \brief Writes the 8 codes \a v of the cell with corner voxel \a i0 into a zeroed
+ * region of \a p. */
+inline void
+putCell(Payload& p, int i0, std::uint32_t v)
+{
+  for (int k = 0; k < 4; ++k) {
+    const int i = i0 + 8 * (k & 1) + 64 * (k >> 1);
+    p[static_cast<std::size_t>(i >> 5)] |=
+      static_cast<std::uint64_t>((v >> (4 * k)) & 15u) << (2 * (i & 31));
+  }
+}
+
+/** \brief Encodes a payload whose codes are not all equal; returns the byte count
+ * (<= MAX_COMPACT_BYTES) written to \a out. */
+std::size_t
+encodeCompact(const Payload& p, std::uint8_t* out)
+{
+  std::array<std::uint32_t, 64> cells; // cube c, cell d at 8 c + d
+  for (int c = 0; c < 8; ++c)
+    for (int d = 0; d < 8; ++d)
+      cells[static_cast<std::size_t>(8 * c + d)] = cellValue(p, cellOrigin(c, d));
+  std::uint32_t mixed_cubes = 0, cube_codes = 0;
+  for (int c = 0; c < 8; ++c) {
+    const std::uint32_t v0 = cells[static_cast<std::size_t>(8 * c)];
+    bool uniform = v0 == cellPattern(v0 & 3u);
+    for (int d = 1; d < 8 && uniform; ++d)
+      uniform = cells[static_cast<std::size_t>(8 * c + d)] == v0;
+    if (uniform)
+      cube_codes |= (v0 & 3u) << (2 * c);
+    else
+      mixed_cubes |= 1u << c;
+  }
+  out[0] = static_cast<std::uint8_t>(mixed_cubes);
+  out[1] = static_cast<std::uint8_t>(cube_codes);
+  out[2] = static_cast<std::uint8_t>(cube_codes >> 8);
+  std::size_t head = 3;
+  std::size_t tail = 3 + 3 * static_cast<std::size_t>(__builtin_popcount(mixed_cubes));
+  for (int c = 0; c < 8; ++c) {
+    if (!((mixed_cubes >> c) & 1u))
+      continue;
+    std::uint32_t mixed_cells = 0, cell_codes = 0;
+    for (int d = 0; d < 8; ++d) {
+      const std::uint32_t v = cells[static_cast<std::size_t>(8 * c + d)];
+      if (v == cellPattern(v & 3u))
+        cell_codes |= (v & 3u) << (2 * d);
+      else {
+        mixed_cells |= 1u << d;
+        out[tail++] = static_cast<std::uint8_t>(v);
+        out[tail++] = static_cast<std::uint8_t>(v >> 8);
+      }
+    }
+    out[head++] = static_cast<std::uint8_t>(mixed_cells);
+    out[head++] = static_cast<std::uint8_t>(cell_codes);
+    out[head++] = static_cast<std::uint8_t>(cell_codes >> 8);
+  }
+  return tail;
+}
+
+/** \brief Bytes of the compact block at \a data. */
+inline std::size_t
+compactSize(const std::uint8_t* data)
+{
+  const int n_cubes = __builtin_popcount(data[0]);
+  std::size_t n = 3 + 3 * static_cast<std::size_t>(n_cubes);
+  for (int k = 0; k < n_cubes; ++k)
+    n += 2 * static_cast<std::size_t>(__builtin_popcount(data[3 + 3 * k]));
+  return n;
+}
+
+/** \brief Code of local voxel (x, y, z) of the compact block at \a data. */
+inline std::uint8_t
+compactGet(const std::uint8_t* data, int x, int y, int z)
+{
+  const unsigned c =
+    static_cast<unsigned>((x >> 2) | ((y >> 2) << 1) | ((z >> 2) << 2));
+  const unsigned mixed_cubes = data[0];
+  if (!((mixed_cubes >> c) & 1u))
+    return static_cast<std::uint8_t>(
+      ((static_cast<unsigned>(data[1]) | (static_cast<unsigned>(data[2]) << 8))
+       >> (2 * c))
+      & 3u);
+  const int r = __builtin_popcount(mixed_cubes & ((1u << c) - 1u));
+  const std::uint8_t* cube = data + 3 + 3 * r;
+  const unsigned d = static_cast<unsigned>(((x >> 1) & 1) | (((y >> 1) & 1) << 1)
+                                           | (((z >> 1) & 1) << 2));
+  const unsigned mixed_cells = cube[0];
+  if (!((mixed_cells >> d) & 1u))
+    return static_cast<std::uint8_t>(
+      ((static_cast<unsigned>(cube[1]) | (static_cast<unsigned>(cube[2]) << 8))
+       >> (2 * d))
+      & 3u);
+  int before = __builtin_popcount(mixed_cells & ((1u << d) - 1u));
+  for (int k = 0; k < r; ++k)
+    before += __builtin_popcount(data[3 + 3 * k]);
+  const std::uint8_t* cell =
+    data + 3 + 3 * __builtin_popcount(mixed_cubes) + 2 * before;
+  const unsigned v =
+    static_cast<unsigned>(cell[0]) | (static_cast<unsigned>(cell[1]) << 8);
+  return static_cast<std::uint8_t>((v >> (2 * ((x & 1) + 2 * (y & 1) + 4 * (z & 1))))
+                                   & 3u);
+}
+
+/** \brief Decodes the compact block at \a data into \a p. */
+void
+decodeCompact(const std::uint8_t* data, Payload& p)
+{
+  p.fill(0);
+  const unsigned mixed_cubes = data[0];
+  const unsigned cube_codes =
+    static_cast<unsigned>(data[1]) | (static_cast<unsigned>(data[2]) << 8);
+  const std::uint8_t* head = data + 3;
+  const std::uint8_t* tail = data + 3 + 3 * __builtin_popcount(mixed_cubes);
+  for (int c = 0; c < 8; ++c) {
+    if (!((mixed_cubes >> c) & 1u)) {
+      const std::uint32_t v = cellPattern((cube_codes >> (2 * c)) & 3u);
+      for (int d = 0; d < 8; ++d)
+        putCell(p, cellOrigin(c, d), v);
+      continue;
+    }
+    const unsigned mixed_cells = head[0];
+    const unsigned cell_codes =
+      static_cast<unsigned>(head[1]) | (static_cast<unsigned>(head[2]) << 8);
+    head += 3;
+    for (int d = 0; d < 8; ++d) {
+      std::uint32_t v;
+      if ((mixed_cells >> d) & 1u) {
+        v = static_cast<std::uint32_t>(tail[0])
+            | (static_cast<std::uint32_t>(tail[1]) << 8);
+        tail += 2;
+      } else
+        v = cellPattern((cell_codes >> (2 * d)) & 3u);
+      putCell(p, cellOrigin(c, d), v);
+    }
+  }
+}
+
+/** \brief Adds the voxels of each code of the compact block at \a data to \a n. */
+void
+countCompact(const std::uint8_t* data, std::array<std::size_t, 4>& n)
+{
+  const unsigned mixed_cubes = data[0];
+  const unsigned cube_codes =
+    static_cast<unsigned>(data[1]) | (static_cast<unsigned>(data[2]) << 8);
+  const std::uint8_t* head = data + 3;
+  const std::uint8_t* tail = data + 3 + 3 * __builtin_popcount(mixed_cubes);
+  for (int c = 0; c < 8; ++c) {
+    if (!((mixed_cubes >> c) & 1u)) {
+      n[(cube_codes >> (2 * c)) & 3u] += 64;
+      continue;
+    }
+    const unsigned mixed_cells = head[0];
+    const unsigned cell_codes =
+      static_cast<unsigned>(head[1]) | (static_cast<unsigned>(head[2]) << 8);
+    head += 3;
+    for (int d = 0; d < 8; ++d) {
+      if (!((mixed_cells >> d) & 1u)) {
+        n[(cell_codes >> (2 * d)) & 3u] += 8;
+        continue;
+      }
+      const unsigned v =
+        static_cast<unsigned>(tail[0]) | (static_cast<unsigned>(tail[1]) << 8);
+      tail += 2;
+      for (int k = 0; k < 8; ++k)
+        ++n[(v >> (2 * k)) & 3u];
+    }
+  }
+}
+
 /** \brief floor(a / 8) for negative a too. */
 inline int
 blockOf(int a)
@@ -195,71 +380,163 @@ localOf(int a)
   return a & (BLOCK_EDGE - 1);
 }
 
-/** \brief The blocks in key order (z, then y, then x), for the outputs that must not
- * depend on the hash map's order. */
-std::vector<std::pair<BlockKey, const Block*>>
-sortedBlocks(const BlockMap& blocks)
-{
-  std::vector<std::pair<BlockKey, const Block*>> sorted;
-  sorted.reserve(blocks.size());
-  for (const auto& kv : blocks)
-    sorted.emplace_back(kv.first, &kv.second);
-  std::sort(sorted.begin(), sorted.end(),
-            [](const auto& a, const auto& b) { return a.first < b.first; });
-  return sorted;
-}
-
-/** \brief Voxel-by-voxel write access to the blocks, for writes that stay in one block
- * for a while (a row of pixels, a ray): remembers the last block, creates missing ones
- * at the prior, and compacts the touched blocks at the end (dropping those back at the
- * prior), so that the representation stays canonical. */
-class BlockCursor {
+/** \brief Open-addressing hash table (linear probing, at most half full) from block
+ * grid coordinates to indices; one flat array, no node per entry. */
+class KeyIndex {
 public:
-  BlockCursor(BlockMap& blocks, std::uint8_t prior) : blocks_(blocks), prior_(prior) {}
+  static constexpr std::uint32_t NONE = std::numeric_limits<std::uint32_t>::max();
 
-  /** \brief The block of voxel (kx, ky, kz), created at the prior when missing; \a i
-   * is set to the voxel's index in it. */
-  Block& at(int kx, int ky, int kz, int& i)
+  /** \brief The index stored for \a key, NONE when absent. */
+  std::uint32_t find(const BlockKey& key) const
   {
-    const BlockKey bk{blockOf(kx), blockOf(ky), blockOf(kz)};
-    if (!cached_ || !(bk == cached_key_)) {
-      auto it = blocks_.find(bk);
-      if (it == blocks_.end()) {
-        Block b;
-        b.uniform = prior_;
-        it = blocks_.emplace(bk, std::move(b)).first;
-      }
-      cached_ = &it->second;
-      cached_key_ = bk;
-      touched_.push_back(bk);
+    if (slots_.empty())
+      return NONE;
+    const std::size_t mask = slots_.size() - 1;
+    for (std::size_t s = BlockKeyHash()(key) & mask;; s = (s + 1) & mask) {
+      const Slot& slot = slots_[s];
+      if (slot.index == NONE)
+        return NONE;
+      if (slot.key == key)
+        return slot.index;
     }
-    i = localOf(kx) + 8 * localOf(ky) + 64 * localOf(kz);
-    return *cached_;
   }
 
-  /** \brief Compacts every touched block and erases those at the prior. */
-  void compactTouched()
+  /** \brief Stores key -> index; \a key must be absent. */
+  void insert(const BlockKey& key, std::uint32_t index)
   {
-    std::sort(touched_.begin(), touched_.end());
-    touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
-    for (const auto& bk : touched_) {
-      auto it = blocks_.find(bk);
-      if (it == blocks_.end())
-        continue;
-      it->second.compact();
-      if (it->second.uniform == prior_)
-        blocks_.erase(it);
-    }
-    touched_.clear();
-    cached_ = nullptr;
+    if (2 * (size_ + 1) > slots_.size())
+      grow();
+    place(key, index);
+    ++size_;
   }
+
+  /** \brief Removes every entry (keeps the table's capacity). */
+  void clear()
+  {
+    for (auto& slot : slots_)
+      slot.index = NONE;
+    size_ = 0;
+  }
+
+  /** \brief Removes every entry and frees the table. */
+  void release()
+  {
+    std::vector<Slot>().swap(slots_);
+    size_ = 0;
+  }
+
+  /** \brief Bytes of the table's allocation. */
+  std::size_t capacityBytes() const { return slots_.capacity() * sizeof(Slot); }
 
 private:
-  BlockMap& blocks_;
-  std::uint8_t prior_;
-  std::vector<BlockKey> touched_;
-  BlockKey cached_key_{0, 0, 0};
-  Block* cached_{nullptr};
+  struct Slot {
+    BlockKey key{0, 0, 0};
+    std::uint32_t index{NONE};
+  };
+
+  void place(const BlockKey& key, std::uint32_t index)
+  {
+    const std::size_t mask = slots_.size() - 1;
+    std::size_t s = BlockKeyHash()(key) & mask;
+    while (slots_[s].index != NONE)
+      s = (s + 1) & mask;
+    slots_[s] = {key, index};
+  }
+
+  void grow()
+  {
+    std::vector<Slot> old;
+    old.swap(slots_);
+    slots_.assign(std::max<std::size_t>(16, 2 * old.size()), Slot{});
+    for (const auto& slot : old)
+      if (slot.index != NONE)
+        place(slot.key, slot.index);
+  }
+
+  std::vector<Slot> slots_;
+  std::size_t size_{0};
+};
+
+/** \brief Blocks setState() edits before it writes them to the storage. */
+constexpr std::size_t MAX_PENDING_BLOCKS = 4096;
+/** \brief log2 of the edge of a super-block, in blocks. */
+constexpr int SUPER_SHIFT = 3;
+/** \brief Blocks per super-block (8 x 8 x 8). */
+constexpr int SUPER_BLOCKS = 512;
+
+/** \brief 8 x 8 x 8 blocks (64^3 voxels): the 2-bit code of each uniform block, a bit
+ * per mixed block, and the mixed blocks' compact forms back to back. A block at the
+ * grid's prior code is not stored (it is never-observed space). */
+struct SuperBlock {
+  /** \brief Super-block coordinates: floor(block key / 8). */
+  BlockKey key{0, 0, 0};
+  /** \brief Code of block j = x + 8 y + 64 z at bits 2 (j % 32) of word j / 32; 0 for
+   * a mixed block. */
+  std::array<std::uint64_t, 16> codes{};
+  /** \brief Bit j % 64 of word j / 64: block j is mixed. */
+  std::array<std::uint64_t, 8> mixed{};
+  /** \brief Mixed blocks in the words of \a mixed before word w. */
+  std::array<std::uint16_t, 8> rank{};
+  /** \brief Blocks not at the prior (uniform ones of another code, and mixed ones). */
+  std::uint16_t stored{0};
+  /** \brief Start of each mixed block's compact form in \a data, in block order. */
+  std::vector<std::uint32_t> offsets;
+  /** \brief The compact forms. */
+  std::vector<std::uint8_t> data;
+
+  bool isMixed(int j) const
+  {
+    return (mixed[static_cast<std::size_t>(j >> 6)] >> (j & 63)) & 1u;
+  }
+  std::uint8_t code(int j) const
+  {
+    return static_cast<std::uint8_t>(
+      (codes[static_cast<std::size_t>(j >> 5)] >> (2 * (j & 31))) & 3u);
+  }
+  /** \brief The compact form of mixed block \a j. */
+  const std::uint8_t* compact(int j) const
+  {
+    const auto w = static_cast<std::size_t>(j >> 6);
+    const std::uint64_t below = (std::uint64_t{1} << (j & 63)) - 1;
+    const auto r =
+      rank[w] + static_cast<std::size_t>(__builtin_popcountll(mixed[w] & below));
+    return data.data() + offsets[r];
+  }
+  /** \brief Code of voxel (x, y, z) (local to block j). */
+  std::uint8_t get(int j, int x, int y, int z) const
+  {
+    return isMixed(j) ? compactGet(compact(j), x, y, z) : code(j);
+  }
+  /** \brief Block \a j decoded. */
+  void load(int j, DenseBlock& out) const
+  {
+    if (isMixed(j)) {
+      out.uniform = MIXED;
+      decodeCompact(compact(j), out.bits);
+    } else
+      out.uniform = code(j);
+  }
+};
+
+/** \brief Block \a j's coordinates in super-block \a s. */
+inline BlockKey
+blockKeyOf(const BlockKey& s, int j)
+{
+  return {s.x * 8 + (j & 7), s.y * 8 + ((j >> 3) & 7), s.z * 8 + (j >> 6)};
+}
+
+/** \brief A stored block: its key, and where it lives. */
+struct StoredBlock {
+  BlockKey key;
+  const SuperBlock* super;
+  int j;
+};
+
+/** \brief A block being written: a uniform code, or MIXED with a payload in the
+ * edit buffer's pool. */
+struct EditBlock {
+  std::uint8_t uniform{MIXED};
+  std::uint32_t payload{0};
 };
 
 /** \brief The start of a 3D DDA walk (Amanatides and Woo) from \a o along the unit
@@ -640,10 +917,310 @@ observeCube(const VoxelKernel& kernel,
 } // namespace
 
 struct ExplicitSpaceGrid::Impl {
-  BlockMap blocks;
+  class Cursor;
+
+  /** \brief The super-blocks holding at least one stored block (any order). */
+  std::vector<SuperBlock> supers;
+  /** \brief Super-block coordinates -> index in \a supers. */
+  KeyIndex directory;
+
+  /** \brief Blocks being written (keys, their content, and their index), with the
+   * payloads of the mixed ones; emptied by commit(). */
+  KeyIndex edit_index;
+  std::vector<BlockKey> edit_keys;
+  std::vector<EditBlock> edits;
+  std::vector<Payload> pool;
+  /** \brief commit()'s scratch: the edits' order, one super-block's new arrays. */
+  std::vector<std::uint32_t> order, new_offsets;
+  std::vector<std::uint8_t> new_data;
+
   DepthPyramid pyramid;
   /** \brief Per-thread observations of the blocks of the last view. */
   std::vector<std::vector<BlockResult>> results;
+
+  static BlockKey superOf(const BlockKey& b)
+  {
+    return {b.x >> SUPER_SHIFT, b.y >> SUPER_SHIFT, b.z >> SUPER_SHIFT};
+  }
+  static int indexInSuper(const BlockKey& b)
+  {
+    return (b.x & 7) + 8 * (b.y & 7) + 64 * (b.z & 7);
+  }
+
+  const SuperBlock* findSuper(const BlockKey& s) const
+  {
+    const std::uint32_t i = directory.find(s);
+    return i == KeyIndex::NONE ? nullptr : &supers[i];
+  }
+
+  /** \brief Code of voxel (kx, ky, kz), pending edits included; \a prior where
+   * nothing is stored. */
+  std::uint8_t codeAt(int kx, int ky, int kz, std::uint8_t prior) const
+  {
+    const BlockKey bk{blockOf(kx), blockOf(ky), blockOf(kz)};
+    if (!edits.empty()) {
+      const std::uint32_t e = edit_index.find(bk);
+      if (e != KeyIndex::NONE)
+        return getEdit(e, localOf(kx) + 8 * localOf(ky) + 64 * localOf(kz));
+    }
+    const SuperBlock* sb = findSuper(superOf(bk));
+    if (sb == nullptr)
+      return prior;
+    return sb->get(indexInSuper(bk), localOf(kx), localOf(ky), localOf(kz));
+  }
+
+  /** \brief The edit of block \a bk, loaded from the storage on first use. */
+  std::uint32_t open(const BlockKey& bk, std::uint8_t prior)
+  {
+    std::uint32_t e = edit_index.find(bk);
+    if (e != KeyIndex::NONE)
+      return e;
+    e = static_cast<std::uint32_t>(edits.size());
+    EditBlock block;
+    block.uniform = prior;
+    if (const SuperBlock* sb = findSuper(superOf(bk))) {
+      const int j = indexInSuper(bk);
+      if (sb->isMixed(j)) {
+        block.uniform = MIXED;
+        block.payload = newPayload();
+        decodeCompact(sb->compact(j), pool[block.payload]);
+      } else
+        block.uniform = sb->code(j);
+    }
+    edit_keys.push_back(bk);
+    edits.push_back(block);
+    edit_index.insert(bk, e);
+    return e;
+  }
+
+  std::uint32_t newPayload()
+  {
+    pool.emplace_back();
+    return static_cast<std::uint32_t>(pool.size() - 1);
+  }
+
+  /** \brief The payload of edit \a e, made MIXED (voxel by voxel) first. */
+  Payload& mixedPayload(std::uint32_t e)
+  {
+    EditBlock& block = edits[e];
+    if (block.uniform != MIXED) {
+      const std::uint8_t s = block.uniform;
+      block.payload = newPayload();
+      block.uniform = MIXED;
+      pool[block.payload].fill(pattern(s));
+    }
+    return pool[block.payload];
+  }
+
+  std::uint8_t getEdit(std::uint32_t e, int i) const
+  {
+    const EditBlock& block = edits[e];
+    if (block.uniform != MIXED)
+      return block.uniform;
+    return static_cast<std::uint8_t>(
+      (pool[block.payload][static_cast<std::size_t>(i >> 5)] >> ((i & 31) * 2)) & 3u);
+  }
+
+  void setEdit(std::uint32_t e, int i, std::uint8_t s)
+  {
+    if (edits[e].uniform == s)
+      return;
+    auto& w = mixedPayload(e)[static_cast<std::size_t>(i >> 5)];
+    const int shift = (i & 31) * 2;
+    w = (w & ~(std::uint64_t{3} << shift)) | (static_cast<std::uint64_t>(s) << shift);
+  }
+
+  /** \brief Writes the edited blocks into their super-blocks (a block whose voxels
+   * agree becomes uniform, one at the prior is dropped, a super-block left without
+   * blocks is removed), then empties the edit buffer. */
+  void commit(std::uint8_t prior)
+  {
+    const std::size_t n = edits.size();
+    order.resize(n);
+    for (std::size_t k = 0; k < n; ++k)
+      order[k] = static_cast<std::uint32_t>(k);
+    std::sort(order.begin(), order.end(), [this](std::uint32_t a, std::uint32_t b) {
+      const BlockKey sa = superOf(edit_keys[a]), sb = superOf(edit_keys[b]);
+      if (!(sa == sb))
+        return sa < sb;
+      return indexInSuper(edit_keys[a]) < indexInSuper(edit_keys[b]);
+    });
+    // New super-blocks: the array grows to exactly its new size (no capacity left
+    // over: the memory held is what the content needs).
+    std::size_t missing = 0;
+    for (std::size_t g = 0; g < n;) {
+      const BlockKey s = superOf(edit_keys[order[g]]);
+      bool any = false;
+      for (; g < n && superOf(edit_keys[order[g]]) == s; ++g)
+        any = any || edits[order[g]].uniform != prior;
+      missing += any && directory.find(s) == KeyIndex::NONE ? 1 : 0;
+    }
+    if (missing > 0)
+      supers.reserve(supers.size() + missing);
+    bool emptied = false;
+    for (std::size_t g = 0; g < n;) {
+      const BlockKey s = superOf(edit_keys[order[g]]);
+      std::size_t end = g;
+      bool any = false; // an edited block not at the prior
+      for (; end < n && superOf(edit_keys[order[end]]) == s; ++end)
+        any = any || edits[order[end]].uniform != prior;
+      std::uint32_t si = directory.find(s);
+      if (si == KeyIndex::NONE) {
+        if (!any) {
+          g = end;
+          continue;
+        }
+        si = static_cast<std::uint32_t>(supers.size());
+        supers.emplace_back();
+        supers.back().key = s;
+        supers.back().codes.fill(pattern(prior));
+        directory.insert(s, si);
+      }
+      rebuild(supers[si], g, end, prior);
+      emptied = emptied || supers[si].stored == 0;
+      g = end;
+    }
+    if (emptied) {
+      supers.erase(std::remove_if(supers.begin(), supers.end(),
+                                  [](const SuperBlock& sb) { return sb.stored == 0; }),
+                   supers.end());
+      supers.shrink_to_fit(); // rare: the memory follows the content
+      if (supers.empty())
+        directory.release();
+      else
+        directory.clear();
+      for (std::size_t i = 0; i < supers.size(); ++i)
+        directory.insert(supers[i].key, static_cast<std::uint32_t>(i));
+    }
+    discardEdits();
+  }
+
+  /** \brief Commits the edits setState() left pending, so that the storage alone
+   * holds the content. */
+  void settle(std::uint8_t prior)
+  {
+    if (!edits.empty())
+      commit(prior);
+  }
+
+  /** \brief Drops the pending edits. */
+  void discardEdits()
+  {
+    edit_index.clear();
+    edit_keys.clear();
+    edits.clear();
+    pool.clear();
+  }
+
+  /** \brief Frees the edit buffer and commit()'s scratch. */
+  void releaseEdits()
+  {
+    edit_index.release();
+    std::vector<BlockKey>().swap(edit_keys);
+    std::vector<EditBlock>().swap(edits);
+    std::vector<Payload>().swap(pool);
+    std::vector<std::uint32_t>().swap(order);
+    std::vector<std::uint32_t>().swap(new_offsets);
+    std::vector<std::uint8_t>().swap(new_data);
+  }
+
+  /** \brief Rebuilds \a sb with the edits order[first, last) (sorted by block). */
+  void rebuild(SuperBlock& sb, std::size_t first, std::size_t last, std::uint8_t prior)
+  {
+    std::array<std::uint64_t, 16> codes = sb.codes;
+    std::array<std::uint64_t, 8> mixed = sb.mixed;
+    new_offsets.clear();
+    new_data.clear();
+    std::array<std::uint8_t, MAX_COMPACT_BYTES> buffer;
+    std::size_t next = first;
+    for (int j = 0; j < SUPER_BLOCKS; ++j) {
+      const bool edited = next < last && indexInSuper(edit_keys[order[next]]) == j;
+      if (!edited) {
+        if (sb.isMixed(j)) {
+          const std::uint8_t* src = sb.compact(j);
+          new_offsets.push_back(static_cast<std::uint32_t>(new_data.size()));
+          new_data.insert(new_data.end(), src, src + compactSize(src));
+        }
+        continue;
+      }
+      const EditBlock& block = edits[order[next++]];
+      std::uint8_t code = block.uniform, first = 0;
+      if (code == MIXED && isUniform(pool[block.payload], first))
+        code = first;
+      const auto cw = static_cast<std::size_t>(j >> 5);
+      const int cs = 2 * (j & 31);
+      const auto mw = static_cast<std::size_t>(j >> 6);
+      const std::uint64_t mbit = std::uint64_t{1} << (j & 63);
+      codes[cw] &= ~(std::uint64_t{3} << cs);
+      if (code == MIXED) {
+        mixed[mw] |= mbit;
+        const std::size_t bytes = encodeCompact(pool[block.payload], buffer.data());
+        new_offsets.push_back(static_cast<std::uint32_t>(new_data.size()));
+        new_data.insert(new_data.end(), buffer.begin(), buffer.begin() + bytes);
+      } else {
+        mixed[mw] &= ~mbit;
+        codes[cw] |= static_cast<std::uint64_t>(code) << cs;
+      }
+    }
+    sb.codes = codes;
+    sb.mixed = mixed;
+    std::uint16_t before = 0;
+    for (std::size_t w = 0; w < 8; ++w) {
+      sb.rank[w] = before;
+      before = static_cast<std::uint16_t>(before + __builtin_popcountll(mixed[w]));
+    }
+    // a mixed block's code field is 0, never a prior code (2 or 3): counted as stored
+    constexpr std::uint64_t LOW = 0x5555555555555555ULL;
+    int stored = 0;
+    for (const auto w : codes) {
+      const std::uint64_t x = w ^ pattern(prior);
+      stored += __builtin_popcountll((x | (x >> 1)) & LOW);
+    }
+    sb.stored = static_cast<std::uint16_t>(stored);
+    // exact-size arrays: the memory held is the information's
+    std::vector<std::uint32_t>(new_offsets.begin(), new_offsets.end()).swap(sb.offsets);
+    std::vector<std::uint8_t>(new_data.begin(), new_data.end()).swap(sb.data);
+  }
+
+  /** \brief The stored blocks, in key order (z, then y, then x), for the outputs that
+   * must not depend on the storage order. */
+  std::vector<StoredBlock> sortedBlocks(std::uint8_t prior) const
+  {
+    std::vector<StoredBlock> sorted;
+    for (const auto& sb : supers)
+      for (int j = 0; j < SUPER_BLOCKS; ++j)
+        if (sb.isMixed(j) || sb.code(j) != prior)
+          sorted.push_back({blockKeyOf(sb.key, j), &sb, j});
+    std::sort(sorted.begin(), sorted.end(),
+              [](const StoredBlock& a, const StoredBlock& b) { return a.key < b.key; });
+    return sorted;
+  }
+};
+
+/** \brief Voxel-by-voxel writes through the edit buffer, for writes that stay in one
+ * block for a while (a row of pixels, a ray): remembers the last block. */
+class ExplicitSpaceGrid::Impl::Cursor {
+public:
+  Cursor(Impl& impl, std::uint8_t prior) : impl_(impl), prior_(prior) {}
+
+  /** \brief The edit of the block of voxel (kx, ky, kz); \a i is set to the voxel's
+   * index in it. */
+  std::uint32_t at(int kx, int ky, int kz, int& i)
+  {
+    const BlockKey bk{blockOf(kx), blockOf(ky), blockOf(kz)};
+    if (cached_ == KeyIndex::NONE || !(bk == cached_key_)) {
+      cached_ = impl_.open(bk, prior_);
+      cached_key_ = bk;
+    }
+    i = localOf(kx) + 8 * localOf(ky) + 64 * localOf(kz);
+    return cached_;
+  }
+
+private:
+  Impl& impl_;
+  std::uint8_t prior_;
+  BlockKey cached_key_{0, 0, 0};
+  std::uint32_t cached_{KeyIndex::NONE};
 };
 
 // ---------------------------------------------------------------------------------
@@ -823,13 +1400,8 @@ ExplicitSpaceGrid::getState(const Eigen::Vector3f& point) const
 SpaceState
 ExplicitSpaceGrid::getState(const VoxelKey& key) const
 {
-  const auto it =
-    impl_->blocks.find({blockOf(key.x()), blockOf(key.y()), blockOf(key.z())});
-  if (it == impl_->blocks.end())
-    return params_.prior;
-  return stateOf(
-    it->second.get(localOf(key.x()) + 8 * localOf(key.y()) + 64 * localOf(key.z())),
-    params_.prior);
+  return stateOf(impl_->codeAt(key.x(), key.y(), key.z(), priorCode(params_.prior)),
+                 params_.prior);
 }
 
 void
@@ -838,32 +1410,25 @@ ExplicitSpaceGrid::setState(const VoxelKey& key, SpaceState state)
   if (state != SpaceState::FREE && state != SpaceState::OCCUPIED
       && state != SpaceState::UNKNOWN)
     throw Exception("ExplicitSpaceGrid::setState: invalid state");
-  const BlockKey bk{blockOf(key.x()), blockOf(key.y()), blockOf(key.z())};
-  const int i = localOf(key.x()) + 8 * localOf(key.y()) + 64 * localOf(key.z());
   const auto prior = priorCode(params_.prior);
   const auto s = static_cast<std::uint8_t>(state);
-  auto it = impl_->blocks.find(bk);
-  if (it == impl_->blocks.end()) {
-    if (s == prior)
-      return;
-    Block b;
-    b.uniform = prior;
-    it = impl_->blocks.emplace(bk, std::move(b)).first;
-  }
-  Block& b = it->second;
-  if (b.get(i) == s)
+  if (impl_->codeAt(key.x(), key.y(), key.z(), prior) == s)
     return;
-  b.makeMixed();
-  b.set(i, s);
-  b.compact();
-  if (b.uniform == prior)
-    impl_->blocks.erase(it);
+  // The write waits in the edit buffer: voxel-by-voxel writes cost no rebuild of
+  // their super-block each; queries read the buffer or commit it first.
+  const BlockKey bk{blockOf(key.x()), blockOf(key.y()), blockOf(key.z())};
+  const std::uint32_t e = impl_->open(bk, prior);
+  impl_->setEdit(e, localOf(key.x()) + 8 * localOf(key.y()) + 64 * localOf(key.z()), s);
+  if (impl_->edits.size() >= MAX_PENDING_BLOCKS)
+    impl_->commit(prior);
 }
 
 void
 ExplicitSpaceGrid::clear()
 {
-  impl_->blocks.clear();
+  impl_->discardEdits();
+  std::vector<SuperBlock>().swap(impl_->supers);
+  impl_->directory.release();
 }
 
 // ---------------------------------------------------------------------------------
@@ -891,8 +1456,8 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
     return;
   }
 
-  BlockMap& blocks = impl_->blocks;
-  DepthPyramid& pyr = impl_->pyramid;
+  Impl& impl = *impl_;
+  DepthPyramid& pyr = impl.pyramid;
   float max_valid_depth = 0.0f;
   pyr.build(depth, max_valid_depth);
 
@@ -1152,31 +1717,21 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
         th.join();
     }
 
+    // The observations go to the edit buffer, block by block; the occupied voxels
+    // below are written over them, and both reach the storage at once.
     const auto free_code = static_cast<std::uint8_t>(SpaceState::FREE);
     const auto unknown_code = static_cast<std::uint8_t>(SpaceState::UNKNOWN);
     constexpr std::uint64_t LOW = 0x5555555555555555ULL;
     for (const auto& list : per_thread)
       for (const BlockResult& res : list) {
-        const BlockKey& bk = res.key;
+        const std::uint32_t e = impl.open(res.key, prior);
         if (res.kind == BlockResult::ALL_FREE) {
           // Whole block in front of the surface: free without per-voxel work (observed
           // free is never the code of the prior).
-          blocks[bk].makeUniform(free_code);
+          impl.edits[e].uniform = free_code;
           continue;
         }
-        auto it = blocks.find(bk);
-        if (res.kind == BlockResult::ALL_OCCLUDED && it == blocks.end()) {
-          blocks[bk].makeUniform(unknown_code);
-          continue;
-        }
-        if (it == blocks.end()) {
-          Block b;
-          b.uniform = prior;
-          it = blocks.emplace(bk, std::move(b)).first;
-        }
-        Block& b = it->second;
-        b.makeMixed();
-        Payload& words = *b.bits;
+        Payload& words = impl.mixedPayload(e);
         for (int k = 0; k < 16; ++k) {
           // voxels 32 k .. 32 k + 31: half of mask word k / 2
           const int shift = (k & 1) * 32;
@@ -1199,9 +1754,6 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
           w |= occ * unknown_code; // unknown = 10
           words[static_cast<std::size_t>(k)] = w;
         }
-        b.compact();
-        if (b.uniform == prior)
-          blocks.erase(it);
       }
     Counters total;
     for (const auto& c : counters) {
@@ -1215,7 +1767,8 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
   }
 
   // Occupied: the voxel of every measured pixel within max_range.
-  BlockCursor cursor(blocks, prior);
+  Impl::Cursor cursor(impl, prior);
+  const auto occupied_code = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
   const float inv_res = 1.0f / res;
   for (int v = 0; v < H; ++v) {
     const float yn = (static_cast<float>(v) - cy) / fy;
@@ -1230,14 +1783,13 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
       if (!(pw.cwiseAbs().maxCoeff() < static_cast<float>(MAX_KEY)))
         continue;
       int i = 0;
-      Block& block = cursor.at(static_cast<int>(std::floor(pw.x())),
-                               static_cast<int>(std::floor(pw.y())),
-                               static_cast<int>(std::floor(pw.z())), i);
-      block.makeMixed();
-      block.set(i, static_cast<std::uint8_t>(SpaceState::OCCUPIED));
+      const std::uint32_t e = cursor.at(static_cast<int>(std::floor(pw.x())),
+                                        static_cast<int>(std::floor(pw.y())),
+                                        static_cast<int>(std::floor(pw.z())), i);
+      impl.setEdit(e, i, occupied_code);
     }
   }
-  cursor.compactTouched();
+  impl.commit(prior);
 }
 
 void
@@ -1258,22 +1810,21 @@ ExplicitSpaceGrid::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& poi
               "too far from the map's origin; nothing integrated.\n");
     return;
   }
-  BlockMap& blocks = impl_->blocks;
+  Impl& impl = *impl_;
   const auto prior = priorCode(params_.prior);
   const auto free_code = static_cast<std::uint8_t>(SpaceState::FREE);
   const auto occupied_code = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
-  BlockCursor cursor(blocks, prior);
+  Impl::Cursor cursor(impl, prior);
   const auto set = [&](int kx, int ky, int kz, std::uint8_t state) {
     int i = 0;
-    Block& block = cursor.at(kx, ky, kz, i);
-    const std::uint8_t current = block.get(i);
+    const std::uint32_t e = cursor.at(kx, ky, kz, i);
+    const std::uint8_t current = impl.getEdit(e, i);
     // A ray passing through an occupied voxel leaves it occupied: one hit outweighs one
     // miss, as in OctoMap's sensor model (log-odds +0.85 against -0.41), and rays from
     // another scan graze floors and walls near their points.
     if (current == state || (current == occupied_code && state == free_code))
       return;
-    block.makeMixed();
-    block.set(i, state);
+    impl.setEdit(e, i, state);
   };
 
   // Free: every voxel a ray crosses before its point's voxel (3D DDA, Amanatides and
@@ -1316,7 +1867,7 @@ ExplicitSpaceGrid::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& poi
     set(static_cast<int>(std::floor(e.x())), static_cast<int>(std::floor(e.y())),
         static_cast<int>(std::floor(e.z())), occupied_code);
   }
-  cursor.compactTouched();
+  impl.commit(prior);
 }
 
 // ---------------------------------------------------------------------------------
@@ -1337,25 +1888,27 @@ ExplicitSpaceGrid::castRay(const Eigen::Vector3f& origin,
   const double max_t = max_range_m / res; // in voxel units
   if (o.cwiseAbs().maxCoeff() + max_t >= MAX_KEY)
     return false;
+  impl_->settle(
+    priorCode(params_.prior)); // pending setState() edits (content unchanged)
   DdaWalk walk(o, d);
   const auto occupied = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
   const bool prior_occupied = params_.prior == SpaceState::OCCUPIED;
-  BlockKey cached_key{0, 0, 0};
-  const Block* cached = nullptr;
+  BlockKey cached_key{0, 0, 0}; // super-block coordinates
+  const SuperBlock* cached = nullptr;
   bool cached_valid = false;
   while (true) {
     const std::array<int, 3>& key = walk.key;
     const BlockKey bk{blockOf(key[0]), blockOf(key[1]), blockOf(key[2])};
-    if (!cached_valid || !(bk == cached_key)) {
-      const auto it = impl_->blocks.find(bk);
-      cached = it == impl_->blocks.end() ? nullptr : &it->second;
-      cached_key = bk;
+    const BlockKey sk = Impl::superOf(bk);
+    if (!cached_valid || !(sk == cached_key)) {
+      cached = impl_->findSuper(sk);
+      cached_key = sk;
       cached_valid = true;
     }
-    const bool occ =
-      cached ? cached->get(localOf(key[0]) + 8 * localOf(key[1]) + 64 * localOf(key[2]))
-                 == occupied
-             : prior_occupied;
+    const bool occ = cached ? cached->get(Impl::indexInSuper(bk), localOf(key[0]),
+                                          localOf(key[1]), localOf(key[2]))
+                                == occupied
+                            : prior_occupied;
     if (occ) {
       hit = toCentre(VoxelKey(key[0], key[1], key[2]));
       return true;
@@ -1372,11 +1925,16 @@ void
 ExplicitSpaceGrid::visitVoxels(void (*visit)(void*, const VoxelKey&, SpaceState),
                                void* context) const
 {
-  const auto sorted = sortedBlocks(impl_->blocks);
+  // Pending setState() edits go to the storage first (content unchanged).
+  impl_->settle(priorCode(params_.prior));
   const auto prior = priorCode(params_.prior);
-  for (const auto& [bk, block] : sorted)
+  const auto sorted = impl_->sortedBlocks(prior);
+  DenseBlock block;
+  for (const auto& stored : sorted) {
+    stored.super->load(stored.j, block);
+    const BlockKey& bk = stored.key;
     for (int i = 0; i < BLOCK_VOXELS; ++i) {
-      const std::uint8_t s = block->get(i);
+      const std::uint8_t s = block.get(i);
       if (s == prior)
         continue;
       const VoxelKey key(bk.x * BLOCK_EDGE + (i & 7),
@@ -1384,56 +1942,83 @@ ExplicitSpaceGrid::visitVoxels(void (*visit)(void*, const VoxelKey&, SpaceState)
                          bk.z * BLOCK_EDGE + (i >> 6));
       visit(context, key, stateOf(s, params_.prior));
     }
+  }
 }
 
 std::size_t
 ExplicitSpaceGrid::getVoxelCount(SpaceState state) const
 {
-  if (static_cast<std::uint8_t>(state) == priorCode(params_.prior))
+  // Pending setState() edits go to the storage first (content unchanged).
+  impl_->settle(priorCode(params_.prior));
+  const auto prior = priorCode(params_.prior);
+  if (static_cast<std::uint8_t>(state) == prior)
     return 0;
-  const auto s = static_cast<std::size_t>(state);
-  std::size_t n = 0;
-  for (const auto& kv : impl_->blocks) {
-    const Block& b = kv.second;
-    if (b.uniform == MIXED)
-      n += countCodes(*b.bits)[s];
-    else if (b.uniform == s)
-      n += BLOCK_VOXELS;
-  }
-  return n;
+  std::array<std::size_t, 4> n{};
+  for (const auto& sb : impl_->supers)
+    for (int j = 0; j < SUPER_BLOCKS; ++j) {
+      if (sb.isMixed(j))
+        countCompact(sb.compact(j), n);
+      else
+        n[sb.code(j)] += BLOCK_VOXELS;
+    }
+  return n[static_cast<std::size_t>(state)];
 }
 
 std::size_t
 ExplicitSpaceGrid::getBlockCount() const
 {
-  return impl_->blocks.size();
+  // Pending setState() edits go to the storage first (content unchanged).
+  impl_->settle(priorCode(params_.prior));
+  std::size_t n = 0;
+  for (const auto& sb : impl_->supers)
+    n += sb.stored;
+  return n;
 }
 
 std::size_t
 ExplicitSpaceGrid::getMemoryBytes() const
 {
-  // libstdc++ node: next pointer + value (the hash is not cached: noexcept hasher).
-  const std::size_t node = sizeof(void*) + sizeof(BlockMap::value_type);
-  std::size_t bytes = impl_->blocks.size() * node
-                      + impl_->blocks.bucket_count() * sizeof(void*) + sizeof(BlockMap);
-  for (const auto& kv : impl_->blocks)
-    if (kv.second.uniform == MIXED)
-      bytes += sizeof(Payload);
+  // Pending setState() edits go to the storage first (content unchanged).
+  impl_->settle(priorCode(params_.prior));
+  // Every allocation of the storage: the super-block array's capacity, each
+  // super-block's two arrays, the directory's slots, plus MALLOC_OVERHEAD per heap
+  // allocation (the allocator's chunk header and rounding). The scratch buffers of
+  // integration (depth pyramid, observations, edit buffer) are working memory of one
+  // view, not the map's.
+  constexpr std::size_t MALLOC_OVERHEAD = 16;
+  const Impl& impl = *impl_;
+  std::size_t bytes = sizeof(Impl);
+  const auto heap = [](std::size_t n) {
+    return n == 0 ? 0 : n + MALLOC_OVERHEAD;
+  };
+  bytes += heap(impl.supers.capacity() * sizeof(SuperBlock));
+  for (const auto& sb : impl.supers)
+    bytes +=
+      heap(sb.offsets.capacity() * sizeof(std::uint32_t)) + heap(sb.data.capacity());
+  bytes += heap(impl.directory.capacityBytes());
   return bytes;
 }
 
 bool
 ExplicitSpaceGrid::getBounds(VoxelKey& min_key, VoxelKey& max_key) const
 {
-  if (impl_->blocks.empty())
-    return false;
+  // Pending setState() edits go to the storage first (content unchanged).
+  impl_->settle(priorCode(params_.prior));
+  const auto prior = priorCode(params_.prior);
   Eigen::Vector3i lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
   Eigen::Vector3i hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
-  for (const auto& kv : impl_->blocks) {
-    const Eigen::Vector3i b(kv.first.x, kv.first.y, kv.first.z);
-    lo = lo.cwiseMin(b);
-    hi = hi.cwiseMax(b);
-  }
+  bool any = false;
+  for (const auto& sb : impl_->supers)
+    for (int j = 0; j < SUPER_BLOCKS; ++j)
+      if (sb.isMixed(j) || sb.code(j) != prior) {
+        const BlockKey k = blockKeyOf(sb.key, j);
+        const Eigen::Vector3i b(k.x, k.y, k.z);
+        lo = lo.cwiseMin(b);
+        hi = hi.cwiseMax(b);
+        any = true;
+      }
+  if (!any)
+    return false;
   min_key = lo * BLOCK_EDGE;
   max_key = hi * BLOCK_EDGE + Eigen::Vector3i::Constant(BLOCK_EDGE - 1);
   return true;
@@ -1443,12 +2028,27 @@ bool
 ExplicitSpaceGrid::operator==(const ExplicitSpaceGrid& other) const
 {
   if (params_.resolution_m != other.params_.resolution_m
-      || params_.prior != other.params_.prior
-      || impl_->blocks.size() != other.impl_->blocks.size())
+      || params_.prior != other.params_.prior)
     return false;
-  for (const auto& kv : impl_->blocks) {
-    const auto it = other.impl_->blocks.find(kv.first);
-    if (it == other.impl_->blocks.end() || !(it->second == kv.second))
+  const auto prior = priorCode(params_.prior);
+  impl_->settle(prior); // pending setState() edits (content unchanged)
+  other.impl_->settle(prior);
+  const auto a = impl_->sortedBlocks(prior), b = other.impl_->sortedBlocks(prior);
+  if (a.size() != b.size())
+    return false;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    const StoredBlock &x = a[k], &y = b[k];
+    if (!(x.key == y.key) || x.super->isMixed(x.j) != y.super->isMixed(y.j))
+      return false;
+    if (!x.super->isMixed(x.j)) {
+      if (x.super->code(x.j) != y.super->code(y.j))
+        return false;
+      continue;
+    }
+    // the compact form of a payload is unique
+    const std::uint8_t *cx = x.super->compact(x.j), *cy = y.super->compact(y.j);
+    const std::size_t n = compactSize(cx);
+    if (n != compactSize(cy) || std::memcmp(cx, cy, n) != 0)
       return false;
   }
   return true;
@@ -1499,7 +2099,7 @@ packRel(std::uint64_t x, std::uint64_t y, std::uint64_t z)
 /** \brief Emits the sub-octree of a mixed block region: cube of edge 2^level voxels at
  * local (x, y, z). */
 void
-emitInBlock(const Block& b, int level, int x, int y, int z, LabelWriter& out)
+emitInBlock(const DenseBlock& b, int level, int x, int y, int z, LabelWriter& out)
 {
   const int e = 1 << level;
   const std::uint8_t s0 = b.get(x + 8 * y + 64 * z);
@@ -1527,8 +2127,10 @@ emitInBlock(const Block& b, int level, int x, int y, int z, LabelWriter& out)
 void
 ExplicitSpaceGrid::serialize(std::vector<std::uint8_t>& bytes) const
 {
-  const BlockMap& blocks = impl_->blocks;
+  // Pending setState() edits go to the storage first (content unchanged).
+  impl_->settle(priorCode(params_.prior));
   const auto prior = priorCode(params_.prior);
+  const auto blocks = impl_->sortedBlocks(prior);
   Eigen::Vector3i root = Eigen::Vector3i::Zero();
   int depth = 0;
   LabelWriter out;
@@ -1537,8 +2139,8 @@ ExplicitSpaceGrid::serialize(std::vector<std::uint8_t>& bytes) const
   else {
     Eigen::Vector3i lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
     Eigen::Vector3i hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
-    for (const auto& kv : blocks) {
-      const Eigen::Vector3i b(kv.first.x, kv.first.y, kv.first.z);
+    for (const auto& stored : blocks) {
+      const Eigen::Vector3i b(stored.key.x, stored.key.y, stored.key.z);
       lo = lo.cwiseMin(b);
       hi = hi.cwiseMax(b);
     }
@@ -1555,15 +2157,16 @@ ExplicitSpaceGrid::serialize(std::vector<std::uint8_t>& bytes) const
     // Summaries per level (0 = blocks): uniform state or MIXED; absent = prior.
     std::vector<std::unordered_map<std::uint64_t, std::uint8_t>> summary(
       static_cast<std::size_t>(block_levels) + 1);
-    std::unordered_map<std::uint64_t, const Block*> by_rel;
+    std::unordered_map<std::uint64_t, const StoredBlock*> by_rel;
     by_rel.reserve(blocks.size());
     summary[0].reserve(blocks.size());
-    for (const auto& kv : blocks) {
-      const auto rel = packRel(static_cast<std::uint64_t>(kv.first.x - lo.x()),
-                               static_cast<std::uint64_t>(kv.first.y - lo.y()),
-                               static_cast<std::uint64_t>(kv.first.z - lo.z()));
-      by_rel.emplace(rel, &kv.second);
-      summary[0].emplace(rel, kv.second.uniform);
+    for (const auto& stored : blocks) {
+      const auto rel = packRel(static_cast<std::uint64_t>(stored.key.x - lo.x()),
+                               static_cast<std::uint64_t>(stored.key.y - lo.y()),
+                               static_cast<std::uint64_t>(stored.key.z - lo.z()));
+      by_rel.emplace(rel, &stored);
+      summary[0].emplace(
+        rel, stored.super->isMixed(stored.j) ? MIXED : stored.super->code(stored.j));
     }
     constexpr std::uint64_t MASK = (std::uint64_t{1} << 21) - 1;
     for (int l = 1; l <= block_levels; ++l) {
@@ -1585,9 +2188,10 @@ ExplicitSpaceGrid::serialize(std::vector<std::uint8_t>& bytes) const
     // Depth-first emission, children x fastest, then y, then z.
     struct Emitter {
       const std::vector<std::unordered_map<std::uint64_t, std::uint8_t>>& summary;
-      const std::unordered_map<std::uint64_t, const Block*>& by_rel;
+      const std::unordered_map<std::uint64_t, const StoredBlock*>& by_rel;
       std::uint8_t prior;
       LabelWriter& out;
+      DenseBlock block;
       void emit(int l, std::uint64_t x, std::uint64_t y, std::uint64_t z)
       {
         const auto& level = summary[static_cast<std::size_t>(l)];
@@ -1601,15 +2205,16 @@ ExplicitSpaceGrid::serialize(std::vector<std::uint8_t>& bytes) const
           return;
         }
         if (l == 0) {
-          const Block& b = *by_rel.at(packRel(x, y, z));
-          emitInBlock(b, BLOCK_SHIFT, 0, 0, 0, out);
+          const StoredBlock& stored = *by_rel.at(packRel(x, y, z));
+          stored.super->load(stored.j, block);
+          emitInBlock(block, BLOCK_SHIFT, 0, 0, 0, out);
           return;
         }
         out.putInner();
         for (std::uint64_t c = 0; c < 8; ++c)
           emit(l - 1, 2 * x + (c & 1), 2 * y + ((c >> 1) & 1), 2 * z + ((c >> 2) & 1));
       }
-    } emitter{summary, by_rel, prior, out};
+    } emitter{summary, by_rel, prior, out, {}};
     emitter.emit(block_levels, 0, 0, 0);
   }
   for (int a = 0; a < 3; ++a)
@@ -1773,8 +2378,6 @@ ExplicitSpaceGrid::deserialize(const std::uint8_t* data,
 
   // Validated: build the new content, then swap it in.
   auto impl = std::make_unique<Impl>();
-  BlockMap& blocks = impl->blocks;
-  blocks.reserve(static_cast<std::size_t>(parser.blocks_needed));
   for (const auto& leaf : parser.leaves) {
     if (leaf.level >= BLOCK_SHIFT) {
       const std::int64_t nb = std::int64_t{1} << (leaf.level - BLOCK_SHIFT);
@@ -1784,36 +2387,24 @@ ExplicitSpaceGrid::deserialize(const std::uint8_t* data,
             const BlockKey bk{static_cast<int>((leaf.x >> BLOCK_SHIFT) + i),
                               static_cast<int>((leaf.y >> BLOCK_SHIFT) + j),
                               static_cast<int>((leaf.z >> BLOCK_SHIFT) + k)};
-            blocks[bk].makeUniform(leaf.state);
+            impl->edits[impl->open(bk, prior)].uniform = leaf.state;
           }
       continue;
     }
     const BlockKey bk{static_cast<int>(leaf.x >> BLOCK_SHIFT),
                       static_cast<int>(leaf.y >> BLOCK_SHIFT),
                       static_cast<int>(leaf.z >> BLOCK_SHIFT)};
-    auto it = blocks.find(bk);
-    if (it == blocks.end()) {
-      Block b;
-      b.uniform = prior;
-      it = blocks.emplace(bk, std::move(b)).first;
-    }
-    Block& b = it->second;
-    b.makeMixed();
-    const int e = 1 << leaf.level;
+    const std::uint32_t e = impl->open(bk, prior);
+    const int edge = 1 << leaf.level;
     const int lx = static_cast<int>(leaf.x & 7), ly = static_cast<int>(leaf.y & 7),
               lz = static_cast<int>(leaf.z & 7);
-    for (int k = lz; k < lz + e; ++k)
-      for (int j = ly; j < ly + e; ++j)
-        for (int i = lx; i < lx + e; ++i)
-          b.set(i + 8 * j + 64 * k, leaf.state);
+    for (int k = lz; k < lz + edge; ++k)
+      for (int j = ly; j < ly + edge; ++j)
+        for (int i = lx; i < lx + edge; ++i)
+          impl->setEdit(e, i + 8 * j + 64 * k, leaf.state);
   }
-  for (auto it = blocks.begin(); it != blocks.end();) {
-    it->second.compact();
-    if (it->second.uniform == prior)
-      it = blocks.erase(it);
-    else
-      ++it;
-  }
+  impl->commit(prior);
+  impl->releaseEdits();
   impl_ = std::move(impl);
   params_.prior = prior_state;
 }
@@ -1823,6 +2414,8 @@ ExplicitSpaceGrid::deserialize(const std::uint8_t* data,
 std::size_t
 ExplicitSpaceGrid::insertIntoOcTree(octomap::OcTree& tree) const
 {
+  // Pending setState() edits go to the storage first (content unchanged).
+  impl_->settle(priorCode(params_.prior));
   if (std::abs(tree.getResolution() - params_.resolution_m)
       > 1e-9 * params_.resolution_m)
     throw Exception("ExplicitSpaceGrid::insertIntoOcTree: the tree's resolution ("
@@ -1844,9 +2437,13 @@ ExplicitSpaceGrid::insertIntoOcTree(octomap::OcTree& tree) const
   const auto exported = [free_code, occupied](std::uint8_t code) {
     return code == free_code || code == occupied;
   };
-  const auto sorted = sortedBlocks(impl_->blocks);
+  const auto sorted = impl_->sortedBlocks(priorCode(params_.prior));
   std::size_t skipped = 0;
-  for (const auto& [bk, block] : sorted) {
+  DenseBlock dense;
+  const DenseBlock* const block = &dense;
+  for (const auto& stored : sorted) {
+    const BlockKey& bk = stored.key;
+    stored.super->load(stored.j, dense);
     const Eigen::Vector3i base = Eigen::Vector3i(bk.x, bk.y, bk.z) * BLOCK_EDGE
                                  + Eigen::Vector3i::Constant(offset);
     if ((base.array() < 0).any()
@@ -1864,7 +2461,7 @@ ExplicitSpaceGrid::insertIntoOcTree(octomap::OcTree& tree) const
     if (block->uniform != MIXED && !exported(block->uniform))
       continue;
     if (block->uniform == MIXED) {
-      const auto counts = countCodes(*block->bits);
+      const auto counts = countCodes(block->bits);
       if (counts[free_code] + counts[occupied] == 0)
         continue; // occluded and never-observed voxels only: nothing to create
     }
@@ -1902,7 +2499,7 @@ ExplicitSpaceGrid::insertIntoOcTree(octomap::OcTree& tree) const
     // pruning, done as the tree is built), one with nothing exported left out.
     struct SubCubes {
       octomap::OcTree& tree;
-      const Block& block;
+      const DenseBlock& block;
       float occupied_log_odds, free_log_odds;
       std::uint8_t occupied_code, free_code;
 

@@ -12,17 +12,139 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <limits>
 #include <map>
+#include <new>
 #include <random>
 #include <set>
 #include <tuple>
 #include <vector>
+
+namespace {
+
+/** \brief Bytes and allocations live through the global operator new of this test
+ * executable (replaced below), to check the grid's memory accounting. */
+struct HeapUse {
+  std::size_t bytes{0};
+  std::size_t blocks{0};
+};
+
+std::atomic<std::size_t>&
+liveBytes()
+{
+  static std::atomic<std::size_t> n{0};
+  return n;
+}
+
+std::atomic<std::size_t>&
+liveBlocks()
+{
+  static std::atomic<std::size_t> n{0};
+  return n;
+}
+
+HeapUse
+heapUse()
+{
+  return {liveBytes().load(), liveBlocks().load()};
+}
+
+/** \brief Header before each allocation: its requested size (16 bytes keep the
+ * default new alignment). */
+constexpr std::size_t HOOK_HEADER = 16;
+
+void*
+hookedAllocate(std::size_t n)
+{
+  auto* p = static_cast<unsigned char*>(std::malloc(n + HOOK_HEADER));
+  if (p == nullptr)
+    throw std::bad_alloc();
+  std::memcpy(p, &n, sizeof(n));
+  liveBytes() += n;
+  ++liveBlocks();
+  return p + HOOK_HEADER;
+}
+
+void
+hookedFree(void* q) noexcept
+{
+  if (q == nullptr)
+    return;
+  auto* p = static_cast<unsigned char*>(q) - HOOK_HEADER;
+  std::size_t n = 0;
+  std::memcpy(&n, p, sizeof(n));
+  liveBytes() -= n;
+  --liveBlocks();
+  std::free(p);
+}
+
+} // namespace
+
+void*
+operator new(std::size_t n)
+{
+  return hookedAllocate(n);
+}
+void*
+operator new[](std::size_t n)
+{
+  return hookedAllocate(n);
+}
+void*
+operator new(std::size_t n, const std::nothrow_t&) noexcept
+{
+  try {
+    return hookedAllocate(n);
+  } catch (...) {
+    return nullptr;
+  }
+}
+void*
+operator new[](std::size_t n, const std::nothrow_t&) noexcept
+{
+  try {
+    return hookedAllocate(n);
+  } catch (...) {
+    return nullptr;
+  }
+}
+void
+operator delete(void* p) noexcept
+{
+  hookedFree(p);
+}
+void
+operator delete[](void* p) noexcept
+{
+  hookedFree(p);
+}
+void
+operator delete(void* p, std::size_t) noexcept
+{
+  hookedFree(p);
+}
+void
+operator delete[](void* p, std::size_t) noexcept
+{
+  hookedFree(p);
+}
+void
+operator delete(void* p, const std::nothrow_t&) noexcept
+{
+  hookedFree(p);
+}
+void
+operator delete[](void* p, const std::nothrow_t&) noexcept
+{
+  hookedFree(p);
+}
 
 namespace planar_grid {
 /** \brief Test access to the thread count of integrateDepthImage() (a friend). */
@@ -280,11 +402,28 @@ TEST(ExplicitSpaceGrid, CountsAndMemoryConsistent)
   EXPECT_EQ(grid.getVoxelCount(SpaceState::FREE), 512u);
   const std::size_t uniform_bytes = grid.getMemoryBytes();
   EXPECT_GT(uniform_bytes, empty_bytes);
-  // one voxel occupied: the block needs its 128-byte payload
+  // one voxel occupied: the block needs its compact form, 3 bytes for its 4^3 cubes, 3
+  // for the one mixed cube's 2^3 cells and 2 for the one mixed cell's 8 voxels, plus
+  // its 4-byte offset; each of the two arrays is one allocation (16 bytes counted for
+  // the allocator's header and rounding)
   grid.setState(Key(3, 3, 3), SpaceState::OCCUPIED);
   EXPECT_EQ(grid.getVoxelCount(SpaceState::FREE), 511u);
   EXPECT_EQ(grid.getVoxelCount(SpaceState::OCCUPIED), 1u);
-  EXPECT_GE(grid.getMemoryBytes(), uniform_bytes + 128u);
+  EXPECT_EQ(grid.getMemoryBytes(), uniform_bytes + (8u + 16u) + (4u + 16u));
+  // a checkerboard: every 2^3 cell mixed, the largest compact form (3 + 8 x 3 + 64 x 2
+  // bytes)
+  for (int z = 0; z < 8; ++z)
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x)
+        grid.setState(Key(x, y, z),
+                      (x + y + z) % 2 ? SpaceState::OCCUPIED : SpaceState::FREE);
+  EXPECT_EQ(grid.getVoxelCount(SpaceState::OCCUPIED), 256u);
+  EXPECT_EQ(grid.getMemoryBytes(), uniform_bytes + (155u + 16u) + (4u + 16u));
+  for (int z = 0; z < 8; ++z)
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x)
+        grid.setState(Key(x, y, z), x == 3 && y == 3 && z == 3 ? SpaceState::OCCUPIED
+                                                               : SpaceState::FREE);
   // a second block far away, negative keys
   grid.setState(Key(-100, -1, -9), SpaceState::UNKNOWN); // the prior: nothing stored
   EXPECT_EQ(grid.getBlockCount(), 1u);
@@ -302,6 +441,132 @@ TEST(ExplicitSpaceGrid, CountsAndMemoryConsistent)
   EXPECT_EQ(grid.getBlockCount(), 0u);
   EXPECT_EQ(grid.getVoxelCount(SpaceState::FREE), 0u);
   EXPECT_EQ(grid.getVoxelCount(SpaceState::UNKNOWN), 0u); // the prior is never counted
+  EXPECT_EQ(grid.getMemoryBytes(), empty_bytes);
+}
+
+TEST(ExplicitSpaceGrid, CompactStorageMatchesMapOracle)
+{
+  // Boxes of every size and alignment (whole blocks, 4^3 cubes, 2^3 cells, single
+  // voxels, and boxes back to the prior) over three super-blocks of 64^3 voxels along
+  // x, with negative keys; the oracle holds the last state set per voxel. Queries in
+  // between read writes still waiting in the edit buffer.
+  for (const auto prior : {SpaceState::UNKNOWN, SpaceState::FREE}) {
+    ExplicitSpaceGrid grid(params(prior));
+    std::map<std::tuple<int, int, int>, SpaceState> oracle;
+    std::mt19937 rng(prior == SpaceState::FREE ? 21u : 23u);
+    std::uniform_int_distribution<int> cx(-80, 79), cyz(-20, 19), edge(1, 12);
+    std::uniform_int_distribution<int> state(0, 2), align(0, 3);
+    const auto stateAt = [&](int x, int y, int z) {
+      const auto it = oracle.find({x, y, z});
+      return it == oracle.end() ? prior : it->second;
+    };
+    for (int box = 0; box < 160; ++box) {
+      const int a = align(rng);
+      // a = 0: any box; 1: 8-aligned blocks; 2: 4-aligned cubes; 3: 2-aligned cells
+      const int step = a == 0 ? 1 : 16 >> a;
+      const int e = a == 0 ? edge(rng) : step * (1 + edge(rng) % 2);
+      const int x0 = cx(rng) / step * step, y0 = cyz(rng) / step * step,
+                z0 = cyz(rng) / step * step;
+      const auto s = box % 10 == 9 ? prior : static_cast<SpaceState>(state(rng));
+      for (int z = z0; z < z0 + e; ++z)
+        for (int y = y0; y < y0 + e; ++y)
+          for (int x = x0; x < x0 + e; ++x) {
+            grid.setState(Key(x, y, z), s);
+            oracle[{x, y, z}] = s;
+          }
+      // reads with pending edits
+      for (int k = 0; k < 20; ++k) {
+        const int x = cx(rng), y = cyz(rng), z = cyz(rng);
+        ASSERT_EQ(grid.getState(Key(x, y, z)), stateAt(x, y, z));
+      }
+      if (box % 40 == 39) {
+        EXPECT_GT(grid.getBlockCount(), 0u); // commits the pending edits
+      }
+    }
+    for (int z = -24; z < 36; ++z)
+      for (int y = -24; y < 36; ++y)
+        for (int x = -84; x < 96; ++x)
+          ASSERT_EQ(grid.getState(Key(x, y, z)), stateAt(x, y, z))
+            << x << " " << y << " " << z;
+    // blocks: those holding a voxel whose stored code is not the prior's (observed
+    // free space with the free prior, UNKNOWN with the unknown prior is the prior)
+    std::set<std::tuple<int, int, int>> blocks;
+    std::map<SpaceState, std::size_t> counts;
+    for (const auto& [k, s] : oracle) {
+      if (prior == SpaceState::UNKNOWN && s == SpaceState::UNKNOWN)
+        continue;
+      blocks.insert({std::get<0>(k) >> 3, std::get<1>(k) >> 3, std::get<2>(k) >> 3});
+      ++counts[s];
+    }
+    EXPECT_EQ(grid.getBlockCount(), blocks.size());
+    for (const auto s : {SpaceState::FREE, SpaceState::OCCUPIED, SpaceState::UNKNOWN})
+      EXPECT_EQ(grid.getVoxelCount(s),
+                prior == SpaceState::UNKNOWN && s == SpaceState::UNKNOWN ? 0u
+                                                                         : counts[s]);
+    // forEachVoxel: every observed voxel once, blocks in key order
+    std::size_t visited = 0;
+    std::tuple<int, int, int> last_block{std::numeric_limits<int>::min(), 0, 0};
+    grid.forEachVoxel([&](const Key& k, SpaceState s) {
+      ++visited;
+      EXPECT_EQ(stateAt(k.x(), k.y(), k.z()), s);
+      const std::tuple<int, int, int> b{k.z() >> 3, k.y() >> 3, k.x() >> 3};
+      EXPECT_TRUE(!(b < last_block));
+      last_block = b;
+    });
+    EXPECT_EQ(visited,
+              counts[SpaceState::FREE] + counts[SpaceState::OCCUPIED]
+                + (prior == SpaceState::FREE ? counts[SpaceState::UNKNOWN] : 0));
+    // round trip through the bit stream
+    std::vector<std::uint8_t> bytes, again;
+    grid.serialize(bytes);
+    ExplicitSpaceGrid read(params(prior));
+    read.deserialize(bytes.data(), bytes.size());
+    EXPECT_TRUE(read == grid);
+    read.serialize(again);
+    EXPECT_EQ(again, bytes);
+    // with the unknown prior, every stored voxel back to the prior: nothing stored, no
+    // memory beyond the empty grid's (with the free prior, setState() stores observed
+    // free space: never-observed space is not written back)
+    if (prior == SpaceState::FREE)
+      continue;
+    const ExplicitSpaceGrid empty(params(prior));
+    for (const auto& kv : oracle)
+      grid.setState(
+        Key(std::get<0>(kv.first), std::get<1>(kv.first), std::get<2>(kv.first)),
+        prior);
+    EXPECT_EQ(grid.getBlockCount(), 0u);
+    EXPECT_TRUE(grid == empty);
+    EXPECT_EQ(grid.getMemoryBytes(), empty.getMemoryBytes());
+  }
+}
+
+TEST(ExplicitSpaceGrid, MemoryBytesMatchTheAllocations)
+{
+  // Every byte a grid's storage holds is counted: the bytes requested from operator new
+  // while a grid is decoded (its old, empty storage freed, the new one allocated; the
+  // decoder's scratch freed before it returns) and 16 bytes of allocator overhead per
+  // allocation still held give exactly the growth of getMemoryBytes().
+  ExplicitSpaceGrid grid(params(SpaceState::UNKNOWN));
+  std::map<std::tuple<int, int, int>, SpaceState> oracle;
+  fillRandom(grid, oracle, 20000, 100, 31u);
+  for (int z = 0; z < 64; ++z)
+    for (int y = 0; y < 64; ++y)
+      for (int x = 0; x < 64; ++x)
+        grid.setState(Key(x + 200, y, z),
+                      (x * y + z) % 7 == 0 ? SpaceState::OCCUPIED : SpaceState::FREE);
+  std::vector<std::uint8_t> bytes;
+  grid.serialize(bytes);
+  ExplicitSpaceGrid read(params(SpaceState::UNKNOWN));
+  const std::size_t empty_bytes = read.getMemoryBytes();
+  const HeapUse before = heapUse();
+  read.deserialize(bytes.data(), bytes.size());
+  const HeapUse after = heapUse();
+  ASSERT_GT(after.blocks, before.blocks);
+  const std::size_t requested = after.bytes - before.bytes;
+  const std::size_t allocations = after.blocks - before.blocks;
+  EXPECT_EQ(read.getMemoryBytes() - empty_bytes, requested + 16 * allocations);
+  EXPECT_GT(read.getBlockCount(), 5000u);
+  EXPECT_TRUE(read == grid);
 }
 
 TEST(ExplicitSpaceGrid, SerializeRoundTrip)

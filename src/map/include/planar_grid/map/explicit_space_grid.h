@@ -125,12 +125,18 @@ struct DepthImage {
  * lower bound of each voxel's own minimum, so the result is the voxel-by-voxel one).
  * A view's observations are gathered per block as bit masks and applied word-wise.
  *
- * Storage is sparse: blocks of 8 x 8 x 8 voxels in a hash map, 2 bits per voxel (00
- * free, 01 occupied, 10 unknown, 11 never observed with the free prior; with the
- * unknown prior, never observed is 10); a block whose voxels all have one state is
- * stored as that state only, and a block never observed is not stored (pruned), so
- * the representation is canonical: two grids with the same observations hold the same
- * blocks.
+ * Storage is sparse: blocks of 8 x 8 x 8 voxels with a 2-bit code per voxel (00 free,
+ * 01 occupied, 10 unknown, 11 never observed with the free prior; with the unknown
+ * prior, never observed is 10). A block whose voxels all have one state is that code
+ * alone, and a block never observed is not stored (pruned), so the representation is
+ * canonical: two grids with the same observations hold the same blocks. Blocks are
+ * grouped in super-blocks of 8 x 8 x 8 blocks (64^3 voxels), found through a flat
+ * open-addressing table: a super-block holds the 2-bit code of each uniform block, a
+ * bit per mixed block and the mixed blocks' compact forms back to back, each a fixed
+ * two-level octree (the 4^3 cubes, then the 2^3 cells of each mixed cube, then 2 bytes
+ * for each mixed cell's 8 voxels; 8 to 155 bytes). A query decodes only the bytes on
+ * its voxel's path (O(1)); writes edit decoded blocks and rebuild each touched
+ * super-block once per view.
  * \ingroup map */
 class ExplicitSpaceGrid {
 public:
@@ -204,7 +210,12 @@ public:
   [[nodiscard]] SpaceState getState(const VoxelKey& key) const;
   /** \brief Sets one voxel as observed in \a state (tests, file reading, merging):
    * FREE is stored as observed free space with either prior; UNKNOWN with the unknown
-   * prior is the never-observed state (the voxel is dropped). */
+   * prior is the never-observed state (the voxel is dropped).
+   * \note Writes wait in an edit buffer (up to 4096 blocks) so that voxel-by-voxel
+   * writes do not rebuild their super-block each; getState() reads the buffer, and the
+   * other queries (counts, bytes, castRay(), serialize(), ...) write it to the storage
+   * first. Like any write, setState() must not run while another thread queries the
+   * grid, and neither must the first query after it. */
   void setState(const VoxelKey& key, SpaceState state);
 
   /** \brief Walks the voxels along a ray (Amanatides-Woo) to the first occupied one.
@@ -228,7 +239,11 @@ public:
   [[nodiscard]] std::size_t getVoxelCount(SpaceState state) const;
   /** \brief Number of stored blocks. */
   [[nodiscard]] std::size_t getBlockCount() const;
-  /** \brief Bytes held: block payloads plus hash-map nodes and buckets. */
+  /** \brief Bytes the storage holds: every allocation (the super-block array's
+   * capacity, each super-block's compact forms and offsets, the lookup table's slots)
+   * plus 16 bytes of allocator overhead per allocation. The scratch buffers of
+   * integration (depth pyramid, per-view observations, edit buffer; one view's worth)
+   * are working memory, not counted. */
   [[nodiscard]] std::size_t getMemoryBytes() const;
   /** \brief Inclusive bounds of the stored blocks, in voxel keys (block-aligned:
    * min_key multiples of 8, max_key = 8 k + 7); false when nothing is stored. */
@@ -299,7 +314,7 @@ public:
 
 private:
   struct Impl;
-  /** \brief Blocks and scratch buffers (pimpl keeps the hash map out of this header).
+  /** \brief Blocks and scratch buffers (pimpl keeps the storage out of this header).
    */
   std::unique_ptr<Impl> impl_;
   /** \brief The parameters (validated). */
