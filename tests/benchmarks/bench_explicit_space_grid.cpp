@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // ExplicitSpaceGrid::integrateDepthImage vs octomap::OcTree::insertPointCloud on
-// Karlsruhe frame 10 (SGBM disparity, depth = f B / d) at 0.1 m, 25 m max range; and
+// Karlsruhe frame 10 (SGBM disparity, depth = f B / d) at 0.1 m, 25 m max range, into
+// an empty grid and as a drive of 8 views into one grid; and
 // ExplicitSpaceGrid::integratePointCloud (ray casting) vs insertPointCloud on PCL's
 // room_scan1.pcd (a 360 degree LiDAR scan, voxel grid 0.05 m) at 0.1 m.
 #include <planar_grid/map/explicit_space_grid.h>
@@ -80,6 +81,48 @@ BENCHMARK(BM_ExplicitSpaceGridIntegrate)
   ->Args({2, 2})
   ->Args({0, 1})
   ->Args({0, 2})
+  ->Unit(benchmark::kMillisecond);
+
+void
+BM_ExplicitSpaceGridDrive(benchmark::State& state)
+{
+  // Frame 10 integrated 8 times into one grid, the camera 1 m further along its
+  // optical axis each time: most blocks of a view are already stored (mixed ones
+  // decoded, updated and re-encoded), as in a sequence. Time per view.
+  const DepthImage& image = frame10();
+  if (image.depth_m.empty()) {
+    state.SkipWithError("Karlsruhe frame 10 not found");
+    return;
+  }
+  ExplicitSpaceGrid::Params p;
+  p.resolution_m = 0.1;
+  p.max_range_m = 25.0;
+  p.prior = static_cast<planar_grid::SpaceState>(state.range(0));
+  constexpr int VIEWS = 8;
+  std::size_t bytes = 0, blocks = 0;
+  for (auto _ : state) {
+    ExplicitSpaceGrid grid(p);
+    for (int k = 0; k < VIEWS; ++k) {
+      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+      pose.translation().z() = static_cast<double>(k);
+      grid.integrateDepthImage(image, pose);
+    }
+    bytes = grid.getMemoryBytes();
+    blocks = grid.getBlockCount();
+    benchmark::DoNotOptimize(blocks);
+  }
+  // seconds per view (printed with its unit, e.g. "31.4ms")
+  state.counters["time_per_view"] =
+    benchmark::Counter(static_cast<double>(state.iterations()) * VIEWS,
+                       benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["memory_bytes"] = static_cast<double>(bytes);
+  state.counters["blocks"] = static_cast<double>(blocks);
+}
+// Arg: prior (2 = unknown, the default; 0 = free).
+BENCHMARK(BM_ExplicitSpaceGridDrive)
+  ->ArgNames({"prior"})
+  ->Arg(2)
+  ->Arg(0)
   ->Unit(benchmark::kMillisecond);
 
 void
