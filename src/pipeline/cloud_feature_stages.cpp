@@ -127,6 +127,17 @@ public:
   }
 
 private:
+  /** \a p in the camera frame as \a q; false when \a p is not finite or lies beyond
+   * max_range_m. */
+  bool toCamera(const pcl::PointXYZI& p, pcl::PointXYZ& q) const
+  {
+    if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
+      return false;
+    q.getVector3fMap() = camera_T_cloud_ * p.getVector3fMap();
+    return q.getVector3fMap().squaredNorm()
+           <= static_cast<float>(params_.max_range_m * params_.max_range_m);
+  }
+
   /** Key points on the cloud's image, each lifted to the point of its pixel; key
    * points on a pixel without a finite point, or beyond max_range_m, are dropped. */
   void fromImage(const cv::Mat& grey, const Frame::Cloud& cloud, StereoFeatures& out)
@@ -144,8 +155,6 @@ private:
     } else {
       detector_->detectAndCompute(grey, cv::noArray(), keypoints_, descriptors_);
     }
-    const float max_range_sq =
-      static_cast<float>(params_.max_range_m * params_.max_range_m);
     std::vector<int> rows;
     for (std::size_t k = 0; k < keypoints_.size(); ++k) {
       const cv::KeyPoint& kp = keypoints_[k];
@@ -154,12 +163,8 @@ private:
       if (col < 0 || row < 0 || col >= static_cast<int>(cloud.width)
           || row >= static_cast<int>(cloud.height))
         continue;
-      const auto& p = cloud.at(col, row);
-      if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
-        continue;
       pcl::PointXYZ q;
-      q.getVector3fMap() = camera_T_cloud_ * p.getVector3fMap();
-      if (q.getVector3fMap().squaredNorm() > max_range_sq)
+      if (!toCamera(cloud.at(col, row), q))
         continue;
       out.points.push_back(q);
       out.keypoints_left.push_back(kp);
@@ -181,14 +186,9 @@ private:
     sampling.setRadiusSearch(point_spacing_m_);
     sampled_.clear();
     sampling.filter(sampled_);
-    const float max_range_sq =
-      static_cast<float>(params_.max_range_m * params_.max_range_m);
     for (const auto& p : sampled_.points) {
-      if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
-        continue;
       pcl::PointXYZ q;
-      q.getVector3fMap() = camera_T_cloud_ * p.getVector3fMap();
-      if (q.getVector3fMap().squaredNorm() > max_range_sq)
+      if (!toCamera(p, q))
         continue;
       out.points.push_back(q);
       out.keypoints_left.emplace_back(cv::Point2f(-1.0f, -1.0f), 1.0f, -1.0f, 0.0f, 0,

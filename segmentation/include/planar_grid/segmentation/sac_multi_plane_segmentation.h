@@ -384,7 +384,7 @@ protected:
   using pcl::PCLBase<PointT>::input_;
   using pcl::PCLBase<PointT>::indices_;
 
-  /** \brief Base initCompute plus the parameter checks of S23; PCL_ERROR if false. */
+  /** \brief Base initCompute plus checkParameters(); PCL_ERROR if false. */
   bool initCompute();
 
   /** \brief The algorithm; called between initCompute() and deinitCompute(). */

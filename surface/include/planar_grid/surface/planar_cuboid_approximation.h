@@ -200,7 +200,7 @@ protected:
     int side;
   };
 
-  /** \brief Base initCompute plus the parameter checks of S23; PCL_ERROR if false. */
+  /** \brief Base initCompute plus checkParameters(); PCL_ERROR if false. */
   bool initCompute();
 
   /** \brief The algorithm; called between initCompute() and deinitCompute(). */
