@@ -534,12 +534,26 @@ numpy.ndarray, shape (N, 3), float64
 )doc")
     .def(
       "export_octomap",
-      [](const Map& self, const py::object& path) { self.exportOctoMap(toPath(path)); },
+      [](const Map& self, const py::object& path) {
+        const planar_grid::OctoMapExportSummary s = self.exportOctoMap(toPath(path));
+        py::dict out;
+        out["nodes"] = s.nodes;
+        out["leaf_nodes"] = s.leaf_nodes;
+        out["occupied_leaves"] = s.occupied_leaves;
+        out["free_leaves"] = s.free_leaves;
+        out["occupied_voxels"] = s.occupied_voxels;
+        out["free_voxels"] = s.free_voxels;
+        out["skipped_voxels"] = s.skipped_voxels;
+        return out;
+      },
       py::arg("path"),
       "Writes the observed space and the cuboids as an OctoMap tree: .bt (binary: "
       "free / occupied per voxel) or .ot (full: each voxel's log-odds, a cuboid's "
-      "from its occupancy); never-observed and occluded space are left out. Raises "
-      "planar_grid.IOError when it cannot be written.")
+      "from its occupancy); never-observed and occluded space are left out. Returns "
+      "what was written, as liboctomap counts it: a dict of nodes, leaf_nodes, "
+      "occupied_leaves, free_leaves, occupied_voxels, free_voxels (voxels of "
+      "resolution_m under those leaves) and skipped_voxels (outside OctoMap's key "
+      "range). Raises planar_grid.IOError when it cannot be written.")
     .def(
       "export_mesh",
       [](const Map& self, const py::object& path) { self.exportMesh(toPath(path)); },

@@ -140,7 +140,17 @@ def test_bad_map_files_raise_io_errors_naming_the_file(tmp_path):
 
 def test_exports_write_files(tmp_path):
     m = surface_map()
-    m.export_octomap(tmp_path / "m.bt")
+    written = m.export_octomap(tmp_path / "m.bt")
     m.export_mesh(tmp_path / "m.ply")
     assert (tmp_path / "m.bt").stat().st_size > 0
+    # The surface map has observed space around occupied cuboids; every leaf is one
+    # of the two states, and a leaf holds at least one voxel.
+    assert written["occupied_leaves"] > 0 and written["free_leaves"] > 0
+    assert written["leaf_nodes"] == written["occupied_leaves"] + written["free_leaves"]
+    assert written["nodes"] > written["leaf_nodes"]
+    assert written["occupied_voxels"] >= written["occupied_leaves"]
+    assert written["free_voxels"] >= written["free_leaves"]
+    assert written["skipped_voxels"] == 0
+    # Every occupied voxel of the space layer is in the tree (the cuboids add theirs).
+    assert written["occupied_voxels"] >= len(m.voxel_centres("occupied"))
     assert (tmp_path / "m.ply").read_bytes().startswith(b"ply")
