@@ -211,6 +211,43 @@ putCell(Payload& p, int i0, std::uint32_t v)
   }
 }
 
+/** \brief The little-endian 16-bit word at \a b (the compact form's code words). */
+inline unsigned
+load16(const std::uint8_t* b)
+{
+  return static_cast<unsigned>(b[0]) | (static_cast<unsigned>(b[1]) << 8);
+}
+
+/** \brief Walks the compact block at \a data in cube and cell order: \a uniform(c, d,
+ * code, voxels) for a uniform cube (d = -1, 64 voxels) or a uniform cell of a mixed
+ * cube (8 voxels), \a mixed(c, d, v) for a mixed cell with its 8 codes \a v. */
+template <typename Uniform, typename Mixed>
+void
+walkCompact(const std::uint8_t* data, Uniform&& uniform, Mixed&& mixed)
+{
+  const unsigned mixed_cubes = data[0];
+  const unsigned cube_codes = load16(data + 1);
+  const std::uint8_t* head = data + 3;
+  const std::uint8_t* tail = data + 3 + 3 * __builtin_popcount(mixed_cubes);
+  for (int c = 0; c < 8; ++c) {
+    if (!((mixed_cubes >> c) & 1u)) {
+      uniform(c, -1, (cube_codes >> (2 * c)) & 3u, 64);
+      continue;
+    }
+    const unsigned mixed_cells = head[0];
+    const unsigned cell_codes = load16(head + 1);
+    head += 3;
+    for (int d = 0; d < 8; ++d) {
+      if ((mixed_cells >> d) & 1u) {
+        mixed(c, d, static_cast<std::uint32_t>(load16(tail)));
+        tail += 2;
+      } else {
+        uniform(c, d, (cell_codes >> (2 * d)) & 3u, 8);
+      }
+    }
+  }
+}
+
 /** \brief Encodes a payload whose codes are not all equal; returns the byte count
  * (<= MAX_COMPACT_BYTES) written to \a out. */
 std::size_t
@@ -276,27 +313,20 @@ compactGet(const std::uint8_t* data, int x, int y, int z)
     static_cast<unsigned>((x >> 2) | ((y >> 2) << 1) | ((z >> 2) << 2));
   const unsigned mixed_cubes = data[0];
   if (!((mixed_cubes >> c) & 1u))
-    return static_cast<std::uint8_t>(
-      ((static_cast<unsigned>(data[1]) | (static_cast<unsigned>(data[2]) << 8))
-       >> (2 * c))
-      & 3u);
+    return static_cast<std::uint8_t>((load16(data + 1) >> (2 * c)) & 3u);
   const int r = __builtin_popcount(mixed_cubes & ((1u << c) - 1u));
   const std::uint8_t* cube = data + 3 + 3 * r;
   const unsigned d = static_cast<unsigned>(((x >> 1) & 1) | (((y >> 1) & 1) << 1)
                                            | (((z >> 1) & 1) << 2));
   const unsigned mixed_cells = cube[0];
   if (!((mixed_cells >> d) & 1u))
-    return static_cast<std::uint8_t>(
-      ((static_cast<unsigned>(cube[1]) | (static_cast<unsigned>(cube[2]) << 8))
-       >> (2 * d))
-      & 3u);
+    return static_cast<std::uint8_t>((load16(cube + 1) >> (2 * d)) & 3u);
   int before = __builtin_popcount(mixed_cells & ((1u << d) - 1u));
   for (int k = 0; k < r; ++k)
     before += __builtin_popcount(data[3 + 3 * k]);
   const std::uint8_t* cell =
     data + 3 + 3 * __builtin_popcount(mixed_cubes) + 2 * before;
-  const unsigned v =
-    static_cast<unsigned>(cell[0]) | (static_cast<unsigned>(cell[1]) << 8);
+  const unsigned v = load16(cell);
   return static_cast<std::uint8_t>((v >> (2 * ((x & 1) + 2 * (y & 1) + 4 * (z & 1))))
                                    & 3u);
 }
@@ -306,65 +336,33 @@ void
 decodeCompact(const std::uint8_t* data, Payload& p)
 {
   p.fill(0);
-  const unsigned mixed_cubes = data[0];
-  const unsigned cube_codes =
-    static_cast<unsigned>(data[1]) | (static_cast<unsigned>(data[2]) << 8);
-  const std::uint8_t* head = data + 3;
-  const std::uint8_t* tail = data + 3 + 3 * __builtin_popcount(mixed_cubes);
-  for (int c = 0; c < 8; ++c) {
-    if (!((mixed_cubes >> c) & 1u)) {
-      const std::uint32_t v = cellPattern((cube_codes >> (2 * c)) & 3u);
-      for (int d = 0; d < 8; ++d)
+  walkCompact(
+    data,
+    [&p](int c, int d, unsigned code, int) {
+      const std::uint32_t v = cellPattern(code);
+      if (d >= 0) {
         putCell(p, cellOrigin(c, d), v);
-      continue;
-    }
-    const unsigned mixed_cells = head[0];
-    const unsigned cell_codes =
-      static_cast<unsigned>(head[1]) | (static_cast<unsigned>(head[2]) << 8);
-    head += 3;
-    for (int d = 0; d < 8; ++d) {
-      std::uint32_t v;
-      if ((mixed_cells >> d) & 1u) {
-        v = static_cast<std::uint32_t>(tail[0])
-            | (static_cast<std::uint32_t>(tail[1]) << 8);
-        tail += 2;
-      } else
-        v = cellPattern((cell_codes >> (2 * d)) & 3u);
-      putCell(p, cellOrigin(c, d), v);
-    }
-  }
+        return;
+      }
+      for (int k = 0; k < 8; ++k)
+        putCell(p, cellOrigin(c, k), v);
+    },
+    [&p](int c, int d, std::uint32_t v) { putCell(p, cellOrigin(c, d), v); });
 }
 
 /** \brief Adds the voxels of each code of the compact block at \a data to \a n. */
 void
 countCompact(const std::uint8_t* data, std::array<std::size_t, 4>& n)
 {
-  const unsigned mixed_cubes = data[0];
-  const unsigned cube_codes =
-    static_cast<unsigned>(data[1]) | (static_cast<unsigned>(data[2]) << 8);
-  const std::uint8_t* head = data + 3;
-  const std::uint8_t* tail = data + 3 + 3 * __builtin_popcount(mixed_cubes);
-  for (int c = 0; c < 8; ++c) {
-    if (!((mixed_cubes >> c) & 1u)) {
-      n[(cube_codes >> (2 * c)) & 3u] += 64;
-      continue;
-    }
-    const unsigned mixed_cells = head[0];
-    const unsigned cell_codes =
-      static_cast<unsigned>(head[1]) | (static_cast<unsigned>(head[2]) << 8);
-    head += 3;
-    for (int d = 0; d < 8; ++d) {
-      if (!((mixed_cells >> d) & 1u)) {
-        n[(cell_codes >> (2 * d)) & 3u] += 8;
-        continue;
-      }
-      const unsigned v =
-        static_cast<unsigned>(tail[0]) | (static_cast<unsigned>(tail[1]) << 8);
-      tail += 2;
+  walkCompact(
+    data,
+    [&n](int, int, unsigned code, int voxels) {
+      n[code] += static_cast<std::size_t>(voxels);
+    },
+    [&n](int, int, std::uint32_t v) {
       for (int k = 0; k < 8; ++k)
         ++n[(v >> (2 * k)) & 3u];
-    }
-  }
+    });
 }
 
 /** \brief floor(a / 8) for negative a too. */
