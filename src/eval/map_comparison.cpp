@@ -39,12 +39,13 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/** The stages that do not depend on the cell size: run once per frame. */
+/** Whether the stage registry declares \a type a front-end stage, which does not
+ * depend on the cell size and so runs once per frame for all sizes. */
 bool
 isFrontEnd(const std::string& type)
 {
-  return type == "stereo_disparity" || type == "feature_matching"
-         || type == "kl_occupancy_filter" || type == "visual_odometry";
+  const StageInfo* info = findStage(type);
+  return info && info->role == StageRole::FRONT_END;
 }
 
 /** The pipeline stage \a sc at cell size \a r: its parameters marked CELL_SIZE in

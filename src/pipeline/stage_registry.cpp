@@ -12,14 +12,16 @@ namespace planar_grid {
 
 namespace {
 
-/** \a info with its data flow declared: what it needs, what it produces, and whether
- * it may be listed more than once. */
+/** \a info with its role and data flow declared: front end or mapping stage, what it
+ * needs, what it produces, and whether it may be listed more than once. */
 StageInfo
 declare(StageInfo info,
+        StageRole role,
         std::vector<StageData> needs,
         std::vector<StageData> produces,
         bool repeatable = false)
 {
+  info.role = role;
   info.needs = std::move(needs);
   info.produces = std::move(produces);
   info.repeatable = repeatable;
@@ -62,27 +64,29 @@ const std::vector<StageInfo>&
 stageRegistry()
 {
   using D = StageData;
-  // Built once, in pipeline order, each with the data it needs and produces: the
-  // loader checks a pipeline's order against these before the first frame. Only the
-  // filters of the working cloud may be listed twice (e.g. a coarse and a fine
-  // voxel_grid); a second map_integration or segmentation would overwrite the first
-  // one's result.
+  using R = StageRole;
+  // Built once, in pipeline order, each with its role and the data it needs and
+  // produces: the loader checks a pipeline's order against these before the first
+  // frame. Only the filters of the working cloud may be listed twice (e.g. a coarse
+  // and a fine voxel_grid); a second map_integration or segmentation would overwrite
+  // the first one's result. cloud_features is a mapping stage: it reads the working
+  // cloud, which the filters before it shape at the map's cell size.
   static const std::vector<StageInfo> registry{
     // clang-format off
-    declare(stages::stereoDisparityInfo(), {D::STEREO_IMAGES}, {D::CLOUD, D::DISPARITY}),
-    declare(stages::featureMatchingInfo(), {D::STEREO_IMAGES}, {D::FEATURES}),
-    declare(stages::cloudFeaturesInfo(), {D::CLOUD}, {D::FEATURES}),
-    declare(stages::klOccupancyFilterInfo(), {D::FEATURES}, {D::FEATURE_OCCUPANCY}),
-    declare(stages::visualOdometryInfo(), {D::STEREO_IMAGES, D::FEATURES}, {D::POSES}),
-    declare(stages::depthErrorFilterInfo(), {D::STEREO_IMAGES, D::CLOUD}, {}, true),
-    declare(stages::voxelGridInfo(), {D::CLOUD}, {}, true),
-    declare(stages::statisticalOutlierRemovalInfo(), {D::CLOUD}, {}, true),
-    declare(stages::transformToWorldInfo(), {D::CLOUD, D::POSES}, {D::WORLD_FRAME}),
-    declare(stages::multiPlaneSegmentationInfo(), {D::CLOUD}, {D::PLANES}),
-    declare(stages::groundRemovalInfo(), {D::PLANES}, {}),
-    declare(stages::planarCuboidApproximationInfo(), {D::CLOUD, D::PLANES}, {D::CUBOIDS}),
-    declare(stages::mapIntegrationInfo(), {D::POSES, D::WORLD_FRAME, D::CUBOIDS}, {D::MAP}),
-    declare(stages::accumulateInfo(), {D::WORLD_FRAME}, {D::WORLD_CLOUD}),
+    declare(stages::stereoDisparityInfo(), R::FRONT_END, {D::STEREO_IMAGES}, {D::CLOUD, D::DISPARITY}),
+    declare(stages::featureMatchingInfo(), R::FRONT_END, {D::STEREO_IMAGES}, {D::FEATURES}),
+    declare(stages::cloudFeaturesInfo(), R::MAPPING, {D::CLOUD}, {D::FEATURES}),
+    declare(stages::klOccupancyFilterInfo(), R::FRONT_END, {D::FEATURES}, {D::FEATURE_OCCUPANCY}),
+    declare(stages::visualOdometryInfo(), R::FRONT_END, {D::STEREO_IMAGES, D::FEATURES}, {D::POSES}),
+    declare(stages::depthErrorFilterInfo(), R::MAPPING, {D::STEREO_IMAGES, D::CLOUD}, {}, true),
+    declare(stages::voxelGridInfo(), R::MAPPING, {D::CLOUD}, {}, true),
+    declare(stages::statisticalOutlierRemovalInfo(), R::MAPPING, {D::CLOUD}, {}, true),
+    declare(stages::transformToWorldInfo(), R::MAPPING, {D::CLOUD, D::POSES}, {D::WORLD_FRAME}),
+    declare(stages::multiPlaneSegmentationInfo(), R::MAPPING, {D::CLOUD}, {D::PLANES}),
+    declare(stages::groundRemovalInfo(), R::MAPPING, {D::PLANES}, {}),
+    declare(stages::planarCuboidApproximationInfo(), R::MAPPING, {D::CLOUD, D::PLANES}, {D::CUBOIDS}),
+    declare(stages::mapIntegrationInfo(), R::MAPPING, {D::POSES, D::WORLD_FRAME, D::CUBOIDS}, {D::MAP}),
+    declare(stages::accumulateInfo(), R::MAPPING, {D::WORLD_FRAME}, {D::WORLD_CLOUD}),
     // clang-format on
   };
   return registry;

@@ -13,10 +13,12 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -435,6 +437,44 @@ TEST(StageTables, SayWhichParametersFollowTheCellSize)
       if (spec.cell_size_scaling == Scaling::CELL_SIZE) {
         EXPECT_EQ(spec.unit, "m") << info.type << "." << spec.key;
       }
+}
+
+TEST(StageTables, DeclareTheFrontEndTheEvaluationRunsOncePerFrame)
+{
+  // The evaluation runs the front end once per frame and the rest once per cell size,
+  // from the role each stage declares in the registry.
+  using planar_grid::StageData;
+  using planar_grid::StageRole;
+  std::set<std::string> front_end;
+  std::set<StageData> mapping_produces;
+  for (const auto& info : planar_grid::stageRegistry())
+    if (info.role == StageRole::FRONT_END)
+      front_end.insert(info.type);
+    else
+      mapping_produces.insert(info.produces.begin(), info.produces.end());
+  EXPECT_EQ(front_end,
+            (std::set<std::string>{"stereo_disparity", "feature_matching",
+                                   "kl_occupancy_filter", "visual_odometry"}));
+  for (const auto& info : planar_grid::stageRegistry()) {
+    if (info.role != StageRole::FRONT_END)
+      continue;
+    // Shared by every cell size: no parameter of a front-end stage may follow it ...
+    for (const auto& spec : info.params)
+      EXPECT_EQ(spec.cell_size_scaling, planar_grid::ParamSpec::CellSizeScaling::NONE)
+        << info.type << "." << spec.key;
+    // ... and it cannot need what only a per-size (mapping) stage gives.
+    for (const StageData need : info.needs) {
+      const bool from_front_end = std::any_of(
+        planar_grid::stageRegistry().begin(), planar_grid::stageRegistry().end(),
+        [need](const planar_grid::StageInfo& other) {
+          return other.role == StageRole::FRONT_END
+                 && std::count(other.produces.begin(), other.produces.end(), need) > 0;
+        });
+      const bool from_input = need == StageData::STEREO_IMAGES;
+      EXPECT_TRUE(from_front_end || from_input || mapping_produces.count(need) == 0)
+        << info.type << " needs " << planar_grid::stageDataName(need);
+    }
+  }
 }
 
 } // namespace

@@ -44,7 +44,8 @@ public:
 
   /** \brief Processes one frame.
    * \throws planar_grid::Exception when the frame cannot be processed (e.g. the stage
-   *         receives 0 points, S32); the run stops with a message naming the frame */
+   *         receives 0 points: a result made of nothing would hide the cause); the
+   *         run stops with a message naming the frame */
   virtual void process(Frame& frame, PipelineState& state) = 0;
 
   /** \brief Called once before the first frame (e.g. to create shared state). */
@@ -124,8 +125,23 @@ enum class StageData {
  * features", "planes"). */
 std::string stageDataName(StageData data);
 
-/** \brief A stage type: its name, what it does, its parameter table and a factory.
- * \ingroup pipeline */
+/** \brief Where a stage sits in the pipeline: in the front end, which works on the
+ * stereo images and their key features and never reads the map's minimum cell size,
+ * or in the mapping part, from the working cloud to the map, whose parameters may
+ * follow the cell size. A tool that maps the same frames at several cell sizes
+ * (planar_grid_eval, paper Sec. IV-B) runs the front end once per frame and the
+ * mapping stages once per size. \ingroup pipeline */
+enum class StageRole {
+  /** \brief Disparity, key features, their occupancy and the visual odometry: the
+   * same result at every cell size. */
+  FRONT_END,
+  /** \brief The working cloud's filters, planes, cells, the map and what is
+   * accumulated from them. */
+  MAPPING,
+};
+
+/** \brief A stage type: its name, what it does, its role, its parameter table and a
+ * factory. \ingroup pipeline */
 struct StageInfo {
   /** \brief The stage type, as written in the YAML `type:` key. */
   std::string type;
@@ -145,6 +161,8 @@ struct StageInfo {
   std::vector<StageData> needs;
   /** \brief What the stage adds for the later ones. */
   std::vector<StageData> produces;
+  /** \brief Front end or mapping stage (the registry declares it). */
+  StageRole role{StageRole::MAPPING};
   /** \brief Whether the stage may be listed more than once (filters of the working
    * cloud); any other stage listed twice is a configuration error. */
   bool repeatable{false};
@@ -152,8 +170,8 @@ struct StageInfo {
   std::function<std::unique_ptr<Stage>(const ParamValues&)> create;
 };
 
-/** \brief Every stage type, in a fixed order (the registry; no static-initialiser
- * registration, S45). */
+/** \brief Every stage type, in a fixed order (the registry: one explicit list, no
+ * registration by static initialisers, whose order across files is unspecified). */
 const std::vector<StageInfo>& stageRegistry();
 
 /** \brief The registry entry of \a type, or nullptr. */
