@@ -109,9 +109,7 @@ public:
       left_(input.left_images), right_(input.right_images),
       first_index_(input.first_index)
   {
-    const CalibrationFormat format =
-      calibrationFormatFromString(input.calibration_format);
-    model_ = loadStereoCalibration(format, input.calibration_file,
+    model_ = loadStereoCalibration(input.calibration_format, input.calibration_file,
                                    input.calibration_right_file);
 
     if (input.frame_count > 0)
@@ -125,7 +123,7 @@ public:
       throw IOError(left_.format(first_index_)
                     + ": no left image found (input.left_images)");
 
-    if (input.poses_format == "karlsruhe_insdata") {
+    if (input.poses_format == PoseFormat::KARLSRUHE_INSDATA) {
       poses_ = loadKarlsruheInsData(input.poses_file);
       // The insdata poses are level along the track, at the GPS/INS position. The
       // camera looks down by camera_pitch_rad (a rotation about its x axis) and sits
@@ -136,9 +134,9 @@ public:
         pose = pose * mount;
         pose.translation().z() += input.camera_height_m;
       }
-    } else if (input.poses_format == "kitti")
+    } else if (input.poses_format == PoseFormat::KITTI)
       poses_ = loadKittiPoses(input.poses_file);
-    if (input.poses_format == "euroc_groundtruth")
+    if (input.poses_format == PoseFormat::EUROC_GROUNDTRUTH)
       loadEurocPoses(input.poses_file);
     else if (!poses_.empty()) {
       const std::size_t needed = static_cast<std::size_t>(first_index_) + count_;
@@ -258,16 +256,16 @@ public:
     }
     description_ =
       std::to_string(files_.size()) + " PCD files " + files_.front() + " ...";
-    if (input.poses_format == "kitti") {
+    if (input.poses_format == PoseFormat::KITTI) {
       poses_ = loadKittiPoses(input.poses_file);
       if (poses_.size() < files_.size())
         throw IOError(input.poses_file + ": has " + std::to_string(poses_.size())
                       + " poses, but there are " + std::to_string(files_.size())
                       + " PCD files");
       poses_.resize(files_.size());
-    } else if (input.poses_format == "viewpoint")
+    } else if (input.poses_format == PoseFormat::VIEWPOINT)
       poseFromViewpoints(input);
-    else if (input.poses_format == "registration")
+    else if (input.poses_format == PoseFormat::REGISTRATION)
       poseByRegistration(input);
   }
 

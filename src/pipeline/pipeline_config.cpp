@@ -15,6 +15,7 @@
 #include <set>
 #include <sstream>
 
+#include "input_formats.h"
 #include "ros_bag_input.h"
 
 namespace planar_grid {
@@ -60,18 +61,17 @@ parseInput(const Reader& r, const YAML::Node& node)
     if (!calib)
       r.fail(node, "input needs the key 'calibration' (format and file)");
     r.checkKeys(calib, {"format", "file", "right_file"}, "input.calibration");
-    input.calibration_format = r.string(calib, "format", "input.calibration");
-    const std::vector<std::string> formats{"karlsruhe", "kitti", "ros_camera_info",
-                                           "euroc"};
-    if (std::find(formats.begin(), formats.end(), input.calibration_format)
-        == formats.end())
-      r.fail(
-        calib["format"],
-        "input.calibration.format '" + input.calibration_format
-          + "' is unknown; expected one of: karlsruhe, kitti, ros_camera_info, euroc");
+    const std::string format = r.string(calib, "format", "input.calibration");
+    try {
+      input.calibration_format = calibrationFormatFromString(format);
+    } catch (const Exception&) {
+      r.fail(calib["format"],
+             "input.calibration.format '" + format
+               + "' is unknown; expected one of: " + knownCalibrationFormats());
+    }
     input.calibration_file = r.path(calib, "file", "input.calibration");
-    const bool pair = input.calibration_format == "ros_camera_info"
-                      || input.calibration_format == "euroc";
+    const bool pair = input.calibration_format == CalibrationFormat::ROS_CAMERA_INFO
+                      || input.calibration_format == CalibrationFormat::EUROC;
     if (pair)
       input.calibration_right_file = r.path(calib, "right_file", "input.calibration");
     else if (calib["right_file"])
@@ -87,7 +87,7 @@ parseInput(const Reader& r, const YAML::Node& node)
     r.checkKeys(node, {"type", "files", "poses", "repeat", "sensor_up"},
                 "input (pcd_files)");
     input.type = InputConfig::Type::PCD_FILES;
-    input.poses_format = "viewpoint";
+    input.poses_format = PoseFormat::VIEWPOINT;
     const YAML::Node files = node["files"];
     if (!files)
       r.fail(node,
@@ -141,42 +141,35 @@ parseInput(const Reader& r, const YAML::Node& node)
                  "max_correspondence_distance_m", "feature_initial_guess",
                  "max_residual_m"},
                 "input.poses");
-    input.poses_format = r.string(poses, "format", "input.poses");
-    const std::vector<std::string> formats =
+    using P = PoseFormat;
+    input.poses_format = readPoseFormat(
+      r, poses,
       input.type == InputConfig::Type::PCD_FILES
-        ? std::vector<std::string>{"viewpoint", "registration", "kitti", "none"}
-        : std::vector<std::string>{"odometry", "karlsruhe_insdata", "kitti",
-                                   "euroc_groundtruth", "none"};
-    if (std::find(formats.begin(), formats.end(), input.poses_format)
-        == formats.end()) {
-      std::string list;
-      for (const auto& f : formats)
-        list += (list.empty() ? "" : ", ") + f;
-      r.fail(poses["format"],
-             "input.poses.format '" + input.poses_format
-               + "' is unknown for this input; expected one of: " + list);
-    }
+        ? std::vector<P>{P::VIEWPOINT, P::REGISTRATION, P::KITTI, P::NONE}
+        : std::vector<P>{P::ODOMETRY, P::KARLSRUHE_INSDATA, P::KITTI,
+                         P::EUROC_GROUNDTRUTH, P::NONE},
+      "input");
     // The ground truth is the body's pose: the camera's comes from the EuRoC T_BS and
     // rectification, which only the euroc calibration gives.
-    if (input.poses_format == "euroc_groundtruth"
-        && input.calibration_format != "euroc")
+    if (input.poses_format == P::EUROC_GROUNDTRUTH
+        && input.calibration_format != CalibrationFormat::EUROC)
       r.fail(poses["format"], "input.poses.format euroc_groundtruth needs "
                               "input.calibration.format euroc (the cameras' T_BS)");
-    const bool needs_file = input.poses_format == "karlsruhe_insdata"
-                            || input.poses_format == "kitti"
-                            || input.poses_format == "euroc_groundtruth";
+    const bool needs_file = input.poses_format == P::KARLSRUHE_INSDATA
+                            || input.poses_format == P::KITTI
+                            || input.poses_format == P::EUROC_GROUNDTRUTH;
     if (needs_file)
       input.poses_file = r.path(poses, "file", "input.poses");
     else if (poses["file"])
-      r.fail(poses["file"],
-             "input.poses.file is not used by format " + input.poses_format);
+      r.fail(poses["file"], "input.poses.file is not used by format "
+                              + poseFormatName(input.poses_format));
     for (const char* key : {"camera_height_m", "camera_pitch_rad"})
-      if (poses[key] && input.poses_format != "karlsruhe_insdata")
+      if (poses[key] && input.poses_format != P::KARLSRUHE_INSDATA)
         r.fail(poses[key],
                std::string("input.poses.") + key + " is only for karlsruhe_insdata");
     for (const char* key : {"leaf_size_m", "max_correspondence_distance_m",
                             "feature_initial_guess", "max_residual_m"})
-      if (poses[key] && input.poses_format != "registration")
+      if (poses[key] && input.poses_format != P::REGISTRATION)
         r.fail(poses[key],
                std::string("input.poses.") + key + " is only for registration");
     input.registration_leaf_size_m = r.real(
@@ -200,8 +193,8 @@ parseInput(const Reader& r, const YAML::Node& node)
       r.real(poses, "camera_pitch_rad", 0.0, -1.5, 1.5, "input.poses");
   }
   // Poses from a file fix the up direction themselves.
-  if (input.has_sensor_up && input.poses_format != "viewpoint"
-      && input.poses_format != "registration")
+  if (input.has_sensor_up && input.poses_format != PoseFormat::VIEWPOINT
+      && input.poses_format != PoseFormat::REGISTRATION)
     r.fail(node["sensor_up"], "input.sensor_up is only used with input.poses.format "
                               "viewpoint or registration (poses that do not fix up)");
   return input;
@@ -354,7 +347,7 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
            "output.cuboids_street_snapshot and of snapshot_camera: street");
   // Following the trajectory needs one; without poses the clouds stay in the camera
   // frame, where no up direction is known.
-  if (street_used && !out.street_view.fixed && input.poses_format == "none")
+  if (street_used && !out.street_view.fixed && input.poses_format == PoseFormat::NONE)
     r.fail(!out.cuboids_street_snapshot.empty() ? node["cuboids_street_snapshot"]
                                                 : node["snapshot_camera"],
            "the street camera follows the trajectory, and input.poses is none: set "
@@ -452,7 +445,8 @@ inputData(const InputConfig& input)
   given.push_back(input.type == InputConfig::Type::STEREO_SEQUENCE
                     ? StageData::STEREO_IMAGES
                     : StageData::CLOUD);
-  if (input.poses_format != "none" && input.poses_format != "odometry")
+  if (input.poses_format != PoseFormat::NONE
+      && input.poses_format != PoseFormat::ODOMETRY)
     given.push_back(StageData::POSES);
   return given;
 }
@@ -512,7 +506,7 @@ checkDataFlow(const Reader& r,
         if (need == StageData::STEREO_IMAGES)
           r.fail(type_node, what + ": it needs a stereo_sequence input (" + input_kind
                               + " input has none)");
-        if (need == StageData::POSES && config.input.poses_format == "none")
+        if (need == StageData::POSES && config.input.poses_format == PoseFormat::NONE)
           r.fail(type_node, what + "; set input.poses (format and file)");
         // The stages that produce it, whether one could run on this input at all, and
         // whether one is listed later (the wrong order).
@@ -579,7 +573,7 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
     if (!info)
       r.fail(stage["type"],
              "unknown stage type '" + sc.type + "'; known types: " + knownStageTypes());
-    const bool odometry = config.input.poses_format == "odometry";
+    const bool odometry = config.input.poses_format == PoseFormat::ODOMETRY;
     if (sc.type == "visual_odometry" && !odometry)
       r.fail(stage["type"],
              "stage 'visual_odometry' makes the poses: set input.poses.format to "
@@ -664,6 +658,68 @@ checkNesting(const YAML::Node& node,
 }
 
 } // namespace
+
+namespace {
+
+/** Every pose format with its name in the configuration. */
+const std::pair<PoseFormat, const char*> POSE_FORMATS[] = {
+  {PoseFormat::NONE, "none"},
+  {PoseFormat::ODOMETRY, "odometry"},
+  {PoseFormat::KARLSRUHE_INSDATA, "karlsruhe_insdata"},
+  {PoseFormat::KITTI, "kitti"},
+  {PoseFormat::EUROC_GROUNDTRUTH, "euroc_groundtruth"},
+  {PoseFormat::VIEWPOINT, "viewpoint"},
+  {PoseFormat::REGISTRATION, "registration"},
+  {PoseFormat::TF, "tf"},
+};
+
+} // namespace
+
+PoseFormat
+poseFormatFromString(const std::string& name)
+{
+  std::string known;
+  for (const auto& [format, format_name] : POSE_FORMATS) {
+    if (name == format_name)
+      return format;
+    known += (known.empty() ? "" : ", ") + std::string(format_name);
+  }
+  throw Exception("unknown pose format '" + name + "'; known formats: " + known);
+}
+
+std::string
+poseFormatName(PoseFormat format)
+{
+  for (const auto& [known, format_name] : POSE_FORMATS)
+    if (known == format)
+      return format_name;
+  return "?";
+}
+
+PoseFormat
+readPoseFormat(const YamlReader& r,
+               const YAML::Node& poses,
+               const std::vector<PoseFormat>& allowed,
+               const std::string& input_kind)
+{
+  const std::string name = r.string(poses, "format", "input.poses");
+  std::string list;
+  for (const PoseFormat format : allowed)
+    list += (list.empty() ? "" : ", ") + poseFormatName(format);
+  const auto unknown = [&]() {
+    r.fail(poses["format"], "input.poses.format '" + name + "' is unknown for this "
+                              + input_kind + "; expected one of: " + list);
+  };
+  PoseFormat format = PoseFormat::NONE;
+  try {
+    format = poseFormatFromString(name);
+  } catch (const Exception&) {
+    unknown();
+  }
+  if (std::find(allowed.begin(), allowed.end(), format) == allowed.end())
+    unknown();
+  return format;
+}
 
 PipelineConfig
 parsePipelineConfig(const std::string& yaml_text,

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <vector>
 
+#include "input_formats.h"
+
 namespace planar_grid {
 
 bool
@@ -75,21 +77,13 @@ parseRosBagInput(const YamlReader& r, const YAML::Node& node)
                 {"format", "topic", "static_topic", "parent_frame", "child_frame",
                  "max_time_difference_s"},
                 "input.poses (ros_bag)");
-    input.poses_format = r.string(poses, "format", "input.poses");
-    const std::vector<std::string> formats =
-      stereo ? std::vector<std::string>{"tf", "odometry", "none"}
-             : std::vector<std::string>{"tf", "none"};
-    if (std::find(formats.begin(), formats.end(), input.poses_format)
-        == formats.end()) {
-      std::string list;
-      for (const auto& f : formats)
-        list += (list.empty() ? "" : ", ") + f;
-      r.fail(poses["format"], "input.poses.format '" + input.poses_format
-                                + "' is unknown for this ros_bag input; expected one "
-                                  "of: "
-                                + list);
-    }
-    if (input.poses_format == "tf") {
+    using P = PoseFormat;
+    input.poses_format =
+      readPoseFormat(r, poses,
+                     stereo ? std::vector<P>{P::TF, P::ODOMETRY, P::NONE}
+                            : std::vector<P>{P::TF, P::NONE},
+                     "ros_bag input");
+    if (input.poses_format == P::TF) {
       bag.parent_frame = r.string(poses, "parent_frame", "input.poses");
       bag.child_frame = r.string(poses, "child_frame", "input.poses");
       if (bag.parent_frame == bag.child_frame)

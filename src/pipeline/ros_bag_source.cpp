@@ -312,7 +312,7 @@ public:
     if (input.frame_count > 0
         && static_cast<std::size_t>(input.frame_count) < stamps_.size())
       resize(static_cast<std::size_t>(input.frame_count));
-    if (input.poses_format == "tf")
+    if (input.poses_format == PoseFormat::TF)
       readPoses();
     std::ostringstream text;
     if (stereo_)

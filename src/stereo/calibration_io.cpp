@@ -10,6 +10,7 @@
 #include <cmath>
 #include <fstream>
 #include <sstream>
+#include <utility>
 #include <vector>
 
 namespace planar_grid {
@@ -368,8 +369,8 @@ loadEuroc(const std::string& left_path, const std::string& right_path)
   cv::Mat r1, r2, p1, p2, q;
   StereoCameraModel model;
   // OpenCV asserts on degenerate input (a singular T_BS, a distortion it cannot
-  // invert): that is a bad file, reported as such (S26: one exception type for the
-  // caller).
+  // invert): that is a bad file, reported as such, so that the caller sees one
+  // exception type for every bad calibration.
   try {
     cv::stereoRectify(left.camera_matrix, left.distortion, right.camera_matrix,
                       right.distortion, left.size, rotation, translation, r1, r2, p1,
@@ -405,19 +406,44 @@ loadEuroc(const std::string& left_path, const std::string& right_path)
 
 } // namespace
 
+namespace {
+
+/** Every calibration format with its name in the configuration. */
+const std::pair<CalibrationFormat, const char*> CALIBRATION_FORMATS[] = {
+  {CalibrationFormat::KARLSRUHE, "karlsruhe"},
+  {CalibrationFormat::KITTI, "kitti"},
+  {CalibrationFormat::ROS_CAMERA_INFO, "ros_camera_info"},
+  {CalibrationFormat::EUROC, "euroc"},
+};
+
+} // namespace
+
 CalibrationFormat
 calibrationFormatFromString(const std::string& name)
 {
-  if (name == "karlsruhe")
-    return CalibrationFormat::KARLSRUHE;
-  if (name == "kitti")
-    return CalibrationFormat::KITTI;
-  if (name == "ros_camera_info")
-    return CalibrationFormat::ROS_CAMERA_INFO;
-  if (name == "euroc")
-    return CalibrationFormat::EUROC;
+  for (const auto& [format, format_name] : CALIBRATION_FORMATS)
+    if (name == format_name)
+      return format;
   throw Exception("unknown calibration format '" + name
-                  + "'; known formats: karlsruhe, kitti, ros_camera_info, euroc");
+                  + "'; known formats: " + knownCalibrationFormats());
+}
+
+std::string
+calibrationFormatName(CalibrationFormat format)
+{
+  for (const auto& [known, format_name] : CALIBRATION_FORMATS)
+    if (known == format)
+      return format_name;
+  return "?";
+}
+
+std::string
+knownCalibrationFormats()
+{
+  std::string list;
+  for (const auto& entry : CALIBRATION_FORMATS)
+    list += (list.empty() ? "" : ", ") + std::string(entry.second);
+  return list;
 }
 
 void

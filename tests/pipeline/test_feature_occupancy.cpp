@@ -374,7 +374,7 @@ TEST_F(FeatureOccupancyTest, Office1MapCellsCarryFeatureOccupancyThatRisesWhenSe
   const fs::path poses = dir_ / "poses.txt";
   planar_grid::saveKittiPoses(poses.string(),
                               planar_grid::Trajectory(3, one.trajectory().at(0)));
-  config.input.poses_format = "kitti";
+  config.input.poses_format = planar_grid::PoseFormat::KITTI;
   config.input.poses_file = poses.string();
   config.input.pcd_files = {OFFICE1, OFFICE1, OFFICE1};
   config.output.folder = (dir_ / "same").string();
@@ -434,7 +434,7 @@ TEST_F(FeatureOccupancyTest, RoomScan1MapCellsCarryRangeSensorOccupancy)
   auto config = planar_grid::loadPipelineConfig(std::string(PLANAR_GRID_SOURCE_DIR)
                                                 + "/config/room_scans.yaml");
   config.input.pcd_files = {scan1};
-  config.input.poses_format = "viewpoint";
+  config.input.poses_format = planar_grid::PoseFormat::VIEWPOINT;
   config.output.folder = (dir_ / "out").string();
   planar_grid::PipelineRunner runner(config);
   const auto report = runner.run();

@@ -57,8 +57,8 @@ TEST(PipelineConfig, ExampleAndMainJobLoad)
     EXPECT_FALSE(config.stages.empty()) << name;
   }
   const auto k = planar_grid::loadPipelineConfig(SOURCE_DIR + "/config/karlsruhe.yaml");
-  EXPECT_EQ(k.input.calibration_format, "karlsruhe");
-  EXPECT_EQ(k.input.poses_format, "karlsruhe_insdata");
+  EXPECT_EQ(k.input.calibration_format, planar_grid::CalibrationFormat::KARLSRUHE);
+  EXPECT_EQ(k.input.poses_format, planar_grid::PoseFormat::KARLSRUHE_INSDATA);
   ASSERT_EQ(k.stages.size(), 12u);
   EXPECT_EQ(k.stages.front().type, "stereo_disparity");
   EXPECT_EQ(k.stages.front().params.getInt("num_disparities_px"), 128);
@@ -180,6 +180,60 @@ TEST(PipelineConfig, OdometryPosesNeedTheVisualOdometryStageFirst)
   EXPECT_NE(std::string(e.what()).find("odometry"), std::string::npos);
 }
 
+TEST(PipelineConfig, FormatsAreReadByTheirEnumsParsers)
+{
+  using planar_grid::CalibrationFormat;
+  using planar_grid::PoseFormat;
+  // Each name reads back as its enum, and each enum writes the name the file uses.
+  for (const PoseFormat format :
+       {PoseFormat::NONE, PoseFormat::ODOMETRY, PoseFormat::KARLSRUHE_INSDATA,
+        PoseFormat::KITTI, PoseFormat::EUROC_GROUNDTRUTH, PoseFormat::VIEWPOINT,
+        PoseFormat::REGISTRATION, PoseFormat::TF})
+    EXPECT_EQ(planar_grid::poseFormatFromString(planar_grid::poseFormatName(format)),
+              format);
+  EXPECT_EQ(planar_grid::poseFormatName(PoseFormat::EUROC_GROUNDTRUTH),
+            "euroc_groundtruth");
+  EXPECT_THROW(planar_grid::poseFormatFromString("KITTI"), planar_grid::Exception);
+  for (const CalibrationFormat format :
+       {CalibrationFormat::KARLSRUHE, CalibrationFormat::KITTI,
+        CalibrationFormat::ROS_CAMERA_INFO, CalibrationFormat::EUROC})
+    EXPECT_EQ(planar_grid::calibrationFormatFromString(
+                planar_grid::calibrationFormatName(format)),
+              format);
+  EXPECT_EQ(planar_grid::knownCalibrationFormats(),
+            "karlsruhe, kitti, ros_camera_info, euroc");
+
+  // The loader stores the enums, and its messages keep the value's line:col and the
+  // names this input accepts.
+  const std::string kitti_yaml = INPUT + "  poses: {format: kitti, file: p.txt}\n"
+                                 + "pipeline:\n  - type: stereo_disparity\n";
+  const auto kitti = parsePipelineConfig(kitti_yaml, "t", "/");
+  EXPECT_EQ(kitti.input.calibration_format, CalibrationFormat::KARLSRUHE);
+  EXPECT_EQ(kitti.input.poses_format, PoseFormat::KITTI);
+  const auto calib = errorOf("input:\n  type: stereo_sequence\n  left_images: a%d.png\n"
+                             "  right_images: b%d.png\n"
+                             "  calibration:\n    format: middlebury\n    file: c\n"
+                             "pipeline:\n  - type: voxel_grid\n");
+  EXPECT_EQ(calib.line(), 6);
+  EXPECT_EQ(calib.column(), 13);
+  EXPECT_NE(std::string(calib.what())
+              .find("input.calibration.format 'middlebury' is unknown; expected one "
+                    "of: karlsruhe, kitti, ros_camera_info, euroc"),
+            std::string::npos)
+    << calib.what();
+  // A pose format of another kind of input is refused as unknown for this one.
+  const auto pose = errorOf(
+    INPUT + "  poses:\n    format: viewpoint\npipeline:\n  - type: voxel_grid\n");
+  EXPECT_EQ(pose.line(), 9);
+  EXPECT_EQ(pose.column(), 13);
+  EXPECT_NE(std::string(pose.what())
+              .find("input.poses.format 'viewpoint' is unknown for this input; "
+                    "expected one of: odometry, karlsruhe_insdata, kitti, "
+                    "euroc_groundtruth, none"),
+            std::string::npos)
+    << pose.what();
+}
+
 TEST(PipelineConfig, BadInputBlocksAreErrors)
 {
   // Missing calibration.
@@ -221,7 +275,7 @@ TEST(PipelineConfig, EurocGroundTruthPoses)
       + "  poses: {format: euroc_groundtruth, file: gt_body_poses.txt}\n"
         "pipeline:\n  - type: stereo_disparity\n",
     "test.yaml", "/base");
-  EXPECT_EQ(config.input.poses_format, "euroc_groundtruth");
+  EXPECT_EQ(config.input.poses_format, planar_grid::PoseFormat::EUROC_GROUNDTRUTH);
   EXPECT_EQ(config.input.poses_file, "/base/gt_body_poses.txt");
   // It needs the file.
   auto e = errorOf(input
@@ -250,8 +304,8 @@ TEST(PipelineConfig, EurocGroundTruthPoses)
   // The EuRoC evaluation config uses it.
   const auto euroc =
     planar_grid::loadPipelineConfig(SOURCE_DIR + "/config/eval/euroc.yaml");
-  EXPECT_EQ(euroc.input.calibration_format, "euroc");
-  EXPECT_EQ(euroc.input.poses_format, "euroc_groundtruth");
+  EXPECT_EQ(euroc.input.calibration_format, planar_grid::CalibrationFormat::EUROC);
+  EXPECT_EQ(euroc.input.poses_format, planar_grid::PoseFormat::EUROC_GROUNDTRUTH);
   EXPECT_EQ(euroc.input.first_index, 2);
   EXPECT_EQ(euroc.input.frame_count, 2);
 }
@@ -559,7 +613,7 @@ TEST(PipelineConfig, RegistrationPosesAndSensorUp)
         "max_residual_m: 0.02}\n"
       + stages,
     "t.yaml", "/");
-  EXPECT_EQ(config.input.poses_format, "registration");
+  EXPECT_EQ(config.input.poses_format, planar_grid::PoseFormat::REGISTRATION);
   EXPECT_TRUE(config.input.has_sensor_up);
   EXPECT_EQ(config.input.sensor_up[2], 2.0);
   EXPECT_EQ(config.input.registration_leaf_size_m, 0.1);
@@ -606,6 +660,7 @@ TEST(PipelineConfig, TheCellsAndTheMapShareTheMinimumCell)
   const auto e =
     errorOf(head + "  - type: map_integration\n    params:\n      resolution_m: 0.1\n");
   EXPECT_EQ(e.line(), 12);
+  EXPECT_EQ(e.column(), 21);
   EXPECT_NE(std::string(e.what()).find("min_cell_size_m"), std::string::npos)
     << e.what();
   const auto t =

@@ -510,7 +510,7 @@ TEST(RosBagExampleConfig, Parses)
     std::string(PLANAR_GRID_SOURCE_DIR) + "/config/ros_bag_example.yaml");
   EXPECT_EQ(config.input.type, planar_grid::InputConfig::Type::STEREO_SEQUENCE);
   EXPECT_EQ(config.input.ros_bag.left_info_topic, "/stereo/left/camera_info");
-  EXPECT_EQ(config.input.poses_format, "tf");
+  EXPECT_EQ(config.input.poses_format, planar_grid::PoseFormat::TF);
 }
 
 } // namespace

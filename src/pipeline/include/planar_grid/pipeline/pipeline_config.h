@@ -2,6 +2,7 @@
 #pragma once
 
 #include <planar_grid/pipeline/param_table.h>
+#include <planar_grid/stereo/calibration_io.h>
 
 #include <array>
 #include <cstddef>
@@ -9,6 +10,38 @@
 #include <vector>
 
 namespace planar_grid {
+
+/** \brief Where an input's camera poses come from (input.poses.format); every reader
+ * gives them in the z-up world (docs/INPUTS.md). \ingroup pipeline */
+enum class PoseFormat {
+  /** "none": no poses. */
+  NONE,
+  /** "odometry": estimated by the visual_odometry stage (stereo input). */
+  ODOMETRY,
+  /** "karlsruhe_insdata": the Karlsruhe sequences' GPS/INS file (stereo input). */
+  KARLSRUHE_INSDATA,
+  /** "kitti": world_T_camera per frame in KITTI's world, the first camera's optical
+   * frame; converted to the z-up world. */
+  KITTI,
+  /** "euroc_groundtruth": EuRoC gt_body_poses.txt, world_T_body by image index, with
+   * the euroc calibration's T_BS and rectification (stereo input). */
+  EUROC_GROUNDTRUTH,
+  /** "viewpoint": each PCD file's VIEWPOINT (PCD input). */
+  VIEWPOINT,
+  /** "registration": frame-to-frame GICP of the PCD files (PCD input). */
+  REGISTRATION,
+  /** "tf": along a /tf chain of a ROS bag (ros_bag input). */
+  TF,
+};
+
+/** \brief Parses a pose format's name as the configuration writes it ("none",
+ * "odometry", "karlsruhe_insdata", "kitti", "euroc_groundtruth", "viewpoint",
+ * "registration", "tf"). \throws planar_grid::Exception listing the known names for
+ * any other. */
+PoseFormat poseFormatFromString(const std::string& name);
+
+/** \brief The name of \a format, as poseFormatFromString() reads it. */
+std::string poseFormatName(PoseFormat format);
 
 /** \brief Where frames come from. \ingroup pipeline */
 struct InputConfig {
@@ -32,22 +65,19 @@ struct InputConfig {
   /** \brief Number of frames; 0 = every index until the first missing left image. */
   int frame_count{0};
 
-  /** \brief Calibration format: karlsruhe, kitti, ros_camera_info or euroc. */
-  std::string calibration_format;
+  /** \brief Calibration format (stereo input). */
+  CalibrationFormat calibration_format{CalibrationFormat::KARLSRUHE};
   /** \brief Calibration file (the left camera's for ros_camera_info and euroc). */
   std::string calibration_file;
   /** \brief The right camera's calibration file (ros_camera_info and euroc only). */
   std::string calibration_right_file;
 
-  /** \brief Poses: "none", "odometry" (estimated by an odometry stage),
-   * "karlsruhe_insdata", "kitti" (world_T_camera per frame in KITTI's world, the first
-   * camera's optical frame; converted to the z-up world), "euroc_groundtruth" (stereo
-   * input only: EuRoC gt_body_poses.txt, world_T_body by image index, with the euroc
-   * calibration's T_BS and rectification: world_T_camera = world_T_body * body_T_left *
-   * rectified_R_left^T) or, for PCD input, "viewpoint" (default there: the VIEWPOINTs,
-   * see docs/INPUTS.md) and "registration" (frame-to-frame GICP). Every reader gives
-   * poses in the z-up world. */
-  std::string poses_format{"none"};
+  /** \brief Where the poses come from: for stereo input NONE, ODOMETRY,
+   * KARLSRUHE_INSDATA, KITTI or EUROC_GROUNDTRUTH (world_T_camera = world_T_body *
+   * body_T_left * rectified_R_left^T); for PCD input VIEWPOINT (the default there: see
+   * docs/INPUTS.md), REGISTRATION, KITTI or NONE; for a ROS bag TF, ODOMETRY (stereo)
+   * or NONE. */
+  PoseFormat poses_format{PoseFormat::NONE};
   /** \brief Poses file ("" for none and viewpoint). */
   std::string poses_file;
   /** \brief karlsruhe_insdata only: the camera's height above the road, metres (the

@@ -28,9 +28,16 @@ enum class CalibrationFormat {
   EUROC
 };
 
-/** \brief Parses "karlsruhe", "kitti", "ros_camera_info" or "euroc"; throws
- * planar_grid::Exception listing the known names otherwise. */
+/** \brief Parses "karlsruhe", "kitti", "ros_camera_info" or "euroc" (the names the
+ * configuration uses); throws planar_grid::Exception listing the known names
+ * otherwise. */
 CalibrationFormat calibrationFormatFromString(const std::string& name);
+
+/** \brief The name of \a format, as calibrationFormatFromString() reads it. */
+std::string calibrationFormatName(CalibrationFormat format);
+
+/** \brief Every calibration format's name, comma-separated (for messages). */
+std::string knownCalibrationFormats();
 
 /** \brief Undistortion and rectification maps for a raw stereo pair (empty for pairs
  * that are already rectified). \ingroup stereo */
