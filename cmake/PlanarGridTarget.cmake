@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: BSD-3-Clause
-# Helpers shared by every target (S3, S4): warnings and sanitizers per target, nothing global;
-# install and export of every module in one place (issue #9).
+# Helpers shared by every target: warnings and sanitizers set per target, nothing in
+# global flags or include directories (a consumer of the package inherits none of them);
+# install and export of every module in one place, so that each installs the same way.
 
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)

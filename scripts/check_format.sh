@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: BSD-3-Clause
-# Fails when a tracked C++ file is not formatted with the project's .clang-format (S9).
+# Fails when a tracked C++ file is not formatted with the project's .clang-format
+# (PCL's layout, so that the code reads like the library it extends).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 command -v clang-format >/dev/null || { echo "check_format: clang-format not installed" >&2; exit 1; }

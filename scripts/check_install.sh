@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: BSD-3-Clause
-# Checks the installed package (issue #9): `cmake --install` of a build into a temporary
+# Checks the installed package, as a user outside the build tree finds it:
+# `cmake --install` of a build into a temporary
 # prefix, then the examples project (examples/) configured with CMAKE_PREFIX_PATH=<prefix>
 # only (never the build tree), built, and run on a real PCL scan; the same example built
 # with pkg-config and the installed planar_grid.pc alone, and a pipeline run (every module

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: BSD-3-Clause
-# The evaluation of issue 7 (paper Sec. IV-B, Figs. 12-14): builds planar_grid_eval and
+# The paper's evaluation (Sec. IV-B, Figs. 12-14): builds planar_grid_eval and
 # planar_grid_render_scene, renders the synthetic stereo scenes, links the Aloe pair and
 # writes the poses the real indoor pairs lack (output/eval/prep; the data stays in
 # ../shared/data), then runs the indoor, tilt and outdoor evaluations. Results in

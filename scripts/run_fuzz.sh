@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: BSD-3-Clause
-# Fuzzes the readers of untrusted files with libFuzzer (issue #8): configures a clang
+# Fuzzes the readers of untrusted files with libFuzzer, so that no file can crash
+# them or make them read out of bounds: configures a clang
 # build folder with -DPLANAR_GRID_BUILD_FUZZERS=ON (libraries instrumented with
 # -fsanitize=fuzzer-no-link,address,undefined), builds the targets of tests/fuzz/, runs
 # each for a fixed time from its seed corpus (tests/fuzz/corpus/<target>/, read only;

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: BSD-3-Clause
-# The AddressSanitizer + UndefinedBehaviorSanitizer configuration (issue #8): builds
+# The AddressSanitizer + UndefinedBehaviorSanitizer configuration, which catches memory
+# errors and undefined behaviour the plain tests pass over: builds
 # everything with -DPLANAR_GRID_SANITIZE=ON (cmake/PlanarGridTarget.cmake), runs the whole
 # CTest suite with leak detection and UBSan halting on the first report, then a short
 # real pipeline run (Karlsruhe frames 0-2). Fails on any sanitizer report.

@@ -14,6 +14,7 @@ cmake --build "$BUILD_DIR" -j2
 cd "$BUILD_DIR"
 ctest -j2 --output-on-failure --timeout 600
 cd - >/dev/null
-# The installed package and the examples built against it (issue #9), then the API docs.
+# The installed package and the examples built against it (what a user outside this
+# tree sees), then the API docs.
 bash scripts/check_install.sh "$BUILD_DIR"
 bash scripts/build_docs.sh "$BUILD_DIR/docs"

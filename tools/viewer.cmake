@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: BSD-3-Clause
-# planar_grid_viewer (S8, S34): included from tools/CMakeLists.txt.
+# planar_grid_viewer, the interactive and offscreen viewer (one .cpp per tool, built only
+# with VTK): included from tools/CMakeLists.txt.
 if(TARGET planar_grid_visualization)
   add_executable(planar_grid_viewer ${CMAKE_CURRENT_LIST_DIR}/planar_grid_viewer.cpp)
   # planar_grid_odometry reads the --trajectory (KITTI poses).
