@@ -1,11 +1,17 @@
 // SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
 #include <planar_grid/core/planar_cuboid.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 #include <planar_grid/surface/planar_cuboid_approximation.h>
 
+#include <pcl/PolygonMesh.h>
+#include <pcl/conversions.h>
 #include <pcl/filters/voxel_grid.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_types.h>
+#include <pcl/sample_consensus/method_types.h>
+#include <pcl/sample_consensus/model_types.h>
+#include <pcl/segmentation/sac_segmentation.h>
 
 #include <gtest/gtest.h>
 
@@ -14,6 +20,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <limits>
+#include <map>
 #include <random>
 #include <string>
 #include <vector>
@@ -661,6 +668,218 @@ TEST(PlanarCuboidApproximation, OfficeCloudFarFewerCuboidsThanVoxels)
               cloud->size(), planes.size(), voxels.size(), cuboids.size(), planar);
   EXPECT_LT(cuboids.size(), voxels.size() / 2);
   EXPECT_EQ(countUncovered(*cloud, cuboids, 1e-4f), 0u);
+}
+
+/** A wall (3 x 2 m, 0.03 m grid, 0.004 m noise) beside a floor patch (2 x 2 m, 2500
+ * points / m^2, 0.003 m noise) and a small blob off both, in a z-up world with the
+ * sensor at the origin. */
+pcl::PointCloud<pcl::PointXYZ>::Ptr
+wallFloorAndBlob(std::vector<int>* wall_inliers = nullptr)
+{
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  std::mt19937 rng(7);
+  const auto inliers =
+    addGridWall(*cloud, wall(20 * DEG, 0.0), 3.0f, 2.0f, 0.03f, 0.004, rng);
+  if (wall_inliers)
+    *wall_inliers = inliers;
+  const Patch floor{Eigen::Vector3f(-2.0f, 1.0f, -1.2f), Eigen::Vector3f::UnitX(),
+                    Eigen::Vector3f::UnitY()};
+  addRandomPatch(*cloud, floor, 2.0f, 2.0f, 2500.0, 0.003, rng,
+                 [](float, float) { return true; });
+  std::normal_distribution<float> blob(0.0f, 0.15f);
+  for (int k = 0; k < 300; ++k)
+    cloud->push_back(makePoint<pcl::PointXYZ>(
+      Eigen::Vector3f(2.5f + blob(rng), 2.0f + blob(rng), 0.0f + blob(rng))));
+  return cloud;
+}
+
+// PCL's own plane output: pcl::SACSegmentation run once per plane (each run on the
+// points the earlier planes left) gives parallel ModelCoefficients and PointIndices
+// with unit normals of either sign. Passed in as they are, they give exactly the
+// cuboids of the project's PlanarSegments holding the same planes with the normals
+// turned toward the sensor, as SACMultiPlaneSegmentation gives them.
+TEST(PlanarCuboidApproximation, PlanesFromPCLSACSegmentationGiveTheSameCuboids)
+{
+  const auto cloud = wallFloorAndBlob();
+  pcl::SACSegmentation<pcl::PointXYZ> sac;
+  sac.setModelType(pcl::SACMODEL_PLANE);
+  sac.setMethodType(pcl::SAC_RANSAC);
+  sac.setDistanceThreshold(0.02);
+  sac.setMaxIterations(500);
+  sac.setInputCloud(cloud);
+  std::vector<pcl::ModelCoefficients> model_coefficients;
+  std::vector<pcl::PointIndices> inliers;
+  pcl::IndicesPtr remaining(new pcl::Indices(cloud->size()));
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+    (*remaining)[i] = static_cast<int>(i);
+  for (int plane = 0; plane < 2; ++plane) {
+    sac.setIndices(remaining);
+    pcl::ModelCoefficients coefficients;
+    pcl::PointIndices plane_inliers;
+    sac.segment(plane_inliers, coefficients);
+    ASSERT_GT(plane_inliers.indices.size(), 5000u) << "plane " << plane;
+    std::vector<std::uint8_t> taken(cloud->size(), 0);
+    for (const auto index : plane_inliers.indices)
+      taken[static_cast<std::size_t>(index)] = 1;
+    remaining->erase(std::remove_if(remaining->begin(), remaining->end(),
+                                    [&taken](int index) {
+                                      return taken[static_cast<std::size_t>(index)]
+                                             != 0;
+                                    }),
+                     remaining->end());
+    model_coefficients.push_back(coefficients);
+    inliers.push_back(plane_inliers);
+  }
+
+  PlanarSegments segments;
+  for (std::size_t i = 0; i < inliers.size(); ++i) {
+    PlanarSegment segment;
+    segment.model_coefficients = model_coefficients[i];
+    auto& c = segment.model_coefficients.values;
+    ASSERT_EQ(c.size(), 4u);
+    if (c[3] < 0.0f) // toward the sensor at the origin: a o + d >= 0
+      for (auto& value : c)
+        value = -value;
+    segment.inliers = inliers[i];
+    segments.push_back(segment);
+  }
+
+  PlanarCuboids from_pcl, from_segments;
+  PlanarCuboidApproximation<pcl::PointXYZ> approx;
+  approx.setInputCloud(cloud);
+  approx.setPlanes(model_coefficients, inliers);
+  ASSERT_EQ(approx.getPlanes().size(), 2u);
+  approx.approximate(from_pcl);
+  approx.setPlanes(segments);
+  approx.approximate(from_segments);
+
+  const auto expectSame = [](const PlanarCuboids& cuboids,
+                             const PlanarCuboids& expected, const char* what) {
+    ASSERT_EQ(cuboids.size(), expected.size()) << what;
+    for (std::size_t i = 0; i < cuboids.size(); ++i) {
+      const PlanarCuboid& a = cuboids[i];
+      const PlanarCuboid& b = expected[i];
+      EXPECT_EQ(a.centre, b.centre) << what << " " << i;
+      EXPECT_EQ(a.normal, b.normal) << what << " " << i;
+      EXPECT_EQ(a.horizontal_axis, b.horizontal_axis) << what << " " << i;
+      EXPECT_EQ(a.width_m, b.width_m) << what << " " << i;
+      EXPECT_EQ(a.height_m, b.height_m) << what << " " << i;
+      EXPECT_EQ(a.thickness_m, b.thickness_m) << what << " " << i;
+      EXPECT_EQ(a.plane_id, b.plane_id) << what << " " << i;
+      EXPECT_EQ(a.point_count, b.point_count) << what << " " << i;
+      EXPECT_EQ(a.is_planar, b.is_planar) << what << " " << i;
+    }
+  };
+  expectSame(from_pcl, from_segments, "SACSegmentation output");
+  std::size_t planar[2] = {0, 0};
+  for (const PlanarCuboid& c : from_segments)
+    if (c.is_planar) {
+      ASSERT_TRUE(c.plane_id == 0 || c.plane_id == 1) << c.plane_id;
+      ++planar[c.plane_id];
+      EXPECT_GT(c.normal.dot(-c.centre), 0.0f); // faces the sensor
+    }
+  EXPECT_GE(planar[0], 1u);
+  EXPECT_GE(planar[1], 1u);
+
+  // The normal's sign and length do not matter: the first plane turned round, the
+  // second at twice the length (exact in floating point) give the same cuboids.
+  std::vector<pcl::ModelCoefficients> rescaled = model_coefficients;
+  for (auto& value : rescaled[0].values)
+    value = -value;
+  for (auto& value : rescaled[1].values)
+    value *= 2.0f;
+  PlanarCuboids from_rescaled;
+  approx.setPlanes(rescaled, inliers);
+  approx.approximate(from_rescaled);
+  expectSame(from_rescaled, from_segments, "rescaled");
+
+  // Lists of different lengths are refused and leave the planes as they were.
+  inliers.pop_back();
+  EXPECT_THROW(approx.setPlanes(model_coefficients, inliers), planar_grid::Exception);
+  EXPECT_EQ(approx.getPlanes().size(), 2u);
+  EXPECT_EQ(approx.getPlanes()[1].inliers.indices, segments[1].inliers.indices);
+  EXPECT_EQ(approx.getPlanes()[1].model_coefficients.values, rescaled[1].values);
+}
+
+// The mesh of reconstruct(): 8 vertices and 12 triangles per cuboid, the vertices the
+// boxes' corners (oracle: centre +- the half extents along the three axes, computed
+// here), every triangle of one box facing out of it, and each box closed (every edge
+// shared by two of its triangles, in opposite directions).
+TEST(PlanarCuboidApproximation, ReconstructGivesEachCuboidAsAClosedBoxMesh)
+{
+  std::vector<int> wall_inliers;
+  const auto cloud = wallFloorAndBlob(&wall_inliers);
+  cloud->header.frame_id = "world";
+  cloud->header.stamp = 1234567;
+  const Patch patch = wall(20 * DEG, 0.0);
+  PlanarCuboidApproximation<pcl::PointXYZ> approx;
+  approx.setInputCloud(cloud);
+  approx.setPlanes(PlanarSegments{segmentOf(patch, wall_inliers)});
+  PlanarCuboids cuboids;
+  approx.approximate(cuboids);
+  pcl::PolygonMesh mesh;
+  approx.reconstruct(mesh);
+  ASSERT_GT(cuboids.size(), 3u);
+
+  EXPECT_EQ(mesh.header.frame_id, "world");
+  EXPECT_EQ(mesh.header.stamp, 1234567u);
+  pcl::PointCloud<pcl::PointXYZ> vertices;
+  pcl::fromPCLPointCloud2(mesh.cloud, vertices);
+  ASSERT_EQ(vertices.size(), 8 * cuboids.size());
+  ASSERT_EQ(mesh.polygons.size(), 12 * cuboids.size());
+  for (std::size_t i = 0; i < cuboids.size(); ++i) {
+    const PlanarCuboid& c = cuboids[i];
+    const Eigen::Vector3f v = c.normal.cross(c.horizontal_axis);
+    // The oracle corners; each matches one vertex of the box and each vertex one.
+    std::vector<Eigen::Vector3f> oracle;
+    for (const float sn : {-0.5f, 0.5f})
+      for (const float sh : {-0.5f, 0.5f})
+        for (const float sv : {-0.5f, 0.5f})
+          oracle.push_back(c.centre + c.normal * (sn * c.thickness_m)
+                           + c.horizontal_axis * (sh * c.width_m)
+                           + v * (sv * c.height_m));
+    std::vector<bool> matched(8, false);
+    for (std::size_t k = 0; k < 8; ++k) {
+      const Eigen::Vector3f p = vertices[8 * i + k].getVector3fMap();
+      std::size_t hits = 0;
+      for (std::size_t o = 0; o < 8; ++o)
+        if ((p - oracle[o]).norm() < 1e-4f) {
+          ++hits;
+          matched[o] = true;
+        }
+      EXPECT_EQ(hits, 1u) << "cuboid " << i << " vertex " << k;
+    }
+    EXPECT_EQ(std::count(matched.begin(), matched.end(), true), 8) << "cuboid " << i;
+
+    std::map<std::pair<pcl::index_t, pcl::index_t>, int> edges;
+    for (std::size_t t = 12 * i; t < 12 * i + 12; ++t) {
+      const auto& index = mesh.polygons[t].vertices;
+      ASSERT_EQ(index.size(), 3u);
+      for (const auto k : index) {
+        ASSERT_GE(k, 0);
+        ASSERT_GE(static_cast<std::size_t>(k), 8 * i);
+        ASSERT_LT(static_cast<std::size_t>(k), 8 * i + 8);
+      }
+      const Eigen::Vector3f a = vertices[index[0]].getVector3fMap();
+      const Eigen::Vector3f b = vertices[index[1]].getVector3fMap();
+      const Eigen::Vector3f d = vertices[index[2]].getVector3fMap();
+      const Eigen::Vector3f outward = (a + b + d) / 3.0f - c.centre;
+      EXPECT_GT((b - a).cross(d - a).dot(outward), 0.0f) << "cuboid " << i << " " << t;
+      for (int e = 0; e < 3; ++e)
+        ++edges[{index[e], index[(e + 1) % 3]}];
+    }
+    EXPECT_EQ(edges.size(), 36u) << "cuboid " << i;
+    for (const auto& [edge, count] : edges) {
+      EXPECT_EQ(count, 1) << "cuboid " << i;
+      EXPECT_EQ(edges.count({edge.second, edge.first}), 1u) << "cuboid " << i;
+    }
+  }
+
+  // No input: an empty mesh.
+  PlanarCuboidApproximation<pcl::PointXYZ> empty;
+  empty.reconstruct(mesh);
+  EXPECT_EQ(mesh.cloud.width * mesh.cloud.height, 0u);
+  EXPECT_TRUE(mesh.polygons.empty());
 }
 
 } // namespace

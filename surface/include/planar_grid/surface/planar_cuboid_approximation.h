@@ -4,6 +4,8 @@
 #include <planar_grid/core/planar_cuboid.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 
+#include <pcl/ModelCoefficients.h>
+#include <pcl/PointIndices.h>
 #include <pcl/pcl_base.h>
 #include <pcl/pcl_macros.h>
 #include <pcl/point_cloud.h>
@@ -15,6 +17,10 @@
 #include <memory>
 #include <string>
 #include <vector>
+
+namespace pcl {
+struct PolygonMesh;
+} // namespace pcl
 
 namespace planar_grid {
 
@@ -62,6 +68,13 @@ namespace planar_grid {
  * give an empty output and a PCL_ERROR/PCL_WARN; planes with bad coefficients or no
  * usable inliers are skipped with a PCL_WARN (their points are treated as non-planar).
  * approximate() never throws for bad data.
+ *
+ * The planes come as the project's PlanarSegments (SACMultiPlaneSegmentation) or as
+ * PCL's own parallel lists of pcl::ModelCoefficients and pcl::PointIndices, the
+ * output of pcl::SACSegmentation or pcl::OrganizedMultiPlaneSegmentation. The cuboids
+ * come as PlanarCuboids (approximate()) or as a pcl::PolygonMesh (reconstruct(), on
+ * the convention of pcl::MeshConstruction::reconstruct). The class derives from
+ * pcl::PCLBase, not pcl::PCLSurfaceBase, whose search method it has no use for.
  * \ingroup surface */
 template <typename PointT>
 class PlanarCuboidApproximation : public pcl::PCLBase<PointT> {
@@ -86,6 +99,17 @@ public:
    * \param[in] planes model_coefficients [a, b, c, d] (unit normal, d in meters) and
    * inliers per plane */
   void setPlanes(const PlanarSegments& planes) { planes_ = planes; }
+  /** \brief Sets the planes of the input cloud as PCL's segmentations give them (e.g.
+   * one pcl::SACSegmentation::segment() call per plane); their inliers index the
+   * input cloud. A point in the inliers of several planes goes to the first.
+   * \param[in] model_coefficients [a, b, c, d] per plane (normal (a, b, c), any
+   * length and either sign, d in meters: normalised and turned toward the sensor)
+   * \param[in] inliers indices into the input cloud per plane, parallel to
+   * \a model_coefficients
+   * \throws planar_grid::Exception when the two lists differ in size (the planes are
+   * then left unchanged) */
+  void setPlanes(const std::vector<pcl::ModelCoefficients>& model_coefficients,
+                 const std::vector<pcl::PointIndices>& inliers);
   /** \brief Returns the planes. */
   const PlanarSegments& getPlanes() const { return planes_; }
 
@@ -179,6 +203,16 @@ public:
    * \param[out] cuboids planar cuboids (in plane order, then row order) followed by
    * the non-planar ones; empty on degenerate input or invalid parameters */
   void approximate(PlanarCuboids& cuboids);
+
+  /** \brief Builds the cuboids (Fig. 8) as a triangle mesh, as
+   * pcl::MeshConstruction::reconstruct() does: the header is the input cloud's,
+   * mesh.cloud holds the vertices (pcl::PointXYZ, in meters, the input's frame) and
+   * every polygon is a triangle indexing them.
+   * \param[out] mesh per cuboid, in approximate()'s order: its 8 corners in
+   * PlanarCuboid::corners() order (vertices 8 i to 8 i + 7) and 12 triangles, two per
+   * face, counter-clockwise seen from outside the box (normals point out); an empty
+   * mesh (no vertices, no polygons) on degenerate input or invalid parameters */
+  void reconstruct(pcl::PolygonMesh& mesh);
 
   /** \brief Checks the parameters against their documented ranges, as approximate()
    * does before it starts (it then reports the same text with PCL_ERROR and gives no

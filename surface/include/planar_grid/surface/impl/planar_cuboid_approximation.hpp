@@ -1,15 +1,21 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/exceptions.h>
 #include <planar_grid/surface/planar_cuboid_approximation.h>
 
+#include <pcl/PolygonMesh.h>
 #include <pcl/common/point_tests.h>
 #include <pcl/console/print.h>
+#include <pcl/conversions.h>
+#include <pcl/point_types.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
+#include <string>
 
 namespace planar_grid {
 
@@ -96,6 +102,80 @@ PlanarCuboidApproximation<PointT>::approximate(PlanarCuboids& cuboids)
     return;
   applyApproximation(cuboids);
   this->deinitCompute();
+}
+
+template <typename PointT>
+void
+PlanarCuboidApproximation<PointT>::setPlanes(
+  const std::vector<pcl::ModelCoefficients>& model_coefficients,
+  const std::vector<pcl::PointIndices>& inliers)
+{
+  if (model_coefficients.size() != inliers.size())
+    throw Exception("[planar_grid::" + getClassName() + "::setPlanes] "
+                    + std::to_string(model_coefficients.size())
+                    + " model_coefficients but " + std::to_string(inliers.size())
+                    + " inlier lists; they must be parallel (one of each per plane)");
+  PlanarSegments planes(model_coefficients.size());
+  for (std::size_t i = 0; i < planes.size(); ++i) {
+    planes[i].model_coefficients = model_coefficients[i];
+    planes[i].inliers = inliers[i];
+  }
+  planes_ = std::move(planes);
+}
+
+namespace detail {
+
+/** \brief Appends the box of \a cuboid to a triangle mesh: its 8 corners (in
+ * PlanarCuboid::corners() order: the face, counter-clockwise seen from the front,
+ * then the back) and 12 triangles, counter-clockwise seen from outside. */
+inline void
+appendCuboidMesh(const PlanarCuboid& cuboid,
+                 pcl::PointCloud<pcl::PointXYZ>& vertices,
+                 std::vector<pcl::Vertices>& polygons)
+{
+  const auto first = static_cast<pcl::index_t>(vertices.size());
+  for (const Eigen::Vector3f& corner : cuboid.corners())
+    vertices.push_back(pcl::PointXYZ(corner.x(), corner.y(), corner.z()));
+  const auto triangle = [&polygons, first](pcl::index_t a, pcl::index_t b,
+                                           pcl::index_t c) {
+    pcl::Vertices polygon;
+    polygon.vertices = {first + a, first + b, first + c};
+    polygons.push_back(std::move(polygon));
+  };
+  // The face (0, 1, 2, 3) turns counter-clockwise about the normal, the back (4 to 7)
+  // the other way round; each side joins a face edge (a, b) to its back edge.
+  triangle(0, 1, 2);
+  triangle(0, 2, 3);
+  triangle(4, 6, 5);
+  triangle(4, 7, 6);
+  for (pcl::index_t a = 0; a < 4; ++a) {
+    const pcl::index_t b = (a + 1) % 4;
+    triangle(a, a + 4, b + 4);
+    triangle(a, b + 4, b);
+  }
+}
+
+} // namespace detail
+
+template <typename PointT>
+void
+PlanarCuboidApproximation<PointT>::reconstruct(pcl::PolygonMesh& mesh)
+{
+  PlanarCuboids cuboids;
+  approximate(cuboids);
+  pcl::PointCloud<pcl::PointXYZ> vertices;
+  if (input_)
+    vertices.header = input_->header;
+  vertices.reserve(8 * cuboids.size());
+  mesh.polygons.clear();
+  mesh.polygons.reserve(12 * cuboids.size());
+  for (const PlanarCuboid& cuboid : cuboids)
+    detail::appendCuboidMesh(cuboid, vertices, mesh.polygons);
+  vertices.width = static_cast<std::uint32_t>(vertices.size());
+  vertices.height = vertices.empty() ? 0 : 1;
+  vertices.is_dense = true;
+  pcl::toPCLPointCloud2(vertices, mesh.cloud);
+  mesh.header = vertices.header;
 }
 
 template <typename PointT>
