@@ -579,18 +579,29 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
              "stage 'visual_odometry' makes the poses: set input.poses.format to "
              "odometry");
     sc.params = parseParams(stage["params"], info->params, source, sc.type);
-    // Key features come from stereo matching; a point-cloud input has none, so its
-    // planes are hypothesised on the cloud itself unless the file asks otherwise.
+    // Key features come from stereo matching or from cloud_features; without a
+    // stage before it that gives them, the planes of a point-cloud input are
+    // hypothesised on the cloud itself, and asking for features is an error.
     if (sc.type == "multi_plane_segmentation"
         && config.input.type != InputConfig::Type::STEREO_SEQUENCE) {
       const YAML::Node params = stage["params"];
-      if (params && params.IsMap() && params["sample"]
-          && sc.params.getChoice("sample") == "features")
+      const bool asked = params && params.IsMap() && params["sample"]
+                         && sc.params.getChoice("sample") == "features";
+      const bool given =
+        std::any_of(config.stages.begin(), config.stages.end(), [](const StageConfig& s) {
+          const StageInfo* earlier = findStage(s.type);
+          return earlier
+                 && std::find(earlier->produces.begin(), earlier->produces.end(),
+                              StageData::FEATURES)
+                      != earlier->produces.end();
+        });
+      if (asked && !given)
         r.fail(params["sample"],
-               "multi_plane_segmentation: sample: features needs the stereo "
-               "key features (a stereo_sequence input with feature_matching); "
-               "use sample: cloud on a pcd_files input");
-      sc.params.set("sample", std::string("cloud"));
+               "multi_plane_segmentation: sample: features needs key features from "
+               "a stage before it (cloud_features on a point-cloud input); add one "
+               "or use sample: cloud");
+      if (!asked)
+        sc.params.set("sample", std::string("cloud"));
     }
     config.stages.push_back(std::move(sc));
   }

@@ -575,7 +575,7 @@ TEST(YamlReader, ErrorsNameTheNodeAndWhatWasExpected)
   EXPECT_EQ(reader.resolve(""), "");
 }
 
-TEST(PipelineConfig, FeatureSampleOnPCDInputIsAnErrorAtItsLine)
+TEST(PipelineConfig, FeatureSampleOnPCDInputNeedsAFeatureStageBeforeIt)
 {
   const std::string pcd = "input:\n  type: pcd_files\n  files: [a.pcd]\n";
   // Asked for explicitly: an error at the key's line.
@@ -584,6 +584,20 @@ TEST(PipelineConfig, FeatureSampleOnPCDInputIsAnErrorAtItsLine)
                            "    params: {sample: features}\n");
   EXPECT_EQ(e.line(), 6) << e.what();
   EXPECT_NE(std::string(e.what()).find("sample: cloud"), std::string::npos) << e.what();
+  // With key features from the cloud before it: accepted as asked.
+  const auto with_features = parsePipelineConfig(
+    pcd
+      + "pipeline:\n  - type: cloud_features\n  - type: multi_plane_segmentation\n"
+        "    params: {sample: features}\n",
+    "t.yaml", "/");
+  ASSERT_EQ(with_features.stages.size(), 2u);
+  EXPECT_EQ(with_features.stages[1].params.getChoice("sample"), "features");
+  // Features after the segmentation do not count.
+  EXPECT_EQ(errorOf(pcd
+                    + "pipeline:\n  - type: multi_plane_segmentation\n"
+                      "    params: {sample: features}\n  - type: cloud_features\n")
+              .line(),
+            6);
   // Left at its default: the planes are hypothesised on the cloud.
   const auto config = parsePipelineConfig(
     pcd + "pipeline:\n  - type: multi_plane_segmentation\n", "t.yaml", "/");
