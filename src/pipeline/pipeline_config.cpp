@@ -587,8 +587,8 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
       const YAML::Node params = stage["params"];
       const bool asked = params && params.IsMap() && params["sample"]
                          && sc.params.getChoice("sample") == "features";
-      const bool given =
-        std::any_of(config.stages.begin(), config.stages.end(), [](const StageConfig& s) {
+      const bool given = std::any_of(
+        config.stages.begin(), config.stages.end(), [](const StageConfig& s) {
           const StageInfo* earlier = findStage(s.type);
           return earlier
                  && std::find(earlier->produces.begin(), earlier->produces.end(),
