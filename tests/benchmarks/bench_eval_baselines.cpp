@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The baselines of Sec. IV-B (issue 7) on Karlsruhe frame 10: SG
+// The baselines of Sec. IV-B on Karlsruhe frame 10: SG
 // (StandardVoxelGrid::insertPointCloud) and OG (octomap::OcTree::insertPointCloud,
 // discretize = false) on the same voxelised cloud in the same run, and the RA merge of
 // the SG grid. Args: resolution in cm, and the input: 0 = the ground-free voxelised

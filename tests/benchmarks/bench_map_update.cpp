@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The whole map update of one real frame against OctoMap in the same run (issue #5):
+// The whole map update of one real frame against OctoMap in the same run:
 // Karlsruhe frame 10, SGBM to 30 m, camera frame = world frame.
 //
 // BM_PlanarGridMapUpdate: what the pipeline does per frame once the planes are known:

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Every stage of the main job (config/karlsruhe.yaml) on a real frame (issue 7): the
+// Every stage of the main job (config/karlsruhe.yaml) on a real frame: the
 // stages are built from the configuration through the registry, frame 10 of the
 // Karlsruhe sequence (after frame 9, so that the feature tracks and the map hold a
 // previous frame) is run up to each stage once, and the benchmark times that stage

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The comparison driver of planar_grid_eval (issue 7): its configuration is strict, and
+// The comparison driver of planar_grid_eval: its configuration is strict, and
 // on a scene with known truth SG, OG, RA and PG give the figures an oracle predicts.
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/eval/map_comparison.h>

@@ -55,7 +55,8 @@ contains(const std::string& what, const std::string& part)
          << "'" << what << "' does not contain '" << part << "'";
 }
 
-/** \brief The real trajectory, loaded once per test (no mutable globals, S41). */
+/** \brief The real trajectory, loaded once per test (a fixture, so that no test sees
+ * another's changes). */
 class TrajectoryIOKarlsruhe : public ::testing::Test {
 protected:
   void SetUp() override

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// A user-defined point type (not in PLANAR_GRID_POINT_TYPES) through PCL_NO_PRECOMPILE
-// (S5): the three template classes are instantiated here from their impl/*.hpp, as
-// PCL's are for custom point types, and behave as with the precompiled types on
-// synthetic planes with known coefficients (S37).
+// A user-defined point type (not in PLANAR_GRID_POINT_TYPES) through PCL_NO_PRECOMPILE:
+// the three template classes are instantiated here from their impl/*.hpp, as PCL's are
+// for custom point types, and behave as with the precompiled types on synthetic planes
+// with known coefficients and fixed seeds.
 #define PCL_NO_PRECOMPILE
 #include <planar_grid/filters/kl_divergence_occupancy_filter.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>

@@ -50,7 +50,7 @@ errorOf(const std::string& yaml)
 
 TEST(PipelineConfig, ExampleAndMainJobLoad)
 {
-  // The documented schema and the main job must always load (S29).
+  // The documented schema and the main job must always load.
   for (const char* name :
        {"example.yaml", "karlsruhe.yaml", "karlsruhe_odometry.yaml"}) {
     const auto config = planar_grid::loadPipelineConfig(SOURCE_DIR + "/config/" + name);
@@ -486,7 +486,7 @@ TEST(ParamTable, EveryDefaultIsInsideItsRange)
           std::find(spec.choices.begin(), spec.choices.end(), spec.default_value),
           spec.choices.end());
       }
-      // S21: dimensional keys carry their unit.
+      // Dimensional keys carry their unit, so that a file says what its numbers mean.
       if (spec.unit == "m") {
         EXPECT_EQ(spec.key.substr(spec.key.size() - 2), "_m") << spec.key;
       }
@@ -501,7 +501,7 @@ TEST(ParamTable, EveryDefaultIsInsideItsRange)
 
 TEST(ParamTable, DumpAndReloadGivesTheSameValues)
 {
-  // S40: YAML load, dump, load again gives the same.
+  // YAML load, dump, load again gives the same.
   const auto* info = planar_grid::findStage("stereo_disparity");
   ASSERT_NE(info, nullptr);
   const YAML::Node node =

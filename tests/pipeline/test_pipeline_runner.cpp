@@ -298,8 +298,8 @@ TEST_F(PipelineRunnerTest, EurocGroundTruthWithoutThePairsPoseIsAnError)
 
 TEST_F(PipelineRunnerTest, ZeroPointsStopTheRunNamingFrameAndStage)
 {
-  // A max range below the nearest point leaves no valid point: voxel_grid fails fast
-  // (S32).
+  // A max range below the nearest point leaves no valid point: voxel_grid fails fast,
+  // naming the frame and the stage.
   const std::string stages = "pipeline:\n  - type: stereo_disparity\n"
                              "    params: {max_range_m: 0.1}\n  - type: voxel_grid\n";
   planar_grid::PipelineRunner runner(
@@ -503,7 +503,7 @@ TEST_F(PipelineRunnerTest, OccupancyAndMapOnRealFrames)
   EXPECT_EQ(json["map"]["total_bytes"].get<double>(),
             static_cast<double>(reported_bytes));
 
-  // Determinism (issue 8): the same input and seeds give a byte-identical map file.
+  // Determinism: the same input and seeds give a byte-identical map file.
   auto again_config = config;
   again_config.output.folder = (dir_ / "again").string();
   planar_grid::PipelineRunner again(again_config);
@@ -560,7 +560,7 @@ TEST_F(PipelineRunnerTest, VisualOdometryPosesFollowTheInsTrack)
 
 TEST_F(PipelineRunnerTest, ResumedRunGivesTheSameMapAsAnUninterruptedOne)
 {
-  // Issue 8, no lost work: Karlsruhe frames 10-12 through the paper pipeline with the
+  // No lost work: Karlsruhe frames 10-12 through the paper pipeline with the
   // map, once straight through and once stopped after frame 10 (checkpoint) and resumed
   // by a new runner; the maps, clouds, planes and poses are identical, and the resumed
   // report covers all three frames.

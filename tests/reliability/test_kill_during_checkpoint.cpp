@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Issue #8, no lost work: planar_grid_pipeline killed (SIGKILL) while it writes its
+// No lost work: planar_grid_pipeline killed (SIGKILL) while it writes its
 // checkpoint leaves the previous checkpoint intact, --resume continues from it, and the
 // map at the end is byte-identical to the map of a run never killed.
 #include <gtest/gtest.h>

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Issue #8: inputs a mapping run meets on a robot, each with a clear error naming the
+// Inputs a mapping run meets on a robot, each with a clear error naming the
 // file (IOError / ConfigError) or a documented result; the table is in
 // docs/RELIABILITY.md.
 #include <planar_grid/core/exceptions.h>

@@ -305,10 +305,10 @@ TEST(SACMultiPlaneSegmentation, MergesNearDuplicatePlanes)
   }
 }
 
-// S38: every reported inlier satisfies eq. 11 and every point that satisfies eq. 11 for
-// a plane is assigned (to it or to an earlier plane), checked by a brute-force double
-// loop; with one plane the sets are equal. Points within 1e-5 m of the threshold are
-// skipped (float vs double rounding).
+// Oracle: every reported inlier satisfies eq. 11 and every point that satisfies eq. 11
+// for a plane is assigned (to it or to an earlier plane), checked by a brute-force
+// double loop; with one plane the sets are equal. Points within 1e-5 m of the threshold
+// are skipped (float vs double rounding).
 TEST(SACMultiPlaneSegmentation, DenseInlierSelectionMatchesBruteForce)
 {
   Scene<pcl::PointXYZ> scene;
@@ -389,7 +389,7 @@ struct PlanePoints {
   }
 };
 
-// S38 for the local refinement's fast path: the blocked, early-exit count equals a
+// Oracle for the local refinement's fast path: the blocked, early-exit count equals a
 // brute-force count whenever it exceeds the bar (and is <= the bar otherwise), and the
 // SoA RANSAC reports the exact inlier count of the plane it returns.
 TEST(SACMultiPlaneSegmentation, LocalRansacFastPathMatchesBruteForce)
@@ -437,7 +437,7 @@ TEST(SACMultiPlaneSegmentation, LocalRansacFastPathMatchesBruteForce)
     0u);
 }
 
-// S38 for the local optimisation (LO-RANSAC step): optimizePlane returns the exact
+// Oracle for the local optimisation (LO-RANSAC step): optimizePlane returns the exact
 // (brute-force) count of the plane it returns, never fewer than the starting plane
 // has; from a plane 3 deg off the truth through its point nearest the origin (keeping
 // the points within 0.05 m / sin 3 deg = 0.95 m of the line where the two meet, < 1200
@@ -484,7 +484,7 @@ TEST(SACMultiPlaneSegmentation, LocalOptimizationMatchesBruteForce)
   EXPECT_EQ(unchanged, start);
 }
 
-// S38 for the eq. 11 assignment, by brute force in double: with merging off the
+// Oracle for the eq. 11 assignment, by brute force in double: with merging off the
 // planes' inliers are disjoint, each is within d_T of its plane, and every point within
 // d_T of some reported plane is an inlier of one. Points within 1e-5 m of d_T are
 // skipped (float vs double rounding).
@@ -522,7 +522,7 @@ expectEq11Assignment(const pcl::PointCloud<PointT>& cloud,
   }
 }
 
-// Issue 3: a sample cloud with points on the two walls and the ramp only (a floor
+// A sample cloud with points on the two walls and the ramp only (a floor
 // without texture, as a road gives few stereo features) never hypothesises the floor,
 // so the sample-only search (dense hypothesis and local optimisation off) returns 3
 // planes and misses the floor's 3000 points: coverage ~ (2500 + 2500 + 2000 + the
@@ -727,7 +727,7 @@ TEST(SACMultiPlaneSegmentation, OfficeKinectCloudFindsFloorAndWalls)
   EXPECT_TRUE(structured_pair);
 }
 
-// S39: each degenerate input gives empty output and no crash.
+// Each degenerate input gives empty output and no crash.
 // Real stereo data: rtabmap indoor pair 50 (64 disparities, 8 m range), camera frame
 // (up = -y), defaults, seed 0. A floor and a wall must be found; see
 // docs/SEGMENTATION.md for the measured planes.

@@ -75,7 +75,7 @@ TEST(DisparityEstimator, MiddleburyAloeAccuracy)
 TEST(DisparityEstimator, InvalidPixelsAreNaN)
 {
   cv::Mat left(120, 200, CV_8UC1);
-  cv::RNG rng(42); // fixed seed (S37)
+  cv::RNG rng(42); // fixed seed: the same image on every run
   rng.fill(left, cv::RNG::UNIFORM, 0, 256);
   cv::Mat right = cv::Mat::zeros(left.size(), CV_8UC1);
   // right(u) = left(u + 8): every pixel has disparity 8.

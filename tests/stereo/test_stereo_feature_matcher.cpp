@@ -245,7 +245,7 @@ TEST_F(StereoFeatureMatcherKarlsruhe, RealPairAgreesWithSGBM)
   }
 }
 
-/** \brief Brute-force reference of the matcher (S38): every left key point against
+/** \brief Brute-force reference of the matcher: every left key point against
  * every right key point, same constraints, ratio test and uniqueness rule. Returns the
  * (left index, right index) pairs before the range cut. */
 std::vector<std::pair<int, int>>
@@ -297,7 +297,7 @@ bruteForceMatches(const std::vector<cv::KeyPoint>& keypoints_left,
   return matches;
 }
 
-// Oracle (S38): the row-bucketed matcher gives exactly the brute-force matches on the
+// Oracle: the row-bucketed matcher gives exactly the brute-force matches on the
 // real pair (same detector run, so the same key points; a large max_range_m so the
 // range cut removes nothing). Compared by key point positions. SIFT and ORB; the
 // descriptor distances tie-break identically (strict <), so the sets must be equal.

@@ -340,7 +340,7 @@ TEST(PlanarCuboidApproximation, LShapeMergesHorizontallyFirst)
   EXPECT_EQ(countUncovered(*cloud, cuboids, 1e-4f), 0u);
 }
 
-// Oracle (S38): a wall plus a Gaussian blob (non-planar) plus outliers; with
+// Oracle: a wall plus a Gaussian blob (non-planar) plus outliers; with
 // min_points_per_cell = 1 every finite point lies in some cuboid (brute force over
 // all cuboids with PlanarCuboid::contains, tolerance 1e-4 m = float rounding), and
 // the planar faces of one plane never overlap (exact merge on the raster).
@@ -525,7 +525,7 @@ TEST(PlanarCuboidApproximation, NonPlanarBoxesStayWithinOneCellOfTheirPoints)
     EXPECT_LT(c.thickness_m, 0.8f);
 }
 
-// S39: degenerate inputs give empty (or partial) output and no crash.
+// Degenerate inputs give empty (or partial) output and no crash.
 TEST(PlanarCuboidApproximation, DegenerateInputs)
 {
   using Cloud = pcl::PointCloud<pcl::PointXYZ>;

@@ -140,7 +140,8 @@ double klDivergenceUpdate(double p, double q, double offset_nats);
  * re-selects, with the current occupancy_thres and setNegative(); it does not update
  * twice. setParams() does not start a new frame.
  *
- * Internally each track stores its log-odds (S22; OctoMap): the KL rule converts to a
+ * Internally each track stores its log-odds, as OctoMap does (probabilities only at
+ * the interface, where a user reads and sets them): the KL rule converts to a
  * probability, updates and converts back, the log-odds rule adds log_odds(prob_hit) or
  * log_odds(prob_miss). The cost per frame is O(N) in the number of input features
  * (hash tables for the neighbourhood cells, the tracks and the association cubes; the
@@ -179,7 +180,7 @@ public:
   using PointCloudConstPtr = typename PointCloud::ConstPtr;
 
   /** \brief Parameters with their defaults and valid ranges (checked when filter()
-   * starts, S23). */
+   * starts). */
   struct Params {
     /** dd of eq. 4: disparity error, pixels; > 0. The paper's 0.5. */
     double disparity_error_px{0.5};

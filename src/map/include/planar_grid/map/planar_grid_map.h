@@ -58,7 +58,8 @@ struct OctoMapExportSummary {
  * state decides. Rays stop at the nearer of the first occupied voxel and the first
  * occupied cuboid.
  *
- * File (S35, OctoMap's discipline): a text header of "key value" lines,
+ * File (OctoMap's discipline: self-describing and validated on reading): a text
+ * header of "key value" lines,
  * \code
  * # Planar grid map file
  * version 3
@@ -98,7 +99,7 @@ public:
   explicit PlanarGridMap(const Params& params);
   PlanarGridMap(const PlanarGridMap&) = delete;
   PlanarGridMap& operator=(const PlanarGridMap&) = delete;
-  /** \brief Moves the map (maps are heavy: no copies, S18). */
+  /** \brief Moves the map (maps are heavy: no copies). */
   PlanarGridMap(PlanarGridMap&&) noexcept = default;
   /** \brief Moves the map. */
   PlanarGridMap& operator=(PlanarGridMap&&) noexcept = default;

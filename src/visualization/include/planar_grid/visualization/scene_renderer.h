@@ -204,7 +204,8 @@ public:
   void show(int width_px = 1280, int height_px = 800);
 
 private:
-  /** \brief The VTK objects (VTK stays out of this header, S7). */
+  /** \brief The VTK objects (VTK stays out of this header, so that code including it
+   * needs no VTK headers). */
   struct Impl;
   /** \brief The implementation. */
   std::unique_ptr<Impl> impl_;
