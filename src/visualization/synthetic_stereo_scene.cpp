@@ -2,6 +2,8 @@
 #include <planar_grid/core/atomic_file.h>
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/odometry/trajectory_io.h>
+#include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/pipeline_config_writer.h>
 #include <planar_grid/visualization/scene_renderer.h>
 #include <planar_grid/visualization/synthetic_stereo_scene.h>
 
@@ -37,6 +39,10 @@
 #include <fstream>
 #include <limits>
 #include <sstream>
+#include <string>
+#include <utility>
+#include <variant>
+#include <vector>
 
 namespace planar_grid {
 
@@ -791,110 +797,87 @@ SyntheticStereoScene::pipelineYaml(const std::string& output_folder) const
   const bool corridor = params_.kind == SyntheticSceneKind::CORRIDOR;
   // The far wall is up to 19 m (corridor) or 7 m (room) ahead; the stereo depth error
   // f B / d^2 * 0.5 px is 0.2 m at 12 m.
-  const std::string range = corridor ? "12.0" : "10.0";
+  const double range_m = corridor ? 12.0 : 10.0;
   // Indoors the walls beside the camera come close: 256 disparities see down to
   // f B / 256 = 1.44 m (128: 2.9 m). Nearer surfaces match wrongly into a fan of far
   // points; larger speckle windows and a stricter uniqueness remove most of them
   // (docs/SYNTHETIC_SCENE.md).
   const int disparities = 256;
-  std::ostringstream y;
-  y << "# Synthetic " << toString(params_.kind)
-    << " (planar_grid::SyntheticStereoScene, planar_grid_render_scene): "
-    << params_.frame_count << " frames, step " << exact(params_.step_m)
-    << " m, scene yaw " << exact(params_.scene_yaw_rad) << " rad, wall lean "
-    << exact(params_.wall_lean_rad) << " rad, seed " << params_.seed << ".\n"
-    << "# Rectified grey stereo " << params_.width_px << "x" << params_.height_px
-    << ", f = " << exact(params_.focal_length_px)
-    << " px, B = " << exact(params_.baseline_m)
-    << " m; true poses in poses.txt; true surfaces in scene.json and truth.pcd.\n"
-    << "# Stages as config/karlsruhe.yaml, ranges for an indoor scene. Schema: "
-       "config/example.yaml.\n#\n"
-    << "#   planar_grid_pipeline --config pipeline.yaml\n\n";
-  y << "input:\n"
-    << "  type: stereo_sequence\n"
-    << "  left_images: left/%06d.png\n"
-    << "  right_images: right/%06d.png\n"
-    << "  first_index: 0\n"
-    << "  frame_count: " << params_.frame_count << "\n"
-    << "  calibration:\n"
-    << "    format: karlsruhe\n"
-    << "    file: calib.txt\n"
-    << "  poses:\n"
-    << "    format: kitti\n"
-    << "    file: poses.txt\n\n";
-  y << "pipeline:\n"
-    << "  - type: stereo_disparity\n"
-    << "    params:\n"
-    << "      num_disparities_px: " << disparities << "\n"
-    << "      block_size_px: 5\n"
-    << "      uniqueness_ratio_percent: 15\n"
-    << "      speckle_window_size_px: 400\n"
-    << "      speckle_range_px: 2\n"
-    << "      max_range_m: " << range << "\n"
-    << "  - type: feature_matching\n"
-    << "    params:\n"
-    << "      feature_type: sift\n"
-    << "      max_features: 2000\n"
-    << "      max_disparity_px: " << disparities << "\n"
-    << "      max_range_m: " << range << "\n"
-    << "  - type: kl_occupancy_filter\n"
-    << "    params:\n"
-    << "      update_rule: kl_divergence\n"
-    << "      disparity_error_px: 0.5\n"
-    << "      neighbourhood_size_m: 0.5\n"
-    << "  - type: voxel_grid\n"
-    << "    params:\n"
-    << "      leaf_size_m: 0.1\n"
-    << "  - type: statistical_outlier_removal\n"
-    << "    params:\n"
-    << "      mean_k: 20\n"
-    << "      stddev_mul_thresh: 2.0\n"
-    << "  - type: transform_to_world\n"
-    << "  - type: multi_plane_segmentation\n"
-    << "    params:\n"
-    << "      distance_threshold_m: 0.05\n"
-    << "      sample_distance_threshold_m: 0.15\n"
-    << "      max_planes: 8\n"
-    << "      min_inliers: 150\n"
-    << "      sample: features\n"
-    << "  - type: ground_removal\n"
-    << "    params:\n"
-    << "      eps_angle_rad: 0.2\n"
-    << "      min_sensor_height_m: 0.5\n"
-    << "  - type: planar_cuboid_approximation\n"
-    << "    params:\n"
-    << "      min_cell_size_m: 0.1\n"
-    << "      density_threshold: 0.9\n"
-    << "      min_width_m: 0.1\n"
-    << "      min_height_m: 0.1\n"
-    << "      thickness_m: 0.1\n"
-    << "      min_points_per_cell: 3\n"
-    << "  - type: map_integration\n"
-    << "    params:\n"
-    << "      resolution_m: 0.1\n"
-    << "      max_range_m: " << range << "\n"
-    << "      prior: free\n"
-    << "      thickness_m: 0.1\n"
-    << "  - type: accumulate\n"
-    << "    params:\n"
-    << "      leaf_size_m: 0.1\n"
-    << "      downsample_every_n_frames: 5\n\n";
-  y << "output:\n"
-    << "  folder: " << output_folder << "\n"
-    << "  cloud: world_cloud.pcd\n"
-    << "  trajectory: trajectory.txt\n"
-    << "  report: report.json\n"
-    << "  planes: planes.pcd\n"
-    << "  snapshot: snapshot.png\n"
-    << "  planes_snapshot: planes.png\n"
-    << "  cuboids_snapshot: cuboids.png\n"
-    << "  map: map.pgmap\n"
-    << "  map_octomap: map.bt\n"
-    << "  map_mesh: map_cuboids.ply\n"
-    << "  map_snapshot: map.png\n"
-    << "  snapshot_camera: oblique\n"
-    << "  snapshot_size_px: [1600, 1000]\n";
-  return y.str();
+
+  PipelineConfig config;
+  InputConfig& input = config.input;
+  input.type = InputConfig::Type::STEREO_SEQUENCE;
+  input.left_images = "left/%06d.png";
+  input.right_images = "right/%06d.png";
+  input.first_index = 0;
+  input.frame_count = params_.frame_count;
+  input.calibration_format = CalibrationFormat::KARLSRUHE;
+  input.calibration_file = "calib.txt";
+  input.poses_format = PoseFormat::KITTI;
+  input.poses_file = "poses.txt";
+
+  // The stages of config/karlsruhe.yaml, with ranges for an indoor scene.
+  using Value = std::variant<double, int, bool, std::string>;
+  const auto stage =
+    [&config](const std::string& type,
+              const std::vector<std::pair<std::string, Value>>& params) {
+      StageConfig s = defaultStageConfig(type);
+      for (const auto& [key, value] : params)
+        s.params.set(key, value);
+      config.stages.push_back(std::move(s));
+    };
+  stage("stereo_disparity", {{"num_disparities_px", disparities},
+                             {"block_size_px", 5},
+                             {"uniqueness_ratio_percent", 15},
+                             {"speckle_window_size_px", 400},
+                             {"speckle_range_px", 2},
+                             {"max_range_m", range_m}});
+  stage("feature_matching", {{"feature_type", std::string("sift")},
+                             {"max_features", 2000},
+                             {"max_disparity_px", disparities},
+                             {"max_range_m", range_m}});
+  stage("kl_occupancy_filter", {{"update_rule", std::string("kl_divergence")},
+                                {"disparity_error_px", 0.5},
+                                {"neighbourhood_size_m", 0.5}});
+  stage("voxel_grid", {{"leaf_size_m", 0.1}});
+  stage("statistical_outlier_removal", {{"mean_k", 20}, {"stddev_mul_thresh", 2.0}});
+  stage("transform_to_world", {});
+  stage("multi_plane_segmentation", {{"distance_threshold_m", 0.05},
+                                     {"sample_distance_threshold_m", 0.15},
+                                     {"max_planes", 8},
+                                     {"min_inliers", 150},
+                                     {"sample", std::string("features")}});
+  stage("ground_removal", {{"eps_angle_rad", 0.2}, {"min_sensor_height_m", 0.5}});
+  stage("planar_cuboid_approximation", {{"min_cell_size_m", 0.1},
+                                        {"density_threshold", 0.9},
+                                        {"min_width_m", 0.1},
+                                        {"min_height_m", 0.1},
+                                        {"thickness_m", 0.1},
+                                        {"min_points_per_cell", 3}});
+  stage("map_integration", {{"resolution_m", 0.1},
+                            {"max_range_m", range_m},
+                            {"prior", std::string("free")},
+                            {"thickness_m", 0.1}});
+  stage("accumulate", {{"leaf_size_m", 0.1}, {"downsample_every_n_frames", 5}});
+
+  config.output.folder = output_folder;
+  config.output.snapshot_camera = "oblique";
+
+  std::ostringstream comment;
+  comment << "Synthetic " << toString(params_.kind)
+          << " (planar_grid::SyntheticStereoScene, planar_grid_render_scene): "
+          << params_.frame_count << " frames, step " << exact(params_.step_m)
+          << " m, scene yaw " << exact(params_.scene_yaw_rad) << " rad, wall lean "
+          << exact(params_.wall_lean_rad) << " rad, seed " << params_.seed << ".\n"
+          << "Rectified grey stereo " << params_.width_px << "x" << params_.height_px
+          << ", f = " << exact(params_.focal_length_px)
+          << " px, B = " << exact(params_.baseline_m)
+          << " m; true poses in poses.txt; true surfaces in scene.json and truth.pcd.\n"
+          << "Stages as config/karlsruhe.yaml, ranges for an indoor scene; parameters "
+             "not\nlisted take their defaults (planar_grid_pipeline --list-stages). "
+             "Schema:\nconfig/example.yaml.\n\n"
+          << "  planar_grid_pipeline --config pipeline.yaml";
+  return pipelineConfigToYaml(config, comment.str());
 }
 
 void

@@ -241,7 +241,7 @@ private:
   /** \brief One TextureFrame per plane. */
   std::vector<TextureFrame> texture_frames_;
   /** \brief The VTK objects, made at the first render (VTK stays out of this header,
-   * S7). */
+   * so that code including it needs no VTK headers). */
   struct Impl;
   /** \brief The implementation. */
   std::unique_ptr<Impl> impl_;

@@ -1,0 +1,244 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/pipeline/pipeline_config_writer.h>
+#include <planar_grid/pipeline/stage.h>
+
+#include <yaml-cpp/yaml.h>
+
+#include <array>
+#include <charconv>
+#include <string>
+#include <type_traits>
+#include <variant>
+
+namespace planar_grid {
+
+namespace {
+
+/** \brief The shortest text that reads back as exactly \a value. */
+std::string
+shortest(double value)
+{
+  char buffer[64];
+  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
+  return std::string(buffer, result.ptr);
+}
+
+/** \brief A parameter value as the YAML scalar the loader reads. */
+std::string
+scalar(const std::variant<double, int, bool, std::string>& value)
+{
+  return std::visit(
+    [](const auto& v) -> std::string {
+      using V = std::decay_t<decltype(v)>;
+      if constexpr (std::is_same_v<V, std::string>)
+        return v;
+      else if constexpr (std::is_same_v<V, bool>)
+        return v ? "true" : "false";
+      else if constexpr (std::is_same_v<V, int>)
+        return std::to_string(v);
+      else
+        return shortest(v);
+    },
+    value);
+}
+
+/** \brief Writes `key: [x, y, z]`. */
+void
+emitVector(YAML::Emitter& out, const char* key, const std::array<double, 3>& v)
+{
+  out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginSeq;
+  for (const double x : v)
+    out << shortest(x);
+  out << YAML::EndSeq;
+}
+
+void
+emitInput(YAML::Emitter& out, const InputConfig& input)
+{
+  if (!input.ros_bag.file.empty() || input.type != InputConfig::Type::STEREO_SEQUENCE)
+    throw Exception("pipelineConfigToYaml: only a stereo_sequence input is written, "
+                    "not a pcd_files or ros_bag input");
+  out << YAML::Key << "input" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "type" << YAML::Value << "stereo_sequence";
+  out << YAML::Key << "left_images" << YAML::Value << input.left_images;
+  out << YAML::Key << "right_images" << YAML::Value << input.right_images;
+  out << YAML::Key << "first_index" << YAML::Value << input.first_index;
+  out << YAML::Key << "frame_count" << YAML::Value << input.frame_count;
+
+  out << YAML::Key << "calibration" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "format" << YAML::Value
+      << calibrationFormatName(input.calibration_format);
+  out << YAML::Key << "file" << YAML::Value << input.calibration_file;
+  if (input.calibration_format == CalibrationFormat::ROS_CAMERA_INFO
+      || input.calibration_format == CalibrationFormat::EUROC)
+    out << YAML::Key << "right_file" << YAML::Value << input.calibration_right_file;
+  out << YAML::EndMap;
+
+  if (input.poses_format != PoseFormat::NONE) {
+    out << YAML::Key << "poses" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "format" << YAML::Value << poseFormatName(input.poses_format);
+    if (input.poses_format == PoseFormat::KARLSRUHE_INSDATA
+        || input.poses_format == PoseFormat::KITTI
+        || input.poses_format == PoseFormat::EUROC_GROUNDTRUTH)
+      out << YAML::Key << "file" << YAML::Value << input.poses_file;
+    if (input.poses_format == PoseFormat::KARLSRUHE_INSDATA) {
+      out << YAML::Key << "camera_height_m" << YAML::Value
+          << shortest(input.camera_height_m);
+      out << YAML::Key << "camera_pitch_rad" << YAML::Value
+          << shortest(input.camera_pitch_rad);
+    }
+    out << YAML::EndMap;
+  }
+
+  const InputConfig defaults;
+  if (input.repeat_count != defaults.repeat_count
+      || input.repeat_offset_m != defaults.repeat_offset_m) {
+    out << YAML::Key << "repeat" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "count" << YAML::Value << input.repeat_count;
+    emitVector(out, "offset_m", input.repeat_offset_m);
+    out << YAML::EndMap;
+  }
+  out << YAML::EndMap;
+}
+
+void
+emitStage(YAML::Emitter& out, const StageConfig& stage)
+{
+  const StageInfo* info = findStage(stage.type);
+  if (!info)
+    throw Exception("pipelineConfigToYaml: unknown stage type '" + stage.type
+                    + "'; known types: " + knownStageTypes());
+  const ParamValues defaults = defaultParams(info->params);
+  for (const auto& entry : stage.params.values()) {
+    if (defaults.values().count(entry.first) == 0) {
+      std::string keys;
+      for (const auto& spec : info->params)
+        keys += (keys.empty() ? "" : ", ") + spec.key;
+      throw Exception("pipelineConfigToYaml: stage " + stage.type
+                      + " has no parameter '" + entry.first
+                      + "'; its parameters: " + keys);
+    }
+  }
+  out << YAML::BeginMap;
+  out << YAML::Key << "type" << YAML::Value << stage.type;
+  bool any = false;
+  // In the table's order, as --list-stages shows them.
+  for (const auto& spec : info->params) {
+    const auto it = stage.params.values().find(spec.key);
+    if (it == stage.params.values().end())
+      continue;
+    const std::string text = scalar(it->second);
+    if (text == scalar(defaults.values().at(spec.key)))
+      continue;
+    if (!any)
+      out << YAML::Key << "params" << YAML::Value << YAML::BeginMap;
+    any = true;
+    out << YAML::Key << spec.key << YAML::Value << text;
+  }
+  if (any)
+    out << YAML::EndMap;
+  out << YAML::EndMap;
+}
+
+void
+emitStreetView(YAML::Emitter& out, const StreetViewConfig& view)
+{
+  const StreetViewConfig defaults;
+  out << YAML::Key << "street_view" << YAML::Value << YAML::BeginMap;
+  if (view.view_angle_deg != defaults.view_angle_deg)
+    out << YAML::Key << "view_angle_deg" << YAML::Value
+        << shortest(view.view_angle_deg);
+  if (view.up != defaults.up)
+    emitVector(out, "up", view.up);
+  if (view.fixed) {
+    emitVector(out, "position_m", view.position_m);
+    emitVector(out, "focal_point_m", view.focal_point_m);
+  } else {
+    if (view.pose_fraction != defaults.pose_fraction)
+      out << YAML::Key << "pose_fraction" << YAML::Value
+          << shortest(view.pose_fraction);
+    if (view.pitch_rad != defaults.pitch_rad)
+      out << YAML::Key << "pitch_rad" << YAML::Value << shortest(view.pitch_rad);
+    if (view.look_ahead_m != defaults.look_ahead_m)
+      out << YAML::Key << "look_ahead_m" << YAML::Value << shortest(view.look_ahead_m);
+  }
+  out << YAML::EndMap;
+}
+
+void
+emitOutput(YAML::Emitter& out, const OutputConfig& output)
+{
+  const OutputConfig defaults;
+  out << YAML::Key << "output" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "folder" << YAML::Value << output.folder;
+  const auto text = [&](const char* key, const std::string OutputConfig::*field) {
+    if (output.*field != defaults.*field)
+      out << YAML::Key << key << YAML::Value << output.*field;
+  };
+  text("cloud", &OutputConfig::cloud);
+  text("planes", &OutputConfig::planes);
+  text("report", &OutputConfig::report);
+  text("trajectory", &OutputConfig::trajectory);
+  text("snapshot", &OutputConfig::snapshot);
+  text("planes_snapshot", &OutputConfig::planes_snapshot);
+  text("cuboids_snapshot", &OutputConfig::cuboids_snapshot);
+  text("cuboids_street_snapshot", &OutputConfig::cuboids_street_snapshot);
+  text("snapshot_camera", &OutputConfig::snapshot_camera);
+  // The loader refuses a street_view that no snapshot uses.
+  if (!output.cuboids_street_snapshot.empty() || output.snapshot_camera == "street")
+    emitStreetView(out, output.street_view);
+  if (output.snapshot_size_px != defaults.snapshot_size_px)
+    out << YAML::Key << "snapshot_size_px" << YAML::Value << YAML::Flow
+        << YAML::BeginSeq << output.snapshot_size_px[0] << output.snapshot_size_px[1]
+        << YAML::EndSeq;
+  text("map", &OutputConfig::map);
+  text("map_octomap", &OutputConfig::map_octomap);
+  text("map_mesh", &OutputConfig::map_mesh);
+  text("map_snapshot", &OutputConfig::map_snapshot);
+  text("checkpoint", &OutputConfig::checkpoint);
+  if (output.checkpoint_every_n_frames != defaults.checkpoint_every_n_frames)
+    out << YAML::Key << "checkpoint_every_n_frames" << YAML::Value
+        << std::to_string(output.checkpoint_every_n_frames);
+  out << YAML::EndMap;
+}
+
+} // namespace
+
+StageConfig
+defaultStageConfig(const std::string& type)
+{
+  const StageInfo* info = findStage(type);
+  if (!info)
+    throw Exception("defaultStageConfig: unknown stage type '" + type
+                    + "'; known types: " + knownStageTypes());
+  StageConfig stage;
+  stage.type = type;
+  stage.params = defaultParams(info->params);
+  return stage;
+}
+
+std::string
+pipelineConfigToYaml(const PipelineConfig& config, const std::string& comment)
+{
+  YAML::Emitter out;
+  if (!comment.empty())
+    out << YAML::Comment(comment) << YAML::Newline;
+  out << YAML::BeginMap;
+  emitInput(out, config.input);
+  out << YAML::Key << "pipeline" << YAML::Value << YAML::BeginSeq;
+  for (const auto& stage : config.stages)
+    emitStage(out, stage);
+  out << YAML::EndSeq;
+  emitOutput(out, config.output);
+  out << YAML::EndMap;
+  if (!out.good())
+    throw Exception("pipelineConfigToYaml: the YAML emitter failed: "
+                    + out.GetLastError());
+  std::string text = std::string(out.c_str()) + "\n";
+  // Refused here rather than when the file is run.
+  parsePipelineConfig(text, "the generated pipeline configuration", ".");
+  return text;
+}
+
+} // namespace planar_grid
