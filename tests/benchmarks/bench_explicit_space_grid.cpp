@@ -5,6 +5,9 @@
 // ExplicitSpaceGrid::integratePointCloud (ray casting) vs insertPointCloud on PCL's
 // room_scan1.pcd (a 360 degree LiDAR scan, voxel grid 0.05 m) at 0.1 m.
 #include <planar_grid/map/explicit_space_grid.h>
+#include <planar_grid/pipeline/frame_source.h>
+#include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/stage.h>
 
 #include <pcl/filters/voxel_grid.h>
 #include <pcl/io/pcd_io.h>
@@ -12,8 +15,12 @@
 #include <benchmark/benchmark.h>
 #include <octomap/OcTree.h>
 
+#include <cstdint>
+#include <cstdio>
 #include <limits>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "karlsruhe_frame.h"
 
@@ -120,6 +127,103 @@ BM_ExplicitSpaceGridDrive(benchmark::State& state)
 }
 // Arg: prior (2 = unknown, the default; 0 = free).
 BENCHMARK(BM_ExplicitSpaceGridDrive)
+  ->ArgNames({"prior"})
+  ->Arg(2)
+  ->Arg(0)
+  ->Unit(benchmark::kMillisecond);
+
+/** \brief The main job's views (config/karlsruhe.yaml): every frame's SGBM disparity
+ * from its stereo_disparity stage as a depth image, with the frame's pose (computed
+ * once). */
+struct SequenceViews {
+  std::vector<DepthImage> depths;
+  std::vector<Eigen::Isometry3d> poses;
+};
+
+const SequenceViews&
+karlsruheSequence()
+{
+  static const SequenceViews views = [] {
+    SequenceViews out;
+    const auto config = planar_grid::loadPipelineConfig(
+      std::string(PLANAR_GRID_SOURCE_DIR) + "/config/karlsruhe.yaml");
+    const auto source = planar_grid::createFrameSource(config.input);
+    std::unique_ptr<planar_grid::Stage> stereo;
+    for (const auto& sc : config.stages)
+      if (sc.type == "stereo_disparity")
+        stereo = planar_grid::findStage(sc.type)->create(sc.params);
+    if (!stereo)
+      return out;
+    planar_grid::PipelineState state;
+    stereo->start(state);
+    for (std::size_t i = 0; i < source->size(); ++i) {
+      planar_grid::Frame frame;
+      source->load(i, frame);
+      frame.sequence_number = i;
+      stereo->process(frame, state);
+      const cv::Mat& d = frame.disparity;
+      out.depths.push_back(DepthImage::fromDisparity(d.ptr<float>(0), d.cols, d.rows,
+                                                     d.step, frame.calibration));
+      out.poses.push_back(frame.world_T_camera);
+    }
+    stereo->finish(state);
+    return out;
+  }();
+  return views;
+}
+
+/** \brief FNV-1a of a byte string, in hexadecimal. */
+std::string
+fnv64(const std::vector<std::uint8_t>& bytes)
+{
+  std::uint64_t h = 1469598103934665603ULL;
+  for (const auto b : bytes)
+    h = (h ^ b) * 1099511628211ULL;
+  char text[24];
+  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(h));
+  return text;
+}
+
+void
+BM_ExplicitSpaceGridSequence(benchmark::State& state)
+{
+  // The main job's map_integration, space layer only: all 112 Karlsruhe views in
+  // order into one grid (0.1 m, 25 m, unknown prior); time per view. The counters
+  // and the label identify the final grid (voxel counts, blocks, a hash of
+  // serialize()).
+  const SequenceViews& views = karlsruheSequence();
+  if (views.depths.empty()) {
+    state.SkipWithError("Karlsruhe sequence not found");
+    return;
+  }
+  ExplicitSpaceGrid::Params p;
+  p.resolution_m = 0.1;
+  p.max_range_m = 25.0;
+  p.prior = static_cast<planar_grid::SpaceState>(state.range(0));
+  std::vector<std::uint8_t> bytes;
+  std::size_t free_voxels = 0, occupied_voxels = 0, blocks = 0;
+  for (auto _ : state) {
+    ExplicitSpaceGrid grid(p);
+    for (std::size_t k = 0; k < views.depths.size(); ++k)
+      grid.integrateDepthImage(views.depths[k], views.poses[k]);
+    state.PauseTiming();
+    free_voxels = grid.getVoxelCount(planar_grid::SpaceState::FREE);
+    occupied_voxels = grid.getVoxelCount(planar_grid::SpaceState::OCCUPIED);
+    blocks = grid.getBlockCount();
+    bytes.clear();
+    grid.serialize(bytes);
+    state.ResumeTiming();
+  }
+  state.counters["time_per_view"] =
+    benchmark::Counter(static_cast<double>(state.iterations() * views.depths.size()),
+                       benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["free"] = static_cast<double>(free_voxels);
+  state.counters["occupied"] = static_cast<double>(occupied_voxels);
+  state.counters["blocks"] = static_cast<double>(blocks);
+  state.SetLabel("serialize() FNV-1a " + fnv64(bytes));
+}
+// Arg: prior (2 = unknown, the main job's; 0 = free). CPU time of the thread.
+BENCHMARK(BM_ExplicitSpaceGridSequence)
   ->ArgNames({"prior"})
   ->Arg(2)
   ->Arg(0)
