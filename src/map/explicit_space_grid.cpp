@@ -365,6 +365,15 @@ countCompact(const std::uint8_t* data, std::array<std::size_t, 4>& n)
     });
 }
 
+/** \brief static_cast<int>(std::floor(x)) for |x| < 2^31, without the call to floorf
+ * (x86-64 before SSE4.1 has no rounding instruction). */
+inline int
+floorToInt(float x)
+{
+  const int t = static_cast<int>(x); // truncation towards zero
+  return t - (static_cast<float>(t) > x ? 1 : 0);
+}
+
 /** \brief floor(a / 8) for negative a too. */
 inline int
 blockOf(int a)
@@ -607,6 +616,8 @@ struct DepthPyramid {
   std::vector<std::vector<float>> min_level, max_level;
   std::vector<std::vector<std::vector<float>>> hole;
   std::vector<int> w, h;
+  /** \brief spanMin()'s arrays per level (k = 0 unused: min_level itself). */
+  std::vector<std::array<std::vector<float>, 9>> span;
 
   static void reduce(const std::vector<float>& src,
                      int sw,
@@ -653,10 +664,10 @@ struct DepthPyramid {
     float max_depth = 0.0f;
     for (std::size_t i = 0; i < m0.size(); ++i) {
       const float d = image.depth_m[i];
-      const bool valid = std::isfinite(d) && d > 0.0f;
+      const bool valid = d > 0.0f && d < inf; // finite and positive (NaN fails)
       m0[i] = valid ? d : inf;
       x0[i] = valid ? d : 0.0f;
-      max_depth = valid ? std::max(max_depth, d) : max_depth;
+      max_depth = std::max(max_depth, x0[i]);
     }
     max_valid_depth = max_depth;
     for (std::size_t l = 1; l < n_levels; ++l) {
@@ -674,6 +685,66 @@ struct DepthPyramid {
   }
 
   int levels() const { return static_cast<int>(w.size()); }
+
+  /** \brief min_level[l] over the cells (cu .. cu + su) x (cv .. cv + sv), at
+   * cu + cv w[l], for k = 3 su + sv (su, sv in 0..2); valid where those cells lie in
+   * the level. Needs buildSpans() from a level <= l. */
+  const float* spanMin(int l, int k) const
+  {
+    const auto sl = static_cast<std::size_t>(l);
+    return k == 0 ? min_level[sl].data() : span[sl][static_cast<std::size_t>(k)].data();
+  }
+
+  /** \brief The span minima of levels first .. levels() - 1. */
+  void buildSpans(int first)
+  {
+    span.resize(w.size());
+    for (std::size_t l = static_cast<std::size_t>(std::max(first, 0)); l < w.size();
+         ++l) {
+      const int lw = w[l], lh = h[l];
+      const std::size_t n = min_level[l].size();
+      auto& sp = span[l];
+      // along u: k = 3 and 6 (su = 1, 2)
+      const std::vector<float>& m = min_level[l];
+      sp[3].resize(n);
+      sp[6].resize(n);
+      for (int cv = 0; cv < lh; ++cv) {
+        const std::size_t row =
+          static_cast<std::size_t>(cv) * static_cast<std::size_t>(lw);
+        for (int cu = 0; cu < lw; ++cu) {
+          const std::size_t i = row + static_cast<std::size_t>(cu);
+          const float a = m[i];
+          const float b = m[row + static_cast<std::size_t>(std::min(cu + 1, lw - 1))];
+          const float c = m[row + static_cast<std::size_t>(std::min(cu + 2, lw - 1))];
+          sp[3][i] = std::min(a, b);
+          sp[6][i] = std::min(std::min(a, b), c);
+        }
+      }
+      // along v, from each of su = 0, 1, 2: k = 3 su + 1 and 3 su + 2
+      for (int su = 0; su < 3; ++su) {
+        const std::vector<float>& src =
+          su == 0 ? m : sp[static_cast<std::size_t>(3 * su)];
+        auto& d1 = sp[static_cast<std::size_t>(3 * su + 1)];
+        auto& d2 = sp[static_cast<std::size_t>(3 * su + 2)];
+        d1.resize(n);
+        d2.resize(n);
+        for (int cv = 0; cv < lh; ++cv) {
+          const std::size_t r0 =
+            static_cast<std::size_t>(cv) * static_cast<std::size_t>(lw);
+          const std::size_t r1 = static_cast<std::size_t>(std::min(cv + 1, lh - 1))
+                                 * static_cast<std::size_t>(lw);
+          const std::size_t r2 = static_cast<std::size_t>(std::min(cv + 2, lh - 1))
+                                 * static_cast<std::size_t>(lw);
+          for (int cu = 0; cu < lw; ++cu) {
+            const auto c = static_cast<std::size_t>(cu);
+            const float ab = std::min(src[r0 + c], src[r1 + c]);
+            d1[r0 + c] = ab;
+            d2[r0 + c] = std::min(ab, src[r2 + c]);
+          }
+        }
+      }
+    }
+  }
 
   /** \brief Smallest level whose cells are at least \a size pixels wide. */
   int levelFor(int size) const
@@ -774,15 +845,112 @@ struct VoxelKernel {
   const float* depth0; // min_level[0]: the measured depth per pixel, +inf for none
 };
 
+/** \brief What the 8 corner centres of a 4^3 cube tell of observeCube()'s per-voxel
+ * test for all 64 voxels. */
+enum class CubeBound : std::uint8_t {
+  UNDECIDED, // the 64 centres must be tested
+  ALL_FREE,  // every voxel is free
+  NONE_FREE  // no voxel is free (and without mark_occluded, none is observed)
+};
+
+/** \brief Bounds observeCube()'s per-voxel test over the 4^3 cube at local offset
+ * (ox, oy, oz) of the block with min corner c0 from its 8 corner centres instead of all
+ * 64 projections. The projection is monotone along any line, so the extremes of the
+ * centres' pixel coordinates and depths are those of the corner centres; they are
+ * widened by a pixel and 1 mm against rounding. ALL_FREE: every centre is in range and
+ * inside the image, and the largest centre depth is in front of every level cell
+ * meeting the union of the footprints (minus the margin), so every voxel passes its own
+ * test. NONE_FREE: the smallest centre depth is not in front of any level cell that
+ * holds a centre's pixel (minus the margin); each voxel's footprint contains its own
+ * pixel's cell, so no voxel passes. */
+CubeBound
+boundCube(const VoxelKernel& kernel,
+          const float* lmin,
+          int level_width,
+          int level,
+          int r,
+          const Eigen::Vector3f& c0,
+          const Eigen::Vector3f& ex,
+          const Eigen::Vector3f& ey,
+          const Eigen::Vector3f& ez,
+          int ox,
+          int oy,
+          int oz)
+{
+  constexpr float SLACK_PX = 1.0f, SLACK_M = 1e-3f, FAR_PX = 1e6f;
+  float umin = std::numeric_limits<float>::infinity(), umax = -umin, vmin = umin,
+        vmax = -umin, zmin = umin, zmax = -umin;
+  for (int i = 0; i < 8; ++i) {
+    const Eigen::Vector3f p =
+      c0 + (static_cast<float>(ox + 3 * (i & 1)) + 0.5f) * ex
+      + (static_cast<float>(oy + 3 * ((i >> 1) & 1)) + 0.5f) * ey
+      + (static_cast<float>(oz + 3 * (i >> 2)) + 0.5f) * ez;
+    if (!(p.z() > NEAR_Z + SLACK_M))
+      return CubeBound::UNDECIDED;
+    zmin = std::min(zmin, p.z());
+    zmax = std::max(zmax, p.z());
+    const float inv = 1.0f / p.z();
+    const float u = kernel.fx * p.x() * inv + kernel.cx,
+                v = kernel.fy * p.y() * inv + kernel.cy;
+    umin = std::min(umin, u);
+    umax = std::max(umax, u);
+    vmin = std::min(vmin, v);
+    vmax = std::max(vmax, v);
+  }
+  zmin -= SLACK_M;
+  zmax += SLACK_M;
+  umin = std::max(umin - SLACK_PX, -FAR_PX);
+  umax = std::min(umax + SLACK_PX, FAR_PX);
+  vmin = std::max(vmin - SLACK_PX, -FAR_PX);
+  vmax = std::min(vmax + SLACK_PX, FAR_PX);
+  const auto lw = static_cast<std::ptrdiff_t>(level_width);
+  const float margin = kernel.margin;
+  if (zmax <= kernel.max_range && umin >= -0.5f && umax < kernel.u_end && vmin >= -0.5f
+      && vmax < kernel.v_end) {
+    // every centre valid; the footprints' cells as observeCube() bounds them
+    const int u0 = static_cast<int>(umin + 0.5f), u1 = static_cast<int>(umax + 0.5f);
+    const int v0 = static_cast<int>(vmin + 0.5f), v1 = static_cast<int>(vmax + 0.5f);
+    const int cu0 = std::max(u0 - r, 0) >> level,
+              cu2 = std::min(u1 + r, kernel.W - 1) >> level;
+    const int cv0 = std::max(v0 - r, 0) >> level,
+              cv2 = std::min(v1 + r, kernel.H - 1) >> level;
+    bool all_free = true;
+    for (int cv = cv0; cv <= cv2 && all_free; ++cv) {
+      const float* row = lmin + cv * lw;
+      for (int cu = cu0; cu <= cu2; ++cu)
+        if (!(zmax < row[cu] - margin)) {
+          all_free = false;
+          break;
+        }
+    }
+    if (all_free)
+      return CubeBound::ALL_FREE;
+  }
+  // the cells of the centres' own pixels (those of the valid ones lie in the image)
+  const int pu0 = std::max(static_cast<int>(std::floor(umin + 0.5f)), 0),
+            pu1 = std::min(static_cast<int>(std::floor(umax + 0.5f)), kernel.W - 1);
+  const int pv0 = std::max(static_cast<int>(std::floor(vmin + 0.5f)), 0),
+            pv1 = std::min(static_cast<int>(std::floor(vmax + 0.5f)), kernel.H - 1);
+  if (pu0 > pu1 || pv0 > pv1)
+    return CubeBound::NONE_FREE; // no centre inside the image
+  for (int cv = pv0 >> level; cv <= (pv1 >> level); ++cv) {
+    const float* row = lmin + cv * lw;
+    for (int cu = pu0 >> level; cu <= (pu1 >> level); ++cu)
+      if (!(zmin >= row[cu] - margin))
+        return CubeBound::UNDECIDED;
+  }
+  return CubeBound::NONE_FREE;
+}
+
 /** \brief Per-voxel observations of the 4^3 cube at local offset (ox, oy, oz) of the
  * block whose min corner is c0 (camera frame, voxel axes ex, ey, ez): free when the
  * centre is in front of the smallest depth over the level cells meeting its footprint
- * (radius r pixels) minus the margin, occluded (only with mark_occluded) when behind
- * its pixel's depth plus the margin. Sets bits x + 8 y of words z. */
+ * (radius r pixels, at most 3 x 3 cells of \a level) minus the margin, occluded (only
+ * with mark_occluded) when behind its pixel's depth plus the margin. Sets bits
+ * x + 8 y of words z. */
 void
 observeCube(const VoxelKernel& kernel,
-            const float* lmin,
-            int level_width,
+            const DepthPyramid& pyr,
             int level,
             int r,
             const Eigen::Vector3f& c0,
@@ -795,19 +963,29 @@ observeCube(const VoxelKernel& kernel,
             std::array<std::uint64_t, BLOCK_EDGE>& free_mask,
             std::array<std::uint64_t, BLOCK_EDGE>& occluded_mask)
 {
+  const auto l = static_cast<std::size_t>(level);
+  const float* const lmin = pyr.min_level[l].data();
+  const int level_width = pyr.w[l];
+  const CubeBound bound =
+    boundCube(kernel, lmin, level_width, level, r, c0, ex, ey, ez, ox, oy, oz);
+  if (bound == CubeBound::ALL_FREE) {
+    for (int z = 0; z < 4; ++z)
+      for (int y = 0; y < 4; ++y)
+        free_mask[static_cast<std::size_t>(oz + z)] |= std::uint64_t{15}
+                                                       << (ox + 8 * (oy + y));
+    return;
+  }
+  if (bound == CubeBound::NONE_FREE && !kernel.mark_occluded) {
+    return;
+  }
   const float fx = kernel.fx, fy = kernel.fy, cx = kernel.cx, cy = kernel.cy;
   const float u_end = kernel.u_end, v_end = kernel.v_end;
   const float max_range = kernel.max_range, margin = kernel.margin;
   const int W = kernel.W, H = kernel.H;
-  const bool mark_occluded = kernel.mark_occluded;
-  const float* const depth0 = kernel.depth0;
-  const float inf = std::numeric_limits<float>::infinity();
-  const auto lw = static_cast<std::ptrdiff_t>(level_width);
   const float exx = ex.x(), exy = ex.y(), exz = ex.z();
-  // Projections of the 64 centres (index x + 4 y + 16 z, local to the cube).
-  std::array<float, 64> zs;
-  std::array<int, 64> us, vs;
-  std::uint64_t valid = 0; // in range and inside the image
+  // The 64 centres (index x + 4 y + 16 z, local to the cube), then their projections
+  // in a branch-free loop the compiler vectorises.
+  std::array<float, 64> xs, ys, zs;
   for (int z = 0; z < 4; ++z)
     for (int y = 0; y < 4; ++y) {
       const Eigen::Vector3f p0 = c0 + (static_cast<float>(ox) + 0.5f) * ex
@@ -815,93 +993,58 @@ observeCube(const VoxelKernel& kernel,
                                  + (static_cast<float>(oz + z) + 0.5f) * ez;
       float px = p0.x(), py = p0.y(), pz = p0.z();
       for (int x = 0; x < 4; ++x, px += exx, py += exy, pz += exz) {
-        const int i = x + 4 * y + 16 * z;
-        const float zc = pz;
-        zs[static_cast<std::size_t>(i)] = zc;
-        us[static_cast<std::size_t>(i)] = 0;
-        vs[static_cast<std::size_t>(i)] = 0;
-        if (zc <= NEAR_Z || zc > max_range)
-          continue;
-        const float inv = 1.0f / zc;
-        const float u = fx * px * inv + cx, v = fy * py * inv + cy;
-        if (!(u >= -0.5f && u < u_end && v >= -0.5f && v < v_end))
-          continue;
-        us[static_cast<std::size_t>(i)] = static_cast<int>(u + 0.5f);
-        vs[static_cast<std::size_t>(i)] = static_cast<int>(v + 0.5f);
-        valid |= std::uint64_t{1} << i;
+        const auto i = static_cast<std::size_t>(x + 4 * y + 16 * z);
+        xs[i] = px;
+        ys[i] = py;
+        zs[i] = pz;
       }
     }
-  // Smallest valid depth over the level cells meeting the footprints of the voxels
-  // of \a group (all valid): a lower bound of each voxel's own minimum, so a group
-  // centre depth below it minus the margin makes each of them free, exactly as the
-  // per-voxel test would.
-  const auto groupFree = [&](std::uint64_t group) {
-    int umin = W, umax = -1, vmin = H, vmax = -1;
-    float zmax = 0.0f;
-    for (std::uint64_t g = group; g != 0; g &= g - 1) {
-      const auto i = static_cast<std::size_t>(__builtin_ctzll(g));
-      umin = std::min(umin, us[i]);
-      umax = std::max(umax, us[i]);
-      vmin = std::min(vmin, vs[i]);
-      vmax = std::max(vmax, vs[i]);
-      zmax = std::max(zmax, zs[i]);
+  std::array<int, 64> us, vs;
+  std::array<std::uint8_t, 64> in; // in range and inside the image
+  const auto u_max = static_cast<float>(W - 1), v_max = static_cast<float>(H - 1);
+  for (std::size_t i = 0; i < 64; ++i) {
+    const float zc = zs[i];
+    const float inv = 1.0f / zc;
+    const float u = fx * xs[i] * inv + cx, v = fy * ys[i] * inv + cy;
+    const int ok = static_cast<int>(zc > NEAR_Z) & static_cast<int>(zc <= max_range)
+                   & static_cast<int>(u >= -0.5f) & static_cast<int>(u < u_end)
+                   & static_cast<int>(v >= -0.5f) & static_cast<int>(v < v_end);
+    in[i] = static_cast<std::uint8_t>(ok);
+    // clamped into the image (NaN to 0), which leaves the valid centres' pixels as they
+    // are: int(u + 0.5) for u in [-0.5, W - 0.5)
+    us[i] = static_cast<int>(std::min(u_max, std::max(0.0f, u)) + 0.5f);
+    vs[i] = static_cast<int>(std::min(v_max, std::max(0.0f, v)) + 0.5f);
+  }
+  // The smallest valid depth over the level cells meeting each footprint: one lookup
+  // in the pyramid's minimum over the 1 to 3 cells it spans per axis.
+  std::array<const float*, 9> span_min;
+  for (int k = 0; k < 9; ++k)
+    span_min[static_cast<std::size_t>(k)] = pyr.spanMin(level, k);
+  const auto lw = static_cast<std::ptrdiff_t>(level_width);
+  std::uint64_t valid = 0, free_bits = 0, occ_bits = 0;
+  for (std::size_t i = 0; i < 64; ++i) {
+    const int ui = us[i], vi = vs[i];
+    const int cu0 = std::max(ui - r, 0) >> level,
+              cu2 = std::min(ui + r, W - 1) >> level;
+    const int cv0 = std::max(vi - r, 0) >> level,
+              cv2 = std::min(vi + r, H - 1) >> level;
+    const float fmin =
+      span_min[static_cast<std::size_t>(3 * (cu2 - cu0) + (cv2 - cv0))][cv0 * lw + cu0];
+    // branch-free: the outcome is unpredictable in mixed regions
+    const bool is_free = in[i] != 0 && zs[i] < fmin - margin;
+    valid |= static_cast<std::uint64_t>(in[i]) << i;
+    free_bits |= static_cast<std::uint64_t>(is_free) << i;
+  }
+  if (kernel.mark_occluded) {
+    const float inf = std::numeric_limits<float>::infinity();
+    for (std::uint64_t todo = valid & ~free_bits; todo != 0; todo &= todo - 1) {
+      const int i = __builtin_ctzll(todo);
+      const auto si = static_cast<std::size_t>(i);
+      const float d = kernel.depth0[static_cast<std::ptrdiff_t>(vs[si]) * W
+                                    + static_cast<std::ptrdiff_t>(us[si])];
+      occ_bits |= static_cast<std::uint64_t>(d < inf && zs[si] > d + margin) << i;
     }
-    const int cu0 = std::max(umin - r, 0) >> level,
-              cu2 = std::min(umax + r, W - 1) >> level;
-    const int cv0 = std::max(vmin - r, 0) >> level,
-              cv2 = std::min(vmax + r, H - 1) >> level;
-    for (int cv = cv0; cv <= cv2; ++cv) {
-      const float* row = lmin + cv * lw;
-      for (int cu = cu0; cu <= cu2; ++cu)
-        if (!(zmax < row[cu] - margin))
-          return false;
-    }
-    return true;
-  };
-  std::uint64_t free_bits = 0, occ_bits = 0;
-  constexpr std::uint64_t ALL = ~std::uint64_t{0};
-  if (valid == ALL && groupFree(ALL))
-    free_bits = ALL;
-  else
-    for (int g = 0; g < 8; ++g) {
-      // the 2 x 2 x 2 group at (2 (g & 1), 2 ((g >> 1) & 1), 2 (g >> 2))
-      const std::uint64_t group = std::uint64_t{0x330033}
-                                  << (2 * (g & 1) + 8 * ((g >> 1) & 1) + 32 * (g >> 2));
-      if ((valid & group) == group && groupFree(group)) {
-        free_bits |= group;
-        continue;
-      }
-      for (std::uint64_t todo = valid & group; todo != 0; todo &= todo - 1) {
-        const int i = __builtin_ctzll(todo);
-        const auto si = static_cast<std::size_t>(i);
-        const int ui = us[si], vi = vs[si];
-        const float zc = zs[si];
-        // smallest valid depth over the level cells meeting the footprint (at most
-        // 3 x 3; repeated cells keep it branch-free)
-        const int cu0 = std::max(ui - r, 0) >> level,
-                  cu2 = std::min(ui + r, W - 1) >> level;
-        const int cv0 = std::max(vi - r, 0) >> level,
-                  cv2 = std::min(vi + r, H - 1) >> level;
-        const int cu1 = std::min(cu0 + 1, cu2), cv1 = std::min(cv0 + 1, cv2);
-        const float* r0 = lmin + cv0 * lw;
-        const float* r1 = lmin + cv1 * lw;
-        const float* r2 = lmin + cv2 * lw;
-        const float fmin =
-          std::min(std::min(std::min(std::min(r0[cu0], r0[cu1]), r0[cu2]),
-                            std::min(std::min(r1[cu0], r1[cu1]), r1[cu2])),
-                   std::min(std::min(r2[cu0], r2[cu1]), r2[cu2]));
-        // branch-free: the outcome is unpredictable in mixed regions
-        const bool is_free = zc < fmin - margin;
-        bool is_occluded = false;
-        if (mark_occluded) { // loop-invariant branch
-          const float d = depth0[static_cast<std::ptrdiff_t>(vi) * W
-                                 + static_cast<std::ptrdiff_t>(ui)];
-          is_occluded = !is_free && d < inf && zc > d + margin;
-        }
-        free_bits |= static_cast<std::uint64_t>(is_free) << i;
-        occ_bits |= static_cast<std::uint64_t>(is_occluded) << i;
-      }
-    }
+  }
   // cube bits x + 4 y + 16 z to block bits (ox + x) + 8 (oy + y) of word oz + z
   for (int z = 0; z < 4; ++z)
     for (int y = 0; y < 4; ++y) {
@@ -933,6 +1076,8 @@ struct ExplicitSpaceGrid::Impl {
   std::vector<std::uint8_t> new_data;
 
   DepthPyramid pyramid;
+  /** \brief The occupied pass's (u - cx) / fx per image column. */
+  std::vector<float> column_x;
   /** \brief Per-thread observations of the blocks of the last view. */
   std::vector<std::vector<BlockResult>> results;
 
@@ -1591,14 +1736,16 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
     const VoxelKernel kernel{
       fx,        fy,     cx, cy, u_end,         v_end,
       max_range, margin, W,  H,  mark_occluded, pyr.min_level[0].data()};
+    // Every footprint radius is at least that of a voxel at z_far.
+    pyr.buildSpans(pyr.levelFor(
+      std::min(static_cast<int>(std::ceil(half_diag_px / z_far)), max_r) + 1));
     // Voxel-by-voxel observations of the 4^3 cube at local offset o of a block whose
     // min corner is c0, as bits (x + 8 y) of words z of the free / occluded masks.
     const auto perVoxel = [&](const Eigen::Vector3f& c0, int ox, int oy, int oz,
                               const CubeInfo& info, BlockResult& res) {
       const int level = pyr.levelFor(info.r + 1); // at most 3 x 3 cells per footprint
-      observeCube(kernel, pyr.min_level[static_cast<std::size_t>(level)].data(),
-                  pyr.w[static_cast<std::size_t>(level)], level, info.r, c0, ex, ey, ez,
-                  ox, oy, oz, res.free, res.occluded);
+      observeCube(kernel, pyr, level, info.r, c0, ex, ey, ez, ox, oy, oz, res.free,
+                  res.occluded);
     };
     // Bits of the 4^3 cube at local offset o in the masks.
     const auto cubeBits = [](std::array<std::uint64_t, BLOCK_EDGE>& mask, int ox,
@@ -1764,26 +1911,38 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
               total.visited, total.fast, total.slow);
   }
 
-  // Occupied: the voxel of every measured pixel within max_range.
+  // Occupied: the voxel of every measured pixel within max_range. Neighbouring pixels
+  // mostly fall in one voxel, which is written once per run of them.
   Impl::Cursor cursor(impl, prior);
   const auto occupied_code = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
   const float inv_res = 1.0f / res;
+  std::vector<float>& column_x = impl.column_x; // (u - cx) / fx
+  column_x.resize(static_cast<std::size_t>(W));
+  for (int u = 0; u < W; ++u)
+    column_x[static_cast<std::size_t>(u)] = (static_cast<float>(u) - cx) / fx;
   for (int v = 0; v < H; ++v) {
     const float yn = (static_cast<float>(v) - cy) / fy;
     const float* row =
       &pyr.min_level[0][static_cast<std::size_t>(v) * static_cast<std::size_t>(W)];
+    // |key| < 2^30 below: no voxel has this key
+    int last_x = std::numeric_limits<int>::min(), last_y = 0, last_z = 0;
     for (int u = 0; u < W; ++u) {
       const float d = row[u];
       if (!(d <= max_range)) // +inf marks no measurement
         continue;
-      const Eigen::Vector3f pc((static_cast<float>(u) - cx) / fx * d, yn * d, d);
+      const Eigen::Vector3f pc(column_x[static_cast<std::size_t>(u)] * d, yn * d, d);
       const Eigen::Vector3f pw = (w_T_c * pc) * inv_res;
       if (!(pw.cwiseAbs().maxCoeff() < static_cast<float>(MAX_KEY)))
         continue;
+      const int kx = floorToInt(pw.x()), ky = floorToInt(pw.y()),
+                kz = floorToInt(pw.z());
+      if (kx == last_x && ky == last_y && kz == last_z)
+        continue;
+      last_x = kx;
+      last_y = ky;
+      last_z = kz;
       int i = 0;
-      const std::uint32_t e = cursor.at(static_cast<int>(std::floor(pw.x())),
-                                        static_cast<int>(std::floor(pw.y())),
-                                        static_cast<int>(std::floor(pw.z())), i);
+      const std::uint32_t e = cursor.at(kx, ky, kz, i);
       impl.setEdit(e, i, occupied_code);
     }
   }

@@ -120,10 +120,13 @@ struct DepthImage {
  * superset of at most ~1.5x the voxel's projected size, conservative for "free"); whole
  * 8^3 blocks and 4^3 sub-cubes in front of (or behind) every measurement of their
  * footprint are decided at once, the rest voxel by voxel. In that per-voxel step a 4^3
- * cube, then each of its 2^3 groups, is marked free at once when all its centres are
- * in the image and in front of the minimum over the union of their footprint cells (a
- * lower bound of each voxel's own minimum, so the result is the voxel-by-voxel one).
- * A view's observations are gathered per block as bit masks and applied word-wise.
+ * cube is decided at once when its 8 corner centres bound the test of all 64 voxels
+ * (every centre in the image and in front of the minimum over the union of their
+ * footprint cells: all free; with the unknown prior, no centre in front of the cell of
+ * its own pixel: none observed); otherwise each voxel's minimum is one look-up in
+ * per-level minima over 1 to 3 cells per axis. Either way the result is the
+ * voxel-by-voxel one. A view's observations are gathered per block as bit masks and
+ * applied word-wise.
  *
  * Storage is sparse: blocks of 8 x 8 x 8 voxels with a 2-bit code per voxel (00 free,
  * 01 occupied, 10 unknown, 11 never observed with the free prior; with the unknown
