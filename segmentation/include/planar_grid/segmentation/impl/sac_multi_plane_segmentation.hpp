@@ -20,7 +20,6 @@
 #include <limits>
 #include <numeric>
 #include <random>
-#include <unordered_map>
 
 namespace planar_grid {
 
@@ -194,6 +193,61 @@ struct DensePoints {
   }
 };
 
+/** \brief Open-addressing map from a packed 64-bit cell key to a cell number
+ * (linear probing, at most half full): the footprint look-ups of the visibility test,
+ * one per input point and plane, without std::unordered_map's node per entry. */
+class CellIndex {
+public:
+  static constexpr std::uint32_t NONE = std::numeric_limits<std::uint32_t>::max();
+
+  /** \brief An empty map for up to \a max_size keys. */
+  explicit CellIndex(std::size_t max_size)
+  {
+    std::size_t capacity = 16;
+    while (capacity < 2 * max_size)
+      capacity *= 2;
+    keys_.resize(capacity);
+    values_.assign(capacity, NONE);
+    mask_ = capacity - 1;
+  }
+
+  /** \brief The number of \a key, NONE when absent. */
+  std::uint32_t find(std::uint64_t key) const
+  {
+    for (std::size_t slot = hash(key);; slot = (slot + 1) & mask_) {
+      if (values_[slot] == NONE || keys_[slot] == key)
+        return values_[slot];
+    }
+  }
+
+  /** \brief The number of \a key, which gets \a value when absent; \a inserted tells
+   * which. */
+  std::uint32_t emplace(std::uint64_t key, std::uint32_t value, bool& inserted)
+  {
+    std::size_t slot = hash(key);
+    while (values_[slot] != NONE && keys_[slot] != key)
+      slot = (slot + 1) & mask_;
+    inserted = values_[slot] == NONE;
+    if (inserted) {
+      keys_[slot] = key;
+      values_[slot] = value;
+    }
+    return values_[slot];
+  }
+
+private:
+  std::size_t hash(std::uint64_t key) const
+  {
+    key ^= key >> 31;
+    key *= 0x9E3779B97F4A7C15ULL;
+    return static_cast<std::size_t>(key ^ (key >> 29)) & mask_;
+  }
+
+  std::vector<std::uint64_t> keys_;
+  std::vector<std::uint32_t> values_;
+  std::size_t mask_{0};
+};
+
 /** \brief The visibility test of one plane. The plane's footprint is the square
  * cells of edge `cell` (in the plane's own 2D frame) holding the projection of one of
  * its inliers (the points of `store` whose mask is 1). A point of `all` conflicts with
@@ -241,18 +295,23 @@ removeVisibilityConflicts(DensePoints& store,
     std::size_t inliers{0}, conflicts{0};
   };
   std::vector<Cell> cells;
-  std::unordered_map<std::uint64_t, std::size_t> index_of;
-  std::vector<std::size_t> cell_of_inlier(store.size());
+  std::size_t inlier_count = 0;
+  for (std::size_t k = 0; k < store.size(); ++k)
+    inlier_count += store.mask[k] ? 1 : 0;
+  CellIndex index_of(inlier_count);
+  std::vector<std::uint32_t> cell_of_inlier(store.size());
   for (std::size_t k = 0; k < store.size(); ++k) {
     if (!store.mask[k])
       continue;
     const Eigen::Vector2i c =
       cellOf(Eigen::Vector3f(store.x[k], store.y[k], store.z[k]));
-    const auto inserted = index_of.emplace(key(c.x(), c.y()), cells.size());
-    if (inserted.second)
+    bool inserted = false;
+    const std::uint32_t n = index_of.emplace(
+      key(c.x(), c.y()), static_cast<std::uint32_t>(cells.size()), inserted);
+    if (inserted)
       cells.push_back({c.x(), c.y()});
-    ++cells[inserted.first->second].inliers;
-    cell_of_inlier[k] = inserted.first->second;
+    ++cells[n].inliers;
+    cell_of_inlier[k] = n;
   }
   bool any = false;
   for (std::size_t k = 0; k < all.size(); ++k) {
@@ -267,9 +326,9 @@ removeVisibilityConflicts(DensePoints& store,
     // (lambda < 1) when q is behind it, beyond q when q is in front.
     const float lambda = origin_distance / (origin_distance - s);
     const Eigen::Vector2i c = cellOf(origin + lambda * (q - origin));
-    const auto it = index_of.find(key(c.x(), c.y()));
-    if (it != index_of.end()) {
-      ++cells[it->second].conflicts;
+    const std::uint32_t n = index_of.find(key(c.x(), c.y()));
+    if (n != CellIndex::NONE) {
+      ++cells[n].conflicts;
       any = true;
     }
   }
@@ -280,11 +339,11 @@ removeVisibilityConflicts(DensePoints& store,
     std::size_t inliers = 0, conflicts = 0;
     for (int di = -1; di <= 1; ++di)
       for (int dj = -1; dj <= 1; ++dj) {
-        const auto it = index_of.find(key(cells[c].i + di, cells[c].j + dj));
-        if (it == index_of.end())
+        const std::uint32_t n = index_of.find(key(cells[c].i + di, cells[c].j + dj));
+        if (n == CellIndex::NONE)
           continue;
-        inliers += cells[it->second].inliers;
-        conflicts += cells[it->second].conflicts;
+        inliers += cells[n].inliers;
+        conflicts += cells[n].conflicts;
       }
     transparent[c] =
       static_cast<double>(conflicts) > max_ratio * static_cast<double>(inliers) ? 1 : 0;
