@@ -259,10 +259,16 @@ public:
       terrain_planes_ += terrain[k];
 
     removed_ = removePoints(frame, remove);
+    // The non-terrain planes keep their order; a plane already in place is not moved
+    // onto itself (a self-move empties its coefficient and inlier vectors).
     std::size_t kept = 0;
-    for (std::size_t k = 0; k < frame.planes.size(); ++k)
-      if (!terrain[k])
-        frame.planes[kept++] = std::move(frame.planes[k]);
+    for (std::size_t k = 0; k < frame.planes.size(); ++k) {
+      if (terrain[k])
+        continue;
+      if (kept != k)
+        frame.planes[kept] = std::move(frame.planes[k]);
+      ++kept;
+    }
     frame.planes.resize(kept);
   }
 

@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <map>
 #include <random>
 #include <string>
@@ -155,4 +156,48 @@ TEST(TerrainRemoval, WithoutTerrainPlanesTheRampStays)
   EXPECT_LE(after[ROAD], before[ROAD] / 50);
   EXPECT_GE(after[RAMP], before[RAMP] * 9 / 10);
   EXPECT_GE(after[CAR], before[CAR] * 9 / 10);
+}
+
+/** A wall larger than the floor in view (an indoor scan): the wall is the first plane
+ * and the floor, the ground, a later one. The planes before the ground keep their
+ * coefficients and inliers. */
+TEST(TerrainRemoval, PlanesListedBeforeTheGroundKeepTheirCoefficientsAndInliers)
+{
+  Street s;
+  auto cloud = std::make_shared<planar_grid::Frame::Cloud>();
+  const auto add = [&](float x, float y, float z, Label l) {
+    pcl::PointXYZI p;
+    p.x = x;
+    p.y = y;
+    p.z = z;
+    p.intensity = static_cast<float>(l);
+    cloud->push_back(p);
+  };
+  for (float x = -3.0f; x < 3.0f; x += 0.1f)
+    for (float y = -1.0f; y < 2.9f; y += 0.1f)
+      add(x, y, 0.0f, ROAD); // 60 x 39 points
+  for (float x = -10.0f; x < 10.0f; x += 0.1f)
+    for (float z = 0.1f; z < 5.0f; z += 0.1f)
+      add(x, 3.0f, z, WALL); // 200 x 49 points
+  cloud->sensor_origin_ = Eigen::Vector4f(0.0f, 0.0f, 1.6f, 1.0f);
+  s.frame.cloud = cloud;
+  s.frame.cloud_in_world_frame = true;
+  s.frame.has_pose = true;
+  s.frame.world_T_camera = Eigen::Isometry3d::Identity();
+  s.frame.world_T_camera.translation() = Eigen::Vector3d(0.0, 0.0, 1.6);
+  s.frame.name = "room";
+  std::map<int, std::size_t> before;
+  auto after = removeTerrain(s, {}, before);
+  ASSERT_TRUE(s.frame.has_ground);
+  EXPECT_EQ(after[ROAD], 0u);
+  EXPECT_EQ(after[WALL], before[WALL]);
+  ASSERT_EQ(s.frame.planes.size(), 1u);
+  const auto& wall = s.frame.planes[0];
+  ASSERT_EQ(wall.model_coefficients.values.size(), 4u);
+  EXPECT_NEAR(std::abs(wall.model_coefficients.values[1]), 1.0f, 1e-3f);
+  EXPECT_NEAR(std::abs(wall.model_coefficients.values[3]), 3.0f, 1e-2f);
+  EXPECT_EQ(wall.inliers.indices.size(), before[WALL]);
+  for (const auto i : wall.inliers.indices)
+    EXPECT_EQ(static_cast<int>((*s.frame.cloud)[static_cast<std::size_t>(i)].intensity),
+              WALL);
 }
