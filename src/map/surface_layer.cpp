@@ -19,6 +19,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <unordered_map>
 #include <utility>
@@ -123,96 +124,341 @@ finiteVector(const Eigen::Vector3f& v)
  * so that the mean stays that of all features. */
 constexpr std::uint32_t MAX_FEATURE_COUNT = 65535u;
 
-/** \brief A map plane's observed cells: three parallel arrays sorted by cellKey (row
- * j, then column i), 14 bytes per cell. */
+inline int
+popcount64(std::uint64_t x)
+{
+  return __builtin_popcountll(x);
+}
+
+inline int
+lowestBit(std::uint64_t x)
+{
+  return __builtin_ctzll(x);
+}
+
+/** \brief Adds \a count features of probability sum \a sum to a cell's evidence (sum,
+ * count); past MAX_FEATURE_COUNT the sum is rescaled to keep the mean of all
+ * features. */
+inline void
+addFeatures(float& probability_sum,
+            std::uint16_t& feature_count,
+            double sum,
+            std::uint32_t count)
+{
+  if (count == 0)
+    return;
+  const std::uint32_t total = feature_count + count;
+  double new_sum = static_cast<double>(probability_sum) + sum;
+  if (total > MAX_FEATURE_COUNT) {
+    new_sum *= static_cast<double>(MAX_FEATURE_COUNT) / total;
+    feature_count = static_cast<std::uint16_t>(MAX_FEATURE_COUNT);
+  } else {
+    feature_count = static_cast<std::uint16_t>(total);
+  }
+  probability_sum =
+    static_cast<float>(std::min(new_sum, static_cast<double>(feature_count)));
+}
+
+/** \brief Features added to one raster cell (cellKey \a key), applied in the order
+ * given. */
+struct CellEvidence {
+  std::uint64_t key;
+  double sum;
+  std::uint32_t count;
+};
+
+/** \brief A map plane's observed cells in tiles of 8 x 8 cells: per tile its key
+ * (cellKey of the tile indices i >> 3, j >> 3), a 64-bit mask of the observed cells
+ * (bit (j & 7) * 8 + (i & 7)) and a mask of the cells with feature evidence (24 bytes
+ * per tile), sorted by key; the evidence (probability sum f32, feature count u16: 6
+ * bytes) only for the cells in the evidence masks, in tile order, then bit order. A
+ * cell is in the evidence mask when its count or its sum is not zero. */
 struct Raster {
-  std::vector<std::uint64_t> keys;
+  struct Tile {
+    std::uint64_t key;
+    std::uint64_t observed;
+    std::uint64_t evidence;
+  };
+  std::vector<Tile> tiles;
   /** Sum of the probabilities of the features in the cell. */
   std::vector<float> probability_sums;
   /** Number of features in the cell (saturating at MAX_FEATURE_COUNT). */
   std::vector<std::uint16_t> feature_counts;
 
-  std::size_t size() const { return keys.size(); }
-
-  /** Index of \a key, or -1. */
-  std::ptrdiff_t find(std::uint64_t key) const
+  static std::uint64_t tileKey(std::uint64_t cell)
   {
-    const auto it = std::lower_bound(keys.begin(), keys.end(), key);
-    return (it != keys.end() && *it == key) ? it - keys.begin() : -1;
+    return cellKey(keyI(cell) >> 3, keyJ(cell) >> 3);
+  }
+  static std::uint64_t tileBit(std::uint64_t cell)
+  {
+    return std::uint64_t{1} << (((keyJ(cell) & 7) << 3) | (keyI(cell) & 7));
   }
 
-  /** Adds the cells of \a sorted_keys (sorted, unique) not yet present, without
-   * evidence; the arrays are reallocated to their exact size. Returns the number
-   * added. */
-  std::size_t insert(const std::vector<std::uint64_t>& sorted_keys)
+  bool empty() const { return tiles.empty(); }
+
+  /** Number of observed cells. */
+  std::size_t size() const
   {
-    std::size_t fresh = 0;
-    for (std::size_t a = 0, b = 0; b < sorted_keys.size();) {
-      if (a < keys.size() && keys[a] < sorted_keys[b])
+    std::size_t n = 0;
+    for (const Tile& t : tiles)
+      n += static_cast<std::size_t>(popcount64(t.observed));
+    return n;
+  }
+
+  /** Index of the tile with \a tile_key, or -1. */
+  std::ptrdiff_t findTile(std::uint64_t tile_key) const
+  {
+    const auto it =
+      std::lower_bound(tiles.begin(), tiles.end(), tile_key,
+                       [](const Tile& t, std::uint64_t k) { return t.key < k; });
+    return (it != tiles.end() && it->key == tile_key) ? it - tiles.begin() : -1;
+  }
+
+  bool contains(std::uint64_t key) const
+  {
+    const std::ptrdiff_t t = findTile(tileKey(key));
+    return t >= 0 && (tiles[static_cast<std::size_t>(t)].observed & tileBit(key)) != 0;
+  }
+
+  /** Adds the cells of \a keys (any order, duplicates allowed) not yet present,
+   * without evidence; the tiles are reallocated to their exact size. Returns the
+   * number added. */
+  std::size_t insert(const std::vector<std::uint64_t>& keys)
+  {
+    if (keys.empty())
+      return 0;
+    std::vector<Tile> fresh;
+    fresh.reserve(keys.size());
+    for (const auto key : keys)
+      fresh.push_back(Tile{tileKey(key), tileBit(key), 0});
+    std::sort(fresh.begin(), fresh.end(),
+              [](const Tile& a, const Tile& b) { return a.key < b.key; });
+    std::size_t unique = 0;
+    for (std::size_t k = 0; k < fresh.size(); ++k) {
+      if (unique > 0 && fresh[unique - 1].key == fresh[k].key)
+        fresh[unique - 1].observed |= fresh[k].observed;
+      else
+        fresh[unique++] = fresh[k];
+    }
+    fresh.resize(unique);
+    std::size_t added = 0, new_tiles = 0;
+    for (std::size_t a = 0, b = 0; b < fresh.size();) {
+      if (a < tiles.size() && tiles[a].key < fresh[b].key)
         ++a;
-      else {
-        fresh += (a < keys.size() && keys[a] == sorted_keys[b]) ? 0 : 1;
+      else if (a < tiles.size() && tiles[a].key == fresh[b].key) {
+        added +=
+          static_cast<std::size_t>(popcount64(fresh[b].observed & ~tiles[a].observed));
+        ++a;
+        ++b;
+      } else {
+        added += static_cast<std::size_t>(popcount64(fresh[b].observed));
+        ++new_tiles;
         ++b;
       }
     }
-    if (fresh == 0)
+    if (added == 0)
       return 0;
-    std::vector<std::uint64_t> k;
-    std::vector<float> s;
-    std::vector<std::uint16_t> c;
-    const std::size_t total = keys.size() + fresh;
-    k.reserve(total);
-    s.reserve(total);
-    c.reserve(total);
-    std::size_t a = 0, b = 0;
-    while (a < keys.size() || b < sorted_keys.size()) {
-      if (b == sorted_keys.size() || (a < keys.size() && keys[a] <= sorted_keys[b])) {
-        if (b < sorted_keys.size() && keys[a] == sorted_keys[b])
-          ++b;
-        k.push_back(keys[a]);
-        s.push_back(probability_sums[a]);
-        c.push_back(feature_counts[a]);
-        ++a;
-      } else {
-        k.push_back(sorted_keys[b++]);
-        s.push_back(0.0f);
-        c.push_back(0);
-      }
+    if (new_tiles == 0) {
+      for (std::size_t a = 0, b = 0; b < fresh.size(); ++a)
+        if (tiles[a].key == fresh[b].key)
+          tiles[a].observed |= fresh[b++].observed;
+      return added;
     }
-    keys.swap(k);
-    probability_sums.swap(s);
-    feature_counts.swap(c);
-    return fresh;
+    std::vector<Tile> merged;
+    merged.reserve(tiles.size() + new_tiles);
+    std::size_t a = 0, b = 0;
+    while (a < tiles.size() || b < fresh.size()) {
+      if (b == fresh.size() || (a < tiles.size() && tiles[a].key < fresh[b].key))
+        merged.push_back(tiles[a++]);
+      else if (a < tiles.size() && tiles[a].key == fresh[b].key) {
+        merged.push_back(tiles[a++]);
+        merged.back().observed |= fresh[b++].observed;
+      } else
+        merged.push_back(fresh[b++]);
+    }
+    tiles.swap(merged);
+    return added;
   }
 
-  /** Adds \a count features of probability sum \a sum to cell \a index; past
-   * MAX_FEATURE_COUNT the sum is rescaled to keep the mean of all features. */
-  void addEvidence(std::size_t index, double sum, std::uint32_t count)
+  /** Adds the features of \a evidence (observed cells; others are ignored), each
+   * cell's in the order given (addFeatures()); the evidence arrays are reallocated to
+   * their exact size. \a evidence is reordered. */
+  void addEvidence(std::vector<CellEvidence>& evidence)
   {
-    if (count == 0)
-      return;
-    const std::uint32_t total = feature_counts[index] + count;
-    double new_sum = static_cast<double>(probability_sums[index]) + sum;
-    if (total > MAX_FEATURE_COUNT) {
-      new_sum *= static_cast<double>(MAX_FEATURE_COUNT) / total;
-      feature_counts[index] = static_cast<std::uint16_t>(MAX_FEATURE_COUNT);
-    } else {
-      feature_counts[index] = static_cast<std::uint16_t>(total);
+    const auto order = [](const CellEvidence& e) {
+      const std::uint64_t bit = tileBit(e.key);
+      return std::make_pair(tileKey(e.key), bit);
+    };
+    std::stable_sort(evidence.begin(), evidence.end(),
+                     [&order](const CellEvidence& a, const CellEvidence& b) {
+                       return order(a) < order(b);
+                     });
+    // The evidence masks after the update, and the number of records.
+    std::vector<std::uint64_t> masks(tiles.size());
+    std::size_t records = 0;
+    for (std::size_t t = 0, e = 0; t < tiles.size(); ++t) {
+      std::uint64_t mask = tiles[t].evidence;
+      for (; e < evidence.size() && tileKey(evidence[e].key) <= tiles[t].key; ++e)
+        if (tileKey(evidence[e].key) == tiles[t].key && evidence[e].count > 0)
+          mask |= tileBit(evidence[e].key) & tiles[t].observed;
+      masks[t] = mask;
+      records += static_cast<std::size_t>(popcount64(mask));
     }
-    probability_sums[index] =
-      static_cast<float>(std::min(new_sum, static_cast<double>(feature_counts[index])));
+    std::vector<float> sums;
+    std::vector<std::uint16_t> counts;
+    sums.reserve(records);
+    counts.reserve(records);
+    std::size_t old = 0, e = 0;
+    for (std::size_t t = 0; t < tiles.size(); ++t) {
+      for (std::uint64_t rest = masks[t]; rest != 0; rest &= rest - 1) {
+        const std::uint64_t bit = rest & (~rest + 1);
+        float sum = 0.0f;
+        std::uint16_t count = 0;
+        if ((tiles[t].evidence & bit) != 0) {
+          sum = probability_sums[old];
+          count = feature_counts[old];
+          ++old;
+        }
+        while (e < evidence.size()
+               && order(evidence[e]) < std::make_pair(tiles[t].key, bit))
+          ++e;
+        for (; e < evidence.size()
+               && order(evidence[e]) == std::make_pair(tiles[t].key, bit);
+             ++e)
+          addFeatures(sum, count, evidence[e].sum, evidence[e].count);
+        sums.push_back(sum);
+        counts.push_back(count);
+      }
+      tiles[t].evidence = masks[t];
+    }
+    probability_sums.swap(sums);
+    feature_counts.swap(counts);
+  }
+
+  /** Calls f(key, probability sum, feature count) for every observed cell, sorted by
+   * cellKey (row j, then column i). */
+  template <typename F> void forEachCell(F f) const
+  {
+    std::vector<std::size_t> base;
+    std::size_t records = 0;
+    for (std::size_t g = 0; g < tiles.size();) {
+      const std::int32_t tj = keyJ(tiles[g].key);
+      std::size_t h = g;
+      base.clear();
+      while (h < tiles.size() && keyJ(tiles[h].key) == tj) {
+        base.push_back(records);
+        records += static_cast<std::size_t>(popcount64(tiles[h].evidence));
+        ++h;
+      }
+      for (int row = 0; row < 8; ++row) {
+        const auto j =
+          static_cast<std::int32_t>(static_cast<std::int64_t>(tj) * 8 + row);
+        for (std::size_t t = g; t < h; ++t) {
+          const Tile& tile = tiles[t];
+          const std::int64_t i0 = static_cast<std::int64_t>(keyI(tile.key)) * 8;
+          for (std::uint64_t bits = (tile.observed >> (8 * row)) & 0xffu; bits != 0;
+               bits &= bits - 1) {
+            const int col = lowestBit(bits);
+            const std::uint64_t bit = std::uint64_t{1} << (8 * row + col);
+            float sum = 0.0f;
+            std::uint16_t count = 0;
+            if ((tile.evidence & bit) != 0) {
+              const std::size_t r =
+                base[t - g]
+                + static_cast<std::size_t>(popcount64(tile.evidence & (bit - 1)));
+              sum = probability_sums[r];
+              count = feature_counts[r];
+            }
+            f(cellKey(static_cast<std::int32_t>(i0 + col), j), sum, count);
+          }
+        }
+      }
+      g = h;
+    }
+  }
+
+  /** The observed cells' keys, sorted. */
+  std::vector<std::uint64_t> keys() const
+  {
+    std::vector<std::uint64_t> out;
+    out.reserve(size());
+    forEachCell(
+      [&out](std::uint64_t key, float, std::uint16_t) { out.push_back(key); });
+    return out;
+  }
+
+  /** Bounding box of the observed cells, in cells (false when empty). */
+  bool bounds(std::int32_t& i_min,
+              std::int32_t& i_max,
+              std::int32_t& j_min,
+              std::int32_t& j_max) const
+  {
+    if (tiles.empty())
+      return false;
+    std::int64_t lo_i = std::numeric_limits<std::int64_t>::max(), hi_i = -lo_i;
+    std::int64_t lo_j = lo_i, hi_j = -lo_i;
+    for (const Tile& t : tiles) {
+      std::uint64_t columns = 0, rows = 0;
+      for (int row = 0; row < 8; ++row) {
+        const std::uint64_t byte = (t.observed >> (8 * row)) & 0xffu;
+        columns |= byte;
+        rows |= (byte != 0 ? std::uint64_t{1} : 0) << row;
+      }
+      const std::int64_t i0 = static_cast<std::int64_t>(keyI(t.key)) * 8;
+      const std::int64_t j0 = static_cast<std::int64_t>(keyJ(t.key)) * 8;
+      lo_i = std::min(lo_i, i0 + lowestBit(columns));
+      hi_i = std::max(hi_i, i0 + 63 - __builtin_clzll(columns));
+      lo_j = std::min(lo_j, j0 + lowestBit(rows));
+      hi_j = std::max(hi_j, j0 + 63 - __builtin_clzll(rows));
+    }
+    i_min = static_cast<std::int32_t>(lo_i);
+    i_max = static_cast<std::int32_t>(hi_i);
+    j_min = static_cast<std::int32_t>(lo_j);
+    j_max = static_cast<std::int32_t>(hi_j);
+    return true;
+  }
+
+  /** Builds the raster of \a keys (sorted, unique) with their evidence (parallel). */
+  void assign(const std::vector<std::uint64_t>& keys,
+              const std::vector<float>& sums,
+              const std::vector<std::uint16_t>& counts)
+  {
+    tiles.clear();
+    probability_sums.clear();
+    feature_counts.clear();
+    insert(keys);
+    std::vector<std::pair<std::pair<std::uint64_t, std::uint64_t>, std::size_t>>
+      records;
+    for (std::size_t k = 0; k < keys.size(); ++k)
+      if (counts[k] != 0 || std::signbit(sums[k]) || sums[k] != 0.0f)
+        records.push_back({{tileKey(keys[k]), tileBit(keys[k])}, k});
+    std::sort(records.begin(), records.end());
+    probability_sums.reserve(records.size());
+    feature_counts.reserve(records.size());
+    std::size_t t = 0;
+    for (const auto& r : records) {
+      while (tiles[t].key != r.first.first)
+        ++t;
+      tiles[t].evidence |= r.first.second;
+      probability_sums.push_back(sums[r.second]);
+      feature_counts.push_back(counts[r.second]);
+    }
   }
 
   bool operator==(const Raster& o) const
   {
-    return keys == o.keys && probability_sums == o.probability_sums
-           && feature_counts == o.feature_counts;
+    if (tiles.size() != o.tiles.size())
+      return false;
+    for (std::size_t t = 0; t < tiles.size(); ++t)
+      if (tiles[t].key != o.tiles[t].key || tiles[t].observed != o.tiles[t].observed
+          || tiles[t].evidence != o.tiles[t].evidence)
+        return false;
+    return probability_sums == o.probability_sums && feature_counts == o.feature_counts;
   }
 
   std::size_t bytes() const
   {
-    return keys.capacity() * sizeof(std::uint64_t)
-           + probability_sums.capacity() * sizeof(float)
+    return tiles.capacity() * sizeof(Tile) + probability_sums.capacity() * sizeof(float)
            + feature_counts.capacity() * sizeof(std::uint16_t);
   }
 };
@@ -221,12 +467,31 @@ struct Raster {
  * received), in double about an anchor point so that planes far from the world
  * origin keep their precision: weight = sum of the face areas, sum = sum of
  * area (centre - anchor), sum_sq = sum of area ((centre - anchor)(centre - anchor)^T
- * + width^2 / 12 h h^T + height^2 / 12 v v^T), the exact moments of the rectangles. */
+ * + width^2 / 12 h h^T + height^2 / 12 v v^T), the exact moments of the rectangles.
+ * sum_sq is symmetric; its upper triangle is stored (xx, xy, xz, yy, yz, zz). */
 struct PlaneMoments {
   Eigen::Vector3d anchor{Eigen::Vector3d::Zero()};
   double weight{0.0};
   Eigen::Vector3d sum{Eigen::Vector3d::Zero()};
-  Eigen::Matrix3d sum_sq{Eigen::Matrix3d::Zero()};
+  std::array<double, 6> sum_sq_upper{};
+
+  /** The second moments as a symmetric matrix. */
+  Eigen::Matrix3d sumSq() const
+  {
+    Eigen::Matrix3d s;
+    s << sum_sq_upper[0], sum_sq_upper[1], sum_sq_upper[2], sum_sq_upper[1],
+      sum_sq_upper[3], sum_sq_upper[4], sum_sq_upper[2], sum_sq_upper[4],
+      sum_sq_upper[5];
+    return s;
+  }
+
+  /** Stores \a s made exactly symmetric (rounding in the products of the updates is
+   * not), so that the 6 values the file stores restore it bit for bit. */
+  void setSumSq(const Eigen::Matrix3d& s)
+  {
+    const Eigen::Matrix3d sym = 0.5 * (s + s.transpose());
+    sum_sq_upper = {sym(0, 0), sym(0, 1), sym(0, 2), sym(1, 1), sym(1, 2), sym(2, 2)};
+  }
 
   /** Adds the face of \a c with weight its area plus \a min_weight (so that a face of
    * zero area still counts as a point). The first face sets the anchor. */
@@ -242,10 +507,11 @@ struct PlaneMoments {
     const Eigen::Vector3d vy = c.verticalAxis().cast<double>();
     weight += area;
     sum += area * rel;
+    Eigen::Matrix3d sum_sq = sumSq();
     sum_sq += area
               * (rel * rel.transpose() + (w * w / 12.0) * hx * hx.transpose()
                  + (h * h / 12.0) * vy * vy.transpose());
-    symmetrise();
+    setSumSq(sum_sq);
   }
 
   /** Adds \a other (its moments moved to this anchor). */
@@ -258,20 +524,14 @@ struct PlaneMoments {
       return;
     }
     const Eigen::Vector3d delta = other.anchor - anchor;
-    sum_sq += other.sum_sq + other.sum * delta.transpose()
+    Eigen::Matrix3d sum_sq = sumSq();
+    const Eigen::Matrix3d other_sum_sq = other.sumSq();
+    sum_sq += other_sum_sq + other.sum * delta.transpose()
               + delta * other.sum.transpose()
               + other.weight * delta * delta.transpose();
     sum += other.sum + other.weight * delta;
     weight += other.weight;
-    symmetrise();
-  }
-
-  /** Makes sum_sq exactly symmetric (rounding in the products above is not), so that
-   * the 6 values the file stores restore it bit for bit. */
-  void symmetrise()
-  {
-    const Eigen::Matrix3d s = 0.5 * (sum_sq + sum_sq.transpose());
-    sum_sq = s;
+    setSumSq(sum_sq);
   }
 
   /** Weighted mean squared distance of the evidence to the plane n . x + d = 0,
@@ -282,14 +542,14 @@ struct PlaneMoments {
       return 0.0;
     const double c = n.dot(anchor) + d;
     const double e =
-      n.dot((sum_sq / weight) * n) + 2.0 * c * n.dot(sum / weight) + c * c;
+      n.dot((sumSq() / weight) * n) + 2.0 * c * n.dot(sum / weight) + c * c;
     return std::max(0.0, e);
   }
 
   bool operator==(const PlaneMoments& o) const
   {
     return anchor == o.anchor && weight == o.weight && sum == o.sum
-           && sum_sq == o.sum_sq;
+           && sum_sq_upper == o.sum_sq_upper;
   }
 };
 
@@ -301,68 +561,22 @@ struct RasterRect {
   std::uint32_t point_count;
 };
 
-/** \brief A map plane: its fixed raster frame, its refined (least-squares) plane, the
- * evidence moments, the raster and the cached cover. */
-struct MapPlane {
-  /** The raster frame: the plane it was created on, origin -frame_d frame_normal,
-   * u = z x n normalised (x projected for a horizontal plane), v = n x u. */
-  Eigen::Vector3f frame_normal{Eigen::Vector3f::UnitZ()};
-  float frame_d{0.0f};
-  Eigen::Vector3f origin{Eigen::Vector3f::Zero()};
-  Eigen::Vector3f u_axis{Eigen::Vector3f::UnitX()};
-  Eigen::Vector3f v_axis{Eigen::Vector3f::UnitY()};
-  /** The refined plane; the faces' horizontal axis on it (u projected along the
-   * normal, normalised) and the lengths of the projections of u and v. */
-  Eigen::Vector3f normal{Eigen::Vector3f::UnitZ()};
-  float d{0.0f};
-  Eigen::Vector3f place_u{Eigen::Vector3f::UnitX()};
-  float scale_u{1.0f}, scale_v{1.0f};
-  PlaneMoments moments;
-  Raster raster;
-  /** Bounding box of the observed cells (valid when the raster is not empty). */
-  std::int32_t i_min{0}, i_max{-1}, j_min{0}, j_max{-1};
-  /** Cached cover (valid when !dirty). */
-  std::vector<RasterRect> rects;
-  bool dirty{true};
+/** \brief A map plane's raster frame: origin -d n on the plane it was created on,
+ * u = z x n normalised (x projected for a horizontal plane), v = n x u. Derived from
+ * the plane, not stored. */
+struct RasterFrame {
+  Eigen::Vector3f origin;
+  Eigen::Vector3f u_axis;
+  Eigen::Vector3f v_axis;
 
-  void setFrame(const Eigen::Vector3f& n, float offset)
+  RasterFrame(const Eigen::Vector3f& n, float offset)
   {
-    frame_normal = n;
-    frame_d = offset;
     origin = -offset * n;
     Eigen::Vector3f u = Eigen::Vector3f::UnitZ().cross(n);
     if (u.norm() < 1e-3f)
       u = Eigen::Vector3f::UnitX() - n * n.x();
     u_axis = u.normalized();
     v_axis = n.cross(u_axis);
-  }
-  /** Sets the refined plane (its normal is within plane_merge_angle_rad / 2 of the
-   * frame's after every integrate(), re-anchored otherwise). */
-  void setRefined(const Eigen::Vector3f& n, float offset)
-  {
-    normal = n;
-    d = offset;
-    const Eigen::Vector3f pu = u_axis - n * n.dot(u_axis);
-    scale_u = pu.norm();
-    // (u lies in the plane up to the angle between the normals, < pi / 2)
-    place_u = scale_u > 1e-6f ? Eigen::Vector3f(pu / scale_u) : u_axis;
-    scale_v = (v_axis - n * n.dot(v_axis)).norm();
-  }
-  void updateBounds()
-  {
-    if (raster.keys.empty()) {
-      i_min = j_min = 0;
-      i_max = j_max = -1;
-      return;
-    }
-    j_min = keyJ(raster.keys.front());
-    j_max = keyJ(raster.keys.back());
-    i_min = std::numeric_limits<std::int32_t>::max();
-    i_max = std::numeric_limits<std::int32_t>::min();
-    for (const auto key : raster.keys) {
-      i_min = std::min(i_min, keyI(key));
-      i_max = std::max(i_max, keyI(key));
-    }
   }
   /** Raster coordinates (in cells) of a world point projected on the frame. */
   Eigen::Vector2d toRaster(const Eigen::Vector3f& p, double inv_r) const
@@ -376,7 +590,53 @@ struct MapPlane {
     return origin + u_axis * static_cast<float>((static_cast<double>(i) + 0.5) * r)
            + v_axis * static_cast<float>((static_cast<double>(j) + 0.5) * r);
   }
-  PCL_MAKE_ALIGNED_OPERATOR_NEW
+};
+
+/** \brief How a raster frame's rectangles are placed on the refined plane: the
+ * faces' horizontal axis on it (u projected along the normal, normalised) and the
+ * lengths of the projections of u and v. Derived, not stored. */
+struct FacePlacement {
+  Eigen::Vector3f place_u;
+  float scale_u;
+  float scale_v;
+
+  FacePlacement(const RasterFrame& frame, const Eigen::Vector3f& n)
+  {
+    const Eigen::Vector3f pu = frame.u_axis - n * n.dot(frame.u_axis);
+    scale_u = pu.norm();
+    // (u lies in the plane up to the angle between the normals, < pi / 2)
+    place_u = scale_u > 1e-6f ? Eigen::Vector3f(pu / scale_u) : frame.u_axis;
+    scale_v = (frame.v_axis - n * n.dot(frame.v_axis)).norm();
+  }
+};
+
+/** \brief A map plane: the plane of its fixed raster frame, its refined
+ * (least-squares) plane, the evidence moments, the raster and the cached cover. */
+struct MapPlane {
+  /** The plane the raster frame was created on (RasterFrame). */
+  Eigen::Vector3f frame_normal{Eigen::Vector3f::UnitZ()};
+  float frame_d{0.0f};
+  /** The refined plane (its normal is within plane_merge_angle_rad / 2 of the
+   * frame's after every integrate(), re-anchored otherwise). */
+  Eigen::Vector3f normal{Eigen::Vector3f::UnitZ()};
+  float d{0.0f};
+  PlaneMoments moments;
+  Raster raster;
+  /** Cached cover (valid when !dirty). */
+  std::vector<RasterRect> rects;
+  bool dirty{true};
+
+  void setFrame(const Eigen::Vector3f& n, float offset)
+  {
+    frame_normal = n;
+    frame_d = offset;
+  }
+  void setRefined(const Eigen::Vector3f& n, float offset)
+  {
+    normal = n;
+    d = offset;
+  }
+  RasterFrame frame() const { return RasterFrame(frame_normal, frame_d); }
 };
 
 /** \brief Key of a non-planar cell: quantised centre and size. */
@@ -396,15 +656,60 @@ struct NonPlanarKeyHash {
   }
 };
 
-/** \brief A non-planar cell: the latest cuboid with its key and feature sums. */
+/** \brief Orientation of non-planar boxes (normal, horizontal axis), shared by the
+ * cells that have it (typically one or a few for a whole map). */
+struct BoxAxes {
+  Eigen::Vector3f normal;
+  Eigen::Vector3f horizontal_axis;
+};
+
+/** \brief A non-planar cell (40 bytes): the latest cuboid's box (its axes an index
+ * into Impl::np_axes) and the sums of its features. */
 struct NonPlanarCell {
-  PlanarCuboid cuboid;
-  double probability_sum{0.0};
+  Eigen::Vector3f centre;
+  float width_m;
+  float height_m;
+  float thickness_m;
+  std::uint32_t axes;
   std::uint32_t feature_count{0};
-  /** integrate() call that stored it (cells of the same frame never replace each
-   * other). */
-  std::uint32_t generation{0};
-  PCL_MAKE_ALIGNED_OPERATOR_NEW
+  double probability_sum{0.0};
+
+  NonPlanarCell(const PlanarCuboid& c, std::uint32_t axes_index) :
+      centre(c.centre), width_m(c.width_m), height_m(c.height_m),
+      thickness_m(c.thickness_m), axes(axes_index)
+  {}
+};
+
+/** \brief Key of a box orientation: the bit patterns of its six floats. */
+using AxesKey = std::array<std::uint32_t, 6>;
+
+AxesKey
+axesKey(const Eigen::Vector3f& normal, const Eigen::Vector3f& horizontal_axis)
+{
+  AxesKey key;
+  const float v[6] = {normal.x(),          normal.y(),          normal.z(),
+                      horizontal_axis.x(), horizontal_axis.y(), horizontal_axis.z()};
+  std::memcpy(key.data(), v, sizeof(v));
+  return key;
+}
+
+/** \brief An entry of the non-planar cells' spatial index: a bin key (split in two
+ * words so that the entry is 12 bytes) and a cell index. */
+struct BinEntry {
+  std::uint32_t key_hi{0};
+  std::uint32_t key_lo{0};
+  std::uint32_t index{0};
+
+  BinEntry() = default;
+  BinEntry(std::uint64_t key, std::uint32_t i) :
+      key_hi(static_cast<std::uint32_t>(key >> 32)),
+      key_lo(static_cast<std::uint32_t>(key)), index(i)
+  {}
+  std::uint64_t key() const
+  {
+    return (static_cast<std::uint64_t>(key_hi) << 32) | key_lo;
+  }
+  bool operator<(const BinEntry& o) const { return key() < o.key(); }
 };
 
 } // namespace
@@ -413,19 +718,16 @@ struct SurfaceLayer::Impl {
   std::vector<MapPlane, Eigen::aligned_allocator<MapPlane>> planes;
   /** The refined planes, as returned by getPlanes(). */
   PlaneModels plane_models;
-  std::vector<NonPlanarCell, Eigen::aligned_allocator<NonPlanarCell>> non_planar;
-  /** Spatial hash of the non-planar cells' bounding boxes (bins of 4 cells; cells
-   * spanning more than MAX_BINS_PER_CUBOID bins in np_large), for the replacement. */
-  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> np_bins;
-  std::vector<std::uint32_t> np_large;
-  std::uint32_t generation{0};
+  std::vector<NonPlanarCell> non_planar;
+  /** The distinct orientations of the non-planar cells. */
+  std::vector<BoxAxes> np_axes;
 
-  // Caches (rebuilt under mutex by ensureBuilt()).
+  // The query index (built under mutex by ensureIndex(), freed by integrate()).
   std::mutex mutex;
-  bool cache_valid{false};
-  PlanarCuboids all_cuboids;
-  /** Spatial index: bin key -> cuboid indices; "large" cuboids are tested always. */
   bool index_valid{false};
+  /** The cuboids the index refers to (getCuboids() at the time it was built). */
+  PlanarCuboids index_cuboids;
+  /** Spatial index: bin key -> cuboid indices; "large" cuboids are tested always. */
   float bin_m{0.4f};
   std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> bins;
   std::vector<std::uint32_t> large;
@@ -434,9 +736,8 @@ struct SurfaceLayer::Impl {
 
   void invalidate()
   {
-    cache_valid = false;
     index_valid = false;
-    // a stale query index is freed (rebuilt on the next query)
+    decltype(index_cuboids)().swap(index_cuboids);
     decltype(bins)().swap(bins);
     decltype(large)().swap(large);
   }
@@ -444,13 +745,40 @@ struct SurfaceLayer::Impl {
    * returns false (nothing called) when they exceed MAX_BINS_PER_CUBOID. */
   template <typename F>
   bool forNonPlanarBins(const PlanarCuboid& c, float grow, float bin, F f) const;
-  void addNonPlanarBins(std::uint32_t index, float bin);
-  void eraseNonPlanarBins(std::uint32_t index, float bin, std::uint32_t replacement);
-  /** Removes non_planar[index] (the last cell moves to its place). */
-  void removeNonPlanar(std::uint32_t index, float bin);
-  /** Rebuilds dirty planes and the concatenated cuboids; caller holds the mutex. */
-  void ensureCuboids(const Params& params);
-  /** Builds the spatial hash over all cuboids; caller holds the mutex. */
+  /** The cuboid of non-planar cell \a cell (plane_id -1; probability and point_count
+   * unset). */
+  PlanarCuboid nonPlanarCuboid(const NonPlanarCell& cell) const
+  {
+    PlanarCuboid c;
+    c.centre = cell.centre;
+    c.normal = np_axes[cell.axes].normal;
+    c.horizontal_axis = np_axes[cell.axes].horizontal_axis;
+    c.width_m = cell.width_m;
+    c.height_m = cell.height_m;
+    c.thickness_m = cell.thickness_m;
+    c.plane_id = -1;
+    c.is_planar = false;
+    return c;
+  }
+  /** Index of the orientation of \a c in np_axes (added when new); \a lookup maps
+   * the keys of np_axes to their index. */
+  std::uint32_t internAxes(const PlanarCuboid& c,
+                           std::map<AxesKey, std::uint32_t>& lookup)
+  {
+    const auto inserted = lookup.emplace(axesKey(c.normal, c.horizontal_axis),
+                                         static_cast<std::uint32_t>(np_axes.size()));
+    if (inserted.second)
+      np_axes.push_back(BoxAxes{c.normal, c.horizontal_axis});
+    return inserted.first->second;
+  }
+  /** Removes the orientations no cell uses. */
+  void pruneAxes();
+  /** Rebuilds dirty planes' covers; caller holds the mutex. */
+  void ensureCovers(const Params& params);
+  /** Appends the cuboids (planes' rectangles, then non-planar cells) to \a out;
+   * caller holds the mutex. */
+  void buildCuboids(const Params& params, PlanarCuboids& out);
+  /** Builds the query index over all cuboids; caller holds the mutex. */
   void ensureIndex(const Params& params);
 };
 
@@ -504,48 +832,24 @@ SurfaceLayer::Impl::forNonPlanarBins(const PlanarCuboid& c,
 }
 
 void
-SurfaceLayer::Impl::addNonPlanarBins(std::uint32_t index, float bin)
+SurfaceLayer::Impl::pruneAxes()
 {
-  if (!forNonPlanarBins(non_planar[index].cuboid, 0.0f, bin,
-                        [&](std::uint64_t key) { np_bins[key].push_back(index); }))
-    np_large.push_back(index);
-}
-
-void
-SurfaceLayer::Impl::eraseNonPlanarBins(std::uint32_t index,
-                                       float bin,
-                                       std::uint32_t replacement)
-{
-  const auto update = [&](std::vector<std::uint32_t>& v) {
-    const auto it = std::find(v.begin(), v.end(), index);
-    if (it == v.end())
-      return;
-    if (replacement == std::numeric_limits<std::uint32_t>::max())
-      v.erase(it);
-    else
-      *it = replacement;
-  };
-  if (!forNonPlanarBins(non_planar[index].cuboid, 0.0f, bin, [&](std::uint64_t key) {
-        const auto it = np_bins.find(key);
-        if (it == np_bins.end())
-          return;
-        update(it->second);
-        if (it->second.empty())
-          np_bins.erase(it);
-      }))
-    update(np_large);
-}
-
-void
-SurfaceLayer::Impl::removeNonPlanar(std::uint32_t index, float bin)
-{
-  const auto last = static_cast<std::uint32_t>(non_planar.size() - 1);
-  eraseNonPlanarBins(index, bin, std::numeric_limits<std::uint32_t>::max());
-  if (index != last) {
-    eraseNonPlanarBins(last, bin, index);
-    non_planar[index] = non_planar[last];
-  }
-  non_planar.pop_back();
+  constexpr std::uint32_t UNUSED = std::numeric_limits<std::uint32_t>::max();
+  std::vector<std::uint32_t> renumber(np_axes.size(), UNUSED);
+  for (const auto& cell : non_planar)
+    renumber[cell.axes] = 0;
+  std::uint32_t used = 0;
+  for (std::size_t a = 0; a < np_axes.size(); ++a)
+    if (renumber[a] != UNUSED) {
+      np_axes[used] = np_axes[a];
+      renumber[a] = used++;
+    }
+  if (used == np_axes.size())
+    return;
+  np_axes.resize(used);
+  np_axes.shrink_to_fit();
+  for (auto& cell : non_planar)
+    cell.axes = renumber[cell.axes];
 }
 
 namespace {
@@ -611,7 +915,7 @@ fitPlane(const PlaneMoments& m,
   if (!(m.weight > 0.0) || !std::isfinite(m.weight))
     return false;
   const Eigen::Vector3d mean = m.sum / m.weight;
-  const Eigen::Matrix3d covariance = m.sum_sq / m.weight - mean * mean.transpose();
+  const Eigen::Matrix3d covariance = m.sumSq() / m.weight - mean * mean.transpose();
   if (!mean.allFinite() || !covariance.allFinite())
     return false;
   Eigen::Vector3d n = current_normal.cast<double>().normalized();
@@ -1286,12 +1590,20 @@ rebuildPlane(MapPlane& plane, const SurfaceLayer::Params& params)
 {
   std::vector<RasterRect>().swap(plane.rects);
   plane.dirty = false;
-  const Raster& raster = plane.raster;
-  if (raster.size() == 0)
+  if (plane.raster.empty())
     return;
+  // the raster's cells, sorted, with their evidence
+  std::vector<std::uint64_t> observed;
+  std::vector<float> sums;
+  std::vector<std::uint16_t> counts;
+  plane.raster.forEachCell([&](std::uint64_t key, float sum, std::uint16_t features) {
+    observed.push_back(key);
+    sums.push_back(sum);
+    counts.push_back(features);
+  });
   const std::vector<std::uint64_t> filled =
-    closeGaps(raster.keys, params.close_gaps_cells);
-  const std::size_t n = raster.size() + filled.size();
+    closeGaps(observed, params.close_gaps_cells);
+  const std::size_t n = observed.size() + filled.size();
   std::vector<std::uint64_t> keys;
   keys.reserve(n);
   // Occupancy (paper, end of III-F): features' mean; featureless and filled cells take
@@ -1301,14 +1613,14 @@ rebuildPlane(MapPlane& plane, const SurfaceLayer::Params& params)
   std::vector<std::uint32_t> count;
   value.reserve(n);
   count.reserve(n);
-  for (std::size_t a = 0, b = 0; a < raster.size() || b < filled.size();) {
-    if (b == filled.size() || (a < raster.size() && raster.keys[a] < filled[b])) {
-      keys.push_back(raster.keys[a]);
-      const std::uint32_t features = raster.feature_counts[a];
+  for (std::size_t a = 0, b = 0; a < observed.size() || b < filled.size();) {
+    if (b == filled.size() || (a < observed.size() && observed[a] < filled[b])) {
+      keys.push_back(observed[a]);
+      const std::uint32_t features = counts[a];
       count.push_back(features);
-      value.push_back(features > 0 ? static_cast<float>(
-                        static_cast<double>(raster.probability_sums[a]) / features)
-                                   : std::numeric_limits<float>::quiet_NaN());
+      value.push_back(features > 0
+                        ? static_cast<float>(static_cast<double>(sums[a]) / features)
+                        : std::numeric_limits<float>::quiet_NaN());
       ++a;
     } else {
       keys.push_back(filled[b++]);
@@ -1451,6 +1763,8 @@ rebuildPlane(MapPlane& plane, const SurfaceLayer::Params& params)
  * \a thickness behind the face. */
 PlanarCuboid
 rectCuboid(const MapPlane& plane,
+           const RasterFrame& frame,
+           const FacePlacement& placement,
            const RasterRect& rect,
            int plane_id,
            double r,
@@ -1460,18 +1774,18 @@ rectCuboid(const MapPlane& plane,
   // overflow.
   const double u_mid = 0.5 * (static_cast<double>(rect.i0) + rect.i1) * r;
   const double v_mid = 0.5 * (static_cast<double>(rect.j0) + rect.j1) * r;
-  const Eigen::Vector3f on_frame = plane.origin
-                                   + plane.u_axis * static_cast<float>(u_mid)
-                                   + plane.v_axis * static_cast<float>(v_mid);
+  const Eigen::Vector3f on_frame = frame.origin
+                                   + frame.u_axis * static_cast<float>(u_mid)
+                                   + frame.v_axis * static_cast<float>(v_mid);
   const Eigen::Vector3f on_plane =
     on_frame - plane.normal * (plane.normal.dot(on_frame) + plane.d);
   PlanarCuboid c;
   c.normal = plane.normal;
-  c.horizontal_axis = plane.place_u;
-  c.width_m =
-    static_cast<float>((static_cast<double>(rect.i1) - rect.i0) * r * plane.scale_u);
-  c.height_m =
-    static_cast<float>((static_cast<double>(rect.j1) - rect.j0) * r * plane.scale_v);
+  c.horizontal_axis = placement.place_u;
+  c.width_m = static_cast<float>((static_cast<double>(rect.i1) - rect.i0) * r
+                                 * placement.scale_u);
+  c.height_m = static_cast<float>((static_cast<double>(rect.j1) - rect.j0) * r
+                                  * placement.scale_v);
   c.thickness_m = thickness;
   c.centre = on_plane - plane.normal * (0.5f * thickness);
   c.plane_id = plane_id;
@@ -1501,46 +1815,36 @@ void
 reprojectRaster(const MapPlane& src, MapPlane& dst, double r)
 {
   const double inv_r = 1.0 / r;
+  const RasterFrame src_frame = src.frame(), dst_frame = dst.frame();
   std::vector<std::uint64_t> keys;
-  keys.reserve(src.raster.size() * 2);
-  struct Evidence {
-    std::uint64_t key;
-    double sum;
-    std::uint32_t count;
-  };
-  std::vector<Evidence> evidence;
-  for (std::size_t k = 0; k < src.raster.size(); ++k) {
-    const std::int64_t i = keyI(src.raster.keys[k]), j = keyJ(src.raster.keys[k]);
-    const Eigen::Vector2d f = dst.toRaster(src.cellCentre(i, j, r), inv_r);
+  std::vector<CellEvidence> evidence;
+  src.raster.forEachCell([&](std::uint64_t src_key, float sum, std::uint16_t count) {
+    const std::int64_t i = keyI(src_key), j = keyJ(src_key);
+    const Eigen::Vector2d f = dst_frame.toRaster(src_frame.cellCentre(i, j, r), inv_r);
     std::int64_t ci = 0, cj = 0;
     if (!cellIndex(f.x(), ci) || !cellIndex(f.y(), cj))
-      continue;
+      return;
     const std::uint64_t key =
       cellKey(static_cast<std::int32_t>(ci), static_cast<std::int32_t>(cj));
     keys.push_back(key);
-    if (src.raster.feature_counts[k] > 0)
-      evidence.push_back(
-        Evidence{key, src.raster.probability_sums[k], src.raster.feature_counts[k]});
+    if (count > 0)
+      evidence.push_back(CellEvidence{key, sum, count});
     for (std::int64_t dj = -1; dj <= 1; ++dj)
       for (std::int64_t di = -1; di <= 1; ++di) {
         const std::int64_t a = ci + di, b = cj + dj;
         if ((di == 0 && dj == 0) || std::abs(a) > MAX_CELL_INDEX
             || std::abs(b) > MAX_CELL_INDEX)
           continue;
-        const Eigen::Vector2d s = src.toRaster(dst.cellCentre(a, b, r), inv_r);
+        const Eigen::Vector2d s =
+          src_frame.toRaster(dst_frame.cellCentre(a, b, r), inv_r);
         if (std::floor(s.x()) == static_cast<double>(i)
             && std::floor(s.y()) == static_cast<double>(j))
           keys.push_back(
             cellKey(static_cast<std::int32_t>(a), static_cast<std::int32_t>(b)));
       }
-  }
-  std::sort(keys.begin(), keys.end());
-  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+  });
   dst.raster.insert(keys);
-  for (const Evidence& e : evidence)
-    dst.raster.addEvidence(static_cast<std::size_t>(dst.raster.find(e.key)), e.sum,
-                           e.count);
-  dst.updateBounds();
+  dst.raster.addEvidence(evidence);
   dst.dirty = true;
 }
 
@@ -1550,28 +1854,34 @@ reprojectRaster(const MapPlane& src, MapPlane& dst, double r)
 bool
 rastersTouch(const MapPlane& a, const MapPlane& b, double r)
 {
-  if (a.raster.size() == 0 || b.raster.size() == 0)
+  if (a.raster.empty() || b.raster.empty())
     return false;
   const MapPlane& small = a.raster.size() <= b.raster.size() ? a : b;
   const MapPlane& big = &small == &a ? b : a;
+  const RasterFrame small_frame = small.frame(), big_frame = big.frame();
   const double inv_r = 1.0 / r;
   // The bounding boxes first.
+  std::int32_t si_min = 0, si_max = 0, sj_min = 0, sj_max = 0;
+  std::int32_t bi_min = 0, bi_max = 0, bj_min = 0, bj_max = 0;
+  small.raster.bounds(si_min, si_max, sj_min, sj_max);
+  big.raster.bounds(bi_min, bi_max, bj_min, bj_max);
   Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::max());
   Eigen::Vector2d hi = -lo;
-  for (const std::int64_t i : {static_cast<std::int64_t>(small.i_min) - 1,
-                               static_cast<std::int64_t>(small.i_max) + 1})
-    for (const std::int64_t j : {static_cast<std::int64_t>(small.j_min) - 1,
-                                 static_cast<std::int64_t>(small.j_max) + 1}) {
-      const Eigen::Vector2d f = big.toRaster(small.cellCentre(i, j, r), inv_r);
+  for (const std::int64_t i :
+       {static_cast<std::int64_t>(si_min) - 1, static_cast<std::int64_t>(si_max) + 1})
+    for (const std::int64_t j : {static_cast<std::int64_t>(sj_min) - 1,
+                                 static_cast<std::int64_t>(sj_max) + 1}) {
+      const Eigen::Vector2d f =
+        big_frame.toRaster(small_frame.cellCentre(i, j, r), inv_r);
       lo = lo.cwiseMin(f);
       hi = hi.cwiseMax(f);
     }
-  if (!(hi.x() >= big.i_min - 2.0 && lo.x() <= big.i_max + 3.0
-        && hi.y() >= big.j_min - 2.0 && lo.y() <= big.j_max + 3.0))
+  if (!(hi.x() >= bi_min - 2.0 && lo.x() <= bi_max + 3.0 && hi.y() >= bj_min - 2.0
+        && lo.y() <= bj_max + 3.0))
     return false;
-  for (const auto key : small.raster.keys) {
+  for (const auto key : small.raster.keys()) {
     const Eigen::Vector2d f =
-      big.toRaster(small.cellCentre(keyI(key), keyJ(key), r), inv_r);
+      big_frame.toRaster(small_frame.cellCentre(keyI(key), keyJ(key), r), inv_r);
     std::int64_t ci = 0, cj = 0;
     if (!cellIndex(f.x(), ci) || !cellIndex(f.y(), cj))
       continue;
@@ -1579,9 +1889,8 @@ rastersTouch(const MapPlane& a, const MapPlane& b, double r)
       for (std::int64_t di = -1; di <= 1; ++di) {
         const std::int64_t x = ci + di, y = cj + dj;
         if (std::abs(x) <= MAX_CELL_INDEX && std::abs(y) <= MAX_CELL_INDEX
-            && big.raster.find(
-                 cellKey(static_cast<std::int32_t>(x), static_cast<std::int32_t>(y)))
-                 >= 0)
+            && big.raster.contains(
+              cellKey(static_cast<std::int32_t>(x), static_cast<std::int32_t>(y))))
           return true;
       }
   }
@@ -1603,37 +1912,44 @@ reanchor(MapPlane& plane, double r)
 
 } // namespace
 
-/** \brief Rebuilds dirty planes and the concatenated cuboids; caller holds the
- * mutex. */
+/** \brief Rebuilds the covers of the planes changed since; caller holds the mutex. */
 void
-SurfaceLayer::Impl::ensureCuboids(const Params& params)
+SurfaceLayer::Impl::ensureCovers(const Params& params)
 {
-  Impl& impl = *this;
-  if (impl.cache_valid)
-    return;
-  std::size_t total = impl.non_planar.size();
-  for (auto& plane : impl.planes) {
+  for (auto& plane : planes)
     if (plane.dirty)
       rebuildPlane(plane, params);
+}
+
+/** \brief Appends every plane's rectangles, then the non-planar cells; caller holds
+ * the mutex. */
+void
+SurfaceLayer::Impl::buildCuboids(const Params& params, PlanarCuboids& out)
+{
+  ensureCovers(params);
+  std::size_t total = non_planar.size();
+  for (const auto& plane : planes)
     total += plane.rects.size();
-  }
-  impl.all_cuboids.clear();
-  impl.all_cuboids.reserve(total);
+  out.reserve(out.size() + total);
   const auto thickness = static_cast<float>(params.thickness_m);
-  for (std::size_t p = 0; p < impl.planes.size(); ++p)
-    for (const RasterRect& rect : impl.planes[p].rects)
-      impl.all_cuboids.push_back(rectCuboid(impl.planes[p], rect, static_cast<int>(p),
-                                            params.resolution_m, thickness));
-  for (const auto& cell : impl.non_planar) {
-    PlanarCuboid c = cell.cuboid;
+  for (std::size_t p = 0; p < planes.size(); ++p) {
+    const MapPlane& plane = planes[p];
+    if (plane.rects.empty())
+      continue;
+    const RasterFrame frame = plane.frame();
+    const FacePlacement placement(frame, plane.normal);
+    for (const RasterRect& rect : plane.rects)
+      out.push_back(rectCuboid(plane, frame, placement, rect, static_cast<int>(p),
+                               params.resolution_m, thickness));
+  }
+  for (const auto& cell : non_planar) {
+    PlanarCuboid c = nonPlanarCuboid(cell);
     c.probability = cell.feature_count > 0
                       ? static_cast<float>(cell.probability_sum / cell.feature_count)
                       : 0.5f;
     c.point_count = cell.feature_count;
-    impl.all_cuboids.push_back(c);
+    out.push_back(c);
   }
-  impl.cache_valid = true;
-  impl.index_valid = false;
 }
 
 /** \brief Builds the spatial hash over all cuboids; caller holds the mutex. */
@@ -1641,14 +1957,15 @@ void
 SurfaceLayer::Impl::ensureIndex(const Params& params)
 {
   Impl& impl = *this;
-  ensureCuboids(params);
   if (impl.index_valid)
     return;
+  impl.index_cuboids.clear();
+  buildCuboids(params, impl.index_cuboids);
   impl.bins.clear();
   impl.large.clear();
   impl.bounds_min = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
   impl.bounds_max = -impl.bounds_min;
-  for (const auto& cuboid : impl.all_cuboids) {
+  for (const auto& cuboid : impl.index_cuboids) {
     Eigen::Vector3f lo, hi;
     cuboidBounds(cuboid, lo, hi);
     impl.bounds_min = impl.bounds_min.cwiseMin((lo.array() - 1e-4f).matrix());
@@ -1657,12 +1974,12 @@ SurfaceLayer::Impl::ensureIndex(const Params& params)
   // Bins of 4 cells; never more than 1e5 bins across the map's extent (a ray walks at
   // most ~3e5 bins), whatever the data.
   const float span =
-    impl.all_cuboids.empty() ? 0.0f : (impl.bounds_max - impl.bounds_min).maxCoeff();
+    impl.index_cuboids.empty() ? 0.0f : (impl.bounds_max - impl.bounds_min).maxCoeff();
   impl.bin_m = std::max(static_cast<float>(4.0 * params.resolution_m), span * 1e-5f);
   const float inv = 1.0f / impl.bin_m;
-  for (std::size_t c = 0; c < impl.all_cuboids.size(); ++c) {
+  for (std::size_t c = 0; c < impl.index_cuboids.size(); ++c) {
     Eigen::Vector3f lo, hi;
-    cuboidBounds(impl.all_cuboids[c], lo, hi);
+    cuboidBounds(impl.index_cuboids[c], lo, hi);
     lo.array() -= 1e-4f;
     hi.array() += 1e-4f;
     const Eigen::Vector3d a = (lo * inv).cast<double>().array().floor();
@@ -1805,9 +2122,8 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
   // Non-planar cuboids replace the cell with the same key.
   std::vector<std::vector<std::uint64_t>> marked(impl.planes.size());
   std::vector<std::uint32_t> frame_non_planar;
-  std::vector<NonPlanarCell, Eigen::aligned_allocator<NonPlanarCell>> incoming;
+  std::vector<PlanarCuboid> incoming;
   std::unordered_map<NonPlanarKey, std::size_t, NonPlanarKeyHash> frame_keys;
-  const std::uint32_t generation = ++impl.generation;
   const auto np_bin = static_cast<float>(4.0 * r);
   bool skipped = false;
   for (const PlanarCuboid& c : cuboids) {
@@ -1823,11 +2139,9 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
       continue;
     }
     if (!planar) {
-      NonPlanarCell cell;
-      cell.cuboid = c;
-      cell.cuboid.plane_id = -1;
-      cell.cuboid.is_planar = false;
-      cell.generation = generation;
+      PlanarCuboid cell = c;
+      cell.plane_id = -1;
+      cell.is_planar = false;
       const auto inserted = frame_keys.emplace(nonPlanarKey(c, r), incoming.size());
       if (inserted.second)
         incoming.push_back(cell);
@@ -1837,7 +2151,7 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
     }
     const auto m =
       static_cast<std::size_t>(map_of_frame[static_cast<std::size_t>(c.plane_id)]);
-    const MapPlane& mp = impl.planes[m];
+    const RasterFrame mp = impl.planes[m].frame();
     const auto face = c.face();
     float u_lo = std::numeric_limits<float>::max(), u_hi = -u_lo;
     float v_lo = u_lo, v_hi = -u_lo;
@@ -1885,10 +2199,7 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
   for (const int t : touched) {
     MapPlane& mp = impl.planes[static_cast<std::size_t>(t)];
     std::vector<std::uint64_t>& keys = marked[static_cast<std::size_t>(t)];
-    std::sort(keys.begin(), keys.end());
-    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-    if (mp.raster.insert(keys) > 0)
-      mp.updateBounds();
+    mp.raster.insert(keys);
     std::vector<std::uint64_t>().swap(keys);
     refitPlane(mp, cos_angle);
     mp.dirty = true;
@@ -1900,46 +2211,65 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
   {
     const float half_cell = static_cast<float>(0.5 * r);
     std::vector<std::uint32_t> doomed;
+    // a spatial index of the stored cells' bounding boxes (bins of 4 cells; cells
+    // spanning more than MAX_BINS_PER_CUBOID bins in a list tested always)
+    std::vector<BinEntry> np_bins;
+    std::vector<std::uint32_t> np_large;
+    if (!incoming.empty()) {
+      for (std::size_t k = 0; k < impl.non_planar.size(); ++k) {
+        const auto index = static_cast<std::uint32_t>(k);
+        if (!impl.forNonPlanarBins(
+              impl.nonPlanarCuboid(impl.non_planar[k]), 0.0f, np_bin,
+              [&](std::uint64_t key) { np_bins.emplace_back(key, index); }))
+          np_large.push_back(index);
+      }
+      std::sort(np_bins.begin(), np_bins.end());
+    }
+    // (every stored cell is of an earlier frame)
     const auto test = [&](const PlanarCuboid& nw, std::uint32_t index) {
       const NonPlanarCell& old = impl.non_planar[index];
-      if (old.generation != generation
-          && (nw.contains(old.cuboid.centre, half_cell)
-              || old.cuboid.contains(nw.centre)))
+      if (nw.contains(old.centre, half_cell)
+          || impl.nonPlanarCuboid(old).contains(nw.centre))
         doomed.push_back(index);
     };
-    for (const NonPlanarCell& cell : incoming) {
-      const PlanarCuboid& nw = cell.cuboid;
+    for (const PlanarCuboid& nw : incoming) {
       const bool binned =
         impl.forNonPlanarBins(nw, half_cell, np_bin, [&](std::uint64_t key) {
-          const auto it = impl.np_bins.find(key);
-          if (it != impl.np_bins.end())
-            for (const auto index : it->second)
-              test(nw, index);
+          const auto range =
+            std::equal_range(np_bins.begin(), np_bins.end(), BinEntry(key, 0));
+          for (auto it = range.first; it != range.second; ++it)
+            test(nw, it->index);
         });
       if (binned)
-        for (const auto index : impl.np_large)
+        for (const auto index : np_large)
           test(nw, index);
       else
         for (std::size_t index = 0; index < impl.non_planar.size(); ++index)
           test(nw, static_cast<std::uint32_t>(index));
     }
+    std::vector<BinEntry>().swap(np_bins);
     std::sort(doomed.begin(), doomed.end());
     doomed.erase(std::unique(doomed.begin(), doomed.end()), doomed.end());
     // highest first: the cell moved into a freed slot is never one still to remove
-    for (auto it = doomed.rbegin(); it != doomed.rend(); ++it)
-      impl.removeNonPlanar(*it, np_bin);
-    impl.non_planar.reserve(impl.non_planar.size() + incoming.size());
-    for (const NonPlanarCell& cell : incoming) {
-      const auto index = static_cast<std::uint32_t>(impl.non_planar.size());
-      impl.non_planar.push_back(cell);
-      impl.addNonPlanarBins(index, np_bin);
-      frame_non_planar.push_back(index);
+    for (auto it = doomed.rbegin(); it != doomed.rend(); ++it) {
+      if (*it + 1 != impl.non_planar.size())
+        impl.non_planar[*it] = impl.non_planar.back();
+      impl.non_planar.pop_back();
     }
+    std::map<AxesKey, std::uint32_t> axes_lookup;
+    for (std::size_t a = 0; a < impl.np_axes.size(); ++a)
+      axes_lookup.emplace(
+        axesKey(impl.np_axes[a].normal, impl.np_axes[a].horizontal_axis),
+        static_cast<std::uint32_t>(a));
+    impl.non_planar.reserve(impl.non_planar.size() + incoming.size());
+    for (const PlanarCuboid& c : incoming) {
+      frame_non_planar.push_back(static_cast<std::uint32_t>(impl.non_planar.size()));
+      impl.non_planar.emplace_back(c, impl.internAxes(c, axes_lookup));
+    }
+    if (!doomed.empty())
+      impl.pruneAxes();
+    impl.non_planar.shrink_to_fit();
   }
-
-  // 3. Features: each adds its probability to the observed cell it falls in on every
-  // touched plane within feature_distance_m, and to this frame's non-planar cells
-  // containing it.
 
   // 5. Features: each adds its probability to the observed cell it falls in on every
   // touched plane within feature_distance_m, and to this frame's non-planar cells
@@ -1959,7 +2289,7 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
     std::vector<std::uint32_t> large;
     for (const auto index : frame_non_planar) {
       Eigen::Vector3f lo, hi;
-      cuboidBounds(impl.non_planar[index].cuboid, lo, hi);
+      cuboidBounds(impl.nonPlanarCuboid(impl.non_planar[index]), lo, hi);
       const Eigen::Vector3d a = (lo / bin).cast<double>().array().floor();
       const Eigen::Vector3d b = (hi / bin).cast<double>().array().floor();
       if (!((b - a + Eigen::Vector3d::Ones()).prod() <= MAX_BINS_PER_CUBOID)) {
@@ -1975,27 +2305,32 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
             bins[binKey(x, y, z)].push_back(index);
     }
     const float feature_distance = static_cast<float>(params_.feature_distance_m);
+    // the features of each touched plane's cells, added once per plane below
+    std::vector<RasterFrame> frames;
+    std::vector<std::vector<CellEvidence>> evidence(touched.size());
+    for (const int m : touched)
+      frames.push_back(impl.planes[static_cast<std::size_t>(m)].frame());
     for (std::size_t f = 0; f < features.size(); ++f) {
       const Eigen::Vector3f p = features[f].getVector3fMap();
       const float prob = probabilities[f];
       if (!finiteVector(p) || !(prob >= 0.0f && prob <= 1.0f))
         continue;
-      for (const int m : touched) {
-        MapPlane& mp = impl.planes[static_cast<std::size_t>(m)];
+      for (std::size_t t = 0; t < touched.size(); ++t) {
+        const MapPlane& mp = impl.planes[static_cast<std::size_t>(touched[t])];
         if (std::abs(mp.normal.dot(p) + mp.d) > feature_distance)
           continue;
-        const Eigen::Vector2d cell = mp.toRaster(p, inv_r);
+        const Eigen::Vector2d cell = frames[t].toRaster(p, inv_r);
         std::int64_t i = 0, j = 0;
         if (!cellIndex(cell.x(), i) || !cellIndex(cell.y(), j))
           continue;
-        const std::ptrdiff_t k = mp.raster.find(
-          cellKey(static_cast<std::int32_t>(i), static_cast<std::int32_t>(j)));
-        if (k >= 0)
-          mp.raster.addEvidence(static_cast<std::size_t>(k), prob, 1);
+        // (cells not observed are ignored by addEvidence())
+        evidence[t].push_back(CellEvidence{
+          cellKey(static_cast<std::int32_t>(i), static_cast<std::int32_t>(j)), prob,
+          1});
       }
       const auto add = [&](std::uint32_t index) {
         NonPlanarCell& cell = impl.non_planar[index];
-        if (cell.cuboid.contains(p)) {
+        if (impl.nonPlanarCuboid(cell).contains(p)) {
           cell.probability_sum += prob;
           ++cell.feature_count;
         }
@@ -2010,6 +2345,10 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
       for (const auto index : large)
         add(index);
     }
+    for (std::size_t t = 0; t < touched.size(); ++t)
+      if (!evidence[t].empty())
+        impl.planes[static_cast<std::size_t>(touched[t])].raster.addEvidence(
+          evidence[t]);
   }
 
   // 6. Map planes that converged merge (header): a touched plane and any other that
@@ -2061,7 +2400,10 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
     if (mp.normal.dot(mp.frame_normal) < cos_reanchor)
       reanchor(mp, r);
   }
+  // no spare capacity: the map holds what it uses
+  impl.planes.shrink_to_fit();
   impl.plane_models.resize(impl.planes.size());
+  impl.plane_models.shrink_to_fit();
   for (std::size_t p = 0; p < impl.planes.size(); ++p)
     impl.plane_models[p] =
       Eigen::Vector4f(impl.planes[p].normal.x(), impl.planes[p].normal.y(),
@@ -2069,12 +2411,24 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
   impl.invalidate();
 }
 
-const PlanarCuboids&
+PlanarCuboids
 SurfaceLayer::getCuboids() const
 {
   std::lock_guard<std::mutex> lock(impl_->mutex);
-  impl_->ensureCuboids(params_);
-  return impl_->all_cuboids;
+  PlanarCuboids cuboids;
+  impl_->buildCuboids(params_, cuboids);
+  return cuboids;
+}
+
+std::size_t
+SurfaceLayer::getCuboidCount() const
+{
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->ensureCovers(params_);
+  std::size_t n = impl_->non_planar.size();
+  for (const auto& plane : impl_->planes)
+    n += plane.rects.size();
+  return n;
 }
 
 const PlaneModels&
@@ -2101,12 +2455,9 @@ SurfaceLayer::getMemoryBytes() const
   bytes += vectorBytes(impl.planes) + vectorBytes(impl.plane_models);
   for (const auto& plane : impl.planes)
     bytes += plane.raster.bytes() + vectorBytes(plane.rects);
-  bytes += vectorBytes(impl.non_planar) + hashMapBytes(impl.np_bins)
-           + vectorBytes(impl.np_large);
-  for (const auto& kv : impl.np_bins)
-    bytes += vectorBytes(kv.second);
+  bytes += vectorBytes(impl.non_planar) + vectorBytes(impl.np_axes);
   bytes +=
-    vectorBytes(impl.all_cuboids) + hashMapBytes(impl.bins) + vectorBytes(impl.large);
+    vectorBytes(impl.index_cuboids) + hashMapBytes(impl.bins) + vectorBytes(impl.large);
   for (const auto& kv : impl.bins)
     bytes += vectorBytes(kv.second);
   return bytes;
@@ -2123,7 +2474,7 @@ SurfaceLayer::findCuboid(const Eigen::Vector3f& point) const
   const float inv = 1.0f / impl.bin_m;
   const std::uint32_t* best = nullptr;
   const auto consider = [&](const std::uint32_t& c) {
-    if ((best == nullptr || c < *best) && impl.all_cuboids[c].contains(point))
+    if ((best == nullptr || c < *best) && impl.index_cuboids[c].contains(point))
       best = &c;
   };
   if ((point.array() >= impl.bounds_min.array()).all()
@@ -2138,7 +2489,7 @@ SurfaceLayer::findCuboid(const Eigen::Vector3f& point) const
   }
   for (const auto& c : impl.large)
     consider(c);
-  return best == nullptr ? nullptr : &impl.all_cuboids[*best];
+  return best == nullptr ? nullptr : &impl.index_cuboids[*best];
 }
 
 bool
@@ -2156,14 +2507,14 @@ SurfaceLayer::castRay(const Eigen::Vector3f& origin,
   std::lock_guard<std::mutex> lock(impl_->mutex);
   Impl& impl = *impl_;
   impl.ensureIndex(params_);
-  if (impl.all_cuboids.empty())
+  if (impl.index_cuboids.empty())
     return false;
   const float max_t = static_cast<float>(std::min(max_range_m, 1e9));
   const float thres = static_cast<float>(params_.occupancy_thres);
   float best_t = std::numeric_limits<float>::infinity();
   std::size_t best_index = 0;
   const auto test = [&](std::uint32_t c) {
-    const PlanarCuboid& box = impl.all_cuboids[c];
+    const PlanarCuboid& box = impl.index_cuboids[c];
     if (!(box.probability >= thres))
       return;
     const float t = rayBoxEntry(box, origin, dir, max_t);
@@ -2267,32 +2618,31 @@ SurfaceLayer::serialize(std::vector<std::uint8_t>& bytes) const
     w.put(m.weight);
     for (int k = 0; k < 3; ++k)
       w.put(m.sum[k]);
-    for (int a = 0; a < 3; ++a)
-      for (int b = a; b < 3; ++b)
-        w.put(m.sum_sq(a, b));
+    for (const double v : m.sum_sq_upper) // xx, xy, xz, yy, yz, zz
+      w.put(v);
     const Raster& raster = plane.raster;
     w.put(static_cast<std::uint64_t>(raster.size()));
-    for (std::size_t k = 0; k < raster.size(); ++k) {
-      w.put(keyI(raster.keys[k]));
-      w.put(keyJ(raster.keys[k]));
-      w.put(raster.probability_sums[k]);
-      w.put(raster.feature_counts[k]);
-    }
+    raster.forEachCell([&w](std::uint64_t key, float sum, std::uint16_t count) {
+      w.put(keyI(key));
+      w.put(keyJ(key));
+      w.put(sum);
+      w.put(count);
+    });
   }
   w.put(static_cast<std::uint64_t>(impl.non_planar.size()));
-  for (const auto& cell : impl.non_planar) {
-    const PlanarCuboid& c = cell.cuboid;
+  for (const auto& c : impl.non_planar) {
+    const BoxAxes& axes = impl.np_axes[c.axes];
     for (int k = 0; k < 3; ++k)
       w.put(c.centre[k]);
     for (int k = 0; k < 3; ++k)
-      w.put(c.normal[k]);
+      w.put(axes.normal[k]);
     for (int k = 0; k < 3; ++k)
-      w.put(c.horizontal_axis[k]);
+      w.put(axes.horizontal_axis[k]);
     w.put(c.width_m);
     w.put(c.height_m);
     w.put(c.thickness_m);
-    w.put(cell.probability_sum);
-    w.put(cell.feature_count);
+    w.put(c.probability_sum);
+    w.put(c.feature_count);
   }
 }
 
@@ -2390,17 +2740,19 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
     m.weight = rd.get<double>();
     for (int k = 0; k < 3; ++k)
       m.sum[k] = rd.get<double>();
-    for (int a = 0; a < 3; ++a)
-      for (int b = a; b < 3; ++b)
-        m.sum_sq(a, b) = m.sum_sq(b, a) = rd.get<double>();
+    for (double& v : m.sum_sq_upper)
+      v = rd.get<double>();
     if (!m.anchor.allFinite() || m.anchor.cwiseAbs().maxCoeff() > MAX_COORDINATE_M
         || !(m.weight > 0.0) || !std::isfinite(m.weight) || !m.sum.allFinite()
-        || !m.sum_sq.allFinite())
+        || !m.sumSq().allFinite())
       throw IOError(which + " has invalid evidence moments");
     const std::size_t cell_count = rd.getCount(CELL_BYTES, "cell");
-    mp.raster.keys.reserve(cell_count);
-    mp.raster.probability_sums.reserve(cell_count);
-    mp.raster.feature_counts.reserve(cell_count);
+    std::vector<std::uint64_t> keys;
+    std::vector<float> sums;
+    std::vector<std::uint16_t> counts;
+    keys.reserve(cell_count);
+    sums.reserve(cell_count);
+    counts.reserve(cell_count);
     for (std::size_t c = 0; c < cell_count; ++c) {
       const auto i = rd.get<std::int32_t>();
       const auto j = rd.get<std::int32_t>();
@@ -2410,23 +2762,23 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
           || std::abs(static_cast<double>(j)) > MAX_CELL_INDEX)
         throw IOError(which + ": cell index out of range");
       const std::uint64_t key = cellKey(i, j);
-      if (!mp.raster.keys.empty() && !(key > mp.raster.keys.back()))
+      if (!keys.empty() && !(key > keys.back()))
         throw IOError(which + ": cells not sorted or duplicated");
       checkSum(sum, count, "cell");
-      mp.raster.keys.push_back(key);
-      mp.raster.probability_sums.push_back(sum);
-      mp.raster.feature_counts.push_back(count);
+      keys.push_back(key);
+      sums.push_back(sum);
+      counts.push_back(count);
     }
-    mp.updateBounds();
+    mp.raster.assign(keys, sums, counts);
     impl->plane_models.emplace_back(normal.x(), normal.y(), normal.z(), d);
     impl->planes.push_back(std::move(mp));
   }
   const std::size_t non_planar_count = rd.getCount(NON_PLANAR_BYTES, "non-planar cell");
   std::unordered_map<NonPlanarKey, std::uint32_t, NonPlanarKeyHash> non_planar_keys;
   impl->non_planar.reserve(non_planar_count);
+  std::map<AxesKey, std::uint32_t> axes_lookup;
   for (std::size_t k = 0; k < non_planar_count; ++k) {
-    NonPlanarCell cell;
-    PlanarCuboid& c = cell.cuboid;
+    PlanarCuboid c;
     for (int a = 0; a < 3; ++a)
       c.centre[a] = rd.get<float>();
     for (int a = 0; a < 3; ++a)
@@ -2436,8 +2788,8 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
     c.width_m = rd.get<float>();
     c.height_m = rd.get<float>();
     c.thickness_m = rd.get<float>();
-    cell.probability_sum = rd.get<double>();
-    cell.feature_count = rd.get<std::uint32_t>();
+    const auto probability_sum = rd.get<double>();
+    const auto feature_count = rd.get<std::uint32_t>();
     const auto extent_ok = [](float e) {
       return std::isfinite(e) && e >= 0.0f && e <= MAX_COORDINATE_M;
     };
@@ -2447,17 +2799,16 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
         || !extent_ok(c.height_m) || !extent_ok(c.thickness_m))
       throw IOError("surface layer: non-planar cell " + std::to_string(k)
                     + " has invalid geometry");
-    checkSum(cell.probability_sum, cell.feature_count, "non-planar cell");
-    c.plane_id = -1;
-    c.is_planar = false;
+    checkSum(probability_sum, feature_count, "non-planar cell");
     const auto key = nonPlanarKey(c, params.resolution_m);
     if (!non_planar_keys.emplace(key, static_cast<std::uint32_t>(k)).second)
       throw IOError("surface layer: duplicate non-planar cell " + std::to_string(k));
+    NonPlanarCell cell(c, impl->internAxes(c, axes_lookup));
+    cell.probability_sum = probability_sum;
+    cell.feature_count = feature_count;
     impl->non_planar.push_back(cell);
   }
-  const auto np_bin = static_cast<float>(4.0 * params.resolution_m);
-  for (std::size_t k = 0; k < impl->non_planar.size(); ++k)
-    impl->addNonPlanarBins(static_cast<std::uint32_t>(k), np_bin);
+  impl->np_axes.shrink_to_fit();
   if (rd.remaining() != 0)
     throw IOError("surface layer: " + std::to_string(rd.remaining())
                   + " unexpected trailing bytes");
@@ -2539,11 +2890,11 @@ SurfaceLayer::operator==(const SurfaceLayer& other) const
   for (std::size_t k = 0; k < x.non_planar.size(); ++k) {
     const NonPlanarCell& c = x.non_planar[k];
     const NonPlanarCell& e = y.non_planar[k];
-    if (c.cuboid.centre != e.cuboid.centre || c.cuboid.normal != e.cuboid.normal
-        || c.cuboid.horizontal_axis != e.cuboid.horizontal_axis
-        || c.cuboid.width_m != e.cuboid.width_m
-        || c.cuboid.height_m != e.cuboid.height_m
-        || c.cuboid.thickness_m != e.cuboid.thickness_m
+    const BoxAxes& ca = x.np_axes[c.axes];
+    const BoxAxes& ea = y.np_axes[e.axes];
+    if (c.centre != e.centre || ca.normal != ea.normal
+        || ca.horizontal_axis != ea.horizontal_axis || c.width_m != e.width_m
+        || c.height_m != e.height_m || c.thickness_m != e.thickness_m
         || c.probability_sum != e.probability_sum || c.feature_count != e.feature_count)
       return false;
   }

@@ -139,9 +139,10 @@ SurfaceMergeRule surfaceMergeRuleFromString(const std::string& name);
  *   replaced, not piled up; a stored cell that no new cell overlaps so is kept).
  *   Cells of the same frame never remove each other, except that of two with the
  *   same key (centre quantised to resolution_m cells, extents rounded to
- *   resolution_m) the later is kept. Candidates come from a spatial hash of the
- *   stored cells' bounding boxes (bins of 4 cells), so integrate() costs O(new
- *   cells x cells per bin).
+ *   resolution_m) the later is kept. Candidates come from a spatial index of the
+ *   stored cells' bounding boxes (bins of 4 cells: a sorted array built by each
+ *   integrate() that has non-planar cuboids, not held), so integrate() costs
+ *   O(stored cells log stored cells + new cells x cells per bin).
  * - Occupancy (end of Sec. III-F): a planar cell's probability is the mean probability
  *   of the features that fell inside it (all frames; a feature counts when it is
  *   within feature_distance_m of a map plane the frame touched and its cell is
@@ -153,11 +154,21 @@ SurfaceMergeRule surfaceMergeRuleFromString(const std::string& name);
  *   cells and its point_count the number of features in it. A non-planar cuboid's
  *   probability is the mean of its frame's features inside the box, 0.5 without any
  *   (neighbours of non-planar cells are not defined on a raster).
- * - Memory: a raster is three sorted arrays (cell key 8 B, probability sum 4 B,
- *   feature count 2 B: 14 B per observed cell), plus 24 B per cached rectangle.
- * - Queries use a spatial hash of the cuboids' bounding boxes (bins of 4 cells),
- *   rebuilt lazily and freed by integrate() (it is stale then); const methods are safe
- *   to call from several threads (a mutex guards the rebuild), integrate() is not.
+ * - Memory: a raster is a sorted array of tiles of 8 x 8 cells (tile key, a 64-bit
+ *   mask of the observed cells and one of the cells with features: 24 B per tile)
+ *   and the evidence (probability sum f32, feature count u16: 6 B) of the cells with
+ *   features only. A plane holds its frame and refined planes (32 B) and its moments
+ *   (13 doubles); the frame's axes and the faces' placement are derived when needed.
+ *   Its cover is cached, 24 B per rectangle. A non-planar cell is 40 B (centre,
+ *   extents, f64 sum, u32 count and the index of its orientation in a table of the
+ *   distinct (normal, horizontal axis) pairs, 24 B each: typically one for a whole
+ *   map). The vectors hold no spare capacity after integrate(). The cuboid list is
+ *   not held: getCuboids() builds it.
+ * - Queries (findCuboid(), castRay()) use a copy of the cuboids and a spatial hash of
+ *   their bounding boxes (bins of 4 cells), built on the first query and freed by
+ *   integrate() (it is stale then); getMemoryBytes() counts them while held. Const
+ *   methods are safe to call from several threads (a mutex guards the builds),
+ *   integrate() is not.
  * - Invalid input (non-finite cuboids or features, probabilities outside [0, 1], a
  *   face of more than 1e7 cells) is skipped with a PCL_WARN; integrate() never throws.
  * \ingroup map */
@@ -223,8 +234,14 @@ public:
 
   /** \brief The merged cuboids: every map plane's rectangles (plane_id = the map's
    * plane index, into getPlanes()), then the non-planar cells (plane_id -1). Stable
-   * order for the same integrations. */
-  const PlanarCuboids& getCuboids() const;
+   * order for the same integrations. Built on each call from the planes' cached
+   * rectangles (the covers of the planes changed since the last query are rebuilt
+   * first) and returned by value: the layer does not hold the list, and
+   * getMemoryBytes() does not count it. Bind the result (const auto& cuboids =
+   * layer.getCuboids()) rather than calling it in a loop. */
+  PlanarCuboids getCuboids() const;
+  /** \brief getCuboids().size(), without building the list. */
+  [[nodiscard]] std::size_t getCuboidCount() const;
   /** \brief The map's planes [a, b, c, d] (unit normal toward the sensors that saw
    * them, d in meters), world frame: each the least-squares plane of its evidence. */
   const PlaneModels& getPlanes() const;
@@ -232,15 +249,15 @@ public:
    * filled by the gap closing) plus non-planar cells. */
   [[nodiscard]] std::size_t getCellCount() const;
   /** \brief Bytes held: vector capacities (planes, rasters, cached rectangles,
-   * non-planar cells, cached cuboids) and hash-map buckets and nodes (non-planar
-   * index, spatial index), as currently built (the caches are built by the
-   * queries). */
+   * non-planar cells and their index) and, while held, the query index of
+   * findCuboid() and castRay() (its copy of the cuboids, hash-map buckets and
+   * nodes). Allocator overhead per allocation is not counted. */
   [[nodiscard]] std::size_t getMemoryBytes() const;
 
   /** \brief The cuboid containing \a point (PlanarCuboid::contains, boundary
    * included), or nullptr; when several contain it, the one with the lowest index in
-   * getCuboids(). The pointer is valid until the next integrate(), deserialize() or
-   * clear(). */
+   * getCuboids(). The pointer (into the query index's copy of the cuboids) is valid
+   * until the next integrate(), deserialize() or clear(). */
   [[nodiscard]] const PlanarCuboid* findCuboid(const Eigen::Vector3f& point) const;
 
   /** \brief First cuboid hit by a ray whose probability >= occupancy_thres.
