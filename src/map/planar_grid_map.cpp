@@ -334,7 +334,7 @@ PlanarGridMap::serialize(std::string& bytes) const
          << space_.getVoxelCount(SpaceState::OCCUPIED) << " "
          << space_.getVoxelCount(SpaceState::UNKNOWN) << "\n"
          << "planes " << surface_.getPlanes().size() << "\n"
-         << "cuboids " << surface_.getCuboids().size() << "\n"
+         << "cuboids " << surface_.getCuboidCount() << "\n"
          << "space_bytes " << space_bytes << "\n"
          << "surface_bytes " << surface_bytes << "\n";
   // The checksum covers every header byte before its own line, then the data: a
@@ -542,7 +542,7 @@ PlanarGridMap::deserialize(const std::string& bytes, const std::string& path)
       || map.space_.getVoxelCount(SpaceState::UNKNOWN) != voxels[2])
     header.fail("the decoded voxel counts differ from the header's 'voxels'");
   if (map.surface_.getPlanes().size() != planes
-      || map.surface_.getCuboids().size() != cuboids)
+      || map.surface_.getCuboidCount() != cuboids)
     header.fail("the decoded plane or cuboid count differs from the header's");
   if (old_free_prior)
     PCL_WARN("[planar_grid::PlanarGridMap::load] %s: a version %d map with the free "

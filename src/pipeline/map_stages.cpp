@@ -317,7 +317,7 @@ public:
         depthFromCloud(frame);
       map.integrateDepthImage(depth_, frame.world_T_camera);
     }
-    cuboids_ = map.getSurfaceLayer().getCuboids().size();
+    cuboids_ = map.getSurfaceLayer().getCuboidCount();
     // The block count is O(1); the map's bytes (a walk over every block) are
     // reported once, at the end of the run.
     space_blocks_ = map.getSpaceLayer().getBlockCount();

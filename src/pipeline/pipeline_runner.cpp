@@ -315,13 +315,14 @@ PipelineRunner::run()
     const PlanarGridMap& map = *state_.map;
     const auto& space = map.getSpaceLayer();
     const auto& surface = map.getSurfaceLayer();
+    const PlanarCuboids cuboids = surface.getCuboids();
     std::size_t planar = 0;
-    for (const auto& c : surface.getCuboids()) // rebuilds the cuboids if stale
+    for (const auto& c : cuboids)
       planar += c.is_planar;
-    const MapMemory memory = map.getMemory(); // after the rebuild
+    const MapMemory memory = map.getMemory();
     report.map_summary = {
       {"resolution_m", map.getResolution()},
-      {"cuboids", static_cast<double>(surface.getCuboids().size())},
+      {"cuboids", static_cast<double>(cuboids.size())},
       {"planar_cuboids", static_cast<double>(planar)},
       {"planes", static_cast<double>(surface.getPlanes().size())},
       {"plane_cells", static_cast<double>(surface.getCellCount())},
