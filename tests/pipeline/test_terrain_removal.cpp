@@ -10,6 +10,7 @@
 
 #include <cmath>
 #include <map>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -23,6 +24,33 @@ struct Street {
   std::vector<int> label;
 };
 
+/** Appends a point whose intensity holds its label. */
+void
+addLabelled(planar_grid::Frame::Cloud& cloud, float x, float y, float z, Label l)
+{
+  pcl::PointXYZI p;
+  p.x = x;
+  p.y = y;
+  p.z = z;
+  p.intensity = static_cast<float>(l);
+  cloud.push_back(p);
+}
+
+/** Makes \a cloud the frame's world-frame cloud, seen from 1.6 m above the origin. */
+void
+setWorldCloud(Street& s,
+              const std::shared_ptr<planar_grid::Frame::Cloud>& cloud,
+              const std::string& name)
+{
+  cloud->sensor_origin_ = Eigen::Vector4f(0.0f, 0.0f, 1.6f, 1.0f);
+  s.frame.cloud = cloud;
+  s.frame.cloud_in_world_frame = true;
+  s.frame.has_pose = true;
+  s.frame.world_T_camera = Eigen::Isometry3d::Identity();
+  s.frame.world_T_camera.translation() = Eigen::Vector3d(0.0, 0.0, 1.6);
+  s.frame.name = name;
+}
+
 /** A 30 m x 24 m street in the world frame (z up), sensor 1.6 m above the road at the
  * origin. Points every 0.1 m, Gaussian noise of sigma_m along z (along y for the
  * wall), the intensity field holds the label. */
@@ -35,12 +63,7 @@ makeStreet(double sigma_m)
   std::normal_distribution<float> noise(0.0f, static_cast<float>(sigma_m));
   std::uniform_real_distribution<float> rough(-0.04f, 0.04f);
   const auto add = [&](float x, float y, float z, Label l) {
-    pcl::PointXYZI p;
-    p.x = x;
-    p.y = y;
-    p.z = z;
-    p.intensity = static_cast<float>(l);
-    cloud->push_back(p);
+    addLabelled(*cloud, x, y, z, l);
   };
   const float step = 0.1f;
   for (float x = -5.0f; x < 25.0f; x += step) {
@@ -76,13 +99,7 @@ makeStreet(double sigma_m)
       add(6.0f, y, z, CAR);
     }
   }
-  cloud->sensor_origin_ = Eigen::Vector4f(0.0f, 0.0f, 1.6f, 1.0f);
-  s.frame.cloud = cloud;
-  s.frame.cloud_in_world_frame = true;
-  s.frame.has_pose = true;
-  s.frame.world_T_camera = Eigen::Isometry3d::Identity();
-  s.frame.world_T_camera.translation() = Eigen::Vector3d(0.0, 0.0, 1.6);
-  s.frame.name = "street";
+  setWorldCloud(s, cloud, "street");
   return s;
 }
 
@@ -166,12 +183,7 @@ TEST(TerrainRemoval, PlanesListedBeforeTheGroundKeepTheirCoefficientsAndInliers)
   Street s;
   auto cloud = std::make_shared<planar_grid::Frame::Cloud>();
   const auto add = [&](float x, float y, float z, Label l) {
-    pcl::PointXYZI p;
-    p.x = x;
-    p.y = y;
-    p.z = z;
-    p.intensity = static_cast<float>(l);
-    cloud->push_back(p);
+    addLabelled(*cloud, x, y, z, l);
   };
   for (float x = -3.0f; x < 3.0f; x += 0.1f)
     for (float y = -1.0f; y < 2.9f; y += 0.1f)
@@ -179,13 +191,7 @@ TEST(TerrainRemoval, PlanesListedBeforeTheGroundKeepTheirCoefficientsAndInliers)
   for (float x = -10.0f; x < 10.0f; x += 0.1f)
     for (float z = 0.1f; z < 5.0f; z += 0.1f)
       add(x, 3.0f, z, WALL); // 200 x 49 points
-  cloud->sensor_origin_ = Eigen::Vector4f(0.0f, 0.0f, 1.6f, 1.0f);
-  s.frame.cloud = cloud;
-  s.frame.cloud_in_world_frame = true;
-  s.frame.has_pose = true;
-  s.frame.world_T_camera = Eigen::Isometry3d::Identity();
-  s.frame.world_T_camera.translation() = Eigen::Vector3d(0.0, 0.0, 1.6);
-  s.frame.name = "room";
+  setWorldCloud(s, cloud, "room");
   std::map<int, std::size_t> before;
   auto after = removeTerrain(s, {}, before);
   ASSERT_TRUE(s.frame.has_ground);
