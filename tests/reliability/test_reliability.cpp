@@ -603,3 +603,17 @@ TEST_F(ReliabilityTest, PCDHeaderPCLCannotReadIsAnIOErrorNamingTheFile)
   what = runError(pcdConfig(short_size.string()));
   EXPECT_NE(what.find("short_size.pcd: "), std::string::npos) << what;
 }
+
+TEST_F(ReliabilityTest, PCDDataPCLReadsShortOfItsHeightIsAnIOErrorNamingTheFile)
+{
+  // Found by fuzz_pcd_frame: an organized ASCII file (WIDTH 4, HEIGHT 2) whose header
+  // lines repeat inside the data. PCL's reader kept fewer points than width x height
+  // said, and the conversion to points read past its data (heap-buffer-overflow).
+  const fs::path bad = dir_ / "short_rows.pcd";
+  fs::copy_file(std::string(PLANAR_GRID_SOURCE_DIR)
+                  + "/tests/fuzz/corpus/fuzz_pcd_frame/"
+                    "crash_ascii_rows_short_of_height.pcd",
+                bad);
+  const std::string what = runError(pcdConfig(bad.string()));
+  EXPECT_NE(what.find("short_rows.pcd: "), std::string::npos) << what;
+}

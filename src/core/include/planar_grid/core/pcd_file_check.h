@@ -7,6 +7,10 @@
 #include <string>
 #include <vector>
 
+namespace pcl {
+struct PCLPointCloud2;
+} // namespace pcl
+
 namespace planar_grid {
 
 /** \brief What checkPCDFile() read from a PCD header. \ingroup core */
@@ -51,5 +55,16 @@ struct PCDFileInfo {
  * "has no x, y, z fields", "VIEWPOINT ... is not a valid pose")
  * \ingroup core */
 PCDFileInfo checkPCDFile(const std::string& path);
+
+/** \brief Checks what pcl::io::loadPCDFile() made of a file that checkPCDFile() passed,
+ * before it is converted to points: its data must hold width * height points of
+ * point_step bytes (row_step = width * point_step), and every field must lie inside the
+ * point. PCL's ASCII reader can end with fewer points than width * height say (it
+ * shortens the data and the width of a malformed file but keeps the height), and
+ * pcl::fromPCLPointCloud2() then reads past the data.
+ * \param[in] blob the cloud as read \param[in] path the file, for the message
+ * \throws planar_grid::IOError naming the file and the sizes
+ * \ingroup core */
+void checkPCDBlob(const pcl::PCLPointCloud2& blob, const std::string& path);
 
 } // namespace planar_grid
