@@ -399,13 +399,14 @@ checkPCDBlob(const pcl::PCLPointCloud2& blob, const std::string& path)
                   + std::to_string(blob.point_step)
                   + " bytes (the data and the header disagree)");
   for (const auto& field : blob.fields) {
-    const std::uint64_t end = static_cast<std::uint64_t>(field.offset)
-                              + static_cast<std::uint64_t>(pcl::getFieldSize(field.datatype))
-                                  * std::max<std::uint64_t>(field.count, 1);
+    const std::uint64_t end =
+      static_cast<std::uint64_t>(field.offset)
+      + static_cast<std::uint64_t>(pcl::getFieldSize(field.datatype))
+          * std::max<std::uint64_t>(field.count, 1);
     if (end > blob.point_step)
-      throw IOError(path + ": the field '" + field.name
-                    + "' reaches past the point (" + std::to_string(end) + " of "
-                    + std::to_string(blob.point_step) + " bytes)");
+      throw IOError(path + ": the field '" + field.name + "' reaches past the point ("
+                    + std::to_string(end) + " of " + std::to_string(blob.point_step)
+                    + " bytes)");
   }
 }
 
