@@ -149,11 +149,17 @@ loadYamlFile(const std::string& path)
     if (!probe)
       throw IOError(path + ": cannot open the calibration file");
   }
+  YAML::Node root;
   try {
-    return YAML::LoadFile(path);
+    root = YAML::LoadFile(path);
   } catch (const YAML::Exception& e) {
     throw IOError(path + ": not valid YAML: " + e.what());
   }
+  // The fields are looked up by name: a scalar or a list at the top has none (and
+  // yaml-cpp throws on a lookup in a scalar).
+  if (!root.IsMap())
+    throw IOError(path + ": not a YAML map of calibration fields");
+  return root;
 }
 
 /** \brief The child \a key of \a node, which must exist. */

@@ -402,6 +402,20 @@ TEST_F(ReliabilityCalibration, EuRoCPairWithZeroBaselineIsAnIOError)
   EXPECT_NE(what.find("baseline"), std::string::npos) << what;
 }
 
+TEST_F(ReliabilityCalibration, EuRoCFileThatIsNotAYamlMapIsAnIOError)
+{
+  // Found by fuzz_calibration: a file whose top level is a scalar (a stray first line)
+  // made yaml-cpp throw on the first field lookup, and the exception ended the process.
+  const std::string right =
+    std::string(PLANAR_GRID_DATA_DIR) + "/euroc_v1_01_pairs/sensorRight.yaml";
+  for (const char* text : {"just a sentence\n", "- 1\n- 2\n"}) {
+    const std::string left = (dir_ / "not_a_map.yaml").string();
+    std::ofstream(left) << text;
+    const std::string what = errorOf(left, right);
+    EXPECT_NE(what.find("not_a_map.yaml: not a YAML map"), std::string::npos) << what;
+  }
+}
+
 TEST_F(ReliabilityCalibration, EuRoCNonFiniteOrHugeValuesAreIOErrors)
 {
   const std::string right =
