@@ -9,9 +9,8 @@
 #include <pcl/filters/voxel_grid.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_types.h>
-#include <pcl/sample_consensus/method_types.h>
-#include <pcl/sample_consensus/model_types.h>
-#include <pcl/segmentation/sac_segmentation.h>
+#include <pcl/sample_consensus/ransac.h>
+#include <pcl/sample_consensus/sac_model_plane.h>
 
 #include <gtest/gtest.h>
 
@@ -693,41 +692,49 @@ wallFloorAndBlob(std::vector<int>* wall_inliers = nullptr)
   return cloud;
 }
 
-// PCL's own plane output: pcl::SACSegmentation run once per plane (each run on the
-// points the earlier planes left) gives parallel ModelCoefficients and PointIndices
+// PCL's own plane output: its plane RANSAC run once per plane (each run on the points
+// the earlier planes left) gives parallel ModelCoefficients and PointIndices
 // with unit normals of either sign. Passed in as they are, they give exactly the
 // cuboids of the project's PlanarSegments holding the same planes with the normals
 // turned toward the sensor, as SACMultiPlaneSegmentation gives them.
-TEST(PlanarCuboidApproximation, PlanesFromPCLSACSegmentationGiveTheSameCuboids)
+TEST(PlanarCuboidApproximation, PlanesFromPCLRansacGiveTheSameCuboids)
 {
+  // PCL's plane RANSAC as pcl::SACSegmentation runs it (the best model, its
+  // least-squares refinement, the points within the threshold of the refined plane),
+  // written out as PCL's ModelCoefficients and PointIndices. The models are made here,
+  // not inside libpcl_segmentation, so that the sanitizer build allocates and frees
+  // them on one side.
   const auto cloud = wallFloorAndBlob();
-  pcl::SACSegmentation<pcl::PointXYZ> sac;
-  sac.setModelType(pcl::SACMODEL_PLANE);
-  sac.setMethodType(pcl::SAC_RANSAC);
-  sac.setDistanceThreshold(0.02);
-  sac.setMaxIterations(500);
-  sac.setInputCloud(cloud);
   std::vector<pcl::ModelCoefficients> model_coefficients;
   std::vector<pcl::PointIndices> inliers;
-  pcl::IndicesPtr remaining(new pcl::Indices(cloud->size()));
+  pcl::Indices remaining(cloud->size());
   for (std::size_t i = 0; i < cloud->size(); ++i)
-    (*remaining)[i] = static_cast<int>(i);
+    remaining[i] = static_cast<int>(i);
   for (int plane = 0; plane < 2; ++plane) {
-    sac.setIndices(remaining);
-    pcl::ModelCoefficients coefficients;
+    pcl::SampleConsensusModelPlane<pcl::PointXYZ>::Ptr model(
+      new pcl::SampleConsensusModelPlane<pcl::PointXYZ>(cloud, remaining));
+    pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, 0.02);
+    ransac.setMaxIterations(500);
+    ASSERT_TRUE(ransac.computeModel());
+    pcl::Indices best;
+    ransac.getInliers(best);
+    Eigen::VectorXf coefficients, refined;
+    ransac.getModelCoefficients(coefficients);
+    model->optimizeModelCoefficients(best, coefficients, refined);
     pcl::PointIndices plane_inliers;
-    sac.segment(plane_inliers, coefficients);
+    model->selectWithinDistance(refined, 0.02, plane_inliers.indices);
     ASSERT_GT(plane_inliers.indices.size(), 5000u) << "plane " << plane;
+    pcl::ModelCoefficients plane_coefficients;
+    plane_coefficients.values.assign(refined.data(), refined.data() + refined.size());
     std::vector<std::uint8_t> taken(cloud->size(), 0);
     for (const auto index : plane_inliers.indices)
       taken[static_cast<std::size_t>(index)] = 1;
-    remaining->erase(std::remove_if(remaining->begin(), remaining->end(),
-                                    [&taken](int index) {
-                                      return taken[static_cast<std::size_t>(index)]
-                                             != 0;
-                                    }),
-                     remaining->end());
-    model_coefficients.push_back(coefficients);
+    remaining.erase(std::remove_if(remaining.begin(), remaining.end(),
+                                   [&taken](int index) {
+                                     return taken[static_cast<std::size_t>(index)] != 0;
+                                   }),
+                    remaining.end());
+    model_coefficients.push_back(plane_coefficients);
     inliers.push_back(plane_inliers);
   }
 
@@ -770,7 +777,7 @@ TEST(PlanarCuboidApproximation, PlanesFromPCLSACSegmentationGiveTheSameCuboids)
       EXPECT_EQ(a.is_planar, b.is_planar) << what << " " << i;
     }
   };
-  expectSame(from_pcl, from_segments, "SACSegmentation output");
+  expectSame(from_pcl, from_segments, "PCL RANSAC output");
   std::size_t planar[2] = {0, 0};
   for (const PlanarCuboid& c : from_segments)
     if (c.is_planar) {
