@@ -451,15 +451,25 @@ inputData(const InputConfig& input)
   return given;
 }
 
+/** A stage's need; a need that comes from a parameter's value names the parameter and
+ * a value without the need (for the error's location and hint). */
+struct StageNeed {
+  StageData data;
+  std::string param;
+  std::string alternative;
+};
+
 /** The stage's needs with its parameters: planes hypothesised from the key features
  * need them. */
-std::vector<StageData>
+std::vector<StageNeed>
 stageNeeds(const StageInfo& info, const StageConfig& sc)
 {
-  std::vector<StageData> needs = info.needs;
+  std::vector<StageNeed> needs;
+  for (const StageData d : info.needs)
+    needs.push_back({d, "", ""});
   if (sc.type == "multi_plane_segmentation"
       && sc.params.getChoice("sample") == "features")
-    needs.push_back(StageData::FEATURES);
+    needs.push_back({StageData::FEATURES, "sample", "cloud"});
   return needs;
 }
 
@@ -497,11 +507,22 @@ checkDataFlow(const Reader& r,
         }
     // What the input can never give comes first (a missing stage of the same
     // pipeline is the lesser error); then the order.
-    const std::vector<StageData> needs = stageNeeds(info, sc);
+    const std::vector<StageNeed> needs = stageNeeds(info, sc);
+    const YAML::Node params_node = stage_nodes[i]["params"];
     for (const bool input_only : {true, false})
-      for (const StageData need : needs) {
+      for (const StageNeed& stage_need : needs) {
+        const StageData need = stage_need.data;
         if (has(available, need))
           continue;
+        // A need a parameter's value makes is reported at that parameter, with the
+        // value that has none.
+        YAML::Node where = type_node;
+        std::string hint;
+        if (!stage_need.param.empty()) {
+          if (params_node && params_node.IsMap() && params_node[stage_need.param])
+            where = params_node[stage_need.param];
+          hint = "; or use " + stage_need.param + ": " + stage_need.alternative;
+        }
         const std::string what = "stage '" + sc.type + "' needs " + stageDataName(need);
         if (need == StageData::STEREO_IMAGES)
           r.fail(type_node, what + ": it needs a stereo_sequence input (" + input_kind
@@ -523,12 +544,12 @@ checkDataFlow(const Reader& r,
                       + std::to_string(config.stages[k].line) + "); ";
         }
         if (!possible)
-          r.fail(type_node, what + ", which only " + producers
-                              + " produces, from stereo images: " + input_kind
-                              + " input cannot give it");
+          r.fail(where, what + ", which only " + producers
+                          + " produces, from stereo images: " + input_kind
+                          + " input cannot give it" + hint);
         if (!input_only)
-          r.fail(type_node, what + ", which no earlier stage produces: " + later
-                              + "put " + producers + " before it");
+          r.fail(where, what + ", which no earlier stage produces: " + later + "put "
+                          + producers + " before it" + hint);
       }
     for (const StageData d : info.produces)
       if (!has(available, d))
@@ -579,28 +600,13 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
              "stage 'visual_odometry' makes the poses: set input.poses.format to "
              "odometry");
     sc.params = parseParams(stage["params"], info->params, source, sc.type);
-    // Key features come from stereo matching or from cloud_features; without a
-    // stage before it that gives them, the planes of a point-cloud input are
-    // hypothesised on the cloud itself, and asking for features is an error.
+    // Key features come from stereo matching or from cloud_features: the planes of a
+    // point-cloud input are hypothesised on the cloud itself unless the file asks for
+    // features (checkDataFlow() then requires a stage before it that gives them).
     if (sc.type == "multi_plane_segmentation"
         && config.input.type != InputConfig::Type::STEREO_SEQUENCE) {
       const YAML::Node params = stage["params"];
-      const bool asked = params && params.IsMap() && params["sample"]
-                         && sc.params.getChoice("sample") == "features";
-      const bool given = std::any_of(
-        config.stages.begin(), config.stages.end(), [](const StageConfig& s) {
-          const StageInfo* earlier = findStage(s.type);
-          return earlier
-                 && std::find(earlier->produces.begin(), earlier->produces.end(),
-                              StageData::FEATURES)
-                      != earlier->produces.end();
-        });
-      if (asked && !given)
-        r.fail(params["sample"],
-               "multi_plane_segmentation: sample: features needs key features from "
-               "a stage before it (cloud_features on a point-cloud input); add one "
-               "or use sample: cloud");
-      if (!asked)
+      if (!(params && params.IsMap() && params["sample"]))
         sc.params.set("sample", std::string("cloud"));
     }
     config.stages.push_back(std::move(sc));
