@@ -341,7 +341,7 @@ loadCloud(const std::string& path)
     print_info("[failed]\n");
     throw planar_grid::IOError(path + ": cannot load the PCD file");
   }
-  planar_grid::checkPCDBlob(blob, path);
+  planar_grid::checkPointCloudBlob(blob, path);
   if (pcl::getFieldIndex(blob, "x") < 0 || pcl::getFieldIndex(blob, "y") < 0
       || pcl::getFieldIndex(blob, "z") < 0) {
     print_info("[failed]\n");

@@ -386,25 +386,22 @@ checkPCDFile(const std::string& path)
 }
 
 void
-checkPCDBlob(const pcl::PCLPointCloud2& blob, const std::string& path)
+checkPointCloudBlob(const pcl::PCLPointCloud2& blob, const std::string& where)
 {
-  const std::uint64_t points = static_cast<std::uint64_t>(blob.width) * blob.height;
-  const std::uint64_t needed = points * blob.point_step;
-  if (blob.data.size() < needed
-      || static_cast<std::uint64_t>(blob.row_step)
-           != static_cast<std::uint64_t>(blob.width) * blob.point_step)
-    throw IOError(path + ": PCL read " + std::to_string(blob.data.size())
-                  + " bytes of point data for " + std::to_string(blob.width) + " x "
+  if (blob.point_step == 0
+      || blob.row_step < static_cast<std::uint64_t>(blob.width) * blob.point_step
+      || blob.data.size() < static_cast<std::uint64_t>(blob.row_step) * blob.height)
+    throw IOError(where + ": the cloud declares " + std::to_string(blob.width) + " x "
                   + std::to_string(blob.height) + " points of "
-                  + std::to_string(blob.point_step)
-                  + " bytes (the data and the header disagree)");
+                  + std::to_string(blob.point_step) + " bytes but holds "
+                  + std::to_string(blob.data.size()) + " bytes");
   for (const auto& field : blob.fields) {
     const std::uint64_t end =
       static_cast<std::uint64_t>(field.offset)
       + static_cast<std::uint64_t>(pcl::getFieldSize(field.datatype))
           * std::max<std::uint64_t>(field.count, 1);
     if (end > blob.point_step)
-      throw IOError(path + ": the field '" + field.name + "' reaches past the point ("
+      throw IOError(where + ": the field '" + field.name + "' lies outside its point ("
                     + std::to_string(end) + " of " + std::to_string(blob.point_step)
                     + " bytes)");
   }

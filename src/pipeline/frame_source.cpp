@@ -234,7 +234,7 @@ loadPCDCloud(const std::string& path, Frame::Cloud& cloud)
   }
   if (read < 0)
     throw IOError(path + ": cannot read the PCD file");
-  checkPCDBlob(blob, path);
+  checkPointCloudBlob(blob, path);
   intensityCloudFromBlob(blob, cloud);
 }
 

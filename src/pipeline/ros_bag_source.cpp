@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/pcd_file_check.h>
 
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/common/io.h>
@@ -172,16 +173,7 @@ cloudFromMessage(const sensor_msgs::PointCloud2& msg,
       throw IOError(where + ": the PointCloud2 has no field '" + axis + "'");
   if (blob.is_bigendian)
     throw IOError(where + ": big-endian PointCloud2 data is not read");
-  const std::size_t points = static_cast<std::size_t>(blob.width) * blob.height;
-  if (blob.point_step == 0 || blob.row_step < blob.width * blob.point_step
-      || blob.data.size() < static_cast<std::size_t>(blob.row_step) * blob.height)
-    throw IOError(where + ": the PointCloud2 declares " + std::to_string(points)
-                  + " points but holds " + std::to_string(blob.data.size()) + " bytes");
-  for (const auto& f : blob.fields)
-    if (f.offset + pcl::getFieldSize(f.datatype) * std::max<std::uint32_t>(f.count, 1)
-        > blob.point_step)
-      throw IOError(where + ": the PointCloud2 field '" + f.name
-                    + "' lies outside its point_step");
+  checkPointCloudBlob(blob, where);
   intensityCloudFromBlob(blob, cloud);
 }
 

@@ -38,7 +38,7 @@ LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
     const planar_grid::PCDFileInfo info = planar_grid::checkPCDFile(path);
     pcl::PCLPointCloud2 blob;
     if (pcl::io::loadPCDFile(path, blob) == 0 && info.points > 0) {
-      planar_grid::checkPCDBlob(blob, path);
+      planar_grid::checkPointCloudBlob(blob, path);
       pcl::PointCloud<pcl::PointXYZ> cloud;
       pcl::fromPCLPointCloud2(blob, cloud);
     }

@@ -56,15 +56,15 @@ struct PCDFileInfo {
  * \ingroup core */
 PCDFileInfo checkPCDFile(const std::string& path);
 
-/** \brief Checks what pcl::io::loadPCDFile() made of a file that checkPCDFile() passed,
- * before it is converted to points: its data must hold width * height points of
- * point_step bytes (row_step = width * point_step), and every field must lie inside the
- * point. PCL's ASCII reader can end with fewer points than width * height say (it
- * shortens the data and the width of a malformed file but keeps the height), and
- * pcl::fromPCLPointCloud2() then reads past the data.
- * \param[in] blob the cloud as read \param[in] path the file, for the message
- * \throws planar_grid::IOError naming the file and the sizes
+/** \brief Checks that pcl::fromPCLPointCloud2() can convert \a blob without reading
+ * past its data: a point_step > 0, row_step >= width * point_step,
+ * data of at least row_step * height bytes, and every field inside the point. For a
+ * PCD file after checkPCDFile() and pcl::io::loadPCDFile() (PCL's ASCII reader can end
+ * with fewer points than width * height say: it shortens the data and the width of a
+ * malformed file but keeps the height) and for a sensor_msgs/PointCloud2 message.
+ * \param[in] blob the cloud \param[in] where the file or message, for the message
+ * \throws planar_grid::IOError naming \a where and the sizes
  * \ingroup core */
-void checkPCDBlob(const pcl::PCLPointCloud2& blob, const std::string& path);
+void checkPointCloudBlob(const pcl::PCLPointCloud2& blob, const std::string& where);
 
 } // namespace planar_grid
