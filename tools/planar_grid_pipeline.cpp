@@ -213,9 +213,12 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
   const auto preset = config.output.snapshot_camera == "oblique"
                         ? planar_grid::CameraPreset::OBLIQUE
                         : planar_grid::CameraPreset::TOP;
-  // The cells: the map's merged cuboids when a map was built, else every frame's.
-  const planar_grid::PlanarCuboids& cuboids =
-    state.map ? state.map->getSurfaceLayer().getCuboids() : state.cuboids;
+  // The cells: the map's merged cuboids when a map was built (built here), else every
+  // frame's (used in place).
+  planar_grid::PlanarCuboids map_cuboids;
+  if (state.map)
+    map_cuboids = state.map->getSurfaceLayer().getCuboids();
+  const planar_grid::PlanarCuboids& cuboids = state.map ? map_cuboids : state.cuboids;
   std::optional<planar_grid::CameraParameters> street;
   std::string street_description;
   if (config.output.snapshot_camera == "street"

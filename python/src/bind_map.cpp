@@ -580,7 +580,7 @@ numpy.ndarray, shape (N, 3), float64
          [](const Map& self) {
            std::ostringstream text;
            text << "<planar_grid.PlanarGridMap: resolution " << self.getResolution()
-                << " m, " << self.getSurfaceLayer().getCuboids().size() << " cuboids, "
+                << " m, " << self.getSurfaceLayer().getCuboidCount() << " cuboids, "
                 << self.getMemory().total_bytes << " bytes>";
            return text.str();
          })

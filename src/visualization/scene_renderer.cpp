@@ -609,7 +609,7 @@ SceneRenderer::addMap(const PlanarGridMap& map,
   const auto& surface = map.getSurfaceLayer();
   const auto& space = map.getSpaceLayer();
   addCuboids(surface.getCuboids(), CuboidColorMode::OCCUPANCY);
-  summary.cuboids = surface.getCuboids().size();
+  summary.cuboids = surface.getCuboidCount();
 
   // Occupied voxels that no cuboid covers, as small dark boxes; unknown space gathered
   // into coarse boxes of 8 voxels (one per 8^3 region holding any unknown voxel).
