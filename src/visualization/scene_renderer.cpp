@@ -8,11 +8,14 @@
 #include <pcl/console/print.h>
 #include <pcl/conversions.h>
 
+#include <Eigen/Geometry>
 #include <vtkActor.h>
 #include <vtkCamera.h>
 #include <vtkCellArray.h>
 #include <vtkCellData.h>
+#include <vtkCubeSource.h>
 #include <vtkFloatArray.h>
+#include <vtkGlyph3DMapper.h>
 #include <vtkIdTypeArray.h>
 #include <vtkInteractorStyleTrackballCamera.h>
 #include <vtkMath.h>
@@ -67,6 +70,65 @@ constexpr double OBLIQUE_ELEVATION_RAD = 0.7853981633974483;
 /** \brief Share of a cuboid's colour lit regardless of the light's direction (ambient);
  * the rest is diffuse. */
 constexpr double CUBOID_AMBIENT = 0.4;
+
+/** \brief Axis-aligned boxes, one colour, drawn as instances of one unit cube (VTK's
+ * glyph mapper): about 30 bytes a box in VTK and the GPU buffers where a box of
+ * polygons takes about 400, so that a street map's hundreds of thousands of occupied
+ * voxel runs render in little memory. The actor does not report bounds (the glyph
+ * mapper's are padded by the largest box around every centre); the exact bounds are
+ * returned for the camera to frame instead. \param[in] centres box centres, m
+ * \param[in] sizes edge lengths along x, y, z, m (one per centre) \return the boxes'
+ * bounds, m (empty when there are none) */
+Eigen::AlignedBox3d
+addInstancedBoxes(vtkRenderer* renderer,
+                  const std::vector<Eigen::Vector3f>& centres,
+                  const std::vector<Eigen::Vector3f>& sizes,
+                  const Eigen::Vector3d& rgb,
+                  double opacity)
+{
+  Eigen::AlignedBox3d bounds;
+  if (centres.empty())
+    return bounds;
+  const auto n = static_cast<vtkIdType>(centres.size());
+  vtkNew<vtkPoints> points;
+  points->SetDataTypeToFloat();
+  points->SetNumberOfPoints(n);
+  vtkNew<vtkFloatArray> scale;
+  scale->SetName("size");
+  scale->SetNumberOfComponents(3);
+  scale->SetNumberOfTuples(n);
+  for (vtkIdType k = 0; k < n; ++k) {
+    const Eigen::Vector3f& c = centres[static_cast<std::size_t>(k)];
+    const Eigen::Vector3f& e = sizes[static_cast<std::size_t>(k)];
+    points->SetPoint(k, c.x(), c.y(), c.z());
+    scale->SetTypedTuple(k, e.data());
+    bounds.extend((c - 0.5f * e).cast<double>());
+    bounds.extend((c + 0.5f * e).cast<double>());
+  }
+  vtkNew<vtkPolyData> poly;
+  poly->SetPoints(points);
+  poly->GetPointData()->AddArray(scale);
+  vtkNew<vtkCubeSource> cube; // unit cube about the origin
+  vtkNew<vtkGlyph3DMapper> mapper;
+  mapper->SetInputData(poly);
+  mapper->SetSourceConnection(cube->GetOutputPort());
+  mapper->SetScaleArray("size");
+  mapper->SetScaleModeToScaleByVectorComponents();
+  mapper->ScalingOn();
+  mapper->OrientOff();
+  mapper->ScalarVisibilityOff();
+  vtkNew<vtkActor> actor;
+  actor->SetMapper(mapper);
+  actor->GetProperty()->SetColor(rgb.x(), rgb.y(), rgb.z());
+  actor->GetProperty()->SetOpacity(opacity);
+  if (opacity < 1.0)
+    actor->GetProperty()->BackfaceCullingOn();
+  actor->GetProperty()->SetAmbient(CUBOID_AMBIENT);
+  actor->GetProperty()->SetDiffuse(1.0 - CUBOID_AMBIENT);
+  actor->UseBoundsOff();
+  renderer->AddActor(actor);
+  return bounds;
+}
 
 /** \brief A colour component in [0, 1] as a byte. */
 unsigned char
@@ -190,6 +252,8 @@ struct SceneRenderer::Impl {
   CameraPreset preset{CameraPreset::TOP};
   /** \brief Number of text lines added so far (they stack downwards). */
   int text_lines{0};
+  /** \brief Bounds of the actors that do not report their own (instanced boxes), m. */
+  Eigen::AlignedBox3d instanced_bounds;
 
   /** \brief Places the camera for a \a width_px x \a height_px image. */
   void applyCamera(int width_px, int height_px);
@@ -219,6 +283,14 @@ SceneRenderer::Impl::applyCamera(int width_px, int height_px)
 
   double bounds[6];
   renderer->ComputeVisiblePropBounds(bounds);
+  if (!instanced_bounds.isEmpty()) {
+    const bool initialized = vtkMath::AreBoundsInitialized(bounds);
+    for (int axis = 0; axis < 3; ++axis) {
+      const double lo = instanced_bounds.min()[axis], hi = instanced_bounds.max()[axis];
+      bounds[2 * axis] = initialized ? std::min(bounds[2 * axis], lo) : lo;
+      bounds[2 * axis + 1] = initialized ? std::max(bounds[2 * axis + 1], hi) : hi;
+    }
+  }
   if (!vtkMath::AreBoundsInitialized(bounds)) {
     // Nothing to frame: a unit box at the origin keeps the camera well defined.
     bounds[0] = bounds[2] = bounds[4] = -0.5;
@@ -615,16 +687,8 @@ SceneRenderer::addMap(const PlanarGridMap& map,
   // into coarse boxes of 8 voxels (one per 8^3 region holding any unknown voxel).
   const auto res = static_cast<float>(map.getResolution());
   const float coarse = 8.0f * res;
-  PlanarCuboids occupied, unknown;
+  std::vector<Eigen::Vector3f> unknown_centres;
   std::unordered_set<std::int64_t> unknown_regions;
-  const auto box = [](const Eigen::Vector3f& centre, float edge) {
-    PlanarCuboid c;
-    c.centre = centre;
-    c.normal = Eigen::Vector3f::UnitZ();
-    c.horizontal_axis = Eigen::Vector3f::UnitX();
-    c.width_m = c.height_m = c.thickness_m = edge;
-    return c;
-  };
   std::vector<ExplicitSpaceGrid::VoxelKey> occupied_keys;
   space.forEachVoxel([&](const ExplicitSpaceGrid::VoxelKey& key, SpaceState state) {
     if (state == SpaceState::OCCUPIED) {
@@ -638,14 +702,14 @@ SceneRenderer::addMap(const PlanarGridMap& map,
         ((static_cast<std::int64_t>(region.x()) & 0x1FFFFF) << 42)
         | ((static_cast<std::int64_t>(region.y()) & 0x1FFFFF) << 21)
         | (static_cast<std::int64_t>(region.z()) & 0x1FFFFF);
-      if (unknown_regions.insert(id).second && unknown.size() < max_voxel_boxes)
-        unknown.push_back(box(
-          (region.cast<float>() + Eigen::Vector3f::Constant(0.5f)) * coarse, coarse));
+      if (unknown_regions.insert(id).second && unknown_centres.size() < max_voxel_boxes)
+        unknown_centres.push_back(
+          (region.cast<float>() + Eigen::Vector3f::Constant(0.5f)) * coarse);
     }
   });
   // The occupied voxels drawn as few boxes: runs along x, then equal runs in
-  // consecutive rows of y joined (the same volume, a fraction of the polygons: a
-  // street map holds a million voxels).
+  // consecutive rows of y joined (the same volume, a fraction of the boxes: a street
+  // map holds a million voxels).
   struct Run {
     int x0, x1, y0, y1, z;
   };
@@ -674,24 +738,29 @@ SceneRenderer::addMap(const PlanarGridMap& map,
     else
       rects.push_back(r);
   }
-  occupied.reserve(rects.size());
+  std::vector<Eigen::Vector3f> occupied_centres, occupied_sizes;
+  occupied_centres.reserve(rects.size());
+  occupied_sizes.reserve(rects.size());
   for (const Run& r : rects) {
-    PlanarCuboid c = box(Eigen::Vector3f::Zero(), res);
-    c.centre = Eigen::Vector3f(0.5f * static_cast<float>(r.x0 + r.x1 + 1),
-                               0.5f * static_cast<float>(r.y0 + r.y1 + 1),
-                               static_cast<float>(r.z) + 0.5f)
-               * res;
-    c.width_m = static_cast<float>(r.x1 - r.x0 + 1) * res;  // along x
-    c.height_m = static_cast<float>(r.y1 - r.y0 + 1) * res; // along y
-    occupied.push_back(c);
+    occupied_centres.emplace_back(
+      Eigen::Vector3f(0.5f * static_cast<float>(r.x0 + r.x1 + 1),
+                      0.5f * static_cast<float>(r.y0 + r.y1 + 1),
+                      static_cast<float>(r.z) + 0.5f)
+      * res);
+    occupied_sizes.emplace_back(static_cast<float>(r.x1 - r.x0 + 1) * res,
+                                static_cast<float>(r.y1 - r.y0 + 1) * res, res);
   }
   summary.occupied_voxel_boxes = occupied_keys.size();
-  summary.unknown_boxes = unknown.size();
-  addCuboids(occupied, CuboidColorMode::SOLID, false, 1.0,
-             Eigen::Vector3d(0.3, 0.3, 0.3));
-  if (!unknown.empty())
-    addCuboids(unknown, CuboidColorMode::SOLID, false, unknown_opacity,
-               Eigen::Vector3d(0.55, 0.35, 0.75));
+  summary.unknown_boxes = unknown_centres.size();
+  impl_->instanced_bounds.extend(
+    addInstancedBoxes(impl_->renderer, occupied_centres, occupied_sizes,
+                      Eigen::Vector3d(0.3, 0.3, 0.3), 1.0));
+  if (!unknown_centres.empty())
+    impl_->instanced_bounds.extend(
+      addInstancedBoxes(impl_->renderer, unknown_centres,
+                        std::vector<Eigen::Vector3f>(unknown_centres.size(),
+                                                     Eigen::Vector3f::Constant(coarse)),
+                        Eigen::Vector3d(0.55, 0.35, 0.75), unknown_opacity));
   return summary;
 }
 

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/visualization/scene_renderer.h>
 #include <planar_grid/visualization/street_camera.h>
 
@@ -227,6 +228,58 @@ TEST_F(SceneRendererTest, CuboidsRenderWhereTheyAreAndNonPlanarIsGrey)
   EXPECT_TRUE(isBlack(image.at(160, 120))) << "nothing between the two";
   EXPECT_TRUE(isBlack(image.at(160, 10)));
   EXPECT_THROW(renderer.addCuboids(cuboids, false, 0.0), planar_grid::Exception);
+}
+
+TEST_F(SceneRendererTest, MapOccupiedVoxelsRenderWhereTheyAreAndAreFramedExactly)
+{
+  // A 2 m x 1 m slab of occupied voxels (20 x 10 at z = 0, x in [1, 3) m) and one voxel
+  // at x = -3 m, no cuboids: 201 occupied voxels drawn as grey boxes. The top preset
+  // frames their exact bounds: the grey spans the image from the single voxel to the
+  // slab's far end (more than 90 % of the width). Bounds padded by the largest box
+  // (2 m on each side) would leave the grey in less than 80 % of it.
+  planar_grid::PlanarGridMap::Params params;
+  params.space.resolution_m = 0.1;
+  params.surface.resolution_m = 0.1;
+  planar_grid::PlanarGridMap map(params);
+  auto& space = map.getSpaceLayer();
+  std::size_t set = 0;
+  for (int x = 10; x < 30; ++x)
+    for (int y = -5; y < 5; ++y, ++set)
+      space.setState(planar_grid::ExplicitSpaceGrid::VoxelKey(x, y, 0),
+                     planar_grid::SpaceState::OCCUPIED);
+  space.setState(planar_grid::ExplicitSpaceGrid::VoxelKey(-30, 0, 0),
+                 planar_grid::SpaceState::OCCUPIED);
+  ++set;
+
+  planar_grid::SceneRenderer renderer;
+  renderer.setBackground(Eigen::Vector3d(0.0, 0.0, 0.0));
+  const planar_grid::MapRenderSummary summary = renderer.addMap(map);
+  EXPECT_EQ(summary.cuboids, 0u);
+  EXPECT_EQ(summary.occupied_voxel_boxes, set);
+  EXPECT_EQ(summary.unknown_boxes, 0u);
+  renderer.setCamera(planar_grid::CameraPreset::TOP);
+  const std::string path = (dir_ / "map.png").string();
+  renderer.saveSnapshot(path, 320, 240);
+  const Image image = readPNG(path);
+  int first = image.width, last = -1;
+  for (int x = 0; x < image.width; ++x)
+    for (int y = 0; y < image.height; ++y)
+      if (!isBlack(image.at(x, y))) {
+        first = std::min(first, x);
+        last = std::max(last, x);
+      }
+  ASSERT_GE(last, first) << "nothing drawn";
+  EXPECT_GT(last - first + 1, 0.9 * image.width);
+  // The slab's centre (x = 2 m) is grey; the gap between the voxel and the slab is not
+  // drawn.
+  const int slab_x =
+    first + static_cast<int>(std::lround((2.0 + 3.0) / 6.0 * (last - first)));
+  const auto slab = image.at(slab_x, image.height / 2);
+  EXPECT_FALSE(isBlack(slab));
+  EXPECT_NEAR(slab[0], slab[1], 2);
+  EXPECT_NEAR(slab[1], slab[2], 2);
+  const int gap_x = first + static_cast<int>(std::lround(3.0 / 6.0 * (last - first)));
+  EXPECT_TRUE(isBlack(image.at(gap_x, image.height / 2)));
 }
 
 TEST_F(SceneRendererTest, PolygonMeshRendersItsVertexColoursWhereItIs)
