@@ -62,6 +62,20 @@ keepFreedMemory()
   mallopt(M_TRIM_THRESHOLD, 1024 * 1024 * 1024);
 }
 
+/** \brief Ends keepFreedMemory(): from here on blocks of 128 KiB and more are mapped on
+ * their own and returned to the kernel when freed, and the heap is trimmed at 128 KiB
+ * (glibc's defaults), and what the frames left free is returned now. For the outputs
+ * after the frames: the OctoMap export and each offscreen snapshot allocate and free
+ * hundreds of MB once, and kept, those would add up in the peak resident memory.
+ * Source: glibc mallopt(M_MMAP_THRESHOLD, M_TRIM_THRESHOLD), malloc_trim(). */
+inline void
+releaseFreedMemory()
+{
+  mallopt(M_MMAP_THRESHOLD, 128 * 1024);
+  mallopt(M_TRIM_THRESHOLD, 128 * 1024);
+  malloc_trim(0);
+}
+
 /** \brief True when the command line asks for the version: --version anywhere (as the
  * GNU tools, whatever else is given). */
 inline bool

@@ -249,23 +249,27 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
         const std::function<std::string(planar_grid::SceneRenderer&)>& add_content) {
       if (name.empty())
         return;
-      planar_grid::SceneRenderer renderer;
-      renderer.setBackground(Eigen::Vector3d(1.0, 1.0, 1.0));
-      const std::string label = add_content(renderer);
-      if (positions.size() > 1)
-        renderer.addTrajectory(positions);
-      renderer.addText(config_path + ": " + label, dark);
-      if (along_street) {
-        renderer.addText(street_description, dark);
-        renderer.setCamera(*street);
-      } else {
-        renderer.setCamera(preset);
+      {
+        planar_grid::SceneRenderer renderer;
+        renderer.setBackground(Eigen::Vector3d(1.0, 1.0, 1.0));
+        const std::string label = add_content(renderer);
+        if (positions.size() > 1)
+          renderer.addTrajectory(positions);
+        renderer.addText(config_path + ": " + label, dark);
+        if (along_street) {
+          renderer.addText(street_description, dark);
+          renderer.setCamera(*street);
+        } else {
+          renderer.setCamera(preset);
+        }
+        report.outputs.emplace_back(
+          kind, outputs.write(name, [&](const std::string& path) {
+            renderer.saveSnapshot(path, config.output.snapshot_size_px[0],
+                                  config.output.snapshot_size_px[1]);
+          }));
       }
-      report.outputs.emplace_back(
-        kind, outputs.write(name, [&](const std::string& path) {
-          renderer.saveSnapshot(path, config.output.snapshot_size_px[0],
-                                config.output.snapshot_size_px[1]);
-        }));
+      // VTK's buffers of this snapshot go back to the kernel before the next one.
+      planar_grid::cli::releaseFreedMemory();
     };
   const std::string frames_and_points = std::to_string(report.frames) + " frames, "
                                         + std::to_string(report.world_cloud_points)
@@ -467,7 +471,9 @@ run(int argc, char** argv)
   });
   planar_grid::RunReport report = runner.run();
 
+  planar_grid::cli::releaseFreedMemory();
   planar_grid::writeRunOutputs(config.output, runner, report, outputs);
+  planar_grid::cli::releaseFreedMemory();
 #ifdef PLANAR_GRID_WITH_VIEWER
   saveSnapshots(config, config_path, runner, report, outputs);
 #endif
