@@ -2,6 +2,7 @@
 #pragma once
 
 #include <planar_grid/core/planar_cuboid.h>
+#include <planar_grid/core/rectangle_merge.h>
 
 #include <pcl/memory.h>
 #include <pcl/point_cloud.h>
@@ -25,44 +26,12 @@ using PlaneModels =
   std::vector<Eigen::Vector4f, Eigen::aligned_allocator<Eigen::Vector4f>>;
 
 /** \brief How the surface layer covers a map plane's raster with rectangles (the
- * merge of Fig. 6b). \ingroup map */
-enum class SurfaceMergeRule : std::uint8_t {
-  /** The paper's rule (Fig. 6b): maximal runs of one occupancy class along the plane's
-   * horizontal axis u, then runs with exactly equal extent in consecutive rows stacked
-   * along v. Where consecutive rows differ by one cell it leaves slivers. */
-  PAPER = 0,
-  /** The fewest rectangles: per 4-connected component of one occupancy class, a
-   * minimum partition into rectangles (the classical construction for rectilinear
-   * polygons with holes: cut a largest set of non-crossing chords between facing
-   * reflex corners, found by bipartite matching, then one cut per remaining reflex
-   * corner). Never more rectangles than PAPER, fewer where the paper's exact
-   * equal-extent stacking leaves slivers (ragged borders, bumps, holes). A component
-   * whose bounding box exceeds 8 times its cells plus 4096 (a long diagonal
-   * staircase, where the dense grid of the construction would cost too much) keeps
-   * the paper's cover. */
-  MIN_RECTANGLES = 1,
-  /** The paper's density threshold D_T (Fig. 8: a unit is kept whole when at least
-   * D_T of it is occupied) applied to the merge: per 4-connected component of the
-   * raster, rectangles grown greedily from the first uncovered cell (rows first,
-   * then columns) one row or column at a time, each step taking the side whose new
-   * strip holds the largest share of cells of the first cell's occupancy class, as
-   * long as at least Params::cover_density of the rectangle's cells are of that
-   * class and the strip holds no cell of another component or of an earlier
-   * rectangle. Every cell of the raster lies in exactly one rectangle. A rectangle
-   * may also cover, in all up to 1 - cover_density of its area, unobserved cells
-   * (ragged borders, notches) and cells of the other class (the paper merges the
-   * split units by geometry; their occupancy is the mean of their cells), so a
-   * facade whose rows end a cell or two apart, or whose feature occupancy is
-   * speckled, is a few large rectangles instead of one sliver per row or speckle.
-   * cover_density 1 gives exact rectangles of one class. A component whose bounding
-   * box exceeds 8 times its cells plus 4096 keeps the MIN_RECTANGLES cover. */
-  DENSITY = 2
-};
+ * merge of Fig. 6b): the rules of planar_grid::RectangleMergeRule, whose toString()
+ * names them. \ingroup map */
+using SurfaceMergeRule = RectangleMergeRule;
 
-/** \brief "paper", "min_rectangles" or "density". \ingroup map */
-std::string toString(SurfaceMergeRule rule);
-
-/** \brief Parses "paper", "min_rectangles" or "density".
+/** \brief Parses "paper", "min_rectangles" or "density"
+ * (rectangleMergeRuleFromString()).
  * \throws planar_grid::Exception for any other name \ingroup map */
 SurfaceMergeRule surfaceMergeRuleFromString(const std::string& name);
 

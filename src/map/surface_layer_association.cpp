@@ -1,0 +1,314 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The surface layer's plane association: frame planes join map planes (the shared
+// PlaneAssociation with the evidence criteria), map planes that converged merge, and
+// drifted planes take a new raster frame.
+#include <planar_grid/core/plane_association.h>
+#include <planar_grid/map/surface_layer.h>
+
+#include <pcl/console/print.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include "surface_layer_impl.h"
+
+namespace planar_grid {
+
+namespace surface_layer_detail {
+
+/** \brief Refits the plane of \a plane from its moments (kept when the fit fails). */
+void
+refitPlane(MapPlane& plane, double cos_angle)
+{
+  Eigen::Vector3d n;
+  double d = 0.0;
+  if (fitPlane(plane.moments, plane.normal, cos_angle, n, d))
+    plane.setRefined(n.cast<float>().normalized(), static_cast<float>(d));
+}
+
+} // namespace surface_layer_detail
+
+using namespace surface_layer_detail;
+
+namespace {
+
+/** \brief The surface layer's association criteria: normals of the same orientation
+ * within plane_merge_angle_rad, evidence within plane_merge_distance_m (root mean
+ * square) of the least-squares plane of both. */
+PlaneAssociationCriteria
+associationCriteria(const SurfaceLayer::Params& params)
+{
+  PlaneAssociationCriteria criteria;
+  criteria.eps_angle_rad = params.plane_merge_angle_rad;
+  criteria.distance_threshold_m = params.plane_merge_distance_m;
+  criteria.orientation = PlaneOrientation::SAME;
+  criteria.distance = PlaneDistance::EVIDENCE_RMS;
+  return criteria;
+}
+
+/** \brief A map plane as the association sees it: its refined plane and evidence. */
+PlaneObservation
+observation(const MapPlane& plane)
+{
+  return PlaneObservation{
+    Eigen::Vector4f(plane.normal.x(), plane.normal.y(), plane.normal.z(), plane.d),
+    &plane.moments};
+}
+
+/** \brief Adds the cells of \a src to \a dst (another frame of about the same plane):
+ * every dst cell whose centre, projected onto src's frame, falls in an observed src
+ * cell is observed, and the features of a src cell go to the dst cell containing its
+ * centre (observed too, so no evidence is lost). */
+void
+reprojectRaster(const MapPlane& src, MapPlane& dst, double r)
+{
+  const double inv_r = 1.0 / r;
+  const RasterFrame src_frame = src.frame(), dst_frame = dst.frame();
+  std::vector<std::uint64_t> keys;
+  std::vector<CellEvidence> evidence;
+  src.raster.forEachCell([&](std::uint64_t src_key, float sum, std::uint16_t count) {
+    const std::int64_t i = rasterCellI(src_key), j = rasterCellJ(src_key);
+    const Eigen::Vector2d f = dst_frame.toRaster(src_frame.cellCentre(i, j, r), inv_r);
+    std::int64_t ci = 0, cj = 0;
+    if (!cellIndex(f.x(), ci) || !cellIndex(f.y(), cj))
+      return;
+    const std::uint64_t key =
+      rasterCellKey(static_cast<std::int32_t>(ci), static_cast<std::int32_t>(cj));
+    keys.push_back(key);
+    if (count > 0)
+      evidence.push_back(CellEvidence{key, sum, count});
+    for (std::int64_t dj = -1; dj <= 1; ++dj)
+      for (std::int64_t di = -1; di <= 1; ++di) {
+        const std::int64_t a = ci + di, b = cj + dj;
+        if ((di == 0 && dj == 0) || std::abs(a) > MAX_CELL_INDEX
+            || std::abs(b) > MAX_CELL_INDEX)
+          continue;
+        const Eigen::Vector2d s =
+          src_frame.toRaster(dst_frame.cellCentre(a, b, r), inv_r);
+        if (std::floor(s.x()) == static_cast<double>(i)
+            && std::floor(s.y()) == static_cast<double>(j))
+          keys.push_back(
+            rasterCellKey(static_cast<std::int32_t>(a), static_cast<std::int32_t>(b)));
+      }
+  });
+  dst.raster.insert(keys);
+  dst.raster.addEvidence(evidence);
+  dst.dirty = true;
+}
+
+/** \brief True when the rasters of \a a and \a b overlap or are adjacent: a cell
+ * centre of the smaller, projected onto the other's frame, falls in or next to (8
+ * neighbours) an observed cell of it. */
+bool
+rastersTouch(const MapPlane& a, const MapPlane& b, double r)
+{
+  if (a.raster.empty() || b.raster.empty())
+    return false;
+  const MapPlane& small = a.raster.size() <= b.raster.size() ? a : b;
+  const MapPlane& big = &small == &a ? b : a;
+  const RasterFrame small_frame = small.frame(), big_frame = big.frame();
+  const double inv_r = 1.0 / r;
+  // The bounding boxes first.
+  std::int32_t si_min = 0, si_max = 0, sj_min = 0, sj_max = 0;
+  std::int32_t bi_min = 0, bi_max = 0, bj_min = 0, bj_max = 0;
+  small.raster.bounds(si_min, si_max, sj_min, sj_max);
+  big.raster.bounds(bi_min, bi_max, bj_min, bj_max);
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::max());
+  Eigen::Vector2d hi = -lo;
+  for (const std::int64_t i :
+       {static_cast<std::int64_t>(si_min) - 1, static_cast<std::int64_t>(si_max) + 1})
+    for (const std::int64_t j : {static_cast<std::int64_t>(sj_min) - 1,
+                                 static_cast<std::int64_t>(sj_max) + 1}) {
+      const Eigen::Vector2d f =
+        big_frame.toRaster(small_frame.cellCentre(i, j, r), inv_r);
+      lo = lo.cwiseMin(f);
+      hi = hi.cwiseMax(f);
+    }
+  if (!(hi.x() >= bi_min - 2.0 && lo.x() <= bi_max + 3.0 && hi.y() >= bj_min - 2.0
+        && lo.y() <= bj_max + 3.0))
+    return false;
+  for (const auto key : small.raster.keys()) {
+    const Eigen::Vector2d f = big_frame.toRaster(
+      small_frame.cellCentre(rasterCellI(key), rasterCellJ(key), r), inv_r);
+    std::int64_t ci = 0, cj = 0;
+    if (!cellIndex(f.x(), ci) || !cellIndex(f.y(), cj))
+      continue;
+    for (std::int64_t dj = -1; dj <= 1; ++dj)
+      for (std::int64_t di = -1; di <= 1; ++di) {
+        const std::int64_t x = ci + di, y = cj + dj;
+        if (std::abs(x) <= MAX_CELL_INDEX && std::abs(y) <= MAX_CELL_INDEX
+            && big.raster.contains(rasterCellKey(static_cast<std::int32_t>(x),
+                                                 static_cast<std::int32_t>(y))))
+          return true;
+      }
+  }
+  return false;
+}
+
+/** \brief Moves the raster of \a plane into a frame of its refined plane (when the
+ * refined normal has drifted from the frame's). */
+void
+reanchor(MapPlane& plane, double r)
+{
+  MapPlane fresh;
+  fresh.setFrame(plane.normal, plane.d);
+  fresh.setRefined(plane.normal, plane.d);
+  fresh.moments = plane.moments;
+  reprojectRaster(plane, fresh, r);
+  plane = std::move(fresh);
+}
+
+} // namespace
+
+void
+SurfaceLayer::Impl::associateFramePlanes(const PlanarCuboids& cuboids,
+                                         const PlaneModels& planes,
+                                         const Params& params,
+                                         FramePlanes& frame)
+{
+  Impl& impl = *this;
+  const double r = params.resolution_m;
+  // a face of zero area still counts, as a point
+  const double min_face_weight = 1e-6 * r * r;
+  const PlaneAssociation association(associationCriteria(params));
+
+  // 1. Frame planes, oriented like the frame's cuboids (toward its sensor).
+  std::vector<int>& map_of_frame = frame.map_of_frame;
+  std::vector<bool>& orientation_known = frame.orientation_known;
+  auto& oriented = frame.oriented;
+  map_of_frame.assign(planes.size(), -1);
+  orientation_known.assign(planes.size(), false);
+  oriented.resize(planes.size());
+  for (std::size_t p = 0; p < planes.size(); ++p) {
+    const Eigen::Vector4f& c = planes[p];
+    const float norm = c.head<3>().norm();
+    if (!c.allFinite() || !(norm > 1e-6f) || std::abs(c[3] / norm) > MAX_COORDINATE_M)
+      continue;
+    oriented[p] = c / norm;
+  }
+  bool bad_plane_id = false;
+  for (const PlanarCuboid& c : cuboids) {
+    if (c.plane_id < 0 || !c.is_planar)
+      continue;
+    const auto p = static_cast<std::size_t>(c.plane_id);
+    if (p >= planes.size() || !oriented[p].allFinite()
+        || oriented[p].head<3>().squaredNorm() == 0.0f) {
+      bad_plane_id = true;
+      continue;
+    }
+    if (!orientation_known[p]) {
+      if (oriented[p].head<3>().dot(c.normal) < 0.0f)
+        oriented[p] = -oriented[p];
+      orientation_known[p] = true;
+    }
+  }
+  if (bad_plane_id)
+    PCL_WARN("[planar_grid::SurfaceLayer::integrate] Cuboids with a plane_id outside "
+             "the %zu valid planes are treated as non-planar.\n",
+             planes.size());
+
+  // 2. The area moments of each frame plane's faces.
+  std::vector<PlaneMoments> frame_moments(planes.size());
+  for (const PlanarCuboid& c : cuboids)
+    if (c.is_planar && c.plane_id >= 0
+        && static_cast<std::size_t>(c.plane_id) < planes.size()
+        && orientation_known[static_cast<std::size_t>(c.plane_id)] && usableFace(c, r))
+      frame_moments[static_cast<std::size_t>(c.plane_id)].addFace(c, min_face_weight);
+
+  // 3. Frame plane -> map plane: the map plane that explains the frame's faces best
+  //    together with its own evidence (SurfaceLayer's documentation), else a new one.
+  //    The frame's moments join the map plane at once, so that a second frame plane of
+  //    the same surface is tested against them.
+  std::vector<int>& touched = frame.touched;
+  touched.clear();
+  for (std::size_t p = 0; p < planes.size(); ++p) {
+    if (!orientation_known[p] || !(frame_moments[p].weight > 0.0))
+      continue;
+    const Eigen::Vector3f n = oriented[p].head<3>();
+    const float d = oriented[p][3];
+    int best = static_cast<int>(association.findBest(
+      impl.planes.size(),
+      [&impl](std::size_t m) { return observation(impl.planes[m]); },
+      PlaneObservation{Eigen::Vector4f(n.x(), n.y(), n.z(), d), &frame_moments[p]}));
+    if (best < 0) {
+      MapPlane mp;
+      mp.setFrame(n, d);
+      mp.setRefined(n, d);
+      impl.planes.push_back(std::move(mp));
+      best = static_cast<int>(impl.planes.size()) - 1;
+    }
+    map_of_frame[p] = best;
+    impl.planes[static_cast<std::size_t>(best)].moments.add(frame_moments[p]);
+    if (std::find(touched.begin(), touched.end(), best) == touched.end())
+      touched.push_back(best);
+  }
+  std::sort(touched.begin(), touched.end());
+}
+
+void
+SurfaceLayer::Impl::mergeConvergedPlanes(std::vector<int>& touched,
+                                         const Params& params)
+{
+  Impl& impl = *this;
+  const double r = params.resolution_m;
+  const double cos_angle = std::cos(params.plane_merge_angle_rad);
+  const PlaneAssociation association(associationCriteria(params));
+  // 6. Map planes that converged merge (SurfaceLayer's documentation): a touched plane
+  // and any other that one plane explains and whose rasters overlap or touch. The plane
+  // with more evidence survives (lower index on a tie). Each merge removes a plane, so
+  // this ends.
+  for (bool merged = true; merged;) {
+    merged = false;
+    for (std::size_t ti = 0; ti < touched.size() && !merged; ++ti) {
+      const auto t = static_cast<std::size_t>(touched[ti]);
+      for (std::size_t m = 0; m < impl.planes.size() && !merged; ++m) {
+        const MapPlane& a = impl.planes[t];
+        const MapPlane& b = impl.planes[m];
+        double rms = 0.0;
+        if (m == t || !association.match(observation(a), observation(b), rms)
+            || !rastersTouch(a, b, r))
+          continue;
+        std::size_t keep = t, gone = m;
+        if (b.moments.weight > a.moments.weight
+            || (b.moments.weight == a.moments.weight && m < t))
+          std::swap(keep, gone);
+        MapPlane& survivor = impl.planes[keep];
+        reprojectRaster(impl.planes[gone], survivor, r);
+        survivor.moments.add(impl.planes[gone].moments);
+        refitPlane(survivor, cos_angle);
+        impl.planes.erase(impl.planes.begin() + static_cast<std::ptrdiff_t>(gone));
+        const auto shift = [gone](std::size_t x) {
+          return static_cast<int>(x > gone ? x - 1 : x);
+        };
+        std::vector<int> next;
+        for (const int x : touched)
+          if (static_cast<std::size_t>(x) != gone)
+            next.push_back(shift(static_cast<std::size_t>(x)));
+        if (std::find(next.begin(), next.end(), shift(keep)) == next.end())
+          next.push_back(shift(keep));
+        std::sort(next.begin(), next.end());
+        touched.swap(next);
+        merged = true;
+      }
+    }
+  }
+}
+
+void
+SurfaceLayer::Impl::reanchorDrifted(const std::vector<int>& touched,
+                                    const Params& params)
+{
+  Impl& impl = *this;
+  const double r = params.resolution_m;
+  // 7. A refined normal that drifted from its raster frame's takes a new frame.
+  const double cos_reanchor = std::cos(0.5 * params.plane_merge_angle_rad);
+  for (const int t : touched) {
+    MapPlane& mp = impl.planes[static_cast<std::size_t>(t)];
+    if (mp.normal.dot(mp.frame_normal) < cos_reanchor)
+      reanchor(mp, r);
+  }
+}
+
+} // namespace planar_grid

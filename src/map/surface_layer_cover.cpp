@@ -1,0 +1,276 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The surface layer's cover: each map plane's raster closed over gaps, its cells'
+// occupancy, the rectangles of the merge rule (planar_grid/core/rectangle_merge.h)
+// and their cuboids.
+#include <planar_grid/core/rectangle_merge.h>
+#include <planar_grid/map/surface_layer.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include "surface_layer_impl.h"
+
+namespace planar_grid {
+
+using namespace surface_layer_detail;
+
+namespace {
+
+/** \brief Rebuilds the cover of one plane: the gap closing, the occupancy per cell
+ * (features' mean, else the propagated neighbours' mean, else 0.5), then the cover of
+ * Params::merge_rule over cells of one occupancy class, with each rectangle's mean
+ * probability and feature count, sorted by first row, then first column. */
+void
+rebuildPlane(MapPlane& plane, const SurfaceLayer::Params& params)
+{
+  std::vector<RasterRect>().swap(plane.rects);
+  plane.dirty = false;
+  if (plane.raster.empty())
+    return;
+  // the raster's cells, sorted, with their evidence
+  std::vector<std::uint64_t> observed;
+  std::vector<float> sums;
+  std::vector<std::uint16_t> counts;
+  plane.raster.forEachCell([&](std::uint64_t key, float sum, std::uint16_t features) {
+    observed.push_back(key);
+    sums.push_back(sum);
+    counts.push_back(features);
+  });
+  const std::vector<std::uint64_t> filled =
+    closeRasterGaps(observed, params.close_gaps_cells);
+  const std::size_t n = observed.size() + filled.size();
+  std::vector<std::uint64_t> keys;
+  keys.reserve(n);
+  // Occupancy (paper, end of III-F): features' mean; featureless and filled cells take
+  // the mean of their valued 8-neighbours, layer by layer outward; unreachable cells
+  // 0.5.
+  std::vector<float> value;
+  std::vector<std::uint32_t> count;
+  value.reserve(n);
+  count.reserve(n);
+  for (std::size_t a = 0, b = 0; a < observed.size() || b < filled.size();) {
+    if (b == filled.size() || (a < observed.size() && observed[a] < filled[b])) {
+      keys.push_back(observed[a]);
+      const std::uint32_t features = counts[a];
+      count.push_back(features);
+      value.push_back(features > 0
+                        ? static_cast<float>(static_cast<double>(sums[a]) / features)
+                        : std::numeric_limits<float>::quiet_NaN());
+      ++a;
+    } else {
+      keys.push_back(filled[b++]);
+      count.push_back(0);
+      value.push_back(std::numeric_limits<float>::quiet_NaN());
+    }
+  }
+  std::size_t valued_cells = 0;
+  for (std::size_t k = 0; k < n; ++k)
+    valued_cells += count[k] > 0 ? 1 : 0;
+  // neighbours only matter when valued and featureless cells coexist
+  const bool propagate = valued_cells > 0 && valued_cells < n;
+  // The 8 neighbours (row below, same row, row above; by column), -1 when absent,
+  // by one sweep over the rows with a pointer into the row below and the row above.
+  std::vector<std::array<std::ptrdiff_t, 8>> neighbours(propagate ? n : 0);
+  for (std::size_t start = 0; propagate && start < n;) {
+    const std::int64_t j = rasterCellJ(keys[start]);
+    std::size_t end = start;
+    while (end < n && rasterCellJ(keys[end]) == j)
+      ++end;
+    // rows j - 1 and j + 1: [lo, hi) ranges, empty when absent
+    std::size_t below_lo = start, below_hi = start, above_lo = end, above_hi = end;
+    if (start > 0 && rasterCellJ(keys[start - 1]) == j - 1) {
+      below_hi = start;
+      below_lo = start - 1;
+      while (below_lo > 0 && rasterCellJ(keys[below_lo - 1]) == j - 1)
+        --below_lo;
+    }
+    if (end < n && rasterCellJ(keys[end]) == j + 1) {
+      above_hi = end;
+      while (above_hi < n && rasterCellJ(keys[above_hi]) == j + 1)
+        ++above_hi;
+    }
+    std::size_t pb = below_lo, pa = above_lo;
+    for (std::size_t k = start; k < end; ++k) {
+      const std::int64_t i = rasterCellI(keys[k]);
+      const auto find3 = [&](std::size_t& p, std::size_t hi, std::ptrdiff_t* out) {
+        while (p < hi && rasterCellI(keys[p]) < i - 1)
+          ++p;
+        for (std::int64_t di = -1; di <= 1; ++di) {
+          std::ptrdiff_t found = -1;
+          for (std::size_t q = p; q < hi && q <= p + 2; ++q)
+            if (rasterCellI(keys[q]) == i + di)
+              found = static_cast<std::ptrdiff_t>(q);
+          out[di + 1] = found;
+        }
+      };
+      std::array<std::ptrdiff_t, 8>& nb = neighbours[k];
+      find3(pb, below_hi, nb.data());
+      nb[3] = (k > start && rasterCellI(keys[k - 1]) == i - 1)
+                ? static_cast<std::ptrdiff_t>(k - 1)
+                : -1;
+      nb[4] = (k + 1 < end && rasterCellI(keys[k + 1]) == i + 1)
+                ? static_cast<std::ptrdiff_t>(k + 1)
+                : -1;
+      find3(pa, above_hi, nb.data() + 5);
+    }
+    start = end;
+  }
+  std::vector<std::size_t> layer, next;
+  for (std::size_t k = 0; propagate && k < n; ++k)
+    if (std::isnan(value[k]))
+      for (const auto nb : neighbours[k])
+        if (nb >= 0 && !std::isnan(value[static_cast<std::size_t>(nb)])) {
+          layer.push_back(k);
+          break;
+        }
+  std::vector<float> layer_values;
+  std::vector<std::uint8_t> queued(propagate ? n : 0, 0);
+  for (const auto k : layer)
+    queued[k] = 1;
+  while (!layer.empty()) {
+    layer_values.assign(layer.size(), 0.0f);
+    for (std::size_t l = 0; l < layer.size(); ++l) {
+      double sum = 0.0;
+      int valued = 0;
+      for (const auto nb : neighbours[layer[l]])
+        if (nb >= 0 && !std::isnan(value[static_cast<std::size_t>(nb)])) {
+          sum += value[static_cast<std::size_t>(nb)];
+          ++valued;
+        }
+      layer_values[l] = static_cast<float>(sum / valued);
+    }
+    for (std::size_t l = 0; l < layer.size(); ++l)
+      value[layer[l]] = layer_values[l];
+    next.clear();
+    for (const auto k : layer)
+      for (const auto nb : neighbours[k])
+        if (nb >= 0 && std::isnan(value[static_cast<std::size_t>(nb)])
+            && queued[static_cast<std::size_t>(nb)] == 0) {
+          queued[static_cast<std::size_t>(nb)] = 1;
+          next.push_back(static_cast<std::size_t>(nb));
+        }
+    std::swap(layer, next);
+  }
+  for (auto& v : value)
+    if (std::isnan(v))
+      v = 0.5f;
+
+  std::vector<std::uint8_t> cls(n);
+  for (std::size_t k = 0; k < n; ++k)
+    cls[k] = value[k] >= params.occupancy_thres ? 1 : 0;
+  std::vector<RasterRectangle> cover =
+    mergeRasterRectangles(keys, cls, params.merge_rule, params.cover_density);
+  std::sort(cover.begin(), cover.end(),
+            [](const RasterRectangle& a, const RasterRectangle& b) {
+              return a.j0 != b.j0 ? a.j0 < b.j0 : a.i0 < b.i0;
+            });
+  plane.rects.reserve(cover.size());
+  for (const RasterRectangle& rect : cover) {
+    double sum = 0.0;
+    std::uint64_t features = 0, cells = 0;
+    for (std::int64_t j = rect.j0; j < rect.j1; ++j) {
+      auto k = static_cast<std::size_t>(
+        std::lower_bound(keys.begin(), keys.end(),
+                         rasterCellKey(rect.i0, static_cast<std::int32_t>(j)))
+        - keys.begin());
+      // the DENSITY cover may hold unobserved cells: only the raster's count
+      for (; k < n && rasterCellJ(keys[k]) == j && rasterCellI(keys[k]) < rect.i1;
+           ++k) {
+        sum += value[k];
+        features += count[k];
+        ++cells;
+      }
+    }
+    plane.rects.push_back(
+      RasterRect{rect.i0, rect.i1, rect.j0, rect.j1,
+                 static_cast<float>(cells > 0 ? sum / static_cast<double>(cells) : 0.5),
+                 static_cast<std::uint32_t>(std::min<std::uint64_t>(
+                   features, std::numeric_limits<std::uint32_t>::max()))});
+  }
+}
+
+/** \brief The cuboid of rectangle \a rect of \a plane: the raster frame projected
+ * onto the refined plane along its normal (the centre projected, the horizontal axis
+ * u projected and normalised, the extents scaled by the projections of u and v,
+ * factors within cos(plane_merge_angle_rad) of 1, so that rectangles adjacent in the
+ * raster stay adjacent up to a shear of the order of the angle squared), extruded by
+ * \a thickness behind the face. */
+PlanarCuboid
+rectCuboid(const MapPlane& plane,
+           const RasterFrame& frame,
+           const FacePlacement& placement,
+           const RasterRect& rect,
+           int plane_id,
+           double r,
+           float thickness)
+{
+  // In double: corrupt (but accepted) raster keys near the int range must not
+  // overflow.
+  const double u_mid = 0.5 * (static_cast<double>(rect.i0) + rect.i1) * r;
+  const double v_mid = 0.5 * (static_cast<double>(rect.j0) + rect.j1) * r;
+  const Eigen::Vector3f on_frame = frame.origin
+                                   + frame.u_axis * static_cast<float>(u_mid)
+                                   + frame.v_axis * static_cast<float>(v_mid);
+  const Eigen::Vector3f on_plane =
+    on_frame - plane.normal * (plane.normal.dot(on_frame) + plane.d);
+  PlanarCuboid c;
+  c.normal = plane.normal;
+  c.horizontal_axis = placement.place_u;
+  c.width_m = static_cast<float>((static_cast<double>(rect.i1) - rect.i0) * r
+                                 * placement.scale_u);
+  c.height_m = static_cast<float>((static_cast<double>(rect.j1) - rect.j0) * r
+                                  * placement.scale_v);
+  c.thickness_m = thickness;
+  c.centre = on_plane - plane.normal * (0.5f * thickness);
+  c.plane_id = plane_id;
+  c.point_count = rect.point_count;
+  c.is_planar = true;
+  c.probability = rect.probability;
+  return c;
+}
+
+} // namespace
+
+/** \brief Rebuilds the covers of the planes changed since; caller holds the mutex. */
+void
+SurfaceLayer::Impl::ensureCovers(const Params& params)
+{
+  for (auto& plane : planes)
+    if (plane.dirty)
+      rebuildPlane(plane, params);
+}
+
+/** \brief Appends every plane's rectangles, then the non-planar cells; caller holds
+ * the mutex. */
+void
+SurfaceLayer::Impl::buildCuboids(const Params& params, PlanarCuboids& out)
+{
+  ensureCovers(params);
+  std::size_t total = non_planar.size();
+  for (const auto& plane : planes)
+    total += plane.rects.size();
+  out.reserve(out.size() + total);
+  const auto thickness = static_cast<float>(params.thickness_m);
+  for (std::size_t p = 0; p < planes.size(); ++p) {
+    const MapPlane& plane = planes[p];
+    if (plane.rects.empty())
+      continue;
+    const RasterFrame frame = plane.frame();
+    const FacePlacement placement(frame, plane.normal);
+    for (const RasterRect& rect : plane.rects)
+      out.push_back(rectCuboid(plane, frame, placement, rect, static_cast<int>(p),
+                               params.resolution_m, thickness));
+  }
+  for (const auto& cell : non_planar) {
+    PlanarCuboid c = nonPlanarCuboid(cell);
+    c.probability = cell.feature_count > 0
+                      ? static_cast<float>(cell.probability_sum / cell.feature_count)
+                      : 0.5f;
+    c.point_count = cell.feature_count;
+    out.push_back(c);
+  }
+}
+
+} // namespace planar_grid

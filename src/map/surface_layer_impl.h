@@ -1,0 +1,449 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The private storage of the surface layer and the helpers its source files share
+// (private to the map module; the public API is planar_grid/map/surface_layer.h).
+#pragma once
+
+#include <planar_grid/core/plane_association.h>
+#include <planar_grid/core/rectangle_merge.h>
+#include <planar_grid/map/surface_layer.h>
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <unordered_map>
+#include <vector>
+
+#include "surface_raster.h"
+
+namespace planar_grid {
+namespace surface_layer_detail {
+
+/** \brief Raster cells per face beyond which a face is skipped (a corrupt or
+ * absurdly large cuboid). */
+inline constexpr double MAX_FACE_CELLS = 1e7;
+/** \brief Largest |raster index| (int32 with a margin). */
+inline constexpr double MAX_CELL_INDEX = 2.0e9;
+/** \brief Largest coordinate accepted, meters (corrupt data guard). */
+inline constexpr float MAX_COORDINATE_M = 1e7f;
+/** \brief Spatial-index bins per cuboid beyond which it goes to the "large" list. */
+inline constexpr double MAX_BINS_PER_CUBOID = 4096.0;
+/** \brief Section magic ("PGSL") and version of serialize(). */
+inline constexpr std::uint32_t MAGIC = 0x4C534750u;
+inline constexpr std::uint32_t VERSION = 3;
+/** \brief Largest Params::close_gaps_cells. */
+inline constexpr int MAX_CLOSE_GAPS_CELLS = 32;
+
+/** \brief Bytes of one node of a std::unordered_map (libstdc++: next pointer, value,
+ * cached hash for non-fast hashes; we count the pointer, the value and round to 8). */
+template <typename Map>
+std::size_t
+hashMapBytes(const Map& map)
+{
+  constexpr std::size_t node =
+    (sizeof(void*) + sizeof(typename Map::value_type) + sizeof(std::size_t) + 7) / 8
+    * 8;
+  return map.bucket_count() * sizeof(void*) + map.size() * node;
+}
+
+template <typename Vector>
+std::size_t
+vectorBytes(const Vector& v)
+{
+  return v.capacity() * sizeof(typename Vector::value_type);
+}
+
+/** \brief True when \a v is finite and within MAX_COORDINATE_M. */
+inline bool
+finiteVector(const Eigen::Vector3f& v)
+{
+  return v.allFinite() && v.cwiseAbs().maxCoeff() <= MAX_COORDINATE_M;
+}
+
+/** \brief A rectangle of a plane's cover, in raster cells [i0, i1) x [j0, j1), with
+ * the mean probability of its cells and the number of features in it (24 bytes). */
+struct RasterRect {
+  std::int32_t i0, i1, j0, j1;
+  float probability;
+  std::uint32_t point_count;
+};
+
+/** \brief A map plane's raster frame: origin -d n on the plane it was created on,
+ * u = z x n normalised (x projected for a horizontal plane), v = n x u. Derived from
+ * the plane, not stored. */
+struct RasterFrame {
+  Eigen::Vector3f origin;
+  Eigen::Vector3f u_axis;
+  Eigen::Vector3f v_axis;
+
+  RasterFrame(const Eigen::Vector3f& n, float offset)
+  {
+    origin = -offset * n;
+    Eigen::Vector3f u = Eigen::Vector3f::UnitZ().cross(n);
+    if (u.norm() < 1e-3f)
+      u = Eigen::Vector3f::UnitX() - n * n.x();
+    u_axis = u.normalized();
+    v_axis = n.cross(u_axis);
+  }
+  /** Raster coordinates (in cells) of a world point projected on the frame. */
+  Eigen::Vector2d toRaster(const Eigen::Vector3f& p, double inv_r) const
+  {
+    const Eigen::Vector3f q = p - origin;
+    return {q.dot(u_axis) * inv_r, q.dot(v_axis) * inv_r};
+  }
+  /** World point of the centre of cell (i, j) on the frame's plane. */
+  Eigen::Vector3f cellCentre(std::int64_t i, std::int64_t j, double r) const
+  {
+    return origin + u_axis * static_cast<float>((static_cast<double>(i) + 0.5) * r)
+           + v_axis * static_cast<float>((static_cast<double>(j) + 0.5) * r);
+  }
+};
+
+/** \brief How a raster frame's rectangles are placed on the refined plane: the
+ * faces' horizontal axis on it (u projected along the normal, normalised) and the
+ * lengths of the projections of u and v. Derived, not stored. */
+struct FacePlacement {
+  Eigen::Vector3f place_u;
+  float scale_u;
+  float scale_v;
+
+  FacePlacement(const RasterFrame& frame, const Eigen::Vector3f& n)
+  {
+    const Eigen::Vector3f pu = frame.u_axis - n * n.dot(frame.u_axis);
+    scale_u = pu.norm();
+    // (u lies in the plane up to the angle between the normals, < pi / 2)
+    place_u = scale_u > 1e-6f ? Eigen::Vector3f(pu / scale_u) : frame.u_axis;
+    scale_v = (frame.v_axis - n * n.dot(frame.v_axis)).norm();
+  }
+};
+
+/** \brief A map plane: the plane of its fixed raster frame, its refined
+ * (least-squares) plane, the evidence moments, the raster and the cached cover. */
+struct MapPlane {
+  /** The plane the raster frame was created on (RasterFrame). */
+  Eigen::Vector3f frame_normal{Eigen::Vector3f::UnitZ()};
+  float frame_d{0.0f};
+  /** The refined plane (its normal is within plane_merge_angle_rad / 2 of the
+   * frame's after every integrate(), re-anchored otherwise). */
+  Eigen::Vector3f normal{Eigen::Vector3f::UnitZ()};
+  float d{0.0f};
+  PlaneMoments moments;
+  Raster raster;
+  /** Cached cover (valid when !dirty). */
+  std::vector<RasterRect> rects;
+  bool dirty{true};
+
+  void setFrame(const Eigen::Vector3f& n, float offset)
+  {
+    frame_normal = n;
+    frame_d = offset;
+  }
+  void setRefined(const Eigen::Vector3f& n, float offset)
+  {
+    normal = n;
+    d = offset;
+  }
+  RasterFrame frame() const { return RasterFrame(frame_normal, frame_d); }
+};
+
+/** \brief Key of a non-planar cell: quantised centre and size. */
+struct NonPlanarKey {
+  std::array<std::int32_t, 6> q;
+  bool operator==(const NonPlanarKey& o) const { return q == o.q; }
+};
+struct NonPlanarKeyHash {
+  std::size_t operator()(const NonPlanarKey& k) const
+  {
+    std::uint64_t h = 1469598103934665603ull;
+    for (const auto v : k.q) {
+      h ^= static_cast<std::uint32_t>(v);
+      h *= 1099511628211ull;
+    }
+    return static_cast<std::size_t>(h);
+  }
+};
+
+/** \brief Orientation of non-planar boxes (normal, horizontal axis), shared by the
+ * cells that have it (typically one or a few for a whole map). */
+struct BoxAxes {
+  Eigen::Vector3f normal;
+  Eigen::Vector3f horizontal_axis;
+};
+
+/** \brief A non-planar cell (40 bytes): the latest cuboid's box (its axes an index
+ * into Impl::np_axes) and the sums of its features. */
+struct NonPlanarCell {
+  Eigen::Vector3f centre;
+  float width_m;
+  float height_m;
+  float thickness_m;
+  std::uint32_t axes;
+  std::uint32_t feature_count{0};
+  double probability_sum{0.0};
+
+  NonPlanarCell(const PlanarCuboid& c, std::uint32_t axes_index) :
+      centre(c.centre), width_m(c.width_m), height_m(c.height_m),
+      thickness_m(c.thickness_m), axes(axes_index)
+  {}
+};
+
+/** \brief Key of a box orientation: the bit patterns of its six floats. */
+using AxesKey = std::array<std::uint32_t, 6>;
+
+inline AxesKey
+axesKey(const Eigen::Vector3f& normal, const Eigen::Vector3f& horizontal_axis)
+{
+  AxesKey key;
+  const float v[6] = {normal.x(),          normal.y(),          normal.z(),
+                      horizontal_axis.x(), horizontal_axis.y(), horizontal_axis.z()};
+  std::memcpy(key.data(), v, sizeof(v));
+  return key;
+}
+
+/** \brief An entry of the non-planar cells' spatial index: a bin key (split in two
+ * words so that the entry is 12 bytes) and a cell index. */
+struct BinEntry {
+  std::uint32_t key_hi{0};
+  std::uint32_t key_lo{0};
+  std::uint32_t index{0};
+
+  BinEntry() = default;
+  BinEntry(std::uint64_t key, std::uint32_t i) :
+      key_hi(static_cast<std::uint32_t>(key >> 32)),
+      key_lo(static_cast<std::uint32_t>(key)), index(i)
+  {}
+  std::uint64_t key() const
+  {
+    return (static_cast<std::uint64_t>(key_hi) << 32) | key_lo;
+  }
+  bool operator<(const BinEntry& o) const { return key() < o.key(); }
+};
+
+/** \brief Key of the spatial-index bin (x, y, z). */
+inline std::uint64_t
+binKey(std::int64_t x, std::int64_t y, std::int64_t z)
+{
+  // 21 bits per axis (+-1e6 bins) is ample for |coordinates| <= 1e7 m at >= 4 cm bins
+  const auto pack = [](std::int64_t v) {
+    return static_cast<std::uint64_t>(v + (std::int64_t{1} << 20)) & 0x1FFFFFu;
+  };
+  return (pack(x) << 42) | (pack(y) << 21) | pack(z);
+}
+
+/** \brief Axis-aligned bounds of a cuboid. */
+inline void
+cuboidBounds(const PlanarCuboid& c, Eigen::Vector3f& lo, Eigen::Vector3f& hi)
+{
+  const Eigen::Vector3f half = (c.horizontal_axis * (0.5f * c.width_m)).cwiseAbs()
+                               + (c.verticalAxis() * (0.5f * c.height_m)).cwiseAbs()
+                               + (c.normal * (0.5f * c.thickness_m)).cwiseAbs();
+  lo = c.centre - half;
+  hi = c.centre + half;
+}
+
+/** \brief Calls f(bin key) for the bins of edge \a bin (meters) that the bounding
+ * box of \a c grown by \a grow (meters) meets; returns false (nothing called) when
+ * they exceed MAX_BINS_PER_CUBOID. */
+template <typename F>
+bool
+forEachBin(const PlanarCuboid& c, float grow, float bin, F f)
+{
+  Eigen::Vector3f lo, hi;
+  cuboidBounds(c, lo, hi);
+  lo.array() -= grow;
+  hi.array() += grow;
+  const Eigen::Vector3d a = (lo / bin).cast<double>().array().floor();
+  const Eigen::Vector3d b = (hi / bin).cast<double>().array().floor();
+  if (!((b - a + Eigen::Vector3d::Ones()).prod() <= MAX_BINS_PER_CUBOID))
+    return false;
+  for (auto x = static_cast<std::int64_t>(a.x()); x <= static_cast<std::int64_t>(b.x());
+       ++x)
+    for (auto y = static_cast<std::int64_t>(a.y());
+         y <= static_cast<std::int64_t>(b.y()); ++y)
+      for (auto z = static_cast<std::int64_t>(a.z());
+           z <= static_cast<std::int64_t>(b.z()); ++z)
+        f(binKey(x, y, z));
+  return true;
+}
+
+/** \brief Raster index of a coordinate in cells, or false when beyond
+ * MAX_CELL_INDEX. */
+inline bool
+cellIndex(double coordinate, std::int64_t& index)
+{
+  const double f = std::floor(coordinate);
+  if (!(std::abs(f) <= MAX_CELL_INDEX))
+    return false;
+  index = static_cast<std::int64_t>(f);
+  return true;
+}
+
+/** \brief True for a cuboid of finite geometry (centre within MAX_COORDINATE_M,
+ * non-negative extents). */
+inline bool
+validGeometry(const PlanarCuboid& c)
+{
+  return finiteVector(c.centre) && c.normal.allFinite() && c.horizontal_axis.allFinite()
+         && std::isfinite(c.width_m) && std::isfinite(c.height_m)
+         && std::isfinite(c.thickness_m) && c.width_m >= 0.0f && c.height_m >= 0.0f
+         && c.thickness_m >= 0.0f;
+}
+
+/** \brief True for a face whose cells are marked (valid, at most MAX_FACE_CELLS
+ * cells of edge \a r). */
+inline bool
+usableFace(const PlanarCuboid& c, double r)
+{
+  return validGeometry(c)
+         && static_cast<double>(c.width_m) * c.height_m <= MAX_FACE_CELLS * r * r;
+}
+
+/** \brief Validates parameters; throws planar_grid::Exception. */
+void validate(const SurfaceLayer::Params& p);
+
+/** \brief Key of a non-planar cell: centre quantised to cells of \a resolution_m,
+ * extents rounded to cells. */
+NonPlanarKey nonPlanarKey(const PlanarCuboid& c, double resolution_m);
+
+/** \brief Refits the refined plane of \a plane to its evidence (fitPlane(), the
+ * normal within the angle whose cosine is \a cos_angle); kept when the fit fails. */
+void refitPlane(MapPlane& plane, double cos_angle);
+
+/** \brief Scratch of one integrate(): the frame's planes, oriented toward its
+ * sensor, and the map planes they joined. */
+struct FramePlanes {
+  /** The map plane of each frame plane (-1: none). */
+  std::vector<int> map_of_frame;
+  /** Whether a planar cuboid gave the frame plane its orientation. */
+  std::vector<bool> orientation_known;
+  /** The frame planes, unit normals oriented like their cuboids. */
+  std::vector<Eigen::Vector4f, Eigen::aligned_allocator<Eigen::Vector4f>> oriented;
+  /** The map planes the frame touched, sorted. */
+  std::vector<int> touched;
+};
+
+/** \brief The query index of findCuboid() and castRay(): a copy of the cuboids and a
+ * spatial hash of their bounding boxes (built on the first query, freed by
+ * integrate()). */
+struct CuboidQueryIndex {
+  bool valid{false};
+  /** The cuboids the index refers to (getCuboids() at the time it was built). */
+  PlanarCuboids cuboids;
+  /** Spatial index: bin key -> cuboid indices; "large" cuboids are tested always. */
+  float bin_m{0.4f};
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> bins;
+  std::vector<std::uint32_t> large;
+  Eigen::Vector3f bounds_min{Eigen::Vector3f::Zero()};
+  Eigen::Vector3f bounds_max{Eigen::Vector3f::Zero()};
+
+  /** Frees the index (it is stale). */
+  void clear()
+  {
+    valid = false;
+    decltype(cuboids)().swap(cuboids);
+    decltype(bins)().swap(bins);
+    decltype(large)().swap(large);
+  }
+};
+
+} // namespace surface_layer_detail
+
+/** \brief The storage of the surface layer (planes with their rasters and covers,
+ * non-planar cells) and its query index. The methods are defined by concern:
+ * surface_layer_association.cpp (frame planes to map planes, merging and re-anchoring
+ * map planes), surface_layer_non_planar.cpp (the non-planar cells),
+ * surface_layer_cover.cpp (the planes' rectangles and the cuboids),
+ * surface_layer_query.cpp (findCuboid(), castRay()). */
+struct SurfaceLayer::Impl {
+  std::vector<surface_layer_detail::MapPlane,
+              Eigen::aligned_allocator<surface_layer_detail::MapPlane>>
+    planes;
+  /** The refined planes, as returned by getPlanes(). */
+  PlaneModels plane_models;
+  std::vector<surface_layer_detail::NonPlanarCell> non_planar;
+  /** The distinct orientations of the non-planar cells. */
+  std::vector<surface_layer_detail::BoxAxes> np_axes;
+
+  /** Guards the lazy builds of the covers and of the query index. */
+  std::mutex mutex;
+  /** The query index (built under mutex by ensureIndex(), freed by integrate()). */
+  surface_layer_detail::CuboidQueryIndex index;
+
+  /** Frees the query index. */
+  void invalidate() { index.clear(); }
+  /** The cuboid of non-planar cell \a cell (plane_id -1; probability and point_count
+   * unset). */
+  PlanarCuboid nonPlanarCuboid(const surface_layer_detail::NonPlanarCell& cell) const
+  {
+    PlanarCuboid c;
+    c.centre = cell.centre;
+    c.normal = np_axes[cell.axes].normal;
+    c.horizontal_axis = np_axes[cell.axes].horizontal_axis;
+    c.width_m = cell.width_m;
+    c.height_m = cell.height_m;
+    c.thickness_m = cell.thickness_m;
+    c.plane_id = -1;
+    c.is_planar = false;
+    return c;
+  }
+  /** Index of the orientation of \a c in np_axes (added when new); \a lookup maps
+   * the keys of np_axes to their index. */
+  std::uint32_t
+  internAxes(const PlanarCuboid& c,
+             std::map<surface_layer_detail::AxesKey, std::uint32_t>& lookup)
+  {
+    const auto inserted =
+      lookup.emplace(surface_layer_detail::axesKey(c.normal, c.horizontal_axis),
+                     static_cast<std::uint32_t>(np_axes.size()));
+    if (inserted.second)
+      np_axes.push_back(surface_layer_detail::BoxAxes{c.normal, c.horizontal_axis});
+    return inserted.first->second;
+  }
+  /** Removes the orientations no cell uses. */
+  void pruneAxes();
+
+  // integrate(), step by step
+  /** Orients the frame's planes like their cuboids, and joins each to the map plane
+   * that explains its faces together with its own evidence, else to a new one. */
+  void associateFramePlanes(const PlanarCuboids& cuboids,
+                            const PlaneModels& planes,
+                            const Params& params,
+                            surface_layer_detail::FramePlanes& frame);
+  /** Marks the raster cells of the frame's planar cuboids and refits the touched
+   * planes; collects the frame's non-planar cuboids (one per key) in \a incoming. */
+  void markFaces(const PlanarCuboids& cuboids,
+                 const PlaneModels& planes,
+                 const Params& params,
+                 const surface_layer_detail::FramePlanes& frame,
+                 std::vector<PlanarCuboid>& incoming);
+  /** Replaces the stored non-planar cells that \a incoming overlaps and appends
+   * \a incoming; \a added receives the indices of the new cells. */
+  void replaceNonPlanar(const std::vector<PlanarCuboid>& incoming,
+                        const Params& params,
+                        std::vector<std::uint32_t>& added);
+  /** Adds the features to the touched planes' cells and to the frame's non-planar
+   * cells (\a frame_non_planar, sorted and made unique here). */
+  void addFeatureEvidence(const pcl::PointCloud<pcl::PointXYZ>& features,
+                          const std::vector<float>& probabilities,
+                          const Params& params,
+                          const std::vector<int>& touched,
+                          std::vector<std::uint32_t>& frame_non_planar);
+  /** Merges the map planes that converged (a touched plane and any other that one
+   * plane explains and whose rasters overlap or touch); \a touched is renumbered. */
+  void mergeConvergedPlanes(std::vector<int>& touched, const Params& params);
+  /** Gives a new raster frame to a touched plane whose refined normal drifted from
+   * its frame's. */
+  void reanchorDrifted(const std::vector<int>& touched, const Params& params);
+
+  /** Rebuilds dirty planes' covers; caller holds the mutex. */
+  void ensureCovers(const Params& params);
+  /** Appends the cuboids (planes' rectangles, then non-planar cells) to \a out;
+   * caller holds the mutex. */
+  void buildCuboids(const Params& params, PlanarCuboids& out);
+  /** Builds the query index over all cuboids; caller holds the mutex. */
+  void ensureIndex(const Params& params);
+};
+
+} // namespace planar_grid

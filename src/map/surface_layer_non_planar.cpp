@@ -1,0 +1,130 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The surface layer's non-planar cells (Fig. 7): keys, the orientation table, and the
+// replacement of the cells a newer frame overlaps.
+#include <planar_grid/map/surface_layer.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include "surface_layer_impl.h"
+
+namespace planar_grid {
+
+namespace surface_layer_detail {
+
+NonPlanarKey
+nonPlanarKey(const PlanarCuboid& c, double resolution_m)
+{
+  const double inv = 1.0 / resolution_m;
+  const auto q = [](double x) {
+    return static_cast<std::int32_t>(std::max(-2.0e9, std::min(2.0e9, std::floor(x))));
+  };
+  const auto r = [](double x) {
+    return static_cast<std::int32_t>(std::max(-2.0e9, std::min(2.0e9, std::round(x))));
+  };
+  return NonPlanarKey{{q(c.centre.x() * inv), q(c.centre.y() * inv),
+                       q(c.centre.z() * inv), r(c.width_m * inv), r(c.height_m * inv),
+                       r(c.thickness_m * inv)}};
+}
+
+} // namespace surface_layer_detail
+
+using namespace surface_layer_detail;
+
+void
+SurfaceLayer::Impl::pruneAxes()
+{
+  constexpr std::uint32_t UNUSED = std::numeric_limits<std::uint32_t>::max();
+  std::vector<std::uint32_t> renumber(np_axes.size(), UNUSED);
+  for (const auto& cell : non_planar)
+    renumber[cell.axes] = 0;
+  std::uint32_t used = 0;
+  for (std::size_t a = 0; a < np_axes.size(); ++a)
+    if (renumber[a] != UNUSED) {
+      np_axes[used] = np_axes[a];
+      renumber[a] = used++;
+    }
+  if (used == np_axes.size())
+    return;
+  np_axes.resize(used);
+  np_axes.shrink_to_fit();
+  for (auto& cell : non_planar)
+    cell.axes = renumber[cell.axes];
+}
+
+void
+SurfaceLayer::Impl::replaceNonPlanar(const std::vector<PlanarCuboid>& incoming,
+                                     const Params& params,
+                                     std::vector<std::uint32_t>& added)
+{
+  Impl& impl = *this;
+  const double r = params.resolution_m;
+  const auto np_bin = static_cast<float>(4.0 * r);
+  // 4b. Non-planar replacement (SurfaceLayer's documentation): every stored cell of an
+  // earlier frame whose centre lies in a new cuboid grown by half a cell, or that
+  // contains the new cuboid's centre, is removed; then the new cells are appended.
+  {
+    const float half_cell = static_cast<float>(0.5 * r);
+    std::vector<std::uint32_t> doomed;
+    // a spatial index of the stored cells' bounding boxes (bins of 4 cells; cells
+    // spanning more than MAX_BINS_PER_CUBOID bins in a list tested always)
+    std::vector<BinEntry> np_bins;
+    std::vector<std::uint32_t> np_large;
+    if (!incoming.empty()) {
+      for (std::size_t k = 0; k < impl.non_planar.size(); ++k) {
+        const auto index = static_cast<std::uint32_t>(k);
+        if (!forEachBin(impl.nonPlanarCuboid(impl.non_planar[k]), 0.0f, np_bin,
+                        [&](std::uint64_t key) { np_bins.emplace_back(key, index); }))
+          np_large.push_back(index);
+      }
+      std::sort(np_bins.begin(), np_bins.end());
+    }
+    // (every stored cell is of an earlier frame)
+    const auto test = [&](const PlanarCuboid& nw, std::uint32_t index) {
+      const NonPlanarCell& old = impl.non_planar[index];
+      if (nw.contains(old.centre, half_cell)
+          || impl.nonPlanarCuboid(old).contains(nw.centre))
+        doomed.push_back(index);
+    };
+    for (const PlanarCuboid& nw : incoming) {
+      const bool binned = forEachBin(nw, half_cell, np_bin, [&](std::uint64_t key) {
+        const auto range =
+          std::equal_range(np_bins.begin(), np_bins.end(), BinEntry(key, 0));
+        for (auto it = range.first; it != range.second; ++it)
+          test(nw, it->index);
+      });
+      if (binned)
+        for (const auto index : np_large)
+          test(nw, index);
+      else
+        for (std::size_t index = 0; index < impl.non_planar.size(); ++index)
+          test(nw, static_cast<std::uint32_t>(index));
+    }
+    std::vector<BinEntry>().swap(np_bins);
+    std::sort(doomed.begin(), doomed.end());
+    doomed.erase(std::unique(doomed.begin(), doomed.end()), doomed.end());
+    // highest first: the cell moved into a freed slot is never one still to remove
+    for (auto it = doomed.rbegin(); it != doomed.rend(); ++it) {
+      if (*it + 1 != impl.non_planar.size())
+        impl.non_planar[*it] = impl.non_planar.back();
+      impl.non_planar.pop_back();
+    }
+    std::map<AxesKey, std::uint32_t> axes_lookup;
+    for (std::size_t a = 0; a < impl.np_axes.size(); ++a)
+      axes_lookup.emplace(
+        axesKey(impl.np_axes[a].normal, impl.np_axes[a].horizontal_axis),
+        static_cast<std::uint32_t>(a));
+    impl.non_planar.reserve(impl.non_planar.size() + incoming.size());
+    for (const PlanarCuboid& c : incoming) {
+      added.push_back(static_cast<std::uint32_t>(impl.non_planar.size()));
+      impl.non_planar.emplace_back(c, impl.internAxes(c, axes_lookup));
+    }
+    if (!doomed.empty())
+      impl.pruneAxes();
+    impl.non_planar.shrink_to_fit();
+  }
+}
+
+} // namespace planar_grid
