@@ -325,6 +325,11 @@ protected:
   std::vector<Unit> units_;
   /** \brief Label per raster cell (rectangle or leaf id, -1 none). */
   std::vector<int> label_;
+  /** \brief The raster cells the kept units cover (rasterCellKey(), row-major), the
+   * input of the merge. */
+  std::vector<std::uint64_t> covered_keys_;
+  /** \brief Their class for the merge (all 0: one class). */
+  std::vector<std::uint8_t> covered_classes_;
 
 public:
   PCL_MAKE_ALIGNED_OPERATOR_NEW

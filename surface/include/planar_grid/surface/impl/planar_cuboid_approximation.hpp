@@ -2,6 +2,7 @@
 #pragma once
 
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/rectangle_merge.h>
 #include <planar_grid/surface/planar_cuboid_approximation.h>
 
 #include <pcl/PolygonMesh.h>
@@ -394,43 +395,21 @@ PlanarCuboidApproximation<PointT>::approximatePlane(int plane_id,
   }
 
   // Merge (Fig. 6(b)): horizontal runs per raster row (equal heights), then runs with
-  // equal u-extent in consecutive rows (equal widths) grow into one rectangle.
-  struct Run {
-    int u0, u1, rect;
-  };
-  struct Rect {
-    int u0, u1, v0, v1;
-  };
-  std::vector<Run> previous, current;
-  std::vector<Rect> rects;
-  for (int v = 0; v < nv_; ++v) {
-    current.clear();
-    int* row = label_.data() + static_cast<std::size_t>(v) * nu_;
-    std::size_t j = 0;
-    for (int u = 0; u < nu_;) {
-      if (row[u] != -2) {
-        ++u;
-        continue;
-      }
-      int u_end = u;
-      while (u_end < nu_ && row[u_end] == -2)
-        ++u_end;
-      while (j < previous.size() && previous[j].u0 < u)
-        ++j;
-      int rect = -1;
-      if (j < previous.size() && previous[j].u0 == u && previous[j].u1 == u_end) {
-        rect = previous[j].rect;
-        rects[rect].v1 = v + 1;
-      } else {
-        rect = static_cast<int>(rects.size());
-        rects.push_back(Rect{u, u_end, v, v + 1});
-      }
-      std::fill(row + u, row + u_end, rect);
-      current.push_back(Run{u, u_end, rect});
-      u = u_end;
-    }
-    std::swap(previous, current);
-  }
+  // equal u-extent in consecutive rows (equal widths) grow into one rectangle; each
+  // covered cell is labelled with its rectangle.
+  covered_keys_.clear();
+  for (int v = 0; v < nv_; ++v)
+    for (int u = 0; u < nu_; ++u)
+      if (label_[static_cast<std::size_t>(v) * nu_ + u] == -2)
+        covered_keys_.push_back(rasterCellKey(u, v));
+  covered_classes_.assign(covered_keys_.size(), 0);
+  const std::vector<RasterRectangle> rects =
+    mergeRasterRectangles(covered_keys_, covered_classes_, RectangleMergeRule::PAPER);
+  for (std::size_t r = 0; r < rects.size(); ++r)
+    for (int v = rects[r].j0; v < rects[r].j1; ++v)
+      std::fill(label_.begin() + static_cast<std::ptrdiff_t>(v) * nu_ + rects[r].i0,
+                label_.begin() + static_cast<std::ptrdiff_t>(v) * nu_ + rects[r].i1,
+                static_cast<int>(r));
 
   // Per rectangle: inlier count and (u, v, w) extent.
   struct Extent {
@@ -460,10 +439,10 @@ PlanarCuboidApproximation<PointT>::approximatePlane(int plane_id,
       a = std::max(r_lo, std::min(a, r_hi - cell_f));
       return std::make_pair(std::min(a, lo), std::max(a + cell_f, hi));
     };
-    const auto u = tighten(e.lo.x(), e.hi.x(), u_origin_ + rects[r].u0 * cell_f,
-                           u_origin_ + rects[r].u1 * cell_f);
-    const auto v = tighten(e.lo.y(), e.hi.y(), v_origin_ + rects[r].v0 * cell_f,
-                           v_origin_ + rects[r].v1 * cell_f);
+    const auto u = tighten(e.lo.x(), e.hi.x(), u_origin_ + rects[r].i0 * cell_f,
+                           u_origin_ + rects[r].i1 * cell_f);
+    const auto v = tighten(e.lo.y(), e.hi.y(), v_origin_ + rects[r].j0 * cell_f,
+                           v_origin_ + rects[r].j1 * cell_f);
     // Fig. 6(c): face at the front-most inlier, extruded to the back.
     const float front = e.hi.z();
     const float back = std::min(e.lo.z(), front - thickness);
