@@ -1,14 +1,13 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/byte_io.h>
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/plane_association.h>
 
 #include <pcl/common/transforms.h>
 #include <pcl/filters/uniform_sampling.h>
 #include <pcl/filters/voxel_grid.h>
 
-#include <algorithm>
 #include <cmath>
-#include <limits>
 
 #include "stages.h"
 
@@ -54,8 +53,7 @@ public:
                   double plane_merge_distance_m) :
       leaf_size_m_(leaf_size_m),
       every_(downsample_every_n_frames),
-      cos_merge_angle_(static_cast<float>(std::cos(plane_merge_angle_rad))),
-      merge_distance_m_(static_cast<float>(plane_merge_distance_m))
+      association_(associationCriteria(plane_merge_angle_rad, plane_merge_distance_m))
   {}
 
   void process(Frame& frame, PipelineState& state) override
@@ -123,38 +121,40 @@ public:
   }
 
 private:
-  /** The run-wide plane with the same coefficients within tolerance (normals within
-   * plane_merge_angle_rad, either orientation; offsets within plane_merge_distance_m),
-   * updated by the inlier-weighted mean; a new one when none matches. Returns its id.
-   */
-  std::size_t
-  associatePlane(Eigen::Vector4f c, std::size_t inliers, PipelineState& state) const
+  /** The accumulate stage's association criteria: normals within
+   * plane_merge_angle_rad in either orientation, offsets d within
+   * plane_merge_distance_m. */
+  static PlaneAssociationCriteria associationCriteria(double plane_merge_angle_rad,
+                                                      double plane_merge_distance_m)
   {
-    std::size_t best = state.plane_models.size();
-    float best_distance = std::numeric_limits<float>::max();
-    for (std::size_t k = 0; k < state.plane_models.size(); ++k) {
-      const Eigen::Vector4f& m = state.plane_models[k];
-      const Eigen::Vector4f oriented = m.head<3>().dot(c.head<3>()) < 0.0f ? -c : c;
-      if (m.head<3>().dot(oriented.head<3>()) < cos_merge_angle_)
-        continue;
-      const float distance = std::abs(m[3] - oriented[3]);
-      if (distance <= merge_distance_m_ && distance < best_distance) {
-        best = k;
-        best_distance = distance;
-      }
-    }
-    if (best == state.plane_models.size()) {
+    PlaneAssociationCriteria criteria;
+    criteria.eps_angle_rad = plane_merge_angle_rad;
+    criteria.distance_threshold_m = plane_merge_distance_m;
+    criteria.orientation = PlaneOrientation::EITHER;
+    criteria.distance = PlaneDistance::OFFSET;
+    return criteria;
+  }
+
+  /** The run-wide plane with the same coefficients within tolerance (the nearest
+   * offset, the lowest id on a tie), updated by the inlier-weighted mean; a new one
+   * when none matches. Returns its id. */
+  std::size_t associatePlane(const Eigen::Vector4f& c,
+                             std::size_t inliers,
+                             PipelineState& state) const
+  {
+    const std::ptrdiff_t found = association_.findBest(
+      state.plane_models.size(),
+      [&state](std::size_t k) { return PlaneObservation{state.plane_models[k]}; },
+      PlaneObservation{c});
+    if (found < 0) {
       state.plane_models.push_back(c);
       state.plane_inlier_counts.push_back(inliers);
-      return best;
+      return state.plane_models.size() - 1;
     }
-    Eigen::Vector4f& m = state.plane_models[best];
-    if (m.head<3>().dot(c.head<3>()) < 0.0f)
-      c = -c;
-    const auto w_old = static_cast<float>(state.plane_inlier_counts[best]);
-    const auto w_new = static_cast<float>(inliers);
-    m = (w_old * m + w_new * c) / std::max(w_old + w_new, 1.0f);
-    m /= m.head<3>().norm();
+    const auto best = static_cast<std::size_t>(found);
+    state.plane_models[best] = averageModelCoefficients(
+      state.plane_models[best], static_cast<float>(state.plane_inlier_counts[best]), c,
+      static_cast<float>(inliers));
     state.plane_inlier_counts[best] += inliers;
     return best;
   }
@@ -184,8 +184,7 @@ private:
 
   double leaf_size_m_;
   int every_;
-  float cos_merge_angle_;
-  float merge_distance_m_;
+  PlaneAssociation association_;
   int frames_since_downsample_{0};
 };
 
