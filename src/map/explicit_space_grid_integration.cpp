@@ -1,0 +1,654 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// ExplicitSpaceGrid::integrateDepthImage(): the voxels of a camera frustum projected
+// into the depth image (blocks and 4^3 cubes decided whole through the depth pyramid,
+// the rest voxel by voxel), then the occupied voxel of every measured pixel.
+#include <planar_grid/map/explicit_space_grid.h>
+
+#include <pcl/console/print.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <thread>
+#include <vector>
+
+#include "explicit_space_grid_impl.h"
+
+namespace planar_grid {
+
+using namespace explicit_space;
+
+namespace {
+
+/** \brief Nearest camera depth considered, meters (avoids the projection pole). */
+constexpr float NEAR_Z = 1e-3f;
+
+/** \brief static_cast<int>(std::floor(x)) for |x| < 2^31, without the call to floorf
+ * (x86-64 before SSE4.1 has no rounding instruction). */
+inline int
+floorToInt(float x)
+{
+  const int t = static_cast<int>(x); // truncation towards zero
+  return t - (static_cast<float>(t) > x ? 1 : 0);
+}
+
+/** \brief Counters of the free / occluded pass (debug output). */
+struct Counters {
+  std::size_t visited{0}, fast{0}, slow{0};
+};
+
+/** \brief Bit i of \a b moved to bit 2 i. */
+inline std::uint64_t
+spreadBits(std::uint32_t b)
+{
+  std::uint64_t x = b;
+  x = (x | (x << 16)) & 0x0000FFFF0000FFFFULL;
+  x = (x | (x << 8)) & 0x00FF00FF00FF00FFULL;
+  x = (x | (x << 4)) & 0x0F0F0F0F0F0F0F0FULL;
+  x = (x | (x << 2)) & 0x3333333333333333ULL;
+  x = (x | (x << 1)) & 0x5555555555555555ULL;
+  return x;
+}
+
+/** \brief What the per-voxel test of one view reads: camera, thresholds, the depth
+ * pyramid and the voxel axes (copied to locals where the test runs). */
+struct VoxelKernel {
+  float fx, fy, cx, cy, u_end, v_end, max_range, margin;
+  int W, H;
+  bool mark_occluded;
+  const float* depth0; // min_level[0]: the measured depth per pixel, +inf for none
+  const DepthPyramid* pyramid;
+  /** \brief The voxel axes in the camera frame, one voxel edge long, meters. */
+  Eigen::Vector3f ex, ey, ez;
+};
+
+/** \brief A 4^3 cube of a block, the unit of the per-voxel test, with the depth
+ * pyramid level its voxels' footprints are read at. */
+struct CubeQuery {
+  /** \brief Min corner of the block, camera frame, meters. */
+  Eigen::Vector3f c0;
+  /** \brief Local offset of the cube in the block, voxels (0 or 4 each). */
+  int ox, oy, oz;
+  /** \brief Pyramid level: at most 3 x 3 cells per footprint. */
+  int level;
+  /** \brief Footprint radius of the cube's voxels, pixels. */
+  int r;
+};
+
+/** \brief What the 8 corner centres of a 4^3 cube tell of observeCube()'s per-voxel
+ * test for all 64 voxels. */
+enum class CubeBound : std::uint8_t {
+  UNDECIDED, // the 64 centres must be tested
+  ALL_FREE,  // every voxel is free
+  NONE_FREE  // no voxel is free (and without mark_occluded, none is observed)
+};
+
+/** \brief Bounds observeCube()'s per-voxel test over the 4^3 cube \a cube from its 8
+ * corner centres instead of all 64 projections. The projection is monotone along any
+ * line, so the extremes of the centres' pixel coordinates and depths are those of the
+ * corner centres; they are widened by a pixel and 1 mm against rounding. ALL_FREE:
+ * every centre is in range and inside the image, and the largest centre depth is in
+ * front of every level cell meeting the union of the footprints (minus the margin), so
+ * every voxel passes its own test. NONE_FREE: the smallest centre depth is not in front
+ * of any level cell that holds a centre's pixel (minus the margin); each voxel's
+ * footprint contains its own pixel's cell, so no voxel passes. */
+CubeBound
+boundCube(const VoxelKernel& kernel, const CubeQuery& cube)
+{
+  const Eigen::Vector3f &c0 = cube.c0, &ex = kernel.ex, &ey = kernel.ey,
+                        &ez = kernel.ez;
+  const int ox = cube.ox, oy = cube.oy, oz = cube.oz, level = cube.level, r = cube.r;
+  const auto l = static_cast<std::size_t>(level);
+  const float* const lmin = kernel.pyramid->min_level[l].data();
+  const int level_width = kernel.pyramid->w[l];
+  constexpr float SLACK_PX = 1.0f, SLACK_M = 1e-3f, FAR_PX = 1e6f;
+  float umin = std::numeric_limits<float>::infinity(), umax = -umin, vmin = umin,
+        vmax = -umin, zmin = umin, zmax = -umin;
+  for (int i = 0; i < 8; ++i) {
+    const Eigen::Vector3f p =
+      c0 + (static_cast<float>(ox + 3 * (i & 1)) + 0.5f) * ex
+      + (static_cast<float>(oy + 3 * ((i >> 1) & 1)) + 0.5f) * ey
+      + (static_cast<float>(oz + 3 * (i >> 2)) + 0.5f) * ez;
+    if (!(p.z() > NEAR_Z + SLACK_M))
+      return CubeBound::UNDECIDED;
+    zmin = std::min(zmin, p.z());
+    zmax = std::max(zmax, p.z());
+    const float inv = 1.0f / p.z();
+    const float u = kernel.fx * p.x() * inv + kernel.cx,
+                v = kernel.fy * p.y() * inv + kernel.cy;
+    umin = std::min(umin, u);
+    umax = std::max(umax, u);
+    vmin = std::min(vmin, v);
+    vmax = std::max(vmax, v);
+  }
+  zmin -= SLACK_M;
+  zmax += SLACK_M;
+  umin = std::max(umin - SLACK_PX, -FAR_PX);
+  umax = std::min(umax + SLACK_PX, FAR_PX);
+  vmin = std::max(vmin - SLACK_PX, -FAR_PX);
+  vmax = std::min(vmax + SLACK_PX, FAR_PX);
+  const auto lw = static_cast<std::ptrdiff_t>(level_width);
+  const float margin = kernel.margin;
+  if (zmax <= kernel.max_range && umin >= -0.5f && umax < kernel.u_end && vmin >= -0.5f
+      && vmax < kernel.v_end) {
+    // every centre valid; the footprints' cells as observeCube() bounds them
+    const int u0 = static_cast<int>(umin + 0.5f), u1 = static_cast<int>(umax + 0.5f);
+    const int v0 = static_cast<int>(vmin + 0.5f), v1 = static_cast<int>(vmax + 0.5f);
+    const int cu0 = std::max(u0 - r, 0) >> level,
+              cu2 = std::min(u1 + r, kernel.W - 1) >> level;
+    const int cv0 = std::max(v0 - r, 0) >> level,
+              cv2 = std::min(v1 + r, kernel.H - 1) >> level;
+    bool all_free = true;
+    for (int cv = cv0; cv <= cv2 && all_free; ++cv) {
+      const float* row = lmin + cv * lw;
+      for (int cu = cu0; cu <= cu2; ++cu)
+        if (!(zmax < row[cu] - margin)) {
+          all_free = false;
+          break;
+        }
+    }
+    if (all_free)
+      return CubeBound::ALL_FREE;
+  }
+  // the cells of the centres' own pixels (those of the valid ones lie in the image)
+  const int pu0 = std::max(static_cast<int>(std::floor(umin + 0.5f)), 0),
+            pu1 = std::min(static_cast<int>(std::floor(umax + 0.5f)), kernel.W - 1);
+  const int pv0 = std::max(static_cast<int>(std::floor(vmin + 0.5f)), 0),
+            pv1 = std::min(static_cast<int>(std::floor(vmax + 0.5f)), kernel.H - 1);
+  if (pu0 > pu1 || pv0 > pv1)
+    return CubeBound::NONE_FREE; // no centre inside the image
+  for (int cv = pv0 >> level; cv <= (pv1 >> level); ++cv) {
+    const float* row = lmin + cv * lw;
+    for (int cu = pu0 >> level; cu <= (pu1 >> level); ++cu)
+      if (!(zmin >= row[cu] - margin))
+        return CubeBound::UNDECIDED;
+  }
+  return CubeBound::NONE_FREE;
+}
+
+/** \brief Per-voxel observations of the 4^3 cube \a cube: free when the centre is in
+ * front of the smallest depth over the level cells meeting its footprint (radius
+ * cube.r pixels, at most 3 x 3 cells of cube.level) minus the margin, occluded (only
+ * with mark_occluded) when behind its pixel's depth plus the margin. Sets bits
+ * x + 8 y of words z of the block's masks. */
+void
+observeCube(const VoxelKernel& kernel,
+            const CubeQuery& cube,
+            std::array<std::uint64_t, BLOCK_EDGE>& free_mask,
+            std::array<std::uint64_t, BLOCK_EDGE>& occluded_mask)
+{
+  const int ox = cube.ox, oy = cube.oy, oz = cube.oz;
+  const CubeBound bound = boundCube(kernel, cube);
+  if (bound == CubeBound::ALL_FREE) {
+    for (int z = 0; z < 4; ++z)
+      for (int y = 0; y < 4; ++y)
+        free_mask[static_cast<std::size_t>(oz + z)] |= std::uint64_t{15}
+                                                       << (ox + 8 * (oy + y));
+    return;
+  }
+  if (bound == CubeBound::NONE_FREE && !kernel.mark_occluded) {
+    return;
+  }
+  const Eigen::Vector3f &c0 = cube.c0, &ex = kernel.ex, &ey = kernel.ey,
+                        &ez = kernel.ez;
+  const int level = cube.level, r = cube.r;
+  const DepthPyramid& pyr = *kernel.pyramid;
+  const int level_width = pyr.w[static_cast<std::size_t>(level)];
+  const float fx = kernel.fx, fy = kernel.fy, cx = kernel.cx, cy = kernel.cy;
+  const float u_end = kernel.u_end, v_end = kernel.v_end;
+  const float max_range = kernel.max_range, margin = kernel.margin;
+  const int W = kernel.W, H = kernel.H;
+  const float exx = ex.x(), exy = ex.y(), exz = ex.z();
+  // The 64 centres (index x + 4 y + 16 z, local to the cube), then their projections
+  // in a branch-free loop the compiler vectorises.
+  std::array<float, 64> xs, ys, zs;
+  for (int z = 0; z < 4; ++z)
+    for (int y = 0; y < 4; ++y) {
+      const Eigen::Vector3f p0 = c0 + (static_cast<float>(ox) + 0.5f) * ex
+                                 + (static_cast<float>(oy + y) + 0.5f) * ey
+                                 + (static_cast<float>(oz + z) + 0.5f) * ez;
+      float px = p0.x(), py = p0.y(), pz = p0.z();
+      for (int x = 0; x < 4; ++x, px += exx, py += exy, pz += exz) {
+        const auto i = static_cast<std::size_t>(x + 4 * y + 16 * z);
+        xs[i] = px;
+        ys[i] = py;
+        zs[i] = pz;
+      }
+    }
+  std::array<int, 64> us, vs;
+  std::array<std::uint8_t, 64> in; // in range and inside the image
+  const auto u_max = static_cast<float>(W - 1), v_max = static_cast<float>(H - 1);
+  for (std::size_t i = 0; i < 64; ++i) {
+    const float zc = zs[i];
+    const float inv = 1.0f / zc;
+    const float u = fx * xs[i] * inv + cx, v = fy * ys[i] * inv + cy;
+    const int ok = static_cast<int>(zc > NEAR_Z) & static_cast<int>(zc <= max_range)
+                   & static_cast<int>(u >= -0.5f) & static_cast<int>(u < u_end)
+                   & static_cast<int>(v >= -0.5f) & static_cast<int>(v < v_end);
+    in[i] = static_cast<std::uint8_t>(ok);
+    // clamped into the image (NaN to 0), which leaves the valid centres' pixels as they
+    // are: int(u + 0.5) for u in [-0.5, W - 0.5)
+    us[i] = static_cast<int>(std::min(u_max, std::max(0.0f, u)) + 0.5f);
+    vs[i] = static_cast<int>(std::min(v_max, std::max(0.0f, v)) + 0.5f);
+  }
+  // The smallest valid depth over the level cells meeting each footprint: one lookup
+  // in the pyramid's minimum over the 1 to 3 cells it spans per axis.
+  std::array<const float*, 9> span_min;
+  for (int k = 0; k < 9; ++k)
+    span_min[static_cast<std::size_t>(k)] = pyr.spanMin(level, k);
+  const auto lw = static_cast<std::ptrdiff_t>(level_width);
+  std::uint64_t valid = 0, free_bits = 0, occ_bits = 0;
+  for (std::size_t i = 0; i < 64; ++i) {
+    const int ui = us[i], vi = vs[i];
+    const int cu0 = std::max(ui - r, 0) >> level,
+              cu2 = std::min(ui + r, W - 1) >> level;
+    const int cv0 = std::max(vi - r, 0) >> level,
+              cv2 = std::min(vi + r, H - 1) >> level;
+    const float fmin =
+      span_min[static_cast<std::size_t>(3 * (cu2 - cu0) + (cv2 - cv0))][cv0 * lw + cu0];
+    // branch-free: the outcome is unpredictable in mixed regions
+    const bool is_free = in[i] != 0 && zs[i] < fmin - margin;
+    valid |= static_cast<std::uint64_t>(in[i]) << i;
+    free_bits |= static_cast<std::uint64_t>(is_free) << i;
+  }
+  if (kernel.mark_occluded) {
+    const float inf = std::numeric_limits<float>::infinity();
+    for (std::uint64_t todo = valid & ~free_bits; todo != 0; todo &= todo - 1) {
+      const int i = __builtin_ctzll(todo);
+      const auto si = static_cast<std::size_t>(i);
+      const float d = kernel.depth0[static_cast<std::ptrdiff_t>(vs[si]) * W
+                                    + static_cast<std::ptrdiff_t>(us[si])];
+      occ_bits |= static_cast<std::uint64_t>(d < inf && zs[si] > d + margin) << i;
+    }
+  }
+  // cube bits x + 4 y + 16 z to block bits (ox + x) + 8 (oy + y) of word oz + z
+  for (int z = 0; z < 4; ++z)
+    for (int y = 0; y < 4; ++y) {
+      const int shift = 4 * y + 16 * z, to = ox + 8 * (oy + y);
+      free_mask[static_cast<std::size_t>(oz + z)] |= ((free_bits >> shift) & 15u) << to;
+      occluded_mask[static_cast<std::size_t>(oz + z)] |= ((occ_bits >> shift) & 15u)
+                                                         << to;
+    }
+}
+
+} // namespace
+
+void
+ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
+                                       const Eigen::Isometry3d& world_T_camera)
+{
+  if (depth.width <= 0 || depth.height <= 0 || depth.depth_m.empty()) {
+    PCL_WARN("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] Empty depth image, "
+             "nothing integrated.\n");
+    return;
+  }
+  if (depth.depth_m.size()
+        != static_cast<std::size_t>(depth.width)
+             * static_cast<std::size_t>(depth.height)
+      || !(depth.fx > 0.0f) || !(depth.fy > 0.0f) || !std::isfinite(depth.fx)
+      || !std::isfinite(depth.fy) || !std::isfinite(depth.cx)
+      || !std::isfinite(depth.cy) || !world_T_camera.matrix().allFinite()) {
+    PCL_ERROR("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] Inconsistent "
+              "depth image (%d x %d with %zu depths, fx %g, fy %g) or pose; nothing "
+              "integrated.\n",
+              depth.width, depth.height, depth.depth_m.size(),
+              static_cast<double>(depth.fx), static_cast<double>(depth.fy));
+    return;
+  }
+
+  BlockStorage& storage = impl_->storage;
+  IntegrationWorkspace& workspace = impl_->workspace;
+  DepthPyramid& pyr = workspace.pyramid;
+  float max_valid_depth = 0.0f;
+  pyr.build(depth, max_valid_depth);
+
+  const float res = static_cast<float>(params_.resolution_m);
+  const float max_range = static_cast<float>(params_.max_range_m);
+  const float margin =
+    params_.surface_margin_m > 0.0
+      ? static_cast<float>(params_.surface_margin_m)
+      : static_cast<float>(params_.resolution_m * std::sqrt(3.0) / 2.0);
+  const auto prior = priorCode(params_.prior);
+  const bool mark_occluded = params_.prior != SpaceState::UNKNOWN;
+  // With an unknown prior, occlusion changes nothing: only space up to the farthest
+  // measurement can change.
+  const float z_far =
+    mark_occluded ? max_range : std::min(max_range, max_valid_depth + margin);
+  const int W = depth.width, H = depth.height;
+  const float fx = depth.fx, fy = depth.fy, cx = depth.cx, cy = depth.cy;
+
+  const Eigen::Isometry3f w_T_c = world_T_camera.cast<float>();
+  const Eigen::Matrix3f R_cw = w_T_c.linear().transpose();
+  const Eigen::Vector3f t_cw = -(R_cw * w_T_c.translation());
+
+  // Voxels of the measured surface: every valid pixel within max_range back-projected.
+  // Done first into a list, applied after the free / occluded pass so that it wins.
+  if (max_valid_depth > 0.0f && z_far > NEAR_Z) {
+    // Frustum bounding box in the world frame.
+    Eigen::Vector3f lo = w_T_c.translation(), hi = lo;
+    for (const float u : {-0.5f, static_cast<float>(W) - 0.5f})
+      for (const float v : {-0.5f, static_cast<float>(H) - 0.5f}) {
+        const Eigen::Vector3f pc((u - cx) / fx * z_far, (v - cy) / fy * z_far, z_far);
+        const Eigen::Vector3f pw = w_T_c * pc;
+        lo = lo.cwiseMin(pw);
+        hi = hi.cwiseMax(pw);
+      }
+    const double span =
+      static_cast<double>((hi - lo).maxCoeff()) / params_.resolution_m;
+    if (span > 1e6
+        || std::abs(lo.cast<double>().maxCoeff()) / params_.resolution_m > 1e9
+        || std::abs(lo.cast<double>().minCoeff()) / params_.resolution_m > 1e9
+        || std::abs(hi.cast<double>().maxCoeff()) / params_.resolution_m > 1e9
+        || std::abs(hi.cast<double>().minCoeff()) / params_.resolution_m > 1e9) {
+      PCL_ERROR("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] Frustum of "
+                "%g voxels across or far from the origin; nothing integrated.\n",
+                span);
+      return;
+    }
+    const VoxelKey klo = toKey(lo), khi = toKey(hi);
+    const BlockKey blo{blockOf(klo.x()), blockOf(klo.y()), blockOf(klo.z())};
+    const BlockKey bhi{blockOf(khi.x()), blockOf(khi.y()), blockOf(khi.z())};
+
+    const float block_edge = res * BLOCK_EDGE;
+    const Eigen::Vector3f ex = R_cw.col(0) * res, ey = R_cw.col(1) * res,
+                          ez = R_cw.col(2) * res;
+    const float half_diag_px = std::max(fx, fy) * res * 0.8660254f;
+    const float u_end = static_cast<float>(W) - 0.5f,
+                v_end = static_cast<float>(H) - 0.5f;
+    const int max_r = std::max(W, H);
+
+    enum class Cube { NONE, FREE, OCCLUDED, SPLIT };
+    struct CubeInfo {
+      int r{0};                       // footprint radius of its voxels, pixels
+      int u0{0}, v0{0}, u1{0}, v1{0}; // pixel region (clamped)
+    };
+    // Classifies the cube of s^3 voxels whose min corner is c (camera frame).
+    const auto classify = [&](const Eigen::Vector3f& c, float s, CubeInfo& info) {
+      const Eigen::Vector3f sx = s * ex, sy = s * ey, sz = s * ez;
+      std::array<Eigen::Vector3f, 8> corners;
+      float zmin = std::numeric_limits<float>::infinity(), zmax = -zmin;
+      for (int i = 0; i < 8; ++i) {
+        auto& p = corners[static_cast<std::size_t>(i)];
+        p = c;
+        if (i & 1)
+          p += sx;
+        if (i & 2)
+          p += sy;
+        if (i & 4)
+          p += sz;
+        zmin = std::min(zmin, p.z());
+        zmax = std::max(zmax, p.z());
+      }
+      if (zmax <= NEAR_Z || zmin > z_far)
+        return Cube::NONE;
+      if (zmin <= NEAR_Z) { // straddles the camera plane: voxel by voxel
+        info = {max_r, 0, 0, W - 1, H - 1};
+        return Cube::SPLIT;
+      }
+      float umin = std::numeric_limits<float>::infinity(), umax = -umin, vmin = umin,
+            vmax = -umin;
+      for (const auto& p : corners) {
+        const float inv = 1.0f / p.z();
+        const float u = fx * p.x() * inv + cx, v = fy * p.y() * inv + cy;
+        umin = std::min(umin, u);
+        umax = std::max(umax, u);
+        vmin = std::min(vmin, v);
+        vmax = std::max(vmax, v);
+      }
+      if (umax < -0.5f || vmax < -0.5f || umin >= u_end || vmin >= v_end)
+        return Cube::NONE;
+      const bool inside =
+        umin >= -0.5f && vmin >= -0.5f && umax < u_end && vmax < v_end;
+      info.r = std::min(static_cast<int>(std::ceil(half_diag_px / zmin)), max_r);
+      info.u0 = static_cast<int>(std::floor(umin + 0.5f)) - info.r;
+      info.v0 = static_cast<int>(std::floor(vmin + 0.5f)) - info.r;
+      info.u1 = static_cast<int>(std::floor(umax + 0.5f)) + info.r;
+      info.v1 = static_cast<int>(std::floor(vmax + 0.5f)) + info.r;
+      pyr.clampRect(info.u0, info.v0, info.u1, info.v1);
+      float mn, mx;
+      pyr.queryRect(info.u0, info.v0, info.u1, info.v1, mn, mx);
+      if (std::isinf(mn))
+        return Cube::NONE; // no measurement under the cube: no information
+      if (zmax < mn - margin) {
+        if (!inside || zmax > max_range)
+          return Cube::SPLIT;
+        // every voxel's footprint must hold a measurement: it contains a whole cell
+        // of level j
+        const int r_far = static_cast<int>(half_diag_px / zmax);
+        int j = 0;
+        while ((2 << j) <= r_far + 1)
+          ++j;
+        return pyr.noHoles(j, info.u0, info.v0, info.u1, info.v1) ? Cube::FREE
+                                                                  : Cube::SPLIT;
+      }
+      if (zmin > mx + margin) { // behind every measurement of the region
+        if (!mark_occluded)
+          return Cube::NONE;
+        return inside && zmax <= max_range
+                   && pyr.noHoles(0, info.u0, info.v0, info.u1, info.v1)
+                 ? Cube::OCCLUDED
+                 : Cube::SPLIT;
+      }
+      return Cube::SPLIT;
+    };
+    const VoxelKernel kernel{
+      fx,        fy,     cx, cy, u_end,         v_end,
+      max_range, margin, W,  H,  mark_occluded, pyr.min_level[0].data(),
+      &pyr,      ex,     ey, ez};
+    // Every footprint radius is at least that of a voxel at z_far.
+    pyr.buildSpans(pyr.levelFor(
+      std::min(static_cast<int>(std::ceil(half_diag_px / z_far)), max_r) + 1));
+    // Voxel-by-voxel observations of the 4^3 cube at local offset o of a block whose
+    // min corner is c0, as bits (x + 8 y) of words z of the free / occluded masks.
+    const auto perVoxel = [&](const Eigen::Vector3f& c0, int ox, int oy, int oz,
+                              const CubeInfo& info, BlockResult& res) {
+      // at most 3 x 3 cells per footprint
+      const CubeQuery cube{c0, ox, oy, oz, pyr.levelFor(info.r + 1), info.r};
+      observeCube(kernel, cube, res.free, res.occluded);
+    };
+    // Bits of the 4^3 cube at local offset o in the masks.
+    const auto cubeBits = [](std::array<std::uint64_t, BLOCK_EDGE>& mask, int ox,
+                             int oy, int oz) {
+      const std::uint64_t rows = std::uint64_t{0xF0F0F0F} << (ox + 8 * oy);
+      for (int z = oz; z < oz + 4; ++z)
+        mask[static_cast<std::size_t>(z)] |= rows;
+    };
+    // The observations of block (bx, by, bz); false when the view says nothing of it.
+    // Inward unit normals of the frustum's side planes (through the camera centre,
+    // along the image border u = -0.5, u = W - 0.5, v = -0.5, v = H - 0.5).
+    const std::array<Eigen::Vector3f, 4> side_normals{
+      Eigen::Vector3f(fx, 0.0f, cx + 0.5f).normalized(),
+      Eigen::Vector3f(-fx, 0.0f, u_end - cx).normalized(),
+      Eigen::Vector3f(0.0f, fy, cy + 0.5f).normalized(),
+      Eigen::Vector3f(0.0f, -fy, v_end - cy).normalized()};
+    const Eigen::Vector3f block_half = (ex + ey + ez) * (0.5f * BLOCK_EDGE);
+    // half block diagonal plus slack for rounding
+    const float reject_radius = block_half.norm() * 1.01f + 1e-3f;
+    const auto observeBlock = [&](int bx, int by, int bz, BlockResult& res,
+                                  Counters& counters) {
+      const Eigen::Vector3f c0 =
+        R_cw
+          * Eigen::Vector3f(static_cast<float>(bx) * block_edge,
+                            static_cast<float>(by) * block_edge,
+                            static_cast<float>(bz) * block_edge)
+        + t_cw;
+      // Blocks whose bounding sphere lies (with slack) beyond the depth range or
+      // outside a side plane of the frustum project outside the image: classify()
+      // would say NONE; skip its 8 projections.
+      const Eigen::Vector3f centre = c0 + block_half;
+      if (centre.z() + reject_radius <= NEAR_Z || centre.z() - reject_radius > z_far)
+        return false;
+      if (centre.z() - reject_radius > NEAR_Z)
+        for (const auto& n : side_normals)
+          if (n.dot(centre) < -reject_radius)
+            return false;
+      CubeInfo info;
+      const Cube kind = classify(c0, static_cast<float>(BLOCK_EDGE), info);
+      if (kind == Cube::NONE)
+        return false;
+      ++counters.visited;
+      res.key = {bx, by, bz};
+      if (kind == Cube::FREE) {
+        ++counters.fast;
+        res.kind = BlockResult::ALL_FREE;
+        return true;
+      }
+      if (kind == Cube::OCCLUDED) {
+        res.kind = BlockResult::ALL_OCCLUDED;
+        return true;
+      }
+      res.kind = BlockResult::MASKS;
+      res.free.fill(0);
+      res.occluded.fill(0);
+      bool any = false;
+      for (int c = 0; c < 8; ++c) {
+        const int ox = (c & 1) * 4, oy = ((c >> 1) & 1) * 4, oz = ((c >> 2) & 1) * 4;
+        const Eigen::Vector3f cc = c0 + static_cast<float>(ox) * ex
+                                   + static_cast<float>(oy) * ey
+                                   + static_cast<float>(oz) * ez;
+        CubeInfo sub;
+        const Cube sk = classify(cc, 4.0f, sub);
+        if (sk == Cube::NONE)
+          continue;
+        if (sk == Cube::FREE) {
+          cubeBits(res.free, ox, oy, oz);
+          any = true;
+        } else if (sk == Cube::OCCLUDED) {
+          cubeBits(res.occluded, ox, oy, oz);
+          any = true;
+        } else {
+          ++counters.slow;
+          perVoxel(c0, ox, oy, oz, sub, res);
+        }
+      }
+      if (!any)
+        for (int z = 0; z < BLOCK_EDGE; ++z)
+          any = any || res.free[static_cast<std::size_t>(z)] != 0
+                || res.occluded[static_cast<std::size_t>(z)] != 0;
+      return any;
+    };
+
+    // Observe the blocks of the frustum's bounding box (slabs of z split between the
+    // threads, each slab's blocks in x-fastest order: the concatenation is the
+    // single-threaded order), then apply the observations one block at a time.
+    const int n_slabs = bhi.z - blo.z + 1;
+    const int n_threads = std::max(1, std::min(num_threads_, n_slabs));
+    auto& per_thread = workspace.results;
+    per_thread.resize(static_cast<std::size_t>(n_threads));
+    std::vector<Counters> counters(static_cast<std::size_t>(n_threads));
+    const auto work = [&](int t) {
+      auto& out = per_thread[static_cast<std::size_t>(t)];
+      out.clear();
+      const int z0 =
+        blo.z + static_cast<int>(static_cast<long long>(n_slabs) * t / n_threads);
+      const int z1 =
+        blo.z + static_cast<int>(static_cast<long long>(n_slabs) * (t + 1) / n_threads);
+      BlockResult res;
+      for (int bz = z0; bz < z1; ++bz)
+        for (int by = blo.y; by <= bhi.y; ++by)
+          for (int bx = blo.x; bx <= bhi.x; ++bx)
+            if (observeBlock(bx, by, bz, res, counters[static_cast<std::size_t>(t)]))
+              out.push_back(res);
+    };
+    if (n_threads == 1)
+      work(0);
+    else {
+      std::vector<std::thread> threads;
+      for (int t = 1; t < n_threads; ++t)
+        threads.emplace_back(work, t);
+      work(0);
+      for (auto& th : threads)
+        th.join();
+    }
+
+    // The observations go to the edit buffer, block by block; the occupied voxels
+    // below are written over them, and both reach the storage at once.
+    const auto free_code = static_cast<std::uint8_t>(SpaceState::FREE);
+    const auto unknown_code = static_cast<std::uint8_t>(SpaceState::UNKNOWN);
+    constexpr std::uint64_t LOW = 0x5555555555555555ULL;
+    for (const auto& list : per_thread)
+      for (const BlockResult& res : list) {
+        const std::uint32_t e = storage.open(res.key, prior);
+        if (res.kind == BlockResult::ALL_FREE) {
+          // Whole block in front of the surface: free without per-voxel work (observed
+          // free is never the code of the prior).
+          storage.edits[e].uniform = free_code;
+          continue;
+        }
+        Payload& words = storage.mixedPayload(e);
+        for (int k = 0; k < 16; ++k) {
+          // voxels 32 k .. 32 k + 31: half of mask word k / 2
+          const int shift = (k & 1) * 32;
+          const std::uint64_t fs =
+            res.kind == BlockResult::ALL_OCCLUDED
+              ? 0
+              : spreadBits(static_cast<std::uint32_t>(
+                res.free[static_cast<std::size_t>(k >> 1)] >> shift));
+          const std::uint64_t os =
+            res.kind == BlockResult::ALL_OCCLUDED
+              ? LOW
+              : spreadBits(static_cast<std::uint32_t>(
+                res.occluded[static_cast<std::size_t>(k >> 1)] >> shift));
+          std::uint64_t w = words[static_cast<std::size_t>(k)];
+          const std::uint64_t x = w ^ pattern(prior);
+          const std::uint64_t at_prior = ~(x | (x >> 1)) & LOW;
+          // occluded turns only the never-observed voxels unknown
+          const std::uint64_t occ = os & at_prior;
+          w &= ~((fs | occ) * 3);  // free = 00
+          w |= occ * unknown_code; // unknown = 10
+          words[static_cast<std::size_t>(k)] = w;
+        }
+      }
+    Counters total;
+    for (const auto& c : counters) {
+      total.visited += c.visited;
+      total.fast += c.fast;
+      total.slow += c.slow;
+    }
+    PCL_DEBUG("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] %zu blocks "
+              "seen, %zu free as a whole, %zu 4^3 cubes voxel by voxel.\n",
+              total.visited, total.fast, total.slow);
+  }
+
+  // Occupied: the voxel of every measured pixel within max_range. Neighbouring pixels
+  // mostly fall in one voxel, which is written once per run of them.
+  BlockStorage::Cursor cursor(storage, prior);
+  const auto occupied_code = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
+  const float inv_res = 1.0f / res;
+  std::vector<float>& column_x = workspace.column_x; // (u - cx) / fx
+  column_x.resize(static_cast<std::size_t>(W));
+  for (int u = 0; u < W; ++u)
+    column_x[static_cast<std::size_t>(u)] = (static_cast<float>(u) - cx) / fx;
+  for (int v = 0; v < H; ++v) {
+    const float yn = (static_cast<float>(v) - cy) / fy;
+    const float* row =
+      &pyr.min_level[0][static_cast<std::size_t>(v) * static_cast<std::size_t>(W)];
+    // |key| < 2^30 below: no voxel has this key
+    int last_x = std::numeric_limits<int>::min(), last_y = 0, last_z = 0;
+    for (int u = 0; u < W; ++u) {
+      const float d = row[u];
+      if (!(d <= max_range)) // +inf marks no measurement
+        continue;
+      const Eigen::Vector3f pc(column_x[static_cast<std::size_t>(u)] * d, yn * d, d);
+      const Eigen::Vector3f pw = (w_T_c * pc) * inv_res;
+      if (!(pw.cwiseAbs().maxCoeff() < static_cast<float>(MAX_KEY)))
+        continue;
+      const int kx = floorToInt(pw.x()), ky = floorToInt(pw.y()),
+                kz = floorToInt(pw.z());
+      if (kx == last_x && ky == last_y && kz == last_z)
+        continue;
+      last_x = kx;
+      last_y = ky;
+      last_z = kz;
+      int i = 0;
+      const std::uint32_t e = cursor.at(kx, ky, kz, i);
+      storage.setEdit(e, i, occupied_code);
+    }
+  }
+  storage.commit(prior);
+}
+
+} // namespace planar_grid

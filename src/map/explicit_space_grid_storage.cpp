@@ -1,0 +1,368 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The storage of ExplicitSpaceGrid: the compact form of a mixed block (encoding,
+// decoding, counting) and the edit buffer's commit into the super-blocks.
+#include "explicit_space_grid_storage.h"
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace planar_grid {
+namespace explicit_space {
+
+namespace {
+
+/** \brief 16 bits holding 8 copies of the 2-bit code \a s. */
+constexpr std::uint32_t
+cellPattern(std::uint32_t s)
+{
+  return s * 0x5555u;
+}
+
+/** \brief Local voxel index of the corner of cell d of cube c. */
+constexpr int
+cellOrigin(int c, int d)
+{
+  return (4 * (c & 1) + 2 * (d & 1)) + 8 * (4 * ((c >> 1) & 1) + 2 * ((d >> 1) & 1))
+         + 64 * (4 * (c >> 2) + 2 * (d >> 2));
+}
+
+/** \brief The 8 codes of the 2^3 cell whose corner voxel is \a i0 (x of i0 even): two
+ * voxels of a row are 4 consecutive bits of one word. */
+inline std::uint32_t
+cellValue(const Payload& p, int i0)
+{
+  std::uint32_t v = 0;
+  for (int k = 0; k < 4; ++k) { // k = dy + 2 dz
+    const int i = i0 + 8 * (k & 1) + 64 * (k >> 1);
+    v |= static_cast<std::uint32_t>(
+           (p[static_cast<std::size_t>(i >> 5)] >> (2 * (i & 31))) & 15u)
+         << (4 * k);
+  }
+  return v;
+}
+
+/** \brief Writes the 8 codes \a v of the cell with corner voxel \a i0 into a zeroed
+ * region of \a p. */
+inline void
+putCell(Payload& p, int i0, std::uint32_t v)
+{
+  for (int k = 0; k < 4; ++k) {
+    const int i = i0 + 8 * (k & 1) + 64 * (k >> 1);
+    p[static_cast<std::size_t>(i >> 5)] |=
+      static_cast<std::uint64_t>((v >> (4 * k)) & 15u) << (2 * (i & 31));
+  }
+}
+
+/** \brief Walks the compact block at \a data in cube and cell order: \a uniform(c, d,
+ * code, voxels) for a uniform cube (d = -1, 64 voxels) or a uniform cell of a mixed
+ * cube (8 voxels), \a mixed(c, d, v) for a mixed cell with its 8 codes \a v. */
+template <typename Uniform, typename Mixed>
+void
+walkCompact(const std::uint8_t* data, Uniform&& uniform, Mixed&& mixed)
+{
+  const unsigned mixed_cubes = data[0];
+  const unsigned cube_codes = load16(data + 1);
+  const std::uint8_t* head = data + 3;
+  const std::uint8_t* tail = data + 3 + 3 * __builtin_popcount(mixed_cubes);
+  for (int c = 0; c < 8; ++c) {
+    if (!((mixed_cubes >> c) & 1u)) {
+      uniform(c, -1, (cube_codes >> (2 * c)) & 3u, 64);
+      continue;
+    }
+    const unsigned mixed_cells = head[0];
+    const unsigned cell_codes = load16(head + 1);
+    head += 3;
+    for (int d = 0; d < 8; ++d) {
+      if ((mixed_cells >> d) & 1u) {
+        mixed(c, d, static_cast<std::uint32_t>(load16(tail)));
+        tail += 2;
+      } else {
+        uniform(c, d, (cell_codes >> (2 * d)) & 3u, 8);
+      }
+    }
+  }
+}
+
+} // namespace
+
+std::array<std::size_t, 4>
+countCodes(const Payload& p)
+{
+  std::array<std::size_t, 4> n{};
+  constexpr std::uint64_t LOW = 0x5555555555555555ULL;
+  for (const auto w : p) {
+    const std::uint64_t lo = w & LOW, hi = (w >> 1) & LOW;
+    n[0] += static_cast<std::size_t>(__builtin_popcountll(~(lo | hi) & LOW));
+    n[1] += static_cast<std::size_t>(__builtin_popcountll(lo & ~hi));
+    n[2] += static_cast<std::size_t>(__builtin_popcountll(hi & ~lo));
+    n[3] += static_cast<std::size_t>(__builtin_popcountll(lo & hi));
+  }
+  return n;
+}
+
+bool
+isUniform(const Payload& p, std::uint8_t& code)
+{
+  const std::uint64_t w0 = p[0];
+  code = static_cast<std::uint8_t>(w0 & 3u);
+  if (w0 != pattern(code))
+    return false;
+  for (const auto w : p)
+    if (w != w0)
+      return false;
+  return true;
+}
+
+std::size_t
+encodeCompact(const Payload& p, std::uint8_t* out)
+{
+  std::array<std::uint32_t, 64> cells; // cube c, cell d at 8 c + d
+  for (int c = 0; c < 8; ++c)
+    for (int d = 0; d < 8; ++d)
+      cells[static_cast<std::size_t>(8 * c + d)] = cellValue(p, cellOrigin(c, d));
+  std::uint32_t mixed_cubes = 0, cube_codes = 0;
+  for (int c = 0; c < 8; ++c) {
+    const std::uint32_t v0 = cells[static_cast<std::size_t>(8 * c)];
+    bool uniform = v0 == cellPattern(v0 & 3u);
+    for (int d = 1; d < 8 && uniform; ++d)
+      uniform = cells[static_cast<std::size_t>(8 * c + d)] == v0;
+    if (uniform)
+      cube_codes |= (v0 & 3u) << (2 * c);
+    else
+      mixed_cubes |= 1u << c;
+  }
+  out[0] = static_cast<std::uint8_t>(mixed_cubes);
+  out[1] = static_cast<std::uint8_t>(cube_codes);
+  out[2] = static_cast<std::uint8_t>(cube_codes >> 8);
+  std::size_t head = 3;
+  std::size_t tail = 3 + 3 * static_cast<std::size_t>(__builtin_popcount(mixed_cubes));
+  for (int c = 0; c < 8; ++c) {
+    if (!((mixed_cubes >> c) & 1u))
+      continue;
+    std::uint32_t mixed_cells = 0, cell_codes = 0;
+    for (int d = 0; d < 8; ++d) {
+      const std::uint32_t v = cells[static_cast<std::size_t>(8 * c + d)];
+      if (v == cellPattern(v & 3u))
+        cell_codes |= (v & 3u) << (2 * d);
+      else {
+        mixed_cells |= 1u << d;
+        out[tail++] = static_cast<std::uint8_t>(v);
+        out[tail++] = static_cast<std::uint8_t>(v >> 8);
+      }
+    }
+    out[head++] = static_cast<std::uint8_t>(mixed_cells);
+    out[head++] = static_cast<std::uint8_t>(cell_codes);
+    out[head++] = static_cast<std::uint8_t>(cell_codes >> 8);
+  }
+  return tail;
+}
+
+void
+decodeCompact(const std::uint8_t* data, Payload& p)
+{
+  p.fill(0);
+  walkCompact(
+    data,
+    [&p](int c, int d, unsigned code, int) {
+      const std::uint32_t v = cellPattern(code);
+      if (d >= 0) {
+        putCell(p, cellOrigin(c, d), v);
+        return;
+      }
+      for (int k = 0; k < 8; ++k)
+        putCell(p, cellOrigin(c, k), v);
+    },
+    [&p](int c, int d, std::uint32_t v) { putCell(p, cellOrigin(c, d), v); });
+}
+
+void
+countCompact(const std::uint8_t* data, std::array<std::size_t, 4>& n)
+{
+  walkCompact(
+    data,
+    [&n](int, int, unsigned code, int voxels) {
+      n[code] += static_cast<std::size_t>(voxels);
+    },
+    [&n](int, int, std::uint32_t v) {
+      for (int k = 0; k < 8; ++k)
+        ++n[(v >> (2 * k)) & 3u];
+    });
+}
+
+std::uint32_t
+BlockStorage::open(const BlockKey& bk, std::uint8_t prior)
+{
+  std::uint32_t e = edit_index.find(bk);
+  if (e != KeyIndex::NONE)
+    return e;
+  e = static_cast<std::uint32_t>(edits.size());
+  EditBlock block;
+  block.uniform = prior;
+  if (const SuperBlock* sb = findSuper(superOf(bk))) {
+    const int j = indexInSuper(bk);
+    if (sb->isMixed(j)) {
+      block.uniform = MIXED;
+      block.payload = newPayload();
+      decodeCompact(sb->compact(j), pool[block.payload]);
+    } else
+      block.uniform = sb->code(j);
+  }
+  edit_keys.push_back(bk);
+  edits.push_back(block);
+  edit_index.insert(bk, e);
+  return e;
+}
+
+void
+BlockStorage::commit(std::uint8_t prior)
+{
+  const std::size_t n = edits.size();
+  order.resize(n);
+  for (std::size_t k = 0; k < n; ++k)
+    order[k] = static_cast<std::uint32_t>(k);
+  std::sort(order.begin(), order.end(), [this](std::uint32_t a, std::uint32_t b) {
+    const BlockKey sa = superOf(edit_keys[a]), sb = superOf(edit_keys[b]);
+    if (!(sa == sb))
+      return sa < sb;
+    return indexInSuper(edit_keys[a]) < indexInSuper(edit_keys[b]);
+  });
+  // New super-blocks: the array grows to exactly its new size (no capacity left
+  // over: the memory held is what the content needs).
+  std::size_t missing = 0;
+  for (std::size_t g = 0; g < n;) {
+    const BlockKey s = superOf(edit_keys[order[g]]);
+    bool any = false;
+    for (; g < n && superOf(edit_keys[order[g]]) == s; ++g)
+      any = any || edits[order[g]].uniform != prior;
+    missing += any && directory.find(s) == KeyIndex::NONE ? 1 : 0;
+  }
+  if (missing > 0)
+    supers.reserve(supers.size() + missing);
+  bool emptied = false;
+  for (std::size_t g = 0; g < n;) {
+    const BlockKey s = superOf(edit_keys[order[g]]);
+    std::size_t end = g;
+    bool any = false; // an edited block not at the prior
+    for (; end < n && superOf(edit_keys[order[end]]) == s; ++end)
+      any = any || edits[order[end]].uniform != prior;
+    std::uint32_t si = directory.find(s);
+    if (si == KeyIndex::NONE) {
+      if (!any) {
+        g = end;
+        continue;
+      }
+      si = static_cast<std::uint32_t>(supers.size());
+      supers.emplace_back();
+      supers.back().key = s;
+      supers.back().codes.fill(pattern(prior));
+      directory.insert(s, si);
+    }
+    rebuild(supers[si], g, end, prior);
+    emptied = emptied || supers[si].stored == 0;
+    g = end;
+  }
+  if (emptied) {
+    supers.erase(std::remove_if(supers.begin(), supers.end(),
+                                [](const SuperBlock& sb) { return sb.stored == 0; }),
+                 supers.end());
+    supers.shrink_to_fit(); // rare: the memory follows the content
+    if (supers.empty())
+      directory.release();
+    else
+      directory.clear();
+    for (std::size_t i = 0; i < supers.size(); ++i)
+      directory.insert(supers[i].key, static_cast<std::uint32_t>(i));
+  }
+  discardEdits();
+}
+
+void
+BlockStorage::releaseEdits()
+{
+  edit_index.release();
+  std::vector<BlockKey>().swap(edit_keys);
+  std::vector<EditBlock>().swap(edits);
+  std::vector<Payload>().swap(pool);
+  std::vector<std::uint32_t>().swap(order);
+  std::vector<std::uint32_t>().swap(new_offsets);
+  std::vector<std::uint8_t>().swap(new_data);
+}
+
+void
+BlockStorage::rebuild(SuperBlock& sb,
+                      std::size_t first,
+                      std::size_t last,
+                      std::uint8_t prior)
+{
+  std::array<std::uint64_t, 16> codes = sb.codes;
+  std::array<std::uint64_t, 8> mixed = sb.mixed;
+  new_offsets.clear();
+  new_data.clear();
+  std::array<std::uint8_t, MAX_COMPACT_BYTES> buffer;
+  std::size_t next = first;
+  for (int j = 0; j < SUPER_BLOCKS; ++j) {
+    const bool edited = next < last && indexInSuper(edit_keys[order[next]]) == j;
+    if (!edited) {
+      if (sb.isMixed(j)) {
+        const std::uint8_t* src = sb.compact(j);
+        new_offsets.push_back(static_cast<std::uint32_t>(new_data.size()));
+        new_data.insert(new_data.end(), src, src + compactSize(src));
+      }
+      continue;
+    }
+    const EditBlock& block = edits[order[next++]];
+    std::uint8_t code = block.uniform, first = 0;
+    if (code == MIXED && isUniform(pool[block.payload], first))
+      code = first;
+    const auto cw = static_cast<std::size_t>(j >> 5);
+    const int cs = 2 * (j & 31);
+    const auto mw = static_cast<std::size_t>(j >> 6);
+    const std::uint64_t mbit = std::uint64_t{1} << (j & 63);
+    codes[cw] &= ~(std::uint64_t{3} << cs);
+    if (code == MIXED) {
+      mixed[mw] |= mbit;
+      const std::size_t bytes = encodeCompact(pool[block.payload], buffer.data());
+      new_offsets.push_back(static_cast<std::uint32_t>(new_data.size()));
+      new_data.insert(new_data.end(), buffer.begin(), buffer.begin() + bytes);
+    } else {
+      mixed[mw] &= ~mbit;
+      codes[cw] |= static_cast<std::uint64_t>(code) << cs;
+    }
+  }
+  sb.codes = codes;
+  sb.mixed = mixed;
+  std::uint16_t before = 0;
+  for (std::size_t w = 0; w < 8; ++w) {
+    sb.rank[w] = before;
+    before = static_cast<std::uint16_t>(before + __builtin_popcountll(mixed[w]));
+  }
+  // a mixed block's code field is 0, never a prior code (2 or 3): counted as stored
+  constexpr std::uint64_t LOW = 0x5555555555555555ULL;
+  int stored = 0;
+  for (const auto w : codes) {
+    const std::uint64_t x = w ^ pattern(prior);
+    stored += __builtin_popcountll((x | (x >> 1)) & LOW);
+  }
+  sb.stored = static_cast<std::uint16_t>(stored);
+  // exact-size arrays: the memory held is the information's
+  std::vector<std::uint32_t>(new_offsets.begin(), new_offsets.end()).swap(sb.offsets);
+  std::vector<std::uint8_t>(new_data.begin(), new_data.end()).swap(sb.data);
+}
+
+std::vector<StoredBlock>
+BlockStorage::sortedBlocks(std::uint8_t prior) const
+{
+  std::vector<StoredBlock> sorted;
+  for (const auto& sb : supers)
+    for (int j = 0; j < SUPER_BLOCKS; ++j)
+      if (sb.isMixed(j) || sb.code(j) != prior)
+        sorted.push_back({blockKeyOf(sb.key, j), &sb, j});
+  std::sort(sorted.begin(), sorted.end(),
+            [](const StoredBlock& a, const StoredBlock& b) { return a.key < b.key; });
+  return sorted;
+}
+
+} // namespace explicit_space
+} // namespace planar_grid
