@@ -15,6 +15,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
@@ -119,35 +121,52 @@ BM_PclStatisticalOutlierRemoval(benchmark::State& st)
   st.counters["points_in"] = static_cast<double>(p.inputs[s].cloud->size());
 }
 
+/** The frame entering the main job's stage \a stage_type, for every 8th Karlsruhe
+ * frame: the stages before it run (all but the KL filter, which changes no point or
+ * feature); the images and the disparity are released. */
+std::vector<Frame>
+stageInputs(const std::string& stage_type)
+{
+  std::vector<Frame> out;
+  const auto config = planar_grid::loadPipelineConfig(
+    std::string(PLANAR_GRID_SOURCE_DIR) + "/config/karlsruhe.yaml");
+  const auto source = planar_grid::createFrameSource(config.input);
+  std::vector<std::unique_ptr<Stage>> stages;
+  for (const auto& sc : config.stages) {
+    if (sc.type == stage_type)
+      break;
+    if (sc.type != "kl_occupancy_filter")
+      stages.push_back(planar_grid::findStage(sc.type)->create(sc.params));
+  }
+  PipelineState state;
+  for (auto& s : stages)
+    s->start(state);
+  for (std::size_t i = 0; i < source->size(); i += 8) {
+    Frame frame;
+    source->load(i, frame);
+    frame.sequence_number = i;
+    for (auto& s : stages)
+      s->process(frame, state);
+    frame.left.release();
+    frame.right.release();
+    frame.disparity.release();
+    out.push_back(std::move(frame));
+  }
+  for (auto& s : stages)
+    s->finish(state);
+  return out;
+}
+
 /** The statistical_outlier_removal stage's input (the 0.1 m voxel grid's output) of
- * every 8th Karlsruhe frame, from the main job's stereo_disparity, depth_error_filter
- * and voxel_grid stages: the filter's cost over a sequence rather than one frame. */
+ * every 8th Karlsruhe frame (stageInputs()): the filter's cost over a sequence rather
+ * than one frame. */
 const std::vector<Frame::Cloud::ConstPtr>&
 outlierRemovalInputs()
 {
   static const std::vector<Frame::Cloud::ConstPtr> clouds = [] {
     std::vector<Frame::Cloud::ConstPtr> out;
-    const auto config = planar_grid::loadPipelineConfig(
-      std::string(PLANAR_GRID_SOURCE_DIR) + "/config/karlsruhe.yaml");
-    const auto source = planar_grid::createFrameSource(config.input);
-    std::vector<std::unique_ptr<Stage>> stages;
-    for (const auto& sc : config.stages)
-      if (sc.type == "stereo_disparity" || sc.type == "depth_error_filter"
-          || sc.type == "voxel_grid")
-        stages.push_back(planar_grid::findStage(sc.type)->create(sc.params));
-    PipelineState state;
-    for (auto& s : stages)
-      s->start(state);
-    for (std::size_t i = 0; i < source->size(); i += 8) {
-      Frame frame;
-      source->load(i, frame);
-      frame.sequence_number = i;
-      for (auto& s : stages)
-        s->process(frame, state);
+    for (const auto& frame : stageInputs("statistical_outlier_removal"))
       out.push_back(frame.cloud);
-    }
-    for (auto& s : stages)
-      s->finish(state);
     return out;
   }();
   return clouds;
@@ -185,6 +204,66 @@ BM_OutlierRemovalSequence(benchmark::State& st)
   st.counters["frames"] = static_cast<double>(clouds.size());
 }
 
+/** The multi_plane_segmentation stage's input frame (after transform_to_world) for
+ * every 8th Karlsruhe frame (stageInputs()). */
+const std::vector<Frame>&
+segmentationInputs()
+{
+  static const std::vector<Frame> frames = stageInputs("multi_plane_segmentation");
+  return frames;
+}
+
+/** The main job's multi_plane_segmentation stage over segmentationInputs(): one
+ * iteration segments all the frames (counter "frames"); the label is a hash of every
+ * plane's coefficients and inliers, so that two builds can be compared. */
+void
+BM_PlaneSegmentationSequence(benchmark::State& st)
+{
+  const auto& frames = segmentationInputs();
+  const auto config = planar_grid::loadPipelineConfig(
+    std::string(PLANAR_GRID_SOURCE_DIR) + "/config/karlsruhe.yaml");
+  std::unique_ptr<Stage> stage;
+  for (const auto& sc : config.stages)
+    if (sc.type == "multi_plane_segmentation")
+      stage = planar_grid::findStage(sc.type)->create(sc.params);
+  PipelineState state;
+  stage->start(state);
+  std::uint64_t hash = 0;
+  double planes = 0.0, inliers = 0.0;
+  for (auto _ : st) {
+    hash = 0xcbf29ce484222325ULL;
+    planes = inliers = 0.0;
+    for (const auto& input : frames) {
+      Frame frame = input; // the stage reads the cloud and writes only the planes
+      stage->process(frame, state);
+      st.PauseTiming();
+      const auto mix = [&hash](const void* data, std::size_t size) {
+        const auto* bytes = static_cast<const unsigned char*>(data);
+        for (std::size_t k = 0; k < size; ++k) {
+          hash ^= bytes[k];
+          hash *= 0x100000001b3ULL;
+        }
+      };
+      for (const auto& plane : frame.planes) {
+        mix(plane.model_coefficients.values.data(),
+            plane.model_coefficients.values.size() * sizeof(float));
+        mix(plane.inliers.indices.data(),
+            plane.inliers.indices.size() * sizeof(pcl::index_t));
+        inliers += static_cast<double>(plane.inliers.indices.size());
+      }
+      planes += static_cast<double>(frame.planes.size());
+      st.ResumeTiming();
+    }
+  }
+  stage->finish(state);
+  char label[32];
+  std::snprintf(label, sizeof(label), "%016llx", static_cast<unsigned long long>(hash));
+  st.SetLabel(label);
+  st.counters["frames"] = static_cast<double>(frames.size());
+  st.counters["planes"] = planes;
+  st.counters["inliers"] = inliers;
+}
+
 } // namespace
 
 // The 12 stages of config/karlsruhe.yaml, in order.
@@ -196,6 +275,10 @@ BENCHMARK(BM_PclStatisticalOutlierRemoval)
 BENCHMARK(BM_OutlierRemovalSequence)
   ->Arg(0)
   ->Arg(1)
+  ->Unit(benchmark::kMillisecond)
+  ->MeasureProcessCPUTime();
+
+BENCHMARK(BM_PlaneSegmentationSequence)
   ->Unit(benchmark::kMillisecond)
   ->MeasureProcessCPUTime();
 

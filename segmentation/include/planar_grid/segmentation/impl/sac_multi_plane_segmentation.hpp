@@ -81,14 +81,64 @@ spansPlane(const pcl::PointCloud<PointT>& cloud, const pcl::Indices& indices)
  * dummy_precision, PCL's own test) with PCL_DEBUG instead of PCL_ERROR. PCL's model
  * prints an error for every such draw, and the sample consensus simply draws again, so
  * stereo features with duplicated positions (one SIFT keypoint, two orientations)
- * flooded the console; here the rejection is the expected, silent path. */
+ * flooded the console; here the rejection is the expected, silent path.
+ *
+ * Its countWithinDistance() gives PCL's count (the same arithmetic: |n . (x, y, z, 1)|
+ * < threshold, summed as Eigen sums the 4-vector's products) over a struct-of-arrays
+ * copy of the indexed points. With setEarlyExit(true) it stops counting as soon as
+ * the count cannot exceed the largest count it has returned (it then returns a count
+ * no larger than that): pcl::RandomSampleConsensus keeps a hypothesis only when its
+ * count exceeds the best so far, so it chooses exactly what full counts would choose,
+ * while most hypotheses, which lose, are counted over part of the points only. */
 template <typename PointT>
 class QuietPlaneModel : public pcl::SampleConsensusModelPlane<PointT> {
 public:
   QuietPlaneModel(const typename pcl::PointCloud<PointT>::ConstPtr& cloud,
                   const pcl::Indices& indices) :
       pcl::SampleConsensusModelPlane<PointT>(cloud, indices, false)
-  {}
+  {
+    x_.reserve(indices.size());
+    y_.reserve(indices.size());
+    z_.reserve(indices.size());
+    for (const auto i : indices) {
+      x_.push_back((*cloud)[i].x);
+      y_.push_back((*cloud)[i].y);
+      z_.push_back((*cloud)[i].z);
+    }
+  }
+
+  /** \brief Whether counts may stop early (only for an estimator that compares each
+   * count with the best so far and keeps the larger, as RANSAC does). */
+  void setEarlyExit(bool early_exit) { early_exit_ = early_exit; }
+
+  std::size_t countWithinDistance(const Eigen::VectorXf& model_coefficients,
+                                  const double threshold) const override
+  {
+    if (!this->isModelValid(model_coefficients) || x_.size() != this->indices_->size())
+      return pcl::SampleConsensusModelPlane<PointT>::countWithinDistance(
+        model_coefficients, threshold);
+    constexpr std::size_t BLOCK = 64;
+    const float a = model_coefficients[0], b = model_coefficients[1],
+                c = model_coefficients[2], d = model_coefficients[3];
+    const std::size_t n = x_.size();
+    const float* px = x_.data();
+    const float* py = y_.data();
+    const float* pz = z_.data();
+    std::size_t count = 0;
+    for (std::size_t begin = 0; begin < n; begin += BLOCK) {
+      const std::size_t end = std::min(n, begin + BLOCK);
+      std::uint32_t block_count = 0;
+      for (std::size_t k = begin; k < end; ++k) {
+        const float dist = (a * px[k] + c * pz[k]) + (b * py[k] + d);
+        block_count += static_cast<double>(std::abs(dist)) < threshold ? 1u : 0u;
+      }
+      count += block_count;
+      if (early_exit_ && count + (n - end) <= best_count_)
+        return count;
+    }
+    best_count_ = std::max(best_count_, count);
+    return count;
+  }
 
 protected:
   bool isSampleGood(const pcl::Indices& samples) const override
@@ -107,6 +157,14 @@ protected:
     }
     return true;
   }
+
+private:
+  /** \brief The indexed points' coordinates, meters. */
+  std::vector<float> x_, y_, z_;
+  /** \brief Whether counts may stop early. */
+  bool early_exit_{false};
+  /** \brief The largest count returned so far. */
+  mutable std::size_t best_count_{0};
 };
 
 /** \brief Struct-of-arrays store of the unassigned finite input points, so that the
@@ -689,6 +747,7 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
     std::shuffle(remaining.begin(), remaining.end(), rng);
     auto model =
       std::make_shared<detail::QuietPlaneModel<PointT>>(sample_cloud, remaining);
+    model->setEarlyExit(method_ == SACMethod::RANSAC);
     std::shared_ptr<pcl::SampleConsensus<PointT>> sac;
     switch (method_) {
       case SACMethod::MSAC:
