@@ -708,7 +708,6 @@ void
 bindOccupancyFilter(py::module_& m)
 {
   using Filter = OccupancyFilter;
-  using Params = Filter::Params;
   using Class = py::class_<Filter, std::unique_ptr<Filter>>;
   Class cls(m, "KLDivergenceOccupancyFilter",
             R"doc(Occupancy probability of stereo key features across frames.
@@ -731,57 +730,50 @@ baseline_m : float
   ParamBinder<Filter, std::unique_ptr<Filter>> params(
     cls, "KLDivergenceOccupancyFilter",
     [](const Filter& f) { return f.checkParameters(); });
-#define PLANAR_GRID_FILTER_PARAM(type, field, doc)               \
-  params.param<type>(                                            \
-    #field, [](const Filter& f) { return f.getParams().field; }, \
-    [](Filter& f, type value) {                                  \
-      Params p = f.getParams();                                  \
-      p.field = value;                                           \
-      f.setParams(p);                                            \
-    },                                                           \
-    doc)
+#define PLANAR_GRID_FILTER_PARAM(type, field, name, doc)   \
+  params.param<type>(                                      \
+    #field, [](const Filter& f) { return f.get##name(); }, \
+    [](Filter& f, type value) { f.set##name(value); }, doc)
   PLANAR_GRID_FILTER_PARAM(
-    double, disparity_error_px,
+    double, disparity_error_px, DisparityError,
     "float: dd of eq. 4, the disparity error, pixels, > 0 (default "
     "0.5).");
   PLANAR_GRID_FILTER_PARAM(
-    double, neighbourhood_size_m,
+    double, neighbourhood_size_m, NeighbourhoodSize,
     "float: edge of the cell over which the mean range is taken, "
     "meters, > 0 (default 0.5).");
-  PLANAR_GRID_FILTER_PARAM(double, clamping_thres_min,
+  PLANAR_GRID_FILTER_PARAM(double, clamping_thres_min, ClampingThresMin,
                            "float: lower clamp of a probability, in (0, 0.5) (default "
                            "0.1192 = log-odds -2).");
-  PLANAR_GRID_FILTER_PARAM(double, clamping_thres_max,
+  PLANAR_GRID_FILTER_PARAM(double, clamping_thres_max, ClampingThresMax,
                            "float: upper clamp of a probability, in (0.5, 1) (default "
                            "0.971 = log-odds 3.5).");
   PLANAR_GRID_FILTER_PARAM(
-    double, occupancy_thres,
+    double, occupancy_thres, OccupancyThres,
     "float: a feature is kept when its probability reaches it, in "
     "[0, 1] (default 0.5).");
-  PLANAR_GRID_FILTER_PARAM(double, kl_offset_nats,
+  PLANAR_GRID_FILTER_PARAM(double, kl_offset_nats, KLOffset,
                            "float: A of eq. 10, nats, >= 0 (default 1.07).");
-  PLANAR_GRID_FILTER_PARAM(double, prob_hit,
+  PLANAR_GRID_FILTER_PARAM(double, prob_hit, ProbHit,
                            "float: log-odds rule, probability of a hit, in (0.5, 1) "
                            "(default 0.7).");
-  PLANAR_GRID_FILTER_PARAM(double, prob_miss,
+  PLANAR_GRID_FILTER_PARAM(double, prob_miss, ProbMiss,
                            "float: log-odds rule, probability of a miss, in (0, 0.5) "
                            "(default 0.4).");
   PLANAR_GRID_FILTER_PARAM(
-    double, association_radius_m,
+    double, association_radius_m, AssociationRadius,
     "float: without track ids, a feature joins the nearest track "
     "within this distance, meters, > 0 (default 0.2).");
 #undef PLANAR_GRID_FILTER_PARAM
   params.param<std::string>(
-    "update_rule", [](const Filter& f) { return toString(f.getParams().update_rule); },
+    "update_rule", [](const Filter& f) { return toString(f.getUpdateRule()); },
     [](Filter& f, const std::string& name) {
-      Params p = f.getParams();
       try {
-        p.update_rule = occupancyUpdateRuleFromString(name);
+        f.setUpdateRule(occupancyUpdateRuleFromString(name));
       } catch (const planar_grid::Exception& e) {
         throw py::value_error(std::string("KLDivergenceOccupancyFilter: update_rule: ")
                               + e.what());
       }
-      f.setParams(p);
     },
     "str: the update of a re-observed track, 'kl_divergence' (eqs. 5-10, default) or "
     "'log_odds' (OctoMap's).");

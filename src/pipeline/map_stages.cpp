@@ -9,6 +9,7 @@
 
 #include <pcl/common/transforms.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -30,17 +31,31 @@ public:
     RANGE            // dr = range_error_m
   };
 
-  KLOccupancyFilterStage(
-    const KLDivergenceOccupancyFilter<pcl::PointXYZ>::Params& params,
-    ErrorModel error_model,
-    const StereoOdometry::Params& matching,
-    const ConstantVelocityMotionModel::Params& motion,
-    bool use_motion_likelihood) :
-      params_(params),
-      error_model_(error_model), matcher_(matching), motion_model_(motion),
-      use_motion_likelihood_(use_motion_likelihood)
+  /** The filter's parameters, the frame-to-frame matching and the motion model from
+   * the stage's parameters (see klOccupancyFilterInfo()). */
+  explicit KLOccupancyFilterStage(const ParamValues& v) :
+      matcher_(matchingParams(v)), search_radius_px_(v.getDouble("search_radius_px")),
+      max_hamming_distance_(v.getInt("max_hamming_distance_bits")),
+      motion_model_(motionParams(v)),
+      use_motion_likelihood_(v.getBool("use_motion_likelihood"))
   {
-    filter_.setParams(params);
+    const std::string& model = v.getChoice("range_error_model");
+    error_model_ = model == "stereo"            ? ErrorModel::STEREO
+                   : model == "depth_quadratic" ? ErrorModel::DEPTH_QUADRATIC
+                   : model == "range"           ? ErrorModel::RANGE
+                                                : ErrorModel::AUTO;
+    filter_.setUpdateRule(occupancyUpdateRuleFromString(v.getChoice("update_rule")));
+    filter_.setDisparityError(v.getDouble("disparity_error_px"));
+    filter_.setDepthErrorCoefficient(v.getDouble("depth_error_coefficient_per_m"));
+    filter_.setRangeError(v.getDouble("range_error_m"));
+    filter_.setAssociationRadius(v.getDouble("association_radius_m"));
+    filter_.setNeighbourhoodSize(v.getDouble("neighbourhood_size_m"));
+    filter_.setClampingThresMin(v.getDouble("clamping_thres_min"));
+    filter_.setClampingThresMax(v.getDouble("clamping_thres_max"));
+    filter_.setOccupancyThres(v.getDouble("occupancy_thres"));
+    filter_.setKLOffset(v.getDouble("kl_offset_nats"));
+    filter_.setProbHit(v.getDouble("prob_hit"));
+    filter_.setProbMiss(v.getDouble("prob_miss"));
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -90,7 +105,25 @@ public:
     std::vector<std::int64_t> ids(n, -1);
     if (descriptors && previous_.size() > 0) {
       matches_.clear();
-      matcher_.matchDescriptors(previous_, frame.features, matches_);
+      // With both frames' poses (given, or estimated by an earlier stage) and a
+      // pinhole calibration, a previous feature is searched only near where the motion
+      // projects it; otherwise among all the frame's features.
+      if (search_radius_px_ > 0.0 && frame.has_pose && has_previous_pose_
+          && frame.calibration.focal_length_px > 0.0)
+        matcher_.matchDescriptorsProjected(
+          previous_, frame.features, frame.world_T_camera.inverse() * previous_pose_,
+          frame.calibration, search_radius_px_, matches_);
+      else
+        matcher_.matchDescriptors(previous_, frame.features, matches_);
+      // Binary descriptors: a pair farther apart than max_hamming_distance_bits is no
+      // match, whatever the ratio test says (a search window may hold one candidate).
+      if (max_hamming_distance_ > 0 && frame.features.descriptors.depth() == CV_8U)
+        matches_.erase(std::remove_if(matches_.begin(), matches_.end(),
+                                      [this](const cv::DMatch& m) {
+                                        return m.distance > static_cast<float>(
+                                                 max_hamming_distance_);
+                                      }),
+                       matches_.end());
       for (const auto& m : matches_) {
         ids[static_cast<std::size_t>(m.trainIdx)] =
           previous_ids_[static_cast<std::size_t>(m.queryIdx)];
@@ -126,8 +159,7 @@ public:
       cloud->sensor_orientation_ =
         Eigen::Quaternionf(frame.world_T_camera.rotation().cast<float>());
     }
-    params_.range_error_model = model;
-    filter_.setParams(params_);
+    filter_.setRangeErrorModel(model);
     if (model == RangeErrorModel::STEREO)
       filter_.setStereoParameters(frame.calibration.focal_length_px,
                                   frame.calibration.baseline_m);
@@ -222,11 +254,27 @@ public:
   }
 
 private:
-  KLDivergenceOccupancyFilter<pcl::PointXYZ>::Params params_;
-  ErrorModel error_model_;
+  static StereoOdometry::Params matchingParams(const ParamValues& v)
+  {
+    StereoOdometry::Params matching;
+    matching.ratio = v.getDouble("match_ratio");
+    return matching;
+  }
+
+  static ConstantVelocityMotionModel::Params motionParams(const ParamValues& v)
+  {
+    ConstantVelocityMotionModel::Params motion;
+    motion.sigma_translation_m = v.getDouble("sigma_translation_m");
+    motion.sigma_rotation_rad = v.getDouble("sigma_rotation_rad");
+    return motion;
+  }
+
+  ErrorModel error_model_{ErrorModel::AUTO};
   RangeErrorModel model_{RangeErrorModel::STEREO};
   KLDivergenceOccupancyFilter<pcl::PointXYZ> filter_;
   StereoOdometry matcher_;
+  double search_radius_px_;
+  int max_hamming_distance_;
   ConstantVelocityMotionModel motion_model_;
   bool use_motion_likelihood_;
   StereoFeatures previous_;
@@ -391,11 +439,13 @@ klOccupancyFilterInfo()
     "planar_grid::KLDivergenceOccupancyFilter (paper Sec. III-D/E): each 3D key "
     "feature gets the sampled-Gaussian occupancy of eq. 4 over its sensor's range "
     "error (stereo, depth camera or range sensor); features matched again in later "
-    "frames (descriptor matching, ratio test and mutual check, one track per feature; "
+    "frames (descriptor matching, ratio test and mutual check, one track per feature, "
+    "searched near the feature's projection by the poses' motion when the frames have "
+    "poses; "
     "features without descriptors by position in the world) are updated with the "
     "Kullback-Leibler rule (eqs. 5-10) or OctoMap's log-odds rule. Needs "
     "feature_matching (stereo) or cloud_features (point clouds) before it.";
-  const KLDivergenceOccupancyFilter<pcl::PointXYZ>::Params d;
+  const KLDivergenceOccupancyFilter<pcl::PointXYZ> d;
   const ConstantVelocityMotionModel::Params md;
   info.params = {
     ParamSpec::choice("update_rule", "kl_divergence", {"kl_divergence", "log_odds"},
@@ -408,33 +458,41 @@ klOccupancyFilterInfo()
                       "z^2 (a depth camera); range = range_error_m (a LiDAR); auto = "
                       "stereo for stereo input, depth_quadratic for key features of a "
                       "cloud's image, range for point features."),
-    ParamSpec::real("disparity_error_px", d.disparity_error_px, 0.01, 10.0, "px",
+    ParamSpec::real("disparity_error_px", d.getDisparityError(), 0.01, 10.0, "px",
                     "dd of eq. 4 (stereo)."),
-    ParamSpec::real("depth_error_coefficient_per_m", d.depth_error_coefficient_per_m,
-                    1e-6, 1.0, "1/m",
+    ParamSpec::real("depth_error_coefficient_per_m", d.getDepthErrorCoefficient(), 1e-6,
+                    1.0, "1/m",
                     "k of dz = k z^2 (depth_quadratic); the default is 4 cm at 5 m, "
                     "the Kinect's (Khoshelham and Elberink 2012)."),
-    ParamSpec::real("range_error_m", d.range_error_m, 1e-4, 10.0, "m",
+    ParamSpec::real("range_error_m", d.getRangeError(), 1e-4, 10.0, "m",
                     "dr of eq. 4 (range): the sensor's range standard deviation."),
     ParamSpec::real("association_radius_m", 0.1, 0.001, 10.0, "m",
                     "Features without descriptors: a feature continues the nearest "
                     "track within this distance in the world."),
-    ParamSpec::real("neighbourhood_size_m", d.neighbourhood_size_m, 0.01, 100.0, "m",
+    ParamSpec::real("neighbourhood_size_m", d.getNeighbourhoodSize(), 0.01, 100.0, "m",
                     "Cell over which r_bar of eq. 4 is averaged."),
-    ParamSpec::real("clamping_thres_min", d.clamping_thres_min, 0.001, 0.499,
+    ParamSpec::real("clamping_thres_min", d.getClampingThresMin(), 0.001, 0.499,
                     "probability", "Lower clamp of the probability."),
-    ParamSpec::real("clamping_thres_max", d.clamping_thres_max, 0.501, 0.999,
+    ParamSpec::real("clamping_thres_max", d.getClampingThresMax(), 0.501, 0.999,
                     "probability", "Upper clamp of the probability."),
-    ParamSpec::real("occupancy_thres", d.occupancy_thres, 0.0, 1.0, "probability",
+    ParamSpec::real("occupancy_thres", d.getOccupancyThres(), 0.0, 1.0, "probability",
                     "A feature is occupied when its probability reaches it."),
-    ParamSpec::real("kl_offset_nats", d.kl_offset_nats, 0.0, 10.0, "nats",
+    ParamSpec::real("kl_offset_nats", d.getKLOffset(), 0.0, 10.0, "nats",
                     "A of eq. 10."),
-    ParamSpec::real("prob_hit", d.prob_hit, 0.501, 0.999, "probability",
+    ParamSpec::real("prob_hit", d.getProbHit(), 0.501, 0.999, "probability",
                     "Log-odds rule: a hit (q >= 0.5)."),
-    ParamSpec::real("prob_miss", d.prob_miss, 0.001, 0.499, "probability",
+    ParamSpec::real("prob_miss", d.getProbMiss(), 0.001, 0.499, "probability",
                     "Log-odds rule: a miss (q < 0.5)."),
     ParamSpec::real("match_ratio", 0.8, 0.1, 1.0, "",
                     "Lowe's ratio of the frame-to-frame descriptor matching."),
+    ParamSpec::real("search_radius_px", 20.0, 0.0, 10000.0, "px",
+                    "Frames with poses and a pinhole calibration: a previous feature "
+                    "is matched only to the features within this distance of its "
+                    "projection by the motion between the two poses (guided "
+                    "matching); 0: to every feature of the frame."),
+    ParamSpec::integer("max_hamming_distance_bits", 64, 0, 256, "bits",
+                       "Binary descriptors (ORB): a pair of features farther apart "
+                       "than this many bits is no match; 0: no limit."),
     ParamSpec::flag("use_motion_likelihood", false,
                     "m of eq. 9 from the poses' motion against a constant-velocity "
                     "model (for estimated poses); false: m = 1 (given poses)."),
@@ -444,32 +502,7 @@ klOccupancyFilterInfo()
                     "Q_k of eq. 9: standard deviation of each rotation component."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
-    KLDivergenceOccupancyFilter<pcl::PointXYZ>::Params p;
-    p.update_rule = occupancyUpdateRuleFromString(v.getChoice("update_rule"));
-    p.disparity_error_px = v.getDouble("disparity_error_px");
-    p.depth_error_coefficient_per_m = v.getDouble("depth_error_coefficient_per_m");
-    p.range_error_m = v.getDouble("range_error_m");
-    p.association_radius_m = v.getDouble("association_radius_m");
-    const std::string model = v.getChoice("range_error_model");
-    using Model = KLOccupancyFilterStage::ErrorModel;
-    const Model error_model = model == "stereo"            ? Model::STEREO
-                              : model == "depth_quadratic" ? Model::DEPTH_QUADRATIC
-                              : model == "range"           ? Model::RANGE
-                                                           : Model::AUTO;
-    p.neighbourhood_size_m = v.getDouble("neighbourhood_size_m");
-    p.clamping_thres_min = v.getDouble("clamping_thres_min");
-    p.clamping_thres_max = v.getDouble("clamping_thres_max");
-    p.occupancy_thres = v.getDouble("occupancy_thres");
-    p.kl_offset_nats = v.getDouble("kl_offset_nats");
-    p.prob_hit = v.getDouble("prob_hit");
-    p.prob_miss = v.getDouble("prob_miss");
-    StereoOdometry::Params matching;
-    matching.ratio = v.getDouble("match_ratio");
-    ConstantVelocityMotionModel::Params motion;
-    motion.sigma_translation_m = v.getDouble("sigma_translation_m");
-    motion.sigma_rotation_rad = v.getDouble("sigma_rotation_rad");
-    return std::make_unique<KLOccupancyFilterStage>(p, error_model, matching, motion,
-                                                    v.getBool("use_motion_likelihood"));
+    return std::make_unique<KLOccupancyFilterStage>(v);
   };
   return info;
 }

@@ -110,8 +110,8 @@ double klDivergenceUpdate(double p, double q, double offset_nats);
  * pcl::FilterIndices: filter() keeps the features whose track probability reaches the
  * occupancy threshold (or, with setNegative(true), removes them).
  *
- * Eq. 4's range error Delta r is the paper's stereo model by default; Params::
- * range_error_model selects a depth camera's (Delta z = k z^2) or a range sensor's
+ * Eq. 4's range error Delta r is the paper's stereo model by default;
+ * setRangeErrorModel() selects a depth camera's (Delta z = k z^2) or a range sensor's
  * (constant Delta r) instead, for features of RGB-D or LiDAR clouds (RangeErrorModel).
  *
  * Each call of filter() on a new input integrates the input as one frame:
@@ -225,12 +225,133 @@ public:
   explicit KLDivergenceOccupancyFilter(bool extract_removed_indices = false);
   ~KLDivergenceOccupancyFilter() override = default;
 
-  /** \brief Sets the parameters; they are validated when filter() starts. They
-   * apply from the next update on; this does not start a new frame (filtering the same
-   * input again re-selects with the new occupancy_thres). */
+  /** \brief Sets all the parameters at once (each also has its own setter below);
+   * they are validated when filter() starts. They apply from the next update on; this
+   * does not start a new frame (filtering the same input again re-selects with the new
+   * occupancy_thres). */
   void setParams(const Params& params) { params_ = params; }
   /** \brief The parameters. */
   const Params& getParams() const { return params_; }
+
+  /** \brief Sets Delta d of eq. 4 (STEREO range error model). Like every setter below,
+   * the value is validated when filter() starts (an invalid one gives empty output and
+   * a PCL_ERROR) and applies from the next update on.
+   * \param[in] disparity_error_px the disparity error, pixels, > 0 (default 0.5, the
+   * paper's) */
+  void setDisparityError(double disparity_error_px)
+  {
+    params_.disparity_error_px = disparity_error_px;
+  }
+  /** \brief Returns Delta d of eq. 4, pixels. */
+  double getDisparityError() const { return params_.disparity_error_px; }
+
+  /** \brief Sets the edge of the neighbourhood cell over which eq. 4's mean range
+   * r_bar is taken (a cube, axis-aligned in the sensor frame).
+   * \param[in] neighbourhood_size_m the edge, meters, > 0 (default 0.5) */
+  void setNeighbourhoodSize(double neighbourhood_size_m)
+  {
+    params_.neighbourhood_size_m = neighbourhood_size_m;
+  }
+  /** \brief Returns the neighbourhood cell's edge, meters. */
+  double getNeighbourhoodSize() const { return params_.neighbourhood_size_m; }
+
+  /** \brief Sets the lower clamp of a probability (OctoMap's clamping_thres_min).
+   * \param[in] probability in (0, 0.5) (default 0.1192, log-odds -2) */
+  void setClampingThresMin(double probability)
+  {
+    params_.clamping_thres_min = probability;
+  }
+  /** \brief Returns the lower clamp, a probability. */
+  double getClampingThresMin() const { return params_.clamping_thres_min; }
+  /** \brief Returns the lower clamp in log-odds (default -2). */
+  double getClampingThresMinLogOdds() const;
+
+  /** \brief Sets the upper clamp of a probability (OctoMap's clamping_thres_max).
+   * \param[in] probability in (0.5, 1) (default 0.971, log-odds 3.51) */
+  void setClampingThresMax(double probability)
+  {
+    params_.clamping_thres_max = probability;
+  }
+  /** \brief Returns the upper clamp, a probability. */
+  double getClampingThresMax() const { return params_.clamping_thres_max; }
+  /** \brief Returns the upper clamp in log-odds (default 3.51). */
+  double getClampingThresMaxLogOdds() const;
+
+  /** \brief Sets the probability a feature must reach to be kept by filter().
+   * \param[in] probability in [0, 1] (default 0.5, log-odds 0) */
+  void setOccupancyThres(double probability) { params_.occupancy_thres = probability; }
+  /** \brief Returns the occupancy threshold, a probability. */
+  double getOccupancyThres() const { return params_.occupancy_thres; }
+  /** \brief Returns the occupancy threshold in log-odds (default 0; -inf / +inf for a
+   * threshold of 0 / 1). */
+  double getOccupancyThresLogOdds() const;
+
+  /** \brief Sets A of eq. 10, added to the divergence when both the stored and the new
+   * probability are <= 0.5.
+   * \param[in] kl_offset_nats A, nats, >= 0 (default 1.07: exp(-1.07) = 0.343) */
+  void setKLOffset(double kl_offset_nats) { params_.kl_offset_nats = kl_offset_nats; }
+  /** \brief Returns A of eq. 10, nats. */
+  double getKLOffset() const { return params_.kl_offset_nats; }
+
+  /** \brief Sets the update of a re-observed track.
+   * \param[in] update_rule KL_DIVERGENCE (eqs. 5-10, default) or LOG_ODDS */
+  void setUpdateRule(OccupancyUpdateRule update_rule)
+  {
+    params_.update_rule = update_rule;
+  }
+  /** \brief Returns the update rule. */
+  OccupancyUpdateRule getUpdateRule() const { return params_.update_rule; }
+
+  /** \brief Sets the log-odds rule's probability of a hit (new q >= 0.5).
+   * \param[in] probability in (0.5, 1) (default 0.7, OctoMap's: log-odds 0.847) */
+  void setProbHit(double probability) { params_.prob_hit = probability; }
+  /** \brief Returns the probability of a hit. */
+  double getProbHit() const { return params_.prob_hit; }
+  /** \brief Returns the probability of a hit in log-odds (default 0.847). */
+  double getProbHitLogOdds() const;
+
+  /** \brief Sets the log-odds rule's probability of a miss (new q < 0.5).
+   * \param[in] probability in (0, 0.5) (default 0.4, OctoMap's: log-odds -0.405) */
+  void setProbMiss(double probability) { params_.prob_miss = probability; }
+  /** \brief Returns the probability of a miss. */
+  double getProbMiss() const { return params_.prob_miss; }
+  /** \brief Returns the probability of a miss in log-odds (default -0.405). */
+  double getProbMissLogOdds() const;
+
+  /** \brief Sets the largest distance from a feature to the stored track it joins,
+   * for association by position (no track ids).
+   * \param[in] association_radius_m in the input's units (meters), > 0 (default
+   * 0.2) */
+  void setAssociationRadius(double association_radius_m)
+  {
+    params_.association_radius_m = association_radius_m;
+  }
+  /** \brief Returns the association radius, meters. */
+  double getAssociationRadius() const { return params_.association_radius_m; }
+
+  /** \brief Sets the sensor model of eq. 4's range error.
+   * \param[in] model STEREO (default), DEPTH_QUADRATIC or RANGE */
+  void setRangeErrorModel(RangeErrorModel model) { params_.range_error_model = model; }
+  /** \brief Returns the range error model. */
+  RangeErrorModel getRangeErrorModel() const { return params_.range_error_model; }
+
+  /** \brief Sets k of the DEPTH_QUADRATIC model's Delta z = k z^2.
+   * \param[in] coefficient_per_m k, 1/m, > 0 (default 0.0016: 4 cm at 5 m) */
+  void setDepthErrorCoefficient(double coefficient_per_m)
+  {
+    params_.depth_error_coefficient_per_m = coefficient_per_m;
+  }
+  /** \brief Returns k of Delta z = k z^2, 1/m. */
+  double getDepthErrorCoefficient() const
+  {
+    return params_.depth_error_coefficient_per_m;
+  }
+
+  /** \brief Sets the RANGE model's Delta r, the same at every range.
+   * \param[in] range_error_m Delta r, meters, > 0 (default 0.03) */
+  void setRangeError(double range_error_m) { params_.range_error_m = range_error_m; }
+  /** \brief Returns the RANGE model's Delta r, meters. */
+  double getRangeError() const { return params_.range_error_m; }
 
   /** \brief Sets the rectified stereo rig of eq. 4 (validated when filter() starts;
    * needed by the STEREO range error model only).

@@ -77,6 +77,41 @@ KLDivergenceOccupancyFilter<PointT>::setStereoParameters(double focal_length_px,
 }
 
 template <typename PointT>
+double
+KLDivergenceOccupancyFilter<PointT>::getClampingThresMinLogOdds() const
+{
+  return toLogOdds(params_.clamping_thres_min);
+}
+
+template <typename PointT>
+double
+KLDivergenceOccupancyFilter<PointT>::getClampingThresMaxLogOdds() const
+{
+  return toLogOdds(params_.clamping_thres_max);
+}
+
+template <typename PointT>
+double
+KLDivergenceOccupancyFilter<PointT>::getOccupancyThresLogOdds() const
+{
+  return toLogOdds(params_.occupancy_thres);
+}
+
+template <typename PointT>
+double
+KLDivergenceOccupancyFilter<PointT>::getProbHitLogOdds() const
+{
+  return toLogOdds(params_.prob_hit);
+}
+
+template <typename PointT>
+double
+KLDivergenceOccupancyFilter<PointT>::getProbMissLogOdds() const
+{
+  return toLogOdds(params_.prob_miss);
+}
+
+template <typename PointT>
 void
 KLDivergenceOccupancyFilter<PointT>::setInputCloud(const PointCloudConstPtr& cloud)
 {

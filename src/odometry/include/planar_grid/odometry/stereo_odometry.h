@@ -208,6 +208,33 @@ public:
                         const StereoFeatures& current,
                         std::vector<cv::DMatch>& matches) const;
 
+  /** \brief Guided matching of two frames whose relative pose is known (given poses,
+   * or a motion model's prediction): each previous feature is projected into the
+   * current left image, and only the current features whose left key points lie within
+   * \a search_radius_px of the projection are its candidates. Among them the same
+   * tests as matchDescriptors() apply: Lowe's ratio (best against second-best
+   * candidate), the optional maximum distance and the mutual check (the current
+   * feature's best candidate, over the previous features whose projections lie within
+   * the radius of it, is the same previous feature). The cost is O(N) in the number of
+   * features for a bounded key point density, against matchDescriptors()' O(N^2).
+   * \param[in] previous the earlier frame's features (queryIdx of the matches), with
+   * 3D points in its camera frame (metres)
+   * \param[in] current the later frame's features (trainIdx of the matches)
+   * \param[in] current_T_previous the motion from the previous camera frame to the
+   * current one
+   * \param[in] calibration the rectified calibration of the current frame (focal
+   * length and principal point, pixels)
+   * \param[in] search_radius_px the radius of the search window, pixels (> 0)
+   * \param[out] matches the accepted matches, sorted by queryIdx (empty when either
+   * frame has no descriptors, their types differ (with a PCL_WARN), the radius is not
+   * > 0 or the calibration has no focal length) */
+  void matchDescriptorsProjected(const StereoFeatures& previous,
+                                 const StereoFeatures& current,
+                                 const Eigen::Isometry3d& current_T_previous,
+                                 const StereoCalibration& calibration,
+                                 double search_radius_px,
+                                 std::vector<cv::DMatch>& matches) const;
+
   /** \brief The parameters. */
   const Params& getParams() const { return params_; }
 
