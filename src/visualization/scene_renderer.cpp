@@ -121,8 +121,9 @@ addInstancedBoxes(vtkRenderer* renderer,
   actor->SetMapper(mapper);
   actor->GetProperty()->SetColor(rgb.x(), rgb.y(), rgb.z());
   actor->GetProperty()->SetOpacity(opacity);
-  if (opacity < 1.0)
-    actor->GetProperty()->BackfaceCullingOn();
+  // Closed boxes with outward faces: a back face is never seen, and culling it before
+  // rasterisation halves the triangles the software renderer bins.
+  actor->GetProperty()->BackfaceCullingOn();
   actor->GetProperty()->SetAmbient(CUBOID_AMBIENT);
   actor->GetProperty()->SetDiffuse(1.0 - CUBOID_AMBIENT);
   actor->UseBoundsOff();
