@@ -574,20 +574,49 @@ StereoOdometry::setCalibration(const StereoCalibration& calibration)
   has_calibration_ = true;
 }
 
+namespace {
+
+/** \brief True when the two frames' descriptors can be compared (same type and
+ * length); otherwise warns, naming \a caller. Empty descriptors are not comparable
+ * and not warned about. */
+bool
+comparableDescriptors(const cv::Mat& previous,
+                      const cv::Mat& current,
+                      const char* caller)
+{
+  if (previous.empty() || current.empty())
+    return false;
+  if (previous.type() == current.type() && previous.cols == current.cols)
+    return true;
+  PCL_WARN("[planar_grid::StereoOdometry::%s] The two frames' descriptors differ in "
+           "type or length; no matches.\n",
+           caller);
+  return false;
+}
+
+/** \brief Lowe's ratio test and the distance bound on a previous feature's best match:
+ * \a best and \a second are its best and second-best descriptor distances, \a second
+ * infinite when it has a single candidate (which passes the ratio test). */
+bool
+passesRatioAndDistance(float best, float second, const StereoOdometry::Params& params)
+{
+  if (std::isfinite(second) && !(best < params.ratio * second))
+    return false;
+  return !(params.max_descriptor_distance > 0.0
+           && best > params.max_descriptor_distance);
+}
+
+} // namespace
+
 void
 StereoOdometry::matchDescriptors(const StereoFeatures& previous,
                                  const StereoFeatures& current,
                                  std::vector<cv::DMatch>& matches) const
 {
   matches.clear();
-  if (previous.descriptors.empty() || current.descriptors.empty())
+  if (!comparableDescriptors(previous.descriptors, current.descriptors,
+                             "matchDescriptors"))
     return;
-  if (previous.descriptors.type() != current.descriptors.type()
-      || previous.descriptors.cols != current.descriptors.cols) {
-    PCL_WARN("[planar_grid::StereoOdometry::matchDescriptors] The two frames' "
-             "descriptors differ in type or length; no matches.\n");
-    return;
-  }
   const int norm =
     previous.descriptors.depth() == CV_8U ? cv::NORM_HAMMING : cv::NORM_L2;
   cv::BFMatcher matcher(norm, false);
@@ -602,11 +631,9 @@ StereoOdometry::matchDescriptors(const StereoFeatures& previous,
       continue;
     const cv::DMatch& best = candidates[0];
     // A single candidate (the other frame has one feature) passes the ratio test.
-    if (candidates.size() > 1
-        && !(best.distance < params_.ratio * candidates[1].distance))
-      continue;
-    if (params_.max_descriptor_distance > 0.0
-        && best.distance > params_.max_descriptor_distance)
+    const float second = candidates.size() > 1 ? candidates[1].distance
+                                               : std::numeric_limits<float>::infinity();
+    if (!passesRatioAndDistance(best.distance, second, params_))
       continue;
     if (params_.mutual_check
         && (best.trainIdx >= static_cast<int>(reverse.size())
@@ -628,13 +655,8 @@ StereoOdometry::matchDescriptorsProjected(const StereoFeatures& previous,
   matches.clear();
   const cv::Mat& query = previous.descriptors;
   const cv::Mat& train = current.descriptors;
-  if (query.empty() || train.empty())
+  if (!comparableDescriptors(query, train, "matchDescriptorsProjected"))
     return;
-  if (query.type() != train.type() || query.cols != train.cols) {
-    PCL_WARN("[planar_grid::StereoOdometry::matchDescriptorsProjected] The two "
-             "frames' descriptors differ in type or length; no matches.\n");
-    return;
-  }
   if (!(search_radius_px > 0.0) || !(calibration.focal_length_px > 0.0))
     return;
   const std::size_t n_query =
@@ -742,11 +764,10 @@ StereoOdometry::matchDescriptorsProjected(const StereoFeatures& previous,
     if (candidate.best == NONE)
       continue;
     // A single candidate passes the ratio test, as in matchDescriptors().
-    if (candidate.second != NONE
-        && !(candidate.best < params_.ratio * candidate.second))
-      continue;
-    if (params_.max_descriptor_distance > 0.0
-        && candidate.best > params_.max_descriptor_distance)
+    const float second = candidate.second == NONE
+                           ? std::numeric_limits<float>::infinity()
+                           : candidate.second;
+    if (!passesRatioAndDistance(candidate.best, second, params_))
       continue;
     if (params_.mutual_check && reverse_best[candidate.train] != i)
       continue;
