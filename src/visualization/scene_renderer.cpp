@@ -709,10 +709,11 @@ SceneRenderer::addMap(const PlanarGridMap& map,
     }
   });
   // The occupied voxels drawn as few boxes: runs along x, then equal runs in
-  // consecutive rows of y joined (the same volume, a fraction of the boxes: a street
-  // map holds a million voxels).
+  // consecutive rows of y joined, then equal rectangles in consecutive layers of z (the
+  // same volume, a fraction of the boxes: a street map holds a million voxels, and the
+  // software renderer's memory grows with the boxes drawn).
   struct Run {
-    int x0, x1, y0, y1, z;
+    int x0, x1, y0, y1, z0, z1;
   };
   std::sort(occupied_keys.begin(), occupied_keys.end(),
             [](const auto& a, const auto& b) {
@@ -721,37 +722,54 @@ SceneRenderer::addMap(const PlanarGridMap& map,
             });
   std::vector<Run> runs;
   for (const auto& k : occupied_keys) {
-    if (!runs.empty() && runs.back().z == k.z() && runs.back().y0 == k.y()
+    if (!runs.empty() && runs.back().z0 == k.z() && runs.back().y0 == k.y()
         && runs.back().x1 + 1 == k.x())
       runs.back().x1 = k.x();
     else
-      runs.push_back(Run{k.x(), k.x(), k.y(), k.y(), k.z()});
+      runs.push_back(Run{k.x(), k.x(), k.y(), k.y(), k.z(), k.z()});
   }
+  summary.occupied_voxel_boxes = occupied_keys.size();
+  std::vector<ExplicitSpaceGrid::VoxelKey>().swap(occupied_keys);
   std::sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) {
-    return std::make_tuple(a.z, a.x0, a.x1, a.y0)
-           < std::make_tuple(b.z, b.x0, b.x1, b.y0);
+    return std::make_tuple(a.z0, a.x0, a.x1, a.y0)
+           < std::make_tuple(b.z0, b.x0, b.x1, b.y0);
   });
   std::vector<Run> rects;
   for (const Run& r : runs) {
-    if (!rects.empty() && rects.back().z == r.z && rects.back().x0 == r.x0
+    if (!rects.empty() && rects.back().z0 == r.z0 && rects.back().x0 == r.x0
         && rects.back().x1 == r.x1 && rects.back().y1 + 1 == r.y0)
       rects.back().y1 = r.y0;
     else
       rects.push_back(r);
   }
-  std::vector<Eigen::Vector3f> occupied_centres, occupied_sizes;
-  occupied_centres.reserve(rects.size());
-  occupied_sizes.reserve(rects.size());
+  std::vector<Run>().swap(runs);
+  std::sort(rects.begin(), rects.end(), [](const Run& a, const Run& b) {
+    return std::make_tuple(a.x0, a.x1, a.y0, a.y1, a.z0)
+           < std::make_tuple(b.x0, b.x1, b.y0, b.y1, b.z0);
+  });
+  std::vector<Run> boxes;
   for (const Run& r : rects) {
+    if (!boxes.empty() && boxes.back().x0 == r.x0 && boxes.back().x1 == r.x1
+        && boxes.back().y0 == r.y0 && boxes.back().y1 == r.y1
+        && boxes.back().z1 + 1 == r.z0)
+      boxes.back().z1 = r.z0;
+    else
+      boxes.push_back(r);
+  }
+  std::vector<Run>().swap(rects);
+  std::vector<Eigen::Vector3f> occupied_centres, occupied_sizes;
+  occupied_centres.reserve(boxes.size());
+  occupied_sizes.reserve(boxes.size());
+  for (const Run& r : boxes) {
     occupied_centres.emplace_back(
       Eigen::Vector3f(0.5f * static_cast<float>(r.x0 + r.x1 + 1),
                       0.5f * static_cast<float>(r.y0 + r.y1 + 1),
-                      static_cast<float>(r.z) + 0.5f)
+                      0.5f * static_cast<float>(r.z0 + r.z1 + 1))
       * res);
     occupied_sizes.emplace_back(static_cast<float>(r.x1 - r.x0 + 1) * res,
-                                static_cast<float>(r.y1 - r.y0 + 1) * res, res);
+                                static_cast<float>(r.y1 - r.y0 + 1) * res,
+                                static_cast<float>(r.z1 - r.z0 + 1) * res);
   }
-  summary.occupied_voxel_boxes = occupied_keys.size();
   summary.unknown_boxes = unknown_centres.size();
   impl_->instanced_bounds.extend(
     addInstancedBoxes(impl_->renderer, occupied_centres, occupied_sizes,
