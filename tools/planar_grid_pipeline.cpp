@@ -475,6 +475,7 @@ run(int argc, char** argv)
   planar_grid::writeRunOutputs(config.output, runner, report, outputs);
   planar_grid::cli::releaseFreedMemory();
 #ifdef PLANAR_GRID_WITH_VIEWER
+  planar_grid::cli::preferLowMemorySoftwareRendering();
   saveSnapshots(config, config_path, runner, report, outputs);
 #endif
   planar_grid::writeRunReport(config.output, report, outputs);

@@ -394,9 +394,10 @@ run(int argc, char** argv)
   for (const auto& path : options.octrees)
     planar_grid::checkOctoMapFile(path);
   // Before loading anything: this may start an Xvfb for the snapshot.
-  if (!options.snapshot.empty())
+  if (!options.snapshot.empty()) {
     planar_grid::ensureDisplay(argc, argv);
-  else if (!planar_grid::hasDisplay())
+    planar_grid::cli::preferLowMemorySoftwareRendering();
+  } else if (!planar_grid::hasDisplay())
     throw planar_grid::Exception(
       "no X display for the interactive window (DISPLAY is unset or does not answer); "
       "to render a picture without a screen use --snapshot out.png");
