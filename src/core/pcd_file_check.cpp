@@ -68,6 +68,10 @@ struct HeaderText {
   std::vector<std::string> all_width, all_height, all_points, all_sizes, all_counts;
   std::uint64_t data_offset{0};
   bool has_data_line{false};
+  /** The first FIELDS, SIZE, TYPE or COUNT line after a POINTS line ("" if none):
+   * pcl::PCDReader sizes the points' buffer at POINTS with the point as declared so
+   * far, and its ASCII reader writes the points as declared at the end. */
+  std::string layout_after_points;
 };
 
 HeaderText
@@ -93,10 +97,14 @@ readHeaderText(std::istream& in)
     // PCL matches a header keyword as the start of the line's first word ("POINTSx" is
     // POINTS to it).
     std::string keyword;
-    for (const char* k :
-         {"VIEWPOINT", "WIDTH", "HEIGHT", "POINTS", "SIZE", "COUNT", "DATA"})
+    for (const char* k : {"VIEWPOINT", "WIDTH", "HEIGHT", "POINTS", "FIELDS", "SIZE",
+                          "TYPE", "COUNT", "DATA"})
       if (word.rfind(k, 0) == 0)
         keyword = k;
+    if ((keyword == "FIELDS" || keyword == "SIZE" || keyword == "TYPE"
+         || keyword == "COUNT")
+        && !header.all_points.empty() && header.layout_after_points.empty())
+      header.layout_after_points = keyword;
     if (keyword == "VIEWPOINT" && !header.has_data_line) {
       header.has_viewpoint = true;
       std::getline(words, header.viewpoint);
@@ -266,6 +274,13 @@ checkPCDFile(const std::string& path)
     throw IOError(path + ": not a PCD file: its header has no DATA line");
   if (text.has_viewpoint)
     checkViewpoint(path, text.viewpoint);
+  // The PCD header's order is FIELDS, SIZE, TYPE, COUNT, ..., POINTS: a point that
+  // grows after POINTS would be written past PCL's buffer (a heap overflow in PCL).
+  if (!text.layout_after_points.empty())
+    throw IOError(path + ": its header has a " + text.layout_after_points
+                  + " line after POINTS (the order is FIELDS, SIZE, TYPE, COUNT, "
+                    "WIDTH, HEIGHT, VIEWPOINT, POINTS, DATA): PCL's reader would write "
+                    "the points past the buffer it sized at POINTS");
 
   // PCL's header reader allocates the declared points' bytes: no file holds more than
   // its size in binary data, about 88 times it compressed, less as ASCII text.

@@ -3,6 +3,7 @@
 // file (IOError / ConfigError) or a documented result; the table is in
 // docs/RELIABILITY.md.
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/pcd_file_check.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 #include <planar_grid/pipeline/stage.h>
@@ -616,6 +617,32 @@ TEST_F(ReliabilityTest, PCDHeaderPCLCannotReadIsAnIOErrorNamingTheFile)
                                "0 0 1\n";
   what = runError(pcdConfig(short_size.string()));
   EXPECT_NE(what.find("short_size.pcd: "), std::string::npos) << what;
+}
+
+TEST_F(ReliabilityTest, PCDLayoutLineAfterPointsIsAnIOErrorBeforePCLReadsIt)
+{
+  // Found by fuzz_pcd_frame (ASan's allocator found its chunk headers overwritten;
+  // valgrind names the write): PCL's header reader sizes the points' buffer at POINTS,
+  // and a COUNT or SIZE line after it grows the point, so that its ASCII reader wrote
+  // the points past that buffer (a heap overflow inside libpcl_io).
+  const std::string head = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
+                           "COUNT 1 1 1\nWIDTH 2\nHEIGHT 1\nPOINTS 2\n";
+  const fs::path count_after = dir_ / "count_after_points.pcd";
+  std::ofstream(count_after) << head << "COUNT 1 1 2\nDATA ascii\n0 0 0 1\n0 0 0 1\n";
+  std::string what = runError(pcdConfig(count_after.string()));
+  EXPECT_NE(
+    what.find("count_after_points.pcd: its header has a COUNT line after POINTS"),
+    std::string::npos)
+    << what;
+  const fs::path size_after = dir_ / "size_after_points.pcd";
+  std::ofstream(size_after) << head << "SIZE 4 4 8\nDATA ascii\n0 0 0\n0 0 0\n";
+  EXPECT_THROW(planar_grid::checkPCDFile(size_after.string()), planar_grid::IOError);
+  // The same points with the header in the PCD order are read.
+  const fs::path ordered = dir_ / "ordered.pcd";
+  std::ofstream(ordered) << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
+                            "COUNT 1 1 2\nWIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n"
+                            "0 0 0 1\n0 0 0 1\n";
+  EXPECT_EQ(planar_grid::checkPCDFile(ordered.string()).points, 2u);
 }
 
 TEST_F(ReliabilityTest, PCDDataPCLReadsShortOfItsHeightIsAnIOErrorNamingTheFile)
