@@ -48,6 +48,8 @@ public:
       v.getDouble("max_visibility_conflict_ratio"));
     segmentation_.setVisibilityMargin(v.getDouble("visibility_margin_m"));
     segmentation_.setVisibilityCell(v.getDouble("visibility_cell_m"));
+    segmentation_.setMaxShellRatio(v.getDouble("max_shell_ratio"));
+    segmentation_.setShellWidth(v.getDouble("shell_width_m"));
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -103,6 +105,12 @@ public:
       values.emplace_back(
         "visibility_removed",
         static_cast<double>(segmentation_.getVisibilityRemovedCount()));
+    }
+    if (segmentation_.getMaxShellRatio() > 0.0) {
+      values.emplace_back("shell_dropped",
+                          static_cast<double>(segmentation_.getShellRejectedCount()));
+      values.emplace_back("shell_removed",
+                          static_cast<double>(segmentation_.getShellRemovedCount()));
     }
   }
 
@@ -350,7 +358,19 @@ multiPlaneSegmentationInfo()
                     "A point conflicts with a plane only this much (plus its eq. 11 "
                     "threshold) off it."),
     ParamSpec::real("visibility_cell_m", 0.2, 0.001, 100.0, "m",
-                    "Cell edge of a plane's footprint in the visibility test."),
+                    "Cell edge of a plane's footprint in the visibility and the shell "
+                    "tests."),
+    ParamSpec::real("max_shell_ratio", 0.0, 0.0, 1000.0, "",
+                    "Shell test: where, around a 3 x 3 cell neighbourhood of a plane's "
+                    "footprint, twice the smaller of the two sides' counts of points "
+                    "just beyond the eq. 11 threshold t (between t and t + max(t, "
+                    "shell_width_m) off the plane) exceeds this many per inlier (a "
+                    "slab through a canopy, a stripe across a facade or a car), those "
+                    "inliers leave the plane; 0 = no test."),
+    ParamSpec::real("shell_width_m", 0.1, 0.0, 100.0, "m",
+                    "Smallest width of the shell test's shell (a voxelised cloud's "
+                    "surface points lie in layers one voxel apart).")
+      .scalesWithCellSize(ParamSpec::CellSizeScaling::CELL_SIZE),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     return std::make_unique<MultiPlaneSegmentationStage>(v);

@@ -331,10 +331,46 @@ public:
   double getVisibilityMargin() const { return visibility_margin_; }
 
   /** \brief Sets the edge of the square cells of a plane's footprint in the
-   * visibility test. \param[in] cell_m in meters, > 0 (default 0.2) */
+   * visibility and the shell tests. \param[in] cell_m in meters, > 0 (default 0.2) */
   void setVisibilityCell(double cell_m) { visibility_cell_ = cell_m; }
-  /** \brief Returns the footprint cell edge of the visibility test, in meters. */
+  /** \brief Returns the footprint cell edge of the visibility and the shell tests, in
+   * meters. */
   double getVisibilityCell() const { return visibility_cell_; }
+
+  /** \brief Sets the shell test. A surface's points lie within its eq. 11 threshold t
+   * (up to stereo noise), while a plane that cuts through a thicker structure, a slab
+   * through a tree's canopy or a horizontal stripe across a facade or a car (a row of
+   * key features along a facade spans such a plane), has about as many points just
+   * beyond t as within it, on both sides. The shell of a plane is the points lying
+   * between t and t + max(t, shell_width) off it (t: each point's own eq. 11
+   * threshold) whose orthogonal projection falls in a cell of the plane's footprint
+   * (setVisibilityCell), counted apart in front of the plane and behind it. Where,
+   * over a footprint cell and its 8 neighbours, twice the smaller of the two counts
+   * exceeds `ratio` x the inliers, the cell's inliers leave the plane (they stay for
+   * later planes or the non-planar cells); a plane left with fewer than min_inliers is
+   * dropped. What stands on a surface or in front of it (a car on the road, a pole in
+   * front of a wall) is on one side only and does not count. For a uniform volume or
+   * a surface perpendicular to the plane the ratio is about 1 at shell width t; for
+   * Gaussian noise whose standard deviation reaches t it is 0.40. Not in the paper.
+   * \param[in] ratio shell points per inlier, >= 0 (default 0: no test) */
+  void setMaxShellRatio(double ratio) { max_shell_ratio_ = ratio; }
+  /** \brief Returns the largest ratio of shell points to inliers of a footprint
+   * neighbourhood (0: no test). */
+  double getMaxShellRatio() const { return max_shell_ratio_; }
+
+  /** \brief Sets the smallest width of the shell of the shell test: the shell reaches
+   * max(t, width) beyond each point's eq. 11 threshold t. On a voxelised cloud the
+   * points of a surface lie in layers one voxel apart, so the shell should be at least
+   * one voxel wide. \param[in] width_m in meters, >= 0 (default 0.1) */
+  void setShellWidth(double width_m) { shell_width_ = width_m; }
+  /** \brief Returns the smallest shell width of the shell test, in meters. */
+  double getShellWidth() const { return shell_width_; }
+
+  /** \brief Returns how many planes the last segment() dropped in the shell test. */
+  std::size_t getShellRejectedCount() const { return shell_rejected_; }
+  /** \brief Returns how many inliers the last segment()'s shell test took out of the
+   * planes it kept or dropped. */
+  std::size_t getShellRemovedCount() const { return shell_removed_; }
 
   /** \brief Returns how many planes the last segment() dropped in the visibility
    * test. */
@@ -443,6 +479,14 @@ protected:
   double visibility_margin_{0.3};
   /** \brief Footprint cell edge of the visibility test, in meters. */
   double visibility_cell_{0.2};
+  /** \brief Largest ratio of shell points to inliers (0: no test). */
+  double max_shell_ratio_{0.0};
+  /** \brief Smallest shell width of the shell test, in meters. */
+  double shell_width_{0.1};
+  /** \brief Planes the last segment() dropped in the shell test. */
+  std::size_t shell_rejected_{0};
+  /** \brief Inliers the last segment()'s shell test took out. */
+  std::size_t shell_removed_{0};
   /** \brief Planes the last segment() dropped in the visibility test. */
   std::size_t visibility_rejected_{0};
   /** \brief Inliers the last segment()'s visibility test took out. */

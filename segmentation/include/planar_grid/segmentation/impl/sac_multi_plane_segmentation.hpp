@@ -306,19 +306,139 @@ private:
   std::size_t mask_{0};
 };
 
-/** \brief The visibility test of one plane. The plane's footprint is the square
- * cells of edge `cell` (in the plane's own 2D frame) holding the projection of one of
- * its inliers (the points of `store` whose mask is 1). A point of `all` conflicts with
- * the plane when it lies off the plane by more than `margin` + its own eq. 11
- * threshold (`t` where `all` has none) and the line of sight from `origin` through it
- * meets the plane in a footprint cell: behind the plane, the point was seen through
- * the surface; in front of it, it hides the surface that the inlier was seen on. An
- * opaque surface seen from `origin` has next to no conflicts (an object in front of a
- * wall hides cells that then hold no inlier), while a slab through a volume of
- * scattered points (a tree's canopy) has about as many as inliers or more. A cell is
- * transparent when, over it and its 8 neighbours, the conflicts outnumber `max_ratio`
- * x the inliers; the inliers of transparent cells are taken out of the plane (their
- * mask set to 0).
+/** \brief The footprint of one plane's inliers (the points of a store whose mask is
+ * 1): the square cells of edge `cell`, in the plane's own 2D frame, that hold the
+ * orthogonal projection of an inlier. Each cell counts its inliers and the evidence a
+ * test adds against it, on the plane's front (the normal's side) and back;
+ * removeCells() takes the inliers out of the cells where, over the cell and its 8
+ * neighbours, the evidence outnumbers a ratio x the inliers. Used by the visibility
+ * and the shell tests. */
+class PlaneFootprint {
+public:
+  /** \brief The footprint of the selected points of \a store for \a plane (unit
+   * normal) with cells of edge \a cell, in meters. */
+  PlaneFootprint(const DensePoints& store, const Eigen::Vector4f& plane, float cell) :
+      cell_(cell), index_of_(countSelected(store))
+  {
+    const Eigen::Vector3f normal = plane.head<3>();
+    // An orthonormal frame (u, v) of the plane.
+    const Eigen::Vector3f helper =
+      std::abs(normal.x()) < 0.9f ? Eigen::Vector3f::UnitX() : Eigen::Vector3f::UnitY();
+    u_ = normal.cross(helper).normalized();
+    v_ = normal.cross(u_);
+    cell_of_inlier_.resize(store.size());
+    for (std::size_t k = 0; k < store.size(); ++k) {
+      if (!store.mask[k])
+        continue;
+      const Eigen::Vector2i c =
+        cellOf(Eigen::Vector3f(store.x[k], store.y[k], store.z[k]));
+      bool inserted = false;
+      const std::uint32_t n = index_of_.emplace(
+        key(c.x(), c.y()), static_cast<std::uint32_t>(cells_.size()), inserted);
+      if (inserted)
+        cells_.push_back({c.x(), c.y()});
+      ++cells_[n].inliers;
+      cell_of_inlier_[k] = n;
+    }
+  }
+
+  /** \brief The number of the footprint cell holding the orthogonal projection of \a p
+   * onto the plane, CellIndex::NONE when that cell holds no inlier. */
+  std::uint32_t cellAt(const Eigen::Vector3f& p) const
+  {
+    const Eigen::Vector2i c = cellOf(p);
+    return index_of_.find(key(c.x(), c.y()));
+  }
+
+  /** \brief Adds one piece of evidence against cell \a n (a number from cellAt()),
+   * from the plane's back (\a back true) or front. */
+  void addEvidence(std::uint32_t n, bool back)
+  {
+    ++(back ? cells_[n].back_evidence : cells_[n].front_evidence);
+  }
+
+  /** \brief Takes the inliers of every cell whose 3 x 3 neighbourhood holds more than
+   * \a max_ratio x its inliers of evidence out of \a store (their mask set to 0).
+   * The evidence is the front's plus the back's, or, when \a two_sided, twice the
+   * smaller of the two (evidence on one side only then counts for nothing).
+   * \return the number of inliers taken out */
+  std::size_t removeCells(DensePoints& store, double max_ratio, bool two_sided) const
+  {
+    std::vector<std::uint8_t> rejected(cells_.size(), 0);
+    bool any = false;
+    for (std::size_t c = 0; c < cells_.size(); ++c) {
+      std::size_t inliers = 0, front = 0, back = 0;
+      for (int di = -1; di <= 1; ++di)
+        for (int dj = -1; dj <= 1; ++dj) {
+          const std::uint32_t n =
+            index_of_.find(key(cells_[c].i + di, cells_[c].j + dj));
+          if (n == CellIndex::NONE)
+            continue;
+          inliers += cells_[n].inliers;
+          front += cells_[n].front_evidence;
+          back += cells_[n].back_evidence;
+        }
+      const std::size_t evidence = two_sided ? 2 * std::min(front, back) : front + back;
+      rejected[c] =
+        static_cast<double>(evidence) > max_ratio * static_cast<double>(inliers) ? 1
+                                                                                 : 0;
+      any = any || rejected[c];
+    }
+    if (!any)
+      return 0;
+    std::size_t removed = 0;
+    for (std::size_t k = 0; k < store.size(); ++k)
+      if (store.mask[k] && rejected[cell_of_inlier_[k]]) {
+        store.mask[k] = 0;
+        ++removed;
+      }
+    return removed;
+  }
+
+private:
+  struct Cell {
+    int i, j;
+    std::size_t inliers{0}, front_evidence{0}, back_evidence{0};
+  };
+
+  static std::size_t countSelected(const DensePoints& store)
+  {
+    std::size_t count = 0;
+    for (std::size_t k = 0; k < store.size(); ++k)
+      count += store.mask[k] ? 1 : 0;
+    return count;
+  }
+
+  static std::uint64_t key(int i, int j)
+  {
+    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(i)) << 32)
+           | static_cast<std::uint32_t>(j);
+  }
+
+  Eigen::Vector2i cellOf(const Eigen::Vector3f& p) const
+  {
+    return Eigen::Vector2i(static_cast<int>(std::floor(u_.dot(p) / cell_)),
+                           static_cast<int>(std::floor(v_.dot(p) / cell_)));
+  }
+
+  float cell_;
+  Eigen::Vector3f u_, v_;
+  std::vector<Cell> cells_;
+  CellIndex index_of_;
+  std::vector<std::uint32_t> cell_of_inlier_;
+};
+
+/** \brief The visibility test of one plane. A point of `all` conflicts with the plane
+ * when it lies off the plane by more than `margin` + its own eq. 11 threshold (`t`
+ * where `all` has none) and the line of sight from `origin` through it meets the plane
+ * in a cell of the inliers' footprint (PlaneFootprint, cells of edge `cell`): behind
+ * the plane, the point was seen through the surface; in front of it, it hides the
+ * surface that the inlier was seen on. An opaque surface seen from `origin` has next
+ * to no conflicts (an object in front of a wall hides cells that then hold no
+ * inlier), while a slab through a volume of scattered points (a tree's canopy) has
+ * about as many as inliers or more. A cell is transparent when, over it and its 8
+ * neighbours, the conflicts outnumber `max_ratio` x the inliers; the inliers of
+ * transparent cells are taken out of the plane (their mask set to 0).
  * \param[in] plane unit normal, oriented so that origin lies on the positive side
  * \return the number of inliers taken out */
 inline std::size_t
@@ -335,42 +455,7 @@ removeVisibilityConflicts(DensePoints& store,
   const float origin_distance = normal.dot(origin) + plane[3];
   if (!(origin_distance > 0.0f))
     return 0;
-  // An orthonormal frame (u, v) of the plane.
-  const Eigen::Vector3f helper =
-    std::abs(normal.x()) < 0.9f ? Eigen::Vector3f::UnitX() : Eigen::Vector3f::UnitY();
-  const Eigen::Vector3f u = normal.cross(helper).normalized();
-  const Eigen::Vector3f v = normal.cross(u);
-  const auto cellOf = [&](const Eigen::Vector3f& p) {
-    return Eigen::Vector2i(static_cast<int>(std::floor(u.dot(p) / cell)),
-                           static_cast<int>(std::floor(v.dot(p) / cell)));
-  };
-  const auto key = [](int i, int j) {
-    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(i)) << 32)
-           | static_cast<std::uint32_t>(j);
-  };
-  struct Cell {
-    int i, j;
-    std::size_t inliers{0}, conflicts{0};
-  };
-  std::vector<Cell> cells;
-  std::size_t inlier_count = 0;
-  for (std::size_t k = 0; k < store.size(); ++k)
-    inlier_count += store.mask[k] ? 1 : 0;
-  CellIndex index_of(inlier_count);
-  std::vector<std::uint32_t> cell_of_inlier(store.size());
-  for (std::size_t k = 0; k < store.size(); ++k) {
-    if (!store.mask[k])
-      continue;
-    const Eigen::Vector2i c =
-      cellOf(Eigen::Vector3f(store.x[k], store.y[k], store.z[k]));
-    bool inserted = false;
-    const std::uint32_t n = index_of.emplace(
-      key(c.x(), c.y()), static_cast<std::uint32_t>(cells.size()), inserted);
-    if (inserted)
-      cells.push_back({c.x(), c.y()});
-    ++cells[n].inliers;
-    cell_of_inlier[k] = n;
-  }
+  PlaneFootprint footprint(store, plane, cell);
   bool any = false;
   for (std::size_t k = 0; k < all.size(); ++k) {
     const Eigen::Vector3f q(all.x[k], all.y[k], all.z[k]);
@@ -383,36 +468,58 @@ removeVisibilityConflicts(DensePoints& store,
     // Where the line of sight from the origin through q meets the plane: before q
     // (lambda < 1) when q is behind it, beyond q when q is in front.
     const float lambda = origin_distance / (origin_distance - s);
-    const Eigen::Vector2i c = cellOf(origin + lambda * (q - origin));
-    const std::uint32_t n = index_of.find(key(c.x(), c.y()));
+    const std::uint32_t n = footprint.cellAt(origin + lambda * (q - origin));
     if (n != CellIndex::NONE) {
-      ++cells[n].conflicts;
+      footprint.addEvidence(n, s < 0.0f);
       any = true;
     }
   }
-  if (!any)
-    return 0;
-  std::vector<std::uint8_t> transparent(cells.size(), 0);
-  for (std::size_t c = 0; c < cells.size(); ++c) {
-    std::size_t inliers = 0, conflicts = 0;
-    for (int di = -1; di <= 1; ++di)
-      for (int dj = -1; dj <= 1; ++dj) {
-        const std::uint32_t n = index_of.find(key(cells[c].i + di, cells[c].j + dj));
-        if (n == CellIndex::NONE)
-          continue;
-        inliers += cells[n].inliers;
-        conflicts += cells[n].conflicts;
-      }
-    transparent[c] =
-      static_cast<double>(conflicts) > max_ratio * static_cast<double>(inliers) ? 1 : 0;
-  }
-  std::size_t removed = 0;
-  for (std::size_t k = 0; k < store.size(); ++k)
-    if (store.mask[k] && transparent[cell_of_inlier[k]]) {
-      store.mask[k] = 0;
-      ++removed;
+  return any ? footprint.removeCells(store, max_ratio, false) : 0;
+}
+
+/** \brief The shell test of one plane. A surface's points lie within its eq. 11
+ * threshold t, up to stereo noise; a plane that cuts through a thicker structure (a
+ * slab through a tree's canopy, a horizontal stripe across a facade or a car) has
+ * points beyond the threshold on both sides as well, about as many per unit of
+ * thickness as within it. A point of `all` is in the shell when it lies between t and
+ * t + max(t, `width`) off the plane (t: its own eq. 11 threshold, `t` where `all` has
+ * none) and its orthogonal projection falls in a cell of the inliers' footprint
+ * (PlaneFootprint, cells of edge `cell`); front and back are counted apart. Where,
+ * over a cell and its 8 neighbours, twice the smaller of the two counts exceeds
+ * `max_ratio` x the inliers, the cell's inliers are taken out of the plane (their mask
+ * set to 0). What stands on a surface or in front of it lies on one side only and does
+ * not count. For a uniform volume or a perpendicular surface the ratio is about
+ * max(t, width) / t (1 for the shell t..2t); for Gaussian noise of standard deviation
+ * t (the noise reaching the threshold) it is 0.40.
+ * \param[in] plane unit normal
+ * \param[in] width smallest shell width, meters (e.g. the voxel edge of a voxelised
+ * cloud, whose surface points lie in layers one voxel apart)
+ * \return the number of inliers taken out */
+inline std::size_t
+removeShellCells(DensePoints& store,
+                 const DensePoints& all,
+                 float t,
+                 const Eigen::Vector4f& plane,
+                 float width,
+                 float cell,
+                 double max_ratio)
+{
+  PlaneFootprint footprint(store, plane, cell);
+  const Eigen::Vector3f normal = plane.head<3>();
+  bool any = false;
+  for (std::size_t k = 0; k < all.size(); ++k) {
+    const Eigen::Vector3f q(all.x[k], all.y[k], all.z[k]);
+    const float s = normal.dot(q) + plane[3];
+    const float t_k = all.threshold.empty() ? t : all.threshold[k];
+    if (!(std::abs(s) > t_k) || !(std::abs(s) <= t_k + std::max(t_k, width)))
+      continue;
+    const std::uint32_t n = footprint.cellAt(q);
+    if (n != CellIndex::NONE) {
+      footprint.addEvidence(n, s < 0.0f);
+      any = true;
     }
-  return removed;
+  }
+  return any ? footprint.removeCells(store, max_ratio, true) : 0;
 }
 
 /** \brief Number of points (SoA) with |a x + b y + c z + d| <= t, counting in blocks
@@ -589,6 +696,10 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
     bad = "visibility_margin must be finite and >= 0 m";
   else if (!(visibility_cell_ > 0.0) || !std::isfinite(visibility_cell_))
     bad = "visibility_cell must be finite and > 0 m";
+  else if (!(max_shell_ratio_ >= 0.0) || !std::isfinite(max_shell_ratio_))
+    bad = "max_shell_ratio must be finite and >= 0";
+  else if (!(shell_width_ >= 0.0) || !std::isfinite(shell_width_))
+    bad = "shell_width must be finite and >= 0 m";
   return bad;
 }
 
@@ -647,6 +758,8 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
   planes.clear();
   visibility_rejected_ = 0;
   visibility_removed_ = 0;
+  shell_rejected_ = 0;
+  shell_removed_ = 0;
   const Eigen::Vector3f origin = input_->sensor_origin_.template head<3>();
   const Eigen::Vector3f up = up_axis_.normalized();
   const auto d_t = static_cast<float>(distance_threshold_);
@@ -685,7 +798,7 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
   // Every finite input point, for the visibility test (dense loses the planes'
   // inliers as they are taken).
   detail::DensePoints all;
-  if (max_visibility_conflict_ratio_ > 0.0)
+  if (max_visibility_conflict_ratio_ > 0.0 || max_shell_ratio_ > 0.0)
     all = dense;
   if (dense.size() < 3) {
     PCL_WARN("[planar_grid::%s::segment] Fewer than 3 finite input points (%zu).\n",
@@ -892,6 +1005,20 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
                   "conflicts at %zu of its inliers (%zu left).\n",
                   getClassName().c_str(), removed, count);
         ++visibility_rejected_;
+        continue;
+      }
+    }
+    if (max_shell_ratio_ > 0.0) {
+      const std::size_t removed = detail::removeShellCells(
+        dense, all, d_t, plane, static_cast<float>(shell_width_),
+        static_cast<float>(visibility_cell_), max_shell_ratio_);
+      shell_removed_ += removed;
+      count -= removed;
+      if (static_cast<int>(count) < min_inliers_) {
+        PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with points beyond its "
+                  "threshold at %zu of its inliers (%zu left).\n",
+                  getClassName().c_str(), removed, count);
+        ++shell_rejected_;
         continue;
       }
     }
