@@ -321,14 +321,7 @@ parseComparison(const YAML::Node& root, const std::string& path)
 ComparisonConfig
 loadComparisonConfig(const std::string& path)
 {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw IOError(path + ": cannot be read");
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(path, e.mark.line + 1, e.mark.column + 1, e.msg);
-  }
+  const YAML::Node root = loadYamlDocument(readConfigFile(path), path);
   try {
     return parseComparison(root, path);
   } catch (const YAML::Exception& e) {
