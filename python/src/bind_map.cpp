@@ -72,7 +72,7 @@ py::dict
 paramsDict(const PlanarGridMap::Params& p)
 {
   py::dict d;
-  d["resolution_m"] = p.space.resolution_m;
+  d["resolution_m"] = p.resolution_m;
   d["max_range_m"] = p.space.max_range_m;
   d["surface_margin_m"] = p.space.surface_margin_m;
   d["prior"] = toString(p.space.prior);
@@ -161,10 +161,9 @@ Maps are not copied (copy.copy raises); pickling goes through the map file forma
                      int close_gaps_cells, const std::string& merge_rule,
                      double cover_density) {
            Map::Params p;
-           p.space.resolution_m = resolution_m;
+           p.resolution_m = resolution_m;
            p.space.max_range_m = max_range_m;
            p.space.surface_margin_m = surface_margin_m;
-           p.surface.resolution_m = resolution_m;
            p.surface.thickness_m = thickness_m;
            p.surface.plane_merge_angle_rad = plane_merge_angle_rad;
            p.surface.plane_merge_distance_m = plane_merge_distance_m;
@@ -189,7 +188,7 @@ Maps are not copied (copy.copy raises); pickling goes through the map file forma
              throw py::value_error(std::string("PlanarGridMap: ") + e.what());
            }
          }),
-         py::kw_only(), py::arg("resolution_m") = d.space.resolution_m,
+         py::kw_only(), py::arg("resolution_m") = d.resolution_m,
          py::arg("max_range_m") = d.space.max_range_m,
          py::arg("surface_margin_m") = d.space.surface_margin_m,
          py::arg("prior") = toString(d.space.prior),

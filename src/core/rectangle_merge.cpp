@@ -11,9 +11,6 @@ namespace planar_grid {
 
 namespace {
 
-/** \brief Largest |raster index| (int32 with a margin). */
-constexpr double MAX_CELL_INDEX = 2.0e9;
-
 /** \brief Cells inside a gap of at most \a max_gap cells between two observed cells
  * of one row or one column (closeRasterGaps()); \a keys sorted
  * by row, then column. The result is sorted, unique and disjoint from \a keys. */

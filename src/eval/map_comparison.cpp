@@ -7,7 +7,7 @@
 #include <planar_grid/eval/mapping_error.h>
 #include <planar_grid/eval/rectangular_cuboid_approximation.h>
 #include <planar_grid/eval/standard_voxel_grid.h>
-#include <planar_grid/pipeline/frame_source.h>
+#include <planar_grid/pipeline/pipeline_runner.h>
 #include <planar_grid/pipeline/stage.h>
 #include <planar_grid/pipeline/yaml_reader.h>
 
@@ -51,13 +51,14 @@ isFrontEnd(const std::string& type)
 /** The pipeline stage \a sc at cell size \a r: its parameters marked CELL_SIZE in
  * its table are set to r, those marked POINTS_PER_AREA scaled by (0.1 / r)^2
  * (ParamSpec::CellSizeScaling). */
-std::unique_ptr<Stage>
-createAtResolution(const StageConfig& sc, double r)
+StageConfig
+stageAtResolution(const StageConfig& sc, double r)
 {
   const StageInfo* info = findStage(sc.type);
   if (!info)
     throw Exception("unknown stage type '" + sc.type + "'");
-  ParamValues params = sc.params;
+  StageConfig scaled_stage = sc;
+  ParamValues& params = scaled_stage.params;
   for (const ParamSpec& spec : info->params)
     switch (spec.cell_size_scaling) {
       case ParamSpec::CellSizeScaling::NONE:
@@ -72,7 +73,20 @@ createAtResolution(const StageConfig& sc, double r)
         break;
       }
     }
-  return info->create(params);
+  return scaled_stage;
+}
+
+/** The pipeline of \a ds with its front-end stages (\a front true) or its mapping
+ * stages (false) only, at cell size \a r. */
+PipelineConfig
+pipelinePart(const DatasetConfig& ds, bool front, double r)
+{
+  PipelineConfig part = ds.pipeline;
+  part.stages.clear();
+  for (const auto& sc : ds.pipeline.stages)
+    if (isFrontEnd(sc.type) == front)
+      part.stages.push_back(stageAtResolution(sc, r));
+  return part;
 }
 
 double
@@ -160,15 +174,25 @@ private:
   std::unordered_map<std::uint64_t, Voxel> voxels_;
 };
 
-/** One cell size: the back-end stages and state of PG, and the SG and OG maps. */
+/** Milliseconds of each method's own work, to be reported per frame. */
+struct MethodTimes {
+  double sg{0.0}, og{0.0}, pg{0.0};
+};
+
+/** One cell size: PG's mapping stages (a pipeline fed the front end's frames), and
+ * the SG and OG maps. */
 struct Lane {
   double resolution_m{0.1};
-  std::vector<std::unique_ptr<Stage>> stages;
+  /** The mapping stages at this cell size; its state holds PG's map. */
+  std::unique_ptr<PipelineRunner> pipeline;
+  /** The stage types of \a pipeline, in order. */
   std::vector<std::string> types;
-  PipelineState state;
   std::unique_ptr<StandardVoxelGrid> sg;
   std::unique_ptr<octomap::OcTree> og;
   double pg_ms{0.0}, sg_ms{0.0}, og_ms{0.0};
+  /** The current frame's times, and whether SG and OG have its cloud. */
+  MethodTimes frame_ms;
+  bool inserted{false};
   /** The truth voxelized at the lane's cell size (built when first measured). */
   std::unique_ptr<TruthVoxels> truth_voxels;
   /** Time spent on the completeness and planar share (and the truth voxels), ms. */
@@ -297,14 +321,7 @@ parseComparison(const YAML::Node& root, const std::string& path)
 ComparisonConfig
 loadComparisonConfig(const std::string& path)
 {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw IOError(path + ": cannot be read");
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(path, e.mark.line + 1, e.mark.column + 1, e.msg);
-  }
+  const YAML::Node root = loadYamlDocument(readConfigFile(path), path);
   try {
     return parseComparison(root, path);
   } catch (const YAML::Exception& e) {
@@ -360,11 +377,6 @@ buildTruth(const DatasetConfig& ds,
     throw Exception("dataset " + ds.name + ": the truth has no points");
   return std::make_unique<GroundTruthSurface>(truth_points);
 }
-
-/** Milliseconds of each method's own work, to be reported per frame. */
-struct MethodTimes {
-  double sg{0.0}, og{0.0}, pg{0.0};
-};
 
 /** SG, OG, RA and PG of \a lane as they stand, against \a truth: over the whole map
  * (\a region null) or the cells reaching into \a region (the paper's places). RA is
@@ -454,10 +466,10 @@ measureLane(Lane& lane,
   ComparisonRow pg = base;
   pg.method = "PG";
   pg.ms_per_frame = ms.pg;
-  if (!lane.state.map)
+  if (!lane.pipeline->state().map)
     throw Exception("dataset " + base.dataset
                     + ": the pipeline has no map_integration stage (PG is its map)");
-  const PlanarGridMap& map = *lane.state.map;
+  const PlanarGridMap& map = *lane.pipeline->state().map;
   const PlanarCuboids& cuboids = map.getSurfaceLayer().getCuboids();
   const double thres = map.getParams().surface.occupancy_thres;
   for (const auto& c : cuboids)
@@ -514,49 +526,72 @@ placeFrames(std::size_t frames, std::size_t places)
   return out;
 }
 
+/** Inserts the world-frame points of \a frame (the cloud PG's approximation gets)
+ * into the SG and OG maps of \a lane and counts their times. */
+void
+insertBaselines(Lane& lane, const Frame& frame)
+{
+  using Clock = std::chrono::steady_clock;
+  const pcl::PointCloud<pcl::PointXYZ> points = worldPoints(frame);
+  const Eigen::Vector3f origin = frame.world_T_camera.translation().cast<float>();
+  auto t = Clock::now();
+  lane.sg->insertPointCloud(points, origin);
+  lane.frame_ms.sg += msSince(t);
+  t = Clock::now();
+  octomap::Pointcloud scan;
+  scan.reserve(points.size());
+  for (const auto& p : points.points)
+    scan.push_back(p.x, p.y, p.z);
+  lane.og->insertPointCloud(scan, octomap::point3d(origin.x(), origin.y(), origin.z()));
+  lane.frame_ms.og += msSince(t);
+  lane.inserted = true;
+}
+
 } // namespace
 
 std::vector<ComparisonRow>
 runComparison(const ComparisonConfig& config,
               const std::function<void(const std::string&)>& progress)
 {
-  using Clock = std::chrono::steady_clock;
   std::vector<ComparisonRow> rows;
   for (const auto& ds : config.datasets) {
-    const auto source = createFrameSource(ds.pipeline.input);
+    // The front end has no size parameter; it is configured at the first cell size.
+    const PipelineConfig front_config =
+      pipelinePart(ds, true, config.resolutions_m.front());
+    PipelineRunner front(front_config);
     const std::size_t end =
-      ds.frame_count > 0 ? std::min(source->size(), ds.first_frame + ds.frame_count)
-                         : source->size();
+      ds.frame_count > 0 ? std::min(front.frameCount(), ds.first_frame + ds.frame_count)
+                         : front.frameCount();
     if (ds.first_frame >= end)
       throw Exception("dataset " + ds.name + ": no frames in the range");
     const std::size_t total =
       (end - ds.first_frame + ds.frame_step - 1) / ds.frame_step;
     const std::vector<std::size_t> places = placeFrames(total, ds.places);
+    // One frame at a time: the methods' times are measured without a second thread.
+    front.setFrameRange(ds.first_frame, end, ds.frame_step);
+    front.setFrameOverlap(false);
 
-    // The front end has no size parameter; it is created at the first cell size.
-    const double resolution = config.resolutions_m.front();
-    const auto createFrontEnd =
-      [&ds, resolution](std::vector<std::unique_ptr<Stage>>& stages,
-                        std::vector<std::string>& types) {
-        for (const auto& sc : ds.pipeline.stages)
-          if (isFrontEnd(sc.type)) {
-            stages.push_back(createAtResolution(sc, resolution));
-            types.push_back(sc.type);
-          }
-      };
-    std::vector<std::unique_ptr<Stage>> front;
-    std::vector<std::string> front_types;
-    createFrontEnd(front, front_types);
     std::vector<Lane> lanes(config.resolutions_m.size());
     for (std::size_t k = 0; k < lanes.size(); ++k) {
       Lane& lane = lanes[k];
       lane.resolution_m = config.resolutions_m[k];
-      for (const auto& sc : ds.pipeline.stages) {
-        if (isFrontEnd(sc.type))
-          continue;
-        lane.stages.push_back(createAtResolution(sc, lane.resolution_m));
+      const PipelineConfig mapping = pipelinePart(ds, false, lane.resolution_m);
+      for (const auto& sc : mapping.stages)
         lane.types.push_back(sc.type);
-      }
+      lane.pipeline =
+        std::make_unique<PipelineRunner>(mapping, PipelineRunner::FrameSupply::CALLER);
+      // SG and OG get the cloud PG's approximation gets; PG's time is its stages'
+      // but the accumulated cloud's.
+      lane.pipeline->setStageCallback([&lane](std::size_t s, Frame& frame) {
+        if (lane.types[s] == "planar_cuboid_approximation")
+          insertBaselines(lane, frame);
+      });
+      lane.pipeline->setFrameCallback(
+        [&lane](std::size_t, Frame&, const std::vector<double>& stage_ms) {
+          for (std::size_t s = 0; s < stage_ms.size(); ++s)
+            if (lane.types[s] != "accumulate")
+              lane.frame_ms.pg += stage_ms[s];
+        });
       StandardVoxelGrid::Params sg;
       sg.resolution_m = lane.resolution_m;
       lane.sg = std::make_unique<StandardVoxelGrid>(sg);
@@ -570,131 +605,91 @@ runComparison(const ComparisonConfig& config,
     const bool reference_first =
       ds.truth.type == TruthConfig::Type::REFERENCE && !places.empty();
     if (reference_first) {
-      std::vector<std::unique_ptr<Stage>> pre;
-      std::vector<std::string> pre_types;
-      createFrontEnd(pre, pre_types);
-      PipelineState pre_state;
-      for (auto& st : pre)
-        st->start(pre_state);
-      for (std::size_t i = ds.first_frame; i < end; i += ds.frame_step) {
-        Frame frame;
-        source->load(i, frame);
-        frame.sequence_number = i;
-        for (auto& st : pre)
-          st->process(frame, pre_state);
-        reference.addFrame(worldPoints(frame));
-      }
+      PipelineRunner pre(front_config);
+      pre.setFrameRange(ds.first_frame, end, ds.frame_step);
+      pre.setFrameOverlap(false);
+      pre.setFrameCallback(
+        [&reference](std::size_t, Frame& frame, const std::vector<double>&) {
+          reference.addFrame(worldPoints(frame));
+        });
+      pre.run();
       if (progress)
         progress(ds.name + ": reference of " + std::to_string(total)
                  + " frames built for the places");
     }
 
-    PipelineState front_state;
-    for (auto& st : front)
-      st->start(front_state);
     for (auto& lane : lanes)
-      for (auto& st : lane.stages)
-        st->start(lane.state);
+      lane.pipeline->start();
 
     std::unique_ptr<GroundTruthSurface> truth;
     std::string truth_kind;
     Frame first_frame;
     std::size_t frames = 0;
     std::size_t next_place = 0;
-    for (std::size_t i = ds.first_frame; i < end; i += ds.frame_step) {
-      Frame frame;
-      source->load(i, frame);
-      frame.sequence_number = i;
-      double kl_ms = 0.0;
-      for (std::size_t st = 0; st < front.size(); ++st) {
-        const auto t = Clock::now();
-        front[st]->process(frame, front_state);
-        if (front_types[st] == "kl_occupancy_filter")
-          kl_ms += msSince(t); // the occupancy of the features is PG's work
-      }
-      if (frames == 0)
-        first_frame = frame;
-      if (ds.truth.type == TruthConfig::Type::REFERENCE && !reference_first)
-        reference.addFrame(worldPoints(frame));
-      std::vector<MethodTimes> frame_ms(lanes.size());
-      for (std::size_t k = 0; k < lanes.size(); ++k) {
-        Lane& lane = lanes[k];
-        MethodTimes& fms = frame_ms[k];
-        Frame f = frame;
-        if (frame.cloud)
-          f.cloud.reset(new Frame::Cloud(*frame.cloud));
-        fms.pg += kl_ms;
-        bool inserted = false;
-        const auto insertBaselines = [&]() {
-          // SG and OG get the cloud PG's approximation gets.
-          const pcl::PointCloud<pcl::PointXYZ> points = worldPoints(f);
-          const Eigen::Vector3f origin = f.world_T_camera.translation().cast<float>();
-          auto t = Clock::now();
-          lane.sg->insertPointCloud(points, origin);
-          fms.sg += msSince(t);
-          t = Clock::now();
-          octomap::Pointcloud scan;
-          scan.reserve(points.size());
-          for (const auto& p : points.points)
-            scan.push_back(p.x, p.y, p.z);
-          lane.og->insertPointCloud(
-            scan, octomap::point3d(origin.x(), origin.y(), origin.z()));
-          fms.og += msSince(t);
-          inserted = true;
-        };
-        for (std::size_t st = 0; st < lane.stages.size(); ++st) {
-          if (lane.types[st] == "planar_cuboid_approximation")
-            insertBaselines();
-          const auto t = Clock::now();
+    // Each frame, after the front end: the mapping stages and SG and OG at every cell
+    // size, then the place it may be.
+    front.setFrameCallback(
+      [&](std::size_t i, Frame& frame, const std::vector<double>& front_ms) {
+        double kl_ms = 0.0;
+        for (std::size_t st = 0; st < front_ms.size(); ++st)
+          if (front_config.stages[st].type == "kl_occupancy_filter")
+            kl_ms += front_ms[st]; // the occupancy of the features is PG's work
+        if (frames == 0)
+          first_frame = frame;
+        if (ds.truth.type == TruthConfig::Type::REFERENCE && !reference_first)
+          reference.addFrame(worldPoints(frame));
+        for (Lane& lane : lanes) {
+          Frame f = frame;
+          if (frame.cloud)
+            f.cloud.reset(new Frame::Cloud(*frame.cloud));
+          lane.frame_ms = MethodTimes();
+          lane.frame_ms.pg = kl_ms;
+          lane.inserted = false;
           try {
-            lane.stages[st]->process(f, lane.state);
+            lane.pipeline->processFrame(f);
           } catch (const Exception& e) {
-            throw Exception("dataset " + ds.name + ", frame " + f.name + ", cell size "
-                            + std::to_string(lane.resolution_m) + " m, stage '"
-                            + lane.types[st] + "': " + e.what());
+            throw Exception("dataset " + ds.name + ", cell size "
+                            + std::to_string(lane.resolution_m) + " m: " + e.what());
           }
-          if (lane.types[st] != "accumulate")
-            fms.pg += msSince(t);
+          if (!lane.inserted)
+            insertBaselines(lane, f);
+          lane.pg_ms += lane.frame_ms.pg;
+          lane.sg_ms += lane.frame_ms.sg;
+          lane.og_ms += lane.frame_ms.og;
         }
-        if (!inserted)
-          insertBaselines();
-        lane.pg_ms += fms.pg;
-        lane.sg_ms += fms.sg;
-        lane.og_ms += fms.og;
-      }
 
-      // A place (paper Sec. IV-B): the cells near the camera, this frame's times.
-      if (next_place < places.size() && places[next_place] == frames) {
-        if (!truth)
-          truth = buildTruth(ds, first_frame, reference, truth_kind);
-        MappingErrorRegion region;
-        region.centre_m = frame.world_T_camera.translation().cast<float>();
-        region.max_distance_m = ds.place_radius_m;
-        for (std::size_t k = 0; k < lanes.size(); ++k) {
-          ComparisonRow base;
-          base.dataset = ds.name;
-          base.environment = config.environment;
-          base.resolution_m = lanes[k].resolution_m;
-          base.frames = frames + 1;
-          base.tilt_deg = ds.tilt_deg;
-          base.truth_kind = truth_kind;
-          base.place = static_cast<int>(next_place);
-          base.frame = i;
-          base.region_radius_m = ds.place_radius_m;
-          std::pair<std::size_t, std::size_t> planar_counts;
-          for (const auto& row : measureLane(
-                 lanes[k], base, *truth, config.tolerance_cells * lanes[k].resolution_m,
-                 ds.place_radius_m > 0.0 ? &region : nullptr, frame_ms[k], 1.0,
-                 planar_counts))
-            rows.push_back(row);
+        // A place (paper Sec. IV-B): the cells near the camera, this frame's times.
+        if (next_place < places.size() && places[next_place] == frames) {
+          if (!truth)
+            truth = buildTruth(ds, first_frame, reference, truth_kind);
+          MappingErrorRegion region;
+          region.centre_m = frame.world_T_camera.translation().cast<float>();
+          region.max_distance_m = ds.place_radius_m;
+          for (Lane& lane : lanes) {
+            ComparisonRow base;
+            base.dataset = ds.name;
+            base.environment = config.environment;
+            base.resolution_m = lane.resolution_m;
+            base.frames = frames + 1;
+            base.tilt_deg = ds.tilt_deg;
+            base.truth_kind = truth_kind;
+            base.place = static_cast<int>(next_place);
+            base.frame = i;
+            base.region_radius_m = ds.place_radius_m;
+            std::pair<std::size_t, std::size_t> planar_counts;
+            for (const auto& row : measureLane(
+                   lane, base, *truth, config.tolerance_cells * lane.resolution_m,
+                   ds.place_radius_m > 0.0 ? &region : nullptr, lane.frame_ms, 1.0,
+                   planar_counts))
+              rows.push_back(row);
+          }
+          ++next_place;
         }
-        ++next_place;
-      }
-      ++frames;
-    }
+        ++frames;
+      });
+    front.run();
     for (auto& lane : lanes)
-      for (auto& st : lane.stages)
-        st->finish(lane.state);
+      lane.pipeline->finish();
     if (!truth)
       truth = buildTruth(ds, first_frame, reference, truth_kind);
 

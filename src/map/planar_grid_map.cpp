@@ -139,16 +139,15 @@ forEachVoxelInCuboid(const PlanarCuboid& cuboid, double resolution_m, F&& f)
     }
 }
 
+/** \a params with the map's resolution_m in both layers (their cells are one size,
+ * the paper's minimum cell); the layers' constructors check its range. */
 PlanarGridMap::Params
-validated(const PlanarGridMap::Params& params)
+withSharedResolution(const PlanarGridMap::Params& params)
 {
-  const double a = params.space.resolution_m;
-  const double b = params.surface.resolution_m;
-  if (!(std::abs(a - b) <= 1e-9 * std::max(std::abs(a), std::abs(b))))
-    throw Exception("PlanarGridMap: the space layer's resolution_m ("
-                    + std::to_string(a) + ") and the surface layer's ("
-                    + std::to_string(b) + ") must be equal");
-  return params;
+  PlanarGridMap::Params shared = params;
+  shared.space.resolution_m = params.resolution_m;
+  shared.surface.resolution_m = params.resolution_m;
+  return shared;
 }
 
 /** Shortest text of a double that reads back to the same value (std::to_chars). */
@@ -232,7 +231,8 @@ private:
 } // namespace
 
 PlanarGridMap::PlanarGridMap(const Params& params) :
-    params_(validated(params)), surface_(params.surface), space_(params.space)
+    params_(withSharedResolution(params)), surface_(params_.surface),
+    space_(params_.space)
 {}
 
 SpaceState
@@ -477,10 +477,9 @@ PlanarGridMap::deserialize(const std::string& bytes, const std::string& path)
   const bool old_free_prior = version < 3 && header.require("prior") == "free";
 
   Params params;
-  params.space.resolution_m = header.number("resolution_m");
-  if (!(params.space.resolution_m > 0.0))
+  params.resolution_m = header.number("resolution_m");
+  if (!(params.resolution_m > 0.0))
     header.fail("resolution_m must be > 0");
-  params.surface.resolution_m = params.space.resolution_m;
   params.space.max_range_m = header.number("max_range_m");
   params.space.surface_margin_m = header.number("surface_margin_m");
   try {
@@ -537,6 +536,11 @@ PlanarGridMap::deserialize(const std::string& bytes, const std::string& path)
       header.fail(e.what());
     }
   }();
+  // The map has one cell size: the surface section's must be the header's.
+  if (map.params_.surface.resolution_m != params.resolution_m)
+    header.fail("the surface section's resolution_m "
+                + exact(map.params_.surface.resolution_m)
+                + " differs from the header's " + exact(params.resolution_m));
   if (map.space_.getVoxelCount(SpaceState::FREE) != voxels[0]
       || map.space_.getVoxelCount(SpaceState::OCCUPIED) != voxels[1]
       || map.space_.getVoxelCount(SpaceState::UNKNOWN) != voxels[2])

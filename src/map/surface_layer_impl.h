@@ -24,8 +24,6 @@ namespace surface_layer_detail {
 /** \brief Raster cells per face beyond which a face is skipped (a corrupt or
  * absurdly large cuboid). */
 inline constexpr double MAX_FACE_CELLS = 1e7;
-/** \brief Largest |raster index| (int32 with a margin). */
-inline constexpr double MAX_CELL_INDEX = 2.0e9;
 /** \brief Largest coordinate accepted, meters (corrupt data guard). */
 inline constexpr float MAX_COORDINATE_M = 1e7f;
 /** \brief Spatial-index bins per cuboid beyond which it goes to the "large" list. */

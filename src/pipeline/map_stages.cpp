@@ -521,7 +521,7 @@ mapIntegrationInfo()
   info.needs_poses = true;
   const PlanarGridMap::Params d;
   info.params = {
-    ParamSpec::real("resolution_m", d.space.resolution_m, 0.01, 10.0, "m",
+    ParamSpec::real("resolution_m", d.resolution_m, 0.01, 10.0, "m",
                     "Minimum cell size of both layers (the paper's 0.1 m).")
       .scalesWithCellSize(),
     ParamSpec::real("max_range_m", d.space.max_range_m, 0.1, 1000.0, "m",
@@ -576,8 +576,7 @@ mapIntegrationInfo()
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     PlanarGridMap::Params p;
-    p.space.resolution_m = v.getDouble("resolution_m");
-    p.surface.resolution_m = p.space.resolution_m;
+    p.resolution_m = v.getDouble("resolution_m");
     p.space.max_range_m = v.getDouble("max_range_m");
     p.space.surface_margin_m = v.getDouble("surface_margin_m");
     p.space.prior = spaceStateFromString(v.getChoice("prior"));

@@ -254,6 +254,7 @@ PipelineRunner::writeCheckpoint(std::size_t next_frame, const RunReport& report)
 std::size_t
 PipelineRunner::resumeFrom(const std::string& path)
 {
+  input("resumeFrom()");
   std::ifstream file(path, std::ios::binary);
   if (!file)
     throw IOError("checkpoint " + path + ": cannot be opened for reading");

@@ -5,7 +5,6 @@
 #include <planar_grid/pipeline/yaml_reader.h>
 
 #include <Eigen/Geometry>
-#include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -30,10 +29,6 @@ using Reader = YamlReader;
  * a real pipeline has about a dozen stages; a list of thousands is a generated or
  * corrupt file. */
 constexpr std::size_t MAX_STAGES = 256;
-/** The deepest nesting of maps and lists accepted (the schema needs 4). */
-constexpr std::size_t MAX_NESTING = 32;
-/** The most nodes a document may hold, aliases counted at each use. */
-constexpr std::size_t MAX_NODES = 1000000;
 
 std::array<double, 3>
 vector3(const Reader& r, const YAML::Node& node, const std::string& what);
@@ -619,61 +614,6 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
   return config;
 }
 
-/** A tab in a line's indentation (before its first other character, comments and
- * blank lines aside) is an error at its line:col: YAML indents with spaces only, and
- * yaml-cpp reports such a file as "end of map not found" somewhere after the tab. */
-void
-checkIndentation(const std::string& text, const std::string& source)
-{
-  int line = 1;
-  for (std::size_t start = 0; start < text.size();) {
-    std::size_t end = text.find('\n', start);
-    if (end == std::string::npos)
-      end = text.size();
-    const std::size_t first = text.find_first_not_of(" \t\r", start);
-    if (first < end && text[first] != '#') {
-      const std::size_t tab = text.find('\t', start);
-      if (tab < first)
-        throw ConfigError(source, line, static_cast<int>(tab - start) + 1,
-                          "tab character in the indentation: YAML indents with "
-                          "spaces, never tabs");
-    }
-    start = end + 1;
-    ++line;
-  }
-}
-
-/** Refuses a document nested deeper than MAX_NESTING, or one whose anchors and aliases
- * expand to more than MAX_NODES nodes, at the node's line:col (the schema itself is at
- * most four levels deep). */
-void
-checkNesting(const YAML::Node& node,
-             std::size_t depth,
-             std::size_t& visited,
-             const std::string& source)
-{
-  const auto fail = [&](const std::string& message) {
-    const YAML::Mark mark = node.Mark();
-    throw ConfigError(source, mark.is_null() ? 0 : mark.line + 1,
-                      mark.is_null() ? 0 : mark.column + 1, message);
-  };
-  if (depth > MAX_NESTING)
-    fail("the YAML nests more than " + std::to_string(MAX_NESTING)
-         + " levels deep here (at most " + std::to_string(MAX_NESTING)
-         + " are accepted; the schema needs 4)");
-  if (++visited > MAX_NODES)
-    fail("the YAML holds more than " + std::to_string(MAX_NODES)
-         + " nodes (counting each use of an alias); a pipeline file has a few hundred");
-  if (node.IsSequence())
-    for (const auto& item : node)
-      checkNesting(item, depth + 1, visited, source);
-  else if (node.IsMap())
-    for (const auto& item : node) {
-      checkNesting(item.first, depth + 1, visited, source);
-      checkNesting(item.second, depth + 1, visited, source);
-    }
-}
-
 } // namespace
 
 namespace {
@@ -743,21 +683,7 @@ parsePipelineConfig(const std::string& yaml_text,
                     const std::string& source_name,
                     const std::string& base_folder)
 {
-  checkIndentation(yaml_text, source_name);
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::DeepRecursion& e) {
-    // yaml-cpp's own guard against a stack overflow says "bad file".
-    throw ConfigError(source_name, e.mark.line + 1, e.mark.column + 1,
-                      "the YAML nests more than " + std::to_string(e.depth())
-                        + " levels deep here (at most " + std::to_string(MAX_NESTING)
-                        + " are accepted; the schema needs 4)");
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(source_name, e.mark.line + 1, e.mark.column + 1, e.msg);
-  }
-  std::size_t visited = 0;
-  checkNesting(root, 0, visited, source_name);
+  const YAML::Node root = loadYamlDocument(yaml_text, source_name);
   try {
     return parseRoot(root, source_name, base_folder);
   } catch (const YAML::Exception& e) {
@@ -771,15 +697,11 @@ parsePipelineConfig(const std::string& yaml_text,
 PipelineConfig
 loadPipelineConfig(const std::string& path)
 {
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw IOError(path + ": cannot open the configuration file");
-  std::ostringstream text;
-  text << in.rdbuf();
+  const std::string text = readConfigFile(path);
   const fs::path p(path);
   const std::string base =
     p.has_parent_path() ? p.parent_path().string() : std::string(".");
-  return parsePipelineConfig(text.str(), path, base);
+  return parsePipelineConfig(text, path, base);
 }
 
 } // namespace planar_grid

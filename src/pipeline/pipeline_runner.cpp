@@ -75,17 +75,22 @@ struct PreparedFrame {
   std::vector<StageSample> samples;
 };
 
-/** Runs \a stage on \a frame and records its time, points and counters; failures name
- * the frame, its position \a i and the stage. */
+/** Runs stage \a s (\a stage) on \a frame, after \a callback when it is set, and
+ * records its time, points and counters; failures name the frame, its position \a i
+ * and the stage. */
 StageSample
 runStage(Stage& stage,
+         std::size_t s,
          const std::string& type,
+         const PipelineRunner::StageCallback& callback,
          Frame& frame,
          PipelineState& state,
          std::size_t i,
          CloudCount& last_count)
 {
   using Clock = std::chrono::steady_clock;
+  if (callback)
+    callback(s, frame);
   StageSample sample;
   const bool counts = stage.countsCloudPoints();
   if (counts && frame.cloud)
@@ -122,6 +127,37 @@ addSample(StageReport& sr, const StageSample& sample)
     sr.addCounter(name, value);
 }
 
+/** Adds frame \a i's stage samples to \a report, its pose to \a trajectory, and
+ * calls \a callback with each stage's milliseconds. */
+void
+endFrame(RunReport& report,
+         Trajectory& trajectory,
+         const PipelineRunner::FrameCallback& callback,
+         std::size_t i,
+         Frame& frame,
+         const std::vector<StageSample>& samples)
+{
+  for (std::size_t s = 0; s < samples.size(); ++s)
+    addSample(report.stages[s], samples[s]);
+  // After the stages: visual_odometry sets the pose of frames whose input has none.
+  if (frame.has_pose)
+    trajectory.push_back(frame.world_T_camera);
+  ++report.frames;
+  if (callback) {
+    std::vector<double> ms(samples.size());
+    for (std::size_t s = 0; s < samples.size(); ++s)
+      ms[s] = samples[s].ms;
+    callback(i, frame, ms);
+  }
+}
+
+double
+msSince(std::chrono::steady_clock::time_point t)
+{
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t)
+    .count();
+}
+
 /** The number of leading stages to run ahead from now on: \a ahead, or one fewer when
  * moving the last of them to the mapping thread shortens the longer of the two
  * threads' mean frame times by more than a millisecond (after a few frames, so that
@@ -148,7 +184,8 @@ balancedReadAhead(const RunReport& report, std::size_t ahead)
 
 } // namespace
 
-PipelineRunner::PipelineRunner(const PipelineConfig& config) : config_(config)
+PipelineRunner::PipelineRunner(const PipelineConfig& config, FrameSupply supply) :
+    config_(config)
 {
   for (const auto& sc : config_.stages) {
     const StageInfo* info = findStage(sc.type);
@@ -166,29 +203,42 @@ PipelineRunner::PipelineRunner(const PipelineConfig& config) : config_(config)
                         "stage '" + sc.type + "': " + e.what());
     }
   }
-  source_ = createFrameSource(config_.input);
-  begin_ = 0;
-  end_ = source_->size();
+  if (supply == FrameSupply::INPUT) {
+    source_ = createFrameSource(config_.input);
+    end_ = source_->size();
+  }
 }
 
 PipelineRunner::~PipelineRunner() = default;
 
+FrameSource&
+PipelineRunner::input(const std::string& what) const
+{
+  if (!source_)
+    throw Exception("PipelineRunner::" + what
+                    + " needs the input, and this runner takes the caller's frames");
+  return *source_;
+}
+
 std::size_t
 PipelineRunner::frameCount() const
 {
-  return source_->size();
+  return input("frameCount()").size();
 }
 
 void
-PipelineRunner::setFrameRange(std::size_t begin, std::size_t end)
+PipelineRunner::setFrameRange(std::size_t begin, std::size_t end, std::size_t step)
 {
+  const std::size_t size = input("setFrameRange()").size();
   if (begin >= end)
     throw Exception("the frame range " + std::to_string(begin) + ":"
                     + std::to_string(end) + " is empty");
-  if (end > source_->size())
+  if (end > size)
     throw Exception("the frame range " + std::to_string(begin) + ":"
                     + std::to_string(end) + " goes past the input's "
-                    + std::to_string(source_->size()) + " frames");
+                    + std::to_string(size) + " frames");
+  if (step == 0)
+    throw Exception("the frame step must be at least 1");
   if (resume_ && begin != begin_)
     throw Exception(
       "the frame range " + std::to_string(begin) + ":" + std::to_string(end)
@@ -196,54 +246,75 @@ PipelineRunner::setFrameRange(std::size_t begin, std::size_t end)
       + std::to_string(begin_) + "); set the range before resumeFrom()");
   begin_ = begin;
   end_ = end;
+  step_ = step;
+}
+
+void
+PipelineRunner::start()
+{
+  run_start_ = std::chrono::steady_clock::now();
+  previous_seconds_ = 0.0;
+  report_ = RunReport();
+  report_.config_file = config_.source_file;
+  report_.input_description =
+    source_ ? source_->describe() : std::string("frames supplied by the caller");
+  report_.first_frame = begin_;
+  for (const auto& sc : config_.stages) {
+    StageReport sr;
+    sr.type = sc.type;
+    report_.stages.push_back(sr);
+  }
+  state_ = PipelineState();
+  trajectory_.clear();
+  for (auto& stage : stages_)
+    stage->start(state_);
+}
+
+void
+PipelineRunner::processFrame(Frame& frame)
+{
+  CloudCount last_count;
+  std::vector<StageSample> samples;
+  samples.reserve(stages_.size());
+  for (std::size_t s = 0; s < stages_.size(); ++s)
+    samples.push_back(runStage(*stages_[s], s, config_.stages[s].type, stage_callback_,
+                               frame, state_, frame.sequence_number, last_count));
+  endFrame(report_, trajectory_, frame_callback_, frame.sequence_number, frame,
+           samples);
 }
 
 RunReport
 PipelineRunner::run()
 {
   using Clock = std::chrono::steady_clock;
-  const auto start = Clock::now();
-  const auto ms_since = [](Clock::time_point t) {
-    return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
-  };
-
-  RunReport report;
-  report.config_file = config_.source_file;
-  report.input_description = source_->describe();
-  report.first_frame = begin_;
-  for (const auto& sc : config_.stages) {
-    StageReport sr;
-    sr.type = sc.type;
-    report.stages.push_back(sr);
-  }
-  state_ = PipelineState();
-  trajectory_.clear();
-  for (auto& stage : stages_)
-    stage->start(state_);
+  FrameSource& source = input("run()");
+  if (step_ != 1 && (checkpoint_every_ > 0 || resume_))
+    throw Exception("checkpoints need every frame of the range (frame step 1, not "
+                    + std::to_string(step_) + ")");
+  start();
 
   std::size_t first = begin_;
-  double previous_seconds = 0.0;
   if (resume_) {
     // A resumed run: the state and the report as they were after the checkpoint's
     // frame.
     ResumeData& resume = *resume_;
-    report.frames = resume.report.frames;
-    report.load_ms = resume.report.load_ms;
-    report.stages = std::move(resume.report.stages);
-    report.rss_samples = std::move(resume.report.rss_samples);
-    report.checkpoints_written = resume.report.checkpoints_written;
-    previous_seconds = resume.report.seconds;
+    report_.frames = resume.report.frames;
+    report_.load_ms = resume.report.load_ms;
+    report_.stages = std::move(resume.report.stages);
+    report_.rss_samples = std::move(resume.report.rss_samples);
+    report_.checkpoints_written = resume.report.checkpoints_written;
+    previous_seconds_ = resume.report.seconds;
     state_ = std::move(resume.state);
     trajectory_ = std::move(resume.trajectory);
     for (std::size_t s = 0; s < stages_.size(); ++s)
       stages_[s]->loadState(resume.stage_states[s].data(),
                             resume.stage_states[s].size());
     first = resume.next_frame;
-    report.resumed_at_frame = first;
+    report_.resumed_at_frame = first;
     resume_.reset();
   }
 
-  const std::size_t total = end_ - begin_;
+  const std::size_t total = (end_ - begin_ + step_ - 1) / step_;
   const std::size_t rss_every = std::max<std::size_t>(total / 20, 1);
   // Frame i + 1 is loaded and goes through the leading frame-local stages on a second
   // thread while frame i goes through the rest here. Those stages touch nothing but
@@ -254,15 +325,15 @@ PipelineRunner::run()
   // never one that frame i + 1 runs on the other thread at the same time.
   std::size_t ahead = frameLocalPrefix();
   PipelineState unused; // one prepare() runs at a time: the next starts after get()
-  const auto prepare = [this, &unused, &ms_since](std::size_t i, std::size_t n) {
+  const auto prepare = [this, &source, &unused](std::size_t i, std::size_t n) {
     auto prepared = std::make_unique<PreparedFrame>();
     const auto load_start = Clock::now();
-    source_->load(i, prepared->frame);
+    source.load(i, prepared->frame);
     prepared->frame.sequence_number = i;
-    prepared->load_ms = ms_since(load_start);
+    prepared->load_ms = msSince(load_start);
     for (std::size_t s = 0; s < n; ++s)
-      prepared->samples.push_back(runStage(*stages_[s], config_.stages[s].type,
-                                           prepared->frame, unused, i,
+      prepared->samples.push_back(runStage(*stages_[s], s, config_.stages[s].type,
+                                           stage_callback_, prepared->frame, unused, i,
                                            prepared->last_count));
     return prepared;
   };
@@ -273,44 +344,48 @@ PipelineRunner::run()
   std::future<std::unique_ptr<PreparedFrame>> next;
   if (first < end_)
     next = launch(first, ahead);
-  for (std::size_t i = first; i < end_; ++i) {
+  for (std::size_t i = first; i < end_; i += step_) {
     const std::unique_ptr<PreparedFrame> prepared = next.get();
-    if (i + 1 < end_)
-      next = launch(i + 1, ahead);
+    const bool last = i + step_ >= end_;
+    if (!last)
+      next = launch(i + step_, ahead);
     Frame& frame = prepared->frame;
-    report.load_ms += prepared->load_ms;
-    const std::size_t ran_ahead = prepared->samples.size();
-    for (std::size_t s = 0; s < ran_ahead; ++s)
-      addSample(report.stages[s], prepared->samples[s]);
-    for (std::size_t s = ran_ahead; s < stages_.size(); ++s)
-      addSample(report.stages[s], runStage(*stages_[s], report.stages[s].type, frame,
-                                           state_, i, prepared->last_count));
-    // After the stages: visual_odometry sets the pose of frames whose input has none.
-    if (frame.has_pose)
-      trajectory_.push_back(frame.world_T_camera);
-    ++report.frames;
-    ahead = balancedReadAhead(report, ahead);
-    report.read_ahead_stages = ahead;
-    const std::size_t done = i - begin_ + 1;
-    if (done % rss_every == 0 || i + 1 == end_)
-      report.rss_samples.emplace_back(i, residentMemoryBytes());
-    if (checkpoint_every_ > 0 && (done % checkpoint_every_ == 0 || i + 1 == end_)) {
+    report_.load_ms += prepared->load_ms;
+    std::vector<StageSample>& samples = prepared->samples;
+    for (std::size_t s = samples.size(); s < stages_.size(); ++s)
+      samples.push_back(runStage(*stages_[s], s, config_.stages[s].type,
+                                 stage_callback_, frame, state_, i,
+                                 prepared->last_count));
+    endFrame(report_, trajectory_, frame_callback_, i, frame, samples);
+    ahead = balancedReadAhead(report_, ahead);
+    report_.read_ahead_stages = ahead;
+    const std::size_t done = (i - begin_) / step_ + 1;
+    if (done % rss_every == 0 || last)
+      report_.rss_samples.emplace_back(i, residentMemoryBytes());
+    if (checkpoint_every_ > 0 && (done % checkpoint_every_ == 0 || last)) {
       const auto t = Clock::now();
-      ++report.checkpoints_written;
-      report.seconds = previous_seconds + ms_since(start) / 1000.0;
-      writeCheckpoint(i + 1, report);
-      report.checkpoint_ms += ms_since(t);
+      ++report_.checkpoints_written;
+      report_.seconds = previous_seconds_ + msSince(run_start_) / 1000.0;
+      writeCheckpoint(i + 1, report_);
+      report_.checkpoint_ms += msSince(t);
     }
     if (progress_)
-      progress_(done, total, ms_since(start) / 1000.0);
+      progress_(done, total, msSince(run_start_) / 1000.0);
   }
+  return finish();
+}
+
+RunReport
+PipelineRunner::finish()
+{
+  using Clock = std::chrono::steady_clock;
   for (std::size_t s = 0; s < stages_.size(); ++s) {
     const auto t = Clock::now();
     stages_[s]->finish(state_);
-    report.stages[s].total_ms += ms_since(t);
+    report_.stages[s].total_ms += msSince(t);
   }
-  report.world_cloud_points = state_.world_cloud ? state_.world_cloud->size() : 0;
-  report.planes = state_.plane_models.size();
+  report_.world_cloud_points = state_.world_cloud ? state_.world_cloud->size() : 0;
+  report_.planes = state_.plane_models.size();
   if (state_.map) {
     const PlanarGridMap& map = *state_.map;
     const auto& space = map.getSpaceLayer();
@@ -320,7 +395,7 @@ PipelineRunner::run()
     for (const auto& c : cuboids)
       planar += c.is_planar;
     const MapMemory memory = map.getMemory();
-    report.map_summary = {
+    report_.map_summary = {
       {"resolution_m", map.getResolution()},
       {"cuboids", static_cast<double>(cuboids.size())},
       {"planar_cuboids", static_cast<double>(planar)},
@@ -336,9 +411,9 @@ PipelineRunner::run()
       {"total_bytes", static_cast<double>(memory.total_bytes)},
     };
   }
-  report.peak_rss_bytes = peakResidentMemoryBytes();
-  report.seconds = previous_seconds + ms_since(start) / 1000.0;
-  return report;
+  report_.peak_rss_bytes = peakResidentMemoryBytes();
+  report_.seconds = previous_seconds_ + msSince(run_start_) / 1000.0;
+  return report_;
 }
 
 std::size_t

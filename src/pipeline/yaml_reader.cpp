@@ -2,17 +2,117 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/yaml_reader.h>
 
+#include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <set>
 #include <sstream>
 
 namespace planar_grid {
 
 namespace fs = std::filesystem;
+
+namespace {
+
+/** The deepest nesting of maps and lists accepted (the configuration schemas need 4).
+ */
+constexpr std::size_t MAX_NESTING = 32;
+/** The most nodes a document may hold, aliases counted at each use. */
+constexpr std::size_t MAX_NODES = 1000000;
+
+/** A tab in a line's indentation (before its first other character, comments and
+ * blank lines aside) is an error at its line:col: YAML indents with spaces only, and
+ * yaml-cpp reports such a file as "end of map not found" somewhere after the tab. */
+void
+checkIndentation(const std::string& text, const std::string& source)
+{
+  int line = 1;
+  for (std::size_t start = 0; start < text.size();) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string::npos)
+      end = text.size();
+    const std::size_t first = text.find_first_not_of(" \t\r", start);
+    if (first < end && text[first] != '#') {
+      const std::size_t tab = text.find('\t', start);
+      if (tab < first)
+        throw ConfigError(source, line, static_cast<int>(tab - start) + 1,
+                          "tab character in the indentation: YAML indents with "
+                          "spaces, never tabs");
+    }
+    start = end + 1;
+    ++line;
+  }
+}
+
+/** Refuses a document nested deeper than MAX_NESTING, or one whose anchors and aliases
+ * expand to more than MAX_NODES nodes, at the node's line:col (the configuration
+ * schemas are at most four levels deep). */
+void
+checkNesting(const YAML::Node& node,
+             std::size_t depth,
+             std::size_t& visited,
+             const std::string& source)
+{
+  const auto fail = [&](const std::string& message) {
+    const YAML::Mark mark = node.Mark();
+    throw ConfigError(source, mark.is_null() ? 0 : mark.line + 1,
+                      mark.is_null() ? 0 : mark.column + 1, message);
+  };
+  if (depth > MAX_NESTING)
+    fail("the YAML nests more than " + std::to_string(MAX_NESTING)
+         + " levels deep here (at most " + std::to_string(MAX_NESTING)
+         + " are accepted; the configuration schemas need 4)");
+  if (++visited > MAX_NODES)
+    fail("the YAML holds more than " + std::to_string(MAX_NODES)
+         + " nodes (counting each use of an alias); a configuration file has a few "
+           "hundred");
+  if (node.IsSequence())
+    for (const auto& item : node)
+      checkNesting(item, depth + 1, visited, source);
+  else if (node.IsMap())
+    for (const auto& item : node) {
+      checkNesting(item.first, depth + 1, visited, source);
+      checkNesting(item.second, depth + 1, visited, source);
+    }
+}
+
+} // namespace
+
+std::string
+readConfigFile(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw IOError(path + ": cannot open the configuration file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+YAML::Node
+loadYamlDocument(const std::string& yaml_text, const std::string& source_name)
+{
+  checkIndentation(yaml_text, source_name);
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::DeepRecursion& e) {
+    // yaml-cpp's own guard against a stack overflow says "bad file".
+    throw ConfigError(source_name, e.mark.line + 1, e.mark.column + 1,
+                      "the YAML nests more than " + std::to_string(e.depth())
+                        + " levels deep here (at most " + std::to_string(MAX_NESTING)
+                        + " are accepted; the configuration schemas need 4)");
+  } catch (const YAML::ParserException& e) {
+    throw ConfigError(source_name, e.mark.line + 1, e.mark.column + 1, e.msg);
+  }
+  std::size_t visited = 0;
+  checkNesting(root, 0, visited, source_name);
+  return root;
+}
 
 YamlReader::YamlReader(std::string file, std::string base_folder) :
     file_(std::move(file)), base_folder_(std::move(base_folder))

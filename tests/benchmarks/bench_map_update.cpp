@@ -60,8 +60,7 @@ BM_PlanarGridMapUpdate(benchmark::State& state)
     new pcl::PointCloud<pcl::PointXYZ>(f.points));
 
   planar_grid::PlanarGridMap::Params params;
-  params.space.resolution_m = RESOLUTION_M;
-  params.surface.resolution_m = RESOLUTION_M;
+  params.resolution_m = RESOLUTION_M;
   params.space.max_range_m = MAP_MAX_RANGE_M;
   // Arg 0: the prior, 2 = unknown (our default), 0 = free (the paper's; occluded space
   // is then stored explicitly as unknown).

@@ -118,6 +118,9 @@ TEST_F(MapComparisonTest, ConfigurationErrorsNameTheLine)
   EXPECT_EQ(lineOf("datasets:\n  - name: a\n    pipeline: " + pipeline
                    + "\n    truth: {type: points, min_views: 2, file: t.pcd}\n"),
             4);
+  // The pipeline files' strict reading: a tab in the indentation, a syntax error.
+  EXPECT_EQ(lineOf(ds + "\tplaces: {count: 1}\n"), 5);
+  EXPECT_EQ(lineOf("environment: [indoor\n" + ds), 2);
   // A front-end stage after the cell-size stages cannot be shared by all sizes.
   const std::string late =
     write("late.yaml", "input:\n  type: pcd_files\n  files: [x.pcd]\n"

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <memory>
 #include <random>
@@ -51,6 +52,23 @@ protected:
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   }
 
+  /** \a text (a map file's content) with the checksum its version's reader expects
+   * (version >= 2: CRC-32 over the header before the checksum line and the data;
+   * version 1: over the data only). */
+  static std::string withChecksum(std::string text, int version)
+  {
+    const std::size_t data = text.find("\ndata\n") + 6;
+    const std::size_t line = text.find("checksum_crc32 0x");
+    boost::crc_32_type crc;
+    if (version >= 2)
+      crc.process_bytes(text.data(), line);
+    crc.process_bytes(text.data() + data, text.size() - data);
+    char hex[16];
+    std::snprintf(hex, sizeof(hex), "%08x", crc.checksum());
+    text.replace(line + 17, 8, hex);
+    return text;
+  }
+
   /** A small map: a 2 m x 1 m wall at x = 2 (normal -x, toward the origin) seen by a
    * few features, plus voxels of each state. */
   static void fill(PlanarGridMap& map)
@@ -87,8 +105,7 @@ protected:
   static PlanarGridMap::Params params()
   {
     PlanarGridMap::Params p;
-    p.space.resolution_m = 0.1;
-    p.surface.resolution_m = 0.1;
+    p.resolution_m = 0.1;
     p.space.prior = SpaceState::UNKNOWN;
     return p;
   }
@@ -219,16 +236,7 @@ TEST_F(PlanarGridMapTest, VersionOneAndTwoFilesAreStillRead)
   const auto withVersion = [&current](int version) {
     std::string text = current;
     text.replace(text.find("version 3"), 9, "version " + std::to_string(version));
-    const std::size_t data = text.find("\ndata\n") + 6;
-    const std::size_t line = text.find("checksum_crc32 0x");
-    boost::crc_32_type crc;
-    if (version >= 2)
-      crc.process_bytes(text.data(), line);
-    crc.process_bytes(text.data() + data, text.size() - data);
-    char hex[16];
-    std::snprintf(hex, sizeof(hex), "%08x", crc.checksum());
-    text.replace(line + 17, 8, hex);
-    return text;
+    return withChecksum(text, version);
   };
   for (const int version : {1, 2}) {
     const std::string text = withVersion(version);
@@ -486,11 +494,45 @@ TEST_F(PlanarGridMapTest, OctoMapExportKeepsObservedSpaceAndCuboidProbabilities)
   }
 }
 
-TEST_F(PlanarGridMapTest, DifferentResolutionsAreRejected)
+/** \brief The map's cell size has one owner: Params::resolution_m goes to both
+ * layers, whatever their own fields hold; an invalid one is rejected, and a file whose
+ * surface section has another cell size than its header is refused. */
+TEST_F(PlanarGridMapTest, OneResolutionFeedsBothLayers)
 {
   PlanarGridMap::Params p = params();
-  p.surface.resolution_m = 0.2;
-  EXPECT_THROW(PlanarGridMap map(p), planar_grid::Exception);
+  p.resolution_m = 0.2;
+  p.space.resolution_m = 0.3;
+  p.surface.resolution_m = 0.4;
+  const PlanarGridMap map(p);
+  EXPECT_EQ(map.getResolution(), 0.2);
+  EXPECT_EQ(map.getParams().space.resolution_m, 0.2);
+  EXPECT_EQ(map.getParams().surface.resolution_m, 0.2);
+  EXPECT_EQ(map.getSpaceLayer().getParams().resolution_m, 0.2);
+  EXPECT_EQ(map.getSurfaceLayer().getParams().resolution_m, 0.2);
+  for (const double bad : {0.0, -0.1, std::numeric_limits<double>::quiet_NaN()}) {
+    p.resolution_m = bad;
+    EXPECT_THROW(PlanarGridMap rejected(p), planar_grid::Exception) << bad;
+  }
+
+  // A 0.1 m map whose header says 0.2 m, with a valid checksum: the surface section
+  // still says 0.1 m.
+  PlanarGridMap saved(params());
+  fill(saved);
+  const std::string file = path("map.pgmap");
+  saved.save(file);
+  const std::vector<char> bytes = readAll(file);
+  std::string text(bytes.begin(), bytes.end());
+  text.replace(text.find("resolution_m 0.1\n"), 16, "resolution_m 0.2");
+  text = withChecksum(text, 3);
+  writeAll(file, std::vector<char>(text.begin(), text.end()));
+  try {
+    PlanarGridMap::load(file);
+    ADD_FAILURE() << "a surface section of another cell size was accepted";
+  } catch (const planar_grid::IOError& e) {
+    EXPECT_NE(std::string(e.what()).find("surface section's resolution_m"),
+              std::string::npos)
+      << e.what();
+  }
 }
 
 } // namespace

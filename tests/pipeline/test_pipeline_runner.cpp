@@ -19,6 +19,8 @@
 #include <fstream>
 #include <iostream>
 #include <iterator>
+#include <utility>
+#include <vector>
 
 namespace fs = std::filesystem;
 using planar_grid::parsePipelineConfig;
@@ -160,10 +162,17 @@ TEST_F(PipelineRunnerTest, FrameRangeIsChecked)
 {
   planar_grid::PipelineRunner runner(
     parsePipelineConfig(karlsruheInput() + STAGES, "t.yaml", "/"));
-  EXPECT_THROW(runner.setFrameRange(1, 1), planar_grid::Exception); // empty
-  EXPECT_THROW(runner.setFrameRange(0, 3), planar_grid::Exception); // past the end
+  EXPECT_THROW(runner.setFrameRange(1, 1), planar_grid::Exception);    // empty
+  EXPECT_THROW(runner.setFrameRange(0, 3), planar_grid::Exception);    // past the end
+  EXPECT_THROW(runner.setFrameRange(0, 2, 0), planar_grid::Exception); // no step
   EXPECT_NO_THROW(runner.setFrameRange(1, 2));
   EXPECT_EQ(runner.run().frames, 1u);
+  // A checkpoint holds every frame up to it: a run that skips frames has none.
+  planar_grid::PipelineRunner stepped(
+    parsePipelineConfig(karlsruheInput() + STAGES, "t.yaml", "/"));
+  stepped.setFrameRange(0, 2, 2);
+  stepped.setCheckpoint((dir_ / "run.checkpoint").string(), 1);
+  EXPECT_THROW(stepped.run(), planar_grid::Exception);
 }
 
 TEST_F(PipelineRunnerTest, MissingImageNamesTheFile)
@@ -798,6 +807,77 @@ TEST_F(PipelineRunnerTest, OverlappedFramesGiveTheSameResultsAsASequentialRun)
   for (std::size_t i = 0; i < 4; ++i)
     EXPECT_TRUE(overlapped.trajectory()[i].matrix()
                 == sequential.trajectory()[i].matrix());
+}
+
+TEST_F(PipelineRunnerTest, FrontEndFeedingCallerFramesGivesTheRunsMap)
+{
+  // Karlsruhe frames 10 and 12 (positions 0 and 2, step 2) through the paper pipeline
+  // with the map, once in one run and once split as planar_grid_eval runs it: a
+  // runner of the front end (stereo, features, their occupancy) whose frame callback
+  // feeds each frame to a runner of the mapping stages that takes the caller's
+  // frames. The map bytes, the world cloud and the poses are identical.
+  std::string input = karlsruheInput();
+  input.replace(input.find("frame_count: 2"), 14, "frame_count: 3");
+  const auto config = parsePipelineConfig(input + paperStages(true), "t.yaml", "/");
+  planar_grid::PipelineRunner whole(config);
+  whole.setFrameRange(0, 3, 2);
+  std::vector<std::pair<std::size_t, std::size_t>> progress;
+  whole.setProgressCallback([&progress](std::size_t done, std::size_t total, double) {
+    progress.emplace_back(done, total);
+  });
+  EXPECT_EQ(whole.run().frames, 2u);
+  EXPECT_EQ(progress,
+            (std::vector<std::pair<std::size_t, std::size_t>>{{1, 2}, {2, 2}}));
+
+  auto front_config = config;
+  auto mapping_config = config;
+  const std::size_t front_stages = 3; // stereo_disparity, feature_matching, kl_...
+  ASSERT_EQ(config.stages[front_stages - 1].type, "kl_occupancy_filter");
+  front_config.stages.resize(front_stages);
+  mapping_config.stages.erase(mapping_config.stages.begin(),
+                              mapping_config.stages.begin() + front_stages);
+  planar_grid::PipelineRunner front(front_config);
+  front.setFrameRange(0, 3, 2);
+  planar_grid::PipelineRunner mapping(mapping_config,
+                                      planar_grid::PipelineRunner::FrameSupply::CALLER);
+  EXPECT_THROW(mapping.run(), planar_grid::Exception);
+  EXPECT_THROW(mapping.frameCount(), planar_grid::Exception);
+  // Each stage is announced before it runs, in order, on every frame.
+  std::vector<std::size_t> announced;
+  mapping.setStageCallback(
+    [&announced](std::size_t s, planar_grid::Frame&) { announced.push_back(s); });
+  std::vector<std::size_t> positions;
+  front.setFrameCallback(
+    [&](std::size_t i, planar_grid::Frame& frame, const std::vector<double>& ms) {
+      positions.push_back(i);
+      EXPECT_EQ(frame.sequence_number, i);
+      EXPECT_EQ(ms.size(), front_stages);
+      mapping.processFrame(frame);
+    });
+  mapping.start();
+  front.run();
+  const auto report = mapping.finish();
+  EXPECT_EQ(positions, (std::vector<std::size_t>{0, 2}));
+  EXPECT_EQ(report.frames, 2u);
+  ASSERT_EQ(announced.size(), 2 * mapping_config.stages.size());
+  for (std::size_t k = 0; k < announced.size(); ++k)
+    EXPECT_EQ(announced[k], k % mapping_config.stages.size());
+
+  ASSERT_TRUE(whole.state().map && mapping.state().map);
+  std::string a, b;
+  whole.state().map->serialize(a);
+  mapping.state().map->serialize(b);
+  EXPECT_GT(a.size(), 10000u);
+  EXPECT_TRUE(a == b) << "the split run's map differs from the whole run's";
+  const auto& wa = *whole.state().world_cloud;
+  const auto& wb = *mapping.state().world_cloud;
+  ASSERT_GT(wa.size(), 1000u);
+  ASSERT_EQ(wa.size(), wb.size());
+  for (std::size_t i = 0; i < wa.size(); ++i)
+    ASSERT_EQ(wa[i].getVector4fMap(), wb[i].getVector4fMap()) << i;
+  ASSERT_EQ(mapping.trajectory().size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i)
+    EXPECT_TRUE(whole.trajectory()[i].matrix() == mapping.trajectory()[i].matrix());
 }
 
 TEST_F(PipelineRunnerTest, AFailingFrameAheadStopsTheRunAfterTheFramesBeforeIt)

@@ -238,8 +238,7 @@ TEST_F(SceneRendererTest, MapOccupiedVoxelsRenderWhereTheyAreAndAreFramedExactly
   // slab's far end (more than 90 % of the width). Bounds padded by the largest box
   // (2 m on each side) would leave the grey in less than 80 % of it.
   planar_grid::PlanarGridMap::Params params;
-  params.space.resolution_m = 0.1;
-  params.surface.resolution_m = 0.1;
+  params.resolution_m = 0.1;
   planar_grid::PlanarGridMap map(params);
   auto& space = map.getSpaceLayer();
   std::size_t set = 0;

@@ -63,6 +63,13 @@ struct RasterRectangle {
   std::int32_t j1;
 };
 
+/** \brief Largest |i| or |j| of a raster cell accepted by the raster functions, in
+ * cells (2e9: the int32 range of RasterRectangle and rasterCellKey() with a margin, so
+ * that an index plus one, a neighbour or one past the last cell, never overflows).
+ * Callers that turn coordinates into raster indices reject, or skip, a cell beyond
+ * it. \ingroup core */
+inline constexpr double MAX_CELL_INDEX = 2.0e9;
+
 /** \brief Key of raster cell (i, j) of a sparse raster: keys order the cells by row
  * j, then column i (both signed). \ingroup core */
 inline std::uint64_t
@@ -107,8 +114,8 @@ std::vector<std::uint64_t> closeRasterGaps(const std::vector<std::uint64_t>& key
  * RectangleMergeRule). PAPER lists the rectangles in the order the rows create them
  * (by first row, then first column); the other rules by component (numbered by its
  * first cell), then as built: callers that need an order sort them.
- * \param[in] keys the raster's cells (rasterCellKey()), sorted, unique; |i|, |j| below
- * 2e9
+ * \param[in] keys the raster's cells (rasterCellKey()), sorted, unique; |i|, |j| at
+ * most MAX_CELL_INDEX
  * \param[in] classes one class per key, 0 or 1
  * \param[in] rule the merge
  * \param[in] cover_density with DENSITY, the smallest share of a rectangle's cells of

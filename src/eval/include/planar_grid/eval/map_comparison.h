@@ -172,14 +172,15 @@ struct ComparisonRow {
 };
 
 /** \brief Runs every dataset of \a config (rows of its places as the frames run, then
- * of the whole map at the end): the frames go once through the pipeline's
- * resolution-independent front end (stages before voxel_grid: stereo, features,
- * occupancy filter), then for each cell size r through the rest with every size
- * parameter set to r (voxel_grid leaf, cuboid minimum cell and thickness, map
- * resolution; min_inliers scaled by (0.1 / r)^2), and the cloud PG's approximation
- * receives (world frame, after ground removal) is inserted into SG and OG at r; RA is
- * merged from SG at each place and at the end. With places and a REFERENCE truth, a
- * first pass of a second front end over the frames builds the reference, since the
+ * of the whole map at the end). The pipeline's own runner (PipelineRunner) runs the
+ * frames once through the front-end stages (StageRole::FRONT_END: stereo, features,
+ * occupancy filter, odometry), and its frame callback feeds each frame, for each cell
+ * size r, to a runner of the mapping stages with every size parameter set to r
+ * (voxel_grid leaf, cuboid minimum cell and thickness, map resolution; min_inliers
+ * scaled by (0.1 / r)^2); that runner's stage callback inserts the cloud PG's
+ * approximation receives (world frame, after ground removal) into SG and OG at r. RA
+ * is merged from SG at each place and at the end. With places and a REFERENCE truth,
+ * a first pass of a second front end over the frames builds the reference, since the
  * places need it while the frames run.
  * \param[in] progress called with a line of text per dataset and cell size
  * \return per dataset: the place rows (place >= 0; per place, cell size and method),

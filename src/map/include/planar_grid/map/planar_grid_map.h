@@ -85,17 +85,21 @@ struct OctoMapExportSummary {
  * \ingroup map */
 class PlanarGridMap {
 public:
-  /** \brief Parameters of both layers. The surface and space resolutions must agree
-   * (the map's minimum cell size). */
+  /** \brief Parameters of both layers. The map's minimum cell size has one owner,
+   * resolution_m: the constructor gives it to both layers. */
   struct Params {
-    /** The explicit space layer. */
+    /** The map's minimum cell size (the paper's 0.1 m), meters: the space layer's
+     * voxel edge and the surface layer's raster cell edge; in [0.001, 100]. */
+    double resolution_m{0.1};
+    /** The explicit space layer; its resolution_m is replaced by the map's. */
     ExplicitSpaceGrid::Params space;
-    /** The surface layer. */
+    /** The surface layer; its resolution_m is replaced by the map's. */
     SurfaceLayer::Params surface;
   };
 
-  /** \brief Throws planar_grid::Exception for invalid parameters (including
-   * different resolutions). */
+  /** \brief Builds an empty map; getParams() returns \a params with both layers'
+   * resolution_m set to params.resolution_m.
+   * \throws planar_grid::Exception for invalid parameters */
   explicit PlanarGridMap(const Params& params);
   PlanarGridMap(const PlanarGridMap&) = delete;
   PlanarGridMap& operator=(const PlanarGridMap&) = delete;
@@ -108,7 +112,7 @@ public:
   /** \brief The parameters. */
   const Params& getParams() const { return params_; }
   /** \brief The minimum cell size, meters. */
-  [[nodiscard]] double getResolution() const { return params_.space.resolution_m; }
+  [[nodiscard]] double getResolution() const { return params_.resolution_m; }
 
   /** \brief Merges one frame's cells and feature occupancies into the surface layer
    * (see SurfaceLayer::integrate()). */

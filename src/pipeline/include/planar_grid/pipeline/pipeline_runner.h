@@ -5,6 +5,7 @@
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/stage.h>
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -104,29 +105,81 @@ struct RunReport {
   std::string timingTable() const;
 };
 
-/** \brief Runs a configured pipeline over a range of frames. \ingroup pipeline */
+/** \brief Runs a configured pipeline over a range of frames: run() reads them from
+ * the configured input; start(), processFrame() and finish() take frames the caller
+ * supplies (one input feeding several pipelines, as planar_grid_eval feeds one front
+ * end's frames to the mapping stages at each cell size). \ingroup pipeline */
 class PipelineRunner {
 public:
   /** \brief Called after each frame: frames done, frames in total, seconds elapsed. */
   using ProgressCallback = std::function<void(std::size_t, std::size_t, double)>;
+  /** \brief Called after the stages have processed a frame: its position in the
+   * input, the frame as the last stage left it, and each stage's time on it in
+   * milliseconds (in stage order). */
+  using FrameCallback =
+    std::function<void(std::size_t, Frame&, const std::vector<double>&)>;
+  /** \brief Called right before a stage processes a frame: the stage's index and the
+   * frame as the stages before it left it. */
+  using StageCallback = std::function<void(std::size_t, Frame&)>;
 
-  /** \brief Builds the stages and opens the input.
+  /** \brief Where the frames come from. */
+  enum class FrameSupply {
+    /** The configured input, opened by the constructor and read by run(). */
+    INPUT,
+    /** The caller, through start(), processFrame() and finish(); the input is not
+     * opened (run(), frameCount() and setFrameRange() throw). */
+    CALLER
+  };
+
+  /** \brief Builds the stages and, for FrameSupply::INPUT, opens the input.
+   * \param[in] config the pipeline
+   * \param[in] supply where the frames come from
    * \throws planar_grid::ConfigError, planar_grid::IOError */
-  explicit PipelineRunner(const PipelineConfig& config);
+  explicit PipelineRunner(const PipelineConfig& config,
+                          FrameSupply supply = FrameSupply::INPUT);
   ~PipelineRunner();
 
-  /** \brief Number of frames in the input. */
+  /** \brief Number of frames in the input.
+   * \throws planar_grid::Exception without an input (FrameSupply::CALLER) */
   std::size_t frameCount() const;
 
-  /** \brief Restricts the run to frames [begin, end) (0-based positions).
-   * \throws planar_grid::Exception when the range is empty or outside the input */
-  void setFrameRange(std::size_t begin, std::size_t end);
+  /** \brief Restricts the run to frames begin, begin + step, ... before end (0-based
+   * positions).
+   * \param[in] begin first frame position
+   * \param[in] end one past the last frame position
+   * \param[in] step frames from one processed frame to the next, >= 1; checkpoints
+   * (setCheckpoint(), resumeFrom()) need 1
+   * \throws planar_grid::Exception when the range is empty or outside the input, or
+   * the step is 0 */
+  void setFrameRange(std::size_t begin, std::size_t end, std::size_t step = 1);
 
   /** \brief Sets the function called after each frame (none by default).
    * \param[in] callback receives frames done, frames in total, seconds elapsed */
   void setProgressCallback(ProgressCallback callback)
   {
     progress_ = std::move(callback);
+  }
+
+  /** \brief Sets the function called after the stages have processed each frame, on
+   * the calling thread, in frame order, before the progress callback (none by
+   * default). It may read the frame, keep a copy or feed it to other pipelines; what
+   * it changes in the frame is not seen by this pipeline's stages.
+   * \param[in] callback receives the frame's position, the frame and each stage's
+   * milliseconds on it */
+  void setFrameCallback(FrameCallback callback)
+  {
+    frame_callback_ = std::move(callback);
+  }
+
+  /** \brief Sets the function called right before each stage processes a frame
+   * (none by default), e.g. to give another map the cloud a stage receives. It runs on
+   * the thread that runs the stage: the second thread for the stages that run ahead
+   * (setFrameOverlap()), the calling thread for the others. Its time is not counted
+   * in the stage's.
+   * \param[in] callback receives the stage's index and the frame */
+  void setStageCallback(StageCallback callback)
+  {
+    stage_callback_ = std::move(callback);
   }
 
   /** \brief Runs the leading frame-local stages (Stage::isFrameLocal(): in the main
@@ -166,9 +219,26 @@ public:
    * past the end of the range, naming the file */
   std::size_t resumeFrom(const std::string& path);
 
-  /** \brief Runs every frame of the range through every stage.
-   * \throws planar_grid::Exception naming the frame and stage on failure */
+  /** \brief Runs every frame of the range through every stage: start(), the frames,
+   * finish().
+   * \throws planar_grid::Exception naming the frame and stage on failure, or without
+   * an input (FrameSupply::CALLER) */
   RunReport run();
+
+  /** \brief Starts a run of frames the caller supplies: clears the state and the
+   * trajectory and starts every stage. */
+  void start();
+
+  /** \brief Runs every stage on \a frame, on the calling thread, then the frame
+   * callback (a frame of a run begun by start()).
+   * \param[in,out] frame a loaded frame; its sequence_number is its position, named in
+   * errors
+   * \throws planar_grid::Exception naming the frame and stage on failure */
+  void processFrame(Frame& frame);
+
+  /** \brief Finishes every stage and reports the frames processed since start().
+   * \return the report (per-stage times and counts, the map's summary) */
+  RunReport finish();
 
   /** \brief The shared state (accumulated world cloud) after run(). */
   const PipelineState& state() const { return state_; }
@@ -184,13 +254,23 @@ private:
   std::string fingerprint() const;
   /** \brief Writes the checkpoint after frame position \a next_frame - 1. */
   void writeCheckpoint(std::size_t next_frame, const RunReport& report) const;
+  /** \brief The input, or an Exception naming \a what needs it. */
+  FrameSource& input(const std::string& what) const;
 
   PipelineConfig config_;
   std::unique_ptr<FrameSource> source_;
   std::vector<std::unique_ptr<Stage>> stages_;
   std::size_t begin_{0};
   std::size_t end_{0};
+  std::size_t step_{1};
   ProgressCallback progress_;
+  FrameCallback frame_callback_;
+  StageCallback stage_callback_;
+  /** \brief The report of the run under way (start() to finish()). */
+  RunReport report_;
+  /** \brief When the run began, and the seconds of the run a checkpoint continues. */
+  std::chrono::steady_clock::time_point run_start_;
+  double previous_seconds_{0.0};
   PipelineState state_;
   Trajectory trajectory_;
   std::string checkpoint_path_;

@@ -11,6 +11,21 @@ class Node;
 
 namespace planar_grid {
 
+/** \brief The text of the configuration file \a path.
+ * \throws planar_grid::IOError when it cannot be opened \ingroup pipeline */
+std::string readConfigFile(const std::string& path);
+
+/** \brief Parses a configuration document (a pipeline or an evaluation file) the one
+ * strict way: a tab in a line's indentation, a syntax error, nesting deeper than 32
+ * levels or more than a million nodes (aliases counted at each use) is an error at its
+ * line:col, never a yaml-cpp exception.
+ * \param[in] yaml_text the document
+ * \param[in] source_name names it in errors (its file path)
+ * \return the root node
+ * \throws planar_grid::ConfigError \ingroup pipeline */
+YAML::Node loadYamlDocument(const std::string& yaml_text,
+                            const std::string& source_name);
+
 /** \brief Strict access to a YAML configuration (yaml-cpp nodes): every error is a
  * planar_grid::ConfigError at the offending node's file:line:col saying what was
  * expected. Shared by the pipeline configuration, the stage parameter tables and the
