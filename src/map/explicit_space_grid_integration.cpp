@@ -274,6 +274,68 @@ observeCube(const VoxelKernel& kernel,
     }
 }
 
+/** \brief What rowKeys() needs of a view: the camera pose, the column directions and
+ * the range. */
+struct RowKeys {
+  /** \brief Rotation and translation of world_T_camera. */
+  Eigen::Matrix3f R;
+  Eigen::Vector3f t;
+  /** \brief (u - cx) / fx per column. */
+  const float* column_x;
+  /** \brief Largest depth integrated, meters. */
+  float max_range;
+  /** \brief 1 / voxel edge, 1 / meters. */
+  float inv_res;
+};
+
+/** \brief The voxel key of every pixel of a depth image row (\a row: depths in
+ * meters, +inf for none; \a yn = (v - cy) / fy), with ok[u] = 1 where the pixel has a
+ * measurement within range and a key below 2^30. One branch-free loop the compiler
+ * vectorises, with the arithmetic of (world_T_camera * (x, y, z)) / resolution as
+ * Eigen evaluates it, ((r0 x + r1 y) + r2 z) + t, so the keys are those of the
+ * per-pixel product. CLAMP: clamp the coordinates to +-2^30 before the conversion to
+ * int (needed only when some pixel's coordinates could overflow an int; the clamps
+ * keep the compiler from vectorising the loop). */
+template <bool CLAMP>
+void
+rowKeys(const float* row,
+        int W,
+        float yn,
+        const RowKeys& k,
+        int* kx,
+        int* ky,
+        int* kz,
+        int* ok)
+{
+  const float r00 = k.R(0, 0), r01 = k.R(0, 1), r02 = k.R(0, 2);
+  const float r10 = k.R(1, 0), r11 = k.R(1, 1), r12 = k.R(1, 2);
+  const float r20 = k.R(2, 0), r21 = k.R(2, 1), r22 = k.R(2, 2);
+  const float tx = k.t.x(), ty = k.t.y(), tz = k.t.z();
+  const float max_range = k.max_range, inv_res = k.inv_res;
+  const float* const column_x = k.column_x;
+  const auto key_limit = static_cast<float>(MAX_KEY);
+  for (int u = 0; u < W; ++u) {
+    const float d = row[u];
+    const bool in_range = d <= max_range; // +inf marks no measurement
+    const float z = in_range ? d : 0.0f;
+    const float x = column_x[u] * z, y = yn * z;
+    float px = (((r00 * x + r01 * y) + r02 * z) + tx) * inv_res;
+    float py = (((r10 * x + r11 * y) + r12 * z) + ty) * inv_res;
+    float pz = (((r20 * x + r21 * y) + r22 * z) + tz) * inv_res;
+    ok[u] = static_cast<int>(in_range) & static_cast<int>(std::abs(px) < key_limit)
+            & static_cast<int>(std::abs(py) < key_limit)
+            & static_cast<int>(std::abs(pz) < key_limit);
+    if (CLAMP) { // NaN to -2^30; unchanged where ok
+      px = std::min(key_limit, std::max(-key_limit, px));
+      py = std::min(key_limit, std::max(-key_limit, py));
+      pz = std::min(key_limit, std::max(-key_limit, pz));
+    }
+    kx[u] = floorToInt(px);
+    ky[u] = floorToInt(py);
+    kz[u] = floorToInt(pz);
+  }
+}
+
 } // namespace
 
 void
@@ -613,31 +675,53 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
               total.visited, total.fast, total.slow);
   }
 
-  // Occupied: the voxel of every measured pixel within max_range. Neighbouring pixels
-  // mostly fall in one voxel, which is written once per run of them.
+  // Occupied: the voxel of every measured pixel within max_range. The keys of a row
+  // come first, from a loop the compiler vectorises; neighbouring pixels mostly fall
+  // in one voxel, which is written once per run of them.
   BlockStorage::Cursor cursor(storage, prior);
   const auto occupied_code = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
   const float inv_res = 1.0f / res;
+  const auto w = static_cast<std::size_t>(W);
   std::vector<float>& column_x = workspace.column_x; // (u - cx) / fx
-  column_x.resize(static_cast<std::size_t>(W));
+  column_x.resize(w);
   for (int u = 0; u < W; ++u)
     column_x[static_cast<std::size_t>(u)] = (static_cast<float>(u) - cx) / fx;
+  workspace.row_kx.resize(w);
+  workspace.row_ky.resize(w);
+  workspace.row_kz.resize(w);
+  workspace.row_ok.resize(w);
+  int* const row_kx = workspace.row_kx.data();
+  int* const row_ky = workspace.row_ky.data();
+  int* const row_kz = workspace.row_kz.data();
+  int* const row_ok = workspace.row_ok.data();
+  const RowKeys kernel_keys{w_T_c.linear(), w_T_c.translation(), column_x.data(),
+                            max_range, inv_res};
+  // Every pixel's coordinates, (x, y, z) = z ((u - cx) / fx, (v - cy) / fy, 1) with
+  // z in [0, max_range], lie within |t| + z (|(u - cx) / fx| + |(v - cy) / fy| + 1)
+  // of the origin; below 2^29 voxels, with room for rounding, no conversion overflows.
+  const float column_reach =
+    std::max(std::abs(column_x.front()), std::abs(column_x.back()));
+  const float row_reach =
+    std::max(std::abs(cy / fy), std::abs((static_cast<float>(H - 1) - cy) / fy));
+  const double reach_voxels =
+    (static_cast<double>(kernel_keys.t.cwiseAbs().maxCoeff())
+     + static_cast<double>(max_range)
+         * (static_cast<double>(column_reach) + static_cast<double>(row_reach) + 1.0))
+    / params_.resolution_m;
+  const bool clamp = !(reach_voxels < MAX_KEY / 2.0);
   for (int v = 0; v < H; ++v) {
     const float yn = (static_cast<float>(v) - cy) / fy;
-    const float* row =
-      &pyr.min_level[0][static_cast<std::size_t>(v) * static_cast<std::size_t>(W)];
-    // |key| < 2^30 below: no voxel has this key
+    const float* row = &pyr.min_level[0][static_cast<std::size_t>(v) * w];
+    if (clamp)
+      rowKeys<true>(row, W, yn, kernel_keys, row_kx, row_ky, row_kz, row_ok);
+    else
+      rowKeys<false>(row, W, yn, kernel_keys, row_kx, row_ky, row_kz, row_ok);
+    // |key| < 2^30 above: no voxel has this key
     int last_x = std::numeric_limits<int>::min(), last_y = 0, last_z = 0;
     for (int u = 0; u < W; ++u) {
-      const float d = row[u];
-      if (!(d <= max_range)) // +inf marks no measurement
+      if (row_ok[u] == 0)
         continue;
-      const Eigen::Vector3f pc(column_x[static_cast<std::size_t>(u)] * d, yn * d, d);
-      const Eigen::Vector3f pw = (w_T_c * pc) * inv_res;
-      if (!(pw.cwiseAbs().maxCoeff() < static_cast<float>(MAX_KEY)))
-        continue;
-      const int kx = floorToInt(pw.x()), ky = floorToInt(pw.y()),
-                kz = floorToInt(pw.z());
+      const int kx = row_kx[u], ky = row_ky[u], kz = row_kz[u];
       if (kx == last_x && ky == last_y && kz == last_z)
         continue;
       last_x = kx;

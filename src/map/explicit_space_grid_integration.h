@@ -238,6 +238,9 @@ struct IntegrationWorkspace {
   DepthPyramid pyramid;
   /** \brief The occupied pass's (u - cx) / fx per image column. */
   std::vector<float> column_x;
+  /** \brief The occupied pass's voxel keys of one image row (x, y, z per column) and
+   * whether each pixel has one (a measurement within range). */
+  std::vector<int> row_kx, row_ky, row_kz, row_ok;
   /** \brief Per-thread observations of the blocks of the last view. */
   std::vector<std::vector<BlockResult>> results;
 };
