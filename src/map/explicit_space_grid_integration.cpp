@@ -78,6 +78,50 @@ struct CubeQuery {
   int r;
 };
 
+/** \brief Eight points of a cube (its corners, or its corner voxels' centres), camera
+ * frame, meters, coordinate by coordinate. */
+struct Corners {
+  float x[8], y[8], z[8];
+};
+
+/** \brief The smallest and largest of eight numbers (none NaN), halves first so that
+ * the compiler vectorises it. */
+inline void
+minMax8(const float* a, float& lo, float& hi)
+{
+  float l[4], h[4];
+  for (int i = 0; i < 4; ++i) {
+    l[i] = std::min(a[i], a[i + 4]);
+    h[i] = std::max(a[i], a[i + 4]);
+  }
+  lo = std::min(std::min(l[0], l[1]), std::min(l[2], l[3]));
+  hi = std::max(std::max(h[0], h[1]), std::max(h[2], h[3]));
+}
+
+/** \brief The pixel bounds of eight points in front of the camera (z > 0): the
+ * extremes of u = fx x / z + cx and v = fy y / z + cy, in one loop the compiler
+ * vectorises (the same arithmetic per point as a scalar loop). */
+inline void
+projectCorners(const Corners& p,
+               float fx,
+               float fy,
+               float cx,
+               float cy,
+               float& umin,
+               float& umax,
+               float& vmin,
+               float& vmax)
+{
+  float u[8], v[8];
+  for (int i = 0; i < 8; ++i) {
+    const float inv = 1.0f / p.z[i];
+    u[i] = fx * p.x[i] * inv + cx;
+    v[i] = fy * p.y[i] * inv + cy;
+  }
+  minMax8(u, umin, umax);
+  minMax8(v, vmin, vmax);
+}
+
 /** \brief What the 8 corner centres of a 4^3 cube tell of observeCube()'s per-voxel
  * test for all 64 voxels. */
 enum class CubeBound : std::uint8_t {
@@ -105,25 +149,24 @@ boundCube(const VoxelKernel& kernel, const CubeQuery& cube)
   const float* const lmin = kernel.pyramid->min_level[l].data();
   const int level_width = kernel.pyramid->w[l];
   constexpr float SLACK_PX = 1.0f, SLACK_M = 1e-3f, FAR_PX = 1e6f;
-  float umin = std::numeric_limits<float>::infinity(), umax = -umin, vmin = umin,
-        vmax = -umin, zmin = umin, zmax = -umin;
+  // The 8 corner centres, coordinate by coordinate, as c0 + a ex + b ey + c ez
+  // evaluates them; then their projections, in loops the compiler vectorises.
+  const float a[2] = {static_cast<float>(ox) + 0.5f, static_cast<float>(ox + 3) + 0.5f};
+  const float b[2] = {static_cast<float>(oy) + 0.5f, static_cast<float>(oy + 3) + 0.5f};
+  const float c[2] = {static_cast<float>(oz) + 0.5f, static_cast<float>(oz + 3) + 0.5f};
+  Corners p;
   for (int i = 0; i < 8; ++i) {
-    const Eigen::Vector3f p =
-      c0 + (static_cast<float>(ox + 3 * (i & 1)) + 0.5f) * ex
-      + (static_cast<float>(oy + 3 * ((i >> 1) & 1)) + 0.5f) * ey
-      + (static_cast<float>(oz + 3 * (i >> 2)) + 0.5f) * ez;
-    if (!(p.z() > NEAR_Z + SLACK_M))
-      return CubeBound::UNDECIDED;
-    zmin = std::min(zmin, p.z());
-    zmax = std::max(zmax, p.z());
-    const float inv = 1.0f / p.z();
-    const float u = kernel.fx * p.x() * inv + kernel.cx,
-                v = kernel.fy * p.y() * inv + kernel.cy;
-    umin = std::min(umin, u);
-    umax = std::max(umax, u);
-    vmin = std::min(vmin, v);
-    vmax = std::max(vmax, v);
+    const float ai = a[i & 1], bi = b[(i >> 1) & 1], ci = c[i >> 2];
+    p.x[i] = ((c0.x() + ai * ex.x()) + bi * ey.x()) + ci * ez.x();
+    p.y[i] = ((c0.y() + ai * ex.y()) + bi * ey.y()) + ci * ez.y();
+    p.z[i] = ((c0.z() + ai * ex.z()) + bi * ey.z()) + ci * ez.z();
   }
+  float zmin, zmax;
+  minMax8(p.z, zmin, zmax);
+  if (!(zmin > NEAR_Z + SLACK_M))
+    return CubeBound::UNDECIDED;
+  float umin, umax, vmin, vmax;
+  projectCorners(p, kernel.fx, kernel.fy, kernel.cx, kernel.cy, umin, umax, vmin, vmax);
   zmin -= SLACK_M;
   zmax += SLACK_M;
   umin = std::max(umin - SLACK_PX, -FAR_PX);
@@ -430,36 +473,29 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
     // Classifies the cube of s^3 voxels whose min corner is c (camera frame).
     const auto classify = [&](const Eigen::Vector3f& c, float s, CubeInfo& info) {
       const Eigen::Vector3f sx = s * ex, sy = s * ey, sz = s * ez;
-      std::array<Eigen::Vector3f, 8> corners;
-      float zmin = std::numeric_limits<float>::infinity(), zmax = -zmin;
-      for (int i = 0; i < 8; ++i) {
-        auto& p = corners[static_cast<std::size_t>(i)];
-        p = c;
-        if (i & 1)
-          p += sx;
-        if (i & 2)
-          p += sy;
-        if (i & 4)
-          p += sz;
-        zmin = std::min(zmin, p.z());
-        zmax = std::max(zmax, p.z());
-      }
+      // corner i = ((c + sx if i & 1) + sy if i & 2) + sz if i & 4, coordinate by
+      // coordinate
+      Corners p;
+      const auto corners = [](float c, float x, float y, float z, float* out) {
+        const float base[4] = {c, c + x, c + y, (c + x) + y};
+        for (int i = 0; i < 4; ++i) {
+          out[i] = base[i];
+          out[i + 4] = base[i] + z;
+        }
+      };
+      corners(c.x(), sx.x(), sy.x(), sz.x(), p.x);
+      corners(c.y(), sx.y(), sy.y(), sz.y(), p.y);
+      corners(c.z(), sx.z(), sy.z(), sz.z(), p.z);
+      float zmin, zmax;
+      minMax8(p.z, zmin, zmax);
       if (zmax <= NEAR_Z || zmin > z_far)
         return Cube::NONE;
       if (zmin <= NEAR_Z) { // straddles the camera plane: voxel by voxel
         info = {max_r, 0, 0, W - 1, H - 1};
         return Cube::SPLIT;
       }
-      float umin = std::numeric_limits<float>::infinity(), umax = -umin, vmin = umin,
-            vmax = -umin;
-      for (const auto& p : corners) {
-        const float inv = 1.0f / p.z();
-        const float u = fx * p.x() * inv + cx, v = fy * p.y() * inv + cy;
-        umin = std::min(umin, u);
-        umax = std::max(umax, u);
-        vmin = std::min(vmin, v);
-        vmax = std::max(vmax, v);
-      }
+      float umin, umax, vmin, vmax;
+      projectCorners(p, fx, fy, cx, cy, umin, umax, vmin, vmax);
       if (umax < -0.5f || vmax < -0.5f || umin >= u_end || vmin >= v_end)
         return Cube::NONE;
       const bool inside =
