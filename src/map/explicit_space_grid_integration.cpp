@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <thread>
 #include <vector>
@@ -212,6 +213,21 @@ boundCube(const VoxelKernel& kernel, const CubeQuery& cube)
   return CubeBound::NONE_FREE;
 }
 
+/** \brief Bit i set where flags[i] (0 or 1) is 1, for 64 flags: each 8 bytes gather
+ * into one byte through a multiplication (byte j of x times 2^(56 - 7 j) lands on bit
+ * 56 + j, and no other product reaches the top byte). */
+inline std::uint64_t
+packBits(const std::array<std::uint8_t, 64>& flags)
+{
+  std::uint64_t bits = 0;
+  for (std::size_t b = 0; b < 8; ++b) {
+    std::uint64_t x;
+    std::memcpy(&x, flags.data() + 8 * b, sizeof(x)); // little-endian: byte j = flag j
+    bits |= ((x * 0x0102040810204080ULL) >> 56) << (8 * b);
+  }
+  return bits;
+}
+
 /** \brief Per-voxel observations of the 4^3 cube \a cube: free when the centre is in
  * front of the smallest depth over the level cells meeting its footprint (radius
  * cube.r pixels, at most 3 x 3 cells of cube.level) minus the margin, occluded (only
@@ -278,25 +294,32 @@ observeCube(const VoxelKernel& kernel,
     vs[i] = static_cast<int>(std::min(v_max, std::max(0.0f, v)) + 0.5f);
   }
   // The smallest valid depth over the level cells meeting each footprint: one lookup
-  // in the pyramid's minimum over the 1 to 3 cells it spans per axis.
+  // in the pyramid's minimum over the 1 to 3 cells it spans per axis. The cells come
+  // from a loop the compiler vectorises, then the look-ups, then the test, again
+  // vectorised (every centre's pixel is clamped into the image, so every look-up is
+  // in bounds, the invalid centres' too).
   std::array<const float*, 9> span_min;
   for (int k = 0; k < 9; ++k)
     span_min[static_cast<std::size_t>(k)] = pyr.spanMin(level, k);
-  const auto lw = static_cast<std::ptrdiff_t>(level_width);
-  std::uint64_t valid = 0, free_bits = 0, occ_bits = 0;
+  std::array<int, 64> span_k, span_offset;
   for (std::size_t i = 0; i < 64; ++i) {
     const int ui = us[i], vi = vs[i];
     const int cu0 = std::max(ui - r, 0) >> level,
               cu2 = std::min(ui + r, W - 1) >> level;
     const int cv0 = std::max(vi - r, 0) >> level,
               cv2 = std::min(vi + r, H - 1) >> level;
-    const float fmin =
-      span_min[static_cast<std::size_t>(3 * (cu2 - cu0) + (cv2 - cv0))][cv0 * lw + cu0];
-    // branch-free: the outcome is unpredictable in mixed regions
-    const bool is_free = in[i] != 0 && zs[i] < fmin - margin;
-    valid |= static_cast<std::uint64_t>(in[i]) << i;
-    free_bits |= static_cast<std::uint64_t>(is_free) << i;
+    span_k[i] = 3 * (cu2 - cu0) + (cv2 - cv0);
+    span_offset[i] = cv0 * level_width + cu0;
   }
+  std::array<float, 64> fmin;
+  for (std::size_t i = 0; i < 64; ++i)
+    fmin[i] = span_min[static_cast<std::size_t>(span_k[i])][span_offset[i]];
+  std::array<std::uint8_t, 64> is_free;
+  for (std::size_t i = 0; i < 64; ++i)
+    is_free[i] = static_cast<std::uint8_t>(
+      in[i] & static_cast<std::uint8_t>(zs[i] < fmin[i] - margin));
+  const std::uint64_t valid = packBits(in), free_bits = packBits(is_free);
+  std::uint64_t occ_bits = 0;
   if (kernel.mark_occluded) {
     const float inf = std::numeric_limits<float>::infinity();
     for (std::uint64_t todo = valid & ~free_bits; todo != 0; todo &= todo - 1) {
