@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <thread>
 #include <vector>
@@ -78,6 +79,50 @@ struct CubeQuery {
   int r;
 };
 
+/** \brief Eight points of a cube (its corners, or its corner voxels' centres), camera
+ * frame, meters, coordinate by coordinate. */
+struct Corners {
+  float x[8], y[8], z[8];
+};
+
+/** \brief The smallest and largest of eight numbers (none NaN), halves first so that
+ * the compiler vectorises it. */
+inline void
+minMax8(const float* a, float& lo, float& hi)
+{
+  float l[4], h[4];
+  for (int i = 0; i < 4; ++i) {
+    l[i] = std::min(a[i], a[i + 4]);
+    h[i] = std::max(a[i], a[i + 4]);
+  }
+  lo = std::min(std::min(l[0], l[1]), std::min(l[2], l[3]));
+  hi = std::max(std::max(h[0], h[1]), std::max(h[2], h[3]));
+}
+
+/** \brief The pixel bounds of eight points in front of the camera (z > 0): the
+ * extremes of u = fx x / z + cx and v = fy y / z + cy, in one loop the compiler
+ * vectorises (the same arithmetic per point as a scalar loop). */
+inline void
+projectCorners(const Corners& p,
+               float fx,
+               float fy,
+               float cx,
+               float cy,
+               float& umin,
+               float& umax,
+               float& vmin,
+               float& vmax)
+{
+  float u[8], v[8];
+  for (int i = 0; i < 8; ++i) {
+    const float inv = 1.0f / p.z[i];
+    u[i] = fx * p.x[i] * inv + cx;
+    v[i] = fy * p.y[i] * inv + cy;
+  }
+  minMax8(u, umin, umax);
+  minMax8(v, vmin, vmax);
+}
+
 /** \brief What the 8 corner centres of a 4^3 cube tell of observeCube()'s per-voxel
  * test for all 64 voxels. */
 enum class CubeBound : std::uint8_t {
@@ -105,25 +150,24 @@ boundCube(const VoxelKernel& kernel, const CubeQuery& cube)
   const float* const lmin = kernel.pyramid->min_level[l].data();
   const int level_width = kernel.pyramid->w[l];
   constexpr float SLACK_PX = 1.0f, SLACK_M = 1e-3f, FAR_PX = 1e6f;
-  float umin = std::numeric_limits<float>::infinity(), umax = -umin, vmin = umin,
-        vmax = -umin, zmin = umin, zmax = -umin;
+  // The 8 corner centres, coordinate by coordinate, as c0 + a ex + b ey + c ez
+  // evaluates them; then their projections, in loops the compiler vectorises.
+  const float a[2] = {static_cast<float>(ox) + 0.5f, static_cast<float>(ox + 3) + 0.5f};
+  const float b[2] = {static_cast<float>(oy) + 0.5f, static_cast<float>(oy + 3) + 0.5f};
+  const float c[2] = {static_cast<float>(oz) + 0.5f, static_cast<float>(oz + 3) + 0.5f};
+  Corners p;
   for (int i = 0; i < 8; ++i) {
-    const Eigen::Vector3f p =
-      c0 + (static_cast<float>(ox + 3 * (i & 1)) + 0.5f) * ex
-      + (static_cast<float>(oy + 3 * ((i >> 1) & 1)) + 0.5f) * ey
-      + (static_cast<float>(oz + 3 * (i >> 2)) + 0.5f) * ez;
-    if (!(p.z() > NEAR_Z + SLACK_M))
-      return CubeBound::UNDECIDED;
-    zmin = std::min(zmin, p.z());
-    zmax = std::max(zmax, p.z());
-    const float inv = 1.0f / p.z();
-    const float u = kernel.fx * p.x() * inv + kernel.cx,
-                v = kernel.fy * p.y() * inv + kernel.cy;
-    umin = std::min(umin, u);
-    umax = std::max(umax, u);
-    vmin = std::min(vmin, v);
-    vmax = std::max(vmax, v);
+    const float ai = a[i & 1], bi = b[(i >> 1) & 1], ci = c[i >> 2];
+    p.x[i] = ((c0.x() + ai * ex.x()) + bi * ey.x()) + ci * ez.x();
+    p.y[i] = ((c0.y() + ai * ex.y()) + bi * ey.y()) + ci * ez.y();
+    p.z[i] = ((c0.z() + ai * ex.z()) + bi * ey.z()) + ci * ez.z();
   }
+  float zmin, zmax;
+  minMax8(p.z, zmin, zmax);
+  if (!(zmin > NEAR_Z + SLACK_M))
+    return CubeBound::UNDECIDED;
+  float umin, umax, vmin, vmax;
+  projectCorners(p, kernel.fx, kernel.fy, kernel.cx, kernel.cy, umin, umax, vmin, vmax);
   zmin -= SLACK_M;
   zmax += SLACK_M;
   umin = std::max(umin - SLACK_PX, -FAR_PX);
@@ -167,6 +211,21 @@ boundCube(const VoxelKernel& kernel, const CubeQuery& cube)
         return CubeBound::UNDECIDED;
   }
   return CubeBound::NONE_FREE;
+}
+
+/** \brief Bit i set where flags[i] (0 or 1) is 1, for 64 flags: each 8 bytes gather
+ * into one byte through a multiplication (byte j of x times 2^(56 - 7 j) lands on bit
+ * 56 + j, and no other product reaches the top byte). */
+inline std::uint64_t
+packBits(const std::array<std::uint8_t, 64>& flags)
+{
+  std::uint64_t bits = 0;
+  for (std::size_t b = 0; b < 8; ++b) {
+    std::uint64_t x;
+    std::memcpy(&x, flags.data() + 8 * b, sizeof(x)); // little-endian: byte j = flag j
+    bits |= ((x * 0x0102040810204080ULL) >> 56) << (8 * b);
+  }
+  return bits;
 }
 
 /** \brief Per-voxel observations of the 4^3 cube \a cube: free when the centre is in
@@ -235,25 +294,32 @@ observeCube(const VoxelKernel& kernel,
     vs[i] = static_cast<int>(std::min(v_max, std::max(0.0f, v)) + 0.5f);
   }
   // The smallest valid depth over the level cells meeting each footprint: one lookup
-  // in the pyramid's minimum over the 1 to 3 cells it spans per axis.
+  // in the pyramid's minimum over the 1 to 3 cells it spans per axis. The cells come
+  // from a loop the compiler vectorises, then the look-ups, then the test, again
+  // vectorised (every centre's pixel is clamped into the image, so every look-up is
+  // in bounds, the invalid centres' too).
   std::array<const float*, 9> span_min;
   for (int k = 0; k < 9; ++k)
     span_min[static_cast<std::size_t>(k)] = pyr.spanMin(level, k);
-  const auto lw = static_cast<std::ptrdiff_t>(level_width);
-  std::uint64_t valid = 0, free_bits = 0, occ_bits = 0;
+  std::array<int, 64> span_k, span_offset;
   for (std::size_t i = 0; i < 64; ++i) {
     const int ui = us[i], vi = vs[i];
     const int cu0 = std::max(ui - r, 0) >> level,
               cu2 = std::min(ui + r, W - 1) >> level;
     const int cv0 = std::max(vi - r, 0) >> level,
               cv2 = std::min(vi + r, H - 1) >> level;
-    const float fmin =
-      span_min[static_cast<std::size_t>(3 * (cu2 - cu0) + (cv2 - cv0))][cv0 * lw + cu0];
-    // branch-free: the outcome is unpredictable in mixed regions
-    const bool is_free = in[i] != 0 && zs[i] < fmin - margin;
-    valid |= static_cast<std::uint64_t>(in[i]) << i;
-    free_bits |= static_cast<std::uint64_t>(is_free) << i;
+    span_k[i] = 3 * (cu2 - cu0) + (cv2 - cv0);
+    span_offset[i] = cv0 * level_width + cu0;
   }
+  std::array<float, 64> fmin;
+  for (std::size_t i = 0; i < 64; ++i)
+    fmin[i] = span_min[static_cast<std::size_t>(span_k[i])][span_offset[i]];
+  std::array<std::uint8_t, 64> is_free;
+  for (std::size_t i = 0; i < 64; ++i)
+    is_free[i] = static_cast<std::uint8_t>(
+      in[i] & static_cast<std::uint8_t>(zs[i] < fmin[i] - margin));
+  const std::uint64_t valid = packBits(in), free_bits = packBits(is_free);
+  std::uint64_t occ_bits = 0;
   if (kernel.mark_occluded) {
     const float inf = std::numeric_limits<float>::infinity();
     for (std::uint64_t todo = valid & ~free_bits; todo != 0; todo &= todo - 1) {
@@ -272,6 +338,68 @@ observeCube(const VoxelKernel& kernel,
       occluded_mask[static_cast<std::size_t>(oz + z)] |= ((occ_bits >> shift) & 15u)
                                                          << to;
     }
+}
+
+/** \brief What rowKeys() needs of a view: the camera pose, the column directions and
+ * the range. */
+struct RowKeys {
+  /** \brief Rotation and translation of world_T_camera. */
+  Eigen::Matrix3f R;
+  Eigen::Vector3f t;
+  /** \brief (u - cx) / fx per column. */
+  const float* column_x;
+  /** \brief Largest depth integrated, meters. */
+  float max_range;
+  /** \brief 1 / voxel edge, 1 / meters. */
+  float inv_res;
+};
+
+/** \brief The voxel key of every pixel of a depth image row (\a row: depths in
+ * meters, +inf for none; \a yn = (v - cy) / fy), with ok[u] = 1 where the pixel has a
+ * measurement within range and a key below 2^30. One branch-free loop the compiler
+ * vectorises, with the arithmetic of (world_T_camera * (x, y, z)) / resolution as
+ * Eigen evaluates it, ((r0 x + r1 y) + r2 z) + t, so the keys are those of the
+ * per-pixel product. CLAMP: clamp the coordinates to +-2^30 before the conversion to
+ * int (needed only when some pixel's coordinates could overflow an int; the clamps
+ * keep the compiler from vectorising the loop). */
+template <bool CLAMP>
+void
+rowKeys(const float* row,
+        int W,
+        float yn,
+        const RowKeys& k,
+        int* kx,
+        int* ky,
+        int* kz,
+        int* ok)
+{
+  const float r00 = k.R(0, 0), r01 = k.R(0, 1), r02 = k.R(0, 2);
+  const float r10 = k.R(1, 0), r11 = k.R(1, 1), r12 = k.R(1, 2);
+  const float r20 = k.R(2, 0), r21 = k.R(2, 1), r22 = k.R(2, 2);
+  const float tx = k.t.x(), ty = k.t.y(), tz = k.t.z();
+  const float max_range = k.max_range, inv_res = k.inv_res;
+  const float* const column_x = k.column_x;
+  const auto key_limit = static_cast<float>(MAX_KEY);
+  for (int u = 0; u < W; ++u) {
+    const float d = row[u];
+    const bool in_range = d <= max_range; // +inf marks no measurement
+    const float z = in_range ? d : 0.0f;
+    const float x = column_x[u] * z, y = yn * z;
+    float px = (((r00 * x + r01 * y) + r02 * z) + tx) * inv_res;
+    float py = (((r10 * x + r11 * y) + r12 * z) + ty) * inv_res;
+    float pz = (((r20 * x + r21 * y) + r22 * z) + tz) * inv_res;
+    ok[u] = static_cast<int>(in_range) & static_cast<int>(std::abs(px) < key_limit)
+            & static_cast<int>(std::abs(py) < key_limit)
+            & static_cast<int>(std::abs(pz) < key_limit);
+    if (CLAMP) { // NaN to -2^30; unchanged where ok
+      px = std::min(key_limit, std::max(-key_limit, px));
+      py = std::min(key_limit, std::max(-key_limit, py));
+      pz = std::min(key_limit, std::max(-key_limit, pz));
+    }
+    kx[u] = floorToInt(px);
+    ky[u] = floorToInt(py);
+    kz[u] = floorToInt(pz);
+  }
 }
 
 } // namespace
@@ -368,36 +496,29 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
     // Classifies the cube of s^3 voxels whose min corner is c (camera frame).
     const auto classify = [&](const Eigen::Vector3f& c, float s, CubeInfo& info) {
       const Eigen::Vector3f sx = s * ex, sy = s * ey, sz = s * ez;
-      std::array<Eigen::Vector3f, 8> corners;
-      float zmin = std::numeric_limits<float>::infinity(), zmax = -zmin;
-      for (int i = 0; i < 8; ++i) {
-        auto& p = corners[static_cast<std::size_t>(i)];
-        p = c;
-        if (i & 1)
-          p += sx;
-        if (i & 2)
-          p += sy;
-        if (i & 4)
-          p += sz;
-        zmin = std::min(zmin, p.z());
-        zmax = std::max(zmax, p.z());
-      }
+      // corner i = ((c + sx if i & 1) + sy if i & 2) + sz if i & 4, coordinate by
+      // coordinate
+      Corners p;
+      const auto corners = [](float c, float x, float y, float z, float* out) {
+        const float base[4] = {c, c + x, c + y, (c + x) + y};
+        for (int i = 0; i < 4; ++i) {
+          out[i] = base[i];
+          out[i + 4] = base[i] + z;
+        }
+      };
+      corners(c.x(), sx.x(), sy.x(), sz.x(), p.x);
+      corners(c.y(), sx.y(), sy.y(), sz.y(), p.y);
+      corners(c.z(), sx.z(), sy.z(), sz.z(), p.z);
+      float zmin, zmax;
+      minMax8(p.z, zmin, zmax);
       if (zmax <= NEAR_Z || zmin > z_far)
         return Cube::NONE;
       if (zmin <= NEAR_Z) { // straddles the camera plane: voxel by voxel
         info = {max_r, 0, 0, W - 1, H - 1};
         return Cube::SPLIT;
       }
-      float umin = std::numeric_limits<float>::infinity(), umax = -umin, vmin = umin,
-            vmax = -umin;
-      for (const auto& p : corners) {
-        const float inv = 1.0f / p.z();
-        const float u = fx * p.x() * inv + cx, v = fy * p.y() * inv + cy;
-        umin = std::min(umin, u);
-        umax = std::max(umax, u);
-        vmin = std::min(vmin, v);
-        vmax = std::max(vmax, v);
-      }
+      float umin, umax, vmin, vmax;
+      projectCorners(p, fx, fy, cx, cy, umin, umax, vmin, vmax);
       if (umax < -0.5f || vmax < -0.5f || umin >= u_end || vmin >= v_end)
         return Cube::NONE;
       const bool inside =
@@ -613,31 +734,53 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
               total.visited, total.fast, total.slow);
   }
 
-  // Occupied: the voxel of every measured pixel within max_range. Neighbouring pixels
-  // mostly fall in one voxel, which is written once per run of them.
+  // Occupied: the voxel of every measured pixel within max_range. The keys of a row
+  // come first, from a loop the compiler vectorises; neighbouring pixels mostly fall
+  // in one voxel, which is written once per run of them.
   BlockStorage::Cursor cursor(storage, prior);
   const auto occupied_code = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
   const float inv_res = 1.0f / res;
+  const auto w = static_cast<std::size_t>(W);
   std::vector<float>& column_x = workspace.column_x; // (u - cx) / fx
-  column_x.resize(static_cast<std::size_t>(W));
+  column_x.resize(w);
   for (int u = 0; u < W; ++u)
     column_x[static_cast<std::size_t>(u)] = (static_cast<float>(u) - cx) / fx;
+  workspace.row_kx.resize(w);
+  workspace.row_ky.resize(w);
+  workspace.row_kz.resize(w);
+  workspace.row_ok.resize(w);
+  int* const row_kx = workspace.row_kx.data();
+  int* const row_ky = workspace.row_ky.data();
+  int* const row_kz = workspace.row_kz.data();
+  int* const row_ok = workspace.row_ok.data();
+  const RowKeys kernel_keys{w_T_c.linear(), w_T_c.translation(), column_x.data(),
+                            max_range, inv_res};
+  // Every pixel's coordinates, (x, y, z) = z ((u - cx) / fx, (v - cy) / fy, 1) with
+  // z in [0, max_range], lie within |t| + z (|(u - cx) / fx| + |(v - cy) / fy| + 1)
+  // of the origin; below 2^29 voxels, with room for rounding, no conversion overflows.
+  const float column_reach =
+    std::max(std::abs(column_x.front()), std::abs(column_x.back()));
+  const float row_reach =
+    std::max(std::abs(cy / fy), std::abs((static_cast<float>(H - 1) - cy) / fy));
+  const double reach_voxels =
+    (static_cast<double>(kernel_keys.t.cwiseAbs().maxCoeff())
+     + static_cast<double>(max_range)
+         * (static_cast<double>(column_reach) + static_cast<double>(row_reach) + 1.0))
+    / params_.resolution_m;
+  const bool clamp = !(reach_voxels < MAX_KEY / 2.0);
   for (int v = 0; v < H; ++v) {
     const float yn = (static_cast<float>(v) - cy) / fy;
-    const float* row =
-      &pyr.min_level[0][static_cast<std::size_t>(v) * static_cast<std::size_t>(W)];
-    // |key| < 2^30 below: no voxel has this key
+    const float* row = &pyr.min_level[0][static_cast<std::size_t>(v) * w];
+    if (clamp)
+      rowKeys<true>(row, W, yn, kernel_keys, row_kx, row_ky, row_kz, row_ok);
+    else
+      rowKeys<false>(row, W, yn, kernel_keys, row_kx, row_ky, row_kz, row_ok);
+    // |key| < 2^30 above: no voxel has this key
     int last_x = std::numeric_limits<int>::min(), last_y = 0, last_z = 0;
     for (int u = 0; u < W; ++u) {
-      const float d = row[u];
-      if (!(d <= max_range)) // +inf marks no measurement
+      if (row_ok[u] == 0)
         continue;
-      const Eigen::Vector3f pc(column_x[static_cast<std::size_t>(u)] * d, yn * d, d);
-      const Eigen::Vector3f pw = (w_T_c * pc) * inv_res;
-      if (!(pw.cwiseAbs().maxCoeff() < static_cast<float>(MAX_KEY)))
-        continue;
-      const int kx = floorToInt(pw.x()), ky = floorToInt(pw.y()),
-                kz = floorToInt(pw.z());
+      const int kx = row_kx[u], ky = row_ky[u], kz = row_kz[u];
       if (kx == last_x && ky == last_y && kz == last_z)
         continue;
       last_x = kx;

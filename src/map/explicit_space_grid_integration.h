@@ -31,28 +31,45 @@ struct DepthPyramid {
   /** \brief spanMin()'s arrays per level (k = 0 unused: min_level itself). */
   std::vector<std::array<std::vector<float>, 9>> span;
 
+  /** \brief dst = the min (or max) over 2 x 2 cells of src (sw x sh), the last row
+   * and column repeated where sw or sh is odd. Each row is a loop the compiler
+   * vectorises (min and max are exact, so the order of the four does not matter). */
   static void reduce(const std::vector<float>& src,
                      int sw,
                      int sh,
                      bool take_max,
                      std::vector<float>& dst)
   {
-    const int nw = (sw + 1) / 2, nh = (sh + 1) / 2;
+    if (take_max)
+      reduceRows<true>(src, sw, sh, dst);
+    else
+      reduceRows<false>(src, sw, sh, dst);
+  }
+
+  template <bool TAKE_MAX> static float pick(float a, float b)
+  {
+    return TAKE_MAX ? std::max(a, b) : std::min(a, b);
+  }
+
+  template <bool TAKE_MAX>
+  static void
+  reduceRows(const std::vector<float>& src, int sw, int sh, std::vector<float>& dst)
+  {
+    const int nw = (sw + 1) / 2, nh = (sh + 1) / 2, pairs = sw / 2;
     dst.resize(static_cast<std::size_t>(nw) * static_cast<std::size_t>(nh));
     for (int v = 0; v < nh; ++v) {
-      const auto r0 = static_cast<std::size_t>(2 * v) * static_cast<std::size_t>(sw);
-      const auto r1 = static_cast<std::size_t>(std::min(2 * v + 1, sh - 1))
-                      * static_cast<std::size_t>(sw);
-      for (int u = 0; u < nw; ++u) {
-        const auto c0 = static_cast<std::size_t>(2 * u);
-        const auto c1 = static_cast<std::size_t>(std::min(2 * u + 1, sw - 1));
-        const float a = src[r0 + c0], b = src[r0 + c1], c = src[r1 + c0],
-                    d = src[r1 + c1];
-        dst[static_cast<std::size_t>(v) * static_cast<std::size_t>(nw)
-            + static_cast<std::size_t>(u)] =
-          take_max ? std::max(std::max(a, b), std::max(c, d))
-                   : std::min(std::min(a, b), std::min(c, d));
-      }
+      const float* r0 =
+        src.data() + static_cast<std::size_t>(2 * v) * static_cast<std::size_t>(sw);
+      const float* r1 = src.data()
+                        + static_cast<std::size_t>(std::min(2 * v + 1, sh - 1))
+                            * static_cast<std::size_t>(sw);
+      float* out =
+        dst.data() + static_cast<std::size_t>(v) * static_cast<std::size_t>(nw);
+      for (int u = 0; u < pairs; ++u)
+        out[u] = pick<TAKE_MAX>(pick<TAKE_MAX>(r0[2 * u], r0[2 * u + 1]),
+                                pick<TAKE_MAX>(r1[2 * u], r1[2 * u + 1]));
+      if (pairs < nw) // odd width: the last column alone
+        out[pairs] = pick<TAKE_MAX>(r0[sw - 1], r1[sw - 1]);
     }
   }
 
@@ -73,19 +90,20 @@ struct DepthPyramid {
     auto& x0 = max_level[0];
     m0.resize(image.depth_m.size());
     x0.resize(image.depth_m.size());
-    float max_depth = 0.0f;
+    const float* const depth = image.depth_m.data();
     for (std::size_t i = 0; i < m0.size(); ++i) {
-      const float d = image.depth_m[i];
-      const bool valid = d > 0.0f && d < inf; // finite and positive (NaN fails)
+      const float d = depth[i];
+      // finite and positive (NaN fails); branch-free, so that it is vectorised
+      const bool valid = (d > 0.0f) & (d < inf);
       m0[i] = valid ? d : inf;
       x0[i] = valid ? d : 0.0f;
-      max_depth = std::max(max_depth, x0[i]);
     }
-    max_valid_depth = max_depth;
     for (std::size_t l = 1; l < n_levels; ++l) {
       reduce(min_level[l - 1], w[l - 1], h[l - 1], false, min_level[l]);
       reduce(max_level[l - 1], w[l - 1], h[l - 1], true, max_level[l]);
     }
+    // the top level's single cell: the largest valid depth, 0 without one
+    max_valid_depth = max_level.back()[0];
     hole.resize(n_levels);
     for (std::size_t j = 0; j < n_levels; ++j) {
       auto& hj = hole[j];
@@ -238,6 +256,9 @@ struct IntegrationWorkspace {
   DepthPyramid pyramid;
   /** \brief The occupied pass's (u - cx) / fx per image column. */
   std::vector<float> column_x;
+  /** \brief The occupied pass's voxel keys of one image row (x, y, z per column) and
+   * whether each pixel has one (a measurement within range). */
+  std::vector<int> row_kx, row_ky, row_kz, row_ok;
   /** \brief Per-thread observations of the blocks of the last view. */
   std::vector<std::vector<BlockResult>> results;
 };

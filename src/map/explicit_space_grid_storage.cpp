@@ -55,6 +55,22 @@ putCell(Payload& p, int i0, std::uint32_t v)
   }
 }
 
+/** \brief The word of the payload holding layer z (0-3) of the 4^3 cube c: voxel
+ * x + 8 y + 64 z is in word 2 z + y / 4 (32 voxels, 4 rows of 8, per word). */
+constexpr std::size_t
+cubeWord(int c, int z)
+{
+  return static_cast<std::size_t>(2 * (4 * (c >> 2) + z) + ((c >> 1) & 1));
+}
+
+/** \brief The bits of cube c's 4 x 4 voxels in each of its words (4 voxels of each of
+ * the word's 4 rows, 2 bits each). */
+constexpr std::uint64_t
+cubeMask(int c)
+{
+  return 0x00FF00FF00FF00FFULL << (8 * (c & 1));
+}
+
 /** \brief Walks the compact block at \a data in cube and cell order: \a uniform(c, d,
  * code, voxels) for a uniform cube (d = -1, 64 voxels) or a uniform cell of a mixed
  * cube (8 voxels), \a mixed(c, d, v) for a mixed cell with its 8 codes \a v. */
@@ -118,20 +134,25 @@ isUniform(const Payload& p, std::uint8_t& code)
 std::size_t
 encodeCompact(const Payload& p, std::uint8_t* out)
 {
+  // A cube is uniform when its bits in its 4 words all repeat its first voxel's code;
+  // only the mixed cubes' cells are read.
   std::array<std::uint32_t, 64> cells; // cube c, cell d at 8 c + d
-  for (int c = 0; c < 8; ++c)
-    for (int d = 0; d < 8; ++d)
-      cells[static_cast<std::size_t>(8 * c + d)] = cellValue(p, cellOrigin(c, d));
   std::uint32_t mixed_cubes = 0, cube_codes = 0;
   for (int c = 0; c < 8; ++c) {
-    const std::uint32_t v0 = cells[static_cast<std::size_t>(8 * c)];
-    bool uniform = v0 == cellPattern(v0 & 3u);
-    for (int d = 1; d < 8 && uniform; ++d)
-      uniform = cells[static_cast<std::size_t>(8 * c + d)] == v0;
-    if (uniform)
-      cube_codes |= (v0 & 3u) << (2 * c);
-    else
-      mixed_cubes |= 1u << c;
+    const std::uint64_t mask = cubeMask(c);
+    const std::uint32_t code =
+      static_cast<std::uint32_t>((p[cubeWord(c, 0)] >> (8 * (c & 1))) & 3u);
+    const std::uint64_t expected = pattern(static_cast<std::uint8_t>(code)) & mask;
+    bool uniform = true;
+    for (int z = 0; z < 4; ++z)
+      uniform = uniform && (p[cubeWord(c, z)] & mask) == expected;
+    if (uniform) {
+      cube_codes |= code << (2 * c);
+      continue;
+    }
+    mixed_cubes |= 1u << c;
+    for (int d = 0; d < 8; ++d)
+      cells[static_cast<std::size_t>(8 * c + d)] = cellValue(p, cellOrigin(c, d));
   }
   out[0] = static_cast<std::uint8_t>(mixed_cubes);
   out[1] = static_cast<std::uint8_t>(cube_codes);
@@ -166,13 +187,15 @@ decodeCompact(const std::uint8_t* data, Payload& p)
   walkCompact(
     data,
     [&p](int c, int d, unsigned code, int) {
-      const std::uint32_t v = cellPattern(code);
+      if (code == 0) // p is zeroed
+        return;
       if (d >= 0) {
-        putCell(p, cellOrigin(c, d), v);
+        putCell(p, cellOrigin(c, d), cellPattern(code));
         return;
       }
-      for (int k = 0; k < 8; ++k)
-        putCell(p, cellOrigin(c, k), v);
+      // a whole cube: 8 bits of each of its 4 rows in each of 4 words
+      for (int z = 0; z < 4; ++z)
+        p[cubeWord(c, z)] |= pattern(static_cast<std::uint8_t>(code)) & cubeMask(c);
     },
     [&p](int c, int d, std::uint32_t v) { putCell(p, cellOrigin(c, d), v); });
 }

@@ -853,6 +853,62 @@ TEST(ExplicitSpaceGrid, BoxRoomFreeOccupiedUnknown)
   }
 }
 
+/** \brief The occupied voxels of a view are exactly the voxels of its pixels within
+ * range: floor((world_T_camera * (xn d, yn d, d)) / resolution) per pixel in float,
+ * xn = (u - cx) / fx, yn = (v - cy) / fy (the brute-force oracle), on random depths
+ * with holes and depths beyond the range, near the origin and 6e7 m from it (keys
+ * near 2^29, where the integration clamps before converting). */
+TEST(ExplicitSpaceGrid, OccupiedVoxelsAreThoseOfThePixels)
+{
+  std::mt19937 rng(29u);
+  std::uniform_real_distribution<float> depth(0.3f, 9.0f), unit(0.0f, 1.0f);
+  DepthImage image;
+  image.width = 97;
+  image.height = 61;
+  image.fx = 70.0f;
+  image.fy = 72.0f;
+  image.cx = 48.3f;
+  image.cy = 29.8f;
+  image.depth_m.resize(static_cast<std::size_t>(image.width * image.height));
+  for (auto& d : image.depth_m) {
+    const float r = unit(rng);
+    d = r < 0.1f    ? std::numeric_limits<float>::quiet_NaN()
+        : r < 0.15f ? 0.0f
+        : r < 0.2f  ? std::numeric_limits<float>::infinity()
+                    : depth(rng); // some beyond the 8 m range
+  }
+  for (const double offset_m : {0.0, 6.0e7}) {
+    Eigen::Isometry3d T = roomPose();
+    T.translation() += Eigen::Vector3d(offset_m, -0.5 * offset_m, 0.25 * offset_m);
+    const double resolution_m = 0.1;
+    ExplicitSpaceGrid grid(params(SpaceState::UNKNOWN, resolution_m, 8.0));
+    grid.integrateDepthImage(image, T);
+    const Eigen::Isometry3f T_f = T.cast<float>();
+    const float inv_res = 1.0f / static_cast<float>(resolution_m);
+    std::set<std::tuple<int, int, int>> expected;
+    for (int v = 0; v < image.height; ++v)
+      for (int u = 0; u < image.width; ++u) {
+        const float d = image.at(u, v);
+        if (!(d > 0.0f && d <= 8.0f))
+          continue;
+        const float xn = (static_cast<float>(u) - image.cx) / image.fx;
+        const float yn = (static_cast<float>(v) - image.cy) / image.fy;
+        const Eigen::Vector3f pw = (T_f * Eigen::Vector3f(xn * d, yn * d, d)) * inv_res;
+        expected.insert({static_cast<int>(std::floor(pw.x())),
+                         static_cast<int>(std::floor(pw.y())),
+                         static_cast<int>(std::floor(pw.z()))});
+      }
+    std::set<std::tuple<int, int, int>> occupied;
+    grid.forEachVoxel([&](const Key& k, SpaceState s) {
+      if (s == SpaceState::OCCUPIED)
+        occupied.insert(tup(k));
+    });
+    // far from the origin, floats are 4 m apart: few distinct voxels
+    EXPECT_GT(expected.size(), offset_m == 0.0 ? 1000u : 10u);
+    EXPECT_EQ(occupied, expected) << "offset " << offset_m << " m";
+  }
+}
+
 /** \brief Newest free / occupied observation wins; occlusion never erases them. */
 TEST(ExplicitSpaceGrid, OcclusionKeepsKnownStates)
 {
