@@ -32,8 +32,10 @@ StageInfo groundRemovalInfo();
 // surface_stages.cpp
 StageInfo planarCuboidApproximationInfo();
 
-// map_stages.cpp
+// occupancy_stages.cpp
 StageInfo klOccupancyFilterInfo();
+
+// map_stages.cpp
 StageInfo mapIntegrationInfo();
 
 // world_stages.cpp
