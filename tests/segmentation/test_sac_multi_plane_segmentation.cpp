@@ -125,6 +125,21 @@ match(const PlanarSegments& planes, const Eigen::Vector4d& truth)
   return best;
 }
 
+/** The footprint cell (u, v) of a point on a plane with unit normal \a plane.head<3>(),
+ * in the same 2D frame as the implementation, built from its documented construction:
+ * u = n x X, v = n x u, cells of \a cell metres. */
+std::function<std::pair<long, long>(const Eigen::Vector3f&)>
+footprintCellOf(const Eigen::Vector4f& plane, float cell)
+{
+  const Eigen::Vector3f n = plane.head<3>();
+  const Eigen::Vector3f u = n.cross(Eigen::Vector3f::UnitX()).normalized();
+  const Eigen::Vector3f v = n.cross(u);
+  return [u, v, cell](const Eigen::Vector3f& p) {
+    return std::make_pair(static_cast<long>(std::floor(u.dot(p) / cell)),
+                          static_cast<long>(std::floor(v.dot(p) / cell)));
+  };
+}
+
 template <typename PointT>
 void
 expectSceneRecovered(const Scene<PointT>& scene, const PlanarSegments& planes)
@@ -972,14 +987,8 @@ TEST(SACMultiPlaneSegmentation, VisibilityConflictsMatchBruteForce)
   store.select(plane, t);
   const std::vector<std::uint8_t> before = store.mask;
 
-  // The same 2D frame as the implementation, from its documented construction.
   const Eigen::Vector3f n = plane.head<3>();
-  const Eigen::Vector3f u = n.cross(Eigen::Vector3f::UnitX()).normalized();
-  const Eigen::Vector3f v = n.cross(u);
-  const auto cellOf = [&](const Eigen::Vector3f& p) {
-    return std::make_pair(static_cast<long>(std::floor(u.dot(p) / cell)),
-                          static_cast<long>(std::floor(v.dot(p) / cell)));
-  };
+  const auto cellOf = footprintCellOf(plane, cell);
   std::map<std::pair<long, long>, std::pair<std::size_t, std::size_t>> cells;
   for (std::size_t k = 0; k < store.size(); ++k)
     if (before[k])
@@ -1183,14 +1192,8 @@ TEST(SACMultiPlaneSegmentation, ShellCellsMatchBruteForce)
   store.selectInliers(plane, t);
   const std::vector<std::uint8_t> before = store.mask;
 
-  // The same 2D frame as the implementation, from its documented construction.
   const Eigen::Vector3f n = plane.head<3>();
-  const Eigen::Vector3f u = n.cross(Eigen::Vector3f::UnitX()).normalized();
-  const Eigen::Vector3f v = n.cross(u);
-  const auto cellOf = [&](const Eigen::Vector3f& p) {
-    return std::make_pair(static_cast<long>(std::floor(u.dot(p) / cell)),
-                          static_cast<long>(std::floor(v.dot(p) / cell)));
-  };
+  const auto cellOf = footprintCellOf(plane, cell);
   struct Counts {
     std::size_t inliers{0}, front{0}, back{0};
   };
