@@ -86,15 +86,13 @@ DepthImage::fromDisparity(const float* disparity,
     float* out = image.depth_m.data()
                  + static_cast<std::size_t>(v) * static_cast<std::size_t>(width);
     // Two branch-free loops the compiler vectorises: f B / d everywhere, then NaN
-    // where the disparity is not finite and positive (d > 0 and d <= FLT_MAX; NaN
-    // fails both).
+    // where the disparity is not finite and positive.
     for (int u = 0; u < width; ++u)
       out[u] = fb / row[u];
-    for (int u = 0; u < width; ++u) {
-      const float d = row[u];
-      const bool valid = (d > 0.0f) & (d <= std::numeric_limits<float>::max());
-      out[u] = valid ? out[u] : std::numeric_limits<float>::quiet_NaN();
-    }
+    for (int u = 0; u < width; ++u)
+      out[u] = explicit_space::isFiniteAndPositive(row[u])
+                 ? out[u]
+                 : std::numeric_limits<float>::quiet_NaN();
   }
   return image;
 }
@@ -102,11 +100,9 @@ DepthImage::fromDisparity(const float* disparity,
 std::size_t
 DepthImage::countValid() const
 {
-  // finite and positive: d > 0 and d <= FLT_MAX (NaN fails both); branch-free
   std::size_t n = 0;
   for (const float d : depth_m)
-    n +=
-      static_cast<std::size_t>((d > 0.0f) & (d <= std::numeric_limits<float>::max()));
+    n += static_cast<std::size_t>(explicit_space::isFiniteAndPositive(d));
   return n;
 }
 

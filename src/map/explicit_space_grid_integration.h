@@ -19,6 +19,14 @@
 namespace planar_grid {
 namespace explicit_space {
 
+/** \brief True when \a value is finite and positive (a valid depth or disparity): NaN
+ * and infinity fail. Branch-free, so that the loops over images vectorise. */
+inline bool
+isFiniteAndPositive(float value)
+{
+  return (value > 0.0f) & (value <= std::numeric_limits<float>::max());
+}
+
 /** \brief Depth pyramids of a depth image, over the measured (valid) pixels only:
  * min_level (+inf where a cell has no measurement), max_level (0 there), and, per
  * level j, hole[j][k] (k >= 1; k = 0 is min_level[j] itself): the max over 2^k x 2^k
@@ -93,8 +101,7 @@ struct DepthPyramid {
     const float* const depth = image.depth_m.data();
     for (std::size_t i = 0; i < m0.size(); ++i) {
       const float d = depth[i];
-      // finite and positive (NaN fails); branch-free, so that it is vectorised
-      const bool valid = (d > 0.0f) & (d < inf);
+      const bool valid = isFiniteAndPositive(d);
       m0[i] = valid ? d : inf;
       x0[i] = valid ? d : 0.0f;
     }
