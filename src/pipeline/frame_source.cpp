@@ -445,12 +445,15 @@ private:
       flagged += bad;
       const std::string name = fs::path(files_[i]).filename().string();
       const std::string onto = fs::path(files_[i - 1]).filename().string();
-      const std::string guess = result.image_feature_guess_used
-                                  ? " (image feature guess, "
-                                      + std::to_string(result.image_feature_inliers)
-                                      + " inliers)"
-                                : result.feature_guess_used ? " (FPFH initial guess)"
-                                                            : "";
+      std::string guess;
+      if (result.image_feature_guess_used)
+        guess = " (image feature guess, " + std::to_string(result.image_feature_inliers)
+                + " inliers"
+                + (result.image_feature_motion_kept
+                     ? "; their motion kept: GICP slid along the geometry)"
+                     : ")");
+      else if (result.feature_guess_used)
+        guess = " (FPFH initial guess)";
       if (bad)
         PCL_WARN("[planar_grid::FrameSource] Registered %s onto %s: residual %.4f m, "
                  "overlap %.2f%s; FLAGGED: residual above input.poses.max_residual_m "

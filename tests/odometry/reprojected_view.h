@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <random>
 #include <utility>
 
 namespace planar_grid_test {
@@ -105,6 +106,39 @@ reproject(const pcl::PointCloud<PointT>& cloud,
         out.at(u, v) = *nearest;
     }
   return out;
+}
+
+/** \brief \a cloud's image on a plane (a poster of the scene): every pixel's ray,
+ * through \a k, meets the plane normal . p = distance_m, and the pixel's point moves
+ * there with its colour or intensity; then Kinect-like depth noise along the rays
+ * (sigma = depth_noise_per_m z^2, seeded). */
+template <typename PointT>
+void
+projectOntoPlane(pcl::PointCloud<PointT>& cloud,
+                 const Intrinsics& k,
+                 const Eigen::Vector3d& normal,
+                 double distance_m)
+{
+  for (std::uint32_t v = 0; v < cloud.height; ++v)
+    for (std::uint32_t u = 0; u < cloud.width; ++u) {
+      const Eigen::Vector3d ray((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
+      cloud.at(u, v).getVector3fMap() =
+        (ray * (distance_m / normal.dot(ray))).template cast<float>();
+    }
+}
+
+/** \brief Depth noise along the rays of a depth camera: each finite point is scaled by
+ * 1 + depth_noise_per_m z n, n standard normal (seeded by \a seed), so its depth error
+ * has sigma = depth_noise_per_m z^2 (metres). */
+template <typename PointT>
+void
+addDepthNoise(pcl::PointCloud<PointT>& cloud, float depth_noise_per_m, unsigned seed)
+{
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> unit(0.0f, 1.0f);
+  for (auto& p : cloud.points)
+    if (std::isfinite(p.z))
+      p.getVector3fMap() *= 1.0f + depth_noise_per_m * p.z * unit(rng);
 }
 
 /** \brief A camera pan: a turn of \a yaw_rad about the camera's y axis (down), a 0.05

@@ -14,7 +14,6 @@
 #include <cstdlib>
 #include <filesystem>
 #include <limits>
-#include <random>
 #include <utility>
 #include <vector>
 
@@ -229,13 +228,18 @@ TEST(CloudRegistration, Office1ReprojectedViewIsRegisteredFromImageFeatures)
 }
 
 // Measurement (docs/INPUTS.md): office1 and its view from a camera panned by 5 to 45
-// degrees, registered from the identity without and with the image feature guess.
+// degrees, each with its own depth noise, registered from the identity without and
+// with the image feature guess.
 TEST(CloudRegistration, Office1PanSweepMeasurement)
 {
-  const CloudI office1 = loadOffice1();
-  if (office1.empty() || !std::getenv("PLANAR_GRID_MEASURE"))
+  const CloudI clean = loadOffice1();
+  if (clean.empty() || !std::getenv("PLANAR_GRID_MEASURE"))
     GTEST_SKIP() << "set PLANAR_GRID_MEASURE=1 to run (office1.pcd needed)";
-  const Intrinsics k = fitIntrinsics(office1);
+  const Intrinsics k = fitIntrinsics(clean);
+  // Each view with its own Kinect depth noise (sigma = 0.0016 z^2 m, seeded), so that
+  // the two clouds' points differ as two captures' do.
+  CloudI office1 = clean;
+  planar_grid_test::addDepthNoise(office1, 0.0016f, 11);
   planar_grid::StereoFeatureMatcher::Params detector;
   detector.feature_type = planar_grid::FeatureType::ORB_GRID;
   planar_grid::StereoFeatures target_features;
@@ -245,7 +249,8 @@ TEST(CloudRegistration, Office1PanSweepMeasurement)
   for (const double yaw_deg : {5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0}) {
     const Eigen::Isometry3d truth = panMotion(
       yaw_deg * PI / 180.0, Eigen::Vector3d(0.012 * yaw_deg, 0.0, 0.004 * yaw_deg));
-    const CloudI view = reproject(office1, k, truth);
+    CloudI view = reproject(clean, k, truth);
+    planar_grid_test::addDepthNoise(view, 0.0016f, 12);
     planar_grid::StereoFeatures source_features;
     planar_grid::computeCloudImageFeatures(view, planar_grid::cloudIntensityImage(view),
                                            detector, Eigen::Affine3f::Identity(),
@@ -288,16 +293,9 @@ TEST(CloudRegistration, TexturedPlaneIsRegisteredOnlyThroughItsImageFeatures)
   if (poster.empty())
     GTEST_SKIP() << "office1.pcd not found";
   const Intrinsics k = fitIntrinsics(poster);
-  // Every pixel's ray meets the plane n . p = distance.
   const Eigen::Vector3d normal =
     Eigen::Vector3d(0.0, std::sin(10.0 * PI / 180.0), std::cos(10.0 * PI / 180.0));
-  const double distance_m = 2.5;
-  for (std::uint32_t v = 0; v < poster.height; ++v)
-    for (std::uint32_t u = 0; u < poster.width; ++u) {
-      const Eigen::Vector3d ray((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
-      poster.at(u, v).getVector3fMap() =
-        (ray * (distance_m / normal.dot(ray))).cast<float>();
-    }
+  planar_grid_test::projectOntoPlane(poster, k, normal, 2.5);
   const Eigen::Vector3d along = normal.cross(Eigen::Vector3d::UnitY()).normalized();
   Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();
   truth.linear() = Eigen::AngleAxisd(3.0 * PI / 180.0, normal).toRotationMatrix();
@@ -305,12 +303,8 @@ TEST(CloudRegistration, TexturedPlaneIsRegisteredOnlyThroughItsImageFeatures)
   CloudI view = reproject(poster, k, truth);
   // Each view gets its own Kinect depth noise along the rays (sigma = 0.0016 z^2 m,
   // 1 cm at 2.5 m; seeded).
-  std::mt19937 rng(11);
-  std::normal_distribution<float> unit(0.0f, 1.0f);
-  for (CloudI* cloud : {&poster, &view})
-    for (auto& p : cloud->points)
-      if (std::isfinite(p.z))
-        p.getVector3fMap() *= 1.0f + 0.0016f * p.z * unit(rng);
+  planar_grid_test::addDepthNoise(poster, 0.0016f, 11);
+  planar_grid_test::addDepthNoise(view, 0.0016f, 12);
 
   planar_grid::StereoFeatureMatcher::Params detector;
   detector.feature_type = planar_grid::FeatureType::ORB_GRID;
