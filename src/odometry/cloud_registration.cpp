@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
 #include <planar_grid/odometry/cloud_registration.h>
 #include <planar_grid/odometry/stereo_odometry.h>
 
@@ -192,6 +193,14 @@ registerWithGuesses(const Cloud& source,
                     const StereoFeatures* source_features,
                     const StereoFeatures* target_features)
 {
+  const bool image_guess = params.image_feature_guess && source_features
+                           && target_features && !source_features->descriptors.empty()
+                           && !target_features->descriptors.empty();
+  if (image_guess
+      && (!(params.image_feature_distance_m > 0.0)
+          || params.image_feature_min_inliers < 3))
+    throw Exception("registerCloud: image_feature_distance_m must be > 0 and "
+                    "image_feature_min_inliers >= 3");
   CloudRegistrationResult result;
   result.target_T_source = initial_guess;
   const Cloud::Ptr source_down = downsample(source, params.leaf_size_m);
@@ -232,9 +241,7 @@ registerWithGuesses(const Cloud& source,
     consider(candidate, converged, kind);
   };
 
-  if (params.image_feature_guess && source_features && target_features
-      && !source_features->descriptors.empty()
-      && !target_features->descriptors.empty()) {
+  if (image_guess) {
     // The stereo odometry's motion estimate without a calibration: matching, RANSAC
     // and the least-squares fit on the inliers, all in 3D.
     StereoOdometry::Params odometry_params;

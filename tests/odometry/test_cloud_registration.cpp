@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
 #include <planar_grid/odometry/cloud_registration.h>
 
 #include <pcl/common/io.h>
@@ -140,6 +141,27 @@ TEST(CloudRegistration, WithoutImageFeaturesTheCloudsAloneAreRegistered)
     EXPECT_TRUE(result.target_T_source.isApprox(plain.target_T_source, 0.0));
     EXPECT_EQ(result.overlap, plain.overlap);
   }
+}
+
+TEST(CloudRegistration, InvalidImageFeatureParametersAreRefused)
+{
+  // Features with descriptors on both sides make the image guess run; its parameters
+  // out of range are a programmer's error, refused before any work.
+  const auto room = planar_grid_test::syntheticRoom(0.2f);
+  planar_grid::StereoFeatures features;
+  features.points.push_back(pcl::PointXYZ(1.0f, 2.0f, 3.0f));
+  features.keypoints_left.emplace_back(cv::Point2f(10.0f, 20.0f), 31.0f);
+  features.descriptors = cv::Mat::zeros(1, 32, CV_8U);
+  planar_grid::CloudRegistrationParams params;
+  params.image_feature_min_inliers = 2;
+  EXPECT_THROW(planar_grid::registerCloud(room, room, Eigen::Isometry3d::Identity(),
+                                          params, features, features),
+               planar_grid::Exception);
+  params.image_feature_min_inliers = 20;
+  params.image_feature_distance_m = 0.0;
+  EXPECT_THROW(planar_grid::registerCloud(room, room, Eigen::Isometry3d::Identity(),
+                                          params, features, features),
+               planar_grid::Exception);
 }
 
 namespace {

@@ -81,8 +81,9 @@ struct CloudRegistrationResult {
   std::size_t image_feature_inliers{0};
   /** \brief Whether the image features' motion was kept without GICP's refinement:
    * GICP moved it along a direction the clouds' geometry does not fix (a plane, a
-   * corridor) and left fewer than 80 % of the features it matched within
-   * image_feature_distance_m of each other. */
+   * corridor), so that fewer than 80 % as many matched features lie within
+   * image_feature_distance_m of each other after the refined motion as after the
+   * features' own. */
   bool image_feature_motion_kept{false};
 };
 
@@ -122,6 +123,8 @@ CloudRegistrationResult registerCloud(const pcl::PointCloud<pcl::PointXYZ>& sour
  *            descriptors (computeCloudImageFeatures())
  * \param[in] target_features the same for the target
  * \return as registerCloud()
+ * \throws planar_grid::Exception when image_feature_distance_m is not > 0 or
+ * image_feature_min_inliers is below 3 (checked when both clouds have features)
  * \ingroup odometry */
 CloudRegistrationResult registerCloud(const pcl::PointCloud<pcl::PointXYZ>& source,
                                       const pcl::PointCloud<pcl::PointXYZ>& target,
