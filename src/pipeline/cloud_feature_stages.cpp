@@ -2,16 +2,14 @@
 // Key features of point-cloud frames (cloud_features): the feature occupancy of the
 // paper (Sec. III-D/E) for inputs without a stereo pair.
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/odometry/cloud_registration.h>
 #include <planar_grid/stereo/stereo_feature_matcher.h>
 
 #include <pcl/filters/uniform_sampling.h>
 
 #include <opencv2/core.hpp>
-#include <opencv2/features2d.hpp>
 
-#include <algorithm>
 #include <cmath>
-#include <limits>
 
 #include "stages.h"
 
@@ -20,54 +18,12 @@ namespace stages {
 
 namespace {
 
-/** Margin without orb_grid key points, px: the upright BRIEF pattern of a 31 px patch
- * reaches 15 px from its key point (the stereo front end's value). */
-constexpr int ORB_GRID_BORDER_PX = 16;
-/** cv::ORB's patch side, px (its default). */
-constexpr int ORB_PATCH_SIZE_PX = 31;
-
 /** Where a frame's key features come from. */
 enum class FeatureSource {
   AUTO,  // the image of an organized cloud that has one, the points otherwise
   IMAGE, // key points on the organized cloud's image, lifted through its points
   POINTS // the cloud's points, one per cube of point_spacing_m
 };
-
-/** \brief The grey image of an organized cloud: one 8-bit pixel per point, from the
- * intensity field (a colour cloud's grey, pcl::PointXYZRGBtoXYZI). Intensities outside
- * [0, 255] (a scanner's own scale) are stretched to it; non-finite ones are 0.
- * \return an empty image when the cloud is not organized or its intensity is the same
- * everywhere (bare x y z: no image) */
-cv::Mat
-intensityImage(const Frame::Cloud& cloud)
-{
-  if (!cloud.isOrganized() || cloud.empty())
-    return cv::Mat();
-  float lo = std::numeric_limits<float>::infinity();
-  float hi = -lo;
-  for (const auto& p : cloud.points)
-    if (std::isfinite(p.intensity)) {
-      lo = std::min(lo, p.intensity);
-      hi = std::max(hi, p.intensity);
-    }
-  if (!(hi > lo))
-    return cv::Mat();
-  float scale = 1.0f, offset = 0.0f;
-  if (lo < 0.0f || hi > 255.0f) {
-    scale = 255.0f / (hi - lo);
-    offset = -lo * scale;
-  }
-  cv::Mat grey(static_cast<int>(cloud.height), static_cast<int>(cloud.width), CV_8UC1);
-  for (int row = 0; row < grey.rows; ++row) {
-    auto* out = grey.ptr<std::uint8_t>(row);
-    for (int col = 0; col < grey.cols; ++col) {
-      const float v = cloud.at(col, row).intensity;
-      out[col] = std::isfinite(v) ? cv::saturate_cast<std::uint8_t>(v * scale + offset)
-                                  : std::uint8_t{0};
-    }
-  }
-  return grey;
-}
 
 class CloudFeaturesStage : public Stage {
 public:
@@ -76,16 +32,7 @@ public:
                      double point_spacing_m) :
       source_(source),
       params_(detector), point_spacing_m_(point_spacing_m)
-  {
-    if (params_.feature_type == FeatureType::ORB_GRID)
-      detector_ = cv::ORB::create(params_.max_features, 1.2f, 1, ORB_GRID_BORDER_PX, 0,
-                                  2, cv::ORB::HARRIS_SCORE, ORB_PATCH_SIZE_PX,
-                                  params_.fast_threshold);
-    else if (params_.feature_type == FeatureType::ORB)
-      detector_ = cv::ORB::create(params_.max_features);
-    else
-      detector_ = cv::SIFT::create(params_.max_features);
-  }
+  {}
 
   bool isFrameLocal() const override { return true; }
 
@@ -100,9 +47,11 @@ public:
     if (frame.cloud_in_world_frame)
       camera_T_cloud_ = frame.world_T_camera.inverse().cast<float>();
     if (source_ != FeatureSource::POINTS) {
-      const cv::Mat grey = intensityImage(*frame.cloud);
+      const cv::Mat grey = cloudIntensityImage(*frame.cloud);
       if (!grey.empty()) {
-        fromImage(grey, *frame.cloud, frame.features);
+        // The same features as the registration of unposed PCD sequences uses.
+        computeCloudImageFeatures(*frame.cloud, grey, params_, camera_T_cloud_,
+                                  frame.features);
         from_image_ = true;
         return;
       }
@@ -138,44 +87,6 @@ private:
            <= static_cast<float>(params_.max_range_m * params_.max_range_m);
   }
 
-  /** Key points on the cloud's image, each lifted to the point of its pixel; key
-   * points on a pixel without a finite point, or beyond max_range_m, are dropped. */
-  void fromImage(const cv::Mat& grey, const Frame::Cloud& cloud, StereoFeatures& out)
-  {
-    keypoints_.clear();
-    descriptors_.release();
-    if (params_.feature_type == FeatureType::ORB_GRID) {
-      const int bucket = params_.bucket_size_px;
-      const int cells =
-        ((grey.cols + bucket - 1) / bucket) * ((grey.rows + bucket - 1) / bucket);
-      const int per_cell = (params_.max_features + cells - 1) / cells;
-      detectGridFastKeypoints(grey, bucket, per_cell, params_.fast_threshold,
-                              ORB_GRID_BORDER_PX, keypoints_);
-      detector_->compute(grey, keypoints_, descriptors_);
-    } else {
-      detector_->detectAndCompute(grey, cv::noArray(), keypoints_, descriptors_);
-    }
-    std::vector<int> rows;
-    for (std::size_t k = 0; k < keypoints_.size(); ++k) {
-      const cv::KeyPoint& kp = keypoints_[k];
-      const int col = static_cast<int>(std::lround(kp.pt.x));
-      const int row = static_cast<int>(std::lround(kp.pt.y));
-      if (col < 0 || row < 0 || col >= static_cast<int>(cloud.width)
-          || row >= static_cast<int>(cloud.height))
-        continue;
-      pcl::PointXYZ q;
-      if (!toCamera(cloud.at(col, row), q))
-        continue;
-      out.points.push_back(q);
-      out.keypoints_left.push_back(kp);
-      rows.push_back(static_cast<int>(k));
-    }
-    out.descriptors.create(static_cast<int>(rows.size()), descriptors_.cols,
-                           descriptors_.type());
-    for (std::size_t k = 0; k < rows.size(); ++k)
-      descriptors_.row(rows[k]).copyTo(out.descriptors.row(static_cast<int>(k)));
-  }
-
   /** One point per cube of point_spacing_m (pcl::UniformSampling keeps the point
    * nearest each cube's centre), without descriptors; the key point of each is at
    * (-1, -1) (no image) and its class_id numbers it. */
@@ -199,10 +110,7 @@ private:
   FeatureSource source_;
   StereoFeatureMatcher::Params params_;
   double point_spacing_m_;
-  cv::Ptr<cv::Feature2D> detector_;
   Eigen::Affine3f camera_T_cloud_{Eigen::Affine3f::Identity()};
-  std::vector<cv::KeyPoint> keypoints_;
-  cv::Mat descriptors_;
   Frame::Cloud sampled_;
   bool from_image_{false};
 };

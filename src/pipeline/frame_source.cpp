@@ -23,6 +23,7 @@
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
+#include <utility>
 
 #include "cloud_blob.h"
 #include "ros_bag_input.h"
@@ -409,6 +410,18 @@ private:
     loadPCDCloud(files_.front(), first);
     pcl::PointCloud<pcl::PointXYZ>::Ptr previous(new pcl::PointCloud<pcl::PointXYZ>);
     pcl::copyPointCloud(first, *previous);
+    // An organized cloud with colour or intensity gives key features on its image
+    // (the cloud_features stage's, orb_grid), whose matched motion is GICP's first
+    // initial guess; a cloud without an image gives none.
+    StereoFeatureMatcher::Params detector;
+    detector.feature_type = FeatureType::ORB_GRID;
+    const auto imageFeatures = [&detector](const Frame::Cloud& cloud,
+                                           StereoFeatures& features) {
+      computeCloudImageFeatures(cloud, cloudIntensityImage(cloud), detector,
+                                Eigen::Affine3f::Identity(), features);
+    };
+    StereoFeatures previous_features;
+    imageFeatures(first, previous_features);
     // The registered clouds in the first sensor's frame, for the floor.
     pcl::PointCloud<pcl::PointXYZ> merged = *previous;
     Trajectory first_T_sensor{Eigen::Isometry3d::Identity()};
@@ -419,9 +432,12 @@ private:
       loadPCDCloud(files_[i], cloud);
       pcl::PointCloud<pcl::PointXYZ>::Ptr current(new pcl::PointCloud<pcl::PointXYZ>);
       pcl::copyPointCloud(cloud, *current);
-      // Start from the previous frame's motion (a steadily panning or moving sensor).
+      StereoFeatures features;
+      imageFeatures(cloud, features);
+      // Start from the previous frame's motion (a steadily panning or moving sensor)
+      // where the image features give no guess.
       const CloudRegistrationResult result =
-        registerCloud(*current, *previous, motion, params);
+        registerCloud(*current, *previous, motion, params, features, previous_features);
       motion = result.target_T_source;
       first_T_sensor.push_back(first_T_sensor.back() * motion);
       const bool bad = !(result.residual_m <= input.registration_max_residual_m)
@@ -429,21 +445,32 @@ private:
       flagged += bad;
       const std::string name = fs::path(files_[i]).filename().string();
       const std::string onto = fs::path(files_[i - 1]).filename().string();
-      const char* guess = result.feature_guess_used ? " (FPFH initial guess)" : "";
+      std::string guess;
+      if (result.image_feature_guess_used)
+        guess = " (image feature guess, " + std::to_string(result.image_feature_inliers)
+                + " inliers"
+                + (result.image_feature_motion_kept
+                     ? "; their motion kept: GICP slid along the geometry)"
+                     : ")");
+      else if (result.feature_guess_used)
+        guess = " (FPFH initial guess)";
       if (bad)
         PCL_WARN("[planar_grid::FrameSource] Registered %s onto %s: residual %.4f m, "
                  "overlap %.2f%s; FLAGGED: residual above input.poses.max_residual_m "
                  "or overlap below 0.2.\n",
-                 name.c_str(), onto.c_str(), result.residual_m, result.overlap, guess);
+                 name.c_str(), onto.c_str(), result.residual_m, result.overlap,
+                 guess.c_str());
       else
         PCL_INFO("[planar_grid::FrameSource] Registered %s onto %s: residual %.4f m, "
                  "overlap %.2f%s.\n",
-                 name.c_str(), onto.c_str(), result.residual_m, result.overlap, guess);
+                 name.c_str(), onto.c_str(), result.residual_m, result.overlap,
+                 guess.c_str());
       pcl::PointCloud<pcl::PointXYZ> moved;
       pcl::transformPointCloud(*current, moved,
                                first_T_sensor.back().cast<float>().matrix());
       merged += moved;
       previous = current;
+      previous_features = std::move(features);
     }
     Eigen::Vector3d up, forward;
     sensorAxes(input, first, loadPCDViewpoint(files_.front()), up, forward);

@@ -276,9 +276,26 @@ loadRosCameraInfo(const std::string& left_path, const std::string& right_path)
   return model;
 }
 
+/** \brief The lens distortion models a EuRoC / Kalibr camera file may name. */
+enum class DistortionModel {
+  /** Brown-Conrady radial-tangential: k1 k2 p1 p2 [k3] (OpenCV's pinhole model). */
+  RADIAL_TANGENTIAL,
+  /** Equidistant fisheye (Kannala-Brandt): theta_d = theta (1 + k1 theta^2 + k2
+   * theta^4 + k3 theta^6 + k4 theta^8), k1..k4 (OpenCV's cv::fisheye model). */
+  EQUIDISTANT
+};
+
+/** \brief The name a EuRoC / Kalibr file gives \a model (for messages). */
+const char*
+distortionModelName(DistortionModel model)
+{
+  return model == DistortionModel::EQUIDISTANT ? "equidistant" : "radial-tangential";
+}
+
 /** \brief One EuRoC camera: intrinsics, distortion, size and camera-to-body pose. */
 struct EurocCamera {
   cv::Matx33d camera_matrix;
+  DistortionModel distortion_model{DistortionModel::RADIAL_TANGENTIAL};
   cv::Mat distortion;
   cv::Size size;
   cv::Matx44d body_T_camera;
@@ -289,9 +306,10 @@ readEurocCamera(const std::string& path)
 {
   const YAML::Node node = loadYamlFile(path);
   // The rectification below is OpenCV's pinhole model with radial-tangential
-  // distortion; another model (EuRoC's Kalibr files also say "equidistant" for
-  // fisheye lenses, "omni") would be rectified wrongly without a word, so it is
-  // refused by name. Files without the fields are taken as pinhole, radial-tangential.
+  // distortion or its fisheye (equidistant) model. Another model (Kalibr also writes
+  // "fov", "omni", "double_sphere") would be rectified wrongly without a word, so it
+  // is refused by name. Files without the fields are taken as pinhole,
+  // radial-tangential.
   const auto optionalName = [&node, &path](const char* key, const char* fallback) {
     const YAML::Node field = node[key];
     if (!field)
@@ -304,18 +322,17 @@ readEurocCamera(const std::string& path)
   if (camera_model != "pinhole")
     throw IOError(path + ": camera_model '" + camera_model
                   + "' is not supported; only 'pinhole' cameras are rectified");
-  const std::string distortion_model =
+  const std::string distortion_name =
     optionalName("distortion_model", "radial-tangential");
-  if (distortion_model != "radial-tangential" && distortion_model != "radtan")
-    throw IOError(
-      path + ": distortion_model '" + distortion_model
-      + "' is not supported (only radial-tangential is rectified"
-      + (distortion_model == "equidistant"
-           ? "; equidistant is the fisheye model: rectify the images first, "
-             "e.g. with cv::fisheye::stereoRectify, and give them with a "
-             "ros_camera_info calibration"
-           : std::string())
-      + ")");
+  EurocCamera camera;
+  if (distortion_name == "radial-tangential" || distortion_name == "radtan")
+    camera.distortion_model = DistortionModel::RADIAL_TANGENTIAL;
+  else if (distortion_name == "equidistant")
+    camera.distortion_model = DistortionModel::EQUIDISTANT;
+  else
+    throw IOError(path + ": distortion_model '" + distortion_name
+                  + "' is not supported; the known models are 'radial-tangential' "
+                    "(or 'radtan') and 'equidistant' (fisheye)");
   const std::vector<double> intrinsics = readNumbers(node, "intrinsics", 4, path);
   const YAML::Node distortion_node =
     requireField(node, "distortion_coefficients", path);
@@ -325,13 +342,21 @@ readEurocCamera(const std::string& path)
   } catch (const YAML::Exception&) {
     throw IOError(path + ": field 'distortion_coefficients' must be a list of numbers");
   }
-  // radial-tangential: k1 k2 p1 p2 [k3]
-  if (distortion.size() != 4 && distortion.size() != 5)
+  // radial-tangential: k1 k2 p1 p2 [k3]; equidistant: k1 k2 k3 k4.
+  if (camera.distortion_model == DistortionModel::EQUIDISTANT) {
+    if (distortion.size() != 4)
+      throw IOError(path
+                    + ": field 'distortion_coefficients' must hold 4 numbers "
+                      "(k1 k2 k3 k4) for the equidistant model");
+  } else if (distortion.size() != 4 && distortion.size() != 5)
     throw IOError(path + ": field 'distortion_coefficients' must hold 4 or 5 numbers");
+  for (const double coefficient : distortion)
+    if (!std::isfinite(coefficient))
+      throw IOError(path
+                    + ": field 'distortion_coefficients' holds a non-finite number");
   const std::vector<double> resolution = readNumbers(node, "resolution", 2, path);
   const std::vector<double> pose = readMatrix(node, "T_BS", 4, 4, path);
 
-  EurocCamera camera;
   camera.camera_matrix = cv::Matx33d(intrinsics[0], 0.0, intrinsics[2], 0.0,
                                      intrinsics[1], intrinsics[3], 0.0, 0.0, 1.0);
   if (!(intrinsics[0] > 0.0) || !(intrinsics[1] > 0.0))
@@ -357,6 +382,14 @@ loadEuroc(const std::string& left_path, const std::string& right_path)
   if (left.size != right.size)
     throw IOError(right_path + ": resolution differs from the left camera's ("
                   + left_path + ")");
+  // OpenCV rectifies a pair in one model: a pinhole and a fisheye camera together
+  // would need a rectification of their own.
+  if (left.distortion_model != right.distortion_model)
+    throw IOError(right_path + ": distortion_model '"
+                  + distortionModelName(right.distortion_model)
+                  + "' differs from the left camera's '"
+                  + distortionModelName(left.distortion_model) + "' (" + left_path
+                  + "); both cameras of a pair must use the same model");
 
   // Pose of cam1 in cam0: T_BS(cam0)^-1 * T_BS(cam1). OpenCV wants the opposite
   // transform, taking cam0 points into cam1: X1 = R X0 + T.
@@ -378,15 +411,31 @@ loadEuroc(const std::string& left_path, const std::string& right_path)
   // invert): that is a bad file, reported as such, so that the caller sees one
   // exception type for every bad calibration.
   try {
-    cv::stereoRectify(left.camera_matrix, left.distortion, right.camera_matrix,
-                      right.distortion, left.size, rotation, translation, r1, r2, p1,
-                      p2, q, cv::CALIB_ZERO_DISPARITY, 0.0);
-    cv::initUndistortRectifyMap(left.camera_matrix, left.distortion, r1, p1, left.size,
-                                CV_32FC1, model.rectifier.map_left_x,
-                                model.rectifier.map_left_y);
-    cv::initUndistortRectifyMap(right.camera_matrix, right.distortion, r2, p2,
-                                right.size, CV_32FC1, model.rectifier.map_right_x,
-                                model.rectifier.map_right_y);
+    if (left.distortion_model == DistortionModel::EQUIDISTANT) {
+      // The fisheye model's own rectification: balance 0 takes the focal length
+      // that leaves no invalid pixel in the rectified images (as alpha = 0 does for
+      // the pinhole model), with the principal points made equal.
+      cv::fisheye::stereoRectify(
+        left.camera_matrix, left.distortion, right.camera_matrix, right.distortion,
+        left.size, rotation, translation, r1, r2, p1, p2, q,
+        cv::fisheye::CALIB_ZERO_DISPARITY, left.size, 0.0, 1.0);
+      cv::fisheye::initUndistortRectifyMap(
+        left.camera_matrix, left.distortion, r1, p1, left.size, CV_32FC1,
+        model.rectifier.map_left_x, model.rectifier.map_left_y);
+      cv::fisheye::initUndistortRectifyMap(
+        right.camera_matrix, right.distortion, r2, p2, right.size, CV_32FC1,
+        model.rectifier.map_right_x, model.rectifier.map_right_y);
+    } else {
+      cv::stereoRectify(left.camera_matrix, left.distortion, right.camera_matrix,
+                        right.distortion, left.size, rotation, translation, r1, r2, p1,
+                        p2, q, cv::CALIB_ZERO_DISPARITY, 0.0);
+      cv::initUndistortRectifyMap(left.camera_matrix, left.distortion, r1, p1,
+                                  left.size, CV_32FC1, model.rectifier.map_left_x,
+                                  model.rectifier.map_left_y);
+      cv::initUndistortRectifyMap(right.camera_matrix, right.distortion, r2, p2,
+                                  right.size, CV_32FC1, model.rectifier.map_right_x,
+                                  model.rectifier.map_right_y);
+    }
   } catch (const cv::Exception& e) {
     throw IOError(left_path + ", " + right_path
                   + ": cannot rectify the pair (OpenCV: " + e.what() + ")");

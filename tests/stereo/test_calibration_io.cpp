@@ -3,12 +3,16 @@
 #include <planar_grid/stereo/calibration_io.h>
 
 #include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
+#include <sstream>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -359,11 +363,11 @@ TEST_F(CalibrationIOFiles, MissingYamlFieldThrowsIOError)
   expectIOError(CalibrationFormat::EUROC, euroc, "T_BS", euroc);
 }
 
-TEST_F(CalibrationIOFiles, FisheyeAndOtherModelsAreRefusedByName)
+TEST_F(CalibrationIOFiles, UnknownModelsAreRefusedByName)
 {
-  // The real EuRoC pair with its left camera's model changed: an equidistant (fisheye)
-  // distortion or a non-pinhole camera would be rectified wrongly, so each is refused
-  // with its name; the unchanged file loads.
+  // The real EuRoC pair with its left camera's model changed: a distortion model or a
+  // camera model that the rectification does not implement would be rectified wrongly,
+  // so each is refused with its name and the file's; the unchanged file loads.
   const std::string left = DATA_DIR + "/euroc_v1_01_pairs/sensorLeft.yaml";
   const std::string right = DATA_DIR + "/euroc_v1_01_pairs/sensorRight.yaml";
   std::ifstream in(left);
@@ -375,17 +379,256 @@ TEST_F(CalibrationIOFiles, FisheyeAndOtherModelsAreRefusedByName)
     out.replace(out.find(from), from.size(), to);
     return out;
   };
-  const std::string fisheye =
-    write("fisheye.yaml", replaced("distortion_model: radial-tangential",
-                                   "distortion_model: equidistant"));
-  expectIOError(CalibrationFormat::EUROC, fisheye, "distortion_model 'equidistant'",
-                right);
-  expectIOError(CalibrationFormat::EUROC, fisheye, "fisheye", right);
+  const std::string fov =
+    write("fov.yaml",
+          replaced("distortion_model: radial-tangential", "distortion_model: fov"));
+  expectIOError(CalibrationFormat::EUROC, fov, "distortion_model 'fov'", right);
   const std::string omni =
     write("omni.yaml", replaced("camera_model: pinhole", "camera_model: omni"));
   expectIOError(CalibrationFormat::EUROC, omni, "camera_model 'omni'", right);
+  // An equidistant left camera with the radial-tangential right one: the pair has no
+  // common model.
+  const std::string fisheye =
+    write("fisheye.yaml", replaced("distortion_model: radial-tangential",
+                                   "distortion_model: equidistant"));
+  expectIOError(CalibrationFormat::EUROC, right, "differs from the left camera's",
+                fisheye);
+  // The equidistant model has exactly four coefficients.
+  std::string five_text =
+    replaced("distortion_model: radial-tangential", "distortion_model: equidistant");
+  const std::string coefficients = "distortion_coefficients: [";
+  five_text.replace(five_text.find(coefficients), coefficients.size(),
+                    coefficients + "0.0, ");
+  const std::string five = write("five.yaml", five_text);
+  expectIOError(CalibrationFormat::EUROC, five, "4 numbers", five);
   EXPECT_NO_THROW(
     planar_grid::loadStereoCalibration(CalibrationFormat::EUROC, left, right));
+}
+
+/** \brief A synthetic raw stereo rig with known intrinsics, distortion and relative
+ * pose, written as a EuRoC sensor.yaml pair. */
+struct SyntheticRig {
+  bool fisheye{true};
+  cv::Matx33d k_left{300.0, 0.0, 372.0, 0.0, 301.0, 243.0, 0.0, 0.0, 1.0};
+  cv::Matx33d k_right{302.0, 0.0, 380.0, 0.0, 302.5, 238.0, 0.0, 0.0, 1.0};
+  std::vector<double> d_left{-0.013, 0.021, -0.017, 0.005};
+  std::vector<double> d_right{-0.011, 0.018, -0.015, 0.004};
+  /** Right camera from left: x_right = right_R_left * x_left + right_t_left. */
+  cv::Vec3d right_rvec_left{0.012, -0.021, 0.006};
+  cv::Vec3d right_t_left{-0.110, 0.003, -0.002};
+  cv::Size size{752, 480};
+
+  /** \brief The sensor.yaml text of one camera with camera-to-body pose \a body_T. */
+  std::string yaml(const cv::Matx33d& k,
+                   const std::vector<double>& d,
+                   const cv::Matx44d& body_T) const
+  {
+    std::ostringstream text;
+    text.precision(17);
+    text << "%YAML:1.0\nT_BS:\n  cols: 4\n  rows: 4\n  data: [";
+    for (int i = 0; i < 16; ++i)
+      text << (i ? ", " : "") << body_T(i / 4, i % 4);
+    text << "]\nresolution: [" << size.width << ", " << size.height
+         << "]\ncamera_model: pinhole\nintrinsics: [" << k(0, 0) << ", " << k(1, 1)
+         << ", " << k(0, 2) << ", " << k(1, 2)
+         << "]\ndistortion_model: " << (fisheye ? "equidistant" : "radial-tangential")
+         << "\ndistortion_coefficients: [";
+    for (std::size_t i = 0; i < d.size(); ++i)
+      text << (i ? ", " : "") << d[i];
+    text << "]\n";
+    return text.str();
+  }
+
+  /** \brief body_T_left: EuRoC's cam0 mounting (a quarter turn about the body's z). */
+  cv::Matx44d bodyTLeft() const
+  {
+    cv::Matx44d pose = cv::Matx44d::eye();
+    for (int i = 0; i < 12; ++i)
+      pose(i / 4, i % 4) = EUROC_T_BS_LEFT[i];
+    return pose;
+  }
+
+  /** \brief body_T_right = body_T_left * (right_T_left)^-1. */
+  cv::Matx44d bodyTRight() const
+  {
+    cv::Matx33d rotation;
+    cv::Rodrigues(right_rvec_left, rotation);
+    cv::Matx44d right_T_left = cv::Matx44d::eye();
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c)
+        right_T_left(r, c) = rotation(r, c);
+      right_T_left(r, 3) = right_t_left[r];
+    }
+    return bodyTLeft() * right_T_left.inv();
+  }
+
+  /** \brief Raw pixels of left-camera points \a points in the left (\a right false)
+   * or right camera, by OpenCV's own projection of the rig's model. */
+  std::vector<cv::Point2d> project(const std::vector<cv::Point3d>& points,
+                                   bool right) const
+  {
+    const cv::Vec3d rvec = right ? right_rvec_left : cv::Vec3d(0.0, 0.0, 0.0);
+    const cv::Vec3d tvec = right ? right_t_left : cv::Vec3d(0.0, 0.0, 0.0);
+    const cv::Matx33d& k = right ? k_right : k_left;
+    const std::vector<double>& d = right ? d_right : d_left;
+    std::vector<cv::Point2d> pixels;
+    if (fisheye)
+      cv::fisheye::projectPoints(points, pixels, rvec, tvec, k, d);
+    else
+      cv::projectPoints(points, rvec, tvec, k, d, pixels);
+    return pixels;
+  }
+};
+
+/** \brief Bilinear sample of a CV_32FC1 map at (x, y); NaN outside it. */
+double
+sampleMap(const cv::Mat& map, double x, double y)
+{
+  const int x0 = static_cast<int>(std::floor(x));
+  const int y0 = static_cast<int>(std::floor(y));
+  if (x0 < 0 || y0 < 0 || x0 + 1 >= map.cols || y0 + 1 >= map.rows)
+    return std::numeric_limits<double>::quiet_NaN();
+  const double ax = x - x0;
+  const double ay = y - y0;
+  return (1 - ay) * ((1 - ax) * map.at<float>(y0, x0) + ax * map.at<float>(y0, x0 + 1))
+         + ay
+             * ((1 - ax) * map.at<float>(y0 + 1, x0)
+                + ax * map.at<float>(y0 + 1, x0 + 1));
+}
+
+/** \brief The rectified pixel that the remap maps (\a map_x, \a map_y) fetch from the
+ * raw pixel \a raw: the nearest map entry by brute force over every pixel, refined by
+ * Gauss-Newton on the bilinear maps. Returns (NaN, NaN) when the raw pixel is not in
+ * the rectified image. */
+cv::Point2d
+invertMaps(const cv::Mat& map_x, const cv::Mat& map_y, const cv::Point2d& raw)
+{
+  double best = std::numeric_limits<double>::infinity();
+  cv::Point2d rectified(std::numeric_limits<double>::quiet_NaN(),
+                        std::numeric_limits<double>::quiet_NaN());
+  for (int v = 0; v < map_x.rows; ++v)
+    for (int u = 0; u < map_x.cols; ++u) {
+      const double dx = map_x.at<float>(v, u) - raw.x;
+      const double dy = map_y.at<float>(v, u) - raw.y;
+      if (dx * dx + dy * dy < best) {
+        best = dx * dx + dy * dy;
+        rectified = cv::Point2d(u, v);
+      }
+    }
+  // More than a pixel away from every map entry: the raw pixel is outside the crop.
+  if (!(best < 1.0))
+    return {std::numeric_limits<double>::quiet_NaN(),
+            std::numeric_limits<double>::quiet_NaN()};
+  const double step = 1e-3;
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    const double fx = sampleMap(map_x, rectified.x, rectified.y) - raw.x;
+    const double fy = sampleMap(map_y, rectified.x, rectified.y) - raw.y;
+    const double a =
+      (sampleMap(map_x, rectified.x + step, rectified.y) - raw.x - fx) / step;
+    const double b =
+      (sampleMap(map_x, rectified.x, rectified.y + step) - raw.x - fx) / step;
+    const double c =
+      (sampleMap(map_y, rectified.x + step, rectified.y) - raw.y - fy) / step;
+    const double d =
+      (sampleMap(map_y, rectified.x, rectified.y + step) - raw.y - fy) / step;
+    const double det = a * d - b * c;
+    if (!std::isfinite(det) || det == 0.0)
+      return {std::numeric_limits<double>::quiet_NaN(),
+              std::numeric_limits<double>::quiet_NaN()};
+    rectified.x -= (d * fx - b * fy) / det;
+    rectified.y -= (-c * fx + a * fy) / det;
+  }
+  return rectified;
+}
+
+/** \brief Loads the rig's sensor.yaml pair, projects a grid of known 3D points into
+ * both raw images with OpenCV's model of the rig, takes each raw pixel back through
+ * the loaded rectification maps, and checks the rectified pair's geometry against the
+ * truth: the two images of a point lie on one row (0.1 px), and f B / disparity gives
+ * the point's depth in the rectified left camera (1 %). Returns the points checked. */
+int
+checkRectificationAgainstTruth(const SyntheticRig& rig,
+                               const std::string& left_path,
+                               const std::string& right_path)
+{
+  const auto model =
+    loadStereoCalibration(CalibrationFormat::EUROC, left_path, right_path);
+  EXPECT_FALSE(model.rectifier.empty());
+  if (model.rectifier.empty())
+    return 0;
+  const double f = model.calibration.focal_length_px;
+  const double baseline = model.calibration.baseline_m;
+  // The true baseline is the distance between the camera centres.
+  EXPECT_NEAR(baseline, cv::norm(rig.right_t_left), 1e-6);
+
+  // Points 1.5 m to 6 m ahead, spread over +-40 deg of the left camera's view.
+  std::vector<cv::Point3d> points;
+  for (const double depth : {1.5, 3.0, 6.0})
+    for (int i = -4; i <= 4; ++i)
+      for (int j = -3; j <= 3; ++j)
+        points.emplace_back(depth * std::tan(i * 10.0 * M_PI / 180.0),
+                            depth * std::tan(j * 10.0 * M_PI / 180.0), depth);
+  const std::vector<cv::Point2d> raw_left = rig.project(points, false);
+  const std::vector<cv::Point2d> raw_right = rig.project(points, true);
+
+  int checked = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const cv::Point2d left =
+      invertMaps(model.rectifier.map_left_x, model.rectifier.map_left_y, raw_left[i]);
+    const cv::Point2d right = invertMaps(model.rectifier.map_right_x,
+                                         model.rectifier.map_right_y, raw_right[i]);
+    if (!std::isfinite(left.x) || !std::isfinite(right.x))
+      continue;
+    ++checked;
+    EXPECT_NEAR(left.y, right.y, 0.1) << "point " << points[i];
+    const Eigen::Vector3d rectified_point =
+      model.rectified_R_left * Eigen::Vector3d(points[i].x, points[i].y, points[i].z);
+    const double disparity = left.x - right.x;
+    EXPECT_NEAR(f * baseline / disparity, rectified_point.z(),
+                0.01 * rectified_point.z())
+      << "point " << points[i];
+    // The rectified left pixel is the pinhole projection of the rectified point.
+    EXPECT_NEAR(left.x,
+                f * rectified_point.x() / rectified_point.z() + model.calibration.cx_px,
+                0.1);
+    EXPECT_NEAR(left.y,
+                f * rectified_point.y() / rectified_point.z() + model.calibration.cy_px,
+                0.1);
+  }
+  return checked;
+}
+
+// A fisheye (equidistant) rig: 752x480, f about 300 px (about 100 deg across), the
+// right camera 0.110 m to the right, turned by about 1.4 deg. The rectified pair must
+// hold every point the maps keep on one row, with the true depth.
+TEST_F(CalibrationIOFiles, EquidistantPairIsRectifiedToTheTrueGeometry)
+{
+  const SyntheticRig rig;
+  const std::string left =
+    write("cam0.yaml", rig.yaml(rig.k_left, rig.d_left, rig.bodyTLeft()));
+  const std::string right =
+    write("cam1.yaml", rig.yaml(rig.k_right, rig.d_right, rig.bodyTRight()));
+  // Of the 189 points, those inside both rectified (cropped) images are checked: all
+  // of them with OpenCV 4.6 (rectified f = 234 px); the 5x5 points within +-20 deg at
+  // each depth are well inside in any case. Measured: rows agree to 0.0002 px and
+  // depths to 0.01 %; the same files read as radial-tangential miss by up to 6.4 px
+  // in row and by a factor of 38 in depth.
+  EXPECT_GE(checkRectificationAgainstTruth(rig, left, right), 3 * 5 * 5);
+}
+
+// The same rig with radial-tangential lenses (coefficients of EuRoC's size, k1 about
+// -0.28) is rectified by the pinhole model as before, to the true geometry.
+TEST_F(CalibrationIOFiles, RadialTangentialPairIsRectifiedToTheTrueGeometry)
+{
+  SyntheticRig rig;
+  rig.fisheye = false;
+  rig.d_left = {-0.28, 0.07, 0.0002, 0.00002};
+  rig.d_right = {-0.27, 0.068, -0.0001, 0.00003};
+  const std::string left =
+    write("cam0.yaml", rig.yaml(rig.k_left, rig.d_left, rig.bodyTLeft()));
+  const std::string right =
+    write("cam1.yaml", rig.yaml(rig.k_right, rig.d_right, rig.bodyTRight()));
+  EXPECT_GE(checkRectificationAgainstTruth(rig, left, right), 3 * 5 * 5);
 }
 
 TEST(CalibrationIO, FormatFromString)

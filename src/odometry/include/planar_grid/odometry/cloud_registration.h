@@ -1,10 +1,13 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/stereo/stereo_feature_matcher.h>
+
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
 #include <Eigen/Geometry>
+#include <opencv2/core/mat.hpp>
 
 #include <cstddef>
 
@@ -39,9 +42,22 @@ struct CloudRegistrationParams {
   double feature_radius_m{0.5};
   /** \brief Iterations of pcl::SampleConsensusPrerejective, >= 1. */
   int feature_max_iterations{5000};
-  /** \brief Seed of the feature guess's random sampling (std::srand, which
-   * pcl::SampleConsensusPrerejective draws from). */
+  /** \brief Seed of the feature guesses' random sampling (std::srand, which
+   * pcl::SampleConsensusPrerejective draws from, and the RANSAC of the image feature
+   * guess). */
   unsigned seed{0};
+  /** \brief Where both clouds come with key features of their images (the overload
+   * of registerCloud() with features), start GICP from the motion of the matched
+   * features first (descriptor matching with Lowe's ratio and a mutual check, a RANSAC
+   * rigid fit refined on its inliers: StereoOdometry without a calibration); the
+   * initial guess and the FPFH guess are tried only when that leaves less than
+   * feature_guess_overlap of the source in the overlap. */
+  bool image_feature_guess{true};
+  /** \brief RANSAC inlier threshold of the image feature guess: largest 3D distance of
+   * a matched pair after the motion, metres (> 0). */
+  double image_feature_distance_m{0.05};
+  /** \brief Fewest RANSAC inliers for an image feature guess, >= 3. */
+  int image_feature_min_inliers{20};
 };
 
 /** \brief What registerCloud() found. \ingroup odometry */
@@ -58,6 +74,17 @@ struct CloudRegistrationResult {
   bool converged{false};
   /** \brief Whether the kept result started from the FPFH feature guess. */
   bool feature_guess_used{false};
+  /** \brief Whether the kept result started from the image feature guess. */
+  bool image_feature_guess_used{false};
+  /** \brief RANSAC inliers of the image feature guess (0 when it did not run or
+   * failed). */
+  std::size_t image_feature_inliers{0};
+  /** \brief Whether the image features' motion was kept without GICP's refinement:
+   * GICP moved it along a direction the clouds' geometry does not fix (a plane, a
+   * corridor), so that fewer than 80 % as many matched features lie within
+   * image_feature_distance_m of each other after the refined motion as after the
+   * features' own. */
+  bool image_feature_motion_kept{false};
 };
 
 /** \brief Registers \a source onto \a target: pcl::GeneralizedIterativeClosestPoint
@@ -79,5 +106,61 @@ CloudRegistrationResult registerCloud(const pcl::PointCloud<pcl::PointXYZ>& sour
                                       const pcl::PointCloud<pcl::PointXYZ>& target,
                                       const Eigen::Isometry3d& initial_guess,
                                       const CloudRegistrationParams& params);
+
+/** \brief As registerCloud() without features, starting first from the motion of the
+ * key features of the two clouds' images where both have some (see
+ * CloudRegistrationParams::image_feature_guess): the features are matched by
+ * descriptor (cv::BFMatcher, Lowe's ratio 0.8, mutual check) and their motion is fitted
+ * by RANSAC on 3D point triples (pcl::SampleConsensusModelRegistration) and refined on
+ * the inliers (pcl::registration::TransformationEstimationSVD), as the stereo
+ * odometry's eq. 8; GICP refines it on the clouds. Without features on either side,
+ * or with fewer than image_feature_min_inliers inliers, it is registerCloud().
+ * \param[in] source the cloud to move, metres; NaN points are ignored
+ * \param[in] target the fixed cloud, metres; NaN points are ignored
+ * \param[in] initial_guess target_T_source to try when the feature guess fails
+ * \param[in] params the options
+ * \param[in] source_features 3D key features of the source, in its frame (metres), with
+ *            descriptors (computeCloudImageFeatures())
+ * \param[in] target_features the same for the target
+ * \return as registerCloud()
+ * \throws planar_grid::Exception when image_feature_distance_m is not > 0 or
+ * image_feature_min_inliers is below 3 (checked when both clouds have features)
+ * \ingroup odometry */
+CloudRegistrationResult registerCloud(const pcl::PointCloud<pcl::PointXYZ>& source,
+                                      const pcl::PointCloud<pcl::PointXYZ>& target,
+                                      const Eigen::Isometry3d& initial_guess,
+                                      const CloudRegistrationParams& params,
+                                      const StereoFeatures& source_features,
+                                      const StereoFeatures& target_features);
+
+/** \brief The grey image of an organized cloud: one 8-bit pixel per point (row-major,
+ * width x height), from the intensity field (a colour cloud's grey,
+ * pcl::PointXYZRGBtoXYZI). Intensities outside [0, 255] (a scanner's own scale) are
+ * stretched to it; non-finite ones are 0.
+ * \param[in] cloud the cloud
+ * \return CV_8UC1 image; empty when the cloud is not organized or its intensity is the
+ * same everywhere (bare x y z: no image)
+ * \ingroup odometry */
+cv::Mat cloudIntensityImage(const pcl::PointCloud<pcl::PointXYZI>& cloud);
+
+/** \brief Key features of an organized cloud's own image, lifted to 3D through the
+ * cloud: key points are detected and described on \a grey (orb_grid: FAST corners
+ * bucketed over a grid with upright ORB descriptors, detectGridFastKeypoints(); orb;
+ * sift) and each takes the cloud's point at its pixel. Key points on a pixel without a
+ * finite point, or beyond params.max_range_m from the sensor, are dropped.
+ * \param[in] cloud the organized cloud (the sensor's frame unless camera_T_cloud says
+ *            otherwise), metres
+ * \param[in] grey its image, cloudIntensityImage()
+ * \param[in] params feature_type, max_features, bucket_size_px, fast_threshold and
+ *            max_range_m (metres) are used
+ * \param[in] camera_T_cloud takes the cloud's points into the sensor (camera) frame
+ * \param[out] features replaced by the features: points (sensor frame, metres),
+ *             keypoints_left (px) and descriptors, one row per point
+ * \ingroup odometry */
+void computeCloudImageFeatures(const pcl::PointCloud<pcl::PointXYZI>& cloud,
+                               const cv::Mat& grey,
+                               const StereoFeatureMatcher::Params& params,
+                               const Eigen::Affine3f& camera_T_cloud,
+                               StereoFeatures& features);
 
 } // namespace planar_grid

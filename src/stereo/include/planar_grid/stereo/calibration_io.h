@@ -22,9 +22,12 @@ enum class CalibrationFormat {
    * image_width, image_height and projection_matrix (3x4); B = -P_right[0,3] /
    * P_right[0,0]. */
   ROS_CAMERA_INFO,
-  /** A pair of EuRoC sensor.yaml files: intrinsics [fu, fv, cu, cv], radial-tangential
+  /** A pair of EuRoC / Kalibr sensor.yaml files: intrinsics [fu, fv, cu, cv],
    * distortion, resolution and T_BS (camera to body); distorted and not rectified, so
-   * they are rectified here with OpenCV (stereoRectify, alpha = 0). */
+   * they are rectified here with OpenCV: distortion_model radial-tangential (or radtan,
+   * the default; k1 k2 p1 p2 [k3]) by stereoRectify with alpha = 0, equidistant
+   * (fisheye; k1 k2 k3 k4) by fisheye::stereoRectify with balance = 0. Another model
+   * is refused by name. */
   EUROC
 };
 
@@ -92,8 +95,9 @@ struct StereoCameraModel {
  * \param[in] right_path the right camera's file (ROS_CAMERA_INFO, EUROC); ignored
  * otherwise \return the rectified model; its calibration passes
  * StereoCalibration::validate() \throws planar_grid::IOError naming the file (and the
- * field) when the file is missing, unreadable, lacks a field, or gives a non-positive
- * focal length or baseline; with the file and line (text formats) when a row or field
+ * field) when the file is missing, unreadable, lacks a field, names a camera or
+ * distortion model that is not rectified here, or gives a non-positive focal length or
+ * baseline; with the file and line (text formats) when a row or field
  * is given twice, or the baseline lies outside [0.001, 100] m */
 StereoCameraModel loadStereoCalibration(CalibrationFormat format,
                                         const std::string& path,
