@@ -869,6 +869,8 @@ TEST(SACMultiPlaneSegmentation, InvalidParametersGiveEmptyOutput)
       [](auto& s) { s.setVisibilityCell(0.0); },
       [](auto& s) { s.setMaxShellRatio(-0.1); },
       [](auto& s) { s.setShellWidth(-0.1); },
+      [](auto& s) { s.setMinSensorDistance(-0.1); },
+      [](auto& s) { s.setMinSensorDistance(std::numeric_limits<double>::infinity()); },
     };
   for (std::size_t i = 0; i < invalid.size(); ++i) {
     SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
@@ -1055,6 +1057,95 @@ segmentWallAndCanopyWithShellTest(double max_shell_ratio)
   PlanarSegments planes;
   seg.segment(planes);
   return planes;
+}
+
+// A wall 4 x 3 m at 8 m in front of the sensor (at the origin, looking along +z) and a
+// tree trunk smeared by stereo: 1500 points on the lines of sight through a vertical
+// segment at (2, y, 6) (y in [-1.5, 1.5], the trunk 3 m tall), each at a range scaled
+// by 1 +- 0.15 (about +-1 m at 6 m, eq. 4's error there for a coarse disparity). Every
+// smeared point lies exactly on the plane x = z / 3 through the sensor, the plane that
+// contains the lines of sight: the sheet is a plane to eq. 11 but not a surface.
+pcl::PointCloud<pcl::PointXYZ>::Ptr
+wallAndSmearedTrunk()
+{
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> jitter(-0.01f, 0.01f), height(-1.5f, 1.5f),
+    smear(0.85f, 1.15f);
+  for (float x = -5.0f; x < -1.0f; x += 0.05f)
+    for (float y = -1.5f; y < 1.5f; y += 0.05f)
+      cloud->push_back(pcl::PointXYZ(x, y, 8.0f + jitter(rng)));
+  for (int k = 0; k < 1500; ++k) {
+    const float scale = smear(rng);
+    cloud->push_back(pcl::PointXYZ(2.0f * scale, height(rng) * scale, 6.0f * scale));
+  }
+  cloud->sensor_origin_ = Eigen::Vector4f(0, 0, 0, 1);
+  return cloud;
+}
+
+TEST(SACMultiPlaneSegmentation, SensorPlaneTestTakesOutSmearsThroughTheSensor)
+{
+  const auto cloud = wallAndSmearedTrunk();
+  const std::size_t wall_points = cloud->size() - 1500; // the wall's come first
+  const auto segment = [&](double min_sensor_distance, std::size_t& dropped) {
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    seg.setInputCloud(cloud);
+    seg.setDistanceThreshold(0.05);
+    seg.setMinInliers(400);
+    seg.setMaxPlanes(4);
+    seg.setMinSensorDistance(min_sensor_distance);
+    PlanarSegments planes;
+    seg.segment(planes);
+    dropped = seg.getSensorPlaneRejectedCount();
+    return planes;
+  };
+  // The smear's plane n = (3, 0, -1) / sqrt(10), d = 0 (0 m from the sensor); the
+  // wall's n = (0, 0, -1), d = 8 (8 m from it).
+  const auto isSmear = [](const PlanarSegment& p) {
+    const auto& c = p.model_coefficients.values;
+    return std::abs(std::abs(c[0]) - 3.0f / std::sqrt(10.0f)) < 0.02f
+           && std::abs(c[3]) < 0.1f;
+  };
+  const auto isWall = [](const PlanarSegment& p) {
+    const auto& c = p.model_coefficients.values;
+    return std::abs(c[2]) > 0.99f && std::abs(std::abs(c[3]) - 8.0f) < 0.05f;
+  };
+  std::size_t dropped = 0;
+  const PlanarSegments without = segment(0.0, dropped);
+  ASSERT_EQ(without.size(), 2u) << "the wall and the smear are both planes to eq. 11";
+  EXPECT_EQ(std::count_if(without.begin(), without.end(), isSmear), 1);
+  EXPECT_EQ(dropped, 0u);
+
+  const PlanarSegments with = segment(1.0, dropped);
+  ASSERT_EQ(with.size(), 1u);
+  EXPECT_TRUE(isWall(with[0]));
+  EXPECT_EQ(dropped, 1u);
+  // Every wall point and no smeared point is in the wall's plane (the smear lies 0.6
+  // to 1.9 m in front of the wall).
+  EXPECT_EQ(with[0].inliers.indices.size(), wall_points);
+  EXPECT_EQ(with[0].inliers.indices.back(), static_cast<int>(wall_points) - 1);
+}
+
+TEST(SACMultiPlaneSegmentation, SensorPlaneTestKeepsPlanesAwayFromTheSensor)
+{
+  // The synthetic scene (floor, two walls, a ramp; sensor at the default origin):
+  // every plane lies 1.5 m or more from it, so a 0.5 m bound changes nothing.
+  const auto scene = makeScene<pcl::PointXYZ>(42);
+  SACMultiPlaneSegmentation<pcl::PointXYZ> reference, tested;
+  for (auto* seg : {&reference, &tested}) {
+    seg->setInputCloud(scene.cloud);
+    seg->setUpAxis(Eigen::Vector3f::UnitZ());
+  }
+  tested.setMinSensorDistance(0.5);
+  PlanarSegments a, b;
+  reference.segment(a);
+  tested.segment(b);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].inliers.indices, b[k].inliers.indices);
+    EXPECT_EQ(a[k].model_coefficients.values, b[k].model_coefficients.values);
+  }
+  EXPECT_EQ(tested.getSensorPlaneRejectedCount(), 0u);
 }
 
 TEST(SACMultiPlaneSegmentation, ShellTestKeepsTheWallAndTakesOutSlabsThroughAVolume)

@@ -372,6 +372,30 @@ public:
    * planes it kept or dropped. */
   std::size_t getShellRemovedCount() const { return shell_removed_; }
 
+  /** \brief Sets the sensor plane test. Stereo measures depth along the lines of
+   * sight, and its error (eq. 4) grows with the square of the range, so the points of
+   * any object are smeared along the lines of sight by up to about a meter at 15 m. A
+   * plane that passes through (or near) the sensor contains the lines of sight of its
+   * points and takes that smear for a surface: a vertical sheet through a tree trunk
+   * or a pole, a horizontal sheet at the sensor's height through whatever stands
+   * there. A plane whose distance from the input cloud's sensor_origin_, |n . o + d|,
+   * is below `distance` is dropped, and its inliers are offered to no later plane
+   * (they would only give the same plane again; they stay for the non-planar cells).
+   * A road below a vehicle's camera (1.6 m), a facade beside the street or a wall in
+   * front of the sensor lies farther. Not in the paper.
+   * \param[in] distance_m in meters, >= 0 (default 0: no test) */
+  void setMinSensorDistance(double distance_m) { min_sensor_distance_ = distance_m; }
+  /** \brief Returns the smallest distance of a plane from the sensor origin, in
+   * meters (0: no test). */
+  double getMinSensorDistance() const { return min_sensor_distance_; }
+
+  /** \brief Returns how many planes the last segment() dropped in the sensor plane
+   * test. */
+  std::size_t getSensorPlaneRejectedCount() const { return sensor_plane_rejected_; }
+  /** \brief Returns how many inliers the last segment()'s sensor plane test took out
+   * (the inliers of the planes it dropped). */
+  std::size_t getSensorPlaneRemovedCount() const { return sensor_plane_removed_; }
+
   /** \brief Returns how many planes the last segment() dropped in the visibility
    * test. */
   std::size_t getVisibilityRejectedCount() const { return visibility_rejected_; }
@@ -483,6 +507,13 @@ protected:
   double max_shell_ratio_{0.0};
   /** \brief Smallest shell width of the shell test, in meters. */
   double shell_width_{0.1};
+  /** \brief Smallest distance of a plane from the sensor origin, in meters (0: no
+   * test). */
+  double min_sensor_distance_{0.0};
+  /** \brief Planes the last segment() dropped in the sensor plane test. */
+  std::size_t sensor_plane_rejected_{0};
+  /** \brief Inliers the last segment()'s sensor plane test took out. */
+  std::size_t sensor_plane_removed_{0};
   /** \brief Planes the last segment() dropped in the shell test. */
   std::size_t shell_rejected_{0};
   /** \brief Inliers the last segment()'s shell test took out. */

@@ -227,6 +227,32 @@ struct DensePoints {
         out.push_back(index[k]);
   }
 
+  /** \brief Removes the points whose mask is \a value, mask included (stable, in
+   * place); the other points keep their mask. */
+  void removeMarked(std::uint8_t value)
+  {
+    std::size_t w = 0;
+    for (std::size_t k = 0; k < size(); ++k) {
+      if (mask[k] == value)
+        continue;
+      x[w] = x[k];
+      y[w] = y[k];
+      z[w] = z[k];
+      if (!threshold.empty())
+        threshold[w] = threshold[k];
+      index[w] = index[k];
+      mask[w] = mask[k];
+      ++w;
+    }
+    x.resize(w);
+    y.resize(w);
+    z.resize(w);
+    if (!threshold.empty())
+      threshold.resize(w);
+    index.resize(w);
+    mask.resize(w);
+  }
+
   /** \brief Removes the selected points (stable, in place). */
   void removeSelected()
   {
@@ -477,6 +503,33 @@ removeVisibilityConflicts(DensePoints& store,
   return any ? footprint.removeCells(store, max_ratio, false) : 0;
 }
 
+/** \brief Mask value of a point that the sensor plane test takes out of the store. */
+constexpr std::uint8_t SENSOR_PLANE = 2;
+
+/** \brief The sensor plane test of one plane: when the plane passes closer than
+ * `min_distance` to `origin` (|n . origin + d| < min_distance, n the unit normal),
+ * its selected points (mask 1) are taken out of `store` altogether: stereo smears
+ * every object along the lines of sight, and a plane that contains them takes the
+ * smear for a surface; its points would only give the same plane again.
+ * \return the number of points taken out (0 when the plane passes the test) */
+inline std::size_t
+removeSensorPlane(DensePoints& store,
+                  const Eigen::Vector4f& plane,
+                  const Eigen::Vector3f& origin,
+                  float min_distance)
+{
+  if (!(std::abs(plane.head<3>().dot(origin) + plane[3]) < min_distance))
+    return 0;
+  std::size_t removed = 0;
+  for (std::size_t k = 0; k < store.size(); ++k)
+    if (store.mask[k]) {
+      store.mask[k] = SENSOR_PLANE;
+      ++removed;
+    }
+  store.removeMarked(SENSOR_PLANE);
+  return removed;
+}
+
 /** \brief The shell test of one plane. A surface's points lie within its eq. 11
  * threshold t, up to stereo noise; a plane that cuts through a thicker structure (a
  * slab through a tree's canopy, a horizontal stripe across a facade or a car) has
@@ -696,6 +749,8 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
     bad = "visibility_margin must be finite and >= 0 m";
   else if (!(visibility_cell_ > 0.0) || !std::isfinite(visibility_cell_))
     bad = "visibility_cell must be finite and > 0 m";
+  else if (!(min_sensor_distance_ >= 0.0) || !std::isfinite(min_sensor_distance_))
+    bad = "min_sensor_distance must be finite and >= 0 m";
   else if (!(max_shell_ratio_ >= 0.0) || !std::isfinite(max_shell_ratio_))
     bad = "max_shell_ratio must be finite and >= 0";
   else if (!(shell_width_ >= 0.0) || !std::isfinite(shell_width_))
@@ -760,6 +815,8 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
   visibility_removed_ = 0;
   shell_rejected_ = 0;
   shell_removed_ = 0;
+  sensor_plane_rejected_ = 0;
+  sensor_plane_removed_ = 0;
   const Eigen::Vector3f origin = input_->sensor_origin_.template head<3>();
   const Eigen::Vector3f up = up_axis_.normalized();
   const auto d_t = static_cast<float>(distance_threshold_);
@@ -993,6 +1050,18 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
       PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with %zu < %d inliers.\n",
                 getClassName().c_str(), count, min_inliers_);
       continue;
+    }
+    if (min_sensor_distance_ > 0.0) {
+      const std::size_t removed = detail::removeSensorPlane(
+        dense, plane, origin, static_cast<float>(min_sensor_distance_));
+      if (removed > 0) {
+        PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane passing within %g m of "
+                  "the sensor (%zu inliers).\n",
+                  getClassName().c_str(), min_sensor_distance_, removed);
+        sensor_plane_removed_ += removed;
+        ++sensor_plane_rejected_;
+        continue;
+      }
     }
     if (max_visibility_conflict_ratio_ > 0.0) {
       const std::size_t removed = detail::removeVisibilityConflicts(
