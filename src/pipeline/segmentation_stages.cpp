@@ -49,6 +49,8 @@ public:
     segmentation_.setVisibilityMargin(v.getDouble("visibility_margin_m"));
     segmentation_.setVisibilityCell(v.getDouble("visibility_cell_m"));
     segmentation_.setMinSensorDistance(v.getDouble("min_sensor_distance_m"));
+    segmentation_.setMinClusterSize(v.getInt("min_cluster_size"));
+    segmentation_.setClusterCell(v.getDouble("cluster_cell_m"));
     segmentation_.setMaxShellRatio(v.getDouble("max_shell_ratio"));
     segmentation_.setShellWidth(v.getDouble("shell_width_m"));
   }
@@ -114,6 +116,12 @@ public:
       values.emplace_back(
         "sensor_plane_removed",
         static_cast<double>(segmentation_.getSensorPlaneRemovedCount()));
+    }
+    if (segmentation_.getMinClusterSize() > 0) {
+      values.emplace_back("cluster_dropped",
+                          static_cast<double>(segmentation_.getClusterRejectedCount()));
+      values.emplace_back("cluster_removed",
+                          static_cast<double>(segmentation_.getClusterRemovedCount()));
     }
     if (segmentation_.getMaxShellRatio() > 0.0) {
       values.emplace_back("shell_dropped",
@@ -375,6 +383,16 @@ multiPlaneSegmentationInfo()
                     "contains the lines of sight, along which stereo smears every "
                     "object: a vertical sheet through a tree trunk, a horizontal one "
                     "at the camera's height); 0 = no test."),
+    ParamSpec::integer("min_cluster_size", 0, 0, 100000000, "",
+                       "Cluster test: the inliers of each connected cluster of a "
+                       "plane's footprint (cluster_cell_m cells, a one-cell gap "
+                       "bridged) holding fewer than this many leave the plane (a plane "
+                       "through separate trunks, or slicing car bodies); 0 = no test.")
+      .scalesWithCellSize(ParamSpec::CellSizeScaling::POINTS_PER_AREA),
+    ParamSpec::real("cluster_cell_m", 0.2, 0.001, 100.0, "m",
+                    "Footprint cell edge of the cluster test (at least the voxel "
+                    "edge of a voxelised cloud).")
+      .scalesWithCellSize(ParamSpec::CellSizeScaling::CELL_SIZE),
     ParamSpec::real("max_shell_ratio", 0.0, 0.0, 1000.0, "",
                     "Shell test: where, around a 3 x 3 cell neighbourhood of a plane's "
                     "footprint, twice the smaller of the two sides' counts of points "

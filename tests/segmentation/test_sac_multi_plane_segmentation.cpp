@@ -870,6 +870,8 @@ TEST(SACMultiPlaneSegmentation, InvalidParametersGiveEmptyOutput)
       [](auto& s) { s.setMaxShellRatio(-0.1); },
       [](auto& s) { s.setShellWidth(-0.1); },
       [](auto& s) { s.setMinSensorDistance(-0.1); },
+      [](auto& s) { s.setMinClusterSize(-1); },
+      [](auto& s) { s.setClusterCell(0.0); },
       [](auto& s) { s.setMinSensorDistance(std::numeric_limits<double>::infinity()); },
     };
   for (std::size_t i = 0; i < invalid.size(); ++i) {
@@ -1146,6 +1148,90 @@ TEST(SACMultiPlaneSegmentation, SensorPlaneTestKeepsPlanesAwayFromTheSensor)
     EXPECT_EQ(a[k].model_coefficients.values, b[k].model_coefficients.values);
   }
   EXPECT_EQ(tested.getSensorPlaneRejectedCount(), 0u);
+}
+
+// Seen from the sensor at the origin (camera frame: up is -y): a wall 4 x 3 m at 6 m,
+// four tree trunks 0.2 x 2 x 0.2 m (640 points each on a 0.05 m grid) in a row 9 m
+// away, 2.5 m apart, and a floor 1.6 m below the sensor made of six 1 x 1 m paving
+// patches (400 points each) 1 m apart. The plane z = 9 through the trunks holds 2 of
+// each trunk's 4 layers of 160 points (eq. 11 within 0.05 m), 1280 in all; no plane
+// through one trunk reaches 600 (at most 3 layers, 480).
+struct TrunkRow {
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud{new pcl::PointCloud<pcl::PointXYZ>};
+  std::size_t wall_end{0}, trunks_end{0};
+};
+
+TrunkRow
+wallTrunkRowAndPavedFloor()
+{
+  TrunkRow scene;
+  auto& cloud = *scene.cloud;
+  for (int i = 0; i < 80; ++i)
+    for (int j = 0; j < 60; ++j)
+      cloud.push_back(pcl::PointXYZ(-5.0f + 0.05f * i, -1.5f + 0.05f * j, 6.0f));
+  scene.wall_end = cloud.size();
+  for (int t = 0; t < 4; ++t)
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 40; ++j)
+        for (int k = 0; k < 4; ++k)
+          cloud.push_back(pcl::PointXYZ(-4.0f + 2.5f * t + 0.05f * i, -0.6f + 0.05f * j,
+                                        8.925f + 0.05f * k));
+  scene.trunks_end = cloud.size();
+  for (int p = 0; p < 6; ++p)
+    for (int i = 0; i < 20; ++i)
+      for (int k = 0; k < 20; ++k)
+        cloud.push_back(pcl::PointXYZ(-3.0f + 2.0f * (p % 3) + 0.05f * i, 1.6f,
+                                      3.0f + 2.0f * (p / 3) + 0.05f * k));
+  cloud.sensor_origin_ = Eigen::Vector4f(0, 0, 0, 1);
+  return scene;
+}
+
+TEST(SACMultiPlaneSegmentation, ClusterTestTakesOutPlanesThroughSeparateTrunks)
+{
+  const TrunkRow scene = wallTrunkRowAndPavedFloor();
+  const auto segment = [&](int min_cluster_size, std::size_t& dropped) {
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    seg.setInputCloud(scene.cloud);
+    seg.setUpAxis(Eigen::Vector3f(0, -1, 0));
+    seg.setDistanceThreshold(0.05);
+    seg.setMinInliers(600);
+    seg.setMaxPlanes(4);
+    seg.setMinClusterSize(min_cluster_size);
+    seg.setClusterCell(0.2);
+    PlanarSegments planes;
+    seg.segment(planes);
+    dropped = seg.getClusterRejectedCount();
+    return planes;
+  };
+  const auto countIn = [](const PlanarSegment& p, std::size_t begin, std::size_t end) {
+    return static_cast<std::size_t>(std::count_if(
+      p.inliers.indices.begin(), p.inliers.indices.end(), [&](pcl::index_t i) {
+        return i >= static_cast<int>(begin) && i < static_cast<int>(end);
+      }));
+  };
+  std::size_t dropped = 0;
+  const PlanarSegments without = segment(0, dropped);
+  std::size_t trunk_points = 0;
+  for (const auto& p : without)
+    trunk_points += countIn(p, scene.wall_end, scene.trunks_end);
+  // Measured: 1344 trunk points in planes.
+  ASSERT_GE(trunk_points, 1000u) << "a plane must cut through the row of trunks";
+
+  const PlanarSegments with = segment(600, dropped);
+  EXPECT_GE(dropped, 1u);
+  // The wall (one cluster of 4800 points) and the floor (a terrain plane: spared,
+  // although its patches are clusters of 400) are left, whole; no trunk point is in
+  // a plane.
+  ASSERT_EQ(with.size(), 2u);
+  const std::size_t floor_points = scene.cloud->size() - scene.trunks_end;
+  for (const auto& p : with) {
+    EXPECT_EQ(countIn(p, scene.wall_end, scene.trunks_end), 0u);
+    const std::size_t wall = countIn(p, 0, scene.wall_end);
+    const std::size_t floor = countIn(p, scene.trunks_end, scene.cloud->size());
+    EXPECT_TRUE((wall == scene.wall_end && floor == 0)
+                || (wall == 0 && floor == floor_points))
+      << wall << " wall and " << floor << " floor points";
+  }
 }
 
 TEST(SACMultiPlaneSegmentation, ShellTestKeepsTheWallAndTakesOutSlabsThroughAVolume)

@@ -389,6 +389,33 @@ public:
    * meters (0: no test). */
   double getMinSensorDistance() const { return min_sensor_distance_; }
 
+  /** \brief Sets the cluster test. A plane's footprint (its inliers projected onto it,
+   * in square cells of setClusterCell()) falls apart into connected clusters (cells up
+   * to two apart along each axis are connected: a gap of one empty cell is bridged).
+   * A surface is one large cluster, or a few; a plane fitted through separate objects
+   * (two tree trunks, a pole and a facade behind it) or slicing a cluttered volume (car
+   * bodies, a shop window, a canopy) holds many small ones. The inliers of every
+   * cluster with fewer than `size` of them leave the plane (they stay for later planes
+   * or the non-planar cells); a plane left with fewer than min_inliers is dropped.
+   * Applied after the visibility and the shell tests. Not in the paper.
+   * \param[in] size inliers, >= 0 (default 0: no test) */
+  void setMinClusterSize(int size) { min_cluster_size_ = size; }
+  /** \brief Returns the fewest inliers of a footprint cluster (0: no test). */
+  int getMinClusterSize() const { return min_cluster_size_; }
+
+  /** \brief Sets the edge of the footprint cells of the cluster test; on a voxelised
+   * cloud at least the voxel edge. \param[in] cell_m in meters, > 0 (default 0.2) */
+  void setClusterCell(double cell_m) { cluster_cell_ = cell_m; }
+  /** \brief Returns the footprint cell edge of the cluster test, in meters. */
+  double getClusterCell() const { return cluster_cell_; }
+
+  /** \brief Returns how many planes the last segment() dropped in the cluster
+   * test. */
+  std::size_t getClusterRejectedCount() const { return cluster_rejected_; }
+  /** \brief Returns how many inliers the last segment()'s cluster test took out of
+   * the planes it kept or dropped. */
+  std::size_t getClusterRemovedCount() const { return cluster_removed_; }
+
   /** \brief Returns how many planes the last segment() dropped in the sensor plane
    * test. */
   std::size_t getSensorPlaneRejectedCount() const { return sensor_plane_rejected_; }
@@ -510,6 +537,14 @@ protected:
   /** \brief Smallest distance of a plane from the sensor origin, in meters (0: no
    * test). */
   double min_sensor_distance_{0.0};
+  /** \brief Fewest inliers of a footprint cluster (0: no test). */
+  int min_cluster_size_{0};
+  /** \brief Footprint cell edge of the cluster test, in meters. */
+  double cluster_cell_{0.2};
+  /** \brief Planes the last segment() dropped in the cluster test. */
+  std::size_t cluster_rejected_{0};
+  /** \brief Inliers the last segment()'s cluster test took out. */
+  std::size_t cluster_removed_{0};
   /** \brief Planes the last segment() dropped in the sensor plane test. */
   std::size_t sensor_plane_rejected_{0};
   /** \brief Inliers the last segment()'s sensor plane test took out. */

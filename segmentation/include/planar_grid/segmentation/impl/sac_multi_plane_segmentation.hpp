@@ -383,6 +383,48 @@ public:
     ++(back ? cells_[n].back_evidence : cells_[n].front_evidence);
   }
 
+  /** \brief Takes out of \a store (mask set to 0) the inliers of every cluster of
+   * footprint cells holding fewer than \a min_size inliers. A cluster is a connected
+   * set of cells, two cells being connected when they are at most two cells apart
+   * along each axis (a gap of one empty cell is bridged).
+   * \return the number of inliers taken out */
+  std::size_t removeSmallClusters(DensePoints& store, std::size_t min_size) const
+  {
+    constexpr std::uint32_t UNSET = CellIndex::NONE;
+    std::vector<std::uint32_t> cluster(cells_.size(), UNSET);
+    std::vector<std::size_t> cluster_size;
+    std::vector<std::uint32_t> stack;
+    for (std::size_t c = 0; c < cells_.size(); ++c) {
+      if (cluster[c] != UNSET)
+        continue;
+      const auto id = static_cast<std::uint32_t>(cluster_size.size());
+      cluster_size.push_back(0);
+      cluster[c] = id;
+      stack.assign(1, static_cast<std::uint32_t>(c));
+      while (!stack.empty()) {
+        const std::uint32_t n = stack.back();
+        stack.pop_back();
+        cluster_size[id] += cells_[n].inliers;
+        for (int di = -2; di <= 2; ++di)
+          for (int dj = -2; dj <= 2; ++dj) {
+            const std::uint32_t m =
+              index_of_.find(key(cells_[n].i + di, cells_[n].j + dj));
+            if (m != CellIndex::NONE && cluster[m] == UNSET) {
+              cluster[m] = id;
+              stack.push_back(m);
+            }
+          }
+      }
+    }
+    std::size_t removed = 0;
+    for (std::size_t k = 0; k < store.size(); ++k)
+      if (store.mask[k] && cluster_size[cluster[cell_of_inlier_[k]]] < min_size) {
+        store.mask[k] = 0;
+        ++removed;
+      }
+    return removed;
+  }
+
   /** \brief Takes the inliers of every cell whose 3 x 3 neighbourhood holds more than
    * \a max_ratio x its inliers of evidence out of \a store (their mask set to 0).
    * The evidence is the front's plus the back's, or, when \a two_sided, twice the
@@ -575,6 +617,23 @@ removeShellCells(DensePoints& store,
   return any ? footprint.removeCells(store, max_ratio, true) : 0;
 }
 
+/** \brief The cluster test of one plane: the selected points of `store` (mask 1) of
+ * every connected cluster of the plane's footprint (PlaneFootprint, cells of edge
+ * `cell`; cells up to two apart are connected) holding fewer than `min_size` of them
+ * are taken out of the plane (mask 0). A plane through separate objects (two tree
+ * trunks, a pole and a facade) or slicing a cluttered volume (car bodies, a shop
+ * window) falls apart into small clusters; a surface is one large cluster.
+ * \return the number of points taken out */
+inline std::size_t
+removeSmallClusters(DensePoints& store,
+                    const Eigen::Vector4f& plane,
+                    float cell,
+                    std::size_t min_size)
+{
+  const PlaneFootprint footprint(store, plane, cell);
+  return footprint.removeSmallClusters(store, min_size);
+}
+
 /** \brief Number of points (SoA) with |a x + b y + c z + d| <= t, counting in blocks
  * and stopping as soon as the count cannot exceed `to_beat` (then the partial count,
  * <= to_beat, is returned). With to_beat = 0 every point is counted, so the result is
@@ -751,6 +810,10 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
     bad = "visibility_cell must be finite and > 0 m";
   else if (!(min_sensor_distance_ >= 0.0) || !std::isfinite(min_sensor_distance_))
     bad = "min_sensor_distance must be finite and >= 0 m";
+  else if (min_cluster_size_ < 0)
+    bad = "min_cluster_size must be >= 0";
+  else if (!(cluster_cell_ > 0.0) || !std::isfinite(cluster_cell_))
+    bad = "cluster_cell must be finite and > 0 m";
   else if (!(max_shell_ratio_ >= 0.0) || !std::isfinite(max_shell_ratio_))
     bad = "max_shell_ratio must be finite and >= 0";
   else if (!(shell_width_ >= 0.0) || !std::isfinite(shell_width_))
@@ -817,6 +880,8 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
   shell_removed_ = 0;
   sensor_plane_rejected_ = 0;
   sensor_plane_removed_ = 0;
+  cluster_rejected_ = 0;
+  cluster_removed_ = 0;
   const Eigen::Vector3f origin = input_->sensor_origin_.template head<3>();
   const Eigen::Vector3f up = up_axis_.normalized();
   const auto d_t = static_cast<float>(distance_threshold_);
@@ -826,6 +891,8 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
   // of the dense hypothesis.
   constexpr float LOCAL_SLAB_FACTOR = 10.0f;
   constexpr std::size_t LOCAL_SAMPLE_SIZE = 5000;
+  // Largest tilt of a terrain plane that the cluster test spares, radians.
+  constexpr float TERRAIN_TILT = 0.3f;
 
   // The unassigned finite input points (within the indices), struct of arrays.
   detail::DensePoints dense;
@@ -1088,6 +1155,28 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
                   "threshold at %zu of its inliers (%zu left).\n",
                   getClassName().c_str(), removed, count);
         ++shell_rejected_;
+        continue;
+      }
+    }
+    // Terrain (a plane within TERRAIN_TILT of the up axis, below the sensor) is spared:
+    // the layers of a noisy road fall apart into clusters, and the terrain removal
+    // takes them out whole.
+    const bool terrain = plane.head<3>().dot(up) > std::cos(TERRAIN_TILT)
+                         && plane.head<3>().dot(origin) + plane[3] > 0.0f;
+    if (min_cluster_size_ > 0 && !terrain) {
+      const std::size_t removed =
+        detail::removeSmallClusters(dense, plane, static_cast<float>(cluster_cell_),
+                                    static_cast<std::size_t>(min_cluster_size_));
+      cluster_removed_ += removed;
+      count -= removed;
+      if (static_cast<int>(count) < min_inliers_) {
+        PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane whose footprint falls "
+                  "apart into clusters of < %d inliers (%zu left).\n",
+                  getClassName().c_str(), min_cluster_size_, count);
+        ++cluster_rejected_;
+        // The fragments would give the same plane again: they leave the search.
+        dense.selectInliers(plane, d_t);
+        dense.removeSelected();
         continue;
       }
     }
