@@ -48,6 +48,9 @@ public:
       v.getDouble("max_visibility_conflict_ratio"));
     segmentation_.setVisibilityMargin(v.getDouble("visibility_margin_m"));
     segmentation_.setVisibilityCell(v.getDouble("visibility_cell_m"));
+    segmentation_.setMinSensorDistance(v.getDouble("min_sensor_distance_m"));
+    segmentation_.setMinClusterSize(v.getInt("min_cluster_size"));
+    segmentation_.setClusterCell(v.getDouble("cluster_cell_m"));
     segmentation_.setMaxShellRatio(v.getDouble("max_shell_ratio"));
     segmentation_.setShellWidth(v.getDouble("shell_width_m"));
   }
@@ -105,6 +108,20 @@ public:
       values.emplace_back(
         "visibility_removed",
         static_cast<double>(segmentation_.getVisibilityRemovedCount()));
+    }
+    if (segmentation_.getMinSensorDistance() > 0.0) {
+      values.emplace_back(
+        "sensor_plane_dropped",
+        static_cast<double>(segmentation_.getSensorPlaneRejectedCount()));
+      values.emplace_back(
+        "sensor_plane_removed",
+        static_cast<double>(segmentation_.getSensorPlaneRemovedCount()));
+    }
+    if (segmentation_.getMinClusterSize() > 0) {
+      values.emplace_back("cluster_dropped",
+                          static_cast<double>(segmentation_.getClusterRejectedCount()));
+      values.emplace_back("cluster_removed",
+                          static_cast<double>(segmentation_.getClusterRemovedCount()));
     }
     if (segmentation_.getMaxShellRatio() > 0.0) {
       values.emplace_back("shell_dropped",
@@ -360,6 +377,22 @@ multiPlaneSegmentationInfo()
     ParamSpec::real("visibility_cell_m", 0.2, 0.001, 100.0, "m",
                     "Cell edge of a plane's footprint in the visibility and the shell "
                     "tests."),
+    ParamSpec::real("min_sensor_distance_m", 0.0, 0.0, 100.0, "m",
+                    "Sensor plane test: a plane passing closer than this to the "
+                    "sensor is dropped and its inliers go to no later plane (it "
+                    "contains the lines of sight, along which stereo smears every "
+                    "object: a vertical sheet through a tree trunk, a horizontal one "
+                    "at the camera's height); 0 = no test."),
+    ParamSpec::integer("min_cluster_size", 0, 0, 100000000, "",
+                       "Cluster test: the inliers of each connected cluster of a "
+                       "plane's footprint (cluster_cell_m cells, a one-cell gap "
+                       "bridged) holding fewer than this many leave the plane (a plane "
+                       "through separate trunks, or slicing car bodies); 0 = no test.")
+      .scalesWithCellSize(ParamSpec::CellSizeScaling::POINTS_PER_AREA),
+    ParamSpec::real("cluster_cell_m", 0.2, 0.001, 100.0, "m",
+                    "Footprint cell edge of the cluster test (at least the voxel "
+                    "edge of a voxelised cloud).")
+      .scalesWithCellSize(ParamSpec::CellSizeScaling::CELL_SIZE),
     ParamSpec::real("max_shell_ratio", 0.0, 0.0, 1000.0, "",
                     "Shell test: where, around a 3 x 3 cell neighbourhood of a plane's "
                     "footprint, twice the smaller of the two sides' counts of points "

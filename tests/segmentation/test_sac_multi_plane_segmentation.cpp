@@ -869,6 +869,10 @@ TEST(SACMultiPlaneSegmentation, InvalidParametersGiveEmptyOutput)
       [](auto& s) { s.setVisibilityCell(0.0); },
       [](auto& s) { s.setMaxShellRatio(-0.1); },
       [](auto& s) { s.setShellWidth(-0.1); },
+      [](auto& s) { s.setMinSensorDistance(-0.1); },
+      [](auto& s) { s.setMinClusterSize(-1); },
+      [](auto& s) { s.setClusterCell(0.0); },
+      [](auto& s) { s.setMinSensorDistance(std::numeric_limits<double>::infinity()); },
     };
   for (std::size_t i = 0; i < invalid.size(); ++i) {
     SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
@@ -1055,6 +1059,179 @@ segmentWallAndCanopyWithShellTest(double max_shell_ratio)
   PlanarSegments planes;
   seg.segment(planes);
   return planes;
+}
+
+// A wall 4 x 3 m at 8 m in front of the sensor (at the origin, looking along +z) and a
+// tree trunk smeared by stereo: 1500 points on the lines of sight through a vertical
+// segment at (2, y, 6) (y in [-1.5, 1.5], the trunk 3 m tall), each at a range scaled
+// by 1 +- 0.15 (about +-1 m at 6 m, eq. 4's error there for a coarse disparity). Every
+// smeared point lies exactly on the plane x = z / 3 through the sensor, the plane that
+// contains the lines of sight: the sheet is a plane to eq. 11 but not a surface.
+pcl::PointCloud<pcl::PointXYZ>::Ptr
+wallAndSmearedTrunk()
+{
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> jitter(-0.01f, 0.01f), height(-1.5f, 1.5f),
+    smear(0.85f, 1.15f);
+  for (float x = -5.0f; x < -1.0f; x += 0.05f)
+    for (float y = -1.5f; y < 1.5f; y += 0.05f)
+      cloud->push_back(pcl::PointXYZ(x, y, 8.0f + jitter(rng)));
+  for (int k = 0; k < 1500; ++k) {
+    const float scale = smear(rng);
+    cloud->push_back(pcl::PointXYZ(2.0f * scale, height(rng) * scale, 6.0f * scale));
+  }
+  cloud->sensor_origin_ = Eigen::Vector4f(0, 0, 0, 1);
+  return cloud;
+}
+
+TEST(SACMultiPlaneSegmentation, SensorPlaneTestTakesOutSmearsThroughTheSensor)
+{
+  const auto cloud = wallAndSmearedTrunk();
+  const std::size_t wall_points = cloud->size() - 1500; // the wall's come first
+  const auto segment = [&](double min_sensor_distance, std::size_t& dropped) {
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    seg.setInputCloud(cloud);
+    seg.setDistanceThreshold(0.05);
+    seg.setMinInliers(400);
+    seg.setMaxPlanes(4);
+    seg.setMinSensorDistance(min_sensor_distance);
+    PlanarSegments planes;
+    seg.segment(planes);
+    dropped = seg.getSensorPlaneRejectedCount();
+    return planes;
+  };
+  // The smear's plane n = (3, 0, -1) / sqrt(10), d = 0 (0 m from the sensor); the
+  // wall's n = (0, 0, -1), d = 8 (8 m from it).
+  const auto isSmear = [](const PlanarSegment& p) {
+    const auto& c = p.model_coefficients.values;
+    return std::abs(std::abs(c[0]) - 3.0f / std::sqrt(10.0f)) < 0.02f
+           && std::abs(c[3]) < 0.1f;
+  };
+  const auto isWall = [](const PlanarSegment& p) {
+    const auto& c = p.model_coefficients.values;
+    return std::abs(c[2]) > 0.99f && std::abs(std::abs(c[3]) - 8.0f) < 0.05f;
+  };
+  std::size_t dropped = 0;
+  const PlanarSegments without = segment(0.0, dropped);
+  ASSERT_EQ(without.size(), 2u) << "the wall and the smear are both planes to eq. 11";
+  EXPECT_EQ(std::count_if(without.begin(), without.end(), isSmear), 1);
+  EXPECT_EQ(dropped, 0u);
+
+  const PlanarSegments with = segment(1.0, dropped);
+  ASSERT_EQ(with.size(), 1u);
+  EXPECT_TRUE(isWall(with[0]));
+  EXPECT_EQ(dropped, 1u);
+  // Every wall point and no smeared point is in the wall's plane (the smear lies 0.6
+  // to 1.9 m in front of the wall).
+  EXPECT_EQ(with[0].inliers.indices.size(), wall_points);
+  EXPECT_EQ(with[0].inliers.indices.back(), static_cast<int>(wall_points) - 1);
+}
+
+TEST(SACMultiPlaneSegmentation, SensorPlaneTestKeepsPlanesAwayFromTheSensor)
+{
+  // The synthetic scene (floor, two walls, a ramp; sensor at the default origin):
+  // every plane lies 1.5 m or more from it, so a 0.5 m bound changes nothing.
+  const auto scene = makeScene<pcl::PointXYZ>(42);
+  SACMultiPlaneSegmentation<pcl::PointXYZ> reference, tested;
+  for (auto* seg : {&reference, &tested}) {
+    seg->setInputCloud(scene.cloud);
+    seg->setUpAxis(Eigen::Vector3f::UnitZ());
+  }
+  tested.setMinSensorDistance(0.5);
+  PlanarSegments a, b;
+  reference.segment(a);
+  tested.segment(b);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].inliers.indices, b[k].inliers.indices);
+    EXPECT_EQ(a[k].model_coefficients.values, b[k].model_coefficients.values);
+  }
+  EXPECT_EQ(tested.getSensorPlaneRejectedCount(), 0u);
+}
+
+// Seen from the sensor at the origin (camera frame: up is -y): a wall 4 x 3 m at 6 m,
+// four tree trunks 0.2 x 2 x 0.2 m (640 points each on a 0.05 m grid) in a row 9 m
+// away, 2.5 m apart, and a floor 1.6 m below the sensor made of six 1 x 1 m paving
+// patches (400 points each) 1 m apart. The plane z = 9 through the trunks holds 2 of
+// each trunk's 4 layers of 160 points (eq. 11 within 0.05 m), 1280 in all; no plane
+// through one trunk reaches 600 (at most 3 layers, 480).
+struct TrunkRow {
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud{new pcl::PointCloud<pcl::PointXYZ>};
+  std::size_t wall_end{0}, trunks_end{0};
+};
+
+TrunkRow
+wallTrunkRowAndPavedFloor()
+{
+  TrunkRow scene;
+  auto& cloud = *scene.cloud;
+  for (int i = 0; i < 80; ++i)
+    for (int j = 0; j < 60; ++j)
+      cloud.push_back(pcl::PointXYZ(-5.0f + 0.05f * i, -1.5f + 0.05f * j, 6.0f));
+  scene.wall_end = cloud.size();
+  for (int t = 0; t < 4; ++t)
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 40; ++j)
+        for (int k = 0; k < 4; ++k)
+          cloud.push_back(pcl::PointXYZ(-4.0f + 2.5f * t + 0.05f * i, -0.6f + 0.05f * j,
+                                        8.925f + 0.05f * k));
+  scene.trunks_end = cloud.size();
+  for (int p = 0; p < 6; ++p)
+    for (int i = 0; i < 20; ++i)
+      for (int k = 0; k < 20; ++k)
+        cloud.push_back(pcl::PointXYZ(-3.0f + 2.0f * (p % 3) + 0.05f * i, 1.6f,
+                                      3.0f + 2.0f * (p / 3) + 0.05f * k));
+  cloud.sensor_origin_ = Eigen::Vector4f(0, 0, 0, 1);
+  return scene;
+}
+
+TEST(SACMultiPlaneSegmentation, ClusterTestTakesOutPlanesThroughSeparateTrunks)
+{
+  const TrunkRow scene = wallTrunkRowAndPavedFloor();
+  const auto segment = [&](int min_cluster_size, std::size_t& dropped) {
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    seg.setInputCloud(scene.cloud);
+    seg.setUpAxis(Eigen::Vector3f(0, -1, 0));
+    seg.setDistanceThreshold(0.05);
+    seg.setMinInliers(600);
+    seg.setMaxPlanes(4);
+    seg.setMinClusterSize(min_cluster_size);
+    seg.setClusterCell(0.2);
+    PlanarSegments planes;
+    seg.segment(planes);
+    dropped = seg.getClusterRejectedCount();
+    return planes;
+  };
+  const auto countIn = [](const PlanarSegment& p, std::size_t begin, std::size_t end) {
+    return static_cast<std::size_t>(std::count_if(
+      p.inliers.indices.begin(), p.inliers.indices.end(), [&](pcl::index_t i) {
+        return i >= static_cast<int>(begin) && i < static_cast<int>(end);
+      }));
+  };
+  std::size_t dropped = 0;
+  const PlanarSegments without = segment(0, dropped);
+  std::size_t trunk_points = 0;
+  for (const auto& p : without)
+    trunk_points += countIn(p, scene.wall_end, scene.trunks_end);
+  // Measured: 1344 trunk points in planes.
+  ASSERT_GE(trunk_points, 1000u) << "a plane must cut through the row of trunks";
+
+  const PlanarSegments with = segment(600, dropped);
+  EXPECT_GE(dropped, 1u);
+  // The wall (one cluster of 4800 points) and the floor (a terrain plane: spared,
+  // although its patches are clusters of 400) are left, whole; no trunk point is in
+  // a plane.
+  ASSERT_EQ(with.size(), 2u);
+  const std::size_t floor_points = scene.cloud->size() - scene.trunks_end;
+  for (const auto& p : with) {
+    EXPECT_EQ(countIn(p, scene.wall_end, scene.trunks_end), 0u);
+    const std::size_t wall = countIn(p, 0, scene.wall_end);
+    const std::size_t floor = countIn(p, scene.trunks_end, scene.cloud->size());
+    EXPECT_TRUE((wall == scene.wall_end && floor == 0)
+                || (wall == 0 && floor == floor_points))
+      << wall << " wall and " << floor << " floor points";
+  }
 }
 
 TEST(SACMultiPlaneSegmentation, ShellTestKeepsTheWallAndTakesOutSlabsThroughAVolume)

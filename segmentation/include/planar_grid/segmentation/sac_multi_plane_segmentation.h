@@ -372,6 +372,57 @@ public:
    * planes it kept or dropped. */
   std::size_t getShellRemovedCount() const { return shell_removed_; }
 
+  /** \brief Sets the sensor plane test. Stereo measures depth along the lines of
+   * sight, and its error (eq. 4) grows with the square of the range, so the points of
+   * any object are smeared along the lines of sight by up to about a meter at 15 m. A
+   * plane that passes through (or near) the sensor contains the lines of sight of its
+   * points and takes that smear for a surface: a vertical sheet through a tree trunk
+   * or a pole, a horizontal sheet at the sensor's height through whatever stands
+   * there. A plane whose distance from the input cloud's sensor_origin_, |n . o + d|,
+   * is below `distance` is dropped, and its inliers are offered to no later plane
+   * (they would only give the same plane again; they stay for the non-planar cells).
+   * A road below a vehicle's camera (1.6 m), a facade beside the street or a wall in
+   * front of the sensor lies farther. Not in the paper.
+   * \param[in] distance_m in meters, >= 0 (default 0: no test) */
+  void setMinSensorDistance(double distance_m) { min_sensor_distance_ = distance_m; }
+  /** \brief Returns the smallest distance of a plane from the sensor origin, in
+   * meters (0: no test). */
+  double getMinSensorDistance() const { return min_sensor_distance_; }
+
+  /** \brief Sets the cluster test. A plane's footprint (its inliers projected onto it,
+   * in square cells of setClusterCell()) falls apart into connected clusters (cells up
+   * to two apart along each axis are connected: a gap of one empty cell is bridged).
+   * A surface is one large cluster, or a few; a plane fitted through separate objects
+   * (two tree trunks, a pole and a facade behind it) or slicing a cluttered volume (car
+   * bodies, a shop window, a canopy) holds many small ones. The inliers of every
+   * cluster with fewer than `size` of them leave the plane (they stay for later planes
+   * or the non-planar cells); a plane left with fewer than min_inliers is dropped.
+   * Applied after the visibility and the shell tests. Not in the paper.
+   * \param[in] size inliers, >= 0 (default 0: no test) */
+  void setMinClusterSize(int size) { min_cluster_size_ = size; }
+  /** \brief Returns the fewest inliers of a footprint cluster (0: no test). */
+  int getMinClusterSize() const { return min_cluster_size_; }
+
+  /** \brief Sets the edge of the footprint cells of the cluster test; on a voxelised
+   * cloud at least the voxel edge. \param[in] cell_m in meters, > 0 (default 0.2) */
+  void setClusterCell(double cell_m) { cluster_cell_ = cell_m; }
+  /** \brief Returns the footprint cell edge of the cluster test, in meters. */
+  double getClusterCell() const { return cluster_cell_; }
+
+  /** \brief Returns how many planes the last segment() dropped in the cluster
+   * test. */
+  std::size_t getClusterRejectedCount() const { return cluster_rejected_; }
+  /** \brief Returns how many inliers the last segment()'s cluster test took out of
+   * the planes it kept or dropped. */
+  std::size_t getClusterRemovedCount() const { return cluster_removed_; }
+
+  /** \brief Returns how many planes the last segment() dropped in the sensor plane
+   * test. */
+  std::size_t getSensorPlaneRejectedCount() const { return sensor_plane_rejected_; }
+  /** \brief Returns how many inliers the last segment()'s sensor plane test took out
+   * (the inliers of the planes it dropped). */
+  std::size_t getSensorPlaneRemovedCount() const { return sensor_plane_removed_; }
+
   /** \brief Returns how many planes the last segment() dropped in the visibility
    * test. */
   std::size_t getVisibilityRejectedCount() const { return visibility_rejected_; }
@@ -483,6 +534,21 @@ protected:
   double max_shell_ratio_{0.0};
   /** \brief Smallest shell width of the shell test, in meters. */
   double shell_width_{0.1};
+  /** \brief Smallest distance of a plane from the sensor origin, in meters (0: no
+   * test). */
+  double min_sensor_distance_{0.0};
+  /** \brief Fewest inliers of a footprint cluster (0: no test). */
+  int min_cluster_size_{0};
+  /** \brief Footprint cell edge of the cluster test, in meters. */
+  double cluster_cell_{0.2};
+  /** \brief Planes the last segment() dropped in the cluster test. */
+  std::size_t cluster_rejected_{0};
+  /** \brief Inliers the last segment()'s cluster test took out. */
+  std::size_t cluster_removed_{0};
+  /** \brief Planes the last segment() dropped in the sensor plane test. */
+  std::size_t sensor_plane_rejected_{0};
+  /** \brief Inliers the last segment()'s sensor plane test took out. */
+  std::size_t sensor_plane_removed_{0};
   /** \brief Planes the last segment() dropped in the shell test. */
   std::size_t shell_rejected_{0};
   /** \brief Inliers the last segment()'s shell test took out. */

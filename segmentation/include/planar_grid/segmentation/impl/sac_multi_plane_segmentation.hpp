@@ -227,6 +227,32 @@ struct DensePoints {
         out.push_back(index[k]);
   }
 
+  /** \brief Removes the points whose mask is \a value, mask included (stable, in
+   * place); the other points keep their mask. */
+  void removeMarked(std::uint8_t value)
+  {
+    std::size_t w = 0;
+    for (std::size_t k = 0; k < size(); ++k) {
+      if (mask[k] == value)
+        continue;
+      x[w] = x[k];
+      y[w] = y[k];
+      z[w] = z[k];
+      if (!threshold.empty())
+        threshold[w] = threshold[k];
+      index[w] = index[k];
+      mask[w] = mask[k];
+      ++w;
+    }
+    x.resize(w);
+    y.resize(w);
+    z.resize(w);
+    if (!threshold.empty())
+      threshold.resize(w);
+    index.resize(w);
+    mask.resize(w);
+  }
+
   /** \brief Removes the selected points (stable, in place). */
   void removeSelected()
   {
@@ -357,6 +383,48 @@ public:
     ++(back ? cells_[n].back_evidence : cells_[n].front_evidence);
   }
 
+  /** \brief Takes out of \a store (mask set to 0) the inliers of every cluster of
+   * footprint cells holding fewer than \a min_size inliers. A cluster is a connected
+   * set of cells, two cells being connected when they are at most two cells apart
+   * along each axis (a gap of one empty cell is bridged).
+   * \return the number of inliers taken out */
+  std::size_t removeSmallClusters(DensePoints& store, std::size_t min_size) const
+  {
+    constexpr std::uint32_t UNSET = CellIndex::NONE;
+    std::vector<std::uint32_t> cluster(cells_.size(), UNSET);
+    std::vector<std::size_t> cluster_size;
+    std::vector<std::uint32_t> stack;
+    for (std::size_t c = 0; c < cells_.size(); ++c) {
+      if (cluster[c] != UNSET)
+        continue;
+      const auto id = static_cast<std::uint32_t>(cluster_size.size());
+      cluster_size.push_back(0);
+      cluster[c] = id;
+      stack.assign(1, static_cast<std::uint32_t>(c));
+      while (!stack.empty()) {
+        const std::uint32_t n = stack.back();
+        stack.pop_back();
+        cluster_size[id] += cells_[n].inliers;
+        for (int di = -2; di <= 2; ++di)
+          for (int dj = -2; dj <= 2; ++dj) {
+            const std::uint32_t m =
+              index_of_.find(key(cells_[n].i + di, cells_[n].j + dj));
+            if (m != CellIndex::NONE && cluster[m] == UNSET) {
+              cluster[m] = id;
+              stack.push_back(m);
+            }
+          }
+      }
+    }
+    std::size_t removed = 0;
+    for (std::size_t k = 0; k < store.size(); ++k)
+      if (store.mask[k] && cluster_size[cluster[cell_of_inlier_[k]]] < min_size) {
+        store.mask[k] = 0;
+        ++removed;
+      }
+    return removed;
+  }
+
   /** \brief Takes the inliers of every cell whose 3 x 3 neighbourhood holds more than
    * \a max_ratio x its inliers of evidence out of \a store (their mask set to 0).
    * The evidence is the front's plus the back's, or, when \a two_sided, twice the
@@ -477,6 +545,33 @@ removeVisibilityConflicts(DensePoints& store,
   return any ? footprint.removeCells(store, max_ratio, false) : 0;
 }
 
+/** \brief Mask value of a point that the sensor plane test takes out of the store. */
+constexpr std::uint8_t SENSOR_PLANE = 2;
+
+/** \brief The sensor plane test of one plane: when the plane passes closer than
+ * `min_distance` to `origin` (|n . origin + d| < min_distance, n the unit normal),
+ * its selected points (mask 1) are taken out of `store` altogether: stereo smears
+ * every object along the lines of sight, and a plane that contains them takes the
+ * smear for a surface; its points would only give the same plane again.
+ * \return the number of points taken out (0 when the plane passes the test) */
+inline std::size_t
+removeSensorPlane(DensePoints& store,
+                  const Eigen::Vector4f& plane,
+                  const Eigen::Vector3f& origin,
+                  float min_distance)
+{
+  if (!(std::abs(plane.head<3>().dot(origin) + plane[3]) < min_distance))
+    return 0;
+  std::size_t removed = 0;
+  for (std::size_t k = 0; k < store.size(); ++k)
+    if (store.mask[k]) {
+      store.mask[k] = SENSOR_PLANE;
+      ++removed;
+    }
+  store.removeMarked(SENSOR_PLANE);
+  return removed;
+}
+
 /** \brief The shell test of one plane. A surface's points lie within its eq. 11
  * threshold t, up to stereo noise; a plane that cuts through a thicker structure (a
  * slab through a tree's canopy, a horizontal stripe across a facade or a car) has
@@ -520,6 +615,23 @@ removeShellCells(DensePoints& store,
     }
   }
   return any ? footprint.removeCells(store, max_ratio, true) : 0;
+}
+
+/** \brief The cluster test of one plane: the selected points of `store` (mask 1) of
+ * every connected cluster of the plane's footprint (PlaneFootprint, cells of edge
+ * `cell`; cells up to two apart are connected) holding fewer than `min_size` of them
+ * are taken out of the plane (mask 0). A plane through separate objects (two tree
+ * trunks, a pole and a facade) or slicing a cluttered volume (car bodies, a shop
+ * window) falls apart into small clusters; a surface is one large cluster.
+ * \return the number of points taken out */
+inline std::size_t
+removeSmallClusters(DensePoints& store,
+                    const Eigen::Vector4f& plane,
+                    float cell,
+                    std::size_t min_size)
+{
+  const PlaneFootprint footprint(store, plane, cell);
+  return footprint.removeSmallClusters(store, min_size);
 }
 
 /** \brief Number of points (SoA) with |a x + b y + c z + d| <= t, counting in blocks
@@ -696,6 +808,12 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
     bad = "visibility_margin must be finite and >= 0 m";
   else if (!(visibility_cell_ > 0.0) || !std::isfinite(visibility_cell_))
     bad = "visibility_cell must be finite and > 0 m";
+  else if (!(min_sensor_distance_ >= 0.0) || !std::isfinite(min_sensor_distance_))
+    bad = "min_sensor_distance must be finite and >= 0 m";
+  else if (min_cluster_size_ < 0)
+    bad = "min_cluster_size must be >= 0";
+  else if (!(cluster_cell_ > 0.0) || !std::isfinite(cluster_cell_))
+    bad = "cluster_cell must be finite and > 0 m";
   else if (!(max_shell_ratio_ >= 0.0) || !std::isfinite(max_shell_ratio_))
     bad = "max_shell_ratio must be finite and >= 0";
   else if (!(shell_width_ >= 0.0) || !std::isfinite(shell_width_))
@@ -760,6 +878,10 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
   visibility_removed_ = 0;
   shell_rejected_ = 0;
   shell_removed_ = 0;
+  sensor_plane_rejected_ = 0;
+  sensor_plane_removed_ = 0;
+  cluster_rejected_ = 0;
+  cluster_removed_ = 0;
   const Eigen::Vector3f origin = input_->sensor_origin_.template head<3>();
   const Eigen::Vector3f up = up_axis_.normalized();
   const auto d_t = static_cast<float>(distance_threshold_);
@@ -769,6 +891,8 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
   // of the dense hypothesis.
   constexpr float LOCAL_SLAB_FACTOR = 10.0f;
   constexpr std::size_t LOCAL_SAMPLE_SIZE = 5000;
+  // Largest tilt of a terrain plane that the cluster test spares, radians.
+  constexpr float TERRAIN_TILT = 0.3f;
 
   // The unassigned finite input points (within the indices), struct of arrays.
   detail::DensePoints dense;
@@ -994,6 +1118,18 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
                 getClassName().c_str(), count, min_inliers_);
       continue;
     }
+    if (min_sensor_distance_ > 0.0) {
+      const std::size_t removed = detail::removeSensorPlane(
+        dense, plane, origin, static_cast<float>(min_sensor_distance_));
+      if (removed > 0) {
+        PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane passing within %g m of "
+                  "the sensor (%zu inliers).\n",
+                  getClassName().c_str(), min_sensor_distance_, removed);
+        sensor_plane_removed_ += removed;
+        ++sensor_plane_rejected_;
+        continue;
+      }
+    }
     if (max_visibility_conflict_ratio_ > 0.0) {
       const std::size_t removed = detail::removeVisibilityConflicts(
         dense, all, d_t, plane, origin, static_cast<float>(visibility_margin_),
@@ -1019,6 +1155,28 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
                   "threshold at %zu of its inliers (%zu left).\n",
                   getClassName().c_str(), removed, count);
         ++shell_rejected_;
+        continue;
+      }
+    }
+    // Terrain (a plane within TERRAIN_TILT of the up axis, below the sensor) is spared:
+    // the layers of a noisy road fall apart into clusters, and the terrain removal
+    // takes them out whole.
+    const bool terrain = plane.head<3>().dot(up) > std::cos(TERRAIN_TILT)
+                         && plane.head<3>().dot(origin) + plane[3] > 0.0f;
+    if (min_cluster_size_ > 0 && !terrain) {
+      const std::size_t removed =
+        detail::removeSmallClusters(dense, plane, static_cast<float>(cluster_cell_),
+                                    static_cast<std::size_t>(min_cluster_size_));
+      cluster_removed_ += removed;
+      count -= removed;
+      if (static_cast<int>(count) < min_inliers_) {
+        PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane whose footprint falls "
+                  "apart into clusters of < %d inliers (%zu left).\n",
+                  getClassName().c_str(), min_cluster_size_, count);
+        ++cluster_rejected_;
+        // The fragments would give the same plane again: they leave the search.
+        dense.selectInliers(plane, d_t);
+        dense.removeSelected();
         continue;
       }
     }
