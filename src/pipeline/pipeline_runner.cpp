@@ -6,14 +6,21 @@
 
 #include <nlohmann/json.hpp>
 #include <sys/resource.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <condition_variable>
+#include <deque>
 #include <fstream>
+#include <functional>
 #include <future>
 #include <iomanip>
+#include <mutex>
 #include <sstream>
+#include <thread>
 
 #include "resume_data.h"
 #include "stages.h"
@@ -67,12 +74,117 @@ struct CloudCount {
   }
 };
 
+/** CPU time of the calling thread, milliseconds. */
+double
+threadCpuMs()
+{
+  timespec t{};
+  if (::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t) != 0)
+    return 0.0;
+  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
+}
+
+/** CPU time of the whole process (user and system, every thread), milliseconds. */
+double
+processCpuMs()
+{
+  struct rusage usage {};
+  if (::getrusage(RUSAGE_SELF, &usage) != 0)
+    return 0.0;
+  const auto ms = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_usec) * 1e-3;
+  };
+  return ms(usage.ru_utime) + ms(usage.ru_stime);
+}
+
 /** A loaded frame after the leading frame-local stages. */
 struct PreparedFrame {
   Frame frame;
   CloudCount last_count;
   double load_ms{0.0};
+  /** CPU time of the thread that loaded the frame and ran those stages. */
+  double cpu_ms{0.0};
   std::vector<StageSample> samples;
+};
+
+/** Prepares frames (loading and the read-ahead stages) in order on a thread of its
+ * own, up to \a depth frames ahead of the caller's next(). A frame whose preparation
+ * threw hands the exception to next() in its place, and nothing after it is prepared.
+ * The destructor stops the thread after the frame under way. */
+class ReadAheadThread {
+public:
+  using Prepare = std::function<std::unique_ptr<PreparedFrame>(std::size_t)>;
+
+  /** Starts preparing frames \a first, \a first + \a step, ... below \a end. */
+  ReadAheadThread(Prepare prepare,
+                  std::size_t first,
+                  std::size_t end,
+                  std::size_t step,
+                  std::size_t depth) :
+      prepare_(std::move(prepare)),
+      depth_(std::max<std::size_t>(depth, 1))
+  {
+    thread_ = std::thread([this, first, end, step] { work(first, end, step); });
+  }
+  ReadAheadThread(const ReadAheadThread&) = delete;
+  ReadAheadThread& operator=(const ReadAheadThread&) = delete;
+  ~ReadAheadThread()
+  {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    changed_.notify_all();
+    thread_.join();
+  }
+
+  /** The next frame in order, waiting for it; rethrows its preparation's exception. */
+  std::unique_ptr<PreparedFrame> next()
+  {
+    std::unique_lock<std::mutex> lock(mutex_);
+    changed_.wait(lock, [this] { return !ready_.empty(); });
+    std::future<std::unique_ptr<PreparedFrame>> frame = std::move(ready_.front());
+    ready_.pop_front();
+    lock.unlock();
+    changed_.notify_all();
+    return frame.get();
+  }
+
+private:
+  void work(std::size_t first, std::size_t end, std::size_t step)
+  {
+    for (std::size_t i = first; i < end; i += step) {
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        changed_.wait(lock, [this] { return stop_ || ready_.size() < depth_; });
+        if (stop_)
+          return;
+      }
+      std::promise<std::unique_ptr<PreparedFrame>> promise;
+      bool failed = false;
+      try {
+        promise.set_value(prepare_(i));
+      } catch (...) {
+        promise.set_exception(std::current_exception());
+        failed = true;
+      }
+      {
+        const std::lock_guard<std::mutex> lock(mutex_);
+        ready_.push_back(promise.get_future());
+      }
+      changed_.notify_all();
+      if (failed)
+        return;
+    }
+  }
+
+  Prepare prepare_;
+  std::size_t depth_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::deque<std::future<std::unique_ptr<PreparedFrame>>> ready_;
+  bool stop_{false};
+  std::thread thread_;
 };
 
 /** Runs stage \a s (\a stage) on \a frame, after \a callback when it is set, and
@@ -316,39 +428,49 @@ PipelineRunner::run()
 
   const std::size_t total = (end_ - begin_ + step_ - 1) / step_;
   const std::size_t rss_every = std::max<std::size_t>(total / 20, 1);
-  // Frame i + 1 is loaded and goes through the leading frame-local stages on a second
-  // thread while frame i goes through the rest here. Those stages touch nothing but
-  // their frame (no PipelineState: the empty state below is never read), and each runs
-  // its frames in order, one frame at a time, so the results equal a sequential run's.
-  // How many of them run ahead is balanced by their measured times: it starts at all
-  // of them and only shrinks, so a stage that frame i runs here (s >= its count) is
-  // never one that frame i + 1 runs on the other thread at the same time.
-  std::size_t ahead = frameLocalPrefix();
-  PipelineState unused; // one prepare() runs at a time: the next starts after get()
-  const auto prepare = [this, &source, &unused](std::size_t i, std::size_t n) {
+  // Frames i + 1 and i + 2 are loaded and go through the leading frame-local stages
+  // on a second thread while frame i goes through the rest here. Those stages touch
+  // nothing but their frame (no PipelineState: the empty state below is never read),
+  // and each runs its frames in order, one frame at a time, so the results equal a
+  // sequential run's. Two frames ahead rather than one: when a frame's mapping ends
+  // before the next frame's stereo (or the other way round), the other thread goes on
+  // instead of waiting, which evens out the frame-to-frame variation of both. How many
+  // of the stages run ahead is balanced by their measured times: it starts at all of
+  // them and only shrinks, and the read-ahead thread reads it when it starts a frame,
+  // so a stage that frame i runs here (s >= the count frame i was prepared with) is
+  // one that the read-ahead thread no longer runs.
+  constexpr std::size_t READ_AHEAD_FRAMES = 2;
+  std::atomic<std::size_t> ahead{frameLocalPrefix()};
+  PipelineState unused; // the read-ahead thread prepares one frame at a time
+  const auto prepare = [this, &source, &unused, &ahead](std::size_t i) {
     auto prepared = std::make_unique<PreparedFrame>();
+    const double cpu_start = threadCpuMs();
     const auto load_start = Clock::now();
     source.load(i, prepared->frame);
     prepared->frame.sequence_number = i;
     prepared->load_ms = msSince(load_start);
+    const std::size_t n = ahead.load();
     for (std::size_t s = 0; s < n; ++s)
       prepared->samples.push_back(runStage(*stages_[s], s, config_.stages[s].type,
                                            stage_callback_, prepared->frame, unused, i,
                                            prepared->last_count));
+    prepared->cpu_ms = threadCpuMs() - cpu_start;
     return prepared;
   };
-  const auto launch = [&prepare](std::size_t i, std::size_t n) {
-    return std::async(n > 0 ? std::launch::async : std::launch::deferred, prepare, i,
-                      n);
-  };
-  std::future<std::unique_ptr<PreparedFrame>> next;
-  if (first < end_)
-    next = launch(first, ahead);
+  const bool overlapped = ahead.load() > 0;
+  const double process_cpu_start = processCpuMs();
+  std::unique_ptr<ReadAheadThread> read_ahead;
+  if (overlapped && first < end_)
+    read_ahead =
+      std::make_unique<ReadAheadThread>(prepare, first, end_, step_, READ_AHEAD_FRAMES);
   for (std::size_t i = first; i < end_; i += step_) {
-    const std::unique_ptr<PreparedFrame> prepared = next.get();
+    const auto wait_start = Clock::now();
+    const std::unique_ptr<PreparedFrame> prepared =
+      overlapped ? read_ahead->next() : prepare(i);
+    if (overlapped)
+      report_.mapping_wait_ms += msSince(wait_start);
+    const double mapping_cpu_start = threadCpuMs();
     const bool last = i + step_ >= end_;
-    if (!last)
-      next = launch(i + step_, ahead);
     Frame& frame = prepared->frame;
     report_.load_ms += prepared->load_ms;
     std::vector<StageSample>& samples = prepared->samples;
@@ -357,8 +479,12 @@ PipelineRunner::run()
                                  stage_callback_, frame, state_, i,
                                  prepared->last_count));
     endFrame(report_, trajectory_, frame_callback_, i, frame, samples);
-    ahead = balancedReadAhead(report_, ahead);
-    report_.read_ahead_stages = ahead;
+    ++report_.timed_frames;
+    report_.read_ahead_cpu_ms += prepared->cpu_ms;
+    report_.mapping_cpu_ms += threadCpuMs() - mapping_cpu_start;
+    report_.process_cpu_ms = processCpuMs() - process_cpu_start;
+    ahead = balancedReadAhead(report_, ahead.load());
+    report_.read_ahead_stages = ahead.load();
     const std::size_t done = (i - begin_) / step_ + 1;
     if (done % rss_every == 0 || last)
       report_.rss_samples.emplace_back(i, residentMemoryBytes());
@@ -449,6 +575,15 @@ RunReport::toJson() const
   j["frames_per_second"] = framesPerSecond();
   j["load_ms_per_frame"] = frames ? load_ms / static_cast<double>(frames) : 0.0;
   j["read_ahead_stages"] = read_ahead_stages;
+  const auto per_timed_frame = [this](double ms) {
+    return timed_frames ? ms / static_cast<double>(timed_frames) : 0.0;
+  };
+  auto& jt = j["threads"] = nlohmann::ordered_json::object();
+  jt["frames"] = timed_frames;
+  jt["read_ahead_cpu_ms_per_frame"] = per_timed_frame(read_ahead_cpu_ms);
+  jt["mapping_cpu_ms_per_frame"] = per_timed_frame(mapping_cpu_ms);
+  jt["mapping_wait_ms_per_frame"] = per_timed_frame(mapping_wait_ms);
+  jt["process_cpu_ms_per_frame"] = per_timed_frame(process_cpu_ms);
   j["world_cloud_points"] = world_cloud_points;
   j["planes"] = planes;
   auto& js = j["stages"] = nlohmann::ordered_json::array();
@@ -540,6 +675,13 @@ RunReport::timingTable() const
   out << frames << " frames in " << std::setprecision(1) << seconds << " s ("
       << std::setprecision(2) << framesPerSecond() << " frames/s); world cloud "
       << world_cloud_points << " points, " << planes << " run-wide planes\n";
+  if (timed_frames > 0) {
+    const double n = static_cast<double>(timed_frames);
+    out << "CPU ms/frame: read-ahead thread " << std::setprecision(1)
+        << read_ahead_cpu_ms / n << ", mapping thread " << mapping_cpu_ms / n
+        << " (waited " << mapping_wait_ms / n << " ms/frame), process "
+        << process_cpu_ms / n << "\n";
+  }
   if (resumed_at_frame > 0)
     out << "resumed from a checkpoint at frame position " << resumed_at_frame << "\n";
   if (checkpoints_written > 0)
