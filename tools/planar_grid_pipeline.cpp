@@ -66,8 +66,8 @@ printHelp(const char* program)
     "    --sequential         run every frame start to end on one thread (default: "
     "the\n"
     "                         leading frame-local stages, e.g. stereo_disparity and\n"
-    "                         feature_matching, run up to two frames ahead on a "
-    "second thread;\n"
+    "                         feature_matching, run one frame ahead on a second "
+    "thread;\n"
     "                         the results are the same)\n");
   print_info("    --list-stages        print every stage type with its parameters, "
              "defaults, units and ranges, then exit\n");
@@ -456,8 +456,8 @@ run(int argc, char** argv)
       : (stereo ? "stereo sequence" : "PCD files");
   print_info("Input: %s; running frames %zu:%zu\n", input_kind, begin, end);
   if (const std::size_t ahead = runner.frameLocalPrefix(); ahead > 0)
-    print_info("  loading and up to the first %zu stages run up to two frames ahead on "
-               "a second thread (as many as balance the threads' measured times)\n",
+    print_info("  loading and up to the first %zu stages run one frame ahead on a "
+               "second thread (as many as balance the threads' measured times)\n",
                ahead);
 
   // The outputs replace the previous ones in the folder as one set (staged, then

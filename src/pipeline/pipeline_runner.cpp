@@ -10,17 +10,11 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
-#include <condition_variable>
-#include <deque>
 #include <fstream>
-#include <functional>
 #include <future>
 #include <iomanip>
-#include <mutex>
 #include <sstream>
-#include <thread>
 
 #include "resume_data.h"
 #include "stages.h"
@@ -105,86 +99,6 @@ struct PreparedFrame {
   /** CPU time of the thread that loaded the frame and ran those stages. */
   double cpu_ms{0.0};
   std::vector<StageSample> samples;
-};
-
-/** Prepares frames (loading and the read-ahead stages) in order on a thread of its
- * own, up to \a depth frames ahead of the caller's next(). A frame whose preparation
- * threw hands the exception to next() in its place, and nothing after it is prepared.
- * The destructor stops the thread after the frame under way. */
-class ReadAheadThread {
-public:
-  using Prepare = std::function<std::unique_ptr<PreparedFrame>(std::size_t)>;
-
-  /** Starts preparing frames \a first, \a first + \a step, ... below \a end. */
-  ReadAheadThread(Prepare prepare,
-                  std::size_t first,
-                  std::size_t end,
-                  std::size_t step,
-                  std::size_t depth) :
-      prepare_(std::move(prepare)),
-      depth_(std::max<std::size_t>(depth, 1))
-  {
-    thread_ = std::thread([this, first, end, step] { work(first, end, step); });
-  }
-  ReadAheadThread(const ReadAheadThread&) = delete;
-  ReadAheadThread& operator=(const ReadAheadThread&) = delete;
-  ~ReadAheadThread()
-  {
-    {
-      const std::lock_guard<std::mutex> lock(mutex_);
-      stop_ = true;
-    }
-    changed_.notify_all();
-    thread_.join();
-  }
-
-  /** The next frame in order, waiting for it; rethrows its preparation's exception. */
-  std::unique_ptr<PreparedFrame> next()
-  {
-    std::unique_lock<std::mutex> lock(mutex_);
-    changed_.wait(lock, [this] { return !ready_.empty(); });
-    std::future<std::unique_ptr<PreparedFrame>> frame = std::move(ready_.front());
-    ready_.pop_front();
-    lock.unlock();
-    changed_.notify_all();
-    return frame.get();
-  }
-
-private:
-  void work(std::size_t first, std::size_t end, std::size_t step)
-  {
-    for (std::size_t i = first; i < end; i += step) {
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        changed_.wait(lock, [this] { return stop_ || ready_.size() < depth_; });
-        if (stop_)
-          return;
-      }
-      std::promise<std::unique_ptr<PreparedFrame>> promise;
-      bool failed = false;
-      try {
-        promise.set_value(prepare_(i));
-      } catch (...) {
-        promise.set_exception(std::current_exception());
-        failed = true;
-      }
-      {
-        const std::lock_guard<std::mutex> lock(mutex_);
-        ready_.push_back(promise.get_future());
-      }
-      changed_.notify_all();
-      if (failed)
-        return;
-    }
-  }
-
-  Prepare prepare_;
-  std::size_t depth_;
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::deque<std::future<std::unique_ptr<PreparedFrame>>> ready_;
-  bool stop_{false};
-  std::thread thread_;
 };
 
 /** Runs stage \a s (\a stage) on \a frame, after \a callback when it is set, and
@@ -428,28 +342,22 @@ PipelineRunner::run()
 
   const std::size_t total = (end_ - begin_ + step_ - 1) / step_;
   const std::size_t rss_every = std::max<std::size_t>(total / 20, 1);
-  // Frames i + 1 and i + 2 are loaded and go through the leading frame-local stages
-  // on a second thread while frame i goes through the rest here. Those stages touch
-  // nothing but their frame (no PipelineState: the empty state below is never read),
-  // and each runs its frames in order, one frame at a time, so the results equal a
-  // sequential run's. Two frames ahead rather than one: when a frame's mapping ends
-  // before the next frame's stereo (or the other way round), the other thread goes on
-  // instead of waiting, which evens out the frame-to-frame variation of both. How many
-  // of the stages run ahead is balanced by their measured times: it starts at all of
-  // them and only shrinks, and the read-ahead thread reads it when it starts a frame,
-  // so a stage that frame i runs here (s >= the count frame i was prepared with) is
-  // one that the read-ahead thread no longer runs.
-  constexpr std::size_t READ_AHEAD_FRAMES = 2;
-  std::atomic<std::size_t> ahead{frameLocalPrefix()};
-  PipelineState unused; // the read-ahead thread prepares one frame at a time
-  const auto prepare = [this, &source, &unused, &ahead](std::size_t i) {
+  // Frame i + 1 is loaded and goes through the leading frame-local stages on a second
+  // thread while frame i goes through the rest here. Those stages touch nothing but
+  // their frame (no PipelineState: the empty state below is never read), and each runs
+  // its frames in order, one frame at a time, so the results equal a sequential run's.
+  // How many of them run ahead is balanced by their measured times: it starts at all
+  // of them and only shrinks, so a stage that frame i runs here (s >= its count) is
+  // never one that frame i + 1 runs on the other thread at the same time.
+  std::size_t ahead = frameLocalPrefix();
+  PipelineState unused; // one prepare() runs at a time: the next starts after get()
+  const auto prepare = [this, &source, &unused](std::size_t i, std::size_t n) {
     auto prepared = std::make_unique<PreparedFrame>();
     const double cpu_start = threadCpuMs();
     const auto load_start = Clock::now();
     source.load(i, prepared->frame);
     prepared->frame.sequence_number = i;
     prepared->load_ms = msSince(load_start);
-    const std::size_t n = ahead.load();
     for (std::size_t s = 0; s < n; ++s)
       prepared->samples.push_back(runStage(*stages_[s], s, config_.stages[s].type,
                                            stage_callback_, prepared->frame, unused, i,
@@ -457,20 +365,26 @@ PipelineRunner::run()
     prepared->cpu_ms = threadCpuMs() - cpu_start;
     return prepared;
   };
-  const bool overlapped = ahead.load() > 0;
+  const auto launch = [&prepare](std::size_t i, std::size_t n) {
+    return std::async(n > 0 ? std::launch::async : std::launch::deferred, prepare, i,
+                      n);
+  };
   const double process_cpu_start = processCpuMs();
-  std::unique_ptr<ReadAheadThread> read_ahead;
-  if (overlapped && first < end_)
-    read_ahead =
-      std::make_unique<ReadAheadThread>(prepare, first, end_, step_, READ_AHEAD_FRAMES);
+  std::future<std::unique_ptr<PreparedFrame>> next;
+  bool next_ahead = ahead > 0; // the next frame is prepared on the other thread
+  if (first < end_)
+    next = launch(first, ahead);
   for (std::size_t i = first; i < end_; i += step_) {
     const auto wait_start = Clock::now();
-    const std::unique_ptr<PreparedFrame> prepared =
-      overlapped ? read_ahead->next() : prepare(i);
-    if (overlapped)
+    const std::unique_ptr<PreparedFrame> prepared = next.get();
+    if (next_ahead)
       report_.mapping_wait_ms += msSince(wait_start);
     const double mapping_cpu_start = threadCpuMs();
     const bool last = i + step_ >= end_;
+    if (!last) {
+      next_ahead = ahead > 0;
+      next = launch(i + step_, ahead);
+    }
     Frame& frame = prepared->frame;
     report_.load_ms += prepared->load_ms;
     std::vector<StageSample>& samples = prepared->samples;
@@ -483,8 +397,8 @@ PipelineRunner::run()
     report_.read_ahead_cpu_ms += prepared->cpu_ms;
     report_.mapping_cpu_ms += threadCpuMs() - mapping_cpu_start;
     report_.process_cpu_ms = processCpuMs() - process_cpu_start;
-    ahead = balancedReadAhead(report_, ahead.load());
-    report_.read_ahead_stages = ahead.load();
+    ahead = balancedReadAhead(report_, ahead);
+    report_.read_ahead_stages = ahead;
     const std::size_t done = (i - begin_) / step_ + 1;
     if (done % rss_every == 0 || last)
       report_.rss_samples.emplace_back(i, residentMemoryBytes());

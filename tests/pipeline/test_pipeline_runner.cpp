@@ -828,9 +828,9 @@ TEST_F(PipelineRunnerTest, TheMainJobsStagesGiveTheSameMapOverlappedAndSequentia
 {
   // The main job's own stages (config/karlsruhe.yaml: SGBM on its OpenCV threads beside
   // the mapping thread's OpenCV calls, the ORB grid features, the map) on Karlsruhe
-  // frames 10-19, frames overlapping (up to two frames read ahead; after 8 frames the
-  // read-ahead may hand a stage to the mapping thread) and sequentially: the same map
-  // bytes, world cloud, planes and poses.
+  // frames 10-19, frames overlapping (after 8 frames the read-ahead thread may hand a
+  // stage to the mapping thread) and sequentially: the same map bytes, world cloud,
+  // planes and poses.
   const auto config = parsePipelineConfig(planar_grid_test::mainJobImageInput(10, 10)
                                             + planar_grid_test::mainJobStages(),
                                           "t.yaml", "/");

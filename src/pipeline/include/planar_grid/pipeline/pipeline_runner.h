@@ -57,8 +57,8 @@ struct RunReport {
   double seconds{0.0};
   /** \brief Time spent loading (and rectifying) frames, milliseconds. */
   double load_ms{0.0};
-  /** \brief Leading frame-local stages that ran ahead on the second thread at the end
-   * of the run (their number is balanced by the measured times; 0 when
+  /** \brief Leading frame-local stages that ran one frame ahead on the second thread
+   * at the end of the run (their number is balanced by the measured times; 0 when
    * frames do not overlap). */
   std::size_t read_ahead_stages{0};
   /** \brief Frames this process ran through run() (a resumed run counts only the
@@ -201,11 +201,11 @@ public:
   }
 
   /** \brief Runs the leading frame-local stages (Stage::isFrameLocal(): in the main
-   * job stereo_disparity and feature_matching) and the loading of frames t + 1 and
-   * t + 2 on a second thread while the other stages map frame t (on by default). The
-   * stages see the same frames in the same order, so the map, clouds, trajectory and
-   * report figures are identical to a sequential run; only the wall time differs. A
-   * pipeline whose first stage keeps state across frames runs sequentially either way.
+   * job stereo_disparity and feature_matching) and the loading of frame t + 1 on a
+   * second thread while the other stages map frame t (on by default). The stages see
+   * the same frames in the same order, so the map, clouds, trajectory and report
+   * figures are identical to a sequential run; only the wall time differs. A pipeline
+   * whose first stage keeps state across frames runs sequentially either way.
    * \param[in] overlap false runs every frame start to end on the calling thread */
   void setFrameOverlap(bool overlap) { overlap_ = overlap; }
 
