@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 #include <sys/resource.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -67,11 +68,36 @@ struct CloudCount {
   }
 };
 
+/** CPU time of the calling thread, milliseconds. */
+double
+threadCpuMs()
+{
+  timespec t{};
+  if (::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t) != 0)
+    return 0.0;
+  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
+}
+
+/** CPU time of the whole process (user and system, every thread), milliseconds. */
+double
+processCpuMs()
+{
+  struct rusage usage {};
+  if (::getrusage(RUSAGE_SELF, &usage) != 0)
+    return 0.0;
+  const auto ms = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_usec) * 1e-3;
+  };
+  return ms(usage.ru_utime) + ms(usage.ru_stime);
+}
+
 /** A loaded frame after the leading frame-local stages. */
 struct PreparedFrame {
   Frame frame;
   CloudCount last_count;
   double load_ms{0.0};
+  /** CPU time of the thread that loaded the frame and ran those stages. */
+  double cpu_ms{0.0};
   std::vector<StageSample> samples;
 };
 
@@ -327,6 +353,7 @@ PipelineRunner::run()
   PipelineState unused; // one prepare() runs at a time: the next starts after get()
   const auto prepare = [this, &source, &unused](std::size_t i, std::size_t n) {
     auto prepared = std::make_unique<PreparedFrame>();
+    const double cpu_start = threadCpuMs();
     const auto load_start = Clock::now();
     source.load(i, prepared->frame);
     prepared->frame.sequence_number = i;
@@ -335,20 +362,29 @@ PipelineRunner::run()
       prepared->samples.push_back(runStage(*stages_[s], s, config_.stages[s].type,
                                            stage_callback_, prepared->frame, unused, i,
                                            prepared->last_count));
+    prepared->cpu_ms = threadCpuMs() - cpu_start;
     return prepared;
   };
   const auto launch = [&prepare](std::size_t i, std::size_t n) {
     return std::async(n > 0 ? std::launch::async : std::launch::deferred, prepare, i,
                       n);
   };
+  const double process_cpu_start = processCpuMs();
   std::future<std::unique_ptr<PreparedFrame>> next;
+  bool next_ahead = ahead > 0; // the next frame is prepared on the other thread
   if (first < end_)
     next = launch(first, ahead);
   for (std::size_t i = first; i < end_; i += step_) {
+    const auto wait_start = Clock::now();
     const std::unique_ptr<PreparedFrame> prepared = next.get();
+    if (next_ahead)
+      report_.mapping_wait_ms += msSince(wait_start);
+    const double mapping_cpu_start = threadCpuMs();
     const bool last = i + step_ >= end_;
-    if (!last)
+    if (!last) {
+      next_ahead = ahead > 0;
       next = launch(i + step_, ahead);
+    }
     Frame& frame = prepared->frame;
     report_.load_ms += prepared->load_ms;
     std::vector<StageSample>& samples = prepared->samples;
@@ -357,6 +393,10 @@ PipelineRunner::run()
                                  stage_callback_, frame, state_, i,
                                  prepared->last_count));
     endFrame(report_, trajectory_, frame_callback_, i, frame, samples);
+    ++report_.timed_frames;
+    report_.read_ahead_cpu_ms += prepared->cpu_ms;
+    report_.mapping_cpu_ms += threadCpuMs() - mapping_cpu_start;
+    report_.process_cpu_ms = processCpuMs() - process_cpu_start;
     ahead = balancedReadAhead(report_, ahead);
     report_.read_ahead_stages = ahead;
     const std::size_t done = (i - begin_) / step_ + 1;
@@ -449,6 +489,15 @@ RunReport::toJson() const
   j["frames_per_second"] = framesPerSecond();
   j["load_ms_per_frame"] = frames ? load_ms / static_cast<double>(frames) : 0.0;
   j["read_ahead_stages"] = read_ahead_stages;
+  const auto per_timed_frame = [this](double ms) {
+    return timed_frames ? ms / static_cast<double>(timed_frames) : 0.0;
+  };
+  auto& jt = j["threads"] = nlohmann::ordered_json::object();
+  jt["frames"] = timed_frames;
+  jt["read_ahead_cpu_ms_per_frame"] = per_timed_frame(read_ahead_cpu_ms);
+  jt["mapping_cpu_ms_per_frame"] = per_timed_frame(mapping_cpu_ms);
+  jt["mapping_wait_ms_per_frame"] = per_timed_frame(mapping_wait_ms);
+  jt["process_cpu_ms_per_frame"] = per_timed_frame(process_cpu_ms);
   j["world_cloud_points"] = world_cloud_points;
   j["planes"] = planes;
   auto& js = j["stages"] = nlohmann::ordered_json::array();
@@ -540,6 +589,13 @@ RunReport::timingTable() const
   out << frames << " frames in " << std::setprecision(1) << seconds << " s ("
       << std::setprecision(2) << framesPerSecond() << " frames/s); world cloud "
       << world_cloud_points << " points, " << planes << " run-wide planes\n";
+  if (timed_frames > 0) {
+    const double n = static_cast<double>(timed_frames);
+    out << "CPU ms/frame: read-ahead thread " << std::setprecision(1)
+        << read_ahead_cpu_ms / n << ", mapping thread " << mapping_cpu_ms / n
+        << " (waited " << mapping_wait_ms / n << " ms/frame), process "
+        << process_cpu_ms / n << "\n";
+  }
   if (resumed_at_frame > 0)
     out << "resumed from a checkpoint at frame position " << resumed_at_frame << "\n";
   if (checkpoints_written > 0)

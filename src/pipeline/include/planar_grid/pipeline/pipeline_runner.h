@@ -61,6 +61,24 @@ struct RunReport {
    * at the end of the run (their number is balanced by the measured times; 0 when
    * frames do not overlap). */
   std::size_t read_ahead_stages{0};
+  /** \brief Frames this process ran through run() (a resumed run counts only the
+   * frames after the checkpoint): the divisor of the four CPU and wait figures below.
+   */
+  std::size_t timed_frames{0};
+  /** \brief CPU time of the thread that loads each frame and runs the read-ahead
+   * stages on it (CLOCK_THREAD_CPUTIME_ID), summed over timed_frames, milliseconds.
+   * Work that a stage hands to other threads (OpenCV's parallel loops) is not in it;
+   * it is in process_cpu_ms. */
+  double read_ahead_cpu_ms{0.0};
+  /** \brief CPU time of the thread that runs the other stages (the caller's thread),
+   * summed over timed_frames, milliseconds; the same caveat as read_ahead_cpu_ms. */
+  double mapping_cpu_ms{0.0};
+  /** \brief Wall time the mapping thread waited for the next frame from the read-ahead
+   * thread, summed over timed_frames, milliseconds (0 when frames do not overlap). */
+  double mapping_wait_ms{0.0};
+  /** \brief CPU time of the whole process (every thread, getrusage) while the frames
+   * ran, milliseconds. */
+  double process_cpu_ms{0.0};
   /** \brief One report per stage, in run order. */
   std::vector<StageReport> stages;
   /** \brief Points in the accumulated world cloud at the end. */

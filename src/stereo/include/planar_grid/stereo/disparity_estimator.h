@@ -63,7 +63,8 @@ std::string toString(BlockMatchingPreFilter pre_filter);
  * disparities in pixels of the input images; NaN marks pixels without a valid match.
  * Results depend only on the parameters and the images: within the ranges enforced
  * here, OpenCV 4.6's matchers give the same output for any thread count and on every
- * call (checked by a test on 1 and 2 threads).
+ * call (checked by tests on 1 and 2 threads, and for SGBM_3WAY on 1, 3, 4 and 8:
+ * OpenCV always cuts the image into 4 stripes for it, whatever the thread count).
  * \ingroup stereo */
 class DisparityEstimator {
 public:
@@ -83,7 +84,10 @@ public:
      * compute(), then restored); 0 leaves OpenCV's process-wide setting (by default
      * the number of cores). Affects speed only, never the result. 0..64. The setting
      * is process-wide: with another thread running OpenCV code at the same time,
-     * leave 0 here and call cv::setNumThreads once beforehand. */
+     * leave 0 here and call cv::setNumThreads once beforehand. OpenCV runs a parallel
+     * loop on the calling thread alone while another thread is inside one (a
+     * process-wide flag), so the matching uses the threads only when no other OpenCV
+     * parallel loop is running; the result is the same either way. */
     int num_threads{0};
     /** Smallest disparity searched, px; a multiple of \a downscale. */
     int min_disparity_px{0};
