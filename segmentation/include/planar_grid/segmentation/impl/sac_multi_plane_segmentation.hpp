@@ -231,9 +231,23 @@ struct DensePoints {
    * place); the other points keep their mask. */
   void removeMarked(std::uint8_t value)
   {
+    removeIf([this, value](std::size_t k) { return mask[k] == value; });
+  }
+
+  /** \brief Removes the selected points (stable, in place); the others keep their
+   * mask (0). */
+  void removeSelected()
+  {
+    removeIf([this](std::size_t k) { return mask[k] != 0; });
+  }
+
+  /** \brief Removes the points k for which \a remove(k) is true, from every field
+   * (stable, in place). */
+  template <typename Remove> void removeIf(Remove remove)
+  {
     std::size_t w = 0;
     for (std::size_t k = 0; k < size(); ++k) {
-      if (mask[k] == value)
+      if (remove(k))
         continue;
       x[w] = x[k];
       y[w] = y[k];
@@ -251,29 +265,6 @@ struct DensePoints {
       threshold.resize(w);
     index.resize(w);
     mask.resize(w);
-  }
-
-  /** \brief Removes the selected points (stable, in place). */
-  void removeSelected()
-  {
-    std::size_t w = 0;
-    for (std::size_t k = 0; k < size(); ++k) {
-      if (mask[k])
-        continue;
-      x[w] = x[k];
-      y[w] = y[k];
-      z[w] = z[k];
-      if (!threshold.empty())
-        threshold[w] = threshold[k];
-      index[w] = index[k];
-      ++w;
-    }
-    x.resize(w);
-    y.resize(w);
-    z.resize(w);
-    if (!threshold.empty())
-      threshold.resize(w);
-    index.resize(w);
   }
 };
 
