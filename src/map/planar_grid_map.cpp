@@ -235,6 +235,75 @@ PlanarGridMap::PlanarGridMap(const Params& params) :
     space_(params_.space)
 {}
 
+void
+PlanarGridMap::integrateDepthImage(const DepthImage& depth,
+                                   const Eigen::Isometry3d& world_T_camera)
+{
+  space_.integrateDepthImage(depth, world_T_camera);
+  if (!params_.clear_non_planar || depth.width <= 0 || depth.height <= 0
+      || !(depth.fx > 0.0f) || !(depth.fy > 0.0f))
+    return;
+  const Eigen::Isometry3f camera_T_world = world_T_camera.inverse().cast<float>();
+  const auto max_range = static_cast<float>(params_.space.max_range_m);
+  const auto width = static_cast<float>(depth.width);
+  const auto height = static_cast<float>(depth.height);
+  clearNonPlanarCells([&](const Eigen::Vector3f& centre, float radius) {
+    const Eigen::Vector3f p = camera_T_world * centre;
+    if (p.z() < -radius || p.z() - radius > max_range)
+      return false;
+    if (p.z() <= radius)
+      return true; // the sphere reaches the camera's plane: tested
+    // The sphere's image lies within its centre's projection +- f r / (z - r).
+    const float inv_z = 1.0f / p.z();
+    const float reach = radius / (p.z() - radius);
+    const float u = depth.fx * p.x() * inv_z + depth.cx;
+    const float v = depth.fy * p.y() * inv_z + depth.cy;
+    return u >= -depth.fx * reach && u <= width + depth.fx * reach
+           && v >= -depth.fy * reach && v <= height + depth.fy * reach;
+  });
+}
+
+void
+PlanarGridMap::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& points,
+                                   const Eigen::Vector3f& sensor_origin)
+{
+  space_.integratePointCloud(points, sensor_origin);
+  if (!params_.clear_non_planar || !sensor_origin.allFinite())
+    return;
+  const auto max_range = static_cast<float>(params_.space.max_range_m);
+  clearNonPlanarCells([&](const Eigen::Vector3f& centre, float radius) {
+    return (centre - sensor_origin).norm() - radius <= max_range;
+  });
+}
+
+std::size_t
+PlanarGridMap::clearNonPlanarCells(
+  const std::function<bool(const Eigen::Vector3f&, float)>& in_view)
+{
+  // A voxel tested lies within a voxel diagonal of the cell (its centre's voxel), and
+  // a view may mark a voxel whose centre is outside the view.
+  const auto voxel_diagonal = static_cast<float>(std::sqrt(3.0) * params_.resolution_m);
+  return surface_.removeNonPlanarCells([&](const PlanarCuboid& cuboid) {
+    const float radius =
+      0.5f
+        * std::sqrt(cuboid.width_m * cuboid.width_m + cuboid.height_m * cuboid.height_m
+                    + cuboid.thickness_m * cuboid.thickness_m)
+      + voxel_diagonal;
+    if (!in_view(cuboid.centre, radius))
+      return false;
+    const ExplicitSpaceGrid::VoxelKey centre_key = space_.toKey(cuboid.centre);
+    std::size_t voxels = 1;
+    std::size_t free = space_.getState(centre_key) == SpaceState::FREE ? 1 : 0;
+    forEachVoxelInCuboid(cuboid, params_.resolution_m, [&](const Eigen::Vector3i& key) {
+      if (key == centre_key)
+        return;
+      ++voxels;
+      free += space_.getState(key) == SpaceState::FREE ? 1 : 0;
+    });
+    return 2 * free > voxels;
+  });
+}
+
 SpaceState
 PlanarGridMap::getState(const Eigen::Vector3f& point) const
 {

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <utility>
 
 #include "surface_layer_impl.h"
@@ -125,6 +126,27 @@ SurfaceLayer::Impl::replaceNonPlanar(const std::vector<PlanarCuboid>& incoming,
       impl.pruneAxes();
     impl.non_planar.shrink_to_fit();
   }
+}
+
+std::size_t
+SurfaceLayer::removeNonPlanarCells(
+  const std::function<bool(const PlanarCuboid&)>& remove)
+{
+  Impl& impl = *impl_;
+  std::lock_guard<std::mutex> lock(impl.mutex);
+  std::size_t kept = 0;
+  for (std::size_t k = 0; k < impl.non_planar.size(); ++k)
+    if (!remove(impl.nonPlanarCuboid(impl.non_planar[k])))
+      impl.non_planar[kept++] = impl.non_planar[k];
+  const std::size_t removed = impl.non_planar.size() - kept;
+  if (removed == 0)
+    return 0;
+  impl.non_planar.erase(impl.non_planar.begin() + static_cast<std::ptrdiff_t>(kept),
+                        impl.non_planar.end());
+  impl.pruneAxes();
+  impl.non_planar.shrink_to_fit();
+  impl.invalidate();
+  return removed;
 }
 
 } // namespace planar_grid

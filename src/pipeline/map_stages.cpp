@@ -207,6 +207,10 @@ mapIntegrationInfo()
                     "probability", "Cells at or above it are occupied."),
     ParamSpec::real("feature_distance_m", d.surface.feature_distance_m, 0.0, 10.0, "m",
                     "A feature counts for a plane cell within this distance."),
+    ParamSpec::flag("clear_non_planar", d.clear_non_planar,
+                    "Remove the non-planar cells a later view sees through (more "
+                    "than half of their voxels observed free), as OctoMap's misses "
+                    "clear a voxel hit before."),
     ParamSpec::choice("sensor_model", "auto", {"auto", "pinhole", "rays"},
                       "How the explicit space layer sees a frame: pinhole = the "
                       "disparity image's camera (stereo) or a virtual depth camera "
@@ -239,6 +243,7 @@ mapIntegrationInfo()
     p.surface.close_gaps_cells = v.getInt("close_gaps_cells");
     p.surface.merge_rule = surfaceMergeRuleFromString(v.getChoice("merge_rule"));
     p.surface.cover_density = v.getDouble("cover_density");
+    p.clear_non_planar = v.getBool("clear_non_planar");
     const std::string model = v.getChoice("sensor_model");
     const auto sensor_model = model == "rays" ? MapIntegrationStage::SensorModel::RAYS
                               : model == "pinhole"

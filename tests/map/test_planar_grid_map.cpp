@@ -6,6 +6,7 @@
 #include <octomap/AbstractOcTree.h>
 #include <octomap/OcTree.h>
 
+#include <array>
 #include <boost/crc.hpp>
 #include <cstdio>
 #include <filesystem>
@@ -15,6 +16,7 @@
 #include <map>
 #include <memory>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -533,6 +535,190 @@ TEST_F(PlanarGridMapTest, OneResolutionFeedsBothLayers)
               std::string::npos)
       << e.what();
   }
+}
+
+/** A non-planar cell: an axis-aligned cube of edge \a edge_m centred at \a centre. */
+PlanarCuboid
+nonPlanarCube(const Eigen::Vector3f& centre, float edge_m)
+{
+  PlanarCuboid c;
+  c.normal = -Eigen::Vector3f::UnitZ();
+  c.horizontal_axis = Eigen::Vector3f::UnitX();
+  c.width_m = edge_m;
+  c.height_m = edge_m;
+  c.thickness_m = edge_m;
+  c.centre = centre;
+  c.plane_id = -1;
+  c.is_planar = false;
+  c.point_count = 3;
+  return c;
+}
+
+/** The non-planar cells' centres of \a map. */
+std::vector<Eigen::Vector3f>
+nonPlanarCentres(const PlanarGridMap& map)
+{
+  std::vector<Eigen::Vector3f> out;
+  for (const auto& c : map.getSurfaceLayer().getCuboids())
+    if (!c.is_planar)
+      out.push_back(c.centre);
+  return out;
+}
+
+bool
+holds(const std::vector<Eigen::Vector3f>& centres, const Eigen::Vector3f& centre)
+{
+  for (const auto& c : centres)
+    if ((c - centre).norm() < 1e-4f)
+      return true;
+  return false;
+}
+
+/** A 64 x 48 pinhole view (f = 50 px) of a wall at depth \a depth_m everywhere. */
+planar_grid::DepthImage
+wallView(float depth_m)
+{
+  planar_grid::DepthImage depth;
+  depth.width = 64;
+  depth.height = 48;
+  depth.fx = depth.fy = 50.0f;
+  depth.cx = 32.0f;
+  depth.cy = 24.0f;
+  depth.depth_m.assign(64 * 48, depth_m);
+  return depth;
+}
+
+TEST_F(PlanarGridMapTest, ClearingRemovesTheNonPlanarCellsAViewSeesThrough)
+{
+  // The camera at the origin looks along +z (identity pose) at a wall 5 m away.
+  const Eigen::Vector3f seen_through(0.05f, 0.05f, 2.55f); // in front of the wall
+  const Eigen::Vector3f on_wall(0.05f, 0.05f, 5.05f);      // its voxel holds points
+  const Eigen::Vector3f behind(0.05f, 0.05f, 7.05f);       // occluded: unknown
+  const Eigen::Vector3f outside(20.05f, 0.05f, 2.55f);     // outside the frustum
+  PlanarCuboids cuboids;
+  for (const auto& centre : {seen_through, on_wall, behind, outside})
+    cuboids.push_back(nonPlanarCube(centre, 0.1f));
+  for (const bool clear : {true, false}) {
+    PlanarGridMap::Params p = params();
+    p.clear_non_planar = clear;
+    PlanarGridMap map(p);
+    map.integrateSurface(cuboids, PlaneModels{}, pcl::PointCloud<pcl::PointXYZ>(), {});
+    ASSERT_EQ(nonPlanarCentres(map).size(), 4u);
+    map.integrateDepthImage(wallView(5.0f), Eigen::Isometry3d::Identity());
+    ASSERT_EQ(map.getSpaceLayer().getState(seen_through), SpaceState::FREE);
+    ASSERT_EQ(map.getSpaceLayer().getState(on_wall), SpaceState::OCCUPIED);
+    ASSERT_EQ(map.getSpaceLayer().getState(behind), SpaceState::UNKNOWN);
+    const auto kept = nonPlanarCentres(map);
+    EXPECT_EQ(holds(kept, seen_through), !clear);
+    EXPECT_TRUE(holds(kept, on_wall));
+    EXPECT_TRUE(holds(kept, behind));
+    EXPECT_TRUE(holds(kept, outside));
+    EXPECT_EQ(kept.size(), clear ? 3u : 4u);
+  }
+}
+
+TEST_F(PlanarGridMapTest, ClearingNeedsMoreThanHalfOfACellFree)
+{
+  // Cubes of 0.3 and 0.5 m stepping through the wall face at z = 5: their voxels
+  // (those whose centres they contain, and the voxel of their centre) are counted by
+  // brute force over the space layer, and a cube is cleared exactly when more than
+  // half of them are free.
+  PlanarCuboids cuboids;
+  for (const float edge : {0.3f, 0.5f})
+    for (int step = 0; step < 12; ++step)
+      cuboids.push_back(
+        nonPlanarCube(Eigen::Vector3f(-2.0f + 0.35f * static_cast<float>(step), 0.0f,
+                                      4.4f + 0.1f * static_cast<float>(step)),
+                      edge));
+  PlanarGridMap map(params());
+  map.integrateSurface(cuboids, PlaneModels{}, pcl::PointCloud<pcl::PointXYZ>(), {});
+  const auto& space = map.getSpaceLayer();
+  map.integrateDepthImage(wallView(5.0f), Eigen::Isometry3d::Identity());
+  const auto kept = nonPlanarCentres(map);
+  std::size_t cleared = 0, partly_free_kept = 0;
+  for (const auto& cube : cuboids) {
+    std::set<std::array<int, 3>> voxels;
+    voxels.insert({static_cast<int>(std::floor(cube.centre.x() / 0.1f)),
+                   static_cast<int>(std::floor(cube.centre.y() / 0.1f)),
+                   static_cast<int>(std::floor(cube.centre.z() / 0.1f))});
+    for (int i = -40; i <= 40; ++i)
+      for (int j = -10; j <= 10; ++j)
+        for (int k = 30; k <= 70; ++k)
+          if (cube.contains(Eigen::Vector3f((i + 0.5f) * 0.1f, (j + 0.5f) * 0.1f,
+                                            (k + 0.5f) * 0.1f)))
+            voxels.insert({i, j, k});
+    std::size_t free = 0;
+    for (const auto& v : voxels)
+      free += space.getState(ExplicitSpaceGrid::VoxelKey(v[0], v[1], v[2]))
+              == SpaceState::FREE;
+    const bool expect_cleared = 2 * free > voxels.size();
+    EXPECT_EQ(!holds(kept, cube.centre), expect_cleared)
+      << cube.centre.transpose() << " edge " << cube.width_m << ": " << free << " of "
+      << voxels.size() << " free";
+    cleared += expect_cleared;
+    partly_free_kept += !expect_cleared && free > 0;
+  }
+  // The steps cover both outcomes, and cubes kept although some of their voxels are
+  // free.
+  EXPECT_GE(cleared, 4u);
+  EXPECT_GE(cuboids.size() - cleared, 4u);
+  EXPECT_GE(partly_free_kept, 2u);
+}
+
+TEST_F(PlanarGridMapTest, ClearingInTheViewEqualsClearingEverywhere)
+{
+  // Random cells around and outside a turned camera's frustum: the view's culling
+  // (bounding spheres against the frustum) removes exactly what testing every cell
+  // removes.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> x(-12.0f, 12.0f), z(-4.0f, 30.0f),
+    edge(0.05f, 1.5f);
+  PlanarCuboids cuboids;
+  for (int k = 0; k < 2000; ++k)
+    cuboids.push_back(
+      nonPlanarCube(Eigen::Vector3f(x(rng), 0.5f * x(rng), z(rng)), edge(rng)));
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.rotate(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY()));
+  pose.translation() = Eigen::Vector3d(0.4, -0.2, 0.5);
+  PlanarGridMap::Params p = params();
+  p.space.max_range_m = 20.0;
+  PlanarGridMap culled(p);
+  p.clear_non_planar = false;
+  PlanarGridMap everywhere(p);
+  for (PlanarGridMap* map : {&culled, &everywhere}) {
+    map->integrateSurface(cuboids, PlaneModels{}, pcl::PointCloud<pcl::PointXYZ>(), {});
+    map->integrateDepthImage(wallView(12.0f), pose);
+  }
+  const std::size_t removed =
+    everywhere.clearNonPlanarCells([](const Eigen::Vector3f&, float) { return true; });
+  EXPECT_GT(removed, 100u);
+  EXPECT_LT(removed, cuboids.size() / 2);
+  const auto a = nonPlanarCentres(culled), b = nonPlanarCentres(everywhere);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k)
+    EXPECT_EQ(a[k], b[k]) << k;
+}
+
+TEST_F(PlanarGridMapTest, ClearingByRaysRemovesTheCellsAScanSeesThrough)
+{
+  // A scan from the origin of a wall of points at x = 5 (y, z in [-1, 1]): a cell on
+  // the rays is cleared, one on the wall and one beside the rays are kept.
+  pcl::PointCloud<pcl::PointXYZ> scan;
+  for (int j = -20; j <= 20; ++j)
+    for (int k = -20; k <= 20; ++k)
+      scan.push_back(pcl::PointXYZ(5.05f, 0.05f * j + 0.025f, 0.05f * k + 0.025f));
+  const Eigen::Vector3f on_rays(2.55f, 0.05f, 0.05f), on_wall(5.05f, 0.05f, 0.05f),
+    beside(2.55f, 3.05f, 0.05f);
+  PlanarCuboids cuboids;
+  for (const auto& centre : {on_rays, on_wall, beside})
+    cuboids.push_back(nonPlanarCube(centre, 0.1f));
+  PlanarGridMap map(params());
+  map.integrateSurface(cuboids, PlaneModels{}, pcl::PointCloud<pcl::PointXYZ>(), {});
+  map.integratePointCloud(scan, Eigen::Vector3f::Zero());
+  const auto kept = nonPlanarCentres(map);
+  EXPECT_FALSE(holds(kept, on_rays));
+  EXPECT_TRUE(holds(kept, on_wall));
+  EXPECT_TRUE(holds(kept, beside));
 }
 
 } // namespace

@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -95,6 +96,13 @@ public:
     ExplicitSpaceGrid::Params space;
     /** The surface layer; its resolution_m is replaced by the map's. */
     SurfaceLayer::Params surface;
+    /** Ray clearing of the non-planar cells (Fig. 7's boxes): after each view, a
+     * non-planar cell in the view whose voxels the space layer holds observed free,
+     * more than half of them, is removed. The view saw through it: the cell was
+     * stereo noise or an object that has moved, as OctoMap's misses clear a voxel
+     * hit before. The voxels of a cell are those whose centres it contains and the
+     * voxel of its centre. Planar cells are not cleared. */
+    bool clear_non_planar{true};
   };
 
   /** \brief Builds an empty map; getParams() returns \a params with both layers'
@@ -125,20 +133,26 @@ public:
   }
 
   /** \brief Integrates one view into the explicit space layer (see
-   * ExplicitSpaceGrid::integrateDepthImage()). */
+   * ExplicitSpaceGrid::integrateDepthImage()), then, with Params::clear_non_planar,
+   * clears the non-planar cells the view saw through (those whose bounding sphere
+   * reaches into the camera frustum up to max_range_m are tested). */
   void integrateDepthImage(const DepthImage& depth,
-                           const Eigen::Isometry3d& world_T_camera)
-  {
-    space_.integrateDepthImage(depth, world_T_camera);
-  }
+                           const Eigen::Isometry3d& world_T_camera);
 
   /** \brief Integrates a scan into the explicit space layer by ray casting (see
-   * ExplicitSpaceGrid::integratePointCloud()): points in the world frame, meters. */
+   * ExplicitSpaceGrid::integratePointCloud()): points in the world frame, meters.
+   * Then, with Params::clear_non_planar, clears the non-planar cells the rays went
+   * through (those within max_range_m of \a sensor_origin are tested). */
   void integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& points,
-                           const Eigen::Vector3f& sensor_origin)
-  {
-    space_.integratePointCloud(points, sensor_origin);
-  }
+                           const Eigen::Vector3f& sensor_origin);
+
+  /** \brief Removes the non-planar cells for which \a in_view (called with a cell's
+   * centre and bounding radius, meters, world frame) returns true and whose voxels
+   * the space layer holds observed free, more than half of them (see
+   * Params::clear_non_planar; called by the integrations, public for maps whose
+   * space layer is filled otherwise). \return the number of cells removed */
+  std::size_t clearNonPlanarCells(
+    const std::function<bool(const Eigen::Vector3f&, float)>& in_view);
 
   /** \brief State at \a point: OCCUPIED inside a cuboid with probability >=
    * occupancy_thres, FREE inside one below it, else the space layer's state. */

@@ -13,6 +13,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -200,6 +201,14 @@ public:
                  const PlaneModels& planes,
                  const pcl::PointCloud<pcl::PointXYZ>& features,
                  const std::vector<float>& probabilities);
+
+  /** \brief Removes the non-planar cells for which \a remove returns true. The
+   * cells keep their order; the planes are untouched.
+   * \param[in] remove called once per non-planar cell with its cuboid (centre,
+   * axes and size in meters; probability and point_count unset)
+   * \return the number of cells removed */
+  std::size_t
+  removeNonPlanarCells(const std::function<bool(const PlanarCuboid&)>& remove);
 
   /** \brief The merged cuboids: every map plane's rectangles (plane_id = the map's
    * plane index, into getPlanes()), then the non-planar cells (plane_id -1). Stable
