@@ -7,9 +7,8 @@
 #include <pcl/console/print.h>
 #include <pcl/point_types.h>
 
-#include <boost/sort/spreadsort/integer_sort.hpp>
-
 #include <algorithm>
+#include <boost/sort/spreadsort/integer_sort.hpp>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -93,7 +92,8 @@ FastVoxelGrid<PointT>::applyFilter(PointCloud& output)
   const auto dx = static_cast<std::int64_t>((max_p[0] - min_p[0]) * inv[0]) + 1;
   const auto dy = static_cast<std::int64_t>((max_p[1] - min_p[1]) * inv[1]) + 1;
   const auto dz = static_cast<std::int64_t>((max_p[2] - min_p[2]) * inv[2]) + 1;
-  if (dx * dy * dz > static_cast<std::int64_t>(std::numeric_limits<std::int32_t>::max())) {
+  if (dx * dy * dz
+      > static_cast<std::int64_t>(std::numeric_limits<std::int32_t>::max())) {
     PCL_WARN("[pcl::%s::applyFilter] Leaf size is too small for the input dataset. "
              "Integer indices would overflow.\n",
              this->getClassName().c_str());
@@ -117,7 +117,8 @@ FastVoxelGrid<PointT>::applyFilter(PointCloud& output)
   if (exact)
     for (std::size_t j = 0; j < n; ++j) {
       const PointVoxel& v = voxels[j];
-      entries[j] = {static_cast<unsigned int>((v.x - min_b[0]) + (v.y - min_b[1]) * mul_y
+      entries[j] = {static_cast<unsigned int>((v.x - min_b[0])
+                                              + (v.y - min_b[1]) * mul_y
                                               + (v.z - min_b[2]) * mul_z),
                     v.cloud_point_index};
     }
@@ -162,5 +163,6 @@ FastVoxelGrid<PointT>::applyFilter(PointCloud& output)
 
 // The template body lives only here: one explicit instantiation per point type of the
 // CMake list PLANAR_GRID_POINT_TYPES, and no other point type.
-#define PLANAR_GRID_INSTANTIATE_FastVoxelGrid(T) template class planar_grid::FastVoxelGrid<T>;
+#define PLANAR_GRID_INSTANTIATE_FastVoxelGrid(T) \
+  template class planar_grid::FastVoxelGrid<T>;
 PLANAR_GRID_INSTANTIATE(FastVoxelGrid, PLANAR_GRID_POINT_TYPES)

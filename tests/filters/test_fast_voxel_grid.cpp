@@ -2,8 +2,8 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/filters/fast_voxel_grid.h>
 
-#include <pcl/filters/voxel_grid.h>
 #include <pcl/common/io.h>
+#include <pcl/filters/voxel_grid.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_types.h>
 
@@ -139,7 +139,8 @@ TEST(FastVoxelGrid, SameCloudAsPCLWithIntensitiesAndIndices)
     filteredBy<pcl::VoxelGrid<pcl::PointXYZI>, pcl::PointXYZI>(far, 0.1f, 0);
   ASSERT_GT(far_expected.size(), 100u);
   expectSameBytes(
-    filteredBy<planar_grid::FastVoxelGrid<pcl::PointXYZI>, pcl::PointXYZI>(far, 0.1f, 0),
+    filteredBy<planar_grid::FastVoxelGrid<pcl::PointXYZI>, pcl::PointXYZI>(far, 0.1f,
+                                                                           0),
     far_expected, "table intensity, 1000 km away");
 
   pcl::IndicesPtr subset(new pcl::Indices);
@@ -150,9 +151,10 @@ TEST(FastVoxelGrid, SameCloudAsPCLWithIntensitiesAndIndices)
   const auto expected =
     filteredBy<pcl::VoxelGrid<pcl::PointXYZI>, pcl::PointXYZI>(cloud, 0.01f, 2, subset);
   ASSERT_GT(expected.size(), 100u);
-  expectSameBytes(filteredBy<planar_grid::FastVoxelGrid<pcl::PointXYZI>, pcl::PointXYZI>(
-                    cloud, 0.01f, 2, subset),
-                  expected, "table intensity, indices");
+  expectSameBytes(
+    filteredBy<planar_grid::FastVoxelGrid<pcl::PointXYZI>, pcl::PointXYZI>(cloud, 0.01f,
+                                                                           2, subset),
+    expected, "table intensity, indices");
 }
 
 TEST(FastVoxelGrid, CentroidsOfKnownVoxels)

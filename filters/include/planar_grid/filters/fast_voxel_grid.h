@@ -31,8 +31,7 @@ namespace planar_grid {
  * docs/BENCHMARKS.md.
  * Instantiated for pcl::PointXYZ, pcl::PointXYZI and pcl::PointXYZRGB.
  * \ingroup filters */
-template <typename PointT>
-class FastVoxelGrid : public pcl::Filter<PointT> {
+template <typename PointT> class FastVoxelGrid : public pcl::Filter<PointT> {
 public:
   /** \brief The filtered cloud type, pcl::PointCloud<PointT>. */
   using PointCloud = typename pcl::Filter<PointT>::PointCloud;
