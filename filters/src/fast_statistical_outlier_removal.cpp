@@ -175,15 +175,21 @@ meanDistancesInCells(const std::vector<float>& xyz,
     // precision, summed over x, y, z in that order.
     const float tight_sq = std::min(guard_sq, bound_sq);
     const float qx = q[0], qy = q[1], qz = q[2];
+    // The distances in a loop of their own, which the compiler vectorises (the same
+    // operations per candidate), then the ones below the bound.
+    const float *cx = cand_x.data(), *cy = cand_y.data(), *cz = cand_z.data();
+    float* const dist = d2.data();
+    for (std::size_t t = 0; t < m; ++t) {
+      const float ex = qx - cx[t], ey = qy - cy[t], ez = qz - cz[t];
+      float sq = ex * ex;
+      sq += ey * ey;
+      sq += ez * ez;
+      dist[t] = sq;
+    }
     std::size_t inside = 0;
     for (std::size_t t = 0; t < m; ++t) {
-      const float ex = qx - cand_x[t], ey = qy - cand_y[t], ez = qz - cand_z[t];
-      float dist = ex * ex;
-      dist += ey * ey;
-      dist += ez * ez;
-      d2[t] = dist;
-      near[inside] = dist;
-      inside += dist < tight_sq ? 1 : 0;
+      near[inside] = dist[t];
+      inside += dist[t] < tight_sq ? 1 : 0;
     }
     // Too few below the bound: the bound doubled (the distances are kept), up to the
     // guard.
