@@ -46,9 +46,9 @@ cellKey(std::int64_t x, std::int64_t y, std::int64_t z)
  * neighbour's squared k-th distance. */
 constexpr float BOUND_PER_KTH_SQ = 1.3f;
 
-/** Most candidates taken out one by one above the k nearest; with more, the k-th is
+/** Most candidates taken out above the k nearest in one pass; with more, the k-th is
  * selected instead. */
-constexpr std::size_t MAX_DROPPED = 10;
+constexpr std::size_t MAX_DROPPED = 16;
 
 /** The cell edge as a multiple of the median k-th neighbour distance: small enough for
  * few candidates, large enough that most points of a surface are answered by cells. */
@@ -175,35 +175,63 @@ meanDistancesInCells(const std::vector<float>& xyz,
     // precision, summed over x, y, z in that order.
     const float tight_sq = std::min(guard_sq, bound_sq);
     const float qx = q[0], qy = q[1], qz = q[2];
+    // The distances in a loop of their own, which the compiler vectorises (the same
+    // operations per candidate), then the ones below the bound.
+    const float *cx = cand_x.data(), *cy = cand_y.data(), *cz = cand_z.data();
+    float* const dist = d2.data();
+    for (std::size_t t = 0; t < m; ++t) {
+      const float ex = qx - cx[t], ey = qy - cy[t], ez = qz - cz[t];
+      float sq = ex * ex;
+      sq += ey * ey;
+      sq += ez * ez;
+      dist[t] = sq;
+    }
     std::size_t inside = 0;
     for (std::size_t t = 0; t < m; ++t) {
-      const float ex = qx - cand_x[t], ey = qy - cand_y[t], ez = qz - cand_z[t];
-      float dist = ex * ex;
-      dist += ey * ey;
-      dist += ez * ez;
-      d2[t] = dist;
-      near[inside] = dist;
-      inside += dist < tight_sq ? 1 : 0;
+      near[inside] = dist[t];
+      inside += dist[t] < tight_sq ? 1 : 0;
     }
-    if (inside < k && tight_sq < guard_sq) {
+    // Too few below the bound: the bound doubled (the distances are kept), up to the
+    // guard.
+    for (float wider_sq = tight_sq; inside < k && wider_sq < guard_sq;) {
+      wider_sq = wider_sq > 0.0f ? std::min(guard_sq, 2.0f * wider_sq) : guard_sq;
       inside = 0;
       for (std::size_t t = 0; t < m; ++t) {
         near[inside] = d2[t];
-        inside += d2[t] < guard_sq ? 1 : 0;
+        inside += d2[t] < wider_sq ? 1 : 0;
       }
     }
     if (inside < k)
       return false;
-    // The k smallest: the few largest are taken out one at a time (most points), or
-    // the k-th is selected when many are left.
+    // The k smallest: the few largest are found in one pass and taken out (most
+    // points), or the k-th is selected when many are left.
     float kth = 0.0f;
-    if (inside - k <= MAX_DROPPED) {
-      for (std::size_t dropped = k; dropped < inside; ++dropped) {
-        std::size_t largest = 0;
-        for (std::size_t t = 1; t < inside; ++t)
-          largest = near[t] > near[largest] ? t : largest;
-        near[largest] = -1.0f;
+    const std::size_t drop = inside - k;
+    if (drop <= MAX_DROPPED) {
+      // The drop largest so far, ascending, and where they are.
+      float top[MAX_DROPPED];
+      std::size_t at[MAX_DROPPED];
+      std::size_t filled = 0;
+      for (std::size_t t = 0; t < inside && drop > 0; ++t) {
+        const float v = near[t];
+        std::size_t p;
+        if (filled < drop) {
+          for (p = filled++; p > 0 && top[p - 1] > v; --p) {
+            top[p] = top[p - 1];
+            at[p] = at[p - 1];
+          }
+        } else if (v > top[0]) {
+          for (p = 0; p + 1 < drop && top[p + 1] < v; ++p) {
+            top[p] = top[p + 1];
+            at[p] = at[p + 1];
+          }
+        } else
+          continue;
+        top[p] = v;
+        at[p] = t;
       }
+      for (std::size_t q = 0; q < drop; ++q)
+        near[at[q]] = -1.0f;
       for (std::size_t t = 0; t < inside; ++t)
         kth = std::max(kth, near[t]);
     } else {

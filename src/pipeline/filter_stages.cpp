@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/filters/fast_statistical_outlier_removal.h>
+#include <planar_grid/filters/fast_voxel_grid.h>
 
 #include <pcl/common/point_tests.h>
-#include <pcl/filters/voxel_grid.h>
 
 #include <cmath>
 #include <limits>
@@ -30,7 +30,7 @@ public:
   void process(Frame& frame, PipelineState& /*state*/) override
   {
     requirePoints(frame, "voxel_grid");
-    pcl::VoxelGrid<pcl::PointXYZI> filter;
+    FastVoxelGrid<pcl::PointXYZI> filter;
     filter.setLeafSize(leaf_size_m_, leaf_size_m_, leaf_size_m_);
     filter.setMinimumPointsNumberPerVoxel(min_points_per_voxel_);
     Frame::Cloud::Ptr out(new Frame::Cloud);
@@ -146,7 +146,8 @@ voxelGridInfo()
   StageInfo info;
   info.type = "voxel_grid";
   info.description =
-    "pcl::VoxelGrid: one centroid per occupied voxel of the working cloud.";
+    "One centroid per occupied voxel of the working cloud: pcl::VoxelGrid's output "
+    "(FastVoxelGrid).";
   info.params = {
     ParamSpec::real("leaf_size_m", 0.05, 0.001, 10.0, "m", "Voxel edge length.")
       .scalesWithCellSize(),

@@ -48,6 +48,7 @@ peakResidentMemoryBytes()
  * the main thread in frame order. */
 struct StageSample {
   double ms{0.0};
+  double cpu_ms{0.0};
   std::uint64_t points_in{0};
   std::uint64_t points_out{0};
   std::vector<std::pair<std::string, double>> counters;
@@ -123,6 +124,7 @@ runStage(Stage& stage,
     sample.points_in = last_count.counts(*frame.cloud)
                          ? last_count.valid
                          : stages::countValidPoints(*frame.cloud);
+  const double cpu_start = threadCpuMs();
   const auto t = Clock::now();
   try {
     stage.process(frame, state);
@@ -131,6 +133,7 @@ runStage(Stage& stage,
                     + type + "': " + e.what());
   }
   sample.ms = std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+  sample.cpu_ms = threadCpuMs() - cpu_start;
   if (counts && frame.cloud) {
     sample.points_out = stages::countValidPoints(*frame.cloud);
     last_count = {frame.cloud.get(), frame.cloud->points.data(), frame.cloud->size(),
@@ -147,6 +150,8 @@ addSample(StageReport& sr, const StageSample& sample)
   sr.total_ms += sample.ms;
   sr.max_ms = std::max(sr.max_ms, sample.ms);
   ++sr.frames;
+  sr.cpu_ms += sample.cpu_ms;
+  ++sr.cpu_frames;
   sr.points_in += sample.points_in;
   sr.points_out += sample.points_out;
   for (const auto& [name, value] : sample.counters)
@@ -508,6 +513,8 @@ RunReport::toJson() const
     e["ms_per_frame"] = s.meanMs();
     e["max_ms"] = s.max_ms;
     e["total_ms"] = s.total_ms;
+    e["cpu_ms_per_frame"] =
+      s.cpu_frames ? s.cpu_ms / static_cast<double>(s.cpu_frames) : 0.0;
     e["points_in"] = s.points_in;
     e["points_out"] = s.points_out;
     for (const auto& [name, value] : s.counters) {

@@ -117,9 +117,11 @@ countValidPoints(const pcl::PointCloud<pcl::PointXYZI>& cloud)
 {
   if (cloud.is_dense)
     return cloud.size();
+  // Branch-free: v - v is 0 for a finite v and NaN for an infinite or NaN one, and a
+  // sum with a NaN is NaN.
   std::size_t n = 0;
   for (const auto& p : cloud.points)
-    n += std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+    n += ((p.x - p.x) + (p.y - p.y) + (p.z - p.z)) == 0.0f ? 1 : 0;
   return n;
 }
 
@@ -181,7 +183,14 @@ removePoints(Frame& frame, const std::vector<std::uint8_t>& remove)
 void
 requirePoints(const Frame& frame, const char* stage_type)
 {
-  if (!frame.cloud || countValidPoints(*frame.cloud) == 0)
+  // One finite point is enough: most clouds answer at their first points, where a
+  // count would read all of them.
+  const auto finite = [](const pcl::PointXYZI& p) {
+    return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+  };
+  if (!frame.cloud || frame.cloud->empty()
+      || (!frame.cloud->is_dense
+          && std::none_of(frame.cloud->begin(), frame.cloud->end(), finite)))
     throw Exception(std::string("stage '") + stage_type
                     + "' received 0 points in frame " + frame.name + " ("
                     + std::to_string(frame.sequence_number)

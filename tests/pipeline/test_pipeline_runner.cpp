@@ -799,6 +799,15 @@ TEST_F(PipelineRunnerTest, OverlappedFramesGiveTheSameResultsAsASequentialRun)
     EXPECT_GT(report->mapping_cpu_ms, 0.0);
     EXPECT_GE(report->process_cpu_ms + 1.0,
               report->mapping_cpu_ms + report->read_ahead_cpu_ms);
+    // Every stage's thread CPU is timed on every frame, inside those two threads'.
+    double stages_cpu_ms = 0.0;
+    for (const auto& stage : report->stages) {
+      EXPECT_EQ(stage.cpu_frames, 4u) << stage.type;
+      EXPECT_GE(stage.cpu_ms, 0.0) << stage.type;
+      stages_cpu_ms += stage.cpu_ms;
+    }
+    EXPECT_GT(stages_cpu_ms, 0.0);
+    EXPECT_LE(stages_cpu_ms, report->mapping_cpu_ms + report->read_ahead_cpu_ms + 1.0);
   }
   EXPECT_EQ(b_report.mapping_wait_ms, 0.0);
 

@@ -24,6 +24,14 @@ struct StageReport {
   double total_ms{0.0};
   /** \brief Wall time of the stage's slowest frame, milliseconds. */
   double max_ms{0.0};
+  /** \brief CPU time of the thread that ran the stage (CLOCK_THREAD_CPUTIME_ID: not
+   * the worker threads a stage starts, e.g. OpenCV's), summed over cpu_frames,
+   * milliseconds. Unlike the wall time it barely depends on what else the machine
+   * runs. */
+  double cpu_ms{0.0};
+  /** \brief Frames in cpu_ms: those this process ran (a resumed run's checkpoint
+   * keeps only the wall times). */
+  std::size_t cpu_frames{0};
   /** \brief Valid points entering the stage, summed over frames (for stages that work
    * on the cloud). */
   std::uint64_t points_in{0};

@@ -1,0 +1,168 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/filters/fast_voxel_grid.h>
+#include <planar_grid/point_types.h>
+
+#include <pcl/common/centroid.h>
+#include <pcl/common/point_tests.h>
+#include <pcl/console/print.h>
+#include <pcl/point_types.h>
+
+#include <algorithm>
+#include <boost/sort/spreadsort/integer_sort.hpp>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <vector>
+
+namespace planar_grid {
+
+namespace {
+
+/** \brief A point's linear voxel index and its index in the cloud: the element
+ * pcl::VoxelGrid sorts, with its order (the voxel index alone). */
+struct VoxelEntry {
+  unsigned int idx;
+  unsigned int cloud_point_index;
+
+  bool operator<(const VoxelEntry& other) const { return idx < other.idx; }
+};
+
+/** \brief A finite point's voxel, integer coordinates in leaves from the origin, and
+ * its index in the cloud. */
+struct PointVoxel {
+  int x, y, z;
+  unsigned int cloud_point_index;
+};
+
+/** \brief Leaf coordinates of this magnitude and more (2^23) are integers already in
+ * single precision; below it, the differences of two voxel coordinates are exact. */
+constexpr float EXACT_LIMIT = 8388608.0f;
+
+/** \brief static_cast<int>(std::floor(v)) for |v| < 2^23, without the call to floorf
+ * (x86-64 before SSE4.1 has no rounding instruction). */
+inline int
+floorToInt(float v)
+{
+  const int t = static_cast<int>(v); // truncation towards zero
+  return t - (static_cast<float>(t) > v ? 1 : 0);
+}
+
+} // namespace
+
+template <typename PointT>
+void
+FastVoxelGrid<PointT>::applyFilter(PointCloud& output)
+{
+  const PointCloud& cloud = *this->input_;
+  const pcl::Indices& indices = *this->indices_;
+  output.height = 1;
+  output.is_dense = true;
+
+  // One pass over the points: the bounding box of the finite ones (as
+  // pcl::getMinMax3D) and their voxels, in index order. The buffers are left
+  // uninitialized: each holds one frame's points, written once.
+  const Eigen::Array4f inv = inverse_leaf_size_;
+  const std::unique_ptr<PointVoxel[]> voxels(new PointVoxel[indices.size()]);
+  std::size_t n = 0;
+  Eigen::Array4f min_p = Eigen::Array4f::Constant(std::numeric_limits<float>::max());
+  Eigen::Array4f max_p = Eigen::Array4f::Constant(std::numeric_limits<float>::lowest());
+  const bool dense = cloud.is_dense;
+  bool exact = true;
+  for (const auto index : indices) {
+    const PointT& p = cloud[static_cast<std::size_t>(index)];
+    if (!dense && !pcl::isXYZFinite(p))
+      continue;
+    const Eigen::Array4f a = p.getArray4fMap();
+    min_p = min_p.min(a);
+    max_p = max_p.max(a);
+    const float sx = p.x * inv[0], sy = p.y * inv[1], sz = p.z * inv[2];
+    exact = exact && std::abs(sx) < EXACT_LIMIT && std::abs(sy) < EXACT_LIMIT
+            && std::abs(sz) < EXACT_LIMIT;
+    voxels[n++] = {floorToInt(sx), floorToInt(sy), floorToInt(sz),
+                   static_cast<unsigned int>(index)};
+  }
+  if (n == 0) {
+    output.clear();
+    output.width = 0;
+    return;
+  }
+
+  // The grid over the bounding box, as pcl::VoxelGrid sizes and checks it.
+  const auto dx = static_cast<std::int64_t>((max_p[0] - min_p[0]) * inv[0]) + 1;
+  const auto dy = static_cast<std::int64_t>((max_p[1] - min_p[1]) * inv[1]) + 1;
+  const auto dz = static_cast<std::int64_t>((max_p[2] - min_p[2]) * inv[2]) + 1;
+  if (dx * dy * dz
+      > static_cast<std::int64_t>(std::numeric_limits<std::int32_t>::max())) {
+    PCL_WARN("[pcl::%s::applyFilter] Leaf size is too small for the input dataset. "
+             "Integer indices would overflow.\n",
+             this->getClassName().c_str());
+    output = cloud;
+    return;
+  }
+  int min_b[3], max_b[3];
+  for (int d = 0; d < 3; ++d) {
+    min_b[d] = static_cast<int>(std::floor(min_p[d] * inv[d]));
+    max_b[d] = static_cast<int>(std::floor(max_p[d] * inv[d]));
+  }
+  const std::int64_t mul_y = max_b[0] - min_b[0] + 1;
+  const std::int64_t mul_z = mul_y * (max_b[1] - min_b[1] + 1);
+
+  // The linear voxel index of every finite point, in index order (pcl::VoxelGrid's
+  // int arithmetic, modulo 2^32), then sorted by it. pcl::VoxelGrid subtracts the
+  // bounding box's first voxel in single precision, which equals the integer
+  // difference below 2^23 (rounding is monotone, so that voxel is the floor of the
+  // smallest point's coordinate); beyond, the voxels are taken again its way.
+  const std::unique_ptr<VoxelEntry[]> entries(new VoxelEntry[n]);
+  if (exact)
+    for (std::size_t j = 0; j < n; ++j) {
+      const PointVoxel& v = voxels[j];
+      entries[j] = {static_cast<unsigned int>((v.x - min_b[0])
+                                              + (v.y - min_b[1]) * mul_y
+                                              + (v.z - min_b[2]) * mul_z),
+                    v.cloud_point_index};
+    }
+  else
+    for (std::size_t j = 0; j < n; ++j) {
+      const PointT& p = cloud[voxels[j].cloud_point_index];
+      const auto i0 = static_cast<std::int64_t>(std::floor(p.x * inv[0])
+                                                - static_cast<float>(min_b[0]));
+      const auto i1 = static_cast<std::int64_t>(std::floor(p.y * inv[1])
+                                                - static_cast<float>(min_b[1]));
+      const auto i2 = static_cast<std::int64_t>(std::floor(p.z * inv[2])
+                                                - static_cast<float>(min_b[2]));
+      entries[j] = {static_cast<unsigned int>(i0 + i1 * mul_y + i2 * mul_z),
+                    voxels[j].cloud_point_index};
+    }
+  boost::sort::spreadsort::integer_sort(
+    entries.get(), entries.get() + n,
+    [](const VoxelEntry& e, unsigned offset) { return e.idx >> offset; });
+
+  // The runs of one voxel index with enough points, then their centroids.
+  std::vector<std::pair<unsigned int, unsigned int>> runs;
+  runs.reserve(n / 4 + 1);
+  for (std::size_t b = 0; b < n;) {
+    std::size_t e = b + 1;
+    while (e < n && entries[e].idx == entries[b].idx)
+      ++e;
+    if (e - b >= min_points_per_voxel_)
+      runs.emplace_back(static_cast<unsigned int>(b), static_cast<unsigned int>(e));
+    b = e;
+  }
+  output.resize(runs.size());
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    pcl::CentroidPoint<PointT> centroid;
+    for (unsigned int i = runs[r].first; i < runs[r].second; ++i)
+      centroid.add(cloud[entries[i].cloud_point_index]);
+    centroid.get(output[r]);
+  }
+  output.width = static_cast<std::uint32_t>(output.size());
+}
+
+} // namespace planar_grid
+
+// The template body lives only here: one explicit instantiation per point type of the
+// CMake list PLANAR_GRID_POINT_TYPES, and no other point type.
+#define PLANAR_GRID_INSTANTIATE_FastVoxelGrid(T) \
+  template class planar_grid::FastVoxelGrid<T>;
+PLANAR_GRID_INSTANTIATE(FastVoxelGrid, PLANAR_GRID_POINT_TYPES)
