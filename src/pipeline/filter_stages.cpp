@@ -5,6 +5,7 @@
 
 #include <pcl/common/point_tests.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -71,8 +72,12 @@ private:
 
 class DepthErrorFilterStage : public Stage {
 public:
-  DepthErrorFilterStage(double disparity_error_px, double max_depth_error_m) :
-      disparity_error_px_(disparity_error_px), max_depth_error_m_(max_depth_error_m)
+  DepthErrorFilterStage(double disparity_error_px,
+                        double max_depth_error_m,
+                        double max_plane_depth_error_m) :
+      disparity_error_px_(disparity_error_px),
+      max_depth_error_m_(max_depth_error_m),
+      max_plane_depth_error_m_(std::max(max_depth_error_m, max_plane_depth_error_m))
   {}
 
   bool isFrameLocal() const override { return true; }
@@ -87,18 +92,29 @@ public:
                       + frame.name + " has none)");
     const auto max_depth =
       static_cast<float>(std::sqrt(max_depth_error_m_ / error_at_1m));
+    const auto max_plane_depth =
+      static_cast<float>(std::sqrt(max_plane_depth_error_m_ / error_at_1m));
     max_depth_m_ = max_depth;
+    max_plane_depth_m_ = max_plane_depth;
     Eigen::Matrix4f camera_T_cloud = Eigen::Matrix4f::Identity();
     if (frame.cloud_in_world_frame)
       camera_T_cloud = frame.world_T_camera.inverse().matrix().cast<float>();
     const Eigen::RowVector4f depth_row = camera_T_cloud.row(2);
     const auto& cloud = *frame.cloud;
     // Per frame, not kept in the stage: the stage may be listed more than once.
+    // The points between the two bounds stay, for the planes alone.
     std::vector<std::uint8_t> far(cloud.size(), 0);
-    for (std::size_t i = 0; i < cloud.size(); ++i)
-      far[i] =
-        pcl::isFinite(cloud[i]) && depth_row.dot(cloud[i].getVector4fMap()) > max_depth;
+    inlier_only_ = 0;
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if (!pcl::isFinite(cloud[i]))
+        continue;
+      const float depth = depth_row.dot(cloud[i].getVector4fMap());
+      far[i] = depth > max_plane_depth;
+      inlier_only_ += depth > max_depth && !far[i];
+    }
     removed_ = removePoints(frame, far);
+    if (max_plane_depth > max_depth)
+      frame.inlier_only_depth_m = std::min(frame.inlier_only_depth_m, max_depth);
   }
 
   void counters(const Frame& /*frame*/,
@@ -106,13 +122,20 @@ public:
   {
     values.emplace_back("max_depth_m", static_cast<double>(max_depth_m_));
     values.emplace_back("far_points", static_cast<double>(removed_));
+    if (max_plane_depth_error_m_ > max_depth_error_m_) {
+      values.emplace_back("max_plane_depth_m", static_cast<double>(max_plane_depth_m_));
+      values.emplace_back("inlier_only_points", static_cast<double>(inlier_only_));
+    }
   }
 
 private:
   double disparity_error_px_;
   double max_depth_error_m_;
+  double max_plane_depth_error_m_;
   float max_depth_m_{0.0f};
+  float max_plane_depth_m_{0.0f};
   std::size_t removed_{0};
+  std::size_t inlier_only_{0};
 };
 
 } // namespace
@@ -126,16 +149,25 @@ depthErrorFilterInfo()
     "Drops the points whose stereo depth error (eq. 4: Delta z = z^2 Delta d / (B f), "
     "z the depth along the optical axis) exceeds max_depth_error_m, so that they make "
     "no planes or cells; the disparity image, which the map's free space is carved "
-    "from, keeps them. Needs stereo input (its calibration).";
+    "from, keeps them. With max_plane_depth_error_m above it, the points between the "
+    "two bounds stay for multi_plane_segmentation alone: they may join the planes the "
+    "nearer points and the key features make (eq. 11), and the ones no plane takes "
+    "are dropped there, so that they make no non-planar cells. Needs stereo input (its "
+    "calibration).";
   info.params = {
     ParamSpec::real("disparity_error_px", 0.5, 0.01, 10.0, "px",
                     "Delta d of eq. 4 (the paper's 0.5 px)."),
     ParamSpec::real("max_depth_error_m", 0.3, 0.001, 100.0, "m",
                     "Largest depth error Delta z of a point that is kept."),
+    ParamSpec::real("max_plane_depth_error_m", 0.0, 0.0, 100.0, "m",
+                    "Largest depth error Delta z of a point that may still join a "
+                    "plane (needs multi_plane_segmentation later in the pipeline); at "
+                    "or below max_depth_error_m (0, the default): none."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
-    return std::make_unique<DepthErrorFilterStage>(v.getDouble("disparity_error_px"),
-                                                   v.getDouble("max_depth_error_m"));
+    return std::make_unique<DepthErrorFilterStage>(
+      v.getDouble("disparity_error_px"), v.getDouble("max_depth_error_m"),
+      v.getDouble("max_plane_depth_error_m"));
   };
   return info;
 }

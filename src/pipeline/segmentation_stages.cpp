@@ -53,6 +53,9 @@ public:
     segmentation_.setClusterCell(v.getDouble("cluster_cell_m"));
     segmentation_.setMaxShellRatio(v.getDouble("max_shell_ratio"));
     segmentation_.setShellWidth(v.getDouble("shell_width_m"));
+    segmentation_.setCountInlierOnlyPoints(v.getBool("count_inlier_only_points"));
+    segmentation_.setInlierOnlyDistanceThreshold(
+      v.getDouble("inlier_only_distance_threshold_m"));
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -85,7 +88,36 @@ public:
                                  frame.world_T_camera.cast<float>().matrix());
     }
     segmentation_.setSampleCloud(sample);
+    // The points beyond depth_error_filter's cell bound may only join planes.
+    inlier_only_ = 0;
+    inlier_only_taken_ = 0;
+    pcl::IndicesPtr inlier_only;
+    if (std::isfinite(frame.inlier_only_depth_m)) {
+      Eigen::Matrix4f camera_T_cloud = Eigen::Matrix4f::Identity();
+      if (frame.cloud_in_world_frame)
+        camera_T_cloud = frame.world_T_camera.inverse().matrix().cast<float>();
+      const Eigen::RowVector4f depth_row = camera_T_cloud.row(2);
+      const auto& cloud = *frame.cloud;
+      inlier_only.reset(new pcl::Indices);
+      for (std::size_t i = 0; i < cloud.size(); ++i)
+        if (pcl::isFinite(cloud[i])
+            && depth_row.dot(cloud[i].getVector4fMap()) > frame.inlier_only_depth_m)
+          inlier_only->push_back(static_cast<pcl::index_t>(i));
+    }
+    segmentation_.setInlierOnlyIndices(inlier_only);
     segmentation_.segment(frame.planes);
+    if (inlier_only) {
+      // The inlier-only points no plane took make no cells.
+      std::vector<std::uint8_t> drop(frame.cloud->size(), 0);
+      for (const auto i : *inlier_only)
+        drop[static_cast<std::size_t>(i)] = 1;
+      for (const auto& plane : frame.planes)
+        for (const auto i : plane.inliers.indices)
+          drop[static_cast<std::size_t>(i)] = 0;
+      inlier_only_ = inlier_only->size();
+      inlier_only_taken_ = inlier_only_ - removePoints(frame, drop);
+      frame.inlier_only_depth_m = std::numeric_limits<float>::infinity();
+    }
     if (frame.planes.empty())
       PCL_WARN("[planar_grid::multi_plane_segmentation] No plane found in frame %s.\n",
                frame.name.c_str());
@@ -101,6 +133,10 @@ public:
       inliers += plane.inliers.indices.size();
     values.emplace_back("planes", static_cast<double>(frame.planes.size()));
     values.emplace_back("plane_inliers", static_cast<double>(inliers));
+    if (inlier_only_ > 0) {
+      values.emplace_back("inlier_only_points", static_cast<double>(inlier_only_));
+      values.emplace_back("inlier_only_taken", static_cast<double>(inlier_only_taken_));
+    }
     if (segmentation_.getMaxVisibilityConflictRatio() > 0.0) {
       values.emplace_back(
         "visibility_dropped",
@@ -135,6 +171,8 @@ private:
   SACMultiPlaneSegmentation<pcl::PointXYZI> segmentation_;
   bool use_features_;
   double depth_noise_disparity_px_;
+  std::size_t inlier_only_{0};
+  std::size_t inlier_only_taken_{0};
 };
 
 /** Parameters of the terrain removal (ground_removal stage). */
@@ -404,6 +442,15 @@ multiPlaneSegmentationInfo()
                     "Smallest width of the shell test's shell (a voxelised cloud's "
                     "surface points lie in layers one voxel apart).")
       .scalesWithCellSize(ParamSpec::CellSizeScaling::CELL_SIZE),
+    ParamSpec::flag("count_inlier_only_points", true,
+                    "The points beyond depth_error_filter's cell bound (kept by its "
+                    "max_plane_depth_error_m) count towards min_inliers, so that a "
+                    "plane the key features make may stand on them alone; false: a "
+                    "plane needs min_inliers nearer points, which they only extend."),
+    ParamSpec::real("inlier_only_distance_threshold_m", 0.0, 0.0, 10.0, "m",
+                    "Those points join a plane within the smaller of this and their "
+                    "eq. 11 threshold (a planar cell is as thick as its inliers' "
+                    "spread); 0: eq. 11's."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     return std::make_unique<MultiPlaneSegmentationStage>(v);

@@ -36,6 +36,11 @@ public:
       return;
     }
     requirePoints(frame, "planar_cuboid_approximation");
+    if (std::isfinite(frame.inlier_only_depth_m))
+      throw Exception("stage 'planar_cuboid_approximation': depth_error_filter's "
+                      "max_plane_depth_error_m needs multi_plane_segmentation before "
+                      "it (frame "
+                      + frame.name + ")");
     approximation_.setInputCloud(frame.cloud);
     approximation_.setPlanes(frame.planes);
     approximation_.setUpAxis(upAxis(frame));

@@ -485,17 +485,18 @@ TEST(SACMultiPlaneSegmentation, LocalOptimizationMatchesBruteForce)
   Eigen::Vector4f plane = start, plane_again = start, unchanged = start;
   std::mt19937 lo_rng(3), lo_rng_again(3), lo_rng_zero(3);
   const std::size_t count =
-    planar_grid::detail::optimizePlane(x, y, z, t, 50, lo_rng, plane);
+    planar_grid::detail::optimizePlane(x, y, z, x.size(), t, 50, lo_rng, plane);
   EXPECT_EQ(count, bruteForce(plane));
   EXPECT_GE(count, start_count);
   EXPECT_GE(count, 1900u);
   EXPECT_NEAR(std::abs(plane.head<3>().dot(normal)), 1.0, 1.0 - std::cos(2.0 * DEG));
-  EXPECT_EQ(
-    planar_grid::detail::optimizePlane(x, y, z, t, 50, lo_rng_again, plane_again),
-    count);
+  EXPECT_EQ(planar_grid::detail::optimizePlane(x, y, z, x.size(), t, 50, lo_rng_again,
+                                               plane_again),
+            count);
   EXPECT_EQ(plane_again, plane);
-  EXPECT_EQ(planar_grid::detail::optimizePlane(x, y, z, t, 0, lo_rng_zero, unchanged),
-            start_count);
+  EXPECT_EQ(
+    planar_grid::detail::optimizePlane(x, y, z, x.size(), t, 0, lo_rng_zero, unchanged),
+    start_count);
   EXPECT_EQ(unchanged, start);
 }
 
@@ -1424,3 +1425,125 @@ TEST(SACMultiPlaneSegmentation, ShellCellsMatchBruteForce)
 }
 
 } // namespace
+
+// Inlier-only points: a near wall x = 4 (y in [-3, 3]) and, as inlier-only points, its
+// continuation (y in [3, 9]) and a far wall y = 20 that nothing else lies on. The far
+// wall's points make no plane of their own, the continuation joins the near wall.
+TEST(SACMultiPlaneSegmentation, InlierOnlyPointsExtendPlanesButMakeNone)
+{
+  Scene<pcl::PointXYZ> scene;
+  std::mt19937 rng(3);
+  const Eigen::Vector4d near_wall(-1, 0, 0, 4), far_wall(0, -1, 0, 20);
+  addPatch(scene, 0, {4, -3, -1}, {0, 0, 2.5}, {0, 6, 0}, 2500, 0.005, rng);
+  const std::size_t near_points = scene.cloud->size();
+  addPatch(scene, 1, {4, 3, -1}, {0, 0, 2.5}, {0, 6, 0}, 2500, 0.005, rng);
+  addPatch(scene, 2, {-5, 20, -1}, {8.5, 0, 0}, {0, 0, 2.5}, 4000, 0.005, rng);
+  pcl::IndicesPtr inlier_only(new pcl::Indices);
+  for (std::size_t i = near_points; i < scene.cloud->size(); ++i)
+    inlier_only->push_back(static_cast<pcl::index_t>(i));
+
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  seg.setInputCloud(scene.cloud);
+  seg.setMinInliers(500);
+  seg.setSeed(7);
+  PlanarSegments planes;
+  seg.segment(planes);
+  // Without the inlier-only set, the far wall is a plane: the scene does hold it.
+  ASSERT_EQ(planes.size(), 2u);
+  EXPECT_LT(normalAngle(planes[match(planes, far_wall)].model_coefficients, far_wall),
+            2 * DEG);
+
+  seg.setInlierOnlyIndices(inlier_only);
+  seg.segment(planes);
+  ASSERT_EQ(planes.size(), 1u);
+  EXPECT_LT(normalAngle(planes[0].model_coefficients, near_wall), 1 * DEG);
+  EXPECT_NEAR(planes[0].model_coefficients.values[3], near_wall[3], 0.01);
+  // Every point of the wall and of its continuation (10 sigma of d_T), none of the far
+  // wall's.
+  std::vector<int> per_label(3, 0);
+  for (const auto i : planes[0].inliers.indices)
+    ++per_label[scene.labels[static_cast<std::size_t>(i)]];
+  EXPECT_EQ(per_label[0], 2500);
+  EXPECT_EQ(per_label[1], 2500);
+  EXPECT_EQ(per_label[2], 0);
+}
+
+// A far wall y = 20 whose dense points are all inlier-only is a plane when the sample
+// cloud (the key features) hypothesises it: its inlier-only points count towards
+// min_inliers. With too few features on it (below min_sample_inliers) it is none.
+TEST(SACMultiPlaneSegmentation, InlierOnlyPointsCountForAPlaneTheSampleMakes)
+{
+  Scene<pcl::PointXYZ> scene;
+  std::mt19937 rng(5);
+  const Eigen::Vector4d far_wall(0, -1, 0, 20);
+  addPatch(scene, 0, {4, -3, -1}, {0, 0, 2.5}, {0, 6, 0}, 2500, 0.005, rng);
+  const std::size_t near_points = scene.cloud->size();
+  addPatch(scene, 1, {-5, 20, -1}, {8.5, 0, 0}, {0, 0, 2.5}, 2000, 0.005, rng);
+  pcl::IndicesPtr inlier_only(new pcl::Indices);
+  for (std::size_t i = near_points; i < scene.cloud->size(); ++i)
+    inlier_only->push_back(static_cast<pcl::index_t>(i));
+  Scene<pcl::PointXYZ> features;
+  addPatch(features, 0, {4, -3, -1}, {0, 0, 2.5}, {0, 6, 0}, 40, 0.0, rng);
+  addPatch(features, 1, {-5, 20, -1}, {8.5, 0, 0}, {0, 0, 2.5}, 40, 0.0, rng);
+
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  seg.setInputCloud(scene.cloud);
+  seg.setInlierOnlyIndices(inlier_only);
+  seg.setSampleCloud(features.cloud);
+  seg.setMinInliers(500);
+  seg.setMergePlanes(false);
+  seg.setSeed(7);
+  PlanarSegments planes;
+  seg.segment(planes);
+  ASSERT_EQ(planes.size(), 2u);
+  const int far = match(planes, far_wall);
+  ASSERT_GE(far, 0);
+  EXPECT_LT(normalAngle(planes[far].model_coefficients, far_wall), 1 * DEG);
+  EXPECT_NEAR(planes[far].model_coefficients.values[3], far_wall[3], 0.01);
+  ASSERT_EQ(planes[far].inliers.indices.size(), 2000u);
+  for (const auto i : planes[far].inliers.indices)
+    EXPECT_EQ(scene.labels[static_cast<std::size_t>(i)], 1);
+
+  // 10 features on the far wall, min_sample_inliers 15: the near wall alone.
+  features.cloud->resize(50);
+  seg.setSampleCloud(features.cloud);
+  seg.segment(planes);
+  ASSERT_EQ(planes.size(), 1u);
+  EXPECT_LT(planes[0].model_coefficients.values[0], -0.99f);
+}
+
+// The inlier-only points join within their own distance threshold: those of a wall's
+// continuation that are in the plane are exactly those within it of the plane
+// (brute-force oracle; float rounding at the boundary may differ by a point or two).
+TEST(SACMultiPlaneSegmentation, InlierOnlyPointsJoinWithinTheirOwnThreshold)
+{
+  Scene<pcl::PointXYZ> scene;
+  std::mt19937 rng(3);
+  addPatch(scene, 0, {4, -3, -1}, {0, 0, 2.5}, {0, 6, 0}, 2500, 0.005, rng);
+  const std::size_t near_points = scene.cloud->size();
+  addPatch(scene, 1, {4, 3, -1}, {0, 0, 2.5}, {0, 6, 0}, 2500, 0.02, rng);
+  pcl::IndicesPtr inlier_only(new pcl::Indices);
+  for (std::size_t i = near_points; i < scene.cloud->size(); ++i)
+    inlier_only->push_back(static_cast<pcl::index_t>(i));
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  seg.setInputCloud(scene.cloud);
+  seg.setInlierOnlyIndices(inlier_only);
+  seg.setInlierOnlyDistanceThreshold(0.01);
+  seg.setMinInliers(500);
+  seg.setSeed(7);
+  PlanarSegments planes;
+  seg.segment(planes);
+  ASSERT_EQ(planes.size(), 1u);
+  const auto& c = planes[0].model_coefficients.values;
+  std::size_t within = 0, taken = 0;
+  for (std::size_t i = near_points; i < scene.cloud->size(); ++i) {
+    const auto& p = (*scene.cloud)[i];
+    within += std::abs(c[0] * p.x + c[1] * p.y + c[2] * p.z + c[3]) <= 0.01f;
+  }
+  for (const auto i : planes[0].inliers.indices)
+    taken += static_cast<std::size_t>(i) >= near_points;
+  // sigma 0.02 m: about 38 % within 0.01 m, all of them within d_T = 0.05 m.
+  EXPECT_GT(within, 700u);
+  EXPECT_LT(within, 1200u);
+  EXPECT_NEAR(static_cast<double>(taken), static_cast<double>(within), 2.0);
+}

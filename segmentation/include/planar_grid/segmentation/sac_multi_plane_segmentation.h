@@ -148,6 +148,49 @@ public:
   /** \brief Returns the sample cloud (nullptr when none is set). */
   PointCloudConstPtr getSampleCloud() const { return sample_cloud_; }
 
+  /** \brief Sets the inlier-only points: points of the input cloud that may join a
+   * plane as eq. 11 inliers, and count towards setMinInliers(), but take no part in
+   * making planes: they are left out of the cloud subsample the hypotheses are drawn
+   * from without a sample cloud, the dense hypothesis, the local refinement and the
+   * LO-RANSAC, so that a plane always comes from the sample cloud or the other input
+   * points. For stereo points beyond the range where they are too noisy to make
+   * planes or cells of their own, which may still extend the planes the nearer points
+   * and the key features support. An index given here is inlier-only even when it is
+   * also in the input indices; indices outside the cloud are ignored.
+   * \param[in] indices indices into the input cloud; nullptr or empty (the default):
+   * none */
+  void setInlierOnlyIndices(const pcl::IndicesConstPtr& indices)
+  {
+    inlier_only_indices_ = indices;
+  }
+  /** \brief Returns the inlier-only indices (nullptr when none are set). */
+  pcl::IndicesConstPtr getInlierOnlyIndices() const { return inlier_only_indices_; }
+
+  /** \brief Sets whether the inlier-only points count towards setMinInliers(): with
+   * true (the default) a plane the sample cloud makes may stand on inlier-only points
+   * alone; with false it needs min_inliers of the other points, which the inlier-only
+   * points then only extend.
+   * \param[in] count whether they count */
+  void setCountInlierOnlyPoints(bool count) { count_inlier_only_ = count; }
+  /** \brief Returns whether the inlier-only points count towards min_inliers. */
+  bool getCountInlierOnlyPoints() const { return count_inlier_only_; }
+
+  /** \brief Sets the largest point-to-plane distance of an inlier-only point: they join
+   * a plane within the smaller of it and their eq. 11 threshold (with the depth
+   * noise, setDepthNoiseCoefficient(), the latter exceeds 0.3 m beyond 15 m of a
+   * Karlsruhe-like rig, and a planar cell is as thick as its inliers' spread).
+   * \param[in] distance_m in meters, >= 0 (default 0: eq. 11's threshold) */
+  void setInlierOnlyDistanceThreshold(double distance_m)
+  {
+    inlier_only_distance_threshold_ = distance_m;
+  }
+  /** \brief Returns the inlier-only points' distance threshold, in meters (0: eq.
+   * 11's). */
+  double getInlierOnlyDistanceThreshold() const
+  {
+    return inlier_only_distance_threshold_;
+  }
+
   /** \brief Sets d_T of eq. 11, the largest point-to-plane distance of a dense inlier.
    * \param[in] distance_threshold_m in meters, > 0 (default 0.05, the paper's value) */
   void setDistanceThreshold(double distance_threshold_m)
@@ -484,6 +527,9 @@ protected:
   std::string class_name_{"SACMultiPlaneSegmentation"};
   /** \brief Cloud the hypotheses are drawn from, or nullptr. */
   PointCloudConstPtr sample_cloud_;
+  pcl::IndicesConstPtr inlier_only_indices_;
+  bool count_inlier_only_{true};
+  double inlier_only_distance_threshold_{0.0};
   /** \brief d_T of eq. 11, in meters. */
   double distance_threshold_{0.05};
   /** \brief Delta d / (B f) of the range-dependent eq. 11 threshold, in 1/m. */

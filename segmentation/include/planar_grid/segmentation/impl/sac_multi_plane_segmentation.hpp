@@ -175,6 +175,9 @@ struct DensePoints {
   std::vector<float> threshold;
   pcl::Indices index;
   std::vector<std::uint8_t> mask;
+  /** The first primary points may make planes; the rest are inlier-only (they stay
+   * behind the primary ones, the removals being stable). */
+  std::size_t primary{0};
 
   std::size_t size() const { return index.size(); }
 
@@ -246,9 +249,12 @@ struct DensePoints {
   template <typename Remove> void removeIf(Remove remove)
   {
     std::size_t w = 0;
+    std::size_t removed_primary = 0;
     for (std::size_t k = 0; k < size(); ++k) {
-      if (remove(k))
+      if (remove(k)) {
+        removed_primary += k < primary ? 1 : 0;
         continue;
+      }
       x[w] = x[k];
       y[w] = y[k];
       z[w] = z[k];
@@ -265,6 +271,7 @@ struct DensePoints {
       threshold.resize(w);
     index.resize(w);
     mask.resize(w);
+    primary -= removed_primary;
   }
 };
 
@@ -712,7 +719,8 @@ ransacPlane(const std::vector<float>& x,
 
 /** \brief Local optimisation of a plane (the LO step of LO-RANSAC, Chum, Matas and
  * Kittler, DAGM 2003): `iterations` minimal samples drawn with `rng` from the points
- * within t of the starting plane, each counted over all points (SoA, early exit); a
+ * within t of the starting plane, each counted over the first n points (SoA, early
+ * exit; the others take no part); a
  * sample plane with more points within t replaces the plane. Only a strictly better
  * count is accepted, so the count never decreases.
  * \return the exact number of points within t of the returned `plane` */
@@ -720,12 +728,13 @@ inline std::size_t
 optimizePlane(const std::vector<float>& x,
               const std::vector<float>& y,
               const std::vector<float>& z,
+              std::size_t n,
               float t,
               int iterations,
               std::mt19937& rng,
               Eigen::Vector4f& plane)
 {
-  const std::size_t n = x.size();
+  n = std::min(n, x.size());
   std::vector<std::size_t> inliers;
   for (std::size_t k = 0; k < n; ++k)
     if (std::abs(plane[0] * x[k] + plane[1] * y[k] + plane[2] * z[k] + plane[3]) <= t)
@@ -809,6 +818,9 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
     bad = "max_shell_ratio must be finite and >= 0";
   else if (!(shell_width_ >= 0.0) || !std::isfinite(shell_width_))
     bad = "shell_width must be finite and >= 0 m";
+  else if (!(inlier_only_distance_threshold_ >= 0.0)
+           || !std::isfinite(inlier_only_distance_threshold_))
+    bad = "inlier_only_distance_threshold must be finite and >= 0 m";
   return bad;
 }
 
@@ -886,20 +898,38 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
   constexpr float TERRAIN_TILT = 0.3f;
 
   // The unassigned finite input points (within the indices), struct of arrays.
+  // The inlier-only points come after the others (dense.primary).
+  std::vector<std::uint8_t> inlier_only;
+  if (inlier_only_indices_ && !inlier_only_indices_->empty()) {
+    inlier_only.assign(input_->size(), 0);
+    for (const auto i : *inlier_only_indices_)
+      if (i >= 0 && static_cast<std::size_t>(i) < input_->size())
+        inlier_only[static_cast<std::size_t>(i)] = 1;
+  }
   detail::DensePoints dense;
   dense.x.reserve(indices_->size());
   dense.y.reserve(indices_->size());
   dense.z.reserve(indices_->size());
   dense.index.reserve(indices_->size());
-  for (const auto i : *indices_) {
+  const auto addPoint = [&](pcl::index_t i) {
     const PointT& p = (*input_)[i];
     if (!pcl::isXYZFinite(p))
-      continue;
+      return;
     dense.x.push_back(p.x);
     dense.y.push_back(p.y);
     dense.z.push_back(p.z);
     dense.index.push_back(i);
-  }
+  };
+  for (const auto i : *indices_)
+    if (inlier_only.empty() || !inlier_only[static_cast<std::size_t>(i)])
+      addPoint(i);
+  dense.primary = dense.size();
+  if (!inlier_only.empty())
+    for (std::size_t i = 0; i < inlier_only.size(); ++i)
+      if (inlier_only[i]) {
+        inlier_only[i] = 0; // each index once
+        addPoint(static_cast<pcl::index_t>(i));
+      }
   if (depth_noise_coefficient_ > 0.0) {
     // Eq. 11 at the stereo depth error of each point's range (eq. 4's Delta z).
     const auto coefficient = static_cast<float>(depth_noise_coefficient_);
@@ -909,6 +939,15 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
         (Eigen::Vector3f(dense.x[k], dense.y[k], dense.z[k]) - origin).squaredNorm();
       dense.threshold[k] = std::max(d_t, coefficient * r2);
     }
+  }
+  if (inlier_only_distance_threshold_ > 0.0 && dense.primary < dense.size()) {
+    // A planar cell spans its inliers' depth along the normal: the inlier-only points
+    // join within a bound of their own, so that their noise does not thicken it.
+    if (dense.threshold.empty())
+      dense.threshold.assign(dense.size(), d_t);
+    const auto cap = static_cast<float>(inlier_only_distance_threshold_);
+    for (std::size_t k = dense.primary; k < dense.size(); ++k)
+      dense.threshold[k] = std::min(dense.threshold[k], cap);
   }
   // Every finite input point, for the visibility test (dense loses the planes'
   // inliers as they are taken).
@@ -929,7 +968,8 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
       if (pcl::isXYZFinite((*sample_cloud_)[i]))
         remaining.push_back(static_cast<pcl::index_t>(i));
   } else {
-    remaining = dense.index;
+    remaining.assign(dense.index.begin(),
+                     dense.index.begin() + static_cast<std::ptrdiff_t>(dense.primary));
     const auto wanted = std::min(remaining.size(), std::size_t(max_sample_size_));
     for (std::size_t k = 0; k < wanted; ++k) { // partial Fisher-Yates
       std::uniform_int_distribution<std::size_t> pick(k, remaining.size() - 1);
@@ -952,6 +992,16 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
     return;
   }
 
+  // The inliers a plane needs min_inliers of: all of them, or the primary ones alone
+  // (the mask holds the plane's inliers wherever it is compared).
+  const auto support = [&](std::size_t count) {
+    if (count_inlier_only_ || dense.primary == dense.size())
+      return count;
+    return static_cast<std::size_t>(
+      std::count(dense.mask.begin(),
+                 dense.mask.begin() + static_cast<std::ptrdiff_t>(dense.primary),
+                 std::uint8_t(1)));
+  };
   std::vector<std::uint8_t> sample_taken(sample_cloud->size(), 0);
   pcl::Indices sac_inliers;
   std::vector<std::size_t> slab_points;
@@ -1014,10 +1064,12 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
       if (dense.select(plane, slab) >= 3) {
         // Store positions of the slab points, a seeded subsample of them, as SoA.
         slab_points.clear();
-        for (std::size_t k = 0; k < dense.size(); ++k)
+        for (std::size_t k = 0; k < dense.primary; ++k)
           if (dense.mask[k])
             slab_points.push_back(k);
-        const std::size_t wanted = std::min(slab_points.size(), LOCAL_SAMPLE_SIZE);
+        // The inlier-only points refine no plane.
+        const std::size_t wanted =
+          slab_points.size() < 3 ? 0 : std::min(slab_points.size(), LOCAL_SAMPLE_SIZE);
         for (std::size_t k = 0; k < wanted; ++k) {
           std::uniform_int_distribution<std::size_t> pick(k, slab_points.size() - 1);
           std::swap(slab_points[k], slab_points[pick(rng)]);
@@ -1045,8 +1097,8 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
     // over the store is kept. It finds the large planes the sample has few points on
     // (a road with little texture).
     bool dense_won = false;
-    if (dense_hypothesis_ && dense.size() >= 3) {
-      const std::size_t n = dense.size();
+    if (dense_hypothesis_ && dense.primary >= 3) {
+      const std::size_t n = dense.primary;
       const std::size_t wanted = std::min(n, LOCAL_SAMPLE_SIZE);
       std::uniform_int_distribution<std::size_t> pick(0, n - 1);
       local_x.resize(wanted);
@@ -1070,7 +1122,8 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
     }
     // Local optimisation (LO-RANSAC) of the kept hypothesis on all unassigned points.
     if (lo_iterations_ > 0) {
-      detail::optimizePlane(dense.x, dense.y, dense.z, d_t, lo_iterations_, rng, plane);
+      detail::optimizePlane(dense.x, dense.y, dense.z, dense.primary, d_t,
+                            lo_iterations_, rng, plane);
       detail::orientTowards(plane, origin);
     }
 
@@ -1104,7 +1157,7 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
                                    }),
                     remaining.end());
 
-    if (static_cast<int>(count) < min_inliers_) {
+    if (static_cast<int>(support(count)) < min_inliers_) {
       PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with %zu < %d inliers.\n",
                 getClassName().c_str(), count, min_inliers_);
       continue;
@@ -1127,7 +1180,7 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
         static_cast<float>(visibility_cell_), max_visibility_conflict_ratio_);
       visibility_removed_ += removed;
       count -= removed;
-      if (static_cast<int>(count) < min_inliers_) {
+      if (static_cast<int>(support(count)) < min_inliers_) {
         PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with visibility "
                   "conflicts at %zu of its inliers (%zu left).\n",
                   getClassName().c_str(), removed, count);
@@ -1141,7 +1194,7 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
         static_cast<float>(visibility_cell_), max_shell_ratio_);
       shell_removed_ += removed;
       count -= removed;
-      if (static_cast<int>(count) < min_inliers_) {
+      if (static_cast<int>(support(count)) < min_inliers_) {
         PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with points beyond its "
                   "threshold at %zu of its inliers (%zu left).\n",
                   getClassName().c_str(), removed, count);
@@ -1160,7 +1213,7 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
                                     static_cast<std::size_t>(min_cluster_size_));
       cluster_removed_ += removed;
       count -= removed;
-      if (static_cast<int>(count) < min_inliers_) {
+      if (static_cast<int>(support(count)) < min_inliers_) {
         PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane whose footprint falls "
                   "apart into clusters of < %d inliers (%zu left).\n",
                   getClassName().c_str(), min_cluster_size_, count);

@@ -13,6 +13,7 @@
 #include <opencv2/core/mat.hpp>
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -49,6 +50,12 @@ struct Frame {
    * every measured point, for the map's ray casting (stereo frames give their
    * disparity image instead). Empty before transform_to_world. */
   Cloud::ConstPtr measured_cloud;
+
+  /** \brief Points of `cloud` deeper than this along the camera's optical axis (metres)
+   * may only join planes: depth_error_filter keeps them between its two bounds,
+   * multi_plane_segmentation lets them extend its planes and drops the ones no plane
+   * takes (then resets this to infinity). Infinity: every point may make cells. */
+  float inlier_only_depth_m{std::numeric_limits<float>::infinity()};
 
   /** \brief Matched 3D key feature points in the camera frame (after feature_matching).
    */
