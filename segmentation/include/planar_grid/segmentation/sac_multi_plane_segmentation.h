@@ -527,8 +527,11 @@ protected:
   std::string class_name_{"SACMultiPlaneSegmentation"};
   /** \brief Cloud the hypotheses are drawn from, or nullptr. */
   PointCloudConstPtr sample_cloud_;
+  /** \brief Points that may join planes but make none (setInlierOnlyIndices()). */
   pcl::IndicesConstPtr inlier_only_indices_;
+  /** \brief Whether the inlier-only points count towards min_inliers. */
   bool count_inlier_only_{true};
+  /** \brief Largest distance of an inlier-only point, in meters (0: eq. 11's). */
   double inlier_only_distance_threshold_{0.0};
   /** \brief d_T of eq. 11, in meters. */
   double distance_threshold_{0.05};
