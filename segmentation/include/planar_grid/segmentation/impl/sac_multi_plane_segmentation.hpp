@@ -636,30 +636,21 @@ removeSmallClusters(DensePoints& store,
  * and stopping as soon as the count cannot exceed `to_beat` (then the partial count,
  * <= to_beat, is returned). With to_beat = 0 every point is counted, so the result is
  * exact whenever it is > to_beat: a RANSAC that keeps a hypothesis only when its count
- * is > the best so far chooses exactly what a full count would choose. */
-inline std::size_t
+ * is > the best so far chooses exactly what a full count would choose. Compiled in
+ * the library (src/sac_multi_plane_segmentation.cpp) for the baseline instruction set
+ * and for AVX2, chosen at load time by the CPU; both evaluate the same expression
+ * (no fused multiply-add), so they count the same points.
+ * \param[in] px, py, pz n coordinates each, meters
+ * \param[in] plane [a, b, c, d], unit normal
+ * \param[in] t distance threshold, meters */
+std::size_t
 countWithinDistance(const float* px,
                     const float* py,
                     const float* pz,
                     std::size_t n,
                     const Eigen::Vector4f& plane,
                     float t,
-                    std::size_t to_beat)
-{
-  constexpr std::size_t BLOCK = 256;
-  const float a = plane[0], b = plane[1], c = plane[2], d = plane[3];
-  std::size_t count = 0;
-  for (std::size_t begin = 0; begin < n; begin += BLOCK) {
-    const std::size_t end = std::min(n, begin + BLOCK);
-    std::uint32_t block_count = 0;
-    for (std::size_t k = begin; k < end; ++k)
-      block_count += std::abs(a * px[k] + b * py[k] + c * pz[k] + d) <= t ? 1u : 0u;
-    count += block_count;
-    if (to_beat > 0 && count + (n - end) <= to_beat)
-      return count;
-  }
-  return count;
-}
+                    std::size_t to_beat);
 
 /** \brief Plain RANSAC for a plane on struct-of-arrays points, drawing minimal samples
  * with `rng`: the hypothesis with the most points within t wins; the iteration count
