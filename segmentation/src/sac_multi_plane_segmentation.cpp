@@ -16,7 +16,7 @@ PLANAR_GRID_INSTANTIATE(SACMultiPlaneSegmentation, PLANAR_GRID_POINT_TYPES)
 // The RANSAC's inner loop: on x86-64 with GNU ifunc, an AVX2 clone (8 floats a step
 // instead of SSE2's 4) beside the baseline one, chosen by the loader. AVX2 alone does
 // not enable FMA, so both clones round a x + b y + c z + d alike.
-#if defined(__x86_64__) && defined(__GNUC__) && defined(__ELF__)                    \
+#if defined(__x86_64__) && defined(__GNUC__) && defined(__ELF__) \
   && !defined(__INTEL_COMPILER)
 #define PLANAR_GRID_TARGET_CLONES __attribute__((target_clones("avx2", "default")))
 #else

@@ -643,14 +643,13 @@ removeSmallClusters(DensePoints& store,
  * \param[in] px, py, pz n coordinates each, meters
  * \param[in] plane [a, b, c, d], unit normal
  * \param[in] t distance threshold, meters */
-std::size_t
-countWithinDistance(const float* px,
-                    const float* py,
-                    const float* pz,
-                    std::size_t n,
-                    const Eigen::Vector4f& plane,
-                    float t,
-                    std::size_t to_beat);
+std::size_t countWithinDistance(const float* px,
+                                const float* py,
+                                const float* pz,
+                                std::size_t n,
+                                const Eigen::Vector4f& plane,
+                                float t,
+                                std::size_t to_beat);
 
 /** \brief Plain RANSAC for a plane on struct-of-arrays points, drawing minimal samples
  * with `rng`: the hypothesis with the most points within t wins; the iteration count
