@@ -77,10 +77,14 @@ FastVoxelGrid<PointT>::applyFilter(PointCloud& output)
     min_p = min_p.min(a);
     max_p = max_p.max(a);
     const float sx = p.x * inv[0], sy = p.y * inv[1], sz = p.z * inv[2];
-    exact = exact && std::abs(sx) < EXACT_LIMIT && std::abs(sy) < EXACT_LIMIT
-            && std::abs(sz) < EXACT_LIMIT;
-    voxels[n++] = {floorToInt(sx), floorToInt(sy), floorToInt(sz),
-                   static_cast<unsigned int>(index)};
+    // Voxels are taken here only within the exact range, where they fit an int;
+    // beyond it the grid is too large or the second pass below takes them.
+    const bool in_range = std::abs(sx) < EXACT_LIMIT && std::abs(sy) < EXACT_LIMIT
+                          && std::abs(sz) < EXACT_LIMIT;
+    exact = exact && in_range;
+    voxels[n++] = in_range ? PointVoxel{floorToInt(sx), floorToInt(sy), floorToInt(sz),
+                                        static_cast<unsigned int>(index)}
+                           : PointVoxel{0, 0, 0, static_cast<unsigned int>(index)};
   }
   if (n == 0) {
     output.clear();

@@ -194,3 +194,22 @@ TEST(FastVoxelGrid, CentroidsOfKnownVoxels)
   grid.filter(out);
   EXPECT_TRUE(out.empty());
 }
+
+TEST(FastVoxelGrid, CoordinatesBeyondTheIntRangeGiveWhatPCLGives)
+{
+  // One point 10^9 m away among near ones: its voxel coordinate (10^10 leaves) fits
+  // no int, and the grid over the bounding box is too large, so PCL returns the input
+  // unchanged (with a warning); ours must too, without computing the far point's voxel
+  // in int arithmetic (the sanitizer build checks that).
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  for (int k = 0; k < 50; ++k)
+    cloud->push_back({0.01f * static_cast<float>(k), 0.5f, 1.0f});
+  cloud->push_back({1.0e9f, 0.5f, 1.0f});
+  cloud->is_dense = true;
+  const auto expected =
+    filteredBy<pcl::VoxelGrid<pcl::PointXYZ>, pcl::PointXYZ>(cloud, 0.1f, 0);
+  ASSERT_EQ(expected.size(), cloud->size());
+  expectSameBytes(filteredBy<planar_grid::FastVoxelGrid<pcl::PointXYZ>, pcl::PointXYZ>(
+                    cloud, 0.1f, 0),
+                  expected, "a point 10^9 m away");
+}
