@@ -92,12 +92,29 @@ FastVoxelGrid<PointT>::applyFilter(PointCloud& output)
     return;
   }
 
-  // The grid over the bounding box, as pcl::VoxelGrid sizes and checks it.
-  const auto dx = static_cast<std::int64_t>((max_p[0] - min_p[0]) * inv[0]) + 1;
-  const auto dy = static_cast<std::int64_t>((max_p[1] - min_p[1]) * inv[1]) + 1;
-  const auto dz = static_cast<std::int64_t>((max_p[2] - min_p[2]) * inv[2]) + 1;
-  if (dx * dy * dz
-      > static_cast<std::int64_t>(std::numeric_limits<std::int32_t>::max())) {
+  // The grid over the bounding box, as pcl::VoxelGrid sizes and checks it: too large
+  // when its voxel count or a voxel coordinate exceeds the int range. The extents are
+  // compared one product at a time, so that no product overflows (pcl::VoxelGrid
+  // multiplies all three at once in int64, which overflows for huge extents; where it
+  // does not, both decide alike).
+  constexpr auto INT_RANGE = static_cast<std::int64_t>(std::numeric_limits<int>::max());
+  bool too_large = false;
+  std::int64_t voxel_count = 1;
+  for (int d = 0; d < 3 && !too_large; ++d) {
+    const float extent = (max_p[d] - min_p[d]) * inv[d];
+    if (!(extent < static_cast<float>(INT_RANGE))) {
+      too_large = true; // also NaN extents
+      break;
+    }
+    voxel_count *= static_cast<std::int64_t>(extent) + 1; // < 2^31 * 2^32
+    // The voxel coordinates themselves must fit an int too (pcl::VoxelGrid's cast is
+    // undefined beyond).
+    const float lowest = std::floor(min_p[d] * inv[d]);
+    const float highest = std::floor(max_p[d] * inv[d]);
+    too_large = voxel_count > INT_RANGE || !(lowest >= -static_cast<float>(INT_RANGE))
+                || !(highest < static_cast<float>(INT_RANGE));
+  }
+  if (too_large) {
     PCL_WARN("[pcl::%s::applyFilter] Leaf size is too small for the input dataset. "
              "Integer indices would overflow.\n",
              this->getClassName().c_str());

@@ -212,4 +212,15 @@ TEST(FastVoxelGrid, CoordinatesBeyondTheIntRangeGiveWhatPCLGives)
   expectSameBytes(filteredBy<planar_grid::FastVoxelGrid<pcl::PointXYZ>, pcl::PointXYZ>(
                     cloud, 0.1f, 0),
                   expected, "a point 10^9 m away");
+
+  // Points 10^12 m away, within one voxel's extent of each other: few voxels, but
+  // their coordinates fit no int (where pcl::VoxelGrid's cast is undefined). Ours
+  // passes the cloud through, as for a grid too large.
+  pcl::PointCloud<pcl::PointXYZ>::Ptr far(new pcl::PointCloud<pcl::PointXYZ>);
+  for (int k = 0; k < 5; ++k)
+    far->push_back({1.0e12f, 0.01f * static_cast<float>(k), -1.0e12f});
+  far->is_dense = true;
+  const auto through =
+    filteredBy<planar_grid::FastVoxelGrid<pcl::PointXYZ>, pcl::PointXYZ>(far, 0.1f, 0);
+  expectSameBytes(through, *far, "5 points 10^12 m away");
 }
