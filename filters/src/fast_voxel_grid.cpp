@@ -98,21 +98,23 @@ FastVoxelGrid<PointT>::applyFilter(PointCloud& output)
   // multiplies all three at once in int64, which overflows for huge extents; where it
   // does not, both decide alike).
   constexpr auto INT_RANGE = static_cast<std::int64_t>(std::numeric_limits<int>::max());
+  constexpr auto INT_RANGE_F = static_cast<float>(INT_RANGE); // 2^31
+  float lowest[3], highest[3]; // the bounding box's first and last voxels
   bool too_large = false;
   std::int64_t voxel_count = 1;
   for (int d = 0; d < 3 && !too_large; ++d) {
     const float extent = (max_p[d] - min_p[d]) * inv[d];
-    if (!(extent < static_cast<float>(INT_RANGE))) {
-      too_large = true; // also NaN extents
-      break;
+    lowest[d] = std::floor(min_p[d] * inv[d]);
+    highest[d] = std::floor(max_p[d] * inv[d]);
+    // Not NaN, and below 2^31 (so voxel_count stays below 2^31 * 2^32). The voxel
+    // coordinates themselves must fit an int too (pcl::VoxelGrid's cast is undefined
+    // beyond).
+    too_large = !(extent < INT_RANGE_F) || !(lowest[d] >= -INT_RANGE_F)
+                || !(highest[d] < INT_RANGE_F);
+    if (!too_large) {
+      voxel_count *= static_cast<std::int64_t>(extent) + 1;
+      too_large = voxel_count > INT_RANGE;
     }
-    voxel_count *= static_cast<std::int64_t>(extent) + 1; // < 2^31 * 2^32
-    // The voxel coordinates themselves must fit an int too (pcl::VoxelGrid's cast is
-    // undefined beyond).
-    const float lowest = std::floor(min_p[d] * inv[d]);
-    const float highest = std::floor(max_p[d] * inv[d]);
-    too_large = voxel_count > INT_RANGE || !(lowest >= -static_cast<float>(INT_RANGE))
-                || !(highest < static_cast<float>(INT_RANGE));
   }
   if (too_large) {
     PCL_WARN("[pcl::%s::applyFilter] Leaf size is too small for the input dataset. "
@@ -123,8 +125,8 @@ FastVoxelGrid<PointT>::applyFilter(PointCloud& output)
   }
   int min_b[3], max_b[3];
   for (int d = 0; d < 3; ++d) {
-    min_b[d] = static_cast<int>(std::floor(min_p[d] * inv[d]));
-    max_b[d] = static_cast<int>(std::floor(max_p[d] * inv[d]));
+    min_b[d] = static_cast<int>(lowest[d]);
+    max_b[d] = static_cast<int>(highest[d]);
   }
   const std::int64_t mul_y = max_b[0] - min_b[0] + 1;
   const std::int64_t mul_z = mul_y * (max_b[1] - min_b[1] + 1);

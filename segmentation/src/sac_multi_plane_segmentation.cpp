@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/segmentation/impl/sac_multi_plane_segmentation.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
