@@ -43,9 +43,7 @@ public:
     requirePoints(frame, "cloud_features");
     // The features are in the camera (sensor) frame, as the stereo front end gives
     // them; a cloud already moved to the world is taken back by its pose.
-    camera_T_cloud_ = Eigen::Affine3f::Identity();
-    if (frame.cloud_in_world_frame)
-      camera_T_cloud_ = frame.world_T_camera.inverse().cast<float>();
+    camera_T_cloud_ = cameraTCloud(frame);
     if (source_ != FeatureSource::POINTS) {
       const cv::Mat grey = cloudIntensityImage(*frame.cloud);
       if (!grey.empty()) {

@@ -96,10 +96,7 @@ public:
       static_cast<float>(std::sqrt(max_plane_depth_error_m_ / error_at_1m));
     max_depth_m_ = max_depth;
     max_plane_depth_m_ = max_plane_depth;
-    Eigen::Matrix4f camera_T_cloud = Eigen::Matrix4f::Identity();
-    if (frame.cloud_in_world_frame)
-      camera_T_cloud = frame.world_T_camera.inverse().matrix().cast<float>();
-    const Eigen::RowVector4f depth_row = camera_T_cloud.row(2);
+    const Eigen::RowVector4f depth_row = cameraTCloud(frame).matrix().row(2);
     const auto& cloud = *frame.cloud;
     // Per frame, not kept in the stage: the stage may be listed more than once.
     // The points between the two bounds stay, for the planes alone.

@@ -93,10 +93,7 @@ public:
     inlier_only_taken_ = 0;
     pcl::IndicesPtr inlier_only;
     if (std::isfinite(frame.inlier_only_depth_m)) {
-      Eigen::Matrix4f camera_T_cloud = Eigen::Matrix4f::Identity();
-      if (frame.cloud_in_world_frame)
-        camera_T_cloud = frame.world_T_camera.inverse().matrix().cast<float>();
-      const Eigen::RowVector4f depth_row = camera_T_cloud.row(2);
+      const Eigen::RowVector4f depth_row = cameraTCloud(frame).matrix().row(2);
       const auto& cloud = *frame.cloud;
       inlier_only.reset(new pcl::Indices);
       for (std::size_t i = 0; i < cloud.size(); ++i)

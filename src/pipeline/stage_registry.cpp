@@ -140,6 +140,14 @@ sensorOrigin(const Frame& frame)
   return Eigen::Vector3f::Zero();
 }
 
+Eigen::Affine3f
+cameraTCloud(const Frame& frame)
+{
+  if (frame.cloud_in_world_frame)
+    return frame.world_T_camera.inverse().cast<float>();
+  return Eigen::Affine3f::Identity();
+}
+
 std::size_t
 removePoints(Frame& frame, const std::vector<std::uint8_t>& remove)
 {

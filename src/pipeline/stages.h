@@ -51,6 +51,10 @@ Eigen::Vector3f upAxis(const Frame& frame);
 /** The sensor origin in the frame of the cloud (metres). */
 Eigen::Vector3f sensorOrigin(const Frame& frame);
 
+/** The transform from the frame of the cloud to the camera frame: identity before
+ * transform_to_world, the inverse of the frame's pose after it. */
+Eigen::Affine3f cameraTCloud(const Frame& frame);
+
 /** Removes the points of the frame's cloud where \a remove is non-zero (one entry per
  * point): an organized cloud keeps its image structure (the points become NaN, indices
  * stay valid); any other cloud is compacted and the planes' inliers are renumbered
