@@ -290,6 +290,108 @@ TEST(RectangleMerge, DensityCoverHoldsTheRasterAtItsDensity)
   EXPECT_LT(density_total, fewest_total);
 }
 
+// Oracle: the DENSITY cover leaves no two rectangles that could be one. On random
+// rasters (20 x 14 cells, one or two classes) at D = 0.7 and 0.9, for every pair of
+// edge-adjacent rectangles, their bounding box U is not a valid rectangle of the
+// cover: it holds a cell of another 4-connected component, or cuts a third rectangle,
+// or fewer than D of its cells are of one class. Brute force over all pairs.
+TEST(RectangleMerge, DensityCoverLeavesNoTwoRectanglesThatCouldBeOne)
+{
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> uni(0.0f, 1.0f);
+  std::size_t pairs = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    const Raster r =
+      randomRaster(rng, 3, -7, 20, 14, 0.6f + 0.35f * uni(rng), trial % 2 == 1);
+    // 4-connected components by flood fill
+    std::map<std::uint64_t, int> component;
+    int components = 0;
+    for (const auto key : r.keys) {
+      if (component.count(key))
+        continue;
+      std::vector<std::uint64_t> todo{key};
+      component[key] = components;
+      while (!todo.empty()) {
+        const std::uint64_t k = todo.back();
+        todo.pop_back();
+        const std::int32_t i = rasterCellI(k), j = rasterCellJ(k);
+        for (const auto& d : {std::pair<int, int>{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+          const std::uint64_t n = rasterCellKey(i + d.first, j + d.second);
+          if (r.cls.count(n) && !component.count(n)) {
+            component[n] = components;
+            todo.push_back(n);
+          }
+        }
+      }
+      ++components;
+    }
+    for (const double d : {0.7, 0.9}) {
+      const auto rects = planar_grid::mergeRasterRectangles(
+        r.keys, r.classes, RectangleMergeRule::DENSITY, d);
+      std::map<std::uint64_t, std::size_t> owner;
+      for (std::size_t k = 0; k < rects.size(); ++k)
+        for (std::int32_t j = rects[k].j0; j < rects[k].j1; ++j)
+          for (std::int32_t i = rects[k].i0; i < rects[k].i1; ++i)
+            ASSERT_TRUE(owner.emplace(rasterCellKey(i, j), k).second)
+              << "rectangles overlap";
+      const auto touch = [](const RasterRectangle& a, const RasterRectangle& b) {
+        const bool rows = a.j0 < b.j1 && b.j0 < a.j1;
+        const bool cols = a.i0 < b.i1 && b.i0 < a.i1;
+        return (rows && (a.i1 == b.i0 || b.i1 == a.i0))
+               || (cols && (a.j1 == b.j0 || b.j1 == a.j0));
+      };
+      for (std::size_t a = 0; a < rects.size(); ++a)
+        for (std::size_t b = a + 1; b < rects.size(); ++b) {
+          if (!touch(rects[a], rects[b]))
+            continue;
+          ++pairs;
+          const RasterRectangle u{
+            std::min(rects[a].i0, rects[b].i0), std::max(rects[a].i1, rects[b].i1),
+            std::min(rects[a].j0, rects[b].j0), std::max(rects[a].j1, rects[b].j1)};
+          // every rectangle holds a raster cell; its component is the pair's
+          int own_component = -1;
+          for (std::int32_t j = rects[a].j0; j < rects[a].j1 && own_component < 0; ++j)
+            for (std::int32_t i = rects[a].i0; i < rects[a].i1; ++i)
+              if (r.at(i, j) >= 0) {
+                own_component = component.at(rasterCellKey(i, j));
+                break;
+              }
+          ASSERT_GE(own_component, 0);
+          bool valid = true;
+          std::int64_t of_class[2] = {0, 0};
+          for (std::int32_t j = u.j0; j < u.j1 && valid; ++j)
+            for (std::int32_t i = u.i0; i < u.i1; ++i) {
+              const std::uint64_t key = rasterCellKey(i, j);
+              const int c = r.at(i, j);
+              if (c >= 0) {
+                ++of_class[c];
+                if (component.at(key) != own_component) {
+                  valid = false;
+                  break;
+                }
+              }
+              const auto o = owner.find(key);
+              if (o != owner.end()) {
+                const RasterRectangle& t = rects[o->second];
+                if (t.i0 < u.i0 || t.i1 > u.i1 || t.j0 < u.j0 || t.j1 > u.j1) {
+                  valid = false;
+                  break;
+                }
+              }
+            }
+          const auto area = static_cast<double>(u.i1 - u.i0) * (u.j1 - u.j0);
+          if (valid) {
+            EXPECT_LT(static_cast<double>(std::max(of_class[0], of_class[1])),
+                      d * area - 1e-9)
+              << "trial " << trial << " D " << d << ": rectangles " << a << " and " << b
+              << " could be one";
+          }
+        }
+    }
+  }
+  EXPECT_GT(pairs, 1000u);
+}
+
 // Shapes whose covers are known by hand: a full block is one rectangle under every
 // rule; a staircase of rows of 3, 2 and 1 cells is 3 rectangles under the paper's rule
 // (no equal runs) and at the minimum (2 reflex corners, no chord: 2 - 0 + 1); an L of

@@ -31,7 +31,11 @@ enum class RectangleMergeRule : std::uint8_t {
    * (rows first, then columns) one row or column at a time, each step taking the side
    * whose new strip holds the largest share of cells of the first cell's class, as
    * long as at least cover_density of the rectangle's cells are of that class and the
-   * strip holds no cell of another component or of an earlier rectangle. Every cell
+   * strip holds no cell of another component or of an earlier rectangle (of this or
+   * an earlier component). Then, smallest first, a rectangle joins an edge neighbour
+   * when the bounding box of the two holds no cell of another component, cuts no
+   * third rectangle (those inside it join too) and has at least cover_density of its
+   * cells of the neighbour's class, until no two rectangles can be one. Every cell
    * of the raster lies in exactly one rectangle; a rectangle may also cover, in all
    * up to 1 - cover_density of its area, cells not in the raster (ragged borders,
    * notches) and cells of the other class (the paper merges the split units by
