@@ -304,6 +304,91 @@ PlanarGridMap::clearNonPlanarCells(
   });
 }
 
+std::size_t
+PlanarGridMap::removeNonPlanarCellsOnPlanes()
+{
+  PlanarCuboids planar = surface_.getCuboids();
+  planar.erase(std::remove_if(planar.begin(), planar.end(),
+                              [](const PlanarCuboid& c) { return !c.is_planar; }),
+               planar.end());
+  if (planar.empty())
+    return 0;
+  // The planar cuboids' bounding boxes, grown, in a hash of cubic bins.
+  const auto grow = static_cast<float>(0.5 * params_.resolution_m);
+  const auto bin_m = static_cast<float>(8.0 * params_.resolution_m);
+  const auto binOf = [bin_m](float x) {
+    return static_cast<std::int64_t>(
+      std::max(-1.0e9f, std::min(1.0e9f, std::floor(x / bin_m))));
+  };
+  const auto binKey = [](std::int64_t x, std::int64_t y, std::int64_t z) {
+    return (static_cast<std::uint64_t>(x & 0x1FFFFF) << 42)
+           | (static_cast<std::uint64_t>(y & 0x1FFFFF) << 21)
+           | static_cast<std::uint64_t>(z & 0x1FFFFF);
+  };
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> bins;
+  for (std::size_t k = 0; k < planar.size(); ++k) {
+    const PlanarCuboid& c = planar[k];
+    const Eigen::Vector3f half = (0.5f * c.width_m * c.horizontal_axis.cwiseAbs()
+                                  + 0.5f * c.height_m * c.verticalAxis().cwiseAbs()
+                                  + 0.5f * c.thickness_m * c.normal.cwiseAbs())
+                                 + Eigen::Vector3f::Constant(grow);
+    const Eigen::Vector3f lo = c.centre - half, hi = c.centre + half;
+    for (std::int64_t x = binOf(lo.x()); x <= binOf(hi.x()); ++x)
+      for (std::int64_t y = binOf(lo.y()); y <= binOf(hi.y()); ++y)
+        for (std::int64_t z = binOf(lo.z()); z <= binOf(hi.z()); ++z)
+          bins.emplace_back(binKey(x, y, z), static_cast<std::uint32_t>(k));
+  }
+  std::sort(bins.begin(), bins.end());
+  // Whether \a q lies inside a planar cuboid of plane \a plane_id (any plane for -1)
+  // grown by half a cell; the first such cuboid's index, or -1.
+  const auto onPlane = [&](const Eigen::Vector3f& q, int plane_id) -> std::ptrdiff_t {
+    const std::uint64_t key = binKey(binOf(q.x()), binOf(q.y()), binOf(q.z()));
+    for (auto it = std::lower_bound(bins.begin(), bins.end(),
+                                    std::make_pair(key, std::uint32_t{0}));
+         it != bins.end() && it->first == key; ++it) {
+      const PlanarCuboid& c = planar[it->second];
+      if (plane_id >= 0 && c.plane_id != plane_id)
+        continue;
+      const Eigen::Vector3f d = q - c.centre;
+      if (std::abs(d.dot(c.horizontal_axis)) <= 0.5f * c.width_m + grow
+          && std::abs(d.dot(c.verticalAxis())) <= 0.5f * c.height_m + grow
+          && std::abs(d.dot(c.normal)) <= 0.5f * c.thickness_m + grow)
+        return static_cast<std::ptrdiff_t>(it->second);
+    }
+    return -1;
+  };
+  const auto r = static_cast<float>(params_.resolution_m);
+  return surface_.removeNonPlanarCells([&](const PlanarCuboid& cell) {
+    const std::ptrdiff_t first = onPlane(cell.centre, -1);
+    if (first < 0)
+      return false;
+    // The cell's footprint on that plane, sampled at most a cell apart (its corners
+    // included), must lie on the plane's cuboids: the plane holds all of it.
+    const PlanarCuboid& c = planar[static_cast<std::size_t>(first)];
+    const Eigen::Vector3f u = c.horizontal_axis, v = c.verticalAxis();
+    const Eigen::Vector3f cell_u = 0.5f * cell.width_m * cell.horizontal_axis;
+    const Eigen::Vector3f cell_v = 0.5f * cell.height_m * cell.verticalAxis();
+    const Eigen::Vector3f cell_n = 0.5f * cell.thickness_m * cell.normal;
+    const auto reach = [&](const Eigen::Vector3f& a) {
+      return std::abs(cell_u.dot(a)) + std::abs(cell_v.dot(a))
+             + std::abs(cell_n.dot(a));
+    };
+    const float reach_u = reach(u), reach_v = reach(v);
+    const int steps_u = static_cast<int>(std::ceil(2.0f * reach_u / r));
+    const int steps_v = static_cast<int>(std::ceil(2.0f * reach_v / r));
+    if (steps_u > 64 || steps_v > 64)
+      return false; // far larger than the planes' cells: not a repeat of a surface
+    for (int a = 0; a <= steps_u; ++a)
+      for (int b = 0; b <= steps_v; ++b) {
+        const float du = steps_u > 0 ? -reach_u + 2.0f * reach_u * a / steps_u : 0.0f;
+        const float dv = steps_v > 0 ? -reach_v + 2.0f * reach_v * b / steps_v : 0.0f;
+        if (onPlane(cell.centre + du * u + dv * v, c.plane_id) < 0)
+          return false;
+      }
+    return true;
+  });
+}
+
 SpaceState
 PlanarGridMap::getState(const Eigen::Vector3f& point) const
 {

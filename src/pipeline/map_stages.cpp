@@ -211,6 +211,10 @@ mapIntegrationInfo()
                     "Remove the non-planar cells a later view sees through (more "
                     "than half of their voxels observed free), as OctoMap's misses "
                     "clear a voxel hit before."),
+    ParamSpec::flag("planes_replace_non_planar", d.planes_replace_non_planar,
+                    "Remove the non-planar cells lying on a map plane (centre and "
+                    "footprint within half a cell of its planar cuboids): the plane "
+                    "represents that surface."),
     ParamSpec::choice("sensor_model", "auto", {"auto", "pinhole", "rays"},
                       "How the explicit space layer sees a frame: pinhole = the "
                       "disparity image's camera (stereo) or a virtual depth camera "
@@ -244,6 +248,7 @@ mapIntegrationInfo()
     p.surface.merge_rule = surfaceMergeRuleFromString(v.getChoice("merge_rule"));
     p.surface.cover_density = v.getDouble("cover_density");
     p.clear_non_planar = v.getBool("clear_non_planar");
+    p.planes_replace_non_planar = v.getBool("planes_replace_non_planar");
     const std::string model = v.getChoice("sensor_model");
     const auto sensor_model = model == "rays" ? MapIntegrationStage::SensorModel::RAYS
                               : model == "pinhole"

@@ -446,6 +446,8 @@ PipelineRunner::finish()
       {"planar_cuboids", static_cast<double>(planar)},
       {"planes", static_cast<double>(surface.getPlanes().size())},
       {"plane_cells", static_cast<double>(surface.getCellCount())},
+      {"raster_cells",
+       static_cast<double>(surface.getCellCount() - (cuboids.size() - planar))},
       {"free_voxels", static_cast<double>(space.getVoxelCount(SpaceState::FREE))},
       {"occupied_voxels",
        static_cast<double>(space.getVoxelCount(SpaceState::OCCUPIED))},

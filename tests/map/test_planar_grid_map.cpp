@@ -721,4 +721,159 @@ TEST_F(PlanarGridMapTest, ClearingByRaysRemovesTheCellsAScanSeesThrough)
   EXPECT_TRUE(holds(kept, beside));
 }
 
+/** A wall of \a width_m x \a height_m facing the origin: face centre \a face, unit
+ * normal \a normal (toward the origin), horizontal axis \a u, plane \a plane_id,
+ * extruded 0.1 m behind the face. */
+PlanarCuboid
+wallCuboid(const Eigen::Vector3f& face,
+           const Eigen::Vector3f& normal,
+           const Eigen::Vector3f& u,
+           float width_m,
+           float height_m,
+           int plane_id)
+{
+  PlanarCuboid c;
+  c.normal = normal;
+  c.horizontal_axis = u;
+  c.width_m = width_m;
+  c.height_m = height_m;
+  c.thickness_m = 0.1f;
+  c.centre = face - normal * 0.05f;
+  c.plane_id = plane_id;
+  c.is_planar = true;
+  return c;
+}
+
+TEST_F(PlanarGridMapTest, PlanesReplaceTheNonPlanarCellsOnThem)
+{
+  // An L-shaped wall on the plane z = 5 (normal -z): a 2 m x 2 m square (x, y in
+  // [-1, 1]) and a 1 m x 1 m wing (x in [1, 2], y in [-1, 0]), so the map covers it
+  // with two rectangles. Cuboids z in [5, 5.1]; grown by half a cell (0.05 m), z in
+  // [4.95, 5.15]. A box goes when its centre is on the grown wall and its footprint
+  // (0.3 m squares here) lies on the grown wall's rectangles.
+  const PlaneModels planes{Eigen::Vector4f(0.0f, 0.0f, -1.0f, 5.0f)};
+  const PlanarCuboids wall{
+    wallCuboid(Eigen::Vector3f(0.0f, 0.0f, 5.0f), -Eigen::Vector3f::UnitZ(),
+               Eigen::Vector3f::UnitX(), 2.0f, 2.0f, 0),
+    wallCuboid(Eigen::Vector3f(1.5f, -0.5f, 5.0f), -Eigen::Vector3f::UnitZ(),
+               Eigen::Vector3f::UnitX(), 1.0f, 1.0f, 0)};
+  const Eigen::Vector3f on_wall(0.35f, -0.25f, 5.05f);
+  const Eigen::Vector3f in_front_near(-0.45f, 0.55f, 4.97f); // 0.03 m before the face
+  const Eigen::Vector3f straddling(1.0f, -0.5f, 5.05f);      // on both rectangles
+  const Eigen::Vector3f in_front_far(0.05f, 0.05f, 4.80f);   // 0.2 m before the face
+  const Eigen::Vector3f over_the_edge(0.95f, 0.65f, 5.05f);  // reaches x = 1.1 > 1.05
+  const Eigen::Vector3f over_the_corner(1.5f, 0.05f, 5.05f); // reaches y = 0.2 > 0.05
+  const Eigen::Vector3f beside(2.30f, -0.5f, 5.05f);         // centre off the wing
+  const Eigen::Vector3f behind(0.05f, 0.05f, 5.30f);         // 0.2 m behind the back
+  const std::vector<Eigen::Vector3f> replaced_when_on{on_wall, in_front_near,
+                                                      straddling};
+  const std::vector<Eigen::Vector3f> kept_always{in_front_far, over_the_edge,
+                                                 over_the_corner, beside, behind};
+  PlanarCuboids boxes;
+  for (const auto& centre : replaced_when_on)
+    boxes.push_back(nonPlanarCube(centre, 0.3f));
+  for (const auto& centre : kept_always)
+    boxes.push_back(nonPlanarCube(centre, 0.3f));
+  const auto expectReplaced = [&](const PlanarGridMap& map, bool replace) {
+    const auto kept = nonPlanarCentres(map);
+    for (const auto& centre : replaced_when_on)
+      EXPECT_EQ(holds(kept, centre), !replace) << centre.transpose();
+    for (const auto& centre : kept_always)
+      EXPECT_TRUE(holds(kept, centre)) << centre.transpose();
+    EXPECT_EQ(kept.size(), replace ? kept_always.size() : boxes.size());
+  };
+  for (const bool replace : {true, false}) {
+    PlanarGridMap::Params p = params();
+    p.planes_replace_non_planar = replace;
+    // the boxes first, then the plane (found by a later frame) ...
+    PlanarGridMap later(p);
+    later.integrateSurface(boxes, PlaneModels{}, pcl::PointCloud<pcl::PointXYZ>(), {});
+    EXPECT_EQ(nonPlanarCentres(later).size(), boxes.size());
+    later.integrateSurface(wall, planes, pcl::PointCloud<pcl::PointXYZ>(), {});
+    expectReplaced(later, replace);
+    // ... or the plane first, then the boxes of a frame that did not find it
+    PlanarGridMap earlier(p);
+    earlier.integrateSurface(wall, planes, pcl::PointCloud<pcl::PointXYZ>(), {});
+    earlier.integrateSurface(boxes, PlaneModels{}, pcl::PointCloud<pcl::PointXYZ>(),
+                             {});
+    expectReplaced(earlier, replace);
+    // the planar cells are not changed: the L is two rectangles
+    std::size_t planar = 0;
+    for (const auto& c : earlier.getSurfaceLayer().getCuboids())
+      planar += c.is_planar ? 1 : 0;
+    EXPECT_EQ(planar, 2u);
+  }
+}
+
+// Oracle: 400 random boxes around three walls of different orientations (one tilted
+// 30 degrees), each wall one rectangle; by brute force over the map's planar cuboids,
+// a box goes exactly when its centre and its whole footprint on that wall (sampled
+// every 1 cm) lie inside the wall's cuboid grown by half a cell.
+TEST_F(PlanarGridMapTest, PlanesReplaceExactlyTheCellsLyingOnThem)
+{
+  const float tilt = 0.5235988f;
+  const Eigen::Vector3f n_tilted(0.0f, std::sin(tilt), -std::cos(tilt));
+  const PlaneModels planes{
+    Eigen::Vector4f(0.0f, 0.0f, -1.0f, 5.0f), // z = 5
+    Eigen::Vector4f(-1.0f, 0.0f, 0.0f, 3.0f), // x = 3
+    Eigen::Vector4f(n_tilted.x(), n_tilted.y(), n_tilted.z(),
+                    -n_tilted.dot(Eigen::Vector3f(-2.0f, 0.0f, 6.0f)))};
+  const PlanarCuboids walls{
+    wallCuboid(Eigen::Vector3f(0.0f, 0.0f, 5.0f), -Eigen::Vector3f::UnitZ(),
+               Eigen::Vector3f::UnitX(), 2.4f, 1.6f, 0),
+    wallCuboid(Eigen::Vector3f(3.0f, 0.0f, 4.0f), -Eigen::Vector3f::UnitX(),
+               Eigen::Vector3f::UnitZ(), 2.0f, 1.2f, 1),
+    wallCuboid(Eigen::Vector3f(-2.0f, 0.0f, 6.0f), n_tilted, Eigen::Vector3f::UnitX(),
+               1.6f, 1.6f, 2)};
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> x(-3.5f, 3.6f), y(-1.5f, 1.5f), z(3.0f, 7.0f),
+    edge(0.1f, 0.4f);
+  PlanarCuboids boxes;
+  for (int k = 0; k < 400; ++k)
+    boxes.push_back(nonPlanarCube(Eigen::Vector3f(x(rng), y(rng), z(rng)), edge(rng)));
+  PlanarGridMap map(params());
+  map.integrateSurface(walls, planes, pcl::PointCloud<pcl::PointXYZ>(), {});
+  map.integrateSurface(boxes, PlaneModels{}, pcl::PointCloud<pcl::PointXYZ>(), {});
+  PlanarCuboids planar;
+  for (const auto& c : map.getSurfaceLayer().getCuboids())
+    if (c.is_planar)
+      planar.push_back(c);
+  ASSERT_GE(planar.size(), 3u);
+  const auto kept = nonPlanarCentres(map);
+  std::size_t replaced = 0;
+  const auto inside = [](const PlanarCuboid& c, const Eigen::Vector3f& q) {
+    const Eigen::Vector3f d = q - c.centre;
+    return std::abs(d.dot(c.horizontal_axis)) <= 0.5f * c.width_m + 0.05f
+           && std::abs(d.dot(c.verticalAxis())) <= 0.5f * c.height_m + 0.05f
+           && std::abs(d.dot(c.normal)) <= 0.5f * c.thickness_m + 0.05f;
+  };
+  for (const auto& box : boxes) {
+    bool on_a_plane = false;
+    for (const auto& c : planar) {
+      if (!inside(c, box.centre))
+        continue;
+      // the box's corners projected on the wall's axes bound its footprint
+      const Eigen::Vector3f u = c.horizontal_axis, v = c.verticalAxis();
+      float reach_u = 0.0f, reach_v = 0.0f;
+      for (const auto& corner : box.corners()) {
+        reach_u = std::max(reach_u, std::abs((corner - box.centre).dot(u)));
+        reach_v = std::max(reach_v, std::abs((corner - box.centre).dot(v)));
+      }
+      bool all = true;
+      for (float a = -reach_u; a <= reach_u + 1e-6f && all; a += 0.01f)
+        for (float b = -reach_v; b <= reach_v + 1e-6f && all; b += 0.01f)
+          all =
+            inside(c, box.centre + std::min(a, reach_u) * u + std::min(b, reach_v) * v);
+      all = all && inside(c, box.centre + reach_u * u + reach_v * v);
+      on_a_plane = on_a_plane || all;
+    }
+    replaced += on_a_plane ? 1 : 0;
+    EXPECT_EQ(holds(kept, box.centre), !on_a_plane)
+      << box.centre.transpose() << " edge " << box.width_m;
+  }
+  EXPECT_EQ(kept.size() + replaced, boxes.size());
+  EXPECT_GT(replaced, 10u);
+  EXPECT_GT(kept.size(), 200u);
+}
+
 } // namespace

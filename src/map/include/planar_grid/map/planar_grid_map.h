@@ -103,6 +103,17 @@ public:
      * hit before. The voxels of a cell are those whose centres it contains and the
      * voxel of its centre. Planar cells are not cleared. */
     bool clear_non_planar{true};
+    /** Planes replace the non-planar cells lying on them: after each
+     * integrateSurface(), a non-planar cell is removed when its centre lies inside a
+     * planar cuboid grown by resolution_m / 2 on every side and its whole footprint on
+     * that plane (the cell's extent along the cuboid's two face axes, tested at
+     * points at most resolution_m apart, corners included) lies inside that plane's
+     * cuboids grown likewise. A frame that did not find a plane splits the plane's
+     * points into Fig. 7's boxes; where the map holds the plane (found in earlier or
+     * later frames) those boxes repeat its surface with the depth spread of that
+     * frame's points. Cells reaching past the plane's cells (an edge, a hole) stay.
+     * Planar cells are not changed. */
+    bool planes_replace_non_planar{true};
   };
 
   /** \brief Builds an empty map; getParams() returns \a params with both layers'
@@ -130,6 +141,8 @@ public:
                         const std::vector<float>& probabilities)
   {
     surface_.integrate(cuboids, planes, features, probabilities);
+    if (params_.planes_replace_non_planar)
+      removeNonPlanarCellsOnPlanes();
   }
 
   /** \brief Integrates one view into the explicit space layer (see
@@ -145,6 +158,12 @@ public:
    * through (those within max_range_m of \a sensor_origin are tested). */
   void integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& points,
                            const Eigen::Vector3f& sensor_origin);
+
+  /** \brief Removes the non-planar cells that lie on a plane of the map (see
+   * Params::planes_replace_non_planar; called by integrateSurface() when that is
+   * set).
+   * \return the number of cells removed */
+  std::size_t removeNonPlanarCellsOnPlanes();
 
   /** \brief Removes the non-planar cells for which \a in_view (called with a cell's
    * centre and bounding radius, meters, world frame) returns true and whose voxels
