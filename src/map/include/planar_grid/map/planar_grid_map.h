@@ -111,7 +111,8 @@ public:
      * cuboids grown likewise. A frame that did not find a plane splits the plane's
      * points into Fig. 7's boxes; where the map holds the plane (found in earlier or
      * later frames) those boxes repeat its surface with the depth spread of that
-     * frame's points. Cells reaching past the plane's cells (an edge, a hole) stay.
+     * frame's points. Cells reaching past the plane's cells (an edge, a hole) stay, and
+     * so do cells more than 64 cells across.
      * Planar cells are not changed. */
     bool planes_replace_non_planar{true};
   };
