@@ -374,10 +374,12 @@ PlanarGridMap::removeNonPlanarCellsOnPlanes()
              + std::abs(cell_n.dot(a));
     };
     const float reach_u = reach(u), reach_v = reach(v);
-    const int steps_u = static_cast<int>(std::ceil(2.0f * reach_u / r));
-    const int steps_v = static_cast<int>(std::ceil(2.0f * reach_v / r));
-    if (steps_u > 64 || steps_v > 64)
+    const float span_u = std::ceil(2.0f * reach_u / r);
+    const float span_v = std::ceil(2.0f * reach_v / r);
+    if (!(span_u <= 64.0f) || !(span_v <= 64.0f))
       return false; // far larger than the planes' cells: not a repeat of a surface
+    const int steps_u = static_cast<int>(span_u);
+    const int steps_v = static_cast<int>(span_v);
     for (int a = 0; a <= steps_u; ++a)
       for (int b = 0; b <= steps_v; ++b) {
         const float du = steps_u > 0 ? -reach_u + 2.0f * reach_u * a / steps_u : 0.0f;
