@@ -252,6 +252,21 @@ SurfaceLayer::Impl::buildCuboids(const Params& params, PlanarCuboids& out)
   for (const auto& plane : planes)
     total += plane.rects.size();
   out.reserve(out.size() + total);
+  buildPlanarCuboids(params, out);
+  for (const auto& cell : non_planar) {
+    PlanarCuboid c = nonPlanarCuboid(cell);
+    c.probability = cell.feature_count > 0
+                      ? static_cast<float>(cell.probability_sum / cell.feature_count)
+                      : 0.5f;
+    c.point_count = cell.feature_count;
+    out.push_back(c);
+  }
+}
+
+void
+SurfaceLayer::Impl::buildPlanarCuboids(const Params& params, PlanarCuboids& out)
+{
+  ensureCovers(params);
   const auto thickness = static_cast<float>(params.thickness_m);
   for (std::size_t p = 0; p < planes.size(); ++p) {
     const MapPlane& plane = planes[p];
@@ -262,14 +277,6 @@ SurfaceLayer::Impl::buildCuboids(const Params& params, PlanarCuboids& out)
     for (const RasterRect& rect : plane.rects)
       out.push_back(rectCuboid(plane, frame, placement, rect, static_cast<int>(p),
                                params.resolution_m, thickness));
-  }
-  for (const auto& cell : non_planar) {
-    PlanarCuboid c = nonPlanarCuboid(cell);
-    c.probability = cell.feature_count > 0
-                      ? static_cast<float>(cell.probability_sum / cell.feature_count)
-                      : 0.5f;
-    c.point_count = cell.feature_count;
-    out.push_back(c);
   }
 }
 

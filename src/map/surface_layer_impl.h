@@ -440,6 +440,9 @@ struct SurfaceLayer::Impl {
   /** Appends the cuboids (planes' rectangles, then non-planar cells) to \a out;
    * caller holds the mutex. */
   void buildCuboids(const Params& params, PlanarCuboids& out);
+  /** \brief Appends every plane's rectangles (the first part of buildCuboids());
+   * caller holds the mutex. */
+  void buildPlanarCuboids(const Params& params, PlanarCuboids& out);
   /** Builds the query index over all cuboids; caller holds the mutex. */
   void ensureIndex(const Params& params);
 };

@@ -149,4 +149,84 @@ SurfaceLayer::removeNonPlanarCells(
   return removed;
 }
 
+std::size_t
+SurfaceLayer::removeNonPlanarCellsOnPlanes()
+{
+  const auto r = static_cast<float>(params_.resolution_m);
+  const float half_cell = 0.5f * r;
+  const float bin = 8.0f * r;
+  PlanarCuboids planar;
+  std::vector<BinEntry> bins;
+  std::vector<std::uint32_t> large; // cuboids spanning too many bins: tested always
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    if (impl_->non_planar.empty())
+      return 0;
+    impl_->buildPlanarCuboids(params_, planar);
+  }
+  if (planar.empty())
+    return 0;
+  for (std::size_t k = 0; k < planar.size(); ++k) {
+    const auto index = static_cast<std::uint32_t>(k);
+    if (!forEachBin(planar[k], half_cell, bin,
+                    [&](std::uint64_t key) { bins.emplace_back(key, index); }))
+      large.push_back(index);
+  }
+  // in index order within a bin, so that the first cuboid holding a point is the
+  // same on every run
+  std::stable_sort(bins.begin(), bins.end());
+  // The first planar cuboid of plane \a plane_id (any plane for -1) that holds \a q
+  // within half a cell, or -1.
+  const auto onPlane = [&](const Eigen::Vector3f& q, int plane_id) -> std::ptrdiff_t {
+    const auto holds = [&](std::uint32_t k) {
+      return (plane_id < 0 || planar[k].plane_id == plane_id)
+             && planar[k].contains(q, half_cell);
+    };
+    // the bin as forEachBin() computes it, so a point inside a grown box finds it
+    const Eigen::Vector3d b = (q / bin).cast<double>().array().floor();
+    const std::uint64_t key =
+      binKey(static_cast<std::int64_t>(b.x()), static_cast<std::int64_t>(b.y()),
+             static_cast<std::int64_t>(b.z()));
+    const auto range = std::equal_range(bins.begin(), bins.end(), BinEntry(key, 0));
+    for (auto it = range.first; it != range.second; ++it)
+      if (holds(it->index))
+        return static_cast<std::ptrdiff_t>(it->index);
+    for (const auto k : large)
+      if (holds(k))
+        return static_cast<std::ptrdiff_t>(k);
+    return -1;
+  };
+  return removeNonPlanarCells([&](const PlanarCuboid& cell) {
+    const std::ptrdiff_t first = onPlane(cell.centre, -1);
+    if (first < 0)
+      return false;
+    // The cell's footprint on that plane, sampled at most a cell apart (its corners
+    // included), must lie on the plane's cuboids: the plane holds all of it.
+    const PlanarCuboid& c = planar[static_cast<std::size_t>(first)];
+    const Eigen::Vector3f u = c.horizontal_axis, v = c.verticalAxis();
+    const Eigen::Vector3f cell_u = 0.5f * cell.width_m * cell.horizontal_axis;
+    const Eigen::Vector3f cell_v = 0.5f * cell.height_m * cell.verticalAxis();
+    const Eigen::Vector3f cell_n = 0.5f * cell.thickness_m * cell.normal;
+    const auto reach = [&](const Eigen::Vector3f& a) {
+      return std::abs(cell_u.dot(a)) + std::abs(cell_v.dot(a))
+             + std::abs(cell_n.dot(a));
+    };
+    const float reach_u = reach(u), reach_v = reach(v);
+    const float span_u = std::ceil(2.0f * reach_u / r);
+    const float span_v = std::ceil(2.0f * reach_v / r);
+    if (!(span_u <= 64.0f) || !(span_v <= 64.0f))
+      return false; // far larger than the planes' cells: not a repeat of a surface
+    const int steps_u = static_cast<int>(span_u);
+    const int steps_v = static_cast<int>(span_v);
+    for (int a = 0; a <= steps_u; ++a)
+      for (int b = 0; b <= steps_v; ++b) {
+        const float du = steps_u > 0 ? -reach_u + 2.0f * reach_u * a / steps_u : 0.0f;
+        const float dv = steps_v > 0 ? -reach_v + 2.0f * reach_v * b / steps_v : 0.0f;
+        if (onPlane(cell.centre + du * u + dv * v, c.plane_id) < 0)
+          return false;
+      }
+    return true;
+  });
+}
+
 } // namespace planar_grid

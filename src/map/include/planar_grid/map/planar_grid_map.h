@@ -104,16 +104,12 @@ public:
      * voxel of its centre. Planar cells are not cleared. */
     bool clear_non_planar{true};
     /** Planes replace the non-planar cells lying on them: after each
-     * integrateSurface(), a non-planar cell is removed when its centre lies inside a
-     * planar cuboid grown by resolution_m / 2 on every side and its whole footprint on
-     * that plane (the cell's extent along the cuboid's two face axes, tested at
-     * points at most resolution_m apart, corners included) lies inside that plane's
-     * cuboids grown likewise. A frame that did not find a plane splits the plane's
-     * points into Fig. 7's boxes; where the map holds the plane (found in earlier or
-     * later frames) those boxes repeat its surface with the depth spread of that
-     * frame's points. Cells reaching past the plane's cells (an edge, a hole) stay, and
-     * so do cells more than 64 cells across.
-     * Planar cells are not changed. */
+     * integrateSurface(), a non-planar cell whose centre and footprint lie within
+     * resolution_m / 2 of a plane's cuboids is removed (the rule:
+     * SurfaceLayer::removeNonPlanarCellsOnPlanes()). A frame that did not find a
+     * plane splits the plane's points into Fig. 7's boxes; where the map holds the
+     * plane (found in earlier or later frames) those boxes repeat its surface with
+     * the depth spread of that frame's points. */
     bool planes_replace_non_planar{true};
   };
 
@@ -160,11 +156,14 @@ public:
   void integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& points,
                            const Eigen::Vector3f& sensor_origin);
 
-  /** \brief Removes the non-planar cells that lie on a plane of the map (see
-   * Params::planes_replace_non_planar; called by integrateSurface() when that is
-   * set).
+  /** \brief Removes the non-planar cells that lie on a plane of the map
+   * (SurfaceLayer::removeNonPlanarCellsOnPlanes(); called by integrateSurface() with
+   * Params::planes_replace_non_planar).
    * \return the number of cells removed */
-  std::size_t removeNonPlanarCellsOnPlanes();
+  std::size_t removeNonPlanarCellsOnPlanes()
+  {
+    return surface_.removeNonPlanarCellsOnPlanes();
+  }
 
   /** \brief Removes the non-planar cells for which \a in_view (called with a cell's
    * centre and bounding radius, meters, world frame) returns true and whose voxels

@@ -210,6 +210,16 @@ public:
   std::size_t
   removeNonPlanarCells(const std::function<bool(const PlanarCuboid&)>& remove);
 
+  /** \brief Removes the non-planar cells lying on a map plane: a cell whose centre
+   * lies inside a planar cuboid grown by resolution_m / 2 on every side, and whose
+   * whole footprint on that plane (its extent along the cuboid's two face axes,
+   * tested at points at most resolution_m apart, corners included) lies inside that
+   * plane's cuboids grown likewise. Cells reaching past the plane's cells (an edge, a
+   * hole) stay, and so do cells more than 64 cells across. Planar cells are not
+   * changed; the covers of the planes changed since the last query are rebuilt.
+   * \return the number of cells removed */
+  std::size_t removeNonPlanarCellsOnPlanes();
+
   /** \brief The merged cuboids: every map plane's rectangles (plane_id = the map's
    * plane index, into getPlanes()), then the non-planar cells (plane_id -1). Stable
    * order for the same integrations. Built on each call from the planes' cached
