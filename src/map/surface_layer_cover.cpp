@@ -191,12 +191,10 @@ rebuildPlane(MapPlane& plane, const SurfaceLayer::Params& params)
   }
 }
 
-/** \brief The cuboid of rectangle \a rect of \a plane: the raster frame projected
- * onto the refined plane along its normal (the centre projected, the horizontal axis
- * u projected and normalised, the extents scaled by the projections of u and v,
- * factors within cos(plane_merge_angle_rad) of 1, so that rectangles adjacent in the
- * raster stay adjacent up to a shear of the order of the angle squared), extruded by
- * \a thickness behind the face. */
+} // namespace
+
+namespace surface_layer_detail {
+
 PlanarCuboid
 rectCuboid(const MapPlane& plane,
            const RasterFrame& frame,
@@ -231,7 +229,7 @@ rectCuboid(const MapPlane& plane,
   return c;
 }
 
-} // namespace
+} // namespace surface_layer_detail
 
 /** \brief Rebuilds the covers of the planes changed since; caller holds the mutex. */
 void

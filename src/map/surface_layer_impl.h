@@ -346,6 +346,20 @@ struct CuboidQueryIndex {
   }
 };
 
+/** \brief The cuboid of rectangle \a rect of \a plane: the raster frame projected
+ * onto the refined plane along its normal (the centre projected, the horizontal axis
+ * u projected and normalised, the extents scaled by the projections of u and v,
+ * factors within cos(plane_merge_angle_rad) of 1, so that rectangles adjacent in the
+ * raster stay adjacent up to a shear of the order of the angle squared), extruded by
+ * \a thickness (meters) behind the face; \a r is the cell size, meters. */
+PlanarCuboid rectCuboid(const MapPlane& plane,
+                        const RasterFrame& frame,
+                        const FacePlacement& placement,
+                        const RasterRect& rect,
+                        int plane_id,
+                        double r,
+                        float thickness);
+
 } // namespace surface_layer_detail
 
 /** \brief The storage of the surface layer (planes with their rasters and covers,

@@ -215,6 +215,10 @@ mapIntegrationInfo()
                     "Remove the non-planar cells lying on a map plane (centre and "
                     "footprint within half a cell of its planar cuboids): the plane "
                     "represents that surface."),
+    ParamSpec::flag("planes_absorb_overlapping", d.planes_absorb_overlapping,
+                    "Move a map plane's cells lying on a plane with more evidence "
+                    "(face within half a cell of its planar cuboids) to that plane: "
+                    "a surface found as planes a few degrees apart is covered once."),
     ParamSpec::choice("sensor_model", "auto", {"auto", "pinhole", "rays"},
                       "How the explicit space layer sees a frame: pinhole = the "
                       "disparity image's camera (stereo) or a virtual depth camera "
@@ -249,6 +253,7 @@ mapIntegrationInfo()
     p.surface.cover_density = v.getDouble("cover_density");
     p.clear_non_planar = v.getBool("clear_non_planar");
     p.planes_replace_non_planar = v.getBool("planes_replace_non_planar");
+    p.planes_absorb_overlapping = v.getBool("planes_absorb_overlapping");
     const std::string model = v.getChoice("sensor_model");
     const auto sensor_model = model == "rays" ? MapIntegrationStage::SensorModel::RAYS
                               : model == "pinhole"

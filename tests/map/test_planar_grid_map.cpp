@@ -8,6 +8,7 @@
 
 #include <array>
 #include <boost/crc.hpp>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -874,6 +875,120 @@ TEST_F(PlanarGridMapTest, PlanesReplaceExactlyTheCellsLyingOnThem)
   EXPECT_EQ(kept.size() + replaced, boxes.size());
   EXPECT_GT(replaced, 10u);
   EXPECT_GT(kept.size(), 200u);
+}
+
+/** A patch of \a width_m x \a height_m on the plane z = 5 (normal -z) tilted by
+ * \a tilt_rad about the y axis: face centre \a face, plane \a plane_id. */
+PlanarCuboid
+tiltedPatch(const Eigen::Vector3f& face,
+            float tilt_rad,
+            float width_m,
+            float height_m,
+            int plane_id)
+{
+  const Eigen::Vector3f normal(-std::sin(tilt_rad), 0.0f, -std::cos(tilt_rad));
+  const Eigen::Vector3f u(std::cos(tilt_rad), 0.0f, -std::sin(tilt_rad));
+  return wallCuboid(face, normal, u, width_m, height_m, plane_id);
+}
+
+/** The plane [n, -n . face centre] of \a c. */
+Eigen::Vector4f
+planeOf(const PlanarCuboid& c)
+{
+  return Eigen::Vector4f(c.normal.x(), c.normal.y(), c.normal.z(),
+                         -c.normal.dot(c.faceCentre()));
+}
+
+TEST_F(PlanarGridMapTest, PlanesAbsorbTheCellsOfWeakerPlanesLyingOnThem)
+{
+  // A 4 m x 2 m wall on z = 5 (x in [-2, 2], y in [-1, 1]; cuboids z in [5, 5.1],
+  // grown by half a cell z in [4.95, 5.15]) and three patches at 8 degrees to it,
+  // beyond plane_merge_angle_rad (0.1 rad), so each is a map plane of its own:
+  // - on: 1 m x 0.6 m at x = 0, face z within 5.05 +- 0.08: every cell lies on the
+  //   wall, its plane goes and its features join the wall;
+  // - past: tilted the other way at x = 2, reaching x = 2.5 past the wall's edge: its
+  //   rectangle stays whole;
+  // - before: 0.6 m x 0.6 m at x = -1.2, 0.5 m before the wall: stays.
+  const float tilt = 8.0f * static_cast<float>(EIGEN_PI) / 180.0f;
+  const PlanarCuboid wall =
+    wallCuboid(Eigen::Vector3f(0.0f, 0.0f, 5.0f), -Eigen::Vector3f::UnitZ(),
+               Eigen::Vector3f::UnitX(), 4.0f, 2.0f, 0);
+  const PlanarCuboids patches{
+    tiltedPatch(Eigen::Vector3f(0.0f, 0.0f, 5.05f), tilt, 1.0f, 0.6f, 0),
+    tiltedPatch(Eigen::Vector3f(2.0f, 0.0f, 5.05f), -tilt, 1.0f, 0.6f, 1),
+    tiltedPatch(Eigen::Vector3f(-1.2f, 0.0f, 4.5f), tilt, 0.6f, 0.6f, 2)};
+  const PlaneModels patch_planes{planeOf(patches[0]), planeOf(patches[1]),
+                                 planeOf(patches[2])};
+  // 12 features on the "on" patch's face
+  pcl::PointCloud<pcl::PointXYZ> features;
+  for (int a = -1; a <= 1; ++a)
+    for (int b = -2; b <= 1; ++b) {
+      const Eigen::Vector3f q =
+        patches[0].faceCentre()
+        + 0.3f * static_cast<float>(a) * patches[0].horizontal_axis
+        + (0.1f * static_cast<float>(b) + 0.05f) * Eigen::Vector3f::UnitY();
+      features.push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
+    }
+  const std::vector<float> probabilities(features.size(), 0.9f);
+  // The planar cuboids on plane \a plane (normal within 1 degree, face centre within
+  // 1 cm): count, area, features.
+  struct Tally {
+    std::size_t cuboids{0};
+    double area_m2{0.0};
+    std::uint64_t features{0};
+  };
+  const auto tally = [](const PlanarGridMap& map, const Eigen::Vector4f& plane) {
+    Tally t;
+    for (const auto& c : map.getSurfaceLayer().getCuboids())
+      if (c.is_planar
+          && c.normal.dot(plane.head<3>())
+               > std::cos(static_cast<float>(EIGEN_PI) / 180.0f)
+          && std::abs(plane.head<3>().dot(c.faceCentre()) + plane[3]) < 0.01f) {
+        ++t.cuboids;
+        t.area_m2 += c.faceArea();
+        t.features += c.point_count;
+      }
+    return t;
+  };
+  for (const bool wall_first : {true, false}) {
+    std::array<Tally, 4> on_wall_off, on_wall_on; // wall, on, past, before
+    std::size_t planes_off = 0, planes_on = 0;
+    for (const bool absorb : {false, true}) {
+      PlanarGridMap::Params p = params();
+      p.planes_absorb_overlapping = absorb;
+      PlanarGridMap map(p);
+      const auto integrateWall = [&] {
+        map.integrateSurface(PlanarCuboids{wall}, PlaneModels{planeOf(wall)},
+                             pcl::PointCloud<pcl::PointXYZ>(), {});
+      };
+      if (wall_first)
+        integrateWall();
+      map.integrateSurface(patches, patch_planes, features, probabilities);
+      if (!wall_first)
+        integrateWall();
+      std::array<Tally, 4>& t = absorb ? on_wall_on : on_wall_off;
+      t[0] = tally(map, planeOf(wall));
+      for (std::size_t k = 0; k < 3; ++k)
+        t[k + 1] = tally(map, patch_planes[k]);
+      (absorb ? planes_on : planes_off) = map.getSurfaceLayer().getPlanes().size();
+    }
+    SCOPED_TRACE(wall_first ? "wall first" : "patches first");
+    EXPECT_EQ(planes_off, 4u);
+    EXPECT_EQ(planes_on, 3u);
+    // without absorbing, the "on" patch is a plane with its features
+    EXPECT_GT(on_wall_off[1].cuboids, 0u);
+    EXPECT_EQ(on_wall_off[1].features, features.size());
+    // with it, the patch's cells and features are the wall's; its area was the wall's
+    EXPECT_EQ(on_wall_on[1].cuboids, 0u);
+    EXPECT_EQ(on_wall_on[0].features, on_wall_off[0].features + features.size());
+    EXPECT_NEAR(on_wall_on[0].area_m2, on_wall_off[0].area_m2, 1e-3);
+    // the other two patches are not changed
+    for (std::size_t k : {2u, 3u}) {
+      EXPECT_EQ(on_wall_on[k].cuboids, on_wall_off[k].cuboids) << k;
+      EXPECT_NEAR(on_wall_on[k].area_m2, on_wall_off[k].area_m2, 1e-4) << k;
+      EXPECT_GT(on_wall_on[k].cuboids, 0u) << k;
+    }
+  }
 }
 
 } // namespace

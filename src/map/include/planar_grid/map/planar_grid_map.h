@@ -111,6 +111,11 @@ public:
      * plane (found in earlier or later frames) those boxes repeat its surface with
      * the depth spread of that frame's points. */
     bool planes_replace_non_planar{true};
+    /** Planes absorb the cells of weaker planes lying on them: after each
+     * integrateSurface() (before planes_replace_non_planar), a map plane's raster cell
+     * lying within resolution_m / 2 of the cuboids of a plane with more evidence moves
+     * to that plane (SurfaceLayer::absorbOverlappingPlaneCells()). */
+    bool planes_absorb_overlapping{true};
   };
 
   /** \brief Builds an empty map; getParams() returns \a params with both layers'
@@ -138,6 +143,8 @@ public:
                         const std::vector<float>& probabilities)
   {
     surface_.integrate(cuboids, planes, features, probabilities);
+    if (params_.planes_absorb_overlapping)
+      surface_.absorbOverlappingPlaneCells();
     if (params_.planes_replace_non_planar)
       removeNonPlanarCellsOnPlanes();
   }

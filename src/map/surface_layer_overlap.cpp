@@ -1,0 +1,246 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The surface layer's overlapping planes: a map plane's raster cells that lie on a
+// plane with more evidence move to that plane.
+#include <planar_grid/map/surface_layer.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <mutex>
+#include <utility>
+
+#include "surface_layer_impl.h"
+
+namespace planar_grid {
+
+using namespace surface_layer_detail;
+
+namespace {
+
+/** \brief True when the axis-aligned bounds of \a a and \a b, each grown by \a grow
+ * (meters), intersect. */
+bool
+boundsMeet(const PlanarCuboid& a, const PlanarCuboid& b, float grow)
+{
+  Eigen::Vector3f a_lo, a_hi, b_lo, b_hi;
+  cuboidBounds(a, a_lo, a_hi);
+  cuboidBounds(b, b_lo, b_hi);
+  return ((a_lo.array() - grow) <= (b_hi.array() + grow)).all()
+         && ((b_lo.array() - grow) <= (a_hi.array() + grow)).all();
+}
+
+} // namespace
+
+std::size_t
+SurfaceLayer::absorbOverlappingPlaneCells()
+{
+  Impl& impl = *impl_;
+  if (impl.planes.size() < 2)
+    return 0;
+  const double r = params_.resolution_m;
+  const double inv_r = 1.0 / r;
+  const auto half_cell = static_cast<float>(0.5 * r);
+  const auto bin = static_cast<float>(8.0 * r);
+  const auto thickness = static_cast<float>(params_.thickness_m);
+  PlanarCuboids planar;
+  {
+    std::lock_guard<std::mutex> lock(impl.mutex);
+    impl.buildPlanarCuboids(params_, planar);
+  }
+  if (planar.size() < 2)
+    return 0;
+  // The planar cuboids' bins (grown by half a cell), in index order within a bin.
+  // planar[] holds each plane's rectangles in order: cuboid k is rectangle
+  // rect_index[k] of its plane
+  std::vector<std::size_t> rect_index(planar.size(), 0);
+  for (std::size_t k = 1; k < planar.size(); ++k)
+    if (planar[k].plane_id == planar[k - 1].plane_id)
+      rect_index[k] = rect_index[k - 1] + 1;
+  std::vector<BinEntry> bins;
+  std::vector<std::uint32_t> large;
+  for (std::size_t k = 0; k < planar.size(); ++k) {
+    const auto index = static_cast<std::uint32_t>(k);
+    if (!forEachBin(planar[k], half_cell, bin,
+                    [&](std::uint64_t key) { bins.emplace_back(key, index); }))
+      large.push_back(index);
+  }
+  std::stable_sort(bins.begin(), bins.end());
+  // Plane b has more evidence than plane a (the lower index on a tie).
+  const auto stronger = [&impl](std::size_t b, std::size_t a) {
+    const double wa = impl.planes[a].moments.weight;
+    const double wb = impl.planes[b].moments.weight;
+    return wb > wa || (wb == wa && b < a);
+  };
+
+  // 1. Per plane, the observed cells lying on one stronger plane's cuboids (the face
+  //    centre and corners within half a cell), and that plane.
+  struct Move {
+    std::uint64_t key;
+    std::uint32_t to;
+  };
+  std::vector<std::vector<Move>> moves(impl.planes.size());
+  std::vector<std::uint32_t> candidates;
+  std::vector<std::uint32_t> seen;
+  std::vector<Move> rect_moves;
+  for (std::size_t k = 0; k < planar.size(); ++k) {
+    const PlanarCuboid& rect_cuboid = planar[k];
+    const auto a = static_cast<std::size_t>(rect_cuboid.plane_id);
+    // The stronger planes' cuboids near this rectangle, strongest plane first.
+    candidates.clear();
+    seen.clear();
+    const auto consider = [&](std::uint32_t other) {
+      const auto b = static_cast<std::size_t>(planar[other].plane_id);
+      if (b != a && stronger(b, a) && boundsMeet(rect_cuboid, planar[other], half_cell))
+        candidates.push_back(other);
+    };
+    const bool binned = forEachBin(rect_cuboid, half_cell, bin, [&](std::uint64_t key) {
+      const auto range = std::equal_range(bins.begin(), bins.end(), BinEntry(key, 0));
+      for (auto it = range.first; it != range.second; ++it)
+        seen.push_back(it->index);
+    });
+    if (!binned)
+      for (std::uint32_t other = 0; other < planar.size(); ++other)
+        seen.push_back(other);
+    seen.insert(seen.end(), large.begin(), large.end());
+    std::sort(seen.begin(), seen.end());
+    seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
+    for (const auto other : seen)
+      consider(other);
+    if (candidates.empty())
+      continue;
+    std::stable_sort(candidates.begin(), candidates.end(),
+                     [&](std::uint32_t x, std::uint32_t y) {
+                       const auto px = static_cast<std::size_t>(planar[x].plane_id);
+                       const auto py = static_cast<std::size_t>(planar[y].plane_id);
+                       return px != py && stronger(px, py);
+                     });
+    // The rectangle's observed cells.
+    const MapPlane& plane = impl.planes[a];
+    const RasterFrame frame = plane.frame();
+    const FacePlacement placement(frame, plane.normal);
+    const RasterRect* rect = &plane.rects[rect_index[k]];
+    rect_moves.clear();
+    bool whole = true;
+    for (std::int32_t j = rect->j0; j < rect->j1 && whole; ++j)
+      for (std::int32_t i = rect->i0; i < rect->i1 && whole; ++i) {
+        const std::uint64_t key = rasterCellKey(i, j);
+        if (!plane.raster.contains(key))
+          continue;
+        whole = false;
+        const PlanarCuboid cell =
+          rectCuboid(plane, frame, placement, RasterRect{i, i + 1, j, j + 1, 0.5f, 0},
+                     rect_cuboid.plane_id, r, thickness);
+        const Eigen::Vector3f face = cell.faceCentre();
+        const Eigen::Vector3f du = 0.5f * cell.width_m * cell.horizontal_axis;
+        const Eigen::Vector3f dv = 0.5f * cell.height_m * cell.verticalAxis();
+        const std::array<Eigen::Vector3f, 5> points = {
+          face, face - du - dv, face + du - dv, face + du + dv, face - du + dv};
+        // the first (strongest) plane whose cuboids hold all five points
+        for (std::size_t c = 0; c < candidates.size();) {
+          const int b = planar[candidates[c]].plane_id;
+          std::size_t end = c;
+          while (end < candidates.size() && planar[candidates[end]].plane_id == b)
+            ++end;
+          bool all = true;
+          for (const auto& q : points) {
+            bool held = false;
+            for (std::size_t e = c; e < end && !held; ++e)
+              held = planar[candidates[e]].contains(q, half_cell);
+            if (!held) {
+              all = false;
+              break;
+            }
+          }
+          if (all) {
+            rect_moves.push_back(Move{key, static_cast<std::uint32_t>(b)});
+            whole = true;
+            break;
+          }
+          c = end;
+        }
+      }
+    if (whole)
+      moves[a].insert(moves[a].end(), rect_moves.begin(), rect_moves.end());
+  }
+
+  // 2. The cells move: their evidence to the cell of the stronger plane's raster that
+  //    holds their face centre (observed there too); they leave their plane.
+  std::size_t moved = 0;
+  std::vector<bool> emptied(impl.planes.size(), false);
+  for (std::size_t a = 0; a < impl.planes.size(); ++a) {
+    if (moves[a].empty())
+      continue;
+    std::sort(moves[a].begin(), moves[a].end(),
+              [](const Move& x, const Move& y) { return x.key < y.key; });
+    MapPlane& src = impl.planes[a];
+    const RasterFrame src_frame = src.frame();
+    const FacePlacement placement(src_frame, src.normal);
+    std::vector<std::uint64_t> keep_keys;
+    std::vector<float> keep_sums;
+    std::vector<std::uint16_t> keep_counts;
+    std::vector<std::pair<std::uint32_t, CellEvidence>> out; // (to plane, evidence)
+    std::size_t m = 0;
+    src.raster.forEachCell([&](std::uint64_t key, float sum, std::uint16_t count) {
+      while (m < moves[a].size() && moves[a][m].key < key)
+        ++m;
+      if (m < moves[a].size() && moves[a][m].key == key) {
+        const std::int32_t i = rasterCellI(key), j = rasterCellJ(key);
+        const PlanarCuboid cell =
+          rectCuboid(src, src_frame, placement, RasterRect{i, i + 1, j, j + 1, 0.5f, 0},
+                     static_cast<int>(a), r, thickness);
+        const MapPlane& dst = impl.planes[moves[a][m].to];
+        const Eigen::Vector2d f = dst.frame().toRaster(cell.faceCentre(), inv_r);
+        std::int64_t ci = 0, cj = 0;
+        if (cellIndex(f.x(), ci) && cellIndex(f.y(), cj)) {
+          out.emplace_back(moves[a][m].to,
+                           CellEvidence{rasterCellKey(static_cast<std::int32_t>(ci),
+                                                      static_cast<std::int32_t>(cj)),
+                                        sum, count});
+          return;
+        }
+      }
+      keep_keys.push_back(key);
+      keep_sums.push_back(sum);
+      keep_counts.push_back(count);
+    });
+    if (out.empty())
+      continue;
+    moved += out.size();
+    src.raster.assign(keep_keys, keep_sums, keep_counts);
+    src.dirty = true;
+    emptied[a] = src.raster.empty();
+    std::stable_sort(out.begin(), out.end(),
+                     [](const auto& x, const auto& y) { return x.first < y.first; });
+    for (std::size_t s = 0; s < out.size();) {
+      const std::uint32_t to = out[s].first;
+      std::vector<std::uint64_t> keys;
+      std::vector<CellEvidence> evidence;
+      for (; s < out.size() && out[s].first == to; ++s) {
+        keys.push_back(out[s].second.key);
+        if (out[s].second.count > 0)
+          evidence.push_back(out[s].second);
+      }
+      MapPlane& dst = impl.planes[to];
+      dst.raster.insert(keys);
+      dst.raster.addEvidence(evidence);
+      dst.dirty = true;
+    }
+  }
+  if (moved == 0)
+    return 0;
+
+  // 3. A plane left without cells goes (its evidence is what the stronger planes
+  //    hold now).
+  for (std::size_t a = impl.planes.size(); a-- > 0;)
+    if (emptied[a] && impl.planes[a].raster.empty())
+      impl.planes.erase(impl.planes.begin() + static_cast<std::ptrdiff_t>(a));
+  impl.plane_models.resize(impl.planes.size());
+  for (std::size_t p = 0; p < impl.planes.size(); ++p)
+    impl.plane_models[p] =
+      Eigen::Vector4f(impl.planes[p].normal.x(), impl.planes[p].normal.y(),
+                      impl.planes[p].normal.z(), impl.planes[p].d);
+  impl.invalidate();
+  return moved;
+}
+
+} // namespace planar_grid
