@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The surface layer's overlapping planes: a map plane's raster cells that lie on a
+// The surface layer's overlapping planes: a map plane's rectangles that lie on a
 // plane with more evidence move to that plane.
 #include <planar_grid/map/surface_layer.h>
 
@@ -72,8 +72,9 @@ SurfaceLayer::absorbOverlappingPlaneCells()
     return wb > wa || (wb == wa && b < a);
   };
 
-  // 1. Per plane, the observed cells lying on one stronger plane's cuboids (the face
-  //    centre and corners within half a cell), and that plane.
+  // 1. Per plane, the observed cells of its rectangles that lie wholly on stronger
+  //    planes (each cell's face centre and corners within half a cell of one stronger
+  //    plane's cuboids), and those planes.
   struct Move {
     std::uint64_t key;
     std::uint32_t to;

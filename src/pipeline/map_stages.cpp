@@ -216,9 +216,10 @@ mapIntegrationInfo()
                     "footprint within half a cell of its planar cuboids): the plane "
                     "represents that surface."),
     ParamSpec::flag("planes_absorb_overlapping", d.planes_absorb_overlapping,
-                    "Move a map plane's cells lying on a plane with more evidence "
-                    "(face within half a cell of its planar cuboids) to that plane: "
-                    "a surface found as planes a few degrees apart is covered once."),
+                    "Move a map plane's rectangles lying on a plane with more "
+                    "evidence (every cell's face within half a cell of its planar "
+                    "cuboids) to that plane: a surface found as planes a few degrees "
+                    "apart is covered once."),
     ParamSpec::choice("sensor_model", "auto", {"auto", "pinhole", "rays"},
                       "How the explicit space layer sees a frame: pinhole = the "
                       "disparity image's camera (stereo) or a virtual depth camera "

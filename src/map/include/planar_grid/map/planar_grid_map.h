@@ -111,10 +111,11 @@ public:
      * plane (found in earlier or later frames) those boxes repeat its surface with
      * the depth spread of that frame's points. */
     bool planes_replace_non_planar{true};
-    /** Planes absorb the cells of weaker planes lying on them: after each
-     * integrateSurface() (before planes_replace_non_planar), a map plane's raster cell
-     * lying within resolution_m / 2 of the cuboids of a plane with more evidence moves
-     * to that plane (SurfaceLayer::absorbOverlappingPlaneCells()). */
+    /** Planes absorb the rectangles of weaker planes lying on them: after each
+     * integrateSurface() (before planes_replace_non_planar), a rectangle of a map
+     * plane whose observed cells all lie within resolution_m / 2 of the cuboids of a
+     * plane with more evidence moves to that plane
+     * (SurfaceLayer::absorbOverlappingPlaneCells()). */
     bool planes_absorb_overlapping{true};
   };
 

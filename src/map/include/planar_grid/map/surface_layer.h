@@ -220,16 +220,17 @@ public:
    * \return the number of cells removed */
   std::size_t removeNonPlanarCellsOnPlanes();
 
-  /** \brief Moves the raster cells of a map plane that lie on another plane with more
-   * evidence (a larger moments weight; the lower index on a tie) to that plane: a cell
-   * whose face centre and four face corners all lie inside that plane's cuboids grown
-   * by resolution_m / 2 on every side. Its feature evidence joins the other plane's
-   * cell that holds its face centre (observed there), and it leaves its plane; a plane
-   * left without cells is removed (later planes' indices shift down). Where frames
-   * found the same surface as planes a few degrees apart (beyond
-   * plane_merge_angle_rad), or a plane crossing another, the surface is then covered
-   * once. The planes' fits (moments) are not changed.
-   * \return the number of cells moved */
+  /** \brief Moves the rectangles of a map plane that lie on another plane with more
+   * evidence (a larger moments weight; the lower index on a tie) to that plane: a
+   * rectangle of a plane's cover moves when every observed raster cell in it has its
+   * face centre and four face corners inside that one plane's cuboids grown by
+   * resolution_m / 2 on every side. Its cells' feature evidence joins the other
+   * plane's cells that hold their face centres (observed there), and they leave their
+   * plane; a plane left without cells is removed (later planes' indices shift down).
+   * A rectangle reaching past the other plane's cuboids stays whole. Where frames found
+   * one surface as planes a few degrees apart (beyond plane_merge_angle_rad), or planes
+   * crossing near their line, the surface is then covered once. The planes' fits
+   * (moments) are not changed. \return the number of raster cells moved */
   std::size_t absorbOverlappingPlaneCells();
 
   /** \brief The merged cuboids: every map plane's rectangles (plane_id = the map's
