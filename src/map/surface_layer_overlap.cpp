@@ -42,192 +42,227 @@ SurfaceLayer::absorbOverlappingPlaneCells()
   const auto half_cell = static_cast<float>(0.5 * r);
   const auto bin = static_cast<float>(8.0 * r);
   const auto thickness = static_cast<float>(params_.thickness_m);
-  PlanarCuboids planar;
+  // The planes changed since the covers were last built (this frame's): only a
+  // rectangle of such a plane, or one near such a plane, can have come to lie on
+  // another plane. Moving cells changes planes too, so the test repeats for the
+  // planes that moves changed until no cell moves (cells only move to planes with
+  // more evidence, so this ends).
+  std::vector<bool> changed(impl.planes.size());
   {
     std::lock_guard<std::mutex> lock(impl.mutex);
-    impl.buildPlanarCuboids(params_, planar);
+    bool any = false;
+    for (std::size_t p = 0; p < impl.planes.size(); ++p) {
+      changed[p] = impl.planes[p].dirty;
+      any = any || changed[p];
+    }
+    if (!any)
+      return 0;
   }
-  if (planar.size() < 2)
-    return 0;
-  // The planar cuboids' bins (grown by half a cell), in index order within a bin.
-  // planar[] holds each plane's rectangles in order: cuboid k is rectangle
-  // rect_index[k] of its plane
-  std::vector<std::size_t> rect_index(planar.size(), 0);
-  for (std::size_t k = 1; k < planar.size(); ++k)
-    if (planar[k].plane_id == planar[k - 1].plane_id)
-      rect_index[k] = rect_index[k - 1] + 1;
-  std::vector<BinEntry> bins;
-  std::vector<std::uint32_t> large;
-  for (std::size_t k = 0; k < planar.size(); ++k) {
-    const auto index = static_cast<std::uint32_t>(k);
-    if (!forEachBin(planar[k], half_cell, bin,
-                    [&](std::uint64_t key) { bins.emplace_back(key, index); }))
-      large.push_back(index);
-  }
-  std::stable_sort(bins.begin(), bins.end());
-  // Plane b has more evidence than plane a (the lower index on a tie).
-  const auto stronger = [&impl](std::size_t b, std::size_t a) {
-    const double wa = impl.planes[a].moments.weight;
-    const double wb = impl.planes[b].moments.weight;
-    return wb > wa || (wb == wa && b < a);
-  };
-
-  // 1. Per plane, the observed cells of its rectangles that lie wholly on stronger
-  //    planes (each cell's face centre and corners within half a cell of one stronger
-  //    plane's cuboids), and those planes.
-  struct Move {
-    std::uint64_t key;
-    std::uint32_t to;
-  };
-  std::vector<std::vector<Move>> moves(impl.planes.size());
-  std::vector<std::uint32_t> candidates;
-  std::vector<std::uint32_t> seen;
-  std::vector<Move> rect_moves;
-  for (std::size_t k = 0; k < planar.size(); ++k) {
-    const PlanarCuboid& rect_cuboid = planar[k];
-    const auto a = static_cast<std::size_t>(rect_cuboid.plane_id);
-    // The stronger planes' cuboids near this rectangle, strongest plane first.
-    candidates.clear();
-    seen.clear();
-    const auto consider = [&](std::uint32_t other) {
-      const auto b = static_cast<std::size_t>(planar[other].plane_id);
-      if (b != a && stronger(b, a) && boundsMeet(rect_cuboid, planar[other], half_cell))
-        candidates.push_back(other);
+  std::vector<bool> emptied(impl.planes.size(), false);
+  std::size_t total = 0;
+  for (;;) {
+    PlanarCuboids planar;
+    {
+      std::lock_guard<std::mutex> lock(impl.mutex);
+      impl.buildPlanarCuboids(params_, planar);
+    }
+    if (planar.size() < 2)
+      break;
+    // planar[] holds each plane's rectangles in order: cuboid k is rectangle
+    // rect_index[k] of its plane
+    std::vector<std::size_t> rect_index(planar.size(), 0);
+    for (std::size_t k = 1; k < planar.size(); ++k)
+      if (planar[k].plane_id == planar[k - 1].plane_id)
+        rect_index[k] = rect_index[k - 1] + 1;
+    // Plane b has more evidence than plane a (the lower index on a tie).
+    const auto stronger = [&impl](std::size_t b, std::size_t a) {
+      const double wa = impl.planes[a].moments.weight;
+      const double wb = impl.planes[b].moments.weight;
+      return wb > wa || (wb == wa && b < a);
     };
-    const bool binned = forEachBin(rect_cuboid, half_cell, bin, [&](std::uint64_t key) {
-      const auto range = std::equal_range(bins.begin(), bins.end(), BinEntry(key, 0));
-      for (auto it = range.first; it != range.second; ++it)
-        seen.push_back(it->index);
+    // Candidate pairs (rectangle x, cuboid y of a stronger plane) whose bounds, grown
+    // by half a cell, meet and one of whose planes changed: one sweep over the cuboids'
+    // bins (8 cells), the cuboids spanning too many bins paired with all.
+    std::vector<BinEntry> bins;
+    std::vector<std::uint32_t> large;
+    for (std::size_t k = 0; k < planar.size(); ++k) {
+      const auto index = static_cast<std::uint32_t>(k);
+      if (!forEachBin(planar[k], half_cell, bin,
+                      [&](std::uint64_t key) { bins.emplace_back(key, index); }))
+        large.push_back(index);
+    }
+    std::sort(bins.begin(), bins.end());
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
+    const auto pair = [&](std::uint32_t x, std::uint32_t y) {
+      const auto a = static_cast<std::size_t>(planar[x].plane_id);
+      const auto b = static_cast<std::size_t>(planar[y].plane_id);
+      if (a != b && (changed[a] || changed[b]) && stronger(b, a)
+          && boundsMeet(planar[x], planar[y], half_cell))
+        pairs.emplace_back(x, y);
+    };
+    for (std::size_t s = 0; s < bins.size();) {
+      std::size_t e = s + 1;
+      while (e < bins.size() && bins[e].key() == bins[s].key())
+        ++e;
+      for (std::size_t x = s; x < e; ++x)
+        for (std::size_t y = s; y < e; ++y)
+          pair(bins[x].index, bins[y].index);
+      s = e;
+    }
+    for (const auto l : large)
+      for (std::uint32_t k = 0; k < planar.size(); ++k) {
+        pair(l, k);
+        pair(k, l);
+      }
+    // by rectangle, then its candidates' planes strongest first (then index)
+    std::sort(pairs.begin(), pairs.end(), [&](const auto& p, const auto& q) {
+      if (p.first != q.first)
+        return p.first < q.first;
+      const auto pp = static_cast<std::size_t>(planar[p.second].plane_id);
+      const auto qp = static_cast<std::size_t>(planar[q.second].plane_id);
+      if (pp != qp)
+        return stronger(pp, qp);
+      return p.second < q.second;
     });
-    if (!binned)
-      for (std::uint32_t other = 0; other < planar.size(); ++other)
-        seen.push_back(other);
-    seen.insert(seen.end(), large.begin(), large.end());
-    std::sort(seen.begin(), seen.end());
-    seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
-    for (const auto other : seen)
-      consider(other);
-    if (candidates.empty())
-      continue;
-    std::stable_sort(candidates.begin(), candidates.end(),
-                     [&](std::uint32_t x, std::uint32_t y) {
-                       const auto px = static_cast<std::size_t>(planar[x].plane_id);
-                       const auto py = static_cast<std::size_t>(planar[y].plane_id);
-                       return px != py && stronger(px, py);
-                     });
-    // The rectangle's observed cells.
-    const MapPlane& plane = impl.planes[a];
-    const RasterFrame frame = plane.frame();
-    const FacePlacement placement(frame, plane.normal);
-    const RasterRect* rect = &plane.rects[rect_index[k]];
-    rect_moves.clear();
-    bool whole = true;
-    for (std::int32_t j = rect->j0; j < rect->j1 && whole; ++j)
-      for (std::int32_t i = rect->i0; i < rect->i1 && whole; ++i) {
-        const std::uint64_t key = rasterCellKey(i, j);
-        if (!plane.raster.contains(key))
-          continue;
-        whole = false;
-        const PlanarCuboid cell =
-          rectCuboid(plane, frame, placement, RasterRect{i, i + 1, j, j + 1, 0.5f, 0},
-                     rect_cuboid.plane_id, r, thickness);
-        const Eigen::Vector3f face = cell.faceCentre();
-        const Eigen::Vector3f du = 0.5f * cell.width_m * cell.horizontal_axis;
-        const Eigen::Vector3f dv = 0.5f * cell.height_m * cell.verticalAxis();
-        const std::array<Eigen::Vector3f, 5> points = {
-          face, face - du - dv, face + du - dv, face + du + dv, face - du + dv};
-        // the first (strongest) plane whose cuboids hold all five points
-        for (std::size_t c = 0; c < candidates.size();) {
-          const int b = planar[candidates[c]].plane_id;
-          std::size_t end = c;
-          while (end < candidates.size() && planar[candidates[end]].plane_id == b)
-            ++end;
-          bool all = true;
-          for (const auto& q : points) {
-            bool held = false;
-            for (std::size_t e = c; e < end && !held; ++e)
-              held = planar[candidates[e]].contains(q, half_cell);
-            if (!held) {
-              all = false;
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+
+    // 1. Per plane, the observed cells of its rectangles that lie wholly on stronger
+    //    planes (each cell's face centre and corners within half a cell of one stronger
+    //    plane's cuboids), and those planes.
+    struct Move {
+      std::uint64_t key;
+      std::uint32_t to;
+    };
+    std::vector<std::vector<Move>> moves(impl.planes.size());
+    std::vector<std::uint32_t> candidates;
+    std::vector<Move> rect_moves;
+    for (std::size_t s = 0; s < pairs.size();) {
+      const std::size_t k = pairs[s].first;
+      const PlanarCuboid& rect_cuboid = planar[k];
+      const auto a = static_cast<std::size_t>(rect_cuboid.plane_id);
+      candidates.clear();
+      for (; s < pairs.size() && pairs[s].first == k; ++s)
+        candidates.push_back(pairs[s].second);
+      // The rectangle's observed cells.
+      const MapPlane& plane = impl.planes[a];
+      const RasterFrame frame = plane.frame();
+      const FacePlacement placement(frame, plane.normal);
+      const RasterRect* rect = &plane.rects[rect_index[k]];
+      rect_moves.clear();
+      bool whole = true;
+      for (std::int32_t j = rect->j0; j < rect->j1 && whole; ++j)
+        for (std::int32_t i = rect->i0; i < rect->i1 && whole; ++i) {
+          const std::uint64_t key = rasterCellKey(i, j);
+          if (!plane.raster.contains(key))
+            continue;
+          whole = false;
+          const PlanarCuboid cell =
+            rectCuboid(plane, frame, placement, RasterRect{i, i + 1, j, j + 1, 0.5f, 0},
+                       rect_cuboid.plane_id, r, thickness);
+          const Eigen::Vector3f face = cell.faceCentre();
+          const Eigen::Vector3f du = 0.5f * cell.width_m * cell.horizontal_axis;
+          const Eigen::Vector3f dv = 0.5f * cell.height_m * cell.verticalAxis();
+          const std::array<Eigen::Vector3f, 5> points = {
+            face, face - du - dv, face + du - dv, face + du + dv, face - du + dv};
+          // the first (strongest) plane whose cuboids hold all five points
+          for (std::size_t c = 0; c < candidates.size();) {
+            const int b = planar[candidates[c]].plane_id;
+            std::size_t end = c;
+            while (end < candidates.size() && planar[candidates[end]].plane_id == b)
+              ++end;
+            bool all = true;
+            for (const auto& q : points) {
+              bool held = false;
+              for (std::size_t e = c; e < end && !held; ++e)
+                held = planar[candidates[e]].contains(q, half_cell);
+              if (!held) {
+                all = false;
+                break;
+              }
+            }
+            if (all) {
+              rect_moves.push_back(Move{key, static_cast<std::uint32_t>(b)});
+              whole = true;
               break;
             }
+            c = end;
           }
-          if (all) {
-            rect_moves.push_back(Move{key, static_cast<std::uint32_t>(b)});
-            whole = true;
-            break;
-          }
-          c = end;
         }
-      }
-    if (whole)
-      moves[a].insert(moves[a].end(), rect_moves.begin(), rect_moves.end());
-  }
-
-  // 2. The cells move: their evidence to the cell of the stronger plane's raster that
-  //    holds their face centre (observed there too); they leave their plane.
-  std::size_t moved = 0;
-  std::vector<bool> emptied(impl.planes.size(), false);
-  for (std::size_t a = 0; a < impl.planes.size(); ++a) {
-    if (moves[a].empty())
-      continue;
-    std::sort(moves[a].begin(), moves[a].end(),
-              [](const Move& x, const Move& y) { return x.key < y.key; });
-    MapPlane& src = impl.planes[a];
-    const RasterFrame src_frame = src.frame();
-    const FacePlacement placement(src_frame, src.normal);
-    std::vector<std::uint64_t> keep_keys;
-    std::vector<float> keep_sums;
-    std::vector<std::uint16_t> keep_counts;
-    std::vector<std::pair<std::uint32_t, CellEvidence>> out; // (to plane, evidence)
-    std::size_t m = 0;
-    src.raster.forEachCell([&](std::uint64_t key, float sum, std::uint16_t count) {
-      while (m < moves[a].size() && moves[a][m].key < key)
-        ++m;
-      if (m < moves[a].size() && moves[a][m].key == key) {
-        const std::int32_t i = rasterCellI(key), j = rasterCellJ(key);
-        const PlanarCuboid cell =
-          rectCuboid(src, src_frame, placement, RasterRect{i, i + 1, j, j + 1, 0.5f, 0},
-                     static_cast<int>(a), r, thickness);
-        const MapPlane& dst = impl.planes[moves[a][m].to];
-        const Eigen::Vector2d f = dst.frame().toRaster(cell.faceCentre(), inv_r);
-        std::int64_t ci = 0, cj = 0;
-        if (cellIndex(f.x(), ci) && cellIndex(f.y(), cj)) {
-          out.emplace_back(moves[a][m].to,
-                           CellEvidence{rasterCellKey(static_cast<std::int32_t>(ci),
-                                                      static_cast<std::int32_t>(cj)),
-                                        sum, count});
-          return;
-        }
-      }
-      keep_keys.push_back(key);
-      keep_sums.push_back(sum);
-      keep_counts.push_back(count);
-    });
-    if (out.empty())
-      continue;
-    moved += out.size();
-    src.raster.assign(keep_keys, keep_sums, keep_counts);
-    src.dirty = true;
-    emptied[a] = src.raster.empty();
-    std::stable_sort(out.begin(), out.end(),
-                     [](const auto& x, const auto& y) { return x.first < y.first; });
-    for (std::size_t s = 0; s < out.size();) {
-      const std::uint32_t to = out[s].first;
-      std::vector<std::uint64_t> keys;
-      std::vector<CellEvidence> evidence;
-      for (; s < out.size() && out[s].first == to; ++s) {
-        keys.push_back(out[s].second.key);
-        if (out[s].second.count > 0)
-          evidence.push_back(out[s].second);
-      }
-      MapPlane& dst = impl.planes[to];
-      dst.raster.insert(keys);
-      dst.raster.addEvidence(evidence);
-      dst.dirty = true;
+      if (whole)
+        moves[a].insert(moves[a].end(), rect_moves.begin(), rect_moves.end());
     }
+
+    // 2. The cells move: their evidence to the cell of the stronger plane's raster that
+    //    holds their face centre (observed there too); they leave their plane.
+    std::size_t moved = 0;
+    std::vector<bool> next_changed(impl.planes.size(), false);
+    for (std::size_t a = 0; a < impl.planes.size(); ++a) {
+      if (moves[a].empty())
+        continue;
+      std::sort(moves[a].begin(), moves[a].end(),
+                [](const Move& x, const Move& y) { return x.key < y.key; });
+      MapPlane& src = impl.planes[a];
+      const RasterFrame src_frame = src.frame();
+      const FacePlacement placement(src_frame, src.normal);
+      std::vector<std::uint64_t> keep_keys;
+      std::vector<float> keep_sums;
+      std::vector<std::uint16_t> keep_counts;
+      std::vector<std::pair<std::uint32_t, CellEvidence>> out; // (to plane, evidence)
+      std::size_t m = 0;
+      src.raster.forEachCell([&](std::uint64_t key, float sum, std::uint16_t count) {
+        while (m < moves[a].size() && moves[a][m].key < key)
+          ++m;
+        if (m < moves[a].size() && moves[a][m].key == key) {
+          const std::int32_t i = rasterCellI(key), j = rasterCellJ(key);
+          const PlanarCuboid cell = rectCuboid(src, src_frame, placement,
+                                               RasterRect{i, i + 1, j, j + 1, 0.5f, 0},
+                                               static_cast<int>(a), r, thickness);
+          const MapPlane& dst = impl.planes[moves[a][m].to];
+          const Eigen::Vector2d f = dst.frame().toRaster(cell.faceCentre(), inv_r);
+          std::int64_t ci = 0, cj = 0;
+          if (cellIndex(f.x(), ci) && cellIndex(f.y(), cj)) {
+            out.emplace_back(moves[a][m].to,
+                             CellEvidence{rasterCellKey(static_cast<std::int32_t>(ci),
+                                                        static_cast<std::int32_t>(cj)),
+                                          sum, count});
+            return;
+          }
+        }
+        keep_keys.push_back(key);
+        keep_sums.push_back(sum);
+        keep_counts.push_back(count);
+      });
+      if (out.empty())
+        continue;
+      moved += out.size();
+      src.raster.assign(keep_keys, keep_sums, keep_counts);
+      src.dirty = true;
+      next_changed[a] = true;
+      emptied[a] = src.raster.empty();
+      std::stable_sort(out.begin(), out.end(),
+                       [](const auto& x, const auto& y) { return x.first < y.first; });
+      for (std::size_t s = 0; s < out.size();) {
+        const std::uint32_t to = out[s].first;
+        std::vector<std::uint64_t> keys;
+        std::vector<CellEvidence> evidence;
+        for (; s < out.size() && out[s].first == to; ++s) {
+          keys.push_back(out[s].second.key);
+          if (out[s].second.count > 0)
+            evidence.push_back(out[s].second);
+        }
+        MapPlane& dst = impl.planes[to];
+        dst.raster.insert(keys);
+        dst.raster.addEvidence(evidence);
+        dst.dirty = true;
+        next_changed[to] = true;
+      }
+    }
+    if (moved == 0)
+      break;
+    total += moved;
+    changed.swap(next_changed);
   }
-  if (moved == 0)
+  if (total == 0)
     return 0;
 
   // 3. A plane left without cells goes (its evidence is what the stronger planes
@@ -241,7 +276,7 @@ SurfaceLayer::absorbOverlappingPlaneCells()
       Eigen::Vector4f(impl.planes[p].normal.x(), impl.planes[p].normal.y(),
                       impl.planes[p].normal.z(), impl.planes[p].d);
   impl.invalidate();
-  return moved;
+  return total;
 }
 
 } // namespace planar_grid
