@@ -991,4 +991,100 @@ TEST_F(PlanarGridMapTest, PlanesAbsorbTheCellsOfWeakerPlanesLyingOnThem)
   }
 }
 
+TEST_F(PlanarGridMapTest, PlanesAbsorbExactlyThePatchesLyingOnThem)
+{
+  // A 6 m x 4 m wall on z = 5 (the strongest plane) and 16 random patches on a grid
+  // 1.5 m apart, each its own map plane (16 normals at 9 or 18 degrees to the wall's,
+  // tilted toward 8 directions: pairwise more than 0.1 rad apart), 0.3-0.6 m across,
+  // their centres up to 0.06 m before to 0.1 m behind the wall's face (the 9 degree
+  // ones 0.03 m before to 0.04 m behind). Oracle: a cell goes
+  // when its face (convex) lies in the wall's cuboid grown by half a cell (convex).
+  // A patch whose face grown by a cell (every observed cell's reach, in any raster
+  // frame) lies in it, with a 1 cm margin, goes whole; a patch with a point at least
+  // a cell inside its face (in an observed cell) out of it by 1 cm keeps that cell's
+  // rectangle. Patches between the two are not asserted.
+  const float r = 0.1f, half = 0.05f, margin = 0.01f;
+  const PlanarCuboid wall =
+    wallCuboid(Eigen::Vector3f(0.0f, 0.0f, 5.0f), -Eigen::Vector3f::UnitZ(),
+               Eigen::Vector3f::UnitX(), 6.0f, 4.0f, 0);
+  const float deg = static_cast<float>(EIGEN_PI) / 180.0f;
+  std::mt19937 rng(20261124);
+  std::uniform_real_distribution<float> size(0.3f, 0.6f), near(-0.03f, 0.04f),
+    depth(-0.06f, 0.1f), jitter(-0.1f, 0.1f);
+  PlanarCuboids patches;
+  PlaneModels patch_planes;
+  for (int k = 0; k < 16; ++k) {
+    const float tilt = ((k % 2) == 0 ? 9.0f : 18.0f) * deg;
+    const float azimuth = static_cast<float>(k / 2) * 45.0f * deg;
+    // the wall's normal -z tilted by \a tilt toward the azimuth's direction
+    const Eigen::Vector3f toward(std::cos(azimuth), std::sin(azimuth), 0.0f);
+    const Eigen::Vector3f normal =
+      (-std::cos(tilt) * Eigen::Vector3f::UnitZ() + std::sin(tilt) * toward)
+        .normalized();
+    const Eigen::Vector3f u = normal.cross(Eigen::Vector3f::UnitY()).normalized();
+    const Eigen::Vector3f face(-2.25f + 1.5f * static_cast<float>(k % 4) + jitter(rng),
+                               -2.25f + 1.5f * static_cast<float>(k / 4) + jitter(rng),
+                               5.05f + ((k % 2) == 0 ? near(rng) : depth(rng)));
+    const float side = size(rng);
+    patches.push_back(wallCuboid(face, normal, u, side, side, k));
+    patch_planes.push_back(planeOf(patches.back()));
+  }
+  const auto inWall = [&](const Eigen::Vector3f& q, float tolerance) {
+    return wall.contains(q, tolerance);
+  };
+  PlanarGridMap::Params p = params();
+  PlanarGridMap map(p);
+  map.integrateSurface(PlanarCuboids{wall}, PlaneModels{planeOf(wall)},
+                       pcl::PointCloud<pcl::PointXYZ>(), {});
+  map.integrateSurface(patches, patch_planes, pcl::PointCloud<pcl::PointXYZ>(), {});
+  const PlanarCuboids cuboids = map.getSurfaceLayer().getCuboids();
+  std::size_t gone = 0, stayed = 0;
+  for (std::size_t k = 0; k < patches.size(); ++k) {
+    const PlanarCuboid& patch = patches[k];
+    const Eigen::Vector3f u = patch.horizontal_axis, v = patch.verticalAxis();
+    const Eigen::Vector3f f = patch.faceCentre();
+    const float a = 0.5f * patch.width_m, b = 0.5f * patch.height_m;
+    // the patch's cuboids in the map (its plane, within 1 cm)
+    std::vector<const PlanarCuboid*> own;
+    for (const auto& c : cuboids)
+      if (c.is_planar && c.normal.dot(patch.normal) > std::cos(0.5f * deg)
+          && std::abs(patch_planes[k].head<3>().dot(c.faceCentre())
+                      + patch_planes[k][3])
+               < 0.01f)
+        own.push_back(&c);
+    bool surely_on = true;
+    for (const float su : {-1.0f, 1.0f})
+      for (const float sv : {-1.0f, 1.0f})
+        surely_on =
+          surely_on && inWall(f + su * (a + r) * u + sv * (b + r) * v, half - margin);
+    // a point at least a cell inside the face, out of the grown wall
+    bool surely_off = false;
+    Eigen::Vector3f off_point = f;
+    for (float x = -a + r; x <= a - r + 1e-6f && !surely_off; x += 0.01f)
+      for (float y = -b + r; y <= b - r + 1e-6f && !surely_off; y += 0.01f) {
+        const Eigen::Vector3f q = f + x * u + y * v;
+        if (!inWall(q, half + margin)) {
+          surely_off = true;
+          off_point = q;
+        }
+      }
+    ASSERT_FALSE(surely_on && surely_off) << k;
+    if (surely_on) {
+      ++gone;
+      EXPECT_TRUE(own.empty()) << "patch " << k << " lies on the wall";
+    } else if (surely_off) {
+      ++stayed;
+      bool held = false;
+      for (const auto* c : own)
+        held = held || c->contains(off_point, 0.01f);
+      EXPECT_TRUE(held) << "patch " << k << " reaches past the wall at "
+                        << off_point.transpose();
+    }
+  }
+  EXPECT_GE(gone, 3u);
+  EXPECT_GE(stayed, 3u);
+  // the wall's plane and the patches that stayed, nothing else
+  EXPECT_LE(map.getSurfaceLayer().getPlanes().size(), 17u - gone);
+}
+
 } // namespace
