@@ -7,6 +7,7 @@
 #include <planar_grid/core/rectangle_merge.h>
 #include <planar_grid/map/surface_layer.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -264,6 +265,28 @@ forEachBin(const PlanarCuboid& c, float grow, float bin, F f)
            z <= static_cast<std::int64_t>(b.z()); ++z)
         f(binKey(x, y, z));
   return true;
+}
+
+/** \brief Fills \a bins with a (bin key, index) entry per bin of edge \a bin (meters)
+ * that each of \a cuboids, grown by \a grow (meters), meets (forEachBin()), sorted by
+ * key and by index within a key; the cuboids spanning more than MAX_BINS_PER_CUBOID
+ * bins go to \a large instead. */
+inline void
+binCuboids(const PlanarCuboids& cuboids,
+           float grow,
+           float bin,
+           std::vector<BinEntry>& bins,
+           std::vector<std::uint32_t>& large)
+{
+  bins.clear();
+  large.clear();
+  for (std::size_t k = 0; k < cuboids.size(); ++k) {
+    const auto index = static_cast<std::uint32_t>(k);
+    if (!forEachBin(cuboids[k], grow, bin,
+                    [&](std::uint64_t key) { bins.emplace_back(key, index); }))
+      large.push_back(index);
+  }
+  std::stable_sort(bins.begin(), bins.end());
 }
 
 /** \brief Raster index of a coordinate in cells, or false when beyond

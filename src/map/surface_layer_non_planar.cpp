@@ -166,15 +166,9 @@ SurfaceLayer::removeNonPlanarCellsOnPlanes()
   }
   if (planar.empty())
     return 0;
-  for (std::size_t k = 0; k < planar.size(); ++k) {
-    const auto index = static_cast<std::uint32_t>(k);
-    if (!forEachBin(planar[k], half_cell, bin,
-                    [&](std::uint64_t key) { bins.emplace_back(key, index); }))
-      large.push_back(index);
-  }
   // in index order within a bin, so that the first cuboid holding a point is the
   // same on every run
-  std::stable_sort(bins.begin(), bins.end());
+  binCuboids(planar, half_cell, bin, bins, large);
   // The first planar cuboid of plane \a plane_id (any plane for -1) that holds \a q
   // within half a cell, or -1.
   const auto onPlane = [&](const Eigen::Vector3f& q, int plane_id) -> std::ptrdiff_t {

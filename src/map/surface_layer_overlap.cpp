@@ -85,13 +85,7 @@ SurfaceLayer::absorbOverlappingPlaneCells()
     // bins (8 cells), the cuboids spanning too many bins paired with all.
     std::vector<BinEntry> bins;
     std::vector<std::uint32_t> large;
-    for (std::size_t k = 0; k < planar.size(); ++k) {
-      const auto index = static_cast<std::uint32_t>(k);
-      if (!forEachBin(planar[k], half_cell, bin,
-                      [&](std::uint64_t key) { bins.emplace_back(key, index); }))
-        large.push_back(index);
-    }
-    std::sort(bins.begin(), bins.end());
+    binCuboids(planar, half_cell, bin, bins, large);
     std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
     const auto pair = [&](std::uint32_t x, std::uint32_t y) {
       const auto a = static_cast<std::size_t>(planar[x].plane_id);
