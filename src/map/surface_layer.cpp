@@ -89,12 +89,8 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
   impl.reanchorDrifted(frame.touched, params_);
   // no spare capacity: the map holds what it uses
   impl.planes.shrink_to_fit();
-  impl.plane_models.resize(impl.planes.size());
+  impl.updatePlaneModels();
   impl.plane_models.shrink_to_fit();
-  for (std::size_t p = 0; p < impl.planes.size(); ++p)
-    impl.plane_models[p] =
-      Eigen::Vector4f(impl.planes[p].normal.x(), impl.planes[p].normal.y(),
-                      impl.planes[p].normal.z(), impl.planes[p].d);
   impl.invalidate();
 }
 

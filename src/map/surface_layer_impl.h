@@ -242,6 +242,13 @@ cuboidBounds(const PlanarCuboid& c, Eigen::Vector3f& lo, Eigen::Vector3f& hi)
   hi = c.centre + half;
 }
 
+/** \brief Indices of the bin of edge \a bin (meters) holding point \a p (meters). */
+inline Eigen::Vector3d
+binOf(const Eigen::Vector3f& p, float bin)
+{
+  return (p / bin).cast<double>().array().floor();
+}
+
 /** \brief Calls f(bin key) for the bins of edge \a bin (meters) that the bounding
  * box of \a c grown by \a grow (meters) meets; returns false (nothing called) when
  * they exceed MAX_BINS_PER_CUBOID. */
@@ -253,8 +260,8 @@ forEachBin(const PlanarCuboid& c, float grow, float bin, F f)
   cuboidBounds(c, lo, hi);
   lo.array() -= grow;
   hi.array() += grow;
-  const Eigen::Vector3d a = (lo / bin).cast<double>().array().floor();
-  const Eigen::Vector3d b = (hi / bin).cast<double>().array().floor();
+  const Eigen::Vector3d a = binOf(lo, bin);
+  const Eigen::Vector3d b = binOf(hi, bin);
   if (!((b - a + Eigen::Vector3d::Ones()).prod() <= MAX_BINS_PER_CUBOID))
     return false;
   for (auto x = static_cast<std::int64_t>(a.x()); x <= static_cast<std::int64_t>(b.x());
@@ -408,6 +415,14 @@ struct SurfaceLayer::Impl {
 
   /** Frees the query index. */
   void invalidate() { index.clear(); }
+  /** Sets plane_models (getPlanes()) to the planes' refined planes. */
+  void updatePlaneModels()
+  {
+    plane_models.resize(planes.size());
+    for (std::size_t p = 0; p < planes.size(); ++p)
+      plane_models[p] = Eigen::Vector4f(planes[p].normal.x(), planes[p].normal.y(),
+                                        planes[p].normal.z(), planes[p].d);
+  }
   /** The cuboid of non-planar cell \a cell (plane_id -1; probability and point_count
    * unset). */
   PlanarCuboid nonPlanarCuboid(const surface_layer_detail::NonPlanarCell& cell) const

@@ -177,7 +177,7 @@ SurfaceLayer::removeNonPlanarCellsOnPlanes()
              && planar[k].contains(q, half_cell);
     };
     // the bin as forEachBin() computes it, so a point inside a grown box finds it
-    const Eigen::Vector3d b = (q / bin).cast<double>().array().floor();
+    const Eigen::Vector3d b = binOf(q, bin);
     const std::uint64_t key =
       binKey(static_cast<std::int64_t>(b.x()), static_cast<std::int64_t>(b.y()),
              static_cast<std::int64_t>(b.z()));

@@ -58,6 +58,12 @@ SurfaceLayer::absorbOverlappingPlaneCells()
     if (!any)
       return 0;
   }
+  // Plane b has more evidence than plane a (the lower index on a tie).
+  const auto stronger = [&impl](std::size_t b, std::size_t a) {
+    const double wa = impl.planes[a].moments.weight;
+    const double wb = impl.planes[b].moments.weight;
+    return wb > wa || (wb == wa && b < a);
+  };
   std::vector<bool> emptied(impl.planes.size(), false);
   std::size_t total = 0;
   for (;;) {
@@ -74,12 +80,6 @@ SurfaceLayer::absorbOverlappingPlaneCells()
     for (std::size_t k = 1; k < planar.size(); ++k)
       if (planar[k].plane_id == planar[k - 1].plane_id)
         rect_index[k] = rect_index[k - 1] + 1;
-    // Plane b has more evidence than plane a (the lower index on a tie).
-    const auto stronger = [&impl](std::size_t b, std::size_t a) {
-      const double wa = impl.planes[a].moments.weight;
-      const double wb = impl.planes[b].moments.weight;
-      return wb > wa || (wb == wa && b < a);
-    };
     // Candidate pairs (rectangle x, cuboid y of a stronger plane) whose bounds, grown
     // by half a cell, meet and one of whose planes changed: one sweep over the cuboids'
     // bins (8 cells), the cuboids spanning too many bins paired with all.
@@ -126,6 +126,7 @@ SurfaceLayer::absorbOverlappingPlaneCells()
     struct Move {
       std::uint64_t key;
       std::uint32_t to;
+      Eigen::Vector3f face; // the cell's face centre
     };
     std::vector<std::vector<Move>> moves(impl.planes.size());
     std::vector<std::uint32_t> candidates;
@@ -175,7 +176,7 @@ SurfaceLayer::absorbOverlappingPlaneCells()
               }
             }
             if (all) {
-              rect_moves.push_back(Move{key, static_cast<std::uint32_t>(b)});
+              rect_moves.push_back(Move{key, static_cast<std::uint32_t>(b), face});
               whole = true;
               break;
             }
@@ -196,8 +197,6 @@ SurfaceLayer::absorbOverlappingPlaneCells()
       std::sort(moves[a].begin(), moves[a].end(),
                 [](const Move& x, const Move& y) { return x.key < y.key; });
       MapPlane& src = impl.planes[a];
-      const RasterFrame src_frame = src.frame();
-      const FacePlacement placement(src_frame, src.normal);
       std::vector<std::uint64_t> keep_keys;
       std::vector<float> keep_sums;
       std::vector<std::uint16_t> keep_counts;
@@ -207,12 +206,8 @@ SurfaceLayer::absorbOverlappingPlaneCells()
         while (m < moves[a].size() && moves[a][m].key < key)
           ++m;
         if (m < moves[a].size() && moves[a][m].key == key) {
-          const std::int32_t i = rasterCellI(key), j = rasterCellJ(key);
-          const PlanarCuboid cell = rectCuboid(src, src_frame, placement,
-                                               RasterRect{i, i + 1, j, j + 1, 0.5f, 0},
-                                               static_cast<int>(a), r, thickness);
           const MapPlane& dst = impl.planes[moves[a][m].to];
-          const Eigen::Vector2d f = dst.frame().toRaster(cell.faceCentre(), inv_r);
+          const Eigen::Vector2d f = dst.frame().toRaster(moves[a][m].face, inv_r);
           std::int64_t ci = 0, cj = 0;
           if (cellIndex(f.x(), ci) && cellIndex(f.y(), cj)) {
             out.emplace_back(moves[a][m].to,
@@ -264,11 +259,7 @@ SurfaceLayer::absorbOverlappingPlaneCells()
   for (std::size_t a = impl.planes.size(); a-- > 0;)
     if (emptied[a] && impl.planes[a].raster.empty())
       impl.planes.erase(impl.planes.begin() + static_cast<std::ptrdiff_t>(a));
-  impl.plane_models.resize(impl.planes.size());
-  for (std::size_t p = 0; p < impl.planes.size(); ++p)
-    impl.plane_models[p] =
-      Eigen::Vector4f(impl.planes[p].normal.x(), impl.planes[p].normal.y(),
-                      impl.planes[p].normal.z(), impl.planes[p].d);
+  impl.updatePlaneModels();
   impl.invalidate();
   return total;
 }
