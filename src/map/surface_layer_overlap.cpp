@@ -127,6 +127,7 @@ SurfaceLayer::absorbOverlappingPlaneCells()
       std::uint64_t key;
       std::uint32_t to;
       Eigen::Vector3f face; // the cell's face centre
+      std::int32_t i, j;    // the cell in its plane's raster
     };
     std::vector<std::vector<Move>> moves(impl.planes.size());
     std::vector<std::uint32_t> candidates;
@@ -143,47 +144,102 @@ SurfaceLayer::absorbOverlappingPlaneCells()
       const RasterFrame frame = plane.frame();
       const FacePlacement placement(frame, plane.normal);
       const RasterRect* rect = &plane.rects[rect_index[k]];
-      rect_moves.clear();
-      bool whole = true;
-      for (std::int32_t j = rect->j0; j < rect->j1 && whole; ++j)
-        for (std::int32_t i = rect->i0; i < rect->i1 && whole; ++i) {
-          const std::uint64_t key = rasterCellKey(i, j);
-          if (!plane.raster.contains(key))
-            continue;
-          whole = false;
-          const PlanarCuboid cell =
-            rectCuboid(plane, frame, placement, RasterRect{i, i + 1, j, j + 1, 0.5f, 0},
-                       rect_cuboid.plane_id, r, thickness);
-          const Eigen::Vector3f face = cell.faceCentre();
-          const Eigen::Vector3f du = 0.5f * cell.width_m * cell.horizontal_axis;
-          const Eigen::Vector3f dv = 0.5f * cell.height_m * cell.verticalAxis();
-          const std::array<Eigen::Vector3f, 5> points = {
-            face, face - du - dv, face + du - dv, face + du + dv, face - du + dv};
-          // the first (strongest) plane whose cuboids hold all five points
-          for (std::size_t c = 0; c < candidates.size();) {
-            const int b = planar[candidates[c]].plane_id;
-            std::size_t end = c;
-            while (end < candidates.size() && planar[candidates[end]].plane_id == b)
-              ++end;
-            bool all = true;
-            for (const auto& q : points) {
-              bool held = false;
-              for (std::size_t e = c; e < end && !held; ++e)
-                held = planar[candidates[e]].contains(q, half_cell);
-              if (!held) {
-                all = false;
-                break;
-              }
-            }
-            if (all) {
-              rect_moves.push_back(Move{key, static_cast<std::uint32_t>(b), face});
-              whole = true;
+      // The plane the observed cell (i, j) lies on: the first (strongest) candidate
+      // plane whose cuboids hold its face centre and four face corners; -1 for none.
+      Eigen::Vector3f face;
+      const auto lyingOn = [&](std::int32_t i, std::int32_t j) {
+        const PlanarCuboid cell =
+          rectCuboid(plane, frame, placement, RasterRect{i, i + 1, j, j + 1, 0.5f, 0},
+                     rect_cuboid.plane_id, r, thickness);
+        face = cell.faceCentre();
+        const Eigen::Vector3f du = 0.5f * cell.width_m * cell.horizontal_axis;
+        const Eigen::Vector3f dv = 0.5f * cell.height_m * cell.verticalAxis();
+        const std::array<Eigen::Vector3f, 5> points = {
+          face, face - du - dv, face + du - dv, face + du + dv, face - du + dv};
+        for (std::size_t c = 0; c < candidates.size();) {
+          const int b = planar[candidates[c]].plane_id;
+          std::size_t end = c;
+          while (end < candidates.size() && planar[candidates[end]].plane_id == b)
+            ++end;
+          bool all = true;
+          for (const auto& q : points) {
+            bool held = false;
+            for (std::size_t e = c; e < end && !held; ++e)
+              held = planar[candidates[e]].contains(q, half_cell);
+            if (!held) {
+              all = false;
               break;
             }
-            c = end;
+          }
+          if (all)
+            return b;
+          c = end;
+        }
+        return -1;
+      };
+      const auto observed = [&plane](std::int32_t i, std::int32_t j) {
+        return plane.raster.contains(rasterCellKey(i, j));
+      };
+      // The observed cells that move lie outside the bounds of those that stay, so
+      // if any moves, every observed cell of the first or last observed row or column
+      // does: test those four lines first (up to the first cell that stays).
+      const auto lineObserved = [&](bool row, std::int32_t at) {
+        const std::int32_t from = row ? rect->i0 : rect->j0, to = row ? rect->i1 : rect->j1;
+        for (std::int32_t t = from; t < to; ++t)
+          if (row ? observed(t, at) : observed(at, t))
+            return true;
+        return false;
+      };
+      std::int32_t oj0 = rect->j0, oj1 = rect->j1;
+      while (oj0 < oj1 && !lineObserved(true, oj0))
+        ++oj0;
+      if (oj0 == oj1)
+        continue;
+      while (!lineObserved(true, oj1 - 1))
+        --oj1;
+      std::int32_t oi0 = rect->i0, oi1 = rect->i1;
+      while (!lineObserved(false, oi0))
+        ++oi0;
+      while (!lineObserved(false, oi1 - 1))
+        --oi1;
+      const auto lineMoves = [&](bool row, std::int32_t at) {
+        const std::int32_t from = row ? oi0 : oj0, to = row ? oi1 : oj1;
+        for (std::int32_t t = from; t < to; ++t) {
+          const std::int32_t i = row ? t : at, j = row ? at : t;
+          if (observed(i, j) && lyingOn(i, j) < 0)
+            return false;
+        }
+        return true;
+      };
+      if (!lineMoves(true, oj0) && !lineMoves(true, oj1 - 1) && !lineMoves(false, oi0)
+          && !lineMoves(false, oi1 - 1))
+        continue;
+      rect_moves.clear();
+      // the bounds of the observed cells that stay
+      std::int32_t ki0 = oi1, ki1 = oi0, kj0 = oj1, kj1 = oj0;
+      for (std::int32_t j = oj0; j < oj1; ++j)
+        for (std::int32_t i = oi0; i < oi1; ++i) {
+          if (!observed(i, j))
+            continue;
+          const int b = lyingOn(i, j);
+          if (b >= 0) {
+            rect_moves.push_back(
+              Move{rasterCellKey(i, j), static_cast<std::uint32_t>(b), face, i, j});
+          } else {
+            ki0 = std::min(ki0, i);
+            ki1 = std::max(ki1, i + 1);
+            kj0 = std::min(kj0, j);
+            kj1 = std::max(kj1, j + 1);
           }
         }
-      if (whole)
+      // The cells move when the rest of the rectangle stays one rectangle: none of
+      // them lies within the bounds of the cells that stay (a whole rectangle, or
+      // full rows or columns at its ends).
+      const bool rest_is_rectangle =
+        std::none_of(rect_moves.begin(), rect_moves.end(), [&](const Move& mv) {
+          return mv.i >= ki0 && mv.i < ki1 && mv.j >= kj0 && mv.j < kj1;
+        });
+      if (rest_is_rectangle)
         moves[a].insert(moves[a].end(), rect_moves.begin(), rect_moves.end());
     }
 

@@ -906,8 +906,9 @@ TEST_F(PlanarGridMapTest, PlanesAbsorbTheCellsOfWeakerPlanesLyingOnThem)
   // beyond plane_merge_angle_rad (0.1 rad), so each is a map plane of its own:
   // - on: 1 m x 0.6 m at x = 0, face z within 5.05 +- 0.08: every cell lies on the
   //   wall, its plane goes and its features join the wall;
-  // - past: tilted the other way at x = 2, reaching x = 2.5 past the wall's edge: its
-  //   rectangle stays whole;
+  // - past: tilted the other way at x = 2, 1 m long (x in [1.5, 2.5]), reaching past
+  //   the wall's grown edge x = 2.05: the half on the wall joins it, the 0.5 m x 0.6 m
+  //   past the edge stays, one rectangle;
   // - before: 0.6 m x 0.6 m at x = -1.2, 0.5 m before the wall: stays.
   const float tilt = 8.0f * static_cast<float>(EIGEN_PI) / 180.0f;
   const PlanarCuboid wall =
@@ -982,13 +983,44 @@ TEST_F(PlanarGridMapTest, PlanesAbsorbTheCellsOfWeakerPlanesLyingOnThem)
     EXPECT_EQ(on_wall_on[1].cuboids, 0u);
     EXPECT_EQ(on_wall_on[0].features, on_wall_off[0].features + features.size());
     EXPECT_NEAR(on_wall_on[0].area_m2, on_wall_off[0].area_m2, 1e-3);
-    // the other two patches are not changed
-    for (std::size_t k : {2u, 3u}) {
-      EXPECT_EQ(on_wall_on[k].cuboids, on_wall_off[k].cuboids) << k;
-      EXPECT_NEAR(on_wall_on[k].area_m2, on_wall_off[k].area_m2, 1e-4) << k;
-      EXPECT_GT(on_wall_on[k].cuboids, 0u) << k;
-    }
+    // the patch past the edge keeps what is off the wall, as one rectangle
+    EXPECT_NEAR(on_wall_off[2].area_m2, 0.6, 1e-3);
+    EXPECT_NEAR(on_wall_on[2].area_m2, 0.3, 1e-3);
+    EXPECT_EQ(on_wall_on[2].cuboids, 1u);
+    // the patch before the wall is not changed
+    EXPECT_EQ(on_wall_on[3].cuboids, on_wall_off[3].cuboids);
+    EXPECT_NEAR(on_wall_on[3].area_m2, on_wall_off[3].area_m2, 1e-4);
+    EXPECT_GT(on_wall_on[3].cuboids, 0u);
   }
+}
+
+TEST_F(PlanarGridMapTest, PlanesKeepTheRectanglesWhoseMiddleAloneLiesOnAStrongerPlane)
+{
+  // The wall on z = 5 of the test above and a 2 m x 0.6 m patch at 8 degrees to it
+  // whose face centre is at z = 5.05: its middle lies on the wall's grown cuboid
+  // (z in [4.95, 5.15]), its ends, at z = 5.05 -+ 0.139, do not. Moving the middle
+  // would split the patch into two rectangles, so it stays whole.
+  const float tilt = 8.0f * static_cast<float>(EIGEN_PI) / 180.0f;
+  const PlanarCuboid wall =
+    wallCuboid(Eigen::Vector3f(0.0f, 0.0f, 5.0f), -Eigen::Vector3f::UnitZ(),
+               Eigen::Vector3f::UnitX(), 4.0f, 2.0f, 0);
+  const PlanarCuboid patch =
+    tiltedPatch(Eigen::Vector3f(0.0f, 0.0f, 5.05f), tilt, 2.0f, 0.6f, 0);
+  PlanarGridMap map(params());
+  map.integrateSurface(PlanarCuboids{wall}, PlaneModels{planeOf(wall)},
+                       pcl::PointCloud<pcl::PointXYZ>(), {});
+  map.integrateSurface(PlanarCuboids{patch}, PlaneModels{planeOf(patch)},
+                       pcl::PointCloud<pcl::PointXYZ>(), {});
+  EXPECT_EQ(map.getSurfaceLayer().getPlanes().size(), 2u);
+  double area_m2 = 0.0;
+  std::size_t rectangles = 0;
+  for (const auto& c : map.getSurfaceLayer().getCuboids())
+    if (c.is_planar && c.normal.dot(patch.normal) > 0.9999f) {
+      area_m2 += c.faceArea();
+      ++rectangles;
+    }
+  EXPECT_NEAR(area_m2, 1.2, 1e-3);
+  EXPECT_EQ(rectangles, 1u);
 }
 
 TEST_F(PlanarGridMapTest, PlanesAbsorbExactlyThePatchesLyingOnThem)
