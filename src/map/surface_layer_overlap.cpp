@@ -184,7 +184,8 @@ SurfaceLayer::absorbOverlappingPlaneCells()
       // if any moves, every observed cell of the first or last observed row or column
       // does: test those four lines first (up to the first cell that stays).
       const auto lineObserved = [&](bool row, std::int32_t at) {
-        const std::int32_t from = row ? rect->i0 : rect->j0, to = row ? rect->i1 : rect->j1;
+        const std::int32_t from = row ? rect->i0 : rect->j0,
+                           to = row ? rect->i1 : rect->j1;
         for (std::int32_t t = from; t < to; ++t)
           if (row ? observed(t, at) : observed(at, t))
             return true;

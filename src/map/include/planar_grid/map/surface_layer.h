@@ -229,9 +229,9 @@ public:
    * plane; a plane left without cells is removed (later planes' indices shift down).
    * Of a rectangle reaching past the other planes' cuboids, the cells lying on them
    * move when the cells that stay keep one rectangle (none of the moved cells within
-   * their bounds: full rows or columns at its ends); else it stays whole. Where frames found
-   * one surface as planes a few degrees apart (beyond plane_merge_angle_rad), or planes
-   * crossing near their line, the surface is then covered once. The planes' fits
+   * their bounds: full rows or columns at its ends); else it stays whole. Where frames
+   * found one surface as planes a few degrees apart (beyond plane_merge_angle_rad), or
+   * planes crossing near their line, the surface is then covered once. The planes' fits
    * (moments) are not changed. \return the number of raster cells moved */
   std::size_t absorbOverlappingPlaneCells();
 
