@@ -409,10 +409,14 @@ measureLane(Lane& lane,
   if (!lane.truth_voxels)
     lane.truth_voxels = std::make_unique<TruthVoxels>(truth, r);
   const TruthVoxels& truth_voxels = *lane.truth_voxels;
-  const auto applyCompleteness = [&](ComparisonRow& row, const Completeness& c) {
+  const auto applyCompleteness = [&](ComparisonRow& row, const Completeness& c,
+                                     const Completeness& nonground) {
     row.truth_voxels = c.truth_voxels;
     row.covered_voxels = c.covered;
     row.completeness = c.ratio();
+    row.nonground_voxels = nonground.truth_voxels;
+    row.nonground_covered_voxels = nonground.covered;
+    row.nonground_completeness = nonground.ratio();
   };
   lane.completeness_ms += msSince(completeness_start);
 
@@ -426,7 +430,8 @@ measureLane(Lane& lane,
                    : evaluateVoxels(*lane.sg, truth, tolerance_m));
   completeness_start = Clock::now();
   applyCompleteness(
-    sg, evaluateCompleteness(*lane.sg, truth_voxels, tolerance_m, truth_region));
+    sg, evaluateCompleteness(*lane.sg, truth_voxels, tolerance_m, truth_region),
+    evaluateCompleteness(*lane.sg, truth_voxels, tolerance_m, truth_region, true));
   lane.completeness_ms += msSince(completeness_start);
 
   ComparisonRow og = base;
@@ -442,7 +447,8 @@ measureLane(Lane& lane,
                    : evaluateOcTree(*lane.og, truth, tolerance_m));
   completeness_start = Clock::now();
   applyCompleteness(
-    og, evaluateCompleteness(*lane.og, truth_voxels, tolerance_m, truth_region));
+    og, evaluateCompleteness(*lane.og, truth_voxels, tolerance_m, truth_region),
+    evaluateCompleteness(*lane.og, truth_voxels, tolerance_m, truth_region, true));
   lane.completeness_ms += msSince(completeness_start);
 
   ComparisonRow ra = base;
@@ -460,7 +466,8 @@ measureLane(Lane& lane,
                    : evaluateBoxes(boxes, r, truth, tolerance_m));
   completeness_start = Clock::now();
   applyCompleteness(
-    ra, evaluateCompleteness(boxes, r, truth_voxels, tolerance_m, truth_region));
+    ra, evaluateCompleteness(boxes, r, truth_voxels, tolerance_m, truth_region),
+    evaluateCompleteness(boxes, r, truth_voxels, tolerance_m, truth_region, true));
   lane.completeness_ms += msSince(completeness_start);
 
   ComparisonRow pg = base;
@@ -493,10 +500,11 @@ measureLane(Lane& lane,
   pg.planar_erroneous = planar_error.erroneous;
   completeness_start = Clock::now();
   applyCompleteness(
-    pg, evaluateCompleteness(cuboids, thres, truth_voxels, tolerance_m, truth_region));
+    pg, evaluateCompleteness(cuboids, thres, truth_voxels, tolerance_m, truth_region),
+    evaluateCompleteness(cuboids, thres, truth_voxels, tolerance_m, truth_region,
+                         true));
   const Completeness planar_share =
     evaluatePlanarShare(cuboids, thres, truth_voxels, tolerance_m, truth_region);
-  pg.nonground_voxels = planar_share.truth_voxels;
   pg.planar_covered_voxels = planar_share.covered;
   pg.planar_share = planar_share.ratio();
   lane.completeness_ms += msSince(completeness_start);
@@ -747,10 +755,10 @@ saveComparisonCsv(const std::vector<ComparisonRow>& rows, const std::string& pat
          "efficiency,memory_bytes,ms_per_frame,samples,erroneous,error,truth,"
          "planar_samples,planar_erroneous,place,frame,region_radius_m,completeness,"
          "planar_share,truth_voxels,covered_voxels,nonground_voxels,"
-         "planar_covered_voxels\n";
+         "planar_covered_voxels,nonground_completeness,nonground_covered_voxels\n";
   out << std::setprecision(10);
   // NaN (no truth voxels; the planar share of SG, OG and RA) is an empty field, as
-  // are PG's planar counts in the other methods' rows.
+  // is PG's planar count in the other methods' rows.
   const auto ratio = [](double value) {
     std::ostringstream field;
     field << std::setprecision(10);
@@ -767,9 +775,9 @@ saveComparisonCsv(const std::vector<ComparisonRow>& rows, const std::string& pat
         << "," << r.truth_kind << "," << r.planar_samples << "," << r.planar_erroneous
         << "," << r.place << "," << r.frame << "," << r.region_radius_m << ","
         << ratio(r.completeness) << "," << ratio(r.planar_share) << ","
-        << r.truth_voxels << "," << r.covered_voxels << ","
-        << (pg ? std::to_string(r.nonground_voxels) : std::string()) << ","
-        << (pg ? std::to_string(r.planar_covered_voxels) : std::string()) << "\n";
+        << r.truth_voxels << "," << r.covered_voxels << "," << r.nonground_voxels << ","
+        << (pg ? std::to_string(r.planar_covered_voxels) : std::string()) << ","
+        << ratio(r.nonground_completeness) << "," << r.nonground_covered_voxels << "\n";
   }
   writeTextFileAtomically(path, out.str());
 }
@@ -788,8 +796,8 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
     return cell.str();
   };
   out << "| dataset | cell m | method | cells | eta | memory kB | ms/frame | error e | "
-         "completeness | planar share |\n"
-         "|---|---|---|---|---|---|---|---|---|---|\n";
+         "completeness | non-ground completeness | planar share |\n"
+         "|---|---|---|---|---|---|---|---|---|---|---|\n";
   out << std::fixed;
   for (const auto& r : rows) {
     if (r.place >= 0)
@@ -799,8 +807,8 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
         << r.cells << " | " << std::setprecision(3) << r.efficiency << " | "
         << std::setprecision(1) << static_cast<double>(r.memory_bytes) / 1024.0 << " | "
         << std::setprecision(1) << r.ms_per_frame << " | " << std::setprecision(4)
-        << r.error << " | " << ratio(r.completeness) << " | " << ratio(r.planar_share)
-        << " |\n";
+        << r.error << " | " << ratio(r.completeness) << " | "
+        << ratio(r.nonground_completeness) << " | " << ratio(r.planar_share) << " |\n";
   }
   // The places: means over each dataset's places (the paper's Figs. 12-14).
   struct Sum {

@@ -466,9 +466,10 @@ class LatticeCompleteness {
 public:
   LatticeCompleteness(const TruthVoxels& truth,
                       double tolerance_m,
-                      const MappingErrorRegion& region) :
+                      const MappingErrorRegion& region,
+                      bool nonground_only) :
       truth_(truth),
-      counted_(countedTruthVoxels(truth, region, false))
+      counted_(countedTruthVoxels(truth, region, nonground_only))
   {
     checkTolerance(tolerance_m);
     // The offsets d whose voxel reaches within tolerance_m of a voxel's centre, in
@@ -780,12 +781,13 @@ Completeness
 evaluateCompleteness(const StandardVoxelGrid& grid,
                      const TruthVoxels& truth,
                      double tolerance_m,
-                     const MappingErrorRegion& region)
+                     const MappingErrorRegion& region,
+                     bool nonground_only)
 {
   checkTruthResolution(truth, grid.getParams().resolution_m, "the voxel grid");
   // The grid's own hash map answers the probes: cheaper than collecting its occupied
   // voxels, which means visiting every observed (mostly free) voxel.
-  const LatticeCompleteness lattice(truth, tolerance_m, region);
+  const LatticeCompleteness lattice(truth, tolerance_m, region, nonground_only);
   return lattice.evaluate([&grid](const VoxelIndex& n) { return grid.isOccupied(n); });
 }
 
@@ -794,11 +796,12 @@ evaluateCompleteness(const AxisAlignedBoxes& boxes,
                      double resolution_m,
                      const TruthVoxels& truth,
                      double tolerance_m,
-                     const MappingErrorRegion& region)
+                     const MappingErrorRegion& region,
+                     bool nonground_only)
 {
   checkResolution(resolution_m);
   checkTruthResolution(truth, resolution_m, "the boxes");
-  LatticeCompleteness lattice(truth, tolerance_m, region);
+  LatticeCompleteness lattice(truth, tolerance_m, region, nonground_only);
   for (const auto& box : boxes)
     if (box.occupied)
       lattice.add(box.min_index.cast<std::int64_t>(), box.size.cast<std::int64_t>());
@@ -809,11 +812,12 @@ Completeness
 evaluateCompleteness(const octomap::OcTree& tree,
                      const TruthVoxels& truth,
                      double tolerance_m,
-                     const MappingErrorRegion& region)
+                     const MappingErrorRegion& region,
+                     bool nonground_only)
 {
   const double r = tree.getResolution();
   checkTruthResolution(truth, r, "the octree");
-  LatticeCompleteness lattice(truth, tolerance_m, region);
+  LatticeCompleteness lattice(truth, tolerance_m, region, nonground_only);
   if (!lattice.hasCounted())
     return lattice.evaluate();
   // Only the leaves in the box of voxels that can cover a counted truth voxel (a
@@ -852,10 +856,11 @@ evaluateCompleteness(const PlanarCuboids& cuboids,
                      double occupancy_thres,
                      const TruthVoxels& truth,
                      double tolerance_m,
-                     const MappingErrorRegion& region)
+                     const MappingErrorRegion& region,
+                     bool nonground_only)
 {
-  return cuboidCompleteness(cuboids, occupancy_thres, false, false, truth, tolerance_m,
-                            region);
+  return cuboidCompleteness(cuboids, occupancy_thres, false, nonground_only, truth,
+                            tolerance_m, region);
 }
 
 Completeness

@@ -214,6 +214,19 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
                                         / static_cast<double>(pg.nonground_voxels));
     for (const auto* row : {&sg, &og, &ra})
       EXPECT_TRUE(std::isnan(row->planar_share)) << row->method;
+    // Non-ground completeness: SG, OG and RA reach all of the truth above the ground
+    // as they reach all of it; PG's planar cells reach no more than all its cells.
+    for (const auto* row : {&sg, &og, &ra, &pg})
+      EXPECT_EQ(row->nonground_voxels, pg.nonground_voxels) << row->method;
+    for (const auto* row : {&sg, &og, &ra}) {
+      EXPECT_EQ(row->nonground_covered_voxels, row->nonground_voxels) << row->method;
+      EXPECT_DOUBLE_EQ(row->nonground_completeness, 1.0) << row->method;
+    }
+    EXPECT_GE(pg.nonground_covered_voxels, pg.planar_covered_voxels) << r;
+    EXPECT_LE(pg.nonground_covered_voxels, pg.covered_voxels) << r;
+    EXPECT_DOUBLE_EQ(pg.nonground_completeness,
+                     static_cast<double>(pg.nonground_covered_voxels)
+                       / static_cast<double>(pg.nonground_voxels));
   }
   // A smaller cell size gives more SG cells.
   EXPECT_GT(by.at({0.1, "SG"}).cells, by.at({0.2, "SG"}).cells);
@@ -225,10 +238,11 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
   std::getline(in, header);
   EXPECT_EQ(header.rfind("dataset,environment,tilt_deg,resolution_m,method", 0), 0u);
   // The completeness columns come after the earlier ones; the planar share and PG's
-  // planar counts are empty in the other methods' rows.
+  // planar count are empty in the other methods' rows.
   const std::string tail = ",place,frame,region_radius_m,completeness,planar_share,"
                            "truth_voxels,covered_voxels,nonground_voxels,"
-                           "planar_covered_voxels";
+                           "planar_covered_voxels,nonground_completeness,"
+                           "nonground_covered_voxels";
   ASSERT_GE(header.size(), tail.size());
   EXPECT_EQ(header.substr(header.size() - tail.size()), tail);
   int lines = 0;
@@ -240,21 +254,27 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
       fields.push_back(field);
     if (line.back() == ',')
       fields.emplace_back();
-    ASSERT_EQ(fields.size(), 26u) << line;
+    ASSERT_EQ(fields.size(), 28u) << line;
     const bool pg = fields[4] == "PG";
-    if (pg)
+    if (pg) {
       EXPECT_FALSE(fields[20].empty()) << line;
-    else
+      EXPECT_FALSE(fields[26].empty()) << line;
+    } else {
       EXPECT_EQ(fields[20], "1") << line; // SG, OG and RA cover every truth voxel
+      EXPECT_EQ(fields[26], "1") << line; // and every non-ground one
+      EXPECT_EQ(fields[27], fields[24]) << line;
+    }
     EXPECT_EQ(fields[21].empty(), !pg) << line;
-    EXPECT_EQ(fields[24].empty(), !pg) << line;
+    EXPECT_FALSE(fields[24].empty()) << line;
     EXPECT_EQ(fields[25].empty(), !pg) << line;
   }
   EXPECT_EQ(lines, 8);
   const std::string md = planar_grid::comparisonMarkdown(rows);
   EXPECT_NE(md.find("| wall | 0.1 | PG |"), std::string::npos);
-  EXPECT_NE(md.find("| error e | completeness | planar share |"), std::string::npos);
-  EXPECT_NE(md.find("| 1.000 | - |"), std::string::npos) << md; // SG's row
+  EXPECT_NE(
+    md.find("| error e | completeness | non-ground completeness | planar share |"),
+    std::string::npos);
+  EXPECT_NE(md.find("| 1.000 | 1.000 | - |"), std::string::npos) << md; // SG's row
 }
 
 TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)

@@ -818,6 +818,47 @@ TEST(Completeness, PlanarShareOfAWallOnFlatGround)
     oracleCompleteness(oracle, RESOLUTION_M, oracleCuboids(wall, false), RESOLUTION_M)
       .covered);
 
+  // Over the non-ground truth alone, the wall's cuboids reach all of it, for every
+  // method: PG's cuboids, and SG, RA and OG holding the wall's voxels (layer 20).
+  const Completeness wall_nonground =
+    planar_grid::evaluateCompleteness(wall, 0.5, voxels, RESOLUTION_M, {}, true);
+  EXPECT_EQ(wall_nonground.truth_voxels, 16u * 40u);
+  EXPECT_EQ(wall_nonground.covered, 16u * 40u);
+  {
+    StandardVoxelGrid::Params gp;
+    gp.resolution_m = RESOLUTION_M;
+    StandardVoxelGrid grid(gp);
+    octomap::OcTree tree(RESOLUTION_M);
+    Cloud wall_points;
+    for (const auto& p : cloud->points)
+      if (std::abs(p.x - 2.05f) < 1e-4f)
+        wall_points.push_back(p);
+    for (const auto& p : wall_points.points)
+      tree.updateNode(octomap::point3d(p.x, p.y, p.z), true);
+    grid.insertPointCloud(wall_points, Eigen::Vector3f(0.0f, 2.0f, 1.0f));
+    AxisAlignedBoxes boxes;
+    planar_grid::RectangularCuboidApproximation().compute(grid, boxes);
+    for (const Completeness& c :
+         {planar_grid::evaluateCompleteness(grid, voxels, RESOLUTION_M, {}, true),
+          planar_grid::evaluateCompleteness(boxes, RESOLUTION_M, voxels, RESOLUTION_M,
+                                            {}, true),
+          planar_grid::evaluateCompleteness(tree, voxels, RESOLUTION_M, {}, true)}) {
+      EXPECT_EQ(c.truth_voxels, 16u * 40u);
+      EXPECT_EQ(c.covered, 16u * 40u);
+    }
+    // over all the truth, the floor beyond one voxel of the wall is missed
+    EXPECT_EQ(planar_grid::evaluateCompleteness(grid, voxels, RESOLUTION_M).covered,
+              800u + 2u * 40u);
+  }
+  // Only the floor: none of the non-ground truth.
+  EXPECT_EQ(
+    planar_grid::evaluateCompleteness(
+      PlanarCuboids{cuboid(Eigen::Vector3f(2.0f, 2.0f, 0.05f), Eigen::Vector3f::UnitZ(),
+                           Eigen::Vector3f::UnitX(), 4.0f, 4.0f, 0.1f)},
+      0.5, voxels, RESOLUTION_M, {}, true)
+      .covered,
+    0u);
+
   // The same cuboids non-planar (Fig. 7 boxes): planar share 0, completeness alike.
   PlanarCuboids boxes = wall;
   for (auto& c : boxes)

@@ -159,9 +159,17 @@ struct ComparisonRow {
    * truth the method's occupied cells reach (it falls when a method drops data, which
    * lowers the error); NaN without truth voxels. */
   double completeness{std::numeric_limits<double>::quiet_NaN()};
-  /** \brief PG only: the non-ground truth voxels (TruthVoxels::isGround; at a place,
-   * within the radius). */
+  /** \brief The non-ground truth voxels (TruthVoxels::isGround; at a place, within
+   * the radius). */
   std::size_t nonground_voxels{0};
+  /** \brief Of them, those within the tolerance of an occupied cell of the method
+   * (evaluateCompleteness() with nonground_only). */
+  std::size_t nonground_covered_voxels{0};
+  /** \brief Non-ground completeness nonground_covered_voxels / nonground_voxels in
+   * [0, 1]: how much of the truth above the ground the method's cells reach. SG's is
+   * what every point the mapping stages keep reaches: the bound of PG's planar share
+   * for cells made from those points. NaN without non-ground truth voxels. */
+  double nonground_completeness{std::numeric_limits<double>::quiet_NaN()};
   /** \brief PG only: of them, those within the tolerance of an occupied planar cuboid
    * (evaluatePlanarShare()). */
   std::size_t planar_covered_voxels{0};

@@ -277,13 +277,17 @@ struct Completeness {
  * \param[in] tolerance_m meters, >= 0
  * \param[in] region only the truth voxels whose centre is in it are counted (the
  * occupied cells count wherever they are); default: all
+ * \param[in] nonground_only count only the truth voxels that are not ground
+ * (TruthVoxels::isGround): how much of the truth above the ground the method reaches,
+ * the bound of evaluatePlanarShare() for cells made from the same points
  * \throws planar_grid::Exception for tolerance_m < 0, NaN or above 16 resolution_m,
  * or a truth resolution other than the grid's
  * \ingroup eval */
 Completeness evaluateCompleteness(const StandardVoxelGrid& grid,
                                   const TruthVoxels& truth,
                                   double tolerance_m,
-                                  const MappingErrorRegion& region = {});
+                                  const MappingErrorRegion& region = {},
+                                  bool nonground_only = false);
 
 /** \brief Completeness of RA: as the StandardVoxelGrid overload, the occupied cells
  * being the voxels of the occupied boxes (a box is the union of its voxels), collected
@@ -294,6 +298,7 @@ Completeness evaluateCompleteness(const StandardVoxelGrid& grid,
  * \param[in] truth the truth voxels
  * \param[in] tolerance_m meters, >= 0
  * \param[in] region only the truth voxels whose centre is in it are counted
+ * \param[in] nonground_only count only the non-ground truth voxels (as above)
  * \throws planar_grid::Exception for resolution_m <= 0, tolerance_m < 0 or above 16
  * resolution_m, or a truth resolution other than resolution_m
  * \ingroup eval */
@@ -301,7 +306,8 @@ Completeness evaluateCompleteness(const AxisAlignedBoxes& boxes,
                                   double resolution_m,
                                   const TruthVoxels& truth,
                                   double tolerance_m,
-                                  const MappingErrorRegion& region = {});
+                                  const MappingErrorRegion& region = {},
+                                  bool nonground_only = false);
 
 /** \brief Completeness of OG: as the StandardVoxelGrid overload, the occupied cells
  * being the occupied leaves (tree.isNodeOccupied) of any depth, a leaf being the
@@ -311,13 +317,15 @@ Completeness evaluateCompleteness(const AxisAlignedBoxes& boxes,
  * \param[in] truth the truth voxels, at the tree's resolution
  * \param[in] tolerance_m meters, >= 0
  * \param[in] region only the truth voxels whose centre is in it are counted
+ * \param[in] nonground_only count only the non-ground truth voxels (as above)
  * \throws planar_grid::Exception for tolerance_m < 0 or above 16 resolution_m, or a
  * truth resolution other than the tree's
  * \ingroup eval */
 Completeness evaluateCompleteness(const octomap::OcTree& tree,
                                   const TruthVoxels& truth,
                                   double tolerance_m,
-                                  const MappingErrorRegion& region = {});
+                                  const MappingErrorRegion& region = {},
+                                  bool nonground_only = false);
 
 /** \brief Completeness of PG: the share of the truth voxels whose centre lies within
  * \a tolerance_m (Euclidean) of an occupied cuboid (probability >= occupancy_thres)
@@ -333,6 +341,7 @@ Completeness evaluateCompleteness(const octomap::OcTree& tree,
  * \param[in] truth the truth voxels (any resolution)
  * \param[in] tolerance_m meters, >= 0
  * \param[in] region only the truth voxels whose centre is in it are counted
+ * \param[in] nonground_only count only the non-ground truth voxels (as above)
  * \throws planar_grid::Exception for tolerance_m < 0 or an occupancy_thres outside
  * [0, 1]
  * \note a cuboid with non-finite fields or a negative extent is skipped with a
@@ -342,7 +351,8 @@ Completeness evaluateCompleteness(const PlanarCuboids& cuboids,
                                   double occupancy_thres,
                                   const TruthVoxels& truth,
                                   double tolerance_m,
-                                  const MappingErrorRegion& region = {});
+                                  const MappingErrorRegion& region = {},
+                                  bool nonground_only = false);
 
 /** \brief Planar share of PG: the completeness of its occupied planar cuboids
  * (PlanarCuboid::is_planar, probability >= occupancy_thres) over the non-ground truth
