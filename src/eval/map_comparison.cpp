@@ -409,14 +409,13 @@ measureLane(Lane& lane,
   if (!lane.truth_voxels)
     lane.truth_voxels = std::make_unique<TruthVoxels>(truth, r);
   const TruthVoxels& truth_voxels = *lane.truth_voxels;
-  const auto applyCompleteness = [&](ComparisonRow& row, const Completeness& c,
-                                     const Completeness& nonground) {
+  const auto applyCompleteness = [&](ComparisonRow& row, const Completeness& c) {
     row.truth_voxels = c.truth_voxels;
     row.covered_voxels = c.covered;
     row.completeness = c.ratio();
-    row.nonground_voxels = nonground.truth_voxels;
-    row.nonground_covered_voxels = nonground.covered;
-    row.nonground_completeness = nonground.ratio();
+    row.nonground_voxels = c.nonground_voxels;
+    row.nonground_covered_voxels = c.nonground_covered;
+    row.nonground_completeness = c.nongroundRatio();
   };
   lane.completeness_ms += msSince(completeness_start);
 
@@ -430,8 +429,7 @@ measureLane(Lane& lane,
                    : evaluateVoxels(*lane.sg, truth, tolerance_m));
   completeness_start = Clock::now();
   applyCompleteness(
-    sg, evaluateCompleteness(*lane.sg, truth_voxels, tolerance_m, truth_region),
-    evaluateCompleteness(*lane.sg, truth_voxels, tolerance_m, truth_region, true));
+    sg, evaluateCompleteness(*lane.sg, truth_voxels, tolerance_m, truth_region));
   lane.completeness_ms += msSince(completeness_start);
 
   ComparisonRow og = base;
@@ -447,8 +445,7 @@ measureLane(Lane& lane,
                    : evaluateOcTree(*lane.og, truth, tolerance_m));
   completeness_start = Clock::now();
   applyCompleteness(
-    og, evaluateCompleteness(*lane.og, truth_voxels, tolerance_m, truth_region),
-    evaluateCompleteness(*lane.og, truth_voxels, tolerance_m, truth_region, true));
+    og, evaluateCompleteness(*lane.og, truth_voxels, tolerance_m, truth_region));
   lane.completeness_ms += msSince(completeness_start);
 
   ComparisonRow ra = base;
@@ -466,8 +463,7 @@ measureLane(Lane& lane,
                    : evaluateBoxes(boxes, r, truth, tolerance_m));
   completeness_start = Clock::now();
   applyCompleteness(
-    ra, evaluateCompleteness(boxes, r, truth_voxels, tolerance_m, truth_region),
-    evaluateCompleteness(boxes, r, truth_voxels, tolerance_m, truth_region, true));
+    ra, evaluateCompleteness(boxes, r, truth_voxels, tolerance_m, truth_region));
   lane.completeness_ms += msSince(completeness_start);
 
   ComparisonRow pg = base;
@@ -500,9 +496,7 @@ measureLane(Lane& lane,
   pg.planar_erroneous = planar_error.erroneous;
   completeness_start = Clock::now();
   applyCompleteness(
-    pg, evaluateCompleteness(cuboids, thres, truth_voxels, tolerance_m, truth_region),
-    evaluateCompleteness(cuboids, thres, truth_voxels, tolerance_m, truth_region,
-                         true));
+    pg, evaluateCompleteness(cuboids, thres, truth_voxels, tolerance_m, truth_region));
   const Completeness planar_share =
     evaluatePlanarShare(cuboids, thres, truth_voxels, tolerance_m, truth_region);
   pg.planar_covered_voxels = planar_share.covered;

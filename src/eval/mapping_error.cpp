@@ -466,10 +466,9 @@ class LatticeCompleteness {
 public:
   LatticeCompleteness(const TruthVoxels& truth,
                       double tolerance_m,
-                      const MappingErrorRegion& region,
-                      bool nonground_only) :
+                      const MappingErrorRegion& region) :
       truth_(truth),
-      counted_(countedTruthVoxels(truth, region, nonground_only))
+      counted_(countedTruthVoxels(truth, region, false))
   {
     checkTolerance(tolerance_m);
     // The offsets d whose voxel reaches within tolerance_m of a voxel's centre, in
@@ -539,11 +538,14 @@ public:
     Completeness out;
     out.truth_voxels = counted_.size();
     for (const std::size_t i : counted_) {
+      const bool nonground = !truth_.isGround(i);
+      out.nonground_voxels += nonground;
       const VoxelIndex& k = truth_.getIndex(i);
       for (const VoxelIndex& d : offsets_) {
         const VoxelIndex n = k + d;
         if (inIndexRange(n) && is_occupied(n)) {
           ++out.covered;
+          out.nonground_covered += nonground;
           break;
         }
       }
@@ -609,6 +611,8 @@ cuboidCompleteness(const PlanarCuboids& cuboids,
   const std::vector<std::size_t> counted =
     countedTruthVoxels(truth, region, nonground_only);
   out.truth_voxels = counted.size();
+  for (const std::size_t i : counted)
+    out.nonground_voxels += !truth.isGround(i);
   if (counted.empty())
     return out;
 
@@ -704,6 +708,7 @@ cuboidCompleteness(const PlanarCuboids& cuboids,
       for (auto it = b; it != b_end; ++it)
         if (boxes[it->second].squaredDistance(c) <= tolerance_sq) {
           ++out.covered;
+          out.nonground_covered += !truth.isGround(counted[q->second]);
           break;
         }
     }
@@ -781,13 +786,12 @@ Completeness
 evaluateCompleteness(const StandardVoxelGrid& grid,
                      const TruthVoxels& truth,
                      double tolerance_m,
-                     const MappingErrorRegion& region,
-                     bool nonground_only)
+                     const MappingErrorRegion& region)
 {
   checkTruthResolution(truth, grid.getParams().resolution_m, "the voxel grid");
   // The grid's own hash map answers the probes: cheaper than collecting its occupied
   // voxels, which means visiting every observed (mostly free) voxel.
-  const LatticeCompleteness lattice(truth, tolerance_m, region, nonground_only);
+  const LatticeCompleteness lattice(truth, tolerance_m, region);
   return lattice.evaluate([&grid](const VoxelIndex& n) { return grid.isOccupied(n); });
 }
 
@@ -796,12 +800,11 @@ evaluateCompleteness(const AxisAlignedBoxes& boxes,
                      double resolution_m,
                      const TruthVoxels& truth,
                      double tolerance_m,
-                     const MappingErrorRegion& region,
-                     bool nonground_only)
+                     const MappingErrorRegion& region)
 {
   checkResolution(resolution_m);
   checkTruthResolution(truth, resolution_m, "the boxes");
-  LatticeCompleteness lattice(truth, tolerance_m, region, nonground_only);
+  LatticeCompleteness lattice(truth, tolerance_m, region);
   for (const auto& box : boxes)
     if (box.occupied)
       lattice.add(box.min_index.cast<std::int64_t>(), box.size.cast<std::int64_t>());
@@ -812,12 +815,11 @@ Completeness
 evaluateCompleteness(const octomap::OcTree& tree,
                      const TruthVoxels& truth,
                      double tolerance_m,
-                     const MappingErrorRegion& region,
-                     bool nonground_only)
+                     const MappingErrorRegion& region)
 {
   const double r = tree.getResolution();
   checkTruthResolution(truth, r, "the octree");
-  LatticeCompleteness lattice(truth, tolerance_m, region, nonground_only);
+  LatticeCompleteness lattice(truth, tolerance_m, region);
   if (!lattice.hasCounted())
     return lattice.evaluate();
   // Only the leaves in the box of voxels that can cover a counted truth voxel (a
@@ -856,11 +858,10 @@ evaluateCompleteness(const PlanarCuboids& cuboids,
                      double occupancy_thres,
                      const TruthVoxels& truth,
                      double tolerance_m,
-                     const MappingErrorRegion& region,
-                     bool nonground_only)
+                     const MappingErrorRegion& region)
 {
-  return cuboidCompleteness(cuboids, occupancy_thres, false, nonground_only, truth,
-                            tolerance_m, region);
+  return cuboidCompleteness(cuboids, occupancy_thres, false, false, truth, tolerance_m,
+                            region);
 }
 
 Completeness

@@ -820,10 +820,9 @@ TEST(Completeness, PlanarShareOfAWallOnFlatGround)
 
   // Over the non-ground truth alone, the wall's cuboids reach all of it, for every
   // method: PG's cuboids, and SG, RA and OG holding the wall's voxels (layer 20).
-  const Completeness wall_nonground =
-    planar_grid::evaluateCompleteness(wall, 0.5, voxels, RESOLUTION_M, {}, true);
-  EXPECT_EQ(wall_nonground.truth_voxels, 16u * 40u);
-  EXPECT_EQ(wall_nonground.covered, 16u * 40u);
+  EXPECT_EQ(complete.nonground_voxels, 16u * 40u);
+  EXPECT_EQ(complete.nonground_covered, 16u * 40u);
+  EXPECT_DOUBLE_EQ(complete.nongroundRatio(), 1.0);
   {
     StandardVoxelGrid::Params gp;
     gp.resolution_m = RESOLUTION_M;
@@ -839,25 +838,23 @@ TEST(Completeness, PlanarShareOfAWallOnFlatGround)
     AxisAlignedBoxes boxes;
     planar_grid::RectangularCuboidApproximation().compute(grid, boxes);
     for (const Completeness& c :
-         {planar_grid::evaluateCompleteness(grid, voxels, RESOLUTION_M, {}, true),
-          planar_grid::evaluateCompleteness(boxes, RESOLUTION_M, voxels, RESOLUTION_M,
-                                            {}, true),
-          planar_grid::evaluateCompleteness(tree, voxels, RESOLUTION_M, {}, true)}) {
-      EXPECT_EQ(c.truth_voxels, 16u * 40u);
-      EXPECT_EQ(c.covered, 16u * 40u);
+         {planar_grid::evaluateCompleteness(grid, voxels, RESOLUTION_M),
+          planar_grid::evaluateCompleteness(boxes, RESOLUTION_M, voxels, RESOLUTION_M),
+          planar_grid::evaluateCompleteness(tree, voxels, RESOLUTION_M)}) {
+      EXPECT_EQ(c.nonground_voxels, 16u * 40u);
+      EXPECT_EQ(c.nonground_covered, 16u * 40u);
+      // over all the truth, the floor beyond one voxel of the wall is missed
+      EXPECT_EQ(c.truth_voxels, voxels.size());
+      EXPECT_EQ(c.covered, 800u + 2u * 40u);
     }
-    // over all the truth, the floor beyond one voxel of the wall is missed
-    EXPECT_EQ(planar_grid::evaluateCompleteness(grid, voxels, RESOLUTION_M).covered,
-              800u + 2u * 40u);
   }
   // Only the floor: none of the non-ground truth.
-  EXPECT_EQ(
-    planar_grid::evaluateCompleteness(
-      PlanarCuboids{cuboid(Eigen::Vector3f(2.0f, 2.0f, 0.05f), Eigen::Vector3f::UnitZ(),
-                           Eigen::Vector3f::UnitX(), 4.0f, 4.0f, 0.1f)},
-      0.5, voxels, RESOLUTION_M, {}, true)
-      .covered,
-    0u);
+  const Completeness floor_only = planar_grid::evaluateCompleteness(
+    PlanarCuboids{cuboid(Eigen::Vector3f(2.0f, 2.0f, 0.05f), Eigen::Vector3f::UnitZ(),
+                         Eigen::Vector3f::UnitX(), 4.0f, 4.0f, 0.1f)},
+    0.5, voxels, RESOLUTION_M);
+  EXPECT_EQ(floor_only.nonground_voxels, 16u * 40u);
+  EXPECT_EQ(floor_only.nonground_covered, 0u);
 
   // The same cuboids non-planar (Fig. 7 boxes): planar share 0, completeness alike.
   PlanarCuboids boxes = wall;

@@ -163,7 +163,7 @@ struct ComparisonRow {
    * the radius). */
   std::size_t nonground_voxels{0};
   /** \brief Of them, those within the tolerance of an occupied cell of the method
-   * (evaluateCompleteness() with nonground_only). */
+   * (Completeness::nonground_covered). */
   std::size_t nonground_covered_voxels{0};
   /** \brief Non-ground completeness nonground_covered_voxels / nonground_voxels in
    * [0, 1]: how much of the truth above the ground the method's cells reach. SG's is

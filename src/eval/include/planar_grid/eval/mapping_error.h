@@ -252,6 +252,13 @@ struct Completeness {
   /** \brief Of them, those whose centre lies within the tolerance of an occupied cell.
    */
   std::size_t covered{0};
+  /** \brief Of the truth voxels counted, the non-ground ones (TruthVoxels::isGround).
+   */
+  std::size_t nonground_voxels{0};
+  /** \brief Of those, the covered ones: nonground_covered / nonground_voxels is how
+   * much of the truth above the ground the cells reach; for cells made from the same
+   * points as the planar cuboids, the bound of evaluatePlanarShare(). */
+  std::size_t nonground_covered{0};
 
   /** \brief covered / truth_voxels in [0, 1]; NaN without truth voxels. */
   [[nodiscard]] double ratio() const
@@ -259,6 +266,14 @@ struct Completeness {
     return truth_voxels > 0
              ? static_cast<double>(covered) / static_cast<double>(truth_voxels)
              : std::numeric_limits<double>::quiet_NaN();
+  }
+  /** \brief nonground_covered / nonground_voxels in [0, 1]; NaN without non-ground
+   * truth voxels. */
+  [[nodiscard]] double nongroundRatio() const
+  {
+    return nonground_voxels > 0 ? static_cast<double>(nonground_covered)
+                                    / static_cast<double>(nonground_voxels)
+                                : std::numeric_limits<double>::quiet_NaN();
   }
 };
 
@@ -277,17 +292,13 @@ struct Completeness {
  * \param[in] tolerance_m meters, >= 0
  * \param[in] region only the truth voxels whose centre is in it are counted (the
  * occupied cells count wherever they are); default: all
- * \param[in] nonground_only count only the truth voxels that are not ground
- * (TruthVoxels::isGround): how much of the truth above the ground the method reaches,
- * the bound of evaluatePlanarShare() for cells made from the same points
  * \throws planar_grid::Exception for tolerance_m < 0, NaN or above 16 resolution_m,
  * or a truth resolution other than the grid's
  * \ingroup eval */
 Completeness evaluateCompleteness(const StandardVoxelGrid& grid,
                                   const TruthVoxels& truth,
                                   double tolerance_m,
-                                  const MappingErrorRegion& region = {},
-                                  bool nonground_only = false);
+                                  const MappingErrorRegion& region = {});
 
 /** \brief Completeness of RA: as the StandardVoxelGrid overload, the occupied cells
  * being the voxels of the occupied boxes (a box is the union of its voxels), collected
@@ -298,7 +309,6 @@ Completeness evaluateCompleteness(const StandardVoxelGrid& grid,
  * \param[in] truth the truth voxels
  * \param[in] tolerance_m meters, >= 0
  * \param[in] region only the truth voxels whose centre is in it are counted
- * \param[in] nonground_only count only the non-ground truth voxels (as above)
  * \throws planar_grid::Exception for resolution_m <= 0, tolerance_m < 0 or above 16
  * resolution_m, or a truth resolution other than resolution_m
  * \ingroup eval */
@@ -306,8 +316,7 @@ Completeness evaluateCompleteness(const AxisAlignedBoxes& boxes,
                                   double resolution_m,
                                   const TruthVoxels& truth,
                                   double tolerance_m,
-                                  const MappingErrorRegion& region = {},
-                                  bool nonground_only = false);
+                                  const MappingErrorRegion& region = {});
 
 /** \brief Completeness of OG: as the StandardVoxelGrid overload, the occupied cells
  * being the occupied leaves (tree.isNodeOccupied) of any depth, a leaf being the
@@ -317,15 +326,13 @@ Completeness evaluateCompleteness(const AxisAlignedBoxes& boxes,
  * \param[in] truth the truth voxels, at the tree's resolution
  * \param[in] tolerance_m meters, >= 0
  * \param[in] region only the truth voxels whose centre is in it are counted
- * \param[in] nonground_only count only the non-ground truth voxels (as above)
  * \throws planar_grid::Exception for tolerance_m < 0 or above 16 resolution_m, or a
  * truth resolution other than the tree's
  * \ingroup eval */
 Completeness evaluateCompleteness(const octomap::OcTree& tree,
                                   const TruthVoxels& truth,
                                   double tolerance_m,
-                                  const MappingErrorRegion& region = {},
-                                  bool nonground_only = false);
+                                  const MappingErrorRegion& region = {});
 
 /** \brief Completeness of PG: the share of the truth voxels whose centre lies within
  * \a tolerance_m (Euclidean) of an occupied cuboid (probability >= occupancy_thres)
@@ -341,7 +348,6 @@ Completeness evaluateCompleteness(const octomap::OcTree& tree,
  * \param[in] truth the truth voxels (any resolution)
  * \param[in] tolerance_m meters, >= 0
  * \param[in] region only the truth voxels whose centre is in it are counted
- * \param[in] nonground_only count only the non-ground truth voxels (as above)
  * \throws planar_grid::Exception for tolerance_m < 0 or an occupancy_thres outside
  * [0, 1]
  * \note a cuboid with non-finite fields or a negative extent is skipped with a
@@ -351,8 +357,7 @@ Completeness evaluateCompleteness(const PlanarCuboids& cuboids,
                                   double occupancy_thres,
                                   const TruthVoxels& truth,
                                   double tolerance_m,
-                                  const MappingErrorRegion& region = {},
-                                  bool nonground_only = false);
+                                  const MappingErrorRegion& region = {});
 
 /** \brief Planar share of PG: the completeness of its occupied planar cuboids
  * (PlanarCuboid::is_planar, probability >= occupancy_thres) over the non-ground truth
