@@ -145,13 +145,17 @@ SurfaceLayer::absorbOverlappingPlaneCells()
       const FacePlacement placement(frame, plane.normal);
       const RasterRect* rect = &plane.rects[rect_index[k]];
       // The plane the observed cell (i, j) lies on: the first (strongest) candidate
-      // plane whose cuboids hold its face centre and four face corners; -1 for none.
-      Eigen::Vector3f face;
-      const auto lyingOn = [&](std::int32_t i, std::int32_t j) {
+      // plane whose cuboids hold its face centre and four face corners (plane -1 for
+      // none), and that face centre.
+      struct Landing {
+        int plane;
+        Eigen::Vector3f face;
+      };
+      const auto lyingOn = [&](std::int32_t i, std::int32_t j) -> Landing {
         const PlanarCuboid cell =
           rectCuboid(plane, frame, placement, RasterRect{i, i + 1, j, j + 1, 0.5f, 0},
                      rect_cuboid.plane_id, r, thickness);
-        face = cell.faceCentre();
+        const Eigen::Vector3f face = cell.faceCentre();
         const Eigen::Vector3f du = 0.5f * cell.width_m * cell.horizontal_axis;
         const Eigen::Vector3f dv = 0.5f * cell.height_m * cell.verticalAxis();
         const std::array<Eigen::Vector3f, 5> points = {
@@ -172,24 +176,26 @@ SurfaceLayer::absorbOverlappingPlaneCells()
             }
           }
           if (all)
-            return b;
+            return {b, face};
           c = end;
         }
-        return -1;
+        return {-1, face};
       };
       const auto observed = [&plane](std::int32_t i, std::int32_t j) {
         return plane.raster.contains(rasterCellKey(i, j));
       };
-      // The observed cells that move lie outside the bounds of those that stay, so
-      // if any moves, every observed cell of the first or last observed row or column
-      // does: test those four lines first (up to the first cell that stays).
-      const auto lineObserved = [&](bool row, std::int32_t at) {
-        const std::int32_t from = row ? rect->i0 : rect->j0,
-                           to = row ? rect->i1 : rect->j1;
+      // Whether \a pred(i, j) holds for a cell of row \a at (row) or column \a at
+      // from \a from to \a to (exclusive).
+      const auto anyOnLine = [](bool row, std::int32_t at, std::int32_t from,
+                                std::int32_t to, const auto& pred) {
         for (std::int32_t t = from; t < to; ++t)
-          if (row ? observed(t, at) : observed(at, t))
+          if (row ? pred(t, at) : pred(at, t))
             return true;
         return false;
+      };
+      const auto lineObserved = [&](bool row, std::int32_t at) {
+        return anyOnLine(row, at, row ? rect->i0 : rect->j0, row ? rect->i1 : rect->j1,
+                         observed);
       };
       std::int32_t oj0 = rect->j0, oj1 = rect->j1;
       while (oj0 < oj1 && !lineObserved(true, oj0))
@@ -203,14 +209,14 @@ SurfaceLayer::absorbOverlappingPlaneCells()
         ++oi0;
       while (!lineObserved(false, oi1 - 1))
         --oi1;
+      // The observed cells that move lie outside the bounds of those that stay, so
+      // if any moves, every observed cell of the first or last observed row or column
+      // does: test those four lines first (up to the first cell that stays).
       const auto lineMoves = [&](bool row, std::int32_t at) {
-        const std::int32_t from = row ? oi0 : oj0, to = row ? oi1 : oj1;
-        for (std::int32_t t = from; t < to; ++t) {
-          const std::int32_t i = row ? t : at, j = row ? at : t;
-          if (observed(i, j) && lyingOn(i, j) < 0)
-            return false;
-        }
-        return true;
+        return !anyOnLine(row, at, row ? oi0 : oj0, row ? oi1 : oj1,
+                          [&](std::int32_t i, std::int32_t j) {
+                            return observed(i, j) && lyingOn(i, j).plane < 0;
+                          });
       };
       if (!lineMoves(true, oj0) && !lineMoves(true, oj1 - 1) && !lineMoves(false, oi0)
           && !lineMoves(false, oi1 - 1))
@@ -222,10 +228,11 @@ SurfaceLayer::absorbOverlappingPlaneCells()
         for (std::int32_t i = oi0; i < oi1; ++i) {
           if (!observed(i, j))
             continue;
-          const int b = lyingOn(i, j);
-          if (b >= 0) {
-            rect_moves.push_back(
-              Move{rasterCellKey(i, j), static_cast<std::uint32_t>(b), face, i, j});
+          const Landing landing = lyingOn(i, j);
+          if (landing.plane >= 0) {
+            rect_moves.push_back(Move{rasterCellKey(i, j),
+                                      static_cast<std::uint32_t>(landing.plane),
+                                      landing.face, i, j});
           } else {
             ki0 = std::min(ki0, i);
             ki1 = std::max(ki1, i + 1);
