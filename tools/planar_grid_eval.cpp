@@ -31,13 +31,14 @@ namespace {
 void
 printHelp(const char* program)
 {
-  print_info("Syntax: %s --config EVAL.yaml [--output DIR] [--no-plots]\n", program);
+  print_info("Syntax: %s --config EVAL.yaml [--output DIR] [--no-plots] [--save-maps]\n", program);
   print_info(
-    "  Maps the datasets of EVAL.yaml (schema: config/eval_indoor.yaml) with SG, "
+    "  Maps the datasets of EVAL.yaml (schema: config/eval_outdoor.yaml) with SG, "
     "OG, RA and PG\n  at each minimum cell size and writes eval.csv, eval.md "
     "and, unless --no-plots,\n  cells.png, efficiency.png, memory.png, error.png "
     "(and tilt.png for tilt-tagged datasets);\n  with places (the paper's Sec. "
-    "IV-B) also places.csv and places_*.png, the means over the places.\n");
+    "IV-B) also places.csv and places_*.png, the means over the places;\n  with "
+    "--save-maps (or output.save_maps) PG's maps, pg_DATASET_Rm.pgmap.\n");
   print_info("  -h, --help  this help; --version  print the name and version\n");
 }
 
@@ -149,7 +150,7 @@ run(int argc, char** argv)
     return argc < 2 ? EXIT_FAILURE : EXIT_SUCCESS;
   }
   const std::vector<std::string> with_value{"--config", "--output"};
-  const std::vector<std::string> switches{"--no-plots", "-v"};
+  const std::vector<std::string> switches{"--no-plots", "--save-maps", "-v"};
   planar_grid::cli::checkArguments(argc, argv, with_value, switches);
   if (find_switch(argc, argv, "-v"))
     setVerbosityLevel(L_DEBUG);
@@ -162,6 +163,8 @@ run(int argc, char** argv)
   if (parse_argument(argc, argv, "--output", output) >= 0)
     config.output_folder = output;
   const bool plots = !find_switch(argc, argv, "--no-plots");
+  if (find_switch(argc, argv, "--save-maps"))
+    config.save_maps = true;
 #ifdef PLANAR_GRID_WITH_VIEWER
   if (plots)
     planar_grid::ensureDisplay(argc, argv); // VTK charts need an X server (Xvfb)

@@ -19,6 +19,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -244,8 +245,9 @@ parseComparison(const YAML::Node& root, const std::string& path)
     config.tolerance_cells =
       r.realValue(root["tolerance_cells"], 0.1, 10.0, "tolerance_cells");
   if (const YAML::Node out = root["output"]) {
-    r.checkKeys(out, {"folder"}, "output");
+    r.checkKeys(out, {"folder", "save_maps"}, "output");
     config.output_folder = r.string(out, "folder", "output");
+    config.save_maps = r.boolean(out, "save_maps", false, "output");
   }
   const YAML::Node datasets = root["datasets"];
   if (!datasets || !datasets.IsSequence() || datasets.size() == 0)
@@ -716,6 +718,14 @@ runComparison(const ComparisonConfig& config,
         measureLane(lane, base, *truth, config.tolerance_cells * r, nullptr, mean, n,
                     planar_counts);
       rows.insert(rows.end(), measured.begin(), measured.end());
+      std::string saved;
+      if (config.save_maps && lane.pipeline->state().map) {
+        std::error_code ec;
+        fs::create_directories(config.output_folder, ec);
+        saved =
+          (fs::path(config.output_folder) / mapComparisonFile(ds.name, r)).string();
+        lane.pipeline->state().map->save(saved);
+      }
       if (progress) {
         const ComparisonRow& sg = measured[0];
         const ComparisonRow& pg = measured[3];
@@ -734,11 +744,26 @@ runComparison(const ComparisonConfig& config,
              << " truth voxels); PG planar share " << pg.planar_share << " (of "
              << pg.nonground_voxels << " non-ground); completeness measured in "
              << std::setprecision(2) << lane.completeness_ms / 1000.0 << " s";
+        if (!saved.empty())
+          line << "; PG map " << saved;
         progress(line.str());
       }
     }
   }
   return rows;
+}
+
+std::string
+mapComparisonFile(const std::string& dataset, double resolution_m)
+{
+  std::string name = dataset;
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_'
+        && c != '.')
+      c = '_';
+  std::ostringstream file;
+  file << "pg_" << name << "_" << resolution_m << "m.pgmap";
+  return file.str();
 }
 
 void

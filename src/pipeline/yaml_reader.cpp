@@ -248,6 +248,26 @@ YamlReader::integer(const YAML::Node& parent,
   return static_cast<int>(integerValue(node, min, max, what + "." + key));
 }
 
+bool
+YamlReader::boolean(const YAML::Node& parent,
+                    const std::string& key,
+                    bool fallback,
+                    const std::string& what) const
+{
+  const YAML::Node node = parent[key];
+  if (!node)
+    return fallback;
+  bool v = false;
+  try {
+    if (!node.IsScalar())
+      throw YAML::BadConversion(node.Mark());
+    v = node.as<bool>();
+  } catch (const YAML::BadConversion&) {
+    fail(node, what + "." + key + " must be true or false");
+  }
+  return v;
+}
+
 double
 YamlReader::real(const YAML::Node& parent,
                  const std::string& key,

@@ -4,6 +4,7 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/eval/map_comparison.h>
 #include <planar_grid/eval/standard_voxel_grid.h>
+#include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/stage.h>
 
 #include <pcl/filters/voxel_grid.h>
@@ -112,6 +113,7 @@ TEST_F(MapComparisonTest, ConfigurationErrorsNameTheLine)
   EXPECT_EQ(lineOf(ds + "    frames: {step: 0}\n"), 5);
   EXPECT_EQ(lineOf("places: {count: 10, radius: 5.0}\n" + ds), 1); // unknown key
   EXPECT_EQ(lineOf("places: {count: -1}\n" + ds), 1);
+  EXPECT_EQ(lineOf(ds + "output: {folder: o, save_maps: maybe}\n"), 5);
   EXPECT_EQ(lineOf("datasets:\n  - name: a\n    pipeline: " + pipeline
                    + "\n    truth: {type: exact}\n"),
             4);
@@ -146,9 +148,13 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
   const std::string pipeline =
     write("p.yaml", planarPipeline((dir_ / "wall.pcd").string()));
   const auto config = planar_grid::loadComparisonConfig(write(
-    "e.yaml", "resolutions_m: [0.1, 0.2]\ndatasets:\n  - name: wall\n    pipeline: "
+    "e.yaml", "resolutions_m: [0.1, 0.2]\ndatasets:\n  - name: tilted wall\n"
+              "    pipeline: "
                 + pipeline + "\n    truth: {type: points, file: "
-                + (dir_ / "truth.pcd").string() + "}\n    tilt_deg: 30\n"));
+                + (dir_ / "truth.pcd").string() + "}\n    tilt_deg: 30\n"
+                + "output: {folder: " + (dir_ / "maps").string()
+                + ", save_maps: true}\n"));
+  ASSERT_TRUE(config.save_maps);
   const auto rows = planar_grid::runComparison(config, nullptr);
   ASSERT_EQ(rows.size(), 8u);
   std::map<std::pair<double, std::string>, planar_grid::ComparisonRow> by;
@@ -162,6 +168,21 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
     const auto& og = by.at({r, "OG"});
     const auto& ra = by.at({r, "RA"});
     const auto& pg = by.at({r, "PG"});
+    // The saved map is the one measured: its cuboids and occupied ones are PG's.
+    EXPECT_EQ(planar_grid::mapComparisonFile("tilted wall", r),
+              r < 0.15 ? "pg_tilted_wall_0.1m.pgmap" : "pg_tilted_wall_0.2m.pgmap");
+    const auto saved = planar_grid::PlanarGridMap::load(
+      (dir_ / "maps" / planar_grid::mapComparisonFile("tilted wall", r)).string());
+    EXPECT_DOUBLE_EQ(saved.getParams().surface.resolution_m, r);
+    const auto& saved_cuboids = saved.getSurfaceLayer().getCuboids();
+    EXPECT_EQ(saved_cuboids.size(), pg.all_cells) << r;
+    EXPECT_EQ(static_cast<std::size_t>(std::count_if(
+                saved_cuboids.begin(), saved_cuboids.end(),
+                [&saved](const planar_grid::PlanarCuboid& c) {
+                  return c.probability >= saved.getParams().surface.occupancy_thres;
+                })),
+              pg.cells)
+      << r;
     pcl::PointCloud<pcl::PointXYZ>::Ptr input(
       new pcl::PointCloud<pcl::PointXYZ>(cloud));
     pcl::PointCloud<pcl::PointXYZ> voxelised;
@@ -270,7 +291,7 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
   }
   EXPECT_EQ(lines, 8);
   const std::string md = planar_grid::comparisonMarkdown(rows);
-  EXPECT_NE(md.find("| wall | 0.1 | PG |"), std::string::npos);
+  EXPECT_NE(md.find("| tilted wall | 0.1 | PG |"), std::string::npos);
   EXPECT_NE(
     md.find("| error e | completeness | non-ground completeness | planar share |"),
     std::string::npos);

@@ -91,9 +91,13 @@ struct ComparisonConfig {
   std::vector<DatasetConfig> datasets;
   /** \brief Output folder (CSV, plots). */
   std::string output_folder{"output/eval"};
+  /** \brief Also write PG's whole map of every dataset and cell size into
+   * output_folder as pg_DATASET_Rm.pgmap (PlanarGridMap::save), for the viewer and
+   * the Python bindings. */
+  bool save_maps{false};
 };
 
-/** \brief Reads an evaluation configuration (schema in config/eval_indoor.yaml).
+/** \brief Reads an evaluation configuration (schema in config/eval_outdoor.yaml).
  * Strict like the pipeline's: unknown keys, wrong types and out-of-range values are
  * ConfigError at file:line:col; the pipeline files are loaded too.
  * \throws planar_grid::ConfigError, planar_grid::IOError */
@@ -190,6 +194,8 @@ struct ComparisonRow {
  * is merged from SG at each place and at the end. With places and a REFERENCE truth,
  * a first pass of a second front end over the frames builds the reference, since the
  * places need it while the frames run.
+ * With ComparisonConfig::save_maps, PG's whole map of each dataset and cell size is
+ * saved in the output folder as it is measured (mapComparisonFile names it).
  * \param[in] progress called with a line of text per dataset and cell size
  * \return per dataset: the place rows (place >= 0; per place, cell size and method),
  * then one row per cell size and method for the whole map (place = -1)
@@ -197,6 +203,12 @@ struct ComparisonRow {
 std::vector<ComparisonRow>
 runComparison(const ComparisonConfig& config,
               const std::function<void(const std::string&)>& progress);
+
+/** \brief The file name of PG's map of \a dataset at cell size \a resolution_m
+ * (ComparisonConfig::save_maps): "pg_DATASET_Rm.pgmap", characters other than
+ * letters, digits, '-', '_' and '.' in the dataset's name replaced by '_'. */
+std::string
+mapComparisonFile(const std::string& dataset, double resolution_m);
 
 /** \brief Writes the rows as CSV (header line, one row per line), atomically.
  * \throws planar_grid::IOError */

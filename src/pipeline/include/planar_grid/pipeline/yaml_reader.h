@@ -94,6 +94,13 @@ public:
               double max,
               const std::string& what) const;
 
+  /** \brief The boolean value (true/false, yes/no, on/off) of parent[key], or
+   * \a fallback when it is absent. */
+  bool boolean(const YAML::Node& parent,
+               const std::string& key,
+               bool fallback,
+               const std::string& what) const;
+
   /** \brief The integer value of \a node (a list entry, say) in [min, max]. */
   long long integerValue(const YAML::Node& node,
                          long long min,
