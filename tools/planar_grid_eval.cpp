@@ -31,7 +31,9 @@ namespace {
 void
 printHelp(const char* program)
 {
-  print_info("Syntax: %s --config EVAL.yaml [--output DIR] [--no-plots] [--save-maps]\n", program);
+  print_info(
+    "Syntax: %s --config EVAL.yaml [--output DIR] [--no-plots] [--save-maps]\n",
+    program);
   print_info(
     "  Maps the datasets of EVAL.yaml (schema: config/eval_outdoor.yaml) with SG, "
     "OG, RA and PG\n  at each minimum cell size and writes eval.csv, eval.md "

@@ -147,13 +147,13 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
   ASSERT_EQ(pcl::io::savePCDFileBinary((dir_ / "truth.pcd").string(), cloud), 0);
   const std::string pipeline =
     write("p.yaml", planarPipeline((dir_ / "wall.pcd").string()));
-  const auto config = planar_grid::loadComparisonConfig(write(
-    "e.yaml", "resolutions_m: [0.1, 0.2]\ndatasets:\n  - name: tilted wall\n"
-              "    pipeline: "
-                + pipeline + "\n    truth: {type: points, file: "
-                + (dir_ / "truth.pcd").string() + "}\n    tilt_deg: 30\n"
-                + "output: {folder: " + (dir_ / "maps").string()
-                + ", save_maps: true}\n"));
+  const auto config = planar_grid::loadComparisonConfig(
+    write("e.yaml", "resolutions_m: [0.1, 0.2]\ndatasets:\n  - name: tilted wall\n"
+                    "    pipeline: "
+                      + pipeline + "\n    truth: {type: points, file: "
+                      + (dir_ / "truth.pcd").string() + "}\n    tilt_deg: 30\n"
+                      + "output: {folder: " + (dir_ / "maps").string()
+                      + ", save_maps: true}\n"));
   ASSERT_TRUE(config.save_maps);
   const auto rows = planar_grid::runComparison(config, nullptr);
   ASSERT_EQ(rows.size(), 8u);

@@ -207,8 +207,7 @@ runComparison(const ComparisonConfig& config,
 /** \brief The file name of PG's map of \a dataset at cell size \a resolution_m
  * (ComparisonConfig::save_maps): "pg_DATASET_Rm.pgmap", characters other than
  * letters, digits, '-', '_' and '.' in the dataset's name replaced by '_'. */
-std::string
-mapComparisonFile(const std::string& dataset, double resolution_m);
+std::string mapComparisonFile(const std::string& dataset, double resolution_m);
 
 /** \brief Writes the rows as CSV (header line, one row per line), atomically.
  * \throws planar_grid::IOError */
