@@ -94,11 +94,15 @@ SurfaceLayer::absorbOverlappingPlaneCells()
           && boundsMeet(planar[x], planar[y], half_cell))
         pairs.emplace_back(x, y);
     };
+    // (a bin without a cuboid of a changed plane has no pair)
     for (std::size_t s = 0; s < bins.size();) {
-      std::size_t e = s + 1;
-      while (e < bins.size() && bins[e].key() == bins[s].key())
-        ++e;
-      for (std::size_t x = s; x < e; ++x)
+      std::size_t e = s;
+      bool any_changed = false;
+      for (; e < bins.size() && bins[e].key() == bins[s].key(); ++e)
+        any_changed =
+          any_changed
+          || changed[static_cast<std::size_t>(planar[bins[e].index].plane_id)];
+      for (std::size_t x = s; any_changed && x < e; ++x)
         for (std::size_t y = s; y < e; ++y)
           pair(bins[x].index, bins[y].index);
       s = e;
