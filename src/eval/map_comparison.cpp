@@ -830,12 +830,27 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
         << ratio(r.nonground_completeness) << " | " << ratio(r.planar_share) << " |\n";
   }
   // The places: means over each dataset's places (the paper's Figs. 12-14).
+  /** The mean of the defined (finite) values added; NaN when there is none. */
+  struct FiniteMean {
+    double sum{0.0};
+    std::size_t count{0};
+    void add(double value)
+    {
+      if (std::isfinite(value)) {
+        sum += value;
+        ++count;
+      }
+    }
+    double value() const
+    {
+      return count > 0 ? sum / static_cast<double>(count)
+                       : std::numeric_limits<double>::quiet_NaN();
+    }
+  };
   struct Sum {
     std::size_t places{0};
     double cells{0.0}, efficiency{0.0}, memory_kb{0.0}, ms{0.0}, error{0.0};
-    /** Sums and counts of the defined (finite) completeness and planar share. */
-    double completeness{0.0}, planar_share{0.0};
-    std::size_t completeness_places{0}, planar_share_places{0};
+    FiniteMean completeness, nonground_completeness, planar_share;
     double radius_m{0.0};
     bool reference{false};
   };
@@ -859,25 +874,22 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
     sum.memory_kb += static_cast<double>(r.memory_bytes) / 1024.0;
     sum.ms += r.ms_per_frame;
     sum.error += r.error;
-    if (std::isfinite(r.completeness)) {
-      sum.completeness += r.completeness;
-      ++sum.completeness_places;
-    }
-    if (std::isfinite(r.planar_share)) {
-      sum.planar_share += r.planar_share;
-      ++sum.planar_share_places;
-    }
+    sum.completeness.add(r.completeness);
+    sum.nonground_completeness.add(r.nonground_completeness);
+    sum.planar_share.add(r.planar_share);
     sum.radius_m = r.region_radius_m;
     sum.reference = r.truth_kind == "reference";
   }
   if (sums.empty())
     return out.str();
-  out << "\nMeans over the places (cells and error within the radius of the camera at "
-         "each place; memory of the whole map then; ms of that frame; completeness and "
-         "planar share over the places that have truth voxels within the radius):\n\n"
-         "| dataset | places | radius m | cell m | method | cells | eta | memory kB | "
-         "ms/frame | error e | completeness | planar share |\n"
-         "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  out
+    << "\nMeans over the places (cells and error within the radius of the camera at "
+       "each place; memory of the whole map then; ms of that frame; completeness, "
+       "non-ground completeness and planar share over the places that have truth "
+       "voxels within the radius):\n\n"
+       "| dataset | places | radius m | cell m | method | cells | eta | memory kB | "
+       "ms/frame | error e | completeness | non-ground completeness | planar share |\n"
+       "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& [key, sum] : sums) {
     std::vector<std::string> parts;
     std::istringstream split(key);
@@ -889,15 +901,9 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
         << parts[2] << " | " << std::setprecision(0) << sum.cells / n << " | "
         << std::setprecision(3) << sum.efficiency / n << " | " << std::setprecision(1)
         << sum.memory_kb / n << " | " << sum.ms / n << " | " << std::setprecision(4)
-        << sum.error / n << " | "
-        << ratio(sum.completeness_places > 0
-                   ? sum.completeness / static_cast<double>(sum.completeness_places)
-                   : std::numeric_limits<double>::quiet_NaN())
-        << " | "
-        << ratio(sum.planar_share_places > 0
-                   ? sum.planar_share / static_cast<double>(sum.planar_share_places)
-                   : std::numeric_limits<double>::quiet_NaN())
-        << " |\n";
+        << sum.error / n << " | " << ratio(sum.completeness.value()) << " | "
+        << ratio(sum.nonground_completeness.value()) << " | "
+        << ratio(sum.planar_share.value()) << " |\n";
   }
   return out.str();
 }

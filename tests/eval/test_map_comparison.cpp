@@ -18,6 +18,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <map>
 #include <set>
 #include <sstream>
@@ -421,12 +422,29 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
   }
   const std::string md = planar_grid::comparisonMarkdown(rows);
   EXPECT_NE(md.find("| walls | 2 | 8.0 | 0.2 | PG |"), std::string::npos) << md;
-  // The place means end with the completeness and the planar share ("-" for SG).
-  const std::size_t sg_places = md.find("| walls | 2 | 8.0 | 0.2 | SG |");
-  ASSERT_NE(sg_places, std::string::npos) << md;
-  const std::string sg_line =
-    md.substr(sg_places, md.find('\n', sg_places) - sg_places);
-  EXPECT_EQ(sg_line.substr(sg_line.size() - 13), "| 1.000 | - |") << sg_line;
+  // The place means end with the completeness, the non-ground completeness and the
+  // planar share ("-" for SG); PG's non-ground mean is that of its two places.
+  const auto lineOf = [&md](const std::string& start) {
+    const std::size_t at = md.find(start);
+    return at == std::string::npos ? std::string()
+                                   : md.substr(at, md.find('\n', at) - at);
+  };
+  const std::string sg_line = lineOf("| walls | 2 | 8.0 | 0.2 | SG |");
+  ASSERT_FALSE(sg_line.empty()) << md;
+  EXPECT_EQ(sg_line.substr(sg_line.size() - 21), "| 1.000 | 1.000 | - |") << sg_line;
+  const std::string pg_line = lineOf("| walls | 2 | 8.0 | 0.2 | PG |");
+  ASSERT_FALSE(pg_line.empty()) << md;
+  std::ostringstream pg_nonground;
+  pg_nonground << std::fixed << std::setprecision(3)
+               << 0.5
+                    * (by.at({0, "PG"}).nonground_completeness
+                       + by.at({1, "PG"}).nonground_completeness);
+  std::vector<std::string> pg_fields;
+  std::istringstream pg_split(pg_line);
+  for (std::string field; std::getline(pg_split, field, '|');)
+    pg_fields.push_back(field);
+  ASSERT_EQ(pg_fields.size(), 14u) << pg_line; // empty first field, 13 columns
+  EXPECT_EQ(pg_fields[12], " " + pg_nonground.str() + " ") << pg_line;
 
   // A dataset's own places override the top level's: radius 0 is the whole map, so the
   // last place is the whole map after the last frame.
