@@ -175,13 +175,9 @@ parseInput(const Reader& r, const YAML::Node& node)
     input.registration_max_residual_m =
       r.real(poses, "max_residual_m", input.registration_max_residual_m, 0.001, 10.0,
              "input.poses");
-    if (const YAML::Node guess = poses["feature_initial_guess"]) {
-      try {
-        input.registration_feature_initial_guess = guess.as<bool>();
-      } catch (const YAML::BadConversion&) {
-        r.fail(guess, "input.poses.feature_initial_guess must be true or false");
-      }
-    }
+    input.registration_feature_initial_guess =
+      r.boolean(poses, "feature_initial_guess",
+                input.registration_feature_initial_guess, "input.poses");
     input.camera_height_m =
       r.real(poses, "camera_height_m", 0.0, 0.0, 10.0, "input.poses");
     input.camera_pitch_rad =
