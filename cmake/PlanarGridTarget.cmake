@@ -20,6 +20,35 @@ function(planar_grid_set_warnings target)
   endif()
 endfunction()
 
+# Precompiled headers: most sources include Eigen, PCL's point types and a good part of
+# the standard library, and parsing them is most of a translation unit's compile time
+# (about 150,000 lines before a line of ours). Each target with several sources compiles
+# them once into its own precompiled header, with its own flags, so the sanitizer and
+# Release builds each get a valid one. Private to our targets: nothing of it is installed
+# or seen by a consumer of the package.
+option(PLANAR_GRID_PRECOMPILE_HEADERS
+       "Precompile the common headers of each library, tool and test target with several sources"
+       ON)
+set(PLANAR_GRID_PRECOMPILED_HEADERS
+    <algorithm> <array> <cmath> <cstdint> <functional> <limits> <map> <memory> <sstream>
+    <string> <unordered_map> <utility> <vector>
+    <Eigen/Core> <Eigen/Geometry> <pcl/point_cloud.h> <pcl/point_types.h>)
+
+# planar_grid_precompile_headers(<target> [<header>...]): the common headers, after the
+# given ones (a header that must come first, like pybind11's Python.h, is listed here),
+# precompiled for <target> when it has more than one source.
+function(planar_grid_precompile_headers target)
+  if(NOT PLANAR_GRID_PRECOMPILE_HEADERS)
+    return()
+  endif()
+  get_target_property(sources ${target} SOURCES)
+  list(LENGTH sources count)
+  if(count LESS 2)
+    return()
+  endif()
+  target_precompile_headers(${target} PRIVATE ${ARGN} ${PLANAR_GRID_PRECOMPILED_HEADERS})
+endfunction()
+
 # planar_grid_add_library(<module> SOURCES ... DEPENDS ... PRIVATE_DEPENDS ...): the library
 # planar_grid_<module> with include/ as its public include directory. It is installed with
 # its headers (including impl/*.hpp, for PCL_NO_PRECOMPILE users) and exported as
@@ -39,6 +68,7 @@ function(planar_grid_add_library module)
   target_compile_features(${target} PUBLIC cxx_std_17)
   target_link_libraries(${target} PUBLIC ${ARG_DEPENDS} PRIVATE ${ARG_PRIVATE_DEPENDS})
   planar_grid_set_warnings(${target})
+  planar_grid_precompile_headers(${target})
 
   install(TARGETS ${target} EXPORT PlanarGridTargets
     ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}

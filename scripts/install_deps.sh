@@ -5,7 +5,7 @@
 set -euo pipefail
 
 PACKAGES=(
-  build-essential cmake pkg-config
+  build-essential cmake ninja-build pkg-config
   libpcl-dev libeigen3-dev libflann-dev
   libopencv-dev libvtk9-dev
   libyaml-cpp-dev nlohmann-json3-dev

@@ -6,7 +6,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${BUILD_DIR:-build}
+# shellcheck source=scripts/common.sh
+source scripts/common.sh
 bash scripts/install_deps.sh
-cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release >/dev/null
+configure_build "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release
 cmake --build "$BUILD_DIR" -j2 --target planar_grid_pipeline_tool planar_grid_viewer
 "$BUILD_DIR"/tools/planar_grid_pipeline --config config/karlsruhe.yaml "$@"
