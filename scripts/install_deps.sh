@@ -11,7 +11,7 @@ PACKAGES=(
   libyaml-cpp-dev nlohmann-json3-dev
   liboctomap-dev libnanoflann-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  xvfb xauth clang-format git
+  xvfb xauth clang clang-format git
   doxygen
   python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest
   python3-open3d            # the Python examples and their tests (Open3D loads the scan)

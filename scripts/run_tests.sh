@@ -21,11 +21,24 @@ JOBS=${JOBS:-2}
 # shellcheck source=scripts/common.sh
 source scripts/common.sh
 
+# Builds a configured folder; a compiler warning fails the build (the build is kept
+# warning-free, and a warning in one configuration only is still a warning).
+build_warning_free() {
+  local dir=$1
+  local log="$dir/build.log"
+  cmake --build "$dir" -j "$JOBS" 2>&1 | tee "$log"
+  if grep -q "warning:" "$log"; then
+    echo "run_tests: the build of $dir has warnings:" >&2
+    grep -A3 "warning:" "$log" >&2
+    return 1
+  fi
+}
+
 release_build() {
   # shellcheck disable=SC2086
   configure_build "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release -DPLANAR_GRID_BUILD_TESTS=OFF \
     -DPLANAR_GRID_BUILD_PYTHON_TESTS=ON ${CMAKE_ARGS:-}
-  cmake --build "$BUILD_DIR" -j "$JOBS"
+  build_warning_free "$BUILD_DIR"
 }
 
 # The main job's configuration on the first real frames, with its snapshots, as the
@@ -46,12 +59,19 @@ release_checks() {
 
 sanitizer_build() {
   # -O1 with line tables only: the reports name file and line, at a fraction of the
-  # compile and link time of -O2 -g; shared libraries keep the test links small.
+  # compile and link time of -O2 -g; shared libraries keep the test links small. Clang
+  # (the compiler of the fuzzers too) compiles this configuration about a third faster
+  # than GCC here; GCC keeps compiling the Release build users run.
+  local compilers=()
+  if [ ! -f "$ASAN_BUILD_DIR/CMakeCache.txt" ] && command -v clang++ >/dev/null; then
+    compilers=(-DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++)
+  fi
   # shellcheck disable=SC2086
-  configure_build "$ASAN_BUILD_DIR" -DPLANAR_GRID_SANITIZE=ON -DPLANAR_GRID_BUILD_TESTS=ON \
-    -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" \
+  configure_build "$ASAN_BUILD_DIR" "${compilers[@]}" -DPLANAR_GRID_SANITIZE=ON \
+    -DPLANAR_GRID_BUILD_TESTS=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" \
     "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DBUILD_SHARED_LIBS=ON ${CMAKE_ARGS:-}
-  cmake --build "$ASAN_BUILD_DIR" -j "$JOBS"
+  build_warning_free "$ASAN_BUILD_DIR"
 }
 
 sanitizer_tests() {
