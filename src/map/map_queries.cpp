@@ -1,0 +1,601 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The planner's queries of PlanarGridMap: distance with gradient, collision of bodies
+// and the projection into a 2D occupancy grid. The obstacles (occupied cuboids as
+// oriented boxes, obstacle voxels merged into runs along x as axis-aligned boxes) are
+// indexed by a bounding-volume hierarchy built on the first query.
+#include <planar_grid/core/atomic_file.h>
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/map/planar_grid_map.h>
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+namespace planar_grid {
+namespace map_queries {
+
+/** \brief One obstacle: a box of half extents \a half about \a centre along the
+ * columns of \a axes (identity for voxel runs, flagged by \a aligned). */
+struct ObstacleBox {
+  Eigen::Matrix3f axes{Eigen::Matrix3f::Identity()};
+  Eigen::Vector3f centre{Eigen::Vector3f::Zero()};
+  Eigen::Vector3f half{Eigen::Vector3f::Zero()};
+  bool aligned{true};
+
+  /** \brief p in the box frame, relative to the centre. */
+  Eigen::Vector3f local(const Eigen::Vector3f& p) const
+  {
+    const Eigen::Vector3f d = p - centre;
+    return aligned ? d : Eigen::Vector3f(axes.transpose() * d);
+  }
+  /** \brief The world vector of a vector \a v given in the box frame. */
+  Eigen::Vector3f world(const Eigen::Vector3f& v) const
+  {
+    return aligned ? v : Eigen::Vector3f(axes * v);
+  }
+  /** \brief Half extents of the axis-aligned bounding box. */
+  Eigen::Vector3f aabbHalf() const
+  {
+    return aligned ? half : Eigen::Vector3f(axes.cwiseAbs() * half);
+  }
+};
+
+/** \brief Node of the hierarchy: a leaf holds count > 0 boxes from first; an inner
+ * node (count 0) has its left child next in the array and its right child at first.
+ */
+struct Node {
+  Eigen::Vector3f lo;
+  Eigen::Vector3f hi;
+  std::uint32_t first{0};
+  std::uint32_t count{0};
+};
+
+/** \brief The obstacles of one query mode and their hierarchy. */
+struct ObstacleIndex {
+  std::vector<ObstacleBox, Eigen::aligned_allocator<ObstacleBox>> boxes;
+  std::vector<Node> nodes;
+  /** \brief Space outside [known_lo, known_hi] is an obstacle (unknown). */
+  bool outside_is_obstacle{false};
+  /** \brief With outside_is_obstacle and nothing stored: everything is. */
+  bool everything_is_obstacle{false};
+  Eigen::Vector3f known_lo{Eigen::Vector3f::Zero()};
+  Eigen::Vector3f known_hi{Eigen::Vector3f::Zero()};
+};
+
+/** \brief The lazily built indices, one per unknown_is_occupied. */
+struct QueryCache {
+  std::mutex mutex;
+  std::array<std::atomic<bool>, 2> ready{{false, false}};
+  std::array<std::unique_ptr<ObstacleIndex>, 2> index;
+};
+
+namespace {
+
+constexpr int BLOCK = 8;
+using Mask = std::array<std::uint64_t, 8>; // bit (x + 8 y) of word z
+
+std::int64_t
+packBlock(int bx, int by, int bz)
+{
+  return (static_cast<std::int64_t>(bx + (1 << 20)) << 42)
+         | (static_cast<std::int64_t>(by + (1 << 20)) << 21)
+         | static_cast<std::int64_t>(bz + (1 << 20));
+}
+
+void
+unpackBlock(std::int64_t key, int& bx, int& by, int& bz)
+{
+  bx = static_cast<int>((key >> 42) & 0x1FFFFF) - (1 << 20);
+  by = static_cast<int>((key >> 21) & 0x1FFFFF) - (1 << 20);
+  bz = static_cast<int>(key & 0x1FFFFF) - (1 << 20);
+}
+
+/** \brief Floor division by the block edge (keys may be negative). */
+int
+blockOf(int k)
+{
+  return k >= 0 ? k / BLOCK : -((-k + BLOCK - 1) / BLOCK);
+}
+
+/** \brief Appends the axis-aligned box of voxels [x0, x1) x [y, y + 1) x [z, z + 1)
+ * (voxel keys) of edge \a r. */
+void
+addVoxelRun(ObstacleIndex& index, double r, int x0, int x1, int y, int z)
+{
+  ObstacleBox b;
+  const double lo_x = x0 * r, hi_x = x1 * r;
+  b.centre = Eigen::Vector3f(static_cast<float>(0.5 * (lo_x + hi_x)),
+                             static_cast<float>((y + 0.5) * r),
+                             static_cast<float>((z + 0.5) * r));
+  b.half = Eigen::Vector3f(static_cast<float>(0.5 * (hi_x - lo_x)),
+                           static_cast<float>(0.5 * r), static_cast<float>(0.5 * r));
+  index.boxes.push_back(b);
+}
+
+std::uint32_t
+buildNodes(ObstacleIndex& index,
+           std::vector<std::uint32_t>& order,
+           const std::vector<Eigen::Vector3f,
+                             Eigen::aligned_allocator<Eigen::Vector3f>>& centres,
+           std::uint32_t begin,
+           std::uint32_t end)
+{
+  const auto id = static_cast<std::uint32_t>(index.nodes.size());
+  index.nodes.emplace_back();
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+  Eigen::Vector3f hi = -lo;
+  Eigen::Vector3f clo = lo, chi = hi;
+  for (std::uint32_t i = begin; i < end; ++i) {
+    const ObstacleBox& b = index.boxes[order[i]];
+    const Eigen::Vector3f h = b.aabbHalf();
+    lo = lo.cwiseMin(b.centre - h);
+    hi = hi.cwiseMax(b.centre + h);
+    clo = clo.cwiseMin(centres[order[i]]);
+    chi = chi.cwiseMax(centres[order[i]]);
+  }
+  index.nodes[id].lo = lo;
+  index.nodes[id].hi = hi;
+  if (end - begin <= 4) {
+    index.nodes[id].first = begin;
+    index.nodes[id].count = end - begin;
+    return id;
+  }
+  int axis = 0;
+  (chi - clo).maxCoeff(&axis);
+  const std::uint32_t mid = begin + (end - begin) / 2;
+  std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
+                   [&](std::uint32_t a, std::uint32_t b) {
+                     return centres[a][axis] < centres[b][axis];
+                   });
+  buildNodes(index, order, centres, begin, mid);
+  const std::uint32_t right = buildNodes(index, order, centres, mid, end);
+  index.nodes[id].first = right;
+  index.nodes[id].count = 0;
+  return id;
+}
+
+/** \brief Orders the boxes as the leaves list them and builds the hierarchy. */
+void
+buildHierarchy(ObstacleIndex& index)
+{
+  index.nodes.clear();
+  if (index.boxes.empty())
+    return;
+  std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> centres;
+  centres.reserve(index.boxes.size());
+  for (const auto& b : index.boxes)
+    centres.push_back(b.centre);
+  std::vector<std::uint32_t> order(index.boxes.size());
+  for (std::uint32_t i = 0; i < order.size(); ++i)
+    order[i] = i;
+  index.nodes.reserve(2 * index.boxes.size() / 3 + 1);
+  buildNodes(index, order, centres, 0, static_cast<std::uint32_t>(order.size()));
+  std::vector<ObstacleBox, Eigen::aligned_allocator<ObstacleBox>> sorted;
+  sorted.reserve(order.size());
+  for (const std::uint32_t i : order)
+    sorted.push_back(index.boxes[i]);
+  index.boxes.swap(sorted);
+}
+
+/** \brief Gathers the obstacles of \a map for one mode. */
+std::unique_ptr<ObstacleIndex>
+buildIndex(const PlanarGridMap& map, bool unknown_is_occupied)
+{
+  auto index = std::make_unique<ObstacleIndex>();
+  const double r = map.getResolution();
+  const auto thres =
+    static_cast<float>(map.getSurfaceLayer().getParams().occupancy_thres);
+  for (const PlanarCuboid& c : map.getSurfaceLayer().getCuboids()) {
+    if (!(c.probability >= thres))
+      continue;
+    ObstacleBox b;
+    b.axes.col(0) = c.horizontal_axis;
+    b.axes.col(1) = c.verticalAxis();
+    b.axes.col(2) = c.normal;
+    b.centre = c.centre;
+    b.half = 0.5f * Eigen::Vector3f(c.width_m, c.height_m, c.thickness_m);
+    b.aligned = false;
+    index->boxes.push_back(b);
+  }
+
+  const ExplicitSpaceGrid& space = map.getSpaceLayer();
+  const bool unknown_prior = space.getParams().prior == SpaceState::UNKNOWN;
+  // With the unknown prior, unknown space is everything not observed: the complement
+  // of the observed free and occupied voxels (inside the stored bounds; beyond them
+  // the whole outside). With the free prior it is the occluded voxels stored.
+  const bool complement = unknown_is_occupied && unknown_prior;
+  std::unordered_map<std::int64_t, Mask> obstacle, known;
+  space.forEachVoxel([&](const ExplicitSpaceGrid::VoxelKey& k, SpaceState s) {
+    const int bx = blockOf(k.x()), by = blockOf(k.y()), bz = blockOf(k.z());
+    const int lx = k.x() - bx * BLOCK, ly = k.y() - by * BLOCK, lz = k.z() - bz * BLOCK;
+    const std::uint64_t bit = std::uint64_t{1} << (lx + BLOCK * ly);
+    const std::int64_t key = packBlock(bx, by, bz);
+    if (complement)
+      known[key][static_cast<std::size_t>(lz)] |= bit;
+    const bool is_obstacle =
+      s == SpaceState::OCCUPIED || (unknown_is_occupied && s == SpaceState::UNKNOWN);
+    if (is_obstacle || complement) {
+      auto& m = obstacle[key];
+      if (is_obstacle)
+        m[static_cast<std::size_t>(lz)] |= bit;
+    }
+  });
+
+  std::vector<std::int64_t> blocks;
+  if (complement) {
+    ExplicitSpaceGrid::VoxelKey lo, hi;
+    index->outside_is_obstacle = true;
+    if (!space.getBounds(lo, hi)) {
+      index->everything_is_obstacle = true;
+      return index;
+    }
+    index->known_lo = (lo.cast<double>() * r).cast<float>();
+    index->known_hi = ((hi.cast<double>() + Eigen::Vector3d::Ones()) * r).cast<float>();
+    // Every block inside the bounds: never-observed blocks are whole obstacles.
+    for (int bz = blockOf(lo.z()); bz <= blockOf(hi.z()); ++bz)
+      for (int by = blockOf(lo.y()); by <= blockOf(hi.y()); ++by)
+        for (int bx = blockOf(lo.x()); bx <= blockOf(hi.x()); ++bx) {
+          const std::int64_t key = packBlock(bx, by, bz);
+          auto& m = obstacle[key];
+          const auto it = known.find(key);
+          for (std::size_t z = 0; z < 8; ++z)
+            m[z] |= it == known.end() ? ~std::uint64_t{0} : ~it->second[z];
+        }
+  }
+  blocks.reserve(obstacle.size());
+  for (const auto& kv : obstacle)
+    blocks.push_back(kv.first);
+  // Sorted by (z, y, x) so that runs of whole blocks along x merge.
+  std::sort(blocks.begin(), blocks.end(), [](std::int64_t a, std::int64_t b) {
+    int ax, ay, az, bx, by, bz;
+    unpackBlock(a, ax, ay, az);
+    unpackBlock(b, bx, by, bz);
+    return std::make_tuple(az, ay, ax) < std::make_tuple(bz, by, bx);
+  });
+  // Whole blocks along x become one box; other blocks give one box per run of
+  // obstacle voxels along x in each row.
+  std::size_t i = 0;
+  while (i < blocks.size()) {
+    int bx, by, bz;
+    unpackBlock(blocks[i], bx, by, bz);
+    const Mask& m = obstacle[blocks[i]];
+    const bool full = std::all_of(
+      m.begin(), m.end(), [](std::uint64_t w) { return w == ~std::uint64_t{0}; });
+    if (full) {
+      std::size_t j = i + 1;
+      int last = bx;
+      while (j < blocks.size()) {
+        int nx, ny, nz;
+        unpackBlock(blocks[j], nx, ny, nz);
+        const Mask& n = obstacle[blocks[j]];
+        if (ny != by || nz != bz || nx != last + 1
+            || !std::all_of(n.begin(), n.end(),
+                            [](std::uint64_t w) { return w == ~std::uint64_t{0}; }))
+          break;
+        last = nx;
+        ++j;
+      }
+      ObstacleBox b;
+      const Eigen::Vector3d lo(bx * BLOCK * r, by * BLOCK * r, bz * BLOCK * r);
+      const Eigen::Vector3d hi((last + 1) * BLOCK * r, (by + 1) * BLOCK * r,
+                               (bz + 1) * BLOCK * r);
+      b.centre = (0.5 * (lo + hi)).cast<float>();
+      b.half = (0.5 * (hi - lo)).cast<float>();
+      index->boxes.push_back(b);
+      i = j;
+      continue;
+    }
+    for (int z = 0; z < BLOCK; ++z)
+      for (int y = 0; y < BLOCK; ++y) {
+        const auto row = static_cast<unsigned>(
+          (m[static_cast<std::size_t>(z)] >> (BLOCK * y)) & 0xFFu);
+        int x = 0;
+        while (x < BLOCK) {
+          if (!(row & (1u << x))) {
+            ++x;
+            continue;
+          }
+          int e = x;
+          while (e < BLOCK && (row & (1u << e)))
+            ++e;
+          addVoxelRun(*index, r, bx * BLOCK + x, bx * BLOCK + e, by * BLOCK + y,
+                      bz * BLOCK + z);
+          x = e;
+        }
+      }
+    ++i;
+  }
+  buildHierarchy(*index);
+  return index;
+}
+
+/** \brief Squared distance from \a p to the box [lo, hi]. */
+float
+aabbDistance2(const Eigen::Vector3f& p,
+              const Eigen::Vector3f& lo,
+              const Eigen::Vector3f& hi)
+{
+  const Eigen::Vector3f d = (lo - p).cwiseMax(Eigen::Vector3f::Zero()).cwiseMax(p - hi);
+  return d.squaredNorm();
+}
+
+/** \brief Distance from \a p to box \a b; 0 inside with \a grad the outward normal of
+ * the nearest face, else \a grad from the closest point toward \a p. */
+float
+boxDistance(const ObstacleBox& b, const Eigen::Vector3f& p, Eigen::Vector3f& grad)
+{
+  const Eigen::Vector3f q = b.local(p);
+  const Eigen::Vector3f d = q.cwiseAbs() - b.half;
+  if ((d.array() <= 0.0f).all()) {
+    int axis = 0;
+    d.maxCoeff(&axis);
+    Eigen::Vector3f n = Eigen::Vector3f::Zero();
+    n[axis] = q[axis] < 0.0f ? -1.0f : 1.0f;
+    grad = b.world(n);
+    return 0.0f;
+  }
+  Eigen::Vector3f e;
+  for (int k = 0; k < 3; ++k)
+    e[k] = d[k] > 0.0f ? std::copysign(d[k], q[k]) : 0.0f;
+  const float dist = e.norm();
+  grad = b.world(e / dist);
+  return dist;
+}
+
+/** \brief Exact overlap (closed sets) of an oriented box A (centre, axes, half) and
+ * obstacle box B: the 15 separating axes. */
+bool
+boxesOverlap(const Eigen::Vector3f& ca,
+             const Eigen::Matrix3f& ra,
+             const Eigen::Vector3f& ha,
+             const ObstacleBox& b)
+{
+  // B's axes and centre in A's frame.
+  const Eigen::Matrix3f rb = b.aligned ? Eigen::Matrix3f::Identity() : b.axes;
+  const Eigen::Matrix3f R = ra.transpose() * rb;
+  const Eigen::Vector3f t = ra.transpose() * (b.centre - ca);
+  // A small term keeps near-parallel edge pairs (whose cross product vanishes) from
+  // reporting a separation that rounding made up.
+  const Eigen::Matrix3f absR = R.cwiseAbs().array() + 1e-6f;
+  const Eigen::Vector3f& hb = b.half;
+  for (int i = 0; i < 3; ++i)
+    if (std::abs(t[i]) > ha[i] + absR.row(i).dot(hb))
+      return false;
+  for (int j = 0; j < 3; ++j)
+    if (std::abs(t.dot(R.col(j))) > absR.col(j).dot(ha) + hb[j])
+      return false;
+  for (int i = 0; i < 3; ++i) {
+    const int i1 = (i + 1) % 3, i2 = (i + 2) % 3;
+    for (int j = 0; j < 3; ++j) {
+      const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+      const float ra_ = ha[i1] * absR(i2, j) + ha[i2] * absR(i1, j);
+      const float rb_ = hb[j1] * absR(i, j2) + hb[j2] * absR(i, j1);
+      if (std::abs(t[i2] * R(i1, j) - t[i1] * R(i2, j)) > ra_ + rb_)
+        return false;
+    }
+  }
+  return true;
+}
+
+/** \brief Distance and gradient at one point (finite), capped at \a cap. */
+float
+queryPoint(const ObstacleIndex& index,
+           const Eigen::Vector3f& p,
+           float cap,
+           Eigen::Vector3f& grad)
+{
+  grad.setZero();
+  if (index.everything_is_obstacle) {
+    grad = Eigen::Vector3f::UnitZ();
+    return 0.0f;
+  }
+  float best = cap;
+  if (index.outside_is_obstacle) {
+    const Eigen::Vector3f below = p - index.known_lo, above = index.known_hi - p;
+    if ((below.array() < 0.0f).any() || (above.array() < 0.0f).any()) {
+      // Outside the stored bounds: inside the unknown; the way out is toward them.
+      const Eigen::Vector3f in =
+        p.cwiseMax(index.known_lo).cwiseMin(index.known_hi) - p;
+      grad = in / in.norm();
+      return 0.0f;
+    }
+    int a = 0, c = 0;
+    const float from_lo = below.minCoeff(&a), from_hi = above.minCoeff(&c);
+    if (std::min(from_lo, from_hi) < best) {
+      grad.setZero();
+      if (from_lo <= from_hi) {
+        best = from_lo;
+        grad[a] = 1.0f;
+      } else {
+        best = from_hi;
+        grad[c] = -1.0f;
+      }
+    }
+  }
+  if (index.nodes.empty())
+    return best;
+  float best2 = best * best;
+  std::array<std::uint32_t, 128> stack;
+  std::size_t top = 0;
+  if (aabbDistance2(p, index.nodes[0].lo, index.nodes[0].hi) >= best2)
+    return best;
+  stack[top++] = 0;
+  Eigen::Vector3f g;
+  while (top > 0) {
+    const Node& node = index.nodes[stack[--top]];
+    if (aabbDistance2(p, node.lo, node.hi) >= best2)
+      continue;
+    if (node.count > 0) {
+      for (std::uint32_t k = node.first; k < node.first + node.count; ++k) {
+        const float d = boxDistance(index.boxes[k], p, g);
+        if (d == 0.0f) {
+          grad = g;
+          return 0.0f;
+        }
+        if (d < best) {
+          best = d;
+          best2 = d * d;
+          grad = g;
+        }
+      }
+      continue;
+    }
+    const std::uint32_t left =
+      static_cast<std::uint32_t>(&node - index.nodes.data()) + 1;
+    const std::uint32_t right = node.first;
+    const float dl = aabbDistance2(p, index.nodes[left].lo, index.nodes[left].hi);
+    const float dr = aabbDistance2(p, index.nodes[right].lo, index.nodes[right].hi);
+    // The nearer child is popped first.
+    if (dl <= dr) {
+      if (dr < best2)
+        stack[top++] = right;
+      if (dl < best2)
+        stack[top++] = left;
+    } else {
+      if (dl < best2)
+        stack[top++] = left;
+      if (dr < best2)
+        stack[top++] = right;
+    }
+  }
+  return best;
+}
+
+/** \brief True when the body meets an obstacle of the index. */
+bool
+bodyCollides(const ObstacleIndex& index, const CollisionBody& body)
+{
+  if (index.everything_is_obstacle)
+    return true;
+  const bool is_box = body.shape == CollisionBody::Shape::BOX;
+  const Eigen::Vector3f h =
+    is_box ? Eigen::Vector3f(body.rotation.cwiseAbs() * body.half_extents)
+           : Eigen::Vector3f::Constant(body.radius_m);
+  const Eigen::Vector3f lo = body.centre - h, hi = body.centre + h;
+  if (index.outside_is_obstacle
+      && ((lo.array() < index.known_lo.array()).any()
+          || (hi.array() > index.known_hi.array()).any()))
+    return true;
+  if (index.nodes.empty())
+    return false;
+  const float r2 = body.radius_m * body.radius_m;
+  std::array<std::uint32_t, 128> stack;
+  std::size_t top = 0;
+  stack[top++] = 0;
+  Eigen::Vector3f g;
+  while (top > 0) {
+    const std::uint32_t id = stack[--top];
+    const Node& node = index.nodes[id];
+    if ((node.lo.array() > hi.array()).any() || (node.hi.array() < lo.array()).any())
+      continue;
+    if (!is_box && aabbDistance2(body.centre, node.lo, node.hi) > r2)
+      continue;
+    if (node.count == 0) {
+      stack[top++] = node.first;
+      stack[top++] = id + 1;
+      continue;
+    }
+    for (std::uint32_t k = node.first; k < node.first + node.count; ++k) {
+      const ObstacleBox& b = index.boxes[k];
+      if (is_box) {
+        if (boxesOverlap(body.centre, body.rotation, body.half_extents, b))
+          return true;
+      } else if (boxDistance(b, body.centre, g) <= body.radius_m)
+        return true;
+    }
+  }
+  return false;
+}
+
+} // namespace
+
+const ObstacleIndex&
+getIndex(const std::shared_ptr<QueryCache>& cache,
+         const PlanarGridMap& map,
+         bool unknown_is_occupied)
+{
+  if (!cache)
+    throw Exception("PlanarGridMap: query on a moved-from map");
+  const std::size_t mode = unknown_is_occupied ? 1 : 0;
+  if (!cache->ready[mode].load(std::memory_order_acquire)) {
+    std::lock_guard<std::mutex> lock(cache->mutex);
+    if (!cache->index[mode]) {
+      cache->index[mode] = buildIndex(map, unknown_is_occupied);
+      cache->ready[mode].store(true, std::memory_order_release);
+    }
+  }
+  return *cache->index[mode];
+}
+
+} // namespace map_queries
+
+void
+PlanarGridMap::invalidateQueryCache()
+{
+  query_cache_ = std::make_shared<map_queries::QueryCache>();
+}
+
+void
+PlanarGridMap::getDistance(const Eigen::Ref<const Eigen::Matrix3Xf>& points,
+                           double max_distance_m,
+                           Eigen::Ref<Eigen::VectorXf> distances,
+                           Eigen::Ref<Eigen::Matrix3Xf> gradients,
+                           bool unknown_is_occupied) const
+{
+  if (!(max_distance_m > 0.0) || !std::isfinite(max_distance_m))
+    throw Exception(
+      "PlanarGridMap::getDistance: max_distance_m must be finite and > 0, "
+      "got "
+      + std::to_string(max_distance_m));
+  if (distances.size() != points.cols() || gradients.cols() != points.cols())
+    throw Exception("PlanarGridMap::getDistance: " + std::to_string(points.cols())
+                    + " points but room for " + std::to_string(distances.size())
+                    + " distances and " + std::to_string(gradients.cols())
+                    + " gradients");
+  const auto& index = map_queries::getIndex(query_cache_, *this, unknown_is_occupied);
+  const auto cap = static_cast<float>(max_distance_m);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (Eigen::Index i = 0; i < points.cols(); ++i) {
+    const Eigen::Vector3f p = points.col(i);
+    if (!p.allFinite()) {
+      distances[i] = nan;
+      gradients.col(i).setConstant(nan);
+      continue;
+    }
+    Eigen::Vector3f g;
+    distances[i] = map_queries::queryPoint(index, p, cap, g);
+    gradients.col(i) = g;
+  }
+}
+
+std::vector<std::uint8_t>
+PlanarGridMap::isCollisionFree(const CollisionBodies& bodies,
+                               bool unknown_is_occupied) const
+{
+  const auto& index = map_queries::getIndex(query_cache_, *this, unknown_is_occupied);
+  std::vector<std::uint8_t> free(bodies.size(), 0);
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    const CollisionBody& b = bodies[i];
+    const bool is_box = b.shape == CollisionBody::Shape::BOX;
+    const bool valid = b.centre.allFinite()
+                       && (is_box ? b.rotation.allFinite() && b.half_extents.allFinite()
+                                      && (b.half_extents.array() >= 0.0f).all()
+                                  : std::isfinite(b.radius_m) && b.radius_m >= 0.0f);
+    free[i] = valid && !map_queries::bodyCollides(index, b) ? 1 : 0;
+  }
+  return free;
+}
+
+} // namespace planar_grid
