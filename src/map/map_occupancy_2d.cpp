@@ -72,6 +72,8 @@ validate(const OccupancyGrid2DParams& p)
   if (!(p.terrain_max_angle_rad >= 0.0 && p.terrain_max_angle_rad <= half_pi))
     fail("terrain_max_angle_rad must be in [0, pi/2], got "
          + std::to_string(p.terrain_max_angle_rad));
+  if (!(p.terrain_tile_m > 0.0 && p.terrain_tile_m <= 100.0))
+    fail("terrain_tile_m must be in (0, 100], got " + std::to_string(p.terrain_tile_m));
   if (!(p.max_slope_rad >= 0.0 && p.max_slope_rad <= half_pi))
     fail("max_slope_rad must be in [0, pi/2], got " + std::to_string(p.max_slope_rad));
   if (p.use_bounds
@@ -161,6 +163,25 @@ PlanarGridMap::computeOccupancyGrid2D(const OccupancyGrid2DParams& params) const
           grid.origin.y() + (row + 0.5) * r);
   };
 
+  // Calls f(cell index) for every cell whose square meets voxel key's footprint.
+  const auto forFootprint = [&](const ExplicitSpaceGrid::VoxelKey& key, auto&& f) {
+    const double x0 = key.x() * vr, y0 = key.y() * vr;
+    const double eps = 1e-6;
+    const int c0 =
+      std::max(0, static_cast<int>(std::floor((x0 - grid.origin.x()) / r + eps)));
+    const int c1 =
+      std::min(grid.width - 1,
+               static_cast<int>(std::ceil((x0 + vr - grid.origin.x()) / r - eps)) - 1);
+    const int r0 =
+      std::max(0, static_cast<int>(std::floor((y0 - grid.origin.y()) / r + eps)));
+    const int r1 =
+      std::min(grid.height - 1,
+               static_cast<int>(std::ceil((y0 + vr - grid.origin.y()) / r - eps)) - 1);
+    for (int row = r0; row <= r1; ++row)
+      for (int col = c0; col <= c1; ++col)
+        f(cellIndex(col, row));
+  };
+
   // Terrain: planar cuboids within terrain_max_angle_rad of horizontal that reach
   // below the band of the fixed reference.
   const double cos_terrain = std::cos(params.terrain_max_angle_rad);
@@ -187,6 +208,42 @@ PlanarGridMap::computeOccupancyGrid2D(const OccupancyGrid2DParams& params) const
         steep[k] = 1;
       }
     });
+  }
+  if (params.above_terrain) {
+    // The terrain the space layer saw, where no walkable terrain cuboid is.
+    std::vector<float> seen(n, std::numeric_limits<float>::quiet_NaN());
+    space_.forEachVoxel([&](const ExplicitSpaceGrid::VoxelKey& key, SpaceState s) {
+      if (s != SpaceState::OCCUPIED
+          || space_.getState(ExplicitSpaceGrid::VoxelKey(key.x(), key.y(), key.z() + 1))
+               != SpaceState::FREE)
+        return;
+      const auto top = static_cast<float>((key.z() + 1) * vr);
+      forFootprint(key, [&](std::size_t k) {
+        if (!(seen[k] <= top))
+          seen[k] = top;
+      });
+    });
+    const int tile =
+      std::max(1, static_cast<int>(std::lround(params.terrain_tile_m / r)));
+    std::vector<float> values;
+    for (int row0 = 0; row0 < grid.height; row0 += tile)
+      for (int col0 = 0; col0 < grid.width; col0 += tile) {
+        values.clear();
+        const int row1 = std::min(grid.height, row0 + tile);
+        const int col1 = std::min(grid.width, col0 + tile);
+        for (int row = row0; row < row1; ++row)
+          for (int col = col0; col < col1; ++col)
+            if (std::isfinite(seen[cellIndex(col, row)]))
+              values.push_back(seen[cellIndex(col, row)]);
+        if (values.empty())
+          continue;
+        auto pick = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 5);
+        std::nth_element(values.begin(), pick, values.end());
+        for (int row = row0; row < row1; ++row)
+          for (int col = col0; col < col1; ++col)
+            if (!std::isfinite(terrain[cellIndex(col, row)]))
+              terrain[cellIndex(col, row)] = *pick;
+      }
   }
   const auto band = [&](std::size_t k, double& b0, double& b1) {
     const double ref = params.above_terrain && std::isfinite(terrain[k])
@@ -219,30 +276,17 @@ PlanarGridMap::computeOccupancyGrid2D(const OccupancyGrid2DParams& params) const
   space_.forEachVoxel([&](const ExplicitSpaceGrid::VoxelKey& key, SpaceState s) {
     if (s == SpaceState::UNKNOWN)
       return;
-    const double x0 = key.x() * vr, y0 = key.y() * vr, z0 = key.z() * vr;
-    const double eps = 1e-6;
-    const int c0 =
-      std::max(0, static_cast<int>(std::floor((x0 - grid.origin.x()) / r + eps)));
-    const int c1 =
-      std::min(grid.width - 1,
-               static_cast<int>(std::ceil((x0 + vr - grid.origin.x()) / r - eps)) - 1);
-    const int r0 =
-      std::max(0, static_cast<int>(std::floor((y0 - grid.origin.y()) / r + eps)));
-    const int r1 =
-      std::min(grid.height - 1,
-               static_cast<int>(std::ceil((y0 + vr - grid.origin.y()) / r - eps)) - 1);
-    for (int row = r0; row <= r1; ++row)
-      for (int col = c0; col <= c1; ++col) {
-        const std::size_t k = cellIndex(col, row);
-        double b0, b1;
-        band(k, b0, b1);
-        if (z0 + vr < b0 || z0 > b1)
-          continue;
-        if (s == SpaceState::OCCUPIED)
-          occupied[k] = 1;
-        else
-          seen_free[k] = 1;
-      }
+    const double z0 = key.z() * vr;
+    forFootprint(key, [&](std::size_t k) {
+      double b0, b1;
+      band(k, b0, b1);
+      if (z0 + vr < b0 || z0 > b1)
+        return;
+      if (s == SpaceState::OCCUPIED)
+        occupied[k] = 1;
+      else
+        seen_free[k] = 1;
+    });
   });
 
   for (std::size_t k = 0; k < n; ++k) {

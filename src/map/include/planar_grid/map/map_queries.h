@@ -74,10 +74,17 @@ struct OccupancyGrid2DParams {
   double z_min_m{0.2};
   /** Upper end of the band above the reference, meters; > z_min_m. */
   double z_max_m{2.0};
-  /** Measure the band above the local terrain: in a cell covered by a walkable
-   * terrain cuboid, the reference is the highest top of those cuboids in the cell's
-   * column (instead of z_ref_m). */
+  /** Measure the band above the local terrain instead of z_ref_m: in a cell covered
+   * by a walkable terrain cuboid, the highest top of those cuboids in the cell's
+   * column; elsewhere the terrain the space layer saw: per cell the lowest top of an
+   * occupied voxel whose upper neighbour was observed free (a surface seen from above),
+   * and per square tile of terrain_tile_m the 20th percentile of its cells' values (so
+   * that a car roof in a tile of road is not the terrain); z_ref_m where neither is
+   * known. */
   bool above_terrain{false};
+  /** With above_terrain: the edge of the tiles of the space layer's terrain, meters;
+   * in [resolution, 100]. */
+  double terrain_tile_m{2.0};
   /** A planar cuboid whose normal is within terrain_max_angle_rad of vertical is
    * terrain; in [0, pi/2]. */
   double terrain_max_angle_rad{1.0471975511965976};
