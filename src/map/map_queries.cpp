@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The planner's queries of PlanarGridMap: distance with gradient, collision of bodies
 // and the projection into a 2D occupancy grid. The obstacles (occupied cuboids as
-// oriented boxes, obstacle voxels merged into runs along x as axis-aligned boxes) are
+// oriented boxes, obstacle voxels merged into axis-aligned boxes per block) are
 // indexed by a bounding-volume hierarchy built on the first query.
 #include <planar_grid/core/atomic_file.h>
 #include <planar_grid/core/exceptions.h>
@@ -109,19 +109,82 @@ blockOf(int k)
   return k >= 0 ? k / BLOCK : -((-k + BLOCK - 1) / BLOCK);
 }
 
-/** \brief Appends the axis-aligned box of voxels [x0, x1) x [y, y + 1) x [z, z + 1)
+/** \brief Appends the box of voxels [b[0], b[1]) x [b[2], b[3]) x [b[4], b[5])
  * (voxel keys) of edge \a r. */
 void
-addVoxelRun(ObstacleIndex& index, double r, int x0, int x1, int y, int z)
+addVoxelBox(ObstacleIndex& index, double r, const std::array<int, 6>& b)
 {
-  ObstacleBox b;
-  const double lo_x = x0 * r, hi_x = x1 * r;
-  b.centre = Eigen::Vector3f(static_cast<float>(0.5 * (lo_x + hi_x)),
-                             static_cast<float>((y + 0.5) * r),
-                             static_cast<float>((z + 0.5) * r));
-  b.half = Eigen::Vector3f(static_cast<float>(0.5 * (hi_x - lo_x)),
-                           static_cast<float>(0.5 * r), static_cast<float>(0.5 * r));
-  index.boxes.push_back(b);
+  const Eigen::Vector3d lo(b[0] * r, b[2] * r, b[4] * r);
+  const Eigen::Vector3d hi(b[1] * r, b[3] * r, b[5] * r);
+  ObstacleBox box;
+  box.centre = (0.5 * (lo + hi)).cast<float>();
+  box.half = (0.5 * (hi - lo)).cast<float>();
+  index.boxes.push_back(box);
+}
+
+/** \brief Covers the obstacle voxels \a m of block (bx, by, bz) with boxes: runs along
+ * x, runs of equal runs in consecutive rows merged into rectangles, equal rectangles
+ * in consecutive layers into boxes. The union is the voxels' exactly. */
+void
+addBlockBoxes(ObstacleIndex& index, double r, const Mask& m, int bx, int by, int bz)
+{
+  // Boxes in block-local voxel keys, still growing along z: x0, x1, y0, y1, z0, z1.
+  std::vector<std::array<int, 6>> open, next, layer;
+  for (int z = 0; z <= BLOCK; ++z) {
+    // This layer's rectangles (none past the last layer).
+    layer.clear();
+    if (z < BLOCK) {
+      std::vector<std::array<int, 6>> rows; // rectangles growing along y
+      for (int y = 0; y <= BLOCK; ++y) {
+        std::vector<std::array<int, 6>> grown;
+        if (y < BLOCK) {
+          const auto row = static_cast<unsigned>(
+            (m[static_cast<std::size_t>(z)] >> (BLOCK * y)) & 0xFFu);
+          int x = 0;
+          while (x < BLOCK) {
+            if (!(row & (1u << x))) {
+              ++x;
+              continue;
+            }
+            int e = x;
+            while (e < BLOCK && (row & (1u << e)))
+              ++e;
+            auto it = std::find_if(rows.begin(), rows.end(), [&](const auto& q) {
+              return q[0] == x && q[1] == e && q[3] == y;
+            });
+            if (it != rows.end()) {
+              (*it)[3] = y + 1;
+              grown.push_back(*it);
+              rows.erase(it);
+            } else {
+              grown.push_back({x, e, y, y + 1, z, z + 1});
+            }
+            x = e;
+          }
+        }
+        layer.insert(layer.end(), rows.begin(), rows.end()); // closed rectangles
+        rows.swap(grown);
+      }
+    }
+    next.clear();
+    for (const auto& q : layer) {
+      auto it = std::find_if(open.begin(), open.end(), [&](const auto& o) {
+        return o[0] == q[0] && o[1] == q[1] && o[2] == q[2] && o[3] == q[3];
+      });
+      if (it != open.end()) {
+        (*it)[5] = z + 1;
+        next.push_back(*it);
+        open.erase(it);
+      } else {
+        next.push_back(q);
+      }
+    }
+    for (const auto& o : open) // not continued in this layer: done
+      addVoxelBox(index, r,
+                  {bx * BLOCK + o[0], bx * BLOCK + o[1], by * BLOCK + o[2],
+                   by * BLOCK + o[3], bz * BLOCK + o[4], bz * BLOCK + o[5]});
+    open.swap(next);
+  }
 }
 
 std::uint32_t
@@ -217,20 +280,28 @@ buildIndex(const PlanarGridMap& map, bool unknown_is_occupied)
   // the whole outside). With the free prior it is the occluded voxels stored.
   const bool complement = unknown_is_occupied && unknown_prior;
   std::unordered_map<std::int64_t, Mask> obstacle, known;
+  // The voxels come block by block: the masks of the current block are looked up once.
+  std::int64_t last_key = std::numeric_limits<std::int64_t>::min();
+  Mask* last_known = nullptr;
+  Mask* last_obstacle = nullptr;
   space.forEachVoxel([&](const ExplicitSpaceGrid::VoxelKey& k, SpaceState s) {
+    const bool is_obstacle =
+      s == SpaceState::OCCUPIED || (unknown_is_occupied && s == SpaceState::UNKNOWN);
+    if (!is_obstacle && !complement)
+      return;
     const int bx = blockOf(k.x()), by = blockOf(k.y()), bz = blockOf(k.z());
     const int lx = k.x() - bx * BLOCK, ly = k.y() - by * BLOCK, lz = k.z() - bz * BLOCK;
     const std::uint64_t bit = std::uint64_t{1} << (lx + BLOCK * ly);
     const std::int64_t key = packBlock(bx, by, bz);
-    if (complement)
-      known[key][static_cast<std::size_t>(lz)] |= bit;
-    const bool is_obstacle =
-      s == SpaceState::OCCUPIED || (unknown_is_occupied && s == SpaceState::UNKNOWN);
-    if (is_obstacle || complement) {
-      auto& m = obstacle[key];
-      if (is_obstacle)
-        m[static_cast<std::size_t>(lz)] |= bit;
+    if (key != last_key) {
+      last_key = key;
+      last_obstacle = &obstacle[key];
+      last_known = complement ? &known[key] : nullptr;
     }
+    if (complement)
+      (*last_known)[static_cast<std::size_t>(lz)] |= bit;
+    if (is_obstacle)
+      (*last_obstacle)[static_cast<std::size_t>(lz)] |= bit;
   });
 
   std::vector<std::int64_t> blocks;
@@ -297,24 +368,7 @@ buildIndex(const PlanarGridMap& map, bool unknown_is_occupied)
       i = j;
       continue;
     }
-    for (int z = 0; z < BLOCK; ++z)
-      for (int y = 0; y < BLOCK; ++y) {
-        const auto row = static_cast<unsigned>(
-          (m[static_cast<std::size_t>(z)] >> (BLOCK * y)) & 0xFFu);
-        int x = 0;
-        while (x < BLOCK) {
-          if (!(row & (1u << x))) {
-            ++x;
-            continue;
-          }
-          int e = x;
-          while (e < BLOCK && (row & (1u << e)))
-            ++e;
-          addVoxelRun(*index, r, bx * BLOCK + x, bx * BLOCK + e, by * BLOCK + y,
-                      bz * BLOCK + z);
-          x = e;
-        }
-      }
+    addBlockBoxes(*index, r, m, bx, by, bz);
     ++i;
   }
   buildHierarchy(*index);
