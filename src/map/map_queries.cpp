@@ -5,6 +5,7 @@
 // indexed by a bounding-volume hierarchy built on the first query.
 #include <planar_grid/core/atomic_file.h>
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/map/map_region_index.h>
 #include <planar_grid/map/planar_grid_map.h>
 
 #include <sys/stat.h>
@@ -254,10 +255,21 @@ buildHierarchy(ObstacleIndex& index)
 
 /** \brief Gathers the obstacles of \a map for one mode. */
 std::unique_ptr<ObstacleIndex>
-buildIndex(const PlanarGridMap& map, bool unknown_is_occupied)
+buildIndex(const PlanarGridMap& map,
+           bool unknown_is_occupied,
+           const Eigen::AlignedBox3f* keep = nullptr)
 {
   auto index = std::make_unique<ObstacleIndex>();
+  // With keep, the obstacles whose bounding box misses it are left out, voxels by
+  // whole blocks (block keys [keep_lo, keep_hi]).
+  Eigen::Vector3i keep_lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
+  Eigen::Vector3i keep_hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
   const double r = map.getResolution();
+  if (keep != nullptr)
+    for (int k = 0; k < 3; ++k) {
+      keep_lo[k] = blockOf(static_cast<int>(std::floor(keep->min()[k] / r)));
+      keep_hi[k] = blockOf(static_cast<int>(std::floor(keep->max()[k] / r)));
+    }
   const auto thres =
     static_cast<float>(map.getSurfaceLayer().getParams().occupancy_thres);
   for (const PlanarCuboid& c : map.getSurfaceLayer().getCuboids()) {
@@ -270,6 +282,12 @@ buildIndex(const PlanarGridMap& map, bool unknown_is_occupied)
     b.centre = c.centre;
     b.half = 0.5f * Eigen::Vector3f(c.width_m, c.height_m, c.thickness_m);
     b.aligned = false;
+    if (keep != nullptr) {
+      const Eigen::Vector3f h = b.aabbHalf();
+      if (((b.centre + h).array() < keep->min().array()).any()
+          || ((b.centre - h).array() > keep->max().array()).any())
+        continue;
+    }
     index->boxes.push_back(b);
   }
 
@@ -290,6 +308,9 @@ buildIndex(const PlanarGridMap& map, bool unknown_is_occupied)
     if (!is_obstacle && !complement)
       return;
     const int bx = blockOf(k.x()), by = blockOf(k.y()), bz = blockOf(k.z());
+    if (bx < keep_lo.x() || by < keep_lo.y() || bz < keep_lo.z() || bx > keep_hi.x()
+        || by > keep_hi.y() || bz > keep_hi.z())
+      return;
     const int lx = k.x() - bx * BLOCK, ly = k.y() - by * BLOCK, lz = k.z() - bz * BLOCK;
     const std::uint64_t bit = std::uint64_t{1} << (lx + BLOCK * ly);
     const std::int64_t key = packBlock(bx, by, bz);
@@ -315,9 +336,12 @@ buildIndex(const PlanarGridMap& map, bool unknown_is_occupied)
     index->known_lo = (lo.cast<double>() * r).cast<float>();
     index->known_hi = ((hi.cast<double>() + Eigen::Vector3d::Ones()) * r).cast<float>();
     // Every block inside the bounds: never-observed blocks are whole obstacles.
-    for (int bz = blockOf(lo.z()); bz <= blockOf(hi.z()); ++bz)
-      for (int by = blockOf(lo.y()); by <= blockOf(hi.y()); ++by)
-        for (int bx = blockOf(lo.x()); bx <= blockOf(hi.x()); ++bx) {
+    for (int bz = std::max(blockOf(lo.z()), keep_lo.z());
+         bz <= std::min(blockOf(hi.z()), keep_hi.z()); ++bz)
+      for (int by = std::max(blockOf(lo.y()), keep_lo.y());
+           by <= std::min(blockOf(hi.y()), keep_hi.y()); ++by)
+        for (int bx = std::max(blockOf(lo.x()), keep_lo.x());
+             bx <= std::min(blockOf(hi.x()), keep_hi.x()); ++bx) {
           const std::int64_t key = packBlock(bx, by, bz);
           auto& m = obstacle[key];
           const auto it = known.find(key);
@@ -325,6 +349,7 @@ buildIndex(const PlanarGridMap& map, bool unknown_is_occupied)
             m[z] |= it == known.end() ? ~std::uint64_t{0} : ~it->second[z];
         }
   }
+  index->boxes.reserve(index->boxes.size() + 8 * obstacle.size());
   blocks.reserve(obstacle.size());
   for (const auto& kv : obstacle)
     blocks.push_back(kv.first);
@@ -575,6 +600,71 @@ bodyCollides(const ObstacleIndex& index, const CollisionBody& body)
 
 } // namespace
 
+/** \brief Distances of the points at the index (NaN for non-finite points and, with
+ * \a region, points outside it). */
+void
+distancesOf(const ObstacleIndex& index,
+            const Eigen::Ref<const Eigen::Matrix3Xf>& points,
+            float cap,
+            Eigen::Ref<Eigen::VectorXf> distances,
+            Eigen::Ref<Eigen::Matrix3Xf> gradients,
+            const Eigen::AlignedBox3f* region)
+{
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (Eigen::Index i = 0; i < points.cols(); ++i) {
+    const Eigen::Vector3f p = points.col(i);
+    if (!p.allFinite() || (region != nullptr && !region->contains(p))) {
+      distances[i] = nan;
+      gradients.col(i).setConstant(nan);
+      continue;
+    }
+    Eigen::Vector3f g;
+    distances[i] = queryPoint(index, p, cap, g);
+    gradients.col(i) = g;
+  }
+}
+
+/** \brief Free (1) or not (0) per body; with \a region, bodies whose bounding box
+ * leaves it are not free. */
+std::vector<std::uint8_t>
+collisionsOf(const ObstacleIndex& index,
+             const CollisionBodies& bodies,
+             const Eigen::AlignedBox3f* region)
+{
+  std::vector<std::uint8_t> free(bodies.size(), 0);
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    const CollisionBody& b = bodies[i];
+    const bool is_box = b.shape == CollisionBody::Shape::BOX;
+    const bool valid = b.centre.allFinite()
+                       && (is_box ? b.rotation.allFinite() && b.half_extents.allFinite()
+                                      && (b.half_extents.array() >= 0.0f).all()
+                                  : std::isfinite(b.radius_m) && b.radius_m >= 0.0f);
+    if (!valid)
+      continue;
+    if (region != nullptr) {
+      const Eigen::Vector3f h =
+        is_box ? Eigen::Vector3f(b.rotation.cwiseAbs() * b.half_extents)
+               : Eigen::Vector3f::Constant(b.radius_m);
+      if (!region->contains(b.centre - h) || !region->contains(b.centre + h))
+        continue;
+    }
+    free[i] = bodyCollides(index, b) ? 0 : 1;
+  }
+  return free;
+}
+
+void
+checkSizes(const char* what,
+           Eigen::Index points,
+           Eigen::Index distances,
+           Eigen::Index gradients)
+{
+  if (distances != points || gradients != points)
+    throw Exception(std::string(what) + ": " + std::to_string(points)
+                    + " points but room for " + std::to_string(distances)
+                    + " distances and " + std::to_string(gradients) + " gradients");
+}
+
 const ObstacleIndex&
 getIndex(const std::shared_ptr<QueryCache>& cache,
          const PlanarGridMap& map,
@@ -613,25 +703,11 @@ PlanarGridMap::getDistance(const Eigen::Ref<const Eigen::Matrix3Xf>& points,
       "PlanarGridMap::getDistance: max_distance_m must be finite and > 0, "
       "got "
       + std::to_string(max_distance_m));
-  if (distances.size() != points.cols() || gradients.cols() != points.cols())
-    throw Exception("PlanarGridMap::getDistance: " + std::to_string(points.cols())
-                    + " points but room for " + std::to_string(distances.size())
-                    + " distances and " + std::to_string(gradients.cols())
-                    + " gradients");
+  map_queries::checkSizes("PlanarGridMap::getDistance", points.cols(), distances.size(),
+                          gradients.cols());
   const auto& index = map_queries::getIndex(query_cache_, *this, unknown_is_occupied);
-  const auto cap = static_cast<float>(max_distance_m);
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  for (Eigen::Index i = 0; i < points.cols(); ++i) {
-    const Eigen::Vector3f p = points.col(i);
-    if (!p.allFinite()) {
-      distances[i] = nan;
-      gradients.col(i).setConstant(nan);
-      continue;
-    }
-    Eigen::Vector3f g;
-    distances[i] = map_queries::queryPoint(index, p, cap, g);
-    gradients.col(i) = g;
-  }
+  map_queries::distancesOf(index, points, static_cast<float>(max_distance_m), distances,
+                           gradients, nullptr);
 }
 
 std::vector<std::uint8_t>
@@ -639,17 +715,56 @@ PlanarGridMap::isCollisionFree(const CollisionBodies& bodies,
                                bool unknown_is_occupied) const
 {
   const auto& index = map_queries::getIndex(query_cache_, *this, unknown_is_occupied);
-  std::vector<std::uint8_t> free(bodies.size(), 0);
-  for (std::size_t i = 0; i < bodies.size(); ++i) {
-    const CollisionBody& b = bodies[i];
-    const bool is_box = b.shape == CollisionBody::Shape::BOX;
-    const bool valid = b.centre.allFinite()
-                       && (is_box ? b.rotation.allFinite() && b.half_extents.allFinite()
-                                      && (b.half_extents.array() >= 0.0f).all()
-                                  : std::isfinite(b.radius_m) && b.radius_m >= 0.0f);
-    free[i] = valid && !map_queries::bodyCollides(index, b) ? 1 : 0;
-  }
-  return free;
+  return map_queries::collisionsOf(index, bodies, nullptr);
+}
+
+MapRegionIndex::MapRegionIndex(const PlanarGridMap& map,
+                               const Eigen::Vector3f& min_m,
+                               const Eigen::Vector3f& max_m,
+                               double max_distance_m,
+                               bool unknown_is_occupied) :
+    min_(min_m),
+    max_(max_m), max_distance_m_(static_cast<float>(max_distance_m))
+{
+  if (!min_m.allFinite() || !max_m.allFinite()
+      || !(max_m.array() > min_m.array()).all())
+    throw Exception("MapRegionIndex: the region needs finite corners min_m < max_m");
+  if (!(max_distance_m > 0.0) || !std::isfinite(max_distance_m))
+    throw Exception("MapRegionIndex: max_distance_m must be finite and > 0, got "
+                    + std::to_string(max_distance_m));
+  const Eigen::AlignedBox3f keep(min_m - Eigen::Vector3f::Constant(max_distance_m_),
+                                 max_m + Eigen::Vector3f::Constant(max_distance_m_));
+  index_ = map_queries::buildIndex(map, unknown_is_occupied, &keep);
+}
+
+MapRegionIndex::~MapRegionIndex() = default;
+MapRegionIndex::MapRegionIndex(MapRegionIndex&&) noexcept = default;
+MapRegionIndex& MapRegionIndex::operator=(MapRegionIndex&&) noexcept = default;
+
+void
+MapRegionIndex::getDistance(const Eigen::Ref<const Eigen::Matrix3Xf>& points,
+                            Eigen::Ref<Eigen::VectorXf> distances,
+                            Eigen::Ref<Eigen::Matrix3Xf> gradients) const
+{
+  map_queries::checkSizes("MapRegionIndex::getDistance", points.cols(),
+                          distances.size(), gradients.cols());
+  const Eigen::AlignedBox3f region(min_, max_);
+  map_queries::distancesOf(*index_, points, max_distance_m_, distances, gradients,
+                           &region);
+}
+
+std::vector<std::uint8_t>
+MapRegionIndex::isCollisionFree(const CollisionBodies& bodies) const
+{
+  const Eigen::AlignedBox3f grown(min_ - Eigen::Vector3f::Constant(max_distance_m_),
+                                  max_ + Eigen::Vector3f::Constant(max_distance_m_));
+  return map_queries::collisionsOf(*index_, bodies, &grown);
+}
+
+std::size_t
+MapRegionIndex::getObstacleCount() const
+{
+  return index_->boxes.size();
 }
 
 } // namespace planar_grid

@@ -9,6 +9,7 @@
 // - collision: 100,000 robot boxes (1.0 x 0.6 x 1.5 m) at random poses on the street.
 // The map folder is PLANAR_GRID_MAP_DIR (default: output/karlsruhe of the source tree),
 // holding map.pgmap, map.bt and trajectory.txt of a main job run.
+#include <planar_grid/map/map_region_index.h>
 #include <planar_grid/map/planar_grid_map.h>
 
 #include <benchmark/benchmark.h>
@@ -182,6 +183,33 @@ BM_Distance_PlanarGrid_BuildAndQuery(benchmark::State& state)
   state.counters["mean_distance_m"] = static_cast<double>(d.mean());
 }
 BENCHMARK(BM_Distance_PlanarGrid_BuildAndQuery)->Unit(benchmark::kMillisecond);
+
+/** MapRegionIndex over the region (the obstacles within the cap of it, as a distance
+ * transform over its bounding box), built and queried. */
+void
+BM_Distance_PlanarGridRegion_BuildAndQuery(benchmark::State& state)
+{
+  const Scene& s = scene();
+  REQUIRE_SCENE(s)
+  Eigen::VectorXf d(s.points.cols());
+  Eigen::Matrix3Xf g(3, s.points.cols());
+  std::size_t obstacles = 0;
+  for (auto _ : state) {
+    const planar_grid::MapRegionIndex index(*s.map, s.region_lo, s.region_hi,
+                                            MAX_DISTANCE_M);
+    index.getDistance(s.points, d, g);
+    obstacles = index.getObstacleCount();
+    benchmark::DoNotOptimize(d.data());
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(QUERIES));
+  state.counters["obstacles"] = static_cast<double>(obstacles);
+  // the same distances as the whole map's index
+  Eigen::VectorXf whole(s.points.cols());
+  s.map->getDistance(s.points, MAX_DISTANCE_M, whole, g);
+  state.counters["max_diff_to_whole_map_m"] =
+    static_cast<double>((whole - d).cwiseAbs().maxCoeff());
+}
+BENCHMARK(BM_Distance_PlanarGridRegion_BuildAndQuery)->Unit(benchmark::kMillisecond);
 
 /** The queries alone, on the built hierarchy. */
 void

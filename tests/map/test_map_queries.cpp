@@ -4,6 +4,7 @@
 // every occupied cuboid and voxel on random maps and a real Karlsruhe frame, and the
 // 2D map read back the way ROS map_server reads it.
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/map/map_region_index.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 #include <planar_grid/surface/planar_cuboid_approximation.h>
@@ -955,6 +956,56 @@ TEST(MapQueries, BandAboveTheTerrainTheViewsSaw)
   };
   EXPECT_EQ(at(1.55, 1.25), OccupancyGrid2D::OCCUPIED);
   EXPECT_EQ(at(0.55, 0.55), OccupancyGrid2D::FREE);
+}
+
+} // namespace
+} // namespace planar_grid
+
+namespace planar_grid {
+namespace {
+
+TEST(MapQueries, RegionIndexAnswersAsTheWholeMapInsideItsRegion)
+{
+  std::mt19937 rng(5);
+  for (const bool unknown : {false, true}) {
+    const PlanarGridMap map = randomMap(rng, SpaceState::UNKNOWN);
+    const Eigen::Vector3f lo(1.0f, 1.5f, 0.2f), hi(3.5f, 4.0f, 1.2f);
+    const MapRegionIndex region(map, lo, hi, 1.0, unknown);
+    EXPECT_GT(region.getObstacleCount(), 0u);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    Eigen::Matrix3Xf points(3, 500);
+    for (Eigen::Index i = 0; i < points.cols(); ++i)
+      points.col(i) =
+        lo + Eigen::Vector3f(u(rng), u(rng), u(rng)).cwiseProduct(hi - lo);
+    points.col(0) = Eigen::Vector3f(5.0f, 5.0f, 0.5f); // outside
+    Eigen::VectorXf d(points.cols()), whole(points.cols());
+    Eigen::Matrix3Xf g(3, points.cols()), whole_g(3, points.cols());
+    region.getDistance(points, d, g);
+    map.getDistance(points, 1.0, whole, whole_g, unknown);
+    EXPECT_TRUE(std::isnan(d[0]));
+    for (Eigen::Index i = 1; i < points.cols(); ++i) {
+      ASSERT_NEAR(d[i], whole[i], 1e-6f) << i;
+      if (whole[i] > 1e-4f && whole[i] < 1.0f) {
+        EXPECT_GT(g.col(i).dot(whole_g.col(i)), 0.9998f) << i;
+      }
+    }
+    CollisionBodies bodies;
+    for (int i = 0; i < 200; ++i)
+      bodies.push_back(CollisionBody::box(
+        lo + Eigen::Vector3f(u(rng), u(rng), u(rng)).cwiseProduct(hi - lo),
+        Eigen::Vector3f::Constant(0.3f * u(rng)), randomRotation(rng)));
+    EXPECT_EQ(region.isCollisionFree(bodies), map.isCollisionFree(bodies, unknown));
+    // a body reaching beyond the region grown by the cap is not known free
+    const CollisionBodies far = {CollisionBody::sphere(hi, 1.5f)};
+    EXPECT_EQ(region.isCollisionFree(far)[0], 0);
+  }
+  PlanarGridMap empty(mapParams(SpaceState::FREE));
+  EXPECT_THROW(
+    MapRegionIndex(empty, Eigen::Vector3f::Ones(), Eigen::Vector3f::Zero(), 1.0),
+    Exception);
+  EXPECT_THROW(
+    MapRegionIndex(empty, Eigen::Vector3f::Zero(), Eigen::Vector3f::Ones(), 0.0),
+    Exception);
 }
 
 } // namespace
