@@ -212,17 +212,17 @@ PlanarGridMap::computeOccupancyGrid2D(const OccupancyGrid2DParams& params) const
   if (params.above_terrain) {
     // The terrain the space layer saw, where no walkable terrain cuboid is.
     std::vector<float> seen(n, std::numeric_limits<float>::quiet_NaN());
-    space_.forEachVoxel([&](const ExplicitSpaceGrid::VoxelKey& key, SpaceState s) {
-      if (s != SpaceState::OCCUPIED
-          || space_.getState(ExplicitSpaceGrid::VoxelKey(key.x(), key.y(), key.z() + 1))
-               != SpaceState::FREE)
-        return;
-      const auto top = static_cast<float>((key.z() + 1) * vr);
-      forFootprint(key, [&](std::size_t k) {
-        if (!(seen[k] <= top))
-          seen[k] = top;
+    space_.forEachVoxelIn(
+      SpaceState::OCCUPIED, [&](const ExplicitSpaceGrid::VoxelKey& key) {
+        if (space_.getState(ExplicitSpaceGrid::VoxelKey(key.x(), key.y(), key.z() + 1))
+            != SpaceState::FREE)
+          return;
+        const auto top = static_cast<float>((key.z() + 1) * vr);
+        forFootprint(key, [&](std::size_t k) {
+          if (!(seen[k] <= top))
+            seen[k] = top;
+        });
       });
-    });
     const int tile =
       std::max(1, static_cast<int>(std::lround(params.terrain_tile_m / r)));
     std::vector<float> values;

@@ -302,11 +302,7 @@ buildIndex(const PlanarGridMap& map,
   std::int64_t last_key = std::numeric_limits<std::int64_t>::min();
   Mask* last_known = nullptr;
   Mask* last_obstacle = nullptr;
-  space.forEachVoxel([&](const ExplicitSpaceGrid::VoxelKey& k, SpaceState s) {
-    const bool is_obstacle =
-      s == SpaceState::OCCUPIED || (unknown_is_occupied && s == SpaceState::UNKNOWN);
-    if (!is_obstacle && !complement)
-      return;
+  const auto mark = [&](const ExplicitSpaceGrid::VoxelKey& k, bool is_obstacle) {
     const int bx = blockOf(k.x()), by = blockOf(k.y()), bz = blockOf(k.z());
     if (bx < keep_lo.x() || by < keep_lo.y() || bz < keep_lo.z() || bx > keep_hi.x()
         || by > keep_hi.y() || bz > keep_hi.z())
@@ -323,7 +319,17 @@ buildIndex(const PlanarGridMap& map,
       (*last_known)[static_cast<std::size_t>(lz)] |= bit;
     if (is_obstacle)
       (*last_obstacle)[static_cast<std::size_t>(lz)] |= bit;
-  });
+  };
+  // Only the states that matter are visited: whole blocks of free space are skipped
+  // unless the free voxels are needed (to complement them).
+  space.forEachVoxelIn(SpaceState::OCCUPIED,
+                       [&](const ExplicitSpaceGrid::VoxelKey& k) { mark(k, true); });
+  if (complement)
+    space.forEachVoxelIn(SpaceState::FREE,
+                         [&](const ExplicitSpaceGrid::VoxelKey& k) { mark(k, false); });
+  else if (unknown_is_occupied)
+    space.forEachVoxelIn(SpaceState::UNKNOWN,
+                         [&](const ExplicitSpaceGrid::VoxelKey& k) { mark(k, true); });
 
   std::vector<std::int64_t> blocks;
   if (complement) {
