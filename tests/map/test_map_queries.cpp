@@ -1010,3 +1010,29 @@ TEST(MapQueries, RegionIndexAnswersAsTheWholeMapInsideItsRegion)
 
 } // namespace
 } // namespace planar_grid
+
+namespace planar_grid {
+namespace {
+
+TEST(MapQueries, ForEachVoxelInVisitsExactlyTheVoxelsOfOneState)
+{
+  std::mt19937 rng(9);
+  for (const SpaceState prior : {SpaceState::UNKNOWN, SpaceState::FREE}) {
+    const PlanarGridMap map = randomMap(rng, prior);
+    const ExplicitSpaceGrid& space = map.getSpaceLayer();
+    for (const SpaceState state :
+         {SpaceState::FREE, SpaceState::OCCUPIED, SpaceState::UNKNOWN}) {
+      std::vector<Eigen::Vector3i> all, in;
+      space.forEachVoxel([&](const Eigen::Vector3i& k, SpaceState s) {
+        if (s == state)
+          all.push_back(k);
+      });
+      space.forEachVoxelIn(state, [&](const Eigen::Vector3i& k) { in.push_back(k); });
+      EXPECT_EQ(in, all) << toString(state) << " prior " << toString(prior);
+      EXPECT_EQ(in.size(), space.getVoxelCount(state));
+    }
+  }
+}
+
+} // namespace
+} // namespace planar_grid
