@@ -2,6 +2,7 @@
 // PlanarGridMap: construction, the map file, point and ray queries on numpy arrays, its
 // cuboids, planes and memory; SpaceState as a Python IntEnum.
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/map/map_region_index.h>
 #include <planar_grid/map/planar_grid_map.h>
 
 #include <pybind11/stl.h>
@@ -85,6 +86,109 @@ paramsDict(const PlanarGridMap::Params& p)
   d["merge_rule"] = toString(p.surface.merge_rule);
   d["cover_density"] = p.surface.cover_density;
   return d;
+}
+
+/** Bodies from numpy arrays: centres (N, 3) and either half_extents ((N, 3) or (3,))
+ * with rotations ((N, 3, 3) or (3, 3)) or yaw ((N,) or scalar), or radii ((N,) or
+ * scalar). */
+CollisionBodies
+toBodies(const FloatArray& centres,
+         const py::object& half_extents,
+         const py::object& rotations,
+         const py::object& yaw,
+         const py::object& radii)
+{
+  if (centres.ndim() != 2 || centres.shape(1) != 3)
+    throw py::value_error("centres must be an (N, 3) array of x, y, z in meters");
+  const py::ssize_t n = centres.shape(0);
+  const auto c = centres.unchecked<2>();
+  CollisionBodies bodies(static_cast<std::size_t>(n));
+  const bool spheres = !radii.is_none();
+  if (spheres == !half_extents.is_none())
+    throw py::value_error("give half_extents (boxes) or radii (spheres), not both");
+  if (spheres && (!rotations.is_none() || !yaw.is_none()))
+    throw py::value_error("rotations and yaw apply to boxes only");
+  if (!rotations.is_none() && !yaw.is_none())
+    throw py::value_error("give rotations or yaw, not both");
+  // A per-body array of shape (N, ...) or one value shared by every body.
+  const auto perBody = [n](const FloatArray& a, py::ssize_t row_size,
+                           const char* name) {
+    const py::ssize_t rows = a.size() / std::max<py::ssize_t>(row_size, 1);
+    if (a.size() == row_size)
+      return false;
+    if (rows != n || a.size() != n * row_size || a.shape(0) != n)
+      throw py::value_error(std::string(name)
+                            + " must hold one value for all bodies "
+                              "or one per body (first axis N = "
+                            + std::to_string(n) + ")");
+    return true;
+  };
+  if (spheres) {
+    const FloatArray r = FloatArray::ensure(radii);
+    const bool each = perBody(r, 1, "radii");
+    for (py::ssize_t i = 0; i < n; ++i)
+      bodies[static_cast<std::size_t>(i)] = CollisionBody::sphere(
+        Eigen::Vector3f(c(i, 0), c(i, 1), c(i, 2)), r.data()[each ? i : 0]);
+  } else {
+    const FloatArray h = FloatArray::ensure(half_extents);
+    const bool each_h = perBody(h, 3, "half_extents");
+    FloatArray rot, yaws;
+    bool each_r = false;
+    const bool has_rot = !rotations.is_none(), has_yaw = !yaw.is_none();
+    if (has_rot) {
+      rot = FloatArray::ensure(rotations);
+      each_r = perBody(rot, 9, "rotations");
+    }
+    if (has_yaw) {
+      yaws = FloatArray::ensure(yaw);
+      each_r = perBody(yaws, 1, "yaw");
+    }
+    for (py::ssize_t i = 0; i < n; ++i) {
+      const float* hp = h.data() + (each_h ? 3 * i : 0);
+      Eigen::Matrix3f r = Eigen::Matrix3f::Identity();
+      if (has_rot) {
+        const float* rp = rot.data() + (each_r ? 9 * i : 0);
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            r(a, b) = rp[3 * a + b];
+      } else if (has_yaw) {
+        r = Eigen::AngleAxisf(yaws.data()[each_r ? i : 0], Eigen::Vector3f::UnitZ())
+              .toRotationMatrix();
+      }
+      bodies[static_cast<std::size_t>(i)] =
+        CollisionBody::box(Eigen::Vector3f(c(i, 0), c(i, 1), c(i, 2)),
+                           Eigen::Vector3f(hp[0], hp[1], hp[2]), r);
+    }
+  }
+  return bodies;
+}
+
+/** A (N,) bool array of free bodies. */
+py::array_t<bool>
+toFreeArray(const std::vector<std::uint8_t>& free)
+{
+  py::array_t<bool> out(static_cast<py::ssize_t>(free.size()));
+  bool* o = out.mutable_data();
+  for (std::size_t i = 0; i < free.size(); ++i)
+    o[i] = free[i] != 0;
+  return out;
+}
+
+/** (distances (N,), gradients (N, 3)) as float64 arrays. */
+py::tuple
+toDistanceArrays(const Eigen::VectorXf& d, const Eigen::Matrix3Xf& g)
+{
+  const Eigen::Index n = d.size();
+  py::array_t<double> distances(static_cast<py::ssize_t>(n));
+  py::array_t<double> gradients({static_cast<py::ssize_t>(n), py::ssize_t{3}});
+  double* dd = distances.mutable_data();
+  double* gg = gradients.mutable_data();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    dd[i] = d[i];
+    for (int k = 0; k < 3; ++k)
+      gg[3 * i + k] = g(k, i);
+  }
+  return py::make_tuple(distances, gradients);
 }
 
 } // namespace
@@ -349,16 +453,7 @@ points : numpy.ndarray, shape (N, 3), float64
           py::gil_scoped_release release;
           self.getDistance(p, max_distance_m, d, g, unknown_is_occupied);
         }
-        py::array_t<double> distances(static_cast<py::ssize_t>(n));
-        py::array_t<double> gradients({static_cast<py::ssize_t>(n), py::ssize_t{3}});
-        double* dd = distances.mutable_data();
-        double* gg = gradients.mutable_data();
-        for (Eigen::Index i = 0; i < n; ++i) {
-          dd[i] = d[i];
-          for (int k = 0; k < 3; ++k)
-            gg[3 * i + k] = g(k, i);
-        }
-        return py::make_tuple(distances, gradients);
+        return toDistanceArrays(d, g);
       },
       py::arg("points"), py::arg("max_distance_m"),
       py::arg("unknown_is_occupied") = false,
@@ -393,80 +488,14 @@ gradients : numpy.ndarray, shape (N, 3), float64
       [](const Map& self, const FloatArray& centres, const py::object& half_extents,
          const py::object& rotations, const py::object& yaw, const py::object& radii,
          bool unknown_is_occupied) {
-        if (centres.ndim() != 2 || centres.shape(1) != 3)
-          throw py::value_error("centres must be an (N, 3) array of x, y, z in meters");
-        const py::ssize_t n = centres.shape(0);
-        const auto c = centres.unchecked<2>();
-        CollisionBodies bodies(static_cast<std::size_t>(n));
-        const bool spheres = !radii.is_none();
-        if (spheres == !half_extents.is_none())
-          throw py::value_error(
-            "give half_extents (boxes) or radii (spheres), not both");
-        if (spheres && (!rotations.is_none() || !yaw.is_none()))
-          throw py::value_error("rotations and yaw apply to boxes only");
-        if (!rotations.is_none() && !yaw.is_none())
-          throw py::value_error("give rotations or yaw, not both");
-        // A per-body array of shape (N, ...) or one value shared by every body.
-        const auto perBody = [n](const FloatArray& a, py::ssize_t row_size,
-                                 const char* name) {
-          const py::ssize_t rows = a.size() / std::max<py::ssize_t>(row_size, 1);
-          if (a.size() == row_size)
-            return false;
-          if (rows != n || a.size() != n * row_size || a.shape(0) != n)
-            throw py::value_error(std::string(name)
-                                  + " must hold one value for all bodies "
-                                    "or one per body (first axis N = "
-                                  + std::to_string(n) + ")");
-          return true;
-        };
-        if (spheres) {
-          const FloatArray r = FloatArray::ensure(radii);
-          const bool each = perBody(r, 1, "radii");
-          for (py::ssize_t i = 0; i < n; ++i)
-            bodies[static_cast<std::size_t>(i)] = CollisionBody::sphere(
-              Eigen::Vector3f(c(i, 0), c(i, 1), c(i, 2)), r.data()[each ? i : 0]);
-        } else {
-          const FloatArray h = FloatArray::ensure(half_extents);
-          const bool each_h = perBody(h, 3, "half_extents");
-          FloatArray rot, yaws;
-          bool each_r = false;
-          const bool has_rot = !rotations.is_none(), has_yaw = !yaw.is_none();
-          if (has_rot) {
-            rot = FloatArray::ensure(rotations);
-            each_r = perBody(rot, 9, "rotations");
-          }
-          if (has_yaw) {
-            yaws = FloatArray::ensure(yaw);
-            each_r = perBody(yaws, 1, "yaw");
-          }
-          for (py::ssize_t i = 0; i < n; ++i) {
-            const float* hp = h.data() + (each_h ? 3 * i : 0);
-            Eigen::Matrix3f r = Eigen::Matrix3f::Identity();
-            if (has_rot) {
-              const float* rp = rot.data() + (each_r ? 9 * i : 0);
-              for (int a = 0; a < 3; ++a)
-                for (int b = 0; b < 3; ++b)
-                  r(a, b) = rp[3 * a + b];
-            } else if (has_yaw) {
-              r =
-                Eigen::AngleAxisf(yaws.data()[each_r ? i : 0], Eigen::Vector3f::UnitZ())
-                  .toRotationMatrix();
-            }
-            bodies[static_cast<std::size_t>(i)] =
-              CollisionBody::box(Eigen::Vector3f(c(i, 0), c(i, 1), c(i, 2)),
-                                 Eigen::Vector3f(hp[0], hp[1], hp[2]), r);
-          }
-        }
+        const CollisionBodies bodies =
+          toBodies(centres, half_extents, rotations, yaw, radii);
         std::vector<std::uint8_t> free;
         {
           py::gil_scoped_release release;
           free = self.isCollisionFree(bodies, unknown_is_occupied);
         }
-        py::array_t<bool> out(n);
-        bool* o = out.mutable_data();
-        for (py::ssize_t i = 0; i < n; ++i)
-          o[i] = free[static_cast<std::size_t>(i)] != 0;
-        return out;
+        return toFreeArray(free);
       },
       py::arg("centres"), py::kw_only(), py::arg("half_extents") = py::none(),
       py::arg("rotations") = py::none(), py::arg("yaw") = py::none(),
@@ -838,6 +867,73 @@ numpy.ndarray, shape (N, 3), float64
       [](const py::bytes& bytes) {
         return std::make_shared<Map>(Map::deserialize(bytes, "<pickle>"));
       }));
+
+  py::class_<MapRegionIndex>(
+    m, "MapRegionIndex",
+    R"doc(The distance and collision queries of a map over one region (a planner's local
+window): only the obstacles within max_distance_m of the box are indexed, so building it
+costs what the region holds. Inside the region the answers are the map's; it is a
+snapshot (later changes of the map are not seen).
+
+Parameters
+----------
+map : PlanarGridMap
+min_m, max_m : array_like, shape (3,)
+    The region's corners, meters.
+max_distance_m : float
+    The distance cap, meters.
+unknown_is_occupied : bool
+    Count unknown space as an obstacle.
+)doc")
+    .def(py::init([](const Map& map, const DoubleArray& min_m, const DoubleArray& max_m,
+                     double max_distance_m, bool unknown_is_occupied) {
+           const Eigen::Vector3f lo = toVector3f(min_m, "min_m");
+           const Eigen::Vector3f hi = toVector3f(max_m, "max_m");
+           py::gil_scoped_release release;
+           return std::make_unique<MapRegionIndex>(map, lo, hi, max_distance_m,
+                                                   unknown_is_occupied);
+         }),
+         py::arg("map"), py::arg("min_m"), py::arg("max_m"), py::arg("max_distance_m"),
+         py::arg("unknown_is_occupied") = false)
+    .def(
+      "get_distance",
+      [](const MapRegionIndex& self, const FloatArray& points) {
+        if (points.ndim() != 2 || points.shape(1) != 3)
+          throw py::value_error("points must be an (N, 3) array of x, y, z in meters");
+        const Eigen::Index n = points.shape(0);
+        Eigen::VectorXf d(n);
+        Eigen::Matrix3Xf g(3, n);
+        {
+          const Eigen::Map<const Eigen::Matrix3Xf> p(points.data(), 3, n);
+          py::gil_scoped_release release;
+          self.getDistance(p, d, g);
+        }
+        return toDistanceArrays(d, g);
+      },
+      py::arg("points"),
+      "PlanarGridMap.get_distance() with the index's cap: (distances (N,), gradients "
+      "(N, 3)); NaN for points outside the region.")
+    .def(
+      "is_collision_free",
+      [](const MapRegionIndex& self, const FloatArray& centres,
+         const py::object& half_extents, const py::object& rotations,
+         const py::object& yaw, const py::object& radii) {
+        const CollisionBodies bodies =
+          toBodies(centres, half_extents, rotations, yaw, radii);
+        std::vector<std::uint8_t> free;
+        {
+          py::gil_scoped_release release;
+          free = self.isCollisionFree(bodies);
+        }
+        return toFreeArray(free);
+      },
+      py::arg("centres"), py::kw_only(), py::arg("half_extents") = py::none(),
+      py::arg("rotations") = py::none(), py::arg("yaw") = py::none(),
+      py::arg("radii") = py::none(),
+      "PlanarGridMap.is_collision_free() (the same arguments); a body reaching beyond "
+      "the region grown by the cap is not free.")
+    .def_property_readonly("obstacle_count", &MapRegionIndex::getObstacleCount,
+                           "Number of obstacle boxes indexed.");
 }
 
 } // namespace python

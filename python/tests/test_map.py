@@ -232,3 +232,20 @@ def test_export_occupancy_grid_2d_reads_back_as_map_server(scanned_map, tmp_path
         m.export_occupancy_grid_2d(tmp_path / "map.png")
     with pytest.raises(pg.Error):
         m.export_occupancy_grid_2d(tmp_path / "bad.yaml", z_min_m=1.0, z_max_m=0.5)
+
+
+def test_region_index_answers_as_the_map_inside_its_region(scanned_map):
+    m = scanned_map
+    region = pg.MapRegionIndex(m, [3.0, -1.0, -1.0], [6.0, 1.0, 1.0], max_distance_m=2.0)
+    assert region.obstacle_count > 0
+    points = np.array([[4.0, 0.0, 0.0], [4.5, 0.3, -0.2], [3.2, 0.9, 0.9],
+                       [0.0, 0.0, 0.0]])  # the last one outside the region
+    d, g = region.get_distance(points)
+    d_map, g_map = m.get_distance(points, max_distance_m=2.0)
+    np.testing.assert_allclose(d[:3], d_map[:3], atol=1e-6)
+    np.testing.assert_allclose(g[:3], g_map[:3], atol=1e-5)
+    assert np.isnan(d[3])
+    centres = np.array([[4.0, 0.0, 0.0], [4.6, 0.0, 0.0]])
+    np.testing.assert_array_equal(
+        region.is_collision_free(centres, half_extents=[0.5, 0.3, 0.75], yaw=0.0),
+        m.is_collision_free(centres, half_extents=[0.5, 0.3, 0.75], yaw=0.0))
