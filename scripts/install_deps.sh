@@ -11,6 +11,7 @@ PACKAGES=(
   libyaml-cpp-dev nlohmann-json3-dev
   liboctomap-dev libnanoflann-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  libdynamicedt3d-dev       # OctoMap's distance transform, the peer of bench_map_queries
   xvfb xauth clang clang-format git
   doxygen
   python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest

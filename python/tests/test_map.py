@@ -154,3 +154,98 @@ def test_exports_write_files(tmp_path):
     # Every occupied voxel of the space layer is in the tree (the cuboids add theirs).
     assert written["occupied_voxels"] >= len(m.voxel_centres("occupied"))
     assert (tmp_path / "m.ply").read_bytes().startswith(b"ply")
+
+
+def test_get_distance_is_exact_to_a_voxel_with_its_gradient():
+    m = pg.PlanarGridMap(resolution_m=0.1)
+    m.set_state([[1.05, 0.05, 0.05]], "occupied")  # the voxel [1.0, 1.1] x [0, 0.1]^2
+    points = np.array([[1.05, 0.05, 1.05],   # 0.95 above
+                       [0.5, 0.05, 0.05],    # 0.5 before it along x
+                       [1.4, 0.5, 0.05],     # off an edge: (0.3, 0.4) -> 0.5
+                       [1.05, 0.05, 0.05],   # inside
+                       [9.0, 0.0, 0.0]])     # beyond the cap
+    d, g = m.get_distance(points, max_distance_m=2.0)
+    assert d.shape == (5,) and g.shape == (5, 3)
+    np.testing.assert_allclose(d, [0.95, 0.5, 0.5, 0.0, 2.0], atol=1e-5)
+    np.testing.assert_allclose(g[0], [0, 0, 1], atol=1e-5)
+    np.testing.assert_allclose(g[1], [-1, 0, 0], atol=1e-5)
+    np.testing.assert_allclose(g[2], [0.6, 0.8, 0], atol=1e-5)
+    np.testing.assert_allclose(np.linalg.norm(g[3]), 1.0, atol=1e-6)
+    np.testing.assert_array_equal(g[4], [0, 0, 0])
+    # unknown prior: with unknown counted, the unobserved space around is an obstacle
+    d_unknown, _ = m.get_distance(points, max_distance_m=2.0, unknown_is_occupied=True)
+    np.testing.assert_array_equal(d_unknown, 0.0)
+    with pytest.raises(ValueError):
+        m.get_distance(np.zeros((4, 2)), max_distance_m=1.0)
+    with pytest.raises(pg.Error):
+        m.get_distance(points, max_distance_m=0.0)
+
+
+def test_is_collision_free_for_boxes_and_spheres(scanned_map):
+    m = scanned_map  # an occupied wall at x in [5.0, 5.1), |y|, |z| < 1
+    centres = np.array([[4.0, 0.0, 0.0], [4.6, 0.0, 0.0], [4.0, 0.0, 0.0]])
+    # a 1.0 x 0.6 x 1.5 box: 0.5 m half length along x, or along y when turned 90 deg
+    free = m.is_collision_free(centres, half_extents=[0.5, 0.3, 0.75], yaw=[0.0, 0.0, 0.0])
+    np.testing.assert_array_equal(free, [True, False, True])
+    free = m.is_collision_free(np.tile([4.55, 0.0, 0.0], (3, 1)),
+                               half_extents=[0.5, 0.3, 0.75], yaw=[0.0, np.pi / 2, np.pi / 2])
+    np.testing.assert_array_equal(free, [False, True, True])
+    rotations = np.repeat(np.eye(3)[None], 3, axis=0)
+    np.testing.assert_array_equal(
+        m.is_collision_free(centres, half_extents=[0.5, 0.3, 0.75], rotations=rotations),
+        [True, False, True])
+    np.testing.assert_array_equal(
+        m.is_collision_free(centres, radii=[0.99, 0.41, 1.01]), [True, False, False])
+    with pytest.raises(ValueError):
+        m.is_collision_free(centres, half_extents=[0.5, 0.3, 0.75], radii=1.0)
+    with pytest.raises(ValueError):
+        m.is_collision_free(centres, half_extents=np.ones((2, 3)))
+
+
+def test_export_occupancy_grid_2d_reads_back_as_map_server(scanned_map, tmp_path):
+    m = scanned_map
+    out = m.export_occupancy_grid_2d(tmp_path / "map.yaml", z_ref_m=-1.0, z_min_m=0.5,
+                                     z_max_m=1.5)
+    yaml = dict(line.split(": ", 1) for line in
+                (tmp_path / "map.yaml").read_text().splitlines())
+    assert yaml["image"] == "map.pgm" and yaml["negate"] == "0"
+    assert float(yaml["resolution"]) == pytest.approx(0.1)
+    origin = [float(v) for v in yaml["origin"].strip("[]").split(",")]
+    data = (tmp_path / "map.pgm").read_bytes()
+    header = data.split(b"\n", 4)
+    assert header[0] == b"P5"
+    w, h = (int(v) for v in header[2].split())
+    image = np.frombuffer(header[4], dtype=np.uint8).reshape(h, w)
+    cells = out["cells"]
+    assert cells.shape == (h, w)
+    # the image's top row is the largest y
+    expected = np.where(cells == 100, 0, np.where(cells == 0, 254, 205))
+    np.testing.assert_array_equal(image, expected[::-1])
+
+    def cell(x, y):
+        return cells[int((y - origin[1]) // 0.1), int((x - origin[0]) // 0.1)]
+
+    assert cell(5.05, 0.05) == 100   # the wall
+    assert cell(2.55, 0.05) == 0     # seen free on the way to it
+    assert cell(5.45, 0.05) == -1    # behind it, never seen
+    with pytest.raises(pg.IOError):
+        m.export_occupancy_grid_2d(tmp_path / "map.png")
+    with pytest.raises(pg.Error):
+        m.export_occupancy_grid_2d(tmp_path / "bad.yaml", z_min_m=1.0, z_max_m=0.5)
+
+
+def test_region_index_answers_as_the_map_inside_its_region(scanned_map):
+    m = scanned_map
+    region = pg.MapRegionIndex(m, [3.0, -1.0, -1.0], [6.0, 1.0, 1.0], max_distance_m=2.0)
+    assert region.obstacle_count > 0
+    points = np.array([[4.0, 0.0, 0.0], [4.5, 0.3, -0.2], [3.2, 0.9, 0.9],
+                       [0.0, 0.0, 0.0]])  # the last one outside the region
+    d, g = region.get_distance(points)
+    d_map, g_map = m.get_distance(points, max_distance_m=2.0)
+    np.testing.assert_allclose(d[:3], d_map[:3], atol=1e-6)
+    np.testing.assert_allclose(g[:3], g_map[:3], atol=1e-5)
+    assert np.isnan(d[3])
+    centres = np.array([[4.0, 0.0, 0.0], [4.6, 0.0, 0.0]])
+    np.testing.assert_array_equal(
+        region.is_collision_free(centres, half_extents=[0.5, 0.3, 0.75], yaw=0.0),
+        m.is_collision_free(centres, half_extents=[0.5, 0.3, 0.75], yaw=0.0))

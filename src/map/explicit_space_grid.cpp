@@ -260,6 +260,32 @@ ExplicitSpaceGrid::visitVoxels(void (*visit)(void*, const VoxelKey&, SpaceState)
   }
 }
 
+void
+ExplicitSpaceGrid::visitVoxelsIn(SpaceState state,
+                                 void (*visit)(void*, const VoxelKey&),
+                                 void* context) const
+{
+  // Pending setState() edits go to the storage first (content unchanged).
+  impl_->storage.settle(priorCode(params_.prior));
+  const auto prior = priorCode(params_.prior);
+  const auto code = static_cast<std::uint8_t>(state);
+  if (code == prior)
+    return;
+  const auto sorted = impl_->storage.sortedBlocks(prior);
+  DenseBlock block;
+  for (const auto& stored : sorted) {
+    if (!stored.super->isMixed(stored.j) && stored.super->code(stored.j) != code)
+      continue;
+    stored.super->load(stored.j, block);
+    const BlockKey& bk = stored.key;
+    for (int i = 0; i < BLOCK_VOXELS; ++i)
+      if (block.get(i) == code)
+        visit(context,
+              VoxelKey(bk.x * BLOCK_EDGE + (i & 7), bk.y * BLOCK_EDGE + ((i >> 3) & 7),
+                       bk.z * BLOCK_EDGE + (i >> 6)));
+  }
+}
+
 std::size_t
 ExplicitSpaceGrid::getVoxelCount(SpaceState state) const
 {

@@ -233,12 +233,15 @@ private:
 PlanarGridMap::PlanarGridMap(const Params& params) :
     params_(withSharedResolution(params)), surface_(params_.surface),
     space_(params_.space)
-{}
+{
+  invalidateQueryCache();
+}
 
 void
 PlanarGridMap::integrateDepthImage(const DepthImage& depth,
                                    const Eigen::Isometry3d& world_T_camera)
 {
+  invalidateQueryCache();
   space_.integrateDepthImage(depth, world_T_camera);
   if (!params_.clear_non_planar || depth.width <= 0 || depth.height <= 0
       || !(depth.fx > 0.0f) || !(depth.fy > 0.0f))
@@ -267,6 +270,7 @@ void
 PlanarGridMap::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& points,
                                    const Eigen::Vector3f& sensor_origin)
 {
+  invalidateQueryCache();
   space_.integratePointCloud(points, sensor_origin);
   if (!params_.clear_non_planar || !sensor_origin.allFinite())
     return;
@@ -280,6 +284,7 @@ std::size_t
 PlanarGridMap::clearNonPlanarCells(
   const std::function<bool(const Eigen::Vector3f&, float)>& in_view)
 {
+  invalidateQueryCache();
   // A voxel tested lies within a voxel diagonal of the cell (its centre's voxel), and
   // a view may mark a voxel whose centre is outside the view.
   const auto voxel_diagonal = static_cast<float>(std::sqrt(3.0) * params_.resolution_m);

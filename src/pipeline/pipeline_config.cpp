@@ -280,15 +280,62 @@ parseStreetView(const Reader& r, const YAML::Node& node)
   return view;
 }
 
+OccupancyGrid2DParams
+parseGrid2DBand(const Reader& r, const YAML::Node& node)
+{
+  const std::string what = "output.map_grid_2d_band";
+  r.requireMap(node, what);
+  r.checkKeys(node,
+              {"z_ref_m", "z_min_m", "z_max_m", "above_terrain", "terrain_tile_m",
+               "resolution_m", "max_slope_deg", "terrain_max_angle_deg"},
+              what);
+  OccupancyGrid2DParams band;
+  constexpr double DEG = M_PI / 180.0;
+  band.z_ref_m = r.real(node, "z_ref_m", band.z_ref_m, -1e4, 1e4, what);
+  band.z_min_m = r.real(node, "z_min_m", band.z_min_m, -1e3, 1e3, what);
+  band.z_max_m = r.real(node, "z_max_m", band.z_max_m, -1e3, 1e3, what);
+  if (!(band.z_max_m > band.z_min_m))
+    r.fail(node["z_max_m"] ? node["z_max_m"] : node["z_min_m"],
+           what + ".z_max_m must be above z_min_m");
+  band.above_terrain = r.boolean(node, "above_terrain", band.above_terrain, what);
+  band.terrain_tile_m =
+    r.real(node, "terrain_tile_m", band.terrain_tile_m, 0.01, 100.0, what);
+  band.resolution_m = r.real(node, "resolution_m", band.resolution_m, 0.0, 100.0, what);
+  if (band.resolution_m > 0.0 && band.resolution_m < 0.001)
+    r.fail(node["resolution_m"],
+           what + ".resolution_m must be 0 (the map's) or >= 0.001");
+  band.max_slope_rad =
+    r.real(node, "max_slope_deg", band.max_slope_rad / DEG, 0.0, 90.0, what) * DEG;
+  band.terrain_max_angle_rad = r.real(node, "terrain_max_angle_deg",
+                                      band.terrain_max_angle_rad / DEG, 0.0, 90.0, what)
+                               * DEG;
+  return band;
+}
+
 OutputConfig
 parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
 {
   OutputConfig out;
   r.checkKeys(node,
-              {"folder", "cloud", "planes", "report", "trajectory", "snapshot",
-               "planes_snapshot", "cuboids_snapshot", "cuboids_street_snapshot",
-               "snapshot_camera", "street_view", "snapshot_size_px", "map",
-               "map_octomap", "map_mesh", "map_snapshot", "checkpoint",
+              {"folder",
+               "cloud",
+               "planes",
+               "report",
+               "trajectory",
+               "snapshot",
+               "planes_snapshot",
+               "cuboids_snapshot",
+               "cuboids_street_snapshot",
+               "snapshot_camera",
+               "street_view",
+               "snapshot_size_px",
+               "map",
+               "map_octomap",
+               "map_mesh",
+               "map_grid_2d",
+               "map_grid_2d_band",
+               "map_snapshot",
+               "checkpoint",
                "checkpoint_every_n_frames"},
               "output");
   out.folder = r.optionalString(node, "folder", out.folder, "output");
@@ -317,6 +364,15 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
   if (!out.map_mesh.empty() && !endsWith(out.map_mesh, ".ply")
       && !endsWith(out.map_mesh, ".vtk"))
     r.fail(node["map_mesh"], "output.map_mesh must end in .ply or .vtk");
+  out.map_grid_2d = r.optionalString(node, "map_grid_2d", out.map_grid_2d, "output");
+  if (!out.map_grid_2d.empty() && !endsWith(out.map_grid_2d, ".yaml"))
+    r.fail(node["map_grid_2d"], "output.map_grid_2d must end in .yaml (the map_server "
+                                "YAML; the image is written beside it as .pgm)");
+  if (const YAML::Node band = node["map_grid_2d_band"]) {
+    if (out.map_grid_2d.empty())
+      r.fail(band, "output.map_grid_2d_band is not used: set output.map_grid_2d");
+    out.map_grid_2d_band = parseGrid2DBand(r, band);
+  }
   out.map_snapshot = r.optionalString(node, "map_snapshot", out.map_snapshot, "output");
   out.snapshot_camera =
     r.optionalString(node, "snapshot_camera", out.snapshot_camera, "output");

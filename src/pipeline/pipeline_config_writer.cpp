@@ -7,6 +7,7 @@
 
 #include <array>
 #include <charconv>
+#include <cmath>
 #include <string>
 #include <type_traits>
 #include <variant>
@@ -195,6 +196,28 @@ emitOutput(YAML::Emitter& out, const OutputConfig& output)
   text("map", &OutputConfig::map);
   text("map_octomap", &OutputConfig::map_octomap);
   text("map_mesh", &OutputConfig::map_mesh);
+  text("map_grid_2d", &OutputConfig::map_grid_2d);
+  if (!output.map_grid_2d.empty()) {
+    const OccupancyGrid2DParams& band = output.map_grid_2d_band;
+    const OccupancyGrid2DParams unset;
+    constexpr double DEG = M_PI / 180.0;
+    out << YAML::Key << "map_grid_2d_band" << YAML::Value << YAML::BeginMap;
+    const auto real = [&](const char* key, double value, double fallback) {
+      if (value != fallback)
+        out << YAML::Key << key << YAML::Value << shortest(value);
+    };
+    real("z_ref_m", band.z_ref_m, unset.z_ref_m);
+    real("z_min_m", band.z_min_m, unset.z_min_m);
+    real("z_max_m", band.z_max_m, unset.z_max_m);
+    if (band.above_terrain != unset.above_terrain)
+      out << YAML::Key << "above_terrain" << YAML::Value << band.above_terrain;
+    real("terrain_tile_m", band.terrain_tile_m, unset.terrain_tile_m);
+    real("resolution_m", band.resolution_m, unset.resolution_m);
+    real("max_slope_deg", band.max_slope_rad / DEG, unset.max_slope_rad / DEG);
+    real("terrain_max_angle_deg", band.terrain_max_angle_rad / DEG,
+         unset.terrain_max_angle_rad / DEG);
+    out << YAML::EndMap;
+  }
   text("map_snapshot", &OutputConfig::map_snapshot);
   text("checkpoint", &OutputConfig::checkpoint);
   if (output.checkpoint_every_n_frames != defaults.checkpoint_every_n_frames)

@@ -85,6 +85,23 @@ writeOutputs(const OutputConfig& output,
         {"skipped_voxels", static_cast<double>(written.skipped_voxels)},
       };
     }
+    if (!output.map_grid_2d.empty()) {
+      // Two files, each its own output of the set: the image, then the YAML naming it.
+      const OccupancyGrid2D grid = map->computeOccupancyGrid2D(output.map_grid_2d_band);
+      const std::string& yaml = output.map_grid_2d;
+      const std::string image = yaml.substr(0, yaml.size() - 5) + ".pgm";
+      const std::string image_name = std::filesystem::path(image).filename().string();
+      report.outputs.emplace_back("map_grid_2d_image",
+                                  write(image, [&grid](const std::string& path) {
+                                    writeOccupancyGrid2DImage(grid, path);
+                                  }));
+      report.outputs.emplace_back(
+        "map_grid_2d", write(yaml, [&](const std::string& path) {
+          writeOccupancyGrid2DYaml(grid, path, image_name,
+                                   output.map_grid_2d_band.occupied_thresh,
+                                   output.map_grid_2d_band.free_thresh);
+        }));
+    }
     if (!output.map_mesh.empty())
       report.outputs.emplace_back(
         "map_mesh", write(output.map_mesh,

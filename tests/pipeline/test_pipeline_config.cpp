@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -63,6 +64,46 @@ TEST(PipelineConfig, ExampleAndMainJobLoad)
   EXPECT_EQ(k.stages.front().type, "stereo_disparity");
   EXPECT_EQ(k.stages.front().params.getInt("num_disparities_px"), 128);
   EXPECT_EQ(k.stages.back().type, "accumulate");
+}
+
+TEST(PipelineConfig, MapGrid2DOutputAndItsBand)
+{
+  const auto k = planar_grid::loadPipelineConfig(SOURCE_DIR + "/config/karlsruhe.yaml");
+  EXPECT_EQ(k.output.map_grid_2d, "map_2d.yaml");
+  EXPECT_TRUE(k.output.map_grid_2d_band.above_terrain);
+  EXPECT_DOUBLE_EQ(k.output.map_grid_2d_band.z_min_m, 0.3);
+  const std::string stages = "pipeline:\n  - type: stereo_disparity\n";
+  const auto c =
+    parsePipelineConfig(INPUT + stages
+                          + "output:\n  map_grid_2d: grid.yaml\n  map_grid_2d_band: "
+                            "{z_min_m: 0.1, z_max_m: "
+                            "1.2, max_slope_deg: 30, terrain_tile_m: 1.5}\n",
+                        "t", "/");
+  EXPECT_EQ(c.output.map_grid_2d, "grid.yaml");
+  EXPECT_DOUBLE_EQ(c.output.map_grid_2d_band.z_max_m, 1.2);
+  EXPECT_NEAR(c.output.map_grid_2d_band.max_slope_rad, 30.0 * M_PI / 180.0, 1e-12);
+  EXPECT_DOUBLE_EQ(c.output.map_grid_2d_band.terrain_tile_m, 1.5);
+  EXPECT_NE(
+    std::string(errorOf(INPUT + stages + "output:\n  map_grid_2d: grid.pgm\n").what())
+      .find(".yaml"),
+    std::string::npos);
+  EXPECT_NE(
+    std::string(
+      errorOf(INPUT + stages + "output:\n  map_grid_2d_band: {z_min_m: 0.1}\n").what())
+      .find("map_grid_2d"),
+    std::string::npos);
+  EXPECT_NE(std::string(errorOf(INPUT + stages
+                                + "output:\n  map_grid_2d: g.yaml\n  map_grid_2d_band: "
+                                  "{z_min_m: 1.0, z_max_m: 0.5}\n")
+                          .what())
+              .find("z_max_m"),
+            std::string::npos);
+  EXPECT_NE(std::string(errorOf(INPUT + stages
+                                + "output:\n  map_grid_2d: g.yaml\n  map_grid_2d_band: "
+                                  "{bogus: 1}\n")
+                          .what())
+              .find("bogus"),
+            std::string::npos);
 }
 
 TEST(PipelineConfig, RelativePathsResolveAgainstTheFileFolder)

@@ -57,6 +57,18 @@ expectSameConfig(const PipelineConfig& a, const PipelineConfig& b)
   EXPECT_EQ(oa.map, ob.map);
   EXPECT_EQ(oa.map_octomap, ob.map_octomap);
   EXPECT_EQ(oa.map_mesh, ob.map_mesh);
+  EXPECT_EQ(oa.map_grid_2d, ob.map_grid_2d);
+  EXPECT_DOUBLE_EQ(oa.map_grid_2d_band.z_ref_m, ob.map_grid_2d_band.z_ref_m);
+  EXPECT_DOUBLE_EQ(oa.map_grid_2d_band.z_min_m, ob.map_grid_2d_band.z_min_m);
+  EXPECT_DOUBLE_EQ(oa.map_grid_2d_band.z_max_m, ob.map_grid_2d_band.z_max_m);
+  EXPECT_EQ(oa.map_grid_2d_band.above_terrain, ob.map_grid_2d_band.above_terrain);
+  EXPECT_DOUBLE_EQ(oa.map_grid_2d_band.terrain_tile_m,
+                   ob.map_grid_2d_band.terrain_tile_m);
+  EXPECT_DOUBLE_EQ(oa.map_grid_2d_band.resolution_m, ob.map_grid_2d_band.resolution_m);
+  EXPECT_NEAR(oa.map_grid_2d_band.max_slope_rad, ob.map_grid_2d_band.max_slope_rad,
+              1e-12);
+  EXPECT_NEAR(oa.map_grid_2d_band.terrain_max_angle_rad,
+              ob.map_grid_2d_band.terrain_max_angle_rad, 1e-12);
   EXPECT_EQ(oa.map_snapshot, ob.map_snapshot);
   EXPECT_EQ(oa.checkpoint, ob.checkpoint);
   EXPECT_EQ(oa.checkpoint_every_n_frames, ob.checkpoint_every_n_frames);

@@ -237,6 +237,12 @@ public:
    * deterministic order (blocks sorted by key, voxels x fastest). */
   template <typename F> void forEachVoxel(F&& f) const;
 
+  /** \brief Calls f(key) for every observed voxel in \a state, in forEachVoxel()'s
+   * order (nothing for UNKNOWN with the unknown prior). Stored blocks whose voxels all
+   * have another state are skipped whole, so this is much faster than forEachVoxel()
+   * when few voxels have \a state (occupied voxels among free space). */
+  template <typename F> void forEachVoxelIn(SpaceState state, F&& f) const;
+
   /** \brief Number of observed voxels in \a state (as forEachVoxel() visits them;
    * 0 for UNKNOWN with the unknown prior). */
   [[nodiscard]] std::size_t getVoxelCount(SpaceState state) const;
@@ -330,6 +336,10 @@ private:
   /** \brief Visits the non-prior voxels (implementation of forEachVoxel). */
   void visitVoxels(void (*visit)(void*, const VoxelKey&, SpaceState),
                    void* context) const;
+  /** \brief Visits the voxels of one state (implementation of forEachVoxelIn). */
+  void visitVoxelsIn(SpaceState state,
+                     void (*visit)(void*, const VoxelKey&),
+                     void* context) const;
 };
 
 template <typename F>
@@ -339,6 +349,18 @@ ExplicitSpaceGrid::forEachVoxel(F&& f) const
   visitVoxels(
     [](void* context, const VoxelKey& key, SpaceState state) {
       (*static_cast<std::remove_reference_t<F>*>(context))(key, state);
+    },
+    const_cast<void*>(static_cast<const void*>(&f)));
+}
+
+template <typename F>
+void
+ExplicitSpaceGrid::forEachVoxelIn(SpaceState state, F&& f) const
+{
+  visitVoxelsIn(
+    state,
+    [](void* context, const VoxelKey& key) {
+      (*static_cast<std::remove_reference_t<F>*>(context))(key);
     },
     const_cast<void*>(static_cast<const void*>(&f)));
 }

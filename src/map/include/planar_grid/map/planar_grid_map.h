@@ -2,6 +2,7 @@
 #pragma once
 
 #include <planar_grid/map/explicit_space_grid.h>
+#include <planar_grid/map/map_queries.h>
 #include <planar_grid/map/surface_layer.h>
 
 #include <Eigen/Geometry>
@@ -9,10 +10,15 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace planar_grid {
+
+namespace map_queries {
+struct QueryCache;
+} // namespace map_queries
 
 /** \brief Memory held by a PlanarGridMap, bytes. \ingroup map */
 struct MapMemory {
@@ -143,6 +149,7 @@ public:
                         const pcl::PointCloud<pcl::PointXYZ>& features,
                         const std::vector<float>& probabilities)
   {
+    invalidateQueryCache();
     surface_.integrate(cuboids, planes, features, probabilities);
     if (params_.planes_absorb_overlapping)
       surface_.absorbOverlappingPlaneCells();
@@ -170,6 +177,7 @@ public:
    * \return the number of cells removed */
   std::size_t removeNonPlanarCellsOnPlanes()
   {
+    invalidateQueryCache();
     return surface_.removeNonPlanarCellsOnPlanes();
   }
 
@@ -201,12 +209,83 @@ public:
                double max_range_m,
                Eigen::Vector3f& hit) const;
 
+  /** \brief Distance to the nearest obstacle for a batch of points: the exact
+   * Euclidean distance to the union of the occupied cuboids (probability >= the
+   * surface layer's occupancy_thres, as oriented boxes) and the occupied voxels of the
+   * space layer (axis-aligned boxes of edge resolution_m), and with
+   * \a unknown_is_occupied the space layer's unknown space too (occluded voxels and,
+   * with the unknown prior, never-observed space: every voxel not observed inside the
+   * stored blocks' bounds and all space outside them). Cuboids do not carve the space
+   * layer: an occupied voxel inside a free cuboid is an obstacle.
+   * Obstacles are indexed by a bounding-volume hierarchy built on the first query for
+   * each \a unknown_is_occupied and kept until the map changes (any non-const method).
+   * \param[in] points 3 x N points, meters, world frame
+   * \param[in] max_distance_m the cap, meters (> 0): distances beyond it are returned
+   * as max_distance_m with a zero gradient
+   * \param[out] distances N distances, meters, in [0, max_distance_m]; 0 inside an
+   * obstacle (boundary included); NaN for a non-finite point
+   * \param[out] gradients 3 x N unit vectors: outside an obstacle, from the nearest
+   * obstacle point toward the point (the gradient of the distance); inside one, the
+   * outward normal of the nearest face of a box containing the point (this may point
+   * into a neighbouring obstacle box); zero beyond the cap, NaN for a non-finite point
+   * \param[in] unknown_is_occupied count unknown space as an obstacle
+   * \throws planar_grid::Exception for max_distance_m <= 0 or not finite, or outputs
+   * whose sizes do not match \a points */
+  void getDistance(const Eigen::Ref<const Eigen::Matrix3Xf>& points,
+                   double max_distance_m,
+                   Eigen::Ref<Eigen::VectorXf> distances,
+                   Eigen::Ref<Eigen::Matrix3Xf> gradients,
+                   bool unknown_is_occupied = false) const;
+
+  /** \brief Collision test for a batch of bodies against the obstacles of
+   * getDistance() (same index): exact separating-axis tests between a box body and
+   * each obstacle box (15 axes), closest point for a sphere. Touching counts as a
+   * collision (closed sets).
+   * \param[in] bodies oriented boxes and spheres, world frame, meters
+   * \param[in] unknown_is_occupied count unknown space as an obstacle
+   * \return one value per body: 1 free, 0 in collision (or a non-finite body, or
+   * negative extents) */
+  std::vector<std::uint8_t> isCollisionFree(const CollisionBodies& bodies,
+                                            bool unknown_is_occupied = false) const;
+
+  /** \brief Projects the map over a height band into a 2D occupancy grid. A cell
+   * (its centre's vertical line, the column) is OCCUPIED when an occupied cuboid or
+   * occupied voxel meets its column inside the band, or when a terrain cuboid steeper
+   * than max_slope_rad crosses the column (at any height up to the band's top); else
+   * FREE when an observed free voxel meets the column inside the band or a walkable
+   * terrain cuboid crosses it; else UNKNOWN (never seen).
+   * \throws planar_grid::Exception for invalid \a params or a grid of more than 1e8
+   * cells */
+  OccupancyGrid2D computeOccupancyGrid2D(const OccupancyGrid2DParams& params) const;
+
+  /** \brief Writes computeOccupancyGrid2D() as a ROS map_server map: the YAML file
+   * \a yaml_path (image, mode trinary, resolution, origin [x, y, 0], negate 0,
+   * occupied_thresh, free_thresh) and beside it the 8-bit binary PGM (P5) it names,
+   * the YAML's name with ".pgm" for ".yaml": 0 occupied, 254 free, 205 unknown, top
+   * row at the largest y. Both files are written atomically (temporary file, rename),
+   * the image first.
+   * \return the grid written
+   * \throws planar_grid::Exception for invalid params; planar_grid::IOError for a
+   * path not ending in ".yaml" or ".yml", a missing folder or a failed write */
+  OccupancyGrid2D exportOccupancyGrid2D(const std::string& yaml_path,
+                                        const OccupancyGrid2DParams& params) const;
+
+  /** \brief Drops the query index of getDistance() and isCollisionFree() (the
+   * non-const methods do it; call it after changing the space layer through a
+   * reference kept from getSpaceLayer()). */
+  void invalidateQueryCache();
+
   /** \brief The surface layer. */
   const SurfaceLayer& getSurfaceLayer() const { return surface_; }
   /** \brief The explicit space layer. */
   const ExplicitSpaceGrid& getSpaceLayer() const { return space_; }
-  /** \brief The explicit space layer (e.g. to set voxels in tests). */
-  ExplicitSpaceGrid& getSpaceLayer() { return space_; }
+  /** \brief The explicit space layer (e.g. to set voxels in tests); drops the query
+   * index (invalidateQueryCache()). */
+  ExplicitSpaceGrid& getSpaceLayer()
+  {
+    invalidateQueryCache();
+    return space_;
+  }
 
   /** \brief Memory held, bytes. */
   [[nodiscard]] MapMemory getMemory() const;
@@ -269,6 +348,9 @@ private:
   SurfaceLayer surface_;
   /** \brief The explicit space layer. */
   ExplicitSpaceGrid space_;
+  /** \brief The obstacle index of getDistance() and isCollisionFree(), built lazily
+   * under its own mutex; replaced by every non-const method. */
+  std::shared_ptr<map_queries::QueryCache> query_cache_;
 };
 
 } // namespace planar_grid

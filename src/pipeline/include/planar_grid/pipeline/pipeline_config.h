@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/map/map_queries.h>
 #include <planar_grid/pipeline/param_table.h>
 #include <planar_grid/stereo/calibration_io.h>
 
@@ -223,6 +224,13 @@ struct OutputConfig {
   std::string map_octomap{"map.bt"};
   /** \brief The map's cuboids as a mesh, .ply or .vtk ("" = none). */
   std::string map_mesh{"map_cuboids.ply"};
+  /** \brief The map projected over a height band into a 2D occupancy grid for ROS
+   * map_server (PlanarGridMap::computeOccupancyGrid2D()): the YAML file's name, .yaml;
+   * the PGM image is written beside it under the same name with .pgm ("" = none). */
+  std::string map_grid_2d;
+  /** \brief The band, terrain rules and cell size of map_grid_2d
+   * (output.map_grid_2d_band). */
+  OccupancyGrid2DParams map_grid_2d_band;
   /** \brief PNG snapshot of the map: cuboids coloured by occupancy, unknown space
    * translucent ("" = none). */
   std::string map_snapshot{"map.png"};

@@ -1,0 +1,379 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// PlanarGridMap's projection over a height band into a 2D occupancy grid and its
+// ROS map_server files (PGM + YAML).
+#include <planar_grid/core/atomic_file.h>
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/map/planar_grid_map.h>
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace planar_grid {
+
+std::size_t
+OccupancyGrid2D::count(std::int8_t value) const
+{
+  return static_cast<std::size_t>(std::count(cells.begin(), cells.end(), value));
+}
+
+namespace {
+
+/** \brief The interval of the vertical line through (x, y) inside cuboid \a c, as
+ * heights [t0, t1]; false when the line misses it. */
+bool
+columnInterval(const PlanarCuboid& c, double x, double y, double& t0, double& t1)
+{
+  const Eigen::Vector3d axes[3] = {c.horizontal_axis.cast<double>(),
+                                   c.verticalAxis().cast<double>(),
+                                   c.normal.cast<double>()};
+  const double half[3] = {0.5 * c.width_m, 0.5 * c.height_m, 0.5 * c.thickness_m};
+  const Eigen::Vector3d d(x - c.centre.x(), y - c.centre.y(), -c.centre.z());
+  t0 = -std::numeric_limits<double>::infinity();
+  t1 = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 3; ++k) {
+    // |axes[k] . (d + t e_z)| <= half[k]
+    const double q = axes[k].dot(d), a = axes[k].z();
+    if (std::abs(a) < 1e-12) {
+      if (std::abs(q) > half[k])
+        return false;
+      continue;
+    }
+    double lo = (-half[k] - q) / a, hi = (half[k] - q) / a;
+    if (lo > hi)
+      std::swap(lo, hi);
+    t0 = std::max(t0, lo);
+    t1 = std::min(t1, hi);
+  }
+  return t0 <= t1;
+}
+
+void
+validate(const OccupancyGrid2DParams& p)
+{
+  const auto fail = [](const std::string& what) {
+    throw Exception("PlanarGridMap::computeOccupancyGrid2D: " + what);
+  };
+  if (!(p.resolution_m == 0.0 || (p.resolution_m >= 0.001 && p.resolution_m <= 100.0)))
+    fail("resolution_m must be 0 (the map's) or in [0.001, 100], got "
+         + std::to_string(p.resolution_m));
+  if (!std::isfinite(p.z_ref_m) || !std::isfinite(p.z_min_m)
+      || !std::isfinite(p.z_max_m) || !(p.z_max_m > p.z_min_m))
+    fail("the band needs finite z_ref_m, z_min_m < z_max_m, got z_min_m "
+         + std::to_string(p.z_min_m) + ", z_max_m " + std::to_string(p.z_max_m));
+  const double half_pi = 0.5 * M_PI + 1e-12;
+  if (!(p.terrain_max_angle_rad >= 0.0 && p.terrain_max_angle_rad <= half_pi))
+    fail("terrain_max_angle_rad must be in [0, pi/2], got "
+         + std::to_string(p.terrain_max_angle_rad));
+  if (!(p.terrain_tile_m > 0.0 && p.terrain_tile_m <= 100.0))
+    fail("terrain_tile_m must be in (0, 100], got " + std::to_string(p.terrain_tile_m));
+  if (!(p.max_slope_rad >= 0.0 && p.max_slope_rad <= half_pi))
+    fail("max_slope_rad must be in [0, pi/2], got " + std::to_string(p.max_slope_rad));
+  if (p.use_bounds
+      && (!p.min_xy.allFinite() || !p.max_xy.allFinite()
+          || !(p.max_xy.array() > p.min_xy.array()).all()))
+    fail("bounds need finite min_xy < max_xy");
+  if (!(p.free_thresh > 0.0 && p.free_thresh < p.occupied_thresh
+        && p.occupied_thresh < 1.0))
+    fail("thresholds need 0 < free_thresh < occupied_thresh < 1, got "
+         + std::to_string(p.free_thresh) + ", " + std::to_string(p.occupied_thresh));
+}
+
+} // namespace
+
+OccupancyGrid2D
+PlanarGridMap::computeOccupancyGrid2D(const OccupancyGrid2DParams& params) const
+{
+  validate(params);
+  const double r =
+    params.resolution_m > 0.0 ? params.resolution_m : params_.resolution_m;
+  const double vr = params_.resolution_m;
+  const PlanarCuboids cuboids = surface_.getCuboids();
+
+  Eigen::Vector2d lo = params.min_xy, hi = params.max_xy;
+  if (!params.use_bounds) {
+    lo.setConstant(std::numeric_limits<double>::infinity());
+    hi = -lo;
+    ExplicitSpaceGrid::VoxelKey klo, khi;
+    if (space_.getBounds(klo, khi)) {
+      lo = lo.cwiseMin(klo.head<2>().cast<double>() * vr);
+      hi = hi.cwiseMax((khi.head<2>().cast<double>() + Eigen::Vector2d::Ones()) * vr);
+    }
+    for (const PlanarCuboid& c : cuboids) {
+      for (const auto& corner : c.corners()) {
+        lo = lo.cwiseMin(corner.head<2>().cast<double>());
+        hi = hi.cwiseMax(corner.head<2>().cast<double>());
+      }
+    }
+    if (!(hi.array() > lo.array()).all())
+      throw Exception("PlanarGridMap::computeOccupancyGrid2D: the map is empty; give "
+                      "bounds (use_bounds)");
+  }
+  OccupancyGrid2D grid;
+  grid.resolution_m = r;
+  // The origin sits on the grid of cell edges through 0, so that cells of the map's
+  // resolution line up with the voxels' columns.
+  grid.origin = (lo / r).array().floor().matrix() * r;
+  const Eigen::Vector2d cells = ((hi - grid.origin) / r).array().ceil().matrix();
+  if (!(cells.x() * cells.y() <= 1e8))
+    throw Exception("PlanarGridMap::computeOccupancyGrid2D: "
+                    + std::to_string(cells.x()) + " x " + std::to_string(cells.y())
+                    + " cells is over the limit of 1e8; give bounds or a coarser "
+                      "resolution_m");
+  grid.width = std::max(1, static_cast<int>(cells.x()));
+  grid.height = std::max(1, static_cast<int>(cells.y()));
+  const std::size_t n = static_cast<std::size_t>(grid.width) * grid.height;
+  grid.cells.assign(n, OccupancyGrid2D::UNKNOWN);
+  std::vector<float> terrain(n, std::numeric_limits<float>::quiet_NaN());
+  std::vector<std::uint8_t> steep(n, 0), seen_free(n, 0), occupied(n, 0);
+
+  const auto cellIndex = [&](int col, int row) {
+    return static_cast<std::size_t>(row) * static_cast<std::size_t>(grid.width)
+           + static_cast<std::size_t>(col);
+  };
+  // Calls f(col, row, x, y) for every cell whose centre lies in the XY bounding box of
+  // cuboid c.
+  const auto forCellsOf = [&](const PlanarCuboid& c, auto&& f) {
+    Eigen::Vector2d blo = Eigen::Vector2d::Constant(std::numeric_limits<double>::max());
+    Eigen::Vector2d bhi = -blo;
+    for (const auto& corner : c.corners()) {
+      blo = blo.cwiseMin(corner.head<2>().cast<double>());
+      bhi = bhi.cwiseMax(corner.head<2>().cast<double>());
+    }
+    const int c0 =
+      std::max(0, static_cast<int>(std::ceil((blo.x() - grid.origin.x()) / r - 0.5)));
+    const int c1 =
+      std::min(grid.width - 1,
+               static_cast<int>(std::floor((bhi.x() - grid.origin.x()) / r - 0.5)));
+    const int r0 =
+      std::max(0, static_cast<int>(std::ceil((blo.y() - grid.origin.y()) / r - 0.5)));
+    const int r1 =
+      std::min(grid.height - 1,
+               static_cast<int>(std::floor((bhi.y() - grid.origin.y()) / r - 0.5)));
+    for (int row = r0; row <= r1; ++row)
+      for (int col = c0; col <= c1; ++col)
+        f(col, row, grid.origin.x() + (col + 0.5) * r,
+          grid.origin.y() + (row + 0.5) * r);
+  };
+
+  // Calls f(cell index) for every cell whose square meets voxel key's footprint.
+  const auto forFootprint = [&](const ExplicitSpaceGrid::VoxelKey& key, auto&& f) {
+    const double x0 = key.x() * vr, y0 = key.y() * vr;
+    const double eps = 1e-6;
+    const int c0 =
+      std::max(0, static_cast<int>(std::floor((x0 - grid.origin.x()) / r + eps)));
+    const int c1 =
+      std::min(grid.width - 1,
+               static_cast<int>(std::ceil((x0 + vr - grid.origin.x()) / r - eps)) - 1);
+    const int r0 =
+      std::max(0, static_cast<int>(std::floor((y0 - grid.origin.y()) / r + eps)));
+    const int r1 =
+      std::min(grid.height - 1,
+               static_cast<int>(std::ceil((y0 + vr - grid.origin.y()) / r - eps)) - 1);
+    for (int row = r0; row <= r1; ++row)
+      for (int col = c0; col <= c1; ++col)
+        f(cellIndex(col, row));
+  };
+
+  // Terrain: planar cuboids within terrain_max_angle_rad of horizontal that reach
+  // below the band of the fixed reference.
+  const double cos_terrain = std::cos(params.terrain_max_angle_rad);
+  const double cos_slope = std::cos(params.max_slope_rad);
+  const double fixed_lo = params.z_ref_m + params.z_min_m;
+  std::vector<std::uint8_t> is_terrain(cuboids.size(), 0);
+  for (std::size_t i = 0; i < cuboids.size(); ++i) {
+    const PlanarCuboid& c = cuboids[i];
+    const double nz = std::abs(static_cast<double>(c.normal.z()));
+    if (!c.is_planar || nz < cos_terrain)
+      continue;
+    is_terrain[i] = 1;
+    const bool walkable = nz >= cos_slope;
+    forCellsOf(c, [&](int col, int row, double x, double y) {
+      double t0, t1;
+      if (!columnInterval(c, x, y, t0, t1) || t0 > fixed_lo)
+        return;
+      const std::size_t k = cellIndex(col, row);
+      if (walkable) {
+        seen_free[k] = 1;
+        if (!(terrain[k] >= t1))
+          terrain[k] = static_cast<float>(t1);
+      } else {
+        steep[k] = 1;
+      }
+    });
+  }
+  if (params.above_terrain) {
+    // The terrain the space layer saw, where no walkable terrain cuboid is.
+    std::vector<float> seen(n, std::numeric_limits<float>::quiet_NaN());
+    space_.forEachVoxelIn(
+      SpaceState::OCCUPIED, [&](const ExplicitSpaceGrid::VoxelKey& key) {
+        if (space_.getState(ExplicitSpaceGrid::VoxelKey(key.x(), key.y(), key.z() + 1))
+            != SpaceState::FREE)
+          return;
+        const auto top = static_cast<float>((key.z() + 1) * vr);
+        forFootprint(key, [&](std::size_t k) {
+          if (!(seen[k] <= top))
+            seen[k] = top;
+        });
+      });
+    const int tile =
+      std::max(1, static_cast<int>(std::lround(params.terrain_tile_m / r)));
+    std::vector<float> values;
+    for (int row0 = 0; row0 < grid.height; row0 += tile)
+      for (int col0 = 0; col0 < grid.width; col0 += tile) {
+        values.clear();
+        const int row1 = std::min(grid.height, row0 + tile);
+        const int col1 = std::min(grid.width, col0 + tile);
+        for (int row = row0; row < row1; ++row)
+          for (int col = col0; col < col1; ++col)
+            if (std::isfinite(seen[cellIndex(col, row)]))
+              values.push_back(seen[cellIndex(col, row)]);
+        if (values.empty())
+          continue;
+        auto pick = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 5);
+        std::nth_element(values.begin(), pick, values.end());
+        for (int row = row0; row < row1; ++row)
+          for (int col = col0; col < col1; ++col)
+            if (!std::isfinite(terrain[cellIndex(col, row)]))
+              terrain[cellIndex(col, row)] = *pick;
+      }
+  }
+  const auto band = [&](std::size_t k, double& b0, double& b1) {
+    const double ref = params.above_terrain && std::isfinite(terrain[k])
+                         ? static_cast<double>(terrain[k])
+                         : params.z_ref_m;
+    b0 = ref + params.z_min_m;
+    b1 = ref + params.z_max_m;
+  };
+
+  const auto thres = static_cast<float>(surface_.getParams().occupancy_thres);
+  for (std::size_t i = 0; i < cuboids.size(); ++i) {
+    const PlanarCuboid& c = cuboids[i];
+    if (!(c.probability >= thres))
+      continue;
+    // A terrain cuboid below the band is floor, not an obstacle.
+    forCellsOf(c, [&](int col, int row, double x, double y) {
+      double t0, t1, b0, b1;
+      if (!columnInterval(c, x, y, t0, t1))
+        return;
+      const std::size_t k = cellIndex(col, row);
+      band(k, b0, b1);
+      if (is_terrain[i] && t0 <= fixed_lo && t1 < b0)
+        return;
+      if (t1 >= b0 && t0 <= b1)
+        occupied[k] = 1;
+    });
+  }
+
+  // Voxels: every cell whose square meets the voxel's footprint.
+  space_.forEachVoxel([&](const ExplicitSpaceGrid::VoxelKey& key, SpaceState s) {
+    if (s == SpaceState::UNKNOWN)
+      return;
+    const double z0 = key.z() * vr;
+    forFootprint(key, [&](std::size_t k) {
+      double b0, b1;
+      band(k, b0, b1);
+      if (z0 + vr < b0 || z0 > b1)
+        return;
+      if (s == SpaceState::OCCUPIED)
+        occupied[k] = 1;
+      else
+        seen_free[k] = 1;
+    });
+  });
+
+  for (std::size_t k = 0; k < n; ++k) {
+    if (occupied[k] || steep[k])
+      grid.cells[k] = OccupancyGrid2D::OCCUPIED;
+    else if (seen_free[k])
+      grid.cells[k] = OccupancyGrid2D::FREE;
+  }
+  return grid;
+}
+
+OccupancyGrid2D
+PlanarGridMap::exportOccupancyGrid2D(const std::string& yaml_path,
+                                     const OccupancyGrid2DParams& params) const
+{
+  const auto endsWith = [&](const std::string& suffix) {
+    return yaml_path.size() > suffix.size()
+           && yaml_path.compare(yaml_path.size() - suffix.size(), suffix.size(), suffix)
+                == 0;
+  };
+  if (!endsWith(".yaml") && !endsWith(".yml"))
+    throw IOError(yaml_path
+                  + ": a map_server map is named by its YAML file (\".yaml\" "
+                    "or \".yml\")");
+  const std::size_t slash = yaml_path.find_last_of('/');
+  const std::string folder =
+    slash == std::string::npos ? "." : yaml_path.substr(0, slash + 1);
+  struct stat st {};
+  if (::stat(folder.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+    throw IOError(yaml_path + ": the folder " + folder + " does not exist");
+  const std::string stem = yaml_path.substr(0, yaml_path.find_last_of('.'));
+  const std::string pgm_path = stem + ".pgm";
+  const std::string pgm_name =
+    slash == std::string::npos ? pgm_path : pgm_path.substr(slash + 1);
+
+  const OccupancyGrid2D grid = computeOccupancyGrid2D(params);
+  writeOccupancyGrid2DImage(grid, pgm_path);
+  writeOccupancyGrid2DYaml(grid, yaml_path, pgm_name, params.occupied_thresh,
+                           params.free_thresh);
+  return grid;
+}
+
+void
+writeOccupancyGrid2DImage(const OccupancyGrid2D& grid, const std::string& pgm_path)
+{
+  std::string pgm = "P5\n# PlanarGrid occupancy grid, "
+                    + std::to_string(grid.resolution_m) + " m/pixel\n"
+                    + std::to_string(grid.width) + " " + std::to_string(grid.height)
+                    + "\n255\n";
+  const std::size_t header = pgm.size();
+  pgm.resize(header + grid.cells.size());
+  // map_server reads the top image row as the largest y.
+  for (int row = 0; row < grid.height; ++row)
+    for (int col = 0; col < grid.width; ++col) {
+      const std::int8_t v = grid.at(col, row);
+      const auto px = static_cast<char>(
+        static_cast<unsigned char>(v == OccupancyGrid2D::OCCUPIED ? 0
+                                   : v == OccupancyGrid2D::FREE   ? 254
+                                                                  : 205));
+      pgm[header + static_cast<std::size_t>(grid.height - 1 - row) * grid.width + col] =
+        px;
+    }
+  writeFileAtomically(pgm_path, [&](const std::string& tmp) {
+    std::ofstream out(tmp, std::ios::binary);
+    out.write(pgm.data(), static_cast<std::streamsize>(pgm.size()));
+    out.close();
+    return static_cast<bool>(out);
+  });
+}
+
+void
+writeOccupancyGrid2DYaml(const OccupancyGrid2D& grid,
+                         const std::string& yaml_path,
+                         const std::string& image_name,
+                         double occupied_thresh,
+                         double free_thresh)
+{
+  std::ostringstream yaml;
+  yaml.precision(9);
+  yaml << "image: " << image_name << "\n"
+       << "mode: trinary\n"
+       << "resolution: " << grid.resolution_m << "\n"
+       << "origin: [" << grid.origin.x() << ", " << grid.origin.y() << ", 0.0]\n"
+       << "negate: 0\n"
+       << "occupied_thresh: " << occupied_thresh << "\n"
+       << "free_thresh: " << free_thresh << "\n";
+  writeTextFileAtomically(yaml_path, yaml.str());
+}
+
+} // namespace planar_grid
