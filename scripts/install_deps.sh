@@ -12,7 +12,7 @@ PACKAGES=(
   liboctomap-dev libnanoflann-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libdynamicedt3d-dev       # OctoMap's distance transform, the peer of bench_map_queries
-  xvfb xauth clang clang-format git
+  xvfb xauth clang-format git
   doxygen
   python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest
   python3-open3d            # the Python examples and their tests (Open3D loads the scan)

@@ -5,9 +5,10 @@
 #   build/       Release, the libraries, tools and Python module that users run (no C++
 #                tests): a short real pipeline run with snapshots, the Python tests, the
 #                installed package with the examples built against it, the API docs.
-#   build-asan/  AddressSanitizer + UndefinedBehaviorSanitizer (-O1, line tables, shared
-#                libraries): every GoogleTest suite and tool test under the sanitizers,
-#                then a short real pipeline run; any sanitizer report fails.
+#   build-asan/  AddressSanitizer + UndefinedBehaviorSanitizer (libraries and tools -O1,
+#                test sources -O0; line tables; shared libraries): every GoogleTest
+#                suite and tool test under the sanitizers, then a short real pipeline
+#                run; any sanitizer report or compiler warning fails.
 # Each phase prints its wall time, and a table of all of them ends the run.
 #   bash scripts/run_tests.sh
 # BUILD_DIR (default build), ASAN_BUILD_DIR (default build-asan), JOBS (default 2);
@@ -27,9 +28,9 @@ build_warning_free() {
   local dir=$1
   local log="$dir/build.log"
   cmake --build "$dir" -j "$JOBS" 2>&1 | tee "$log"
-  if grep -q "warning:" "$log"; then
+  if grep -qE ':[0-9]+(:[0-9]+)?: warning:' "$log"; then
     echo "run_tests: the build of $dir has warnings:" >&2
-    grep -A3 "warning:" "$log" >&2
+    grep -A3 -E ':[0-9]+(:[0-9]+)?: warning:' "$log" >&2
     return 1
   fi
 }
@@ -59,18 +60,14 @@ release_checks() {
 
 sanitizer_build() {
   # -O1 with line tables only: the reports name file and line, at a fraction of the
-  # compile and link time of -O2 -g; shared libraries keep the test links small. Clang
-  # (the compiler of the fuzzers too) compiles this configuration about a third faster
-  # than GCC here; GCC keeps compiling the Release build users run.
-  local compilers=()
-  if [ ! -f "$ASAN_BUILD_DIR/CMakeCache.txt" ] && command -v clang++ >/dev/null; then
-    compilers=(-DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++)
-  fi
+  # compile and link time of -O2 -g; the tests' own sources at -O0, the code under test
+  # at -O1; shared libraries keep the test links small.
   # shellcheck disable=SC2086
-  configure_build "$ASAN_BUILD_DIR" "${compilers[@]}" -DPLANAR_GRID_SANITIZE=ON \
+  configure_build "$ASAN_BUILD_DIR" -DPLANAR_GRID_SANITIZE=ON \
     -DPLANAR_GRID_BUILD_TESTS=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" \
-    "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DBUILD_SHARED_LIBS=ON ${CMAKE_ARGS:-}
+    "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DBUILD_SHARED_LIBS=ON \
+    -DPLANAR_GRID_TEST_COMPILE_OPTIONS=-O0 ${CMAKE_ARGS:-}
   build_warning_free "$ASAN_BUILD_DIR"
 }
 
@@ -86,7 +83,7 @@ sanitizer_tests() {
   # stay on for them; leak detection does not.
   local render_tests='^(SceneRenderer|SyntheticStereoSceneTest|LineChart|ViewerTool\.SnapshotOf)'
   ASAN_OPTIONS=detect_leaks=0 ctest --test-dir "$ASAN_BUILD_DIR" --output-on-failure \
-    -j "$JOBS" --timeout 600 -R "$render_tests"
+    -j "$JOBS" --timeout 1500 -R "$render_tests"
   local out
   out=$(mktemp -d "${TMPDIR:-/tmp}/planar_grid_asan_run.XXXXXX")
   echo "run_tests: planar_grid_pipeline (sanitizers) on config/karlsruhe.yaml, frames 0:3"
@@ -100,8 +97,13 @@ sanitizer_tests() {
     return 1
   fi
   rm -rf "$out"
+  # Each GoogleTest suite is one CTest test (tests/discover_suites.cmake).
+  local suites cases
+  suites=$(cat "$ASAN_BUILD_DIR"/tests/*/*_suites.cmake | grep -c '^add_test')
+  cases=$(cat "$ASAN_BUILD_DIR"/tests/*/*_suites.cmake | awk '/^# gtest_cases/ { n += $3 } END { print n }')
+  echo "run_tests: $cases GoogleTest cases in $suites suites, and the tools' tests"
   # Last, so that its summary closes the run: every other test, with leak detection.
-  ctest --test-dir "$ASAN_BUILD_DIR" --output-on-failure -j "$JOBS" --timeout 600 \
+  ctest --test-dir "$ASAN_BUILD_DIR" --output-on-failure -j "$JOBS" --timeout 1500 \
     -E "$render_tests"
 }
 

@@ -39,11 +39,11 @@ ExplicitSpaceGrid::insertIntoOcTree(octomap::OcTree& tree) const
   // A block (8^3 voxels, aligned to multiples of 8 like the key offset) is one
   // OctoMap node three levels above the voxels.
   const unsigned block_depth = tree.getTreeDepth() - BLOCK_SHIFT;
-  const auto free_code = static_cast<std::uint8_t>(SpaceState::FREE);
-  const auto occupied = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
+  constexpr auto free_code = static_cast<std::uint8_t>(SpaceState::FREE);
+  constexpr auto occupied = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
   // Only what a view observed goes in: occluded and never-observed space stay out of
   // the tree (unknown in OctoMap), whatever the prior.
-  const auto exported = [free_code, occupied](std::uint8_t code) {
+  const auto exported = [](std::uint8_t code) {
     return code == free_code || code == occupied;
   };
   const auto sorted = impl_->storage.sortedBlocks(priorCode(params_.prior));
