@@ -40,7 +40,11 @@ public:
                  double max_distance_m,
                  bool unknown_is_occupied = false);
   ~MapRegionIndex();
+  /** \brief Takes over the other index (which may then only be destroyed or assigned
+   * to). */
   MapRegionIndex(MapRegionIndex&&) noexcept;
+  /** \brief Takes over the other index (which may then only be destroyed or assigned
+   * to). */
   MapRegionIndex& operator=(MapRegionIndex&&) noexcept;
   MapRegionIndex(const MapRegionIndex&) = delete;
   MapRegionIndex& operator=(const MapRegionIndex&) = delete;
