@@ -191,6 +191,27 @@ toDistanceArrays(const Eigen::VectorXf& d, const Eigen::Matrix3Xf& g)
   return py::make_tuple(distances, gradients);
 }
 
+/** Runs query(points 3 x N, distances, gradients) without the GIL on an (N, 3) float
+ * array of points, meters, and returns toDistanceArrays() of its answers.
+ * \throws ValueError when points is not (N, 3) */
+template <typename Query>
+py::tuple
+distancesOf(const FloatArray& points, Query query)
+{
+  if (points.ndim() != 2 || points.shape(1) != 3)
+    throw py::value_error("points must be an (N, 3) array of x, y, z in meters");
+  const Eigen::Index n = points.shape(0);
+  Eigen::VectorXf d(n);
+  Eigen::Matrix3Xf g(3, n);
+  {
+    // An (N, 3) C-contiguous float32 array is a 3 x N column-major matrix.
+    const Eigen::Map<const Eigen::Matrix3Xf> p(points.data(), 3, n);
+    py::gil_scoped_release release;
+    query(p, d, g);
+  }
+  return toDistanceArrays(d, g);
+}
+
 } // namespace
 
 void
@@ -442,18 +463,9 @@ points : numpy.ndarray, shape (N, 3), float64
       "get_distance",
       [](const Map& self, const FloatArray& points, double max_distance_m,
          bool unknown_is_occupied) {
-        if (points.ndim() != 2 || points.shape(1) != 3)
-          throw py::value_error("points must be an (N, 3) array of x, y, z in meters");
-        const Eigen::Index n = points.shape(0);
-        Eigen::VectorXf d(n);
-        Eigen::Matrix3Xf g(3, n);
-        {
-          // An (N, 3) C-contiguous float32 array is a 3 x N column-major matrix.
-          const Eigen::Map<const Eigen::Matrix3Xf> p(points.data(), 3, n);
-          py::gil_scoped_release release;
+        return distancesOf(points, [&](const auto& p, auto& d, auto& g) {
           self.getDistance(p, max_distance_m, d, g, unknown_is_occupied);
-        }
-        return toDistanceArrays(d, g);
+        });
       },
       py::arg("points"), py::arg("max_distance_m"),
       py::arg("unknown_is_occupied") = false,
@@ -898,17 +910,8 @@ unknown_is_occupied : bool
     .def(
       "get_distance",
       [](const MapRegionIndex& self, const FloatArray& points) {
-        if (points.ndim() != 2 || points.shape(1) != 3)
-          throw py::value_error("points must be an (N, 3) array of x, y, z in meters");
-        const Eigen::Index n = points.shape(0);
-        Eigen::VectorXf d(n);
-        Eigen::Matrix3Xf g(3, n);
-        {
-          const Eigen::Map<const Eigen::Matrix3Xf> p(points.data(), 3, n);
-          py::gil_scoped_release release;
-          self.getDistance(p, d, g);
-        }
-        return toDistanceArrays(d, g);
+        return distancesOf(
+          points, [&](const auto& p, auto& d, auto& g) { self.getDistance(p, d, g); });
       },
       py::arg("points"),
       "PlanarGridMap.get_distance() with the index's cap: (distances (N,), gradients "
