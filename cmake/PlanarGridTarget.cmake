@@ -22,12 +22,13 @@ endfunction()
 
 # Precompiled headers: most sources include Eigen, PCL's point types and a good part of
 # the standard library, and parsing them is most of a translation unit's compile time
-# (about 150,000 lines before a line of ours). Each target with several sources compiles
-# them once into its own precompiled header, with its own flags, so the sanitizer and
-# Release builds each get a valid one. Private to our targets: nothing of it is installed
-# or seen by a consumer of the package.
+# (about 150,000 lines before a line of ours). They are compiled once per kind of target
+# and build: every library shares one precompiled header, every test executable another
+# (with GoogleTest), each owned by an object library with exactly their flags, so the
+# sanitizer and Release builds each get valid ones. Private to our targets: nothing of it
+# is installed or seen by a consumer of the package.
 option(PLANAR_GRID_PRECOMPILE_HEADERS
-       "Precompile the common headers of each library, tool and test target with several sources"
+       "Precompile the common headers of the libraries, the tests and the Python module"
        ON)
 set(PLANAR_GRID_PRECOMPILED_HEADERS
     <algorithm> <array> <cmath> <cstdint> <functional> <limits> <map> <memory> <sstream>
@@ -36,7 +37,7 @@ set(PLANAR_GRID_PRECOMPILED_HEADERS
 
 # planar_grid_precompile_headers(<target> [<header>...]): the common headers, after the
 # given ones (a header that must come first, like pybind11's Python.h, is listed here),
-# precompiled for <target> when it has more than one source.
+# precompiled for <target> alone when it has more than one source.
 function(planar_grid_precompile_headers target)
   if(NOT PLANAR_GRID_PRECOMPILE_HEADERS)
     return()
@@ -47,6 +48,45 @@ function(planar_grid_precompile_headers target)
     return()
   endif()
   target_precompile_headers(${target} PRIVATE ${ARGN} ${PLANAR_GRID_PRECOMPILED_HEADERS})
+endfunction()
+
+# The code model of a target that shares a precompiled header. Objects of both libraries and
+# executables are compiled -fPIC: Qt's targets (through VTK) add -fPIC to some of them, the
+# compilers reject a header precompiled with another code model (clang with an error, GCC
+# by ignoring it), and position-independent objects link into either. GCC says when it
+# cannot use a precompiled header, which the warning-free build check turns into a failure.
+function(_planar_grid_pch_flags target)
+  target_compile_options(${target} PRIVATE -fPIC)
+  if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
+    target_compile_options(${target} PRIVATE -Winvalid-pch)
+  endif()
+endfunction()
+
+# planar_grid_share_precompiled_headers(<target> <owner> LINKS <item>... [OPTIONS <opt>...]
+#                                       [HEADERS <header>...]):
+# <target> reuses the precompiled header of the object library <owner>, created on first
+# use with the given links (for their include directories and definitions), compile
+# options and headers (before the common ones). Every target sharing an owner must be
+# compiled with the same flags as it: the owner gets the warnings, sanitizer flags and
+# position independence that planar_grid_set_warnings() and the target type give them.
+function(planar_grid_share_precompiled_headers target owner)
+  if(NOT PLANAR_GRID_PRECOMPILE_HEADERS)
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "" "LINKS;OPTIONS;HEADERS" ${ARGN})
+  if(NOT TARGET ${owner})
+    set(source "${PROJECT_BINARY_DIR}/${owner}.cpp")
+    file(CONFIGURE OUTPUT "${source}"
+         CONTENT "// The owner of a shared precompiled header: no code of its own.\n")
+    add_library(${owner} OBJECT "${source}")
+    target_link_libraries(${owner} PRIVATE ${ARG_LINKS})
+    target_compile_options(${owner} PRIVATE ${ARG_OPTIONS})
+    planar_grid_set_warnings(${owner})
+    _planar_grid_pch_flags(${owner})
+    target_precompile_headers(${owner} PRIVATE ${ARG_HEADERS} ${PLANAR_GRID_PRECOMPILED_HEADERS})
+  endif()
+  _planar_grid_pch_flags(${target})
+  target_precompile_headers(${target} REUSE_FROM ${owner})
 endfunction()
 
 # planar_grid_add_library(<module> SOURCES ... DEPENDS ... PRIVATE_DEPENDS ...): the library
@@ -68,7 +108,8 @@ function(planar_grid_add_library module)
   target_compile_features(${target} PUBLIC cxx_std_17)
   target_link_libraries(${target} PUBLIC ${ARG_DEPENDS} PRIVATE ${ARG_PRIVATE_DEPENDS})
   planar_grid_set_warnings(${target})
-  planar_grid_precompile_headers(${target})
+  planar_grid_share_precompiled_headers(${target} planar_grid_library_pch
+    LINKS Eigen3::Eigen pcl_common)
 
   install(TARGETS ${target} EXPORT PlanarGridTargets
     ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
