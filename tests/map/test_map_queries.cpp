@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "../benchmarks/karlsruhe_frame.h"
+#include "map_queries_oracle.h"
 
 namespace planar_grid {
 namespace {
@@ -68,11 +69,7 @@ box(const Eigen::Vector3f& centre,
 
 // ---- the oracle: every obstacle box, double precision ----------------------------
 
-struct OracleBox {
-  Eigen::Matrix3d axes;
-  Eigen::Vector3d centre;
-  Eigen::Vector3d half;
-};
+using test::OracleBox;
 
 std::vector<OracleBox>
 oracleBoxes(const PlanarGridMap& map, bool unknown_is_occupied)
@@ -118,18 +115,6 @@ oracleBoxes(const PlanarGridMap& map, bool unknown_is_occupied)
   return out;
 }
 
-/** Distance to one box and the gradient (outside only). */
-double
-oracleDistance(const OracleBox& b, const Eigen::Vector3d& p, Eigen::Vector3d& grad)
-{
-  const Eigen::Vector3d q = b.axes.transpose() * (p - b.centre);
-  const Eigen::Vector3d closest = q.cwiseMax(-b.half).cwiseMin(b.half);
-  const Eigen::Vector3d e = q - closest;
-  const double d = e.norm();
-  grad = d > 0.0 ? Eigen::Vector3d(b.axes * e / d) : Eigen::Vector3d::Zero();
-  return d;
-}
-
 /** Checks getDistance() against the oracle at \a points: distances within 1 mm,
  * gradients within 1 degree where every obstacle within 1 mm of the nearest gives the
  * same direction. \a outside_lo / hi: the unknown outside (with the unknown prior). */
@@ -152,14 +137,7 @@ expectOracleDistances(const PlanarGridMap& map,
   for (Eigen::Index i = 0; i < points.cols(); ++i) {
     const Eigen::Vector3d p = points.col(i).cast<double>();
     std::vector<std::pair<double, Eigen::Vector3d>> near;
-    double best = cap;
-    for (const auto& b : boxes) {
-      Eigen::Vector3d g;
-      const double d = oracleDistance(b, p, g);
-      if (d < best + 1e-3)
-        near.emplace_back(d, g);
-      best = std::min(best, d);
-    }
+    double best = test::oracleNearest(boxes, p, cap, 1e-3, near);
     if (outside && has_bounds) {
       const Eigen::Vector3d lo = klo.cast<double>() * r;
       const Eigen::Vector3d hi = (khi.cast<double>() + Eigen::Vector3d::Ones()) * r;
@@ -197,54 +175,6 @@ expectOracleDistances(const PlanarGridMap& map,
   }
 }
 
-// Separating axes from the corners' projections (a formulation apart from the one in
-// the library, which works in the frame of the body), double precision. Returns the
-// largest gap over the axes: > 0 separated, <= 0 overlapping.
-double
-oracleGap(const Eigen::Matrix3d& ra,
-          const Eigen::Vector3d& ca,
-          const Eigen::Vector3d& ha,
-          const OracleBox& b)
-{
-  std::vector<Eigen::Vector3d> axes;
-  for (int i = 0; i < 3; ++i) {
-    axes.push_back(ra.col(i));
-    axes.push_back(b.axes.col(i));
-  }
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) {
-      const Eigen::Vector3d c = ra.col(i).cross(b.axes.col(j));
-      if (c.norm() > 1e-9)
-        axes.push_back(c.normalized());
-    }
-  const auto corners = [](const Eigen::Matrix3d& r, const Eigen::Vector3d& c,
-                          const Eigen::Vector3d& h) {
-    std::vector<Eigen::Vector3d> out;
-    for (int k = 0; k < 8; ++k)
-      out.push_back(c
-                    + r
-                        * Eigen::Vector3d((k & 1) ? h.x() : -h.x(),
-                                          (k & 2) ? h.y() : -h.y(),
-                                          (k & 4) ? h.z() : -h.z()));
-    return out;
-  };
-  const auto pa = corners(ra, ca, ha), pb = corners(b.axes, b.centre, b.half);
-  double gap = -std::numeric_limits<double>::infinity();
-  for (const auto& axis : axes) {
-    double amin = 1e30, amax = -1e30, bmin = 1e30, bmax = -1e30;
-    for (const auto& p : pa) {
-      amin = std::min(amin, p.dot(axis));
-      amax = std::max(amax, p.dot(axis));
-    }
-    for (const auto& p : pb) {
-      bmin = std::min(bmin, p.dot(axis));
-      bmax = std::max(bmax, p.dot(axis));
-    }
-    gap = std::max(gap, std::max(bmin - amax, amin - bmax));
-  }
-  return gap;
-}
-
 /** Checks isCollisionFree() against the oracle; answers whose margin to touching is
  * under 1e-4 m (float rounding) are counted apart and must be few. */
 void
@@ -265,24 +195,11 @@ expectOracleCollisions(const PlanarGridMap& map,
     const Eigen::Matrix3d ra = body.rotation.cast<double>();
     const Eigen::Vector3d ca = body.centre.cast<double>();
     const Eigen::Vector3d ha = body.half_extents.cast<double>();
-    double margin = std::numeric_limits<double>::infinity(); // > 0 free
-    const Eigen::Vector3d reach = body.shape == CollisionBody::Shape::BOX
-                                    ? Eigen::Vector3d(ra.cwiseAbs() * ha)
-                                    : Eigen::Vector3d::Constant(body.radius_m);
-    for (const auto& b : boxes) {
-      // Bounding boxes apart by more than the borderline: the bodies are apart too.
-      const Eigen::Vector3d b_reach = b.axes.cwiseAbs() * b.half;
-      if (((ca - b.centre).cwiseAbs() - reach - b_reach).maxCoeff() > 1e-3)
-        continue;
-      double m;
-      if (body.shape == CollisionBody::Shape::BOX) {
-        m = oracleGap(ra, ca, ha, b);
-      } else {
-        Eigen::Vector3d g;
-        m = oracleDistance(b, ca, g) - body.radius_m;
-      }
-      margin = std::min(margin, m);
-    }
+    // > 0 free
+    double margin =
+      body.shape == CollisionBody::Shape::BOX
+        ? test::oracleBoxMargin(boxes, ra, ca, ha, 1e-3)
+        : test::oracleSphereMargin(boxes, ca, static_cast<double>(body.radius_m), 1e-3);
     if (outside && has_bounds) {
       const double r = map.getResolution();
       const Eigen::Vector3d lo = klo.cast<double>() * r;
