@@ -1,0 +1,105 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "mapping_error_oracle.h"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <tuple>
+
+namespace planar_grid {
+namespace test {
+
+double
+oracleDistance(const OracleBox& box, const Eigen::Vector3d& p)
+{
+  Eigen::Vector3d closest = box.centre;
+  for (int k = 0; k < 3; ++k) {
+    const double along = (p - box.centre).dot(box.axes.col(k));
+    closest += std::clamp(along, -box.half[k], box.half[k]) * box.axes.col(k);
+  }
+  return (p - closest).norm();
+}
+
+OracleBox
+oracleVoxel(const VoxelIndex& index, double r)
+{
+  return {(index.cast<double>().array() + 0.5).matrix() * r,
+          Eigen::Matrix3d::Identity(), Eigen::Vector3d::Constant(0.5 * r)};
+}
+
+OracleBox
+oracleCuboid(const PlanarCuboid& c)
+{
+  OracleBox box;
+  box.centre = c.centre.cast<double>();
+  box.axes.col(0) = c.horizontal_axis.cast<double>();
+  box.axes.col(1) = c.verticalAxis().cast<double>();
+  box.axes.col(2) = c.normal.cast<double>();
+  box.half = 0.5 * Eigen::Vector3d(c.width_m, c.height_m, c.thickness_m);
+  return box;
+}
+
+OracleTruth
+oracleTruth(const pcl::PointCloud<pcl::PointXYZ>& points, double r)
+{
+  std::set<std::tuple<int, int, int>> unique;
+  for (const auto& p : points.points)
+    unique.emplace(static_cast<int>(std::floor(static_cast<double>(p.x) / r)),
+                   static_cast<int>(std::floor(static_cast<double>(p.y) / r)),
+                   static_cast<int>(std::floor(static_cast<double>(p.z) / r)));
+  OracleTruth out;
+  for (const auto& [x, y, z] : unique)
+    out.voxels.emplace_back(x, y, z);
+  const auto centre = [r](const VoxelIndex& v) {
+    return Eigen::Vector3d((v.cast<double>().array() + 0.5).matrix() * r);
+  };
+  for (const VoxelIndex& v : out.voxels) {
+    const Eigen::Vector3d c = centre(v);
+    double lowest = c.z();
+    for (const VoxelIndex& w : out.voxels) {
+      const Eigen::Vector3d d = centre(w);
+      if (std::floor(d.x()) == std::floor(c.x())
+          && std::floor(d.y()) == std::floor(c.y()))
+        lowest = std::min(lowest, d.z());
+    }
+    out.ground.push_back(c.z() - lowest <= 0.3 + 1e-6);
+  }
+  return out;
+}
+
+Completeness
+oracleCompleteness(const OracleTruth& truth,
+                   double r,
+                   const std::vector<OracleBox>& boxes,
+                   double tolerance_m,
+                   const MappingErrorRegion& region,
+                   bool nonground_only)
+{
+  Completeness out;
+  for (std::size_t i = 0; i < truth.voxels.size(); ++i) {
+    const Eigen::Vector3d c =
+      (truth.voxels[i].cast<double>().array() + 0.5).matrix() * r;
+    if ((nonground_only && truth.ground[i]) || !region.contains(c.cast<float>()))
+      continue;
+    ++out.truth_voxels;
+    for (const auto& box : boxes)
+      if (oracleDistance(box, c) <= tolerance_m) {
+        ++out.covered;
+        break;
+      }
+  }
+  return out;
+}
+
+std::vector<OracleBox>
+oracleCuboids(const PlanarCuboids& cuboids, bool planar_only)
+{
+  std::vector<OracleBox> out;
+  for (const auto& c : cuboids)
+    if (c.probability >= 0.5f && (!planar_only || c.is_planar))
+      out.push_back(oracleCuboid(c));
+  return out;
+}
+
+} // namespace test
+} // namespace planar_grid
