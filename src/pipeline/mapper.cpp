@@ -137,11 +137,27 @@ Mapper::integrateStereoPair(const cv::Mat& left,
                     + " differs from the calibration's "
                     + std::to_string(calibration.width) + "x"
                     + std::to_string(calibration.height) + " px");
+  // The calibration files of some inputs (Karlsruhe's) give no image size: the
+  // principal point then tells images of another camera.
+  if ((calibration.width <= 0 || calibration.height <= 0)
+      && !(calibration.cx_px >= 0.0 && calibration.cx_px < left.cols
+           && calibration.cy_px >= 0.0 && calibration.cy_px < left.rows))
+    throw Exception("Mapper::integrateStereo: the calibration's principal point ("
+                    + std::to_string(calibration.cx_px) + ", "
+                    + std::to_string(calibration.cy_px) + ") px lies outside the "
+                    + size(left) + " images");
+  // The stages that track features or estimate motion compare frame with frame.
+  if (frames_ > 0 && left.size() != image_size_)
+    throw Exception("Mapper::integrateStereo: the images' size " + size(left)
+                    + " differs from the earlier frames' "
+                    + std::to_string(image_size_.width) + "x"
+                    + std::to_string(image_size_.height) + " px");
   try {
     calibration.validate("the calibration");
   } catch (const IOError& e) {
     throw Exception(std::string("Mapper::integrateStereo: ") + e.what());
   }
+  image_size_ = left.size();
   Frame frame;
   // The stages read the images and never write them: no copy.
   frame.left = left;

@@ -144,9 +144,10 @@ public:
    * \param[in] world_T_camera the left camera's pose, meters
    * \return the frame's statistics
    * \throws planar_grid::Exception for an empty image, images of different size or
-   * type or not the calibration's size, an invalid calibration, a pipeline that
-   * reads point clouds or estimates its own poses (visual_odometry), or a stage that
-   * fails on the frame (the message names the frame and stage) */
+   * type, not the calibration's size (or, when it gives none, with the principal point
+   * outside them) or not the earlier frames' size, an invalid calibration, a pipeline
+   * that reads point clouds or estimates its own poses (visual_odometry), or a stage
+   * that fails on the frame (the message names the frame and stage) */
   FrameStats integrateStereo(const cv::Mat& left,
                              const cv::Mat& right,
                              const StereoCalibration& calibration,
@@ -240,6 +241,8 @@ private:
   bool needs_poses_{false};
   /** \brief Frames integrated since the start of the run. */
   std::size_t frames_{0};
+  /** \brief The stereo images' size (integrateStereo()). */
+  cv::Size image_size_;
   /** \brief Guards the map: shared for readers, exclusive while a stage changes it. */
   mutable std::shared_mutex map_mutex_;
   /** \brief The exclusive lock of the frame under way (owned between the stages that
