@@ -85,9 +85,13 @@ struct FrameStats {
  * readMap() and save(): they hold a shared lock (std::shared_mutex) while they read,
  * and each frame holds it exclusively only while its map_integration stage changes
  * the map, so every reader sees the map as it was after some whole frame. The cost: a
- * reader may wait up to one map_integration stage (FrameStats::exclusive_ms), and
+ * reader may wait up to one map_integration stage (FrameStats::exclusive_ms: on the
+ * 112 Karlsruhe frames, config/karlsruhe.yaml in Release, 24 ms on average, 56 ms at
+ * most; a reader querying in a loop waited 0.18 ms on average; docs/LIVE.md), and
  * a frame's map_integration waits for the readers under way to finish
- * (FrameStats::lock_wait_ms). Nothing is copied.
+ * (FrameStats::lock_wait_ms). Nothing is copied: a copy per frame, the alternative,
+ * would cost more than the frame (the final Karlsruhe map's serialize and deserialize
+ * take 1.2 s).
  * \ingroup pipeline */
 class Mapper {
 public:
