@@ -285,3 +285,55 @@ TEST_F(MapperTest, VisualOdometryGivesThePoseWhenNoneIsGiven)
   EXPECT_TRUE(mapper.getTrajectory()[0].matrix() == stats.world_T_camera.matrix());
   EXPECT_GT(mapper.readMap()->getSurfaceLayer().getCuboidCount(), 0u);
 }
+
+TEST_F(MapperTest, ACloudGivesThePipelineRunnersMap)
+{
+  // A real Kinect scan (office1.pcd, its colour as intensity) through a short cloud
+  // pipeline, fed as a point cloud with the pose the frame source gives it (levelled on
+  // its floor): the same map as the runner's.
+  const std::string yaml =
+    "input:\n  type: pcd_files\n  files: " + std::string(PLANAR_GRID_DATA_DIR)
+    + R"(/pcl_clouds/office1.pcd
+  poses: {format: viewpoint}
+pipeline:
+  - type: cloud_features
+    params: {feature_type: orb_grid, max_features: 500}
+  - type: kl_occupancy_filter
+    params: {range_error_model: depth_quadratic, depth_error_coefficient_per_m: 0.0016,
+             neighbourhood_size_m: 0.1}
+  - type: voxel_grid
+    params: {leaf_size_m: 0.05}
+  - type: transform_to_world
+  - type: multi_plane_segmentation
+    params: {distance_threshold_m: 0.03, max_planes: 4, min_inliers: 300}
+  - type: planar_cuboid_approximation
+    params: {min_cell_size_m: 0.1, thickness_m: 0.1}
+  - type: map_integration
+)";
+  const auto config = planar_grid::parsePipelineConfig(yaml, "cloud.yaml", "/");
+  planar_grid::PipelineRunner runner(config);
+  runner.run();
+  const auto source = planar_grid::createFrameSource(config.input);
+  planar_grid::Frame frame;
+  source->load(0, frame);
+  ASSERT_TRUE(frame.cloud && frame.has_pose);
+  planar_grid::Mapper mapper(config);
+  const auto stats = mapper.integrateCloud(*frame.cloud, frame.world_T_camera);
+  EXPECT_GT(stats.cuboids, 0u);
+  std::string a, b;
+  runner.state().map->serialize(a);
+  mapper.readMap()->serialize(b);
+  EXPECT_TRUE(a == b) << "the mapper's map differs from the runner's";
+  // A stereo call on a cloud pipeline, and an empty cloud, are refused.
+  expectThrowWith(
+    [&] {
+      mapper.integrateStereo(cv::Mat(2, 2, CV_8UC1), cv::Mat(2, 2, CV_8UC1),
+                             planar_grid::StereoCalibration(), frame.world_T_camera);
+    },
+    "takes point clouds (input.type pcd_files), not stereo pairs");
+  expectThrowWith(
+    [&] {
+      mapper.integrateCloud(planar_grid::Mapper::PointCloud(), frame.world_T_camera);
+    },
+    "the cloud is empty");
+}
