@@ -146,7 +146,8 @@ bindMapper(py::module_& m)
 
 Returned by Mapper.read_map(); use it in a ``with`` block, which gives the map and holds
 the lock until the block ends: the map cannot change inside it, also while another
-thread integrates a frame. Do not keep the map beyond the block.
+thread integrates a frame. Do not keep the map beyond the block, and do not integrate a
+frame inside the block on the same thread (it would wait for the block's lock).
 )doc")
     .def("__enter__",
          [](MapReadContext& self) {

@@ -103,7 +103,8 @@ public:
   using PointCloud = pcl::PointCloud<pcl::PointXYZ>;
 
   /** \brief The map, read under a shared lock held until this object is destroyed:
-   * the map cannot change while it lives. Keep it no longer than the read. */
+   * the map cannot change while it lives. Keep it no longer than the read, and do not
+   * integrate a frame on a thread that holds one (the frame would wait for it). */
   class MapReader {
   public:
     /** \brief The map. */
