@@ -78,7 +78,9 @@ struct FrameStats {
  * (stereo pairs or point clouds) and where the poses come from; no file of it is read.
  * Each frame carries its pose world_T_camera (meters, z-up world, camera x right, y
  * down, z forward), or none when the pipeline's visual_odometry stage estimates it.
- * The pipeline must have a map_integration stage.
+ * The pipeline must have a map_integration stage. A frame whose stage throws may
+ * leave part of its work in the map and the stages' state, as a failed run of
+ * planar_grid_pipeline does; reset() starts over.
  *
  * Thread safety: integrateStereo() and integrateCloud() are called from one thread at
  * a time. Any number of other threads may read the map at the same time through
