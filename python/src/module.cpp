@@ -127,4 +127,5 @@ ValueError
   planar_grid::python::bindAlgorithms(m);
   planar_grid::python::bindMap(m);
   planar_grid::python::bindPipeline(m);
+  planar_grid::python::bindMapper(m);
 }

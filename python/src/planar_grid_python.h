@@ -170,6 +170,8 @@ void bindAlgorithms(py::module_& m);
 void bindMap(py::module_& m);
 /** \brief Binds run_pipeline(), PipelineResult and stage_types(). */
 void bindPipeline(py::module_& m);
+/** \brief Binds Mapper, its MapReadLock and InputFrames. */
+void bindMapper(py::module_& m);
 
 } // namespace python
 } // namespace planar_grid

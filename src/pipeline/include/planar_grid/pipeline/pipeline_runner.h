@@ -266,6 +266,10 @@ public:
    * \return the report (per-stage times and counts, the map's summary) */
   RunReport finish();
 
+  /** \brief The report of the frames processed since start() so far: per-stage sums,
+   * without the figures finish() adds (the map summary, the run's wall time). */
+  const RunReport& report() const { return report_; }
+
   /** \brief The shared state (accumulated world cloud) after run(). */
   const PipelineState& state() const { return state_; }
 

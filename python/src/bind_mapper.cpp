@@ -1,0 +1,389 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The streaming mapper (planar_grid::Mapper): one frame per call from numpy arrays, the
+// map read between frames or under its lock from other threads; and the frames of a
+// configuration's input, read as the pipeline reads them.
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/pipeline/frame_source.h>
+#include <planar_grid/pipeline/mapper.h>
+#include <planar_grid/pipeline/pipeline_config.h>
+
+#include <pybind11/stl.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "planar_grid_python.h"
+
+namespace planar_grid {
+namespace python {
+
+namespace {
+
+/** \brief Any array-like converted to a C-contiguous uint8 array. */
+using ByteArray = py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>;
+
+/** An (H, W) uint8 array as a cv::Mat over the same memory (no copy). */
+cv::Mat
+toImage(const ByteArray& image, const char* name)
+{
+  if (image.ndim() != 2)
+    throw py::value_error(std::string(name)
+                          + " must be an (H, W) uint8 array (8-bit grey), got "
+                          + std::to_string(image.ndim()) + " dimensions");
+  return cv::Mat(static_cast<int>(image.shape(0)), static_cast<int>(image.shape(1)),
+                 CV_8UC1, const_cast<std::uint8_t*>(image.data()));
+}
+
+/** A cv::Mat of CV_8UC1 as an (H, W) uint8 array (a copy). */
+ByteArray
+imageToArray(const cv::Mat& image)
+{
+  ByteArray out(
+    {static_cast<py::ssize_t>(image.rows), static_cast<py::ssize_t>(image.cols)});
+  auto o = out.mutable_unchecked<2>();
+  for (int r = 0; r < image.rows; ++r)
+    for (int c = 0; c < image.cols; ++c)
+      o(r, c) = image.at<std::uint8_t>(r, c);
+  return out;
+}
+
+StereoCalibration
+toCalibration(const py::dict& d)
+{
+  StereoCalibration c;
+  for (const auto& [key, value] : d) {
+    const std::string k = py::str(key);
+    if (k == "focal_length_px")
+      c.focal_length_px = value.cast<double>();
+    else if (k == "cx_px")
+      c.cx_px = value.cast<double>();
+    else if (k == "cy_px")
+      c.cy_px = value.cast<double>();
+    else if (k == "baseline_m")
+      c.baseline_m = value.cast<double>();
+    else if (k == "width")
+      c.width = value.cast<int>();
+    else if (k == "height")
+      c.height = value.cast<int>();
+    else
+      throw py::value_error("calibration: unknown key '" + k
+                            + "'; the keys are focal_length_px, cx_px, cy_px, "
+                              "baseline_m, width, height");
+  }
+  return c;
+}
+
+py::dict
+toDict(const StereoCalibration& c)
+{
+  py::dict d;
+  d["focal_length_px"] = c.focal_length_px;
+  d["cx_px"] = c.cx_px;
+  d["cy_px"] = c.cy_px;
+  d["baseline_m"] = c.baseline_m;
+  d["width"] = c.width;
+  d["height"] = c.height;
+  return d;
+}
+
+DoubleArray
+toMatrix(const Eigen::Isometry3d& pose)
+{
+  DoubleArray out({py::ssize_t{4}, py::ssize_t{4}});
+  auto o = out.mutable_unchecked<2>();
+  for (py::ssize_t r = 0; r < 4; ++r)
+    for (py::ssize_t c = 0; c < 4; ++c)
+      o(r, c) = pose.matrix()(static_cast<int>(r), static_cast<int>(c));
+  return out;
+}
+
+py::dict
+toDict(const FrameStats& stats)
+{
+  py::dict d;
+  d["sequence_number"] = stats.sequence_number;
+  d["total_ms"] = stats.total_ms;
+  d["lock_wait_ms"] = stats.lock_wait_ms;
+  d["exclusive_ms"] = stats.exclusive_ms;
+  d["planes"] = stats.planes;
+  d["cuboids"] = stats.cuboids;
+  d["map_cuboids"] = stats.map_cuboids;
+  d["world_T_camera"] = toMatrix(stats.world_T_camera);
+  py::list stages;
+  for (const auto& s : stats.stages) {
+    py::dict e;
+    e["type"] = s.type;
+    e["ms"] = s.ms;
+    e["points_in"] = s.points_in;
+    e["points_out"] = s.points_out;
+    for (const auto& [name, value] : s.counters)
+      e[py::str(name)] = value;
+    stages.append(e);
+  }
+  d["stages"] = stages;
+  return d;
+}
+
+/** The map under the mapper's shared lock, as a context manager. */
+struct MapReadContext {
+  const Mapper* mapper{nullptr};
+  std::optional<Mapper::MapReader> reader;
+};
+
+/** The frames of a configuration's input, read as the pipeline reads them. */
+struct InputFrames {
+  std::unique_ptr<FrameSource> source;
+};
+
+} // namespace
+
+void
+bindMapper(py::module_& m)
+{
+  py::class_<MapReadContext>(m, "MapReadLock",
+                             R"doc(The map of a Mapper under its shared lock.
+
+Returned by Mapper.read_map(); use it in a ``with`` block, which gives the map and holds
+the lock until the block ends: the map cannot change inside it, also while another
+thread integrates a frame. Do not keep the map beyond the block, and do not integrate a
+frame inside the block on the same thread (it would wait for the block's lock).
+)doc")
+    .def("__enter__",
+         [](MapReadContext& self) {
+           {
+             py::gil_scoped_release release;
+             self.reader.emplace(self.mapper->readMap());
+           }
+           return std::const_pointer_cast<PlanarGridMap>(self.mapper->getMap());
+         })
+    .def("__exit__", [](MapReadContext& self, const py::args&) {
+      self.reader.reset();
+      return false;
+    });
+
+  py::class_<Mapper>(m, "Mapper", R"doc(Builds a map frame by frame from your data.
+
+The C++ planar_grid::Mapper: each call runs one frame through the pipeline a YAML
+configuration describes (the stages planar_grid_pipeline and run_pipeline() run), so the
+same frames give the same map file, byte for byte. The configuration's input section
+only says what the pipeline takes (stereo pairs or point clouds) and where the poses
+come from; its files are not read. The pipeline needs a map_integration stage.
+
+Threads: integrate_stereo() and integrate_cloud() release the GIL while the frame is
+integrated; call them from one thread at a time. Another thread reads the map with
+``with mapper.read_map() as m:`` or save(): each frame locks readers out only while its
+map_integration stage changes the map (docs/LIVE.md gives the measured wait). The
+``map`` property is the map without the lock: read it between frames from the thread
+that integrates.
+
+Parameters
+----------
+config : str or os.PathLike
+    The configuration file (schema: config/example.yaml).
+
+Raises
+------
+planar_grid.ConfigError
+    (a ValueError) for a bad configuration.
+planar_grid.Error
+    When the pipeline has no map_integration stage.
+)doc")
+    .def(py::init([](const py::object& config) {
+           const std::string path = toPath(config);
+           py::gil_scoped_release release;
+           return std::make_unique<Mapper>(path);
+         }),
+         py::arg("config"))
+    .def(
+      "integrate_stereo",
+      [](Mapper& self, const ByteArray& left, const ByteArray& right,
+         const py::dict& calibration, const py::object& world_T_camera) {
+        const cv::Mat l = toImage(left, "left");
+        const cv::Mat r = toImage(right, "right");
+        const StereoCalibration c = toCalibration(calibration);
+        std::optional<Eigen::Isometry3d> pose;
+        if (!world_T_camera.is_none())
+          pose = toIsometry(world_T_camera.cast<DoubleArray>(), "world_T_camera");
+        FrameStats stats;
+        {
+          py::gil_scoped_release release;
+          stats =
+            pose ? self.integrateStereo(l, r, c, *pose) : self.integrateStereo(l, r, c);
+        }
+        return toDict(stats);
+      },
+      py::arg("left"), py::arg("right"), py::arg("calibration"),
+      py::arg("world_T_camera") = py::none(),
+      R"doc(Maps a rectified stereo pair.
+
+Parameters
+----------
+left, right : numpy.ndarray, shape (H, W), uint8
+    The rectified grey images (the calibration's size when it gives one).
+calibration : dict
+    focal_length_px, cx_px, cy_px (pixels), baseline_m (meters), and optionally width
+    and height (pixels), as InputFrames gives it.
+world_T_camera : numpy.ndarray, shape (4, 4), optional
+    The left camera's pose (meters; camera x right, y down, z forward; z-up world).
+    None: the pipeline's visual_odometry stage estimates it.
+
+Returns
+-------
+dict
+    The frame's statistics: sequence_number, total_ms, lock_wait_ms, exclusive_ms,
+    planes and cuboids (the frame's), map_cuboids, world_T_camera (4, 4), and stages:
+    a list of dicts with type, ms, points_in, points_out and the stage's counters.
+
+Raises
+------
+ValueError
+    For an array of another shape or a calibration with an unknown key.
+planar_grid.Error
+    For an empty image, sizes that differ, an invalid calibration, no pose without
+    visual_odometry (or a pose with it), or a stage failing on the frame.
+)doc")
+    .def(
+      "integrate_cloud",
+      [](Mapper& self, const FloatArray& points, const DoubleArray& world_T_sensor) {
+        const auto cloud = toCloud(points, "points");
+        const Eigen::Isometry3d pose = toIsometry(world_T_sensor, "world_T_sensor");
+        FrameStats stats;
+        {
+          py::gil_scoped_release release;
+          stats = self.integrateCloud(*cloud, pose);
+        }
+        return toDict(stats);
+      },
+      py::arg("points"), py::arg("world_T_sensor"),
+      R"doc(Maps a point cloud.
+
+Parameters
+----------
+points : numpy.ndarray, shape (N, 3), float
+    x, y, z in the sensor frame, meters (NaN rows are invalid points).
+world_T_sensor : numpy.ndarray, shape (4, 4)
+    The sensor's pose, meters.
+
+Returns
+-------
+dict
+    The frame's statistics, as integrate_stereo().
+
+Raises
+------
+planar_grid.Error
+    For an empty cloud, a pipeline that takes stereo pairs, or a stage failing.
+)doc")
+    .def(
+      "read_map",
+      [](const Mapper& self) {
+        MapReadContext context;
+        context.mapper = &self;
+        return context;
+      },
+      py::keep_alive<0, 1>(),
+      "MapReadLock: ``with mapper.read_map() as m:`` gives the map under the shared "
+      "lock (safe from any thread).")
+    .def_property_readonly(
+      "map",
+      [](const Mapper& self) {
+        return std::const_pointer_cast<PlanarGridMap>(self.getMap());
+      },
+      "PlanarGridMap: the map without the lock; read it between frames from the thread "
+      "that integrates (other threads: read_map()).")
+    .def(
+      "save",
+      [](const Mapper& self, const py::object& path) {
+        const std::string p = toPath(path);
+        py::gil_scoped_release release;
+        self.save(p);
+      },
+      py::arg("path"),
+      "Writes the map file (.pgmap) under the shared lock; raises planar_grid.IOError "
+      "when it cannot be written.")
+    .def(
+      "reset",
+      [](Mapper& self) {
+        py::gil_scoped_release release;
+        self.reset();
+      },
+      "Empties the map and restarts every stage (the odometry too).")
+    .def_property_readonly("frame_count", &Mapper::getFrameCount,
+                           "int: frames integrated since construction or reset().")
+    .def_property_readonly(
+      "trajectory",
+      [](const Mapper& self) {
+        const Trajectory& t = self.getTrajectory();
+        DoubleArray out(
+          {static_cast<py::ssize_t>(t.size()), py::ssize_t{4}, py::ssize_t{4}});
+        auto o = out.mutable_unchecked<3>();
+        for (std::size_t i = 0; i < t.size(); ++i)
+          for (py::ssize_t r = 0; r < 4; ++r)
+            for (py::ssize_t c = 0; c < 4; ++c)
+              o(static_cast<py::ssize_t>(i), r, c) =
+                t[i].matrix()(static_cast<int>(r), static_cast<int>(c));
+        return out;
+      },
+      "numpy.ndarray, shape (F, 4, 4): world_T_camera of each integrated frame.")
+    .def("__repr__", [](const Mapper& self) {
+      return "<planar_grid.Mapper: " + self.getConfig().source_file + ", "
+             + std::to_string(self.getFrameCount()) + " frames>";
+    });
+
+  py::class_<InputFrames>(m, "InputFrames", R"doc(The frames of a configuration's input.
+
+Read as the pipeline reads them (planar_grid::createFrameSource(): images rectified,
+poses in the z-up world), one at a time, e.g. to feed a Mapper as a camera would.
+
+Parameters
+----------
+config : str or os.PathLike
+    The configuration file; its input section is used.
+
+Raises
+------
+planar_grid.ConfigError, planar_grid.IOError
+    For a bad configuration or a missing input.
+)doc")
+    .def(py::init([](const py::object& config) {
+           const std::string path = toPath(config);
+           py::gil_scoped_release release;
+           InputFrames frames;
+           frames.source = createFrameSource(loadPipelineConfig(path).input);
+           return frames;
+         }),
+         py::arg("config"))
+    .def("__len__", [](const InputFrames& self) { return self.source->size(); })
+    .def(
+      "__getitem__",
+      [](const InputFrames& self, std::size_t i) {
+        if (i >= self.source->size())
+          throw py::index_error("frame " + std::to_string(i) + " of "
+                                + std::to_string(self.source->size()));
+        Frame frame;
+        {
+          py::gil_scoped_release release;
+          self.source->load(i, frame);
+        }
+        py::dict d;
+        d["name"] = frame.name;
+        if (frame.cloud)
+          d["points"] = cloudToArray(*frame.cloud);
+        else {
+          d["left"] = imageToArray(frame.left);
+          d["right"] = imageToArray(frame.right);
+          d["calibration"] = toDict(frame.calibration);
+        }
+        d["world_T_camera"] =
+          frame.has_pose ? py::object(toMatrix(frame.world_T_camera)) : py::none();
+        return d;
+      },
+      py::arg("i"),
+      "dict: frame i: name; left and right ((H, W) uint8) and calibration (dict) for "
+      "stereo input, points ((N, 3) float64, sensor frame) for clouds; "
+      "world_T_camera ((4, 4) or None).");
+}
+
+} // namespace python
+} // namespace planar_grid

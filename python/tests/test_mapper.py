@@ -1,0 +1,92 @@
+# SPDX-License-Identifier: BSD-3-Clause
+"""planar_grid.Mapper on real Karlsruhe frames: the same map file as run_pipeline(), a
+reader thread that sees whole frames only, and bad input."""
+
+import threading
+
+import numpy as np
+import pytest
+
+import planar_grid as pg
+
+FRAMES = 3
+
+
+@pytest.fixture
+def main_job(source_dir, data_dir):
+    return source_dir / "config" / "karlsruhe.yaml"
+
+
+def test_mapper_writes_the_pipelines_map_file(main_job, tmp_path):
+    # The user's code: the main job's frames fed one by one.
+    frames = pg.InputFrames(main_job)
+    mapper = pg.Mapper(main_job)
+    for i in range(FRAMES):
+        f = frames[i]
+        stats = mapper.integrate_stereo(f["left"], f["right"], f["calibration"],
+                                        f["world_T_camera"])
+        assert stats["sequence_number"] == i and stats["cuboids"] > 0
+    mapper.save(tmp_path / "map.pgmap")
+
+    result = pg.run_pipeline(main_job, frames=(0, FRAMES), write_outputs=False)
+    result.map.save(tmp_path / "run.pgmap")
+    assert (tmp_path / "map.pgmap").read_bytes() == (tmp_path / "run.pgmap").read_bytes()
+    np.testing.assert_array_equal(mapper.trajectory, result.trajectory)
+    assert [s["type"] for s in stats["stages"]] == [s["type"] for s in
+                                                      result.report["stages"]]
+    assert mapper.map == result.map
+
+
+def test_a_reader_thread_sees_whole_frames(main_job):
+    frames = pg.InputFrames(main_job)
+    mapper = pg.Mapper(main_job)
+    after_frames = [mapper.map.__getstate__()]
+    seen, done = [], threading.Event()
+
+    def read():
+        while True:
+            with mapper.read_map() as m:
+                state = m.__getstate__()
+            if not seen or seen[-1] != state:
+                seen.append(state)
+            if done.is_set():
+                break
+
+    reader = threading.Thread(target=read)
+    reader.start()
+    for i in range(2):
+        f = frames[i]
+        mapper.integrate_stereo(f["left"], f["right"], f["calibration"], f["world_T_camera"])
+        after_frames.append(mapper.map.__getstate__())
+    done.set()
+    reader.join()
+    assert seen and all(state in after_frames for state in seen)
+    assert seen[-1] == after_frames[-1]
+
+
+def test_bad_input_raises(main_job):
+    frames = pg.InputFrames(main_job)
+    f = frames[0]
+    mapper = pg.Mapper(main_job)
+    with pytest.raises(pg.Error, match="principal point .* lies outside the 1344x100 px"):
+        mapper.integrate_stereo(f["left"][:100], f["right"][:100], f["calibration"],
+                                f["world_T_camera"])
+    with pytest.raises(pg.Error, match="no visual_odometry stage"):
+        mapper.integrate_stereo(f["left"], f["right"], f["calibration"])
+    with pytest.raises(ValueError, match="unknown key 'f'"):
+        mapper.integrate_stereo(f["left"], f["right"], {"f": 1.0}, f["world_T_camera"])
+    with pytest.raises(ValueError, match=r"\(H, W\) uint8"):
+        mapper.integrate_stereo(np.zeros((4, 4, 3)), f["right"], f["calibration"])
+    with pytest.raises(pg.Error, match="takes stereo pairs"):
+        mapper.integrate_cloud(np.ones((10, 3)), np.eye(4))
+    assert mapper.frame_count == 0
+
+
+def test_the_example_maps_a_frame(main_job, source_dir, tmp_path):
+    import subprocess
+    import sys
+    example = source_dir / "python" / "examples" / "map_live.py"
+    out = subprocess.run([sys.executable, str(example), str(main_job), "1",
+                          str(tmp_path / "live.pgmap")],
+                         check=True, capture_output=True, text=True).stdout
+    assert out.startswith("frame 0: ") and (tmp_path / "live.pgmap").stat().st_size > 1000

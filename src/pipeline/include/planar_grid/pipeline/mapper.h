@@ -1,0 +1,266 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <planar_grid/core/stereo_calibration.h>
+#include <planar_grid/map/planar_grid_map.h>
+#include <planar_grid/pipeline/frame.h>
+#include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/pipeline_runner.h>
+
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <Eigen/Geometry>
+#include <opencv2/core/mat.hpp>
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <shared_mutex>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace planar_grid {
+
+/** \brief What one stage did to one frame (Mapper::integrateStereo(),
+ * Mapper::integrateCloud()). \ingroup pipeline */
+struct FrameStageStats {
+  /** \brief Stage type. */
+  std::string type;
+  /** \brief Wall time of the stage on the frame, milliseconds. */
+  double ms{0.0};
+  /** \brief Valid points entering the stage (stages that work on the cloud; else 0). */
+  std::uint64_t points_in{0};
+  /** \brief Valid points leaving the stage. */
+  std::uint64_t points_out{0};
+  /** \brief The stage's named figures on this frame (Stage::counters), e.g.
+   * feature_matching: "features", multi_plane_segmentation: "planes". */
+  std::vector<std::pair<std::string, double>> counters;
+};
+
+/** \brief What the pipeline did to one frame of a Mapper. \ingroup pipeline */
+struct FrameStats {
+  /** \brief The frame's position in the mapper's run (0-based). */
+  std::size_t sequence_number{0};
+  /** \brief Wall time of the whole call (checks, stages, waiting for readers),
+   * milliseconds. */
+  double total_ms{0.0};
+  /** \brief Wall time the call waited for readers of the map (Mapper::readMap(),
+   * Mapper::save()) to finish before the map changed, milliseconds. */
+  double lock_wait_ms{0.0};
+  /** \brief Wall time during which readers were locked out of the map (the stages
+   * that change it), milliseconds. */
+  double exclusive_ms{0.0};
+  /** \brief One entry per stage, in pipeline order. */
+  std::vector<FrameStageStats> stages;
+  /** \brief Planes found in the frame (after ground removal). */
+  std::size_t planes{0};
+  /** \brief Cells (cuboids) of the frame. */
+  std::size_t cuboids{0};
+  /** \brief Cuboids of the map after the frame. */
+  std::size_t map_cuboids{0};
+  /** \brief The frame's pose world_T_camera (meters), the caller's or the visual
+   * odometry's. */
+  Eigen::Isometry3d world_T_camera{Eigen::Isometry3d::Identity()};
+
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+};
+
+/** \brief Builds a map frame by frame from the caller's data: each call runs one
+ * frame through the configured pipeline (PipelineRunner::processFrame(), the stages
+ * planar_grid_pipeline runs) and returns that frame's statistics, so that the same
+ * frames give the same map, byte for byte, as a planar_grid_pipeline run of the
+ * configuration over them.
+ *
+ * The configuration's input section only says what kind of frames the pipeline takes
+ * (stereo pairs or point clouds) and where the poses come from; no file of it is read.
+ * Each frame carries its pose world_T_camera (meters, z-up world, camera x right, y
+ * down, z forward), or none when the pipeline's visual_odometry stage estimates it.
+ * The pipeline must have a map_integration stage. A frame whose stage throws may
+ * leave part of its work in the map and the stages' state, as a failed run of
+ * planar_grid_pipeline does; reset() starts over.
+ *
+ * Thread safety: integrateStereo() and integrateCloud() are called from one thread at
+ * a time. Any number of other threads may read the map at the same time through
+ * readMap() and save(): they hold a shared lock (std::shared_mutex) while they read,
+ * and each frame holds it exclusively only while its map_integration stage changes
+ * the map, so every reader sees the map as it was after some whole frame. The cost: a
+ * reader may wait up to one map_integration stage (FrameStats::exclusive_ms: on the
+ * 112 Karlsruhe frames, config/karlsruhe.yaml in Release, 24 ms on average, 56 ms at
+ * most; a reader querying in a loop waited 0.18 ms on average; docs/LIVE.md), and
+ * a frame's map_integration waits for the readers under way to finish
+ * (FrameStats::lock_wait_ms). Nothing is copied: a copy per frame, the alternative,
+ * would cost more than the frame (the final Karlsruhe map's serialize and deserialize
+ * take 1.2 s).
+ * \ingroup pipeline */
+class Mapper {
+public:
+  /** \brief Shared pointer to a mapper. */
+  using Ptr = std::shared_ptr<Mapper>;
+  /** \brief Shared pointer to a const mapper. */
+  using ConstPtr = std::shared_ptr<const Mapper>;
+  /** \brief The point cloud type of integrateCloud(). */
+  using PointCloud = pcl::PointCloud<pcl::PointXYZ>;
+
+  /** \brief The map, read under a shared lock held until this object is destroyed:
+   * the map cannot change while it lives. Keep it no longer than the read, and do not
+   * integrate a frame on a thread that holds one (the frame would wait for it). */
+  class MapReader {
+  public:
+    /** \brief The map. */
+    const PlanarGridMap& operator*() const { return *map_; }
+    /** \brief The map. */
+    const PlanarGridMap* operator->() const { return map_; }
+
+  private:
+    friend class Mapper;
+    /** \brief Locks, then reads the map pointer (reset() replaces the map). */
+    MapReader(std::shared_mutex& mutex, const std::shared_ptr<PlanarGridMap>& map) :
+        lock_(mutex), map_(map.get())
+    {}
+    /** \brief The shared lock on the map. */
+    std::shared_lock<std::shared_mutex> lock_;
+    /** \brief The map. */
+    const PlanarGridMap* map_;
+  };
+
+  /** \brief Builds the pipeline of \a config and starts its run (an empty map).
+   * \param[in] config the pipeline (e.g. loadPipelineConfig()); its input files are
+   * not read
+   * \throws planar_grid::ConfigError for a bad configuration;
+   * planar_grid::Exception when the pipeline has no map_integration stage */
+  explicit Mapper(const PipelineConfig& config);
+
+  /** \brief As Mapper(loadPipelineConfig(config_path)).
+   * \throws planar_grid::ConfigError, planar_grid::IOError as loadPipelineConfig() */
+  explicit Mapper(const std::string& config_path);
+
+  Mapper(const Mapper&) = delete;
+  Mapper& operator=(const Mapper&) = delete;
+  /** \brief Ends the run; no MapReader may outlive the mapper. */
+  ~Mapper();
+
+  /** \brief Maps a rectified stereo pair seen from \a world_T_camera.
+   * \param[in] left rectified left image, 8-bit grey (CV_8UC1), calibration.width x
+   * calibration.height px when the calibration gives a size
+   * \param[in] right rectified right image, the left one's size and type
+   * \param[in] calibration the rectified pair's focal length (px), principal point
+   * (px) and baseline (m)
+   * \param[in] world_T_camera the left camera's pose, meters
+   * \return the frame's statistics
+   * \throws planar_grid::Exception for an empty image, images of different size or
+   * type, not the calibration's size (or, when it gives none, with the principal point
+   * outside them) or not the earlier frames' size, an invalid calibration, a pipeline
+   * that reads point clouds or estimates its own poses (visual_odometry), or a stage
+   * that fails on the frame (the message names the frame and stage) */
+  FrameStats integrateStereo(const cv::Mat& left,
+                             const cv::Mat& right,
+                             const StereoCalibration& calibration,
+                             const Eigen::Isometry3d& world_T_camera);
+
+  /** \brief As the other integrateStereo(), with the pose from the pipeline's
+   * visual_odometry stage.
+   * \throws planar_grid::Exception as the other, and when the pipeline has no
+   * visual_odometry stage (pass the pose) */
+  FrameStats integrateStereo(const cv::Mat& left,
+                             const cv::Mat& right,
+                             const StereoCalibration& calibration);
+
+  /** \brief Maps a point cloud seen from \a world_T_sensor.
+   * \param[in] cloud points in the sensor frame, meters (NaN points are invalid;
+   * organized clouds keep their width and height); intensity 0
+   * \param[in] world_T_sensor the sensor's pose, meters
+   * \return the frame's statistics
+   * \throws planar_grid::Exception for an empty cloud, a pipeline that reads stereo
+   * pairs, or a stage that fails on the frame */
+  FrameStats integrateCloud(const PointCloud& cloud,
+                            const Eigen::Isometry3d& world_T_sensor);
+
+  /** \brief As the other integrateCloud(), for a cloud with an intensity field (the
+   * pipeline's working cloud type, Frame::Cloud). */
+  FrameStats integrateCloud(const Frame::Cloud& cloud,
+                            const Eigen::Isometry3d& world_T_sensor);
+
+  /** \brief The map under a shared lock (see the class brief): safe from any thread,
+   * also while a frame is being integrated. */
+  [[nodiscard]] MapReader readMap() const;
+
+  /** \brief The map itself, without a lock: read it only from the thread that
+   * integrates, between its calls (the map changes during them); other threads read
+   * through readMap(). The map stays alive while the pointer does, also after
+   * reset(), which starts a new one. */
+  [[nodiscard]] std::shared_ptr<const PlanarGridMap> getMap() const
+  {
+    return runner_.state().map;
+  }
+
+  /** \brief Writes the map file (.pgmap, PlanarGridMap::save()) under a shared lock;
+   * safe from any thread.
+   * \throws planar_grid::IOError when it cannot be written */
+  void save(const std::string& path) const;
+
+  /** \brief Empties the map and restarts the run (the odometry and every stage's
+   * state too); waits for the readers under way. Not concurrent with integrate calls.
+   */
+  void reset();
+
+  /** \brief Frames integrated since construction or reset(). */
+  [[nodiscard]] std::size_t getFrameCount() const { return frames_; }
+
+  /** \brief The poses of the integrated frames (world_T_camera), in order. Read it from
+   * the thread that integrates. */
+  const Trajectory& getTrajectory() const { return runner_.trajectory(); }
+
+  /** \brief The per-stage sums over the integrated frames (PipelineRunner's report so
+   * far, without the map summary finish() adds). Read it from the thread that
+   * integrates. */
+  const RunReport& getReport() const { return runner_.report(); }
+
+  /** \brief The configuration. */
+  const PipelineConfig& getConfig() const { return config_; }
+
+private:
+  /** \brief Checks a stereo pair and runs it through the stages; no pose: the
+   * odometry's. */
+  FrameStats integrateStereoPair(const cv::Mat& left,
+                                 const cv::Mat& right,
+                                 const StereoCalibration& calibration,
+                                 const Eigen::Isometry3d* world_T_camera);
+
+  /** \brief Runs \a frame through the stages with \a world_T_camera (none: the
+   * odometry's); the common end of the integrate calls. */
+  FrameStats integrate(Frame& frame, const Eigen::Isometry3d* world_T_camera);
+
+  /** \brief Throws unless the pipeline takes frames of \a type. */
+  void requireInput(InputConfig::Type type, const char* call) const;
+
+  /** \brief The configuration. */
+  PipelineConfig config_;
+  /** \brief The pipeline, taking the caller's frames. */
+  PipelineRunner runner_;
+  /** \brief Per stage: whether it changes the map (readers are locked out). */
+  std::vector<bool> writes_map_;
+  /** \brief Whether a stage estimates the poses (visual_odometry). */
+  bool estimates_poses_{false};
+  /** \brief Whether a stage needs the poses. */
+  bool needs_poses_{false};
+  /** \brief Frames integrated since the start of the run. */
+  std::size_t frames_{0};
+  /** \brief The stereo images' size (integrateStereo()). */
+  cv::Size image_size_;
+  /** \brief Guards the map: shared for readers, exclusive while a stage changes it. */
+  mutable std::shared_mutex map_mutex_;
+  /** \brief The exclusive lock of the frame under way (owned between the stages that
+   * change the map). */
+  std::unique_lock<std::shared_mutex> write_lock_{map_mutex_, std::defer_lock};
+  /** \brief Wall time the frame under way waited for readers, milliseconds. */
+  double lock_wait_ms_{0.0};
+  /** \brief Wall time the frame under way held readers out, milliseconds. */
+  double exclusive_ms_{0.0};
+  /** \brief When the frame under way took the exclusive lock. */
+  std::chrono::steady_clock::time_point locked_at_;
+};
+
+} // namespace planar_grid

@@ -1,0 +1,274 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/pipeline/mapper.h>
+#include <planar_grid/pipeline/stage.h>
+
+#include <pcl/common/io.h>
+
+#include <algorithm>
+#include <string>
+
+namespace planar_grid {
+
+namespace {
+
+double
+msSince(std::chrono::steady_clock::time_point t)
+{
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t)
+    .count();
+}
+
+bool
+contains(const std::vector<StageData>& data, StageData d)
+{
+  return std::find(data.begin(), data.end(), d) != data.end();
+}
+
+std::string
+inputName(InputConfig::Type type)
+{
+  return type == InputConfig::Type::STEREO_SEQUENCE ? "stereo pairs (input.type "
+                                                      "stereo_sequence)"
+                                                    : "point clouds (input.type "
+                                                      "pcd_files)";
+}
+
+/** The value of counter \a name in \a counters, 0 when absent. */
+double
+counterValue(const std::vector<std::pair<std::string, double>>& counters,
+             const std::string& name)
+{
+  for (const auto& [key, value] : counters)
+    if (key == name)
+      return value;
+  return 0.0;
+}
+
+} // namespace
+
+Mapper::Mapper(const PipelineConfig& config) :
+    config_(config), runner_(config_, PipelineRunner::FrameSupply::CALLER)
+{
+  bool has_map = false;
+  for (const auto& sc : config_.stages) {
+    // The runner has built every stage, so each type is in the registry.
+    const StageInfo& info = *findStage(sc.type);
+    const bool writes_map = contains(info.produces, StageData::MAP);
+    writes_map_.push_back(writes_map);
+    has_map = has_map || writes_map;
+    estimates_poses_ = estimates_poses_ || contains(info.produces, StageData::POSES);
+    needs_poses_ = needs_poses_ || contains(info.needs, StageData::POSES);
+  }
+  if (!has_map)
+    throw Exception("Mapper: the pipeline of " + config_.source_file
+                    + " has no map_integration stage, so it builds no map");
+  // Readers are locked out from the first stage that changes the map to the first
+  // stage after it that does not (or the end of the frame): processFrame() runs every
+  // stage on this thread, right after its callback.
+  runner_.setStageCallback([this](std::size_t s, Frame& /*frame*/) {
+    if (writes_map_[s] && !write_lock_.owns_lock()) {
+      const auto t = std::chrono::steady_clock::now();
+      write_lock_.lock();
+      locked_at_ = std::chrono::steady_clock::now();
+      lock_wait_ms_ +=
+        std::chrono::duration<double, std::milli>(locked_at_ - t).count();
+    } else if (!writes_map_[s] && write_lock_.owns_lock()) {
+      exclusive_ms_ += msSince(locked_at_);
+      write_lock_.unlock();
+    }
+  });
+  runner_.start();
+}
+
+Mapper::Mapper(const std::string& config_path) : Mapper(loadPipelineConfig(config_path))
+{}
+
+Mapper::~Mapper() = default;
+
+void
+Mapper::requireInput(InputConfig::Type type, const char* call) const
+{
+  if (config_.input.type != type)
+    throw Exception(std::string("Mapper::") + call + ": the pipeline of "
+                    + config_.source_file + " takes " + inputName(config_.input.type)
+                    + ", not " + inputName(type));
+}
+
+FrameStats
+Mapper::integrateStereo(const cv::Mat& left,
+                        const cv::Mat& right,
+                        const StereoCalibration& calibration,
+                        const Eigen::Isometry3d& world_T_camera)
+{
+  return integrateStereoPair(left, right, calibration, &world_T_camera);
+}
+
+FrameStats
+Mapper::integrateStereo(const cv::Mat& left,
+                        const cv::Mat& right,
+                        const StereoCalibration& calibration)
+{
+  return integrateStereoPair(left, right, calibration, nullptr);
+}
+
+FrameStats
+Mapper::integrateStereoPair(const cv::Mat& left,
+                            const cv::Mat& right,
+                            const StereoCalibration& calibration,
+                            const Eigen::Isometry3d* world_T_camera)
+{
+  requireInput(InputConfig::Type::STEREO_SEQUENCE, "integrateStereo");
+  const auto size = [](const cv::Mat& image) {
+    return std::to_string(image.cols) + "x" + std::to_string(image.rows) + " px";
+  };
+  if (left.empty() || right.empty())
+    throw Exception(std::string("Mapper::integrateStereo: the ")
+                    + (left.empty() ? "left" : "right") + " image is empty");
+  if (left.type() != CV_8UC1 || right.type() != CV_8UC1)
+    throw Exception("Mapper::integrateStereo: the images must be 8-bit grey "
+                    "(CV_8UC1, numpy uint8 of shape (H, W))");
+  if (left.size() != right.size())
+    throw Exception("Mapper::integrateStereo: the right image's size " + size(right)
+                    + " differs from the left image's " + size(left));
+  if (calibration.width > 0 && calibration.height > 0
+      && (left.cols != calibration.width || left.rows != calibration.height))
+    throw Exception("Mapper::integrateStereo: the images' size " + size(left)
+                    + " differs from the calibration's "
+                    + std::to_string(calibration.width) + "x"
+                    + std::to_string(calibration.height) + " px");
+  // The calibration files of some inputs (Karlsruhe's) give no image size: the
+  // principal point then tells images of another camera.
+  if ((calibration.width <= 0 || calibration.height <= 0)
+      && !(calibration.cx_px >= 0.0 && calibration.cx_px < left.cols
+           && calibration.cy_px >= 0.0 && calibration.cy_px < left.rows))
+    throw Exception("Mapper::integrateStereo: the calibration's principal point ("
+                    + std::to_string(calibration.cx_px) + ", "
+                    + std::to_string(calibration.cy_px) + ") px lies outside the "
+                    + size(left) + " images");
+  // The stages that track features or estimate motion compare frame with frame.
+  if (frames_ > 0 && left.size() != image_size_)
+    throw Exception("Mapper::integrateStereo: the images' size " + size(left)
+                    + " differs from the earlier frames' "
+                    + std::to_string(image_size_.width) + "x"
+                    + std::to_string(image_size_.height) + " px");
+  try {
+    calibration.validate("the calibration");
+  } catch (const IOError& e) {
+    throw Exception(std::string("Mapper::integrateStereo: ") + e.what());
+  }
+  image_size_ = left.size();
+  Frame frame;
+  // The stages read the images and never write them: no copy.
+  frame.left = left;
+  frame.right = right;
+  frame.calibration = calibration;
+  return integrate(frame, world_T_camera);
+}
+
+FrameStats
+Mapper::integrateCloud(const PointCloud& cloud, const Eigen::Isometry3d& world_T_sensor)
+{
+  Frame::Cloud::Ptr working(new Frame::Cloud);
+  // As a PCD file with bare x, y, z is read (intensity 0).
+  pcl::copyPointCloud(cloud, *working);
+  return integrateCloud(*working, world_T_sensor);
+}
+
+FrameStats
+Mapper::integrateCloud(const Frame::Cloud& cloud,
+                       const Eigen::Isometry3d& world_T_sensor)
+{
+  requireInput(InputConfig::Type::PCD_FILES, "integrateCloud");
+  if (cloud.empty())
+    throw Exception("Mapper::integrateCloud: the cloud is empty");
+  Frame frame;
+  frame.cloud.reset(new Frame::Cloud(cloud));
+  // The points are in the sensor frame; the pose is world_T_sensor.
+  frame.cloud->sensor_origin_ = Eigen::Vector4f(0, 0, 0, 1);
+  frame.cloud->sensor_orientation_ = Eigen::Quaternionf::Identity();
+  return integrate(frame, &world_T_sensor);
+}
+
+FrameStats
+Mapper::integrate(Frame& frame, const Eigen::Isometry3d* world_T_camera)
+{
+  const auto start = std::chrono::steady_clock::now();
+  if (world_T_camera && estimates_poses_)
+    throw Exception("Mapper: the pipeline of " + config_.source_file
+                    + " estimates the poses (visual_odometry stage), which would "
+                      "replace the pose given; call without world_T_camera");
+  if (!world_T_camera && needs_poses_ && !estimates_poses_)
+    throw Exception("Mapper: no pose given, and the pipeline of " + config_.source_file
+                    + " has no visual_odometry stage to estimate it: pass "
+                      "world_T_camera");
+  frame.has_pose = world_T_camera != nullptr;
+  if (world_T_camera)
+    frame.world_T_camera = *world_T_camera;
+  frame.sequence_number = frames_;
+  frame.file_index = static_cast<int>(frames_);
+  frame.name = "#" + std::to_string(frames_);
+
+  const std::vector<StageReport> before = runner_.report().stages;
+  lock_wait_ms_ = 0.0;
+  exclusive_ms_ = 0.0;
+  try {
+    runner_.processFrame(frame);
+  } catch (...) {
+    if (write_lock_.owns_lock())
+      write_lock_.unlock();
+    throw;
+  }
+  if (write_lock_.owns_lock()) {
+    exclusive_ms_ += msSince(locked_at_);
+    write_lock_.unlock();
+  }
+  ++frames_;
+
+  FrameStats stats;
+  stats.sequence_number = frame.sequence_number;
+  const std::vector<StageReport>& after = runner_.report().stages;
+  for (std::size_t s = 0; s < after.size(); ++s) {
+    const StageReport& a = after[s];
+    const StageReport& b = before[s];
+    FrameStageStats st;
+    st.type = a.type;
+    st.ms = a.total_ms - b.total_ms;
+    st.points_in = a.points_in - b.points_in;
+    st.points_out = a.points_out - b.points_out;
+    for (const auto& [name, value] : a.counters)
+      st.counters.emplace_back(name, value - counterValue(b.counters, name));
+    stats.stages.push_back(std::move(st));
+  }
+  stats.planes = frame.planes.size();
+  stats.cuboids = frame.cuboids.size();
+  stats.world_T_camera = frame.world_T_camera;
+  // Only this thread changes the map, and its queries are safe beside the readers'.
+  stats.map_cuboids = runner_.state().map->getSurfaceLayer().getCuboidCount();
+  stats.lock_wait_ms = lock_wait_ms_;
+  stats.exclusive_ms = exclusive_ms_;
+  stats.total_ms = msSince(start);
+  return stats;
+}
+
+Mapper::MapReader
+Mapper::readMap() const
+{
+  return MapReader(map_mutex_, runner_.state().map);
+}
+
+void
+Mapper::save(const std::string& path) const
+{
+  readMap()->save(path);
+}
+
+void
+Mapper::reset()
+{
+  const std::unique_lock<std::shared_mutex> lock(map_mutex_);
+  runner_.start();
+  frames_ = 0;
+}
+
+} // namespace planar_grid

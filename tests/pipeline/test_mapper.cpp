@@ -1,0 +1,339 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/pipeline/frame_source.h>
+#include <planar_grid/pipeline/mapper.h>
+#include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/pipeline_runner.h>
+
+#include <pcl/point_types.h>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iterator>
+#include <mutex>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string SOURCE = PLANAR_GRID_SOURCE_DIR;
+
+/** The main job (config/karlsruhe.yaml) over its first \a frames frames. */
+planar_grid::PipelineConfig
+mainJob(int frames, const std::string& file = "karlsruhe.yaml")
+{
+  auto config = planar_grid::loadPipelineConfig(SOURCE + "/config/" + file);
+  config.input.frame_count = frames;
+  return config;
+}
+
+/** The main job over its first \a frames frames with the poses of the visual_odometry
+ * stage of config/karlsruhe_odometry.yaml (after feature_matching) instead of the INS:
+ * config/karlsruhe_odometry.yaml itself builds no map. */
+planar_grid::PipelineConfig
+odometryJob(int frames)
+{
+  auto config = mainJob(frames);
+  const auto odometry = mainJob(frames, "karlsruhe_odometry.yaml");
+  const auto vo = std::find_if(
+    odometry.stages.begin(), odometry.stages.end(),
+    [](const planar_grid::StageConfig& s) { return s.type == "visual_odometry"; });
+  const auto matching = std::find_if(
+    config.stages.begin(), config.stages.end(),
+    [](const planar_grid::StageConfig& s) { return s.type == "feature_matching"; });
+  if (vo == odometry.stages.end() || matching == config.stages.end())
+    throw planar_grid::Exception("the odometry or main job config changed");
+  config.stages.insert(matching + 1, *vo);
+  config.input.poses_format = planar_grid::PoseFormat::ODOMETRY;
+  config.input.poses_file.clear();
+  return config;
+}
+
+std::string
+fileBytes(const fs::path& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+/** Expects \a call to throw planar_grid::Exception whose message contains \a text. */
+void
+expectThrowWith(const std::function<void()>& call, const std::string& text)
+{
+  try {
+    call();
+    ADD_FAILURE() << "no exception; expected one with \"" << text << "\"";
+  } catch (const planar_grid::Exception& e) {
+    EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
+  }
+}
+
+/** A fresh temporary folder per test, removed afterwards. */
+class MapperTest : public ::testing::Test {
+protected:
+  void SetUp() override
+  {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path()
+           / ("planar_grid_mapper_" + std::string(info->name()) + "_"
+              + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  fs::path dir_;
+};
+
+} // namespace
+
+TEST_F(MapperTest, KarlsruheFramesGiveThePipelineRunnersMapFile)
+{
+  // Two frames of the main job read by the project's frame source (poses from the
+  // INS), fed one by one: the same map file, byte for byte, and the same poses as a
+  // PipelineRunner run of the configuration over them.
+  const auto config = mainJob(2);
+  planar_grid::PipelineRunner runner(config);
+  const planar_grid::RunReport report = runner.run();
+  ASSERT_EQ(report.frames, 2u);
+  runner.state().map->save((dir_ / "runner.pgmap").string());
+
+  const auto source = planar_grid::createFrameSource(config.input);
+  planar_grid::Mapper mapper(config);
+  std::vector<planar_grid::FrameStats> stats;
+  for (std::size_t i = 0; i < source->size(); ++i) {
+    planar_grid::Frame frame;
+    source->load(i, frame);
+    stats.push_back(mapper.integrateStereo(frame.left, frame.right, frame.calibration,
+                                           frame.world_T_camera));
+    EXPECT_EQ(stats.back().sequence_number, i);
+    EXPECT_TRUE(stats.back().world_T_camera.matrix() == frame.world_T_camera.matrix());
+    EXPECT_GT(stats.back().cuboids, 0u);
+    EXPECT_GT(stats.back().map_cuboids, 0u);
+  }
+  EXPECT_EQ(mapper.getFrameCount(), 2u);
+  mapper.save((dir_ / "mapper.pgmap").string());
+  const std::string expected = fileBytes(dir_ / "runner.pgmap");
+  EXPECT_GT(expected.size(), 10000u);
+  EXPECT_TRUE(fileBytes(dir_ / "mapper.pgmap") == expected)
+    << "the mapper's map file differs from the runner's";
+  ASSERT_EQ(mapper.getTrajectory().size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i)
+    EXPECT_TRUE(mapper.getTrajectory()[i].matrix() == runner.trajectory()[i].matrix());
+
+  // The per-frame figures add up to the run's: each stage's points and counters.
+  ASSERT_EQ(stats[0].stages.size(), config.stages.size());
+  for (std::size_t s = 0; s < config.stages.size(); ++s) {
+    const auto& run_stage = report.stages[s];
+    EXPECT_EQ(stats[0].stages[s].type, run_stage.type);
+    EXPECT_EQ(stats[0].stages[s].points_in + stats[1].stages[s].points_in,
+              run_stage.points_in)
+      << run_stage.type;
+    EXPECT_EQ(stats[0].stages[s].points_out + stats[1].stages[s].points_out,
+              run_stage.points_out)
+      << run_stage.type;
+    ASSERT_EQ(stats[1].stages[s].counters.size(), run_stage.counters.size());
+    for (std::size_t c = 0; c < run_stage.counters.size(); ++c)
+      EXPECT_DOUBLE_EQ(stats[0].stages[s].counters[c].second
+                         + stats[1].stages[s].counters[c].second,
+                       run_stage.counters[c].second)
+        << run_stage.type << " " << run_stage.counters[c].first;
+  }
+}
+
+TEST_F(MapperTest, AReaderThreadSeesTheMapAfterWholeFramesOnly)
+{
+  // A reader serializes the map and queries it in a loop while two frames are
+  // integrated. Every map it reads is the empty map or the map after frame 1 or
+  // frame 2, never one in between.
+  const auto config = mainJob(2);
+  const auto source = planar_grid::createFrameSource(config.input);
+  std::vector<planar_grid::Frame> frames(source->size());
+  for (std::size_t i = 0; i < frames.size(); ++i)
+    source->load(i, frames[i]);
+  planar_grid::Mapper mapper(config);
+
+  const auto serialized = [&mapper] {
+    std::string bytes;
+    mapper.readMap()->serialize(bytes);
+    return bytes;
+  };
+  std::set<std::string> after_frames{serialized()};
+  std::atomic<bool> done{false};
+  std::vector<std::string> seen;
+  std::size_t queries = 0;
+  std::thread reader([&] {
+    do {
+      std::string bytes;
+      const auto map = mapper.readMap();
+      map->serialize(bytes);
+      // A query beside the serialization, under the same lock.
+      const bool known = map->getState(Eigen::Vector3f(5.0f, 0.0f, 1.0f))
+                           != planar_grid::SpaceState::UNKNOWN
+                         || map->getSurfaceLayer().getCuboidCount() > 0;
+      queries += known ? 1u : 0u;
+      if (seen.empty() || seen.back() != bytes)
+        seen.push_back(std::move(bytes));
+    } while (!done);
+  });
+  for (auto& frame : frames) {
+    mapper.integrateStereo(frame.left, frame.right, frame.calibration,
+                           frame.world_T_camera);
+    after_frames.insert(serialized());
+  }
+  done = true;
+  reader.join();
+  EXPECT_EQ(after_frames.size(), 3u);
+  EXPECT_GT(queries, 0u); // at least the last read holds cuboids
+  ASSERT_FALSE(seen.empty());
+  for (std::size_t k = 0; k < seen.size(); ++k)
+    EXPECT_EQ(after_frames.count(seen[k]), 1u)
+      << "read " << k << " (" << seen[k].size() << " bytes) is not a whole frame's map";
+  // The last read came after the last frame.
+  EXPECT_EQ(seen.back(), serialized());
+}
+
+TEST_F(MapperTest, BadInputThrowsWithAClearMessage)
+{
+  planar_grid::Mapper mapper(mainJob(1));
+  const auto source = planar_grid::createFrameSource(mainJob(1).input);
+  planar_grid::Frame frame;
+  source->load(0, frame);
+  const auto& calibration = frame.calibration;
+  const Eigen::Isometry3d pose = frame.world_T_camera;
+
+  expectThrowWith(
+    [&] { mapper.integrateStereo(cv::Mat(), frame.right, calibration, pose); },
+    "the left image is empty");
+  const cv::Mat small(100, 120, CV_8UC1, cv::Scalar(0));
+  // Karlsruhe's calibration gives no image size; its principal point is (635.96,
+  // 194.13) px.
+  expectThrowWith([&] { mapper.integrateStereo(small, small, calibration, pose); },
+                  "the calibration's principal point (635.958700, 194.129100) px lies "
+                  "outside the 120x100 px images");
+  planar_grid::StereoCalibration sized = calibration;
+  sized.width = 1344;
+  sized.height = 372;
+  expectThrowWith(
+    [&] { mapper.integrateStereo(small, small, sized, pose); },
+    "the images' size 120x100 px differs from the calibration's 1344x372");
+  expectThrowWith([&] { mapper.integrateStereo(frame.left, small, calibration, pose); },
+                  "the right image's size 120x100 px differs from the left image's");
+  cv::Mat colour;
+  cv::merge(std::vector<cv::Mat>{frame.left, frame.left, frame.left}, colour);
+  expectThrowWith([&] { mapper.integrateStereo(colour, colour, calibration, pose); },
+                  "8-bit grey");
+  planar_grid::StereoCalibration no_baseline = calibration;
+  no_baseline.baseline_m = 0.0;
+  expectThrowWith(
+    [&] { mapper.integrateStereo(frame.left, frame.right, no_baseline, pose); },
+    "Mapper::integrateStereo: the calibration");
+  // No pose, and the main job's poses come from the input, not visual_odometry.
+  expectThrowWith([&] { mapper.integrateStereo(frame.left, frame.right, calibration); },
+                  "has no visual_odometry stage to estimate it: pass world_T_camera");
+  planar_grid::Mapper::PointCloud cloud;
+  cloud.push_back(pcl::PointXYZ(1.0f, 0.0f, 2.0f));
+  expectThrowWith([&] { mapper.integrateCloud(cloud, pose); },
+                  "takes stereo pairs (input.type stereo_sequence), not point clouds");
+  // None of them changed the map.
+  EXPECT_EQ(mapper.getFrameCount(), 0u);
+  EXPECT_EQ(mapper.readMap()->getSurfaceLayer().getCuboidCount(), 0u);
+
+  // A pipeline whose visual_odometry stage estimates the poses refuses a given one.
+  planar_grid::Mapper odometry(odometryJob(1));
+  expectThrowWith(
+    [&] { odometry.integrateStereo(frame.left, frame.right, calibration, pose); },
+    "estimates the poses (visual_odometry stage)");
+
+  // A pipeline without a map.
+  auto no_map = mainJob(1);
+  while (!no_map.stages.empty() && no_map.stages.back().type != "map_integration")
+    no_map.stages.pop_back();
+  no_map.stages.pop_back();
+  expectThrowWith([&] { planar_grid::Mapper m(no_map); },
+                  "has no map_integration stage");
+}
+
+TEST_F(MapperTest, VisualOdometryGivesThePoseWhenNoneIsGiven)
+{
+  // One frame of the main job with visual_odometry, without a pose: the stage puts the
+  // first camera at its initial_height_m (1.57 m) above the world origin, looking
+  // along world +x (camera z) and pitched down by initial_pitch_rad (0.09 rad).
+  const auto config = odometryJob(1);
+  const auto source = planar_grid::createFrameSource(config.input);
+  planar_grid::Frame frame;
+  source->load(0, frame);
+  planar_grid::Mapper mapper(config);
+  const auto stats = mapper.integrateStereo(frame.left, frame.right, frame.calibration);
+  EXPECT_TRUE(stats.world_T_camera.translation().isApprox(Eigen::Vector3d(0, 0, 1.57)));
+  const Eigen::Vector3d forward = stats.world_T_camera.linear().col(2);
+  EXPECT_NEAR(forward.x(), std::cos(0.09), 1e-9);
+  EXPECT_NEAR(forward.z(), -std::sin(0.09), 1e-9);
+  ASSERT_EQ(mapper.getTrajectory().size(), 1u);
+  EXPECT_TRUE(mapper.getTrajectory()[0].matrix() == stats.world_T_camera.matrix());
+  EXPECT_GT(mapper.readMap()->getSurfaceLayer().getCuboidCount(), 0u);
+}
+
+TEST_F(MapperTest, ACloudGivesThePipelineRunnersMap)
+{
+  // A real Kinect scan (office1.pcd, its colour as intensity) through a short cloud
+  // pipeline, fed as a point cloud with the pose the frame source gives it (levelled on
+  // its floor): the same map as the runner's.
+  const std::string yaml =
+    "input:\n  type: pcd_files\n  files: " + std::string(PLANAR_GRID_DATA_DIR)
+    + R"(/pcl_clouds/office1.pcd
+  poses: {format: viewpoint}
+pipeline:
+  - type: cloud_features
+    params: {feature_type: orb_grid, max_features: 500}
+  - type: kl_occupancy_filter
+    params: {range_error_model: depth_quadratic, depth_error_coefficient_per_m: 0.0016,
+             neighbourhood_size_m: 0.1}
+  - type: voxel_grid
+    params: {leaf_size_m: 0.05}
+  - type: transform_to_world
+  - type: multi_plane_segmentation
+    params: {distance_threshold_m: 0.03, max_planes: 4, min_inliers: 300}
+  - type: planar_cuboid_approximation
+    params: {min_cell_size_m: 0.1, thickness_m: 0.1}
+  - type: map_integration
+)";
+  const auto config = planar_grid::parsePipelineConfig(yaml, "cloud.yaml", "/");
+  planar_grid::PipelineRunner runner(config);
+  runner.run();
+  const auto source = planar_grid::createFrameSource(config.input);
+  planar_grid::Frame frame;
+  source->load(0, frame);
+  ASSERT_TRUE(frame.cloud && frame.has_pose);
+  planar_grid::Mapper mapper(config);
+  const auto stats = mapper.integrateCloud(*frame.cloud, frame.world_T_camera);
+  EXPECT_GT(stats.cuboids, 0u);
+  std::string a, b;
+  runner.state().map->serialize(a);
+  mapper.readMap()->serialize(b);
+  EXPECT_TRUE(a == b) << "the mapper's map differs from the runner's";
+  // A stereo call on a cloud pipeline, and an empty cloud, are refused.
+  expectThrowWith(
+    [&] {
+      mapper.integrateStereo(cv::Mat(2, 2, CV_8UC1), cv::Mat(2, 2, CV_8UC1),
+                             planar_grid::StereoCalibration(), frame.world_T_camera);
+    },
+    "takes point clouds (input.type pcd_files), not stereo pairs");
+  expectThrowWith(
+    [&] {
+      mapper.integrateCloud(planar_grid::Mapper::PointCloud(), frame.world_T_camera);
+    },
+    "the cloud is empty");
+}
