@@ -5,8 +5,12 @@
 # dynamic loader before its first case (more under the sanitizers), so one process per
 # suite rather than per case. The number of cases of each suite is written beside it.
 #   -DEXECUTABLE=<file> -DOUTPUT=<file> -DWORKING_DIRECTORY=<dir>
-#   [-DEMULATOR=<program|arg|...>] [-DSERIAL=ON]
+#   [-DEMULATOR=<program|arg|...>] [-DSERIAL=ON] [-DLONG_SUITES=<suite|suite|...>]
+# LONG_SUITES get a high COST: ctest -j starts them first when it has no timings of its own
+# yet (a fresh build folder), so that no long suite starts last and runs alone.
+cmake_policy(SET CMP0057 NEW)
 string(REPLACE "|" ";" emulator "${EMULATOR}")
+string(REPLACE "|" ";" long_suites "${LONG_SUITES}")
 execute_process(
   COMMAND ${emulator} "${EXECUTABLE}" --gtest_list_tests
   WORKING_DIRECTORY "${WORKING_DIRECTORY}"
@@ -47,6 +51,9 @@ foreach(suite IN LISTS suites)
     " LABELS gtest")
   if(SERIAL)
     string(APPEND content " RUN_SERIAL TRUE")
+  endif()
+  if(suite IN_LIST long_suites)
+    string(APPEND content " COST 1000")
   endif()
   string(APPEND content ")\n# gtest_cases ${cases_${suite}}\n")
 endforeach()
