@@ -24,6 +24,7 @@
 
 #include "cloud_blob.h"
 #include "ros_bag_input.h"
+#include "ros_messages.h"
 
 namespace planar_grid {
 
@@ -94,89 +95,6 @@ private:
   std::map<std::string, std::string> types_;
 };
 
-/** A sensor_msgs/Image as an 8-bit grey cv::Mat (copied out of the message). */
-cv::Mat
-greyImage(const sensor_msgs::Image& image, const std::string& where)
-{
-  int channels = 0;
-  int code = -1;
-  const std::string& e = image.encoding;
-  if (e == "mono8" || e == "8UC1")
-    channels = 1;
-  else if (e == "bgr8" || e == "rgb8") {
-    channels = 3;
-    code = e == "bgr8" ? cv::COLOR_BGR2GRAY : cv::COLOR_RGB2GRAY;
-  } else if (e == "bgra8" || e == "rgba8") {
-    channels = 4;
-    code = e == "bgra8" ? cv::COLOR_BGRA2GRAY : cv::COLOR_RGBA2GRAY;
-  } else
-    throw IOError(where + ": image encoding '" + e
-                  + "' is not read; expected mono8, bgr8, rgb8, bgra8 or rgba8");
-  const std::size_t row = static_cast<std::size_t>(image.width) * channels;
-  if (image.width == 0 || image.height == 0 || image.step < row
-      || image.data.size() < static_cast<std::size_t>(image.step) * image.height)
-    throw IOError(where + ": the image's size " + std::to_string(image.width) + "x"
-                  + std::to_string(image.height) + " (step "
-                  + std::to_string(image.step) + ") does not match its "
-                  + std::to_string(image.data.size()) + " bytes");
-  const cv::Mat view(static_cast<int>(image.height), static_cast<int>(image.width),
-                     CV_8UC(channels), const_cast<std::uint8_t*>(image.data.data()),
-                     image.step);
-  cv::Mat grey;
-  if (code < 0)
-    grey = view.clone();
-  else
-    cv::cvtColor(view, grey, code);
-  return grey;
-}
-
-/** A sensor_msgs/PointCloud2 as PCL's blob: the same fields, field for field. */
-pcl::PCLPointCloud2
-toPCLBlob(const sensor_msgs::PointCloud2& msg)
-{
-  pcl::PCLPointCloud2 blob;
-  blob.header.frame_id = msg.header.frame_id;
-  blob.header.seq = msg.header.seq;
-  blob.header.stamp = msg.header.stamp.toNSec() / 1000;
-  blob.height = msg.height;
-  blob.width = msg.width;
-  for (const auto& f : msg.fields) {
-    pcl::PCLPointField field;
-    field.name = f.name;
-    field.offset = f.offset;
-    field.datatype = f.datatype;
-    field.count = f.count;
-    blob.fields.push_back(field);
-  }
-  blob.is_bigendian = msg.is_bigendian;
-  blob.point_step = msg.point_step;
-  blob.row_step = msg.row_step;
-  blob.data = msg.data;
-  blob.is_dense = msg.is_dense;
-  return blob;
-}
-
-/** The working cloud of a PointCloud2: intensity when it has one, the grey of its
- * colour (pcl::PointXYZRGBtoXYZI) when it has rgb, else intensity 0. */
-void
-cloudFromMessage(const sensor_msgs::PointCloud2& msg,
-                 const std::string& where,
-                 Frame::Cloud& cloud)
-{
-  const pcl::PCLPointCloud2 blob = toPCLBlob(msg);
-  const auto has = [&blob](const std::string& name) {
-    return std::any_of(blob.fields.begin(), blob.fields.end(),
-                       [&name](const pcl::PCLPointField& f) { return f.name == name; });
-  };
-  for (const char* axis : {"x", "y", "z"})
-    if (!has(axis))
-      throw IOError(where + ": the PointCloud2 has no field '" + axis + "'");
-  if (blob.is_bigendian)
-    throw IOError(where + ": big-endian PointCloud2 data is not read");
-  checkPointCloudBlob(blob, where);
-  intensityCloudFromBlob(blob, cloud);
-}
-
 /** The transforms of /tf and /tf_static, by child frame: parent_T_child over time. */
 class TransformTable {
 public:
@@ -199,15 +117,9 @@ public:
                       + edge.parent + "' and '" + t.header.frame_id + "'");
       edge.parent = t.header.frame_id;
       edge.is_static = edge.is_static || is_static;
-      const auto& q = t.transform.rotation;
-      const auto& p = t.transform.translation;
-      const Eigen::Quaterniond rotation(q.w, q.x, q.y, q.z);
-      if (!(std::abs(rotation.norm() - 1.0) < 1e-3))
-        throw IOError(where + ": the rotation of '" + t.header.frame_id + "' -> '"
-                      + t.child_frame_id + "' is not a unit quaternion");
-      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-      pose.linear() = rotation.normalized().toRotationMatrix();
-      pose.translation() = Eigen::Vector3d(p.x, p.y, p.z);
+      const Eigen::Isometry3d pose = ros_messages::isometryFromTransform(
+        t.transform,
+        where + ": '" + t.header.frame_id + "' -> '" + t.child_frame_id + "'");
       edge.samples.push_back({seconds(t.header.stamp), pose});
     }
   }
@@ -371,7 +283,8 @@ private:
       if (!msg)
         throw IOError(where + ": message " + std::to_string(i) + " cannot be read");
       Frame::Cloud::Ptr cloud(new Frame::Cloud);
-      cloudFromMessage(*msg, where + " at " + stampText(stamps_[i]), *cloud);
+      ros_messages::cloudFromMessage(*msg, where + " at " + stampText(stamps_[i]),
+                                     *cloud);
       cloud->sensor_origin_ = Eigen::Vector4f(0, 0, 0, 1);
       cloud->sensor_orientation_ = Eigen::Quaternionf::Identity();
       frame.cloud = cloud;
@@ -388,7 +301,8 @@ private:
     const auto image = m.instantiate<sensor_msgs::Image>();
     if (!image)
       throw IOError(where + ": a message cannot be read as sensor_msgs/Image");
-    return greyImage(*image, where + " at " + stampText(seconds(image->header.stamp)));
+    return ros_messages::greyImage(*image, where + " at "
+                                             + stampText(seconds(image->header.stamp)));
   }
 
   /** The first CameraInfo of \a topic. */
@@ -414,27 +328,8 @@ private:
     const auto right_info =
       cameraInfo(config_.right_info_topic, "input.right_camera_info");
     const std::string right_where = bag_.path() + ": " + config_.right_info_topic;
-    if (right_info.width != left_info.width || right_info.height != left_info.height)
-      throw IOError(right_where + ": image size " + std::to_string(right_info.width)
-                    + "x" + std::to_string(right_info.height)
-                    + " differs from the left CameraInfo's (" + config_.left_info_topic
-                    + ")");
-    const auto& pl = left_info.P;
-    const auto& pr = right_info.P;
-    if (std::abs(pr[0] - pl[0]) > 1e-6 * std::abs(pl[0])
-        || std::abs(pr[2] - pl[2]) > 1e-6 * std::abs(pl[0])
-        || std::abs(pr[6] - pl[6]) > 1e-6 * std::abs(pl[0]))
-      throw IOError(right_where
-                    + ": the projection P differs from the left one's in "
-                      "f, cx or cy: the pair is not rectified (give the "
-                      "rectified images' topics and CameraInfo)");
-    calibration_.focal_length_px = pl[0];
-    calibration_.cx_px = pl[2];
-    calibration_.cy_px = pl[6];
-    calibration_.baseline_m = -pr[3] / pr[0];
-    calibration_.width = static_cast<int>(left_info.width);
-    calibration_.height = static_cast<int>(left_info.height);
-    calibration_.validate(right_where);
+    calibration_ =
+      ros_messages::calibrationFromCameraInfo(left_info, right_info, right_where);
 
     // MessageInstance is not assignable: the messages stay where they were read and
     // their positions are sorted by stamp.

@@ -1,0 +1,58 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <planar_grid/core/stereo_calibration.h>
+#include <planar_grid/pipeline/frame.h>
+
+#include <Eigen/Geometry>
+#include <geometry_msgs/Transform.h>
+#include <opencv2/core/mat.hpp>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/PointCloud2.h>
+
+#include <string>
+
+/** \file
+ * The ROS 1 messages the pipeline reads, as its own types: one owner for the ROS bag
+ * input (ros_bag_source.cpp) and the ROS node (tools/ros). Built with the ROS bag
+ * input only (PLANAR_GRID_HAVE_ROS_BAG). Not installed. */
+
+namespace planar_grid {
+namespace ros_messages {
+
+/** \brief A sensor_msgs/Image as an 8-bit grey image (copied out of the message);
+ * colour encodings (bgr8, rgb8, bgra8, rgba8) are turned grey with cv::cvtColor.
+ * \param[in] where the message's origin, for the error text
+ * \return a CV_8UC1 image of the message's size, px
+ * \throws planar_grid::IOError for another encoding or a size that does not match
+ * the data */
+cv::Mat greyImage(const sensor_msgs::Image& image, const std::string& where);
+
+/** \brief The working cloud of a sensor_msgs/PointCloud2 (meters, the message's
+ * frame): intensity when it has one, the grey of its colour when it has rgb, else 0.
+ * \throws planar_grid::IOError for a cloud without x, y, z, big-endian data or a
+ * size that does not match the data */
+void cloudFromMessage(const sensor_msgs::PointCloud2& msg,
+                      const std::string& where,
+                      Frame::Cloud& cloud);
+
+/** \brief The calibration of a rectified pair from its two CameraInfo projection
+ * matrices P: f = P_left[0][0], cx = P_left[0][2], cy = P_left[1][2] (px),
+ * B = -P_right[0][3] / P_right[0][0] (m; ROS stores Tx = -f B in the right P); the
+ * image size from the left CameraInfo (0 x 0: not given).
+ * \param[in] right_where the right CameraInfo's origin, for the error text
+ * \throws planar_grid::IOError when the two sizes differ, when the two P differ in f,
+ * cx or cy (the pair is not rectified) or the calibration is invalid */
+StereoCalibration calibrationFromCameraInfo(const sensor_msgs::CameraInfo& left,
+                                            const sensor_msgs::CameraInfo& right,
+                                            const std::string& right_where);
+
+/** \brief A geometry_msgs/Transform as parent_T_child, meters.
+ * \throws planar_grid::IOError when the rotation is not a unit quaternion (norm off
+ * by more than 1e-3; it is normalized otherwise) */
+Eigen::Isometry3d isometryFromTransform(const geometry_msgs::Transform& transform,
+                                        const std::string& where);
+
+} // namespace ros_messages
+} // namespace planar_grid
