@@ -19,6 +19,12 @@ PACKAGES=(
   # ROS 1 bag input (optional; off in a build without them)
   librosbag-storage-dev libsensor-msgs-dev libgeometry-msgs-dev libtf2-msgs-dev
   libstd-msgs-dev
+  # The ROS 1 node (optional; not built without them) and its test: a rosmaster, rosbag
+  # play and rospy
+  libroscpp-dev libtf2-ros-dev libmessage-filters-dev libvisualization-msgs-dev
+  libnav-msgs-dev libstd-srvs-dev
+  python3-rosmaster python3-rospy python3-rosbag python3-rosgraph python3-yaml
+  python3-std-srvs python3-visualization-msgs python3-nav-msgs python3-sensor-msgs
 )
 
 missing=()

@@ -2,13 +2,15 @@
 # SPDX-License-Identifier: BSD-3-Clause
 # Installs the dependencies, builds PlanarGrid and runs every test (what CI runs). Two
 # builds, each compiled once:
-#   build/       Release, the libraries, tools and Python module that users run (no C++
-#                tests): a short real pipeline run with snapshots, the Python tests, the
-#                installed package with the examples built against it, the API docs.
+#   build/       Release, the libraries, tools, ROS node and Python module that users run
+#                (no C++ tests): a short real pipeline run with snapshots, the Python
+#                tests, the ROS node's test, the installed package with the examples
+#                built against it, the API docs.
 #   build-asan/  AddressSanitizer + UndefinedBehaviorSanitizer (libraries and tools -O1,
 #                test sources -O0; line tables; shared libraries): every GoogleTest
 #                suite and tool test under the sanitizers, then a short real pipeline
-#                run; any sanitizer report or compiler warning fails.
+#                run; any sanitizer report or compiler warning fails. The ROS node (glue
+#                between roscpp and Mapper, whose code the suites cover) is not built here.
 # Each phase prints its wall time, and a table of all of them ends the run.
 #   bash scripts/run_tests.sh
 # BUILD_DIR (default build), ASAN_BUILD_DIR (default build-asan), JOBS (default 2);
@@ -38,12 +40,13 @@ build_warning_free() {
 release_build() {
   # shellcheck disable=SC2086
   configure_build "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release -DPLANAR_GRID_BUILD_TESTS=OFF \
-    -DPLANAR_GRID_BUILD_PYTHON_TESTS=ON ${CMAKE_ARGS:-}
+    -DPLANAR_GRID_BUILD_PYTHON_TESTS=ON -DPLANAR_GRID_BUILD_ROS_TESTS=ON ${CMAKE_ARGS:-}
   build_warning_free "$BUILD_DIR"
 }
 
 # The main job's configuration on the first real frames, with its snapshots, as the
-# Release tool runs it; then the Python tests, the only tests registered in this build.
+# Release tool runs it; then the tests registered in this build: the Python tests and
+# the ROS node's (a rosmaster, the node and rosbag play, label ros).
 release_checks() {
   local out
   out=$(mktemp -d "${TMPDIR:-/tmp}/planar_grid_smoke.XXXXXX")
@@ -67,7 +70,8 @@ sanitizer_build() {
     -DPLANAR_GRID_BUILD_TESTS=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" \
     "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DBUILD_SHARED_LIBS=ON \
-    -DPLANAR_GRID_TEST_COMPILE_OPTIONS=-O0 ${CMAKE_ARGS:-}
+    -DPLANAR_GRID_TEST_COMPILE_OPTIONS=-O0 -DPLANAR_GRID_BUILD_ROS_NODE=OFF \
+    -DPLANAR_GRID_BUILD_ROS_TESTS=OFF ${CMAKE_ARGS:-}
   build_warning_free "$ASAN_BUILD_DIR"
 }
 

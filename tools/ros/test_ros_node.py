@@ -1,0 +1,188 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-3-Clause
+"""The ROS node against a real ROS master (CTest RosNode.MapsABagLikeThePipeline).
+
+Writes the first frames of a stereo configuration to a bag (images, CameraInfo, poses on
+/tf), starts rosmaster on a free loopback port, planar_grid_ros_node with every frame
+queued, and `rosbag play` of the bag at 1x; checks that every frame is mapped and each
+output topic published, saves the map through the node's service, runs
+planar_grid_pipeline on the same bag with the same configuration, and compares the two
+map.pgmap files byte for byte. Prints the latency from a pair's arrival to its markers
+(median, 95th percentile). Every process is stopped at the end, also on failure.
+"""
+import argparse
+import json
+import os
+import signal
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+import yaml
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def stop(process, name):
+    if process is None or process.poll() is not None:
+        return
+    process.send_signal(signal.SIGINT)
+    try:
+        process.wait(timeout=15)
+    except subprocess.TimeoutExpired:
+        print(f"{name} did not stop on SIGINT within 15 s: killed", file=sys.stderr)
+        process.kill()
+        process.wait(timeout=15)
+
+
+def wait_until(condition, timeout_s, what):
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if condition():
+            return
+        time.sleep(0.1)
+    raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+
+
+def write_config(source_config, bag, output_folder, path):
+    with open(source_config) as f:
+        config = yaml.safe_load(f)
+    config["input"] = {
+        "type": "ros_bag",
+        "file": bag,
+        "left_image": "/stereo/left/image_rect",
+        "right_image": "/stereo/right/image_rect",
+        "left_camera_info": "/stereo/left/camera_info",
+        "right_camera_info": "/stereo/right/camera_info",
+        "poses": {"format": "tf", "parent_frame": "world", "child_frame": "camera"},
+    }
+    config["output"] = {"folder": output_folder, "map": "map.pgmap"}
+    with open(path, "w") as f:
+        yaml.safe_dump(config, f, sort_keys=False)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--node", required=True)
+    parser.add_argument("--pipeline", required=True)
+    parser.add_argument("--write-bag", required=True)
+    parser.add_argument("--config", required=True)
+    parser.add_argument("--frames", type=int, default=30)
+    args = parser.parse_args()
+
+    work = tempfile.mkdtemp(prefix="planar_grid_ros_")
+    bag = os.path.join(work, "karlsruhe.bag")
+    subprocess.run([args.write_bag, "--config", args.config, "--frames", str(args.frames),
+                    "--output", bag], check=True, timeout=120)
+    config = os.path.join(work, "ros.yaml")
+    write_config(args.config, bag, os.path.join(work, "pipeline"), config)
+
+    port = free_port()
+    env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_IP="127.0.0.1",
+               ROS_HOME=os.path.join(work, "ros_home"), ROS_LOG_DIR=os.path.join(work, "log"))
+    os.environ.update(env)
+    import rosgraph
+    import rospy
+    from nav_msgs.msg import OccupancyGrid
+    from sensor_msgs.msg import PointCloud2
+    from std_msgs.msg import String
+    from std_srvs.srv import Trigger
+    from visualization_msgs.msg import MarkerArray
+
+    master = node = player = None
+    try:
+        master = subprocess.Popen(["rosmaster", "--core", "-p", str(port)], env=env,
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
+        wait_until(lambda: rosgraph.Master("/planar_grid_test").is_online(), 30,
+                   f"rosmaster on 127.0.0.1:{port}")
+        node_folder = os.path.join(work, "node")
+        node = subprocess.Popen([args.node, "__name:=planar_grid", f"_config:={config}",
+                                 "_max_queued_frames:=0", f"_output_folder:={node_folder}"],
+                                env=env)
+        rospy.init_node("planar_grid_test", anonymous=True, disable_signals=True)
+        received = {"cuboids": [], "occupied_cells": [], "map_2d": [], "frame_stats": []}
+
+        def keep(name):
+            return lambda msg: received[name].append(msg)
+
+        subscribers = [
+            rospy.Subscriber("/planar_grid/cuboids", MarkerArray, keep("cuboids")),
+            rospy.Subscriber("/planar_grid/occupied_cells", PointCloud2, keep("occupied_cells")),
+            rospy.Subscriber("/planar_grid/map_2d", OccupancyGrid, keep("map_2d")),
+            rospy.Subscriber("/planar_grid/frame_stats", String, keep("frame_stats")),
+        ]
+        rospy.wait_for_service("/planar_grid/save_map", timeout=60)
+        wait_until(lambda: all(s.get_num_connections() > 0 for s in subscribers), 30,
+                   "the test's subscriptions to the node's topics")
+
+        started = time.monotonic()
+        player = subprocess.Popen(["rosbag", "play", "--quiet", "-d", "2", bag], env=env,
+                                  stdout=subprocess.DEVNULL)
+        player.wait(timeout=120)
+        assert player.returncode == 0, f"rosbag play exited {player.returncode}"
+        played_s = time.monotonic() - started - 2.0
+
+        def last_stats():
+            return json.loads(received["frame_stats"][-1].data) if received["frame_stats"] else {}
+
+        wait_until(lambda: last_stats().get("mapped", 0) + last_stats().get("failed", 0)
+                   + last_stats().get("dropped", 0) >= args.frames, 180,
+                   f"the node to map {args.frames} frames")
+        stats = [json.loads(m.data) for m in received["frame_stats"]]
+        final = stats[-1]
+        assert final["failed"] == 0, f"{final['failed']} frames failed: {final}"
+        assert final["dropped"] == 0, f"{final['dropped']} frames dropped: {final}"
+        assert final["mapped"] == args.frames, final
+        assert len(stats) == args.frames, f"{len(stats)} frame_stats for {args.frames} frames"
+        for name, messages in received.items():
+            assert messages, f"nothing published on /planar_grid/{name}"
+        markers = received["cuboids"][-1].markers
+        cubes = [m for m in markers if m.action == m.ADD]
+        assert len(cubes) == final["map_cuboids"], (len(cubes), final["map_cuboids"])
+        assert received["occupied_cells"][-1].width > 0
+        grid = received["map_2d"][-1]
+        assert grid.info.width * grid.info.height == len(grid.data) > 0
+        assert any(v == 100 for v in grid.data) and any(v == 0 for v in grid.data)
+
+        response = rospy.ServiceProxy("/planar_grid/save_map", Trigger)()
+        assert response.success, response.message
+        print("save_map:", response.message)
+
+        latencies = sorted(s["latency_ms"] for s in stats)
+        p95 = latencies[min(len(latencies) - 1, int(round(0.95 * (len(latencies) - 1))))]
+        print(f"{args.frames} frames played in {played_s:.1f} s; mapped {final['mapped']}, "
+              f"dropped {final['dropped']}; arrival -> markers latency: median "
+              f"{statistics.median(latencies):.1f} ms, p95 {p95:.1f} ms, max "
+              f"{latencies[-1]:.1f} ms; mapping {statistics.mean(s['total_ms'] for s in stats):.1f}"
+              f" ms a frame; final map {final['map_cuboids']} cuboids")
+    finally:
+        stop(player, "rosbag play")
+        stop(node, "planar_grid_ros_node")
+        rospy.signal_shutdown("test done") if "rospy" in sys.modules else None
+        stop(master, "rosmaster")
+    assert node.returncode == 0, f"planar_grid_ros_node exited {node.returncode}"
+
+    subprocess.run([args.pipeline, "--config", config, "--no-snapshot"], check=True,
+                   timeout=600, stdout=subprocess.DEVNULL)
+    with open(os.path.join(work, "node", "map.pgmap"), "rb") as f:
+        node_map = f.read()
+    with open(os.path.join(work, "pipeline", "map.pgmap"), "rb") as f:
+        pipeline_map = f.read()
+    assert len(node_map) > 1000
+    assert node_map == pipeline_map, (
+        f"the node's map.pgmap ({len(node_map)} bytes) differs from planar_grid_pipeline's "
+        f"({len(pipeline_map)} bytes); both in {work}")
+    print("the node's map.pgmap equals planar_grid_pipeline's, byte for byte")
+    subprocess.run(["rm", "-rf", work], check=False)
+    print("1 passed, 0 failed")
+
+
+if __name__ == "__main__":
+    main()
