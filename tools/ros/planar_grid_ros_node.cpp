@@ -25,6 +25,7 @@
 #include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -66,6 +67,8 @@ struct NodeParams {
   double tf_timeout_s{0.5};
   /** Publish the map every this many mapped frames (1: after each). */
   int publish_every{1};
+  /** Shortest time between two 2D maps, seconds (0: after every frame). */
+  double map_2d_period_s{2.0};
   /** Folder of ~save_map's files. */
   std::string output_folder{"."};
 };
@@ -112,12 +115,13 @@ public:
                params_.max_queued_frames);
     pnh_.param("tf_timeout", params_.tf_timeout_s, params_.tf_timeout_s);
     pnh_.param("publish_every", params_.publish_every, params_.publish_every);
+    pnh_.param("map_2d_period", params_.map_2d_period_s, params_.map_2d_period_s);
     pnh_.param("output_folder", params_.output_folder, params_.output_folder);
     if (params_.max_queued_frames < 0 || params_.publish_every < 1
-        || !(params_.tf_timeout_s >= 0.0))
+        || !(params_.tf_timeout_s >= 0.0) || !(params_.map_2d_period_s >= 0.0))
       throw planar_grid::Exception(
         "planar_grid_ros_node: ~max_queued_frames must be >= 0, ~publish_every >= 1 "
-        "and ~tf_timeout >= 0");
+        "and ~tf_timeout, ~map_2d_period >= 0");
     mapper_ = std::make_unique<planar_grid::Mapper>(config_);
     for (const auto& stage : config_.stages)
       odometry_ = odometry_ || stage.type == "visual_odometry";
@@ -159,6 +163,7 @@ public:
                       << left_sub_.getTopic() << " / " << right_sub_.getTopic());
     }
     worker_ = std::thread([this] { work(); });
+    publisher_ = std::thread([this] { publishSpace(); });
   }
 
   ~PlanarGridNode()
@@ -170,6 +175,13 @@ public:
     queue_cv_.notify_all();
     if (worker_.joinable())
       worker_.join();
+    {
+      std::lock_guard<std::mutex> lock(publish_mutex_);
+      stopping_publisher_ = true;
+    }
+    publish_cv_.notify_all();
+    if (publisher_.joinable())
+      publisher_.join();
     ROS_INFO_STREAM("planar_grid_ros_node: " << mapped_ << " frames mapped, "
                                              << dropped_ << " dropped, " << failed_
                                              << " failed");
@@ -288,9 +300,12 @@ private:
         stats = mapper_->integrateStereo(left, right, calibration, lookUpPose(header));
     }
     ++mapped_;
+    const Clock::time_point publish_start = Clock::now();
     if (mapped_ % static_cast<std::uint64_t>(params_.publish_every) == 0)
       publishMap(header.stamp);
-    publishStats(frame, stats);
+    publishStats(
+      frame, stats,
+      std::chrono::duration<double, std::milli>(Clock::now() - publish_start).count());
   }
 
   void broadcastPose(const std_msgs::Header& header, const Eigen::Isometry3d& pose)
@@ -311,19 +326,86 @@ private:
     tf_broadcaster_.sendTransform(t);
   }
 
-  /** The map's cuboids (one CUBE marker each: namespace planar or non_planar, coloured
-   * by plane, non-planar grey), its occupied voxels and its 2D obstacle map. Runs on
-   * the integrating thread, between frames. */
+  /** The map's cuboids, occupied voxels and 2D obstacle map, each only when its topic
+   * has subscribers (the latched message goes to later ones). Runs on the integrating
+   * thread, between frames. */
   void publishMap(const ros::Time& stamp)
   {
-    const auto map = mapper_->getMap();
+    const Clock::time_point start = Clock::now();
+    if (markers_pub_.getNumSubscribers() > 0)
+      publishCuboids(*mapper_->getMap(), stamp);
+    cuboids_ms_ =
+      std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+    {
+      std::lock_guard<std::mutex> lock(publish_mutex_);
+      map_stamp_ = stamp;
+      ++map_version_;
+    }
+    publish_cv_.notify_one();
+  }
+
+  /** The publisher thread: the occupied cells after each frame (frames that come
+   * faster are coalesced) and the 2D map at most once per ~map_2d_period and after the
+   * last frame of a burst, read from the map under its shared lock (Mapper::readMap())
+   * while the worker maps the next frame. */
+  void publishSpace()
+  {
+    std::uint64_t published = 0;
+    std::uint64_t grid_published = 0;
+    Clock::time_point last_grid{};
+    const auto period = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(params_.map_2d_period_s));
+    for (;;) {
+      std::uint64_t version = 0;
+      ros::Time stamp;
+      {
+        std::unique_lock<std::mutex> lock(publish_mutex_);
+        const auto ready = [&] {
+          return stopping_publisher_ || map_version_ != published;
+        };
+        if (grid_published == map_version_)
+          publish_cv_.wait(lock, ready);
+        else
+          publish_cv_.wait_until(lock, last_grid + period, ready);
+        if (stopping_publisher_)
+          return;
+        version = map_version_;
+        stamp = map_stamp_;
+      }
+      const bool cells = version != published && occupied_pub_.getNumSubscribers() > 0;
+      const bool grid = version != grid_published && Clock::now() >= last_grid + period
+                        && grid_pub_.getNumSubscribers() > 0;
+      if (cells || grid) {
+        const auto map = mapper_->readMap();
+        const auto timed = [](std::atomic<double>& ms, const auto& publish) {
+          const Clock::time_point start = Clock::now();
+          publish();
+          ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+        };
+        if (cells)
+          timed(occupied_ms_, [&] { publishOccupiedCells(*map, stamp); });
+        if (grid)
+          timed(map_2d_ms_, [&] { publishGrid(*map, stamp); });
+      }
+      published = version;
+      if (grid || Clock::now() >= last_grid + period) {
+        grid_published = version;
+        last_grid = Clock::now();
+      }
+    }
+  }
+
+  /** One CUBE marker per cuboid: namespace planar (coloured by plane) or non_planar
+   * (grey), after a DELETEALL that removes the previous frame's. */
+  void publishCuboids(const planar_grid::PlanarGridMap& map, const ros::Time& stamp)
+  {
     visualization_msgs::MarkerArray markers;
     visualization_msgs::Marker clear;
     clear.header.frame_id = params_.fixed_frame;
     clear.header.stamp = stamp;
     clear.action = visualization_msgs::Marker::DELETEALL;
     markers.markers.push_back(clear);
-    const planar_grid::PlanarCuboids cuboids = map->getSurfaceLayer().getCuboids();
+    const planar_grid::PlanarCuboids cuboids = map.getSurfaceLayer().getCuboids();
     markers.markers.reserve(cuboids.size() + 1);
     int id = 0;
     for (const auto& c : cuboids) {
@@ -353,8 +435,13 @@ private:
       markers.markers.push_back(m);
     }
     markers_pub_.publish(markers);
+  }
 
-    const auto& space = map->getSpaceLayer();
+  /** The centres of the space layer's occupied voxels (x, y, z float32, meters). */
+  void publishOccupiedCells(const planar_grid::PlanarGridMap& map,
+                            const ros::Time& stamp)
+  {
+    const auto& space = map.getSpaceLayer();
     sensor_msgs::PointCloud2 occupied;
     occupied.header.frame_id = params_.fixed_frame;
     occupied.header.stamp = stamp;
@@ -380,8 +467,13 @@ private:
     occupied.width = static_cast<std::uint32_t>(occupied.data.size() / 12);
     occupied.row_step = static_cast<std::uint32_t>(occupied.data.size());
     occupied_pub_.publish(occupied);
+  }
 
-    const planar_grid::OccupancyGrid2D grid = map->computeOccupancyGrid2D(grid_params_);
+  /** The obstacles of the configured height band
+   * (PlanarGridMap::computeOccupancyGrid2D): 0 free, 100 occupied, -1 unknown. */
+  void publishGrid(const planar_grid::PlanarGridMap& map, const ros::Time& stamp)
+  {
+    const planar_grid::OccupancyGrid2D grid = map.computeOccupancyGrid2D(grid_params_);
     nav_msgs::OccupancyGrid msg;
     msg.header.frame_id = params_.fixed_frame;
     msg.header.stamp = stamp;
@@ -398,7 +490,9 @@ private:
     grid_pub_.publish(msg);
   }
 
-  void publishStats(const PendingFrame& frame, const planar_grid::FrameStats& stats)
+  void publishStats(const PendingFrame& frame,
+                    const planar_grid::FrameStats& stats,
+                    double publish_ms)
   {
     const double latency_ms =
       std::chrono::duration<double, std::milli>(Clock::now() - frame.arrival).count();
@@ -417,6 +511,10 @@ private:
     j["queued"] = queued;
     j["latency_ms"] = latency_ms;
     j["total_ms"] = stats.total_ms;
+    j["publish_ms"] = publish_ms;
+    j["cuboids_ms"] = cuboids_ms_;
+    j["last_occupied_cells_ms"] = occupied_ms_.load();
+    j["last_map_2d_ms"] = map_2d_ms_.load();
     j["exclusive_ms"] = stats.exclusive_ms;
     j["planes"] = stats.planes;
     j["cuboids"] = stats.cuboids;
@@ -475,6 +573,8 @@ private:
   planar_grid::OccupancyGrid2DParams grid_params_;
   std::unique_ptr<planar_grid::Mapper> mapper_;
   bool odometry_{false};
+  /** Wall time of the last frame's markers, ms. */
+  double cuboids_ms_{0.0};
 
   /** Transforms of the last minute: with frames queued, a frame may be mapped long
    * after its pose arrived. */
@@ -498,6 +598,16 @@ private:
   std::atomic<std::uint64_t> mapped_{0};
   std::atomic<std::uint64_t> failed_{0};
   std::thread worker_;
+
+  std::mutex publish_mutex_;
+  std::condition_variable publish_cv_;
+  /** Frames mapped (the worker counts), and the stamp of the last one. */
+  std::uint64_t map_version_{0};
+  ros::Time map_stamp_;
+  bool stopping_publisher_{false};
+  /** Wall time of the publisher's last occupied cells and 2D map, ms. */
+  std::atomic<double> occupied_ms_{0.0}, map_2d_ms_{0.0};
+  std::thread publisher_;
 };
 
 } // namespace
