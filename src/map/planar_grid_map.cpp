@@ -243,14 +243,14 @@ PlanarGridMap::integrateDepthImage(const DepthImage& depth,
 {
   invalidateQueryCache();
   space_.integrateDepthImage(depth, world_T_camera);
-  if (!params_.clear_non_planar || depth.width <= 0 || depth.height <= 0
-      || !(depth.fx > 0.0f) || !(depth.fy > 0.0f))
+  if (!(params_.clear_non_planar || params_.clear_planar) || depth.width <= 0
+      || depth.height <= 0 || !(depth.fx > 0.0f) || !(depth.fy > 0.0f))
     return;
   const Eigen::Isometry3f camera_T_world = world_T_camera.inverse().cast<float>();
   const auto max_range = static_cast<float>(params_.space.max_range_m);
   const auto width = static_cast<float>(depth.width);
   const auto height = static_cast<float>(depth.height);
-  clearNonPlanarCells([&](const Eigen::Vector3f& centre, float radius) {
+  const auto in_view = [&](const Eigen::Vector3f& centre, float radius) {
     const Eigen::Vector3f p = camera_T_world * centre;
     if (p.z() < -radius || p.z() - radius > max_range)
       return false;
@@ -263,7 +263,11 @@ PlanarGridMap::integrateDepthImage(const DepthImage& depth,
     const float v = depth.fy * p.y() * inv_z + depth.cy;
     return u >= -depth.fx * reach && u <= width + depth.fx * reach
            && v >= -depth.fy * reach && v <= height + depth.fy * reach;
-  });
+  };
+  if (params_.clear_non_planar)
+    clearNonPlanarCells(in_view);
+  if (params_.clear_planar)
+    clearPlanarCells(in_view);
 }
 
 void
@@ -272,12 +276,32 @@ PlanarGridMap::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& points,
 {
   invalidateQueryCache();
   space_.integratePointCloud(points, sensor_origin);
-  if (!params_.clear_non_planar || !sensor_origin.allFinite())
+  if (!(params_.clear_non_planar || params_.clear_planar) || !sensor_origin.allFinite())
     return;
   const auto max_range = static_cast<float>(params_.space.max_range_m);
-  clearNonPlanarCells([&](const Eigen::Vector3f& centre, float radius) {
+  const auto in_view = [&](const Eigen::Vector3f& centre, float radius) {
     return (centre - sensor_origin).norm() - radius <= max_range;
-  });
+  };
+  if (params_.clear_non_planar)
+    clearNonPlanarCells(in_view);
+  if (params_.clear_planar)
+    clearPlanarCells(in_view);
+}
+
+std::size_t
+PlanarGridMap::clearPlanarCells(
+  const std::function<bool(const Eigen::Vector3f&, float)>& in_view)
+{
+  invalidateQueryCache();
+  const auto r = static_cast<float>(params_.resolution_m);
+  return surface_.removePlaneCells(
+    [&](const Eigen::Vector3f& centre, const Eigen::Vector3f& normal) {
+      if (!in_view(centre, r))
+        return false;
+      return space_.getState(space_.toKey(centre)) == SpaceState::FREE
+             && space_.getState(space_.toKey(Eigen::Vector3f(centre - normal * r)))
+                  == SpaceState::FREE;
+    });
 }
 
 std::size_t

@@ -224,6 +224,10 @@ mapIntegrationInfo()
                       "How the explicit space layer sees a frame: pinhole = the "
                       "disparity image's camera (stereo) or a virtual depth camera "
                       "(point clouds, the depth_* keys); rays = a ray from the sensor "
+    ParamSpec::flag("clear_planar", d.clear_planar,
+                    "Remove the planes' raster cells a later view sees through (the "
+                    "voxel of the cell and the one behind it observed free): a car "
+                    "that drove away, a door that opened."),
                       "origin to every point of the working cloud, for any field of "
                       "view (a 360 degree LiDAR scan); auto = pinhole for stereo, rays "
                       "for point clouds."),
@@ -268,3 +272,4 @@ mapIntegrationInfo()
 }
 } // namespace stages
 } // namespace planar_grid
+    p.clear_planar = v.getBool("clear_planar");

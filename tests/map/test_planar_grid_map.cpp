@@ -745,6 +745,82 @@ wallCuboid(const Eigen::Vector3f& face,
   return c;
 }
 
+/** The planar cuboids of \a map containing \a point. */
+std::size_t
+planarCuboidsAt(const PlanarGridMap& map, const Eigen::Vector3f& point)
+{
+  std::size_t n = 0;
+  for (const auto& c : map.getSurfaceLayer().getCuboids()) {
+    if (!c.is_planar)
+      continue;
+    const Eigen::Vector3f q = point - c.centre;
+    n += std::abs(q.dot(c.horizontal_axis)) <= 0.5f * c.width_m
+             && std::abs(q.dot(c.verticalAxis())) <= 0.5f * c.height_m
+             && std::abs(q.dot(c.normal)) <= 0.5f * c.thickness_m
+           ? 1
+           : 0;
+  }
+  return n;
+}
+
+TEST_F(PlanarGridMapTest, ClearingRemovesThePlanarCellsOfAnObjectThatLeft)
+{
+  // A 1 m x 1 m box face at z = 3 (normal -z, toward the camera at the origin looking
+  // along +z) and a wall at z = 6 beside it. The first view sees the box (depth 3 m
+  // everywhere; the wall is occluded), the second sees the wall at 6 m: the box has
+  // gone. With clear_planar, that one view removes the box's cells, and its space
+  // reads free in the map and in the .bt; the wall, seen where it is, stays. Without
+  // it the box stays.
+  const Eigen::Vector3f box_point(0.05f, 0.05f, 3.05f);
+  const Eigen::Vector3f wall_point(2.05f, 0.05f, 6.05f);
+  PlanarCuboids cuboids{
+    wallCuboid(Eigen::Vector3f(0.0f, 0.0f, 3.0f), -Eigen::Vector3f::UnitZ(),
+               Eigen::Vector3f::UnitX(), 1.0f, 1.0f, 0),
+    wallCuboid(Eigen::Vector3f(2.0f, 0.0f, 6.0f), -Eigen::Vector3f::UnitZ(),
+               Eigen::Vector3f::UnitX(), 1.0f, 1.0f, 1)};
+  const PlaneModels planes{Eigen::Vector4f(0.0f, 0.0f, -1.0f, 3.0f),
+                           Eigen::Vector4f(0.0f, 0.0f, -1.0f, 6.0f)};
+  pcl::PointCloud<pcl::PointXYZ> features;
+  std::vector<float> probabilities;
+  for (int k = 0; k < 5; ++k) {
+    const float y = -0.4f + 0.2f * static_cast<float>(k);
+    features.push_back(pcl::PointXYZ(0.0f, y, 3.0f));
+    features.push_back(pcl::PointXYZ(2.0f, y, 6.0f));
+    probabilities.insert(probabilities.end(), {0.9f, 0.9f});
+  }
+  for (const bool clear : {true, false}) {
+    SCOPED_TRACE(clear ? "clear_planar" : "no clearing");
+    PlanarGridMap::Params p = params();
+    p.clear_planar = clear;
+    PlanarGridMap map(p);
+    map.integrateSurface(cuboids, planes, features, probabilities);
+    map.integrateDepthImage(wallView(3.0f), Eigen::Isometry3d::Identity());
+    ASSERT_EQ(planarCuboidsAt(map, box_point), 1u);
+    ASSERT_EQ(map.getState(box_point), SpaceState::OCCUPIED);
+    ASSERT_EQ(map.getSpaceLayer().getState(wall_point), SpaceState::UNKNOWN);
+
+    map.integrateDepthImage(wallView(6.0f), Eigen::Isometry3d::Identity());
+    EXPECT_EQ(planarCuboidsAt(map, box_point), clear ? 0u : 1u);
+    EXPECT_EQ(map.getState(box_point), clear ? SpaceState::FREE : SpaceState::OCCUPIED);
+    EXPECT_EQ(planarCuboidsAt(map, wall_point), 1u);
+    EXPECT_EQ(map.getState(wall_point), SpaceState::OCCUPIED);
+    EXPECT_EQ(map.getSurfaceLayer().getPlanes().size(), clear ? 1u : 2u);
+
+    const std::string file = path(clear ? "cleared.bt" : "kept.bt");
+    map.exportOctoMap(file);
+    octomap::OcTree tree(0.1);
+    ASSERT_TRUE(tree.readBinary(file));
+    const octomap::OcTreeNode* box_node =
+      tree.search(box_point.x(), box_point.y(), box_point.z());
+    ASSERT_NE(box_node, nullptr);
+    EXPECT_EQ(tree.isNodeOccupied(box_node), !clear);
+    const octomap::OcTreeNode* wall_node =
+      tree.search(wall_point.x(), wall_point.y(), wall_point.z());
+    ASSERT_NE(wall_node, nullptr);
+    EXPECT_TRUE(tree.isNodeOccupied(wall_node));
+  }
+}
+
 TEST_F(PlanarGridMapTest, PlanesReplaceTheNonPlanarCellsOnThem)
 {
   // An L-shaped wall on the plane z = 5 (normal -z): a 2 m x 2 m square (x, y in

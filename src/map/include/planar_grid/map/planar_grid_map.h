@@ -107,7 +107,7 @@ public:
      * more than half of them, is removed. The view saw through it: the cell was
      * stereo noise or an object that has moved, as OctoMap's misses clear a voxel
      * hit before. The voxels of a cell are those whose centres it contains and the
-     * voxel of its centre. Planar cells are not cleared. */
+     * voxel of its centre. Planar cells: clear_planar. */
     bool clear_non_planar{true};
     /** Planes replace the non-planar cells lying on them: after each
      * integrateSurface(), a non-planar cell whose centre and footprint lie within
@@ -124,6 +124,14 @@ public:
      * (SurfaceLayer::absorbOverlappingPlaneCells()). */
     bool planes_absorb_overlapping{true};
   };
+    /** Ray clearing of the planar cells (a car that drove away): after each view, a
+     * plane's raster cell in the view is removed when the space layer holds both the
+     * voxel of its centre on the plane and the voxel one resolution_m behind it (away
+     * from the sensors that saw the plane) observed free: the view saw through the
+     * surface to the space behind it, where a surface still there would have left
+     * its voxel occupied and the space behind it occluded. One such view clears a
+     * cell. A plane left without cells goes. */
+    bool clear_planar{false};
 
   /** \brief Builds an empty map; getParams() returns \a params with both layers'
    * resolution_m set to params.resolution_m.
@@ -204,6 +212,15 @@ public:
    * \param[out] hit the entry point into the occupied cuboid or the occupied voxel's
    * centre, meters
    * \return true on a hit within max_range_m */
+  /** \brief Removes the planes' raster cells for which \a in_view (called with a
+   * cell's centre on its plane and a radius of resolution_m, meters, world frame)
+   * returns true and whose voxel and the voxel behind it the space layer holds
+   * observed free (the rule of Params::clear_planar; called by the integrations when
+   * it is set, public for maps whose space layer is filled otherwise).
+   * \return the number of raster cells removed */
+  std::size_t
+  clearPlanarCells(const std::function<bool(const Eigen::Vector3f&, float)>& in_view);
+
   bool castRay(const Eigen::Vector3f& origin,
                const Eigen::Vector3f& direction,
                double max_range_m,

@@ -211,6 +211,17 @@ public:
   removeNonPlanarCells(const std::function<bool(const PlanarCuboid&)>& remove);
 
   /** \brief Removes the non-planar cells lying on a map plane: a cell whose centre
+  /** \brief Removes the planes' observed raster cells for which \a remove returns
+   * true, with their feature evidence; a plane left without cells is removed. The
+   * planes' least-squares models are not changed.
+   * \param[in] remove called once per observed raster cell with the centre of the
+   * cell on its plane (meters, world) and the plane's unit normal (toward the
+   * sensors that saw it)
+   * \return the number of cells removed */
+  std::size_t
+  removePlaneCells(const std::function<bool(const Eigen::Vector3f& centre,
+                                            const Eigen::Vector3f& normal)>& remove);
+
    * lies inside a planar cuboid grown by resolution_m / 2 on every side, and whose
    * whole footprint on that plane (its extent along the cuboid's two face axes,
    * tested at points at most resolution_m apart, corners included) lies inside that
