@@ -267,7 +267,7 @@ PlanarGridMap::integrateDepthImage(const DepthImage& depth,
   if (params_.clear_non_planar)
     clearNonPlanarCells(in_view);
   if (params_.clear_planar)
-    clearPlanarCells(in_view);
+    clearPlanarCells(in_view, world_T_camera.translation().cast<float>());
 }
 
 void
@@ -285,22 +285,31 @@ PlanarGridMap::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& points,
   if (params_.clear_non_planar)
     clearNonPlanarCells(in_view);
   if (params_.clear_planar)
-    clearPlanarCells(in_view);
+    clearPlanarCells(in_view, sensor_origin);
 }
 
 std::size_t
 PlanarGridMap::clearPlanarCells(
-  const std::function<bool(const Eigen::Vector3f&, float)>& in_view)
+  const std::function<bool(const Eigen::Vector3f&, float)>& in_view,
+  const Eigen::Vector3f& sensor_origin)
 {
   invalidateQueryCache();
   const auto r = static_cast<float>(params_.resolution_m);
+  // A surface seen at a grazing angle lets the views' free space reach a cell's
+  // voxels beside it; only views within 60 degrees of the normal test a cell.
+  constexpr float MIN_COS_VIEW_ANGLE = 0.5f;
   return surface_.removePlaneCells(
     [&](const Eigen::Vector3f& centre, const Eigen::Vector3f& normal) {
       if (!in_view(centre, r))
         return false;
-      return space_.getState(space_.toKey(centre)) == SpaceState::FREE
-             && space_.getState(space_.toKey(Eigen::Vector3f(centre - normal * r)))
-                  == SpaceState::FREE;
+      const Eigen::Vector3f to_sensor = sensor_origin - centre;
+      if (std::abs(to_sensor.dot(normal)) < MIN_COS_VIEW_ANGLE * to_sensor.norm())
+        return false;
+      for (int k = 0; k <= 2; ++k)
+        if (space_.getState(space_.toKey(Eigen::Vector3f(centre - normal * (r * k))))
+            != SpaceState::FREE)
+          return false;
+      return true;
     });
 }
 

@@ -125,12 +125,13 @@ public:
     bool planes_absorb_overlapping{true};
   };
     /** Ray clearing of the planar cells (a car that drove away): after each view, a
-     * plane's raster cell in the view is removed when the space layer holds both the
-     * voxel of its centre on the plane and the voxel one resolution_m behind it (away
-     * from the sensors that saw the plane) observed free: the view saw through the
-     * surface to the space behind it, where a surface still there would have left
-     * its voxel occupied and the space behind it occluded. One such view clears a
-     * cell. A plane left without cells goes. */
+     * plane's raster cell in the view, seen within 60 degrees of its plane's normal,
+     * is removed when the space layer holds the voxel of its centre on the plane and
+     * the two voxels behind it (resolution_m and 2 resolution_m away from the sensors
+     * that saw the plane) observed free: the view saw through the surface to the space
+     * behind it, where a surface still there would have left its voxel occupied and
+     * the space behind it occluded. One such view clears a cell. A plane left without
+     * cells goes. */
     bool clear_planar{false};
 
   /** \brief Builds an empty map; getParams() returns \a params with both layers'
@@ -214,12 +215,15 @@ public:
    * \return true on a hit within max_range_m */
   /** \brief Removes the planes' raster cells for which \a in_view (called with a
    * cell's centre on its plane and a radius of resolution_m, meters, world frame)
-   * returns true and whose voxel and the voxel behind it the space layer holds
+   * returns true, that \a sensor_origin sees within 60 degrees of their plane's
+   * normal, and whose voxel and the two voxels behind it the space layer holds
    * observed free (the rule of Params::clear_planar; called by the integrations when
    * it is set, public for maps whose space layer is filled otherwise).
+   * \param[in] sensor_origin the view's sensor position, meters, world frame
    * \return the number of raster cells removed */
   std::size_t
-  clearPlanarCells(const std::function<bool(const Eigen::Vector3f&, float)>& in_view);
+  clearPlanarCells(const std::function<bool(const Eigen::Vector3f&, float)>& in_view,
+                   const Eigen::Vector3f& sensor_origin);
 
   bool castRay(const Eigen::Vector3f& origin,
                const Eigen::Vector3f& direction,
