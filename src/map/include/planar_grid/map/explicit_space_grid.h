@@ -258,6 +258,26 @@ public:
    * min_key multiples of 8, max_key = 8 k + 7); false when nothing is stored. */
   bool getBounds(VoxelKey& min_key, VoxelKey& max_key) const;
 
+  /** \brief What removeOutside() removed. */
+  struct WindowRemoval {
+    /** \brief Stored blocks (8^3 voxels) wholly outside the box, dropped. */
+    std::size_t blocks{0};
+    /** \brief Observed voxels outside the box (as getVoxelCount() counts them: free,
+     * occupied, and with the free prior occluded), now never observed. */
+    std::uint64_t voxels{0};
+  };
+
+  /** \brief Keeps the voxels whose centres lie inside \a keep and drops every other
+   * one (the rolling window of a long run): a voxel outside becomes never observed
+   * (the prior, as if no view had seen it), and the storage it held is freed
+   * (getMemoryBytes() falls with the content: blocks, super-blocks and the lookup
+   * table are reallocated to what is left). The voxels inside keep their state.
+   * \param[in] keep the box, meters, world frame; a bound may be +-infinity (that
+   * axis unlimited); an empty box (min > max on an axis) or a NaN bound keeps
+   * nothing
+   * \return the blocks and voxels removed */
+  WindowRemoval removeOutside(const Eigen::AlignedBox3f& keep);
+
   /** \brief Encodes the layer as an octree bit stream (Sec. IV): a small fixed header
    * (root key, depth, prior, fixed little-endian byte order) followed by one 2-bit
    * label per node in depth-first order, 4 labels per byte: 00 free, 01 occupied, 10

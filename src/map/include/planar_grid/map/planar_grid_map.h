@@ -30,6 +30,21 @@ struct MapMemory {
   std::size_t total_bytes{0};
 };
 
+/** \brief What PlanarGridMap::removeOutside() removed. \ingroup map */
+struct MapWindowRemoval {
+  /** \brief The space layer's stored blocks (8^3 voxels) wholly outside the box. */
+  std::size_t space_blocks{0};
+  /** \brief The space layer's observed voxels outside the box (in those blocks and in
+   * the blocks across the boundary). */
+  std::uint64_t space_voxels{0};
+  /** \brief The planes' observed raster cells outside the box. */
+  std::size_t plane_cells{0};
+  /** \brief Planes left without cells, removed. */
+  std::size_t planes{0};
+  /** \brief Non-planar cells outside the box. */
+  std::size_t non_planar_cells{0};
+};
+
 /** \brief What PlanarGridMap::exportOctoMap() wrote, counted in the octree as written
  * (after pruning, and for .bt after the conversion to maximum likelihood) the way
  * liboctomap counts a tree it reads from that file. A leaf at depth d stands for
@@ -109,6 +124,15 @@ public:
      * hit before. The voxels of a cell are those whose centres it contains and the
      * voxel of its centre. Planar cells: clear_planar. */
     bool clear_non_planar{true};
+    /** Ray clearing of the planar cells (a car that drove away): after each view, a
+     * plane's raster cell in the view, seen within 60 degrees of its plane's normal,
+     * is removed when the space layer holds the voxel of its centre on the plane and
+     * the two voxels behind it (resolution_m and 2 resolution_m away from the sensors
+     * that saw the plane) observed free: the view saw through the surface to the space
+     * behind it, where a surface still there would have left its voxel occupied and
+     * the space behind it occluded. One such view clears a cell. A plane left without
+     * cells goes. */
+    bool clear_planar{false};
     /** Planes replace the non-planar cells lying on them: after each
      * integrateSurface(), a non-planar cell whose centre and footprint lie within
      * resolution_m / 2 of a plane's cuboids is removed (the rule:
@@ -124,15 +148,6 @@ public:
      * (SurfaceLayer::absorbOverlappingPlaneCells()). */
     bool planes_absorb_overlapping{true};
   };
-    /** Ray clearing of the planar cells (a car that drove away): after each view, a
-     * plane's raster cell in the view, seen within 60 degrees of its plane's normal,
-     * is removed when the space layer holds the voxel of its centre on the plane and
-     * the two voxels behind it (resolution_m and 2 resolution_m away from the sensors
-     * that saw the plane) observed free: the view saw through the surface to the space
-     * behind it, where a surface still there would have left its voxel occupied and
-     * the space behind it occluded. One such view clears a cell. A plane left without
-     * cells goes. */
-    bool clear_planar{false};
 
   /** \brief Builds an empty map; getParams() returns \a params with both layers'
    * resolution_m set to params.resolution_m.
@@ -198,6 +213,18 @@ public:
   std::size_t clearNonPlanarCells(
     const std::function<bool(const Eigen::Vector3f&, float)>& in_view);
 
+  /** \brief Removes the planes' raster cells for which \a in_view (called with a
+   * cell's centre on its plane and a radius of resolution_m, meters, world frame)
+   * returns true, that \a sensor_origin sees within 60 degrees of their plane's
+   * normal, and whose voxel and the two voxels behind it the space layer holds
+   * observed free (the rule of Params::clear_planar; called by the integrations when
+   * it is set, public for maps whose space layer is filled otherwise).
+   * \param[in] sensor_origin the view's sensor position, meters, world frame
+   * \return the number of raster cells removed */
+  std::size_t
+  clearPlanarCells(const std::function<bool(const Eigen::Vector3f&, float)>& in_view,
+                   const Eigen::Vector3f& sensor_origin);
+
   /** \brief State at \a point: OCCUPIED inside a cuboid with probability >=
    * occupancy_thres, FREE inside one below it, else the space layer's state. */
   [[nodiscard]] SpaceState getState(const Eigen::Vector3f& point) const;
@@ -213,18 +240,6 @@ public:
    * \param[out] hit the entry point into the occupied cuboid or the occupied voxel's
    * centre, meters
    * \return true on a hit within max_range_m */
-  /** \brief Removes the planes' raster cells for which \a in_view (called with a
-   * cell's centre on its plane and a radius of resolution_m, meters, world frame)
-   * returns true, that \a sensor_origin sees within 60 degrees of their plane's
-   * normal, and whose voxel and the two voxels behind it the space layer holds
-   * observed free (the rule of Params::clear_planar; called by the integrations when
-   * it is set, public for maps whose space layer is filled otherwise).
-   * \param[in] sensor_origin the view's sensor position, meters, world frame
-   * \return the number of raster cells removed */
-  std::size_t
-  clearPlanarCells(const std::function<bool(const Eigen::Vector3f&, float)>& in_view,
-                   const Eigen::Vector3f& sensor_origin);
-
   bool castRay(const Eigen::Vector3f& origin,
                const Eigen::Vector3f& direction,
                double max_range_m,
@@ -310,6 +325,20 @@ public:
 
   /** \brief Memory held, bytes. */
   [[nodiscard]] MapMemory getMemory() const;
+
+  /** \brief Keeps the part of the map inside \a keep and drops the rest from both
+   * layers (the rolling window of a long run, so that its memory stays bounded):
+   * ExplicitSpaceGrid::removeOutside() (voxels whose centres lie outside go back to
+   * never observed) and SurfaceLayer::removeOutside() (raster cells whose face centres
+   * lie outside, planes left without cells, non-planar cells whose centres lie
+   * outside). The storage they held is freed: getMemory() falls with the content.
+   * Inside the box getState() answers as before, except within a cell of the boundary
+   * where a cuboid that joined cells on both sides is re-covered from the cells left.
+   * The result saves and loads like any map.
+   * \param[in] keep the box, meters, world frame; a bound may be +-infinity (that axis
+   * unlimited); an empty box (min > max on an axis) or a NaN bound keeps nothing
+   * \return what was removed */
+  MapWindowRemoval removeOutside(const Eigen::AlignedBox3f& keep);
 
   /** \brief Writes the map file (format in the class brief) to a temporary file in the
    * same folder, then renames it over \a path: a crash never leaves a half-written map.

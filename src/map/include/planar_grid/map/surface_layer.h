@@ -9,6 +9,7 @@
 #include <pcl/point_types.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <Eigen/StdVector>
 
 #include <cstddef>
@@ -210,7 +211,6 @@ public:
   std::size_t
   removeNonPlanarCells(const std::function<bool(const PlanarCuboid&)>& remove);
 
-  /** \brief Removes the non-planar cells lying on a map plane: a cell whose centre
   /** \brief Removes the planes' observed raster cells for which \a remove returns
    * true, with their feature evidence; a plane left without cells is removed. The
    * planes' least-squares models are not changed.
@@ -222,6 +222,7 @@ public:
   removePlaneCells(const std::function<bool(const Eigen::Vector3f& centre,
                                             const Eigen::Vector3f& normal)>& remove);
 
+  /** \brief Removes the non-planar cells lying on a map plane: a cell whose centre
    * lies inside a planar cuboid grown by resolution_m / 2 on every side, and whose
    * whole footprint on that plane (its extent along the cuboid's two face axes,
    * tested at points at most resolution_m apart, corners included) lies inside that
@@ -267,6 +268,32 @@ public:
    * findCuboid() and castRay() (its copy of the cuboids, hash-map buckets and
    * nodes). Allocator overhead per allocation is not counted. */
   [[nodiscard]] std::size_t getMemoryBytes() const;
+
+  /** \brief What removeOutside() removed. */
+  struct WindowRemoval {
+    /** \brief Observed raster cells of the planes (with their feature evidence). */
+    std::size_t plane_cells{0};
+    /** \brief Planes left without cells, removed (later planes' indices shift down).
+     */
+    std::size_t planes{0};
+    /** \brief Non-planar cells. */
+    std::size_t non_planar_cells{0};
+  };
+
+  /** \brief Keeps the cells inside \a keep and drops the others (the rolling window
+   * of a long run): a plane's observed raster cell goes when the centre of its face
+   * (the cell's centre on the refined plane) lies outside the box, a non-planar cell
+   * when its centre does. A plane left without cells is removed; the planes that keep
+   * cells keep their fits (moments). The storage of what goes is freed
+   * (getMemoryBytes() falls). The cells inside keep their evidence; the planes whose
+   * rasters changed are covered again at the next query, so a rectangle that joined
+   * cells on both sides of the boundary is replaced by rectangles of the cells left
+   * (their mean probability over the cells left).
+   * \param[in] keep the box, meters, world frame; a bound may be +-infinity (that
+   * axis unlimited); an empty box (min > max on an axis) or a NaN bound keeps
+   * nothing
+   * \return the cells and planes removed */
+  WindowRemoval removeOutside(const Eigen::AlignedBox3f& keep);
 
   /** \brief The cuboid containing \a point (PlanarCuboid::contains, boundary
    * included), or nullptr; when several contain it, the one with the lowest index in
