@@ -147,5 +147,58 @@ isometryFromTransform(const geometry_msgs::Transform& transform,
   return pose;
 }
 
+geometry_msgs::TransformStamped
+transformStamped(const Eigen::Isometry3d& parent_T_child,
+                 const std::string& parent,
+                 const std::string& child,
+                 const ros::Time& stamp)
+{
+  geometry_msgs::TransformStamped t;
+  t.header.stamp = stamp;
+  t.header.frame_id = parent;
+  t.child_frame_id = child;
+  const Eigen::Quaterniond q(parent_T_child.linear());
+  t.transform.rotation.w = q.w();
+  t.transform.rotation.x = q.x();
+  t.transform.rotation.y = q.y();
+  t.transform.rotation.z = q.z();
+  t.transform.translation.x = parent_T_child.translation().x();
+  t.transform.translation.y = parent_T_child.translation().y();
+  t.transform.translation.z = parent_T_child.translation().z();
+  return t;
+}
+
+sensor_msgs::CameraInfo
+cameraInfo(const StereoCalibration& calibration,
+           double tx,
+           const ros::Time& stamp,
+           const std::string& frame_id)
+{
+  const auto& c = calibration;
+  sensor_msgs::CameraInfo info;
+  info.header.stamp = stamp;
+  info.header.frame_id = frame_id;
+  info.width = static_cast<std::uint32_t>(std::max(0, c.width));
+  info.height = static_cast<std::uint32_t>(std::max(0, c.height));
+  info.P = {c.focal_length_px, 0.0, c.cx_px, tx,  0.0, c.focal_length_px,
+            c.cy_px,           0.0, 0.0,     0.0, 1.0, 0.0};
+  return info;
+}
+
+sensor_msgs::Image
+monoImage(const cv::Mat& grey, const ros::Time& stamp, const std::string& frame_id)
+{
+  sensor_msgs::Image image;
+  image.header.stamp = stamp;
+  image.header.frame_id = frame_id;
+  image.height = static_cast<std::uint32_t>(grey.rows);
+  image.width = static_cast<std::uint32_t>(grey.cols);
+  image.encoding = "mono8";
+  image.step = image.width;
+  const cv::Mat packed = grey.isContinuous() ? grey : grey.clone();
+  image.data.assign(packed.datastart, packed.dataend);
+  return image;
+}
+
 } // namespace ros_messages
 } // namespace planar_grid

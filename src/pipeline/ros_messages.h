@@ -6,6 +6,7 @@
 
 #include <Eigen/Geometry>
 #include <geometry_msgs/Transform.h>
+#include <geometry_msgs/TransformStamped.h>
 #include <opencv2/core/mat.hpp>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
@@ -53,6 +54,26 @@ StereoCalibration calibrationFromCameraInfo(const sensor_msgs::CameraInfo& left,
  * by more than 1e-3; it is normalized otherwise) */
 Eigen::Isometry3d isometryFromTransform(const geometry_msgs::Transform& transform,
                                         const std::string& where);
+
+/** \brief \a parent_T_child (meters) as a geometry_msgs/TransformStamped from
+ * \a parent to \a child at \a stamp (the rotation as a unit quaternion). */
+geometry_msgs::TransformStamped
+transformStamped(const Eigen::Isometry3d& parent_T_child,
+                 const std::string& parent,
+                 const std::string& child,
+                 const ros::Time& stamp);
+
+/** \brief The CameraInfo of one camera of a rectified pair: its size from
+ * \a calibration (0 x 0 when not given) and P = [f 0 cx Tx; 0 f cy 0; 0 0 1 0], with
+ * Tx = 0 for the left camera and -f B (px m) for the right one. */
+sensor_msgs::CameraInfo cameraInfo(const StereoCalibration& calibration,
+                                   double tx,
+                                   const ros::Time& stamp,
+                                   const std::string& frame_id);
+
+/** \brief An 8-bit grey image (CV_8UC1) as a mono8 sensor_msgs/Image (copied). */
+sensor_msgs::Image
+monoImage(const cv::Mat& grey, const ros::Time& stamp, const std::string& frame_id);
 
 } // namespace ros_messages
 } // namespace planar_grid

@@ -28,6 +28,7 @@
 #include <string>
 
 #include "main_job_stages.h"
+#include "ros_messages.h"
 
 namespace fs = std::filesystem;
 using planar_grid::parsePipelineConfig;
@@ -55,28 +56,14 @@ imageMessage(const std::string& path, double stamp, const std::string& frame_id)
 {
   const cv::Mat grey = cv::imread(path, cv::IMREAD_GRAYSCALE);
   EXPECT_FALSE(grey.empty()) << path;
-  sensor_msgs::Image image;
-  image.header.stamp = ros::Time(stamp);
-  image.header.frame_id = frame_id;
-  image.height = static_cast<std::uint32_t>(grey.rows);
-  image.width = static_cast<std::uint32_t>(grey.cols);
-  image.encoding = "mono8";
-  image.step = image.width;
-  image.data.assign(grey.datastart, grey.dataend);
-  return image;
+  return planar_grid::ros_messages::monoImage(grey, ros::Time(stamp), frame_id);
 }
 
 /** The CameraInfo of a rectified camera: P = [f 0 cx Tx; 0 f cy 0; 0 0 1 0]. */
 sensor_msgs::CameraInfo
 cameraInfo(const planar_grid::StereoCalibration& c, double tx, double stamp)
 {
-  sensor_msgs::CameraInfo info;
-  info.header.stamp = ros::Time(stamp);
-  info.width = static_cast<std::uint32_t>(c.width);
-  info.height = static_cast<std::uint32_t>(c.height);
-  info.P = {c.focal_length_px, 0.0, c.cx_px, tx,  0.0, c.focal_length_px,
-            c.cy_px,           0.0, 0.0,     0.0, 1.0, 0.0};
-  return info;
+  return planar_grid::ros_messages::cameraInfo(c, tx, ros::Time(stamp), "");
 }
 
 geometry_msgs::TransformStamped
@@ -85,19 +72,8 @@ transform(const std::string& parent,
           const Eigen::Isometry3d& pose,
           double stamp)
 {
-  geometry_msgs::TransformStamped t;
-  t.header.stamp = ros::Time(stamp);
-  t.header.frame_id = parent;
-  t.child_frame_id = child;
-  const Eigen::Quaterniond q(pose.linear());
-  t.transform.rotation.w = q.w();
-  t.transform.rotation.x = q.x();
-  t.transform.rotation.y = q.y();
-  t.transform.rotation.z = q.z();
-  t.transform.translation.x = pose.translation().x();
-  t.transform.translation.y = pose.translation().y();
-  t.transform.translation.z = pose.translation().z();
-  return t;
+  return planar_grid::ros_messages::transformStamped(pose, parent, child,
+                                                     ros::Time(stamp));
 }
 
 sensor_msgs::PointCloud2

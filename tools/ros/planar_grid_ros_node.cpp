@@ -310,20 +310,10 @@ private:
 
   void broadcastPose(const std_msgs::Header& header, const Eigen::Isometry3d& pose)
   {
-    geometry_msgs::TransformStamped t;
-    t.header.stamp = header.stamp;
-    t.header.frame_id = params_.fixed_frame;
-    t.child_frame_id =
-      params_.sensor_frame.empty() ? header.frame_id : params_.sensor_frame;
-    const Eigen::Quaterniond q(pose.linear());
-    t.transform.rotation.w = q.w();
-    t.transform.rotation.x = q.x();
-    t.transform.rotation.y = q.y();
-    t.transform.rotation.z = q.z();
-    t.transform.translation.x = pose.translation().x();
-    t.transform.translation.y = pose.translation().y();
-    t.transform.translation.z = pose.translation().z();
-    tf_broadcaster_.sendTransform(t);
+    tf_broadcaster_.sendTransform(planar_grid::ros_messages::transformStamped(
+      pose, params_.fixed_frame,
+      params_.sensor_frame.empty() ? header.frame_id : params_.sensor_frame,
+      header.stamp));
   }
 
   /** The map's cuboids, occupied voxels and 2D obstacle map, each only when its topic

@@ -158,9 +158,15 @@ def main():
         for name, messages in received.items():
             assert messages, f"nothing published on /planar_grid/{name}"
         if not measure_only:
-            markers = received["cuboids"][-1].markers
-            cubes = [m for m in markers if m.action == m.ADD]
-            assert len(cubes) == final["map_cuboids"], (len(cubes), final["map_cuboids"])
+            # Each topic has its own connection: the last frame's markers may come after
+            # its statistics.
+            def cubes():
+                markers = received["cuboids"][-1].markers
+                return [m for m in markers if m.action == m.ADD]
+
+            wait_until(lambda: len(cubes()) == final["map_cuboids"], 30,
+                       f"the last frame's {final['map_cuboids']} cuboid markers "
+                       f"(last message: {len(cubes())})")
             assert received["occupied_cells"][-1].width > 0
             grid = received["map_2d"][-1]
             assert grid.info.width * grid.info.height == len(grid.data) > 0

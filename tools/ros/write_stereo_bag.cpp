@@ -16,64 +16,27 @@
 #include <planar_grid/pipeline/pipeline_config.h>
 
 #include <rosbag/bag.h>
-#include <sensor_msgs/CameraInfo.h>
-#include <sensor_msgs/Image.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include <cstdlib>
 #include <iostream>
 #include <string>
 
+#include "ros_messages.h"
+
 namespace {
+
+namespace ros_messages = planar_grid::ros_messages;
 
 /** The stamp of the first frame: the Karlsruhe recording's day, seconds. */
 constexpr double T0 = 1268149800.0;
 
-sensor_msgs::Image
-imageMessage(const cv::Mat& grey, const ros::Time& stamp)
-{
-  sensor_msgs::Image image;
-  image.header.stamp = stamp;
-  image.header.frame_id = "camera";
-  image.height = static_cast<std::uint32_t>(grey.rows);
-  image.width = static_cast<std::uint32_t>(grey.cols);
-  image.encoding = "mono8";
-  image.step = image.width;
-  const cv::Mat packed = grey.isContinuous() ? grey : grey.clone();
-  image.data.assign(packed.datastart, packed.dataend);
-  return image;
-}
-
-sensor_msgs::CameraInfo
-cameraInfo(const planar_grid::StereoCalibration& c, double tx, const ros::Time& stamp)
-{
-  sensor_msgs::CameraInfo info;
-  info.header.stamp = stamp;
-  info.header.frame_id = "camera";
-  info.width = static_cast<std::uint32_t>(c.width);
-  info.height = static_cast<std::uint32_t>(c.height);
-  info.P = {c.focal_length_px, 0.0, c.cx_px, tx,  0.0, c.focal_length_px,
-            c.cy_px,           0.0, 0.0,     0.0, 1.0, 0.0};
-  return info;
-}
-
 tf2_msgs::TFMessage
 poseMessage(const Eigen::Isometry3d& world_T_camera, const ros::Time& stamp)
 {
-  geometry_msgs::TransformStamped t;
-  t.header.stamp = stamp;
-  t.header.frame_id = "world";
-  t.child_frame_id = "camera";
-  const Eigen::Quaterniond q(world_T_camera.linear());
-  t.transform.rotation.w = q.w();
-  t.transform.rotation.x = q.x();
-  t.transform.rotation.y = q.y();
-  t.transform.rotation.z = q.z();
-  t.transform.translation.x = world_T_camera.translation().x();
-  t.transform.translation.y = world_T_camera.translation().y();
-  t.transform.translation.z = world_T_camera.translation().z();
   tf2_msgs::TFMessage message;
-  message.transforms.push_back(t);
+  message.transforms.push_back(planar_grid::ros_messages::transformStamped(
+    world_T_camera, "world", "camera", stamp));
   return message;
 }
 
@@ -121,11 +84,15 @@ main(int argc, char** argv)
       const auto& c = frame.calibration;
       const ros::Time stamp(T0 + static_cast<double>(k) / rate_hz);
       bag.write("/tf", stamp, poseMessage(frame.world_T_camera, stamp));
-      bag.write("/stereo/left/camera_info", stamp, cameraInfo(c, 0.0, stamp));
+      bag.write("/stereo/left/camera_info", stamp,
+                ros_messages::cameraInfo(c, 0.0, stamp, "camera"));
       bag.write("/stereo/right/camera_info", stamp,
-                cameraInfo(c, -c.focal_length_px * c.baseline_m, stamp));
-      bag.write("/stereo/left/image_rect", stamp, imageMessage(frame.left, stamp));
-      bag.write("/stereo/right/image_rect", stamp, imageMessage(frame.right, stamp));
+                ros_messages::cameraInfo(c, -c.focal_length_px * c.baseline_m, stamp,
+                                         "camera"));
+      bag.write("/stereo/left/image_rect", stamp,
+                ros_messages::monoImage(frame.left, stamp, "camera"));
+      bag.write("/stereo/right/image_rect", stamp,
+                ros_messages::monoImage(frame.right, stamp, "camera"));
     }
     bag.close();
   } catch (const std::exception& e) {
