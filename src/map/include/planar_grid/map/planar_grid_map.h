@@ -219,6 +219,7 @@ public:
    * normal, and whose voxel and the two voxels behind it the space layer holds
    * observed free (the rule of Params::clear_planar; called by the integrations when
    * it is set, public for maps whose space layer is filled otherwise).
+   * \param[in] in_view whether a cell (centre, radius) is in the view's reach
    * \param[in] sensor_origin the view's sensor position, meters, world frame
    * \return the number of raster cells removed */
   std::size_t
