@@ -30,11 +30,13 @@ public:
                       SensorModel sensor_model,
                       int depth_width_px,
                       int depth_height_px,
-                      double depth_focal_length_px) :
+                      double depth_focal_length_px,
+                      double window_radius_m) :
       params_(params),
       sensor_model_(sensor_model), depth_width_px_(depth_width_px),
       depth_height_px_(depth_height_px),
-      depth_focal_length_px_(static_cast<float>(depth_focal_length_px))
+      depth_focal_length_px_(static_cast<float>(depth_focal_length_px)),
+      window_radius_m_(window_radius_m)
   {
     PlanarGridMap check(params_); // rejects bad parameters when the run is built
   }
@@ -93,6 +95,16 @@ public:
         depthFromCloud(frame);
       map.integrateDepthImage(depth_, frame.world_T_camera);
     }
+    if (window_radius_m_ > 0.0) {
+      // The rolling window: the map keeps the box of half-size window_radius_m around
+      // the sensor in x and y (world z up), every height.
+      const Eigen::Vector3f sensor = frame.world_T_camera.translation().cast<float>();
+      const auto half = static_cast<float>(window_radius_m_);
+      const float inf = std::numeric_limits<float>::infinity();
+      map.removeOutside(Eigen::AlignedBox3f(
+        Eigen::Vector3f(sensor.x() - half, sensor.y() - half, -inf),
+        Eigen::Vector3f(sensor.x() + half, sensor.y() + half, inf)));
+    }
     cuboids_ = map.getSurfaceLayer().getCuboidCount();
     // The block count is O(1); the map's bytes (a walk over every block) are
     // reported once, at the end of the run.
@@ -145,6 +157,7 @@ private:
   int depth_width_px_;
   int depth_height_px_;
   float depth_focal_length_px_;
+  double window_radius_m_;
   PlaneModels planes_;
   pcl::PointCloud<pcl::PointXYZ> features_world_;
   pcl::PointCloud<pcl::PointXYZ> camera_cloud_;
@@ -211,6 +224,10 @@ mapIntegrationInfo()
                     "Remove the non-planar cells a later view sees through (more "
                     "than half of their voxels observed free), as OctoMap's misses "
                     "clear a voxel hit before."),
+    ParamSpec::flag("clear_planar", d.clear_planar,
+                    "Remove the planes' raster cells a later view sees through (the "
+                    "voxel of the cell and the one behind it observed free): a car "
+                    "that drove away, a door that opened."),
     ParamSpec::flag("planes_replace_non_planar", d.planes_replace_non_planar,
                     "Remove the non-planar cells lying on a map plane (centre and "
                     "footprint within half a cell of its planar cuboids): the plane "
@@ -224,10 +241,6 @@ mapIntegrationInfo()
                       "How the explicit space layer sees a frame: pinhole = the "
                       "disparity image's camera (stereo) or a virtual depth camera "
                       "(point clouds, the depth_* keys); rays = a ray from the sensor "
-    ParamSpec::flag("clear_planar", d.clear_planar,
-                    "Remove the planes' raster cells a later view sees through (the "
-                    "voxel of the cell and the one behind it observed free): a car "
-                    "that drove away, a door that opened."),
                       "origin to every point of the working cloud, for any field of "
                       "view (a 360 degree LiDAR scan); auto = pinhole for stereo, rays "
                       "for point clouds."),
@@ -241,6 +254,12 @@ mapIntegrationInfo()
     ParamSpec::real("depth_focal_length_px", 525.0, 1.0, 100000.0, "px",
                     "sensor_model pinhole, point clouds: focal length of the virtual "
                     "depth camera."),
+    ParamSpec::real("window_radius_m", 0.0, 0.0, 1e6, "m",
+                    "Rolling window of a long run: after each frame the map keeps "
+                    "only the box of half-size window_radius_m around the sensor in "
+                    "x and y (world z up; every height) and frees the rest of both "
+                    "layers (PlanarGridMap::removeOutside). 0: off, the map grows "
+                    "with the run."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     PlanarGridMap::Params p;
@@ -257,6 +276,7 @@ mapIntegrationInfo()
     p.surface.merge_rule = surfaceMergeRuleFromString(v.getChoice("merge_rule"));
     p.surface.cover_density = v.getDouble("cover_density");
     p.clear_non_planar = v.getBool("clear_non_planar");
+    p.clear_planar = v.getBool("clear_planar");
     p.planes_replace_non_planar = v.getBool("planes_replace_non_planar");
     p.planes_absorb_overlapping = v.getBool("planes_absorb_overlapping");
     const std::string model = v.getChoice("sensor_model");
@@ -266,10 +286,9 @@ mapIntegrationInfo()
                                 : MapIntegrationStage::SensorModel::AUTO;
     return std::make_unique<MapIntegrationStage>(
       p, sensor_model, v.getInt("depth_width_px"), v.getInt("depth_height_px"),
-      v.getDouble("depth_focal_length_px"));
+      v.getDouble("depth_focal_length_px"), v.getDouble("window_radius_m"));
   };
   return info;
 }
 } // namespace stages
 } // namespace planar_grid
-    p.clear_planar = v.getBool("clear_planar");
