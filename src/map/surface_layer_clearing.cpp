@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// SurfaceLayer::removePlaneCells(): planar raster cells removed one by one (the map's
-// clearing of the cells a view sees through, PlanarGridMap::clearPlanarCells()).
+// Planar raster cells removed one by one: SurfaceLayer::removePlaneCells() (the map's
+// clearing of the cells a view sees through, PlanarGridMap::clearPlanarCells()) and the
+// rule they share with the rolling window (SurfaceLayer::removeOutside()).
 #include <planar_grid/map/surface_layer.h>
 
 #include "surface_layer_impl.h"
@@ -9,19 +10,16 @@ namespace planar_grid {
 
 using namespace surface_layer_detail;
 
-std::size_t
-SurfaceLayer::removePlaneCells(
-  const std::function<bool(const Eigen::Vector3f&, const Eigen::Vector3f&)>& remove)
+std::pair<std::size_t, std::size_t>
+SurfaceLayer::Impl::removePlaneCellsIf(
+  const std::function<bool(const Eigen::Vector3f&, const Eigen::Vector3f&)>& remove,
+  double resolution_m)
 {
-  Impl& impl = *impl_;
-  std::lock_guard<std::mutex> lock(impl.mutex);
-  const double r = params_.resolution_m;
-  std::size_t removed = 0;
-  bool emptied = false;
+  std::size_t cells = 0;
   std::vector<std::uint64_t> keep_keys;
   std::vector<float> keep_sums;
   std::vector<std::uint16_t> keep_counts;
-  for (MapPlane& plane : impl.planes) {
+  for (MapPlane& plane : planes) {
     const RasterFrame frame = plane.frame();
     const Eigen::Vector3f n = plane.normal;
     const float d = plane.d;
@@ -33,9 +31,8 @@ SurfaceLayer::removePlaneCells(
       // The cell's centre on the frame's plane, projected on the refined plane (where
       // its cuboid's face lies).
       const Eigen::Vector3f on_frame =
-        frame.cellCentre(rasterCellI(key), rasterCellJ(key), r);
-      const Eigen::Vector3f centre = on_frame - n * (n.dot(on_frame) + d);
-      if (remove(centre, n)) {
+        frame.cellCentre(rasterCellI(key), rasterCellJ(key), resolution_m);
+      if (remove(on_frame - n * (n.dot(on_frame) + d), n)) {
         ++dropped;
         return;
       }
@@ -45,23 +42,41 @@ SurfaceLayer::removePlaneCells(
     });
     if (dropped == 0)
       continue;
-    removed += dropped;
+    cells += dropped;
     plane.raster.assign(keep_keys, keep_sums, keep_counts);
+    // assign() keeps the evidence arrays' capacity: the memory follows the content.
+    plane.raster.probability_sums.shrink_to_fit();
+    plane.raster.feature_counts.shrink_to_fit();
+    std::vector<RasterRect>().swap(plane.rects);
     plane.dirty = true;
-    emptied = emptied || plane.raster.empty();
   }
-  if (removed == 0)
-    return 0;
-  // A plane left without cells goes; its moments went with the cells' evidence.
-  if (emptied) {
-    impl.planes.erase(
-      std::remove_if(impl.planes.begin(), impl.planes.end(),
-                     [](const MapPlane& p) { return p.raster.empty(); }),
-      impl.planes.end());
-    impl.updatePlaneModels();
+  if (cells == 0)
+    return {0, 0};
+  // A plane left without cells goes (later planes' indices shift down); the planes
+  // that keep cells keep their fits (moments).
+  const std::size_t before = planes.size();
+  planes.erase(std::remove_if(planes.begin(), planes.end(),
+                              [](const MapPlane& p) { return p.raster.empty(); }),
+               planes.end());
+  const std::size_t removed_planes = before - planes.size();
+  if (removed_planes > 0) {
+    planes.shrink_to_fit();
+    updatePlaneModels();
+    plane_models.shrink_to_fit();
   }
-  impl.invalidate();
-  return removed;
+  return {cells, removed_planes};
+}
+
+std::size_t
+SurfaceLayer::removePlaneCells(
+  const std::function<bool(const Eigen::Vector3f&, const Eigen::Vector3f&)>& remove)
+{
+  Impl& impl = *impl_;
+  std::lock_guard<std::mutex> lock(impl.mutex);
+  const std::size_t cells = impl.removePlaneCellsIf(remove, params_.resolution_m).first;
+  if (cells > 0)
+    impl.invalidate();
+  return cells;
 }
 
 } // namespace planar_grid

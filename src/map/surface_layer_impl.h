@@ -15,6 +15,7 @@
 #include <map>
 #include <mutex>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "surface_raster.h"
@@ -453,6 +454,13 @@ struct SurfaceLayer::Impl {
   }
   /** Removes the orientations no cell uses. */
   void pruneAxes();
+  /** Removes the planes' observed raster cells for which \a remove(centre of the cell
+   * on its refined plane, unit normal) is true, with their evidence and the storage
+   * they held; a plane left without cells goes. The caller holds the mutex and
+   * invalidates the index. Returns the cells and the planes removed. */
+  std::pair<std::size_t, std::size_t> removePlaneCellsIf(
+    const std::function<bool(const Eigen::Vector3f&, const Eigen::Vector3f&)>& remove,
+    double resolution_m);
 
   // integrate(), step by step
   /** Orients the frame's planes like their cuboids, and joins each to the map plane
