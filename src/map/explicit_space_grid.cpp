@@ -261,6 +261,43 @@ ExplicitSpaceGrid::visitVoxels(void (*visit)(void*, const VoxelKey&, SpaceState)
 }
 
 void
+ExplicitSpaceGrid::visitVoxelRuns(
+  void (*visit)(void*, const VoxelKey&, int, SpaceState),
+  void* context) const
+{
+  // Pending setState() edits go to the storage first (content unchanged).
+  impl_->storage.settle(priorCode(params_.prior));
+  const auto prior = priorCode(params_.prior);
+  const auto sorted = impl_->storage.sortedBlocks(prior);
+  DenseBlock block;
+  for (const auto& stored : sorted) {
+    const BlockKey& bk = stored.key;
+    const int x0 = bk.x * BLOCK_EDGE, y0 = bk.y * BLOCK_EDGE, z0 = bk.z * BLOCK_EDGE;
+    if (!stored.super->isMixed(stored.j)) {
+      const SpaceState state = stateOf(stored.super->code(stored.j), params_.prior);
+      for (int c = 0; c < BLOCK_EDGE * BLOCK_EDGE; ++c)
+        visit(context, VoxelKey(x0 + (c & 7), y0 + (c >> 3), z0), BLOCK_EDGE, state);
+      continue;
+    }
+    stored.super->load(stored.j, block);
+    // Voxel i of a block is x + 8 y + 64 z: column c = x + 8 y holds c + 64 z.
+    for (int c = 0; c < BLOCK_EDGE * BLOCK_EDGE; ++c) {
+      int z = 0;
+      while (z < BLOCK_EDGE) {
+        const std::uint8_t s = block.get(c + (z << 6));
+        int end = z + 1;
+        while (end < BLOCK_EDGE && block.get(c + (end << 6)) == s)
+          ++end;
+        if (s != prior)
+          visit(context, VoxelKey(x0 + (c & 7), y0 + (c >> 3), z0 + z), end - z,
+                stateOf(s, params_.prior));
+        z = end;
+      }
+    }
+  }
+}
+
+void
 ExplicitSpaceGrid::visitVoxelsIn(SpaceState state,
                                  void (*visit)(void*, const VoxelKey&),
                                  void* context) const

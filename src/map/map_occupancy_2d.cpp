@@ -212,12 +212,17 @@ PlanarGridMap::computeOccupancyGrid2D(const OccupancyGrid2DParams& params) const
   if (params.above_terrain) {
     // The terrain the space layer saw, where no walkable terrain cuboid is.
     std::vector<float> seen(n, std::numeric_limits<float>::quiet_NaN());
-    space_.forEachVoxelIn(
-      SpaceState::OCCUPIED, [&](const ExplicitSpaceGrid::VoxelKey& key) {
-        if (space_.getState(ExplicitSpaceGrid::VoxelKey(key.x(), key.y(), key.z() + 1))
+    // An occupied voxel with free space above it: within a vertical run of occupied
+    // voxels only the run's top one can be.
+    space_.forEachVoxelRun(
+      [&](const ExplicitSpaceGrid::VoxelKey& key, int length, SpaceState state) {
+        if (state != SpaceState::OCCUPIED)
+          return;
+        const int top_z = key.z() + length - 1;
+        if (space_.getState(ExplicitSpaceGrid::VoxelKey(key.x(), key.y(), top_z + 1))
             != SpaceState::FREE)
           return;
-        const auto top = static_cast<float>((key.z() + 1) * vr);
+        const auto top = static_cast<float>((top_z + 1) * vr);
         forFootprint(key, [&](std::size_t k) {
           if (!(seen[k] <= top))
             seen[k] = top;
@@ -272,20 +277,25 @@ PlanarGridMap::computeOccupancyGrid2D(const OccupancyGrid2DParams& params) const
     });
   }
 
-  // Voxels: every cell whose square meets the voxel's footprint.
-  space_.forEachVoxel([&](const ExplicitSpaceGrid::VoxelKey& key, SpaceState s) {
+  // Voxels: every cell whose square meets the voxel's footprint, one vertical run of
+  // voxels in one state at a time.
+  space_.forEachVoxelRun([&](const ExplicitSpaceGrid::VoxelKey& key, int length,
+                             SpaceState s) {
     if (s == SpaceState::UNKNOWN)
       return;
-    const double z0 = key.z() * vr;
+    std::vector<std::uint8_t>& mark = s == SpaceState::OCCUPIED ? occupied : seen_free;
     forFootprint(key, [&](std::size_t k) {
+      if (mark[k])
+        return;
       double b0, b1;
       band(k, b0, b1);
-      if (z0 + vr < b0 || z0 > b1)
-        return;
-      if (s == SpaceState::OCCUPIED)
-        occupied[k] = 1;
-      else
-        seen_free[k] = 1;
+      for (int dz = 0; dz < length; ++dz) {
+        const double z0 = (key.z() + dz) * vr;
+        if (!(z0 + vr < b0 || z0 > b1)) {
+          mark[k] = 1;
+          return;
+        }
+      }
     });
   });
 

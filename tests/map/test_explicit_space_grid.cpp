@@ -516,6 +516,30 @@ TEST(ExplicitSpaceGrid, CompactStorageMatchesMapOracle)
     EXPECT_EQ(visited,
               counts[SpaceState::FREE] + counts[SpaceState::OCCUPIED]
                 + (prior == SpaceState::FREE ? counts[SpaceState::UNKNOWN] : 0));
+    // forEachVoxelRun: the same voxels with the same states, each once, in vertical
+    // runs inside one block; two runs that touch in a column differ in state
+    std::map<std::tuple<int, int, int>, SpaceState> from_runs;
+    std::map<std::tuple<int, int, int>, SpaceState> run_tops;
+    std::size_t runs = 0;
+    grid.forEachVoxelRun([&](const Key& k, int length, SpaceState s) {
+      ++runs;
+      ASSERT_GE(length, 1);
+      ASSERT_LE((k.z() & 7) + length, 8) << "a run crosses a block boundary";
+      const auto below = run_tops.find({k.x(), k.y(), k.z() - 1});
+      if (below != run_tops.end() && (k.z() & 7) != 0) {
+        EXPECT_NE(below->second, s) << "two runs of one state touch";
+      }
+      for (int dz = 0; dz < length; ++dz) {
+        EXPECT_TRUE(from_runs.insert({{k.x(), k.y(), k.z() + dz}, s}).second);
+      }
+      run_tops[{k.x(), k.y(), k.z() + length - 1}] = s;
+    });
+    std::map<std::tuple<int, int, int>, SpaceState> from_voxels;
+    grid.forEachVoxel([&](const Key& k, SpaceState s) {
+      from_voxels[{k.x(), k.y(), k.z()}] = s;
+    });
+    EXPECT_EQ(from_runs, from_voxels);
+    EXPECT_LT(runs, from_voxels.size());
     // round trip through the bit stream
     std::vector<std::uint8_t> bytes, again;
     grid.serialize(bytes);

@@ -243,6 +243,16 @@ public:
    * when few voxels have \a state (occupied voxels among free space). */
   template <typename F> void forEachVoxelIn(SpaceState state, F&& f) const;
 
+  /** \brief Calls f(bottom_key, length, state) for every vertical run of observed
+   * voxels in one state: the voxels bottom_key + (0, 0, k), k = 0 .. length - 1
+   * (length 1 to 8). Runs end at the storage's 8-voxel block boundaries, so a longer
+   * column comes as several runs; together the runs cover exactly the voxels
+   * forEachVoxel() visits, with the same states. A block whose voxels share one state
+   * costs 64 calls instead of 512: the fast way to project the space onto the ground
+   * plane (2D maps, height maps). Blocks in forEachVoxel()'s order, columns x fastest.
+   */
+  template <typename F> void forEachVoxelRun(F&& f) const;
+
   /** \brief Number of observed voxels in \a state (as forEachVoxel() visits them;
    * 0 for UNKNOWN with the unknown prior). */
   [[nodiscard]] std::size_t getVoxelCount(SpaceState state) const;
@@ -356,6 +366,9 @@ private:
   /** \brief Visits the non-prior voxels (implementation of forEachVoxel). */
   void visitVoxels(void (*visit)(void*, const VoxelKey&, SpaceState),
                    void* context) const;
+  /** \brief Visits the vertical runs (implementation of forEachVoxelRun). */
+  void visitVoxelRuns(void (*visit)(void*, const VoxelKey&, int, SpaceState),
+                      void* context) const;
   /** \brief Visits the voxels of one state (implementation of forEachVoxelIn). */
   void visitVoxelsIn(SpaceState state,
                      void (*visit)(void*, const VoxelKey&),
@@ -381,6 +394,17 @@ ExplicitSpaceGrid::forEachVoxelIn(SpaceState state, F&& f) const
     state,
     [](void* context, const VoxelKey& key) {
       (*static_cast<std::remove_reference_t<F>*>(context))(key);
+    },
+    const_cast<void*>(static_cast<const void*>(&f)));
+}
+
+template <typename F>
+void
+ExplicitSpaceGrid::forEachVoxelRun(F&& f) const
+{
+  visitVoxelRuns(
+    [](void* context, const VoxelKey& key, int length, SpaceState state) {
+      (*static_cast<std::remove_reference_t<F>*>(context))(key, length, state);
     },
     const_cast<void*>(static_cast<const void*>(&f)));
 }
