@@ -7,6 +7,7 @@
 #include <pcl/common/transforms.h>
 #include <pcl/filters/uniform_sampling.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "stages.h"
@@ -50,9 +51,10 @@ public:
   AccumulateStage(double leaf_size_m,
                   int downsample_every_n_frames,
                   double plane_merge_angle_rad,
-                  double plane_merge_distance_m) :
+                  double plane_merge_distance_m,
+                  double window_radius_m) :
       leaf_size_m_(leaf_size_m),
-      every_(downsample_every_n_frames),
+      every_(downsample_every_n_frames), window_radius_m_(window_radius_m),
       association_(associationCriteria(plane_merge_angle_rad, plane_merge_distance_m))
   {}
 
@@ -95,8 +97,11 @@ public:
         cuboid.plane_id = k < run_wide_id.size() ? run_wide_id[k] : -1;
       state.cuboids.push_back(cuboid);
     }
-    if (++frames_since_downsample_ >= every_)
+    if (++frames_since_downsample_ >= every_) {
+      if (window_radius_m_ > 0.0)
+        cropToWindow(frame.world_T_camera.translation(), state);
       downsample(state);
+    }
   }
 
   void finish(PipelineState& state) override
@@ -159,6 +164,25 @@ private:
     return best;
   }
 
+  /** Drops the world cloud's and the plane cloud's points outside the box of
+   * half-size window_radius_m around the sensor in x and y (every height), the
+   * map_integration stage's rolling window. */
+  void cropToWindow(const Eigen::Vector3d& sensor, PipelineState& state) const
+  {
+    const double r = window_radius_m_;
+    const auto outside = [&](const auto& p) {
+      return !(std::abs(p.x - sensor.x()) <= r && std::abs(p.y - sensor.y()) <= r);
+    };
+    auto& world = state.world_cloud->points;
+    world.erase(std::remove_if(world.begin(), world.end(), outside), world.end());
+    state.world_cloud->width = static_cast<std::uint32_t>(world.size());
+    state.world_cloud->height = 1;
+    auto& planes = state.plane_cloud->points;
+    planes.erase(std::remove_if(planes.begin(), planes.end(), outside), planes.end());
+    state.plane_cloud->width = static_cast<std::uint32_t>(planes.size());
+    state.plane_cloud->height = 1;
+  }
+
   void downsample(PipelineState& state)
   {
     frames_since_downsample_ = 0;
@@ -184,6 +208,7 @@ private:
 
   double leaf_size_m_;
   int every_;
+  double window_radius_m_;
   PlaneAssociation association_;
   int frames_since_downsample_{0};
 };
@@ -227,11 +252,17 @@ accumulateInfo()
       "A frame's plane joins a run-wide plane whose normal is this close..."),
     ParamSpec::real("plane_merge_distance_m", 0.2, 0.0, 10.0, "m",
                     "... and whose offset d is this close; else it starts a new one."),
+    ParamSpec::real("window_radius_m", 0.0, 0.0, 1e6, "m",
+                    "Rolling window of the accumulated clouds: at each downsampling "
+                    "only the points within window_radius_m of the sensor in x and y "
+                    "(world z up) are kept, as map_integration's window_radius_m "
+                    "keeps the map's; 0 keeps everything."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     return std::make_unique<AccumulateStage>(
       v.getDouble("leaf_size_m"), v.getInt("downsample_every_n_frames"),
-      v.getDouble("plane_merge_angle_rad"), v.getDouble("plane_merge_distance_m"));
+      v.getDouble("plane_merge_angle_rad"), v.getDouble("plane_merge_distance_m"),
+      v.getDouble("window_radius_m"));
   };
   return info;
 }

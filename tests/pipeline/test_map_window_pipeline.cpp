@@ -1,14 +1,17 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The map_integration stage's rolling window (window_radius_m) on the main job's
-// frames driven several times, 100 m apart: the map's memory stays flat with it and
-// grows with every pass without it.
+// The map_integration and accumulate stages' rolling window (window_radius_m) on the
+// main job's frames driven several times, 100 m apart: the map's memory stays flat
+// with it and grows with every pass without it, and the accumulated cloud keeps only
+// what lies around the sensor.
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstddef>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -28,6 +31,9 @@ struct WindowRun {
   Eigen::Vector2f space_min{Eigen::Vector2f::Zero()},
     space_max{Eigen::Vector2f::Zero()};
   Eigen::Vector2f sensor{Eigen::Vector2f::Zero()};
+  /** The accumulated world cloud's smallest x after the run, meters, and its points. */
+  float cloud_min_x{0.0f};
+  std::size_t cloud_points{0};
 };
 
 /** Runs the main job's stages over FRAMES frames x PASSES passes, with
@@ -41,6 +47,13 @@ run(double window_m)
   EXPECT_NE(at, std::string::npos) << "the main job has no map_integration params";
   if (window_m > 0.0 && at != std::string::npos)
     stages.insert(at + map_stage.size(),
+                  "      window_radius_m: " + std::to_string(window_m) + "\n");
+  const std::string accumulate_stage = "  - type: accumulate\n    params:\n";
+  const std::size_t at_accumulate = stages.find(accumulate_stage);
+  EXPECT_NE(at_accumulate, std::string::npos)
+    << "the main job has no accumulate params";
+  if (window_m > 0.0 && at_accumulate != std::string::npos)
+    stages.insert(at_accumulate + accumulate_stage.size(),
                   "      window_radius_m: " + std::to_string(window_m) + "\n");
   const std::string yaml = planar_grid_test::mainJobImageInput(0, FRAMES)
                            + "  repeat: {count: " + std::to_string(PASSES)
@@ -56,6 +69,10 @@ run(double window_m)
     });
   const auto report = runner.run();
   EXPECT_EQ(report.frames, static_cast<std::size_t>(FRAMES * PASSES));
+  result.cloud_points = runner.state().world_cloud->size();
+  result.cloud_min_x = std::numeric_limits<float>::infinity();
+  for (const auto& p : runner.state().world_cloud->points)
+    result.cloud_min_x = std::min(result.cloud_min_x, p.x);
   const planar_grid::ExplicitSpaceGrid& space = runner.state().map->getSpaceLayer();
   planar_grid::ExplicitSpaceGrid::VoxelKey lo, hi;
   if (space.getBounds(lo, hi)) {
@@ -91,6 +108,14 @@ TEST(MapWindowPipelineTest, WindowKeepsTheMapMemoryFlatOverRepeatedPasses)
   EXPECT_LE(windowed.space_max.x(), windowed.sensor.x() + reach);
   EXPECT_LE(windowed.space_max.y(), windowed.sensor.y() + reach);
   EXPECT_LT(unbounded.space_min.x(), windowed.sensor.x() - 100.0f);
+  // The accumulated cloud, cropped at its downsampling (every 5 frames: the first
+  // frame of the last pass) to the window around the sensor, plus the last frame's
+  // points (within the stereo's 30 m range); unbounded it keeps the first pass's.
+  ASSERT_GT(windowed.cloud_points, 0u);
+  EXPECT_GE(windowed.cloud_min_x,
+            windowed.sensor.x() - static_cast<float>(WINDOW_M) - 2.0f);
+  EXPECT_LT(unbounded.cloud_min_x, windowed.sensor.x() - 150.0f);
+  EXPECT_LT(windowed.cloud_points, unbounded.cloud_points);
 }
 
 } // namespace
