@@ -181,6 +181,9 @@ public:
     for (const float p : frame.feature_probabilities)
       probability_sum_ += p;
     if (descriptors) {
+      // Ids continue only from the previous frame's features: a track this frame did
+      // not observe is never referenced again.
+      filter_.retainTracks(ids);
       previous_ = frame.features;
       previous_ids_ = std::move(ids);
     } else {

@@ -286,6 +286,37 @@ TYPED_TEST(KLDivergenceOccupancyFilterTyped, ConsistentObservationsRiseTowardMax
   EXPECT_NEAR(previous, 0.971, PROB_TOL);
 }
 
+TYPED_TEST(KLDivergenceOccupancyFilterTyped, RetainTracksKeepsTheListedTracksExactly)
+{
+  // Two filters see the same frames with frame-to-frame ids, as the pipeline's
+  // descriptor tracks: feature 0 continues track 0 throughout, feature 1 starts a new
+  // track in every frame. One filter retains the frame's ids after each frame: its
+  // probabilities equal the other's bit for bit, and it holds two tracks, not one
+  // per frame.
+  auto all = TestFixture::makeFilter();
+  auto retained = TestFixture::makeFilter();
+  for (std::int64_t k = 0; k < 6; ++k) {
+    const std::vector<std::int64_t> ids = {0, 100 + k};
+    TestFixture::frame(all, TWO_FEATURES, ids);
+    TestFixture::frame(retained, TWO_FEATURES, ids);
+    ASSERT_EQ(retained.getProbabilities(), all.getProbabilities()) << "frame " << k;
+    EXPECT_EQ(retained.retainTracks(ids), k == 0 ? 0u : 1u) << "frame " << k;
+    EXPECT_EQ(retained.getTrackCount(), 2u);
+  }
+  EXPECT_EQ(all.getTrackCount(), 7u);
+  EXPECT_EQ(retained.getNextTrackId(), all.getNextTrackId());
+  float p = 0.0f;
+  EXPECT_TRUE(retained.getTrackProbability(0, p));
+  EXPECT_FALSE(retained.getTrackProbability(100, p)); // forgotten
+  EXPECT_TRUE(all.getTrackProbability(100, p));
+  // A forgotten id seen again starts over at eq. 4's probability, where the unpruned
+  // filter updates its old track.
+  TestFixture::frame(all, TWO_FEATURES, {100, 1});
+  TestFixture::frame(retained, TWO_FEATURES, {100, 1});
+  EXPECT_NEAR(retained.getProbabilities()[0], TWO_P1, PROB_TOL);
+  EXPECT_NE(all.getProbabilities()[0], retained.getProbabilities()[0]);
+}
+
 TYPED_TEST(KLDivergenceOccupancyFilterTyped, MismatchedTrackFallsBelowHalf)
 {
   // f = 700 px, B = 0.5 m: dz(10 m) = 100 / 350 * 0.5 = 0.143 m. Four features in one

@@ -404,6 +404,20 @@ public:
   /** \brief Number of tracks stored. */
   std::size_t getTrackCount() const { return tracks_.size(); }
 
+  /** \brief The id the next track made by position association gets: above every id
+   * seen, also after retainTracks(). */
+  std::int64_t getNextTrackId() const { return next_track_id_; }
+
+  /** \brief Keeps the tracks whose ids are in \a track_ids and forgets the others.
+   * Where the caller's track ids continue only from one frame to the next (a
+   * frame-to-frame descriptor matcher, as the pipeline's stage), the tracks not among
+   * the last frame's ids are never referenced again, and forgetting them after each
+   * frame keeps a long run's memory bounded without changing any probability. Ids are
+   * not reused (getNextTrackId()).
+   * \param[in] track_ids the ids kept (ids without a track are ignored)
+   * \return the number of tracks removed */
+  std::size_t retainTracks(const std::vector<std::int64_t>& track_ids);
+
   /** \brief Appends the state carried across frames (for pipeline checkpoints): a
    * little-endian section of u32 magic "PGKT", u32 version 1, u32 frame count, i64 next
    * id, u64 tracks, then per track (sorted by id) i64 id, f32 log-odds, f32 position

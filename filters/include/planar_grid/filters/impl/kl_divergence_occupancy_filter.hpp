@@ -153,6 +153,29 @@ KLDivergenceOccupancyFilter<PointT>::reset()
 }
 
 template <typename PointT>
+std::size_t
+KLDivergenceOccupancyFilter<PointT>::retainTracks(
+  const std::vector<std::int64_t>& track_ids)
+{
+  const std::size_t before = tracks_.size();
+  std::unordered_map<std::int64_t, Track> kept;
+  kept.reserve(track_ids.size());
+  for (const std::int64_t id : track_ids) {
+    const auto found = tracks_.find(id);
+    if (found != tracks_.end())
+      kept.emplace(id, found->second);
+  }
+  tracks_.swap(kept);
+  const std::size_t removed = before - tracks_.size();
+  if (removed > 0) {
+    // The position index is rebuilt from the tracks left at the next association.
+    association_cells_.clear();
+    association_cells_valid_ = false;
+  }
+  return removed;
+}
+
+template <typename PointT>
 void
 KLDivergenceOccupancyFilter<PointT>::serializeTracks(
   std::vector<std::uint8_t>& bytes) const
