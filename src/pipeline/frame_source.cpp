@@ -19,6 +19,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
@@ -64,6 +65,42 @@ public:
     std::ostringstream out;
     out << prefix_ << std::setw(width_) << std::setfill(fill_) << index << suffix_;
     return out.str();
+  }
+
+  /** The largest index whose file exists in the pattern's folder (the name formatted
+   * exactly as format() writes it), or -1 when there is none or the index field is
+   * not in the file name itself. */
+  int lastIndexOnDisk() const
+  {
+    if (suffix_.find('/') != std::string::npos)
+      return -1;
+    const fs::path prefix_path(prefix_);
+    const std::string name_prefix = prefix_path.filename().string();
+    const fs::path folder =
+      prefix_path.has_parent_path() ? prefix_path.parent_path() : fs::path(".");
+    int last = -1;
+    std::error_code ec;
+    for (fs::directory_iterator it(folder, ec), end; !ec && it != end;
+         it.increment(ec)) {
+      const std::string name = it->path().filename().string();
+      if (name.size() <= name_prefix.size() + suffix_.size()
+          || name.compare(0, name_prefix.size(), name_prefix) != 0
+          || name.compare(name.size() - suffix_.size(), suffix_.size(), suffix_) != 0)
+        continue;
+      const std::string field = name.substr(
+        name_prefix.size(), name.size() - name_prefix.size() - suffix_.size());
+      const auto digit = field.find_first_not_of(' ');
+      // At most 9 digits: the index is an int.
+      if (digit == std::string::npos || field.size() - digit > 9
+          || !std::all_of(field.begin() + static_cast<std::ptrdiff_t>(digit),
+                          field.end(),
+                          [](unsigned char c) { return std::isdigit(c) != 0; }))
+        continue;
+      const int index = std::stoi(field.substr(digit));
+      if (index > last && fs::path(format(index)).filename().string() == name)
+        last = index;
+    }
+    return last;
   }
 
 private:
@@ -148,6 +185,7 @@ public:
       poses_.erase(poses_.begin(), poses_.begin() + first_index_);
       poses_.resize(count_);
     }
+    checkImagesPresent(input.frame_count);
     description_ =
       std::to_string(count_) + " stereo pairs " + left_.format(first_index_)
       + " ... (f = " + std::to_string(model_.calibration.focal_length_px)
@@ -190,6 +228,35 @@ public:
   }
 
 private:
+  /** Throws an IOError naming the first image of the frames that is missing, before
+   * any frame is read. With \a frame_count 0 the frames end at the first missing left
+   * image, so a left image past that gap means an image is missing in the middle of
+   * the sequence, not that the sequence ended. */
+  void checkImagesPresent(int frame_count) const
+  {
+    const int end = first_index_ + static_cast<int>(count_);
+    if (frame_count == 0) {
+      const int last = left_.lastIndexOnDisk();
+      if (last >= end)
+        throw IOError(left_.format(end) + ": left image not found, but the sequence "
+                      + "goes on to " + left_.format(last)
+                      + " (input.frame_count 0 takes every frame from first_index; an "
+                        "image is missing in the middle of the sequence)");
+    }
+    std::error_code ec;
+    for (int index = first_index_; index < end; ++index) {
+      const std::string left_path = left_.format(index);
+      if (!fs::exists(left_path, ec))
+        throw IOError(left_path + ": left image not found (frame "
+                      + std::to_string(index - first_index_) + " of the "
+                      + std::to_string(count_) + " of input.frame_count)");
+      const std::string right_path = right_.format(index);
+      if (!fs::exists(right_path, ec))
+        throw IOError(right_path + ": right image not found (its left image "
+                      + left_path + " exists)");
+    }
+  }
+
   /** Fills poses_ (one per frame) from EuRoC world_T_body poses keyed by image index:
    * the pipeline's camera is the rectified left camera, so world_T_camera =
    * world_T_body * body_T_left * rectified_R_left^T. */

@@ -1,0 +1,205 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Bad inputs of the pipeline tool that used to be mapped silently or failed late: each
+// is refused with an error naming the file and the cause, before the first frame where
+// that can be known, and the tool exits non-zero without writing outputs. The table is
+// in docs/RELIABILITY.md.
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/pipeline_runner.h>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+/** The exit code and the merged stdout and stderr of one tool run. */
+struct ToolRun {
+  int exit_code{-1};
+  std::string output;
+};
+
+/** A temporary folder per test holding a small synthetic rectified stereo sequence:
+ * random texture, the right image the left one shifted by 4 px, a Karlsruhe-format
+ * calibration (f = 100 px, principal point at the image centre, B = 0.5 m). */
+class BadStereoInputTest : public ::testing::Test {
+protected:
+  static constexpr int WIDTH = 96;
+  static constexpr int HEIGHT = 64;
+
+  void SetUp() override
+  {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path()
+           / ("planar_grid_bad_inputs_" + std::string(info->name()) + "_"
+              + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_ / "left");
+    fs::create_directories(dir_ / "right");
+    writeCalibration("100 0 48 0 0 100 32 0 0 0 1 0",
+                     "100 0 48 -50 0 100 32 0 0 0 1 0");
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  /** Writes calib.txt with the rows P1_roi: \a left and P2_roi: \a right. */
+  void writeCalibration(const std::string& left, const std::string& right) const
+  {
+    std::ofstream(dir_ / "calib.txt")
+      << "P1_roi: " << left << "\nP2_roi: " << right << "\n";
+  }
+
+  static std::string leftName(int index)
+  {
+    std::array<char, 32> name{};
+    std::snprintf(name.data(), name.size(), "I1_%06d.png", index);
+    return name.data();
+  }
+
+  static std::string rightName(int index)
+  {
+    std::array<char, 32> name{};
+    std::snprintf(name.data(), name.size(), "I2_%06d.png", index);
+    return name.data();
+  }
+
+  /** Writes the pairs 0 .. \a count - 1, \a width x \a height pixels (seeded texture).
+   */
+  void writePairs(int count, int width = WIDTH, int height = HEIGHT) const
+  {
+    for (int i = 0; i < count; ++i)
+      writePair(i, width, height, width, height);
+  }
+
+  /** Writes pair \a index, the left image \a lw x \a lh and the right \a rw x \a rh. */
+  void writePair(int index, int lw, int lh, int rw, int rh) const
+  {
+    cv::Mat texture(std::max(lh, rh), std::max(lw, rw) + 4, CV_8UC1);
+    cv::RNG rng(static_cast<std::uint64_t>(index + 1));
+    rng.fill(texture, cv::RNG::UNIFORM, 0, 256);
+    ASSERT_TRUE(cv::imwrite((dir_ / "left" / leftName(index)).string(),
+                            texture(cv::Rect(4, 0, lw, lh))));
+    ASSERT_TRUE(cv::imwrite((dir_ / "right" / rightName(index)).string(),
+                            texture(cv::Rect(0, 0, rw, rh))));
+  }
+
+  /** A stereo configuration of the sequence in dir_ through stereo_disparity, outputs
+   * in dir_/out. */
+  std::string config(int frame_count = 0) const
+  {
+    return "input:\n  type: stereo_sequence\n  left_images: " + (dir_ / "left").string()
+           + "/I1_%06d.png\n  right_images: " + (dir_ / "right").string()
+           + "/I2_%06d.png\n  frame_count: " + std::to_string(frame_count)
+           + "\n  calibration: {format: karlsruhe, file: "
+           + (dir_ / "calib.txt").string()
+           + "}\npipeline:\n  - type: stereo_disparity\n"
+             "    params: {num_disparities_px: 16, max_range_m: 30.0}\n"
+             "output:\n  folder: "
+           + (dir_ / "out").string() + "\n";
+  }
+
+  /** The message of the planar_grid::Exception that creating a runner for \a yaml
+   * throws ("" when none): the runner reads no frame before run(). */
+  static std::string setupError(const std::string& yaml)
+  {
+    try {
+      planar_grid::PipelineRunner runner(
+        planar_grid::parsePipelineConfig(yaml, "t.yaml", "/"));
+    } catch (const planar_grid::Exception& e) {
+      return e.what();
+    }
+    return "";
+  }
+
+  /** Runs planar_grid_pipeline on \a yaml (written to dir_/run.yaml) with \a args. */
+  ToolRun runTool(const std::string& yaml, const std::string& args = "") const
+  {
+    const fs::path path = dir_ / "run.yaml";
+    std::ofstream(path) << yaml;
+    const std::string command = std::string(PLANAR_GRID_PIPELINE_TOOL) + " --config '"
+                                + path.string() + "' --no-snapshot --sequential " + args
+                                + " 2>&1";
+    ToolRun run;
+    std::fflush(nullptr);
+    FILE* pipe = ::popen(command.c_str(), "r");
+    if (!pipe) {
+      ADD_FAILURE() << "cannot start " << command;
+      return run;
+    }
+    std::array<char, 4096> buffer{};
+    std::size_t n = 0;
+    while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0)
+      run.output.append(buffer.data(), n);
+    const int status = ::pclose(pipe);
+    run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+    return run;
+  }
+
+  /** True when the tool wrote nothing into dir_/out (no folder, or an empty one but for
+   * the run lock). */
+  bool noOutputs() const
+  {
+    if (!fs::exists(dir_ / "out"))
+      return true;
+    for (const auto& entry : fs::directory_iterator(dir_ / "out"))
+      if (entry.path().filename().string().find("lock") == std::string::npos)
+        return false;
+    return true;
+  }
+
+  fs::path dir_;
+};
+
+#define EXPECT_CONTAINS(text, part)                          \
+  EXPECT_NE(std::string(text).find(part), std::string::npos) \
+    << "expected '" << (part) << "' in: " << (text)
+
+} // namespace
+
+TEST_F(BadStereoInputTest, LeftImageMissingInTheMiddleIsRefusedBeforeTheFirstFrame)
+{
+  // Frames 0-5 with the left image of frame 3 removed: "every frame present" would
+  // have mapped frames 0-2 and ended there.
+  writePairs(6);
+  fs::remove(dir_ / "left" / leftName(3));
+  const std::string what = setupError(config(0));
+  EXPECT_CONTAINS(what, leftName(3));
+  EXPECT_CONTAINS(what, "not found");
+  EXPECT_CONTAINS(what, leftName(5)); // where the sequence goes on to
+  // With a frame count the same image is named.
+  EXPECT_CONTAINS(setupError(config(6)), leftName(3));
+  // Without the gap the sequence loads: 6 frames.
+  writePair(3, WIDTH, HEIGHT, WIDTH, HEIGHT);
+  EXPECT_EQ(setupError(config(0)), "");
+}
+
+TEST_F(BadStereoInputTest, RightImageMissingIsRefusedBeforeTheFirstFrame)
+{
+  writePairs(5);
+  fs::remove(dir_ / "right" / rightName(2));
+  for (const int frame_count : {0, 5}) {
+    const std::string what = setupError(config(frame_count));
+    EXPECT_CONTAINS(what, rightName(2));
+    EXPECT_CONTAINS(what, "right image not found");
+  }
+}
+
+TEST_F(BadStereoInputTest, ToolExitsNonZeroOnAGapAndWritesNothing)
+{
+  writePairs(6);
+  fs::remove(dir_ / "left" / leftName(3));
+  const ToolRun run = runTool(config(0));
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, leftName(3));
+  EXPECT_TRUE(noOutputs()) << run.output;
+}
