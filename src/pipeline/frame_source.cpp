@@ -186,6 +186,7 @@ public:
       poses_.resize(count_);
     }
     checkImagesPresent(input.frame_count);
+    checkFirstFrame(input.calibration_file);
     description_ =
       std::to_string(count_) + " stereo pairs " + left_.format(first_index_)
       + " ... (f = " + std::to_string(model_.calibration.focal_length_px)
@@ -201,19 +202,9 @@ public:
     const std::string right_path = right_.format(index);
     cv::Mat left = readImage(left_path);
     cv::Mat right = readImage(right_path);
-    if (left.size() != right.size())
-      throw IOError(right_path + ": size " + std::to_string(right.cols) + "x"
-                    + std::to_string(right.rows) + " differs from the left image's "
-                    + std::to_string(left.cols) + "x" + std::to_string(left.rows));
+    checkImageSizes(left_path, left.size(), right_path, right.size());
     const auto& calib = model_.calibration;
-    if (model_.rectifier.empty() && calib.width > 0 && calib.height > 0
-        && (left.cols != calib.width || left.rows != calib.height))
-      throw IOError(left_path + ": size " + std::to_string(left.cols) + "x"
-                    + std::to_string(left.rows) + " differs from the calibration's "
-                    + std::to_string(calib.width) + "x" + std::to_string(calib.height));
     if (!model_.rectifier.empty()) {
-      if (left.size() != model_.rectifier.map_left_x.size())
-        throw IOError(left_path + ": size differs from the calibration's image size");
       model_.rectifier.rectify(left, right, frame.left, frame.right);
     } else {
       frame.left = left;
@@ -257,6 +248,61 @@ private:
     }
   }
 
+  /** The size every image must have: the calibration's when it gives one (ROS
+   * camera_info, EuRoC), else the first frame's (Karlsruhe and KITTI rows give none),
+   * inside which the principal point must then lie. Reads the first pair, so that a
+   * wrong size fails before the first frame is processed. */
+  void checkFirstFrame(const std::string& calibration_file)
+  {
+    const std::string left_path = left_.format(first_index_);
+    const std::string right_path = right_.format(first_index_);
+    const cv::Size left = readImage(left_path).size();
+    const cv::Size right = readImage(right_path).size();
+    const auto& calib = model_.calibration;
+    if (!model_.rectifier.empty()) {
+      image_size_ = model_.rectifier.map_left_x.size();
+      image_size_source_ = "the calibration's (" + calibration_file + ")";
+    } else if (calib.width > 0 && calib.height > 0) {
+      image_size_ = cv::Size(calib.width, calib.height);
+      image_size_source_ = "the calibration's (" + calibration_file + ")";
+    } else {
+      image_size_ = left;
+      image_size_source_ = "the first frame's (" + left_path + ")";
+      if (!(calib.cx_px >= 0.0 && calib.cx_px < left.width && calib.cy_px >= 0.0
+            && calib.cy_px < left.height)) {
+        std::ostringstream text;
+        text << left_path << ": size " << sizeText(left)
+             << ", but the principal point (" << calib.cx_px << ", " << calib.cy_px
+             << ") px of the calibration (" << calibration_file
+             << ") lies outside the image: the images are not the "
+             << "ones the calibration was made for";
+        throw IOError(text.str());
+      }
+    }
+    checkImageSizes(left_path, left, right_path, right);
+  }
+
+  static std::string sizeText(const cv::Size& size)
+  {
+    return std::to_string(size.width) + "x" + std::to_string(size.height) + " px";
+  }
+
+  /** Throws an IOError naming the image and both sizes when the right image's size
+   * differs from the left's, or the left's from image_size_. */
+  void checkImageSizes(const std::string& left_path,
+                       const cv::Size& left,
+                       const std::string& right_path,
+                       const cv::Size& right) const
+  {
+    if (right != left)
+      throw IOError(right_path + ": size " + sizeText(right)
+                    + " differs from the left image's " + sizeText(left) + " ("
+                    + left_path + ")");
+    if (left != image_size_)
+      throw IOError(left_path + ": size " + sizeText(left) + " differs from "
+                    + image_size_source_ + " " + sizeText(image_size_));
+  }
+
   /** Fills poses_ (one per frame) from EuRoC world_T_body poses keyed by image index:
    * the pipeline's camera is the rectified left camera, so world_T_camera =
    * world_T_body * body_T_left * rectified_R_left^T. */
@@ -280,6 +326,9 @@ private:
   int first_index_;
   std::size_t count_{0};
   StereoCameraModel model_;
+  /** The size of every image, pixels, and where it comes from (for the messages). */
+  cv::Size image_size_;
+  std::string image_size_source_;
 };
 
 /** Reads a PCD file into the working cloud type. PCL's conversion warns once per

@@ -197,21 +197,23 @@ TEST_F(PipelineRunnerTest, MissingImageNamesTheFile)
 TEST_F(PipelineRunnerTest, UnreadableAndMismatchedImagesAreErrors)
 {
   fs::create_directories(dir_ / "left");
-  // Frame 10: not an image. Frame 11: a left image of another size than the right one.
+  // Frame 10: not an image; the first frame is read when the input is opened.
   std::ofstream(dir_ / "left/I1_000010.png") << "not a png";
   const cv::Mat small = cv::imread(KARLSRUHE + "/left/I1_000011.png",
                                    cv::IMREAD_GRAYSCALE)(cv::Rect(0, 0, 640, 300));
   cv::imwrite((dir_ / "left/I1_000011.png").string(), small);
   auto config = parsePipelineConfig(
     karlsruheInput((dir_ / "left/I1_%06d.png").string()) + STAGES, "t.yaml", "/");
-  planar_grid::PipelineRunner runner(config);
-  runner.setFrameRange(0, 1);
   try {
-    runner.run();
+    planar_grid::PipelineRunner runner(config);
     FAIL();
   } catch (const planar_grid::IOError& e) {
     EXPECT_NE(std::string(e.what()).find("cannot read"), std::string::npos) << e.what();
   }
+  // Frame 11: a left image of another size than the right one, found when it is read.
+  fs::copy_file(KARLSRUHE + "/left/I1_000010.png", dir_ / "left/I1_000010.png",
+                fs::copy_options::overwrite_existing);
+  planar_grid::PipelineRunner runner(config);
   runner.setFrameRange(1, 2);
   try {
     runner.run();

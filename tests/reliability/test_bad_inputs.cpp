@@ -203,3 +203,61 @@ TEST_F(BadStereoInputTest, ToolExitsNonZeroOnAGapAndWritesNothing)
   EXPECT_CONTAINS(run.output, leftName(3));
   EXPECT_TRUE(noOutputs()) << run.output;
 }
+
+TEST_F(BadStereoInputTest, FirstFrameOfAnotherSizeIsRefusedBeforeTheRun)
+{
+  // The first pair's right image is 100x64, its left 96x64.
+  writePairs(3);
+  writePair(0, WIDTH, HEIGHT, 100, HEIGHT);
+  const std::string what = setupError(config(0));
+  EXPECT_CONTAINS(what, rightName(0));
+  EXPECT_CONTAINS(what, "100x64");
+  EXPECT_CONTAINS(what, "96x64");
+  const ToolRun run = runTool(config(0));
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, rightName(0));
+  EXPECT_TRUE(noOutputs()) << run.output;
+}
+
+TEST_F(BadStereoInputTest, LaterFrameOfAnotherSizeIsRefusedWhenRead)
+{
+  // Frames 0-3 at 96x64, frame 2 at 96x80 (both images): Karlsruhe rows give no image
+  // size, so the first frame's is the size of every frame.
+  writePairs(4);
+  writePair(2, WIDTH, 80, WIDTH, 80);
+  const ToolRun run = runTool(config(0));
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, leftName(2)
+                                + ": size 96x80 px differs from the first "
+                                  "frame's");
+  EXPECT_CONTAINS(run.output, "96x64");
+  EXPECT_TRUE(noOutputs()) << run.output;
+}
+
+TEST_F(BadStereoInputTest, PrincipalPointOutsideTheImagesIsRefused)
+{
+  // The calibration's cx = 480 px does not fit 96 px wide images: not the images the
+  // calibration was made for.
+  writePairs(2);
+  writeCalibration("100 0 480 0 0 100 32 0 0 0 1 0",
+                   "100 0 480 -50 0 100 32 0 0 0 1 0");
+  const std::string what = setupError(config(0));
+  EXPECT_CONTAINS(what, leftName(0));
+  EXPECT_CONTAINS(what, "principal point");
+}
+
+TEST_F(BadStereoInputTest, ImagesNotTheCalibrationsSizeAreRefused)
+{
+  // The indoor pair's ROS camera_info files say 640x480; the images are 96x64.
+  writePairs(2);
+  const std::string data = std::string(PLANAR_GRID_DATA_DIR) + "/rtabmap_stereo_rect/";
+  std::string yaml = config(0);
+  const std::string karlsruhe =
+    "{format: karlsruhe, file: " + (dir_ / "calib.txt").string() + "}";
+  yaml.replace(yaml.find(karlsruhe), karlsruhe.size(),
+               "{format: ros_camera_info, file: " + data
+                 + "stereo_left.yaml, right_file: " + data + "stereo_right.yaml}");
+  const std::string what = setupError(yaml);
+  EXPECT_CONTAINS(what, leftName(0) + ": size 96x64 px differs from the calibration's");
+  EXPECT_CONTAINS(what, "640x480");
+}
