@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <fstream>
@@ -119,6 +120,47 @@ checkBaselineRange(const std::string& where, double baseline_m)
          << MIN_BASELINE_M << ", " << MAX_BASELINE_M
          << "] m for a stereo rig (a wrong unit or a corrupt value)";
     throw IOError(text.str());
+  }
+}
+
+/** \brief Relative tolerance within which the right camera's focal lengths and
+ * principal point must equal the left's in a rectified pair (0.06 px at f = 645 px):
+ * the projections of a rectified pair share them, and a right camera that differs
+ * gives every disparity an offset and the baseline (-P_r(0,3) / P_r(0,0)) a wrong
+ * scale. */
+constexpr double RECTIFIED_INTRINSICS_TOLERANCE = 1e-4;
+
+/** \brief Throws an IOError naming \a where and the value when the right projection's
+ * fx, fy, cx or cy differs from the left's by more than RECTIFIED_INTRINSICS_TOLERANCE
+ * of the larger of the two (and of 1 px). A left focal length that is not positive is
+ * left to StereoCalibration::validate(), which names it as such. */
+void
+checkRectifiedIntrinsics(const std::string& where,
+                         const ProjectionMatrix& left,
+                         const ProjectionMatrix& right)
+{
+  if (!(left[0] > 0.0))
+    return;
+  const std::pair<const char*, std::size_t> values[] = {
+    {"focal length fx, P(0,0)", 0},
+    {"focal length fy, P(1,1)", 5},
+    {"principal point cx, P(0,2)", 2},
+    {"principal point cy, P(1,2)", 6}};
+  for (const auto& [name, at] : values) {
+    const double l = left[at];
+    const double r = right[at];
+    const double scale = std::max({std::abs(l), std::abs(r), 1.0});
+    if (!(std::abs(l - r) <= RECTIFIED_INTRINSICS_TOLERANCE * scale)) {
+      std::ostringstream text;
+      text.precision(10);
+      text << where << ": the right camera's " << name << " is " << r
+           << " px, the left camera's " << l
+           << " px: the cameras of a rectified pair share their focal length and "
+              "principal point (relative tolerance "
+           << RECTIFIED_INTRINSICS_TOLERANCE
+           << "), so the baseline and every depth would be wrong";
+      throw IOError(text.str());
+    }
   }
 }
 
@@ -241,6 +283,7 @@ loadTextCalibration(const std::string& path,
   int right_line = 0;
   readTextProjectionRows(path, left_key, right_key, unlabelled_fallback, left, right,
                          right_line);
+  checkRectifiedIntrinsics(path + ":" + std::to_string(right_line), left, right);
   StereoCameraModel model;
   model.calibration = calibrationFromProjections(left, right);
   checkBaselineRange(path + ":" + std::to_string(right_line),
@@ -260,6 +303,7 @@ loadRosCameraInfo(const std::string& left_path, const std::string& right_path)
     readMatrix(right, "projection_matrix", 3, 4, right_path);
   std::copy(left_data.begin(), left_data.end(), p_left.begin());
   std::copy(right_data.begin(), right_data.end(), p_right.begin());
+  checkRectifiedIntrinsics(right_path + " (projection_matrix)", p_left, p_right);
 
   StereoCameraModel model;
   model.calibration = calibrationFromProjections(p_left, p_right);

@@ -6,6 +6,7 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
+#include <planar_grid/stereo/calibration_io.h>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
@@ -17,6 +18,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -260,4 +262,90 @@ TEST_F(BadStereoInputTest, ImagesNotTheCalibrationsSizeAreRefused)
   const std::string what = setupError(yaml);
   EXPECT_CONTAINS(what, leftName(0) + ": size 96x64 px differs from the calibration's");
   EXPECT_CONTAINS(what, "640x480");
+}
+
+namespace {
+
+/** The IOError message of loading a calibration (fails the test when it loads). */
+std::string
+calibrationError(planar_grid::CalibrationFormat format,
+                 const std::string& path,
+                 const std::string& right_path = "")
+{
+  try {
+    planar_grid::loadStereoCalibration(format, path, right_path);
+  } catch (const planar_grid::IOError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "expected an IOError for " << path;
+  return "";
+}
+
+} // namespace
+
+TEST_F(BadStereoInputTest, RealCalibrationsOfEveryFormatStillLoad)
+{
+  using planar_grid::CalibrationFormat;
+  const std::string data = std::string(PLANAR_GRID_DATA_DIR) + "/";
+  // Karlsruhe: f = 645.2401 px, B = 368.2632 / 645.2401 m (the data's README).
+  const auto karlsruhe = planar_grid::loadStereoCalibration(
+    CalibrationFormat::KARLSRUHE, data + "karlsruhe_2010_03_09_drive_0023/calib.txt");
+  EXPECT_NEAR(karlsruhe.calibration.focal_length_px, 645.2401, 1e-9);
+  EXPECT_NEAR(karlsruhe.calibration.baseline_m, 368.2632 / 645.2401, 1e-9);
+  const auto kitti = planar_grid::loadStereoCalibration(
+    CalibrationFormat::KITTI, data + "kitti_odometry_snippet_2/calib.txt");
+  EXPECT_NEAR(kitti.calibration.baseline_m, 386.1448 / 718.856, 1e-9);
+  const auto indoor = planar_grid::loadStereoCalibration(
+    CalibrationFormat::ROS_CAMERA_INFO, data + "rtabmap_stereo_rect/stereo_left.yaml",
+    data + "rtabmap_stereo_rect/stereo_right.yaml");
+  EXPECT_NEAR(indoor.calibration.baseline_m, 0.11969, 1e-5);
+  // EuRoC's raw cameras differ (fu 458.654 and 457.587 px): it is rectified here, and
+  // the rectified pair shares one focal length.
+  const auto euroc = planar_grid::loadStereoCalibration(
+    CalibrationFormat::EUROC, data + "euroc_v1_01_pairs/sensorLeft.yaml",
+    data + "euroc_v1_01_pairs/sensorRight.yaml");
+  EXPECT_NEAR(euroc.calibration.baseline_m, 0.1101, 1e-3);
+}
+
+TEST_F(BadStereoInputTest, RightCameraWithOtherIntrinsicsIsRefusedAtLoad)
+{
+  using planar_grid::CalibrationFormat;
+  const std::string path = (dir_ / "calib.txt").string();
+  // The right focal length 101 px against the left's 100 px (1 %).
+  writeCalibration("100 0 48 0 0 100 32 0 0 0 1 0", "101 0 48 -50 0 101 32 0 0 0 1 0");
+  std::string what = calibrationError(CalibrationFormat::KARLSRUHE, path);
+  EXPECT_CONTAINS(what, "calib.txt:2");
+  EXPECT_CONTAINS(what, "focal length fx");
+  EXPECT_CONTAINS(what, "101 px");
+  EXPECT_CONTAINS(what, "100 px");
+  // The right principal point 2 px to the right.
+  writeCalibration("100 0 48 0 0 100 32 0 0 0 1 0", "100 0 50 -50 0 100 32 0 0 0 1 0");
+  what = calibrationError(CalibrationFormat::KARLSRUHE, path);
+  EXPECT_CONTAINS(what, "principal point cx");
+  // Only cy differs, in a KITTI file of bare rows.
+  std::ofstream(path) << "100 0 48 0 0 100 32 0 0 0 1 0\n"
+                      << "100 0 48 -50 0 100 33 0 0 0 1 0\n";
+  what = calibrationError(CalibrationFormat::KITTI, path);
+  EXPECT_CONTAINS(what, "calib.txt:2");
+  EXPECT_CONTAINS(what, "principal point cy");
+  // Within the tolerance (1e-4 of the value) a pair loads: 100.005 px against 100 px.
+  writeCalibration("100 0 48 0 0 100 32 0 0 0 1 0",
+                   "100.005 0 48 -50 0 100.005 32 0 0 0 1 0");
+  EXPECT_NO_THROW(
+    planar_grid::loadStereoCalibration(CalibrationFormat::KARLSRUHE, path));
+  // ROS camera_info: the indoor pair's right file with cx 318.11621 -> 320.
+  const std::string data = std::string(PLANAR_GRID_DATA_DIR) + "/rtabmap_stereo_rect/";
+  std::ifstream in(data + "stereo_right.yaml");
+  std::string text((std::istreambuf_iterator<char>(in)),
+                   std::istreambuf_iterator<char>());
+  const std::string cx = "3.1811621093750000e+02";
+  const auto at = text.find(cx, text.find("projection_matrix"));
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, cx.size(), "320.0");
+  const std::string right = (dir_ / "stereo_right.yaml").string();
+  std::ofstream(right) << text;
+  what = calibrationError(CalibrationFormat::ROS_CAMERA_INFO, data + "stereo_left.yaml",
+                          right);
+  EXPECT_CONTAINS(what, right);
+  EXPECT_CONTAINS(what, "principal point cx");
 }
