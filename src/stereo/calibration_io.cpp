@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <utility>
@@ -23,6 +24,41 @@ constexpr double MAX_IMAGE_SIDE_PX = 10000.0;
 
 /** \brief A 3x4 projection matrix, row-major. */
 using ProjectionMatrix = std::array<double, 12>;
+
+/** \brief Reads the 12 numbers of a projection row from \a row into \a p.
+ * \param[out] non_finite the 1-based position of the first value that is not finite
+ * ("nan", "inf", "infinity" in any case, or a number past the range of a double), 0
+ * when every value is finite; \param[out] token that value as written
+ * \return false when the row holds fewer than 12 values or one is not a number */
+bool
+readProjectionRow(std::istream& row,
+                  ProjectionMatrix& p,
+                  std::size_t& non_finite,
+                  std::string& token)
+{
+  non_finite = 0;
+  for (std::size_t k = 0; k < p.size(); ++k) {
+    std::string value;
+    if (!(row >> value))
+      return false;
+    std::istringstream number(value);
+    char extra = 0;
+    if ((number >> p[k]) && !(number >> extra) && std::isfinite(p[k]))
+      continue;
+    // The stream reads no "nan" or "inf" and fails on a number out of range; strtod
+    // (the C locale's, as the stream's) reads them as the non-finite values they are.
+    const char* begin = value.c_str();
+    char* end = nullptr;
+    p[k] = std::strtod(begin, &end);
+    if (end != begin + value.size() || std::isfinite(p[k]))
+      return false;
+    if (non_finite == 0) {
+      non_finite = k + 1;
+      token = value;
+    }
+  }
+  return true;
+}
 
 /** \brief Reads the 3x4 rows \a left_key and \a right_key ("P1_roi:") of a plain-text
  * calib.txt (one "key: 12 numbers" per line) into \a left and \a right. With
@@ -60,11 +96,16 @@ readTextProjectionRows(const std::string& path,
       // A bare row: exactly 12 numbers and nothing else.
       std::istringstream numbers(line);
       ProjectionMatrix p{};
-      bool complete = true;
-      for (double& value : p)
-        complete = complete && static_cast<bool>(numbers >> value);
+      std::size_t non_finite = 0;
+      std::string token;
+      const bool complete = readProjectionRow(numbers, p, non_finite, token);
       std::string rest;
       if (complete && !(numbers >> rest)) {
+        // Only a KITTI file reads its bare rows (a Karlsruhe file ignores them).
+        if (non_finite > 0 && unlabelled_fallback)
+          throw IOError(path + ":" + std::to_string(line_number) + ": value "
+                        + std::to_string(non_finite) + " of the row, '" + token
+                        + "', is not a finite number");
         unlabelled.push_back(p);
         unlabelled_lines.push_back(line_number);
       } else
@@ -80,10 +121,15 @@ readTextProjectionRows(const std::string& path,
                     + ")");
     first_line = line_number;
     ProjectionMatrix& p = (key == left_key) ? left : right;
-    for (double& value : p)
-      if (!(row >> value))
-        throw IOError(path + ": row '" + key
-                      + "' must hold 12 numbers (3x4, row-major)");
+    std::size_t non_finite = 0;
+    std::string token;
+    if (!readProjectionRow(row, p, non_finite, token))
+      throw IOError(path + ":" + std::to_string(line_number) + ": row '" + key
+                    + "' must hold 12 numbers (3x4, row-major)");
+    if (non_finite > 0)
+      throw IOError(path + ":" + std::to_string(line_number) + ": row '" + key
+                    + "' value " + std::to_string(non_finite) + ", '" + token
+                    + "', is not a finite number");
     (key == left_key ? found_left : found_right) = true;
   }
   if (unlabelled_fallback && !found_left && !found_right && !any_label) {

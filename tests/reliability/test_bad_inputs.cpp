@@ -349,3 +349,26 @@ TEST_F(BadStereoInputTest, RightCameraWithOtherIntrinsicsIsRefusedAtLoad)
   EXPECT_CONTAINS(what, right);
   EXPECT_CONTAINS(what, "principal point cx");
 }
+
+TEST_F(BadStereoInputTest, NonFiniteCalibrationValueIsNamedWithFileAndLine)
+{
+  using planar_grid::CalibrationFormat;
+  const std::string path = (dir_ / "calib.txt").string();
+  for (const std::string value : {"nan", "inf", "-inf", "1e999"}) {
+    writeCalibration("100 0 48 0 0 100 32 0 0 0 1 0",
+                     "100 0 48 " + value + " 0 100 32 0 0 0 1 0");
+    const std::string what = calibrationError(CalibrationFormat::KARLSRUHE, path);
+    EXPECT_CONTAINS(what, "calib.txt:2: row 'P2_roi:' value 4, '" + value
+                            + "', is not a finite number");
+    EXPECT_EQ(what.find("must hold 12 numbers"), std::string::npos) << what;
+  }
+  // A KITTI file of bare rows.
+  std::ofstream(path) << "NaN 0 48 0 0 100 32 0 0 0 1 0\n"
+                      << "100 0 48 -50 0 100 32 0 0 0 1 0\n";
+  EXPECT_CONTAINS(calibrationError(CalibrationFormat::KITTI, path),
+                  "calib.txt:1: value 1 of the row, 'NaN', is not a finite number");
+  // A row short of a number still says so.
+  writeCalibration("100 0 48 0 0 100 32 0 0 0 1 0", "100 0 48 -50 0 100 32 0 0 0 1");
+  EXPECT_CONTAINS(calibrationError(CalibrationFormat::KARLSRUHE, path),
+                  "must hold 12 numbers");
+}
