@@ -371,10 +371,16 @@ run(int argc, char** argv)
   if (parse_argument(argc, argv, "--config", config_path) < 0 || config_path.empty())
     throw planar_grid::Exception("--config FILE.yaml is required (see --help)");
   parse_argument(argc, argv, "--frames", frames_text);
-  parse_argument(argc, argv, "--output", output_folder);
+  const bool output_given = parse_argument(argc, argv, "--output", output_folder) >= 0;
+  // An empty folder name (an unset shell variable in a script) would otherwise fall
+  // back to the YAML's output.folder and replace the outputs there.
+  if (output_given && output_folder.empty())
+    throw planar_grid::Exception("--output '' is empty: give the folder to write the "
+                                 "outputs into (or leave the option out to use "
+                                 "output.folder of the YAML)");
 
   planar_grid::PipelineConfig config = planar_grid::loadPipelineConfig(config_path);
-  if (!output_folder.empty())
+  if (output_given)
     config.output.folder = output_folder;
   std::string every_text;
   if (parse_argument(argc, argv, "--checkpoint-every", every_text) >= 0) {

@@ -343,6 +343,10 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
     // Known now, not after the last frame (the tool checks a --output folder the same
     // way when it opens the output set, still before the first frame).
     std::error_code ec;
+    // An empty name would write the outputs into the current folder.
+    if (node["folder"] && out.folder.empty())
+      r.fail(node["folder"], "output.folder is empty: name the folder to write the "
+                             "outputs into");
     if (node["folder"] && fs::exists(out.folder, ec)
         && !fs::is_directory(out.folder, ec))
       r.fail(node["folder"], "output.folder '" + out.folder

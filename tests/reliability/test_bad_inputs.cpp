@@ -372,3 +372,22 @@ TEST_F(BadStereoInputTest, NonFiniteCalibrationValueIsNamedWithFileAndLine)
   EXPECT_CONTAINS(calibrationError(CalibrationFormat::KARLSRUHE, path),
                   "must hold 12 numbers");
 }
+
+TEST_F(BadStereoInputTest, EmptyOutputFolderIsRefused)
+{
+  writePairs(2);
+  // --output '' (an unset variable in a script) would write into output.folder of the
+  // YAML, here dir_/out.
+  const ToolRun run = runTool(config(0), "--output ''");
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, "--output '' is empty");
+  EXPECT_TRUE(noOutputs()) << run.output;
+  EXPECT_FALSE(fs::exists(dir_ / "report.json"));
+  // output.folder "" in the YAML would write into the current folder.
+  std::string yaml = config(0);
+  const std::string folder = "folder: " + (dir_ / "out").string();
+  yaml.replace(yaml.find(folder), folder.size(), "folder: \"\"");
+  const std::string what = setupError(yaml);
+  EXPECT_CONTAINS(what, "t.yaml:");
+  EXPECT_CONTAINS(what, "output.folder is empty");
+}
