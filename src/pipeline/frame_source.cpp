@@ -352,6 +352,9 @@ loadPCDCloud(const std::string& path, Frame::Cloud& cloud)
   if (read < 0)
     throw IOError(path + ": cannot read the PCD file");
   checkPointCloudBlob(blob, path);
+  // PCL leaves a field of another datatype than the point type's at 0: double or
+  // integer coordinates would all become the origin.
+  convertFieldsToFloat(blob, {"x", "y", "z", "intensity"}, path);
   intensityCloudFromBlob(blob, cloud);
 }
 
