@@ -31,6 +31,8 @@
 #include <string>
 #include <vector>
 
+#include "karlsruhe_job.h"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -507,4 +509,24 @@ TEST_F(BadPCDInputTest, FieldConversionKeepsValuesAndRefusesWhatItCannotRead)
   } catch (const planar_grid::IOError& e) {
     EXPECT_CONTAINS(std::string(e.what()), "pairs.pcd: the field 'x' holds 2 values");
   }
+}
+
+TEST_F(BadStereoInputTest, RunWhoseMapHasNoCuboidsWritesItsOutputsAndExitsZero)
+{
+  // One Karlsruhe frame through the paper pipeline with the map, and a cell needing a
+  // million points: the map ends with no cuboid. An empty map is a result: every output
+  // but the cuboid mesh (a mesh of no cuboid) is written, and the run says why.
+  std::string yaml = planar_grid::test::karlsruheJob(1, dir_ / "out", "");
+  const std::string stage = "  - type: planar_cuboid_approximation\n";
+  ASSERT_NE(yaml.find(stage), std::string::npos);
+  yaml.replace(yaml.find(stage), stage.size(),
+               stage + "    params: {min_points_per_cell: 1000000}\n");
+  const ToolRun run = runTool(yaml);
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, "the map is empty");
+  EXPECT_CONTAINS(run.output, "map_cuboids.ply");
+  for (const char* name :
+       {"map.pgmap", "map.bt", "report.json", "trajectory.txt", "world_cloud.pcd"})
+    EXPECT_TRUE(fs::exists(dir_ / "out" / name)) << name << "\n" << run.output;
+  EXPECT_FALSE(fs::exists(dir_ / "out" / "map_cuboids.ply"));
 }
