@@ -25,6 +25,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <functional>
 #include <iostream>
 #include <numeric>
@@ -440,6 +441,16 @@ run(int argc, char** argv)
     config.output.checkpoint.empty()
       ? std::string()
       : planar_grid::outputPath(config.output, config.output.checkpoint);
+  {
+    // Known now, not at the first checkpoint, after the frames before it ran.
+    std::error_code ec;
+    if ((resume || config.output.checkpoint_every_n_frames > 0)
+        && !checkpoint_path.empty()
+        && std::filesystem::is_directory(checkpoint_path, ec))
+      throw planar_grid::IOError(checkpoint_path
+                                 + ": the checkpoint (output.checkpoint) is a folder, "
+                                   "not a file: it cannot be written or read there");
+  }
   if (resume) {
     if (checkpoint_path.empty())
       throw planar_grid::Exception("--resume needs output.checkpoint (a file name)");

@@ -530,3 +530,31 @@ TEST_F(BadStereoInputTest, RunWhoseMapHasNoCuboidsWritesItsOutputsAndExitsZero)
     EXPECT_TRUE(fs::exists(dir_ / "out" / name)) << name << "\n" << run.output;
   EXPECT_FALSE(fs::exists(dir_ / "out" / "map_cuboids.ply"));
 }
+
+TEST_F(BadStereoInputTest, OutputNameOutsideTheFolderIsRefusedAtLoad)
+{
+  // Found only when the outputs were written, after the last frame.
+  for (const std::string& name :
+       {std::string("../escaped.pgmap"), std::string("/tmp/x.pgmap"),
+        std::string("sub/../../escaped.pgmap")}) {
+    const std::string what = setupError(config(0) + "  map: " + name + "\n");
+    EXPECT_CONTAINS(what, "t.yaml:");
+    EXPECT_CONTAINS(what, "output.map '" + name + "' must be a file name inside");
+  }
+  // A name in a subfolder stays inside.
+  writePairs(1);
+  EXPECT_EQ(setupError(config(0) + "  map: maps/run.pgmap\n"), "");
+}
+
+TEST_F(BadStereoInputTest, CheckpointThatIsAFolderIsRefusedBeforeTheFirstFrame)
+{
+  writePairs(3);
+  fs::create_directories(dir_ / "out" / "checkpoint.pgck");
+  const ToolRun run = runTool(config(0), "--checkpoint-every 1");
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, (dir_ / "out" / "checkpoint.pgck").string()
+                                + ": the checkpoint (output.checkpoint) is a folder");
+  // No frame ran: the progress line of the first frame is not there.
+  EXPECT_EQ(run.output.find("frame 1/"), std::string::npos) << run.output;
+  EXPECT_FALSE(fs::exists(dir_ / "out" / "report.json"));
+}
