@@ -25,6 +25,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <functional>
 #include <iostream>
 #include <numeric>
@@ -371,10 +372,16 @@ run(int argc, char** argv)
   if (parse_argument(argc, argv, "--config", config_path) < 0 || config_path.empty())
     throw planar_grid::Exception("--config FILE.yaml is required (see --help)");
   parse_argument(argc, argv, "--frames", frames_text);
-  parse_argument(argc, argv, "--output", output_folder);
+  const bool output_given = parse_argument(argc, argv, "--output", output_folder) >= 0;
+  // An empty folder name (an unset shell variable in a script) would otherwise fall
+  // back to the YAML's output.folder and replace the outputs there.
+  if (output_given && output_folder.empty())
+    throw planar_grid::Exception("--output '' is empty: give the folder to write the "
+                                 "outputs into (or leave the option out to use "
+                                 "output.folder of the YAML)");
 
   planar_grid::PipelineConfig config = planar_grid::loadPipelineConfig(config_path);
-  if (!output_folder.empty())
+  if (output_given)
     config.output.folder = output_folder;
   std::string every_text;
   if (parse_argument(argc, argv, "--checkpoint-every", every_text) >= 0) {
@@ -434,6 +441,16 @@ run(int argc, char** argv)
     config.output.checkpoint.empty()
       ? std::string()
       : planar_grid::outputPath(config.output, config.output.checkpoint);
+  {
+    // Known now, not at the first checkpoint, after the frames before it ran.
+    std::error_code ec;
+    if ((resume || config.output.checkpoint_every_n_frames > 0)
+        && !checkpoint_path.empty()
+        && std::filesystem::is_directory(checkpoint_path, ec))
+      throw planar_grid::IOError(checkpoint_path
+                                 + ": the checkpoint (output.checkpoint) is a folder, "
+                                   "not a file: it cannot be written or read there");
+  }
   if (resume) {
     if (checkpoint_path.empty())
       throw planar_grid::Exception("--resume needs output.checkpoint (a file name)");

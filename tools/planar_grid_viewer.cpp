@@ -342,6 +342,9 @@ loadCloud(const std::string& path)
     throw planar_grid::IOError(path + ": cannot load the PCD file");
   }
   planar_grid::checkPointCloudBlob(blob, path);
+  // PCL leaves a field of another datatype than the point type's at 0: double or
+  // integer coordinates would all become the origin.
+  planar_grid::convertFieldsToFloat(blob, {"x", "y", "z", "intensity"}, path);
   if (pcl::getFieldIndex(blob, "x") < 0 || pcl::getFieldIndex(blob, "y") < 0
       || pcl::getFieldIndex(blob, "z") < 0) {
     print_info("[failed]\n");

@@ -422,4 +422,116 @@ checkPointCloudBlob(const pcl::PCLPointCloud2& blob, const std::string& where)
   }
 }
 
+namespace {
+
+/** \brief The value of datatype \a datatype at \a bytes as a float; false for a
+ * datatype PCL does not define. */
+bool
+readAsFloat(const std::uint8_t* bytes, std::uint8_t datatype, float& value)
+{
+  const auto read = [bytes, &value](auto typed) {
+    std::memcpy(&typed, bytes, sizeof(typed));
+    value = static_cast<float>(typed);
+    return true;
+  };
+  switch (datatype) {
+    case pcl::PCLPointField::BOOL:
+      // Any non-zero byte is true (a byte read as bool must be 0 or 1).
+      value = bytes[0] != 0 ? 1.0f : 0.0f;
+      return true;
+    case pcl::PCLPointField::INT8:
+      return read(std::int8_t{});
+    case pcl::PCLPointField::UINT8:
+      return read(std::uint8_t{});
+    case pcl::PCLPointField::INT16:
+      return read(std::int16_t{});
+    case pcl::PCLPointField::UINT16:
+      return read(std::uint16_t{});
+    case pcl::PCLPointField::INT32:
+      return read(std::int32_t{});
+    case pcl::PCLPointField::UINT32:
+      return read(std::uint32_t{});
+    case pcl::PCLPointField::INT64:
+      return read(std::int64_t{});
+    case pcl::PCLPointField::UINT64:
+      return read(std::uint64_t{});
+    case pcl::PCLPointField::FLOAT32:
+      return read(float{});
+    case pcl::PCLPointField::FLOAT64:
+      return read(double{});
+    default:
+      return false;
+  }
+}
+
+} // namespace
+
+void
+convertFieldsToFloat(pcl::PCLPointCloud2& blob,
+                     const std::vector<std::string>& names,
+                     const std::string& where)
+{
+  const auto converted = [&names](const pcl::PCLPointField& field) {
+    return field.datatype != pcl::PCLPointField::FLOAT32
+           && std::find(names.begin(), names.end(), field.name) != names.end();
+  };
+  bool any = false;
+  for (const auto& field : blob.fields) {
+    if (!converted(field))
+      continue;
+    float probe = 0.0f;
+    const std::uint8_t zero[8] = {};
+    if (!readAsFloat(zero, field.datatype, probe))
+      throw IOError(where + ": the field '" + field.name + "' has the datatype "
+                    + std::to_string(field.datatype)
+                    + ", which PCL does not define; it cannot be read as a number");
+    if (field.count != 1)
+      throw IOError(where + ": the field '" + field.name + "' holds "
+                    + std::to_string(field.count)
+                    + " values per point (COUNT); one number is needed");
+    any = true;
+  }
+  if (!any)
+    return;
+  // The new layout: the fields in their order, packed, the converted ones 4 bytes.
+  std::vector<pcl::PCLPointField> fields = blob.fields;
+  std::vector<std::uint32_t> bytes(fields.size());
+  std::uint32_t step = 0;
+  for (std::size_t k = 0; k < fields.size(); ++k) {
+    const bool to_float = converted(fields[k]);
+    bytes[k] =
+      to_float
+        ? 4u
+        : static_cast<std::uint32_t>(pcl::getFieldSize(fields[k].datatype)
+                                     * std::max<std::uint32_t>(fields[k].count, 1));
+    if (to_float)
+      fields[k].datatype = pcl::PCLPointField::FLOAT32;
+    fields[k].offset = step;
+    step += bytes[k];
+  }
+  const std::size_t points = static_cast<std::size_t>(blob.width) * blob.height;
+  std::vector<std::uint8_t> data(points * step);
+  for (std::uint32_t row = 0; row < blob.height; ++row)
+    for (std::uint32_t col = 0; col < blob.width; ++col) {
+      const std::uint8_t* from = blob.data.data()
+                                 + static_cast<std::size_t>(row) * blob.row_step
+                                 + static_cast<std::size_t>(col) * blob.point_step;
+      std::uint8_t* to =
+        data.data() + (static_cast<std::size_t>(row) * blob.width + col) * step;
+      for (std::size_t k = 0; k < fields.size(); ++k) {
+        const pcl::PCLPointField& old = blob.fields[k];
+        if (converted(old)) {
+          float value = 0.0f;
+          readAsFloat(from + old.offset, old.datatype, value);
+          std::memcpy(to + fields[k].offset, &value, sizeof(value));
+        } else
+          std::memcpy(to + fields[k].offset, from + old.offset, bytes[k]);
+      }
+    }
+  blob.fields = std::move(fields);
+  blob.point_step = step;
+  blob.row_step = step * blob.width;
+  blob.data = std::move(data);
+}
+
 } // namespace planar_grid

@@ -19,6 +19,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
@@ -64,6 +65,42 @@ public:
     std::ostringstream out;
     out << prefix_ << std::setw(width_) << std::setfill(fill_) << index << suffix_;
     return out.str();
+  }
+
+  /** The largest index whose file exists in the pattern's folder (the name formatted
+   * exactly as format() writes it), or -1 when there is none or the index field is
+   * not in the file name itself. */
+  int lastIndexOnDisk() const
+  {
+    if (suffix_.find('/') != std::string::npos)
+      return -1;
+    const fs::path prefix_path(prefix_);
+    const std::string name_prefix = prefix_path.filename().string();
+    const fs::path folder =
+      prefix_path.has_parent_path() ? prefix_path.parent_path() : fs::path(".");
+    int last = -1;
+    std::error_code ec;
+    for (fs::directory_iterator it(folder, ec), end; !ec && it != end;
+         it.increment(ec)) {
+      const std::string name = it->path().filename().string();
+      if (name.size() <= name_prefix.size() + suffix_.size()
+          || name.compare(0, name_prefix.size(), name_prefix) != 0
+          || name.compare(name.size() - suffix_.size(), suffix_.size(), suffix_) != 0)
+        continue;
+      const std::string field = name.substr(
+        name_prefix.size(), name.size() - name_prefix.size() - suffix_.size());
+      const auto digit = field.find_first_not_of(' ');
+      // At most 9 digits: the index is an int.
+      if (digit == std::string::npos || field.size() - digit > 9
+          || !std::all_of(field.begin() + static_cast<std::ptrdiff_t>(digit),
+                          field.end(),
+                          [](unsigned char c) { return std::isdigit(c) != 0; }))
+        continue;
+      const int index = std::stoi(field.substr(digit));
+      if (index > last && fs::path(format(index)).filename().string() == name)
+        last = index;
+    }
+    return last;
   }
 
 private:
@@ -148,6 +185,8 @@ public:
       poses_.erase(poses_.begin(), poses_.begin() + first_index_);
       poses_.resize(count_);
     }
+    checkImagesPresent(input.frame_count);
+    checkFirstFrame(input.calibration_file);
     description_ =
       std::to_string(count_) + " stereo pairs " + left_.format(first_index_)
       + " ... (f = " + std::to_string(model_.calibration.focal_length_px)
@@ -163,19 +202,9 @@ public:
     const std::string right_path = right_.format(index);
     cv::Mat left = readImage(left_path);
     cv::Mat right = readImage(right_path);
-    if (left.size() != right.size())
-      throw IOError(right_path + ": size " + std::to_string(right.cols) + "x"
-                    + std::to_string(right.rows) + " differs from the left image's "
-                    + std::to_string(left.cols) + "x" + std::to_string(left.rows));
+    checkImageSizes(left_path, left.size(), right_path, right.size());
     const auto& calib = model_.calibration;
-    if (model_.rectifier.empty() && calib.width > 0 && calib.height > 0
-        && (left.cols != calib.width || left.rows != calib.height))
-      throw IOError(left_path + ": size " + std::to_string(left.cols) + "x"
-                    + std::to_string(left.rows) + " differs from the calibration's "
-                    + std::to_string(calib.width) + "x" + std::to_string(calib.height));
     if (!model_.rectifier.empty()) {
-      if (left.size() != model_.rectifier.map_left_x.size())
-        throw IOError(left_path + ": size differs from the calibration's image size");
       model_.rectifier.rectify(left, right, frame.left, frame.right);
     } else {
       frame.left = left;
@@ -190,6 +219,90 @@ public:
   }
 
 private:
+  /** Throws an IOError naming the first image of the frames that is missing, before
+   * any frame is read. With \a frame_count 0 the frames end at the first missing left
+   * image, so a left image past that gap means an image is missing in the middle of
+   * the sequence, not that the sequence ended. */
+  void checkImagesPresent(int frame_count) const
+  {
+    const int end = first_index_ + static_cast<int>(count_);
+    if (frame_count == 0) {
+      const int last = left_.lastIndexOnDisk();
+      if (last >= end)
+        throw IOError(left_.format(end) + ": left image not found, but the sequence "
+                      + "goes on to " + left_.format(last)
+                      + " (input.frame_count 0 takes every frame from first_index; an "
+                        "image is missing in the middle of the sequence)");
+    }
+    std::error_code ec;
+    for (int index = first_index_; index < end; ++index) {
+      const std::string left_path = left_.format(index);
+      if (!fs::exists(left_path, ec))
+        throw IOError(left_path + ": left image not found (frame "
+                      + std::to_string(index - first_index_) + " of the "
+                      + std::to_string(count_) + " of input.frame_count)");
+      const std::string right_path = right_.format(index);
+      if (!fs::exists(right_path, ec))
+        throw IOError(right_path + ": right image not found (its left image "
+                      + left_path + " exists)");
+    }
+  }
+
+  /** The size every image must have: the calibration's when it gives one (ROS
+   * camera_info, EuRoC), else the first frame's (Karlsruhe and KITTI rows give none),
+   * inside which the principal point must then lie. Reads the first pair, so that a
+   * wrong size fails before the first frame is processed. */
+  void checkFirstFrame(const std::string& calibration_file)
+  {
+    const std::string left_path = left_.format(first_index_);
+    const std::string right_path = right_.format(first_index_);
+    const cv::Size left = readImage(left_path).size();
+    const cv::Size right = readImage(right_path).size();
+    const auto& calib = model_.calibration;
+    if (!model_.rectifier.empty()) {
+      image_size_ = model_.rectifier.map_left_x.size();
+      image_size_source_ = "the calibration's (" + calibration_file + ")";
+    } else if (calib.width > 0 && calib.height > 0) {
+      image_size_ = cv::Size(calib.width, calib.height);
+      image_size_source_ = "the calibration's (" + calibration_file + ")";
+    } else {
+      image_size_ = left;
+      image_size_source_ = "the first frame's (" + left_path + ")";
+      if (!(calib.cx_px >= 0.0 && calib.cx_px < left.width && calib.cy_px >= 0.0
+            && calib.cy_px < left.height)) {
+        std::ostringstream text;
+        text << left_path << ": size " << sizeText(left)
+             << ", but the principal point (" << calib.cx_px << ", " << calib.cy_px
+             << ") px of the calibration (" << calibration_file
+             << ") lies outside the image: the images are not the "
+             << "ones the calibration was made for";
+        throw IOError(text.str());
+      }
+    }
+    checkImageSizes(left_path, left, right_path, right);
+  }
+
+  static std::string sizeText(const cv::Size& size)
+  {
+    return std::to_string(size.width) + "x" + std::to_string(size.height) + " px";
+  }
+
+  /** Throws an IOError naming the image and both sizes when the right image's size
+   * differs from the left's, or the left's from image_size_. */
+  void checkImageSizes(const std::string& left_path,
+                       const cv::Size& left,
+                       const std::string& right_path,
+                       const cv::Size& right) const
+  {
+    if (right != left)
+      throw IOError(right_path + ": size " + sizeText(right)
+                    + " differs from the left image's " + sizeText(left) + " ("
+                    + left_path + ")");
+    if (left != image_size_)
+      throw IOError(left_path + ": size " + sizeText(left) + " differs from "
+                    + image_size_source_ + " " + sizeText(image_size_));
+  }
+
   /** Fills poses_ (one per frame) from EuRoC world_T_body poses keyed by image index:
    * the pipeline's camera is the rectified left camera, so world_T_camera =
    * world_T_body * body_T_left * rectified_R_left^T. */
@@ -213,6 +326,9 @@ private:
   int first_index_;
   std::size_t count_{0};
   StereoCameraModel model_;
+  /** The size of every image, pixels, and where it comes from (for the messages). */
+  cv::Size image_size_;
+  std::string image_size_source_;
 };
 
 /** Reads a PCD file into the working cloud type. PCL's conversion warns once per
@@ -236,6 +352,9 @@ loadPCDCloud(const std::string& path, Frame::Cloud& cloud)
   if (read < 0)
     throw IOError(path + ": cannot read the PCD file");
   checkPointCloudBlob(blob, path);
+  // PCL leaves a field of another datatype than the point type's at 0: double or
+  // integer coordinates would all become the origin.
+  convertFieldsToFloat(blob, {"x", "y", "z", "intensity"}, path);
   intensityCloudFromBlob(blob, cloud);
 }
 

@@ -11,8 +11,10 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include "input_formats.h"
 #include "ros_bag_input.h"
@@ -343,6 +345,10 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
     // Known now, not after the last frame (the tool checks a --output folder the same
     // way when it opens the output set, still before the first frame).
     std::error_code ec;
+    // An empty name would write the outputs into the current folder.
+    if (node["folder"] && out.folder.empty())
+      r.fail(node["folder"], "output.folder is empty: name the folder to write the "
+                             "outputs into");
     if (node["folder"] && fs::exists(out.folder, ec)
         && !fs::is_directory(out.folder, ec))
       r.fail(node["folder"], "output.folder '" + out.folder
@@ -402,6 +408,32 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
            "focal_point_m)");
   if (out.report.empty())
     r.fail(node["report"], "output.report must name a file");
+  // Each output is written into the folder (the checkpoint too), and a name that
+  // leaves it would only fail when the outputs are written, after the last frame.
+  for (const auto& [key, name] :
+       std::initializer_list<std::pair<const char*, const std::string*>>{
+         {"cloud", &out.cloud},
+         {"planes", &out.planes},
+         {"report", &out.report},
+         {"trajectory", &out.trajectory},
+         {"snapshot", &out.snapshot},
+         {"planes_snapshot", &out.planes_snapshot},
+         {"cuboids_snapshot", &out.cuboids_snapshot},
+         {"cuboids_street_snapshot", &out.cuboids_street_snapshot},
+         {"map", &out.map},
+         {"map_octomap", &out.map_octomap},
+         {"map_mesh", &out.map_mesh},
+         {"map_grid_2d", &out.map_grid_2d},
+         {"map_snapshot", &out.map_snapshot}}) {
+    const fs::path path = fs::path(*name).lexically_normal();
+    const std::string first = path.empty() ? "" : path.begin()->string();
+    if (!name->empty()
+        && (path.is_absolute() || first == ".." || first == "." || !path.has_filename()
+            || first.rfind(".planar_grid_", 0) == 0))
+      r.fail(node[key], "output." + std::string(key) + " '" + *name
+                          + "' must be a file name inside output.folder (a relative "
+                            "path without '..', not starting with '.planar_grid_')");
+  }
   out.checkpoint = r.optionalString(node, "checkpoint", out.checkpoint, "output");
   if (const YAML::Node every = node["checkpoint_every_n_frames"]) {
     long long v = -1;

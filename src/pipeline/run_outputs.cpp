@@ -4,6 +4,7 @@
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/run_outputs.h>
 
+#include <pcl/console/print.h>
 #include <pcl/io/pcd_io.h>
 
 #include <filesystem>
@@ -102,10 +103,20 @@ writeOutputs(const OutputConfig& output,
                                    output.map_grid_2d_band.free_thresh);
         }));
     }
-    if (!output.map_mesh.empty())
-      report.outputs.emplace_back(
-        "map_mesh", write(output.map_mesh,
-                          [&map](const std::string& path) { map->exportMesh(path); }));
+    if (!output.map_mesh.empty()) {
+      // A map without cuboids is a valid result (nothing was seen often or densely
+      // enough), but a mesh needs a vertex: PCL's PLY writer refuses an empty one.
+      if (map->getSurfaceLayer().getCuboidCount() == 0)
+        PCL_WARN("[planar_grid::writeRunOutputs] %s is not written: the map is empty "
+                 "(no cuboid), and a mesh needs at least one. The map file and the "
+                 "other outputs are written.\n",
+                 output.map_mesh.c_str());
+      else
+        report.outputs.emplace_back(
+          "map_mesh", write(output.map_mesh, [&map](const std::string& path) {
+            map->exportMesh(path);
+          }));
+    }
   }
   if (!output.trajectory.empty() && !runner.trajectory().empty())
     report.outputs.emplace_back(

@@ -6,8 +6,10 @@
 #include <opencv2/imgproc.hpp>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <utility>
@@ -22,6 +24,41 @@ constexpr double MAX_IMAGE_SIDE_PX = 10000.0;
 
 /** \brief A 3x4 projection matrix, row-major. */
 using ProjectionMatrix = std::array<double, 12>;
+
+/** \brief Reads the 12 numbers of a projection row from \a row into \a p.
+ * \param[out] non_finite the 1-based position of the first value that is not finite
+ * ("nan", "inf", "infinity" in any case, or a number past the range of a double), 0
+ * when every value is finite; \param[out] token that value as written
+ * \return false when the row holds fewer than 12 values or one is not a number */
+bool
+readProjectionRow(std::istream& row,
+                  ProjectionMatrix& p,
+                  std::size_t& non_finite,
+                  std::string& token)
+{
+  non_finite = 0;
+  for (std::size_t k = 0; k < p.size(); ++k) {
+    std::string value;
+    if (!(row >> value))
+      return false;
+    std::istringstream number(value);
+    char extra = 0;
+    if ((number >> p[k]) && !(number >> extra) && std::isfinite(p[k]))
+      continue;
+    // The stream reads no "nan" or "inf" and fails on a number out of range; strtod
+    // (the C locale's, as the stream's) reads them as the non-finite values they are.
+    const char* begin = value.c_str();
+    char* end = nullptr;
+    p[k] = std::strtod(begin, &end);
+    if (end != begin + value.size() || std::isfinite(p[k]))
+      return false;
+    if (non_finite == 0) {
+      non_finite = k + 1;
+      token = value;
+    }
+  }
+  return true;
+}
 
 /** \brief Reads the 3x4 rows \a left_key and \a right_key ("P1_roi:") of a plain-text
  * calib.txt (one "key: 12 numbers" per line) into \a left and \a right. With
@@ -59,11 +96,16 @@ readTextProjectionRows(const std::string& path,
       // A bare row: exactly 12 numbers and nothing else.
       std::istringstream numbers(line);
       ProjectionMatrix p{};
-      bool complete = true;
-      for (double& value : p)
-        complete = complete && static_cast<bool>(numbers >> value);
+      std::size_t non_finite = 0;
+      std::string token;
+      const bool complete = readProjectionRow(numbers, p, non_finite, token);
       std::string rest;
       if (complete && !(numbers >> rest)) {
+        // Only a KITTI file reads its bare rows (a Karlsruhe file ignores them).
+        if (non_finite > 0 && unlabelled_fallback)
+          throw IOError(path + ":" + std::to_string(line_number) + ": value "
+                        + std::to_string(non_finite) + " of the row, '" + token
+                        + "', is not a finite number");
         unlabelled.push_back(p);
         unlabelled_lines.push_back(line_number);
       } else
@@ -79,10 +121,15 @@ readTextProjectionRows(const std::string& path,
                     + ")");
     first_line = line_number;
     ProjectionMatrix& p = (key == left_key) ? left : right;
-    for (double& value : p)
-      if (!(row >> value))
-        throw IOError(path + ": row '" + key
-                      + "' must hold 12 numbers (3x4, row-major)");
+    std::size_t non_finite = 0;
+    std::string token;
+    if (!readProjectionRow(row, p, non_finite, token))
+      throw IOError(path + ":" + std::to_string(line_number) + ": row '" + key
+                    + "' must hold 12 numbers (3x4, row-major)");
+    if (non_finite > 0)
+      throw IOError(path + ":" + std::to_string(line_number) + ": row '" + key
+                    + "' value " + std::to_string(non_finite) + ", '" + token
+                    + "', is not a finite number");
     (key == left_key ? found_left : found_right) = true;
   }
   if (unlabelled_fallback && !found_left && !found_right && !any_label) {
@@ -119,6 +166,47 @@ checkBaselineRange(const std::string& where, double baseline_m)
          << MIN_BASELINE_M << ", " << MAX_BASELINE_M
          << "] m for a stereo rig (a wrong unit or a corrupt value)";
     throw IOError(text.str());
+  }
+}
+
+/** \brief Relative tolerance within which the right camera's focal lengths and
+ * principal point must equal the left's in a rectified pair (0.06 px at f = 645 px):
+ * the projections of a rectified pair share them, and a right camera that differs
+ * gives every disparity an offset and the baseline (-P_r(0,3) / P_r(0,0)) a wrong
+ * scale. */
+constexpr double RECTIFIED_INTRINSICS_TOLERANCE = 1e-4;
+
+/** \brief Throws an IOError naming \a where and the value when the right projection's
+ * fx, fy, cx or cy differs from the left's by more than RECTIFIED_INTRINSICS_TOLERANCE
+ * of the larger of the two (and of 1 px). A left focal length that is not positive is
+ * left to StereoCalibration::validate(), which names it as such. */
+void
+checkRectifiedIntrinsics(const std::string& where,
+                         const ProjectionMatrix& left,
+                         const ProjectionMatrix& right)
+{
+  if (!(left[0] > 0.0))
+    return;
+  const std::pair<const char*, std::size_t> values[] = {
+    {"focal length fx, P(0,0)", 0},
+    {"focal length fy, P(1,1)", 5},
+    {"principal point cx, P(0,2)", 2},
+    {"principal point cy, P(1,2)", 6}};
+  for (const auto& [name, at] : values) {
+    const double l = left[at];
+    const double r = right[at];
+    const double scale = std::max({std::abs(l), std::abs(r), 1.0});
+    if (!(std::abs(l - r) <= RECTIFIED_INTRINSICS_TOLERANCE * scale)) {
+      std::ostringstream text;
+      text.precision(10);
+      text << where << ": the right camera's " << name << " is " << r
+           << " px, the left camera's " << l
+           << " px: the cameras of a rectified pair share their focal length and "
+              "principal point (relative tolerance "
+           << RECTIFIED_INTRINSICS_TOLERANCE
+           << "), so the baseline and every depth would be wrong";
+      throw IOError(text.str());
+    }
   }
 }
 
@@ -241,6 +329,7 @@ loadTextCalibration(const std::string& path,
   int right_line = 0;
   readTextProjectionRows(path, left_key, right_key, unlabelled_fallback, left, right,
                          right_line);
+  checkRectifiedIntrinsics(path + ":" + std::to_string(right_line), left, right);
   StereoCameraModel model;
   model.calibration = calibrationFromProjections(left, right);
   checkBaselineRange(path + ":" + std::to_string(right_line),
@@ -260,6 +349,7 @@ loadRosCameraInfo(const std::string& left_path, const std::string& right_path)
     readMatrix(right, "projection_matrix", 3, 4, right_path);
   std::copy(left_data.begin(), left_data.end(), p_left.begin());
   std::copy(right_data.begin(), right_data.end(), p_right.begin());
+  checkRectifiedIntrinsics(right_path + " (projection_matrix)", p_left, p_right);
 
   StereoCameraModel model;
   model.calibration = calibrationFromProjections(p_left, p_right);

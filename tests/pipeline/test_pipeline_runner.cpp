@@ -179,15 +179,15 @@ TEST_F(PipelineRunnerTest, FrameRangeIsChecked)
 
 TEST_F(PipelineRunnerTest, MissingImageNamesTheFile)
 {
-  // Frame 11's left image is missing: the error names it, and nothing is half-done.
+  // Frame 11's left image is missing: the error names it, before the first frame runs
+  // (the runner checks every frame's images when it opens the input).
   fs::create_directories(dir_ / "left");
   fs::copy_file(KARLSRUHE + "/left/I1_000010.png", dir_ / "left/I1_000010.png");
   auto config = parsePipelineConfig(
     karlsruheInput((dir_ / "left/I1_%06d.png").string()) + STAGES, "t.yaml", "/");
-  planar_grid::PipelineRunner runner(config);
   try {
-    runner.run();
-    FAIL() << "a missing image must stop the run";
+    planar_grid::PipelineRunner runner(config);
+    FAIL() << "a missing image must stop the run before its first frame";
   } catch (const planar_grid::IOError& e) {
     EXPECT_NE(std::string(e.what()).find("I1_000011.png"), std::string::npos)
       << e.what();
@@ -197,21 +197,23 @@ TEST_F(PipelineRunnerTest, MissingImageNamesTheFile)
 TEST_F(PipelineRunnerTest, UnreadableAndMismatchedImagesAreErrors)
 {
   fs::create_directories(dir_ / "left");
-  // Frame 10: not an image. Frame 11: a left image of another size than the right one.
+  // Frame 10: not an image; the first frame is read when the input is opened.
   std::ofstream(dir_ / "left/I1_000010.png") << "not a png";
   const cv::Mat small = cv::imread(KARLSRUHE + "/left/I1_000011.png",
                                    cv::IMREAD_GRAYSCALE)(cv::Rect(0, 0, 640, 300));
   cv::imwrite((dir_ / "left/I1_000011.png").string(), small);
   auto config = parsePipelineConfig(
     karlsruheInput((dir_ / "left/I1_%06d.png").string()) + STAGES, "t.yaml", "/");
-  planar_grid::PipelineRunner runner(config);
-  runner.setFrameRange(0, 1);
   try {
-    runner.run();
+    planar_grid::PipelineRunner runner(config);
     FAIL();
   } catch (const planar_grid::IOError& e) {
     EXPECT_NE(std::string(e.what()).find("cannot read"), std::string::npos) << e.what();
   }
+  // Frame 11: a left image of another size than the right one, found when it is read.
+  fs::copy_file(KARLSRUHE + "/left/I1_000010.png", dir_ / "left/I1_000010.png",
+                fs::copy_options::overwrite_existing);
+  planar_grid::PipelineRunner runner(config);
   runner.setFrameRange(1, 2);
   try {
     runner.run();
@@ -948,14 +950,15 @@ TEST_F(PipelineRunnerTest, FrontEndFeedingCallerFramesGivesTheRunsMap)
 
 TEST_F(PipelineRunnerTest, AFailingFrameAheadStopsTheRunAfterTheFramesBeforeIt)
 {
-  // The third left image is missing: it is loaded on the second thread while frame 11
-  // is mapped. The run still fails naming the file, after frames 10 and 11, as a
-  // sequential run does.
+  // The third left image is not an image (a missing one is found before the first
+  // frame): it is loaded on the second thread while frame 11 is mapped. The run still
+  // fails naming the file, after frames 10 and 11, as a sequential run does.
   const fs::path left = dir_ / "left";
   fs::create_directories(left);
   for (const int index : {10, 11})
     fs::copy_file(KARLSRUHE + "/left/I1_0000" + std::to_string(index) + ".png",
                   left / ("I1_0000" + std::to_string(index) + ".png"));
+  std::ofstream(left / "I1_000012.png") << "not a png";
   std::string input = karlsruheInput((left / "I1_%06d.png").string());
   input.replace(input.find("frame_count: 2"), 14, "frame_count: 3");
   for (const bool overlap : {true, false}) {

@@ -67,4 +67,20 @@ PCDFileInfo checkPCDFile(const std::string& path);
  * \ingroup core */
 void checkPointCloudBlob(const pcl::PCLPointCloud2& blob, const std::string& where);
 
+/** \brief Converts the fields \a names of \a blob that are not 32-bit floats (double,
+ * int8 to int64, uint8 to uint64, bool) to 32-bit floats, in place, so that
+ * pcl::fromPCLPointCloud2() reads them: PCL matches a point type's field by name *and*
+ * datatype, and leaves a field whose datatype differs at 0 (a cloud with double x, y,
+ * z would become one point at the origin). The other fields keep their bytes; the point
+ * is repacked without padding. A double beyond the range of a float becomes an
+ * infinite coordinate (a non-finite point, dropped as such). For a blob that passed
+ * checkPointCloudBlob(). \param[in,out] blob the cloud \param[in] names the fields to
+ * convert (e.g. x, y, z, intensity); absent ones are skipped \param[in] where the file
+ * or message, for the message \throws planar_grid::IOError naming \a where and the
+ * field when such a field holds more than one value per point (COUNT > 1) or has a
+ * datatype PCL does not define \ingroup core */
+void convertFieldsToFloat(pcl::PCLPointCloud2& blob,
+                          const std::vector<std::string>& names,
+                          const std::string& where);
+
 } // namespace planar_grid

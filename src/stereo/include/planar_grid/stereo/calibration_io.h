@@ -98,7 +98,11 @@ struct StereoCameraModel {
  * field) when the file is missing, unreadable, lacks a field, names a camera or
  * distortion model that is not rectified here, or gives a non-positive focal length or
  * baseline; with the file and line (text formats) when a row or field
- * is given twice, or the baseline lies outside [0.001, 100] m */
+ * is given twice, or the baseline lies outside [0.001, 100] m; naming the right
+ * camera's file (line) and the value when, in a rectified format (KARLSRUHE, KITTI,
+ * ROS_CAMERA_INFO), the right projection's focal lengths fx, fy or principal point cx,
+ * cy (pixels) differ from the left's by more than 1e-4 of their value: the cameras of a
+ * rectified pair share them, and the baseline would be wrong */
 StereoCameraModel loadStereoCalibration(CalibrationFormat format,
                                         const std::string& path,
                                         const std::string& right_path = "");

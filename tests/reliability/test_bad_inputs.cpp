@@ -1,0 +1,560 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Inputs of the pipeline tool that used to be mapped silently, wrongly or failed late:
+// each is refused with an error naming the file and the cause, before the first frame
+// where that can be known, and the tool exits non-zero without writing outputs; or,
+// when the input is valid (PCD coordinates that are not floats), it is read correctly.
+// The table is in docs/RELIABILITY.md.
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/pcd_file_check.h>
+#include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/pipeline_runner.h>
+#include <planar_grid/stereo/calibration_io.h>
+
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/conversions.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/point_types.h>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "karlsruhe_job.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+/** The exit code and the merged stdout and stderr of one tool run. */
+struct ToolRun {
+  int exit_code{-1};
+  std::string output;
+};
+
+/** A temporary folder per test holding a small synthetic rectified stereo sequence:
+ * random texture, the right image the left one shifted by 4 px, a Karlsruhe-format
+ * calibration (f = 100 px, principal point at the image centre, B = 0.5 m). */
+class BadStereoInputTest : public ::testing::Test {
+protected:
+  static constexpr int WIDTH = 96;
+  static constexpr int HEIGHT = 64;
+
+  void SetUp() override
+  {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path()
+           / ("planar_grid_bad_inputs_" + std::string(info->name()) + "_"
+              + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_ / "left");
+    fs::create_directories(dir_ / "right");
+    writeCalibration("100 0 48 0 0 100 32 0 0 0 1 0",
+                     "100 0 48 -50 0 100 32 0 0 0 1 0");
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  /** Writes calib.txt with the rows P1_roi: \a left and P2_roi: \a right. */
+  void writeCalibration(const std::string& left, const std::string& right) const
+  {
+    std::ofstream(dir_ / "calib.txt")
+      << "P1_roi: " << left << "\nP2_roi: " << right << "\n";
+  }
+
+  static std::string leftName(int index)
+  {
+    std::array<char, 32> name{};
+    std::snprintf(name.data(), name.size(), "I1_%06d.png", index);
+    return name.data();
+  }
+
+  static std::string rightName(int index)
+  {
+    std::array<char, 32> name{};
+    std::snprintf(name.data(), name.size(), "I2_%06d.png", index);
+    return name.data();
+  }
+
+  /** Writes the pairs 0 .. \a count - 1, \a width x \a height pixels (seeded texture).
+   */
+  void writePairs(int count, int width = WIDTH, int height = HEIGHT) const
+  {
+    for (int i = 0; i < count; ++i)
+      writePair(i, width, height, width, height);
+  }
+
+  /** Writes pair \a index, the left image \a lw x \a lh and the right \a rw x \a rh. */
+  void writePair(int index, int lw, int lh, int rw, int rh) const
+  {
+    cv::Mat texture(std::max(lh, rh), std::max(lw, rw) + 4, CV_8UC1);
+    cv::RNG rng(static_cast<std::uint64_t>(index + 1));
+    rng.fill(texture, cv::RNG::UNIFORM, 0, 256);
+    ASSERT_TRUE(cv::imwrite((dir_ / "left" / leftName(index)).string(),
+                            texture(cv::Rect(4, 0, lw, lh))));
+    ASSERT_TRUE(cv::imwrite((dir_ / "right" / rightName(index)).string(),
+                            texture(cv::Rect(0, 0, rw, rh))));
+  }
+
+  /** A stereo configuration of the sequence in dir_ through stereo_disparity, outputs
+   * in dir_/out. */
+  std::string config(int frame_count = 0) const
+  {
+    return "input:\n  type: stereo_sequence\n  left_images: " + (dir_ / "left").string()
+           + "/I1_%06d.png\n  right_images: " + (dir_ / "right").string()
+           + "/I2_%06d.png\n  frame_count: " + std::to_string(frame_count)
+           + "\n  calibration: {format: karlsruhe, file: "
+           + (dir_ / "calib.txt").string()
+           + "}\npipeline:\n  - type: stereo_disparity\n"
+             "    params: {num_disparities_px: 16, max_range_m: 30.0}\n"
+             "output:\n  folder: "
+           + (dir_ / "out").string() + "\n";
+  }
+
+  /** The message of the planar_grid::Exception that creating a runner for \a yaml
+   * throws ("" when none): the runner reads no frame before run(). */
+  static std::string setupError(const std::string& yaml)
+  {
+    try {
+      planar_grid::PipelineRunner runner(
+        planar_grid::parsePipelineConfig(yaml, "t.yaml", "/"));
+    } catch (const planar_grid::Exception& e) {
+      return e.what();
+    }
+    return "";
+  }
+
+  /** Runs planar_grid_pipeline on \a yaml (written to dir_/run.yaml) with \a args. */
+  ToolRun runTool(const std::string& yaml, const std::string& args = "") const
+  {
+    const fs::path path = dir_ / "run.yaml";
+    std::ofstream(path) << yaml;
+    const std::string command = std::string(PLANAR_GRID_PIPELINE_TOOL) + " --config '"
+                                + path.string() + "' --no-snapshot --sequential " + args
+                                + " 2>&1";
+    ToolRun run;
+    std::fflush(nullptr);
+    FILE* pipe = ::popen(command.c_str(), "r");
+    if (!pipe) {
+      ADD_FAILURE() << "cannot start " << command;
+      return run;
+    }
+    std::array<char, 4096> buffer{};
+    std::size_t n = 0;
+    while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0)
+      run.output.append(buffer.data(), n);
+    const int status = ::pclose(pipe);
+    run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+    return run;
+  }
+
+  /** True when the tool wrote nothing into dir_/out (no folder, or an empty one but for
+   * the run lock). */
+  bool noOutputs() const
+  {
+    if (!fs::exists(dir_ / "out"))
+      return true;
+    for (const auto& entry : fs::directory_iterator(dir_ / "out"))
+      if (entry.path().filename().string().find("lock") == std::string::npos)
+        return false;
+    return true;
+  }
+
+  fs::path dir_;
+};
+
+#define EXPECT_CONTAINS(text, part)                          \
+  EXPECT_NE(std::string(text).find(part), std::string::npos) \
+    << "expected '" << (part) << "' in: " << (text)
+
+} // namespace
+
+TEST_F(BadStereoInputTest, LeftImageMissingInTheMiddleIsRefusedBeforeTheFirstFrame)
+{
+  // Frames 0-5 with the left image of frame 3 removed: "every frame present" would
+  // have mapped frames 0-2 and ended there.
+  writePairs(6);
+  fs::remove(dir_ / "left" / leftName(3));
+  const std::string what = setupError(config(0));
+  EXPECT_CONTAINS(what, leftName(3));
+  EXPECT_CONTAINS(what, "not found");
+  EXPECT_CONTAINS(what, leftName(5)); // where the sequence goes on to
+  // With a frame count the same image is named.
+  EXPECT_CONTAINS(setupError(config(6)), leftName(3));
+  // Without the gap the sequence loads: 6 frames.
+  writePair(3, WIDTH, HEIGHT, WIDTH, HEIGHT);
+  EXPECT_EQ(setupError(config(0)), "");
+}
+
+TEST_F(BadStereoInputTest, RightImageMissingIsRefusedBeforeTheFirstFrame)
+{
+  writePairs(5);
+  fs::remove(dir_ / "right" / rightName(2));
+  for (const int frame_count : {0, 5}) {
+    const std::string what = setupError(config(frame_count));
+    EXPECT_CONTAINS(what, rightName(2));
+    EXPECT_CONTAINS(what, "right image not found");
+  }
+}
+
+TEST_F(BadStereoInputTest, ToolExitsNonZeroOnAGapAndWritesNothing)
+{
+  writePairs(6);
+  fs::remove(dir_ / "left" / leftName(3));
+  const ToolRun run = runTool(config(0));
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, leftName(3));
+  EXPECT_TRUE(noOutputs()) << run.output;
+}
+
+TEST_F(BadStereoInputTest, FirstFrameOfAnotherSizeIsRefusedBeforeTheRun)
+{
+  // The first pair's right image is 100x64, its left 96x64.
+  writePairs(3);
+  writePair(0, WIDTH, HEIGHT, 100, HEIGHT);
+  const std::string what = setupError(config(0));
+  EXPECT_CONTAINS(what, rightName(0));
+  EXPECT_CONTAINS(what, "100x64");
+  EXPECT_CONTAINS(what, "96x64");
+  const ToolRun run = runTool(config(0));
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, rightName(0));
+  EXPECT_TRUE(noOutputs()) << run.output;
+}
+
+TEST_F(BadStereoInputTest, LaterFrameOfAnotherSizeIsRefusedWhenRead)
+{
+  // Frames 0-3 at 96x64, frame 2 at 96x80 (both images): Karlsruhe rows give no image
+  // size, so the first frame's is the size of every frame.
+  writePairs(4);
+  writePair(2, WIDTH, 80, WIDTH, 80);
+  const ToolRun run = runTool(config(0));
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, leftName(2)
+                                + ": size 96x80 px differs from the first "
+                                  "frame's");
+  EXPECT_CONTAINS(run.output, "96x64");
+  EXPECT_TRUE(noOutputs()) << run.output;
+}
+
+TEST_F(BadStereoInputTest, PrincipalPointOutsideTheImagesIsRefused)
+{
+  // The calibration's cx = 480 px does not fit 96 px wide images: not the images the
+  // calibration was made for.
+  writePairs(2);
+  writeCalibration("100 0 480 0 0 100 32 0 0 0 1 0",
+                   "100 0 480 -50 0 100 32 0 0 0 1 0");
+  const std::string what = setupError(config(0));
+  EXPECT_CONTAINS(what, leftName(0));
+  EXPECT_CONTAINS(what, "principal point");
+}
+
+TEST_F(BadStereoInputTest, ImagesNotTheCalibrationsSizeAreRefused)
+{
+  // The indoor pair's ROS camera_info files say 640x480; the images are 96x64.
+  writePairs(2);
+  const std::string data = std::string(PLANAR_GRID_DATA_DIR) + "/rtabmap_stereo_rect/";
+  std::string yaml = config(0);
+  const std::string karlsruhe =
+    "{format: karlsruhe, file: " + (dir_ / "calib.txt").string() + "}";
+  yaml.replace(yaml.find(karlsruhe), karlsruhe.size(),
+               "{format: ros_camera_info, file: " + data
+                 + "stereo_left.yaml, right_file: " + data + "stereo_right.yaml}");
+  const std::string what = setupError(yaml);
+  EXPECT_CONTAINS(what, leftName(0) + ": size 96x64 px differs from the calibration's");
+  EXPECT_CONTAINS(what, "640x480");
+}
+
+namespace {
+
+/** The IOError message of loading a calibration (fails the test when it loads). */
+std::string
+calibrationError(planar_grid::CalibrationFormat format,
+                 const std::string& path,
+                 const std::string& right_path = "")
+{
+  try {
+    planar_grid::loadStereoCalibration(format, path, right_path);
+  } catch (const planar_grid::IOError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "expected an IOError for " << path;
+  return "";
+}
+
+} // namespace
+
+TEST_F(BadStereoInputTest, RealCalibrationsOfEveryFormatStillLoad)
+{
+  using planar_grid::CalibrationFormat;
+  const std::string data = std::string(PLANAR_GRID_DATA_DIR) + "/";
+  // Karlsruhe: f = 645.2401 px, B = 368.2632 / 645.2401 m (the data's README).
+  const auto karlsruhe = planar_grid::loadStereoCalibration(
+    CalibrationFormat::KARLSRUHE, data + "karlsruhe_2010_03_09_drive_0023/calib.txt");
+  EXPECT_NEAR(karlsruhe.calibration.focal_length_px, 645.2401, 1e-9);
+  EXPECT_NEAR(karlsruhe.calibration.baseline_m, 368.2632 / 645.2401, 1e-9);
+  const auto kitti = planar_grid::loadStereoCalibration(
+    CalibrationFormat::KITTI, data + "kitti_odometry_snippet_2/calib.txt");
+  EXPECT_NEAR(kitti.calibration.baseline_m, 386.1448 / 718.856, 1e-9);
+  const auto indoor = planar_grid::loadStereoCalibration(
+    CalibrationFormat::ROS_CAMERA_INFO, data + "rtabmap_stereo_rect/stereo_left.yaml",
+    data + "rtabmap_stereo_rect/stereo_right.yaml");
+  EXPECT_NEAR(indoor.calibration.baseline_m, 0.11969, 1e-5);
+  // EuRoC's raw cameras differ (fu 458.654 and 457.587 px): it is rectified here, and
+  // the rectified pair shares one focal length.
+  const auto euroc = planar_grid::loadStereoCalibration(
+    CalibrationFormat::EUROC, data + "euroc_v1_01_pairs/sensorLeft.yaml",
+    data + "euroc_v1_01_pairs/sensorRight.yaml");
+  EXPECT_NEAR(euroc.calibration.baseline_m, 0.1101, 1e-3);
+}
+
+TEST_F(BadStereoInputTest, RightCameraWithOtherIntrinsicsIsRefusedAtLoad)
+{
+  using planar_grid::CalibrationFormat;
+  const std::string path = (dir_ / "calib.txt").string();
+  // The right focal length 101 px against the left's 100 px (1 %).
+  writeCalibration("100 0 48 0 0 100 32 0 0 0 1 0", "101 0 48 -50 0 101 32 0 0 0 1 0");
+  std::string what = calibrationError(CalibrationFormat::KARLSRUHE, path);
+  EXPECT_CONTAINS(what, "calib.txt:2");
+  EXPECT_CONTAINS(what, "focal length fx");
+  EXPECT_CONTAINS(what, "101 px");
+  EXPECT_CONTAINS(what, "100 px");
+  // The right principal point 2 px to the right.
+  writeCalibration("100 0 48 0 0 100 32 0 0 0 1 0", "100 0 50 -50 0 100 32 0 0 0 1 0");
+  what = calibrationError(CalibrationFormat::KARLSRUHE, path);
+  EXPECT_CONTAINS(what, "principal point cx");
+  // Only cy differs, in a KITTI file of bare rows.
+  std::ofstream(path) << "100 0 48 0 0 100 32 0 0 0 1 0\n"
+                      << "100 0 48 -50 0 100 33 0 0 0 1 0\n";
+  what = calibrationError(CalibrationFormat::KITTI, path);
+  EXPECT_CONTAINS(what, "calib.txt:2");
+  EXPECT_CONTAINS(what, "principal point cy");
+  // Within the tolerance (1e-4 of the value) a pair loads: 100.005 px against 100 px.
+  writeCalibration("100 0 48 0 0 100 32 0 0 0 1 0",
+                   "100.005 0 48 -50 0 100.005 32 0 0 0 1 0");
+  EXPECT_NO_THROW(
+    planar_grid::loadStereoCalibration(CalibrationFormat::KARLSRUHE, path));
+  // ROS camera_info: the indoor pair's right file with cx 318.11621 -> 320.
+  const std::string data = std::string(PLANAR_GRID_DATA_DIR) + "/rtabmap_stereo_rect/";
+  std::ifstream in(data + "stereo_right.yaml");
+  std::string text((std::istreambuf_iterator<char>(in)),
+                   std::istreambuf_iterator<char>());
+  const std::string cx = "3.1811621093750000e+02";
+  const auto at = text.find(cx, text.find("projection_matrix"));
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, cx.size(), "320.0");
+  const std::string right = (dir_ / "stereo_right.yaml").string();
+  std::ofstream(right) << text;
+  what = calibrationError(CalibrationFormat::ROS_CAMERA_INFO, data + "stereo_left.yaml",
+                          right);
+  EXPECT_CONTAINS(what, right);
+  EXPECT_CONTAINS(what, "principal point cx");
+}
+
+TEST_F(BadStereoInputTest, NonFiniteCalibrationValueIsNamedWithFileAndLine)
+{
+  using planar_grid::CalibrationFormat;
+  const std::string path = (dir_ / "calib.txt").string();
+  for (const std::string value : {"nan", "inf", "-inf", "1e999"}) {
+    writeCalibration("100 0 48 0 0 100 32 0 0 0 1 0",
+                     "100 0 48 " + value + " 0 100 32 0 0 0 1 0");
+    const std::string what = calibrationError(CalibrationFormat::KARLSRUHE, path);
+    EXPECT_CONTAINS(what, "calib.txt:2: row 'P2_roi:' value 4, '" + value
+                            + "', is not a finite number");
+    EXPECT_EQ(what.find("must hold 12 numbers"), std::string::npos) << what;
+  }
+  // A KITTI file of bare rows.
+  std::ofstream(path) << "NaN 0 48 0 0 100 32 0 0 0 1 0\n"
+                      << "100 0 48 -50 0 100 32 0 0 0 1 0\n";
+  EXPECT_CONTAINS(calibrationError(CalibrationFormat::KITTI, path),
+                  "calib.txt:1: value 1 of the row, 'NaN', is not a finite number");
+  // A row short of a number still says so.
+  writeCalibration("100 0 48 0 0 100 32 0 0 0 1 0", "100 0 48 -50 0 100 32 0 0 0 1");
+  EXPECT_CONTAINS(calibrationError(CalibrationFormat::KARLSRUHE, path),
+                  "must hold 12 numbers");
+}
+
+TEST_F(BadStereoInputTest, EmptyOutputFolderIsRefused)
+{
+  writePairs(2);
+  // --output '' (an unset variable in a script) would write into output.folder of the
+  // YAML, here dir_/out.
+  const ToolRun run = runTool(config(0), "--output ''");
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, "--output '' is empty");
+  EXPECT_TRUE(noOutputs()) << run.output;
+  EXPECT_FALSE(fs::exists(dir_ / "report.json"));
+  // output.folder "" in the YAML would write into the current folder.
+  std::string yaml = config(0);
+  const std::string folder = "folder: " + (dir_ / "out").string();
+  yaml.replace(yaml.find(folder), folder.size(), "folder: \"\"");
+  const std::string what = setupError(yaml);
+  EXPECT_CONTAINS(what, "t.yaml:");
+  EXPECT_CONTAINS(what, "output.folder is empty");
+}
+
+namespace {
+
+/** The 21 x 21 points of a wall, x and y = (0, 5, ..., 100 plus \a offset) times \a
+ * unit, z = 200 times \a unit, as a PCD blob whose x, y, z are of type T (PCL datatype
+ * \a datatype). */
+template <typename T>
+pcl::PCLPointCloud2
+wallBlob(std::uint8_t datatype, double unit, double offset = 0.0)
+{
+  pcl::PCLPointCloud2 blob;
+  for (const char* name : {"x", "y", "z"}) {
+    pcl::PCLPointField field;
+    field.name = name;
+    field.offset = static_cast<std::uint32_t>(blob.fields.size() * sizeof(T));
+    field.datatype = datatype;
+    field.count = 1;
+    blob.fields.push_back(field);
+  }
+  blob.point_step = static_cast<std::uint32_t>(3 * sizeof(T));
+  blob.height = 1;
+  for (int i = 0; i <= 20; ++i)
+    for (int j = 0; j <= 20; ++j) {
+      const T xyz[3] = {static_cast<T>((5 * i + offset) * unit),
+                        static_cast<T>((5 * j + offset) * unit),
+                        static_cast<T>(200 * unit)};
+      const auto* bytes = reinterpret_cast<const std::uint8_t*>(xyz);
+      blob.data.insert(blob.data.end(), bytes, bytes + sizeof(xyz));
+      ++blob.width;
+    }
+  blob.row_step = blob.point_step * blob.width;
+  blob.is_dense = true;
+  return blob;
+}
+
+} // namespace
+
+using BadPCDInputTest = BadStereoInputTest;
+
+TEST_F(BadPCDInputTest, NonFloatCoordinatesAreConvertedToFloat)
+{
+  // double x, y, z in metres (the wall 1 m x 1 m at z = 2 m, the points 2.5 cm off
+  // the 0.1 m voxel borders) and int16 ones (100 x 100 at z = 200). PCL's conversion
+  // matches fields by datatype too: both used to become 441 points at the origin, one
+  // voxel.
+  struct Case {
+    std::string name;
+    pcl::PCLPointCloud2 blob;
+    std::size_t voxels; // voxel_grid at 0.1: 11 x 11 of the 1 m wall, 441 of the other
+    float max_x;
+    bool compressed;
+  };
+  const std::vector<Case> cases{
+    {"double.pcd", wallBlob<double>(pcl::PCLPointField::FLOAT64, 0.01, 2.5), 121,
+     1.025f, true},
+    {"int16.pcd", wallBlob<std::int16_t>(pcl::PCLPointField::INT16, 1.0), 441, 100.0f,
+     false}};
+  for (const auto& c : cases) {
+    const std::string path = (dir_ / c.name).string();
+    // Compressed binary and ASCII, two of PCL's readers. PCL 1.13's uncompressed
+    // PCDWriter::writeBinary() of a blob leaves about 4 KB of zero bytes after the
+    // points, which checkPCDFile() refuses as points the header does not declare.
+    ASSERT_EQ(c.compressed ? pcl::PCDWriter().writeBinaryCompressed(path, c.blob)
+                           : pcl::PCDWriter().writeASCII(path, c.blob),
+              0);
+    planar_grid::PipelineRunner runner(planar_grid::parsePipelineConfig(
+      "input:\n  type: pcd_files\n  files: [" + path
+        + "]\npipeline:\n  - type: voxel_grid\n    params: {leaf_size_m: 0.1}\n"
+          "  - type: transform_to_world\n  - type: accumulate\n",
+      "t.yaml", "/"));
+    const auto report = runner.run();
+    ASSERT_GE(report.stages.size(), 1u);
+    EXPECT_EQ(report.stages[0].points_in, 441u) << c.name;
+    EXPECT_EQ(report.stages[0].points_out, c.voxels) << c.name;
+    float max_x = -1.0f;
+    for (const auto& p : *runner.state().world_cloud)
+      max_x = std::max(max_x, p.x);
+    EXPECT_NEAR(max_x, c.max_x, 0.06f * c.max_x) << c.name;
+  }
+}
+
+TEST_F(BadPCDInputTest, FieldConversionKeepsValuesAndRefusesWhatItCannotRead)
+{
+  pcl::PCLPointCloud2 blob = wallBlob<double>(pcl::PCLPointField::FLOAT64, 0.01);
+  planar_grid::convertFieldsToFloat(blob, {"x", "y", "z"}, "wall.pcd");
+  ASSERT_EQ(blob.point_step, 12u);
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  pcl::fromPCLPointCloud2(blob, cloud);
+  ASSERT_EQ(cloud.size(), 441u);
+  // Point 21 * 20 + 20 is the corner (1 m, 1 m, 2 m).
+  EXPECT_FLOAT_EQ(cloud[440].x, 1.0f);
+  EXPECT_FLOAT_EQ(cloud[440].y, 1.0f);
+  EXPECT_FLOAT_EQ(cloud[440].z, 2.0f);
+  // Two values per point in x cannot be one coordinate.
+  pcl::PCLPointCloud2 pairs = wallBlob<std::int16_t>(pcl::PCLPointField::INT16, 1.0);
+  pairs.fields[0].count = 2;
+  pairs.fields[1].offset = 4;
+  pairs.fields[2].offset = 6;
+  pairs.point_step = 8;
+  pairs.data.resize(pairs.width * 8);
+  pairs.row_step = pairs.width * 8;
+  try {
+    planar_grid::convertFieldsToFloat(pairs, {"x", "y", "z"}, "pairs.pcd");
+    ADD_FAILURE() << "a field of COUNT 2 was converted";
+  } catch (const planar_grid::IOError& e) {
+    EXPECT_CONTAINS(std::string(e.what()), "pairs.pcd: the field 'x' holds 2 values");
+  }
+}
+
+TEST_F(BadStereoInputTest, RunWhoseMapHasNoCuboidsWritesItsOutputsAndExitsZero)
+{
+  // One Karlsruhe frame through the paper pipeline with the map, and a cell needing a
+  // million points: the map ends with no cuboid. An empty map is a result: every output
+  // but the cuboid mesh (a mesh of no cuboid) is written, and the run says why.
+  std::string yaml = planar_grid::test::karlsruheJob(1, dir_ / "out", "");
+  const std::string stage = "  - type: planar_cuboid_approximation\n";
+  ASSERT_NE(yaml.find(stage), std::string::npos);
+  yaml.replace(yaml.find(stage), stage.size(),
+               stage + "    params: {min_points_per_cell: 1000000}\n");
+  const ToolRun run = runTool(yaml);
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, "the map is empty");
+  EXPECT_CONTAINS(run.output, "map_cuboids.ply");
+  for (const char* name :
+       {"map.pgmap", "map.bt", "report.json", "trajectory.txt", "world_cloud.pcd"})
+    EXPECT_TRUE(fs::exists(dir_ / "out" / name)) << name << "\n" << run.output;
+  EXPECT_FALSE(fs::exists(dir_ / "out" / "map_cuboids.ply"));
+}
+
+TEST_F(BadStereoInputTest, OutputNameOutsideTheFolderIsRefusedAtLoad)
+{
+  // Found only when the outputs were written, after the last frame.
+  for (const std::string& name :
+       {std::string("../escaped.pgmap"), std::string("/tmp/x.pgmap"),
+        std::string("sub/../../escaped.pgmap")}) {
+    const std::string what = setupError(config(0) + "  map: " + name + "\n");
+    EXPECT_CONTAINS(what, "t.yaml:");
+    EXPECT_CONTAINS(what, "output.map '" + name + "' must be a file name inside");
+  }
+  // A name in a subfolder stays inside.
+  writePairs(1);
+  EXPECT_EQ(setupError(config(0) + "  map: maps/run.pgmap\n"), "");
+}
+
+TEST_F(BadStereoInputTest, CheckpointThatIsAFolderIsRefusedBeforeTheFirstFrame)
+{
+  writePairs(3);
+  fs::create_directories(dir_ / "out" / "checkpoint.pgck");
+  const ToolRun run = runTool(config(0), "--checkpoint-every 1");
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, (dir_ / "out" / "checkpoint.pgck").string()
+                                + ": the checkpoint (output.checkpoint) is a folder");
+  // No frame ran: the progress line of the first frame is not there.
+  EXPECT_EQ(run.output.find("frame 1/"), std::string::npos) << run.output;
+  EXPECT_FALSE(fs::exists(dir_ / "out" / "report.json"));
+}
