@@ -63,10 +63,7 @@ trailingPid(const std::string& name, const std::string& prefix)
 void
 checkName(const std::string& folder, const std::string& name)
 {
-  const fs::path path = fs::path(name).lexically_normal();
-  const std::string first = path.empty() ? "" : path.begin()->string();
-  if (name.empty() || path.is_absolute() || first == ".." || first == "."
-      || name.find('\n') != std::string::npos || first.rfind(".planar_grid_", 0) == 0)
+  if (!OutputTransaction::isOutputName(name))
     throw IOError(folder + ": output name '" + name
                   + "' must be a relative path inside the output folder (no '..', "
                     "not starting with '.planar_grid_')");
@@ -265,6 +262,16 @@ private:
 volatile sig_atomic_t HeldSignals::held_ = 0;
 
 } // namespace
+
+bool
+OutputTransaction::isOutputName(const std::string& name)
+{
+  const fs::path path = fs::path(name).lexically_normal();
+  const std::string first = path.empty() ? "" : path.begin()->string();
+  return !name.empty() && !path.is_absolute() && first != ".." && first != "."
+         && path.has_filename() && name.find('\n') == std::string::npos
+         && first.rfind(".planar_grid_", 0) != 0;
+}
 
 OutputTransaction::OutputTransaction(std::string folder) : folder_(std::move(folder))
 {

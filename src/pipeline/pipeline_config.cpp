@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/output_transaction.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/stage.h>
 #include <planar_grid/pipeline/yaml_reader.h>
@@ -425,11 +426,7 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
          {"map_mesh", &out.map_mesh},
          {"map_grid_2d", &out.map_grid_2d},
          {"map_snapshot", &out.map_snapshot}}) {
-    const fs::path path = fs::path(*name).lexically_normal();
-    const std::string first = path.empty() ? "" : path.begin()->string();
-    if (!name->empty()
-        && (path.is_absolute() || first == ".." || first == "." || !path.has_filename()
-            || first.rfind(".planar_grid_", 0) == 0))
+    if (!name->empty() && !OutputTransaction::isOutputName(*name))
       r.fail(node[key], "output." + std::string(key) + " '" + *name
                           + "' must be a file name inside output.folder (a relative "
                             "path without '..', not starting with '.planar_grid_')");

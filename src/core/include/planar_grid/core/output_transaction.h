@@ -45,6 +45,13 @@ public:
    * flock(2) on it owns the folder; it holds the owner's process id. */
   static constexpr const char* LOCK = ".planar_grid_lock";
 
+  /** \brief Whether \a name may name an output of the set: a relative path of a file
+   * that stays inside the folder (not empty, not absolute, not starting with '..' or
+   * '.', not ending in a folder separator, no newline, not one of the transaction's
+   * own ".planar_grid_" names). The pipeline's configuration checks its output names
+   * with it when it is read, before any frame runs. */
+  static bool isOutputName(const std::string& name);
+
   /** \brief Opens \a folder for a new output set: creates it if needed, finishes a
    * commit a killed process left (recover()), removes stale staging folders and
    * temporaries, and creates this process's staging folder.
