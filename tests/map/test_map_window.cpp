@@ -17,6 +17,8 @@
 #include <tuple>
 #include <vector>
 
+#include "wall_cuboid.h"
+
 namespace {
 
 using planar_grid::ExplicitSpaceGrid;
@@ -31,7 +33,7 @@ using Key = ExplicitSpaceGrid::VoxelKey;
 constexpr float R = 0.1f; // the map's cell, meters
 
 /** A planar cuboid: face centre \a face, normal \a normal (toward the sensors),
- * horizontal axis \a u, extruded 0.1 m behind the face. */
+ * horizontal axis \a u, extruded 0.1 m behind the face, of 100 points. */
 PlanarCuboid
 wall(const Eigen::Vector3f& face,
      const Eigen::Vector3f& normal,
@@ -40,15 +42,8 @@ wall(const Eigen::Vector3f& face,
      float height_m,
      int plane_id)
 {
-  PlanarCuboid c;
-  c.normal = normal;
-  c.horizontal_axis = u;
-  c.width_m = width_m;
-  c.height_m = height_m;
-  c.thickness_m = 0.1f;
-  c.centre = face - normal * 0.05f;
-  c.plane_id = plane_id;
-  c.is_planar = true;
+  PlanarCuboid c =
+    planar_grid_test::wallCuboid(face, normal, u, width_m, height_m, plane_id);
   c.point_count = 100;
   return c;
 }

@@ -21,6 +21,8 @@
 #include <string>
 #include <vector>
 
+#include "wall_cuboid.h"
+
 namespace {
 
 using planar_grid::ExplicitSpaceGrid;
@@ -29,6 +31,7 @@ using planar_grid::PlanarCuboids;
 using planar_grid::PlanarGridMap;
 using planar_grid::PlaneModels;
 using planar_grid::SpaceState;
+using planar_grid_test::wallCuboid;
 
 class PlanarGridMapTest : public ::testing::Test {
 protected:
@@ -720,29 +723,6 @@ TEST_F(PlanarGridMapTest, ClearingByRaysRemovesTheCellsAScanSeesThrough)
   EXPECT_FALSE(holds(kept, on_rays));
   EXPECT_TRUE(holds(kept, on_wall));
   EXPECT_TRUE(holds(kept, beside));
-}
-
-/** A wall of \a width_m x \a height_m facing the origin: face centre \a face, unit
- * normal \a normal (toward the origin), horizontal axis \a u, plane \a plane_id,
- * extruded 0.1 m behind the face. */
-PlanarCuboid
-wallCuboid(const Eigen::Vector3f& face,
-           const Eigen::Vector3f& normal,
-           const Eigen::Vector3f& u,
-           float width_m,
-           float height_m,
-           int plane_id)
-{
-  PlanarCuboid c;
-  c.normal = normal;
-  c.horizontal_axis = u;
-  c.width_m = width_m;
-  c.height_m = height_m;
-  c.thickness_m = 0.1f;
-  c.centre = face - normal * 0.05f;
-  c.plane_id = plane_id;
-  c.is_planar = true;
-  return c;
 }
 
 /** The planar cuboids of \a map containing \a point. */
