@@ -3,6 +3,8 @@
 #include <planar_grid/odometry/cloud_registration.h>
 #include <planar_grid/odometry/stereo_odometry.h>
 
+#include "registration_kernels.h"
+
 #include <pcl/common/transforms.h>
 #include <pcl/console/print.h>
 #include <pcl/features/fpfh.h>
@@ -10,8 +12,6 @@
 #include <pcl/filters/filter.h>
 #include <pcl/filters/voxel_grid.h>
 #include <pcl/kdtree/kdtree_flann.h>
-#include <pcl/registration/gicp.h>
-#include <pcl/registration/sample_consensus_prerejective.h>
 #include <pcl/search/kdtree.h>
 
 #include <opencv2/core.hpp>
@@ -95,16 +95,10 @@ refine(const Cloud::ConstPtr& source,
   converged = true;
   for (const double distance : {params.max_correspondence_distance_m,
                                 0.25 * params.max_correspondence_distance_m}) {
-    pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> gicp;
-    gicp.setInputSource(source);
-    gicp.setInputTarget(target);
-    gicp.setMaxCorrespondenceDistance(distance);
-    gicp.setMaximumIterations(params.max_iterations);
-    gicp.setTransformationEpsilon(1e-8);
-    Cloud aligned;
-    gicp.align(aligned, transform);
-    converged = converged && gicp.hasConverged();
-    transform = gicp.getFinalTransformation();
+    bool pass_converged = false;
+    transform = detail::alignGeneralizedICP(source, target, transform, distance,
+                                            params.max_iterations, pass_converged);
+    converged = converged && pass_converged;
   }
   return transform;
 }
@@ -164,25 +158,10 @@ fpfhGuess(const Cloud& source,
   const Features::Ptr target_features =
     featuresOf(target_coarse, normalsOf(target_coarse, params.normal_radius_m),
                params.feature_radius_m);
-  pcl::SampleConsensusPrerejective<pcl::PointXYZ, pcl::PointXYZ, pcl::FPFHSignature33>
-    alignment;
-  alignment.setInputSource(source_coarse);
-  alignment.setSourceFeatures(source_features);
-  alignment.setInputTarget(target_coarse);
-  alignment.setTargetFeatures(target_features);
-  alignment.setMaximumIterations(params.feature_max_iterations);
-  alignment.setNumberOfSamples(3);
-  alignment.setCorrespondenceRandomness(5);
-  alignment.setSimilarityThreshold(0.9f);
-  alignment.setMaxCorrespondenceDistance(2.5 * params.feature_leaf_size_m);
-  alignment.setInlierFraction(0.25f);
-  // SampleConsensusPrerejective draws its samples with std::rand: seeding it here
-  // makes the guess, and so the registration, reproducible.
-  std::srand(params.seed);
-  Cloud aligned;
-  alignment.align(aligned);
-  guess = alignment.getFinalTransformation();
-  return alignment.hasConverged();
+  return detail::alignFeatureCorrespondences(source_coarse, source_features, target_coarse,
+                                             target_features, params.feature_max_iterations,
+                                             2.5 * params.feature_leaf_size_m, params.seed,
+                                             guess);
 }
 
 CloudRegistrationResult
