@@ -3,8 +3,6 @@
 #include <planar_grid/odometry/cloud_registration.h>
 #include <planar_grid/odometry/stereo_odometry.h>
 
-#include "registration_kernels.h"
-
 #include <pcl/common/transforms.h>
 #include <pcl/console/print.h>
 #include <pcl/features/fpfh.h>
@@ -23,6 +21,8 @@
 #include <cstdlib>
 #include <limits>
 #include <vector>
+
+#include "registration_kernels.h"
 
 namespace planar_grid {
 
@@ -158,10 +158,10 @@ fpfhGuess(const Cloud& source,
   const Features::Ptr target_features =
     featuresOf(target_coarse, normalsOf(target_coarse, params.normal_radius_m),
                params.feature_radius_m);
-  return detail::alignFeatureCorrespondences(source_coarse, source_features, target_coarse,
-                                             target_features, params.feature_max_iterations,
-                                             2.5 * params.feature_leaf_size_m, params.seed,
-                                             guess);
+  return detail::alignFeatureCorrespondences(
+    source_coarse, source_features, target_coarse, target_features,
+    params.feature_max_iterations, 2.5 * params.feature_leaf_size_m, params.seed,
+    guess);
 }
 
 CloudRegistrationResult
