@@ -5,6 +5,7 @@
 #pragma once
 
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/version.h>
 
 #include <pcl/console/print.h>
 
@@ -17,8 +18,6 @@
 #include <exception>
 #include <string>
 #include <vector>
-
-#include "planar_grid_version.h"
 
 namespace planar_grid {
 namespace cli {
