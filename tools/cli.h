@@ -5,6 +5,7 @@
 #pragma once
 
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/version.h>
 
 #include <pcl/console/print.h>
 
@@ -18,18 +19,23 @@
 #include <string>
 #include <vector>
 
-#include "planar_grid_version.h"
-
 namespace planar_grid {
 namespace cli {
+
+/** \brief A wrong command line: an unknown option, a missing or malformed value. */
+class UsageError : public Exception {
+public:
+  /** \param[in] what the message; it names the argument and what was expected */
+  explicit UsageError(const std::string& what) : Exception(what) {}
+};
 
 /** \brief Checks that every argument is a known option: one of \a with_value followed
  * by its value, or one of \a switches. A typo is an error, not a default.
  * \param[in] argc, argv the command line
  * \param[in] with_value options that take the next argument as their value
  * \param[in] switches options without a value
- * \throws planar_grid::Exception naming the first unknown argument, or an option whose
- * value is missing */
+ * \throws planar_grid::cli::UsageError naming the first unknown argument, or an option
+ * whose value is missing */
 inline void
 checkArguments(int argc,
                char** argv,
@@ -40,10 +46,10 @@ checkArguments(int argc,
     const std::string a = argv[i];
     if (std::find(with_value.begin(), with_value.end(), a) != with_value.end()) {
       if (i + 1 >= argc)
-        throw Exception("option " + a + " needs a value");
+        throw UsageError("option " + a + " needs a value");
       ++i;
     } else if (std::find(switches.begin(), switches.end(), a) == switches.end())
-      throw Exception("unknown argument '" + a + "' (see --help)");
+      throw UsageError("unknown argument '" + a + "' (see --help)");
   }
 }
 
@@ -110,14 +116,17 @@ printVersion(const char* name)
 
 /** \brief Runs a tool's \a run after keepFreedMemory(): its return value is the exit
  * status; an exception is printed as "name: message" (pcl::console::print_error) and
- * exits with EXIT_FAILURE. With --version it prints the name and version and exits
- * with EXIT_SUCCESS without running \a run.
+ * exits with \a exit_status(exception), EXIT_FAILURE for an exception not derived from
+ * std::exception. With --version it prints the name and version and exits with
+ * EXIT_SUCCESS without running \a run.
  * \param[in] name the program name for the message
  * \param[in] run the tool's body
- * \param[in] argc, argv the command line, passed on */
-template <typename Run>
+ * \param[in] argc, argv the command line, passed on
+ * \param[in] exit_status the exit status of an exception (int(const std::exception&))
+ */
+template <typename Run, typename ExitStatus>
 int
-runMain(const char* name, Run run, int argc, char** argv)
+runMain(const char* name, Run run, int argc, char** argv, ExitStatus exit_status)
 {
   if (wantsVersion(argc, argv)) {
     printVersion(name);
@@ -128,10 +137,20 @@ runMain(const char* name, Run run, int argc, char** argv)
     return run(argc, argv);
   } catch (const std::exception& e) {
     pcl::console::print_error("%s: %s\n", name, e.what());
+    return exit_status(e);
   } catch (...) {
     pcl::console::print_error("%s: unknown error\n", name);
   }
   return EXIT_FAILURE;
+}
+
+/** \brief As runMain() above, with EXIT_FAILURE for every exception. */
+template <typename Run>
+int
+runMain(const char* name, Run run, int argc, char** argv)
+{
+  return runMain(name, run, argc, argv,
+                 [](const std::exception&) { return EXIT_FAILURE; });
 }
 
 } // namespace cli

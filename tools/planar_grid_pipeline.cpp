@@ -75,6 +75,12 @@ printHelp(const char* program)
   print_info("    -v                   verbose (PCL debug output)\n");
   print_info("    -h, --help           this help\n");
   print_info("    --version            print the name and version\n");
+  print_info(
+    "  Exit status: 0 success; 2 command line (unknown option, bad value);\n"
+    "    3 configuration (the YAML: planar_grid::ConfigError); 4 input (a file\n"
+    "    that cannot be read: the YAML itself, calibration, images, clouds);\n"
+    "    5 output (the output folder or a file in it cannot be written);\n"
+    "    1 anything else (e.g. a stage failing on a frame)\n");
 }
 
 void
@@ -110,7 +116,7 @@ parseFrameRange(const std::string& text,
 {
   const auto colon = text.find(':');
   if (colon == std::string::npos)
-    throw planar_grid::Exception("--frames '" + text + "' must be A:B");
+    throw planar_grid::cli::UsageError("--frames '" + text + "' must be A:B");
   const auto parse_side = [&text](const std::string& side, std::size_t fallback) {
     if (side.empty())
       return fallback;
@@ -118,8 +124,8 @@ parseFrameRange(const std::string& text,
     long long v = -1;
     char extra = 0;
     if (!(in >> v) || (in >> extra) || v < 0)
-      throw planar_grid::Exception("--frames '" + text
-                                   + "' must be A:B with non-negative integers");
+      throw planar_grid::cli::UsageError("--frames '" + text
+                                         + "' must be A:B with non-negative integers");
     return static_cast<std::size_t>(v);
   };
   begin = parse_side(text.substr(0, colon), 0);
@@ -347,12 +353,35 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
 }
 #endif
 
+/** Exit statuses by class of failure (printHelp(), README). */
+constexpr int EXIT_USAGE = 2;
+constexpr int EXIT_CONFIG = 3;
+constexpr int EXIT_INPUT = 4;
+constexpr int EXIT_OUTPUT = 5;
+
+/** Set by run() while it opens the output set and from the first output written on: an
+ * IOError then is an output error, otherwise an input error. */
+bool writing_outputs = false;
+
+/** The exit status of the exception \a e that ended run(). */
+int
+exitStatus(const std::exception& e)
+{
+  if (dynamic_cast<const planar_grid::cli::UsageError*>(&e))
+    return EXIT_USAGE;
+  if (dynamic_cast<const planar_grid::ConfigError*>(&e))
+    return EXIT_CONFIG;
+  if (dynamic_cast<const planar_grid::IOError*>(&e))
+    return writing_outputs ? EXIT_OUTPUT : EXIT_INPUT;
+  return EXIT_FAILURE;
+}
+
 int
 run(int argc, char** argv)
 {
   if (argc < 2 || find_switch(argc, argv, "-h") || find_switch(argc, argv, "--help")) {
     printHelp(argv[0]);
-    return argc < 2 ? EXIT_FAILURE : EXIT_SUCCESS;
+    return argc < 2 ? EXIT_USAGE : EXIT_SUCCESS;
   }
   if (find_switch(argc, argv, "--list-stages")) {
     listStages();
@@ -370,15 +399,15 @@ run(int argc, char** argv)
 
   std::string config_path, frames_text, output_folder;
   if (parse_argument(argc, argv, "--config", config_path) < 0 || config_path.empty())
-    throw planar_grid::Exception("--config FILE.yaml is required (see --help)");
+    throw planar_grid::cli::UsageError("--config FILE.yaml is required (see --help)");
   parse_argument(argc, argv, "--frames", frames_text);
   const bool output_given = parse_argument(argc, argv, "--output", output_folder) >= 0;
   // An empty folder name (an unset shell variable in a script) would otherwise fall
   // back to the YAML's output.folder and replace the outputs there.
   if (output_given && output_folder.empty())
-    throw planar_grid::Exception("--output '' is empty: give the folder to write the "
-                                 "outputs into (or leave the option out to use "
-                                 "output.folder of the YAML)");
+    throw planar_grid::cli::UsageError("--output '' is empty: give the folder to write "
+                                       "the outputs into (or leave the option out to "
+                                       "use output.folder of the YAML)");
 
   planar_grid::PipelineConfig config = planar_grid::loadPipelineConfig(config_path);
   if (output_given)
@@ -389,8 +418,8 @@ run(int argc, char** argv)
     long long every = -1;
     char extra = 0;
     if (!(in >> every) || (in >> extra) || every < 0)
-      throw planar_grid::Exception("--checkpoint-every '" + every_text
-                                   + "' must be a non-negative integer");
+      throw planar_grid::cli::UsageError("--checkpoint-every '" + every_text
+                                         + "' must be a non-negative integer");
     config.output.checkpoint_every_n_frames = static_cast<std::size_t>(every);
   }
   const bool resume = find_switch(argc, argv, "--resume");
@@ -435,7 +464,11 @@ run(int argc, char** argv)
   std::size_t begin = 0, end = runner.frameCount();
   if (!frames_text.empty()) {
     parseFrameRange(frames_text, runner.frameCount(), begin, end);
-    runner.setFrameRange(begin, end);
+    try {
+      runner.setFrameRange(begin, end);
+    } catch (const planar_grid::Exception& e) { // empty or past the input's end
+      throw planar_grid::cli::UsageError(e.what());
+    }
   }
   const std::string checkpoint_path =
     config.output.checkpoint.empty()
@@ -480,7 +513,9 @@ run(int argc, char** argv)
   // The outputs replace the previous ones in the folder as one set (staged, then
   // committed); opening the set here also finishes a commit a killed run left, removes
   // its leftovers, and finds an unwritable folder before the first frame.
+  writing_outputs = true;
   planar_grid::OutputTransaction outputs(config.output.folder);
+  writing_outputs = false;
 
   ProgressBar bar(::isatty(STDERR_FILENO) != 0);
   runner.setProgressCallback([&bar](std::size_t done, std::size_t total, double s) {
@@ -489,6 +524,7 @@ run(int argc, char** argv)
   planar_grid::RunReport report = runner.run();
 
   planar_grid::cli::releaseFreedMemory();
+  writing_outputs = true;
   planar_grid::writeRunOutputs(config.output, runner, report, outputs);
   planar_grid::cli::releaseFreedMemory();
 #ifdef PLANAR_GRID_WITH_VIEWER
@@ -509,5 +545,5 @@ run(int argc, char** argv)
 int
 main(int argc, char** argv)
 {
-  return planar_grid::cli::runMain("planar_grid_pipeline", run, argc, argv);
+  return planar_grid::cli::runMain("planar_grid_pipeline", run, argc, argv, exitStatus);
 }

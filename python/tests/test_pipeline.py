@@ -31,6 +31,13 @@ def source_dir_module():
 def test_run_gives_the_report_poses_and_map(karlsruhe_run):
     result, out, progress = karlsruhe_run
     assert result.frames == 3 and result.report["frames"] == 3
+    # report.json's layout (docs/OUTPUTS.md): its version, the writer's version, and
+    # counts as integers, not floats.
+    report = result.report
+    assert report["schema_version"] == 1
+    assert report["planar_grid_version"] == pg.__version__
+    assert isinstance(report["map"]["cuboids"], int)
+    assert isinstance(report["map"]["resolution_m"], float)
     assert progress == [(1, 3), (2, 3), (3, 3)]
     # GPS/INS poses of consecutive frames: the car moves 0.74 m a frame (median over the
     # sequence, data README), level along the track.

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
+#include <planar_grid/version.h>
 
 #include <pcl/common/time.h>
 
@@ -11,6 +12,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <future>
 #include <iomanip>
@@ -22,6 +24,27 @@
 namespace planar_grid {
 
 namespace {
+
+/** \a value for report.json: an integer when \a is_count and \a value is a whole number
+ * a double holds exactly (every count is), else a float. */
+nlohmann::ordered_json
+reportNumber(double value, bool is_count)
+{
+  if (is_count && std::isfinite(value) && value == std::floor(value)
+      && std::fabs(value) <= 9007199254740992.0) // 2^53
+    return static_cast<std::int64_t>(value);
+  return value;
+}
+
+/** Whether the figure \a name (a Stage::counters name or a map summary name) is a count
+ * (features, inliers, cells, bytes, ...); the others are measures: lengths in metres
+ * (names ending in "_m") and the KL filter's probability and motion likelihood. */
+bool
+isCountName(const std::string& name)
+{
+  const bool metres = name.size() >= 2 && name.compare(name.size() - 2, 2, "_m") == 0;
+  return !metres && name != "mean_probability" && name != "motion_likelihood";
+}
 
 /** Resident memory of the process now (/proc/self/statm), bytes; 0 when unknown. */
 std::uint64_t
@@ -488,6 +511,8 @@ std::string
 RunReport::toJson() const
 {
   nlohmann::ordered_json j;
+  j["schema_version"] = REPORT_SCHEMA_VERSION;
+  j["planar_grid_version"] = PLANAR_GRID_VERSION_STRING;
   j["config_file"] = config_file;
   j["input"] = input_description;
   j["first_frame"] = first_frame;
@@ -520,7 +545,7 @@ RunReport::toJson() const
     e["points_in"] = s.points_in;
     e["points_out"] = s.points_out;
     for (const auto& [name, value] : s.counters) {
-      e[name] = value;
+      e[name] = reportNumber(value, isCountName(name));
       e[name + "_per_frame"] = s.frames ? value / static_cast<double>(s.frames) : 0.0;
     }
     js.push_back(e);
@@ -537,12 +562,12 @@ RunReport::toJson() const
   if (!map_summary.empty()) {
     auto& jm = j["map"] = nlohmann::ordered_json::object();
     for (const auto& [name, value] : map_summary)
-      jm[name] = value;
+      jm[name] = reportNumber(value, isCountName(name));
   }
   if (!map_octomap_summary.empty()) {
     auto& jm = j["map_octomap"] = nlohmann::ordered_json::object();
     for (const auto& [name, value] : map_octomap_summary)
-      jm[name] = value;
+      jm[name] = reportNumber(value, true);
   }
   auto& jo = j["outputs"] = nlohmann::ordered_json::object();
   for (const auto& [kind, path] : outputs)

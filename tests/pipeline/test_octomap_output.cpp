@@ -56,7 +56,8 @@ TEST_F(OctoMapOutputTest, MainJobBtCountsAgreeWithReport)
   ASSERT_TRUE(json.contains("map_octomap")) << json.dump(2);
   const auto& written = json["map_octomap"];
   const auto count = [&written](const char* name) {
-    return static_cast<std::uint64_t>(written.at(name).get<double>());
+    EXPECT_TRUE(written.at(name).is_number_integer()) << name;
+    return written.at(name).get<std::uint64_t>();
   };
 
   // liboctomap's own reading and counting of the file.

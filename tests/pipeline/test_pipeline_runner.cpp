@@ -5,6 +5,7 @@
 #include <planar_grid/pipeline/pipeline_runner.h>
 #include <planar_grid/pipeline/run_outputs.h>
 #include <planar_grid/pipeline/stage.h>
+#include <planar_grid/version.h>
 
 #include <pcl/io/pcd_io.h>
 
@@ -150,7 +151,10 @@ TEST_F(PipelineRunnerTest, TwoRealKarlsruheFramesGiveAWorldCloud)
   EXPECT_EQ(loaded.size(), world.size());
   std::ifstream in(dir_ / "out/report.json");
   const auto json = nlohmann::json::parse(in);
+  EXPECT_EQ(json["schema_version"], planar_grid::RunReport::REPORT_SCHEMA_VERSION);
+  EXPECT_EQ(json["planar_grid_version"], PLANAR_GRID_VERSION_STRING);
   EXPECT_EQ(json["frames"], 2);
+  EXPECT_TRUE(json["stages"][0]["points_out"].is_number_integer());
   EXPECT_EQ(json["stages"].size(), 4u);
   EXPECT_EQ(json["stages"][1]["type"], "voxel_grid");
   EXPECT_GT(json["stages"][0]["ms_per_frame"].get<double>(), 0.0);
@@ -512,9 +516,12 @@ TEST_F(PipelineRunnerTest, OccupancyAndMapOnRealFrames)
   std::ifstream json_file((dir_ / "out" / "report.json").string());
   const auto json = nlohmann::json::parse(json_file);
   ASSERT_TRUE(json.contains("map"));
-  EXPECT_EQ(json["map"]["cuboids"].get<double>(), static_cast<double>(map_cuboids));
-  EXPECT_EQ(json["map"]["total_bytes"].get<double>(),
-            static_cast<double>(reported_bytes));
+  // Counts as integers ("cuboids": 6321, not 6321.0), the resolution in metres a float.
+  ASSERT_TRUE(json["map"]["cuboids"].is_number_integer()) << json["map"].dump();
+  EXPECT_EQ(json["map"]["cuboids"].get<std::uint64_t>(), map_cuboids);
+  ASSERT_TRUE(json["map"]["total_bytes"].is_number_integer());
+  EXPECT_EQ(json["map"]["total_bytes"].get<std::uint64_t>(), reported_bytes);
+  EXPECT_TRUE(json["map"]["resolution_m"].is_number_float());
 
   // Determinism: the same input and seeds give a byte-identical map file.
   auto again_config = config;

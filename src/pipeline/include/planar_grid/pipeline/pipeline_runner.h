@@ -124,7 +124,12 @@ struct RunReport {
     return seconds > 0.0 ? static_cast<double>(frames) / seconds : 0.0;
   }
 
-  /** \brief The report as JSON text (the report.json schema). */
+  /** \brief Version of the report.json layout toJson() writes ("schema_version"):
+   * raised when a field is renamed, removed or changes type or unit. */
+  static constexpr int REPORT_SCHEMA_VERSION = 1;
+
+  /** \brief The report as JSON text (the report.json schema, docs/OUTPUTS.md): counts
+   * as integers, times, rates and metres as floats. */
   std::string toJson() const;
 
   /** \brief The per-stage timing table for the terminal. */
