@@ -169,6 +169,11 @@ public:
    * \throws planar_grid::Exception without an input (FrameSupply::CALLER) */
   std::size_t frameCount() const;
 
+  /** \brief Every file the run reads: the input's (FrameSource::files()) and the
+   * configuration file it was loaded from (when that is a file).
+   * \throws planar_grid::Exception without an input (FrameSupply::CALLER) */
+  std::vector<InputFile> inputFiles() const;
+
   /** \brief Restricts the run to frames begin, begin + step, ... before end (0-based
    * positions).
    * \param[in] begin first frame position
