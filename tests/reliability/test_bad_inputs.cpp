@@ -767,3 +767,68 @@ TEST_F(BadStereoInputTest, FolderInAnOutputsPlaceAtTheCommitKeepsTheOldSet)
     EXPECT_EQ(contentOf(out / name), "new") << name;
   EXPECT_FALSE(fs::exists(out / planar_grid::OutputTransaction::JOURNAL));
 }
+
+TEST_F(BadStereoInputTest, ResumeRefusesAnInputFileThatChangedSinceTheCheckpoint)
+{
+  // A changed calibration was refused ("a different pipeline"), a changed poses file
+  // accepted: the resumed run mapped its frames at other poses than the first part.
+  writePairs(3);
+  std::ofstream(dir_ / "poses.txt") << kittiPoses(3, 0.1);
+  std::string yaml = config(0);
+  yaml.replace(yaml.find("}\npipeline:"), 2,
+               "}\n  poses: {format: kitti, file: " + (dir_ / "poses.txt").string()
+                 + "}\n");
+  const fs::path yaml_path = dir_ / "run.yaml";
+  std::ofstream(yaml_path) << yaml;
+  const std::string checkpoint = (dir_ / "out" / "checkpoint.pgck").string();
+  {
+    planar_grid::PipelineRunner first(
+      planar_grid::loadPipelineConfig(yaml_path.string()));
+    first.setFrameRange(0, 1);
+    first.setCheckpoint(checkpoint, 1);
+    ASSERT_EQ(first.run().checkpoints_written, 1u);
+  }
+  const auto resumeError = [&]() -> std::string {
+    planar_grid::PipelineRunner runner(
+      planar_grid::loadPipelineConfig(yaml_path.string()));
+    try {
+      EXPECT_EQ(runner.resumeFrom(checkpoint), 1u);
+    } catch (const planar_grid::IOError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  // Unchanged inputs resume.
+  EXPECT_EQ(resumeError(), "");
+
+  // The poses file: one pose moved by 1 cm, the same size.
+  const std::string poses = kittiPoses(3, 0.1);
+  const std::string moved = poses.substr(0, poses.rfind('\n', poses.size() - 2) + 1)
+                            + "1 0 0 0.210000 0 1 0 0 0 0 1 0\n";
+  ASSERT_EQ(moved.size(), poses.size());
+  std::ofstream(dir_ / "poses.txt") << moved;
+  std::string what = resumeError();
+  EXPECT_CONTAINS(what, "checkpoint " + checkpoint);
+  EXPECT_CONTAINS(what, "the poses file (input.poses.file) "
+                          + (dir_ / "poses.txt").string()
+                          + " changed since the checkpoint was written");
+  EXPECT_CONTAINS(what, "start a new run without --resume");
+  std::ofstream(dir_ / "poses.txt") << poses;
+  EXPECT_EQ(resumeError(), "");
+
+  // The calibration: now named, not "a different pipeline".
+  const std::string calibration = contentOf(dir_ / "calib.txt");
+  writeCalibration("100 0 48 0 0 100 32 0 0 0 1 0", "100 0 48 -51 0 100 32 0 0 0 1 0");
+  what = resumeError();
+  EXPECT_CONTAINS(what, "the calibration (input.calibration.file) "
+                          + (dir_ / "calib.txt").string() + " changed since");
+  std::ofstream(dir_ / "calib.txt") << calibration;
+  EXPECT_EQ(resumeError(), "");
+
+  // The configuration file, even where only a comment changed.
+  std::ofstream(yaml_path) << yaml << "# edited\n";
+  EXPECT_CONTAINS(resumeError(),
+                  "the configuration file " + yaml_path.string() + " changed since");
+  std::ofstream(yaml_path) << yaml;
+  EXPECT_EQ(resumeError(), "");
+}
