@@ -8,6 +8,7 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/core/output_transaction.h>
 #include <planar_grid/core/pcd_file_check.h>
+#include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 #include <planar_grid/pipeline/run_outputs.h>
@@ -28,6 +29,7 @@
 #include <array>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -831,4 +833,39 @@ TEST_F(BadStereoInputTest, ResumeRefusesAnInputFileThatChangedSinceTheCheckpoint
                   "the configuration file " + yaml_path.string() + " changed since");
   std::ofstream(yaml_path) << yaml;
   EXPECT_EQ(resumeError(), "");
+}
+
+TEST_F(BadStereoInputTest, NonRegularFilesAreRefusedBeforeTheyAreRead)
+{
+  // /dev/zero never ends: read whole into memory, it took all of it.
+  for (const std::string& path : {std::string("/dev/zero"), dir_.string()}) {
+    try {
+      planar_grid::loadPipelineConfig(path);
+      ADD_FAILURE() << "no error for " << path;
+    } catch (const planar_grid::IOError& e) {
+      EXPECT_CONTAINS(e.what(), path + ": not a regular file");
+    }
+    try {
+      (void)planar_grid::PlanarGridMap::load(path);
+      ADD_FAILURE() << "no error for " << path;
+    } catch (const planar_grid::IOError& e) {
+      EXPECT_CONTAINS(e.what(), path + ": not a regular file");
+    }
+  }
+  // A configuration of gigabytes is not one: a sparse 17 MB file.
+  const fs::path big = dir_ / "big.yaml";
+  std::ofstream(big) << "# ";
+  fs::resize_file(big, 17u << 20);
+  try {
+    planar_grid::loadPipelineConfig(big.string());
+    ADD_FAILURE() << "no error for " << big;
+  } catch (const planar_grid::IOError& e) {
+    EXPECT_CONTAINS(e.what(),
+                    big.string() + ": the configuration file is 17825792 bytes");
+  }
+  // The tool exits non-zero at once.
+  const std::string command =
+    std::string(PLANAR_GRID_PIPELINE_TOOL) + " --config /dev/zero > /dev/null 2>&1";
+  const int status = std::system(command.c_str());
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << status;
 }
