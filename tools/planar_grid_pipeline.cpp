@@ -510,6 +510,11 @@ run(int argc, char** argv)
                "second thread (as many as balance the threads' measured times)\n",
                ahead);
 
+  // An output that would replace a file the run reads, or that names a folder, is
+  // found now rather than after the last frame.
+  planar_grid::checkOutputPaths(config.output, runner.inputFiles(),
+                                config.output.checkpoint_every_n_frames > 0);
+
   // The outputs replace the previous ones in the folder as one set (staged, then
   // committed); opening the set here also finishes a commit a killed run left, removes
   // its leftovers, and finds an unwritable folder before the first frame.

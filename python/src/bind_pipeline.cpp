@@ -195,11 +195,16 @@ PipelineRunner's state, trajectory and RunReport).
       }
       if (write_outputs && cfg.output.checkpoint_every_n_frames > 0)
         runner.setCheckpoint(checkpoint_path, cfg.output.checkpoint_every_n_frames);
-      // As the tool does: the outputs replace the previous set in the folder together,
-      // and an unwritable folder is found before the first frame.
+      // As the tool does: an output that would replace a file the run reads, or that
+      // names a folder, is refused before the first frame; the outputs replace the
+      // previous set in the folder together, and an unwritable folder is found before
+      // the first frame too.
       std::optional<OutputTransaction> outputs;
-      if (write_outputs)
+      if (write_outputs) {
+        checkOutputPaths(cfg.output, runner.inputFiles(),
+                         cfg.output.checkpoint_every_n_frames > 0);
         outputs.emplace(cfg.output.folder);
+      }
       if (callback != nullptr)
         runner.setProgressCallback(
           [callback](std::size_t done, std::size_t total, double seconds) {

@@ -100,6 +100,30 @@ def test_configuration_errors_name_the_place(tmp_path):
         pg.run_pipeline(tmp_path / "missing.yaml")
 
 
+def test_outputs_that_would_overwrite_an_input_or_a_folder_are_refused(data_dir, tmp_path):
+    # The report named as the configuration file, in the folder that holds it: the run
+    # would read the file, then replace it with its report.
+    karlsruhe = data_dir / "karlsruhe_2010_03_09_drive_0023"
+    config = tmp_path / "run.yaml"
+    config.write_text(
+        "input:\n  type: stereo_sequence\n"
+        f"  left_images: {karlsruhe}/left/I1_%06d.png\n"
+        f"  right_images: {karlsruhe}/right/I2_%06d.png\n"
+        "  first_index: 10\n  frame_count: 1\n"
+        f"  calibration: {{format: karlsruhe, file: {karlsruhe}/calib.txt}}\n"
+        "pipeline:\n  - type: stereo_disparity\n"
+        "output:\n  report: run.yaml\n")
+    text = config.read_text()
+    with pytest.raises(pg.IOError, match="would overwrite the configuration file"):
+        pg.run_pipeline(config, output_folder=tmp_path)
+    assert config.read_text() == text
+    # An output name that is a folder.
+    config.write_text(text.replace("report: run.yaml", "report: report.json"))
+    (tmp_path / "out" / "report.json").mkdir(parents=True)
+    with pytest.raises(pg.IOError, match="names an existing folder"):
+        pg.run_pipeline(config, output_folder=tmp_path / "out")
+
+
 def test_frame_range_outside_the_input_is_an_error(source_dir_module, tmp_path):
     with pytest.raises(pg.Error, match="200"):
         pg.run_pipeline(source_dir_module / "config" / "karlsruhe.yaml", frames=(200, 201),

@@ -167,6 +167,18 @@ applyJournal(const std::string& folder,
   const fs::path staging = root / journal.staging;
   std::set<fs::path> touched{root};
   std::error_code ec;
+  // A folder where a file goes (made after the run checked its names) would stop the
+  // renames part way, leaving some outputs new and the others old: refuse before the
+  // first rename, and keep the journal for the run after the folder is gone.
+  for (const auto& name : journal.put)
+    if (fs::exists(staging / name, ec)
+        && fs::is_directory(fs::symlink_status(root / name, ec)))
+      throw IOError((root / name).string()
+                    + ": is a folder, and the new output cannot replace a folder: "
+                      "remove or rename it; the next run into "
+                    + folder + " then completes the commit (its journal "
+                    + (root / OutputTransaction::JOURNAL).string()
+                    + "); nothing was moved");
   for (const auto& name : journal.put) {
     const fs::path from = staging / name;
     const fs::path to = root / name;
@@ -447,6 +459,13 @@ OutputTransaction::commit()
     throw IOError(manifest_path
                   + ": cannot write: " + describeWriteError(error, folder_));
   syncPath(staging, true);
+  // Before the commit point, while the previous set can still be kept whole.
+  for (const auto& name : names_)
+    if (fs::is_directory(fs::symlink_status(root / name, ec)))
+      throw IOError(finalPath(name)
+                    + ": is a folder, and the new output cannot replace a folder: "
+                      "remove or rename it; no output in "
+                    + folder_ + " was replaced");
   step("synced");
 
   Journal journal;

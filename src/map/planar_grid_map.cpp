@@ -13,6 +13,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iterator>
@@ -510,6 +511,12 @@ PlanarGridMap::save(const std::string& path) const
 PlanarGridMap
 PlanarGridMap::load(const std::string& path)
 {
+  // A device such as /dev/zero never ends: reading it would take all the memory.
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw IOError("map file " + path
+                  + ": not a regular file (a device, pipe or folder); a map is read "
+                    "from a .pgmap file");
   std::ifstream file(path, std::ios::binary);
   if (!file)
     throw IOError("map file " + path + ": cannot be opened for reading");

@@ -128,6 +128,8 @@ public:
 
   const Trajectory& poses() const override { return poses_; }
 
+  std::vector<InputFile> files() const override { return files_read_; }
+
 protected:
   /** Gives frame \a i its pose when the input has poses. */
   void assignPose(std::size_t i, Frame& frame) const
@@ -139,6 +141,8 @@ protected:
 
   Trajectory poses_;
   std::string description_;
+  /** Every file the input reads, for files(). */
+  std::vector<InputFile> files_read_;
 };
 
 class StereoSequenceSource : public FrameSourceBase {
@@ -187,6 +191,20 @@ public:
     }
     checkImagesPresent(input.frame_count);
     checkFirstFrame(input.calibration_file);
+    files_read_.push_back(
+      {input.calibration_file, "the calibration (input.calibration.file)"});
+    if (!input.calibration_right_file.empty())
+      files_read_.push_back(
+        {input.calibration_right_file,
+         "the right camera's calibration (input.calibration.right_file)"});
+    if (!input.poses_file.empty())
+      files_read_.push_back({input.poses_file, "the poses file (input.poses.file)"});
+    for (std::size_t i = 0; i < count_; ++i) {
+      const int index = first_index_ + static_cast<int>(i);
+      files_read_.push_back({left_.format(index), "a left image (input.left_images)"});
+      files_read_.push_back(
+        {right_.format(index), "a right image (input.right_images)"});
+    }
     description_ =
       std::to_string(count_) + " stereo pairs " + left_.format(first_index_)
       + " ... (f = " + std::to_string(model_.calibration.focal_length_px)
@@ -377,6 +395,10 @@ public:
     }
     description_ =
       std::to_string(files_.size()) + " PCD files " + files_.front() + " ...";
+    for (const auto& file : files_)
+      files_read_.push_back({file, "a PCD file (input.files)"});
+    if (!input.poses_file.empty())
+      files_read_.push_back({input.poses_file, "the poses file (input.poses.file)"});
     if (input.poses_format == PoseFormat::KITTI) {
       poses_ = loadKittiPoses(input.poses_file);
       if (poses_.size() < files_.size())
@@ -648,6 +670,8 @@ public:
   std::string describe() const override { return description_; }
 
   const Trajectory& poses() const override { return poses_; }
+
+  std::vector<InputFile> files() const override { return source_->files(); }
 
 private:
   std::unique_ptr<FrameSource> source_;

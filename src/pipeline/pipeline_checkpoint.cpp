@@ -12,11 +12,14 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "resume_data.h"
 
@@ -24,9 +27,39 @@ namespace planar_grid {
 
 namespace {
 
-/** Magic ("PGCK") and version of the checkpoint file. */
+/** Magic ("PGCK") and version of the checkpoint file. Version 2 adds the size and
+ * content hash of the small files the run read at its start; version 1 files are
+ * still read, without that check. */
 constexpr std::uint32_t CHECKPOINT_MAGIC = 0x4B434750u;
-constexpr std::uint32_t CHECKPOINT_VERSION = 1;
+constexpr std::uint32_t CHECKPOINT_VERSION = 2;
+
+/** The size in bytes and the 64-bit FNV-1a hash (offset basis 14695981039346656037,
+ * prime 1099511628211) of the file \a path, read in blocks. \throws IOError naming
+ * the file, as \a what, when it cannot be read. */
+std::pair<std::uint64_t, std::uint64_t>
+sizeAndHash(const std::string& path, const std::string& what)
+{
+  std::uint64_t size = 0, hash = 14695981039346656037ull;
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw IOError(path + ": cannot open " + what
+                  + " to compare it with the checkpoint");
+  std::vector<char> block(1 << 16);
+  while (in) {
+    in.read(block.data(), static_cast<std::streamsize>(block.size()));
+    const auto n = static_cast<std::size_t>(in.gcount());
+    for (std::size_t k = 0; k < n; ++k) {
+      hash ^= static_cast<unsigned char>(block[k]);
+      hash *= 1099511628211ull;
+    }
+    size += n;
+  }
+  if (in.bad())
+    throw IOError(path + ": cannot read " + what
+                  + " to compare it with the checkpoint");
+  return {size, hash};
+}
+
 /** Coordinates beyond this are corrupt data, meters. */
 constexpr float MAX_COORDINATE_M = 1e7f;
 
@@ -120,6 +153,29 @@ removeStaleTemporaries(const std::string& path)
 
 } // namespace
 
+std::vector<PipelineRunner::InputStamp>
+PipelineRunner::stampInputFiles(const PipelineConfig& config)
+{
+  std::vector<InputStamp> stamps;
+  const auto stamp = [&stamps](const std::string& what, const std::string& path) {
+    const auto [size, hash] = sizeAndHash(path, what);
+    stamps.push_back({what, path, size, hash});
+  };
+  std::error_code ec;
+  // A configuration parsed from text names its source without being a file.
+  if (std::filesystem::is_regular_file(config.source_file, ec))
+    stamp("the configuration file", config.source_file);
+  const InputConfig& input = config.input;
+  if (!input.calibration_file.empty())
+    stamp("the calibration (input.calibration.file)", input.calibration_file);
+  if (!input.calibration_right_file.empty())
+    stamp("the right camera's calibration (input.calibration.right_file)",
+          input.calibration_right_file);
+  if (!input.poses_file.empty())
+    stamp("the poses file (input.poses.file)", input.poses_file);
+  return stamps;
+}
+
 std::string
 PipelineRunner::fingerprint() const
 {
@@ -158,6 +214,8 @@ PipelineRunner::setCheckpoint(const std::string& path, std::size_t every_n_frame
       throw IOError(folder.string()
                     + ": cannot create the checkpoint folder: " + ec.message());
     removeStaleTemporaries(path);
+    // Now, before the first frame: the content the run starts from.
+    input_stamps_ = stampInputFiles(config_);
   }
   checkpoint_path_ = path;
   checkpoint_every_ = every_n_frames;
@@ -171,6 +229,13 @@ PipelineRunner::writeCheckpoint(std::size_t next_frame, const RunReport& report)
   w.put(CHECKPOINT_MAGIC);
   w.put(CHECKPOINT_VERSION);
   w.putString(fingerprint());
+  w.put(static_cast<std::uint64_t>(input_stamps_.size()));
+  for (const auto& stamp : input_stamps_) {
+    w.putString(stamp.what);
+    w.putString(stamp.path);
+    w.put(stamp.size);
+    w.put(stamp.hash);
+  }
   w.put(static_cast<std::uint64_t>(begin_));
   w.put(static_cast<std::uint64_t>(next_frame));
 
@@ -273,11 +338,53 @@ PipelineRunner::resumeFrom(const std::string& path)
   ByteReader r(data, text.size() - 4, what);
   if (r.get<std::uint32_t>() != CHECKPOINT_MAGIC)
     r.fail("not a planar_grid_pipeline checkpoint");
-  if (const auto version = r.get<std::uint32_t>(); version != CHECKPOINT_VERSION)
+  const auto version = r.get<std::uint32_t>();
+  if (version < 1 || version > CHECKPOINT_VERSION)
     r.fail("version " + std::to_string(version)
-           + " is not supported (this reader knows "
+           + " is not supported (this reader knows 1 to "
            + std::to_string(CHECKPOINT_VERSION) + ")");
-  if (r.getString("fingerprint") != fingerprint())
+  const std::string written_fingerprint = r.getString("fingerprint");
+  // The files first: a changed calibration also changes the fingerprint, and the
+  // message should name the file.
+  if (version >= 2) {
+    std::vector<InputStamp> written(r.getCount(4 * 8, "input file"));
+    for (auto& stamp : written) {
+      stamp.what = r.getString("input file");
+      stamp.path = r.getString("input file");
+      stamp.size = r.get<std::uint64_t>();
+      stamp.hash = r.get<std::uint64_t>();
+    }
+    const std::vector<InputStamp> now = stampInputFiles(config_);
+    const auto restart = ": resume with the files the checkpoint's run read, or start "
+                         "a new run without --resume";
+    for (const auto& stamp : now) {
+      const auto it =
+        std::find_if(written.begin(), written.end(),
+                     [&stamp](const InputStamp& w) { return w.what == stamp.what; });
+      if (it == written.end())
+        r.fail("written by a run that did not read " + stamp.what + ", and this run "
+               + "reads " + stamp.path + restart);
+      if (it->path != stamp.path)
+        r.fail("written by a run whose " + stamp.what.substr(4) + " was " + it->path
+               + ", and this run's is " + stamp.path + restart);
+      if (it->size != stamp.size || it->hash != stamp.hash)
+        r.fail(stamp.what + " " + stamp.path
+               + " changed since the checkpoint was written ("
+               + std::to_string(it->size) + " bytes then, " + std::to_string(stamp.size)
+               + " bytes now; its content differs)" + restart);
+    }
+    for (const auto& stamp : written)
+      if (std::none_of(now.begin(), now.end(),
+                       [&stamp](const InputStamp& n) { return n.what == stamp.what; }))
+        r.fail("written by a run that read " + stamp.what + " " + stamp.path
+               + ", which this run does not read" + restart);
+  } else {
+    PCL_WARN("[planar_grid::PipelineRunner::resumeFrom] %s: a version 1 checkpoint, "
+             "which does not record its input files: a calibration, poses or "
+             "configuration file changed since is not found.\n",
+             path.c_str());
+  }
+  if (written_fingerprint != fingerprint())
     r.fail("written by a different pipeline (its stages, parameters or input differ "
            "from this configuration's); resume with the configuration that wrote it");
 

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <future>
 #include <iomanip>
@@ -278,6 +279,18 @@ std::size_t
 PipelineRunner::frameCount() const
 {
   return input("frameCount()").size();
+}
+
+std::vector<InputFile>
+PipelineRunner::inputFiles() const
+{
+  std::vector<InputFile> files = input("inputFiles()").files();
+  std::error_code ec;
+  // A configuration parsed from text names its source without being a file.
+  if (std::filesystem::is_regular_file(config_.source_file, ec))
+    files.insert(files.begin(),
+                 InputFile{config_.source_file, "the configuration file"});
+  return files;
 }
 
 void

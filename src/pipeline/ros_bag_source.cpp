@@ -252,6 +252,11 @@ public:
 
   const Trajectory& poses() const override { return poses_; }
 
+  std::vector<InputFile> files() const override
+  {
+    return {{config_.file, "the ROS bag (input.file)"}};
+  }
+
 private:
   void loadMessages(std::size_t i, Frame& frame) const
   {

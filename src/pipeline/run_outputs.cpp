@@ -7,7 +7,10 @@
 #include <pcl/console/print.h>
 #include <pcl/io/pcd_io.h>
 
+#include <sys/stat.h>
+
 #include <filesystem>
+#include <utility>
 
 namespace planar_grid {
 
@@ -15,6 +18,90 @@ std::string
 outputPath(const OutputConfig& output, const std::string& name)
 {
   return (std::filesystem::path(output.folder) / name).string();
+}
+
+namespace {
+namespace fs = std::filesystem;
+
+/** \a path made absolute with every symbolic link of its existing part resolved, so
+ * that two spellings of one file compare equal. */
+fs::path
+resolvedPath(const std::string& path)
+{
+  std::error_code ec;
+  fs::path resolved = fs::weakly_canonical(path, ec);
+  if (ec)
+    resolved = fs::absolute(path, ec).lexically_normal();
+  return resolved;
+}
+} // namespace
+
+void
+checkOutputPaths(const OutputConfig& output,
+                 const std::vector<InputFile>& inputs,
+                 bool with_checkpoint)
+{
+  std::vector<std::pair<std::string, std::string>> names{
+    {"cloud", output.cloud},
+    {"planes", output.planes},
+    {"report", output.report},
+    {"trajectory", output.trajectory},
+    {"snapshot", output.snapshot},
+    {"planes_snapshot", output.planes_snapshot},
+    {"cuboids_snapshot", output.cuboids_snapshot},
+    {"cuboids_street_snapshot", output.cuboids_street_snapshot},
+    {"map", output.map},
+    {"map_octomap", output.map_octomap},
+    {"map_mesh", output.map_mesh},
+    {"map_grid_2d", output.map_grid_2d},
+    {"map_snapshot", output.map_snapshot}};
+  // The 2D grid's image is written beside its YAML file, under the same name.
+  if (output.map_grid_2d.size() > 5)
+    names.emplace_back("map_grid_2d",
+                       output.map_grid_2d.substr(0, output.map_grid_2d.size() - 5)
+                         + ".pgm");
+  if (with_checkpoint)
+    names.emplace_back("checkpoint", output.checkpoint);
+
+  // Each input once: its canonical path and, when it exists, its device and inode
+  // (a hard link has another path).
+  struct Input {
+    fs::path resolved;
+    bool exists;
+    struct stat status;
+    const InputFile* file;
+  };
+  std::vector<Input> resolved_inputs;
+  resolved_inputs.reserve(inputs.size());
+  for (const auto& file : inputs) {
+    Input in{resolvedPath(file.path), false, {}, &file};
+    in.exists = ::stat(file.path.c_str(), &in.status) == 0;
+    resolved_inputs.push_back(in);
+  }
+
+  for (const auto& [key, name] : names) {
+    if (name.empty())
+      continue;
+    const std::string path = outputPath(output, name);
+    const fs::path resolved = resolvedPath(path);
+    struct stat status {};
+    const bool exists = ::stat(path.c_str(), &status) == 0;
+    for (const auto& in : resolved_inputs) {
+      const bool same_file = exists && in.exists && in.status.st_dev == status.st_dev
+                             && in.status.st_ino == status.st_ino;
+      if (in.resolved == resolved || same_file)
+        throw IOError(path + ": output." + key + " '" + name + "' would overwrite "
+                      + in.file->what + ", " + in.file->path
+                      + ", which this run reads: choose another output name or "
+                        "output folder");
+    }
+    std::error_code ec;
+    if (fs::is_directory(fs::symlink_status(path, ec)))
+      throw IOError(path + ": output." + key + " '" + name
+                    + "' names an existing folder, and a file cannot replace a "
+                      "folder: remove or rename the folder, or choose another "
+                      "output name");
+  }
 }
 
 namespace {

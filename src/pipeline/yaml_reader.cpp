@@ -23,6 +23,9 @@ namespace {
 constexpr std::size_t MAX_NESTING = 32;
 /** The most nodes a document may hold, aliases counted at each use. */
 constexpr std::size_t MAX_NODES = 1000000;
+/** The largest configuration file read, bytes: a generated list of 19,000 stages is
+ * about 1 MB. */
+constexpr std::uintmax_t MAX_CONFIG_BYTES = 16u << 20;
 
 /** A tab in a line's indentation (before its first other character, comments and
  * blank lines aside) is an error at its line:col: YAML indents with spaces only, and
@@ -85,6 +88,20 @@ checkNesting(const YAML::Node& node,
 std::string
 readConfigFile(const std::string& path)
 {
+  // A device such as /dev/zero never ends, and a configuration of gigabytes is not
+  // one: both would be read whole into memory before the YAML parser sees them.
+  std::error_code ec;
+  if (fs::exists(path, ec)) {
+    if (!fs::is_regular_file(path, ec))
+      throw IOError(path
+                    + ": not a regular file (a device, pipe or folder); the "
+                      "configuration is read from a YAML file");
+    const std::uintmax_t size = fs::file_size(path, ec);
+    if (!ec && size > MAX_CONFIG_BYTES)
+      throw IOError(path + ": the configuration file is " + std::to_string(size)
+                    + " bytes; at most " + std::to_string(MAX_CONFIG_BYTES)
+                    + " are read (a pipeline of 256 stages takes a few kilobytes)");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in)
     throw IOError(path + ": cannot open the configuration file");

@@ -1,13 +1,17 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Inputs of the pipeline tool that used to be mapped silently, wrongly or failed late:
-// each is refused with an error naming the file and the cause, before the first frame
-// where that can be known, and the tool exits non-zero without writing outputs; or,
-// when the input is valid (PCD coordinates that are not floats), it is read correctly.
+// Inputs (and output names) of the pipeline tool that used to be mapped silently,
+// wrongly or failed late: each is refused with an error naming the file and the cause,
+// before the first frame where that can be known, and the tool exits non-zero without
+// writing outputs; or, when the input is valid (PCD coordinates that are not floats),
+// it is read correctly.
 // The table is in docs/RELIABILITY.md.
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/output_transaction.h>
 #include <planar_grid/core/pcd_file_check.h>
+#include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
+#include <planar_grid/pipeline/run_outputs.h>
 #include <planar_grid/stereo/calibration_io.h>
 
 #include <pcl/PCLPointCloud2.h>
@@ -25,8 +29,10 @@
 #include <array>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <string>
 #include <vector>
@@ -557,4 +563,309 @@ TEST_F(BadStereoInputTest, CheckpointThatIsAFolderIsRefusedBeforeTheFirstFrame)
   // No frame ran: the progress line of the first frame is not there.
   EXPECT_EQ(run.output.find("frame 1/"), std::string::npos) << run.output;
   EXPECT_FALSE(fs::exists(dir_ / "out" / "report.json"));
+}
+
+namespace {
+
+/** The whole content of \a path ("" when it cannot be read). */
+std::string
+contentOf(const fs::path& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in),
+                     std::istreambuf_iterator<char>());
+}
+
+/** The message of the planar_grid::IOError that checkOutputPaths() throws for \a
+ * config's outputs against its runner's inputs ("" when none). */
+std::string
+outputPathError(const planar_grid::PipelineConfig& config, bool with_checkpoint = false)
+{
+  try {
+    const planar_grid::PipelineRunner runner(config);
+    planar_grid::checkOutputPaths(config.output, runner.inputFiles(), with_checkpoint);
+  } catch (const planar_grid::IOError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+/** KITTI rows of \a count poses, pose i at x = \a step_m * i. */
+std::string
+kittiPoses(int count, double step_m)
+{
+  std::string rows;
+  for (int i = 0; i < count; ++i)
+    rows += "1 0 0 " + std::to_string(step_m * i) + " 0 1 0 0 0 0 1 0\n";
+  return rows;
+}
+
+} // namespace
+
+TEST_F(BadStereoInputTest, OutputThatWouldOverwriteAnInputIsRefusedBeforeTheFirstFrame)
+{
+  // `trajectory: insdata.txt` with the output folder where the poses file lives: the
+  // run read the poses, then replaced them with its trajectory.
+  writePairs(3);
+  std::ofstream(dir_ / "poses.txt") << kittiPoses(3, 0.1);
+  std::string yaml = config(0);
+  yaml.replace(yaml.find("}\npipeline:"), 2,
+               "}\n  poses: {format: kitti, file: " + (dir_ / "poses.txt").string()
+                 + "}\n");
+  const std::string poses_before = contentOf(dir_ / "poses.txt");
+  const ToolRun run =
+    runTool(yaml + "  trajectory: poses.txt\n", "--output '" + dir_.string() + "'");
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, (dir_ / "poses.txt").string()
+                                + ": output.trajectory 'poses.txt' would overwrite the "
+                                  "poses file (input.poses.file)");
+  // Refused before the first frame: nothing read further, nothing written.
+  EXPECT_EQ(run.output.find("frame 1/"), std::string::npos) << run.output;
+  EXPECT_EQ(contentOf(dir_ / "poses.txt"), poses_before);
+  EXPECT_FALSE(fs::exists(dir_ / "report.json"));
+
+  // Every kind of input, through the check the tool runs. The config file is one
+  // when the configuration was loaded from a file.
+  const fs::path yaml_path = dir_ / "run.yaml";
+  std::ofstream(yaml_path) << yaml;
+  const auto with = [&](const std::string& folder, const std::string& key,
+                        const std::string& name) {
+    planar_grid::PipelineConfig config =
+      planar_grid::loadPipelineConfig(yaml_path.string());
+    config.output.folder = folder;
+    if (key == "cloud")
+      config.output.cloud = name;
+    else if (key == "map")
+      config.output.map = name;
+    else if (key == "report")
+      config.output.report = name;
+    else if (key == "checkpoint")
+      config.output.checkpoint = name;
+    return config;
+  };
+  EXPECT_CONTAINS(outputPathError(with(dir_.string(), "map", "calib.txt")),
+                  "output.map 'calib.txt' would overwrite the calibration "
+                  "(input.calibration.file), "
+                    + (dir_ / "calib.txt").string() + ", which this run reads");
+  EXPECT_CONTAINS(outputPathError(with((dir_ / "left").string(), "cloud", leftName(2))),
+                  "would overwrite a left image (input.left_images)");
+  EXPECT_CONTAINS(outputPathError(with((dir_ / "right").string(), "map", rightName(0))),
+                  "would overwrite a right image (input.right_images)");
+  EXPECT_CONTAINS(outputPathError(with(dir_.string(), "report", "run.yaml")),
+                  "would overwrite the configuration file");
+  // Another spelling of the folder: a symbolic link to it, and "..".
+  fs::create_directory_symlink(dir_, dir_ / "alias");
+  EXPECT_CONTAINS(outputPathError(with((dir_ / "alias").string(), "map", "calib.txt")),
+                  "would overwrite the calibration");
+  EXPECT_CONTAINS(
+    outputPathError(with((dir_ / "left" / "..").string(), "map", "poses.txt")),
+    "would overwrite the poses file");
+  // A hard link is the same file under another name.
+  fs::create_directories(dir_ / "out");
+  fs::create_hard_link(dir_ / "poses.txt", dir_ / "out" / "linked.txt");
+  EXPECT_CONTAINS(outputPathError(with((dir_ / "out").string(), "map", "linked.txt")),
+                  "would overwrite the poses file");
+  // The checkpoint counts when the run writes it.
+  EXPECT_EQ(outputPathError(with(dir_.string(), "checkpoint", "poses.txt"), false), "");
+  EXPECT_CONTAINS(outputPathError(with(dir_.string(), "checkpoint", "poses.txt"), true),
+                  "output.checkpoint 'poses.txt' would overwrite the poses file");
+  // The same names in another folder are fine.
+  EXPECT_EQ(outputPathError(with((dir_ / "out").string(), "map", "calib.txt")), "");
+}
+
+TEST_F(BadStereoInputTest, OutputNameThatIsAFolderIsRefusedBeforeTheFirstFrame)
+{
+  // A folder where an output goes failed the commit after the last frame, part way
+  // through the renames: some outputs new, some old.
+  writePairs(2);
+  const ToolRun first = runTool(config(0));
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const std::string report_before = contentOf(dir_ / "out" / "report.json");
+  ASSERT_FALSE(report_before.empty());
+  // A folder where a new output goes (map.bt is not written by this pipeline, but
+  // named), and one where an old output was.
+  const fs::path map_bt = dir_ / "out" / "map.bt";
+  fs::create_directories(map_bt / "inside");
+  ToolRun run = runTool(config(0));
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, map_bt.string()
+                                + ": output.map_octomap 'map.bt' names an existing "
+                                  "folder, and a file cannot replace a folder");
+  EXPECT_EQ(run.output.find("frame 1/"), std::string::npos) << run.output;
+  EXPECT_EQ(contentOf(dir_ / "out" / "report.json"), report_before);
+  fs::remove_all(map_bt);
+  fs::remove(dir_ / "out" / "report.json");
+  fs::create_directories(dir_ / "out" / "report.json" / "inside");
+  run = runTool(config(0));
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, "output.report 'report.json' names an existing folder");
+  fs::remove_all(dir_ / "out" / "report.json");
+  // The other outputs are the first run's; without the folder the run writes again.
+  const ToolRun again = runTool(config(0));
+  EXPECT_EQ(again.exit_code, 0) << again.output;
+}
+
+TEST_F(BadStereoInputTest, FolderInAnOutputsPlaceAtTheCommitKeepsTheOldSet)
+{
+  // The same folder made while the run ran (after the check before its first frame):
+  // before the commit journal the commit is refused and the old set stays; after the
+  // journal the renames are refused before the first one, and the next transaction
+  // completes them once the folder is gone, as the message says.
+  const fs::path out = dir_ / "out";
+  const auto writeSet = [&out](const std::string& text, bool commit,
+                               const std::function<void(const std::string&)>& step) {
+    planar_grid::OutputTransaction transaction(out.string());
+    transaction.setStepCallback(step);
+    for (const char* name : {"a.txt", "b.txt", "c.txt"})
+      transaction.write(
+        name, [&text](const std::string& path) { std::ofstream(path) << text; });
+    if (commit)
+      transaction.commit();
+  };
+  writeSet("old", true, nullptr);
+  const auto oldSet = [&out] {
+    return contentOf(out / "a.txt") == "old" && contentOf(out / "c.txt") == "old";
+  };
+  ASSERT_TRUE(oldSet());
+
+  // Before the journal.
+  fs::remove(out / "b.txt");
+  fs::create_directories(out / "b.txt" / "inside");
+  try {
+    writeSet("new", true, nullptr);
+    FAIL() << "the commit over a folder succeeded";
+  } catch (const planar_grid::IOError& e) {
+    EXPECT_CONTAINS(e.what(), (out / "b.txt").string() + ": is a folder");
+    EXPECT_CONTAINS(e.what(), "no output in " + out.string() + " was replaced");
+  }
+  EXPECT_TRUE(oldSet());
+  EXPECT_FALSE(fs::exists(out / planar_grid::OutputTransaction::JOURNAL));
+
+  // After the journal: the folder appears between the commit point and the renames.
+  fs::remove_all(out / "b.txt");
+  try {
+    writeSet("new", true, [&out](const std::string& step) {
+      if (step == "journal")
+        fs::create_directories(out / "b.txt" / "inside");
+    });
+    FAIL() << "the renames over a folder succeeded";
+  } catch (const planar_grid::IOError& e) {
+    EXPECT_CONTAINS(e.what(), (out / "b.txt").string() + ": is a folder");
+    EXPECT_CONTAINS(e.what(),
+                    "the next run into " + out.string() + " then completes the commit");
+  }
+  // Not a mix: no file was moved, and the journal is kept.
+  EXPECT_TRUE(oldSet());
+  EXPECT_TRUE(fs::exists(out / planar_grid::OutputTransaction::JOURNAL));
+  // While the folder is there, the next run is refused with the same message.
+  EXPECT_THROW(planar_grid::OutputTransaction{out.string()}, planar_grid::IOError);
+  EXPECT_TRUE(oldSet());
+  // Without it, the next run completes the commit: the new set.
+  fs::remove_all(out / "b.txt");
+  {
+    planar_grid::OutputTransaction recovered(out.string());
+  }
+  for (const char* name : {"a.txt", "b.txt", "c.txt"})
+    EXPECT_EQ(contentOf(out / name), "new") << name;
+  EXPECT_FALSE(fs::exists(out / planar_grid::OutputTransaction::JOURNAL));
+}
+
+TEST_F(BadStereoInputTest, ResumeRefusesAnInputFileThatChangedSinceTheCheckpoint)
+{
+  // A changed calibration was refused ("a different pipeline"), a changed poses file
+  // accepted: the resumed run mapped its frames at other poses than the first part.
+  writePairs(3);
+  std::ofstream(dir_ / "poses.txt") << kittiPoses(3, 0.1);
+  std::string yaml = config(0);
+  yaml.replace(yaml.find("}\npipeline:"), 2,
+               "}\n  poses: {format: kitti, file: " + (dir_ / "poses.txt").string()
+                 + "}\n");
+  const fs::path yaml_path = dir_ / "run.yaml";
+  std::ofstream(yaml_path) << yaml;
+  const std::string checkpoint = (dir_ / "out" / "checkpoint.pgck").string();
+  {
+    planar_grid::PipelineRunner first(
+      planar_grid::loadPipelineConfig(yaml_path.string()));
+    first.setFrameRange(0, 1);
+    first.setCheckpoint(checkpoint, 1);
+    ASSERT_EQ(first.run().checkpoints_written, 1u);
+  }
+  const auto resumeError = [&]() -> std::string {
+    planar_grid::PipelineRunner runner(
+      planar_grid::loadPipelineConfig(yaml_path.string()));
+    try {
+      EXPECT_EQ(runner.resumeFrom(checkpoint), 1u);
+    } catch (const planar_grid::IOError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  // Unchanged inputs resume.
+  EXPECT_EQ(resumeError(), "");
+
+  // The poses file: one pose moved by 1 cm, the same size.
+  const std::string poses = kittiPoses(3, 0.1);
+  const std::string moved = poses.substr(0, poses.rfind('\n', poses.size() - 2) + 1)
+                            + "1 0 0 0.210000 0 1 0 0 0 0 1 0\n";
+  ASSERT_EQ(moved.size(), poses.size());
+  std::ofstream(dir_ / "poses.txt") << moved;
+  std::string what = resumeError();
+  EXPECT_CONTAINS(what, "checkpoint " + checkpoint);
+  EXPECT_CONTAINS(what, "the poses file (input.poses.file) "
+                          + (dir_ / "poses.txt").string()
+                          + " changed since the checkpoint was written");
+  EXPECT_CONTAINS(what, "start a new run without --resume");
+  std::ofstream(dir_ / "poses.txt") << poses;
+  EXPECT_EQ(resumeError(), "");
+
+  // The calibration: now named, not "a different pipeline".
+  const std::string calibration = contentOf(dir_ / "calib.txt");
+  writeCalibration("100 0 48 0 0 100 32 0 0 0 1 0", "100 0 48 -51 0 100 32 0 0 0 1 0");
+  what = resumeError();
+  EXPECT_CONTAINS(what, "the calibration (input.calibration.file) "
+                          + (dir_ / "calib.txt").string() + " changed since");
+  std::ofstream(dir_ / "calib.txt") << calibration;
+  EXPECT_EQ(resumeError(), "");
+
+  // The configuration file, even where only a comment changed.
+  std::ofstream(yaml_path) << yaml << "# edited\n";
+  EXPECT_CONTAINS(resumeError(),
+                  "the configuration file " + yaml_path.string() + " changed since");
+  std::ofstream(yaml_path) << yaml;
+  EXPECT_EQ(resumeError(), "");
+}
+
+TEST_F(BadStereoInputTest, NonRegularFilesAreRefusedBeforeTheyAreRead)
+{
+  // /dev/zero never ends: read whole into memory, it took all of it.
+  for (const std::string& path : {std::string("/dev/zero"), dir_.string()}) {
+    try {
+      planar_grid::loadPipelineConfig(path);
+      ADD_FAILURE() << "no error for " << path;
+    } catch (const planar_grid::IOError& e) {
+      EXPECT_CONTAINS(e.what(), path + ": not a regular file");
+    }
+    try {
+      (void)planar_grid::PlanarGridMap::load(path);
+      ADD_FAILURE() << "no error for " << path;
+    } catch (const planar_grid::IOError& e) {
+      EXPECT_CONTAINS(e.what(), path + ": not a regular file");
+    }
+  }
+  // A configuration of gigabytes is not one: a sparse 17 MB file.
+  const fs::path big = dir_ / "big.yaml";
+  std::ofstream(big) << "# ";
+  fs::resize_file(big, 17u << 20);
+  try {
+    planar_grid::loadPipelineConfig(big.string());
+    ADD_FAILURE() << "no error for " << big;
+  } catch (const planar_grid::IOError& e) {
+    EXPECT_CONTAINS(e.what(),
+                    big.string() + ": the configuration file is 17825792 bytes");
+  }
+  // The tool exits non-zero at once.
+  const std::string command =
+    std::string(PLANAR_GRID_PIPELINE_TOOL) + " --config /dev/zero > /dev/null 2>&1";
+  const int status = std::system(command.c_str());
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << status;
 }

@@ -90,16 +90,20 @@ public:
 
   /** \brief Moves every staged output into the folder as one step (see the class).
    * \throws planar_grid::IOError naming the file when a staged output is missing or
-   * cannot be synced, or the journal cannot be written: the previous set is then
+   * cannot be synced, when an output's name is a folder in the output folder (a file
+   * cannot replace it), or the journal cannot be written: the previous set is then
    * unchanged. An error during the renames themselves leaves the journal, and the next
-   * transaction on the folder completes them. */
+   * transaction on the folder completes them; a folder made in an output's place
+   * after the journal is found before the first rename, so the renames do not stop
+   * part way on it. */
   void commit();
 
   /** \brief Finishes a commit that a killed process left in \a folder (its journal):
    * renames the rest of its files into place and removes the ones it drops. Nothing
    * happens when there is no journal.
    * \throws planar_grid::IOError naming the journal when it is unreadable or names a
-   * file outside the folder, or a rename fails */
+   * file outside the folder, naming the file when an output's place is a folder
+   * (before any rename; remove the folder and recover again), or a rename fails */
   static void recover(const std::string& folder);
 
   /** \brief Called with a step's name after each step of commit() ("synced",

@@ -11,6 +11,15 @@
 
 namespace planar_grid {
 
+/** \brief A file a run reads, and what it is to the run in the configuration's words
+ * ("the poses file (input.poses.file)"), for messages. \ingroup pipeline */
+struct InputFile {
+  /** \brief The file's path, as the configuration resolved it. */
+  std::string path;
+  /** \brief What the file is to the run. */
+  std::string what;
+};
+
 /** \brief Produces the frames of an input, by position. \ingroup pipeline */
 class FrameSource {
 public:
@@ -29,6 +38,11 @@ public:
 
   /** \brief The poses of all frames (empty when the input has none). */
   virtual const Trajectory& poses() const = 0;
+
+  /** \brief Every file the input reads: each frame's images or cloud, the
+   * calibration, the poses file, the ROS bag (the configuration file is not the
+   * input's). */
+  virtual std::vector<InputFile> files() const = 0;
 };
 
 /** \brief The frame source of an input configuration: checks that the files exist, that

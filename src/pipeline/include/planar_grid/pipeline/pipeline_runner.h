@@ -174,6 +174,11 @@ public:
    * \throws planar_grid::Exception without an input (FrameSupply::CALLER) */
   std::size_t frameCount() const;
 
+  /** \brief Every file the run reads: the input's (FrameSource::files()) and the
+   * configuration file it was loaded from (when that is a file).
+   * \throws planar_grid::Exception without an input (FrameSupply::CALLER) */
+  std::vector<InputFile> inputFiles() const;
+
   /** \brief Restricts the run to frames begin, begin + step, ... before end (0-based
    * positions).
    * \param[in] begin first frame position
@@ -283,6 +288,19 @@ public:
 
 private:
   struct ResumeData;
+  /** \brief A small file the run read at its start, as a checkpoint records it: what
+   * it is, its path, its size in bytes and the 64-bit FNV-1a hash of its bytes, so
+   * that a resume finds a file that changed since. */
+  struct InputStamp {
+    std::string what;
+    std::string path;
+    std::uint64_t size{0};
+    std::uint64_t hash{0};
+  };
+  /** \brief The stamps of the configuration file, the calibration and the poses
+   * file of \a config (the images and clouds are read frame by frame and are too
+   * large to read twice). */
+  static std::vector<InputStamp> stampInputFiles(const PipelineConfig& config);
 
   /** \brief The stages, their parameters and the input, as text: a checkpoint is only
    * resumed by the pipeline that wrote it. */
@@ -310,6 +328,9 @@ private:
   Trajectory trajectory_;
   std::string checkpoint_path_;
   std::size_t checkpoint_every_{0};
+  /** \brief The input files' stamps when the checkpoints were set up, before the
+   * first frame; every checkpoint records them. */
+  std::vector<InputStamp> input_stamps_;
   std::unique_ptr<ResumeData> resume_;
   bool overlap_{true};
 };

@@ -2,10 +2,12 @@
 #pragma once
 
 #include <planar_grid/core/output_transaction.h>
+#include <planar_grid/pipeline/frame_source.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 
 #include <string>
+#include <vector>
 
 namespace planar_grid {
 
@@ -41,6 +43,23 @@ void writeRunOutputs(const OutputConfig& output,
 
 /** \brief Writes report.json (RunReport::toJson()) atomically and records its path. */
 void writeRunReport(const OutputConfig& output, RunReport& report);
+
+/** \brief Checks, before the first frame, that every output the run will write can
+ * take its place in \a output.folder: none of them (nor the checkpoint, with \a
+ * with_checkpoint) is a file the run reads, such as `trajectory: insdata.txt` in the
+ * folder of the poses file, which the run would replace with its own output (the paths
+ * are compared canonical, and as the same file when both exist, so that a symbolic or
+ * hard link is found too); and none names an existing folder, which a file cannot
+ * replace, so that the run would fail after its last frame.
+ * \param[in] output the output block (its folder as the run uses it, --output applied)
+ * \param[in] inputs every file the run reads (PipelineRunner::inputFiles())
+ * \param[in] with_checkpoint whether the run writes its checkpoint
+ * \throws planar_grid::IOError naming the output's path and key, and the input file
+ * and what it is, or the folder
+ * \ingroup pipeline */
+void checkOutputPaths(const OutputConfig& output,
+                      const std::vector<InputFile>& inputs,
+                      bool with_checkpoint);
 
 /** \brief \a output.folder / \a name. */
 std::string outputPath(const OutputConfig& output, const std::string& name);
