@@ -173,10 +173,11 @@ TEST_F(OutputCommitTest, FullDiskKeepsTheOldOutputsAndNamesTheFile)
   const std::size_t mesh_bytes = old_set.at("map_cuboids.ply").size();
   ASSERT_GT(mesh_bytes, 10000u);
 
-  // Three frames need more room than there is: a write fails, the run exits 1 naming
-  // the output (its place in the folder, not the staging copy) and the cause.
+  // Three frames need more room than there is: a write fails, the run exits 5 (an
+  // output error) naming the output (its place in the folder, not the staging copy)
+  // and the cause.
   const rlim_t limit = mesh_bytes / 2;
-  EXPECT_EQ(run("0:3", limit), 1);
+  EXPECT_EQ(run("0:3", limit), 5);
   std::string log = bytesOf(log_);
   EXPECT_NE(log.find(out_.string() + "/"), std::string::npos) << log;
   EXPECT_NE(log.find(": cannot write: "), std::string::npos) << log;
@@ -187,7 +188,7 @@ TEST_F(OutputCommitTest, FullDiskKeepsTheOldOutputsAndNamesTheFile)
 
   // PCL's PLY writer does not check its stream: its short file is caught all the same.
   std::ofstream(yaml_) << config(out_, true);
-  EXPECT_EQ(run("0:3", limit), 1);
+  EXPECT_EQ(run("0:3", limit), 5);
   log = bytesOf(log_);
   EXPECT_NE(log.find(out_.string() + "/map_cuboids.ply: cannot write: File too large"),
             std::string::npos)
@@ -218,7 +219,7 @@ TEST_F(OutputCommitTest, RealFullDiskKeepsTheOldOutputs)
   const std::string size = "size=" + std::to_string(used_kib * 3 / 2) + "k";
   ASSERT_EQ(::mount("tmpfs", disk.c_str(), "tmpfs", MS_REMOUNT, size.c_str()), 0);
 
-  EXPECT_EQ(run("0:3"), 1);
+  EXPECT_EQ(run("0:3"), 5);
   const std::string log = bytesOf(log_);
   EXPECT_NE(log.find(out.string() + "/"), std::string::npos) << log;
   EXPECT_NE(log.find(": cannot write: No space left on device (the disk of "
@@ -331,7 +332,7 @@ TEST(PipelineRunLock, SecondRunIntoTheFolderFailsAtOnceNamingTheHolder)
     planar_grid::OutputTransaction running(folder.string());
     const pid_t pid =
       start({"--config", (dir / "job.yaml").string(), "--no-snapshot"}, dir / "log");
-    EXPECT_EQ(exitCode(pid), 1);
+    EXPECT_EQ(exitCode(pid), 5);
     what = bytesOf(dir / "log");
     // Refused before the first frame: no progress line, no checkpoint, no output.
     EXPECT_EQ(what.find("frame 1/3"), std::string::npos) << what;
@@ -393,7 +394,7 @@ TEST(PipelineOwnXvfb, FailingRunWithoutDisplayExitsWithItsOwnCodeAndLeavesNoXvfb
     ::execv(tool.c_str(), argv.data());
     ::_exit(127);
   }
-  EXPECT_EQ(exitCode(pid), 1);
+  EXPECT_EQ(exitCode(pid), 2); // a command-line error
   const std::string log = bytesOf(dir / "log");
   EXPECT_NE(log.find("frame range 2:1 is empty"), std::string::npos) << log;
   EXPECT_EQ(log.find("xvfb-run"), std::string::npos) << log;
