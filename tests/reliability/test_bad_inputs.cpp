@@ -600,6 +600,16 @@ kittiPoses(int count, double step_m)
   return rows;
 }
 
+/** \a yaml (a configuration of the fixture's) with the KITTI poses file \a poses added
+ * to its input block. */
+std::string
+withKittiPoses(std::string yaml, const fs::path& poses)
+{
+  yaml.replace(yaml.find("}\npipeline:"), 2,
+               "}\n  poses: {format: kitti, file: " + poses.string() + "}\n");
+  return yaml;
+}
+
 } // namespace
 
 TEST_F(BadStereoInputTest, OutputThatWouldOverwriteAnInputIsRefusedBeforeTheFirstFrame)
@@ -608,10 +618,7 @@ TEST_F(BadStereoInputTest, OutputThatWouldOverwriteAnInputIsRefusedBeforeTheFirs
   // run read the poses, then replaced them with its trajectory.
   writePairs(3);
   std::ofstream(dir_ / "poses.txt") << kittiPoses(3, 0.1);
-  std::string yaml = config(0);
-  yaml.replace(yaml.find("}\npipeline:"), 2,
-               "}\n  poses: {format: kitti, file: " + (dir_ / "poses.txt").string()
-                 + "}\n");
+  std::string yaml = withKittiPoses(config(0), dir_ / "poses.txt");
   const std::string poses_before = contentOf(dir_ / "poses.txt");
   const ToolRun run =
     runTool(yaml + "  trajectory: poses.txt\n", "--output '" + dir_.string() + "'");
@@ -776,10 +783,7 @@ TEST_F(BadStereoInputTest, ResumeRefusesAnInputFileThatChangedSinceTheCheckpoint
   // accepted: the resumed run mapped its frames at other poses than the first part.
   writePairs(3);
   std::ofstream(dir_ / "poses.txt") << kittiPoses(3, 0.1);
-  std::string yaml = config(0);
-  yaml.replace(yaml.find("}\npipeline:"), 2,
-               "}\n  poses: {format: kitti, file: " + (dir_ / "poses.txt").string()
-                 + "}\n");
+  std::string yaml = withKittiPoses(config(0), dir_ / "poses.txt");
   const fs::path yaml_path = dir_ / "run.yaml";
   std::ofstream(yaml_path) << yaml;
   const std::string checkpoint = (dir_ / "out" / "checkpoint.pgck").string();
