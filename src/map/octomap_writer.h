@@ -5,7 +5,7 @@
 #pragma once
 
 #include <planar_grid/core/atomic_file.h>
-#include <planar_grid/map/planar_grid_map.h>
+#include <planar_grid/map/octomap_export_summary.h>
 
 #include <octomap/OcTree.h>
 
