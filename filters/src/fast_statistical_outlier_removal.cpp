@@ -1,9 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include <planar_grid/core/exceptions.h>
 #include <planar_grid/filters/fast_statistical_outlier_removal.h>
-#include <planar_grid/point_types.h>
-
-#include <pcl/point_types.h>
 
 #include <algorithm>
 #include <cmath>
@@ -22,7 +18,7 @@ namespace {
 /** nanoflann's view of packed x, y, z triples: distance computations read one
  * contiguous array instead of the cloud through an index list. */
 struct PackedPoints {
-  std::vector<float> xyz;
+  const std::vector<float>& xyz;
 
   std::size_t kdtree_get_point_count() const { return xyz.size() / 3; }
   float kdtree_get_pt(std::size_t i, std::size_t dim) const { return xyz[3 * i + dim]; }
@@ -280,44 +276,26 @@ meanDistancesInCells(const std::vector<float>& xyz,
 
 } // namespace
 
-template <typename PointT>
-void
-FastStatisticalOutlierRemoval<PointT>::applyFilter(pcl::Indices& indices)
-{
-  if (mean_k_ < 1)
-    throw Exception("FastStatisticalOutlierRemoval: mean_k must be >= 1, got "
-                    + std::to_string(mean_k_));
-  const auto& cloud = *this->input_;
-  const pcl::Indices& input_indices = *this->indices_;
-  // The tree holds every finite point of the cloud, as PCL's searcher does; packed
-  // in cloud order, so that the tree and its answers are those of the cloud itself.
-  constexpr std::uint32_t NOT_FINITE = std::numeric_limits<std::uint32_t>::max();
-  std::vector<std::uint32_t> packed_of(cloud.size(), NOT_FINITE);
-  PackedPoints packed;
-  packed.xyz.reserve(3 * cloud.size());
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const PointT& p = cloud[i];
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-      continue;
-    packed_of[i] = static_cast<std::uint32_t>(packed.xyz.size() / 3);
-    packed.xyz.insert(packed.xyz.end(), {p.x, p.y, p.z});
-  }
-  const std::size_t n_packed = packed.kdtree_get_point_count();
+namespace detail {
 
+void
+meanNeighbourDistances(const std::vector<float>& xyz,
+                       const std::vector<char>& queried,
+                       int mean_k,
+                       std::vector<float>& mean_distance)
+{
+  PackedPoints packed{xyz};
+  const std::size_t n_packed = packed.kdtree_get_point_count();
   using Tree = nanoflann::KDTreeSingleIndexAdaptor<
     nanoflann::L2_Simple_Adaptor<float, PackedPoints>, PackedPoints, 3, std::uint32_t>;
   const Tree tree(3, packed, nanoflann::KDTreeSingleIndexAdaptorParams(10));
 
-  std::vector<char> queried(n_packed, 0);
-  for (const auto index : input_indices)
-    if (packed_of[static_cast<std::size_t>(index)] != NOT_FINITE)
-      queried[packed_of[static_cast<std::size_t>(index)]] = 1;
   // One more neighbour than mean_k: the query point is its own nearest neighbour.
-  const auto k = static_cast<std::size_t>(mean_k_) + 1;
-  std::vector<float> mean_distance(n_packed, 0.0f);
+  const auto k = static_cast<std::size_t>(mean_k) + 1;
+  mean_distance.assign(n_packed, 0.0f);
   std::vector<char> done(n_packed, 0);
   if (n_packed > k)
-    meanDistancesInCells(packed.xyz, tree, queried, k, mean_k_, mean_distance, done);
+    meanDistancesInCells(packed.xyz, tree, queried, k, mean_k, mean_distance, done);
 
   // The points the cells could not answer exactly, from the tree, in its leaf order
   // (consecutive queries visit the same nodes).
@@ -333,50 +311,22 @@ FastStatisticalOutlierRemoval<PointT>::applyFilter(pcl::Indices& indices)
     double dist_sum = 0.0;
     for (std::size_t n = 1; n < found; ++n)
       dist_sum += std::sqrt(nn_dists[n]);
-    mean_distance[j] = static_cast<float>(dist_sum / mean_k_);
-  }
-
-  std::vector<float> distances(input_indices.size(), 0.0f);
-  int valid_distances = 0;
-  for (std::size_t i = 0; i < input_indices.size(); ++i) {
-    const std::uint32_t j = packed_of[static_cast<std::size_t>(input_indices[i])];
-    if (j == NOT_FINITE)
-      continue;
-    distances[i] = mean_distance[j];
-    ++valid_distances;
-  }
-
-  // The mean and standard deviation of the mean distances, with PCL's formulas (the
-  // non-finite points add 0 to the sums but do not count).
-  double sum = 0.0, sq_sum = 0.0;
-  for (const float d : distances) {
-    sum += d;
-    sq_sum += d * d;
-  }
-  const double mean = sum / static_cast<double>(valid_distances);
-  const double variance = (sq_sum - sum * sum / static_cast<double>(valid_distances))
-                          / (static_cast<double>(valid_distances) - 1.0);
-  const double threshold = mean + std_mul_ * std::sqrt(variance);
-
-  indices.clear();
-  indices.reserve(input_indices.size());
-  auto& removed = *this->removed_indices_;
-  removed.clear();
-  for (std::size_t i = 0; i < input_indices.size(); ++i) {
-    const bool outlier = distances[i] > threshold;
-    if (outlier != this->negative_) {
-      if (this->extract_removed_indices_)
-        removed.push_back(input_indices[i]);
-      continue;
-    }
-    indices.push_back(input_indices[i]);
+    mean_distance[j] = static_cast<float>(dist_sum / mean_k);
   }
 }
 
+} // namespace detail
+
 } // namespace planar_grid
 
-// The template body lives only here: one explicit instantiation per point type of the
-// CMake list PLANAR_GRID_POINT_TYPES, and no other point type.
+#ifndef PCL_NO_PRECOMPILE
+#include <planar_grid/filters/impl/fast_statistical_outlier_removal.hpp>
+#include <planar_grid/point_types.h>
+
+#include <pcl/point_types.h>
+
+// One explicit instantiation per point type of the CMake list PLANAR_GRID_POINT_TYPES.
 #define PLANAR_GRID_INSTANTIATE_FastStatisticalOutlierRemoval(T) \
   template class planar_grid::FastStatisticalOutlierRemoval<T>;
 PLANAR_GRID_INSTANTIATE(FastStatisticalOutlierRemoval, PLANAR_GRID_POINT_TYPES)
+#endif // PCL_NO_PRECOMPILE

@@ -1,13 +1,18 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // A user-defined point type (not in PLANAR_GRID_POINT_TYPES) through PCL_NO_PRECOMPILE:
-// the three template classes are instantiated here from their impl/*.hpp, as PCL's are
-// for custom point types, and behave as with the precompiled types on synthetic planes
-// with known coefficients and fixed seeds.
+// the template classes are instantiated here from their impl/*.hpp, as PCL's are for
+// custom point types, and behave as with the precompiled types on synthetic planes with
+// known coefficients and fixed seeds; the two fast filters give PCL's own filters'
+// output for the same type.
 #define PCL_NO_PRECOMPILE
+#include <planar_grid/filters/fast_statistical_outlier_removal.h>
+#include <planar_grid/filters/fast_voxel_grid.h>
 #include <planar_grid/filters/kl_divergence_occupancy_filter.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 #include <planar_grid/surface/planar_cuboid_approximation.h>
 
+#include <pcl/filters/statistical_outlier_removal.h>
+#include <pcl/filters/voxel_grid.h>
 #include <pcl/point_types.h>
 #include <pcl/register_point_struct.h>
 
@@ -16,6 +21,7 @@
 #include <cmath>
 #include <cstdint>
 #include <random>
+#include <string>
 #include <vector>
 
 namespace planar_grid_test {
@@ -198,4 +204,73 @@ TEST(CustomPointType, OccupancyFilterKeepsPlaneAndDropsOutliers)
   ASSERT_EQ(occupied_cloud.size(), wall_size);
   for (std::size_t k = 0; k < wall_size; ++k)
     EXPECT_EQ(occupied_cloud[k].confidence, static_cast<float>(k));
+}
+
+TEST(CustomPointType, FastVoxelGridEqualsPCLVoxelGrid)
+{
+  // The tilted plane (6561 points, 0.025 m spacing) in 0.1 m voxels, with the user's
+  // field varying so that its centroid is checked too: pcl::VoxelGrid<PointT> is the
+  // oracle, point for point and bit for bit.
+  Cloud::Ptr cloud = tiltedPlane();
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+    (*cloud)[i].confidence = static_cast<float>(i % 17) / 16.0f;
+  for (const unsigned int min_points : {0u, 5u}) {
+    SCOPED_TRACE("min points per voxel " + std::to_string(min_points));
+    pcl::VoxelGrid<PointT> reference;
+    reference.setInputCloud(cloud);
+    reference.setLeafSize(0.1f, 0.1f, 0.1f);
+    reference.setMinimumPointsNumberPerVoxel(min_points);
+    Cloud expected;
+    reference.filter(expected);
+
+    planar_grid::FastVoxelGrid<PointT> grid;
+    grid.setInputCloud(cloud);
+    grid.setLeafSize(0.1f, 0.1f, 0.1f);
+    grid.setMinimumPointsNumberPerVoxel(min_points);
+    Cloud result;
+    grid.filter(result);
+
+    ASSERT_GT(expected.size(), 100u);
+    ASSERT_EQ(result.size(), expected.size());
+    for (std::size_t i = 0; i < result.size(); ++i) {
+      EXPECT_EQ(result[i].x, expected[i].x) << i;
+      EXPECT_EQ(result[i].y, expected[i].y) << i;
+      EXPECT_EQ(result[i].z, expected[i].z) << i;
+      EXPECT_EQ(result[i].confidence, expected[i].confidence) << i;
+    }
+  }
+}
+
+TEST(CustomPointType, FastOutlierRemovalEqualsPCLStatisticalOutlierRemoval)
+{
+  // The tilted plane with 20 points scattered 0.3-0.7 m in front of it (seed 11):
+  // pcl::StatisticalOutlierRemoval<PointT> is the oracle, index for index, for the kept
+  // points and for the removed ones.
+  Cloud::Ptr cloud = tiltedPlane();
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> across(-0.9f, 0.9f), offset(0.3f, 0.7f);
+  for (int i = 0; i < 20; ++i) {
+    const float x = across(rng), y = across(rng);
+    cloud->push_back(makePoint(x, y, (2.0f - 0.6f * y) / 0.8f - offset(rng), 0.0f));
+  }
+  pcl::StatisticalOutlierRemoval<PointT> reference(true);
+  reference.setInputCloud(cloud);
+  reference.setMeanK(20);
+  reference.setStddevMulThresh(2.0);
+  pcl::Indices expected;
+  reference.filter(expected);
+
+  planar_grid::FastStatisticalOutlierRemoval<PointT> removal(true);
+  removal.setInputCloud(cloud);
+  removal.setMeanK(20);
+  removal.setStddevMulThresh(2.0);
+  pcl::Indices kept;
+  removal.filter(kept);
+
+  EXPECT_EQ(kept, expected);
+  EXPECT_EQ(*removal.getRemovedIndices(), *reference.getRemovedIndices());
+  // The scattered points are among the removed ones.
+  ASSERT_GE(removal.getRemovedIndices()->size(), 15u);
+  for (const auto index : *removal.getRemovedIndices())
+    EXPECT_GE(static_cast<std::size_t>(index), cloud->size() - 20) << index;
 }

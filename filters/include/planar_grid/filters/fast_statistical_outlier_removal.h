@@ -29,7 +29,8 @@ namespace planar_grid {
  * unorganized cloud. An organized cloud is searched exactly here, where PCL uses
  * pcl::search::OrganizedNeighbor's image-window search. Timings against PCL's filter
  * on a Karlsruhe frame are in docs/BENCHMARKS.md (bench_pipeline_stages).
- * Instantiated for pcl::PointXYZ, pcl::PointXYZI and pcl::PointXYZRGB.
+ * Precompiled for the point types of PLANAR_GRID_POINT_TYPES; any other type is
+ * instantiated from the impl/ header when PCL_NO_PRECOMPILE is defined, as with PCL.
  * \ingroup filters */
 template <typename PointT>
 class FastStatisticalOutlierRemoval : public pcl::FilterIndices<PointT> {
@@ -68,3 +69,7 @@ private:
 };
 
 } // namespace planar_grid
+
+#ifdef PCL_NO_PRECOMPILE
+#include <planar_grid/filters/impl/fast_statistical_outlier_removal.hpp>
+#endif

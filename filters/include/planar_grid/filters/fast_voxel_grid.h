@@ -29,7 +29,8 @@ namespace planar_grid {
  * filter field and limits, the leaf layout, and centroids of x, y, z only. A cloud
  * without finite points gives an empty output. Timings on the main job in
  * docs/BENCHMARKS.md.
- * Instantiated for pcl::PointXYZ, pcl::PointXYZI and pcl::PointXYZRGB.
+ * Precompiled for the point types of PLANAR_GRID_POINT_TYPES; any other type is
+ * instantiated from the impl/ header when PCL_NO_PRECOMPILE is defined, as with PCL.
  * \ingroup filters */
 template <typename PointT> class FastVoxelGrid : public pcl::Filter<PointT> {
 public:
@@ -68,3 +69,7 @@ private:
 };
 
 } // namespace planar_grid
+
+#ifdef PCL_NO_PRECOMPILE
+#include <planar_grid/filters/impl/fast_voxel_grid.hpp>
+#endif
