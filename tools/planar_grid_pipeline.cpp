@@ -5,6 +5,7 @@
 
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/core/output_transaction.h>
+#include <planar_grid/pipeline/memory_estimate.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 #include <planar_grid/pipeline/run_outputs.h>
@@ -70,6 +71,15 @@ printHelp(const char* program)
     "                         feature_matching, run one frame ahead on a second "
     "thread;\n"
     "                         the results are the same)\n");
+  print_info(
+    "    --memory-limit SIZE  refuse, before the first frame, a run whose memory\n"
+    "                         estimate exceeds SIZE (bytes, or with a K, M, G, T\n"
+    "                         suffix, powers of 1024; 0 or none: no check). The\n"
+    "                         estimate bounds the map's explicit space layer from\n"
+    "                         resolution_m, max_range_m, the camera and the frames'\n"
+    "                         poses, plus 512 MiB for the rest (docs/RELIABILITY.md).\n"
+    "                         Default: the machine's memory (MemTotal), or the\n"
+    "                         process's limit where smaller (ulimit -v, ulimit -d)\n");
   print_info("    --list-stages        print every stage type with its parameters, "
              "defaults, units and ranges, then exit\n");
   print_info("    -v                   verbose (PCL debug output)\n");
@@ -77,7 +87,8 @@ printHelp(const char* program)
   print_info("    --version            print the name and version\n");
   print_info(
     "  Exit status: 0 success; 2 command line (unknown option, bad value);\n"
-    "    3 configuration (the YAML: planar_grid::ConfigError); 4 input (a file\n"
+    "    3 configuration (the YAML: planar_grid::ConfigError, also a run refused by\n"
+    "    --memory-limit, at the cell size's key); 4 input (a file\n"
     "    that cannot be read: the YAML itself, calibration, images, clouds);\n"
     "    5 output (the output folder or a file in it cannot be written);\n"
     "    1 anything else (e.g. a stage failing on a frame)\n");
@@ -392,7 +403,7 @@ run(int argc, char** argv)
 
   // Every argument must be a known option: a typo is an error, not a default.
   const std::vector<std::string> with_value{"--config", "--frames", "--output",
-                                            "--checkpoint-every"};
+                                            "--checkpoint-every", "--memory-limit"};
   const std::vector<std::string> switches{"--no-snapshot", "--resume", "--sequential",
                                           "-v"};
   planar_grid::cli::checkArguments(argc, argv, with_value, switches);
@@ -421,6 +432,16 @@ run(int argc, char** argv)
       throw planar_grid::cli::UsageError("--checkpoint-every '" + every_text
                                          + "' must be a non-negative integer");
     config.output.checkpoint_every_n_frames = static_cast<std::size_t>(every);
+  }
+  planar_grid::MemoryLimit memory_limit = planar_grid::machineMemoryLimit();
+  std::string limit_text;
+  if (parse_argument(argc, argv, "--memory-limit", limit_text) >= 0) {
+    try {
+      memory_limit.bytes = planar_grid::parseMemorySize(limit_text);
+    } catch (const planar_grid::Exception& e) {
+      throw planar_grid::cli::UsageError(std::string("--memory-limit: ") + e.what());
+    }
+    memory_limit.source = "--memory-limit " + limit_text;
   }
   const bool resume = find_switch(argc, argv, "--resume");
   // Every PNG snapshot the output block names.
@@ -469,6 +490,19 @@ run(int argc, char** argv)
     } catch (const planar_grid::Exception& e) { // empty or past the input's end
       throw planar_grid::cli::UsageError(e.what());
     }
+  }
+  {
+    // Before anything is written or mapped: a run that cannot fit is refused now.
+    const planar_grid::MemoryEstimate estimate = runner.estimateMemory();
+    print_info("Memory estimate: ");
+    print_value("%s", estimate.summary().c_str());
+    print_info("; limit %s\n", memory_limit.bytes == 0
+                                 ? "none"
+                                 : (planar_grid::formatBytes(memory_limit.bytes) + " ("
+                                    + memory_limit.source + ")")
+                                     .c_str());
+    planar_grid::checkMemoryEstimate(estimate, memory_limit);
+    runner.setMemoryLimit({}); // checked here; run() need not estimate again
   }
   const std::string checkpoint_path =
     config.output.checkpoint.empty()

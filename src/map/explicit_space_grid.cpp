@@ -377,6 +377,44 @@ ExplicitSpaceGrid::getMemoryBytes() const
   return bytes;
 }
 
+std::uint64_t
+ExplicitSpaceGrid::workingBytesBound(std::uint64_t view_blocks,
+                                     std::uint64_t image_pixels)
+{
+  static_assert(BLOCK_EDGE_VOXELS == BLOCK_EDGE, "one block edge");
+  // Per block the view touches: its observation (BlockResult), and in the edit buffer
+  // its key, its edit, its place in commit()'s order, a payload (a mixed block) and
+  // the directory's slots (at most half full, doubled when full: <= 4 per entry).
+  // Each of these vectors doubles its capacity as it grows: up to twice the count.
+  constexpr std::uint64_t SLOT_BYTES = sizeof(BlockKey) + sizeof(std::uint32_t);
+  constexpr std::uint64_t PER_BLOCK =
+    2
+      * (sizeof(BlockResult) + sizeof(BlockKey) + sizeof(EditBlock)
+         + sizeof(std::uint32_t) + sizeof(Payload))
+    + 4 * SLOT_BYTES;
+  // The depth pyramid: min and max levels (4/3 of the image each), the span minima
+  // (8 arrays per level) and the hole levels (below 4/3 of the image per level): at
+  // most 16 floats per pixel.
+  constexpr std::uint64_t PER_PIXEL = 16 * sizeof(float);
+  return view_blocks * PER_BLOCK + image_pixels * PER_PIXEL;
+}
+
+std::uint64_t
+ExplicitSpaceGrid::storageBytesBound(std::uint64_t blocks, std::uint64_t super_blocks)
+{
+  // As getMemoryBytes() counts: a mixed block's compact form (at most
+  // MAX_COMPACT_BYTES) and its offset; a super-block in the array (doubling: up to
+  // twice), its two exact-size arrays' allocator overhead, and the directory's slots
+  // (<= 4 per entry).
+  constexpr std::uint64_t MALLOC_OVERHEAD = 16;
+  constexpr std::uint64_t SLOT_BYTES = sizeof(BlockKey) + sizeof(std::uint32_t);
+  constexpr std::uint64_t PER_BLOCK = MAX_COMPACT_BYTES + sizeof(std::uint32_t);
+  constexpr std::uint64_t PER_SUPER_BLOCK =
+    2 * sizeof(SuperBlock) + 2 * MALLOC_OVERHEAD + 4 * SLOT_BYTES;
+  return sizeof(Impl) + blocks * PER_BLOCK + super_blocks * PER_SUPER_BLOCK
+         + 2 * MALLOC_OVERHEAD;
+}
+
 bool
 ExplicitSpaceGrid::getBounds(VoxelKey& min_key, VoxelKey& max_key) const
 {

@@ -266,6 +266,14 @@ private:
     }
   }
 
+  bool camera(StereoCalibration& calibration) const override
+  {
+    calibration = model_.calibration;
+    calibration.width = image_size_.width;
+    calibration.height = image_size_.height;
+    return image_size_.width > 0 && image_size_.height > 0;
+  }
+
   /** The size every image must have: the calibration's when it gives one (ROS
    * camera_info, EuRoC), else the first frame's (Karlsruhe and KITTI rows give none),
    * inside which the principal point must then lie. Reads the first pair, so that a
@@ -672,6 +680,11 @@ public:
   const Trajectory& poses() const override { return poses_; }
 
   std::vector<InputFile> files() const override { return source_->files(); }
+
+  bool camera(StereoCalibration& calibration) const override
+  {
+    return source_->camera(calibration);
+  }
 
 private:
   std::unique_ptr<FrameSource> source_;

@@ -676,6 +676,10 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
              "stage 'visual_odometry' makes the poses: set input.poses.format to "
              "odometry");
     sc.params = parseParams(stage["params"], info->params, source, sc.type);
+    if (const YAML::Node params = stage["params"]; params && params.IsMap())
+      for (const auto& entry : params)
+        sc.param_marks[entry.first.as<std::string>()] = {
+          entry.second.Mark().line + 1, entry.second.Mark().column + 1};
     // Key features come from stereo matching or from cloud_features: the planes of a
     // point-cloud input are hypothesised on the cloud itself unless the file asks for
     // features (checkDataFlow() then requires a stage before it that gives them).

@@ -350,6 +350,32 @@ PipelineRunner::processFrame(Frame& frame)
            samples);
 }
 
+MemoryEstimate
+PipelineRunner::estimateMemory() const
+{
+  const FrameSource& source = input("estimateMemory()");
+  StereoCalibration calibration;
+  PinholeView view;
+  const bool has_camera = source.camera(calibration);
+  if (has_camera) {
+    view.width_px = calibration.width;
+    view.height_px = calibration.height;
+    view.fx_px = view.fy_px = calibration.focal_length_px;
+    view.cx_px = calibration.cx_px;
+    view.cy_px = calibration.cy_px;
+  }
+  Trajectory poses;
+  std::size_t frames = 0;
+  for (std::size_t i = begin_; i < end_; i += step_) {
+    ++frames;
+    if (i < source.poses().size())
+      poses.push_back(source.poses()[i]);
+  }
+  if (poses.size() != frames) // poses made during the run (odometry, registration)
+    poses.clear();
+  return estimateRunMemory(config_, has_camera ? &view : nullptr, poses, frames);
+}
+
 RunReport
 PipelineRunner::run()
 {
@@ -358,6 +384,8 @@ PipelineRunner::run()
   if (step_ != 1 && (checkpoint_every_ > 0 || resume_))
     throw Exception("checkpoints need every frame of the range (frame step 1, not "
                     + std::to_string(step_) + ")");
+  if (memory_limit_.bytes > 0)
+    checkMemoryEstimate(estimateMemory(), memory_limit_);
   start();
 
   std::size_t first = begin_;

@@ -257,6 +257,12 @@ public:
     return {{config_.file, "the ROS bag (input.file)"}};
   }
 
+  bool camera(StereoCalibration& calibration) const override
+  {
+    calibration = calibration_;
+    return stereo_ && calibration_.width > 0 && calibration_.height > 0;
+  }
+
 private:
   void loadMessages(std::size_t i, Frame& frame) const
   {

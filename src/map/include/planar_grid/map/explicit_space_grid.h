@@ -264,6 +264,27 @@ public:
    * integration (depth pyramid, per-view observations, edit buffer; one view's worth)
    * are working memory, not counted. */
   [[nodiscard]] std::size_t getMemoryBytes() const;
+  /** \brief Edge of the storage's blocks, in voxels (8): the unit of
+   * workingBytesBound() and storageBytesBound(). */
+  static constexpr int BLOCK_EDGE_VOXELS = 8;
+  /** \brief Upper bound of the working memory one view's integration holds (kept
+   * between views): the per-block observations and the edit buffer of every block the
+   * view touches (at their vectors' largest capacity, twice the count), and the depth
+   * pyramid of the image.
+   * \param[in] view_blocks blocks of 8^3 voxels the view can touch (those meeting
+   * its frustum up to max_range_m, or the ball of max_range_m of a scan)
+   * \param[in] image_pixels pixels of the depth image (0 for a scan)
+   * \return bytes */
+  [[nodiscard]] static std::uint64_t workingBytesBound(std::uint64_t view_blocks,
+                                                       std::uint64_t image_pixels);
+  /** \brief Upper bound of getMemoryBytes() for a grid of \a blocks stored blocks in
+   * \a super_blocks super-blocks (64^3 voxels): every block mixed, at the largest
+   * compact form, and the super-block array and directory at their largest capacity.
+   * \param[in] blocks stored blocks
+   * \param[in] super_blocks super-blocks holding them (<= blocks)
+   * \return bytes */
+  [[nodiscard]] static std::uint64_t storageBytesBound(std::uint64_t blocks,
+                                                       std::uint64_t super_blocks);
   /** \brief Inclusive bounds of the stored blocks, in voxel keys (block-aligned:
    * min_key multiples of 8, max_key = 8 k + 7); false when nothing is stored. */
   bool getBounds(VoxelKey& min_key, VoxelKey& max_key) const;

@@ -39,6 +39,17 @@ public:
   /** \brief The poses of all frames (empty when the input has none). */
   virtual const Trajectory& poses() const = 0;
 
+  /** \brief The camera of stereo frames, as the frames will have it (the rectified
+   * calibration, its width and height the images' size), known before the first frame
+   * is processed.
+   * \param[out] calibration the camera
+   * \return false for point clouds, or when the image size is not known yet */
+  virtual bool camera(StereoCalibration& calibration) const
+  {
+    (void)calibration;
+    return false;
+  }
+
   /** \brief Every file the input reads: each frame's images or cloud, the
    * calibration, the poses file, the ROS bag (the configuration file is not the
    * input's). */

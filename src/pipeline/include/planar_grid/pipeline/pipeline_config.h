@@ -7,7 +7,9 @@
 
 #include <array>
 #include <cstddef>
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace planar_grid {
@@ -171,6 +173,9 @@ struct StageConfig {
   int line{0};
   /** \brief 1-based column of the stage in the config file (0 when unknown). */
   int column{0};
+  /** \brief 1-based line and column of the value of each key the file gives in the
+   * stage's params (keys left at their defaults are absent). */
+  std::map<std::string, std::pair<int, int>> param_marks;
 };
 
 /** \brief The camera of the street snapshots (output.street_view): either following

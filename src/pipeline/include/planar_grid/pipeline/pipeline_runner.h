@@ -2,6 +2,7 @@
 #pragma once
 
 #include <planar_grid/pipeline/frame_source.h>
+#include <planar_grid/pipeline/memory_estimate.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/stage.h>
 
@@ -255,8 +256,24 @@ public:
    * past the end of the range, naming the file */
   std::size_t resumeFrom(const std::string& path);
 
+  /** \brief Bounds the memory of a run of the frame range (estimateRunMemory()): the
+   * input's camera, and the poses of the range when the input gives them before the
+   * run. Reads no frame.
+   * \throws planar_grid::Exception without an input (FrameSupply::CALLER) */
+  MemoryEstimate estimateMemory() const;
+
+  /** \brief Sets the limit run() holds estimateMemory() to before the first frame (a
+   * planar_grid::ConfigError at the cell size's key when the estimate exceeds it).
+   * Default: machineMemoryLimit(), read when the runner is built.
+   * \param[in] limit the limit; bytes 0: no check */
+  void setMemoryLimit(const MemoryLimit& limit) { memory_limit_ = limit; }
+
+  /** \brief The limit run() checks (setMemoryLimit()). */
+  const MemoryLimit& getMemoryLimit() const { return memory_limit_; }
+
   /** \brief Runs every frame of the range through every stage: start(), the frames,
-   * finish().
+   * finish(). Before the first frame, a run whose memory estimate exceeds the limit
+   * (setMemoryLimit()) is refused with a planar_grid::ConfigError.
    * \throws planar_grid::Exception naming the frame and stage on failure, or without
    * an input (FrameSupply::CALLER) */
   RunReport run();
@@ -333,6 +350,8 @@ private:
   std::vector<InputStamp> input_stamps_;
   std::unique_ptr<ResumeData> resume_;
   bool overlap_{true};
+  /** \brief The limit run() checks the memory estimate against. */
+  MemoryLimit memory_limit_{machineMemoryLimit()};
 };
 
 } // namespace planar_grid
