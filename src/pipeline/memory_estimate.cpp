@@ -13,6 +13,7 @@
 #include <fstream>
 #include <limits>
 #include <sstream>
+#include <utility>
 #include <vector>
 
 namespace planar_grid {
@@ -372,37 +373,50 @@ machineMemoryLimit()
   // Physical memory: MemTotal, not MemAvailable. What is available changes from one
   // second to the next (page cache, other jobs) and would make the same run pass or
   // fail by chance; a run larger than the machine's memory fails in any case.
-  MemoryLimit limit;
+  std::uint64_t physical = 0;
   std::ifstream meminfo("/proc/meminfo");
   std::string name;
   std::uint64_t kib = 0;
   while (meminfo >> name >> kib) {
     if (name == "MemTotal:") {
-      limit.bytes = kib * 1024;
-      limit.source = "the machine's memory (MemTotal of /proc/meminfo)";
+      physical = kib * 1024;
       break;
     }
     meminfo.ignore(std::numeric_limits<std::streamsize>::max(), '\n');
   }
-  if (limit.bytes == 0) {
+  if (physical == 0) {
     const long pages = ::sysconf(_SC_PHYS_PAGES);
     const long page = ::sysconf(_SC_PAGESIZE);
-    if (pages > 0 && page > 0) {
-      limit.bytes =
-        static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page);
-      limit.source = "the machine's memory (sysconf _SC_PHYS_PAGES)";
-    }
+    if (pages > 0 && page > 0)
+      physical = static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page);
   }
-  for (const auto& [resource, what] :
-       {std::pair<int, const char*>{RLIMIT_AS, "the address space limit (RLIMIT_AS, "
-                                               "ulimit -v)"},
-        std::pair<int, const char*>{RLIMIT_DATA, "the data segment limit (RLIMIT_DATA, "
-                                                 "ulimit -d)"}}) {
+  const auto soft_limit = [](int resource) -> std::uint64_t {
     rlimit rl{};
-    if (::getrlimit(resource, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY
-        && (limit.bytes == 0
-            || static_cast<std::uint64_t>(rl.rlim_cur) < limit.bytes)) {
-      limit.bytes = static_cast<std::uint64_t>(rl.rlim_cur);
+    if (::getrlimit(resource, &rl) != 0 || rl.rlim_cur == RLIM_INFINITY)
+      return 0;
+    return static_cast<std::uint64_t>(rl.rlim_cur);
+  };
+  return smallestMemoryLimit(physical, soft_limit(RLIMIT_AS), soft_limit(RLIMIT_DATA));
+}
+
+MemoryLimit
+smallestMemoryLimit(std::uint64_t physical_bytes,
+                    std::uint64_t address_space_bytes,
+                    std::uint64_t data_bytes)
+{
+  MemoryLimit limit;
+  for (const auto& [bytes, what] :
+       {std::pair<std::uint64_t, const char*>{physical_bytes,
+                                              "the machine's memory (MemTotal of "
+                                              "/proc/meminfo)"},
+        std::pair<std::uint64_t, const char*>{address_space_bytes,
+                                              "the address space limit (RLIMIT_AS, "
+                                              "ulimit -v)"},
+        std::pair<std::uint64_t, const char*>{data_bytes,
+                                              "the data segment limit (RLIMIT_DATA, "
+                                              "ulimit -d)"}}) {
+    if (bytes > 0 && (limit.bytes == 0 || bytes < limit.bytes)) {
+      limit.bytes = bytes;
       limit.source = what;
     }
   }

@@ -10,6 +10,7 @@
 #include <sys/resource.h>
 
 #include <cmath>
+#include <fstream>
 #include <string>
 
 using planar_grid::ExplicitSpaceGrid;
@@ -194,22 +195,46 @@ TEST(MemoryEstimate, ParsesSizes)
     EXPECT_THROW(planar_grid::parseMemorySize(bad), planar_grid::Exception) << bad;
 }
 
-TEST(MemoryEstimate, MachineLimitFollowsTheAddressSpaceLimit)
+TEST(MemoryEstimate, LimitIsTheSmallestOfMemoryAndProcessLimits)
 {
-  const planar_grid::MemoryLimit machine = planar_grid::machineMemoryLimit();
-  EXPECT_GT(machine.bytes, 0u);
-  rlimit old{};
-  ASSERT_EQ(::getrlimit(RLIMIT_AS, &old), 0);
-  // A soft limit below the machine's memory (and below the hard limit) takes over.
-  const rlim_t lower = static_cast<rlim_t>(
-    std::min<std::uint64_t>(machine.bytes / 2, std::uint64_t{64} << 30));
-  if (old.rlim_max != RLIM_INFINITY && old.rlim_max < lower)
-    GTEST_SKIP() << "the hard RLIMIT_AS is below half the machine's memory";
-  rlimit limited = old;
-  limited.rlim_cur = lower;
-  ASSERT_EQ(::setrlimit(RLIMIT_AS, &limited), 0);
-  const planar_grid::MemoryLimit under = planar_grid::machineMemoryLimit();
-  ASSERT_EQ(::setrlimit(RLIMIT_AS, &old), 0);
-  EXPECT_EQ(under.bytes, static_cast<std::uint64_t>(lower));
-  EXPECT_NE(under.source.find("RLIMIT_AS"), std::string::npos) << under.source;
+  constexpr std::uint64_t GIB = std::uint64_t{1} << 30;
+  const auto physical = planar_grid::smallestMemoryLimit(24 * GIB, 0, 0);
+  EXPECT_EQ(physical.bytes, 24 * GIB);
+  EXPECT_NE(physical.source.find("MemTotal"), std::string::npos) << physical.source;
+  const auto address_space =
+    planar_grid::smallestMemoryLimit(24 * GIB, 4 * GIB, 8 * GIB);
+  EXPECT_EQ(address_space.bytes, 4 * GIB);
+  EXPECT_NE(address_space.source.find("RLIMIT_AS"), std::string::npos);
+  const auto data = planar_grid::smallestMemoryLimit(24 * GIB, 32 * GIB, 2 * GIB);
+  EXPECT_EQ(data.bytes, 2 * GIB);
+  EXPECT_NE(data.source.find("RLIMIT_DATA"), std::string::npos);
+  EXPECT_EQ(planar_grid::smallestMemoryLimit(0, 0, 0).bytes, 0u);
+  EXPECT_EQ(planar_grid::smallestMemoryLimit(0, 0, 3 * GIB).bytes, 3 * GIB);
+}
+
+TEST(MemoryEstimate, MachineLimitReadsThisProcess)
+{
+  // The process's own limits, read here independently: the machine's MemTotal and
+  // the soft RLIMIT_AS / RLIMIT_DATA (the sanitizers need an unlimited address space,
+  // so no limit is set in this test).
+  std::ifstream meminfo("/proc/meminfo");
+  std::string name;
+  std::uint64_t kib = 0;
+  std::uint64_t physical = 0;
+  while (meminfo >> name >> kib && physical == 0) {
+    if (name == "MemTotal:")
+      physical = kib * 1024;
+    meminfo.ignore(1 << 20, '\n');
+  }
+  ASSERT_GT(physical, 0u);
+  const auto soft = [](int resource) -> std::uint64_t {
+    rlimit rl{};
+    EXPECT_EQ(::getrlimit(resource, &rl), 0);
+    return rl.rlim_cur == RLIM_INFINITY ? 0 : static_cast<std::uint64_t>(rl.rlim_cur);
+  };
+  const auto expected =
+    planar_grid::smallestMemoryLimit(physical, soft(RLIMIT_AS), soft(RLIMIT_DATA));
+  const auto limit = planar_grid::machineMemoryLimit();
+  EXPECT_EQ(limit.bytes, expected.bytes);
+  EXPECT_EQ(limit.source, expected.source);
 }

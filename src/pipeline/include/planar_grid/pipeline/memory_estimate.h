@@ -125,6 +125,15 @@ struct MemoryLimit {
  * \ingroup pipeline */
 MemoryLimit machineMemoryLimit();
 
+/** \brief The smallest of the given limits, with its source; a value of 0 is no limit.
+ * \param[in] physical_bytes the machine's memory, bytes
+ * \param[in] address_space_bytes the soft RLIMIT_AS, bytes
+ * \param[in] data_bytes the soft RLIMIT_DATA, bytes
+ * \return machineMemoryLimit()'s rule applied to these values \ingroup pipeline */
+MemoryLimit smallestMemoryLimit(std::uint64_t physical_bytes,
+                                std::uint64_t address_space_bytes,
+                                std::uint64_t data_bytes);
+
 /** \brief Parses a size: bytes, or a number with a K, M, G or T suffix (powers of
  * 1024; "1.5G"), or "0" / "none" for no limit (0).
  * \throws planar_grid::Exception for anything else \ingroup pipeline */
