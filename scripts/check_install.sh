@@ -52,7 +52,7 @@ if grep -q "warning:" "$work/build.log"; then
   echo "check_install: the examples build with warnings" >&2
   exit 1
 fi
-for example in segment_planes approximate_cuboids filter_features; do
+for example in segment_planes approximate_cuboids filter_features custom_point_filters; do
   echo "check_install: $example $CLOUD"
   "$work/examples/$example" "$CLOUD"
 done

@@ -118,7 +118,8 @@ printVersion(const char* name)
  * status; an exception is printed as "name: message" (pcl::console::print_error) and
  * exits with \a exit_status(exception), EXIT_FAILURE for an exception not derived from
  * std::exception. With --version it prints the name and version and exits with
- * EXIT_SUCCESS without running \a run.
+ * EXIT_SUCCESS without running \a run. A non-empty NO_COLOR in the environment turns
+ * the messages' colours off.
  * \param[in] name the program name for the message
  * \param[in] run the tool's body
  * \param[in] argc, argv the command line, passed on
@@ -133,6 +134,11 @@ runMain(const char* name, Run run, int argc, char** argv, ExitStatus exit_status
     return EXIT_SUCCESS;
   }
   keepFreedMemory();
+  if (const char* no_color = std::getenv("NO_COLOR"); no_color && *no_color != '\0') {
+    // https://no-color.org: a non-empty NO_COLOR turns colour off.
+    pcl::console::enableColoredOutput(stdout, false);
+    pcl::console::enableColoredOutput(stderr, false);
+  }
   try {
     return run(argc, argv);
   } catch (const std::exception& e) {

@@ -21,9 +21,12 @@
 #include <pcl/console/parse.h>
 #include <pcl/console/print.h>
 
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -82,7 +85,12 @@ printHelp(const char* program)
     "                         process's limit where smaller (ulimit -v, ulimit -d)\n");
   print_info("    --list-stages        print every stage type with its parameters, "
              "defaults, units and ranges, then exit\n");
-  print_info("    -v                   verbose (PCL debug output)\n");
+  print_info(
+    "    --log-level LEVEL    what is printed: error, warn, info (default) or\n"
+    "                         debug (also PCL's debug output)\n");
+  print_info("    -q, --quiet          errors only (--log-level error): no progress,\n"
+             "                         no configuration, timing or output list\n");
+  print_info("    -v                   verbose (--log-level debug)\n");
   print_info("    -h, --help           this help\n");
   print_info("    --version            print the name and version\n");
   print_info(
@@ -91,7 +99,11 @@ printHelp(const char* program)
     "    --memory-limit, at the cell size's key); 4 input (a file\n"
     "    that cannot be read: the YAML itself, calibration, images, clouds);\n"
     "    5 output (the output folder or a file in it cannot be written);\n"
-    "    1 anything else (e.g. a stage failing on a frame)\n");
+    "    130 / 143 stopped by SIGINT (Ctrl-C) / SIGTERM: the frame under way is\n"
+    "    finished (and checkpointed when checkpoints are on), nothing else is\n"
+    "    written and the previous outputs stay; a second signal ends it at once;\n"
+    "    1 anything else (e.g. a stage failing on a frame)\n"
+    "  NO_COLOR (any value): messages without colour.\n");
 }
 
 void
@@ -374,6 +386,18 @@ constexpr int EXIT_OUTPUT = 5;
  * IOError then is an output error, otherwise an input error. */
 bool writing_outputs = false;
 
+/** Set by SIGINT and SIGTERM: the run stops after the frame under way. */
+std::atomic<bool> stop_requested{false};
+/** The signal that set it. */
+volatile std::sig_atomic_t stop_signal = 0;
+
+extern "C" void
+onStopSignal(int signal)
+{
+  stop_signal = signal;
+  stop_requested.store(true);
+}
+
 /** The exit status of the exception \a e that ended run(). */
 int
 exitStatus(const std::exception& e)
@@ -384,7 +408,56 @@ exitStatus(const std::exception& e)
     return EXIT_CONFIG;
   if (dynamic_cast<const planar_grid::IOError*>(&e))
     return writing_outputs ? EXIT_OUTPUT : EXIT_INPUT;
+  if (dynamic_cast<const planar_grid::Interrupted*>(&e))
+    return 128 + static_cast<int>(stop_signal); // as the shell reports a signal
   return EXIT_FAILURE;
+}
+
+/** SIGINT and SIGTERM stop the run between frames; the handler is reset by its first
+ * signal, so a second one ends the process at once. Interrupted system calls restart.
+ */
+void
+installStopHandlers()
+{
+  struct sigaction action {};
+  action.sa_handler = onStopSignal;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = SA_RESETHAND | SA_RESTART;
+  for (const int signal : {SIGINT, SIGTERM})
+    if (::sigaction(signal, &action, nullptr) != 0)
+      throw planar_grid::Exception("cannot install the handler of signal "
+                                   + std::to_string(signal));
+}
+
+/** The verbosity of --log-level / --quiet / -v. */
+VERBOSITY_LEVEL
+logLevel(int argc, char** argv)
+{
+  VERBOSITY_LEVEL level = L_INFO;
+  std::string text;
+  if (parse_argument(argc, argv, "--log-level", text) >= 0) {
+    if (text == "error")
+      level = L_ERROR;
+    else if (text == "warn")
+      level = L_WARN;
+    else if (text == "info")
+      level = L_INFO;
+    else if (text == "debug")
+      level = L_DEBUG;
+    else
+      throw planar_grid::cli::UsageError("--log-level '" + text
+                                         + "': one of error, warn, info, debug");
+  }
+  const bool quiet =
+    find_switch(argc, argv, "-q") || find_switch(argc, argv, "--quiet");
+  const bool verbose = find_switch(argc, argv, "-v");
+  if (quiet && verbose)
+    throw planar_grid::cli::UsageError("--quiet and -v contradict each other");
+  if (quiet)
+    level = L_ERROR;
+  if (verbose)
+    level = L_DEBUG;
+  return level;
 }
 
 int
@@ -398,15 +471,15 @@ run(int argc, char** argv)
     listStages();
     return EXIT_SUCCESS;
   }
-  if (find_switch(argc, argv, "-v"))
-    setVerbosityLevel(L_DEBUG);
-
   // Every argument must be a known option: a typo is an error, not a default.
-  const std::vector<std::string> with_value{"--config", "--frames", "--output",
-                                            "--checkpoint-every", "--memory-limit"};
-  const std::vector<std::string> switches{"--no-snapshot", "--resume", "--sequential",
-                                          "-v"};
+  const std::vector<std::string> with_value{"--config",       "--frames",
+                                            "--output",       "--checkpoint-every",
+                                            "--memory-limit", "--log-level"};
+  const std::vector<std::string> switches{
+    "--no-snapshot", "--resume", "--sequential", "-v", "-q", "--quiet"};
   planar_grid::cli::checkArguments(argc, argv, with_value, switches);
+  setVerbosityLevel(logLevel(argc, argv));
+  const bool show_info = isVerbosityLevelEnabled(L_INFO);
 
   std::string config_path, frames_text, output_folder;
   if (parse_argument(argc, argv, "--config", config_path) < 0 || config_path.empty())
@@ -557,10 +630,21 @@ run(int argc, char** argv)
   writing_outputs = false;
 
   ProgressBar bar(::isatty(STDERR_FILENO) != 0);
-  runner.setProgressCallback([&bar](std::size_t done, std::size_t total, double s) {
-    bar.update(done, total, s);
-  });
-  planar_grid::RunReport report = runner.run();
+  if (show_info)
+    runner.setProgressCallback([&bar](std::size_t done, std::size_t total, double s) {
+      bar.update(done, total, s);
+    });
+  installStopHandlers();
+  runner.setStopFlag(&stop_requested);
+  planar_grid::RunReport report;
+  try {
+    report = runner.run();
+  } catch (const planar_grid::Interrupted& e) {
+    throw planar_grid::Interrupted(
+      std::string(stop_signal == SIGTERM ? "SIGTERM" : "SIGINT") + ": " + e.what()
+      + "; no output was written, the previous outputs in " + config.output.folder
+      + " are as they were");
+  }
 
   planar_grid::cli::releaseFreedMemory();
   writing_outputs = true;
@@ -573,9 +657,14 @@ run(int argc, char** argv)
   planar_grid::writeRunReport(config.output, report, outputs);
   outputs.commit();
 
-  std::cout << "\n" << report.timingTable() << "\nOutputs:\n";
-  for (const auto& [kind, path] : report.outputs)
-    std::cout << "  " << kind << ": " << path << "\n";
+  if (stop_requested.load())
+    print_warn(
+      "A stop signal came after the last frame: the outputs were completed.\n");
+  if (show_info) {
+    std::cout << "\n" << report.timingTable() << "\nOutputs:\n";
+    for (const auto& [kind, path] : report.outputs)
+      std::cout << "  " << kind << ": " << path << "\n";
+  }
   return EXIT_SUCCESS;
 }
 

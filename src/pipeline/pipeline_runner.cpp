@@ -471,7 +471,8 @@ PipelineRunner::run()
     const std::size_t done = (i - begin_) / step_ + 1;
     if (done % rss_every == 0 || last)
       report_.rss_samples.emplace_back(i, residentMemoryBytes());
-    if (checkpoint_every_ > 0 && (done % checkpoint_every_ == 0 || last)) {
+    const bool stop = !last && stop_ != nullptr && stop_->load();
+    if (checkpoint_every_ > 0 && (done % checkpoint_every_ == 0 || last || stop)) {
       const auto t = Clock::now();
       ++report_.checkpoints_written;
       report_.seconds = previous_seconds_ + msSince(run_start_) / 1000.0;
@@ -480,6 +481,13 @@ PipelineRunner::run()
     }
     if (progress_)
       progress_(done, total, msSince(run_start_) / 1000.0);
+    if (stop)
+      throw Interrupted(
+        "stopped on request after frame " + std::to_string(i) + " ("
+        + std::to_string(done) + " of " + std::to_string(total) + " frames)"
+        + (checkpoint_every_ > 0 ? "; the checkpoint " + checkpoint_path_
+                                     + " holds it (resume from it to continue)"
+                                 : ""));
   }
   return finish();
 }

@@ -318,6 +318,45 @@ TEST_F(OutputCommitTest, KilledWhileWritingOutputsLeavesTheOldOrTheNewSet)
 
 } // namespace
 
+TEST_F(OutputCommitTest, StopSignalEndsTheRunAfterAFrameAndKeepsTheOldOutputs)
+{
+  ASSERT_EQ(run("0:2"), 0) << bytesOf(log_);
+  const auto old_set = contents(out_);
+  ASSERT_GE(old_set.size(), 7u);
+
+  // Eight frames; the signal comes once the first is mapped (the tool prints a line
+  // per frame when its output is not a terminal), so that frames are still to come.
+  std::ofstream(yaml_) << planar_grid::test::karlsruheJob(8, out_, "");
+  for (const int signal : {SIGINT, SIGTERM}) {
+    SCOPED_TRACE(signal == SIGINT ? "SIGINT" : "SIGTERM");
+    fs::remove(log_); // the previous run's lines are not this run's
+    const pid_t pid = start(
+      {"--config", yaml_.string(), "--frames", "0:8", "--no-snapshot", "--sequential"},
+      log_);
+    bool first_frame = false;
+    for (int waited_ms = 0; !first_frame && waited_ms < 600000; waited_ms += 10) {
+      first_frame = bytesOf(log_).find("frame 1/8") != std::string::npos;
+      if (!first_frame)
+        ::usleep(10000);
+    }
+    ASSERT_TRUE(first_frame) << bytesOf(log_);
+    ASSERT_EQ(::kill(pid, signal), 0);
+    EXPECT_EQ(exitCode(pid), 128 + signal);
+    const std::string log = bytesOf(log_);
+    EXPECT_NE(log.find(std::string(signal == SIGINT ? "SIGINT" : "SIGTERM")
+                       + ": stopped on request after frame "),
+              std::string::npos)
+      << log;
+    EXPECT_NE(
+      log.find("the previous outputs in " + out_.string() + " are as they were"),
+      std::string::npos)
+      << log;
+    EXPECT_EQ(log.find("frame 8/8"), std::string::npos) << log;
+    EXPECT_EQ(contents(out_), old_set);
+  }
+  fs::remove(log_);
+}
+
 TEST(PipelineRunLock, SecondRunIntoTheFolderFailsAtOnceNamingTheHolder)
 {
   const fs::path dir =

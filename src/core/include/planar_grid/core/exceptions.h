@@ -52,4 +52,13 @@ public:
   explicit IOError(const std::string& what) : Exception(what) {}
 };
 
+/** \brief A run stopped on request (PipelineRunner::setStopFlag(), e.g. from a SIGINT
+ * handler) between two frames; what() says after which frame. \ingroup core */
+class Interrupted : public Exception {
+public:
+  /** \brief An interruption with the message \a what.
+   * \param[in] what the message; it names the last frame that was mapped */
+  explicit Interrupted(const std::string& what) : Exception(what) {}
+};
+
 } // namespace planar_grid

@@ -6,6 +6,7 @@
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/stage.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -197,6 +198,16 @@ public:
     progress_ = std::move(callback);
   }
 
+  /** \brief Sets a flag that stops run() between two frames once it is true (none by
+   * default), e.g. set by a SIGINT handler (an atomic store is async-signal-safe).
+   * run() then finishes the frame under way, writes a checkpoint of it when
+   * checkpoints are set (setCheckpoint(); a later run resumes from it), and throws
+   * planar_grid::Interrupted naming that frame; it returns no report and writes no
+   * output. A flag set after the last frame has no effect.
+   * \param[in] stop the flag, read with load(); it must outlive run() (nullptr: none)
+   */
+  void setStopFlag(const std::atomic<bool>* stop) { stop_ = stop; }
+
   /** \brief Sets the function called after the stages have processed each frame, on
    * the calling thread, in frame order, before the progress callback (none by
    * default). It may read the frame, keep a copy or feed it to other pipelines; what
@@ -350,6 +361,8 @@ private:
   std::vector<InputStamp> input_stamps_;
   std::unique_ptr<ResumeData> resume_;
   bool overlap_{true};
+  /** \brief setStopFlag()'s flag, or nullptr. */
+  const std::atomic<bool>* stop_{nullptr};
   /** \brief The limit run() checks the memory estimate against. */
   MemoryLimit memory_limit_{machineMemoryLimit()};
 };
