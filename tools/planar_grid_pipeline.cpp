@@ -42,6 +42,15 @@ using namespace pcl::console;
 
 namespace {
 
+/** pcl::console::print_value() at the info level: PCL's prints whatever the
+ * verbosity, which --quiet must silence. */
+void
+printValue(const std::string& text)
+{
+  if (isVerbosityLevelEnabled(L_INFO))
+    print_value("%s", text.c_str());
+}
+
 void
 printHelp(const char* program)
 {
@@ -257,7 +266,7 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
                               street_description);
     if (street) {
       print_info("Street camera: ");
-      print_value("%s", street_description.c_str());
+      printValue(street_description);
       print_info(": position (%.2f, %.2f, %.2f) m, focal point (%.2f, %.2f, %.2f) m\n",
                  street->position.x(), street->position.y(), street->position.z(),
                  street->focal_point.x(), street->focal_point.y(),
@@ -544,7 +553,7 @@ run(int argc, char** argv)
 #endif
 
   print_info("Configuration: ");
-  print_value("%s", config_path.c_str());
+  printValue(config_path);
   print_info(" (%zu stages)\n", config.stages.size());
   for (const auto& sc : config.stages) {
     std::string params;
@@ -568,7 +577,7 @@ run(int argc, char** argv)
     // Before anything is written or mapped: a run that cannot fit is refused now.
     const planar_grid::MemoryEstimate estimate = runner.estimateMemory();
     print_info("Memory estimate: ");
-    print_value("%s", estimate.summary().c_str());
+    printValue(estimate.summary());
     print_info("; limit %s\n", memory_limit.bytes == 0
                                  ? "none"
                                  : (planar_grid::formatBytes(memory_limit.bytes) + " ("
@@ -596,14 +605,14 @@ run(int argc, char** argv)
       throw planar_grid::Exception("--resume needs output.checkpoint (a file name)");
     const std::size_t next = runner.resumeFrom(checkpoint_path);
     print_info("Resuming from ");
-    print_value("%s", checkpoint_path.c_str());
+    printValue(checkpoint_path);
     print_info(" at frame position %zu\n", next);
   }
   if (config.output.checkpoint_every_n_frames > 0) {
     runner.setCheckpoint(checkpoint_path, config.output.checkpoint_every_n_frames);
     print_info("Checkpoint every %zu frames: ",
                config.output.checkpoint_every_n_frames);
-    print_value("%s\n", checkpoint_path.c_str());
+    printValue(checkpoint_path + "\n");
   }
   const bool stereo =
     config.input.type == planar_grid::InputConfig::Type::STEREO_SEQUENCE;

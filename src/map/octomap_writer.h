@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 namespace planar_grid {
@@ -60,6 +61,29 @@ summarize(const octomap::OcTree& tree)
   return summary;
 }
 
+/** \brief Writes \a tree in OctoMap's binary format (.bt) to \a path, byte for byte
+ * what OcTree::writeBinaryConst() writes (its header, then
+ * OccupancyOcTreeBase::writeBinaryData()), without liboctomap's " done." on stderr
+ * (Debian builds it with its debug output on).
+ * \return false when the file cannot be written */
+inline bool
+writeBinaryQuietly(const octomap::OcTree& tree, const std::string& path)
+{
+  std::ofstream out(path, std::ios_base::out | std::ios_base::binary);
+  if (!out.is_open())
+    return false;
+  out
+    << "# Octomap OcTree binary file\n# (feel free to add / change comments, but leave "
+       "the first line as it is!)\n#\n";
+  out << "id " << tree.getTreeType() << std::endl;
+  out << "size " << tree.size() << std::endl;
+  out << "res " << tree.getResolution() << std::endl;
+  out << "data" << std::endl;
+  tree.writeBinaryData(out);
+  out.close();
+  return !out.fail();
+}
+
 /** \brief Prunes \a tree completely and writes it atomically: ".ot" as OctoMap's full
  * format (AbstractOcTree::write: every node's log-odds as a float), anything else as
  * the binary format (OcTree::writeBinary: the maximum-likelihood free / occupied state
@@ -79,7 +103,9 @@ write(octomap::OcTree& tree, const std::string& path)
   if (tree.getRoot() != nullptr)
     pruneSubtree(tree, tree.getRoot());
   writeFileAtomically(path, [&tree, full](const std::string& temporary) {
-    return full ? tree.write(temporary) : tree.writeBinary(temporary);
+    // The tree is in maximum likelihood and pruned already: what writeBinary() would
+    // do before writing changes nothing.
+    return full ? tree.write(temporary) : writeBinaryQuietly(tree, temporary);
   });
   return summarize(tree);
 }

@@ -452,6 +452,17 @@ TEST_F(PlanarGridMapTest, OctoMapExportKeepsObservedSpaceAndCuboidProbabilities)
     } else {
       tree = std::make_unique<octomap::OcTree>(res);
       ASSERT_TRUE(tree->readBinary(file));
+      // The file is byte for byte what liboctomap's own writer makes of its tree.
+      const std::string rewritten = path("rewritten.bt");
+      ASSERT_TRUE(tree->writeBinaryConst(rewritten));
+      std::ifstream a(file, std::ios::binary), b(rewritten, std::ios::binary);
+      const std::string exported((std::istreambuf_iterator<char>(a)),
+                                 std::istreambuf_iterator<char>());
+      const std::string by_octomap((std::istreambuf_iterator<char>(b)),
+                                   std::istreambuf_iterator<char>());
+      ASSERT_GT(exported.size(), 100u);
+      EXPECT_TRUE(exported == by_octomap)
+        << exported.size() << " bytes against liboctomap's " << by_octomap.size();
     }
     ASSERT_TRUE(tree) << name;
     EXPECT_DOUBLE_EQ(tree->getResolution(), res);
