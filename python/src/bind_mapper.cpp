@@ -244,6 +244,70 @@ planar_grid.Error
     visual_odometry (or a pose with it), or a stage failing on the frame.
 )doc")
     .def(
+      "integrate_depth",
+      [](Mapper& self, const py::array& depth, double fx_px, double fy_px, double cx_px,
+         double cy_px, const DoubleArray& world_T_camera) {
+        if (depth.ndim() != 2)
+          throw py::value_error("depth must be an (H, W) array, got "
+                                + std::to_string(depth.ndim()) + " dimensions");
+        using MillimeterArray =
+          py::array_t<std::uint16_t, py::array::c_style | py::array::forcecast>;
+        // uint16 stays millimeters; any other dtype is taken as meters (float32).
+        py::array held;
+        cv::Mat image;
+        const int rows = static_cast<int>(depth.shape(0));
+        const int cols = static_cast<int>(depth.shape(1));
+        if (py::isinstance<py::array_t<std::uint16_t>>(depth)) {
+          const auto a = MillimeterArray::ensure(depth);
+          held = a;
+          image = cv::Mat(rows, cols, CV_16UC1, const_cast<std::uint16_t*>(a.data()));
+        } else {
+          const auto a = FloatArray::ensure(depth);
+          if (!a)
+            throw py::value_error(
+              "depth must hold numbers (uint16 millimeters or float "
+              "meters)");
+          held = a;
+          image = cv::Mat(rows, cols, CV_32FC1, const_cast<float*>(a.data()));
+        }
+        const PinholeView camera{cols, rows, fx_px, fy_px, cx_px, cy_px};
+        const Eigen::Isometry3d pose = toIsometry(world_T_camera, "world_T_camera");
+        FrameStats stats;
+        {
+          py::gil_scoped_release release;
+          stats = self.integrateDepth(image, camera, pose);
+        }
+        return toDict(stats);
+      },
+      py::arg("depth"), py::arg("fx_px"), py::arg("fy_px"), py::arg("cx_px"),
+      py::arg("cy_px"), py::arg("world_T_camera"),
+      R"doc(Maps a depth image, as its organized point cloud, with the camera's own pinhole
+model for the free space.
+
+Parameters
+----------
+depth : numpy.ndarray, shape (H, W)
+    Depth along the optical axis: uint16 in millimeters, or float in meters (REP 118, as
+    ROS depth cameras publish it); 0, NaN and infinity are invalid pixels.
+fx_px, fy_px, cx_px, cy_px : float
+    The depth camera's focal lengths and principal point, pixels.
+world_T_camera : numpy.ndarray, shape (4, 4)
+    The camera's pose (meters; camera x right, y down, z forward).
+
+Returns
+-------
+dict
+    The frame's statistics, as integrate_stereo().
+
+Raises
+------
+ValueError
+    For an array that is not (H, W) or not numeric.
+planar_grid.Error
+    For a pipeline that takes stereo pairs, focal lengths that are not positive, an
+    image without a valid pixel, or a stage failing on the frame.
+)doc")
+    .def(
       "integrate_cloud",
       [](Mapper& self, const FloatArray& points, const DoubleArray& world_T_sensor) {
         const auto cloud = toCloud(points, "points");

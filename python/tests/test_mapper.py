@@ -90,3 +90,39 @@ def test_the_example_maps_a_frame(main_job, source_dir, tmp_path):
                           str(tmp_path / "live.pgmap")],
                          check=True, capture_output=True, text=True).stdout
     assert out.startswith("frame 0: ") and (tmp_path / "live.pgmap").stat().st_size > 1000
+
+
+def test_a_depth_image_is_mapped_through_its_camera(data_dir, tmp_path):
+    # A wall 2 m ahead filling a 640 x 480 depth image (f = 525 px), in millimeters, seen
+    # from the origin looking along z: occupied on the wall, free in front, unknown behind.
+    config = tmp_path / "depth.yaml"
+    config.write_text(f"""input:
+  type: pcd_files
+  files: {data_dir / "pcl_clouds" / "office1.pcd"}
+pipeline:
+  - type: voxel_grid
+    params: {{leaf_size_m: 0.05}}
+  - type: transform_to_world
+  - type: multi_plane_segmentation
+    params: {{distance_threshold_m: 0.03, max_planes: 4, min_inliers: 300}}
+  - type: planar_cuboid_approximation
+    params: {{min_cell_size_m: 0.1, thickness_m: 0.1}}
+  - type: map_integration
+    params: {{prior: unknown}}
+""")
+    mapper = pg.Mapper(config)
+    depth = np.full((480, 640), 2000, dtype=np.uint16)
+    stats = mapper.integrate_depth(depth, 525.0, 525.0, 320.0, 240.0, np.eye(4))
+    assert stats["cuboids"] > 0
+    states = mapper.map.get_state(np.array([[0.0, 0.3, 2.0], [0.0, 0.0, 1.0], [0.0, 0.0, 3.0]]))
+    assert list(states) == [int(pg.SpaceState.OCCUPIED), int(pg.SpaceState.FREE),
+                            int(pg.SpaceState.UNKNOWN)]
+    # The same wall in meters (float) gives the same map.
+    again = pg.Mapper(config)
+    again.integrate_depth(depth.astype(np.float32) / 1000.0, 525.0, 525.0, 320.0, 240.0,
+                          np.eye(4))
+    assert again.map.__getstate__() == mapper.map.__getstate__()
+    with pytest.raises(ValueError, match=r"\(H, W\) array"):
+        mapper.integrate_depth(np.zeros((4, 4, 3)), 525.0, 525.0, 2.0, 2.0, np.eye(4))
+    with pytest.raises(pg.Error, match="focal lengths must be positive"):
+        mapper.integrate_depth(depth, 0.0, 525.0, 320.0, 240.0, np.eye(4))

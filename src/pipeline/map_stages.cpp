@@ -74,9 +74,9 @@ public:
 
     // The explicit space layer: the view's depth image through its pinhole camera, or
     // a ray from the sensor origin to every point.
-    const bool rays =
-      sensor_model_ == SensorModel::RAYS
-      || (sensor_model_ == SensorModel::AUTO && frame.disparity.empty());
+    const bool rays = sensor_model_ == SensorModel::RAYS
+                      || (sensor_model_ == SensorModel::AUTO && frame.disparity.empty()
+                          && frame.depth_camera.width_px <= 0);
     if (rays) {
       // Every measured point: the ground and the points of no cell too.
       const Frame::Cloud& measured =
@@ -132,8 +132,9 @@ private:
     depth_pixels_ = depth_.countValid();
   }
 
-  /** PCD input: the world cloud back in the sensor frame, rendered by a virtual
-   * pinhole camera. */
+  /** Point-cloud input: the world cloud back in the sensor frame, rendered by the
+   * depth camera it came from (depth-image input) or else by a virtual pinhole camera.
+   */
   void depthFromCloud(const Frame& frame)
   {
     camera_cloud_.clear();
@@ -145,10 +146,17 @@ private:
       q.getVector4fMap() = camera_T_world * Eigen::Vector4f(p.x, p.y, p.z, 1.0f);
       camera_cloud_.push_back(q);
     }
-    depth_ = DepthImage::fromPointCloud(
-      camera_cloud_, depth_width_px_, depth_height_px_, depth_focal_length_px_,
-      depth_focal_length_px_, 0.5f * static_cast<float>(depth_width_px_),
-      0.5f * static_cast<float>(depth_height_px_));
+    const PinholeView& camera = frame.depth_camera;
+    depth_ =
+      camera.width_px > 0
+        ? DepthImage::fromPointCloud(
+          camera_cloud_, camera.width_px, camera.height_px,
+          static_cast<float>(camera.fx_px), static_cast<float>(camera.fy_px),
+          static_cast<float>(camera.cx_px), static_cast<float>(camera.cy_px))
+        : DepthImage::fromPointCloud(camera_cloud_, depth_width_px_, depth_height_px_,
+                                     depth_focal_length_px_, depth_focal_length_px_,
+                                     0.5f * static_cast<float>(depth_width_px_),
+                                     0.5f * static_cast<float>(depth_height_px_));
     depth_pixels_ = depth_.countValid();
   }
 
@@ -239,11 +247,12 @@ mapIntegrationInfo()
                     "apart is covered once."),
     ParamSpec::choice("sensor_model", "auto", {"auto", "pinhole", "rays"},
                       "How the explicit space layer sees a frame: pinhole = the "
-                      "disparity image's camera (stereo) or a virtual depth camera "
-                      "(point clouds, the depth_* keys); rays = a ray from the sensor "
-                      "origin to every point of the working cloud, for any field of "
-                      "view (a 360 degree LiDAR scan); auto = pinhole for stereo, rays "
-                      "for point clouds."),
+                      "disparity image's camera (stereo), the depth image's camera "
+                      "(Mapper::integrateDepth) or a virtual depth camera (other point "
+                      "clouds, the depth_* keys); rays = a ray from the sensor origin "
+                      "to every point of the working cloud, for any field of view (a "
+                      "360 degree LiDAR scan); auto = pinhole for stereo and depth "
+                      "images, rays for point clouds."),
     ParamSpec::integer("depth_width_px", 640, 1, 100000, "px",
                        "sensor_model pinhole, point clouds: width of the virtual depth "
                        "camera."),

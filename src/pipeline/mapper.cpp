@@ -6,6 +6,9 @@
 #include <pcl/common/io.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
 #include <string>
 
 namespace planar_grid {
@@ -188,6 +191,67 @@ Mapper::integrateCloud(const Frame::Cloud& cloud,
   frame.cloud->sensor_origin_ = Eigen::Vector4f(0, 0, 0, 1);
   frame.cloud->sensor_orientation_ = Eigen::Quaternionf::Identity();
   return integrate(frame, &world_T_sensor);
+}
+
+FrameStats
+Mapper::integrateDepth(const cv::Mat& depth,
+                       const PinholeView& camera,
+                       const Eigen::Isometry3d& world_T_camera)
+{
+  requireInput(InputConfig::Type::PCD_FILES, "integrateDepth");
+  if (depth.empty())
+    throw Exception("Mapper::integrateDepth: the depth image is empty");
+  if (depth.type() != CV_16UC1 && depth.type() != CV_32FC1)
+    throw Exception("Mapper::integrateDepth: the depth image must be CV_16UC1 "
+                    "(millimeters) or CV_32FC1 (meters), not type "
+                    + std::to_string(depth.type()));
+  if (depth.cols != camera.width_px || depth.rows != camera.height_px)
+    throw Exception("Mapper::integrateDepth: the depth image is "
+                    + std::to_string(depth.cols) + " x " + std::to_string(depth.rows)
+                    + " px, the camera " + std::to_string(camera.width_px) + " x "
+                    + std::to_string(camera.height_px) + " px");
+  const auto positive = [](double v) {
+    return std::isfinite(v) && v > 0.0;
+  };
+  if (!positive(camera.fx_px) || !positive(camera.fy_px) || !std::isfinite(camera.cx_px)
+      || !std::isfinite(camera.cy_px))
+    throw Exception("Mapper::integrateDepth: the camera's focal lengths must be "
+                    "positive and its principal point finite (px)");
+
+  // The organized cloud of the image, pixel (u, v) at index v * width + u.
+  Frame frame;
+  frame.cloud.reset(new Frame::Cloud(static_cast<std::uint32_t>(depth.cols),
+                                     static_cast<std::uint32_t>(depth.rows)));
+  frame.cloud->is_dense = false;
+  const float fx = static_cast<float>(camera.fx_px);
+  const float fy = static_cast<float>(camera.fy_px);
+  const float cx = static_cast<float>(camera.cx_px);
+  const float cy = static_cast<float>(camera.cy_px);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  bool any_valid = false;
+  for (int v = 0; v < depth.rows; ++v) {
+    for (int u = 0; u < depth.cols; ++u) {
+      const float z = depth.type() == CV_16UC1
+                        ? 0.001f * static_cast<float>(depth.at<std::uint16_t>(v, u))
+                        : depth.at<float>(v, u);
+      pcl::PointXYZI& p = frame.cloud->at(u, v);
+      p.intensity = 0.0f;
+      if (!(z > 0.0f) || !std::isfinite(z)) {
+        p.x = p.y = p.z = nan;
+        continue;
+      }
+      p.x = (static_cast<float>(u) - cx) * z / fx;
+      p.y = (static_cast<float>(v) - cy) * z / fy;
+      p.z = z;
+      any_valid = true;
+    }
+  }
+  if (!any_valid)
+    throw Exception("Mapper::integrateDepth: the depth image has no valid pixel");
+  frame.cloud->sensor_origin_ = Eigen::Vector4f(0, 0, 0, 1);
+  frame.cloud->sensor_orientation_ = Eigen::Quaternionf::Identity();
+  frame.depth_camera = camera;
+  return integrate(frame, &world_T_camera);
 }
 
 FrameStats

@@ -337,3 +337,122 @@ pipeline:
     },
     "the cloud is empty");
 }
+
+namespace {
+
+/** A point-cloud pipeline on office1.pcd whose map sees point clouds through a
+ * virtual pinhole camera of \a width x \a height px, focal length \a focal px and its
+ * principal point in the image's centre (map_integration's depth_* keys). */
+planar_grid::PipelineConfig
+depthPipeline(int width, int height, double focal)
+{
+  return planar_grid::parsePipelineConfig(
+    "input:\n  type: pcd_files\n  files: " + std::string(PLANAR_GRID_DATA_DIR)
+      + "/pcl_clouds/office1.pcd\n" + R"(
+pipeline:
+  - type: voxel_grid
+    params: {leaf_size_m: 0.05}
+  - type: transform_to_world
+  - type: multi_plane_segmentation
+    params: {distance_threshold_m: 0.03, max_planes: 4, min_inliers: 300}
+  - type: planar_cuboid_approximation
+    params: {min_cell_size_m: 0.1, thickness_m: 0.1}
+  - type: map_integration
+    params: {prior: unknown, sensor_model: pinhole, depth_width_px: )"
+      + std::to_string(width) + ", depth_height_px: " + std::to_string(height)
+      + ", depth_focal_length_px: " + std::to_string(focal) + "}\n",
+    "depth.yaml", "/");
+}
+
+} // namespace
+
+TEST_F(MapperTest, ADepthImageIsMappedThroughItsOwnCamera)
+{
+  // A fronto-parallel wall 2 m ahead filling a 640 x 480 depth image (f = 525 px, so
+  // 2.44 m x 1.83 m), in millimeters, seen from the origin looking along world z: the
+  // wall's cells are occupied, the space in front of it free, behind it unknown.
+  const auto config = depthPipeline(640, 480, 525.0);
+  const planar_grid::PinholeView camera{640, 480, 525.0, 525.0, 320.0, 240.0};
+  const Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  planar_grid::Mapper wall(config);
+  const auto stats =
+    wall.integrateDepth(cv::Mat(480, 640, CV_16UC1, cv::Scalar(2000)), camera, pose);
+  EXPECT_GT(stats.cuboids, 0u);
+  {
+    const auto map = wall.readMap();
+    for (const float x : {-0.8f, 0.0f, 0.8f})
+      EXPECT_EQ(map->getState(Eigen::Vector3f(x, 0.3f, 2.0f)),
+                planar_grid::SpaceState::OCCUPIED)
+        << x;
+    EXPECT_EQ(map->getState(Eigen::Vector3f(0.0f, 0.0f, 1.0f)),
+              planar_grid::SpaceState::FREE);
+    EXPECT_EQ(map->getState(Eigen::Vector3f(0.0f, 0.0f, 3.0f)),
+              planar_grid::SpaceState::UNKNOWN);
+    // Outside the camera's view (x / z beyond 320 / 525): never seen.
+    EXPECT_EQ(map->getState(Eigen::Vector3f(1.2f, 0.0f, 1.0f)),
+              planar_grid::SpaceState::UNKNOWN);
+  }
+
+  // A real depth image (office1's depths at half resolution, NaN where the Kinect saw
+  // nothing) in meters, from a 320 x 240 camera of f = 262.5 px, mapped by the pipeline
+  // above (whose virtual camera is another): the same map as its cloud back-projected
+  // through that camera, mapped with the pipeline's virtual camera set to it.
+  const auto source = planar_grid::createFrameSource(config.input);
+  planar_grid::Frame frame;
+  source->load(0, frame);
+  ASSERT_TRUE(frame.cloud && frame.cloud->isOrganized());
+  ASSERT_EQ(frame.cloud->width, 640u);
+  const planar_grid::PinholeView half{320, 240, 262.5, 262.5, 160.0, 120.0};
+  cv::Mat depth(240, 320, CV_32FC1);
+  planar_grid::Frame::Cloud cloud(320, 240);
+  cloud.is_dense = false;
+  std::size_t valid = 0;
+  for (int v = 0; v < 240; ++v)
+    for (int u = 0; u < 320; ++u) {
+      const float z = frame.cloud->at(2 * u, 2 * v).z;
+      depth.at<float>(v, u) = z;
+      auto& p = cloud.at(u, v);
+      p.intensity = 0.0f;
+      if (std::isfinite(z) && z > 0.0f) {
+        p.x = (static_cast<float>(u) - 160.0f) * z / 262.5f;
+        p.y = (static_cast<float>(v) - 120.0f) * z / 262.5f;
+        p.z = z;
+        ++valid;
+      } else {
+        p.x = p.y = p.z = std::numeric_limits<float>::quiet_NaN();
+      }
+    }
+  ASSERT_GT(valid, 25000u);
+  planar_grid::Mapper from_depth(config), from_cloud(depthPipeline(320, 240, 262.5));
+  from_depth.integrateDepth(depth, half, frame.world_T_camera);
+  from_cloud.integrateCloud(cloud, frame.world_T_camera);
+  std::string a, b;
+  from_depth.readMap()->serialize(a);
+  from_cloud.readMap()->serialize(b);
+  EXPECT_GT(from_depth.readMap()->getSurfaceLayer().getCuboidCount(), 10u);
+  EXPECT_TRUE(a == b) << "the depth image's map differs from its cloud's";
+
+  // Bad images and cameras are refused; so is a depth image on a stereo pipeline.
+  expectThrowWith([&] { from_depth.integrateDepth(cv::Mat(), camera, pose); },
+                  "the depth image is empty");
+  expectThrowWith(
+    [&] { from_depth.integrateDepth(cv::Mat(480, 640, CV_8UC1), camera, pose); },
+    "must be CV_16UC1 (millimeters) or CV_32FC1 (meters)");
+  expectThrowWith([&] { from_depth.integrateDepth(depth, camera, pose); },
+                  "the depth image is 320 x 240 px, the camera 640 x 480 px");
+  expectThrowWith(
+    [&] {
+      from_depth.integrateDepth(depth, planar_grid::PinholeView{320, 240, 0.0, 262.5},
+                                pose);
+    },
+    "focal lengths must be positive");
+  expectThrowWith(
+    [&] {
+      from_depth.integrateDepth(cv::Mat(480, 640, CV_32FC1, cv::Scalar(0.0f)), camera,
+                                pose);
+    },
+    "no valid pixel");
+  planar_grid::Mapper stereo(mainJob(1));
+  expectThrowWith([&] { stereo.integrateDepth(depth, camera, pose); },
+                  "takes stereo pairs");
+}

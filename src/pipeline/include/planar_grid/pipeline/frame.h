@@ -3,6 +3,7 @@
 
 #include <planar_grid/core/planar_cuboid.h>
 #include <planar_grid/core/stereo_calibration.h>
+#include <planar_grid/pipeline/pinhole_view.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 #include <planar_grid/stereo/stereo_feature_matcher.h>
 
@@ -39,6 +40,11 @@ struct Frame {
   StereoCalibration calibration;
   /** \brief Disparity in px, CV_32FC1, NaN = invalid (after stereo_disparity). */
   cv::Mat disparity;
+  /** \brief Depth-image input (Mapper::integrateDepth()): the depth camera whose
+   * pixels the organized `cloud` holds, row by row; width_px 0 for every other input.
+   * map_integration's `auto` sensor model then clears free space through this camera
+   * instead of casting a ray to every point. */
+  PinholeView depth_camera;
 
   /** \brief The working cloud: in the camera frame (x right, y down, z forward, metres)
    * until transform_to_world, in the world frame after it. */

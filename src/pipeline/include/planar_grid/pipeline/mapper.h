@@ -183,6 +183,23 @@ public:
   FrameStats integrateCloud(const Frame::Cloud& cloud,
                             const Eigen::Isometry3d& world_T_sensor);
 
+  /** \brief Maps a depth image seen from \a world_T_camera, as its organized point
+   * cloud through integrateCloud(), with the camera's own pinhole model for the free
+   * space (map_integration's `auto` and `pinhole` sensor models).
+   * \param[in] depth the depth along the optical axis per pixel: CV_16UC1 in
+   * millimeters or CV_32FC1 in meters (REP 118, as ROS depth cameras publish it); 0,
+   * NaN and infinity are invalid pixels
+   * \param[in] camera the depth camera: width and height (px, the image's size),
+   * focal lengths (px, > 0) and principal point (px)
+   * \param[in] world_T_camera the camera's pose (x right, y down, z forward), meters
+   * \return the frame's statistics
+   * \throws planar_grid::Exception for an empty image, another pixel type, a size
+   * other than the camera's, focal lengths that are not positive and finite, a
+   * pipeline that reads stereo pairs, or a stage that fails on the frame */
+  FrameStats integrateDepth(const cv::Mat& depth,
+                            const PinholeView& camera,
+                            const Eigen::Isometry3d& world_T_camera);
+
   /** \brief The map under a shared lock (see the class brief): safe from any thread,
    * also while a frame is being integrated. */
   [[nodiscard]] MapReader readMap() const;

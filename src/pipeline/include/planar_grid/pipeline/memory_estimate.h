@@ -2,6 +2,7 @@
 #pragma once
 
 #include <planar_grid/odometry/trajectory_io.h>
+#include <planar_grid/pipeline/pinhole_view.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 
 #include <cstddef>
@@ -9,23 +10,6 @@
 #include <string>
 
 namespace planar_grid {
-
-/** \brief A pinhole camera: image size and intrinsics (camera frame x right, y down, z
- * forward). \ingroup pipeline */
-struct PinholeView {
-  /** \brief Image width, pixels (> 0). */
-  int width_px{0};
-  /** \brief Image height, pixels (> 0). */
-  int height_px{0};
-  /** \brief Horizontal focal length, pixels (> 0). */
-  double fx_px{0.0};
-  /** \brief Vertical focal length, pixels (> 0). */
-  double fy_px{0.0};
-  /** \brief Principal point column, pixels. */
-  double cx_px{0.0};
-  /** \brief Principal point row, pixels. */
-  double cy_px{0.0};
-};
 
 /** \brief Volume of the points within \a margin_m of a pinhole view's frustum (the
  * pyramid of the image's pixel area, depth 0 to \a max_range_m), bounded from above by
