@@ -107,7 +107,8 @@ printHelp(const char* program)
     "    3 configuration (the YAML: planar_grid::ConfigError, also a run refused by\n"
     "    --memory-limit, at the cell size's key); 4 input (a file\n"
     "    that cannot be read: the YAML itself, calibration, images, clouds);\n"
-    "    5 output (the output folder or a file in it cannot be written);\n"
+    "    5 output (the output folder, a file in it or the checkpoint cannot be\n"
+    "    written, or an output name would overwrite an input or names a folder);\n"
     "    130 / 143 stopped by SIGINT (Ctrl-C) / SIGTERM: the frame under way is\n"
     "    finished (and checkpointed when checkpoints are on), nothing else is\n"
     "    written and the previous outputs stay; a second signal ends it at once;\n"
@@ -415,6 +416,8 @@ exitStatus(const std::exception& e)
     return EXIT_USAGE;
   if (dynamic_cast<const planar_grid::ConfigError*>(&e))
     return EXIT_CONFIG;
+  if (dynamic_cast<const planar_grid::OutputError*>(&e))
+    return EXIT_OUTPUT;
   if (dynamic_cast<const planar_grid::IOError*>(&e))
     return writing_outputs ? EXIT_OUTPUT : EXIT_INPUT;
   if (dynamic_cast<const planar_grid::Interrupted*>(&e))
@@ -596,9 +599,10 @@ run(int argc, char** argv)
     if ((resume || config.output.checkpoint_every_n_frames > 0)
         && !checkpoint_path.empty()
         && std::filesystem::is_directory(checkpoint_path, ec))
-      throw planar_grid::IOError(checkpoint_path
-                                 + ": the checkpoint (output.checkpoint) is a folder, "
-                                   "not a file: it cannot be written or read there");
+      throw planar_grid::OutputError(
+        checkpoint_path
+        + ": the checkpoint (output.checkpoint) is a folder, "
+          "not a file: it cannot be written or read there");
   }
   if (resume) {
     if (checkpoint_path.empty())

@@ -104,7 +104,8 @@ writeFileAtomically(const std::string& path,
   const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
   std::error_code ec;
   if (!fs::is_directory(dir, ec))
-    throw IOError(path + ": cannot write: folder " + dir.string() + " does not exist");
+    throw OutputError(path + ": cannot write: folder " + dir.string()
+                      + " does not exist");
   // Same folder as the target so that rename() is atomic on POSIX file systems.
   const fs::path tmp = dir
                        / ("." + target.filename().string() + ".tmp."
@@ -121,9 +122,9 @@ writeFileAtomically(const std::string& path,
     // it cannot allocate the file) names neither the file nor the cause.
     const int write_errno = writeErrno(errno);
     fs::remove(tmp, ec);
-    throw IOError(path
-                  + ": cannot write: " + describeWriteError(write_errno, dir.string())
-                  + " (" + e.what() + "); the previous file, if any, is unchanged");
+    throw OutputError(path + ": cannot write: "
+                      + describeWriteError(write_errno, dir.string()) + " (" + e.what()
+                      + "); the previous file, if any, is unchanged");
   } catch (...) {
     fs::remove(tmp, ec);
     throw;
@@ -137,13 +138,14 @@ writeFileAtomically(const std::string& path,
         ? std::string("the writer created no file")
         : describeWriteError(hidden != 0 ? hidden : write_errno, dir.string());
     fs::remove(tmp, ec);
-    throw IOError(path + ": cannot write: " + cause
-                  + "; the previous file, if any, is unchanged");
+    throw OutputError(path + ": cannot write: " + cause
+                      + "; the previous file, if any, is unchanged");
   }
   if (std::rename(tmp.c_str(), target.c_str()) != 0) {
     const std::string reason = std::strerror(errno);
     fs::remove(tmp, ec);
-    throw IOError(path + ": cannot rename the temporary file into place: " + reason);
+    throw OutputError(path
+                      + ": cannot rename the temporary file into place: " + reason);
   }
 }
 

@@ -64,9 +64,9 @@ void
 checkName(const std::string& folder, const std::string& name)
 {
   if (!OutputTransaction::isOutputName(name))
-    throw IOError(folder + ": output name '" + name
-                  + "' must be a relative path inside the output folder (no '..', "
-                    "not starting with '.planar_grid_')");
+    throw OutputError(folder + ": output name '" + name
+                      + "' must be a relative path inside the output folder (no '..', "
+                        "not starting with '.planar_grid_')");
 }
 
 /** The parsed journal: the staging folder's name, the files to move in and the files
@@ -100,7 +100,7 @@ readJournal(const std::string& folder, const fs::path& path)
   std::ostringstream content;
   content << in.rdbuf();
   if (!in && !in.eof())
-    throw IOError(path.string() + ": cannot read the commit journal");
+    throw OutputError(path.string() + ": cannot read the commit journal");
   const std::string text = content.str();
   const auto corrupt = [&path](const std::string& why) {
     return IOError(path.string() + ": corrupt commit journal (" + why
@@ -173,12 +173,12 @@ applyJournal(const std::string& folder,
   for (const auto& name : journal.put)
     if (fs::exists(staging / name, ec)
         && fs::is_directory(fs::symlink_status(root / name, ec)))
-      throw IOError((root / name).string()
-                    + ": is a folder, and the new output cannot replace a folder: "
-                      "remove or rename it; the next run into "
-                    + folder + " then completes the commit (its journal "
-                    + (root / OutputTransaction::JOURNAL).string()
-                    + "); nothing was moved");
+      throw OutputError((root / name).string()
+                        + ": is a folder, and the new output cannot replace a folder: "
+                          "remove or rename it; the next run into "
+                        + folder + " then completes the commit (its journal "
+                        + (root / OutputTransaction::JOURNAL).string()
+                        + "); nothing was moved");
   for (const auto& name : journal.put) {
     const fs::path from = staging / name;
     const fs::path to = root / name;
@@ -186,10 +186,10 @@ applyJournal(const std::string& folder,
       fs::create_directories(to.parent_path(), ec);
       // ENOENT: another process replaying the same journal moved it first.
       if (std::rename(from.c_str(), to.c_str()) != 0 && errno != ENOENT)
-        throw IOError(to.string() + ": cannot move the new output into place: "
-                      + std::strerror(errno) + "; the journal "
-                      + (root / OutputTransaction::JOURNAL).string()
-                      + " completes the commit on the next run");
+        throw OutputError(to.string() + ": cannot move the new output into place: "
+                          + std::strerror(errno) + "; the journal "
+                          + (root / OutputTransaction::JOURNAL).string()
+                          + " completes the commit on the next run");
       touched.insert(to.parent_path());
     }
     if (step)
@@ -289,10 +289,10 @@ OutputTransaction::OutputTransaction(std::string folder) : folder_(std::move(fol
 {
   std::error_code ec;
   if (fs::exists(folder_, ec) && !fs::is_directory(folder_, ec))
-    throw IOError(folder_ + ": the output folder is a file, not a folder");
+    throw OutputError(folder_ + ": the output folder is a file, not a folder");
   fs::create_directories(folder_, ec);
   if (ec || !fs::is_directory(folder_))
-    throw IOError(folder_ + ": cannot create the output folder: " + ec.message());
+    throw OutputError(folder_ + ": cannot create the output folder: " + ec.message());
   lock();
   try {
     recover(folder_);
@@ -301,8 +301,8 @@ OutputTransaction::OutputTransaction(std::string folder) : folder_(std::move(fol
       fs::path(folder_)
       / (STAGING_PREFIX + std::to_string(static_cast<long>(::getpid())));
     if (::mkdir(staging.c_str(), 0755) != 0)
-      throw IOError(folder_ + ": cannot write into the output folder (creating "
-                    + staging.filename().string() + "): " + std::strerror(errno));
+      throw OutputError(folder_ + ": cannot write into the output folder (creating "
+                        + staging.filename().string() + "): " + std::strerror(errno));
     staging_ = staging.string();
   } catch (...) {
     // No destructor runs for a constructor that throws: release the lock here.
@@ -333,8 +333,8 @@ OutputTransaction::lock()
   const fs::path path = fs::path(folder_) / LOCK;
   lock_fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   if (lock_fd_ < 0)
-    throw IOError(folder_ + ": cannot write into the output folder (creating "
-                  + path.filename().string() + "): " + std::strerror(errno));
+    throw OutputError(folder_ + ": cannot write into the output folder (creating "
+                      + path.filename().string() + "): " + std::strerror(errno));
   if (::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
     const int error = errno;
     // The holder wrote its process id into the file when it took the lock.
@@ -347,13 +347,13 @@ OutputTransaction::lock()
     ::close(lock_fd_);
     lock_fd_ = -1;
     if (error == EWOULDBLOCK)
-      throw IOError(
+      throw OutputError(
         folder_ + ": the output folder is in use by another run ("
         + (holder.empty() ? std::string("process id unknown") : "process " + holder)
         + " holds " + path.string()
         + "); wait for it to finish or choose another output folder");
-    throw IOError(path.string()
-                  + ": cannot lock the output folder: " + std::strerror(error));
+    throw OutputError(path.string()
+                      + ": cannot lock the output folder: " + std::strerror(error));
   }
   const std::string pid = std::to_string(static_cast<long>(::getpid())) + "\n";
   if (::ftruncate(lock_fd_, 0) != 0
@@ -362,7 +362,7 @@ OutputTransaction::lock()
     const std::string reason = std::strerror(errno);
     ::close(lock_fd_);
     lock_fd_ = -1;
-    throw IOError(path.string() + ": cannot write the lock file: " + reason);
+    throw OutputError(path.string() + ": cannot write the lock file: " + reason);
   }
 }
 
@@ -370,7 +370,7 @@ std::string
 OutputTransaction::stagedPath(const std::string& name)
 {
   if (committed_)
-    throw IOError(folder_ + ": output '" + name + "' staged after the commit");
+    throw OutputError(folder_ + ": output '" + name + "' staged after the commit");
   checkName(folder_, name);
   const std::string normal = fs::path(name).lexically_normal().string();
   if (std::find(names_.begin(), names_.end(), normal) == names_.end())
@@ -379,8 +379,8 @@ OutputTransaction::stagedPath(const std::string& name)
   std::error_code ec;
   fs::create_directories(path.parent_path(), ec);
   if (ec)
-    throw IOError(finalPath(name) + ": cannot create its staging folder "
-                  + path.parent_path().string() + ": " + ec.message());
+    throw OutputError(finalPath(name) + ": cannot create its staging folder "
+                      + path.parent_path().string() + ": " + ec.message());
   return path.string();
 }
 
@@ -413,8 +413,8 @@ OutputTransaction::write(const std::string& name,
     replace_all("; the previous file, if any, is unchanged", "");
     if (message.find(final_path) == std::string::npos)
       message = final_path + ": " + message;
-    throw IOError(message + "; no output in " + folder_
-                  + " was replaced (the previous set is kept)");
+    throw OutputError(message + "; no output in " + folder_
+                      + " was replaced (the previous set is kept)");
   }
   return final_path;
 }
@@ -430,7 +430,7 @@ void
 OutputTransaction::commit()
 {
   if (committed_)
-    throw IOError(folder_ + ": the outputs are already committed");
+    throw OutputError(folder_ + ": the outputs are already committed");
   const fs::path root(folder_);
   const fs::path staging(staging_);
 
@@ -448,24 +448,24 @@ OutputTransaction::commit()
   std::error_code ec;
   for (const auto& name : names_) {
     if (!fs::is_regular_file(staging / name, ec))
-      throw IOError(finalPath(name) + ": the output was not written; no output in "
-                    + folder_ + " was replaced");
+      throw OutputError(finalPath(name) + ": the output was not written; no output in "
+                        + folder_ + " was replaced");
     if (const int error = syncPath(staging / name, false); error != 0)
-      throw IOError(finalPath(name)
-                    + ": cannot write: " + describeWriteError(error, folder_)
-                    + "; no output in " + folder_ + " was replaced");
+      throw OutputError(finalPath(name)
+                        + ": cannot write: " + describeWriteError(error, folder_)
+                        + "; no output in " + folder_ + " was replaced");
   }
   if (const int error = syncPath(manifest_path, false); error != 0)
-    throw IOError(manifest_path
-                  + ": cannot write: " + describeWriteError(error, folder_));
+    throw OutputError(manifest_path
+                      + ": cannot write: " + describeWriteError(error, folder_));
   syncPath(staging, true);
   // Before the commit point, while the previous set can still be kept whole.
   for (const auto& name : names_)
     if (fs::is_directory(fs::symlink_status(root / name, ec)))
-      throw IOError(finalPath(name)
-                    + ": is a folder, and the new output cannot replace a folder: "
-                      "remove or rename it; no output in "
-                    + folder_ + " was replaced");
+      throw OutputError(finalPath(name)
+                        + ": is a folder, and the new output cannot replace a folder: "
+                          "remove or rename it; no output in "
+                        + folder_ + " was replaced");
   step("synced");
 
   Journal journal;
@@ -491,16 +491,16 @@ OutputTransaction::commit()
     const int error = out ? syncPath(journal_tmp, false) : errno;
     if (!out || error != 0) {
       fs::remove(journal_tmp, ec);
-      throw IOError(journal_path.string() + ": cannot write the commit journal: "
-                    + describeWriteError(error, folder_) + "; no output in " + folder_
-                    + " was replaced");
+      throw OutputError(journal_path.string() + ": cannot write the commit journal: "
+                        + describeWriteError(error, folder_) + "; no output in "
+                        + folder_ + " was replaced");
     }
   }
   if (std::rename(journal_tmp.c_str(), journal_path.c_str()) != 0) {
     const std::string reason = std::strerror(errno);
     fs::remove(journal_tmp, ec);
-    throw IOError(journal_path.string() + ": cannot write the commit journal: " + reason
-                  + "; no output in " + folder_ + " was replaced");
+    throw OutputError(journal_path.string() + ": cannot write the commit journal: "
+                      + reason + "; no output in " + folder_ + " was replaced");
   }
   journal_written_ = true;
   syncPath(root, true);

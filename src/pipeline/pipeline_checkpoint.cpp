@@ -211,8 +211,8 @@ PipelineRunner::setCheckpoint(const std::string& path, std::size_t every_n_frame
     if (!folder.empty())
       std::filesystem::create_directories(folder, ec);
     if (ec)
-      throw IOError(folder.string()
-                    + ": cannot create the checkpoint folder: " + ec.message());
+      throw OutputError(folder.string()
+                        + ": cannot create the checkpoint folder: " + ec.message());
     removeStaleTemporaries(path);
     // Now, before the first frame: the content the run starts from.
     input_stamps_ = stampInputFiles(config_);

@@ -90,17 +90,17 @@ checkOutputPaths(const OutputConfig& output,
       const bool same_file = exists && in.exists && in.status.st_dev == status.st_dev
                              && in.status.st_ino == status.st_ino;
       if (in.resolved == resolved || same_file)
-        throw IOError(path + ": output." + key + " '" + name + "' would overwrite "
-                      + in.file->what + ", " + in.file->path
-                      + ", which this run reads: choose another output name or "
-                        "output folder");
+        throw OutputError(path + ": output." + key + " '" + name + "' would overwrite "
+                          + in.file->what + ", " + in.file->path
+                          + ", which this run reads: choose another output name or "
+                            "output folder");
     }
     std::error_code ec;
     if (fs::is_directory(fs::symlink_status(path, ec)))
-      throw IOError(path + ": output." + key + " '" + name
-                    + "' names an existing folder, and a file cannot replace a "
-                      "folder: remove or rename the folder, or choose another "
-                      "output name");
+      throw OutputError(path + ": output." + key + " '" + name
+                        + "' names an existing folder, and a file cannot replace a "
+                          "folder: remove or rename the folder, or choose another "
+                          "output name");
   }
 }
 
@@ -111,7 +111,7 @@ createFolder(const std::string& folder)
   std::error_code ec;
   std::filesystem::create_directories(folder, ec);
   if (ec || !std::filesystem::is_directory(folder))
-    throw IOError(folder + ": cannot create the output folder: " + ec.message());
+    throw OutputError(folder + ": cannot create the output folder: " + ec.message());
 }
 
 /** Writes the output \a name with a function given the path to write; returns the

@@ -557,7 +557,7 @@ TEST_F(BadStereoInputTest, CheckpointThatIsAFolderIsRefusedBeforeTheFirstFrame)
   writePairs(3);
   fs::create_directories(dir_ / "out" / "checkpoint.pgck");
   const ToolRun run = runTool(config(0), "--checkpoint-every 1");
-  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_EQ(run.exit_code, 5) << run.output;
   EXPECT_CONTAINS(run.output, (dir_ / "out" / "checkpoint.pgck").string()
                                 + ": the checkpoint (output.checkpoint) is a folder");
   // No frame ran: the progress line of the first frame is not there.
@@ -622,7 +622,7 @@ TEST_F(BadStereoInputTest, OutputThatWouldOverwriteAnInputIsRefusedBeforeTheFirs
   const std::string poses_before = contentOf(dir_ / "poses.txt");
   const ToolRun run =
     runTool(yaml + "  trajectory: poses.txt\n", "--output '" + dir_.string() + "'");
-  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_EQ(run.exit_code, 5) << run.output;
   EXPECT_CONTAINS(run.output, (dir_ / "poses.txt").string()
                                 + ": output.trajectory 'poses.txt' would overwrite the "
                                   "poses file (input.poses.file)");
@@ -694,7 +694,7 @@ TEST_F(BadStereoInputTest, OutputNameThatIsAFolderIsRefusedBeforeTheFirstFrame)
   const fs::path map_bt = dir_ / "out" / "map.bt";
   fs::create_directories(map_bt / "inside");
   ToolRun run = runTool(config(0));
-  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_EQ(run.exit_code, 5) << run.output;
   EXPECT_CONTAINS(run.output, map_bt.string()
                                 + ": output.map_octomap 'map.bt' names an existing "
                                   "folder, and a file cannot replace a folder");
@@ -704,7 +704,7 @@ TEST_F(BadStereoInputTest, OutputNameThatIsAFolderIsRefusedBeforeTheFirstFrame)
   fs::remove(dir_ / "out" / "report.json");
   fs::create_directories(dir_ / "out" / "report.json" / "inside");
   run = runTool(config(0));
-  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_EQ(run.exit_code, 5) << run.output;
   EXPECT_CONTAINS(run.output, "output.report 'report.json' names an existing folder");
   fs::remove_all(dir_ / "out" / "report.json");
   // The other outputs are the first run's; without the folder the run writes again.

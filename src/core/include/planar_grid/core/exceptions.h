@@ -52,6 +52,17 @@ public:
   explicit IOError(const std::string& what) : Exception(what) {}
 };
 
+/** \brief An output that cannot be written, or that a run refuses to write before it
+ * starts (a name that would overwrite an input, a folder in a file's place, a folder
+ * that cannot be made); what() names the path and the cause. An IOError, so that
+ * catching IOError catches it too. \ingroup core */
+class OutputError : public IOError {
+public:
+  /** \brief An output error with the message \a what.
+   * \param[in] what the message; it names the output and what was wrong with it */
+  explicit OutputError(const std::string& what) : IOError(what) {}
+};
+
 /** \brief A run stopped on request (PipelineRunner::setStopFlag(), e.g. from a SIGINT
  * handler) between two frames; what() says after which frame. \ingroup core */
 class Interrupted : public Exception {
