@@ -79,11 +79,21 @@ checkOutputPaths(const OutputConfig& output,
     resolved_inputs.push_back(in);
   }
 
+  // Each output's own file: two keys naming one file would leave only the last one
+  // written.
+  std::vector<std::pair<fs::path, std::string>> taken;
   for (const auto& [key, name] : names) {
     if (name.empty())
       continue;
     const std::string path = outputPath(output, name);
     const fs::path resolved = resolvedPath(path);
+    for (const auto& [other_path, other_key] : taken)
+      if (other_path == resolved)
+        throw OutputError(path + ": output." + key + " '" + name
+                          + "' is the file of output." + other_key
+                          + " too, and one would replace the other: give "
+                            "each output its own name");
+    taken.emplace_back(resolved, key);
     struct stat status {};
     const bool exists = ::stat(path.c_str(), &status) == 0;
     for (const auto& in : resolved_inputs) {

@@ -680,6 +680,20 @@ TEST_F(BadStereoInputTest, OutputThatWouldOverwriteAnInputIsRefusedBeforeTheFirs
   EXPECT_EQ(outputPathError(with((dir_ / "out").string(), "map", "calib.txt")), "");
 }
 
+TEST_F(BadStereoInputTest, TwoOutputsOfOneNameAreRefusedBeforeTheFirstFrame)
+{
+  // The trajectory and the report in one file: the report, written last, would replace
+  // the trajectory.
+  writePairs(2);
+  const ToolRun run = runTool(config(0) + "  trajectory: run.txt\n  report: run.txt\n");
+  EXPECT_EQ(run.exit_code, 5) << run.output;
+  EXPECT_CONTAINS(run.output, (dir_ / "out" / "run.txt").string()
+                                + ": output.trajectory 'run.txt' is the file of "
+                                  "output.report too");
+  EXPECT_EQ(run.output.find("frame 1/"), std::string::npos) << run.output;
+  EXPECT_FALSE(fs::exists(dir_ / "out" / "run.txt"));
+}
+
 TEST_F(BadStereoInputTest, OutputNameThatIsAFolderIsRefusedBeforeTheFirstFrame)
 {
   // A folder where an output goes failed the commit after the last frame, part way
