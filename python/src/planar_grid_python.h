@@ -79,6 +79,18 @@ cloudToArray(const pcl::PointCloud<PointT>& cloud)
   return out;
 }
 
+/** \brief A (K,) array of type T from a per-item function. */
+template <typename T, typename Container, typename Get>
+py::array_t<T>
+column(const Container& items, Get get)
+{
+  py::array_t<T> out(static_cast<py::ssize_t>(items.size()));
+  auto o = out.template mutable_unchecked<1>();
+  for (std::size_t i = 0; i < items.size(); ++i)
+    o(static_cast<py::ssize_t>(i)) = static_cast<T>(get(items[i]));
+  return out;
+}
+
 /** \brief Planes of a segmentation, held for Python (PlanarSegments in Python). */
 struct Planes {
   /** \brief The planes, sorted by descending inlier count. */
@@ -163,9 +175,12 @@ private:
   std::map<std::string, std::function<void(T&, py::handle)>> setters_;
 };
 
-/** \brief Binds SACMultiPlaneSegmentation, PlanarCuboidApproximation,
- * KLDivergenceOccupancyFilter and their result types. */
+/** \brief Binds SACMultiPlaneSegmentation, PlanarCuboidApproximation and their result
+ * types. */
 void bindAlgorithms(py::module_& m);
+/** \brief Binds KLDivergenceOccupancyFilter and the occupancy functions of its
+ * equations. */
+void bindOccupancyFilter(py::module_& m);
 /** \brief Binds PlanarGridMap and SpaceState. */
 void bindMap(py::module_& m);
 /** \brief Binds run_pipeline(), PipelineResult and stage_types(). */
