@@ -21,6 +21,7 @@
 #include <memory>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace planar_grid {
 namespace python {
@@ -38,6 +39,11 @@ using IndexArray = py::array_t<std::int64_t, py::array::c_style | py::array::for
  * whether every coordinate is finite. \throws py::value_error naming \a name for
  * another shape */
 pcl::PointCloud<pcl::PointXYZ>::Ptr toCloud(const FloatArray& points, const char* name);
+
+/** \brief Points of an (N, 3) array, as floats (meters). \throws py::value_error
+ * naming \a name for another shape */
+std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>>
+toPoints(const FloatArray& points, const char* name);
 
 /** \brief A (3,) array as a vector. \throws py::value_error naming \a name */
 Eigen::Vector3f toVector3f(const DoubleArray& vector, const char* name);
@@ -181,8 +187,12 @@ void bindAlgorithms(py::module_& m);
 /** \brief Binds KLDivergenceOccupancyFilter and the occupancy functions of its
  * equations. */
 void bindOccupancyFilter(py::module_& m);
-/** \brief Binds PlanarGridMap and SpaceState. */
+/** \brief Binds PlanarGridMap (construction, the map file, integration, its cuboids,
+ * planes and memory) and SpaceState. */
 void bindMap(py::module_& m);
+/** \brief Adds the point, ray, distance and collision queries to PlanarGridMap (bound
+ * by bindMap()) and binds MapRegionIndex. */
+void bindMapQueries(py::module_& m);
 /** \brief Binds run_pipeline(), PipelineResult and stage_types(). */
 void bindPipeline(py::module_& m);
 /** \brief Binds Mapper, its MapReadLock and InputFrames. */
