@@ -60,6 +60,20 @@ toVector3f(const DoubleArray& vector, const char* name)
   return Eigen::Vector3d(v(0), v(1), v(2)).cast<float>();
 }
 
+std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>>
+toPoints(const FloatArray& points, const char* name)
+{
+  if (points.ndim() != 2 || points.shape(1) != 3)
+    throw py::value_error(std::string(name)
+                          + " must be an (N, 3) array of x, y, z in meters");
+  std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> out(
+    static_cast<std::size_t>(points.shape(0)));
+  const auto p = points.unchecked<2>();
+  for (py::ssize_t i = 0; i < points.shape(0); ++i)
+    out[static_cast<std::size_t>(i)] = Eigen::Vector3f(p(i, 0), p(i, 1), p(i, 2));
+  return out;
+}
+
 Eigen::Isometry3d
 toIsometry(const DoubleArray& matrix, const char* name)
 {

@@ -125,7 +125,9 @@ ValueError
 )doc");
 
   planar_grid::python::bindAlgorithms(m);
+  planar_grid::python::bindOccupancyFilter(m);
   planar_grid::python::bindMap(m);
+  planar_grid::python::bindMapQueries(m);
   planar_grid::python::bindPipeline(m);
   planar_grid::python::bindMapper(m);
 }

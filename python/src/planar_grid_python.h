@@ -21,6 +21,7 @@
 #include <memory>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace planar_grid {
 namespace python {
@@ -38,6 +39,11 @@ using IndexArray = py::array_t<std::int64_t, py::array::c_style | py::array::for
  * whether every coordinate is finite. \throws py::value_error naming \a name for
  * another shape */
 pcl::PointCloud<pcl::PointXYZ>::Ptr toCloud(const FloatArray& points, const char* name);
+
+/** \brief Points of an (N, 3) array, as floats (meters). \throws py::value_error
+ * naming \a name for another shape */
+std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>>
+toPoints(const FloatArray& points, const char* name);
 
 /** \brief A (3,) array as a vector. \throws py::value_error naming \a name */
 Eigen::Vector3f toVector3f(const DoubleArray& vector, const char* name);
@@ -76,6 +82,18 @@ cloudToArray(const pcl::PointCloud<PointT>& cloud)
     o(i_py, 1) = cloud[i].y;
     o(i_py, 2) = cloud[i].z;
   }
+  return out;
+}
+
+/** \brief A (K,) array of type T from a per-item function. */
+template <typename T, typename Container, typename Get>
+py::array_t<T>
+column(const Container& items, Get get)
+{
+  py::array_t<T> out(static_cast<py::ssize_t>(items.size()));
+  auto o = out.template mutable_unchecked<1>();
+  for (std::size_t i = 0; i < items.size(); ++i)
+    o(static_cast<py::ssize_t>(i)) = static_cast<T>(get(items[i]));
   return out;
 }
 
@@ -163,11 +181,18 @@ private:
   std::map<std::string, std::function<void(T&, py::handle)>> setters_;
 };
 
-/** \brief Binds SACMultiPlaneSegmentation, PlanarCuboidApproximation,
- * KLDivergenceOccupancyFilter and their result types. */
+/** \brief Binds SACMultiPlaneSegmentation, PlanarCuboidApproximation and their result
+ * types. */
 void bindAlgorithms(py::module_& m);
-/** \brief Binds PlanarGridMap and SpaceState. */
+/** \brief Binds KLDivergenceOccupancyFilter and the occupancy functions of its
+ * equations. */
+void bindOccupancyFilter(py::module_& m);
+/** \brief Binds PlanarGridMap (construction, the map file, integration, its cuboids,
+ * planes and memory) and SpaceState. */
 void bindMap(py::module_& m);
+/** \brief Adds the point, ray, distance and collision queries to PlanarGridMap (bound
+ * by bindMap()) and binds MapRegionIndex. */
+void bindMapQueries(py::module_& m);
 /** \brief Binds run_pipeline(), PipelineResult and stage_types(). */
 void bindPipeline(py::module_& m);
 /** \brief Binds Mapper, its MapReadLock and InputFrames. */

@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The paper's comparison (Sec. IV-B, Figs. 12-14): SG, OG, RA and PG on the same frames
 // at several minimum cell sizes, in one process.
-#include <planar_grid/core/atomic_file.h>
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/eval/map_comparison.h>
 #include <planar_grid/eval/mapping_error.h>
@@ -9,17 +8,14 @@
 #include <planar_grid/eval/standard_voxel_grid.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 #include <planar_grid/pipeline/stage.h>
-#include <planar_grid/pipeline/yaml_reader.h>
 
 #include <pcl/common/transforms.h>
 #include <pcl/io/pcd_io.h>
 
 #include <octomap/octomap.h>
 #include <opencv2/imgcodecs.hpp>
-#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
-#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -34,20 +30,15 @@
 #include <utility>
 #include <vector>
 
+#include "map_comparison_impl.h"
+
 namespace planar_grid {
 
 namespace {
 
 namespace fs = std::filesystem;
 
-/** Whether the stage registry declares \a type a front-end stage, which does not
- * depend on the cell size and so runs once per frame for all sizes. */
-bool
-isFrontEnd(const std::string& type)
-{
-  const StageInfo* info = findStage(type);
-  return info && info->role == StageRole::FRONT_END;
-}
+using detail::isFrontEnd;
 
 /** The pipeline stage \a sc at cell size \a r: its parameters marked CELL_SIZE in
  * its table are set to r, those marked POINTS_PER_AREA scaled by (0.1 / r)^2
@@ -199,140 +190,6 @@ struct Lane {
   /** Time spent on the completeness and planar share (and the truth voxels), ms. */
   double completeness_ms{0.0};
 };
-
-} // namespace
-
-namespace {
-
-ComparisonConfig
-parseComparison(const YAML::Node& root, const std::string& path)
-{
-  const YamlReader r(path, fs::path(path).parent_path().string());
-  const auto count = [&r](const YAML::Node& node, long long min,
-                          const std::string& what) {
-    return static_cast<std::size_t>(r.integerValue(node, min, 100000000, what));
-  };
-  ComparisonConfig config;
-  config.source_file = path;
-  r.checkKeys(
-    root,
-    {"environment", "resolutions_m", "tolerance_cells", "places", "datasets", "output"},
-    "the evaluation configuration");
-  const auto parsePlaces = [&](const YAML::Node& places, std::size_t& places_count,
-                               double& radius_m) {
-    r.checkKeys(places, {"count", "radius_m"}, "places");
-    if (places["count"])
-      places_count = count(places["count"], 0, "places.count");
-    if (places["radius_m"])
-      radius_m = r.realValue(places["radius_m"], 0.0, 1000.0, "places.radius_m");
-  };
-  if (const YAML::Node places = root["places"])
-    parsePlaces(places, config.places, config.place_radius_m);
-  if (root["environment"]) {
-    config.environment = r.string(root, "environment", "the configuration");
-    if (config.environment != "indoor" && config.environment != "outdoor")
-      r.fail(root["environment"], "environment must be indoor or outdoor");
-  }
-  if (const YAML::Node res = root["resolutions_m"]) {
-    if (!res.IsSequence() || res.size() == 0)
-      r.fail(res, "resolutions_m must be a non-empty list of cell sizes in meters");
-    config.resolutions_m.clear();
-    for (const auto& v : res)
-      config.resolutions_m.push_back(
-        r.realValue(v, 0.01, 10.0, "resolutions_m entries"));
-  }
-  if (root["tolerance_cells"])
-    config.tolerance_cells =
-      r.realValue(root["tolerance_cells"], 0.1, 10.0, "tolerance_cells");
-  if (const YAML::Node out = root["output"]) {
-    r.checkKeys(out, {"folder", "save_maps"}, "output");
-    config.output_folder = r.string(out, "folder", "output");
-    config.save_maps = r.boolean(out, "save_maps", false, "output");
-  }
-  const YAML::Node datasets = root["datasets"];
-  if (!datasets || !datasets.IsSequence() || datasets.size() == 0)
-    r.fail(datasets ? datasets : root, "datasets must be a non-empty list");
-  for (const auto& node : datasets) {
-    r.checkKeys(node, {"name", "pipeline", "frames", "truth", "tilt_deg", "places"},
-                "a dataset");
-    DatasetConfig ds;
-    ds.places = config.places;
-    ds.place_radius_m = config.place_radius_m;
-    if (const YAML::Node places = node["places"])
-      parsePlaces(places, ds.places, ds.place_radius_m);
-    ds.name = r.string(node, "name", "a dataset");
-    ds.pipeline_file = r.resolve(r.string(node, "pipeline", "dataset " + ds.name));
-    ds.pipeline = loadPipelineConfig(ds.pipeline_file);
-    if (const YAML::Node frames = node["frames"]) {
-      r.checkKeys(frames, {"first", "count", "step"}, "dataset " + ds.name + ".frames");
-      if (frames["first"])
-        ds.first_frame = count(frames["first"], 0, "frames.first");
-      if (frames["count"])
-        ds.frame_count = count(frames["count"], 0, "frames.count");
-      if (frames["step"])
-        ds.frame_step = count(frames["step"], 1, "frames.step");
-    }
-    const YAML::Node truth = node["truth"];
-    if (!truth)
-      r.fail(node, "dataset " + ds.name
-                     + " needs a truth (type: points, disparity or "
-                       "reference)");
-    r.checkKeys(truth, {"type", "file", "leaf_size_m", "min_views"},
-                "dataset " + ds.name + ".truth");
-    const std::string type = r.string(truth, "type", "truth");
-    if (type == "points")
-      ds.truth.type = TruthConfig::Type::POINTS;
-    else if (type == "disparity")
-      ds.truth.type = TruthConfig::Type::DISPARITY;
-    else if (type == "reference")
-      ds.truth.type = TruthConfig::Type::REFERENCE;
-    else
-      r.fail(truth["type"], "truth.type must be points, disparity or reference");
-    if (ds.truth.type != TruthConfig::Type::REFERENCE)
-      ds.truth.file = r.resolve(r.string(truth, "file", "truth"));
-    else if (truth["file"])
-      r.fail(truth["file"], "truth.file is not used by type reference");
-    if (truth["leaf_size_m"])
-      ds.truth.leaf_size_m =
-        r.realValue(truth["leaf_size_m"], 0.005, 1.0, "truth.leaf_size_m");
-    if (truth["min_views"])
-      ds.truth.min_views = count(truth["min_views"], 1, "truth.min_views");
-    if ((truth["leaf_size_m"] || truth["min_views"])
-        && ds.truth.type != TruthConfig::Type::REFERENCE)
-      r.fail(truth, "truth.leaf_size_m and truth.min_views are for type reference");
-    if (node["tilt_deg"])
-      ds.tilt_deg = r.realValue(node["tilt_deg"], 0.0, 90.0, "tilt_deg");
-    // The front end comes first: the split into shared and per-size stages needs it.
-    bool back = false;
-    for (const auto& sc : ds.pipeline.stages) {
-      if (!isFrontEnd(sc.type))
-        back = true;
-      else if (back)
-        throw ConfigError(ds.pipeline_file, sc.line, sc.column,
-                          "stage '" + sc.type
-                            + "' must come before the cell-size stages for the "
-                              "evaluation (it runs once per frame for all sizes)");
-    }
-    config.datasets.push_back(std::move(ds));
-  }
-  return config;
-}
-
-} // namespace
-
-ComparisonConfig
-loadComparisonConfig(const std::string& path)
-{
-  const YAML::Node root = loadYamlDocument(readConfigFile(path), path);
-  try {
-    return parseComparison(root, path);
-  } catch (const YAML::Exception& e) {
-    throw ConfigError(path, e.mark.is_null() ? 0 : e.mark.line + 1,
-                      e.mark.is_null() ? 0 : e.mark.column + 1, e.msg);
-  }
-}
-
-namespace {
 
 /** The ground truth of \a ds (TruthConfig); \a first_frame gives the DISPARITY truth
  * its calibration and pose, \a reference holds the REFERENCE voxels. */
@@ -751,161 +608,6 @@ runComparison(const ComparisonConfig& config,
     }
   }
   return rows;
-}
-
-std::string
-mapComparisonFile(const std::string& dataset, double resolution_m)
-{
-  std::string name = dataset;
-  for (char& c : name)
-    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_'
-        && c != '.')
-      c = '_';
-  std::ostringstream file;
-  file << "pg_" << name << "_" << resolution_m << "m.pgmap";
-  return file.str();
-}
-
-void
-saveComparisonCsv(const std::vector<ComparisonRow>& rows, const std::string& path)
-{
-  std::ostringstream out;
-  out << "dataset,environment,tilt_deg,resolution_m,method,frames,cells,all_cells,"
-         "efficiency,memory_bytes,ms_per_frame,samples,erroneous,error,truth,"
-         "planar_samples,planar_erroneous,place,frame,region_radius_m,completeness,"
-         "planar_share,truth_voxels,covered_voxels,nonground_voxels,"
-         "planar_covered_voxels,nonground_completeness,nonground_covered_voxels\n";
-  out << std::setprecision(10);
-  // NaN (no truth voxels; the planar share of SG, OG and RA) is an empty field, as
-  // is PG's planar count in the other methods' rows.
-  const auto ratio = [](double value) {
-    std::ostringstream field;
-    field << std::setprecision(10);
-    if (std::isfinite(value))
-      field << value;
-    return field.str();
-  };
-  for (const auto& r : rows) {
-    const bool pg = r.method == "PG";
-    out << r.dataset << "," << r.environment << "," << r.tilt_deg << ","
-        << r.resolution_m << "," << r.method << "," << r.frames << "," << r.cells << ","
-        << r.all_cells << "," << r.efficiency << "," << r.memory_bytes << ","
-        << r.ms_per_frame << "," << r.samples << "," << r.erroneous << "," << r.error
-        << "," << r.truth_kind << "," << r.planar_samples << "," << r.planar_erroneous
-        << "," << r.place << "," << r.frame << "," << r.region_radius_m << ","
-        << ratio(r.completeness) << "," << ratio(r.planar_share) << ","
-        << r.truth_voxels << "," << r.covered_voxels << "," << r.nonground_voxels << ","
-        << (pg ? std::to_string(r.planar_covered_voxels) : std::string()) << ","
-        << ratio(r.nonground_completeness) << "," << r.nonground_covered_voxels << "\n";
-  }
-  writeTextFileAtomically(path, out.str());
-}
-
-std::string
-comparisonMarkdown(const std::vector<ComparisonRow>& rows)
-{
-  std::ostringstream out;
-  // A ratio with 3 decimals, "-" where it is undefined (NaN).
-  const auto ratio = [](double value) {
-    std::ostringstream cell;
-    if (std::isfinite(value))
-      cell << std::fixed << std::setprecision(3) << value;
-    else
-      cell << "-";
-    return cell.str();
-  };
-  out << "| dataset | cell m | method | cells | eta | memory kB | ms/frame | error e | "
-         "completeness | non-ground completeness | planar share |\n"
-         "|---|---|---|---|---|---|---|---|---|---|---|\n";
-  out << std::fixed;
-  for (const auto& r : rows) {
-    if (r.place >= 0)
-      continue;
-    out << "| " << r.dataset << (r.truth_kind == "reference" ? " (ref.)" : "") << " | "
-        << std::setprecision(1) << r.resolution_m << " | " << r.method << " | "
-        << r.cells << " | " << std::setprecision(3) << r.efficiency << " | "
-        << std::setprecision(1) << static_cast<double>(r.memory_bytes) / 1024.0 << " | "
-        << std::setprecision(1) << r.ms_per_frame << " | " << std::setprecision(4)
-        << r.error << " | " << ratio(r.completeness) << " | "
-        << ratio(r.nonground_completeness) << " | " << ratio(r.planar_share) << " |\n";
-  }
-  // The places: means over each dataset's places (the paper's Figs. 12-14).
-  /** The mean of the defined (finite) values added; NaN when there is none. */
-  struct FiniteMean {
-    double sum{0.0};
-    std::size_t count{0};
-    void add(double value)
-    {
-      if (std::isfinite(value)) {
-        sum += value;
-        ++count;
-      }
-    }
-    double value() const
-    {
-      return count > 0 ? sum / static_cast<double>(count)
-                       : std::numeric_limits<double>::quiet_NaN();
-    }
-  };
-  struct Sum {
-    std::size_t places{0};
-    double cells{0.0}, efficiency{0.0}, memory_kb{0.0}, ms{0.0}, error{0.0};
-    FiniteMean completeness, nonground_completeness, planar_share;
-    double radius_m{0.0};
-    bool reference{false};
-  };
-  std::vector<std::pair<std::string, Sum>> sums;
-  for (const auto& r : rows) {
-    if (r.place < 0)
-      continue;
-    std::ostringstream key;
-    key << r.dataset << "|" << std::setprecision(3) << r.resolution_m << "|"
-        << r.method;
-    auto it = std::find_if(sums.begin(), sums.end(),
-                           [&key](const auto& kv) { return kv.first == key.str(); });
-    if (it == sums.end()) {
-      sums.emplace_back(key.str(), Sum{});
-      it = std::prev(sums.end());
-    }
-    Sum& sum = it->second;
-    ++sum.places;
-    sum.cells += static_cast<double>(r.cells);
-    sum.efficiency += r.efficiency;
-    sum.memory_kb += static_cast<double>(r.memory_bytes) / 1024.0;
-    sum.ms += r.ms_per_frame;
-    sum.error += r.error;
-    sum.completeness.add(r.completeness);
-    sum.nonground_completeness.add(r.nonground_completeness);
-    sum.planar_share.add(r.planar_share);
-    sum.radius_m = r.region_radius_m;
-    sum.reference = r.truth_kind == "reference";
-  }
-  if (sums.empty())
-    return out.str();
-  out
-    << "\nMeans over the places (cells and error within the radius of the camera at "
-       "each place; memory of the whole map then; ms of that frame; completeness, "
-       "non-ground completeness and planar share over the places that have truth "
-       "voxels within the radius):\n\n"
-       "| dataset | places | radius m | cell m | method | cells | eta | memory kB | "
-       "ms/frame | error e | completeness | non-ground completeness | planar share |\n"
-       "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
-  for (const auto& [key, sum] : sums) {
-    std::vector<std::string> parts;
-    std::istringstream split(key);
-    for (std::string part; std::getline(split, part, '|');)
-      parts.push_back(part);
-    const auto n = static_cast<double>(sum.places);
-    out << "| " << parts[0] << (sum.reference ? " (ref.)" : "") << " | " << sum.places
-        << " | " << std::setprecision(1) << sum.radius_m << " | " << parts[1] << " | "
-        << parts[2] << " | " << std::setprecision(0) << sum.cells / n << " | "
-        << std::setprecision(3) << sum.efficiency / n << " | " << std::setprecision(1)
-        << sum.memory_kb / n << " | " << sum.ms / n << " | " << std::setprecision(4)
-        << sum.error / n << " | " << ratio(sum.completeness.value()) << " | "
-        << ratio(sum.nonground_completeness.value()) << " | "
-        << ratio(sum.planar_share.value()) << " |\n";
-  }
-  return out.str();
 }
 
 } // namespace planar_grid

@@ -1,18 +1,13 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include <planar_grid/core/atomic_file.h>
+// SyntheticStereoScene: the corridor and room geometry, the camera path, the rendered
+// stereo frames (VTK, offscreen) and the truth queries.
 #include <planar_grid/core/exceptions.h>
-#include <planar_grid/odometry/trajectory_io.h>
-#include <planar_grid/pipeline/pipeline_config.h>
-#include <planar_grid/pipeline/pipeline_config_writer.h>
 #include <planar_grid/visualization/scene_renderer.h>
 #include <planar_grid/visualization/synthetic_stereo_scene.h>
 
 #include <pcl/console/print.h>
-#include <pcl/io/pcd_io.h>
 
-#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <vtkActor.h>
 #include <vtkCamera.h>
 #include <vtkCellArray.h>
@@ -32,23 +27,21 @@
 
 #include <algorithm>
 #include <cctype>
-#include <charconv>
 #include <cmath>
-#include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <limits>
 #include <sstream>
 #include <string>
 #include <utility>
-#include <variant>
 #include <vector>
+
+#include "synthetic_stereo_scene_impl.h"
 
 namespace planar_grid {
 
 namespace {
 
-namespace fs = std::filesystem;
+using detail::makeTexture;
+using detail::mix;
 
 using Polygon = std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>>;
 
@@ -75,174 +68,8 @@ constexpr double NEAR_CLIP_M = 0.1;
 constexpr double FAR_CLIP_M = 100.0;
 /** \brief Most points samplePoints() makes. */
 constexpr double MAX_SAMPLE_POINTS = 2e8;
-/** \brief Texture content: value-noise octaves from 2 cm up (wavelength doubles). */
-constexpr int NOISE_OCTAVES = 6;
-constexpr double NOISE_FINEST_WAVELENGTH_M = 0.02;
-/** \brief Texture content: blobs and strokes per square metre. */
-constexpr double BLOBS_PER_M2 = 10.0;
-constexpr double STROKES_PER_M2 = 4.0;
-/** \brief Texture grey levels: mean and standard deviation, clamped to [10, 245]. */
-constexpr double TEXTURE_MEAN = 128.0;
-constexpr double TEXTURE_STDDEV = 42.0;
 /** \brief Largest texture side, texels (OpenGL's limit is at least 8192 on Mesa). */
 constexpr int MAX_TEXTURE_SIDE = 8192;
-/** \brief Spacing of the truth cloud written by writeSequence(), metres. */
-constexpr double TRUTH_SPACING_M = 0.02;
-
-/** \brief SplitMix64's finaliser: a well-mixed 64-bit hash, the same on every
- * platform (std:: distributions are not). */
-std::uint64_t
-mix(std::uint64_t x)
-{
-  x += 0x9E3779B97F4A7C15ULL;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
-  return x ^ (x >> 31);
-}
-
-/** \brief A hash as a double in [0, 1). */
-double
-unitInterval(std::uint64_t h)
-{
-  return static_cast<double>(h >> 11) * 0x1.0p-53;
-}
-
-/** \brief A tiny deterministic random stream (SplitMix64). */
-class Random {
-public:
-  explicit Random(std::uint64_t seed) : state_(seed) {}
-  /** \brief Uniform in [lo, hi). */
-  double uniform(double lo, double hi)
-  {
-    state_ += 0x9E3779B97F4A7C15ULL;
-    return lo + (hi - lo) * unitInterval(mix(state_));
-  }
-  /** \brief -1 or +1. */
-  double sign() { return uniform(0.0, 1.0) < 0.5 ? -1.0 : 1.0; }
-
-private:
-  std::uint64_t state_;
-};
-
-/** \brief Value noise: a random value in [-1, 1] at each lattice point of spacing
- * \a wavelength_m, smoothstep-interpolated between them. */
-double
-valueNoise(std::uint64_t seed, int octave, double u_m, double v_m, double wavelength_m)
-{
-  const double x = u_m / wavelength_m;
-  const double y = v_m / wavelength_m;
-  const double fx = std::floor(x), fy = std::floor(y);
-  const auto ix = static_cast<std::int64_t>(fx), iy = static_cast<std::int64_t>(fy);
-  const double tx = x - fx, ty = y - fy;
-  const double sx = tx * tx * (3.0 - 2.0 * tx), sy = ty * ty * (3.0 - 2.0 * ty);
-  const std::uint64_t base = mix(seed ^ mix(static_cast<std::uint64_t>(octave)));
-  const auto lattice = [base](std::int64_t i, std::int64_t j) {
-    const std::uint64_t h = mix(
-      base ^ mix(static_cast<std::uint64_t>(i) ^ mix(static_cast<std::uint64_t>(j))));
-    return 2.0 * unitInterval(h) - 1.0;
-  };
-  const double a = lattice(ix, iy), b = lattice(ix + 1, iy);
-  const double c = lattice(ix, iy + 1), d = lattice(ix + 1, iy + 1);
-  const double top = a + (b - a) * sx, bottom = c + (d - c) * sx;
-  return top + (bottom - top) * sy;
-}
-
-/** \brief A grey texture of nu x nv texels covering width_m x height_m (texel (i, j)
- * centred at ((i + 0.5) width_m / nu, (j + 0.5) height_m / nv)), row-major with i
- * fastest: multi-octave value noise plus random blobs and strokes, normalised to
- * mean TEXTURE_MEAN and standard deviation TEXTURE_STDDEV. */
-std::vector<unsigned char>
-makeTexture(std::uint64_t seed, int nu, int nv, double width_m, double height_m)
-{
-  const double du = width_m / nu, dv = height_m / nv;
-  const auto n = static_cast<std::size_t>(nu) * static_cast<std::size_t>(nv);
-  std::vector<double> value(n, 0.0);
-  // Noise: every octave with the same amplitude (a 1/f spectrum), so the surface has
-  // texture at every distance (the mipmaps keep the coarse octaves far away).
-  for (int j = 0; j < nv; ++j)
-    for (int i = 0; i < nu; ++i) {
-      const double u = (i + 0.5) * du, v = (j + 0.5) * dv;
-      double sum = 0.0;
-      for (int k = 0; k < NOISE_OCTAVES; ++k)
-        sum +=
-          valueNoise(seed, k, u, v, NOISE_FINEST_WAVELENGTH_M * std::ldexp(1.0, k));
-      value[static_cast<std::size_t>(j) * static_cast<std::size_t>(nu)
-            + static_cast<std::size_t>(i)] = sum;
-    }
-  // Unit standard deviation before the marks are added, so that their contrast is
-  // the same on every surface.
-  const auto normalise = [&value](double target_mean, double target_stddev) {
-    double mean = 0.0;
-    for (const double x : value)
-      mean += x;
-    mean /= static_cast<double>(value.size());
-    double var = 0.0;
-    for (const double x : value)
-      var += (x - mean) * (x - mean);
-    const double stddev = std::sqrt(var / static_cast<double>(value.size()));
-    const double scale = stddev > 0.0 ? target_stddev / stddev : 0.0;
-    for (double& x : value)
-      x = target_mean + (x - mean) * scale;
-  };
-  normalise(0.0, 1.0);
-
-  Random random(mix(seed ^ 0xB10B5ULL));
-  const double area_m2 = width_m * height_m;
-  // Adds weight(u, v) * amplitude over the texels of the box [u0, u1] x [v0, v1].
-  const auto paint = [&](double u0, double u1, double v0, double v1, double amplitude,
-                         const auto& weight) {
-    const int i0 = std::max(0, static_cast<int>(std::floor(u0 / du)));
-    const int i1 = std::min(nu - 1, static_cast<int>(std::ceil(u1 / du)));
-    const int j0 = std::max(0, static_cast<int>(std::floor(v0 / dv)));
-    const int j1 = std::min(nv - 1, static_cast<int>(std::ceil(v1 / dv)));
-    for (int j = j0; j <= j1; ++j)
-      for (int i = i0; i <= i1; ++i) {
-        const double w = weight((i + 0.5) * du, (j + 0.5) * dv);
-        if (w > 0.0)
-          value[static_cast<std::size_t>(j) * static_cast<std::size_t>(nu)
-                + static_cast<std::size_t>(i)] += amplitude * w;
-      }
-  };
-  // Blobs: discs of 1.5-10 cm radius (log-uniform), flat with a soft rim.
-  const auto blobs = static_cast<int>(std::lround(BLOBS_PER_M2 * area_m2));
-  for (int b = 0; b < blobs; ++b) {
-    const double cu = random.uniform(0.0, width_m), cv = random.uniform(0.0, height_m);
-    const double r = 0.015 * std::exp(random.uniform(0.0, std::log(0.1 / 0.015)));
-    const double amplitude = random.sign() * random.uniform(1.0, 2.0);
-    paint(cu - r, cu + r, cv - r, cv + r, amplitude, [&](double u, double v) {
-      const double dist = std::hypot(u - cu, v - cv);
-      return std::clamp((r - dist) / (0.3 * r), 0.0, 1.0);
-    });
-  }
-  // Strokes: segments 5-40 cm long, 0.8-3 cm wide, in any direction.
-  const auto strokes = static_cast<int>(std::lround(STROKES_PER_M2 * area_m2));
-  for (int s = 0; s < strokes; ++s) {
-    const Eigen::Vector2d a(random.uniform(0.0, width_m),
-                            random.uniform(0.0, height_m));
-    const double length = random.uniform(0.05, 0.4);
-    const double angle = random.uniform(0.0, 2.0 * M_PI);
-    const Eigen::Vector2d b =
-      a + length * Eigen::Vector2d(std::cos(angle), std::sin(angle));
-    const double half_width = random.uniform(0.004, 0.015);
-    const double amplitude = random.sign() * random.uniform(1.0, 2.0);
-    const double reach = half_width + std::max(du, dv);
-    paint(std::min(a.x(), b.x()) - reach, std::max(a.x(), b.x()) + reach,
-          std::min(a.y(), b.y()) - reach, std::max(a.y(), b.y()) + reach, amplitude,
-          [&](double u, double v) {
-            const Eigen::Vector2d p(u, v);
-            const Eigen::Vector2d ab = b - a;
-            const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
-            const double dist = (p - (a + t * ab)).norm();
-            return std::clamp((reach - dist) / (reach - half_width), 0.0, 1.0);
-          });
-  }
-  normalise(TEXTURE_MEAN, TEXTURE_STDDEV);
-  std::vector<unsigned char> texels(n);
-  for (std::size_t k = 0; k < n; ++k)
-    texels[k] =
-      static_cast<unsigned char>(std::lround(std::clamp(value[k], 10.0, 245.0)));
-  return texels;
-}
 
 /** \brief Angle between a unit normal and the nearest coordinate axis, radians. */
 double
@@ -282,40 +109,6 @@ insidePolygon(const Eigen::Vector3d& p,
       return false;
   }
   return true;
-}
-
-/** \brief A number in shortest round-trip form for text files (std::to_chars: reads
- * back as the same double). */
-std::string
-exact(double value)
-{
-  char buffer[64];
-  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
-  return std::string(buffer, result.ptr);
-}
-
-/** \brief Writes \a bytes to \a path atomically. */
-void
-writeBytesAtomically(const std::string& path, const std::vector<unsigned char>& bytes)
-{
-  writeFileAtomically(path, [&bytes](const std::string& tmp) {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(bytes.data()),
-              static_cast<std::streamsize>(bytes.size()));
-    out.flush();
-    return static_cast<bool>(out);
-  });
-}
-
-/** \brief Writes a grey image as PNG atomically (cv::imwrite picks the encoder from
- * the extension, which the temporary name lacks, so the PNG is encoded first). */
-void
-writePNG(const std::string& path, const cv::Mat& image)
-{
-  std::vector<unsigned char> png;
-  if (!cv::imencode(".png", image, png))
-    throw IOError(path + ": cannot encode the image as PNG");
-  writeBytesAtomically(path, png);
 }
 
 } // namespace
@@ -789,192 +582,6 @@ SyntheticStereoScene::distanceToSurface(const Eigen::Vector3d& point) const
     best = std::min(best, distance);
   }
   return best;
-}
-
-std::string
-SyntheticStereoScene::pipelineYaml(const std::string& output_folder) const
-{
-  const bool corridor = params_.kind == SyntheticSceneKind::CORRIDOR;
-  // The far wall is up to 19 m (corridor) or 7 m (room) ahead; the stereo depth error
-  // f B / d^2 * 0.5 px is 0.2 m at 12 m.
-  const double range_m = corridor ? 12.0 : 10.0;
-  // Indoors the walls beside the camera come close: 256 disparities see down to
-  // f B / 256 = 1.44 m (128: 2.9 m). Nearer surfaces match wrongly into a fan of far
-  // points; larger speckle windows and a stricter uniqueness remove most of them
-  // (docs/SYNTHETIC_SCENE.md).
-  const int disparities = 256;
-
-  PipelineConfig config;
-  InputConfig& input = config.input;
-  input.type = InputConfig::Type::STEREO_SEQUENCE;
-  input.left_images = "left/%06d.png";
-  input.right_images = "right/%06d.png";
-  input.first_index = 0;
-  input.frame_count = params_.frame_count;
-  input.calibration_format = CalibrationFormat::KARLSRUHE;
-  input.calibration_file = "calib.txt";
-  input.poses_format = PoseFormat::KITTI;
-  input.poses_file = "poses.txt";
-
-  // The stages of config/karlsruhe.yaml, with ranges for an indoor scene.
-  using Value = std::variant<double, int, bool, std::string>;
-  const auto stage =
-    [&config](const std::string& type,
-              const std::vector<std::pair<std::string, Value>>& params) {
-      StageConfig s = defaultStageConfig(type);
-      for (const auto& [key, value] : params)
-        s.params.set(key, value);
-      config.stages.push_back(std::move(s));
-    };
-  stage("stereo_disparity", {{"num_disparities_px", disparities},
-                             {"block_size_px", 5},
-                             {"uniqueness_ratio_percent", 15},
-                             {"speckle_window_size_px", 400},
-                             {"speckle_range_px", 2},
-                             {"max_range_m", range_m}});
-  stage("feature_matching", {{"feature_type", std::string("sift")},
-                             {"max_features", 2000},
-                             {"max_disparity_px", disparities},
-                             {"max_range_m", range_m}});
-  stage("kl_occupancy_filter", {{"update_rule", std::string("kl_divergence")},
-                                {"disparity_error_px", 0.5},
-                                {"neighbourhood_size_m", 0.5}});
-  stage("voxel_grid", {{"leaf_size_m", 0.1}});
-  stage("statistical_outlier_removal", {{"mean_k", 20}, {"stddev_mul_thresh", 2.0}});
-  stage("transform_to_world", {});
-  stage("multi_plane_segmentation", {{"distance_threshold_m", 0.05},
-                                     {"sample_distance_threshold_m", 0.15},
-                                     {"max_planes", 8},
-                                     {"min_inliers", 150},
-                                     {"sample", std::string("features")}});
-  stage("ground_removal", {{"eps_angle_rad", 0.2}, {"min_sensor_height_m", 0.5}});
-  stage("planar_cuboid_approximation", {{"min_cell_size_m", 0.1},
-                                        {"density_threshold", 0.9},
-                                        {"min_width_m", 0.1},
-                                        {"min_height_m", 0.1},
-                                        {"thickness_m", 0.1},
-                                        {"min_points_per_cell", 3}});
-  stage("map_integration", {{"resolution_m", 0.1},
-                            {"max_range_m", range_m},
-                            {"prior", std::string("free")},
-                            {"thickness_m", 0.1}});
-  stage("accumulate", {{"leaf_size_m", 0.1}, {"downsample_every_n_frames", 5}});
-
-  config.output.folder = output_folder;
-  config.output.snapshot_camera = "oblique";
-
-  std::ostringstream comment;
-  comment << "Synthetic " << toString(params_.kind)
-          << " (planar_grid::SyntheticStereoScene, planar_grid_render_scene): "
-          << params_.frame_count << " frames, step " << exact(params_.step_m)
-          << " m, scene yaw " << exact(params_.scene_yaw_rad) << " rad, wall lean "
-          << exact(params_.wall_lean_rad) << " rad, seed " << params_.seed << ".\n"
-          << "Rectified grey stereo " << params_.width_px << "x" << params_.height_px
-          << ", f = " << exact(params_.focal_length_px)
-          << " px, B = " << exact(params_.baseline_m)
-          << " m; true poses in poses.txt; true surfaces in scene.json and truth.pcd.\n"
-          << "Stages as config/karlsruhe.yaml, ranges for an indoor scene; parameters "
-             "not\nlisted take their defaults (planar_grid_pipeline --list-stages). "
-             "Schema:\nconfig/example.yaml.\n\n"
-          << "  planar_grid_pipeline --config pipeline.yaml";
-  return pipelineConfigToYaml(config, comment.str());
-}
-
-void
-SyntheticStereoScene::writeSequence(const std::string& folder)
-{
-  const fs::path root(folder);
-  std::error_code ec;
-  for (const char* sub : {"left", "right"}) {
-    fs::create_directories(root / sub, ec);
-    if (ec)
-      throw IOError((root / sub).string()
-                    + ": cannot create the folder: " + ec.message());
-  }
-
-  // Images.
-  for (std::size_t i = 0; i < getFrameCount(); ++i) {
-    cv::Mat left, right;
-    render(i, left, right);
-    char name[32];
-    std::snprintf(name, sizeof(name), "%06zu.png", i);
-    writePNG((root / "left" / name).string(), left);
-    writePNG((root / "right" / name).string(), right);
-  }
-
-  // Calibration, Karlsruhe format: the rectified projection matrices of the cropped
-  // images (P1_roi, P2_roi; P2_roi(0,3) = -f B).
-  const double f = calibration_.focal_length_px, cx = calibration_.cx_px,
-               cy = calibration_.cy_px, b = calibration_.baseline_m;
-  std::ostringstream calib;
-  calib << "calib_time: synthetic (planar_grid::SyntheticStereoScene, "
-        << toString(params_.kind) << ", seed " << params_.seed << ")\n";
-  const auto row = [&](const char* key, double tx) {
-    calib << key << " " << exact(f) << " 0 " << exact(cx) << " " << exact(tx) << " 0 "
-          << exact(f) << " " << exact(cy) << " 0 0 0 1 0\n";
-  };
-  row("P1:", 0.0);
-  row("P1_roi:", 0.0);
-  row("P2:", -f * b);
-  row("P2_roi:", -f * b);
-  writeTextFileAtomically((root / "calib.txt").string(), calib.str());
-
-  // Poses.
-  Trajectory poses;
-  for (std::size_t i = 0; i < getFrameCount(); ++i)
-    poses.push_back(getCameraPose(i));
-  saveKittiPoses((root / "poses.txt").string(), poses);
-
-  // Truth cloud.
-  pcl::PointCloud<pcl::PointXYZ> truth;
-  samplePoints(TRUTH_SPACING_M, truth);
-  writeFileAtomically((root / "truth.pcd").string(), [&truth](const std::string& tmp) {
-    pcl::PCDWriter writer;
-    return writer.writeBinary(tmp, truth) == 0;
-  });
-
-  // Scene description.
-  nlohmann::json scene;
-  scene["generator"] = "planar_grid::SyntheticStereoScene";
-  scene["scene"] = toString(params_.kind);
-  scene["scene_yaw_rad"] = params_.scene_yaw_rad;
-  scene["wall_lean_rad"] = params_.wall_lean_rad;
-  scene["frame_count"] = params_.frame_count;
-  scene["step_m"] = params_.step_m;
-  scene["camera_height_m"] = params_.camera_height_m;
-  scene["texel_m"] = params_.texel_m;
-  scene["seed"] = params_.seed;
-  scene["calibration"] = {{"focal_length_px", f},
-                          {"cx_px", cx},
-                          {"cy_px", cy},
-                          {"baseline_m", b},
-                          {"width_px", params_.width_px},
-                          {"height_px", params_.height_px}};
-  scene["files"] = {
-    {"left_images", "left/%06d.png"}, {"right_images", "right/%06d.png"},
-    {"calibration", "calib.txt"},     {"poses", "poses.txt"},
-    {"truth_cloud", "truth.pcd"},     {"truth_spacing_m", TRUTH_SPACING_M},
-    {"pipeline", "pipeline.yaml"}};
-  nlohmann::json planes = nlohmann::json::array();
-  for (const auto& plane : planes_) {
-    nlohmann::json polygon = nlohmann::json::array();
-    for (const auto& c : plane.polygon)
-      polygon.push_back({c.x(), c.y(), c.z()});
-    planes.push_back({{"name", plane.name},
-                      {"model_coefficients",
-                       {plane.model_coefficients[0], plane.model_coefficients[1],
-                        plane.model_coefficients[2], plane.model_coefficients[3]}},
-                      {"tilt_rad", plane.tilt_rad},
-                      {"polygon", polygon}});
-  }
-  scene["planes"] = planes;
-  writeTextFileAtomically((root / "scene.json").string(), scene.dump(2) + "\n");
-
-  // The pipeline, writing next to the sequence wherever it is run from.
-  const fs::path output = fs::absolute(root / "output", ec).lexically_normal();
-  writeTextFileAtomically(
-    (root / "pipeline.yaml").string(),
-    pipelineYaml(ec ? (root / "output").string() : output.string()));
 }
 
 } // namespace planar_grid

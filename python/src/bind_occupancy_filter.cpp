@@ -1,0 +1,266 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// KLDivergenceOccupancyFilter on numpy arrays (instantiated for pcl::PointXYZ) and the
+// occupancy functions of its equations, numpy-broadcast.
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/filters/kl_divergence_occupancy_filter.h>
+
+#include <pybind11/stl.h>
+
+#include <string>
+#include <vector>
+
+#include "planar_grid_python.h"
+
+namespace planar_grid {
+namespace python {
+
+namespace {
+
+/** The filter with its parameter check public, so that Python gets the library's text
+ * as a ValueError instead of an empty result and a console message. */
+class OccupancyFilter : public KLDivergenceOccupancyFilter<pcl::PointXYZ> {
+public:
+  using KLDivergenceOccupancyFilter<pcl::PointXYZ>::checkParameters;
+};
+
+} // namespace
+
+void
+bindOccupancyFilter(py::module_& m)
+{
+  using Filter = OccupancyFilter;
+  using Class = py::class_<Filter, std::unique_ptr<Filter>>;
+  Class cls(m, "KLDivergenceOccupancyFilter",
+            R"doc(Occupancy probability of stereo key features across frames.
+
+planar_grid::KLDivergenceOccupancyFilter<pcl::PointXYZ>: each feature's probability of
+eq. 4 (a Gaussian of its range around the mean range of its neighbourhood, with the
+stereo depth error z^2 dd / (B f)), updated across frames by the Kullback-Leibler rule
+of eqs. 5-10 (or OctoMap's log-odds rule). Each filter() call is one frame.
+
+Parameters
+----------
+focal_length_px : float
+    f of the rectified stereo rig, pixels (> 0).
+baseline_m : float
+    B of the rig, meters (> 0).
+**params
+    Any of the properties below. An unknown name is a TypeError; a value out of its
+    range a ValueError.
+)doc");
+  ParamBinder<Filter, std::unique_ptr<Filter>> params(
+    cls, "KLDivergenceOccupancyFilter",
+    [](const Filter& f) { return f.checkParameters(); });
+#define PLANAR_GRID_FILTER_PARAM(type, field, name, doc)   \
+  params.param<type>(                                      \
+    #field, [](const Filter& f) { return f.get##name(); }, \
+    [](Filter& f, type value) { f.set##name(value); }, doc)
+  PLANAR_GRID_FILTER_PARAM(
+    double, disparity_error_px, DisparityError,
+    "float: dd of eq. 4, the disparity error, pixels, > 0 (default "
+    "0.5).");
+  PLANAR_GRID_FILTER_PARAM(
+    double, neighbourhood_size_m, NeighbourhoodSize,
+    "float: edge of the cell over which the mean range is taken, "
+    "meters, > 0 (default 0.5).");
+  PLANAR_GRID_FILTER_PARAM(double, clamping_thres_min, ClampingThresMin,
+                           "float: lower clamp of a probability, in (0, 0.5) (default "
+                           "0.1192 = log-odds -2).");
+  PLANAR_GRID_FILTER_PARAM(double, clamping_thres_max, ClampingThresMax,
+                           "float: upper clamp of a probability, in (0.5, 1) (default "
+                           "0.971 = log-odds 3.5).");
+  PLANAR_GRID_FILTER_PARAM(
+    double, occupancy_thres, OccupancyThres,
+    "float: a feature is kept when its probability reaches it, in "
+    "[0, 1] (default 0.5).");
+  PLANAR_GRID_FILTER_PARAM(double, kl_offset_nats, KLOffset,
+                           "float: A of eq. 10, nats, >= 0 (default 1.07).");
+  PLANAR_GRID_FILTER_PARAM(double, prob_hit, ProbHit,
+                           "float: log-odds rule, probability of a hit, in (0.5, 1) "
+                           "(default 0.7).");
+  PLANAR_GRID_FILTER_PARAM(double, prob_miss, ProbMiss,
+                           "float: log-odds rule, probability of a miss, in (0, 0.5) "
+                           "(default 0.4).");
+  PLANAR_GRID_FILTER_PARAM(
+    double, association_radius_m, AssociationRadius,
+    "float: without track ids, a feature joins the nearest track "
+    "within this distance, meters, > 0 (default 0.2).");
+#undef PLANAR_GRID_FILTER_PARAM
+  params.param<std::string>(
+    "update_rule", [](const Filter& f) { return toString(f.getUpdateRule()); },
+    [](Filter& f, const std::string& name) {
+      try {
+        f.setUpdateRule(occupancyUpdateRuleFromString(name));
+      } catch (const planar_grid::Exception& e) {
+        throw py::value_error(std::string("KLDivergenceOccupancyFilter: update_rule: ")
+                              + e.what());
+      }
+    },
+    "str: the update of a re-observed track, 'kl_divergence' (eqs. 5-10, default) or "
+    "'log_odds' (OctoMap's).");
+  const auto setters = params.setters();
+  cls
+    .def(py::init([setters](double focal_length_px, double baseline_m,
+                            const py::kwargs& kwargs) {
+           auto f = std::make_unique<Filter>();
+           f->setStereoParameters(focal_length_px, baseline_m);
+           if (const char* bad = f->checkParameters())
+             throw py::value_error(std::string("KLDivergenceOccupancyFilter: ") + bad);
+           ParamBinder<Filter, std::unique_ptr<Filter>>::apply(
+             *f, kwargs, setters, "KLDivergenceOccupancyFilter");
+           return f;
+         }),
+         py::arg("focal_length_px"), py::arg("baseline_m"))
+    .def(
+      "filter",
+      [](Filter& self, const FloatArray& features, const py::object& track_ids,
+         const py::object& sensor_pose, double motion_likelihood, bool negative) {
+        auto cloud = toCloud(features, "features");
+        if (!sensor_pose.is_none()) {
+          const Eigen::Isometry3d pose =
+            toIsometry(sensor_pose.cast<DoubleArray>(), "sensor_pose");
+          cloud->sensor_origin_ << pose.translation().cast<float>(), 0.0f;
+          cloud->sensor_orientation_ =
+            Eigen::Quaternionf(pose.rotation().cast<float>());
+        }
+        std::vector<std::int64_t> ids;
+        if (!track_ids.is_none()) {
+          const auto array = track_ids.cast<IndexArray>();
+          if (array.ndim() != 1
+              || static_cast<std::size_t>(array.shape(0)) != cloud->size())
+            throw py::value_error(
+              "KLDivergenceOccupancyFilter: track_ids must be a 1-D "
+              "array with one id per feature ("
+              + std::to_string(cloud->size()) + ")");
+          ids.assign(array.data(), array.data() + array.shape(0));
+        }
+        self.setInputCloud(cloud);
+        self.setTrackIds(ids);
+        self.setMotionLikelihood(motion_likelihood);
+        self.setNegative(negative);
+        if (const char* bad = self.checkParameters())
+          throw py::value_error(std::string("KLDivergenceOccupancyFilter: ") + bad);
+        pcl::Indices kept;
+        {
+          py::gil_scoped_release release;
+          self.filter(kept);
+        }
+        py::array_t<std::int64_t> out(static_cast<py::ssize_t>(kept.size()));
+        std::copy(kept.begin(), kept.end(), out.mutable_data());
+        return out;
+      },
+      py::arg("features"), py::kw_only(), py::arg("track_ids") = py::none(),
+      py::arg("sensor_pose") = py::none(), py::arg("motion_likelihood") = 1.0,
+      py::arg("negative") = false,
+      R"doc(Integrates one frame of features and selects the occupied ones.
+
+Parameters
+----------
+features : array_like, shape (N, 3)
+    Key feature points, meters: in the camera frame (x right, y down, z forward) when
+    ``sensor_pose`` is None, else in the world frame.
+track_ids : array_like of int, shape (N,), optional
+    One track id per feature (>= 0; -1 for none); the same id in a later frame is the
+    same feature seen again. None associates features with tracks by position (within
+    association_radius_m).
+sensor_pose : array_like, shape (4, 4), optional
+    world_T_camera of the frame (rotation and translation in meters).
+motion_likelihood : float, optional
+    m of eq. 9 for this frame, probability in [0, 1] (default 1: known poses).
+negative : bool, optional
+    Return the features below the occupancy threshold instead.
+
+Returns
+-------
+numpy.ndarray, shape (K,), int64
+    Indices of the kept features (probability >= occupancy_thres).
+
+Raises
+------
+ValueError
+    For features or track_ids of another shape, or a motion likelihood outside [0, 1].
+)doc")
+    .def_property_readonly(
+      "probabilities",
+      [](const Filter& self) {
+        return column<double>(self.getProbabilities(), [](float p) { return p; });
+      },
+      "numpy.ndarray, shape (N,), float64: each feature's occupancy probability after "
+      "the "
+      "last filter(), in [0, 1] (0 for an invalid feature).")
+    .def_property_readonly(
+      "assigned_track_ids",
+      [](const Filter& self) {
+        return column<std::int64_t>(self.getAssignedTrackIds(),
+                                    [](std::int64_t id) { return id; });
+      },
+      "numpy.ndarray, shape (N,), int64: each feature's track id after the last "
+      "filter() "
+      "(-1 without a track).")
+    .def_property_readonly("track_count", &Filter::getTrackCount,
+                           "int: the number of tracks stored.")
+    .def_property_readonly("memory_bytes", &Filter::getMemoryBytes,
+                           "int: bytes held by the tracks and work buffers (estimate).")
+    .def(
+      "track_probability",
+      [](const Filter& self, std::int64_t track_id) -> py::object {
+        float probability = 0.0f;
+        if (!self.getTrackProbability(track_id, probability))
+          return py::none();
+        return py::float_(probability);
+      },
+      py::arg("track_id"),
+      "The probability of a track, in [clamping_thres_min, clamping_thres_max], or "
+      "None "
+      "for an unknown track.")
+    .def("reset", &Filter::reset,
+         "Forgets every track; the next filter() is a first frame.");
+
+  m.def(
+    "range_occupancy_probability", py::vectorize(&rangeOccupancyProbability),
+    py::arg("range_m"), py::arg("mean_range_m"), py::arg("depth_m"),
+    py::arg("focal_length_px"), py::arg("baseline_m"), py::arg("disparity_error_px"),
+    R"doc(Eq. 4, unclamped: the occupancy probability of one feature (numpy-broadcast).
+
+dz = z^2 dd / (B f), dr = (r_bar / z) dz, p = exp(-0.5 ((r - r_bar) / dr)^2).
+
+Parameters
+----------
+range_m, mean_range_m, depth_m : array_like
+    r, r_bar and the depth z, meters.
+focal_length_px, baseline_m, disparity_error_px : array_like
+    f in pixels, B in meters, dd in pixels.
+
+Returns
+-------
+numpy.ndarray or float
+    Probability in [0, 1]; 0 where an argument is out of its range.
+)doc");
+  m.def(
+    "bernoulli_kl_divergence", py::vectorize(&bernoulliKLDivergence), py::arg("p"),
+    py::arg("q"),
+    R"doc(KL divergence of two Bernoulli distributions (eqs. 5-6), nats (numpy-broadcast).
+
+D = p ln(p / q) + (1 - p) ln((1 - p) / (1 - q)); q is moved into [1e-9, 1 - 1e-9].
+)doc");
+  m.def(
+    "kl_divergence_update", py::vectorize(&klDivergenceUpdate), py::arg("p"),
+    py::arg("q"), py::arg("offset_nats") = 1.07,
+    R"doc(One KL update (eq. 10): exp(-E), E = |D| + A when p <= 0.5 and q <= 0.5, else |D|.
+
+Parameters
+----------
+p, q : array_like
+    The stored and the new probability, in [0, 1].
+offset_nats : array_like, optional
+    A, nats (the paper's 1.07).
+
+Returns
+-------
+numpy.ndarray or float
+    The updated probability in (0, 1] (not clamped).
+)doc");
+}
+
+} // namespace python
+} // namespace planar_grid

@@ -1,0 +1,408 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The helpers of SACMultiPlaneSegmentation: the PCA plane fit, the plane model that
+// keeps PCL quiet, the struct-of-arrays point store and the non-template plane tests
+// and RANSAC compiled into the library. Included by sac_multi_plane_segmentation.hpp.
+#pragma once
+
+#include <pcl/common/centroid.h>
+#include <pcl/common/eigen.h>
+#include <pcl/common/point_tests.h>
+#include <pcl/console/print.h>
+#include <pcl/point_cloud.h>
+#include <pcl/sample_consensus/ransac.h>
+#include <pcl/sample_consensus/sac_model_plane.h>
+#include <pcl/types.h>
+
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+namespace planar_grid {
+
+namespace detail {
+
+/** \brief Flips [a, b, c, d] so that the origin lies on the positive side
+ * (a o_x + b o_y + c o_z + d >= 0). */
+inline void
+orientTowards(Eigen::Vector4f& plane, const Eigen::Vector3f& origin)
+{
+  if (plane.head<3>().dot(origin) + plane[3] < 0.0f)
+    plane = -plane;
+}
+
+/** \brief Least-squares plane (PCA) of the indexed points: the eigenvector of the
+ * smallest eigenvalue of the covariance; false when fewer than 3 points. */
+template <typename PointT>
+bool
+fitPlanePCA(const pcl::PointCloud<PointT>& cloud,
+            const pcl::Indices& indices,
+            Eigen::Vector4f& plane,
+            Eigen::Vector4f& centroid)
+{
+  if (indices.size() < 3)
+    return false;
+  Eigen::Matrix3f covariance;
+  if (pcl::computeMeanAndCovarianceMatrix(cloud, indices, covariance, centroid) < 3)
+    return false;
+  float eigen_value = 0.0f;
+  Eigen::Vector3f eigen_vector;
+  pcl::eigen33(covariance, eigen_value, eigen_vector);
+  if (!eigen_vector.allFinite() || !(eigen_vector.norm() > 0.0f))
+    return false;
+  eigen_vector.normalize();
+  plane.head<3>() = eigen_vector;
+  plane[3] = -eigen_vector.dot(centroid.head<3>());
+  return true;
+}
+
+/** \brief True when the indexed points span a plane: the middle eigenvalue of their
+ * covariance is > 1e-6 of the largest (false for coincident or colinear points). */
+template <typename PointT>
+bool
+spansPlane(const pcl::PointCloud<PointT>& cloud, const pcl::Indices& indices)
+{
+  if (indices.size() < 3)
+    return false;
+  Eigen::Matrix3f covariance;
+  Eigen::Vector4f centroid;
+  pcl::computeMeanAndCovarianceMatrix(cloud, indices, covariance, centroid);
+  const Eigen::Vector3f eigen_values =
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f>(covariance, Eigen::EigenvaluesOnly)
+      .eigenvalues();
+  return eigen_values[1] > 1e-6f * eigen_values[2];
+}
+
+/** \brief pcl::SampleConsensusModelPlane that rejects a degenerate minimal sample
+ * (coincident or colinear points: |(p1 - p0) x (p2 - p0)| below Eigen's float
+ * dummy_precision, PCL's own test) with PCL_DEBUG instead of PCL_ERROR. PCL's model
+ * prints an error for every such draw, and the sample consensus simply draws again, so
+ * stereo features with duplicated positions (one SIFT keypoint, two orientations)
+ * flooded the console; here the rejection is the expected, silent path.
+ *
+ * Its countWithinDistance() gives PCL's count (the same arithmetic: |n . (x, y, z, 1)|
+ * < threshold, summed as Eigen sums the 4-vector's products) over a struct-of-arrays
+ * copy of the indexed points. With setEarlyExit(true) it stops counting as soon as
+ * the count cannot exceed the largest count it has returned (it then returns a count
+ * no larger than that): pcl::RandomSampleConsensus keeps a hypothesis only when its
+ * count exceeds the best so far, so it chooses exactly what full counts would choose,
+ * while most hypotheses, which lose, are counted over part of the points only. */
+template <typename PointT>
+class QuietPlaneModel : public pcl::SampleConsensusModelPlane<PointT> {
+public:
+  QuietPlaneModel(const typename pcl::PointCloud<PointT>::ConstPtr& cloud,
+                  const pcl::Indices& indices) :
+      pcl::SampleConsensusModelPlane<PointT>(cloud, indices, false)
+  {
+    x_.reserve(indices.size());
+    y_.reserve(indices.size());
+    z_.reserve(indices.size());
+    for (const auto i : indices) {
+      x_.push_back((*cloud)[i].x);
+      y_.push_back((*cloud)[i].y);
+      z_.push_back((*cloud)[i].z);
+    }
+  }
+
+  /** \brief Whether counts may stop early (only for an estimator that compares each
+   * count with the best so far and keeps the larger, as RANSAC does). */
+  void setEarlyExit(bool early_exit) { early_exit_ = early_exit; }
+
+  std::size_t countWithinDistance(const Eigen::VectorXf& model_coefficients,
+                                  const double threshold) const override
+  {
+    if (!this->isModelValid(model_coefficients) || x_.size() != this->indices_->size())
+      return pcl::SampleConsensusModelPlane<PointT>::countWithinDistance(
+        model_coefficients, threshold);
+    constexpr std::size_t BLOCK = 64;
+    const float a = model_coefficients[0], b = model_coefficients[1],
+                c = model_coefficients[2], d = model_coefficients[3];
+    const std::size_t n = x_.size();
+    const float* px = x_.data();
+    const float* py = y_.data();
+    const float* pz = z_.data();
+    std::size_t count = 0;
+    for (std::size_t begin = 0; begin < n; begin += BLOCK) {
+      const std::size_t end = std::min(n, begin + BLOCK);
+      std::uint32_t block_count = 0;
+      for (std::size_t k = begin; k < end; ++k) {
+        const float dist = (a * px[k] + c * pz[k]) + (b * py[k] + d);
+        block_count += static_cast<double>(std::abs(dist)) < threshold ? 1u : 0u;
+      }
+      count += block_count;
+      if (early_exit_ && count + (n - end) <= best_count_)
+        return count;
+    }
+    best_count_ = std::max(best_count_, count);
+    return count;
+  }
+
+protected:
+  bool isSampleGood(const pcl::Indices& samples) const override
+  {
+    if (samples.size() != 3)
+      return false;
+    const auto& cloud = *this->input_;
+    const Eigen::Vector3f p0 = cloud[samples[0]].getVector3fMap();
+    const Eigen::Vector3f p1 = cloud[samples[1]].getVector3fMap();
+    const Eigen::Vector3f p2 = cloud[samples[2]].getVector3fMap();
+    if ((p1 - p0).cross(p2 - p0).stableNorm()
+        < Eigen::NumTraits<float>::dummy_precision()) {
+      PCL_DEBUG("[planar_grid::SACMultiPlaneSegmentation] Rejected a degenerate "
+                "(coincident or colinear) sample.\n");
+      return false;
+    }
+    return true;
+  }
+
+private:
+  /** \brief The indexed points' coordinates, meters. */
+  std::vector<float> x_, y_, z_;
+  /** \brief Whether counts may stop early. */
+  bool early_exit_{false};
+  /** \brief The largest count returned so far. */
+  mutable std::size_t best_count_{0};
+};
+
+/** \brief Struct-of-arrays store of the unassigned finite input points, so that the
+ * eq. 11 pass over ~10^5 points is one branch-free, vectorisable loop per plane. */
+struct DensePoints {
+  std::vector<float> x, y, z;
+  /** Per-point eq. 11 threshold (range-dependent); empty: the fixed d_T. */
+  std::vector<float> threshold;
+  pcl::Indices index;
+  std::vector<std::uint8_t> mask;
+  /** The first primary points may make planes; the rest are inlier-only (they stay
+   * behind the primary ones, the removals being stable). */
+  std::size_t primary{0};
+
+  std::size_t size() const { return index.size(); }
+
+  /** \brief Eq. 11 with the per-point thresholds (the fixed \a t when there are
+   * none): mask[k] = 1 iff |a x + b y + c z + d| <= threshold[k]; returns the count. */
+  std::size_t selectInliers(const Eigen::Vector4f& plane, float t)
+  {
+    if (threshold.empty())
+      return select(plane, t);
+    const std::size_t n = size();
+    mask.resize(n);
+    std::size_t count = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const float dist =
+        std::abs(plane[0] * x[k] + plane[1] * y[k] + plane[2] * z[k] + plane[3]);
+      const std::uint8_t in = dist <= threshold[k] ? 1 : 0;
+      mask[k] = in;
+      count += in;
+    }
+    return count;
+  }
+
+  /** \brief mask[k] = 1 iff |a x + b y + c z + d| <= t (eq. 11, unit normal); returns
+   * the number of such points. */
+  std::size_t select(const Eigen::Vector4f& plane, float t)
+  {
+    const float a = plane[0], b = plane[1], c = plane[2], d = plane[3];
+    const std::size_t n = size();
+    mask.resize(n);
+    const float* px = x.data();
+    const float* py = y.data();
+    const float* pz = z.data();
+    std::uint8_t* m = mask.data();
+    std::size_t count = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const float dist = std::abs(a * px[k] + b * py[k] + c * pz[k] + d);
+      const std::uint8_t in = dist <= t ? 1 : 0;
+      m[k] = in;
+      count += in;
+    }
+    return count;
+  }
+
+  /** \brief The input indices of the selected points (mask == 1), in store order. */
+  void selected(pcl::Indices& out) const
+  {
+    out.clear();
+    for (std::size_t k = 0; k < size(); ++k)
+      if (mask[k])
+        out.push_back(index[k]);
+  }
+
+  /** \brief Removes the points whose mask is \a value, mask included (stable, in
+   * place); the other points keep their mask. */
+  void removeMarked(std::uint8_t value)
+  {
+    removeIf([this, value](std::size_t k) { return mask[k] == value; });
+  }
+
+  /** \brief Removes the selected points (stable, in place); the others keep their
+   * mask (0). */
+  void removeSelected()
+  {
+    removeIf([this](std::size_t k) { return mask[k] != 0; });
+  }
+
+  /** \brief Removes the points k for which \a remove(k) is true, from every field
+   * (stable, in place). */
+  template <typename Remove> void removeIf(Remove remove)
+  {
+    std::size_t w = 0;
+    std::size_t removed_primary = 0;
+    for (std::size_t k = 0; k < size(); ++k) {
+      if (remove(k)) {
+        removed_primary += k < primary ? 1 : 0;
+        continue;
+      }
+      x[w] = x[k];
+      y[w] = y[k];
+      z[w] = z[k];
+      if (!threshold.empty())
+        threshold[w] = threshold[k];
+      index[w] = index[k];
+      mask[w] = mask[k];
+      ++w;
+    }
+    x.resize(w);
+    y.resize(w);
+    z.resize(w);
+    if (!threshold.empty())
+      threshold.resize(w);
+    index.resize(w);
+    mask.resize(w);
+    primary -= removed_primary;
+  }
+};
+
+// The plane tests and the SoA RANSAC below are not templates: they are compiled once,
+// in the library (src/sac_multi_plane_segmentation.cpp), not in every user of this
+// file.
+
+/** \brief The visibility test of one plane. A point of `all` conflicts with the plane
+ * when it lies off the plane by more than `margin` + its own eq. 11 threshold (`t`
+ * where `all` has none) and the line of sight from `origin` through it meets the plane
+ * in a cell of the inliers' footprint (PlaneFootprint, cells of edge `cell`): behind
+ * the plane, the point was seen through the surface; in front of it, it hides the
+ * surface that the inlier was seen on. An opaque surface seen from `origin` has next
+ * to no conflicts (an object in front of a wall hides cells that then hold no
+ * inlier), while a slab through a volume of scattered points (a tree's canopy) has
+ * about as many as inliers or more. A cell is transparent when, over it and its 8
+ * neighbours, the conflicts outnumber `max_ratio` x the inliers; the inliers of
+ * transparent cells are taken out of the plane (their mask set to 0).
+ * \param[in] plane unit normal, oriented so that origin lies on the positive side
+ * \return the number of inliers taken out */
+std::size_t removeVisibilityConflicts(DensePoints& store,
+                                      const DensePoints& all,
+                                      float t,
+                                      const Eigen::Vector4f& plane,
+                                      const Eigen::Vector3f& origin,
+                                      float margin,
+                                      float cell,
+                                      double max_ratio);
+
+/** \brief The sensor plane test of one plane: when the plane passes closer than
+ * `min_distance` to `origin` (|n . origin + d| < min_distance, n the unit normal),
+ * its selected points (mask 1) are taken out of `store` altogether: stereo smears
+ * every object along the lines of sight, and a plane that contains them takes the
+ * smear for a surface; its points would only give the same plane again.
+ * \return the number of points taken out (0 when the plane passes the test) */
+std::size_t removeSensorPlane(DensePoints& store,
+                              const Eigen::Vector4f& plane,
+                              const Eigen::Vector3f& origin,
+                              float min_distance);
+
+/** \brief The shell test of one plane. A surface's points lie within its eq. 11
+ * threshold t, up to stereo noise; a plane that cuts through a thicker structure (a
+ * slab through a tree's canopy, a horizontal stripe across a facade or a car) has
+ * points beyond the threshold on both sides as well, about as many per unit of
+ * thickness as within it. A point of `all` is in the shell when it lies between t and
+ * t + max(t, `width`) off the plane (t: its own eq. 11 threshold, `t` where `all` has
+ * none) and its orthogonal projection falls in a cell of the inliers' footprint
+ * (PlaneFootprint, cells of edge `cell`); front and back are counted apart. Where,
+ * over a cell and its 8 neighbours, twice the smaller of the two counts exceeds
+ * `max_ratio` x the inliers, the cell's inliers are taken out of the plane (their mask
+ * set to 0). What stands on a surface or in front of it lies on one side only and does
+ * not count. For a uniform volume or a perpendicular surface the ratio is about
+ * max(t, width) / t (1 for the shell t..2t); for Gaussian noise of standard deviation
+ * t (the noise reaching the threshold) it is 0.40.
+ * \param[in] plane unit normal
+ * \param[in] width smallest shell width, meters (e.g. the voxel edge of a voxelised
+ * cloud, whose surface points lie in layers one voxel apart)
+ * \return the number of inliers taken out */
+std::size_t removeShellCells(DensePoints& store,
+                             const DensePoints& all,
+                             float t,
+                             const Eigen::Vector4f& plane,
+                             float width,
+                             float cell,
+                             double max_ratio);
+
+/** \brief The cluster test of one plane: the selected points of `store` (mask 1) of
+ * every connected cluster of the plane's footprint (PlaneFootprint, cells of edge
+ * `cell`; cells up to two apart are connected) holding fewer than `min_size` of them
+ * are taken out of the plane (mask 0). A plane through separate objects (two tree
+ * trunks, a pole and a facade) or slicing a cluttered volume (car bodies, a shop
+ * window) falls apart into small clusters; a surface is one large cluster.
+ * \return the number of points taken out */
+std::size_t removeSmallClusters(DensePoints& store,
+                                const Eigen::Vector4f& plane,
+                                float cell,
+                                std::size_t min_size);
+
+/** \brief Number of points (SoA) with |a x + b y + c z + d| <= t, counting in blocks
+ * and stopping as soon as the count cannot exceed `to_beat` (then the partial count,
+ * <= to_beat, is returned). With to_beat = 0 every point is counted, so the result is
+ * exact whenever it is > to_beat: a RANSAC that keeps a hypothesis only when its count
+ * is > the best so far chooses exactly what a full count would choose. Compiled in
+ * the library (src/sac_multi_plane_segmentation.cpp) for the baseline instruction set
+ * and for AVX2, chosen at load time by the CPU; both evaluate the same expression
+ * (no fused multiply-add), so they count the same points.
+ * \param[in] px, py, pz n coordinates each, meters
+ * \param[in] plane [a, b, c, d], unit normal
+ * \param[in] t distance threshold, meters */
+std::size_t countWithinDistance(const float* px,
+                                const float* py,
+                                const float* pz,
+                                std::size_t n,
+                                const Eigen::Vector4f& plane,
+                                float t,
+                                std::size_t to_beat);
+
+/** \brief Plain RANSAC for a plane on struct-of-arrays points, drawing minimal samples
+ * with `rng`: the hypothesis with the most points within t wins; the iteration count
+ * adapts as in pcl::RandomSampleConsensus (k = log(1 - p) / log(1 - w^3), capped at
+ * max_iterations). Used for the local dense refinement, where PCL's
+ * SampleConsensusModelPlane over an AoS index list cost most of the run time.
+ * \return the inlier count of `plane` (unit normal), 0 when no valid sample was found
+ */
+std::size_t ransacPlane(const std::vector<float>& x,
+                        const std::vector<float>& y,
+                        const std::vector<float>& z,
+                        float t,
+                        int max_iterations,
+                        double probability,
+                        std::mt19937& rng,
+                        Eigen::Vector4f& plane);
+
+/** \brief Local optimisation of a plane (the LO step of LO-RANSAC, Chum, Matas and
+ * Kittler, DAGM 2003): `iterations` minimal samples drawn with `rng` from the points
+ * within t of the starting plane, each counted over the first n points (SoA, early
+ * exit; the others take no part); a
+ * sample plane with more points within t replaces the plane. Only a strictly better
+ * count is accepted, so the count never decreases.
+ * \return the exact number of points within t of the returned `plane` */
+std::size_t optimizePlane(const std::vector<float>& x,
+                          const std::vector<float>& y,
+                          const std::vector<float>& z,
+                          std::size_t n,
+                          float t,
+                          int iterations,
+                          std::mt19937& rng,
+                          Eigen::Vector4f& plane);
+
+} // namespace detail
+
+} // namespace planar_grid
