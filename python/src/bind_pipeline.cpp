@@ -3,6 +3,7 @@
 // the PNG snapshots), with its state, trajectory and report returned to Python.
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/core/output_transaction.h>
+#include <planar_grid/pipeline/memory_estimate.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 #include <planar_grid/pipeline/run_outputs.h>
@@ -10,6 +11,8 @@
 
 #include <pybind11/stl.h>
 
+#include <atomic>
+#include <cstdint>
 #include <optional>
 #include <string>
 
@@ -145,8 +148,26 @@ PipelineRunner's state, trajectory and RunReport).
     "run_pipeline",
     [](const py::object& config, const py::object& frames,
        const py::object& output_folder, bool write_outputs, bool sequential,
-       bool resume, const py::object& progress) {
+       bool resume, const py::object& progress, const py::object& memory_limit) {
       const std::string config_path = toPath(config);
+      MemoryLimit limit = machineMemoryLimit();
+      if (!memory_limit.is_none()) {
+        if (py::isinstance<py::str>(memory_limit)) {
+          const std::string text = memory_limit.cast<std::string>();
+          try {
+            limit.bytes = parseMemorySize(text);
+          } catch (const Exception& e) {
+            throw py::value_error(std::string("memory_limit: ") + e.what());
+          }
+          limit.source = "memory_limit='" + text + "'";
+        } else {
+          const auto bytes = memory_limit.cast<long long>();
+          if (bytes < 0)
+            throw py::value_error("memory_limit must be >= 0 bytes (0: no limit)");
+          limit.bytes = static_cast<std::uint64_t>(bytes);
+          limit.source = "memory_limit=" + std::to_string(bytes);
+        }
+      }
       std::optional<std::size_t> begin, end;
       if (!frames.is_none()) {
         const auto range = frames.cast<py::tuple>();
@@ -183,6 +204,7 @@ PipelineRunner's state, trajectory and RunReport).
         name->clear();
       PipelineRunner runner(cfg);
       runner.setFrameOverlap(!sequential);
+      runner.setMemoryLimit(limit);
       if (begin || end)
         runner.setFrameRange(begin.value_or(0), end.value_or(runner.frameCount()));
       const std::string checkpoint_path =
@@ -205,13 +227,38 @@ PipelineRunner's state, trajectory and RunReport).
                          cfg.output.checkpoint_every_n_frames > 0);
         outputs.emplace(cfg.output.folder);
       }
-      if (callback != nullptr)
-        runner.setProgressCallback(
-          [callback](std::size_t done, std::size_t total, double seconds) {
-            py::gil_scoped_acquire acquire;
-            (*callback)(done, total, seconds);
-          });
-      result.report = runner.run();
+      // Ctrl-C (Python's KeyboardInterrupt) is seen after each frame: the run stops
+      // there, as the tool does on SIGINT, and nothing is written.
+      std::atomic<bool> stop{false};
+      runner.setStopFlag(&stop);
+      runner.setProgressCallback(
+        [callback, &stop](std::size_t done, std::size_t total, double seconds) {
+          py::gil_scoped_acquire acquire;
+          try {
+            if (callback != nullptr)
+              (*callback)(done, total, seconds);
+            if (PyErr_CheckSignals() != 0)
+              throw py::error_already_set();
+          } catch (py::error_already_set& e) {
+            // Ctrl-C, seen in the callback or here: a KeyboardInterrupt is raised
+            // again when run() has stopped; any other error ends the run.
+            if (!e.matches(PyExc_KeyboardInterrupt))
+              throw;
+            stop.store(true);
+          }
+        });
+      try {
+        result.report = runner.run();
+      } catch (const Interrupted& e) {
+        py::gil_scoped_acquire acquire;
+        PyErr_SetString(PyExc_KeyboardInterrupt,
+                        (std::string(e.what())
+                         + "; no output was written, the previous "
+                           "outputs in "
+                         + cfg.output.folder + " are as they were")
+                          .c_str());
+        throw py::error_already_set();
+      }
       if (outputs) {
         writeRunOutputs(cfg.output, runner, result.report, *outputs);
         writeRunReport(cfg.output, result.report, *outputs);
@@ -224,7 +271,7 @@ PipelineRunner's state, trajectory and RunReport).
     py::arg("config"), py::kw_only(), py::arg("frames") = py::none(),
     py::arg("output_folder") = py::none(), py::arg("write_outputs") = true,
     py::arg("sequential") = false, py::arg("resume") = false,
-    py::arg("progress") = py::none(),
+    py::arg("progress") = py::none(), py::arg("memory_limit") = py::none(),
     R"doc(Runs the pipeline a YAML configuration describes, as planar_grid_pipeline does.
 
 Parameters
@@ -248,6 +295,10 @@ resume : bool, optional
     Continue from the checkpoint in the output folder (output.checkpoint).
 progress : callable, optional
     Called after each frame as progress(frames_done, frames_total, seconds_elapsed).
+memory_limit : int or str, optional
+    Refuse the run before its first frame when its memory estimate exceeds this many
+    bytes ("16G", "512M": powers of 1024; 0 or "none": no check). Default: the
+    machine's memory, or the process's limit where smaller (docs/RELIABILITY.md).
 
 Returns
 -------
@@ -262,6 +313,9 @@ planar_grid.IOError
 planar_grid.Error
     When a frame cannot be processed (the message names the frame and stage) or the
     frame range is outside the input.
+KeyboardInterrupt
+    On Ctrl-C (SIGINT), after the frame under way (checkpointed when checkpoints are
+    on); nothing else is written and the previous outputs stay.
 )doc");
 
   m.def(

@@ -134,3 +134,53 @@ def test_stage_types_list_the_registry():
     stages = pg.stage_types()
     assert "multi_plane_segmentation" in stages
     assert "distance_threshold_m" in stages["multi_plane_segmentation"]
+
+
+def _stereo_config(data_dir, path, frames):
+    karlsruhe = data_dir / "karlsruhe_2010_03_09_drive_0023"
+    path.write_text(
+        "input:\n  type: stereo_sequence\n"
+        f"  left_images: {karlsruhe}/left/I1_%06d.png\n"
+        f"  right_images: {karlsruhe}/right/I2_%06d.png\n"
+        f"  first_index: 10\n  frame_count: {frames}\n"
+        f"  calibration: {{format: karlsruhe, file: {karlsruhe}/calib.txt}}\n"
+        f"  poses: {{format: karlsruhe_insdata, file: {karlsruhe}/insdata.txt,\n"
+        "          camera_height_m: 1.57, camera_pitch_rad: 0.09}\n"
+        "pipeline:\n  - type: stereo_disparity\n  - type: transform_to_world\n"
+        "  - type: accumulate\n"
+        "output:\n  report: report.json\n")
+    return path
+
+
+def test_ctrl_c_stops_after_the_frame_and_writes_nothing(data_dir, tmp_path):
+    # SIGINT during the second frame (sent from the progress callback of the first):
+    # KeyboardInterrupt once that frame is done, no output written.
+    import os
+    import signal
+    config = _stereo_config(data_dir, tmp_path / "run.yaml", 5)
+    done_frames = []
+
+    def progress(done, total, seconds):
+        done_frames.append(done)
+        if done == 1:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    with pytest.raises(KeyboardInterrupt, match="stopped on request after frame"):
+        pg.run_pipeline(config, output_folder=tmp_path / "out", progress=progress)
+    assert done_frames and max(done_frames) < 5
+    assert not (tmp_path / "out" / "report.json").exists()
+
+
+def test_memory_limit_refuses_a_run_that_cannot_fit(data_dir, tmp_path):
+    config = _stereo_config(data_dir, tmp_path / "run.yaml", 1)
+    config.write_text(config.read_text().replace(
+        "  - type: transform_to_world\n  - type: accumulate\n",
+        "  - type: voxel_grid\n  - type: transform_to_world\n"
+        "  - type: multi_plane_segmentation\n    params: {sample: cloud}\n"
+        "  - type: planar_cuboid_approximation\n  - type: map_integration\n"))
+    with pytest.raises(pg.ConfigError, match="more than the limit of 1 MiB"):
+        pg.run_pipeline(config, output_folder=tmp_path / "out", memory_limit="1M")
+    with pytest.raises(ValueError, match="memory_limit"):
+        pg.run_pipeline(config, output_folder=tmp_path / "out", memory_limit="lots")
+    result = pg.run_pipeline(config, output_folder=tmp_path / "out", memory_limit=0)
+    assert result.report["frames"] == 1
