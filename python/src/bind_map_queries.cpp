@@ -145,9 +145,11 @@ template <typename Query>
 py::tuple
 distancesOf(const FloatArray& points, Query query)
 {
-  if (points.ndim() != 2 || points.shape(1) != 3)
-    throw py::value_error("points must be an (N, 3) array of x, y, z in meters");
-  const Eigen::Index n = points.shape(0);
+  const bool single = points.ndim() == 1 && points.shape(0) == 3;
+  if (!single && (points.ndim() != 2 || points.shape(1) != 3))
+    throw py::value_error("points must be an (N, 3) array of x, y, z in meters, or one "
+                          "(3,) point");
+  const Eigen::Index n = single ? 1 : points.shape(0);
   Eigen::VectorXf d(n);
   Eigen::Matrix3Xf g(3, n);
   {
@@ -156,7 +158,12 @@ distancesOf(const FloatArray& points, Query query)
     py::gil_scoped_release release;
     query(p, d, g);
   }
-  return toDistanceArrays(d, g);
+  const py::tuple arrays = toDistanceArrays(d, g);
+  if (!single)
+    return arrays;
+  // One (3,) point: its distance and its (3,) gradient.
+  return py::make_tuple(arrays[0].attr("__getitem__")(0),
+                        arrays[1].attr("__getitem__")(0));
 }
 
 } // namespace
@@ -171,7 +178,7 @@ bindMapQueries(py::module_& m)
   cls
     .def(
       "get_state",
-      [](const Map& self, const FloatArray& points) {
+      [](const Map& self, const FloatArray& points) -> py::object {
         const auto p = toPoints(points, "points");
         py::array_t<std::uint8_t> out(static_cast<py::ssize_t>(p.size()));
         std::uint8_t* o = out.mutable_data();
@@ -180,14 +187,16 @@ bindMapQueries(py::module_& m)
           for (std::size_t i = 0; i < p.size(); ++i)
             o[i] = static_cast<std::uint8_t>(self.getState(p[i]));
         }
+        if (points.ndim() == 1) // one (3,) point: its value
+          return out.attr("__getitem__")(0);
         return out;
       },
       py::arg("points"), R"doc(State at each point.
 
 Parameters
 ----------
-points : array_like, shape (N, 3)
-    Query points, meters.
+points : array_like, shape (N, 3) or (3,)
+    Query points, meters (a (3,) array: one point, and its value is returned).
 
 Returns
 -------
@@ -197,7 +206,7 @@ numpy.ndarray, shape (N,), uint8
 )doc")
     .def(
       "get_occupancy",
-      [](const Map& self, const FloatArray& points) {
+      [](const Map& self, const FloatArray& points) -> py::object {
         const auto p = toPoints(points, "points");
         py::array_t<double> out(static_cast<py::ssize_t>(p.size()));
         double* o = out.mutable_data();
@@ -206,14 +215,16 @@ numpy.ndarray, shape (N,), uint8
           for (std::size_t i = 0; i < p.size(); ++i)
             o[i] = self.getOccupancy(p[i]);
         }
+        if (points.ndim() == 1) // one (3,) point: its value
+          return out.attr("__getitem__")(0);
         return out;
       },
       py::arg("points"), R"doc(Occupancy probability at each point.
 
 Parameters
 ----------
-points : array_like, shape (N, 3)
-    Query points, meters.
+points : array_like, shape (N, 3) or (3,)
+    Query points, meters (a (3,) array: one point, and its value is returned).
 
 Returns
 -------

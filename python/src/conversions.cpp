@@ -63,9 +63,15 @@ toVector3f(const DoubleArray& vector, const char* name)
 std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>>
 toPoints(const FloatArray& points, const char* name)
 {
+  if (points.ndim() == 1 && points.shape(0) == 3) {
+    const auto v = points.unchecked<1>();
+    return {Eigen::Vector3f(v(0), v(1), v(2))};
+  }
   if (points.ndim() != 2 || points.shape(1) != 3)
-    throw py::value_error(std::string(name)
-                          + " must be an (N, 3) array of x, y, z in meters");
+    throw py::value_error(
+      std::string(name)
+      + " must be an (N, 3) array of x, y, z in meters, or one (3,) "
+        "point");
   std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> out(
     static_cast<std::size_t>(points.shape(0)));
   const auto p = points.unchecked<2>();

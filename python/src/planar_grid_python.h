@@ -40,8 +40,8 @@ using IndexArray = py::array_t<std::int64_t, py::array::c_style | py::array::for
  * another shape */
 pcl::PointCloud<pcl::PointXYZ>::Ptr toCloud(const FloatArray& points, const char* name);
 
-/** \brief Points of an (N, 3) array, as floats (meters). \throws py::value_error
- * naming \a name for another shape */
+/** \brief Points of an (N, 3) array, or the one point of a (3,) array, as floats
+ * (meters). \throws py::value_error naming \a name for another shape */
 std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>>
 toPoints(const FloatArray& points, const char* name);
 

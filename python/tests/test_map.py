@@ -72,7 +72,7 @@ def test_set_state_and_errors():
     with pytest.raises(ValueError, match="prior: Unknown space state 'occupied-ish'"):
         pg.PlanarGridMap(prior="occupied-ish")
     with pytest.raises(ValueError, match=r"\(N, 3\)"):
-        m.get_state(np.zeros(3))
+        m.get_state(np.zeros(4))
 
 
 def surface_map():
@@ -249,3 +249,24 @@ def test_region_index_answers_as_the_map_inside_its_region(scanned_map):
     np.testing.assert_array_equal(
         region.is_collision_free(centres, half_extents=[0.5, 0.3, 0.75], yaw=0.0),
         m.is_collision_free(centres, half_extents=[0.5, 0.3, 0.75], yaw=0.0))
+
+
+def test_one_point_queries_take_a_3_vector_and_give_its_value(scanned_map):
+    # A (3,) point gives a scalar (get_state, get_occupancy) or a (distance, (3,)
+    # gradient) pair, equal to the row of the same point given as (1, 3).
+    m = scanned_map
+    for point in ([2.55, 0.05, 0.05], [5.05, 0.05, 0.05], [7.0, 0.05, 0.05]):
+        state = m.get_state(np.array(point))
+        assert np.ndim(state) == 0
+        assert state == m.get_state(np.array([point]))[0]
+        occupancy = m.get_occupancy(point)
+        assert np.ndim(occupancy) == 0
+        assert occupancy == m.get_occupancy([point])[0]
+        d, g = m.get_distance(point, max_distance_m=2.0)
+        assert np.ndim(d) == 0 and np.shape(g) == (3,)
+        rows_d, rows_g = m.get_distance([point], max_distance_m=2.0)
+        assert d == rows_d[0]
+        np.testing.assert_array_equal(g, rows_g[0])
+    assert m.get_state([5.05, 0.05, 0.05]) == pg.SpaceState.OCCUPIED
+    with pytest.raises(ValueError, match=r"\(N, 3\) array .* or one \(3,\) point"):
+        m.get_state([1.0, 2.0])
