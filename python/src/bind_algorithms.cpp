@@ -494,6 +494,7 @@ input (no points, only NaN, colinear points) gives no plane.
       &Segmentation::setMaxSampleSize,
       "int: points subsampled for the hypotheses when no sample points are given, "
       ">= 3 (default 20000).");
+  params.bindRepr();
   const auto setters = params.setters();
   cls
     .def(py::init([setters](const py::kwargs& kwargs) {
@@ -610,6 +611,7 @@ all-NaN input gives no cuboid.
       },
       "array_like, shape (3,): the up direction, non-zero (default "
       "(0, 0, 1)).");
+  params.bindRepr();
   const auto setters = params.setters();
   cls
     .def(py::init([setters](const py::kwargs& kwargs) {

@@ -98,6 +98,16 @@ baseline_m : float
     },
     "str: the update of a re-observed track, 'kl_divergence' (eqs. 5-10, default) or "
     "'log_odds' (OctoMap's).");
+  const auto code = [](double value) {
+    return py::repr(py::float_(value)).cast<std::string>();
+  };
+  params.bindRepr({{"focal_length_px",
+                    [code](const Filter& f) {
+                      return code(f.getFocalLength());
+                    }},
+                   {"baseline_m", [code](const Filter& f) {
+                      return code(f.getBaseline());
+                    }}});
   const auto setters = params.setters();
   cls
     .def(py::init([setters](double focal_length_px, double baseline_m,

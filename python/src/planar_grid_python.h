@@ -20,6 +20,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -143,7 +144,39 @@ public:
     setters_[name] = [assign](T& object, py::handle value) {
       assign(object, value.cast<V>());
     };
+    getters_.emplace_back(name, [get](const T& object) {
+      auto value = std::invoke(get, object);
+      py::object python;
+      if constexpr (std::is_base_of_v<py::handle, decltype(value)>)
+        python = py::reinterpret_borrow<py::object>(value);
+      else
+        python = py::cast(value);
+      // A numpy array as a list, which the setter takes too and repr() spells as code.
+      if (py::isinstance<py::array>(python))
+        python = python.attr("tolist")();
+      return py::repr(python).template cast<std::string>();
+    });
     return *this;
+  }
+
+  /** \brief A parameter's name and its value as Python code. */
+  using Field = std::pair<std::string, std::function<std::string(const T&)>>;
+
+  /** \brief Binds __repr__: "planar_grid.<class>(name=value, ...)" with the
+   * constructor's own arguments \a leading, then every parameter bound so far, in
+   * binding order: a constructor call that rebuilds the object. */
+  void bindRepr(std::vector<Field> leading = {})
+  {
+    std::vector<Field> getters = std::move(leading);
+    getters.insert(getters.end(), getters_.begin(), getters_.end());
+    const std::string class_name = class_name_;
+    cls_.def("__repr__", [getters, class_name](const T& object) {
+      std::string text = "planar_grid." + class_name + "(";
+      for (std::size_t i = 0; i < getters.size(); ++i)
+        text +=
+          (i == 0 ? "" : ", ") + getters[i].first + "=" + getters[i].second(object);
+      return text + ")";
+    });
   }
 
   /** \brief Applies keyword arguments through the setters; an unknown keyword is a
@@ -179,6 +212,7 @@ private:
   std::string class_name_;
   Check check_;
   std::map<std::string, std::function<void(T&, py::handle)>> setters_;
+  std::vector<std::pair<std::string, std::function<std::string(const T&)>>> getters_;
 };
 
 /** \brief Binds SACMultiPlaneSegmentation, PlanarCuboidApproximation and their result

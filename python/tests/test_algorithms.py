@@ -233,3 +233,17 @@ def test_occupancy_filter_errors_carry_the_library_message():
         kl.filter(np.ones((3, 3)), track_ids=[1, 2])
     with pytest.raises(ValueError, match="update_rule: Unknown occupancy update rule 'bayes'"):
         kl.update_rule = "bayes"
+
+
+def test_repr_is_the_constructor_call_with_every_parameter():
+    # repr() names each parameter with its value; evaluated, it rebuilds an object of the
+    # same parameters.
+    objects = [pg.SACMultiPlaneSegmentation(max_planes=3, distance_threshold_m=0.02),
+               pg.PlanarCuboidApproximation(min_cell_size_m=0.2),
+               pg.KLDivergenceOccupancyFilter(500.0, 0.1, neighbourhood_size_m=0.3)]
+    for obj, expected in zip(objects, ["max_planes=3", "min_cell_size_m=0.2",
+                                       "focal_length_px=500.0, baseline_m=0.1"]):
+        text = repr(obj)
+        assert text.startswith("planar_grid." + type(obj).__name__ + "(")
+        assert expected in text
+        assert repr(eval(text, {"planar_grid": pg})) == text

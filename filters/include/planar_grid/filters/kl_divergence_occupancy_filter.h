@@ -358,6 +358,10 @@ public:
    * \param[in] focal_length_px f, pixels (> 0)
    * \param[in] baseline_m B, meters (> 0) */
   void setStereoParameters(double focal_length_px, double baseline_m);
+  /** \brief f of setStereoParameters(), pixels (0 when not set). */
+  double getFocalLength() const { return focal_length_px_; }
+  /** \brief B of setStereoParameters(), meters (0 when not set). */
+  double getBaseline() const { return baseline_m_; }
 
   /** \brief Sets the input cloud (one frame of features); marks a new frame.
    * \param[in] cloud the features, in the camera frame or in the world frame with
