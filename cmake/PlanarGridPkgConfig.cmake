@@ -1,7 +1,9 @@
 # SPDX-License-Identifier: BSD-3-Clause
-# planar_grid_install_pkgconfig(): <prefix>/<libdir>/pkgconfig/planar_grid.pc, for
-# projects that build with pkg-config instead of CMake (one .pc for all the modules
-# that were built). Call it once, after every module was added.
+# planar_grid_install_pkgconfig(): <prefix>/<libdir>/pkgconfig/planar_grid.pc (every
+# module that was built) and planar_grid_<module>.pc (one module and the modules it
+# uses, with only their dependencies: a segmentation-only program needs neither VTK nor
+# OpenCV), for projects that build with pkg-config instead of CMake. Call it once,
+# after every module was added.
 #
 # What pkg-config can express of the two kinds of build:
 # - shared libraries (BUILD_SHARED_LIBS): Libs lists our libraries, Requires the
@@ -76,8 +78,16 @@ endfunction()
 
 function(planar_grid_install_pkgconfig)
   get_property(modules GLOBAL PROPERTY PLANAR_GRID_MODULES)
-  set(_pg_order "")
+  _planar_grid_write_pc(planar_grid "every module" ${modules})
   foreach(module IN LISTS modules)
+    _planar_grid_write_pc(planar_grid_${module} "the ${module} module" ${module})
+  endforeach()
+endfunction()
+
+# Writes and installs <pc_name>.pc for \a ARGN modules and every module they use.
+function(_planar_grid_write_pc pc_name what)
+  set(_pg_order "")
+  foreach(module IN LISTS ARGN)
     _planar_grid_pc_visit(${module})
   endforeach()
   # Dependents first on the link line.
@@ -145,11 +155,13 @@ function(planar_grid_install_pkgconfig)
   file(RELATIVE_PATH to_prefix "/${CMAKE_INSTALL_LIBDIR}/pkgconfig" "/")
   string(REGEX REPLACE "/$" "" to_prefix "${to_prefix}")
   set(PLANAR_GRID_PC_PREFIX "\${pcfiledir}/${to_prefix}")
+  set(PLANAR_GRID_PC_NAME ${pc_name})
+  set(PLANAR_GRID_PC_WHAT "${what}")
   configure_file(${PROJECT_SOURCE_DIR}/cmake/planar_grid.pc.in
-                 ${PROJECT_BINARY_DIR}/planar_grid.pc.in @ONLY)
+                 ${PROJECT_BINARY_DIR}/pkgconfig/${pc_name}.pc.in @ONLY)
   # Generator expressions (VTK's library files) are resolved at generation time.
-  file(GENERATE OUTPUT ${PROJECT_BINARY_DIR}/planar_grid.pc
-       INPUT ${PROJECT_BINARY_DIR}/planar_grid.pc.in)
-  install(FILES ${PROJECT_BINARY_DIR}/planar_grid.pc
+  file(GENERATE OUTPUT ${PROJECT_BINARY_DIR}/pkgconfig/${pc_name}.pc
+       INPUT ${PROJECT_BINARY_DIR}/pkgconfig/${pc_name}.pc.in)
+  install(FILES ${PROJECT_BINARY_DIR}/pkgconfig/${pc_name}.pc
           DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
 endfunction()

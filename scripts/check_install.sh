@@ -83,6 +83,22 @@ LD_LIBRARY_PATH="$prefix/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}" \
 "$work/examples/segment_planes" "$CLOUD" >"$work/cmake_run.log"
 cmp -s "$work/pc_run.log" "$work/cmake_run.log" \
   || { diff "$work/pc_run.log" "$work/cmake_run.log" >&2; echo "check_install: the pkg-config build prints other results" >&2; exit 1; }
+# One module's own file: the segmentation needs neither VTK nor OpenCV nor the map.
+pc_libs=$(pkg-config --libs planar_grid_segmentation)
+case "$pc_libs" in
+  *vtk* | *opencv* | *planar_grid_map* | *planar_grid_pipeline*)
+    echo "check_install: planar_grid_segmentation.pc pulls in more than it needs: $pc_libs" >&2
+    exit 1 ;;
+esac
+echo "check_install: building examples/segment_planes.cpp with pkg-config planar_grid_segmentation"
+# shellcheck disable=SC2046
+g++ -std=c++17 -O1 -Wall -o "$work/segment_planes_pc1" examples/segment_planes.cpp \
+  $(pkg-config --cflags --libs planar_grid_segmentation pcl_io) >"$work/pc1_build.log" 2>&1 \
+  || { cat "$work/pc1_build.log" >&2; exit 1; }
+LD_LIBRARY_PATH="$prefix/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}" \
+  "$work/segment_planes_pc1" "$CLOUD" >"$work/pc1_run.log"
+cmp -s "$work/pc1_run.log" "$work/cmake_run.log" \
+  || { echo "check_install: the planar_grid_segmentation build prints other results" >&2; exit 1; }
 # A pipeline run through the same flags: the pipeline pulls in every module, the stage
 # registry and the frame sources (the ROS bag one too when built), so with static
 # libraries the link needs every dependency in Libs (shared: --static adds Requires.private
