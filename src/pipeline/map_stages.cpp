@@ -146,17 +146,18 @@ private:
       q.getVector4fMap() = camera_T_world * Eigen::Vector4f(p.x, p.y, p.z, 1.0f);
       camera_cloud_.push_back(q);
     }
-    const PinholeView& camera = frame.depth_camera;
-    depth_ =
-      camera.width_px > 0
-        ? DepthImage::fromPointCloud(
-          camera_cloud_, camera.width_px, camera.height_px,
-          static_cast<float>(camera.fx_px), static_cast<float>(camera.fy_px),
-          static_cast<float>(camera.cx_px), static_cast<float>(camera.cy_px))
-        : DepthImage::fromPointCloud(camera_cloud_, depth_width_px_, depth_height_px_,
-                                     depth_focal_length_px_, depth_focal_length_px_,
-                                     0.5f * static_cast<float>(depth_width_px_),
-                                     0.5f * static_cast<float>(depth_height_px_));
+    PinholeView camera = frame.depth_camera;
+    if (camera.width_px <= 0) // the virtual camera, its principal point in the centre
+      camera = {depth_width_px_,
+                depth_height_px_,
+                depth_focal_length_px_,
+                depth_focal_length_px_,
+                0.5f * static_cast<float>(depth_width_px_),
+                0.5f * static_cast<float>(depth_height_px_)};
+    depth_ = DepthImage::fromPointCloud(
+      camera_cloud_, camera.width_px, camera.height_px,
+      static_cast<float>(camera.fx_px), static_cast<float>(camera.fy_px),
+      static_cast<float>(camera.cx_px), static_cast<float>(camera.cy_px));
     depth_pixels_ = depth_.countValid();
   }
 
