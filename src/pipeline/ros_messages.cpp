@@ -88,7 +88,7 @@ cloudFromMessage(const sensor_msgs::PointCloud2& msg,
                  const std::string& where,
                  Frame::Cloud& cloud)
 {
-  const pcl::PCLPointCloud2 blob = toPCLBlob(msg);
+  pcl::PCLPointCloud2 blob = toPCLBlob(msg);
   const auto has = [&blob](const std::string& name) {
     return std::any_of(blob.fields.begin(), blob.fields.end(),
                        [&name](const pcl::PCLPointField& f) { return f.name == name; });
@@ -99,6 +99,9 @@ cloudFromMessage(const sensor_msgs::PointCloud2& msg,
   if (blob.is_bigendian)
     throw IOError(where + ": big-endian PointCloud2 data is not read");
   checkPointCloudBlob(blob, where);
+  // pcl::fromPCLPointCloud2 leaves a field of another datatype than the point type's
+  // at 0: double or integer coordinates would all become the origin.
+  convertFieldsToFloat(blob, {"x", "y", "z", "intensity"}, where);
   intensityCloudFromBlob(blob, cloud);
 }
 

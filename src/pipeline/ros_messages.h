@@ -32,8 +32,9 @@ cv::Mat greyImage(const sensor_msgs::Image& image, const std::string& where);
 
 /** \brief The working cloud of a sensor_msgs/PointCloud2 (meters, the message's
  * frame): intensity when it has one, the grey of its colour when it has rgb, else 0.
- * \throws planar_grid::IOError for a cloud without x, y, z, big-endian data or a
- * size that does not match the data */
+ * x, y, z and intensity of any numeric datatype (double, integer) are read as floats.
+ * \throws planar_grid::IOError for a cloud without x, y, z, big-endian data, a size
+ * that does not match the data, or an x/y/z/intensity field with COUNT > 1 */
 void cloudFromMessage(const sensor_msgs::PointCloud2& msg,
                       const std::string& where,
                       Frame::Cloud& cloud);

@@ -21,7 +21,9 @@
 #include <tf2_msgs/TFMessage.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -378,6 +380,104 @@ TEST_F(RosBagInputTest, CloudBagGivesThePCDCloudAndInterpolatedTfPoses)
   planar_grid::PipelineRunner runner(config);
   runner.run();
   EXPECT_EQ(runner.trajectory().size(), 2u);
+}
+
+/** A PointCloud2 of \a points whose x, y, z are of \a datatype (scaled by \a scale
+ * before the cast, as a driver with integer millimetres does) and whose intensity is
+ * a float. */
+sensor_msgs::PointCloud2
+typedCloudMessage(const pcl::PointCloud<pcl::PointXYZI>& points,
+                  std::uint8_t datatype,
+                  double scale)
+{
+  const std::uint32_t size = pcl::getFieldSize(datatype);
+  sensor_msgs::PointCloud2 msg;
+  msg.header.frame_id = "lidar";
+  msg.height = 1;
+  msg.width = static_cast<std::uint32_t>(points.size());
+  const char* names[] = {"x", "y", "z", "intensity"};
+  for (std::uint32_t i = 0; i < 4; ++i) {
+    sensor_msgs::PointField field;
+    field.name = names[i];
+    field.offset = i * size;
+    field.datatype =
+      i < 3 ? datatype : static_cast<std::uint8_t>(sensor_msgs::PointField::FLOAT32);
+    field.count = 1;
+    msg.fields.push_back(field);
+  }
+  msg.point_step = 3 * size + 4;
+  msg.row_step = msg.point_step * msg.width;
+  msg.data.resize(msg.row_step);
+  for (std::size_t p = 0; p < points.size(); ++p) {
+    std::uint8_t* point = msg.data.data() + p * msg.point_step;
+    const float xyz[3] = {points[p].x, points[p].y, points[p].z};
+    for (int i = 0; i < 3; ++i) {
+      const double value = scale * xyz[i];
+      if (datatype == sensor_msgs::PointField::FLOAT64)
+        std::memcpy(point + i * size, &value, size);
+      else {
+        const auto rounded = static_cast<std::int16_t>(std::lround(value));
+        std::memcpy(point + i * size, &rounded, size);
+      }
+    }
+    std::memcpy(point + 3 * size, &points[p].intensity, 4);
+  }
+  msg.is_dense = true;
+  return msg;
+}
+
+TEST(RosMessagesTest, PointCloud2OfDoubleOrIntegerCoordinatesKeepsItsPoints)
+{
+  planar_grid::Frame direct;
+  planar_grid::createFrameSource(
+    parsePipelineConfig("input:\n  type: pcd_files\n  files: " + ROOM_SCAN
+                          + "\n  poses: {format: none}\npipeline:\n  - type: voxel_grid\n",
+                        "t.yaml", "/")
+      .input)
+    ->load(0, direct);
+  ASSERT_GT(direct.cloud->size(), 1000u);
+  // Double coordinates: a float survives the double exactly.
+  planar_grid::Frame::Cloud cloud;
+  planar_grid::ros_messages::cloudFromMessage(
+    typedCloudMessage(*direct.cloud, sensor_msgs::PointField::FLOAT64, 1.0), "/points",
+    cloud);
+  ASSERT_EQ(cloud.size(), direct.cloud->size());
+  for (std::size_t p = 0; p < cloud.size(); p += 101) {
+    EXPECT_EQ(cloud[p].x, (*direct.cloud)[p].x);
+    EXPECT_EQ(cloud[p].y, (*direct.cloud)[p].y);
+    EXPECT_EQ(cloud[p].z, (*direct.cloud)[p].z);
+    EXPECT_EQ(cloud[p].intensity, (*direct.cloud)[p].intensity);
+  }
+  // int16 millimetres: the driver's values, within half a unit of the points.
+  planar_grid::ros_messages::cloudFromMessage(
+    typedCloudMessage(*direct.cloud, sensor_msgs::PointField::INT16, 1000.0), "/points",
+    cloud);
+  ASSERT_EQ(cloud.size(), direct.cloud->size());
+  float extent = 0.0f;
+  for (std::size_t p = 0; p < cloud.size(); ++p) {
+    EXPECT_NEAR(cloud[p].x, 1000.0f * (*direct.cloud)[p].x, 0.5f) << p;
+    EXPECT_NEAR(cloud[p].z, 1000.0f * (*direct.cloud)[p].z, 0.5f) << p;
+    extent = std::max(extent, std::abs(cloud[p].x));
+  }
+  EXPECT_GT(extent, 1000.0f); // not collapsed to the origin
+  // Three values per coordinate are not a point's x.
+  auto counted = typedCloudMessage(*direct.cloud, sensor_msgs::PointField::FLOAT64, 1.0);
+  counted.fields[0].count = 3;
+  counted.fields[0].offset = 0;
+  counted.fields[1].offset = 24;
+  counted.fields[2].offset = 32;
+  counted.fields[3].offset = 40;
+  counted.point_step = 44;
+  counted.row_step = counted.point_step * counted.width;
+  counted.data.resize(counted.row_step);
+  try {
+    planar_grid::ros_messages::cloudFromMessage(counted, "/points", cloud);
+    ADD_FAILURE() << "a 3-count x was accepted";
+  } catch (const planar_grid::IOError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("/points"), std::string::npos) << what;
+    EXPECT_NE(what.find("'x'"), std::string::npos) << what;
+  }
 }
 
 TEST_F(RosBagInputTest, BadBagsNameTheFileAndTopic)
