@@ -430,9 +430,10 @@ TEST(RosMessagesTest, PointCloud2OfDoubleOrIntegerCoordinatesKeepsItsPoints)
 {
   planar_grid::Frame direct;
   planar_grid::createFrameSource(
-    parsePipelineConfig("input:\n  type: pcd_files\n  files: " + ROOM_SCAN
-                          + "\n  poses: {format: none}\npipeline:\n  - type: voxel_grid\n",
-                        "t.yaml", "/")
+    parsePipelineConfig(
+      "input:\n  type: pcd_files\n  files: " + ROOM_SCAN
+        + "\n  poses: {format: none}\npipeline:\n  - type: voxel_grid\n",
+      "t.yaml", "/")
       .input)
     ->load(0, direct);
   ASSERT_GT(direct.cloud->size(), 1000u);
@@ -461,7 +462,8 @@ TEST(RosMessagesTest, PointCloud2OfDoubleOrIntegerCoordinatesKeepsItsPoints)
   }
   EXPECT_GT(extent, 1000.0f); // not collapsed to the origin
   // Three values per coordinate are not a point's x.
-  auto counted = typedCloudMessage(*direct.cloud, sensor_msgs::PointField::FLOAT64, 1.0);
+  auto counted =
+    typedCloudMessage(*direct.cloud, sensor_msgs::PointField::FLOAT64, 1.0);
   counted.fields[0].count = 3;
   counted.fields[0].offset = 0;
   counted.fields[1].offset = 24;
