@@ -368,13 +368,7 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
   out.map = r.optionalString(node, "map", out.map, "output");
   out.map_octomap = r.optionalString(node, "map_octomap", out.map_octomap, "output");
   out.map_mesh = r.optionalString(node, "map_mesh", out.map_mesh, "output");
-  if (!out.map_mesh.empty() && !endsWith(out.map_mesh, ".ply")
-      && !endsWith(out.map_mesh, ".vtk"))
-    r.fail(node["map_mesh"], "output.map_mesh must end in .ply or .vtk");
   out.map_grid_2d = r.optionalString(node, "map_grid_2d", out.map_grid_2d, "output");
-  if (!out.map_grid_2d.empty() && !endsWith(out.map_grid_2d, ".yaml"))
-    r.fail(node["map_grid_2d"], "output.map_grid_2d must end in .yaml (the map_server "
-                                "YAML; the image is written beside it as .pgm)");
   if (const YAML::Node band = node["map_grid_2d_band"]) {
     if (out.map_grid_2d.empty())
       r.fail(band, "output.map_grid_2d_band is not used: set output.map_grid_2d");
@@ -409,27 +403,41 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
            "focal_point_m)");
   if (out.report.empty())
     r.fail(node["report"], "output.report must name a file");
-  // Each output is written into the folder (the checkpoint too), and a name that
-  // leaves it would only fail when the outputs are written, after the last frame.
-  for (const auto& [key, name] :
-       std::initializer_list<std::pair<const char*, const std::string*>>{
-         {"cloud", &out.cloud},
-         {"planes", &out.planes},
-         {"report", &out.report},
-         {"trajectory", &out.trajectory},
-         {"snapshot", &out.snapshot},
-         {"planes_snapshot", &out.planes_snapshot},
-         {"cuboids_snapshot", &out.cuboids_snapshot},
-         {"cuboids_street_snapshot", &out.cuboids_street_snapshot},
-         {"map", &out.map},
-         {"map_octomap", &out.map_octomap},
-         {"map_mesh", &out.map_mesh},
-         {"map_grid_2d", &out.map_grid_2d},
-         {"map_snapshot", &out.map_snapshot}}) {
-    if (!name->empty() && !OutputTransaction::isOutputName(*name))
-      r.fail(node[key], "output." + std::string(key) + " '" + *name
-                          + "' must be a file name inside output.folder (a relative "
-                            "path without '..', not starting with '.planar_grid_')");
+  // A name leaving the folder would fail only after the last frame; the extension
+  // chooses the format, or is the one the programs that read the file expect.
+  struct OutputName {
+    const char* key;
+    const std::string* name;
+    std::vector<std::string> extensions; // empty: any name
+  };
+  for (const OutputName& o :
+       {OutputName{"cloud", &out.cloud, {".pcd", ".ply"}},
+        OutputName{"planes", &out.planes, {".pcd", ".ply"}},
+        OutputName{"report", &out.report, {}},
+        OutputName{"trajectory", &out.trajectory, {}},
+        OutputName{"snapshot", &out.snapshot, {".png"}},
+        OutputName{"planes_snapshot", &out.planes_snapshot, {".png"}},
+        OutputName{"cuboids_snapshot", &out.cuboids_snapshot, {".png"}},
+        OutputName{"cuboids_street_snapshot", &out.cuboids_street_snapshot, {".png"}},
+        OutputName{"map", &out.map, {".pgmap"}},
+        OutputName{"map_octomap", &out.map_octomap, {".bt", ".ot"}},
+        OutputName{"map_mesh", &out.map_mesh, {".ply", ".vtk"}},
+        OutputName{"map_grid_2d", &out.map_grid_2d, {".yaml"}}, // the .pgm beside it
+        OutputName{"map_snapshot", &out.map_snapshot, {".png"}}}) {
+    if (o.name->empty())
+      continue;
+    if (!OutputTransaction::isOutputName(*o.name))
+      r.fail(node[o.key], "output." + std::string(o.key) + " '" + *o.name
+                            + "' must be a file name inside output.folder (a relative "
+                              "path without '..', not starting with '.planar_grid_')");
+    if (!o.extensions.empty()
+        && std::none_of(o.extensions.begin(), o.extensions.end(),
+                        [&o](const std::string& e) { return endsWith(*o.name, e); })) {
+      std::string allowed;
+      for (const std::string& e : o.extensions)
+        allowed += (allowed.empty() ? "" : " or ") + e;
+      r.fail(node[o.key], "output." + std::string(o.key) + " must end in " + allowed);
+    }
   }
   out.checkpoint = r.optionalString(node, "checkpoint", out.checkpoint, "output");
   if (const YAML::Node every = node["checkpoint_every_n_frames"]) {

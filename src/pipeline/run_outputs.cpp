@@ -6,6 +6,7 @@
 
 #include <pcl/console/print.h>
 #include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
 
 #include <sys/stat.h>
 
@@ -130,13 +131,17 @@ using OutputWriter =
   std::function<std::string(const std::string& name,
                             const std::function<void(const std::string&)>& write)>;
 
+/** A cloud as a binary PLY when \a path ends in .ply (pcl::PLYWriter), else as a
+ * binary-compressed PCD (pcl::PCDWriter); the configuration allows only these two. */
 template <typename PointT>
 void
-writeCompressedPCD(const std::string& path, const pcl::PointCloud<PointT>& cloud)
+writeCloudFile(const std::string& path, const pcl::PointCloud<PointT>& cloud)
 {
-  writeFileAtomically(path, [&cloud](const std::string& tmp) {
-    pcl::PCDWriter writer;
-    return writer.writeBinaryCompressed(tmp, cloud) == 0;
+  const bool ply = path.size() >= 4 && path.compare(path.size() - 4, 4, ".ply") == 0;
+  writeFileAtomically(path, [&cloud, ply](const std::string& tmp) {
+    if (ply)
+      return pcl::PLYWriter().write(tmp, cloud, true, false) == 0;
+    return pcl::PCDWriter().writeBinaryCompressed(tmp, cloud) == 0;
   });
 }
 
@@ -151,7 +156,7 @@ writeOutputs(const OutputConfig& output,
     if (cloud && !cloud->empty())
       report.outputs.emplace_back(
         "cloud", write(output.cloud, [&cloud](const std::string& path) {
-          writeCompressedPCD(path, *cloud);
+          writeCloudFile(path, *cloud);
         }));
   }
   if (!output.planes.empty()) {
@@ -159,7 +164,7 @@ writeOutputs(const OutputConfig& output,
     if (planes && !planes->empty())
       report.outputs.emplace_back(
         "planes", write(output.planes, [&planes](const std::string& path) {
-          writeCompressedPCD(path, *planes);
+          writeCloudFile(path, *planes);
         }));
   }
   if (const auto& map = runner.state().map) {

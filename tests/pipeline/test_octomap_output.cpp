@@ -2,10 +2,14 @@
 // The run's OctoMap output: the main job's stages on the first Karlsruhe frames write
 // map.bt and report.json; liboctomap reads the .bt back and counts what the report
 // says.
+#include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 #include <planar_grid/pipeline/run_outputs.h>
+
+#include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -134,6 +138,48 @@ TEST_F(OctoMapOutputTest, MainJobBtCountsAgreeWithReport)
                                       + std::to_string(tree.getNumLeafNodes())),
             std::string::npos)
     << report.timingTable();
+}
+
+TEST_F(OctoMapOutputTest, CloudOutputsTakeTheFormatOfTheirExtension)
+{
+  // An extension the writers do not have is refused with the configuration.
+  const std::string head =
+    planar_grid_test::mainJobImageInput(0, 2) + planar_grid_test::mainJobStages()
+    + "output:\n  folder: " + dir_.string() + "\n  report: report.json\n";
+  for (const char* bad :
+       {"  cloud: world.xyz\n", "  planes: planes.txt\n", "  map_octomap: map.abc\n",
+        "  map: map.txt\n", "  map_snapshot: map.jpg\n"}) {
+    try {
+      planar_grid::parsePipelineConfig(head + bad, "t.yaml", "/");
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const planar_grid::ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("must end in"), std::string::npos)
+        << e.what();
+    }
+  }
+  // .ply is written as PLY (PCL reads it back point for point), .pcd as PCD.
+  const auto config = planar_grid::parsePipelineConfig(
+    head + "  cloud: world.pcd\n  planes: planes.ply\n", "t.yaml", "/");
+  planar_grid::PipelineRunner runner(config);
+  planar_grid::RunReport report = runner.run();
+  planar_grid::writeRunOutputs(config.output, runner, report);
+  const auto& planes = *runner.state().plane_cloud;
+  ASSERT_GT(planes.size(), 100u);
+  pcl::PointCloud<pcl::PointXYZL> from_ply;
+  ASSERT_EQ(pcl::io::loadPLYFile((dir_ / "planes.ply").string(), from_ply), 0);
+  std::ifstream ply(dir_ / "planes.ply");
+  std::string magic;
+  std::getline(ply, magic);
+  EXPECT_EQ(magic, "ply");
+  ASSERT_EQ(from_ply.size(), planes.size());
+  for (std::size_t i = 0; i < planes.size(); ++i) {
+    ASSERT_EQ(from_ply[i].x, planes[i].x) << i;
+    ASSERT_EQ(from_ply[i].z, planes[i].z) << i;
+    ASSERT_EQ(from_ply[i].label, planes[i].label) << i;
+  }
+  pcl::PointCloud<pcl::PointXYZI> from_pcd;
+  ASSERT_EQ(pcl::io::loadPCDFile((dir_ / "world.pcd").string(), from_pcd), 0);
+  EXPECT_EQ(from_pcd.size(), runner.state().world_cloud->size());
 }
 
 } // namespace
