@@ -6,15 +6,26 @@
 
 namespace planar_grid {
 
+void
+checkRegularFile(const std::string& path)
+{
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (!fs::exists(status))
+    throw IOError(path + ": no such file");
+  if (fs::is_directory(status))
+    throw IOError(path + ": a folder, not a file");
+  if (!fs::is_regular_file(status))
+    throw IOError(path + ": not a regular file (a device, pipe or socket)");
+}
+
 std::uintmax_t
 checkInputFile(const std::string& path, const std::string& kind)
 {
   namespace fs = std::filesystem;
   std::error_code ec;
-  if (!fs::exists(path, ec))
-    throw IOError(path + ": no such file");
-  if (!fs::is_regular_file(path, ec))
-    throw IOError(path + ": not a regular file");
+  checkRegularFile(path);
   const std::uintmax_t file_size = fs::file_size(path, ec);
   if (ec)
     throw IOError(path + ": cannot read its size: " + ec.message());

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/atomic_file.h>
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/input_file.h>
 #include <planar_grid/core/pcd_file_check.h>
 #include <planar_grid/odometry/trajectory_io.h>
 
@@ -50,9 +51,7 @@ parseNumbers(const std::string& path, std::size_t line_number, const std::string
 std::ifstream
 openForReading(const std::string& path)
 {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec))
-    throw IOError(path + ": no such file");
+  checkRegularFile(path);
   std::ifstream in(path);
   if (!in)
     throw IOError(path + ": cannot open for reading");

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/input_file.h>
 #include <planar_grid/stereo/calibration_io.h>
 
 #include <opencv2/calib3d.hpp>
@@ -616,6 +617,9 @@ loadStereoCalibration(CalibrationFormat format,
                       const std::string& path,
                       const std::string& right_path)
 {
+  checkRegularFile(path);
+  if (!right_path.empty())
+    checkRegularFile(right_path);
   StereoCameraModel model;
   switch (format) {
     case CalibrationFormat::KARLSRUHE:

@@ -9,6 +9,7 @@
 #include <planar_grid/core/output_transaction.h>
 #include <planar_grid/core/pcd_file_check.h>
 #include <planar_grid/map/planar_grid_map.h>
+#include <planar_grid/odometry/trajectory_io.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 #include <planar_grid/pipeline/run_outputs.h>
@@ -868,6 +869,29 @@ TEST_F(BadStereoInputTest, NonRegularFilesAreRefusedBeforeTheyAreRead)
       ADD_FAILURE() << "no error for " << path;
     } catch (const planar_grid::IOError& e) {
       EXPECT_CONTAINS(e.what(), path + ": not a regular file");
+    }
+    // Calibration and pose files: the cause, not a parse error of what was read.
+    const std::string cause =
+      path == dir_.string() ? ": a folder, not a file" : ": not a regular file";
+    const std::string calib = (dir_ / "left.yaml").string();
+    std::ofstream(calib) << "image_width: 640\n";
+    for (const auto& [left, right] :
+         {std::pair<std::string, std::string>{path, ""}, {calib, path}}) {
+      try {
+        (void)planar_grid::loadStereoCalibration(
+          right.empty() ? planar_grid::CalibrationFormat::KARLSRUHE
+                        : planar_grid::CalibrationFormat::ROS_CAMERA_INFO,
+          left, right);
+        ADD_FAILURE() << "no error for " << left << " " << right;
+      } catch (const planar_grid::IOError& e) {
+        EXPECT_CONTAINS(e.what(), path + cause);
+      }
+    }
+    try {
+      (void)planar_grid::loadKarlsruheInsData(path);
+      ADD_FAILURE() << "no error for " << path;
+    } catch (const planar_grid::IOError& e) {
+      EXPECT_CONTAINS(e.what(), path + cause);
     }
   }
   // A configuration of gigabytes is not one: a sparse 17 MB file.
