@@ -109,12 +109,31 @@ private:
   char fill_{'0'};
 };
 
+/** Throws an IOError unless \a path is a non-empty regular file: reading a pipe would
+ * block for ever, a folder or an empty file is no image. \a what names the image
+ * ("left image"); \a missing is the message's tail for a missing file. */
+void
+checkImageFile(const std::string& path,
+               const std::string& what,
+               const std::string& missing)
+{
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (!fs::exists(status))
+    throw IOError(path + ": " + what + " not found" + missing);
+  if (fs::is_directory(status))
+    throw IOError(path + ": the " + what + " is a folder, not a file");
+  if (!fs::is_regular_file(status))
+    throw IOError(path + ": the " + what
+                  + " is not a regular file (a device, pipe or socket)");
+  if (fs::file_size(path, ec) == 0)
+    throw IOError(path + ": the " + what + " is empty (0 bytes)");
+}
+
 cv::Mat
 readImage(const std::string& path)
 {
-  std::error_code ec;
-  if (!fs::exists(path, ec))
-    throw IOError(path + ": image not found");
+  checkImageFile(path, "image", "");
   cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
   if (image.empty())
     throw IOError(path + ": cannot read the image (unreadable or not an image)");
@@ -252,17 +271,13 @@ private:
                       + " (input.frame_count 0 takes every frame from first_index; an "
                         "image is missing in the middle of the sequence)");
     }
-    std::error_code ec;
     for (int index = first_index_; index < end; ++index) {
       const std::string left_path = left_.format(index);
-      if (!fs::exists(left_path, ec))
-        throw IOError(left_path + ": left image not found (frame "
-                      + std::to_string(index - first_index_) + " of the "
-                      + std::to_string(count_) + " of input.frame_count)");
-      const std::string right_path = right_.format(index);
-      if (!fs::exists(right_path, ec))
-        throw IOError(right_path + ": right image not found (its left image "
-                      + left_path + " exists)");
+      checkImageFile(left_path, "left image",
+                     " (frame " + std::to_string(index - first_index_) + " of the "
+                       + std::to_string(count_) + " of input.frame_count)");
+      checkImageFile(right_.format(index), "right image",
+                     " (its left image " + left_path + " exists)");
     }
   }
 

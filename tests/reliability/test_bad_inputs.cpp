@@ -23,6 +23,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -212,6 +213,27 @@ TEST_F(BadStereoInputTest, RightImageMissingIsRefusedBeforeTheFirstFrame)
     EXPECT_CONTAINS(what, rightName(2));
     EXPECT_CONTAINS(what, "right image not found");
   }
+}
+
+TEST_F(BadStereoInputTest, ImageThatIsAPipeFolderOrEmptyIsRefusedBeforeTheFirstFrame)
+{
+  // A pipe would block the reader for ever; a folder or an empty file is no image.
+  writePairs(5);
+  const fs::path image = dir_ / "right" / rightName(3);
+  const std::vector<std::pair<std::function<void()>, std::string>> cases = {
+    {[&image] { ASSERT_EQ(::mkfifo(image.c_str(), 0600), 0); },
+     "is not a regular file (a device, pipe or socket)"},
+    {[&image] { fs::create_directory(image); }, "is a folder, not a file"},
+    {[&image] { std::ofstream(image).close(); }, "is empty (0 bytes)"}};
+  for (const auto& [make, cause] : cases) {
+    fs::remove(image);
+    make();
+    const std::string what = setupError(config(0));
+    EXPECT_CONTAINS(what, image.string() + ": the right image " + cause);
+  }
+  const ToolRun run = runTool(config(0));
+  EXPECT_EQ(run.exit_code, 4) << run.output;
+  EXPECT_TRUE(noOutputs()) << run.output;
 }
 
 TEST_F(BadStereoInputTest, ToolExitsNonZeroOnAGapAndWritesNothing)
