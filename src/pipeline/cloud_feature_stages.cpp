@@ -40,7 +40,8 @@ public:
   {
     frame.features = StereoFeatures();
     from_image_ = false;
-    requirePoints(frame, "cloud_features");
+    if (!hasPoints(frame, "cloud_features"))
+      return;
     // The features are in the camera (sensor) frame, as the stereo front end gives
     // them; a cloud already moved to the world is taken back by its pose.
     camera_T_cloud_ = cameraTCloud(frame);

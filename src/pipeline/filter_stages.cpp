@@ -30,7 +30,8 @@ public:
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
-    requirePoints(frame, "voxel_grid");
+    if (!hasPoints(frame, "voxel_grid"))
+      return;
     FastVoxelGrid<pcl::PointXYZI> filter;
     filter.setLeafSize(leaf_size_m_, leaf_size_m_, leaf_size_m_);
     filter.setMinimumPointsNumberPerVoxel(min_points_per_voxel_);
@@ -55,7 +56,8 @@ public:
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
-    requirePoints(frame, "statistical_outlier_removal");
+    if (!hasPoints(frame, "statistical_outlier_removal"))
+      return;
     FastStatisticalOutlierRemoval<pcl::PointXYZI> filter;
     filter.setMeanK(mean_k_);
     filter.setStddevMulThresh(stddev_mul_thresh_);
@@ -84,7 +86,8 @@ public:
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
-    requirePoints(frame, "depth_error_filter");
+    if (!hasPoints(frame, "depth_error_filter"))
+      return;
     // Eq. 4: Delta z = z^2 Delta d / (B f) <= max  <=>  z <= sqrt(max / Delta z(1 m)).
     const double error_at_1m = frame.calibration.depthError(1.0, disparity_error_px_);
     if (!(std::isfinite(error_at_1m) && error_at_1m > 0.0))

@@ -188,7 +188,16 @@ writeOutputs(const OutputConfig& output,
         {"skipped_voxels", static_cast<double>(written.skipped_voxels)},
       };
     }
-    if (!output.map_grid_2d.empty()) {
+    ExplicitSpaceGrid::VoxelKey lo, hi;
+    const bool no_extent = !output.map_grid_2d_band.use_bounds
+                           && map->getSurfaceLayer().getCuboidCount() == 0
+                           && !map->getSpaceLayer().getBounds(lo, hi);
+    if (!output.map_grid_2d.empty() && no_extent)
+      PCL_WARN("[planar_grid::writeRunOutputs] %s is not written: the map is empty (no "
+               "cuboid, no observed space), so the grid has no extent. The other "
+               "outputs are written.\n",
+               output.map_grid_2d.c_str());
+    else if (!output.map_grid_2d.empty()) {
       // Two files, each its own output of the set: the image, then the YAML naming it.
       const OccupancyGrid2D grid = map->computeOccupancyGrid2D(output.map_grid_2d_band);
       const std::string& yaml = output.map_grid_2d;

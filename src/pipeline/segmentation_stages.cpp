@@ -60,7 +60,12 @@ public:
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
-    requirePoints(frame, "multi_plane_segmentation");
+    inlier_only_ = 0;
+    inlier_only_taken_ = 0;
+    if (!hasPoints(frame, "multi_plane_segmentation")) {
+      frame.planes.clear();
+      return;
+    }
     segmentation_.setInputCloud(frame.cloud);
     segmentation_.setUpAxis(upAxis(frame));
     // Eq. 4's stereo depth error Delta z = z^2 Delta d / (B f) widens eq. 11 with
@@ -89,8 +94,6 @@ public:
     }
     segmentation_.setSampleCloud(sample);
     // The points beyond depth_error_filter's cell bound may only join planes.
-    inlier_only_ = 0;
-    inlier_only_taken_ = 0;
     pcl::IndicesPtr inlier_only;
     if (std::isfinite(frame.inlier_only_depth_m)) {
       const Eigen::RowVector4f depth_row = cameraTCloud(frame).matrix().row(2);
@@ -191,10 +194,11 @@ public:
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
-    requirePoints(frame, "ground_removal");
     frame.has_ground = false;
     removed_ = 0;
     terrain_planes_ = 0;
+    if (!hasPoints(frame, "ground_removal"))
+      return;
     const Eigen::Vector3f up = upAxis(frame);
     const Eigen::Vector3f origin = sensorOrigin(frame);
     // The dominant plane (planes are sorted by inlier count) that faces up within

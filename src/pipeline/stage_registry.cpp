@@ -188,21 +188,26 @@ removePoints(Frame& frame, const std::vector<std::uint8_t>& remove)
   return removed;
 }
 
-void
-requirePoints(const Frame& frame, const char* stage_type)
+bool
+hasPoints(Frame& frame, const char* stage_type)
 {
   // One finite point is enough: most clouds answer at their first points, where a
   // count would read all of them.
   const auto finite = [](const pcl::PointXYZI& p) {
     return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
   };
-  if (!frame.cloud || frame.cloud->empty()
-      || (!frame.cloud->is_dense
-          && std::none_of(frame.cloud->begin(), frame.cloud->end(), finite)))
-    throw Exception(std::string("stage '") + stage_type
-                    + "' received 0 points in frame " + frame.name + " ("
-                    + std::to_string(frame.sequence_number)
-                    + "); check the earlier stages' parameters and the input");
+  if (frame.cloud && !frame.cloud->empty()
+      && (frame.cloud->is_dense
+          || std::any_of(frame.cloud->begin(), frame.cloud->end(), finite)))
+    return true;
+  if (frame.no_points_stage.empty()) {
+    frame.no_points_stage = stage_type;
+    PCL_WARN("[planar_grid::PipelineRunner] frame %s (%zu): no points reached stage "
+             "'%s'; the frame adds nothing to the map (check the input and the "
+             "earlier stages' parameters)\n",
+             frame.name.c_str(), frame.sequence_number, stage_type);
+  }
+  return false;
 }
 
 } // namespace stages

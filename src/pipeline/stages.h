@@ -61,9 +61,12 @@ Eigen::Affine3f cameraTCloud(const Frame& frame);
  * (removed inliers are dropped). Returns the number of points removed. */
 std::size_t removePoints(Frame& frame, const std::vector<std::uint8_t>& remove);
 
-/** Throws planar_grid::Exception when the frame's cloud has no valid point: a stage
- * given nothing would otherwise pass nothing on without a word. */
-void requirePoints(const Frame& frame, const char* stage_type);
+/** True when the frame's cloud has a valid point. Otherwise the frame has nothing left
+ * for the point stages (all-dark images, every point filtered out): the first stage of
+ * the frame that finds this warns, naming the frame and itself, and records it in
+ * Frame::no_points_stage; the stage then passes the empty frame on, which adds nothing
+ * to the map. */
+bool hasPoints(Frame& frame, const char* stage_type);
 
 } // namespace stages
 } // namespace planar_grid

@@ -35,7 +35,11 @@ public:
       voxels_ = 0;
       return;
     }
-    requirePoints(frame, "planar_cuboid_approximation");
+    if (!hasPoints(frame, "planar_cuboid_approximation")) {
+      frame.cuboids.clear();
+      voxels_ = 0;
+      return;
+    }
     if (std::isfinite(frame.inlier_only_depth_m))
       throw Exception("stage 'planar_cuboid_approximation': depth_error_filter's "
                       "max_plane_depth_error_m needs multi_plane_segmentation before "

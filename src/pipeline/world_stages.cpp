@@ -23,7 +23,7 @@ public:
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
-    requirePoints(frame, "transform_to_world");
+    hasPoints(frame, "transform_to_world"); // an empty cloud moves as well
     if (!frame.has_pose)
       throw Exception("stage 'transform_to_world': frame " + frame.name
                       + " has no pose");
@@ -60,11 +60,13 @@ public:
 
   void process(Frame& frame, PipelineState& state) override
   {
-    if (!(frame.has_ground && frame.cloud && countValidPoints(*frame.cloud) == 0))
-      requirePoints(frame, "accumulate"); // all terrain (an open road) is no error
     if (!frame.cloud_in_world_frame)
       throw Exception("stage 'accumulate' needs world-frame clouds: put "
                       "'transform_to_world' before it");
+    // All terrain (an open road) leaves no point, and is no warning. A frame without
+    // points goes on: it counts towards the downsampling like any other.
+    if (!(frame.has_ground && frame.cloud && countValidPoints(*frame.cloud) == 0))
+      hasPoints(frame, "accumulate");
     auto& world = *state.world_cloud;
     world.reserve(world.size() + frame.cloud->size());
     for (const auto& p : frame.cloud->points)

@@ -236,6 +236,45 @@ TEST_F(BadStereoInputTest, ImageThatIsAPipeFolderOrEmptyIsRefusedBeforeTheFirstF
   EXPECT_TRUE(noOutputs()) << run.output;
 }
 
+TEST_F(BadStereoInputTest, FramesWithoutPointsAreWarnedAboutAndTheRunCompletes)
+{
+  // Dark pairs (a lens cap, a tunnel) give no disparity, so no points: each such
+  // frame is named once, adds nothing, and the run writes its outputs. Frame 2 is
+  // dark first, then every frame.
+  std::string yaml = config(0);
+  yaml.replace(yaml.find("output:"), 0,
+               "  - type: voxel_grid\n    params: {leaf_size_m: 0.05}\n"
+               "  - type: statistical_outlier_removal\n");
+  yaml += "  report: report.json\n";
+  writePairs(5);
+  const auto darken = [this](int index) {
+    const cv::Mat dark = cv::Mat::zeros(HEIGHT, WIDTH, CV_8UC1);
+    ASSERT_TRUE(cv::imwrite((dir_ / "left" / leftName(index)).string(), dark));
+    ASSERT_TRUE(cv::imwrite((dir_ / "right" / rightName(index)).string(), dark));
+  };
+  darken(2);
+  ToolRun run = runTool(yaml);
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, "frame " + leftName(2)
+                                + " (2): no points reached stage 'voxel_grid'");
+  EXPECT_EQ(run.output.find("frame " + leftName(1) + " (1): no points"),
+            std::string::npos)
+    << run.output;
+  EXPECT_EQ(run.output.find("'statistical_outlier_removal'; the frame"),
+            std::string::npos)
+    << run.output; // once per frame
+  ASSERT_TRUE(fs::exists(dir_ / "out" / "report.json")) << run.output;
+  for (int i = 0; i < 5; ++i)
+    darken(i);
+  run = runTool(yaml);
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, "frame " + leftName(4) + " (4): no points");
+  std::ifstream report(dir_ / "out" / "report.json");
+  const std::string text((std::istreambuf_iterator<char>(report)),
+                         std::istreambuf_iterator<char>());
+  EXPECT_CONTAINS(text, "\"frames\": 5");
+}
+
 TEST_F(BadStereoInputTest, ToolExitsNonZeroOnAGapAndWritesNothing)
 {
   writePairs(6);
@@ -558,6 +597,41 @@ TEST_F(BadStereoInputTest, RunWhoseMapHasNoCuboidsWritesItsOutputsAndExitsZero)
        {"map.pgmap", "map.bt", "report.json", "trajectory.txt", "world_cloud.pcd"})
     EXPECT_TRUE(fs::exists(dir_ / "out" / name)) << name << "\n" << run.output;
   EXPECT_FALSE(fs::exists(dir_ / "out" / "map_cuboids.ply"));
+}
+
+TEST_F(BadStereoInputTest, RunOfDarkFramesWritesAnEmptyMapAndExitsZero)
+{
+  // Karlsruhe's frames 10 and 11 made dark: no disparity, so no points and no observed
+  // space. Every stage passes the empty frames on; the outputs that need an extent or a
+  // cuboid (the 2D grid, the mesh) are left out with a reason, the rest is written.
+  std::string yaml = planar_grid::test::karlsruheJob(
+    2, dir_ / "out", "  map_grid_2d: map_2d.yaml\n  map_mesh: map_cuboids.ply\n");
+  for (const auto& [folder, image] :
+       {std::pair<std::string, std::string>{"left", "I1"}, {"right", "I2"}}) {
+    const std::string pattern = "/" + folder + "/" + image + "_%06d.png";
+    const std::size_t at = yaml.find(pattern);
+    ASSERT_NE(at, std::string::npos) << yaml;
+    const std::size_t start = yaml.rfind(' ', at) + 1;
+    yaml.replace(start, at - start, dir_.string());
+    for (const int index : {10, 11}) {
+      std::array<char, 32> name{};
+      std::snprintf(name.data(), name.size(), "%s_%06d.png", image.c_str(), index);
+      ASSERT_TRUE(cv::imwrite((dir_ / folder / name.data()).string(),
+                              cv::Mat::zeros(372, 1344, CV_8UC1)));
+    }
+  }
+  const ToolRun run = runTool(yaml);
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output, "(0): no points reached stage");
+  EXPECT_CONTAINS(run.output, "(1): no points reached stage");
+  EXPECT_CONTAINS(run.output, "map_2d.yaml is not written: the map is empty");
+  EXPECT_CONTAINS(run.output, "map_cuboids.ply is not written: the map is empty");
+  for (const char* name : {"map.pgmap", "report.json", "trajectory.txt"})
+    EXPECT_TRUE(fs::exists(dir_ / "out" / name)) << name << "\n" << run.output;
+  EXPECT_FALSE(fs::exists(dir_ / "out" / "map_2d.yaml"));
+  const planar_grid::PlanarGridMap map =
+    planar_grid::PlanarGridMap::load((dir_ / "out" / "map.pgmap").string());
+  EXPECT_EQ(map.getSurfaceLayer().getCuboidCount(), 0u);
 }
 
 TEST_F(BadStereoInputTest, OutputNameOutsideTheFolderIsRefusedAtLoad)

@@ -88,6 +88,9 @@ struct Frame {
   Eigen::Isometry3d world_T_camera{Eigen::Isometry3d::Identity()};
   /** \brief True when world_T_camera holds the frame's pose. */
   bool has_pose{false};
+  /** \brief The first stage that found no valid point in the cloud (the frame then
+   * adds nothing to the map); empty while the frame has points. */
+  std::string no_points_stage;
 
   EIGEN_MAKE_ALIGNED_OPERATOR_NEW
 };
