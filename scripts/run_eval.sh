@@ -4,7 +4,7 @@
 # planar_grid_render_scene, renders the synthetic stereo scenes, links the Aloe pair and
 # writes the poses the real indoor pairs lack (output/eval/prep; the data stays in
 # ../shared/data), then runs the indoor, tilt and outdoor evaluations. Results in
-# output/eval/{indoor,tilt,outdoor}/{eval.csv,eval.md,*.png}; docs/BENCHMARKS.md quotes
+# output/eval/{indoor,tilt,outdoor}/{eval.csv,eval.md,*.png}; docs/EVALUATION.md quotes
 # them. About 20-30 minutes on 2 cores.
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -213,7 +213,7 @@ std::string mapComparisonFile(const std::string& dataset, double resolution_m);
  * \throws planar_grid::IOError */
 void saveComparisonCsv(const std::vector<ComparisonRow>& rows, const std::string& path);
 
-/** \brief The rows as a Markdown table (for docs/BENCHMARKS.md). */
+/** \brief The rows as a Markdown table (for docs/EVALUATION.md). */
 std::string comparisonMarkdown(const std::vector<ComparisonRow>& rows);
 
 } // namespace planar_grid
