@@ -269,10 +269,10 @@ TEST_F(CalibrationIOFiles, BadUnlabelledKittiThrowsIOError)
 TEST_F(CalibrationIOFiles, MissingFileThrowsIOError)
 {
   const std::string path = (dir_ / "no_such_calib.txt").string();
-  expectIOError(CalibrationFormat::KARLSRUHE, path, "cannot open");
-  expectIOError(CalibrationFormat::KITTI, path, "cannot open");
-  expectIOError(CalibrationFormat::ROS_CAMERA_INFO, path, "cannot open", path);
-  expectIOError(CalibrationFormat::EUROC, path, "cannot open", path);
+  expectIOError(CalibrationFormat::KARLSRUHE, path, "no such file");
+  expectIOError(CalibrationFormat::KITTI, path, "no such file");
+  expectIOError(CalibrationFormat::ROS_CAMERA_INFO, path, "no such file", path);
+  expectIOError(CalibrationFormat::EUROC, path, "no such file", path);
 }
 
 TEST_F(CalibrationIOFiles, MissingRowThrowsIOError)
