@@ -28,6 +28,7 @@
 
 #include "cloud_blob.h"
 #include "ros_bag_input.h"
+#include "stereo_pair_check.h"
 
 namespace planar_grid {
 
@@ -297,8 +298,10 @@ private:
   {
     const std::string left_path = left_.format(first_index_);
     const std::string right_path = right_.format(first_index_);
-    const cv::Size left = readImage(left_path).size();
-    const cv::Size right = readImage(right_path).size();
+    const cv::Mat left_image = readImage(left_path);
+    const cv::Mat right_image = readImage(right_path);
+    const cv::Size left = left_image.size();
+    const cv::Size right = right_image.size();
     const auto& calib = model_.calibration;
     if (!model_.rectifier.empty()) {
       image_size_ = model_.rectifier.map_left_x.size();
@@ -321,6 +324,15 @@ private:
       }
     }
     checkImageSizes(left_path, left, right_path, right);
+    // Swapped or doubled images would run to the end and map next to nothing.
+    if (model_.rectifier.empty()) {
+      checkStereoPairOrder(left_image, right_image, left_path, right_path);
+    } else {
+      cv::Mat left_rectified, right_rectified;
+      model_.rectifier.rectify(left_image, right_image, left_rectified,
+                               right_rectified);
+      checkStereoPairOrder(left_rectified, right_rectified, left_path, right_path);
+    }
   }
 
   static std::string sizeText(const cv::Size& size)
