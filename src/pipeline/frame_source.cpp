@@ -436,11 +436,13 @@ public:
       files_read_.push_back({input.poses_file, "the poses file (input.poses.file)"});
     if (input.poses_format == PoseFormat::KITTI) {
       poses_ = loadKittiPoses(input.poses_file);
-      if (poses_.size() < files_.size())
+      // Pose i is file i's (in name order): with a file missing from the sequence
+      // every later pose would belong to the wrong cloud.
+      if (poses_.size() != files_.size())
         throw IOError(input.poses_file + ": has " + std::to_string(poses_.size())
                       + " poses, but there are " + std::to_string(files_.size())
-                      + " PCD files");
-      poses_.resize(files_.size());
+                      + " PCD files; pose i is the i-th file's (in name order), so "
+                        "the counts must be equal (is a PCD file missing?)");
     } else if (input.poses_format == PoseFormat::VIEWPOINT)
       poseFromViewpoints(input);
     else if (input.poses_format == PoseFormat::REGISTRATION)

@@ -77,12 +77,13 @@ public:
     segmentation_.setDepthNoiseCoefficient(
       std::isfinite(coefficient) && coefficient > 0.0 ? coefficient : 0.0);
     pcl::PointCloud<pcl::PointXYZI>::Ptr sample;
-    if (use_features_) {
-      if (frame.features.size() < 3)
-        throw Exception("multi_plane_segmentation with sample: features needs the "
-                        "'feature_matching' stage before it (frame "
-                        + frame.name + " has " + std::to_string(frame.features.size())
-                        + " features)");
+    // A frame with fewer than 3 features (blur, fog, no texture) cannot sample a plane
+    // from them: its planes are sampled from its points, as with sample: points.
+    if (use_features_ && frame.features.size() < 3)
+      PCL_WARN("[planar_grid::multi_plane_segmentation] frame %s has %zu matched "
+               "features, too few to sample planes from: sampled from its points.\n",
+               frame.name.c_str(), frame.features.size());
+    if (use_features_ && frame.features.size() >= 3) {
       // The features are in the camera frame; bring them to the cloud's frame.
       sample.reset(new pcl::PointCloud<pcl::PointXYZI>);
       sample->resize(frame.features.points.size());

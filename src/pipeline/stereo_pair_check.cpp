@@ -47,7 +47,10 @@ checkStereoPairOrder(const cv::Mat& left,
                      const std::string& left_path,
                      const std::string& right_path)
 {
-  if (left.size() == right.size() && left.type() == right.type()
+  // Two uniform images (a lens cap, darkness) are equal without being one image.
+  double lowest = 0.0, highest = 0.0;
+  cv::minMaxLoc(left, &lowest, &highest);
+  if (highest > lowest && left.size() == right.size() && left.type() == right.type()
       && cv::norm(left, right, cv::NORM_INF) == 0.0)
     throw IOError(right_path + ": the right image is the left image (" + left_path
                   + ") pixel for pixel: no disparity, no depth (are input.left_images "

@@ -28,7 +28,7 @@ struct StereoPairOrder {
 StereoPairOrder countStereoPairOrder(const cv::Mat& left, const cv::Mat& right);
 
 /** \brief Throws planar_grid::IOError naming both images when the pair is one image
- * given twice (identical pixels) or looks swapped: at least 40 row-aligned matches with
+ * given twice (identical pixels, not all of one value) or looks swapped: at least 40 row-aligned matches with
  * a non-zero disparity, and more than 3/4 of them negative. Nothing is thrown for a
  * pair whose features say nothing (too little texture).
  * \param[in] left, right 8-bit grey images of one size (a rectified pair)

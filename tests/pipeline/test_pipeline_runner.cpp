@@ -337,6 +337,32 @@ TEST_F(PipelineRunnerTest, FramesWithoutPointsNameTheStageAndTheRunGoesOn)
     EXPECT_EQ(stage, "voxel_grid");
 }
 
+TEST_F(PipelineRunnerTest, FrameWithTooFewFeaturesSamplesItsPlanesFromItsPoints)
+{
+  // FAST at threshold 255 finds no key point: sample: features has nothing to draw
+  // from, and the frame's planes come from its points instead of ending the run.
+  const std::string stages =
+    "pipeline:\n  - type: stereo_disparity\n  - type: feature_matching\n"
+    "    params: {feature_type: orb_grid, fast_threshold: 255}\n"
+    "  - type: voxel_grid\n    params: {leaf_size_m: 0.1}\n"
+    "  - type: transform_to_world\n  - type: multi_plane_segmentation\n"
+    "    params: {sample: features, min_inliers: 300}\n";
+  planar_grid::PipelineRunner runner(
+    parsePipelineConfig(karlsruheInput() + stages, "t.yaml", "/"));
+  std::vector<std::size_t> features, planes;
+  runner.setFrameCallback(
+    [&](std::size_t, planar_grid::Frame& frame, const std::vector<double>&) {
+      features.push_back(frame.features.size());
+      planes.push_back(frame.planes.size());
+    });
+  runner.run();
+  ASSERT_EQ(features.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_LT(features[i], 3u);
+    EXPECT_GE(planes[i], 1u); // the road at least
+  }
+}
+
 TEST_F(PipelineRunnerTest, PCDFilesWithViewpointPoses)
 {
   // Two real PCL clouds; the second saved with a known VIEWPOINT translation: after

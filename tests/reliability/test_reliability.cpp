@@ -150,6 +150,28 @@ TEST_F(ReliabilityTest, EmptyCloudIsPassedOnNamingTheStage)
             std::vector<std::string>{"voxel_grid"});
 }
 
+TEST_F(ReliabilityTest, PosesFileMustHaveOnePosePerPCDFile)
+{
+  // Pose i belongs to the i-th file: with scan_1.pcd missing, the third pose would have
+  // moved scan_2 to where scan_3 was taken. More or fewer poses than files are refused.
+  const std::string a = save("scan_0.pcd", wall());
+  const std::string b = save("scan_2.pcd", wall());
+  std::ofstream(dir_ / "poses.txt") << "1 0 0 0 0 1 0 0 0 0 1 0\n"
+                                       "1 0 0 1 0 1 0 0 0 0 1 0\n"
+                                       "1 0 0 2 0 1 0 0 0 0 1 0\n";
+  const std::string poses =
+    "  poses: {format: kitti, file: " + (dir_ / "poses.txt").string() + "}\n";
+  std::string what = runError(pcdConfig(a + ", " + b, poses));
+  EXPECT_NE(what.find("poses.txt: has 3 poses, but there are 2 PCD files"),
+            std::string::npos)
+    << what;
+  what = runError(pcdConfig(a, poses)); // one file
+  EXPECT_NE(what.find("has 3 poses, but there are 1 PCD files"), std::string::npos)
+    << what;
+  save("scan_1.pcd", wall());
+  EXPECT_EQ(runError(pcdConfig((dir_ / "scan_*.pcd").string(), poses)), "");
+}
+
 TEST_F(ReliabilityTest, NaNAndInfPointsAreDropped)
 {
   // The wall plus 3 non-finite points (a PCD with is_dense false): voxel_grid keeps
