@@ -106,6 +106,10 @@ writeFileAtomically(const std::string& path,
   if (!fs::is_directory(dir, ec))
     throw OutputError(path + ": cannot write: folder " + dir.string()
                       + " does not exist");
+  if (fs::is_directory(target, ec))
+    throw OutputError(path
+                      + ": cannot write: it is a folder, and a file cannot replace "
+                        "a folder; give a file name");
   // Same folder as the target so that rename() is atomic on POSIX file systems.
   const fs::path tmp = dir
                        / ("." + target.filename().string() + ".tmp."

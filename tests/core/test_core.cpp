@@ -227,6 +227,29 @@ TEST_F(AtomicFileTest, WriterThatWritesNothingFails)
   EXPECT_EQ(entries(), 0u);
 }
 
+TEST_F(AtomicFileTest, FolderAsTheTargetIsRefusedBeforeTheWrite)
+{
+  // The writer is not called: a large output is not written only to be thrown away.
+  const fs::path folder = dir_ / "map.pgmap";
+  fs::create_directory(folder);
+  bool called = false;
+  try {
+    planar_grid::writeFileAtomically(folder.string(), [&called](const std::string&) {
+      called = true;
+      return true;
+    });
+    ADD_FAILURE() << "a folder was accepted as the file to write";
+  } catch (const planar_grid::IOError& e) {
+    EXPECT_NE(
+      std::string(e.what()).find(folder.string() + ": cannot write: it is a folder"),
+      std::string::npos)
+      << e.what();
+  }
+  EXPECT_FALSE(called);
+  EXPECT_TRUE(fs::is_directory(folder));
+  EXPECT_EQ(entries(), 1u);
+}
+
 TEST_F(AtomicFileTest, MissingFolderThrowsNamingIt)
 {
   const fs::path missing = dir_ / "no_such_folder";
