@@ -340,6 +340,24 @@ NonPlanarKey nonPlanarKey(const PlanarCuboid& c, double resolution_m);
  * normal within the angle whose cosine is \a cos_angle); kept when the fit fails. */
 void refitPlane(MapPlane& plane, double cos_angle);
 
+/** \brief The surface layer's association criteria: normals of the same orientation
+ * within plane_merge_angle_rad, evidence within plane_merge_distance_m (root mean
+ * square) of the least-squares plane of both. */
+PlaneAssociationCriteria associationCriteria(const SurfaceLayer::Params& params);
+
+/** \brief A map plane as the association sees it: its refined plane and evidence. */
+PlaneObservation observation(const MapPlane& plane);
+
+/** \brief Adds the cells of raster \a src, laid out in \a src_frame, to \a dst
+ * (another frame of about the same plane): every dst cell whose centre, projected
+ * onto src_frame, falls in an observed src cell is observed, and the features of a src
+ * cell go to the dst cell containing its centre (observed too, so no evidence is
+ * lost); \a r is the cell edge, meters. */
+void reprojectRaster(const Raster& src,
+                     const RasterFrame& src_frame,
+                     MapPlane& dst,
+                     double r);
+
 /** \brief Scratch of one integrate(): the frame's planes, oriented toward its
  * sensor, and the map planes they joined. */
 struct FramePlanes {
