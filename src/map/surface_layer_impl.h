@@ -513,6 +513,20 @@ struct SurfaceLayer::Impl {
    * its frame's. */
   void reanchorDrifted(const std::vector<int>& touched, const Params& params);
 
+  // merge(), step by step (surface_layer_merge.cpp)
+  /** Joins the planes of \a other, moved by \a this_T_other, to this layer's planes
+   * (the association of integrate()); \a touched receives the planes that changed,
+   * sorted. */
+  void mergePlanes(const Impl& other,
+                   const Eigen::Isometry3d& this_T_other,
+                   const Params& params,
+                   std::vector<int>& touched);
+  /** Adds the non-planar cells of \a other, moved by \a this_T_other; a cell equal
+   * in geometry to a stored one adds its feature evidence to it. */
+  void mergeNonPlanar(const Impl& other,
+                      const Eigen::Isometry3d& this_T_other,
+                      const Params& params);
+
   /** Rebuilds dirty planes' covers; caller holds the mutex. */
   void ensureCovers(const Params& params);
   /** Appends the cuboids (planes' rectangles, then non-planar cells) to \a out;
