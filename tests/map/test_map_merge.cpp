@@ -35,9 +35,9 @@ using planar_grid_test::wallCuboid;
 // at x in [7.8, 8.2], y in [0.8, 1.2]. A camera 1.5 m high drives along the street
 // looking down it (+x), FRAMES frames 0.45 m apart. Each frame sees the surfaces 1 to
 // 14 m ahead: one planar cuboid per surface in view, on that surface's plane offset by
-// a few millimetres (a frame's plane estimate), features on the surfaces (occupancy
-// 0.85), the box's eight 0.2 m cells as non-planar cuboids, and a depth view of the
-// scene for the space layer.
+// a few millimetres and turned by a few milliradians (a frame's plane estimate),
+// features on the surfaces (occupancy 0.85), the box's eight 0.2 m cells as non-planar
+// cuboids, and a depth view of the scene for the space layer.
 
 constexpr int FRAMES = 16;
 constexpr float STEP_M = 0.45f;
@@ -138,22 +138,32 @@ frameSurface(int f)
   FrameSurface out;
   const float x0 = STEP_M * static_cast<float>(f) + NEAR_M;
   const float x1 = std::min(STEP_M * static_cast<float>(f) + FAR_M, END_X);
-  // a frame's plane estimate: the true plane moved by up to 5 mm along its normal
+  // a frame's plane estimate: the true plane moved by up to 5 mm along its normal and
+  // turned by up to 2 mrad about its vertical axis
   const auto offset = [f](int surface) {
     return 0.005f
            * std::sin(1.7f * static_cast<float>(f) + static_cast<float>(surface));
   };
-  const auto add = [&](const Eigen::Vector3f& point_on_plane, const Eigen::Vector3f& n,
-                       const Eigen::Vector3f& u, float width, float height) {
+  const auto tilt = [f](int surface) {
+    return 0.002f
+           * std::cos(2.3f * static_cast<float>(f) + static_cast<float>(surface));
+  };
+  const auto add = [&](const Eigen::Vector3f& point_on_plane,
+                       const Eigen::Vector3f& true_normal, const Eigen::Vector3f& u,
+                       float width, float height) {
     const int id = static_cast<int>(out.planes.size());
+    const Eigen::Vector3f v = true_normal.cross(u);
+    const Eigen::Vector3f n =
+      Eigen::AngleAxisf(tilt(id), v).toRotationMatrix() * true_normal;
+    const Eigen::Vector3f face_u = (u - n * n.dot(u)).normalized();
     const Eigen::Vector3f face = point_on_plane + n * offset(id);
     out.planes.emplace_back(n.x(), n.y(), n.z(), -n.dot(face));
-    out.cuboids.push_back(wallCuboid(face, n, u, width, height, id));
+    out.cuboids.push_back(wallCuboid(face, n, face_u, width, height, id));
     // features every 0.5 m on the face
-    const Eigen::Vector3f v = n.cross(u);
+    const Eigen::Vector3f face_v = n.cross(face_u);
     for (float a = -0.5f * width + 0.25f; a < 0.5f * width; a += 0.5f)
       for (float b = -0.5f * height + 0.25f; b < 0.5f * height; b += 0.5f) {
-        const Eigen::Vector3f p = face + a * u + b * v;
+        const Eigen::Vector3f p = face + a * face_u + b * face_v;
         out.features.push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
         out.probabilities.push_back(0.85f);
       }
@@ -328,6 +338,22 @@ TEST(PlanarGridMapMerge, AnEmptyMapChangesNothing)
   EXPECT_EQ(bytesOf(map), before); // the merged-in map is unchanged
 }
 
+TEST(PlanarGridMapMerge, ACopyDoublesTheEvidenceNotTheCells)
+{
+  // A map merged with a copy of itself (one recording mapped twice): every plane
+  // joins its copy and every cell its copy, so the planes, cells and voxels are those
+  // of the map; the evidence doubles, and its means (the probabilities) stay.
+  PlanarGridMap map = mapFrames(0, FRAMES / 2);
+  const PlanarGridMap copy = copyOf(map);
+  map.merge(copy, Eigen::Isometry3d::Identity());
+  EXPECT_EQ(map.getSurfaceLayer().getPlanes().size(),
+            copy.getSurfaceLayer().getPlanes().size());
+  EXPECT_EQ(map.getSurfaceLayer().getCellCount(),
+            copy.getSurfaceLayer().getCellCount());
+  EXPECT_EQ(cuboidSet(map), cuboidSet(copy));
+  EXPECT_TRUE(map.getSpaceLayer() == copy.getSpaceLayer());
+}
+
 TEST(PlanarGridMapMerge, MergingAIntoBEqualsMergingBIntoA)
 {
   const PlanarGridMap a = mapFrames(0, FRAMES / 2);
@@ -488,9 +514,10 @@ TEST(PlanarGridMapMerge, TheSpaceLayersCombineByRank)
 
 TEST(PlanarGridMapMerge, AWallSeenByBothMapsBecomesOnePlane)
 {
-  // The same wall (x = 2, normal -x) seen by two maps with plane estimates 1 cm apart:
-  // one plane whose evidence is both maps' (the fit between them), not two parallel
-  // ones; a wall seen by one map only stays its own plane.
+  // The same wall (x = 2, normal -x) seen by two maps with plane estimates 1 cm apart,
+  // on two stretches 0.9 m apart (their rasters do not touch, so only the association
+  // joins them): one plane whose evidence is both maps' (the fit between them), not
+  // two parallel ones; a wall seen by one map only stays its own plane.
   const auto wall = [](float x, float y0, int frames, PlanarGridMap& map) {
     for (int k = 0; k < frames; ++k) {
       const Eigen::Vector3f face(x, y0 + 0.3f * static_cast<float>(k), 1.0f);
@@ -501,8 +528,8 @@ TEST(PlanarGridMapMerge, AWallSeenByBothMapsBecomesOnePlane)
     }
   };
   PlanarGridMap a(params()), b(params());
-  wall(2.0f, 0.0f, 3, a);
-  wall(2.01f, 1.5f, 3, b);
+  wall(2.0f, 0.0f, 3, a);  // y in [-1, 1.6]
+  wall(2.01f, 3.5f, 3, b); // y in [2.5, 5.1]
   wall(-4.0f, 0.0f, 1, b); // another wall (normal -x too, 6 m behind)
   a.merge(b, Eigen::Isometry3d::Identity());
   const PlaneModels& planes = a.getSurfaceLayer().getPlanes();
@@ -513,16 +540,19 @@ TEST(PlanarGridMapMerge, AWallSeenByBothMapsBecomesOnePlane)
     return planes[0].head<3>().dot(p) + planes[0][3];
   };
   const float to_a = distance(Eigen::Vector3f(2.0f, 0.3f, 1.0f));
-  const float to_b = distance(Eigen::Vector3f(2.01f, 1.8f, 1.0f));
+  const float to_b = distance(Eigen::Vector3f(2.01f, 3.8f, 1.0f));
   EXPECT_LT(to_a * to_b, 0.0f);
   EXPECT_LT(std::abs(to_a), 0.01f);
   EXPECT_LT(std::abs(to_b), 0.01f);
   EXPECT_NEAR(planes[1][3], -4.0f, 1e-4f);
-  // the merged wall covers y in [-1, 3.1] (a: [-1, 1.6], b: [0.5, 3.1])
-  EXPECT_NE(a.getSurfaceLayer().findCuboid(Eigen::Vector3f(2.06f, -0.9f, 1.0f)),
-            nullptr);
-  EXPECT_NE(a.getSurfaceLayer().findCuboid(Eigen::Vector3f(2.06f, 3.0f, 1.0f)),
-            nullptr);
+  // the plane holds both stretches, and not the gap between them
+  const PlanarCuboid* near = a.getSurfaceLayer().findCuboid({2.06f, -0.9f, 1.0f});
+  const PlanarCuboid* far = a.getSurfaceLayer().findCuboid({2.06f, 5.0f, 1.0f});
+  ASSERT_NE(near, nullptr);
+  ASSERT_NE(far, nullptr);
+  EXPECT_EQ(near->plane_id, 0);
+  EXPECT_EQ(far->plane_id, 0);
+  EXPECT_EQ(a.getSurfaceLayer().findCuboid({2.06f, 2.0f, 1.0f}), nullptr);
 }
 
 TEST(PlanarGridMapMerge, MismatchedParametersAreRefusedAndLeaveTheMapUnchanged)
