@@ -387,9 +387,9 @@ added and refitted, the rasters re-projected into one frame, not two parallel pl
 planes without a match are added. Non-planar cells: both maps' are kept. Voxels:
 occupied > free > unknown (occluded) > never observed (the clamped log-odds of two
 independent observations added, as OctoMap fuses them: occupied where the maps
-disagree). The result does not depend on which map is merged into which, up to the
-order of planes and cells; merging an empty map changes nothing. ``other`` is not
-changed.
+disagree). Merging a into b and b into a give the same voxels, planes and cuboids
+up to their order (except where one map holds a surface as several planes); merging
+an empty map changes nothing. ``other`` is not changed.
 
 Parameters
 ----------

@@ -118,6 +118,8 @@ survives(const MapPlane& a, const MapPlane& b)
   return fa < fb;
 }
 
+/** \brief Plane \a src of the other layer as this layer sees it, moved by \a t
+ * (\a identity: \a t is exactly the identity, nothing is moved). */
 IncomingPlane
 incomingPlane(const MapPlane& src, const Eigen::Isometry3d& t, bool identity)
 {
@@ -126,9 +128,10 @@ incomingPlane(const MapPlane& src, const Eigen::Isometry3d& t, bool identity)
   in.exact = identity;
   in.frame = src.frame();
   if (identity) {
-    in.plane = src;
-    in.plane.raster = Raster();
-    in.plane.rects.clear();
+    // (field by field: the raster is not copied here)
+    in.plane.setFrame(src.frame_normal, src.frame_d);
+    in.plane.setRefined(src.normal, src.d);
+    in.plane.moments = src.moments;
     return in;
   }
   Eigen::Vector3f n;

@@ -159,9 +159,10 @@ public:
 
   /** \brief Merges another map into this one: the map of another recording (or of
    * another part of one), mapped on its own, so that many recordings can be mapped in
-   * parallel and their maps joined by plane. The result does not depend on which map
-   * is merged into which (up to the order of planes and cells), and merging an empty
-   * map changes nothing.
+   * parallel and their maps joined by plane. Merging an empty map changes nothing;
+   * merging A into B and B into A give the same voxels, and the same planes and
+   * cuboids up to their order (except where a surface is split over several planes of
+   * one map: SurfaceLayer::merge()).
    * - Surface layer (SurfaceLayer::merge()): each plane of \a other joins the plane of
    *   this map that the association of integrateSurface() matches (same criteria:
    *   one plane explains both evidence sets): its moments are added, the plane is

@@ -203,20 +203,25 @@ public:
                  const pcl::PointCloud<pcl::PointXYZ>& features,
                  const std::vector<float>& probabilities);
 
-  /** \brief Merges another layer (a map of another recording) into this one, as if
-   * its planes and cells had been integrated here, in any order: the result does not
-   * depend on which of the two layers is merged into the other, up to the order of the
-   * planes and cells (and up to the resampling of the rasters, see below).
+  /** \brief Merges another layer (a map of another recording) into this one: its
+   * planes join this layer's through the association integrate() uses, its cells are
+   * added.
    * - Planes: each plane of \a other, moved into this frame, goes through the
    *   association of integrate() (same criteria: normals of the same orientation
    *   within plane_merge_angle_rad, the least-squares plane of both evidence sets
-   *   within plane_merge_distance_m of each; the nearest such plane wins). A plane that
-   *   matches one of this layer becomes that plane: its moments are added, the plane
-   *   is refitted to them and the raster of the plane with less evidence (this
-   *   layer's on a tie) is re-projected into the frame of the other, with its feature
-   *   evidence. A plane without a match is added. Then the planes that changed merge
-   *   with any plane that converged with them, and drifted planes take a new raster
-   *   frame, as after integrate().
+   *   within plane_merge_distance_m of each; the nearest such plane wins, the planes
+   *   of \a other added so far included). A plane that matches one of this layer
+   *   becomes that plane: its moments are added, the plane is refitted to them and
+   *   the raster of the plane with less evidence is re-projected into the frame of the
+   *   other, with its feature evidence (on equal evidence, the plane whose frame plane
+   *   [a, b, c, d] is lexicographically first keeps its frame). A plane without a match
+   *   is added. Then the planes that changed merge with any plane that converged with
+   *   them, and drifted planes take a new raster frame, as after integrate().
+   * - Direction: which plane keeps its frame depends on the planes, not on the layer
+   *   they come from, so merging A into B and B into A give the same planes, cells and
+   *   cuboids up to their order wherever each plane matches at most one plane of the
+   *   other layer. Where one layer holds a surface as several planes, the order in
+   *   which the association meets them can pair them differently.
    * - Non-planar cells: both layers' cells are kept (neither recording is newer
    *   than the other); a cell of \a other whose geometry equals a stored cell's
    *   (same centre, extents and axes) adds its feature evidence to it instead.
