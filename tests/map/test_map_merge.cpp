@@ -315,6 +315,10 @@ TEST(PlanarGridMapMerge, TheSceneMakesOnePlanePerSurface)
   // the end wall as four planes, and the box as non-planar cells.
   const PlanarGridMap full = mapFrames(0, FRAMES);
   EXPECT_EQ(full.getSurfaceLayer().getPlanes().size(), 4u);
+  std::size_t non_planar = 0;
+  for (const PlanarCuboid& c : full.getSurfaceLayer().getCuboids())
+    non_planar += c.is_planar ? 0 : 1;
+  EXPECT_EQ(non_planar, 8u);
   EXPECT_EQ(full.getState(Eigen::Vector3f(8.0f, 1.0f, 0.2f)), SpaceState::OCCUPIED);
   EXPECT_EQ(full.getState(Eigen::Vector3f(10.0f, 0.0f, 1.5f)), SpaceState::FREE);
   EXPECT_EQ(full.getState(Eigen::Vector3f(10.0f, 3.05f, 1.5f)), SpaceState::OCCUPIED);
@@ -394,6 +398,7 @@ TEST(PlanarGridMapMerge, TwoHalvesOfADriveGiveTheMapOfTheWholeDrive)
   }
   std::size_t observed = 0;
   const double share = agreement(full, merged, observed);
+  RecordProperty("agreement_percent", std::to_string(100.0 * share));
   EXPECT_GE(share, 0.99);
   EXPECT_GT(observed, 10000u);
   // the cells are those of the whole drive: the planar cuboids cover the same area
