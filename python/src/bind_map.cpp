@@ -367,6 +367,53 @@ world_T_camera : array_like, shape (4, 4)
     The camera pose (camera x right, y down, z forward), meters.
 )doc")
     .def(
+      "merge",
+      [](Map& self, const Map& other, const DoubleArray& this_T_other) {
+        Eigen::Isometry3d transform = toIsometry(this_T_other, "this_T_other");
+        // toIsometry() accepts a rotation within 1e-3 of orthonormal (a float32
+        // matrix, a pose read from text); merge() moves plane moments and raster
+        // frames, which needs a rotation: the nearest one is used
+        transform.linear() =
+          Eigen::Quaterniond(transform.linear()).normalized().toRotationMatrix();
+        py::gil_scoped_release release;
+        self.merge(other, transform);
+      },
+      py::arg("other"), py::arg("this_T_other"),
+      R"doc(Merges another map (another recording's, mapped on its own) into this one.
+
+Planes: each plane of ``other`` joins the plane of this map that the association of
+integrate_surface() matches (a wall seen in both maps becomes one plane, its evidence
+added and refitted, the rasters re-projected into one frame, not two parallel planes);
+planes without a match are added. Non-planar cells: both maps' are kept. Voxels:
+occupied > free > unknown (occluded) > never observed (the clamped log-odds of two
+independent observations added, as OctoMap fuses them: occupied where the maps
+disagree). Merging a into b and b into a give the same voxels, planes and cuboids
+up to their order (except where one map holds a surface as several planes); merging
+an empty map changes nothing. ``other`` is not changed.
+
+Parameters
+----------
+other : PlanarGridMap
+    The map merged in (not this map).
+this_T_other : array_like, shape (4, 4), float
+    Rigid transform from ``other``'s world frame to this map's: rotation and
+    translation in meters, last row 0 0 0 1 (the identity, ``np.eye(4)``, for maps
+    whose poses share one world frame, such as GPS/INS poses). A rotation within 1e-3
+    of orthonormal is replaced by the nearest rotation. Other than the identity, the
+    voxels and raster cells of ``other`` are resampled to the nearest cell (whole-voxel
+    translations move the voxels exactly).
+
+Raises
+------
+ValueError
+    For ``this_T_other`` not of shape (4, 4) or not a rigid transform.
+planar_grid.Error
+    When the maps' resolution_m, prior or any surface parameter (thickness_m,
+    plane_merge_angle_rad, plane_merge_distance_m, occupancy_thres, feature_distance_m,
+    close_gaps_cells, merge_rule, cover_density) differ, naming them; or when ``other``
+    is this map. The map is then unchanged.
+)doc")
+    .def(
       "integrate_surface",
       [](Map& self, const Cuboids& cuboids, const DoubleArray& planes,
          const FloatArray& features, const DoubleArray& probabilities) {

@@ -28,15 +28,6 @@ refitPlane(MapPlane& plane, double cos_angle)
     plane.setRefined(n.cast<float>().normalized(), static_cast<float>(d));
 }
 
-} // namespace surface_layer_detail
-
-using namespace surface_layer_detail;
-
-namespace {
-
-/** \brief The surface layer's association criteria: normals of the same orientation
- * within plane_merge_angle_rad, evidence within plane_merge_distance_m (root mean
- * square) of the least-squares plane of both. */
 PlaneAssociationCriteria
 associationCriteria(const SurfaceLayer::Params& params)
 {
@@ -48,7 +39,6 @@ associationCriteria(const SurfaceLayer::Params& params)
   return criteria;
 }
 
-/** \brief A map plane as the association sees it: its refined plane and evidence. */
 PlaneObservation
 observation(const MapPlane& plane)
 {
@@ -57,18 +47,17 @@ observation(const MapPlane& plane)
     &plane.moments};
 }
 
-/** \brief Adds the cells of \a src to \a dst (another frame of about the same plane):
- * every dst cell whose centre, projected onto src's frame, falls in an observed src
- * cell is observed, and the features of a src cell go to the dst cell containing its
- * centre (observed too, so no evidence is lost). */
 void
-reprojectRaster(const MapPlane& src, MapPlane& dst, double r)
+reprojectRaster(const Raster& src,
+                const RasterFrame& src_frame,
+                MapPlane& dst,
+                double r)
 {
   const double inv_r = 1.0 / r;
-  const RasterFrame src_frame = src.frame(), dst_frame = dst.frame();
+  const RasterFrame dst_frame = dst.frame();
   std::vector<std::uint64_t> keys;
   std::vector<CellEvidence> evidence;
-  src.raster.forEachCell([&](std::uint64_t src_key, float sum, std::uint16_t count) {
+  src.forEachCell([&](std::uint64_t src_key, float sum, std::uint16_t count) {
     const std::int64_t i = rasterCellI(src_key), j = rasterCellJ(src_key);
     const Eigen::Vector2d f = dst_frame.toRaster(src_frame.cellCentre(i, j, r), inv_r);
     std::int64_t ci = 0, cj = 0;
@@ -97,6 +86,12 @@ reprojectRaster(const MapPlane& src, MapPlane& dst, double r)
   dst.raster.addEvidence(evidence);
   dst.dirty = true;
 }
+
+} // namespace surface_layer_detail
+
+using namespace surface_layer_detail;
+
+namespace {
 
 /** \brief True when the rasters of \a a and \a b overlap or are adjacent: a cell
  * centre of the smaller, projected onto the other's frame, falls in or next to (8
@@ -156,7 +151,7 @@ reanchor(MapPlane& plane, double r)
   fresh.setFrame(plane.normal, plane.d);
   fresh.setRefined(plane.normal, plane.d);
   fresh.moments = plane.moments;
-  reprojectRaster(plane, fresh, r);
+  reprojectRaster(plane.raster, plane.frame(), fresh, r);
   plane = std::move(fresh);
 }
 
@@ -275,7 +270,8 @@ SurfaceLayer::Impl::mergeConvergedPlanes(std::vector<int>& touched,
             || (b.moments.weight == a.moments.weight && m < t))
           std::swap(keep, gone);
         MapPlane& survivor = impl.planes[keep];
-        reprojectRaster(impl.planes[gone], survivor, r);
+        reprojectRaster(impl.planes[gone].raster, impl.planes[gone].frame(), survivor,
+                        r);
         survivor.moments.add(impl.planes[gone].moments);
         refitPlane(survivor, cos_angle);
         impl.planes.erase(impl.planes.begin() + static_cast<std::ptrdiff_t>(gone));

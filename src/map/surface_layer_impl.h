@@ -340,6 +340,24 @@ NonPlanarKey nonPlanarKey(const PlanarCuboid& c, double resolution_m);
  * normal within the angle whose cosine is \a cos_angle); kept when the fit fails. */
 void refitPlane(MapPlane& plane, double cos_angle);
 
+/** \brief The surface layer's association criteria: normals of the same orientation
+ * within plane_merge_angle_rad, evidence within plane_merge_distance_m (root mean
+ * square) of the least-squares plane of both. */
+PlaneAssociationCriteria associationCriteria(const SurfaceLayer::Params& params);
+
+/** \brief A map plane as the association sees it: its refined plane and evidence. */
+PlaneObservation observation(const MapPlane& plane);
+
+/** \brief Adds the cells of raster \a src, laid out in \a src_frame, to \a dst
+ * (another frame of about the same plane): every dst cell whose centre, projected
+ * onto src_frame, falls in an observed src cell is observed, and the features of a src
+ * cell go to the dst cell containing its centre (observed too, so no evidence is
+ * lost); \a r is the cell edge, meters. */
+void reprojectRaster(const Raster& src,
+                     const RasterFrame& src_frame,
+                     MapPlane& dst,
+                     double r);
+
 /** \brief Scratch of one integrate(): the frame's planes, oriented toward its
  * sensor, and the map planes they joined. */
 struct FramePlanes {
@@ -494,6 +512,20 @@ struct SurfaceLayer::Impl {
   /** Gives a new raster frame to a touched plane whose refined normal drifted from
    * its frame's. */
   void reanchorDrifted(const std::vector<int>& touched, const Params& params);
+
+  // merge(), step by step (surface_layer_merge.cpp)
+  /** Joins the planes of \a other, moved by \a this_T_other, to this layer's planes
+   * (the association of integrate()); \a touched receives the planes that changed,
+   * sorted. */
+  void mergePlanes(const Impl& other,
+                   const Eigen::Isometry3d& this_T_other,
+                   const Params& params,
+                   std::vector<int>& touched);
+  /** Adds the non-planar cells of \a other, moved by \a this_T_other; a cell equal
+   * in geometry to a stored one adds its feature evidence to it. */
+  void mergeNonPlanar(const Impl& other,
+                      const Eigen::Isometry3d& this_T_other,
+                      const Params& params);
 
   /** Rebuilds dirty planes' covers; caller holds the mutex. */
   void ensureCovers(const Params& params);

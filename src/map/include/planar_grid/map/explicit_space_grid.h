@@ -221,6 +221,30 @@ public:
    * grid, and neither must the first query after it. */
   void setState(const VoxelKey& key, SpaceState state);
 
+  /** \brief Merges another grid (the space layer of another recording's map) into
+   * this one. Each voxel takes the merged state of its two observations, the one of
+   * higher rank in occupied > free > unknown (occluded) > never observed. The two
+   * recordings observed independently and neither is newer, so the newest-wins rule
+   * of integration does not apply; the layer keeps each voxel at OctoMap's clamping
+   * bounds (occupied 0.971, free 0.1192), and adding those log-odds as OctoMap fuses
+   * independent observations (+3.5 - 2.0 = +1.5) gives occupied where the maps
+   * disagree; occluded space is observed without evidence (log-odds 0), so an
+   * observed state replaces it, and never-observed space takes the other map's
+   * state. Occupied winning is also the safe side for planning: an object that moved
+   * between the recordings stays an obstacle instead of opening a hole in a real
+   * one. The rule is commutative and associative, and merging an empty grid changes
+   * nothing.
+   * \param[in] other the grid merged in (unchanged; not this grid)
+   * \param[in] this_T_other rigid transform from \a other's world frame to this
+   * grid's, meters. A translation by whole voxels (rotation exactly the identity)
+   * moves the voxels exactly; any other transform resamples: every voxel of this grid
+   * whose centre, moved back into \a other, falls in an observed voxel of \a other
+   * takes that voxel's state into the merge (nearest neighbour, no holes).
+   * \throws planar_grid::Exception when the resolutions or the priors differ, when
+   * \a other is this grid, or for a transform that is not finite and rigid; the grid
+   * is then unchanged */
+  void merge(const ExplicitSpaceGrid& other, const Eigen::Isometry3d& this_T_other);
+
   /** \brief Walks the voxels along a ray (Amanatides-Woo) to the first occupied one.
    * \param[in] origin start, meters
    * \param[in] direction direction (any length > 0)

@@ -157,6 +157,40 @@ public:
       removeNonPlanarCellsOnPlanes();
   }
 
+  /** \brief Merges another map into this one: the map of another recording (or of
+   * another part of one), mapped on its own, so that many recordings can be mapped in
+   * parallel and their maps joined by plane. Merging an empty map changes nothing;
+   * merging A into B and B into A give the same voxels, and the same planes and
+   * cuboids up to their order (except where a surface is split over several planes of
+   * one map: SurfaceLayer::merge()).
+   * - Surface layer (SurfaceLayer::merge()): each plane of \a other joins the plane of
+   *   this map that the association of integrateSurface() matches (same criteria:
+   *   one plane explains both evidence sets): its moments are added, the plane is
+   *   refitted and the rasters are re-projected into one frame, so a wall seen in
+   *   both maps becomes one plane, not two parallel ones; planes without a match are
+   *   added. The non-planar cells of both maps are kept.
+   * - Space layer (ExplicitSpaceGrid::merge()): voxel by voxel, occupied > free >
+   *   unknown (occluded) > never observed: the log-odds of the two independent
+   *   observations at OctoMap's clamping bounds added (+3.5 - 2.0: occupied where the
+   *   maps disagree), the safe side for planning.
+   * - Then, as after integrateSurface(), Params::planes_absorb_overlapping and
+   *   Params::planes_replace_non_planar tidy the planes that met.
+   * Maps of one recording split in two differ from the map of all its frames where a
+   * later view changed what an earlier one saw (integration keeps the newest
+   * observation; a merge has no newest) and where the planes' evidence, joined in
+   * another order, is covered by other rectangles.
+   * \param[in] other the map merged in (unchanged; not this map)
+   * \param[in] this_T_other rigid transform from \a other's world frame to this map's
+   * (4 x 4, rotation and translation in meters); the identity for maps whose poses
+   * are in one world frame (GPS/INS). Other transforms resample both layers (raster
+   * cells and voxels to the nearest cell, whole-voxel translations exactly).
+   * \throws planar_grid::Exception naming the parameters when the maps' resolution_m,
+   * space prior or any surface layer parameter (SurfaceLayer::Params) differ; when
+   * \a other is this map; for a transform that is not finite and rigid. The map is
+   * then unchanged. The parameters that only steer later integration (max_range_m,
+   * surface_margin_m, the clearing and tidying switches) are this map's. */
+  void merge(const PlanarGridMap& other, const Eigen::Isometry3d& this_T_other);
+
   /** \brief Integrates one view into the explicit space layer (see
    * ExplicitSpaceGrid::integrateDepthImage()), then, with Params::clear_non_planar,
    * clears the non-planar cells the view saw through (those whose bounding sphere

@@ -203,6 +203,41 @@ public:
                  const pcl::PointCloud<pcl::PointXYZ>& features,
                  const std::vector<float>& probabilities);
 
+  /** \brief Merges another layer (a map of another recording) into this one: its
+   * planes join this layer's through the association integrate() uses, its cells are
+   * added.
+   * - Planes: each plane of \a other, moved into this frame, goes through the
+   *   association of integrate() (same criteria: normals of the same orientation
+   *   within plane_merge_angle_rad, the least-squares plane of both evidence sets
+   *   within plane_merge_distance_m of each; the nearest such plane wins, the planes
+   *   of \a other added so far included). A plane that matches one of this layer
+   *   becomes that plane: its moments are added, the plane is refitted to them and
+   *   the raster of the plane with less evidence is re-projected into the frame of the
+   *   other, with its feature evidence (on equal evidence, the plane whose frame plane
+   *   [a, b, c, d] is lexicographically first keeps its frame). A plane without a match
+   *   is added. Then the planes that changed merge with any plane that converged with
+   *   them, and drifted planes take a new raster frame, as after integrate().
+   * - Direction: which plane keeps its frame depends on the planes, not on the layer
+   *   they come from, so merging A into B and B into A give the same planes, cells and
+   *   cuboids up to their order wherever each plane matches at most one plane of the
+   *   other layer. Where one layer holds a surface as several planes, the order in
+   *   which the association meets them can pair them differently.
+   * - Non-planar cells: both layers' cells are kept (neither recording is newer
+   *   than the other); a cell of \a other whose geometry equals a stored cell's
+   *   (same centre, extents and axes) adds its feature evidence to it instead.
+   * - \a this_T_other exactly the identity: planes and cells are copied as they
+   *   are. Otherwise every plane's frame, refined plane and moments are moved exactly,
+   *   and its raster cells are re-projected into a raster frame of the moved plane
+   *   (cell centres to cells, as when two map planes merge: an observed area stays
+   *   observed, up to one cell at its border).
+   * \param[in] other the layer merged in (unchanged; not this layer)
+   * \param[in] this_T_other rigid transform from \a other's world frame to this
+   * layer's, meters
+   * \throws planar_grid::Exception naming the parameter when a parameter of the two
+   * layers differs (every Params member must be equal), when \a other is this layer,
+   * or for a transform that is not finite and rigid; the layer is then unchanged */
+  void merge(const SurfaceLayer& other, const Eigen::Isometry3d& this_T_other);
+
   /** \brief Removes the non-planar cells for which \a remove returns true. The
    * cells keep their order; the planes are untouched.
    * \param[in] remove called once per non-planar cell with its cuboid (centre,

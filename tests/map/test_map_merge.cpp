@@ -1,0 +1,611 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// PlanarGridMap::merge() on a synthetic street whose surfaces are known exactly: maps
+// of parts of one drive, merged, against the map of the whole drive.
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/map/planar_grid_map.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <random>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "wall_cuboid.h"
+
+namespace {
+
+using planar_grid::DepthImage;
+using planar_grid::ExplicitSpaceGrid;
+using planar_grid::PlanarCuboid;
+using planar_grid::PlanarCuboids;
+using planar_grid::PlanarGridMap;
+using planar_grid::PlaneModels;
+using planar_grid::SpaceState;
+using planar_grid_test::wallCuboid;
+
+// ---- the scene ---------------------------------------------------------------------
+//
+// A street 6 m wide along +x, world z up: the ground z = 0, walls y = +3 and y = -3
+// (4 m high) from x = -2 to x = 20, an end wall x = 20, and a 0.4 m box on the ground
+// at x in [7.8, 8.2], y in [0.8, 1.2]. A camera 1.5 m high drives along the street
+// looking down it (+x), FRAMES frames 0.45 m apart. Each frame sees the surfaces 1 to
+// 14 m ahead: one planar cuboid per surface in view, on that surface's plane offset by
+// a few millimetres and turned by a few milliradians (a frame's plane estimate),
+// features on the surfaces (occupancy 0.85), the box's eight 0.2 m cells as non-planar
+// cuboids, and a depth view of the scene for the space layer.
+
+constexpr int FRAMES = 16;
+constexpr float STEP_M = 0.45f;
+constexpr float NEAR_M = 1.0f;
+constexpr float FAR_M = 14.0f;
+constexpr float END_X = 20.0f;
+constexpr float HALF_WIDTH = 3.0f;
+constexpr float WALL_HEIGHT = 4.0f;
+const Eigen::AlignedBox3f BOX(Eigen::Vector3f(7.8f, 0.8f, 0.0f),
+                              Eigen::Vector3f(8.2f, 1.2f, 0.4f));
+
+PlanarGridMap::Params
+params()
+{
+  PlanarGridMap::Params p;
+  p.resolution_m = 0.1;
+  p.space.max_range_m = 15.0;
+  p.space.prior = SpaceState::UNKNOWN;
+  return p;
+}
+
+/** The camera of frame \a f (x right, y down, z forward), world frame. */
+Eigen::Isometry3d
+cameraPose(int f)
+{
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  pose.translation() = Eigen::Vector3d(STEP_M * f, 0.0, 1.5);
+  return pose;
+}
+
+/** The depth of the scene along the ray \a origin + t \a direction (world), or
+ * infinity: the nearest of the ground, the walls, the end wall and the box. */
+double
+sceneDistance(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction)
+{
+  double best = std::numeric_limits<double>::infinity();
+  const auto inside = [](double v, double lo, double hi) {
+    return v >= lo && v <= hi;
+  };
+  const auto hit = [&](int axis, double value, int a, double a_lo, double a_hi, int b,
+                       double b_lo, double b_hi) {
+    if (std::abs(direction[axis]) < 1e-12)
+      return;
+    const double t = (value - origin[axis]) / direction[axis];
+    if (!(t > 1e-6) || t >= best)
+      return;
+    const Eigen::Vector3d p = origin + t * direction;
+    if (inside(p[a], a_lo, a_hi) && inside(p[b], b_lo, b_hi))
+      best = t;
+  };
+  hit(2, 0.0, 0, -2.0, END_X, 1, -HALF_WIDTH, HALF_WIDTH);        // ground
+  hit(1, HALF_WIDTH, 0, -2.0, END_X, 2, 0.0, WALL_HEIGHT);        // left wall
+  hit(1, -HALF_WIDTH, 0, -2.0, END_X, 2, 0.0, WALL_HEIGHT);       // right wall
+  hit(0, END_X, 1, -HALF_WIDTH, HALF_WIDTH, 2, 0.0, WALL_HEIGHT); // end wall
+  const Eigen::Vector3d lo = BOX.min().cast<double>(), hi = BOX.max().cast<double>();
+  hit(0, lo.x(), 1, lo.y(), hi.y(), 2, lo.z(), hi.z()); // box, front
+  hit(1, lo.y(), 0, lo.x(), hi.x(), 2, lo.z(), hi.z()); // box, right side
+  hit(2, hi.z(), 0, lo.x(), hi.x(), 1, lo.y(), hi.y()); // box, top
+  return best;
+}
+
+/** A 64 x 48 view (f = 40 px) of the scene from \a pose (world). */
+DepthImage
+renderView(const Eigen::Isometry3d& pose)
+{
+  DepthImage image;
+  image.width = 64;
+  image.height = 48;
+  image.fx = image.fy = 40.0f;
+  image.cx = 31.5f;
+  image.cy = 23.5f;
+  image.depth_m.resize(64 * 48);
+  for (int v = 0; v < image.height; ++v)
+    for (int u = 0; u < image.width; ++u) {
+      const Eigen::Vector3d ray((u - image.cx) / image.fx, (v - image.cy) / image.fy,
+                                1.0);
+      const double t = sceneDistance(pose.translation(), pose.linear() * ray);
+      // t along a ray whose camera z is 1: t is the depth
+      image.depth_m[static_cast<std::size_t>(v * image.width + u)] =
+        std::isfinite(t) ? static_cast<float>(t) : 0.0f;
+    }
+  return image;
+}
+
+/** One frame's surface input. */
+struct FrameSurface {
+  PlanarCuboids cuboids;
+  PlaneModels planes;
+  pcl::PointCloud<pcl::PointXYZ> features;
+  std::vector<float> probabilities;
+};
+
+/** The surfaces frame \a f sees (the scene's description above), world frame. */
+FrameSurface
+frameSurface(int f)
+{
+  FrameSurface out;
+  const float x0 = STEP_M * static_cast<float>(f) + NEAR_M;
+  const float x1 = std::min(STEP_M * static_cast<float>(f) + FAR_M, END_X);
+  // a frame's plane estimate: the true plane moved by up to 5 mm along its normal and
+  // turned by up to 2 mrad about its vertical axis
+  const auto offset = [f](int surface) {
+    return 0.005f
+           * std::sin(1.7f * static_cast<float>(f) + static_cast<float>(surface));
+  };
+  const auto tilt = [f](int surface) {
+    return 0.002f
+           * std::cos(2.3f * static_cast<float>(f) + static_cast<float>(surface));
+  };
+  const auto add = [&](const Eigen::Vector3f& point_on_plane,
+                       const Eigen::Vector3f& true_normal, const Eigen::Vector3f& u,
+                       float width, float height) {
+    const int id = static_cast<int>(out.planes.size());
+    const Eigen::Vector3f v = true_normal.cross(u);
+    const Eigen::Vector3f n =
+      Eigen::AngleAxisf(tilt(id), v).toRotationMatrix() * true_normal;
+    const Eigen::Vector3f face_u = (u - n * n.dot(u)).normalized();
+    const Eigen::Vector3f face = point_on_plane + n * offset(id);
+    out.planes.emplace_back(n.x(), n.y(), n.z(), -n.dot(face));
+    out.cuboids.push_back(wallCuboid(face, n, face_u, width, height, id));
+    // features every 0.5 m on the face
+    const Eigen::Vector3f face_v = n.cross(face_u);
+    for (float a = -0.5f * width + 0.25f; a < 0.5f * width; a += 0.5f)
+      for (float b = -0.5f * height + 0.25f; b < 0.5f * height; b += 0.5f) {
+        const Eigen::Vector3f p = face + a * face_u + b * face_v;
+        out.features.push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+        out.probabilities.push_back(0.85f);
+      }
+  };
+  const float mid = 0.5f * (x0 + x1), length = x1 - x0;
+  add(Eigen::Vector3f(mid, 0.0f, 0.0f), Eigen::Vector3f::UnitZ(),
+      Eigen::Vector3f::UnitX(), length, 2.0f * HALF_WIDTH);
+  add(Eigen::Vector3f(mid, HALF_WIDTH, 0.5f * WALL_HEIGHT), -Eigen::Vector3f::UnitY(),
+      Eigen::Vector3f::UnitX(), length, WALL_HEIGHT);
+  add(Eigen::Vector3f(mid, -HALF_WIDTH, 0.5f * WALL_HEIGHT), Eigen::Vector3f::UnitY(),
+      -Eigen::Vector3f::UnitX(), length, WALL_HEIGHT);
+  if (STEP_M * static_cast<float>(f) + FAR_M >= END_X)
+    add(Eigen::Vector3f(END_X, 0.0f, 0.5f * WALL_HEIGHT), -Eigen::Vector3f::UnitX(),
+        -Eigen::Vector3f::UnitY(), 2.0f * HALF_WIDTH, WALL_HEIGHT);
+  if (BOX.min().x() >= x0 && BOX.min().x() <= x1)
+    for (int k = 0; k < 8; ++k) {
+      PlanarCuboid cell;
+      cell.normal = -Eigen::Vector3f::UnitX();
+      cell.horizontal_axis = -Eigen::Vector3f::UnitY();
+      cell.width_m = cell.height_m = cell.thickness_m = 0.2f;
+      cell.centre = BOX.min()
+                    + Eigen::Vector3f(0.1f + 0.2f * static_cast<float>(k & 1),
+                                      0.1f + 0.2f * static_cast<float>((k >> 1) & 1),
+                                      0.1f + 0.2f * static_cast<float>(k >> 2));
+      cell.plane_id = -1;
+      cell.is_planar = false;
+      out.cuboids.push_back(cell);
+      out.features.push_back(
+        pcl::PointXYZ(cell.centre.x(), cell.centre.y(), cell.centre.z()));
+      out.probabilities.push_back(0.9f);
+    }
+  return out;
+}
+
+/** \a surface moved by \a t (the frame's input as seen in another world frame). */
+FrameSurface
+moved(const FrameSurface& surface, const Eigen::Isometry3d& t)
+{
+  const Eigen::Isometry3f tf = t.cast<float>();
+  FrameSurface out = surface;
+  for (PlanarCuboid& c : out.cuboids) {
+    c.centre = tf * c.centre;
+    c.normal = tf.linear() * c.normal;
+    c.horizontal_axis = tf.linear() * c.horizontal_axis;
+  }
+  for (Eigen::Vector4f& p : out.planes) {
+    const Eigen::Vector3f n = tf.linear() * p.head<3>();
+    p = Eigen::Vector4f(n.x(), n.y(), n.z(), p[3] - n.dot(tf.translation()));
+  }
+  for (pcl::PointXYZ& p : out.features)
+    p.getVector3fMap() = tf * p.getVector3fMap();
+  return out;
+}
+
+/** The map of frames [first, last), every input moved by \a world_to_map (the frame
+ * the map is built in, from the scene's world frame). */
+PlanarGridMap
+mapFrames(int first,
+          int last,
+          const Eigen::Isometry3d& world_to_map = Eigen::Isometry3d::Identity())
+{
+  PlanarGridMap map(params());
+  for (int f = first; f < last; ++f) {
+    const FrameSurface s = moved(frameSurface(f), world_to_map);
+    map.integrateSurface(s.cuboids, s.planes, s.features, s.probabilities);
+    map.integrateDepthImage(renderView(cameraPose(f)), world_to_map * cameraPose(f));
+  }
+  return map;
+}
+
+PlanarGridMap
+copyOf(const PlanarGridMap& map)
+{
+  std::string bytes;
+  map.serialize(bytes);
+  return PlanarGridMap::deserialize(bytes, "copy");
+}
+
+std::string
+bytesOf(const PlanarGridMap& map)
+{
+  std::string bytes;
+  map.serialize(bytes);
+  return bytes;
+}
+
+/** Probe points every 0.15 m over the street (x in [-1, 21], y in [-3.5, 3.5], z in
+ * [-0.3, 4.3]), off the voxel grid's faces. */
+std::vector<Eigen::Vector3f>
+probes()
+{
+  std::vector<Eigen::Vector3f> out;
+  for (float x = -1.0f; x <= 21.0f; x += 0.15f)
+    for (float y = -3.5f; y <= 3.5f; y += 0.15f)
+      for (float z = -0.3f; z <= 4.3f; z += 0.15f)
+        out.emplace_back(x + 0.0123f, y + 0.0231f, z + 0.0312f);
+  return out;
+}
+
+/** Share of the probes observed by either map (a state other than UNKNOWN) where the
+ * two maps agree; \a observed receives their number. With \a interior, only the
+ * probes away from the boundaries of \a a's states count: those whose six neighbours
+ * 0.2 m away (two voxels) have the probe's state in \a a. */
+double
+agreement(const PlanarGridMap& a,
+          const PlanarGridMap& b,
+          std::size_t& observed,
+          bool interior = false)
+{
+  std::size_t same = 0;
+  observed = 0;
+  for (const Eigen::Vector3f& p : probes()) {
+    const SpaceState sa = a.getState(p), sb = b.getState(p);
+    if (sa == SpaceState::UNKNOWN && sb == SpaceState::UNKNOWN)
+      continue;
+    bool inside = true;
+    for (int k = 0; k < 6 && interior && inside; ++k) {
+      Eigen::Vector3f step = Eigen::Vector3f::Zero();
+      step[k / 2] = k % 2 == 0 ? -0.2f : 0.2f;
+      inside = a.getState(p + step) == sa;
+    }
+    if (!inside)
+      continue;
+    ++observed;
+    same += sa == sb ? 1 : 0;
+  }
+  return observed > 0 ? static_cast<double>(same) / static_cast<double>(observed) : 0.0;
+}
+
+/** The cuboids' geometry and probability, sorted, for comparisons up to order. */
+std::vector<std::vector<float>>
+cuboidSet(const PlanarGridMap& map)
+{
+  std::vector<std::vector<float>> out;
+  for (const PlanarCuboid& c : map.getSurfaceLayer().getCuboids())
+    out.push_back({c.is_planar ? 1.0f : 0.0f, c.centre.x(), c.centre.y(), c.centre.z(),
+                   c.normal.x(), c.normal.y(), c.normal.z(), c.horizontal_axis.x(),
+                   c.horizontal_axis.y(), c.horizontal_axis.z(), c.width_m, c.height_m,
+                   c.thickness_m, c.probability});
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// ---- the tests ---------------------------------------------------------------------
+
+TEST(PlanarGridMapMerge, TheSceneMakesOnePlanePerSurface)
+{
+  // The truth the other tests rely on: the whole drive maps the ground, two walls and
+  // the end wall as four planes, and the box as non-planar cells.
+  const PlanarGridMap full = mapFrames(0, FRAMES);
+  EXPECT_EQ(full.getSurfaceLayer().getPlanes().size(), 4u);
+  std::size_t non_planar = 0;
+  for (const PlanarCuboid& c : full.getSurfaceLayer().getCuboids())
+    non_planar += c.is_planar ? 0 : 1;
+  EXPECT_EQ(non_planar, 8u);
+  EXPECT_EQ(full.getState(Eigen::Vector3f(8.0f, 1.0f, 0.2f)), SpaceState::OCCUPIED);
+  EXPECT_EQ(full.getState(Eigen::Vector3f(10.0f, 0.0f, 1.5f)), SpaceState::FREE);
+  EXPECT_EQ(full.getState(Eigen::Vector3f(10.0f, 3.05f, 1.5f)), SpaceState::OCCUPIED);
+}
+
+TEST(PlanarGridMapMerge, AnEmptyMapChangesNothing)
+{
+  PlanarGridMap map = mapFrames(0, FRAMES / 2);
+  const std::string before = bytesOf(map);
+  map.merge(PlanarGridMap(params()), Eigen::Isometry3d::Identity());
+  EXPECT_EQ(bytesOf(map), before);
+
+  // and the other way round: an empty map takes the map's planes, cells and voxels
+  PlanarGridMap empty(params());
+  const PlanarGridMap reference = copyOf(map);
+  empty.merge(map, Eigen::Isometry3d::Identity());
+  EXPECT_TRUE(empty.getSpaceLayer() == reference.getSpaceLayer());
+  EXPECT_EQ(empty.getSurfaceLayer().getPlanes().size(),
+            reference.getSurfaceLayer().getPlanes().size());
+  EXPECT_EQ(cuboidSet(empty), cuboidSet(reference));
+  EXPECT_EQ(bytesOf(map), before); // the merged-in map is unchanged
+}
+
+TEST(PlanarGridMapMerge, ACopyDoublesTheEvidenceNotTheCells)
+{
+  // A map merged with a copy of itself (one recording mapped twice): every plane
+  // joins its copy and every cell its copy, so the planes, cells and voxels are those
+  // of the map; the evidence doubles, and its means (the probabilities) stay.
+  PlanarGridMap map = mapFrames(0, FRAMES / 2);
+  const PlanarGridMap copy = copyOf(map);
+  map.merge(copy, Eigen::Isometry3d::Identity());
+  EXPECT_EQ(map.getSurfaceLayer().getPlanes().size(),
+            copy.getSurfaceLayer().getPlanes().size());
+  EXPECT_EQ(map.getSurfaceLayer().getCellCount(),
+            copy.getSurfaceLayer().getCellCount());
+  EXPECT_EQ(cuboidSet(map), cuboidSet(copy));
+  EXPECT_TRUE(map.getSpaceLayer() == copy.getSpaceLayer());
+}
+
+TEST(PlanarGridMapMerge, MergingAIntoBEqualsMergingBIntoA)
+{
+  const PlanarGridMap a = mapFrames(0, FRAMES / 2);
+  const PlanarGridMap b = mapFrames(FRAMES / 2, FRAMES);
+  PlanarGridMap ab = copyOf(a);
+  ab.merge(b, Eigen::Isometry3d::Identity());
+  PlanarGridMap ba = copyOf(b);
+  ba.merge(a, Eigen::Isometry3d::Identity());
+  EXPECT_EQ(ab.getSurfaceLayer().getPlanes().size(),
+            ba.getSurfaceLayer().getPlanes().size());
+  EXPECT_TRUE(ab.getSpaceLayer() == ba.getSpaceLayer());
+  EXPECT_EQ(cuboidSet(ab), cuboidSet(ba));
+  std::size_t observed = 0;
+  EXPECT_EQ(agreement(ab, ba, observed), 1.0);
+  EXPECT_GT(observed, 10000u);
+}
+
+TEST(PlanarGridMapMerge, TwoHalvesOfADriveGiveTheMapOfTheWholeDrive)
+{
+  const PlanarGridMap full = mapFrames(0, FRAMES);
+  PlanarGridMap merged = mapFrames(0, FRAMES / 2);
+  const PlanarGridMap second = mapFrames(FRAMES / 2, FRAMES);
+  // each half saw the ground and both walls: three planes each, and only the second
+  // half saw the end wall
+  ASSERT_EQ(merged.getSurfaceLayer().getPlanes().size(), 3u);
+  ASSERT_EQ(second.getSurfaceLayer().getPlanes().size(), 4u);
+  merged.merge(second, Eigen::Isometry3d::Identity());
+  // one plane per surface: the halves' planes of one wall became one plane
+  EXPECT_EQ(merged.getSurfaceLayer().getPlanes().size(),
+            full.getSurfaceLayer().getPlanes().size());
+  for (const Eigen::Vector4f& plane : merged.getSurfaceLayer().getPlanes()) {
+    bool found = false;
+    for (const Eigen::Vector4f& truth : full.getSurfaceLayer().getPlanes())
+      found = found
+              || (plane.head<3>().dot(truth.head<3>()) > 0.9999f
+                  && std::abs(plane[3] - truth[3]) < 0.005f);
+    EXPECT_TRUE(found) << plane.transpose();
+  }
+  std::size_t observed = 0;
+  const double share = agreement(full, merged, observed);
+  RecordProperty("agreement_percent", std::to_string(100.0 * share));
+  EXPECT_GE(share, 0.99);
+  EXPECT_GT(observed, 10000u);
+  // the cells are those of the whole drive: the planar cuboids cover the same area
+  double full_area = 0.0, merged_area = 0.0;
+  for (const PlanarCuboid& c : full.getSurfaceLayer().getCuboids())
+    full_area += c.is_planar ? static_cast<double>(c.width_m) * c.height_m : 0.0;
+  for (const PlanarCuboid& c : merged.getSurfaceLayer().getCuboids())
+    merged_area += c.is_planar ? static_cast<double>(c.width_m) * c.height_m : 0.0;
+  EXPECT_NEAR(merged_area, full_area, 0.02 * full_area);
+}
+
+TEST(PlanarGridMapMerge, TheTransformMovesTheOtherMapIntoThisFrame)
+{
+  // The second half mapped in a frame turned 0.3 rad about a near-vertical axis and
+  // shifted: merged with this_T_other, it gives the map of the halves mapped in one
+  // frame, up to the resampling of the voxels and raster cells (each to the nearest
+  // cell): away from the boundaries between states the maps agree, and at them
+  // (the edges of the views, the surfaces) cells one voxel off differ.
+  Eigen::Isometry3d other_T_world = Eigen::Isometry3d::Identity();
+  other_T_world.linear() =
+    Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.1, -0.05, 1.0).normalized())
+      .toRotationMatrix();
+  other_T_world.translation() = Eigen::Vector3d(1.234, -0.567, 0.089);
+  PlanarGridMap reference = mapFrames(0, FRAMES / 2);
+  reference.merge(mapFrames(FRAMES / 2, FRAMES), Eigen::Isometry3d::Identity());
+  PlanarGridMap merged = mapFrames(0, FRAMES / 2);
+  merged.merge(mapFrames(FRAMES / 2, FRAMES, other_T_world), other_T_world.inverse());
+  EXPECT_EQ(merged.getSurfaceLayer().getPlanes().size(),
+            reference.getSurfaceLayer().getPlanes().size());
+  for (const Eigen::Vector4f& plane : merged.getSurfaceLayer().getPlanes()) {
+    bool found = false;
+    for (const Eigen::Vector4f& truth : reference.getSurfaceLayer().getPlanes())
+      found = found
+              || (plane.head<3>().dot(truth.head<3>()) > 0.99999f
+                  && std::abs(plane[3] - truth[3]) < 0.001f);
+    EXPECT_TRUE(found) << plane.transpose();
+  }
+  std::size_t observed = 0;
+  EXPECT_GE(agreement(reference, merged, observed, true), 0.999);
+  EXPECT_GT(observed, 50000u);
+  EXPECT_GE(agreement(reference, merged, observed), 0.95);
+  // without the transform the second half lands elsewhere
+  PlanarGridMap wrong = mapFrames(0, FRAMES / 2);
+  wrong.merge(mapFrames(FRAMES / 2, FRAMES, other_T_world),
+              Eigen::Isometry3d::Identity());
+  EXPECT_LT(agreement(reference, wrong, observed, true), 0.95);
+}
+
+TEST(PlanarGridMapMerge, AWholeVoxelTranslationMovesTheVoxelsExactly)
+{
+  // The second half's space layer moved by whole voxels (8 on x: whole 8^3 blocks; -3
+  // on y and 5 on z: not) and merged back with the inverse translation gives exactly
+  // the layer merged without moving.
+  const PlanarGridMap first = mapFrames(0, FRAMES / 2);
+  const PlanarGridMap second = mapFrames(FRAMES / 2, FRAMES);
+  for (const Eigen::Vector3i& offset :
+       {Eigen::Vector3i(8, 0, 0), Eigen::Vector3i(8, -3, 5)}) {
+    SCOPED_TRACE(offset.transpose());
+    PlanarGridMap shifted(params());
+    second.getSpaceLayer().forEachVoxel(
+      [&](const ExplicitSpaceGrid::VoxelKey& key, SpaceState state) {
+        shifted.getSpaceLayer().setState(key + offset, state);
+      });
+    Eigen::Isometry3d this_T_other = Eigen::Isometry3d::Identity();
+    this_T_other.translation() = -0.1 * offset.cast<double>();
+    PlanarGridMap reference = copyOf(first), merged = copyOf(first);
+    reference.merge(second, Eigen::Isometry3d::Identity());
+    merged.merge(shifted, this_T_other);
+    EXPECT_TRUE(merged.getSpaceLayer() == reference.getSpaceLayer());
+  }
+}
+
+TEST(PlanarGridMapMerge, TheSpaceLayersCombineByRank)
+{
+  // Every pair of states, both priors: occupied > free > unknown (occluded) > never
+  // observed, against a brute-force table.
+  for (const SpaceState prior : {SpaceState::UNKNOWN, SpaceState::FREE}) {
+    SCOPED_TRACE(planar_grid::toString(prior));
+    PlanarGridMap::Params p = params();
+    p.space.prior = prior;
+    PlanarGridMap a(p), b(p);
+    // state index 3: never observed (not set)
+    const auto rank = [](int s) {
+      return s == 1 ? 3 : s == 0 ? 2 : s == 2 ? 1 : 0;
+    };
+    std::mt19937 rng(11);
+    std::uniform_int_distribution<int> state(0, 3);
+    std::map<std::tuple<int, int, int>, int> expected;
+    for (int x = -20; x < 20; ++x)
+      for (int y = -3; y < 3; ++y)
+        for (int z = 0; z < 4; ++z) {
+          const int sa = state(rng), sb = state(rng);
+          if (sa < 3)
+            a.getSpaceLayer().setState({x, y, z}, static_cast<SpaceState>(sa));
+          if (sb < 3)
+            b.getSpaceLayer().setState({x, y, z}, static_cast<SpaceState>(sb));
+          expected[{x, y, z}] = rank(sa) >= rank(sb) ? sa : sb;
+        }
+    a.merge(b, Eigen::Isometry3d::Identity());
+    std::size_t wrong = 0;
+    for (const auto& [key, s] : expected) {
+      const auto [x, y, z] = key;
+      const SpaceState want = s == 3 ? prior : static_cast<SpaceState>(s);
+      wrong += a.getSpaceLayer().getState(ExplicitSpaceGrid::VoxelKey(x, y, z)) != want;
+    }
+    EXPECT_EQ(wrong, 0u);
+    // only observed voxels are stored: free and occupied, and with the free prior the
+    // occluded ones (with the unknown prior occluded and never observed are one state)
+    std::size_t observed = 0;
+    for (const auto& kv : expected)
+      observed += kv.second < (prior == SpaceState::FREE ? 3 : 2) ? 1 : 0;
+    std::size_t stored = 0;
+    a.getSpaceLayer().forEachVoxel(
+      [&stored](const ExplicitSpaceGrid::VoxelKey&, SpaceState) { ++stored; });
+    EXPECT_EQ(stored, observed);
+  }
+}
+
+TEST(PlanarGridMapMerge, AWallSeenByBothMapsBecomesOnePlane)
+{
+  // The same wall (x = 2, normal -x) seen by two maps with plane estimates 1 cm apart,
+  // on two stretches 0.9 m apart (their rasters do not touch, so only the association
+  // joins them): one plane whose evidence is both maps' (the fit between them), not
+  // two parallel ones; a wall seen by one map only stays its own plane.
+  const auto wall = [](float x, float y0, int frames, PlanarGridMap& map) {
+    for (int k = 0; k < frames; ++k) {
+      const Eigen::Vector3f face(x, y0 + 0.3f * static_cast<float>(k), 1.0f);
+      const PlaneModels planes{Eigen::Vector4f(-1.0f, 0.0f, 0.0f, x)};
+      PlanarCuboids cuboids{wallCuboid(face, -Eigen::Vector3f::UnitX(),
+                                       -Eigen::Vector3f::UnitY(), 2.0f, 2.0f, 0)};
+      map.integrateSurface(cuboids, planes, {}, {});
+    }
+  };
+  PlanarGridMap a(params()), b(params());
+  wall(2.0f, 0.0f, 3, a);  // y in [-1, 1.6]
+  wall(2.01f, 3.5f, 3, b); // y in [2.5, 5.1]
+  wall(-4.0f, 0.0f, 1, b); // another wall (normal -x too, 6 m behind)
+  a.merge(b, Eigen::Isometry3d::Identity());
+  const PlaneModels& planes = a.getSurfaceLayer().getPlanes();
+  ASSERT_EQ(planes.size(), 2u);
+  // the least-squares plane of both walls' faces lies between them: the 2.00 m faces
+  // on one side, the 2.01 m faces on the other, each within 1 cm
+  const auto distance = [&planes](const Eigen::Vector3f& p) {
+    return planes[0].head<3>().dot(p) + planes[0][3];
+  };
+  const float to_a = distance(Eigen::Vector3f(2.0f, 0.3f, 1.0f));
+  const float to_b = distance(Eigen::Vector3f(2.01f, 3.8f, 1.0f));
+  EXPECT_LT(to_a * to_b, 0.0f);
+  EXPECT_LT(std::abs(to_a), 0.01f);
+  EXPECT_LT(std::abs(to_b), 0.01f);
+  EXPECT_NEAR(planes[1][3], -4.0f, 1e-4f);
+  // the plane holds both stretches, and not the gap between them
+  const PlanarCuboid* near = a.getSurfaceLayer().findCuboid({2.06f, -0.9f, 1.0f});
+  const PlanarCuboid* far = a.getSurfaceLayer().findCuboid({2.06f, 5.0f, 1.0f});
+  ASSERT_NE(near, nullptr);
+  ASSERT_NE(far, nullptr);
+  EXPECT_EQ(near->plane_id, 0);
+  EXPECT_EQ(far->plane_id, 0);
+  EXPECT_EQ(a.getSurfaceLayer().findCuboid({2.06f, 2.0f, 1.0f}), nullptr);
+}
+
+TEST(PlanarGridMapMerge, MismatchedParametersAreRefusedAndLeaveTheMapUnchanged)
+{
+  PlanarGridMap map = mapFrames(0, 2);
+  const std::string before = bytesOf(map);
+  const auto refused = [&](const PlanarGridMap::Params& p, const std::string& name) {
+    PlanarGridMap other(p);
+    try {
+      map.merge(other, Eigen::Isometry3d::Identity());
+      ADD_FAILURE() << name << ": no exception";
+    } catch (const planar_grid::Exception& e) {
+      EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(bytesOf(map), before) << name;
+  };
+  PlanarGridMap::Params p = params();
+  p.resolution_m = 0.2;
+  refused(p, "resolution_m");
+  p = params();
+  p.space.prior = SpaceState::FREE;
+  refused(p, "prior");
+  p = params();
+  p.surface.thickness_m = 0.2;
+  refused(p, "thickness_m");
+  p = params();
+  p.surface.plane_merge_angle_rad = 0.2;
+  refused(p, "plane_merge_angle_rad");
+  p = params();
+  p.surface.merge_rule = planar_grid::SurfaceMergeRule::PAPER;
+  refused(p, "merge_rule");
+  p = params();
+  p.surface.close_gaps_cells = 3;
+  refused(p, "close_gaps_cells");
+  // the parameters of later integration are this map's: no refusal
+  p = params();
+  p.space.max_range_m = 30.0;
+  p.clear_planar = true;
+  EXPECT_NO_THROW(map.merge(PlanarGridMap(p), Eigen::Isometry3d::Identity()));
+  // a map into itself, a transform that is not rigid
+  EXPECT_THROW(map.merge(map, Eigen::Isometry3d::Identity()), planar_grid::Exception);
+  Eigen::Isometry3d scaled = Eigen::Isometry3d::Identity();
+  scaled.linear() *= 2.0;
+  EXPECT_THROW(map.merge(PlanarGridMap(params()), scaled), planar_grid::Exception);
+  Eigen::Isometry3d nan = Eigen::Isometry3d::Identity();
+  nan.translation().x() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(map.merge(PlanarGridMap(params()), nan), planar_grid::Exception);
+  EXPECT_EQ(bytesOf(map), before);
+}
+
+} // namespace
