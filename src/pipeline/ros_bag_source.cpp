@@ -25,6 +25,7 @@
 #include "cloud_blob.h"
 #include "ros_bag_input.h"
 #include "ros_messages.h"
+#include "stereo_pair_check.h"
 
 namespace planar_grid {
 
@@ -218,6 +219,15 @@ public:
       resize(static_cast<std::size_t>(input.frame_count));
     if (input.poses_format == PoseFormat::TF)
       readPoses();
+    if (stereo_ && !stamps_.empty()) {
+      // The first pair before any frame runs: swapped topics or one camera's images
+      // on both would run to the end and map next to nothing.
+      Frame first;
+      load(0, first);
+      const std::string at = bag_.path() + ": ";
+      checkStereoPairOrder(first.left, first.right, at + config_.left_image_topic,
+                           at + config_.right_image_topic);
+    }
     std::ostringstream text;
     if (stereo_)
       text << stamps_.size() << " stereo pairs from " << config_.file << " ("

@@ -53,8 +53,8 @@ checkStereoPairOrder(const cv::Mat& left,
   if (highest > lowest && left.size() == right.size() && left.type() == right.type()
       && cv::norm(left, right, cv::NORM_INF) == 0.0)
     throw IOError(right_path + ": the right image is the left image (" + left_path
-                  + ") pixel for pixel: no disparity, no depth (are input.left_images "
-                    "and input.right_images the same files?)");
+                  + ") pixel for pixel: no disparity, no depth (do the left and "
+                    "right inputs name the same images?)");
   const StereoPairOrder order = countStereoPairOrder(left, right);
   const std::size_t nonzero = order.positive + order.negative;
   if (nonzero >= 40 && order.negative * 4 > nonzero * 3)
@@ -63,7 +63,9 @@ checkStereoPairOrder(const cv::Mat& left,
       + std::to_string(order.negative) + " of the " + std::to_string(nonzero)
       + " features matched on the same row lie further right in the left "
         "image than in the right one ("
-      + right_path + "); exchange input.left_images and input.right_images");
+      + right_path
+      + "); exchange the left and right inputs (input.left_images and right_images; a "
+        "bag's input.left_image and right_image)");
 }
 
 } // namespace planar_grid

@@ -197,6 +197,18 @@ protected:
     return path;
   }
 
+  /** The message of the IOError that making the frame source of \a yaml throws, ""
+   * when it is made. */
+  std::string sourceErrorOrEmpty(const std::string& yaml) const
+  {
+    try {
+      planar_grid::createFrameSource(parsePipelineConfig(yaml, "t.yaml", "/").input);
+    } catch (const planar_grid::IOError& e) {
+      return e.what();
+    }
+    return "";
+  }
+
   /** The message of the IOError that making the frame source of \a yaml throws. */
   std::string sourceError(const std::string& yaml) const
   {
@@ -530,6 +542,23 @@ TEST_F(RosBagInputTest, BadBagsNameTheFileAndTopic)
   what = sourceError("input:\n  type: ros_bag\n  file: " + text
                      + "\n  cloud: /points\npipeline:\n  - type: voxel_grid\n");
   EXPECT_NE(what.find(text), std::string::npos) << what;
+}
+
+TEST_F(RosBagInputTest, SwappedImageTopicsAreRefusedBeforeTheFirstFrame)
+{
+  const std::string bag = writeStereoBag({});
+  std::string yaml = stereoInput(bag, "") + "pipeline:\n  - type: stereo_disparity\n";
+  const std::string topics =
+    "left_image: /left/image_rect\n  right_image: /right/image_rect";
+  ASSERT_NE(yaml.find(topics), std::string::npos);
+  EXPECT_EQ(sourceErrorOrEmpty(yaml), "");
+  yaml.replace(yaml.find(topics), topics.size(),
+               "left_image: /right/image_rect\n  right_image: /left/image_rect");
+  const std::string what = sourceError(yaml);
+  EXPECT_NE(
+    what.find(bag + ": /right/image_rect: the left and right images look swapped"),
+    std::string::npos)
+    << what;
 }
 
 TEST_F(RosBagInputTest, TfChainThatDoesNotReachTheFrameIsAnError)
