@@ -14,7 +14,7 @@ PACKAGES=(
   libdynamicedt3d-dev       # OctoMap's distance transform, the peer of bench_map_queries
   xvfb xauth clang-format git
   doxygen
-  python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest
+  python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest mypy
   python3-open3d            # the Python examples and their tests (Open3D loads the scan)
   # ROS 1 bag input (optional; off in a build without them)
   librosbag-storage-dev libsensor-msgs-dev libgeometry-msgs-dev libtf2-msgs-dev
