@@ -52,6 +52,10 @@ paramsDict(const PlanarGridMap::Params& p)
   d["close_gaps_cells"] = p.surface.close_gaps_cells;
   d["merge_rule"] = toString(p.surface.merge_rule);
   d["cover_density"] = p.surface.cover_density;
+  d["clear_non_planar"] = p.clear_non_planar;
+  d["clear_planar"] = p.clear_planar;
+  d["planes_replace_non_planar"] = p.planes_replace_non_planar;
+  d["planes_absorb_overlapping"] = p.planes_absorb_overlapping;
   return d;
 }
 
@@ -110,6 +114,17 @@ merge_rule : {"min_rectangles", "paper", "density"}, optional
 cover_density : float, optional
     With merge_rule "density": smallest share of a rectangle's cells that are the
     plane's cells of its occupancy class, in [0.5, 1] (default 0.9, the paper's D_T).
+clear_non_planar : bool, optional
+    A view's free space removes the non-planar cells it sees through (default True).
+clear_planar : bool, optional
+    The same for planar cells (default False).
+planes_replace_non_planar : bool, optional
+    Non-planar cells lying on a map plane are removed (default True).
+planes_absorb_overlapping : bool, optional
+    A weaker plane's rectangles lying on a plane join it (default True).
+
+The defaults are the pipeline's map_integration defaults (one Params struct); a map
+built here with the keys of a configuration's map_integration stage matches the tool's.
 
 Raises
 ------
@@ -127,8 +142,13 @@ Maps are not copied (copy.copy raises); pickling goes through the map file forma
                      double plane_merge_angle_rad, double plane_merge_distance_m,
                      double occupancy_thres, double feature_distance_m,
                      int close_gaps_cells, const std::string& merge_rule,
-                     double cover_density) {
+                     double cover_density, bool clear_non_planar, bool clear_planar,
+                     bool planes_replace_non_planar, bool planes_absorb_overlapping) {
            Map::Params p;
+           p.clear_non_planar = clear_non_planar;
+           p.clear_planar = clear_planar;
+           p.planes_replace_non_planar = planes_replace_non_planar;
+           p.planes_absorb_overlapping = planes_absorb_overlapping;
            p.resolution_m = resolution_m;
            p.space.max_range_m = max_range_m;
            p.space.surface_margin_m = surface_margin_m;
@@ -167,7 +187,11 @@ Maps are not copied (copy.copy raises); pickling goes through the map file forma
          py::arg("feature_distance_m") = d.surface.feature_distance_m,
          py::arg("close_gaps_cells") = d.surface.close_gaps_cells,
          py::arg("merge_rule") = toString(d.surface.merge_rule),
-         py::arg("cover_density") = d.surface.cover_density)
+         py::arg("cover_density") = d.surface.cover_density,
+         py::arg("clear_non_planar") = d.clear_non_planar,
+         py::arg("clear_planar") = d.clear_planar,
+         py::arg("planes_replace_non_planar") = d.planes_replace_non_planar,
+         py::arg("planes_absorb_overlapping") = d.planes_absorb_overlapping)
     .def_static(
       "load",
       [](const py::object& path) {

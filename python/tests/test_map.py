@@ -270,3 +270,30 @@ def test_one_point_queries_take_a_3_vector_and_give_its_value(scanned_map):
     assert m.get_state([5.05, 0.05, 0.05]) == pg.SpaceState.OCCUPIED
     with pytest.raises(ValueError, match=r"\(N, 3\) array .* or one \(3,\) point"):
         m.get_state([1.0, 2.0])
+
+
+def test_the_map_defaults_are_the_pipelines_map_integration_defaults():
+    # One Params struct: every key PlanarGridMap() takes has map_integration's default,
+    # read from the stage table that --list-stages prints.
+    import re
+    described = pg.stage_types()["map_integration"]
+    defaults = {}
+    for line in described.splitlines():
+        match = re.match(r"    (\w+)\s+.*?default ([^,\s]+)", line)
+        if match:
+            defaults[match.group(1)] = match.group(2)
+    params = pg.PlanarGridMap().params
+    for key, value in params.items():
+        assert key in defaults, key
+        if isinstance(value, bool):
+            assert defaults[key] == ("true" if value else "false"), key
+        elif isinstance(value, str):
+            assert defaults[key] == value, key
+        else:
+            assert float(defaults[key]) == pytest.approx(value), key
+    assert len(params) == 16
+    # A configuration's map_integration keys give the tool's map.
+    m = pg.PlanarGridMap(plane_merge_distance_m=0.2, merge_rule="density",
+                         cover_density=0.7, planes_absorb_overlapping=False)
+    assert m.params["planes_absorb_overlapping"] is False
+    assert m.params["merge_rule"] == "density"
