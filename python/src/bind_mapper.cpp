@@ -23,6 +23,19 @@ namespace {
 /** \brief Any array-like converted to a C-contiguous uint8 array. */
 using ByteArray = py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>;
 
+/** \a image as a C-contiguous uint8 array: another dtype is refused rather than cast
+ * (a float image in [0, 1] would become a black one). */
+ByteArray
+toByteImage(const py::array& image, const char* name)
+{
+  if (!image.dtype().is(py::dtype::of<std::uint8_t>()))
+    throw py::value_error(
+      std::string(name) + " must be an (H, W) uint8 array (8-bit grey), got dtype "
+      + py::str(image.dtype()).cast<std::string>()
+      + "; convert it first (a float image in [0, 1]: (image * 255).astype(np.uint8))");
+  return ByteArray::ensure(image);
+}
+
 /** An (H, W) uint8 array as a cv::Mat over the same memory (no copy). */
 cv::Mat
 toImage(const ByteArray& image, const char* name)
@@ -197,8 +210,10 @@ planar_grid.Error
          py::arg("config"))
     .def(
       "integrate_stereo",
-      [](Mapper& self, const ByteArray& left, const ByteArray& right,
+      [](Mapper& self, const py::array& left_array, const py::array& right_array,
          const py::dict& calibration, const py::object& world_T_camera) {
+        const ByteArray left = toByteImage(left_array, "left");
+        const ByteArray right = toByteImage(right_array, "right");
         const cv::Mat l = toImage(left, "left");
         const cv::Mat r = toImage(right, "right");
         const StereoCalibration c = toCalibration(calibration);

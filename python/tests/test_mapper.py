@@ -79,6 +79,14 @@ def test_bad_input_raises(main_job):
         mapper.integrate_stereo(np.zeros((4, 4, 3)), f["right"], f["calibration"])
     with pytest.raises(pg.Error, match="takes stereo pairs"):
         mapper.integrate_cloud(np.ones((10, 3)), np.eye(4))
+    # A float image is not cast (one in [0, 1] would become black).
+    with pytest.raises(ValueError, match="uint8 array .* got dtype float32"):
+        mapper.integrate_stereo(f["left"].astype(np.float32) / 255, f["right"],
+                                f["calibration"], f["world_T_camera"])
+    # The first pair passed the wrong way round.
+    with pytest.raises(pg.Error, match="the left and right images look swapped"):
+        mapper.integrate_stereo(f["right"], f["left"], f["calibration"],
+                                f["world_T_camera"])
     assert mapper.frame_count == 0
 
 

@@ -11,6 +11,8 @@
 #include <limits>
 #include <string>
 
+#include "stereo_pair_check.h"
+
 namespace planar_grid {
 
 namespace {
@@ -159,6 +161,15 @@ Mapper::integrateStereoPair(const cv::Mat& left,
     calibration.validate("the calibration");
   } catch (const IOError& e) {
     throw Exception(std::string("Mapper::integrateStereo: ") + e.what());
+  }
+  if (frames_ == 0) {
+    // Swapped or doubled images would be mapped frame after frame into next to nothing.
+    try {
+      checkStereoPairOrder(left, right, "the left image", "the right image",
+                           "pass the images the other way round");
+    } catch (const IOError& e) {
+      throw Exception(std::string("Mapper::integrateStereo: ") + e.what());
+    }
   }
   image_size_ = left.size();
   Frame frame;

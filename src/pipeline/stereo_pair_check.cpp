@@ -45,7 +45,8 @@ void
 checkStereoPairOrder(const cv::Mat& left,
                      const cv::Mat& right,
                      const std::string& left_path,
-                     const std::string& right_path)
+                     const std::string& right_path,
+                     const std::string& remedy)
 {
   // Two uniform images (a lens cap, darkness) are equal without being one image.
   double lowest = 0.0, highest = 0.0;
@@ -58,14 +59,12 @@ checkStereoPairOrder(const cv::Mat& left,
   const StereoPairOrder order = countStereoPairOrder(left, right);
   const std::size_t nonzero = order.positive + order.negative;
   if (nonzero >= 40 && order.negative * 4 > nonzero * 3)
-    throw IOError(
-      left_path + ": the left and right images look swapped: "
-      + std::to_string(order.negative) + " of the " + std::to_string(nonzero)
-      + " features matched on the same row lie further right in the left "
-        "image than in the right one ("
-      + right_path
-      + "); exchange the left and right inputs (input.left_images and right_images; a "
-        "bag's input.left_image and right_image)");
+    throw IOError(left_path + ": the left and right images look swapped: "
+                  + std::to_string(order.negative) + " of the "
+                  + std::to_string(nonzero)
+                  + " features matched on the same row lie further right in the left "
+                    "image than in the right one ("
+                  + right_path + "); " + remedy);
 }
 
 } // namespace planar_grid

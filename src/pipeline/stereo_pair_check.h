@@ -28,14 +28,19 @@ struct StereoPairOrder {
 StereoPairOrder countStereoPairOrder(const cv::Mat& left, const cv::Mat& right);
 
 /** \brief Throws planar_grid::IOError naming both images when the pair is one image
- * given twice (identical pixels, not all of one value) or looks swapped: at least 40 row-aligned matches with
- * a non-zero disparity, and more than 3/4 of them negative. Nothing is thrown for a
- * pair whose features say nothing (too little texture).
+ * given twice (identical pixels, not all of one value) or looks swapped: at least 40
+ * row-aligned matches with a non-zero disparity, and more than 3/4 of them negative.
+ * Nothing is thrown for a pair whose features say nothing (too little texture).
  * \param[in] left, right 8-bit grey images of one size (a rectified pair)
- * \param[in] left_path, right_path the files, for the message */
+ * \param[in] left_path, right_path the files, for the message
+ * \param[in] remedy what to exchange, for the message of a swapped pair */
 void checkStereoPairOrder(const cv::Mat& left,
                           const cv::Mat& right,
                           const std::string& left_path,
-                          const std::string& right_path);
+                          const std::string& right_path,
+                          const std::string& remedy =
+                            "exchange the left and right inputs (input.left_images "
+                            "and right_images; a bag's input.left_image and "
+                            "right_image)");
 
 } // namespace planar_grid

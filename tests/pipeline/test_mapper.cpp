@@ -243,6 +243,13 @@ TEST_F(MapperTest, BadInputThrowsWithAClearMessage)
   // No pose, and the main job's poses come from the input, not visual_odometry.
   expectThrowWith([&] { mapper.integrateStereo(frame.left, frame.right, calibration); },
                   "has no visual_odometry stage to estimate it: pass world_T_camera");
+  // The first pair the wrong way round, or one image twice.
+  expectThrowWith(
+    [&] { mapper.integrateStereo(frame.right, frame.left, calibration, pose); },
+    "the left and right images look swapped");
+  expectThrowWith(
+    [&] { mapper.integrateStereo(frame.left, frame.left.clone(), calibration, pose); },
+    "the right image is the left image");
   planar_grid::Mapper::PointCloud cloud;
   cloud.push_back(pcl::PointXYZ(1.0f, 0.0f, 2.0f));
   expectThrowWith([&] { mapper.integrateCloud(cloud, pose); },
