@@ -233,6 +233,13 @@ public:
 
   std::size_t size() const override { return count_; }
 
+  std::vector<InputFile> frameFiles(std::size_t i) const override
+  {
+    const int index = first_index_ + static_cast<int>(i);
+    return {{left_.format(index), "the left image (input.left_images)"},
+            {right_.format(index), "the right image (input.right_images)"}};
+  }
+
   void load(std::size_t i, Frame& frame) const override
   {
     const int index = first_index_ + static_cast<int>(i);
@@ -450,6 +457,11 @@ public:
   }
 
   std::size_t size() const override { return files_.size(); }
+
+  std::vector<InputFile> frameFiles(std::size_t i) const override
+  {
+    return {{files_[i], "the PCD file (input.files)"}};
+  }
 
   void load(std::size_t i, Frame& frame) const override
   {
@@ -709,6 +721,11 @@ public:
   const Trajectory& poses() const override { return poses_; }
 
   std::vector<InputFile> files() const override { return source_->files(); }
+
+  std::vector<InputFile> frameFiles(std::size_t i) const override
+  {
+    return source_->frameFiles(i % source_->size());
+  }
 
   bool camera(StereoCalibration& calibration) const override
   {

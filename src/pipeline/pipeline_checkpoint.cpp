@@ -28,10 +28,11 @@ namespace planar_grid {
 namespace {
 
 /** Magic ("PGCK") and version of the checkpoint file. Version 2 adds the size and
- * content hash of the small files the run read at its start; version 1 files are
- * still read, without that check. */
+ * content hash of the small files the run read at its start, version 3 those of the
+ * frame files (images, clouds) of the frames before the checkpoint; older versions
+ * are still read, without those checks. */
 constexpr std::uint32_t CHECKPOINT_MAGIC = 0x4B434750u;
-constexpr std::uint32_t CHECKPOINT_VERSION = 2;
+constexpr std::uint32_t CHECKPOINT_VERSION = 3;
 
 /** The size in bytes and the 64-bit FNV-1a hash (offset basis 14695981039346656037,
  * prime 1099511628211) of the file \a path, read in blocks. \throws IOError naming
@@ -238,6 +239,21 @@ PipelineRunner::writeCheckpoint(std::size_t next_frame, const RunReport& report)
   }
   w.put(static_cast<std::uint64_t>(begin_));
   w.put(static_cast<std::uint64_t>(next_frame));
+  // The frames' own files, stamped once each: those read since the last checkpoint.
+  for (std::size_t i = std::max(frame_stamps_until_, begin_); i < next_frame; ++i)
+    for (const InputFile& file : source_->frameFiles(i)) {
+      const std::string what = file.what + " of frame " + std::to_string(i);
+      const auto [size, hash] = sizeAndHash(file.path, what);
+      frame_stamps_.push_back({what, file.path, size, hash});
+    }
+  frame_stamps_until_ = std::max(frame_stamps_until_, next_frame);
+  w.put(static_cast<std::uint64_t>(frame_stamps_.size()));
+  for (const auto& stamp : frame_stamps_) {
+    w.putString(stamp.what);
+    w.putString(stamp.path);
+    w.put(stamp.size);
+    w.put(stamp.hash);
+  }
 
   // The report so far, so that the resumed run reports the whole run.
   w.put(static_cast<std::uint64_t>(report.frames));
@@ -395,6 +411,24 @@ PipelineRunner::resumeFrom(const std::string& path)
     r.fail("frame positions " + std::to_string(resume->first_frame) + ".."
            + std::to_string(resume->next_frame) + " do not fit the input's "
            + std::to_string(source_->size()) + " frames");
+  if (version >= 3) {
+    // The map holds what these files held: a file changed since would leave the
+    // resumed map unlike a new run's.
+    resume->frame_stamps.resize(r.getCount(4 * 8, "frame file"));
+    for (auto& stamp : resume->frame_stamps) {
+      stamp.what = r.getString("frame file");
+      stamp.path = r.getString("frame file");
+      stamp.size = r.get<std::uint64_t>();
+      stamp.hash = r.get<std::uint64_t>();
+      const auto [size, hash] = sizeAndHash(stamp.path, stamp.what);
+      if (size != stamp.size || hash != stamp.hash)
+        r.fail(stamp.what + " " + stamp.path
+               + " changed since the checkpoint was written ("
+               + std::to_string(stamp.size) + " bytes then, " + std::to_string(size)
+               + " bytes now; its content differs): the map holds what it held; start "
+                 "a new run without --resume");
+    }
+  }
 
   RunReport& report = resume->report;
   report.frames = static_cast<std::size_t>(r.get<std::uint64_t>());

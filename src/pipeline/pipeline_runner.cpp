@@ -389,6 +389,8 @@ PipelineRunner::run()
   start();
 
   std::size_t first = begin_;
+  frame_stamps_.clear();
+  frame_stamps_until_ = 0;
   if (resume_) {
     // A resumed run: the state and the report as they were after the checkpoint's
     // frame.
@@ -406,6 +408,10 @@ PipelineRunner::run()
                             resume.stage_states[s].size());
     first = resume.next_frame;
     report_.resumed_at_frame = first;
+    if (!resume.frame_stamps.empty()) {
+      frame_stamps_ = std::move(resume.frame_stamps);
+      frame_stamps_until_ = first;
+    }
     resume_.reset();
   }
 

@@ -25,6 +25,8 @@ struct PipelineRunner::ResumeData {
   PipelineState state;
   /** Stage::saveState() of each stage, in order. */
   std::vector<std::vector<std::uint8_t>> stage_states;
+  /** The frame files' stamps the checkpoint recorded (version 3), all checked. */
+  std::vector<InputStamp> frame_stamps;
 };
 
 } // namespace planar_grid

@@ -948,6 +948,21 @@ TEST_F(BadStereoInputTest, ResumeRefusesAnInputFileThatChangedSinceTheCheckpoint
                   "the configuration file " + yaml_path.string() + " changed since");
   std::ofstream(yaml_path) << yaml;
   EXPECT_EQ(resumeError(), "");
+
+  // An image of a frame before the checkpoint (the map holds what it held); an image
+  // of a frame after it is read by the resumed run and changes nothing.
+  const std::string image = contentOf(dir_ / "right" / rightName(0));
+  cv::Mat other = cv::imread((dir_ / "right" / rightName(1)).string());
+  ASSERT_TRUE(cv::imwrite((dir_ / "right" / rightName(0)).string(), other));
+  what = resumeError();
+  EXPECT_CONTAINS(what, "the right image (input.right_images) of frame 0 "
+                          + (dir_ / "right" / rightName(0)).string()
+                          + " changed since the checkpoint was written");
+  std::ofstream(dir_ / "right" / rightName(0), std::ios::binary) << image;
+  EXPECT_EQ(resumeError(), "");
+  cv::Mat later = cv::imread((dir_ / "left" / leftName(1)).string());
+  ASSERT_TRUE(cv::imwrite((dir_ / "left" / leftName(2)).string(), later));
+  EXPECT_EQ(resumeError(), "");
 }
 
 TEST_F(BadStereoInputTest, NonRegularFilesAreRefusedBeforeTheyAreRead)

@@ -54,6 +54,15 @@ public:
    * calibration, the poses file, the ROS bag (the configuration file is not the
    * input's). */
   virtual std::vector<InputFile> files() const = 0;
+
+  /** \brief The files frame \a i (0-based) reads: its images or its cloud (none for
+   * a ROS bag's frames, which live in the bag). A checkpoint records their size and
+   * hash, so that a resume finds a frame file that changed since. */
+  virtual std::vector<InputFile> frameFiles(std::size_t i) const
+  {
+    (void)i;
+    return {};
+  }
 };
 
 /** \brief The frame source of an input configuration: checks that the files exist, that

@@ -359,6 +359,11 @@ private:
   /** \brief The input files' stamps when the checkpoints were set up, before the
    * first frame; every checkpoint records them. */
   std::vector<InputStamp> input_stamps_;
+  /** \brief The stamps of the frame files (FrameSource::frameFiles()) of the frames
+   * before frame_stamps_until_, taken when a checkpoint is written (the files are
+   * read again then, from the page cache) and recorded by every later one. */
+  mutable std::vector<InputStamp> frame_stamps_;
+  mutable std::size_t frame_stamps_until_{0};
   std::unique_ptr<ResumeData> resume_;
   bool overlap_{true};
   /** \brief setStopFlag()'s flag, or nullptr. */
