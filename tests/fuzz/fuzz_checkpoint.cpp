@@ -17,8 +17,6 @@
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_types.h>
 
-#include <unistd.h>
-
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -40,8 +38,10 @@ struct Job {
 
   Job()
   {
-    dir = fs::temp_directory_path()
-          / ("planar_grid_fuzz_checkpoint_" + std::to_string(::getpid()));
+    // One name for every process: a checkpoint records the paths of the files it
+    // read, so the seeds only resume past those records where the paths are the same.
+    // (One fuzzing process per target at a time.)
+    dir = fs::temp_directory_path() / "planar_grid_fuzz_checkpoint";
     fs::create_directories(dir);
     std::ofstream poses(dir / "poses.txt");
     for (int f = 0; f < 3; ++f) {
