@@ -257,6 +257,7 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
       EXPECT_DOUBLE_EQ(row->map_completeness, row->completeness) << row->method;
     }
     EXPECT_GE(pg.map_covered_voxels, pg.covered_voxels) << r;
+    EXPECT_EQ(pg.map_covered_voxels, pg.truth_voxels) << r;
     EXPECT_DOUBLE_EQ(pg.map_completeness, static_cast<double>(pg.map_covered_voxels)
                                             / static_cast<double>(pg.truth_voxels));
     // The mapped range: map_integration's max_range_m (25 m by default), the only
@@ -447,6 +448,14 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
     EXPECT_DOUBLE_EQ(by.at({place, "SG"}).completeness, 1.0) << place;
     EXPECT_GT(by.at({place, "PG"}).completeness, 0.5) << place;
     EXPECT_GT(by.at({place, "PG"}).planar_share, 0.5) << place;
+    // PG's whole map: its space layer holds the voxel of every measured point, as SG
+    // does, so it covers every truth voxel too, more than its cuboids alone.
+    EXPECT_EQ(by.at({place, "PG"}).map_covered_voxels,
+              by.at({place, "SG"}).covered_voxels)
+      << place;
+    EXPECT_LT(by.at({place, "PG"}).covered_voxels,
+              by.at({place, "PG"}).map_covered_voxels)
+      << place;
     EXPECT_TRUE(std::isnan(by.at({place, "RA"}).planar_share)) << place;
     EXPECT_EQ(by.at({place, "SG"}).erroneous, 0u) << place;
     EXPECT_EQ(by.at({place, "PG"}).planar_erroneous, 0u) << place;
