@@ -659,10 +659,60 @@ evaluateMapCompleteness(const PlanarGridMap& map,
   const double r = map.getParams().resolution_m;
   checkTruthResolution(truth, r, "the map");
   const double thres = map.getParams().surface.occupancy_thres;
+  const PlanarCuboids cuboids = map.getSurfaceLayer().getCuboids();
   LatticeCompleteness lattice(truth, tolerance_m, region);
   if (lattice.hasCounted()) {
-    // The space layer's occupied voxels a query reads OCCUPIED: a voxel whose centre
-    // lies in a cuboid below the threshold reads FREE there.
+    // getState() at a point: the lowest-index cuboid containing it decides (occupied
+    // at probability >= the threshold), else the space layer. It is evaluated here on
+    // a bin hash of the cuboids rather than through the map, whose query index would
+    // stay allocated and count in the map's memory, measured next to this.
+    const double bin_m = 8.0 * r;
+    const auto binOf = [bin_m](double x) {
+      return static_cast<std::int64_t>(std::floor(x / bin_m));
+    };
+    const auto binKey = [](std::int64_t x, std::int64_t y, std::int64_t z) {
+      const auto field = [](std::int64_t i) {
+        return static_cast<std::uint64_t>(i + (1 << 20))
+               & ((std::uint64_t{1} << 21) - 1);
+      };
+      return (field(z) << 42) | (field(y) << 21) | field(x);
+    };
+    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> bins;
+    bool any_free = false;
+    for (std::size_t i = 0; i < cuboids.size(); ++i) {
+      const PlanarCuboid& c = cuboids[i];
+      any_free = any_free || static_cast<double>(c.probability) < thres;
+      const Eigen::Vector3d half(0.5 * c.width_m, 0.5 * c.height_m,
+                                 0.5 * c.thickness_m);
+      const Eigen::Vector3d extent =
+        c.horizontal_axis.cast<double>().cwiseAbs() * half.x()
+        + c.verticalAxis().cast<double>().cwiseAbs() * half.y()
+        + c.normal.cast<double>().cwiseAbs() * half.z();
+      const Eigen::Vector3d lo = c.centre.cast<double>() - extent;
+      const Eigen::Vector3d hi = c.centre.cast<double>() + extent;
+      // Cuboids with non-finite fields contain no point; a bin index beyond the packed
+      // range (a cuboid 1e5 bins away) is left out with them.
+      if (!lo.allFinite() || !hi.allFinite()
+          || (lo.array().abs() / bin_m > double{1 << 19}).any()
+          || (hi.array().abs() / bin_m > double{1 << 19}).any())
+        continue;
+      for (std::int64_t z = binOf(lo.z()); z <= binOf(hi.z()); ++z)
+        for (std::int64_t y = binOf(lo.y()); y <= binOf(hi.y()); ++y)
+          for (std::int64_t x = binOf(lo.x()); x <= binOf(hi.x()); ++x)
+            bins[binKey(x, y, z)].push_back(static_cast<std::uint32_t>(i));
+    }
+    const auto readsOccupied = [&](const Eigen::Vector3f& p) {
+      if (!any_free)
+        return true;
+      const auto it = bins.find(binKey(binOf(p.x()), binOf(p.y()), binOf(p.z())));
+      if (it == bins.end())
+        return true;
+      // The bin's list is in increasing cuboid index: the first containing one decides.
+      for (const std::uint32_t i : it->second)
+        if (cuboids[i].contains(p))
+          return static_cast<double>(cuboids[i].probability) >= thres;
+      return true;
+    };
     const ExplicitSpaceGrid& space = map.getSpaceLayer();
     const VoxelIndex& lo = lattice.getClipMin();
     const VoxelIndex& hi = lattice.getClipMax();
@@ -670,15 +720,15 @@ evaluateMapCompleteness(const PlanarGridMap& map,
       SpaceState::OCCUPIED, [&](const ExplicitSpaceGrid::VoxelKey& k) {
         if ((k.array() < lo.array()).any() || (k.array() > hi.array()).any())
           return;
-        if (map.getState(space.toCentre(k)) == SpaceState::OCCUPIED)
+        if (readsOccupied(space.toCentre(k)))
           lattice.add(k);
       });
   }
   std::vector<std::uint8_t> covered;
   lattice.cover(covered);
   // The truth voxels no voxel covers, against the occupied cuboids.
-  coverByCuboids(map.getSurfaceLayer().getCuboids(), thres, false, truth,
-                 lattice.getCounted(), tolerance_m, covered);
+  coverByCuboids(cuboids, thres, false, truth, lattice.getCounted(), tolerance_m,
+                 covered);
   return tally(truth, lattice.getCounted(), covered);
 }
 

@@ -910,7 +910,10 @@ TEST(Completeness, WholeMapCoversWithBothLayers)
   for (int y = 10; y <= 14; ++y)
     for (int z = 0; z < 20; ++z)
       map.getSpaceLayer().setState({10, y, z}, planar_grid::SpaceState::OCCUPIED);
+  // Measuring leaves the map's memory as it was (no query index kept).
+  const std::size_t memory_bytes = map.getMemory().total_bytes;
   Completeness whole = planar_grid::evaluateMapCompleteness(map, voxels, RESOLUTION_M);
+  EXPECT_EQ(map.getMemory().total_bytes, memory_bytes);
   EXPECT_EQ(whole.truth_voxels, 400u);
   EXPECT_EQ(whole.covered, (6u + 7u) * 20u);
   EXPECT_DOUBLE_EQ(whole.ratio(), 13.0 / 20.0);
