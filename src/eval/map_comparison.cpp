@@ -189,7 +189,33 @@ struct Lane {
   std::unique_ptr<TruthVoxels> truth_voxels;
   /** Time spent on the completeness and planar share (and the truth voxels), ms. */
   double completeness_ms{0.0};
+  /** The views of the frames mapped so far already added to truth_voxels' range. */
+  std::size_t views_added{0};
 };
+
+/** The frames mapped so far, for the mapped range, and its depth. */
+struct MappedViews {
+  double max_depth_m{std::numeric_limits<double>::infinity()};
+  std::vector<RangeView, Eigen::aligned_allocator<RangeView>> views;
+};
+
+/** The view of \a frame for the mapped range: its pose and, for stereo input, its
+ * image (the calibration's size, else the left image's). */
+RangeView
+rangeView(const Frame& frame)
+{
+  RangeView view;
+  view.world_T_camera = frame.world_T_camera;
+  const StereoCalibration& c = frame.calibration;
+  if (c.focal_length_px > 0.0) {
+    view.focal_length_px = c.focal_length_px;
+    view.cx_px = c.cx_px;
+    view.cy_px = c.cy_px;
+    view.width_px = c.width > 0 ? c.width : frame.left.cols;
+    view.height_px = c.height > 0 ? c.height : frame.left.rows;
+  }
+  return view;
+}
 
 /** The ground truth of \a ds (TruthConfig); \a first_frame gives the DISPARITY truth
  * its calibration and pose, \a reference holds the REFERENCE voxels. */
@@ -246,6 +272,7 @@ std::vector<ComparisonRow>
 measureLane(Lane& lane,
             const ComparisonRow& base,
             const GroundTruthSurface& truth,
+            const MappedViews& mapped,
             double tolerance_m,
             const MappingErrorRegion* region,
             const MethodTimes& ms,
@@ -265,16 +292,29 @@ measureLane(Lane& lane,
   const MappingErrorRegion everywhere;
   const MappingErrorRegion& truth_region = region ? *region : everywhere;
   auto completeness_start = Clock::now();
-  if (!lane.truth_voxels)
+  if (!lane.truth_voxels) {
     lane.truth_voxels = std::make_unique<TruthVoxels>(truth, r);
+    lane.truth_voxels->setMappedRange(mapped.max_depth_m);
+  }
+  // The range grows with the frames mapped: the views since the last measurement.
+  for (; lane.views_added < mapped.views.size(); ++lane.views_added)
+    lane.truth_voxels->addView(mapped.views[lane.views_added]);
   const TruthVoxels& truth_voxels = *lane.truth_voxels;
+  // SG's, OG's and RA's maps are their occupied cells alone: the whole map's
+  // completeness is theirs; PG's is measured on both layers below.
   const auto applyCompleteness = [&](ComparisonRow& row, const Completeness& c) {
     row.truth_voxels = c.truth_voxels;
     row.covered_voxels = c.covered;
     row.completeness = c.ratio();
+    row.map_covered_voxels = c.covered;
+    row.map_completeness = c.ratio();
     row.nonground_voxels = c.nonground_voxels;
     row.nonground_covered_voxels = c.nonground_covered;
     row.nonground_completeness = c.nongroundRatio();
+    row.mapped_range_m = mapped.max_depth_m;
+    row.range_nonground_voxels = c.range_nonground_voxels;
+    row.range_nonground_covered_voxels = c.range_nonground_covered;
+    row.range_nonground_completeness = c.rangeNongroundRatio();
   };
   lane.completeness_ms += msSince(completeness_start);
 
@@ -360,6 +400,12 @@ measureLane(Lane& lane,
     evaluatePlanarShare(cuboids, thres, truth_voxels, tolerance_m, truth_region);
   pg.planar_covered_voxels = planar_share.covered;
   pg.planar_share = planar_share.ratio();
+  pg.range_planar_covered_voxels = planar_share.range_nonground_covered;
+  pg.range_planar_share = planar_share.rangeNongroundRatio();
+  const Completeness whole_map =
+    evaluateMapCompleteness(map, truth_voxels, tolerance_m, truth_region);
+  pg.map_covered_voxels = whole_map.covered;
+  pg.map_completeness = whole_map.ratio();
   lane.completeness_ms += msSince(completeness_start);
 
   std::vector<ComparisonRow> rows{sg, og, ra, pg};
@@ -409,6 +455,29 @@ insertBaselines(Lane& lane, const Frame& frame)
 }
 
 } // namespace
+
+double
+mappedRange(const PipelineConfig& pipeline, const StereoCalibration& calibration)
+{
+  double range_m = std::numeric_limits<double>::infinity();
+  for (const auto& sc : pipeline.stages) {
+    if (sc.type == "stereo_disparity" || sc.type == "map_integration") {
+      range_m = std::min(range_m, sc.params.getDouble("max_range_m"));
+    } else if (sc.type == "depth_error_filter") {
+      // Eq. 4: Delta z = z^2 Delta d / (B f) <= max  <=>  z <= sqrt(max / Delta z(1
+      // m)), as the stage computes it; the points up to the plane bound may still make
+      // planar cells.
+      const double error_at_1m =
+        calibration.depthError(1.0, sc.params.getDouble("disparity_error_px"));
+      const double max_error_m =
+        std::max(sc.params.getDouble("max_depth_error_m"),
+                 sc.params.getDouble("max_plane_depth_error_m"));
+      if (std::isfinite(error_at_1m) && error_at_1m > 0.0)
+        range_m = std::min(range_m, std::sqrt(max_error_m / error_at_1m));
+    }
+  }
+  return range_m;
+}
 
 std::vector<ComparisonRow>
 runComparison(const ComparisonConfig& config,
@@ -485,69 +554,73 @@ runComparison(const ComparisonConfig& config,
     std::unique_ptr<GroundTruthSurface> truth;
     std::string truth_kind;
     Frame first_frame;
+    MappedViews mapped;
     std::size_t frames = 0;
     std::size_t next_place = 0;
     // Each frame, after the front end: the mapping stages and SG and OG at every cell
     // size, then the place it may be.
-    front.setFrameCallback(
-      [&](std::size_t i, Frame& frame, const std::vector<double>& front_ms) {
-        double kl_ms = 0.0;
-        for (std::size_t st = 0; st < front_ms.size(); ++st)
-          if (front_config.stages[st].type == "kl_occupancy_filter")
-            kl_ms += front_ms[st]; // the occupancy of the features is PG's work
-        if (frames == 0)
-          first_frame = frame;
-        if (ds.truth.type == TruthConfig::Type::REFERENCE && !reference_first)
-          reference.addFrame(worldPoints(frame));
-        for (Lane& lane : lanes) {
-          Frame f = frame;
-          if (frame.cloud)
-            f.cloud.reset(new Frame::Cloud(*frame.cloud));
-          lane.frame_ms = MethodTimes();
-          lane.frame_ms.pg = kl_ms;
-          lane.inserted = false;
-          try {
-            lane.pipeline->processFrame(f);
-          } catch (const Exception& e) {
-            throw Exception("dataset " + ds.name + ", cell size "
-                            + std::to_string(lane.resolution_m) + " m: " + e.what());
-          }
-          if (!lane.inserted)
-            insertBaselines(lane, f);
-          lane.pg_ms += lane.frame_ms.pg;
-          lane.sg_ms += lane.frame_ms.sg;
-          lane.og_ms += lane.frame_ms.og;
+    front.setFrameCallback([&](std::size_t i, Frame& frame,
+                               const std::vector<double>& front_ms) {
+      double kl_ms = 0.0;
+      for (std::size_t st = 0; st < front_ms.size(); ++st)
+        if (front_config.stages[st].type == "kl_occupancy_filter")
+          kl_ms += front_ms[st]; // the occupancy of the features is PG's work
+      if (frames == 0) {
+        first_frame = frame;
+        mapped.max_depth_m = mappedRange(ds.pipeline, frame.calibration);
+      }
+      mapped.views.push_back(rangeView(frame));
+      if (ds.truth.type == TruthConfig::Type::REFERENCE && !reference_first)
+        reference.addFrame(worldPoints(frame));
+      for (Lane& lane : lanes) {
+        Frame f = frame;
+        if (frame.cloud)
+          f.cloud.reset(new Frame::Cloud(*frame.cloud));
+        lane.frame_ms = MethodTimes();
+        lane.frame_ms.pg = kl_ms;
+        lane.inserted = false;
+        try {
+          lane.pipeline->processFrame(f);
+        } catch (const Exception& e) {
+          throw Exception("dataset " + ds.name + ", cell size "
+                          + std::to_string(lane.resolution_m) + " m: " + e.what());
         }
+        if (!lane.inserted)
+          insertBaselines(lane, f);
+        lane.pg_ms += lane.frame_ms.pg;
+        lane.sg_ms += lane.frame_ms.sg;
+        lane.og_ms += lane.frame_ms.og;
+      }
 
-        // A place (paper Sec. IV-B): the cells near the camera, this frame's times.
-        if (next_place < places.size() && places[next_place] == frames) {
-          if (!truth)
-            truth = buildTruth(ds, first_frame, reference, truth_kind);
-          MappingErrorRegion region;
-          region.centre_m = frame.world_T_camera.translation().cast<float>();
-          region.max_distance_m = ds.place_radius_m;
-          for (Lane& lane : lanes) {
-            ComparisonRow base;
-            base.dataset = ds.name;
-            base.environment = config.environment;
-            base.resolution_m = lane.resolution_m;
-            base.frames = frames + 1;
-            base.tilt_deg = ds.tilt_deg;
-            base.truth_kind = truth_kind;
-            base.place = static_cast<int>(next_place);
-            base.frame = i;
-            base.region_radius_m = ds.place_radius_m;
-            std::pair<std::size_t, std::size_t> planar_counts;
-            for (const auto& row : measureLane(
-                   lane, base, *truth, config.tolerance_cells * lane.resolution_m,
-                   ds.place_radius_m > 0.0 ? &region : nullptr, lane.frame_ms, 1.0,
-                   planar_counts))
-              rows.push_back(row);
-          }
-          ++next_place;
+      // A place (paper Sec. IV-B): the cells near the camera, this frame's times.
+      if (next_place < places.size() && places[next_place] == frames) {
+        if (!truth)
+          truth = buildTruth(ds, first_frame, reference, truth_kind);
+        MappingErrorRegion region;
+        region.centre_m = frame.world_T_camera.translation().cast<float>();
+        region.max_distance_m = ds.place_radius_m;
+        for (Lane& lane : lanes) {
+          ComparisonRow base;
+          base.dataset = ds.name;
+          base.environment = config.environment;
+          base.resolution_m = lane.resolution_m;
+          base.frames = frames + 1;
+          base.tilt_deg = ds.tilt_deg;
+          base.truth_kind = truth_kind;
+          base.place = static_cast<int>(next_place);
+          base.frame = i;
+          base.region_radius_m = ds.place_radius_m;
+          std::pair<std::size_t, std::size_t> planar_counts;
+          for (const auto& row : measureLane(
+                 lane, base, *truth, mapped, config.tolerance_cells * lane.resolution_m,
+                 ds.place_radius_m > 0.0 ? &region : nullptr, lane.frame_ms, 1.0,
+                 planar_counts))
+            rows.push_back(row);
         }
-        ++frames;
-      });
+        ++next_place;
+      }
+      ++frames;
+    });
     front.run();
     for (auto& lane : lanes)
       lane.pipeline->finish();
@@ -572,8 +645,8 @@ runComparison(const ComparisonConfig& config,
       mean.pg = lane.pg_ms / n;
       std::pair<std::size_t, std::size_t> planar_counts;
       const std::vector<ComparisonRow> measured =
-        measureLane(lane, base, *truth, config.tolerance_cells * r, nullptr, mean, n,
-                    planar_counts);
+        measureLane(lane, base, *truth, mapped, config.tolerance_cells * r, nullptr,
+                    mean, n, planar_counts);
       rows.insert(rows.end(), measured.begin(), measured.end());
       std::string saved;
       if (config.save_maps && lane.pipeline->state().map) {
@@ -597,9 +670,13 @@ runComparison(const ComparisonConfig& config,
                   / static_cast<double>(std::max<std::size_t>(sg.cells, 1))
              << "); completeness SG " << sg.completeness << ", OG "
              << measured[1].completeness << ", RA " << measured[2].completeness
-             << ", PG " << pg.completeness << " (of " << sg.truth_voxels
+             << ", PG " << pg.completeness << " cuboids, " << pg.map_completeness
+             << " whole map (of " << sg.truth_voxels
              << " truth voxels); PG planar share " << pg.planar_share << " (of "
-             << pg.nonground_voxels << " non-ground); completeness measured in "
+             << pg.nonground_voxels << " non-ground), " << pg.range_planar_share
+             << " within the mapped " << pg.mapped_range_m << " m (of "
+             << pg.range_nonground_voxels << "; SG's non-ground completeness there "
+             << sg.range_nonground_completeness << "); completeness measured in "
              << std::setprecision(2) << lane.completeness_ms / 1000.0 << " s";
         if (!saved.empty())
           line << "; PG map " << saved;

@@ -35,10 +35,14 @@ saveComparisonCsv(const std::vector<ComparisonRow>& rows, const std::string& pat
          "efficiency,memory_bytes,ms_per_frame,samples,erroneous,error,truth,"
          "planar_samples,planar_erroneous,place,frame,region_radius_m,completeness,"
          "planar_share,truth_voxels,covered_voxels,nonground_voxels,"
-         "planar_covered_voxels,nonground_completeness,nonground_covered_voxels\n";
+         "planar_covered_voxels,nonground_completeness,nonground_covered_voxels,"
+         "map_completeness,map_covered_voxels,mapped_range_m,range_nonground_voxels,"
+         "range_nonground_covered_voxels,range_nonground_completeness,"
+         "range_planar_covered_voxels,range_planar_share\n";
   out << std::setprecision(10);
   // NaN (no truth voxels; the planar share of SG, OG and RA) is an empty field, as
-  // is PG's planar count in the other methods' rows.
+  // are PG's planar counts in the other methods' rows and an unbounded (infinite)
+  // mapped range.
   const auto ratio = [](double value) {
     std::ostringstream field;
     field << std::setprecision(10);
@@ -57,7 +61,13 @@ saveComparisonCsv(const std::vector<ComparisonRow>& rows, const std::string& pat
         << ratio(r.completeness) << "," << ratio(r.planar_share) << ","
         << r.truth_voxels << "," << r.covered_voxels << "," << r.nonground_voxels << ","
         << (pg ? std::to_string(r.planar_covered_voxels) : std::string()) << ","
-        << ratio(r.nonground_completeness) << "," << r.nonground_covered_voxels << "\n";
+        << ratio(r.nonground_completeness) << "," << r.nonground_covered_voxels << ","
+        << ratio(r.map_completeness) << "," << r.map_covered_voxels << ","
+        << ratio(r.mapped_range_m) << "," << r.range_nonground_voxels << ","
+        << r.range_nonground_covered_voxels << ","
+        << ratio(r.range_nonground_completeness) << ","
+        << (pg ? std::to_string(r.range_planar_covered_voxels) : std::string()) << ","
+        << ratio(r.range_planar_share) << "\n";
   }
   writeTextFileAtomically(path, out.str());
 }
@@ -75,9 +85,22 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
       cell << "-";
     return cell.str();
   };
-  out << "| dataset | cell m | method | cells | eta | memory kB | ms/frame | error e | "
-         "completeness | non-ground completeness | planar share |\n"
-         "|---|---|---|---|---|---|---|---|---|---|---|\n";
+  // A depth with 1 decimal, "-" where it is unbounded.
+  const auto range = [](double value) {
+    std::ostringstream cell;
+    if (std::isfinite(value))
+      cell << std::fixed << std::setprecision(1) << value;
+    else
+      cell << "-";
+    return cell.str();
+  };
+  // PG's completeness is its cuboids'; the whole-map completeness adds its space
+  // layer's occupied voxels (SG's, OG's and RA's are their completeness).
+  out
+    << "| dataset | cell m | method | cells | eta | memory kB | ms/frame | error e | "
+       "completeness | whole-map completeness | non-ground completeness | planar share "
+       "| mapped range m | planar share in range |\n"
+       "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   out << std::fixed;
   for (const auto& r : rows) {
     if (r.place >= 0)
@@ -88,7 +111,9 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
         << std::setprecision(1) << static_cast<double>(r.memory_bytes) / 1024.0 << " | "
         << std::setprecision(1) << r.ms_per_frame << " | " << std::setprecision(4)
         << r.error << " | " << ratio(r.completeness) << " | "
-        << ratio(r.nonground_completeness) << " | " << ratio(r.planar_share) << " |\n";
+        << ratio(r.map_completeness) << " | " << ratio(r.nonground_completeness)
+        << " | " << ratio(r.planar_share) << " | " << range(r.mapped_range_m) << " | "
+        << ratio(r.range_planar_share) << " |\n";
   }
   // The places: means over each dataset's places (the paper's Figs. 12-14).
   /** The mean of the defined (finite) values added; NaN when there is none. */
@@ -111,7 +136,8 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
   struct Sum {
     std::size_t places{0};
     double cells{0.0}, efficiency{0.0}, memory_kb{0.0}, ms{0.0}, error{0.0};
-    FiniteMean completeness, nonground_completeness, planar_share;
+    FiniteMean completeness, map_completeness, nonground_completeness, planar_share,
+      range_planar_share;
     double radius_m{0.0};
     bool reference{false};
   };
@@ -136,21 +162,23 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
     sum.ms += r.ms_per_frame;
     sum.error += r.error;
     sum.completeness.add(r.completeness);
+    sum.map_completeness.add(r.map_completeness);
     sum.nonground_completeness.add(r.nonground_completeness);
     sum.planar_share.add(r.planar_share);
+    sum.range_planar_share.add(r.range_planar_share);
     sum.radius_m = r.region_radius_m;
     sum.reference = r.truth_kind == "reference";
   }
   if (sums.empty())
     return out.str();
-  out
-    << "\nMeans over the places (cells and error within the radius of the camera at "
-       "each place; memory of the whole map then; ms of that frame; completeness, "
-       "non-ground completeness and planar share over the places that have truth "
-       "voxels within the radius):\n\n"
-       "| dataset | places | radius m | cell m | method | cells | eta | memory kB | "
-       "ms/frame | error e | completeness | non-ground completeness | planar share |\n"
-       "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  out << "\nMeans over the places (cells and error within the radius of the camera at "
+         "each place; memory of the whole map then; ms of that frame; the "
+         "completeness, whole-map completeness, non-ground completeness and planar "
+         "shares over the places that have truth voxels within the radius):\n\n"
+         "| dataset | places | radius m | cell m | method | cells | eta | memory kB | "
+         "ms/frame | error e | completeness | whole-map completeness | non-ground "
+         "completeness | planar share | planar share in range |\n"
+         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& [key, sum] : sums) {
     std::vector<std::string> parts;
     std::istringstream split(key);
@@ -163,8 +191,10 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
         << std::setprecision(3) << sum.efficiency / n << " | " << std::setprecision(1)
         << sum.memory_kb / n << " | " << sum.ms / n << " | " << std::setprecision(4)
         << sum.error / n << " | " << ratio(sum.completeness.value()) << " | "
+        << ratio(sum.map_completeness.value()) << " | "
         << ratio(sum.nonground_completeness.value()) << " | "
-        << ratio(sum.planar_share.value()) << " |\n";
+        << ratio(sum.planar_share.value()) << " | "
+        << ratio(sum.range_planar_share.value()) << " |\n";
   }
   return out.str();
 }

@@ -3,6 +3,7 @@
 // grid, boxes, cuboids or an octree, within a tolerance.
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/eval/mapping_error.h>
+#include <planar_grid/map/planar_grid_map.h>
 
 #include <pcl/console/print.h>
 
@@ -146,6 +147,29 @@ countedTruthVoxels(const TruthVoxels& truth,
   return out;
 }
 
+/** \brief The counts of the truth voxels \a counted, \a covered flagging (parallel to
+ * it) those within the tolerance of an occupied cell. */
+Completeness
+tally(const TruthVoxels& truth,
+      const std::vector<std::size_t>& counted,
+      const std::vector<std::uint8_t>& covered)
+{
+  Completeness out;
+  out.truth_voxels = counted.size();
+  for (std::size_t q = 0; q < counted.size(); ++q) {
+    const std::size_t i = counted[q];
+    const bool is_covered = covered[q] != 0;
+    const bool nonground = !truth.isGround(i);
+    const bool in_range = nonground && truth.isInRange(i);
+    out.covered += is_covered;
+    out.nonground_voxels += nonground;
+    out.nonground_covered += nonground && is_covered;
+    out.range_nonground_voxels += in_range;
+    out.range_nonground_covered += in_range && is_covered;
+  }
+  return out;
+}
+
 /** \brief Completeness against cells made of voxels of the truth's lattice. Either the
  * caller adds the occupied voxels through add(min, size) (a block of voxels, clipped
  * here to the voxels that can cover a counted truth voxel) and calls evaluate(), or it
@@ -218,37 +242,57 @@ public:
     add(index.cast<std::int64_t>(), Index64::Ones());
   }
 
+  /** Flags (parallel to getCounted()) the truth voxels with an occupied voxel among
+   * their offsets, \a is_occupied(index) telling whether a voxel (in the index range)
+   * is occupied; the flags already set stay. */
+  template <typename IsOccupied>
+  void cover(const IsOccupied& is_occupied, std::vector<std::uint8_t>& covered) const
+  {
+    covered.resize(counted_.size(), 0);
+    for (std::size_t q = 0; q < counted_.size(); ++q) {
+      if (covered[q])
+        continue;
+      const VoxelIndex& k = truth_.getIndex(counted_[q]);
+      for (const VoxelIndex& d : offsets_) {
+        const VoxelIndex n = k + d;
+        if (inIndexRange(n) && is_occupied(n)) {
+          covered[q] = 1;
+          break;
+        }
+      }
+    }
+  }
+
+  /** Flags them against the voxels added. */
+  void cover(std::vector<std::uint8_t>& covered) const
+  {
+    cover(
+      [this](const VoxelIndex& n) {
+        return occupied_.contains(packIndex(n.x(), n.y(), n.z()));
+      },
+      covered);
+  }
+
   /** Counts the truth voxels with an occupied voxel among their offsets, \a
    * is_occupied(index) telling whether a voxel (in the index range) is occupied. */
   template <typename IsOccupied>
   [[nodiscard]] Completeness evaluate(const IsOccupied& is_occupied) const
   {
-    Completeness out;
-    out.truth_voxels = counted_.size();
-    for (const std::size_t i : counted_) {
-      const bool nonground = !truth_.isGround(i);
-      out.nonground_voxels += nonground;
-      const VoxelIndex& k = truth_.getIndex(i);
-      for (const VoxelIndex& d : offsets_) {
-        const VoxelIndex n = k + d;
-        if (inIndexRange(n) && is_occupied(n)) {
-          ++out.covered;
-          out.nonground_covered += nonground;
-          break;
-        }
-      }
-    }
-    return out;
+    std::vector<std::uint8_t> covered;
+    cover(is_occupied, covered);
+    return tally(truth_, counted_, covered);
   }
 
   /** Counts them against the voxels added. */
   [[nodiscard]] Completeness evaluate() const
   {
-    return evaluate([this](const VoxelIndex& n) {
-      return occupied_.contains(packIndex(n.x(), n.y(), n.z()));
-    });
+    std::vector<std::uint8_t> covered;
+    cover(covered);
+    return tally(truth_, counted_, covered);
   }
 
+  /** The truth voxels counted (indices into the truth voxels). */
+  [[nodiscard]] const std::vector<std::size_t>& getCounted() const { return counted_; }
   /** Whether any truth voxel is counted. */
   [[nodiscard]] bool hasCounted() const { return !counted_.empty(); }
   /** The voxels that can cover a counted truth voxel lie in [getClipMin(),
@@ -276,33 +320,29 @@ struct SolidBox {
   }
 };
 
-/** \brief Completeness against the occupied (and, with \a planar_only, planar)
- * cuboids, over the counted truth voxels (non-ground only with \a nonground_only).
+/** \brief Flags (parallel to \a counted) the truth voxels \a counted within the
+ * tolerance of an occupied (and, with \a planar_only, planar) cuboid; the flags already
+ * set stay, and those voxels are not tested again.
  * Cuboids and truth voxel centres meet in cubic buckets: each cuboid is listed in the
  * buckets that its box grown by the tolerance may reach, the (bucket, cuboid) and
  * (bucket, truth voxel) lists are sorted by bucket and walked together. */
-Completeness
-cuboidCompleteness(const PlanarCuboids& cuboids,
-                   double occupancy_thres,
-                   bool planar_only,
-                   bool nonground_only,
-                   const TruthVoxels& truth,
-                   double tolerance_m,
-                   const MappingErrorRegion& region)
+void
+coverByCuboids(const PlanarCuboids& cuboids,
+               double occupancy_thres,
+               bool planar_only,
+               const TruthVoxels& truth,
+               const std::vector<std::size_t>& counted,
+               double tolerance_m,
+               std::vector<std::uint8_t>& covered)
 {
   checkTolerance(tolerance_m);
   if (!(occupancy_thres >= 0.0 && occupancy_thres <= 1.0))
     throw Exception("completeness: occupancy_thres must be a probability in [0, 1], "
                     "got "
                     + std::to_string(occupancy_thres));
-  Completeness out;
-  const std::vector<std::size_t> counted =
-    countedTruthVoxels(truth, region, nonground_only);
-  out.truth_voxels = counted.size();
-  for (const std::size_t i : counted)
-    out.nonground_voxels += !truth.isGround(i);
+  covered.resize(counted.size(), 0);
   if (counted.empty())
-    return out;
+    return;
 
   const double bucket_m = 2.0 * (truth.getResolution() + tolerance_m);
   // Buckets are at least two voxels wide and taken within the truth voxels' bounds,
@@ -321,11 +361,15 @@ cuboidCompleteness(const PlanarCuboids& cuboids,
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::max());
   Eigen::Vector3d hi = -lo;
   for (std::size_t q = 0; q < counted.size(); ++q) {
+    if (covered[q])
+      continue;
     const Eigen::Vector3d c = truth.getCentre(counted[q]).cast<double>();
     lo = lo.cwiseMin(c);
     hi = hi.cwiseMax(c);
     queries.emplace_back(packBucket(bucketOf(c)), static_cast<std::uint32_t>(q));
   }
+  if (queries.empty())
+    return;
   std::sort(queries.begin(), queries.end());
 
   std::vector<SolidBox> boxes;
@@ -395,14 +439,32 @@ cuboidCompleteness(const PlanarCuboids& cuboids,
       const Eigen::Vector3d c = truth.getCentre(counted[q->second]).cast<double>();
       for (auto it = b; it != b_end; ++it)
         if (boxes[it->second].squaredDistance(c) <= tolerance_sq) {
-          ++out.covered;
-          out.nonground_covered += !truth.isGround(counted[q->second]);
+          covered[q->second] = 1;
           break;
         }
     }
     b = b_end;
   }
-  return out;
+}
+
+/** \brief Completeness against the occupied (and, with \a planar_only, planar)
+ * cuboids, over the truth voxels in \a region (non-ground only with \a
+ * nonground_only). */
+Completeness
+cuboidCompleteness(const PlanarCuboids& cuboids,
+                   double occupancy_thres,
+                   bool planar_only,
+                   bool nonground_only,
+                   const TruthVoxels& truth,
+                   double tolerance_m,
+                   const MappingErrorRegion& region)
+{
+  const std::vector<std::size_t> counted =
+    countedTruthVoxels(truth, region, nonground_only);
+  std::vector<std::uint8_t> covered(counted.size(), 0);
+  coverByCuboids(cuboids, occupancy_thres, planar_only, truth, counted, tolerance_m,
+                 covered);
+  return tally(truth, counted, covered);
 }
 
 } // namespace
@@ -468,6 +530,42 @@ TruthVoxels::getCentre(std::size_t i) const
   return ((indices_[i].cast<double>().array() + 0.5) * resolution_m_)
     .matrix()
     .cast<float>();
+}
+
+void
+TruthVoxels::setMappedRange(double max_depth_m)
+{
+  if (!(max_depth_m > 0.0))
+    throw Exception("TruthVoxels::setMappedRange: max_depth_m must be > 0, got "
+                    + std::to_string(max_depth_m));
+  has_range_ = true;
+  max_depth_m_ = max_depth_m;
+  in_range_.assign(indices_.size(), 0);
+}
+
+void
+TruthVoxels::addView(const RangeView& view)
+{
+  if (!has_range_)
+    return;
+  const Eigen::Isometry3d camera_T_world = view.world_T_camera.inverse();
+  const bool bounded =
+    view.focal_length_px > 0.0 && view.width_px > 0 && view.height_px > 0;
+  for (std::size_t i = 0; i < indices_.size(); ++i) {
+    if (in_range_[i])
+      continue;
+    const Eigen::Vector3d p = camera_T_world * getCentre(i).cast<double>();
+    if (!(p.z() > 0.0 && p.z() <= max_depth_m_))
+      continue;
+    if (bounded) {
+      // The pixel the centre projects to, inside the image's [0, size) range.
+      const double u = view.focal_length_px * p.x() / p.z() + view.cx_px;
+      const double v = view.focal_length_px * p.y() / p.z() + view.cy_px;
+      if (!(u >= 0.0 && u < view.width_px && v >= 0.0 && v < view.height_px))
+        continue;
+    }
+    in_range_[i] = 1;
+  }
 }
 
 Completeness
@@ -550,6 +648,88 @@ evaluateCompleteness(const PlanarCuboids& cuboids,
 {
   return cuboidCompleteness(cuboids, occupancy_thres, false, false, truth, tolerance_m,
                             region);
+}
+
+Completeness
+evaluateMapCompleteness(const PlanarGridMap& map,
+                        const TruthVoxels& truth,
+                        double tolerance_m,
+                        const MappingErrorRegion& region)
+{
+  const double r = map.getParams().resolution_m;
+  checkTruthResolution(truth, r, "the map");
+  const double thres = map.getParams().surface.occupancy_thres;
+  const PlanarCuboids cuboids = map.getSurfaceLayer().getCuboids();
+  LatticeCompleteness lattice(truth, tolerance_m, region);
+  if (lattice.hasCounted()) {
+    // getState() at a point: the lowest-index cuboid containing it decides (occupied
+    // at probability >= the threshold), else the space layer. It is evaluated here on
+    // a bin hash of the cuboids rather than through the map, whose query index would
+    // stay allocated and count in the map's memory, measured next to this.
+    const double bin_m = 8.0 * r;
+    const auto binOf = [bin_m](double x) {
+      return static_cast<std::int64_t>(std::floor(x / bin_m));
+    };
+    const auto binKey = [](std::int64_t x, std::int64_t y, std::int64_t z) {
+      const auto field = [](std::int64_t i) {
+        return static_cast<std::uint64_t>(i + (1 << 20))
+               & ((std::uint64_t{1} << 21) - 1);
+      };
+      return (field(z) << 42) | (field(y) << 21) | field(x);
+    };
+    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> bins;
+    bool any_free = false;
+    for (std::size_t i = 0; i < cuboids.size(); ++i) {
+      const PlanarCuboid& c = cuboids[i];
+      any_free = any_free || static_cast<double>(c.probability) < thres;
+      const Eigen::Vector3d half(0.5 * c.width_m, 0.5 * c.height_m,
+                                 0.5 * c.thickness_m);
+      const Eigen::Vector3d extent =
+        c.horizontal_axis.cast<double>().cwiseAbs() * half.x()
+        + c.verticalAxis().cast<double>().cwiseAbs() * half.y()
+        + c.normal.cast<double>().cwiseAbs() * half.z();
+      const Eigen::Vector3d lo = c.centre.cast<double>() - extent;
+      const Eigen::Vector3d hi = c.centre.cast<double>() + extent;
+      // Cuboids with non-finite fields contain no point; a bin index beyond the packed
+      // range (a cuboid 1e5 bins away) is left out with them.
+      if (!lo.allFinite() || !hi.allFinite()
+          || (lo.array().abs() / bin_m > double{1 << 19}).any()
+          || (hi.array().abs() / bin_m > double{1 << 19}).any())
+        continue;
+      for (std::int64_t z = binOf(lo.z()); z <= binOf(hi.z()); ++z)
+        for (std::int64_t y = binOf(lo.y()); y <= binOf(hi.y()); ++y)
+          for (std::int64_t x = binOf(lo.x()); x <= binOf(hi.x()); ++x)
+            bins[binKey(x, y, z)].push_back(static_cast<std::uint32_t>(i));
+    }
+    const auto readsOccupied = [&](const Eigen::Vector3f& p) {
+      if (!any_free)
+        return true;
+      const auto it = bins.find(binKey(binOf(p.x()), binOf(p.y()), binOf(p.z())));
+      if (it == bins.end())
+        return true;
+      // The bin's list is in increasing cuboid index: the first containing one decides.
+      for (const std::uint32_t i : it->second)
+        if (cuboids[i].contains(p))
+          return static_cast<double>(cuboids[i].probability) >= thres;
+      return true;
+    };
+    const ExplicitSpaceGrid& space = map.getSpaceLayer();
+    const VoxelIndex& lo = lattice.getClipMin();
+    const VoxelIndex& hi = lattice.getClipMax();
+    space.forEachVoxelIn(
+      SpaceState::OCCUPIED, [&](const ExplicitSpaceGrid::VoxelKey& k) {
+        if ((k.array() < lo.array()).any() || (k.array() > hi.array()).any())
+          return;
+        if (readsOccupied(space.toCentre(k)))
+          lattice.add(k);
+      });
+  }
+  std::vector<std::uint8_t> covered;
+  lattice.cover(covered);
+  // The truth voxels no voxel covers, against the occupied cuboids.
+  coverByCuboids(cuboids, thres, false, truth, lattice.getCounted(), tolerance_m,
+                 covered);
+  return tally(truth, lattice.getCounted(), covered);
 }
 
 Completeness

@@ -249,6 +249,31 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
     EXPECT_DOUBLE_EQ(pg.nonground_completeness,
                      static_cast<double>(pg.nonground_covered_voxels)
                        / static_cast<double>(pg.nonground_voxels));
+    // The whole map: SG's, OG's and RA's are their cells; PG's adds the space layer's
+    // occupied voxels to its cuboids, so it covers at least what the cuboids do, and
+    // here, the space layer holding the wall's own voxels, all of it.
+    for (const auto* row : {&sg, &og, &ra}) {
+      EXPECT_EQ(row->map_covered_voxels, row->covered_voxels) << row->method;
+      EXPECT_DOUBLE_EQ(row->map_completeness, row->completeness) << row->method;
+    }
+    EXPECT_GE(pg.map_covered_voxels, pg.covered_voxels) << r;
+    EXPECT_EQ(pg.map_covered_voxels, pg.truth_voxels) << r;
+    EXPECT_DOUBLE_EQ(pg.map_completeness, static_cast<double>(pg.map_covered_voxels)
+                                            / static_cast<double>(pg.truth_voxels));
+    // The mapped range: map_integration's max_range_m (25 m by default), the only
+    // bound of this pipeline; a PCD frame has no image bounds, and the wall, 4 m in
+    // front of the sensor, is all in range.
+    for (const auto* row : {&sg, &og, &ra, &pg}) {
+      EXPECT_DOUBLE_EQ(row->mapped_range_m, 25.0) << row->method;
+      EXPECT_EQ(row->range_nonground_voxels, pg.nonground_voxels) << row->method;
+    }
+    EXPECT_EQ(sg.range_nonground_covered_voxels, sg.range_nonground_voxels) << r;
+    EXPECT_LE(pg.range_planar_covered_voxels, pg.range_nonground_voxels) << r;
+    EXPECT_DOUBLE_EQ(pg.range_planar_share,
+                     static_cast<double>(pg.range_planar_covered_voxels)
+                       / static_cast<double>(pg.range_nonground_voxels));
+    for (const auto* row : {&sg, &og, &ra})
+      EXPECT_TRUE(std::isnan(row->range_planar_share)) << row->method;
   }
   // A smaller cell size gives more SG cells.
   EXPECT_GT(by.at({0.1, "SG"}).cells, by.at({0.2, "SG"}).cells);
@@ -264,7 +289,11 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
   const std::string tail = ",place,frame,region_radius_m,completeness,planar_share,"
                            "truth_voxels,covered_voxels,nonground_voxels,"
                            "planar_covered_voxels,nonground_completeness,"
-                           "nonground_covered_voxels";
+                           "nonground_covered_voxels,map_completeness,"
+                           "map_covered_voxels,mapped_range_m,range_nonground_voxels,"
+                           "range_nonground_covered_voxels,"
+                           "range_nonground_completeness,range_planar_covered_voxels,"
+                           "range_planar_share";
   ASSERT_GE(header.size(), tail.size());
   EXPECT_EQ(header.substr(header.size() - tail.size()), tail);
   int lines = 0;
@@ -276,7 +305,7 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
       fields.push_back(field);
     if (line.back() == ',')
       fields.emplace_back();
-    ASSERT_EQ(fields.size(), 28u) << line;
+    ASSERT_EQ(fields.size(), 36u) << line;
     const bool pg = fields[4] == "PG";
     if (pg) {
       EXPECT_FALSE(fields[20].empty()) << line;
@@ -285,7 +314,12 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
       EXPECT_EQ(fields[20], "1") << line; // SG, OG and RA cover every truth voxel
       EXPECT_EQ(fields[26], "1") << line; // and every non-ground one
       EXPECT_EQ(fields[27], fields[24]) << line;
+      EXPECT_EQ(fields[28], "1") << line; // their whole map is their cells
+      EXPECT_EQ(fields[29], fields[23]) << line;
     }
+    EXPECT_EQ(fields[30], "25") << line;
+    EXPECT_EQ(fields[34].empty(), !pg) << line;
+    EXPECT_EQ(fields[35].empty(), !pg) << line;
     EXPECT_EQ(fields[21].empty(), !pg) << line;
     EXPECT_FALSE(fields[24].empty()) << line;
     EXPECT_EQ(fields[25].empty(), !pg) << line;
@@ -294,9 +328,11 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
   const std::string md = planar_grid::comparisonMarkdown(rows);
   EXPECT_NE(md.find("| tilted wall | 0.1 | PG |"), std::string::npos);
   EXPECT_NE(
-    md.find("| error e | completeness | non-ground completeness | planar share |"),
+    md.find("| error e | completeness | whole-map completeness | non-ground "
+            "completeness | planar share | mapped range m | planar share in range |"),
     std::string::npos);
-  EXPECT_NE(md.find("| 1.000 | 1.000 | - |"), std::string::npos) << md; // SG's row
+  EXPECT_NE(md.find("| 1.000 | 1.000 | 1.000 | - | 25.0 | - |"), std::string::npos)
+    << md; // SG's row
 }
 
 TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
@@ -412,6 +448,14 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
     EXPECT_DOUBLE_EQ(by.at({place, "SG"}).completeness, 1.0) << place;
     EXPECT_GT(by.at({place, "PG"}).completeness, 0.5) << place;
     EXPECT_GT(by.at({place, "PG"}).planar_share, 0.5) << place;
+    // PG's whole map: its space layer holds the voxel of every measured point, as SG
+    // does, so it covers every truth voxel too, more than its cuboids alone.
+    EXPECT_EQ(by.at({place, "PG"}).map_covered_voxels,
+              by.at({place, "SG"}).covered_voxels)
+      << place;
+    EXPECT_LT(by.at({place, "PG"}).covered_voxels,
+              by.at({place, "PG"}).map_covered_voxels)
+      << place;
     EXPECT_TRUE(std::isnan(by.at({place, "RA"}).planar_share)) << place;
     EXPECT_EQ(by.at({place, "SG"}).erroneous, 0u) << place;
     EXPECT_EQ(by.at({place, "PG"}).planar_erroneous, 0u) << place;
@@ -422,8 +466,9 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
   }
   const std::string md = planar_grid::comparisonMarkdown(rows);
   EXPECT_NE(md.find("| walls | 2 | 8.0 | 0.2 | PG |"), std::string::npos) << md;
-  // The place means end with the completeness, the non-ground completeness and the
-  // planar share ("-" for SG); PG's non-ground mean is that of its two places.
+  // The place means end with the completeness, the whole-map completeness, the
+  // non-ground completeness, the planar share and the planar share in the mapped range
+  // ("-" for SG); PG's non-ground mean is that of its two places.
   const auto lineOf = [&md](const std::string& start) {
     const std::size_t at = md.find(start);
     return at == std::string::npos ? std::string()
@@ -431,7 +476,8 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
   };
   const std::string sg_line = lineOf("| walls | 2 | 8.0 | 0.2 | SG |");
   ASSERT_FALSE(sg_line.empty()) << md;
-  EXPECT_EQ(sg_line.substr(sg_line.size() - 21), "| 1.000 | 1.000 | - |") << sg_line;
+  EXPECT_EQ(sg_line.substr(sg_line.size() - 33), "| 1.000 | 1.000 | 1.000 | - | - |")
+    << sg_line;
   const std::string pg_line = lineOf("| walls | 2 | 8.0 | 0.2 | PG |");
   ASSERT_FALSE(pg_line.empty()) << md;
   std::ostringstream pg_nonground;
@@ -443,8 +489,8 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
   std::istringstream pg_split(pg_line);
   for (std::string field; std::getline(pg_split, field, '|');)
     pg_fields.push_back(field);
-  ASSERT_EQ(pg_fields.size(), 14u) << pg_line; // empty first field, 13 columns
-  EXPECT_EQ(pg_fields[12], " " + pg_nonground.str() + " ") << pg_line;
+  ASSERT_EQ(pg_fields.size(), 16u) << pg_line; // empty first field, 15 columns
+  EXPECT_EQ(pg_fields[13], " " + pg_nonground.str() + " ") << pg_line;
 
   // A dataset's own places override the top level's: radius 0 is the whole map, so the
   // last place is the whole map after the last frame.

@@ -2,6 +2,7 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/eval/mapping_error.h>
 #include <planar_grid/eval/rectangular_cuboid_approximation.h>
+#include <planar_grid/map/planar_grid_map.h>
 
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>
@@ -794,6 +795,176 @@ TEST(Completeness, PlanarShareOfAWallOnFlatGround)
   EXPECT_EQ(share.truth_voxels, expected.truth_voxels);
   EXPECT_EQ(share.covered, expected.covered);
   EXPECT_LT(share.truth_voxels, 16u * 40u);
+}
+
+/** \brief The pose of a camera at \a position looking along world +x (camera z), its
+ * x (right) along world -y and y (down) along world -z. */
+Eigen::Isometry3d
+lookingAlongX(const Eigen::Vector3d& position)
+{
+  Eigen::Matrix3d rotation;
+  rotation << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = rotation;
+  pose.translation() = position;
+  return pose;
+}
+
+TEST(Completeness, PlanarShareWithinTheMappedRange)
+{
+  // A facade along a street: the wall y = 1.05 m (voxel layer 10), x in [0, 10),
+  // z in [0, 2), 100 x 20 truth voxels at 0.1 m. A column without floor: its lowest
+  // 4 rows (centres 0.05 .. 0.35) are ground, the 16 above not: 1600 non-ground.
+  Cloud::Ptr cloud(new Cloud);
+  addRectangle(*cloud, Eigen::Vector3f(0.0f, 1.05f, 0.0f), Eigen::Vector3f::UnitX(),
+               Eigen::Vector3f::UnitZ(), 10.0f, 2.0f);
+  const GroundTruthSurface truth(cloud);
+  TruthVoxels voxels(truth, RESOLUTION_M);
+  ASSERT_EQ(voxels.size(), 2000u);
+  ASSERT_EQ(voxels.getGroundCount(), 400u);
+  // A planar cuboid on the wall over x in [0, 2]: the columns with centres 0.05 .. 2.05
+  // (the last 0.05 m from its end) are within 0.1 m: 21 of 100.
+  const PlanarCuboids wall{cuboid(Eigen::Vector3f(1.0f, 1.05f, 1.0f),
+                                  Eigen::Vector3f::UnitY(), Eigen::Vector3f::UnitX(),
+                                  2.0f, 2.0f, 0.1f)};
+  // Without a range every voxel is in it.
+  Completeness share =
+    planar_grid::evaluatePlanarShare(wall, 0.5, voxels, RESOLUTION_M);
+  EXPECT_EQ(share.covered, 21u * 16u);
+  EXPECT_EQ(share.range_nonground_voxels, 1600u);
+  EXPECT_EQ(share.range_nonground_covered, 21u * 16u);
+  EXPECT_TRUE(std::isinf(voxels.getMappedRange()));
+
+  // A range of 4 m depth, no view yet: nothing is in it.
+  voxels.setMappedRange(4.0);
+  share = planar_grid::evaluatePlanarShare(wall, 0.5, voxels, RESOLUTION_M);
+  EXPECT_EQ(share.range_nonground_voxels, 0u);
+  EXPECT_TRUE(std::isnan(share.rangeNongroundRatio()));
+
+  // A camera at the origin looking along +x with an image 200 px wide (f = 80 px,
+  // cx = 100 px: 51 degrees to each side) and tall enough for the whole wall. The
+  // wall is 1.05 m to its left: in the image from a depth of 1.05 x 80 / 100 = 0.84 m,
+  // within the 4 m from x centres 0.85 to 3.95: 32 columns of 16 non-ground rows.
+  planar_grid::RangeView view;
+  view.world_T_camera = lookingAlongX(Eigen::Vector3d::Zero());
+  view.focal_length_px = 80.0;
+  view.cx_px = 100.0;
+  view.cy_px = 500.0;
+  view.width_px = 200;
+  view.height_px = 1000;
+  voxels.addView(view);
+  share = planar_grid::evaluatePlanarShare(wall, 0.5, voxels, RESOLUTION_M);
+  EXPECT_EQ(share.range_nonground_voxels, 32u * 16u);
+  // Of them the cuboid covers the columns 0.85 .. 2.05: 13.
+  EXPECT_EQ(share.range_nonground_covered, 13u * 16u);
+  EXPECT_DOUBLE_EQ(share.rangeNongroundRatio(), 13.0 / 32.0);
+  // The planar share over all of the non-ground truth does not change.
+  EXPECT_EQ(share.truth_voxels, 1600u);
+  EXPECT_EQ(share.covered, 21u * 16u);
+
+  // A second view 6 m along, without image bounds (a point-cloud input): the columns
+  // 6.05 .. 9.95 (depth up to 3.95 m) join the range, none of them covered.
+  planar_grid::RangeView far;
+  far.world_T_camera = lookingAlongX(Eigen::Vector3d(6.0, 0.0, 1.0));
+  voxels.addView(far);
+  share = planar_grid::evaluatePlanarShare(wall, 0.5, voxels, RESOLUTION_M);
+  EXPECT_EQ(share.range_nonground_voxels, (32u + 40u) * 16u);
+  EXPECT_EQ(share.range_nonground_covered, 13u * 16u);
+  // Every method counts the same range: SG holding the whole wall covers all of it.
+  StandardVoxelGrid::Params gp;
+  gp.resolution_m = RESOLUTION_M;
+  StandardVoxelGrid grid(gp);
+  grid.insertPointCloud(*cloud, Eigen::Vector3f(0.0f, 0.0f, 1.0f));
+  const Completeness sg = planar_grid::evaluateCompleteness(grid, voxels, RESOLUTION_M);
+  EXPECT_EQ(sg.range_nonground_voxels, (32u + 40u) * 16u);
+  EXPECT_EQ(sg.range_nonground_covered, (32u + 40u) * 16u);
+  EXPECT_THROW(voxels.setMappedRange(0.0), planar_grid::Exception);
+}
+
+TEST(Completeness, WholeMapCoversWithBothLayers)
+{
+  // The wall x = 1.05 m, y and z in [0, 2): 20 columns (along y) of 20 voxels at 0.1 m.
+  const GroundTruthSurface truth(wallPoints());
+  const TruthVoxels voxels(truth, RESOLUTION_M);
+  ASSERT_EQ(voxels.size(), 400u);
+  planar_grid::PlanarGridMap::Params params;
+  params.resolution_m = RESOLUTION_M;
+  planar_grid::PlanarGridMap map(params);
+  // The surface layer: a cell on the wall over y in [0, 0.5): the columns with centres
+  // 0.05 .. 0.55 (0.05 m beyond its end) are within 0.1 m: 6 of 20.
+  PlanarCuboid box =
+    cuboid(Eigen::Vector3f(1.05f, 0.25f, 1.0f), Eigen::Vector3f::UnitX(),
+           Eigen::Vector3f::UnitY(), 0.5f, 2.0f, 0.1f);
+  box.is_planar = false;
+  box.plane_id = -1;
+  map.integrateSurface({box}, {}, Cloud(), {});
+  const PlanarCuboids cuboids = map.getSurfaceLayer().getCuboids();
+  ASSERT_EQ(cuboids.size(), 1u);
+  const double thres = map.getParams().surface.occupancy_thres;
+  ASSERT_GE(static_cast<double>(cuboids[0].probability), thres);
+  const Completeness cells =
+    planar_grid::evaluateCompleteness(cuboids, thres, voxels, RESOLUTION_M);
+  EXPECT_EQ(cells.covered, 6u * 20u);
+  // The space layer: the wall's voxels of the columns 10 .. 14 occupied: they and
+  // their neighbours, columns 9 .. 15, are covered (7 columns).
+  for (int y = 10; y <= 14; ++y)
+    for (int z = 0; z < 20; ++z)
+      map.getSpaceLayer().setState({10, y, z}, planar_grid::SpaceState::OCCUPIED);
+  // Measuring leaves the map's memory as it was (no query index kept).
+  const std::size_t memory_bytes = map.getMemory().total_bytes;
+  Completeness whole = planar_grid::evaluateMapCompleteness(map, voxels, RESOLUTION_M);
+  EXPECT_EQ(map.getMemory().total_bytes, memory_bytes);
+  EXPECT_EQ(whole.truth_voxels, 400u);
+  EXPECT_EQ(whole.covered, (6u + 7u) * 20u);
+  EXPECT_DOUBLE_EQ(whole.ratio(), 13.0 / 20.0);
+  // Ground split as for the other methods: the lowest 4 rows of each column.
+  EXPECT_EQ(whole.nonground_voxels, 20u * 16u);
+  EXPECT_EQ(whole.nonground_covered, 13u * 16u);
+  // An occupied voxel where a query reads FREE (inside a cell below the threshold)
+  // is not part of the map's occupied space: column 18's voxels under a free cell.
+  // A non-planar cell's probability is the mean of its frame's features inside it: one
+  // feature of probability 0.1 in it.
+  PlanarCuboid free_box = box;
+  free_box.centre = Eigen::Vector3f(1.05f, 1.85f, 1.0f);
+  free_box.width_m = 0.1f;
+  Cloud free_feature;
+  free_feature.push_back(pcl::PointXYZ(1.05f, 1.85f, 1.0f));
+  planar_grid::PlanarGridMap shaded(params);
+  shaded.integrateSurface({box, free_box}, {}, free_feature, {0.1f});
+  ASSERT_EQ(shaded.getSurfaceLayer().getCuboids().size(), 2u);
+  for (int z = 0; z < 20; ++z)
+    shaded.getSpaceLayer().setState({10, 18, z}, planar_grid::SpaceState::OCCUPIED);
+  ASSERT_EQ(shaded.getState(Eigen::Vector3f(1.05f, 1.85f, 1.05f)),
+            planar_grid::SpaceState::FREE);
+  EXPECT_EQ(planar_grid::evaluateMapCompleteness(shaded, voxels, RESOLUTION_M).covered,
+            6u * 20u);
+  // Outside the cell the same voxels count: columns 17 .. 19.
+  planar_grid::PlanarGridMap unshaded(params);
+  unshaded.integrateSurface({box}, {}, Cloud(), {});
+  for (int z = 0; z < 20; ++z)
+    unshaded.getSpaceLayer().setState({10, 18, z}, planar_grid::SpaceState::OCCUPIED);
+  EXPECT_EQ(
+    planar_grid::evaluateMapCompleteness(unshaded, voxels, RESOLUTION_M).covered,
+    (6u + 3u) * 20u);
+  // A region counts the truth voxels in it against the whole map: the ball of 0.5 m
+  // around the wall's point (1.05, 1.2, 1.0).
+  MappingErrorRegion ball;
+  ball.centre_m = Eigen::Vector3f(1.05f, 1.2f, 1.0f);
+  ball.max_distance_m = 0.5;
+  whole = planar_grid::evaluateMapCompleteness(map, voxels, RESOLUTION_M, ball);
+  EXPECT_GT(whole.truth_voxels, 0u);
+  EXPECT_LT(whole.truth_voxels, 400u);
+  std::size_t expected = 0;
+  for (std::size_t i = 0; i < voxels.size(); ++i) {
+    const Eigen::Vector3f c = voxels.getCentre(i);
+    if (ball.contains(c) && ((c.y() > 0.85f && c.y() < 1.6f) || c.y() < 0.6f))
+      ++expected;
+  }
+  EXPECT_EQ(whole.covered, expected);
+  // The map's resolution must be the truth voxels'.
+  const TruthVoxels coarse(truth, 0.2);
+  EXPECT_THROW(planar_grid::evaluateMapCompleteness(map, coarse, 0.2),
+               planar_grid::Exception);
 }
 
 TEST(Completeness, RejectsBadArguments)

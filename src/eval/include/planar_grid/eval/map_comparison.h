@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/stereo_calibration.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 
 #include <cstddef>
@@ -181,7 +182,45 @@ struct ComparisonRow {
    * how much of the truth above the ground PG's planar cells explain; NaN for SG, OG
    * and RA and without non-ground truth voxels. */
   double planar_share{std::numeric_limits<double>::quiet_NaN()};
+  /** \brief Of the truth voxels counted, those within the tolerance of what the
+   * method's whole map holds occupied: for PG what PlanarGridMap::getState() reads
+   * OCCUPIED, its occupied cuboids and the space layer's occupied voxels
+   * (evaluateMapCompleteness()); for SG, OG and RA, whose maps are their occupied
+   * cells alone, covered_voxels. */
+  std::size_t map_covered_voxels{0};
+  /** \brief Whole-map completeness map_covered_voxels / truth_voxels in [0, 1]; NaN
+   * without truth voxels. For PG, completeness is its cuboids' alone. */
+  double map_completeness{std::numeric_limits<double>::quiet_NaN()};
+  /** \brief The depth the pipeline maps to, meters (mappedRange()): the truth voxels
+   * in the view of a frame mapped so far within this depth are in the mapped range
+   * (TruthVoxels::addView()). */
+  double mapped_range_m{std::numeric_limits<double>::infinity()};
+  /** \brief The non-ground truth voxels in the mapped range (at a place, within the
+   * radius too). */
+  std::size_t range_nonground_voxels{0};
+  /** \brief Of them, those within the tolerance of an occupied cell of the method. */
+  std::size_t range_nonground_covered_voxels{0};
+  /** \brief range_nonground_covered_voxels / range_nonground_voxels in [0, 1]: SG's is
+   * the bound of PG's planar share within the range; NaN without such voxels. */
+  double range_nonground_completeness{std::numeric_limits<double>::quiet_NaN()};
+  /** \brief PG only: of the non-ground truth voxels in the mapped range, those within
+   * the tolerance of an occupied planar cuboid. */
+  std::size_t range_planar_covered_voxels{0};
+  /** \brief PG only: planar share within the mapped range,
+   * range_planar_covered_voxels / range_nonground_voxels in [0, 1]; NaN for SG, OG and
+   * RA and without such voxels. */
+  double range_planar_share{std::numeric_limits<double>::quiet_NaN()};
 };
+
+/** \brief The depth to which the stages of \a pipeline make cells, meters: the
+ * smallest of stereo_disparity's max_range_m, depth_error_filter's bound of eq. 4
+ * (the depth z whose error z^2 disparity_error_px / (B f) reaches the larger of its
+ * max_depth_error_m and max_plane_depth_error_m, with \a calibration's f and B) and
+ * map_integration's max_range_m, for the stages present (+inf with none; the depth
+ * bound needs a calibration with f, B > 0).
+ * \ingroup eval */
+double mappedRange(const PipelineConfig& pipeline,
+                   const StereoCalibration& calibration);
 
 /** \brief Runs every dataset of \a config (rows of its places as the frames run, then
  * of the whole map at the end). The pipeline's own runner (PipelineRunner) runs the

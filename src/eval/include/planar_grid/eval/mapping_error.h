@@ -9,6 +9,8 @@
 #include <pcl/point_types.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <Eigen/StdVector>
 
 #include <cstddef>
 #include <cstdint>
@@ -21,6 +23,8 @@ class OcTree;
 } // namespace octomap
 
 namespace planar_grid {
+
+class PlanarGridMap;
 
 /** \brief Ground truth of the mapping error: a dense point sampling of the true
  * surfaces (world frame, meters), searched with pcl::search::KdTree. The sampling
@@ -187,6 +191,25 @@ MappingError evaluateOcTree(const octomap::OcTree& tree,
                             double tolerance_m,
                             const MappingErrorRegion& region);
 
+/** \brief One camera view of the mapped range (TruthVoxels::addView()): where a frame
+ * was seen from and what its image covers (camera frame x right, y down, z forward).
+ * \ingroup eval */
+struct RangeView {
+  /** \brief The camera pose world_T_camera, meters. */
+  Eigen::Isometry3d world_T_camera{Eigen::Isometry3d::Identity()};
+  /** \brief Focal length, pixels; <= 0: no image bounds (every direction in front of
+   * the camera is in the view, as for a point-cloud input). */
+  double focal_length_px{0.0};
+  /** \brief Principal point column and row, pixels. */
+  double cx_px{0.0};
+  double cy_px{0.0};
+  /** \brief Image width and height, pixels; 0: no image bounds. */
+  int width_px{0};
+  int height_px{0};
+
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+};
+
 /** \brief The truth's occupied voxels at one cell size, for the completeness: the
  * truth points voxelized at resolution_m (a point p lies in the voxel of index
  * floor(p / resolution_m) per axis, the lattice of StandardVoxelGrid and OctoMap), one
@@ -198,6 +221,13 @@ MappingError evaluateOcTree(const octomap::OcTree& tree,
  * and a voxel is ground when its centre z is at most GROUND_HEIGHT_M above the lowest
  * voxel centre of its column. A column without a floor (a wall seen above nothing)
  * counts its lowest GROUND_HEIGHT_M as ground.
+ *
+ * Each voxel is also in the mapped range or not: by default every voxel is (no range);
+ * after setMappedRange(max_depth_m) only the voxels whose centre lies in the view of a
+ * camera given to addView() since (in front of it at a depth along its optical axis of
+ * at most max_depth_m, and projecting inside its image): the space within which the
+ * pipeline makes cells (depth_error_filter's bound of eq. 4). Occlusion is not taken
+ * into account.
  *
  * Voxels are ordered by (z, y, x) index (deterministic). A truth point whose index is
  * outside [-(2^20 - 1), 2^20 - 1] per axis (StandardVoxelGrid::MAX_INDEX: 104.8 km at
@@ -231,6 +261,24 @@ public:
   /** \brief Whether voxel \a i is ground (see the class description). */
   [[nodiscard]] bool isGround(std::size_t i) const { return ground_[i] != 0; }
 
+  /** \brief Restricts the mapped range to the views added from now on: no voxel is in
+   * range until addView() puts it there.
+   * \param[in] max_depth_m largest depth along a view's optical axis, meters, > 0
+   * (+inf: the image bounds alone)
+   * \throws planar_grid::Exception for max_depth_m <= 0 or NaN */
+  void setMappedRange(double max_depth_m);
+  /** \brief Puts the voxels whose centre lies in \a view (within the depth of
+   * setMappedRange()) in the mapped range; a no-op before setMappedRange(). */
+  void addView(const RangeView& view);
+  /** \brief Largest depth of the mapped range, meters (+inf without a range). */
+  [[nodiscard]] double getMappedRange() const { return max_depth_m_; }
+  /** \brief Whether voxel \a i is in the mapped range (every voxel without a range).
+   */
+  [[nodiscard]] bool isInRange(std::size_t i) const
+  {
+    return !has_range_ || in_range_[i] != 0;
+  }
+
 private:
   /** \brief Voxel edge, meters. */
   double resolution_m_;
@@ -240,6 +288,12 @@ private:
   std::vector<std::uint8_t> ground_;
   /** \brief Number of ground voxels. */
   std::size_t ground_count_{0};
+  /** \brief Whether setMappedRange() was called. */
+  bool has_range_{false};
+  /** \brief Largest depth of the mapped range, meters. */
+  double max_depth_m_{std::numeric_limits<double>::infinity()};
+  /** \brief 1 for a voxel in the mapped range, parallel to indices_ (with a range). */
+  std::vector<std::uint8_t> in_range_;
 };
 
 /** \brief Completeness of one method: how much of the truth its occupied cells cover.
@@ -259,6 +313,11 @@ struct Completeness {
    * much of the truth above the ground the cells reach; for cells made from the same
    * points as the planar cuboids, the bound of evaluatePlanarShare(). */
   std::size_t nonground_covered{0};
+  /** \brief Of the non-ground truth voxels counted, those in the mapped range
+   * (TruthVoxels::isInRange). */
+  std::size_t range_nonground_voxels{0};
+  /** \brief Of those, the covered ones. */
+  std::size_t range_nonground_covered{0};
 
   /** \brief covered / truth_voxels in [0, 1]; NaN without truth voxels. */
   [[nodiscard]] double ratio() const
@@ -274,6 +333,14 @@ struct Completeness {
     return nonground_voxels > 0 ? static_cast<double>(nonground_covered)
                                     / static_cast<double>(nonground_voxels)
                                 : std::numeric_limits<double>::quiet_NaN();
+  }
+  /** \brief range_nonground_covered / range_nonground_voxels in [0, 1]; NaN without
+   * non-ground truth voxels in the mapped range. */
+  [[nodiscard]] double rangeNongroundRatio() const
+  {
+    return range_nonground_voxels > 0 ? static_cast<double>(range_nonground_covered)
+                                          / static_cast<double>(range_nonground_voxels)
+                                      : std::numeric_limits<double>::quiet_NaN();
   }
 };
 
@@ -359,13 +426,37 @@ Completeness evaluateCompleteness(const PlanarCuboids& cuboids,
                                   double tolerance_m,
                                   const MappingErrorRegion& region = {});
 
+/** \brief Completeness of PG's whole map, what a robot querying it
+ * (PlanarGridMap::getState()) finds OCCUPIED: the share of the truth voxels whose
+ * centre lies within \a tolerance_m (Euclidean) of an occupied cell of either layer,
+ * each taken as a solid: the occupied cuboids (probability >= the surface layer's
+ * occupancy_thres) as oriented boxes, as in the PlanarCuboids overload, and the space
+ * layer's occupied voxels as cubes, those whose centre getState() reports OCCUPIED
+ * (a voxel whose centre lies in a cuboid below the threshold reads FREE there and is
+ * left out). The voxels share the truth's lattice: they are looked up as in the
+ * StandardVoxelGrid overload, the cuboids' distances computed as in the PlanarCuboids
+ * one, for the truth voxels no voxel covers.
+ * \param[in] map PG's map
+ * \param[in] truth the truth voxels, at the map's resolution_m
+ * \param[in] tolerance_m meters, >= 0
+ * \param[in] region only the truth voxels whose centre is in it are counted
+ * \throws planar_grid::Exception for tolerance_m < 0 or above 16 resolution_m, or a
+ * truth resolution other than the map's
+ * \ingroup eval */
+Completeness evaluateMapCompleteness(const PlanarGridMap& map,
+                                     const TruthVoxels& truth,
+                                     double tolerance_m,
+                                     const MappingErrorRegion& region = {});
+
 /** \brief Planar share of PG: the completeness of its occupied planar cuboids
  * (PlanarCuboid::is_planar, probability >= occupancy_thres) over the non-ground truth
  * voxels (TruthVoxels::isGround false): how much of the truth above the ground the
  * planar cells explain. Same distance test and arguments as the PlanarCuboids
  * overload of evaluateCompleteness().
  * \return truth_voxels = non-ground truth voxels (in the region), covered = those
- * within tolerance_m of an occupied planar cuboid
+ * within tolerance_m of an occupied planar cuboid; range_nonground_voxels and
+ * range_nonground_covered the same within the mapped range (TruthVoxels::isInRange):
+ * the planar share within the range the pipeline maps
  * \ingroup eval */
 Completeness evaluatePlanarShare(const PlanarCuboids& cuboids,
                                  double occupancy_thres,
