@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <set>
 #include <sstream>
 #include <utility>
@@ -135,6 +136,32 @@ loadChecked(const std::string& folder,
   return map;
 }
 
+
+/** Merges the tiles \a selected chooses into a map of the set's parameters. The merges
+ * run without the tidying of Params::planes_absorb_overlapping and
+ * Params::planes_replace_non_planar: while a plane is in pieces its cover is cut at the
+ * tile borders, and a tidying on such a cover would move or remove cells that the whole
+ * map keeps. The saved map was tidied when it was built. The result goes through its
+ * file content, so that it has the parameters PlanarGridMap::load() gives. */
+PlanarGridMap
+mergeTiles(const std::string& folder,
+           const MapTileIndex& index,
+           const std::function<bool(const MapTile&)>& selected)
+{
+  PlanarGridMap::Params params =
+    loadChecked(folder, index.base_file, index.base_file_bytes, index).getParams();
+  params.planes_absorb_overlapping = false;
+  params.planes_replace_non_planar = false;
+  PlanarGridMap merged(params);
+  for (const MapTile& t : index.tiles)
+    if (selected(t))
+      merged.merge(loadChecked(folder, t.file, t.file_bytes, index),
+                   Eigen::Isometry3d::Identity());
+  std::string bytes;
+  merged.serialize(bytes);
+  return PlanarGridMap::deserialize(bytes, folder);
+}
+
 } // namespace
 
 MapTileIndex
@@ -208,14 +235,8 @@ loadTiles(const std::string& folder, const Eigen::AlignedBox3f& region, double m
   Eigen::AlignedBox3f grown = region;
   grown.min().head<2>().array() -= static_cast<float>(margin_m);
   grown.max().head<2>().array() += static_cast<float>(margin_m);
-  PlanarGridMap map =
-    loadChecked(folder, index.base_file, index.base_file_bytes, index);
-  for (const MapTile& t : index.tiles)
-    if (t.bounds.intersects(grown)) {
-      const PlanarGridMap tile = loadChecked(folder, t.file, t.file_bytes, index);
-      map.merge(tile, Eigen::Isometry3d::Identity());
-    }
-  return map;
+  return mergeTiles(folder, index,
+                    [&grown](const MapTile& t) { return t.bounds.intersects(grown); });
 }
 
 PlanarGridMap
@@ -229,20 +250,13 @@ loadTiles(const std::string& folder,
                     "finite");
   const MapTileIndex index = readTileIndex(folder);
   const double reach = radius_m + margin_m;
-  PlanarGridMap map =
-    loadChecked(folder, index.base_file, index.base_file_bytes, index);
-  for (const MapTile& t : index.tiles) {
+  const Eigen::Vector2d p = position.head<2>().cast<double>();
+  return mergeTiles(folder, index, [&p, reach](const MapTile& t) {
     // distance in x and y from the position to the tile's bounds
-    const Eigen::Vector2d p = position.head<2>().cast<double>();
-    const Eigen::Vector2d nearest =
-      p.cwiseMax(t.bounds.min().head<2>().cast<double>())
-        .cwiseMin(t.bounds.max().head<2>().cast<double>());
-    if ((p - nearest).norm() <= reach) {
-      const PlanarGridMap tile = loadChecked(folder, t.file, t.file_bytes, index);
-      map.merge(tile, Eigen::Isometry3d::Identity());
-    }
-  }
-  return map;
+    const Eigen::Vector2d nearest = p.cwiseMax(t.bounds.min().head<2>().cast<double>())
+                                      .cwiseMin(t.bounds.max().head<2>().cast<double>());
+    return (p - nearest).norm() <= reach;
+  });
 }
 
 } // namespace planar_grid
