@@ -97,9 +97,17 @@ MapTileIndex readTileIndex(const std::string& folder);
 
 /** \brief Loads the tiles of \a folder whose content bounds meet \a region, grown by
  * \a margin_m in x and y, and merges them (PlanarGridMap::merge() with the identity,
- * in key order) into the set's base map. The pieces of a plane split over tiles join
- * into one plane. The result holds whole tiles (call removeOutside() to cut it to the
- * region).
+ * in key order) into an empty map of the set's parameters. The pieces of a plane split
+ * over tiles join into one plane. The merges skip the planes' tidying
+ * (Params::planes_absorb_overlapping, planes_replace_non_planar: the saved map was
+ * tidied, and a tidying on covers cut at tile borders would move or remove cells the
+ * whole map keeps); the map returned has the parameters PlanarGridMap::load() gives.
+ * It holds whole tiles (call removeOutside() to cut it to the region).
+ *
+ * A plane in N tiles comes back with N times its fit's moments (each piece carries the
+ * whole fit): the same plane and cuboids, but N times the weight when it is later
+ * merged with another map or compared by evidence, so operator== with the saved map
+ * is false for a map with planes across tiles.
  *
  * With every tile loaded, the map equals the saved one: the same getState()
  * everywhere, the same cuboids up to order, the same planes. Inside a region, the
