@@ -56,7 +56,6 @@ paramsDict(const PlanarGridMap::Params& p)
   return d;
 }
 
-
 /** The index of a tile folder as a dict. */
 py::dict
 tileIndexDict(const MapTileIndex& index)
@@ -90,7 +89,8 @@ tile_size_m; file (a name in the folder), file_bytes, bounds_min and bounds_max
 
 /** save_tiles, load_tiles and read_tile_index, on the class and the module. */
 void
-bindMapTiles(py::module_& m, py::class_<PlanarGridMap, std::shared_ptr<PlanarGridMap>>& cls)
+bindMapTiles(py::module_& m,
+             py::class_<PlanarGridMap, std::shared_ptr<PlanarGridMap>>& cls)
 {
   using Map = PlanarGridMap;
   const auto save = [](const Map& self, const py::object& folder, double tile_size_m) {
@@ -102,7 +102,9 @@ bindMapTiles(py::module_& m, py::class_<PlanarGridMap, std::shared_ptr<PlanarGri
     }
     return tileIndexDict(index);
   };
-  const std::string save_doc = std::string(R"doc(Writes the map as tiles: squares of tile_size_m in x and y (world z up, every height),
+  const std::string save_doc =
+    std::string(
+      R"doc(Writes the map as tiles: squares of tile_size_m in x and y (world z up, every height),
 each a .pgmap file, and an index (index.pgtiles) written last, so that a half-written
 set is never read (the previous set stays readable until the new index replaces it).
 
@@ -124,7 +126,8 @@ tile_size_m : float
 Returns
 -------
 dict
-    )doc") + TILE_INDEX_DOC + R"doc(
+    )doc")
+    + TILE_INDEX_DOC + R"doc(
 
 Raises
 ------
@@ -151,7 +154,8 @@ planar_grid.IOError
     py::gil_scoped_release release;
     return std::make_shared<Map>(loadTiles(path, Eigen::AlignedBox3f(a, b), margin_m));
   };
-  const char* load_doc = R"doc(Loads the tiles of a folder written by save_tiles() that a region reaches and merges
+  const char* load_doc =
+    R"doc(Loads the tiles of a folder written by save_tiles() that a region reaches and merges
 them (merge() with the identity) into one map; the pieces of a plane split over tiles
 become one plane again. Two forms: given box_min and box_max, the tiles whose content
 bounds meet the box; given position and radius_m (a number as the third argument), the
@@ -194,11 +198,14 @@ planar_grid.IOError
         py::arg("margin_m") = 0.0, load_doc);
   m.def(
     "read_tile_index",
-    [](const py::object& folder) { return tileIndexDict(readTileIndex(toPath(folder))); },
+    [](const py::object& folder) {
+      return tileIndexDict(readTileIndex(toPath(folder)));
+    },
     py::arg("folder"),
-    (std::string("Reads and checks the index of a tile folder (the tiles are not "
-                  "opened); raises planar_grid.IOError naming index.pgtiles and the "
-                  "line for anything that does not match.\n\nReturns\n-------\ndict\n    ")
+    (std::string(
+       "Reads and checks the index of a tile folder (the tiles are not "
+       "opened); raises planar_grid.IOError naming index.pgtiles and the "
+       "line for anything that does not match.\n\nReturns\n-------\ndict\n    ")
      + TILE_INDEX_DOC)
       .c_str());
 }

@@ -20,14 +20,16 @@
 #include <sstream>
 #include <utility>
 
+#include "map_tiles_format.h"
+
 namespace planar_grid {
 
 namespace {
 
 namespace fs = std::filesystem;
 
-constexpr const char* INDEX_MAGIC = "# Planar grid map tiles";
-constexpr int INDEX_VERSION = 1;
+using map_tiles_detail::INDEX_MAGIC;
+using map_tiles_detail::INDEX_VERSION;
 constexpr float INF = std::numeric_limits<float>::infinity();
 
 /** Shortest text of a value that reads back to the same value. */
@@ -79,10 +81,10 @@ contentBounds(const PlanarGridMap& map)
     box.extend(((hi.cast<double>() + Eigen::Vector3d::Ones()) * r).cast<float>());
   }
   for (const PlanarCuboid& c : map.getSurfaceLayer().getCuboids()) {
-    const Eigen::Vector3f half =
-      0.5f
-      * (c.horizontal_axis.cwiseAbs() * c.width_m
-         + c.verticalAxis().cwiseAbs() * c.height_m + c.normal.cwiseAbs() * c.thickness_m);
+    const Eigen::Vector3f half = 0.5f
+                                 * (c.horizontal_axis.cwiseAbs() * c.width_m
+                                    + c.verticalAxis().cwiseAbs() * c.height_m
+                                    + c.normal.cwiseAbs() * c.thickness_m);
     box.extend(c.centre - half);
     box.extend(c.centre + half);
   }
@@ -95,13 +97,16 @@ class TileSplitter {
 public:
   TileSplitter(double tile_size_m,
                std::function<void(std::int64_t, std::int64_t, PlanarGridMap&)> emit) :
-    tile_size_m_(tile_size_m), emit_(std::move(emit))
+      tile_size_m_(tile_size_m),
+      emit_(std::move(emit))
   {}
 
   /** Emits the tiles of \a map, whose content lies in keys [lo, hi] (x, y), by
    * halving the key range along its longer side until one tile is left; halves
    * without content are dropped. */
-  void split(PlanarGridMap map, std::array<std::int64_t, 2> lo, std::array<std::int64_t, 2> hi)
+  void split(PlanarGridMap map,
+             std::array<std::int64_t, 2> lo,
+             std::array<std::int64_t, 2> hi)
   {
     if (isEmpty(map))
       return;
@@ -114,7 +119,8 @@ public:
     const float border = static_cast<float>(static_cast<double>(mid) * tile_size_m_);
     // The lower half keeps [-inf, border), the upper half [border, inf): the closed
     // box of removeOutside() ends one float below the border.
-    Eigen::AlignedBox3f lower(Eigen::Vector3f::Constant(-INF), Eigen::Vector3f::Constant(INF));
+    Eigen::AlignedBox3f lower(Eigen::Vector3f::Constant(-INF),
+                              Eigen::Vector3f::Constant(INF));
     Eigen::AlignedBox3f upper = lower;
     lower.max()[axis] = std::nextafter(border, -INF);
     upper.min()[axis] = border;
@@ -226,27 +232,28 @@ saveTiles(const PlanarGridMap& map, const std::string& folder, double tile_size_
   const Eigen::AlignedBox3f bounds = contentBounds(map);
   if (!bounds.isEmpty()) {
     const auto key = [tile_size_m](float v) {
-      return static_cast<std::int64_t>(std::floor(static_cast<double>(v) / tile_size_m));
+      return static_cast<std::int64_t>(
+        std::floor(static_cast<double>(v) / tile_size_m));
     };
-    TileSplitter splitter(
-      tile_size_m, [&](std::int64_t kx, std::int64_t ky, PlanarGridMap& tile) {
-        MapTile t;
-        t.key_x = kx;
-        t.key_y = ky;
-        t.file = "tile_" + tag + "_" + std::to_string(kx) + "_" + std::to_string(ky)
-                 + ".pgmap";
-        t.bounds = contentBounds(tile);
-        tile.save(inFolder(folder, t.file));
-        t.file_bytes = fs::file_size(inFolder(folder, t.file));
-        index.tiles.push_back(std::move(t));
-      });
+    TileSplitter splitter(tile_size_m,
+                          [&](std::int64_t kx, std::int64_t ky, PlanarGridMap& tile) {
+                            MapTile t;
+                            t.key_x = kx;
+                            t.key_y = ky;
+                            t.file = "tile_" + tag + "_" + std::to_string(kx) + "_"
+                                     + std::to_string(ky) + ".pgmap";
+                            t.bounds = contentBounds(tile);
+                            tile.save(inFolder(folder, t.file));
+                            t.file_bytes = fs::file_size(inFolder(folder, t.file));
+                            index.tiles.push_back(std::move(t));
+                          });
     splitter.split(copyOf(map), {key(bounds.min().x()), key(bounds.min().y())},
                    {key(bounds.max().x()), key(bounds.max().y())});
   }
-  std::sort(index.tiles.begin(), index.tiles.end(),
-            [](const MapTile& a, const MapTile& b) {
-              return std::make_pair(a.key_x, a.key_y) < std::make_pair(b.key_x, b.key_y);
-            });
+  std::sort(
+    index.tiles.begin(), index.tiles.end(), [](const MapTile& a, const MapTile& b) {
+      return std::make_pair(a.key_x, a.key_y) < std::make_pair(b.key_x, b.key_y);
+    });
 
   // The index last: until this rename, the folder's index names the previous set.
   writeTextFileAtomically(inFolder(folder, MAP_TILE_INDEX_NAME), indexText(index));

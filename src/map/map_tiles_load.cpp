@@ -13,14 +13,16 @@
 #include <sstream>
 #include <utility>
 
+#include "map_tiles_format.h"
+
 namespace planar_grid {
 
 namespace {
 
 namespace fs = std::filesystem;
 
-constexpr const char* INDEX_MAGIC = "# Planar grid map tiles";
-constexpr int INDEX_VERSION = 1;
+using map_tiles_detail::INDEX_MAGIC;
+using map_tiles_detail::INDEX_VERSION;
 
 /** Reads the index line by line; every error names the file and the line. */
 class IndexReader {
@@ -117,8 +119,8 @@ loadChecked(const std::string& folder,
   const std::string path = (fs::path(folder) / name).string();
   std::error_code ec;
   if (!fs::is_regular_file(path, ec))
-    throw IOError("map tile " + path + ": missing (the index " + std::string(MAP_TILE_INDEX_NAME)
-                  + " names it)");
+    throw IOError("map tile " + path + ": missing (the index "
+                  + std::string(MAP_TILE_INDEX_NAME) + " names it)");
   const std::uintmax_t size = fs::file_size(path, ec);
   if (ec || size != bytes)
     throw IOError("map tile " + path + ": " + std::to_string(size)
@@ -135,7 +137,6 @@ loadChecked(const std::string& folder,
                   + index.prior);
   return map;
 }
-
 
 /** Merges the tiles \a selected chooses into a map of the set's parameters. The merges
  * run without the tidying of Params::planes_absorb_overlapping and
@@ -253,8 +254,9 @@ loadTiles(const std::string& folder,
   const Eigen::Vector2d p = position.head<2>().cast<double>();
   return mergeTiles(folder, index, [&p, reach](const MapTile& t) {
     // distance in x and y from the position to the tile's bounds
-    const Eigen::Vector2d nearest = p.cwiseMax(t.bounds.min().head<2>().cast<double>())
-                                      .cwiseMin(t.bounds.max().head<2>().cast<double>());
+    const Eigen::Vector2d nearest =
+      p.cwiseMax(t.bounds.min().head<2>().cast<double>())
+        .cwiseMin(t.bounds.max().head<2>().cast<double>());
     return (p - nearest).norm() <= reach;
   });
 }

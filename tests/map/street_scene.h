@@ -260,6 +260,5 @@ probes()
   return out;
 }
 
-
 } // namespace street
 } // namespace planar_grid_test

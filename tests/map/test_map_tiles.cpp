@@ -1,11 +1,13 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // saveTiles() / loadTiles() on the synthetic street of test_map_merge.cpp (surfaces
 // known exactly) and on a small real map file: all tiles give back the map, a region
-// holds the map inside it, a wall across tiles is one plane again, bad sets are refused.
+// holds the map inside it, a wall across tiles is one plane again, bad sets are
+// refused.
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/map_tiles.h>
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -17,8 +19,6 @@
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <unistd.h>
 
 #include "street_scene.h"
 
@@ -179,11 +179,14 @@ TEST_F(MapTilesTest, AllTilesGiveBackTheMap)
 
   const PlanarGridMap loaded = planar_grid::loadTiles(folder(), EVERYWHERE);
   std::size_t inside = 0;
-  EXPECT_EQ(differences(map, loaded, [](const Eigen::Vector3f&) { return true; }, inside),
+  EXPECT_EQ(differences(
+              map, loaded, [](const Eigen::Vector3f&) { return true; }, inside),
             0u);
   EXPECT_GT(inside, 200'000u);
-  for (const SpaceState s : {SpaceState::FREE, SpaceState::OCCUPIED, SpaceState::UNKNOWN})
-    EXPECT_EQ(loaded.getSpaceLayer().getVoxelCount(s), map.getSpaceLayer().getVoxelCount(s));
+  for (const SpaceState s :
+       {SpaceState::FREE, SpaceState::OCCUPIED, SpaceState::UNKNOWN})
+    EXPECT_EQ(loaded.getSpaceLayer().getVoxelCount(s),
+              map.getSpaceLayer().getVoxelCount(s));
   EXPECT_EQ(loaded.getSpaceLayer(), map.getSpaceLayer());
   EXPECT_TRUE(sameCuboids(loaded, map));
 
@@ -211,9 +214,10 @@ TEST_F(MapTilesTest, ARegionHoldsTheMapInsideAndNothingFarOutside)
                                    Eigen::Vector3f(9.0f, INF, INF));
   const PlanarGridMap part = planar_grid::loadTiles(folder(), region);
   std::size_t inside = 0;
-  EXPECT_EQ(differences(map, part, [&](const Eigen::Vector3f& p) { return region.contains(p); },
-                        inside),
-            0u);
+  EXPECT_EQ(
+    differences(
+      map, part, [&](const Eigen::Vector3f& p) { return region.contains(p); }, inside),
+    0u);
   EXPECT_GT(inside, 20'000u);
   // nothing beyond the loaded tiles (x in [5, 10) and the half-cell cuboid overhang)
   std::size_t far = 0, far_known = 0;
@@ -228,12 +232,12 @@ TEST_F(MapTilesTest, ARegionHoldsTheMapInsideAndNothingFarOutside)
   // The radius variant: a disc of 2 m around (8, 1) holds the box.
   const Eigen::Vector3f centre(8.0f, 1.0f, 0.0f);
   const PlanarGridMap disc = planar_grid::loadTiles(folder(), centre, 2.0, 2.0);
-  EXPECT_EQ(differences(map, disc,
-                        [&](const Eigen::Vector3f& p) {
-                          return (p - centre).head<2>().norm() <= 2.0f;
-                        },
-                        inside),
-            0u);
+  EXPECT_EQ(
+    differences(
+      map, disc,
+      [&](const Eigen::Vector3f& p) { return (p - centre).head<2>().norm() <= 2.0f; },
+      inside),
+    0u);
   EXPECT_GT(inside, 5'000u);
   EXPECT_EQ(disc.getState(Eigen::Vector3f(8.0f, 1.0f, 0.2f)), SpaceState::OCCUPIED);
   EXPECT_EQ(disc.getState(Eigen::Vector3f(16.0f, 0.0f, 1.5f)), SpaceState::UNKNOWN);
@@ -249,12 +253,14 @@ TEST_F(MapTilesTest, AWallAcrossTilesIsOnePlaneAgain)
   // of y in [0, 5) from x = 0 to 20 m holds a plane of it.
   int pieces = 0;
   for (const auto& t : index.tiles)
-    pieces += planesLike(PlanarGridMap::load(file(t.file)), Eigen::Vector3f::UnitY(), 3.0f);
+    pieces +=
+      planesLike(PlanarGridMap::load(file(t.file)), Eigen::Vector3f::UnitY(), 3.0f);
   EXPECT_EQ(pieces, 4);
   // Loaded, the pieces are one plane: of the whole street, and of three tiles.
   const PlanarGridMap all = planar_grid::loadTiles(folder(), EVERYWHERE);
   EXPECT_EQ(planesLike(all, Eigen::Vector3f::UnitY(), 3.0f), 1);
-  EXPECT_EQ(all.getSurfaceLayer().getPlanes().size(), map.getSurfaceLayer().getPlanes().size());
+  EXPECT_EQ(all.getSurfaceLayer().getPlanes().size(),
+            map.getSurfaceLayer().getPlanes().size());
   const PlanarGridMap three = planar_grid::loadTiles(
     folder(), Eigen::AlignedBox3f(Eigen::Vector3f(6.0f, 2.0f, 0.0f),
                                   Eigen::Vector3f(14.0f, 4.0f, 4.0f)));
@@ -276,8 +282,8 @@ TEST_F(MapTilesTest, ABadSetIsRefusedWithTheFileAndLine)
   const auto expectError = [&](const std::string& text, const std::string& what) {
     writeIndex(text);
     const std::string error = loadError();
-    EXPECT_NE(error.find(what), std::string::npos) << "expected '" << what << "' in '"
-                                                   << error << "'";
+    EXPECT_NE(error.find(what), std::string::npos)
+      << "expected '" << what << "' in '" << error << "'";
   };
   const std::string at = std::string(planar_grid::MAP_TILE_INDEX_NAME) + ":";
   expectError(replaced("version 1", "version 2"), at + "2: unknown version 2");
@@ -288,11 +294,12 @@ TEST_F(MapTilesTest, ABadSetIsRefusedWithTheFileAndLine)
   expectError(good + "tile 0 0 x.pgmap 1 0 0 0 1 1 1\n", "after the 'end' line");
   const std::string first = "tile " + std::to_string(index.tiles[0].key_x) + " "
                             + std::to_string(index.tiles[0].key_y) + " ";
-  expectError(replaced(first + index.tiles[0].file, first + "../" + index.tiles[0].file),
-              at + "10: file name");
-  expectError(replaced(first + index.tiles[0].file + " ",
-                       first + index.tiles[0].file + " 12x"),
-              at + "10: tile file size");
+  expectError(
+    replaced(first + index.tiles[0].file, first + "../" + index.tiles[0].file),
+    at + "10: file name");
+  expectError(
+    replaced(first + index.tiles[0].file + " ", first + index.tiles[0].file + " 12x"),
+    at + "10: tile file size");
   // the second tile listed under the first one's key
   const std::string second = "tile " + std::to_string(index.tiles[1].key_x) + " "
                              + std::to_string(index.tiles[1].key_y) + " ";
@@ -312,10 +319,10 @@ TEST_F(MapTilesTest, ABadSetIsRefusedWithTheFileAndLine)
   other.getSpaceLayer().setState(planar_grid::ExplicitSpaceGrid::VoxelKey(35, 0, 5),
                                  SpaceState::OCCUPIED);
   other.save(file(index.tiles[0].file));
-  expectError(replaced(" " + std::to_string(index.tiles[0].file_bytes) + " ",
-                       " " + std::to_string(fs::file_size(file(index.tiles[0].file)))
-                         + " "),
-              index.tiles[0].file + ": resolution_m 0.2");
+  expectError(
+    replaced(" " + std::to_string(index.tiles[0].file_bytes) + " ",
+             " " + std::to_string(fs::file_size(file(index.tiles[0].file))) + " "),
+    index.tiles[0].file + ": resolution_m 0.2");
 
   // a missing tile (of a set written again), a missing index
   const MapTileIndex again = planar_grid::saveTiles(map, folder(), 5.0);
@@ -368,7 +375,8 @@ TEST_F(MapTilesTest, InvalidTileSizesAreRefused)
   for (const double size : {0.0, -5.0, 0.25, std::nan(""), 1e6})
     EXPECT_THROW(planar_grid::saveTiles(map, folder(), size), planar_grid::Exception)
       << size;
-  EXPECT_THROW(planar_grid::loadTiles(folder(), EVERYWHERE, -1.0), planar_grid::Exception);
+  EXPECT_THROW(planar_grid::loadTiles(folder(), EVERYWHERE, -1.0),
+               planar_grid::Exception);
 }
 
 TEST_F(MapTilesTest, ARealMapFileRoundTrips)

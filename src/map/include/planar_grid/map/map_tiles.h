@@ -124,8 +124,9 @@ MapTileIndex readTileIndex(const std::string& folder);
  * \return the merged map
  * \throws planar_grid::Exception for a negative or NaN margin_m;
  * planar_grid::IOError naming the file for a bad index (readTileIndex()), a missing
- * tile, a tile whose size differs from the index, a corrupt tile (PlanarGridMap::load()),
- * or a tile whose resolution_m or prior differ from the index */
+ * tile, a tile whose size differs from the index, a corrupt tile
+ * (PlanarGridMap::load()), or a tile whose resolution_m or prior differ from the index
+ */
 PlanarGridMap loadTiles(const std::string& folder,
                         const Eigen::AlignedBox3f& region,
                         double margin_m = 0.0);
