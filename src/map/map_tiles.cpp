@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <filesystem>
@@ -179,6 +180,30 @@ tileSizeProblem(double tile_size_m, double resolution_m)
   return "";
 }
 
+/** True for the names saveTiles() gives the files of a set: tile_g<N>_<i>_<j>.pgmap
+ * and base_g<N>.pgmap. */
+bool
+isSetFileName(const std::string& name)
+{
+  const auto generation_at = [&name](std::size_t at) {
+    std::size_t digits = 0;
+    while (at + digits < name.size()
+           && std::isdigit(static_cast<unsigned char>(name[at + digits])))
+      ++digits;
+    return digits;
+  };
+  const bool pgmap = name.size() > 6 && name.compare(name.size() - 6, 6, ".pgmap") == 0;
+  if (!pgmap)
+    return false;
+  if (name.rfind("base_g", 0) == 0)
+    return generation_at(6) > 0 && 6 + generation_at(6) == name.size() - 6;
+  if (name.rfind("tile_g", 0) == 0) {
+    const std::size_t digits = generation_at(6);
+    return digits > 0 && name.size() > 6 + digits && name[6 + digits] == '_';
+  }
+  return false;
+}
+
 /** The generation of the set an existing index names, or 0 when there is none or
  * it cannot be read; \a files receives the files it names. */
 std::uint64_t
@@ -258,13 +283,19 @@ saveTiles(const PlanarGridMap& map, const std::string& folder, double tile_size_
   // The index last: until this rename, the folder's index names the previous set.
   writeTextFileAtomically(inFolder(folder, MAP_TILE_INDEX_NAME), indexText(index));
 
+  // The previous set's files go, and the files a save that did not finish left: every
+  // file of the folder named like a set's file (tile_g<N>_... or base_g<N>.pgmap) that
+  // the new index does not name.
   std::set<std::string> current{index.base_file};
   for (const MapTile& t : index.tiles)
     current.insert(t.file);
-  for (const std::string& name : old_files)
+  std::set<std::string> stale(old_files.begin(), old_files.end());
+  for (const fs::directory_entry& entry : fs::directory_iterator(folder, ec))
+    if (entry.is_regular_file(ec) && isSetFileName(entry.path().filename().string()))
+      stale.insert(entry.path().filename().string());
+  for (const std::string& name : stale)
     if (current.count(name) == 0 && !fs::remove(inFolder(folder, name), ec) && ec)
-      PCL_WARN("[planar_grid::saveTiles] Could not remove the previous set's file %s: "
-               "%s.\n",
+      PCL_WARN("[planar_grid::saveTiles] Could not remove the stale file %s: %s.\n",
                inFolder(folder, name).c_str(), ec.message().c_str());
   return index;
 }

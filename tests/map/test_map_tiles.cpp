@@ -352,6 +352,16 @@ TEST_F(MapTilesTest, AHalfWrittenSetIsNeverRead)
   EXPECT_EQ(two.generation, one.generation + 1);
   for (const auto& t : one.tiles)
     EXPECT_FALSE(fs::exists(file(t.file))) << t.file;
+  // A save that did not finish leaves files no index names; the next save removes
+  // them, and leaves the files that are not a set's.
+  std::ofstream(file("tile_g7_0_0.pgmap")) << "left by a crash";
+  std::ofstream(file("notes.txt")) << "not a tile";
+  const MapTileIndex three = planar_grid::saveTiles(streetMap(), folder(), 5.0);
+  std::size_t files = 0;
+  for (const auto& entry : fs::directory_iterator(folder_))
+    files += entry.path().filename() != "notes.txt" ? 1 : 0;
+  EXPECT_EQ(files, three.tiles.size() + 2); // the tiles, the base and the index
+  EXPECT_TRUE(fs::exists(file("notes.txt")));
   EXPECT_EQ(planar_grid::loadTiles(folder(), EVERYWHERE).getSpaceLayer(),
             streetMap().getSpaceLayer());
 }

@@ -74,7 +74,9 @@ constexpr const char* MAP_TILE_INDEX_NAME = "index.pgtiles";
  * map first, under names carrying a new generation number, then the index (written to
  * a temporary file and renamed over the old one). Until that rename the folder's index
  * names the previous set, whose files are untouched; after it, the previous set's
- * files are removed. A crash leaves at most unreferenced files of the new generation.
+ * files are removed, and every file named like a set's file (tile_g<N>_...,
+ * base_g<N>.pgmap) that the new index does not name (left by a save that did not
+ * finish). Other files in the folder are left alone.
  * \param[in] map the map (unchanged)
  * \param[in] folder the tile folder (created when missing)
  * \param[in] tile_size_m edge of a tile, meters: > 0, finite, a whole number of
