@@ -3,6 +3,7 @@
 // OctoMap octrees (.bt, .ot) interactively or renders them to a PNG snapshot.
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/core/pcd_file_check.h>
+#include <planar_grid/map/map_tiles.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/odometry/trajectory_io.h>
 #include <planar_grid/visualization/mesh_file.h>
@@ -24,6 +25,7 @@
 #include <cstdlib>
 #include <exception>
 #include <filesystem>
+#include <limits>
 #include <set>
 #include <sstream>
 #include <string>
@@ -82,7 +84,8 @@ printHelp(const char* program)
     "colours (else colours by height); an octree's occupied leaves are boxes coloured "
     "by occupancy.\n\n");
   print_info(
-    "Syntax is: %s <cloud.pcd | map.pgmap | mesh.ply | octree.bt | octree.ot> [more "
+    "Syntax is: %s <cloud.pcd | map.pgmap | tile folder | mesh.ply | octree.bt | "
+    "octree.ot> [more "
     "...] <options>\n",
     program);
   print_info("  where options are:\n");
@@ -314,6 +317,16 @@ parseOptions(int argc, char** argv, bool& help)
                       + argv[find_argument(argc, argv, "--point-size") + 1] + "'");
   }
 
+  // A tile folder (saveTiles(): a folder holding the tile index) opens as one map.
+  for (int i = 1; i < argc; ++i) {
+    std::error_code ec;
+    if (used.count(i) == 0
+        && std::filesystem::is_regular_file(
+          std::filesystem::path(argv[i]) / planar_grid::MAP_TILE_INDEX_NAME, ec)) {
+      options.maps.emplace_back(argv[i]);
+      used.insert(i);
+    }
+  }
   for (int i = 1; i < argc; ++i)
     if (used.count(i) == 0)
       throw Exception(std::string("unknown argument '") + argv[i]
@@ -460,7 +473,13 @@ run(int argc, char** argv)
     timer.tic();
     print_highlight("Loading ");
     print_value("%s ", path.c_str());
-    const auto map = planar_grid::PlanarGridMap::load(path);
+    // a tile folder: every tile, merged into one map
+    const float inf = std::numeric_limits<float>::infinity();
+    const auto map = std::filesystem::is_directory(path)
+                       ? planar_grid::loadTiles(
+                         path, Eigen::AlignedBox3f(Eigen::Vector3f::Constant(-inf),
+                                                   Eigen::Vector3f::Constant(inf)))
+                       : planar_grid::PlanarGridMap::load(path);
     const auto drawn = renderer.addMap(map);
     print_info("[done, ");
     print_value("%g", timer.toc());

@@ -2,6 +2,7 @@
 // PlanarGridMap: construction, the map file, integration of views on numpy arrays, its
 // cuboids, planes and memory; SpaceState as a Python IntEnum.
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/map/map_tiles.h>
 #include <planar_grid/map/planar_grid_map.h>
 
 #include <pybind11/stl.h>
@@ -57,6 +58,160 @@ paramsDict(const PlanarGridMap::Params& p)
   d["planes_replace_non_planar"] = p.planes_replace_non_planar;
   d["planes_absorb_overlapping"] = p.planes_absorb_overlapping;
   return d;
+}
+
+/** The index of a tile folder as a dict. */
+py::dict
+tileIndexDict(const MapTileIndex& index)
+{
+  py::list tiles;
+  for (const MapTile& t : index.tiles) {
+    py::dict tile;
+    tile["key"] = py::make_tuple(t.key_x, t.key_y);
+    tile["file"] = t.file;
+    tile["file_bytes"] = t.file_bytes;
+    tile["bounds_min"] = toArray(t.bounds.min());
+    tile["bounds_max"] = toArray(t.bounds.max());
+    tiles.append(tile);
+  }
+  py::dict out;
+  out["resolution_m"] = index.resolution_m;
+  out["tile_size_m"] = index.tile_size_m;
+  out["prior"] = index.prior;
+  out["generation"] = index.generation;
+  out["base_file"] = index.base_file;
+  out["base_file_bytes"] = index.base_file_bytes;
+  out["tiles"] = tiles;
+  return out;
+}
+
+constexpr const char* TILE_INDEX_DOC = R"doc(The index as a dict: resolution_m (m),
+tile_size_m (m), prior, generation, base_file, base_file_bytes and tiles, a list of
+dicts with key (i, j): the tile holds x in [i, i + 1) and y in [j, j + 1) times
+tile_size_m; file (a name in the folder), file_bytes, bounds_min and bounds_max
+(numpy arrays, shape (3,), meters: the content's bounds, cuboids included).)doc";
+
+/** save_tiles, load_tiles and read_tile_index, on the class and the module. */
+void
+bindMapTiles(py::module_& m,
+             py::class_<PlanarGridMap, std::shared_ptr<PlanarGridMap>>& cls)
+{
+  using Map = PlanarGridMap;
+  const auto save = [](const Map& self, const py::object& folder, double tile_size_m) {
+    const std::string path = toPath(folder);
+    MapTileIndex index;
+    {
+      py::gil_scoped_release release;
+      index = saveTiles(self, path, tile_size_m);
+    }
+    return tileIndexDict(index);
+  };
+  const std::string save_doc =
+    std::string(
+      R"doc(Writes the map as tiles: squares of tile_size_m in x and y (world z up, every height),
+each a .pgmap file, and an index (index.pgtiles) written last, so that a half-written
+set is never read (the previous set stays readable until the new index replaces it).
+
+A voxel goes to the tile holding its centre, a plane's raster cell to the tile holding
+its face centre, a non-planar cell to the tile holding its centre; a plane crossing
+tile borders is stored in each tile it reaches, with its whole fit, and is one plane
+again when those tiles are loaded.
+
+Parameters
+----------
+map : PlanarGridMap
+    The map (unchanged).
+folder : str or os.PathLike
+    The tile folder (created when missing).
+tile_size_m : float
+    Edge of a tile, meters: > 0, at most 1e5 and a whole number of voxels
+    (resolution_m).
+
+Returns
+-------
+dict
+    )doc")
+    + TILE_INDEX_DOC + R"doc(
+
+Raises
+------
+planar_grid.Error
+    For an invalid tile_size_m.
+planar_grid.IOError
+    When a file cannot be written (the message names it).
+)doc";
+  cls.def("save_tiles", save, py::arg("folder"), py::arg("tile_size_m"),
+          save_doc.c_str());
+  m.def("save_tiles", save, py::arg("map"), py::arg("folder"), py::arg("tile_size_m"),
+        save_doc.c_str());
+
+  const auto load = [](const py::object& folder, const DoubleArray& first,
+                       const py::object& second, double margin_m) {
+    const std::string path = toPath(folder);
+    const Eigen::Vector3f a = toVector3f(first, "box_min / position");
+    if (py::isinstance<py::float_>(second) || py::isinstance<py::int_>(second)) {
+      const double radius_m = second.cast<double>();
+      py::gil_scoped_release release;
+      return std::make_shared<Map>(loadTiles(path, a, radius_m, margin_m));
+    }
+    const Eigen::Vector3f b = toVector3f(second.cast<DoubleArray>(), "box_max");
+    py::gil_scoped_release release;
+    return std::make_shared<Map>(loadTiles(path, Eigen::AlignedBox3f(a, b), margin_m));
+  };
+  const char* load_doc =
+    R"doc(Loads the tiles of a folder written by save_tiles() that a region reaches and merges
+them (merge() with the identity) into one map; the pieces of a plane split over tiles
+become one plane again. Two forms: given box_min and box_max, the tiles whose content
+bounds meet the box; given position and radius_m (a number as the third argument), the
+tiles within radius_m of position in x and y (every height). With every tile (box_min
+-inf, box_max inf) the map equals the saved one. The map holds whole tiles.
+
+Parameters
+----------
+folder : str or os.PathLike
+    The tile folder.
+box_min, box_max : array_like, shape (3,), meters
+    The region's corners (world frame; a bound may be +-inf).
+position : array_like, shape (3,), meters
+    The centre (its z is not used).
+radius_m : float
+    Radius in x and y, meters, >= 0.
+margin_m : float, optional
+    Tiles within this distance of the region in x and y are loaded too, meters, >= 0
+    (default 0): a plane's cuboids are covered from the loaded cells, so a margin keeps
+    the cut away from the region.
+
+Returns
+-------
+PlanarGridMap
+
+Raises
+------
+ValueError
+    For a corner or position not of shape (3,).
+planar_grid.Error
+    For a negative radius_m or margin_m.
+planar_grid.IOError
+    For a missing or malformed index (the message names index.pgtiles and the line), a
+    missing tile, a tile whose size differs from the index, a corrupt tile, or a tile
+    of another resolution or prior (the message names the tile).
+)doc";
+  cls.def_static("load_tiles", load, py::arg("folder"), py::arg("box_min"),
+                 py::arg("box_max"), py::arg("margin_m") = 0.0, load_doc);
+  m.def("load_tiles", load, py::arg("folder"), py::arg("box_min"), py::arg("box_max"),
+        py::arg("margin_m") = 0.0, load_doc);
+  m.def(
+    "read_tile_index",
+    [](const py::object& folder) {
+      return tileIndexDict(readTileIndex(toPath(folder)));
+    },
+    py::arg("folder"),
+    (std::string(
+       "Reads and checks the index of a tile folder (the tiles are not "
+       "opened); raises planar_grid.IOError naming index.pgtiles and the "
+       "line for anything that does not match.\n\nReturns\n-------\ndict\n    ")
+     + TILE_INDEX_DOC)
+      .c_str());
 }
 
 } // namespace
@@ -620,6 +775,7 @@ numpy.ndarray, shape (N, 3), float64
       [](const py::bytes& bytes) {
         return std::make_shared<Map>(Map::deserialize(bytes, "<pickle>"));
       }));
+  bindMapTiles(m, cls);
 }
 
 } // namespace python

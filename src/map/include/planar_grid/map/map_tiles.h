@@ -1,0 +1,150 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+
+#include <planar_grid/map/planar_grid_map.h>
+
+#include <Eigen/Geometry>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace planar_grid {
+
+/** \brief One tile of a tiled map, as its index lists it. \ingroup map */
+struct MapTile {
+  /** \brief Tile key along x: the tile holds x in [key_x, key_x + 1) tile_size_m. */
+  std::int64_t key_x{0};
+  /** \brief Tile key along y: the tile holds y in [key_y, key_y + 1) tile_size_m. */
+  std::int64_t key_y{0};
+  /** \brief The tile's .pgmap file, a plain name inside the tile folder. */
+  std::string file;
+  /** \brief Length of that file, bytes. */
+  std::uint64_t file_bytes{0};
+  /** \brief Bounds of the tile's content, meters, world frame: its stored voxel blocks
+   * (block-aligned, 8 voxels) and the axis-aligned boxes of its cuboids. Cuboids reach
+   * past the tile's square by up to half a cuboid. */
+  Eigen::AlignedBox3f bounds;
+};
+
+/** \brief The index of a tiled map (the file MAP_TILE_INDEX_NAME in the tile folder).
+ * \ingroup map */
+struct MapTileIndex {
+  /** \brief The map's resolution_m, meters. */
+  double resolution_m{0.0};
+  /** \brief Edge of a tile's square in x and y, meters (a whole number of voxels). */
+  double tile_size_m{0.0};
+  /** \brief The space layer's prior ("free" or "unknown"). */
+  std::string prior;
+  /** \brief Counts the sets written into the folder; the files of a set carry it in
+   * their names, so that a new set never overwrites the files of the set the index
+   * names until the new index has replaced it. */
+  std::uint64_t generation{0};
+  /** \brief The map with no content (its parameters only), a plain name in the folder:
+   * what loadTiles() merges the tiles into. */
+  std::string base_file;
+  /** \brief Length of base_file, bytes. */
+  std::uint64_t base_file_bytes{0};
+  /** \brief The tiles, sorted by (key_x, key_y); tiles without content are not
+   * written. */
+  std::vector<MapTile> tiles;
+};
+
+/** \brief Name of the index file in a tile folder. */
+constexpr const char* MAP_TILE_INDEX_NAME = "index.pgtiles";
+
+/** \brief Writes \a map as tiles: squares of tile_size_m x tile_size_m in x and y
+ * (world z up, every height), each a .pgmap file written by PlanarGridMap::save(), and
+ * an index (text, MAP_TILE_INDEX_NAME; format in docs/MAP.md, "Tiles").
+ *
+ * Where things go (the square of tile (i, j) is [i, i + 1) x [j, j + 1) times
+ * tile_size_m, half-open, so every point is in exactly one square):
+ * - a space layer voxel goes to the tile whose square holds its centre (voxels never
+ *   straddle a border: tile_size_m is a whole number of voxels);
+ * - a plane's raster cell goes to the tile whose square holds the centre of its face
+ *   (as PlanarGridMap::removeOutside() decides); a plane crossing borders is stored in
+ *   every tile holding some of its cells, each copy with the plane's whole fit
+ *   (moments), and its cuboids are covered per tile from the tile's cells (a
+ *   rectangle crossing a border is cut there; loading both tiles joins the plane again
+ *   and covers its cells as before);
+ * - a non-planar cell goes to the tile whose square holds its centre.
+ * Nothing is lost or stored twice, except the plane fits a crossing plane repeats.
+ *
+ * The set is written so that a half-written set is never read: the tiles and the base
+ * map first, under names carrying a new generation number, then the index (written to
+ * a temporary file and renamed over the old one). Until that rename the folder's index
+ * names the previous set, whose files are untouched; after it, the previous set's
+ * files are removed, and every file named like a set's file (tile_g<N>_...,
+ * base_g<N>.pgmap) that the new index does not name (left by a save that did not
+ * finish). Other files in the folder are left alone.
+ * \param[in] map the map (unchanged)
+ * \param[in] folder the tile folder (created when missing)
+ * \param[in] tile_size_m edge of a tile, meters: > 0, finite, a whole number of
+ * map voxels (resolution_m), at most 1e5
+ * \return the index written
+ * \throws planar_grid::Exception for an invalid tile_size_m; planar_grid::IOError
+ * naming the file when a file cannot be written */
+MapTileIndex
+saveTiles(const PlanarGridMap& map, const std::string& folder, double tile_size_m);
+
+/** \brief Reads and checks the index of a tile folder: the magic line, version 1, id,
+ * each key in order (resolution_m > 0, tile_size_m a whole number of voxels, prior,
+ * generation, base, tiles), each tile line (key, plain file name, file size, bounds
+ * with min <= max), keys and file names unique, the end line and nothing after it.
+ * The tiles themselves are not opened.
+ * \param[in] folder the tile folder
+ * \throws planar_grid::IOError naming the index file and the line for a missing
+ * index or anything that does not match */
+MapTileIndex readTileIndex(const std::string& folder);
+
+/** \brief Loads the tiles of \a folder whose content bounds meet \a region, grown by
+ * \a margin_m in x and y, and merges them (PlanarGridMap::merge() with the identity,
+ * in key order) into an empty map of the set's parameters. The pieces of a plane split
+ * over tiles join into one plane. The merges skip the planes' tidying
+ * (Params::planes_absorb_overlapping, planes_replace_non_planar: the saved map was
+ * tidied, and a tidying on covers cut at tile borders would move or remove cells the
+ * whole map keeps); the map returned has the parameters PlanarGridMap::load() gives.
+ * It holds whole tiles (call removeOutside() to cut it to the region).
+ *
+ * A plane in N tiles comes back with N times its fit's moments (each piece carries the
+ * whole fit): the same plane and cuboids, but N times the weight when it is later
+ * merged with another map or compared by evidence, so operator== with the saved map
+ * is false for a map with planes across tiles.
+ *
+ * With every tile loaded, the map equals the saved one: the same getState()
+ * everywhere, the same cuboids up to order, the same planes. Inside a region, the
+ * space layer and the non-planar cells are exact; a plane's cuboids are covered from
+ * the cells of the loaded tiles, so where a rectangle of the saved map reaches past
+ * them it is cut and its cells re-covered (as by removeOutside()), and the density
+ * cover (merge_rule density) may choose other rectangles near the cut. A margin
+ * keeps such cuts away from the region. docs/MAP.md, "Tiles", gives the figures.
+ * \param[in] folder the tile folder
+ * \param[in] region box, meters, world frame; a bound may be infinite (every tile:
+ * an unbounded box)
+ * \param[in] margin_m tiles within this distance of the region in x and y are loaded
+ * too, meters, >= 0
+ * \return the merged map
+ * \throws planar_grid::Exception for a negative or NaN margin_m;
+ * planar_grid::IOError naming the file for a bad index (readTileIndex()), a missing
+ * tile, a tile whose size differs from the index, a corrupt tile
+ * (PlanarGridMap::load()), or a tile whose resolution_m or prior differ from the index
+ */
+PlanarGridMap loadTiles(const std::string& folder,
+                        const Eigen::AlignedBox3f& region,
+                        double margin_m = 0.0);
+
+/** \brief loadTiles() for the tiles whose content bounds lie within radius_m +
+ * margin_m of \a position in x and y (distance from the point to the bounds'
+ * rectangle), at every height.
+ * \param[in] folder the tile folder
+ * \param[in] position centre, meters, world frame (its z is not used)
+ * \param[in] radius_m radius in x and y, meters, >= 0
+ * \param[in] margin_m added to the radius, meters, >= 0
+ * \throws as the box variant, and planar_grid::Exception for a negative or NaN
+ * radius_m or a non-finite position */
+PlanarGridMap loadTiles(const std::string& folder,
+                        const Eigen::Vector3f& position,
+                        double radius_m,
+                        double margin_m = 0.0);
+
+} // namespace planar_grid
