@@ -53,12 +53,15 @@ endif()
 string(REPLACE ";" ", " CPACK_DEBIAN_PACKAGE_DEPENDS "${_pg_depends}")
 
 # What find_package(PlanarGrid) and the .pc files need beyond the package itself: the
-# dependencies' headers, CMake configs and unversioned .so links (the Debian -dev
-# packages of what the modules link; scripts/install_deps.sh installs the same ones).
-set(_pg_recommends libpcl-dev libeigen3-dev libflann-dev libopencv-dev libyaml-cpp-dev
-    nlohmann-json3-dev liboctomap-dev libnanoflann-dev)
+# dependencies' headers, CMake configs, .pc files and unversioned .so links (the Debian
+# -dev packages of what the modules link; scripts/install_deps.sh installs the same ones).
+# scripts/check_install.sh checks that every file and .pc module the package names by
+# path or by name comes from one of these.
+set(_pg_recommends libpcl-dev libeigen3-dev libopencv-dev libyaml-cpp-dev nlohmann-json3-dev
+    liboctomap-dev libnanoflann-dev)
 if(PLANAR_GRID_BUILD_VIEWER)
-  list(APPEND _pg_recommends libvtk9-dev)
+  # The visualization module links VTK and X11 (its .pc file requires x11).
+  list(APPEND _pg_recommends libvtk9-dev libx11-dev)
 endif()
 if(PLANAR_GRID_HAVE_ROS_BAG)
   # The bag input's libraries, linked by their files (src/pipeline/CMakeLists.txt).
