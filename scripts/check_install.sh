@@ -11,7 +11,8 @@
 # Then the Debian package (cpack -G DEB, cmake/PlanarGridPackaging.cmake), without
 # installing it: extracted with dpkg-deb -x into a temporary root, its tools run, the
 # examples build against <root>/usr, its Python module maps the scan, and every package
-# it Depends on or Recommends is installed or installable here (apt-cache policy).
+# it Depends on or Recommends is installed or installable here (apt-cache policy; and
+# apt-get install -s, a simulation, resolves them).
 #   bash scripts/check_install.sh [build folder]    (default: $BUILD_DIR, else build/)
 # The scan comes from PLANAR_GRID_DATA_DIR (default ../shared/data).
 set -euo pipefail
@@ -275,6 +276,14 @@ check_relations() {
 }
 check_relations Depends
 check_relations Recommends
+# And apt itself, in a simulation that changes nothing, resolves them for `apt install`.
+if ! apt-get install -s "$deb" >"$work/apt_simulate.log" 2>&1 \
+   || ! grep -q '^Inst planar-grid ' "$work/apt_simulate.log"; then
+  cat "$work/apt_simulate.log" >&2
+  echo "check_install: apt would not install the package" >&2
+  exit 1
+fi
+echo "check_install: apt-get install -s: $(grep -c '^Inst ' "$work/apt_simulate.log") packages to install, planar-grid among them"
 # The dependencies' files that the CMake package and the .pc files name by path, and the
 # .pc modules that the .pc files require, come from packages that the package depends on
 # or recommends.
