@@ -21,12 +21,13 @@ set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
 set(CPACK_PACKAGE_VENDOR "The PlanarGrid authors")
 set(CPACK_PACKAGE_DESCRIPTION_SUMMARY
     "planar surface-based 3D mapping from stereo (PCL-style C++17 library)")
+# Lines of at most 80 characters, as dpkg and apt show them.
 set(CPACK_PACKAGE_DESCRIPTION
-    "PlanarGrid builds 3D occupancy maps for mobile robots from stereo cameras, with \
-plane-aligned cuboid cells instead of cubic voxels. This package holds the tools \
-(planar_grid_pipeline, planar_grid_viewer, planar_grid_eval, ...), the Python module \
-planar_grid, and the headers, libraries, CMake package (find_package(PlanarGrid)) and \
-pkg-config files to build against the library.")
+    "PlanarGrid builds 3D occupancy maps for mobile robots from stereo cameras, with
+plane-aligned cuboid cells instead of cubic voxels. This package holds the tools
+(planar_grid_pipeline, planar_grid_viewer, planar_grid_eval, ...), the Python
+module planar_grid, and the headers, libraries, CMake package
+(find_package(PlanarGrid)) and pkg-config files to build against the library.")
 set(CPACK_RESOURCE_FILE_LICENSE ${PROJECT_SOURCE_DIR}/LICENSE)
 set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
 # The executables and the Python module without their symbol tables (Release builds
