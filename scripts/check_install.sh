@@ -8,6 +8,11 @@
 # and the ROS bag input's libraries) linked with it; an installed tool runs and
 # prints its version; an unknown COMPONENT fails with a clear message. Works for static
 # and shared (BUILD_SHARED_LIBS) builds.
+# Then the Debian package (cpack -G DEB, cmake/PlanarGridPackaging.cmake), without
+# installing it: extracted with dpkg-deb -x into a temporary root, its tools run, the
+# examples build against <root>/usr, its Python module maps the scan, and every package
+# it Depends on or Recommends is installed or installable here (apt-cache policy; and
+# apt-get install -s, a simulation, resolves them).
 #   bash scripts/check_install.sh [build folder]    (default: $BUILD_DIR, else build/)
 # The scan comes from PLANAR_GRID_DATA_DIR (default ../shared/data).
 set -euo pipefail
@@ -32,31 +37,45 @@ for f in lib/cmake/PlanarGrid/PlanarGridConfig.cmake \
          bin/planar_grid_pipeline; do
   [ -e "$prefix/$f" ] || { echo "check_install: $f was not installed" >&2; exit 1; }
 done
-"$prefix/bin/planar_grid_pipeline" --list-stages >/dev/null
 version=$(sed -n 's/^CMAKE_PROJECT_VERSION:STATIC=//p' "$BUILD_DIR/CMakeCache.txt")
-[ "$("$prefix/bin/planar_grid_pipeline" --version)" = "planar_grid_pipeline $version" ] \
-  || { echo "check_install: planar_grid_pipeline --version does not print $version" >&2; exit 1; }
 
-# The examples, against the prefix only (no package registry, no build tree).
-echo "check_install: building examples/ against the installed package"
-cmake -S examples -B "$work/examples" -DCMAKE_BUILD_TYPE=Release \
-  -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF >"$work/configure.log" \
-  || { cat "$work/configure.log" >&2; exit 1; }
-found_dir=$(sed -n 's/^PlanarGrid_DIR:PATH=//p' "$work/examples/CMakeCache.txt")
-case "$found_dir" in
-  "$prefix"/*) ;;
-  *) echo "check_install: PlanarGrid was found at '$found_dir', not in $prefix" >&2; exit 1 ;;
-esac
-cmake --build "$work/examples" -j2 >"$work/build.log" 2>&1 || { cat "$work/build.log" >&2; exit 1; }
-if grep -q "warning:" "$work/build.log"; then
-  grep -B2 -A4 "warning:" "$work/build.log" >&2
-  echo "check_install: the examples build with warnings" >&2
-  exit 1
-fi
-for example in segment_planes approximate_cuboids filter_features custom_point_filters; do
-  echo "check_install: $example $CLOUD"
-  "$work/examples/$example" "$CLOUD"
-done
+# check_tools PREFIX: the installed pipeline tool lists its stages and prints the version.
+check_tools() {
+  local prefix=$1
+  "$prefix/bin/planar_grid_pipeline" --list-stages >/dev/null
+  [ "$("$prefix/bin/planar_grid_pipeline" --version)" = "planar_grid_pipeline $version" ] \
+    || { echo "check_install: $prefix/bin/planar_grid_pipeline --version does not print $version" >&2; return 1; }
+}
+
+# check_examples PREFIX FOLDER: the examples, configured in FOLDER against PREFIX only (no
+# package registry, no build tree), built without warnings and run on the scan.
+check_examples() {
+  local prefix=$1 dir=$2
+  echo "check_install: building examples/ against $prefix"
+  cmake -S examples -B "$dir" -DCMAKE_BUILD_TYPE=Release \
+    -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF >"$dir.configure.log" \
+    || { cat "$dir.configure.log" >&2; return 1; }
+  local found_dir
+  found_dir=$(sed -n 's/^PlanarGrid_DIR:PATH=//p' "$dir/CMakeCache.txt")
+  case "$found_dir" in
+    "$prefix"/*) ;;
+    *) echo "check_install: PlanarGrid was found at '$found_dir', not in $prefix" >&2; return 1 ;;
+  esac
+  cmake --build "$dir" -j2 >"$dir.build.log" 2>&1 || { cat "$dir.build.log" >&2; return 1; }
+  if grep -q "warning:" "$dir.build.log"; then
+    grep -B2 -A4 "warning:" "$dir.build.log" >&2
+    echo "check_install: the examples build with warnings" >&2
+    return 1
+  fi
+  local example
+  for example in segment_planes approximate_cuboids filter_features custom_point_filters; do
+    echo "check_install: $example $CLOUD"
+    "$dir/$example" "$CLOUD"
+  done
+}
+
+check_tools "$prefix"
+check_examples "$prefix" "$work/examples"
 
 # The same example with pkg-config and the installed planar_grid.pc only: its Cflags and
 # Libs (static libraries: every dependency; shared: ours and those of our public headers)
@@ -138,13 +157,12 @@ LD_LIBRARY_PATH="$prefix/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}" \
   || { echo "check_install: the pipeline built with pkg-config does not run" >&2; exit 1; }
 unset PKG_CONFIG_PATH
 
-# The Python module, when the build has it: installed, and imported from the prefix alone
-# (the libraries are linked into it; nothing comes from the build tree).
-if grep -q '^PLANAR_GRID_BUILD_PYTHON:BOOL=ON' "$BUILD_DIR/CMakeCache.txt"; then
-  python=$(sed -n 's/^Python3_EXECUTABLE:FILEPATH=//p' "$BUILD_DIR/CMakeCache.txt")
-  module_dir="$prefix/$(sed -n 's/^PLANAR_GRID_PYTHON_INSTALL_DIR:STRING=//p' "$BUILD_DIR/CMakeCache.txt")"
+# check_python MODULE_DIR: the Python module imported from MODULE_DIR alone (the libraries
+# are linked into it; nothing comes from the build tree).
+check_python() {
+  local module_dir=$1
   ls "$module_dir"/planar_grid*.so >/dev/null 2>&1 \
-    || { echo "check_install: the Python module was not installed in $module_dir" >&2; exit 1; }
+    || { echo "check_install: the Python module was not installed in $module_dir" >&2; return 1; }
   echo "check_install: import planar_grid from $module_dir"
   (cd "$work" && PYTHONPATH="$module_dir" "$python" -c "
 import sys
@@ -155,6 +173,14 @@ uv = np.stack(np.meshgrid(np.arange(0, 2, 0.05), np.arange(0, 2, 0.05)), -1).res
 planes = pg.SACMultiPlaneSegmentation(min_inliers=100).segment(np.column_stack([uv, np.ones(len(uv))]))
 assert len(planes) == 1, planes
 " "$module_dir")
+}
+
+has_python=false
+if grep -q '^PLANAR_GRID_BUILD_PYTHON:BOOL=ON' "$BUILD_DIR/CMakeCache.txt"; then
+  has_python=true
+  python=$(sed -n 's/^Python3_EXECUTABLE:FILEPATH=//p' "$BUILD_DIR/CMakeCache.txt")
+  python_dir=$(sed -n 's/^PLANAR_GRID_PYTHON_INSTALL_DIR:STRING=//p' "$BUILD_DIR/CMakeCache.txt")
+  check_python "$prefix/$python_dir"
 fi
 
 # An unknown component is an error that names the known ones.
@@ -171,4 +197,116 @@ if cmake -S "$work/unknown" -B "$work/unknown/build" -DCMAKE_PREFIX_PATH="$prefi
 fi
 grep -q "Unknown PlanarGrid component 'no_such_module'" "$work/unknown.log" \
   || { cat "$work/unknown.log" >&2; echo "check_install: unclear error for an unknown component" >&2; exit 1; }
+
+# The Debian package of the same build (cmake/PlanarGridPackaging.cmake), checked without
+# installing it: this machine's /usr stays as it was. dpkg-deb extracts it into a
+# temporary root, and everything runs from <root>/usr.
+if ! command -v dpkg-deb >/dev/null; then
+  echo "check_install: OK (no dpkg-deb here: the Debian package was not checked)"
+  exit 0
+fi
+echo "check_install: cpack -G DEB"
+cpack -G DEB --config "$BUILD_DIR/CPackConfig.cmake" -B "$work/deb" >"$work/cpack.log" 2>&1 \
+  || { cat "$work/cpack.log" >&2; echo "check_install: cpack -G DEB failed" >&2; exit 1; }
+deb="$work/deb/planar-grid_${version}_$(dpkg --print-architecture).deb"
+[ -f "$deb" ] || { cat "$work/cpack.log" >&2; echo "check_install: cpack wrote no $deb" >&2; exit 1; }
+outside=$(dpkg-deb -c "$deb" | awk '{ print $6 }' | grep -v -e '^\./$' -e '^\./usr/' || true)
+[ -z "$outside" ] || { echo "check_install: the package installs outside /usr: $outside" >&2; exit 1; }
+root="$work/root"
+dpkg-deb -x "$deb" "$root"
+echo "check_install: $(basename "$deb"), $(du -k "$deb" | cut -f1) KiB, $(dpkg-deb -c "$deb" | grep -vc '/$') files, extracted into $root"
+for f in bin/planar_grid_pipeline lib/cmake/PlanarGrid/PlanarGridConfig.cmake \
+         lib/pkgconfig/planar_grid.pc include/planar_grid/version.h; do
+  [ -e "$root/usr/$f" ] || { echo "check_install: the package has no /usr/$f" >&2; exit 1; }
+done
+
+# The tools find our libraries without LD_LIBRARY_PATH: linked in (static libraries), or
+# through their run path $ORIGIN/../lib (shared ones), which points into the root.
+check_tools "$root/usr"
+check_examples "$root/usr" "$work/examples-deb"
+# The .pc files locate their prefix from their own folder.
+[ "$(PKG_CONFIG_PATH="$root/usr/lib/pkgconfig" pkg-config --variable=includedir planar_grid)" \
+  -ef "$root/usr/include" ] \
+  || { echo "check_install: the packaged planar_grid.pc does not point into its root" >&2; exit 1; }
+
+# The Python module, with the interpreter the package depends on, maps the scan through the
+# pipeline (config/office1.yaml, with the scan's path made absolute).
+if $has_python; then
+  python=/usr/bin/python3
+  check_python "$root/usr/lib/python3/dist-packages"
+  sed "s|^  files: .*|  files: $(realpath "$CLOUD")|" config/office1.yaml >"$work/office1.yaml"
+  echo "check_install: mapping $CLOUD with the packaged Python module"
+  (cd "$work" && PYTHONPATH="$root/usr/lib/python3/dist-packages" "$python" -c "
+import sys
+import planar_grid as pg
+result = pg.run_pipeline(sys.argv[1], write_outputs=False)
+assert result.report['frames'] == 1, result.report
+assert result.map is not None and len(result.plane_models) >= 3, result.plane_models
+print('check_install: office1:', len(result.plane_models), 'planes,',
+      result.map.memory['total_bytes'], 'bytes of map')
+" "$work/office1.yaml")
+fi
+
+# Depends and Recommends: every relation (or one of its alternatives) is met by an installed
+# package or by apt's candidate, at the versions asked.
+satisfiable() {
+  local name=$1 op=$2 wanted=$3 have
+  have=$(dpkg-query -W -f='${db:Status-Abbrev} ${Version}\n' "$name" 2>/dev/null \
+         | sed -n 's/^ii  *//p' | head -1)
+  if [ -z "$have" ]; then
+    have=$(apt-cache policy "$name" 2>/dev/null | sed -n 's/^ *Candidate: //p')
+    [ -n "$have" ] && [ "$have" != "(none)" ] || return 1
+  fi
+  [ -z "$op" ] || dpkg --compare-versions "$have" "$op" "$wanted"
+}
+check_relations() {
+  local field=$1 relation alternative ok name op wanted
+  local -a relations alternatives
+  IFS=',' read -r -a relations <<<"$(dpkg-deb -f "$deb" "$field")"
+  for relation in "${relations[@]}"; do
+    ok=false
+    IFS='|' read -r -a alternatives <<<"$relation"
+    for alternative in "${alternatives[@]}"; do
+      read -r name op wanted <<<"$(tr -d '()' <<<"$alternative")"
+      if satisfiable "$name" "$op" "$wanted"; then ok=true; break; fi
+    done
+    $ok || { echo "check_install: $field '$relation' is neither installed nor installable" >&2; return 1; }
+  done
+  echo "check_install: $field: ${#relations[@]} relations, each installed or installable"
+}
+check_relations Depends
+check_relations Recommends
+# And apt itself, in a simulation that changes nothing, resolves them for `apt install`.
+if ! apt-get install -s "$deb" >"$work/apt_simulate.log" 2>&1 \
+   || ! grep -q '^Inst planar-grid ' "$work/apt_simulate.log"; then
+  cat "$work/apt_simulate.log" >&2
+  echo "check_install: apt would not install the package" >&2
+  exit 1
+fi
+echo "check_install: apt-get install -s: $(grep -c '^Inst ' "$work/apt_simulate.log") packages to install, planar-grid among them"
+# The dependencies' files that the CMake package and the .pc files name by path, and the
+# .pc modules that the .pc files require, come from packages that the package depends on
+# or recommends.
+declared=" $(dpkg-deb -f "$deb" Depends Recommends | sed -e 's/^[A-Za-z]*: //' -e 's/([^)]*)//g' | tr ',|\n' '   ') "
+mapfile -t named < <(grep -ohE '/usr/[^ ;"()>]+\.(so|a)\b' "$root"/usr/lib/cmake/PlanarGrid/*.cmake \
+                       "$root"/usr/lib/pkgconfig/*.pc | sort -u)
+export PKG_CONFIG_PATH="$root/usr/lib/pkgconfig"
+for pc in "$root"/usr/lib/pkgconfig/*.pc; do
+  pkg-config --print-requires --print-requires-private "$(basename "$pc" .pc)"
+done | awk '$1 !~ /^planar_grid/ { print $1 }' | sort -u >"$work/pc_requires.txt"
+while read -r module; do
+  named+=("$(realpath "$(pkg-config --variable=pcfiledir "$module")/$module.pc")")
+done <"$work/pc_requires.txt"
+unset PKG_CONFIG_PATH
+if [ ${#named[@]} -gt 0 ]; then
+  owners=$(dpkg -S "${named[@]}" 2>"$work/dpkg_S.log") \
+    || { cat "$work/dpkg_S.log" >&2; echo "check_install: the package names files that no Debian package holds" >&2; exit 1; }
+  while read -r owner; do
+    case "$declared" in
+      *" $owner "*) ;;
+      *) echo "check_install: the package uses files of $owner, which it neither depends on nor recommends" >&2; exit 1 ;;
+    esac
+  done < <(cut -d: -f1 <<<"$owners" | sort -u)
+fi
+echo "check_install: the ${#named[@]} files of other packages it names (the .pc files of $(wc -l <"$work/pc_requires.txt") modules among them) come from packages it depends on or recommends"
 echo "check_install: OK"
