@@ -91,9 +91,19 @@ sanitized_ctest() {
     return 0
   fi
   if grep -q "LeakSanitizer has encountered a fatal error" "$log"; then
+    # The failed tests by name, from ctest's closing list ("  148 - Name (Failed)"):
+    # --rerun-failed goes by test number, which a run filtered with -E numbers otherwise.
+    local failed others
+    failed=$(sed -n 's/^[[:space:]]*[0-9]* - \(.*\) (Failed)$/\1/p' "$log" | paste -sd '|')
+    others=$(sed -n '/The following tests FAILED:/,$p' "$log" \
+      | grep -E '^[[:space:]]*[0-9]+ - ' | grep -vc ' (Failed)$' || true)
     rm -f "$log"
-    echo "run_tests: LeakSanitizer's tracer crashed at a process exit; the failed tests once more"
-    ctest --test-dir "$ASAN_BUILD_DIR" --output-on-failure --timeout 1500 --rerun-failed
+    if [ -z "$failed" ] || [ "$others" != 0 ]; then
+      echo "run_tests: a test failed otherwise than by LeakSanitizer's tracer" >&2
+      return 1
+    fi
+    echo "run_tests: LeakSanitizer's tracer crashed at a process exit; the failed tests ($failed) once more"
+    ctest --test-dir "$ASAN_BUILD_DIR" --output-on-failure --timeout 1500 -R "^(${failed})\$"
     return
   fi
   rm -f "$log"
