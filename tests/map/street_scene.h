@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The synthetic street of test_map_merge.cpp (surfaces known exactly), for the tests
+// A synthetic street whose surfaces are known exactly, for the tests
 // of maps built from its frames.
 #pragma once
 
