@@ -143,13 +143,15 @@ protected:
   }
 
   /** Runs planar_grid_pipeline on \a yaml (written to dir_/run.yaml) with \a args. */
-  ToolRun runTool(const std::string& yaml, const std::string& args = "") const
+  ToolRun runTool(const std::string& yaml,
+                  const std::string& args = "",
+                  const std::string& environment = "") const
   {
     const fs::path path = dir_ / "run.yaml";
     std::ofstream(path) << yaml;
-    const std::string command = std::string(PLANAR_GRID_PIPELINE_TOOL) + " --config '"
-                                + path.string() + "' --no-snapshot --sequential " + args
-                                + " 2>&1";
+    const std::string command =
+      environment + " " + std::string(PLANAR_GRID_PIPELINE_TOOL) + " --config '"
+      + path.string() + "' --no-snapshot --sequential " + args + " 2>&1";
     ToolRun run;
     std::fflush(nullptr);
     FILE* pipe = ::popen(command.c_str(), "r");
@@ -253,7 +255,12 @@ TEST_F(BadStereoInputTest, FramesWithoutPointsAreWarnedAboutAndTheRunCompletes)
     ASSERT_TRUE(cv::imwrite((dir_ / "right" / rightName(index)).string(), dark));
   };
   darken(2);
-  ToolRun run = runTool(yaml);
+  // In the sanitizer build LeakSanitizer's tracer crashes at this run's exit (the
+  // stereo matcher's worker threads still winding down; scripts/run_tests.sh) and turns
+  // exit 0 into 1: the status is what this test checks, so the tool runs without the
+  // leak check here (the library's leak check is in the in-process tests).
+  const std::string no_leak_check = "ASAN_OPTIONS=detect_leaks=0";
+  ToolRun run = runTool(yaml, "", no_leak_check);
   EXPECT_EQ(run.exit_code, 0) << run.output;
   EXPECT_CONTAINS(run.output, "frame " + leftName(2)
                                 + " (2): no points reached stage 'voxel_grid'");
@@ -266,7 +273,7 @@ TEST_F(BadStereoInputTest, FramesWithoutPointsAreWarnedAboutAndTheRunCompletes)
   ASSERT_TRUE(fs::exists(dir_ / "out" / "report.json")) << run.output;
   for (int i = 0; i < 5; ++i)
     darken(i);
-  run = runTool(yaml);
+  run = runTool(yaml, "", no_leak_check);
   EXPECT_EQ(run.exit_code, 0) << run.output;
   EXPECT_CONTAINS(run.output, "frame " + leftName(4) + " (4): no points");
   std::ifstream report(dir_ / "out" / "report.json");
