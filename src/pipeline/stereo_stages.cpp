@@ -6,12 +6,28 @@
 
 #include <opencv2/core/utility.hpp>
 
+#include <sched.h>
+
+#include <algorithm>
+
 #include "stages.h"
 
 namespace planar_grid {
 namespace stages {
 
 namespace {
+
+/** The CPUs this process may run on (its affinity mask, e.g. under taskset), at least
+ * 1. */
+int
+allowedCpuCount()
+{
+  cpu_set_t cpus;
+  CPU_ZERO(&cpus);
+  if (sched_getaffinity(0, sizeof(cpus), &cpus) != 0)
+    return 1;
+  return std::max(1, CPU_COUNT(&cpus));
+}
 
 /** The estimator's parameters without its per-call thread switch: the stage sets
  * OpenCV's thread count once for the run instead. */
@@ -43,10 +59,13 @@ public:
     restoreThreads();
     if (num_threads_ <= 0)
       return;
+    // More threads than allowed CPUs gain nothing, and TBB prints a warning for each
+    // worker it cannot start.
+    const int wanted = std::min(num_threads_, allowedCpuCount());
     const int current = cv::getNumThreads();
-    if (current != num_threads_) {
+    if (current != wanted) {
       previous_threads_ = current;
-      cv::setNumThreads(num_threads_);
+      cv::setNumThreads(wanted);
     }
   }
 
@@ -124,6 +143,10 @@ stereoDisparityInfo()
     ParamSpec::integer("downscale", d.downscale, 1, 2, "",
                        "Image scale divisor: 2 matches half-resolution images; the "
                        "output stays full resolution, in full-resolution px."),
+    ParamSpec::integer("row_downscale", d.row_downscale, 1, 2, "",
+                       "Row divisor (with downscale 1): 2 matches the images at half "
+                       "their rows and full width, so disparities keep their 1/16 px "
+                       "step at half the matching cost; the output stays full size."),
     ParamSpec::integer("num_threads", d.num_threads, 0, 64, "",
                        "OpenCV threads for the whole run (OpenCV's setting is "
                        "process-wide: every stage's OpenCV calls use it), set before "
@@ -172,6 +195,7 @@ stereoDisparityInfo()
     DisparityEstimator::Params p;
     p.algorithm = disparityAlgorithmFromString(v.getChoice("algorithm"));
     p.downscale = v.getInt("downscale");
+    p.row_downscale = v.getInt("row_downscale");
     p.num_threads = v.getInt("num_threads");
     p.min_disparity_px = v.getInt("min_disparity_px");
     p.num_disparities_px = v.getInt("num_disparities_px");

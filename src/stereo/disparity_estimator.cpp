@@ -58,6 +58,12 @@ validateParams(const DisparityEstimator::Params& params)
   if (params.downscale != 1 && params.downscale != 2)
     throw Exception(prefix + "downscale must be 1 or 2, got "
                     + std::to_string(params.downscale));
+  if (params.row_downscale != 1 && params.row_downscale != 2)
+    throw Exception(prefix + "row_downscale must be 1 or 2, got "
+                    + std::to_string(params.row_downscale));
+  if (params.row_downscale == 2 && params.downscale != 1)
+    throw Exception(prefix + "row_downscale 2 needs downscale 1 (downscale 2 already "
+                             "halves the rows)");
   if (params.num_threads < 0 || params.num_threads > 64)
     throw Exception(prefix + "num_threads must be in [0, 64], got "
                     + std::to_string(params.num_threads));
@@ -222,6 +228,38 @@ upsampleDisparity(const cv::Mat& half, const cv::Size& full_size, cv::Mat& full)
   }
 }
 
+/** \brief Brings a disparity image matched on half the rows back to \a rows rows (at
+ * most twice \a half's).
+ *
+ * Input row v sits at half-row coordinate v / 2 - 0.25. It is interpolated linearly
+ * between the two nearest half rows when both are valid and differ by at most 2 px
+ * (a smooth surface: the road's disparity grows about 0.36 px per input row on
+ * Karlsruhe); otherwise it takes the half row that contains it, so that depth edges
+ * stay sharp and NaN does not spread. */
+void
+upsampleDisparityRows(const cv::Mat& half, int rows, cv::Mat& full)
+{
+  const float max_span_px = 2.0f;
+  full.create(rows, half.cols, CV_32FC1);
+  const int last_row = half.rows - 1;
+  for (int v = 0; v < rows; ++v) {
+    const int y0 = (v % 2 == 0) ? v / 2 - 1 : v / 2;
+    const float wy = (v % 2 == 0) ? 0.75f : 0.25f;
+    const float* row0 = half.ptr<float>(std::clamp(y0, 0, last_row));
+    const float* row1 = half.ptr<float>(std::clamp(y0 + 1, 0, last_row));
+    const float* nearest_row = half.ptr<float>(std::min(v / 2, last_row));
+    float* out = full.ptr<float>(v);
+    for (int u = 0; u < half.cols; ++u) {
+      const float d0 = row0[u], d1 = row1[u];
+      // NaN fails the comparison, so an invalid neighbour takes the nearest row.
+      if (std::abs(d1 - d0) <= max_span_px)
+        out[u] = (1.0f - wy) * d0 + wy * d1;
+      else
+        out[u] = nearest_row[u];
+    }
+  }
+}
+
 } // namespace
 
 DisparityAlgorithm
@@ -289,7 +327,8 @@ DisparityEstimator::DisparityEstimator(const Params& params) : params_(params)
   const int min_disparity = params_.min_disparity_px / s;
   const int num_disparities = params_.num_disparities_px / s;
   const int disp12_max_diff = scaledTolerance(params_.disp12_max_diff_px, s);
-  const int speckle_window = params_.speckle_window_size_px / (s * s);
+  const int speckle_window =
+    params_.speckle_window_size_px / (s * s * params_.row_downscale);
   const int speckle_range = scaledTolerance(params_.speckle_range_px, s);
   if (params_.algorithm == DisparityAlgorithm::BLOCK_MATCHING) {
     cv::Ptr<cv::StereoBM> bm =
@@ -351,6 +390,27 @@ DisparityEstimator::compute(const cv::Mat& left,
     throw Exception("DisparityEstimator::compute: images must be CV_8UC1 or CV_8UC3");
 
   cv::Mat fixed_point; // CV_16S, disparity * 16
+  if (params_.row_downscale == 2) {
+    // Half the rows: pad an odd row count by one replicated row so that input row v
+    // is in half row v / 2, match, bring the rows back and crop the padding.
+    const int pad_bottom = left.rows % 2;
+    auto shrink_rows = [&](const cv::Mat& image) {
+      cv::Mat grey = detail::toGrey(image);
+      if (pad_bottom != 0)
+        cv::copyMakeBorder(grey, grey, 0, pad_bottom, 0, 0, cv::BORDER_REPLICATE);
+      cv::Mat half;
+      cv::resize(grey, half, cv::Size(grey.cols, grey.rows / 2), 0.0, 0.0,
+                 cv::INTER_AREA);
+      return half;
+    };
+    computeFixedPoint(shrink_rows(left), shrink_rows(right), fixed_point);
+    cv::Mat half_disparity;
+    fixedPointToFloat(fixed_point, params_.min_disparity_px, 1.0f, half_disparity);
+    cv::Mat padded;
+    upsampleDisparityRows(half_disparity, 2 * fixed_point.rows, padded);
+    padded(cv::Rect(0, 0, left.cols, left.rows)).copyTo(disparity);
+    return;
+  }
   if (params_.downscale == 1) {
     computeFixedPoint(detail::toGrey(left), detail::toGrey(right), fixed_point);
     fixedPointToFloat(fixed_point, params_.min_disparity_px, 1.0f, disparity);

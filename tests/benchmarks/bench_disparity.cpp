@@ -32,6 +32,7 @@ struct Candidate {
   DisparityAlgorithm algorithm;
   int downscale;
   int block_size_px;
+  int row_downscale{1};
 };
 
 const std::vector<Candidate>&
@@ -48,6 +49,10 @@ candidates()
     {"sgbm_3way_ds2", DisparityAlgorithm::SGBM_3WAY, 2, 5},
     {"sgbm_3way_ds2_b3", DisparityAlgorithm::SGBM_3WAY, 2, 3},
     {"block_matching_b9_ds2", DisparityAlgorithm::BLOCK_MATCHING, 2, 9},
+    {"sgbm_3way_rows2", DisparityAlgorithm::SGBM_3WAY, 1, 5, 2},
+    {"sgbm_3way_rows2_b3", DisparityAlgorithm::SGBM_3WAY, 1, 3, 2},
+    {"sgbm_3way_rows2_b1", DisparityAlgorithm::SGBM_3WAY, 1, 1, 2},
+    {"sgbm_3way_b3", DisparityAlgorithm::SGBM_3WAY, 1, 3},
   };
   return list;
 }
@@ -60,6 +65,7 @@ paramsOf(const Candidate& candidate, int num_threads, int num_disparities_px)
   DisparityEstimator::Params params;
   params.algorithm = candidate.algorithm;
   params.downscale = candidate.downscale;
+  params.row_downscale = candidate.row_downscale;
   params.block_size_px = candidate.block_size_px;
   params.num_threads = num_threads;
   params.num_disparities_px = num_disparities_px;

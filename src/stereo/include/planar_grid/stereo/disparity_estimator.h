@@ -80,6 +80,14 @@ public:
      * sub-pixel error about twice as large (0.22 against 0.09 px median on a synthetic
      * slanted plane). */
     int downscale{1};
+    /** Row divisor, 1 or 2 (only with downscale 1). With 2 both images are shrunk to
+     * half their rows (cv::resize, INTER_AREA: each matched row is the mean of two
+     * input rows) and matched with the full disparity range; the disparity image is
+     * brought back to the input's rows. Columns, disparities and the sub-pixel step
+     * (1/16 px) stay those of the input, so depth precision is kept, while the
+     * matching cost halves; the vertical detail is that of half the rows. The speckle
+     * area is halved. */
+    int row_downscale{1};
     /** OpenCV threads used while computing (cv::setNumThreads for the duration of
      * compute(), then restored); 0 leaves OpenCV's process-wide setting (by default
      * the number of cores). Affects speed only, never the result. 0..64. The setting
