@@ -460,6 +460,9 @@ double
 mappedRange(const PipelineConfig& pipeline, const StereoCalibration& calibration)
 {
   double range_m = std::numeric_limits<double>::infinity();
+  bool range_adaptive = false;
+  for (const auto& sc : pipeline.stages)
+    range_adaptive = range_adaptive || sc.type == "range_adaptive_cells";
   for (const auto& sc : pipeline.stages) {
     if (sc.type == "stereo_disparity" || sc.type == "map_integration") {
       range_m = std::min(range_m, sc.params.getDouble("max_range_m"));
@@ -469,8 +472,12 @@ mappedRange(const PipelineConfig& pipeline, const StereoCalibration& calibration
       // planar cells.
       const double error_at_1m =
         calibration.depthError(1.0, sc.params.getDouble("disparity_error_px"));
+      // range_adaptive_cells maps the far levels' points up to 2^far_levels times the
+      // bound's error.
+      const double far_scale =
+        range_adaptive ? std::ldexp(1.0, sc.params.getInt("far_levels")) : 1.0;
       const double max_error_m =
-        std::max(sc.params.getDouble("max_depth_error_m"),
+        std::max(sc.params.getDouble("max_depth_error_m") * far_scale,
                  sc.params.getDouble("max_plane_depth_error_m"));
       if (std::isfinite(error_at_1m) && error_at_1m > 0.0)
         range_m = std::min(range_m, std::sqrt(max_error_m / error_at_1m));

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 
 #include "stages.h"
 
@@ -76,10 +77,12 @@ class DepthErrorFilterStage : public Stage {
 public:
   DepthErrorFilterStage(double disparity_error_px,
                         double max_depth_error_m,
-                        double max_plane_depth_error_m) :
+                        double max_plane_depth_error_m,
+                        int far_levels) :
       disparity_error_px_(disparity_error_px),
       max_depth_error_m_(max_depth_error_m),
-      max_plane_depth_error_m_(std::max(max_depth_error_m, max_plane_depth_error_m))
+      max_plane_depth_error_m_(std::max(max_depth_error_m, max_plane_depth_error_m)),
+      far_levels_(far_levels)
   {}
 
   bool isFrameLocal() const override { return true; }
@@ -112,6 +115,9 @@ public:
       far[i] = depth > max_plane_depth;
       inlier_only_ += depth > max_depth && !far[i];
     }
+    kept_far_ = 0;
+    if (far_levels_ > 0)
+      keepFarPoints(frame, far, error_at_1m);
     removed_ = removePoints(frame, far);
     if (max_plane_depth > max_depth)
       frame.inlier_only_depth_m = std::min(frame.inlier_only_depth_m, max_depth);
@@ -122,6 +128,8 @@ public:
   {
     values.emplace_back("max_depth_m", static_cast<double>(max_depth_m_));
     values.emplace_back("far_points", static_cast<double>(removed_));
+    if (far_levels_ > 0)
+      values.emplace_back("far_points_kept", static_cast<double>(kept_far_));
     if (max_plane_depth_error_m_ > max_depth_error_m_) {
       values.emplace_back("max_plane_depth_m", static_cast<double>(max_plane_depth_m_));
       values.emplace_back("inlier_only_points", static_cast<double>(inlier_only_));
@@ -129,9 +137,43 @@ public:
   }
 
 private:
+  /** The points \a far marks whose depth error is within max_depth_error_m x
+   * 2^far_levels, in the camera frame with their level, into the frame's far_cloud. */
+  void keepFarPoints(Frame& frame, const std::vector<std::uint8_t>& far, double error_at_1m)
+  {
+    const auto& cloud = *frame.cloud;
+    const Eigen::Affine3f camera_T_cloud = cameraTCloud(frame);
+    auto out = std::make_shared<Frame::Cloud>();
+    std::vector<std::uint8_t> levels;
+    // Level l holds the depths whose error is in (max 2^(l-1), max 2^l]: depth bounds
+    // sqrt(max 2^l / error at 1 m).
+    std::vector<float> level_depth(static_cast<std::size_t>(far_levels_) + 1);
+    for (int l = 0; l <= far_levels_; ++l)
+      level_depth[static_cast<std::size_t>(l)] = static_cast<float>(
+        std::sqrt(max_depth_error_m_ * std::ldexp(1.0, l) / error_at_1m));
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if (!far[i])
+        continue;
+      pcl::PointXYZI p = cloud[i];
+      p.getVector3fMap() = camera_T_cloud * cloud[i].getVector3fMap();
+      if (!(p.z > level_depth[0]) || p.z > level_depth.back())
+        continue;
+      std::uint8_t level = 1;
+      while (p.z > level_depth[level])
+        ++level;
+      out->push_back(p);
+      levels.push_back(level);
+    }
+    kept_far_ = out->size();
+    frame.far_cloud = std::move(out);
+    frame.far_levels = std::move(levels);
+  }
+
   double disparity_error_px_;
   double max_depth_error_m_;
   double max_plane_depth_error_m_;
+  int far_levels_;
+  std::size_t kept_far_{0};
   float max_depth_m_{0.0f};
   float max_plane_depth_m_{0.0f};
   std::size_t removed_{0};
@@ -163,11 +205,17 @@ depthErrorFilterInfo()
                     "Largest depth error Delta z of a point that may still join a "
                     "plane (needs multi_plane_segmentation later in the pipeline); at "
                     "or below max_depth_error_m (0, the default): none."),
+    ParamSpec::integer("far_levels", 0, 0, 4, "",
+                       "Range-adaptive cells: the dropped points whose depth error is "
+                       "within max_depth_error_m x 2^far_levels are kept aside for "
+                       "range_adaptive_cells, which maps level l (error within "
+                       "max_depth_error_m x 2^l) at cells 2^l times its minimum; 0 "
+                       "(the default): dropped."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     return std::make_unique<DepthErrorFilterStage>(
       v.getDouble("disparity_error_px"), v.getDouble("max_depth_error_m"),
-      v.getDouble("max_plane_depth_error_m"));
+      v.getDouble("max_plane_depth_error_m"), v.getInt("far_levels"));
   };
   return info;
 }

@@ -85,6 +85,7 @@ stageRegistry()
     declare(stages::multiPlaneSegmentationInfo(), R::MAPPING, {D::CLOUD}, {D::PLANES}),
     declare(stages::groundRemovalInfo(), R::MAPPING, {D::PLANES}, {}),
     declare(stages::planarCuboidApproximationInfo(), R::MAPPING, {D::CLOUD, D::PLANES}, {D::CUBOIDS}),
+    declare(stages::rangeAdaptiveCellsInfo(), R::MAPPING, {D::CUBOIDS}, {}),
     declare(stages::mapIntegrationInfo(), R::MAPPING, {D::POSES, D::WORLD_FRAME, D::CUBOIDS}, {D::MAP}),
     declare(stages::accumulateInfo(), R::MAPPING, {D::WORLD_FRAME}, {D::WORLD_CLOUD}),
     // clang-format on

@@ -32,6 +32,9 @@ StageInfo groundRemovalInfo();
 // surface_stages.cpp
 StageInfo planarCuboidApproximationInfo();
 
+// range_adaptive_stages.cpp
+StageInfo rangeAdaptiveCellsInfo();
+
 // occupancy_stages.cpp
 StageInfo klOccupancyFilterInfo();
 

@@ -63,6 +63,16 @@ struct Frame {
    * takes (then resets this to infinity). Infinity: every point may make cells. */
   float inlier_only_depth_m{std::numeric_limits<float>::infinity()};
 
+  /** \brief Points beyond depth_error_filter's bounds that it keeps for
+   * range_adaptive_cells (its far_levels > 0): camera frame (x right, y down, z
+   * forward, metres), finite. Null or empty: none. Shared by frame copies, never
+   * changed after depth_error_filter. */
+  Cloud::ConstPtr far_cloud;
+  /** \brief The level of each far_cloud point, 1..far_levels: its depth error (eq. 4)
+   * is within max_depth_error_m x 2^level, so it is mapped at cells 2^level times the
+   * minimum. */
+  std::vector<std::uint8_t> far_levels;
+
   /** \brief Matched 3D key feature points in the camera frame (after feature_matching).
    */
   StereoFeatures features;

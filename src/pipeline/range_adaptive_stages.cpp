@@ -1,0 +1,199 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// range_adaptive_cells: the points beyond depth_error_filter's bound mapped at coarser
+// cells, the cell size following eq. 4's depth error, instead of dropped.
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/surface/planar_cuboid_approximation.h>
+
+#include <pcl/point_types.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <unordered_map>
+#include <vector>
+
+#include "stages.h"
+
+namespace planar_grid {
+namespace stages {
+
+namespace {
+
+class RangeAdaptiveCellsStage : public Stage {
+public:
+  explicit RangeAdaptiveCellsStage(const ParamValues& v) :
+      min_cell_size_m_(v.getDouble("min_cell_size_m")),
+      min_points_per_cell_(static_cast<std::size_t>(v.getInt("min_points_per_cell"))),
+      terrain_height_m_(static_cast<float>(v.getDouble("terrain_height_m"))),
+      terrain_cell_m_(v.getDouble("terrain_cell_m")),
+      terrain_max_rise_m_(static_cast<float>(v.getDouble("terrain_max_rise_m")))
+  {}
+
+  void process(Frame& frame, PipelineState& /*state*/) override
+  {
+    far_points_ = terrain_points_ = cells_ = 0;
+    if (!frame.far_cloud || frame.far_cloud->empty())
+      return;
+    const auto& far = *frame.far_cloud;
+    if (frame.far_levels.size() != far.size())
+      throw Exception("stage 'range_adaptive_cells': frame " + frame.name
+                      + " has " + std::to_string(far.size()) + " far points but "
+                      + std::to_string(frame.far_levels.size()) + " levels");
+    far_points_ = far.size();
+
+    // The points in the frame of the cells (the working cloud's), and the axes of
+    // the non-planar cells of planar_cuboid_approximation: e1 horizontal, up, e2.
+    const Eigen::Affine3f cloud_T_camera = cameraTCloud(frame).inverse();
+    const Eigen::Vector3f up = upAxis(frame).normalized();
+    PlanarCuboidApproximation<pcl::PointXYZI> axes;
+    axes.setUpAxis(up);
+    const Eigen::Vector3f e1 = axes.getHorizontalReference();
+    const Eigen::Vector3f e2 = up.cross(e1);
+    const Eigen::Vector3f origin = sensorOrigin(frame);
+    points_.resize(far.size());
+    for (std::size_t i = 0; i < far.size(); ++i)
+      points_[i] = cloud_T_camera * far[i].getVector3fMap() - origin;
+
+    // Terrain: with a ground plane, a point at most terrain_height above the lowest
+    // far point of its column (terrain_cell_m wide), or above terrain_max_rise where
+    // that column's lowest point is higher (its foot unseen), is road, verge or lawn.
+    terrain_.assign(far.size(), 0);
+    if (frame.has_ground) {
+      const Eigen::Vector4f g = frame.ground_coefficients;
+      const float origin_height = g.head<3>().dot(origin) + g[3];
+      heights_.resize(far.size());
+      for (std::size_t i = 0; i < far.size(); ++i)
+        heights_[i] = g.head<3>().dot(points_[i]) + origin_height;
+      const double inv = 1.0 / terrain_cell_m_;
+      const auto column = [&](std::size_t i) {
+        const auto x = static_cast<std::int64_t>(std::floor(e1.dot(points_[i]) * inv));
+        const auto y = static_cast<std::int64_t>(std::floor(e2.dot(points_[i]) * inv));
+        return (static_cast<std::uint64_t>(x + (1 << 30)) << 32)
+               | static_cast<std::uint64_t>(y + (1 << 30));
+      };
+      column_low_.clear();
+      for (std::size_t i = 0; i < far.size(); ++i) {
+        const auto it = column_low_.emplace(column(i), heights_[i]).first;
+        it->second = std::min(it->second, heights_[i]);
+      }
+      for (std::size_t i = 0; i < far.size(); ++i) {
+        const float base = std::min(column_low_[column(i)], terrain_max_rise_m_);
+        terrain_[i] = heights_[i] <= base + terrain_height_m_ ? 1 : 0;
+        terrain_points_ += terrain_[i];
+      }
+    }
+
+    // Cells: a lattice of edge min_cell_size x 2^level per level, anchored at the
+    // sensor's position (cells of one frame never straddle the lattice of another
+    // level); a cell with at least min_points_per_cell points is one non-planar box.
+    keys_.clear();
+    for (std::size_t i = 0; i < far.size(); ++i) {
+      if (terrain_[i])
+        continue;
+      const std::uint8_t level = frame.far_levels[i];
+      const double inv = 1.0 / (min_cell_size_m_ * std::ldexp(1.0, level));
+      const auto q = [&](float c) {
+        // +-2^19 cells: far beyond eq. 4's reach at any level
+        const auto k = static_cast<std::int64_t>(std::floor(c * inv));
+        return static_cast<std::uint64_t>(std::clamp<std::int64_t>(k, -(1 << 19),
+                                                                   (1 << 19) - 1)
+                                          + (1 << 19));
+      };
+      keys_.push_back((static_cast<std::uint64_t>(level) << 60)
+                      | (q(e1.dot(points_[i])) << 40) | (q(up.dot(points_[i])) << 20)
+                      | q(e2.dot(points_[i])));
+    }
+    std::sort(keys_.begin(), keys_.end());
+    for (std::size_t a = 0; a < keys_.size();) {
+      std::size_t b = a;
+      while (b < keys_.size() && keys_[b] == keys_[a])
+        ++b;
+      if (b - a >= min_points_per_cell_) {
+        const std::uint64_t key = keys_[a];
+        const auto level = static_cast<int>(key >> 60);
+        const auto cell = static_cast<float>(min_cell_size_m_ * std::ldexp(1.0, level));
+        const auto centre = [&](int shift) {
+          const auto k = static_cast<std::int64_t>((key >> shift) & 0xFFFFF) - (1 << 19);
+          return (static_cast<float>(k) + 0.5f) * cell;
+        };
+        PlanarCuboid c;
+        c.normal = -e2;
+        c.horizontal_axis = e1; // vertical = -e2 x e1 = up
+        c.width_m = c.height_m = c.thickness_m = cell;
+        c.centre = origin + e1 * centre(40) + up * centre(20) + e2 * centre(0);
+        c.plane_id = -1;
+        c.is_planar = false;
+        c.point_count = b - a;
+        frame.cuboids.push_back(c);
+        ++cells_;
+      }
+      a = b;
+    }
+  }
+
+  bool countsCloudPoints() const override { return false; }
+
+  void counters(const Frame& /*frame*/,
+                std::vector<std::pair<std::string, double>>& values) const override
+  {
+    values.emplace_back("far_points", static_cast<double>(far_points_));
+    values.emplace_back("far_terrain_points", static_cast<double>(terrain_points_));
+    values.emplace_back("far_cells", static_cast<double>(cells_));
+  }
+
+private:
+  double min_cell_size_m_;
+  std::size_t min_points_per_cell_;
+  float terrain_height_m_;
+  double terrain_cell_m_;
+  float terrain_max_rise_m_;
+  std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> points_;
+  std::vector<float> heights_;
+  std::vector<std::uint8_t> terrain_;
+  std::unordered_map<std::uint64_t, float> column_low_;
+  std::vector<std::uint64_t> keys_;
+  std::size_t far_points_{0};
+  std::size_t terrain_points_{0};
+  std::size_t cells_{0};
+};
+
+} // namespace
+
+StageInfo
+rangeAdaptiveCellsInfo()
+{
+  StageInfo info;
+  info.type = "range_adaptive_cells";
+  info.description =
+    "Maps the points depth_error_filter keeps beyond its bound (its far_levels) as "
+    "non-planar cells whose size follows eq. 4's depth error: level l (error within "
+    "max_depth_error_m x 2^l) at min_cell_size_m x 2^l, so that far structures are "
+    "coarse cells instead of nothing. With a ground plane (ground_removal), the far "
+    "terrain goes: points within terrain_height_m above the lowest far point of their "
+    "column. Appends to the frame's cells; put it after planar_cuboid_approximation.";
+  info.params = {
+    ParamSpec::real("min_cell_size_m", 0.1, 0.01, 10.0, "m",
+                    "The minimum cell; level l's cells are 2^l times it.")
+      .scalesWithCellSize(),
+    ParamSpec::integer("min_points_per_cell", 10, 1, 1000000, "",
+                       "Cells with fewer far points are dropped (the far points are "
+                       "not thinned by voxel_grid or statistical_outlier_removal)."),
+    ParamSpec::real("terrain_height_m", 0.3, 0.0, 10.0, "m",
+                    "Far points this close above their column's lowest point are "
+                    "terrain."),
+    ParamSpec::real("terrain_cell_m", 1.0, 0.05, 100.0, "m",
+                    "Side of the terrain columns, in the ground plane."),
+    ParamSpec::real("terrain_max_rise_m", 1.0, 0.0, 100.0, "m",
+                    "Highest terrain above the ground plane: a column whose lowest "
+                    "point is higher (a crown or a wall whose foot is hidden) keeps "
+                    "its points above this plus terrain_height_m."),
+  };
+  info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
+    return std::make_unique<RangeAdaptiveCellsStage>(v);
+  };
+  return info;
+}
+
+} // namespace stages
+} // namespace planar_grid

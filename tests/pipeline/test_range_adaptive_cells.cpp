@@ -1,0 +1,214 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Range-adaptive cells: depth_error_filter's far levels (eq. 4) and range_adaptive_cells
+// on a synthetic camera-frame scene with exact labels beyond the 0.3 m bound (14.86 m
+// with Karlsruhe's rig): a flat road 1.6 m below the camera, a guardrail standing on it,
+// a wall and a few isolated stray points.
+#include <planar_grid/pipeline/param_table.h>
+#include <planar_grid/pipeline/stage.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <tuple>
+#include <vector>
+
+namespace {
+
+enum Label : int { NEAR_ROAD, ROAD, GUARDRAIL, WALL, STRAY };
+
+constexpr double FOCAL_PX = 645.24;
+constexpr double BASELINE_M = 0.5707;
+constexpr double CAMERA_HEIGHT_M = 1.6;
+
+/** The depth whose eq. 4 error (0.5 px) is \a error_m. */
+float
+depthOfError(double error_m)
+{
+  return static_cast<float>(std::sqrt(error_m / 0.5 * FOCAL_PX * BASELINE_M));
+}
+
+struct Scene {
+  planar_grid::Frame frame;
+  std::map<int, std::size_t> count;
+};
+
+/** Camera frame: x right, y down, z forward; the road is y = +1.6. Points every 0.05 m;
+ * the intensity holds the label. */
+Scene
+makeScene()
+{
+  Scene s;
+  auto cloud = std::make_shared<planar_grid::Frame::Cloud>();
+  const auto add = [&](float x, float y, float z, Label l) {
+    pcl::PointXYZI p;
+    p.x = x;
+    p.y = y;
+    p.z = z;
+    p.intensity = static_cast<float>(l);
+    cloud->push_back(p);
+    ++s.count[l];
+  };
+  const auto road_y = static_cast<float>(CAMERA_HEIGHT_M);
+  for (float z = 5.0f; z < 35.0f; z += 0.05f)
+    for (float x = -4.0f; x < 4.0f; x += 0.05f)
+      add(x, road_y, z, z < 14.0f ? NEAR_ROAD : ROAD);
+  // A guardrail 0.4-0.8 m above the road at x = -3.5 from 16 to 28 m ahead.
+  for (float z = 16.0f; z < 28.0f; z += 0.05f)
+    for (float h = 0.4f; h < 0.8f; h += 0.05f)
+      add(-3.5f, road_y - h, z, GUARDRAIL);
+  // A wall at 24 m ahead, 2-5 m above the road (its foot hidden).
+  for (float x = 0.0f; x < 3.0f; x += 0.05f)
+    for (float h = 2.0f; h < 5.0f; h += 0.05f)
+      add(x, road_y - h, 24.0f, WALL);
+  // Isolated strays above the road, each far from every other point.
+  for (int k = 0; k < 5; ++k)
+    add(2.0f, road_y - 1.5f, 17.0f + 2.0f * static_cast<float>(k), STRAY);
+  s.frame.cloud = cloud;
+  s.frame.name = "far scene";
+  s.frame.calibration.focal_length_px = FOCAL_PX;
+  s.frame.calibration.baseline_m = BASELINE_M;
+  // The road as ground_removal reports it: camera frame, normal up (-y), the camera's
+  // signed distance its height.
+  s.frame.has_ground = true;
+  s.frame.ground_coefficients =
+    Eigen::Vector4f(0.0f, -1.0f, 0.0f, static_cast<float>(CAMERA_HEIGHT_M));
+  return s;
+}
+
+void
+runFilter(Scene& s, int far_levels)
+{
+  planar_grid::PipelineState state;
+  const auto* filter = planar_grid::findStage("depth_error_filter");
+  ASSERT_NE(filter, nullptr);
+  planar_grid::ParamValues fp = planar_grid::defaultParams(filter->params);
+  fp.set("max_depth_error_m", 0.3);
+  fp.set("far_levels", far_levels);
+  filter->create(fp)->process(s.frame, state);
+}
+
+void
+runCells(Scene& s, int min_points_per_cell)
+{
+  planar_grid::PipelineState state;
+  const auto* cells = planar_grid::findStage("range_adaptive_cells");
+  ASSERT_NE(cells, nullptr);
+  planar_grid::ParamValues cp = planar_grid::defaultParams(cells->params);
+  cp.set("min_cell_size_m", 0.1);
+  cp.set("min_points_per_cell", min_points_per_cell);
+  cells->create(cp)->process(s.frame, state);
+}
+
+} // namespace
+
+// Level l holds the depths whose error is within 0.3 m x 2^l: (14.86, 21.02] m level 1,
+// (21.02, 29.72] m level 2; deeper points and the nearer ones are not kept aside.
+TEST(RangeAdaptiveCells, FarLevelsFollowTheDepthError)
+{
+  Scene s = makeScene();
+  runFilter(s, 2);
+  ASSERT_TRUE(s.frame.far_cloud);
+  const auto& far = *s.frame.far_cloud;
+  ASSERT_EQ(far.size(), s.frame.far_levels.size());
+  const float bound = depthOfError(0.3), level1 = depthOfError(0.6),
+              level2 = depthOfError(1.2);
+  std::size_t expected = 0;
+  for (const auto& p : s.frame.cloud->points)
+    EXPECT_FALSE(std::isfinite(p.z) && p.z > bound) << "a far point stayed in the cloud";
+  Scene all = makeScene();
+  for (const auto& p : all.frame.cloud->points)
+    expected += p.z > bound && p.z <= level2;
+  EXPECT_EQ(far.size(), expected);
+  for (std::size_t i = 0; i < far.size(); ++i) {
+    const float z = far[i].z;
+    const int level = s.frame.far_levels[i];
+    EXPECT_EQ(level, z <= level1 ? 1 : 2) << "depth " << z;
+    EXPECT_GT(z, bound);
+    EXPECT_LE(z, level2);
+  }
+  // Without far levels nothing is kept aside.
+  Scene none = makeScene();
+  runFilter(none, 0);
+  EXPECT_TRUE(!none.frame.far_cloud || none.frame.far_cloud->empty());
+}
+
+// The cells against a brute-force count: every cell holds at least min_points_per_cell
+// kept far points and has the size of its level; the road beyond the bound makes no
+// cell; every guardrail and wall point in a lattice cell of its level with enough points
+// is inside a cell; the isolated strays make none.
+TEST(RangeAdaptiveCells, FarStructuresBecomeCoarseCellsAndTheFarRoadGoes)
+{
+  Scene s = makeScene();
+  runFilter(s, 2);
+  const std::size_t near_cells = s.frame.cuboids.size();
+  runCells(s, 10);
+  ASSERT_GT(s.frame.cuboids.size(), near_cells);
+  const auto& far = *s.frame.far_cloud;
+  const float level1 = depthOfError(0.6);
+  std::set<std::tuple<float, float, float>> centres;
+  for (std::size_t k = near_cells; k < s.frame.cuboids.size(); ++k) {
+    const auto& c = s.frame.cuboids[k];
+    EXPECT_FALSE(c.is_planar);
+    EXPECT_EQ(c.plane_id, -1);
+    // level 1 within 21 m, level 2 beyond: 0.2 m or 0.4 m cubes (a cell may straddle
+    // the level boundary by less than its size)
+    const float expected_size = c.centre.z() < level1 - 0.4f   ? 0.2f
+                                : c.centre.z() > level1 + 0.4f ? 0.4f
+                                                               : c.width_m;
+    EXPECT_FLOAT_EQ(c.width_m, expected_size);
+    EXPECT_FLOAT_EQ(c.height_m, c.width_m);
+    EXPECT_FLOAT_EQ(c.thickness_m, c.width_m);
+    EXPECT_TRUE(centres.emplace(c.centre.x(), c.centre.y(), c.centre.z()).second)
+      << "two cells at one place";
+    std::size_t inside = 0;
+    for (std::size_t i = 0; i < far.size(); ++i) {
+      const auto label = static_cast<int>(far[i].intensity);
+      inside += c.contains(far[i].getVector3fMap(), 1e-4f);
+      EXPECT_FALSE(label == ROAD && c.contains(far[i].getVector3fMap(), -1e-4f))
+        << "a road point inside a cell at " << c.centre.transpose();
+      EXPECT_FALSE(label == STRAY && c.contains(far[i].getVector3fMap(), 0.0f))
+        << "a stray point made a cell";
+    }
+    EXPECT_GE(inside, 10u) << "cell at " << c.centre.transpose();
+  }
+  // Every guardrail and wall point lies in a cell, except where its lattice cell of
+  // the level holds fewer than 10 points (the ends of the rail): at most 5 % of them.
+  std::size_t structure = 0, covered = 0;
+  for (const auto& p : far.points) {
+    const auto label = static_cast<int>(p.intensity);
+    if (label != GUARDRAIL && label != WALL)
+      continue;
+    ++structure;
+    for (std::size_t k = near_cells; k < s.frame.cuboids.size(); ++k)
+      if (s.frame.cuboids[k].contains(p.getVector3fMap(), 1e-4f)) {
+        ++covered;
+        break;
+      }
+  }
+  ASSERT_GT(structure, 0u);
+  EXPECT_GE(static_cast<double>(covered), 0.95 * static_cast<double>(structure));
+}
+
+// Without a ground plane there is no terrain rule: the far road makes cells too; with
+// no far points the stage adds nothing.
+TEST(RangeAdaptiveCells, WithoutGroundTheRoadStaysAndWithoutFarPointsNothingIsAdded)
+{
+  Scene s = makeScene();
+  runFilter(s, 2);
+  s.frame.has_ground = false;
+  runCells(s, 10);
+  std::size_t on_road = 0;
+  for (const auto& c : s.frame.cuboids)
+    on_road += std::abs(c.centre.y() - static_cast<float>(CAMERA_HEIGHT_M)) < c.height_m;
+  EXPECT_GT(on_road, 0u);
+
+  Scene none = makeScene();
+  runFilter(none, 0);
+  const std::size_t before = none.frame.cuboids.size();
+  runCells(none, 10);
+  EXPECT_EQ(none.frame.cuboids.size(), before);
+}
