@@ -59,6 +59,11 @@ printHelp(const char* program)
     "  Runs the pipeline a YAML file describes (schema: config/example.yaml).\n");
   print_info("  Options:\n");
   print_info("    --config FILE.yaml   the pipeline configuration (required)\n");
+  print_info("    --set STAGE.KEY=VALUE\n"
+             "                         replace a parameter of the YAML's one stage of\n"
+             "                         that type (repeatable; checked as the file's\n"
+             "                         values are: exit 3 when wrong), e.g.\n"
+             "                         --set stereo_disparity.row_downscale=2\n");
   print_info(
     "    --frames A:B         run frames A..B-1 (0-based positions in the input);\n"
     "                         A: or :B leave a side open (default: all frames)\n");
@@ -484,9 +489,9 @@ run(int argc, char** argv)
     return EXIT_SUCCESS;
   }
   // Every argument must be a known option: a typo is an error, not a default.
-  const std::vector<std::string> with_value{"--config",       "--frames",
-                                            "--output",       "--checkpoint-every",
-                                            "--memory-limit", "--log-level"};
+  const std::vector<std::string> with_value{
+    "--config",       "--frames",    "--output", "--checkpoint-every",
+    "--memory-limit", "--log-level", "--set"};
   const std::vector<std::string> switches{
     "--no-snapshot", "--resume", "--sequential", "-v", "-q", "--quiet"};
   planar_grid::cli::checkArguments(argc, argv, with_value, switches);
@@ -505,7 +510,12 @@ run(int argc, char** argv)
                                        "the outputs into (or leave the option out to "
                                        "use output.folder of the YAML)");
 
-  planar_grid::PipelineConfig config = planar_grid::loadPipelineConfig(config_path);
+  std::vector<std::string> overrides; // every --set, in order
+  for (int i = 1; i + 1 < argc; ++i)
+    if (std::string(argv[i]) == "--set")
+      overrides.emplace_back(argv[++i]);
+  planar_grid::PipelineConfig config =
+    planar_grid::loadPipelineConfig(config_path, overrides);
   if (output_given)
     config.output.folder = output_folder;
   std::string every_text;

@@ -771,12 +771,73 @@ readPoseFormat(const YamlReader& r,
   return format;
 }
 
+namespace {
+
+/** Puts `STAGE.KEY=VALUE` into the params of the one stage of that type under \a
+ * root's pipeline, after checking the value against the stage's table. */
+void
+applyOverride(YAML::Node& root, const std::string& assignment)
+{
+  const std::string where = "--set " + assignment;
+  const std::size_t dot = assignment.find('.');
+  const std::size_t equals = assignment.find('=');
+  if (dot == std::string::npos || equals == std::string::npos || dot == 0
+      || equals < dot + 2)
+    throw ConfigError(where, 0, 0,
+                      "expected STAGE.KEY=VALUE, e.g. "
+                      "stereo_disparity.num_disparities_px=96");
+  const std::string type = assignment.substr(0, dot);
+  const std::string key = assignment.substr(dot + 1, equals - dot - 1);
+  const std::string value = assignment.substr(equals + 1);
+  const StageInfo* info = findStage(type);
+  if (!info)
+    throw ConfigError(where, 0, 0,
+                      "unknown stage type '" + type + "'; known: " + knownStageTypes());
+  // The value is checked as the file's would be: a one-key params map.
+  YAML::Node params;
+  try {
+    params = YAML::Load(key + ": " + value);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(where, 0, 0, "the value '" + value + "' is not YAML: " + e.msg);
+  }
+  if (!params.IsMap() || params.size() != 1)
+    throw ConfigError(where, 0, 0, "the value '" + value + "' must be one scalar");
+  parseParams(params, info->params, where, type);
+  YAML::Node pipeline = root["pipeline"];
+  YAML::Node target;
+  std::size_t found = 0;
+  if (pipeline && pipeline.IsSequence())
+    for (std::size_t i = 0; i < pipeline.size(); ++i) {
+      YAML::Node stage = pipeline[i];
+      if (stage.IsMap() && stage["type"] && stage["type"].IsScalar()
+          && stage["type"].Scalar() == type) {
+        target = stage;
+        ++found;
+      }
+    }
+  if (found != 1)
+    throw ConfigError(where, 0, 0,
+                      found == 0 ? "the pipeline has no stage '" + type + "'"
+                                 : "the pipeline lists stage '" + type + "' "
+                                     + std::to_string(found)
+                                     + " times; --set needs exactly one");
+  if (!target["params"] || target["params"].IsNull())
+    target["params"] = YAML::Node(YAML::NodeType::Map);
+  target["params"][key] = params[key];
+}
+
+} // namespace
+
 PipelineConfig
 parsePipelineConfig(const std::string& yaml_text,
                     const std::string& source_name,
-                    const std::string& base_folder)
+                    const std::string& base_folder,
+                    const std::vector<std::string>& overrides)
 {
-  const YAML::Node root = loadYamlDocument(yaml_text, source_name);
+  YAML::Node root = loadYamlDocument(yaml_text, source_name);
+  if (root.IsMap()) // otherwise parseRoot() names what the file lacks
+    for (const auto& assignment : overrides)
+      applyOverride(root, assignment);
   try {
     return parseRoot(root, source_name, base_folder);
   } catch (const YAML::Exception& e) {
@@ -790,11 +851,17 @@ parsePipelineConfig(const std::string& yaml_text,
 PipelineConfig
 loadPipelineConfig(const std::string& path)
 {
+  return loadPipelineConfig(path, {});
+}
+
+PipelineConfig
+loadPipelineConfig(const std::string& path, const std::vector<std::string>& overrides)
+{
   const std::string text = readConfigFile(path);
   const fs::path p(path);
   const std::string base =
     p.has_parent_path() ? p.parent_path().string() : std::string(".");
-  return parsePipelineConfig(text, path, base);
+  return parsePipelineConfig(text, path, base, overrides);
 }
 
 } // namespace planar_grid

@@ -126,6 +126,59 @@ TEST(PipelineConfig, DefaultsFillMissingParams)
   EXPECT_EQ(c.stages[1].params.getInt("min_points_per_voxel"), 1); // the table default
 }
 
+// --set: the named stage's parameter takes the value, others keep the file's; the
+// value is checked against the stage's table; the stage must be listed exactly once.
+TEST(PipelineConfig, OverridesReplaceOneStageParameterAndAreChecked)
+{
+  const std::string yaml = INPUT
+                           + "pipeline:\n  - type: stereo_disparity\n  - type: voxel_grid\n"
+                             "    params: {leaf_size_m: 0.2, min_points_per_voxel: 2}\n";
+  const auto c = parsePipelineConfig(
+    yaml, "t", "/", {"voxel_grid.leaf_size_m=0.05", "stereo_disparity.row_downscale=2"});
+  EXPECT_DOUBLE_EQ(c.stages[1].params.getDouble("leaf_size_m"), 0.05);
+  EXPECT_EQ(c.stages[1].params.getInt("min_points_per_voxel"), 2);
+  EXPECT_EQ(c.stages[0].params.getInt("row_downscale"), 2);
+  // A stage without a params map gets one.
+  const auto d = parsePipelineConfig(INPUT + "pipeline:\n  - type: stereo_disparity\n",
+                                     "t", "/", {"stereo_disparity.block_size_px=3"});
+  EXPECT_EQ(d.stages[0].params.getInt("block_size_px"), 3);
+
+  const auto message = [&](const std::string& assignment) {
+    try {
+      parsePipelineConfig(yaml, "t", "/", {assignment});
+    } catch (const ConfigError& e) {
+      EXPECT_EQ(e.file(), "--set " + assignment);
+      return std::string(e.what());
+    }
+    ADD_FAILURE() << "no ConfigError for --set " << assignment;
+    return std::string();
+  };
+  EXPECT_NE(message("voxel_grid.leaf_size_m=-1").find("out of range"), std::string::npos);
+  EXPECT_NE(message("voxel_grid.leaf=0.1").find("unknown parameter 'leaf'"),
+            std::string::npos);
+  EXPECT_NE(message("voxel_grid.leaf_size_m=abc").find("must be"), std::string::npos);
+  EXPECT_NE(message("ground_removal.eps_angle_rad=0.1").find("has no stage"),
+            std::string::npos);
+  EXPECT_NE(message("no_such_stage.x=1").find("unknown stage type"), std::string::npos);
+  EXPECT_NE(message("voxel_grid").find("STAGE.KEY=VALUE"), std::string::npos);
+  EXPECT_NE(message("voxel_grid.=1").find("STAGE.KEY=VALUE"), std::string::npos);
+  EXPECT_NE(parsePipelineConfig(INPUT
+                                  + "pipeline:\n  - type: stereo_disparity\n"
+                                    "  - type: voxel_grid\n  - type: voxel_grid\n",
+                                "t", "/", {})
+              .stages.size(),
+            0u);
+  try {
+    parsePipelineConfig(INPUT
+                          + "pipeline:\n  - type: stereo_disparity\n"
+                            "  - type: voxel_grid\n  - type: voxel_grid\n",
+                        "t", "/", {"voxel_grid.leaf_size_m=0.1"});
+    ADD_FAILURE() << "a stage listed twice took --set";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("2 times"), std::string::npos) << e.what();
+  }
+}
+
 TEST(PipelineConfig, UnknownTopLevelKeyHasLineAndColumn)
 {
   const auto e = errorOf(INPUT + "pipeline:\n  - type: voxel_grid\nbogus: 1\n");

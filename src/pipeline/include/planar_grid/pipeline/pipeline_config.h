@@ -285,10 +285,24 @@ bool rosBagSupported();
  * planar_grid::IOError */
 PipelineConfig loadPipelineConfig(const std::string& path);
 
+/** \brief As loadPipelineConfig(), with stage parameters replaced before the
+ * validation, as the pipeline tool's `--set` gives them.
+ * \param[in] path the YAML file
+ * \param[in] overrides assignments `STAGE.KEY=VALUE`: the parameter KEY of the one
+ *            stage of type STAGE in the pipeline takes VALUE (checked against the
+ *            stage's table as a value in the file would be), in the given order
+ * \throws planar_grid::ConfigError for a malformed assignment, a stage type the
+ *         pipeline does not list or lists more than once, an unknown key or a bad
+ *         value (file "--set STAGE.KEY=VALUE"); as loadPipelineConfig() otherwise */
+PipelineConfig loadPipelineConfig(const std::string& path,
+                                  const std::vector<std::string>& overrides);
+
 /** \brief As loadPipelineConfig() from YAML text; \a source_name is used in messages
- * and \a base_folder to resolve relative paths. */
+ * and \a base_folder to resolve relative paths; \a overrides as in
+ * loadPipelineConfig(path, overrides). */
 PipelineConfig parsePipelineConfig(const std::string& yaml_text,
                                    const std::string& source_name,
-                                   const std::string& base_folder);
+                                   const std::string& base_folder,
+                                   const std::vector<std::string>& overrides = {});
 
 } // namespace planar_grid
