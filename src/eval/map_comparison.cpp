@@ -433,13 +433,21 @@ placeFrames(std::size_t frames, std::size_t places)
   return out;
 }
 
-/** Inserts the world-frame points of \a frame (the cloud PG's approximation gets)
- * into the SG and OG maps of \a lane and counts their times. */
+/** Inserts the world-frame points of \a frame (the cloud PG's approximation gets, and
+ * the far points range_adaptive_cells maps) into the SG and OG maps of \a lane and
+ * counts their times. */
 void
 insertBaselines(Lane& lane, const Frame& frame)
 {
   using Clock = std::chrono::steady_clock;
-  const pcl::PointCloud<pcl::PointXYZ> points = worldPoints(frame);
+  pcl::PointCloud<pcl::PointXYZ> points = worldPoints(frame);
+  if (frame.far_cloud) {
+    const Eigen::Matrix4f world_T_camera = frame.world_T_camera.matrix().cast<float>();
+    for (const auto& p : frame.far_cloud->points) {
+      const Eigen::Vector4f q = world_T_camera * Eigen::Vector4f(p.x, p.y, p.z, 1.0f);
+      points.push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
+    }
+  }
   const Eigen::Vector3f origin = frame.world_T_camera.translation().cast<float>();
   auto t = Clock::now();
   lane.sg->insertPointCloud(points, origin);
@@ -519,8 +527,14 @@ runComparison(const ComparisonConfig& config,
         std::make_unique<PipelineRunner>(mapping, PipelineRunner::FrameSupply::CALLER);
       // SG and OG get the cloud PG's approximation gets; PG's time is its stages'
       // but the accumulated cloud's.
-      lane.pipeline->setStageCallback([&lane](std::size_t s, Frame& frame) {
-        if (lane.types[s] == "planar_cuboid_approximation")
+      // With range_adaptive_cells, after it: SG and OG get the far points it maps.
+      const bool range_adaptive =
+        std::find(lane.types.begin(), lane.types.end(), "range_adaptive_cells")
+        != lane.types.end();
+      const std::string baseline_stage =
+        range_adaptive ? "range_adaptive_cells" : "planar_cuboid_approximation";
+      lane.pipeline->setStageCallback([&lane, baseline_stage](std::size_t s, Frame& frame) {
+        if (lane.types[s] == baseline_stage)
           insertBaselines(lane, frame);
       });
       lane.pipeline->setFrameCallback(

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <unordered_map>
 #include <vector>
 
@@ -35,7 +36,8 @@ public:
     far_points_ = terrain_points_ = cells_ = 0;
     if (!frame.far_cloud || frame.far_cloud->empty())
       return;
-    const auto& far = *frame.far_cloud;
+    const Frame::Cloud::ConstPtr far_cloud = frame.far_cloud; // kept alive below
+    const auto& far = *far_cloud;
     if (frame.far_levels.size() != far.size())
       throw Exception("stage 'range_adaptive_cells': frame " + frame.name
                       + " has " + std::to_string(far.size()) + " far points but "
@@ -84,13 +86,32 @@ public:
       }
     }
 
+    // The frame keeps the far points the cells are made of (a new cloud: the old one
+    // may be shared with copies of the frame).
+    if (terrain_points_ > 0) {
+      auto kept = std::make_shared<Frame::Cloud>();
+      std::vector<std::uint8_t> kept_levels;
+      kept->reserve(far.size() - terrain_points_);
+      kept_levels.reserve(far.size() - terrain_points_);
+      for (std::size_t i = 0; i < far.size(); ++i)
+        if (!terrain_[i]) {
+          kept->push_back(far[i]);
+          kept_levels.push_back(frame.far_levels[i]);
+        }
+      kept_points_.clear();
+      for (std::size_t i = 0; i < far.size(); ++i)
+        if (!terrain_[i])
+          kept_points_.push_back(points_[i]);
+      frame.far_cloud = std::move(kept);
+      frame.far_levels = std::move(kept_levels);
+      points_.swap(kept_points_);
+    }
+
     // Cells: a lattice of edge min_cell_size x 2^level per level, anchored at the
     // sensor's position (cells of one frame never straddle the lattice of another
     // level); a cell with at least min_points_per_cell points is one non-planar box.
     keys_.clear();
-    for (std::size_t i = 0; i < far.size(); ++i) {
-      if (terrain_[i])
-        continue;
+    for (std::size_t i = 0; i < points_.size(); ++i) {
       const std::uint8_t level = frame.far_levels[i];
       const double inv = 1.0 / (min_cell_size_m_ * std::ldexp(1.0, level));
       const auto q = [&](float c) {
@@ -149,6 +170,7 @@ private:
   double terrain_cell_m_;
   float terrain_max_rise_m_;
   std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> points_;
+  std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> kept_points_;
   std::vector<float> heights_;
   std::vector<std::uint8_t> terrain_;
   std::unordered_map<std::uint64_t, float> column_low_;

@@ -145,9 +145,22 @@ TEST(RangeAdaptiveCells, FarStructuresBecomeCoarseCellsAndTheFarRoadGoes)
   Scene s = makeScene();
   runFilter(s, 2);
   const std::size_t near_cells = s.frame.cuboids.size();
+  const planar_grid::Frame::Cloud::ConstPtr far_before = s.frame.far_cloud;
   runCells(s, 10);
   ASSERT_GT(s.frame.cuboids.size(), near_cells);
-  const auto& far = *s.frame.far_cloud;
+  const auto& far = *far_before;
+  // The frame keeps the far points it mapped: the structures and strays, not the road.
+  ASSERT_TRUE(s.frame.far_cloud);
+  ASSERT_EQ(s.frame.far_cloud->size(), s.frame.far_levels.size());
+  std::map<int, std::size_t> before, after;
+  for (const auto& p : far.points)
+    ++before[static_cast<int>(p.intensity)];
+  for (const auto& p : s.frame.far_cloud->points)
+    ++after[static_cast<int>(p.intensity)];
+  EXPECT_EQ(after.count(ROAD), 0u);
+  EXPECT_EQ(after[GUARDRAIL], before[GUARDRAIL]);
+  EXPECT_EQ(after[WALL], before[WALL]);
+  EXPECT_EQ(after[STRAY], before[STRAY]);
   const float level1 = depthOfError(0.6);
   std::set<std::tuple<float, float, float>> centres;
   for (std::size_t k = near_cells; k < s.frame.cuboids.size(); ++k) {
