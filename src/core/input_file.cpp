@@ -7,17 +7,18 @@
 namespace planar_grid {
 
 void
-checkRegularFile(const std::string& path)
+checkRegularFile(const std::string& path, const std::string& what)
 {
   namespace fs = std::filesystem;
   std::error_code ec;
   const fs::file_status status = fs::status(path, ec);
+  const std::string subject = what.empty() ? std::string() : "the " + what + " is ";
   if (!fs::exists(status))
-    throw IOError(path + ": no such file");
+    throw IOError(path + ": " + (what.empty() ? "no such file" : what + " not found"));
   if (fs::is_directory(status))
-    throw IOError(path + ": a folder, not a file");
+    throw IOError(path + ": " + subject + "a folder, not a file");
   if (!fs::is_regular_file(status))
-    throw IOError(path + ": not a regular file (a device, pipe or socket)");
+    throw IOError(path + ": " + subject + "not a regular file (a device, pipe or socket)");
 }
 
 std::uintmax_t

@@ -3,6 +3,7 @@
 // ROS map_server files (PGM + YAML).
 #include <planar_grid/core/atomic_file.h>
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/input_file.h>
 #include <planar_grid/map/planar_grid_map.h>
 
 #include <sys/stat.h>
@@ -312,12 +313,11 @@ OccupancyGrid2D
 PlanarGridMap::exportOccupancyGrid2D(const std::string& yaml_path,
                                      const OccupancyGrid2DParams& params) const
 {
-  const auto endsWith = [&](const std::string& suffix) {
-    return yaml_path.size() > suffix.size()
-           && yaml_path.compare(yaml_path.size() - suffix.size(), suffix.size(), suffix)
-                == 0;
+  // a name, not only the extension
+  const auto named = [&](const std::string& suffix) {
+    return yaml_path.size() > suffix.size() && endsWith(yaml_path, suffix);
   };
-  if (!endsWith(".yaml") && !endsWith(".yml"))
+  if (!named(".yaml") && !named(".yml"))
     throw IOError(yaml_path
                   + ": a map_server map is named by its YAML file (\".yaml\" "
                     "or \".yml\")");

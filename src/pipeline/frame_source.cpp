@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/input_file.h>
 #include <planar_grid/core/pcd_file_check.h>
 #include <planar_grid/odometry/cloud_registration.h>
 #include <planar_grid/odometry/floor_alignment.h>
@@ -119,14 +120,9 @@ checkImageFile(const std::string& path,
                const std::string& missing)
 {
   std::error_code ec;
-  const fs::file_status status = fs::status(path, ec);
-  if (!fs::exists(status))
+  if (!fs::exists(path, ec))
     throw IOError(path + ": " + what + " not found" + missing);
-  if (fs::is_directory(status))
-    throw IOError(path + ": the " + what + " is a folder, not a file");
-  if (!fs::is_regular_file(status))
-    throw IOError(path + ": the " + what
-                  + " is not a regular file (a device, pipe or socket)");
+  checkRegularFile(path, what);
   if (fs::file_size(path, ec) == 0)
     throw IOError(path + ": the " + what + " is empty (0 bytes)");
 }

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/input_file.h>
 #include <planar_grid/core/output_transaction.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/stage.h>
@@ -192,13 +193,6 @@ parseInput(const Reader& r, const YAML::Node& node)
     r.fail(node["sensor_up"], "input.sensor_up is only used with input.poses.format "
                               "viewpoint or registration (poses that do not fix up)");
   return input;
-}
-
-bool
-endsWith(const std::string& text, const std::string& suffix)
-{
-  return text.size() >= suffix.size()
-         && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 /** \brief Three finite numbers in [-1e6, 1e6] from the list \a node. */

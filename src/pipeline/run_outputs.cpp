@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/atomic_file.h>
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/input_file.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/run_outputs.h>
 
@@ -137,7 +138,7 @@ template <typename PointT>
 void
 writeCloudFile(const std::string& path, const pcl::PointCloud<PointT>& cloud)
 {
-  const bool ply = path.size() >= 4 && path.compare(path.size() - 4, 4, ".ply") == 0;
+  const bool ply = endsWith(path, ".ply");
   writeFileAtomically(path, [&cloud, ply](const std::string& tmp) {
     if (ply)
       return pcl::PLYWriter().write(tmp, cloud, true, false) == 0;
