@@ -288,12 +288,36 @@ public:
       double sum{0.0};
       std::size_t count{0};
     };
+    // A terrain plane's inlier is terrain unless it stands more than terrain_height
+    // above that plane: where eq. 11's band (the depth error) is wider than that, the
+    // foot of a guardrail, a post or a bush falls in the road's band and stays, and
+    // does not raise the terrain's height either. terrain_height 0 is the paper's rule:
+    // every inlier of the ground goes. An inlier of several terrain planes stands
+    // when it stands above each of them.
+    const auto terrain_height = static_cast<float>(params_.terrain_height_m);
+    enum : std::uint8_t { UNSEEN, STANDS, LIES };
+    std::vector<std::uint8_t> standing(cloud.size(), UNSEEN);
+    for (std::size_t k = 0; terrain_height > 0.0f && k < frame.planes.size(); ++k) {
+      Eigen::Vector4f c;
+      if (!terrain[k] || !upward(k, c))
+        continue;
+      const float norm = c.head<3>().norm();
+      for (const auto i : frame.planes[k].inliers.indices) {
+        const auto j = static_cast<std::size_t>(i);
+        const bool above =
+          (c.head<3>().dot(cloud[j].getVector3fMap()) + c[3]) / norm > terrain_height;
+        if (standing[j] != LIES)
+          standing[j] = above ? STANDS : LIES;
+      }
+    }
     std::unordered_map<std::uint64_t, float> cell_level;
     std::unordered_map<std::uint64_t, Level> plane_cell;
     std::vector<std::uint8_t> in_plane(cloud.size(), 0);
     for (std::size_t k = 0; k < frame.planes.size(); ++k) {
       plane_cell.clear();
       for (const auto i : frame.planes[k].inliers.indices) {
+        if (terrain[k] && standing[static_cast<std::size_t>(i)] == STANDS)
+          continue; // a loose point
         in_plane[static_cast<std::size_t>(i)] = terrain[k] ? 2 : 1;
         if (terrain[k]) {
           Level& l = plane_cell[cellOf(static_cast<std::size_t>(i))];
@@ -308,7 +332,6 @@ public:
       }
     }
     std::vector<std::uint8_t> remove(cloud.size(), 0);
-    const auto terrain_height = static_cast<float>(params_.terrain_height_m);
     for (std::size_t i = 0; i < cloud.size(); ++i) {
       if (in_plane[i] == 2) {
         remove[i] = 1;
@@ -490,7 +513,8 @@ groundRemovalInfo()
                     "Largest step from a terrain plane up to the next (a curb)."),
     ParamSpec::real("terrain_height_m", d.terrain_height_m, 0.0, 10.0, "m",
                     "Points in no plane up to this height above the terrain are "
-                    "terrain (0: none)."),
+                    "terrain, and a terrain plane's inliers higher above it than this "
+                    "stay (0: no loose point is terrain, every inlier is)."),
     ParamSpec::real("terrain_cell_m", d.terrain_cell_m, 0.05, 100.0, "m",
                     "Cell of the terrain height map."),
   };

@@ -207,3 +207,50 @@ TEST(TerrainRemoval, PlanesListedBeforeTheGroundKeepTheirCoefficientsAndInliers)
     EXPECT_EQ(static_cast<int>((*s.frame.cloud)[static_cast<std::size_t>(i)].intensity),
               WALL);
 }
+
+/** The ground's inlier band is wider than terrain_height where eq. 11 widens it with the
+ * depth error (0.3 m at 15 m): a guardrail's rail from 0.1 to 0.8 m above the road has
+ * its lowest rows in the road plane's inliers. The rows up to terrain_height (0.2 m) go
+ * with the road; the rows above stay. With terrain_height 0 (the paper's rule) every
+ * inlier of the ground goes. */
+TEST(TerrainRemoval, AGroundInlierStandingAboveTheTerrainHeightStays)
+{
+  const auto run = [](double terrain_height_m) {
+    Street s;
+    auto cloud = std::make_shared<planar_grid::Frame::Cloud>();
+    for (float x = -7.0f; x < 5.0f; x += 0.1f) // the verge under the rail too
+      for (float y = 10.0f; y < 16.0f; y += 0.1f)
+        addLabelled(*cloud, x, y, 0.0f, ROAD);
+    for (float y = 10.0f; y < 16.0f; y += 0.1f)
+      for (int row = 1; row <= 8; ++row)
+        addLabelled(*cloud, -5.5f, y, 0.1f * static_cast<float>(row), CAR);
+    setWorldCloud(s, cloud, "guardrail");
+    // The road plane z = 0 with a 0.3 m band: the road and the rail's rows at 0.1-0.3 m.
+    planar_grid::PlanarSegment ground;
+    ground.model_coefficients.values = {0.0f, 0.0f, 1.0f, 0.0f};
+    for (std::size_t i = 0; i < cloud->size(); ++i)
+      if ((*cloud)[i].z <= 0.3f + 1e-4f)
+        ground.inliers.indices.push_back(static_cast<int>(i));
+    s.frame.planes.push_back(ground);
+    const auto* ground_info = planar_grid::findStage("ground_removal");
+    planar_grid::ParamValues gp = planar_grid::defaultParams(ground_info->params);
+    gp.set("terrain_height_m", terrain_height_m);
+    planar_grid::PipelineState state;
+    ground_info->create(gp)->process(s.frame, state);
+    std::map<int, std::size_t> low_rail, after;
+    for (const auto& p : s.frame.cloud->points) {
+      ++after[static_cast<int>(p.intensity)];
+      if (static_cast<int>(p.intensity) == CAR && p.z < 0.25f)
+        ++low_rail[0];
+    }
+    return std::make_pair(after, low_rail[0]);
+  };
+  const auto [kept, low] = run(0.2);
+  EXPECT_EQ(kept.count(ROAD), 0u);
+  EXPECT_EQ(kept.at(CAR), 60u * 6u) << "the rows at 0.3-0.8 m"; // 60 positions x 6 rows
+  EXPECT_EQ(low, 0u) << "the rows at 0.1 and 0.2 m are terrain";
+  const auto [paper, paper_low] = run(0.0);
+  EXPECT_EQ(paper.count(ROAD), 0u);
+  EXPECT_EQ(paper.at(CAR), 60u * 5u) << "the rows at 0.4-0.8 m: the band goes whole";
+  EXPECT_EQ(paper_low, 0u);
+}
