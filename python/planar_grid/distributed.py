@@ -137,8 +137,9 @@ def map_segment_task(segment: Segment, folder: str) -> Dict[str, Any]:
     Returns
     -------
     dict
-        The task report: the segment, the map's path and counts, the pipeline report,
-        wall time in seconds, and the host and process that ran it.
+        The task report: the segment, the map's path and counts, the pipeline report's
+        path, wall time in seconds, start and end (Unix time, seconds), and the host and
+        process that ran it.
 
     Raises
     ------
@@ -149,6 +150,7 @@ def map_segment_task(segment: Segment, folder: str) -> Dict[str, Any]:
         When the configuration has no map_integration stage (no map to merge).
     """
     start = time.perf_counter()
+    start_time = time.time()
     pg.set_verbosity("error")
     # Every frame on the worker's one thread: a worker is one core of the cluster (the
     # result is the same as with the frame overlap on a second thread).
@@ -175,6 +177,7 @@ def map_segment_task(segment: Segment, folder: str) -> Dict[str, Any]:
                   **_map_counts(result.map),
                   frames_run=int(result.frames),
                   wall_time_s=round(time.perf_counter() - start, 3),
+                  start_time=start_time, end_time=time.time(),
                   worker=_worker_identity())
     return report
 
@@ -191,6 +194,7 @@ def merge_maps_task(inputs: Sequence[Dict[str, Any]], path: str) -> Dict[str, An
         the seconds spent loading, merging and saving.
     """
     start = time.perf_counter()
+    start_time = time.time()
     pg.set_verbosity("error")
     maps = [r["map"] for r in inputs]
     t = time.perf_counter()
@@ -215,6 +219,7 @@ def merge_maps_task(inputs: Sequence[Dict[str, Any]], path: str) -> Dict[str, An
                 load_s=round(load_s, 4), merge_s=round(merge_s, 4),
                 save_s=round(save_s, 4),
                 wall_time_s=round(time.perf_counter() - start, 3),
+                start_time=start_time, end_time=time.time(),
                 worker=_worker_identity())
 
 

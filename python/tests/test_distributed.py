@@ -144,24 +144,32 @@ def test_killed_worker_task_runs_again_with_the_same_map(config, batch, cluster,
         thread.start()
         # the first segment task seen running, and its worker killed 1 s into it (a
         # 10-frame segment runs for several seconds)
+        # the tasks a worker executes now (the scheduler's processing() lists those
+        # queued on it too); nested, so that it is pickled by value for the workers
+        def executing(dask_worker):
+            return [str(ts.key) for ts in dask_worker.state.executing]
+
         victim = None
         deadline = time.monotonic() + 60
         while victim is None and time.monotonic() < deadline and thread.is_alive():
-            for worker, keys in client.processing().items():
-                running = [k for k in keys if str(k).startswith("segment-")]
+            for worker, keys in client.run(executing).items():
+                running = [k for k in keys if k.startswith("segment-")]
                 if running and worker in pids:
                     victim = (worker, running[0])
                     break
             time.sleep(0.05)
         assert victim is not None, "no segment task was seen running"
         time.sleep(1.0)
+        killed_at = time.time()
         os.kill(pids[victim[0]], signal.SIGKILL)
         thread.join(timeout=180)
         assert not thread.is_alive(), "the job did not finish after the kill"
     assert not failure, failure
     report = result["report"]
     index = int(victim[1].split("-")[1])
+    # the killed task ran again from its start, in another process
     assert report["segments"][index]["worker"]["pid"] != pids[victim[0]]
+    assert report["segments"][index]["start_time"] > killed_at
     merged = pg.PlanarGridMap.load(report["map"])
     assert np.array_equal(merged.get_state(probes), expected.get_state(probes))
     for key in ("planes", "planar_cuboids", "non_planar_cuboids", "cells"):
