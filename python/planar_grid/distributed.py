@@ -349,8 +349,8 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
         frames are split into contiguous ranges whose sizes differ by at most one.
     frames : tuple of (int or None, int or None), optional
         (begin, end): split only these frame positions of each recording (as
-        run_pipeline's frames). Default: every frame. A range outside the input is a
-        ValueError.
+        run_pipeline's frames; not with ``segments``). Default: every frame. A range
+        outside the input is a ValueError.
     output_dir : str or os.PathLike, optional
         The job's folder (created; default ``output/batch``). On a cluster of several
         machines, a filesystem every worker sees at the same path.
@@ -380,8 +380,8 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
     Raises
     ------
     ValueError
-        For invalid arguments (num_segments, n_workers, frames outside the input, an
-        empty segment list).
+        For invalid arguments (num_segments, n_workers, tile_size_m, frames outside
+        the input or given with segments, an empty or malformed segment list).
     BatchError
         When a task fails: the message names its input (configuration and frame range)
         and the cause (``.cause``: e.g. planar_grid.ConfigError, planar_grid.IOError);
@@ -403,6 +403,8 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
         raise ValueError(f"num_segments must be >= 1, not {num_segments}")
     if tile_size_m is not None and not tile_size_m > 0:
         raise ValueError(f"tile_size_m must be > 0 meters, not {tile_size_m}")
+    if segments is not None and frames is not None:
+        raise ValueError("give either segments or frames, not both")
     explicit = _as_segments(configs, segments)
     output_dir = os.path.abspath(os.fspath(output_dir))
     for sub in ("segments", "merges"):
@@ -552,7 +554,22 @@ def _run_job(client, distributed, job: str, configs: List[str],
     merge_reports = [f.result() for f in merge_futures]
     if not merge_futures:
         # One segment: its map is the job's map.
-        shutil.copyfile(segment_reports[0]["map"], os.path.join(output_dir, "map.pgmap"))
+        final_path = os.path.join(output_dir, "map.pgmap")
+        tmp = f"{final_path}.{uuid.uuid4().hex}.tmp"
+        shutil.copyfile(segment_reports[0]["map"], tmp)
+        os.replace(tmp, final_path)
+    # What attempts killed while they wrote left behind (the attempts that ran again
+    # wrote their own).
+    for folder in (os.path.join(output_dir, "segments"),
+                   os.path.join(output_dir, "merges"), output_dir):
+        for name in os.listdir(folder):
+            if name.endswith(".tmp") and (folder != output_dir
+                                          or name.startswith("map.pgmap.")):
+                path = os.path.join(folder, name)
+                if os.path.isdir(path):
+                    shutil.rmtree(path, ignore_errors=True)
+                else:
+                    os.remove(path)
     final = root_future.result()
     return dict(
         schema_version=BATCH_REPORT_SCHEMA_VERSION,

@@ -217,6 +217,20 @@ def test_frame_range_past_the_end_is_named(config, cluster, tmp_path):
                          output_dir=tmp_path, progress=False)
 
 
+def test_one_segment_is_the_map(config, cluster, tmp_path):
+    report = pgd.map_segments(config, frames=(0, 4), num_segments=1,
+                              scheduler_address=cluster.scheduler_address,
+                              output_dir=tmp_path, progress=False)
+    assert report["merges"] == [] and len(report["segments"]) == 1
+    with open(tmp_path / "map.pgmap", "rb") as merged, \
+            open(report["segments"][0]["map"], "rb") as segment:
+        assert merged.read() == segment.read()
+    assert not [p for p in tmp_path.rglob("*.tmp")]
+    with pytest.raises(ValueError, match="not both"):
+        pgd.map_segments(config, frames=(0, 4), segments=[(0, 4)], output_dir=tmp_path,
+                         scheduler_address=cluster.scheduler_address)
+
+
 def test_split_and_tree():
     assert pgd.split_frames(0, 10, 4) == [(0, 2), (2, 5), (5, 7), (7, 10)]
     assert pgd.split_frames(5, 8, 3) == [(5, 6), (6, 7), (7, 8)]
