@@ -141,26 +141,29 @@ def test_killed_worker_task_runs_again_with_the_same_map(config, batch, cluster,
 
         thread = threading.Thread(target=job)
         thread.start()
-        # the first segment task seen running, and its worker killed 1 s into it (a
-        # 10-frame segment runs for several seconds)
-        # the tasks a worker executes now (the scheduler's processing() lists those
-        # queued on it too); nested, so that it is pickled by value for the workers
+        # The tasks a worker executes now (the scheduler's processing() lists those
+        # queued on it too); nested, so that it is pickled by value for the workers.
         def executing(dask_worker):
             return [str(ts.key) for ts in dask_worker.state.executing]
 
+        # A segment task seen executing, its worker killed 0.5 s later if the task is
+        # still executing there then (a 10-frame segment runs for 1.5 s or more).
         victim = None
         deadline = time.monotonic() + 60
         while victim is None and time.monotonic() < deadline and thread.is_alive():
-            for worker, keys in client.run(executing).items():
-                running = [k for k in keys if k.startswith("segment-")]
-                if running and worker in pids:
-                    victim = (worker, running[0])
-                    break
-            time.sleep(0.05)
-        assert victim is not None, "no segment task was seen running"
-        time.sleep(1.0)
-        killed_at = time.time()
-        os.kill(pids[victim[0]], signal.SIGKILL)
+            seen = {w: [k for k in keys if k.startswith("segment-")]
+                    for w, keys in client.run(executing).items() if w in pids}
+            seen = {w: keys[0] for w, keys in seen.items() if keys}
+            time.sleep(0.5)
+            if seen:
+                now = client.run(executing)
+                for worker, key in seen.items():
+                    if key in now.get(worker, []):
+                        killed_at = time.time()
+                        os.kill(pids[worker], signal.SIGKILL)
+                        victim = (worker, key)
+                        break
+        assert victim is not None, "no segment task was seen executing"
         thread.join(timeout=180)
         assert not thread.is_alive(), "the job did not finish after the kill"
     assert not failure, failure
