@@ -270,6 +270,9 @@ def test_command_exit_statuses(config, tmp_path):
     assert frames.returncode == pgd.EXIT_USAGE and "9:3" in frames.stderr, frames
     missing = run_tool("--config", str(tmp_path / "none.yaml"), cwd=tmp_path)
     assert missing.returncode == pgd.EXIT_INPUT and "none.yaml" in missing.stderr, missing
+    unwritable = run_tool("--config", config, "--output", "/dev/null/batch", cwd=tmp_path)
+    assert unwritable.returncode == pgd.EXIT_OUTPUT and "/dev/null" in unwritable.stderr, \
+        unwritable
     bad = tmp_path / "bad.yaml"
     bad.write_text("input:\n  type: no_such_input\n", encoding="utf-8")
     config_error = run_tool("--config", str(bad), "--workers", "1", "--output",
