@@ -68,6 +68,11 @@ if(PLANAR_GRID_HAVE_ROS_BAG)
   # The bag input's libraries, linked by their files (src/pipeline/CMakeLists.txt).
   list(APPEND _pg_recommends librosbag-storage-dev libroscpp-core-dev libconsole-bridge-dev)
 endif()
+if(PLANAR_GRID_BUILD_PYTHON)
+  # planar_grid.distributed and its command planar_grid_batch (Dask); the rest of the
+  # package runs without it.
+  list(APPEND _pg_recommends python3-distributed)
+endif()
 list(APPEND _pg_recommends cmake pkg-config)
 string(REPLACE ";" ", " CPACK_DEBIAN_PACKAGE_RECOMMENDS "${_pg_recommends}")
 

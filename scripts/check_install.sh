@@ -161,8 +161,8 @@ unset PKG_CONFIG_PATH
 # are linked into it; nothing comes from the build tree).
 check_python() {
   local module_dir=$1
-  ls "$module_dir"/planar_grid*.so >/dev/null 2>&1 \
-    || { echo "check_install: the Python module was not installed in $module_dir" >&2; return 1; }
+  ls "$module_dir"/planar_grid/_planar_grid*.so >/dev/null 2>&1 \
+    || { echo "check_install: the Python module was not installed in $module_dir/planar_grid" >&2; return 1; }
   echo "check_install: import planar_grid from $module_dir"
   (cd "$work" && PYTHONPATH="$module_dir" "$python" -c "
 import sys
@@ -172,7 +172,19 @@ assert pg.__file__.startswith(sys.argv[1]), pg.__file__
 uv = np.stack(np.meshgrid(np.arange(0, 2, 0.05), np.arange(0, 2, 0.05)), -1).reshape(-1, 2)
 planes = pg.SACMultiPlaneSegmentation(min_inliers=100).segment(np.column_stack([uv, np.ones(len(uv))]))
 assert len(planes) == 1, planes
+import planar_grid.distributed as pgd
+assert pgd.split_frames(0, 112, 4)[-1] == (84, 112)
 " "$module_dir")
+}
+
+# check_batch PREFIX: the installed planar_grid_batch finds the installed package by its
+# own place (no PYTHONPATH) and prints the version.
+check_batch() {
+  local prefix=$1
+  [ "$(cd "$work" && env -u PYTHONPATH "$prefix/bin/planar_grid_batch" --version)" \
+    = "planar_grid_batch $version" ] \
+    || { echo "check_install: $prefix/bin/planar_grid_batch --version does not print $version" >&2; return 1; }
+  echo "check_install: $prefix/bin/planar_grid_batch --version"
 }
 
 has_python=false
@@ -181,6 +193,7 @@ if grep -q '^PLANAR_GRID_BUILD_PYTHON:BOOL=ON' "$BUILD_DIR/CMakeCache.txt"; then
   python=$(sed -n 's/^Python3_EXECUTABLE:FILEPATH=//p' "$BUILD_DIR/CMakeCache.txt")
   python_dir=$(sed -n 's/^PLANAR_GRID_PYTHON_INSTALL_DIR:STRING=//p' "$BUILD_DIR/CMakeCache.txt")
   check_python "$prefix/$python_dir"
+  check_batch "$prefix"
 fi
 
 # An unknown component is an error that names the known ones.
@@ -234,6 +247,7 @@ check_examples "$root/usr" "$work/examples-deb"
 if $has_python; then
   python=/usr/bin/python3
   check_python "$root/usr/lib/python3/dist-packages"
+  check_batch "$root/usr"
   sed "s|^  files: .*|  files: $(realpath "$CLOUD")|" config/office1.yaml >"$work/office1.yaml"
   echo "check_install: mapping $CLOUD with the packaged Python module"
   (cd "$work" && PYTHONPATH="$root/usr/lib/python3/dist-packages" "$python" -c "

@@ -16,6 +16,7 @@ PACKAGES=(
   doxygen
   python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest mypy
   python3-open3d            # the Python examples and their tests (Open3D loads the scan)
+  python3-distributed       # planar_grid.distributed and planar_grid_batch (Dask)
   # ROS 1 bag input (optional; off in a build without them)
   librosbag-storage-dev libsensor-msgs-dev libgeometry-msgs-dev libtf2-msgs-dev
   libstd-msgs-dev

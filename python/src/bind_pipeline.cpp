@@ -319,6 +319,39 @@ KeyboardInterrupt
 )doc");
 
   m.def(
+    "input_frame_count",
+    [](const py::object& config) {
+      const std::string config_path = toPath(config);
+      py::gil_scoped_release release;
+      // The runner opens the input (the frame list, the poses) without reading a frame.
+      return PipelineRunner(loadPipelineConfig(config_path)).frameCount();
+    },
+    py::arg("config"),
+    R"doc(Number of frames in the input a YAML configuration describes.
+
+The input is opened (its file list, poses and calibration checked) but no frame is
+read, so this is cheap beside a run; it is what ``frames=(begin, end)`` of
+run_pipeline() ranges over.
+
+Parameters
+----------
+config : str or os.PathLike
+    The configuration file (schema: config/example.yaml).
+
+Returns
+-------
+int
+    Frames in the input (0-based positions 0 .. count - 1).
+
+Raises
+------
+planar_grid.ConfigError
+    (a ValueError) for a bad configuration, with file, line and column.
+planar_grid.IOError
+    (an OSError) for a missing or unreadable input.
+)doc");
+
+  m.def(
     "stage_types",
     [] {
       py::dict out;

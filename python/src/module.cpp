@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The Python module planar_grid: its docstring, the exception classes that carry the
-// library's errors into Python, and the PCL console verbosity.
+// The extension module planar_grid._planar_grid, which the package planar_grid
+// re-exports (python/planar_grid/__init__.py): its docstring, the exception classes
+// that carry the library's errors into Python, and the PCL console verbosity.
 #include <planar_grid/core/exceptions.h>
 
 #include <pcl/console/print.h>
@@ -33,7 +34,7 @@ addException(py::module_& m, const char* name, const py::tuple& bases, const cha
 
 } // namespace
 
-PYBIND11_MODULE(planar_grid, m)
+PYBIND11_MODULE(_planar_grid, m)
 {
   m.doc() = R"doc(PlanarGrid: planar surface-based 3D mapping for mobile robots.
 

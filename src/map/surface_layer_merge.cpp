@@ -244,6 +244,34 @@ SurfaceLayer::Impl::mergeNonPlanar(const Impl& other,
            && a.horizontal_axis == b.horizontal_axis && a.width_m == b.width_m
            && a.height_m == b.height_m && a.thickness_m == b.thickness_m;
   };
+  // Two cells of one key (the same quantised centre and size) but another geometry
+  // cannot both stay: the layer holds one cell per key, as integration's replacement
+  // keeps it and the file reader checks it. The one with more evidence stays (more
+  // features, then the larger probability sum, then the smaller geometry), an order
+  // that does not depend on which map is merged into which.
+  const auto geometry = [](const PlanarCuboid& c) {
+    return std::array<float, 12>{c.centre.x(),
+                                 c.centre.y(),
+                                 c.centre.z(),
+                                 c.normal.x(),
+                                 c.normal.y(),
+                                 c.normal.z(),
+                                 c.horizontal_axis.x(),
+                                 c.horizontal_axis.y(),
+                                 c.horizontal_axis.z(),
+                                 c.width_m,
+                                 c.height_m,
+                                 c.thickness_m};
+  };
+  const auto stronger = [&geometry](const NonPlanarCell& a, const PlanarCuboid& ca,
+                                    const NonPlanarCell& b, const PlanarCuboid& cb) {
+    if (a.feature_count != b.feature_count)
+      return a.feature_count > b.feature_count;
+    if (a.probability_sum != b.probability_sum)
+      return a.probability_sum > b.probability_sum;
+    return geometry(ca) < geometry(cb);
+  };
+  bool replaced = false;
   non_planar.reserve(non_planar.size() + other.non_planar.size());
   for (const NonPlanarCell& src : other.non_planar) {
     PlanarCuboid c = other.nonPlanarCuboid(src);
@@ -256,10 +284,17 @@ SurfaceLayer::Impl::mergeNonPlanar(const Impl& other,
     bool joined = false;
     for (auto it = range.first; it != range.second && !joined; ++it) {
       NonPlanarCell& cell = non_planar[it->second];
-      if (!same(nonPlanarCuboid(cell), c))
-        continue;
-      cell.probability_sum += src.probability_sum;
-      cell.feature_count += src.feature_count;
+      const PlanarCuboid kept = nonPlanarCuboid(cell);
+      if (same(kept, c)) {
+        cell.probability_sum += src.probability_sum;
+        cell.feature_count += src.feature_count;
+      } else if (!stronger(cell, kept, src, c)) {
+        NonPlanarCell moved(c, internAxes(c, axes_lookup));
+        moved.probability_sum = src.probability_sum;
+        moved.feature_count = src.feature_count;
+        cell = moved;
+        replaced = true;
+      }
       joined = true;
     }
     if (joined)
@@ -269,6 +304,8 @@ SurfaceLayer::Impl::mergeNonPlanar(const Impl& other,
     cell.feature_count = src.feature_count;
     non_planar.push_back(cell);
   }
+  if (replaced)
+    pruneAxes(); // the orientations only the replaced cells had
   non_planar.shrink_to_fit();
 }
 

@@ -13,6 +13,7 @@
 #include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -1129,6 +1130,60 @@ TEST(SurfaceLayer, NonPlanarCellsKeepTheirOrientations)
   read.deserialize(bytes.data(), bytes.size());
   EXPECT_TRUE(read == layer);
   EXPECT_TRUE(sameCuboids(read.getCuboids(), got));
+}
+
+// Two maps with a non-planar cell at the same place and of the same size (one key) but
+// another orientation, as two segments of one drive see a bush from two sides: the
+// merge keeps one of them, the same one in either direction, so the layer still holds
+// one cell per key and its file reads back (the reader refuses two cells of one key).
+TEST(SurfaceLayer, MergedNonPlanarCellsOfOneKeyKeepOne)
+{
+  const auto box = [](const Eigen::Vector3f& normal, const Eigen::Vector3f& axis) {
+    PlanarCuboid c;
+    c.centre = Eigen::Vector3f(1.05f, 0.05f, 1.05f);
+    c.normal = normal.normalized();
+    c.horizontal_axis = axis.normalized();
+    c.width_m = c.height_m = c.thickness_m = 0.2f;
+    c.plane_id = -1;
+    return c;
+  };
+  const Eigen::Vector3f x = Eigen::Vector3f::UnitX(), y = Eigen::Vector3f::UnitY(),
+                        z = Eigen::Vector3f::UnitZ();
+  // map a also has a cell elsewhere, of a third orientation
+  PlanarCuboid elsewhere = box(z, x);
+  elsewhere.centre = Eigen::Vector3f(3.0f, 0.0f, 1.0f);
+  const PlanarCuboids cells_a{box(-y, x), elsewhere}, cells_b{box(-x, y)};
+  SurfaceLayer ab(defaultParams()), ba(defaultParams());
+  {
+    SurfaceLayer a(defaultParams()), b(defaultParams());
+    a.integrate(cells_a, PlaneModels{}, Cloud(), {});
+    b.integrate(cells_b, PlaneModels{}, Cloud(), {});
+    ab.integrate(cells_a, PlaneModels{}, Cloud(), {});
+    ab.merge(b, Eigen::Isometry3d::Identity());
+    ba.integrate(cells_b, PlaneModels{}, Cloud(), {});
+    ba.merge(a, Eigen::Isometry3d::Identity());
+  }
+  // by x: the cell at x = 1.05, then the one at x = 3
+  const auto sorted = [](PlanarCuboids cuboids) {
+    std::sort(cuboids.begin(), cuboids.end(),
+              [](const PlanarCuboid& p, const PlanarCuboid& q) {
+                return p.centre.x() < q.centre.x();
+              });
+    return cuboids;
+  };
+  const PlanarCuboids got = sorted(ab.getCuboids());
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_TRUE(sameCuboids(got, sorted(ba.getCuboids())));
+  // equal evidence (no features): the smaller geometry stays, normal -x before -y
+  EXPECT_EQ(got[0].normal, -x);
+  EXPECT_EQ(got[1].normal, z);
+  for (const SurfaceLayer* merged : {&ab, &ba}) {
+    std::vector<std::uint8_t> bytes;
+    merged->serialize(bytes);
+    SurfaceLayer read(defaultParams());
+    ASSERT_NO_THROW(read.deserialize(bytes.data(), bytes.size()));
+    EXPECT_TRUE(sameCuboids(sorted(read.getCuboids()), got));
+  }
 }
 
 // Row of 3 cells [0, 0.3] x [0, 0.1] on the wall, occupancy_thres 0.6. Features: cell 0

@@ -224,7 +224,11 @@ public:
    *   which the association meets them can pair them differently.
    * - Non-planar cells: both layers' cells are kept (neither recording is newer
    *   than the other); a cell of \a other whose geometry equals a stored cell's
-   *   (same centre, extents and axes) adds its feature evidence to it instead.
+   *   (same centre, extents and axes) adds its feature evidence to it instead. Of two
+   *   cells with the same key (centre quantised to resolution_m, extents rounded) but
+   *   other axes or centres, the one with more evidence stays (more features, then
+   *   the larger probability sum, then the lexicographically smaller geometry), so
+   *   the layer keeps one cell per key in either merge direction.
    * - \a this_T_other exactly the identity: planes and cells are copied as they
    *   are. Otherwise every plane's frame, refined plane and moments are moved exactly,
    *   and its raster cells are re-projected into a raster frame of the moved plane

@@ -1,0 +1,709 @@
+# SPDX-License-Identifier: BSD-3-Clause
+"""Batch mapping on a Dask cluster: a recording (or several) mapped in frame segments,
+one Dask task per segment, and the segment maps merged pairwise in a tree of merge tasks
+into one map.
+
+    import planar_grid.distributed as pgd
+    report = pgd.map_segments("config/karlsruhe.yaml", num_segments=4, n_workers=2,
+                              output_dir="/tmp/batch")
+    # /tmp/batch/map.pgmap, /tmp/batch/batch_report.json, /tmp/batch/segments/...
+
+The segment maps share one world frame when the poses do (GPS/INS poses such as
+Karlsruhe's, or recordings registered beforehand), so they are merged with the identity
+transform (PlanarGridMap.merge). Every task writes its output under its own name in
+output_dir, atomically (a temporary name, then a rename), and is a pure function of its
+inputs: a task that runs twice (a worker that died mid-task, its task run again
+elsewhere) leaves the same file. The files are exchanged through output_dir, so on a
+cluster of several machines output_dir must be on a filesystem every worker and the
+client see at the same path, and so must the configurations and their inputs.
+
+The command planar_grid_batch runs main(); docs/SCALE.md has the measured figures.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import shutil
+import sys
+import time
+import uuid
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+import planar_grid as pg
+
+#: Version of the batch report's layout (batch_report.json); raised when a field changes
+#: meaning or is removed.
+BATCH_REPORT_SCHEMA_VERSION = 1
+
+#: Exit statuses of planar_grid_batch, the classes of planar_grid_pipeline's.
+EXIT_FAILURE = 1
+EXIT_USAGE = 2
+EXIT_CONFIG = 3
+EXIT_INPUT = 4
+EXIT_OUTPUT = 5
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Segment:
+    """One task of a batch: frame positions begin .. end - 1 (0-based, end excluded) of
+    the recording a configuration file describes.
+
+    Attributes
+    ----------
+    config : str
+        The configuration file (an absolute path).
+    begin, end : int
+        The frame range, as run_pipeline(frames=(begin, end)).
+    """
+
+    config: str
+    begin: int
+    end: int
+
+    def describe(self) -> str:
+        """The segment as the messages name it: 'config frames begin:end'."""
+        return f"{self.config} frames {self.begin}:{self.end}"
+
+
+class BatchError(RuntimeError):
+    """A batch task failed. The message names the task's input (the configuration and
+    frame range of a segment, or the maps of a merge) and the cause; ``cause`` is the
+    task's own exception (e.g. planar_grid.IOError for a missing input file) and
+    ``segment`` the Segment, or None for a merge or tile task. The maps of the tasks
+    that had finished stay in output_dir."""
+
+    def __init__(self, message: str, cause: BaseException,
+                 segment: Optional[Segment] = None):
+        super().__init__(message)
+        self.cause = cause
+        self.segment = segment
+
+
+# --------------------------------------------------------------------------- the tasks
+# Module-level functions: the workers import them by name (planar_grid.distributed).
+
+
+def _replace_folder(tmp: str, final: str) -> None:
+    """Moves the finished folder tmp to final, replacing a final of an earlier attempt
+    (the same task run again after its worker died, or an earlier job) in two renames."""
+    try:
+        os.rename(tmp, final)
+        return
+    except OSError:
+        if not os.path.isdir(final):
+            raise
+    old = f"{final}.old-{uuid.uuid4().hex}"
+    os.rename(final, old)
+    os.rename(tmp, final)
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def _map_counts(m: "pg.PlanarGridMap") -> Dict[str, int]:
+    """Counts of a map for the reports (plain ints)."""
+    planar = int(np.count_nonzero(m.cuboids.is_planar))
+    return dict(planes=int(len(m.planes)), planar_cuboids=planar,
+                non_planar_cuboids=int(len(m.cuboids.is_planar)) - planar,
+                cells=int(m.cell_count),
+                memory_bytes=int(m.memory["total_bytes"]))
+
+
+def _worker_identity() -> Dict[str, Any]:
+    """Where a task ran: host name and process id."""
+    return dict(host=os.uname().nodename, pid=os.getpid())
+
+
+def count_frames_task(config: str) -> int:
+    """Task: frames in the input of ``config`` (planar_grid.input_frame_count)."""
+    return int(pg.input_frame_count(config))
+
+
+def map_segment_task(segment: Segment, folder: str) -> Dict[str, Any]:
+    """Task: runs the pipeline on one segment and writes ``folder/map.pgmap`` and
+    ``folder/report.json`` (the pipeline's report), both or neither.
+
+    Parameters
+    ----------
+    segment : Segment
+        The configuration and frame range.
+    folder : str
+        The segment's own output folder (replaced as a whole when the task ends).
+
+    Returns
+    -------
+    dict
+        The task report: the segment, the map's path and counts, the pipeline report's
+        path, wall time in seconds, start and end (Unix time, seconds), and the host and
+        process that ran it.
+
+    Raises
+    ------
+    planar_grid.ConfigError, planar_grid.IOError, planar_grid.Error
+        As run_pipeline() raises them (bad configuration, missing input, a frame range
+        outside the input).
+    ValueError
+        When the configuration has no map_integration stage (no map to merge).
+    """
+    start = time.perf_counter()
+    start_time = time.time()
+    pg.set_verbosity("error")
+    # Every frame on the worker's one thread: a worker is one core of the cluster (the
+    # result is the same as with the frame overlap on a second thread).
+    result = pg.run_pipeline(segment.config, frames=(segment.begin, segment.end),
+                             write_outputs=False, sequential=True)
+    if result.map is None:
+        raise ValueError(f"{segment.config} has no map_integration stage: the segment "
+                         "makes no map to merge")
+    parent = os.path.dirname(folder)
+    tmp = os.path.join(parent, f".{os.path.basename(folder)}.{uuid.uuid4().hex}.tmp")
+    os.makedirs(tmp)
+    try:
+        result.map.save(os.path.join(tmp, "map.pgmap"))
+        with open(os.path.join(tmp, "report.json"), "w", encoding="utf-8") as f:
+            json.dump(result.report, f, indent=1)
+        _replace_folder(tmp, folder)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    report = dict(kind="segment", config=segment.config,
+                  frames=[int(segment.begin), int(segment.end)],
+                  map=os.path.join(folder, "map.pgmap"),
+                  pipeline_report=os.path.join(folder, "report.json"),
+                  **_map_counts(result.map),
+                  frames_run=int(result.frames),
+                  wall_time_s=round(time.perf_counter() - start, 3),
+                  start_time=start_time, end_time=time.time(),
+                  worker=_worker_identity())
+    return report
+
+
+def merge_maps_task(inputs: Sequence[Dict[str, Any]], path: str) -> Dict[str, Any]:
+    """Task: merges the maps of ``inputs`` (task reports with a ``map`` path), in order,
+    into the first with the identity transform, and writes the result to ``path``
+    atomically.
+
+    Returns
+    -------
+    dict
+        The task report: the input maps, the output, the counts of the merged map, and
+        the seconds spent loading, merging and saving.
+    """
+    start = time.perf_counter()
+    start_time = time.time()
+    pg.set_verbosity("error")
+    maps = [r["map"] for r in inputs]
+    t = time.perf_counter()
+    merged = pg.PlanarGridMap.load(maps[0])
+    others = [pg.PlanarGridMap.load(p) for p in maps[1:]]
+    load_s = time.perf_counter() - t
+    t = time.perf_counter()
+    for other in others:
+        merged.merge(other, np.eye(4))
+    merge_s = time.perf_counter() - t
+    t = time.perf_counter()
+    tmp = f"{path}.{uuid.uuid4().hex}.tmp"
+    try:
+        merged.save(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+    save_s = time.perf_counter() - t
+    return dict(kind="merge", inputs=maps, map=path, **_map_counts(merged),
+                load_s=round(load_s, 4), merge_s=round(merge_s, 4),
+                save_s=round(save_s, 4),
+                wall_time_s=round(time.perf_counter() - start, 3),
+                start_time=start_time, end_time=time.time(),
+                worker=_worker_identity())
+
+
+def save_tiles_task(merged: Dict[str, Any], folder: str,
+                    tile_size_m: float) -> Dict[str, Any]:
+    """Task: saves the map of ``merged`` as tiles of tile_size_m meters (save_tiles) in
+    ``folder``, written under a temporary name and renamed."""
+    start = time.perf_counter()
+    m = pg.PlanarGridMap.load(merged["map"])
+    parent = os.path.dirname(folder)
+    tmp = os.path.join(parent, f".{os.path.basename(folder)}.{uuid.uuid4().hex}.tmp")
+    try:
+        index = pg.save_tiles(m, tmp, tile_size_m)
+        _replace_folder(tmp, folder)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return dict(kind="tiles", folder=folder, tile_size_m=float(tile_size_m),
+                tiles=int(len(index["tiles"])),
+                wall_time_s=round(time.perf_counter() - start, 3),
+                worker=_worker_identity())
+
+
+# ------------------------------------------------------------------------- the client
+
+
+def split_frames(begin: int, end: int, num_segments: int) -> List[Tuple[int, int]]:
+    """Splits frames begin .. end - 1 into num_segments contiguous ranges whose sizes
+    differ by at most one frame.
+
+    Raises
+    ------
+    ValueError
+        When num_segments < 1 or the range has fewer frames than num_segments.
+    """
+    frames = end - begin
+    if num_segments < 1:
+        raise ValueError(f"num_segments must be >= 1, not {num_segments}")
+    if frames < num_segments:
+        raise ValueError(f"frames {begin}:{end} ({max(frames, 0)} frames) cannot be split "
+                         f"into {num_segments} segments")
+    bounds = [begin + (frames * i) // num_segments for i in range(num_segments + 1)]
+    return list(zip(bounds[:-1], bounds[1:]))
+
+
+def _merge_tree(count: int) -> List[List[Tuple[int, ...]]]:
+    """The levels of a pairwise merge tree over count leaves: each level lists, for each
+    node, the indices of the previous level's nodes it merges (a pair, or a single node
+    carried up when the level has an odd count)."""
+    levels = []
+    width = count
+    while width > 1:
+        level = [tuple(range(i, min(i + 2, width))) for i in range(0, width, 2)]
+        levels.append(level)
+        width = len(level)
+    return levels
+
+
+def _as_segments(configs: List[str], segments: Optional[Sequence[Any]]
+                 ) -> Optional[List[Segment]]:
+    """Checks the explicit segments: Segment, (config, begin, end) or, with one
+    configuration, (begin, end)."""
+    if segments is None:
+        return None
+    out = []
+    for s in segments:
+        if isinstance(s, Segment):
+            seg = Segment(os.path.abspath(s.config), int(s.begin), int(s.end))
+        elif len(s) == 3:
+            seg = Segment(os.path.abspath(os.fspath(s[0])), int(s[1]), int(s[2]))
+        elif len(s) == 2:
+            if len(configs) != 1:
+                raise ValueError("a (begin, end) segment needs exactly one configuration; "
+                                 "with several, give (config, begin, end)")
+            seg = Segment(configs[0], int(s[0]), int(s[1]))
+        else:
+            raise ValueError(f"a segment is (begin, end) or (config, begin, end), not {s!r}")
+        if seg.begin < 0 or seg.end <= seg.begin:
+            raise ValueError(f"segment {seg.describe()}: the frame range is empty or "
+                             "negative")
+        out.append(seg)
+    if not out:
+        raise ValueError("segments is empty")
+    return out
+
+
+def _failure(future, what: str, segment: Optional[Segment]) -> BatchError:
+    cause = future.exception()
+    text = str(cause) or type(cause).__name__
+    return BatchError(f"{what} failed: {type(cause).__name__}: {text}", cause, segment)
+
+
+def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
+                 segments: Optional[Sequence[Any]] = None,
+                 num_segments: int = 4,
+                 frames: Optional[Tuple[Optional[int], Optional[int]]] = None,
+                 output_dir: PathLike = "output/batch",
+                 scheduler_address: Optional[str] = None,
+                 n_workers: int = 2,
+                 tile_size_m: Optional[float] = None,
+                 progress: Union[bool, Callable[[str], None]] = True,
+                 ) -> Dict[str, Any]:
+    """Maps recordings in frame segments on a Dask cluster and merges the segment maps.
+
+    Each segment is one Dask task that runs the pipeline on its frames
+    (run_pipeline(frames=...), every frame on the worker's one thread) and writes
+    ``output_dir/segments/<NNN>_<config>_<begin>-<end>/map.pgmap`` with the pipeline's
+    ``report.json``. The segment maps are then merged pairwise, neighbours in frame
+    order first, by merge tasks (``output_dir/merges/level<L>_<N>.pgmap``), the root
+    writing ``output_dir/map.pgmap``; ``tile_size_m`` also writes it as tiles
+    (``output_dir/tiles``). The task reports are collected into
+    ``output_dir/batch_report.json`` (returned as a dict).
+
+    Parameters
+    ----------
+    config : str or os.PathLike, or a sequence of them
+        The configuration file(s) (schema: config/example.yaml), each with a
+        map_integration stage. Several files are several recordings, each split into
+        num_segments; all must give poses in one world frame (the maps are merged with
+        the identity transform).
+    segments : sequence, optional
+        The segments to run instead of splitting: each (begin, end) (one configuration
+        only), (config, begin, end) or a Segment; frame positions are 0-based, end
+        excluded. A range outside the input fails its task (BatchError).
+    num_segments : int, optional
+        Segments per recording when ``segments`` is not given (default 4), >= 1; the
+        frames are split into contiguous ranges whose sizes differ by at most one.
+    frames : tuple of (int or None, int or None), optional
+        (begin, end): split only these frame positions of each recording (as
+        run_pipeline's frames; not with ``segments``). Default: every frame. A range
+        outside the input is a ValueError.
+    output_dir : str or os.PathLike, optional
+        The job's folder (created; default ``output/batch``). On a cluster of several
+        machines, a filesystem every worker sees at the same path.
+    scheduler_address : str, optional
+        A running Dask scheduler ("tcp://host:8786") to run the job on. Default: a
+        ``distributed.LocalCluster`` of n_workers processes on 127.0.0.1 (one thread
+        each, no dashboard), started for the job and stopped after it.
+    n_workers : int, optional
+        Worker processes of the local cluster (default 2), >= 1; ignored with
+        scheduler_address.
+    tile_size_m : float, optional
+        Also save the merged map as tiles of this many meters (save_tiles): a whole
+        number of voxels, in (0, 1e5]. Default: no tiles.
+    progress : bool or callable, optional
+        True (default): a line per finished task on stdout; a callable receives each
+        line instead; False: silent.
+
+    Returns
+    -------
+    dict
+        The batch report (as written to batch_report.json): ``schema_version``, the
+        configurations, ``segments`` and ``merges`` (the task reports, in job order:
+        config, frames, map path, planes, planar_cuboids, non_planar_cuboids, cells,
+        memory_bytes, wall_time_s, worker), ``map`` (the merged map's path) with its
+        counts, ``tiles`` (or None), the cluster and the job's wall time in seconds.
+
+    Raises
+    ------
+    ValueError
+        For invalid arguments (num_segments, n_workers, tile_size_m, frames outside
+        the input or given with segments, an empty or malformed segment list).
+    BatchError
+        When a task fails: the message names its input (configuration and frame range)
+        and the cause (``.cause``: e.g. planar_grid.ConfigError, planar_grid.IOError);
+        the remaining tasks are cancelled and the segment maps already written stay in
+        output_dir.
+    OSError
+        When output_dir cannot be created.
+    """
+    import distributed  # only this function needs Dask
+
+    job_start = time.perf_counter()
+    configs = [os.path.abspath(os.fspath(c)) for c in
+               ([config] if isinstance(config, (str, os.PathLike)) else list(config))]
+    if not configs:
+        raise ValueError("no configuration given")
+    if n_workers < 1:
+        raise ValueError(f"n_workers must be >= 1, not {n_workers}")
+    if num_segments < 1:
+        raise ValueError(f"num_segments must be >= 1, not {num_segments}")
+    if tile_size_m is not None and not tile_size_m > 0:
+        raise ValueError(f"tile_size_m must be > 0 meters, not {tile_size_m}")
+    if segments is not None and frames is not None:
+        raise ValueError("give either segments or frames, not both")
+    explicit = _as_segments(configs, segments)
+    output_dir = os.path.abspath(os.fspath(output_dir))
+    for sub in ("segments", "merges"):
+        os.makedirs(os.path.join(output_dir, sub), exist_ok=True)
+
+    say: Callable[[str], None]
+    if progress is True:
+        say = _print_line
+    elif callable(progress):
+        say = progress
+    else:
+        say = _ignore_line
+
+    cluster = None
+    if scheduler_address is None:
+        cluster = distributed.LocalCluster(
+            n_workers=n_workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+            dashboard_address=None, worker_dashboard_address=None, silence_logs=40)
+        address = cluster.scheduler_address
+    else:
+        address = scheduler_address
+    job = uuid.uuid4().hex[:8]
+    try:
+        with distributed.Client(address, set_as_default=False) as client:
+            report = _run_job(client, distributed, job, configs, explicit, num_segments,
+                              frames, output_dir, tile_size_m, say)
+            report["cluster"] = dict(
+                scheduler=address if cluster is None else "local",
+                local=cluster is not None,
+                workers=int(len(client.scheduler_info()["workers"])))
+    finally:
+        if cluster is not None:
+            cluster.close()
+    report["wall_time_s"] = round(time.perf_counter() - job_start, 3)
+    _write_json(os.path.join(output_dir, "batch_report.json"), report)
+    return report
+
+
+def _print_line(line: str) -> None:
+    print(line, flush=True)
+
+
+def _ignore_line(line: str) -> None:
+    pass
+
+
+def _write_json(path: str, data: Dict[str, Any]) -> None:
+    tmp = f"{path}.{uuid.uuid4().hex}.tmp"
+    with open(tmp, "w", encoding="utf-8") as f:
+        json.dump(data, f, indent=1)
+        f.write("\n")
+    os.replace(tmp, path)
+
+
+def _run_job(client, distributed, job: str, configs: List[str],
+             explicit: Optional[List[Segment]], num_segments: int,
+             frames: Optional[Tuple[Optional[int], Optional[int]]], output_dir: str,
+             tile_size_m: Optional[float], say: Callable[[str], None]) -> Dict[str, Any]:
+    """Submits the tasks, reports each as it finishes and collects the reports."""
+    segment_list = explicit
+    if segment_list is None:
+        # The frame counts come from the workers, which read the inputs.
+        counts = {}
+        futures = {client.submit(count_frames_task, c, key=f"count-frames-{i}-{job}"): c
+                   for i, c in enumerate(configs)}
+        for future in distributed.as_completed(list(futures), loop=client.loop):
+            if future.status != "finished":
+                raise _failure(future, f"opening the input of {futures[future]}", None)
+            counts[futures[future]] = int(future.result())
+        segment_list = []
+        for c in configs:
+            begin, end = 0, counts[c]
+            if frames is not None:
+                begin = 0 if frames[0] is None else int(frames[0])
+                end = counts[c] if frames[1] is None else int(frames[1])
+                if not 0 <= begin < end <= counts[c]:
+                    raise ValueError(f"frames {begin}:{end} are outside the "
+                                     f"{counts[c]} frames of {c}")
+            segment_list += [Segment(c, b, e) for b, e in split_frames(begin, end,
+                                                                       num_segments)]
+
+    total = len(segment_list)
+    tree = _merge_tree(total)
+    tasks = total + sum(len(level) for level in tree) + (tile_size_m is not None)
+    say(f"planar_grid_batch: {total} segments of {len(configs)} recording(s), "
+        f"{sum(len(level) for level in tree)} merges, on "
+        f"{len(client.scheduler_info()['workers'])} workers")
+
+    # key -> (the task's input as messages name it, its Segment or None)
+    described: Dict[str, Tuple[str, Optional[Segment]]] = {}
+    label: Dict[str, str] = {}
+    level_futures = []
+    for i, seg in enumerate(segment_list):
+        stem = os.path.splitext(os.path.basename(seg.config))[0]
+        folder = os.path.join(output_dir, "segments",
+                              f"{i:03d}_{stem}_{seg.begin}-{seg.end}")
+        f = client.submit(map_segment_task, seg, folder, key=f"segment-{i:03d}-{job}")
+        label[f.key] = f"segment {i + 1}/{total}"
+        described[f.key] = (f"{label[f.key]} ({seg.describe()})", seg)
+        level_futures.append(f)
+    segment_futures = list(level_futures)
+    merge_futures = []
+    for depth, level in enumerate(tree, start=1):
+        nxt = []
+        for j, node in enumerate(level):
+            children = [level_futures[k] for k in node]
+            if len(children) == 1:  # an odd node out: carried up unmerged
+                nxt.append(children[0])
+                continue
+            path = (os.path.join(output_dir, "map.pgmap") if depth == len(tree) else
+                    os.path.join(output_dir, "merges", f"level{depth}_{j:03d}.pgmap"))
+            f = client.submit(merge_maps_task, children, path,
+                              key=f"merge-{depth}-{j:03d}-{job}")
+            label[f.key] = f"merge {depth}.{j}"
+            described[f.key] = (f"{label[f.key]} ("
+                                + " + ".join(label[c.key] for c in children) + ")", None)
+            merge_futures.append(f)
+            nxt.append(f)
+        level_futures = nxt
+    root_future = level_futures[0]
+    all_futures = segment_futures + merge_futures
+    tiles_future = None
+    if tile_size_m is not None:
+        tiles_future = client.submit(save_tiles_task, root_future,
+                                     os.path.join(output_dir, "tiles"), tile_size_m,
+                                     key=f"tiles-{job}")
+        described[tiles_future.key] = ("tiles of the merged map", None)
+        all_futures.append(tiles_future)
+
+    done = 0
+    try:
+        for future in distributed.as_completed(all_futures, loop=client.loop):
+            what, failed = described[future.key]
+            if future.status != "finished":
+                raise _failure(future, what, failed)
+            r = future.result()
+            done += 1
+            say(f"[{done}/{tasks}] {what}: {r['wall_time_s']:.1f} s"
+                + (f", {r['planes']} planes, {r['planar_cuboids']} planar cuboids, "
+                   f"{r['cells']} cells" if "planes" in r else "")
+                + f" (pid {r['worker']['pid']} on {r['worker']['host']})")
+    except BaseException:
+        client.cancel(all_futures)
+        raise
+
+    segment_reports = [f.result() for f in segment_futures]
+    merge_reports = [f.result() for f in merge_futures]
+    if not merge_futures:
+        # One segment: its map is the job's map.
+        final_path = os.path.join(output_dir, "map.pgmap")
+        tmp = f"{final_path}.{uuid.uuid4().hex}.tmp"
+        shutil.copyfile(segment_reports[0]["map"], tmp)
+        os.replace(tmp, final_path)
+    # What attempts killed while they wrote left behind (the attempts that ran again
+    # wrote their own).
+    for folder in (os.path.join(output_dir, "segments"),
+                   os.path.join(output_dir, "merges"), output_dir):
+        for name in os.listdir(folder):
+            if name.endswith(".tmp") and (folder != output_dir
+                                          or name.startswith("map.pgmap.")):
+                path = os.path.join(folder, name)
+                if os.path.isdir(path):
+                    shutil.rmtree(path, ignore_errors=True)
+                else:
+                    os.remove(path)
+    final = root_future.result()
+    return dict(
+        schema_version=BATCH_REPORT_SCHEMA_VERSION,
+        configs=configs,
+        output_dir=output_dir,
+        map=os.path.join(output_dir, "map.pgmap"),
+        **{k: final[k] for k in ("planes", "planar_cuboids", "non_planar_cuboids",
+                                 "cells", "memory_bytes")},
+        frames=int(sum(r["frames_run"] for r in segment_reports)),
+        segments=segment_reports,
+        merges=merge_reports,
+        tiles=tiles_future.result() if tiles_future is not None else None)
+
+
+# ------------------------------------------------------------------------ the command
+
+
+class _ArgumentParser(argparse.ArgumentParser):
+    """argparse with the pipeline tool's usage status."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.print_usage(sys.stderr)
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
+
+
+def _frame_range(text: str) -> Tuple[Optional[int], Optional[int]]:
+    begin, sep, end = text.partition(":")
+    try:
+        if not sep:
+            raise ValueError
+        b = int(begin) if begin else None
+        e = int(end) if end else None
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"'{text}' is not a frame range A:B (0-based, B excluded)") from None
+    if (b is not None and b < 0) or (b is not None and e is not None and e <= b):
+        raise argparse.ArgumentTypeError(f"the frame range '{text}' is empty")
+    return b, e
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number >= 1")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number > 0")
+    return value
+
+
+def exit_status(error: BaseException) -> int:
+    """The exit status of planar_grid_batch for an error, by its class as
+    planar_grid_pipeline classes them: 3 configuration, 4 input, 5 output, 2 usage,
+    1 anything else."""
+    cause = error.cause if isinstance(error, BatchError) else error
+    if isinstance(cause, pg.ConfigError):
+        return EXIT_CONFIG
+    if isinstance(cause, pg.IOError):
+        return EXIT_INPUT
+    if isinstance(cause, OSError):
+        return EXIT_OUTPUT
+    if isinstance(error, ValueError):
+        return EXIT_USAGE
+    return EXIT_FAILURE
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """planar_grid_batch: the command-line entry point of map_segments().
+
+    Returns
+    -------
+    int
+        The exit status: 0 success, 2 usage (options, frame ranges), 3 configuration,
+        4 input, 5 output, 1 anything else (e.g. a task that failed on a frame).
+    """
+    parser = _ArgumentParser(
+        prog="planar_grid_batch",
+        description="Maps recordings in frame segments on a Dask cluster (one task per "
+                    "segment) and merges the segment maps pairwise into one map "
+                    "(OUTPUT/map.pgmap, OUTPUT/batch_report.json). docs/SCALE.md.",
+        epilog="Exit status: 0 success, 2 command line, 3 configuration, 4 input, "
+               "5 output, 1 anything else (planar_grid_pipeline's classes).")
+    parser.add_argument("--config", action="append", required=True, metavar="YAML",
+                        help="a configuration file with a map_integration stage; "
+                             "repeat for several recordings in one world frame")
+    parser.add_argument("--segments", type=_positive_int, default=4, metavar="N",
+                        help="segments per recording (default 4)")
+    parser.add_argument("--frames", type=_frame_range, default=None, metavar="A:B",
+                        help="split only frame positions A..B-1 of each recording "
+                             "(default: every frame)")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help="a running Dask scheduler (tcp://host:port); default: a "
+                             "local cluster on 127.0.0.1, stopped at the end")
+    parser.add_argument("--workers", type=_positive_int, default=2, metavar="N",
+                        help="worker processes of the local cluster (default 2)")
+    parser.add_argument("--output", default="output/batch", metavar="DIR",
+                        help="the job's folder (default output/batch)")
+    parser.add_argument("--tile-size", type=_positive_float, default=None, metavar="M",
+                        help="also save the merged map as tiles of M meters "
+                             "(default: no tiles)")
+    parser.add_argument("-q", "--quiet", action="store_true",
+                        help="no progress lines, only errors")
+    parser.add_argument("--version", action="version",
+                        version=f"planar_grid_batch {pg.__version__}")
+    args = parser.parse_args(argv)
+    for c in args.config:
+        if not os.path.isfile(c):
+            print(f"planar_grid_batch: error: the configuration {c} does not exist",
+                  file=sys.stderr)
+            return EXIT_INPUT
+    try:
+        report = map_segments(args.config, num_segments=args.segments,
+                              frames=args.frames, output_dir=args.output,
+                              scheduler_address=args.scheduler, n_workers=args.workers,
+                              tile_size_m=args.tile_size, progress=not args.quiet)
+    except KeyboardInterrupt:
+        print("planar_grid_batch: interrupted; the maps already written stay in "
+              f"{args.output}", file=sys.stderr)
+        return 130
+    except Exception as e:  # every error ends here with its class's status
+        print(f"planar_grid_batch: error: {e}", file=sys.stderr)
+        return exit_status(e)
+    if not args.quiet:
+        print(f"planar_grid_batch: {report['map']}: {report['planes']} planes, "
+              f"{report['planar_cuboids']} planar cuboids, {report['cells']} cells from "
+              f"{len(report['segments'])} segments in {report['wall_time_s']:.1f} s")
+    return 0

@@ -1,0 +1,314 @@
+# SPDX-License-Identifier: BSD-3-Clause
+"""Measures planar_grid.distributed on a recording: the job split into segments on a
+local Dask cluster against one run of the same frames, the merge cost as the map grows,
+and the per-task costs the throughput projection of docs/SCALE.md starts from.
+
+    PYTHONPATH=build/python nice -n 10 /usr/bin/python3 scripts/measure_batch.py \
+        --config config/karlsruhe.yaml --segments 4 --workers 2 --output /tmp/batch_measure
+
+Steps (each prints its figures; all of them go to OUTPUT/measure_batch.json):
+  1. one run of the frames (run_pipeline, the frame overlap on the second core), timed;
+  2. the batch job (map_segments: N segments, W worker processes, the local cluster's
+     start and stop included), timed; the merged map against the one run: getState
+     agreement on --probes random points the one run observed (free or occupied; drawn
+     as scripts/measure_map_merge.py draws them), planes, planar and non-planar cuboids;
+  3. the batch job again with --fine-segments segments: every merge task's load, merge
+     and save seconds against the planes and cells of its result (merging 2, 4, 8, ...
+     segment maps), and each segment task's seconds against its frames;
+  4. the map grown by copies of the one run's map moved by whole voxels along x
+     (1, 2, 4, 8 copies: a longer drive through new space), each doubling merged, timed
+     (saving, and loading as the median of 3);
+  5. the batch job again on a local cluster of its own, a worker killed (SIGKILL) 3 s
+     into the first segment task seen running: the job's wall time, and its map against
+     step 2's (getState on the same probes, counts);
+  6. the projection of docs/SCALE.md from these figures (the model is in project()).
+"""
+import argparse
+import json
+import math
+import os
+import signal
+import threading
+import time
+
+import distributed
+
+import numpy as np
+
+import planar_grid as pg
+import planar_grid.distributed as pgd
+
+S = pg.SpaceState
+
+
+def counts(m):
+    planar = int(np.count_nonzero(m.cuboids.is_planar))
+    return dict(planes=len(m.planes), planar_cuboids=planar,
+                non_planar_cuboids=len(m.cuboids.is_planar) - planar,
+                cells=int(m.cell_count), memory_bytes=int(m.memory["total_bytes"]))
+
+
+def observed_probes(m, count, seed=0):
+    """count random points in the box of the main job's map where m has observed space."""
+    rng = np.random.default_rng(seed)
+    lo, hi = np.array([0.0, -52.8, -7.2]), np.array([106.4, 18.4, 8.0])
+    kept, n = [], 0
+    while n < count:
+        candidates = rng.uniform(lo, hi, size=(400_000, 3))
+        keep = candidates[m.get_state(candidates) != S.UNKNOWN]
+        kept.append(keep)
+        n += len(keep)
+    return np.concatenate(kept)[:count]
+
+
+def compare(single, merged, probes):
+    s1, s2 = single.get_state(probes), merged.get_state(probes)
+    out = dict(probes=len(probes), agreement=float(np.mean(s1 == s2)))
+    for state in (S.FREE, S.OCCUPIED):
+        sel = s1 == state
+        out[f"agreement_{state.name.lower()}"] = float(np.mean(s2[sel] == state))
+        out[f"probes_{state.name.lower()}"] = int(sel.sum())
+    return out
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--config", default="config/karlsruhe.yaml")
+    parser.add_argument("--frames", type=int, nargs=2, default=None, metavar=("A", "B"))
+    parser.add_argument("--segments", type=int, default=4)
+    parser.add_argument("--fine-segments", type=int, default=16)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--probes", type=int, default=100_000)
+    parser.add_argument("--copies", type=int, default=8)
+    parser.add_argument("--output", default="/tmp/batch_measure")
+    args = parser.parse_args()
+    os.makedirs(args.output, exist_ok=True)
+    figures = dict(config=os.path.abspath(args.config), segments=args.segments,
+                   workers=args.workers)
+    frames = tuple(args.frames) if args.frames else None
+
+    # 1. one run
+    t = time.perf_counter()
+    result = pg.run_pipeline(args.config, frames=frames, write_outputs=False)
+    single_s = time.perf_counter() - t
+    single = result.map
+    single_path = os.path.join(args.output, "single_map.pgmap")
+    single.save(single_path)
+    figures["single"] = dict(wall_time_s=single_s, frames=int(result.frames),
+                             **counts(single))
+    print(f"one run: {result.frames} frames in {single_s:.1f} s: {figures['single']}")
+
+    # 2. the batch job
+    t = time.perf_counter()
+    report = pgd.map_segments(args.config, frames=frames, num_segments=args.segments,
+                              n_workers=args.workers,
+                              output_dir=os.path.join(args.output, "batch"))
+    batch_s = time.perf_counter() - t
+    merged = pg.PlanarGridMap.load(report["map"])
+    tasks = report["segments"] + report["merges"]
+    probes = observed_probes(single, args.probes)
+    figures["batch"] = dict(wall_time_s=batch_s, **counts(merged),
+                            **compare(single, merged, probes),
+                            segment_s=[s["wall_time_s"] for s in report["segments"]],
+                            merge_s=[m["wall_time_s"] for m in report["merges"]],
+                            tasks_span_s=(max(r["end_time"] for r in tasks)
+                                          - min(r["start_time"] for r in tasks)))
+    b, s1 = figures["batch"], figures["single"]
+    print(f"batch: {args.segments} segments on {args.workers} workers in {batch_s:.1f} s; "
+          f"getState agreement {b['agreement']*100:.2f} % of {b['probes']} probes "
+          f"(free {b['agreement_free']*100:.2f} %, occupied "
+          f"{b['agreement_occupied']*100:.2f} %); planar cuboids {b['planar_cuboids']} / "
+          f"{s1['planar_cuboids']} = {b['planar_cuboids']/s1['planar_cuboids']:.3f}; "
+          f"planes {b['planes']} / {s1['planes']}; non-planar {b['non_planar_cuboids']} / "
+          f"{s1['non_planar_cuboids']}")
+
+    # 3. finer segments: the merge tree's levels and the per-segment cost
+    fine = pgd.map_segments(args.config, frames=frames, num_segments=args.fine_segments,
+                            n_workers=args.workers,
+                            output_dir=os.path.join(args.output, "fine"), progress=False)
+    figures["fine"] = dict(
+        segments=[dict(frames=s["frames"][1] - s["frames"][0], wall_time_s=s["wall_time_s"],
+                       cells=s["cells"]) for s in fine["segments"]],
+        merges=[dict(inputs=len(m["inputs"]), load_s=m["load_s"], merge_s=m["merge_s"],
+                     save_s=m["save_s"], planes=m["planes"], cells=m["cells"],
+                     memory_bytes=m["memory_bytes"], map_file_bytes=os.path.getsize(m["map"]))
+                for m in fine["merges"]],
+        wall_time_s=fine["wall_time_s"])
+    for s in figures["fine"]["segments"][:3]:
+        print(f"segment task: {s['frames']} frames {s['wall_time_s']:.2f} s")
+    print("merge tasks (result planes / cells: load, merge, save seconds):")
+    for m in figures["fine"]["merges"]:
+        print(f"  {m['planes']} planes / {m['cells']} cells ({m['map_file_bytes']/1e6:.1f} MB "
+              f"file): load {m['load_s']:.3f}, merge {m['merge_s']:.3f}, save {m['save_s']:.3f}")
+
+    # 4. the map grown by shifted copies: merge cost against map size
+    growth = []
+    loads = []
+    for _ in range(3):
+        t = time.perf_counter()
+        grown = pg.PlanarGridMap.load(single_path)
+        loads.append(time.perf_counter() - t)
+    figures["single"]["load_s"] = float(np.median(loads))
+    span = 200.0  # m along x per copy: new space, no overlap with the copies before
+    copies = 1
+    while copies < args.copies:
+        other = pg.PlanarGridMap.load(single_path)
+        for k in range(1, copies):  # the other half: the same number of copies, shifted
+            shifted = pg.PlanarGridMap.load(single_path)
+            move = np.eye(4)
+            move[0, 3] = k * span
+            other.merge(shifted, move)
+        move = np.eye(4)
+        move[0, 3] = copies * span
+        before = counts(grown)
+        t = time.perf_counter()
+        grown.merge(other, move)
+        merge_s = time.perf_counter() - t
+        path = os.path.join(args.output, "grown.pgmap")
+        t = time.perf_counter()
+        grown.save(path)
+        save_s = time.perf_counter() - t
+        loads = []
+        for _ in range(3):
+            t = time.perf_counter()
+            pg.PlanarGridMap.load(path)
+            loads.append(time.perf_counter() - t)
+        load_s = float(np.median(loads))
+        copies *= 2
+        after = counts(grown)
+        growth.append(dict(copies=copies, merge_s=merge_s, save_s=save_s, load_s=load_s,
+                           file_bytes=os.path.getsize(path), before=before, **after))
+        print(f"{copies} copies: merge of two {copies // 2}-copy maps {merge_s:.3f} s, "
+              f"save {save_s:.3f} s, load {load_s:.3f} s; {after['planes']} planes, "
+              f"{after['cells']} cells, {os.path.getsize(path)/1e6:.1f} MB file, "
+              f"{after['memory_bytes']/1e6:.0f} MB in memory")
+    figures["growth"] = growth
+
+    # 5. a worker killed mid-task
+    figures["kill"] = kill_run(args, frames, report, probes)
+    k = figures["kill"]
+    print(f"worker killed {k['killed_after_s']:.1f} s into {k['task']}: the job took "
+          f"{k['wall_time_s']:.1f} s (against {batch_s:.1f} s); the task ran again in "
+          f"pid {k['rerun_pid']} (killed: {k['killed_pid']}); getState equal to the "
+          f"un-killed job's on {k['same_state']*100:.2f} % of the probes, counts equal: "
+          f"{k['same_counts']}")
+
+    # 6. the projection
+    figures["projection"] = project(figures)
+    with open(os.path.join(args.output, "measure_batch.json"), "w", encoding="utf-8") as f:
+        json.dump(figures, f, indent=1)
+    print(f"figures: {os.path.join(args.output, 'measure_batch.json')}")
+
+
+def kill_run(args, frames, expected, probes):
+    """The batch job on a local cluster of its own, one worker process killed 3 s into
+    the first segment task seen running."""
+    cluster = distributed.LocalCluster(n_workers=args.workers, threads_per_worker=1,
+                                       processes=True, host="127.0.0.1",
+                                       dashboard_address=None, silence_logs=50)
+    try:
+        with distributed.Client(cluster.scheduler_address, set_as_default=False) as client:
+            pids = client.run(os.getpid)
+            out = {}
+
+            def job():
+                t = time.perf_counter()
+                out["report"] = pgd.map_segments(
+                    args.config, frames=frames, num_segments=args.segments,
+                    scheduler_address=cluster.scheduler_address,
+                    output_dir=os.path.join(args.output, "killed"), progress=False)
+                out["wall_time_s"] = time.perf_counter() - t
+
+            thread = threading.Thread(target=job)
+            start = time.perf_counter()
+            thread.start()
+            # the tasks a worker executes now (the scheduler's processing() lists those
+            # queued on it too)
+            def executing(dask_worker):
+                return [str(ts.key) for ts in dask_worker.state.executing]
+
+            victim = None
+            while victim is None and thread.is_alive():
+                for worker, keys in client.run(executing).items():
+                    running = [k for k in keys if k.startswith("segment-")]
+                    if running and worker in pids:
+                        victim = (worker, running[0])
+                        break
+                time.sleep(0.05)
+            time.sleep(3.0)
+            killed_after = time.perf_counter() - start
+            os.kill(pids[victim[0]], signal.SIGKILL)
+            thread.join()
+    finally:
+        cluster.close()
+    report = out["report"]
+    merged = pg.PlanarGridMap.load(report["map"])
+    reference = pg.PlanarGridMap.load(expected["map"])
+    index = int(victim[1].split("-")[1])
+    keys = ("planes", "planar_cuboids", "non_planar_cuboids", "cells")
+    return dict(task=f"segment {index + 1}", killed_pid=pids[victim[0]],
+                killed_after_s=killed_after,
+                rerun_pid=report["segments"][index]["worker"]["pid"],
+                wall_time_s=out["wall_time_s"],
+                same_state=float(np.mean(merged.get_state(probes)
+                                         == reference.get_state(probes))),
+                same_counts=all(report[k] == expected[k] for k in keys))
+
+
+def project(figures, frames_per_worker=1120, workers=(10, 100, 1000)):
+    """Throughput of a batch on W workers, on paper, from the measured costs.
+
+    Model: W workers, one segment of frames_per_worker frames each (weak scaling: the
+    job grows with the cluster), every segment through new space. A segment task costs
+    t_seg = frames_per_worker * t_frame (t_frame: least squares over the measured
+    segment tasks; their fixed cost fitted ~0). The merges form a binary tree of
+    ceil(log2 W) levels that runs after the segments; a level's merges run in parallel,
+    so each level costs one merge task of its result's size, the root's the whole map.
+    A merge task of a result of C cells costs k * C (loading both inputs, merging,
+    saving; k: the median per cell of the grown maps' merges of step 4). Cells grow
+    with the frames (c_frame: the one run's cells per frame). t_start: the local
+    cluster's start and stop as measured (the job's wall time less its tasks' critical
+    path). Not modelled: the shared filesystem's bandwidth, the scheduler's per-task
+    overhead (milliseconds), stragglers and re-runs."""
+    segs = figures["fine"]["segments"] + [
+        dict(frames=f, wall_time_s=t) for f, t in
+        zip([28] * len(figures["batch"]["segment_s"]), figures["batch"]["segment_s"])]
+    f = np.array([s["frames"] for s in segs], float)
+    t = np.array([s["wall_time_s"] for s in segs])
+    t_frame, t_fixed = np.polyfit(f, t, 1)
+    # a merge task of the i-th doubling loads two maps of the (i-1)-th size
+    input_loads = [figures["single"]["load_s"]] + [g["load_s"] for g in figures["growth"]]
+    k = float(np.median([(2 * load + g["merge_s"] + g["save_s"]) / g["cells"]
+                         for load, g in zip(input_loads, figures["growth"])]))
+    single = figures["single"]
+    c_frame = single["cells"] / single["frames"]
+    bytes_per_cell = single["memory_bytes"] / single["cells"]
+    t_start = figures["batch"]["wall_time_s"] - figures["batch"]["tasks_span_s"]
+    rows = []
+    print(f"projection: t_frame {t_frame:.3f} s (fixed {t_fixed:.2f} s), merge {k*1e6:.1f} "
+          f"us/cell, {c_frame:.0f} cells/frame, {bytes_per_cell:.0f} B/cell, t_start "
+          f"{t_start:.1f} s; {frames_per_worker} frames per worker")
+    for w in workers:
+        levels = math.ceil(math.log2(w))
+        total = w * frames_per_worker
+        merge_path = sum(k * min(2 ** level, w) * frames_per_worker * c_frame
+                         for level in range(1, levels + 1))
+        seg = frames_per_worker * t_frame
+        wall = t_start + seg + merge_path
+        rows.append(dict(workers=w, frames=total, segment_s=seg, merge_levels=levels,
+                         merge_path_s=merge_path, wall_time_s=wall,
+                         frames_per_s=total / wall, ideal_frames_per_s=w / t_frame,
+                         root_cells=total * c_frame,
+                         root_memory_gb=total * c_frame * bytes_per_cell / 1e9))
+        r = rows[-1]
+        print(f"  {w} workers: {total} frames, segments {seg:.0f} s + {levels} merge levels "
+              f"{merge_path:.0f} s = {wall:.0f} s: {r['frames_per_s']:.0f} frames/s "
+              f"(ideal {r['ideal_frames_per_s']:.0f}); root map {r['root_cells']/1e6:.0f} M "
+              f"cells, {r['root_memory_gb']:.1f} GB")
+    return dict(t_frame_s=t_frame, t_fixed_s=t_fixed, merge_s_per_cell=k,
+                cells_per_frame=c_frame, bytes_per_cell=bytes_per_cell, t_start_s=t_start,
+                frames_per_worker=frames_per_worker, rows=rows)
+
+
+if __name__ == "__main__":
+    main()
