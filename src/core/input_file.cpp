@@ -18,7 +18,8 @@ checkRegularFile(const std::string& path, const std::string& what)
   if (fs::is_directory(status))
     throw IOError(path + ": " + subject + "a folder, not a file");
   if (!fs::is_regular_file(status))
-    throw IOError(path + ": " + subject + "not a regular file (a device, pipe or socket)");
+    throw IOError(path + ": " + subject
+                  + "not a regular file (a device, pipe or socket)");
 }
 
 std::uintmax_t

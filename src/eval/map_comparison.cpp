@@ -533,10 +533,11 @@ runComparison(const ComparisonConfig& config,
         != lane.types.end();
       const std::string baseline_stage =
         range_adaptive ? "range_adaptive_cells" : "planar_cuboid_approximation";
-      lane.pipeline->setStageCallback([&lane, baseline_stage](std::size_t s, Frame& frame) {
-        if (lane.types[s] == baseline_stage)
-          insertBaselines(lane, frame);
-      });
+      lane.pipeline->setStageCallback(
+        [&lane, baseline_stage](std::size_t s, Frame& frame) {
+          if (lane.types[s] == baseline_stage)
+            insertBaselines(lane, frame);
+        });
       lane.pipeline->setFrameCallback(
         [&lane](std::size_t, Frame&, const std::vector<double>& stage_ms) {
           for (std::size_t s = 0; s < stage_ms.size(); ++s)

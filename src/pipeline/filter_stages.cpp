@@ -139,7 +139,8 @@ public:
 private:
   /** The points \a far marks whose depth error is within max_depth_error_m x
    * 2^far_levels, in the camera frame with their level, into the frame's far_cloud. */
-  void keepFarPoints(Frame& frame, const std::vector<std::uint8_t>& far, double error_at_1m)
+  void
+  keepFarPoints(Frame& frame, const std::vector<std::uint8_t>& far, double error_at_1m)
   {
     const auto& cloud = *frame.cloud;
     const Eigen::Affine3f camera_T_cloud = cameraTCloud(frame);

@@ -39,8 +39,8 @@ public:
     const Frame::Cloud::ConstPtr far_cloud = frame.far_cloud; // kept alive below
     const auto& far = *far_cloud;
     if (frame.far_levels.size() != far.size())
-      throw Exception("stage 'range_adaptive_cells': frame " + frame.name
-                      + " has " + std::to_string(far.size()) + " far points but "
+      throw Exception("stage 'range_adaptive_cells': frame " + frame.name + " has "
+                      + std::to_string(far.size()) + " far points but "
                       + std::to_string(frame.far_levels.size()) + " levels");
     far_points_ = far.size();
 
@@ -117,9 +117,8 @@ public:
       const auto q = [&](float c) {
         // +-2^19 cells: far beyond eq. 4's reach at any level
         const auto k = static_cast<std::int64_t>(std::floor(c * inv));
-        return static_cast<std::uint64_t>(std::clamp<std::int64_t>(k, -(1 << 19),
-                                                                   (1 << 19) - 1)
-                                          + (1 << 19));
+        return static_cast<std::uint64_t>(
+          std::clamp<std::int64_t>(k, -(1 << 19), (1 << 19) - 1) + (1 << 19));
       };
       keys_.push_back((static_cast<std::uint64_t>(level) << 60)
                       | (q(e1.dot(points_[i])) << 40) | (q(up.dot(points_[i])) << 20)
@@ -135,7 +134,8 @@ public:
         const auto level = static_cast<int>(key >> 60);
         const auto cell = static_cast<float>(min_cell_size_m_ * std::ldexp(1.0, level));
         const auto centre = [&](int shift) {
-          const auto k = static_cast<std::int64_t>((key >> shift) & 0xFFFFF) - (1 << 19);
+          const auto k =
+            static_cast<std::int64_t>((key >> shift) & 0xFFFFF) - (1 << 19);
           return (static_cast<float>(k) + 0.5f) * cell;
         };
         PlanarCuboid c;

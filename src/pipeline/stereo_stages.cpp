@@ -5,7 +5,6 @@
 #include <planar_grid/stereo/stereo_feature_matcher.h>
 
 #include <opencv2/core/utility.hpp>
-
 #include <sched.h>
 
 #include <algorithm>

@@ -62,8 +62,9 @@ validateParams(const DisparityEstimator::Params& params)
     throw Exception(prefix + "row_downscale must be 1 or 2, got "
                     + std::to_string(params.row_downscale));
   if (params.row_downscale == 2 && params.downscale != 1)
-    throw Exception(prefix + "row_downscale 2 needs downscale 1 (downscale 2 already "
-                             "halves the rows)");
+    throw Exception(prefix
+                    + "row_downscale 2 needs downscale 1 (downscale 2 already "
+                      "halves the rows)");
   if (params.num_threads < 0 || params.num_threads > 64)
     throw Exception(prefix + "num_threads must be in [0, 64], got "
                     + std::to_string(params.num_threads));
@@ -186,6 +187,28 @@ fixedPointToFloat(const cv::Mat& fixed_point,
   }
 }
 
+/** \brief The half rows around row v of an image twice as tall as \a half: row v sits
+ * at half-row coordinate v / 2 - 0.25, between \a before and \a after (clamped at the
+ * borders) with \a weight on \a after, inside \a containing. */
+struct HalfRows {
+  const float* before;
+  const float* after;
+  const float* containing;
+  float weight;
+};
+
+HalfRows
+halfRowsOf(const cv::Mat& half, int v)
+{
+  // v even: between half rows v/2 - 1 and v/2, weight 0.75 on the later; v odd:
+  // between (v-1)/2 and (v+1)/2, weight 0.25 on the later.
+  const int last_row = half.rows - 1;
+  const int y0 = (v % 2 == 0) ? v / 2 - 1 : v / 2;
+  return {half.ptr<float>(std::clamp(y0, 0, last_row)),
+          half.ptr<float>(std::clamp(y0 + 1, 0, last_row)),
+          half.ptr<float>(std::min(v / 2, last_row)), (v % 2 == 0) ? 0.75f : 0.25f};
+}
+
 /** \brief Upsamples a half-resolution disparity image (already in full-resolution px)
  * by exactly 2 into \a full (size \a full_size, at most twice \a half's).
  *
@@ -199,15 +222,12 @@ upsampleDisparity(const cv::Mat& half, const cv::Size& full_size, cv::Mat& full)
   const float max_span_px = 2.0f;
   full.create(full_size, CV_32FC1);
   const int last_col = half.cols - 1;
-  const int last_row = half.rows - 1;
   for (int v = 0; v < full.rows; ++v) {
-    // v even: between half rows v/2 - 1 and v/2, weight 0.75 on the lower; v odd:
-    // between (v-1)/2 and (v+1)/2, weight 0.25 on the lower.
-    const int y0 = (v % 2 == 0) ? v / 2 - 1 : v / 2;
-    const float wy = (v % 2 == 0) ? 0.75f : 0.25f;
-    const float* row0 = half.ptr<float>(std::clamp(y0, 0, last_row));
-    const float* row1 = half.ptr<float>(std::clamp(y0 + 1, 0, last_row));
-    const float* nearest_row = half.ptr<float>(std::min(v / 2, last_row));
+    const HalfRows rows = halfRowsOf(half, v);
+    const float wy = rows.weight;
+    const float* row0 = rows.before;
+    const float* row1 = rows.after;
+    const float* nearest_row = rows.containing;
     float* out = full.ptr<float>(v);
     for (int u = 0; u < full.cols; ++u) {
       const int x0 = (u % 2 == 0) ? u / 2 - 1 : u / 2;
@@ -241,21 +261,16 @@ upsampleDisparityRows(const cv::Mat& half, int rows, cv::Mat& full)
 {
   const float max_span_px = 2.0f;
   full.create(rows, half.cols, CV_32FC1);
-  const int last_row = half.rows - 1;
   for (int v = 0; v < rows; ++v) {
-    const int y0 = (v % 2 == 0) ? v / 2 - 1 : v / 2;
-    const float wy = (v % 2 == 0) ? 0.75f : 0.25f;
-    const float* row0 = half.ptr<float>(std::clamp(y0, 0, last_row));
-    const float* row1 = half.ptr<float>(std::clamp(y0 + 1, 0, last_row));
-    const float* nearest_row = half.ptr<float>(std::min(v / 2, last_row));
+    const HalfRows near = halfRowsOf(half, v);
     float* out = full.ptr<float>(v);
     for (int u = 0; u < half.cols; ++u) {
-      const float d0 = row0[u], d1 = row1[u];
+      const float d0 = near.before[u], d1 = near.after[u];
       // NaN fails the comparison, so an invalid neighbour takes the nearest row.
       if (std::abs(d1 - d0) <= max_span_px)
-        out[u] = (1.0f - wy) * d0 + wy * d1;
+        out[u] = (1.0f - near.weight) * d0 + near.weight * d1;
       else
-        out[u] = nearest_row[u];
+        out[u] = near.containing[u];
     }
   }
 }

@@ -130,11 +130,13 @@ TEST(PipelineConfig, DefaultsFillMissingParams)
 // value is checked against the stage's table; the stage must be listed exactly once.
 TEST(PipelineConfig, OverridesReplaceOneStageParameterAndAreChecked)
 {
-  const std::string yaml = INPUT
-                           + "pipeline:\n  - type: stereo_disparity\n  - type: voxel_grid\n"
-                             "    params: {leaf_size_m: 0.2, min_points_per_voxel: 2}\n";
+  const std::string yaml =
+    INPUT
+    + "pipeline:\n  - type: stereo_disparity\n  - type: voxel_grid\n"
+      "    params: {leaf_size_m: 0.2, min_points_per_voxel: 2}\n";
   const auto c = parsePipelineConfig(
-    yaml, "t", "/", {"voxel_grid.leaf_size_m=0.05", "stereo_disparity.row_downscale=2"});
+    yaml, "t", "/",
+    {"voxel_grid.leaf_size_m=0.05", "stereo_disparity.row_downscale=2"});
   EXPECT_DOUBLE_EQ(c.stages[1].params.getDouble("leaf_size_m"), 0.05);
   EXPECT_EQ(c.stages[1].params.getInt("min_points_per_voxel"), 2);
   EXPECT_EQ(c.stages[0].params.getInt("row_downscale"), 2);
@@ -153,7 +155,8 @@ TEST(PipelineConfig, OverridesReplaceOneStageParameterAndAreChecked)
     ADD_FAILURE() << "no ConfigError for --set " << assignment;
     return std::string();
   };
-  EXPECT_NE(message("voxel_grid.leaf_size_m=-1").find("out of range"), std::string::npos);
+  EXPECT_NE(message("voxel_grid.leaf_size_m=-1").find("out of range"),
+            std::string::npos);
   EXPECT_NE(message("voxel_grid.leaf=0.1").find("unknown parameter 'leaf'"),
             std::string::npos);
   EXPECT_NE(message("voxel_grid.leaf_size_m=abc").find("must be"), std::string::npos);

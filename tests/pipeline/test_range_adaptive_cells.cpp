@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Range-adaptive cells: depth_error_filter's far levels (eq. 4) and range_adaptive_cells
-// on a synthetic camera-frame scene with exact labels beyond the 0.3 m bound (14.86 m
-// with Karlsruhe's rig): a flat road 1.6 m below the camera, a guardrail standing on it,
-// a wall and a few isolated stray points.
+// Range-adaptive cells: depth_error_filter's far levels (eq. 4) and
+// range_adaptive_cells on a synthetic camera-frame scene with exact labels beyond the
+// 0.3 m bound (14.86 m with Karlsruhe's rig): a flat road 1.6 m below the camera, a
+// guardrail standing on it, a wall and a few isolated stray points.
 #include <planar_grid/pipeline/param_table.h>
 #include <planar_grid/pipeline/stage.h>
 
@@ -118,7 +118,8 @@ TEST(RangeAdaptiveCells, FarLevelsFollowTheDepthError)
               level2 = depthOfError(1.2);
   std::size_t expected = 0;
   for (const auto& p : s.frame.cloud->points)
-    EXPECT_FALSE(std::isfinite(p.z) && p.z > bound) << "a far point stayed in the cloud";
+    EXPECT_FALSE(std::isfinite(p.z) && p.z > bound)
+      << "a far point stayed in the cloud";
   Scene all = makeScene();
   for (const auto& p : all.frame.cloud->points)
     expected += p.z > bound && p.z <= level2;
@@ -138,8 +139,8 @@ TEST(RangeAdaptiveCells, FarLevelsFollowTheDepthError)
 
 // The cells against a brute-force count: every cell holds at least min_points_per_cell
 // kept far points and has the size of its level; the road beyond the bound makes no
-// cell; every guardrail and wall point in a lattice cell of its level with enough points
-// is inside a cell; the isolated strays make none.
+// cell; every guardrail and wall point in a lattice cell of its level with enough
+// points is inside a cell; the isolated strays make none.
 TEST(RangeAdaptiveCells, FarStructuresBecomeCoarseCellsAndTheFarRoadGoes)
 {
   Scene s = makeScene();
@@ -216,7 +217,8 @@ TEST(RangeAdaptiveCells, WithoutGroundTheRoadStaysAndWithoutFarPointsNothingIsAd
   runCells(s, 10);
   std::size_t on_road = 0;
   for (const auto& c : s.frame.cuboids)
-    on_road += std::abs(c.centre.y() - static_cast<float>(CAMERA_HEIGHT_M)) < c.height_m;
+    on_road +=
+      std::abs(c.centre.y() - static_cast<float>(CAMERA_HEIGHT_M)) < c.height_m;
   EXPECT_GT(on_road, 0u);
 
   Scene none = makeScene();

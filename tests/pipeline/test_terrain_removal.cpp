@@ -208,11 +208,11 @@ TEST(TerrainRemoval, PlanesListedBeforeTheGroundKeepTheirCoefficientsAndInliers)
               WALL);
 }
 
-/** The ground's inlier band is wider than terrain_height where eq. 11 widens it with the
- * depth error (0.3 m at 15 m): a guardrail's rail from 0.1 to 0.8 m above the road has
- * its lowest rows in the road plane's inliers. The rows up to terrain_height (0.2 m) go
- * with the road; the rows above stay. With terrain_height 0 (the paper's rule) every
- * inlier of the ground goes. */
+/** The ground's inlier band is wider than terrain_height where eq. 11 widens it with
+ * the depth error (0.3 m at 15 m): a guardrail's rail from 0.1 to 0.8 m above the road
+ * has its lowest rows in the road plane's inliers. The rows up to terrain_height (0.2
+ * m) go with the road; the rows above stay. With terrain_height 0 (the paper's rule)
+ * every inlier of the ground goes. */
 TEST(TerrainRemoval, AGroundInlierStandingAboveTheTerrainHeightStays)
 {
   const auto run = [](double terrain_height_m) {
@@ -225,7 +225,8 @@ TEST(TerrainRemoval, AGroundInlierStandingAboveTheTerrainHeightStays)
       for (int row = 1; row <= 8; ++row)
         addLabelled(*cloud, -5.5f, y, 0.1f * static_cast<float>(row), CAR);
     setWorldCloud(s, cloud, "guardrail");
-    // The road plane z = 0 with a 0.3 m band: the road and the rail's rows at 0.1-0.3 m.
+    // The road plane z = 0 with a 0.3 m band: the road and the rail's rows at 0.1-0.3
+    // m.
     planar_grid::PlanarSegment ground;
     ground.model_coefficients.values = {0.0f, 0.0f, 1.0f, 0.0f};
     for (std::size_t i = 0; i < cloud->size(); ++i)

@@ -186,11 +186,11 @@ TEST(DisparityAlgorithms, PlanarDisparityEveryAlgorithm)
 }
 
 // Half the rows keeps the columns, so the disparity keeps its full-resolution
-// sub-pixel step: on the slanted plane of PlanarDisparityEveryAlgorithm (here with an odd
-// row count, which pads and crops a row, and a steeper vertical slope of 0.05 px per
-// row) every SGBM mode stays within 0.5 px on 95 % of the valid interior, and its median
-// |error| is no more than 0.05 px above the same mode's at full resolution (measured:
-// 0.09-0.10 px against 0.09 px; half resolution in both axes gives 0.22 px).
+// sub-pixel step: on the slanted plane of PlanarDisparityEveryAlgorithm (here with an
+// odd row count, which pads and crops a row, and a steeper vertical slope of 0.05 px
+// per row) every SGBM mode stays within 0.5 px on 95 % of the valid interior, and its
+// median |error| is no more than 0.05 px above the same mode's at full resolution
+// (measured: 0.09-0.10 px against 0.09 px; half resolution in both axes gives 0.22 px).
 TEST(DisparityAlgorithms, HalfTheRowsKeepsTheFullResolutionDisparityStep)
 {
   const double d0 = 20.0, du = 0.02, dv = 0.05;
@@ -212,8 +212,8 @@ TEST(DisparityAlgorithms, HalfTheRowsKeepsTheFullResolutionDisparityStep)
       double within = 0.0, valid = 0.0;
       agreement(disparity, 80, 320 - 48, 16, 241 - 16, truth, 0.5, within, valid,
                 median_px[row_downscale - 1]);
-      std::cout << "[ rows ] " << describe(params) << " row_downscale "
-                << row_downscale << ": valid " << valid << ", within 0.5 px " << within
+      std::cout << "[ rows ] " << describe(params) << " row_downscale " << row_downscale
+                << ": valid " << valid << ", within 0.5 px " << within
                 << ", median |error| " << median_px[row_downscale - 1] << " px\n";
       EXPECT_GT(valid, 0.90) << describe(params) << " row_downscale " << row_downscale;
       EXPECT_GT(within, 0.95) << describe(params) << " row_downscale " << row_downscale;
