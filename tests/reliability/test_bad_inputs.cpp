@@ -459,6 +459,26 @@ TEST_F(BadStereoInputTest, NonFiniteCalibrationValueIsNamedWithFileAndLine)
                   "must hold 12 numbers");
 }
 
+// --set: a wrong stage, key or value is a configuration error (exit 3) before anything
+// is written; a right one is applied (the report names the value the stage ran with).
+TEST_F(BadStereoInputTest, CommandLineParameterOverridesAreChecked)
+{
+  writePairs(2);
+  for (const char* bad : {"voxel_grid.leaf_size_m=-1", "voxel_grid.leaf=0.1",
+                          "no_such_stage.x=1", "voxel_grid"}) {
+    const ToolRun run = runTool(config(0), std::string("--set ") + bad);
+    EXPECT_EQ(run.exit_code, 3) << bad << ": " << run.output;
+    EXPECT_CONTAINS(run.output, std::string("--set ") + bad);
+    EXPECT_TRUE(noOutputs()) << run.output;
+  }
+  const ToolRun none = runTool(config(0), "--set voxel_grid");
+  EXPECT_CONTAINS(none.output, "STAGE.KEY=VALUE");
+  const ToolRun good =
+    runTool(config(0), "--set stereo_disparity.num_disparities_px=32");
+  EXPECT_EQ(good.exit_code, 0) << good.output;
+  EXPECT_CONTAINS(good.output, "num_disparities_px=32");
+}
+
 TEST_F(BadStereoInputTest, EmptyOutputFolderIsRefused)
 {
   writePairs(2);
