@@ -241,8 +241,7 @@ public:
   }
 
 private:
-  /** \brief The value as Python code: an array as a list, which the setters take too.
-   */
+  /** \brief The value for Python: an array as a list, which the setters take too. */
   template <typename V> static py::object toPython(const V& value)
   {
     py::object python;
