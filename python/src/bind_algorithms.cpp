@@ -397,135 +397,117 @@ hypotheses come from ``sample_points`` (e.g. stereo key features) when given, el
 a seeded subsample of the points; each plane's dense inliers are the points within
 ``distance_threshold_m`` of it that no earlier plane took.
 
-Parameters
-----------
-**params
-    Any of the properties below, e.g. ``distance_threshold_m=0.05, max_planes=8,
-    min_inliers=500, seed=0``. An unknown name is a TypeError; a value out of its
-    range a ValueError (the library's range check, with its message).
+The parameters are the constructor's keyword arguments, e.g.
+``SACMultiPlaneSegmentation(distance_threshold_m=0.02, min_inliers=300, seed=0)``, with
+the C++ class's defaults (listed under __init__), and read-write properties.
 
 Notes
 -----
 Deterministic: the same points, parameters and seed give the same planes. Degenerate
 input (no points, only NaN, colinear points) gives no plane.
 )doc");
-  ParamBinder<Segmentation, std::unique_ptr<Segmentation>> params(
+  ParamBinder<Segmentation, std::unique_ptr<Segmentation>>(
     cls, "SACMultiPlaneSegmentation",
-    [](const Segmentation& s) { return s.checkParameters(); });
-  params
-    .param<double>(
-      "distance_threshold_m", &Segmentation::getDistanceThreshold,
-      &Segmentation::setDistanceThreshold,
-      "float: d_T of eq. 11, the largest point-to-plane distance of a dense "
-      "inlier, meters, > 0 (default 0.05).")
-    .param<double>(
-      "sample_distance_threshold_m", &Segmentation::getSampleDistanceThreshold,
-      &Segmentation::setSampleDistanceThreshold,
-      "float: inlier threshold of the sample consensus on the sample points, "
-      "meters, > 0 (default: distance_threshold_m).")
-    .param<double>(
-      "depth_noise_coefficient_per_m", &Segmentation::getDepthNoiseCoefficient,
-      &Segmentation::setDepthNoiseCoefficient,
-      "float: Delta d / (B f), 1/m, >= 0: a point at range r from the sensor "
-      "origin is an inlier within max(d_T, coefficient r^2) (default 0).")
-    .param<int>("max_planes", &Segmentation::getMaxPlanes, &Segmentation::setMaxPlanes,
-                "int: the most planes returned (before merging), >= 1 (default 8).")
-    .param<int>("min_inliers", &Segmentation::getMinInliers,
-                &Segmentation::setMinInliers,
-                "int: the fewest dense inliers of a kept plane, >= 3 (default 500).")
-    .param<int>(
-      "min_sample_inliers", &Segmentation::getMinSampleInliers,
-      &Segmentation::setMinSampleInliers,
-      "int: the fewest sample inliers of a hypothesis; fewer ends the search, "
-      ">= 3 (default 15).")
-    .param<double>("min_remaining_fraction", &Segmentation::getMinRemainingFraction,
-                   &Segmentation::setMinRemainingFraction,
-                   "float: the search stops when less than this fraction of the sample "
-                   "remains, in [0, 1) (default 0.05).")
-    .param<int>("max_iterations", &Segmentation::getMaxIterations,
-                &Segmentation::setMaxIterations,
-                "int: sample consensus iterations per plane, >= 1 (default 1000).")
-    .param<double>("probability", &Segmentation::getProbability,
-                   &Segmentation::setProbability,
-                   "float: probability of drawing one outlier-free sample, in (0, 1) "
-                   "(default 0.99).")
-    .param<std::string>(
-      "method", [](const Segmentation& s) { return methodName(s.getMethodType()); },
-      [](Segmentation& s, const std::string& name) {
-        s.setMethodType(methodFromName(name));
-      },
-      "str: the estimator, 'ransac' (default), 'msac' or 'prosac' (PCL's).")
-    .param<bool>(
-      "optimize_coefficients", &Segmentation::getOptimizeCoefficients,
-      &Segmentation::setOptimizeCoefficients,
-      "bool: re-estimate each hypothesis on the dense points and refit each plane "
-      "to its inliers (default True).")
-    .param<bool>("dense_hypothesis", &Segmentation::getDenseHypothesis,
-                 &Segmentation::setDenseHypothesis,
-                 "bool: each round also hypothesises a plane from the dense points "
-                 "(default True).")
-    .param<int>(
-      "lo_iterations", &Segmentation::getLocalOptimizationIterations,
-      &Segmentation::setLocalOptimizationIterations,
-      "int: local optimisation (LO-RANSAC) samples per plane, >= 0 (default 50).")
-    .param<bool>("merge_planes", &Segmentation::getMergePlanes,
-                 &Segmentation::setMergePlanes,
-                 "bool: merge near-duplicate planes (default True).")
-    .param<double>("merge_angle_rad", &Segmentation::getMergeAngleThreshold,
-                   &Segmentation::setMergeAngleThreshold,
-                   "float: largest angle between the normals of two planes that merge, "
-                   "radians, in [0, pi/2] (default 0.1).")
-    .param<double>(
-      "merge_distance_m", &Segmentation::getMergeDistanceThreshold,
-      &Segmentation::setMergeDistanceThreshold,
-      "float: largest difference of the offsets d of two planes that merge, "
-      "meters, >= 0 (default 0.1).")
-    .param<DoubleArray>(
-      "up_axis", [](const Segmentation& s) { return toArray(s.getUpAxis()); },
-      [](Segmentation& s, const DoubleArray& axis) {
-        s.setUpAxis(toVector3f(axis, "up_axis"));
-      },
-      "array_like, shape (3,): the up direction of eqs. 2-3, non-zero "
-      "(default (0, 0, 1); (0, -1, 0) in a camera frame).")
-    .param<unsigned>("seed", &Segmentation::getSeed, &Segmentation::setSeed,
-                     "int: seed of the subsample and the sample shuffles (default 0).")
-    .param<int>(
-      "max_sample_size", &Segmentation::getMaxSampleSize,
-      &Segmentation::setMaxSampleSize,
-      "int: points subsampled for the hypotheses when no sample points are given, "
-      ">= 3 (default 20000).");
-  params.bindRepr();
-  const auto setters = params.setters();
-  cls
-    .def(py::init([setters](const py::kwargs& kwargs) {
-      auto s = std::make_unique<Segmentation>();
-      ParamBinder<Segmentation, std::unique_ptr<Segmentation>>::apply(
-        *s, kwargs, setters, "SACMultiPlaneSegmentation");
-      return s;
-    }))
-    .def(
-      "segment",
-      [](Segmentation& self, const FloatArray& points, const py::object& sample_points,
-         const DoubleArray& sensor_origin) {
-        auto cloud = toCloud(points, "points");
-        cloud->sensor_origin_.head<3>() = toVector3f(sensor_origin, "sensor_origin");
-        pcl::PointCloud<pcl::PointXYZ>::Ptr sample;
-        if (!sample_points.is_none())
-          sample = toCloud(sample_points.cast<FloatArray>(), "sample_points");
-        Planes planes;
-        {
-          py::gil_scoped_release release;
-          self.setInputCloud(cloud);
-          self.setSampleCloud(sample);
-          self.segment(planes.segments);
-          self.setInputCloud(nullptr);
-          self.setSampleCloud(nullptr);
-        }
-        return planes;
-      },
-      py::arg("points"), py::kw_only(), py::arg("sample_points") = py::none(),
-      py::arg("sensor_origin") = std::vector<double>{0.0, 0.0, 0.0},
-      R"doc(Segments the points into planes.
+    [](const Segmentation& s) { return s.checkParameters(); })
+    .bind(
+      std::make_tuple(),
+      std::make_tuple(
+        param<double>("distance_threshold_m", &Segmentation::getDistanceThreshold,
+                      &Segmentation::setDistanceThreshold,
+                      "d_T of eq. 11, the largest point-to-plane distance of a dense "
+                      "inlier, meters, > 0"),
+        unsetParam<double>(
+          "sample_distance_threshold_m", &Segmentation::getSampleDistanceThreshold,
+          &Segmentation::setSampleDistanceThreshold,
+          "inlier threshold of the sample consensus on the sample points, meters, > 0; "
+          "until set (None) it is distance_threshold_m"),
+        param<double>(
+          "depth_noise_coefficient_per_m", &Segmentation::getDepthNoiseCoefficient,
+          &Segmentation::setDepthNoiseCoefficient,
+          "Delta d / (B f), 1/m, >= 0: a point at range r from the sensor origin is an "
+          "inlier within max(d_T, coefficient r^2); 0 keeps the paper's fixed d_T"),
+        param<int>("max_planes", &Segmentation::getMaxPlanes,
+                   &Segmentation::setMaxPlanes,
+                   "the most planes returned (before merging), >= 1"),
+        param<int>("min_inliers", &Segmentation::getMinInliers,
+                   &Segmentation::setMinInliers,
+                   "the fewest dense inliers of a kept plane, points, >= 3"),
+        param<int>("min_sample_inliers", &Segmentation::getMinSampleInliers,
+                   &Segmentation::setMinSampleInliers,
+                   "the fewest sample inliers of a hypothesis, points; fewer ends the "
+                   "search, >= 3"),
+        param<double>("min_remaining_fraction", &Segmentation::getMinRemainingFraction,
+                      &Segmentation::setMinRemainingFraction,
+                      "the search stops when less than this fraction of the sample "
+                      "remains, in [0, 1)"),
+        param<int>("max_iterations", &Segmentation::getMaxIterations,
+                   &Segmentation::setMaxIterations,
+                   "sample consensus iterations per plane, >= 1"),
+        param<double>("probability", &Segmentation::getProbability,
+                      &Segmentation::setProbability,
+                      "probability of drawing one outlier-free sample, in (0, 1)"),
+        param<std::string>(
+          "method", [](const Segmentation& s) { return methodName(s.getMethodType()); },
+          [](Segmentation& s, const std::string& name) {
+            s.setMethodType(methodFromName(name));
+          },
+          "the estimator, 'ransac', 'msac' or 'prosac' (PCL's)"),
+        param<bool>("optimize_coefficients", &Segmentation::getOptimizeCoefficients,
+                    &Segmentation::setOptimizeCoefficients,
+                    "re-estimate each hypothesis on the dense points and refit each "
+                    "plane to its inliers"),
+        param<bool>("dense_hypothesis", &Segmentation::getDenseHypothesis,
+                    &Segmentation::setDenseHypothesis,
+                    "each round also hypothesises a plane from the dense points"),
+        param<int>("lo_iterations", &Segmentation::getLocalOptimizationIterations,
+                   &Segmentation::setLocalOptimizationIterations,
+                   "local optimisation (LO-RANSAC) samples per plane, >= 0"),
+        param<bool>("merge_planes", &Segmentation::getMergePlanes,
+                    &Segmentation::setMergePlanes, "merge near-duplicate planes"),
+        param<double>("merge_angle_rad", &Segmentation::getMergeAngleThreshold,
+                      &Segmentation::setMergeAngleThreshold,
+                      "largest angle between the normals of two planes that merge, "
+                      "radians, in [0, pi/2]"),
+        param<double>("merge_distance_m", &Segmentation::getMergeDistanceThreshold,
+                      &Segmentation::setMergeDistanceThreshold,
+                      "largest difference of the offsets d of two planes that merge, "
+                      "meters, >= 0"),
+        param<DoubleArray>(
+          "up_axis", [](const Segmentation& s) { return toArray(s.getUpAxis()); },
+          [](Segmentation& s, const DoubleArray& axis) {
+            s.setUpAxis(toVector3f(axis, "up_axis"));
+          },
+          "shape (3,), the up direction of eqs. 2-3, non-zero ((0, -1, 0) in a camera "
+          "frame)"),
+        param<unsigned>("seed", &Segmentation::getSeed, &Segmentation::setSeed,
+                        "seed of the subsample and the sample shuffles"),
+        param<int>("max_sample_size", &Segmentation::getMaxSampleSize,
+                   &Segmentation::setMaxSampleSize,
+                   "points subsampled for the hypotheses when no sample points are "
+                   "given, >= 3")));
+  cls.def(
+    "segment",
+    [](Segmentation& self, const FloatArray& points, const py::object& sample_points,
+       const DoubleArray& sensor_origin) {
+      auto cloud = toCloud(points, "points");
+      cloud->sensor_origin_.head<3>() = toVector3f(sensor_origin, "sensor_origin");
+      pcl::PointCloud<pcl::PointXYZ>::Ptr sample;
+      if (!sample_points.is_none())
+        sample = toCloud(sample_points.cast<FloatArray>(), "sample_points");
+      Planes planes;
+      {
+        py::gil_scoped_release release;
+        self.setInputCloud(cloud);
+        self.setSampleCloud(sample);
+        self.segment(planes.segments);
+        self.setInputCloud(nullptr);
+        self.setSampleCloud(nullptr);
+      }
+      return planes;
+    },
+    py::arg("points"), py::kw_only(), py::arg("sample_points") = py::none(),
+    py::arg("sensor_origin") = std::vector<double>{0.0, 0.0, 0.0},
+    R"doc(Segments the points into planes.
 
 Parameters
 ----------
@@ -562,104 +544,90 @@ while the occupied share is below ``density_threshold`` and merged into the larg
 rectangles, which are extruded ``thickness_m`` behind their face; the remaining points
 become non-planar boxes (Fig. 7).
 
-Parameters
-----------
-**params
-    Any of the properties below, e.g. ``min_cell_size_m=0.1, thickness_m=0.1``. An
-    unknown name is a TypeError; a value out of its range a ValueError.
+The parameters are the constructor's keyword arguments, e.g.
+``PlanarCuboidApproximation(min_cell_size_m=0.05, thickness_m=0.05)``, with the C++
+class's defaults (listed under __init__), and read-write properties.
 
 Notes
 -----
 With min_points_per_cell = 1 every finite input point lies in some cuboid. Empty or
 all-NaN input gives no cuboid.
 )doc");
-  ParamBinder<Approximation, std::unique_ptr<Approximation>> params(
+  ParamBinder<Approximation, std::unique_ptr<Approximation>>(
     cls, "PlanarCuboidApproximation",
-    [](const Approximation& a) { return a.checkParameters(); });
-  params
-    .param<double>("min_cell_size_m", &Approximation::getMinCellSize,
-                   &Approximation::setMinCellSize,
-                   "float: raster resolution and smallest unit side, meters, > 0 "
-                   "(default 0.1).")
-    .param<double>(
-      "density_threshold", &Approximation::getDensityThreshold,
-      &Approximation::setDensityThreshold,
-      "float: D_T of Fig. 8; a unit splits while its occupied share is below "
-      "it, in (0, 1] (default 0.9).")
-    .param<double>("non_planar_density_threshold",
-                   &Approximation::getNonPlanarDensityThreshold,
-                   &Approximation::setNonPlanarDensityThreshold,
-                   "float: occupied share a non-planar box must reach before it stops "
-                   "splitting, in (0, 1], or 0 for density_threshold (default 0).")
-    .param<double>("min_width_m", &Approximation::getMinWidth,
-                   &Approximation::setMinWidth,
-                   "float: W_T of Fig. 8, meters, >= 0 (default 0.1).")
-    .param<double>("min_height_m", &Approximation::getMinHeight,
-                   &Approximation::setMinHeight,
-                   "float: H_T of Fig. 8, meters, >= 0 (default 0.1).")
-    .param<double>(
-      "thickness_m", &Approximation::getThickness, &Approximation::setThickness,
-      "float: smallest extrusion behind a planar face and smallest depth of a "
-      "non-planar box, meters, > 0 (default 0.1).")
-    .param<int>("min_points_per_cell", &Approximation::getMinPointsPerCell,
-                &Approximation::setMinPointsPerCell,
-                "int: the fewest points of an output cuboid, >= 1 (default 3).")
-    .param<DoubleArray>(
-      "up_axis", [](const Approximation& a) { return toArray(a.getUpAxis()); },
-      [](Approximation& a, const DoubleArray& axis) {
-        a.setUpAxis(toVector3f(axis, "up_axis"));
-      },
-      "array_like, shape (3,): the up direction, non-zero (default "
-      "(0, 0, 1)).");
-  params.bindRepr();
-  const auto setters = params.setters();
-  cls
-    .def(py::init([setters](const py::kwargs& kwargs) {
-      auto a = std::make_unique<Approximation>();
-      ParamBinder<Approximation, std::unique_ptr<Approximation>>::apply(
-        *a, kwargs, setters, "PlanarCuboidApproximation");
-      return a;
-    }))
-    .def(
-      "approximate",
-      [](Approximation& self, const FloatArray& points, const py::object& planes,
-         const DoubleArray& sensor_origin) {
-        auto cloud = toCloud(points, "points");
-        PlanarSegments segments;
-        if (!planes.is_none()) {
-          if (!py::isinstance<Planes>(planes))
-            throw py::type_error(
-              "PlanarCuboidApproximation: planes must be a "
-              "PlanarSegments (e.g. from SACMultiPlaneSegmentation) or "
-              "None");
-          segments = planes.cast<Planes*>()->segments;
-        }
-        for (std::size_t i = 0; i < segments.size(); ++i)
-          for (const int index : segments[i].inliers.indices)
-            if (index < 0 || static_cast<std::size_t>(index) >= cloud->size())
-              throw py::index_error("PlanarCuboidApproximation: plane "
-                                    + std::to_string(i) + " has the inlier index "
-                                    + std::to_string(index) + ", outside the "
-                                    + std::to_string(cloud->size()) + " points");
-        const Eigen::Vector3f origin = toVector3f(sensor_origin, "sensor_origin");
-        self.setSensorOrigin(origin);
-        if (const char* bad = self.checkParameters())
-          throw py::value_error(
-            std::string("PlanarCuboidApproximation: invalid parameter: ") + bad);
-        Cuboids cuboids;
-        {
-          py::gil_scoped_release release;
-          self.setInputCloud(cloud);
-          self.setPlanes(segments);
-          self.approximate(cuboids.cuboids);
-          self.setInputCloud(nullptr);
-          self.setPlanes({});
-        }
-        return cuboids;
-      },
-      py::arg("points"), py::arg("planes") = py::none(), py::kw_only(),
-      py::arg("sensor_origin") = std::vector<double>{0.0, 0.0, 0.0},
-      R"doc(Builds the cuboids of the points and their planes.
+    [](const Approximation& a) { return a.checkParameters(); })
+    .bind(
+      std::make_tuple(),
+      std::make_tuple(
+        param<double>("min_cell_size_m", &Approximation::getMinCellSize,
+                      &Approximation::setMinCellSize,
+                      "raster resolution and smallest unit side, meters, > 0"),
+        param<double>("density_threshold", &Approximation::getDensityThreshold,
+                      &Approximation::setDensityThreshold,
+                      "D_T of Fig. 8; a unit splits while its occupied share is below "
+                      "it, in (0, 1]"),
+        param<double>("non_planar_density_threshold",
+                      &Approximation::getNonPlanarDensityThreshold,
+                      &Approximation::setNonPlanarDensityThreshold,
+                      "occupied share a non-planar box must reach before it stops "
+                      "splitting, in (0, 1], or 0 for density_threshold"),
+        param<double>("min_width_m", &Approximation::getMinWidth,
+                      &Approximation::setMinWidth, "W_T of Fig. 8, meters, >= 0"),
+        param<double>("min_height_m", &Approximation::getMinHeight,
+                      &Approximation::setMinHeight, "H_T of Fig. 8, meters, >= 0"),
+        param<double>("thickness_m", &Approximation::getThickness,
+                      &Approximation::setThickness,
+                      "smallest extrusion behind a planar face and smallest depth of a "
+                      "non-planar box, meters, > 0"),
+        param<int>("min_points_per_cell", &Approximation::getMinPointsPerCell,
+                   &Approximation::setMinPointsPerCell,
+                   "the fewest points of an output cuboid, >= 1"),
+        param<DoubleArray>(
+          "up_axis", [](const Approximation& a) { return toArray(a.getUpAxis()); },
+          [](Approximation& a, const DoubleArray& axis) {
+            a.setUpAxis(toVector3f(axis, "up_axis"));
+          },
+          "shape (3,), the up direction, non-zero")));
+  cls.def(
+    "approximate",
+    [](Approximation& self, const FloatArray& points, const py::object& planes,
+       const DoubleArray& sensor_origin) {
+      auto cloud = toCloud(points, "points");
+      PlanarSegments segments;
+      if (!planes.is_none()) {
+        if (!py::isinstance<Planes>(planes))
+          throw py::type_error(
+            "PlanarCuboidApproximation: planes must be a "
+            "PlanarSegments (e.g. from SACMultiPlaneSegmentation) or "
+            "None");
+        segments = planes.cast<Planes*>()->segments;
+      }
+      for (std::size_t i = 0; i < segments.size(); ++i)
+        for (const int index : segments[i].inliers.indices)
+          if (index < 0 || static_cast<std::size_t>(index) >= cloud->size())
+            throw py::index_error("PlanarCuboidApproximation: plane "
+                                  + std::to_string(i) + " has the inlier index "
+                                  + std::to_string(index) + ", outside the "
+                                  + std::to_string(cloud->size()) + " points");
+      const Eigen::Vector3f origin = toVector3f(sensor_origin, "sensor_origin");
+      self.setSensorOrigin(origin);
+      if (const char* bad = self.checkParameters())
+        throw py::value_error(
+          std::string("PlanarCuboidApproximation: invalid parameter: ") + bad);
+      Cuboids cuboids;
+      {
+        py::gil_scoped_release release;
+        self.setInputCloud(cloud);
+        self.setPlanes(segments);
+        self.approximate(cuboids.cuboids);
+        self.setInputCloud(nullptr);
+        self.setPlanes({});
+      }
+      return cuboids;
+    },
+    py::arg("points"), py::arg("planes") = py::none(), py::kw_only(),
+    py::arg("sensor_origin") = std::vector<double>{0.0, 0.0, 0.0},
+    R"doc(Builds the cuboids of the points and their planes.
 
 Parameters
 ----------

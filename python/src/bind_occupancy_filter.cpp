@@ -38,89 +38,68 @@ eq. 4 (a Gaussian of its range around the mean range of its neighbourhood, with 
 stereo depth error z^2 dd / (B f)), updated across frames by the Kullback-Leibler rule
 of eqs. 5-10 (or OctoMap's log-odds rule). Each filter() call is one frame.
 
-Parameters
-----------
-focal_length_px : float
-    f of the rectified stereo rig, pixels (> 0).
-baseline_m : float
-    B of the rig, meters (> 0).
-**params
-    Any of the properties below. An unknown name is a TypeError; a value out of its
-    range a ValueError.
+The stereo rig (focal_length_px, baseline_m) comes first, positional or by name; the
+other parameters are keyword arguments with the C++ class's defaults (listed under
+__init__). All are read-write properties.
 )doc");
-  ParamBinder<Filter, std::unique_ptr<Filter>> params(
-    cls, "KLDivergenceOccupancyFilter",
-    [](const Filter& f) { return f.checkParameters(); });
+  // The parameters' getters and setters, for the ones named get<Name>/set<Name>.
 #define PLANAR_GRID_FILTER_PARAM(type, field, name, doc)   \
-  params.param<type>(                                      \
+  param<type>(                                             \
     #field, [](const Filter& f) { return f.get##name(); }, \
     [](Filter& f, type value) { f.set##name(value); }, doc)
-  PLANAR_GRID_FILTER_PARAM(
-    double, disparity_error_px, DisparityError,
-    "float: dd of eq. 4, the disparity error, pixels, > 0 (default "
-    "0.5).");
-  PLANAR_GRID_FILTER_PARAM(
-    double, neighbourhood_size_m, NeighbourhoodSize,
-    "float: edge of the cell over which the mean range is taken, "
-    "meters, > 0 (default 0.5).");
-  PLANAR_GRID_FILTER_PARAM(double, clamping_thres_min, ClampingThresMin,
-                           "float: lower clamp of a probability, in (0, 0.5) (default "
-                           "0.1192 = log-odds -2).");
-  PLANAR_GRID_FILTER_PARAM(double, clamping_thres_max, ClampingThresMax,
-                           "float: upper clamp of a probability, in (0.5, 1) (default "
-                           "0.971 = log-odds 3.5).");
-  PLANAR_GRID_FILTER_PARAM(
-    double, occupancy_thres, OccupancyThres,
-    "float: a feature is kept when its probability reaches it, in "
-    "[0, 1] (default 0.5).");
-  PLANAR_GRID_FILTER_PARAM(double, kl_offset_nats, KLOffset,
-                           "float: A of eq. 10, nats, >= 0 (default 1.07).");
-  PLANAR_GRID_FILTER_PARAM(double, prob_hit, ProbHit,
-                           "float: log-odds rule, probability of a hit, in (0.5, 1) "
-                           "(default 0.7).");
-  PLANAR_GRID_FILTER_PARAM(double, prob_miss, ProbMiss,
-                           "float: log-odds rule, probability of a miss, in (0, 0.5) "
-                           "(default 0.4).");
-  PLANAR_GRID_FILTER_PARAM(
-    double, association_radius_m, AssociationRadius,
-    "float: without track ids, a feature joins the nearest track "
-    "within this distance, meters, > 0 (default 0.2).");
+  ParamBinder<Filter, std::unique_ptr<Filter>>(
+    cls, "KLDivergenceOccupancyFilter",
+    [](const Filter& f) { return f.checkParameters(); })
+    .bind(
+      std::make_tuple(param<double>(
+                        "focal_length_px",
+                        [](const Filter& f) { return f.getFocalLength(); },
+                        [](Filter& f, double focal_length_px) {
+                          f.setStereoParameters(focal_length_px, f.getBaseline());
+                        },
+                        "f of the rectified stereo rig (eq. 4), pixels, > 0"),
+                      param<double>(
+                        "baseline_m", [](const Filter& f) { return f.getBaseline(); },
+                        [](Filter& f, double baseline_m) {
+                          f.setStereoParameters(f.getFocalLength(), baseline_m);
+                        },
+                        "B of the rectified stereo rig (eq. 4), meters, > 0")),
+      std::make_tuple(
+        PLANAR_GRID_FILTER_PARAM(double, disparity_error_px, DisparityError,
+                                 "dd of eq. 4, the disparity error, pixels, > 0"),
+        PLANAR_GRID_FILTER_PARAM(double, neighbourhood_size_m, NeighbourhoodSize,
+                                 "edge of the cell over which the mean range is taken, "
+                                 "meters, > 0"),
+        PLANAR_GRID_FILTER_PARAM(double, clamping_thres_min, ClampingThresMin,
+                                 "lower clamp of a track's probability, in (0, 0.5)"),
+        PLANAR_GRID_FILTER_PARAM(double, clamping_thres_max, ClampingThresMax,
+                                 "upper clamp of a track's probability, in (0.5, 1)"),
+        PLANAR_GRID_FILTER_PARAM(double, occupancy_thres, OccupancyThres,
+                                 "a feature is kept when its probability reaches it, "
+                                 "probability in [0, 1]"),
+        PLANAR_GRID_FILTER_PARAM(double, kl_offset_nats, KLOffset,
+                                 "A of eq. 10, nats, >= 0"),
+        PLANAR_GRID_FILTER_PARAM(double, prob_hit, ProbHit,
+                                 "log-odds rule, probability of a hit, in (0.5, 1)"),
+        PLANAR_GRID_FILTER_PARAM(double, prob_miss, ProbMiss,
+                                 "log-odds rule, probability of a miss, in (0, 0.5)"),
+        PLANAR_GRID_FILTER_PARAM(double, association_radius_m, AssociationRadius,
+                                 "without track ids, a feature joins the nearest track "
+                                 "within this distance, meters, > 0"),
+        param<std::string>(
+          "update_rule", [](const Filter& f) { return toString(f.getUpdateRule()); },
+          [](Filter& f, const std::string& name) {
+            try {
+              f.setUpdateRule(occupancyUpdateRuleFromString(name));
+            } catch (const planar_grid::Exception& e) {
+              throw py::value_error(
+                std::string("KLDivergenceOccupancyFilter: update_rule: ") + e.what());
+            }
+          },
+          "the update of a re-observed track, 'kl_divergence' (eqs. 5-10) or "
+          "'log_odds' (OctoMap's)")));
 #undef PLANAR_GRID_FILTER_PARAM
-  params.param<std::string>(
-    "update_rule", [](const Filter& f) { return toString(f.getUpdateRule()); },
-    [](Filter& f, const std::string& name) {
-      try {
-        f.setUpdateRule(occupancyUpdateRuleFromString(name));
-      } catch (const planar_grid::Exception& e) {
-        throw py::value_error(std::string("KLDivergenceOccupancyFilter: update_rule: ")
-                              + e.what());
-      }
-    },
-    "str: the update of a re-observed track, 'kl_divergence' (eqs. 5-10, default) or "
-    "'log_odds' (OctoMap's).");
-  const auto code = [](double value) {
-    return py::repr(py::float_(value)).cast<std::string>();
-  };
-  params.bindRepr({{"focal_length_px",
-                    [code](const Filter& f) {
-                      return code(f.getFocalLength());
-                    }},
-                   {"baseline_m", [code](const Filter& f) {
-                      return code(f.getBaseline());
-                    }}});
-  const auto setters = params.setters();
   cls
-    .def(py::init([setters](double focal_length_px, double baseline_m,
-                            const py::kwargs& kwargs) {
-           auto f = std::make_unique<Filter>();
-           f->setStereoParameters(focal_length_px, baseline_m);
-           if (const char* bad = f->checkParameters())
-             throw py::value_error(std::string("KLDivergenceOccupancyFilter: ") + bad);
-           ParamBinder<Filter, std::unique_ptr<Filter>>::apply(
-             *f, kwargs, setters, "KLDivergenceOccupancyFilter");
-           return f;
-         }),
-         py::arg("focal_length_px"), py::arg("baseline_m"))
     .def(
       "filter",
       [](Filter& self, const FloatArray& features, const py::object& track_ids,

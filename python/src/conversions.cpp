@@ -107,5 +107,23 @@ toIsometry(const DoubleArray& matrix, const char* name)
   return pose;
 }
 
+std::string
+wrapText(const std::string& text, std::size_t indent, std::size_t width)
+{
+  const std::string margin(indent, ' ');
+  std::istringstream words(text);
+  std::string word, line, out;
+  while (words >> word) {
+    if (!line.empty() && indent + line.size() + 1 + word.size() > width) {
+      out += margin + line + "\n";
+      line.clear();
+    }
+    line += (line.empty() ? "" : " ") + word;
+  }
+  if (!line.empty())
+    out += margin + line + "\n";
+  return out;
+}
+
 } // namespace python
 } // namespace planar_grid

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Shared by the translation units of the Python module planar_grid: numpy <-> PCL and
 // Eigen conversions, the result types the bindings return, and one helper that binds
-// a class's parameters both as properties and as constructor keywords.
+// a class's parameters as properties, constructor arguments, repr and signature.
 #pragma once
 
 #include <planar_grid/core/planar_cuboid.h>
@@ -17,9 +17,10 @@
 
 #include <cstddef>
 #include <functional>
-#include <map>
 #include <memory>
+#include <optional>
 #include <string>
+#include <tuple>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -110,10 +111,98 @@ struct Cuboids {
   PlanarCuboids cuboids;
 };
 
-/** \brief Binds the parameters of \a T as read-write properties, and remembers their
- * setters so that a constructor can take them as keywords. After each assignment the
- * object's own range check runs (\a check, which returns nullptr or what is wrong): an
- * invalid value raises ValueError with that text and leaves the old value. */
+/** \brief One parameter of a bound class, for ParamBinder: its Python name, the type
+ * \a V of its value, \a get(const T&) that reads it, \a set(T&, V) that writes it, and
+ * its meaning with unit and range (ParamBinder adds the type and the default, read from
+ * the C++ object). With \a UnsetByDefault the constructor's default is None, which
+ * leaves the parameter unset: the C++ object's own rule then gives its value (e.g. a
+ * threshold that equals another one until set), and \a doc states that rule. */
+template <typename V, bool UnsetByDefault, typename Get, typename Set> struct Param {
+  /** \brief The value type of the property. */
+  using Value = V;
+  /** \brief The type of the constructor argument. */
+  using Init = std::conditional_t<UnsetByDefault, std::optional<V>, V>;
+  /** \brief Whether the constructor's default is None (unset). */
+  static constexpr bool UNSET_BY_DEFAULT = UnsetByDefault;
+  /** \brief The name of the property and of the constructor argument. */
+  const char* name;
+  /** \brief Reads the value from the object. */
+  Get get;
+  /** \brief Writes the value to the object. */
+  Set set;
+  /** \brief Meaning, unit and range, without type or default. */
+  const char* doc;
+};
+
+/** \brief A parameter whose constructor default is the value of a default-constructed
+ * C++ object. */
+template <typename V, typename Get, typename Set>
+Param<V, false, Get, Set>
+param(const char* name, Get get, Set set, const char* doc)
+{
+  return {name, std::move(get), std::move(set), doc};
+}
+
+/** \brief A parameter whose constructor default is None (left unset; see Param). */
+template <typename V, typename Get, typename Set>
+Param<V, true, Get, Set>
+unsetParam(const char* name, Get get, Set set, const char* doc)
+{
+  return {name, std::move(get), std::move(set), doc};
+}
+
+/** \brief The Python type of a parameter value, as docstrings name it: an array is
+ * array_like as a constructor \a argument, numpy.ndarray as a property (which stubgen
+ * reads from the property's docstring). */
+template <typename V>
+const char*
+pythonTypeName(bool argument)
+{
+  if constexpr (std::is_same_v<V, bool>)
+    return "bool";
+  else if constexpr (std::is_integral_v<V>)
+    return "int";
+  else if constexpr (std::is_floating_point_v<V>)
+    return "float";
+  else if constexpr (std::is_same_v<V, std::string>)
+    return "str";
+  else
+    return argument ? "array_like" : "numpy.ndarray";
+}
+
+/** \brief The Python type of a parameter value, as an annotation of inspect.signature()
+ * (numpy.ndarray for an array, which any array-like converts to). */
+template <typename V>
+py::object
+pythonType()
+{
+  if constexpr (std::is_same_v<V, bool>)
+    return py::module_::import("builtins").attr("bool");
+  else if constexpr (std::is_integral_v<V>)
+    return py::module_::import("builtins").attr("int");
+  else if constexpr (std::is_floating_point_v<V>)
+    return py::module_::import("builtins").attr("float");
+  else if constexpr (std::is_same_v<V, std::string>)
+    return py::module_::import("builtins").attr("str");
+  else
+    return py::module_::import("numpy").attr("ndarray");
+}
+
+/** \brief \a text wrapped at word boundaries into lines of at most \a width characters
+ * after \a indent spaces (docstrings). */
+std::string wrapText(const std::string& text, std::size_t indent, std::size_t width);
+
+/** \brief Binds the parameters of \a T, each given once as a Param, as the class's
+ * Python interface: read-write properties, a constructor that takes them as named
+ * arguments with their types and defaults, __repr__, and __signature__.
+ *
+ * The defaults are read from a default-constructed \a T through the getters, so the C++
+ * class owns each default; the property and constructor docstrings show them. After a
+ * property assignment the object's own range check runs (\a check, which returns
+ * nullptr or what is wrong): an invalid value raises ValueError with that text and
+ * leaves the old value. The constructor sets every argument, then runs the check once,
+ * so the order of the arguments does not matter. An unknown keyword is pybind11's
+ * TypeError, which names it and shows the signature. */
 template <typename T, typename Holder> class ParamBinder {
 public:
   /** \brief The object's range check. */
@@ -123,12 +212,89 @@ public:
       cls_(cls), class_name_(std::move(class_name)), check_(std::move(check))
   {}
 
-  /** \brief Binds one parameter: \a get(const T&) returns it, \a set(T&, V) sets it. */
-  template <typename V, typename Get, typename Set>
-  ParamBinder& param(const char* name, Get get, Set set, const char* doc)
+  /** \brief Binds the properties, the constructor, __repr__ and __signature__.
+   * \param[in] leading parameters the constructor takes first, positional or by name,
+   * without default (e.g. the stereo rig of an occupancy filter)
+   * \param[in] keywords parameters the constructor takes by name only, with the C++
+   * defaults */
+  template <typename... Leading, typename... Keywords>
+  void bind(const std::tuple<Leading...>& leading,
+            const std::tuple<Keywords...>& keywords)
   {
+    const T defaults{};
+    std::string init_doc = "Parameters\n----------\n";
+    std::apply(
+      [&](const auto&... p) { (bindProperty(p, defaults, false, init_doc), ...); },
+      leading);
+    std::apply(
+      [&](const auto&... p) { (bindProperty(p, defaults, true, init_doc), ...); },
+      keywords);
+    init_doc += "\nRaises\n------\nTypeError\n    For an unknown keyword or a value of "
+                "another type.\nValueError\n"
+                + wrapText("For a value out of its range (the library's range check, "
+                           "with its message).",
+                           4, 88);
+    bindRepr();
+    bindInit(leading, keywords, defaults, init_doc,
+             std::index_sequence_for<Leading...>{},
+             std::index_sequence_for<Keywords...>{});
+  }
+
+private:
+  /** \brief The value for Python: an array as a list, which the setters take too. */
+  template <typename V> static py::object toPython(const V& value)
+  {
+    py::object python;
+    if constexpr (std::is_base_of_v<py::handle, V>)
+      python = py::reinterpret_borrow<py::object>(value);
+    else
+      python = py::cast(value);
+    if (py::isinstance<py::array>(python))
+      python = python.attr("tolist")();
+    return python;
+  }
+
+  /** \brief The constructor default of \a p: the value of \a defaults, or None. An
+   * array as a tuple, so that the signature shows no mutable default. */
+  template <typename P> static py::object defaultOf(const P& p, const T& defaults)
+  {
+    if constexpr (P::UNSET_BY_DEFAULT)
+      return py::none();
+    else {
+      py::object value = toPython(std::invoke(p.get, defaults));
+      if (py::isinstance<py::list>(value))
+        value = py::tuple(value);
+      return value;
+    }
+  }
+
+  /** \brief Binds \a p as a property and adds it to the constructor's docstring. */
+  template <typename P>
+  void bindProperty(const P& p, const T& defaults, bool keyword, std::string& init_doc)
+  {
+    using V = typename P::Value;
+    const std::string type = pythonTypeName<V>(true);
+    std::string property_doc = pythonTypeName<V>(false) + std::string(": ") + p.doc;
+    std::string argument_doc = p.doc;
+    if (keyword) {
+      const std::string value =
+        py::repr(defaultOf(p, defaults)).template cast<std::string>();
+      if (!P::UNSET_BY_DEFAULT)
+        property_doc += " (default " + value + ")";
+      argument_doc += ". Default " + value + ".";
+      init_doc += std::string(p.name) + " : " + type
+                  + (P::UNSET_BY_DEFAULT ? " or None" : "") + ", optional\n";
+    } else {
+      argument_doc += ".";
+      init_doc += std::string(p.name) + " : " + type + "\n";
+    }
+    init_doc += wrapText(argument_doc, 4, 88);
+    property_doc += ".";
+
     const Check check = check_;
     const std::string class_name = class_name_;
+    const auto get = p.get;
+    const auto set = p.set;
     const auto assign = [get, set, check, class_name](T& object, V value) {
       auto old = std::invoke(get, static_cast<const T&>(object));
       std::invoke(set, object, value);
@@ -140,79 +306,109 @@ public:
       }
     };
     cls_.def_property(
-      name, [get](const T& object) { return std::invoke(get, object); }, assign, doc);
-    setters_[name] = [assign](T& object, py::handle value) {
-      assign(object, value.cast<V>());
-    };
-    getters_.emplace_back(name, [get](const T& object) {
-      auto value = std::invoke(get, object);
-      py::object python;
-      if constexpr (std::is_base_of_v<py::handle, decltype(value)>)
-        python = py::reinterpret_borrow<py::object>(value);
-      else
-        python = py::cast(value);
-      // A numpy array as a list, which the setter takes too and repr() spells as code.
-      if (py::isinstance<py::array>(python))
-        python = python.attr("tolist")();
-      return py::repr(python).template cast<std::string>();
+      p.name, [get](const T& object) { return std::invoke(get, object); }, assign,
+      property_doc.c_str());
+    reprs_.emplace_back(p.name, [get](const T& object) {
+      return py::repr(toPython(std::invoke(get, object))).template cast<std::string>();
     });
-    return *this;
+    Parameter parameter{p.name, pythonType<V>(), py::none(), keyword};
+    if (keyword) {
+      parameter.default_value = defaultOf(p, defaults);
+      if (P::UNSET_BY_DEFAULT)
+        parameter.annotation =
+          py::module_::import("typing").attr("Optional")[parameter.annotation];
+    }
+    parameters_.push_back(std::move(parameter));
   }
 
-  /** \brief A parameter's name and its value as Python code. */
-  using Field = std::pair<std::string, std::function<std::string(const T&)>>;
-
-  /** \brief Binds __repr__: "planar_grid.<class>(name=value, ...)" with the
-   * constructor's own arguments \a leading, then every parameter bound so far, in
-   * binding order: a constructor call that rebuilds the object. */
-  void bindRepr(std::vector<Field> leading = {})
+  /** \brief Sets one constructor argument; None for a parameter unset by default
+   * leaves it unset. */
+  template <typename P, typename I>
+  static void setInitial(T& object, const P& p, const I& value)
   {
-    std::vector<Field> getters = std::move(leading);
-    getters.insert(getters.end(), getters_.begin(), getters_.end());
+    if constexpr (P::UNSET_BY_DEFAULT) {
+      if (value)
+        std::invoke(p.set, object, *value);
+    } else
+      std::invoke(p.set, object, value);
+  }
+
+  /** \brief Binds the constructor and __signature__ (inspect.signature() cannot read
+   * pybind11's docstring signatures). */
+  template <typename... L, typename... K, std::size_t... I, std::size_t... J>
+  void bindInit(const std::tuple<L...>& leading,
+                const std::tuple<K...>& keywords,
+                const T& defaults,
+                const std::string& doc,
+                std::index_sequence<I...>,
+                std::index_sequence<J...>)
+  {
+    const Check check = check_;
     const std::string class_name = class_name_;
-    cls_.def("__repr__", [getters, class_name](const T& object) {
+    auto make = [leading, keywords, check, class_name](typename L::Init... lead,
+                                                       typename K::Init... keyword) {
+      auto object = std::make_unique<T>();
+      (setInitial(*object, std::get<I>(leading), lead), ...);
+      (setInitial(*object, std::get<J>(keywords), keyword), ...);
+      if (check) {
+        if (const char* bad = check(*object))
+          throw py::value_error(class_name + ": invalid parameter: " + bad);
+      }
+      return object;
+    };
+    cls_.def(py::init(make), py::arg(std::get<I>(leading).name)..., py::kw_only(),
+             py::arg_v(std::get<J>(keywords).name,
+                       defaultOf(std::get<J>(keywords), defaults))...,
+             doc.c_str());
+
+    const py::module_ inspect = py::module_::import("inspect");
+    const py::object parameter_type = inspect.attr("Parameter");
+    py::list parameters;
+    for (const Parameter& p : parameters_) {
+      const py::object kind =
+        parameter_type.attr(p.keyword_only ? "KEYWORD_ONLY" : "POSITIONAL_OR_KEYWORD");
+      if (p.keyword_only)
+        parameters.append(parameter_type(p.name, kind,
+                                         py::arg("default") = p.default_value,
+                                         py::arg("annotation") = p.annotation));
+      else
+        parameters.append(
+          parameter_type(p.name, kind, py::arg("annotation") = p.annotation));
+    }
+    cls_.attr("__signature__") = inspect.attr("Signature")(parameters);
+  }
+
+  /** \brief Binds __repr__: "planar_grid.<class>(name=value, ...)" with every
+   * parameter in binding order: a constructor call that rebuilds the object. */
+  void bindRepr()
+  {
+    const auto reprs = reprs_;
+    const std::string class_name = class_name_;
+    cls_.def("__repr__", [reprs, class_name](const T& object) {
       std::string text = "planar_grid." + class_name + "(";
-      for (std::size_t i = 0; i < getters.size(); ++i)
-        text +=
-          (i == 0 ? "" : ", ") + getters[i].first + "=" + getters[i].second(object);
+      for (std::size_t i = 0; i < reprs.size(); ++i)
+        text += (i == 0 ? "" : ", ") + reprs[i].first + "=" + reprs[i].second(object);
       return text + ")";
     });
   }
 
-  /** \brief Applies keyword arguments through the setters; an unknown keyword is a
-   * TypeError that lists the known ones. */
-  static void
-  apply(T& object,
-        const py::kwargs& kwargs,
-        const std::map<std::string, std::function<void(T&, py::handle)>>& setters,
-        const std::string& class_name)
-  {
-    for (const auto& item : kwargs) {
-      const std::string key = py::str(item.first);
-      const auto it = setters.find(key);
-      if (it == setters.end()) {
-        std::string known;
-        for (const auto& setter : setters)
-          known += (known.empty() ? "" : ", ") + setter.first;
-        throw py::type_error(class_name + ": unknown parameter '" + key
-                             + "'; the parameters are: " + known);
-      }
-      it->second(object, item.second);
-    }
-  }
+  /** \brief A constructor argument, for __signature__. */
+  struct Parameter {
+    /** \brief Its name. */
+    const char* name;
+    /** \brief Its type. */
+    py::object annotation;
+    /** \brief Its default (for a keyword-only argument). */
+    py::object default_value;
+    /** \brief Whether it is keyword-only (else positional or keyword, required). */
+    bool keyword_only;
+  };
 
-  /** \brief The setters by name (for apply()). */
-  const std::map<std::string, std::function<void(T&, py::handle)>>& setters() const
-  {
-    return setters_;
-  }
-
-private:
   py::class_<T, Holder>& cls_;
   std::string class_name_;
   Check check_;
-  std::map<std::string, std::function<void(T&, py::handle)>> setters_;
-  std::vector<std::pair<std::string, std::function<std::string(const T&)>>> getters_;
+  std::vector<std::pair<std::string, std::function<std::string(const T&)>>> reprs_;
+  std::vector<Parameter> parameters_;
 };
 
 /** \brief Binds SACMultiPlaneSegmentation, PlanarCuboidApproximation and their result

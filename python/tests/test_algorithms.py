@@ -2,7 +2,9 @@
 """SACMultiPlaneSegmentation, PlanarCuboidApproximation and KLDivergenceOccupancyFilter
 through the Python module, against known planes, boxes and the paper's formulas."""
 
+import inspect
 import math
+import re
 
 import numpy as np
 import pytest
@@ -80,7 +82,7 @@ def test_segmentation_parameters_are_checked_by_the_library():
     assert seg.distance_threshold_m == pytest.approx(0.05)  # unchanged
     with pytest.raises(ValueError, match="probability must be in"):
         pg.SACMultiPlaneSegmentation(probability=1.5)
-    with pytest.raises(TypeError, match="unknown parameter 'distance_threshold'"):
+    with pytest.raises(TypeError, match="distance_threshold=0.1"):
         pg.SACMultiPlaneSegmentation(distance_threshold=0.1)
     with pytest.raises(ValueError, match="method 'lmeds'"):
         seg.method = "lmeds"
@@ -247,3 +249,133 @@ def test_repr_is_the_constructor_call_with_every_parameter():
         assert text.startswith("planar_grid." + type(obj).__name__ + "(")
         assert expected in text
         assert repr(eval(text, {"planar_grid": pg})) == text
+
+
+# A value other than the default, in range, for every parameter of each class: the
+# constructor takes each by name and the property reads it back.
+CONSTRUCTOR_VALUES = {
+    pg.SACMultiPlaneSegmentation: dict(
+        distance_threshold_m=0.02, sample_distance_threshold_m=0.04,
+        depth_noise_coefficient_per_m=0.001, max_planes=5, min_inliers=100,
+        min_sample_inliers=10, min_remaining_fraction=0.1, max_iterations=200,
+        probability=0.95, method="msac", optimize_coefficients=False,
+        dense_hypothesis=False, lo_iterations=10, merge_planes=False,
+        merge_angle_rad=0.2, merge_distance_m=0.05, up_axis=[0.0, -1.0, 0.0], seed=7,
+        max_sample_size=5000),
+    pg.PlanarCuboidApproximation: dict(
+        min_cell_size_m=0.05, density_threshold=0.8, non_planar_density_threshold=0.7,
+        min_width_m=0.2, min_height_m=0.3, thickness_m=0.05, min_points_per_cell=1,
+        up_axis=[0.0, -1.0, 0.0]),
+    pg.KLDivergenceOccupancyFilter: dict(
+        focal_length_px=500.0, baseline_m=0.1, disparity_error_px=1.0,
+        neighbourhood_size_m=0.3, clamping_thres_min=0.2, clamping_thres_max=0.9,
+        occupancy_thres=0.6, kl_offset_nats=0.5, prob_hit=0.8, prob_miss=0.3,
+        association_radius_m=0.1, update_rule="log_odds"),
+}
+# The stereo rig, the filter's leading (positional or keyword) arguments.
+LEADING = {pg.KLDivergenceOccupancyFilter: ["focal_length_px", "baseline_m"]}
+# The unit a parameter name's suffix states, and the word its documentation uses.
+UNITS = {"_m": "meters", "_rad": "radians", "_px": "pixels", "_nats": "nats",
+         "_per_m": "1/m"}
+# The parameters that are probabilities in [0, 1].
+PROBABILITIES = {"probability", "clamping_thres_min", "clamping_thres_max",
+                 "occupancy_thres", "prob_hit", "prob_miss"}
+
+
+def default_object(cls):
+    return cls(F_PX, B_M) if cls is pg.KLDivergenceOccupancyFilter else cls()
+
+
+def read_back(value):
+    return value.tolist() if isinstance(value, np.ndarray) else value
+
+
+@pytest.mark.parametrize("cls", list(CONSTRUCTOR_VALUES), ids=lambda c: c.__name__)
+def test_constructor_signature_names_every_parameter_with_the_cpp_default(cls):
+    signature = inspect.signature(cls)
+    names = list(signature.parameters)
+    assert set(names) == set(CONSTRUCTOR_VALUES[cls])
+    leading = LEADING.get(cls, [])
+    assert names[:len(leading)] == leading
+    obj = default_object(cls)
+    for name, parameter in signature.parameters.items():
+        assert isinstance(getattr(type(obj), name), property), name
+        assert parameter.annotation is not inspect.Parameter.empty, name
+        if name in leading:
+            assert parameter.kind is inspect.Parameter.POSITIONAL_OR_KEYWORD
+            assert parameter.default is inspect.Parameter.empty
+            continue
+        assert parameter.kind is inspect.Parameter.KEYWORD_ONLY, name
+        # The default is the C++ object's own: what an object built without it holds.
+        if parameter.default is None:
+            assert name == "sample_distance_threshold_m"
+            continue
+        default = parameter.default
+        expected = read_back(getattr(obj, name))
+        assert (list(default) if isinstance(default, tuple) else default) == expected, name
+
+
+def test_signature_defaults_are_the_library_defaults():
+    # A few of the C++ in-class initialisers, spelled out once here as the check.
+    seg = inspect.signature(pg.SACMultiPlaneSegmentation).parameters
+    assert seg["distance_threshold_m"].default == pytest.approx(0.05)
+    assert seg["max_planes"].default == 8 and seg["min_inliers"].default == 500
+    assert seg["method"].default == "ransac" and seg["up_axis"].default == (0, 0, 1)
+    approx = inspect.signature(pg.PlanarCuboidApproximation).parameters
+    assert approx["min_cell_size_m"].default == pytest.approx(0.1)
+    assert approx["min_points_per_cell"].default == 3
+    kl = inspect.signature(pg.KLDivergenceOccupancyFilter).parameters
+    assert kl["occupancy_thres"].default == pytest.approx(0.5)
+    assert kl["update_rule"].default == "kl_divergence"
+    # Left at None, the sample threshold follows the distance threshold.
+    assert pg.SACMultiPlaneSegmentation(
+        distance_threshold_m=0.02).sample_distance_threshold_m == pytest.approx(0.02)
+
+
+@pytest.mark.parametrize("cls", list(CONSTRUCTOR_VALUES), ids=lambda c: c.__name__)
+def test_constructor_docstring_lists_each_parameter_with_unit_and_default(cls):
+    doc = cls.__init__.__doc__
+    # numpydoc entries: "name : type[, optional]" then the indented description.
+    entries = dict(re.findall(r"^(\w+) : [^\n]*\n((?:    [^\n]*\n)+)", doc, re.M))
+    signature = inspect.signature(cls)
+    assert set(entries) == set(signature.parameters)
+    for name, parameter in signature.parameters.items():
+        text = " ".join(entries[name].split())
+        if parameter.default is not inspect.Parameter.empty:
+            assert f"Default {parameter.default!r}." in text, name
+        suffix = max((s for s in UNITS if name.endswith(s)), key=len, default=None)
+        if suffix:
+            assert UNITS[suffix] in text, name
+        if name in PROBABILITIES:
+            assert "probability" in text, name
+
+
+@pytest.mark.parametrize("cls", list(CONSTRUCTOR_VALUES), ids=lambda c: c.__name__)
+def test_constructor_values_read_back_and_show_in_repr(cls):
+    values = CONSTRUCTOR_VALUES[cls]
+    obj = cls(**values)
+    text = repr(obj)
+    for name, value in values.items():
+        got = read_back(getattr(obj, name))
+        if isinstance(value, float):
+            assert got == pytest.approx(value), name
+        else:
+            assert got == value, name
+        assert f" {name}=" in text or f"({name}=" in text, name
+    # The leading arguments also go by position; the others only by name.
+    if cls in LEADING:
+        assert repr(cls(500.0, 0.1)) == repr(cls(focal_length_px=500.0, baseline_m=0.1))
+    with pytest.raises(TypeError):
+        cls(*[values[n] for n in LEADING.get(cls, [])], 0.5)
+
+
+@pytest.mark.parametrize("cls", list(CONSTRUCTOR_VALUES), ids=lambda c: c.__name__)
+def test_unknown_keyword_is_a_type_error_naming_it(cls):
+    leading = {n: CONSTRUCTOR_VALUES[cls][n] for n in LEADING.get(cls, [])}
+    with pytest.raises(TypeError, match="resolution_cm=5"):
+        cls(**leading, resolution_cm=5)
+    # A value of another type for a known keyword is a TypeError too.
+    number = next(n for n, p in inspect.signature(cls).parameters.items()
+                  if p.annotation is float and n not in leading)
+    with pytest.raises(TypeError, match="incompatible constructor arguments"):
+        cls(**leading, **{number: "not a number"})

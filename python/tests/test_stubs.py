@@ -4,6 +4,7 @@ stubgen): every public name the package re-exports from it is in them, with the
 signatures pybind11 gives, and mypy checks a program that uses the package against them
 (and against planar_grid.distributed's own annotations)."""
 import ast
+import inspect
 import os
 import subprocess
 import sys
@@ -51,6 +52,26 @@ def test_signatures_carry_parameter_names_and_types():
     assert methods["get_state"].args.args[1].annotation is not None
 
 
+def test_algorithm_constructors_carry_their_parameters():
+    # The constructors' keyword-only parameters (after pybind11's '*'), with types and
+    # defaults, in the order of inspect.signature(), not (*args, **kwargs).
+    tree = stub_tree()
+    classes = {n.name: n for n in tree.body if isinstance(n, ast.ClassDef)}
+    for name in ["SACMultiPlaneSegmentation", "PlanarCuboidApproximation",
+                 "KLDivergenceOccupancyFilter"]:
+        init = next(f for f in classes[name].body
+                    if isinstance(f, ast.FunctionDef) and f.name == "__init__")
+        assert init.args.vararg is None and init.args.kwarg is None, name
+        parameters = inspect.signature(getattr(planar_grid, name)).parameters
+        keyword_only = [n for n, p in parameters.items()
+                        if p.kind is inspect.Parameter.KEYWORD_ONLY]
+        positional = [n for n in parameters if n not in keyword_only]
+        assert [a.arg for a in init.args.args] == ["self"] + positional, name
+        assert [a.arg for a in init.args.kwonlyargs] == keyword_only, name
+        assert all(a.annotation is not None for a in init.args.kwonlyargs), name
+        assert all(d is not None for d in init.args.kw_defaults), name
+
+
 def test_mypy_checks_a_program_against_the_stubs(tmp_path):
     program = tmp_path / "use_map.py"
     program.write_text(textwrap.dedent("""\
@@ -60,6 +81,8 @@ def test_mypy_checks_a_program_against_the_stubs(tmp_path):
 
         m = pg.PlanarGridMap()
         states = m.get_state(np.zeros((4, 3), dtype=np.float32))
+        seg = pg.SACMultiPlaneSegmentation(distance_threshold_m=0.02, max_planes=3)
+        kl = pg.KLDivergenceOccupancyFilter(645.24, 0.5707, occupancy_thres=0.6)
         m.save("map.pgmap")
         n: int = m.cell_count
         segments = pgd.split_frames(0, 112, 4)
@@ -70,6 +93,7 @@ def test_mypy_checks_a_program_against_the_stubs(tmp_path):
 
         m = pg.PlanarGridMap()
         label: str = m.cell_count
+        seg = pg.SACMultiPlaneSegmentation(distance_threshold=0.02)
         """))
     env = dict(os.environ, MYPYPATH=os.path.dirname(PACKAGE_DIR))
     run = lambda path: subprocess.run(  # noqa: E731
@@ -80,3 +104,4 @@ def test_mypy_checks_a_program_against_the_stubs(tmp_path):
     assert ok.returncode == 0, ok.stdout + ok.stderr
     bad = run(wrong)
     assert bad.returncode != 0 and "misuse_map.py:4" in bad.stdout, bad.stdout
+    assert "misuse_map.py:5" in bad.stdout and "distance_threshold" in bad.stdout, bad.stdout
