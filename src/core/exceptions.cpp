@@ -25,7 +25,7 @@ ConfigError::ConfigError(const std::string& file,
                          int column,
                          const std::string& message) :
     Exception(formatLocation(file, line, column, message)),
-    file_(file), line_(line), column_(column)
+    file_(file), line_(line), column_(column), message_(message)
 {}
 
 } // namespace planar_grid

@@ -796,7 +796,12 @@ applyOverride(YAML::Node& root, const std::string& assignment)
   }
   if (!params.IsMap() || params.size() != 1)
     throw ConfigError(where, 0, 0, "the value '" + value + "' must be one scalar");
-  parseParams(params, info->params, where, type);
+  try {
+    parseParams(params, info->params, where, type);
+  } catch (const ConfigError& e) {
+    // Its line:col would point into "KEY: VALUE", not into a file.
+    throw ConfigError(where, 0, 0, e.message());
+  }
   YAML::Node pipeline = root["pipeline"];
   YAML::Node target;
   std::size_t found = 0;

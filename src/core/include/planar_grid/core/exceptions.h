@@ -36,11 +36,14 @@ public:
   int line() const { return line_; }
   /** \brief 1-based column, 0 when unknown. */
   int column() const { return column_; }
+  /** \brief What was wrong, without the location. */
+  const std::string& message() const { return message_; }
 
 private:
   std::string file_;
   int line_;
   int column_;
+  std::string message_;
 };
 
 /** \brief A file that is missing, unreadable, truncated or malformed; what() names it.
