@@ -88,6 +88,21 @@ msSince(std::chrono::steady_clock::time_point t)
     .count();
 }
 
+/** Appends the valid points of \a cloud, moved by \a world_T, to \a out. */
+void
+appendWorldPoints(const Frame::Cloud& cloud,
+                  const Eigen::Matrix4f& world_T,
+                  pcl::PointCloud<pcl::PointXYZ>& out)
+{
+  out.reserve(out.size() + cloud.size());
+  for (const auto& p : cloud.points) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      continue;
+    const Eigen::Vector4f q = world_T * Eigen::Vector4f(p.x, p.y, p.z, 1.0f);
+    out.push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
+  }
+}
+
 /** The valid points of \a cloud in the world frame (transformed by the frame's pose
  * when the cloud is still in the camera frame). */
 pcl::PointCloud<pcl::PointXYZ>
@@ -99,13 +114,7 @@ worldPoints(const Frame& frame)
   Eigen::Matrix4f world_T = Eigen::Matrix4f::Identity();
   if (!frame.cloud_in_world_frame)
     world_T = frame.world_T_camera.matrix().cast<float>();
-  out.reserve(frame.cloud->size());
-  for (const auto& p : frame.cloud->points) {
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-      continue;
-    const Eigen::Vector4f q = world_T * Eigen::Vector4f(p.x, p.y, p.z, 1.0f);
-    out.push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
-  }
+  appendWorldPoints(*frame.cloud, world_T, out);
   return out;
 }
 
@@ -441,13 +450,9 @@ insertBaselines(Lane& lane, const Frame& frame)
 {
   using Clock = std::chrono::steady_clock;
   pcl::PointCloud<pcl::PointXYZ> points = worldPoints(frame);
-  if (frame.far_cloud) {
-    const Eigen::Matrix4f world_T_camera = frame.world_T_camera.matrix().cast<float>();
-    for (const auto& p : frame.far_cloud->points) {
-      const Eigen::Vector4f q = world_T_camera * Eigen::Vector4f(p.x, p.y, p.z, 1.0f);
-      points.push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
-    }
-  }
+  if (frame.far_cloud) // in the camera frame
+    appendWorldPoints(*frame.far_cloud, frame.world_T_camera.matrix().cast<float>(),
+                      points);
   const Eigen::Vector3f origin = frame.world_T_camera.translation().cast<float>();
   auto t = Clock::now();
   lane.sg->insertPointCloud(points, origin);

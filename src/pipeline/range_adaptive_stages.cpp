@@ -68,26 +68,27 @@ public:
       for (std::size_t i = 0; i < far.size(); ++i)
         heights_[i] = g.head<3>().dot(points_[i]) + origin_height;
       const double inv = 1.0 / terrain_cell_m_;
-      const auto column = [&](std::size_t i) {
+      columns_.resize(far.size());
+      for (std::size_t i = 0; i < far.size(); ++i) {
         const auto x = static_cast<std::int64_t>(std::floor(e1.dot(points_[i]) * inv));
         const auto y = static_cast<std::int64_t>(std::floor(e2.dot(points_[i]) * inv));
-        return (static_cast<std::uint64_t>(x + (1 << 30)) << 32)
-               | static_cast<std::uint64_t>(y + (1 << 30));
-      };
+        columns_[i] = (static_cast<std::uint64_t>(x + (1 << 30)) << 32)
+                      | static_cast<std::uint64_t>(y + (1 << 30));
+      }
       column_low_.clear();
       for (std::size_t i = 0; i < far.size(); ++i) {
-        const auto it = column_low_.emplace(column(i), heights_[i]).first;
+        const auto it = column_low_.emplace(columns_[i], heights_[i]).first;
         it->second = std::min(it->second, heights_[i]);
       }
       for (std::size_t i = 0; i < far.size(); ++i) {
-        const float base = std::min(column_low_[column(i)], terrain_max_rise_m_);
+        const float base = std::min(column_low_[columns_[i]], terrain_max_rise_m_);
         terrain_[i] = heights_[i] <= base + terrain_height_m_ ? 1 : 0;
         terrain_points_ += terrain_[i];
       }
     }
 
     // The frame keeps the far points the cells are made of (a new cloud: the old one
-    // may be shared with copies of the frame).
+    // may be shared with copies of the frame); points_ keeps the same ones, in order.
     if (terrain_points_ > 0) {
       auto kept = std::make_shared<Frame::Cloud>();
       std::vector<std::uint8_t> kept_levels;
@@ -95,16 +96,13 @@ public:
       kept_levels.reserve(far.size() - terrain_points_);
       for (std::size_t i = 0; i < far.size(); ++i)
         if (!terrain_[i]) {
+          points_[kept->size()] = points_[i];
           kept->push_back(far[i]);
           kept_levels.push_back(frame.far_levels[i]);
         }
-      kept_points_.clear();
-      for (std::size_t i = 0; i < far.size(); ++i)
-        if (!terrain_[i])
-          kept_points_.push_back(points_[i]);
+      points_.resize(kept->size());
       frame.far_cloud = std::move(kept);
       frame.far_levels = std::move(kept_levels);
-      points_.swap(kept_points_);
     }
 
     // Cells: a lattice of edge min_cell_size x 2^level per level, anchored at the
@@ -170,9 +168,9 @@ private:
   double terrain_cell_m_;
   float terrain_max_rise_m_;
   std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> points_;
-  std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> kept_points_;
   std::vector<float> heights_;
   std::vector<std::uint8_t> terrain_;
+  std::vector<std::uint64_t> columns_;
   std::unordered_map<std::uint64_t, float> column_low_;
   std::vector<std::uint64_t> keys_;
   std::size_t far_points_{0};

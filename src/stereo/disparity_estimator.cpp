@@ -187,6 +187,24 @@ fixedPointToFloat(const cv::Mat& fixed_point,
   }
 }
 
+/** \brief \a image in grey, shrunk by exactly 2 in its rows (and in its columns when \a
+ * columns): an odd side is padded by one replicated pixel first, so that input pixel u
+ * lies in shrunk pixel u / 2; cv::resize with INTER_AREA (each shrunk pixel the mean of
+ * the input pixels it covers). */
+cv::Mat
+shrinkByTwo(const cv::Mat& image, bool columns)
+{
+  cv::Mat grey = detail::toGrey(image);
+  const int pad_bottom = grey.rows % 2;
+  const int pad_right = columns ? grey.cols % 2 : 0;
+  if (pad_right != 0 || pad_bottom != 0)
+    cv::copyMakeBorder(grey, grey, 0, pad_bottom, 0, pad_right, cv::BORDER_REPLICATE);
+  cv::Mat half;
+  cv::resize(grey, half, cv::Size(columns ? grey.cols / 2 : grey.cols, grey.rows / 2),
+             0.0, 0.0, cv::INTER_AREA);
+  return half;
+}
+
 /** \brief The half rows around row v of an image twice as tall as \a half: row v sits
  * at half-row coordinate v / 2 - 0.25, between \a before and \a after (clamped at the
  * borders) with \a weight on \a after, inside \a containing. */
@@ -408,17 +426,7 @@ DisparityEstimator::compute(const cv::Mat& left,
   if (params_.row_downscale == 2) {
     // Half the rows: pad an odd row count by one replicated row so that input row v
     // is in half row v / 2, match, bring the rows back and crop the padding.
-    const int pad_bottom = left.rows % 2;
-    auto shrink_rows = [&](const cv::Mat& image) {
-      cv::Mat grey = detail::toGrey(image);
-      if (pad_bottom != 0)
-        cv::copyMakeBorder(grey, grey, 0, pad_bottom, 0, 0, cv::BORDER_REPLICATE);
-      cv::Mat half;
-      cv::resize(grey, half, cv::Size(grey.cols, grey.rows / 2), 0.0, 0.0,
-                 cv::INTER_AREA);
-      return half;
-    };
-    computeFixedPoint(shrink_rows(left), shrink_rows(right), fixed_point);
+    computeFixedPoint(shrinkByTwo(left, false), shrinkByTwo(right, false), fixed_point);
     cv::Mat half_disparity;
     fixedPointToFloat(fixed_point, params_.min_disparity_px, 1.0f, half_disparity);
     cv::Mat padded;
@@ -435,18 +443,7 @@ DisparityEstimator::compute(const cv::Mat& left,
   // Half resolution: pad an odd side by one replicated pixel so that the shrink is
   // exactly 2 (pixel u of the input covers half pixel u / 2), match, convert to input
   // pixels (x 2), upsample and crop the padding.
-  const int pad_right = left.cols % 2;
-  const int pad_bottom = left.rows % 2;
-  auto shrink = [&](const cv::Mat& image) {
-    cv::Mat grey = detail::toGrey(image);
-    if (pad_right != 0 || pad_bottom != 0)
-      cv::copyMakeBorder(grey, grey, 0, pad_bottom, 0, pad_right, cv::BORDER_REPLICATE);
-    cv::Mat half;
-    cv::resize(grey, half, cv::Size(grey.cols / 2, grey.rows / 2), 0.0, 0.0,
-               cv::INTER_AREA);
-    return half;
-  };
-  computeFixedPoint(shrink(left), shrink(right), fixed_point);
+  computeFixedPoint(shrinkByTwo(left, true), shrinkByTwo(right, true), fixed_point);
   cv::Mat half_disparity;
   fixedPointToFloat(fixed_point, params_.min_disparity_px / 2, 2.0f, half_disparity);
   cv::Mat padded;
