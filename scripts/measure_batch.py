@@ -41,24 +41,8 @@ import planar_grid.distributed as pgd
 S = pg.SpaceState
 
 
-def counts(m):
-    planar = int(np.count_nonzero(m.cuboids.is_planar))
-    return dict(planes=len(m.planes), planar_cuboids=planar,
-                non_planar_cuboids=len(m.cuboids.is_planar) - planar,
-                cells=int(m.cell_count), memory_bytes=int(m.memory["total_bytes"]))
-
-
-def observed_probes(m, count, seed=0):
-    """count random points in the box of the main job's map where m has observed space."""
-    rng = np.random.default_rng(seed)
-    lo, hi = np.array([0.0, -52.8, -7.2]), np.array([106.4, 18.4, 8.0])
-    kept, n = [], 0
-    while n < count:
-        candidates = rng.uniform(lo, hi, size=(400_000, 3))
-        keep = candidates[m.get_state(candidates) != S.UNKNOWN]
-        kept.append(keep)
-        n += len(keep)
-    return np.concatenate(kept)[:count]
+# The box of the main job's map, world frame, meters.
+BOX_MIN, BOX_MAX = [0.0, -52.8, -7.2], [106.4, 18.4, 8.0]
 
 
 def compare(single, merged, probes):
@@ -95,7 +79,7 @@ def main():
     single_path = os.path.join(args.output, "single_map.pgmap")
     single.save(single_path)
     figures["single"] = dict(wall_time_s=single_s, frames=int(result.frames),
-                             **counts(single))
+                             **pgd.map_counts(single))
     print(f"one run: {result.frames} frames in {single_s:.1f} s: {figures['single']}")
 
     # 2. the batch job
@@ -106,8 +90,8 @@ def main():
     batch_s = time.perf_counter() - t
     merged = pg.PlanarGridMap.load(report["map"])
     tasks = report["segments"] + report["merges"]
-    probes = observed_probes(single, args.probes)
-    figures["batch"] = dict(wall_time_s=batch_s, **counts(merged),
+    probes = pgd.sample_observed_points(single, args.probes, BOX_MIN, BOX_MAX)
+    figures["batch"] = dict(wall_time_s=batch_s, **pgd.map_counts(merged),
                             **compare(single, merged, probes),
                             segment_s=[s["wall_time_s"] for s in report["segments"]],
                             merge_s=[m["wall_time_s"] for m in report["merges"]],
@@ -160,7 +144,7 @@ def main():
             other.merge(shifted, move)
         move = np.eye(4)
         move[0, 3] = copies * span
-        before = counts(grown)
+        before = pgd.map_counts(grown)
         t = time.perf_counter()
         grown.merge(other, move)
         merge_s = time.perf_counter() - t
@@ -175,7 +159,7 @@ def main():
             loads.append(time.perf_counter() - t)
         load_s = float(np.median(loads))
         copies *= 2
-        after = counts(grown)
+        after = pgd.map_counts(grown)
         growth.append(dict(copies=copies, merge_s=merge_s, save_s=save_s, load_s=load_s,
                            file_bytes=os.path.getsize(path), before=before, **after))
         print(f"{copies} copies: merge of two {copies // 2}-copy maps {merge_s:.3f} s, "

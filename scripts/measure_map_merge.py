@@ -16,6 +16,7 @@ import time
 import numpy as np
 
 import planar_grid as pg
+import planar_grid.distributed as pgd
 
 S = pg.SpaceState
 
@@ -54,19 +55,11 @@ def measure(first, second, full=None, repeats=3, probes=100_000):
     print(f"load both {load*1e3:.0f} ms; merge A<-B {np.median(times)*1e3:.0f} ms "
           f"(median of {repeats}: {', '.join(f'{x*1e3:.0f}' for x in times)}); "
           f"B<-A {t_ba*1e3:.0f} ms")
-    rng = np.random.default_rng(0)
     if full is not None:
         f = pg.PlanarGridMap.load(full)
         cf = counts(f)
         print(f"full {full}: {cf}")
-        lo = np.array([0.0, -52.8, -7.2]); hi = np.array([106.4, 18.4, 8.0])
-        pts = []
-        n = 0
-        while n < probes:
-            cand = rng.uniform(lo, hi, size=(400_000, 3))
-            keep = cand[f.get_state(cand) != S.UNKNOWN]
-            pts.append(keep); n += len(keep)
-        p = np.concatenate(pts)[:probes]
+        p = pgd.sample_observed_points(f, probes, [0.0, -52.8, -7.2], [106.4, 18.4, 8.0])
         sf, sm, sba = f.get_state(p), m.get_state(p), ba.get_state(p)
         agree = np.mean(sf == sm)
         print(f"getState agreement merged vs full on {len(p)} random points observed by "

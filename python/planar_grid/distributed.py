@@ -104,13 +104,46 @@ def _replace_folder(tmp: str, final: str) -> None:
     shutil.rmtree(old, ignore_errors=True)
 
 
-def _map_counts(m: "pg.PlanarGridMap") -> Dict[str, int]:
-    """Counts of a map for the reports (plain ints)."""
+def map_counts(m: "pg.PlanarGridMap") -> Dict[str, int]:
+    """Counts of a map, as the batch reports give them (plain ints): planes,
+    planar_cuboids, non_planar_cuboids, cells, memory_bytes."""
     planar = int(np.count_nonzero(m.cuboids.is_planar))
     return dict(planes=int(len(m.planes)), planar_cuboids=planar,
                 non_planar_cuboids=int(len(m.cuboids.is_planar)) - planar,
                 cells=int(m.cell_count),
                 memory_bytes=int(m.memory["total_bytes"]))
+
+
+def sample_observed_points(m: "pg.PlanarGridMap", count: int, box_min: Sequence[float],
+                           box_max: Sequence[float], seed: int = 0) -> np.ndarray:
+    """Random points where a map has observed space, to compare another map with it by
+    getState (a batch's merged map against one run of the same frames).
+
+    Parameters
+    ----------
+    m : PlanarGridMap
+        The map whose observed space (free or occupied) the points are drawn from.
+    count : int
+        How many points.
+    box_min, box_max : sequence of 3 floats
+        The box the points are drawn in, uniformly, world frame, meters.
+    seed : int
+        numpy.random.default_rng's seed: the same points for the same map and box.
+
+    Returns
+    -------
+    numpy.ndarray, shape (count, 3), float64, meters. Loops for ever when the box holds
+    no observed space.
+    """
+    rng = np.random.default_rng(seed)
+    lo, hi = np.asarray(box_min, dtype=float), np.asarray(box_max, dtype=float)
+    kept, n = [], 0
+    while n < count:
+        candidates = rng.uniform(lo, hi, size=(400_000, 3))
+        keep = candidates[m.get_state(candidates) != pg.SpaceState.UNKNOWN]
+        kept.append(keep)
+        n += len(keep)
+    return np.concatenate(kept)[:count]
 
 
 def _worker_identity() -> Dict[str, Any]:
@@ -174,7 +207,7 @@ def map_segment_task(segment: Segment, folder: str) -> Dict[str, Any]:
                   frames=[int(segment.begin), int(segment.end)],
                   map=os.path.join(folder, "map.pgmap"),
                   pipeline_report=os.path.join(folder, "report.json"),
-                  **_map_counts(result.map),
+                  **map_counts(result.map),
                   frames_run=int(result.frames),
                   wall_time_s=round(time.perf_counter() - start, 3),
                   start_time=start_time, end_time=time.time(),
@@ -215,7 +248,7 @@ def merge_maps_task(inputs: Sequence[Dict[str, Any]], path: str) -> Dict[str, An
             os.remove(tmp)
         raise
     save_s = time.perf_counter() - t
-    return dict(kind="merge", inputs=maps, map=path, **_map_counts(merged),
+    return dict(kind="merge", inputs=maps, map=path, **map_counts(merged),
                 load_s=round(load_s, 4), merge_s=round(merge_s, 4),
                 save_s=round(save_s, 4),
                 wall_time_s=round(time.perf_counter() - start, 3),

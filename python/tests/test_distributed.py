@@ -20,7 +20,6 @@ import planar_grid as pg
 import planar_grid.distributed as pgd
 
 FRAMES = 40
-S = pg.SpaceState
 
 
 @pytest.fixture(scope="module")
@@ -54,16 +53,9 @@ def one_run(config):
 @pytest.fixture(scope="module")
 def probes(one_run):
     """20,000 random points in the box of the main job's map that the one run observed
-    (free or occupied), as scripts/measure_map_merge.py draws them; fixed seed."""
-    rng = np.random.default_rng(0)
-    lo, hi = np.array([0.0, -52.8, -7.2]), np.array([106.4, 18.4, 8.0])
-    kept, n = [], 0
-    while n < 20_000:
-        candidates = rng.uniform(lo, hi, size=(400_000, 3))
-        keep = candidates[one_run.get_state(candidates) != S.UNKNOWN]
-        kept.append(keep)
-        n += len(keep)
-    return np.concatenate(kept)[:20_000]
+    (free or occupied), as scripts/measure_batch.py draws them; fixed seed."""
+    return pgd.sample_observed_points(one_run, 20_000, [0.0, -52.8, -7.2],
+                                      [106.4, 18.4, 8.0])
 
 
 @pytest.fixture(scope="module")
