@@ -53,6 +53,7 @@ paramsDict(const PlanarGridMap::Params& p)
   d["close_gaps_cells"] = p.surface.close_gaps_cells;
   d["merge_rule"] = toString(p.surface.merge_rule);
   d["cover_density"] = p.surface.cover_density;
+  d["absorb_distance_m"] = p.surface.absorb_distance_m;
   d["clear_non_planar"] = p.clear_non_planar;
   d["clear_planar"] = p.clear_planar;
   d["planes_replace_non_planar"] = p.planes_replace_non_planar;
@@ -277,6 +278,9 @@ planes_replace_non_planar : bool, optional
     Non-planar cells lying on a map plane are removed (default True).
 planes_absorb_overlapping : bool, optional
     A weaker plane's rectangles lying on a plane join it (default True).
+absorb_distance_m : float, optional
+    With planes_absorb_overlapping: the largest distance, meters, along a stronger
+    parallel plane's normal at which a plane's cells join it (default 0.5).
 
 The defaults are the pipeline's map_integration defaults (one Params struct); a map
 built here with the keys of a configuration's map_integration stage matches the tool's.
@@ -298,7 +302,8 @@ Maps are not copied (copy.copy raises); pickling goes through the map file forma
                      double occupancy_thres, double feature_distance_m,
                      int close_gaps_cells, const std::string& merge_rule,
                      double cover_density, bool clear_non_planar, bool clear_planar,
-                     bool planes_replace_non_planar, bool planes_absorb_overlapping) {
+                     bool planes_replace_non_planar, bool planes_absorb_overlapping,
+                     double absorb_distance_m) {
            Map::Params p;
            p.clear_non_planar = clear_non_planar;
            p.clear_planar = clear_planar;
@@ -314,6 +319,7 @@ Maps are not copied (copy.copy raises); pickling goes through the map file forma
            p.surface.feature_distance_m = feature_distance_m;
            p.surface.close_gaps_cells = close_gaps_cells;
            p.surface.cover_density = cover_density;
+           p.surface.absorb_distance_m = absorb_distance_m;
            try {
              p.space.prior = spaceStateFromString(prior);
            } catch (const planar_grid::Exception& e) {
@@ -346,7 +352,8 @@ Maps are not copied (copy.copy raises); pickling goes through the map file forma
          py::arg("clear_non_planar") = d.clear_non_planar,
          py::arg("clear_planar") = d.clear_planar,
          py::arg("planes_replace_non_planar") = d.planes_replace_non_planar,
-         py::arg("planes_absorb_overlapping") = d.planes_absorb_overlapping)
+         py::arg("planes_absorb_overlapping") = d.planes_absorb_overlapping,
+         py::arg("absorb_distance_m") = d.surface.absorb_distance_m)
     .def_static(
       "load",
       [](const py::object& path) {
@@ -589,8 +596,8 @@ ValueError
 planar_grid.Error
     When the maps' resolution_m, prior or any surface parameter (thickness_m,
     plane_merge_angle_rad, plane_merge_distance_m, occupancy_thres, feature_distance_m,
-    close_gaps_cells, merge_rule, cover_density) differ, naming them; or when ``other``
-    is this map. The map is then unchanged.
+    close_gaps_cells, merge_rule, cover_density, absorb_distance_m) differ, naming
+    them; or when ``other`` is this map. The map is then unchanged.
 )doc")
     .def(
       "integrate_surface",

@@ -291,7 +291,7 @@ def test_the_map_defaults_are_the_pipelines_map_integration_defaults():
             assert defaults[key] == value, key
         else:
             assert float(defaults[key]) == pytest.approx(value), key
-    assert len(params) == 16
+    assert len(params) == 17
     # A configuration's map_integration keys give the tool's map.
     m = pg.PlanarGridMap(plane_merge_distance_m=0.2, merge_rule="density",
                          cover_density=0.7, planes_absorb_overlapping=False)

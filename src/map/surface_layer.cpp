@@ -43,6 +43,8 @@ validate(const SurfaceLayer::Params& p)
     bad("merge_rule (must be paper, min_rectangles or density)");
   if (!(p.cover_density >= 0.5 && p.cover_density <= 1.0))
     bad("cover_density (must be a share in [0.5, 1])");
+  if (!(p.absorb_distance_m >= 0.0) || !std::isfinite(p.absorb_distance_m))
+    bad("absorb_distance_m (must be finite and >= 0 m)");
 }
 
 } // namespace surface_layer_detail

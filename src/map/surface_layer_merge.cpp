@@ -46,6 +46,7 @@ checkSameParams(const SurfaceLayer::Params& a, const SurfaceLayer::Params& b)
   add(difference("close_gaps_cells", a.close_gaps_cells, b.close_gaps_cells, "cells"));
   add(difference("merge_rule", toString(a.merge_rule), toString(b.merge_rule), ""));
   add(difference("cover_density", a.cover_density, b.cover_density, ""));
+  add(difference("absorb_distance_m", a.absorb_distance_m, b.absorb_distance_m, "m"));
   if (!differences.empty())
     throw Exception("SurfaceLayer::merge: the layers' parameters must be equal, but "
                     + differences);

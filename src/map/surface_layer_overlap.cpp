@@ -29,6 +29,17 @@ boundsMeet(const PlanarCuboid& a, const PlanarCuboid& b, float grow)
          && ((b_lo.array() - grow) <= (a_hi.array() + grow)).all();
 }
 
+/** \brief True when \a point lies in \a c grown by \a lateral (meters) along its face
+ * axes and by \a along (meters) along its normal. */
+bool
+holds(const PlanarCuboid& c, const Eigen::Vector3f& point, float lateral, float along)
+{
+  const Eigen::Vector3f d = point - c.centre;
+  return std::abs(d.dot(c.horizontal_axis)) <= 0.5f * c.width_m + lateral
+         && std::abs(d.dot(c.verticalAxis())) <= 0.5f * c.height_m + lateral
+         && std::abs(d.dot(c.normal)) <= 0.5f * c.thickness_m + along;
+}
+
 } // namespace
 
 std::size_t
@@ -40,6 +51,10 @@ SurfaceLayer::absorbOverlappingPlaneCells()
   const double r = params_.resolution_m;
   const double inv_r = 1.0 / r;
   const auto half_cell = static_cast<float>(0.5 * r);
+  // along the normal of a parallel plane: one surface seen at another depth
+  const float along_parallel =
+    std::max(half_cell, static_cast<float>(params_.absorb_distance_m));
+  const auto cos_parallel = static_cast<float>(std::cos(params_.plane_merge_angle_rad));
   const auto bin = static_cast<float>(8.0 * r);
   const auto thickness = static_cast<float>(params_.thickness_m);
   // The planes changed since the covers were last built (this frame's): only a
@@ -81,17 +96,18 @@ SurfaceLayer::absorbOverlappingPlaneCells()
       if (planar[k].plane_id == planar[k - 1].plane_id)
         rect_index[k] = rect_index[k - 1] + 1;
     // Candidate pairs (rectangle x, cuboid y of a stronger plane) whose bounds, grown
-    // by half a cell, meet and one of whose planes changed: one sweep over the cuboids'
-    // bins (8 cells), the cuboids spanning too many bins paired with all.
+    // by half a cell or absorb_distance_m, meet and one of whose planes changed: one
+    // sweep over the cuboids' bins (8 cells), the cuboids spanning too many bins paired
+    // with all.
     std::vector<BinEntry> bins;
     std::vector<std::uint32_t> large;
-    binCuboids(planar, half_cell, bin, bins, large);
+    binCuboids(planar, along_parallel, bin, bins, large);
     std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
     const auto pair = [&](std::uint32_t x, std::uint32_t y) {
       const auto a = static_cast<std::size_t>(planar[x].plane_id);
       const auto b = static_cast<std::size_t>(planar[y].plane_id);
       if (a != b && (changed[a] || changed[b]) && stronger(b, a)
-          && boundsMeet(planar[x], planar[y], half_cell))
+          && boundsMeet(planar[x], planar[y], along_parallel))
         pairs.emplace_back(x, y);
     };
     // (a bin without a cuboid of a changed plane has no pair)
@@ -126,7 +142,8 @@ SurfaceLayer::absorbOverlappingPlaneCells()
 
     // 1. Per plane, the observed cells of its rectangles that lie wholly on stronger
     //    planes (each cell's face centre and corners within half a cell of one stronger
-    //    plane's cuboids), and those planes.
+    //    plane's cuboids, or within absorb_distance_m along the normal of a parallel
+    //    one), and those planes.
     struct Move {
       std::uint64_t key;
       std::uint32_t to;
@@ -154,7 +171,16 @@ SurfaceLayer::absorbOverlappingPlaneCells()
       struct Landing {
         int plane;
         Eigen::Vector3f face;
+        bool parallel;
       };
+      const auto parallelTo = [&](int b) {
+        return std::abs(
+                 impl.planes[static_cast<std::size_t>(b)].normal.dot(plane.normal))
+               >= cos_parallel;
+      };
+      const bool any_parallel =
+        std::any_of(candidates.begin(), candidates.end(),
+                    [&](std::uint32_t e) { return parallelTo(planar[e].plane_id); });
       const auto lyingOn = [&](std::int32_t i, std::int32_t j) -> Landing {
         const PlanarCuboid cell =
           rectCuboid(plane, frame, placement, RasterRect{i, i + 1, j, j + 1, 0.5f, 0},
@@ -170,20 +196,22 @@ SurfaceLayer::absorbOverlappingPlaneCells()
           while (end < candidates.size() && planar[candidates[end]].plane_id == b)
             ++end;
           bool all = true;
+          const bool parallel = parallelTo(b);
           for (const auto& q : points) {
             bool held = false;
             for (std::size_t e = c; e < end && !held; ++e)
-              held = planar[candidates[e]].contains(q, half_cell);
+              held = holds(planar[candidates[e]], q, half_cell,
+                           parallel ? along_parallel : half_cell);
             if (!held) {
               all = false;
               break;
             }
           }
           if (all)
-            return {b, face};
+            return {b, face, parallel};
           c = end;
         }
-        return {-1, face};
+        return {-1, face, false};
       };
       const auto observed = [&plane](std::int32_t i, std::int32_t j) {
         return plane.raster.contains(rasterCellKey(i, j));
@@ -222,10 +250,12 @@ SurfaceLayer::absorbOverlappingPlaneCells()
                             return observed(i, j) && lyingOn(i, j).plane < 0;
                           });
       };
-      if (!lineMoves(true, oj0) && !lineMoves(true, oj1 - 1) && !lineMoves(false, oi0)
-          && !lineMoves(false, oi1 - 1))
+      // (cells moving to parallel planes may also be a rectangle inside: see below)
+      if (!any_parallel && !lineMoves(true, oj0) && !lineMoves(true, oj1 - 1)
+          && !lineMoves(false, oi0) && !lineMoves(false, oi1 - 1))
         continue;
       rect_moves.clear();
+      bool all_parallel = true;
       // the bounds of the observed cells that stay
       std::int32_t ki0 = oi1, ki1 = oi0, kj0 = oj1, kj1 = oj0;
       for (std::int32_t j = oj0; j < oj1; ++j)
@@ -234,6 +264,7 @@ SurfaceLayer::absorbOverlappingPlaneCells()
             continue;
           const Landing landing = lyingOn(i, j);
           if (landing.plane >= 0) {
+            all_parallel = all_parallel && landing.parallel;
             rect_moves.push_back(Move{rasterCellKey(i, j),
                                       static_cast<std::uint32_t>(landing.plane),
                                       landing.face, i, j});
@@ -251,7 +282,25 @@ SurfaceLayer::absorbOverlappingPlaneCells()
         std::none_of(rect_moves.begin(), rect_moves.end(), [&](const Move& mv) {
           return mv.i >= ki0 && mv.i < ki1 && mv.j >= kj0 && mv.j < kj1;
         });
-      if (rest_is_rectangle)
+      // Cells moving to parallel planes, where two views of one surface overlap, also
+      // move when they are every observed cell within their own bounds: the overlap
+      // of two rectangles is one rectangle, and what stays is at most four.
+      bool inner_rectangle = false;
+      if (!rest_is_rectangle && all_parallel && !rect_moves.empty()) {
+        std::int32_t mi0 = oi1, mi1 = oi0, mj0 = oj1, mj1 = oj0;
+        for (const Move& mv : rect_moves) {
+          mi0 = std::min(mi0, mv.i);
+          mi1 = std::max(mi1, mv.i + 1);
+          mj0 = std::min(mj0, mv.j);
+          mj1 = std::max(mj1, mv.j + 1);
+        }
+        std::size_t inside = 0;
+        for (std::int32_t j = mj0; j < mj1; ++j)
+          for (std::int32_t i = mi0; i < mi1; ++i)
+            inside += observed(i, j) ? 1 : 0;
+        inner_rectangle = inside == rect_moves.size();
+      }
+      if (rest_is_rectangle || inner_rectangle)
         moves[a].insert(moves[a].end(), rect_moves.begin(), rect_moves.end());
     }
 

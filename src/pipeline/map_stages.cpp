@@ -244,8 +244,14 @@ mapIntegrationInfo()
     ParamSpec::flag("planes_absorb_overlapping", d.planes_absorb_overlapping,
                     "Move a map plane's rectangles lying on a plane with more "
                     "evidence (every cell's face within half a cell of its planar "
-                    "cuboids) to that plane: a surface found as planes a few degrees "
-                    "apart is covered once."),
+                    "cuboids, or within absorb_distance_m along the normal of a "
+                    "parallel one) to that plane: a surface found as planes a few "
+                    "degrees or decimetres apart is covered once."),
+    ParamSpec::real("absorb_distance_m", d.surface.absorb_distance_m, 0.0, 10.0, "m",
+                    "planes_absorb_overlapping: largest distance along a stronger "
+                    "parallel plane's normal at which a plane's cells are that "
+                    "surface seen at another depth (about twice eq. 4's depth "
+                    "error bound)."),
     ParamSpec::choice("sensor_model", "auto", {"auto", "pinhole", "rays"},
                       "How the explicit space layer sees a frame: pinhole = the "
                       "disparity image's camera (stereo), the depth image's camera "
@@ -285,6 +291,7 @@ mapIntegrationInfo()
     p.surface.close_gaps_cells = v.getInt("close_gaps_cells");
     p.surface.merge_rule = surfaceMergeRuleFromString(v.getChoice("merge_rule"));
     p.surface.cover_density = v.getDouble("cover_density");
+    p.surface.absorb_distance_m = v.getDouble("absorb_distance_m");
     p.clear_non_planar = v.getBool("clear_non_planar");
     p.clear_planar = v.getBool("clear_planar");
     p.planes_replace_non_planar = v.getBool("planes_replace_non_planar");

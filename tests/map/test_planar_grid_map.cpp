@@ -1090,6 +1090,89 @@ TEST_F(PlanarGridMapTest, PlanesKeepTheRectanglesWhoseMiddleAloneLiesOnAStronger
   EXPECT_EQ(rectangles, 1u);
 }
 
+TEST_F(PlanarGridMapTest, ParallelViewsOfOneWallWithinTheAbsorbDistanceJoinIt)
+{
+  // The 4 m x 2 m wall on z = 5 (x in [-2, 2], y in [-1, 1], normal -z, its cuboid
+  // z in [5, 5.1]) and, each in a map of its own, a patch parallel to it seen
+  // before it, as a far view of the same wall gives it. Each patch is a map plane of
+  // its own (its evidence 0.3 m or more from the wall's: beyond
+  // plane_merge_distance_m). With absorb_distance_m 0.5:
+  // - inside: 2 m x 1 m at x = 0, 0.4 m before the wall: every cell lies on the
+  //   wall, the patch's plane goes and its 8 features join the wall;
+  // - wider: 6 m x 0.6 m (x in [-3, 3]), 0.4 m before: the 4 m over the wall join
+  //   it, the two 1 m ends stay (1.2 m^2, two rectangles);
+  // - far: the "inside" patch 0.8 m before the wall: stays;
+  // - and the "inside" patch with absorb_distance_m 0 (versions before it) stays.
+  const PlanarCuboid wall =
+    wallCuboid(Eigen::Vector3f(0.0f, 0.0f, 5.0f), -Eigen::Vector3f::UnitZ(),
+               Eigen::Vector3f::UnitX(), 4.0f, 2.0f, 0);
+  struct Case {
+    const char* name;
+    float before_m, width_m, height_m, absorb_distance_m;
+    bool joins;
+    double kept_area_m2;
+    std::size_t kept_cuboids;
+  };
+  const std::array<Case, 4> cases{{{"inside", 0.4f, 2.0f, 1.0f, 0.5f, true, 0.0, 0},
+                                   {"wider", 0.4f, 6.0f, 0.6f, 0.5f, true, 1.2, 2},
+                                   {"far", 0.8f, 2.0f, 1.0f, 0.5f, false, 2.0, 1},
+                                   {"off", 0.4f, 2.0f, 1.0f, 0.0f, false, 2.0, 1}}};
+  for (const Case& c : cases)
+    for (const bool wall_first : {true, false}) {
+      SCOPED_TRACE(std::string(c.name)
+                   + (wall_first ? ", wall first" : ", patch first"));
+      const PlanarCuboid patch = tiltedPatch(
+        Eigen::Vector3f(0.0f, 0.0f, 5.0f - c.before_m), 0.0f, c.width_m, c.height_m, 0);
+      // 8 features on the patch's face, within 1 m of its centre along x
+      pcl::PointCloud<pcl::PointXYZ> features;
+      for (int a = -2; a <= 1; ++a)
+        for (int b = -1; b <= 0; ++b) {
+          const Eigen::Vector3f q =
+            patch.faceCentre()
+            + Eigen::Vector3f(0.25f * static_cast<float>(a) + 0.125f,
+                              0.2f * static_cast<float>(b) + 0.1f, 0.0f);
+          features.push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
+        }
+      const std::vector<float> probabilities(features.size(), 0.9f);
+      PlanarGridMap::Params p = params();
+      p.surface.absorb_distance_m = c.absorb_distance_m;
+      PlanarGridMap map(p);
+      const auto integrateWall = [&] {
+        map.integrateSurface(PlanarCuboids{wall}, PlaneModels{planeOf(wall)},
+                             pcl::PointCloud<pcl::PointXYZ>(), {});
+      };
+      if (wall_first)
+        integrateWall();
+      map.integrateSurface(PlanarCuboids{patch}, PlaneModels{planeOf(patch)}, features,
+                           probabilities);
+      if (!wall_first)
+        integrateWall();
+      std::size_t wall_cuboids = 0, patch_cuboids = 0;
+      double wall_area = 0.0, patch_area = 0.0;
+      std::uint64_t wall_features = 0;
+      for (const auto& cuboid : map.getSurfaceLayer().getCuboids()) {
+        ASSERT_TRUE(cuboid.is_planar);
+        const float z = cuboid.faceCentre().z();
+        if (std::abs(z - 5.0f) < 0.01f) {
+          ++wall_cuboids;
+          wall_area += cuboid.faceArea();
+          wall_features += cuboid.point_count;
+        } else {
+          ASSERT_NEAR(z, 5.0f - c.before_m, 0.01f);
+          ++patch_cuboids;
+          patch_area += cuboid.faceArea();
+        }
+      }
+      EXPECT_EQ(map.getSurfaceLayer().getPlanes().size(), c.kept_cuboids > 0 ? 2u : 1u);
+      EXPECT_NEAR(wall_area, 8.0, 1e-3);
+      EXPECT_GE(wall_cuboids, 1u);
+      EXPECT_EQ(patch_cuboids, c.kept_cuboids);
+      EXPECT_NEAR(patch_area, c.kept_area_m2, 1e-3);
+      // the features over the wall join it; those of a kept patch stay on it
+      EXPECT_EQ(wall_features, c.joins ? features.size() : 0u);
+    }
+}
+
 TEST_F(PlanarGridMapTest, PlanesAbsorbExactlyThePatchesLyingOnThem)
 {
   // A 6 m x 4 m wall on z = 5 (the strongest plane) and 16 random patches on a grid

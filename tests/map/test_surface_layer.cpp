@@ -1023,9 +1023,9 @@ TEST(SurfaceLayer, RasterCellsAndEvidenceMatchBruteForce)
   ASSERT_EQ(layer.getCellCount(), oracle.size());
   std::vector<std::uint8_t> bytes;
   layer.serialize(bytes);
-  // header: magic, version, 6 f64 params, u32, u8, f64; u64 planes; the plane's 8 f32
-  // planes and 13 f64 moments; u64 cells
-  std::size_t at = 4 + 4 + 6 * 8 + 4 + 1 + 8 + 8 + 8 * 4 + 13 * 8;
+  // header: magic, version, 6 f64 params, u32, u8, f64, f64; u64 planes; the plane's
+  // 8 f32 planes and 13 f64 moments; u64 cells
+  std::size_t at = 4 + 4 + 6 * 8 + 4 + 1 + 8 + 8 + 8 + 8 * 4 + 13 * 8;
   std::uint64_t cells = 0;
   std::memcpy(&cells, bytes.data() + at, 8);
   at += 8;
@@ -1441,6 +1441,7 @@ TEST(SurfaceLayer, SerializeRoundTrip)
   SurfaceLayer::Params paper_params;
   paper_params.close_gaps_cells = 5;
   paper_params.merge_rule = planar_grid::SurfaceMergeRule::PAPER;
+  paper_params.absorb_distance_m = 0.0; // what versions 2 and 3 are read with
   SurfaceLayer paper(paper_params);
   for (unsigned seed = 11; seed <= 13; ++seed) {
     makeFrame(seed, cuboids, planes, features, probabilities);
@@ -1488,19 +1489,30 @@ TEST(SurfaceLayer, SerializeRoundTrip)
     EXPECT_NE(std::string(e.what()).find("version 1"), std::string::npos) << e.what();
   }
   EXPECT_TRUE(paper_copy == paper); // unchanged
-  // version 2 sections (no density rule: no cover_density after the merge_rule byte)
-  // still load, with the default cover_density
+  // version 2 sections (no density rule: no cover_density and no absorb_distance_m
+  // after the merge_rule byte) still load, with the default cover_density and
+  // absorb_distance_m 0; version 3 sections (no absorb_distance_m after the
+  // cover_density) with absorb_distance_m 0
   std::vector<std::uint8_t> paper_bytes;
   paper.serialize(paper_bytes);
   const std::size_t density_at = 4 + 4 + 6 * 8 + 4 + 1;
   std::vector<std::uint8_t> version_2(paper_bytes.begin(),
                                       paper_bytes.begin() + density_at);
-  version_2.insert(version_2.end(), paper_bytes.begin() + density_at + 8,
+  version_2.insert(version_2.end(), paper_bytes.begin() + density_at + 16,
                    paper_bytes.end());
   version_2[4] = 2;
   SurfaceLayer from_version_2(defaultParams());
   from_version_2.deserialize(version_2.data(), version_2.size());
   EXPECT_TRUE(from_version_2 == paper);
+  std::vector<std::uint8_t> version_3(paper_bytes.begin(),
+                                      paper_bytes.begin() + density_at + 8);
+  version_3.insert(version_3.end(), paper_bytes.begin() + density_at + 16,
+                   paper_bytes.end());
+  version_3[4] = 3;
+  SurfaceLayer from_version_3(defaultParams());
+  from_version_3.deserialize(version_3.data(), version_3.size());
+  EXPECT_TRUE(from_version_3 == paper);
+  EXPECT_EQ(from_version_3.getParams().absorb_distance_m, 0.0);
   // empty layer
   SurfaceLayer empty(defaultParams()), empty_copy(defaultParams());
   bytes.clear();

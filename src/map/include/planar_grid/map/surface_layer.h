@@ -174,6 +174,14 @@ public:
      * cells of the plane's raster (observed or filled), in [0.5, 1]; 1 gives exact
      * rectangles like the other rules. The paper's D_T. */
     double cover_density{0.9};
+    /** Largest distance along a stronger plane's normal at which the cells of a
+     * plane parallel to it (normals within plane_merge_angle_rad) are the same
+     * surface seen at another depth and move to it (absorbOverlappingPlaneCells()),
+     * meters; finite, >= 0; below resolution_m / 2 it is resolution_m / 2, the
+     * tolerance for planes that are not parallel. 0.5 m is about twice the stereo
+     * depth error (paper eq. 4) at the range the pipeline maps planes, 0.3 m:
+     * two views of one wall, each off by up to that error. */
+    double absorb_distance_m{0.5};
   };
 
   /** \brief Throws planar_grid::Exception for out-of-range parameters. */
@@ -275,12 +283,18 @@ public:
    * evidence (a larger moments weight; the lower index on a tie) to that plane: a
    * rectangle of a plane's cover moves when every observed raster cell in it has its
    * face centre and four face corners inside that one plane's cuboids grown by
-   * resolution_m / 2 on every side. Its cells' feature evidence joins the other
+   * resolution_m / 2 on every side; for a plane parallel to the other (normals
+   * within plane_merge_angle_rad), within absorb_distance_m of those cuboids along
+   * their normal (and resolution_m / 2 along their faces). Its cells' feature
+   * evidence joins the other
    * plane's cells that hold their face centres (observed there), and they leave their
    * plane; a plane left without cells is removed (later planes' indices shift down).
    * Of a rectangle reaching past the other planes' cuboids, the cells lying on them
    * move when the cells that stay keep one rectangle (none of the moved cells within
-   * their bounds: full rows or columns at its ends); else it stays whole. Where frames
+   * their bounds: full rows or columns at its ends), or, when they all move to
+   * parallel planes, when they are every observed cell within their own bounds (one
+   * rectangle, e.g. where two views of one wall overlap); else it stays whole. Where
+   * frames
    * found one surface as planes a few degrees apart (beyond plane_merge_angle_rad), or
    * planes crossing near their line, the surface is then covered once. The planes' fits
    * (moments) are not changed. \return the number of raster cells moved */
@@ -355,8 +369,9 @@ public:
                std::size_t& index) const;
 
   /** \brief Encodes the layer in a fixed little-endian layout: u32 magic "PGSL",
-   * u32 version 3, the six real Params as f64, close_gaps_cells as u32, merge_rule as
-   * u8 (0 paper, 1 min_rectangles, 2 density), cover_density as f64; u64 planes, per
+   * u32 version 4, the six real Params as f64, close_gaps_cells as u32, merge_rule as
+   * u8 (0 paper, 1 min_rectangles, 2 density), cover_density and absorb_distance_m as
+   * f64; u64 planes, per
    * plane: the raster frame's plane f32 a, b, c, d, the refined plane f32 a, b, c, d,
    * the evidence moments as f64 (anchor[3], weight, sum[3], sum of outer products xx,
    * xy, xz, yy, yz, zz), u64 cells, per cell i32 i, i32 j, f32 probability sum, u16
@@ -373,7 +388,9 @@ public:
    * sorted, finite moments of positive weight, a refined normal within
    * plane_merge_angle_rad of its frame's). Sections of version 1 (before the planes
    * carried their evidence) are rejected: run the mapping again. Version 2 (no
-   * density rule, no cover_density) is read with the default cover_density.
+   * density rule, no cover_density) is read with the default cover_density; versions
+   * 2 and 3 (no absorb_distance_m) with absorb_distance_m 0 (only the non-parallel
+   * tolerance, as they were written).
    * \throws planar_grid::IOError on truncated, trailing or inconsistent data or
    * another version (layer unchanged) */
   void deserialize(const std::uint8_t* data, std::size_t size);
