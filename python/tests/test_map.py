@@ -297,3 +297,17 @@ def test_the_map_defaults_are_the_pipelines_map_integration_defaults():
                          cover_density=0.7, planes_absorb_overlapping=False)
     assert m.params["planes_absorb_overlapping"] is False
     assert m.params["merge_rule"] == "density"
+
+
+def test_the_map_constructor_has_a_signature_with_the_params_defaults():
+    # inspect.signature (IDEs, help()) shows every keyword with the default a
+    # PlanarGridMap() really gets
+    import inspect
+    signature = inspect.signature(pg.PlanarGridMap)
+    params = pg.PlanarGridMap().params
+    assert sorted(signature.parameters) == sorted(params)
+    for name, parameter in signature.parameters.items():
+        assert parameter.kind is inspect.Parameter.KEYWORD_ONLY, name
+        assert parameter.default == params[name], name
+    # and a class with a positional argument
+    assert list(inspect.signature(pg.Mapper).parameters) == ["config"]
