@@ -7,6 +7,7 @@
 #include <planar_grid/core/output_transaction.h>
 #include <planar_grid/pipeline/memory_estimate.h>
 #include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/pipeline_config_writer.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 #include <planar_grid/pipeline/run_outputs.h>
 #include <planar_grid/pipeline/stage.h>
@@ -99,6 +100,11 @@ printHelp(const char* program)
     "                         process's limit where smaller (ulimit -v, ulimit -d)\n");
   print_info("    --list-stages        print every stage type with its parameters, "
              "defaults, units and ranges, then exit\n");
+  print_info(
+    "    --print-default-pipeline\n"
+    "                         print, as commented YAML, a pipeline: section with\n"
+    "                         every stage type and every parameter at its default\n"
+    "                         (the stage list of config/example.yaml), then exit\n");
   print_info(
     "    --log-level LEVEL    what is printed: error, warn, info (default) or\n"
     "                         debug (also PCL's debug output)\n");
@@ -486,6 +492,10 @@ run(int argc, char** argv)
   }
   if (find_switch(argc, argv, "--list-stages")) {
     listStages();
+    return EXIT_SUCCESS;
+  }
+  if (find_switch(argc, argv, "--print-default-pipeline")) {
+    std::cout << planar_grid::defaultPipelineYaml();
     return EXIT_SUCCESS;
   }
   // Every argument must be a known option: a typo is an error, not a default.

@@ -234,8 +234,9 @@ bindMap(py::module_& m)
   m.attr("SpaceState") = space_state;
 
   using Map = PlanarGridMap;
-  py::class_<Map, std::shared_ptr<Map>> cls(
-    m, "PlanarGridMap",
+  // The keyword arguments are map_integration's keys: their descriptions, defaults
+  // and ranges come from that stage's parameter table.
+  static const std::string doc =
     R"doc(The planar grid map: plane-aligned cuboids and explicit free / occupied / unknown space.
 
 planar_grid::PlanarGridMap (paper Sec. III-F, Fig. 5c, Sec. IV): a surface layer of
@@ -245,43 +246,15 @@ probability (occupied when >= occupancy_thres); elsewhere the voxel's state deci
 
 Parameters
 ----------
-resolution_m : float, optional
-    The minimum cell size (voxel edge and raster cell), meters, > 0 (default 0.1).
-max_range_m : float, optional
-    Largest depth integrated per view, meters, > 0 (default 25).
-surface_margin_m : float, optional
-    Half-thickness of a measured surface, meters, >= 0; 0 selects half a voxel diagonal.
-prior : {"unknown", "free"}, optional
-    State of space never observed (default "unknown").
-thickness_m : float, optional
-    Extrusion of planar cuboids behind their face, meters, > 0 (default 0.1).
-plane_merge_angle_rad : float, optional
-    Largest angle between one plane's normals in two frames, radians, in (0, pi/2).
-plane_merge_distance_m : float, optional
-    Largest RMS distance of faces to the merged plane, meters, > 0 (default 0.15).
-occupancy_thres : float, optional
-    Occupancy class boundary, probability in (0, 1) (default 0.5).
-feature_distance_m : float, optional
-    A feature counts for a planar cell within this distance of the plane, meters.
-close_gaps_cells : int, optional
-    Widest gap closed in a plane's raster, cells, in [0, 32] (default 2).
-merge_rule : {"min_rectangles", "paper", "density"}, optional
-    How a plane's cells are covered by rectangles (default "min_rectangles").
-cover_density : float, optional
-    With merge_rule "density": smallest share of a rectangle's cells that are the
-    plane's cells of its occupancy class, in [0.5, 1] (default 0.9, the paper's D_T).
-clear_non_planar : bool, optional
-    A view's free space removes the non-planar cells it sees through (default True).
-clear_planar : bool, optional
-    The same for planar cells (default False).
-planes_replace_non_planar : bool, optional
-    Non-planar cells lying on a map plane are removed (default True).
-planes_absorb_overlapping : bool, optional
-    A weaker plane's rectangles lying on a plane join it (default True).
-absorb_distance_m : float, optional
-    With planes_absorb_overlapping: the largest distance, meters, along a stronger
-    parallel plane's normal at which a plane's cells join it (default 0.5).
-
+)doc"
+    + stageParameterDocs(
+      "map_integration",
+      {"resolution_m", "max_range_m", "surface_margin_m", "prior", "thickness_m",
+       "plane_merge_angle_rad", "plane_merge_distance_m", "occupancy_thres",
+       "feature_distance_m", "close_gaps_cells", "merge_rule", "cover_density",
+       "clear_non_planar", "clear_planar", "planes_replace_non_planar",
+       "planes_absorb_overlapping", "absorb_distance_m"})
+    + R"doc(
 The defaults are the pipeline's map_integration defaults (one Params struct); a map
 built here with the keys of a configuration's map_integration stage matches the tool's.
 
@@ -293,7 +266,8 @@ ValueError
 Notes
 -----
 Maps are not copied (copy.copy raises); pickling goes through the map file format.
-)doc");
+)doc";
+  py::class_<Map, std::shared_ptr<Map>> cls(m, "PlanarGridMap", doc.c_str());
   const Map::Params d;
   cls
     .def(py::init([](double resolution_m, double max_range_m, double surface_margin_m,

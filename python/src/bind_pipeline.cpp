@@ -11,6 +11,7 @@
 
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <optional>
@@ -31,6 +32,48 @@ struct PipelineResult {
 };
 
 } // namespace
+
+std::string
+stageParameterDocs(const std::string& stage_type, const std::vector<std::string>& keys)
+{
+  const StageInfo* info = findStage(stage_type);
+  if (!info)
+    throw Exception("stageParameterDocs: unknown stage type '" + stage_type + "'");
+  std::string out;
+  for (const std::string& key : keys) {
+    const auto spec = std::find_if(info->params.begin(), info->params.end(),
+                                   [&key](const ParamSpec& p) { return p.key == key; });
+    if (spec == info->params.end())
+      throw Exception("stageParameterDocs: stage '" + stage_type + "' has no '" + key
+                      + "'");
+    std::string type;
+    std::string text =
+      spec->description + " Default "
+      + (spec->type == ParamSpec::Type::CHOICE ? "\"" + spec->default_value + "\""
+                                               : spec->default_value);
+    switch (spec->type) {
+      case ParamSpec::Type::DOUBLE:
+      case ParamSpec::Type::INT:
+        type = spec->type == ParamSpec::Type::DOUBLE ? "float" : "int";
+        text += (spec->unit.empty() ? "" : " " + spec->unit)
+                + "; a configuration accepts [" + formatParamNumber(spec->min) + ", "
+                + formatParamNumber(spec->max) + "].";
+        break;
+      case ParamSpec::Type::BOOL:
+        type = "bool";
+        text += ".";
+        break;
+      case ParamSpec::Type::CHOICE:
+        for (const auto& c : spec->choices)
+          type += (type.empty() ? "{\"" : ", \"") + c + "\"";
+        type += "}";
+        text += ".";
+        break;
+    }
+    out += key + " : " + type + ", optional\n" + wrapText(text, 4, 88);
+  }
+  return out;
+}
 
 void
 bindPipeline(py::module_& m)
@@ -366,6 +409,72 @@ Returns
 dict
     Stage type -> its description and parameters (defaults, units, ranges), as
     ``planar_grid_pipeline --list-stages`` prints them.
+)doc");
+
+  m.def(
+    "stage_parameters",
+    [](const std::string& type) {
+      const StageInfo* info = findStage(type);
+      if (!info)
+        throw Exception("stage_parameters: unknown stage type '" + type
+                        + "'; known types: " + knownStageTypes());
+      const ParamValues defaults = defaultParams(info->params);
+      py::list out;
+      for (const ParamSpec& spec : info->params) {
+        py::dict row;
+        row["key"] = spec.key;
+        const bool ranged =
+          spec.type == ParamSpec::Type::DOUBLE || spec.type == ParamSpec::Type::INT;
+        switch (spec.type) {
+          case ParamSpec::Type::DOUBLE:
+            row["type"] = "float";
+            row["default"] = defaults.getDouble(spec.key);
+            break;
+          case ParamSpec::Type::INT:
+            row["type"] = "int";
+            row["default"] = defaults.getInt(spec.key);
+            break;
+          case ParamSpec::Type::BOOL:
+            row["type"] = "bool";
+            row["default"] = defaults.getBool(spec.key);
+            break;
+          case ParamSpec::Type::CHOICE:
+            row["type"] = "choice";
+            row["default"] = defaults.getChoice(spec.key);
+            break;
+        }
+        row["min"] = ranged ? py::object(py::float_(spec.min)) : py::none();
+        row["max"] = ranged ? py::object(py::float_(spec.max)) : py::none();
+        row["unit"] = spec.unit;
+        row["choices"] = spec.choices;
+        row["description"] = spec.description;
+        out.append(row);
+      }
+      return out;
+    },
+    py::arg("stage_type"),
+    R"doc(The parameter table of one stage type: the one declaration from which the
+configuration check, ``planar_grid_pipeline --list-stages``, ``stage_types()`` and the
+stage list of config/example.yaml are made.
+
+Parameters
+----------
+stage_type : str
+    A stage type, e.g. ``"voxel_grid"`` (the keys of ``stage_types()``).
+
+Returns
+-------
+list of dict
+    One dict per parameter, in the table's order: ``key`` (the YAML key, ending in its
+    unit), ``type`` ('float', 'int', 'bool' or 'choice'), ``default`` (of that type),
+    ``min`` and ``max`` (inclusive bounds in the unit; None for bool and choice),
+    ``unit`` ('' for counts and flags), ``choices`` (the allowed names of a choice)
+    and ``description``.
+
+Raises
+------
+planar_grid.Error
+    For an unknown stage type (the message lists the known ones).
 )doc");
 }
 

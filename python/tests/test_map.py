@@ -272,6 +272,17 @@ def test_one_point_queries_take_a_3_vector_and_give_its_value(scanned_map):
         m.get_state([1.0, 2.0])
 
 
+def test_the_map_documents_its_keywords_from_the_stage_table():
+    # The keyword arguments are map_integration's keys, documented from its table.
+    doc = " ".join(pg.PlanarGridMap.__doc__.split())
+    keys = pg.PlanarGridMap().params
+    rows = [row for row in pg.stage_parameters("map_integration") if row["key"] in keys]
+    assert len(rows) == len(keys) == 17
+    for row in rows:
+        assert f"{row['key']} : " in doc, row["key"]
+        assert " ".join(row["description"].split()) in doc, row["key"]
+
+
 def test_the_map_defaults_are_the_pipelines_map_integration_defaults():
     # One Params struct: every key PlanarGridMap() takes has map_integration's default,
     # read from the stage table that --list-stages prints.

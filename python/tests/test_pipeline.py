@@ -136,6 +136,24 @@ def test_stage_types_list_the_registry():
     assert "distance_threshold_m" in stages["multi_plane_segmentation"]
 
 
+def test_stage_parameters_give_the_table():
+    rows = {row["key"]: row for row in pg.stage_parameters("voxel_grid")}
+    assert set(rows) == {"leaf_size_m", "min_points_per_voxel"}
+    leaf = rows["leaf_size_m"]
+    assert leaf["type"] == "float" and leaf["unit"] == "m"
+    assert leaf["default"] == pytest.approx(0.05)
+    assert leaf["min"] <= leaf["default"] <= leaf["max"]
+    assert rows["min_points_per_voxel"]["default"] == 1
+    method = {row["key"]: row for row in
+              pg.stage_parameters("multi_plane_segmentation")}["method"]
+    assert method["default"] in method["choices"] and method["min"] is None
+    for stage in pg.stage_types():
+        for row in pg.stage_parameters(stage):
+            assert row["description"] and row["key"] in pg.stage_types()[stage]
+    with pytest.raises(pg.Error, match="voxel_grid"):
+        pg.stage_parameters("voxel_grd")
+
+
 def _stereo_config(data_dir, path, frames):
     karlsruhe = data_dir / "karlsruhe_2010_03_09_drive_0023"
     path.write_text(

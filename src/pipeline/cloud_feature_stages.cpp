@@ -36,6 +36,19 @@ public:
 
   bool isFrameLocal() const override { return true; }
 
+  void getParameters(ParamValues& v) const override
+  {
+    v.set("source", std::string(source_ == FeatureSource::IMAGE    ? "image"
+                                : source_ == FeatureSource::POINTS ? "points"
+                                                                   : "auto"));
+    v.set("feature_type", featureTypeName(params_.feature_type));
+    v.set("max_features", params_.max_features);
+    v.set("bucket_size_px", params_.bucket_size_px);
+    v.set("fast_threshold", params_.fast_threshold);
+    v.set("max_range_m", params_.max_range_m);
+    v.set("point_spacing_m", point_spacing_m_);
+  }
+
   void process(Frame& frame, PipelineState& /*state*/) override
   {
     frame.features = StereoFeatures();
@@ -135,13 +148,15 @@ cloudFeaturesInfo()
                       "when a frame has none); points: the cloud's points; auto: "
                       "image when the frame's cloud is organized and carries colour or "
                       "intensity, points otherwise."),
-    ParamSpec::choice("feature_type", "orb_grid", {"sift", "orb", "orb_grid"},
+    ParamSpec::choice("feature_type", "orb_grid", featureTypeNames(),
                       "Detector and descriptor on the image: orb_grid (FAST corners "
                       "bucketed over a grid, upright ORB), orb (OpenCV defaults), "
-                      "sift."),
+                      "sift. The stage's value; the matcher defaults to sift."),
     ParamSpec::integer("max_features", 1000, 10, 100000, "",
                        "Most key points detected on the image (orb_grid: spread "
-                       "evenly over the grid cells)."),
+                       "evenly over the grid cells). The stage's value; the matcher "
+                       "defaults to "
+                         + std::to_string(f.max_features) + "."),
     ParamSpec::integer("bucket_size_px", f.bucket_size_px, 8, 1024, "px",
                        "orb_grid: side of the square grid cells."),
     ParamSpec::integer("fast_threshold", f.fast_threshold, 1, 255, "grey levels",

@@ -29,6 +29,12 @@ public:
 
   bool isFrameLocal() const override { return true; }
 
+  void getParameters(ParamValues& v) const override
+  {
+    v.set("leaf_size_m", static_cast<double>(leaf_size_m_));
+    v.set("min_points_per_voxel", static_cast<int>(min_points_per_voxel_));
+  }
+
   void process(Frame& frame, PipelineState& /*state*/) override
   {
     if (!hasPoints(frame, "voxel_grid"))
@@ -54,6 +60,12 @@ public:
   {}
 
   bool isFrameLocal() const override { return true; }
+
+  void getParameters(ParamValues& v) const override
+  {
+    v.set("mean_k", mean_k_);
+    v.set("stddev_mul_thresh", stddev_mul_thresh_);
+  }
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
@@ -86,6 +98,15 @@ public:
   {}
 
   bool isFrameLocal() const override { return true; }
+
+  void getParameters(ParamValues& v) const override
+  {
+    // max_plane_depth_error_m is held raised to max_depth_error_m, so it is not
+    // read back.
+    v.set("disparity_error_px", disparity_error_px_);
+    v.set("max_depth_error_m", max_depth_error_m_);
+    v.set("far_levels", far_levels_);
+  }
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
@@ -230,10 +251,13 @@ voxelGridInfo()
     "One centroid per occupied voxel of the working cloud: pcl::VoxelGrid's output "
     "(FastVoxelGrid).";
   info.params = {
-    ParamSpec::real("leaf_size_m", 0.05, 0.001, 10.0, "m", "Voxel edge length.")
+    ParamSpec::real("leaf_size_m", 0.05, 0.001, 10.0, "m",
+                    "Voxel edge length (the pipeline's value; the filter class has "
+                    "none that fits a stereo cloud).")
       .scalesWithCellSize(),
     ParamSpec::integer("min_points_per_voxel", 1, 1, 100000, "",
-                       "Voxels with fewer points are dropped."),
+                       "Voxels with fewer points are dropped (1 keeps every voxel, as "
+                       "the class's 0 does)."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     return std::make_unique<VoxelGridStage>(v.getDouble("leaf_size_m"),
@@ -253,9 +277,12 @@ statisticalOutlierRemovalInfo()
     "nearest neighbours exceeds the global mean by more than stddev_mul_thresh "
     "standard deviations.";
   info.params = {
-    ParamSpec::integer("mean_k", 20, 1, 1000, "", "Neighbours per point."),
+    ParamSpec::integer("mean_k", 20, 1, 1000, "",
+                       "Neighbours per point (the pipeline's value; the class keeps "
+                       "pcl::StatisticalOutlierRemoval's 1)."),
     ParamSpec::real("stddev_mul_thresh", 2.0, 0.0, 100.0, "",
-                    "Standard-deviation multiplier of the distance threshold."),
+                    "Standard-deviation multiplier of the distance threshold (the "
+                    "pipeline's value; the class keeps PCL's 0)."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     return std::make_unique<StatisticalOutlierRemovalStage>(

@@ -46,6 +46,36 @@ public:
     state.map = std::make_shared<PlanarGridMap>(params_);
   }
 
+  void getParameters(ParamValues& v) const override
+  {
+    const PlanarGridMap::Params& p = params_;
+    v.set("resolution_m", p.resolution_m);
+    v.set("max_range_m", p.space.max_range_m);
+    v.set("surface_margin_m", p.space.surface_margin_m);
+    v.set("prior", toString(p.space.prior));
+    v.set("thickness_m", p.surface.thickness_m);
+    v.set("plane_merge_angle_rad", p.surface.plane_merge_angle_rad);
+    v.set("plane_merge_distance_m", p.surface.plane_merge_distance_m);
+    v.set("close_gaps_cells", p.surface.close_gaps_cells);
+    v.set("merge_rule", toString(p.surface.merge_rule));
+    v.set("cover_density", p.surface.cover_density);
+    v.set("absorb_distance_m", p.surface.absorb_distance_m);
+    v.set("occupancy_thres", p.surface.occupancy_thres);
+    v.set("feature_distance_m", p.surface.feature_distance_m);
+    v.set("clear_non_planar", p.clear_non_planar);
+    v.set("clear_planar", p.clear_planar);
+    v.set("planes_replace_non_planar", p.planes_replace_non_planar);
+    v.set("planes_absorb_overlapping", p.planes_absorb_overlapping);
+    v.set("sensor_model",
+          std::string(sensor_model_ == SensorModel::RAYS      ? "rays"
+                      : sensor_model_ == SensorModel::PINHOLE ? "pinhole"
+                                                              : "auto"));
+    v.set("depth_width_px", depth_width_px_);
+    v.set("depth_height_px", depth_height_px_);
+    v.set("depth_focal_length_px", static_cast<double>(depth_focal_length_px_));
+    v.set("window_radius_m", window_radius_m_);
+  }
+
   void process(Frame& frame, PipelineState& state) override
   {
     if (!frame.has_pose)

@@ -256,6 +256,33 @@ public:
       motion_model_.addMotion(motion);
   }
 
+  void getParameters(ParamValues& v) const override
+  {
+    v.set("update_rule", toString(filter_.getUpdateRule()));
+    v.set("range_error_model",
+          std::string(error_model_ == ErrorModel::STEREO            ? "stereo"
+                      : error_model_ == ErrorModel::DEPTH_QUADRATIC ? "depth_quadratic"
+                      : error_model_ == ErrorModel::RANGE           ? "range"
+                                                                    : "auto"));
+    v.set("disparity_error_px", filter_.getDisparityError());
+    v.set("depth_error_coefficient_per_m", filter_.getDepthErrorCoefficient());
+    v.set("range_error_m", filter_.getRangeError());
+    v.set("association_radius_m", filter_.getAssociationRadius());
+    v.set("neighbourhood_size_m", filter_.getNeighbourhoodSize());
+    v.set("clamping_thres_min", filter_.getClampingThresMin());
+    v.set("clamping_thres_max", filter_.getClampingThresMax());
+    v.set("occupancy_thres", filter_.getOccupancyThres());
+    v.set("kl_offset_nats", filter_.getKLOffset());
+    v.set("prob_hit", filter_.getProbHit());
+    v.set("prob_miss", filter_.getProbMiss());
+    v.set("match_ratio", matcher_.getParams().ratio);
+    v.set("search_radius_px", search_radius_px_);
+    v.set("max_hamming_distance_bits", max_hamming_distance_);
+    v.set("use_motion_likelihood", use_motion_likelihood_);
+    v.set("sigma_translation_m", motion_model_.getParams().sigma_translation_m);
+    v.set("sigma_rotation_rad", motion_model_.getParams().sigma_rotation_rad);
+  }
+
 private:
   static StereoOdometry::Params matchingParams(const ParamValues& v)
   {
@@ -312,7 +339,8 @@ klOccupancyFilterInfo()
   const KLDivergenceOccupancyFilter<pcl::PointXYZ> d;
   const ConstantVelocityMotionModel::Params md;
   info.params = {
-    ParamSpec::choice("update_rule", "kl_divergence", {"kl_divergence", "log_odds"},
+    ParamSpec::choice("update_rule", toString(d.getUpdateRule()),
+                      {"kl_divergence", "log_odds"},
                       "Update of a re-observed feature: eqs. 5-10 or OctoMap's "
                       "log-odds."),
     ParamSpec::choice("range_error_model", "auto",
@@ -332,7 +360,9 @@ klOccupancyFilterInfo()
                     "dr of eq. 4 (range): the sensor's range standard deviation."),
     ParamSpec::real("association_radius_m", 0.1, 0.001, 10.0, "m",
                     "Features without descriptors: a feature continues the nearest "
-                    "track within this distance in the world."),
+                    "track within this distance in the world (the pipeline's value; "
+                    "the class defaults to "
+                      + formatParamNumber(d.getAssociationRadius()) + " m)."),
     ParamSpec::real("neighbourhood_size_m", d.getNeighbourhoodSize(), 0.01, 100.0, "m",
                     "Cell over which r_bar of eq. 4 is averaged."),
     ParamSpec::real("clamping_thres_min", d.getClampingThresMin(), 0.001, 0.499,
@@ -347,7 +377,7 @@ klOccupancyFilterInfo()
                     "Log-odds rule: a hit (q >= 0.5)."),
     ParamSpec::real("prob_miss", d.getProbMiss(), 0.001, 0.499, "probability",
                     "Log-odds rule: a miss (q < 0.5)."),
-    ParamSpec::real("match_ratio", 0.8, 0.1, 1.0, "",
+    ParamSpec::real("match_ratio", StereoOdometry::Params().ratio, 0.1, 1.0, "",
                     "Lowe's ratio of the frame-to-frame descriptor matching."),
     ParamSpec::real("search_radius_px", 20.0, 0.0, 10000.0, "px",
                     "Frames with poses and a pinhole calibration: a previous feature "

@@ -16,7 +16,8 @@ public:
                       double initial_height_m,
                       double initial_pitch_rad) :
       odometry_(params, ConstantVelocityMotionModel::Params()),
-      reprojection_refinement_(reprojection_refinement)
+      reprojection_refinement_(reprojection_refinement),
+      initial_height_m_(initial_height_m), initial_pitch_rad_(initial_pitch_rad)
   {
     // The first camera, level along world +x at initial_height_m above the world origin
     // and pitched down by initial_pitch_rad: camera x right = -y, y down = -z, z
@@ -48,6 +49,26 @@ public:
 
   bool countsCloudPoints() const override { return false; }
 
+  void getParameters(ParamValues& v) const override
+  {
+    const StereoOdometry::Params& p = odometry_.getStereoOdometry().getParams();
+    v.set("ratio", p.ratio);
+    v.set("distance_threshold_m", p.distance_threshold_m);
+    v.set("reprojection_threshold_px", p.reprojection_threshold_px);
+    v.set("max_iterations", p.max_iterations);
+    v.set("min_inliers", p.min_inliers);
+    v.set("reprojection_refinement", reprojection_refinement_);
+    v.set("epipolar_refinement", p.epipolar_refinement);
+    v.set("epipolar_threshold_px", p.epipolar_threshold_px);
+    v.set("seed", static_cast<int>(p.seed));
+    v.set("estimate_disparity_offset", p.estimate_disparity_offset);
+    v.set("disparity_offset_px", p.disparity_offset_px);
+    v.set("disparity_offset_sigma_px", p.disparity_offset_sigma_px);
+    v.set("disparity_offset_memory", p.disparity_offset_memory);
+    v.set("initial_height_m", initial_height_m_);
+    v.set("initial_pitch_rad", initial_pitch_rad_);
+  }
+
   void counters(const Frame& /*frame*/,
                 std::vector<std::pair<std::string, double>>& values) const override
   {
@@ -77,6 +98,8 @@ public:
 private:
   VisualOdometry odometry_;
   bool reprojection_refinement_;
+  double initial_height_m_;
+  double initial_pitch_rad_;
   bool calibration_set_{false};
   Eigen::Isometry3d world_T_first_{Eigen::Isometry3d::Identity()};
   OdometryResult last_;

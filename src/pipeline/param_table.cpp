@@ -13,14 +13,20 @@
 
 namespace planar_grid {
 
+std::string
+formatParamNumber(double value)
+{
+  std::ostringstream out;
+  out << std::setprecision(10) << value;
+  return out.str();
+}
+
 namespace {
 
 std::string
 formatNumber(double value)
 {
-  std::ostringstream out;
-  out << std::setprecision(10) << value;
-  return out.str();
+  return formatParamNumber(value);
 }
 
 std::string

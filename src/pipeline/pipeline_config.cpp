@@ -466,13 +466,12 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
   return out;
 }
 
-/** The paper's minimum cell is one quantity: the cells' min_cell_size_m and the map's
- * resolution_m (and their thickness_m). A key the map stage leaves out takes the cuboid
- * stage's value; two values set apart are an error at the map stage's key. */
+/** Applies sharedStageParams(): a key the taking stage leaves out takes the other
+ * stage's value; two values set apart are an error at the taking stage's key. */
 void
-shareCellSize(const YamlReader& r,
-              const YAML::Node& stage_nodes,
-              std::vector<StageConfig>& stages)
+shareStageParams(const YamlReader& r,
+                 const YAML::Node& stage_nodes,
+                 std::vector<StageConfig>& stages)
 {
   const auto find = [&stages](const std::string& type) -> std::ptrdiff_t {
     for (std::size_t i = 0; i < stages.size(); ++i)
@@ -480,36 +479,36 @@ shareCellSize(const YamlReader& r,
         return static_cast<std::ptrdiff_t>(i);
     return -1;
   };
-  const std::ptrdiff_t cells = find("planar_cuboid_approximation");
-  const std::ptrdiff_t map = find("map_integration");
-  if (cells < 0 || map < 0)
-    return;
-  const YAML::Node cell_params = stage_nodes[static_cast<std::size_t>(cells)]["params"];
-  const YAML::Node map_params = stage_nodes[static_cast<std::size_t>(map)]["params"];
-  StageConfig& cell_stage = stages[static_cast<std::size_t>(cells)];
-  StageConfig& map_stage = stages[static_cast<std::size_t>(map)];
-  for (const auto& [cell_key, map_key] :
-       {std::pair<std::string, std::string>{"min_cell_size_m", "resolution_m"},
-        std::pair<std::string, std::string>{"thickness_m", "thickness_m"}}) {
-    const double cell_value = cell_stage.params.getDouble(cell_key);
-    const bool map_set = map_params && map_params.IsMap() && map_params[map_key];
-    if (!map_set) {
-      map_stage.params.set(map_key, cell_value);
+  for (const SharedStageParam& shared : sharedStageParams()) {
+    const std::ptrdiff_t from = find(shared.from_stage);
+    const std::ptrdiff_t to = find(shared.stage);
+    if (from < 0 || to < 0)
+      continue;
+    const YAML::Node from_params =
+      stage_nodes[static_cast<std::size_t>(from)]["params"];
+    const YAML::Node to_params = stage_nodes[static_cast<std::size_t>(to)]["params"];
+    StageConfig& from_stage = stages[static_cast<std::size_t>(from)];
+    StageConfig& to_stage = stages[static_cast<std::size_t>(to)];
+    const double from_value = from_stage.params.getDouble(shared.from_key);
+    const bool to_set = to_params && to_params.IsMap() && to_params[shared.key];
+    if (!to_set) {
+      to_stage.params.set(shared.key, from_value);
       continue;
     }
-    const double map_value = map_stage.params.getDouble(map_key);
-    if (std::abs(map_value - cell_value) > 1e-9 * std::max(1.0, std::abs(cell_value))) {
-      const bool cell_set = cell_params && cell_params.IsMap() && cell_params[cell_key];
+    const double to_value = to_stage.params.getDouble(shared.key);
+    if (std::abs(to_value - from_value) > 1e-9 * std::max(1.0, std::abs(from_value))) {
+      const bool from_set =
+        from_params && from_params.IsMap() && from_params[shared.from_key];
       r.fail(
-        map_params[map_key],
-        "map_integration: " + map_key + " " + map_stage.params.toString(map_key)
-          + " differs from planar_cuboid_approximation's " + cell_key + " "
-          + cell_stage.params.toString(cell_key)
-          + (cell_set
-               ? " (line " + std::to_string(cell_params[cell_key].Mark().line + 1) + ")"
+        to_params[shared.key],
+        shared.stage + ": " + shared.key + " " + to_stage.params.toString(shared.key)
+          + " differs from " + shared.from_stage + "'s " + shared.from_key + " "
+          + from_stage.params.toString(shared.from_key)
+          + (from_set
+               ? " (line "
+                   + std::to_string(from_params[shared.from_key].Mark().line + 1) + ")"
                : " (its default)")
-          + ": the map's raster and the cells share the paper's minimum cell; leave "
-            "the map's key out to take the cells' value");
+          + ": " + shared.reason);
     }
   }
 }
@@ -694,7 +693,7 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
     config.stages.push_back(std::move(sc));
   }
   checkDataFlow(r, stages, config);
-  shareCellSize(r, stages, config.stages);
+  shareStageParams(r, stages, config.stages);
 
   if (const YAML::Node output = root["output"])
     config.output = parseOutput(r, output, config.input);
@@ -861,6 +860,21 @@ loadPipelineConfig(const std::string& path, const std::vector<std::string>& over
   const std::string base =
     p.has_parent_path() ? p.parent_path().string() : std::string(".");
   return parsePipelineConfig(text, path, base, overrides);
+}
+
+const std::vector<SharedStageParam>&
+sharedStageParams()
+{
+  static const std::string reason =
+    "the map's raster and the cells share the paper's minimum cell; leave the map's "
+    "key out to take the cells' value";
+  static const std::vector<SharedStageParam> shared{
+    {"map_integration", "resolution_m", "planar_cuboid_approximation",
+     "min_cell_size_m", reason},
+    {"map_integration", "thickness_m", "planar_cuboid_approximation", "thickness_m",
+     reason},
+  };
+  return shared;
 }
 
 } // namespace planar_grid

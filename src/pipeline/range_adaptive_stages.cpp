@@ -31,6 +31,15 @@ public:
       terrain_max_rise_m_(static_cast<float>(v.getDouble("terrain_max_rise_m")))
   {}
 
+  void getParameters(ParamValues& v) const override
+  {
+    v.set("min_cell_size_m", min_cell_size_m_);
+    v.set("min_points_per_cell", static_cast<int>(min_points_per_cell_));
+    v.set("terrain_height_m", static_cast<double>(terrain_height_m_));
+    v.set("terrain_cell_m", terrain_cell_m_);
+    v.set("terrain_max_rise_m", static_cast<double>(terrain_max_rise_m_));
+  }
+
   void process(Frame& frame, PipelineState& /*state*/) override
   {
     far_points_ = terrain_points_ = cells_ = 0;

@@ -6,6 +6,7 @@
 #include <pcl/common/transforms.h>
 #include <pcl/console/print.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -18,6 +19,29 @@ namespace planar_grid {
 namespace stages {
 
 namespace {
+
+/** The YAML names of the sample consensus estimators, in SACMethod's order. */
+const std::vector<std::string>&
+sacMethodNames()
+{
+  static const std::vector<std::string> names{"ransac", "msac", "prosac"};
+  return names;
+}
+
+const std::string&
+sacMethodName(SACMethod method)
+{
+  return sacMethodNames()[static_cast<std::size_t>(method)];
+}
+
+SACMethod
+sacMethodFromName(const std::string& name)
+{
+  const auto& names = sacMethodNames();
+  const auto it = std::find(names.begin(), names.end(), name);
+  // The parser admits only the table's choices, which are these names.
+  return static_cast<SACMethod>(it == names.end() ? 0 : it - names.begin());
+}
 
 class MultiPlaneSegmentationStage : public Stage {
 public:
@@ -33,10 +57,7 @@ public:
     segmentation_.setMinSampleInliers(v.getInt("min_sample_inliers"));
     segmentation_.setMinRemainingFraction(v.getDouble("min_remaining_fraction"));
     segmentation_.setMaxIterations(v.getInt("max_iterations"));
-    const std::string& method = v.getChoice("method");
-    segmentation_.setMethodType(method == "msac"     ? SACMethod::MSAC
-                                : method == "prosac" ? SACMethod::PROSAC
-                                                     : SACMethod::RANSAC);
+    segmentation_.setMethodType(sacMethodFromName(v.getChoice("method")));
     segmentation_.setOptimizeCoefficients(v.getBool("optimize_coefficients"));
     segmentation_.setDenseHypothesis(v.getBool("dense_hypothesis"));
     segmentation_.setLocalOptimizationIterations(v.getInt("lo_iterations"));
@@ -125,6 +146,38 @@ public:
   }
 
   bool countsCloudPoints() const override { return false; }
+
+  void getParameters(ParamValues& v) const override
+  {
+    const auto& s = segmentation_;
+    v.set("distance_threshold_m", s.getDistanceThreshold());
+    v.set("depth_noise_disparity_px", depth_noise_disparity_px_);
+    v.set("sample_distance_threshold_m", s.getSampleDistanceThreshold());
+    v.set("max_planes", s.getMaxPlanes());
+    v.set("min_inliers", s.getMinInliers());
+    v.set("min_sample_inliers", s.getMinSampleInliers());
+    v.set("min_remaining_fraction", s.getMinRemainingFraction());
+    v.set("max_iterations", s.getMaxIterations());
+    v.set("method", sacMethodName(s.getMethodType()));
+    v.set("optimize_coefficients", s.getOptimizeCoefficients());
+    v.set("dense_hypothesis", s.getDenseHypothesis());
+    v.set("lo_iterations", s.getLocalOptimizationIterations());
+    v.set("merge_planes", s.getMergePlanes());
+    v.set("merge_angle_rad", s.getMergeAngleThreshold());
+    v.set("merge_distance_m", s.getMergeDistanceThreshold());
+    v.set("sample", std::string(use_features_ ? "features" : "cloud"));
+    v.set("seed", static_cast<int>(s.getSeed()));
+    v.set("max_visibility_conflict_ratio", s.getMaxVisibilityConflictRatio());
+    v.set("visibility_margin_m", s.getVisibilityMargin());
+    v.set("visibility_cell_m", s.getVisibilityCell());
+    v.set("min_sensor_distance_m", s.getMinSensorDistance());
+    v.set("min_cluster_size", s.getMinClusterSize());
+    v.set("cluster_cell_m", s.getClusterCell());
+    v.set("max_shell_ratio", s.getMaxShellRatio());
+    v.set("shell_width_m", s.getShellWidth());
+    v.set("count_inlier_only_points", s.getCountInlierOnlyPoints());
+    v.set("inlier_only_distance_threshold_m", s.getInlierOnlyDistanceThreshold());
+  }
 
   void counters(const Frame& frame,
                 std::vector<std::pair<std::string, double>>& values) const override
@@ -360,6 +413,16 @@ public:
     frame.planes.resize(kept);
   }
 
+  void getParameters(ParamValues& v) const override
+  {
+    v.set("eps_angle_rad", params_.eps_angle_rad);
+    v.set("min_sensor_height_m", params_.min_sensor_height_m);
+    v.set("terrain_max_slope_rad", params_.terrain_max_slope_rad);
+    v.set("terrain_max_step_m", params_.terrain_max_step_m);
+    v.set("terrain_height_m", params_.terrain_height_m);
+    v.set("terrain_cell_m", params_.terrain_cell_m);
+  }
+
   void counters(const Frame& frame,
                 std::vector<std::pair<std::string, double>>& values) const override
   {
@@ -389,9 +452,11 @@ multiPlaneSegmentationInfo()
     "plane model, dense inliers within distance_threshold_m (d_T) of each plane. Up "
     "axis: "
     "world +z after transform_to_world, else the camera's -y.";
+  // The defaults are the class's, except where a row says otherwise.
+  const SACMultiPlaneSegmentation<pcl::PointXYZI> d;
   info.params = {
     ParamSpec::real(
-      "distance_threshold_m", 0.05, 0.001, 1.0, "m",
+      "distance_threshold_m", d.getDistanceThreshold(), 0.001, 1.0, "m",
       "d_T of eq. 11: dense points this close to a plane are its inliers."),
     ParamSpec::real(
       "depth_noise_disparity_px", 0.0, 0.0, 10.0, "px",
@@ -399,80 +464,85 @@ multiPlaneSegmentationInfo()
       "Delta z) with Delta z = r^2 Delta d / (B f) at its range r (0: fixed d_T)."),
     ParamSpec::real(
       "sample_distance_threshold_m", 0.1, 0.001, 1.0, "m",
-      "RANSAC inlier threshold on the sample (stereo features are noisier)."),
-    ParamSpec::integer("max_planes", 8, 1, 100, "", "Most planes per frame."),
-    ParamSpec::integer("min_inliers", 500, 3, 100000000, "",
+      "RANSAC inlier threshold on the sample (stereo features are noisier). The "
+      "pipeline's value; the class defaults to its dense distance threshold."),
+    ParamSpec::integer("max_planes", d.getMaxPlanes(), 1, 100, "",
+                       "Most planes per frame."),
+    ParamSpec::integer("min_inliers", d.getMinInliers(), 3, 100000000, "",
                        "A plane needs at least this many dense inliers.")
       .scalesWithCellSize(ParamSpec::CellSizeScaling::POINTS_PER_AREA),
-    ParamSpec::integer("min_sample_inliers", 15, 3, 1000000, "",
+    ParamSpec::integer("min_sample_inliers", d.getMinSampleInliers(), 3, 1000000, "",
                        "A hypothesis needs at least this many sample inliers."),
-    ParamSpec::real("min_remaining_fraction", 0.05, 0.0, 1.0, "",
+    ParamSpec::real("min_remaining_fraction", d.getMinRemainingFraction(), 0.0, 1.0, "",
                     "Stop when less than this fraction of the sample remains."),
-    ParamSpec::integer("max_iterations", 1000, 1, 1000000, "",
+    ParamSpec::integer("max_iterations", d.getMaxIterations(), 1, 1000000, "",
                        "RANSAC iterations per plane."),
-    ParamSpec::choice("method", "ransac", {"ransac", "msac", "prosac"},
+    ParamSpec::choice("method", sacMethodName(d.getMethodType()), sacMethodNames(),
                       "PCL sample consensus estimator."),
-    ParamSpec::flag("optimize_coefficients", true,
+    ParamSpec::flag("optimize_coefficients", d.getOptimizeCoefficients(),
                     "Least-squares refit of each plane on its dense inliers."),
-    ParamSpec::flag("dense_hypothesis", true,
+    ParamSpec::flag("dense_hypothesis", d.getDenseHypothesis(),
                     "Each round also hypothesises a plane from a dense subsample; the "
                     "one with more inliers is kept."),
-    ParamSpec::integer("lo_iterations", 50, 0, 100000, "",
+    ParamSpec::integer("lo_iterations", d.getLocalOptimizationIterations(), 0, 100000,
+                       "",
                        "Local optimisation (LO-RANSAC) samples per plane; 0 = off."),
-    ParamSpec::flag("merge_planes", true, "Merge near-duplicate planes."),
-    ParamSpec::real("merge_angle_rad", 0.1, 0.0, 1.5708, "rad",
+    ParamSpec::flag("merge_planes", d.getMergePlanes(), "Merge near-duplicate planes."),
+    ParamSpec::real("merge_angle_rad", d.getMergeAngleThreshold(), 0.0, 1.5708, "rad",
                     "Planes whose normals differ less than this may merge."),
-    ParamSpec::real("merge_distance_m", 0.1, 0.0, 10.0, "m",
+    ParamSpec::real("merge_distance_m", d.getMergeDistanceThreshold(), 0.0, 10.0, "m",
                     "... and whose offsets differ less than this."),
     ParamSpec::choice("sample", "features", {"features", "cloud"},
                       "Hypotheses from the 3D key features (paper) or the cloud; on "
                       "pcd_files input the default is cloud (no stereo features)."),
-    ParamSpec::integer("seed", 0, 0, 2147483647, "",
+    ParamSpec::integer("seed", static_cast<int>(d.getSeed()), 0, 2147483647, "",
                        "Random seed (reproducible runs)."),
-    ParamSpec::real("max_visibility_conflict_ratio", 0.0, 0.0, 1000.0, "",
+    ParamSpec::real("max_visibility_conflict_ratio", d.getMaxVisibilityConflictRatio(),
+                    0.0, 1000.0, "",
                     "Visibility test: where, around a 3 x 3 cell neighbourhood of a "
                     "plane's footprint, more than this many points per inlier are seen "
                     "through the plane or hide it from the camera (a slab through a "
                     "tree's canopy), those inliers leave the plane; 0 = no test."),
-    ParamSpec::real("visibility_margin_m", 0.3, 0.0, 100.0, "m",
+    ParamSpec::real("visibility_margin_m", d.getVisibilityMargin(), 0.0, 100.0, "m",
                     "A point conflicts with a plane only this much (plus its eq. 11 "
                     "threshold) off it."),
-    ParamSpec::real("visibility_cell_m", 0.2, 0.001, 100.0, "m",
+    ParamSpec::real("visibility_cell_m", d.getVisibilityCell(), 0.001, 100.0, "m",
                     "Cell edge of a plane's footprint in the visibility and the shell "
                     "tests."),
-    ParamSpec::real("min_sensor_distance_m", 0.0, 0.0, 100.0, "m",
+    ParamSpec::real("min_sensor_distance_m", d.getMinSensorDistance(), 0.0, 100.0, "m",
                     "Sensor plane test: a plane passing closer than this to the "
                     "sensor is dropped and its inliers go to no later plane (it "
                     "contains the lines of sight, along which stereo smears every "
                     "object: a vertical sheet through a tree trunk, a horizontal one "
                     "at the camera's height); 0 = no test."),
-    ParamSpec::integer("min_cluster_size", 0, 0, 100000000, "",
+    ParamSpec::integer("min_cluster_size", d.getMinClusterSize(), 0, 100000000, "",
                        "Cluster test: the inliers of each connected cluster of a "
                        "plane's footprint (cluster_cell_m cells, a one-cell gap "
                        "bridged) holding fewer than this many leave the plane (a plane "
                        "through separate trunks, or slicing car bodies); 0 = no test.")
       .scalesWithCellSize(ParamSpec::CellSizeScaling::POINTS_PER_AREA),
-    ParamSpec::real("cluster_cell_m", 0.2, 0.001, 100.0, "m",
+    ParamSpec::real("cluster_cell_m", d.getClusterCell(), 0.001, 100.0, "m",
                     "Footprint cell edge of the cluster test (at least the voxel "
                     "edge of a voxelised cloud).")
       .scalesWithCellSize(ParamSpec::CellSizeScaling::CELL_SIZE),
-    ParamSpec::real("max_shell_ratio", 0.0, 0.0, 1000.0, "",
+    ParamSpec::real("max_shell_ratio", d.getMaxShellRatio(), 0.0, 1000.0, "",
                     "Shell test: where, around a 3 x 3 cell neighbourhood of a plane's "
                     "footprint, twice the smaller of the two sides' counts of points "
                     "just beyond the eq. 11 threshold t (between t and t + max(t, "
                     "shell_width_m) off the plane) exceeds this many per inlier (a "
                     "slab through a canopy, a stripe across a facade or a car), those "
                     "inliers leave the plane; 0 = no test."),
-    ParamSpec::real("shell_width_m", 0.1, 0.0, 100.0, "m",
+    ParamSpec::real("shell_width_m", d.getShellWidth(), 0.0, 100.0, "m",
                     "Smallest width of the shell test's shell (a voxelised cloud's "
                     "surface points lie in layers one voxel apart).")
       .scalesWithCellSize(ParamSpec::CellSizeScaling::CELL_SIZE),
-    ParamSpec::flag("count_inlier_only_points", true,
+    ParamSpec::flag("count_inlier_only_points", d.getCountInlierOnlyPoints(),
                     "The points beyond depth_error_filter's cell bound (kept by its "
                     "max_plane_depth_error_m) count towards min_inliers, so that a "
                     "plane the key features make may stand on them alone; false: a "
                     "plane needs min_inliers nearer points, which they only extend."),
-    ParamSpec::real("inlier_only_distance_threshold_m", 0.0, 0.0, 10.0, "m",
+    ParamSpec::real("inlier_only_distance_threshold_m",
+                    d.getInlierOnlyDistanceThreshold(), 0.0, 10.0, "m",
                     "Those points join a plane within the smaller of this and their "
                     "eq. 11 threshold (a planar cell is as thick as its inliers' "
                     "spread); 0: eq. 11's."),

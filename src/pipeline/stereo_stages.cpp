@@ -70,6 +70,31 @@ public:
 
   void finish(PipelineState& /*state*/) override { restoreThreads(); }
 
+  void getParameters(ParamValues& v) const override
+  {
+    const DisparityEstimator::Params& p = estimator_.getParams();
+    v.set("algorithm", toString(p.algorithm));
+    v.set("downscale", p.downscale);
+    v.set("row_downscale", p.row_downscale);
+    v.set("num_threads", num_threads_);
+    v.set("min_disparity_px", p.min_disparity_px);
+    v.set("num_disparities_px", p.num_disparities_px);
+    v.set("block_size_px", p.block_size_px);
+    v.set("p1", p.p1);
+    v.set("p2", p.p2);
+    v.set("disp12_max_diff_px", p.disp12_max_diff_px);
+    v.set("pre_filter_cap", p.pre_filter_cap);
+    v.set("uniqueness_ratio_percent", p.uniqueness_ratio_percent);
+    v.set("speckle_window_size_px", p.speckle_window_size_px);
+    v.set("speckle_range_px", p.speckle_range_px);
+    v.set("full_dp", p.full_dp);
+    v.set("bm_pre_filter", toString(p.bm_pre_filter));
+    v.set("bm_pre_filter_cap", p.bm_pre_filter_cap);
+    v.set("bm_pre_filter_size_px", p.bm_pre_filter_size_px);
+    v.set("bm_texture_threshold", p.bm_texture_threshold);
+    v.set("max_range_m", max_range_m_);
+  }
+
   void process(Frame& frame, PipelineState& /*state*/) override
   {
     if (frame.left.empty() || frame.right.empty())
@@ -111,6 +136,21 @@ public:
 
   bool countsCloudPoints() const override { return false; }
 
+  void getParameters(ParamValues& v) const override
+  {
+    const StereoFeatureMatcher::Params& p = matcher_.getParams();
+    v.set("feature_type", featureTypeName(p.feature_type));
+    v.set("max_features", p.max_features);
+    v.set("ratio", p.ratio);
+    v.set("max_row_difference_px", p.max_row_difference_px);
+    v.set("max_disparity_px", p.max_disparity_px);
+    v.set("max_range_m", p.max_range_m);
+    v.set("bucket_size_px", p.bucket_size_px);
+    v.set("fast_threshold", p.fast_threshold);
+    v.set("subpixel_window_px", p.subpixel_window_px);
+    v.set("subpixel_search_px", p.subpixel_search_px);
+  }
+
   void counters(const Frame& frame,
                 std::vector<std::pair<std::string, double>>& values) const override
   {
@@ -122,6 +162,23 @@ private:
 };
 
 } // namespace
+
+const std::vector<std::string>&
+featureTypeNames()
+{
+  static const std::vector<std::string> names{"sift", "orb", "orb_grid"};
+  return names;
+}
+
+std::string
+featureTypeName(FeatureType type)
+{
+  for (const auto& name : featureTypeNames())
+    if (featureTypeFromString(name) == type)
+      return name;
+  throw Exception("feature type " + std::to_string(static_cast<int>(type))
+                  + " has no YAML name");
+}
 
 StageInfo
 stereoDisparityInfo()
@@ -229,7 +286,8 @@ featureMatchingInfo()
   info.needs_stereo = true;
   const StereoFeatureMatcher::Params f;
   info.params = {
-    ParamSpec::choice("feature_type", "sift", {"sift", "orb", "orb_grid"},
+    ParamSpec::choice("feature_type", featureTypeName(f.feature_type),
+                      featureTypeNames(),
                       "Detector and descriptor: sift (sub-pixel, slow), orb (OpenCV "
                       "defaults, quantised disparities), orb_grid (fast front end for "
                       "the odometry)."),

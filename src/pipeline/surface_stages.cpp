@@ -55,6 +55,18 @@ public:
 
   bool countsCloudPoints() const override { return false; }
 
+  void getParameters(ParamValues& v) const override
+  {
+    const auto& a = approximation_;
+    v.set("min_cell_size_m", a.getMinCellSize());
+    v.set("density_threshold", a.getDensityThreshold());
+    v.set("non_planar_density_threshold", a.getNonPlanarDensityThreshold());
+    v.set("min_width_m", a.getMinWidth());
+    v.set("min_height_m", a.getMinHeight());
+    v.set("thickness_m", a.getThickness());
+    v.set("min_points_per_cell", a.getMinPointsPerCell());
+  }
+
   void counters(const Frame& frame,
                 std::vector<std::pair<std::string, double>>& values) const override
   {
@@ -108,26 +120,29 @@ planarCuboidApproximationInfo()
     "into the largest rectangles and extruded behind the surface; the rest is split "
     "the "
     "same way, never merged. Reports the occupied voxels at the same size (SG).";
+  // The defaults are the class's, except where a row says otherwise.
+  const PlanarCuboidApproximation<pcl::PointXYZI> d;
   info.params = {
     ParamSpec::real(
-      "min_cell_size_m", 0.1, 0.01, 10.0, "m",
+      "min_cell_size_m", d.getMinCellSize(), 0.01, 10.0, "m",
       "Smallest cell side and raster resolution (the paper's minimum grid).")
       .scalesWithCellSize(),
-    ParamSpec::real("density_threshold", 0.9, 0.01, 1.0, "",
+    ParamSpec::real("density_threshold", d.getDensityThreshold(), 0.01, 1.0, "",
                     "D_T: a unit whose occupied-area fraction D is below it is split."),
     ParamSpec::real("non_planar_density_threshold", 0.25, 0.0, 1.0, "",
                     "Occupied share of its 3D lattice a non-planar box (Fig. 7) must "
-                    "reach before it stops splitting (0: density_threshold)."),
-    ParamSpec::real("min_width_m", 0.1, 0.0, 100.0, "m",
+                    "reach before it stops splitting (0: density_threshold). The "
+                    "pipeline's value; the class defaults to 0."),
+    ParamSpec::real("min_width_m", d.getMinWidth(), 0.0, 100.0, "m",
                     "W_T: a unit is split only while wider than this.")
       .scalesWithCellSize(),
-    ParamSpec::real("min_height_m", 0.1, 0.0, 100.0, "m",
+    ParamSpec::real("min_height_m", d.getMinHeight(), 0.0, 100.0, "m",
                     "H_T: a unit is split only while higher than this.")
       .scalesWithCellSize(),
-    ParamSpec::real("thickness_m", 0.1, 0.001, 10.0, "m",
+    ParamSpec::real("thickness_m", d.getThickness(), 0.001, 10.0, "m",
                     "Extrusion behind the surface along the normal.")
       .scalesWithCellSize(),
-    ParamSpec::integer("min_points_per_cell", 3, 1, 1000000, "",
+    ParamSpec::integer("min_points_per_cell", d.getMinPointsPerCell(), 1, 1000000, "",
                        "Cells with fewer points are dropped."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {

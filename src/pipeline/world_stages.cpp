@@ -58,6 +58,15 @@ public:
       association_(associationCriteria(plane_merge_angle_rad, plane_merge_distance_m))
   {}
 
+  void getParameters(ParamValues& v) const override
+  {
+    v.set("leaf_size_m", leaf_size_m_);
+    v.set("downsample_every_n_frames", every_);
+    v.set("plane_merge_angle_rad", association_.getCriteria().eps_angle_rad);
+    v.set("plane_merge_distance_m", association_.getCriteria().distance_threshold_m);
+    v.set("window_radius_m", window_radius_m_);
+  }
+
   void process(Frame& frame, PipelineState& state) override
   {
     if (!frame.cloud_in_world_frame)
@@ -243,6 +252,7 @@ accumulateInfo()
                      "(FastVoxelGrid, pcl::VoxelGrid's output) every few frames so "
                      "memory stays bounded by the "
                      "scene, not the run.";
+  const PlaneAssociationCriteria association;
   info.params = {
     ParamSpec::real("leaf_size_m", 0.1, 0.0, 10.0, "m",
                     "Voxel edge of the accumulated cloud; 0 keeps every point.")
@@ -250,10 +260,13 @@ accumulateInfo()
     ParamSpec::integer("downsample_every_n_frames", 5, 1, 100000, "",
                        "How often the accumulated cloud is downsampled."),
     ParamSpec::real(
-      "plane_merge_angle_rad", 0.1, 0.0, 1.5708, "rad",
+      "plane_merge_angle_rad", association.eps_angle_rad, 0.0, 1.5708, "rad",
       "A frame's plane joins a run-wide plane whose normal is this close..."),
     ParamSpec::real("plane_merge_distance_m", 0.2, 0.0, 10.0, "m",
-                    "... and whose offset d is this close; else it starts a new one."),
+                    "... and whose offset d is this close; else it starts a new one "
+                    "(the pipeline's value, for this offset distance; "
+                    "PlaneAssociationCriteria's 0.15 m default is for its "
+                    "evidence distance)."),
     ParamSpec::real("window_radius_m", 0.0, 0.0, 1e6, "m",
                     "Rolling window of the accumulated clouds: at each downsampling "
                     "only the points within window_radius_m of the sensor in x and y "

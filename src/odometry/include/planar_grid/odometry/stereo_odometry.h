@@ -365,6 +365,9 @@ public:
    */
   const ConstantVelocityMotionModel& getMotionModel() const { return motion_model_; }
 
+  /** \brief The frame-to-frame motion estimator (its parameters: getParams()). */
+  const StereoOdometry& getStereoOdometry() const { return odometry_; }
+
   /** \brief The disparity offset estimated so far, pixels (true disparity = measured
    * + offset; StereoOdometry::Params::estimate_disparity_offset): the last valid frame
    * pair's posterior, the prior of the next one. Params::disparity_offset_px before

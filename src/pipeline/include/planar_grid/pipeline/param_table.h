@@ -111,6 +111,10 @@ struct ParamSpec {
                           const std::string& description);
 };
 
+/** \brief A number as the tables write it (up to 10 significant digits: 0.1, 40,
+ * 1e-06), for defaults and for descriptions that quote a value. */
+std::string formatParamNumber(double value);
+
 /** \brief Parsed parameter values of one stage, every key of its table present (the
  * YAML value, or the default). Getters throw planar_grid::Exception for a key that is
  * not in the table (a programming error). \ingroup pipeline */

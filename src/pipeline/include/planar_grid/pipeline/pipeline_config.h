@@ -260,6 +260,23 @@ struct OutputConfig {
   std::array<int, 2> snapshot_size_px{{1600, 1000}};
 };
 
+/** \brief A stage parameter that takes another stage's value when the configuration
+ * leaves it out; set in both to different values, it is a planar_grid::ConfigError at
+ * its key. \ingroup pipeline */
+struct SharedStageParam {
+  /** \brief The stage and key that take the value. */
+  std::string stage, key;
+  /** \brief The stage and key whose value is taken. */
+  std::string from_stage, from_key;
+  /** \brief Why the two are one quantity, and what to do (ends an error message). */
+  std::string reason;
+};
+
+/** \brief The parameters that follow another stage's: the paper's minimum cell is one
+ * quantity, so map_integration's resolution_m and thickness_m take
+ * planar_cuboid_approximation's min_cell_size_m and thickness_m. \ingroup pipeline */
+const std::vector<SharedStageParam>& sharedStageParams();
+
 /** \brief A whole pipeline configuration (schema in config/example.yaml).
  * \ingroup pipeline */
 struct PipelineConfig {

@@ -46,4 +46,18 @@ StageConfig defaultStageConfig(const std::string& type);
 std::string pipelineConfigToYaml(const PipelineConfig& config,
                                  const std::string& comment = "");
 
+/** \brief The `pipeline:` section of a configuration that lists every stage type of the
+ * registry, in its order, with every parameter at its default, each documented by
+ * comments from the stage's table: the stage's description, role and data flow, and
+ * for each parameter its description, type, range and unit. Written by
+ * `planar_grid_pipeline --print-default-pipeline`; config/example.yaml holds it, and a
+ * test fails when the two differ.
+ *
+ * The text begins with a comment line naming the command and ends with a comment line
+ * that closes the section, so that it can be found and replaced in a file. It loads
+ * as the pipeline of a stereo_sequence input whose poses come from visual_odometry.
+ * \return the YAML text, lines of at most 88 characters where the words allow
+ * \ingroup pipeline */
+std::string defaultPipelineYaml();
+
 } // namespace planar_grid

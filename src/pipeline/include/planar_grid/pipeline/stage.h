@@ -60,6 +60,13 @@ public:
                         std::vector<std::pair<std::string, double>>& /*values*/) const
   {}
 
+  /** \brief Reads back the parameter values the stage's objects hold, through their
+   * getters, under the keys of the stage's table (a test checks that a stage made from
+   * its table's defaults holds them). Keys whose value no object exposes are left out;
+   * stages without parameters add nothing.
+   * \param[out] values the keys the stage exposes, set (others untouched) */
+  virtual void getParameters(ParamValues& /*values*/) const {}
+
   /** \brief Points this stage measures in and out of each frame (for the report): the
    * working cloud's valid points by default. */
   virtual bool countsCloudPoints() const { return true; }
