@@ -319,8 +319,8 @@ TEST(PlanarGridMapMerge, AWholeVoxelTranslationMovesTheVoxelsExactly)
 
 TEST(PlanarGridMapMerge, TheSpaceLayersCombineByRank)
 {
-  // Every pair of states, both priors: occupied > free > unknown (occluded) > never
-  // observed, against a brute-force table.
+  // Maps without observation spans (no newer map), every pair of states, both priors:
+  // occupied > free > unknown (occluded) > never observed, against a brute-force table.
   for (const SpaceState prior : {SpaceState::UNKNOWN, SpaceState::FREE}) {
     SCOPED_TRACE(planar_grid::toString(prior));
     PlanarGridMap::Params p = params();
