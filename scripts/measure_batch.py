@@ -11,7 +11,12 @@ Steps (each prints its figures; all of them go to OUTPUT/measure_batch.json):
   2. the batch job (map_segments: N segments, W worker processes, the local cluster's
      start and stop included), timed; the merged map against the one run: getState
      agreement on --probes random points the one run observed (free or occupied; drawn
-     as scripts/measure_map_merge.py draws them), planes, planar and non-planar cuboids;
+     as scripts/measure_map_merge.py draws them), planes, planar and non-planar cuboids,
+     the space layer's voxels (occupied beyond the turn, x > 70 m and y < -10 m, apart)
+     and the stacks of parallel vertical planes (parallel_plane_stacks); the same
+     segment maps merged again in the same tree with their observation spans removed
+     (the symmetric voxel rule, occupied wins, of maps without an order), the same
+     figures;
   3. the batch job again with --fine-segments segments: every merge task's load, merge
      and save seconds against the planes and cells of its result (merging 2, 4, 8, ...
      segment maps), and each segment task's seconds against its frames;
@@ -43,6 +48,20 @@ S = pg.SpaceState
 
 # The box of the main job's map, world frame, meters.
 BOX_MIN, BOX_MAX = [0.0, -52.8, -7.2], [106.4, 18.4, 8.0]
+
+
+# Beyond the drive's turn, world frame, meters: x > 70 and y < -10.
+TURN_X, TURN_Y = 70.0, -10.0
+
+
+def space_figures(m):
+    """The space layer's voxel counts (free, occupied, unknown), the occupied voxels
+    beyond the turn, and the map's stacks of parallel vertical planes."""
+    occupied = m.voxel_centres("occupied")
+    beyond = (occupied[:, 0] > TURN_X) & (occupied[:, 1] < TURN_Y)
+    return dict(voxels={k: int(v) for k, v in m.voxel_counts.items()},
+                occupied_beyond_turn=int(np.count_nonzero(beyond)),
+                plane_stacks=[list(p) for p in pgd.parallel_plane_stacks(m)])
 
 
 def compare(single, merged, probes):
@@ -79,7 +98,7 @@ def main():
     single_path = os.path.join(args.output, "single_map.pgmap")
     single.save(single_path)
     figures["single"] = dict(wall_time_s=single_s, frames=int(result.frames),
-                             **pgd.map_counts(single))
+                             **pgd.map_counts(single), **space_figures(single))
     print(f"one run: {result.frames} frames in {single_s:.1f} s: {figures['single']}")
 
     # 2. the batch job
@@ -92,7 +111,7 @@ def main():
     tasks = report["segments"] + report["merges"]
     probes = pgd.sample_observed_points(single, args.probes, BOX_MIN, BOX_MAX)
     figures["batch"] = dict(wall_time_s=batch_s, **pgd.map_counts(merged),
-                            **compare(single, merged, probes),
+                            **space_figures(merged), **compare(single, merged, probes),
                             segment_s=[s["wall_time_s"] for s in report["segments"]],
                             merge_s=[m["wall_time_s"] for m in report["merges"]],
                             tasks_span_s=(max(r["end_time"] for r in tasks)
@@ -105,6 +124,28 @@ def main():
           f"{s1['planar_cuboids']} = {b['planar_cuboids']/s1['planar_cuboids']:.3f}; "
           f"planes {b['planes']} / {s1['planes']}; non-planar {b['non_planar_cuboids']} / "
           f"{s1['non_planar_cuboids']}")
+    print(f"occupied voxels {b['voxels']['occupied']} / {s1['voxels']['occupied']} (beyond "
+          f"the turn {b['occupied_beyond_turn']} / {s1['occupied_beyond_turn']}); free "
+          f"voxels {b['voxels']['free']} / {s1['voxels']['free']}; stacks of parallel "
+          f"vertical planes {len(b['plane_stacks'])} / {len(s1['plane_stacks'])}")
+
+    # 2b. the same segment maps without their order: the symmetric voxel rule
+    unordered = [pg.PlanarGridMap.load(seg["map"]) for seg in report["segments"]]
+    for m in unordered:
+        m.observation_span = None
+    while len(unordered) > 1:  # map_segments' tree: neighbours first
+        for a, b in zip(unordered[::2], unordered[1::2]):
+            a.merge(b, np.eye(4))
+        unordered = unordered[::2]
+    unordered[0].save(os.path.join(args.output, "unordered_map.pgmap"))
+    figures["batch_unordered"] = dict(**pgd.map_counts(unordered[0]),
+                                      **space_figures(unordered[0]),
+                                      **compare(single, unordered[0], probes))
+    u = figures["batch_unordered"]
+    print(f"the segments merged without their order (occupied wins): occupied voxels "
+          f"{u['voxels']['occupied']} (beyond the turn {u['occupied_beyond_turn']}); "
+          f"getState agreement {u['agreement']*100:.2f} % (free "
+          f"{u['agreement_free']*100:.2f} %, occupied {u['agreement_occupied']*100:.2f} %)")
 
     # 3. finer segments: the merge tree's levels and the per-segment cost
     fine = pgd.map_segments(args.config, frames=frames, num_segments=args.fine_segments,

@@ -146,6 +146,62 @@ def sample_observed_points(m: "pg.PlanarGridMap", count: int, box_min: Sequence[
     return np.concatenate(kept)[:count]
 
 
+def parallel_plane_stacks(m: "pg.PlanarGridMap", max_offset_m: float = 0.5,
+                          max_normal_z: float = 0.3) -> List[Tuple[int, int]]:
+    """Stacks of parallel vertical planes in a map: one facade held as several planes
+    a few centimetres apart, which a merge that joins planes by the association of
+    integration does not leave (the batch test and scripts/measure_batch.py check the
+    merged map with it).
+
+    A pair of planes is a stack when both are vertical (|normal z| <= max_normal_z),
+    their normals are within the map's plane_merge_angle_rad of each other (either
+    sign), they are less than max_offset_m apart where they are (the mean distance of
+    one plane's cuboid face corners to the other plane, the smaller of the two ways),
+    and their extents overlap, in height and along the first plane's horizontal in-plane
+    direction (their cuboids' face corners).
+
+    Parameters
+    ----------
+    m : PlanarGridMap
+        The map.
+    max_offset_m : float
+        Planes farther apart than this, meters, are separate surfaces.
+    max_normal_z : float
+        The largest |z| of a vertical plane's unit normal (0.3: within 17.5 degrees).
+
+    Returns
+    -------
+    list of (int, int)
+        The pairs (i, j), i < j, of indices into m.planes; empty when every facade is
+        one plane.
+    """
+    planes, cuboids = m.planes, m.cuboids
+    ids = cuboids.plane_ids
+    faces = cuboids.corners[:, :4]
+    cos_max = np.cos(m.params["plane_merge_angle_rad"])
+    vertical = [k for k in range(len(planes))
+                if abs(planes[k, 2]) <= max_normal_z and np.any(ids == k)]
+
+    def overlap(a: np.ndarray, b: np.ndarray) -> bool:
+        return min(a.max(), b.max()) > max(a.min(), b.min())
+
+    stacks = []
+    for n, i in enumerate(vertical):
+        pi = faces[ids == i].reshape(-1, 3)
+        along = np.cross([0.0, 0.0, 1.0], planes[i, :3])
+        along /= np.linalg.norm(along)
+        for j in vertical[n + 1:]:
+            if abs(planes[i, :3] @ planes[j, :3]) < cos_max:
+                continue
+            pj = faces[ids == j].reshape(-1, 3)
+            offset = min(np.mean(np.abs(pj @ planes[i, :3] + planes[i, 3])),
+                         np.mean(np.abs(pi @ planes[j, :3] + planes[j, 3])))
+            if offset < max_offset_m and overlap(pi @ along, pj @ along) \
+                    and overlap(pi[:, 2], pj[:, 2]):
+                stacks.append((i, j))
+    return stacks
+
+
 def _worker_identity() -> Dict[str, Any]:
     """Where a task ran: host name and process id."""
     return dict(host=os.uname().nodename, pid=os.getpid())

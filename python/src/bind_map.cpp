@@ -544,12 +544,16 @@ world_T_camera : array_like, shape (4, 4)
 Planes: each plane of ``other`` joins the plane of this map that the association of
 integrate_surface() matches (a wall seen in both maps becomes one plane, its evidence
 added and refitted, the rasters re-projected into one frame, not two parallel planes);
-planes without a match are added. Non-planar cells: both maps' are kept. Voxels:
-occupied > free > unknown (occluded) > never observed (the clamped log-odds of two
-independent observations added, as OctoMap fuses them: occupied where the maps
-disagree). Merging a into b and b into a give the same voxels, planes and cuboids
-up to their order (except where one map holds a surface as several planes); merging
-an empty map changes nothing. ``other`` is not changed.
+planes without a match are added. Non-planar cells: both maps' are kept. Voxels: when
+one map's observation_span lies wholly after the other's (segments of one recording,
+as the pipeline notes its frames), the newer map's free or occupied observation wins
+where both observed a voxel, as integration keeps the newest view; when the spans
+overlap or one is None, occupied > free > unknown (occluded) > never observed (the
+clamped log-odds of two independent observations added, as OctoMap fuses them:
+occupied where the maps disagree). The merged span is the union. Merging a into b and
+b into a give the same voxels, planes and cuboids up to their order (except where one
+map holds a surface as several planes); merging an empty map changes nothing.
+``other`` is not changed.
 
 Parameters
 ----------
@@ -573,6 +577,35 @@ planar_grid.Error
     close_gaps_cells, merge_rule, cover_density, absorb_distance_m) differ, naming
     them; or when ``other`` is this map. The map is then unchanged.
 )doc")
+    .def_property(
+      "observation_span",
+      [](const Map& self) -> py::object {
+        const Map::ObservationSpan& span = self.getObservationSpan();
+        if (span.empty())
+          return py::none();
+        return py::make_tuple(span.first, span.last);
+      },
+      [](Map& self, const py::object& value) {
+        Map::ObservationSpan span;
+        if (!value.is_none()) {
+          const auto pair = value.cast<std::pair<double, double>>();
+          if (!(pair.first <= pair.second))
+            throw py::value_error("observation_span must be (first, last) with "
+                                  "first <= last, or None");
+          span.first = pair.first;
+          span.last = pair.second;
+        }
+        self.setObservationSpan(span);
+      },
+      R"doc(tuple (first, last) of float, or None: the least and greatest order key of
+the views the map holds (note_observation_order(); the pipeline notes each frame's index
+in its recording), None when none was noted (a new map, a file written before the span
+was stored). merge() lets the newer map's voxels win when one span lies wholly after
+the other's. Settable (None empties it); planar_grid.Error for a non-finite bound.)doc")
+    .def("note_observation_order", &Map::noteObservationOrder, py::arg("order"),
+         R"doc(Grows observation_span to include ``order``, a number that increases
+with the time of the views (a frame index, a timestamp in seconds) and is comparable
+between the maps that will be merged. planar_grid.Error for a non-finite order.)doc")
     .def(
       "integrate_surface",
       [](Map& self, const Cuboids& cuboids, const DoubleArray& planes,

@@ -1,8 +1,9 @@
 # SPDX-License-Identifier: BSD-3-Clause
 """planar_grid.distributed: the first 40 Karlsruhe frames mapped in 4 segments on a Dask
 cluster of 2 worker processes (loopback only) and merged, against one run of the same
-frames; a worker killed while it maps a segment; a segment on bad input; the command
-planar_grid_batch's exit statuses. Every cluster is stopped by the test that starts it."""
+frames (states, planar cuboids, one plane per facade); a worker killed while it maps a
+segment; a segment on bad input; the command planar_grid_batch's exit statuses. Every
+cluster is stopped by the test that starts it."""
 import json
 import os
 import pathlib
@@ -91,6 +92,9 @@ def test_four_segments_agree_with_one_run(batch, one_run, probes):
     # the frames before it confirmed, so a little below that.
     agree = np.mean(merged.get_state(probes) == one_run.get_state(probes))
     assert agree >= 0.99, agree
+    # the segments' observation spans are ordered, so the newer segment's voxels win
+    # where two saw the same space, as in the one run: its space layer, voxel for voxel
+    assert merged.voxel_counts == one_run.voxel_counts
     ratio = planar_count(merged) / planar_count(one_run)
     assert 0.9 <= ratio <= 1.1, (planar_count(merged), planar_count(one_run))
     # the report: 4 segments covering 0-39 in order, 3 merges (2 + the root), ints
@@ -113,6 +117,20 @@ def test_four_segments_agree_with_one_run(batch, one_run, probes):
     left = [p.cmdline() for p in psutil.Process().children(recursive=True)
             if "multiprocessing.resource_tracker" not in " ".join(p.cmdline())]
     assert left == []
+
+
+def test_the_facades_are_one_plane_each_after_the_merge(batch, one_run):
+    # A facade seen by several segments joins as one plane in the merge (association,
+    # converged planes, absorbed rectangles, as in integration), not a stack of parallel
+    # vertical planes a few decimetres apart (pgd.parallel_plane_stacks): the merged map
+    # has none, as the one run of the same frames has none.
+    merged = pg.PlanarGridMap.load(batch[0]["map"])
+    assert pgd.parallel_plane_stacks(one_run) == []
+    assert pgd.parallel_plane_stacks(merged) == []
+    # the segments hold facades more than once: the merge joined vertical planes
+    segments = [pg.PlanarGridMap.load(s["map"]) for s in batch[0]["segments"]]
+    vertical = [int(np.count_nonzero(np.abs(s.planes[:, 2]) <= 0.3)) for s in segments]
+    assert sum(vertical) > int(np.count_nonzero(np.abs(merged.planes[:, 2]) <= 0.3))
 
 
 def test_killed_worker_task_runs_again_with_the_same_map(config, batch, cluster,

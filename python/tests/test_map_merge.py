@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: BSD-3-Clause
 """PlanarGridMap.merge() through the Python module: two maps of one wall join as one
-plane, the voxel rule, symmetry, the 4x4 transform and the errors."""
+plane, the voxel rules (by rank, and the newer map's by observation span), symmetry, the
+4x4 transform and the errors."""
 
 import pickle
 
@@ -98,6 +99,44 @@ def test_voxels_merge_by_rank_and_the_order_does_not_matter():
     ba.merge(a, np.eye(4))
     np.testing.assert_array_equal(ab.get_state(probes()), ba.get_state(probes()))
     assert len(ab.planes) == len(ba.planes) == 2
+
+
+def test_the_newer_map_wins_where_the_spans_are_ordered():
+    older = pg.PlanarGridMap(resolution_m=0.1)
+    newer = pg.PlanarGridMap(resolution_m=0.1)
+    assert older.observation_span is None
+    older.note_observation_order(3)
+    older.note_observation_order(1)
+    newer.observation_span = (4.0, 6.0)
+    assert older.observation_span == (1.0, 3.0)
+    p_occ_free, p_free_occ, p_occ_unknown = [0.05, 0.05, 0.05], [1.05, 0.05, 0.05], [
+        2.05, 0.05, 0.05]
+    older.set_state([p_occ_free, p_occ_unknown], "occupied")
+    older.set_state([p_free_occ], "free")
+    newer.set_state([p_occ_free], "free")
+    newer.set_state([p_free_occ], "occupied")
+    newer.set_state([p_occ_unknown], "unknown")
+    on, no = copy_of(older), copy_of(newer)
+    on.merge(newer, np.eye(4))
+    no.merge(older, np.eye(4))
+    # the newer observation wins; occlusion does not erase an observed state
+    for m in (on, no):
+        np.testing.assert_array_equal(m.get_state([p_occ_free, p_free_occ, p_occ_unknown]),
+                                      [S.FREE, S.OCCUPIED, S.OCCUPIED])
+        assert m.observation_span == (1.0, 6.0)
+    assert on == no
+    # spans that overlap: no newer map, occupied wins
+    newer.observation_span = (2.0, 6.0)
+    ranked = copy_of(older)
+    ranked.merge(newer, np.eye(4))
+    np.testing.assert_array_equal(ranked.get_state([p_occ_free, p_free_occ]),
+                                  [S.OCCUPIED, S.OCCUPIED])
+    with pytest.raises(ValueError):
+        newer.observation_span = (6.0, 2.0)
+    with pytest.raises(pg.Error):
+        newer.note_observation_order(float("nan"))
+    newer.observation_span = None
+    assert copy_of(newer).observation_span is None
 
 
 def test_merging_an_empty_map_changes_nothing():

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // ExplicitSpaceGrid::merge(): the observed voxels of another grid (another recording's
-// map) combined with this grid's, voxel by voxel, by the rule in the header.
+// map, or another part of one) combined with this grid's, voxel by voxel, by the rule
+// in the header.
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/explicit_space_grid.h>
 
@@ -24,25 +25,36 @@ namespace {
  * setState()'s edit buffer). */
 constexpr std::size_t MAX_PENDING_BLOCKS = 4096;
 
-/** \brief The merged code of two observations of one voxel: the one of higher rank,
- * occupied > free > unknown (occluded) > never observed. These are the states'
- * log-odds at OctoMap's clamping bounds added (occupied +3.5 and free -2.0 give
- * +1.5, occupied; occluded space carries no evidence, 0; never observed is no
- * observation), so the rule is commutative and associative. */
+/** \brief The merged code of two observations of one voxel, \a a this grid's and \a b
+ * the other's, by the rule of \a order (ExplicitSpaceGrid::merge()). */
 std::uint8_t
-combine(std::uint8_t a, std::uint8_t b)
+combine(std::uint8_t a, std::uint8_t b, ExplicitSpaceGrid::MergeOrder order)
 {
-  // rank of the codes FREE (0), OCCUPIED (1), UNKNOWN (2), NEVER_OBSERVED (3)
+  // codes: FREE (0), OCCUPIED (1), UNKNOWN (2), NEVER_OBSERVED (3); free and occupied
+  // are the observed states a view writes over older ones
+  if (order == ExplicitSpaceGrid::MergeOrder::OTHER_IS_NEWER && b <= 1)
+    return b;
+  if (order == ExplicitSpaceGrid::MergeOrder::THIS_IS_NEWER && a <= 1)
+    return a;
+  // Otherwise the state of higher rank, occupied > free > unknown (occluded) > never
+  // observed: the states' log-odds at OctoMap's clamping bounds added (occupied +3.5
+  // and free -2.0 give +1.5, occupied; occluded space carries no evidence, 0; never
+  // observed is no observation). With an order, at most one side is observed here,
+  // and the rank keeps it.
   constexpr std::array<std::uint8_t, 4> RANK{2, 3, 1, 0};
   return RANK[a] >= RANK[b] ? a : b;
 }
 
 /** \brief Combines \a code into voxel \a i of edit \a e of \a storage. */
 void
-combineVoxel(BlockStorage& storage, std::uint32_t e, int i, std::uint8_t code)
+combineVoxel(BlockStorage& storage,
+             std::uint32_t e,
+             int i,
+             std::uint8_t code,
+             ExplicitSpaceGrid::MergeOrder order)
 {
   const std::uint8_t current = storage.getEdit(e, i);
-  const std::uint8_t merged = combine(current, code);
+  const std::uint8_t merged = combine(current, code, order);
   if (merged != current)
     storage.setEdit(e, i, merged);
 }
@@ -52,15 +64,16 @@ void
 combineBlock(BlockStorage& storage,
              const BlockKey& target,
              const DenseBlock& block,
-             std::uint8_t prior)
+             std::uint8_t prior,
+             ExplicitSpaceGrid::MergeOrder order)
 {
   const std::uint32_t e = storage.open(target, prior);
   if (block.uniform != MIXED && storage.edits[e].uniform != MIXED) {
-    storage.edits[e].uniform = combine(storage.edits[e].uniform, block.uniform);
+    storage.edits[e].uniform = combine(storage.edits[e].uniform, block.uniform, order);
     return;
   }
   for (int i = 0; i < BLOCK_VOXELS; ++i)
-    combineVoxel(storage, e, i, block.get(i));
+    combineVoxel(storage, e, i, block.get(i), order);
 }
 
 /** \brief The integer voxel offset of \a t when it is a translation by whole voxels of
@@ -91,7 +104,8 @@ resampleBlock(BlockStorage& dst,
               const Eigen::Vector3i& first,
               const Eigen::Isometry3d& this_T_other,
               const Eigen::Isometry3d& other_T_this,
-              std::uint8_t prior)
+              std::uint8_t prior,
+              ExplicitSpaceGrid::MergeOrder order)
 {
   // Every voxel of this grid whose centre, moved back into the other grid, falls in
   // the block takes the state of the voxel it falls in (nearest-neighbour
@@ -133,7 +147,7 @@ resampleBlock(BlockStorage& dst,
           continue;
         int local = 0;
         const std::uint32_t e = cursor.at(x, y, z, local);
-        combineVoxel(dst, e, local, code);
+        combineVoxel(dst, e, local, code, order);
       }
   return 0;
 }
@@ -142,7 +156,8 @@ resampleBlock(BlockStorage& dst,
 
 void
 ExplicitSpaceGrid::merge(const ExplicitSpaceGrid& other,
-                         const Eigen::Isometry3d& this_T_other)
+                         const Eigen::Isometry3d& this_T_other,
+                         MergeOrder order)
 {
   if (&other == this)
     throw Exception("ExplicitSpaceGrid::merge: a grid cannot be merged into itself");
@@ -180,7 +195,7 @@ ExplicitSpaceGrid::merge(const ExplicitSpaceGrid& other,
         combineBlock(dst,
                      {bk.x + offset.x() / BLOCK_EDGE, bk.y + offset.y() / BLOCK_EDGE,
                       bk.z + offset.z() / BLOCK_EDGE},
-                     block, prior);
+                     block, prior, order);
       } else if (translation) {
         BlockStorage::Cursor cursor(dst, prior);
         for (int i = 0; i < BLOCK_VOXELS; ++i) {
@@ -198,11 +213,11 @@ ExplicitSpaceGrid::merge(const ExplicitSpaceGrid& other,
           const std::uint32_t e =
             cursor.at(static_cast<int>(key.x()), static_cast<int>(key.y()),
                       static_cast<int>(key.z()), local);
-          combineVoxel(dst, e, local, code);
+          combineVoxel(dst, e, local, code, order);
         }
       } else {
         outside +=
-          resampleBlock(dst, r, block, first, this_T_other, other_T_this, prior);
+          resampleBlock(dst, r, block, first, this_T_other, other_T_this, prior, order);
       }
       if (dst.edits.size() >= MAX_PENDING_BLOCKS)
         dst.commit(prior);

@@ -21,7 +21,9 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <tuple>
 #include <unordered_set>
+#include <utility>
 
 #include "octomap_writer.h"
 
@@ -178,6 +180,24 @@ public:
   }
 
   std::uint64_t count(const std::string& key) { return parseCount(key, require(key)); }
+
+  /** True when the header has a \a key line. */
+  bool has(const std::string& key) const { return values_.count(key) > 0; }
+
+  /** Two finite numbers, the first not above the second. */
+  std::pair<double, double> orderedPair(const std::string& key)
+  {
+    std::istringstream in(require(key));
+    double a = 0.0, b = 0.0;
+    std::string rest;
+    if (!(in >> a >> b) || (in >> rest) || !std::isfinite(a) || !std::isfinite(b)
+        || a > b) {
+      const std::string what = "' must be two finite numbers, the first not above "
+                               "the second, got '";
+      fail("'" + key + what + values_.at(key) + "'");
+    }
+    return {a, b};
+  }
 
   std::vector<std::uint64_t> counts(const std::string& key, std::size_t n)
   {
@@ -445,6 +465,9 @@ PlanarGridMap::serialize(std::string& bytes) const
          << "cuboids " << surface_.getCuboidCount() << "\n"
          << "space_bytes " << space_bytes << "\n"
          << "surface_bytes " << surface_bytes << "\n";
+  if (!observation_span_.empty())
+    header << "observation_span " << exact(observation_span_.first) << " "
+           << exact(observation_span_.last) << "\n";
   // The checksum covers every header byte before its own line, then the data: a
   // changed header value (resolution_m) is refused like a changed data byte.
   bytes = header.str();
@@ -612,6 +635,10 @@ PlanarGridMap::deserialize(const std::string& bytes, const std::string& path)
   const auto cuboids = header.count("cuboids");
   const auto space_bytes = header.count("space_bytes");
   const auto surface_bytes = header.count("surface_bytes");
+  // Optional: files written before the span was stored have none (an empty span).
+  ObservationSpan span;
+  if (header.has("observation_span"))
+    std::tie(span.first, span.last) = header.orderedPair("observation_span");
   const std::string crc_text = header.require("checksum_crc32");
   header.warnUnused();
 
@@ -645,6 +672,7 @@ PlanarGridMap::deserialize(const std::string& bytes, const std::string& path)
       // The surface section carries all of its layer's parameters, the header only
       // some of them (close_gaps_cells and merge_rule are in the section alone).
       decoded.params_.surface = decoded.surface_.getParams();
+      decoded.observation_span_ = span;
       return decoded;
     } catch (const Exception& e) {
       header.fail(e.what());

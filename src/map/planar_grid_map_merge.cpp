@@ -3,11 +3,31 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/planar_grid_map.h>
 
+#include <algorithm>
+#include <cmath>
 #include <string>
 
 #include "map_merge_transform.h"
 
 namespace planar_grid {
+
+void
+PlanarGridMap::noteObservationOrder(double order)
+{
+  if (!std::isfinite(order))
+    throw Exception(
+      "PlanarGridMap::noteObservationOrder: the order key must be finite");
+  observation_span_.first = std::min(observation_span_.first, order);
+  observation_span_.last = std::max(observation_span_.last, order);
+}
+
+void
+PlanarGridMap::setObservationSpan(const ObservationSpan& span)
+{
+  if (!span.empty() && !(std::isfinite(span.first) && std::isfinite(span.last)))
+    throw Exception("PlanarGridMap::setObservationSpan: the bounds must be finite");
+  observation_span_ = span.empty() ? ObservationSpan() : span;
+}
 
 void
 PlanarGridMap::merge(const PlanarGridMap& other, const Eigen::Isometry3d& this_T_other)
@@ -32,7 +52,22 @@ PlanarGridMap::merge(const PlanarGridMap& other, const Eigen::Isometry3d& this_T
   } catch (const Exception& e) {
     throw Exception(std::string("PlanarGridMap::merge: ") + e.what());
   }
-  space_.merge(other.space_, this_T_other);
+  // The newer map's observations win where one map's views all came after the
+  // other's; spans that overlap (or are unknown) leave no newer map to follow.
+  const ObservationSpan& mine = observation_span_;
+  const ObservationSpan& theirs = other.observation_span_;
+  auto order = ExplicitSpaceGrid::MergeOrder::UNORDERED;
+  if (!mine.empty() && !theirs.empty()) {
+    if (theirs.first > mine.last)
+      order = ExplicitSpaceGrid::MergeOrder::OTHER_IS_NEWER;
+    else if (mine.first > theirs.last)
+      order = ExplicitSpaceGrid::MergeOrder::THIS_IS_NEWER;
+  }
+  space_.merge(other.space_, this_T_other, order);
+  if (!theirs.empty()) {
+    observation_span_.first = std::min(mine.first, theirs.first);
+    observation_span_.last = std::max(mine.last, theirs.last);
+  }
   // The tidying integrateSurface() does after a frame, for the planes that met.
   if (params_.planes_absorb_overlapping)
     surface_.absorbOverlappingPlaneCells();

@@ -125,6 +125,9 @@ public:
         depthFromCloud(frame);
       map.integrateDepthImage(depth_, frame.world_T_camera);
     }
+    // The frame's place in its recording orders the map's views against those of
+    // another segment's map when the two are merged.
+    map.noteObservationOrder(frame.file_index);
     if (window_radius_m_ > 0.0) {
       // The rolling window: the map keeps the box of half-size window_radius_m around
       // the sensor in x and y (world z up), every height.

@@ -216,7 +216,8 @@ moved(const FrameSurface& surface, const Eigen::Isometry3d& t)
 }
 
 /** The map of frames [first, last), every input moved by \a world_to_map (the frame
- * the map is built in, from the scene's world frame). */
+ * the map is built in, from the scene's world frame); each frame's number is noted as
+ * its observation order, as the pipeline notes a frame's index. */
 inline PlanarGridMap
 mapFrames(int first,
           int last,
@@ -227,6 +228,7 @@ mapFrames(int first,
     const FrameSurface s = moved(frameSurface(f), world_to_map);
     map.integrateSurface(s.cuboids, s.planes, s.features, s.probabilities);
     map.integrateDepthImage(renderView(cameraPose(f)), world_to_map * cameraPose(f));
+    map.noteObservationOrder(f);
   }
   return map;
 }

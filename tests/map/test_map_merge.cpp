@@ -155,6 +155,13 @@ TEST(PlanarGridMapMerge, TwoHalvesOfADriveGiveTheMapOfTheWholeDrive)
                   && std::abs(plane[3] - truth[3]) < 0.005f);
     EXPECT_TRUE(found) << plane.transpose();
   }
+  // the second half's views are newer: its observations win where both halves saw a
+  // voxel, as integration keeps the newest view, which gives the whole drive's voxels
+  EXPECT_TRUE(merged.getSpaceLayer() == full.getSpaceLayer());
+  EXPECT_EQ(merged.getSpaceLayer().getVoxelCount(SpaceState::OCCUPIED),
+            full.getSpaceLayer().getVoxelCount(SpaceState::OCCUPIED));
+  EXPECT_EQ(merged.getObservationSpan().first, 0.0);
+  EXPECT_EQ(merged.getObservationSpan().last, FRAMES - 1.0);
   std::size_t observed = 0;
   const double share = agreement(full, merged, observed);
   RecordProperty("agreement_percent", std::to_string(100.0 * share));
@@ -167,6 +174,85 @@ TEST(PlanarGridMapMerge, TwoHalvesOfADriveGiveTheMapOfTheWholeDrive)
   for (const PlanarCuboid& c : merged.getSurfaceLayer().getCuboids())
     merged_area += c.is_planar ? static_cast<double>(c.width_m) * c.height_m : 0.0;
   EXPECT_NEAR(merged_area, full_area, 0.02 * full_area);
+}
+
+TEST(PlanarGridMapMerge, FourSegmentsMergedInATreeGiveTheDrivesVoxels)
+{
+  // The drive in four segments merged as planar_grid.distributed merges them:
+  // neighbours first, in either argument order, then the two halves.
+  const PlanarGridMap full = mapFrames(0, FRAMES);
+  std::vector<PlanarGridMap> segments;
+  for (int s = 0; s < 4; ++s)
+    segments.push_back(mapFrames(s * FRAMES / 4, (s + 1) * FRAMES / 4));
+  PlanarGridMap left = copyOf(segments[1]);
+  left.merge(segments[0], Eigen::Isometry3d::Identity());
+  PlanarGridMap right = copyOf(segments[2]);
+  right.merge(segments[3], Eigen::Isometry3d::Identity());
+  right.merge(left, Eigen::Isometry3d::Identity());
+  EXPECT_TRUE(right.getSpaceLayer() == full.getSpaceLayer());
+
+  // The same segments without their order (maps from files without a span): occupied
+  // wins where they disagree, which adds occupied voxels the drive's map does not hold
+  // and removes none.
+  PlanarGridMap unordered(params());
+  for (PlanarGridMap& segment : segments) {
+    segment.setObservationSpan(PlanarGridMap::ObservationSpan());
+    unordered.merge(segment, Eigen::Isometry3d::Identity());
+  }
+  EXPECT_TRUE(unordered.getObservationSpan().empty());
+  std::size_t added = 0, lost = 0;
+  full.getSpaceLayer().forEachVoxel(
+    [&](const ExplicitSpaceGrid::VoxelKey& key, SpaceState state) {
+      lost += state == SpaceState::OCCUPIED
+              && unordered.getSpaceLayer().getState(key) != SpaceState::OCCUPIED;
+    });
+  unordered.getSpaceLayer().forEachVoxel(
+    [&](const ExplicitSpaceGrid::VoxelKey& key, SpaceState state) {
+      added += state == SpaceState::OCCUPIED
+               && full.getSpaceLayer().getState(key) != SpaceState::OCCUPIED;
+    });
+  RecordProperty("unordered_extra_occupied", std::to_string(added));
+  EXPECT_GT(added, 0u);
+  EXPECT_EQ(lost, 0u);
+}
+
+TEST(PlanarGridMapMerge, TheObservationSpanIsSavedAndUnionedAndOptional)
+{
+  PlanarGridMap a = mapFrames(2, 5);
+  EXPECT_EQ(a.getObservationSpan().first, 2.0);
+  EXPECT_EQ(a.getObservationSpan().last, 4.0);
+  const PlanarGridMap loaded = copyOf(a);
+  EXPECT_EQ(loaded.getObservationSpan().first, 2.0);
+  EXPECT_EQ(loaded.getObservationSpan().last, 4.0);
+  EXPECT_NE(bytesOf(a).find("\nobservation_span 2 4\n"), std::string::npos);
+  // merging the empty map (no span) leaves the span; the union otherwise
+  a.merge(PlanarGridMap(params()), Eigen::Isometry3d::Identity());
+  EXPECT_EQ(a.getObservationSpan().first, 2.0);
+  EXPECT_EQ(a.getObservationSpan().last, 4.0);
+  a.merge(mapFrames(7, 8), Eigen::Isometry3d::Identity());
+  EXPECT_EQ(a.getObservationSpan().first, 2.0);
+  EXPECT_EQ(a.getObservationSpan().last, 7.0);
+  // a map without a span writes no line (the file of the versions before it) and
+  // reads back without one
+  PlanarGridMap none = mapFrames(0, 1);
+  none.setObservationSpan(PlanarGridMap::ObservationSpan());
+  EXPECT_EQ(bytesOf(none).find("observation_span"), std::string::npos);
+  EXPECT_TRUE(copyOf(none).getObservationSpan().empty());
+  EXPECT_THROW(none.noteObservationOrder(std::numeric_limits<double>::quiet_NaN()),
+               planar_grid::Exception);
+  // a bad span line is refused by name
+  std::string bytes = bytesOf(a);
+  const std::string line = "observation_span 2 7\n";
+  const std::size_t at = bytes.find(line);
+  ASSERT_NE(at, std::string::npos);
+  bytes.replace(at, line.size(), "observation_span 7 2\n");
+  try {
+    PlanarGridMap::deserialize(bytes, "swapped");
+    ADD_FAILURE() << "no exception";
+  } catch (const planar_grid::IOError& e) {
+    EXPECT_NE(std::string(e.what()).find("observation_span"), std::string::npos)
+      << e.what();
+  }
 }
 
 TEST(PlanarGridMapMerge, TheTransformMovesTheOtherMapIntoThisFrame)
@@ -217,6 +303,7 @@ TEST(PlanarGridMapMerge, AWholeVoxelTranslationMovesTheVoxelsExactly)
        {Eigen::Vector3i(8, 0, 0), Eigen::Vector3i(8, -3, 5)}) {
     SCOPED_TRACE(offset.transpose());
     PlanarGridMap shifted(params());
+    shifted.setObservationSpan(second.getObservationSpan());
     second.getSpaceLayer().forEachVoxel(
       [&](const ExplicitSpaceGrid::VoxelKey& key, SpaceState state) {
         shifted.getSpaceLayer().setState(key + offset, state);
@@ -232,8 +319,8 @@ TEST(PlanarGridMapMerge, AWholeVoxelTranslationMovesTheVoxelsExactly)
 
 TEST(PlanarGridMapMerge, TheSpaceLayersCombineByRank)
 {
-  // Every pair of states, both priors: occupied > free > unknown (occluded) > never
-  // observed, against a brute-force table.
+  // Maps without observation spans (no newer map), every pair of states, both priors:
+  // occupied > free > unknown (occluded) > never observed, against a brute-force table.
   for (const SpaceState prior : {SpaceState::UNKNOWN, SpaceState::FREE}) {
     SCOPED_TRACE(planar_grid::toString(prior));
     PlanarGridMap::Params p = params();
@@ -273,6 +360,72 @@ TEST(PlanarGridMapMerge, TheSpaceLayersCombineByRank)
     a.getSpaceLayer().forEachVoxel(
       [&stored](const ExplicitSpaceGrid::VoxelKey&, SpaceState) { ++stored; });
     EXPECT_EQ(stored, observed);
+  }
+}
+
+TEST(PlanarGridMapMerge, TheNewerMapsObservationsWin)
+{
+  // Every pair of states, both priors, maps whose spans are ordered: where both
+  // observed a voxel free or occupied the newer map's state wins; an observed state
+  // beats occluded, occluded beats never observed; against a brute-force table, in
+  // both argument orders. Spans that overlap fall back to the rank.
+  for (const SpaceState prior : {SpaceState::UNKNOWN, SpaceState::FREE}) {
+    SCOPED_TRACE(planar_grid::toString(prior));
+    PlanarGridMap::Params p = params();
+    p.space.prior = prior;
+    PlanarGridMap older(p), newer(p);
+    older.noteObservationOrder(10.0);
+    older.noteObservationOrder(19.0);
+    newer.noteObservationOrder(20.0);
+    // state index 3: never observed (not set)
+    const auto rank = [](int s) {
+      return s == 1 ? 3 : s == 0 ? 2 : s == 2 ? 1 : 0;
+    };
+    std::mt19937 rng(12);
+    std::uniform_int_distribution<int> state(0, 3);
+    std::map<std::tuple<int, int, int>, int> ordered, by_rank;
+    for (int x = -20; x < 20; ++x)
+      for (int y = -3; y < 3; ++y)
+        for (int z = 0; z < 4; ++z) {
+          const int so = state(rng), sn = state(rng);
+          if (so < 3)
+            older.getSpaceLayer().setState({x, y, z}, static_cast<SpaceState>(so));
+          if (sn < 3)
+            newer.getSpaceLayer().setState({x, y, z}, static_cast<SpaceState>(sn));
+          ordered[{x, y, z}] = sn <= 1 ? sn : (rank(so) >= rank(sn) ? so : sn);
+          by_rank[{x, y, z}] = rank(so) >= rank(sn) ? so : sn;
+        }
+    const auto wrong = [prior](const PlanarGridMap& m,
+                               const std::map<std::tuple<int, int, int>, int>& table) {
+      std::size_t n = 0;
+      for (const auto& [key, s] : table) {
+        const auto [x, y, z] = key;
+        const SpaceState want = s == 3 ? prior : static_cast<SpaceState>(s);
+        n += m.getSpaceLayer().getState(ExplicitSpaceGrid::VoxelKey(x, y, z)) != want;
+      }
+      return n;
+    };
+    PlanarGridMap on = copyOf(older), no = copyOf(newer);
+    on.merge(newer, Eigen::Isometry3d::Identity());
+    no.merge(older, Eigen::Isometry3d::Identity());
+    EXPECT_EQ(wrong(on, ordered), 0u);
+    EXPECT_EQ(wrong(no, ordered), 0u);
+    EXPECT_TRUE(on.getSpaceLayer() == no.getSpaceLayer());
+    EXPECT_EQ(on.getObservationSpan().first, 10.0);
+    EXPECT_EQ(on.getObservationSpan().last, 20.0);
+    // resampled by a transform that is not a whole-voxel translation, the same rule
+    Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
+    turn.linear() =
+      Eigen::AngleAxisd(1e-9, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    PlanarGridMap resampled = copyOf(older);
+    resampled.merge(newer, turn);
+    EXPECT_EQ(wrong(resampled, ordered), 0u);
+    // overlapping spans: no newer map, the rank decides
+    PlanarGridMap overlapping = copyOf(newer);
+    overlapping.noteObservationOrder(15.0);
+    PlanarGridMap ranked = copyOf(older);
+    ranked.merge(overlapping, Eigen::Isometry3d::Identity());
+    EXPECT_EQ(wrong(ranked, by_rank), 0u);
   }
 }
 

@@ -221,29 +221,49 @@ public:
    * grid, and neither must the first query after it. */
   void setState(const VoxelKey& key, SpaceState state);
 
-  /** \brief Merges another grid (the space layer of another recording's map) into
-   * this one. Each voxel takes the merged state of its two observations, the one of
-   * higher rank in occupied > free > unknown (occluded) > never observed. The two
-   * recordings observed independently and neither is newer, so the newest-wins rule
-   * of integration does not apply; the layer keeps each voxel at OctoMap's clamping
-   * bounds (occupied 0.971, free 0.1192), and adding those log-odds as OctoMap fuses
-   * independent observations (+3.5 - 2.0 = +1.5) gives occupied where the maps
-   * disagree; occluded space is observed without evidence (log-odds 0), so an
-   * observed state replaces it, and never-observed space takes the other map's
-   * state. Occupied winning is also the safe side for planning: an object that moved
-   * between the recordings stays an obstacle instead of opening a hole in a real
-   * one. The rule is commutative and associative, and merging an empty grid changes
-   * nothing.
+  /** \brief Which of two merged grids holds the newer observations (merge()). */
+  enum class MergeOrder {
+    /** Neither is known to be newer (independent recordings, or observation times
+     * that interleave): the symmetric rule decides. */
+    UNORDERED,
+    /** Every observation of this grid is newer than every one of the other. */
+    THIS_IS_NEWER,
+    /** Every observation of the other grid is newer than every one of this grid. */
+    OTHER_IS_NEWER
+  };
+
+  /** \brief Merges another grid (the space layer of another recording's map, or of
+   * another part of one) into this one, voxel by voxel.
+   *
+   * With \a order THIS_IS_NEWER or OTHER_IS_NEWER, the rule of integration: where both
+   * grids observed a voxel free or occupied, the newer grid's state wins (a later view
+   * replaces an earlier one); where only one did, its state stays (occlusion never
+   * erases an observed state); occluded (unknown) beats never observed. This is what
+   * integrating the older grid's views and then the newer grid's views into one grid
+   * gives, so the halves of a drive merged give the drive's own grid.
+   *
+   * With UNORDERED (no newer grid to follow), the state of higher rank in occupied >
+   * free > unknown (occluded) > never observed: the clamped log-odds of two
+   * independent observations added as OctoMap fuses them (+3.5 - 2.0 = +1.5) give
+   * occupied where the grids disagree, the safe side for planning. It grows occupied
+   * space where the grids disagree (an object that moved, stereo noise seen once).
+   *
+   * Either rule is commutative when \a order names the same grid as newer from
+   * either side (merging an empty grid changes nothing); both are associative for
+   * grids whose observation times do not interleave.
    * \param[in] other the grid merged in (unchanged; not this grid)
    * \param[in] this_T_other rigid transform from \a other's world frame to this
    * grid's, meters. A translation by whole voxels (rotation exactly the identity)
    * moves the voxels exactly; any other transform resamples: every voxel of this grid
    * whose centre, moved back into \a other, falls in an observed voxel of \a other
    * takes that voxel's state into the merge (nearest neighbour, no holes).
+   * \param[in] order which grid holds the newer observations
    * \throws planar_grid::Exception when the resolutions or the priors differ, when
    * \a other is this grid, or for a transform that is not finite and rigid; the grid
    * is then unchanged */
-  void merge(const ExplicitSpaceGrid& other, const Eigen::Isometry3d& this_T_other);
+  void merge(const ExplicitSpaceGrid& other,
+             const Eigen::Isometry3d& this_T_other,
+             MergeOrder order = MergeOrder::UNORDERED);
 
   /** \brief Walks the voxels along a ray (Amanatides-Woo) to the first occupied one.
    * \param[in] origin start, meters

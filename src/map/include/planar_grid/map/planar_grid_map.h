@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -70,9 +71,13 @@ struct MapWindowRemoval {
  * cuboids C
  * space_bytes S
  * surface_bytes T
+ * observation_span first last
  * checksum_crc32 0x........
  * data
  * \endcode
+ * (observation_span, getObservationSpan(), only when the span is not empty: files
+ * without it, and every file written before it existed, read as an empty span; a
+ * reader that does not know the key warns and ignores it),
  * then S bytes of the space layer's octree bit stream (2-bit labels,
  * ExplicitSpaceGrid::serialize(), whose version is the file's) and T bytes of the
  * surface layer, little-endian. Versions 1 and 2 are still read (their space stream
@@ -169,16 +174,21 @@ public:
    *   refitted and the rasters are re-projected into one frame, so a wall seen in
    *   both maps becomes one plane, not two parallel ones; planes without a match are
    *   added. The non-planar cells of both maps are kept.
-   * - Space layer (ExplicitSpaceGrid::merge()): voxel by voxel, occupied > free >
-   *   unknown (occluded) > never observed: the log-odds of the two independent
-   *   observations at OctoMap's clamping bounds added (+3.5 - 2.0: occupied where the
-   *   maps disagree), the safe side for planning.
+   * - Space layer (ExplicitSpaceGrid::merge()): voxel by voxel. When one map's
+   *   observation span (getObservationSpan()) lies wholly after the other's, the newer
+   *   map's free or occupied observation wins where both observed a voxel, as
+   *   integration keeps the newest view: two halves of a drive merge into the drive's
+   *   own space layer. When the spans overlap or one is empty (maps from files without
+   *   a span, unordered recordings), occupied > free > unknown (occluded) > never
+   *   observed, the safe side for planning, which grows occupied space where the maps
+   *   disagree. The precedence comes from the maps, not from the argument order, so A
+   *   into B and B into A give the same voxels. The merged span is the union.
    * - Then, as after integrateSurface(), Params::planes_absorb_overlapping and
    *   Params::planes_replace_non_planar tidy the planes that met.
-   * Maps of one recording split in two differ from the map of all its frames where a
-   * later view changed what an earlier one saw (integration keeps the newest
-   * observation; a merge has no newest) and where the planes' evidence, joined in
-   * another order, is covered by other rectangles.
+   * Maps of one recording split in two differ from the map of all its frames where the
+   * later part's first views lacked the evidence the earlier frames had built up
+   * (non-planar cells those views would have cleared, plane association) and where the
+   * planes' evidence, joined in another order, is covered by other rectangles.
    * \param[in] other the map merged in (unchanged; not this map)
    * \param[in] this_T_other rigid transform from \a other's world frame to this map's
    * (4 x 4, rotation and translation in meters); the identity for maps whose poses
@@ -190,6 +200,38 @@ public:
    * then unchanged. The parameters that only steer later integration (max_range_m,
    * surface_margin_m, the clearing and tidying switches) are this map's. */
   void merge(const PlanarGridMap& other, const Eigen::Isometry3d& this_T_other);
+
+  /** \brief The observation order of a map's content: the least and the greatest order
+   * key of the views integrated into it (noteObservationOrder()), or empty (first >
+   * last) when none was noted. merge() lets the newer map's voxels win when one span
+   * lies wholly after the other; the merged map's span is the union. */
+  struct ObservationSpan {
+    /** \brief The least order key; +infinity when empty. */
+    double first{std::numeric_limits<double>::infinity()};
+    /** \brief The greatest order key; -infinity when empty. */
+    double last{-std::numeric_limits<double>::infinity()};
+    /** \brief True when no observation was noted. */
+    [[nodiscard]] bool empty() const { return !(first <= last); }
+  };
+
+  /** \brief Notes that the map holds a view of order key \a order (the span grows to
+   * include it). The key is any number that grows with the time of the views and is
+   * comparable between the maps that will be merged: the pipeline notes the frame's
+   * index in its recording (Frame::file_index), so segments of one recording compare;
+   * maps of different recordings need a common clock (timestamps in seconds).
+   * \throws planar_grid::Exception for a non-finite \a order */
+  void noteObservationOrder(double order);
+
+  /** \brief The span of the order keys noted (empty for a new map and for maps read
+   * from files written before the span was stored). */
+  [[nodiscard]] const ObservationSpan& getObservationSpan() const
+  {
+    return observation_span_;
+  }
+
+  /** \brief Replaces the span (e.g. for a map assembled by hand).
+   * \throws planar_grid::Exception for a non-finite bound of a non-empty span */
+  void setObservationSpan(const ObservationSpan& span);
 
   /** \brief Integrates one view into the explicit space layer (see
    * ExplicitSpaceGrid::integrateDepthImage()), then, with Params::clear_non_planar,
@@ -409,6 +451,8 @@ private:
   SurfaceLayer surface_;
   /** \brief The explicit space layer. */
   ExplicitSpaceGrid space_;
+  /** \brief The order keys of the views the map holds. */
+  ObservationSpan observation_span_;
   /** \brief The obstacle index of getDistance() and isCollisionFree(), built lazily
    * under its own mutex; replaced by every non-const method. */
   std::shared_ptr<map_queries::QueryCache> query_cache_;
