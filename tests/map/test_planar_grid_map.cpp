@@ -966,6 +966,26 @@ planeOf(const PlanarCuboid& c)
                          -c.normal.dot(c.faceCentre()));
 }
 
+/** Integrates \a wall as a frame of its own (no features) and the frame \a other
+ * integrates into \a map, the wall first when \a wall_first, else last. */
+template <typename Frame>
+void
+integrateWallAnd(PlanarGridMap& map,
+                 const PlanarCuboid& wall,
+                 bool wall_first,
+                 const Frame& other)
+{
+  const auto integrateWall = [&] {
+    map.integrateSurface(PlanarCuboids{wall}, PlaneModels{planeOf(wall)},
+                         pcl::PointCloud<pcl::PointXYZ>(), {});
+  };
+  if (wall_first)
+    integrateWall();
+  other();
+  if (!wall_first)
+    integrateWall();
+}
+
 TEST_F(PlanarGridMapTest, PlanesAbsorbTheCellsOfWeakerPlanesLyingOnThem)
 {
   // A 4 m x 2 m wall on z = 5 (x in [-2, 2], y in [-1, 1]; cuboids z in [5, 5.1],
@@ -1025,15 +1045,9 @@ TEST_F(PlanarGridMapTest, PlanesAbsorbTheCellsOfWeakerPlanesLyingOnThem)
       PlanarGridMap::Params p = params();
       p.planes_absorb_overlapping = absorb;
       PlanarGridMap map(p);
-      const auto integrateWall = [&] {
-        map.integrateSurface(PlanarCuboids{wall}, PlaneModels{planeOf(wall)},
-                             pcl::PointCloud<pcl::PointXYZ>(), {});
-      };
-      if (wall_first)
-        integrateWall();
-      map.integrateSurface(patches, patch_planes, features, probabilities);
-      if (!wall_first)
-        integrateWall();
+      integrateWallAnd(map, wall, wall_first, [&] {
+        map.integrateSurface(patches, patch_planes, features, probabilities);
+      });
       std::array<Tally, 4>& t = absorb ? on_wall_on : on_wall_off;
       t[0] = tally(map, planeOf(wall));
       for (std::size_t k = 0; k < 3; ++k)
@@ -1137,16 +1151,10 @@ TEST_F(PlanarGridMapTest, ParallelViewsOfOneWallWithinTheAbsorbDistanceJoinIt)
       PlanarGridMap::Params p = params();
       p.surface.absorb_distance_m = c.absorb_distance_m;
       PlanarGridMap map(p);
-      const auto integrateWall = [&] {
-        map.integrateSurface(PlanarCuboids{wall}, PlaneModels{planeOf(wall)},
-                             pcl::PointCloud<pcl::PointXYZ>(), {});
-      };
-      if (wall_first)
-        integrateWall();
-      map.integrateSurface(PlanarCuboids{patch}, PlaneModels{planeOf(patch)}, features,
-                           probabilities);
-      if (!wall_first)
-        integrateWall();
+      integrateWallAnd(map, wall, wall_first, [&] {
+        map.integrateSurface(PlanarCuboids{patch}, PlaneModels{planeOf(patch)},
+                             features, probabilities);
+      });
       std::size_t wall_cuboids = 0, patch_cuboids = 0;
       double wall_area = 0.0, patch_area = 0.0;
       std::uint64_t wall_features = 0;
