@@ -18,6 +18,9 @@ namespace python {
 
 namespace {
 
+using Map = PlanarGridMap;
+using MapClass = py::class_<Map, std::shared_ptr<Map>>;
+
 /** A state given as SpaceState, int (0 free, 1 occupied, 2 unknown) or name. */
 SpaceState
 toSpaceState(const py::handle& state)
@@ -94,10 +97,8 @@ tile_size_m; file (a name in the folder), file_bytes, bounds_min and bounds_max
 
 /** save_tiles, load_tiles and read_tile_index, on the class and the module. */
 void
-bindMapTiles(py::module_& m,
-             py::class_<PlanarGridMap, std::shared_ptr<PlanarGridMap>>& cls)
+bindMapTiles(py::module_& m, MapClass& cls)
 {
-  using Map = PlanarGridMap;
   const auto save = [](const Map& self, const py::object& folder, double tile_size_m) {
     const std::string path = toPath(folder);
     MapTileIndex index;
@@ -215,10 +216,9 @@ planar_grid.IOError
       .c_str());
 }
 
-} // namespace
-
+/** SpaceState, an IntEnum of the module. */
 void
-bindMap(py::module_& m)
+bindSpaceState(py::module_& m)
 {
   py::object int_enum = py::module_::import("enum").attr("IntEnum");
   py::dict members;
@@ -232,8 +232,12 @@ bindMap(py::module_& m)
     "OCCUPIED = 1, UNKNOWN = 2. An IntEnum, so it compares with the uint8 arrays of "
     "PlanarGridMap.get_state().";
   m.attr("SpaceState") = space_state;
+}
 
-  using Map = PlanarGridMap;
+/** The class docstring; its Parameters section is map_integration's table. */
+const std::string&
+mapClassDoc()
+{
   // The keyword arguments are map_integration's keys: their descriptions, defaults
   // and ranges come from that stage's parameter table.
   static const std::string doc =
@@ -267,67 +271,79 @@ Notes
 -----
 Maps are not copied (copy.copy raises); pickling goes through the map file format.
 )doc";
-  py::class_<Map, std::shared_ptr<Map>> cls(m, "PlanarGridMap", doc.c_str());
+  return doc;
+}
+
+/** The constructor, its keyword arguments and defaults from Map::Params. */
+void
+bindMapConstructor(MapClass& cls)
+{
   const Map::Params d;
+  cls.def(py::init([](double resolution_m, double max_range_m, double surface_margin_m,
+                      const std::string& prior, double thickness_m,
+                      double plane_merge_angle_rad, double plane_merge_distance_m,
+                      double occupancy_thres, double feature_distance_m,
+                      int close_gaps_cells, const std::string& merge_rule,
+                      double cover_density, bool clear_non_planar, bool clear_planar,
+                      bool planes_replace_non_planar, bool planes_absorb_overlapping,
+                      double absorb_distance_m) {
+            Map::Params p;
+            p.clear_non_planar = clear_non_planar;
+            p.clear_planar = clear_planar;
+            p.planes_replace_non_planar = planes_replace_non_planar;
+            p.planes_absorb_overlapping = planes_absorb_overlapping;
+            p.resolution_m = resolution_m;
+            p.space.max_range_m = max_range_m;
+            p.space.surface_margin_m = surface_margin_m;
+            p.surface.thickness_m = thickness_m;
+            p.surface.plane_merge_angle_rad = plane_merge_angle_rad;
+            p.surface.plane_merge_distance_m = plane_merge_distance_m;
+            p.surface.occupancy_thres = occupancy_thres;
+            p.surface.feature_distance_m = feature_distance_m;
+            p.surface.close_gaps_cells = close_gaps_cells;
+            p.surface.cover_density = cover_density;
+            p.surface.absorb_distance_m = absorb_distance_m;
+            try {
+              p.space.prior = spaceStateFromString(prior);
+            } catch (const planar_grid::Exception& e) {
+              throw py::value_error(std::string("PlanarGridMap: prior: ") + e.what());
+            }
+            try {
+              p.surface.merge_rule = surfaceMergeRuleFromString(merge_rule);
+            } catch (const planar_grid::Exception& e) {
+              throw py::value_error(std::string("PlanarGridMap: merge_rule: ")
+                                    + e.what());
+            }
+            try {
+              return std::make_shared<Map>(p);
+            } catch (const planar_grid::Exception& e) {
+              throw py::value_error(std::string("PlanarGridMap: ") + e.what());
+            }
+          }),
+          py::kw_only(), py::arg("resolution_m") = d.resolution_m,
+          py::arg("max_range_m") = d.space.max_range_m,
+          py::arg("surface_margin_m") = d.space.surface_margin_m,
+          py::arg("prior") = toString(d.space.prior),
+          py::arg("thickness_m") = d.surface.thickness_m,
+          py::arg("plane_merge_angle_rad") = d.surface.plane_merge_angle_rad,
+          py::arg("plane_merge_distance_m") = d.surface.plane_merge_distance_m,
+          py::arg("occupancy_thres") = d.surface.occupancy_thres,
+          py::arg("feature_distance_m") = d.surface.feature_distance_m,
+          py::arg("close_gaps_cells") = d.surface.close_gaps_cells,
+          py::arg("merge_rule") = toString(d.surface.merge_rule),
+          py::arg("cover_density") = d.surface.cover_density,
+          py::arg("clear_non_planar") = d.clear_non_planar,
+          py::arg("clear_planar") = d.clear_planar,
+          py::arg("planes_replace_non_planar") = d.planes_replace_non_planar,
+          py::arg("planes_absorb_overlapping") = d.planes_absorb_overlapping,
+          py::arg("absorb_distance_m") = d.surface.absorb_distance_m);
+}
+
+/** Reading and writing the map file. */
+void
+bindMapFile(MapClass& cls)
+{
   cls
-    .def(py::init([](double resolution_m, double max_range_m, double surface_margin_m,
-                     const std::string& prior, double thickness_m,
-                     double plane_merge_angle_rad, double plane_merge_distance_m,
-                     double occupancy_thres, double feature_distance_m,
-                     int close_gaps_cells, const std::string& merge_rule,
-                     double cover_density, bool clear_non_planar, bool clear_planar,
-                     bool planes_replace_non_planar, bool planes_absorb_overlapping,
-                     double absorb_distance_m) {
-           Map::Params p;
-           p.clear_non_planar = clear_non_planar;
-           p.clear_planar = clear_planar;
-           p.planes_replace_non_planar = planes_replace_non_planar;
-           p.planes_absorb_overlapping = planes_absorb_overlapping;
-           p.resolution_m = resolution_m;
-           p.space.max_range_m = max_range_m;
-           p.space.surface_margin_m = surface_margin_m;
-           p.surface.thickness_m = thickness_m;
-           p.surface.plane_merge_angle_rad = plane_merge_angle_rad;
-           p.surface.plane_merge_distance_m = plane_merge_distance_m;
-           p.surface.occupancy_thres = occupancy_thres;
-           p.surface.feature_distance_m = feature_distance_m;
-           p.surface.close_gaps_cells = close_gaps_cells;
-           p.surface.cover_density = cover_density;
-           p.surface.absorb_distance_m = absorb_distance_m;
-           try {
-             p.space.prior = spaceStateFromString(prior);
-           } catch (const planar_grid::Exception& e) {
-             throw py::value_error(std::string("PlanarGridMap: prior: ") + e.what());
-           }
-           try {
-             p.surface.merge_rule = surfaceMergeRuleFromString(merge_rule);
-           } catch (const planar_grid::Exception& e) {
-             throw py::value_error(std::string("PlanarGridMap: merge_rule: ")
-                                   + e.what());
-           }
-           try {
-             return std::make_shared<Map>(p);
-           } catch (const planar_grid::Exception& e) {
-             throw py::value_error(std::string("PlanarGridMap: ") + e.what());
-           }
-         }),
-         py::kw_only(), py::arg("resolution_m") = d.resolution_m,
-         py::arg("max_range_m") = d.space.max_range_m,
-         py::arg("surface_margin_m") = d.space.surface_margin_m,
-         py::arg("prior") = toString(d.space.prior),
-         py::arg("thickness_m") = d.surface.thickness_m,
-         py::arg("plane_merge_angle_rad") = d.surface.plane_merge_angle_rad,
-         py::arg("plane_merge_distance_m") = d.surface.plane_merge_distance_m,
-         py::arg("occupancy_thres") = d.surface.occupancy_thres,
-         py::arg("feature_distance_m") = d.surface.feature_distance_m,
-         py::arg("close_gaps_cells") = d.surface.close_gaps_cells,
-         py::arg("merge_rule") = toString(d.surface.merge_rule),
-         py::arg("cover_density") = d.surface.cover_density,
-         py::arg("clear_non_planar") = d.clear_non_planar,
-         py::arg("clear_planar") = d.clear_planar,
-         py::arg("planes_replace_non_planar") = d.planes_replace_non_planar,
-         py::arg("planes_absorb_overlapping") = d.planes_absorb_overlapping,
-         py::arg("absorb_distance_m") = d.surface.absorb_distance_m)
     .def_static(
       "load",
       [](const py::object& path) {
@@ -366,7 +382,312 @@ Raises
 ------
 planar_grid.IOError
     When it cannot be written.
+)doc");
+}
+
+/** Integration of scans, depth views and surfaces, and setting voxel states. */
+void
+bindMapIntegration(MapClass& cls)
+{
+  cls
+    .def(
+      "set_state",
+      [](Map& self, const FloatArray& points, const py::object& state) {
+        const auto p = toPoints(points, "points");
+        const SpaceState s = toSpaceState(state);
+        auto& space = self.getSpaceLayer();
+        for (const auto& point : p)
+          if (point.allFinite())
+            space.setState(space.toKey(point), s);
+      },
+      py::arg("points"), py::arg("state"),
+      R"doc(Sets the voxels containing the points to a state (the explicit space layer).
+
+Parameters
+----------
+points : array_like, shape (N, 3)
+    Points, meters; non-finite rows are skipped.
+state : SpaceState, int or str
+    The state ("free", "occupied" or "unknown").
 )doc")
+    .def(
+      "integrate_point_cloud",
+      [](Map& self, const FloatArray& points, const DoubleArray& sensor_origin) {
+        const auto cloud = toCloud(points, "points");
+        const Eigen::Vector3f origin = toVector3f(sensor_origin, "sensor_origin");
+        py::gil_scoped_release release;
+        self.integratePointCloud(*cloud, origin);
+      },
+      py::arg("points"), py::arg("sensor_origin"),
+      R"doc(Integrates a scan into the space layer by ray casting.
+
+The voxels each ray crosses from the sensor origin to its point become FREE and the
+voxel of every point within max_range_m OCCUPIED (as OctoMap's insertPointCloud).
+
+Parameters
+----------
+points : array_like, shape (N, 3)
+    The scan in the world frame, meters.
+sensor_origin : array_like, shape (3,)
+    Where the rays start, meters.
+)doc")
+    .def(
+      "integrate_depth_image",
+      [](Map& self, const FloatArray& depth, double fx, double fy, double cx, double cy,
+         const DoubleArray& world_T_camera) {
+        if (depth.ndim() != 2)
+          throw py::value_error("depth must be an (H, W) array of depths in meters");
+        DepthImage image;
+        image.height = static_cast<int>(depth.shape(0));
+        image.width = static_cast<int>(depth.shape(1));
+        image.fx = static_cast<float>(fx);
+        image.fy = static_cast<float>(fy);
+        image.cx = static_cast<float>(cx);
+        image.cy = static_cast<float>(cy);
+        image.depth_m.assign(depth.data(), depth.data() + depth.size());
+        const Eigen::Isometry3d pose = toIsometry(world_T_camera, "world_T_camera");
+        py::gil_scoped_release release;
+        self.integrateDepthImage(image, pose);
+      },
+      py::arg("depth"), py::arg("fx"), py::arg("fy"), py::arg("cx"), py::arg("cy"),
+      py::arg("world_T_camera"),
+      R"doc(Integrates one pinhole depth view into the space layer.
+
+Voxels in front of the measured depth become FREE, those at it OCCUPIED and those
+behind it UNKNOWN where they held the prior.
+
+Parameters
+----------
+depth : array_like, shape (H, W)
+    Depth along the optical axis per pixel, meters (NaN or <= 0: no measurement).
+fx, fy, cx, cy : float
+    Intrinsics, pixels.
+world_T_camera : array_like, shape (4, 4)
+    The camera pose (camera x right, y down, z forward), meters.
+)doc")
+    .def(
+      "integrate_surface",
+      [](Map& self, const Cuboids& cuboids, const DoubleArray& planes,
+         const FloatArray& features, const DoubleArray& probabilities) {
+        PlaneModels models;
+        if (planes.size() != 0) {
+          if (planes.ndim() != 2 || planes.shape(1) != 4)
+            throw py::value_error("planes must be a (K, 4) array of [a, b, c, d]");
+          const auto p = planes.unchecked<2>();
+          for (py::ssize_t i = 0; i < planes.shape(0); ++i)
+            models.emplace_back(
+              Eigen::Vector4d(p(i, 0), p(i, 1), p(i, 2), p(i, 3)).cast<float>());
+        }
+        const auto cloud = toCloud(features, "features");
+        if (probabilities.ndim() != 1
+            || static_cast<std::size_t>(probabilities.shape(0)) != cloud->size())
+          throw py::value_error("probabilities must be a (F,) array, one per feature");
+        const std::vector<float> prob(probabilities.data(),
+                                      probabilities.data() + probabilities.shape(0));
+        py::gil_scoped_release release;
+        self.integrateSurface(cuboids.cuboids, models, *cloud, prob);
+      },
+      py::arg("cuboids"), py::arg("planes"), py::arg("features"),
+      py::arg("probabilities"),
+      R"doc(Merges one frame's cuboids and feature occupancies into the surface layer.
+
+Parameters
+----------
+cuboids : Cuboids
+    The frame's cuboids in the world frame; plane_ids index ``planes`` (-1 non-planar).
+planes : array_like, shape (K, 4)
+    The frame's planes [a, b, c, d] in the world frame (unit normal, meters).
+features : array_like, shape (F, 3)
+    Key feature points in the world frame, meters (may be empty).
+probabilities : array_like, shape (F,)
+    One occupancy probability per feature, in [0, 1].
+)doc");
+}
+
+/** Merging maps and the observation span that orders them. */
+void
+bindMapMerge(MapClass& cls)
+{
+  cls
+    .def(
+      "merge",
+      [](Map& self, const Map& other, const DoubleArray& this_T_other) {
+        Eigen::Isometry3d transform = toIsometry(this_T_other, "this_T_other");
+        // toIsometry() accepts a rotation within 1e-3 of orthonormal (a float32
+        // matrix, a pose read from text); merge() moves plane moments and raster
+        // frames, which needs a rotation: the nearest one is used
+        transform.linear() =
+          Eigen::Quaterniond(transform.linear()).normalized().toRotationMatrix();
+        py::gil_scoped_release release;
+        self.merge(other, transform);
+      },
+      py::arg("other"), py::arg("this_T_other"),
+      R"doc(Merges another map (another recording's, mapped on its own) into this one.
+
+Planes: each plane of ``other`` joins the plane of this map that the association of
+integrate_surface() matches (a wall seen in both maps becomes one plane, its evidence
+added and refitted, the rasters re-projected into one frame, not two parallel planes);
+planes without a match are added. Non-planar cells: both maps' are kept. Voxels: when
+one map's observation_span lies wholly after the other's (segments of one recording,
+as the pipeline notes its frames), the newer map's free or occupied observation wins
+where both observed a voxel, as integration keeps the newest view; when the spans
+overlap or one is None, occupied > free > unknown (occluded) > never observed (the
+clamped log-odds of two independent observations added, as OctoMap fuses them:
+occupied where the maps disagree). The merged span is the union. Merging a into b and
+b into a give the same voxels, planes and cuboids up to their order (except where one
+map holds a surface as several planes); merging an empty map changes nothing.
+``other`` is not changed.
+
+Parameters
+----------
+other : PlanarGridMap
+    The map merged in (not this map).
+this_T_other : array_like, shape (4, 4), float
+    Rigid transform from ``other``'s world frame to this map's: rotation and
+    translation in meters, last row 0 0 0 1 (the identity, ``np.eye(4)``, for maps
+    whose poses share one world frame, such as GPS/INS poses). A rotation within 1e-3
+    of orthonormal is replaced by the nearest rotation. Other than the identity, the
+    voxels and raster cells of ``other`` are resampled to the nearest cell (whole-voxel
+    translations move the voxels exactly).
+
+Raises
+------
+ValueError
+    For ``this_T_other`` not of shape (4, 4) or not a rigid transform.
+planar_grid.Error
+    When the maps' resolution_m, prior or any surface parameter (thickness_m,
+    plane_merge_angle_rad, plane_merge_distance_m, occupancy_thres, feature_distance_m,
+    close_gaps_cells, merge_rule, cover_density, absorb_distance_m) differ, naming
+    them; or when ``other`` is this map. The map is then unchanged.
+)doc")
+    .def_property(
+      "observation_span",
+      [](const Map& self) -> py::object {
+        const Map::ObservationSpan& span = self.getObservationSpan();
+        if (span.empty())
+          return py::none();
+        return py::make_tuple(span.first, span.last);
+      },
+      [](Map& self, const py::object& value) {
+        Map::ObservationSpan span;
+        if (!value.is_none()) {
+          const auto pair = value.cast<std::pair<double, double>>();
+          if (!(pair.first <= pair.second))
+            throw py::value_error("observation_span must be (first, last) with "
+                                  "first <= last, or None");
+          span.first = pair.first;
+          span.last = pair.second;
+        }
+        self.setObservationSpan(span);
+      },
+      R"doc(tuple (first, last) of float, or None: the least and greatest order key of
+the views the map holds (note_observation_order(); the pipeline notes each frame's index
+in its recording), None when none was noted (a new map, a file written before the span
+was stored). merge() lets the newer map's voxels win when one span lies wholly after
+the other's. Settable (None empties it); planar_grid.Error for a non-finite bound.)doc")
+    .def("note_observation_order", &Map::noteObservationOrder, py::arg("order"),
+         R"doc(Grows observation_span to include ``order``, a number that increases
+with the time of the views (a frame index, a timestamp in seconds) and is comparable
+between the maps that will be merged. planar_grid.Error for a non-finite order.)doc");
+}
+
+/** Read-only queries of the contents: cuboids, planes, parameters, memory, voxels. */
+void
+bindMapContents(MapClass& cls)
+{
+  cls
+    .def_property_readonly(
+      "cuboids",
+      [](const Map& self) { return Cuboids{self.getSurfaceLayer().getCuboids()}; },
+      "Cuboids: the merged cuboids, every map plane's rectangles (plane_ids index "
+      "planes) "
+      "then the non-planar cells (plane_id -1), with their probabilities.")
+    .def_property_readonly(
+      "planes",
+      [](const Map& self) {
+        const auto& planes = self.getSurfaceLayer().getPlanes();
+        py::array_t<double> out(
+          {static_cast<py::ssize_t>(planes.size()), py::ssize_t{4}});
+        auto o = out.mutable_unchecked<2>();
+        for (std::size_t i = 0; i < planes.size(); ++i)
+          for (py::ssize_t j = 0; j < 4; ++j)
+            o(static_cast<py::ssize_t>(i), j) = planes[i][static_cast<int>(j)];
+        return out;
+      },
+      "numpy.ndarray, shape (K, 4), float64: the map's planes [a, b, c, d] (unit "
+      "normal, "
+      "d in meters), world frame.")
+    .def_property_readonly("resolution_m", &Map::getResolution,
+                           "float: the minimum cell size, meters.")
+    .def_property_readonly(
+      "params", [](const Map& self) { return paramsDict(self.getParams()); },
+      "dict: the parameters, by the constructor's keyword names.")
+    .def_property_readonly(
+      "memory",
+      [](const Map& self) {
+        const MapMemory memory = self.getMemory();
+        py::dict out;
+        out["surface_bytes"] = memory.surface_bytes;
+        out["space_bytes"] = memory.space_bytes;
+        out["total_bytes"] = memory.total_bytes;
+        return out;
+      },
+      "dict: bytes held by the surface layer, the space layer and both (surface_bytes, "
+      "space_bytes, total_bytes).")
+    .def_property_readonly(
+      "cell_count",
+      [](const Map& self) { return self.getSurfaceLayer().getCellCount(); },
+      "int: observed raster cells over all planes plus non-planar cells.")
+    .def_property_readonly(
+      "voxel_counts",
+      [](const Map& self) {
+        const auto& space = self.getSpaceLayer();
+        py::dict out;
+        for (const SpaceState s :
+             {SpaceState::FREE, SpaceState::OCCUPIED, SpaceState::UNKNOWN})
+          out[py::str(toString(s))] = space.getVoxelCount(s);
+        return out;
+      },
+      "dict: voxels per state ('free', 'occupied', 'unknown') that differ from the "
+      "prior (0 for the prior's own state).")
+    .def(
+      "voxel_centres",
+      [](const Map& self, const py::object& state) {
+        const SpaceState wanted = toSpaceState(state);
+        const auto& space = self.getSpaceLayer();
+        std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> centres;
+        space.forEachVoxel([&](const ExplicitSpaceGrid::VoxelKey& key, SpaceState s) {
+          if (s == wanted)
+            centres.push_back(space.toCentre(key));
+        });
+        py::array_t<double> out(
+          {static_cast<py::ssize_t>(centres.size()), py::ssize_t{3}});
+        auto o = out.mutable_unchecked<2>();
+        for (std::size_t i = 0; i < centres.size(); ++i)
+          for (py::ssize_t k = 0; k < 3; ++k)
+            o(static_cast<py::ssize_t>(i), k) = centres[i][static_cast<int>(k)];
+        return out;
+      },
+      py::arg("state"),
+      R"doc(Centres of the observed voxels in a state (never-observed space, which reads
+as the prior, is not listed).
+
+Parameters
+----------
+state : SpaceState, int or str
+
+Returns
+-------
+numpy.ndarray, shape (N, 3), float64
+    Voxel centres, meters (voxel edge resolution_m), in a deterministic order.
+)doc");
+}
+
+/** Exports to other formats: ROS 2D occupancy grid, OctoMap, mesh. */
+void
+bindMapExport(MapClass& cls)
+{
+  cls
     .def(
       "export_occupancy_grid_2d",
       [](const Map& self, const py::object& path, double z_min_m, double z_max_m,
@@ -452,283 +773,6 @@ dict
     ``origin`` (x, y) of the lower-left corner, meters, and ``resolution``.
 )doc")
     .def(
-      "set_state",
-      [](Map& self, const FloatArray& points, const py::object& state) {
-        const auto p = toPoints(points, "points");
-        const SpaceState s = toSpaceState(state);
-        auto& space = self.getSpaceLayer();
-        for (const auto& point : p)
-          if (point.allFinite())
-            space.setState(space.toKey(point), s);
-      },
-      py::arg("points"), py::arg("state"),
-      R"doc(Sets the voxels containing the points to a state (the explicit space layer).
-
-Parameters
-----------
-points : array_like, shape (N, 3)
-    Points, meters; non-finite rows are skipped.
-state : SpaceState, int or str
-    The state ("free", "occupied" or "unknown").
-)doc")
-    .def(
-      "integrate_point_cloud",
-      [](Map& self, const FloatArray& points, const DoubleArray& sensor_origin) {
-        const auto cloud = toCloud(points, "points");
-        const Eigen::Vector3f origin = toVector3f(sensor_origin, "sensor_origin");
-        py::gil_scoped_release release;
-        self.integratePointCloud(*cloud, origin);
-      },
-      py::arg("points"), py::arg("sensor_origin"),
-      R"doc(Integrates a scan into the space layer by ray casting.
-
-The voxels each ray crosses from the sensor origin to its point become FREE and the
-voxel of every point within max_range_m OCCUPIED (as OctoMap's insertPointCloud).
-
-Parameters
-----------
-points : array_like, shape (N, 3)
-    The scan in the world frame, meters.
-sensor_origin : array_like, shape (3,)
-    Where the rays start, meters.
-)doc")
-    .def(
-      "integrate_depth_image",
-      [](Map& self, const FloatArray& depth, double fx, double fy, double cx, double cy,
-         const DoubleArray& world_T_camera) {
-        if (depth.ndim() != 2)
-          throw py::value_error("depth must be an (H, W) array of depths in meters");
-        DepthImage image;
-        image.height = static_cast<int>(depth.shape(0));
-        image.width = static_cast<int>(depth.shape(1));
-        image.fx = static_cast<float>(fx);
-        image.fy = static_cast<float>(fy);
-        image.cx = static_cast<float>(cx);
-        image.cy = static_cast<float>(cy);
-        image.depth_m.assign(depth.data(), depth.data() + depth.size());
-        const Eigen::Isometry3d pose = toIsometry(world_T_camera, "world_T_camera");
-        py::gil_scoped_release release;
-        self.integrateDepthImage(image, pose);
-      },
-      py::arg("depth"), py::arg("fx"), py::arg("fy"), py::arg("cx"), py::arg("cy"),
-      py::arg("world_T_camera"),
-      R"doc(Integrates one pinhole depth view into the space layer.
-
-Voxels in front of the measured depth become FREE, those at it OCCUPIED and those
-behind it UNKNOWN where they held the prior.
-
-Parameters
-----------
-depth : array_like, shape (H, W)
-    Depth along the optical axis per pixel, meters (NaN or <= 0: no measurement).
-fx, fy, cx, cy : float
-    Intrinsics, pixels.
-world_T_camera : array_like, shape (4, 4)
-    The camera pose (camera x right, y down, z forward), meters.
-)doc")
-    .def(
-      "merge",
-      [](Map& self, const Map& other, const DoubleArray& this_T_other) {
-        Eigen::Isometry3d transform = toIsometry(this_T_other, "this_T_other");
-        // toIsometry() accepts a rotation within 1e-3 of orthonormal (a float32
-        // matrix, a pose read from text); merge() moves plane moments and raster
-        // frames, which needs a rotation: the nearest one is used
-        transform.linear() =
-          Eigen::Quaterniond(transform.linear()).normalized().toRotationMatrix();
-        py::gil_scoped_release release;
-        self.merge(other, transform);
-      },
-      py::arg("other"), py::arg("this_T_other"),
-      R"doc(Merges another map (another recording's, mapped on its own) into this one.
-
-Planes: each plane of ``other`` joins the plane of this map that the association of
-integrate_surface() matches (a wall seen in both maps becomes one plane, its evidence
-added and refitted, the rasters re-projected into one frame, not two parallel planes);
-planes without a match are added. Non-planar cells: both maps' are kept. Voxels: when
-one map's observation_span lies wholly after the other's (segments of one recording,
-as the pipeline notes its frames), the newer map's free or occupied observation wins
-where both observed a voxel, as integration keeps the newest view; when the spans
-overlap or one is None, occupied > free > unknown (occluded) > never observed (the
-clamped log-odds of two independent observations added, as OctoMap fuses them:
-occupied where the maps disagree). The merged span is the union. Merging a into b and
-b into a give the same voxels, planes and cuboids up to their order (except where one
-map holds a surface as several planes); merging an empty map changes nothing.
-``other`` is not changed.
-
-Parameters
-----------
-other : PlanarGridMap
-    The map merged in (not this map).
-this_T_other : array_like, shape (4, 4), float
-    Rigid transform from ``other``'s world frame to this map's: rotation and
-    translation in meters, last row 0 0 0 1 (the identity, ``np.eye(4)``, for maps
-    whose poses share one world frame, such as GPS/INS poses). A rotation within 1e-3
-    of orthonormal is replaced by the nearest rotation. Other than the identity, the
-    voxels and raster cells of ``other`` are resampled to the nearest cell (whole-voxel
-    translations move the voxels exactly).
-
-Raises
-------
-ValueError
-    For ``this_T_other`` not of shape (4, 4) or not a rigid transform.
-planar_grid.Error
-    When the maps' resolution_m, prior or any surface parameter (thickness_m,
-    plane_merge_angle_rad, plane_merge_distance_m, occupancy_thres, feature_distance_m,
-    close_gaps_cells, merge_rule, cover_density, absorb_distance_m) differ, naming
-    them; or when ``other`` is this map. The map is then unchanged.
-)doc")
-    .def_property(
-      "observation_span",
-      [](const Map& self) -> py::object {
-        const Map::ObservationSpan& span = self.getObservationSpan();
-        if (span.empty())
-          return py::none();
-        return py::make_tuple(span.first, span.last);
-      },
-      [](Map& self, const py::object& value) {
-        Map::ObservationSpan span;
-        if (!value.is_none()) {
-          const auto pair = value.cast<std::pair<double, double>>();
-          if (!(pair.first <= pair.second))
-            throw py::value_error("observation_span must be (first, last) with "
-                                  "first <= last, or None");
-          span.first = pair.first;
-          span.last = pair.second;
-        }
-        self.setObservationSpan(span);
-      },
-      R"doc(tuple (first, last) of float, or None: the least and greatest order key of
-the views the map holds (note_observation_order(); the pipeline notes each frame's index
-in its recording), None when none was noted (a new map, a file written before the span
-was stored). merge() lets the newer map's voxels win when one span lies wholly after
-the other's. Settable (None empties it); planar_grid.Error for a non-finite bound.)doc")
-    .def("note_observation_order", &Map::noteObservationOrder, py::arg("order"),
-         R"doc(Grows observation_span to include ``order``, a number that increases
-with the time of the views (a frame index, a timestamp in seconds) and is comparable
-between the maps that will be merged. planar_grid.Error for a non-finite order.)doc")
-    .def(
-      "integrate_surface",
-      [](Map& self, const Cuboids& cuboids, const DoubleArray& planes,
-         const FloatArray& features, const DoubleArray& probabilities) {
-        PlaneModels models;
-        if (planes.size() != 0) {
-          if (planes.ndim() != 2 || planes.shape(1) != 4)
-            throw py::value_error("planes must be a (K, 4) array of [a, b, c, d]");
-          const auto p = planes.unchecked<2>();
-          for (py::ssize_t i = 0; i < planes.shape(0); ++i)
-            models.emplace_back(
-              Eigen::Vector4d(p(i, 0), p(i, 1), p(i, 2), p(i, 3)).cast<float>());
-        }
-        const auto cloud = toCloud(features, "features");
-        if (probabilities.ndim() != 1
-            || static_cast<std::size_t>(probabilities.shape(0)) != cloud->size())
-          throw py::value_error("probabilities must be a (F,) array, one per feature");
-        const std::vector<float> prob(probabilities.data(),
-                                      probabilities.data() + probabilities.shape(0));
-        py::gil_scoped_release release;
-        self.integrateSurface(cuboids.cuboids, models, *cloud, prob);
-      },
-      py::arg("cuboids"), py::arg("planes"), py::arg("features"),
-      py::arg("probabilities"),
-      R"doc(Merges one frame's cuboids and feature occupancies into the surface layer.
-
-Parameters
-----------
-cuboids : Cuboids
-    The frame's cuboids in the world frame; plane_ids index ``planes`` (-1 non-planar).
-planes : array_like, shape (K, 4)
-    The frame's planes [a, b, c, d] in the world frame (unit normal, meters).
-features : array_like, shape (F, 3)
-    Key feature points in the world frame, meters (may be empty).
-probabilities : array_like, shape (F,)
-    One occupancy probability per feature, in [0, 1].
-)doc")
-    .def_property_readonly(
-      "cuboids",
-      [](const Map& self) { return Cuboids{self.getSurfaceLayer().getCuboids()}; },
-      "Cuboids: the merged cuboids, every map plane's rectangles (plane_ids index "
-      "planes) "
-      "then the non-planar cells (plane_id -1), with their probabilities.")
-    .def_property_readonly(
-      "planes",
-      [](const Map& self) {
-        const auto& planes = self.getSurfaceLayer().getPlanes();
-        py::array_t<double> out(
-          {static_cast<py::ssize_t>(planes.size()), py::ssize_t{4}});
-        auto o = out.mutable_unchecked<2>();
-        for (std::size_t i = 0; i < planes.size(); ++i)
-          for (py::ssize_t j = 0; j < 4; ++j)
-            o(static_cast<py::ssize_t>(i), j) = planes[i][static_cast<int>(j)];
-        return out;
-      },
-      "numpy.ndarray, shape (K, 4), float64: the map's planes [a, b, c, d] (unit "
-      "normal, "
-      "d in meters), world frame.")
-    .def_property_readonly("resolution_m", &Map::getResolution,
-                           "float: the minimum cell size, meters.")
-    .def_property_readonly(
-      "params", [](const Map& self) { return paramsDict(self.getParams()); },
-      "dict: the parameters, by the constructor's keyword names.")
-    .def_property_readonly(
-      "memory",
-      [](const Map& self) {
-        const MapMemory memory = self.getMemory();
-        py::dict out;
-        out["surface_bytes"] = memory.surface_bytes;
-        out["space_bytes"] = memory.space_bytes;
-        out["total_bytes"] = memory.total_bytes;
-        return out;
-      },
-      "dict: bytes held by the surface layer, the space layer and both (surface_bytes, "
-      "space_bytes, total_bytes).")
-    .def_property_readonly(
-      "cell_count",
-      [](const Map& self) { return self.getSurfaceLayer().getCellCount(); },
-      "int: observed raster cells over all planes plus non-planar cells.")
-    .def_property_readonly(
-      "voxel_counts",
-      [](const Map& self) {
-        const auto& space = self.getSpaceLayer();
-        py::dict out;
-        for (const SpaceState s :
-             {SpaceState::FREE, SpaceState::OCCUPIED, SpaceState::UNKNOWN})
-          out[py::str(toString(s))] = space.getVoxelCount(s);
-        return out;
-      },
-      "dict: voxels per state ('free', 'occupied', 'unknown') that differ from the "
-      "prior (0 for the prior's own state).")
-    .def(
-      "voxel_centres",
-      [](const Map& self, const py::object& state) {
-        const SpaceState wanted = toSpaceState(state);
-        const auto& space = self.getSpaceLayer();
-        std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> centres;
-        space.forEachVoxel([&](const ExplicitSpaceGrid::VoxelKey& key, SpaceState s) {
-          if (s == wanted)
-            centres.push_back(space.toCentre(key));
-        });
-        py::array_t<double> out(
-          {static_cast<py::ssize_t>(centres.size()), py::ssize_t{3}});
-        auto o = out.mutable_unchecked<2>();
-        for (std::size_t i = 0; i < centres.size(); ++i)
-          for (py::ssize_t k = 0; k < 3; ++k)
-            o(static_cast<py::ssize_t>(i), k) = centres[i][static_cast<int>(k)];
-        return out;
-      },
-      py::arg("state"),
-      R"doc(Centres of the observed voxels in a state (never-observed space, which reads
-as the prior, is not listed).
-
-Parameters
-----------
-state : SpaceState, int or str
-
-Returns
--------
-numpy.ndarray, shape (N, 3), float64
-    Voxel centres, meters (voxel edge resolution_m), in a deterministic order.
-)doc")
-    .def(
       "export_octomap",
       [](const Map& self, const py::object& path) {
         const planar_grid::OctoMapExportSummary s = self.exportOctoMap(toPath(path));
@@ -755,7 +799,14 @@ numpy.ndarray, shape (N, 3), float64
       [](const Map& self, const py::object& path) { self.exportMesh(toPath(path)); },
       py::arg("path"),
       "Writes the cuboids as a mesh (.ply or .vtk), coloured by probability; raises "
-      "planar_grid.IOError for another extension or a write error.")
+      "planar_grid.IOError for another extension or a write error.");
+}
+
+/** Equality, copy refusal, repr and pickling. */
+void
+bindMapProtocol(MapClass& cls)
+{
+  cls
     .def(
       "__eq__",
       [](const Map& self, const py::object& other) {
@@ -789,6 +840,22 @@ numpy.ndarray, shape (N, 3), float64
       [](const py::bytes& bytes) {
         return std::make_shared<Map>(Map::deserialize(bytes, "<pickle>"));
       }));
+}
+
+} // namespace
+
+void
+bindMap(py::module_& m)
+{
+  bindSpaceState(m);
+  MapClass cls(m, "PlanarGridMap", mapClassDoc().c_str());
+  bindMapConstructor(cls);
+  bindMapFile(cls);
+  bindMapIntegration(cls);
+  bindMapMerge(cls);
+  bindMapContents(cls);
+  bindMapExport(cls);
+  bindMapProtocol(cls);
   bindMapTiles(m, cls);
 }
 

@@ -149,33 +149,10 @@ struct InputFrames {
   std::unique_ptr<FrameSource> source;
 };
 
-} // namespace
+using MapperClass = py::class_<Mapper>;
 
-void
-bindMapper(py::module_& m)
-{
-  py::class_<MapReadContext>(m, "MapReadLock",
-                             R"doc(The map of a Mapper under its shared lock.
-
-Returned by Mapper.read_map(); use it in a ``with`` block, which gives the map and holds
-the lock until the block ends: the map cannot change inside it, also while another
-thread integrates a frame. Do not keep the map beyond the block, and do not integrate a
-frame inside the block on the same thread (it would wait for the block's lock).
-)doc")
-    .def("__enter__",
-         [](MapReadContext& self) {
-           {
-             py::gil_scoped_release release;
-             self.reader.emplace(self.mapper->readMap());
-           }
-           return std::const_pointer_cast<PlanarGridMap>(self.mapper->getMap());
-         })
-    .def("__exit__", [](MapReadContext& self, const py::args&) {
-      self.reader.reset();
-      return false;
-    });
-
-  py::class_<Mapper>(m, "Mapper", R"doc(Builds a map frame by frame from your data.
+/** The docstring of the Mapper class. */
+constexpr const char* MAPPER_DOC = R"doc(Builds a map frame by frame from your data.
 
 The C++ planar_grid::Mapper: each call runs one frame through the pipeline a YAML
 configuration describes (the stages planar_grid_pipeline and run_pipeline() run), so the
@@ -201,13 +178,39 @@ planar_grid.ConfigError
     (a ValueError) for a bad configuration.
 planar_grid.Error
     When the pipeline has no map_integration stage.
+)doc";
+
+/** MapReadLock, the context manager that holds the map under the shared lock. */
+void
+bindMapReadLock(py::module_& m)
+{
+  py::class_<MapReadContext>(m, "MapReadLock",
+                             R"doc(The map of a Mapper under its shared lock.
+
+Returned by Mapper.read_map(); use it in a ``with`` block, which gives the map and holds
+the lock until the block ends: the map cannot change inside it, also while another
+thread integrates a frame. Do not keep the map beyond the block, and do not integrate a
+frame inside the block on the same thread (it would wait for the block's lock).
 )doc")
-    .def(py::init([](const py::object& config) {
-           const std::string path = toPath(config);
-           py::gil_scoped_release release;
-           return std::make_unique<Mapper>(path);
-         }),
-         py::arg("config"))
+    .def("__enter__",
+         [](MapReadContext& self) {
+           {
+             py::gil_scoped_release release;
+             self.reader.emplace(self.mapper->readMap());
+           }
+           return std::const_pointer_cast<PlanarGridMap>(self.mapper->getMap());
+         })
+    .def("__exit__", [](MapReadContext& self, const py::args&) {
+      self.reader.reset();
+      return false;
+    });
+}
+
+/** Frames from images: stereo pairs and depth images. */
+void
+bindMapperImageFrames(MapperClass& cls)
+{
+  cls
     .def(
       "integrate_stereo",
       [](Mapper& self, const py::array& left_array, const py::array& right_array,
@@ -321,21 +324,27 @@ ValueError
 planar_grid.Error
     For a pipeline that takes stereo pairs, focal lengths that are not positive, an
     image without a valid pixel, or a stage failing on the frame.
-)doc")
-    .def(
-      "integrate_cloud",
-      [](Mapper& self, const FloatArray& points, const DoubleArray& world_T_sensor) {
-        const auto cloud = toCloud(points, "points");
-        const Eigen::Isometry3d pose = toIsometry(world_T_sensor, "world_T_sensor");
-        FrameStats stats;
-        {
-          py::gil_scoped_release release;
-          stats = self.integrateCloud(*cloud, pose);
-        }
-        return toDict(stats);
-      },
-      py::arg("points"), py::arg("world_T_sensor"),
-      R"doc(Maps a point cloud.
+)doc");
+}
+
+/** Frames from point clouds. */
+void
+bindMapperCloudFrames(MapperClass& cls)
+{
+  cls.def(
+    "integrate_cloud",
+    [](Mapper& self, const FloatArray& points, const DoubleArray& world_T_sensor) {
+      const auto cloud = toCloud(points, "points");
+      const Eigen::Isometry3d pose = toIsometry(world_T_sensor, "world_T_sensor");
+      FrameStats stats;
+      {
+        py::gil_scoped_release release;
+        stats = self.integrateCloud(*cloud, pose);
+      }
+      return toDict(stats);
+    },
+    py::arg("points"), py::arg("world_T_sensor"),
+    R"doc(Maps a point cloud.
 
 Parameters
 ----------
@@ -353,7 +362,14 @@ Raises
 ------
 planar_grid.Error
     For an empty cloud, a pipeline that takes stereo pairs, or a stage failing.
-)doc")
+)doc");
+}
+
+/** The map (with or without the lock), saving, reset, frame count and trajectory. */
+void
+bindMapperState(MapperClass& cls)
+{
+  cls
     .def(
       "read_map",
       [](const Mapper& self) {
@@ -409,7 +425,12 @@ planar_grid.Error
       return "<planar_grid.Mapper: " + self.getConfig().source_file + ", "
              + std::to_string(self.getFrameCount()) + " frames>";
     });
+}
 
+/** InputFrames: the frames of a configuration's input as dicts of arrays. */
+void
+bindInputFrames(py::module_& m)
+{
   py::class_<InputFrames>(m, "InputFrames", R"doc(The frames of a configuration's input.
 
 Read as the pipeline reads them (planar_grid::createFrameSource(): images rectified,
@@ -462,6 +483,25 @@ planar_grid.ConfigError, planar_grid.IOError
       "dict: frame i: name; left and right ((H, W) uint8) and calibration (dict) for "
       "stereo input, points ((N, 3) float64, sensor frame) for clouds; "
       "world_T_camera ((4, 4) or None).");
+}
+
+} // namespace
+
+void
+bindMapper(py::module_& m)
+{
+  bindMapReadLock(m);
+  MapperClass cls(m, "Mapper", MAPPER_DOC);
+  cls.def(py::init([](const py::object& config) {
+            const std::string path = toPath(config);
+            py::gil_scoped_release release;
+            return std::make_unique<Mapper>(path);
+          }),
+          py::arg("config"));
+  bindMapperImageFrames(cls);
+  bindMapperCloudFrames(cls);
+  bindMapperState(cls);
+  bindInputFrames(m);
 }
 
 } // namespace python

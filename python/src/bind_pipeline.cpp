@@ -75,8 +75,160 @@ stageParameterDocs(const std::string& stage_type, const std::vector<std::string>
   return out;
 }
 
+namespace {
+
+/** run_pipeline()'s memory_limit: the machine's limit for None, else a count of bytes
+ * or a size text ("16G", "none"); ValueError for a negative count or a bad text. */
+MemoryLimit
+memoryLimitArgument(const py::object& memory_limit)
+{
+  MemoryLimit limit = machineMemoryLimit();
+  if (!memory_limit.is_none()) {
+    if (py::isinstance<py::str>(memory_limit)) {
+      const std::string text = memory_limit.cast<std::string>();
+      try {
+        limit.bytes = parseMemorySize(text);
+      } catch (const Exception& e) {
+        throw py::value_error(std::string("memory_limit: ") + e.what());
+      }
+      limit.source = "memory_limit='" + text + "'";
+    } else {
+      const auto bytes = memory_limit.cast<long long>();
+      if (bytes < 0)
+        throw py::value_error("memory_limit must be >= 0 bytes (0: no limit)");
+      limit.bytes = static_cast<std::uint64_t>(bytes);
+      limit.source = "memory_limit=" + std::to_string(bytes);
+    }
+  }
+  return limit;
+}
+
+/** run_pipeline()'s frames: (begin, end) positions, either may be None. */
 void
-bindPipeline(py::module_& m)
+frameRangeArgument(const py::object& frames,
+                   std::optional<std::size_t>& begin,
+                   std::optional<std::size_t>& end)
+{
+  if (!frames.is_none()) {
+    const auto range = frames.cast<py::tuple>();
+    if (range.size() != 2)
+      throw py::value_error("frames must be (begin, end): 0-based positions, end "
+                            "excluded; either may be None");
+    if (!range[0].is_none())
+      begin = range[0].cast<std::size_t>();
+    if (!range[1].is_none())
+      end = range[1].cast<std::size_t>();
+  }
+}
+
+/** run_pipeline(): loads the configuration, runs its frames with the GIL released (the
+ * progress callback and Ctrl-C are seen after each frame) and writes the outputs as one
+ * set. */
+PipelineResult
+runPipeline(const py::object& config,
+            const py::object& frames,
+            const py::object& output_folder,
+            bool write_outputs,
+            bool sequential,
+            bool resume,
+            const py::object& progress,
+            const py::object& memory_limit)
+{
+  const std::string config_path = toPath(config);
+  const MemoryLimit limit = memoryLimitArgument(memory_limit);
+  std::optional<std::size_t> begin, end;
+  frameRangeArgument(frames, begin, end);
+  std::optional<std::string> folder;
+  if (!output_folder.is_none())
+    folder = toPath(output_folder);
+  // The runner keeps only a pointer to the callback, so that no Python object is
+  // copied or destroyed while the GIL is released.
+  const py::function* callback = nullptr;
+  py::function progress_function;
+  if (!progress.is_none()) {
+    progress_function = progress.cast<py::function>();
+    callback = &progress_function;
+  }
+
+  PipelineResult result;
+  py::gil_scoped_release release;
+  PipelineConfig cfg = loadPipelineConfig(config_path);
+  if (folder)
+    cfg.output.folder = *folder;
+  // The module renders no PNG snapshot (the command-line tool does, with VTK).
+  for (std::string* name :
+       {&cfg.output.snapshot, &cfg.output.planes_snapshot, &cfg.output.cuboids_snapshot,
+        &cfg.output.cuboids_street_snapshot, &cfg.output.map_snapshot})
+    name->clear();
+  PipelineRunner runner(cfg);
+  runner.setFrameOverlap(!sequential);
+  runner.setMemoryLimit(limit);
+  if (begin || end)
+    runner.setFrameRange(begin.value_or(0), end.value_or(runner.frameCount()));
+  const std::string checkpoint_path = cfg.output.checkpoint.empty()
+                                        ? std::string()
+                                        : outputPath(cfg.output, cfg.output.checkpoint);
+  if (resume) {
+    if (checkpoint_path.empty())
+      throw Exception("resume needs output.checkpoint (a file name)");
+    runner.resumeFrom(checkpoint_path);
+  }
+  if (write_outputs && cfg.output.checkpoint_every_n_frames > 0)
+    runner.setCheckpoint(checkpoint_path, cfg.output.checkpoint_every_n_frames);
+  // As the tool does: an output that would replace a file the run reads, or that
+  // names a folder, is refused before the first frame; the outputs replace the
+  // previous set in the folder together, and an unwritable folder is found before
+  // the first frame too.
+  std::optional<OutputTransaction> outputs;
+  if (write_outputs) {
+    checkOutputPaths(cfg.output, runner.inputFiles(),
+                     cfg.output.checkpoint_every_n_frames > 0);
+    outputs.emplace(cfg.output.folder);
+  }
+  // Ctrl-C (Python's KeyboardInterrupt) is seen after each frame: the run stops
+  // there, as the tool does on SIGINT, and nothing is written.
+  std::atomic<bool> stop{false};
+  runner.setStopFlag(&stop);
+  runner.setProgressCallback(
+    [callback, &stop](std::size_t done, std::size_t total, double seconds) {
+      py::gil_scoped_acquire acquire;
+      try {
+        if (callback != nullptr)
+          (*callback)(done, total, seconds);
+        if (PyErr_CheckSignals() != 0)
+          throw py::error_already_set();
+      } catch (py::error_already_set& e) {
+        // Ctrl-C, seen in the callback or here: a KeyboardInterrupt is raised
+        // again when run() has stopped; any other error ends the run.
+        if (!e.matches(PyExc_KeyboardInterrupt))
+          throw;
+        stop.store(true);
+      }
+    });
+  try {
+    result.report = runner.run();
+  } catch (const Interrupted& e) {
+    py::gil_scoped_acquire acquire;
+    PyErr_SetString(PyExc_KeyboardInterrupt, (std::string(e.what())
+                                              + "; no output was written, the previous "
+                                                "outputs in "
+                                              + cfg.output.folder + " are as they were")
+                                               .c_str());
+    throw py::error_already_set();
+  }
+  if (outputs) {
+    writeRunOutputs(cfg.output, runner, result.report, *outputs);
+    writeRunReport(cfg.output, result.report, *outputs);
+    outputs->commit();
+  }
+  result.state = runner.state();
+  result.trajectory = runner.trajectory();
+  return result;
+}
+
+/** PipelineResult: a run's state, trajectory and report, as arrays and dicts. */
+void
+bindPipelineResult(py::module_& m)
 {
   py::class_<PipelineResult>(m, "PipelineResult", R"doc(What run_pipeline() produced.
 
@@ -186,135 +338,18 @@ PipelineRunner's state, trajectory and RunReport).
              + " frames, " + std::to_string(r.state.world_cloud->size())
              + " world points" + (r.state.map ? ", a map>" : ">");
     });
+}
 
+/** run_pipeline() and input_frame_count(): run a configuration, count its frames. */
+void
+bindRunPipeline(py::module_& m)
+{
   m.def(
-    "run_pipeline",
-    [](const py::object& config, const py::object& frames,
-       const py::object& output_folder, bool write_outputs, bool sequential,
-       bool resume, const py::object& progress, const py::object& memory_limit) {
-      const std::string config_path = toPath(config);
-      MemoryLimit limit = machineMemoryLimit();
-      if (!memory_limit.is_none()) {
-        if (py::isinstance<py::str>(memory_limit)) {
-          const std::string text = memory_limit.cast<std::string>();
-          try {
-            limit.bytes = parseMemorySize(text);
-          } catch (const Exception& e) {
-            throw py::value_error(std::string("memory_limit: ") + e.what());
-          }
-          limit.source = "memory_limit='" + text + "'";
-        } else {
-          const auto bytes = memory_limit.cast<long long>();
-          if (bytes < 0)
-            throw py::value_error("memory_limit must be >= 0 bytes (0: no limit)");
-          limit.bytes = static_cast<std::uint64_t>(bytes);
-          limit.source = "memory_limit=" + std::to_string(bytes);
-        }
-      }
-      std::optional<std::size_t> begin, end;
-      if (!frames.is_none()) {
-        const auto range = frames.cast<py::tuple>();
-        if (range.size() != 2)
-          throw py::value_error("frames must be (begin, end): 0-based positions, end "
-                                "excluded; either may be None");
-        if (!range[0].is_none())
-          begin = range[0].cast<std::size_t>();
-        if (!range[1].is_none())
-          end = range[1].cast<std::size_t>();
-      }
-      std::optional<std::string> folder;
-      if (!output_folder.is_none())
-        folder = toPath(output_folder);
-      // The runner keeps only a pointer to the callback, so that no Python object is
-      // copied or destroyed while the GIL is released.
-      const py::function* callback = nullptr;
-      py::function progress_function;
-      if (!progress.is_none()) {
-        progress_function = progress.cast<py::function>();
-        callback = &progress_function;
-      }
-
-      PipelineResult result;
-      py::gil_scoped_release release;
-      PipelineConfig cfg = loadPipelineConfig(config_path);
-      if (folder)
-        cfg.output.folder = *folder;
-      // The module renders no PNG snapshot (the command-line tool does, with VTK).
-      for (std::string* name :
-           {&cfg.output.snapshot, &cfg.output.planes_snapshot,
-            &cfg.output.cuboids_snapshot, &cfg.output.cuboids_street_snapshot,
-            &cfg.output.map_snapshot})
-        name->clear();
-      PipelineRunner runner(cfg);
-      runner.setFrameOverlap(!sequential);
-      runner.setMemoryLimit(limit);
-      if (begin || end)
-        runner.setFrameRange(begin.value_or(0), end.value_or(runner.frameCount()));
-      const std::string checkpoint_path =
-        cfg.output.checkpoint.empty() ? std::string()
-                                      : outputPath(cfg.output, cfg.output.checkpoint);
-      if (resume) {
-        if (checkpoint_path.empty())
-          throw Exception("resume needs output.checkpoint (a file name)");
-        runner.resumeFrom(checkpoint_path);
-      }
-      if (write_outputs && cfg.output.checkpoint_every_n_frames > 0)
-        runner.setCheckpoint(checkpoint_path, cfg.output.checkpoint_every_n_frames);
-      // As the tool does: an output that would replace a file the run reads, or that
-      // names a folder, is refused before the first frame; the outputs replace the
-      // previous set in the folder together, and an unwritable folder is found before
-      // the first frame too.
-      std::optional<OutputTransaction> outputs;
-      if (write_outputs) {
-        checkOutputPaths(cfg.output, runner.inputFiles(),
-                         cfg.output.checkpoint_every_n_frames > 0);
-        outputs.emplace(cfg.output.folder);
-      }
-      // Ctrl-C (Python's KeyboardInterrupt) is seen after each frame: the run stops
-      // there, as the tool does on SIGINT, and nothing is written.
-      std::atomic<bool> stop{false};
-      runner.setStopFlag(&stop);
-      runner.setProgressCallback(
-        [callback, &stop](std::size_t done, std::size_t total, double seconds) {
-          py::gil_scoped_acquire acquire;
-          try {
-            if (callback != nullptr)
-              (*callback)(done, total, seconds);
-            if (PyErr_CheckSignals() != 0)
-              throw py::error_already_set();
-          } catch (py::error_already_set& e) {
-            // Ctrl-C, seen in the callback or here: a KeyboardInterrupt is raised
-            // again when run() has stopped; any other error ends the run.
-            if (!e.matches(PyExc_KeyboardInterrupt))
-              throw;
-            stop.store(true);
-          }
-        });
-      try {
-        result.report = runner.run();
-      } catch (const Interrupted& e) {
-        py::gil_scoped_acquire acquire;
-        PyErr_SetString(PyExc_KeyboardInterrupt,
-                        (std::string(e.what())
-                         + "; no output was written, the previous "
-                           "outputs in "
-                         + cfg.output.folder + " are as they were")
-                          .c_str());
-        throw py::error_already_set();
-      }
-      if (outputs) {
-        writeRunOutputs(cfg.output, runner, result.report, *outputs);
-        writeRunReport(cfg.output, result.report, *outputs);
-        outputs->commit();
-      }
-      result.state = runner.state();
-      result.trajectory = runner.trajectory();
-      return result;
-    },
-    py::arg("config"), py::kw_only(), py::arg("frames") = py::none(),
-    py::arg("output_folder") = py::none(), py::arg("write_outputs") = true,
-    py::arg("sequential") = false, py::arg("resume") = false,
-    py::arg("progress") = py::none(), py::arg("memory_limit") = py::none(),
+    "run_pipeline", &runPipeline, py::arg("config"), py::kw_only(),
+    py::arg("frames") = py::none(), py::arg("output_folder") = py::none(),
+    py::arg("write_outputs") = true, py::arg("sequential") = false,
+    py::arg("resume") = false, py::arg("progress") = py::none(),
+    py::arg("memory_limit") = py::none(),
     R"doc(Runs the pipeline a YAML configuration describes, as planar_grid_pipeline does.
 
 Parameters
@@ -393,7 +428,12 @@ planar_grid.ConfigError
 planar_grid.IOError
     (an OSError) for a missing or unreadable input.
 )doc");
+}
 
+/** stage_types() and stage_parameters(): the stage registry's parameter tables. */
+void
+bindStageTables(py::module_& m)
+{
   m.def(
     "stage_types",
     [] {
@@ -476,6 +516,16 @@ Raises
 planar_grid.Error
     For an unknown stage type (the message lists the known ones).
 )doc");
+}
+
+} // namespace
+
+void
+bindPipeline(py::module_& m)
+{
+  bindPipelineResult(m);
+  bindRunPipeline(m);
+  bindStageTables(m);
 }
 
 } // namespace python

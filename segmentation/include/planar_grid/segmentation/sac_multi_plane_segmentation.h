@@ -13,11 +13,17 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
 namespace planar_grid {
+
+namespace detail {
+struct DensePoints;
+} // namespace detail
 
 /** \brief The sample consensus estimator used for every plane hypothesis.
  * \ingroup segmentation */
@@ -606,6 +612,103 @@ protected:
   std::size_t visibility_rejected_{0};
   /** \brief Inliers the last segment()'s visibility test took out. */
   std::size_t visibility_removed_{0};
+
+private:
+  /** \brief Buffers that the rounds of applySegmentation() reuse. */
+  struct RoundBuffers {
+    /** \brief Positions in the dense store of the points in the refinement slab. */
+    std::vector<std::size_t> slab_points;
+    /** \brief A subsample of dense points (struct of arrays), in meters. */
+    std::vector<float> local_x, local_y, local_z;
+  };
+
+  /** \brief Zeroes the counts of the planes and inliers each plane test dropped. */
+  void resetRejectionCounts();
+
+  /** \brief Fills \a dense with the finite input points within the indices (the
+   * inlier-only ones last) and, where eq. 11 varies per point, their thresholds.
+   * \param[in] origin the sensor origin, in meters
+   * \param[in] d_t the fixed eq. 11 threshold, in meters */
+  void collectDensePoints(const Eigen::Vector3f& origin,
+                          float d_t,
+                          detail::DensePoints& dense) const;
+
+  /** \brief Draws the sample the hypotheses come from: the finite points of the sample
+   * cloud, or a seeded subsample (sorted) of the primary dense points. */
+  void drawSample(const detail::DensePoints& dense,
+                  std::mt19937& rng,
+                  pcl::Indices& sample) const;
+
+  /** \brief Shuffles the remaining sample and fits a plane to it by sample consensus
+   * at \a sample_t (meters), oriented toward \a origin.
+   * \return false when no plane with min_sample_inliers was found */
+  bool estimateSamplePlane(const PointCloudConstPtr& sample_cloud,
+                           pcl::Indices& remaining,
+                           float sample_t,
+                           const Eigen::Vector3f& origin,
+                           std::mt19937& rng,
+                           pcl::Indices& sac_inliers,
+                           Eigen::Vector4f& plane) const;
+
+  /** \brief Re-estimates \a plane by RANSAC on a subsample of the dense points in a
+   * wide slab around it (thresholds in meters). */
+  void refineOnDenseSlab(detail::DensePoints& dense,
+                         float sample_t,
+                         float d_t,
+                         const Eigen::Vector3f& origin,
+                         std::mt19937& rng,
+                         RoundBuffers& buffers,
+                         Eigen::Vector4f& plane) const;
+
+  /** \brief Replaces \a plane by a RANSAC plane of a dense subsample when that one has
+   * more eq. 11 inliers. \return true when it was replaced */
+  bool tryDenseHypothesis(detail::DensePoints& dense,
+                          float d_t,
+                          const Eigen::Vector3f& origin,
+                          std::mt19937& rng,
+                          RoundBuffers& buffers,
+                          Eigen::Vector4f& plane) const;
+
+  /** \brief Optimises \a plane (LO-RANSAC, PCA refit) and selects its eq. 11 inliers
+   * in \a dense (its mask). \return the number of inliers */
+  std::size_t selectDenseInliers(detail::DensePoints& dense,
+                                 float d_t,
+                                 const Eigen::Vector3f& origin,
+                                 std::mt19937& rng,
+                                 Eigen::Vector4f& plane,
+                                 pcl::Indices& inliers) const;
+
+  /** \brief Removes from \a remaining the taken sample points and those within
+   * \a sample_t (meters) of \a plane. */
+  void removeSampleOnPlane(const PointCloud& sample_cloud,
+                           const Eigen::Vector4f& plane,
+                           float sample_t,
+                           const std::vector<std::uint8_t>& sample_taken,
+                           pcl::Indices& remaining) const;
+
+  /** \brief The inliers that count toward min_inliers: \a count, or the selected
+   * primary points alone when the inlier-only points do not count. */
+  std::size_t supportCount(const detail::DensePoints& dense, std::size_t count) const;
+
+  /** \brief Applies min_inliers and the sensor, visibility, shell and cluster tests to
+   * a plane whose inliers are selected in \a dense, taking out the inliers they reject
+   * and counting the rejections. \return false when the plane is dropped */
+  bool passesPlaneTests(detail::DensePoints& dense,
+                        const detail::DensePoints& all,
+                        const Eigen::Vector4f& plane,
+                        const Eigen::Vector3f& origin,
+                        const Eigen::Vector3f& up,
+                        float d_t,
+                        std::size_t& count);
+
+  /** \brief Merges planes whose normals and offsets are within the merge thresholds,
+   * refitting the merged plane. */
+  void mergeDuplicatePlanes(PlanarSegments& planes,
+                            const Eigen::Vector3f& origin) const;
+
+  /** \brief Sorts each plane's inliers, sets its centroid, eqs. 2-3 tilts and headers,
+   * and sorts the planes by descending inlier count. */
+  void describePlanes(PlanarSegments& planes, const Eigen::Vector3f& up) const;
 
 public:
   PCL_MAKE_ALIGNED_OPERATOR_NEW

@@ -131,11 +131,22 @@ SACMultiPlaneSegmentation<PointT>::segment(
   }
 }
 
+namespace detail {
+
+/** \brief Slab half-width of the local dense refinement, in units of d_T. */
+constexpr float LOCAL_SLAB_FACTOR = 10.0f;
+/** \brief Subsample size of the local dense refinement and of the dense hypothesis,
+ * in points. */
+constexpr std::size_t LOCAL_SAMPLE_SIZE = 5000;
+/** \brief Largest tilt of a terrain plane that the cluster test spares, in radians. */
+constexpr float TERRAIN_TILT = 0.3f;
+
+} // namespace detail
+
 template <typename PointT>
 void
-SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
+SACMultiPlaneSegmentation<PointT>::resetRejectionCounts()
 {
-  planes.clear();
   visibility_rejected_ = 0;
   visibility_removed_ = 0;
   shell_rejected_ = 0;
@@ -144,18 +155,14 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
   sensor_plane_removed_ = 0;
   cluster_rejected_ = 0;
   cluster_removed_ = 0;
-  const Eigen::Vector3f origin = input_->sensor_origin_.template head<3>();
-  const Eigen::Vector3f up = up_axis_.normalized();
-  const auto d_t = static_cast<float>(distance_threshold_);
-  const auto sample_t = static_cast<float>(getSampleDistanceThreshold());
-  std::mt19937 rng(seed_);
-  // Local dense refinement: slab half-width in units of d_T; subsample size of it and
-  // of the dense hypothesis.
-  constexpr float LOCAL_SLAB_FACTOR = 10.0f;
-  constexpr std::size_t LOCAL_SAMPLE_SIZE = 5000;
-  // Largest tilt of a terrain plane that the cluster test spares, radians.
-  constexpr float TERRAIN_TILT = 0.3f;
+}
 
+template <typename PointT>
+void
+SACMultiPlaneSegmentation<PointT>::collectDensePoints(const Eigen::Vector3f& origin,
+                                                      float d_t,
+                                                      detail::DensePoints& dense) const
+{
   // The unassigned finite input points (within the indices), struct of arrays.
   // The inlier-only points come after the others (dense.primary).
   std::vector<std::uint8_t> inlier_only;
@@ -165,7 +172,6 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
       if (i >= 0 && static_cast<std::size_t>(i) < input_->size())
         inlier_only[static_cast<std::size_t>(i)] = 1;
   }
-  detail::DensePoints dense;
   dense.x.reserve(indices_->size());
   dense.y.reserve(indices_->size());
   dense.z.reserve(indices_->size());
@@ -208,325 +214,351 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
     for (std::size_t k = dense.primary; k < dense.size(); ++k)
       dense.threshold[k] = std::min(dense.threshold[k], cap);
   }
-  // Every finite input point, for the visibility test (dense loses the planes'
-  // inliers as they are taken).
-  detail::DensePoints all;
-  if (max_visibility_conflict_ratio_ > 0.0 || max_shell_ratio_ > 0.0)
-    all = dense;
-  if (dense.size() < 3) {
-    PCL_WARN("[planar_grid::%s::segment] Fewer than 3 finite input points (%zu).\n",
-             getClassName().c_str(), dense.size());
-    return;
-  }
+}
 
-  // The sample the hypotheses come from: the sample cloud, or a seeded subsample.
-  PointCloudConstPtr sample_cloud = sample_cloud_ ? sample_cloud_ : input_;
-  pcl::Indices remaining;
+template <typename PointT>
+void
+SACMultiPlaneSegmentation<PointT>::drawSample(const detail::DensePoints& dense,
+                                              std::mt19937& rng,
+                                              pcl::Indices& sample) const
+{
   if (sample_cloud_) {
     for (std::size_t i = 0; i < sample_cloud_->size(); ++i)
       if (pcl::isXYZFinite((*sample_cloud_)[i]))
-        remaining.push_back(static_cast<pcl::index_t>(i));
-  } else {
-    remaining.assign(dense.index.begin(),
-                     dense.index.begin() + static_cast<std::ptrdiff_t>(dense.primary));
-    const auto wanted = std::min(remaining.size(), std::size_t(max_sample_size_));
-    for (std::size_t k = 0; k < wanted; ++k) { // partial Fisher-Yates
-      std::uniform_int_distribution<std::size_t> pick(k, remaining.size() - 1);
-      std::swap(remaining[k], remaining[pick(rng)]);
-    }
-    remaining.resize(wanted);
-    std::sort(remaining.begin(), remaining.end());
-  }
-  const std::size_t initial_sample = remaining.size();
-  if (initial_sample < 3) {
-    PCL_WARN("[planar_grid::%s::segment] Fewer than 3 finite sample points (%zu).\n",
-             getClassName().c_str(), initial_sample);
+        sample.push_back(static_cast<pcl::index_t>(i));
     return;
   }
-
-  // Colinear (or coincident) samples span no plane: PCA's middle eigenvalue is ~0.
-  if (!detail::spansPlane(*sample_cloud, remaining)) {
-    PCL_WARN("[planar_grid::%s::segment] The sample points are colinear.\n",
-             getClassName().c_str());
-    return;
+  sample.assign(dense.index.begin(),
+                dense.index.begin() + static_cast<std::ptrdiff_t>(dense.primary));
+  const auto wanted = std::min(sample.size(), std::size_t(max_sample_size_));
+  for (std::size_t k = 0; k < wanted; ++k) { // partial Fisher-Yates
+    std::uniform_int_distribution<std::size_t> pick(k, sample.size() - 1);
+    std::swap(sample[k], sample[pick(rng)]);
   }
+  sample.resize(wanted);
+  std::sort(sample.begin(), sample.end());
+}
 
-  // The inliers a plane needs min_inliers of: all of them, or the primary ones alone
-  // (the mask holds the plane's inliers wherever it is compared).
-  const auto support = [&](std::size_t count) {
-    if (count_inlier_only_ || dense.primary == dense.size())
-      return count;
-    return static_cast<std::size_t>(
-      std::count(dense.mask.begin(),
-                 dense.mask.begin() + static_cast<std::ptrdiff_t>(dense.primary),
-                 std::uint8_t(1)));
-  };
-  std::vector<std::uint8_t> sample_taken(sample_cloud->size(), 0);
-  pcl::Indices sac_inliers;
-  std::vector<std::size_t> slab_points;
-  std::vector<float> local_x, local_y, local_z;
-  const int max_rounds = 3 * max_planes_;
-  for (int round = 0;
-       round < max_rounds && static_cast<int>(planes.size()) < max_planes_; ++round) {
-    if (remaining.size() < 3
-        || static_cast<double>(remaining.size())
-             < min_remaining_fraction_ * initial_sample)
+template <typename PointT>
+bool
+SACMultiPlaneSegmentation<PointT>::estimateSamplePlane(
+  const PointCloudConstPtr& sample_cloud,
+  pcl::Indices& remaining,
+  float sample_t,
+  const Eigen::Vector3f& origin,
+  std::mt19937& rng,
+  pcl::Indices& sac_inliers,
+  Eigen::Vector4f& plane) const
+{
+  // The seed reaches PCL's fixed-seed (12345) estimators through the sample order.
+  std::shuffle(remaining.begin(), remaining.end(), rng);
+  auto model =
+    std::make_shared<detail::QuietPlaneModel<PointT>>(sample_cloud, remaining);
+  model->setEarlyExit(method_ == SACMethod::RANSAC);
+  std::shared_ptr<pcl::SampleConsensus<PointT>> sac;
+  switch (method_) {
+    case SACMethod::MSAC:
+      sac = std::make_shared<pcl::MEstimatorSampleConsensus<PointT>>(model);
       break;
-    // What is left of the sample may be colinear (e.g. features along one edge): every
-    // minimal sample would be degenerate, so stop instead of drawing in vain.
-    if (!detail::spansPlane(*sample_cloud, remaining)) {
-      PCL_DEBUG("[planar_grid::%s::segment] The remaining %zu sample points are "
-                "colinear; stopping.\n",
-                getClassName().c_str(), remaining.size());
+    case SACMethod::PROSAC:
+      sac = std::make_shared<pcl::ProgressiveSampleConsensus<PointT>>(model);
       break;
-    }
-    // The seed reaches PCL's fixed-seed (12345) estimators through the sample order.
-    std::shuffle(remaining.begin(), remaining.end(), rng);
-    auto model =
-      std::make_shared<detail::QuietPlaneModel<PointT>>(sample_cloud, remaining);
-    model->setEarlyExit(method_ == SACMethod::RANSAC);
-    std::shared_ptr<pcl::SampleConsensus<PointT>> sac;
-    switch (method_) {
-      case SACMethod::MSAC:
-        sac = std::make_shared<pcl::MEstimatorSampleConsensus<PointT>>(model);
-        break;
-      case SACMethod::PROSAC:
-        sac = std::make_shared<pcl::ProgressiveSampleConsensus<PointT>>(model);
-        break;
-      case SACMethod::RANSAC:
-      default:
-        sac = std::make_shared<pcl::RandomSampleConsensus<PointT>>(model);
-        break;
-    }
-    sac->setDistanceThreshold(sample_t);
-    sac->setMaxIterations(max_iterations_);
-    sac->setProbability(probability_);
-    if (!sac->computeModel())
+    case SACMethod::RANSAC:
+    default:
+      sac = std::make_shared<pcl::RandomSampleConsensus<PointT>>(model);
       break;
-    Eigen::VectorXf coefficients;
-    sac->getModelCoefficients(coefficients);
-    sac->getInliers(sac_inliers);
-    if (coefficients.size() != 4 || !coefficients.allFinite()
-        || static_cast<int>(sac_inliers.size()) < min_sample_inliers_)
-      break;
-    Eigen::Vector4f plane = coefficients.head<4>();
-    plane /= plane.head<3>().norm();
+  }
+  sac->setDistanceThreshold(sample_t);
+  sac->setMaxIterations(max_iterations_);
+  sac->setProbability(probability_);
+  if (!sac->computeModel())
+    return false;
+  Eigen::VectorXf coefficients;
+  sac->getModelCoefficients(coefficients);
+  sac->getInliers(sac_inliers);
+  if (coefficients.size() != 4 || !coefficients.allFinite()
+      || static_cast<int>(sac_inliers.size()) < min_sample_inliers_)
+    return false;
+  plane = coefficients.head<4>();
+  plane /= plane.head<3>().norm();
+  detail::orientTowards(plane, origin);
+  return true;
+}
+
+template <typename PointT>
+void
+SACMultiPlaneSegmentation<PointT>::refineOnDenseSlab(detail::DensePoints& dense,
+                                                     float sample_t,
+                                                     float d_t,
+                                                     const Eigen::Vector3f& origin,
+                                                     std::mt19937& rng,
+                                                     RoundBuffers& buffers,
+                                                     Eigen::Vector4f& plane) const
+{
+  // The sample (stereo features) is noisy, so its plane can be tilted against the
+  // dense surface. RANSAC at d_T on a seeded subsample of the unassigned dense points
+  // within a wide slab around the hypothesis re-estimates it where the dense points
+  // are.
+  const float slab = std::max(sample_t, detail::LOCAL_SLAB_FACTOR * d_t);
+  if (dense.select(plane, slab) < 3)
+    return;
+  // Store positions of the slab points, a seeded subsample of them, as SoA.
+  auto& slab_points = buffers.slab_points;
+  slab_points.clear();
+  for (std::size_t k = 0; k < dense.primary; ++k)
+    if (dense.mask[k])
+      slab_points.push_back(k);
+  // The inlier-only points refine no plane.
+  const std::size_t wanted =
+    slab_points.size() < 3 ? 0
+                           : std::min(slab_points.size(), detail::LOCAL_SAMPLE_SIZE);
+  for (std::size_t k = 0; k < wanted; ++k) {
+    std::uniform_int_distribution<std::size_t> pick(k, slab_points.size() - 1);
+    std::swap(slab_points[k], slab_points[pick(rng)]);
+  }
+  buffers.local_x.resize(wanted);
+  buffers.local_y.resize(wanted);
+  buffers.local_z.resize(wanted);
+  for (std::size_t k = 0; k < wanted; ++k) {
+    buffers.local_x[k] = dense.x[slab_points[k]];
+    buffers.local_y[k] = dense.y[slab_points[k]];
+    buffers.local_z[k] = dense.z[slab_points[k]];
+  }
+  Eigen::Vector4f local_plane;
+  if (detail::ransacPlane(buffers.local_x, buffers.local_y, buffers.local_z, d_t,
+                          max_iterations_, probability_, rng, local_plane)
+      > 0) {
+    plane = local_plane;
     detail::orientTowards(plane, origin);
-
-    PlanarSegment segment;
-    // Local dense refinement: the sample (stereo features) is noisy, so its plane can
-    // be tilted against the dense surface. RANSAC at d_T on a seeded subsample of the
-    // unassigned dense points within a wide slab around the hypothesis re-estimates
-    // it where the dense points are.
-    if (optimize_coefficients_) {
-      const float slab = std::max(sample_t, LOCAL_SLAB_FACTOR * d_t);
-      if (dense.select(plane, slab) >= 3) {
-        // Store positions of the slab points, a seeded subsample of them, as SoA.
-        slab_points.clear();
-        for (std::size_t k = 0; k < dense.primary; ++k)
-          if (dense.mask[k])
-            slab_points.push_back(k);
-        // The inlier-only points refine no plane.
-        const std::size_t wanted =
-          slab_points.size() < 3 ? 0 : std::min(slab_points.size(), LOCAL_SAMPLE_SIZE);
-        for (std::size_t k = 0; k < wanted; ++k) {
-          std::uniform_int_distribution<std::size_t> pick(k, slab_points.size() - 1);
-          std::swap(slab_points[k], slab_points[pick(rng)]);
-        }
-        local_x.resize(wanted);
-        local_y.resize(wanted);
-        local_z.resize(wanted);
-        for (std::size_t k = 0; k < wanted; ++k) {
-          local_x[k] = dense.x[slab_points[k]];
-          local_y[k] = dense.y[slab_points[k]];
-          local_z[k] = dense.z[slab_points[k]];
-        }
-        Eigen::Vector4f local_plane;
-        if (detail::ransacPlane(local_x, local_y, local_z, d_t, max_iterations_,
-                                probability_, rng, local_plane)
-            > 0) {
-          plane = local_plane;
-          detail::orientTowards(plane, origin);
-        }
-      }
-    }
-
-    // Dense hypothesis: a plain RANSAC at d_T on a seeded subsample (drawn with
-    // replacement) of all unassigned dense points; the plane with more eq. 11 inliers
-    // over the store is kept. It finds the large planes the sample has few points on
-    // (a road with little texture).
-    bool dense_won = false;
-    if (dense_hypothesis_ && dense.primary >= 3) {
-      const std::size_t n = dense.primary;
-      const std::size_t wanted = std::min(n, LOCAL_SAMPLE_SIZE);
-      std::uniform_int_distribution<std::size_t> pick(0, n - 1);
-      local_x.resize(wanted);
-      local_y.resize(wanted);
-      local_z.resize(wanted);
-      for (std::size_t k = 0; k < wanted; ++k) {
-        const std::size_t j = pick(rng);
-        local_x[k] = dense.x[j];
-        local_y[k] = dense.y[j];
-        local_z[k] = dense.z[j];
-      }
-      Eigen::Vector4f dense_plane;
-      if (detail::ransacPlane(local_x, local_y, local_z, d_t, max_iterations_,
-                              probability_, rng, dense_plane)
-            > 0
-          && dense.selectInliers(dense_plane, d_t) > dense.selectInliers(plane, d_t)) {
-        plane = dense_plane;
-        detail::orientTowards(plane, origin);
-        dense_won = true;
-      }
-    }
-    // Local optimisation (LO-RANSAC) of the kept hypothesis on all unassigned points.
-    if (lo_iterations_ > 0) {
-      detail::optimizePlane(dense.x, dense.y, dense.z, dense.primary, d_t,
-                            lo_iterations_, rng, plane);
-      detail::orientTowards(plane, origin);
-    }
-
-    // Eq. 11 over the unassigned dense points; refit (PCA) and reselect.
-    std::size_t count = dense.selectInliers(plane, d_t);
-    if (optimize_coefficients_ && count >= 3) {
-      dense.selected(segment.inliers.indices);
-      Eigen::Vector4f refit, centroid;
-      if (detail::fitPlanePCA(*input_, segment.inliers.indices, refit, centroid)) {
-        detail::orientTowards(refit, origin);
-        plane = refit;
-        count = dense.selectInliers(plane, d_t);
-      }
-    }
-
-    // Remove the sample inliers: the estimator's (unless the dense hypothesis won: they
-    // lie on another plane, which a later round can still find), and those of the
-    // final plane.
-    if (!dense_won)
-      for (const auto i : sac_inliers)
-        sample_taken[i] = 1;
-    const std::size_t sample_before = remaining.size();
-    remaining.erase(std::remove_if(remaining.begin(), remaining.end(),
-                                   [&](pcl::index_t i) {
-                                     if (sample_taken[i])
-                                       return true;
-                                     const PointT& p = (*sample_cloud)[i];
-                                     return std::abs(plane[0] * p.x + plane[1] * p.y
-                                                     + plane[2] * p.z + plane[3])
-                                            <= sample_t;
-                                   }),
-                    remaining.end());
-
-    if (static_cast<int>(support(count)) < min_inliers_) {
-      PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with %zu < %d inliers.\n",
-                getClassName().c_str(), count, min_inliers_);
-      continue;
-    }
-    if (min_sensor_distance_ > 0.0) {
-      const std::size_t removed = detail::removeSensorPlane(
-        dense, plane, origin, static_cast<float>(min_sensor_distance_));
-      if (removed > 0) {
-        PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane passing within %g m of "
-                  "the sensor (%zu inliers).\n",
-                  getClassName().c_str(), min_sensor_distance_, removed);
-        sensor_plane_removed_ += removed;
-        ++sensor_plane_rejected_;
-        continue;
-      }
-    }
-    if (max_visibility_conflict_ratio_ > 0.0) {
-      const std::size_t removed = detail::removeVisibilityConflicts(
-        dense, all, d_t, plane, origin, static_cast<float>(visibility_margin_),
-        static_cast<float>(visibility_cell_), max_visibility_conflict_ratio_);
-      visibility_removed_ += removed;
-      count -= removed;
-      if (static_cast<int>(support(count)) < min_inliers_) {
-        PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with visibility "
-                  "conflicts at %zu of its inliers (%zu left).\n",
-                  getClassName().c_str(), removed, count);
-        ++visibility_rejected_;
-        continue;
-      }
-    }
-    if (max_shell_ratio_ > 0.0) {
-      const std::size_t removed = detail::removeShellCells(
-        dense, all, d_t, plane, static_cast<float>(shell_width_),
-        static_cast<float>(visibility_cell_), max_shell_ratio_);
-      shell_removed_ += removed;
-      count -= removed;
-      if (static_cast<int>(support(count)) < min_inliers_) {
-        PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with points beyond its "
-                  "threshold at %zu of its inliers (%zu left).\n",
-                  getClassName().c_str(), removed, count);
-        ++shell_rejected_;
-        continue;
-      }
-    }
-    // Terrain (a plane within TERRAIN_TILT of the up axis, below the sensor) is spared:
-    // the layers of a noisy road fall apart into clusters, and the terrain removal
-    // takes them out whole.
-    const bool terrain = plane.head<3>().dot(up) > std::cos(TERRAIN_TILT)
-                         && plane.head<3>().dot(origin) + plane[3] > 0.0f;
-    if (min_cluster_size_ > 0 && !terrain) {
-      const std::size_t removed =
-        detail::removeSmallClusters(dense, plane, static_cast<float>(cluster_cell_),
-                                    static_cast<std::size_t>(min_cluster_size_));
-      cluster_removed_ += removed;
-      count -= removed;
-      if (static_cast<int>(support(count)) < min_inliers_) {
-        PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane whose footprint falls "
-                  "apart into clusters of < %d inliers (%zu left).\n",
-                  getClassName().c_str(), min_cluster_size_, count);
-        ++cluster_rejected_;
-        // The fragments would give the same plane again: they leave the search.
-        dense.selectInliers(plane, d_t);
-        dense.removeSelected();
-        continue;
-      }
-    }
-    dense.selected(segment.inliers.indices);
-    dense.removeSelected();
-    segment.model_coefficients.values.assign(plane.data(), plane.data() + 4);
-    segment.sample_inliers =
-      dense_won ? sample_before - remaining.size() : sac_inliers.size();
-    planes.push_back(std::move(segment));
   }
+}
 
-  // Merge near-duplicate planes (normals within eps_angle, offsets within distance).
-  if (merge_planes_) {
-    const double cos_eps = std::cos(merge_angle_threshold_);
-    bool merged = true;
-    while (merged) {
-      merged = false;
-      for (std::size_t i = 0; i < planes.size() && !merged; ++i) {
-        for (std::size_t j = i + 1; j < planes.size() && !merged; ++j) {
-          const auto& ci = planes[i].model_coefficients.values;
-          const auto& cj = planes[j].model_coefficients.values;
-          const double dot = ci[0] * cj[0] + ci[1] * cj[1] + ci[2] * cj[2];
-          const double d_j = dot < 0.0 ? -cj[3] : cj[3];
-          if (std::abs(dot) < cos_eps
-              || std::abs(ci[3] - d_j) > merge_distance_threshold_)
-            continue;
-          PlanarSegment& a = planes[i];
-          PlanarSegment& b = planes[j];
-          auto& ind = a.inliers.indices;
-          ind.insert(ind.end(), b.inliers.indices.begin(), b.inliers.indices.end());
-          Eigen::Vector4f refit, centroid;
-          if (optimize_coefficients_
-              && detail::fitPlanePCA(*input_, ind, refit, centroid)) {
-            detail::orientTowards(refit, origin);
-            a.model_coefficients.values.assign(refit.data(), refit.data() + 4);
-          } else if (b.inliers.indices.size() > ind.size() - b.inliers.indices.size()) {
-            a.model_coefficients.values = b.model_coefficients.values;
-          }
-          a.sample_inliers += b.sample_inliers;
-          planes.erase(planes.begin() + static_cast<std::ptrdiff_t>(j));
-          merged = true;
-        }
-      }
+template <typename PointT>
+bool
+SACMultiPlaneSegmentation<PointT>::tryDenseHypothesis(detail::DensePoints& dense,
+                                                      float d_t,
+                                                      const Eigen::Vector3f& origin,
+                                                      std::mt19937& rng,
+                                                      RoundBuffers& buffers,
+                                                      Eigen::Vector4f& plane) const
+{
+  // A plain RANSAC at d_T on a seeded subsample (drawn with replacement) of all
+  // unassigned dense points; the plane with more eq. 11 inliers over the store is
+  // kept. It finds the large planes the sample has few points on (a road with little
+  // texture).
+  if (!dense_hypothesis_ || dense.primary < 3)
+    return false;
+  const std::size_t n = dense.primary;
+  const std::size_t wanted = std::min(n, detail::LOCAL_SAMPLE_SIZE);
+  std::uniform_int_distribution<std::size_t> pick(0, n - 1);
+  buffers.local_x.resize(wanted);
+  buffers.local_y.resize(wanted);
+  buffers.local_z.resize(wanted);
+  for (std::size_t k = 0; k < wanted; ++k) {
+    const std::size_t j = pick(rng);
+    buffers.local_x[k] = dense.x[j];
+    buffers.local_y[k] = dense.y[j];
+    buffers.local_z[k] = dense.z[j];
+  }
+  Eigen::Vector4f dense_plane;
+  if (detail::ransacPlane(buffers.local_x, buffers.local_y, buffers.local_z, d_t,
+                          max_iterations_, probability_, rng, dense_plane)
+        > 0
+      && dense.selectInliers(dense_plane, d_t) > dense.selectInliers(plane, d_t)) {
+    plane = dense_plane;
+    detail::orientTowards(plane, origin);
+    return true;
+  }
+  return false;
+}
+
+template <typename PointT>
+std::size_t
+SACMultiPlaneSegmentation<PointT>::selectDenseInliers(detail::DensePoints& dense,
+                                                      float d_t,
+                                                      const Eigen::Vector3f& origin,
+                                                      std::mt19937& rng,
+                                                      Eigen::Vector4f& plane,
+                                                      pcl::Indices& inliers) const
+{
+  // Local optimisation (LO-RANSAC) of the kept hypothesis on all unassigned points.
+  if (lo_iterations_ > 0) {
+    detail::optimizePlane(dense.x, dense.y, dense.z, dense.primary, d_t, lo_iterations_,
+                          rng, plane);
+    detail::orientTowards(plane, origin);
+  }
+  // Eq. 11 over the unassigned dense points; refit (PCA) and reselect.
+  std::size_t count = dense.selectInliers(plane, d_t);
+  if (optimize_coefficients_ && count >= 3) {
+    dense.selected(inliers);
+    Eigen::Vector4f refit, centroid;
+    if (detail::fitPlanePCA(*input_, inliers, refit, centroid)) {
+      detail::orientTowards(refit, origin);
+      plane = refit;
+      count = dense.selectInliers(plane, d_t);
     }
   }
+  return count;
+}
 
-  // Per-plane extras: sorted inliers, centroid, eqs. 2-3 tilt, headers.
+template <typename PointT>
+void
+SACMultiPlaneSegmentation<PointT>::removeSampleOnPlane(
+  const PointCloud& sample_cloud,
+  const Eigen::Vector4f& plane,
+  float sample_t,
+  const std::vector<std::uint8_t>& sample_taken,
+  pcl::Indices& remaining) const
+{
+  remaining.erase(std::remove_if(remaining.begin(), remaining.end(),
+                                 [&](pcl::index_t i) {
+                                   if (sample_taken[i])
+                                     return true;
+                                   const PointT& p = sample_cloud[i];
+                                   return std::abs(plane[0] * p.x + plane[1] * p.y
+                                                   + plane[2] * p.z + plane[3])
+                                          <= sample_t;
+                                 }),
+                  remaining.end());
+}
+
+template <typename PointT>
+std::size_t
+SACMultiPlaneSegmentation<PointT>::supportCount(const detail::DensePoints& dense,
+                                                std::size_t count) const
+{
+  // The mask holds the plane's inliers wherever this is called.
+  if (count_inlier_only_ || dense.primary == dense.size())
+    return count;
+  return static_cast<std::size_t>(std::count(
+    dense.mask.begin(), dense.mask.begin() + static_cast<std::ptrdiff_t>(dense.primary),
+    std::uint8_t(1)));
+}
+
+template <typename PointT>
+bool
+SACMultiPlaneSegmentation<PointT>::passesPlaneTests(detail::DensePoints& dense,
+                                                    const detail::DensePoints& all,
+                                                    const Eigen::Vector4f& plane,
+                                                    const Eigen::Vector3f& origin,
+                                                    const Eigen::Vector3f& up,
+                                                    float d_t,
+                                                    std::size_t& count)
+{
+  if (static_cast<int>(supportCount(dense, count)) < min_inliers_) {
+    PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with %zu < %d inliers.\n",
+              getClassName().c_str(), count, min_inliers_);
+    return false;
+  }
+  if (min_sensor_distance_ > 0.0) {
+    const std::size_t removed = detail::removeSensorPlane(
+      dense, plane, origin, static_cast<float>(min_sensor_distance_));
+    if (removed > 0) {
+      PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane passing within %g m of "
+                "the sensor (%zu inliers).\n",
+                getClassName().c_str(), min_sensor_distance_, removed);
+      sensor_plane_removed_ += removed;
+      ++sensor_plane_rejected_;
+      return false;
+    }
+  }
+  if (max_visibility_conflict_ratio_ > 0.0) {
+    const std::size_t removed = detail::removeVisibilityConflicts(
+      dense, all, d_t, plane, origin, static_cast<float>(visibility_margin_),
+      static_cast<float>(visibility_cell_), max_visibility_conflict_ratio_);
+    visibility_removed_ += removed;
+    count -= removed;
+    if (static_cast<int>(supportCount(dense, count)) < min_inliers_) {
+      PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with visibility "
+                "conflicts at %zu of its inliers (%zu left).\n",
+                getClassName().c_str(), removed, count);
+      ++visibility_rejected_;
+      return false;
+    }
+  }
+  if (max_shell_ratio_ > 0.0) {
+    const std::size_t removed =
+      detail::removeShellCells(dense, all, d_t, plane, static_cast<float>(shell_width_),
+                               static_cast<float>(visibility_cell_), max_shell_ratio_);
+    shell_removed_ += removed;
+    count -= removed;
+    if (static_cast<int>(supportCount(dense, count)) < min_inliers_) {
+      PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with points beyond its "
+                "threshold at %zu of its inliers (%zu left).\n",
+                getClassName().c_str(), removed, count);
+      ++shell_rejected_;
+      return false;
+    }
+  }
+  // Terrain (a plane within TERRAIN_TILT of the up axis, below the sensor) is spared:
+  // the layers of a noisy road fall apart into clusters, and the terrain removal
+  // takes them out whole.
+  const bool terrain = plane.head<3>().dot(up) > std::cos(detail::TERRAIN_TILT)
+                       && plane.head<3>().dot(origin) + plane[3] > 0.0f;
+  if (min_cluster_size_ > 0 && !terrain) {
+    const std::size_t removed =
+      detail::removeSmallClusters(dense, plane, static_cast<float>(cluster_cell_),
+                                  static_cast<std::size_t>(min_cluster_size_));
+    cluster_removed_ += removed;
+    count -= removed;
+    if (static_cast<int>(supportCount(dense, count)) < min_inliers_) {
+      PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane whose footprint falls "
+                "apart into clusters of < %d inliers (%zu left).\n",
+                getClassName().c_str(), min_cluster_size_, count);
+      ++cluster_rejected_;
+      // The fragments would give the same plane again: they leave the search.
+      dense.selectInliers(plane, d_t);
+      dense.removeSelected();
+      return false;
+    }
+  }
+  return true;
+}
+
+template <typename PointT>
+void
+SACMultiPlaneSegmentation<PointT>::mergeDuplicatePlanes(
+  PlanarSegments& planes,
+  const Eigen::Vector3f& origin) const
+{
+  const double cos_eps = std::cos(merge_angle_threshold_);
+  bool merged = true;
+  while (merged) {
+    merged = false;
+    for (std::size_t i = 0; i < planes.size() && !merged; ++i) {
+      for (std::size_t j = i + 1; j < planes.size() && !merged; ++j) {
+        const auto& ci = planes[i].model_coefficients.values;
+        const auto& cj = planes[j].model_coefficients.values;
+        const double dot = ci[0] * cj[0] + ci[1] * cj[1] + ci[2] * cj[2];
+        const double d_j = dot < 0.0 ? -cj[3] : cj[3];
+        if (std::abs(dot) < cos_eps
+            || std::abs(ci[3] - d_j) > merge_distance_threshold_)
+          continue;
+        PlanarSegment& a = planes[i];
+        PlanarSegment& b = planes[j];
+        auto& ind = a.inliers.indices;
+        ind.insert(ind.end(), b.inliers.indices.begin(), b.inliers.indices.end());
+        Eigen::Vector4f refit, centroid;
+        if (optimize_coefficients_
+            && detail::fitPlanePCA(*input_, ind, refit, centroid)) {
+          detail::orientTowards(refit, origin);
+          a.model_coefficients.values.assign(refit.data(), refit.data() + 4);
+        } else if (b.inliers.indices.size() > ind.size() - b.inliers.indices.size()) {
+          a.model_coefficients.values = b.model_coefficients.values;
+        }
+        a.sample_inliers += b.sample_inliers;
+        planes.erase(planes.begin() + static_cast<std::ptrdiff_t>(j));
+        merged = true;
+      }
+    }
+  }
+}
+
+template <typename PointT>
+void
+SACMultiPlaneSegmentation<PointT>::describePlanes(PlanarSegments& planes,
+                                                  const Eigen::Vector3f& up) const
+{
   for (auto& segment : planes) {
     auto& ind = segment.inliers.indices;
     std::sort(ind.begin(), ind.end());
@@ -551,6 +583,105 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
                    [](const PlanarSegment& l, const PlanarSegment& r) {
                      return l.inliers.indices.size() > r.inliers.indices.size();
                    });
+}
+
+template <typename PointT>
+void
+SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
+{
+  planes.clear();
+  resetRejectionCounts();
+  const Eigen::Vector3f origin = input_->sensor_origin_.template head<3>();
+  const Eigen::Vector3f up = up_axis_.normalized();
+  const auto d_t = static_cast<float>(distance_threshold_);
+  const auto sample_t = static_cast<float>(getSampleDistanceThreshold());
+  std::mt19937 rng(seed_);
+
+  detail::DensePoints dense;
+  collectDensePoints(origin, d_t, dense);
+  // Every finite input point, for the visibility test (dense loses the planes'
+  // inliers as they are taken).
+  detail::DensePoints all;
+  if (max_visibility_conflict_ratio_ > 0.0 || max_shell_ratio_ > 0.0)
+    all = dense;
+  if (dense.size() < 3) {
+    PCL_WARN("[planar_grid::%s::segment] Fewer than 3 finite input points (%zu).\n",
+             getClassName().c_str(), dense.size());
+    return;
+  }
+
+  // The sample the hypotheses come from: the sample cloud, or a seeded subsample.
+  PointCloudConstPtr sample_cloud = sample_cloud_ ? sample_cloud_ : input_;
+  pcl::Indices remaining;
+  drawSample(dense, rng, remaining);
+  const std::size_t initial_sample = remaining.size();
+  if (initial_sample < 3) {
+    PCL_WARN("[planar_grid::%s::segment] Fewer than 3 finite sample points (%zu).\n",
+             getClassName().c_str(), initial_sample);
+    return;
+  }
+
+  // Colinear (or coincident) samples span no plane: PCA's middle eigenvalue is ~0.
+  if (!detail::spansPlane(*sample_cloud, remaining)) {
+    PCL_WARN("[planar_grid::%s::segment] The sample points are colinear.\n",
+             getClassName().c_str());
+    return;
+  }
+
+  std::vector<std::uint8_t> sample_taken(sample_cloud->size(), 0);
+  pcl::Indices sac_inliers;
+  RoundBuffers buffers;
+  const int max_rounds = 3 * max_planes_;
+  for (int round = 0;
+       round < max_rounds && static_cast<int>(planes.size()) < max_planes_; ++round) {
+    if (remaining.size() < 3
+        || static_cast<double>(remaining.size())
+             < min_remaining_fraction_ * initial_sample)
+      break;
+    // What is left of the sample may be colinear (e.g. features along one edge): every
+    // minimal sample would be degenerate, so stop instead of drawing in vain.
+    if (!detail::spansPlane(*sample_cloud, remaining)) {
+      PCL_DEBUG("[planar_grid::%s::segment] The remaining %zu sample points are "
+                "colinear; stopping.\n",
+                getClassName().c_str(), remaining.size());
+      break;
+    }
+    Eigen::Vector4f plane;
+    if (!estimateSamplePlane(sample_cloud, remaining, sample_t, origin, rng,
+                             sac_inliers, plane))
+      break;
+
+    PlanarSegment segment;
+    if (optimize_coefficients_)
+      refineOnDenseSlab(dense, sample_t, d_t, origin, rng, buffers, plane);
+    const bool dense_won = tryDenseHypothesis(dense, d_t, origin, rng, buffers, plane);
+    std::size_t count =
+      selectDenseInliers(dense, d_t, origin, rng, plane, segment.inliers.indices);
+
+    // Remove the sample inliers: the estimator's (unless the dense hypothesis won: they
+    // lie on another plane, which a later round can still find), and those of the
+    // final plane.
+    if (!dense_won)
+      for (const auto i : sac_inliers)
+        sample_taken[i] = 1;
+    const std::size_t sample_before = remaining.size();
+    removeSampleOnPlane(*sample_cloud, plane, sample_t, sample_taken, remaining);
+
+    if (!passesPlaneTests(dense, all, plane, origin, up, d_t, count))
+      continue;
+    dense.selected(segment.inliers.indices);
+    dense.removeSelected();
+    segment.model_coefficients.values.assign(plane.data(), plane.data() + 4);
+    segment.sample_inliers =
+      dense_won ? sample_before - remaining.size() : sac_inliers.size();
+    planes.push_back(std::move(segment));
+  }
+
+  // Merge near-duplicate planes (normals within eps_angle, offsets within distance).
+  if (merge_planes_)
+    mergeDuplicatePlanes(planes, origin);
+  // Per-plane extras: sorted inliers, centroid, eqs. 2-3 tilt, headers.
+  describePlanes(planes, up);
   if (planes.empty())
     PCL_WARN("[planar_grid::%s::segment] No plane with >= %d inliers.\n",
              getClassName().c_str(), min_inliers_);
