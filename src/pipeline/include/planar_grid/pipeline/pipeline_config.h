@@ -264,10 +264,14 @@ struct OutputConfig {
  * leaves it out; set in both to different values, it is a planar_grid::ConfigError at
  * its key. \ingroup pipeline */
 struct SharedStageParam {
-  /** \brief The stage and key that take the value. */
-  std::string stage, key;
-  /** \brief The stage and key whose value is taken. */
-  std::string from_stage, from_key;
+  /** \brief The stage that takes the value. */
+  std::string stage;
+  /** \brief Its key that takes the value. */
+  std::string key;
+  /** \brief The stage whose value is taken. */
+  std::string from_stage;
+  /** \brief Its key whose value is taken. */
+  std::string from_key;
   /** \brief Why the two are one quantity, and what to do (ends an error message). */
   std::string reason;
 };

@@ -65,7 +65,7 @@ public:
    * its table's defaults holds them). Keys whose value no object exposes are left out;
    * stages without parameters add nothing.
    * \param[out] values the keys the stage exposes, set (others untouched) */
-  virtual void getParameters(ParamValues& /*values*/) const {}
+  virtual void getParameters(ParamValues& values) const { static_cast<void>(values); }
 
   /** \brief Points this stage measures in and out of each frame (for the report): the
    * working cloud's valid points by default. */
