@@ -173,9 +173,10 @@ SurfaceLayer::absorbOverlappingPlaneCells()
         Eigen::Vector3f face;
         bool parallel;
       };
+      // Parallel and facing the same way (the map's normals point toward the sensors
+      // that saw the plane): the two faces of a thin wall stay apart.
       const auto parallelTo = [&](int b) {
-        return std::abs(
-                 impl.planes[static_cast<std::size_t>(b)].normal.dot(plane.normal))
+        return impl.planes[static_cast<std::size_t>(b)].normal.dot(plane.normal)
                >= cos_parallel;
       };
       const bool any_parallel =

@@ -1116,7 +1116,9 @@ TEST_F(PlanarGridMapTest, ParallelViewsOfOneWallWithinTheAbsorbDistanceJoinIt)
   // - wider: 6 m x 0.6 m (x in [-3, 3]), 0.4 m before: the 4 m over the wall join
   //   it, the two 1 m ends stay (1.2 m^2, two rectangles);
   // - far: the "inside" patch 0.8 m before the wall: stays;
-  // - and the "inside" patch with absorb_distance_m 0 (versions before it) stays.
+  // - and the "inside" patch with absorb_distance_m 0 (versions before it) stays;
+  // - facing: the "inside" patch facing the other way (the other side of a thin wall,
+  //   normal +z) stays.
   const PlanarCuboid wall =
     wallCuboid(Eigen::Vector3f(0.0f, 0.0f, 5.0f), -Eigen::Vector3f::UnitZ(),
                Eigen::Vector3f::UnitX(), 4.0f, 2.0f, 0);
@@ -1126,17 +1128,23 @@ TEST_F(PlanarGridMapTest, ParallelViewsOfOneWallWithinTheAbsorbDistanceJoinIt)
     bool joins;
     double kept_area_m2;
     std::size_t kept_cuboids;
+    bool facing_away;
   };
-  const std::array<Case, 4> cases{{{"inside", 0.4f, 2.0f, 1.0f, 0.5f, true, 0.0, 0},
-                                   {"wider", 0.4f, 6.0f, 0.6f, 0.5f, true, 1.2, 2},
-                                   {"far", 0.8f, 2.0f, 1.0f, 0.5f, false, 2.0, 1},
-                                   {"off", 0.4f, 2.0f, 1.0f, 0.0f, false, 2.0, 1}}};
+  const std::array<Case, 5> cases{
+    {{"inside", 0.4f, 2.0f, 1.0f, 0.5f, true, 0.0, 0, false},
+     {"wider", 0.4f, 6.0f, 0.6f, 0.5f, true, 1.2, 2, false},
+     {"far", 0.8f, 2.0f, 1.0f, 0.5f, false, 2.0, 1, false},
+     {"off", 0.4f, 2.0f, 1.0f, 0.0f, false, 2.0, 1, false},
+     {"facing", 0.4f, 2.0f, 1.0f, 0.5f, false, 2.0, 1, true}}};
   for (const Case& c : cases)
     for (const bool wall_first : {true, false}) {
       SCOPED_TRACE(std::string(c.name)
                    + (wall_first ? ", wall first" : ", patch first"));
-      const PlanarCuboid patch = tiltedPatch(
-        Eigen::Vector3f(0.0f, 0.0f, 5.0f - c.before_m), 0.0f, c.width_m, c.height_m, 0);
+      const Eigen::Vector3f face(0.0f, 0.0f, 5.0f - c.before_m);
+      const PlanarCuboid patch =
+        c.facing_away ? wallCuboid(face, Eigen::Vector3f::UnitZ(),
+                                   Eigen::Vector3f::UnitX(), c.width_m, c.height_m, 0)
+                      : tiltedPatch(face, 0.0f, c.width_m, c.height_m, 0);
       // 8 features on the patch's face, within 1 m of its centre along x
       pcl::PointCloud<pcl::PointXYZ> features;
       for (int a = -2; a <= 1; ++a)

@@ -175,7 +175,8 @@ public:
      * rectangles like the other rules. The paper's D_T. */
     double cover_density{0.9};
     /** Largest distance along a stronger plane's normal at which the cells of a
-     * plane parallel to it (normals within plane_merge_angle_rad) are the same
+     * plane parallel to it (normals within plane_merge_angle_rad, facing the same
+     * way) are the same
      * surface seen at another depth and move to it (absorbOverlappingPlaneCells()),
      * meters; finite, >= 0; below resolution_m / 2 it is resolution_m / 2, the
      * tolerance for planes that are not parallel. 0.5 m is about twice the stereo
@@ -284,7 +285,8 @@ public:
    * rectangle of a plane's cover moves when every observed raster cell in it has its
    * face centre and four face corners inside that one plane's cuboids grown by
    * resolution_m / 2 on every side; for a plane parallel to the other (normals
-   * within plane_merge_angle_rad), within absorb_distance_m of those cuboids along
+   * within plane_merge_angle_rad, facing the same way), within absorb_distance_m of
+   * those cuboids along
    * their normal (and resolution_m / 2 along their faces). Its cells' feature
    * evidence joins the other
    * plane's cells that hold their face centres (observed there), and they leave their
