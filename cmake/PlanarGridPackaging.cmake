@@ -4,15 +4,17 @@
 #   cmake --build build && cpack -G DEB --config build/CPackConfig.cmake -B build/deb
 #   sudo apt install ./build/deb/planar-grid_<version>_amd64.deb
 #
-# One package under /usr: the tools, the ROS node (when built), the Python module in
-# /usr/lib/python3/dist-packages, and the development files (headers, the static or
-# shared libraries, the CMake package in /usr/lib/cmake/PlanarGrid, the pkg-config files
-# in /usr/lib/pkgconfig). Depends: the run-time libraries of the installed programs and
-# of the Python module, as dpkg-shlibdeps (dpkg-dev) finds them, plus the Python 3 minor
-# version the module was built for and numpy. Recommends: the -dev packages the CMake
-# package and the .pc files look for, so that a plain `apt install` can build against it
-# and `--no-install-recommends` gives the programs alone. scripts/check_install.sh builds
-# the package, extracts it into a temporary root and checks it from there.
+# One package under /usr: the tools and their manual pages, the ROS node (when built),
+# the Python module in /usr/lib/python3/dist-packages, and the development files
+# (headers, the static or shared libraries, the CMake package in
+# /usr/lib/cmake/PlanarGrid, the pkg-config files in /usr/lib/<multiarch>/pkgconfig).
+# Depends: the run-time libraries of the installed programs and of the Python module, as
+# dpkg-shlibdeps (dpkg-dev) finds them, plus the Python 3 minor version the module was
+# built for and numpy. Recommends: the -dev packages the CMake package and the .pc files
+# look for, so that a plain `apt install` can build against it and
+# `--no-install-recommends` gives the programs alone. scripts/check_install.sh builds the
+# package, checks it extracted into a temporary root and with lintian, and on CI installs
+# it with apt, uses it and purges it.
 # Include it once, at the end of the top-level CMakeLists.txt, after every install() rule.
 
 set(CPACK_GENERATOR DEB)
@@ -21,13 +23,15 @@ set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
 set(CPACK_PACKAGE_VENDOR "The PlanarGrid authors")
 set(CPACK_PACKAGE_DESCRIPTION_SUMMARY
     "planar surface-based 3D mapping from stereo (PCL-style C++17 library)")
-# Lines of at most 80 characters, as dpkg and apt show them.
+# Lines of at most 79 characters with the space the control file puts before each, as
+# dpkg and apt show them (lintian: extended-description-line-too-long).
 set(CPACK_PACKAGE_DESCRIPTION
-    "PlanarGrid builds 3D occupancy maps for mobile robots from stereo cameras, with
-plane-aligned cuboid cells instead of cubic voxels. This package holds the tools
-(planar_grid_pipeline, planar_grid_viewer, planar_grid_eval, ...), the Python
-module planar_grid, and the headers, libraries, CMake package
-(find_package(PlanarGrid)) and pkg-config files to build against the library.")
+    "PlanarGrid builds 3D occupancy maps for mobile robots from stereo cameras,
+with plane-aligned cuboid cells instead of cubic voxels. This package holds
+the tools (planar_grid_pipeline, planar_grid_viewer, planar_grid_eval, ...)
+with their manual pages, the Python module planar_grid, and the headers,
+libraries, CMake package (find_package(PlanarGrid)) and pkg-config files to
+build against the library.")
 set(CPACK_RESOURCE_FILE_LICENSE ${PROJECT_SOURCE_DIR}/LICENSE)
 set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
 # The executables and the Python module without their symbol tables (Release builds
@@ -92,9 +96,14 @@ file(WRITE ${PROJECT_BINARY_DIR}/debian/copyright
   "Files: *\nCopyright: ${_pg_copyright}\nLicense: BSD-3-Clause\n${_pg_license_text}\n")
 # CPack runs the script with DESTDIR at its staging folder, which file(INSTALL) prepends;
 # CMAKE_INSTALL_PREFIX is not the package's prefix there.
+# The same script installs lintian's overrides (cmake/planar-grid.lintian-overrides says
+# which tags and why) where lintian looks for them.
 file(WRITE ${PROJECT_BINARY_DIR}/debian/install_copyright.cmake
   "file(INSTALL ${PROJECT_BINARY_DIR}/debian/copyright\n"
-  "     DESTINATION \"\${CPACK_PACKAGING_INSTALL_PREFIX}/share/doc/${CPACK_PACKAGE_NAME}\")\n")
+  "     DESTINATION \"\${CPACK_PACKAGING_INSTALL_PREFIX}/share/doc/${CPACK_PACKAGE_NAME}\")\n"
+  "file(INSTALL ${PROJECT_SOURCE_DIR}/cmake/planar-grid.lintian-overrides\n"
+  "     DESTINATION \"\${CPACK_PACKAGING_INSTALL_PREFIX}/share/lintian/overrides\"\n"
+  "     RENAME ${CPACK_PACKAGE_NAME})\n")
 set(CPACK_INSTALL_SCRIPTS ${PROJECT_BINARY_DIR}/debian/install_copyright.cmake)
 
 include(CPack)

@@ -1,9 +1,15 @@
 # SPDX-License-Identifier: BSD-3-Clause
-# planar_grid_install_pkgconfig(): <prefix>/<libdir>/pkgconfig/planar_grid.pc (every
+# planar_grid_install_pkgconfig(): <prefix>/<pkgconfig dir>/planar_grid.pc (every
 # module that was built) and planar_grid_<module>.pc (one module and the modules it
 # uses, with only their dependencies: a segmentation-only program needs neither VTK nor
 # OpenCV), for projects that build with pkg-config instead of CMake. Call it once,
 # after every module was added.
+#
+# The folder, PLANAR_GRID_PKGCONFIG_INSTALL_DIR (relative to the prefix), is by default
+# <libdir>/<multiarch triplet>/pkgconfig where the compiler has one (Debian:
+# lib/x86_64-linux-gnu/pkgconfig, which pkg-config searches under /usr and /usr/local
+# and Debian's policy asks of .pc files that name architecture-specific paths), else
+# <libdir>/pkgconfig.
 #
 # What pkg-config can express of the two kinds of build:
 # - shared libraries (BUILD_SHARED_LIBS): Libs lists our libraries, Requires the
@@ -75,6 +81,14 @@ function(_planar_grid_pc_visit module)
   list(APPEND _pg_order ${module})
   set(_pg_order "${_pg_order}" PARENT_SCOPE)
 endfunction()
+
+if(CMAKE_LIBRARY_ARCHITECTURE AND NOT CMAKE_INSTALL_LIBDIR MATCHES "${CMAKE_LIBRARY_ARCHITECTURE}")
+  set(_pg_pkgconfig_dir "${CMAKE_INSTALL_LIBDIR}/${CMAKE_LIBRARY_ARCHITECTURE}/pkgconfig")
+else()
+  set(_pg_pkgconfig_dir "${CMAKE_INSTALL_LIBDIR}/pkgconfig")
+endif()
+set(PLANAR_GRID_PKGCONFIG_INSTALL_DIR "${_pg_pkgconfig_dir}"
+    CACHE STRING "Install folder of the .pc files, relative to the prefix")
 
 function(planar_grid_install_pkgconfig)
   get_property(modules GLOBAL PROPERTY PLANAR_GRID_MODULES)
@@ -152,7 +166,7 @@ function(_planar_grid_write_pc pc_name what)
     message(FATAL_ERROR "planar_grid.pc needs CMAKE_INSTALL_LIBDIR and "
       "CMAKE_INSTALL_INCLUDEDIR relative to the prefix")
   endif()
-  file(RELATIVE_PATH to_prefix "/${CMAKE_INSTALL_LIBDIR}/pkgconfig" "/")
+  file(RELATIVE_PATH to_prefix "/${PLANAR_GRID_PKGCONFIG_INSTALL_DIR}" "/")
   string(REGEX REPLACE "/$" "" to_prefix "${to_prefix}")
   set(PLANAR_GRID_PC_PREFIX "\${pcfiledir}/${to_prefix}")
   set(PLANAR_GRID_PC_NAME ${pc_name})
@@ -163,5 +177,5 @@ function(_planar_grid_write_pc pc_name what)
   file(GENERATE OUTPUT ${PROJECT_BINARY_DIR}/pkgconfig/${pc_name}.pc
        INPUT ${PROJECT_BINARY_DIR}/pkgconfig/${pc_name}.pc.in)
   install(FILES ${PROJECT_BINARY_DIR}/pkgconfig/${pc_name}.pc
-          DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
+          DESTINATION ${PLANAR_GRID_PKGCONFIG_INSTALL_DIR})
 endfunction()

@@ -8,11 +8,12 @@
 # and the ROS bag input's libraries) linked with it; an installed tool runs and
 # prints its version; an unknown COMPONENT fails with a clear message. Works for static
 # and shared (BUILD_SHARED_LIBS) builds.
-# Then the Debian package (cpack -G DEB, cmake/PlanarGridPackaging.cmake), without
-# installing it: extracted with dpkg-deb -x into a temporary root, its tools run, the
-# examples build against <root>/usr, its Python module maps the scan, and every package
-# it Depends on or Recommends is installed or installable here (apt-cache policy; and
-# apt-get install -s, a simulation, resolves them).
+# Then the Debian package (cpack -G DEB, cmake/PlanarGridPackaging.cmake): extracted with
+# dpkg-deb -x into a temporary root, its tools run, the examples build against
+# <root>/usr, its Python module maps the scan, and every package it Depends on or
+# Recommends is installed or installable here (apt-cache policy; and apt-get install -s,
+# a simulation, resolves them). As root on CI (CI=true) or with PLANAR_GRID_APT_INSTALL=1,
+# it is then installed for real with apt-get, used from /usr, and purged.
 #   bash scripts/check_install.sh [build folder]    (default: $BUILD_DIR, else build/)
 # The scan comes from PLANAR_GRID_DATA_DIR (default ../shared/data).
 set -euo pipefail
@@ -23,7 +24,16 @@ CLOUD="$DATA_DIR/pcl_clouds/office1.pcd"
 [ -f "$CLOUD" ] || { echo "check_install: $CLOUD not found" >&2; exit 1; }
 
 work=$(mktemp -d "${TMPDIR:-/tmp}/planar_grid_install.XXXXXX")
-trap 'rm -rf "$work"' EXIT
+apt_installed=false
+cleanup() {
+  # A package this script installed leaves with it (purge), whatever ended the script.
+  if $apt_installed; then
+    apt-get purge -y -q planar-grid >"$work/apt_purge.log" 2>&1 \
+      || { cat "$work/apt_purge.log" >&2; echo "check_install: apt-get purge planar-grid failed" >&2; }
+  fi
+  rm -rf "$work"
+}
+trap cleanup EXIT
 prefix="$work/prefix"
 
 echo "check_install: cmake --install $BUILD_DIR --prefix $prefix"
@@ -38,6 +48,9 @@ for f in lib/cmake/PlanarGrid/PlanarGridConfig.cmake \
   [ -e "$prefix/$f" ] || { echo "check_install: $f was not installed" >&2; exit 1; }
 done
 version=$(sed -n 's/^CMAKE_PROJECT_VERSION:STATIC=//p' "$BUILD_DIR/CMakeCache.txt")
+# Where the .pc files go, relative to the prefix (cmake/PlanarGridPkgConfig.cmake).
+pc_subdir=$(sed -n 's/^PLANAR_GRID_PKGCONFIG_INSTALL_DIR:STRING=//p' "$BUILD_DIR/CMakeCache.txt")
+[ -n "$pc_subdir" ] || { echo "check_install: $BUILD_DIR has no PLANAR_GRID_PKGCONFIG_INSTALL_DIR" >&2; exit 1; }
 
 # check_tools PREFIX: the installed pipeline tool lists its stages and prints the version.
 check_tools() {
@@ -52,8 +65,11 @@ check_tools() {
 check_examples() {
   local prefix=$1 dir=$2
   echo "check_install: building examples/ against $prefix"
+  # /usr is where CMake looks by itself: no CMAKE_PREFIX_PATH then.
+  local prefix_path=(-DCMAKE_PREFIX_PATH="$prefix")
+  [ "$prefix" != /usr ] || prefix_path=()
   cmake -S examples -B "$dir" -DCMAKE_BUILD_TYPE=Release \
-    -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF >"$dir.configure.log" \
+    "${prefix_path[@]}" -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF >"$dir.configure.log" \
     || { cat "$dir.configure.log" >&2; return 1; }
   local found_dir
   found_dir=$(sed -n 's/^PlanarGrid_DIR:PATH=//p' "$dir/CMakeCache.txt")
@@ -80,7 +96,7 @@ check_examples "$prefix" "$work/examples"
 # The same example with pkg-config and the installed planar_grid.pc only: its Cflags and
 # Libs (static libraries: every dependency; shared: ours and those of our public headers)
 # plus pcl_io, which the example itself uses.
-pc_dir="$prefix/lib/pkgconfig"
+pc_dir="$prefix/$pc_subdir"
 [ -f "$pc_dir/planar_grid.pc" ] || { echo "check_install: planar_grid.pc was not installed" >&2; exit 1; }
 export PKG_CONFIG_PATH="$pc_dir"
 [ "$(pkg-config --modversion planar_grid)" = "$version" ] \
@@ -229,26 +245,38 @@ root="$work/root"
 dpkg-deb -x "$deb" "$root"
 echo "check_install: $(basename "$deb"), $(du -k "$deb" | cut -f1) KiB, $(dpkg-deb -c "$deb" | grep -vc '/$') files, extracted into $root"
 for f in bin/planar_grid_pipeline lib/cmake/PlanarGrid/PlanarGridConfig.cmake \
-         lib/pkgconfig/planar_grid.pc include/planar_grid/version.h; do
+         "$pc_subdir/planar_grid.pc" include/planar_grid/version.h \
+         share/man/man1/planar_grid_pipeline.1.gz share/doc/planar-grid/copyright; do
   [ -e "$root/usr/$f" ] || { echo "check_install: the package has no /usr/$f" >&2; exit 1; }
 done
+
+# Debian's package checker: no error and no warning, beyond the tags the package's own
+# overrides file names with its reasons (cmake/planar-grid.lintian-overrides).
+if command -v lintian >/dev/null; then
+  lintian --no-cfg --fail-on error,warning "$deb" >"$work/lintian.log" 2>&1 \
+    || { cat "$work/lintian.log" >&2; echo "check_install: lintian reports errors or warnings" >&2; exit 1; }
+  echo "check_install: lintian: no errors or warnings ($(lintian --no-cfg --show-overrides "$deb" 2>/dev/null | grep -c '^O:') overridden tags)"
+else
+  echo "check_install: no lintian here: the package was not checked by it"
+fi
 
 # The tools find our libraries without LD_LIBRARY_PATH: linked in (static libraries), or
 # through their run path $ORIGIN/../lib (shared ones), which points into the root.
 check_tools "$root/usr"
 check_examples "$root/usr" "$work/examples-deb"
 # The .pc files locate their prefix from their own folder.
-[ "$(PKG_CONFIG_PATH="$root/usr/lib/pkgconfig" pkg-config --variable=includedir planar_grid)" \
+[ "$(PKG_CONFIG_PATH="$root/usr/$pc_subdir" pkg-config --variable=includedir planar_grid)" \
   -ef "$root/usr/include" ] \
   || { echo "check_install: the packaged planar_grid.pc does not point into its root" >&2; exit 1; }
 
+# config/office1.yaml with the scan's path made absolute, for the packaged module and tool.
+sed "s|^  files: .*|  files: $(realpath "$CLOUD")|" config/office1.yaml >"$work/office1.yaml"
 # The Python module, with the interpreter the package depends on, maps the scan through the
-# pipeline (config/office1.yaml, with the scan's path made absolute).
+# pipeline.
 if $has_python; then
   python=/usr/bin/python3
   check_python "$root/usr/lib/python3/dist-packages"
   check_batch "$root/usr"
-  sed "s|^  files: .*|  files: $(realpath "$CLOUD")|" config/office1.yaml >"$work/office1.yaml"
   echo "check_install: mapping $CLOUD with the packaged Python module"
   (cd "$work" && PYTHONPATH="$root/usr/lib/python3/dist-packages" "$python" -c "
 import sys
@@ -303,9 +331,9 @@ echo "check_install: apt-get install -s: $(grep -c '^Inst ' "$work/apt_simulate.
 # or recommends.
 declared=" $(dpkg-deb -f "$deb" Depends Recommends | sed -e 's/^[A-Za-z]*: //' -e 's/([^)]*)//g' | tr ',|\n' '   ') "
 mapfile -t named < <(grep -ohE '/usr/[^ ;"()>]+\.(so|a)\b' "$root"/usr/lib/cmake/PlanarGrid/*.cmake \
-                       "$root"/usr/lib/pkgconfig/*.pc | sort -u)
-export PKG_CONFIG_PATH="$root/usr/lib/pkgconfig"
-for pc in "$root"/usr/lib/pkgconfig/*.pc; do
+                       "$root/usr/$pc_subdir"/*.pc | sort -u)
+export PKG_CONFIG_PATH="$root/usr/$pc_subdir"
+for pc in "$root/usr/$pc_subdir"/*.pc; do
   pkg-config --print-requires --print-requires-private "$(basename "$pc" .pc)"
 done | awk '$1 !~ /^planar_grid/ { print $1 }' | sort -u >"$work/pc_requires.txt"
 while read -r module; do
@@ -323,4 +351,62 @@ if [ ${#named[@]} -gt 0 ]; then
   done < <(cut -d: -f1 <<<"$owners" | sort -u)
 fi
 echo "check_install: the ${#named[@]} files of other packages it names (the .pc files of $(wc -l <"$work/pc_requires.txt") modules among them) come from packages it depends on or recommends"
+
+# The package installed for real (`apt-get install ./planar-grid_*.deb`, as a user does),
+# then used as a user outside this tree finds it: the tools on PATH, the CMake package
+# with no CMAKE_PREFIX_PATH, pkg-config with no PKG_CONFIG_PATH, the Python module with
+# no PYTHONPATH; then purged, leaving no file of it behind. It changes /usr, so it runs
+# only as root, on CI (CI=true) or when PLANAR_GRID_APT_INSTALL=1 asks for it, and never
+# over an installed planar-grid.
+apt_install_check() {
+  echo "check_install: apt-get install $deb"
+  apt_installed=true
+  apt-get install -y -q "$deb" >"$work/apt_install.log" 2>&1 \
+    || { cat "$work/apt_install.log" >&2; echo "check_install: apt-get install of the package failed" >&2; return 1; }
+  dpkg-query -W -f='${Status} ${Version}\n' planar-grid | grep -q "^install ok installed $version\$" \
+    || { echo "check_install: dpkg does not list planar-grid $version as installed" >&2; return 1; }
+  mapfile -t installed_files < <(dpkg -L planar-grid)
+  local clean_env=(env -i PATH=/usr/bin:/bin HOME="$work" LANG=C.UTF-8)
+  [ "$(cd "$work" && "${clean_env[@]}" planar_grid_pipeline --version)" = "planar_grid_pipeline $version" ] \
+    || { echo "check_install: planar_grid_pipeline on PATH does not print $version" >&2; return 1; }
+  mkdir -p "$work/apt_run"
+  (cd "$work" && "${clean_env[@]}" planar_grid_pipeline --config "$work/office1.yaml" \
+     --output "$work/apt_run" --no-snapshot -q) >"$work/apt_run.log" 2>&1 \
+    || { cat "$work/apt_run.log" >&2; echo "check_install: the installed planar_grid_pipeline failed on office1" >&2; return 1; }
+  [ -s "$work/apt_run/map.pgmap" ] && [ -s "$work/apt_run/report.json" ] \
+    || { echo "check_install: the installed pipeline wrote no map of office1" >&2; return 1; }
+  echo "check_install: /usr/bin/planar_grid_pipeline mapped office1 ($(du -k "$work/apt_run/map.pgmap" | cut -f1) KiB map)"
+  check_examples /usr "$work/examples-apt"
+  [ "$("${clean_env[@]}" pkg-config --modversion planar_grid)" = "$version" ] \
+    || { echo "check_install: pkg-config does not find planar_grid $version in /usr" >&2; return 1; }
+  if $has_python; then
+    (cd "$work" && "${clean_env[@]}" /usr/bin/python3 -c "
+import planar_grid as pg
+assert pg.__file__.startswith('/usr/lib/python3/dist-packages/'), pg.__file__
+m = pg.PlanarGridMap.load('$work/apt_run/map.pgmap')
+assert m.memory['total_bytes'] > 0
+print('check_install: /usr/bin/python3 imports', pg.__file__, 'and loads the map')
+")
+    [ "$(cd "$work" && "${clean_env[@]}" planar_grid_batch --version)" = "planar_grid_batch $version" ] \
+      || { echo "check_install: planar_grid_batch on PATH does not print $version" >&2; return 1; }
+  fi
+  apt-get purge -y -q planar-grid >"$work/apt_purge.log" 2>&1 \
+    || { cat "$work/apt_purge.log" >&2; echo "check_install: apt-get purge planar-grid failed" >&2; return 1; }
+  apt_installed=false
+  local f left=()
+  for f in "${installed_files[@]}"; do
+    [ -d "$f" ] || [ ! -e "$f" ] || left+=("$f")
+  done
+  [ ${#left[@]} -eq 0 ] || { echo "check_install: files left after the purge: ${left[*]}" >&2; return 1; }
+  echo "check_install: installed ${#installed_files[@]} paths, used, purged; none left"
+}
+if [ "$(id -u)" = 0 ] && { [ "${CI:-}" = true ] || [ "${PLANAR_GRID_APT_INSTALL:-0}" = 1 ]; }; then
+  if dpkg-query -W -f='${Status}' planar-grid 2>/dev/null | grep -q 'ok installed'; then
+    echo "check_install: planar-grid is already installed here: the package was not installed over it" >&2
+    exit 1
+  fi
+  apt_install_check
+else
+  echo "check_install: the package was not installed (run as root with CI=true or PLANAR_GRID_APT_INSTALL=1)"
+fi
 echo "check_install: OK"

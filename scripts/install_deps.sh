@@ -14,6 +14,8 @@ PACKAGES=(
   libdynamicedt3d-dev       # OctoMap's distance transform, the peer of bench_map_queries
   xvfb xauth clang-format git
   doxygen
+  help2man                  # the programs' manual pages (cmake/PlanarGridManPages.cmake)
+  lintian                   # scripts/check_install.sh checks the Debian package with it
   python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest mypy
   python3-open3d            # the Python examples and their tests (Open3D loads the scan)
   python3-distributed       # planar_grid.distributed and planar_grid_batch (Dask)

@@ -7,6 +7,7 @@
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/mapper.h>
 #include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/version.h>
 
 #include <geometry_msgs/TransformStamped.h>
 #include <message_filters/subscriber.h>
@@ -30,6 +31,7 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <cstdio>
 #include <cstring>
 #include <deque>
 #include <filesystem>
@@ -600,11 +602,56 @@ private:
   std::thread publisher_;
 };
 
+/** What --help prints: how to start the node, its private parameters, topics and
+ * services (docs/ROS.md has the whole description). */
+constexpr const char* USAGE =
+  "Usage: planar_grid_ros_node _config:=/abs/FILE.yaml [_NAME:=VALUE]...\n"
+  "       ROS_PACKAGE_PATH=PREFIX/share roslaunch planar_grid planar_grid.launch \\\n"
+  "         config:=/abs/FILE.yaml\n"
+  "\n"
+  "Live mapping in ROS 1: maps each rectified stereo pair (or PointCloud2) with the\n"
+  "pipeline of FILE.yaml, its pose from TF or from the pipeline's visual odometry, "
+  "and\n"
+  "publishes the map after each frame.\n"
+  "\n"
+  "Private parameters:\n"
+  "  ~config             the pipeline's YAML file (required)\n"
+  "  ~fixed_frame        world frame of the map and of the published topics\n"
+  "                      (default: the configuration's, else world)\n"
+  "  ~sensor_frame       the camera's frame (default: the messages' frame_id)\n"
+  "  ~max_queued_frames  frames kept waiting while one is mapped; 0: no limit (1)\n"
+  "  ~tf_timeout         longest wait for a frame's transform, s (0.5)\n"
+  "  ~publish_every      publish the map every N mapped frames (1)\n"
+  "  ~map_2d_period      shortest time between two 2D maps, s (2.0)\n"
+  "  ~output_folder      folder of ~save_map's files (.)\n"
+  "\n"
+  "Subscribes: left/image_rect, right/image_rect, left/camera_info,\n"
+  "  right/camera_info, or cloud (PointCloud2) for a pcd_files configuration\n"
+  "  (or the configuration's ros_bag topics).\n"
+  "Publishes: ~cuboids (MarkerArray), ~occupied_cells (PointCloud2), ~map_2d\n"
+  "  (OccupancyGrid), ~frame_stats (String, JSON per frame).\n"
+  "Services: ~save_map, ~reset (std_srvs/Trigger).\n"
+  "\n"
+  "Options:\n"
+  "  -h, --help     print this text and exit\n"
+  "      --version  print the version and exit\n";
+
 } // namespace
 
 int
 main(int argc, char** argv)
 {
+  // Answered before ros::init, which would wait for a ROS master.
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--version") == 0) {
+      std::printf("planar_grid_ros_node %s\n", PLANAR_GRID_VERSION_STRING);
+      return 0;
+    }
+    if (std::strcmp(argv[i], "--help") == 0 || std::strcmp(argv[i], "-h") == 0) {
+      std::fputs(USAGE, stdout);
+      return 0;
+    }
+  }
   ros::init(argc, argv, "planar_grid");
   ros::NodeHandle nh;
   ros::NodeHandle pnh("~");
