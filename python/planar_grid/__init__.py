@@ -25,9 +25,10 @@ def _constructor_signature(cls):
 
     doc = (cls.__init__.__doc__ or "").lstrip()
     first = doc.splitlines()[0] if doc else ""
-    if not first.startswith("__init__(self: ") or "Overloaded function" in doc:
+    # Several constructors: pybind11's first line is "__init__(*args, **kwargs)".
+    if not first.startswith("__init__(self: "):
         return None
-    head, _, rest = first[len("__init__(self: "):].partition(",")
+    rest = first[len("__init__(self: "):].partition(",")[2]
     if not rest:
         return inspect.Signature([])
     try:

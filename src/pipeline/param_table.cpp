@@ -21,13 +21,16 @@ formatParamNumber(double value)
   return out.str();
 }
 
-namespace {
-
 std::string
-formatNumber(double value)
+formatParamChoices(const ParamSpec& spec, const std::string& separator)
 {
-  return formatParamNumber(value);
+  std::string list;
+  for (const auto& c : spec.choices)
+    list += (list.empty() ? "" : separator) + c;
+  return list;
 }
+
+namespace {
 
 std::string
 typeName(const ParamSpec& spec)
@@ -42,17 +45,14 @@ typeName(const ParamSpec& spec)
     case ParamSpec::Type::CHOICE:
       break;
   }
-  std::string list;
-  for (const auto& c : spec.choices)
-    list += (list.empty() ? "" : "|") + c;
-  return "one of " + list;
+  return "one of " + formatParamChoices(spec, "|");
 }
 
 std::string
 rangeText(const ParamSpec& spec)
 {
   if (spec.type == ParamSpec::Type::DOUBLE || spec.type == ParamSpec::Type::INT)
-    return "[" + formatNumber(spec.min) + ", " + formatNumber(spec.max) + "]";
+    return "[" + formatParamNumber(spec.min) + ", " + formatParamNumber(spec.max) + "]";
   return "";
 }
 
@@ -69,7 +69,7 @@ ParamSpec::real(const std::string& key,
   ParamSpec s;
   s.key = key;
   s.type = Type::DOUBLE;
-  s.default_value = formatNumber(default_value);
+  s.default_value = formatParamNumber(default_value);
   s.min = min;
   s.max = max;
   s.unit = unit;
@@ -175,7 +175,7 @@ ParamValues::toString(const std::string& key) const
       else if constexpr (std::is_same_v<V, bool>)
         return v ? "true" : "false";
       else
-        return formatNumber(static_cast<double>(v));
+        return formatParamNumber(static_cast<double>(v));
     },
     it->second);
 }

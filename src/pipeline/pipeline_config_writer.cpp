@@ -273,10 +273,7 @@ acceptedValues(const ParamSpec& spec)
     case ParamSpec::Type::CHOICE:
       break;
   }
-  std::string list;
-  for (const auto& c : spec.choices)
-    list += (list.empty() ? "" : " | ") + c;
-  return "one of " + list;
+  return "one of " + formatParamChoices(spec, " | ");
 }
 
 /** \brief The words for a list of stage data ("nothing" when empty). */

@@ -115,6 +115,10 @@ struct ParamSpec {
  * 1e-06), for defaults and for descriptions that quote a value. */
 std::string formatParamNumber(double value);
 
+/** \brief The allowed names of a choice parameter joined by \a separator, in the
+ * table's order ("sgbm|sgbm_3way|bm" with "|"); empty for other parameters. */
+std::string formatParamChoices(const ParamSpec& spec, const std::string& separator);
+
 /** \brief Parsed parameter values of one stage, every key of its table present (the
  * YAML value, or the default). Getters throw planar_grid::Exception for a key that is
  * not in the table (a programming error). \ingroup pipeline */
