@@ -147,4 +147,22 @@ PlanarGridMap loadTiles(const std::string& folder,
                         double radius_m,
                         double margin_m = 0.0);
 
+/** \brief Writes \a index as the index of \a folder, so that a half-written set is
+ * never read: the text goes to a temporary file renamed over the old index; until
+ * that rename the folder reads as the previous set. Then the previous set's files are
+ * removed, with every file named like a set's file (tile_g<N>_..., base_g<N>.pgmap)
+ * that \a index does not name (left by a writing that did not finish); other files in
+ * the folder are left alone. saveTiles() ends with it.
+ * \param[in] folder the tile folder, which holds the files \a index names
+ * \param[in] index the set: resolution_m > 0, tile_size_m a whole number of voxels in
+ * (0, 1e5] m, prior "free" or "unknown", the base and tile files (plain .pgmap names,
+ * each named once), tile keys unique, tile bounds finite with min <= max; the tiles
+ * may come in any order
+ * \return the index written (its tiles sorted by (key_x, key_y))
+ * \throws planar_grid::Exception for an index that breaks the rules above;
+ * planar_grid::IOError naming the file for a file it names that is missing or of
+ * another length, or for an index that cannot be written. The folder is then
+ * unchanged. */
+MapTileIndex writeTileIndex(const std::string& folder, const MapTileIndex& index);
+
 } // namespace planar_grid
