@@ -33,7 +33,9 @@ Steps (each prints its figures; all of them go to OUTPUT/measure_batch.json):
      and seconds), and the tile merge's map (load_tiles of every tile) against the
      tree's map and against the tree's map saved as tiles and loaded: getState on
      --probes points the tree's map observed, voxel counts and the occupied voxels
-     (by centre), planes, planar and non-planar cuboids. Its figures also
+     (by centre), planes, planar and non-planar cuboids; and against the segment maps
+     merged whole without the planes' tidying (as the tile merge), saved as tiles and
+     loaded: getState and counts. Its figures also
      go to OUTPUT/measure_tile_merge.json; --tile-merge-only runs this step alone:
 
     PYTHONPATH=build/python nice -n 10 /usr/bin/python3 scripts/measure_batch.py \
@@ -296,9 +298,21 @@ def tile_merge_run(args, frames):
     pg.save_tiles(tree, tree_tiles_folder, args.tile_size)
     tree_tiles = pg.load_tiles(tree_tiles_folder, *everywhere)
     merged = pg.load_tiles(reports["tiles"]["tiles"]["folder"], *everywhere)
+    # The segment maps merged whole in frame order without the planes' tidying after
+    # each merge (which the tile merge skips), saved as tiles and loaded.
+    segment_maps = [pg.PlanarGridMap.load(r["map"]) for r in reports["tiles"]["segments"]]
+    params = dict(segment_maps[0].params)
+    params.update(planes_absorb_overlapping=False, planes_replace_non_planar=False)
+    untidy = pg.PlanarGridMap(**params)
+    for m in segment_maps:
+        untidy.merge(m, np.eye(4))
+    untidy_folder = os.path.join(args.output, "untidy_map_tiles")
+    pg.save_tiles(untidy, untidy_folder, args.tile_size)
+    untidy_tiles = pg.load_tiles(untidy_folder, *everywhere)
     probes = pgd.sample_observed_points(tree, args.probes, BOX_MIN, BOX_MAX)
     states = dict(tree=tree.get_state(probes), tree_tiles=tree_tiles.get_state(probes),
-                  tiles=merged.get_state(probes))
+                  tiles=merged.get_state(probes),
+                  untidy_tiles=untidy_tiles.get_state(probes))
     figures = dict(
         tile_size_m=args.tile_size, runs=runs, probes=len(probes),
         agreement_tiles_vs_tree=float(np.mean(states["tiles"] == states["tree"])),
@@ -306,13 +320,15 @@ def tile_merge_run(args, frames):
                                                     == states["tree_tiles"])),
         agreement_tree_tiles_vs_tree=float(np.mean(states["tree_tiles"]
                                                    == states["tree"])),
+        agreement_tiles_vs_untidy_tiles=float(np.mean(states["tiles"]
+                                                      == states["untidy_tiles"])),
         same_voxel_counts=merged.voxel_counts == tree.voxel_counts,
         same_occupied_voxels=bool(np.array_equal(
             np.unique(merged.voxel_centres("occupied"), axis=0),
             np.unique(tree.voxel_centres("occupied"), axis=0))),
         voxels={k: int(v) for k, v in merged.voxel_counts.items()},
         tree=pgd.map_counts(tree), tree_tiles=pgd.map_counts(tree_tiles),
-        tiles=pgd.map_counts(merged))
+        tiles=pgd.map_counts(merged), untidy_tiles=pgd.map_counts(untidy_tiles))
     differ = states["tiles"] != states["tree_tiles"]
     figures["disagreements"] = {
         f"{S(a).name.lower()}_vs_{S(b).name.lower()}": int(np.count_nonzero(
@@ -330,6 +346,9 @@ def tile_merge_run(args, frames):
           f"; non-planar {f['tiles']['non_planar_cuboids']} / "
           f"{f['tree']['non_planar_cuboids']}; planes {f['tiles']['planes']} / "
           f"{f['tree']['planes']}; disagreements {f['disagreements']}")
+    print(f"tiles vs the segments merged whole without the tidying, as tiles: getState "
+          f"{f['agreement_tiles_vs_untidy_tiles']*100:.3f} %; counts {f['tiles']} / "
+          f"{f['untidy_tiles']}")
     path = os.path.join(args.output, "measure_tile_merge.json")
     with open(path, "w", encoding="utf-8") as out:
         json.dump(figures, out, indent=1)
