@@ -356,7 +356,7 @@ planar_grid.Error, planar_grid.IOError
       .c_str());
   m.def(
     "merge_tile",
-    [](const py::iterable& folders, const py::tuple& key,
+    [](const py::iterable& folders, const py::sequence& key,
        const py::object& output_folder, std::uint64_t generation) {
       if (key.size() != 2)
         throw py::value_error("key must be (i, j)");
@@ -382,7 +382,7 @@ Parameters
 ----------
 folders : list of str or os.PathLike
     The tile folders, in merge order (earliest frames first).
-key : tuple of int
+key : sequence of 2 int
     (i, j): the tile holds x in [i, i + 1) and y in [j, j + 1) times tile_size_m.
 output_folder : str or os.PathLike
     The merged set's folder.

@@ -133,7 +133,8 @@ def test_tile_sets_merge_tile_by_tile(tmp_path):
         for t in pg.read_tile_index(f)["tiles"]:
             holders.setdefault(tuple(t["key"]), []).append(f)
     assert max(len(h) for h in holders.values()) == 2  # the overlap's tiles
-    tiles = [pg.merge_tile(holders[key], key, tmp_path / "steps", 1) for key in holders]
+    tiles = [pg.merge_tile(holders[key], list(key), tmp_path / "steps", 1)
+             for key in holders]  # a key is any sequence of two ints
     prepared["tiles"] = tiles
     written = pg.write_tile_index(tmp_path / "steps", prepared)
     assert [(t["key"], t["file_bytes"]) for t in written["tiles"]] == \
