@@ -833,7 +833,8 @@ def _run_tile_merge(client, distributed, job: str, configs: List[str],
     for key in keys:
         f = client.submit(merge_tile_task, holders[key], list(key), prepared, folder,
                           key=f"tile-{key[0]}_{key[1]}-{job}")
-        described[f.key] = (f"tile {key[0]} {key[1]} ({len(holders[key])} segments)",
+        n = len(holders[key])
+        described[f.key] = (f"tile {key[0]} {key[1]} ({n} segment{'s' if n > 1 else ''})",
                             None)
         tile_futures.append(f)
     index_future = client.submit(write_tile_index_task, prepared, tile_futures, folder,
