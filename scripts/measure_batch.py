@@ -26,7 +26,21 @@ Steps (each prints its figures; all of them go to OUTPUT/measure_batch.json):
   5. the batch job again on a local cluster of its own, a worker killed (SIGKILL) 3 s
      into the first segment task seen running: the job's wall time, and its map against
      step 2's (getState on the same probes, counts);
-  6. the projection of docs/SCALE.md from these figures (the model is in project()).
+  6. the projection of docs/SCALE.md from these figures (the model is in project());
+  7. the merge by region against the tree (tile_merge_run()): the batch job with
+     merge="tree" and with merge="tiles" (--tile-size meters), alternately, --repeats
+     times each: wall times, the largest single merge task of each (its result's cells
+     and seconds), and the tile merge's map (load_tiles of every tile) against the
+     tree's map and against the tree's map saved as tiles and loaded: getState on
+     --probes points the tree's map observed, voxel counts and the occupied voxels
+     (by centre), planes, planar and non-planar cuboids; and against the segment maps
+     merged whole without the planes' tidying (as the tile merge), saved as tiles and
+     loaded: getState and counts. Its figures also
+     go to OUTPUT/measure_tile_merge.json; --tile-merge-only runs this step alone:
+
+    PYTHONPATH=build/python nice -n 10 /usr/bin/python3 scripts/measure_batch.py \
+        --config config/karlsruhe.yaml --segments 4 --workers 2 --tile-size 20 \
+        --tile-merge-only --output /tmp/tile_merge_measure
 """
 import argparse
 import json
@@ -84,11 +98,20 @@ def main():
     parser.add_argument("--probes", type=int, default=100_000)
     parser.add_argument("--copies", type=int, default=8)
     parser.add_argument("--output", default="/tmp/batch_measure")
+    parser.add_argument("--tile-size", type=float, default=20.0, metavar="M",
+                        help="tile edge of step 7's merge by region, meters")
+    parser.add_argument("--repeats", type=int, default=2,
+                        help="runs of each job in step 7")
+    parser.add_argument("--tile-merge-only", action="store_true",
+                        help="run step 7 alone")
     args = parser.parse_args()
     os.makedirs(args.output, exist_ok=True)
     figures = dict(config=os.path.abspath(args.config), segments=args.segments,
                    workers=args.workers)
     frames = tuple(args.frames) if args.frames else None
+    if args.tile_merge_only:
+        tile_merge_run(args, frames)
+        return
 
     # 1. one run
     t = time.perf_counter()
@@ -220,9 +243,117 @@ def main():
 
     # 6. the projection
     figures["projection"] = project(figures)
+
+    # 7. the merge by region
+    figures["tile_merge"] = tile_merge_run(args, frames)
     with open(os.path.join(args.output, "measure_batch.json"), "w", encoding="utf-8") as f:
         json.dump(figures, f, indent=1)
     print(f"figures: {os.path.join(args.output, 'measure_batch.json')}")
+
+
+def tile_merge_run(args, frames):
+    """Step 7: the tree merge against the merge by region, on the same segments."""
+    runs = dict(tree=[], tiles=[])
+    reports = {}
+    for repeat in range(args.repeats):
+        for merge in ("tree", "tiles"):
+            out = os.path.join(args.output, f"{merge}_{repeat}")
+            t = time.perf_counter()
+            report = pgd.map_segments(
+                args.config, frames=frames, num_segments=args.segments,
+                n_workers=args.workers, output_dir=out, merge=merge,
+                tile_size_m=args.tile_size if merge == "tiles" else None,
+                progress=False)
+            wall = time.perf_counter() - t
+            merges = report["merges"] if merge == "tree" else report["tile_merges"]
+            largest = max(merges, key=lambda r: r["cells"])
+            slowest = max(merges, key=lambda r: r["wall_time_s"])
+            run = dict(wall_time_s=wall, merge_tasks=len(merges),
+                       largest_merge=dict(cells=largest["cells"],
+                                          wall_time_s=largest["wall_time_s"]),
+                       slowest_merge=dict(cells=slowest["cells"],
+                                          wall_time_s=slowest["wall_time_s"]),
+                       merge_cells_total=int(sum(r["cells"] for r in merges)),
+                       segment_s=[r["wall_time_s"] for r in report["segments"]])
+            if merge == "tiles":
+                run["tiles"] = report["tiles"]["tiles"]
+                run["tiles_from_several_segments"] = sum(
+                    len(r["inputs"]) > 1 for r in report["tile_merges"])
+                run["segment_save_tiles_s"] = [r["save_tiles_s"]
+                                               for r in report["segments"]]
+                run["tile_tasks"] = [dict(key=r["key"], inputs=len(r["inputs"]),
+                                          cells=r["cells"], merge_s=r["merge_s"],
+                                          wall_time_s=r["wall_time_s"])
+                                     for r in report["tile_merges"]]
+            runs[merge].append(run)
+            reports[merge] = report
+            print(f"{merge} merge, run {repeat + 1}: {wall:.1f} s, {len(merges)} merge "
+                  f"tasks, largest {largest['cells']} cells in "
+                  f"{largest['wall_time_s']:.3f} s, slowest {slowest['wall_time_s']:.3f} s "
+                  f"({slowest['cells']} cells)")
+
+    everywhere = (np.full(3, -np.inf), np.full(3, np.inf))
+    tree = pg.PlanarGridMap.load(reports["tree"]["map"])
+    tree_tiles_folder = os.path.join(args.output, "tree_map_tiles")
+    pg.save_tiles(tree, tree_tiles_folder, args.tile_size)
+    tree_tiles = pg.load_tiles(tree_tiles_folder, *everywhere)
+    merged = pg.load_tiles(reports["tiles"]["tiles"]["folder"], *everywhere)
+    # The segment maps merged whole in frame order without the planes' tidying after
+    # each merge (which the tile merge skips), saved as tiles and loaded.
+    segment_maps = [pg.PlanarGridMap.load(r["map"]) for r in reports["tiles"]["segments"]]
+    params = dict(segment_maps[0].params)
+    params.update(planes_absorb_overlapping=False, planes_replace_non_planar=False)
+    untidy = pg.PlanarGridMap(**params)
+    for m in segment_maps:
+        untidy.merge(m, np.eye(4))
+    untidy_folder = os.path.join(args.output, "untidy_map_tiles")
+    pg.save_tiles(untidy, untidy_folder, args.tile_size)
+    untidy_tiles = pg.load_tiles(untidy_folder, *everywhere)
+    probes = pgd.sample_observed_points(tree, args.probes, BOX_MIN, BOX_MAX)
+    states = dict(tree=tree.get_state(probes), tree_tiles=tree_tiles.get_state(probes),
+                  tiles=merged.get_state(probes),
+                  untidy_tiles=untidy_tiles.get_state(probes))
+    figures = dict(
+        tile_size_m=args.tile_size, runs=runs, probes=len(probes),
+        agreement_tiles_vs_tree=float(np.mean(states["tiles"] == states["tree"])),
+        agreement_tiles_vs_tree_tiles=float(np.mean(states["tiles"]
+                                                    == states["tree_tiles"])),
+        agreement_tree_tiles_vs_tree=float(np.mean(states["tree_tiles"]
+                                                   == states["tree"])),
+        agreement_tiles_vs_untidy_tiles=float(np.mean(states["tiles"]
+                                                      == states["untidy_tiles"])),
+        same_voxel_counts=merged.voxel_counts == tree.voxel_counts,
+        same_occupied_voxels=bool(np.array_equal(
+            np.unique(merged.voxel_centres("occupied"), axis=0),
+            np.unique(tree.voxel_centres("occupied"), axis=0))),
+        voxels={k: int(v) for k, v in merged.voxel_counts.items()},
+        tree=pgd.map_counts(tree), tree_tiles=pgd.map_counts(tree_tiles),
+        tiles=pgd.map_counts(merged), untidy_tiles=pgd.map_counts(untidy_tiles))
+    differ = states["tiles"] != states["tree_tiles"]
+    figures["disagreements"] = {
+        f"{S(a).name.lower()}_vs_{S(b).name.lower()}": int(np.count_nonzero(
+            differ & (states["tiles"] == a) & (states["tree_tiles"] == b)))
+        for a in (S.FREE, S.OCCUPIED, S.UNKNOWN) for b in (S.FREE, S.OCCUPIED, S.UNKNOWN)
+        if a != b}
+    f = figures
+    print(f"tiles vs tree: getState {f['agreement_tiles_vs_tree']*100:.3f} % of "
+          f"{f['probes']} probes (vs the tree's map saved as tiles and loaded "
+          f"{f['agreement_tiles_vs_tree_tiles']*100:.3f} %; that against the tree's map "
+          f"{f['agreement_tree_tiles_vs_tree']*100:.3f} %); same voxel counts "
+          f"{f['same_voxel_counts']}, same occupied voxels {f['same_occupied_voxels']}; "
+          f"planar cuboids {f['tiles']['planar_cuboids']} / tree "
+          f"{f['tree']['planar_cuboids']} / tree as tiles {f['tree_tiles']['planar_cuboids']}"
+          f"; non-planar {f['tiles']['non_planar_cuboids']} / "
+          f"{f['tree']['non_planar_cuboids']}; planes {f['tiles']['planes']} / "
+          f"{f['tree']['planes']}; disagreements {f['disagreements']}")
+    print(f"tiles vs the segments merged whole without the tidying, as tiles: getState "
+          f"{f['agreement_tiles_vs_untidy_tiles']*100:.3f} %; counts {f['tiles']} / "
+          f"{f['untidy_tiles']}")
+    path = os.path.join(args.output, "measure_tile_merge.json")
+    with open(path, "w", encoding="utf-8") as out:
+        json.dump(figures, out, indent=1)
+    print(f"figures: {path}")
+    return figures
 
 
 def kill_run(args, frames, expected, probes):

@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: BSD-3-Clause
 """Batch mapping on a Dask cluster: a recording (or several) mapped in frame segments,
 one Dask task per segment, and the segment maps merged pairwise in a tree of merge tasks
-into one map.
+into one map, or, with merge="tiles", merged by region: each segment saves its map as
+tiles and one task per tile key merges that tile over the segments that hold it.
 
     import planar_grid.distributed as pgd
     report = pgd.map_segments("config/karlsruhe.yaml", num_segments=4, n_workers=2,
@@ -212,9 +213,11 @@ def count_frames_task(config: str) -> int:
     return int(pg.input_frame_count(config))
 
 
-def map_segment_task(segment: Segment, folder: str) -> Dict[str, Any]:
+def map_segment_task(segment: Segment, folder: str,
+                     tile_size_m: Optional[float] = None) -> Dict[str, Any]:
     """Task: runs the pipeline on one segment and writes ``folder/map.pgmap`` and
-    ``folder/report.json`` (the pipeline's report), both or neither.
+    ``folder/report.json`` (the pipeline's report), and with tile_size_m the map as
+    tiles in ``folder/tiles`` (save_tiles), all or none.
 
     Parameters
     ----------
@@ -222,13 +225,16 @@ def map_segment_task(segment: Segment, folder: str) -> Dict[str, Any]:
         The configuration and frame range.
     folder : str
         The segment's own output folder (replaced as a whole when the task ends).
+    tile_size_m : float, optional
+        Also save the map as tiles of this many meters. Default: no tiles.
 
     Returns
     -------
     dict
         The task report: the segment, the map's path and counts, the pipeline report's
         path, wall time in seconds, start and end (Unix time, seconds), and the host and
-        process that ran it.
+        process that ran it; with tile_size_m also ``tiles`` (the tile folder),
+        ``tile_keys`` (the keys [i, j] of its tiles) and ``save_tiles_s``.
 
     Raises
     ------
@@ -251,10 +257,18 @@ def map_segment_task(segment: Segment, folder: str) -> Dict[str, Any]:
     parent = os.path.dirname(folder)
     tmp = os.path.join(parent, f".{os.path.basename(folder)}.{uuid.uuid4().hex}.tmp")
     os.makedirs(tmp)
+    tiles: Dict[str, Any] = {}
     try:
         result.map.save(os.path.join(tmp, "map.pgmap"))
         with open(os.path.join(tmp, "report.json"), "w", encoding="utf-8") as f:
             json.dump(result.report, f, indent=1)
+        if tile_size_m is not None:
+            t = time.perf_counter()
+            index = pg.save_tiles(result.map, os.path.join(tmp, "tiles"), tile_size_m)
+            tiles = dict(tiles=os.path.join(folder, "tiles"),
+                         tile_keys=[[int(k) for k in tile["key"]]
+                                    for tile in index["tiles"]],
+                         save_tiles_s=round(time.perf_counter() - t, 4))
         _replace_folder(tmp, folder)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -264,7 +278,7 @@ def map_segment_task(segment: Segment, folder: str) -> Dict[str, Any]:
                   map=os.path.join(folder, "map.pgmap"),
                   pipeline_report=os.path.join(folder, "report.json"),
                   **map_counts(result.map),
-                  frames_run=int(result.frames),
+                  frames_run=int(result.frames), **tiles,
                   wall_time_s=round(time.perf_counter() - start, 3),
                   start_time=start_time, end_time=time.time(),
                   worker=_worker_identity())
@@ -328,6 +342,80 @@ def save_tiles_task(merged: Dict[str, Any], folder: str,
         raise
     return dict(kind="tiles", folder=folder, tile_size_m=float(tile_size_m),
                 tiles=int(len(index["tiles"])),
+                wall_time_s=round(time.perf_counter() - start, 3),
+                worker=_worker_identity())
+
+
+def prepare_tile_merge_task(segments: Sequence[Dict[str, Any]],
+                            folder: str) -> Dict[str, Any]:
+    """Task: the first step of a merge by region (prepare_tile_merge): checks that the
+    segments' tile sets (their reports' ``tiles``) agree and writes the merged set's
+    base map into ``folder``.
+
+    Returns
+    -------
+    dict
+        The task report, with ``index``: the merged set's index without tiles (its
+        ``generation`` names the tile files).
+    """
+    start = time.perf_counter()
+    pg.set_verbosity("error")
+    index = pg.prepare_tile_merge([r["tiles"] for r in segments], folder)
+    return dict(kind="tile-prepare", folder=folder, index=index,
+                wall_time_s=round(time.perf_counter() - start, 3),
+                worker=_worker_identity())
+
+
+def merge_tile_task(folders: Sequence[str], key: Sequence[int],
+                    prepared: Dict[str, Any], folder: str) -> Dict[str, Any]:
+    """Task: merges tile ``key`` of the tile sets ``folders`` (in order, earliest
+    frames first) into one tile file of ``folder`` (merge_tile), named for the
+    generation of ``prepared`` (prepare_tile_merge_task's report).
+
+    Returns
+    -------
+    dict
+        The task report: key, inputs, the tile as the index lists it (bounds as lists),
+        the merged tile's counts, ``merge_s`` (loading the tiles, merging, saving) and
+        wall time in seconds.
+    """
+    start = time.perf_counter()
+    start_time = time.time()
+    pg.set_verbosity("error")
+    tile = pg.merge_tile(list(folders), (int(key[0]), int(key[1])), folder,
+                         prepared["index"]["generation"])
+    merge_s = time.perf_counter() - start
+    counts = map_counts(pg.PlanarGridMap.load(os.path.join(folder, tile["file"])))
+    tile = dict(key=[int(k) for k in tile["key"]], file=tile["file"],
+                file_bytes=int(tile["file_bytes"]),
+                bounds_min=[float(v) for v in tile["bounds_min"]],
+                bounds_max=[float(v) for v in tile["bounds_max"]])
+    return dict(kind="tile", key=tile["key"], inputs=list(folders), tile=tile, **counts,
+                merge_s=round(merge_s, 4),
+                wall_time_s=round(time.perf_counter() - start, 3),
+                start_time=start_time, end_time=time.time(),
+                worker=_worker_identity())
+
+
+def write_tile_index_task(prepared: Dict[str, Any], tiles: Sequence[Dict[str, Any]],
+                          folder: str, tile_size_m: float) -> Dict[str, Any]:
+    """Task: the last step of a merge by region: writes the index of ``folder``
+    (write_tile_index) naming the base of ``prepared`` and the tiles of the
+    merge_tile_task reports ``tiles``; until then the folder reads as its previous set.
+
+    Returns
+    -------
+    dict
+        The task report: the folder, tile_size_m, the number of tiles, the generation
+        and wall time in seconds.
+    """
+    start = time.perf_counter()
+    index = dict(prepared["index"])
+    index["tiles"] = [r["tile"] for r in tiles]
+    written = pg.write_tile_index(folder, index)
+    return dict(kind="tiles", folder=folder, tile_size_m=float(tile_size_m),
+                tiles=int(len(written["tiles"])),
+                generation=int(written["generation"]),
                 wall_time_s=round(time.perf_counter() - start, 3),
                 worker=_worker_identity())
 
@@ -409,6 +497,7 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
                  scheduler_address: Optional[str] = None,
                  n_workers: int = 2,
                  tile_size_m: Optional[float] = None,
+                 merge: str = "tree",
                  progress: Union[bool, Callable[[str], None]] = True,
                  ) -> Dict[str, Any]:
     """Maps recordings in frame segments on a Dask cluster and merges the segment maps.
@@ -419,8 +508,13 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
     ``report.json``. The segment maps are then merged pairwise, neighbours in frame
     order first, by merge tasks (``output_dir/merges/level<L>_<N>.pgmap``), the root
     writing ``output_dir/map.pgmap``; ``tile_size_m`` also writes it as tiles
-    (``output_dir/tiles``). The task reports are collected into
-    ``output_dir/batch_report.json`` (returned as a dict).
+    (``output_dir/tiles``). With ``merge="tiles"`` the maps are merged by region
+    instead, and no task holds the whole map: each segment task also saves its map as
+    tiles of tile_size_m (``<segment folder>/tiles``), one task per tile key merges
+    that key over the segments that hold it, in frame order (merge_tile), into
+    ``output_dir/tiles``, and a last task writes that set's index; the merged map is
+    that tile set (load_tiles), and no ``output_dir/map.pgmap`` is written. The task
+    reports are collected into ``output_dir/batch_report.json`` (returned as a dict).
 
     Parameters
     ----------
@@ -452,7 +546,13 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
         scheduler_address.
     tile_size_m : float, optional
         Also save the merged map as tiles of this many meters (save_tiles): a whole
-        number of voxels, in (0, 1e5]. Default: no tiles.
+        number of voxels, in (0, 1e5]. Default: no tiles. Required with
+        ``merge="tiles"``, where it is the size of the tiles merged.
+    merge : str, optional
+        "tree" (default): the segment maps merged pairwise in a tree of merge tasks;
+        "tiles": merged tile by tile (see above). Both give the same voxels; the tile
+        merge skips the planes' tidying after each merge (docs/SCALE.md has the
+        figures).
     progress : bool or callable, optional
         True (default): a line per finished task on stdout; a callable receives each
         line instead; False: silent.
@@ -461,16 +561,21 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
     -------
     dict
         The batch report (as written to batch_report.json): ``schema_version``, the
-        configurations, ``segments`` and ``merges`` (the task reports, in job order:
-        config, frames, map path, planes, planar_cuboids, non_planar_cuboids, cells,
-        memory_bytes, wall_time_s, worker), ``map`` (the merged map's path) with its
-        counts, ``tiles`` (or None), the cluster and the job's wall time in seconds.
+        configurations, ``merge`` ("tree" or "tiles"), ``segments`` and ``merges``
+        (the task reports, in job order: config, frames, map path, planes,
+        planar_cuboids, non_planar_cuboids, cells, memory_bytes, wall_time_s, worker),
+        ``tile_merges`` (with merge="tiles": one report per tile task, key, inputs,
+        tile, the merged tile's counts, merge_s, wall_time_s; else empty), ``map``
+        (the merged map's path; None with merge="tiles") with its counts (None with
+        merge="tiles"), ``tiles`` (the tile set's folder, tile count, generation; or
+        None), the cluster and the job's wall time in seconds.
 
     Raises
     ------
     ValueError
-        For invalid arguments (num_segments, n_workers, tile_size_m, frames outside
-        the input or given with segments, an empty or malformed segment list).
+        For invalid arguments (num_segments, n_workers, tile_size_m, merge, frames
+        outside the input or given with segments, an empty or malformed segment
+        list).
     BatchError
         When a task fails: the message names its input (configuration and frame range)
         and the cause (``.cause``: e.g. planar_grid.ConfigError, planar_grid.IOError);
@@ -492,6 +597,10 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
         raise ValueError(f"num_segments must be >= 1, not {num_segments}")
     if tile_size_m is not None and not tile_size_m > 0:
         raise ValueError(f"tile_size_m must be > 0 meters, not {tile_size_m}")
+    if merge not in ("tree", "tiles"):
+        raise ValueError(f"merge must be 'tree' or 'tiles', not {merge!r}")
+    if merge == "tiles" and tile_size_m is None:
+        raise ValueError("merge='tiles' needs tile_size_m (the size of the tiles merged)")
     if segments is not None and frames is not None:
         raise ValueError("give either segments or frames, not both")
     explicit = _as_segments(configs, segments)
@@ -519,7 +628,7 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
     try:
         with distributed.Client(address, set_as_default=False) as client:
             report = _run_job(client, distributed, job, configs, explicit, num_segments,
-                              frames, output_dir, tile_size_m, say)
+                              frames, output_dir, tile_size_m, merge, say)
             report["cluster"] = dict(
                 scheduler=address if cluster is None else "local",
                 local=cluster is not None,
@@ -551,7 +660,8 @@ def _write_json(path: str, data: Dict[str, Any]) -> None:
 def _run_job(client, distributed, job: str, configs: List[str],
              explicit: Optional[List[Segment]], num_segments: int,
              frames: Optional[Tuple[Optional[int], Optional[int]]], output_dir: str,
-             tile_size_m: Optional[float], say: Callable[[str], None]) -> Dict[str, Any]:
+             tile_size_m: Optional[float], merge: str,
+             say: Callable[[str], None]) -> Dict[str, Any]:
     """Submits the tasks, reports each as it finishes and collects the reports."""
     segment_list = explicit
     if segment_list is None:
@@ -576,11 +686,13 @@ def _run_job(client, distributed, job: str, configs: List[str],
                                                                        num_segments)]
 
     total = len(segment_list)
-    tree = _merge_tree(total)
+    by_tile = merge == "tiles"
+    tree = [] if by_tile else _merge_tree(total)
     tasks = total + sum(len(level) for level in tree) + (tile_size_m is not None)
     say(f"planar_grid_batch: {total} segments of {len(configs)} recording(s), "
-        f"{sum(len(level) for level in tree)} merges, on "
-        f"{len(client.scheduler_info()['workers'])} workers")
+        + (f"merged by {tile_size_m:g} m tile" if by_tile else
+           f"{sum(len(level) for level in tree)} merges")
+        + f", on {len(client.scheduler_info()['workers'])} workers")
 
     # key -> (the task's input as messages name it, its Segment or None)
     described: Dict[str, Tuple[str, Optional[Segment]]] = {}
@@ -590,11 +702,16 @@ def _run_job(client, distributed, job: str, configs: List[str],
         stem = os.path.splitext(os.path.basename(seg.config))[0]
         folder = os.path.join(output_dir, "segments",
                               f"{i:03d}_{stem}_{seg.begin}-{seg.end}")
-        f = client.submit(map_segment_task, seg, folder, key=f"segment-{i:03d}-{job}")
+        f = client.submit(map_segment_task, seg, folder,
+                          tile_size_m if by_tile else None, key=f"segment-{i:03d}-{job}")
         label[f.key] = f"segment {i + 1}/{total}"
         described[f.key] = (f"{label[f.key]} ({seg.describe()})", seg)
         level_futures.append(f)
     segment_futures = list(level_futures)
+    if by_tile:
+        assert tile_size_m is not None
+        return _run_tile_merge(client, distributed, job, configs, segment_futures,
+                               described, output_dir, tile_size_m, say)
     merge_futures = []
     for depth, level in enumerate(tree, start=1):
         nxt = []
@@ -623,9 +740,41 @@ def _run_job(client, distributed, job: str, configs: List[str],
         described[tiles_future.key] = ("tiles of the merged map", None)
         all_futures.append(tiles_future)
 
-    done = 0
+    _collect(client, distributed, all_futures, described, say, 0, tasks)
+
+    segment_reports = [f.result() for f in segment_futures]
+    merge_reports = [f.result() for f in merge_futures]
+    if not merge_futures:
+        # One segment: its map is the job's map.
+        final_path = os.path.join(output_dir, "map.pgmap")
+        tmp = f"{final_path}.{uuid.uuid4().hex}.tmp"
+        shutil.copyfile(segment_reports[0]["map"], tmp)
+        os.replace(tmp, final_path)
+    _remove_leftovers(output_dir)
+    final = root_future.result()
+    return dict(
+        schema_version=BATCH_REPORT_SCHEMA_VERSION,
+        configs=configs,
+        output_dir=output_dir,
+        merge="tree",
+        map=os.path.join(output_dir, "map.pgmap"),
+        **{k: final[k] for k in ("planes", "planar_cuboids", "non_planar_cuboids",
+                                 "cells", "memory_bytes")},
+        frames=int(sum(r["frames_run"] for r in segment_reports)),
+        segments=segment_reports,
+        merges=merge_reports,
+        tile_merges=[],
+        tiles=tiles_future.result() if tiles_future is not None else None)
+
+
+def _collect(client, distributed, futures: List[Any],
+             described: Dict[str, Tuple[str, Optional[Segment]]],
+             say: Callable[[str], None], done: int, tasks: int) -> int:
+    """Waits for the futures, a progress line for each as it finishes ("[done/tasks]");
+    the first that fails cancels them all and raises its BatchError. Returns done plus
+    the futures' count."""
     try:
-        for future in distributed.as_completed(all_futures, loop=client.loop):
+        for future in distributed.as_completed(futures, loop=client.loop):
             what, failed = described[future.key]
             if future.status != "finished":
                 raise _failure(future, what, failed)
@@ -636,19 +785,14 @@ def _run_job(client, distributed, job: str, configs: List[str],
                    f"{r['cells']} cells" if "planes" in r else "")
                 + f" (pid {r['worker']['pid']} on {r['worker']['host']})")
     except BaseException:
-        client.cancel(all_futures)
+        client.cancel(futures)
         raise
+    return done
 
-    segment_reports = [f.result() for f in segment_futures]
-    merge_reports = [f.result() for f in merge_futures]
-    if not merge_futures:
-        # One segment: its map is the job's map.
-        final_path = os.path.join(output_dir, "map.pgmap")
-        tmp = f"{final_path}.{uuid.uuid4().hex}.tmp"
-        shutil.copyfile(segment_reports[0]["map"], tmp)
-        os.replace(tmp, final_path)
-    # What attempts killed while they wrote left behind (the attempts that ran again
-    # wrote their own).
+
+def _remove_leftovers(output_dir: str) -> None:
+    """Removes what attempts killed while they wrote left behind (the attempts that ran
+    again wrote their own)."""
     for folder in (os.path.join(output_dir, "segments"),
                    os.path.join(output_dir, "merges"), output_dir):
         for name in os.listdir(folder):
@@ -659,18 +803,59 @@ def _run_job(client, distributed, job: str, configs: List[str],
                     shutil.rmtree(path, ignore_errors=True)
                 else:
                     os.remove(path)
-    final = root_future.result()
+
+
+def _run_tile_merge(client, distributed, job: str, configs: List[str],
+                    segment_futures: List[Any],
+                    described: Dict[str, Tuple[str, Optional[Segment]]],
+                    output_dir: str, tile_size_m: float,
+                    say: Callable[[str], None]) -> Dict[str, Any]:
+    """The merge by region: once the segments have saved their tiles, one task writes
+    the merged set's base, one task per tile key merges that key over the segments
+    holding it (in segment order, which is frame order within a recording), and one
+    task writes the index."""
+    done = _collect(client, distributed, segment_futures, described, say, 0,
+                    len(segment_futures))
+    segment_reports = [f.result() for f in segment_futures]
+    folder = os.path.join(output_dir, "tiles")
+    holders: Dict[Tuple[int, int], List[str]] = {}
+    for r in segment_reports:
+        for key in r["tile_keys"]:
+            holders.setdefault((key[0], key[1]), []).append(r["tiles"])
+    keys = sorted(holders)
+    tasks = done + len(keys) + 2
+    say(f"planar_grid_batch: {len(keys)} tiles to merge, "
+        f"{sum(len(h) > 1 for h in holders.values())} of them held by several segments")
+    prepared = client.submit(prepare_tile_merge_task, segment_reports, folder,
+                             key=f"tile-prepare-{job}")
+    described[prepared.key] = ("tile merge: the base map", None)
+    tile_futures = []
+    for key in keys:
+        f = client.submit(merge_tile_task, holders[key], list(key), prepared, folder,
+                          key=f"tile-{key[0]}_{key[1]}-{job}")
+        n = len(holders[key])
+        described[f.key] = (f"tile {key[0]} {key[1]} ({n} segment{'s' if n > 1 else ''})",
+                            None)
+        tile_futures.append(f)
+    index_future = client.submit(write_tile_index_task, prepared, tile_futures, folder,
+                                 tile_size_m, key=f"tile-index-{job}")
+    described[index_future.key] = ("tile merge: the index", None)
+    _collect(client, distributed, [prepared] + tile_futures + [index_future], described,
+             say, done, tasks)
+    _remove_leftovers(output_dir)
     return dict(
         schema_version=BATCH_REPORT_SCHEMA_VERSION,
         configs=configs,
         output_dir=output_dir,
-        map=os.path.join(output_dir, "map.pgmap"),
-        **{k: final[k] for k in ("planes", "planar_cuboids", "non_planar_cuboids",
-                                 "cells", "memory_bytes")},
+        merge="tiles",
+        map=None,
+        **{k: None for k in ("planes", "planar_cuboids", "non_planar_cuboids", "cells",
+                             "memory_bytes")},
         frames=int(sum(r["frames_run"] for r in segment_reports)),
         segments=segment_reports,
-        merges=merge_reports,
-        tiles=tiles_future.result() if tiles_future is not None else None)
+        merges=[],
+        tile_merges=[f.result() for f in tile_futures],
+        tiles=index_future.result())
 
 
 # ------------------------------------------------------------------------ the command
@@ -768,7 +953,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                         help="the job's folder (default output/batch)")
     parser.add_argument("--tile-size", type=_positive_float, default=None, metavar="M",
                         help="also save the merged map as tiles of M meters "
-                             "(default: no tiles)")
+                             "(default: no tiles); with --merge tiles, the size of "
+                             "the tiles merged (required)")
+    parser.add_argument("--merge", choices=("tree", "tiles"), default="tree",
+                        help="tree (default): merge the segment maps pairwise; tiles: "
+                             "save each segment's map as tiles and merge tile by tile "
+                             "(OUTPUT/tiles, no OUTPUT/map.pgmap)")
     parser.add_argument("-q", "--quiet", action="store_true",
                         help="no progress lines, only errors")
     parser.add_argument("--version", action="version",
@@ -783,7 +973,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         report = map_segments(args.config, num_segments=args.segments,
                               frames=args.frames, output_dir=args.output,
                               scheduler_address=args.scheduler, n_workers=args.workers,
-                              tile_size_m=args.tile_size, progress=not args.quiet)
+                              tile_size_m=args.tile_size, merge=args.merge,
+                              progress=not args.quiet)
     except KeyboardInterrupt:
         print("planar_grid_batch: interrupted; the maps already written stay in "
               f"{args.output}", file=sys.stderr)
@@ -791,7 +982,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except Exception as e:  # every error ends here with its class's status
         print(f"planar_grid_batch: error: {e}", file=sys.stderr)
         return exit_status(e)
-    if not args.quiet:
+    if not args.quiet and report["merge"] == "tiles":
+        print(f"planar_grid_batch: {report['tiles']['folder']}: "
+              f"{report['tiles']['tiles']} tiles from {len(report['segments'])} "
+              f"segments in {report['wall_time_s']:.1f} s")
+    elif not args.quiet:
         print(f"planar_grid_batch: {report['map']}: {report['planes']} planes, "
               f"{report['planar_cuboids']} planar cuboids, {report['cells']} cells from "
               f"{len(report['segments'])} segments in {report['wall_time_s']:.1f} s")

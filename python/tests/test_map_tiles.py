@@ -1,6 +1,8 @@
 # SPDX-License-Identifier: BSD-3-Clause
 """planar_grid.save_tiles() / load_tiles() through the Python module: a wall across
-four tiles saved and loaded back whole, by box and by radius, and the errors."""
+four tiles saved and loaded back whole, by box and by radius, and the errors; two maps'
+tile sets merged tile by tile (merge_tile_sets, and in steps) against the maps merged
+whole."""
 
 import numpy as np
 import pytest
@@ -79,3 +81,81 @@ def test_bad_sets_are_refused(tmp_path):
         m.save_tiles(tmp_path / "other", 0.25)
     with pytest.raises(ValueError):
         pg.load_tiles(tmp_path, [0, 0], [1, 1, 1])
+
+
+def halves():
+    """The wall map's two overlapping halves (y < 0.3 and y >= -0.3), each mapped on
+    its own, with the observation spans of two parts of one drive (frames 0-4, then
+    5-9)."""
+    points = plane_patch([-1.0, 0.0, 0.0], 3.0, 2.0, 0.05)
+    out = []
+    for part, span in ((points[:, 1] < 0.3, (0.0, 4.0)),
+                       (points[:, 1] >= -0.3, (5.0, 9.0))):
+        m = pg.PlanarGridMap(resolution_m=0.1)
+        p = np.ascontiguousarray(points[part])
+        planes = pg.SACMultiPlaneSegmentation(distance_threshold_m=0.02,
+                                              min_inliers=100).segment(p)
+        cuboids = pg.PlanarCuboidApproximation().approximate(p, planes)
+        m.integrate_surface(cuboids, planes.model_coefficients, p[::7],
+                            np.full(len(p[::7]), 0.9))
+        m.integrate_point_cloud(p, sensor_origin=[0.0, 0.0, 0.0])
+        m.observation_span = span
+        out.append(m)
+    return out
+
+
+def test_tile_sets_merge_tile_by_tile(tmp_path):
+    a, b = halves()
+    folders = [tmp_path / "a", tmp_path / "b"]
+    a.save_tiles(folders[0], 0.5)
+    b.save_tiles(folders[1], 0.5)
+    index = pg.merge_tile_sets(folders, tmp_path / "out")
+    # the oracle: the halves merged whole, saved as tiles and loaded
+    whole = pg.PlanarGridMap(resolution_m=0.1)
+    whole.merge(a, np.eye(4))
+    whole.merge(b, np.eye(4))
+    whole.save_tiles(tmp_path / "whole", 0.5)
+    oracle = pg.load_tiles(tmp_path / "whole", [-np.inf] * 3, [np.inf] * 3)
+    merged = pg.load_tiles(tmp_path / "out", [-np.inf] * 3, [np.inf] * 3)
+    np.testing.assert_array_equal(merged.get_state(probes()), oracle.get_state(probes()))
+    assert merged.voxel_counts == oracle.voxel_counts
+    assert len(merged.planes) == len(oracle.planes) == 1
+    assert index["generation"] == 1
+    assert [t["key"] for t in index["tiles"]] == \
+        [t["key"] for t in pg.read_tile_index(tmp_path / "whole")["tiles"]]
+
+    # the same in steps: the base, one tile per key (only the sets holding it), the
+    # index; the tiles of the finished set are the same files
+    prepared = pg.prepare_tile_merge(folders, tmp_path / "steps")
+    assert prepared["tiles"] == [] and prepared["generation"] == 1
+    holders = {}
+    for f in folders:
+        for t in pg.read_tile_index(f)["tiles"]:
+            holders.setdefault(tuple(t["key"]), []).append(f)
+    assert max(len(h) for h in holders.values()) == 2  # the overlap's tiles
+    tiles = [pg.merge_tile(holders[key], list(key), tmp_path / "steps", 1)
+             for key in holders]  # a key is any sequence of two ints
+    prepared["tiles"] = tiles
+    written = pg.write_tile_index(tmp_path / "steps", prepared)
+    assert [(t["key"], t["file_bytes"]) for t in written["tiles"]] == \
+        [(t["key"], t["file_bytes"]) for t in index["tiles"]]
+    assert (tmp_path / "steps" / "index.pgtiles").read_text() == \
+        (tmp_path / "out" / "index.pgtiles").read_text()
+
+
+def test_tile_merge_errors_name_the_folder(tmp_path):
+    a, _ = halves()
+    a.save_tiles(tmp_path / "a", 0.5)
+    a.save_tiles(tmp_path / "coarse", 1.0)
+    with pytest.raises(pg.Error, match=f"{tmp_path / 'coarse'}.*tile_size_m 1"):
+        pg.merge_tile_sets([tmp_path / "a", tmp_path / "coarse"], tmp_path / "out")
+    with pytest.raises(pg.Error, match="no tile folder holds tile 99 99"):
+        pg.merge_tile([tmp_path / "a"], (99, 99), tmp_path / "out", 1)
+    with pytest.raises(pg.IOError, match="index.pgtiles: missing"):
+        pg.merge_tile_sets([tmp_path / "none"], tmp_path / "out")
+    index = pg.read_tile_index(tmp_path / "a")
+    index["tiles"][0]["file_bytes"] += 1
+    with pytest.raises(pg.IOError, match="the index to be written says"):
+        pg.write_tile_index(tmp_path / "a", index)
+    with pytest.raises(ValueError):
+        pg.merge_tile([tmp_path / "a"], (1, 2, 3), tmp_path / "out", 1)

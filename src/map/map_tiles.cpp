@@ -69,29 +69,6 @@ isEmpty(const PlanarGridMap& map)
          && map.getSurfaceLayer().getCellCount() == 0;
 }
 
-/** Bounds of the map's content, meters: the stored voxel blocks and the axis-aligned
- * boxes of the cuboids; empty when the map is. */
-Eigen::AlignedBox3f
-contentBounds(const PlanarGridMap& map)
-{
-  Eigen::AlignedBox3f box;
-  ExplicitSpaceGrid::VoxelKey lo, hi;
-  if (map.getSpaceLayer().getBounds(lo, hi)) {
-    const double r = map.getResolution();
-    box.extend((lo.cast<double>() * r).cast<float>());
-    box.extend(((hi.cast<double>() + Eigen::Vector3d::Ones()) * r).cast<float>());
-  }
-  for (const PlanarCuboid& c : map.getSurfaceLayer().getCuboids()) {
-    const Eigen::Vector3f half = 0.5f
-                                 * (c.horizontal_axis.cwiseAbs() * c.width_m
-                                    + c.verticalAxis().cwiseAbs() * c.height_m
-                                    + c.normal.cwiseAbs() * c.thickness_m);
-    box.extend(c.centre - half);
-    box.extend(c.centre + half);
-  }
-  return box;
-}
-
 /** Splits tiles by their squares: the border between keys k - 1 and k lies at
  * k tile_size_m (in float, computed once, so that both sides use the same value). */
 class TileSplitter {
@@ -204,10 +181,48 @@ isSetFileName(const std::string& name)
   return false;
 }
 
-/** The generation of the set an existing index names, or 0 when there is none or
- * it cannot be read; \a files receives the files it names. */
+} // namespace
+
+namespace map_tiles_detail {
+
+std::string
+baseFileName(std::uint64_t generation)
+{
+  return "base_g" + std::to_string(generation) + ".pgmap";
+}
+
+std::string
+tileFileName(std::uint64_t generation, std::int64_t key_x, std::int64_t key_y)
+{
+  return "tile_g" + std::to_string(generation) + "_" + std::to_string(key_x) + "_"
+         + std::to_string(key_y) + ".pgmap";
+}
+
+Eigen::AlignedBox3f
+contentBounds(const PlanarGridMap& map)
+{
+  Eigen::AlignedBox3f box;
+  ExplicitSpaceGrid::VoxelKey lo, hi;
+  if (map.getSpaceLayer().getBounds(lo, hi)) {
+    const double r = map.getResolution();
+    box.extend((lo.cast<double>() * r).cast<float>());
+    box.extend(((hi.cast<double>() + Eigen::Vector3d::Ones()) * r).cast<float>());
+  }
+  for (const PlanarCuboid& c : map.getSurfaceLayer().getCuboids()) {
+    const Eigen::Vector3f half = 0.5f
+                                 * (c.horizontal_axis.cwiseAbs() * c.width_m
+                                    + c.verticalAxis().cwiseAbs() * c.height_m
+                                    + c.normal.cwiseAbs() * c.thickness_m);
+    box.extend(c.centre - half);
+    box.extend(c.centre + half);
+  }
+  return box;
+}
+
 std::uint64_t
-previousGeneration(const std::string& folder, std::vector<std::string>& files)
+previousGeneration(const std::string& folder,
+                   std::vector<std::string>& files,
+                   const char* caller)
 {
   files.clear();
   if (!fs::exists(inFolder(folder, MAP_TILE_INDEX_NAME)))
@@ -219,14 +234,84 @@ previousGeneration(const std::string& folder, std::vector<std::string>& files)
       files.push_back(t.file);
     return old.generation;
   } catch (const IOError& e) {
-    PCL_WARN("[planar_grid::saveTiles] The existing index is not read (%s); its files "
-             "are left in place.\n",
-             e.what());
+    if (caller != nullptr)
+      PCL_WARN("[planar_grid::%s] The existing index is not read (%s); its files are "
+               "left in place.\n",
+               caller, e.what());
     return 0;
   }
 }
 
-} // namespace
+} // namespace map_tiles_detail
+
+MapTileIndex
+writeTileIndex(const std::string& folder, const MapTileIndex& index)
+{
+  MapTileIndex sorted = index;
+  std::sort(
+    sorted.tiles.begin(), sorted.tiles.end(), [](const MapTile& a, const MapTile& b) {
+      return std::make_pair(a.key_x, a.key_y) < std::make_pair(b.key_x, b.key_y);
+    });
+  if (!(index.resolution_m > 0.0) || !std::isfinite(index.resolution_m))
+    throw Exception("writeTileIndex: resolution_m " + exactText(index.resolution_m)
+                    + " is not > 0 m");
+  const std::string problem = tileSizeProblem(index.tile_size_m, index.resolution_m);
+  if (!problem.empty())
+    throw Exception("writeTileIndex: " + problem);
+  if (index.prior != "free" && index.prior != "unknown")
+    throw Exception("writeTileIndex: prior must be free or unknown, not '" + index.prior
+                    + "'");
+  // Every file the index names is there with its size, and named once: an index that
+  // loadTiles() would refuse is not written over a readable one.
+  std::set<std::string> current;
+  const auto check = [&](const std::string& name, std::uint64_t bytes) {
+    std::error_code ec;
+    const std::string path = inFolder(folder, name);
+    if (name.empty() || fs::path(name).filename() != name
+        || fs::path(name).extension() != ".pgmap")
+      throw Exception("writeTileIndex: '" + name + "' is not a plain .pgmap name");
+    if (!current.insert(name).second)
+      throw Exception("writeTileIndex: " + name + " is named twice");
+    const std::uintmax_t size = fs::file_size(path, ec);
+    if (ec || size != bytes)
+      throw IOError("map tile " + path + ": "
+                    + (ec ? "missing" : std::to_string(size) + " bytes")
+                    + ", the index to be written says " + std::to_string(bytes));
+  };
+  check(sorted.base_file, sorted.base_file_bytes);
+  for (std::size_t k = 0; k < sorted.tiles.size(); ++k) {
+    const MapTile& t = sorted.tiles[k];
+    if (k > 0 && t.key_x == sorted.tiles[k - 1].key_x
+        && t.key_y == sorted.tiles[k - 1].key_y)
+      throw Exception("writeTileIndex: tile key " + std::to_string(t.key_x) + " "
+                      + std::to_string(t.key_y) + " is listed twice");
+    if (t.bounds.isEmpty() || !t.bounds.min().allFinite()
+        || !t.bounds.max().allFinite())
+      throw Exception("writeTileIndex: tile " + t.file
+                      + " has empty or infinite bounds");
+    check(t.file, t.file_bytes);
+  }
+
+  std::vector<std::string> old_files;
+  map_tiles_detail::previousGeneration(folder, old_files, "writeTileIndex");
+  // Until this rename, the folder's index names the previous set.
+  writeTextFileAtomically(inFolder(folder, MAP_TILE_INDEX_NAME), indexText(sorted));
+
+  // The previous set's files go, and the files a set whose writing did not finish
+  // left: every file of the folder named like a set's file (tile_g<N>_... or
+  // base_g<N>.pgmap) that the new index does not name.
+  std::error_code ec;
+  std::set<std::string> stale(old_files.begin(), old_files.end());
+  for (const fs::directory_entry& entry : fs::directory_iterator(folder, ec))
+    if (entry.is_regular_file(ec) && isSetFileName(entry.path().filename().string()))
+      stale.insert(entry.path().filename().string());
+  for (const std::string& name : stale)
+    if (current.count(name) == 0 && !fs::remove(inFolder(folder, name), ec) && ec)
+      PCL_WARN("[planar_grid::writeTileIndex] Could not remove the stale file %s: "
+               "%s.\n",
+               inFolder(folder, name).c_str(), ec.message().c_str());
+  return sorted;
+}
 
 MapTileIndex
 saveTiles(const PlanarGridMap& map, const std::string& folder, double tile_size_m)
@@ -239,65 +324,44 @@ saveTiles(const PlanarGridMap& map, const std::string& folder, double tile_size_
   if (ec || !fs::is_directory(folder))
     throw IOError("tile folder " + folder + ": cannot be made (" + ec.message() + ")");
 
-  std::vector<std::string> old_files;
   MapTileIndex index;
   index.resolution_m = map.getResolution();
   index.tile_size_m = tile_size_m;
   index.prior = toString(map.getParams().space.prior);
-  index.generation = previousGeneration(folder, old_files) + 1;
-  const std::string tag = "g" + std::to_string(index.generation);
+  // (An unreadable index is warned about once, by writeTileIndex().)
+  std::vector<std::string> old_files;
+  index.generation =
+    map_tiles_detail::previousGeneration(folder, old_files, nullptr) + 1;
 
   // The base: the map with its parameters and no content.
   PlanarGridMap base = copyOf(map);
   base.removeOutside(Eigen::AlignedBox3f()); // an empty box keeps nothing
-  index.base_file = "base_" + tag + ".pgmap";
+  index.base_file = map_tiles_detail::baseFileName(index.generation);
   base.save(inFolder(folder, index.base_file));
   index.base_file_bytes = fs::file_size(inFolder(folder, index.base_file));
 
-  const Eigen::AlignedBox3f bounds = contentBounds(map);
+  const Eigen::AlignedBox3f bounds = map_tiles_detail::contentBounds(map);
   if (!bounds.isEmpty()) {
     const auto key = [tile_size_m](float v) {
       return static_cast<std::int64_t>(
         std::floor(static_cast<double>(v) / tile_size_m));
     };
-    TileSplitter splitter(tile_size_m,
-                          [&](std::int64_t kx, std::int64_t ky, PlanarGridMap& tile) {
-                            MapTile t;
-                            t.key_x = kx;
-                            t.key_y = ky;
-                            t.file = "tile_" + tag + "_" + std::to_string(kx) + "_"
-                                     + std::to_string(ky) + ".pgmap";
-                            t.bounds = contentBounds(tile);
-                            tile.save(inFolder(folder, t.file));
-                            t.file_bytes = fs::file_size(inFolder(folder, t.file));
-                            index.tiles.push_back(std::move(t));
-                          });
+    TileSplitter splitter(
+      tile_size_m, [&](std::int64_t kx, std::int64_t ky, PlanarGridMap& tile) {
+        MapTile t;
+        t.key_x = kx;
+        t.key_y = ky;
+        t.file = map_tiles_detail::tileFileName(index.generation, kx, ky);
+        t.bounds = map_tiles_detail::contentBounds(tile);
+        tile.save(inFolder(folder, t.file));
+        t.file_bytes = fs::file_size(inFolder(folder, t.file));
+        index.tiles.push_back(std::move(t));
+      });
     splitter.split(copyOf(map), {key(bounds.min().x()), key(bounds.min().y())},
                    {key(bounds.max().x()), key(bounds.max().y())});
   }
-  std::sort(
-    index.tiles.begin(), index.tiles.end(), [](const MapTile& a, const MapTile& b) {
-      return std::make_pair(a.key_x, a.key_y) < std::make_pair(b.key_x, b.key_y);
-    });
-
-  // The index last: until this rename, the folder's index names the previous set.
-  writeTextFileAtomically(inFolder(folder, MAP_TILE_INDEX_NAME), indexText(index));
-
-  // The previous set's files go, and the files a save that did not finish left: every
-  // file of the folder named like a set's file (tile_g<N>_... or base_g<N>.pgmap) that
-  // the new index does not name.
-  std::set<std::string> current{index.base_file};
-  for (const MapTile& t : index.tiles)
-    current.insert(t.file);
-  std::set<std::string> stale(old_files.begin(), old_files.end());
-  for (const fs::directory_entry& entry : fs::directory_iterator(folder, ec))
-    if (entry.is_regular_file(ec) && isSetFileName(entry.path().filename().string()))
-      stale.insert(entry.path().filename().string());
-  for (const std::string& name : stale)
-    if (current.count(name) == 0 && !fs::remove(inFolder(folder, name), ec) && ec)
-      PCL_WARN("[planar_grid::saveTiles] Could not remove the stale file %s: %s.\n",
-               inFolder(folder, name).c_str(), ec.message().c_str());
-  return index;
+  // The index last (writeTileIndex(): atomic, then the previous set's files go).
+  return writeTileIndex(folder, index);
 }
 
 } // namespace planar_grid

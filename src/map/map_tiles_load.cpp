@@ -23,6 +23,8 @@ namespace fs = std::filesystem;
 
 using map_tiles_detail::INDEX_MAGIC;
 using map_tiles_detail::INDEX_VERSION;
+using map_tiles_detail::loadTileFile;
+using map_tiles_detail::tileMergeParams;
 
 /** Reads the index line by line; every error names the file and the line. */
 class IndexReader {
@@ -109,12 +111,35 @@ private:
   std::size_t line_{0};
 };
 
-/** The tile file \a name's content as a map, checked against the index. */
+/** Merges the tiles \a selected chooses into a map of the set's parameters, without
+ * the planes' tidying (tileMergeParams(): the saved map was tidied when it was built).
+ * The result goes through its file content, so that it has the parameters
+ * PlanarGridMap::load() gives. */
 PlanarGridMap
-loadChecked(const std::string& folder,
-            const std::string& name,
-            std::uint64_t bytes,
-            const MapTileIndex& index)
+mergeTiles(const std::string& folder,
+           const MapTileIndex& index,
+           const std::function<bool(const MapTile&)>& selected)
+{
+  PlanarGridMap merged(tileMergeParams(
+    loadTileFile(folder, index.base_file, index.base_file_bytes, index)));
+  for (const MapTile& t : index.tiles)
+    if (selected(t))
+      merged.merge(loadTileFile(folder, t.file, t.file_bytes, index),
+                   Eigen::Isometry3d::Identity());
+  std::string bytes;
+  merged.serialize(bytes);
+  return PlanarGridMap::deserialize(bytes, folder);
+}
+
+} // namespace
+
+namespace map_tiles_detail {
+
+PlanarGridMap
+loadTileFile(const std::string& folder,
+             const std::string& name,
+             std::uint64_t bytes,
+             const MapTileIndex& index)
 {
   const std::string path = (fs::path(folder) / name).string();
   std::error_code ec;
@@ -138,32 +163,16 @@ loadChecked(const std::string& folder,
   return map;
 }
 
-/** Merges the tiles \a selected chooses into a map of the set's parameters. The merges
- * run without the tidying of Params::planes_absorb_overlapping and
- * Params::planes_replace_non_planar: while a plane is in pieces its cover is cut at the
- * tile borders, and a tidying on such a cover would move or remove cells that the whole
- * map keeps. The saved map was tidied when it was built. The result goes through its
- * file content, so that it has the parameters PlanarGridMap::load() gives. */
-PlanarGridMap
-mergeTiles(const std::string& folder,
-           const MapTileIndex& index,
-           const std::function<bool(const MapTile&)>& selected)
+PlanarGridMap::Params
+tileMergeParams(const PlanarGridMap& base)
 {
-  PlanarGridMap::Params params =
-    loadChecked(folder, index.base_file, index.base_file_bytes, index).getParams();
+  PlanarGridMap::Params params = base.getParams();
   params.planes_absorb_overlapping = false;
   params.planes_replace_non_planar = false;
-  PlanarGridMap merged(params);
-  for (const MapTile& t : index.tiles)
-    if (selected(t))
-      merged.merge(loadChecked(folder, t.file, t.file_bytes, index),
-                   Eigen::Isometry3d::Identity());
-  std::string bytes;
-  merged.serialize(bytes);
-  return PlanarGridMap::deserialize(bytes, folder);
+  return params;
 }
 
-} // namespace
+} // namespace map_tiles_detail
 
 MapTileIndex
 readTileIndex(const std::string& folder)

@@ -147,4 +147,97 @@ PlanarGridMap loadTiles(const std::string& folder,
                         double radius_m,
                         double margin_m = 0.0);
 
+/** \brief Writes \a index as the index of \a folder, so that a half-written set is
+ * never read: the text goes to a temporary file renamed over the old index; until
+ * that rename the folder reads as the previous set. Then the previous set's files are
+ * removed, with every file named like a set's file (tile_g<N>_..., base_g<N>.pgmap)
+ * that \a index does not name (left by a writing that did not finish); other files in
+ * the folder are left alone. saveTiles() and mergeTileSets() end with it.
+ * \param[in] folder the tile folder, which holds the files \a index names
+ * \param[in] index the set: resolution_m > 0, tile_size_m a whole number of voxels in
+ * (0, 1e5] m, prior "free" or "unknown", the base and tile files (plain .pgmap names,
+ * each named once), tile keys unique, tile bounds finite with min <= max; the tiles
+ * may come in any order
+ * \return the index written (its tiles sorted by (key_x, key_y))
+ * \throws planar_grid::Exception for an index that breaks the rules above;
+ * planar_grid::IOError naming the file for a file it names that is missing or of
+ * another length, or for an index that cannot be written. The folder is then
+ * unchanged. */
+MapTileIndex writeTileIndex(const std::string& folder, const MapTileIndex& index);
+
+/** \brief Starts a merge of tile sets into \a output_folder by region (the first step
+ * of mergeTileSets(); mergeTile() then writes each tile, writeTileIndex() the index):
+ * checks that the sets agree, chooses the output's generation (its current index's
+ * + 1, or 1) and writes the output's base map, the merge of the sets' base maps (their
+ * parameters; its observation span is the union of theirs).
+ * \param[in] folders the tile folders (saveTiles()), at least one; \a output_folder may
+ * be one of them (its current set stays readable until the new index is written)
+ * \param[in] output_folder the folder of the merged set (created when missing)
+ * \return the merged set's index without its tiles: the sets' resolution_m,
+ * tile_size_m and prior, the new generation, the base file written
+ * \throws planar_grid::Exception for no folder, or naming the folder whose
+ * resolution_m, tile_size_m, prior or surface layer parameters differ from the first
+ * folder's; planar_grid::IOError naming the file for a bad index or base map
+ * (readTileIndex(), loadTiles()) or an output that cannot be written */
+MapTileIndex prepareTileMerge(const std::vector<std::string>& folders,
+                              const std::string& output_folder);
+
+/** \brief Merges tile (\a key_x, \a key_y) of several tile sets into one tile file of
+ * \a output_folder, named as saveTiles() names the tiles of set \a generation
+ * (tile_g<N>_<i>_<j>.pgmap, written atomically; the output's index is not touched).
+ *
+ * The tile is merged as loadTiles() merges tiles: the tiles of the folders that hold
+ * the key, in the order of \a folders (folders without it are skipped), are merged
+ * with PlanarGridMap::merge() and the identity into an empty map of the first folder's
+ * parameters, without the planes' tidying (Params::planes_absorb_overlapping,
+ * planes_replace_non_planar; loadTiles() says why). Where the tiles disagree:
+ * - space layer: when the observation span of the tile merged in lies wholly after
+ *   that of the tiles merged so far (or wholly before), the newer observation of a
+ *   voxel wins; otherwise occupied > free > unknown > never observed. Folders of
+ *   segments of one recording, given in the order of their frames, thus give each
+ *   voxel the state of the last segment that observed it;
+ * - surface layer: a plane of a later folder joins the plane the association matches
+ *   (moments added, refitted), else is added; non-planar cells of all are kept.
+ * Each tile of a set holds the whole fit of a plane crossing its borders, so the
+ * pieces of a plane merge as the whole planes would, and loadTiles() of the merged set
+ * joins them again. Where a plane of one set meets a plane of another in some tiles
+ * only, its pieces end with different fits; loadTiles() then joins them by the
+ * association (as merge() joins planes), and the cover near those borders may differ
+ * from that of the whole maps merged.
+ * \param[in] folders the tile folders (saveTiles()), in the order their maps are
+ * merged: of one recording, earliest frames first
+ * \param[in] key_x the tile key along x (the tile holds x in [key_x, key_x + 1)
+ * tile_size_m)
+ * \param[in] key_y the tile key along y
+ * \param[in] output_folder the folder of the merged set (created when missing)
+ * \param[in] generation the merged set's generation (prepareTileMerge()), >= 1
+ * \return the tile as the merged index will list it: key, file, its length in bytes
+ * and the bounds of its content, meters
+ * \throws planar_grid::Exception for no folder, generation 0, a key no folder holds,
+ * or naming the folder whose resolution_m, tile_size_m, prior or surface layer
+ * parameters differ from the first folder's; planar_grid::IOError naming the file for
+ * a bad index or tile (readTileIndex(), loadTiles()) or a file that cannot be
+ * written */
+MapTile mergeTile(const std::vector<std::string>& folders,
+                  std::int64_t key_x,
+                  std::int64_t key_y,
+                  const std::string& output_folder,
+                  std::uint64_t generation);
+
+/** \brief Merges tile sets by region: prepareTileMerge(), then mergeTile() for every
+ * key any folder holds, one after another in key order, then writeTileIndex(). The
+ * merged set loads (loadTiles()) as the maps merged whole in the order of \a folders
+ * and saved as tiles would: the same space layer, voxel for voxel, and the same planes
+ * and cuboids, except near tile borders where a plane met another map's plane in some
+ * tiles only, and the planes' tidying after the merge, which is skipped (mergeTile()).
+ * A set without tiles (an empty map's) changes nothing. While it runs, the output
+ * folder reads as its previous set.
+ * \param[in] folders the tile folders, in merge order (earliest frames first)
+ * \param[in] output_folder the folder of the merged set (created when missing; may be
+ * one of \a folders)
+ * \return the index written
+ * \throws as prepareTileMerge(), mergeTile() and writeTileIndex() */
+MapTileIndex mergeTileSets(const std::vector<std::string>& folders,
+                           const std::string& output_folder);
+
 } // namespace planar_grid
