@@ -16,42 +16,7 @@ import sys
 import numpy as np
 
 import planar_grid as pg
-
-
-def stacked(m, angle_rad=0.1, min_gap_m=0.05, max_gap_m=0.6):
-    """Per planar cuboid of map m: (face area m^2, stacked flag, the plane it lies
-    over or -1), arrays over the planar cuboids in the map's order, and their
-    plane ids."""
-    c = m.cuboids
-    planar = np.flatnonzero(np.asarray(c.is_planar) & (np.asarray(c.plane_ids) >= 0))
-    ids = np.asarray(c.plane_ids)[planar]
-    centres = np.asarray(c.centres)[planar]
-    extents = np.asarray(c.extents_m)[planar]
-    rotations = np.asarray(c.rotations)[planar]
-    normals = np.asarray(c.normals)[planar]
-    # the box axis along the normal is the thin one; the other two span the face
-    along = np.argmax(np.abs(np.einsum("kij,ki->kj", rotations, normals)), axis=1)
-    face = np.sort(extents, axis=1)[:, 1:]
-    area = face[:, 0] * face[:, 1]
-    over = np.full(len(planar), -1)
-    cos_angle = np.cos(angle_rad)
-    for k in range(len(planar)):
-        parallel = (np.abs(normals @ normals[k]) >= cos_angle) & (ids != ids[k])
-        q = np.flatnonzero(parallel)
-        if q.size == 0:
-            continue
-        local = np.einsum("kji,kj->ki", rotations[q], centres[k] - centres[q])
-        inside = np.ones(q.size, bool)
-        gap = np.zeros(q.size)
-        for a in range(3):
-            is_normal = along[q] == a
-            half = 0.5 * extents[q, a]
-            inside &= is_normal | (np.abs(local[:, a]) <= half)
-            gap = np.where(is_normal, np.abs(local[:, a]), gap)
-        hit = inside & (gap > min_gap_m) & (gap <= max_gap_m)
-        if hit.any():
-            over[k] = ids[q[np.argmax(hit)]]
-    return area, over >= 0, over, ids
+from planar_grid.analysis import stacked_planar_cuboids
 
 
 def main():
@@ -66,7 +31,7 @@ def main():
         m = pg.PlanarGridMap.load(args.map)
     except (OSError, pg.Error) as e:
         sys.exit(f"stacked_planes.py: {e}")
-    area, is_stacked, over, ids = stacked(m, args.angle_rad, args.min_gap_m,
+    area, is_stacked, over, ids = stacked_planar_cuboids(m, args.angle_rad, args.min_gap_m,
                                           args.max_gap_m)
     print(f"planar area {area.sum():.1f} m^2, stacked {area[is_stacked].sum():.1f} m^2 "
           f"({int(is_stacked.sum())} of {len(area)} planar cuboids)")

@@ -35,6 +35,8 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 import planar_grid as pg
+from planar_grid.analysis import (map_counts, parallel_plane_stacks,  # noqa: F401
+                                 sample_observed_points)
 
 #: Version of the batch report's layout (batch_report.json); raised when a field changes
 #: meaning or is removed.
@@ -103,104 +105,6 @@ def _replace_folder(tmp: str, final: str) -> None:
     os.rename(final, old)
     os.rename(tmp, final)
     shutil.rmtree(old, ignore_errors=True)
-
-
-def map_counts(m: "pg.PlanarGridMap") -> Dict[str, int]:
-    """Counts of a map, as the batch reports give them (plain ints): planes,
-    planar_cuboids, non_planar_cuboids, cells, memory_bytes."""
-    planar = int(np.count_nonzero(m.cuboids.is_planar))
-    return dict(planes=int(len(m.planes)), planar_cuboids=planar,
-                non_planar_cuboids=int(len(m.cuboids.is_planar)) - planar,
-                cells=int(m.cell_count),
-                memory_bytes=int(m.memory["total_bytes"]))
-
-
-def sample_observed_points(m: "pg.PlanarGridMap", count: int, box_min: Sequence[float],
-                           box_max: Sequence[float], seed: int = 0) -> np.ndarray:
-    """Random points where a map has observed space, to compare another map with it by
-    getState (a batch's merged map against one run of the same frames).
-
-    Parameters
-    ----------
-    m : PlanarGridMap
-        The map whose observed space (free or occupied) the points are drawn from.
-    count : int
-        How many points.
-    box_min, box_max : sequence of 3 floats
-        The box the points are drawn in, uniformly, world frame, meters.
-    seed : int
-        numpy.random.default_rng's seed: the same points for the same map and box.
-
-    Returns
-    -------
-    numpy.ndarray, shape (count, 3), float64, meters. Loops for ever when the box holds
-    no observed space.
-    """
-    rng = np.random.default_rng(seed)
-    lo, hi = np.asarray(box_min, dtype=float), np.asarray(box_max, dtype=float)
-    kept, n = [], 0
-    while n < count:
-        candidates = rng.uniform(lo, hi, size=(400_000, 3))
-        keep = candidates[m.get_state(candidates) != pg.SpaceState.UNKNOWN]
-        kept.append(keep)
-        n += len(keep)
-    return np.concatenate(kept)[:count]
-
-
-def parallel_plane_stacks(m: "pg.PlanarGridMap", max_offset_m: float = 0.5,
-                          max_normal_z: float = 0.3) -> List[Tuple[int, int]]:
-    """Stacks of parallel vertical planes in a map: one facade held as several planes
-    a few centimetres apart, which a merge that joins planes by the association of
-    integration does not leave (the batch test and scripts/measure_batch.py check the
-    merged map with it).
-
-    A pair of planes is a stack when both are vertical (|normal z| <= max_normal_z),
-    their normals are within the map's plane_merge_angle_rad of each other (either
-    sign), they are less than max_offset_m apart where they are (the mean distance of
-    one plane's cuboid face corners to the other plane, the smaller of the two ways),
-    and their extents overlap, in height and along the first plane's horizontal in-plane
-    direction (their cuboids' face corners).
-
-    Parameters
-    ----------
-    m : PlanarGridMap
-        The map.
-    max_offset_m : float
-        Planes farther apart than this, meters, are separate surfaces.
-    max_normal_z : float
-        The largest |z| of a vertical plane's unit normal (0.3: within 17.5 degrees).
-
-    Returns
-    -------
-    list of (int, int)
-        The pairs (i, j), i < j, of indices into m.planes; empty when every facade is
-        one plane.
-    """
-    planes, cuboids = m.planes, m.cuboids
-    ids = cuboids.plane_ids
-    faces = cuboids.corners[:, :4]
-    cos_max = np.cos(m.params["plane_merge_angle_rad"])
-    vertical = [k for k in range(len(planes))
-                if abs(planes[k, 2]) <= max_normal_z and np.any(ids == k)]
-
-    def overlap(a: np.ndarray, b: np.ndarray) -> bool:
-        return min(a.max(), b.max()) > max(a.min(), b.min())
-
-    stacks = []
-    for n, i in enumerate(vertical):
-        pi = faces[ids == i].reshape(-1, 3)
-        along = np.cross([0.0, 0.0, 1.0], planes[i, :3])
-        along /= np.linalg.norm(along)
-        for j in vertical[n + 1:]:
-            if abs(planes[i, :3] @ planes[j, :3]) < cos_max:
-                continue
-            pj = faces[ids == j].reshape(-1, 3)
-            offset = min(np.mean(np.abs(pj @ planes[i, :3] + planes[i, 3])),
-                         np.mean(np.abs(pi @ planes[j, :3] + planes[j, 3])))
-            if offset < max_offset_m and overlap(pi @ along, pj @ along) \
-                    and overlap(pi[:, 2], pj[:, 2]):
-                stacks.append((i, j))
-    return stacks
 
 
 def _worker_identity() -> Dict[str, Any]:

@@ -129,6 +129,7 @@ ValueError
   planar_grid::python::bindOccupancyFilter(m);
   planar_grid::python::bindMap(m);
   planar_grid::python::bindMapQueries(m);
+  planar_grid::python::bindMapTiles(m);
   planar_grid::python::bindPipeline(m);
   planar_grid::python::bindMapper(m);
 }

@@ -431,6 +431,9 @@ void bindMap(py::module_& m);
 /** \brief Adds the point, ray, distance and collision queries to PlanarGridMap (bound
  * by bindMap()) and binds MapRegionIndex. */
 void bindMapQueries(py::module_& m);
+/** \brief Adds save_tiles and load_tiles to PlanarGridMap (bound by bindMap()) and
+ * binds the module's tile functions (save, load, read the index, merge tile sets). */
+void bindMapTiles(py::module_& m);
 /** \brief Binds run_pipeline(), PipelineResult and stage_types(). */
 void bindPipeline(py::module_& m);
 /** \brief Binds Mapper, its MapReadLock and InputFrames. */
