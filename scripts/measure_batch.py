@@ -104,7 +104,17 @@ def main():
                         help="runs of each job in step 7")
     parser.add_argument("--tile-merge-only", action="store_true",
                         help="run step 7 alone")
+    parser.add_argument("--project-tiles", nargs=2, metavar=("BATCH_JSON", "TILE_JSON"),
+                        help="print step 8 alone from the figures of an earlier run "
+                             "(measure_batch.json, measure_tile_merge.json)")
     args = parser.parse_args()
+    if args.project_tiles:
+        with open(args.project_tiles[0], encoding="utf-8") as f:
+            projection = json.load(f)["projection"]
+        with open(args.project_tiles[1], encoding="utf-8") as f:
+            tile_merge = json.load(f)
+        project_tiles(projection, tile_merge)
+        return
     os.makedirs(args.output, exist_ok=True)
     figures = dict(config=os.path.abspath(args.config), segments=args.segments,
                    workers=args.workers)
@@ -246,6 +256,8 @@ def main():
 
     # 7. the merge by region
     figures["tile_merge"] = tile_merge_run(args, frames)
+    # 8. its projection
+    figures["tile_projection"] = project_tiles(figures["projection"], figures["tile_merge"])
     with open(os.path.join(args.output, "measure_batch.json"), "w", encoding="utf-8") as f:
         json.dump(figures, f, indent=1)
     print(f"figures: {os.path.join(args.output, 'measure_batch.json')}")
@@ -464,6 +476,57 @@ def project(figures, frames_per_worker=1120, workers=(10, 100, 1000)):
     return dict(t_frame_s=t_frame, t_fixed_s=t_fixed, merge_s_per_cell=k,
                 cells_per_frame=c_frame, bytes_per_cell=bytes_per_cell, t_start_s=t_start,
                 frames_per_worker=frames_per_worker, rows=rows)
+
+
+def project_tiles(projection, tile_merge, segment_frames=28, seconds_per_task=1e-3):
+    """Throughput of the merge by region on W workers, on paper (step 8), beside the
+    tree's projection (same workers, frames per worker, t_frame, cells per frame and
+    t_start).
+
+    Model: as project(), every segment through new space. A segment task costs
+    frames_per_worker * (t_frame + s_frame), s_frame being save_tiles' measured seconds
+    per segment frame (median over step 7's tile runs; segment_frames frames each).
+    The tile tasks then merge each cell once: W * frames_per_worker * c_frame cells at
+    k_tile seconds per cell (all tile tasks' seconds over all their cells, step 7),
+    spread over the W workers. The scheduler hands out the tile tasks one at a time:
+    tiles_per_frame * W * frames_per_worker tasks (tiles_per_frame: step 7's tiles over
+    its frames) at seconds_per_task each, an assumed figure (Dask's documented per-task
+    overhead is of the order of a millisecond), not measured here. Not modelled: the
+    shared filesystem, stragglers, drives that revisit a tile (its task merges more
+    maps)."""
+    tiles_runs = tile_merge["runs"]["tiles"]
+    s_frame = float(np.median([t for run in tiles_runs
+                               for t in run["segment_save_tiles_s"]])) / segment_frames
+    tasks = [task for run in tiles_runs for task in run["tile_tasks"]]
+    k_tile = sum(task["wall_time_s"] for task in tasks) / max(
+        1, sum(task["cells"] for task in tasks))
+    frames = segment_frames * len(tiles_runs[0]["segment_s"])
+    tiles_per_frame = tiles_runs[0]["tiles"] / frames
+    t_frame, c_frame = projection["t_frame_s"], projection["cells_per_frame"]
+    t_start, f_w = projection["t_start_s"], projection["frames_per_worker"]
+    print(f"tile projection: save_tiles {s_frame*1e3:.1f} ms/frame, tile merge "
+          f"{k_tile*1e6:.1f} us/cell, {tiles_per_frame:.3f} tiles/frame, "
+          f"{seconds_per_task*1e3:.1f} ms/task (assumed)")
+    rows = []
+    for tree_row in projection["rows"]:
+        w = tree_row["workers"]
+        total = w * f_w
+        seg = f_w * (t_frame + s_frame)
+        merge = f_w * c_frame * k_tile
+        tile_tasks = tiles_per_frame * total
+        scheduler = tile_tasks * seconds_per_task
+        wall = t_start + seg + merge + scheduler
+        rows.append(dict(workers=w, frames=total, segment_s=seg, merge_s=merge,
+                         tile_tasks=tile_tasks, scheduler_s=scheduler, wall_time_s=wall,
+                         frames_per_s=total / wall, tree_frames_per_s=tree_row["frames_per_s"],
+                         ideal_frames_per_s=w / t_frame))
+        print(f"  {w} workers: segments {seg:.0f} s + tile merges {merge:.1f} s + "
+              f"scheduler {scheduler:.0f} s ({tile_tasks:.0f} tile tasks) = {wall:.0f} s: "
+              f"{total / wall:.0f} frames/s (tree {tree_row['frames_per_s']:.0f}, ideal "
+              f"{w / t_frame:.0f})")
+    return dict(save_tiles_s_per_frame=s_frame, tile_merge_s_per_cell=k_tile,
+                tiles_per_frame=tiles_per_frame, seconds_per_task=seconds_per_task,
+                rows=rows)
 
 
 if __name__ == "__main__":
