@@ -478,7 +478,8 @@ def project(figures, frames_per_worker=1120, workers=(10, 100, 1000)):
                 frames_per_worker=frames_per_worker, rows=rows)
 
 
-def project_tiles(projection, tile_merge, segment_frames=28, seconds_per_task=1e-3):
+def project_tiles(projection, tile_merge, segment_frames=28, seconds_per_task=1e-3,
+                  grouped_tiles_per_task=16):
     """Throughput of the merge by region on W workers, on paper (step 8), beside the
     tree's projection (same workers, frames per worker, t_frame, cells per frame and
     t_start).
@@ -491,7 +492,9 @@ def project_tiles(projection, tile_merge, segment_frames=28, seconds_per_task=1e
     spread over the W workers. The scheduler hands out the tile tasks one at a time:
     tiles_per_frame * W * frames_per_worker tasks (tiles_per_frame: step 7's tiles over
     its frames) at seconds_per_task each, an assumed figure (Dask's documented per-task
-    overhead is of the order of a millisecond), not measured here. Not modelled: the
+    overhead is of the order of a millisecond), not measured here; with
+    grouped_tiles_per_task keys per task (map_segments' tiles_per_task) they are that
+    many times fewer, as long as they still outnumber the workers. Not modelled: the
     shared filesystem, stragglers, drives that revisit a tile (its task merges more
     maps)."""
     tiles_runs = tile_merge["runs"]["tiles"]
@@ -516,17 +519,22 @@ def project_tiles(projection, tile_merge, segment_frames=28, seconds_per_task=1e
         tile_tasks = tiles_per_frame * total
         scheduler = tile_tasks * seconds_per_task
         wall = t_start + seg + merge + scheduler
+        grouped_tasks = max(tile_tasks / grouped_tiles_per_task, min(tile_tasks, w))
+        grouped_wall = t_start + seg + merge + grouped_tasks * seconds_per_task
         rows.append(dict(workers=w, frames=total, segment_s=seg, merge_s=merge,
                          tile_tasks=tile_tasks, scheduler_s=scheduler, wall_time_s=wall,
                          frames_per_s=total / wall, tree_frames_per_s=tree_row["frames_per_s"],
+                         grouped_tasks=grouped_tasks, grouped_wall_time_s=grouped_wall,
+                         grouped_frames_per_s=total / grouped_wall,
                          ideal_frames_per_s=w / t_frame))
         print(f"  {w} workers: segments {seg:.0f} s + tile merges {merge:.1f} s + "
               f"scheduler {scheduler:.0f} s ({tile_tasks:.0f} tile tasks) = {wall:.0f} s: "
-              f"{total / wall:.0f} frames/s (tree {tree_row['frames_per_s']:.0f}, ideal "
-              f"{w / t_frame:.0f})")
+              f"{total / wall:.0f} frames/s; {grouped_tiles_per_task} tiles per task: "
+              f"{grouped_tasks:.0f} tasks, {total / grouped_wall:.0f} frames/s (tree "
+              f"{tree_row['frames_per_s']:.0f}, ideal {w / t_frame:.0f})")
     return dict(save_tiles_s_per_frame=s_frame, tile_merge_s_per_cell=k_tile,
                 tiles_per_frame=tiles_per_frame, seconds_per_task=seconds_per_task,
-                rows=rows)
+                grouped_tiles_per_task=grouped_tiles_per_task, rows=rows)
 
 
 if __name__ == "__main__":

@@ -96,6 +96,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                         help="tree (default): merge the segment maps pairwise; tiles: "
                              "save each segment's map as tiles and merge tile by tile "
                              "(OUTPUT/tiles, no OUTPUT/map.pgmap)")
+    parser.add_argument("--tiles-per-task", type=_positive_int, default=1, metavar="N",
+                        help="with --merge tiles: N neighbouring tile keys per merge "
+                             "task (default 1; fewer tasks on a large job)")
     parser.add_argument("-q", "--quiet", action="store_true",
                         help="no progress lines, only errors")
     parser.add_argument("--version", action="version",
@@ -111,6 +114,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                               frames=args.frames, output_dir=args.output,
                               scheduler_address=args.scheduler, n_workers=args.workers,
                               tile_size_m=args.tile_size, merge=args.merge,
+                              tiles_per_task=args.tiles_per_task,
                               progress=not args.quiet)
     except KeyboardInterrupt:
         print("planar_grid_batch: interrupted; the maps already written stay in "

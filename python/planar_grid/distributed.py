@@ -300,11 +300,31 @@ def merge_tile_task(folders: Sequence[str], key: Sequence[int],
                 worker=_worker_identity())
 
 
+def merge_tiles_task(groups: Sequence[Tuple[Sequence[str], Sequence[int]]],
+                     prepared: Dict[str, Any], folder: str) -> Dict[str, Any]:
+    """Task: merge_tile_task for several tile keys, one after another: each of
+    ``groups`` is (the tile sets holding the key, in frame order; the key). Fewer,
+    longer tasks for the scheduler to hand out when a job has many tiles.
+
+    Returns
+    -------
+    dict
+        kind "tile_group", ``reports`` (merge_tile_task's report for each key, in the
+        order of ``groups``), wall time in seconds and the worker.
+    """
+    start = time.perf_counter()
+    reports = [merge_tile_task(folders, key, prepared, folder) for folders, key in groups]
+    return dict(kind="tile_group", reports=reports,
+                wall_time_s=round(time.perf_counter() - start, 3),
+                worker=_worker_identity())
+
+
 def write_tile_index_task(prepared: Dict[str, Any], tiles: Sequence[Dict[str, Any]],
                           folder: str, tile_size_m: float) -> Dict[str, Any]:
     """Task: the last step of a merge by region: writes the index of ``folder``
     (write_tile_index) naming the base of ``prepared`` and the tiles of the
-    merge_tile_task reports ``tiles``; until then the folder reads as its previous set.
+    merge_tile_task reports ``tiles`` (or merge_tiles_task's groups of them); until
+    then the folder reads as its previous set.
 
     Returns
     -------
@@ -314,13 +334,19 @@ def write_tile_index_task(prepared: Dict[str, Any], tiles: Sequence[Dict[str, An
     """
     start = time.perf_counter()
     index = dict(prepared["index"])
-    index["tiles"] = [r["tile"] for r in tiles]
+    index["tiles"] = [r["tile"] for r in _flat_reports(tiles)]
     written = pg.write_tile_index(folder, index)
     return dict(kind="tiles", folder=folder, tile_size_m=float(tile_size_m),
                 tiles=int(len(written["tiles"])),
                 generation=int(written["generation"]),
                 wall_time_s=round(time.perf_counter() - start, 3),
                 worker=_worker_identity())
+
+
+def _flat_reports(items: Sequence[Dict[str, Any]]) -> List[Dict[str, Any]]:
+    """Tile task reports, merge_tiles_task's groups opened up."""
+    return [r for item in items
+            for r in (item["reports"] if item.get("kind") == "tile_group" else [item])]
 
 
 # ------------------------------------------------------------------------- the client
@@ -401,6 +427,7 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
                  n_workers: int = 2,
                  tile_size_m: Optional[float] = None,
                  merge: str = "tree",
+                 tiles_per_task: int = 1,
                  progress: Union[bool, Callable[[str], None]] = True,
                  ) -> Dict[str, Any]:
     """Maps recordings in frame segments on a Dask cluster and merges the segment maps.
@@ -456,6 +483,11 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
         "tiles": merged tile by tile (see above). Both give the same voxels; the tile
         merge skips the planes' tidying after each merge (docs/SCALE.md has the
         figures).
+    tiles_per_task : int, optional
+        With ``merge="tiles"``: tile keys merged by one task, one after another
+        (default 1), >= 1; neighbouring keys (in (i, j) order) share a task. More keys
+        per task mean fewer tasks for the scheduler to hand out on a large job; the
+        tiles written are the same.
     progress : bool or callable, optional
         True (default): a line per finished task on stdout; a callable receives each
         line instead; False: silent.
@@ -504,6 +536,10 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
         raise ValueError(f"merge must be 'tree' or 'tiles', not {merge!r}")
     if merge == "tiles" and tile_size_m is None:
         raise ValueError("merge='tiles' needs tile_size_m (the size of the tiles merged)")
+    if isinstance(tiles_per_task, bool) or not isinstance(tiles_per_task, int) \
+            or tiles_per_task < 1:
+        raise ValueError(
+            f"tiles_per_task must be a whole number >= 1, not {tiles_per_task!r}")
     if segments is not None and frames is not None:
         raise ValueError("give either segments or frames, not both")
     explicit = _as_segments(configs, segments)
@@ -531,7 +567,8 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
     try:
         with distributed.Client(address, set_as_default=False) as client:
             report = _run_job(client, distributed, job, configs, explicit, num_segments,
-                              frames, output_dir, tile_size_m, merge, say)
+                              frames, output_dir, tile_size_m, merge, tiles_per_task,
+                              say)
             report["cluster"] = dict(
                 scheduler=address if cluster is None else "local",
                 local=cluster is not None,
@@ -563,7 +600,7 @@ def _write_json(path: str, data: Dict[str, Any]) -> None:
 def _run_job(client, distributed, job: str, configs: List[str],
              explicit: Optional[List[Segment]], num_segments: int,
              frames: Optional[Tuple[Optional[int], Optional[int]]], output_dir: str,
-             tile_size_m: Optional[float], merge: str,
+             tile_size_m: Optional[float], merge: str, tiles_per_task: int,
              say: Callable[[str], None]) -> Dict[str, Any]:
     """Submits the tasks, reports each as it finishes and collects the reports."""
     segment_list = explicit
@@ -614,7 +651,7 @@ def _run_job(client, distributed, job: str, configs: List[str],
     if by_tile:
         assert tile_size_m is not None
         return _run_tile_merge(client, distributed, job, configs, segment_futures,
-                               described, output_dir, tile_size_m, say)
+                               described, output_dir, tile_size_m, tiles_per_task, say)
     merge_futures = []
     for depth, level in enumerate(tree, start=1):
         nxt = []
@@ -711,12 +748,12 @@ def _remove_leftovers(output_dir: str) -> None:
 def _run_tile_merge(client, distributed, job: str, configs: List[str],
                     segment_futures: List[Any],
                     described: Dict[str, Tuple[str, Optional[Segment]]],
-                    output_dir: str, tile_size_m: float,
+                    output_dir: str, tile_size_m: float, tiles_per_task: int,
                     say: Callable[[str], None]) -> Dict[str, Any]:
     """The merge by region: once the segments have saved their tiles, one task writes
-    the merged set's base, one task per tile key merges that key over the segments
-    holding it (in segment order, which is frame order within a recording), and one
-    task writes the index."""
+    the merged set's base, one task per tile key (or per tiles_per_task neighbouring
+    keys) merges that key over the segments holding it (in segment order, which is
+    frame order within a recording), and one task writes the index."""
     done = _collect(client, distributed, segment_futures, described, say, 0,
                     len(segment_futures))
     segment_reports = [f.result() for f in segment_futures]
@@ -726,19 +763,30 @@ def _run_tile_merge(client, distributed, job: str, configs: List[str],
         for key in r["tile_keys"]:
             holders.setdefault((key[0], key[1]), []).append(r["tiles"])
     keys = sorted(holders)
-    tasks = done + len(keys) + 2
+    groups = [keys[i:i + tiles_per_task] for i in range(0, len(keys), tiles_per_task)]
+    tasks = done + len(groups) + 2
     say(f"planar_grid_batch: {len(keys)} tiles to merge, "
         f"{sum(len(h) > 1 for h in holders.values())} of them held by several segments")
     prepared = client.submit(prepare_tile_merge_task, segment_reports, folder,
                              key=f"tile-prepare-{job}")
     described[prepared.key] = ("tile merge: the base map", None)
     tile_futures = []
-    for key in keys:
-        f = client.submit(merge_tile_task, holders[key], list(key), prepared, folder,
-                          key=f"tile-{key[0]}_{key[1]}-{job}")
-        n = len(holders[key])
-        described[f.key] = (f"tile {key[0]} {key[1]} ({n} segment{'s' if n > 1 else ''})",
-                            None)
+    for group in groups:
+        if len(group) == 1:
+            key = group[0]
+            f = client.submit(merge_tile_task, holders[key], list(key), prepared, folder,
+                              key=f"tile-{key[0]}_{key[1]}-{job}")
+            n = len(holders[key])
+            described[f.key] = (
+                f"tile {key[0]} {key[1]} ({n} segment{'s' if n > 1 else ''})", None)
+        else:
+            first, last = group[0], group[-1]
+            f = client.submit(merge_tiles_task,
+                              [(holders[key], list(key)) for key in group], prepared,
+                              folder,
+                              key=f"tiles-{first[0]}_{first[1]}-{last[0]}_{last[1]}-{job}")
+            described[f.key] = (f"tiles {first[0]} {first[1]} .. {last[0]} {last[1]} "
+                                f"({len(group)} tiles)", None)
         tile_futures.append(f)
     index_future = client.submit(write_tile_index_task, prepared, tile_futures, folder,
                                  tile_size_m, key=f"tile-index-{job}")
@@ -757,7 +805,7 @@ def _run_tile_merge(client, distributed, job: str, configs: List[str],
         frames=int(sum(r["frames_run"] for r in segment_reports)),
         segments=segment_reports,
         merges=[],
-        tile_merges=[f.result() for f in tile_futures],
+        tile_merges=_flat_reports([f.result() for f in tile_futures]),
         tiles=index_future.result())
 
 

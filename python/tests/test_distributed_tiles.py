@@ -33,16 +33,19 @@ def config():
 
 @pytest.fixture(scope="module")
 def jobs(config, tmp_path_factory):
-    """The same 3 segments merged in the tree (its map also saved as 20 m tiles) and
-    by tile, each job on map_segments' own local cluster of 2 worker processes."""
+    """The same 3 segments merged in the tree (its map also saved as 20 m tiles), by
+    tile, and by tile with 4 tile keys per task, each job on map_segments' own local
+    cluster of 2 worker processes."""
     out = {}
-    for merge in ("tree", "tiles"):
-        folder = tmp_path_factory.mktemp(merge)
+    for name, merge, per_task in (("tree", "tree", 1), ("tiles", "tiles", 1),
+                                  ("grouped", "tiles", 4)):
+        folder = tmp_path_factory.mktemp(name)
         lines = []
         report = pgd.map_segments(config, frames=(0, FRAMES), num_segments=SEGMENTS,
                                   n_workers=2, output_dir=folder, tile_size_m=TILE_M,
-                                  merge=merge, progress=lines.append)
-        out[merge] = (report, lines, folder)
+                                  merge=merge, tiles_per_task=per_task,
+                                  progress=lines.append)
+        out[name] = (report, lines, folder)
     return out
 
 
@@ -107,6 +110,25 @@ def test_the_report_lists_the_tile_tasks(jobs):
     assert left == []
 
 
+def test_tiles_grouped_into_tasks_are_the_same_files(jobs):
+    report, _, folder = jobs["tiles"]
+    grouped, lines, grouped_folder = jobs["grouped"]
+    index = pg.read_tile_index(folder / "tiles")
+    grouped_index = pg.read_tile_index(grouped_folder / "tiles")
+    assert [t["key"] for t in grouped_index["tiles"]] == [t["key"] for t in index["tiles"]]
+    for tile, other in zip(index["tiles"], grouped_index["tiles"]):
+        assert tile["file"] == other["file"]
+        assert (folder / "tiles" / tile["file"]).read_bytes() == \
+            (grouped_folder / "tiles" / other["file"]).read_bytes()
+    # one report per tile, as without grouping; a line per task: ceil(keys / 4) of them
+    keys = len(index["tiles"])
+    assert sorted(t["key"] for t in grouped["tile_merges"]) == \
+        sorted(t["key"] for t in report["tile_merges"])
+    tasks = SEGMENTS + -(-keys // 4) + 2
+    assert len(lines) == 1 + SEGMENTS + 1 + -(-keys // 4) + 2
+    assert lines[-1].startswith(f"[{tasks}/{tasks}]")
+
+
 def test_tiles_need_a_tile_size(config, tmp_path):
     with pytest.raises(ValueError, match="tile_size_m"):
         pgd.map_segments(config, merge="tiles", output_dir=tmp_path, progress=False)
@@ -114,3 +136,7 @@ def test_tiles_need_a_tile_size(config, tmp_path):
         pgd.map_segments(config, merge="octree", output_dir=tmp_path, progress=False)
     assert pgd.main(["--config", config, "--merge", "tiles", "--output",
                      str(tmp_path)]) == pgd.EXIT_USAGE
+    for bad in (0, 1.5, True):
+        with pytest.raises(ValueError, match="tiles_per_task"):
+            pgd.map_segments(config, merge="tiles", tile_size_m=TILE_M,
+                             tiles_per_task=bad, output_dir=tmp_path, progress=False)
