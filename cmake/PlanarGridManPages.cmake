@@ -5,10 +5,11 @@
 # or in a sanitizer build (whose programs are not installed), there are none.
 #
 #   planar_grid_install_man_pages(<target> "<one-line description>" ...)
-#   planar_grid_install_man_page_command(<name> "<one-line description>" <command>...)
+#   planar_grid_install_man_page_script(<name> "<one-line description>" <dir> <depends>...)
 #
 # The first takes executable targets (the page is named after OUTPUT_NAME); the second a
-# program run through a command, e.g. a Python entry point run with the build's module.
+# program file <dir>/<name> that is not a target, e.g. the build tree's Python entry
+# point, rebuilt when <depends> (files or targets) change.
 
 find_program(PLANAR_GRID_HELP2MAN help2man DOC "help2man, for the programs' manual pages")
 find_program(PLANAR_GRID_GZIP gzip DOC "gzip, for the manual pages")
@@ -64,16 +65,9 @@ function(planar_grid_install_man_pages)
   endforeach()
 endfunction()
 
-function(planar_grid_install_man_page_command name description)
+function(planar_grid_install_man_page_script name description dir)
   if(NOT PLANAR_GRID_MAN_PAGES)
     return()
   endif()
-  # help2man runs one file: a script that runs the command with the arguments given.
-  set(wrapper ${PROJECT_BINARY_DIR}/man/run/${name})
-  string(REPLACE ";" "\" \"" command "${ARGN}")
-  file(WRITE ${wrapper}.in "#!/bin/sh\nexec \"${command}\" \"$@\"\n")
-  file(GENERATE OUTPUT ${wrapper} INPUT ${wrapper}.in
-       FILE_PERMISSIONS OWNER_READ OWNER_WRITE OWNER_EXECUTE GROUP_READ GROUP_EXECUTE
-                        WORLD_READ WORLD_EXECUTE)
-  _planar_grid_man_page(${name} "${description}" ${PROJECT_BINARY_DIR}/man/run "${wrapper}")
+  _planar_grid_man_page(${name} "${description}" ${dir} "${dir}/${name};${ARGN}")
 endfunction()

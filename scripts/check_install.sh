@@ -25,12 +25,15 @@ CLOUD="$DATA_DIR/pcl_clouds/office1.pcd"
 
 work=$(mktemp -d "${TMPDIR:-/tmp}/planar_grid_install.XXXXXX")
 apt_installed=false
+# purge_package: removes the planar-grid this script installed.
+purge_package() {
+  apt-get purge -y -q planar-grid >"$work/apt_purge.log" 2>&1 \
+    || { cat "$work/apt_purge.log" >&2; echo "check_install: apt-get purge planar-grid failed" >&2; return 1; }
+  apt_installed=false
+}
 cleanup() {
-  # A package this script installed leaves with it (purge), whatever ended the script.
-  if $apt_installed; then
-    apt-get purge -y -q planar-grid >"$work/apt_purge.log" 2>&1 \
-      || { cat "$work/apt_purge.log" >&2; echo "check_install: apt-get purge planar-grid failed" >&2; }
-  fi
+  # A package this script installed leaves with it, whatever ended the script.
+  if $apt_installed; then purge_package || true; fi
   rm -rf "$work"
 }
 trap cleanup EXIT
@@ -367,8 +370,7 @@ apt_install_check() {
     || { echo "check_install: dpkg does not list planar-grid $version as installed" >&2; return 1; }
   mapfile -t installed_files < <(dpkg -L planar-grid)
   local clean_env=(env -i PATH=/usr/bin:/bin HOME="$work" LANG=C.UTF-8)
-  [ "$(cd "$work" && "${clean_env[@]}" planar_grid_pipeline --version)" = "planar_grid_pipeline $version" ] \
-    || { echo "check_install: planar_grid_pipeline on PATH does not print $version" >&2; return 1; }
+  check_tools /usr
   mkdir -p "$work/apt_run"
   (cd "$work" && "${clean_env[@]}" planar_grid_pipeline --config "$work/office1.yaml" \
      --output "$work/apt_run" --no-snapshot -q) >"$work/apt_run.log" 2>&1 \
@@ -387,12 +389,9 @@ m = pg.PlanarGridMap.load('$work/apt_run/map.pgmap')
 assert m.memory['total_bytes'] > 0
 print('check_install: /usr/bin/python3 imports', pg.__file__, 'and loads the map')
 ")
-    [ "$(cd "$work" && "${clean_env[@]}" planar_grid_batch --version)" = "planar_grid_batch $version" ] \
-      || { echo "check_install: planar_grid_batch on PATH does not print $version" >&2; return 1; }
+    check_batch /usr
   fi
-  apt-get purge -y -q planar-grid >"$work/apt_purge.log" 2>&1 \
-    || { cat "$work/apt_purge.log" >&2; echo "check_install: apt-get purge planar-grid failed" >&2; return 1; }
-  apt_installed=false
+  purge_package || return 1
   local f left=()
   for f in "${installed_files[@]}"; do
     [ -d "$f" ] || [ ! -e "$f" ] || left+=("$f")
