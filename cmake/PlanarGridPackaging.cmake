@@ -67,6 +67,9 @@ set(_pg_recommends libpcl-dev libeigen3-dev libopencv-dev libyaml-cpp-dev nlohma
 if(PLANAR_GRID_BUILD_VIEWER)
   # The visualization module links VTK and X11 (its .pc file requires x11).
   list(APPEND _pg_recommends libvtk9-dev libx11-dev)
+  # Debian's VTK renders offscreen only through an X server: on a machine without a
+  # display the tools' snapshots (on by default) start Xvfb themselves.
+  list(APPEND _pg_recommends xvfb xauth)
 endif()
 if(PLANAR_GRID_HAVE_ROS_BAG)
   # The bag input's libraries, linked by their files (src/pipeline/CMakeLists.txt).

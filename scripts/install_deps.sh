@@ -16,6 +16,7 @@ PACKAGES=(
   doxygen
   help2man                  # the programs' manual pages (cmake/PlanarGridManPages.cmake)
   lintian                   # scripts/check_install.sh checks the Debian package with it
+  debootstrap               # scripts/check_clean_system.sh: the package on a clean Debian
   python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest mypy
   python3-open3d            # the Python examples and their tests (Open3D loads the scan)
   python3-distributed       # planar_grid.distributed and planar_grid_batch (Dask)

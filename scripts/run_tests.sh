@@ -5,7 +5,8 @@
 #   build/       Release, the libraries, tools, ROS node and Python module that users run
 #                (no C++ tests): a short real pipeline run with snapshots, the Python
 #                tests, the ROS node's test, the installed package with the examples
-#                built against it, the API docs.
+#                built against it, the package installed on a clean Debian
+#                (debootstrap) and used there, the API docs.
 #   build-asan/  AddressSanitizer + UndefinedBehaviorSanitizer (libraries and tools -O1,
 #                test sources -O0; line tables; shared libraries): every GoogleTest
 #                suite and tool test under the sanitizers (the tool tests run the
@@ -132,11 +133,23 @@ sanitizer_tests() {
   sanitized_ctest -E "$render_tests"
 }
 
+# The Debian package installed on a clean Debian made by debootstrap and used there
+# (scripts/check_clean_system.sh): as root on CI (CI=true) or when
+# PLANAR_GRID_CLEAN_SYSTEM=1 asks for it.
+clean_system_check() {
+  if [ "$(id -u)" = 0 ] && { [ "${CI:-}" = true ] || [ "${PLANAR_GRID_CLEAN_SYSTEM:-0}" = 1 ]; }; then
+    bash scripts/check_clean_system.sh "$BUILD_DIR"
+  else
+    echo "run_tests: the package was not checked on a clean system (root, with CI=true or PLANAR_GRID_CLEAN_SYSTEM=1)"
+  fi
+}
+
 phase deps bash scripts/install_deps.sh
 phase format bash scripts/check_format.sh
 phase build release_build
 phase release-checks release_checks
 phase install-check bash scripts/check_install.sh "$BUILD_DIR"
+phase clean-system clean_system_check
 phase docs bash scripts/build_docs.sh "$BUILD_DIR/docs"
 phase sanitizer-build sanitizer_build
 phase sanitizer-tests sanitizer_tests
