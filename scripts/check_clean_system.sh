@@ -161,6 +161,7 @@ CHECK
 echo "check_clean_system: installing $(basename "$deb") there and using it"
 # The chroot's apt keeps its downloads in this machine's archive cache (bound in), so
 # that a package fetched once is not fetched again; what is installed stays the chroot's.
+# shellcheck disable=SC2016  # the inner script expands its own arguments
 unshare --mount --propagation private /bin/bash -c '
   set -e
   mount -t proc proc "$1/proc"
