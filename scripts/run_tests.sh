@@ -47,19 +47,21 @@ release_build() {
   build_warning_free "$BUILD_DIR"
 }
 
-# The main job's configuration on the first real frames, with its snapshots, as the
-# Release tool runs it; then the tests registered in this build: the Python tests and
-# the ROS node's (a rosmaster, the node and rosbag play, label ros).
+# The main job, as the Release tool runs it, with its snapshots; the map figures the
+# docs quote are checked against it (scripts/check_main_job_figures.py). Then the tests
+# registered in this build: the Python tests and the ROS node's (a rosmaster, the node
+# and rosbag play, label ros).
 release_checks() {
   local out
-  out=$(mktemp -d "${TMPDIR:-/tmp}/planar_grid_smoke.XXXXXX")
-  "$BUILD_DIR/tools/planar_grid_pipeline" --config config/karlsruhe.yaml --frames 0:5 \
+  out=$(mktemp -d "${TMPDIR:-/tmp}/planar_grid_main_job.XXXXXX")
+  "$BUILD_DIR/tools/planar_grid_pipeline" --config config/karlsruhe.yaml \
     --output "$out" >"$out.log" 2>&1 || { cat "$out.log" >&2; rm -rf "$out" "$out.log"; return 1; }
   local f
   for f in map.pgmap map.bt report.json trajectory.txt snapshot.png cuboids.png; do
-    [ -s "$out/$f" ] || { cat "$out.log" >&2; echo "run_tests: the smoke run wrote no $f" >&2; return 1; }
+    [ -s "$out/$f" ] || { cat "$out.log" >&2; echo "run_tests: the main job wrote no $f" >&2; return 1; }
   done
-  echo "run_tests: main job configuration, frames 0-4: $(ls "$out" | wc -l) files"
+  echo "run_tests: the main job, 112 frames: $(find "$out" -maxdepth 1 -type f | wc -l) files"
+  python3 scripts/check_main_job_figures.py "$out" || { rm -rf "$out" "$out.log"; return 1; }
   rm -rf "$out" "$out.log"
   ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS" --timeout 600
 }
