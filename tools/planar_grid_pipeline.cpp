@@ -100,6 +100,8 @@ printHelp(const char* program)
     "                         process's limit where smaller (ulimit -v, ulimit -d)\n");
   print_info("    --list-stages        print every stage type with its parameters, "
              "defaults, units and ranges, then exit\n");
+  print_info("    --stage-reference    print the same as a Markdown page (docs/STAGES.md), "
+             "then exit\n");
   print_info(
     "    --print-default-pipeline\n"
     "                         print, as commented YAML, a pipeline: section with\n"
@@ -492,6 +494,10 @@ run(int argc, char** argv)
   }
   if (find_switch(argc, argv, "--list-stages")) {
     listStages();
+    return EXIT_SUCCESS;
+  }
+  if (find_switch(argc, argv, "--stage-reference")) {
+    std::cout << planar_grid::stageReferenceMarkdown();
     return EXIT_SUCCESS;
   }
   if (find_switch(argc, argv, "--print-default-pipeline")) {
