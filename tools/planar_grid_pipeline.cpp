@@ -100,8 +100,9 @@ printHelp(const char* program)
     "                         process's limit where smaller (ulimit -v, ulimit -d)\n");
   print_info("    --list-stages        print every stage type with its parameters, "
              "defaults, units and ranges, then exit\n");
-  print_info("    --stage-reference    print the same as a Markdown page (docs/STAGES.md), "
-             "then exit\n");
+  print_info(
+    "    --stage-reference    print the same as a Markdown page (docs/STAGES.md), "
+    "then exit\n");
   print_info(
     "    --print-default-pipeline\n"
     "                         print, as commented YAML, a pipeline: section with\n"

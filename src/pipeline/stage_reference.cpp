@@ -79,19 +79,20 @@ std::string
 stageReferenceMarkdown()
 {
   std::ostringstream out;
-  out << "# Pipeline stages and their parameters\n\n"
-         "Every stage type of the pipeline's YAML (`- type: NAME` with `params:` in the "
-         "`pipeline:` list), with each parameter's type, default, range and unit. This "
-         "page is generated from the stage tables, the same ones the configuration "
-         "check, `planar_grid_pipeline --list-stages`, the Python docstrings and "
-         "`config/example.yaml` come from:\n\n"
-         "```sh\n"
-         "build/tools/planar_grid_pipeline --stage-reference > docs/STAGES.md\n"
-         "```\n\n"
-         "The test `PipelineTool.StageReferenceIsCurrent` fails when this page differs "
-         "from the tables. Ranges are inclusive; a value outside its range, an unknown "
-         "key or a value of the wrong type is refused with its file:line:col.\n\n"
-         "Stages:";
+  out
+    << "# Pipeline stages and their parameters\n\n"
+       "Every stage type of the pipeline's YAML (`- type: NAME` with `params:` in the "
+       "`pipeline:` list), with each parameter's type, default, range and unit. This "
+       "page is generated from the stage tables, the same ones the configuration "
+       "check, `planar_grid_pipeline --list-stages`, the Python docstrings and "
+       "`config/example.yaml` come from:\n\n"
+       "```sh\n"
+       "build/tools/planar_grid_pipeline --stage-reference > docs/STAGES.md\n"
+       "```\n\n"
+       "The test `PipelineTool.StageReferenceIsCurrent` fails when this page differs "
+       "from the tables. Ranges are inclusive; a value outside its range, an unknown "
+       "key or a value of the wrong type is refused with its file:line:col.\n\n"
+       "Stages:";
   const auto& registry = stageRegistry();
   for (std::size_t i = 0; i < registry.size(); ++i)
     out << (i == 0 ? " " : ", ") << "[`" << registry[i].type << "`](#"

@@ -187,10 +187,10 @@ const StageInfo* findStage(const std::string& type);
 /** \brief The known stage types, comma-separated (for error messages). */
 std::string knownStageTypes();
 
-/** \brief The reference page of every stage and parameter, in Markdown (docs/STAGES.md):
- * for each stage of stageRegistry() its description, role, needs and products, and a
- * table of its parameters (key, type, default, range, unit, meaning), all from the
- * stage tables. `planar_grid_pipeline --stage-reference` prints it. */
+/** \brief The reference page of every stage and parameter, in Markdown
+ * (docs/STAGES.md): for each stage of stageRegistry() its description, role, needs and
+ * products, and a table of its parameters (key, type, default, range, unit, meaning),
+ * all from the stage tables. `planar_grid_pipeline --stage-reference` prints it. */
 std::string stageReferenceMarkdown();
 
 } // namespace planar_grid
