@@ -5,6 +5,7 @@
 // class, and a value at its inside edges is accepted by both.
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/core/param_range.h>
+#include <planar_grid/filters/fast_statistical_outlier_removal.h>
 #include <planar_grid/filters/kl_divergence_occupancy_filter.h>
 #include <planar_grid/map/explicit_space_grid.h>
 #include <planar_grid/map/surface_layer.h>
@@ -26,6 +27,7 @@
 #include <functional>
 #include <iomanip>
 #include <limits>
+#include <memory>
 #include <set>
 #include <sstream>
 #include <string>
@@ -175,6 +177,21 @@ spaceGrid(Set set)
     set(p, v);
     return constructs([&p] { planar_grid::ExplicitSpaceGrid grid(p); });
   };
+}
+
+/** Whether FastStatisticalOutlierRemoval filters three points with \a mean_k (it
+ * checks the value when it starts). */
+bool
+outlierRemovalAccepts(double mean_k)
+{
+  planar_grid::FastStatisticalOutlierRemoval<pcl::PointXYZ> f;
+  f.setMeanK(toInt(mean_k));
+  auto cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  for (int i = 0; i < 3; ++i)
+    cloud->push_back(pcl::PointXYZ(static_cast<float>(i), 0.0f, 0.0f));
+  f.setInputCloud(cloud);
+  pcl::Indices kept;
+  return constructs([&] { f.filter(kept); });
 }
 
 std::vector<ClassParam>
@@ -394,6 +411,9 @@ classParams()
      spaceGrid([](G& p, double v) { p.max_range_m = v; })},
     {mi, "surface_margin_m", esg::SURFACE_MARGIN,
      spaceGrid([](G& p, double v) { p.surface_margin_m = v; })},
+    {"statistical_outlier_removal", "mean_k",
+     planar_grid::fast_statistical_outlier_removal_ranges::MEAN_K,
+     outlierRemovalAccepts},
   };
 }
 
