@@ -28,8 +28,9 @@ inline constexpr ParamRange RATIO = ParamRange::openMin(0.0, 1.0);
 inline constexpr ParamRange MAX_ROW_DIFFERENCE = ParamRange::closed(0.0, 10.0);
 /** \brief Largest disparity accepted: (0, 1024] pixels. */
 inline constexpr ParamRange MAX_DISPARITY = ParamRange::openMin(0.0, 1024.0);
-/** \brief Largest range of a feature: (0, 1000] metres. */
-inline constexpr ParamRange MAX_RANGE = ParamRange::openMin(0.0, 1000.0);
+/** \brief Largest range of a feature: (0, 1000000] metres; its end keeps every match
+ * (0.0005 px of disparity at f B = 500 px m). */
+inline constexpr ParamRange MAX_RANGE = ParamRange::openMin(0.0, 1e6);
 /** \brief ORB_GRID: side of the grid cells: [8, 1024] pixels. */
 inline constexpr ParamRange BUCKET_SIZE = ParamRange::closed(8, 1024);
 /** \brief ORB_GRID: cv::FAST threshold: [1, 255] grey levels. */
