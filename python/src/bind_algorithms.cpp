@@ -415,37 +415,53 @@ input (no points, only NaN, colinear points) gives no plane.
         param<double>("distance_threshold_m", &Segmentation::getDistanceThreshold,
                       &Segmentation::setDistanceThreshold,
                       "d_T of eq. 11, the largest point-to-plane distance of a dense "
-                      "inlier, meters, > 0"),
+                      "inlier, meters, in "
+                        + formatParamRange(
+                          sac_multi_plane_segmentation_ranges::DISTANCE_THRESHOLD)),
         unsetParam<double>(
           "sample_distance_threshold_m", &Segmentation::getSampleDistanceThreshold,
           &Segmentation::setSampleDistanceThreshold,
-          "inlier threshold of the sample consensus on the sample points, meters, > 0; "
-          "until set (None) it is distance_threshold_m"),
+          "inlier threshold of the sample consensus on the sample points, meters, in "
+            + formatParamRange(
+              sac_multi_plane_segmentation_ranges::SAMPLE_DISTANCE_THRESHOLD)
+            + "; until set (None) it is distance_threshold_m"),
         param<double>(
           "depth_noise_coefficient_per_m", &Segmentation::getDepthNoiseCoefficient,
           &Segmentation::setDepthNoiseCoefficient,
-          "Delta d / (B f), 1/m, >= 0: a point at range r from the sensor origin is an "
-          "inlier within max(d_T, coefficient r^2); 0 keeps the paper's fixed d_T"),
-        param<int>("max_planes", &Segmentation::getMaxPlanes,
-                   &Segmentation::setMaxPlanes,
-                   "the most planes returned (before merging), >= 1"),
-        param<int>("min_inliers", &Segmentation::getMinInliers,
-                   &Segmentation::setMinInliers,
-                   "the fewest dense inliers of a kept plane, points, >= 3"),
+          "Delta d / (B f), 1/m, in "
+            + formatParamRange(
+              sac_multi_plane_segmentation_ranges::DEPTH_NOISE_COEFFICIENT)
+            + ": a point at range r from the sensor origin is an "
+              "inlier within max(d_T, coefficient r^2); 0 keeps the paper's fixed d_T"),
+        param<int>(
+          "max_planes", &Segmentation::getMaxPlanes, &Segmentation::setMaxPlanes,
+          "the most planes returned (before merging), in "
+            + formatParamRange(sac_multi_plane_segmentation_ranges::MAX_PLANES)),
+        param<int>(
+          "min_inliers", &Segmentation::getMinInliers, &Segmentation::setMinInliers,
+          "the fewest dense inliers of a kept plane, points, in "
+            + formatParamRange(sac_multi_plane_segmentation_ranges::MIN_INLIERS)),
         param<int>("min_sample_inliers", &Segmentation::getMinSampleInliers,
                    &Segmentation::setMinSampleInliers,
                    "the fewest sample inliers of a hypothesis, points; fewer ends the "
-                   "search, >= 3"),
+                   "search, in "
+                     + formatParamRange(
+                       sac_multi_plane_segmentation_ranges::MIN_SAMPLE_INLIERS)),
         param<double>("min_remaining_fraction", &Segmentation::getMinRemainingFraction,
                       &Segmentation::setMinRemainingFraction,
                       "the search stops when less than this fraction of the sample "
-                      "remains, in [0, 1)"),
-        param<int>("max_iterations", &Segmentation::getMaxIterations,
-                   &Segmentation::setMaxIterations,
-                   "sample consensus iterations per plane, >= 1"),
-        param<double>("probability", &Segmentation::getProbability,
-                      &Segmentation::setProbability,
-                      "probability of drawing one outlier-free sample, in (0, 1)"),
+                      "remains, in "
+                        + formatParamRange(
+                          sac_multi_plane_segmentation_ranges::MIN_REMAINING_FRACTION)),
+        param<int>(
+          "max_iterations", &Segmentation::getMaxIterations,
+          &Segmentation::setMaxIterations,
+          "sample consensus iterations per plane, in "
+            + formatParamRange(sac_multi_plane_segmentation_ranges::MAX_ITERATIONS)),
+        param<double>(
+          "probability", &Segmentation::getProbability, &Segmentation::setProbability,
+          "probability of drawing one outlier-free sample, in "
+            + formatParamRange(sac_multi_plane_segmentation_ranges::PROBABILITY)),
         param<std::string>(
           "method", [](const Segmentation& s) { return methodName(s.getMethodType()); },
           [](Segmentation& s, const std::string& name) {
@@ -459,19 +475,26 @@ input (no points, only NaN, colinear points) gives no plane.
         param<bool>("dense_hypothesis", &Segmentation::getDenseHypothesis,
                     &Segmentation::setDenseHypothesis,
                     "each round also hypothesises a plane from the dense points"),
-        param<int>("lo_iterations", &Segmentation::getLocalOptimizationIterations,
-                   &Segmentation::setLocalOptimizationIterations,
-                   "local optimisation (LO-RANSAC) samples per plane, >= 0"),
+        param<int>(
+          "lo_iterations", &Segmentation::getLocalOptimizationIterations,
+          &Segmentation::setLocalOptimizationIterations,
+          "local optimisation (LO-RANSAC) samples per plane, in "
+            + formatParamRange(sac_multi_plane_segmentation_ranges::LO_ITERATIONS)),
         param<bool>("merge_planes", &Segmentation::getMergePlanes,
                     &Segmentation::setMergePlanes, "merge near-duplicate planes"),
         param<double>("merge_angle_rad", &Segmentation::getMergeAngleThreshold,
                       &Segmentation::setMergeAngleThreshold,
                       "largest angle between the normals of two planes that merge, "
-                      "radians, in [0, pi/2]"),
-        param<double>("merge_distance_m", &Segmentation::getMergeDistanceThreshold,
-                      &Segmentation::setMergeDistanceThreshold,
-                      "largest difference of the offsets d of two planes that merge, "
-                      "meters, >= 0"),
+                      "radians, in "
+                        + formatParamRange(
+                          sac_multi_plane_segmentation_ranges::MERGE_ANGLE_THRESHOLD)),
+        param<double>(
+          "merge_distance_m", &Segmentation::getMergeDistanceThreshold,
+          &Segmentation::setMergeDistanceThreshold,
+          "largest difference of the offsets d of two planes that merge, "
+          "meters, in "
+            + formatParamRange(
+              sac_multi_plane_segmentation_ranges::MERGE_DISTANCE_THRESHOLD)),
         param<DoubleArray>(
           "up_axis", [](const Segmentation& s) { return toArray(s.getUpAxis()); },
           [](Segmentation& s, const DoubleArray& axis) {
@@ -481,10 +504,12 @@ input (no points, only NaN, colinear points) gives no plane.
           "frame)"),
         param<unsigned>("seed", &Segmentation::getSeed, &Segmentation::setSeed,
                         "seed of the subsample and the sample shuffles"),
-        param<int>("max_sample_size", &Segmentation::getMaxSampleSize,
-                   &Segmentation::setMaxSampleSize,
-                   "points subsampled for the hypotheses when no sample points are "
-                   "given, >= 3")));
+        param<int>(
+          "max_sample_size", &Segmentation::getMaxSampleSize,
+          &Segmentation::setMaxSampleSize,
+          "points subsampled for the hypotheses when no sample points are "
+          "given, in "
+            + formatParamRange(sac_multi_plane_segmentation_ranges::MAX_SAMPLE_SIZE))));
   cls.def(
     "segment",
     [](Segmentation& self, const FloatArray& points, const py::object& sample_points,
@@ -559,29 +584,43 @@ all-NaN input gives no cuboid.
     .bind(
       std::make_tuple(),
       std::make_tuple(
-        param<double>("min_cell_size_m", &Approximation::getMinCellSize,
-                      &Approximation::setMinCellSize,
-                      "raster resolution and smallest unit side, meters, > 0"),
-        param<double>("density_threshold", &Approximation::getDensityThreshold,
-                      &Approximation::setDensityThreshold,
-                      "D_T of Fig. 8; a unit splits while its occupied share is below "
-                      "it, in (0, 1]"),
-        param<double>("non_planar_density_threshold",
-                      &Approximation::getNonPlanarDensityThreshold,
-                      &Approximation::setNonPlanarDensityThreshold,
-                      "occupied share a non-planar box must reach before it stops "
-                      "splitting, in (0, 1], or 0 for density_threshold"),
-        param<double>("min_width_m", &Approximation::getMinWidth,
-                      &Approximation::setMinWidth, "W_T of Fig. 8, meters, >= 0"),
-        param<double>("min_height_m", &Approximation::getMinHeight,
-                      &Approximation::setMinHeight, "H_T of Fig. 8, meters, >= 0"),
-        param<double>("thickness_m", &Approximation::getThickness,
-                      &Approximation::setThickness,
-                      "smallest extrusion behind a planar face and smallest depth of a "
-                      "non-planar box, meters, > 0"),
+        param<double>(
+          "min_cell_size_m", &Approximation::getMinCellSize,
+          &Approximation::setMinCellSize,
+          "raster resolution and smallest unit side, meters, in "
+            + formatParamRange(planar_cuboid_approximation_ranges::MIN_CELL_SIZE)),
+        param<double>(
+          "density_threshold", &Approximation::getDensityThreshold,
+          &Approximation::setDensityThreshold,
+          "D_T of Fig. 8; a unit splits while its occupied share is below "
+          "it, in "
+            + formatParamRange(planar_cuboid_approximation_ranges::DENSITY_THRESHOLD)),
+        param<double>(
+          "non_planar_density_threshold", &Approximation::getNonPlanarDensityThreshold,
+          &Approximation::setNonPlanarDensityThreshold,
+          "occupied share a non-planar box must reach before it stops "
+          "splitting, in "
+            + formatParamRange(
+              planar_cuboid_approximation_ranges::NON_PLANAR_DENSITY_THRESHOLD)
+            + "; 0 for density_threshold"),
+        param<double>(
+          "min_width_m", &Approximation::getMinWidth, &Approximation::setMinWidth,
+          "W_T of Fig. 8, meters, in "
+            + formatParamRange(planar_cuboid_approximation_ranges::MIN_WIDTH)),
+        param<double>(
+          "min_height_m", &Approximation::getMinHeight, &Approximation::setMinHeight,
+          "H_T of Fig. 8, meters, in "
+            + formatParamRange(planar_cuboid_approximation_ranges::MIN_HEIGHT)),
+        param<double>(
+          "thickness_m", &Approximation::getThickness, &Approximation::setThickness,
+          "smallest extrusion behind a planar face and smallest depth of a "
+          "non-planar box, meters, in "
+            + formatParamRange(planar_cuboid_approximation_ranges::THICKNESS)),
         param<int>("min_points_per_cell", &Approximation::getMinPointsPerCell,
                    &Approximation::setMinPointsPerCell,
-                   "the fewest points of an output cuboid, >= 1"),
+                   "the fewest points of an output cuboid, in "
+                     + formatParamRange(
+                       planar_cuboid_approximation_ranges::MIN_POINTS_PER_CELL)),
         param<DoubleArray>(
           "up_axis", [](const Approximation& a) { return toArray(a.getUpAxis()); },
           [](Approximation& a, const DoubleArray& axis) {

@@ -65,27 +65,49 @@ __init__). All are read-write properties.
                         },
                         "B of the rectified stereo rig (eq. 4), meters, > 0")),
       std::make_tuple(
-        PLANAR_GRID_FILTER_PARAM(double, disparity_error_px, DisparityError,
-                                 "dd of eq. 4, the disparity error, pixels, > 0"),
-        PLANAR_GRID_FILTER_PARAM(double, neighbourhood_size_m, NeighbourhoodSize,
-                                 "edge of the cell over which the mean range is taken, "
-                                 "meters, > 0"),
-        PLANAR_GRID_FILTER_PARAM(double, clamping_thres_min, ClampingThresMin,
-                                 "lower clamp of a track's probability, in (0, 0.5)"),
-        PLANAR_GRID_FILTER_PARAM(double, clamping_thres_max, ClampingThresMax,
-                                 "upper clamp of a track's probability, in (0.5, 1)"),
-        PLANAR_GRID_FILTER_PARAM(double, occupancy_thres, OccupancyThres,
-                                 "a feature is kept when its probability reaches it, "
-                                 "probability in [0, 1]"),
-        PLANAR_GRID_FILTER_PARAM(double, kl_offset_nats, KLOffset,
-                                 "A of eq. 10, nats, >= 0"),
-        PLANAR_GRID_FILTER_PARAM(double, prob_hit, ProbHit,
-                                 "log-odds rule, probability of a hit, in (0.5, 1)"),
-        PLANAR_GRID_FILTER_PARAM(double, prob_miss, ProbMiss,
-                                 "log-odds rule, probability of a miss, in (0, 0.5)"),
-        PLANAR_GRID_FILTER_PARAM(double, association_radius_m, AssociationRadius,
-                                 "without track ids, a feature joins the nearest track "
-                                 "within this distance, meters, > 0"),
+        PLANAR_GRID_FILTER_PARAM(
+          double, disparity_error_px, DisparityError,
+          "dd of eq. 4, the disparity error, pixels, in "
+            + formatParamRange(kl_divergence_occupancy_filter_ranges::DISPARITY_ERROR)),
+        PLANAR_GRID_FILTER_PARAM(
+          double, neighbourhood_size_m, NeighbourhoodSize,
+          "edge of the cell over which the mean range is taken, "
+          "meters, in "
+            + formatParamRange(
+              kl_divergence_occupancy_filter_ranges::NEIGHBOURHOOD_SIZE)),
+        PLANAR_GRID_FILTER_PARAM(
+          double, clamping_thres_min, ClampingThresMin,
+          "lower clamp of a track's probability, in "
+            + formatParamRange(
+              kl_divergence_occupancy_filter_ranges::CLAMPING_THRES_MIN)),
+        PLANAR_GRID_FILTER_PARAM(
+          double, clamping_thres_max, ClampingThresMax,
+          "upper clamp of a track's probability, in "
+            + formatParamRange(
+              kl_divergence_occupancy_filter_ranges::CLAMPING_THRES_MAX)),
+        PLANAR_GRID_FILTER_PARAM(
+          double, occupancy_thres, OccupancyThres,
+          "a feature is kept when its probability reaches it, "
+          "probability in "
+            + formatParamRange(kl_divergence_occupancy_filter_ranges::OCCUPANCY_THRES)),
+        PLANAR_GRID_FILTER_PARAM(
+          double, kl_offset_nats, KLOffset,
+          "A of eq. 10, nats, in "
+            + formatParamRange(kl_divergence_occupancy_filter_ranges::KL_OFFSET)),
+        PLANAR_GRID_FILTER_PARAM(
+          double, prob_hit, ProbHit,
+          "log-odds rule, probability of a hit, in "
+            + formatParamRange(kl_divergence_occupancy_filter_ranges::PROB_HIT)),
+        PLANAR_GRID_FILTER_PARAM(
+          double, prob_miss, ProbMiss,
+          "log-odds rule, probability of a miss, in "
+            + formatParamRange(kl_divergence_occupancy_filter_ranges::PROB_MISS)),
+        PLANAR_GRID_FILTER_PARAM(
+          double, association_radius_m, AssociationRadius,
+          "without track ids, a feature joins the nearest track "
+          "within this distance, meters, in "
+            + formatParamRange(
+              kl_divergence_occupancy_filter_ranges::ASSOCIATION_RADIUS)),
         param<std::string>(
           "update_rule", [](const Filter& f) { return toString(f.getUpdateRule()); },
           [](Filter& f, const std::string& name) {

@@ -56,8 +56,7 @@ stageParameterDocs(const std::string& stage_type, const std::vector<std::string>
       case ParamSpec::Type::INT:
         type = spec->type == ParamSpec::Type::DOUBLE ? "float" : "int";
         text += (spec->unit.empty() ? "" : " " + spec->unit)
-                + "; a configuration accepts [" + formatParamNumber(spec->min) + ", "
-                + formatParamNumber(spec->max) + "].";
+                + "; a configuration accepts " + formatParamRange(spec->range) + ".";
         break;
       case ParamSpec::Type::BOOL:
         type = "bool";
@@ -483,8 +482,12 @@ dict
             row["default"] = defaults.getChoice(spec.key);
             break;
         }
-        row["min"] = ranged ? py::object(py::float_(spec.min)) : py::none();
-        row["max"] = ranged ? py::object(py::float_(spec.max)) : py::none();
+        row["min"] = ranged ? py::object(py::float_(spec.range.min)) : py::none();
+        row["max"] = ranged ? py::object(py::float_(spec.range.max)) : py::none();
+        row["min_open"] =
+          ranged ? py::object(py::bool_(spec.range.min_open)) : py::none();
+        row["max_open"] =
+          ranged ? py::object(py::bool_(spec.range.max_open)) : py::none();
         row["unit"] = spec.unit;
         row["choices"] = spec.choices;
         row["description"] = spec.description;
@@ -507,8 +510,9 @@ Returns
 list of dict
     One dict per parameter, in the table's order: ``key`` (the YAML key, ending in its
     unit), ``type`` ('float', 'int', 'bool' or 'choice'), ``default`` (of that type),
-    ``min`` and ``max`` (inclusive bounds in the unit; None for bool and choice),
-    ``unit`` ('' for counts and flags), ``choices`` (the allowed names of a choice)
+    ``min`` and ``max`` (the range's ends in the unit; None for bool and choice),
+    ``min_open`` and ``max_open`` (True where that end is not in the range, as in
+    "(0, 1]"; None for bool and choice), ``unit`` ('' for counts and flags), ``choices`` (the allowed names of a choice)
     and ``description``.
 
 Raises

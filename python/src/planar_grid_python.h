@@ -130,25 +130,26 @@ template <typename V, bool UnsetByDefault, typename Get, typename Set> struct Pa
   Get get;
   /** \brief Writes the value to the object. */
   Set set;
-  /** \brief Meaning, unit and range, without type or default. */
-  const char* doc;
+  /** \brief Meaning, unit and range, without type or default (a range is quoted
+   * from the class's declaration, formatParamRange()). */
+  std::string doc;
 };
 
 /** \brief A parameter whose constructor default is the value of a default-constructed
  * C++ object. */
 template <typename V, typename Get, typename Set>
 Param<V, false, Get, Set>
-param(const char* name, Get get, Set set, const char* doc)
+param(const char* name, Get get, Set set, std::string doc)
 {
-  return {name, std::move(get), std::move(set), doc};
+  return {name, std::move(get), std::move(set), std::move(doc)};
 }
 
 /** \brief A parameter whose constructor default is None (left unset; see Param). */
 template <typename V, typename Get, typename Set>
 Param<V, true, Get, Set>
-unsetParam(const char* name, Get get, Set set, const char* doc)
+unsetParam(const char* name, Get get, Set set, std::string doc)
 {
-  return {name, std::move(get), std::move(set), doc};
+  return {name, std::move(get), std::move(set), std::move(doc)};
 }
 
 /** \brief The Python type of a parameter value, as docstrings name it: an array is

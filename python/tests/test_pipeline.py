@@ -143,6 +143,10 @@ def test_stage_parameters_give_the_table():
     assert leaf["type"] == "float" and leaf["unit"] == "m"
     assert leaf["default"] == pytest.approx(0.05)
     assert leaf["min"] <= leaf["default"] <= leaf["max"]
+    assert leaf["min_open"] is False and leaf["max_open"] is False
+    dist = {row["key"]: row for row in
+            pg.stage_parameters("multi_plane_segmentation")}["distance_threshold_m"]
+    assert dist["min"] == 0.0 and dist["min_open"] is True
     assert rows["min_points_per_voxel"]["default"] == 1
     method = {row["key"]: row for row in
               pg.stage_parameters("multi_plane_segmentation")}["method"]

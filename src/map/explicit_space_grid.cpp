@@ -155,15 +155,15 @@ DepthImage::fromPointCloud(const pcl::PointCloud<pcl::PointXYZ>& cloud,
 ExplicitSpaceGrid::ExplicitSpaceGrid(const Params& params) :
     impl_(std::make_unique<Impl>()), params_(params)
 {
-  if (!(params.resolution_m > 0.0) || !std::isfinite(params.resolution_m))
-    throw Exception("ExplicitSpaceGrid: resolution_m must be finite and > 0, got "
-                    + std::to_string(params.resolution_m));
-  if (!(params.max_range_m > 0.0) || !std::isfinite(params.max_range_m))
-    throw Exception("ExplicitSpaceGrid: max_range_m must be finite and > 0, got "
-                    + std::to_string(params.max_range_m));
-  if (!(params.surface_margin_m >= 0.0) || !std::isfinite(params.surface_margin_m))
-    throw Exception("ExplicitSpaceGrid: surface_margin_m must be finite and >= 0, got "
-                    + std::to_string(params.surface_margin_m));
+  namespace ranges = explicit_space_grid_ranges;
+  const auto check = [](const char* name, double value, const ParamRange& range) {
+    if (!range.contains(value))
+      throw Exception("ExplicitSpaceGrid: " + paramRangeMessage(name, range, "m")
+                      + ", got " + formatParamNumber(value));
+  };
+  check("resolution_m", params.resolution_m, ranges::RESOLUTION);
+  check("max_range_m", params.max_range_m, ranges::MAX_RANGE);
+  check("surface_margin_m", params.surface_margin_m, ranges::SURFACE_MARGIN);
   if (params.prior != SpaceState::FREE && params.prior != SpaceState::UNKNOWN)
     throw Exception("ExplicitSpaceGrid: prior must be free or unknown, got "
                     + toString(params.prior));

@@ -19,32 +19,31 @@ namespace surface_layer_detail {
 void
 validate(const SurfaceLayer::Params& p)
 {
-  const auto bad = [](const std::string& what) {
-    throw Exception("SurfaceLayer: invalid parameter " + what);
+  namespace ranges = surface_layer_ranges;
+  const auto check = [](const char* name, double value, const ParamRange& range,
+                        const char* unit) {
+    if (!range.contains(value))
+      throw Exception("SurfaceLayer: invalid parameter "
+                      + paramRangeMessage(name, range, unit) + ", got "
+                      + formatParamNumber(value));
   };
-  if (!(p.resolution_m >= 1e-3 && p.resolution_m <= 100.0))
-    bad("resolution_m (must be in [0.001, 100] m)");
-  if (!(p.thickness_m > 0.0) || !std::isfinite(p.thickness_m))
-    bad("thickness_m (must be finite and > 0 m)");
-  if (!(p.plane_merge_angle_rad > 0.0 && p.plane_merge_angle_rad < M_PI / 2))
-    bad("plane_merge_angle_rad (must be in (0, pi/2) rad)");
-  if (!(p.plane_merge_distance_m > 0.0) || !std::isfinite(p.plane_merge_distance_m))
-    bad("plane_merge_distance_m (must be finite and > 0 m)");
-  if (!(p.occupancy_thres > 0.0 && p.occupancy_thres < 1.0))
-    bad("occupancy_thres (must be a probability in (0, 1))");
-  if (!(p.feature_distance_m >= 0.0) || !std::isfinite(p.feature_distance_m))
-    bad("feature_distance_m (must be finite and >= 0 m)");
-  if (p.close_gaps_cells < 0 || p.close_gaps_cells > MAX_CLOSE_GAPS_CELLS)
-    bad("close_gaps_cells (must be in [0, " + std::to_string(MAX_CLOSE_GAPS_CELLS)
-        + "] cells)");
+  check("resolution_m", p.resolution_m, ranges::RESOLUTION, "m");
+  check("thickness_m", p.thickness_m, ranges::THICKNESS, "m");
+  check("plane_merge_angle_rad", p.plane_merge_angle_rad, ranges::PLANE_MERGE_ANGLE,
+        "rad");
+  check("plane_merge_distance_m", p.plane_merge_distance_m,
+        ranges::PLANE_MERGE_DISTANCE, "m");
+  check("occupancy_thres", p.occupancy_thres, ranges::OCCUPANCY_THRES, "");
+  check("feature_distance_m", p.feature_distance_m, ranges::FEATURE_DISTANCE, "m");
+  check("close_gaps_cells", p.close_gaps_cells, ranges::CLOSE_GAPS, "cells");
   if (p.merge_rule != SurfaceMergeRule::PAPER
       && p.merge_rule != SurfaceMergeRule::MIN_RECTANGLES
       && p.merge_rule != SurfaceMergeRule::DENSITY)
-    bad("merge_rule (must be paper, min_rectangles or density)");
-  if (!(p.cover_density >= 0.5 && p.cover_density <= 1.0))
-    bad("cover_density (must be a share in [0.5, 1])");
-  if (!(p.absorb_distance_m >= 0.0) || !std::isfinite(p.absorb_distance_m))
-    bad("absorb_distance_m (must be finite and >= 0 m)");
+    throw Exception(
+      "SurfaceLayer: invalid parameter merge_rule (must be paper, min_rectangles or "
+      "density)");
+  check("cover_density", p.cover_density, ranges::COVER_DENSITY, "");
+  check("absorb_distance_m", p.absorb_distance_m, ranges::ABSORB_DISTANCE, "m");
 }
 
 } // namespace surface_layer_detail

@@ -34,7 +34,8 @@ inline constexpr double MAX_BINS_PER_CUBOID = 4096.0;
 inline constexpr std::uint32_t MAGIC = 0x4C534750u;
 inline constexpr std::uint32_t VERSION = 4;
 /** \brief Largest Params::close_gaps_cells. */
-inline constexpr int MAX_CLOSE_GAPS_CELLS = 32;
+inline constexpr int MAX_CLOSE_GAPS_CELLS =
+  static_cast<int>(surface_layer_ranges::CLOSE_GAPS.max);
 
 /** \brief Bytes of one node of a std::unordered_map (libstdc++: next pointer, value,
  * cached hash for non-fast hashes; we count the pointer, the value and round to 8). */

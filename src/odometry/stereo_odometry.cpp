@@ -210,46 +210,40 @@ invalidResult(std::size_t correspondences,
 
 StereoOdometry::StereoOdometry(const Params& params) : params_(params)
 {
-  std::ostringstream error;
-  if (!(params.ratio > 0.0 && params.ratio <= 1.0))
-    error << "ratio must be in (0, 1], got " << params.ratio;
-  else if (!(params.max_descriptor_distance >= 0.0))
-    error << "max_descriptor_distance must be >= 0, got "
-          << params.max_descriptor_distance;
-  else if (!(params.distance_threshold_m > 0.0))
-    error << "distance_threshold_m must be > 0, got " << params.distance_threshold_m;
-  else if (!(params.reference_depth_m >= 0.0))
-    error << "reference_depth_m must be >= 0, got " << params.reference_depth_m;
-  else if (!(params.reprojection_threshold_px > 0.0))
-    error << "reprojection_threshold_px must be > 0, got "
-          << params.reprojection_threshold_px;
-  else if (!(params.epipolar_threshold_px > 0.0))
-    error << "epipolar_threshold_px must be > 0, got " << params.epipolar_threshold_px;
-  else if (!(params.epipolar_max_rotation_change_rad > 0.0))
-    error << "epipolar_max_rotation_change_rad must be > 0, got "
-          << params.epipolar_max_rotation_change_rad;
-  else if (!(params.epipolar_min_translation_m >= 0.0))
-    error << "epipolar_min_translation_m must be >= 0, got "
-          << params.epipolar_min_translation_m;
-  else if (!(std::abs(params.disparity_offset_px) <= 20.0))
-    error << "disparity_offset_px must be in [-20, 20], got "
-          << params.disparity_offset_px;
-  else if (!(params.disparity_offset_sigma_px > 0.0)
-           || !std::isfinite(params.disparity_offset_sigma_px))
-    error << "disparity_offset_sigma_px must be > 0, got "
-          << params.disparity_offset_sigma_px;
-  else if (!(params.disparity_offset_memory >= 0.0
-             && params.disparity_offset_memory <= 1.0))
-    error << "disparity_offset_memory must be in [0, 1], got "
-          << params.disparity_offset_memory;
-  else if (params.max_iterations < 1)
-    error << "max_iterations must be >= 1, got " << params.max_iterations;
-  else if (!(params.probability > 0.0 && params.probability < 1.0))
-    error << "probability must be in (0, 1), got " << params.probability;
-  else if (params.min_inliers < 3)
-    error << "min_inliers must be >= 3, got " << params.min_inliers;
-  if (!error.str().empty())
-    throw Exception("StereoOdometry: " + error.str());
+  namespace ranges = stereo_odometry_ranges;
+  // The first value outside its declared range is reported.
+  std::string error;
+  const auto check = [&error](const char* name, double value, const ParamRange& range,
+                              const char* unit) {
+    if (error.empty() && !range.contains(value))
+      error =
+        paramRangeMessage(name, range, unit) + ", got " + formatParamNumber(value);
+  };
+  check("ratio", params.ratio, ranges::RATIO, "");
+  check("max_descriptor_distance", params.max_descriptor_distance,
+        ranges::MAX_DESCRIPTOR_DISTANCE, "");
+  check("distance_threshold_m", params.distance_threshold_m, ranges::DISTANCE_THRESHOLD,
+        "m");
+  check("reference_depth_m", params.reference_depth_m, ranges::REFERENCE_DEPTH, "m");
+  check("reprojection_threshold_px", params.reprojection_threshold_px,
+        ranges::REPROJECTION_THRESHOLD, "px");
+  check("epipolar_threshold_px", params.epipolar_threshold_px,
+        ranges::EPIPOLAR_THRESHOLD, "px");
+  check("epipolar_max_rotation_change_rad", params.epipolar_max_rotation_change_rad,
+        ranges::EPIPOLAR_MAX_ROTATION_CHANGE, "rad");
+  check("epipolar_min_translation_m", params.epipolar_min_translation_m,
+        ranges::EPIPOLAR_MIN_TRANSLATION, "m");
+  check("disparity_offset_px", params.disparity_offset_px, ranges::DISPARITY_OFFSET,
+        "px");
+  check("disparity_offset_sigma_px", params.disparity_offset_sigma_px,
+        ranges::DISPARITY_OFFSET_SIGMA, "px");
+  check("disparity_offset_memory", params.disparity_offset_memory,
+        ranges::DISPARITY_OFFSET_MEMORY, "");
+  check("max_iterations", params.max_iterations, ranges::MAX_ITERATIONS, "");
+  check("probability", params.probability, ranges::PROBABILITY, "");
+  check("min_inliers", params.min_inliers, ranges::MIN_INLIERS, "");
+  if (!error.empty())
+    throw Exception("StereoOdometry: " + error);
 }
 
 StereoOdometry::StereoOdometry() : StereoOdometry(Params()) {}

@@ -21,9 +21,15 @@ namespace planar_grid {
 ConstantVelocityMotionModel::ConstantVelocityMotionModel(const Params& params) :
     params_(params)
 {
-  if (!(params.sigma_translation_m > 0.0) || !(params.sigma_rotation_rad > 0.0))
-    throw Exception("ConstantVelocityMotionModel: sigma_translation_m and "
-                    "sigma_rotation_rad must be > 0");
+  namespace ranges = constant_velocity_motion_model_ranges;
+  if (!ranges::SIGMA_TRANSLATION.contains(params.sigma_translation_m))
+    throw Exception(
+      "ConstantVelocityMotionModel: "
+      + paramRangeMessage("sigma_translation_m", ranges::SIGMA_TRANSLATION, "m"));
+  if (!ranges::SIGMA_ROTATION.contains(params.sigma_rotation_rad))
+    throw Exception(
+      "ConstantVelocityMotionModel: "
+      + paramRangeMessage("sigma_rotation_rad", ranges::SIGMA_ROTATION, "rad"));
 }
 
 ConstantVelocityMotionModel::ConstantVelocityMotionModel() :

@@ -142,6 +142,7 @@ cloudFeaturesInfo()
     "cube of point_spacing_m (pcl::UniformSampling), without descriptors. Put it "
     "before voxel_grid and the other filters, which unorganize the cloud.";
   const StereoFeatureMatcher::Params f;
+  namespace ranges = stereo_feature_matcher_ranges;
   info.params = {
     ParamSpec::choice("source", "auto", {"auto", "image", "points"},
                       "image: key points on the organized cloud's image (an error "
@@ -152,16 +153,16 @@ cloudFeaturesInfo()
                       "Detector and descriptor on the image: orb_grid (FAST corners "
                       "bucketed over a grid, upright ORB), orb (OpenCV defaults), "
                       "sift. The stage's value; the matcher defaults to sift."),
-    ParamSpec::integer("max_features", 1000, 10, 100000, "",
+    ParamSpec::integer("max_features", 1000, ranges::MAX_FEATURES, "",
                        "Most key points detected on the image (orb_grid: spread "
                        "evenly over the grid cells). The stage's value; the matcher "
                        "defaults to "
                          + std::to_string(f.max_features) + "."),
-    ParamSpec::integer("bucket_size_px", f.bucket_size_px, 8, 1024, "px",
+    ParamSpec::integer("bucket_size_px", f.bucket_size_px, ranges::BUCKET_SIZE, "px",
                        "orb_grid: side of the square grid cells."),
-    ParamSpec::integer("fast_threshold", f.fast_threshold, 1, 255, "grey levels",
-                       "orb_grid: cv::FAST segment-test threshold."),
-    ParamSpec::real("max_range_m", f.max_range_m, 0.1, 1000.0, "m",
+    ParamSpec::integer("fast_threshold", f.fast_threshold, ranges::FAST_THRESHOLD,
+                       "grey levels", "orb_grid: cv::FAST segment-test threshold."),
+    ParamSpec::real("max_range_m", f.max_range_m, ranges::MAX_RANGE, "m",
                     "Features farther than this from the sensor are dropped."),
     ParamSpec::real("point_spacing_m", 0.1, 0.005, 100.0, "m",
                     "source points: edge of the cubes of which one point each is a "

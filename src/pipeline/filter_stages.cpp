@@ -277,7 +277,8 @@ statisticalOutlierRemovalInfo()
     "nearest neighbours exceeds the global mean by more than stddev_mul_thresh "
     "standard deviations.";
   info.params = {
-    ParamSpec::integer("mean_k", 20, 1, 1000, "",
+    ParamSpec::integer("mean_k", 20, fast_statistical_outlier_removal_ranges::MEAN_K,
+                       "",
                        "Neighbours per point (the pipeline's value; the class keeps "
                        "pcl::StatisticalOutlierRemoval's 1)."),
     ParamSpec::real("stddev_mul_thresh", 2.0, 0.0, 100.0, "",

@@ -226,27 +226,32 @@ mapIntegrationInfo()
     "transform_to_world before it; the output section writes the map file.";
   info.needs_poses = true;
   const PlanarGridMap::Params d;
+  namespace space = explicit_space_grid_ranges;
+  namespace surface = surface_layer_ranges;
   info.params = {
-    ParamSpec::real("resolution_m", d.resolution_m, 0.01, 10.0, "m",
+    ParamSpec::real("resolution_m", d.resolution_m, surface::RESOLUTION, "m",
                     "Minimum cell size of both layers (the paper's 0.1 m).")
       .scalesWithCellSize(),
-    ParamSpec::real("max_range_m", d.space.max_range_m, 0.1, 1000.0, "m",
+    ParamSpec::real("max_range_m", d.space.max_range_m, space::MAX_RANGE, "m",
                     "Depth up to which a view marks space."),
-    ParamSpec::real("surface_margin_m", d.space.surface_margin_m, 0.0, 10.0, "m",
+    ParamSpec::real("surface_margin_m", d.space.surface_margin_m, space::SURFACE_MARGIN,
+                    "m",
                     "Half-thickness of the measured surface; 0: half a voxel "
                     "diagonal."),
     ParamSpec::choice("prior", toString(d.space.prior), {"unknown", "free"},
                       "State of space never inside a view (the paper: free)."),
-    ParamSpec::real("thickness_m", d.surface.thickness_m, 0.001, 10.0, "m",
+    ParamSpec::real("thickness_m", d.surface.thickness_m, surface::THICKNESS, "m",
                     "Extrusion of the map's planar cuboids behind their face.")
       .scalesWithCellSize(),
-    ParamSpec::real("plane_merge_angle_rad", d.surface.plane_merge_angle_rad, 0.001,
-                    1.5, "rad", "Largest normal angle between one plane's views."),
-    ParamSpec::real("plane_merge_distance_m", d.surface.plane_merge_distance_m, 0.001,
-                    10.0, "m",
+    ParamSpec::real("plane_merge_angle_rad", d.surface.plane_merge_angle_rad,
+                    surface::PLANE_MERGE_ANGLE, "rad",
+                    "Largest normal angle between one plane's views."),
+    ParamSpec::real("plane_merge_distance_m", d.surface.plane_merge_distance_m,
+                    surface::PLANE_MERGE_DISTANCE, "m",
                     "Largest RMS distance of a view's faces (and of the plane's "
                     "evidence) to the least-squares plane of both."),
-    ParamSpec::integer("close_gaps_cells", d.surface.close_gaps_cells, 0, 32, "cells",
+    ParamSpec::integer("close_gaps_cells", d.surface.close_gaps_cells,
+                       surface::CLOSE_GAPS, "cells",
                        "Gaps of up to this many cells between observed cells of a "
                        "plane's row or column are filled before the merge; 0: none."),
     ParamSpec::choice("merge_rule", toString(d.surface.merge_rule),
@@ -255,12 +260,15 @@ mapIntegrationInfo()
                       "extent (Fig. 6b), the fewest exact rectangles, or rectangles "
                       "grown while at least cover_density of their cells are the "
                       "plane's (the paper's D_T applied to the merge)."),
-    ParamSpec::real("cover_density", d.surface.cover_density, 0.5, 1.0, "share",
+    ParamSpec::real("cover_density", d.surface.cover_density, surface::COVER_DENSITY,
+                    "share",
                     "merge_rule density: smallest share of a rectangle's cells "
                     "observed on the plane."),
-    ParamSpec::real("occupancy_thres", d.surface.occupancy_thres, 0.01, 0.99,
-                    "probability", "Cells at or above it are occupied."),
-    ParamSpec::real("feature_distance_m", d.surface.feature_distance_m, 0.0, 10.0, "m",
+    ParamSpec::real("occupancy_thres", d.surface.occupancy_thres,
+                    surface::OCCUPANCY_THRES, "probability",
+                    "Cells at or above it are occupied."),
+    ParamSpec::real("feature_distance_m", d.surface.feature_distance_m,
+                    surface::FEATURE_DISTANCE, "m",
                     "A feature counts for a plane cell within this distance."),
     ParamSpec::flag("clear_non_planar", d.clear_non_planar,
                     "Remove the non-planar cells a later view sees through (more "
@@ -280,7 +288,8 @@ mapIntegrationInfo()
                     "cuboids, or within absorb_distance_m along the normal of a "
                     "parallel one) to that plane: a surface found as planes a few "
                     "degrees or decimetres apart is covered once."),
-    ParamSpec::real("absorb_distance_m", d.surface.absorb_distance_m, 0.0, 10.0, "m",
+    ParamSpec::real("absorb_distance_m", d.surface.absorb_distance_m,
+                    surface::ABSORB_DISTANCE, "m",
                     "planes_absorb_overlapping: largest distance along a stronger "
                     "parallel plane's normal at which a plane's cells are that "
                     "surface seen at another depth (about twice eq. 4's depth "

@@ -338,6 +338,7 @@ klOccupancyFilterInfo()
     "feature_matching (stereo) or cloud_features (point clouds) before it.";
   const KLDivergenceOccupancyFilter<pcl::PointXYZ> d;
   const ConstantVelocityMotionModel::Params md;
+  namespace ranges = kl_divergence_occupancy_filter_ranges;
   info.params = {
     ParamSpec::choice("update_rule", toString(d.getUpdateRule()),
                       {"kl_divergence", "log_odds"},
@@ -350,34 +351,39 @@ klOccupancyFilterInfo()
                       "z^2 (a depth camera); range = range_error_m (a LiDAR); auto = "
                       "stereo for stereo input, depth_quadratic for key features of a "
                       "cloud's image, range for point features."),
-    ParamSpec::real("disparity_error_px", d.getDisparityError(), 0.01, 10.0, "px",
-                    "dd of eq. 4 (stereo)."),
-    ParamSpec::real("depth_error_coefficient_per_m", d.getDepthErrorCoefficient(), 1e-6,
-                    1.0, "1/m",
+    ParamSpec::real("disparity_error_px", d.getDisparityError(),
+                    ranges::DISPARITY_ERROR, "px", "dd of eq. 4 (stereo)."),
+    ParamSpec::real("depth_error_coefficient_per_m", d.getDepthErrorCoefficient(),
+                    ranges::DEPTH_ERROR_COEFFICIENT, "1/m",
                     "k of dz = k z^2 (depth_quadratic); the default is 4 cm at 5 m, "
                     "the Kinect's (Khoshelham and Elberink 2012)."),
-    ParamSpec::real("range_error_m", d.getRangeError(), 1e-4, 10.0, "m",
+    ParamSpec::real("range_error_m", d.getRangeError(), ranges::RANGE_ERROR, "m",
                     "dr of eq. 4 (range): the sensor's range standard deviation."),
-    ParamSpec::real("association_radius_m", 0.1, 0.001, 10.0, "m",
+    ParamSpec::real("association_radius_m", 0.1, ranges::ASSOCIATION_RADIUS, "m",
                     "Features without descriptors: a feature continues the nearest "
                     "track within this distance in the world (the pipeline's value; "
                     "the class defaults to "
                       + formatParamNumber(d.getAssociationRadius()) + " m)."),
-    ParamSpec::real("neighbourhood_size_m", d.getNeighbourhoodSize(), 0.01, 100.0, "m",
+    ParamSpec::real("neighbourhood_size_m", d.getNeighbourhoodSize(),
+                    ranges::NEIGHBOURHOOD_SIZE, "m",
                     "Cell over which r_bar of eq. 4 is averaged."),
-    ParamSpec::real("clamping_thres_min", d.getClampingThresMin(), 0.001, 0.499,
-                    "probability", "Lower clamp of the probability."),
-    ParamSpec::real("clamping_thres_max", d.getClampingThresMax(), 0.501, 0.999,
-                    "probability", "Upper clamp of the probability."),
-    ParamSpec::real("occupancy_thres", d.getOccupancyThres(), 0.0, 1.0, "probability",
+    ParamSpec::real("clamping_thres_min", d.getClampingThresMin(),
+                    ranges::CLAMPING_THRES_MIN, "probability",
+                    "Lower clamp of the probability."),
+    ParamSpec::real("clamping_thres_max", d.getClampingThresMax(),
+                    ranges::CLAMPING_THRES_MAX, "probability",
+                    "Upper clamp of the probability."),
+    ParamSpec::real("occupancy_thres", d.getOccupancyThres(), ranges::OCCUPANCY_THRES,
+                    "probability",
                     "A feature is occupied when its probability reaches it."),
-    ParamSpec::real("kl_offset_nats", d.getKLOffset(), 0.0, 10.0, "nats",
+    ParamSpec::real("kl_offset_nats", d.getKLOffset(), ranges::KL_OFFSET, "nats",
                     "A of eq. 10."),
-    ParamSpec::real("prob_hit", d.getProbHit(), 0.501, 0.999, "probability",
+    ParamSpec::real("prob_hit", d.getProbHit(), ranges::PROB_HIT, "probability",
                     "Log-odds rule: a hit (q >= 0.5)."),
-    ParamSpec::real("prob_miss", d.getProbMiss(), 0.001, 0.499, "probability",
+    ParamSpec::real("prob_miss", d.getProbMiss(), ranges::PROB_MISS, "probability",
                     "Log-odds rule: a miss (q < 0.5)."),
-    ParamSpec::real("match_ratio", StereoOdometry::Params().ratio, 0.1, 1.0, "",
+    ParamSpec::real("match_ratio", StereoOdometry::Params().ratio,
+                    stereo_odometry_ranges::RATIO, "",
                     "Lowe's ratio of the frame-to-frame descriptor matching."),
     ParamSpec::real("search_radius_px", 20.0, 0.0, 10000.0, "px",
                     "Frames with poses and a pinhole calibration: a previous feature "
@@ -390,9 +396,11 @@ klOccupancyFilterInfo()
     ParamSpec::flag("use_motion_likelihood", false,
                     "m of eq. 9 from the poses' motion against a constant-velocity "
                     "model (for estimated poses); false: m = 1 (given poses)."),
-    ParamSpec::real("sigma_translation_m", md.sigma_translation_m, 1e-6, 100.0, "m",
+    ParamSpec::real("sigma_translation_m", md.sigma_translation_m,
+                    constant_velocity_motion_model_ranges::SIGMA_TRANSLATION, "m",
                     "Q_k of eq. 9: standard deviation of each translation component."),
-    ParamSpec::real("sigma_rotation_rad", md.sigma_rotation_rad, 1e-6, 10.0, "rad",
+    ParamSpec::real("sigma_rotation_rad", md.sigma_rotation_rad,
+                    constant_velocity_motion_model_ranges::SIGMA_ROTATION, "rad",
                     "Q_k of eq. 9: standard deviation of each rotation component."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {

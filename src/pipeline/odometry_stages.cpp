@@ -122,15 +122,18 @@ visualOdometryInfo()
     "initial_height_m below the first camera.";
   info.needs_stereo = true;
   const StereoOdometry::Params d;
+  namespace ranges = stereo_odometry_ranges;
   info.params = {
-    ParamSpec::real("ratio", d.ratio, 0.1, 1.0, "", "Lowe's ratio test."),
-    ParamSpec::real("distance_threshold_m", d.distance_threshold_m, 0.001, 10.0, "m",
+    ParamSpec::real("ratio", d.ratio, ranges::RATIO, "", "Lowe's ratio test."),
+    ParamSpec::real("distance_threshold_m", d.distance_threshold_m,
+                    ranges::DISTANCE_THRESHOLD, "m",
                     "RANSAC inlier threshold between matched 3D features."),
-    ParamSpec::real("reprojection_threshold_px", d.reprojection_threshold_px, 0.1,
-                    100.0, "px", "Inlier threshold of the reprojection refinement."),
-    ParamSpec::integer("max_iterations", d.max_iterations, 1, 1000000, "",
+    ParamSpec::real("reprojection_threshold_px", d.reprojection_threshold_px,
+                    ranges::REPROJECTION_THRESHOLD, "px",
+                    "Inlier threshold of the reprojection refinement."),
+    ParamSpec::integer("max_iterations", d.max_iterations, ranges::MAX_ITERATIONS, "",
                        "Most RANSAC iterations."),
-    ParamSpec::integer("min_inliers", d.min_inliers, 3, 100000, "",
+    ParamSpec::integer("min_inliers", d.min_inliers, ranges::MIN_INLIERS, "",
                        "Fewest inliers for a valid motion; else the frame is flagged."),
     ParamSpec::flag("reprojection_refinement", true,
                     "Refine the motion on the stereo reprojection error."),
@@ -138,19 +141,23 @@ visualOdometryInfo()
                     "Then take the rotation from the epipolar geometry of the left "
                     "images (free of disparity errors) and refit the translation; "
                     "needs reprojection_refinement."),
-    ParamSpec::real("epipolar_threshold_px", d.epipolar_threshold_px, 0.01, 100.0, "px",
+    ParamSpec::real("epipolar_threshold_px", d.epipolar_threshold_px,
+                    ranges::EPIPOLAR_THRESHOLD, "px",
                     "Huber threshold of the Sampson distance."),
     ParamSpec::integer("seed", static_cast<int>(d.seed), 0, 2147483647, "",
                        "RANSAC seed (reproducible runs)."),
     ParamSpec::flag("estimate_disparity_offset", d.estimate_disparity_offset,
                     "Estimate the features' disparity offset (true = measured + "
                     "offset) with the motion; needs reprojection_refinement."),
-    ParamSpec::real("disparity_offset_px", d.disparity_offset_px, -20.0, 20.0, "px",
+    ParamSpec::real("disparity_offset_px", d.disparity_offset_px,
+                    ranges::DISPARITY_OFFSET, "px",
                     "The offset's prior mean at the first frame pair, or the offset "
                     "used when it is not estimated."),
-    ParamSpec::real("disparity_offset_sigma_px", d.disparity_offset_sigma_px, 0.001,
-                    100.0, "px", "Standard deviation of the offset's first prior."),
-    ParamSpec::real("disparity_offset_memory", d.disparity_offset_memory, 0.0, 1.0, "",
+    ParamSpec::real("disparity_offset_sigma_px", d.disparity_offset_sigma_px,
+                    ranges::DISPARITY_OFFSET_SIGMA, "px",
+                    "Standard deviation of the offset's first prior."),
+    ParamSpec::real("disparity_offset_memory", d.disparity_offset_memory,
+                    ranges::DISPARITY_OFFSET_MEMORY, "",
                     "Share of the offset's information carried to the next frame "
                     "pair: 1 = one offset for the run, 0 = each pair on its own."),
     ParamSpec::real("initial_height_m", 0.0, 0.0, 10.0, "m",

@@ -14,14 +14,6 @@
 namespace planar_grid {
 
 std::string
-formatParamNumber(double value)
-{
-  std::ostringstream out;
-  out << std::setprecision(10) << value;
-  return out.str();
-}
-
-std::string
 formatParamChoices(const ParamSpec& spec, const std::string& separator)
 {
   std::string list;
@@ -52,7 +44,7 @@ std::string
 rangeText(const ParamSpec& spec)
 {
   if (spec.type == ParamSpec::Type::DOUBLE || spec.type == ParamSpec::Type::INT)
-    return "[" + formatParamNumber(spec.min) + ", " + formatParamNumber(spec.max) + "]";
+    return formatParamRange(spec.range);
   return "";
 }
 
@@ -66,12 +58,21 @@ ParamSpec::real(const std::string& key,
                 const std::string& unit,
                 const std::string& description)
 {
+  return real(key, default_value, ParamRange::closed(min, max), unit, description);
+}
+
+ParamSpec
+ParamSpec::real(const std::string& key,
+                double default_value,
+                const ParamRange& range,
+                const std::string& unit,
+                const std::string& description)
+{
   ParamSpec s;
   s.key = key;
   s.type = Type::DOUBLE;
   s.default_value = formatParamNumber(default_value);
-  s.min = min;
-  s.max = max;
+  s.range = range;
   s.unit = unit;
   s.description = description;
   return s;
@@ -85,7 +86,17 @@ ParamSpec::integer(const std::string& key,
                    const std::string& unit,
                    const std::string& description)
 {
-  ParamSpec s = real(key, default_value, min, max, unit, description);
+  return integer(key, default_value, ParamRange::closed(min, max), unit, description);
+}
+
+ParamSpec
+ParamSpec::integer(const std::string& key,
+                   int default_value,
+                   const ParamRange& range,
+                   const std::string& unit,
+                   const std::string& description)
+{
+  ParamSpec s = real(key, default_value, range, unit, description);
   s.type = Type::INT;
   return s;
 }
@@ -234,19 +245,17 @@ parseParams(const YAML::Node& node,
         switch (spec->type) {
           case ParamSpec::Type::DOUBLE: {
             const double v = value.as<double>();
-            if (!std::isfinite(v) || v < spec->min || v > spec->max)
+            if (!spec->range.contains(v))
               reader.fail(value, where + " = " + value.Scalar() + " is out of range "
-                                   + rangeText(*spec)
-                                   + (spec->unit.empty() ? "" : " " + spec->unit));
+                                   + formatParamRange(spec->range, spec->unit));
             values.set(key, v);
             break;
           }
           case ParamSpec::Type::INT: {
             const int v = value.as<int>();
-            if (v < spec->min || v > spec->max)
+            if (!spec->range.contains(v))
               reader.fail(value, where + " = " + value.Scalar() + " is out of range "
-                                   + rangeText(*spec)
-                                   + (spec->unit.empty() ? "" : " " + spec->unit));
+                                   + formatParamRange(spec->range, spec->unit));
             values.set(key, v);
             break;
           }

@@ -263,11 +263,9 @@ acceptedValues(const ParamSpec& spec)
   const std::string unit = spec.unit.empty() ? "" : ", " + spec.unit;
   switch (spec.type) {
     case ParamSpec::Type::DOUBLE:
-      return "number in [" + formatParamNumber(spec.min) + ", "
-             + formatParamNumber(spec.max) + "]" + unit;
+      return "number in " + formatParamRange(spec.range) + unit;
     case ParamSpec::Type::INT:
-      return "integer in [" + formatParamNumber(spec.min) + ", "
-             + formatParamNumber(spec.max) + "]" + unit;
+      return "integer in " + formatParamRange(spec.range) + unit;
     case ParamSpec::Type::BOOL:
       return "true or false";
     case ParamSpec::Type::CHOICE:

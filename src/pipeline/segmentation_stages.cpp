@@ -454,29 +454,32 @@ multiPlaneSegmentationInfo()
     "world +z after transform_to_world, else the camera's -y.";
   // The defaults are the class's, except where a row says otherwise.
   const SACMultiPlaneSegmentation<pcl::PointXYZI> d;
+  namespace ranges = sac_multi_plane_segmentation_ranges;
   info.params = {
     ParamSpec::real(
-      "distance_threshold_m", d.getDistanceThreshold(), 0.001, 1.0, "m",
+      "distance_threshold_m", d.getDistanceThreshold(), ranges::DISTANCE_THRESHOLD, "m",
       "d_T of eq. 11: dense points this close to a plane are its inliers."),
     ParamSpec::real(
       "depth_noise_disparity_px", 0.0, 0.0, 10.0, "px",
       "Stereo input: Delta d of eq. 4; a dense point is an inlier within max(d_T, "
       "Delta z) with Delta z = r^2 Delta d / (B f) at its range r (0: fixed d_T)."),
     ParamSpec::real(
-      "sample_distance_threshold_m", 0.1, 0.001, 1.0, "m",
+      "sample_distance_threshold_m", 0.1, ranges::SAMPLE_DISTANCE_THRESHOLD, "m",
       "RANSAC inlier threshold on the sample (stereo features are noisier). The "
       "pipeline's value; the class defaults to its dense distance threshold."),
-    ParamSpec::integer("max_planes", d.getMaxPlanes(), 1, 100, "",
+    ParamSpec::integer("max_planes", d.getMaxPlanes(), ranges::MAX_PLANES, "",
                        "Most planes per frame."),
-    ParamSpec::integer("min_inliers", d.getMinInliers(), 3, 100000000, "",
+    ParamSpec::integer("min_inliers", d.getMinInliers(), ranges::MIN_INLIERS, "",
                        "A plane needs at least this many dense inliers.")
       .scalesWithCellSize(ParamSpec::CellSizeScaling::POINTS_PER_AREA),
-    ParamSpec::integer("min_sample_inliers", d.getMinSampleInliers(), 3, 1000000, "",
+    ParamSpec::integer("min_sample_inliers", d.getMinSampleInliers(),
+                       ranges::MIN_SAMPLE_INLIERS, "",
                        "A hypothesis needs at least this many sample inliers."),
-    ParamSpec::real("min_remaining_fraction", d.getMinRemainingFraction(), 0.0, 1.0, "",
+    ParamSpec::real("min_remaining_fraction", d.getMinRemainingFraction(),
+                    ranges::MIN_REMAINING_FRACTION, "",
                     "Stop when less than this fraction of the sample remains."),
-    ParamSpec::integer("max_iterations", d.getMaxIterations(), 1, 1000000, "",
-                       "RANSAC iterations per plane."),
+    ParamSpec::integer("max_iterations", d.getMaxIterations(), ranges::MAX_ITERATIONS,
+                       "", "RANSAC iterations per plane."),
     ParamSpec::choice("method", sacMethodName(d.getMethodType()), sacMethodNames(),
                       "PCL sample consensus estimator."),
     ParamSpec::flag("optimize_coefficients", d.getOptimizeCoefficients(),
@@ -484,13 +487,15 @@ multiPlaneSegmentationInfo()
     ParamSpec::flag("dense_hypothesis", d.getDenseHypothesis(),
                     "Each round also hypothesises a plane from a dense subsample; the "
                     "one with more inliers is kept."),
-    ParamSpec::integer("lo_iterations", d.getLocalOptimizationIterations(), 0, 100000,
-                       "",
+    ParamSpec::integer("lo_iterations", d.getLocalOptimizationIterations(),
+                       ranges::LO_ITERATIONS, "",
                        "Local optimisation (LO-RANSAC) samples per plane; 0 = off."),
     ParamSpec::flag("merge_planes", d.getMergePlanes(), "Merge near-duplicate planes."),
-    ParamSpec::real("merge_angle_rad", d.getMergeAngleThreshold(), 0.0, 1.5708, "rad",
+    ParamSpec::real("merge_angle_rad", d.getMergeAngleThreshold(),
+                    ranges::MERGE_ANGLE_THRESHOLD, "rad",
                     "Planes whose normals differ less than this may merge."),
-    ParamSpec::real("merge_distance_m", d.getMergeDistanceThreshold(), 0.0, 10.0, "m",
+    ParamSpec::real("merge_distance_m", d.getMergeDistanceThreshold(),
+                    ranges::MERGE_DISTANCE_THRESHOLD, "m",
                     "... and whose offsets differ less than this."),
     ParamSpec::choice("sample", "features", {"features", "cloud"},
                       "Hypotheses from the 3D key features (paper) or the cloud; on "
@@ -498,41 +503,46 @@ multiPlaneSegmentationInfo()
     ParamSpec::integer("seed", static_cast<int>(d.getSeed()), 0, 2147483647, "",
                        "Random seed (reproducible runs)."),
     ParamSpec::real("max_visibility_conflict_ratio", d.getMaxVisibilityConflictRatio(),
-                    0.0, 1000.0, "",
+                    ranges::MAX_VISIBILITY_CONFLICT_RATIO, "",
                     "Visibility test: where, around a 3 x 3 cell neighbourhood of a "
                     "plane's footprint, more than this many points per inlier are seen "
                     "through the plane or hide it from the camera (a slab through a "
                     "tree's canopy), those inliers leave the plane; 0 = no test."),
-    ParamSpec::real("visibility_margin_m", d.getVisibilityMargin(), 0.0, 100.0, "m",
+    ParamSpec::real("visibility_margin_m", d.getVisibilityMargin(),
+                    ranges::VISIBILITY_MARGIN, "m",
                     "A point conflicts with a plane only this much (plus its eq. 11 "
                     "threshold) off it."),
-    ParamSpec::real("visibility_cell_m", d.getVisibilityCell(), 0.001, 100.0, "m",
+    ParamSpec::real("visibility_cell_m", d.getVisibilityCell(), ranges::VISIBILITY_CELL,
+                    "m",
                     "Cell edge of a plane's footprint in the visibility and the shell "
                     "tests."),
-    ParamSpec::real("min_sensor_distance_m", d.getMinSensorDistance(), 0.0, 100.0, "m",
+    ParamSpec::real("min_sensor_distance_m", d.getMinSensorDistance(),
+                    ranges::MIN_SENSOR_DISTANCE, "m",
                     "Sensor plane test: a plane passing closer than this to the "
                     "sensor is dropped and its inliers go to no later plane (it "
                     "contains the lines of sight, along which stereo smears every "
                     "object: a vertical sheet through a tree trunk, a horizontal one "
                     "at the camera's height); 0 = no test."),
-    ParamSpec::integer("min_cluster_size", d.getMinClusterSize(), 0, 100000000, "",
+    ParamSpec::integer("min_cluster_size", d.getMinClusterSize(),
+                       ranges::MIN_CLUSTER_SIZE, "",
                        "Cluster test: the inliers of each connected cluster of a "
                        "plane's footprint (cluster_cell_m cells, a one-cell gap "
                        "bridged) holding fewer than this many leave the plane (a plane "
                        "through separate trunks, or slicing car bodies); 0 = no test.")
       .scalesWithCellSize(ParamSpec::CellSizeScaling::POINTS_PER_AREA),
-    ParamSpec::real("cluster_cell_m", d.getClusterCell(), 0.001, 100.0, "m",
+    ParamSpec::real("cluster_cell_m", d.getClusterCell(), ranges::CLUSTER_CELL, "m",
                     "Footprint cell edge of the cluster test (at least the voxel "
                     "edge of a voxelised cloud).")
       .scalesWithCellSize(ParamSpec::CellSizeScaling::CELL_SIZE),
-    ParamSpec::real("max_shell_ratio", d.getMaxShellRatio(), 0.0, 1000.0, "",
+    ParamSpec::real("max_shell_ratio", d.getMaxShellRatio(), ranges::MAX_SHELL_RATIO,
+                    "",
                     "Shell test: where, around a 3 x 3 cell neighbourhood of a plane's "
                     "footprint, twice the smaller of the two sides' counts of points "
                     "just beyond the eq. 11 threshold t (between t and t + max(t, "
                     "shell_width_m) off the plane) exceeds this many per inlier (a "
                     "slab through a canopy, a stripe across a facade or a car), those "
                     "inliers leave the plane; 0 = no test."),
-    ParamSpec::real("shell_width_m", d.getShellWidth(), 0.0, 100.0, "m",
+    ParamSpec::real("shell_width_m", d.getShellWidth(), ranges::SHELL_WIDTH, "m",
                     "Smallest width of the shell test's shell (a voxelised cloud's "
                     "surface points lie in layers one voxel apart).")
       .scalesWithCellSize(ParamSpec::CellSizeScaling::CELL_SIZE),
@@ -542,7 +552,8 @@ multiPlaneSegmentationInfo()
                     "plane the key features make may stand on them alone; false: a "
                     "plane needs min_inliers nearer points, which they only extend."),
     ParamSpec::real("inlier_only_distance_threshold_m",
-                    d.getInlierOnlyDistanceThreshold(), 0.0, 10.0, "m",
+                    d.getInlierOnlyDistanceThreshold(),
+                    ranges::INLIER_ONLY_DISTANCE_THRESHOLD, "m",
                     "Those points join a plane within the smaller of this and their "
                     "eq. 11 threshold (a planar cell is as thick as its inliers' "
                     "spread); 0: eq. 11's."),

@@ -191,56 +191,64 @@ stereoDisparityInfo()
     "the left camera frame (x right, y down, z forward; NaN = invalid).";
   info.needs_stereo = true;
   const DisparityEstimator::Params d;
+  namespace ranges = disparity_estimator_ranges;
   info.params = {
     ParamSpec::choice("algorithm", toString(d.algorithm),
                       {"sgbm", "sgbm_3way", "sgbm_hh", "sgbm_hh4", "block_matching"},
                       "OpenCV matcher: StereoSGBM 5-path (single-threaded), 3-way "
                       "(parallel), 8-path, 4-path, or StereoBM (local SAD, parallel)."),
-    ParamSpec::integer("downscale", d.downscale, 1, 2, "",
+    ParamSpec::integer("downscale", d.downscale, ranges::DOWNSCALE, "",
                        "Image scale divisor: 2 matches half-resolution images; the "
                        "output stays full resolution, in full-resolution px."),
-    ParamSpec::integer("row_downscale", d.row_downscale, 1, 2, "",
+    ParamSpec::integer("row_downscale", d.row_downscale, ranges::ROW_DOWNSCALE, "",
                        "Row divisor (with downscale 1): 2 matches the images at half "
                        "their rows and full width, so disparities keep their 1/16 px "
                        "step at half the matching cost; the output stays full size."),
-    ParamSpec::integer("num_threads", d.num_threads, 0, 64, "",
+    ParamSpec::integer("num_threads", d.num_threads, ranges::NUM_THREADS, "",
                        "OpenCV threads for the whole run (OpenCV's setting is "
                        "process-wide: every stage's OpenCV calls use it), set before "
                        "the first frame and restored after the last; speed only, "
                        "never the result; 0 = leave OpenCV's setting."),
-    ParamSpec::integer("min_disparity_px", d.min_disparity_px, -256, 256, "px",
-                       "Smallest disparity searched; a multiple of downscale."),
-    ParamSpec::integer("num_disparities_px", d.num_disparities_px, 16, 512, "px",
+    ParamSpec::integer("min_disparity_px", d.min_disparity_px, ranges::MIN_DISPARITY,
+                       "px", "Smallest disparity searched; a multiple of downscale."),
+    ParamSpec::integer("num_disparities_px", d.num_disparities_px,
+                       ranges::NUM_DISPARITIES, "px",
                        "Number of disparities searched; a multiple of 16 * downscale."),
-    ParamSpec::integer("block_size_px", d.block_size_px, 1, 21, "px",
+    ParamSpec::integer("block_size_px", d.block_size_px, ranges::BLOCK_SIZE, "px",
                        "Matched block side in matched-image px; odd, 1..11 for the "
                        "SGBM modes, 5..21 for block_matching."),
     ParamSpec::integer(
-      "p1", d.p1, 0, 100000, "",
+      "p1", d.p1, ranges::P1, "",
       "SGBM penalty for 1 px disparity changes; 0 = 8*channels*block^2."),
-    ParamSpec::integer("p2", d.p2, 0, 400000, "",
+    ParamSpec::integer("p2", d.p2, ranges::P2, "",
                        "SGBM penalty for larger changes; 0 = 32*channels*block^2."),
-    ParamSpec::integer("disp12_max_diff_px", d.disp12_max_diff_px, -1, 64, "px",
+    ParamSpec::integer("disp12_max_diff_px", d.disp12_max_diff_px,
+                       ranges::DISP12_MAX_DIFF, "px",
                        "Left-right consistency tolerance; -1 disables the check."),
-    ParamSpec::integer("pre_filter_cap", d.pre_filter_cap, 1, 63, "",
+    ParamSpec::integer("pre_filter_cap", d.pre_filter_cap, ranges::PRE_FILTER_CAP, "",
                        "SGBM modes: clip of the x-derivative pre-filter."),
-    ParamSpec::integer("uniqueness_ratio_percent", d.uniqueness_ratio_percent, 0, 100,
-                       "percent", "Margin by which the best cost must win."),
-    ParamSpec::integer("speckle_window_size_px", d.speckle_window_size_px, 0, 10000,
-                       "px", "Largest speckle region removed as noise; 0 disables."),
-    ParamSpec::integer("speckle_range_px", d.speckle_range_px, 0, 64, "px",
-                       "Largest disparity variation inside a speckle component."),
+    ParamSpec::integer("uniqueness_ratio_percent", d.uniqueness_ratio_percent,
+                       ranges::UNIQUENESS_RATIO, "percent",
+                       "Margin by which the best cost must win."),
+    ParamSpec::integer("speckle_window_size_px", d.speckle_window_size_px,
+                       ranges::SPECKLE_WINDOW_SIZE, "px",
+                       "Largest speckle region removed as noise; 0 disables."),
+    ParamSpec::integer("speckle_range_px", d.speckle_range_px, ranges::SPECKLE_RANGE,
+                       "px", "Largest disparity variation inside a speckle component."),
     ParamSpec::flag("full_dp", d.full_dp,
                     "Legacy: true = algorithm sgbm_hh (only with algorithm sgbm)."),
     ParamSpec::choice("bm_pre_filter", toString(d.bm_pre_filter),
                       {"xsobel", "normalized_response"},
                       "block_matching: pre-filter of both images."),
-    ParamSpec::integer("bm_pre_filter_cap", d.bm_pre_filter_cap, 1, 31, "",
+    ParamSpec::integer("bm_pre_filter_cap", d.bm_pre_filter_cap,
+                       ranges::BM_PRE_FILTER_CAP, "",
                        "block_matching: clip of the pre-filter output (above 31 "
                        "OpenCV 4.6's StereoBM is not repeatable)."),
-    ParamSpec::integer("bm_pre_filter_size_px", d.bm_pre_filter_size_px, 5, 255, "px",
+    ParamSpec::integer("bm_pre_filter_size_px", d.bm_pre_filter_size_px,
+                       ranges::BM_PRE_FILTER_SIZE, "px",
                        "block_matching: normalized_response window side; odd."),
-    ParamSpec::integer("bm_texture_threshold", d.bm_texture_threshold, 0, 100000, "",
+    ParamSpec::integer("bm_texture_threshold", d.bm_texture_threshold,
+                       ranges::BM_TEXTURE_THRESHOLD, "",
                        "block_matching: blocks with less pre-filtered texture (sum of "
                        "absolute values) are invalid; 0 disables."),
     ParamSpec::real(
@@ -285,34 +293,39 @@ featureMatchingInfo()
     "test and triangulated to 3D.";
   info.needs_stereo = true;
   const StereoFeatureMatcher::Params f;
+  namespace ranges = stereo_feature_matcher_ranges;
   info.params = {
     ParamSpec::choice("feature_type", featureTypeName(f.feature_type),
                       featureTypeNames(),
                       "Detector and descriptor: sift (sub-pixel, slow), orb (OpenCV "
                       "defaults, quantised disparities), orb_grid (fast front end for "
                       "the odometry)."),
-    ParamSpec::integer("max_features", f.max_features, 10, 100000, "",
+    ParamSpec::integer("max_features", f.max_features, ranges::MAX_FEATURES, "",
                        "Most key points detected per image (orb_grid: in the left "
                        "image, spread evenly over the grid cells; the right image "
                        "keeps up to twice as many)."),
-    ParamSpec::real("ratio", f.ratio, 0.1, 1.0, "",
+    ParamSpec::real("ratio", f.ratio, ranges::RATIO, "",
                     "Lowe's ratio test: best / second-best distance below this."),
-    ParamSpec::real("max_row_difference_px", f.max_row_difference_px, 0.0, 10.0, "px",
+    ParamSpec::real("max_row_difference_px", f.max_row_difference_px,
+                    ranges::MAX_ROW_DIFFERENCE, "px",
                     "Largest row difference of a match (rectified images)."),
-    ParamSpec::real("max_disparity_px", f.max_disparity_px, 1.0, 1024.0, "px",
+    ParamSpec::real("max_disparity_px", f.max_disparity_px, ranges::MAX_DISPARITY, "px",
                     "Largest disparity accepted."),
-    ParamSpec::real("max_range_m", f.max_range_m, 0.1, 1000.0, "m",
+    ParamSpec::real("max_range_m", f.max_range_m, ranges::MAX_RANGE, "m",
                     "Features farther than this are dropped."),
-    ParamSpec::integer("bucket_size_px", f.bucket_size_px, 8, 1024, "px",
+    ParamSpec::integer("bucket_size_px", f.bucket_size_px, ranges::BUCKET_SIZE, "px",
                        "orb_grid: side of the square grid cells; each keeps its "
                        "strongest FAST corners (even coverage)."),
-    ParamSpec::integer("fast_threshold", f.fast_threshold, 1, 255, "grey levels",
+    ParamSpec::integer("fast_threshold", f.fast_threshold, ranges::FAST_THRESHOLD,
+                       "grey levels",
                        "orb_grid: cv::FAST segment-test threshold (8-bit intensity "
                        "difference)."),
-    ParamSpec::integer("subpixel_window_px", f.subpixel_window_px, 3, 31, "px",
+    ParamSpec::integer("subpixel_window_px", f.subpixel_window_px,
+                       ranges::SUBPIXEL_WINDOW, "px",
                        "orb_grid: window side of the sub-pixel disparity refinement "
                        "(zero-mean SSD parabola along the row); odd."),
-    ParamSpec::integer("subpixel_search_px", f.subpixel_search_px, 1, 8, "px",
+    ParamSpec::integer("subpixel_search_px", f.subpixel_search_px,
+                       ranges::SUBPIXEL_SEARCH, "px",
                        "orb_grid: the refinement searches +- this many columns around "
                        "the matched right key point; a minimum at the end drops the "
                        "match."),

@@ -122,27 +122,31 @@ planarCuboidApproximationInfo()
     "same way, never merged. Reports the occupied voxels at the same size (SG).";
   // The defaults are the class's, except where a row says otherwise.
   const PlanarCuboidApproximation<pcl::PointXYZI> d;
+  namespace ranges = planar_cuboid_approximation_ranges;
   info.params = {
     ParamSpec::real(
-      "min_cell_size_m", d.getMinCellSize(), 0.01, 10.0, "m",
+      "min_cell_size_m", d.getMinCellSize(), ranges::MIN_CELL_SIZE, "m",
       "Smallest cell side and raster resolution (the paper's minimum grid).")
       .scalesWithCellSize(),
-    ParamSpec::real("density_threshold", d.getDensityThreshold(), 0.01, 1.0, "",
+    ParamSpec::real("density_threshold", d.getDensityThreshold(),
+                    ranges::DENSITY_THRESHOLD, "",
                     "D_T: a unit whose occupied-area fraction D is below it is split."),
-    ParamSpec::real("non_planar_density_threshold", 0.25, 0.0, 1.0, "",
+    ParamSpec::real("non_planar_density_threshold", 0.25,
+                    ranges::NON_PLANAR_DENSITY_THRESHOLD, "",
                     "Occupied share of its 3D lattice a non-planar box (Fig. 7) must "
                     "reach before it stops splitting (0: density_threshold). The "
                     "pipeline's value; the class defaults to 0."),
-    ParamSpec::real("min_width_m", d.getMinWidth(), 0.0, 100.0, "m",
+    ParamSpec::real("min_width_m", d.getMinWidth(), ranges::MIN_WIDTH, "m",
                     "W_T: a unit is split only while wider than this.")
       .scalesWithCellSize(),
-    ParamSpec::real("min_height_m", d.getMinHeight(), 0.0, 100.0, "m",
+    ParamSpec::real("min_height_m", d.getMinHeight(), ranges::MIN_HEIGHT, "m",
                     "H_T: a unit is split only while higher than this.")
       .scalesWithCellSize(),
-    ParamSpec::real("thickness_m", d.getThickness(), 0.001, 10.0, "m",
+    ParamSpec::real("thickness_m", d.getThickness(), ranges::THICKNESS, "m",
                     "Extrusion behind the surface along the normal.")
       .scalesWithCellSize(),
-    ParamSpec::integer("min_points_per_cell", d.getMinPointsPerCell(), 1, 1000000, "",
+    ParamSpec::integer("min_points_per_cell", d.getMinPointsPerCell(),
+                       ranges::MIN_POINTS_PER_CELL, "",
                        "Cells with fewer points are dropped."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {

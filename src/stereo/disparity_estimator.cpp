@@ -51,37 +51,52 @@ isOdd(int value)
   return value % 2 != 0;
 }
 
+/** The message of a parameter outside its declared range (with \a what, the
+ * conditions a range cannot say, before it), with the value given. */
+std::string
+outOfRange(const std::string& name,
+           const ParamRange& range,
+           int value,
+           const char* what)
+{
+  return name + " must be " + what + "in " + formatParamRange(range) + ", got "
+         + std::to_string(value);
+}
+
 void
 validateParams(const DisparityEstimator::Params& params)
 {
+  namespace ranges = disparity_estimator_ranges;
   const std::string prefix = "DisparityEstimator: ";
-  if (params.downscale != 1 && params.downscale != 2)
-    throw Exception(prefix + "downscale must be 1 or 2, got "
-                    + std::to_string(params.downscale));
-  if (params.row_downscale != 1 && params.row_downscale != 2)
-    throw Exception(prefix + "row_downscale must be 1 or 2, got "
-                    + std::to_string(params.row_downscale));
+  // \a odd: whether the value meets the condition \a what says beside the range.
+  const auto check = [&prefix](const char* name, int value, const ParamRange& range,
+                               const char* what, bool odd = true) {
+    if (!odd || !range.contains(value))
+      throw Exception(prefix + outOfRange(name, range, value, what));
+  };
+  check("downscale", params.downscale, ranges::DOWNSCALE, "");
+  check("row_downscale", params.row_downscale, ranges::ROW_DOWNSCALE, "");
   if (params.row_downscale == 2 && params.downscale != 1)
     throw Exception(prefix
                     + "row_downscale 2 needs downscale 1 (downscale 2 already "
                       "halves the rows)");
-  if (params.num_threads < 0 || params.num_threads > 64)
-    throw Exception(prefix + "num_threads must be in [0, 64], got "
-                    + std::to_string(params.num_threads));
+  check("num_threads", params.num_threads, ranges::NUM_THREADS, "");
   const int disparity_step = 16 * params.downscale;
-  if (params.num_disparities_px <= 0 || params.num_disparities_px % disparity_step != 0)
-    throw Exception(prefix + "num_disparities_px must be a positive multiple of "
+  check("num_disparities_px", params.num_disparities_px, ranges::NUM_DISPARITIES, "");
+  if (params.num_disparities_px % disparity_step != 0)
+    throw Exception(prefix + "num_disparities_px must be a multiple of "
                     + std::to_string(disparity_step) + " (16 * downscale), got "
                     + std::to_string(params.num_disparities_px));
+  check("min_disparity_px", params.min_disparity_px, ranges::MIN_DISPARITY, "");
   if (params.min_disparity_px % params.downscale != 0)
     throw Exception(prefix + "min_disparity_px must be a multiple of downscale, got "
                     + std::to_string(params.min_disparity_px));
-  if (params.uniqueness_ratio_percent < 0 || params.uniqueness_ratio_percent > 100)
-    throw Exception(prefix + "uniqueness_ratio_percent must be in [0, 100], got "
-                    + std::to_string(params.uniqueness_ratio_percent));
-  if (params.speckle_window_size_px < 0 || params.speckle_range_px < 0)
-    throw Exception(prefix
-                    + "speckle_window_size_px and speckle_range_px must be >= 0");
+  check("uniqueness_ratio_percent", params.uniqueness_ratio_percent,
+        ranges::UNIQUENESS_RATIO, "");
+  check("speckle_window_size_px", params.speckle_window_size_px,
+        ranges::SPECKLE_WINDOW_SIZE, "");
+  check("speckle_range_px", params.speckle_range_px, ranges::SPECKLE_RANGE, "");
+  check("disp12_max_diff_px", params.disp12_max_diff_px, ranges::DISP12_MAX_DIFF, "");
   if (params.full_dp && params.algorithm != DisparityAlgorithm::SGBM)
     throw Exception(prefix
                     + "full_dp is the legacy spelling of algorithm sgbm_hh and "
@@ -92,33 +107,20 @@ validateParams(const DisparityEstimator::Params& params)
     // Above block 21 or pre-filter cap 31 OpenCV 4.6's StereoBM leaves its SIMD path
     // for a generic one whose output changes from run to run (measured on Karlsruhe:
     // up to ~100 pixels differ between two identical calls).
-    if (params.block_size_px < 5 || params.block_size_px > 21
-        || !isOdd(params.block_size_px))
-      throw Exception(prefix
-                      + "block_size_px must be odd and in [5, 21] for block_matching, "
-                        "got "
-                      + std::to_string(params.block_size_px));
-    if (params.bm_pre_filter_cap < 1 || params.bm_pre_filter_cap > 31)
-      throw Exception(prefix + "bm_pre_filter_cap must be in [1, 31], got "
-                      + std::to_string(params.bm_pre_filter_cap));
-    if (params.bm_pre_filter_size_px < 5 || params.bm_pre_filter_size_px > 255
-        || !isOdd(params.bm_pre_filter_size_px))
-      throw Exception(prefix + "bm_pre_filter_size_px must be odd and in [5, 255], got "
-                      + std::to_string(params.bm_pre_filter_size_px));
-    if (params.bm_texture_threshold < 0)
-      throw Exception(prefix + "bm_texture_threshold must be >= 0, got "
-                      + std::to_string(params.bm_texture_threshold));
+    check("block_size_px", params.block_size_px, ranges::BLOCK_SIZE_BLOCK_MATCHING,
+          "odd and ", isOdd(params.block_size_px));
+    check("bm_pre_filter_cap", params.bm_pre_filter_cap, ranges::BM_PRE_FILTER_CAP, "");
+    check("bm_pre_filter_size_px", params.bm_pre_filter_size_px,
+          ranges::BM_PRE_FILTER_SIZE, "odd and ", isOdd(params.bm_pre_filter_size_px));
+    check("bm_texture_threshold", params.bm_texture_threshold,
+          ranges::BM_TEXTURE_THRESHOLD, "");
     return;
   }
-  if (params.block_size_px < 1 || params.block_size_px > 11
-      || !isOdd(params.block_size_px))
-    throw Exception(prefix + "block_size_px must be odd and in [1, 11], got "
-                    + std::to_string(params.block_size_px));
-  if (params.pre_filter_cap < 1 || params.pre_filter_cap > 63)
-    throw Exception(prefix + "pre_filter_cap must be in [1, 63], got "
-                    + std::to_string(params.pre_filter_cap));
-  if (params.p1 < 0 || params.p2 < 0)
-    throw Exception(prefix + "p1 and p2 must be >= 0 (0 = OpenCV's default)");
+  check("block_size_px", params.block_size_px, ranges::BLOCK_SIZE_SGBM, "odd and ",
+        isOdd(params.block_size_px));
+  check("pre_filter_cap", params.pre_filter_cap, ranges::PRE_FILTER_CAP, "");
+  check("p1", params.p1, ranges::P1, "");
+  check("p2", params.p2, ranges::P2, "");
   if (effectiveP2(params) <= effectiveP1(params))
     throw Exception(prefix + "p2 (" + std::to_string(effectiveP2(params))
                     + ") must be greater than p1 ("

@@ -133,8 +133,10 @@ detectGridFastKeypoints(const cv::Mat& grey,
     throw Exception(prefix + "bucket_size_px must be >= 1");
   if (max_per_cell < 1)
     throw Exception(prefix + "max_per_cell must be >= 1");
-  if (fast_threshold < 1 || fast_threshold > 255)
-    throw Exception(prefix + "fast_threshold must be in [1, 255]");
+  if (!stereo_feature_matcher_ranges::FAST_THRESHOLD.contains(fast_threshold))
+    throw Exception(prefix
+                    + paramRangeMessage("fast_threshold",
+                                        stereo_feature_matcher_ranges::FAST_THRESHOLD));
   if (border_px < 0)
     throw Exception(prefix + "border_px must be >= 0");
   if (grey.empty())
@@ -179,26 +181,29 @@ StereoFeatureMatcher::StereoFeatureMatcher() : StereoFeatureMatcher(Params()) {}
 
 StereoFeatureMatcher::StereoFeatureMatcher(const Params& params) : params_(params)
 {
+  namespace ranges = stereo_feature_matcher_ranges;
   const std::string prefix = "StereoFeatureMatcher: ";
-  if (params_.max_features <= 0)
-    throw Exception(prefix + "max_features must be positive");
-  if (!(params_.ratio > 0.0 && params_.ratio <= 1.0))
-    throw Exception(prefix + "ratio must be in (0, 1]");
-  if (!(params_.max_row_difference_px >= 0.0))
-    throw Exception(prefix + "max_row_difference_px must be >= 0");
-  if (!(params_.max_disparity_px > 0.0))
-    throw Exception(prefix + "max_disparity_px must be positive");
-  if (!(params_.max_range_m > 0.0))
-    throw Exception(prefix + "max_range_m must be positive");
-  if (params_.bucket_size_px < 8 || params_.bucket_size_px > 1024)
-    throw Exception(prefix + "bucket_size_px must be in [8, 1024]");
-  if (params_.fast_threshold < 1 || params_.fast_threshold > 255)
-    throw Exception(prefix + "fast_threshold must be in [1, 255]");
-  if (params_.subpixel_window_px < 3 || params_.subpixel_window_px > 31
-      || params_.subpixel_window_px % 2 == 0)
-    throw Exception(prefix + "subpixel_window_px must be odd and in [3, 31]");
-  if (params_.subpixel_search_px < 1 || params_.subpixel_search_px > 8)
-    throw Exception(prefix + "subpixel_search_px must be in [1, 8]");
+  // \a what: a condition the range cannot say, and whether the value meets it.
+  const auto check = [&prefix](const char* name, double value, const ParamRange& range,
+                               const char* unit, const char* what = "",
+                               bool meets_what = true) {
+    if (!meets_what || !range.contains(value))
+      throw Exception(prefix + name + " must be " + what + "in "
+                      + formatParamRange(range, unit) + ", got "
+                      + formatParamNumber(value));
+  };
+  check("max_features", params_.max_features, ranges::MAX_FEATURES, "");
+  check("ratio", params_.ratio, ranges::RATIO, "");
+  check("max_row_difference_px", params_.max_row_difference_px,
+        ranges::MAX_ROW_DIFFERENCE, "px");
+  check("max_disparity_px", params_.max_disparity_px, ranges::MAX_DISPARITY, "px");
+  check("max_range_m", params_.max_range_m, ranges::MAX_RANGE, "m");
+  check("bucket_size_px", params_.bucket_size_px, ranges::BUCKET_SIZE, "px");
+  check("fast_threshold", params_.fast_threshold, ranges::FAST_THRESHOLD, "");
+  check("subpixel_window_px", params_.subpixel_window_px, ranges::SUBPIXEL_WINDOW, "px",
+        "odd and ", params_.subpixel_window_px % 2 != 0);
+  check("subpixel_search_px", params_.subpixel_search_px, ranges::SUBPIXEL_SEARCH,
+        "px");
 }
 
 void

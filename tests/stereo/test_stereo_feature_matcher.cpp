@@ -298,14 +298,14 @@ bruteForceMatches(const std::vector<cv::KeyPoint>& keypoints_left,
 }
 
 // Oracle: the row-bucketed matcher gives exactly the brute-force matches on the
-// real pair (same detector run, so the same key points; a large max_range_m so the
+// real pair (same detector run, so the same key points; the largest max_range_m so the
 // range cut removes nothing). Compared by key point positions. SIFT and ORB; the
 // descriptor distances tie-break identically (strict <), so the sets must be equal.
 TEST_F(StereoFeatureMatcherKarlsruhe, BucketedMatchingEqualsBruteForce)
 {
   for (const FeatureType type : {FeatureType::SIFT, FeatureType::ORB}) {
     auto params = paramsFor(type);
-    params.max_range_m = 1e6;
+    params.max_range_m = planar_grid::stereo_feature_matcher_ranges::MAX_RANGE.max;
     StereoFeatures features;
     StereoFeatureMatcher(params).match(left_, right_, calibration_, features);
 

@@ -81,7 +81,8 @@ protected:
 TEST_F(StereoFeatureMatcherORBGrid, SubPixelDisparityOfKnownFractionalShift)
 {
   auto params = gridParams();
-  params.max_range_m = 1e6; // 7.3 px is 50 m away at this baseline
+  // The largest range the matcher takes: 7.3 px is 50 m away at this baseline.
+  params.max_range_m = planar_grid::stereo_feature_matcher_ranges::MAX_RANGE.max;
   for (const double shift_px : {7.3, 20.5, 31.75}) {
     StereoFeatures features;
     StereoFeatureMatcher(params).match(left_, shiftedLeft(shift_px), calibration_,
@@ -138,7 +139,7 @@ TEST(StereoFeatureMatcherORBGridSynthetic, RefinedDisparitiesWithinAFifthOfAPixe
   calibration.cx_px = 200.0;
   calibration.cy_px = 120.0;
   auto params = gridParams();
-  params.max_range_m = 1e6;
+  params.max_range_m = planar_grid::stereo_feature_matcher_ranges::MAX_RANGE.max;
   StereoFeatures features;
   StereoFeatureMatcher(params).match(left, right, calibration, features);
   // 13 x 8 cells of 32 px, all textured: hundreds of matches.

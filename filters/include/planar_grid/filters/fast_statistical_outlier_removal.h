@@ -1,12 +1,23 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_range.h>
+
 #include <pcl/filters/filter_indices.h>
 #include <pcl/point_cloud.h>
 
 #include <string>
 
 namespace planar_grid {
+
+/** \brief The valid range of each FastStatisticalOutlierRemoval parameter, declared
+ * once: filter() tests the value against it and the pipeline's
+ * statistical_outlier_removal stage table takes it as its range. \ingroup filters */
+namespace fast_statistical_outlier_removal_ranges {
+/** \brief Nearest neighbours whose mean distance is tested: [1, inf), as
+ * pcl::StatisticalOutlierRemoval takes it. */
+inline constexpr ParamRange MEAN_K = ParamRange::openMax(1, ParamRange::UNBOUNDED);
+} // namespace fast_statistical_outlier_removal_ranges
 
 /** \brief pcl::StatisticalOutlierRemoval's filter with a faster neighbour search: the
  * same points kept, in the same order, for the same parameters.
@@ -46,8 +57,8 @@ public:
     this->filter_name_ = "FastStatisticalOutlierRemoval";
   }
 
-  /** \brief Number of nearest neighbours whose mean distance is tested (>= 1; 1 by
-   * default, as PCL). */
+  /** \brief Number of nearest neighbours whose mean distance is tested (in
+   * fast_statistical_outlier_removal_ranges::MEAN_K; 1 by default, as PCL). */
   void setMeanK(int mean_k) { mean_k_ = mean_k; }
   /** \brief The number of neighbours. */
   int getMeanK() const { return mean_k_; }

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_range.h>
+
 #include <pcl/filters/filter_indices.h>
 #include <pcl/pcl_macros.h>
 #include <pcl/point_cloud.h>
@@ -14,6 +16,36 @@
 #include <vector>
 
 namespace planar_grid {
+
+/** \brief The valid range of each KLDivergenceOccupancyFilter parameter, declared once:
+ * checkParameters() tests the values against them and the pipeline's
+ * kl_occupancy_filter stage table takes them as its ranges. \ingroup filters */
+namespace kl_divergence_occupancy_filter_ranges {
+/** \brief Delta d of eq. 4: (0, 10] pixels. */
+inline constexpr ParamRange DISPARITY_ERROR = ParamRange::openMin(0.0, 10.0);
+/** \brief Edge of the neighbourhood cell of r_bar: (0, 100] meters. */
+inline constexpr ParamRange NEIGHBOURHOOD_SIZE = ParamRange::openMin(0.0, 100.0);
+/** \brief Lower clamp of the probability: (0, 0.5). */
+inline constexpr ParamRange CLAMPING_THRES_MIN = ParamRange::open(0.0, 0.5);
+/** \brief Upper clamp of the probability: (0.5, 1). */
+inline constexpr ParamRange CLAMPING_THRES_MAX = ParamRange::open(0.5, 1.0);
+/** \brief Occupancy threshold, a probability: [0, 1]. */
+inline constexpr ParamRange OCCUPANCY_THRES = ParamRange::closed(0.0, 1.0);
+/** \brief A of eq. 10: [0, 10] nats. */
+inline constexpr ParamRange KL_OFFSET = ParamRange::closed(0.0, 10.0);
+/** \brief Log-odds rule, probability of a hit: (0.5, 1). */
+inline constexpr ParamRange PROB_HIT = ParamRange::open(0.5, 1.0);
+/** \brief Log-odds rule, probability of a miss: (0, 0.5). */
+inline constexpr ParamRange PROB_MISS = ParamRange::open(0.0, 0.5);
+/** \brief Association radius without track ids: (0, 10] meters. */
+inline constexpr ParamRange ASSOCIATION_RADIUS = ParamRange::openMin(0.0, 10.0);
+/** \brief DEPTH_QUADRATIC: k of Delta z = k z^2, (0, 1] 1/m. */
+inline constexpr ParamRange DEPTH_ERROR_COEFFICIENT = ParamRange::openMin(0.0, 1.0);
+/** \brief RANGE: Delta r, (0, 10] meters. */
+inline constexpr ParamRange RANGE_ERROR = ParamRange::openMin(0.0, 10.0);
+/** \brief m of eq. 9, a likelihood: [0, 1]. */
+inline constexpr ParamRange MOTION_LIKELIHOOD = ParamRange::closed(0.0, 1.0);
+} // namespace kl_divergence_occupancy_filter_ranges
 
 /** \brief How a feature track's occupancy probability is updated when it is observed
  * again. \ingroup filters */
@@ -182,40 +214,49 @@ public:
   /** \brief Parameters with their defaults and valid ranges (checked when filter()
    * starts). */
   struct Params {
-    /** dd of eq. 4: disparity error, pixels; > 0. The paper's 0.5. */
+    /** dd of eq. 4: disparity error, pixels; in
+     * kl_divergence_occupancy_filter_ranges::DISPARITY_ERROR. The paper's 0.5. */
     double disparity_error_px{0.5};
-    /** Edge of the neighbourhood cell over which r_bar is averaged, meters; > 0. */
+    /** Edge of the neighbourhood cell over which r_bar is averaged, meters; in
+     * kl_divergence_occupancy_filter_ranges::NEIGHBOURHOOD_SIZE. */
     double neighbourhood_size_m{0.5};
-    /** Lower clamp of the probability (OctoMap's clamping_thres_min); in (0, 0.5).
+    /** Lower clamp of the probability (OctoMap's clamping_thres_min); in
+     * kl_divergence_occupancy_filter_ranges::CLAMPING_THRES_MIN.
      * 0.1192 = log-odds -2. */
     double clamping_thres_min{0.1192};
-    /** Upper clamp of the probability (OctoMap's clamping_thres_max); in (0.5, 1).
+    /** Upper clamp of the probability (OctoMap's clamping_thres_max); in
+     * kl_divergence_occupancy_filter_ranges::CLAMPING_THRES_MAX.
      * 0.971 = log-odds 3.5. */
     double clamping_thres_max{0.971};
-    /** A feature is kept when its probability >= occupancy_thres; in [0, 1]. 0.5 =
-     * log-odds 0. */
+    /** A feature is kept when its probability >= occupancy_thres; in
+     * kl_divergence_occupancy_filter_ranges::OCCUPANCY_THRES. 0.5 = log-odds 0. */
     double occupancy_thres{0.5};
-    /** A of eq. 10, nats; >= 0. exp(-1.07) = 0.343. */
+    /** A of eq. 10, nats; in kl_divergence_occupancy_filter_ranges::KL_OFFSET.
+     * exp(-1.07) = 0.343. */
     double kl_offset_nats{1.07};
     /** The update rule of a re-observed track. */
     OccupancyUpdateRule update_rule{OccupancyUpdateRule::KL_DIVERGENCE};
-    /** Log-odds rule: probability of a hit (q >= 0.5), in (0.5, 1); OctoMap's 0.7 =
+    /** Log-odds rule: probability of a hit (q >= 0.5), in
+     * kl_divergence_occupancy_filter_ranges::PROB_HIT; OctoMap's 0.7 =
      * log-odds 0.847. */
     double prob_hit{0.7};
-    /** Log-odds rule: probability of a miss (q < 0.5), in (0, 0.5); OctoMap's 0.4 =
+    /** Log-odds rule: probability of a miss (q < 0.5), in
+     * kl_divergence_occupancy_filter_ranges::PROB_MISS; OctoMap's 0.4 =
      * log-odds -0.405. */
     double prob_miss{0.4};
     /** Association without track ids: largest distance to a stored track, in the
-     * input's units (meters); > 0. */
+     * input's units (meters); in
+     * kl_divergence_occupancy_filter_ranges::ASSOCIATION_RADIUS. */
     double association_radius_m{0.2};
     /** The sensor model of eq. 4's range error. */
     RangeErrorModel range_error_model{RangeErrorModel::STEREO};
-    /** DEPTH_QUADRATIC: k of Delta z = k z^2, 1/m; > 0. 0.0016 / m is 4 cm at 5 m, the
-     * Kinect's random depth error measured by Khoshelham and Elberink (Sensors 12(2),
-     * 2012). */
+    /** DEPTH_QUADRATIC: k of Delta z = k z^2, 1/m; in
+     * kl_divergence_occupancy_filter_ranges::DEPTH_ERROR_COEFFICIENT. 0.0016 / m is 4
+     * cm at 5 m, the Kinect's random depth error measured by Khoshelham and Elberink
+     * (Sensors 12(2), 2012). */
     double depth_error_coefficient_per_m{0.0016};
-    /** RANGE: Delta r, meters; > 0. 0.03 m is the +-3 cm range accuracy of common
-     * 16-32 beam 3D LiDARs. */
+    /** RANGE: Delta r, meters; in kl_divergence_occupancy_filter_ranges::RANGE_ERROR.
+     * 0.03 m is the +-3 cm range accuracy of common 16-32 beam 3D LiDARs. */
     double range_error_m{0.03};
   };
 
@@ -236,8 +277,9 @@ public:
   /** \brief Sets Delta d of eq. 4 (STEREO range error model). Like every setter below,
    * the value is validated when filter() starts (an invalid one gives empty output and
    * a PCL_ERROR) and applies from the next update on.
-   * \param[in] disparity_error_px the disparity error, pixels, > 0 (default 0.5, the
-   * paper's) */
+   * \param[in] disparity_error_px the disparity error, pixels, in
+   * kl_divergence_occupancy_filter_ranges::DISPARITY_ERROR (default 0.5, the paper's)
+   */
   void setDisparityError(double disparity_error_px)
   {
     params_.disparity_error_px = disparity_error_px;
@@ -247,7 +289,8 @@ public:
 
   /** \brief Sets the edge of the neighbourhood cell over which eq. 4's mean range
    * r_bar is taken (a cube, axis-aligned in the sensor frame).
-   * \param[in] neighbourhood_size_m the edge, meters, > 0 (default 0.5) */
+   * \param[in] neighbourhood_size_m the edge, meters, in
+   * kl_divergence_occupancy_filter_ranges::NEIGHBOURHOOD_SIZE (default 0.5) */
   void setNeighbourhoodSize(double neighbourhood_size_m)
   {
     params_.neighbourhood_size_m = neighbourhood_size_m;
@@ -256,7 +299,8 @@ public:
   double getNeighbourhoodSize() const { return params_.neighbourhood_size_m; }
 
   /** \brief Sets the lower clamp of a probability (OctoMap's clamping_thres_min).
-   * \param[in] probability in (0, 0.5) (default 0.1192, log-odds -2) */
+   * \param[in] probability in kl_divergence_occupancy_filter_ranges::CLAMPING_THRES_MIN
+   * (default 0.1192, log-odds -2) */
   void setClampingThresMin(double probability)
   {
     params_.clamping_thres_min = probability;
@@ -267,7 +311,8 @@ public:
   double getClampingThresMinLogOdds() const;
 
   /** \brief Sets the upper clamp of a probability (OctoMap's clamping_thres_max).
-   * \param[in] probability in (0.5, 1) (default 0.971, log-odds 3.51) */
+   * \param[in] probability in kl_divergence_occupancy_filter_ranges::CLAMPING_THRES_MAX
+   * (default 0.971, log-odds 3.51) */
   void setClampingThresMax(double probability)
   {
     params_.clamping_thres_max = probability;
@@ -278,7 +323,8 @@ public:
   double getClampingThresMaxLogOdds() const;
 
   /** \brief Sets the probability a feature must reach to be kept by filter().
-   * \param[in] probability in [0, 1] (default 0.5, log-odds 0) */
+   * \param[in] probability in kl_divergence_occupancy_filter_ranges::OCCUPANCY_THRES
+   * (default 0.5, log-odds 0) */
   void setOccupancyThres(double probability) { params_.occupancy_thres = probability; }
   /** \brief Returns the occupancy threshold, a probability. */
   double getOccupancyThres() const { return params_.occupancy_thres; }
@@ -288,7 +334,9 @@ public:
 
   /** \brief Sets A of eq. 10, added to the divergence when both the stored and the new
    * probability are <= 0.5.
-   * \param[in] kl_offset_nats A, nats, >= 0 (default 1.07: exp(-1.07) = 0.343) */
+   * \param[in] kl_offset_nats A, nats, in
+   * kl_divergence_occupancy_filter_ranges::KL_OFFSET (default 1.07: exp(-1.07) = 0.343)
+   */
   void setKLOffset(double kl_offset_nats) { params_.kl_offset_nats = kl_offset_nats; }
   /** \brief Returns A of eq. 10, nats. */
   double getKLOffset() const { return params_.kl_offset_nats; }
@@ -303,7 +351,8 @@ public:
   OccupancyUpdateRule getUpdateRule() const { return params_.update_rule; }
 
   /** \brief Sets the log-odds rule's probability of a hit (new q >= 0.5).
-   * \param[in] probability in (0.5, 1) (default 0.7, OctoMap's: log-odds 0.847) */
+   * \param[in] probability in kl_divergence_occupancy_filter_ranges::PROB_HIT (default
+   * 0.7, OctoMap's: log-odds 0.847) */
   void setProbHit(double probability) { params_.prob_hit = probability; }
   /** \brief Returns the probability of a hit. */
   double getProbHit() const { return params_.prob_hit; }
@@ -311,7 +360,8 @@ public:
   double getProbHitLogOdds() const;
 
   /** \brief Sets the log-odds rule's probability of a miss (new q < 0.5).
-   * \param[in] probability in (0, 0.5) (default 0.4, OctoMap's: log-odds -0.405) */
+   * \param[in] probability in kl_divergence_occupancy_filter_ranges::PROB_MISS (default
+   * 0.4, OctoMap's: log-odds -0.405) */
   void setProbMiss(double probability) { params_.prob_miss = probability; }
   /** \brief Returns the probability of a miss. */
   double getProbMiss() const { return params_.prob_miss; }
@@ -320,8 +370,8 @@ public:
 
   /** \brief Sets the largest distance from a feature to the stored track it joins,
    * for association by position (no track ids).
-   * \param[in] association_radius_m in the input's units (meters), > 0 (default
-   * 0.2) */
+   * \param[in] association_radius_m in the input's units (meters), in
+   * kl_divergence_occupancy_filter_ranges::ASSOCIATION_RADIUS (default 0.2) */
   void setAssociationRadius(double association_radius_m)
   {
     params_.association_radius_m = association_radius_m;
@@ -336,7 +386,9 @@ public:
   RangeErrorModel getRangeErrorModel() const { return params_.range_error_model; }
 
   /** \brief Sets k of the DEPTH_QUADRATIC model's Delta z = k z^2.
-   * \param[in] coefficient_per_m k, 1/m, > 0 (default 0.0016: 4 cm at 5 m) */
+   * \param[in] coefficient_per_m k, 1/m, in
+   * kl_divergence_occupancy_filter_ranges::DEPTH_ERROR_COEFFICIENT (default 0.0016: 4
+   * cm at 5 m) */
   void setDepthErrorCoefficient(double coefficient_per_m)
   {
     params_.depth_error_coefficient_per_m = coefficient_per_m;
@@ -348,7 +400,8 @@ public:
   }
 
   /** \brief Sets the RANGE model's Delta r, the same at every range.
-   * \param[in] range_error_m Delta r, meters, > 0 (default 0.03) */
+   * \param[in] range_error_m Delta r, meters, in
+   * kl_divergence_occupancy_filter_ranges::RANGE_ERROR (default 0.03) */
   void setRangeError(double range_error_m) { params_.range_error_m = range_error_m; }
   /** \brief Returns the RANGE model's Delta r, meters. */
   double getRangeError() const { return params_.range_error_m; }
@@ -379,7 +432,8 @@ public:
   /** \brief Sets m of eq. 9 for this frame: the likelihood of the estimated motion
    * under the motion model, exp(-0.5 Mahalanobis^2), in [0, 1]; 1 when the poses are
    * given. Applies to the next update only (then it returns to 1). Marks a new frame.
-   * \param[in] motion_likelihood m, in [0, 1] */
+   * \param[in] motion_likelihood m, in
+   * kl_divergence_occupancy_filter_ranges::MOTION_LIKELIHOOD */
   void setMotionLikelihood(double motion_likelihood);
 
   /** \brief Forgets every track (and the frame count); the next filter() integrates

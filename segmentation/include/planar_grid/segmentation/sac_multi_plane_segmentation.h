@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_range.h>
+
 #include <pcl/ModelCoefficients.h>
 #include <pcl/PointIndices.h>
 #include <pcl/pcl_base.h>
@@ -24,6 +26,62 @@ namespace planar_grid {
 namespace detail {
 struct DensePoints;
 } // namespace detail
+
+/** \brief The valid range of each SACMultiPlaneSegmentation parameter, declared once:
+ * checkParameters() tests the values against them and the pipeline's
+ * multi_plane_segmentation stage table takes them as its ranges. \ingroup segmentation
+ */
+namespace sac_multi_plane_segmentation_ranges {
+/** \brief Dense inlier distance threshold d_T of eq. 11: (0, 1] meters. */
+inline constexpr ParamRange DISTANCE_THRESHOLD = ParamRange::openMin(0.0, 1.0);
+/** \brief Sample inlier distance threshold: (0, 1] meters. */
+inline constexpr ParamRange SAMPLE_DISTANCE_THRESHOLD = ParamRange::openMin(0.0, 1.0);
+/** \brief Depth noise coefficient Delta d / (B f): [0, inf) 1/m. */
+inline constexpr ParamRange DEPTH_NOISE_COEFFICIENT =
+  ParamRange::openMax(0.0, ParamRange::UNBOUNDED);
+/** \brief Most planes per cloud: [1, 100]. */
+inline constexpr ParamRange MAX_PLANES = ParamRange::closed(1, 100);
+/** \brief Fewest dense inliers of a plane: [3, 100000000]. */
+inline constexpr ParamRange MIN_INLIERS = ParamRange::closed(3, 100000000);
+/** \brief Fewest sample inliers of a hypothesis: [3, 1000000]. */
+inline constexpr ParamRange MIN_SAMPLE_INLIERS = ParamRange::closed(3, 1000000);
+/** \brief Remaining sample fraction below which the search stops: [0, 1). */
+inline constexpr ParamRange MIN_REMAINING_FRACTION = ParamRange::openMax(0.0, 1.0);
+/** \brief Sample consensus iterations per plane: [1, 1000000]. */
+inline constexpr ParamRange MAX_ITERATIONS = ParamRange::closed(1, 1000000);
+/** \brief Sample consensus probability: (0, 1). */
+inline constexpr ParamRange PROBABILITY = ParamRange::open(0.0, 1.0);
+/** \brief Local optimisation samples per plane: [0, 100000]. */
+inline constexpr ParamRange LO_ITERATIONS = ParamRange::closed(0, 100000);
+/** \brief Largest normal angle of planes that merge: [0, 1.5708] radians (pi/2 as
+ * configurations write it). */
+inline constexpr ParamRange MERGE_ANGLE_THRESHOLD = ParamRange::closed(0.0, 1.5708);
+/** \brief Largest offset difference of planes that merge: [0, 10] meters. */
+inline constexpr ParamRange MERGE_DISTANCE_THRESHOLD = ParamRange::closed(0.0, 10.0);
+/** \brief Most sample points: [3, inf). */
+inline constexpr ParamRange MAX_SAMPLE_SIZE =
+  ParamRange::openMax(3, ParamRange::UNBOUNDED);
+/** \brief Visibility test, conflicting points per inlier: [0, 1000]. */
+inline constexpr ParamRange MAX_VISIBILITY_CONFLICT_RATIO =
+  ParamRange::closed(0.0, 1000.0);
+/** \brief Visibility test margin: [0, 100] meters. */
+inline constexpr ParamRange VISIBILITY_MARGIN = ParamRange::closed(0.0, 100.0);
+/** \brief Footprint cell edge of the visibility and shell tests: (0, 100] meters. */
+inline constexpr ParamRange VISIBILITY_CELL = ParamRange::openMin(0.0, 100.0);
+/** \brief Sensor plane test distance: [0, 100] meters. */
+inline constexpr ParamRange MIN_SENSOR_DISTANCE = ParamRange::closed(0.0, 100.0);
+/** \brief Cluster test, fewest inliers of a cluster: [0, 100000000]. */
+inline constexpr ParamRange MIN_CLUSTER_SIZE = ParamRange::closed(0, 100000000);
+/** \brief Footprint cell edge of the cluster test: (0, 100] meters. */
+inline constexpr ParamRange CLUSTER_CELL = ParamRange::openMin(0.0, 100.0);
+/** \brief Shell test, shell points per inlier: [0, 1000]. */
+inline constexpr ParamRange MAX_SHELL_RATIO = ParamRange::closed(0.0, 1000.0);
+/** \brief Smallest shell width of the shell test: [0, 100] meters. */
+inline constexpr ParamRange SHELL_WIDTH = ParamRange::closed(0.0, 100.0);
+/** \brief Distance threshold of the inlier-only points: [0, 10] meters. */
+inline constexpr ParamRange INLIER_ONLY_DISTANCE_THRESHOLD =
+  ParamRange::closed(0.0, 10.0);
+} // namespace sac_multi_plane_segmentation_ranges
 
 /** \brief The sample consensus estimator used for every plane hypothesis.
  * \ingroup segmentation */
@@ -185,7 +243,9 @@ public:
    * a plane within the smaller of it and their eq. 11 threshold (with the depth
    * noise, setDepthNoiseCoefficient(), the latter exceeds 0.3 m beyond 15 m of a
    * Karlsruhe-like rig, and a planar cell is as thick as its inliers' spread).
-   * \param[in] distance_m in meters, >= 0 (default 0: eq. 11's threshold) */
+   * \param[in] distance_m in meters, in
+   * sac_multi_plane_segmentation_ranges::INLIER_ONLY_DISTANCE_THRESHOLD (default 0: eq.
+   * 11's threshold) */
   void setInlierOnlyDistanceThreshold(double distance_m)
   {
     inlier_only_distance_threshold_ = distance_m;
@@ -198,7 +258,9 @@ public:
   }
 
   /** \brief Sets d_T of eq. 11, the largest point-to-plane distance of a dense inlier.
-   * \param[in] distance_threshold_m in meters, > 0 (default 0.05, the paper's value) */
+   * \param[in] distance_threshold_m in meters, in
+   * sac_multi_plane_segmentation_ranges::DISTANCE_THRESHOLD (default 0.05, the paper's
+   * value) */
   void setDistanceThreshold(double distance_threshold_m)
   {
     distance_threshold_ = distance_threshold_m;
@@ -213,7 +275,8 @@ public:
    * error Delta z = z^2 Delta d / (B f) (eq. 4, with r for z). With d_T = 0.05 m, a
    * 0.5 px disparity error and B f = 368 px m (Karlsruhe), the threshold grows beyond
    * d_T from 6 m and is 0.14 m at 10 m. Hypotheses are still drawn and scored at d_T.
-   * \param[in] coefficient_per_m Delta d / (B f), in 1/m, >= 0 (default 0: the
+   * \param[in] coefficient_per_m Delta d / (B f), in 1/m, in
+   * sac_multi_plane_segmentation_ranges::DEPTH_NOISE_COEFFICIENT (default 0: the
    * paper's fixed d_T) */
   void setDepthNoiseCoefficient(double coefficient_per_m)
   {
@@ -223,9 +286,10 @@ public:
   double getDepthNoiseCoefficient() const { return depth_noise_coefficient_; }
 
   /** \brief Sets the inlier threshold of the sample consensus on the sample cloud.
-   * \param[in] distance_threshold_m in meters, > 0 (default: unset, i.e. equal to the
-   * distance threshold). Stereo features are noisier than the dense cloud, so a larger
-   * value can help. */
+   * \param[in] distance_threshold_m in meters, in
+   * sac_multi_plane_segmentation_ranges::SAMPLE_DISTANCE_THRESHOLD (default: unset,
+   * i.e. equal to the distance threshold). Stereo features are noisier than the dense
+   * cloud, so a larger value can help. */
   void setSampleDistanceThreshold(double distance_threshold_m)
   {
     sample_distance_threshold_ = distance_threshold_m;
@@ -240,19 +304,22 @@ public:
   }
 
   /** \brief Sets the largest number of planes returned (before merging).
-   * \param[in] max_planes >= 1 (default 8) */
+   * \param[in] max_planes in sac_multi_plane_segmentation_ranges::MAX_PLANES (default
+   * 8) */
   void setMaxPlanes(int max_planes) { max_planes_ = max_planes; }
   /** \brief Returns the largest number of planes. */
   int getMaxPlanes() const { return max_planes_; }
 
   /** \brief Sets the fewest dense inliers a plane needs to be kept.
-   * \param[in] min_inliers >= 3 (default 500) */
+   * \param[in] min_inliers in sac_multi_plane_segmentation_ranges::MIN_INLIERS (default
+   * 500) */
   void setMinInliers(int min_inliers) { min_inliers_ = min_inliers; }
   /** \brief Returns the fewest dense inliers of a plane. */
   int getMinInliers() const { return min_inliers_; }
 
   /** \brief Sets the fewest sample inliers a hypothesis needs; fewer ends the loop.
-   * \param[in] min_sample_inliers >= 3 (default 15) */
+   * \param[in] min_sample_inliers in
+   * sac_multi_plane_segmentation_ranges::MIN_SAMPLE_INLIERS (default 15) */
   void setMinSampleInliers(int min_sample_inliers)
   {
     min_sample_inliers_ = min_sample_inliers;
@@ -261,19 +328,22 @@ public:
   int getMinSampleInliers() const { return min_sample_inliers_; }
 
   /** \brief Sets the remaining fraction of sample points below which the loop stops.
-   * \param[in] fraction in [0, 1) (default 0.05) */
+   * \param[in] fraction in sac_multi_plane_segmentation_ranges::MIN_REMAINING_FRACTION
+   * (default 0.05) */
   void setMinRemainingFraction(double fraction) { min_remaining_fraction_ = fraction; }
   /** \brief Returns the remaining-fraction stop criterion, in [0, 1). */
   double getMinRemainingFraction() const { return min_remaining_fraction_; }
 
   /** \brief Sets the sample consensus iteration cap per plane.
-   * \param[in] max_iterations >= 1 (default 1000) */
+   * \param[in] max_iterations in sac_multi_plane_segmentation_ranges::MAX_ITERATIONS
+   * (default 1000) */
   void setMaxIterations(int max_iterations) { max_iterations_ = max_iterations; }
   /** \brief Returns the sample consensus iteration cap per plane. */
   int getMaxIterations() const { return max_iterations_; }
 
   /** \brief Sets the probability of drawing at least one outlier-free sample.
-   * \param[in] probability in (0, 1) (default 0.99) */
+   * \param[in] probability in sac_multi_plane_segmentation_ranges::PROBABILITY (default
+   * 0.99) */
   void setProbability(double probability) { probability_ = probability; }
   /** \brief Returns the sample consensus probability, in (0, 1). */
   double getProbability() const { return probability_; }
@@ -313,7 +383,8 @@ public:
    * LO step of LO-RANSAC, Chum et al. 2003): minimal samples drawn from the plane's
    * eq. 11 inliers, each counted over all unassigned input points; one with more
    * inliers replaces the plane. It runs before the PCA refit.
-   * \param[in] lo_iterations >= 0 (default 50; 0 disables it) */
+   * \param[in] lo_iterations in sac_multi_plane_segmentation_ranges::LO_ITERATIONS
+   * (default 50; 0 disables it) */
   void setLocalOptimizationIterations(int lo_iterations)
   {
     lo_iterations_ = lo_iterations;
@@ -330,7 +401,8 @@ public:
   bool getMergePlanes() const { return merge_planes_; }
 
   /** \brief Sets the largest angle between the normals of two planes that merge.
-   * \param[in] eps_angle_rad in radians, in [0, pi/2] (default 0.1) */
+   * \param[in] eps_angle_rad in radians, in
+   * sac_multi_plane_segmentation_ranges::MERGE_ANGLE_THRESHOLD (default 0.1) */
   void setMergeAngleThreshold(double eps_angle_rad)
   {
     merge_angle_threshold_ = eps_angle_rad;
@@ -339,7 +411,8 @@ public:
   double getMergeAngleThreshold() const { return merge_angle_threshold_; }
 
   /** \brief Sets the largest difference of the Hessian offsets d of two planes that
-   * merge. \param[in] distance_threshold_m in meters, >= 0 (default 0.1) */
+   * merge. \param[in] distance_threshold_m in meters, in
+   * sac_multi_plane_segmentation_ranges::MERGE_DISTANCE_THRESHOLD (default 0.1) */
   void setMergeDistanceThreshold(double distance_threshold_m)
   {
     merge_distance_threshold_ = distance_threshold_m;
@@ -361,7 +434,9 @@ public:
    * plane left with fewer than min_inliers is dropped. Not in the paper, whose planes
    * come from key features alone: it keeps eq. 11 from taking a slab through a volume
    * for a surface. The clouds must be in one sensor's view (one frame).
-   * \param[in] ratio >= 0 (default 0: no test) */
+   * \param[in] ratio in
+   * sac_multi_plane_segmentation_ranges::MAX_VISIBILITY_CONFLICT_RATIO (default 0: no
+   * test) */
   void setMaxVisibilityConflictRatio(double ratio)
   {
     max_visibility_conflict_ratio_ = ratio;
@@ -374,13 +449,15 @@ public:
   }
 
   /** \brief Sets how far off a plane, beyond its eq. 11 threshold, a point must lie to
-   * conflict with it. \param[in] margin_m in meters, >= 0 (default 0.3) */
+   * conflict with it. \param[in] margin_m in meters, in
+   * sac_multi_plane_segmentation_ranges::VISIBILITY_MARGIN (default 0.3) */
   void setVisibilityMargin(double margin_m) { visibility_margin_ = margin_m; }
   /** \brief Returns the visibility margin, in meters. */
   double getVisibilityMargin() const { return visibility_margin_; }
 
   /** \brief Sets the edge of the square cells of a plane's footprint in the
-   * visibility and the shell tests. \param[in] cell_m in meters, > 0 (default 0.2) */
+   * visibility and the shell tests. \param[in] cell_m in meters, in
+   * sac_multi_plane_segmentation_ranges::VISIBILITY_CELL (default 0.2) */
   void setVisibilityCell(double cell_m) { visibility_cell_ = cell_m; }
   /** \brief Returns the footprint cell edge of the visibility and the shell tests, in
    * meters. */
@@ -401,7 +478,8 @@ public:
    * front of a wall) is on one side only and does not count. For a uniform volume or
    * a surface perpendicular to the plane the ratio is about 1 at shell width t; for
    * Gaussian noise whose standard deviation reaches t it is 0.40. Not in the paper.
-   * \param[in] ratio shell points per inlier, >= 0 (default 0: no test) */
+   * \param[in] ratio shell points per inlier, in
+   * sac_multi_plane_segmentation_ranges::MAX_SHELL_RATIO (default 0: no test) */
   void setMaxShellRatio(double ratio) { max_shell_ratio_ = ratio; }
   /** \brief Returns the largest ratio of shell points to inliers of a footprint
    * neighbourhood (0: no test). */
@@ -410,7 +488,8 @@ public:
   /** \brief Sets the smallest width of the shell of the shell test: the shell reaches
    * max(t, width) beyond each point's eq. 11 threshold t. On a voxelised cloud the
    * points of a surface lie in layers one voxel apart, so the shell should be at least
-   * one voxel wide. \param[in] width_m in meters, >= 0 (default 0.1) */
+   * one voxel wide. \param[in] width_m in meters, in
+   * sac_multi_plane_segmentation_ranges::SHELL_WIDTH (default 0.1) */
   void setShellWidth(double width_m) { shell_width_ = width_m; }
   /** \brief Returns the smallest shell width of the shell test, in meters. */
   double getShellWidth() const { return shell_width_; }
@@ -432,7 +511,8 @@ public:
    * (they would only give the same plane again; they stay for the non-planar cells).
    * A road below a vehicle's camera (1.6 m), a facade beside the street or a wall in
    * front of the sensor lies farther. Not in the paper.
-   * \param[in] distance_m in meters, >= 0 (default 0: no test) */
+   * \param[in] distance_m in meters, in
+   * sac_multi_plane_segmentation_ranges::MIN_SENSOR_DISTANCE (default 0: no test) */
   void setMinSensorDistance(double distance_m) { min_sensor_distance_ = distance_m; }
   /** \brief Returns the smallest distance of a plane from the sensor origin, in
    * meters (0: no test). */
@@ -447,13 +527,15 @@ public:
    * cluster with fewer than `size` of them leave the plane (they stay for later planes
    * or the non-planar cells); a plane left with fewer than min_inliers is dropped.
    * Applied after the visibility and the shell tests. Not in the paper.
-   * \param[in] size inliers, >= 0 (default 0: no test) */
+   * \param[in] size inliers, in sac_multi_plane_segmentation_ranges::MIN_CLUSTER_SIZE
+   * (default 0: no test) */
   void setMinClusterSize(int size) { min_cluster_size_ = size; }
   /** \brief Returns the fewest inliers of a footprint cluster (0: no test). */
   int getMinClusterSize() const { return min_cluster_size_; }
 
   /** \brief Sets the edge of the footprint cells of the cluster test; on a voxelised
-   * cloud at least the voxel edge. \param[in] cell_m in meters, > 0 (default 0.2) */
+   * cloud at least the voxel edge. \param[in] cell_m in meters, in
+   * sac_multi_plane_segmentation_ranges::CLUSTER_CELL (default 0.2) */
   void setClusterCell(double cell_m) { cluster_cell_ = cell_m; }
   /** \brief Returns the footprint cell edge of the cluster test, in meters. */
   double getClusterCell() const { return cluster_cell_; }
@@ -492,7 +574,8 @@ public:
   unsigned getSeed() const { return seed_; }
 
   /** \brief Sets the size of the input subsample used when no sample cloud is set.
-   * \param[in] max_sample_size >= 3 (default 20000 points) */
+   * \param[in] max_sample_size in sac_multi_plane_segmentation_ranges::MAX_SAMPLE_SIZE
+   * (default 20000 points) */
   void setMaxSampleSize(int max_sample_size) { max_sample_size_ = max_sample_size; }
   /** \brief Returns the size of the input subsample, in points. */
   int getMaxSampleSize() const { return max_sample_size_; }
@@ -513,7 +596,7 @@ public:
    * before it starts (it then reports the same text with PCL_ERROR and gives no
    * planes).
    * \return nullptr when every parameter is valid, else what is wrong (e.g.
-   * "distance_threshold must be > 0 m") */
+   * "distance_threshold must be in (0, 1] m") */
   const char* checkParameters() const;
 
 protected:

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_range.h>
 #include <planar_grid/core/planar_cuboid.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 
@@ -23,6 +24,26 @@ struct PolygonMesh;
 } // namespace pcl
 
 namespace planar_grid {
+
+/** \brief The valid range of each PlanarCuboidApproximation parameter, declared once:
+ * checkParameters() tests the values against them and the pipeline's
+ * planar_cuboid_approximation stage table takes them as its ranges. \ingroup surface */
+namespace planar_cuboid_approximation_ranges {
+/** \brief Raster resolution and smallest unit side: (0, 10] meters. */
+inline constexpr ParamRange MIN_CELL_SIZE = ParamRange::openMin(0.0, 10.0);
+/** \brief D_T of Fig. 8, a share of the unit's area: (0, 1]. */
+inline constexpr ParamRange DENSITY_THRESHOLD = ParamRange::openMin(0.0, 1.0);
+/** \brief Occupied lattice share of a non-planar box: [0, 1] (0: D_T). */
+inline constexpr ParamRange NON_PLANAR_DENSITY_THRESHOLD = ParamRange::closed(0.0, 1.0);
+/** \brief W_T of Fig. 8: [0, 100] meters. */
+inline constexpr ParamRange MIN_WIDTH = ParamRange::closed(0.0, 100.0);
+/** \brief H_T of Fig. 8: [0, 100] meters. */
+inline constexpr ParamRange MIN_HEIGHT = ParamRange::closed(0.0, 100.0);
+/** \brief Smallest extrusion of a cuboid: (0, 10] meters. */
+inline constexpr ParamRange THICKNESS = ParamRange::openMin(0.0, 10.0);
+/** \brief Fewest points of an output cuboid: [1, 1000000]. */
+inline constexpr ParamRange MIN_POINTS_PER_CELL = ParamRange::closed(1, 1000000);
+} // namespace planar_cuboid_approximation_ranges
 
 /** \brief Grid approximation and combination of Sec. III-F (Figs. 6-8) of the paper
  * ("Efficient Planar Surface-Based 3D Mapping Method for Mobile Robots Using Stereo
@@ -137,14 +158,16 @@ public:
   }
 
   /** \brief Sets the raster resolution, which is also the smallest unit side.
-   * \param[in] min_cell_size_m in meters, > 0 (default 0.1) */
+   * \param[in] min_cell_size_m in meters, in
+   * planar_cuboid_approximation_ranges::MIN_CELL_SIZE (default 0.1) */
   void setMinCellSize(double min_cell_size_m) { min_cell_size_ = min_cell_size_m; }
   /** \brief Returns the raster resolution, in meters. */
   double getMinCellSize() const { return min_cell_size_; }
 
   /** \brief Sets D_T of Fig. 8: a unit splits only while its split density
    * D = S_PO / S_PA (occupied raster area over unit area) is below it.
-   * \param[in] density_threshold in (0, 1] (default 0.9) */
+   * \param[in] density_threshold in
+   * planar_cuboid_approximation_ranges::DENSITY_THRESHOLD (default 0.9) */
   void setDensityThreshold(double density_threshold)
   {
     density_threshold_ = density_threshold;
@@ -153,7 +176,9 @@ public:
   double getDensityThreshold() const { return density_threshold_; }
   /** \brief Sets the share of occupied lattice voxels a non-planar box (Fig. 7) must
    * reach before it stops splitting in 3D: lower values give fewer, emptier boxes.
-   * \param[in] density_threshold in (0, 1], or 0 (the default) for D_T */
+   * \param[in] density_threshold in
+   * planar_cuboid_approximation_ranges::NON_PLANAR_DENSITY_THRESHOLD; 0 (the default)
+   * for D_T */
   void setNonPlanarDensityThreshold(double density_threshold)
   {
     non_planar_density_threshold_ = density_threshold;
@@ -162,28 +187,32 @@ public:
   double getNonPlanarDensityThreshold() const { return non_planar_density_threshold_; }
 
   /** \brief Sets W_T of Fig. 8: a unit splits only while its width W > W_T.
-   * \param[in] min_width_m in meters, >= 0 (default 0.1, i.e. split down to single
-   * raster cells; a unit never splits below one raster cell) */
+   * \param[in] min_width_m in meters, in planar_cuboid_approximation_ranges::MIN_WIDTH
+   * (default 0.1, i.e. split down to single raster cells; a unit never splits below one
+   * raster cell) */
   void setMinWidth(double min_width_m) { min_width_ = min_width_m; }
   /** \brief Returns W_T, in meters. */
   double getMinWidth() const { return min_width_; }
 
   /** \brief Sets H_T of Fig. 8: a unit splits only while its height H > H_T.
-   * \param[in] min_height_m in meters, >= 0 (default 0.1) */
+   * \param[in] min_height_m in meters, in
+   * planar_cuboid_approximation_ranges::MIN_HEIGHT (default 0.1) */
   void setMinHeight(double min_height_m) { min_height_ = min_height_m; }
   /** \brief Returns H_T, in meters. */
   double getMinHeight() const { return min_height_; }
 
   /** \brief Sets the smallest extrusion of a planar cuboid behind its face, and the
    * smallest depth of a non-planar cuboid (Fig. 6(c)).
-   * \param[in] thickness_m in meters, > 0 (default 0.1) */
+   * \param[in] thickness_m in meters, in planar_cuboid_approximation_ranges::THICKNESS
+   * (default 0.1) */
   void setThickness(double thickness_m) { thickness_ = thickness_m; }
   /** \brief Returns the smallest thickness, in meters. */
   double getThickness() const { return thickness_; }
 
   /** \brief Sets the fewest points of an output cuboid (a merged planar rectangle or
    * a non-planar part).
-   * \param[in] min_points_per_cell >= 1 (default 3) */
+   * \param[in] min_points_per_cell in
+   * planar_cuboid_approximation_ranges::MIN_POINTS_PER_CELL (default 3) */
   void setMinPointsPerCell(int min_points_per_cell)
   {
     min_points_per_cell_ = min_points_per_cell;
@@ -217,7 +246,7 @@ public:
   /** \brief Checks the parameters against their documented ranges, as approximate()
    * does before it starts (it then reports the same text with PCL_ERROR and gives no
    * cuboids). \return nullptr when every parameter is valid, else what is wrong (e.g.
-   * "thickness must be finite and > 0 m") */
+   * "thickness must be in (0, 10] m") */
   const char* checkParameters() const;
 
 protected:

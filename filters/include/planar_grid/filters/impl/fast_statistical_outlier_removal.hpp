@@ -37,9 +37,11 @@ template <typename PointT>
 void
 FastStatisticalOutlierRemoval<PointT>::applyFilter(pcl::Indices& indices)
 {
-  if (mean_k_ < 1)
-    throw Exception("FastStatisticalOutlierRemoval: mean_k must be >= 1, got "
-                    + std::to_string(mean_k_));
+  if (!fast_statistical_outlier_removal_ranges::MEAN_K.contains(mean_k_))
+    throw Exception(
+      "FastStatisticalOutlierRemoval: "
+      + paramRangeMessage("mean_k", fast_statistical_outlier_removal_ranges::MEAN_K)
+      + ", got " + std::to_string(mean_k_));
   const auto& cloud = *this->input_;
   const pcl::Indices& input_indices = *this->indices_;
   // Every finite point of the cloud is searched, as by PCL's searcher; packed in

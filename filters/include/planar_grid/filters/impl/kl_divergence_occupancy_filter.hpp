@@ -11,10 +11,12 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <string>
 
 namespace planar_grid {
 
@@ -286,34 +288,42 @@ KLDivergenceOccupancyFilter<PointT>::checkParameters() const
       && !(std::isfinite(focal_length_px_) && focal_length_px_ > 0.0
            && std::isfinite(baseline_m_) && baseline_m_ > 0.0))
     return "stereo parameters not set (setStereoParameters(f > 0 px, B > 0 m))";
-  if (!(std::isfinite(p.depth_error_coefficient_per_m)
-        && p.depth_error_coefficient_per_m > 0.0))
-    return "depth_error_coefficient_per_m must be > 0 1/m";
-  if (!(std::isfinite(p.range_error_m) && p.range_error_m > 0.0))
-    return "range_error_m must be > 0 m";
-  if (!(std::isfinite(p.disparity_error_px) && p.disparity_error_px > 0.0))
-    return "disparity_error_px must be > 0 px";
-  if (!(std::isfinite(p.neighbourhood_size_m) && p.neighbourhood_size_m > 0.0))
-    return "neighbourhood_size_m must be > 0 m";
-  if (!(p.clamping_thres_min > 0.0 && p.clamping_thres_min < 0.5))
-    return "clamping_thres_min must be in (0, 0.5)";
-  if (!(p.clamping_thres_max > 0.5 && p.clamping_thres_max < 1.0))
-    return "clamping_thres_max must be in (0.5, 1)";
-  if (!(p.occupancy_thres >= 0.0 && p.occupancy_thres <= 1.0))
-    return "occupancy_thres must be in [0, 1]";
-  if (!(std::isfinite(p.kl_offset_nats) && p.kl_offset_nats >= 0.0))
-    return "kl_offset_nats must be >= 0 nats";
   if (p.update_rule != OccupancyUpdateRule::KL_DIVERGENCE
       && p.update_rule != OccupancyUpdateRule::LOG_ODDS)
     return "update_rule must be KL_DIVERGENCE or LOG_ODDS";
-  if (!(p.prob_hit > 0.5 && p.prob_hit < 1.0))
-    return "prob_hit must be in (0.5, 1)";
-  if (!(p.prob_miss > 0.0 && p.prob_miss < 0.5))
-    return "prob_miss must be in (0, 0.5)";
-  if (!(std::isfinite(p.association_radius_m) && p.association_radius_m > 0.0))
-    return "association_radius_m must be > 0 m";
-  if (!(motion_likelihood_ >= 0.0 && motion_likelihood_ <= 1.0))
-    return "the motion likelihood must be in [0, 1]";
+  namespace ranges = kl_divergence_occupancy_filter_ranges;
+  // One message per range, written from the range once (static: the returned pointer
+  // stays valid).
+  static const std::array<std::string, 12> messages{
+    paramRangeMessage("depth_error_coefficient_per_m", ranges::DEPTH_ERROR_COEFFICIENT,
+                      "1/m"),
+    paramRangeMessage("range_error_m", ranges::RANGE_ERROR, "m"),
+    paramRangeMessage("disparity_error_px", ranges::DISPARITY_ERROR, "px"),
+    paramRangeMessage("neighbourhood_size_m", ranges::NEIGHBOURHOOD_SIZE, "m"),
+    paramRangeMessage("clamping_thres_min", ranges::CLAMPING_THRES_MIN),
+    paramRangeMessage("clamping_thres_max", ranges::CLAMPING_THRES_MAX),
+    paramRangeMessage("occupancy_thres", ranges::OCCUPANCY_THRES),
+    paramRangeMessage("kl_offset_nats", ranges::KL_OFFSET, "nats"),
+    paramRangeMessage("prob_hit", ranges::PROB_HIT),
+    paramRangeMessage("prob_miss", ranges::PROB_MISS),
+    paramRangeMessage("association_radius_m", ranges::ASSOCIATION_RADIUS, "m"),
+    paramRangeMessage("the motion likelihood", ranges::MOTION_LIKELIHOOD)};
+  const std::array<bool, 12> valid{
+    ranges::DEPTH_ERROR_COEFFICIENT.contains(p.depth_error_coefficient_per_m),
+    ranges::RANGE_ERROR.contains(p.range_error_m),
+    ranges::DISPARITY_ERROR.contains(p.disparity_error_px),
+    ranges::NEIGHBOURHOOD_SIZE.contains(p.neighbourhood_size_m),
+    ranges::CLAMPING_THRES_MIN.contains(p.clamping_thres_min),
+    ranges::CLAMPING_THRES_MAX.contains(p.clamping_thres_max),
+    ranges::OCCUPANCY_THRES.contains(p.occupancy_thres),
+    ranges::KL_OFFSET.contains(p.kl_offset_nats),
+    ranges::PROB_HIT.contains(p.prob_hit),
+    ranges::PROB_MISS.contains(p.prob_miss),
+    ranges::ASSOCIATION_RADIUS.contains(p.association_radius_m),
+    ranges::MOTION_LIKELIHOOD.contains(motion_likelihood_)};
+  for (std::size_t i = 0; i < valid.size(); ++i)
+    if (!valid[i])
+      return messages[i].c_str();
   if (!track_ids_.empty() && track_ids_.size() != input_->size())
     return "the track ids must be one per input point";
   return nullptr;

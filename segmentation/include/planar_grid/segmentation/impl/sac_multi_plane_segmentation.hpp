@@ -18,11 +18,13 @@
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <numeric>
 #include <random>
+#include <string>
 
 namespace planar_grid {
 
@@ -30,57 +32,67 @@ template <typename PointT>
 const char*
 SACMultiPlaneSegmentation<PointT>::checkParameters() const
 {
-  const char* bad = nullptr;
-  if (!(distance_threshold_ > 0.0))
-    bad = "distance_threshold must be > 0 m";
-  else if (sample_distance_threshold_set_ && !(sample_distance_threshold_ > 0.0))
-    bad = "sample_distance_threshold must be > 0 m";
-  else if (!(depth_noise_coefficient_ >= 0.0)
-           || !std::isfinite(depth_noise_coefficient_))
-    bad = "depth_noise_coefficient must be finite and >= 0 1/m";
-  else if (max_planes_ < 1)
-    bad = "max_planes must be >= 1";
-  else if (min_inliers_ < 3)
-    bad = "min_inliers must be >= 3";
-  else if (min_sample_inliers_ < 3)
-    bad = "min_sample_inliers must be >= 3";
-  else if (!(min_remaining_fraction_ >= 0.0 && min_remaining_fraction_ < 1.0))
-    bad = "min_remaining_fraction must be in [0, 1)";
-  else if (max_iterations_ < 1)
-    bad = "max_iterations must be >= 1";
-  else if (!(probability_ > 0.0 && probability_ < 1.0))
-    bad = "probability must be in (0, 1)";
-  else if (!(merge_angle_threshold_ >= 0.0 && merge_angle_threshold_ <= M_PI / 2.0))
-    bad = "merge_angle_threshold must be in [0, pi/2] rad";
-  else if (!(merge_distance_threshold_ >= 0.0))
-    bad = "merge_distance_threshold must be >= 0 m";
-  else if (!up_axis_.allFinite() || !(up_axis_.norm() > 0.0f))
-    bad = "up_axis must be finite and non-zero";
-  else if (max_sample_size_ < 3)
-    bad = "max_sample_size must be >= 3";
-  else if (lo_iterations_ < 0)
-    bad = "lo_iterations must be >= 0";
-  else if (!(max_visibility_conflict_ratio_ >= 0.0)
-           || !std::isfinite(max_visibility_conflict_ratio_))
-    bad = "max_visibility_conflict_ratio must be finite and >= 0";
-  else if (!(visibility_margin_ >= 0.0) || !std::isfinite(visibility_margin_))
-    bad = "visibility_margin must be finite and >= 0 m";
-  else if (!(visibility_cell_ > 0.0) || !std::isfinite(visibility_cell_))
-    bad = "visibility_cell must be finite and > 0 m";
-  else if (!(min_sensor_distance_ >= 0.0) || !std::isfinite(min_sensor_distance_))
-    bad = "min_sensor_distance must be finite and >= 0 m";
-  else if (min_cluster_size_ < 0)
-    bad = "min_cluster_size must be >= 0";
-  else if (!(cluster_cell_ > 0.0) || !std::isfinite(cluster_cell_))
-    bad = "cluster_cell must be finite and > 0 m";
-  else if (!(max_shell_ratio_ >= 0.0) || !std::isfinite(max_shell_ratio_))
-    bad = "max_shell_ratio must be finite and >= 0";
-  else if (!(shell_width_ >= 0.0) || !std::isfinite(shell_width_))
-    bad = "shell_width must be finite and >= 0 m";
-  else if (!(inlier_only_distance_threshold_ >= 0.0)
-           || !std::isfinite(inlier_only_distance_threshold_))
-    bad = "inlier_only_distance_threshold must be finite and >= 0 m";
-  return bad;
+  namespace ranges = sac_multi_plane_segmentation_ranges;
+  // One message per range, written from the range once (static: the returned pointer
+  // stays valid).
+  static const std::array<std::string, 23> messages{
+    paramRangeMessage("distance_threshold", ranges::DISTANCE_THRESHOLD, "m"),
+    paramRangeMessage("sample_distance_threshold", ranges::SAMPLE_DISTANCE_THRESHOLD,
+                      "m"),
+    paramRangeMessage("depth_noise_coefficient", ranges::DEPTH_NOISE_COEFFICIENT,
+                      "1/m"),
+    paramRangeMessage("max_planes", ranges::MAX_PLANES),
+    paramRangeMessage("min_inliers", ranges::MIN_INLIERS),
+    paramRangeMessage("min_sample_inliers", ranges::MIN_SAMPLE_INLIERS),
+    paramRangeMessage("min_remaining_fraction", ranges::MIN_REMAINING_FRACTION),
+    paramRangeMessage("max_iterations", ranges::MAX_ITERATIONS),
+    paramRangeMessage("probability", ranges::PROBABILITY),
+    paramRangeMessage("merge_angle_threshold", ranges::MERGE_ANGLE_THRESHOLD, "rad"),
+    paramRangeMessage("merge_distance_threshold", ranges::MERGE_DISTANCE_THRESHOLD,
+                      "m"),
+    "up_axis must be finite and non-zero",
+    paramRangeMessage("max_sample_size", ranges::MAX_SAMPLE_SIZE),
+    paramRangeMessage("lo_iterations", ranges::LO_ITERATIONS),
+    paramRangeMessage("max_visibility_conflict_ratio",
+                      ranges::MAX_VISIBILITY_CONFLICT_RATIO),
+    paramRangeMessage("visibility_margin", ranges::VISIBILITY_MARGIN, "m"),
+    paramRangeMessage("visibility_cell", ranges::VISIBILITY_CELL, "m"),
+    paramRangeMessage("min_sensor_distance", ranges::MIN_SENSOR_DISTANCE, "m"),
+    paramRangeMessage("min_cluster_size", ranges::MIN_CLUSTER_SIZE),
+    paramRangeMessage("cluster_cell", ranges::CLUSTER_CELL, "m"),
+    paramRangeMessage("max_shell_ratio", ranges::MAX_SHELL_RATIO),
+    paramRangeMessage("shell_width", ranges::SHELL_WIDTH, "m"),
+    paramRangeMessage("inlier_only_distance_threshold",
+                      ranges::INLIER_ONLY_DISTANCE_THRESHOLD, "m")};
+  const std::array<bool, 23> valid{
+    ranges::DISTANCE_THRESHOLD.contains(distance_threshold_),
+    !sample_distance_threshold_set_
+      || ranges::SAMPLE_DISTANCE_THRESHOLD.contains(sample_distance_threshold_),
+    ranges::DEPTH_NOISE_COEFFICIENT.contains(depth_noise_coefficient_),
+    ranges::MAX_PLANES.contains(max_planes_),
+    ranges::MIN_INLIERS.contains(min_inliers_),
+    ranges::MIN_SAMPLE_INLIERS.contains(min_sample_inliers_),
+    ranges::MIN_REMAINING_FRACTION.contains(min_remaining_fraction_),
+    ranges::MAX_ITERATIONS.contains(max_iterations_),
+    ranges::PROBABILITY.contains(probability_),
+    ranges::MERGE_ANGLE_THRESHOLD.contains(merge_angle_threshold_),
+    ranges::MERGE_DISTANCE_THRESHOLD.contains(merge_distance_threshold_),
+    up_axis_.allFinite() && up_axis_.norm() > 0.0f,
+    ranges::MAX_SAMPLE_SIZE.contains(max_sample_size_),
+    ranges::LO_ITERATIONS.contains(lo_iterations_),
+    ranges::MAX_VISIBILITY_CONFLICT_RATIO.contains(max_visibility_conflict_ratio_),
+    ranges::VISIBILITY_MARGIN.contains(visibility_margin_),
+    ranges::VISIBILITY_CELL.contains(visibility_cell_),
+    ranges::MIN_SENSOR_DISTANCE.contains(min_sensor_distance_),
+    ranges::MIN_CLUSTER_SIZE.contains(min_cluster_size_),
+    ranges::CLUSTER_CELL.contains(cluster_cell_),
+    ranges::MAX_SHELL_RATIO.contains(max_shell_ratio_),
+    ranges::SHELL_WIDTH.contains(shell_width_),
+    ranges::INLIER_ONLY_DISTANCE_THRESHOLD.contains(inlier_only_distance_threshold_)};
+  for (std::size_t i = 0; i < valid.size(); ++i)
+    if (!valid[i])
+      return messages[i].c_str();
+  return nullptr;
 }
 
 template <typename PointT>

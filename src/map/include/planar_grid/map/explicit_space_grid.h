@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_range.h>
 #include <planar_grid/core/stereo_calibration.h>
 
 #include <pcl/memory.h>
@@ -24,6 +25,18 @@ class OcTree;
 } // namespace octomap
 
 namespace planar_grid {
+
+/** \brief The valid range of each numeric ExplicitSpaceGrid::Params member, declared
+ * once: the ExplicitSpaceGrid constructor tests the values against them and the
+ * pipeline's map_integration stage table takes them as its ranges. \ingroup map */
+namespace explicit_space_grid_ranges {
+/** \brief Voxel edge: (0, inf) meters (a map's is its surface layer's, narrower). */
+inline constexpr ParamRange RESOLUTION = ParamRange::open(0.0, ParamRange::UNBOUNDED);
+/** \brief Largest depth integrated per view: (0, 1000] meters. */
+inline constexpr ParamRange MAX_RANGE = ParamRange::openMin(0.0, 1000.0);
+/** \brief Half-thickness of the measured surface: [0, 10] meters. */
+inline constexpr ParamRange SURFACE_MARGIN = ParamRange::closed(0.0, 10.0);
+} // namespace explicit_space_grid_ranges
 
 /** \brief The state of a cell of the explicit space layer, with the paper's 2-bit
  * labels (Sec. IV: 00 free, 01 occupied, 10 unknown; 11 marks an inner octree node in
@@ -145,11 +158,14 @@ class ExplicitSpaceGrid {
 public:
   /** \brief Parameters with defaults and valid ranges. */
   struct Params {
-    /** Voxel edge, meters; > 0 (the paper's minimum cell, 0.1 m). */
+    /** Voxel edge, meters; in explicit_space_grid_ranges::RESOLUTION (the paper's
+     * minimum cell, 0.1 m). */
     double resolution_m{0.1};
-    /** Largest depth integrated per view, meters; > 0. */
+    /** Largest depth integrated per view, meters; in
+     * explicit_space_grid_ranges::MAX_RANGE. */
     double max_range_m{25.0};
-    /** Half-thickness of the measured surface, meters; >= 0. 0 selects one voxel
+    /** Half-thickness of the measured surface, meters; in
+     * explicit_space_grid_ranges::SURFACE_MARGIN. 0 selects one voxel
      * diagonal / 2 (resolution_m sqrt(3) / 2). */
     double surface_margin_m{0.0};
     /** State of space never inside a view: the paper treats it as free; UNKNOWN is

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_range.h>
 #include <planar_grid/core/planar_cuboid.h>
 #include <planar_grid/core/rectangle_merge.h>
 
@@ -20,6 +21,33 @@
 #include <vector>
 
 namespace planar_grid {
+
+/** \brief The valid range of each numeric SurfaceLayer::Params member, declared once:
+ * the SurfaceLayer constructor tests the values against them and the pipeline's
+ * map_integration stage table takes them as its ranges (the map's resolution_m is the
+ * surface layer's). \ingroup map */
+namespace surface_layer_ranges {
+/** \brief Raster cell edge: [0.001, 10] meters. */
+inline constexpr ParamRange RESOLUTION = ParamRange::closed(0.001, 10.0);
+/** \brief Extrusion of the planar cuboids: (0, 10] meters. */
+inline constexpr ParamRange THICKNESS = ParamRange::openMin(0.0, 10.0);
+/** \brief Largest normal angle of one plane's views: (0, 1.5] radians. */
+inline constexpr ParamRange PLANE_MERGE_ANGLE = ParamRange::openMin(0.0, 1.5);
+/** \brief Largest RMS distance of a view's faces to the joint plane: (0, 10] meters.
+ */
+inline constexpr ParamRange PLANE_MERGE_DISTANCE = ParamRange::openMin(0.0, 10.0);
+/** \brief Occupancy class boundary, a probability: (0, 1). */
+inline constexpr ParamRange OCCUPANCY_THRES = ParamRange::open(0.0, 1.0);
+/** \brief Distance of a feature that counts for a planar cell: [0, 10] meters. */
+inline constexpr ParamRange FEATURE_DISTANCE = ParamRange::closed(0.0, 10.0);
+/** \brief Widest gap closed in a plane's raster: [0, 32] cells. */
+inline constexpr ParamRange CLOSE_GAPS = ParamRange::closed(0, 32);
+/** \brief merge_rule DENSITY, smallest share of a rectangle's cells: [0.5, 1]. */
+inline constexpr ParamRange COVER_DENSITY = ParamRange::closed(0.5, 1.0);
+/** \brief Largest distance at which a parallel plane's cells are absorbed: [0, 10]
+ * meters. */
+inline constexpr ParamRange ABSORB_DISTANCE = ParamRange::closed(0.0, 10.0);
+} // namespace surface_layer_ranges
 
 /** \brief Plane models [a, b, c, d] (unit normal, meters), aligned allocator
  * (fixed-size vectorizable Eigen types need it in std::vector).
@@ -147,41 +175,45 @@ class SurfaceLayer {
 public:
   /** \brief Parameters with defaults and valid ranges. */
   struct Params {
-    /** Raster cell edge in each plane, meters; in [0.001, 100] (the paper's minimum
-     * cell). */
+    /** Raster cell edge in each plane, meters; in surface_layer_ranges::RESOLUTION (the
+     * paper's minimum cell). */
     double resolution_m{0.1};
-    /** Extrusion of the planar cuboids behind their face, meters; > 0. */
+    /** Extrusion of the planar cuboids behind their face, meters; in
+     * surface_layer_ranges::THICKNESS. */
     double thickness_m{0.1};
     /** Largest angle between the normals of one plane seen in two frames, radians;
-     * in (0, pi/2). */
+     * in surface_layer_ranges::PLANE_MERGE_ANGLE. */
     double plane_merge_angle_rad{0.1};
     /** Largest root mean square distance of a frame's faces (or of a map plane's
      * evidence) to the least-squares plane fitted to them together with the map
-     * plane they join, meters; > 0. */
+     * plane they join, meters; in surface_layer_ranges::PLANE_MERGE_DISTANCE. */
     double plane_merge_distance_m{0.15};
-    /** Occupancy class boundary for merging cells, probability in (0, 1). */
+    /** Occupancy class boundary for merging cells, a probability in
+     * surface_layer_ranges::OCCUPANCY_THRES. */
     double occupancy_thres{0.5};
     /** A feature counts for a planar cell when within this distance of the plane,
-     * meters; >= 0. */
+     * meters; in surface_layer_ranges::FEATURE_DISTANCE. */
     double feature_distance_m{0.1};
-    /** Widest gap closed in a plane's raster before the merge, in cells; in [0, 32]
+    /** Widest gap closed in a plane's raster before the merge, in cells; in
+     * surface_layer_ranges::CLOSE_GAPS
      * (0: no closing; 2: holes and notches up to 2 cells wide, i.e. 0.2 m at the
      * paper's 0.1 m cell, are filled). */
     int close_gaps_cells{2};
     /** How the closed raster is covered by rectangles (the merge of Fig. 6b). */
     SurfaceMergeRule merge_rule{SurfaceMergeRule::MIN_RECTANGLES};
     /** With merge_rule DENSITY: the smallest share of a rectangle's cells that are
-     * cells of the plane's raster (observed or filled), in [0.5, 1]; 1 gives exact
-     * rectangles like the other rules. The paper's D_T. */
+     * cells of the plane's raster (observed or filled), in
+     * surface_layer_ranges::COVER_DENSITY; 1 gives exact rectangles like the other
+     * rules. The paper's D_T. */
     double cover_density{0.9};
     /** Largest distance along a stronger plane's normal at which the cells of a
      * plane parallel to it (normals within plane_merge_angle_rad, facing the same
      * way) are the same
      * surface seen at another depth and move to it (absorbOverlappingPlaneCells()),
-     * meters; finite, >= 0; below resolution_m / 2 it is resolution_m / 2, the
-     * tolerance for planes that are not parallel. 0.5 m is about twice the stereo
-     * depth error (paper eq. 4) at the range the pipeline maps planes, 0.3 m:
-     * two views of one wall, each off by up to that error. */
+     * meters; in surface_layer_ranges::ABSORB_DISTANCE; below resolution_m / 2 it is
+     * resolution_m / 2, the tolerance for planes that are not parallel. 0.5 m is about
+     * twice the stereo depth error (paper eq. 4) at the range the pipeline maps planes,
+     * 0.3 m: two views of one wall, each off by up to that error. */
     double absorb_distance_m{0.5};
   };
 

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_range.h>
 #include <planar_grid/odometry/trajectory_io.h>
 #include <planar_grid/stereo/stereo_feature_matcher.h>
 
@@ -17,6 +18,55 @@
 #include <vector>
 
 namespace planar_grid {
+
+/** \brief The valid range of each StereoOdometry::Params member, declared once: the
+ * StereoOdometry constructor tests the values against them and the pipeline's
+ * visual_odometry (and kl_occupancy_filter's match_ratio) stage table takes them as
+ * its ranges. \ingroup odometry */
+namespace stereo_odometry_ranges {
+/** \brief Lowe's ratio: (0, 1]. */
+inline constexpr ParamRange RATIO = ParamRange::openMin(0.0, 1.0);
+/** \brief Largest descriptor distance of a match: [0, inf) (L2 or Hamming bits). */
+inline constexpr ParamRange MAX_DESCRIPTOR_DISTANCE =
+  ParamRange::openMax(0.0, ParamRange::UNBOUNDED);
+/** \brief RANSAC inlier threshold: (0, 10] metres. */
+inline constexpr ParamRange DISTANCE_THRESHOLD = ParamRange::openMin(0.0, 10.0);
+/** \brief Depth scaling of the threshold: [0, inf) metres. */
+inline constexpr ParamRange REFERENCE_DEPTH =
+  ParamRange::openMax(0.0, ParamRange::UNBOUNDED);
+/** \brief Reprojection inlier threshold: (0, 100] pixels. */
+inline constexpr ParamRange REPROJECTION_THRESHOLD = ParamRange::openMin(0.0, 100.0);
+/** \brief Huber threshold of the Sampson distance: (0, 100] pixels. */
+inline constexpr ParamRange EPIPOLAR_THRESHOLD = ParamRange::openMin(0.0, 100.0);
+/** \brief Largest rotation change of the epipolar refinement: (0, inf) radians. */
+inline constexpr ParamRange EPIPOLAR_MAX_ROTATION_CHANGE =
+  ParamRange::open(0.0, ParamRange::UNBOUNDED);
+/** \brief Shortest translation of the epipolar refinement: [0, inf) metres. */
+inline constexpr ParamRange EPIPOLAR_MIN_TRANSLATION =
+  ParamRange::openMax(0.0, ParamRange::UNBOUNDED);
+/** \brief Disparity offset: [-20, 20] pixels. */
+inline constexpr ParamRange DISPARITY_OFFSET = ParamRange::closed(-20.0, 20.0);
+/** \brief Standard deviation of the disparity offset's first prior: (0, 100] pixels. */
+inline constexpr ParamRange DISPARITY_OFFSET_SIGMA = ParamRange::openMin(0.0, 100.0);
+/** \brief Share of the offset's information carried on: [0, 1]. */
+inline constexpr ParamRange DISPARITY_OFFSET_MEMORY = ParamRange::closed(0.0, 1.0);
+/** \brief Most RANSAC iterations: [1, 1000000]. */
+inline constexpr ParamRange MAX_ITERATIONS = ParamRange::closed(1, 1000000);
+/** \brief RANSAC probability: (0, 1). */
+inline constexpr ParamRange PROBABILITY = ParamRange::open(0.0, 1.0);
+/** \brief Fewest inliers of a valid motion: [3, 100000]. */
+inline constexpr ParamRange MIN_INLIERS = ParamRange::closed(3, 100000);
+} // namespace stereo_odometry_ranges
+
+/** \brief The valid range of each ConstantVelocityMotionModel::Params member, declared
+ * once: the constructor tests the values against them and the pipeline's
+ * kl_occupancy_filter stage table takes them as its ranges. \ingroup odometry */
+namespace constant_velocity_motion_model_ranges {
+/** \brief Standard deviation of each translation component: (0, 100] metres. */
+inline constexpr ParamRange SIGMA_TRANSLATION = ParamRange::openMin(0.0, 100.0);
+/** \brief Standard deviation of each rotation-vector component: (0, 10] radians. */
+inline constexpr ParamRange SIGMA_ROTATION = ParamRange::openMin(0.0, 10.0);
+} // namespace constant_velocity_motion_model_ranges
 
 /** \brief Result of one frame-to-frame motion estimate (paper eq. 8).
  * \ingroup odometry */
@@ -70,27 +120,29 @@ public:
 
   /** \brief Parameters, with their valid ranges. */
   struct Params {
-    /** Lowe's ratio: best / second-best descriptor distance must be below it; (0, 1].
-     */
+    /** Lowe's ratio: best / second-best descriptor distance must be below it; in
+     * stereo_odometry_ranges::RATIO. */
     double ratio{0.8};
     /** Keep a match only when it is also the best match in the other direction. */
     bool mutual_check{true};
     /** Largest descriptor distance of a match (L2 for SIFT, Hamming bits for ORB);
-     * 0 disables the check; >= 0. */
+     * 0 disables the check; in stereo_odometry_ranges::MAX_DESCRIPTOR_DISTANCE. */
     double max_descriptor_distance{0.0};
     /** RANSAC inlier threshold: largest 3D distance between a previous point and the
      * transformed current point (for points nearer than reference_depth_m), metres;
-     * > 0. */
+     * in stereo_odometry_ranges::DISTANCE_THRESHOLD. */
     double distance_threshold_m{0.1};
-    /** Depth scaling of the threshold, metres; >= 0. When > 0, correspondence i's
-     * distance is divided by s_i = max(1, z_i / reference_depth_m)^2 (z_i the larger of
-     * its two depths; the stereo depth error grows with z^2) before the comparison
-     * with distance_threshold_m, and the least-squares refinement weights it by
-     * 1 / s_i^2 (weighted SVD). When 0, one threshold holds for all depths and the
-     * refinement is pcl::registration::TransformationEstimationSVD. */
+    /** Depth scaling of the threshold, metres; in
+     * stereo_odometry_ranges::REFERENCE_DEPTH. When > 0, correspondence i's distance is
+     * divided by s_i = max(1, z_i / reference_depth_m)^2 (z_i the larger of its two
+     * depths; the stereo depth error grows with z^2) before the comparison with
+     * distance_threshold_m, and the least-squares refinement weights it by 1 / s_i^2
+     * (weighted SVD). When 0, one threshold holds for all depths and the refinement is
+     * pcl::registration::TransformationEstimationSVD. */
     double reference_depth_m{0.0};
     /** Largest stereo reprojection error of an inlier in the refinement that runs
-     * when a calibration is set (setCalibration()), pixels; > 0. */
+     * when a calibration is set (setCalibration()), pixels; in
+     * stereo_odometry_ranges::REPROJECTION_THRESHOLD. */
     double reprojection_threshold_px{2.0};
     /** Re-estimate the rotation from the epipolar geometry of the two left images
      * after the stereo refinement (needs a calibration, setCalibration()): the
@@ -107,13 +159,13 @@ public:
      * translation direction by more than 15 degrees. */
     bool epipolar_refinement{true};
     /** Huber threshold of the Sampson distance in the epipolar refinement, pixels;
-     * > 0. */
+     * in stereo_odometry_ranges::EPIPOLAR_THRESHOLD. */
     double epipolar_threshold_px{0.5};
     /** Largest rotation change the epipolar refinement may make to the stereo
-     * rotation, radians; > 0. */
+     * rotation, radians; in stereo_odometry_ranges::EPIPOLAR_MAX_ROTATION_CHANGE. */
     double epipolar_max_rotation_change_rad{0.02};
     /** Shortest stereo translation for which the epipolar refinement runs, metres;
-     * >= 0. */
+     * in stereo_odometry_ranges::EPIPOLAR_MIN_TRANSLATION. */
     double epipolar_min_translation_m{0.05};
     /** Estimate a disparity offset together with the motion in the reprojection
      * refinement (needs a calibration, setCalibration()): the true disparity is
@@ -132,25 +184,28 @@ public:
     bool estimate_disparity_offset{true};
     /** Disparity offset of the features, pixels (true disparity = measured +
      * offset): the prior mean of the estimate, or the offset used when it is not
-     * estimated; in [-20, 20]. */
+     * estimated; in stereo_odometry_ranges::DISPARITY_OFFSET. */
     double disparity_offset_px{0.0};
     /** Standard deviation of the disparity offset's prior at the first frame pair,
-     * pixels, for reprojection residuals of 1 px standard deviation; > 0. */
+     * pixels, for reprojection residuals of 1 px standard deviation; in
+     * stereo_odometry_ranges::DISPARITY_OFFSET_SIGMA. */
     double disparity_offset_sigma_px{1.0};
     /** Share of the disparity offset's information that VisualOdometry carries from
-     * one frame pair to the next as its prior; [0, 1]. 1 averages over the whole run
-     * (a constant offset), smaller values follow an offset that changes, over about
-     * 1 / (1 - memory) frame pairs; the prior never gets weaker than
-     * disparity_offset_sigma_px around the last estimate. The default, 0.8 (about 5
-     * frame pairs), is a compromise between the KITTI snippet, whose offset is
-     * constant (1 is best there), and Karlsruhe, whose per-pair estimates change
-     * with the speed (0 is best there; docs/ODOMETRY.md). */
+     * one frame pair to the next as its prior; in
+     * stereo_odometry_ranges::DISPARITY_OFFSET_MEMORY. 1 averages over the whole run (a
+     * constant offset), smaller values follow an offset that changes, over about 1 / (1
+     * - memory) frame pairs; the prior never gets weaker than disparity_offset_sigma_px
+     * around the last estimate. The default, 0.8 (about 5 frame pairs), is a compromise
+     * between the KITTI snippet, whose offset is constant (1 is best there), and
+     * Karlsruhe, whose per-pair estimates change with the speed (0 is best there;
+     * docs/ODOMETRY.md). */
     double disparity_offset_memory{0.8};
-    /** Most RANSAC iterations; >= 1. */
+    /** Most RANSAC iterations; in stereo_odometry_ranges::MAX_ITERATIONS. */
     int max_iterations{2000};
-    /** RANSAC probability of drawing one outlier-free sample; (0, 1). */
+    /** RANSAC probability of drawing one outlier-free sample; in
+     * stereo_odometry_ranges::PROBABILITY. */
     double probability{0.99};
-    /** Fewest inliers for a valid motion; >= 3. */
+    /** Fewest inliers for a valid motion; in stereo_odometry_ranges::MIN_INLIERS. */
     int min_inliers{20};
     /** Seed of the RANSAC sampler: the same input and seed give the same motion.
      */
@@ -258,13 +313,15 @@ class ConstantVelocityMotionModel {
 public:
   /** \brief Standard deviations of the motion error per frame. */
   struct Params {
-    /** Standard deviation of each translation component, metres; > 0. */
+    /** Standard deviation of each translation component, metres; in
+     * constant_velocity_motion_model_ranges::SIGMA_TRANSLATION. */
     double sigma_translation_m{0.1};
-    /** Standard deviation of each rotation-vector component, radians; > 0. */
+    /** Standard deviation of each rotation-vector component, radians; in
+     * constant_velocity_motion_model_ranges::SIGMA_ROTATION. */
     double sigma_rotation_rad{0.02};
   };
 
-  /** \brief Throws planar_grid::Exception for non-positive sigmas. */
+  /** \brief Throws planar_grid::Exception for sigmas outside their ranges. */
   explicit ConstantVelocityMotionModel(const Params& params);
   /** \brief Uses the default Params. */
   ConstantVelocityMotionModel();

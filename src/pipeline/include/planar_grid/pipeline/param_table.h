@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_range.h>
+
 #include <map>
 #include <string>
 #include <variant>
@@ -27,10 +29,9 @@ struct ParamSpec {
   Type type{Type::DOUBLE};
   /** \brief Default value, as text (a number, true/false, or one of choices). */
   std::string default_value;
-  /** \brief Inclusive lower bound for DOUBLE and INT, in the parameter's unit. */
-  double min{0.0};
-  /** \brief Inclusive upper bound for DOUBLE and INT, in the parameter's unit. */
-  double max{0.0};
+  /** \brief Valid range of a DOUBLE or INT, in the parameter's unit: the class's
+   * declared range where a class takes the parameter. */
+  ParamRange range;
   /** \brief Unit in words ("m", "px", "probability", "" for counts and flags). */
   std::string unit;
   /** \brief One line on what it does. */
@@ -64,7 +65,8 @@ struct ParamSpec {
     return spec;
   }
 
-  /** \brief A real-valued parameter.
+  /** \brief A real-valued parameter whose range is declared here (a parameter of
+   * the pipeline only).
    * \param[in] key YAML key ending in its unit
    * \param[in] default_value the default, within [min, max]
    * \param[in] min inclusive lower bound
@@ -78,7 +80,21 @@ struct ParamSpec {
                         double max,
                         const std::string& unit,
                         const std::string& description);
-  /** \brief An integer parameter.
+  /** \brief A real-valued parameter that a library class takes, with the range the
+   * class declares (and checks).
+   * \param[in] key YAML key ending in its unit
+   * \param[in] default_value the default, within \a range
+   * \param[in] range the class's range
+   * \param[in] unit the unit in words
+   * \param[in] description one line on what it does
+   * \return the specification */
+  static ParamSpec real(const std::string& key,
+                        double default_value,
+                        const ParamRange& range,
+                        const std::string& unit,
+                        const std::string& description);
+  /** \brief An integer parameter whose range is declared here (a parameter of the
+   * pipeline only).
    * \param[in] key YAML key ending in its unit, if any
    * \param[in] default_value the default, within [min, max]
    * \param[in] min inclusive lower bound
@@ -90,6 +106,19 @@ struct ParamSpec {
                            int default_value,
                            int min,
                            int max,
+                           const std::string& unit,
+                           const std::string& description);
+  /** \brief An integer parameter that a library class takes, with the range the class
+   * declares (and checks).
+   * \param[in] key YAML key ending in its unit, if any
+   * \param[in] default_value the default, within \a range
+   * \param[in] range the class's range
+   * \param[in] unit the unit in words ("" for counts)
+   * \param[in] description one line on what it does
+   * \return the specification */
+  static ParamSpec integer(const std::string& key,
+                           int default_value,
+                           const ParamRange& range,
                            const std::string& unit,
                            const std::string& description);
   /** \brief A boolean parameter.
@@ -110,10 +139,6 @@ struct ParamSpec {
                           const std::vector<std::string>& choices,
                           const std::string& description);
 };
-
-/** \brief A number as the tables write it (up to 10 significant digits: 0.1, 40,
- * 1e-06), for defaults and for descriptions that quote a value. */
-std::string formatParamNumber(double value);
 
 /** \brief The allowed names of a choice parameter joined by \a separator, in the
  * table's order ("sgbm|sgbm_3way|bm" with "|"); empty for other parameters. */
@@ -170,7 +195,7 @@ ParamValues parseParams(const YAML::Node& node,
 ParamValues defaultParams(const std::vector<ParamSpec>& specs);
 
 /** \brief A human-readable description of a table: one line per key with type, default,
- * range and unit. */
+ * range (an interval, "(0, 10]") and unit. */
 std::string describeParams(const std::vector<ParamSpec>& specs);
 
 } // namespace planar_grid

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_range.h>
 #include <planar_grid/core/stereo_calibration.h>
 
 #include <pcl/point_cloud.h>
@@ -13,6 +14,32 @@
 #include <vector>
 
 namespace planar_grid {
+
+/** \brief The valid range of each numeric StereoFeatureMatcher::Params member,
+ * declared once: the StereoFeatureMatcher constructor tests the values against them
+ * and the pipeline's feature_matching and cloud_features stage tables take them as
+ * their ranges. \ingroup stereo */
+namespace stereo_feature_matcher_ranges {
+/** \brief Most key points per image: [1, 100000]. */
+inline constexpr ParamRange MAX_FEATURES = ParamRange::closed(1, 100000);
+/** \brief Lowe's ratio: (0, 1]. */
+inline constexpr ParamRange RATIO = ParamRange::openMin(0.0, 1.0);
+/** \brief Largest row difference of a match: [0, 10] pixels. */
+inline constexpr ParamRange MAX_ROW_DIFFERENCE = ParamRange::closed(0.0, 10.0);
+/** \brief Largest disparity accepted: (0, 1024] pixels. */
+inline constexpr ParamRange MAX_DISPARITY = ParamRange::openMin(0.0, 1024.0);
+/** \brief Largest range of a feature: (0, 1000000] metres; its end keeps every match
+ * (0.0005 px of disparity at f B = 500 px m). */
+inline constexpr ParamRange MAX_RANGE = ParamRange::openMin(0.0, 1e6);
+/** \brief ORB_GRID: side of the grid cells: [8, 1024] pixels. */
+inline constexpr ParamRange BUCKET_SIZE = ParamRange::closed(8, 1024);
+/** \brief ORB_GRID: cv::FAST threshold: [1, 255] grey levels. */
+inline constexpr ParamRange FAST_THRESHOLD = ParamRange::closed(1, 255);
+/** \brief ORB_GRID: sub-pixel refinement window side: [3, 31] pixels (odd). */
+inline constexpr ParamRange SUBPIXEL_WINDOW = ParamRange::closed(3, 31);
+/** \brief ORB_GRID: sub-pixel refinement search: [1, 8] pixels. */
+inline constexpr ParamRange SUBPIXEL_SEARCH = ParamRange::closed(1, 8);
+} // namespace stereo_feature_matcher_ranges
 
 class ByteReader;
 class ByteWriter;
@@ -127,30 +154,35 @@ public:
   struct Params {
     /** Detector and descriptor. */
     FeatureType feature_type{FeatureType::SIFT};
-    /** Most key points detected per image. */
+    /** Most key points detected per image; in
+     * stereo_feature_matcher_ranges::MAX_FEATURES. */
     int max_features{2000};
-    /** Lowe's ratio: best / second-best descriptor distance must be below it; (0, 1].
-     */
+    /** Lowe's ratio: best / second-best descriptor distance must be below it; in
+     * stereo_feature_matcher_ranges::RATIO. */
     double ratio{0.8};
-    /** Largest row difference of a match, px (rectified images). */
+    /** Largest row difference of a match, px (rectified images); in
+     * stereo_feature_matcher_ranges::MAX_ROW_DIFFERENCE. */
     double max_row_difference_px{1.0};
-    /** Largest disparity accepted, px. */
+    /** Largest disparity accepted, px; in stereo_feature_matcher_ranges::MAX_DISPARITY.
+     */
     double max_disparity_px{128.0};
-    /** Features farther than this (Euclidean range, metres) are dropped. */
+    /** Features farther than this (Euclidean range, metres) are dropped; in
+     * stereo_feature_matcher_ranges::MAX_RANGE. */
     double max_range_m{40.0};
     /** ORB_GRID: side of the square grid cells over which the key points are
-     * bucketed, px; [8, 1024]. The cells of the last column and row are cut by the
-     * image border. */
+     * bucketed, px; in stereo_feature_matcher_ranges::BUCKET_SIZE. The cells of the
+     * last column and row are cut by the image border. */
     int bucket_size_px{32};
     /** ORB_GRID: cv::FAST threshold (intensity difference of the segment test, grey
-     * levels of an 8-bit image); [1, 255]. Low, since bucketing keeps only the
-     * strongest corners of each cell. */
+     * levels of an 8-bit image); in stereo_feature_matcher_ranges::FAST_THRESHOLD. Low,
+     * since bucketing keeps only the strongest corners of each cell. */
     int fast_threshold{10};
     /** ORB_GRID: side of the square window of the sub-pixel disparity refinement, px;
-     * odd, [3, 31]. */
+     * odd, in stereo_feature_matcher_ranges::SUBPIXEL_WINDOW. */
     int subpixel_window_px{9};
     /** ORB_GRID: the refinement searches the right image's row within +-this many
-     * columns of the matched right key point, px; [1, 8]. */
+     * columns of the matched right key point, px; in
+     * stereo_feature_matcher_ranges::SUBPIXEL_SEARCH. */
     int subpixel_search_px{2};
   };
 

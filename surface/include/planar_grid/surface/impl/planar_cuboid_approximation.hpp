@@ -46,27 +46,34 @@ template <typename PointT>
 const char*
 PlanarCuboidApproximation<PointT>::checkParameters() const
 {
-  const char* bad = nullptr;
-  if (!(min_cell_size_ > 0.0) || !std::isfinite(min_cell_size_))
-    bad = "min_cell_size must be finite and > 0 m";
-  else if (!(density_threshold_ > 0.0 && density_threshold_ <= 1.0))
-    bad = "density_threshold must be in (0, 1]";
-  else if (!(non_planar_density_threshold_ >= 0.0
-             && non_planar_density_threshold_ <= 1.0))
-    bad = "non_planar_density_threshold must be 0 or in (0, 1]";
-  else if (!(min_width_ >= 0.0) || !std::isfinite(min_width_))
-    bad = "min_width must be finite and >= 0 m";
-  else if (!(min_height_ >= 0.0) || !std::isfinite(min_height_))
-    bad = "min_height must be finite and >= 0 m";
-  else if (!(thickness_ > 0.0) || !std::isfinite(thickness_))
-    bad = "thickness must be finite and > 0 m";
-  else if (min_points_per_cell_ < 1)
-    bad = "min_points_per_cell must be >= 1";
-  else if (!up_axis_.allFinite() || !(up_axis_.norm() > 0.0f))
-    bad = "up_axis must be finite and non-zero";
-  else if (!getSensorOrigin().allFinite())
-    bad = "sensor_origin must be finite";
-  return bad;
+  namespace ranges = planar_cuboid_approximation_ranges;
+  // One message per check, the range ones written from their range once (static: the
+  // returned pointer stays valid).
+  static const std::array<std::string, 9> messages{
+    paramRangeMessage("min_cell_size", ranges::MIN_CELL_SIZE, "m"),
+    paramRangeMessage("density_threshold", ranges::DENSITY_THRESHOLD),
+    paramRangeMessage("non_planar_density_threshold",
+                      ranges::NON_PLANAR_DENSITY_THRESHOLD),
+    paramRangeMessage("min_width", ranges::MIN_WIDTH, "m"),
+    paramRangeMessage("min_height", ranges::MIN_HEIGHT, "m"),
+    paramRangeMessage("thickness", ranges::THICKNESS, "m"),
+    paramRangeMessage("min_points_per_cell", ranges::MIN_POINTS_PER_CELL),
+    "up_axis must be finite and non-zero",
+    "sensor_origin must be finite"};
+  const std::array<bool, 9> valid{
+    ranges::MIN_CELL_SIZE.contains(min_cell_size_),
+    ranges::DENSITY_THRESHOLD.contains(density_threshold_),
+    ranges::NON_PLANAR_DENSITY_THRESHOLD.contains(non_planar_density_threshold_),
+    ranges::MIN_WIDTH.contains(min_width_),
+    ranges::MIN_HEIGHT.contains(min_height_),
+    ranges::THICKNESS.contains(thickness_),
+    ranges::MIN_POINTS_PER_CELL.contains(min_points_per_cell_),
+    up_axis_.allFinite() && up_axis_.norm() > 0.0f,
+    getSensorOrigin().allFinite()};
+  for (std::size_t i = 0; i < valid.size(); ++i)
+    if (!valid[i])
+      return messages[i].c_str();
+  return nullptr;
 }
 
 template <typename PointT>
