@@ -287,9 +287,7 @@ describeParams(const std::vector<ParamSpec>& specs)
     out << "    (no parameters)\n";
   for (const auto& spec : specs) {
     out << "    " << std::left << std::setw(28) << spec.key << " " << std::setw(12)
-        << typeName(spec).substr(0, 40);
-    if (spec.type == ParamSpec::Type::CHOICE)
-      out << "";
+        << typeName(spec);
     out << " default " << spec.default_value;
     const std::string range = rangeText(spec);
     if (!range.empty())

@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/param_range.h>
 #include <planar_grid/pipeline/param_table.h>
 #include <planar_grid/pipeline/stage.h>
 
@@ -47,7 +48,7 @@ rangeCell(const ParamSpec& spec)
 {
   if (spec.type != ParamSpec::Type::DOUBLE && spec.type != ParamSpec::Type::INT)
     return "";
-  return "[" + formatParamNumber(spec.min) + ", " + formatParamNumber(spec.max) + "]";
+  return formatParamRange(spec.range);
 }
 
 std::string
@@ -90,8 +91,9 @@ stageReferenceMarkdown()
        "build/tools/planar_grid_pipeline --stage-reference > docs/STAGES.md\n"
        "```\n\n"
        "The test `PipelineTool.StageReferenceIsCurrent` fails when this page differs "
-       "from the tables. Ranges are inclusive; a value outside its range, an unknown "
-       "key or a value of the wrong type is refused with its file:line:col.\n\n"
+       "from the tables. In a range a square bracket includes its end and a round one "
+       "excludes it; a value outside its range, an unknown key or a value of the wrong "
+       "type is refused with its file:line:col.\n\n"
        "Stages:";
   const auto& registry = stageRegistry();
   for (std::size_t i = 0; i < registry.size(); ++i)
