@@ -137,8 +137,16 @@ public:
       inlier_only_ += depth > max_depth && !far[i];
     }
     kept_far_ = 0;
-    if (far_levels_ > 0)
-      keepFarPoints(frame, far, error_at_1m);
+    if (far_levels_ > 0) {
+      // Every point beyond the cell bound may make a far cell; the ones between the
+      // two bounds also stay in the cloud, and multi_plane_segmentation takes out of
+      // the far cloud those a plane takes.
+      std::vector<std::uint8_t> beyond(cloud.size(), 0);
+      for (std::size_t i = 0; i < cloud.size(); ++i)
+        beyond[i] = pcl::isFinite(cloud[i])
+                    && depth_row.dot(cloud[i].getVector4fMap()) > max_depth;
+      keepFarPoints(frame, beyond, error_at_1m);
+    }
     removed_ = removePoints(frame, far);
     if (max_plane_depth > max_depth)
       frame.inlier_only_depth_m = std::min(frame.inlier_only_depth_m, max_depth);
@@ -232,7 +240,9 @@ depthErrorFilterInfo()
                        "within max_depth_error_m x 2^far_levels are kept aside for "
                        "range_adaptive_cells, which maps level l (error within "
                        "max_depth_error_m x 2^l) at cells 2^l times its minimum; 0 "
-                       "(the default): dropped."),
+                       "(the default): dropped. With max_plane_depth_error_m, the "
+                       "points between the two bounds are kept aside too, and "
+                       "multi_plane_segmentation takes out the ones a plane takes."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     return std::make_unique<DepthErrorFilterStage>(

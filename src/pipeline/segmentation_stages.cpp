@@ -10,7 +10,9 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "stages.h"
@@ -77,12 +79,14 @@ public:
     segmentation_.setCountInlierOnlyPoints(v.getBool("count_inlier_only_points"));
     segmentation_.setInlierOnlyDistanceThreshold(
       v.getDouble("inlier_only_distance_threshold_m"));
+    segmentation_.setDepthNoiseAlongSight(v.getBool("depth_noise_along_sight"));
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
     inlier_only_ = 0;
     inlier_only_taken_ = 0;
+    far_joined_ = 0;
     if (!hasPoints(frame, "multi_plane_segmentation")) {
       frame.planes.clear();
       return;
@@ -139,6 +143,7 @@ public:
       inlier_only_ = inlier_only->size();
       inlier_only_taken_ = inlier_only_ - removePoints(frame, drop);
       frame.inlier_only_depth_m = std::numeric_limits<float>::infinity();
+      far_joined_ = removeFarPointsOnPlanes(frame, coefficient);
     }
     if (frame.planes.empty())
       PCL_WARN("[planar_grid::multi_plane_segmentation] No plane found in frame %s.\n",
@@ -152,6 +157,7 @@ public:
     const auto& s = segmentation_;
     v.set("distance_threshold_m", s.getDistanceThreshold());
     v.set("depth_noise_disparity_px", depth_noise_disparity_px_);
+    v.set("depth_noise_along_sight", s.getDepthNoiseAlongSight());
     v.set("sample_distance_threshold_m", s.getSampleDistanceThreshold());
     v.set("max_planes", s.getMaxPlanes());
     v.set("min_inliers", s.getMinInliers());
@@ -190,6 +196,8 @@ public:
     if (inlier_only_ > 0) {
       values.emplace_back("inlier_only_points", static_cast<double>(inlier_only_));
       values.emplace_back("inlier_only_taken", static_cast<double>(inlier_only_taken_));
+      if (frame.far_cloud)
+        values.emplace_back("far_points_joined", static_cast<double>(far_joined_));
     }
     if (segmentation_.getMaxVisibilityConflictRatio() > 0.0) {
       values.emplace_back(
@@ -222,11 +230,91 @@ public:
   }
 
 private:
+  /** The far points (depth_error_filter's far_levels, not thinned by voxel_grid) that
+   * a plane takes out of the frame's far cloud, so that range_adaptive_cells maps no
+   * cell where a planar cell stands. A far point joins a plane by the rule its
+   * inlier-only points follow: it lies within their eq. 11 threshold of the plane
+   * (\a coefficient: eq. 4's depth error at 1 m), and its projection falls within one
+   * cluster_cell_m cell of a cell of the plane's inliers. Terrain planes (facing up
+   * within 0.3 rad, below the sensor) take none: range_adaptive_cells has its own
+   * rule for the far terrain, which keeps what stands on it. \return the points
+   * taken */
+  std::size_t removeFarPointsOnPlanes(Frame& frame, double coefficient) const
+  {
+    if (!frame.far_cloud || frame.far_cloud->empty() || frame.planes.empty())
+      return 0;
+    const auto& far = *frame.far_cloud;
+    const auto& cloud = *frame.cloud;
+    const Eigen::Affine3f cloud_T_camera = cameraTCloud(frame).inverse();
+    const Eigen::Vector3f origin = sensorOrigin(frame);
+    const auto d_t = static_cast<float>(segmentation_.getDistanceThreshold());
+    const auto cap = static_cast<float>(segmentation_.getInlierOnlyDistanceThreshold());
+    const auto c = static_cast<float>(coefficient);
+    const double inv_cell = 1.0 / segmentation_.getClusterCell();
+    std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> points(
+      far.size());
+    const bool along_sight = segmentation_.getDepthNoiseAlongSight();
+    const Eigen::Vector3f up = upAxis(frame).normalized();
+    for (std::size_t i = 0; i < far.size(); ++i)
+      points[i] = cloud_T_camera * far[i].getVector3fMap();
+    const auto threshold = [&](std::size_t i, const Eigen::Vector3f& n) {
+      const Eigen::Vector3f ray = points[i] - origin;
+      float error = c * ray.squaredNorm();
+      if (along_sight)
+        error *= std::abs(n.dot(ray.normalized()));
+      const float t = std::max(d_t, error);
+      return cap > 0.0f ? std::min(t, cap) : t;
+    };
+    std::vector<std::uint8_t> joined(far.size(), 0);
+    std::unordered_set<std::uint64_t> footprint;
+    for (const auto& plane : frame.planes) {
+      const auto& v = plane.model_coefficients.values;
+      if (v.size() != 4 || plane.inliers.indices.empty())
+        continue;
+      const Eigen::Vector3f n(v[0], v[1], v[2]);
+      // With the normal turned up, the sensor's signed distance is its height.
+      const float side = n.dot(up) < 0.0f ? -1.0f : 1.0f;
+      if (side * n.dot(up) > std::cos(0.3f) && side * (n.dot(origin) + v[3]) > 0.0f)
+        continue;
+      const Eigen::Vector3f a1 = n.unitOrthogonal();
+      const Eigen::Vector3f a2 = n.cross(a1);
+      const auto key = [&](const Eigen::Vector3f& p, std::int64_t dx, std::int64_t dy) {
+        const auto x = static_cast<std::int64_t>(std::floor(a1.dot(p) * inv_cell)) + dx;
+        const auto y = static_cast<std::int64_t>(std::floor(a2.dot(p) * inv_cell)) + dy;
+        return (static_cast<std::uint64_t>(x + (1 << 30)) << 32)
+               | static_cast<std::uint64_t>(y + (1 << 30));
+      };
+      footprint.clear();
+      for (const auto i : plane.inliers.indices)
+        for (std::int64_t dx = -1; dx <= 1; ++dx)
+          for (std::int64_t dy = -1; dy <= 1; ++dy)
+            footprint.insert(
+              key(cloud[static_cast<std::size_t>(i)].getVector3fMap(), dx, dy));
+      for (std::size_t i = 0; i < far.size(); ++i)
+        if (!joined[i] && std::abs(n.dot(points[i]) + v[3]) <= threshold(i, n)
+            && footprint.count(key(points[i], 0, 0)) > 0)
+          joined[i] = 1;
+    }
+    auto kept = std::make_shared<Frame::Cloud>();
+    std::vector<std::uint8_t> kept_levels;
+    for (std::size_t i = 0; i < far.size(); ++i)
+      if (!joined[i]) {
+        kept->push_back(far[i]);
+        kept_levels.push_back(frame.far_levels[i]);
+      }
+    const std::size_t taken = far.size() - kept->size();
+    // A new cloud: the old one may be shared with copies of the frame.
+    frame.far_cloud = std::move(kept);
+    frame.far_levels = std::move(kept_levels);
+    return taken;
+  }
+
   SACMultiPlaneSegmentation<pcl::PointXYZI> segmentation_;
   bool use_features_;
   double depth_noise_disparity_px_;
   std::size_t inlier_only_{0};
   std::size_t inlier_only_taken_{0};
+  std::size_t far_joined_{0};
 };
 
 /** Parameters of the terrain removal (ground_removal stage). */
@@ -463,6 +551,12 @@ multiPlaneSegmentationInfo()
       "depth_noise_disparity_px", 0.0, 0.0, 10.0, "px",
       "Stereo input: Delta d of eq. 4; a dense point is an inlier within max(d_T, "
       "Delta z) with Delta z = r^2 Delta d / (B f) at its range r (0: fixed d_T)."),
+    ParamSpec::flag(
+      "depth_noise_along_sight", d.getDepthNoiseAlongSight(),
+      "With depth_noise_disparity_px: a point is an inlier within max(d_T, Delta z "
+      "|n . u|), Delta z projected on the plane's normal n from the point's line of "
+      "sight u (stereo displaces points along it): a road seen at a grazing angle "
+      "keeps about d_T and no longer takes what stands on it at range."),
     ParamSpec::real(
       "sample_distance_threshold_m", 0.1, ranges::SAMPLE_DISTANCE_THRESHOLD, "m",
       "RANSAC inlier threshold on the sample (stereo features are noisier). The "

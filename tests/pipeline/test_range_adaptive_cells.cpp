@@ -227,3 +227,93 @@ TEST(RangeAdaptiveCells, WithoutGroundTheRoadStaysAndWithoutFarPointsNothingIsAd
   runCells(none, 10);
   EXPECT_EQ(none.frame.cuboids.size(), before);
 }
+
+// With max_plane_depth_error_m at the far levels' bound the far points also stay in
+// the cloud for the planes: the guardrail and the wall make planes of their own (eq.
+// 11's band projected on each plane's normal, so that the road's takes neither), their
+// far points leave the far cloud, and range_adaptive_cells maps no cell over them; the
+// far road stays in the far cloud for range_adaptive_cells' terrain rule.
+TEST(RangeAdaptiveCells, FarPointsOnAPlaneMakeNoFarCell)
+{
+  Scene s = makeScene();
+  planar_grid::PipelineState state;
+  const auto* filter = planar_grid::findStage("depth_error_filter");
+  ASSERT_NE(filter, nullptr);
+  planar_grid::ParamValues fp = planar_grid::defaultParams(filter->params);
+  fp.set("max_depth_error_m", 0.3);
+  fp.set("max_plane_depth_error_m", 1.2);
+  fp.set("far_levels", 2);
+  filter->create(fp)->process(s.frame, state);
+  ASSERT_TRUE(s.frame.far_cloud);
+  const planar_grid::Frame::Cloud::ConstPtr far_before = s.frame.far_cloud;
+  std::map<int, std::size_t> before;
+  for (const auto& p : far_before->points)
+    ++before[static_cast<int>(p.intensity)];
+  ASSERT_GT(before[GUARDRAIL], 0u);
+  ASSERT_GT(before[WALL], 0u);
+
+  // Key features, the planes' hypotheses: every tenth point of the road, the guardrail
+  // and the wall (the far points make no hypotheses of the cloud's).
+  const Scene all = makeScene();
+  for (std::size_t i = 0; i < all.frame.cloud->size(); i += 10) {
+    const auto& p = (*all.frame.cloud)[i];
+    if (static_cast<int>(p.intensity) == STRAY)
+      continue;
+    s.frame.features.points.push_back(pcl::PointXYZ(p.x, p.y, p.z));
+    s.frame.features.keypoints_left.emplace_back(0.0f, 0.0f, 1.0f);
+  }
+  const auto* segmentation = planar_grid::findStage("multi_plane_segmentation");
+  ASSERT_NE(segmentation, nullptr);
+  planar_grid::ParamValues sp = planar_grid::defaultParams(segmentation->params);
+  sp.set("sample", std::string("features"));
+  sp.set("depth_noise_disparity_px", 0.5);
+  sp.set("depth_noise_along_sight", true);
+  sp.set("min_inliers", 300);
+  sp.set("max_planes", 4);
+  sp.set("min_remaining_fraction", 0.0);
+  sp.set("cluster_cell_m", 0.1); // as config/eval/kitti_range_adaptive.yaml
+  segmentation->create(sp)->process(s.frame, state);
+
+  // The guardrail (x = -3.5) and the wall (z = 24) are planes of their own.
+  const auto planeOf = [&](Label label) {
+    std::size_t best = 0, count = 0;
+    for (std::size_t k = 0; k < s.frame.planes.size(); ++k) {
+      std::size_t n = 0;
+      for (const auto i : s.frame.planes[k].inliers.indices)
+        n += static_cast<int>((*s.frame.cloud)[static_cast<std::size_t>(i)].intensity)
+             == label;
+      if (n > count) {
+        best = k;
+        count = n;
+      }
+    }
+    return std::make_pair(best, count);
+  };
+  const auto rail = planeOf(GUARDRAIL);
+  const auto wall = planeOf(WALL);
+  ASSERT_GT(rail.second, 0u);
+  ASSERT_GT(wall.second, 0u);
+  EXPECT_GT(std::abs(s.frame.planes[rail.first].model_coefficients.values[0]), 0.99f);
+  EXPECT_GT(std::abs(s.frame.planes[wall.first].model_coefficients.values[2]), 0.99f);
+
+  std::map<int, std::size_t> after;
+  ASSERT_TRUE(s.frame.far_cloud);
+  ASSERT_EQ(s.frame.far_cloud->size(), s.frame.far_levels.size());
+  for (const auto& p : s.frame.far_cloud->points)
+    ++after[static_cast<int>(p.intensity)];
+  EXPECT_EQ(after[GUARDRAIL], 0u);
+  EXPECT_EQ(after[WALL], 0u);
+  EXPECT_EQ(after[ROAD], before[ROAD]);
+  EXPECT_EQ(after[STRAY], before[STRAY]);
+  // The input far cloud is not changed in place (frame copies share it).
+  EXPECT_EQ(far_before->size(),
+            before[ROAD] + before[GUARDRAIL] + before[WALL] + before[STRAY]);
+
+  const std::size_t cells_before = s.frame.cuboids.size();
+  runCells(s, 10);
+  for (std::size_t k = cells_before; k < s.frame.cuboids.size(); ++k)
+    for (const auto& p : far_before->points)
+      EXPECT_FALSE(static_cast<int>(p.intensity) == GUARDRAIL
+                   && s.frame.cuboids[k].contains(p.getVector3fMap(), -1e-4f))
+        << "a far cell on the guardrail at " << s.frame.cuboids[k].centre.transpose();
+}

@@ -285,6 +285,21 @@ public:
   /** \brief Returns the depth noise coefficient, in 1/m (0: fixed d_T). */
   double getDepthNoiseCoefficient() const { return depth_noise_coefficient_; }
 
+  /** \brief Sets whether the stereo depth noise (setDepthNoiseCoefficient()) widens
+   * eq. 11 by its component along each plane's normal: stereo displaces a point along
+   * its line of sight, so a point seen in direction u is an inlier of a plane of normal
+   * n within max(d_T, coefficient r^2 |n . u|). A wall facing the sensor keeps the
+   * whole depth error; a road seen at a grazing angle keeps about d_T, so that its
+   * band no longer takes what stands on it (a guardrail, a hedge) at range.
+   * \param[in] along_sight true: projected on the normal; false (default): the whole
+   * depth error, whatever the plane */
+  void setDepthNoiseAlongSight(bool along_sight)
+  {
+    depth_noise_along_sight_ = along_sight;
+  }
+  /** \brief Returns whether the depth noise is projected on each plane's normal. */
+  bool getDepthNoiseAlongSight() const { return depth_noise_along_sight_; }
+
   /** \brief Sets the inlier threshold of the sample consensus on the sample cloud.
    * \param[in] distance_threshold_m in meters, in
    * sac_multi_plane_segmentation_ranges::SAMPLE_DISTANCE_THRESHOLD (default: unset,
@@ -626,6 +641,8 @@ protected:
   double distance_threshold_{0.05};
   /** \brief Delta d / (B f) of the range-dependent eq. 11 threshold, in 1/m. */
   double depth_noise_coefficient_{0.0};
+  /** \brief Whether the depth noise is projected on each plane's normal. */
+  bool depth_noise_along_sight_{false};
   /** \brief Sample consensus threshold, in meters (when set). */
   double sample_distance_threshold_{0.05};
   /** \brief Whether sample_distance_threshold_ was set. */

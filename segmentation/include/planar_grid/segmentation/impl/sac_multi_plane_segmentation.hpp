@@ -226,6 +226,29 @@ SACMultiPlaneSegmentation<PointT>::collectDensePoints(const Eigen::Vector3f& ori
     for (std::size_t k = dense.primary; k < dense.size(); ++k)
       dense.threshold[k] = std::min(dense.threshold[k], cap);
   }
+  if (depth_noise_along_sight_ && depth_noise_coefficient_ > 0.0) {
+    // The thresholds above are each point's largest; selectInliers() projects the
+    // depth error on each plane's normal within them.
+    const auto coefficient = static_cast<float>(depth_noise_coefficient_);
+    const std::size_t n = dense.size();
+    dense.depth_error.resize(n);
+    dense.ray_x.resize(n);
+    dense.ray_y.resize(n);
+    dense.ray_z.resize(n);
+    dense.floor.assign(n, d_t);
+    dense.cap = dense.threshold;
+    for (std::size_t k = 0; k < n; ++k) {
+      const Eigen::Vector3f ray =
+        Eigen::Vector3f(dense.x[k], dense.y[k], dense.z[k]) - origin;
+      const float r = ray.norm();
+      const Eigen::Vector3f u =
+        r > 0.0f ? Eigen::Vector3f(ray / r) : Eigen::Vector3f::Zero();
+      dense.depth_error[k] = coefficient * r * r;
+      dense.ray_x[k] = u.x();
+      dense.ray_y[k] = u.y();
+      dense.ray_z[k] = u.z();
+    }
+  }
 }
 
 template <typename PointT>
@@ -679,6 +702,8 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
     const std::size_t sample_before = remaining.size();
     removeSampleOnPlane(*sample_cloud, plane, sample_t, sample_taken, remaining);
 
+    // The visibility and shell tests read every point's threshold for this plane.
+    all.setPlaneThresholds(plane);
     if (!passesPlaneTests(dense, all, plane, origin, up, d_t, count))
       continue;
     dense.selected(segment.inliers.indices);

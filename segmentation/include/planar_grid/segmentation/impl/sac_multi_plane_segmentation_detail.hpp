@@ -175,6 +175,10 @@ struct DensePoints {
   std::vector<float> x, y, z;
   /** Per-point eq. 11 threshold (range-dependent); empty: the fixed d_T. */
   std::vector<float> threshold;
+  /** Along-sight depth noise: each point's depth error (eq. 4), unit line of sight
+   * and the bounds of its threshold (d_T below, the inlier-only cap above); empty:
+   * the threshold does not depend on the plane. */
+  std::vector<float> depth_error, ray_x, ray_y, ray_z, floor, cap;
   pcl::Indices index;
   std::vector<std::uint8_t> mask;
   /** The first primary points may make planes; the rest are inlier-only (they stay
@@ -189,6 +193,7 @@ struct DensePoints {
   {
     if (threshold.empty())
       return select(plane, t);
+    setPlaneThresholds(plane);
     const std::size_t n = size();
     mask.resize(n);
     std::size_t count = 0;
@@ -200,6 +205,18 @@ struct DensePoints {
       count += in;
     }
     return count;
+  }
+
+  /** \brief With along-sight depth noise, threshold[k] = min(cap, max(d_T, depth
+   * error |n . u|)) for \a plane's normal n and the point's line of sight u; else
+   * nothing. */
+  void setPlaneThresholds(const Eigen::Vector4f& plane)
+  {
+    for (std::size_t k = 0; k < depth_error.size(); ++k) {
+      const float along =
+        std::abs(plane[0] * ray_x[k] + plane[1] * ray_y[k] + plane[2] * ray_z[k]);
+      threshold[k] = std::min(cap[k], std::max(floor[k], depth_error[k] * along));
+    }
   }
 
   /** \brief mask[k] = 1 iff |a x + b y + c z + d| <= t (eq. 11, unit normal); returns
@@ -262,6 +279,14 @@ struct DensePoints {
       z[w] = z[k];
       if (!threshold.empty())
         threshold[w] = threshold[k];
+      if (!depth_error.empty()) {
+        depth_error[w] = depth_error[k];
+        ray_x[w] = ray_x[k];
+        ray_y[w] = ray_y[k];
+        ray_z[w] = ray_z[k];
+        floor[w] = floor[k];
+        cap[w] = cap[k];
+      }
       index[w] = index[k];
       mask[w] = mask[k];
       ++w;
@@ -271,6 +296,9 @@ struct DensePoints {
     z.resize(w);
     if (!threshold.empty())
       threshold.resize(w);
+    if (!depth_error.empty())
+      for (auto* v : {&depth_error, &ray_x, &ray_y, &ray_z, &floor, &cap})
+        v->resize(w);
     index.resize(w);
     mask.resize(w);
     primary -= removed_primary;

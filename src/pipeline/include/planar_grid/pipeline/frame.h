@@ -66,8 +66,9 @@ struct Frame {
   /** \brief Points beyond depth_error_filter's bounds that it keeps for
    * range_adaptive_cells (its far_levels > 0): camera frame (x right, y down, z
    * forward, metres), finite. Null or empty: none. Shared by frame copies and never
-   * changed in place: range_adaptive_cells replaces it by the points it maps (the
-   * terrain taken out). */
+   * changed in place: multi_plane_segmentation replaces it by the points no plane
+   * takes (when depth_error_filter also keeps them in `cloud` for the planes), and
+   * range_adaptive_cells by the points it maps (the terrain taken out). */
   Cloud::ConstPtr far_cloud;
   /** \brief The level of each far_cloud point, 1..far_levels: its depth error (eq. 4)
    * is within max_depth_error_m x 2^level, so it is mapped at cells 2^level times the
