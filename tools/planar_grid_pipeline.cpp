@@ -139,16 +139,10 @@ listStages()
     out << "\n  " << info.type << (info.needs_poses ? "   [needs input poses]" : "")
         << (info.needs_stereo ? "   [needs stereo input]" : "") << "\n      "
         << info.description << "\n";
-    const auto names = [](const std::vector<planar_grid::StageData>& data) {
-      std::string list;
-      for (const auto d : data)
-        list += (list.empty() ? "" : ", ") + planar_grid::stageDataName(d);
-      return list.empty() ? std::string("nothing") : list;
-    };
     out << "      "
         << (info.role == planar_grid::StageRole::FRONT_END ? "front end" : "mapping")
-        << " stage; needs " << names(info.needs) << "; produces "
-        << names(info.produces) << "\n";
+        << " stage; needs " << planar_grid::stageDataNames(info.needs) << "; produces "
+        << planar_grid::stageDataNames(info.produces) << "\n";
     out << planar_grid::describeParams(info.params);
   }
   std::cout << out.str();

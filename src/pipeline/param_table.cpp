@@ -22,10 +22,8 @@ formatParamChoices(const ParamSpec& spec, const std::string& separator)
   return list;
 }
 
-namespace {
-
 std::string
-typeName(const ParamSpec& spec)
+formatParamType(const ParamSpec& spec, const std::string& choice_separator)
 {
   switch (spec.type) {
     case ParamSpec::Type::DOUBLE:
@@ -33,12 +31,14 @@ typeName(const ParamSpec& spec)
     case ParamSpec::Type::INT:
       return "integer";
     case ParamSpec::Type::BOOL:
-      return "true/false";
+      return "true or false";
     case ParamSpec::Type::CHOICE:
       break;
   }
-  return "one of " + formatParamChoices(spec, "|");
+  return "one of " + formatParamChoices(spec, choice_separator);
 }
+
+namespace {
 
 std::string
 rangeText(const ParamSpec& spec)
@@ -240,7 +240,7 @@ parseParams(const YAML::Node& node,
       }
       const std::string where = "parameter '" + key + "' of stage '" + stage_type + "'";
       if (!value.IsScalar())
-        reader.fail(value, where + " must be " + typeName(*spec));
+        reader.fail(value, where + " must be " + formatParamType(*spec, "|"));
       try {
         switch (spec->type) {
           case ParamSpec::Type::DOUBLE: {
@@ -266,14 +266,15 @@ parseParams(const YAML::Node& node,
             const std::string v = value.as<std::string>();
             if (std::find(spec->choices.begin(), spec->choices.end(), v)
                 == spec->choices.end())
-              reader.fail(value, where + " = '" + v + "' must be " + typeName(*spec));
+              reader.fail(value, where + " = '" + v + "' must be "
+                                   + formatParamType(*spec, "|"));
             values.set(key, v);
             break;
           }
         }
       } catch (const YAML::BadConversion&) {
-        reader.fail(value,
-                    where + " = '" + value.Scalar() + "' must be " + typeName(*spec));
+        reader.fail(value, where + " = '" + value.Scalar() + "' must be "
+                             + formatParamType(*spec, "|"));
       }
     });
   return values;
@@ -287,7 +288,7 @@ describeParams(const std::vector<ParamSpec>& specs)
     out << "    (no parameters)\n";
   for (const auto& spec : specs) {
     out << "    " << std::left << std::setw(28) << spec.key << " " << std::setw(12)
-        << typeName(spec);
+        << formatParamType(spec, "|");
     out << " default " << spec.default_value;
     const std::string range = rangeText(spec);
     if (!range.empty())

@@ -260,28 +260,10 @@ commentLines(const std::string& text,
 std::string
 acceptedValues(const ParamSpec& spec)
 {
+  if (spec.type != ParamSpec::Type::DOUBLE && spec.type != ParamSpec::Type::INT)
+    return formatParamType(spec, " | ");
   const std::string unit = spec.unit.empty() ? "" : ", " + spec.unit;
-  switch (spec.type) {
-    case ParamSpec::Type::DOUBLE:
-      return "number in " + formatParamRange(spec.range) + unit;
-    case ParamSpec::Type::INT:
-      return "integer in " + formatParamRange(spec.range) + unit;
-    case ParamSpec::Type::BOOL:
-      return "true or false";
-    case ParamSpec::Type::CHOICE:
-      break;
-  }
-  return "one of " + formatParamChoices(spec, " | ");
-}
-
-/** \brief The words for a list of stage data ("nothing" when empty). */
-std::string
-dataNames(const std::vector<StageData>& data)
-{
-  std::string list;
-  for (const auto d : data)
-    list += (list.empty() ? "" : ", ") + stageDataName(d);
-  return list.empty() ? std::string("nothing") : list;
+  return formatParamType(spec, " | ") + " in " + formatParamRange(spec.range) + unit;
 }
 
 } // namespace
@@ -302,7 +284,7 @@ defaultPipelineYaml()
       std::string(info.role == StageRole::FRONT_END ? "Front end" : "Mapping")
         + " stage" + (info.needs_poses ? " [needs input poses]" : "")
         + (info.needs_stereo ? " [needs stereo input]" : "") + "; needs "
-        + dataNames(info.needs) + "; produces " + dataNames(info.produces)
+        + stageDataNames(info.needs) + "; produces " + stageDataNames(info.produces)
         + (info.repeatable ? "; may be listed twice." : "."),
       "  ", "  ");
     out += "  - type: " + info.type + "\n";

@@ -30,17 +30,9 @@ cell(const std::string& text)
 std::string
 typeCell(const ParamSpec& spec)
 {
-  switch (spec.type) {
-    case ParamSpec::Type::DOUBLE:
-      return "number";
-    case ParamSpec::Type::INT:
-      return "integer";
-    case ParamSpec::Type::BOOL:
-      return "true / false";
-    case ParamSpec::Type::CHOICE:
-      break;
-  }
-  return "one of `" + formatParamChoices(spec, "`, `") + "`";
+  if (spec.type == ParamSpec::Type::CHOICE)
+    return "one of `" + formatParamChoices(spec, "`, `") + "`";
+  return formatParamType(spec, "");
 }
 
 std::string
@@ -63,15 +55,6 @@ scalingNote(const ParamSpec& spec)
       return " *Follows the cell size r in planar_grid_eval (scaled by (0.1 / r)^2).*";
   }
   return "";
-}
-
-std::string
-dataList(const std::vector<StageData>& data)
-{
-  std::string list;
-  for (const auto d : data)
-    list += (list.empty() ? "" : ", ") + stageDataName(d);
-  return list.empty() ? std::string("nothing") : list;
 }
 
 } // namespace
@@ -104,8 +87,8 @@ stageReferenceMarkdown()
     out << "\n## " << info.type << "\n\n" << info.description << "\n\n";
     out << "- Role: " << (info.role == StageRole::FRONT_END ? "front end" : "mapping")
         << (info.repeatable ? "; may be listed more than once" : "") << ".\n";
-    out << "- Needs: " << dataList(info.needs) << ".\n";
-    out << "- Produces: " << dataList(info.produces) << ".\n";
+    out << "- Needs: " << stageDataNames(info.needs) << ".\n";
+    out << "- Produces: " << stageDataNames(info.produces) << ".\n";
     if (info.params.empty()) {
       out << "\nNo parameters.\n";
       continue;

@@ -60,6 +60,15 @@ stageDataName(StageData data)
   return "?";
 }
 
+std::string
+stageDataNames(const std::vector<StageData>& data)
+{
+  std::string list;
+  for (const auto d : data)
+    list += (list.empty() ? "" : ", ") + stageDataName(d);
+  return list.empty() ? std::string("nothing") : list;
+}
+
 const std::vector<StageInfo>&
 stageRegistry()
 {

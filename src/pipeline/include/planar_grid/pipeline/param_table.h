@@ -140,6 +140,10 @@ struct ParamSpec {
                           const std::string& description);
 };
 
+/** \brief What a parameter accepts, in words: "number", "integer", "true or false", or
+ * "one of " and its choices joined by \a choice_separator. */
+std::string formatParamType(const ParamSpec& spec, const std::string& choice_separator);
+
 /** \brief The allowed names of a choice parameter joined by \a separator, in the
  * table's order ("sgbm|sgbm_3way|bm" with "|"); empty for other parameters. */
 std::string formatParamChoices(const ParamSpec& spec, const std::string& separator);

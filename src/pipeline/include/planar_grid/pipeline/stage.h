@@ -132,6 +132,10 @@ enum class StageData {
  * features", "planes"). */
 std::string stageDataName(StageData data);
 
+/** \brief The words for a list of stage data, comma-separated ("nothing" when empty).
+ */
+std::string stageDataNames(const std::vector<StageData>& data);
+
 /** \brief Where a stage sits in the pipeline: in the front end, which works on the
  * stereo images and their key features and never reads the map's minimum cell size,
  * or in the mapping part, from the working cloud to the map, whose parameters may
