@@ -252,7 +252,7 @@ stereoDisparityInfo()
                        "block_matching: blocks with less pre-filtered texture (sum of "
                        "absolute values) are invalid; 0 disables."),
     ParamSpec::real(
-      "max_range_m", 40.0, 0.1, 1000.0, "m",
+      "max_range_m", 40.0, point_cloud_from_disparity_ranges::MAX_RANGE, "m",
       "Points farther than this are invalid (stereo error grows as z^2)."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
 
 namespace planar_grid {
 
@@ -30,8 +31,11 @@ disparityToPointCloud(const cv::Mat& disparity,
       throw Exception("disparityToPointCloud: the intensity image must be CV_8UC1 or "
                       "CV_8UC3");
   }
-  if (!(max_range_m > 0.0))
-    throw Exception("disparityToPointCloud: max_range_m must be positive");
+  if (!point_cloud_from_disparity_ranges::MAX_RANGE.contains(max_range_m))
+    throw Exception("disparityToPointCloud: "
+                    + paramRangeMessage(
+                      "max_range_m", point_cloud_from_disparity_ranges::MAX_RANGE, "m")
+                    + ", got " + std::to_string(max_range_m));
   calibration.validate("disparityToPointCloud");
 
   cv::Mat grey;

@@ -14,6 +14,7 @@
 #include <planar_grid/pipeline/stage.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 #include <planar_grid/stereo/disparity_estimator.h>
+#include <planar_grid/stereo/point_cloud_from_disparity.h>
 #include <planar_grid/stereo/stereo_feature_matcher.h>
 #include <planar_grid/surface/planar_cuboid_approximation.h>
 
@@ -361,6 +362,18 @@ classParams()
        p.algorithm = planar_grid::DisparityAlgorithm::BLOCK_MATCHING;
        p.bm_texture_threshold = toInt(v);
      })},
+    {sd, "max_range_m", planar_grid::point_cloud_from_disparity_ranges::MAX_RANGE,
+     [](double v) {
+       // A 1 x 1 disparity image, reprojected with a valid calibration.
+       planar_grid::StereoCalibration calibration;
+       calibration.focal_length_px = 500.0;
+       calibration.baseline_m = 0.5;
+       pcl::PointCloud<pcl::PointXYZI> cloud;
+       return constructs([&] {
+         planar_grid::disparityToPointCloud(cv::Mat(1, 1, CV_32FC1, cv::Scalar(10.0f)),
+                                            cv::Mat(), calibration, v, cloud);
+       });
+     }},
 
     {"feature_matching", "max_features", fm::MAX_FEATURES,
      matcher([](F& p, double v) { p.max_features = toInt(v); })},

@@ -122,6 +122,11 @@ TEST(PointCloudFromDisparity, RejectsMismatchedInput)
                planar_grid::Exception);
   EXPECT_THROW(disparityToPointCloud(disparity, cv::Mat(), calibration, 0.0, cloud),
                planar_grid::Exception);
+  // The range the stage's table declares too: (0, 1000] m.
+  EXPECT_THROW(disparityToPointCloud(disparity, cv::Mat(), calibration, 1000.5, cloud),
+               planar_grid::Exception);
+  EXPECT_NO_THROW(
+    disparityToPointCloud(disparity, cv::Mat(), calibration, 1000.0, cloud));
   EXPECT_THROW(
     disparityToPointCloud(disparity, cv::Mat(), StereoCalibration(), 30.0, cloud),
     planar_grid::Exception);
