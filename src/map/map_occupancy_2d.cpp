@@ -62,21 +62,24 @@ validate(const OccupancyGrid2DParams& p)
   const auto fail = [](const std::string& what) {
     throw Exception("PlanarGridMap::computeOccupancyGrid2D: " + what);
   };
-  if (!(p.resolution_m == 0.0 || (p.resolution_m >= 0.001 && p.resolution_m <= 100.0)))
-    fail("resolution_m must be 0 (the map's) or in [0.001, 100], got "
-         + std::to_string(p.resolution_m));
-  if (!std::isfinite(p.z_ref_m) || !std::isfinite(p.z_min_m)
-      || !std::isfinite(p.z_max_m) || !(p.z_max_m > p.z_min_m))
-    fail("the band needs finite z_ref_m, z_min_m < z_max_m, got z_min_m "
-         + std::to_string(p.z_min_m) + ", z_max_m " + std::to_string(p.z_max_m));
-  const double half_pi = 0.5 * M_PI + 1e-12;
-  if (!(p.terrain_max_angle_rad >= 0.0 && p.terrain_max_angle_rad <= half_pi))
-    fail("terrain_max_angle_rad must be in [0, pi/2], got "
-         + std::to_string(p.terrain_max_angle_rad));
-  if (!(p.terrain_tile_m > 0.0 && p.terrain_tile_m <= 100.0))
-    fail("terrain_tile_m must be in (0, 100], got " + std::to_string(p.terrain_tile_m));
-  if (!(p.max_slope_rad >= 0.0 && p.max_slope_rad <= half_pi))
-    fail("max_slope_rad must be in [0, pi/2], got " + std::to_string(p.max_slope_rad));
+  namespace ranges = occupancy_grid_2d_ranges;
+  const auto check = [&fail](const char* name, double value, const ParamRange& range,
+                             const char* unit) {
+    if (!range.contains(value))
+      fail(paramRangeMessage(name, range, unit) + ", got " + std::to_string(value));
+  };
+  if (p.resolution_m != 0.0)
+    check("resolution_m (when not 0, the map's)", p.resolution_m, ranges::RESOLUTION,
+          "m");
+  check("z_ref_m", p.z_ref_m, ranges::Z_REF, "m");
+  check("z_min_m", p.z_min_m, ranges::Z_BAND, "m");
+  check("z_max_m", p.z_max_m, ranges::Z_BAND, "m");
+  if (!(p.z_max_m > p.z_min_m))
+    fail("the band needs z_min_m < z_max_m, got z_min_m " + std::to_string(p.z_min_m)
+         + ", z_max_m " + std::to_string(p.z_max_m));
+  check("terrain_max_angle_rad", p.terrain_max_angle_rad, ranges::ANGLE, "rad");
+  check("terrain_tile_m", p.terrain_tile_m, ranges::TERRAIN_TILE, "m");
+  check("max_slope_rad", p.max_slope_rad, ranges::ANGLE, "rad");
   if (p.use_bounds
       && (!p.min_xy.allFinite() || !p.max_xy.allFinite()
           || !(p.max_xy.array() > p.min_xy.array()).all()))

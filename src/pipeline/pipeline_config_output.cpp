@@ -118,25 +118,35 @@ parseGrid2DBand(const Reader& r, const YAML::Node& node)
                "resolution_m", "max_slope_deg", "terrain_max_angle_deg"},
               what);
   OccupancyGrid2DParams band;
+  namespace ranges = occupancy_grid_2d_ranges;
   constexpr double DEG = M_PI / 180.0;
-  band.z_ref_m = r.real(node, "z_ref_m", band.z_ref_m, -1e4, 1e4, what);
-  band.z_min_m = r.real(node, "z_min_m", band.z_min_m, -1e3, 1e3, what);
-  band.z_max_m = r.real(node, "z_max_m", band.z_max_m, -1e3, 1e3, what);
+  // The angles are given in degrees: their range converted.
+  constexpr ParamRange ANGLE_DEG{ranges::ANGLE.min / DEG, ranges::ANGLE.max / DEG,
+                                 ranges::ANGLE.min_open, ranges::ANGLE.max_open};
+  band.z_ref_m = r.real(node, "z_ref_m", band.z_ref_m, ranges::Z_REF, "m", what);
+  band.z_min_m = r.real(node, "z_min_m", band.z_min_m, ranges::Z_BAND, "m", what);
+  band.z_max_m = r.real(node, "z_max_m", band.z_max_m, ranges::Z_BAND, "m", what);
   if (!(band.z_max_m > band.z_min_m))
     r.fail(node["z_max_m"] ? node["z_max_m"] : node["z_min_m"],
            what + ".z_max_m must be above z_min_m");
   band.above_terrain = r.boolean(node, "above_terrain", band.above_terrain, what);
-  band.terrain_tile_m =
-    r.real(node, "terrain_tile_m", band.terrain_tile_m, 0.01, 100.0, what);
-  band.resolution_m = r.real(node, "resolution_m", band.resolution_m, 0.0, 100.0, what);
-  if (band.resolution_m > 0.0 && band.resolution_m < 0.001)
-    r.fail(node["resolution_m"],
-           what + ".resolution_m must be 0 (the map's) or >= 0.001");
-  band.max_slope_rad =
-    r.real(node, "max_slope_deg", band.max_slope_rad / DEG, 0.0, 90.0, what) * DEG;
-  band.terrain_max_angle_rad = r.real(node, "terrain_max_angle_deg",
-                                      band.terrain_max_angle_rad / DEG, 0.0, 90.0, what)
-                               * DEG;
+  band.terrain_tile_m = r.real(node, "terrain_tile_m", band.terrain_tile_m,
+                               ranges::TERRAIN_TILE, "m", what);
+  band.resolution_m =
+    r.real(node, "resolution_m", band.resolution_m, 0.0, ranges::RESOLUTION.max, what);
+  if (band.resolution_m != 0.0 && !ranges::RESOLUTION.contains(band.resolution_m))
+    r.fail(node["resolution_m"], what + ".resolution_m must be 0 (the map's) or in "
+                                   + formatParamRange(ranges::RESOLUTION, "m"));
+  // Within ANGLE_DEG, the angle in radians is within ANGLE up to rounding: clamped.
+  band.max_slope_rad = std::min(
+    r.real(node, "max_slope_deg", band.max_slope_rad / DEG, ANGLE_DEG, "deg", what)
+      * DEG,
+    ranges::ANGLE.max);
+  band.terrain_max_angle_rad =
+    std::min(r.real(node, "terrain_max_angle_deg", band.terrain_max_angle_rad / DEG,
+                    ANGLE_DEG, "deg", what)
+               * DEG,
+             ranges::ANGLE.max);
   return band;
 }
 

@@ -299,6 +299,25 @@ YamlReader::real(const YAML::Node& parent,
   return realValue(node, min, max, what + "." + key);
 }
 
+double
+YamlReader::real(const YAML::Node& parent,
+                 const std::string& key,
+                 double fallback,
+                 const ParamRange& range,
+                 const std::string& unit,
+                 const std::string& what) const
+{
+  const YAML::Node node = parent[key];
+  if (!node)
+    return fallback;
+  const double v =
+    realValue(node, -ParamRange::UNBOUNDED, ParamRange::UNBOUNDED, what + "." + key);
+  if (!range.contains(v))
+    fail(node, what + "." + key + " = " + formatParamNumber(v) + " is out of range "
+                 + formatParamRange(range, unit));
+  return v;
+}
+
 std::string
 YamlReader::path(const YAML::Node& parent,
                  const std::string& key,

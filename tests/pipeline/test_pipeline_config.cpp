@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/stage.h>
 #include <planar_grid/pipeline/yaml_reader.h>
@@ -14,6 +15,8 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iomanip>
+#include <sstream>
 #include <string>
 #include <utility>
 
@@ -104,6 +107,66 @@ TEST(PipelineConfig, MapGrid2DOutputAndItsBand)
                           .what())
               .find("bogus"),
             std::string::npos);
+}
+
+// The band's keys and computeOccupancyGrid2D() take the same ranges
+// (occupancy_grid_2d_ranges): a value just outside is refused by both, the edges are
+// accepted by both.
+TEST(PipelineConfig, MapGrid2DBandRangesAreTheMapsOwn)
+{
+  namespace ranges = planar_grid::occupancy_grid_2d_ranges;
+  const std::string head =
+    INPUT + "pipeline:\n  - type: stereo_disparity\noutput:\n  map_grid_2d: g.yaml\n"
+    + "  map_grid_2d_band: {";
+  const planar_grid::PlanarGridMap map{planar_grid::PlanarGridMap::Params()};
+  const auto map_accepts = [&map](planar_grid::OccupancyGrid2DParams p) {
+    // An empty map needs the grid's extent.
+    p.use_bounds = true;
+    p.min_xy.setZero();
+    p.max_xy.setOnes();
+    try {
+      map.computeOccupancyGrid2D(p);
+      return true;
+    } catch (const planar_grid::Exception&) {
+      return false;
+    }
+  };
+  const auto config_accepts = [&head](const std::string& key, double value) {
+    std::ostringstream yaml;
+    yaml << std::setprecision(17) << head << key << ": " << value << "}\n";
+    try {
+      parsePipelineConfig(yaml.str(), "t", "/");
+      return true;
+    } catch (const planar_grid::ConfigError&) {
+      return false;
+    }
+  };
+  // A tile of 0 m, the edge and above.
+  planar_grid::OccupancyGrid2DParams p;
+  for (const double tile :
+       {0.0, ranges::TERRAIN_TILE.max, ranges::TERRAIN_TILE.max + 1.0}) {
+    p.terrain_tile_m = tile;
+    EXPECT_EQ(config_accepts("terrain_tile_m", tile), map_accepts(p)) << tile;
+    EXPECT_EQ(map_accepts(p), ranges::TERRAIN_TILE.contains(tile)) << tile;
+  }
+  p = planar_grid::OccupancyGrid2DParams();
+  // Degrees in the configuration, radians in the map: 90 degrees is the edge.
+  for (const double degrees : {0.0, 90.0, 90.001, -0.001}) {
+    p.max_slope_rad = degrees * M_PI / 180.0;
+    EXPECT_EQ(config_accepts("max_slope_deg", degrees), map_accepts(p)) << degrees;
+  }
+  EXPECT_TRUE(config_accepts("max_slope_deg", 90.0));
+  p = planar_grid::OccupancyGrid2DParams();
+  for (const double z : {ranges::Z_REF.min - 1.0, ranges::Z_REF.max}) {
+    p.z_ref_m = z;
+    EXPECT_EQ(config_accepts("z_ref_m", z), map_accepts(p)) << z;
+  }
+  p = planar_grid::OccupancyGrid2DParams();
+  for (const double r :
+       {0.0, 0.0005, ranges::RESOLUTION.min, ranges::RESOLUTION.max + 1.0}) {
+    p.resolution_m = r;
+    EXPECT_EQ(config_accepts("resolution_m", r), map_accepts(p)) << r;
+  }
 }
 
 TEST(PipelineConfig, RelativePathsResolveAgainstTheFileFolder)

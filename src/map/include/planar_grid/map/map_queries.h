@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_range.h>
+
 #include <Eigen/Core>
 #include <Eigen/StdVector>
 
@@ -61,18 +63,38 @@ struct CollisionBody {
 using CollisionBodies =
   std::vector<CollisionBody, Eigen::aligned_allocator<CollisionBody>>;
 
+/** \brief The valid ranges of OccupancyGrid2DParams, which computeOccupancyGrid2D()
+ * checks and the pipeline's `output.map_grid_2d_band` keys take (its angles in degrees,
+ * the same ranges converted). */
+namespace occupancy_grid_2d_ranges {
+/** \brief Cell edge of the 2D map, when not 0 (the map's): [0.001, 100] m. */
+inline constexpr ParamRange RESOLUTION = ParamRange::closed(0.001, 100.0);
+/** \brief Reference height: [-10000, 10000] m. */
+inline constexpr ParamRange Z_REF = ParamRange::closed(-1e4, 1e4);
+/** \brief Ends of the band above the reference: [-1000, 1000] m. */
+inline constexpr ParamRange Z_BAND = ParamRange::closed(-1e3, 1e3);
+/** \brief Edge of the terrain tiles: (0, 100] m. */
+inline constexpr ParamRange TERRAIN_TILE = ParamRange::openMin(0.0, 100.0);
+/** \brief Angles from vertical (terrain_max_angle_rad, max_slope_rad): [0, pi/2] rad.
+ */
+inline constexpr ParamRange ANGLE = ParamRange::closed(0.0, 1.5707963267948966);
+} // namespace occupancy_grid_2d_ranges
+
 /** \brief What PlanarGridMap::computeOccupancyGrid2D() projects and how it is
  * written. Heights in meters, world frame (z up). \ingroup map */
 struct OccupancyGrid2DParams {
-  /** Cell edge of the 2D map, meters; 0 takes the map's resolution_m; else in
-   * [0.001, 100]. */
+  /** Cell edge of the 2D map, meters; 0 takes the map's resolution_m; else within
+   * occupancy_grid_2d_ranges::RESOLUTION. */
   double resolution_m{0.0};
-  /** The fixed reference height, meters: the band is [z_ref_m + z_min_m,
-   * z_ref_m + z_max_m] (where above_terrain finds no terrain, too). */
+  /** The fixed reference height, meters (occupancy_grid_2d_ranges::Z_REF): the band
+   * is [z_ref_m + z_min_m, z_ref_m + z_max_m] (where above_terrain finds no terrain,
+   * too). */
   double z_ref_m{0.0};
-  /** Lower end of the band above the reference, meters. */
+  /** Lower end of the band above the reference, meters
+   * (occupancy_grid_2d_ranges::Z_BAND). */
   double z_min_m{0.2};
-  /** Upper end of the band above the reference, meters; > z_min_m. */
+  /** Upper end of the band above the reference, meters
+   * (occupancy_grid_2d_ranges::Z_BAND); > z_min_m. */
   double z_max_m{2.0};
   /** Measure the band above the local terrain instead of z_ref_m: in a cell covered
    * by a walkable terrain cuboid, the highest top of those cuboids in the cell's
@@ -82,13 +104,14 @@ struct OccupancyGrid2DParams {
    * that a car roof in a tile of road is not the terrain); z_ref_m where neither is
    * known. */
   bool above_terrain{false};
-  /** With above_terrain: the edge of the tiles of the space layer's terrain, meters;
-   * in [resolution, 100]. */
+  /** With above_terrain: the edge of the tiles of the space layer's terrain, meters
+   * (occupancy_grid_2d_ranges::TERRAIN_TILE). */
   double terrain_tile_m{2.0};
   /** A planar cuboid whose normal is within terrain_max_angle_rad of vertical is
-   * terrain; in [0, pi/2]. */
+   * terrain; within occupancy_grid_2d_ranges::ANGLE. */
   double terrain_max_angle_rad{1.0471975511965976};
-  /** Terrain steeper than this (normal to vertical, radians; in [0, pi/2]) is an
+  /** Terrain steeper than this (normal to vertical, radians; within
+   * occupancy_grid_2d_ranges::ANGLE) is an
    * obstacle wherever it covers a cell; flatter terrain is walkable and seen free. */
   double max_slope_rad{0.3490658503988659};
   /** Use min_xy / max_xy instead of the map's extent (the XY bounds of the space

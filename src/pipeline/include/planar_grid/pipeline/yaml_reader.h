@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_range.h>
+
 #include <functional>
 #include <string>
 #include <vector>
@@ -92,6 +94,14 @@ public:
               double fallback,
               double min,
               double max,
+              const std::string& what) const;
+  /** \brief The real value of parent[key] within \a range (its unit \a unit, for
+   * the message), or \a fallback when it is absent. */
+  double real(const YAML::Node& parent,
+              const std::string& key,
+              double fallback,
+              const ParamRange& range,
+              const std::string& unit,
               const std::string& what) const;
 
   /** \brief The boolean value (true/false, yes/no, on/off) of parent[key], or
