@@ -235,6 +235,15 @@ YamlReader::realValue(const YAML::Node& node,
                       double max,
                       const std::string& what) const
 {
+  return realValue(node, ParamRange::closed(min, max), "", what);
+}
+
+double
+YamlReader::realValue(const YAML::Node& node,
+                      const ParamRange& range,
+                      const std::string& unit,
+                      const std::string& what) const
+{
   double v = 0.0;
   try {
     if (!node.IsScalar())
@@ -243,11 +252,9 @@ YamlReader::realValue(const YAML::Node& node,
   } catch (const YAML::BadConversion&) {
     fail(node, what + " must be a number");
   }
-  if (!std::isfinite(v) || v < min || v > max) {
-    std::ostringstream msg;
-    msg << what << " = " << v << " is out of range [" << min << ", " << max << "]";
-    fail(node, msg.str());
-  }
+  if (!range.contains(v))
+    fail(node, what + " = " + formatParamNumber(v) + " is out of range "
+                 + formatParamRange(range, unit));
   return v;
 }
 
@@ -310,12 +317,7 @@ YamlReader::real(const YAML::Node& parent,
   const YAML::Node node = parent[key];
   if (!node)
     return fallback;
-  const double v =
-    realValue(node, -ParamRange::UNBOUNDED, ParamRange::UNBOUNDED, what + "." + key);
-  if (!range.contains(v))
-    fail(node, what + "." + key + " = " + formatParamNumber(v) + " is out of range "
-                 + formatParamRange(range, unit));
-  return v;
+  return realValue(node, range, unit, what + "." + key);
 }
 
 std::string

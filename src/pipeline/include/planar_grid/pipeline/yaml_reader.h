@@ -122,6 +122,12 @@ public:
                    double min,
                    double max,
                    const std::string& what) const;
+  /** \brief The real value of \a node within \a range (its unit \a unit, for the
+   * message). */
+  double realValue(const YAML::Node& node,
+                   const ParamRange& range,
+                   const std::string& unit,
+                   const std::string& what) const;
 
   /** \brief The path in parent[key] (required), resolved by resolve(). */
   std::string
