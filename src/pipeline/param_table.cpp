@@ -23,6 +23,14 @@ formatParamChoices(const ParamSpec& spec, const std::string& separator)
 }
 
 std::string
+formatParamRange(const ParamSpec& spec)
+{
+  if (spec.type == ParamSpec::Type::DOUBLE || spec.type == ParamSpec::Type::INT)
+    return formatParamRange(spec.range);
+  return "";
+}
+
+std::string
 formatParamType(const ParamSpec& spec, const std::string& choice_separator)
 {
   switch (spec.type) {
@@ -37,18 +45,6 @@ formatParamType(const ParamSpec& spec, const std::string& choice_separator)
   }
   return "one of " + formatParamChoices(spec, choice_separator);
 }
-
-namespace {
-
-std::string
-rangeText(const ParamSpec& spec)
-{
-  if (spec.type == ParamSpec::Type::DOUBLE || spec.type == ParamSpec::Type::INT)
-    return formatParamRange(spec.range);
-  return "";
-}
-
-} // namespace
 
 ParamSpec
 ParamSpec::real(const std::string& key,
@@ -290,7 +286,7 @@ describeParams(const std::vector<ParamSpec>& specs)
     out << "    " << std::left << std::setw(28) << spec.key << " " << std::setw(12)
         << formatParamType(spec, "|");
     out << " default " << spec.default_value;
-    const std::string range = rangeText(spec);
+    const std::string range = formatParamRange(spec);
     if (!range.empty())
       out << ", range " << range;
     if (!spec.unit.empty())

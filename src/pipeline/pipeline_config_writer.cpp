@@ -260,10 +260,11 @@ commentLines(const std::string& text,
 std::string
 acceptedValues(const ParamSpec& spec)
 {
-  if (spec.type != ParamSpec::Type::DOUBLE && spec.type != ParamSpec::Type::INT)
+  const std::string range = formatParamRange(spec);
+  if (range.empty())
     return formatParamType(spec, " | ");
   const std::string unit = spec.unit.empty() ? "" : ", " + spec.unit;
-  return formatParamType(spec, " | ") + " in " + formatParamRange(spec.range) + unit;
+  return formatParamType(spec, " | ") + " in " + range + unit;
 }
 
 } // namespace

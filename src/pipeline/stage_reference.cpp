@@ -36,14 +36,6 @@ typeCell(const ParamSpec& spec)
 }
 
 std::string
-rangeCell(const ParamSpec& spec)
-{
-  if (spec.type != ParamSpec::Type::DOUBLE && spec.type != ParamSpec::Type::INT)
-    return "";
-  return formatParamRange(spec.range);
-}
-
-std::string
 scalingNote(const ParamSpec& spec)
 {
   switch (spec.cell_size_scaling) {
@@ -97,8 +89,9 @@ stageReferenceMarkdown()
            "|---|---|---|---|---|---|\n";
     for (const auto& spec : info.params)
       out << "| `" << spec.key << "` | " << cell(typeCell(spec)) << " | `"
-          << spec.default_value << "` | " << rangeCell(spec) << " | " << cell(spec.unit)
-          << " | " << cell(spec.description + scalingNote(spec)) << " |\n";
+          << spec.default_value << "` | " << formatParamRange(spec) << " | "
+          << cell(spec.unit) << " | " << cell(spec.description + scalingNote(spec))
+          << " |\n";
   }
   return out.str();
 }

@@ -140,6 +140,10 @@ struct ParamSpec {
                           const std::string& description);
 };
 
+/** \brief The range of a DOUBLE or INT parameter as an interval ("(0, 1]", without the
+ * unit); empty for other parameters. */
+std::string formatParamRange(const ParamSpec& spec);
+
 /** \brief What a parameter accepts, in words: "number", "integer", "true or false", or
  * "one of " and its choices joined by \a choice_separator. */
 std::string formatParamType(const ParamSpec& spec, const std::string& choice_separator);
