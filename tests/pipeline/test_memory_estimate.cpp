@@ -148,7 +148,23 @@ TEST(MemoryEstimate, MapIsBoundedByFramesSweptPathAndWindow)
 
 TEST(MemoryEstimate, RefusalNamesTheKeyTheEstimateAndTheLimit)
 {
-  // The main job's file at 0.01 m: its resolution_m value is at line 96, column 21.
+  // The main job's file at 0.01 m: the error points at map_integration's resolution_m
+  // value, found here by reading the file (1-based line; the value's column is 21).
+  int resolution_line = 0;
+  {
+    std::ifstream file(SOURCE_DIR + "/config/karlsruhe.yaml");
+    std::string line;
+    bool in_map_integration = false;
+    for (int n = 1; std::getline(file, line) && resolution_line == 0; ++n) {
+      if (line.find("- type:") != std::string::npos)
+        in_map_integration = line.find("type: map_integration") != std::string::npos;
+      else if (in_map_integration && line.rfind("      resolution_m: ", 0) == 0)
+        resolution_line = n;
+    }
+  }
+  ASSERT_GT(resolution_line, 0);
+  const std::string position =
+    "karlsruhe.yaml:" + std::to_string(resolution_line) + ":21";
   const auto config = mainJob(0.01, 25.0);
   PinholeView k;
   k.width_px = 1344;
@@ -159,7 +175,7 @@ TEST(MemoryEstimate, RefusalNamesTheKeyTheEstimateAndTheLimit)
   const MemoryEstimate e =
     planar_grid::estimateRunMemory(config, &k, planar_grid::Trajectory(), 112);
   EXPECT_EQ(e.key, "map_integration.resolution_m");
-  EXPECT_EQ(e.line, 96);
+  EXPECT_EQ(e.line, resolution_line);
   EXPECT_EQ(e.column, 21);
   // One view alone: the frustum (6253 m^3) in blocks of 0.08 m holds over 12 million.
   EXPECT_GT(e.view_blocks, 12000000u);
@@ -169,8 +185,8 @@ TEST(MemoryEstimate, RefusalNamesTheKeyTheEstimateAndTheLimit)
     FAIL() << "not refused: " << e.summary();
   } catch (const planar_grid::ConfigError& error) {
     const std::string what = error.what();
-    EXPECT_EQ(error.line(), 96);
-    EXPECT_NE(what.find("karlsruhe.yaml:96:21"), std::string::npos) << what;
+    EXPECT_EQ(error.line(), resolution_line);
+    EXPECT_NE(what.find(position), std::string::npos) << what;
     EXPECT_NE(what.find("4 GiB (a test limit)"), std::string::npos) << what;
     EXPECT_NE(what.find("--memory-limit"), std::string::npos) << what;
     EXPECT_NE(what.find(planar_grid::formatBytes(e.total_bytes)), std::string::npos);
