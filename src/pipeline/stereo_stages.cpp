@@ -28,6 +28,9 @@ allowedCpuCount()
   return std::max(1, CPU_COUNT(&cpus));
 }
 
+/** Dense frames: one in every_n_frames, [1, 1000]. */
+constexpr ParamRange EVERY_N_FRAMES = ParamRange::closed(1, 1000);
+
 /** The estimator's parameters without its per-call thread switch: the stage sets
  * OpenCV's thread count once for the run instead. */
 DisparityEstimator::Params
@@ -39,9 +42,12 @@ withoutThreadSwitch(DisparityEstimator::Params params)
 
 class StereoDisparityStage : public Stage {
 public:
-  StereoDisparityStage(const DisparityEstimator::Params& params, double max_range_m) :
-      estimator_(withoutThreadSwitch(params)), num_threads_(params.num_threads),
-      max_range_m_(max_range_m)
+  StereoDisparityStage(const DisparityEstimator::Params& params,
+                       double max_range_m,
+                       int every_n_frames) :
+      estimator_(withoutThreadSwitch(params)),
+      num_threads_(params.num_threads), max_range_m_(max_range_m),
+      every_n_frames_(every_n_frames)
   {}
   StereoDisparityStage(const StereoDisparityStage&) = delete;
   StereoDisparityStage& operator=(const StereoDisparityStage&) = delete;
@@ -93,6 +99,7 @@ public:
     v.set("bm_pre_filter_size_px", p.bm_pre_filter_size_px);
     v.set("bm_texture_threshold", p.bm_texture_threshold);
     v.set("max_range_m", max_range_m_);
+    v.set("every_n_frames", every_n_frames_);
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -100,6 +107,16 @@ public:
     if (frame.left.empty() || frame.right.empty())
       throw Exception("stage 'stereo_disparity' needs a stereo pair; frame "
                       + frame.name + " has none");
+    if (frame.sequence_number % static_cast<std::size_t>(every_n_frames_) != 0) {
+      // A frame between two dense ones: no disparity and no cloud, so the dense stages
+      // pass it on empty (without the warning of a frame whose points were lost) and
+      // only its key features reach the map.
+      frame.disparity.release();
+      frame.cloud.reset(new Frame::Cloud);
+      frame.cloud_in_world_frame = false;
+      frame.no_points_stage = "stereo_disparity (every_n_frames)";
+      return;
+    }
     estimator_.compute(frame.left, frame.right, frame.disparity);
     frame.cloud.reset(new Frame::Cloud);
     disparityToPointCloud(frame.disparity, frame.left, frame.calibration, max_range_m_,
@@ -119,6 +136,7 @@ private:
   int num_threads_;
   int previous_threads_{0};
   double max_range_m_;
+  int every_n_frames_;
 };
 
 class FeatureMatchingStage : public Stage {
@@ -254,6 +272,14 @@ stereoDisparityInfo()
     ParamSpec::real(
       "max_range_m", 40.0, point_cloud_from_disparity_ranges::MAX_RANGE, "m",
       "Points farther than this are invalid (stereo error grows as z^2)."),
+    ParamSpec::integer(
+      "every_n_frames", 1, EVERY_N_FRAMES, "frames",
+      "Dense frames: the disparity and the cloud only of the frames whose sequence "
+      "number (0-based position in the input, or in the live mapper's calls) is a "
+      "multiple of n. The frames between carry their key features alone "
+      "(feature_matching, kl_occupancy_filter and visual_odometry run on every "
+      "frame) and add no points, planes, cells or free space to the map. 1 = every "
+      "frame."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     DisparityEstimator::Params p;
@@ -276,7 +302,8 @@ stereoDisparityInfo()
     p.bm_pre_filter_cap = v.getInt("bm_pre_filter_cap");
     p.bm_pre_filter_size_px = v.getInt("bm_pre_filter_size_px");
     p.bm_texture_threshold = v.getInt("bm_texture_threshold");
-    return std::make_unique<StereoDisparityStage>(p, v.getDouble("max_range_m"));
+    return std::make_unique<StereoDisparityStage>(p, v.getDouble("max_range_m"),
+                                                  v.getInt("every_n_frames"));
   };
   return info;
 }

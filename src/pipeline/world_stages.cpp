@@ -31,8 +31,10 @@ public:
       throw Exception("stage 'transform_to_world': the cloud of frame " + frame.name
                       + " is already in the world frame (stage listed twice?)");
     Frame::Cloud::Ptr out(new Frame::Cloud);
-    pcl::transformPointCloud(*frame.cloud, *out,
-                             frame.world_T_camera.cast<float>().matrix());
+    // PCL warns about an empty cloud's zero width; there is nothing to move.
+    if (!frame.cloud->empty())
+      pcl::transformPointCloud(*frame.cloud, *out,
+                               frame.world_T_camera.cast<float>().matrix());
     // Keep the sensor pose with the cloud, where PCL clouds carry it.
     out->sensor_origin_ << frame.world_T_camera.translation().cast<float>(), 1.0f;
     out->sensor_orientation_ =
