@@ -499,6 +499,26 @@ mappedRange(const PipelineConfig& pipeline, const StereoCalibration& calibration
   return range_m;
 }
 
+namespace {
+
+/** \brief \a front with every frame dense (stereo_disparity's every_n_frames 1): the
+ * reference describes the scene, whichever frames a method maps. \a thinned says
+ * whether \a front skips dense frames. */
+PipelineConfig
+everyFrameDense(const PipelineConfig& front, bool& thinned)
+{
+  PipelineConfig all = front;
+  thinned = false;
+  for (auto& sc : all.stages)
+    if (sc.type == "stereo_disparity" && sc.params.getInt("every_n_frames") != 1) {
+      thinned = true;
+      sc.params.set("every_n_frames", 1);
+    }
+  return all;
+}
+
+} // namespace
+
 std::vector<ComparisonRow>
 runComparison(const ComparisonConfig& config,
               const std::function<void(const std::string&)>& progress)
@@ -557,12 +577,15 @@ runComparison(const ComparisonConfig& config,
 
     // The places are measured while the frames run, so a reference built from all
     // frames must exist first: a pass of a second front end over the frames builds it
-    // (the same deterministic stages give the same points).
+    // (the same deterministic stages give the same points). A front end that maps
+    // only every n-th frame densely gets its reference from a pass over every frame.
     ReferenceVoxels reference(ds.truth.leaf_size_m);
+    bool thinned = false;
+    const PipelineConfig reference_config = everyFrameDense(front_config, thinned);
     const bool reference_first =
-      ds.truth.type == TruthConfig::Type::REFERENCE && !places.empty();
+      ds.truth.type == TruthConfig::Type::REFERENCE && (!places.empty() || thinned);
     if (reference_first) {
-      PipelineRunner pre(front_config);
+      PipelineRunner pre(reference_config);
       pre.setFrameRange(ds.first_frame, end, ds.frame_step);
       pre.setFrameOverlap(false);
       pre.setFrameCallback(

@@ -586,3 +586,52 @@ TEST(StageTables, DeclareTheFrontEndTheEvaluationRunsOncePerFrame)
 }
 
 } // namespace
+
+namespace {
+
+TEST_F(MapComparisonTest, TheReferenceHasEveryFrameWhenTheMethodsMapEveryOther)
+{
+  // Four Karlsruhe frames through stereo and the planar stages, dense on every frame
+  // and on every second one: the reference (all frames' dense points) is the same
+  // in both runs, while the methods get the points of half the frames.
+  const std::string karlsruhe =
+    std::string(PLANAR_GRID_DATA_DIR) + "/karlsruhe_2010_03_09_drive_0023";
+  const auto run = [&](int every_n_frames) {
+    const std::string name = "dense" + std::to_string(every_n_frames);
+    const std::string pipeline = write(
+      name + ".yaml",
+      "input:\n  type: stereo_sequence\n  left_images: " + karlsruhe
+        + "/left/I1_%06d.png\n  right_images: " + karlsruhe
+        + "/right/I2_%06d.png\n  first_index: 10\n  frame_count: 4\n"
+        + "  calibration: {format: karlsruhe, file: " + karlsruhe + "/calib.txt}\n"
+        + "  poses: {format: karlsruhe_insdata, file: " + karlsruhe
+        + "/insdata.txt, camera_height_m: 1.57, camera_pitch_rad: 0.09}\n"
+        + "pipeline:\n  - type: stereo_disparity\n"
+        + "    params: {algorithm: sgbm_3way, max_range_m: 15.0, every_n_frames: "
+        + std::to_string(every_n_frames) + "}\n"
+        + "  - type: voxel_grid\n    params: {leaf_size_m: 0.1}\n"
+        + "  - type: transform_to_world\n" + "  - type: multi_plane_segmentation\n"
+        + "    params: {sample: cloud, min_inliers: 300}\n"
+        + "  - type: planar_cuboid_approximation\n" + "  - type: map_integration\n");
+    const auto config = planar_grid::loadComparisonConfig(
+      write("e" + name + ".yaml",
+            "resolutions_m: [0.3]\ndatasets:\n  - name: k\n    pipeline: " + pipeline
+              + "\n    truth: {type: reference}\n"));
+    std::map<std::string, planar_grid::ComparisonRow> by;
+    for (const auto& r : planar_grid::runComparison(config, nullptr))
+      if (r.place < 0)
+        by[r.method] = r;
+    return by;
+  };
+  const auto every = run(1);
+  const auto every_other = run(2);
+  ASSERT_EQ(every.count("SG"), 1u);
+  ASSERT_EQ(every_other.count("SG"), 1u);
+  EXPECT_GT(every.at("SG").truth_voxels, 1000u);
+  for (const auto& [method, row] : every_other)
+    EXPECT_EQ(row.truth_voxels, every.at(method).truth_voxels) << method;
+  EXPECT_LT(every_other.at("SG").cells, every.at("SG").cells);
+  EXPECT_GT(every_other.at("SG").cells, every.at("SG").cells / 3);
+}
+
+} // namespace
