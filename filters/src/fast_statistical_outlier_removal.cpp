@@ -25,6 +25,11 @@ struct PackedPoints {
   }
 };
 
+/** Points per leaf of the kd-tree. The tree answers only a sample and the few points
+ * the cells cannot, so its build dominates: larger leaves mean fewer levels to
+ * partition, and any leaf size gives the same exact neighbours. */
+constexpr std::size_t TREE_LEAF_SIZE = 64;
+
 /** Integer cell coordinates packed into one key, 21 bits per axis. */
 std::uint64_t
 cellKey(std::int64_t x, std::int64_t y, std::int64_t z)
@@ -318,7 +323,7 @@ meanNeighbourDistances(const std::vector<float>& xyz,
   const std::size_t n_packed = packed.kdtree_get_point_count();
   using Tree = nanoflann::KDTreeSingleIndexAdaptor<
     nanoflann::L2_Simple_Adaptor<float, PackedPoints>, PackedPoints, 3, std::uint32_t>;
-  const Tree tree(3, packed, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+  const Tree tree(3, packed, nanoflann::KDTreeSingleIndexAdaptorParams(TREE_LEAF_SIZE));
 
   // One more neighbour than mean_k: the query point is its own nearest neighbour.
   const auto k = static_cast<std::size_t>(mean_k) + 1;
