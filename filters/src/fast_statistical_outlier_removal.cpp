@@ -149,9 +149,8 @@ meanDistancesInCells(const std::vector<float>& xyz,
     auto from = cell_keys.begin();
     for (std::int64_t dx = -reach; dx <= reach; ++dx)
       for (std::int64_t dy = -reach; dy <= reach; ++dy) {
-        from = std::lower_bound(from, cell_keys.end(),
-                                cellKey(c[0] + dx, c[1] + dy, c[2] - reach));
         const std::uint64_t first = cellKey(c[0] + dx, c[1] + dy, c[2] - reach);
+        from = std::lower_bound(from, cell_keys.end(), first);
         for (; from != cell_keys.end() && *from - first < width; ++from) {
           const auto dz = static_cast<std::size_t>(*from - first);
           const auto row = static_cast<std::size_t>(dy + reach);
