@@ -6,9 +6,6 @@
 #include <cstdint>
 #include <limits>
 #include <nanoflann.hpp>
-#include <numeric>
-#include <unordered_map>
-#include <utility>
 #include <vector>
 
 namespace planar_grid {
@@ -27,6 +24,11 @@ struct PackedPoints {
     return false;
   }
 };
+
+/** Points per leaf of the kd-tree. The tree answers only a sample and the few points
+ * the cells cannot, so its build dominates: larger leaves mean fewer levels to
+ * partition, and any leaf size gives the same exact neighbours. */
+constexpr std::size_t TREE_LEAF_SIZE = 64;
 
 /** Integer cell coordinates packed into one key, 21 bits per axis. */
 std::uint64_t
@@ -103,40 +105,72 @@ meanDistancesInCells(const std::vector<float>& xyz,
     }
     keys[j] = cellKey(cell[3 * j], cell[3 * j + 1], cell[3 * j + 2]);
   }
+  // The points sorted by cell, their coordinates copied in that order, and the cells
+  // as a sorted key list with the range of their points: the cells of one x, y column
+  // are consecutive keys (z is the lowest field), so a column of cells is one search.
+  struct KeyedPoint {
+    std::uint64_t key;
+    std::uint32_t index;
+  };
+  std::vector<KeyedPoint> sorted(n);
+  for (std::size_t j = 0; j < n; ++j)
+    sorted[j] = {keys[j], static_cast<std::uint32_t>(j)};
+  std::sort(sorted.begin(), sorted.end(),
+            [](const KeyedPoint& a, const KeyedPoint& b) { return a.key < b.key; });
   std::vector<std::uint32_t> order(n);
-  std::iota(order.begin(), order.end(), 0u);
-  std::sort(order.begin(), order.end(),
-            [&keys](std::uint32_t a, std::uint32_t b) { return keys[a] < keys[b]; });
-  std::unordered_map<std::uint64_t, std::pair<std::size_t, std::size_t>> runs;
-  runs.reserve(n);
-  for (std::size_t b = 0; b < n;) {
-    std::size_t e = b + 1;
-    while (e < n && keys[order[e]] == keys[order[b]])
-      ++e;
-    runs.emplace(keys[order[b]], std::make_pair(b, e));
-    b = e;
+  std::vector<float> sorted_x(n), sorted_y(n), sorted_z(n);
+  std::vector<std::uint64_t> cell_keys;
+  std::vector<std::uint32_t> cell_begin;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint32_t j = sorted[i].index;
+    order[i] = j;
+    sorted_x[i] = xyz[3 * j];
+    sorted_y[i] = xyz[3 * j + 1];
+    sorted_z[i] = xyz[3 * j + 2];
+    if (i == 0 || sorted[i].key != sorted[i - 1].key) {
+      cell_keys.push_back(sorted[i].key);
+      cell_begin.push_back(static_cast<std::uint32_t>(i));
+    }
   }
+  cell_begin.push_back(static_cast<std::uint32_t>(n));
 
   // The candidates of one cell, coordinate by coordinate, so that the distance loop
-  // runs over contiguous arrays.
+  // runs over contiguous arrays. The cells are found column by column (one search
+  // each, starting where the previous column's ended: the columns come in increasing
+  // key order), then their points appended z slice by z slice, y row by y row, x
+  // cell by x cell, so that the candidates (and the order in which the selected
+  // distances are summed) are those of a cell by cell walk in that order.
+  constexpr std::size_t NO_CELL = std::numeric_limits<std::size_t>::max();
+  std::vector<std::size_t> found;
   std::vector<float> cand_x, cand_y, cand_z, d2, near;
   const auto gather = [&](const std::int64_t* c, std::int64_t reach) {
+    const auto width = static_cast<std::size_t>(2 * reach + 1);
+    found.assign(width * width * width, NO_CELL);
+    auto from = cell_keys.begin();
+    for (std::int64_t dx = -reach; dx <= reach; ++dx)
+      for (std::int64_t dy = -reach; dy <= reach; ++dy) {
+        const std::uint64_t first = cellKey(c[0] + dx, c[1] + dy, c[2] - reach);
+        from = std::lower_bound(from, cell_keys.end(), first);
+        for (; from != cell_keys.end() && *from - first < width; ++from) {
+          const auto dz = static_cast<std::size_t>(*from - first);
+          const auto row = static_cast<std::size_t>(dy + reach);
+          const auto col = static_cast<std::size_t>(dx + reach);
+          found[(dz * width + row) * width + col] =
+            static_cast<std::size_t>(from - cell_keys.begin());
+        }
+      }
     cand_x.clear();
     cand_y.clear();
     cand_z.clear();
-    for (std::int64_t dz = -reach; dz <= reach; ++dz)
-      for (std::int64_t dy = -reach; dy <= reach; ++dy)
-        for (std::int64_t dx = -reach; dx <= reach; ++dx) {
-          const auto it = runs.find(cellKey(c[0] + dx, c[1] + dy, c[2] + dz));
-          if (it == runs.end())
-            continue;
-          for (std::size_t i = it->second.first; i < it->second.second; ++i) {
-            const float* p = &xyz[3 * order[i]];
-            cand_x.push_back(p[0]);
-            cand_y.push_back(p[1]);
-            cand_z.push_back(p[2]);
-          }
-        }
+    for (const std::size_t cell_index : found) {
+      if (cell_index == NO_CELL)
+        continue;
+      const auto b = static_cast<std::ptrdiff_t>(cell_begin[cell_index]);
+      const auto e = static_cast<std::ptrdiff_t>(cell_begin[cell_index + 1]);
+      cand_x.insert(cand_x.end(), sorted_x.begin() + b, sorted_x.begin() + e);
+      cand_y.insert(cand_y.end(), sorted_y.begin() + b, sorted_y.begin() + e);
+      cand_z.insert(cand_z.end(), sorted_z.begin() + b, sorted_z.begin() + e);
+    }
     d2.resize(cand_x.size());
     near.resize(cand_x.size());
   };
@@ -247,9 +281,9 @@ meanDistancesInCells(const std::vector<float>& xyz,
   };
 
   std::vector<std::uint32_t> missed;
-  for (std::size_t b = 0; b < n;) {
-    const auto [run_begin, run_end] = runs.at(keys[order[b]]);
-    b = run_end;
+  for (std::size_t cell_index = 0; cell_index < cell_keys.size(); ++cell_index) {
+    const std::size_t run_begin = cell_begin[cell_index];
+    const std::size_t run_end = cell_begin[cell_index + 1];
     if (std::none_of(order.begin() + static_cast<std::ptrdiff_t>(run_begin),
                      order.begin() + static_cast<std::ptrdiff_t>(run_end),
                      [&queried](std::uint32_t j) { return queried[j] != 0; }))
@@ -288,7 +322,7 @@ meanNeighbourDistances(const std::vector<float>& xyz,
   const std::size_t n_packed = packed.kdtree_get_point_count();
   using Tree = nanoflann::KDTreeSingleIndexAdaptor<
     nanoflann::L2_Simple_Adaptor<float, PackedPoints>, PackedPoints, 3, std::uint32_t>;
-  const Tree tree(3, packed, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+  const Tree tree(3, packed, nanoflann::KDTreeSingleIndexAdaptorParams(TREE_LEAF_SIZE));
 
   // One more neighbour than mean_k: the query point is its own nearest neighbour.
   const auto k = static_cast<std::size_t>(mean_k) + 1;

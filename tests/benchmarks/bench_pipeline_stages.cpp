@@ -7,11 +7,13 @@
 // filter, the map) see the same frame again on every iteration.
 //   build-bench/tests/benchmarks/bench_pipeline_stages
 #include <planar_grid/filters/fast_statistical_outlier_removal.h>
+#include <planar_grid/filters/fast_voxel_grid.h>
 #include <planar_grid/pipeline/frame_source.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/stage.h>
 
 #include <pcl/filters/statistical_outlier_removal.h>
+#include <pcl/filters/voxel_grid.h>
 
 #include <benchmark/benchmark.h>
 
@@ -204,6 +206,55 @@ BM_OutlierRemovalSequence(benchmark::State& st)
   st.counters["frames"] = static_cast<double>(clouds.size());
 }
 
+/** The voxel_grid stage's input (the depth_error_filter's output, the whole stereo
+ * cloud of a frame) of every 8th Karlsruhe frame (stageInputs()). */
+const std::vector<Frame::Cloud::ConstPtr>&
+voxelGridInputs()
+{
+  static const std::vector<Frame::Cloud::ConstPtr> clouds = [] {
+    std::vector<Frame::Cloud::ConstPtr> out;
+    for (const auto& frame : stageInputs("voxel_grid"))
+      out.push_back(frame.cloud);
+    return out;
+  }();
+  return clouds;
+}
+
+/** FastVoxelGrid (range(0) = 0) or PCL's VoxelGrid (1) with the main job's leaf size
+ * (0.1 m) over voxelGridInputs(): the time of one iteration is that of all the frames
+ * (counter "frames"). Both give the same cloud, bit for bit (test_filters). */
+void
+BM_VoxelGridSequence(benchmark::State& st)
+{
+  const auto& clouds = voxelGridInputs();
+  const bool pcl_filter = st.range(0) == 1;
+  st.SetLabel(pcl_filter ? "pcl::VoxelGrid" : "FastVoxelGrid");
+  double points_in = 0.0, points_out = 0.0;
+  for (auto _ : st) {
+    points_in = points_out = 0.0;
+    for (const auto& cloud : clouds) {
+      Frame::Cloud out;
+      if (pcl_filter) {
+        pcl::VoxelGrid<pcl::PointXYZI> filter;
+        filter.setLeafSize(0.1f, 0.1f, 0.1f);
+        filter.setInputCloud(cloud);
+        filter.filter(out);
+      } else {
+        planar_grid::FastVoxelGrid<pcl::PointXYZI> filter;
+        filter.setLeafSize(0.1f, 0.1f, 0.1f);
+        filter.setInputCloud(cloud);
+        filter.filter(out);
+      }
+      benchmark::DoNotOptimize(out);
+      points_in += static_cast<double>(cloud->size());
+      points_out += static_cast<double>(out.size());
+    }
+  }
+  st.counters["frames"] = static_cast<double>(clouds.size());
+  st.counters["points_in"] = points_in;
+  st.counters["points_out"] = points_out;
+}
+
 /** The multi_plane_segmentation stage's input frame (after transform_to_world) for
  * every 8th Karlsruhe frame (stageInputs()). */
 const std::vector<Frame>&
@@ -273,6 +324,12 @@ BENCHMARK(BM_PclStatisticalOutlierRemoval)
   ->UseRealTime();
 
 BENCHMARK(BM_OutlierRemovalSequence)
+  ->Arg(0)
+  ->Arg(1)
+  ->Unit(benchmark::kMillisecond)
+  ->MeasureProcessCPUTime();
+
+BENCHMARK(BM_VoxelGridSequence)
   ->Arg(0)
   ->Arg(1)
   ->Unit(benchmark::kMillisecond)
