@@ -518,6 +518,11 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
     const Eigen::Vector3f block_half = (ex + ey + ez) * (0.5f * BLOCK_EDGE);
     // half block diagonal plus slack for rounding
     const float reject_radius = block_half.norm() * 1.01f + 1e-3f;
+    // A voxel already free stays free whatever a view says of it (observed free
+    // writes free, occluded changes only never-observed voxels): the 4^3 cubes free
+    // in the storage are not observed. Pending setState() edits are not in the
+    // storage; with any, every cube is observed.
+    const bool skip_stored_free = storage.edits.empty();
     const auto observeBlock = [&](int bx, int by, int bz, BlockResult& res,
                                   Counters& counters) {
       const Eigen::Vector3f c0 =
@@ -536,6 +541,10 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
         for (const auto& n : side_normals)
           if (n.dot(centre) < -reject_radius)
             return false;
+      const std::uint32_t stored_free =
+        skip_stored_free ? storage.storedFreeCubes({bx, by, bz}) : 0u;
+      if (stored_free == 0xFFu)
+        return false;
       CubeInfo info;
       const Cube kind = classify(c0, static_cast<float>(BLOCK_EDGE), info);
       if (kind == Cube::NONE)
@@ -556,6 +565,8 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
       res.occluded.fill(0);
       bool any = false;
       for (int c = 0; c < 8; ++c) {
+        if ((stored_free >> c) & 1u)
+          continue;
         const int ox = (c & 1) * 4, oy = ((c >> 1) & 1) * 4, oz = ((c >> 2) & 1) * 4;
         const Eigen::Vector3f cc = c0 + static_cast<float>(ox) * ex
                                    + static_cast<float>(oy) * ey
