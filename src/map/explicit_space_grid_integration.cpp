@@ -694,9 +694,6 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
   int* const row_ky = workspace.row_ky.data();
   int* const row_kz = workspace.row_kz.data();
   int* const row_ok = workspace.row_ok.data();
-  const int n_words = (W + 63) / 64;
-  workspace.row_flags.resize(64 * static_cast<std::size_t>(n_words));
-  workspace.row_starts.resize(static_cast<std::size_t>(n_words));
   const RowKeys kernel_keys{w_T_c.linear(), w_T_c.translation(), column_x.data(),
                             max_range, inv_res};
   // Every pixel's coordinates, (x, y, z) = z ((u - cx) / fx, (v - cy) / fy, 1) with
@@ -719,16 +716,14 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
       rowKeys<true>(row, W, yn, kernel_keys, row_kx, row_ky, row_kz, row_ok);
     else
       rowKeys<false>(row, W, yn, kernel_keys, row_kx, row_ky, row_kz, row_ok);
-    // Only the pixels that start a run can hold another voxel than the last written;
-    // one after a pixel without measurement may still repeat it.
-    runStarts(row_kx, row_ky, row_kz, row_ok, W, workspace.row_flags.data(),
-              workspace.row_starts.data());
     // |key| < 2^30 above: no voxel has this key
     int last_x = std::numeric_limits<int>::min(), last_y = 0, last_z = 0;
-    for (int k = 0; k < n_words; ++k)
-      for (std::uint64_t todo = workspace.row_starts[static_cast<std::size_t>(k)];
+    // Only the pixels that start a run can hold another voxel than the last written;
+    // one after a pixel without measurement may still repeat it.
+    for (int first = 0; first < W; first += 64)
+      for (std::uint64_t todo = runStarts(row_kx, row_ky, row_kz, row_ok, W, first);
            todo != 0; todo &= todo - 1) {
-        const int u = 64 * k + __builtin_ctzll(todo);
+        const int u = first + __builtin_ctzll(todo);
         const int kx = row_kx[u], ky = row_ky[u], kz = row_kz[u];
         if (kx == last_x && ky == last_y && kz == last_z)
           continue;

@@ -266,10 +266,6 @@ struct IntegrationWorkspace {
   /** \brief The occupied pass's voxel keys of one image row (x, y, z per column) and
    * whether each pixel has one (a measurement within range). */
   std::vector<int> row_kx, row_ky, row_kz, row_ok;
-  /** \brief The occupied pass's run starts of one image row (runStarts()): a flag per
-   * column, and the flags as bits. */
-  std::vector<std::uint8_t> row_flags;
-  std::vector<std::uint64_t> row_starts;
   /** \brief Per-thread observations of the blocks of the last view. */
   std::vector<std::vector<BlockResult>> results;
 };

@@ -6,7 +6,9 @@
 #include <Eigen/Core>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 
@@ -86,42 +88,36 @@ rowKeys(const float* row,
   }
 }
 
-/** \brief The pixels of a row that start a run of one voxel: bit u % 64 of
- * starts[u / 64] is set where ok[u] and pixel u - 1 is not a measured pixel of the same
- * voxel (\a starts holds (W + 63) / 64 words). A measured pixel that does not start a
- * run has the voxel of the measured pixel before it. The flags come from a
- * branch-free loop the compiler vectorises; each 8 of them gather into one byte
- * through a multiplication (byte j of x times 2^(56 - 7 j) lands on bit 56 + j, and no
- * other product reaches the top byte). \a flags is scratch of W rounded up to 64. */
-inline void
-runStarts(const int* kx,
-          const int* ky,
-          const int* kz,
-          const int* ok,
-          int W,
-          std::uint8_t* flags,
-          std::uint64_t* starts)
+/** \brief The pixels first .. first + 63 of a row that start a run of one voxel, as
+ * bit u - first: ok[u], and pixel u - 1 is not a measured pixel of the same voxel. A
+ * measured pixel that does not start a run has the voxel of the measured pixel before
+ * it. The flags come from a branch-free loop the compiler vectorises; each 8 of them
+ * gather into one byte through a multiplication (byte j of x times 2^(56 - 7 j) lands
+ * on bit 56 + j, and no other product reaches the top byte). */
+inline std::uint64_t
+runStarts(const int* kx, const int* ky, const int* kz, const int* ok, int W, int first)
 {
-  const int n_words = (W + 63) / 64;
-  if (W > 0)
+  std::array<std::uint8_t, 64> flags{};
+  const int end = std::min(first + 64, W);
+  int u = first;
+  if (u == 0 && u < end) { // no pixel before it
     flags[0] = static_cast<std::uint8_t>(ok[0] != 0);
-  for (int u = 1; u < W; ++u) {
+    ++u;
+  }
+  for (; u < end; ++u) {
     const int same = ok[u - 1] & static_cast<int>(kx[u] == kx[u - 1])
                      & static_cast<int>(ky[u] == ky[u - 1])
                      & static_cast<int>(kz[u] == kz[u - 1]);
-    flags[u] = static_cast<std::uint8_t>(ok[u] & (same ^ 1));
+    flags[static_cast<std::size_t>(u - first)] =
+      static_cast<std::uint8_t>(ok[u] & (same ^ 1));
   }
-  for (int u = W; u < 64 * n_words; ++u)
-    flags[u] = 0;
-  for (int k = 0; k < n_words; ++k) {
-    std::uint64_t bits = 0;
-    for (int b = 0; b < 8; ++b) {
-      std::uint64_t x;
-      std::memcpy(&x, flags + 64 * k + 8 * b, sizeof(x)); // little-endian
-      bits |= ((x * 0x0102040810204080ULL) >> 56) << (8 * b);
-    }
-    starts[k] = bits;
+  std::uint64_t bits = 0;
+  for (std::size_t b = 0; b < 8; ++b) {
+    std::uint64_t x;
+    std::memcpy(&x, flags.data() + 8 * b, sizeof(x)); // little-endian: byte j = flag j
+    bits |= ((x * 0x0102040810204080ULL) >> 56) << (8 * b);
   }
+  return bits;
 }
 
 } // namespace explicit_space
