@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "explicit_space_grid_impl.h"
+#include "explicit_space_grid_row_keys.h"
 
 namespace planar_grid {
 
@@ -26,15 +27,6 @@ namespace {
 
 /** \brief Nearest camera depth considered, meters (avoids the projection pole). */
 constexpr float NEAR_Z = 1e-3f;
-
-/** \brief static_cast<int>(std::floor(x)) for |x| < 2^31, without the call to floorf
- * (x86-64 before SSE4.1 has no rounding instruction). */
-inline int
-floorToInt(float x)
-{
-  const int t = static_cast<int>(x); // truncation towards zero
-  return t - (static_cast<float>(t) > x ? 1 : 0);
-}
 
 /** \brief Counters of the free / occluded pass (debug output). */
 struct Counters {
@@ -340,68 +332,6 @@ observeCube(const VoxelKernel& kernel,
     }
 }
 
-/** \brief What rowKeys() needs of a view: the camera pose, the column directions and
- * the range. */
-struct RowKeys {
-  /** \brief Rotation and translation of world_T_camera. */
-  Eigen::Matrix3f R;
-  Eigen::Vector3f t;
-  /** \brief (u - cx) / fx per column. */
-  const float* column_x;
-  /** \brief Largest depth integrated, meters. */
-  float max_range;
-  /** \brief 1 / voxel edge, 1 / meters. */
-  float inv_res;
-};
-
-/** \brief The voxel key of every pixel of a depth image row (\a row: depths in
- * meters, +inf for none; \a yn = (v - cy) / fy), with ok[u] = 1 where the pixel has a
- * measurement within range and a key below 2^30. One branch-free loop the compiler
- * vectorises, with the arithmetic of (world_T_camera * (x, y, z)) / resolution as
- * Eigen evaluates it, ((r0 x + r1 y) + r2 z) + t, so the keys are those of the
- * per-pixel product. CLAMP: clamp the coordinates to +-2^30 before the conversion to
- * int (needed only when some pixel's coordinates could overflow an int; the clamps
- * keep the compiler from vectorising the loop). */
-template <bool CLAMP>
-void
-rowKeys(const float* row,
-        int W,
-        float yn,
-        const RowKeys& k,
-        int* kx,
-        int* ky,
-        int* kz,
-        int* ok)
-{
-  const float r00 = k.R(0, 0), r01 = k.R(0, 1), r02 = k.R(0, 2);
-  const float r10 = k.R(1, 0), r11 = k.R(1, 1), r12 = k.R(1, 2);
-  const float r20 = k.R(2, 0), r21 = k.R(2, 1), r22 = k.R(2, 2);
-  const float tx = k.t.x(), ty = k.t.y(), tz = k.t.z();
-  const float max_range = k.max_range, inv_res = k.inv_res;
-  const float* const column_x = k.column_x;
-  const auto key_limit = static_cast<float>(MAX_KEY);
-  for (int u = 0; u < W; ++u) {
-    const float d = row[u];
-    const bool in_range = d <= max_range; // +inf marks no measurement
-    const float z = in_range ? d : 0.0f;
-    const float x = column_x[u] * z, y = yn * z;
-    float px = (((r00 * x + r01 * y) + r02 * z) + tx) * inv_res;
-    float py = (((r10 * x + r11 * y) + r12 * z) + ty) * inv_res;
-    float pz = (((r20 * x + r21 * y) + r22 * z) + tz) * inv_res;
-    ok[u] = static_cast<int>(in_range) & static_cast<int>(std::abs(px) < key_limit)
-            & static_cast<int>(std::abs(py) < key_limit)
-            & static_cast<int>(std::abs(pz) < key_limit);
-    if (CLAMP) { // NaN to -2^30; unchanged where ok
-      px = std::min(key_limit, std::max(-key_limit, px));
-      py = std::min(key_limit, std::max(-key_limit, py));
-      pz = std::min(key_limit, std::max(-key_limit, pz));
-    }
-    kx[u] = floorToInt(px);
-    ky[u] = floorToInt(py);
-    kz[u] = floorToInt(pz);
-  }
-}
-
 } // namespace
 
 void
@@ -588,6 +518,11 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
     const Eigen::Vector3f block_half = (ex + ey + ez) * (0.5f * BLOCK_EDGE);
     // half block diagonal plus slack for rounding
     const float reject_radius = block_half.norm() * 1.01f + 1e-3f;
+    // A voxel already free stays free whatever a view says of it (observed free
+    // writes free, occluded changes only never-observed voxels): the 4^3 cubes free
+    // in the storage are not observed. Pending setState() edits are not in the
+    // storage; with any, every cube is observed.
+    const bool skip_stored_free = storage.edits.empty();
     const auto observeBlock = [&](int bx, int by, int bz, BlockResult& res,
                                   Counters& counters) {
       const Eigen::Vector3f c0 =
@@ -606,6 +541,10 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
         for (const auto& n : side_normals)
           if (n.dot(centre) < -reject_radius)
             return false;
+      const std::uint32_t stored_free =
+        skip_stored_free ? storage.storedFreeCubes({bx, by, bz}) : 0u;
+      if (stored_free == 0xFFu)
+        return false;
       CubeInfo info;
       const Cube kind = classify(c0, static_cast<float>(BLOCK_EDGE), info);
       if (kind == Cube::NONE)
@@ -626,6 +565,8 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
       res.occluded.fill(0);
       bool any = false;
       for (int c = 0; c < 8; ++c) {
+        if ((stored_free >> c) & 1u)
+          continue;
         const int ox = (c & 1) * 4, oy = ((c >> 1) & 1) * 4, oz = ((c >> 2) & 1) * 4;
         const Eigen::Vector3f cc = c0 + static_cast<float>(ox) * ex
                                    + static_cast<float>(oy) * ey
@@ -777,19 +718,22 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
       rowKeys<false>(row, W, yn, kernel_keys, row_kx, row_ky, row_kz, row_ok);
     // |key| < 2^30 above: no voxel has this key
     int last_x = std::numeric_limits<int>::min(), last_y = 0, last_z = 0;
-    for (int u = 0; u < W; ++u) {
-      if (row_ok[u] == 0)
-        continue;
-      const int kx = row_kx[u], ky = row_ky[u], kz = row_kz[u];
-      if (kx == last_x && ky == last_y && kz == last_z)
-        continue;
-      last_x = kx;
-      last_y = ky;
-      last_z = kz;
-      int i = 0;
-      const std::uint32_t e = cursor.at(kx, ky, kz, i);
-      storage.setEdit(e, i, occupied_code);
-    }
+    // Only the pixels that start a run can hold another voxel than the last written;
+    // one after a pixel without measurement may still repeat it.
+    for (int first = 0; first < W; first += 64)
+      for (std::uint64_t todo = runStarts(row_kx, row_ky, row_kz, row_ok, W, first);
+           todo != 0; todo &= todo - 1) {
+        const int u = first + __builtin_ctzll(todo);
+        const int kx = row_kx[u], ky = row_ky[u], kz = row_kz[u];
+        if (kx == last_x && ky == last_y && kz == last_z)
+          continue;
+        last_x = kx;
+        last_y = ky;
+        last_z = kz;
+        int i = 0;
+        const std::uint32_t e = cursor.at(kx, ky, kz, i);
+        storage.setEdit(e, i, occupied_code);
+      }
   }
   storage.commit(prior);
 }

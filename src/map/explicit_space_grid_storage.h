@@ -400,6 +400,28 @@ struct BlockStorage {
     return sb->get(indexInSuper(bk), localOf(kx), localOf(ky), localOf(kz));
   }
 
+  /** \brief The 4^3 cubes of block \a bk whose voxels are all free in the storage,
+   * pending edits not read: bit c for the cube at (4 (c & 1), 4 ((c >> 1) & 1),
+   * 4 (c >> 2)), 0xFF for a block free as a whole. */
+  std::uint32_t storedFreeCubes(const BlockKey& bk) const
+  {
+    const auto free_code = static_cast<std::uint32_t>(SpaceState::FREE);
+    const SuperBlock* sb = findSuper(superOf(bk));
+    if (sb == nullptr)
+      return 0;
+    const int j = indexInSuper(bk);
+    if (!sb->isMixed(j))
+      return sb->code(j) == free_code ? 0xFFu : 0u;
+    // the compact form's uniform cubes: those not in its mask of mixed cubes
+    const std::uint8_t* data = sb->compact(j);
+    const unsigned mixed_cubes = data[0], cube_codes = load16(data + 1);
+    std::uint32_t cubes = 0;
+    for (unsigned c = 0; c < 8; ++c)
+      if (!((mixed_cubes >> c) & 1u) && ((cube_codes >> (2 * c)) & 3u) == free_code)
+        cubes |= 1u << c;
+    return cubes;
+  }
+
   /** \brief The edit of block \a bk, loaded from the storage on first use (out of
    * line: the callers' per-voxel loops reach it only when they enter another block). */
   std::uint32_t open(const BlockKey& bk, std::uint8_t prior);

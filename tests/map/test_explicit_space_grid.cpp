@@ -1070,6 +1070,52 @@ TEST(ExplicitSpaceGrid, ThreadCountDoesNotChangeTheResult)
   }
 }
 
+TEST(ExplicitSpaceGrid, SkippingStoredFreeSpaceChangesNothing)
+{
+  // integrateDepthImage() does not observe the 4^3 cubes already free in the storage,
+  // unless setState() edits are pending; a pending edit far from the views makes the
+  // second grid observe every cube. Both must end with the same bytes.
+  DepthImage holes = renderBoxRoom();
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  for (auto& d : holes.depth_m)
+    if (unit(rng) < 0.2f)
+      d = std::numeric_limits<float>::quiet_NaN();
+    else if (unit(rng) < 0.1f)
+      d *= 0.5f + unit(rng);
+  // the room 1.5 times as large: space behind the walls of the other views is seen
+  DepthImage larger = renderBoxRoom();
+  for (auto& d : larger.depth_m)
+    d *= 1.5f;
+  const Key far(5000, 5000, 5000);
+  for (const SpaceState prior : {SpaceState::UNKNOWN, SpaceState::FREE}) {
+    ExplicitSpaceGrid skipping(params(prior, 0.1, 12.0)),
+      observing(params(prior, 0.1, 12.0));
+    for (int k = 0; k < 6; ++k) {
+      // the same room from nearby poses: later views see space earlier ones freed
+      Eigen::Isometry3d pose = roomPose();
+      pose.translation() += Eigen::Vector3d(0.13 * k, -0.05 * k, 0.31 * k);
+      const DepthImage& image = k % 3 == 0   ? holes
+                                : k % 3 == 1 ? renderBoxRoom()
+                                             : larger;
+      // a change each view (setState() of the voxel's own state writes nothing)
+      const SpaceState far_state = k % 2 == 0 ? SpaceState::OCCUPIED : SpaceState::FREE;
+      skipping.setState(far, far_state);
+      EXPECT_GT(skipping.getMemoryBytes(), 0u); // commits the edit: nothing pending
+      skipping.integrateDepthImage(image, pose);
+      observing.setState(far, far_state); // left pending
+      observing.integrateDepthImage(image, pose);
+    }
+    std::vector<std::uint8_t> a, b;
+    skipping.serialize(a);
+    observing.serialize(b);
+    EXPECT_EQ(a, b) << "prior " << planar_grid::toString(prior);
+    EXPECT_TRUE(skipping == observing);
+    EXPECT_EQ(skipping.getMemoryBytes(), observing.getMemoryBytes());
+    EXPECT_GT(skipping.getVoxelCount(SpaceState::FREE), 10000u);
+  }
+}
+
 TEST(ExplicitSpaceGrid, ExportOctoMapReadsBack)
 {
   ExplicitSpaceGrid grid(params(SpaceState::UNKNOWN, 0.2));
