@@ -13,11 +13,17 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <deque>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <future>
 #include <iomanip>
+#include <memory>
+#include <mutex>
 #include <sstream>
+#include <thread>
 
 #include "resume_data.h"
 #include "stages.h"
@@ -212,6 +218,62 @@ msSince(std::chrono::steady_clock::time_point t)
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t)
     .count();
 }
+
+/** One thread that runs the submitted tasks in order, one at a time; the destructor
+ * runs the tasks still queued, then joins. */
+class SerialWorker {
+public:
+  using Result = std::unique_ptr<PreparedFrame>;
+
+  SerialWorker() : thread_([this]() { loop(); }) {}
+  SerialWorker(const SerialWorker&) = delete;
+  SerialWorker& operator=(const SerialWorker&) = delete;
+  ~SerialWorker()
+  {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      stopping_ = true;
+    }
+    wake_.notify_one();
+    thread_.join();
+  }
+
+  /** Queues \a task; its result (or exception) arrives through the future. */
+  std::future<Result> submit(std::function<Result()> task)
+  {
+    std::packaged_task<Result()> packaged(std::move(task));
+    std::future<Result> result = packaged.get_future();
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      tasks_.push_back(std::move(packaged));
+    }
+    wake_.notify_one();
+    return result;
+  }
+
+private:
+  void loop()
+  {
+    for (;;) {
+      std::packaged_task<Result()> task;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        wake_.wait(lock, [this]() { return stopping_ || !tasks_.empty(); });
+        if (tasks_.empty())
+          return;
+        task = std::move(tasks_.front());
+        tasks_.pop_front();
+      }
+      task();
+    }
+  }
+
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<std::packaged_task<Result()>> tasks_;
+  bool stopping_{false};
+  std::thread thread_; // last: started once the members above exist
+};
 
 /** The number of leading stages to run ahead from now on: \a ahead, or one fewer when
  * moving the last of them to the mapping thread shortens the longer of the two
@@ -417,15 +479,16 @@ PipelineRunner::run()
 
   const std::size_t total = (end_ - begin_ + step_ - 1) / step_;
   const std::size_t rss_every = std::max<std::size_t>(total / 20, 1);
-  // Frame i + 1 is loaded and goes through the leading frame-local stages on a second
-  // thread while frame i goes through the rest here. Those stages touch nothing but
-  // their frame (no PipelineState: the empty state below is never read), and each runs
-  // its frames in order, one frame at a time, so the results equal a sequential run's.
-  // How many of them run ahead is balanced by their measured times: it starts at all
-  // of them and only shrinks, so a stage that frame i runs here (s >= its count) is
-  // never one that frame i + 1 runs on the other thread at the same time.
+  // Frames i + 1 and i + 2 are loaded and go through the leading frame-local stages on
+  // a second thread while frame i goes through the rest here. Those stages touch
+  // nothing but their frame (no PipelineState: the empty state below is never read),
+  // and each runs its frames in order, one frame at a time, so the results equal a
+  // sequential run's. How many of them run ahead is balanced by their measured times:
+  // it starts at all of them and only shrinks, so a stage that frame i runs here (s >=
+  // its count) is never one that a later frame runs on the other thread at the same
+  // time.
   std::size_t ahead = frameLocalPrefix();
-  PipelineState unused; // one prepare() runs at a time: the next starts after get()
+  PipelineState unused; // one prepare() runs at a time: each waits for the previous
   const auto prepare = [this, &source, &unused](std::size_t i, std::size_t n) {
     auto prepared = std::make_unique<PreparedFrame>();
     const double cpu_start = threadCpuMs();
@@ -440,26 +503,42 @@ PipelineRunner::run()
     prepared->cpu_ms = threadCpuMs() - cpu_start;
     return prepared;
   };
-  const auto launch = [&prepare](std::size_t i, std::size_t n) {
-    return std::async(n > 0 ? std::launch::async : std::launch::deferred, prepare, i,
-                      n);
+  // Up to READ_AHEAD_FRAMES frames are prepared ahead, one after the other on one
+  // worker thread, so that the read-ahead stages still see one frame at a time, in
+  // order. Two frames let the worker run on while the frame it prepared waits for the
+  // mapping thread, which evens out frames of unequal cost (e.g. stereo_disparity's
+  // every_n_frames). One thread for all frames keeps to one more malloc arena than a
+  // sequential run (a thread per frame in flight would hold one each).
+  constexpr std::size_t READ_AHEAD_FRAMES = 2;
+  std::unique_ptr<SerialWorker> worker;
+  const auto launch = [&prepare, &worker](std::size_t i, std::size_t n) {
+    if (n == 0)
+      return std::async(std::launch::deferred, prepare, i, n);
+    if (!worker)
+      worker = std::make_unique<SerialWorker>();
+    return worker->submit([&prepare, i, n]() { return prepare(i, n); });
   };
   const double process_cpu_start = processCpuMs();
-  std::future<std::unique_ptr<PreparedFrame>> next;
-  bool next_ahead = ahead > 0; // the next frame is prepared on the other thread
-  if (first < end_)
-    next = launch(first, ahead);
+  // The frames launched and not yet mapped, in order, and whether each runs on the
+  // other thread.
+  std::deque<std::pair<std::future<std::unique_ptr<PreparedFrame>>, bool>> launched;
+  std::size_t next_launch = first;
+  const auto launchMore = [&]() {
+    while (next_launch < end_ && launched.size() < READ_AHEAD_FRAMES) {
+      launched.emplace_back(launch(next_launch, ahead), ahead > 0);
+      next_launch += step_;
+    }
+  };
+  launchMore();
   for (std::size_t i = first; i < end_; i += step_) {
     const auto wait_start = Clock::now();
-    const std::unique_ptr<PreparedFrame> prepared = next.get();
-    if (next_ahead)
+    const std::unique_ptr<PreparedFrame> prepared = launched.front().first.get();
+    if (launched.front().second)
       report_.mapping_wait_ms += msSince(wait_start);
+    launched.pop_front();
     const double mapping_cpu_start = threadCpuMs();
     const bool last = i + step_ >= end_;
-    if (!last) {
-      next_ahead = ahead > 0;
-      next = launch(i + step_, ahead);
-    }
+    launchMore();
     Frame& frame = prepared->frame;
     report_.load_ms += prepared->load_ms;
     std::vector<StageSample>& samples = prepared->samples;

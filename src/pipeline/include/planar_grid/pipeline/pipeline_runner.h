@@ -231,8 +231,9 @@ public:
   }
 
   /** \brief Runs the leading frame-local stages (Stage::isFrameLocal(): in the main
-   * job stereo_disparity and feature_matching) and the loading of frame t + 1 on a
-   * second thread while the other stages map frame t (on by default). The stages see
+   * job stereo_disparity and feature_matching) and the loading of frames t + 1 and
+   * t + 2, one after the other, on a second thread while the other stages map frame t
+   * (on by default). The stages see
    * the same frames in the same order, so the map, clouds, trajectory and report
    * figures are identical to a sequential run; only the wall time differs. A pipeline
    * whose first stage keeps state across frames runs sequentially either way.
