@@ -75,7 +75,8 @@ parseComparison(const YAML::Node& root, const std::string& path)
   if (!datasets || !datasets.IsSequence() || datasets.size() == 0)
     r.fail(datasets ? datasets : root, "datasets must be a non-empty list");
   for (const auto& node : datasets) {
-    r.checkKeys(node, {"name", "pipeline", "frames", "truth", "tilt_deg", "places"},
+    r.checkKeys(node,
+                {"name", "pipeline", "set", "frames", "truth", "tilt_deg", "places"},
                 "a dataset");
     DatasetConfig ds;
     ds.places = config.places;
@@ -84,7 +85,19 @@ parseComparison(const YAML::Node& root, const std::string& path)
       parsePlaces(places, ds.places, ds.place_radius_m);
     ds.name = r.string(node, "name", "a dataset");
     ds.pipeline_file = r.resolve(r.string(node, "pipeline", "dataset " + ds.name));
-    ds.pipeline = loadPipelineConfig(ds.pipeline_file);
+    // Stage parameters replaced as planar_grid_pipeline's --set does, so that a
+    // variant of a pipeline is evaluated without a copy of its file.
+    std::vector<std::string> overrides;
+    if (const YAML::Node set = node["set"]) {
+      if (!set.IsSequence())
+        r.fail(set, "dataset " + ds.name + ".set must be a list of STAGE.KEY=VALUE");
+      for (const auto& item : set) {
+        if (!item.IsScalar())
+          r.fail(item, "dataset " + ds.name + ".set entries are STAGE.KEY=VALUE");
+        overrides.push_back(item.as<std::string>());
+      }
+    }
+    ds.pipeline = loadPipelineConfig(ds.pipeline_file, overrides);
     if (const YAML::Node frames = node["frames"]) {
       r.checkKeys(frames, {"first", "count", "step"}, "dataset " + ds.name + ".frames");
       if (frames["first"])

@@ -121,6 +121,11 @@ TEST_F(MapComparisonTest, ConfigurationErrorsNameTheLine)
   EXPECT_EQ(lineOf("datasets:\n  - name: a\n    pipeline: " + pipeline
                    + "\n    truth: {type: points, min_views: 2, file: t.pcd}\n"),
             4);
+  // A dataset's parameter overrides: a list of STAGE.KEY=VALUE with known keys.
+  EXPECT_EQ(lineOf(ds + "    set: voxel_grid.leaf_size_m=0.2\n"), 5);
+  EXPECT_THROW(planar_grid::loadComparisonConfig(
+                 write("s.yaml", ds + "    set: [voxel_grid.leaf_size=0.2]\n")),
+               planar_grid::ConfigError);
   // The pipeline files' strict reading: a tab in the indentation, a syntax error.
   EXPECT_EQ(lineOf(ds + "\tplaces: {count: 1}\n"), 5);
   EXPECT_EQ(lineOf("environment: [indoor\n" + ds), 2);
@@ -596,27 +601,33 @@ TEST_F(MapComparisonTest, TheReferenceHasEveryFrameWhenTheMethodsMapEveryOther)
   // in both runs, while the methods get the points of half the frames.
   const std::string karlsruhe =
     std::string(PLANAR_GRID_DATA_DIR) + "/karlsruhe_2010_03_09_drive_0023";
+  const std::string pipeline = write(
+    "dense.yaml",
+    "input:\n  type: stereo_sequence\n  left_images: " + karlsruhe
+      + "/left/I1_%06d.png\n  right_images: " + karlsruhe
+      + "/right/I2_%06d.png\n  first_index: 10\n  frame_count: 4\n"
+      + "  calibration: {format: karlsruhe, file: " + karlsruhe + "/calib.txt}\n"
+      + "  poses: {format: karlsruhe_insdata, file: " + karlsruhe
+      + "/insdata.txt, camera_height_m: 1.57, camera_pitch_rad: 0.09}\n"
+      + "pipeline:\n  - type: stereo_disparity\n"
+      + "    params: {algorithm: sgbm_3way, max_range_m: 15.0}\n"
+      + "  - type: voxel_grid\n    params: {leaf_size_m: 0.1}\n"
+      + "  - type: transform_to_world\n" + "  - type: multi_plane_segmentation\n"
+      + "    params: {sample: cloud, min_inliers: 300}\n"
+      + "  - type: planar_cuboid_approximation\n" + "  - type: map_integration\n");
+  // Every second frame dense through the dataset's `set`, as --set would.
   const auto run = [&](int every_n_frames) {
-    const std::string name = "dense" + std::to_string(every_n_frames);
-    const std::string pipeline = write(
-      name + ".yaml",
-      "input:\n  type: stereo_sequence\n  left_images: " + karlsruhe
-        + "/left/I1_%06d.png\n  right_images: " + karlsruhe
-        + "/right/I2_%06d.png\n  first_index: 10\n  frame_count: 4\n"
-        + "  calibration: {format: karlsruhe, file: " + karlsruhe + "/calib.txt}\n"
-        + "  poses: {format: karlsruhe_insdata, file: " + karlsruhe
-        + "/insdata.txt, camera_height_m: 1.57, camera_pitch_rad: 0.09}\n"
-        + "pipeline:\n  - type: stereo_disparity\n"
-        + "    params: {algorithm: sgbm_3way, max_range_m: 15.0, every_n_frames: "
-        + std::to_string(every_n_frames) + "}\n"
-        + "  - type: voxel_grid\n    params: {leaf_size_m: 0.1}\n"
-        + "  - type: transform_to_world\n" + "  - type: multi_plane_segmentation\n"
-        + "    params: {sample: cloud, min_inliers: 300}\n"
-        + "  - type: planar_cuboid_approximation\n" + "  - type: map_integration\n");
+    const std::string set = every_n_frames == 1
+                              ? std::string()
+                              : "    set: [stereo_disparity.every_n_frames="
+                                  + std::to_string(every_n_frames) + "]\n";
     const auto config = planar_grid::loadComparisonConfig(
-      write("e" + name + ".yaml",
+      write("e" + std::to_string(every_n_frames) + ".yaml",
             "resolutions_m: [0.3]\ndatasets:\n  - name: k\n    pipeline: " + pipeline
-              + "\n    truth: {type: reference}\n"));
+              + "\n" + set + "    truth: {type: reference}\n"));
+    EXPECT_EQ(
+      config.datasets.at(0).pipeline.stages.at(0).params.getInt("every_n_frames"),
+      every_n_frames);
     std::map<std::string, planar_grid::ComparisonRow> by;
     for (const auto& r : planar_grid::runComparison(config, nullptr))
       if (r.place < 0)
