@@ -86,7 +86,7 @@ printHelp(const char* program)
     "    --sequential         run every frame start to end on one thread (default: "
     "the\n"
     "                         leading frame-local stages, e.g. stereo_disparity and\n"
-    "                         feature_matching, run one frame ahead on a second "
+    "                         feature_matching, run up to two frames ahead on a second "
     "thread;\n"
     "                         the results are the same)\n");
   print_info(
@@ -647,9 +647,10 @@ run(int argc, char** argv)
       : (stereo ? "stereo sequence" : "PCD files");
   print_info("Input: %s; running frames %zu:%zu\n", input_kind, begin, end);
   if (const std::size_t ahead = runner.frameLocalPrefix(); ahead > 0)
-    print_info("  loading and up to the first %zu stages run one frame ahead on a "
-               "second thread (as many as balance the threads' measured times)\n",
-               ahead);
+    print_info(
+      "  loading and up to the first %zu stages run up to two frames ahead on a "
+      "second thread (as many as balance the threads' measured times)\n",
+      ahead);
 
   // An output that would replace a file the run reads, or that names a folder, is
   // found now rather than after the last frame.

@@ -367,7 +367,7 @@ write_outputs : bool, optional
     rendered (use the command-line tool).
 sequential : bool, optional
     Run every frame on one thread (default False: the leading frame-local stages run
-    one frame ahead on a second thread; the results are the same).
+    up to two frames ahead on a second thread; the results are the same).
 resume : bool, optional
     Continue from the checkpoint in the output folder (output.checkpoint).
 progress : callable, optional

@@ -67,9 +67,9 @@ struct RunReport {
   double seconds{0.0};
   /** \brief Time spent loading (and rectifying) frames, milliseconds. */
   double load_ms{0.0};
-  /** \brief Leading frame-local stages that ran one frame ahead on the second thread
-   * at the end of the run (their number is balanced by the measured times; 0 when
-   * frames do not overlap). */
+  /** \brief Leading frame-local stages that ran up to two frames ahead on the second
+   * thread at the end of the run (their number is balanced by the measured times; 0
+   * when frames do not overlap). */
   std::size_t read_ahead_stages{0};
   /** \brief Frames this process ran through run() (a resumed run counts only the
    * frames after the checkpoint): the divisor of the four CPU and wait figures below.

@@ -73,8 +73,8 @@ public:
 
   /** \brief Whether process() reads and writes only the frame (and the stage's own
    * scratch buffers), never PipelineState or anything carried from an earlier frame.
-   * The runner runs the leading frame-local stages of a pipeline one frame ahead on a
-   * second thread (PipelineRunner::setFrameOverlap()); false by default. */
+   * The runner runs the leading frame-local stages of a pipeline up to two frames ahead
+   * on a second thread (PipelineRunner::setFrameOverlap()); false by default. */
   virtual bool isFrameLocal() const { return false; }
 
   /** \brief Whether a checkpoint can hold this stage's state across frames, so that a
