@@ -205,21 +205,6 @@ boundCube(const VoxelKernel& kernel, const CubeQuery& cube)
   return CubeBound::NONE_FREE;
 }
 
-/** \brief Bit i set where flags[i] (0 or 1) is 1, for 64 flags: each 8 bytes gather
- * into one byte through a multiplication (byte j of x times 2^(56 - 7 j) lands on bit
- * 56 + j, and no other product reaches the top byte). */
-inline std::uint64_t
-packBits(const std::array<std::uint8_t, 64>& flags)
-{
-  std::uint64_t bits = 0;
-  for (std::size_t b = 0; b < 8; ++b) {
-    std::uint64_t x;
-    std::memcpy(&x, flags.data() + 8 * b, sizeof(x)); // little-endian: byte j = flag j
-    bits |= ((x * 0x0102040810204080ULL) >> 56) << (8 * b);
-  }
-  return bits;
-}
-
 /** \brief Per-voxel observations of the 4^3 cube \a cube: free when the centre is in
  * front of the smallest depth over the level cells meeting its footprint (radius
  * cube.r pixels, at most 3 x 3 cells of cube.level) minus the margin, occluded (only

@@ -88,12 +88,25 @@ rowKeys(const float* row,
   }
 }
 
+/** \brief Bit i set where flags[i] (0 or 1) is 1, for 64 flags: each 8 bytes gather
+ * into one byte through a multiplication (byte j of x times 2^(56 - 7 j) lands on bit
+ * 56 + j, and no other product reaches the top byte). */
+inline std::uint64_t
+packBits(const std::array<std::uint8_t, 64>& flags)
+{
+  std::uint64_t bits = 0;
+  for (std::size_t b = 0; b < 8; ++b) {
+    std::uint64_t x;
+    std::memcpy(&x, flags.data() + 8 * b, sizeof(x)); // little-endian: byte j = flag j
+    bits |= ((x * 0x0102040810204080ULL) >> 56) << (8 * b);
+  }
+  return bits;
+}
+
 /** \brief The pixels first .. first + 63 of a row that start a run of one voxel, as
  * bit u - first: ok[u], and pixel u - 1 is not a measured pixel of the same voxel. A
  * measured pixel that does not start a run has the voxel of the measured pixel before
- * it. The flags come from a branch-free loop the compiler vectorises; each 8 of them
- * gather into one byte through a multiplication (byte j of x times 2^(56 - 7 j) lands
- * on bit 56 + j, and no other product reaches the top byte). */
+ * it. The flags come from a branch-free loop the compiler vectorises (packBits). */
 inline std::uint64_t
 runStarts(const int* kx, const int* ky, const int* kz, const int* ok, int W, int first)
 {
@@ -111,13 +124,7 @@ runStarts(const int* kx, const int* ky, const int* kz, const int* ok, int W, int
     flags[static_cast<std::size_t>(u - first)] =
       static_cast<std::uint8_t>(ok[u] & (same ^ 1));
   }
-  std::uint64_t bits = 0;
-  for (std::size_t b = 0; b < 8; ++b) {
-    std::uint64_t x;
-    std::memcpy(&x, flags.data() + 8 * b, sizeof(x)); // little-endian: byte j = flag j
-    bits |= ((x * 0x0102040810204080ULL) >> 56) << (8 * b);
-  }
-  return bits;
+  return packBits(flags);
 }
 
 } // namespace explicit_space
