@@ -227,6 +227,23 @@ renderBoxRoom()
   return image;
 }
 
+/** \brief renderBoxRoom() with holes and outliers from the generator seeded with \a
+ * seed: each pixel is NaN with probability 0.2, otherwise scaled by a factor in [0.5,
+ * 1.5) with probability 0.1. */
+DepthImage
+renderBoxRoomWithHoles(unsigned seed)
+{
+  DepthImage holes = renderBoxRoom();
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  for (auto& d : holes.depth_m)
+    if (unit(rng) < 0.2f)
+      d = std::numeric_limits<float>::quiet_NaN();
+    else if (unit(rng) < 0.1f)
+      d *= 0.5f + unit(rng);
+  return holes;
+}
+
 /** \brief The pose used for the room: a general rotation and translation. */
 Eigen::Isometry3d
 roomPose()
@@ -1028,14 +1045,7 @@ TEST(ExplicitSpaceGrid, VersionTwoStreamsReadFreeAsNeverObserved)
  * depth image. */
 TEST(ExplicitSpaceGrid, ThreadCountDoesNotChangeTheResult)
 {
-  DepthImage holes = renderBoxRoom();
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-  for (auto& d : holes.depth_m)
-    if (unit(rng) < 0.2f)
-      d = std::numeric_limits<float>::quiet_NaN();
-    else if (unit(rng) < 0.1f)
-      d *= 0.5f + unit(rng);
+  const DepthImage holes = renderBoxRoomWithHoles(7);
   Eigen::Isometry3d second = Eigen::Isometry3d::Identity();
   second.linear() =
     Eigen::AngleAxisd(-0.5, Eigen::Vector3d(0.3, -1.0, 0.4).normalized())
@@ -1075,14 +1085,7 @@ TEST(ExplicitSpaceGrid, SkippingStoredFreeSpaceChangesNothing)
   // integrateDepthImage() does not observe the 4^3 cubes already free in the storage,
   // unless setState() edits are pending; a pending edit far from the views makes the
   // second grid observe every cube. Both must end with the same bytes.
-  DepthImage holes = renderBoxRoom();
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-  for (auto& d : holes.depth_m)
-    if (unit(rng) < 0.2f)
-      d = std::numeric_limits<float>::quiet_NaN();
-    else if (unit(rng) < 0.1f)
-      d *= 0.5f + unit(rng);
+  const DepthImage holes = renderBoxRoomWithHoles(11);
   // the room 1.5 times as large: space behind the walls of the other views is seen
   DepthImage larger = renderBoxRoom();
   for (auto& d : larger.depth_m)
