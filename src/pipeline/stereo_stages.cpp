@@ -107,21 +107,19 @@ public:
     if (frame.left.empty() || frame.right.empty())
       throw Exception("stage 'stereo_disparity' needs a stereo pair; frame "
                       + frame.name + " has none");
+    frame.cloud.reset(new Frame::Cloud);
+    frame.cloud_in_world_frame = false;
     if (frame.sequence_number % static_cast<std::size_t>(every_n_frames_) != 0) {
-      // A frame between two dense ones: no disparity and no cloud, so the dense stages
-      // pass it on empty (without the warning of a frame whose points were lost) and
-      // only its key features reach the map.
+      // A frame between two dense ones: no disparity and an empty cloud, so the dense
+      // stages pass it on empty (without the warning of a frame whose points were lost)
+      // and only its key features reach the map.
       frame.disparity.release();
-      frame.cloud.reset(new Frame::Cloud);
-      frame.cloud_in_world_frame = false;
       frame.no_points_stage = "stereo_disparity (every_n_frames)";
       return;
     }
     estimator_.compute(frame.left, frame.right, frame.disparity);
-    frame.cloud.reset(new Frame::Cloud);
     disparityToPointCloud(frame.disparity, frame.left, frame.calibration, max_range_m_,
                           *frame.cloud);
-    frame.cloud_in_world_frame = false;
   }
 
 private:
