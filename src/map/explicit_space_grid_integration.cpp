@@ -127,11 +127,11 @@ enum class CubeBound : std::uint8_t {
  * corner centres instead of all 64 projections. The projection is monotone along any
  * line, so the extremes of the centres' pixel coordinates and depths are those of the
  * corner centres; they are widened by a pixel and 1 mm against rounding. ALL_FREE:
- * every centre is in range and inside the image, and the largest centre depth is in
- * front of every level cell meeting the union of the footprints (minus the margin), so
- * every voxel passes its own test. NONE_FREE: the smallest centre depth is not in front
- * of any level cell that holds a centre's pixel (minus the margin); each voxel's
- * footprint contains its own pixel's cell, so no voxel passes. */
+ * every centre is in range and inside the image, and every level cell meeting the union
+ * of the footprints holds a measurement the largest centre depth is in front of (minus
+ * the margin), so every voxel passes its own test. NONE_FREE: the smallest centre depth
+ * is not in front of any level cell that holds a centre's pixel (minus the margin);
+ * each voxel's footprint contains its own pixel's cell, so no voxel passes. */
 CubeBound
 boundCube(const VoxelKernel& kernel, const CubeQuery& cube)
 {
@@ -142,6 +142,7 @@ boundCube(const VoxelKernel& kernel, const CubeQuery& cube)
   const float* const lmin = kernel.pyramid->min_level[l].data();
   const int level_width = kernel.pyramid->w[l];
   constexpr float SLACK_PX = 1.0f, SLACK_M = 1e-3f, FAR_PX = 1e6f;
+  constexpr float FLT_LIMIT = std::numeric_limits<float>::max();
   // The 8 corner centres, coordinate by coordinate, as c0 + a ex + b ey + c ez
   // evaluates them; then their projections, in loops the compiler vectorises.
   const float a[2] = {static_cast<float>(ox) + 0.5f, static_cast<float>(ox + 3) + 0.5f};
@@ -181,7 +182,7 @@ boundCube(const VoxelKernel& kernel, const CubeQuery& cube)
     for (int cv = cv0; cv <= cv2 && all_free; ++cv) {
       const float* row = lmin + cv * lw;
       for (int cu = cu0; cu <= cu2; ++cu)
-        if (!(zmax < row[cu] - margin)) {
+        if (!(zmax < row[cu] - margin) || !(row[cu] <= FLT_LIMIT)) {
           all_free = false;
           break;
         }
@@ -207,7 +208,8 @@ boundCube(const VoxelKernel& kernel, const CubeQuery& cube)
 
 /** \brief Per-voxel observations of the 4^3 cube \a cube: free when the centre is in
  * front of the smallest depth over the level cells meeting its footprint (radius
- * cube.r pixels, at most 3 x 3 cells of cube.level) minus the margin, occluded (only
+ * cube.r pixels, at most 3 x 3 cells of cube.level) minus the margin and those cells
+ * hold a measurement, occluded (only
  * with mark_occluded) when behind its pixel's depth plus the margin. Sets bits
  * x + 8 y of words z of the block's masks. */
 void
@@ -291,10 +293,13 @@ observeCube(const VoxelKernel& kernel,
   std::array<float, 64> fmin;
   for (std::size_t i = 0; i < 64; ++i)
     fmin[i] = span_min[static_cast<std::size_t>(span_k[i])][span_offset[i]];
+  // A footprint without any measurement (+inf) says nothing: the voxel is not free.
+  constexpr float FLT_LIMIT = std::numeric_limits<float>::max();
   std::array<std::uint8_t, 64> is_free;
   for (std::size_t i = 0; i < 64; ++i)
     is_free[i] = static_cast<std::uint8_t>(
-      in[i] & static_cast<std::uint8_t>(zs[i] < fmin[i] - margin));
+      in[i] & static_cast<std::uint8_t>(zs[i] < fmin[i] - margin)
+      & static_cast<std::uint8_t>(fmin[i] <= FLT_LIMIT));
   const std::uint64_t valid = packBits(in), free_bits = packBits(is_free);
   std::uint64_t occ_bits = 0;
   if (kernel.mark_occluded) {
