@@ -130,7 +130,11 @@ struct DepthImage {
  * measurement) changes nothing; an occluded voxel becomes unknown only where it holds
  * the prior (was never observed). Occlusion therefore never erases an observed
  * state, with either prior. The footprint is approximated by min-depth mip cells (a
- * superset of at most ~1.5x the voxel's projected size, conservative for "free"); whole
+ * superset of at most 3 x 3 cells, each narrower than twice the footprint's radius, so
+ * up to about three times its width): a voxel is free when that superset holds a
+ * measurement and the voxel lies in front of every one of them, so a voxel whose own
+ * footprint is unmeasured may still be freed by measured pixels within about two
+ * footprint radii of it; whole
  * 8^3 blocks and 4^3 sub-cubes in front of (or behind) every measurement of their
  * footprint are decided at once, the rest voxel by voxel. In that per-voxel step a 4^3
  * cube is decided at once when its 8 corner centres bound the test of all 64 voxels
