@@ -12,6 +12,7 @@
 #include <limits>
 #include <memory>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "stages.h"
@@ -28,7 +29,8 @@ public:
       min_points_per_cell_(static_cast<std::size_t>(v.getInt("min_points_per_cell"))),
       terrain_height_m_(static_cast<float>(v.getDouble("terrain_height_m"))),
       terrain_cell_m_(v.getDouble("terrain_cell_m")),
-      terrain_max_rise_m_(static_cast<float>(v.getDouble("terrain_max_rise_m")))
+      terrain_max_rise_m_(static_cast<float>(v.getDouble("terrain_max_rise_m"))),
+      fit_to_points_(v.getBool("fit_to_points"))
   {}
 
   void getParameters(ParamValues& v) const override
@@ -38,6 +40,7 @@ public:
     v.set("terrain_height_m", static_cast<double>(terrain_height_m_));
     v.set("terrain_cell_m", terrain_cell_m_);
     v.set("terrain_max_rise_m", static_cast<double>(terrain_max_rise_m_));
+    v.set("fit_to_points", fit_to_points_);
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -116,7 +119,9 @@ public:
 
     // Cells: a lattice of edge min_cell_size x 2^level per level, anchored at the
     // sensor's position (cells of one frame never straddle the lattice of another
-    // level); a cell with at least min_points_per_cell points is one non-planar box.
+    // level); a cell with at least min_points_per_cell points is one non-planar box:
+    // the whole lattice cell, or with fit_to_points the bounds of its points rounded
+    // out to min_cell_size (inside the lattice cell, at least min_cell_size a side).
     keys_.clear();
     for (std::size_t i = 0; i < points_.size(); ++i) {
       const std::uint8_t level = frame.far_levels[i];
@@ -127,29 +132,59 @@ public:
         return static_cast<std::uint64_t>(
           std::clamp<std::int64_t>(k, -(1 << 19), (1 << 19) - 1) + (1 << 19));
       };
-      keys_.push_back((static_cast<std::uint64_t>(level) << 60)
-                      | (q(e1.dot(points_[i])) << 40) | (q(up.dot(points_[i])) << 20)
-                      | q(e2.dot(points_[i])));
+      keys_.emplace_back((static_cast<std::uint64_t>(level) << 60)
+                           | (q(e1.dot(points_[i])) << 40)
+                           | (q(up.dot(points_[i])) << 20) | q(e2.dot(points_[i])),
+                         static_cast<std::uint32_t>(i));
     }
     std::sort(keys_.begin(), keys_.end());
+    const Eigen::Matrix3f axes_t =
+      (Eigen::Matrix3f() << e1.transpose(), up.transpose(), e2.transpose()).finished();
     for (std::size_t a = 0; a < keys_.size();) {
       std::size_t b = a;
-      while (b < keys_.size() && keys_[b] == keys_[a])
+      while (b < keys_.size() && keys_[b].first == keys_[a].first)
         ++b;
       if (b - a >= min_points_per_cell_) {
-        const std::uint64_t key = keys_[a];
+        const std::uint64_t key = keys_[a].first;
         const auto level = static_cast<int>(key >> 60);
-        const auto cell = static_cast<float>(min_cell_size_m_ * std::ldexp(1.0, level));
-        const auto centre = [&](int shift) {
+        const double cell = min_cell_size_m_ * std::ldexp(1.0, level);
+        Eigen::Vector3d lo, hi; // the box in (e1, up, e2), relative to the sensor
+        for (int d = 0; d < 3; ++d) {
           const auto k =
-            static_cast<std::int64_t>((key >> shift) & 0xFFFFF) - (1 << 19);
-          return (static_cast<float>(k) + 0.5f) * cell;
-        };
+            static_cast<std::int64_t>((key >> (40 - 20 * d)) & 0xFFFFF) - (1 << 19);
+          lo[d] = static_cast<double>(k) * cell;
+          hi[d] = lo[d] + cell;
+        }
+        if (fit_to_points_ && level > 0) {
+          Eigen::Vector3f p_min = Eigen::Vector3f::Constant(
+                            std::numeric_limits<float>::max()),
+                          p_max = -p_min;
+          for (std::size_t j = a; j < b; ++j) {
+            const Eigen::Vector3f p = axes_t * points_[keys_[j].second];
+            p_min = p_min.cwiseMin(p);
+            p_max = p_max.cwiseMax(p);
+          }
+          const double r = min_cell_size_m_;
+          for (int d = 0; d < 3; ++d) {
+            // sub-cells of r inside the lattice cell: [lo + r i, lo + r (i + 1))
+            const auto n = static_cast<int>(std::lround(cell / r));
+            const auto sub = [&](float c) {
+              return std::clamp(static_cast<int>(std::floor((c - lo[d]) / r)), 0,
+                                n - 1);
+            };
+            const int first = sub(p_min[d]), last = sub(p_max[d]);
+            hi[d] = lo[d] + r * (last + 1);
+            lo[d] += r * first;
+          }
+        }
+        const Eigen::Vector3d mid = 0.5 * (lo + hi), size = hi - lo;
         PlanarCuboid c;
         c.normal = -e2;
         c.horizontal_axis = e1; // vertical = -e2 x e1 = up
-        c.width_m = c.height_m = c.thickness_m = cell;
-        c.centre = origin + e1 * centre(40) + up * centre(20) + e2 * centre(0);
+        c.width_m = static_cast<float>(size[0]);
+        c.height_m = static_cast<float>(size[1]);
+        c.thickness_m = static_cast<float>(size[2]);
+        c.centre = origin + axes_t.transpose() * mid.cast<float>();
         c.plane_id = -1;
         c.is_planar = false;
         c.point_count = b - a;
@@ -176,12 +211,13 @@ private:
   float terrain_height_m_;
   double terrain_cell_m_;
   float terrain_max_rise_m_;
+  bool fit_to_points_;
   std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> points_;
   std::vector<float> heights_;
   std::vector<std::uint8_t> terrain_;
   std::vector<std::uint64_t> columns_;
   std::unordered_map<std::uint64_t, float> column_low_;
-  std::vector<std::uint64_t> keys_;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keys_;
   std::size_t far_points_{0};
   std::size_t terrain_points_{0};
   std::size_t cells_{0};
@@ -217,6 +253,11 @@ rangeAdaptiveCellsInfo()
                     "Highest terrain above the ground plane: a column whose lowest "
                     "point is higher (a crown or a wall whose foot is hidden) keeps "
                     "its points above this plus terrain_height_m."),
+    ParamSpec::flag("fit_to_points", true,
+                    "Each cell is the box of its points, rounded out to "
+                    "min_cell_size_m inside its lattice cell, instead of the whole "
+                    "lattice cell: the part of a far wall in a cell is a slab as thick "
+                    "as its points' depth spread, not the whole cell."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     return std::make_unique<RangeAdaptiveCellsStage>(v);

@@ -92,7 +92,7 @@ runFilter(Scene& s, int far_levels)
 }
 
 void
-runCells(Scene& s, int min_points_per_cell)
+runCells(Scene& s, int min_points_per_cell, bool fit_to_points = true)
 {
   planar_grid::PipelineState state;
   const auto* cells = planar_grid::findStage("range_adaptive_cells");
@@ -100,6 +100,7 @@ runCells(Scene& s, int min_points_per_cell)
   planar_grid::ParamValues cp = planar_grid::defaultParams(cells->params);
   cp.set("min_cell_size_m", 0.1);
   cp.set("min_points_per_cell", min_points_per_cell);
+  cp.set("fit_to_points", fit_to_points);
   cells->create(cp)->process(s.frame, state);
 }
 
@@ -137,17 +138,17 @@ TEST(RangeAdaptiveCells, FarLevelsFollowTheDepthError)
   EXPECT_TRUE(!none.frame.far_cloud || none.frame.far_cloud->empty());
 }
 
-// The cells against a brute-force count: every cell holds at least min_points_per_cell
-// kept far points and has the size of its level; the road beyond the bound makes no
-// cell; every guardrail and wall point in a lattice cell of its level with enough
-// points is inside a cell; the isolated strays make none.
+// The lattice cells (fit_to_points off) against a brute-force count: every cell holds
+// at least min_points_per_cell kept far points and has the size of its level; the road
+// beyond the bound makes no cell; every guardrail and wall point in a lattice cell of
+// its level with enough points is inside a cell; the isolated strays make none.
 TEST(RangeAdaptiveCells, FarStructuresBecomeCoarseCellsAndTheFarRoadGoes)
 {
   Scene s = makeScene();
   runFilter(s, 2);
   const std::size_t near_cells = s.frame.cuboids.size();
   const planar_grid::Frame::Cloud::ConstPtr far_before = s.frame.far_cloud;
-  runCells(s, 10);
+  runCells(s, 10, false);
   ASSERT_GT(s.frame.cuboids.size(), near_cells);
   const auto& far = *far_before;
   // The frame keeps the far points it mapped: the structures and strays, not the road.
@@ -205,6 +206,86 @@ TEST(RangeAdaptiveCells, FarStructuresBecomeCoarseCellsAndTheFarRoadGoes)
   }
   ASSERT_GT(structure, 0u);
   EXPECT_GE(static_cast<double>(covered), 0.95 * static_cast<double>(structure));
+}
+
+// fit_to_points against the lattice cells of the same frame: one box per lattice cell,
+// inside it, holding every far point the lattice cell holds, each face within one
+// 0.1 m step of a point (brute force over the points), sides multiples of 0.1 m; the
+// wall seen face-on at 24 m is one 0.1 m step thick instead of its 0.4 m cell.
+TEST(RangeAdaptiveCells, FittedCellsAreTheBoundsOfTheirPointsInsideTheLatticeCells)
+{
+  Scene lattice = makeScene();
+  runFilter(lattice, 2);
+  const std::size_t near_cells = lattice.frame.cuboids.size();
+  Scene fitted = lattice;
+  runCells(lattice, 10, false);
+  runCells(fitted, 10, true);
+  ASSERT_EQ(fitted.frame.cuboids.size(), lattice.frame.cuboids.size());
+  ASSERT_GT(lattice.frame.cuboids.size(), near_cells);
+  const auto& far = *fitted.frame.far_cloud;
+  constexpr float r = 0.1f, eps = 1e-4f;
+  std::size_t wall_cells = 0;
+  for (std::size_t k = near_cells; k < fitted.frame.cuboids.size(); ++k) {
+    const auto& box = lattice.frame.cuboids[k];
+    const auto& fit = fitted.frame.cuboids[k];
+    EXPECT_FALSE(fit.is_planar);
+    EXPECT_EQ(fit.point_count, box.point_count);
+    const Eigen::Vector3f size(fit.width_m, fit.height_m, fit.thickness_m);
+    for (int d = 0; d < 3; ++d) {
+      EXPECT_GE(size[d], r - eps);
+      EXPECT_LE(size[d], box.width_m + eps);
+      EXPECT_NEAR(size[d] / r, std::round(size[d] / r), 1e-3f);
+    }
+    // the fitted box's corners lie in the lattice cell
+    for (int corner = 0; corner < 8; ++corner) {
+      const Eigen::Vector3f offset((corner & 1 ? 0.5f : -0.5f) * fit.width_m,
+                                   (corner & 2 ? 0.5f : -0.5f) * fit.height_m,
+                                   (corner & 4 ? 0.5f : -0.5f) * fit.thickness_m);
+      const Eigen::Vector3f p = fit.centre + fit.horizontal_axis * offset.x()
+                                + fit.verticalAxis() * offset.y()
+                                + fit.normal * offset.z();
+      EXPECT_TRUE(box.contains(p, eps))
+        << "corner " << corner << " of the box at " << fit.centre.transpose();
+    }
+    if (std::abs(fit.centre.z() - 24.0f) < 0.2f && fit.centre.y() < -0.5f) {
+      ++wall_cells;
+      EXPECT_NEAR(std::abs(fit.normal.z()), 1.0f, 1e-5f);
+      EXPECT_FLOAT_EQ(box.thickness_m, 0.4f);
+      EXPECT_NEAR(fit.thickness_m, r, eps);
+    }
+    // every point of the lattice cell is in the fitted box, and each face has a point
+    // within one step inside it
+    const Eigen::Vector3f axes[3] = {fit.horizontal_axis, fit.verticalAxis(),
+                                     fit.normal};
+    Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e9f), hi = -lo;
+    std::size_t inside = 0;
+    // the lattice cells of the two levels overlap where the levels meet: a point
+    // belongs to the cell of its own level
+    const int level = box.width_m > 0.3f ? 2 : 1;
+    for (std::size_t i = 0; i < far.size(); ++i) {
+      const auto& q = far[i];
+      if (fitted.frame.far_levels[i] != level
+          || !box.contains(q.getVector3fMap(), -eps))
+        continue;
+      ++inside;
+      EXPECT_TRUE(fit.contains(q.getVector3fMap(), eps))
+        << "a point of its lattice cell outside the box at " << fit.centre.transpose();
+      for (int d = 0; d < 3; ++d) {
+        const float t = axes[d].dot(q.getVector3fMap() - fit.centre);
+        lo[d] = std::min(lo[d], t);
+        hi[d] = std::max(hi[d], t);
+      }
+    }
+    if (inside == 0)
+      continue;
+    for (int d = 0; d < 3; ++d) {
+      EXPECT_LE(-0.5f * size[d], lo[d] + eps);
+      EXPECT_GT(-0.5f * size[d] + r, lo[d] - eps) << "axis " << d;
+      EXPECT_GE(0.5f * size[d], hi[d] - eps);
+      EXPECT_LT(0.5f * size[d] - r, hi[d] + eps) << "axis " << d;
+    }
+  }
+  EXPECT_GT(wall_cells, 0u);
 }
 
 // Without a ground plane there is no terrain rule: the far road makes cells too; with
