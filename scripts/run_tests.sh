@@ -81,10 +81,15 @@ sanitizer_build() {
 }
 
 # ctest under the sanitizers. LeakSanitizer's tracer thread, which stops the process at
-# exit to scan it for leaks, now and then crashes itself ("Tracer caught signal 11",
-# "LeakSanitizer has encountered a fatal error") while a library's worker threads are
-# still winding down; the test's own cases had all passed. When that is in the output, the
-# failed tests run once more and their second result stands; any other failure fails.
+# exit to scan it for leaks, can crash itself ("Tracer caught signal 11", "LeakSanitizer
+# has encountered a fatal error") after the test's own cases have all passed: GCC 12's
+# LSan reads a corrupt entry of a thread's dynamic-TLS vector once enough libraries with
+# thread-local storage are loaded (LSAN_OPTIONS verbosity=1 shows "DTLS 24 at 0x5434-..."
+# just before the crash, in the PCD input suite on some hosts). When that is in the
+# output, the failed tests run once more without the thread-local-storage scan
+# (use_tls=0). That scan only adds roots, so the second run can report more leaks, never
+# fewer; the blocks Debian's libraries keep only in thread-local storage are suppressed
+# for it (scripts/lsan_tls.supp), and its result stands. Any other failure fails.
 sanitized_ctest() {
   local log
   log=$(mktemp "${TMPDIR:-/tmp}/planar_grid_ctest.XXXXXX")
@@ -105,9 +110,16 @@ sanitized_ctest() {
       echo "run_tests: a test failed otherwise than by LeakSanitizer's tracer" >&2
       return 1
     fi
-    echo "run_tests: LeakSanitizer's tracer crashed at a process exit; the failed tests ($failed) once more"
-    ctest --test-dir "$ASAN_BUILD_DIR" --output-on-failure --timeout 1500 -R "^(${failed})\$"
-    return
+    echo "run_tests: LeakSanitizer's tracer crashed at a process exit; the failed tests ($failed)" \
+      "once more, without scanning thread-local storage"
+    local supp status=0
+    supp=$(mktemp "${TMPDIR:-/tmp}/planar_grid_lsan.XXXXXX")
+    cat scripts/lsan.supp scripts/lsan_tls.supp > "$supp"
+    LSAN_OPTIONS="suppressions=$supp:use_tls=0" \
+      ctest --test-dir "$ASAN_BUILD_DIR" --output-on-failure --timeout 1500 -R "^(${failed})\$" \
+      || status=$?
+    rm -f "$supp"
+    return "$status"
   fi
   rm -f "$log"
   return 1
