@@ -60,6 +60,20 @@ GroundTruthSurface::distance(const Eigen::Vector3f& point) const
 }
 
 std::size_t
+GroundTruthSurface::radiusSearch(const Eigen::Vector3f& point,
+                                 double radius_m,
+                                 pcl::Indices& indices) const
+{
+  indices.clear();
+  if (!point.allFinite() || !(radius_m > 0.0))
+    return 0;
+  std::vector<float> squared_distances;
+  const pcl::PointXYZ query(point.x(), point.y(), point.z());
+  impl_->tree.radiusSearch(query, radius_m, indices, squared_distances);
+  return indices.size();
+}
+
+std::size_t
 GroundTruthSurface::size() const
 {
   return impl_->points->size();
@@ -75,6 +89,7 @@ namespace {
 
 using detail::checkResolution;
 using detail::checkTolerance;
+using detail::samplesAlong;
 
 /** \brief Counts one sample (when inside the region). */
 struct Counter {
@@ -152,18 +167,6 @@ boxes(const AxisAlignedBoxes& boxes,
       counter.closeCell();
     }
   return counter.error;
-}
-
-/** \brief Samples per axis: max(1, ceil(extent / resolution - 1e-3)); 0 for a
- * non-finite or negative extent. */
-std::int64_t
-samplesAlong(float extent_m, double resolution_m)
-{
-  if (!std::isfinite(extent_m) || extent_m < 0.0f)
-    return 0;
-  const double n = std::ceil(static_cast<double>(extent_m) / resolution_m - 1e-3);
-  return n < 1.0 ? 1
-                 : (n > 1e9 ? std::int64_t{1000000001} : static_cast<std::int64_t>(n));
 }
 
 MappingError

@@ -1,10 +1,12 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Shared by the sources of the mapping error: the checks of its arguments.
+// Shared by the sources of the mapping error: the checks of its arguments and the
+// sample counts of a cuboid.
 #pragma once
 
 #include <planar_grid/core/exceptions.h>
 
 #include <cmath>
+#include <cstdint>
 #include <string>
 
 namespace planar_grid {
@@ -26,6 +28,19 @@ checkResolution(double resolution_m)
   if (!(resolution_m > 0.0) || !std::isfinite(resolution_m))
     throw Exception("mapping error: resolution_m must be > 0 meters, got "
                     + std::to_string(resolution_m));
+}
+
+/** \brief Samples per axis of a cuboid's extent: max(1, ceil(extent / resolution -
+ * 1e-3)), the 1e-3 absorbing float extents such as 0.3f = 0.30000001 m that are meant
+ * as whole cells; 0 for a non-finite or negative extent; 1000000001 above 1e9. */
+inline std::int64_t
+samplesAlong(float extent_m, double resolution_m)
+{
+  if (!std::isfinite(extent_m) || extent_m < 0.0f)
+    return 0;
+  const double n = std::ceil(static_cast<double>(extent_m) / resolution_m - 1e-3);
+  return n < 1.0 ? 1
+                 : (n > 1e9 ? std::int64_t{1000000001} : static_cast<std::int64_t>(n));
 }
 
 } // namespace detail

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "mapping_error_oracle.h"
 
+#include <Eigen/SVD>
+
 #include <algorithm>
 #include <cmath>
 #include <set>
@@ -98,6 +100,61 @@ oracleCuboids(const PlanarCuboids& cuboids, bool planar_only)
   for (const auto& c : cuboids)
     if (c.probability >= 0.5f && (!planar_only || c.is_planar))
       out.push_back(oracleCuboid(c));
+  return out;
+}
+
+PlanePrecision
+oraclePlanePrecision(const pcl::PointCloud<pcl::PointXYZ>& truth,
+                     const PlanarCuboids& cuboids,
+                     double r,
+                     const MappingErrorRegion& region)
+{
+  const float radius = static_cast<float>(std::max(2.0 * r, 0.2));
+  const double min_cos = std::cos(20.0 * M_PI / 180.0);
+  PlanePrecision out;
+  for (const auto& c : cuboids) {
+    if (!c.is_planar || c.probability < 0.5f)
+      continue;
+    const int nu = std::max(1, static_cast<int>(std::ceil(c.width_m / r - 1e-3)));
+    const int nv = std::max(1, static_cast<int>(std::ceil(c.height_m / r - 1e-3)));
+    const double area = static_cast<double>(c.width_m) * c.height_m / (nu * nv);
+    const Eigen::Vector3d face =
+      c.centre.cast<double>()
+      + 0.5 * static_cast<double>(c.thickness_m) * c.normal.cast<double>();
+    for (int j = 0; j < nv; ++j)
+      for (int i = 0; i < nu; ++i) {
+        const Eigen::Vector3f sample =
+          (face + ((i + 0.5) / nu - 0.5) * c.width_m * c.horizontal_axis.cast<double>()
+           + ((j + 0.5) / nv - 0.5) * c.height_m * c.verticalAxis().cast<double>())
+            .cast<float>();
+        if (!region.contains(sample))
+          continue;
+        ++out.samples;
+        out.face_area_m2 += area;
+        std::vector<Eigen::Vector3d> near;
+        for (const auto& p : truth.points)
+          if ((p.getVector3fMap() - sample).squaredNorm() <= radius * radius)
+            near.push_back(p.getVector3fMap().cast<double>());
+        if (near.size() < 5)
+          continue;
+        Eigen::MatrixXd centred(static_cast<Eigen::Index>(near.size()), 3);
+        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+        for (const auto& p : near)
+          mean += p / static_cast<double>(near.size());
+        for (std::size_t k = 0; k < near.size(); ++k)
+          centred.row(static_cast<Eigen::Index>(k)) = (near[k] - mean).transpose();
+        // Singular values come in decreasing order: s(0) >= s(1) >= s(2).
+        const Eigen::JacobiSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinV);
+        const Eigen::Vector3d s = svd.singularValues();
+        if (!(s(1) * s(1) > 1e-6 * s(0) * s(0)) || !(s(2) * s(2) < 0.25 * s(1) * s(1)))
+          continue;
+        const Eigen::Vector3d normal = svd.matrixV().col(2);
+        if (std::abs(normal.dot(c.normal.cast<double>().normalized())) >= min_cos) {
+          ++out.precise_samples;
+          out.precise_area_m2 += area;
+        }
+      }
+  }
   return out;
 }
 

@@ -176,6 +176,34 @@ TEST(MappingError, BoxesOnTruthAndDisplaced)
   EXPECT_EQ(e.erroneous, 24u);
 }
 
+TEST(MappingError, OwnErrorIsErroneousOverTheMethodsOwnSamples)
+{
+  const GroundTruthSurface truth = horizontalTruth();
+  // 100 samples on the truth and 24 samples 1 m above it: 24 / 124 of the boxes'
+  // own volume is off the truth, however many cells another method has.
+  AxisAlignedBoxes boxes;
+  boxes.push_back({VoxelIndex(5, 5, 10), Eigen::Vector3i(10, 10, 1), true});
+  boxes.push_back({VoxelIndex(0, 0, 20), Eigen::Vector3i(4, 3, 2), true});
+  const MappingError e =
+    planar_grid::evaluateBoxes(boxes, RESOLUTION_M, truth, TOLERANCE_M);
+  ASSERT_EQ(e.samples, 124u);
+  ASSERT_EQ(e.erroneous, 24u);
+  EXPECT_DOUBLE_EQ(e.ownError(), 24.0 / 124.0);
+  // Dropping the cells on the truth raises it to 1 (all that is left is wrong).
+  boxes.erase(boxes.begin());
+  EXPECT_DOUBLE_EQ(
+    planar_grid::evaluateBoxes(boxes, RESOLUTION_M, truth, TOLERANCE_M).ownError(),
+    1.0);
+  // Voxels on the truth: 0; nothing mapped: undefined.
+  EXPECT_DOUBLE_EQ(
+    planar_grid::evaluateVoxels(planeGrid(10), truth, TOLERANCE_M).ownError(), 0.0);
+  EXPECT_TRUE(std::isnan(MappingError{}.ownError()));
+  MappingError counts;
+  counts.samples = 7;
+  counts.erroneous = 3;
+  EXPECT_DOUBLE_EQ(counts.ownError(), 3.0 / 7.0);
+}
+
 TEST(MappingError, CuboidsOnTruthAndDisplaced)
 {
   // A tilted truth plane (normal 40 deg from z) and a cuboid lying on it, 1 m x
@@ -197,6 +225,7 @@ TEST(MappingError, CuboidsOnTruthAndDisplaced)
   e = planar_grid::evaluateCuboids(cuboids, 0.5, RESOLUTION_M, truth, TOLERANCE_M);
   EXPECT_EQ(e.samples, 160u);
   EXPECT_EQ(e.erroneous, 80u);
+  EXPECT_DOUBLE_EQ(e.ownError(), 0.5);
   // Below occupancy_thres: not counted; exactly at it: counted.
   cuboids.push_back(cuboid(p0 + 2.0f * n, n, u, 1.0f, 0.8f, 0.1f, 0.3f));
   cuboids.push_back(cuboid(p0, n, u, 0.1f, 0.1f, 0.1f, 0.5f));

@@ -7,6 +7,7 @@
 
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
+#include <pcl/types.h>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -54,6 +55,16 @@ public:
   /** \brief Distance from \a point to the nearest truth point, meters (+inf for a
    * non-finite point). Safe to call from several threads. */
   [[nodiscard]] float distance(const Eigen::Vector3f& point) const;
+  /** \brief The truth points within \a radius_m of \a point (pcl::search::KdTree's
+   * radiusSearch). Safe to call from several threads.
+   * \param[in] point the query, meters
+   * \param[in] radius_m meters, > 0
+   * \param[out] indices into getPoints() of the points found (cleared first; none for a
+   * non-finite point or radius_m <= 0)
+   * \return the number of points found */
+  std::size_t radiusSearch(const Eigen::Vector3f& point,
+                           double radius_m,
+                           pcl::Indices& indices) const;
   /** \brief Number of truth points (the finite ones). */
   [[nodiscard]] std::size_t size() const;
   /** \brief The truth points (the finite ones of the constructor's cloud), meters. */
@@ -76,6 +87,16 @@ struct MappingError {
    * with a region, the method's cells in it (the paper's local cell count, Sec. IV-B);
    * without, every occupied cell evaluated. */
   std::size_t cells{0};
+
+  /** \brief The method's own error erroneous / samples in [0, 1]: the share of its own
+   * occupied volume (in samples) that lies off the truth, which a method cannot lower
+   * by mapping less, unlike the paper's e = erroneous / SG's cells; NaN without
+   * samples. */
+  [[nodiscard]] double ownError() const
+  {
+    return samples > 0 ? static_cast<double>(erroneous) / static_cast<double>(samples)
+                       : std::numeric_limits<double>::quiet_NaN();
+  }
 };
 
 /** \brief Optional region of interest of the mapping error ("the occupied grid in a
@@ -190,6 +211,80 @@ MappingError evaluateOcTree(const octomap::OcTree& tree,
                             const GroundTruthSurface& truth,
                             double tolerance_m,
                             const MappingErrorRegion& region);
+
+/** \brief Largest angle between a planar cell's normal and the normal of the truth
+ * surface at a face sample for the sample to count as precise, degrees
+ * (evaluatePlanePrecision()): wider than the scatter of PCA normals of stereo
+ * reference points over a cell's neighbourhood, narrower than the angle of a cell
+ * fitted across two surfaces (a wall and the floor meet at 90 degrees).
+ * \ingroup eval */
+constexpr double PLANE_PRECISION_MAX_ANGLE_DEG = 20.0;
+/** \brief Fewest truth points in a face sample's neighbourhood for a normal
+ * (evaluatePlanePrecision()). \ingroup eval */
+constexpr std::size_t PLANE_PRECISION_MIN_POINTS = 5;
+/** \brief Largest ratio of the smallest to the middle eigenvalue of the covariance of
+ * a face sample's truth points for them to form a surface (evaluatePlanePrecision()):
+ * above it the points spread in three directions (a corner, clutter) and give no
+ * normal. \ingroup eval */
+constexpr double PLANE_PRECISION_MAX_EIGENVALUE_RATIO = 0.25;
+/** \brief Smallest radius of a face sample's neighbourhood, meters; the radius is the
+ * larger of this and 2 resolution_m (evaluatePlanePrecision()). \ingroup eval */
+constexpr double PLANE_PRECISION_MIN_RADIUS_M = 0.2;
+
+/** \brief Plane precision of PG's planar cells: their face area and the part of it
+ * where the truth is a surface of the cell's orientation. \ingroup eval */
+struct PlanePrecision {
+  /** \brief Face area of the occupied planar cuboids counted, square meters (with a
+   * region, the area of the face samples in it). */
+  double face_area_m2{0.0};
+  /** \brief Of it, the area of the precise face samples, square meters. */
+  double precise_area_m2{0.0};
+  /** \brief Face samples counted and precise ones. */
+  std::size_t samples{0};
+  std::size_t precise_samples{0};
+
+  /** \brief precise_area_m2 / face_area_m2 in [0, 1]; NaN without face area. */
+  [[nodiscard]] double ratio() const
+  {
+    return face_area_m2 > 0.0 ? precise_area_m2 / face_area_m2
+                              : std::numeric_limits<double>::quiet_NaN();
+  }
+};
+
+/** \brief Plane precision of PG: the share of the face area of its occupied planar
+ * cuboids (PlanarCuboid::is_planar, probability >= occupancy_thres) where the truth
+ * points form a surface with the cuboid's normal.
+ *
+ * Each face (PlanarCuboid::face(), width_m x height_m at faceCentre()) is sampled as
+ * evaluateCuboids() samples a cuboid across its face: n = max(1, ceil(extent /
+ * resolution_m - 1e-3)) samples per in-plane axis at the centres of the n equal
+ * sub-intervals, each weighing width_m height_m / (n_u n_v) square meters. A sample
+ * is precise when the truth points within max(2 resolution_m,
+ * PLANE_PRECISION_MIN_RADIUS_M) of it (GroundTruthSurface::radiusSearch()) number at
+ * least PLANE_PRECISION_MIN_POINTS, their covariance's eigenvalues l0 <= l1 <= l2
+ * satisfy l0 < PLANE_PRECISION_MAX_EIGENVALUE_RATIO l1 and l1 > 1e-6 l2 (a surface,
+ * not a cloud or a line), and the eigenvector of l0 (the PCA normal) is within
+ * PLANE_PRECISION_MAX_ANGLE_DEG of the cuboid's normal, either sign (|cos| >=
+ * cos(angle)). A sample with too few truth points (a cell in empty space) is not
+ * precise.
+ * \param[in] cuboids PG's cuboids (world frame); the non-planar and the unoccupied
+ * ones are ignored
+ * \param[in] occupancy_thres probability in [0, 1]
+ * \param[in] resolution_m sample step and half the neighbourhood radius, meters, > 0
+ * \param[in] truth the ground truth (or reference) points
+ * \param[in] region only the face samples inside it are counted; default: all
+ * \return the face area, its precise part and the sample counts (ratio(): NaN
+ * without planar cells)
+ * \throws planar_grid::Exception for resolution_m <= 0 or an occupancy_thres outside
+ * [0, 1]
+ * \note a cuboid with non-finite fields, a negative extent or more than 1e9 face
+ * samples is skipped with a PCL_WARN
+ * \ingroup eval */
+PlanePrecision evaluatePlanePrecision(const PlanarCuboids& cuboids,
+                                      double occupancy_thres,
+                                      double resolution_m,
+                                      const GroundTruthSurface& truth,
+                                      const MappingErrorRegion& region = {});
 
 /** \brief One camera view of the mapped range (TruthVoxels::addView()): where a frame
  * was seen from and what its image covers (camera frame x right, y down, z forward).
