@@ -198,6 +198,8 @@ struct Lane {
   std::unique_ptr<TruthVoxels> truth_voxels;
   /** Time spent on the completeness and planar share (and the truth voxels), ms. */
   double completeness_ms{0.0};
+  /** Time spent on PG's plane precision, ms. */
+  double plane_precision_ms{0.0};
   /** The views of the frames mapped so far already added to truth_voxels' range. */
   std::size_t views_added{0};
 };
@@ -293,6 +295,7 @@ measureLane(Lane& lane,
   const auto apply = [region](ComparisonRow& row, const MappingError& e) {
     row.samples = e.samples;
     row.erroneous = e.erroneous;
+    row.own_error = e.ownError();
     if (region)
       row.cells = e.cells;
   };
@@ -416,6 +419,12 @@ measureLane(Lane& lane,
   pg.map_covered_voxels = whole_map.covered;
   pg.map_completeness = whole_map.ratio();
   lane.completeness_ms += msSince(completeness_start);
+  const auto precision_start = Clock::now();
+  const PlanePrecision precision =
+    evaluatePlanePrecision(cuboids, thres, r, truth, truth_region);
+  pg.plane_area_m2 = precision.face_area_m2;
+  pg.plane_precision = precision.ratio();
+  lane.plane_precision_ms += msSince(precision_start);
 
   std::vector<ComparisonRow> rows{sg, og, ra, pg};
   for (ComparisonRow& row : rows) {
@@ -726,8 +735,12 @@ runComparison(const ComparisonConfig& config,
              << pg.nonground_voxels << " non-ground), " << pg.range_planar_share
              << " within the mapped " << pg.mapped_range_m << " m (of "
              << pg.range_nonground_voxels << "; SG's non-ground completeness there "
-             << sg.range_nonground_completeness << "); completeness measured in "
-             << std::setprecision(2) << lane.completeness_ms / 1000.0 << " s";
+             << sg.range_nonground_completeness << "); own error SG " << sg.own_error
+             << ", OG " << measured[1].own_error << ", RA " << measured[2].own_error
+             << ", PG " << pg.own_error << "; PG plane precision " << pg.plane_precision
+             << " (of " << pg.plane_area_m2 << " m2); completeness measured in "
+             << std::setprecision(2) << lane.completeness_ms / 1000.0
+             << " s, plane precision in " << lane.plane_precision_ms / 1000.0 << " s";
         if (!saved.empty())
           line << "; PG map " << saved;
         progress(line.str());

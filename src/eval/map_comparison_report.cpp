@@ -38,11 +38,12 @@ saveComparisonCsv(const std::vector<ComparisonRow>& rows, const std::string& pat
          "planar_covered_voxels,nonground_completeness,nonground_covered_voxels,"
          "map_completeness,map_covered_voxels,mapped_range_m,range_nonground_voxels,"
          "range_nonground_covered_voxels,range_nonground_completeness,"
-         "range_planar_covered_voxels,range_planar_share\n";
+         "range_planar_covered_voxels,range_planar_share,own_error,plane_precision,"
+         "plane_area_m2\n";
   out << std::setprecision(10);
-  // NaN (no truth voxels; the planar share of SG, OG and RA) is an empty field, as
-  // are PG's planar counts in the other methods' rows and an unbounded (infinite)
-  // mapped range.
+  // NaN (no truth voxels or samples; the planar share and plane precision of SG, OG
+  // and RA) is an empty field, as are PG's planar counts and face area in the other
+  // methods' rows and an unbounded (infinite) mapped range.
   const auto ratio = [](double value) {
     std::ostringstream field;
     field << std::setprecision(10);
@@ -67,7 +68,9 @@ saveComparisonCsv(const std::vector<ComparisonRow>& rows, const std::string& pat
         << r.range_nonground_covered_voxels << ","
         << ratio(r.range_nonground_completeness) << ","
         << (pg ? std::to_string(r.range_planar_covered_voxels) : std::string()) << ","
-        << ratio(r.range_planar_share) << "\n";
+        << ratio(r.range_planar_share) << "," << ratio(r.own_error) << ","
+        << ratio(r.plane_precision) << ","
+        << (pg ? ratio(r.plane_area_m2) : std::string()) << "\n";
   }
   writeTextFileAtomically(path, out.str());
 }
@@ -95,12 +98,14 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
     return cell.str();
   };
   // PG's completeness is its cuboids'; the whole-map completeness adds its space
-  // layer's occupied voxels (SG's, OG's and RA's are their completeness).
+  // layer's occupied voxels (SG's, OG's and RA's are their completeness). The own
+  // error is each method's erroneous samples over its own samples; the plane
+  // precision is PG's alone.
   out
     << "| dataset | cell m | method | cells | eta | memory kB | ms/frame | error e | "
-       "completeness | whole-map completeness | non-ground completeness | planar share "
-       "| mapped range m | planar share in range |\n"
-       "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+       "own error | completeness | whole-map completeness | non-ground completeness | "
+       "planar share | mapped range m | planar share in range | plane precision |\n"
+       "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   out << std::fixed;
   for (const auto& r : rows) {
     if (r.place >= 0)
@@ -110,10 +115,11 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
         << r.cells << " | " << std::setprecision(3) << r.efficiency << " | "
         << std::setprecision(1) << static_cast<double>(r.memory_bytes) / 1024.0 << " | "
         << std::setprecision(1) << r.ms_per_frame << " | " << std::setprecision(4)
-        << r.error << " | " << ratio(r.completeness) << " | "
-        << ratio(r.map_completeness) << " | " << ratio(r.nonground_completeness)
-        << " | " << ratio(r.planar_share) << " | " << range(r.mapped_range_m) << " | "
-        << ratio(r.range_planar_share) << " |\n";
+        << r.error << " | " << ratio(r.own_error) << " | " << ratio(r.completeness)
+        << " | " << ratio(r.map_completeness) << " | "
+        << ratio(r.nonground_completeness) << " | " << ratio(r.planar_share) << " | "
+        << range(r.mapped_range_m) << " | " << ratio(r.range_planar_share) << " | "
+        << ratio(r.plane_precision) << " |\n";
   }
   // The places: means over each dataset's places (the paper's Figs. 12-14).
   /** The mean of the defined (finite) values added; NaN when there is none. */
@@ -136,8 +142,8 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
   struct Sum {
     std::size_t places{0};
     double cells{0.0}, efficiency{0.0}, memory_kb{0.0}, ms{0.0}, error{0.0};
-    FiniteMean completeness, map_completeness, nonground_completeness, planar_share,
-      range_planar_share;
+    FiniteMean own_error, completeness, map_completeness, nonground_completeness,
+      planar_share, range_planar_share, plane_precision;
     double radius_m{0.0};
     bool reference{false};
   };
@@ -161,24 +167,29 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
     sum.memory_kb += static_cast<double>(r.memory_bytes) / 1024.0;
     sum.ms += r.ms_per_frame;
     sum.error += r.error;
+    sum.own_error.add(r.own_error);
     sum.completeness.add(r.completeness);
     sum.map_completeness.add(r.map_completeness);
     sum.nonground_completeness.add(r.nonground_completeness);
     sum.planar_share.add(r.planar_share);
     sum.range_planar_share.add(r.range_planar_share);
+    sum.plane_precision.add(r.plane_precision);
     sum.radius_m = r.region_radius_m;
     sum.reference = r.truth_kind == "reference";
   }
   if (sums.empty())
     return out.str();
   out << "\nMeans over the places (cells and error within the radius of the camera at "
-         "each place; memory of the whole map then; ms of that frame; the "
-         "completeness, whole-map completeness, non-ground completeness and planar "
-         "shares over the places that have truth voxels within the radius):\n\n"
+         "each place; memory of the whole map then; ms of that frame; the own error "
+         "over the places with samples, the completeness, whole-map completeness, "
+         "non-ground completeness and planar shares over the places that have truth "
+         "voxels within the radius, the plane precision over those with planar "
+         "cells):\n\n"
          "| dataset | places | radius m | cell m | method | cells | eta | memory kB | "
-         "ms/frame | error e | completeness | whole-map completeness | non-ground "
-         "completeness | planar share | planar share in range |\n"
-         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+         "ms/frame | error e | own error | completeness | whole-map completeness | "
+         "non-ground completeness | planar share | planar share in range | plane "
+         "precision |\n"
+         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& [key, sum] : sums) {
     std::vector<std::string> parts;
     std::istringstream split(key);
@@ -190,11 +201,13 @@ comparisonMarkdown(const std::vector<ComparisonRow>& rows)
         << parts[2] << " | " << std::setprecision(0) << sum.cells / n << " | "
         << std::setprecision(3) << sum.efficiency / n << " | " << std::setprecision(1)
         << sum.memory_kb / n << " | " << sum.ms / n << " | " << std::setprecision(4)
-        << sum.error / n << " | " << ratio(sum.completeness.value()) << " | "
+        << sum.error / n << " | " << ratio(sum.own_error.value()) << " | "
+        << ratio(sum.completeness.value()) << " | "
         << ratio(sum.map_completeness.value()) << " | "
         << ratio(sum.nonground_completeness.value()) << " | "
         << ratio(sum.planar_share.value()) << " | "
-        << ratio(sum.range_planar_share.value()) << " |\n";
+        << ratio(sum.range_planar_share.value()) << " | "
+        << ratio(sum.plane_precision.value()) << " |\n";
   }
   return out.str();
 }

@@ -215,6 +215,21 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
     EXPECT_DOUBLE_EQ(pg.efficiency, 1.0 - static_cast<double>(pg.cells) / sg.cells);
     EXPECT_EQ(sg.erroneous, 0u) << r;
     EXPECT_EQ(pg.planar_erroneous, 0u) << r;
+    // The own error is each method's erroneous samples over its own samples: 0 here.
+    for (const auto* row : {&sg, &og, &ra, &pg}) {
+      ASSERT_GT(row->samples, 0u) << row->method;
+      EXPECT_DOUBLE_EQ(row->own_error, static_cast<double>(row->erroneous)
+                                         / static_cast<double>(row->samples))
+        << row->method;
+    }
+    // PG's planar cells lie on the wall, whose own points are the truth: their faces
+    // see a surface of their orientation nearly everywhere (a face sample may reach
+    // past the wall's edge into empty space).
+    EXPECT_GT(pg.plane_area_m2, 0.0) << r;
+    EXPECT_GT(pg.plane_precision, 0.9) << r;
+    EXPECT_LE(pg.plane_precision, 1.0) << r;
+    for (const auto* row : {&sg, &og, &ra})
+      EXPECT_TRUE(std::isnan(row->plane_precision)) << row->method;
     EXPECT_GT(pg.planar_samples, 0u);
     EXPECT_GT(pg.memory_bytes, 0u);
     EXPECT_GT(og.memory_bytes, 0u);
@@ -298,7 +313,7 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
                            "map_covered_voxels,mapped_range_m,range_nonground_voxels,"
                            "range_nonground_covered_voxels,"
                            "range_nonground_completeness,range_planar_covered_voxels,"
-                           "range_planar_share";
+                           "range_planar_share,own_error,plane_precision,plane_area_m2";
   ASSERT_GE(header.size(), tail.size());
   EXPECT_EQ(header.substr(header.size() - tail.size()), tail);
   int lines = 0;
@@ -310,7 +325,7 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
       fields.push_back(field);
     if (line.back() == ',')
       fields.emplace_back();
-    ASSERT_EQ(fields.size(), 36u) << line;
+    ASSERT_EQ(fields.size(), 39u) << line;
     const bool pg = fields[4] == "PG";
     if (pg) {
       EXPECT_FALSE(fields[20].empty()) << line;
@@ -328,15 +343,22 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
     EXPECT_EQ(fields[21].empty(), !pg) << line;
     EXPECT_FALSE(fields[24].empty()) << line;
     EXPECT_EQ(fields[25].empty(), !pg) << line;
+    // The own error is the row's erroneous / samples (0: every method's cells lie on
+    // the wall); the plane precision and face area are PG's alone.
+    EXPECT_EQ(fields[36], "0") << line;
+    EXPECT_EQ(fields[37].empty(), !pg) << line;
+    EXPECT_EQ(fields[38].empty(), !pg) << line;
   }
   EXPECT_EQ(lines, 8);
   const std::string md = planar_grid::comparisonMarkdown(rows);
   EXPECT_NE(md.find("| tilted wall | 0.1 | PG |"), std::string::npos);
   EXPECT_NE(
-    md.find("| error e | completeness | whole-map completeness | non-ground "
-            "completeness | planar share | mapped range m | planar share in range |"),
+    md.find("| error e | own error | completeness | whole-map completeness | "
+            "non-ground completeness | planar share | mapped range m | planar share in "
+            "range | plane precision |"),
     std::string::npos);
-  EXPECT_NE(md.find("| 1.000 | 1.000 | 1.000 | - | 25.0 | - |"), std::string::npos)
+  EXPECT_NE(md.find("| 0.0000 | 0.000 | 1.000 | 1.000 | 1.000 | - | 25.0 | - | - |"),
+            std::string::npos)
     << md; // SG's row
 }
 
@@ -462,6 +484,8 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
               by.at({place, "PG"}).map_covered_voxels)
       << place;
     EXPECT_TRUE(std::isnan(by.at({place, "RA"}).planar_share)) << place;
+    EXPECT_GT(by.at({place, "PG"}).plane_precision, 0.9) << place;
+    EXPECT_TRUE(std::isnan(by.at({place, "SG"}).plane_precision)) << place;
     EXPECT_EQ(by.at({place, "SG"}).erroneous, 0u) << place;
     EXPECT_EQ(by.at({place, "PG"}).planar_erroneous, 0u) << place;
     EXPECT_DOUBLE_EQ(by.at({place, "PG"}).efficiency,
@@ -472,8 +496,9 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
   const std::string md = planar_grid::comparisonMarkdown(rows);
   EXPECT_NE(md.find("| walls | 2 | 8.0 | 0.2 | PG |"), std::string::npos) << md;
   // The place means end with the completeness, the whole-map completeness, the
-  // non-ground completeness, the planar share and the planar share in the mapped range
-  // ("-" for SG); PG's non-ground mean is that of its two places.
+  // non-ground completeness, the planar share, the planar share in the mapped range
+  // and the plane precision ("-" for SG); PG's non-ground mean is that of its two
+  // places.
   const auto lineOf = [&md](const std::string& start) {
     const std::size_t at = md.find(start);
     return at == std::string::npos ? std::string()
@@ -481,7 +506,8 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
   };
   const std::string sg_line = lineOf("| walls | 2 | 8.0 | 0.2 | SG |");
   ASSERT_FALSE(sg_line.empty()) << md;
-  EXPECT_EQ(sg_line.substr(sg_line.size() - 33), "| 1.000 | 1.000 | 1.000 | - | - |")
+  EXPECT_EQ(sg_line.substr(sg_line.size() - 37),
+            "| 1.000 | 1.000 | 1.000 | - | - | - |")
     << sg_line;
   const std::string pg_line = lineOf("| walls | 2 | 8.0 | 0.2 | PG |");
   ASSERT_FALSE(pg_line.empty()) << md;
@@ -494,8 +520,8 @@ TEST_F(MapComparisonTest, PlacesMeasureTheMapNearTheCameraAsTheFramesRun)
   std::istringstream pg_split(pg_line);
   for (std::string field; std::getline(pg_split, field, '|');)
     pg_fields.push_back(field);
-  ASSERT_EQ(pg_fields.size(), 16u) << pg_line; // empty first field, 15 columns
-  EXPECT_EQ(pg_fields[13], " " + pg_nonground.str() + " ") << pg_line;
+  ASSERT_EQ(pg_fields.size(), 18u) << pg_line; // empty first field, 17 columns
+  EXPECT_EQ(pg_fields[14], " " + pg_nonground.str() + " ") << pg_line;
 
   // A dataset's own places override the top level's: radius 0 is the whole map, so the
   // last place is the whole map after the last frame.

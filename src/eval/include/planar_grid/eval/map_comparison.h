@@ -134,6 +134,11 @@ struct ComparisonRow {
   std::size_t erroneous{0};
   /** \brief Mapping error e = erroneous / SG cells (paper, Fig. 13). */
   double error{0.0};
+  /** \brief The method's own error erroneous / samples in [0, 1]: the share of its
+   * own occupied samples (voxels of the cell size) off the truth
+   * (MappingError::ownError()), which mapping less volume does not lower; NaN without
+   * samples. */
+  double own_error{std::numeric_limits<double>::quiet_NaN()};
   /** \brief PG only: the samples and erroneous samples of its planar cuboids (the
    * rest are the non-planar boxes of Fig. 7). */
   std::size_t planar_samples{0};
@@ -210,6 +215,14 @@ struct ComparisonRow {
    * range_planar_covered_voxels / range_nonground_voxels in [0, 1]; NaN for SG, OG and
    * RA and without such voxels. */
   double range_planar_share{std::numeric_limits<double>::quiet_NaN()};
+  /** \brief PG only: the face area of its occupied planar cuboids, square meters (at a
+   * place, of the face samples within region_radius_m of the camera). */
+  double plane_area_m2{0.0};
+  /** \brief PG only: plane precision in [0, 1], the share of that face area where the
+   * truth points form a surface within PLANE_PRECISION_MAX_ANGLE_DEG of the cell's
+   * normal (evaluatePlanePrecision()); NaN for SG, OG and RA and without planar
+   * cells. */
+  double plane_precision{std::numeric_limits<double>::quiet_NaN()};
 };
 
 /** \brief The depth to which the stages of \a pipeline make cells, meters: the
