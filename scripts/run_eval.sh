@@ -3,29 +3,31 @@
 # The paper's evaluation (Sec. IV-B, Figs. 12-14): builds planar_grid_eval and
 # planar_grid_render_scene, renders the synthetic stereo scenes, links the Aloe pair and
 # writes the poses the real indoor pairs lack (output/eval/prep; the data stays in
-# ../shared/data), then runs the indoor, tilt, outdoor and range_adaptive evaluations
-# (outdoor: Karlsruhe and the KITTI snippet with its ground-truth poses; range_adaptive:
-# the same two roads with the points beyond eq. 4's bound mapped at coarser cells).
-# Results in output/eval/{indoor,tilt,outdoor,range_adaptive}/{eval.csv,eval.md,*.png};
-# docs/EVALUATION.md quotes them. About 30-40 minutes on 2 cores (outdoor alone: about
-# 1-2 minutes, range_adaptive about 9).
+# ../shared/data), then runs the indoor, tilt, outdoor, range_adaptive and euroc
+# evaluations (outdoor: Karlsruhe and the KITTI snippet with its ground-truth poses;
+# range_adaptive: the same two roads with the points beyond eq. 4's bound mapped at
+# coarser cells; euroc: the 100 EuRoC V1_01 Vicon room keyframes with their Vicon
+# poses). Results in
+# output/eval/{indoor,tilt,outdoor,range_adaptive,euroc}/{eval.csv,eval.md,*.png};
+# docs/EVALUATION.md quotes them. About 40-50 minutes on 2 cores (outdoor alone: about
+# 1-2 minutes, range_adaptive about 9, euroc about 1.5).
 #
-#   bash scripts/run_eval.sh             # all four
+#   bash scripts/run_eval.sh             # all five
 #   bash scripts/run_eval.sh outdoor     # only the named ones (indoor, tilt, outdoor,
-#                                        # range_adaptive)
+#                                        # range_adaptive, euroc)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # The evaluations to run, checked before anything is built.
 EVALS=("$@")
 if [ ${#EVALS[@]} -eq 0 ]; then
-  EVALS=(indoor tilt outdoor range_adaptive)
+  EVALS=(indoor tilt outdoor range_adaptive euroc)
 fi
 for eval in "${EVALS[@]}"; do
   case "$eval" in
-    indoor | tilt | outdoor | range_adaptive) ;;
+    indoor | tilt | outdoor | range_adaptive | euroc) ;;
     *)
       echo "run_eval.sh: unknown evaluation '$eval' (indoor, tilt, outdoor," \
-        "range_adaptive)" >&2
+        "range_adaptive, euroc)" >&2
       exit 1
       ;;
   esac
@@ -63,6 +65,23 @@ echo "0 -1 0 0 0 0 -1 0 1 0 0 0" > "$OUT/prep/aloe/poses.txt"
 # rtabmap pair 50: a level camera 1.2 m above the floor (z-up world: camera z along +x,
 # 1.2 m up); the KITTI file needs a line per index up to 50.
 for _ in $(seq 0 50); do echo "1 0 0 0 0 1 0 -1.2 0 0 1 0"; done > "$OUT/prep/rtabmap_poses.txt"
+# EuRoC keyframes: the Vicon poses of the rectified left camera in EuRoC's world (z up,
+# the floor near z = 0; TUM lines "t tx ty tz qx qy qz qw") as KITTI rows. The KITTI
+# reader takes its world for a level camera's optical frame (x right, y down, z
+# forward), so each world_T_camera is written as B world_T_camera with B the fixed
+# rotation from EuRoC's world to such a frame (x = -y_w, y = -z_w, z = x_w); the reader
+# turns it back into EuRoC's world. The data's own poses.txt has frame 0's camera,
+# which looks 21.7 degrees down, as its world: the floor would be tilted by as much.
+awk '!/^#/ && NF == 8 {
+  tx = $2; ty = $3; tz = $4; x = $5; y = $6; z = $7; w = $8
+  n = sqrt(x * x + y * y + z * z + w * w); x /= n; y /= n; z /= n; w /= n
+  r00 = 1 - 2 * (y * y + z * z); r01 = 2 * (x * y - z * w); r02 = 2 * (x * z + y * w)
+  r10 = 2 * (x * y + z * w); r11 = 1 - 2 * (x * x + z * z); r12 = 2 * (y * z - x * w)
+  r20 = 2 * (x * z - y * w); r21 = 2 * (y * z + x * w); r22 = 1 - 2 * (x * x + y * y)
+  printf "%.9f %.9f %.9f %.9f %.9f %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n",
+    -r10, -r11, -r12, -ty, -r20, -r21, -r22, -tz, r00, r01, r02, tx
+}' "$DATA/euroc_v1_01_keyframes/poses_left_rect_world_tum.txt" \
+  > "$OUT/prep/euroc_keyframes_poses.txt"
 
 for eval in "${EVALS[@]}"; do
   build/tools/planar_grid_eval --config "config/eval_$eval.yaml"
