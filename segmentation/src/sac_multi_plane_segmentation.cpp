@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 
 #ifndef PCL_NO_PRECOMPILE
 #include <planar_grid/point_types.h>
@@ -452,6 +453,106 @@ optimizePlane(const std::vector<float>& x,
     }
   }
   return best;
+}
+
+void
+estimateGridNormals(const std::vector<float>& x,
+                    const std::vector<float>& y,
+                    const std::vector<float>& z,
+                    float cell,
+                    std::size_t min_points,
+                    std::vector<float>& nx,
+                    std::vector<float>& ny,
+                    std::vector<float>& nz)
+{
+  const std::size_t n = x.size();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  nx.assign(n, nan);
+  ny.assign(n, nan);
+  nz.assign(n, nan);
+  if (n == 0 || !(cell > 0.0f))
+    return;
+  // 21 bits per axis: +-2^20 cells around the first point.
+  constexpr std::int64_t BIAS = std::int64_t(1) << 20;
+  const Eigen::Vector3d reference(x[0], y[0], z[0]);
+  const double inv_cell = 1.0 / static_cast<double>(cell);
+  const auto cellOf = [&](std::size_t k) {
+    return Eigen::Vector3i(
+      static_cast<int>(std::floor((x[k] - reference.x()) * inv_cell)),
+      static_cast<int>(std::floor((y[k] - reference.y()) * inv_cell)),
+      static_cast<int>(std::floor((z[k] - reference.z()) * inv_cell)));
+  };
+  const auto pack = [&](const Eigen::Vector3i& c) {
+    return (static_cast<std::uint64_t>(c.x() + BIAS) << 42)
+           | (static_cast<std::uint64_t>(c.y() + BIAS) << 21)
+           | static_cast<std::uint64_t>(c.z() + BIAS);
+  };
+  const auto inRange = [&](const Eigen::Vector3i& c) {
+    return c.cwiseAbs().maxCoeff() < BIAS - 1;
+  };
+  // The raw moments of each occupied cell, relative to the first point (double: the
+  // world coordinates can be hundreds of meters).
+  struct Moments {
+    double count{0.0};
+    Eigen::Vector3d sum{Eigen::Vector3d::Zero()};
+    Eigen::Matrix3d outer{Eigen::Matrix3d::Zero()};
+  };
+  CellIndex index_of(n);
+  std::vector<Moments> moments;
+  std::vector<Eigen::Vector3i> cells;
+  std::vector<std::uint32_t> cell_of_point(n, CellIndex::NONE);
+  for (std::size_t k = 0; k < n; ++k) {
+    const Eigen::Vector3i c = cellOf(k);
+    if (!inRange(c))
+      continue;
+    bool inserted = false;
+    const std::uint32_t id =
+      index_of.emplace(pack(c), static_cast<std::uint32_t>(moments.size()), inserted);
+    if (inserted) {
+      moments.emplace_back();
+      cells.push_back(c);
+    }
+    const Eigen::Vector3d p = Eigen::Vector3d(x[k], y[k], z[k]) - reference;
+    Moments& m = moments[id];
+    m.count += 1.0;
+    m.sum += p;
+    m.outer.selfadjointView<Eigen::Upper>().rankUpdate(p);
+    cell_of_point[k] = id;
+  }
+  // The normal of each occupied cell from its 3 x 3 x 3 block.
+  std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> normal(
+    cells.size(), Eigen::Vector3f::Constant(nan));
+  for (std::size_t id = 0; id < cells.size(); ++id) {
+    Moments block;
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const std::uint32_t j = index_of.find(pack(cells[id] + Eigen::Vector3i(dx, dy, dz)));
+          if (j == CellIndex::NONE)
+            continue;
+          block.count += moments[j].count;
+          block.sum += moments[j].sum;
+          block.outer += moments[j].outer;
+        }
+    if (block.count < static_cast<double>(std::max<std::size_t>(3, min_points)))
+      continue;
+    const Eigen::Vector3d mean = block.sum / block.count;
+    Eigen::Matrix3d covariance = block.outer / block.count - mean * mean.transpose();
+    covariance = covariance.selfadjointView<Eigen::Upper>();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+    solver.computeDirect(covariance);
+    const Eigen::Vector3d values = solver.eigenvalues(); // ascending
+    if (!(values[2] > 0.0) || values[1] < values[2] / 16.0)
+      continue;
+    normal[id] = solver.eigenvectors().col(0).normalized().cast<float>();
+  }
+  for (std::size_t k = 0; k < n; ++k)
+    if (cell_of_point[k] != CellIndex::NONE) {
+      const Eigen::Vector3f& v = normal[cell_of_point[k]];
+      nx[k] = v.x();
+      ny[k] = v.y();
+      nz[k] = v.z();
+    }
 }
 
 } // namespace detail

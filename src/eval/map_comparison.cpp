@@ -41,8 +41,8 @@ namespace fs = std::filesystem;
 using detail::isFrontEnd;
 
 /** The pipeline stage \a sc at cell size \a r: its parameters marked CELL_SIZE in
- * its table are set to r, those marked POINTS_PER_AREA scaled by (0.1 / r)^2
- * (ParamSpec::CellSizeScaling). */
+ * its table are set to r, those marked POINTS_PER_AREA scaled by (0.1 / r)^2, those
+ * marked LENGTH by r / 0.1 (ParamSpec::CellSizeScaling). */
 StageConfig
 stageAtResolution(const StageConfig& sc, double r)
 {
@@ -64,6 +64,9 @@ stageAtResolution(const StageConfig& sc, double r)
         params.set(spec.key, std::max(10, static_cast<int>(std::lround(scaled))));
         break;
       }
+      case ParamSpec::CellSizeScaling::LENGTH:
+        params.set(spec.key, params.getDouble(spec.key) * (r / 0.1));
+        break;
     }
   return scaled_stage;
 }

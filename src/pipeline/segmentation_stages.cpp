@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
+#include <planar_grid/stereo/disparity_normals.h>
 
 #include <pcl/common/point_tests.h>
 #include <pcl/common/transforms.h>
@@ -80,6 +81,11 @@ public:
     segmentation_.setInlierOnlyDistanceThreshold(
       v.getDouble("inlier_only_distance_threshold_m"));
     segmentation_.setDepthNoiseAlongSight(v.getBool("depth_noise_along_sight"));
+    segmentation_.setMaxNormalAngle(v.getDouble("max_normal_angle_rad"));
+    segmentation_.setNormalCell(v.getDouble("normal_cell_m"));
+    segmentation_.setMinNormalAgreement(v.getDouble("min_normal_agreement"));
+    use_disparity_normals_ = v.getChoice("normal_source") == "auto";
+    disparity_normals_.window_radius_px = v.getInt("normal_window_radius_px");
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -131,6 +137,7 @@ public:
           inlier_only->push_back(static_cast<pcl::index_t>(i));
     }
     segmentation_.setInlierOnlyIndices(inlier_only);
+    segmentation_.setInputNormals(disparityNormals(frame));
     segmentation_.segment(frame.planes);
     if (inlier_only) {
       // The inlier-only points no plane took make no cells.
@@ -183,6 +190,11 @@ public:
     v.set("shell_width_m", s.getShellWidth());
     v.set("count_inlier_only_points", s.getCountInlierOnlyPoints());
     v.set("inlier_only_distance_threshold_m", s.getInlierOnlyDistanceThreshold());
+    v.set("max_normal_angle_rad", s.getMaxNormalAngle());
+    v.set("normal_cell_m", s.getNormalCell());
+    v.set("min_normal_agreement", s.getMinNormalAgreement());
+    v.set("normal_source", std::string(use_disparity_normals_ ? "auto" : "cloud"));
+    v.set("normal_window_radius_px", disparity_normals_.window_radius_px);
   }
 
   void counters(const Frame& frame,
@@ -221,6 +233,12 @@ public:
       values.emplace_back("cluster_removed",
                           static_cast<double>(segmentation_.getClusterRemovedCount()));
     }
+    if (segmentation_.getMaxNormalAngle() > 0.0) {
+      values.emplace_back("normal_dropped",
+                          static_cast<double>(segmentation_.getNormalRejectedCount()));
+      values.emplace_back("normal_removed",
+                          static_cast<double>(segmentation_.getNormalRemovedCount()));
+    }
     if (segmentation_.getMaxShellRatio() > 0.0) {
       values.emplace_back("shell_dropped",
                           static_cast<double>(segmentation_.getShellRejectedCount()));
@@ -230,6 +248,35 @@ public:
   }
 
 private:
+  /** The normals of the normal test from the frame's disparity image (in the cloud's
+   * frame), or nullptr where the segmentation fits them to the cloud: the test is off,
+   * normal_source is cloud, or the frame has no disparity image (point-cloud and
+   * depth-image input). */
+  pcl::PointCloud<pcl::Normal>::ConstPtr disparityNormals(const Frame& frame) const
+  {
+    if (!(segmentation_.getMaxNormalAngle() > 0.0) || !use_disparity_normals_
+        || frame.disparity.empty() || !(frame.calibration.focal_length_px > 0.0)
+        || !(frame.calibration.baseline_m > 0.0))
+      return nullptr;
+    const auto& cloud = *frame.cloud;
+    const Eigen::Affine3f camera_T_cloud = cameraTCloud(frame);
+    std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> points(
+      cloud.size());
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      points[i] = camera_T_cloud * cloud[i].getVector3fMap();
+    std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> normals;
+    estimateDisparityNormals(frame.disparity, frame.calibration, points,
+                             disparity_normals_, normals);
+    const Eigen::Matrix3f cloud_R_camera = camera_T_cloud.linear().transpose();
+    auto out = std::make_shared<pcl::PointCloud<pcl::Normal>>();
+    out->resize(cloud.size());
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      const Eigen::Vector3f n = cloud_R_camera * normals[i];
+      (*out)[i] = pcl::Normal(n.x(), n.y(), n.z());
+    }
+    return out;
+  }
+
   /** The far points (depth_error_filter's far_levels, not thinned by voxel_grid) that
    * a plane takes out of the frame's far cloud, so that range_adaptive_cells maps no
    * cell where a planar cell stands. A far point joins a plane by the rule its
@@ -310,6 +357,8 @@ private:
   }
 
   SACMultiPlaneSegmentation<pcl::PointXYZI> segmentation_;
+  bool use_disparity_normals_{true};
+  DisparityNormalParams disparity_normals_;
   bool use_features_;
   double depth_noise_disparity_px_;
   std::size_t inlier_only_{0};
@@ -651,6 +700,34 @@ multiPlaneSegmentationInfo()
                     "Those points join a plane within the smaller of this and their "
                     "eq. 11 threshold (a planar cell is as thick as its inliers' "
                     "spread); 0: eq. 11's."),
+    ParamSpec::real("max_normal_angle_rad", 0.5, ranges::MAX_NORMAL_ANGLE, "rad",
+                    "Normal test: a point is an inlier only when its surface normal "
+                    "(fitted to the points of the 3 x 3 x 3 normal_cell_m cells around "
+                    "it, or to the disparities around its pixel, normal_source) lies "
+                    "within this angle of the plane's normal; a point without a normal "
+                    "(too few neighbours) is judged by distance alone (a canopy's or a "
+                    "pole's points scatter in normal, a wall's agree). Terrain planes "
+                    "(within 0.3 rad of level, below the sensor) are spared. The "
+                    "pipeline's value; the class defaults to 0 (no test)."),
+    ParamSpec::real("normal_cell_m", d.getNormalCell(), ranges::NORMAL_CELL, "m",
+                    "Cell edge of the normal estimation (about twice the voxel edge: "
+                    "a stereo surface is as thick as its depth noise).")
+      .scalesWithCellSize(ParamSpec::CellSizeScaling::LENGTH),
+    ParamSpec::choice("normal_source", "auto", {"auto", "cloud"},
+                      "Where the normal test's normals come from: auto, the frame's "
+                      "disparity image where it has one (a plane fitted to the "
+                      "disparities around each point's pixel, planar_grid::"
+                      "estimateDisparityNormals), else the cloud; cloud, the points of "
+                      "the normal_cell_m grid."),
+    ParamSpec::integer("normal_window_radius_px", DisparityNormalParams{}.window_radius_px,
+                       disparity_normals_ranges::WINDOW_RADIUS, "px",
+                       "Disparity normals: half-width of the window around a point's "
+                       "pixel."),
+    ParamSpec::real("min_normal_agreement", 0.5, ranges::MIN_NORMAL_AGREEMENT, "",
+                    "Normal test: a hypothesis whose inliers by distance agree with its "
+                    "normal less often than this is dropped (a plane through "
+                    "vegetation, clutter, or across a surface at an angle). The "
+                    "pipeline's value; the class defaults to 0 (no test)."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     return std::make_unique<MultiPlaneSegmentationStage>(v);

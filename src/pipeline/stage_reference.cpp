@@ -45,6 +45,8 @@ scalingNote(const ParamSpec& spec)
       return " *Follows the cell size r in planar_grid_eval (set to r).*";
     case ParamSpec::CellSizeScaling::POINTS_PER_AREA:
       return " *Follows the cell size r in planar_grid_eval (scaled by (0.1 / r)^2).*";
+    case ParamSpec::CellSizeScaling::LENGTH:
+      return " *Follows the cell size r in planar_grid_eval (scaled by r / 0.1).*";
   }
   return "";
 }

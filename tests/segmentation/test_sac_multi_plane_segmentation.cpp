@@ -942,6 +942,10 @@ TEST(SACMultiPlaneSegmentation, InvalidParametersGiveEmptyOutput)
       [](auto& s) { s.setMinClusterSize(-1); },
       [](auto& s) { s.setClusterCell(0.0); },
       [](auto& s) { s.setMinSensorDistance(std::numeric_limits<double>::infinity()); },
+      [](auto& s) { s.setMaxNormalAngle(-0.1); },
+      [](auto& s) { s.setMaxNormalAngle(2.0); },
+      [](auto& s) { s.setNormalCell(0.0); },
+      [](auto& s) { s.setMinNormalAgreement(1.5); },
     };
   for (std::size_t i = 0; i < invalid.size(); ++i) {
     SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
@@ -1031,6 +1035,203 @@ TEST(SACMultiPlaneSegmentation, VisibilityTestTakesOutPlanesThroughAVolumeOnly)
   EXPECT_GE(wallPoints(*after.wall), wall_points * 98 / 100);
   EXPECT_LE(after.canopy_in_wall, before.canopy_in_wall / 10);
   EXPECT_LE(after.canopy_in_planes, before.canopy_in_planes / 2);
+}
+
+/** The wall-and-canopy scene segmented with the normal test at \a angle_rad (0: off)
+ * and the support test at \a agreement. */
+PlanarSegments
+segmentWallAndCanopyWithNormals(double angle_rad,
+                                double agreement,
+                                std::size_t* rejected = nullptr)
+{
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  seg.setInputCloud(wallAndCanopy());
+  seg.setDistanceThreshold(0.05);
+  seg.setMinInliers(400);
+  seg.setMaxPlanes(4);
+  seg.setMaxNormalAngle(angle_rad);
+  seg.setNormalCell(0.2);
+  seg.setMinNormalAgreement(agreement);
+  PlanarSegments planes;
+  seg.segment(planes);
+  if (rejected)
+    *rejected = seg.getNormalRejectedCount();
+  return planes;
+}
+
+TEST(SACMultiPlaneSegmentation, NormalTestKeepsTheWallAndTakesTheCanopyOut)
+{
+  // The canopy's points fill a cube: their grid normals point anywhere, so about
+  // 1 - cos(30 deg) = 13 % of them agree with any plane, while the wall's all agree.
+  const std::size_t wall_points = 80 * 60;
+  const auto split = [&](const PlanarSegments& planes) {
+    std::size_t wall = 0, canopy = 0;
+    for (const auto& p : planes)
+      for (const auto i : p.inliers.indices)
+        (i < static_cast<int>(wall_points) ? wall : canopy) += 1;
+    return std::make_pair(wall, canopy);
+  };
+  const auto before = split(segmentWallAndCanopyWithNormals(0.0, 0.0));
+  ASSERT_GE(before.second, 2000u) << "without the test RANSAC finds slabs in the canopy";
+  std::size_t rejected = 0;
+  const PlanarSegments with = segmentWallAndCanopyWithNormals(30 * DEG, 0.5, &rejected);
+  const auto after = split(with);
+  ASSERT_FALSE(with.empty());
+  const auto& wall = with.front().model_coefficients.values;
+  EXPECT_GT(std::abs(wall[2]), 0.99f);
+  EXPECT_NEAR(std::abs(wall[3]), 6.0f, 0.02f);
+  // The wall's edge points see the canopy or the wall's end in their block: a few of
+  // them may have a tilted normal.
+  EXPECT_GE(after.first, wall_points * 97 / 100);
+  EXPECT_LE(after.second, before.second / 10);
+  // Every slab through the canopy went: no plane but the wall.
+  EXPECT_EQ(with.size(), 1u);
+  EXPECT_GT(rejected, 0u);
+}
+
+TEST(SACMultiPlaneSegmentation, GridNormalsMatchBruteForce)
+{
+  // Points on three noisy planes and a scattered cloud; every normal is checked
+  // against PCA over the points of its 3 x 3 x 3 cell block found by brute force.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  std::normal_distribution<float> noise(0.0f, 0.01f);
+  std::vector<float> x, y, z;
+  const auto add = [&](const Eigen::Vector3f& p) {
+    x.push_back(p.x());
+    y.push_back(p.y());
+    z.push_back(p.z());
+  };
+  for (int k = 0; k < 1500; ++k)
+    add({2.0f * unit(rng), 2.0f * unit(rng), noise(rng)});
+  for (int k = 0; k < 1500; ++k)
+    add({2.0f + noise(rng), 2.0f * unit(rng), 1.5f * unit(rng)});
+  const Eigen::Vector3f tilted = Eigen::Vector3f(1.0f, 1.0f, 1.0f).normalized();
+  const Eigen::Vector3f a = tilted.unitOrthogonal(), b = tilted.cross(a);
+  for (int k = 0; k < 1500; ++k)
+    add(Eigen::Vector3f(-3.0f, 0.0f, 1.0f) + 1.5f * unit(rng) * a + 1.5f * unit(rng) * b
+        + noise(rng) * tilted);
+  for (int k = 0; k < 300; ++k)
+    add({-4.0f + 8.0f * unit(rng), -4.0f + 8.0f * unit(rng), 3.0f * unit(rng)});
+  const float cell = 0.2f;
+  const std::size_t min_points = 6;
+  std::vector<float> nx, ny, nz;
+  planar_grid::detail::estimateGridNormals(x, y, z, cell, min_points, nx, ny, nz);
+  ASSERT_EQ(nx.size(), x.size());
+  // The implementation bins relative to the first point.
+  const Eigen::Vector3f reference(x[0], y[0], z[0]);
+  const auto cellOf = [&](std::size_t k) {
+    return Eigen::Vector3i(static_cast<int>(std::floor((x[k] - reference.x()) / cell)),
+                           static_cast<int>(std::floor((y[k] - reference.y()) / cell)),
+                           static_cast<int>(std::floor((z[k] - reference.z()) / cell)));
+  };
+  std::size_t defined = 0;
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    const Eigen::Vector3i c = cellOf(k);
+    Eigen::MatrixXd block(3, 0);
+    for (std::size_t j = 0; j < x.size(); ++j)
+      if ((cellOf(j) - c).cwiseAbs().maxCoeff() <= 1) {
+        block.conservativeResize(3, block.cols() + 1);
+        block.col(block.cols() - 1) = Eigen::Vector3d(x[j], y[j], z[j]);
+      }
+    Eigen::Vector3d expected = Eigen::Vector3d::Constant(std::nan(""));
+    if (static_cast<std::size_t>(block.cols()) >= min_points) {
+      const Eigen::Vector3d mean = block.rowwise().mean();
+      const Eigen::MatrixXd centred = block.colwise() - mean;
+      const Eigen::Matrix3d covariance =
+        centred * centred.transpose() / static_cast<double>(block.cols());
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
+      const Eigen::Vector3d values = solver.eigenvalues();
+      if (values[2] > 0.0 && values[1] >= values[2] / 16.0)
+        expected = solver.eigenvectors().col(0);
+    }
+    const Eigen::Vector3d got(nx[k], ny[k], nz[k]);
+    ASSERT_EQ(expected.allFinite(), got.allFinite()) << "point " << k;
+    if (!got.allFinite())
+      continue;
+    ++defined;
+    EXPECT_NEAR(got.norm(), 1.0, 1e-5) << k;
+    EXPECT_GT(std::abs(got.dot(expected)), 0.9999) << "point " << k;
+  }
+  // The planes' points have normals; most of the scattered ones none.
+  EXPECT_GT(defined, 4000u);
+  // The floor's interior points are normal to z.
+  for (std::size_t k = 0; k < 1500; ++k) {
+    if (x[k] > 0.6f && x[k] < 1.4f && y[k] > 0.6f && y[k] < 1.4f) {
+      EXPECT_GT(std::abs(nz[k]), 0.99f) << k;
+    }
+  }
+}
+
+TEST(SACMultiPlaneSegmentation, GivenNormalsDecideTheInliers)
+{
+  const auto cloud = wallAndCanopy();
+  const std::size_t wall_points = 80 * 60;
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  seg.setInputCloud(cloud);
+  seg.setDistanceThreshold(0.05);
+  seg.setMinInliers(400);
+  seg.setMaxPlanes(4);
+  seg.setMaxNormalAngle(30 * DEG);
+  // The wall's points are said to face x, the canopy's anywhere: no plane is left.
+  std::mt19937 rng(4);
+  std::normal_distribution<float> gauss(0.0f, 1.0f);
+  auto normals = std::make_shared<pcl::PointCloud<pcl::Normal>>();
+  for (std::size_t i = 0; i < cloud->size(); ++i) {
+    const Eigen::Vector3f n =
+      i < wall_points ? Eigen::Vector3f::UnitX()
+                      : Eigen::Vector3f(gauss(rng), gauss(rng), gauss(rng)).normalized();
+    normals->push_back(pcl::Normal(n.x(), n.y(), n.z()));
+  }
+  seg.setInputNormals(normals);
+  PlanarSegments planes;
+  seg.segment(planes);
+  EXPECT_TRUE(planes.empty());
+  // The wall's plane also passes through the canopy: its inliers there are the
+  // canopy points within d_T of the plane found whose normal lies within 30 degrees
+  // of the plane's, counted by brute force.
+  const auto expectWallPlane = [&](const PlanarSegments& found) {
+    ASSERT_EQ(found.size(), 1u);
+    const auto& c = found[0].model_coefficients.values;
+    EXPECT_GT(std::abs(c[2]), 0.999f);
+    std::set<int> expected;
+    for (std::size_t i = 0; i < cloud->size(); ++i) {
+      const auto& p = (*cloud)[i];
+      const auto& n = (*normals)[i];
+      const float dot =
+        std::abs(c[0] * n.normal_x + c[1] * n.normal_y + c[2] * n.normal_z)
+        / Eigen::Vector3f(n.normal_x, n.normal_y, n.normal_z).norm();
+      if (std::abs(c[0] * p.x + c[1] * p.y + c[2] * p.z + c[3]) <= 0.05f
+          && !(dot < std::cos(30 * DEG)))
+        expected.insert(static_cast<int>(i));
+    }
+    const std::set<int> got(found[0].inliers.indices.begin(),
+                            found[0].inliers.indices.end());
+    // Float rounding at the slab's edges may differ by a point or two.
+    std::size_t common = 0;
+    for (const int i : got)
+      common += expected.count(i);
+    EXPECT_GE(common + 2, expected.size());
+    EXPECT_LE(got.size(), common + 2);
+    for (std::size_t i = 0; i < wall_points; ++i)
+      EXPECT_EQ(got.count(static_cast<int>(i)), 1u) << i;
+    // The canopy points it takes are about 1 - cos(30 deg) = 13 % of those in its slab.
+    EXPECT_LT(got.size() - wall_points, 200u);
+  };
+  // Unknown normals (NaN) on the wall: judged by distance alone, it is found whole.
+  for (std::size_t i = 0; i < wall_points; ++i)
+    (*normals)[i] = pcl::Normal(NAN, NAN, NAN);
+  seg.segment(planes);
+  expectWallPlane(planes);
+  // Facing z, the same.
+  for (std::size_t i = 0; i < wall_points; ++i)
+    (*normals)[i] = pcl::Normal(0.0f, 0.0f, -2.0f); // any sign and length
+  seg.segment(planes);
+  expectWallPlane(planes);
+  // A normal cloud of another size is an error: no planes.
+  normals->resize(10);
+  seg.segment(planes);
+  EXPECT_TRUE(planes.empty());
 }
 
 TEST(SACMultiPlaneSegmentation, VisibilityConflictsMatchBruteForce)

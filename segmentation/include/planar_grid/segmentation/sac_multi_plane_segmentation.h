@@ -22,6 +22,10 @@
 #include <string>
 #include <vector>
 
+namespace pcl {
+struct Normal;
+} // namespace pcl
+
 namespace planar_grid {
 
 namespace detail {
@@ -145,6 +149,8 @@ public:
   using PointCloudPtr = typename PointCloud::Ptr;
   /** \brief Shared pointer to a const input cloud. */
   using PointCloudConstPtr = typename PointCloud::ConstPtr;
+  /** \brief Surface normals, one per input point (pcl::Normal). */
+  using NormalCloudConstPtr = std::shared_ptr<const pcl::PointCloud<pcl::Normal>>;
 
   SACMultiPlaneSegmentation() = default;
   ~SACMultiPlaneSegmentation() override = default;
@@ -521,6 +527,67 @@ public:
    * the planes it kept or dropped. */
   std::size_t getVisibilityRemovedCount() const { return visibility_removed_; }
 
+  /** \brief Sets the surface normals of the input cloud, one per input point (as
+   * pcl::SACSegmentationFromNormals takes them; e.g. from
+   * pcl::IntegralImageNormalEstimation on an organized cloud or pcl::NormalEstimation);
+   * a NaN normal marks a point whose normal is unknown (judged by distance alone). Without them (nullptr, the
+   * default) and with the normal test on, segment() estimates them on a grid of
+   * setNormalCell() (detail::estimateGridNormals). A cloud of another size than the
+   * input is an error of segment().
+   * \param[in] normals unit normals, any sign, or nullptr */
+  void setInputNormals(const NormalCloudConstPtr& normals)
+  {
+    normals_ = normals;
+  }
+  /** \brief Returns the normals set by setInputNormals(), or nullptr. */
+  NormalCloudConstPtr getInputNormals() const { return normals_; }
+
+  /** \brief Sets the normal test. Eq. 11 asks only how far a point lies from a plane:
+   * a plane slicing a tree's canopy, a row of poles or a cluttered volume finds as many
+   * points within d_T as a wall does. With the test, a point is an inlier of a plane
+   * only when, in addition, its surface normal lies within `angle` of the plane's
+   * normal (either side); a point without a normal (too few neighbours to tell) is
+   * judged by its distance alone. The support of a real surface agrees, that of a
+   * canopy scatters
+   * (1 - cos(angle) of random directions agree: 13 % at 30 degrees). Terrain planes
+   * (within 0.3 rad of the up axis, the sensor above them) are spared, as by the
+   * cluster test. Not in the paper; PCL's SACSegmentationFromNormals weighs the same
+   * angle into its distance.
+   * \param[in] angle_rad radians, in sac_multi_plane_segmentation_ranges::MAX_NORMAL_ANGLE
+   * (default 0: no test) */
+  void setMaxNormalAngle(double angle_rad) { max_normal_angle_ = angle_rad; }
+  /** \brief Returns the largest angle of the normal test, in radians (0: no test). */
+  double getMaxNormalAngle() const { return max_normal_angle_; }
+
+  /** \brief Sets the edge of the cubic cells of the normal estimation (without
+   * setInputNormals()): each point's normal is fitted to the points of the 3 x 3 x 3
+   * cells around its own, a cube of edge 3 `cell_m`. On a voxelised cloud about twice
+   * the voxel edge (a stereo surface is as thick as its depth noise).
+   * \param[in] cell_m meters, in sac_multi_plane_segmentation_ranges::NORMAL_CELL
+   * (default 0.2) */
+  void setNormalCell(double cell_m) { normal_cell_ = cell_m; }
+  /** \brief Returns the cell edge of the normal estimation, in meters. */
+  double getNormalCell() const { return normal_cell_; }
+
+  /** \brief Sets the support test of the normal test: a hypothesis whose eq. 11
+   * inliers by distance alone that have a normal agree with its normal less often
+   * than `ratio` is rejected whatever its count: its support scatters in normal (a
+   * plane through vegetation or clutter, or across a surface at an angle). Its
+   * support that disagrees or has no normal leaves the search (it would give the same
+   * plane again). Needs
+   * setMaxNormalAngle() > 0. \param[in] ratio in
+   * sac_multi_plane_segmentation_ranges::MIN_NORMAL_AGREEMENT (default 0: no test) */
+  void setMinNormalAgreement(double ratio) { min_normal_agreement_ = ratio; }
+  /** \brief Returns the smallest share of agreeing support of a hypothesis. */
+  double getMinNormalAgreement() const { return min_normal_agreement_; }
+
+  /** \brief Returns how many hypotheses the last segment() dropped because their
+   * support scattered in normal (setMinNormalAgreement()). */
+  std::size_t getNormalRejectedCount() const { return normal_rejected_; }
+  /** \brief Returns how many eq. 11 inliers (by distance) the last segment()'s
+   * normal test took out of the hypotheses that passed its support test. */
+  std::size_t getNormalRemovedCount() const { return normal_removed_; }
+
   /** \brief Sets the up axis of eqs. 2-3 (the paper's z axis); it is normalised.
    * \param[in] axis non-zero (default (0, 0, 1); (0, -1, 0) for a camera frame) */
   void setUpAxis(const Eigen::Vector3f& axis) { up_axis_ = axis; }
@@ -657,6 +724,18 @@ protected:
   std::size_t visibility_rejected_{0};
   /** \brief Inliers the last segment()'s visibility test took out. */
   std::size_t visibility_removed_{0};
+  /** \brief Surface normals of the input points, or nullptr. */
+  NormalCloudConstPtr normals_;
+  /** \brief Largest angle of the normal test, in radians (0: no test). */
+  double max_normal_angle_{0.0};
+  /** \brief Cell edge of the grid normal estimation, in meters. */
+  double normal_cell_{0.2};
+  /** \brief Smallest share of a hypothesis' support agreeing in normal (0: no test). */
+  double min_normal_agreement_{0.0};
+  /** \brief Hypotheses the last segment() dropped for scattered normals. */
+  std::size_t normal_rejected_{0};
+  /** \brief Distance inliers of kept planes the normal test took out. */
+  std::size_t normal_removed_{0};
 
 private:
   /** \brief Buffers that the rounds of applySegmentation() reuse. */
@@ -734,6 +813,15 @@ private:
   /** \brief The inliers that count toward min_inliers: \a count, or the selected
    * primary points alone when the inlier-only points do not count. */
   std::size_t supportCount(const detail::DensePoints& dense, std::size_t count) const;
+
+  /** \brief The support test of the normal test: whether at least
+   * min_normal_agreement of the plane's eq. 11 inliers by distance that have a normal
+   * agree with it. When they do, leaves the mask on the plane's inliers (with the
+   * normal test); when not, takes the support that disagrees out of \a dense (it
+   * would give the same plane again). */
+  bool passesNormalAgreement(detail::DensePoints& dense,
+                             const Eigen::Vector4f& plane,
+                             float d_t);
 
   /** \brief Applies min_inliers and the sensor, visibility, shell and cluster tests to
    * a plane whose inliers are selected in \a dense, taking out the inliers they reject

@@ -59,6 +59,14 @@ inline constexpr ParamRange SHELL_WIDTH = ParamRange::closed(0.0, 100.0);
 /** \brief Distance threshold of the inlier-only points: [0, 10] meters. */
 inline constexpr ParamRange INLIER_ONLY_DISTANCE_THRESHOLD =
   ParamRange::closed(0.0, 10.0);
+/** \brief Normal test, largest angle between an inlier's normal and its plane's:
+ * [0, pi/2] radians (0: no test). */
+inline constexpr ParamRange MAX_NORMAL_ANGLE = ParamRange::closed(0.0, 1.5708);
+/** \brief Cell edge of the normal estimation: (0, 100] meters. */
+inline constexpr ParamRange NORMAL_CELL = ParamRange::openMin(0.0, 100.0);
+/** \brief Normal test, share of a hypothesis' eq. 11 support that must agree in normal:
+ * [0, 1]. */
+inline constexpr ParamRange MIN_NORMAL_AGREEMENT = ParamRange::closed(0.0, 1.0);
 } // namespace sac_multi_plane_segmentation_ranges
 
 } // namespace planar_grid

@@ -10,6 +10,7 @@
 #include <pcl/common/eigen.h>
 #include <pcl/common/point_tests.h>
 #include <pcl/console/print.h>
+#include <pcl/point_types.h>
 #include <pcl/sample_consensus/msac.h>
 #include <pcl/sample_consensus/prosac.h>
 #include <pcl/sample_consensus/ransac.h>
@@ -35,7 +36,7 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
   namespace ranges = sac_multi_plane_segmentation_ranges;
   // One message per range, written from the range once (static: the returned pointer
   // stays valid).
-  static const std::array<std::string, 23> messages{
+  static const std::array<std::string, 26> messages{
     paramRangeMessage("distance_threshold", ranges::DISTANCE_THRESHOLD, "m"),
     paramRangeMessage("sample_distance_threshold", ranges::SAMPLE_DISTANCE_THRESHOLD,
                       "m"),
@@ -63,8 +64,11 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
     paramRangeMessage("max_shell_ratio", ranges::MAX_SHELL_RATIO),
     paramRangeMessage("shell_width", ranges::SHELL_WIDTH, "m"),
     paramRangeMessage("inlier_only_distance_threshold",
-                      ranges::INLIER_ONLY_DISTANCE_THRESHOLD, "m")};
-  const std::array<bool, 23> valid{
+                      ranges::INLIER_ONLY_DISTANCE_THRESHOLD, "m"),
+    paramRangeMessage("max_normal_angle", ranges::MAX_NORMAL_ANGLE, "rad"),
+    paramRangeMessage("normal_cell", ranges::NORMAL_CELL, "m"),
+    paramRangeMessage("min_normal_agreement", ranges::MIN_NORMAL_AGREEMENT)};
+  const std::array<bool, 26> valid{
     ranges::DISTANCE_THRESHOLD.contains(distance_threshold_),
     !sample_distance_threshold_set_
       || ranges::SAMPLE_DISTANCE_THRESHOLD.contains(sample_distance_threshold_),
@@ -88,7 +92,10 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
     ranges::CLUSTER_CELL.contains(cluster_cell_),
     ranges::MAX_SHELL_RATIO.contains(max_shell_ratio_),
     ranges::SHELL_WIDTH.contains(shell_width_),
-    ranges::INLIER_ONLY_DISTANCE_THRESHOLD.contains(inlier_only_distance_threshold_)};
+    ranges::INLIER_ONLY_DISTANCE_THRESHOLD.contains(inlier_only_distance_threshold_),
+    ranges::MAX_NORMAL_ANGLE.contains(max_normal_angle_),
+    ranges::NORMAL_CELL.contains(normal_cell_),
+    ranges::MIN_NORMAL_AGREEMENT.contains(min_normal_agreement_)};
   for (std::size_t i = 0; i < valid.size(); ++i)
     if (!valid[i])
       return messages[i].c_str();
@@ -108,6 +115,13 @@ SACMultiPlaneSegmentation<PointT>::initCompute()
   if (bad != nullptr) {
     PCL_ERROR("[planar_grid::%s::segment] Invalid parameter: %s.\n",
               getClassName().c_str(), bad);
+    pcl::PCLBase<PointT>::deinitCompute();
+    return false;
+  }
+  if (normals_ && normals_->size() != input_->size()) {
+    PCL_ERROR("[planar_grid::%s::segment] The input normals hold %zu normals for %zu "
+              "input points.\n",
+              getClassName().c_str(), normals_->size(), input_->size());
     pcl::PCLBase<PointT>::deinitCompute();
     return false;
   }
@@ -152,6 +166,8 @@ constexpr float LOCAL_SLAB_FACTOR = 10.0f;
 constexpr std::size_t LOCAL_SAMPLE_SIZE = 5000;
 /** \brief Largest tilt of a terrain plane that the cluster test spares, in radians. */
 constexpr float TERRAIN_TILT = 0.3f;
+/** \brief Fewest points of a grid normal's 3 x 3 x 3 cell block. */
+constexpr std::size_t MIN_NORMAL_POINTS = 6;
 
 } // namespace detail
 
@@ -167,6 +183,8 @@ SACMultiPlaneSegmentation<PointT>::resetRejectionCounts()
   sensor_plane_removed_ = 0;
   cluster_rejected_ = 0;
   cluster_removed_ = 0;
+  normal_rejected_ = 0;
+  normal_removed_ = 0;
 }
 
 template <typename PointT>
@@ -207,6 +225,38 @@ SACMultiPlaneSegmentation<PointT>::collectDensePoints(const Eigen::Vector3f& ori
         inlier_only[i] = 0; // each index once
         addPoint(static_cast<pcl::index_t>(i));
       }
+  if (max_normal_angle_ > 0.0) {
+    // The normal test's normals: the given ones, else fitted on a grid of the points.
+    if (normals_) {
+      const std::size_t n = dense.size();
+      dense.nx.resize(n);
+      dense.ny.resize(n);
+      dense.nz.resize(n);
+      for (std::size_t k = 0; k < n; ++k) {
+        const pcl::Normal& normal = (*normals_)[static_cast<std::size_t>(dense.index[k])];
+        const Eigen::Vector3f v(normal.normal_x, normal.normal_y, normal.normal_z);
+        const float length = v.norm();
+        const bool valid = v.allFinite() && length > 0.0f;
+        dense.nx[k] = valid ? v.x() / length : std::numeric_limits<float>::quiet_NaN();
+        dense.ny[k] = valid ? v.y() / length : std::numeric_limits<float>::quiet_NaN();
+        dense.nz[k] = valid ? v.z() / length : std::numeric_limits<float>::quiet_NaN();
+      }
+    }
+    else {
+      detail::estimateGridNormals(dense.x, dense.y, dense.z,
+                                  static_cast<float>(normal_cell_),
+                                  detail::MIN_NORMAL_POINTS, dense.nx, dense.ny,
+                                  dense.nz);
+    }
+    dense.min_normal_cos = static_cast<float>(std::cos(max_normal_angle_));
+    dense.use_normals = true;
+    // Terrain planes are spared, as by the cluster test: a road's disparity is the
+    // sparsest and noisiest of a street's surfaces, and ground_removal takes the
+    // terrain out whole.
+    dense.terrain_up = up_axis_.normalized();
+    dense.terrain_origin = origin;
+    dense.terrain_cos = std::cos(detail::TERRAIN_TILT);
+  }
   if (depth_noise_coefficient_ > 0.0) {
     // Eq. 11 at the stereo depth error of each point's range (eq. 4's Delta z).
     const auto coefficient = static_cast<float>(depth_noise_coefficient_);
@@ -472,6 +522,49 @@ SACMultiPlaneSegmentation<PointT>::supportCount(const detail::DensePoints& dense
 
 template <typename PointT>
 bool
+SACMultiPlaneSegmentation<PointT>::passesNormalAgreement(detail::DensePoints& dense,
+                                                         const Eigen::Vector4f& plane,
+                                                         float d_t)
+{
+  // Over the eq. 11 support by distance alone, the points with a normal that agree
+  // against all those with a normal: points without one (too few neighbours to
+  // tell) are no evidence either way.
+  dense.use_normals = false;
+  dense.selectInliers(plane, d_t);
+  dense.use_normals = true;
+  std::size_t known = 0, agreeing = 0;
+  for (std::size_t k = 0; k < dense.size(); ++k) {
+    if (!dense.mask[k] || !std::isfinite(dense.nx[k]))
+      continue;
+    ++known;
+    agreeing += std::abs(plane[0] * dense.nx[k] + plane[1] * dense.ny[k]
+                         + plane[2] * dense.nz[k])
+                    >= dense.min_normal_cos
+                  ? 1
+                  : 0;
+  }
+  const bool agrees = known == 0
+                      || static_cast<double>(agreeing)
+                           >= min_normal_agreement_ * static_cast<double>(known);
+  if (agrees) {
+    normal_removed_ += known - agreeing;
+    // The mask is the plane's inliers again (with the normal test).
+    dense.selectInliers(plane, d_t);
+    return true;
+  }
+  PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane whose support scatters in "
+            "normal (%zu of %zu agree).\n",
+            getClassName().c_str(), agreeing, known);
+  // The support that disagrees would only give the same plane again: it leaves the
+  // search (it stays for the non-planar cells); the points that agree or have no
+  // normal stay for the planes they may lie on.
+  dense.deselectOffNormal(plane, /*keep_off_normal=*/true);
+  dense.removeSelected();
+  return false;
+}
+
+template <typename PointT>
+bool
 SACMultiPlaneSegmentation<PointT>::passesPlaneTests(detail::DensePoints& dense,
                                                     const detail::DensePoints& all,
                                                     const Eigen::Vector4f& plane,
@@ -702,6 +795,10 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
     const std::size_t sample_before = remaining.size();
     removeSampleOnPlane(*sample_cloud, plane, sample_t, sample_taken, remaining);
 
+    if (dense.testsNormals(plane) && !passesNormalAgreement(dense, plane, d_t)) {
+      ++normal_rejected_;
+      continue;
+    }
     // The visibility and shell tests read every point's threshold for this plane.
     all.setPlaneThresholds(plane);
     if (!passesPlaneTests(dense, all, plane, origin, up, d_t, count))

@@ -179,6 +179,31 @@ struct DensePoints {
    * and the bounds of its threshold (d_T below, the inlier-only cap above); empty:
    * the threshold does not depend on the plane. */
   std::vector<float> depth_error, ray_x, ray_y, ray_z, floor, cap;
+  /** Per-point unit surface normals (NaN where the neighbourhood is no surface);
+   * empty: no normal test. */
+  std::vector<float> nx, ny, nz;
+  /** Cosine of the largest angle between a point's normal and an inlier's plane
+   * normal (either side); used when the normals are present. */
+  float min_normal_cos{0.0f};
+  /** Whether selectInliers() applies the normal test (the normals present). */
+  bool use_normals{false};
+  /** The normal test spares terrain: a plane whose unit normal lies within
+   * acos(terrain_cos) of terrain_up (either sign) with terrain_origin on its upper
+   * side. terrain_cos > 1: nothing is spared. */
+  Eigen::Vector3f terrain_up{Eigen::Vector3f::UnitZ()};
+  Eigen::Vector3f terrain_origin{Eigen::Vector3f::Zero()};
+  float terrain_cos{2.0f};
+
+  /** \brief Whether the normal test applies to \a plane (the normals present and
+   * the plane no terrain). */
+  bool testsNormals(const Eigen::Vector4f& plane) const
+  {
+    if (!use_normals)
+      return false;
+    const float c = plane.head<3>().dot(terrain_up);
+    const float side = plane.head<3>().dot(terrain_origin) + plane[3];
+    return !(std::abs(c) > terrain_cos && c * side > 0.0f);
+  }
   pcl::Indices index;
   std::vector<std::uint8_t> mask;
   /** The first primary points may make planes; the rest are inlier-only (they stay
@@ -191,20 +216,51 @@ struct DensePoints {
    * none): mask[k] = 1 iff |a x + b y + c z + d| <= threshold[k]; returns the count. */
   std::size_t selectInliers(const Eigen::Vector4f& plane, float t)
   {
-    if (threshold.empty())
-      return select(plane, t);
-    setPlaneThresholds(plane);
-    const std::size_t n = size();
-    mask.resize(n);
     std::size_t count = 0;
-    for (std::size_t k = 0; k < n; ++k) {
-      const float dist =
-        std::abs(plane[0] * x[k] + plane[1] * y[k] + plane[2] * z[k] + plane[3]);
-      const std::uint8_t in = dist <= threshold[k] ? 1 : 0;
-      mask[k] = in;
-      count += in;
+    if (threshold.empty()) {
+      count = select(plane, t);
     }
+    else {
+      setPlaneThresholds(plane);
+      const std::size_t n = size();
+      mask.resize(n);
+      for (std::size_t k = 0; k < n; ++k) {
+        const float dist =
+          std::abs(plane[0] * x[k] + plane[1] * y[k] + plane[2] * z[k] + plane[3]);
+        const std::uint8_t in = dist <= threshold[k] ? 1 : 0;
+        mask[k] = in;
+        count += in;
+      }
+    }
+    if (testsNormals(plane))
+      count -= deselectOffNormal(plane);
     return count;
+  }
+
+  /** \brief The normal test: deselects (mask 0) the selected points whose surface
+   * normal makes more than acos(min_normal_cos) with \a plane's normal (either side);
+   * with \a keep_off_normal, those that agree and those without a normal instead
+   * (the mask keeps the points that disagree). A
+   * point without a normal (NaN: too few neighbours to tell) is no evidence either
+   * way and stays an inlier by distance.
+   * \return the number deselected */
+  std::size_t deselectOffNormal(const Eigen::Vector4f& plane, bool keep_off_normal = false)
+  {
+    std::size_t removed = 0;
+    const float a = plane[0], b = plane[1], c = plane[2];
+    for (std::size_t k = 0; k < size(); ++k) {
+      if (!mask[k])
+        continue;
+      const float dot = std::abs(a * nx[k] + b * ny[k] + c * nz[k]);
+      // NaN compares false: a point without a normal is kept by the test and
+      // deselected by its inverse.
+      const bool disagrees = dot < min_normal_cos;
+      if (disagrees != keep_off_normal) {
+        mask[k] = 0;
+        ++removed;
+      }
+    }
+    return removed;
   }
 
   /** \brief With along-sight depth noise, threshold[k] = min(cap, max(d_T, depth
@@ -287,10 +343,18 @@ struct DensePoints {
         floor[w] = floor[k];
         cap[w] = cap[k];
       }
+      if (!nx.empty()) {
+        nx[w] = nx[k];
+        ny[w] = ny[k];
+        nz[w] = nz[k];
+      }
       index[w] = index[k];
       mask[w] = mask[k];
       ++w;
     }
+    if (!nx.empty())
+      for (auto* v : {&nx, &ny, &nz})
+        v->resize(w);
     x.resize(w);
     y.resize(w);
     z.resize(w);
@@ -304,6 +368,25 @@ struct DensePoints {
     primary -= removed_primary;
   }
 };
+
+/** \brief Surface normals of struct-of-arrays points from a grid of moments: the
+ * points are binned in cubic cells of edge `cell`; each point's normal is the
+ * eigenvector of the smallest eigenvalue of the covariance of the points in the 3 x 3
+ * x 3 block of cells around its own (a cube of edge 3 `cell`), as
+ * pcl::NormalEstimation computes it over a k-d tree neighbourhood, at a fixed cost of
+ * 27 look-ups per occupied cell. A block with fewer than `min_points` points, or
+ * whose points do not span a surface (the middle eigenvalue below 1/16 of the
+ * largest: a line), gives NaN. Not oriented (the sign is arbitrary).
+ * \param[in] x, y, z n coordinates each, meters
+ * \param[out] nx, ny, nz n components each */
+void estimateGridNormals(const std::vector<float>& x,
+                         const std::vector<float>& y,
+                         const std::vector<float>& z,
+                         float cell,
+                         std::size_t min_points,
+                         std::vector<float>& nx,
+                         std::vector<float>& ny,
+                         std::vector<float>& nz);
 
 // The plane tests and the SoA RANSAC below are not templates: they are compiled once,
 // in the library (src/sac_multi_plane_segmentation.cpp), not in every user of this

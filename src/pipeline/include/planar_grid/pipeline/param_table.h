@@ -49,7 +49,10 @@ struct ParamSpec {
     CELL_SIZE,
     /** A count of points on a surface, given for 0.1 m cells: scaled by (0.1 / r)^2
      * (the same area holds that many fewer voxels), at least 10. */
-    POINTS_PER_AREA
+    POINTS_PER_AREA,
+    /** A length given for 0.1 m cells that spans several of them (a neighbourhood
+     * radius): scaled by r / 0.1, in meters. */
+    LENGTH
   };
   /** \brief How the parameter follows the cell size (NONE by default). */
   CellSizeScaling cell_size_scaling{CellSizeScaling::NONE};

@@ -1,0 +1,106 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/stereo/disparity_normals.h>
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace planar_grid {
+
+void
+estimateDisparityNormals(
+  const cv::Mat& disparity,
+  const StereoCalibration& calibration,
+  const std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>>&
+    points_camera,
+  const DisparityNormalParams& params,
+  std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>>& normals)
+{
+  namespace ranges = disparity_normals_ranges;
+  if (!disparity.empty() && disparity.type() != CV_32FC1)
+    throw Exception("estimateDisparityNormals: the disparity must be CV_32FC1");
+  const double f = calibration.focal_length_px;
+  const double fb = f * calibration.baseline_m;
+  if (!(f > 0.0) || !(fb > 0.0) || !std::isfinite(fb))
+    throw Exception("estimateDisparityNormals: the calibration needs a positive focal "
+                    "length and baseline");
+  if (!ranges::WINDOW_RADIUS.contains(params.window_radius_px))
+    throw Exception(paramRangeMessage("window_radius_px", ranges::WINDOW_RADIUS, "px"));
+  if (!ranges::MIN_VALID_FRACTION.contains(params.min_valid_fraction))
+    throw Exception(
+      paramRangeMessage("min_valid_fraction", ranges::MIN_VALID_FRACTION, ""));
+
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  normals.assign(points_camera.size(), Eigen::Vector3f::Constant(nan));
+  if (disparity.empty())
+    return;
+  const int r = params.window_radius_px;
+  const double min_count =
+    std::max(3.0, params.min_valid_fraction * (2 * r + 1) * (2 * r + 1));
+  for (std::size_t k = 0; k < points_camera.size(); ++k) {
+    const Eigen::Vector3f& p = points_camera[k];
+    if (!p.allFinite() || !(p.z() > 0.0f))
+      continue;
+    const double u = f * p.x() / p.z() + calibration.cx_px;
+    const double v = f * p.y() / p.z() + calibration.cy_px;
+    const long ui = std::lround(u), vi = std::lround(v);
+    if (ui < 0 || vi < 0 || ui >= disparity.cols || vi >= disparity.rows)
+      continue;
+    const double own = fb / p.z();
+    const double gate = std::max(2.0, 0.2 * own);
+    // Least squares of d = a du + b dv + c0 over the window, du and dv relative to
+    // (ui, vi): the normal equations' sums.
+    double n = 0, su = 0, sv = 0, suu = 0, suv = 0, svv = 0, sd = 0, sud = 0, svd = 0;
+    const int row_begin = std::max<long>(0, vi - r);
+    const int row_end = std::min<long>(disparity.rows - 1, vi + r);
+    const int col_begin = std::max<long>(0, ui - r);
+    const int col_end = std::min<long>(disparity.cols - 1, ui + r);
+    for (int row = row_begin; row <= row_end; ++row) {
+      const float* line = disparity.ptr<float>(row);
+      const double dv = row - vi;
+      for (int col = col_begin; col <= col_end; ++col) {
+        const double d = line[col];
+        if (!(d > 0.0) || std::abs(d - own) > gate)
+          continue;
+        const double du = col - ui;
+        const double e = d - own; // centred: better conditioned sums
+        n += 1;
+        su += du;
+        sv += dv;
+        suu += du * du;
+        suv += du * dv;
+        svv += dv * dv;
+        sd += e;
+        sud += du * e;
+        svd += dv * e;
+      }
+    }
+    if (n < min_count)
+      continue;
+    Eigen::Matrix3d normal_matrix;
+    normal_matrix << suu, suv, su, suv, svv, sv, su, sv, n;
+    const Eigen::Vector3d rhs(sud, svd, sd);
+    const Eigen::LDLT<Eigen::Matrix3d> ldlt(normal_matrix);
+    if (ldlt.info() != Eigen::Success || !(ldlt.rcond() > 1e-9))
+      continue;
+    const Eigen::Vector3d abc = ldlt.solve(rhs);
+    const double a = abc[0], b = abc[1];
+    // Disparity at pixel (0, 0): c = own + c0 - a ui - b vi.
+    const double c = own + abc[2] - a * static_cast<double>(ui) - b * static_cast<double>(vi);
+    Eigen::Vector3d normal(a * f, b * f, c + a * calibration.cx_px + b * calibration.cy_px);
+    const double length = normal.norm();
+    if (!(length > 0.0) || !std::isfinite(length))
+      continue;
+    normal /= length;
+    // Toward the camera: the point's line of sight p meets the normal at n . p < 0.
+    if (normal.dot(p.cast<double>()) > 0.0)
+      normal = -normal;
+    normals[k] = normal.cast<float>();
+  }
+}
+
+} // namespace planar_grid
