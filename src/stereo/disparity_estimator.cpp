@@ -389,6 +389,23 @@ DisparityEstimator::DisparityEstimator(const Params& params) : params_(params)
   }
 }
 
+void
+DisparityEstimator::checkImageWidth(int width_px) const
+{
+  // At the matched scale (downscale 2 pads an odd width by one pixel).
+  const int s = params_.downscale;
+  const int matched_width = (width_px + s - 1) / s;
+  const int range = params_.num_disparities_px / s + std::abs(params_.min_disparity_px / s);
+  if (matched_width <= range)
+    throw Exception("DisparityEstimator: the images are " + std::to_string(width_px)
+                    + " px wide, not wider than num_disparities_px ("
+                    + std::to_string(params_.num_disparities_px)
+                    + ") + |min_disparity_px| ("
+                    + std::to_string(std::abs(params_.min_disparity_px))
+                    + "): no column can be matched (OpenCV's StereoSGBM aborts on such "
+                      "images); lower num_disparities_px below the width");
+}
+
 DisparityEstimator::~DisparityEstimator() = default;
 DisparityEstimator::DisparityEstimator(DisparityEstimator&&) noexcept = default;
 DisparityEstimator&
@@ -423,6 +440,7 @@ DisparityEstimator::compute(const cv::Mat& left,
                     "type");
   if (left.type() != CV_8UC1 && left.type() != CV_8UC3)
     throw Exception("DisparityEstimator::compute: images must be CV_8UC1 or CV_8UC3");
+  checkImageWidth(left.cols);
 
   cv::Mat fixed_point; // CV_16S, disparity * 16
   if (params_.row_downscale == 2) {

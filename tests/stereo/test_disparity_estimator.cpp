@@ -139,6 +139,41 @@ TEST(DisparityEstimator, RejectsBadImages)
                planar_grid::Exception);
 }
 
+TEST(DisparityEstimator, RejectsImagesNoWiderThanTheDisparityRange)
+{
+  // OpenCV's MODE_SGBM_3WAY aborts on images no wider than the disparity range: they
+  // are refused with the width and the parameter named; one column more runs.
+  DisparityEstimator::Params params;
+  params.algorithm = planar_grid::DisparityAlgorithm::SGBM_3WAY;
+  params.num_disparities_px = 128;
+  const DisparityEstimator estimator(params);
+  cv::Mat disparity;
+  for (const int width : {16, 100, 127, 128}) {
+    cv::Mat grey(60, width, CV_8UC1);
+    cv::randu(grey, 0, 255);
+    try {
+      estimator.compute(grey, grey, disparity);
+      ADD_FAILURE() << "width " << width << " was accepted";
+    } catch (const planar_grid::Exception& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(std::to_string(width) + " px wide"), std::string::npos) << what;
+      EXPECT_NE(what.find("num_disparities_px (128)"), std::string::npos) << what;
+    }
+  }
+  cv::Mat grey(60, 129, CV_8UC1);
+  cv::randu(grey, 0, 255);
+  EXPECT_NO_THROW(estimator.compute(grey, grey, disparity));
+  EXPECT_EQ(disparity.cols, 129);
+  // min_disparity_px widens the range; at half resolution both halve.
+  params.min_disparity_px = 16;
+  EXPECT_THROW(DisparityEstimator(params).checkImageWidth(144), planar_grid::Exception);
+  EXPECT_NO_THROW(DisparityEstimator(params).checkImageWidth(145));
+  params.min_disparity_px = 0;
+  params.downscale = 2;
+  EXPECT_THROW(DisparityEstimator(params).checkImageWidth(128), planar_grid::Exception);
+  EXPECT_NO_THROW(DisparityEstimator(params).checkImageWidth(130));
+}
+
 // A textureless pair has no disparity signal: every pixel is NaN (no match, e.g. the
 // band left of num_disparities) or 0 (SGBM resolves the all-equal costs to
 // min_disparity = 0, i.e. infinitely far, which disparityToPointCloud drops). Checked

@@ -216,6 +216,14 @@ public:
    * \return *this */
   DisparityEstimator& operator=(DisparityEstimator&& other) noexcept;
 
+  /** \brief Throws planar_grid::Exception, naming the width and the parameter, when
+   * images \a width_px pixels wide are not wider than num_disparities_px +
+   * |min_disparity_px|: no column of them can be matched, and OpenCV's StereoSGBM
+   * (MODE_SGBM_3WAY) aborts the process on them. compute() checks every pair; a
+   * caller that knows the width before the first pair (a calibration's image size, a
+   * CameraInfo) can refuse it earlier. */
+  void checkImageWidth(int width_px) const;
+
   /** \brief Computes the disparity of the left image.
    * \param[in] left rectified left image, CV_8UC1 or CV_8UC3
    * \param[in] right rectified right image, same size and type
