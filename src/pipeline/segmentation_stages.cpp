@@ -85,7 +85,7 @@ public:
     segmentation_.setNormalCell(v.getDouble("normal_cell_m"));
     segmentation_.setMinNormalAgreement(v.getDouble("min_normal_agreement"));
     use_disparity_normals_ = v.getChoice("normal_source") == "auto";
-    disparity_normals_.window_radius_px = v.getInt("normal_window_radius_px");
+    disparity_normals_.window_radius_m = v.getDouble("normal_window_m");
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -194,7 +194,7 @@ public:
     v.set("normal_cell_m", s.getNormalCell());
     v.set("min_normal_agreement", s.getMinNormalAgreement());
     v.set("normal_source", std::string(use_disparity_normals_ ? "auto" : "cloud"));
-    v.set("normal_window_radius_px", disparity_normals_.window_radius_px);
+    v.set("normal_window_m", disparity_normals_.window_radius_m);
   }
 
   void counters(const Frame& frame,
@@ -719,11 +719,12 @@ multiPlaneSegmentationInfo()
                       "disparities around each point's pixel, planar_grid::"
                       "estimateDisparityNormals), else the cloud; cloud, the points of "
                       "the normal_cell_m grid."),
-    ParamSpec::integer("normal_window_radius_px", DisparityNormalParams{}.window_radius_px,
-                       disparity_normals_ranges::WINDOW_RADIUS, "px",
-                       "Disparity normals: half-width of the window around a point's "
-                       "pixel."),
-    ParamSpec::real("min_normal_agreement", 0.5, ranges::MIN_NORMAL_AGREEMENT, "",
+    ParamSpec::real("normal_window_m", DisparityNormalParams{}.window_radius_m,
+                    disparity_normals_ranges::WINDOW_RADIUS, "m",
+                    "Disparity normals: half-width of the window around a point's "
+                    "pixel, on the surface at the point's depth (f r / z pixels, 4 to "
+                    "60)."),
+    ParamSpec::real("min_normal_agreement", 0.35, ranges::MIN_NORMAL_AGREEMENT, "",
                     "Normal test: a hypothesis whose inliers by distance agree with its "
                     "normal less often than this is dropped (a plane through "
                     "vegetation, clutter, or across a surface at an angle). The "

@@ -28,8 +28,14 @@ estimateDisparityNormals(
   if (!(f > 0.0) || !(fb > 0.0) || !std::isfinite(fb))
     throw Exception("estimateDisparityNormals: the calibration needs a positive focal "
                     "length and baseline");
-  if (!ranges::WINDOW_RADIUS.contains(params.window_radius_px))
-    throw Exception(paramRangeMessage("window_radius_px", ranges::WINDOW_RADIUS, "px"));
+  if (!ranges::WINDOW_RADIUS.contains(params.window_radius_m))
+    throw Exception(paramRangeMessage("window_radius_m", ranges::WINDOW_RADIUS, "m"));
+  if (!ranges::WINDOW_RADIUS_PX.contains(params.min_window_radius_px)
+      || !ranges::WINDOW_RADIUS_PX.contains(params.max_window_radius_px)
+      || params.min_window_radius_px > params.max_window_radius_px)
+    throw Exception("estimateDisparityNormals: min_window_radius_px and "
+                    "max_window_radius_px must be in [1, 200] px, the first no larger "
+                    "than the second");
   if (!ranges::MIN_VALID_FRACTION.contains(params.min_valid_fraction))
     throw Exception(
       paramRangeMessage("min_valid_fraction", ranges::MIN_VALID_FRACTION, ""));
@@ -38,9 +44,8 @@ estimateDisparityNormals(
   normals.assign(points_camera.size(), Eigen::Vector3f::Constant(nan));
   if (disparity.empty())
     return;
-  const int r = params.window_radius_px;
-  const double min_count =
-    std::max(3.0, params.min_valid_fraction * (2 * r + 1) * (2 * r + 1));
+  // Wide windows are read at a stride: about 2 x HALF_SAMPLES + 1 pixels a side.
+  constexpr int HALF_SAMPLES = 7;
   for (std::size_t k = 0; k < points_camera.size(); ++k) {
     const Eigen::Vector3f& p = points_camera[k];
     if (!p.allFinite() || !(p.z() > 0.0f))
@@ -52,21 +57,30 @@ estimateDisparityNormals(
       continue;
     const double own = fb / p.z();
     const double gate = std::max(2.0, 0.2 * own);
+    const int r = static_cast<int>(std::clamp<double>(
+      std::round(f * params.window_radius_m / p.z()), params.min_window_radius_px,
+      params.max_window_radius_px));
+    const int stride = std::max(1, (r + HALF_SAMPLES - 1) / HALF_SAMPLES);
+    const int half = r / stride;
+    const double min_count =
+      std::max(3.0, params.min_valid_fraction * (2 * half + 1) * (2 * half + 1));
     // Least squares of d = a du + b dv + c0 over the window, du and dv relative to
     // (ui, vi): the normal equations' sums.
     double n = 0, su = 0, sv = 0, suu = 0, suv = 0, svv = 0, sd = 0, sud = 0, svd = 0;
-    const int row_begin = std::max<long>(0, vi - r);
-    const int row_end = std::min<long>(disparity.rows - 1, vi + r);
-    const int col_begin = std::max<long>(0, ui - r);
-    const int col_end = std::min<long>(disparity.cols - 1, ui + r);
-    for (int row = row_begin; row <= row_end; ++row) {
-      const float* line = disparity.ptr<float>(row);
-      const double dv = row - vi;
-      for (int col = col_begin; col <= col_end; ++col) {
+    for (int j = -half; j <= half; ++j) {
+      const long row = vi + static_cast<long>(j) * stride;
+      if (row < 0 || row >= disparity.rows)
+        continue;
+      const float* line = disparity.ptr<float>(static_cast<int>(row));
+      const double dv = static_cast<double>(row - vi);
+      for (int i = -half; i <= half; ++i) {
+        const long col = ui + static_cast<long>(i) * stride;
+        if (col < 0 || col >= disparity.cols)
+          continue;
         const double d = line[col];
         if (!(d > 0.0) || std::abs(d - own) > gate)
           continue;
-        const double du = col - ui;
+        const double du = static_cast<double>(col - ui);
         const double e = d - own; // centred: better conditioned sums
         n += 1;
         su += du;

@@ -109,7 +109,8 @@ oraclePlanePrecision(const pcl::PointCloud<pcl::PointXYZ>& truth,
                      double r,
                      const MappingErrorRegion& region)
 {
-  const float radius = static_cast<float>(std::max(2.0 * r, 0.2));
+  const float radius =
+    static_cast<float>(std::max(2.0 * r, planar_grid::PLANE_PRECISION_MIN_RADIUS_M));
   const double min_cos = std::cos(20.0 * M_PI / 180.0);
   PlanePrecision out;
   for (const auto& c : cuboids) {
@@ -146,7 +147,7 @@ oraclePlanePrecision(const pcl::PointCloud<pcl::PointXYZ>& truth,
         // Singular values come in decreasing order: s(0) >= s(1) >= s(2).
         const Eigen::JacobiSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinV);
         const Eigen::Vector3d s = svd.singularValues();
-        if (!(s(1) * s(1) > 1e-6 * s(0) * s(0)) || !(s(2) * s(2) < 0.25 * s(1) * s(1)))
+        if (!(s(1) * s(1) > 1e-6 * s(0) * s(0)) || !(s(2) * s(2) < planar_grid::PLANE_PRECISION_MAX_EIGENVALUE_RATIO * s(1) * s(1)))
           continue;
         const Eigen::Vector3d normal = svd.matrixV().col(2);
         if (std::abs(normal.dot(c.normal.cast<double>().normalized())) >= min_cos) {

@@ -236,7 +236,7 @@ TEST(PlanePrecision, MatchesTheBruteForceOracle)
 {
   // A room corner: the floor z = 0 and the wall x = 0 over [0, 2] m, every 0.04 m,
   // with 5 mm of noise; random planar cells near it, facing the floor's or the wall's
-  // normal turned by up to 40 degrees, at two cell sizes (neighbourhood radii 0.2 m
+  // normal turned by up to 40 degrees, at two cell sizes (neighbourhood radii 0.4 m
   // and 0.5 m).
   std::mt19937 rng(7);
   std::normal_distribution<float> noise(0.0f, 0.005f);

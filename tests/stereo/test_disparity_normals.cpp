@@ -115,8 +115,8 @@ TEST(DisparityNormals, ExactOnNoiselessPlanes)
 
 TEST(DisparityNormals, NoisyDisparityGivesNormalsWithinAFewDegrees)
 {
-  // 0.2 px of noise on a facade 6-15 m away seen at 45 degrees: a 15 x 15 window's
-  // fit keeps the normal within a few degrees (a 3D fit of the points would turn with
+  // 0.2 px of noise on a facade 6-15 m away seen at 45 degrees: the window's fit
+  // keeps the normal within a few degrees (a 3D fit of the points would turn with
   // the depth noise along the lines of sight).
   const StereoCalibration c = calibration();
   const Eigen::Vector3d n = Eigen::Vector3d(-1.0, 0.0, 1.0).normalized();
@@ -185,7 +185,12 @@ TEST(DisparityNormals, BadInputIsAnError)
     estimateDisparityNormals(disparity, no_baseline, points, DisparityNormalParams{}, normals),
     planar_grid::Exception);
   DisparityNormalParams bad;
-  bad.window_radius_px = 0;
+  bad.window_radius_m = 0.0;
+  EXPECT_THROW(estimateDisparityNormals(disparity, c, points, bad, normals),
+               planar_grid::Exception);
+  bad = DisparityNormalParams{};
+  bad.min_window_radius_px = 10;
+  bad.max_window_radius_px = 5;
   EXPECT_THROW(estimateDisparityNormals(disparity, c, points, bad, normals),
                planar_grid::Exception);
   bad = DisparityNormalParams{};

@@ -225,11 +225,14 @@ constexpr std::size_t PLANE_PRECISION_MIN_POINTS = 5;
 /** \brief Largest ratio of the smallest to the middle eigenvalue of the covariance of
  * a face sample's truth points for them to form a surface (evaluatePlanePrecision()):
  * above it the points spread in three directions (a corner, clutter) and give no
- * normal. \ingroup eval */
-constexpr double PLANE_PRECISION_MAX_EIGENVALUE_RATIO = 0.25;
+ * normal. A stereo reference is a surface as thick as its depth noise (0.1-0.3 m):
+ * over a 0.4 m neighbourhood a wall's ratio is about 0.1-0.4. \ingroup eval */
+constexpr double PLANE_PRECISION_MAX_EIGENVALUE_RATIO = 0.5;
 /** \brief Smallest radius of a face sample's neighbourhood, meters; the radius is the
- * larger of this and 2 resolution_m (evaluatePlanePrecision()). \ingroup eval */
-constexpr double PLANE_PRECISION_MIN_RADIUS_M = 0.2;
+ * larger of this and 2 resolution_m (evaluatePlanePrecision()): wide enough that a
+ * stereo reference's surface, as thick as its depth noise, still has a normal.
+ * \ingroup eval */
+constexpr double PLANE_PRECISION_MIN_RADIUS_M = 0.4;
 
 /** \brief Plane precision of PG's planar cells: their face area and the part of it
  * where the truth is a surface of the cell's orientation. \ingroup eval */

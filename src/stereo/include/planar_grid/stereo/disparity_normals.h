@@ -15,19 +15,29 @@ namespace planar_grid {
 
 /** \brief The valid ranges of DisparityNormalParams. */
 namespace disparity_normals_ranges {
-/** \brief Half-width of the fitting window: [1, 50] px. */
-inline constexpr ParamRange WINDOW_RADIUS = ParamRange::closed(1, 50);
+/** \brief Half-width of the fitting window on the surface: (0, 10] m. */
+inline constexpr ParamRange WINDOW_RADIUS = ParamRange::openMin(0.0, 10.0);
+/** \brief Bounds of the fitting window's half-width in the image: [1, 200] px. */
+inline constexpr ParamRange WINDOW_RADIUS_PX = ParamRange::closed(1, 200);
 /** \brief Smallest share of the window's pixels that take part: (0, 1]. */
 inline constexpr ParamRange MIN_VALID_FRACTION = ParamRange::openMin(0.0, 1.0);
 } // namespace disparity_normals_ranges
 
 /** \brief Parameters of estimateDisparityNormals(). \ingroup stereo */
 struct DisparityNormalParams {
-  /** \brief Half-width of the square window around a point's pixel, in pixels (a
-   * window of (2 r + 1)^2 pixels). */
-  int window_radius_px{7};
-  /** \brief A window needs at least this share of its pixels valid and near the
-   * point's own disparity (within 20 %, at least 2 px). */
+  /** \brief Half-width of the square window around a point's pixel, in meters on a
+   * fronto-parallel surface at the point's depth z: f window_radius_m / z pixels,
+   * within [min_window_radius_px, max_window_radius_px]. The disparity noise is about
+   * the same everywhere, so a window of a fixed metric size gives about the same
+   * normal noise near and far. */
+  double window_radius_m{0.2};
+  /** \brief Smallest half-width of the window, in pixels. */
+  int min_window_radius_px{4};
+  /** \brief Largest half-width of the window, in pixels; wider windows are read at a
+   * stride that keeps about 15 x 15 pixels. */
+  int max_window_radius_px{60};
+  /** \brief A window needs at least this share of the pixels it reads valid and near
+   * the point's own disparity (within 20 %, at least 2 px). */
   double min_valid_fraction{0.5};
 };
 
