@@ -527,7 +527,8 @@ estimateGridNormals(const std::vector<float>& x,
     for (int dx = -1; dx <= 1; ++dx)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dz = -1; dz <= 1; ++dz) {
-          const std::uint32_t j = index_of.find(pack(cells[id] + Eigen::Vector3i(dx, dy, dz)));
+          const std::uint32_t j =
+            index_of.find(pack(cells[id] + Eigen::Vector3i(dx, dy, dz)));
           if (j == CellIndex::NONE)
             continue;
           block.count += moments[j].count;

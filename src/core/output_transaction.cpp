@@ -69,6 +69,24 @@ checkName(const std::string& folder, const std::string& name)
                         "not starting with '.planar_grid_')");
 }
 
+/** The first folder on the way from \a root to its output \a name that is a symbolic
+ * link (empty when none is): a name is checked lexically, but what it resolves to
+ * decides where a rename or a removal lands, and through a link that is outside the
+ * output folder. */
+fs::path
+linkOnTheWay(const fs::path& root, const std::string& name)
+{
+  std::error_code ec;
+  fs::path at = root;
+  const fs::path parent = fs::path(name).parent_path();
+  for (const auto& part : parent) {
+    at /= part;
+    if (fs::is_symlink(fs::symlink_status(at, ec)))
+      return at;
+  }
+  return {};
+}
+
 /** The parsed journal: the staging folder's name, the files to move in and the files
  * to remove. */
 struct Journal {
@@ -180,6 +198,15 @@ applyJournal(const std::string& folder,
                         + (root / OutputTransaction::JOURNAL).string()
                         + "); nothing was moved");
   for (const auto& name : journal.put) {
+    const fs::path link = linkOnTheWay(root, name);
+    if (!link.empty())
+      throw OutputError((root / name).string() + ": " + link.string()
+                        + " is a symbolic link: the output would land outside the "
+                          "output folder; nothing was moved there (remove the link; "
+                          "the next run into "
+                        + folder + " then completes the commit)");
+  }
+  for (const auto& name : journal.put) {
     const fs::path from = staging / name;
     const fs::path to = root / name;
     if (fs::exists(from, ec)) {
@@ -196,7 +223,9 @@ applyJournal(const std::string& folder,
       step("put " + name);
   }
   for (const auto& name : journal.remove) {
-    fs::remove(root / name, ec);
+    // A name through a linked folder is not ours to remove: it lies outside.
+    if (linkOnTheWay(root, name).empty())
+      fs::remove(root / name, ec);
     if (step)
       step("remove " + name);
   }
@@ -331,7 +360,13 @@ void
 OutputTransaction::lock()
 {
   const fs::path path = fs::path(folder_) / LOCK;
-  lock_fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  // O_NOFOLLOW: a symbolic link in its place would make the pid land in (and
+  // truncate) whatever it points to.
+  lock_fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
+  if (lock_fd_ < 0 && errno == ELOOP)
+    throw OutputError(path.string()
+                      + ": is a symbolic link; the lock file is not followed through "
+                        "links (remove it)");
   if (lock_fd_ < 0)
     throw OutputError(folder_ + ": cannot write into the output folder (creating "
                       + path.filename().string() + "): " + std::strerror(errno));

@@ -724,11 +724,12 @@ multiPlaneSegmentationInfo()
                     "Disparity normals: half-width of the window around a point's "
                     "pixel, on the surface at the point's depth (f r / z pixels, 4 to "
                     "60)."),
-    ParamSpec::real("min_normal_agreement", 0.35, ranges::MIN_NORMAL_AGREEMENT, "",
-                    "Normal test: a hypothesis whose inliers by distance agree with its "
-                    "normal less often than this is dropped (a plane through "
-                    "vegetation, clutter, or across a surface at an angle). The "
-                    "pipeline's value; the class defaults to 0 (no test)."),
+    ParamSpec::real(
+      "min_normal_agreement", 0.35, ranges::MIN_NORMAL_AGREEMENT, "",
+      "Normal test: a hypothesis whose inliers by distance agree with its "
+      "normal less often than this is dropped (a plane through "
+      "vegetation, clutter, or across a surface at an angle). The "
+      "pipeline's value; the class defaults to 0 (no test)."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     return std::make_unique<MultiPlaneSegmentationStage>(v);

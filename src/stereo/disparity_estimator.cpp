@@ -395,7 +395,8 @@ DisparityEstimator::checkImageWidth(int width_px) const
   // At the matched scale (downscale 2 pads an odd width by one pixel).
   const int s = params_.downscale;
   const int matched_width = (width_px + s - 1) / s;
-  const int range = params_.num_disparities_px / s + std::abs(params_.min_disparity_px / s);
+  const int range =
+    params_.num_disparities_px / s + std::abs(params_.min_disparity_px / s);
   if (matched_width <= range)
     throw Exception("DisparityEstimator: the images are " + std::to_string(width_px)
                     + " px wide, not wider than num_disparities_px ("

@@ -57,9 +57,9 @@ estimateDisparityNormals(
       continue;
     const double own = fb / p.z();
     const double gate = std::max(2.0, 0.2 * own);
-    const int r = static_cast<int>(std::clamp<double>(
-      std::round(f * params.window_radius_m / p.z()), params.min_window_radius_px,
-      params.max_window_radius_px));
+    const int r = static_cast<int>(
+      std::clamp<double>(std::round(f * params.window_radius_m / p.z()),
+                         params.min_window_radius_px, params.max_window_radius_px));
     const int stride = std::max(1, (r + HALF_SAMPLES - 1) / HALF_SAMPLES);
     const int half = r / stride;
     const double min_count =
@@ -104,8 +104,10 @@ estimateDisparityNormals(
     const Eigen::Vector3d abc = ldlt.solve(rhs);
     const double a = abc[0], b = abc[1];
     // Disparity at pixel (0, 0): c = own + c0 - a ui - b vi.
-    const double c = own + abc[2] - a * static_cast<double>(ui) - b * static_cast<double>(vi);
-    Eigen::Vector3d normal(a * f, b * f, c + a * calibration.cx_px + b * calibration.cy_px);
+    const double c =
+      own + abc[2] - a * static_cast<double>(ui) - b * static_cast<double>(vi);
+    Eigen::Vector3d normal(a * f, b * f,
+                           c + a * calibration.cx_px + b * calibration.cy_px);
     const double length = normal.norm();
     if (!(length > 0.0) || !std::isfinite(length))
       continue;

@@ -384,6 +384,60 @@ TEST_F(OutputTransactionTest, SecondRunIntoTheFolderFailsNamingTheHolder)
   EXPECT_NO_THROW(OutputTransaction third(folder_.string()));
 }
 
+TEST_F(OutputTransactionTest, LockFileIsNotFollowedThroughALink)
+{
+  // A link in the lock file's place would have the run truncate its target and write
+  // its process id into it: the run refuses, naming the link, and the target keeps
+  // its bytes.
+  fs::create_directories(folder_);
+  const fs::path precious = dir_ / "precious.txt";
+  {
+    std::ofstream(precious) << "keep me";
+  }
+  fs::create_symlink(precious, folder_ / OutputTransaction::LOCK);
+  try {
+    OutputTransaction transaction(folder_.string());
+    ADD_FAILURE() << "no exception";
+  } catch (const planar_grid::IOError& e) {
+    EXPECT_NE(std::string(e.what()).find("is a symbolic link"), std::string::npos)
+      << e.what();
+  }
+  std::ifstream in(precious);
+  const std::string text((std::istreambuf_iterator<char>(in)),
+                         std::istreambuf_iterator<char>());
+  EXPECT_EQ(text, "keep me");
+}
+
+TEST_F(OutputTransactionTest, NamesThroughALinkedFolderTouchNothingOutside)
+{
+  // The old set has sub/c.txt; sub is then replaced by a link to another folder that
+  // holds a file of the same name. The next set without sub/c.txt must not remove the
+  // linked file, and a set with sub/c.txt must not write through the link.
+  commitSet(old_files_);
+  const fs::path elsewhere = dir_ / "elsewhere";
+  fs::create_directories(elsewhere);
+  {
+    std::ofstream(elsewhere / "c.txt") << "not ours";
+  }
+  fs::remove_all(folder_ / "sub");
+  fs::create_symlink(elsewhere, folder_ / "sub");
+  auto without_sub = new_files_;
+  without_sub.erase("sub/c.txt");
+  commitSet(without_sub);
+  ASSERT_TRUE(fs::exists(elsewhere / "c.txt"));
+  try {
+    commitSet(new_files_);
+    ADD_FAILURE() << "no exception";
+  } catch (const planar_grid::IOError& e) {
+    EXPECT_NE(std::string(e.what()).find("is a symbolic link"), std::string::npos)
+      << e.what();
+  }
+  std::ifstream in(elsewhere / "c.txt");
+  const std::string text((std::istreambuf_iterator<char>(in)),
+                         std::istreambuf_iterator<char>());
+  EXPECT_EQ(text, "not ours");
+}
+
 TEST_F(OutputTransactionTest, LockOfAKilledRunIsReleased)
 {
   // A child takes the folder and waits; while it lives the folder is refused, naming

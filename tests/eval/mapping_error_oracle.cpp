@@ -147,7 +147,9 @@ oraclePlanePrecision(const pcl::PointCloud<pcl::PointXYZ>& truth,
         // Singular values come in decreasing order: s(0) >= s(1) >= s(2).
         const Eigen::JacobiSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinV);
         const Eigen::Vector3d s = svd.singularValues();
-        if (!(s(1) * s(1) > 1e-6 * s(0) * s(0)) || !(s(2) * s(2) < planar_grid::PLANE_PRECISION_MAX_EIGENVALUE_RATIO * s(1) * s(1)))
+        if (!(s(1) * s(1) > 1e-6 * s(0) * s(0))
+            || !(s(2) * s(2)
+                 < planar_grid::PLANE_PRECISION_MAX_EIGENVALUE_RATIO * s(1) * s(1)))
           continue;
         const Eigen::Vector3d normal = svd.matrixV().col(2);
         if (std::abs(normal.dot(c.normal.cast<double>().normalized())) >= min_cos) {

@@ -1072,7 +1072,8 @@ TEST(SACMultiPlaneSegmentation, NormalTestKeepsTheWallAndTakesTheCanopyOut)
     return std::make_pair(wall, canopy);
   };
   const auto before = split(segmentWallAndCanopyWithNormals(0.0, 0.0));
-  ASSERT_GE(before.second, 2000u) << "without the test RANSAC finds slabs in the canopy";
+  ASSERT_GE(before.second, 2000u)
+    << "without the test RANSAC finds slabs in the canopy";
   std::size_t rejected = 0;
   const PlanarSegments with = segmentWallAndCanopyWithNormals(30 * DEG, 0.5, &rejected);
   const auto after = split(with);
@@ -1179,8 +1180,9 @@ TEST(SACMultiPlaneSegmentation, GivenNormalsDecideTheInliers)
   auto normals = std::make_shared<pcl::PointCloud<pcl::Normal>>();
   for (std::size_t i = 0; i < cloud->size(); ++i) {
     const Eigen::Vector3f n =
-      i < wall_points ? Eigen::Vector3f::UnitX()
-                      : Eigen::Vector3f(gauss(rng), gauss(rng), gauss(rng)).normalized();
+      i < wall_points
+        ? Eigen::Vector3f::UnitX()
+        : Eigen::Vector3f(gauss(rng), gauss(rng), gauss(rng)).normalized();
     normals->push_back(pcl::Normal(n.x(), n.y(), n.z()));
   }
   seg.setInputNormals(normals);

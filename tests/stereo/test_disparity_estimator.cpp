@@ -156,7 +156,8 @@ TEST(DisparityEstimator, RejectsImagesNoWiderThanTheDisparityRange)
       ADD_FAILURE() << "width " << width << " was accepted";
     } catch (const planar_grid::Exception& e) {
       const std::string what = e.what();
-      EXPECT_NE(what.find(std::to_string(width) + " px wide"), std::string::npos) << what;
+      EXPECT_NE(what.find(std::to_string(width) + " px wide"), std::string::npos)
+        << what;
       EXPECT_NE(what.find("num_disparities_px (128)"), std::string::npos) << what;
     }
   }

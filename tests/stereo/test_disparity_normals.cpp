@@ -77,8 +77,8 @@ planePoints(const StereoCalibration& c, const Eigen::Vector3d& n, double d)
 double
 angleDeg(const Eigen::Vector3f& a, const Eigen::Vector3d& b)
 {
-  return std::acos(std::min(1.0, std::abs(a.cast<double>().normalized().dot(b)))) * 180.0
-         / M_PI;
+  return std::acos(std::min(1.0, std::abs(a.cast<double>().normalized().dot(b))))
+         * 180.0 / M_PI;
 }
 
 TEST(DisparityNormals, ExactOnNoiselessPlanes)
@@ -146,8 +146,8 @@ TEST(DisparityNormals, ObjectInFrontDoesNotTiltTheWall)
   for (int v = 0; v < c.height; ++v)
     for (int u = 600; u < 700; ++u)
       disparity.at<float>(v, u) = static_cast<float>(post);
-  Points points{Eigen::Vector3f(static_cast<float>((703 - c.cx_px) * 10.0 / c.focal_length_px),
-                                0.0f, 10.0f)};
+  Points points{Eigen::Vector3f(
+    static_cast<float>((703 - c.cx_px) * 10.0 / c.focal_length_px), 0.0f, 10.0f)};
   Points normals;
   estimateDisparityNormals(disparity, c, points, DisparityNormalParams{}, normals);
   ASSERT_TRUE(normals[0].allFinite());
@@ -160,9 +160,9 @@ TEST(DisparityNormals, UndefinedWhereThereIsNothingToFit)
   const StereoCalibration c = calibration();
   cv::Mat disparity(c.height, c.width, CV_32FC1,
                     cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
-  const Points points{Eigen::Vector3f(0, 0, 10), Eigen::Vector3f(0, 0, -10),
-                      Eigen::Vector3f(100, 0, 1),
-                      Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN())};
+  const Points points{
+    Eigen::Vector3f(0, 0, 10), Eigen::Vector3f(0, 0, -10), Eigen::Vector3f(100, 0, 1),
+    Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN())};
   Points normals;
   estimateDisparityNormals(disparity, c, points, DisparityNormalParams{}, normals);
   ASSERT_EQ(normals.size(), points.size());
@@ -181,9 +181,9 @@ TEST(DisparityNormals, BadInputIsAnError)
   StereoCalibration no_baseline = c;
   no_baseline.baseline_m = 0.0;
   const cv::Mat disparity(10, 10, CV_32FC1, cv::Scalar(10.0f));
-  EXPECT_THROW(
-    estimateDisparityNormals(disparity, no_baseline, points, DisparityNormalParams{}, normals),
-    planar_grid::Exception);
+  EXPECT_THROW(estimateDisparityNormals(disparity, no_baseline, points,
+                                        DisparityNormalParams{}, normals),
+               planar_grid::Exception);
   DisparityNormalParams bad;
   bad.window_radius_m = 0.0;
   EXPECT_THROW(estimateDisparityNormals(disparity, c, points, bad, normals),

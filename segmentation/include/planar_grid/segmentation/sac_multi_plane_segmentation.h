@@ -530,15 +530,12 @@ public:
   /** \brief Sets the surface normals of the input cloud, one per input point (as
    * pcl::SACSegmentationFromNormals takes them; e.g. from
    * pcl::IntegralImageNormalEstimation on an organized cloud or pcl::NormalEstimation);
-   * a NaN normal marks a point whose normal is unknown (judged by distance alone). Without them (nullptr, the
-   * default) and with the normal test on, segment() estimates them on a grid of
-   * setNormalCell() (detail::estimateGridNormals). A cloud of another size than the
-   * input is an error of segment().
-   * \param[in] normals unit normals, any sign, or nullptr */
-  void setInputNormals(const NormalCloudConstPtr& normals)
-  {
-    normals_ = normals;
-  }
+   * a NaN normal marks a point whose normal is unknown (judged by distance alone).
+   * Without them (nullptr, the default) and with the normal test on, segment()
+   * estimates them on a grid of setNormalCell() (detail::estimateGridNormals). A cloud
+   * of another size than the input is an error of segment(). \param[in] normals unit
+   * normals, any sign, or nullptr */
+  void setInputNormals(const NormalCloudConstPtr& normals) { normals_ = normals; }
   /** \brief Returns the normals set by setInputNormals(), or nullptr. */
   NormalCloudConstPtr getInputNormals() const { return normals_; }
 
@@ -553,8 +550,8 @@ public:
    * (within 0.3 rad of the up axis, the sensor above them) are spared, as by the
    * cluster test. Not in the paper; PCL's SACSegmentationFromNormals weighs the same
    * angle into its distance.
-   * \param[in] angle_rad radians, in sac_multi_plane_segmentation_ranges::MAX_NORMAL_ANGLE
-   * (default 0: no test) */
+   * \param[in] angle_rad radians, in
+   * sac_multi_plane_segmentation_ranges::MAX_NORMAL_ANGLE (default 0: no test) */
   void setMaxNormalAngle(double angle_rad) { max_normal_angle_ = angle_rad; }
   /** \brief Returns the largest angle of the normal test, in radians (0: no test). */
   double getMaxNormalAngle() const { return max_normal_angle_; }

@@ -233,7 +233,8 @@ SACMultiPlaneSegmentation<PointT>::collectDensePoints(const Eigen::Vector3f& ori
       dense.ny.resize(n);
       dense.nz.resize(n);
       for (std::size_t k = 0; k < n; ++k) {
-        const pcl::Normal& normal = (*normals_)[static_cast<std::size_t>(dense.index[k])];
+        const pcl::Normal& normal =
+          (*normals_)[static_cast<std::size_t>(dense.index[k])];
         const Eigen::Vector3f v(normal.normal_x, normal.normal_y, normal.normal_z);
         const float length = v.norm();
         const bool valid = v.allFinite() && length > 0.0f;
@@ -241,12 +242,10 @@ SACMultiPlaneSegmentation<PointT>::collectDensePoints(const Eigen::Vector3f& ori
         dense.ny[k] = valid ? v.y() / length : std::numeric_limits<float>::quiet_NaN();
         dense.nz[k] = valid ? v.z() / length : std::numeric_limits<float>::quiet_NaN();
       }
-    }
-    else {
-      detail::estimateGridNormals(dense.x, dense.y, dense.z,
-                                  static_cast<float>(normal_cell_),
-                                  detail::MIN_NORMAL_POINTS, dense.nx, dense.ny,
-                                  dense.nz);
+    } else {
+      detail::estimateGridNormals(
+        dense.x, dense.y, dense.z, static_cast<float>(normal_cell_),
+        detail::MIN_NORMAL_POINTS, dense.nx, dense.ny, dense.nz);
     }
     dense.min_normal_cos = static_cast<float>(std::cos(max_normal_angle_));
     dense.use_normals = true;
@@ -537,11 +536,11 @@ SACMultiPlaneSegmentation<PointT>::passesNormalAgreement(detail::DensePoints& de
     if (!dense.mask[k] || !std::isfinite(dense.nx[k]))
       continue;
     ++known;
-    agreeing += std::abs(plane[0] * dense.nx[k] + plane[1] * dense.ny[k]
-                         + plane[2] * dense.nz[k])
-                    >= dense.min_normal_cos
-                  ? 1
-                  : 0;
+    agreeing +=
+      std::abs(plane[0] * dense.nx[k] + plane[1] * dense.ny[k] + plane[2] * dense.nz[k])
+          >= dense.min_normal_cos
+        ? 1
+        : 0;
   }
   const bool agrees = known == 0
                       || static_cast<double>(agreeing)

@@ -219,8 +219,7 @@ struct DensePoints {
     std::size_t count = 0;
     if (threshold.empty()) {
       count = select(plane, t);
-    }
-    else {
+    } else {
       setPlaneThresholds(plane);
       const std::size_t n = size();
       mask.resize(n);
@@ -244,7 +243,8 @@ struct DensePoints {
    * point without a normal (NaN: too few neighbours to tell) is no evidence either
    * way and stays an inlier by distance.
    * \return the number deselected */
-  std::size_t deselectOffNormal(const Eigen::Vector4f& plane, bool keep_off_normal = false)
+  std::size_t deselectOffNormal(const Eigen::Vector4f& plane,
+                                bool keep_off_normal = false)
   {
     std::size_t removed = 0;
     const float a = plane[0], b = plane[1], c = plane[2];

@@ -6,7 +6,6 @@
 
 #include <Eigen/Core>
 #include <Eigen/StdVector>
-
 #include <opencv2/core/mat.hpp>
 
 #include <vector>
