@@ -71,11 +71,13 @@ def test_the_tile_merge_equals_the_tree_merge(jobs):
                                         [106.4, 18.4, 8.0])
     agree = np.mean(merged.get_state(probes) == tree_tiles.get_state(probes))
     assert agree >= 0.999, agree
-    # Planar cuboids within 5 % of the tree's (measured: 399 against 386, +3.4 %): the
+    # Planar cuboids within 10 % of the tree's (measured: 174 against 165, +5.5 %): the
     # rectangles the tree's tidying absorbed into a parallel plane stay, and the covers
-    # of planes that met in some tiles only differ near those tiles' borders.
+    # of planes that met in some tiles only differ near those tiles' borders; a few
+    # cuboids weigh more now that the segmentation's normal test leaves fewer planar
+    # ones (399 against 386 without it).
     ratio = planar_count(merged) / planar_count(tree_tiles)
-    assert 0.95 <= ratio <= 1.05, (planar_count(merged), planar_count(tree_tiles))
+    assert 0.90 <= ratio <= 1.10, (planar_count(merged), planar_count(tree_tiles))
     assert len(merged.planes) >= 1
 
 

@@ -81,7 +81,7 @@ public:
     segmentation_.setInlierOnlyDistanceThreshold(
       v.getDouble("inlier_only_distance_threshold_m"));
     segmentation_.setDepthNoiseAlongSight(v.getBool("depth_noise_along_sight"));
-    segmentation_.setMaxNormalAngle(v.getDouble("max_normal_angle_rad"));
+    max_normal_angle_rad_ = v.getDouble("max_normal_angle_rad");
     segmentation_.setNormalCell(v.getDouble("normal_cell_m"));
     segmentation_.setMinNormalAgreement(v.getDouble("min_normal_agreement"));
     use_disparity_normals_ = v.getChoice("normal_source") == "auto";
@@ -137,7 +137,12 @@ public:
           inlier_only->push_back(static_cast<pcl::index_t>(i));
     }
     segmentation_.setInlierOnlyIndices(inlier_only);
-    segmentation_.setInputNormals(disparityNormals(frame));
+    // auto: the normal test on the frames with a disparity image only; the normals a
+    // grid fits to a noisy stereo or depth cloud turn with its depth noise.
+    const bool test_normals = max_normal_angle_rad_ > 0.0
+                              && (!use_disparity_normals_ || !frame.disparity.empty());
+    segmentation_.setMaxNormalAngle(test_normals ? max_normal_angle_rad_ : 0.0);
+    segmentation_.setInputNormals(test_normals ? disparityNormals(frame) : nullptr);
     segmentation_.segment(frame.planes);
     if (inlier_only) {
       // The inlier-only points no plane took make no cells.
@@ -190,7 +195,7 @@ public:
     v.set("shell_width_m", s.getShellWidth());
     v.set("count_inlier_only_points", s.getCountInlierOnlyPoints());
     v.set("inlier_only_distance_threshold_m", s.getInlierOnlyDistanceThreshold());
-    v.set("max_normal_angle_rad", s.getMaxNormalAngle());
+    v.set("max_normal_angle_rad", max_normal_angle_rad_);
     v.set("normal_cell_m", s.getNormalCell());
     v.set("min_normal_agreement", s.getMinNormalAgreement());
     v.set("normal_source", std::string(use_disparity_normals_ ? "auto" : "cloud"));
@@ -233,7 +238,7 @@ public:
       values.emplace_back("cluster_removed",
                           static_cast<double>(segmentation_.getClusterRemovedCount()));
     }
-    if (segmentation_.getMaxNormalAngle() > 0.0) {
+    if (max_normal_angle_rad_ > 0.0) {
       values.emplace_back("normal_dropped",
                           static_cast<double>(segmentation_.getNormalRejectedCount()));
       values.emplace_back("normal_removed",
@@ -249,12 +254,11 @@ public:
 
 private:
   /** The normals of the normal test from the frame's disparity image (in the cloud's
-   * frame), or nullptr where the segmentation fits them to the cloud: the test is off,
-   * normal_source is cloud, or the frame has no disparity image (point-cloud and
-   * depth-image input). */
+   * frame), or nullptr where the segmentation fits them to the cloud (normal_source
+   * cloud, or no disparity image). */
   pcl::PointCloud<pcl::Normal>::ConstPtr disparityNormals(const Frame& frame) const
   {
-    if (!(segmentation_.getMaxNormalAngle() > 0.0) || !use_disparity_normals_
+    if (!use_disparity_normals_
         || frame.disparity.empty() || !(frame.calibration.focal_length_px > 0.0)
         || !(frame.calibration.baseline_m > 0.0))
       return nullptr;
@@ -357,6 +361,7 @@ private:
   }
 
   SACMultiPlaneSegmentation<pcl::PointXYZI> segmentation_;
+  double max_normal_angle_rad_{0.0};
   bool use_disparity_normals_{true};
   DisparityNormalParams disparity_normals_;
   bool use_features_;
@@ -715,10 +720,11 @@ multiPlaneSegmentationInfo()
       .scalesWithCellSize(ParamSpec::CellSizeScaling::LENGTH),
     ParamSpec::choice("normal_source", "auto", {"auto", "cloud"},
                       "Where the normal test's normals come from: auto, the frame's "
-                      "disparity image where it has one (a plane fitted to the "
-                      "disparities around each point's pixel, planar_grid::"
-                      "estimateDisparityNormals), else the cloud; cloud, the points of "
-                      "the normal_cell_m grid."),
+                      "disparity image (a plane fitted to the disparities around each "
+                      "point's pixel, planar_grid::estimateDisparityNormals); frames "
+                      "without one (point clouds, depth images) get no normal test; "
+                      "cloud, the points of the normal_cell_m grid, for every input "
+                      "(for clouds whose noise is well below normal_cell_m)."),
     ParamSpec::real("normal_window_m", DisparityNormalParams{}.window_radius_m,
                     disparity_normals_ranges::WINDOW_RADIUS, "m",
                     "Disparity normals: half-width of the window around a point's "
