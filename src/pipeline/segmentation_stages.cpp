@@ -258,8 +258,8 @@ private:
    * cloud, or no disparity image). */
   pcl::PointCloud<pcl::Normal>::ConstPtr disparityNormals(const Frame& frame) const
   {
-    if (!use_disparity_normals_
-        || frame.disparity.empty() || !(frame.calibration.focal_length_px > 0.0)
+    if (!use_disparity_normals_ || frame.disparity.empty()
+        || !(frame.calibration.focal_length_px > 0.0)
         || !(frame.calibration.baseline_m > 0.0))
       return nullptr;
     const auto& cloud = *frame.cloud;
