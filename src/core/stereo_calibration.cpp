@@ -17,6 +17,10 @@ StereoCalibration::validate(const std::string& source) const
             << focal_length_px;
   else if (!std::isfinite(baseline_m) || baseline_m <= 0.0)
     problem << "baseline must be a positive number of metres, got " << baseline_m;
+  else if (baseline_m < MIN_BASELINE_M || baseline_m > MAX_BASELINE_M)
+    problem << "the baseline is " << baseline_m << " m, outside [" << MIN_BASELINE_M
+            << ", " << MAX_BASELINE_M
+            << "] m for a stereo rig (a wrong unit or a corrupt value)";
   else if (!std::isfinite(cx_px) || !std::isfinite(cy_px))
     problem << "principal point must be finite, got (" << cx_px << ", " << cy_px << ")";
   else if (width < 0 || height < 0)

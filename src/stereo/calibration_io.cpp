@@ -148,11 +148,11 @@ readTextProjectionRows(const std::string& path,
     throw IOError(path + ": missing row '" + right_key + "'");
 }
 
-/** \brief The baselines of real stereo rigs lie between a few millimetres (phone and
- * endoscope cameras) and a few tens of metres (wide-baseline rigs); a value outside
- * [1 mm, 100 m] is a wrong unit or a corrupt row, and would scale every depth by it. */
-constexpr double MIN_BASELINE_M = 1e-3;
-constexpr double MAX_BASELINE_M = 100.0;
+/** \brief The baselines of real stereo rigs (StereoCalibration's bounds, [1 mm,
+ * 100 m]); a value outside is a wrong unit or a corrupt row, and would scale every
+ * depth by it. */
+constexpr double MIN_BASELINE_M = StereoCalibration::MIN_BASELINE_M;
+constexpr double MAX_BASELINE_M = StereoCalibration::MAX_BASELINE_M;
 
 /** \brief Throws an IOError naming \a where when \a baseline_m is a positive finite
  * number outside [MIN_BASELINE_M, MAX_BASELINE_M]; other values are left to

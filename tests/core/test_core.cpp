@@ -107,6 +107,17 @@ TEST(StereoCalibration, ValidateRejectsBadValuesNamingSource)
   calibration = karlsruheCalibration();
   calibration.baseline_m = std::numeric_limits<double>::infinity();
   expectRejected(calibration);
+  // Outside what stereo rigs have: millimetres taken for metres, or a corrupt value.
+  for (const double baseline : {1e6, 570.7, 0.9e-3}) {
+    calibration = karlsruheCalibration();
+    calibration.baseline_m = baseline;
+    expectRejected(calibration);
+  }
+  for (const double baseline : {1e-3, 100.0}) {
+    calibration = karlsruheCalibration();
+    calibration.baseline_m = baseline;
+    EXPECT_NO_THROW(calibration.validate("my_calib.txt")) << baseline;
+  }
   calibration = karlsruheCalibration();
   calibration.cx_px = nan;
   expectRejected(calibration);

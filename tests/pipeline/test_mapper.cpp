@@ -240,6 +240,12 @@ TEST_F(MapperTest, BadInputThrowsWithAClearMessage)
   expectThrowWith(
     [&] { mapper.integrateStereo(frame.left, frame.right, no_baseline, pose); },
     "Mapper::integrateStereo: the calibration");
+  // Held to the file readers' rules: a baseline of 1e6 m would map every pixel free.
+  planar_grid::StereoCalibration huge_baseline = calibration;
+  huge_baseline.baseline_m = 1e6;
+  expectThrowWith(
+    [&] { mapper.integrateStereo(frame.left, frame.right, huge_baseline, pose); },
+    "the baseline is 1e+06 m, outside [0.001, 100] m for a stereo rig");
   // No pose, and the main job's poses come from the input, not visual_odometry.
   expectThrowWith([&] { mapper.integrateStereo(frame.left, frame.right, calibration); },
                   "has no visual_odometry stage to estimate it: pass world_T_camera");

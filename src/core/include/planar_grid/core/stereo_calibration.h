@@ -13,6 +13,13 @@ namespace planar_grid {
  * y = (v - cy_px) z / focal_length_px in the left camera frame (x right, y down,
  * z forward, metres). \ingroup core */
 struct StereoCalibration {
+  /** \brief Smallest baseline of a stereo rig, in metres: phone and endoscope cameras
+   * have a few millimetres; below, a wrong unit or a corrupt value. */
+  static constexpr double MIN_BASELINE_M = 1e-3;
+  /** \brief Largest baseline of a stereo rig, in metres: wide-baseline rigs have a few
+   * tens; above, a wrong unit (millimetres read as metres) or a corrupt value. */
+  static constexpr double MAX_BASELINE_M = 100.0;
+
   /** \brief Focal length of the rectified cameras, in pixels (> 0). */
   double focal_length_px{0.0};
   /** \brief Principal point column, in pixels. */
@@ -27,7 +34,10 @@ struct StereoCalibration {
   int height{0};
 
   /** \brief Throws planar_grid::IOError naming \a source when the focal length or
-   * baseline is not a finite positive number, or the image size is negative.
+   * baseline is not a finite positive number, the baseline lies outside
+   * [MIN_BASELINE_M, MAX_BASELINE_M], or the image size is negative. Every source
+   * holds a calibration to it: the file readers, Mapper and the ROS node's
+   * CameraInfo.
    * \param[in] source the file the calibration came from, for the message */
   void validate(const std::string& source) const;
 
