@@ -23,6 +23,8 @@ The command planar_grid_batch runs main(); docs/SCALE.md has the measured figure
 from __future__ import annotations
 
 import dataclasses
+import errno
+import fcntl
 import json
 import os
 import shutil
@@ -380,9 +382,12 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
         the remaining tasks are cancelled and the segment maps already written stay in
         output_dir.
     OSError
-        When output_dir cannot be created.
+        When output_dir cannot be created, or another run (a batch job or
+        planar_grid_pipeline) holds it: the job takes the folder's lock
+        (``output_dir/.planar_grid_lock``, flock(2), never through a symbolic link)
+        before its first task, and the message names the holder's process id.
     """
-    import distributed  # only this function needs Dask
+    import distributed  # noqa: F401 (without Dask, fail before touching the folder)
 
     job_start = time.perf_counter()
     configs = [os.path.abspath(os.fspath(c)) for c in
@@ -407,6 +412,64 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
         raise ValueError("give either segments or frames, not both")
     explicit = _as_segments(configs, segments)
     output_dir = os.path.abspath(os.fspath(output_dir))
+    os.makedirs(output_dir, exist_ok=True)
+    lock = _lock_output_folder(output_dir)
+    try:
+        return _map_segments_locked(configs, explicit, num_segments, frames, output_dir,
+                                    scheduler_address, n_workers, tile_size_m, merge,
+                                    tiles_per_task, progress, job_start)
+    finally:
+        # Closing the descriptor releases the lock; the file stays (as the pipeline's).
+        os.close(lock)
+
+
+LOCK_NAME = ".planar_grid_lock"
+"""The output folder's lock file, the one planar_grid_pipeline takes (flock(2))."""
+
+
+def _lock_output_folder(output_dir: str) -> int:
+    """Takes the output folder's lock, as planar_grid_pipeline does: an exclusive
+    flock(2) on OUTPUT/.planar_grid_lock, not followed through a symbolic link, holding
+    this process's id; the kernel releases it when the process ends. Returns the
+    descriptor. Raises OSError naming the folder and the holder's process id when
+    another run (a batch job or the pipeline) holds it."""
+    path = os.path.join(output_dir, LOCK_NAME)
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC | os.O_NOFOLLOW, 0o644)
+    except OSError as e:
+        if e.errno == errno.ELOOP:
+            raise OSError(e.errno, f"{path}: is a symbolic link; the lock file is not "
+                                   "followed through links (remove it)") from None
+        raise OSError(e.errno, f"{output_dir}: cannot write into the output folder "
+                               f"(creating {LOCK_NAME}): {e.strerror}") from None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError as e:
+        holder = os.pread(fd, 31, 0).decode("ascii", "replace").strip()
+        os.close(fd)
+        if e.errno in (errno.EWOULDBLOCK, errno.EAGAIN):
+            who = f"process {holder}" if holder else "process id unknown"
+            raise OSError(errno.EBUSY, f"{output_dir}: the output folder is in use by "
+                                       f"another run ({who} holds {path}); wait for it "
+                                       "to finish or choose another output folder") \
+                from None
+        raise OSError(e.errno, f"{path}: cannot lock the output folder: {e.strerror}") \
+            from None
+    os.ftruncate(fd, 0)
+    os.pwrite(fd, f"{os.getpid()}\n".encode("ascii"), 0)
+    return fd
+
+
+def _map_segments_locked(configs: List[str], explicit: Optional[List[Segment]],
+                         num_segments: int,
+                         frames: Optional[Tuple[Optional[int], Optional[int]]],
+                         output_dir: str, scheduler_address: Optional[str],
+                         n_workers: int, tile_size_m: Optional[float], merge: str,
+                         tiles_per_task: int,
+                         progress: Union[bool, Callable[[str], None]],
+                         job_start: float) -> Dict[str, Any]:
+    """map_segments() with the output folder locked."""
+    import distributed  # only map_segments() needs Dask
     for sub in ("segments", "merges"):
         os.makedirs(os.path.join(output_dir, sub), exist_ok=True)
 

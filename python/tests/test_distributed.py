@@ -4,6 +4,7 @@ cluster of 2 worker processes (loopback only) and merged, against one run of the
 frames (states, planar cuboids, one plane per facade); a worker killed while it maps a
 segment; a segment on bad input; the command planar_grid_batch's exit statuses. Every
 cluster is stopped by the test that starts it."""
+import fcntl
 import json
 import os
 import pathlib
@@ -289,3 +290,33 @@ def test_command_exit_statuses(config, tmp_path):
                             str(tmp_path / "out"), cwd=tmp_path)
     assert config_error.returncode == pgd.EXIT_CONFIG, config_error
     assert "bad.yaml" in config_error.stderr, config_error.stderr
+
+
+def test_a_second_job_into_the_folder_is_refused(config, tmp_path):
+    # Another run holds the folder's lock (the pipeline's lock file, flock(2)): the job
+    # is refused before its first task, naming the holder, and the command exits 5.
+    out = tmp_path / "job"
+    out.mkdir()
+    holder = os.open(out / pgd.LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(holder, fcntl.LOCK_EX)
+        os.write(holder, b"4242\n")
+        with pytest.raises(OSError, match=r"in use by another run \(process 4242 holds"):
+            pgd.map_segments(config, frames=(0, 2), num_segments=1, n_workers=1,
+                             output_dir=out, progress=False)
+        assert not (out / "segments").exists()
+        refused = run_tool("--config", config, "--frames", "0:2", "--segments", "1",
+                           "--workers", "1", "--output", str(out), cwd=tmp_path)
+        assert refused.returncode == pgd.EXIT_OUTPUT, refused
+        assert "in use by another run (process 4242" in refused.stderr, refused.stderr
+    finally:
+        os.close(holder)
+    # A link in the lock file's place is not followed: its target keeps its bytes.
+    (out / pgd.LOCK_NAME).unlink()
+    precious = tmp_path / "precious.txt"
+    precious.write_text("keep me", encoding="utf-8")
+    os.symlink(precious, out / pgd.LOCK_NAME)
+    with pytest.raises(OSError, match="is a symbolic link"):
+        pgd.map_segments(config, frames=(0, 2), num_segments=1, n_workers=1,
+                         output_dir=out, progress=False)
+    assert precious.read_text(encoding="utf-8") == "keep me"
