@@ -187,6 +187,13 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
     if (node["folder"] && out.folder.empty())
       r.fail(node["folder"], "output.folder is empty: name the folder to write the "
                              "outputs into");
+    // A shell expands these; a YAML file does not, and the run would create a folder
+    // named "~" or "$HOME" in the working folder.
+    if (node["folder"]
+        && (out.folder.front() == '~' || out.folder.find('$') != std::string::npos))
+      r.fail(node["folder"], "output.folder '" + out.folder
+                               + "': a configuration does not expand '~' or $VARIABLES "
+                                 "as a shell does; give the path itself");
     if (node["folder"] && fs::exists(out.folder, ec)
         && !fs::is_directory(out.folder, ec))
       r.fail(node["folder"], "output.folder '" + out.folder

@@ -498,6 +498,27 @@ TEST_F(BadStereoInputTest, EmptyOutputFolderIsRefused)
   EXPECT_CONTAINS(what, "output.folder is empty");
 }
 
+TEST_F(BadStereoInputTest, UnexpandedHomeOrVariableInTheOutputFolderIsRefused)
+{
+  writePairs(2);
+  // A configuration is no shell: "~/maps" or "$HOME/maps" would create folders of those
+  // literal names in the working folder.
+  for (const std::string folder : {"~/maps", "$HOME/maps", "maps/${RUN}"}) {
+    std::string yaml = config(0);
+    const std::string line = "folder: " + (dir_ / "out").string();
+    yaml.replace(yaml.find(line), line.size(), "folder: \"" + folder + "\"");
+    const std::string what = setupError(yaml);
+    EXPECT_CONTAINS(what, "t.yaml:");
+    EXPECT_CONTAINS(what, "does not expand '~' or $VARIABLES");
+  }
+  const ToolRun run = runTool(config(0), "--output '~/maps'");
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_CONTAINS(run.output,
+                  "--output '~/maps': '~' or a $VARIABLE the shell did not");
+  EXPECT_TRUE(noOutputs()) << run.output;
+  EXPECT_FALSE(fs::exists("~")) << "a folder named ~ in the working folder";
+}
+
 namespace {
 
 /** The 21 x 21 points of a wall, x and y = (0, 5, ..., 100 plus \a offset) times \a
