@@ -394,6 +394,13 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
                ([config] if isinstance(config, (str, os.PathLike)) else list(config))]
     if not configs:
         raise ValueError("no configuration given")
+    seen: Dict[str, str] = {}
+    for c in configs:
+        first = seen.setdefault(os.path.realpath(c), c)
+        if first != c or sum(1 for d in configs if d == c) > 1:
+            raise ValueError(f"the configuration {c} is given twice (also as {first}): "
+                             "a recording merged with itself counts its observations "
+                             "twice")
     if n_workers < 1:
         raise ValueError(f"n_workers must be >= 1, not {n_workers}")
     if num_segments < 1:

@@ -320,3 +320,13 @@ def test_a_second_job_into_the_folder_is_refused(config, tmp_path):
         pgd.map_segments(config, frames=(0, 2), num_segments=1, n_workers=1,
                          output_dir=out, progress=False)
     assert precious.read_text(encoding="utf-8") == "keep me"
+
+
+def test_a_configuration_given_twice_is_refused(config, tmp_path):
+    # One recording twice in one world frame would count each observation twice.
+    for again in (config, os.path.join(os.path.dirname(config), ".",
+                                       os.path.basename(config))):
+        with pytest.raises(ValueError, match="is given twice"):
+            pgd.map_segments([config, again], num_segments=1, n_workers=1,
+                             output_dir=tmp_path / "twice", progress=False)
+    assert not (tmp_path / "twice").exists()

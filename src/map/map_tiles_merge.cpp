@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <charconv>
 #include <filesystem>
+#include <map>
 #include <set>
 #include <string>
 #include <utility>
@@ -38,6 +39,20 @@ readAgreeingIndices(const std::vector<std::string>& folders, const std::string& 
 {
   if (folders.empty())
     throw Exception(caller + ": no tile folder given");
+  // A set merged with itself would count every observation twice.
+  std::map<fs::path, std::string> seen;
+  for (const std::string& folder : folders) {
+    std::error_code ec;
+    fs::path resolved = fs::weakly_canonical(fs::path(folder), ec);
+    if (ec)
+      resolved = fs::absolute(fs::path(folder)).lexically_normal();
+    const auto [at, inserted] = seen.emplace(resolved, folder);
+    if (!inserted)
+      throw Exception(caller + ": tile folder " + folder + " is given twice (also as "
+                      + at->second
+                      + "): a set merged with itself counts its "
+                        "observations twice");
+  }
   std::vector<MapTileIndex> indices;
   for (const std::string& folder : folders) {
     MapTileIndex index = readTileIndex(folder);

@@ -282,7 +282,8 @@ TEST_F(MapTilesMergeTest, AnEmptySetChangesNothing)
               alone.getSurfaceLayer().getPlanes().size());
   }
   // Only empty sets: an empty set.
-  const MapTileIndex none = planar_grid::mergeTileSets({empty, empty}, folder("none"));
+  const std::string empty2 = saved(PlanarGridMap(street::params()), "empty2");
+  const MapTileIndex none = planar_grid::mergeTileSets({empty, empty2}, folder("none"));
   EXPECT_TRUE(none.tiles.empty());
   EXPECT_EQ(planar_grid::loadTiles(folder("none"), EVERYWHERE),
             PlanarGridMap(street::params()));
@@ -321,6 +322,14 @@ TEST_F(MapTilesMergeTest, SetsThatDoNotMatchAreRefusedNamingTheFolder)
   error = errorOf({good, saved(PlanarGridMap(free_prior), "free")});
   EXPECT_NE(error.find(folder("free")), std::string::npos) << error;
   EXPECT_NE(error.find("prior free"), std::string::npos) << error;
+  // one set twice, however the path is spelled: it would count its observations twice
+  for (const std::string& again : {good, good + "/.", good + "/../good"}) {
+    error = errorOf({good, again});
+    EXPECT_NE(error.find("is given twice"), std::string::npos)
+      << again << ": " << error;
+    EXPECT_NE(error.find(again), std::string::npos) << error;
+  }
+  EXPECT_THROW(planar_grid::mergeTile({good, good}, 0, 0, folder("out"), 1), Exception);
   // not a tile folder
   EXPECT_THROW(planar_grid::mergeTileSets({good, folder("missing")}, folder("out")),
                IOError);
