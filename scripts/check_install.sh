@@ -229,6 +229,12 @@ if cmake -S "$work/unknown" -B "$work/unknown/build" -DCMAKE_PREFIX_PATH="$prefi
 fi
 grep -q "Unknown PlanarGrid component 'no_such_module'" "$work/unknown.log" \
   || { cat "$work/unknown.log" >&2; echo "check_install: unclear error for an unknown component" >&2; exit 1; }
+# The message is one sentence, not a CMake list ("PlanarGrid ;0.1.0").
+if grep -q "PlanarGrid ;" "$work/unknown.log"; then
+  cat "$work/unknown.log" >&2
+  echo "check_install: the unknown-component message is a ';'-joined list" >&2
+  exit 1
+fi
 
 # The Debian package of the same build (cmake/PlanarGridPackaging.cmake), checked without
 # installing it: this machine's /usr stays as it was. dpkg-deb extracts it into a
