@@ -396,11 +396,12 @@ def map_segments(config: Union[PathLike, Sequence[PathLike]], *,
         raise ValueError("no configuration given")
     seen: Dict[str, str] = {}
     for c in configs:
-        first = seen.setdefault(os.path.realpath(c), c)
-        if first != c or sum(1 for d in configs if d == c) > 1:
-            raise ValueError(f"the configuration {c} is given twice (also as {first}): "
-                             "a recording merged with itself counts its observations "
-                             "twice")
+        real = os.path.realpath(c)
+        if real in seen:
+            raise ValueError(f"the configuration {c} is given twice (also as "
+                             f"{seen[real]}): a recording merged with itself counts its "
+                             "observations twice")
+        seen[real] = c
     if n_workers < 1:
         raise ValueError(f"n_workers must be >= 1, not {n_workers}")
     if num_segments < 1:

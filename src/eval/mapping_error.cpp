@@ -204,14 +204,11 @@ cuboids(const PlanarCuboids& cuboids,
     const Eigen::Vector3d centre = c.centre.cast<double>();
     const double w = c.width_m, h = c.height_m, t = c.thickness_m;
     for (std::int64_t k = 0; k < nn; ++k) {
-      const double on =
-        ((static_cast<double>(k) + 0.5) / static_cast<double>(nn) - 0.5) * t;
+      const double on = detail::sampleOffset(k, nn, t);
       for (std::int64_t j = 0; j < nv; ++j) {
-        const double ov =
-          ((static_cast<double>(j) + 0.5) / static_cast<double>(nv) - 0.5) * h;
+        const double ov = detail::sampleOffset(j, nv, h);
         for (std::int64_t i = 0; i < nu; ++i) {
-          const double ou =
-            ((static_cast<double>(i) + 0.5) / static_cast<double>(nu) - 0.5) * w;
+          const double ou = detail::sampleOffset(i, nu, w);
           counter.add((centre + ou * u + ov * v + on * n).cast<float>());
         }
       }

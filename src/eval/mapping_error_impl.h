@@ -43,5 +43,14 @@ samplesAlong(float extent_m, double resolution_m)
                  : (n > 1e9 ? std::int64_t{1000000001} : static_cast<std::int64_t>(n));
 }
 
+/** \brief The offset from a cuboid's centre along one axis of sample \a i of the \a n
+ * that samplesAlong() gives an \a extent_m: the centre of the i-th of n equal
+ * sub-intervals, meters. */
+inline double
+sampleOffset(std::int64_t i, std::int64_t n, double extent_m)
+{
+  return ((static_cast<double>(i) + 0.5) / static_cast<double>(n) - 0.5) * extent_m;
+}
+
 } // namespace detail
 } // namespace planar_grid

@@ -98,11 +98,9 @@ evaluatePlanePrecision(const PlanarCuboids& cuboids,
     const double sample_area_m2 =
       w * h / (static_cast<double>(nu) * static_cast<double>(nv));
     for (std::int64_t j = 0; j < nv; ++j) {
-      const double ov =
-        ((static_cast<double>(j) + 0.5) / static_cast<double>(nv) - 0.5) * h;
+      const double ov = detail::sampleOffset(j, nv, h);
       for (std::int64_t i = 0; i < nu; ++i) {
-        const double ou =
-          ((static_cast<double>(i) + 0.5) / static_cast<double>(nu) - 0.5) * w;
+        const double ou = detail::sampleOffset(i, nu, w);
         const Eigen::Vector3f sample = (face_centre + ou * u + ov * v).cast<float>();
         if (!region.contains(sample))
           continue;

@@ -977,14 +977,23 @@ wallAndCanopy()
   return cloud;
 }
 
-PlanarSegments
-segmentWallAndCanopy(double max_conflict_ratio)
+/** A segmentation of \a cloud (the wall and canopy) with the settings its tests share:
+ * d_T 0.05 m, 400 inliers, 4 planes. */
+SACMultiPlaneSegmentation<pcl::PointXYZ>
+wallAndCanopySegmentation(const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud)
 {
   SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
-  seg.setInputCloud(wallAndCanopy());
+  seg.setInputCloud(cloud);
   seg.setDistanceThreshold(0.05);
   seg.setMinInliers(400);
   seg.setMaxPlanes(4);
+  return seg;
+}
+
+PlanarSegments
+segmentWallAndCanopy(double max_conflict_ratio)
+{
+  auto seg = wallAndCanopySegmentation(wallAndCanopy());
   seg.setMaxVisibilityConflictRatio(max_conflict_ratio);
   PlanarSegments planes;
   seg.segment(planes);
@@ -1044,11 +1053,7 @@ segmentWallAndCanopyWithNormals(double angle_rad,
                                 double agreement,
                                 std::size_t* rejected = nullptr)
 {
-  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
-  seg.setInputCloud(wallAndCanopy());
-  seg.setDistanceThreshold(0.05);
-  seg.setMinInliers(400);
-  seg.setMaxPlanes(4);
+  auto seg = wallAndCanopySegmentation(wallAndCanopy());
   seg.setMaxNormalAngle(angle_rad);
   seg.setNormalCell(0.2);
   seg.setMinNormalAgreement(agreement);
@@ -1168,11 +1173,7 @@ TEST(SACMultiPlaneSegmentation, GivenNormalsDecideTheInliers)
 {
   const auto cloud = wallAndCanopy();
   const std::size_t wall_points = 80 * 60;
-  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
-  seg.setInputCloud(cloud);
-  seg.setDistanceThreshold(0.05);
-  seg.setMinInliers(400);
-  seg.setMaxPlanes(4);
+  auto seg = wallAndCanopySegmentation(cloud);
   seg.setMaxNormalAngle(30 * DEG);
   // The wall's points are said to face x, the canopy's anywhere: no plane is left.
   std::mt19937 rng(4);

@@ -570,8 +570,8 @@ public:
    * inliers by distance alone that have a normal agree with its normal less often
    * than `ratio` is rejected whatever its count: its support scatters in normal (a
    * plane through vegetation or clutter, or across a surface at an angle). Its
-   * support that disagrees or has no normal leaves the search (it would give the same
-   * plane again). Needs
+   * support that disagrees leaves the search (it would give the same plane again);
+   * the points that agree or have no normal stay. Needs
    * setMaxNormalAngle() > 0. \param[in] ratio in
    * sac_multi_plane_segmentation_ranges::MIN_NORMAL_AGREEMENT (default 0: no test) */
   void setMinNormalAgreement(double ratio) { min_normal_agreement_ = ratio; }

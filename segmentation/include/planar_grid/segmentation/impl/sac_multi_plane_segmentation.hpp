@@ -527,28 +527,16 @@ SACMultiPlaneSegmentation<PointT>::passesNormalAgreement(detail::DensePoints& de
 {
   // Over the eq. 11 support by distance alone, the points with a normal that agree
   // against all those with a normal: points without one (too few neighbours to
-  // tell) are no evidence either way.
-  dense.use_normals = false;
-  dense.selectInliers(plane, d_t);
-  dense.use_normals = true;
-  std::size_t known = 0, agreeing = 0;
-  for (std::size_t k = 0; k < dense.size(); ++k) {
-    if (!dense.mask[k] || !std::isfinite(dense.nx[k]))
-      continue;
-    ++known;
-    agreeing +=
-      std::abs(plane[0] * dense.nx[k] + plane[1] * dense.ny[k] + plane[2] * dense.nz[k])
-          >= dense.min_normal_cos
-        ? 1
-        : 0;
-  }
-  const bool agrees = known == 0
-                      || static_cast<double>(agreeing)
-                           >= min_normal_agreement_ * static_cast<double>(known);
-  if (agrees) {
-    normal_removed_ += known - agreeing;
-    // The mask is the plane's inliers again (with the normal test).
-    dense.selectInliers(plane, d_t);
+  // tell) are no evidence either way. The normal test then leaves the mask on the
+  // plane's inliers.
+  const std::size_t support = dense.selectInliersByDistance(plane, d_t);
+  const std::size_t known = support - dense.countSelectedWithoutNormal();
+  const std::size_t disagreeing = dense.deselectOffNormal(plane);
+  const std::size_t agreeing = known - disagreeing;
+  if (known == 0
+      || static_cast<double>(agreeing)
+           >= min_normal_agreement_ * static_cast<double>(known)) {
+    normal_removed_ += disagreeing;
     return true;
   }
   PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane whose support scatters in "
@@ -557,6 +545,7 @@ SACMultiPlaneSegmentation<PointT>::passesNormalAgreement(detail::DensePoints& de
   // The support that disagrees would only give the same plane again: it leaves the
   // search (it stays for the non-planar cells); the points that agree or have no
   // normal stay for the planes they may lie on.
+  dense.selectInliersByDistance(plane, d_t);
   dense.deselectOffNormal(plane, /*keep_off_normal=*/true);
   dense.removeSelected();
   return false;

@@ -179,7 +179,7 @@ struct DensePoints {
    * and the bounds of its threshold (d_T below, the inlier-only cap above); empty:
    * the threshold does not depend on the plane. */
   std::vector<float> depth_error, ray_x, ray_y, ray_z, floor, cap;
-  /** Per-point unit surface normals (NaN where the neighbourhood is no surface);
+  /** Per-point unit surface normals (NaN where unknown: too few neighbours to tell);
    * empty: no normal test. */
   std::vector<float> nx, ny, nz;
   /** Cosine of the largest angle between a point's normal and an inlier's plane
@@ -236,12 +236,31 @@ struct DensePoints {
     return count;
   }
 
+  /** \brief Eq. 11 alone (selectInliers() without the normal test), whatever
+   * use_normals says. \return the number of points selected */
+  std::size_t selectInliersByDistance(const Eigen::Vector4f& plane, float t)
+  {
+    const bool tested = use_normals;
+    use_normals = false;
+    const std::size_t count = selectInliers(plane, t);
+    use_normals = tested;
+    return count;
+  }
+
+  /** \brief The number of selected points without a normal (NaN). */
+  std::size_t countSelectedWithoutNormal() const
+  {
+    std::size_t count = 0;
+    for (std::size_t k = 0; k < size(); ++k)
+      count += mask[k] && !std::isfinite(nx[k]) ? 1 : 0;
+    return count;
+  }
+
   /** \brief The normal test: deselects (mask 0) the selected points whose surface
    * normal makes more than acos(min_normal_cos) with \a plane's normal (either side);
    * with \a keep_off_normal, those that agree and those without a normal instead
-   * (the mask keeps the points that disagree). A
-   * point without a normal (NaN: too few neighbours to tell) is no evidence either
-   * way and stays an inlier by distance.
+   * (the mask keeps the points that disagree). A point without a normal (NaN: too few
+   * neighbours to tell) is no evidence either way and stays an inlier by distance.
    * \return the number deselected */
   std::size_t deselectOffNormal(const Eigen::Vector4f& plane,
                                 bool keep_off_normal = false)
