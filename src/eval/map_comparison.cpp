@@ -513,18 +513,21 @@ mappedRange(const PipelineConfig& pipeline, const StereoCalibration& calibration
 
 namespace {
 
-/** \brief \a front with every frame dense (stereo_disparity's every_n_frames 1): the
- * reference describes the scene, whichever frames a method maps. \a thinned says
- * whether \a front skips dense frames. */
+/** \brief \a front with every frame dense (stereo_disparity's every_n_frames 1, no
+ * keyframe selection): the reference describes the scene, whichever frames a method
+ * maps. \a thinned says whether \a front skips dense frames. */
 PipelineConfig
 everyFrameDense(const PipelineConfig& front, bool& thinned)
 {
   PipelineConfig all = front;
   thinned = false;
   for (auto& sc : all.stages)
-    if (sc.type == "stereo_disparity" && sc.params.getInt("every_n_frames") != 1) {
+    if (sc.type == "stereo_disparity"
+        && (sc.params.getInt("every_n_frames") != 1
+            || sc.params.getChoice("frame_selection") != "every_n_frames")) {
       thinned = true;
       sc.params.set("every_n_frames", 1);
+      sc.params.set("frame_selection", std::string("every_n_frames"));
     }
   return all;
 }

@@ -266,7 +266,7 @@ struct StageNeed {
 };
 
 /** The stage's needs with its parameters: planes hypothesised from the key features
- * need them. */
+ * need them, keyframes chosen by motion need the poses. */
 std::vector<StageNeed>
 stageNeeds(const StageInfo& info, const StageConfig& sc)
 {
@@ -276,6 +276,9 @@ stageNeeds(const StageInfo& info, const StageConfig& sc)
   if (sc.type == "multi_plane_segmentation"
       && sc.params.getChoice("sample") == "features")
     needs.push_back({StageData::FEATURES, "sample", "cloud"});
+  if (sc.type == "stereo_disparity"
+      && sc.params.getChoice("frame_selection") == "keyframes")
+    needs.push_back({StageData::POSES, "frame_selection", "every_n_frames"});
   return needs;
 }
 
@@ -418,6 +421,17 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
       const YAML::Node params = stage["params"];
       if (!(params && params.IsMap() && params["sample"]))
         sc.params.set("sample", std::string("cloud"));
+    }
+    if (sc.type == "stereo_disparity"
+        && sc.params.getChoice("frame_selection") == "keyframes"
+        && sc.params.getInt("every_n_frames") != 1) {
+      const YAML::Node params = stage["params"];
+      r.fail(params && params.IsMap() && params["every_n_frames"]
+               ? params["every_n_frames"]
+               : stage["type"],
+             "stereo_disparity: every_n_frames applies to frame_selection "
+             "every_n_frames; with keyframes the keyframe_* parameters choose the "
+             "dense frames");
     }
     config.stages.push_back(std::move(sc));
   }

@@ -8,6 +8,7 @@
 #include <sched.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "stages.h"
 
@@ -30,6 +31,20 @@ allowedCpuCount()
 
 /** Dense frames: one in every_n_frames, [1, 1000]. */
 constexpr ParamRange EVERY_N_FRAMES = ParamRange::closed(1, 1000);
+/** Keyframe motion thresholds and the longest gap between two keyframes. */
+constexpr ParamRange KEYFRAME_TRANSLATION = ParamRange::openMin(0.0, 1000.0);
+constexpr ParamRange KEYFRAME_ROTATION = ParamRange::openMin(0.0, M_PI);
+constexpr ParamRange KEYFRAME_MAX_GAP = ParamRange::closed(1, 100000);
+
+/** Which frames get a dense disparity. */
+struct DenseFrameSelection {
+  /** true: keyframes by motion; false: one frame in every_n_frames. */
+  bool keyframes{false};
+  int every_n_frames{1};
+  double keyframe_translation_m{1.0};
+  double keyframe_rotation_rad{0.1};
+  int keyframe_max_gap_frames{5};
+};
 
 /** The estimator's parameters without its per-call thread switch: the stage sets
  * OpenCV's thread count once for the run instead. */
@@ -44,16 +59,27 @@ class StereoDisparityStage : public Stage {
 public:
   StereoDisparityStage(const DisparityEstimator::Params& params,
                        double max_range_m,
-                       int every_n_frames) :
+                       const DenseFrameSelection& selection) :
       estimator_(withoutThreadSwitch(params)),
-      num_threads_(params.num_threads), max_range_m_(max_range_m),
-      every_n_frames_(every_n_frames)
+      num_threads_(params.num_threads), max_range_m_(max_range_m), selection_(selection)
   {}
   StereoDisparityStage(const StereoDisparityStage&) = delete;
   StereoDisparityStage& operator=(const StereoDisparityStage&) = delete;
   ~StereoDisparityStage() override { restoreThreads(); }
 
+  // The keyframe choice carries the last keyframe's pose from frame to frame, in input
+  // order, which the read-ahead keeps (it prepares one frame after the other).
   bool isFrameLocal() const override { return true; }
+
+  // The read-ahead may have chosen keyframes beyond the frame a checkpoint is taken
+  // at, so the keyframe state cannot be written for that frame.
+  bool supportsCheckpoint() const override { return !selection_.keyframes; }
+
+  void counters(const Frame& frame,
+                std::vector<std::pair<std::string, double>>& values) const override
+  {
+    values.emplace_back("dense_frames", frame.disparity.empty() ? 0.0 : 1.0);
+  }
 
   // OpenCV's thread count is process-wide, and changing it while another thread is
   // inside cv::parallel_for_ (this stage runs beside the mapping stages when frames
@@ -61,6 +87,8 @@ public:
   // runner's thread before the first frame, and restored after the last.
   void start(PipelineState& /*state*/) override
   {
+    has_keyframe_ = false;
+    frames_since_keyframe_ = 0;
     restoreThreads();
     if (num_threads_ <= 0)
       return;
@@ -99,7 +127,12 @@ public:
     v.set("bm_pre_filter_size_px", p.bm_pre_filter_size_px);
     v.set("bm_texture_threshold", p.bm_texture_threshold);
     v.set("max_range_m", max_range_m_);
-    v.set("every_n_frames", every_n_frames_);
+    v.set("frame_selection", selection_.keyframes ? std::string("keyframes")
+                                                  : std::string("every_n_frames"));
+    v.set("every_n_frames", selection_.every_n_frames);
+    v.set("keyframe_translation_m", selection_.keyframe_translation_m);
+    v.set("keyframe_rotation_rad", selection_.keyframe_rotation_rad);
+    v.set("keyframe_max_gap_frames", selection_.keyframe_max_gap_frames);
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -109,12 +142,14 @@ public:
                       + frame.name + " has none");
     frame.cloud.reset(new Frame::Cloud);
     frame.cloud_in_world_frame = false;
-    if (frame.sequence_number % static_cast<std::size_t>(every_n_frames_) != 0) {
+    if (!isDense(frame)) {
       // A frame between two dense ones: no disparity and an empty cloud, so the dense
       // stages pass it on empty (without the warning of a frame whose points were lost)
       // and only its key features reach the map.
       frame.disparity.release();
-      frame.no_points_stage = "stereo_disparity (every_n_frames)";
+      frame.no_points_stage = selection_.keyframes
+                                ? "stereo_disparity (not a keyframe)"
+                                : "stereo_disparity (every_n_frames)";
       return;
     }
     estimator_.compute(frame.left, frame.right, frame.disparity);
@@ -123,6 +158,39 @@ public:
   }
 
 private:
+  /** Whether \a frame gets a dense disparity: one in every_n_frames by position, or a
+   * keyframe: the first frame, then each frame whose camera moved at least
+   * keyframe_translation_m or turned at least keyframe_rotation_rad from the last
+   * keyframe's, or that is keyframe_max_gap_frames after it. */
+  bool isDense(const Frame& frame)
+  {
+    if (!selection_.keyframes)
+      return frame.sequence_number % static_cast<std::size_t>(selection_.every_n_frames)
+             == 0;
+    if (!frame.has_pose)
+      throw Exception("stage 'stereo_disparity' chooses keyframes by the camera's "
+                      "motion, but frame "
+                      + frame.name
+                      + " has no pose when it runs: give the frames' poses, or list "
+                        "visual_odometry before stereo_disparity");
+    ++frames_since_keyframe_;
+    bool keyframe =
+      !has_keyframe_ || frames_since_keyframe_ >= selection_.keyframe_max_gap_frames;
+    if (!keyframe) {
+      const Eigen::Isometry3d motion =
+        last_keyframe_world_T_camera_.inverse() * frame.world_T_camera;
+      const double rotation_rad = Eigen::AngleAxisd(motion.rotation()).angle();
+      keyframe = motion.translation().norm() >= selection_.keyframe_translation_m
+                 || std::abs(rotation_rad) >= selection_.keyframe_rotation_rad;
+    }
+    if (keyframe) {
+      has_keyframe_ = true;
+      frames_since_keyframe_ = 0;
+      last_keyframe_world_T_camera_ = frame.world_T_camera;
+    }
+    return keyframe;
+  }
+
   void restoreThreads()
   {
     if (previous_threads_ > 0)
@@ -134,7 +202,10 @@ private:
   int num_threads_;
   int previous_threads_{0};
   double max_range_m_;
-  int every_n_frames_;
+  DenseFrameSelection selection_;
+  bool has_keyframe_{false};
+  int frames_since_keyframe_{0};
+  Eigen::Isometry3d last_keyframe_world_T_camera_{Eigen::Isometry3d::Identity()};
 };
 
 class FeatureMatchingStage : public Stage {
@@ -270,14 +341,31 @@ stereoDisparityInfo()
     ParamSpec::real(
       "max_range_m", 40.0, point_cloud_from_disparity_ranges::MAX_RANGE, "m",
       "Points farther than this are invalid (stereo error grows as z^2)."),
+    ParamSpec::choice(
+      "frame_selection", "every_n_frames", {"every_n_frames", "keyframes"},
+      "Which frames are dense (get the disparity and the cloud): every_n_frames by "
+      "position, or keyframes by the camera's motion since the last keyframe (needs "
+      "the frame's pose when this stage runs: input poses, the live mapper's pose, or "
+      "visual_odometry listed before it; a run's first frame is a keyframe). The "
+      "other frames carry their key features alone (feature_matching, "
+      "kl_occupancy_filter and visual_odometry run on every frame) and add no points, "
+      "planes, cells or free space to the map."),
     ParamSpec::integer(
       "every_n_frames", 1, EVERY_N_FRAMES, "frames",
-      "Dense frames: the disparity and the cloud only of the frames whose sequence "
-      "number (0-based position in the input, or in the live mapper's calls) is a "
-      "multiple of n. The frames between carry their key features alone "
-      "(feature_matching, kl_occupancy_filter and visual_odometry run on every "
-      "frame) and add no points, planes, cells or free space to the map. 1 = every "
-      "frame."),
+      "frame_selection every_n_frames: the frames whose sequence number (0-based "
+      "position in the input, or in the live mapper's calls) is a multiple of n are "
+      "dense. 1 = every frame."),
+    ParamSpec::real("keyframe_translation_m", 1.0, KEYFRAME_TRANSLATION, "m",
+                    "frame_selection keyframes: a frame whose camera is this far from "
+                    "the last keyframe's is a keyframe."),
+    ParamSpec::real("keyframe_rotation_rad", 0.1, KEYFRAME_ROTATION, "rad",
+                    "frame_selection keyframes: a frame whose camera turned this much "
+                    "from the last keyframe's (angle of the relative rotation) is a "
+                    "keyframe."),
+    ParamSpec::integer("keyframe_max_gap_frames", 5, KEYFRAME_MAX_GAP, "frames",
+                       "frame_selection keyframes: the frame this many frames after "
+                       "the last keyframe is a keyframe whatever the motion (a robot "
+                       "standing still still maps what moves); 1 = every frame."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     DisparityEstimator::Params p;
@@ -300,8 +388,14 @@ stereoDisparityInfo()
     p.bm_pre_filter_cap = v.getInt("bm_pre_filter_cap");
     p.bm_pre_filter_size_px = v.getInt("bm_pre_filter_size_px");
     p.bm_texture_threshold = v.getInt("bm_texture_threshold");
+    DenseFrameSelection selection;
+    selection.keyframes = v.getChoice("frame_selection") == "keyframes";
+    selection.every_n_frames = v.getInt("every_n_frames");
+    selection.keyframe_translation_m = v.getDouble("keyframe_translation_m");
+    selection.keyframe_rotation_rad = v.getDouble("keyframe_rotation_rad");
+    selection.keyframe_max_gap_frames = v.getInt("keyframe_max_gap_frames");
     return std::make_unique<StereoDisparityStage>(p, v.getDouble("max_range_m"),
-                                                  v.getInt("every_n_frames"));
+                                                  selection);
   };
   return info;
 }

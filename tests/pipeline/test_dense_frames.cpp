@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// stereo_disparity's every_n_frames: dense stereo on every n-th frame, key features on
-// all of them.
+// stereo_disparity's dense frames: every n-th frame, or keyframes chosen by the
+// camera's motion; key features on all of them.
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -23,19 +24,30 @@ const std::string KARLSRUHE =
  * (every \a every_n_frames frames), ORB features, the voxel grid and the accumulated
  * world cloud. */
 planar_grid::PipelineConfig
+denseFrames(const std::string& selection, int frame_count = 6, int first = 10);
+
+planar_grid::PipelineConfig
 denseEvery(int every_n_frames)
+{
+  return denseFrames("every_n_frames: " + std::to_string(every_n_frames));
+}
+
+/** The pipeline of denseEvery() over \a frame_count frames from frame \a first, with
+ * the stereo_disparity parameters \a selection (YAML flow-map entries). */
+planar_grid::PipelineConfig
+denseFrames(const std::string& selection, int frame_count, int first)
 {
   const std::string yaml =
     "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE
     + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE
-    + "/right/I2_%06d.png\n  first_index: 10\n  frame_count: 6\n"
+    + "/right/I2_%06d.png\n  first_index: " + std::to_string(first)
+    + "\n  frame_count: " + std::to_string(frame_count) + "\n"
     + "  calibration: {format: karlsruhe, file: " + KARLSRUHE + "/calib.txt}\n"
     + "  poses: {format: karlsruhe_insdata, file: " + KARLSRUHE
     + "/insdata.txt, camera_height_m: 1.57, camera_pitch_rad: 0.09}\n" + "pipeline:\n"
     + "  - type: stereo_disparity\n"
     + "    params: {algorithm: sgbm_3way, num_disparities_px: 128, max_range_m: 30.0, "
-    + "every_n_frames: " + std::to_string(every_n_frames) + "}\n"
-    + "  - type: feature_matching\n"
+    + selection + "}\n" + "  - type: feature_matching\n"
     + "    params: {feature_type: orb_grid, max_features: 1000}\n"
     + "  - type: voxel_grid\n" + "    params: {leaf_size_m: 0.2}\n"
     + "  - type: transform_to_world\n" + "  - type: accumulate\n"
@@ -63,7 +75,128 @@ counter(const planar_grid::StageReport& s, const std::string& name)
   return -1.0;
 }
 
+/** Runs \a runner sequentially and returns the sequence numbers of its dense frames
+ * (those stereo_disparity gave a disparity image), read before stage \a after_stereo.
+ */
+std::vector<std::size_t>
+denseSequenceNumbers(planar_grid::PipelineRunner& runner, std::size_t after_stereo = 1)
+{
+  std::vector<std::size_t> dense;
+  runner.setFrameOverlap(false);
+  runner.setStageCallback(
+    [&dense, after_stereo](std::size_t s, planar_grid::Frame& frame) {
+      if (s == after_stereo && !frame.disparity.empty())
+        dense.push_back(frame.sequence_number);
+    });
+  runner.run();
+  return dense;
+}
+
 } // namespace
+
+TEST(DenseFrames, KeyframesAreTheFramesThatMovedOrTurnedFarEnoughFromTheLastOne)
+{
+  struct Rule {
+    double translation_m, rotation_rad;
+    int max_gap;
+  };
+  // By distance (with a gap), by the turn alone (frames 60-79 are the drive's turn,
+  // about 0.04 rad a frame), and both.
+  for (const Rule rule :
+       {Rule{1.5, 3.0, 4}, Rule{1000.0, 0.1, 100}, Rule{2.5, 0.12, 6}}) {
+    const std::string name = std::to_string(rule.translation_m) + " m, "
+                             + std::to_string(rule.rotation_rad) + " rad";
+    planar_grid::PipelineRunner runner(
+      denseFrames("frame_selection: keyframes, keyframe_translation_m: "
+                    + std::to_string(rule.translation_m)
+                    + ", keyframe_rotation_rad: " + std::to_string(rule.rotation_rad)
+                    + ", keyframe_max_gap_frames: " + std::to_string(rule.max_gap),
+                  20, 60));
+    const std::vector<std::size_t> dense = denseSequenceNumbers(runner);
+    const planar_grid::Trajectory& poses = runner.trajectory();
+    ASSERT_EQ(poses.size(), 20u) << name;
+
+    // The rule applied by hand to the poses the run used.
+    std::vector<std::size_t> expected{0};
+    for (std::size_t i = 1; i < poses.size(); ++i) {
+      const Eigen::Isometry3d motion = poses[expected.back()].inverse() * poses[i];
+      if (motion.translation().norm() >= rule.translation_m
+          || Eigen::AngleAxisd(motion.rotation()).angle() >= rule.rotation_rad
+          || i - expected.back() >= static_cast<std::size_t>(rule.max_gap))
+        expected.push_back(i);
+    }
+    EXPECT_EQ(dense, expected) << name;
+    // Some frames are dense and some are not.
+    EXPECT_GE(expected.size(), 3u) << name;
+    EXPECT_LT(expected.size(), 15u) << name;
+    EXPECT_EQ(counter(stage(runner.report(), "stereo_disparity"), "dense_frames"),
+              static_cast<double>(dense.size()))
+      << name;
+  }
+}
+
+TEST(DenseFrames, AKeyframeComesAtTheLongestGapWhateverTheMotion)
+{
+  planar_grid::PipelineRunner runner(
+    denseFrames("frame_selection: keyframes, keyframe_translation_m: 1000, "
+                "keyframe_rotation_rad: 3.14, keyframe_max_gap_frames: 3",
+                8));
+  EXPECT_EQ(denseSequenceNumbers(runner), (std::vector<std::size_t>{0, 3, 6}));
+  // A second run of the same runner starts again with a keyframe.
+  std::vector<std::size_t> again = denseSequenceNumbers(runner);
+  EXPECT_EQ(again, (std::vector<std::size_t>{0, 3, 6}));
+}
+
+TEST(DenseFrames, KeyframesNeedThePoseBeforeTheStereoStageAndNoEveryNFrames)
+{
+  // every_n_frames belongs to the other selection.
+  try {
+    denseFrames("frame_selection: keyframes, every_n_frames: 2");
+    FAIL() << "keyframes with every_n_frames 2 were accepted";
+  } catch (const planar_grid::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("every_n_frames"), std::string::npos)
+      << e.what();
+  }
+  // Poses from visual odometry listed after the stereo stage come too late.
+  const std::string yaml =
+    "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE
+    + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE
+    + "/right/I2_%06d.png\n  first_index: 10\n  frame_count: 3\n"
+    + "  calibration: {format: karlsruhe, file: " + KARLSRUHE + "/calib.txt}\n"
+    + "  poses: {format: odometry}\n" + "pipeline:\n" + "  - type: stereo_disparity\n"
+    + "    params: {num_disparities_px: 128, frame_selection: keyframes}\n"
+    + "  - type: feature_matching\n" + "  - type: visual_odometry\n"
+    + "  - type: transform_to_world\n" + "  - type: accumulate\n";
+  try {
+    planar_grid::parsePipelineConfig(yaml, "late_poses.yaml", "/");
+    FAIL() << "keyframes before visual_odometry were accepted";
+  } catch (const planar_grid::ConfigError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("late_poses.yaml:"), std::string::npos) << what;
+    EXPECT_NE(what.find("visual_odometry"), std::string::npos) << what;
+    EXPECT_NE(what.find("frame_selection: every_n_frames"), std::string::npos) << what;
+  }
+  // Listed after visual_odometry, the stage has the pose it needs.
+  std::string reordered = yaml;
+  const std::string stereo =
+    "  - type: stereo_disparity\n"
+    "    params: {num_disparities_px: 128, frame_selection: keyframes}\n";
+  reordered.erase(reordered.find(stereo), stereo.size());
+  reordered.insert(reordered.find("  - type: transform_to_world"), stereo);
+  planar_grid::PipelineRunner runner(
+    planar_grid::parsePipelineConfig(reordered, "vo_first.yaml", "/"));
+  const std::vector<std::size_t> dense = denseSequenceNumbers(runner, 3);
+  ASSERT_FALSE(dense.empty());
+  EXPECT_EQ(dense.front(), 0u);
+  EXPECT_EQ(runner.trajectory().size(), 3u);
+}
+
+TEST(DenseFrames, KeyframeRunsRefuseCheckpoints)
+{
+  planar_grid::PipelineRunner runner(denseFrames("frame_selection: keyframes"));
+  EXPECT_THROW(runner.setCheckpoint("/tmp/planar_grid_keyframes.pgck", 2),
+               planar_grid::ConfigError);
+}
 
 TEST(DenseFrames, EveryThirdFrameGivesTheCloudsOfARunOverThoseFramesAlone)
 {

@@ -71,10 +71,12 @@ public:
    * working cloud's valid points by default. */
   virtual bool countsCloudPoints() const { return true; }
 
-  /** \brief Whether process() reads and writes only the frame (and the stage's own
-   * scratch buffers), never PipelineState or anything carried from an earlier frame.
-   * The runner runs the leading frame-local stages of a pipeline up to two frames ahead
-   * on a second thread (PipelineRunner::setFrameOverlap()); false by default. */
+  /** \brief Whether process() reads and writes only the frame and the stage's own
+   * members, never PipelineState. The runner runs the leading frame-local stages of a
+   * pipeline up to two frames ahead on a second thread, one frame after the other in
+   * input order (PipelineRunner::setFrameOverlap()), so a member carried from frame to
+   * frame sees the frames in order, but ahead of the mapping stages; false by
+   * default. */
   virtual bool isFrameLocal() const { return false; }
 
   /** \brief Whether a checkpoint can hold this stage's state across frames, so that a
