@@ -97,7 +97,7 @@ def test_the_example_maps_a_frame(main_job, source_dir, tmp_path):
     out = subprocess.run([sys.executable, str(example), str(main_job), "1",
                           str(tmp_path / "live.pgmap")],
                          check=True, capture_output=True, text=True).stdout
-    assert out.startswith("frame 0: ") and (tmp_path / "live.pgmap").stat().st_size > 1000
+    assert out.startswith("frame 0 (dense): ") and (tmp_path / "live.pgmap").stat().st_size > 1000
 
 
 def test_a_depth_image_is_mapped_through_its_camera(data_dir, tmp_path):

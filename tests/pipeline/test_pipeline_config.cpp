@@ -2,6 +2,7 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/pipeline_config_writer.h>
 #include <planar_grid/pipeline/stage.h>
 #include <planar_grid/pipeline/yaml_reader.h>
 
@@ -55,8 +56,8 @@ errorOf(const std::string& yaml)
 TEST(PipelineConfig, ExampleAndMainJobLoad)
 {
   // The documented schema and the main job must always load.
-  for (const char* name :
-       {"example.yaml", "karlsruhe.yaml", "karlsruhe_odometry.yaml"}) {
+  for (const char* name : {"example.yaml", "karlsruhe.yaml", "karlsruhe_live.yaml",
+                           "karlsruhe_odometry.yaml"}) {
     const auto config = planar_grid::loadPipelineConfig(SOURCE_DIR + "/config/" + name);
     EXPECT_FALSE(config.stages.empty()) << name;
   }
@@ -67,6 +68,27 @@ TEST(PipelineConfig, ExampleAndMainJobLoad)
   EXPECT_EQ(k.stages.front().type, "stereo_disparity");
   EXPECT_EQ(k.stages.front().params.getInt("num_disparities_px"), 128);
   EXPECT_EQ(k.stages.back().type, "accumulate");
+}
+
+TEST(PipelineConfig, TheLiveMainJobIsTheMainJobWithKeyframes)
+{
+  const auto main_job =
+    planar_grid::loadPipelineConfig(SOURCE_DIR + "/config/karlsruhe.yaml");
+  auto live =
+    planar_grid::loadPipelineConfig(SOURCE_DIR + "/config/karlsruhe_live.yaml");
+  ASSERT_EQ(live.stages.front().type, "stereo_disparity");
+  EXPECT_EQ(live.stages.front().params.getChoice("frame_selection"), "keyframes");
+  EXPECT_EQ(live.output.folder, "output/karlsruhe_live");
+  // Back to every frame and the main job's folder, the two files describe one run.
+  const planar_grid::ParamValues defaults =
+    planar_grid::defaultStageConfig("stereo_disparity").params;
+  for (const char* key : {"frame_selection", "keyframe_translation_m",
+                          "keyframe_rotation_rad", "keyframe_max_gap_frames"})
+    live.stages.front().params.set(key, defaults.values().at(key));
+  live.output.folder = main_job.output.folder;
+  live.source_file = main_job.source_file;
+  EXPECT_EQ(planar_grid::pipelineConfigToYaml(live),
+            planar_grid::pipelineConfigToYaml(main_job));
 }
 
 TEST(PipelineConfig, MapGrid2DOutputAndItsBand)
@@ -867,7 +889,7 @@ TEST(PipelineConfig, EveryShippedConfigLoads)
       EXPECT_NO_THROW(planar_grid::loadPipelineConfig(entry.path().string()))
         << entry.path();
     }
-  EXPECT_GE(loaded, 14u); // 9 in config/, 5 in config/eval/
+  EXPECT_GE(loaded, 15u); // 10 in config/, 5 in config/eval/
 }
 
 TEST(PipelineConfig, EveryStageNeedIsProducedByTheInputOrAStage)

@@ -302,6 +302,8 @@ private:
         stats = mapper_->integrateStereo(left, right, calibration, lookUpPose(header));
     }
     ++mapped_;
+    if (isKeyframe(stats))
+      ++keyframes_;
     const Clock::time_point publish_start = Clock::now();
     if (mapped_ % static_cast<std::uint64_t>(params_.publish_every) == 0)
       publishMap(header.stamp);
@@ -482,6 +484,20 @@ private:
     grid_pub_.publish(msg);
   }
 
+  /** Whether the frame was dense: stereo_disparity gave it a disparity (every frame
+   * without that stage, or with every frame dense). */
+  static bool isKeyframe(const planar_grid::FrameStats& stats)
+  {
+    for (const auto& stage : stats.stages)
+      if (stage.type == "stereo_disparity") {
+        for (const auto& [name, value] : stage.counters)
+          if (name == "dense_frames")
+            return value > 0.0;
+        return true;
+      }
+    return true;
+  }
+
   void publishStats(const PendingFrame& frame,
                     const planar_grid::FrameStats& stats,
                     double publish_ms)
@@ -498,6 +514,8 @@ private:
     nlohmann::json j;
     j["received"] = frame.sequence;
     j["mapped"] = mapped_.load();
+    j["keyframe"] = isKeyframe(stats);
+    j["keyframes"] = keyframes_.load();
     j["dropped"] = dropped;
     j["failed"] = failed_.load();
     j["queued"] = queued;
@@ -553,6 +571,7 @@ private:
     queue_cv_.notify_one();
     reset_cv_.wait(lock, [this] { return !reset_requested_ || stopping_; });
     mapped_ = 0;
+    keyframes_ = 0;
     response.success = true;
     response.message = "the map is empty";
     return true;
@@ -588,6 +607,7 @@ private:
   std::uint64_t received_{0};
   std::uint64_t dropped_{0};
   std::atomic<std::uint64_t> mapped_{0};
+  std::atomic<std::uint64_t> keyframes_{0};
   std::atomic<std::uint64_t> failed_{0};
   std::thread worker_;
 

@@ -4,11 +4,13 @@
 
 Writes the first frames of a stereo configuration to a bag (images, CameraInfo, poses on
 /tf), starts rosmaster on a free loopback port, planar_grid_ros_node with every frame
-queued, and `rosbag play` of the bag at 1x; checks that every frame is mapped and each
-output topic published, saves the map through the node's service, runs
+queued, and `rosbag play` of the bag at 1x (or --rate); checks that every frame is mapped
+and each output topic published, saves the map through the node's service, runs
 planar_grid_pipeline on the same bag with the same configuration, and compares the two
-map.pgmap files byte for byte. Prints the latency from a pair's arrival to its markers
-(median, 95th percentile). Every process is stopped at the end, also on failure.
+map.pgmap files byte for byte and the keyframes each made dense (stereo_disparity's
+frame_selection). Prints the latency from a pair's arrival to its markers (median, 95th
+percentile), of every frame and of the keyframes. Every process is stopped at the end,
+also on failure.
 """
 import argparse
 import json
@@ -63,7 +65,7 @@ def write_config(source_config, bag, output_folder, path):
         "right_camera_info": "/stereo/right/camera_info",
         "poses": {"format": "tf", "parent_frame": "world", "child_frame": "camera"},
     }
-    config["output"] = {"folder": output_folder, "map": "map.pgmap"}
+    config["output"] = {"folder": output_folder, "map": "map.pgmap", "report": "report.json"}
     with open(path, "w") as f:
         yaml.safe_dump(config, f, sort_keys=False)
 
@@ -78,6 +80,10 @@ def main():
     parser.add_argument("--max-queued-frames", type=int, default=0,
                         help="the node's ~max_queued_frames; above 0 frames may be "
                         "dropped, and only the latency is measured (no map comparison)")
+    parser.add_argument("--rate", type=float, default=1.0,
+                        help="rosbag play's rate (1: the recording's pace)")
+    parser.add_argument("--cpu", type=int, default=-1,
+                        help="pin the node to this CPU (taskset -c); -1: not pinned")
     parser.add_argument("--keep", action="store_true",
                         help="keep the work folder (bag, configuration, maps)")
     args = parser.parse_args()
@@ -109,7 +115,8 @@ def main():
         wait_until(lambda: rosgraph.Master("/planar_grid_test").is_online(), 30,
                    f"rosmaster on 127.0.0.1:{port}")
         node_folder = os.path.join(work, "node")
-        node = subprocess.Popen([args.node, "__name:=planar_grid", f"_config:={config}",
+        pin = ["taskset", "-c", str(args.cpu)] if args.cpu >= 0 else []
+        node = subprocess.Popen(pin + [args.node, "__name:=planar_grid", f"_config:={config}",
                                  f"_max_queued_frames:={args.max_queued_frames}",
                                  f"_output_folder:={node_folder}"],
                                 env=env)
@@ -136,8 +143,8 @@ def main():
                    "the test's subscriptions to the node's topics")
 
         started = time.monotonic()
-        player = subprocess.Popen(["rosbag", "play", "--quiet", "-d", "2", bag], env=env,
-                                  stdout=subprocess.DEVNULL)
+        player = subprocess.Popen(["rosbag", "play", "--quiet", "-d", "2", "-r",
+                                   str(args.rate), bag], env=env, stdout=subprocess.DEVNULL)
         player.wait(timeout=120)
         assert player.returncode == 0, f"rosbag play exited {player.returncode}"
         played_s = time.monotonic() - started - 2.0
@@ -175,12 +182,20 @@ def main():
         assert response.success, response.message
         print("save_map:", response.message)
 
-        latencies = sorted(s["latency_ms"] for s in stats)
-        p95 = latencies[min(len(latencies) - 1, int(round(0.95 * (len(latencies) - 1))))]
-        print(f"{args.frames} frames played in {played_s:.1f} s; mapped {final['mapped']}, "
-              f"dropped {final['dropped']}; arrival -> markers latency: median "
-              f"{statistics.median(latencies):.1f} ms, p95 {p95:.1f} ms, max "
-              f"{latencies[-1]:.1f} ms; mapping {statistics.mean(s['total_ms'] for s in stats):.1f}"
+        def summary(values):
+            values = sorted(values)
+            if not values:
+                return "none"
+            p95 = values[min(len(values) - 1, int(round(0.95 * (len(values) - 1))))]
+            return (f"median {statistics.median(values):.1f} ms, p95 {p95:.1f} ms, "
+                    f"max {values[-1]:.1f} ms")
+
+        keyframe_stats = [s for s in stats if s.get("keyframe", True)]
+        print(f"{args.frames} frames played in {played_s:.1f} s at rate {args.rate}; mapped "
+              f"{final['mapped']} ({final['keyframes']} keyframes), dropped "
+              f"{final['dropped']}; arrival -> markers latency: "
+              f"{summary(s['latency_ms'] for s in stats)}; of the keyframes: "
+              f"{summary(s['latency_ms'] for s in keyframe_stats)}; mapping {statistics.mean(s['total_ms'] for s in stats):.1f}"
               f" ms a frame, publishing {statistics.mean(s['publish_ms'] for s in stats):.1f} ms"
               f" (markers {statistics.mean(s['cuboids_ms'] for s in stats):.1f}); the publisher"
               f" thread's last occupied cells {final['last_occupied_cells_ms']:.1f} ms, 2D map"
@@ -208,6 +223,15 @@ def main():
         f"the node's map.pgmap ({len(node_map)} bytes) differs from planar_grid_pipeline's "
         f"({len(pipeline_map)} bytes); both in {work}")
     print("the node's map.pgmap equals planar_grid_pipeline's, byte for byte")
+    with open(os.path.join(work, "pipeline", "report.json")) as f:
+        report = json.load(f)
+    stereo = [s for s in report["stages"] if s["type"] == "stereo_disparity"]
+    pipeline_keyframes = int(stereo[0]["dense_frames"]) if stereo else args.frames
+    assert final["keyframes"] == pipeline_keyframes, (
+        f"the node made {final['keyframes']} frames dense, planar_grid_pipeline "
+        f"{pipeline_keyframes}")
+    assert sum(1 for s in stats if s["keyframe"]) == pipeline_keyframes
+    print(f"both made the same {pipeline_keyframes} of {args.frames} frames dense")
     if not args.keep:
         subprocess.run(["rm", "-rf", work], check=False)
     print("1 passed, 0 failed")
