@@ -161,7 +161,8 @@ only says what the pipeline takes (stereo pairs or point clouds) and where the p
 come from; its files are not read. The pipeline needs a map_integration stage.
 
 Threads: integrate_stereo() and integrate_cloud() release the GIL while the frame is
-integrated; call them from one thread at a time. Another thread reads the map with
+integrated; calls from several threads (and reset()) run one frame at a time. Another
+thread reads the map with
 ``with mapper.read_map() as m:`` or save(): each frame locks readers out only while its
 map_integration stage changes the map (docs/LIVE.md gives the measured wait). The
 ``map`` property is the map without the lock: read it between frames from the thread

@@ -123,6 +123,7 @@ Mapper::integrateStereoPair(const cv::Mat& left,
                             const StereoCalibration& calibration,
                             const Eigen::Isometry3d* world_T_camera)
 {
+  const std::lock_guard<std::mutex> frame_lock(frame_mutex_);
   requireInput(InputConfig::Type::STEREO_SEQUENCE, "integrateStereo");
   const auto size = [](const cv::Mat& image) {
     return std::to_string(image.cols) + "x" + std::to_string(image.rows) + " px";
@@ -193,6 +194,7 @@ FrameStats
 Mapper::integrateCloud(const Frame::Cloud& cloud,
                        const Eigen::Isometry3d& world_T_sensor)
 {
+  const std::lock_guard<std::mutex> frame_lock(frame_mutex_);
   requireInput(InputConfig::Type::PCD_FILES, "integrateCloud");
   if (cloud.empty())
     throw Exception("Mapper::integrateCloud: the cloud is empty");
@@ -209,6 +211,7 @@ Mapper::integrateDepth(const cv::Mat& depth,
                        const PinholeView& camera,
                        const Eigen::Isometry3d& world_T_camera)
 {
+  const std::lock_guard<std::mutex> frame_lock(frame_mutex_);
   requireInput(InputConfig::Type::PCD_FILES, "integrateDepth");
   if (depth.empty())
     throw Exception("Mapper::integrateDepth: the depth image is empty");
@@ -280,9 +283,10 @@ Mapper::integrate(Frame& frame, const Eigen::Isometry3d* world_T_camera)
   frame.has_pose = world_T_camera != nullptr;
   if (world_T_camera)
     frame.world_T_camera = *world_T_camera;
-  frame.sequence_number = frames_;
-  frame.file_index = static_cast<int>(frames_);
-  frame.name = "#" + std::to_string(frames_);
+  const std::size_t sequence_number = frames_.load();
+  frame.sequence_number = sequence_number;
+  frame.file_index = static_cast<int>(sequence_number);
+  frame.name = "#" + std::to_string(sequence_number);
 
   const std::vector<StageReport> before = runner_.report().stages;
   lock_wait_ms_ = 0.0;
@@ -341,7 +345,8 @@ Mapper::save(const std::string& path) const
 void
 Mapper::reset()
 {
-  const std::unique_lock<std::shared_mutex> lock(map_mutex_);
+  const std::lock_guard<std::mutex> frame_lock(frame_mutex_);
+  const std::unique_lock<WriterPreferringSharedMutex> lock(map_mutex_);
   runner_.start();
   frames_ = 0;
 }

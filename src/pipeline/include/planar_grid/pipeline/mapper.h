@@ -2,6 +2,7 @@
 #pragma once
 
 #include <planar_grid/core/stereo_calibration.h>
+#include <planar_grid/core/writer_preferring_shared_mutex.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/frame.h>
 #include <planar_grid/pipeline/pipeline_config.h>
@@ -13,6 +14,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/core/mat.hpp>
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <memory>
@@ -82,19 +84,20 @@ struct FrameStats {
  * leave part of its work in the map and the stages' state, as a failed run of
  * planar_grid_pipeline does; reset() starts over.
  *
- * Thread safety: integrateStereo() and integrateCloud() are called from one thread at
- * a time. Any number of other threads may read the map at the same time through
- * readMap() and save(): they hold a shared lock (std::shared_mutex) while they read,
- * and each frame holds it exclusively only while its map_integration stage changes
- * the map, so every reader sees the map as it was after some whole frame. The cost: a
- * reader may wait up to one map_integration stage (FrameStats::exclusive_ms: on the
- * 112 Karlsruhe frames, config/karlsruhe.yaml in Release, 24 ms on average, 56 ms at
- * most; a reader querying in a loop waited 0.18 ms on average; docs/LIVE.md), and
- * a frame's map_integration waits for the readers under way to finish
- * (FrameStats::lock_wait_ms). Nothing is copied: a copy per frame, the alternative,
- * would cost more than the frame (the final Karlsruhe map's serialize and deserialize
- * take 1.2 s).
- * \ingroup pipeline */
+ * Thread safety: the integrate calls and reset() may come from any thread; they run
+ * one at a time, each whole, in the order they take the mapper's frame lock (a second
+ * thread's call waits for the first's frame). Any number of other threads may read the
+ * map at the same time through readMap() and save(): they hold a shared lock while
+ * they read, and each frame holds it exclusively only while its map_integration stage
+ * changes the map, so every reader sees the map as it was after some whole frame. The
+ * lock prefers the frame (WriterPreferringSharedMutex): once the frame waits, new
+ * readers wait behind it, so the frame waits at most for the reads under way
+ * (FrameStats::lock_wait_ms), and a reader at most for one map_integration stage
+ * (FrameStats::exclusive_ms: on the 112 Karlsruhe frames, config/karlsruhe.yaml in
+ * Release, 24 ms on average, 56 ms at most; docs/LIVE.md). A thread holding a
+ * MapReader must not take a second one nor integrate. Nothing is copied: a copy per
+ * frame, the alternative, would cost more than the frame (the final Karlsruhe map's
+ * serialize and deserialize take 1.2 s). \ingroup pipeline */
 class Mapper {
 public:
   /** \brief Shared pointer to a mapper. */
@@ -117,11 +120,13 @@ public:
   private:
     friend class Mapper;
     /** \brief Locks, then reads the map pointer (reset() replaces the map). */
-    MapReader(std::shared_mutex& mutex, const std::shared_ptr<PlanarGridMap>& map) :
-        lock_(mutex), map_(map.get())
+    MapReader(WriterPreferringSharedMutex& mutex,
+              const std::shared_ptr<PlanarGridMap>& map) :
+        lock_(mutex),
+        map_(map.get())
     {}
     /** \brief The shared lock on the map. */
-    std::shared_lock<std::shared_mutex> lock_;
+    std::shared_lock<WriterPreferringSharedMutex> lock_;
     /** \brief The map. */
     const PlanarGridMap* map_;
   };
@@ -219,12 +224,12 @@ public:
   void save(const std::string& path) const;
 
   /** \brief Empties the map and restarts the run (the odometry and every stage's
-   * state too); waits for the readers under way. Not concurrent with integrate calls.
-   */
+   * state too); waits for a frame under way on another thread and for the readers
+   * under way. */
   void reset();
 
   /** \brief Frames integrated since construction or reset(). */
-  [[nodiscard]] std::size_t getFrameCount() const { return frames_; }
+  [[nodiscard]] std::size_t getFrameCount() const { return frames_.load(); }
 
   /** \brief The poses of the integrated frames (world_T_camera), in order. Read it from
    * the thread that integrates. */
@@ -264,14 +269,17 @@ private:
   /** \brief Whether a stage needs the poses. */
   bool needs_poses_{false};
   /** \brief Frames integrated since the start of the run. */
-  std::size_t frames_{0};
+  std::atomic<std::size_t> frames_{0};
+  /** \brief Held through each integrate call and reset(): one frame at a time. */
+  std::mutex frame_mutex_;
   /** \brief The stereo images' size (integrateStereo()). */
   cv::Size image_size_;
   /** \brief Guards the map: shared for readers, exclusive while a stage changes it. */
-  mutable std::shared_mutex map_mutex_;
+  mutable WriterPreferringSharedMutex map_mutex_;
   /** \brief The exclusive lock of the frame under way (owned between the stages that
    * change the map). */
-  std::unique_lock<std::shared_mutex> write_lock_{map_mutex_, std::defer_lock};
+  std::unique_lock<WriterPreferringSharedMutex> write_lock_{map_mutex_,
+                                                            std::defer_lock};
   /** \brief Wall time the frame under way waited for readers, milliseconds. */
   double lock_wait_ms_{0.0};
   /** \brief Wall time the frame under way held readers out, milliseconds. */
