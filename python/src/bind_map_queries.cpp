@@ -247,7 +247,12 @@ numpy.ndarray, shape (N,), float64
           py::gil_scoped_release release;
           for (std::size_t i = 0; i < d.size(); ++i) {
             Eigen::Vector3f end;
-            h[i] = self.castRay(o[i], d[i], max_range_m, end);
+            try {
+              h[i] = self.castRay(o[i], d[i], max_range_m, end);
+            } catch (const Exception& e) {
+              throw py::value_error("cast_rays: ray " + std::to_string(i) + ": "
+                                    + e.what());
+            }
             for (int k = 0; k < 3; ++k)
               q[3 * i + static_cast<std::size_t>(k)] =
                 h[i] ? end[k] : std::numeric_limits<double>::quiet_NaN();
@@ -263,9 +268,9 @@ Parameters
 origins : array_like, shape (N, 3) or (3,)
     Ray starts, meters; one (3,) origin is shared by every ray.
 directions : array_like, shape (N, 3) or (3,)
-    Ray directions (any length > 0).
+    Ray directions (finite, any length > 0).
 max_range_m : float
-    Largest distance, meters.
+    Largest distance, meters, >= 0; ``math.inf`` casts to the end of the map.
 
 Returns
 -------
@@ -274,6 +279,12 @@ hit : numpy.ndarray, shape (N,), bool
 points : numpy.ndarray, shape (N, 3), float64
     The entry point into the occupied cuboid or the occupied voxel's centre, meters;
     NaN where nothing was hit.
+
+Raises
+------
+ValueError
+    For a zero or non-finite direction, a non-finite origin, or a negative or NaN
+    max_range_m, naming the ray.
 )doc")
     .def(
       "get_distance",

@@ -2,6 +2,7 @@
 """PlanarGridMap through the Python module: a map of known geometry built from Python,
 its state, occupancy and ray queries, and the map file round trip."""
 
+import math
 import pickle
 
 import numpy as np
@@ -56,6 +57,17 @@ def test_rays_stop_at_the_wall(scanned_map):
     assert points[2][0] == pytest.approx(5.05, abs=1e-5)
     hit, _ = scanned_map.cast_rays(origins, [1.0, 0.0, 0.0], max_range_m=3.0)
     np.testing.assert_array_equal(hit, [False])
+    # Without a range limit (or one beyond the 2^30 cells the keys hold): the same hits.
+    for max_range_m in (math.inf, 1e12):
+        hit, points = scanned_map.cast_rays(origins, directions, max_range_m)
+        np.testing.assert_array_equal(hit, [True, False, True])
+        np.testing.assert_allclose(points[0], [5.05, 0.05, 0.05], atol=1e-5)
+    # A ray that is no ray is an error naming it, not a miss.
+    with pytest.raises(ValueError, match="ray 1"):
+        scanned_map.cast_rays(origins, [[1.0, 0.0, 0.0], [0.0, 0.0, 0.0]], 20.0)
+    for bad_range in (-1.0, math.nan):
+        with pytest.raises(ValueError, match="max_range_m"):
+            scanned_map.cast_rays(origins, [1.0, 0.0, 0.0], bad_range)
 
 
 def test_set_state_and_errors():

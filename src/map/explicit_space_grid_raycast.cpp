@@ -153,15 +153,51 @@ ExplicitSpaceGrid::castRay(const Eigen::Vector3f& origin,
                            Eigen::Vector3f& hit) const
 {
   const double n = static_cast<double>(direction.norm());
-  if (!origin.allFinite() || !direction.allFinite() || !(n > 0.0)
-      || !(max_range_m >= 0.0) || !std::isfinite(max_range_m))
-    return false;
+  if (!origin.allFinite())
+    throw Exception("ExplicitSpaceGrid::castRay: the origin is not finite");
+  if (!direction.allFinite() || !(n > 0.0))
+    throw Exception("ExplicitSpaceGrid::castRay: the direction must be finite and "
+                    "non-zero");
+  if (!(max_range_m >= 0.0))
+    throw Exception("ExplicitSpaceGrid::castRay: max_range_m must be >= 0 (infinity "
+                    "allowed), not "
+                    + std::to_string(max_range_m));
   const double res = params_.resolution_m;
   const Eigen::Vector3d o = origin.cast<double>() / res;
   const Eigen::Vector3d d = direction.cast<double>() / n;
-  const double max_t = max_range_m / res; // in voxel units
-  if (o.cwiseAbs().maxCoeff() + max_t >= MAX_KEY)
-    return false;
+  const double reach = o.cwiseAbs().maxCoeff();
+  if (reach >= MAX_KEY - 2.0)
+    return false; // beyond every key the grid can hold: nothing stored there
+  double max_t = max_range_m / res; // in voxel units; may be infinite
+  // A long walk ends where the stored blocks end: beyond them every voxel is the
+  // prior, which (but for the occupied prior) is no hit.
+  constexpr double LONG_WALK_VOXELS = 4096.0;
+  if (max_t > LONG_WALK_VOXELS && params_.prior != SpaceState::OCCUPIED) {
+    VoxelKey lo, hi;
+    if (!getBounds(lo, hi))
+      return false;
+    double t_enter = 0.0;
+    double t_exit = max_t;
+    for (int a = 0; a < 3; ++a) {
+      const double low = static_cast<double>(lo[a]);
+      const double high = static_cast<double>(hi[a]) + 1.0;
+      if (d[a] == 0.0) {
+        if (o[a] < low || o[a] >= high)
+          return false;
+        continue;
+      }
+      double ta = (low - o[a]) / d[a], tb = (high - o[a]) / d[a];
+      if (ta > tb)
+        std::swap(ta, tb);
+      t_enter = std::max(t_enter, ta);
+      t_exit = std::min(t_exit, tb);
+    }
+    if (t_enter > t_exit)
+      return false;
+    max_t = t_exit;
+  }
+  // The walk never leaves the keys the grid can hold.
+  max_t = std::min(max_t, MAX_KEY - 2.0 - reach);
   impl_->storage.settle(
     priorCode(params_.prior)); // pending setState() edits (content unchanged)
   DdaWalk walk(o, d);

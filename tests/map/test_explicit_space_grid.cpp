@@ -399,8 +399,8 @@ TEST(ExplicitSpaceGrid, CastRayMatchesBruteForce)
   }
   EXPECT_GT(hits, 50); // the random set is dense enough for many hits
   Eigen::Vector3f hit;
-  EXPECT_FALSE(
-    grid.castRay(Eigen::Vector3f::Zero(), Eigen::Vector3f::Zero(), 5.0, hit));
+  EXPECT_THROW(grid.castRay(Eigen::Vector3f::Zero(), Eigen::Vector3f::Zero(), 5.0, hit),
+               planar_grid::Exception);
 }
 
 TEST(ExplicitSpaceGrid, CountsAndMemoryConsistent)

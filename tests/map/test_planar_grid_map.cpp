@@ -348,8 +348,35 @@ TEST_F(PlanarGridMapTest, QueriesCombineTheLayers)
                            Eigen::Vector3f::UnitX(), 1.5, hit));
   EXPECT_FALSE(map.castRay(Eigen::Vector3f(0.0f, 0.25f, 0.55f),
                            -Eigen::Vector3f::UnitX(), 10.0, hit));
-  EXPECT_FALSE(map.castRay(Eigen::Vector3f(0.0f, 0.25f, 0.55f), Eigen::Vector3f::Zero(),
-                           10.0, hit));
+  // No range limit, or one far beyond what the keys hold (2^30 cells): the same hits.
+  for (const double range : {std::numeric_limits<double>::infinity(), 1e12, 2e8}) {
+    ASSERT_TRUE(map.castRay(Eigen::Vector3f(0.0f, 0.55f, 0.55f),
+                            Eigen::Vector3f::UnitX(), range, hit))
+      << range;
+    EXPECT_NEAR(hit.x(), 0.55f, 0.06f) << range;
+    ASSERT_TRUE(map.castRay(Eigen::Vector3f(0.0f, 0.25f, 0.55f),
+                            Eigen::Vector3f::UnitX(), range, hit))
+      << range;
+    EXPECT_NEAR(hit.x(), 2.0f, 0.06f) << range;
+    EXPECT_FALSE(map.castRay(Eigen::Vector3f(0.0f, 0.25f, 0.55f),
+                             -Eigen::Vector3f::UnitX(), range, hit))
+      << range;
+  }
+  // A ray that is no ray is an error, not a miss.
+  const Eigen::Vector3f o(0.0f, 0.25f, 0.55f);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(map.castRay(o, Eigen::Vector3f::Zero(), 10.0, hit),
+               planar_grid::Exception);
+  EXPECT_THROW(map.castRay(o, Eigen::Vector3f(nan, 0.0f, 0.0f), 10.0, hit),
+               planar_grid::Exception);
+  EXPECT_THROW(
+    map.castRay(Eigen::Vector3f(nan, 0.0f, 0.0f), Eigen::Vector3f::UnitX(), 10.0, hit),
+    planar_grid::Exception);
+  EXPECT_THROW(map.castRay(o, Eigen::Vector3f::UnitX(), -1.0, hit),
+               planar_grid::Exception);
+  EXPECT_THROW(map.castRay(o, Eigen::Vector3f::UnitX(),
+                           std::numeric_limits<double>::quiet_NaN(), hit),
+               planar_grid::Exception);
 }
 
 TEST_F(PlanarGridMapTest, MemoryIsTheSumOfTheLayers)

@@ -286,11 +286,14 @@ public:
              MergeOrder order = MergeOrder::UNORDERED);
 
   /** \brief Walks the voxels along a ray (Amanatides-Woo) to the first occupied one.
-   * \param[in] origin start, meters
-   * \param[in] direction direction (any length > 0)
-   * \param[in] max_range_m largest distance walked, meters
+   * \param[in] origin start, meters, finite
+   * \param[in] direction direction (any finite length > 0)
+   * \param[in] max_range_m largest distance walked, meters, >= 0; infinity walks to
+   * the end of the stored blocks
    * \param[out] hit centre of the first occupied voxel, meters
-   * \return true when an occupied voxel was found within max_range_m */
+   * \return true when an occupied voxel was found within max_range_m
+   * \throws planar_grid::Exception for a non-finite origin, a zero or non-finite
+   * direction, or a negative or NaN range */
   bool castRay(const Eigen::Vector3f& origin,
                const Eigen::Vector3f& direction,
                double max_range_m,

@@ -288,11 +288,15 @@ public:
   [[nodiscard]] float getOccupancy(const Eigen::Vector3f& point) const;
 
   /** \brief Casts a ray to the first occupied cell of either layer.
-   * \param[in] origin, direction the ray (direction of any length > 0), meters
-   * \param[in] max_range_m largest distance, meters
+   * \param[in] origin, direction the ray (origin finite; direction finite, of any
+   * length > 0), meters
+   * \param[in] max_range_m largest distance, meters, >= 0 (infinity: to the end of the
+   * map)
    * \param[out] hit the entry point into the occupied cuboid or the occupied voxel's
    * centre, meters
-   * \return true on a hit within max_range_m */
+   * \return true on a hit within max_range_m
+   * \throws planar_grid::Exception for a non-finite origin, a zero or non-finite
+   * direction, or a negative or NaN range */
   bool castRay(const Eigen::Vector3f& origin,
                const Eigen::Vector3f& direction,
                double max_range_m,
