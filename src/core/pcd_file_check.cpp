@@ -475,6 +475,14 @@ convertFieldsToFloat(pcl::PCLPointCloud2& blob,
     return field.datatype != pcl::PCLPointField::FLOAT32
            && std::find(names.begin(), names.end(), field.name) != names.end();
   };
+  // A named field holds one number per point whatever its datatype: PCL would read
+  // the first of several as the value (an x of COUNT 3 read as x alone).
+  for (const auto& field : blob.fields)
+    if (field.count > 1
+        && std::find(names.begin(), names.end(), field.name) != names.end())
+      throw IOError(where + ": the field '" + field.name + "' holds "
+                    + std::to_string(field.count)
+                    + " values per point (COUNT); one number is needed");
   bool any = false;
   for (const auto& field : blob.fields) {
     if (!converted(field))
@@ -485,10 +493,6 @@ convertFieldsToFloat(pcl::PCLPointCloud2& blob,
       throw IOError(where + ": the field '" + field.name + "' has the datatype "
                     + std::to_string(field.datatype)
                     + ", which PCL does not define; it cannot be read as a number");
-    if (field.count != 1)
-      throw IOError(where + ": the field '" + field.name + "' holds "
-                    + std::to_string(field.count)
-                    + " values per point (COUNT); one number is needed");
     any = true;
   }
   if (!any)

@@ -492,6 +492,24 @@ TEST(RosMessagesTest, PointCloud2OfDoubleOrIntegerCoordinatesKeepsItsPoints)
     EXPECT_NE(what.find("/points"), std::string::npos) << what;
     EXPECT_NE(what.find("'x'"), std::string::npos) << what;
   }
+  // Nor when they are floats, which need no conversion (PCL read the first as x).
+  auto float_counted =
+    typedCloudMessage(*direct.cloud, sensor_msgs::PointField::FLOAT32, 1.0);
+  float_counted.fields[0].count = 3;
+  float_counted.fields[0].offset = 0;
+  float_counted.fields[1].offset = 12;
+  float_counted.fields[2].offset = 16;
+  float_counted.fields[3].offset = 20;
+  float_counted.point_step = 24;
+  float_counted.row_step = float_counted.point_step * float_counted.width;
+  float_counted.data.resize(float_counted.row_step);
+  try {
+    planar_grid::ros_messages::cloudFromMessage(float_counted, "/points", cloud);
+    ADD_FAILURE() << "a 3-count float x was accepted";
+  } catch (const planar_grid::IOError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("'x' holds 3 values"), std::string::npos) << what;
+  }
 }
 
 TEST_F(RosBagInputTest, BadBagsNameTheFileAndTopic)

@@ -625,6 +625,20 @@ TEST_F(BadPCDInputTest, FieldConversionKeepsValuesAndRefusesWhatItCannotRead)
   } catch (const planar_grid::IOError& e) {
     EXPECT_CONTAINS(std::string(e.what()), "pairs.pcd: the field 'x' holds 2 values");
   }
+  // Nor three floats, which need no conversion (PCL would read the first as x).
+  pcl::PCLPointCloud2 triples = wallBlob<float>(pcl::PCLPointField::FLOAT32, 1.0);
+  triples.fields[0].count = 3;
+  triples.fields[1].offset = 12;
+  triples.fields[2].offset = 16;
+  triples.point_step = 20;
+  triples.data.resize(triples.width * 20);
+  triples.row_step = triples.width * 20;
+  try {
+    planar_grid::convertFieldsToFloat(triples, {"x", "y", "z"}, "triples.pcd");
+    ADD_FAILURE() << "a float field of COUNT 3 was accepted";
+  } catch (const planar_grid::IOError& e) {
+    EXPECT_CONTAINS(std::string(e.what()), "triples.pcd: the field 'x' holds 3 values");
+  }
 }
 
 TEST_F(BadStereoInputTest, RunWhoseMapHasNoCuboidsWritesItsOutputsAndExitsZero)

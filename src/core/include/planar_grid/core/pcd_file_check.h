@@ -77,8 +77,9 @@ void checkPointCloudBlob(const pcl::PCLPointCloud2& blob, const std::string& whe
  * checkPointCloudBlob(). \param[in,out] blob the cloud \param[in] names the fields to
  * convert (e.g. x, y, z, intensity); absent ones are skipped \param[in] where the file
  * or message, for the message \throws planar_grid::IOError naming \a where and the
- * field when such a field holds more than one value per point (COUNT > 1) or has a
- * datatype PCL does not define \ingroup core */
+ * field when a field of \a names holds more than one value per point (COUNT > 1),
+ * float or not, or a field to convert has a datatype PCL does not define
+ * \ingroup core */
 void convertFieldsToFloat(pcl::PCLPointCloud2& blob,
                           const std::vector<std::string>& names,
                           const std::string& where);
