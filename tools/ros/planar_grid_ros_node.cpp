@@ -153,14 +153,23 @@ public:
       const auto name = [](const std::string& configured, const char* fallback) {
         return configured.empty() ? std::string(fallback) : configured;
       };
-      left_sub_.subscribe(nh_, name(bag.left_image_topic, "left/image_rect"), 5);
-      right_sub_.subscribe(nh_, name(bag.right_image_topic, "right/image_rect"), 5);
-      left_info_sub_.subscribe(nh_, name(bag.left_info_topic, "left/camera_info"), 5);
+      // Keeping every frame (~max_queued_frames 0) holds every message until it is
+      // paired: roscpp's queues without a bound (0) and a deep pairing queue; else
+      // the transport may drop messages while the worker has the CPU.
+      const bool keep_all = params_.max_queued_frames == 0;
+      const std::uint32_t queue = keep_all ? 0 : 5;
+      left_sub_.subscribe(nh_, name(bag.left_image_topic, "left/image_rect"), queue);
+      right_sub_.subscribe(nh_, name(bag.right_image_topic, "right/image_rect"), queue);
+      left_info_sub_.subscribe(nh_, name(bag.left_info_topic, "left/camera_info"),
+                               queue);
       right_info_sub_.subscribe(nh_, name(bag.right_info_topic, "right/camera_info"),
-                                5);
-      sync_ = std::make_unique<Sync>(SyncPolicy(10), left_sub_, right_sub_,
-                                     left_info_sub_, right_info_sub_);
+                                queue);
+      sync_ = std::make_unique<Sync>(SyncPolicy(keep_all ? 1000 : 10), left_sub_,
+                                     right_sub_, left_info_sub_, right_info_sub_);
       sync_->registerCallback(&PlanarGridNode::onStereo, this);
+      // Left images that never became a pair are counted (frame_stats "unpaired").
+      left_sub_.registerCallback(
+        [this](const sensor_msgs::ImageConstPtr&) { ++left_images_; });
       ROS_INFO_STREAM("planar_grid_ros_node: mapping the pair "
                       << left_sub_.getTopic() << " / " << right_sub_.getTopic());
     }
@@ -272,10 +281,33 @@ private:
   {
     const std::string& sensor =
       params_.sensor_frame.empty() ? header.frame_id : params_.sensor_frame;
-    const geometry_msgs::TransformStamped t = tf_buffer_.lookupTransform(
-      params_.fixed_frame, sensor, header.stamp, ros::Duration(params_.tf_timeout_s));
+    // Waits for the transform in short slices, so that a shutdown (SIGINT) ends the
+    // wait however long ~tf_timeout is.
+    const auto deadline =
+      Clock::now()
+      + std::chrono::duration_cast<Clock::duration>(
+        std::chrono::duration<double>(std::min(params_.tf_timeout_s, 1e9)));
+    const ros::Duration slice(0.05);
+    while (!tf_buffer_.canTransform(params_.fixed_frame, sensor, header.stamp, slice)) {
+      if (stopRequested())
+        throw planar_grid::Exception("the node stops: no longer waiting for TF '"
+                                     + params_.fixed_frame + "' -> '" + sensor + "'");
+      if (Clock::now() >= deadline)
+        break; // lookupTransform() below throws with tf2's reason
+    }
+    const geometry_msgs::TransformStamped t =
+      tf_buffer_.lookupTransform(params_.fixed_frame, sensor, header.stamp);
     return planar_grid::ros_messages::isometryFromTransform(
       t.transform, "TF '" + params_.fixed_frame + "' -> '" + sensor + "'");
+  }
+
+  /** Whether the node is shutting down (its destructor, or ROS after SIGINT). */
+  bool stopRequested()
+  {
+    if (!ros::ok())
+      return true;
+    const std::lock_guard<std::mutex> lock(queue_mutex_);
+    return stopping_;
   }
 
   void mapFrame(const PendingFrame& frame)
@@ -506,13 +538,21 @@ private:
       std::chrono::duration<double, std::milli>(Clock::now() - frame.arrival).count();
     std::size_t queued = 0;
     std::uint64_t dropped = 0;
+    std::uint64_t pairs = 0;
     {
       std::lock_guard<std::mutex> lock(queue_mutex_);
       queued = queue_.size();
       dropped = dropped_;
+      pairs = received_;
     }
     nlohmann::json j;
     j["received"] = frame.sequence;
+    // Left images that no pair took (yet): lost before a frame was formed (a right
+    // image or a CameraInfo missing or too late for the pairing), or still waiting for
+    // their partners.
+    const std::uint64_t left_images = left_images_.load();
+    j["unpaired"] =
+      cloud_sub_ ? std::uint64_t{0} : left_images - std::min(left_images, pairs);
     j["mapped"] = mapped_.load();
     j["keyframe"] = isKeyframe(stats);
     j["keyframes"] = keyframes_.load();
@@ -605,6 +645,8 @@ private:
   bool stopping_{false};
   bool reset_requested_{false};
   std::uint64_t received_{0};
+  /** Left images received (stereo input), paired or not. */
+  std::atomic<std::uint64_t> left_images_{0};
   std::uint64_t dropped_{0};
   std::atomic<std::uint64_t> mapped_{0};
   std::atomic<std::uint64_t> keyframes_{0};

@@ -70,6 +70,60 @@ def write_config(source_config, bag, output_folder, path):
         yaml.safe_dump(config, f, sort_keys=False)
 
 
+def stop_while_waiting_for_tf(args):
+    """The node waits for a pose that never comes (no /tf, ~tf_timeout 86400 s); SIGINT
+    must still stop it within seconds, with status 0."""
+    work = tempfile.mkdtemp(prefix="planar_grid_ros_stop_")
+    bag = os.path.join(work, "pairs.bag")
+    subprocess.run([args.write_bag, "--config", args.config, "--frames", "3",
+                    "--output", bag], check=True, timeout=120)
+    config = os.path.join(work, "ros.yaml")
+    write_config(args.config, bag, os.path.join(work, "pipeline"), config)
+    port = free_port()
+    env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_IP="127.0.0.1",
+               ROS_HOME=os.path.join(work, "ros_home"), ROS_LOG_DIR=os.path.join(work, "log"))
+    os.environ.update(env)
+    import rosgraph
+    import rospy
+    from std_msgs.msg import String
+
+    master = node = player = None
+    try:
+        master = subprocess.Popen(["rosmaster", "--core", "-p", str(port)], env=env,
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
+        wait_until(lambda: rosgraph.Master("/planar_grid_test").is_online(), 30,
+                   f"rosmaster on 127.0.0.1:{port}")
+        node = subprocess.Popen([args.node, "__name:=planar_grid", f"_config:={config}",
+                                 "_tf_timeout:=86400"], env=env)
+        rospy.init_node("planar_grid_test", anonymous=True, disable_signals=True)
+        stats = []
+        subscriber = rospy.Subscriber("/planar_grid/frame_stats", String, stats.append)
+        wait_until(lambda: subscriber.get_num_connections() > 0, 30,
+                   "the subscription to the node's frame_stats")
+        player = subprocess.Popen(
+            ["rosbag", "play", "--quiet", bag, "--topics", "/stereo/left/image_rect",
+             "/stereo/right/image_rect", "/stereo/left/camera_info",
+             "/stereo/right/camera_info"], env=env, stdout=subprocess.DEVNULL)
+        player.wait(timeout=60)
+        time.sleep(1.0)  # the node now waits for the first pair's pose
+        assert node.poll() is None, f"the node exited early ({node.returncode})"
+        assert not stats, "a frame was mapped without its pose"
+        started = time.monotonic()
+        node.send_signal(signal.SIGINT)
+        node.wait(timeout=10)
+        stopped_s = time.monotonic() - started
+        assert node.returncode == 0, f"the node exited {node.returncode} on SIGINT"
+        print(f"the node stopped {stopped_s:.2f} s after SIGINT while waiting for TF")
+    finally:
+        stop(player, "rosbag play")
+        stop(node, "planar_grid_ros_node")
+        rospy.signal_shutdown("test done") if "rospy" in sys.modules else None
+        stop(master, "rosmaster")
+    if not args.keep:
+        subprocess.run(["rm", "-rf", work], check=False)
+    print("1 passed, 0 failed")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--node", required=True)
@@ -84,9 +138,16 @@ def main():
                         help="rosbag play's rate (1: the recording's pace)")
     parser.add_argument("--cpu", type=int, default=-1,
                         help="pin the node to this CPU (taskset -c); -1: not pinned")
+    parser.add_argument("--stop-while-waiting-for-tf", action="store_true",
+                        help="instead: play the pairs without /tf to the node with a "
+                        "~tf_timeout of a day, send SIGINT, and check that it exits at "
+                        "once with status 0")
     parser.add_argument("--keep", action="store_true",
                         help="keep the work folder (bag, configuration, maps)")
     args = parser.parse_args()
+    if args.stop_while_waiting_for_tf:
+        stop_while_waiting_for_tf(args)
+        return
     measure_only = args.max_queued_frames > 0
 
     work = tempfile.mkdtemp(prefix="planar_grid_ros_")
@@ -161,6 +222,7 @@ def main():
         if not measure_only:
             assert final["dropped"] == 0, f"{final['dropped']} frames dropped: {final}"
             assert final["mapped"] == args.frames, final
+            assert final["unpaired"] == 0, f"{final['unpaired']} left images unpaired"
             assert len(stats) == args.frames, f"{len(stats)} frame_stats for {args.frames} frames"
         for name, messages in received.items():
             assert messages, f"nothing published on /planar_grid/{name}"
@@ -193,7 +255,7 @@ def main():
         keyframe_stats = [s for s in stats if s.get("keyframe", True)]
         print(f"{args.frames} frames played in {played_s:.1f} s at rate {args.rate}; mapped "
               f"{final['mapped']} ({final['keyframes']} keyframes), dropped "
-              f"{final['dropped']}; arrival -> markers latency: "
+              f"{final['dropped']}, unpaired {final['unpaired']}; arrival -> markers latency: "
               f"{summary(s['latency_ms'] for s in stats)}; of the keyframes: "
               f"{summary(s['latency_ms'] for s in keyframe_stats)}; mapping {statistics.mean(s['total_ms'] for s in stats):.1f}"
               f" ms a frame, publishing {statistics.mean(s['publish_ms'] for s in stats):.1f} ms"
