@@ -23,11 +23,33 @@ namespace {
 /** \brief Any array-like converted to a C-contiguous uint8 array. */
 using ByteArray = py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>;
 
+/** Largest side of an image, px: OpenCV sizes are int, and no camera comes near. */
+constexpr py::ssize_t MAX_IMAGE_SIDE_PX = py::ssize_t{1} << 16;
+
+/** Throws ValueError unless \a image is (H, W) with both sides in [1,
+ * MAX_IMAGE_SIDE_PX]; checked before any copy (a broadcast array of a huge width
+ * would be copied whole, and its width overflow an int). \a kind says what array is
+ * expected, for the message. */
+void
+checkImageShape(const py::array& image, const char* name, const char* kind)
+{
+  if (image.ndim() != 2)
+    throw py::value_error(std::string(name) + " must be " + kind + ", got "
+                          + std::to_string(image.ndim()) + " dimensions");
+  for (int k = 0; k < 2; ++k)
+    if (image.shape(k) < 1 || image.shape(k) > MAX_IMAGE_SIDE_PX)
+      throw py::value_error(std::string(name) + " is " + std::to_string(image.shape(0))
+                            + " x " + std::to_string(image.shape(1))
+                            + " px; each side must be " + "1 to "
+                            + std::to_string(MAX_IMAGE_SIDE_PX) + " px");
+}
+
 /** \a image as a C-contiguous uint8 array: another dtype is refused rather than cast
  * (a float image in [0, 1] would become a black one). */
 ByteArray
 toByteImage(const py::array& image, const char* name)
 {
+  checkImageShape(image, name, "an (H, W) uint8 array (8-bit grey)");
   if (!image.dtype().is(py::dtype::of<std::uint8_t>()))
     throw py::value_error(
       std::string(name) + " must be an (H, W) uint8 array (8-bit grey), got dtype "
@@ -266,9 +288,7 @@ planar_grid.Error
       "integrate_depth",
       [](Mapper& self, const py::array& depth, double fx_px, double fy_px, double cx_px,
          double cy_px, const DoubleArray& world_T_camera) {
-        if (depth.ndim() != 2)
-          throw py::value_error("depth must be an (H, W) array, got "
-                                + std::to_string(depth.ndim()) + " dimensions");
+        checkImageShape(depth, "depth", "an (H, W) array");
         using MillimeterArray =
           py::array_t<std::uint16_t, py::array::c_style | py::array::forcecast>;
         // uint16 stays millimeters; any other dtype is taken as meters (float32).

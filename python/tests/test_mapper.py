@@ -83,6 +83,13 @@ def test_bad_input_raises(main_job):
     with pytest.raises(ValueError, match="uint8 array .* got dtype float32"):
         mapper.integrate_stereo(f["left"].astype(np.float32) / 255, f["right"],
                                 f["calibration"], f["world_T_camera"])
+    # A broadcast image of a huge width is refused before it is copied.
+    wide = np.broadcast_to(np.zeros(1, np.uint8), (372, 2**31 + 5))
+    with pytest.raises(ValueError, match="left is 372 x 2147483653 px"):
+        mapper.integrate_stereo(wide, wide, f["calibration"], f["world_T_camera"])
+    with pytest.raises(ValueError, match="1 to 65536 px"):
+        mapper.integrate_stereo(np.zeros((0, 1344), np.uint8), f["right"],
+                                f["calibration"], f["world_T_camera"])
     # The first pair passed the wrong way round.
     with pytest.raises(pg.Error, match="the left and right images look swapped"):
         mapper.integrate_stereo(f["right"], f["left"], f["calibration"],
