@@ -86,6 +86,7 @@ def test_mypy_checks_a_program_against_the_stubs(tmp_path):
         m.save("map.pgmap")
         n: int = m.cell_count
         segments = pgd.split_frames(0, 112, 4)
+        loaded: pg.PlanarGridMap = pg.PlanarGridMap.load("map.pgmap")
         """))
     wrong = tmp_path / "misuse_map.py"
     wrong.write_text(textwrap.dedent("""\
@@ -94,6 +95,7 @@ def test_mypy_checks_a_program_against_the_stubs(tmp_path):
         m = pg.PlanarGridMap()
         label: str = m.cell_count
         seg = pg.SACMultiPlaneSegmentation(distance_threshold=0.02)
+        other: int = pg.PlanarGridMap.load("map.pgmap")
         """))
     env = dict(os.environ, MYPYPATH=os.path.dirname(PACKAGE_DIR))
     run = lambda path: subprocess.run(  # noqa: E731
@@ -105,3 +107,17 @@ def test_mypy_checks_a_program_against_the_stubs(tmp_path):
     bad = run(wrong)
     assert bad.returncode != 0 and "misuse_map.py:4" in bad.stdout, bad.stdout
     assert "misuse_map.py:5" in bad.stdout and "distance_threshold" in bad.stdout, bad.stdout
+    # A static method is called on the class and returns what its signature says.
+    assert "misuse_map.py:6" in bad.stdout, bad.stdout
+
+
+def test_static_methods_are_static_with_their_signatures():
+    tree = stub_tree()
+    classes = {n.name: n for n in tree.body if isinstance(n, ast.ClassDef)}
+    methods = {f.name: f for f in classes["PlanarGridMap"].body
+               if isinstance(f, ast.FunctionDef)}
+    for name in ["load", "load_tiles"]:
+        decorators = [d.id for d in methods[name].decorator_list if isinstance(d, ast.Name)]
+        assert "staticmethod" in decorators, name
+        args = [a.arg for a in methods[name].args.args]
+        assert args and args[0] != "self" and methods[name].args.vararg is None, (name, args)

@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: BSD-3-Clause
-"""mypy's stubgen, run on the built extension with one addition to its docstring parser:
-the bare ``*`` that pybind11 writes before keyword-only arguments (py::kw_only()).
+"""mypy's stubgen, run on the built extension with two additions: its docstring parser
+takes the bare ``*`` that pybind11 writes before keyword-only arguments (py::kw_only()),
+and static methods (py::def_static) get their signatures and ``@staticmethod``.
 
 stubgen reads a C extension's signatures from the first line of each docstring, and the
 parser of mypy 1.0 (Debian's) takes ``*`` for a malformed argument name: it then drops the
@@ -9,17 +10,44 @@ constructor such as ``SACMultiPlaneSegmentation(*, distance_threshold_m: float =
 ...)``. Accepting ``*`` as an argument makes stubgen write it back as the keyword-only
 marker. A stubgen whose parser has no such pattern is run unchanged.
 
+mypy 1.0 takes a class's ``staticmethod`` objects for methods and reads the signature
+from the staticmethod's own docstring (Python's ``staticmethod(function) -> method``),
+so ``PlanarGridMap.load`` became ``def load(self, *args, **kwargs) -> Any`` and mypy
+refused ``PlanarGridMap.load(path)``. Here the wrapped function's signatures are written
+as a function's, each marked ``@staticmethod``.
+
 Usage: python3 stubgen.py <stubgen arguments>
 """
 import re
 import sys
 
 import mypy.stubdoc
+import mypy.stubgenc
 from mypy.stubgen import main
 
 _name = getattr(mypy.stubdoc, "_ARG_NAME_RE", None)
 if _name is not None and not _name.match("*"):
     mypy.stubdoc._ARG_NAME_RE = re.compile(_name.pattern + r"|\*$")
+
+_function_stub = getattr(mypy.stubgenc, "generate_c_function_stub", None)
+
+
+def _static_aware_function_stub(module, name, obj, output, imports, sig_generators,
+                                self_var=None, class_name=None):
+    if not isinstance(obj, staticmethod):
+        _function_stub(module, name, obj, output, imports, sig_generators,
+                       self_var=self_var, class_name=class_name)
+        return
+    lines = []
+    _function_stub(module, name, obj.__func__, lines, imports, sig_generators)
+    for line in lines:
+        if line.startswith("def "):
+            output.append("@staticmethod")
+        output.append(line)
+
+
+if _function_stub is not None:
+    mypy.stubgenc.generate_c_function_stub = _static_aware_function_stub
 
 if __name__ == "__main__":
     sys.exit(main())
