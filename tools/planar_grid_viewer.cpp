@@ -69,6 +69,8 @@ struct ViewerOptions {
   int height_px{DEFAULT_HEIGHT_PX};
   std::string color_name{DEFAULT_COLOR};
   planar_grid::ColorMode color{planar_grid::ColorMode::HEIGHT};
+  /** \brief The cuboids of the maps: by occupancy unless --color label or solid. */
+  planar_grid::CuboidColorMode map_color{planar_grid::CuboidColorMode::OCCUPANCY};
   double point_size_px{DEFAULT_POINT_SIZE_PX};
 };
 
@@ -124,7 +126,8 @@ printHelp(const char* program)
   print_info(")\n");
   print_info("    --color <mode>        height | intensity | solid | label (default: ");
   print_value("%s", DEFAULT_COLOR);
-  print_info(")\n");
+  print_info(");\n                          a .pgmap's cuboids: occupancy (default), "
+             "label (one colour per plane, non-planar grey) or solid\n");
   print_info("    --point-size <N>      point size, px, > 0 (default: ");
   print_value("%g", DEFAULT_POINT_SIZE_PX);
   print_info(")\n");
@@ -294,18 +297,25 @@ parseOptions(int argc, char** argv, bool& help)
                       + size + "'");
   }
 
+  bool color_given = false;
   if (option_with_value("--color")) {
     parse_argument(argc, argv, "--color", options.color_name);
+    color_given = true;
     if (options.color_name == "height")
       options.color = planar_grid::ColorMode::HEIGHT;
     else if (options.color_name == "intensity")
       options.color = planar_grid::ColorMode::INTENSITY;
-    else if (options.color_name == "solid")
+    else if (options.color_name == "solid") {
       options.color = planar_grid::ColorMode::SOLID;
-    else if (options.color_name == "label")
+      options.map_color = planar_grid::CuboidColorMode::SOLID;
+    } else if (options.color_name == "label") {
       options.color = planar_grid::ColorMode::LABEL;
+      options.map_color = planar_grid::CuboidColorMode::PLANE;
+    } else if (options.color_name == "occupancy")
+      options.map_color = planar_grid::CuboidColorMode::OCCUPANCY;
     else
-      throw Exception("--color expects height, intensity, solid or label; got '"
+      throw Exception("--color expects height, intensity, solid, label or occupancy; "
+                      "got '"
                       + options.color_name + "'");
   }
 
@@ -336,6 +346,16 @@ parseOptions(int argc, char** argv, bool& help)
       && options.octrees.empty())
     throw Exception("no input given (expected .pcd clouds, .pgmap maps, .ply meshes or "
                     ".bt / .ot octrees)");
+  // A colouring that none of the inputs takes would silently do nothing.
+  const bool cloud_mode =
+    options.color_name == "height" || options.color_name == "intensity";
+  if (color_given && cloud_mode && options.clouds.empty())
+    throw Exception("--color " + options.color_name
+                    + " colours point clouds, and no .pcd is given; a map's cuboids "
+                      "take occupancy (the default), label (by plane) or solid");
+  if (color_given && options.color_name == "occupancy" && options.maps.empty())
+    throw Exception("--color occupancy colours the cuboids of .pgmap maps, and none is "
+                    "given; point clouds take height, intensity, solid or label");
   return options;
 }
 
@@ -480,12 +500,17 @@ run(int argc, char** argv)
                          path, Eigen::AlignedBox3f(Eigen::Vector3f::Constant(-inf),
                                                    Eigen::Vector3f::Constant(inf)))
                        : planar_grid::PlanarGridMap::load(path);
-    const auto drawn = renderer.addMap(map);
+    const auto drawn = renderer.addMap(map, 0.15, 2000000, options.map_color);
     print_info("[done, ");
     print_value("%g", timer.toc());
-    print_info(" ms : %zu cuboids, %zu occupied voxels outside them, %zu unknown "
+    const char* coloured =
+      options.map_color == planar_grid::CuboidColorMode::PLANE   ? "by plane"
+      : options.map_color == planar_grid::CuboidColorMode::SOLID ? "solid"
+                                                                 : "by occupancy";
+    print_info(" ms : %zu cuboids (%s), %zu occupied voxels outside them, %zu unknown "
                "boxes]\n",
-               drawn.cuboids, drawn.occupied_voxel_boxes, drawn.unknown_boxes);
+               drawn.cuboids, coloured, drawn.occupied_voxel_boxes,
+               drawn.unknown_boxes);
   }
 
   for (const auto& path : options.meshes) {

@@ -528,7 +528,8 @@ SceneRenderer::addPolygonMesh(const pcl::PolygonMesh& mesh, double opacity)
 MapRenderSummary
 SceneRenderer::addMap(const PlanarGridMap& map,
                       double unknown_opacity,
-                      std::size_t max_voxel_boxes)
+                      std::size_t max_voxel_boxes,
+                      CuboidColorMode cuboid_color)
 {
   if (!(unknown_opacity >= 0.0 && unknown_opacity <= 1.0))
     throw Exception("[planar_grid::SceneRenderer::addMap] unknown_opacity must be in "
@@ -537,7 +538,7 @@ SceneRenderer::addMap(const PlanarGridMap& map,
   MapRenderSummary summary;
   const auto& surface = map.getSurfaceLayer();
   const auto& space = map.getSpaceLayer();
-  addCuboids(surface.getCuboids(), CuboidColorMode::OCCUPANCY);
+  addCuboids(surface.getCuboids(), cuboid_color);
   summary.cuboids = surface.getCuboidCount();
 
   // Occupied voxels that no cuboid covers, as small dark boxes; unknown space gathered
