@@ -2,6 +2,7 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/core/stereo_calibration.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -27,6 +28,28 @@ StereoCalibration::validate(const std::string& source) const
     problem << "image size must not be negative, got " << width << "x" << height;
   if (!problem.str().empty())
     throw IOError(source + ": invalid stereo calibration: " + problem.str());
+}
+
+std::string
+StereoCalibration::principalPointWarning(int width_px,
+                                         int height_px,
+                                         const std::string& source) const
+{
+  if (width_px <= 0 || height_px <= 0)
+    return {};
+  const double off_x = std::abs(cx_px - 0.5 * width_px) / width_px;
+  const double off_y = std::abs(cy_px - 0.5 * height_px) / height_px;
+  if (!(off_x > MAX_PRINCIPAL_POINT_OFFSET || off_y > MAX_PRINCIPAL_POINT_OFFSET))
+    return {};
+  std::ostringstream text;
+  text.precision(4);
+  text << source << ": the principal point (" << cx_px << ", " << cy_px << ") px lies "
+       << std::lround(100.0 * std::max(off_x, off_y)) << " % of the image's "
+       << (off_y > off_x ? "height" : "width") << " from the centre of the " << width_px
+       << "x" << height_px
+       << " px images; rectification keeps it near the centre: is it the calibration "
+          "of these images (not of another crop, e.g. P1 rather than P1_roi)?";
+  return text.str();
 }
 
 double

@@ -327,6 +327,10 @@ private:
       }
     }
     checkImageSizes(left_path, left, right_path, right);
+    const std::string off_centre = calib.principalPointWarning(
+      image_size_.width, image_size_.height, calibration_file);
+    if (!off_centre.empty())
+      PCL_WARN("[planar_grid::FrameSource] %s\n", off_centre.c_str());
     // Swapped or doubled images would run to the end and map next to nothing.
     if (model_.rectifier.empty()) {
       checkStereoPairOrder(left_image, right_image, left_path, right_path);

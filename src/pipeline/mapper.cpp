@@ -4,6 +4,7 @@
 #include <planar_grid/pipeline/stage.h>
 
 #include <pcl/common/io.h>
+#include <pcl/console/print.h>
 
 #include <algorithm>
 #include <cmath>
@@ -164,6 +165,10 @@ Mapper::integrateStereoPair(const cv::Mat& left,
     throw Exception(std::string("Mapper::integrateStereo: ") + e.what());
   }
   if (frames_ == 0) {
+    const std::string off_centre = calibration.principalPointWarning(
+      left.cols, left.rows, "Mapper::integrateStereo");
+    if (!off_centre.empty())
+      PCL_WARN("[planar_grid::Mapper] %s\n", off_centre.c_str());
     // Swapped or doubled images would be mapped frame after frame into next to nothing.
     try {
       checkStereoPairOrder(left, right, "the left image", "the right image",

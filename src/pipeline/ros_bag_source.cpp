@@ -227,6 +227,10 @@ public:
       const std::string at = bag_.path() + ": ";
       checkStereoPairOrder(first.left, first.right, at + config_.left_image_topic,
                            at + config_.right_image_topic);
+      const std::string off_centre = first.calibration.principalPointWarning(
+        first.left.cols, first.left.rows, at + config_.left_info_topic);
+      if (!off_centre.empty())
+        PCL_WARN("[planar_grid::FrameSource] %s\n", off_centre.c_str());
     }
     std::ostringstream text;
     if (stereo_)

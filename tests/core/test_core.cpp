@@ -274,3 +274,29 @@ TEST_F(AtomicFileTest, MissingFolderThrowsNamingIt)
   }
   EXPECT_FALSE(fs::exists(missing));
 }
+
+TEST(StereoCalibration, APrincipalPointFarFromTheCentreIsWarnedAbout)
+{
+  // Karlsruhe's calib.txt: P1_roi is the calibration of the cropped 1344 x 372 px
+  // images, P1 that of the full ones (cy 264 px: 21 % of the height below the centre).
+  planar_grid::StereoCalibration roi;
+  roi.focal_length_px = 645.2401;
+  roi.cx_px = 635.9587;
+  roi.cy_px = 194.1291;
+  roi.baseline_m = 0.5707;
+  EXPECT_EQ(roi.principalPointWarning(1344, 372, "calib.txt"), "");
+  planar_grid::StereoCalibration full = roi;
+  full.cx_px = 661.9587;
+  full.cy_px = 264.1291;
+  const std::string warning = full.principalPointWarning(1344, 372, "calib.txt");
+  EXPECT_NE(warning.find("calib.txt: the principal point (662, 264.1) px lies 21 % of "
+                         "the image's height"),
+            std::string::npos)
+    << warning;
+  // A column off the centre by more than 15 % of the width too; no size: no judgement.
+  planar_grid::StereoCalibration left = roi;
+  left.cx_px = 400.0;
+  EXPECT_NE(left.principalPointWarning(1344, 372, "c").find("width"),
+            std::string::npos);
+  EXPECT_EQ(full.principalPointWarning(0, 0, "c"), "");
+}

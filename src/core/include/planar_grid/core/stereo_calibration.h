@@ -41,6 +41,21 @@ struct StereoCalibration {
    * \param[in] source the file the calibration came from, for the message */
   void validate(const std::string& source) const;
 
+  /** \brief Largest distance of the principal point from the images' centre, as a
+   * share of the width (cx) or the height (cy), before principalPointWarning() warns:
+   * rectification keeps it near the centre. */
+  static constexpr double MAX_PRINCIPAL_POINT_OFFSET = 0.15;
+
+  /** \brief A warning when the principal point lies farther than
+   * MAX_PRINCIPAL_POINT_OFFSET of the image's side from the centre of images of
+   * \a width_px x \a height_px, which usually means the calibration of another crop
+   * of the images (e.g. Karlsruhe's `P1` for the cropped `P1_roi` images: cy 264 px in
+   * 372 px high images, 21 % of the height off the centre); empty otherwise.
+   * \param[in] width_px, height_px the images' size, px
+   * \param[in] source the calibration's origin, for the message */
+  std::string
+  principalPointWarning(int width_px, int height_px, const std::string& source) const;
+
   /** \brief Depth in metres of a disparity in pixels (z = f B / d); +inf for d <= 0. */
   double depthFromDisparity(double disparity_px) const;
 
