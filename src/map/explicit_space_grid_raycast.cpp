@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <limits>
 
+#include "cast_ray_check.h"
 #include "explicit_space_grid_impl.h"
 
 namespace planar_grid {
@@ -152,16 +153,8 @@ ExplicitSpaceGrid::castRay(const Eigen::Vector3f& origin,
                            double max_range_m,
                            Eigen::Vector3f& hit) const
 {
+  checkCastRay(origin, direction, max_range_m, "ExplicitSpaceGrid::castRay");
   const double n = static_cast<double>(direction.norm());
-  if (!origin.allFinite())
-    throw Exception("ExplicitSpaceGrid::castRay: the origin is not finite");
-  if (!direction.allFinite() || !(n > 0.0))
-    throw Exception("ExplicitSpaceGrid::castRay: the direction must be finite and "
-                    "non-zero");
-  if (!(max_range_m >= 0.0))
-    throw Exception("ExplicitSpaceGrid::castRay: max_range_m must be >= 0 (infinity "
-                    "allowed), not "
-                    + std::to_string(max_range_m));
   const double res = params_.resolution_m;
   const Eigen::Vector3d o = origin.cast<double>() / res;
   const Eigen::Vector3d d = direction.cast<double>() / n;

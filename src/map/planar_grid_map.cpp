@@ -25,6 +25,7 @@
 #include <unordered_set>
 #include <utility>
 
+#include "cast_ray_check.h"
 #include "octomap_writer.h"
 
 namespace planar_grid {
@@ -394,16 +395,8 @@ PlanarGridMap::castRay(const Eigen::Vector3f& origin,
                        double max_range_m,
                        Eigen::Vector3f& hit) const
 {
+  checkCastRay(origin, direction, max_range_m, "PlanarGridMap::castRay");
   const float norm = direction.norm();
-  if (!origin.allFinite())
-    throw Exception("PlanarGridMap::castRay: the origin is not finite");
-  if (!direction.allFinite() || !(norm > 0.0f))
-    throw Exception("PlanarGridMap::castRay: the direction must be finite and "
-                    "non-zero");
-  if (!(max_range_m >= 0.0))
-    throw Exception("PlanarGridMap::castRay: max_range_m must be >= 0 (infinity "
-                    "allowed), not "
-                    + std::to_string(max_range_m));
   const Eigen::Vector3f unit = direction / norm;
   Eigen::Vector3f voxel_hit;
   const bool has_voxel = space_.castRay(origin, unit, max_range_m, voxel_hit);

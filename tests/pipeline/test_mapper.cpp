@@ -62,6 +62,17 @@ odometryJob(int frames)
   return config;
 }
 
+/** Every frame of \a config's input, loaded. */
+std::vector<planar_grid::Frame>
+loadFrames(const planar_grid::PipelineConfig& config)
+{
+  const auto source = planar_grid::createFrameSource(config.input);
+  std::vector<planar_grid::Frame> frames(source->size());
+  for (std::size_t i = 0; i < frames.size(); ++i)
+    source->load(i, frames[i]);
+  return frames;
+}
+
 std::string
 fileBytes(const fs::path& path)
 {
@@ -160,10 +171,7 @@ TEST_F(MapperTest, AReaderThreadSeesTheMapAfterWholeFramesOnly)
   // integrated. Every map it reads is the empty map or the map after frame 1 or
   // frame 2, never one in between.
   const auto config = mainJob(2);
-  const auto source = planar_grid::createFrameSource(config.input);
-  std::vector<planar_grid::Frame> frames(source->size());
-  for (std::size_t i = 0; i < frames.size(); ++i)
-    source->load(i, frames[i]);
+  std::vector<planar_grid::Frame> frames = loadFrames(config);
   planar_grid::Mapper mapper(config);
 
   const auto serialized = [&mapper] {
@@ -477,10 +485,7 @@ TEST_F(MapperTest, CallsFromTwoThreadsRunOneFrameAtATime)
   // between: each call runs whole, so nothing crashes or deadlocks, and the map after
   // a reset and one more frame is that frame's map alone.
   const auto config = mainJob(3);
-  const auto source = planar_grid::createFrameSource(config.input);
-  std::vector<planar_grid::Frame> frames(source->size());
-  for (std::size_t i = 0; i < frames.size(); ++i)
-    source->load(i, frames[i]);
+  std::vector<planar_grid::Frame> frames = loadFrames(config);
   planar_grid::Mapper mapper(config);
   const auto integrate_all = [&] {
     for (const auto& frame : frames)
@@ -526,10 +531,7 @@ TEST_F(MapperTest, ReadersInALoopDelayAFrameByAtMostTheReadsUnderWay)
   // the time: the frame's map_integration waits only for the reads under way when it
   // comes, not for every read that starts while it waits.
   const auto config = mainJob(2);
-  const auto source = planar_grid::createFrameSource(config.input);
-  std::vector<planar_grid::Frame> frames(source->size());
-  for (std::size_t i = 0; i < frames.size(); ++i)
-    source->load(i, frames[i]);
+  std::vector<planar_grid::Frame> frames = loadFrames(config);
   planar_grid::Mapper mapper(config);
   std::atomic<bool> stop{false};
   const auto read_loop = [&] {

@@ -473,42 +473,28 @@ TEST(RosMessagesTest, PointCloud2OfDoubleOrIntegerCoordinatesKeepsItsPoints)
     extent = std::max(extent, std::abs(cloud[p].x));
   }
   EXPECT_GT(extent, 1000.0f); // not collapsed to the origin
-  // Three values per coordinate are not a point's x.
-  auto counted =
-    typedCloudMessage(*direct.cloud, sensor_msgs::PointField::FLOAT64, 1.0);
-  counted.fields[0].count = 3;
-  counted.fields[0].offset = 0;
-  counted.fields[1].offset = 24;
-  counted.fields[2].offset = 32;
-  counted.fields[3].offset = 40;
-  counted.point_step = 44;
-  counted.row_step = counted.point_step * counted.width;
-  counted.data.resize(counted.row_step);
-  try {
-    planar_grid::ros_messages::cloudFromMessage(counted, "/points", cloud);
-    ADD_FAILURE() << "a 3-count x was accepted";
-  } catch (const planar_grid::IOError& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find("/points"), std::string::npos) << what;
-    EXPECT_NE(what.find("'x'"), std::string::npos) << what;
-  }
-  // Nor when they are floats, which need no conversion (PCL read the first as x).
-  auto float_counted =
-    typedCloudMessage(*direct.cloud, sensor_msgs::PointField::FLOAT32, 1.0);
-  float_counted.fields[0].count = 3;
-  float_counted.fields[0].offset = 0;
-  float_counted.fields[1].offset = 12;
-  float_counted.fields[2].offset = 16;
-  float_counted.fields[3].offset = 20;
-  float_counted.point_step = 24;
-  float_counted.row_step = float_counted.point_step * float_counted.width;
-  float_counted.data.resize(float_counted.row_step);
-  try {
-    planar_grid::ros_messages::cloudFromMessage(float_counted, "/points", cloud);
-    ADD_FAILURE() << "a 3-count float x was accepted";
-  } catch (const planar_grid::IOError& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find("'x' holds 3 values"), std::string::npos) << what;
+  // Three values per coordinate are not a point's x, double or float (a float needs no
+  // conversion, and PCL read the first of three as x).
+  for (const std::uint8_t datatype :
+       {static_cast<std::uint8_t>(sensor_msgs::PointField::FLOAT64),
+        static_cast<std::uint8_t>(sensor_msgs::PointField::FLOAT32)}) {
+    auto counted = typedCloudMessage(*direct.cloud, datatype, 1.0);
+    const std::uint32_t size = pcl::getFieldSize(datatype);
+    counted.fields[0].count = 3;
+    counted.fields[1].offset = 3 * size;
+    counted.fields[2].offset = 4 * size;
+    counted.fields[3].offset = 5 * size;
+    counted.point_step = 5 * size + 4;
+    counted.row_step = counted.point_step * counted.width;
+    counted.data.resize(counted.row_step);
+    try {
+      planar_grid::ros_messages::cloudFromMessage(counted, "/points", cloud);
+      ADD_FAILURE() << "a 3-count x of datatype " << int(datatype) << " was accepted";
+    } catch (const planar_grid::IOError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("/points"), std::string::npos) << what;
+      EXPECT_NE(what.find("'x' holds 3 values"), std::string::npos) << what;
+    }
   }
 }
 

@@ -16,6 +16,7 @@
 #include <planar_grid/stereo/calibration_io.h>
 
 #include <pcl/PCLPointCloud2.h>
+#include <pcl/common/io.h>
 #include <pcl/conversions.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_types.h>
@@ -611,34 +612,27 @@ TEST_F(BadPCDInputTest, FieldConversionKeepsValuesAndRefusesWhatItCannotRead)
   EXPECT_FLOAT_EQ(cloud[440].x, 1.0f);
   EXPECT_FLOAT_EQ(cloud[440].y, 1.0f);
   EXPECT_FLOAT_EQ(cloud[440].z, 2.0f);
-  // Two values per point in x cannot be one coordinate.
-  pcl::PCLPointCloud2 pairs = wallBlob<std::int16_t>(pcl::PCLPointField::INT16, 1.0);
-  pairs.fields[0].count = 2;
-  pairs.fields[1].offset = 4;
-  pairs.fields[2].offset = 6;
-  pairs.point_step = 8;
-  pairs.data.resize(pairs.width * 8);
-  pairs.row_step = pairs.width * 8;
-  try {
-    planar_grid::convertFieldsToFloat(pairs, {"x", "y", "z"}, "pairs.pcd");
-    ADD_FAILURE() << "a field of COUNT 2 was converted";
-  } catch (const planar_grid::IOError& e) {
-    EXPECT_CONTAINS(std::string(e.what()), "pairs.pcd: the field 'x' holds 2 values");
-  }
-  // Nor three floats, which need no conversion (PCL would read the first as x).
-  pcl::PCLPointCloud2 triples = wallBlob<float>(pcl::PCLPointField::FLOAT32, 1.0);
-  triples.fields[0].count = 3;
-  triples.fields[1].offset = 12;
-  triples.fields[2].offset = 16;
-  triples.point_step = 20;
-  triples.data.resize(triples.width * 20);
-  triples.row_step = triples.width * 20;
-  try {
-    planar_grid::convertFieldsToFloat(triples, {"x", "y", "z"}, "triples.pcd");
-    ADD_FAILURE() << "a float field of COUNT 3 was accepted";
-  } catch (const planar_grid::IOError& e) {
-    EXPECT_CONTAINS(std::string(e.what()), "triples.pcd: the field 'x' holds 3 values");
-  }
+  // Two int16 values or three floats per point in x cannot be one coordinate (a float
+  // needs no conversion, and PCL would read the first as x).
+  const auto refused = [](pcl::PCLPointCloud2 counted, std::uint32_t count,
+                          const std::string& name) {
+    const std::uint32_t size = pcl::getFieldSize(counted.fields[0].datatype);
+    counted.fields[0].count = count;
+    counted.fields[1].offset = count * size;
+    counted.fields[2].offset = (count + 1) * size;
+    counted.point_step = (count + 2) * size;
+    counted.data.resize(counted.width * counted.point_step);
+    counted.row_step = counted.width * counted.point_step;
+    try {
+      planar_grid::convertFieldsToFloat(counted, {"x", "y", "z"}, name);
+      ADD_FAILURE() << name << ": a field of COUNT " << count << " was accepted";
+    } catch (const planar_grid::IOError& e) {
+      EXPECT_CONTAINS(std::string(e.what()), name + ": the field 'x' holds "
+                                               + std::to_string(count) + " values");
+    }
+  };
+  refused(wallBlob<std::int16_t>(pcl::PCLPointField::INT16, 1.0), 2, "pairs.pcd");
+  refused(wallBlob<float>(pcl::PCLPointField::FLOAT32, 1.0), 3, "triples.pcd");
 }
 
 TEST_F(BadStereoInputTest, RunWhoseMapHasNoCuboidsWritesItsOutputsAndExitsZero)

@@ -70,12 +70,13 @@ def write_config(source_config, bag, output_folder, path):
         yaml.safe_dump(config, f, sort_keys=False)
 
 
-def stop_while_waiting_for_tf(args):
-    """The node waits for a pose that never comes (no /tf, ~tf_timeout 86400 s); SIGINT
-    must still stop it within seconds, with status 0."""
-    work = tempfile.mkdtemp(prefix="planar_grid_ros_stop_")
+def prepare(args, prefix, frames):
+    """A work folder with a bag of the configuration's first frames, the node's YAML
+    for it, and the environment of a ROS master on a free loopback port (also set in
+    this process, for rospy): (work, bag, config, env, port)."""
+    work = tempfile.mkdtemp(prefix=prefix)
     bag = os.path.join(work, "pairs.bag")
-    subprocess.run([args.write_bag, "--config", args.config, "--frames", "3",
+    subprocess.run([args.write_bag, "--config", args.config, "--frames", str(frames),
                     "--output", bag], check=True, timeout=120)
     config = os.path.join(work, "ros.yaml")
     write_config(args.config, bag, os.path.join(work, "pipeline"), config)
@@ -83,16 +84,29 @@ def stop_while_waiting_for_tf(args):
     env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_IP="127.0.0.1",
                ROS_HOME=os.path.join(work, "ros_home"), ROS_LOG_DIR=os.path.join(work, "log"))
     os.environ.update(env)
+    return work, bag, config, env, port
+
+
+def start_master(env, port):
+    """rosmaster --core on the port, once it answers."""
     import rosgraph
+    master = subprocess.Popen(["rosmaster", "--core", "-p", str(port)], env=env,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
+    wait_until(lambda: rosgraph.Master("/planar_grid_test").is_online(), 30,
+               f"rosmaster on 127.0.0.1:{port}")
+    return master
+
+
+def stop_while_waiting_for_tf(args):
+    """The node waits for a pose that never comes (no /tf, ~tf_timeout 86400 s); SIGINT
+    must still stop it within seconds, with status 0."""
+    work, bag, config, env, port = prepare(args, "planar_grid_ros_stop_", 3)
     import rospy
     from std_msgs.msg import String
 
     master = node = player = None
     try:
-        master = subprocess.Popen(["rosmaster", "--core", "-p", str(port)], env=env,
-                                  stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
-        wait_until(lambda: rosgraph.Master("/planar_grid_test").is_online(), 30,
-                   f"rosmaster on 127.0.0.1:{port}")
+        master = start_master(env, port)
         node = subprocess.Popen([args.node, "__name:=planar_grid", f"_config:={config}",
                                  "_tf_timeout:=86400"], env=env)
         rospy.init_node("planar_grid_test", anonymous=True, disable_signals=True)
@@ -150,18 +164,7 @@ def main():
         return
     measure_only = args.max_queued_frames > 0
 
-    work = tempfile.mkdtemp(prefix="planar_grid_ros_")
-    bag = os.path.join(work, "karlsruhe.bag")
-    subprocess.run([args.write_bag, "--config", args.config, "--frames", str(args.frames),
-                    "--output", bag], check=True, timeout=120)
-    config = os.path.join(work, "ros.yaml")
-    write_config(args.config, bag, os.path.join(work, "pipeline"), config)
-
-    port = free_port()
-    env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_IP="127.0.0.1",
-               ROS_HOME=os.path.join(work, "ros_home"), ROS_LOG_DIR=os.path.join(work, "log"))
-    os.environ.update(env)
-    import rosgraph
+    work, bag, config, env, port = prepare(args, "planar_grid_ros_", args.frames)
     import rospy
     from nav_msgs.msg import OccupancyGrid
     from sensor_msgs.msg import PointCloud2
@@ -171,10 +174,7 @@ def main():
 
     master = node = player = None
     try:
-        master = subprocess.Popen(["rosmaster", "--core", "-p", str(port)], env=env,
-                                  stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
-        wait_until(lambda: rosgraph.Master("/planar_grid_test").is_online(), 30,
-                   f"rosmaster on 127.0.0.1:{port}")
+        master = start_master(env, port)
         node_folder = os.path.join(work, "node")
         pin = ["taskset", "-c", str(args.cpu)] if args.cpu >= 0 else []
         node = subprocess.Popen(pin + [args.node, "__name:=planar_grid", f"_config:={config}",
