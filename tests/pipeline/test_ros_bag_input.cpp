@@ -394,9 +394,9 @@ TEST_F(RosBagInputTest, CloudBagGivesThePCDCloudAndInterpolatedTfPoses)
   EXPECT_EQ(runner.trajectory().size(), 2u);
 }
 
-/** A PointCloud2 of \a points whose x, y, z are of \a datatype (scaled by \a scale
- * before the cast, as a driver with integer millimetres does) and whose intensity is
- * a float. */
+/** A PointCloud2 of \a points whose x, y, z are of \a datatype (FLOAT64, FLOAT32, or
+ * else INT16; scaled by \a scale before the cast, as a driver with integer millimetres
+ * does) and whose intensity is a float. */
 sensor_msgs::PointCloud2
 typedCloudMessage(const pcl::PointCloud<pcl::PointXYZI>& points,
                   std::uint8_t datatype,
@@ -427,7 +427,10 @@ typedCloudMessage(const pcl::PointCloud<pcl::PointXYZI>& points,
       const double value = scale * xyz[i];
       if (datatype == sensor_msgs::PointField::FLOAT64)
         std::memcpy(point + i * size, &value, size);
-      else {
+      else if (datatype == sensor_msgs::PointField::FLOAT32) {
+        const auto single = static_cast<float>(value);
+        std::memcpy(point + i * size, &single, size);
+      } else {
         const auto rounded = static_cast<std::int16_t>(std::lround(value));
         std::memcpy(point + i * size, &rounded, size);
       }

@@ -93,11 +93,10 @@ struct FrameStats {
  * lock prefers the frame (WriterPreferringSharedMutex): once the frame waits, new
  * readers wait behind it, so the frame waits at most for the reads under way
  * (FrameStats::lock_wait_ms), and a reader at most for one map_integration stage
- * (FrameStats::exclusive_ms: on the 112 Karlsruhe frames, config/karlsruhe.yaml in
- * Release, 24 ms on average, 56 ms at most; docs/LIVE.md). A thread holding a
+ * (FrameStats::exclusive_ms; docs/LIVE.md has both measured). A thread holding a
  * MapReader must not take a second one nor integrate. Nothing is copied: a copy per
- * frame, the alternative, would cost more than the frame (the final Karlsruhe map's
- * serialize and deserialize take 1.2 s). \ingroup pipeline */
+ * frame, the alternative, would cost more than the frame (docs/LIVE.md).
+ * \ingroup pipeline */
 class Mapper {
 public:
   /** \brief Shared pointer to a mapper. */
