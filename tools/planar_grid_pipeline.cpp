@@ -520,8 +520,7 @@ run(int argc, char** argv)
     throw planar_grid::cli::UsageError("--output '' is empty: give the folder to write "
                                        "the outputs into (or leave the option out to "
                                        "use output.folder of the YAML)");
-  if (output_given
-      && (output_folder.front() == '~' || output_folder.find('$') != std::string::npos))
+  if (output_given && planar_grid::needsShellExpansion(output_folder))
     throw planar_grid::cli::UsageError("--output '" + output_folder
                                        + "': '~' or a $VARIABLE the shell did not "
                                          "expand (quoted?); give the path itself");

@@ -500,7 +500,7 @@ run(int argc, char** argv)
                          path, Eigen::AlignedBox3f(Eigen::Vector3f::Constant(-inf),
                                                    Eigen::Vector3f::Constant(inf)))
                        : planar_grid::PlanarGridMap::load(path);
-    const auto drawn = renderer.addMap(map, 0.15, 2000000, options.map_color);
+    const auto drawn = renderer.addMap(map, options.map_color);
     print_info("[done, ");
     print_value("%g", timer.toc());
     const char* coloured =

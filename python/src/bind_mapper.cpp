@@ -40,7 +40,7 @@ checkImageShape(const py::array& image, const char* name, const char* kind)
     if (image.shape(k) < 1 || image.shape(k) > MAX_IMAGE_SIDE_PX)
       throw py::value_error(std::string(name) + " is " + std::to_string(image.shape(0))
                             + " x " + std::to_string(image.shape(1))
-                            + " px; each side must be " + "1 to "
+                            + " px; each side must be 1 to "
                             + std::to_string(MAX_IMAGE_SIDE_PX) + " px");
 }
 

@@ -162,18 +162,30 @@ ExplicitSpaceGrid::castRay(const Eigen::Vector3f& origin,
   if (reach >= MAX_KEY - 2.0)
     return false; // beyond every key the grid can hold: nothing stored there
   double max_t = max_range_m / res; // in voxel units; may be infinite
-  // A long walk ends where the stored blocks end: beyond them every voxel is the
-  // prior, which (but for the occupied prior) is no hit.
+  impl_->storage.settle(
+    priorCode(params_.prior)); // pending setState() edits (content unchanged)
+  // A long walk ends where the stored super-blocks end: beyond them every voxel is
+  // the prior, which (but for the occupied prior) is no hit. Their box is a few
+  // hundred keys to read, where the exact bounds (getBounds()) read every block.
   constexpr double LONG_WALK_VOXELS = 4096.0;
   if (max_t > LONG_WALK_VOXELS && params_.prior != SpaceState::OCCUPIED) {
-    VoxelKey lo, hi;
-    if (!getBounds(lo, hi))
+    const auto& supers = impl_->storage.supers;
+    if (supers.empty())
       return false;
+    Eigen::Vector3i lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
+    Eigen::Vector3i hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
+    for (const auto& sb : supers) {
+      const Eigen::Vector3i k(sb.key.x, sb.key.y, sb.key.z);
+      lo = lo.cwiseMin(k);
+      hi = hi.cwiseMax(k);
+    }
+    constexpr int SUPER_VOXELS_SHIFT = SUPER_SHIFT + BLOCK_SHIFT;
     double t_enter = 0.0;
     double t_exit = max_t;
     for (int a = 0; a < 3; ++a) {
-      const double low = static_cast<double>(lo[a]);
-      const double high = static_cast<double>(hi[a]) + 1.0;
+      const double low = std::ldexp(static_cast<double>(lo[a]), SUPER_VOXELS_SHIFT);
+      const double high =
+        std::ldexp(static_cast<double>(hi[a]) + 1.0, SUPER_VOXELS_SHIFT);
       if (d[a] == 0.0) {
         if (o[a] < low || o[a] >= high)
           return false;
@@ -191,8 +203,6 @@ ExplicitSpaceGrid::castRay(const Eigen::Vector3f& origin,
   }
   // The walk never leaves the keys the grid can hold.
   max_t = std::min(max_t, MAX_KEY - 2.0 - reach);
-  impl_->storage.settle(
-    priorCode(params_.prior)); // pending setState() edits (content unchanged)
   DdaWalk walk(o, d);
   const auto occupied = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
   const bool prior_occupied = params_.prior == SpaceState::OCCUPIED;

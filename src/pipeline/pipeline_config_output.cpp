@@ -189,8 +189,7 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
                              "outputs into");
     // A shell expands these; a YAML file does not, and the run would create a folder
     // named "~" or "$HOME" in the working folder.
-    if (node["folder"]
-        && (out.folder.front() == '~' || out.folder.find('$') != std::string::npos))
+    if (node["folder"] && needsShellExpansion(out.folder))
       r.fail(node["folder"], "output.folder '" + out.folder
                                + "': a configuration does not expand '~' or $VARIABLES "
                                  "as a shell does; give the path itself");
@@ -317,4 +316,11 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
 }
 
 } // namespace config_parse
+
+bool
+needsShellExpansion(const std::string& path)
+{
+  return (!path.empty() && path.front() == '~') || path.find('$') != std::string::npos;
+}
+
 } // namespace planar_grid

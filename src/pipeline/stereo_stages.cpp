@@ -278,6 +278,7 @@ stereoDisparityInfo()
     "the left camera frame (x right, y down, z forward; NaN = invalid).";
   info.needs_stereo = true;
   const DisparityEstimator::Params d;
+  const DenseFrameSelection dense;
   namespace ranges = disparity_estimator_ranges;
   info.params = {
     ParamSpec::choice("algorithm", toString(d.algorithm),
@@ -351,18 +352,21 @@ stereoDisparityInfo()
       "kl_occupancy_filter and visual_odometry run on every frame) and add no points, "
       "planes, cells or free space to the map."),
     ParamSpec::integer(
-      "every_n_frames", 1, EVERY_N_FRAMES, "frames",
+      "every_n_frames", dense.every_n_frames, EVERY_N_FRAMES, "frames",
       "frame_selection every_n_frames: the frames whose sequence number (0-based "
       "position in the input, or in the live mapper's calls) is a multiple of n are "
       "dense. 1 = every frame."),
-    ParamSpec::real("keyframe_translation_m", 1.0, KEYFRAME_TRANSLATION, "m",
+    ParamSpec::real("keyframe_translation_m", dense.keyframe_translation_m,
+                    KEYFRAME_TRANSLATION, "m",
                     "frame_selection keyframes: a frame whose camera is this far from "
                     "the last keyframe's is a keyframe."),
-    ParamSpec::real("keyframe_rotation_rad", 0.1, KEYFRAME_ROTATION, "rad",
+    ParamSpec::real("keyframe_rotation_rad", dense.keyframe_rotation_rad,
+                    KEYFRAME_ROTATION, "rad",
                     "frame_selection keyframes: a frame whose camera turned this much "
                     "from the last keyframe's (angle of the relative rotation) is a "
                     "keyframe."),
-    ParamSpec::integer("keyframe_max_gap_frames", 5, KEYFRAME_MAX_GAP, "frames",
+    ParamSpec::integer("keyframe_max_gap_frames", dense.keyframe_max_gap_frames,
+                       KEYFRAME_MAX_GAP, "frames",
                        "frame_selection keyframes: the frame this many frames after "
                        "the last keyframe is a keyframe whatever the motion (a robot "
                        "standing still still maps what moves); 1 = every frame."),

@@ -148,23 +148,20 @@ readTextProjectionRows(const std::string& path,
     throw IOError(path + ": missing row '" + right_key + "'");
 }
 
-/** \brief The baselines of real stereo rigs (StereoCalibration's bounds, [1 mm,
- * 100 m]); a value outside is a wrong unit or a corrupt row, and would scale every
- * depth by it. */
-constexpr double MIN_BASELINE_M = StereoCalibration::MIN_BASELINE_M;
-constexpr double MAX_BASELINE_M = StereoCalibration::MAX_BASELINE_M;
-
-/** \brief Throws an IOError naming \a where when \a baseline_m is a positive finite
- * number outside [MIN_BASELINE_M, MAX_BASELINE_M]; other values are left to
+/** \brief Throws an IOError naming \a where (the row's file:line) when \a baseline_m
+ * is a positive finite number outside StereoCalibration's [MIN_BASELINE_M,
+ * MAX_BASELINE_M] (a wrong unit or a corrupt row, which would scale every depth);
+ * other values, and the formats without rows, are left to
  * StereoCalibration::validate(). */
 void
 checkBaselineRange(const std::string& where, double baseline_m)
 {
+  using C = StereoCalibration;
   if (std::isfinite(baseline_m) && baseline_m > 0.0
-      && (baseline_m < MIN_BASELINE_M || baseline_m > MAX_BASELINE_M)) {
+      && (baseline_m < C::MIN_BASELINE_M || baseline_m > C::MAX_BASELINE_M)) {
     std::ostringstream text;
     text << where << ": the baseline is " << baseline_m << " m, outside ["
-         << MIN_BASELINE_M << ", " << MAX_BASELINE_M
+         << C::MIN_BASELINE_M << ", " << C::MAX_BASELINE_M
          << "] m for a stereo rig (a wrong unit or a corrupt value)";
     throw IOError(text.str());
   }
@@ -640,7 +637,6 @@ loadStereoCalibration(CalibrationFormat format,
       model = loadEuroc(path, right_path);
       break;
   }
-  checkBaselineRange(path, model.calibration.baseline_m);
   model.calibration.validate(path);
   return model;
 }

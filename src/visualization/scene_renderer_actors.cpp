@@ -527,9 +527,9 @@ SceneRenderer::addPolygonMesh(const pcl::PolygonMesh& mesh, double opacity)
 
 MapRenderSummary
 SceneRenderer::addMap(const PlanarGridMap& map,
+                      CuboidColorMode cuboid_color,
                       double unknown_opacity,
-                      std::size_t max_voxel_boxes,
-                      CuboidColorMode cuboid_color)
+                      std::size_t max_voxel_boxes)
 {
   if (!(unknown_opacity >= 0.0 && unknown_opacity <= 1.0))
     throw Exception("[planar_grid::SceneRenderer::addMap] unknown_opacity must be in "

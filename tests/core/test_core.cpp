@@ -279,11 +279,7 @@ TEST(StereoCalibration, APrincipalPointFarFromTheCentreIsWarnedAbout)
 {
   // Karlsruhe's calib.txt: P1_roi is the calibration of the cropped 1344 x 372 px
   // images, P1 that of the full ones (cy 264 px: 21 % of the height below the centre).
-  planar_grid::StereoCalibration roi;
-  roi.focal_length_px = 645.2401;
-  roi.cx_px = 635.9587;
-  roi.cy_px = 194.1291;
-  roi.baseline_m = 0.5707;
+  const planar_grid::StereoCalibration roi = karlsruheCalibration();
   EXPECT_EQ(roi.principalPointWarning(1344, 372, "calib.txt"), "");
   planar_grid::StereoCalibration full = roi;
   full.cx_px = 661.9587;

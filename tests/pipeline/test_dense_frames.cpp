@@ -20,22 +20,12 @@ namespace {
 const std::string KARLSRUHE =
   std::string(PLANAR_GRID_DATA_DIR) + "/karlsruhe_2010_03_09_drive_0023";
 
-/** Karlsruhe frames 10-15 (sequence numbers 0-5) with the INS poses, through stereo
- * (every \a every_n_frames frames), ORB features, the voxel grid and the accumulated
- * world cloud. */
+/** Karlsruhe frames \a first to \a first + \a frame_count - 1 (sequence numbers from 0)
+ * with the INS poses, through stereo (with the stereo_disparity parameters
+ * \a selection, YAML flow-map entries), ORB features, the voxel grid and the
+ * accumulated world cloud. */
 planar_grid::PipelineConfig
-denseFrames(const std::string& selection, int frame_count = 6, int first = 10);
-
-planar_grid::PipelineConfig
-denseEvery(int every_n_frames)
-{
-  return denseFrames("every_n_frames: " + std::to_string(every_n_frames));
-}
-
-/** The pipeline of denseEvery() over \a frame_count frames from frame \a first, with
- * the stereo_disparity parameters \a selection (YAML flow-map entries). */
-planar_grid::PipelineConfig
-denseFrames(const std::string& selection, int frame_count, int first)
+denseFrames(const std::string& selection, int frame_count = 6, int first = 10)
 {
   const std::string yaml =
     "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE
@@ -53,6 +43,13 @@ denseFrames(const std::string& selection, int frame_count, int first)
     + "  - type: transform_to_world\n" + "  - type: accumulate\n"
     + "    params: {leaf_size_m: 0.2}\n";
   return planar_grid::parsePipelineConfig(yaml, "dense.yaml", "/");
+}
+
+/** denseFrames() over frames 10-15, dense every \a every_n_frames frames. */
+planar_grid::PipelineConfig
+denseEvery(int every_n_frames)
+{
+  return denseFrames("every_n_frames: " + std::to_string(every_n_frames));
 }
 
 const planar_grid::StageReport&

@@ -334,13 +334,14 @@ private:
         stats = mapper_->integrateStereo(left, right, calibration, lookUpPose(header));
     }
     ++mapped_;
-    if (isKeyframe(stats))
+    const bool keyframe = isKeyframe(stats);
+    if (keyframe)
       ++keyframes_;
     const Clock::time_point publish_start = Clock::now();
     if (mapped_ % static_cast<std::uint64_t>(params_.publish_every) == 0)
       publishMap(header.stamp);
     publishStats(
-      frame, stats,
+      frame, stats, keyframe,
       std::chrono::duration<double, std::milli>(Clock::now() - publish_start).count());
   }
 
@@ -532,6 +533,7 @@ private:
 
   void publishStats(const PendingFrame& frame,
                     const planar_grid::FrameStats& stats,
+                    bool keyframe,
                     double publish_ms)
   {
     const double latency_ms =
@@ -554,7 +556,7 @@ private:
     j["unpaired"] =
       cloud_sub_ ? std::uint64_t{0} : left_images - std::min(left_images, pairs);
     j["mapped"] = mapped_.load();
-    j["keyframe"] = isKeyframe(stats);
+    j["keyframe"] = keyframe;
     j["keyframes"] = keyframes_.load();
     j["dropped"] = dropped;
     j["failed"] = failed_.load();

@@ -46,6 +46,11 @@ PoseFormat poseFormatFromString(const std::string& name);
 /** \brief The name of \a format, as poseFormatFromString() reads it. */
 std::string poseFormatName(PoseFormat format);
 
+/** \brief Whether \a path starts with '~' or holds a '$': what a shell would expand
+ * and a configuration (or a quoted option) does not, so that a run would create a
+ * folder of that literal name. \ingroup pipeline */
+bool needsShellExpansion(const std::string& path);
+
 /** \brief Where frames come from. \ingroup pipeline */
 struct InputConfig {
   /** \brief The kind of input. */

@@ -134,15 +134,16 @@ public:
    * of consecutive rows joined: the same volume in a fraction of the polygons), and the
    * unknown space as translucent violet boxes of 8 voxels' edge (one per 8^3-voxel
    * region holding an unknown voxel). Free space is not drawn. \param[in] map the map
+   * \param[in] cuboid_color the cuboids' colouring (PLANE: one colour per plane,
+   * non-planar grey; SOLID: grey)
    * \param[in] unknown_opacity opacity of the unknown boxes, in [0, 1] (0: not drawn)
    * \param[in] max_voxel_boxes most occupied-voxel and unknown boxes drawn (each)
-   * \param[in] cuboid_color the cuboids' colouring (PLANE: one colour per plane,
-   * non-planar grey; SOLID: grey) \return what was drawn \throws planar_grid::Exception
-   * when unknown_opacity is outside [0, 1] */
+   * \return what was drawn \throws planar_grid::Exception when unknown_opacity is
+   * outside [0, 1] */
   MapRenderSummary addMap(const PlanarGridMap& map,
+                          CuboidColorMode cuboid_color = CuboidColorMode::OCCUPANCY,
                           double unknown_opacity = 0.15,
-                          std::size_t max_voxel_boxes = 2000000,
-                          CuboidColorMode cuboid_color = CuboidColorMode::OCCUPANCY);
+                          std::size_t max_voxel_boxes = 2000000);
 
   /** \brief Adds a polygon mesh (e.g. a PLY file read with loadPLYMesh()) as one
    * actor: its faces coloured per vertex by the mesh's rgb fields when it has them
