@@ -69,14 +69,33 @@ SurfaceLayer::Impl::replaceNonPlanar(const std::vector<PlanarCuboid>& incoming,
   {
     const float half_cell = static_cast<float>(0.5 * r);
     std::vector<std::uint32_t> doomed;
-    // a spatial index of the stored cells' bounding boxes (bins of 4 cells; cells
-    // spanning more than MAX_BINS_PER_CUBOID bins in a list tested always)
+    // A spatial index of the bounding boxes of the stored cells that can meet a new
+    // one: those whose box meets the new cells' bounding box grown by half a cell (what
+    // this frame sees), so that the work follows the frame, not the whole map. Bins of
+    // 4 cells; cells spanning more than MAX_BINS_PER_CUBOID bins in a list tested
+    // always.
     std::vector<BinEntry> np_bins;
-    std::vector<std::uint32_t> np_large;
+    std::vector<std::uint32_t> np_large, nearby;
     if (!incoming.empty()) {
+      Eigen::Vector3f region_lo = Eigen::Vector3f::Constant(
+        std::numeric_limits<float>::max());
+      Eigen::Vector3f region_hi = -region_lo;
+      for (const PlanarCuboid& nw : incoming) {
+        Eigen::Vector3f lo, hi;
+        cuboidBounds(nw, lo, hi);
+        region_lo = region_lo.cwiseMin((lo.array() - half_cell).matrix());
+        region_hi = region_hi.cwiseMax((hi.array() + half_cell).matrix());
+      }
       for (std::size_t k = 0; k < impl.non_planar.size(); ++k) {
         const auto index = static_cast<std::uint32_t>(k);
-        if (!forEachBin(impl.nonPlanarCuboid(impl.non_planar[k]), 0.0f, np_bin,
+        const PlanarCuboid old = impl.nonPlanarCuboid(impl.non_planar[k]);
+        Eigen::Vector3f lo, hi;
+        cuboidBounds(old, lo, hi);
+        if ((lo.array() > region_hi.array()).any()
+            || (hi.array() < region_lo.array()).any())
+          continue;
+        nearby.push_back(index);
+        if (!forEachBin(old, 0.0f, np_bin,
                         [&](std::uint64_t key) { np_bins.emplace_back(key, index); }))
           np_large.push_back(index);
       }
@@ -100,8 +119,8 @@ SurfaceLayer::Impl::replaceNonPlanar(const std::vector<PlanarCuboid>& incoming,
         for (const auto index : np_large)
           test(nw, index);
       else
-        for (std::size_t index = 0; index < impl.non_planar.size(); ++index)
-          test(nw, static_cast<std::uint32_t>(index));
+        for (const auto index : nearby)
+          test(nw, index);
     }
     std::vector<BinEntry>().swap(np_bins);
     std::sort(doomed.begin(), doomed.end());
