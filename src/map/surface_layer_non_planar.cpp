@@ -77,8 +77,8 @@ SurfaceLayer::Impl::replaceNonPlanar(const std::vector<PlanarCuboid>& incoming,
     std::vector<BinEntry> np_bins;
     std::vector<std::uint32_t> np_large, nearby;
     if (!incoming.empty()) {
-      Eigen::Vector3f region_lo = Eigen::Vector3f::Constant(
-        std::numeric_limits<float>::max());
+      Eigen::Vector3f region_lo =
+        Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
       Eigen::Vector3f region_hi = -region_lo;
       for (const PlanarCuboid& nw : incoming) {
         Eigen::Vector3f lo, hi;
