@@ -275,6 +275,7 @@ SurfaceLayer::Impl::mergeConvergedPlanes(std::vector<int>& touched,
         survivor.moments.add(impl.planes[gone].moments);
         refitPlane(survivor, cos_angle);
         impl.planes.erase(impl.planes.begin() + static_cast<std::ptrdiff_t>(gone));
+        impl.tidy_all = true;
         const auto shift = [gone](std::size_t x) {
           return static_cast<int>(x > gone ? x - 1 : x);
         };

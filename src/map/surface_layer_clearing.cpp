@@ -60,6 +60,7 @@ SurfaceLayer::Impl::removePlaneCellsIf(
                planes.end());
   const std::size_t removed_planes = before - planes.size();
   if (removed_planes > 0) {
+    tidy_all = true;
     planes.shrink_to_fit();
     updatePlaneModels();
     plane_models.shrink_to_fit();

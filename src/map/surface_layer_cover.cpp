@@ -27,6 +27,7 @@ rebuildPlane(MapPlane& plane, const SurfaceLayer::Params& params)
 {
   std::vector<RasterRect>().swap(plane.rects);
   plane.dirty = false;
+  plane.tidy_pending = true;
   if (plane.raster.empty())
     return;
   // the raster's cells, sorted, with their evidence

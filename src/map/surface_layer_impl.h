@@ -135,6 +135,9 @@ struct MapPlane {
   /** Cached cover (valid when !dirty). */
   std::vector<RasterRect> rects;
   bool dirty{true};
+  /** The cover was rebuilt since the last removeNonPlanarCellsOnPlanes(), which
+   * tests the non-planar cells near its cuboids again. */
+  bool tidy_pending{true};
 
   void setFrame(const Eigen::Vector3f& n, float offset)
   {
@@ -427,6 +430,15 @@ struct SurfaceLayer::Impl {
   std::vector<surface_layer_detail::NonPlanarCell> non_planar;
   /** The distinct orientations of the non-planar cells. */
   std::vector<surface_layer_detail::BoxAxes> np_axes;
+
+  /** removeNonPlanarCellsOnPlanes() tests only the non-planar cells that may have come
+   * to lie on a plane since its last call: those near the non-planar cells added since
+   * (tidy_added, their bounds) or near the cuboids of a plane whose cover was rebuilt
+   * since (MapPlane::tidy_pending). Every cell is tested when tidy_all is set: a new,
+   * loaded or merged layer, or one that lost a plane (which may have been the first
+   * plane holding a cell's centre). */
+  bool tidy_all{true};
+  Eigen::AlignedBox3f tidy_added;
 
   /** Guards the lazy builds of the covers and of the query index. */
   std::mutex mutex;

@@ -225,6 +225,7 @@ SurfaceLayer::Impl::mergeNonPlanar(const Impl& other,
                                    const Eigen::Isometry3d& this_T_other,
                                    const Params& params)
 {
+  tidy_all = true;
   if (other.non_planar.empty())
     return;
   const double r = params.resolution_m;

@@ -140,6 +140,10 @@ SurfaceLayer::Impl::replaceNonPlanar(const std::vector<PlanarCuboid>& incoming,
     for (const PlanarCuboid& c : incoming) {
       added.push_back(static_cast<std::uint32_t>(impl.non_planar.size()));
       impl.non_planar.emplace_back(c, impl.internAxes(c, axes_lookup));
+      Eigen::Vector3f lo, hi;
+      cuboidBounds(c, lo, hi);
+      impl.tidy_added.extend(lo);
+      impl.tidy_added.extend(hi);
     }
     if (!doomed.empty())
       impl.pruneAxes();
@@ -177,14 +181,63 @@ SurfaceLayer::removeNonPlanarCellsOnPlanes()
   PlanarCuboids planar;
   std::vector<BinEntry> bins;
   std::vector<std::uint32_t> large; // cuboids spanning too many bins: tested always
+  // Where a cell's centre and footprint samples can reach: its box grown by its
+  // half-diagonal twice over and half a cell (the samples lie within the diagonal of
+  // the centre; a cuboid holds a point within half a cell).
+  const auto reachBox = [half_cell](const PlanarCuboid& cell) {
+    Eigen::Vector3f lo, hi;
+    cuboidBounds(cell, lo, hi);
+    const float grow =
+      Eigen::Vector3f(cell.width_m, cell.height_m, cell.thickness_m).norm() + half_cell;
+    return Eigen::AlignedBox3f(lo.array() - grow, hi.array() + grow);
+  };
+  // Only the cells reaching into the region that changed since the last call can have
+  // come to lie on a plane (Impl::tidy_all), and only the planar cuboids within their
+  // reach can hold them.
+  bool all = false;
+  Eigen::AlignedBox3f changed, candidates;
   {
     std::lock_guard<std::mutex> lock(impl_->mutex);
-    if (impl_->non_planar.empty())
+    Impl& impl = *impl_;
+    impl.buildPlanarCuboids(params_, planar);
+    all = impl.tidy_all;
+    changed = impl.tidy_added;
+    for (const PlanarCuboid& c : planar)
+      if (impl.planes[static_cast<std::size_t>(c.plane_id)].tidy_pending) {
+        Eigen::Vector3f lo, hi;
+        cuboidBounds(c, lo, hi);
+        changed.extend(lo);
+        changed.extend(hi);
+      }
+    impl.tidy_all = false;
+    impl.tidy_added.setEmpty();
+    for (auto& plane : impl.planes)
+      plane.tidy_pending = false;
+    if (impl.non_planar.empty() || planar.empty())
       return 0;
-    impl_->buildPlanarCuboids(params_, planar);
+    if (!all) {
+      for (const auto& cell : impl.non_planar) {
+        const Eigen::AlignedBox3f reach = reachBox(impl.nonPlanarCuboid(cell));
+        if (reach.intersects(changed))
+          candidates.extend(reach);
+      }
+      if (candidates.isEmpty())
+        return 0;
+    }
   }
-  if (planar.empty())
-    return 0;
+  if (!all) {
+    // (the cuboids keep their order: the first holding a point stays the first)
+    std::size_t kept = 0;
+    for (std::size_t k = 0; k < planar.size(); ++k) {
+      Eigen::Vector3f lo, hi;
+      cuboidBounds(planar[k], lo, hi);
+      if (candidates.intersects(Eigen::AlignedBox3f(lo, hi)))
+        planar[kept++] = planar[k];
+    }
+    planar.resize(kept);
+    if (planar.empty())
+      return 0;
+  }
   // in index order within a bin, so that the first cuboid holding a point is the
   // same on every run
   binCuboids(planar, half_cell, bin, bins, large);
@@ -210,6 +263,8 @@ SurfaceLayer::removeNonPlanarCellsOnPlanes()
     return -1;
   };
   return removeNonPlanarCells([&](const PlanarCuboid& cell) {
+    if (!all && !reachBox(cell).intersects(changed))
+      return false;
     const std::ptrdiff_t first = onPlane(cell.centre, -1);
     if (first < 0)
       return false;

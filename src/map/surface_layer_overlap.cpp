@@ -375,8 +375,10 @@ SurfaceLayer::absorbOverlappingPlaneCells()
   // 3. A plane left without cells goes (its evidence is what the stronger planes
   //    hold now).
   for (std::size_t a = impl.planes.size(); a-- > 0;)
-    if (emptied[a] && impl.planes[a].raster.empty())
+    if (emptied[a] && impl.planes[a].raster.empty()) {
       impl.planes.erase(impl.planes.begin() + static_cast<std::ptrdiff_t>(a));
+      impl.tidy_all = true;
+    }
   impl.updatePlaneModels();
   impl.invalidate();
   return total;

@@ -79,7 +79,10 @@ public:
     if (!(frame.has_ground && frame.cloud && countValidPoints(*frame.cloud) == 0))
       hasPoints(frame, "accumulate");
     auto& world = *state.world_cloud;
-    world.reserve(world.size() + frame.cloud->size());
+    // Grown geometrically, not to the exact size: an exact reserve would copy the
+    // whole accumulated cloud on every frame.
+    if (world.points.capacity() < world.size() + frame.cloud->size())
+      world.reserve(std::max(world.size() + frame.cloud->size(), 2 * world.size()));
     for (const auto& p : frame.cloud->points)
       if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
         world.push_back(p);

@@ -971,6 +971,54 @@ TEST_F(PlanarGridMapTest, PlanesReplaceExactlyTheCellsLyingOnThem)
   EXPECT_GT(kept.size(), 200u);
 }
 
+// Oracle: integrateSurface() tests again only the non-planar cells near what changed
+// since its last tidying. Two walls grow frame by frame over boxes that earlier frames
+// left where the walls come later; after every frame a copy of the layer (which tests
+// every cell) finds nothing more to remove, and boxes of earlier frames did go when
+// their wall arrived.
+TEST_F(PlanarGridMapTest, IntegrationLeavesNoCellOnAPlaneThatAFullPassWouldRemove)
+{
+  const PlaneModels planes{Eigen::Vector4f(0.0f, 0.0f, -1.0f, 5.0f),  // z = 5
+                           Eigen::Vector4f(-1.0f, 0.0f, 0.0f, 3.0f)}; // x = 3
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> x(-1.0f, 4.0f), z(3.0f, 5.6f), edge(0.1f, 0.2f);
+  PlanarGridMap map(params());
+  std::size_t removed_earlier = 0;
+  for (int frame = 0; frame < 8; ++frame) {
+    PlanarCuboids cuboids;
+    // The z = 5 wall reaches x = 0.5 (frame + 1); the x = 3 wall comes from frame 4,
+    // growing towards the sensor.
+    cuboids.push_back(wallCuboid(Eigen::Vector3f(0.25f * (frame + 1), 0.0f, 5.0f),
+                                 -Eigen::Vector3f::UnitZ(), Eigen::Vector3f::UnitX(),
+                                 0.5f * (frame + 1), 1.6f, 0));
+    PlaneModels frame_planes{planes[0]};
+    if (frame >= 4) {
+      const float near = 5.0f - 0.5f * static_cast<float>(frame - 3);
+      cuboids.push_back(wallCuboid(Eigen::Vector3f(3.0f, 0.0f, 0.5f * (near + 5.0f)),
+                                   -Eigen::Vector3f::UnitX(), Eigen::Vector3f::UnitZ(),
+                                   5.0f - near, 1.6f, 1));
+      frame_planes.push_back(planes[1]);
+    }
+    // Each frame's boxes in their own band of y, 0.25 m apart: no box replaces a box
+    // of another frame, so a box of an earlier frame goes only for a plane.
+    const float y = -0.875f + 0.25f * static_cast<float>(frame);
+    for (int k = 0; k < 60; ++k)
+      cuboids.push_back(nonPlanarCube(Eigen::Vector3f(x(rng), y, z(rng)), edge(rng)));
+    const auto before = nonPlanarCentres(map);
+    map.integrateSurface(cuboids, frame_planes, pcl::PointCloud<pcl::PointXYZ>(), {});
+    const auto after = nonPlanarCentres(map);
+    for (const auto& centre : before)
+      removed_earlier += holds(after, centre) ? 0 : 1;
+
+    std::vector<std::uint8_t> bytes;
+    map.getSurfaceLayer().serialize(bytes);
+    planar_grid::SurfaceLayer copy(map.getSurfaceLayer().getParams());
+    copy.deserialize(bytes.data(), bytes.size());
+    EXPECT_EQ(copy.removeNonPlanarCellsOnPlanes(), 0u) << "frame " << frame;
+  }
+  EXPECT_GT(removed_earlier, 10u);
+}
+
 /** A patch of \a width_m x \a height_m on the plane z = 5 (normal -z) tilted by
  * \a tilt_rad about the y axis: face centre \a face, plane \a plane_id. */
 PlanarCuboid

@@ -309,6 +309,11 @@ public:
    * plane's cuboids grown likewise. Cells reaching past the plane's cells (an edge, a
    * hole) stay, and so do cells more than 64 cells across. Planar cells are not
    * changed; the covers of the planes changed since the last query are rebuilt.
+   * After the first call, a call tests only the cells within reach of what changed
+   * since the previous one (the non-planar cells integrate() added, the cuboids of
+   * the planes whose cover was rebuilt); every cell again after a plane was removed,
+   * a merge() or a deserialize(). The result is that of testing every cell, at a cost
+   * that follows the frame, not the map.
    * \return the number of cells removed */
   std::size_t removeNonPlanarCellsOnPlanes();
 
