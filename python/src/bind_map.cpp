@@ -6,6 +6,8 @@
 
 #include <pybind11/stl.h>
 
+#include <algorithm>
+#include <mutex>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -14,6 +16,39 @@
 
 namespace planar_grid {
 namespace python {
+
+namespace {
+
+/** The maps Mappers handed to Python, while they live. */
+std::mutex mapper_maps_mutex;
+std::vector<std::weak_ptr<const PlanarGridMap>> mapper_maps;
+
+} // namespace
+
+void
+markMapperOwned(const std::shared_ptr<const PlanarGridMap>& map)
+{
+  const std::lock_guard<std::mutex> lock(mapper_maps_mutex);
+  mapper_maps.erase(std::remove_if(mapper_maps.begin(), mapper_maps.end(),
+                                   [](const auto& m) { return m.expired(); }),
+                    mapper_maps.end());
+  for (const auto& m : mapper_maps)
+    if (m.lock() == map)
+      return;
+  mapper_maps.push_back(map);
+}
+
+void
+requireWritable(const PlanarGridMap& map, const char* method)
+{
+  const std::lock_guard<std::mutex> lock(mapper_maps_mutex);
+  for (const auto& m : mapper_maps)
+    if (m.lock().get() == &map)
+      throw Exception(std::string("PlanarGridMap.") + method
+                      + ": this map is a Mapper's (Mapper.map or Mapper.read_map()); it "
+                        "changes only through the Mapper's integrate_* calls, which "
+                        "hold its lock. Change a copy: pickle it, or save it and load it");
+}
 
 namespace {
 
@@ -240,6 +275,7 @@ bindMapIntegration(MapClass& cls)
     .def(
       "set_state",
       [](Map& self, const FloatArray& points, const py::object& state) {
+        requireWritable(self, "set_state");
         const auto p = toPoints(points, "points");
         const SpaceState s = toSpaceState(state);
         auto& space = self.getSpaceLayer();
@@ -260,6 +296,7 @@ state : SpaceState, int or str
     .def(
       "integrate_point_cloud",
       [](Map& self, const FloatArray& points, const DoubleArray& sensor_origin) {
+        requireWritable(self, "integrate_point_cloud");
         const auto cloud = toCloud(points, "points");
         const Eigen::Vector3f origin = toVector3f(sensor_origin, "sensor_origin");
         py::gil_scoped_release release;
@@ -282,6 +319,7 @@ sensor_origin : array_like, shape (3,)
       "integrate_depth_image",
       [](Map& self, const FloatArray& depth, double fx, double fy, double cx, double cy,
          const DoubleArray& world_T_camera) {
+        requireWritable(self, "integrate_depth_image");
         if (depth.ndim() != 2)
           throw py::value_error("depth must be an (H, W) array of depths in meters");
         DepthImage image;
@@ -316,6 +354,7 @@ world_T_camera : array_like, shape (4, 4)
       "integrate_surface",
       [](Map& self, const Cuboids& cuboids, const DoubleArray& planes,
          const FloatArray& features, const DoubleArray& probabilities) {
+        requireWritable(self, "integrate_surface");
         PlaneModels models;
         if (planes.size() != 0) {
           if (planes.ndim() != 2 || planes.shape(1) != 4)
@@ -359,6 +398,7 @@ bindMapMerge(MapClass& cls)
     .def(
       "merge",
       [](Map& self, const Map& other, const DoubleArray& this_T_other) {
+        requireWritable(self, "merge");
         Eigen::Isometry3d transform = toIsometry(this_T_other, "this_T_other");
         // toIsometry() accepts a rotation within 1e-3 of orthonormal (a float32
         // matrix, a pose read from text); merge() moves plane moments and raster
@@ -432,7 +472,13 @@ the views the map holds (note_observation_order(); the pipeline notes each frame
 in its recording), None when none was noted (a new map, a file written before the span
 was stored). merge() lets the newer map's voxels win when one span lies wholly after
 the other's. Settable (None empties it); planar_grid.Error for a non-finite bound.)doc")
-    .def("note_observation_order", &Map::noteObservationOrder, py::arg("order"),
+    .def(
+      "note_observation_order",
+      [](Map& self, double order) {
+        requireWritable(self, "note_observation_order");
+        self.noteObservationOrder(order);
+      },
+      py::arg("order"),
          R"doc(Grows observation_span to include ``order``, a number that increases
 with the time of the views (a frame index, a timestamp in seconds) and is comparable
 between the maps that will be merged. planar_grid.Error for a non-finite order.)doc");

@@ -221,6 +221,7 @@ frame inside the block on the same thread (it would wait for the block's lock).
              py::gil_scoped_release release;
              self.reader.emplace(self.mapper->readMap());
            }
+           markMapperOwned(self.mapper->getMap());
            return std::const_pointer_cast<PlanarGridMap>(self.mapper->getMap());
          })
     .def("__exit__", [](MapReadContext& self, const py::args&) {
@@ -400,14 +401,17 @@ bindMapperState(MapperClass& cls)
       },
       py::keep_alive<0, 1>(),
       "MapReadLock: ``with mapper.read_map() as m:`` gives the map under the shared "
-      "lock (safe from any thread).")
+      "lock (safe from any thread). The map is read-only: its changing methods raise "
+      "planar_grid.Error.")
     .def_property_readonly(
       "map",
       [](const Mapper& self) {
+        markMapperOwned(self.getMap());
         return std::const_pointer_cast<PlanarGridMap>(self.getMap());
       },
       "PlanarGridMap: the map without the lock; read it between frames from the thread "
-      "that integrates (other threads: read_map()).")
+      "that integrates (other threads: read_map()). Read-only: its changing methods "
+      "raise planar_grid.Error.")
     .def(
       "save",
       [](const Mapper& self, const py::object& path) {

@@ -26,6 +26,10 @@
 #include <vector>
 
 namespace planar_grid {
+class PlanarGridMap;
+}
+
+namespace planar_grid {
 namespace python {
 
 namespace py = pybind11;
@@ -63,6 +67,15 @@ toArray(const Eigen::Vector3f& vector)
 /** \brief A (4, 4) rigid transform as an isometry (the last row must be 0 0 0 1 and the
  * rotation orthonormal within 1e-3). \throws py::value_error naming \a name */
 Eigen::Isometry3d toIsometry(const DoubleArray& matrix, const char* name);
+
+/** \brief Records \a map as a Mapper's map, as Mapper.map and Mapper.read_map() hand it
+ * to Python: it changes only through the Mapper, under its lock, so its own changing
+ * methods refuse (requireWritable()) for as long as it lives. */
+void markMapperOwned(const std::shared_ptr<const PlanarGridMap>& map);
+
+/** \brief \throws planar_grid::Exception (planar_grid.Error) naming \a method when
+ * \a map is a Mapper's (markMapperOwned()). */
+void requireWritable(const PlanarGridMap& map, const char* method);
 
 /** \brief A path given as str or os.PathLike, as text. */
 inline std::string

@@ -64,6 +64,44 @@ def test_a_reader_thread_sees_whole_frames(main_job):
     assert seen[-1] == after_frames[-1]
 
 
+def test_a_mappers_map_refuses_changes_from_python(main_job, tmp_path):
+    # Two reader threads changing the Mapper's map under the shared lock would corrupt
+    # it: every changing method refuses, from mapper.map and from read_map() alike,
+    # and the map is unchanged; a copy of it changes freely.
+    frames = pg.InputFrames(main_job)
+    mapper = pg.Mapper(main_job)
+    f = frames[0]
+    mapper.integrate_stereo(f["left"], f["right"], f["calibration"], f["world_T_camera"])
+    before = mapper.map.__getstate__()
+    point = np.array([[5.0, 0.0, 1.0]])
+    changes = {
+        "set_state": lambda m: m.set_state(point, "occupied"),
+        "integrate_point_cloud": lambda m: m.integrate_point_cloud(point, np.zeros(3)),
+        "integrate_depth_image": lambda m: m.integrate_depth_image(
+            np.full((4, 4), 2.0), 2.0, 2.0, 2.0, 2.0, np.eye(4)),
+        "integrate_surface": lambda m: m.integrate_surface(
+            m.cuboids, np.zeros((0, 4)), np.zeros((0, 3)), np.zeros(0)),
+        "merge": lambda m: m.merge(m, np.eye(4)),
+        "note_observation_order": lambda m: m.note_observation_order(7.0),
+    }
+    for name, change in changes.items():
+        with pytest.raises(pg.Error, match=f"PlanarGridMap.{name}: this map is a Mapper's"):
+            change(mapper.map)
+        with mapper.read_map() as m:
+            with pytest.raises(pg.Error, match=f"PlanarGridMap.{name}"):
+                change(m)
+    assert mapper.map.__getstate__() == before
+
+    mapper.save(tmp_path / "map.pgmap")
+    copy = pg.PlanarGridMap.load(tmp_path / "map.pgmap")
+    copy.set_state(point, "occupied")
+    assert copy.get_state(point)[0] == pg.SpaceState.OCCUPIED
+    # the Mapper still integrates
+    f = frames[1]
+    mapper.integrate_stereo(f["left"], f["right"], f["calibration"], f["world_T_camera"])
+    assert mapper.map.__getstate__() != before
+
+
 def test_bad_input_raises(main_job):
     frames = pg.InputFrames(main_job)
     f = frames[0]
