@@ -44,10 +44,11 @@ requireWritable(const PlanarGridMap& map, const char* method)
   const std::lock_guard<std::mutex> lock(mapper_maps_mutex);
   for (const auto& m : mapper_maps)
     if (m.lock().get() == &map)
-      throw Exception(std::string("PlanarGridMap.") + method
-                      + ": this map is a Mapper's (Mapper.map or Mapper.read_map()); it "
-                        "changes only through the Mapper's integrate_* calls, which "
-                        "hold its lock. Change a copy: pickle it, or save it and load it");
+      throw Exception(
+        std::string("PlanarGridMap.") + method
+        + ": this map is a Mapper's (Mapper.map or Mapper.read_map()); it "
+          "changes only through the Mapper's integrate_* calls, which "
+          "hold its lock. Change a copy: pickle it, or save it and load it");
 }
 
 namespace {
@@ -479,7 +480,7 @@ the other's. Settable (None empties it); planar_grid.Error for a non-finite boun
         self.noteObservationOrder(order);
       },
       py::arg("order"),
-         R"doc(Grows observation_span to include ``order``, a number that increases
+      R"doc(Grows observation_span to include ``order``, a number that increases
 with the time of the views (a frame index, a timestamp in seconds) and is comparable
 between the maps that will be merged. planar_grid.Error for a non-finite order.)doc");
 }
