@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <string>
 
@@ -65,38 +66,55 @@ estimateDisparityNormals(
     const double min_count =
       std::max(3.0, params.min_valid_fraction * (2 * half + 1) * (2 * half + 1));
     // Least squares of d = a du + b dv + c0 over the window, du and dv relative to
-    // (ui, vi): the normal equations' sums.
-    double n = 0, su = 0, sv = 0, suu = 0, suv = 0, svv = 0, sd = 0, sud = 0, svd = 0;
+    // (ui, vi): the normal equations' sums. Those of the pixel offsets alone are sums
+    // of integers, kept exactly in integers; those with the disparity in double.
+    std::int64_t n = 0, su = 0, sv = 0, suu = 0, suv = 0, svv = 0;
+    double sd = 0, sud = 0, svd = 0;
+    // the window's columns inside the image
+    const long col_first = ui + static_cast<long>(-half) * stride;
+    int i_first = -half, i_last = half;
+    if (col_first < 0)
+      i_first += static_cast<int>((-col_first + stride - 1) / stride);
+    const long col_last = ui + static_cast<long>(half) * stride;
+    if (col_last >= disparity.cols)
+      i_last -= static_cast<int>((col_last - disparity.cols + stride) / stride);
     for (int j = -half; j <= half; ++j) {
       const long row = vi + static_cast<long>(j) * stride;
       if (row < 0 || row >= disparity.rows)
         continue;
       const float* line = disparity.ptr<float>(static_cast<int>(row));
-      const double dv = static_cast<double>(row - vi);
-      for (int i = -half; i <= half; ++i) {
+      const std::int64_t dv_int = row - vi;
+      const auto dv = static_cast<double>(dv_int);
+      std::int64_t row_n = 0, row_su = 0, row_suu = 0;
+      for (int i = i_first; i <= i_last; ++i) {
         const long col = ui + static_cast<long>(i) * stride;
-        if (col < 0 || col >= disparity.cols)
-          continue;
         const double d = line[col];
         if (!(d > 0.0) || std::abs(d - own) > gate)
           continue;
-        const double du = static_cast<double>(col - ui);
+        const std::int64_t du_int = col - ui;
+        const auto du = static_cast<double>(du_int);
         const double e = d - own; // centred: better conditioned sums
-        n += 1;
-        su += du;
-        sv += dv;
-        suu += du * du;
-        suv += du * dv;
-        svv += dv * dv;
+        ++row_n;
+        row_su += du_int;
+        row_suu += du_int * du_int;
         sd += e;
         sud += du * e;
         svd += dv * e;
       }
+      n += row_n;
+      su += row_su;
+      sv += row_n * dv_int;
+      suu += row_suu;
+      suv += row_su * dv_int;
+      svv += row_n * dv_int * dv_int;
     }
-    if (n < min_count)
+    if (static_cast<double>(n) < min_count)
       continue;
     Eigen::Matrix3d normal_matrix;
-    normal_matrix << suu, suv, su, suv, svv, sv, su, sv, n;
+    normal_matrix << static_cast<double>(suu), static_cast<double>(suv),
+      static_cast<double>(su), static_cast<double>(suv), static_cast<double>(svv),
+      static_cast<double>(sv), static_cast<double>(su), static_cast<double>(sv),
+      static_cast<double>(n);
     const Eigen::Vector3d rhs(sud, svd, sd);
     const Eigen::LDLT<Eigen::Matrix3d> ldlt(normal_matrix);
     if (ldlt.info() != Eigen::Success || !(ldlt.rcond() > 1e-9))
