@@ -121,3 +121,32 @@ def test_static_methods_are_static_with_their_signatures():
         assert "staticmethod" in decorators, name
         args = [a.arg for a in methods[name].args.args]
         assert args and args[0] != "self" and methods[name].args.vararg is None, (name, args)
+
+
+def test_prose_in_a_docstring_is_no_signature():
+    # "with mapper.read_map() as m:" in read_map's docstring is prose: a function gets
+    # overloads in the stubs only where the binding has them (pybind11 writes
+    # "Overloaded function." first).
+    overloaded = set()
+    for name, obj in vars(planar_grid._planar_grid).items():
+        members = [(name, obj)]
+        if inspect.isclass(obj):
+            members += [(f"{name}.{k}", v) for k, v in vars(obj).items()]
+        for qualified, member in members:
+            if (getattr(member, "__doc__", None) or "").find("Overloaded function") >= 0:
+                overloaded.add(qualified)
+
+    def walk(body, prefix):
+        for node in body:
+            if isinstance(node, ast.ClassDef):
+                yield from walk(node.body, node.name + ".")
+            elif isinstance(node, ast.FunctionDef):
+                if any(isinstance(d, ast.Name) and d.id == "overload"
+                       for d in node.decorator_list):
+                    yield prefix + node.name
+
+    stray = sorted(set(walk(stub_tree().body, "")) - overloaded)
+    assert not stray, stray
+    methods = {f.name: f for c in stub_tree().body if isinstance(c, ast.ClassDef)
+               and c.name == "Mapper" for f in c.body if isinstance(f, ast.FunctionDef)}
+    assert ast.unparse(methods["read_map"].returns) == "MapReadLock"

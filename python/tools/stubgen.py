@@ -16,6 +16,12 @@ so ``PlanarGridMap.load`` became ``def load(self, *args, **kwargs) -> Any`` and 
 refused ``PlanarGridMap.load(path)``. Here the wrapped function's signatures are written
 as a function's, each marked ``@staticmethod``.
 
+stubgen also takes any ``name(...)`` in a docstring's prose for one more signature
+(``with mapper.read_map() as m:`` gave ``def read_map(self) -> Any`` beside the real
+one, under ``@overload``). Of the signatures a docstring gives, those with neither a
+typed argument nor a return type are dropped when a typed one exists, and repeated ones
+once; pybind11 writes every real signature typed.
+
 Usage: python3 stubgen.py <stubgen arguments>
 """
 import re
@@ -48,6 +54,31 @@ def _static_aware_function_stub(module, name, obj, output, imports, sig_generato
 
 if _function_stub is not None:
     mypy.stubgenc.generate_c_function_stub = _static_aware_function_stub
+
+_docstring_sig = getattr(mypy.stubgenc, "DocstringSignatureGenerator", None)
+
+
+def _typed(sig):
+    return sig.ret_type != "Any" or any(arg.type for arg in sig.args)
+
+
+def _real_signatures(self, func, module_name, name):
+    sigs = _docstring_function_sig(self, func, module_name, name)
+    if not sigs or len(sigs) < 2:
+        return sigs
+    kept = [sig for sig in sigs if _typed(sig)] or sigs[:1]
+    out, seen = [], set()
+    for sig in kept:
+        key = (tuple((a.name, a.type, a.default) for a in sig.args), sig.ret_type)
+        if key not in seen:
+            seen.add(key)
+            out.append(sig)
+    return out
+
+
+if _docstring_sig is not None:
+    _docstring_function_sig = _docstring_sig.get_function_sig
+    _docstring_sig.get_function_sig = _real_signatures
 
 if __name__ == "__main__":
     sys.exit(main())
