@@ -173,6 +173,24 @@ struct InputFrames {
 
 using MapperClass = py::class_<Mapper>;
 
+/** A configuration given as its file (str or os.PathLike) or as a dict of the file's
+ * content, as yaml.safe_load gives it (relative paths resolved against the working
+ * folder; messages name "<config dict>" and the line:col of its JSON text). */
+PipelineConfig
+toPipelineConfig(const py::object& config)
+{
+  if (py::isinstance<py::dict>(config)) {
+    const std::string text =
+      py::str(py::module_::import("json").attr("dumps")(config, py::arg("indent") = 2));
+    const std::string folder = py::str(py::module_::import("os").attr("getcwd")());
+    py::gil_scoped_release release;
+    return parsePipelineConfig(text, "<config dict>", folder);
+  }
+  const std::string path = toPath(config);
+  py::gil_scoped_release release;
+  return loadPipelineConfig(path);
+}
+
 /** The docstring of the Mapper class. */
 constexpr const char* MAPPER_DOC = R"doc(Builds a map frame by frame from your data.
 
@@ -192,13 +210,17 @@ that integrates.
 
 Parameters
 ----------
-config : str or os.PathLike
-    The configuration file (schema: config/example.yaml).
+config : str, os.PathLike or dict
+    The configuration file (schema: config/example.yaml), or its content as a dict
+    (e.g. the file's yaml.safe_load with a parameter changed); a dict's relative paths
+    are resolved against the working folder.
 
 Raises
 ------
 planar_grid.ConfigError
-    (a ValueError) for a bad configuration.
+    (a ValueError) for a bad configuration; a dict's errors name "<config dict>".
+TypeError
+    For a dict holding values JSON cannot write (e.g. numpy scalars: use float()).
 planar_grid.Error
     When the pipeline has no map_integration stage.
 )doc";
@@ -463,8 +485,9 @@ poses in the z-up world), one at a time, e.g. to feed a Mapper as a camera would
 
 Parameters
 ----------
-config : str or os.PathLike
-    The configuration file; its input section is used.
+config : str, os.PathLike or dict
+    The configuration file, or its content as a dict (as Mapper takes it); its input
+    section is used.
 
 Raises
 ------
@@ -472,10 +495,10 @@ planar_grid.ConfigError, planar_grid.IOError
     For a bad configuration or a missing input.
 )doc")
     .def(py::init([](const py::object& config) {
-           const std::string path = toPath(config);
+           const PipelineConfig parsed = toPipelineConfig(config);
            py::gil_scoped_release release;
            InputFrames frames;
-           frames.source = createFrameSource(loadPipelineConfig(path).input);
+           frames.source = createFrameSource(parsed.input);
            return frames;
          }),
          py::arg("config"))
@@ -518,9 +541,9 @@ bindMapper(py::module_& m)
   bindMapReadLock(m);
   MapperClass cls(m, "Mapper", MAPPER_DOC);
   cls.def(py::init([](const py::object& config) {
-            const std::string path = toPath(config);
+            const PipelineConfig parsed = toPipelineConfig(config);
             py::gil_scoped_release release;
-            return std::make_unique<Mapper>(path);
+            return std::make_unique<Mapper>(parsed);
           }),
           py::arg("config"));
   bindMapperImageFrames(cls);

@@ -102,6 +102,34 @@ def test_a_mappers_map_refuses_changes_from_python(main_job, tmp_path):
     assert mapper.map.__getstate__() != before
 
 
+def test_a_mapper_takes_the_configuration_as_a_dict(main_job, tmp_path, monkeypatch):
+    # The file's content as yaml.safe_load gives it maps like the file; its relative
+    # paths are the working folder's; a bad value names the dict.
+    yaml = pytest.importorskip("yaml")
+    with open(main_job, encoding="utf-8") as f:
+        config = yaml.safe_load(f)
+    monkeypatch.chdir(main_job.parent)
+    frames = pg.InputFrames(config)
+    assert len(frames) == len(pg.InputFrames(main_job))
+    from_dict, from_file = pg.Mapper(config), pg.Mapper(main_job)
+    for i in range(2):
+        f = frames[i]
+        for mapper in (from_dict, from_file):
+            mapper.integrate_stereo(f["left"], f["right"], f["calibration"],
+                                    f["world_T_camera"])
+    from_dict.save(tmp_path / "dict.pgmap")
+    from_file.save(tmp_path / "file.pgmap")
+    assert (tmp_path / "dict.pgmap").read_bytes() == (tmp_path / "file.pgmap").read_bytes()
+
+    stage = next(s for s in config["pipeline"] if s["type"] == "map_integration")
+    stage["params"]["resolution_m"] = -1.0
+    with pytest.raises(pg.ConfigError, match=r"<config dict>:\d+:\d+: .*resolution_m"):
+        pg.Mapper(config)
+    stage["params"]["resolution_m"] = np.float32(0.1)
+    with pytest.raises(TypeError):
+        pg.Mapper(config)
+
+
 def test_bad_input_raises(main_job):
     frames = pg.InputFrames(main_job)
     f = frames[0]
