@@ -87,6 +87,9 @@ def test_mypy_checks_a_program_against_the_stubs(tmp_path):
         n: int = m.cell_count
         segments = pgd.split_frames(0, 112, 4)
         loaded: pg.PlanarGridMap = pg.PlanarGridMap.load("map.pgmap")
+        # array parameters take what numpy converts, lists included
+        m.integrate_point_cloud([[2.0, 0.0, 0.0]], [0.0, 0.0, 0.0])
+        m.set_state([[2.0, 0.0, 0.0]], "occupied")
         """))
     wrong = tmp_path / "misuse_map.py"
     wrong.write_text(textwrap.dedent("""\
@@ -149,4 +152,5 @@ def test_prose_in_a_docstring_is_no_signature():
     assert not stray, stray
     methods = {f.name: f for c in stub_tree().body if isinstance(c, ast.ClassDef)
                and c.name == "Mapper" for f in c.body if isinstance(f, ast.FunctionDef)}
-    assert ast.unparse(methods["read_map"].returns) == "MapReadLock"
+    returns = methods["read_map"].returns
+    assert returns is not None and ast.unparse(returns) == "MapReadLock"

@@ -22,8 +22,14 @@ one, under ``@overload``). Of the signatures a docstring gives, those with neith
 typed argument nor a return type are dropped when a typed one exists, and repeated ones
 once; pybind11 writes every real signature typed.
 
+pybind11 writes an array parameter as ``numpy.ndarray[numpy.float32]`` (its C++ type),
+but every array parameter of the module converts what numpy can (lists included:
+py::array::forcecast), so such parameters become ``numpy.typing.ArrayLike`` in the
+written stubs; return types stay arrays.
+
 Usage: python3 stubgen.py <stubgen arguments>
 """
+import os
 import re
 import sys
 
@@ -80,5 +86,38 @@ if _docstring_sig is not None:
     _docstring_function_sig = _docstring_sig.get_function_sig
     _docstring_sig.get_function_sig = _real_signatures
 
+_ARRAY_PARAMETER = re.compile(r"(\w+: )numpy\.ndarray\[numpy\.(?:float32|float64|int64)\]")
+
+
+def _array_like_parameters(path):
+    """Rewrites the array parameters of the stub file at path as ArrayLike."""
+    with open(path, encoding="utf-8") as f:
+        lines = f.read().split("\n")
+    out = []
+    for line in lines:
+        if line.lstrip().startswith("def ") and ") ->" in line:
+            parameters, returns = line.rsplit(") ->", 1)
+            line = _ARRAY_PARAMETER.sub(r"\1numpy.typing.ArrayLike", parameters) + ") ->" + returns
+        out.append(line)
+        if line == "import numpy":
+            out.append("import numpy.typing")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("\n".join(out))
+
+
+def _written_stub(argv):
+    """The stub file stubgen writes for `-m MODULE -o DIR`, or None."""
+    try:
+        module = argv[argv.index("-m") + 1]
+        folder = argv[argv.index("-o") + 1]
+    except (ValueError, IndexError):
+        return None
+    return os.path.join(folder, *module.split(".")) + ".pyi"
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    status = main()
+    stub = _written_stub(sys.argv)
+    if not status and stub and os.path.exists(stub):
+        _array_like_parameters(stub)
+    sys.exit(status)
