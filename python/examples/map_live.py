@@ -10,16 +10,17 @@ InputFrames reads the configuration's stereo pairs, calibration and INS poses in
 the camera; the map equals planar_grid_pipeline's over the same frames."""
 
 import sys
+from typing import Any, Dict, List
 
 import planar_grid as pg
 
 
-def map_frames(config, frame_count, map_path):
+def map_frames(config: str, frame_count: int, map_path: str) -> List[Dict[str, Any]]:
     """Integrates the first frame_count frames of config's input, saves the map to
     map_path and returns each frame's statistics (dicts)."""
     frames = pg.InputFrames(config)
     mapper = pg.Mapper(config)
-    stats = []
+    stats: List[Dict[str, Any]] = []
     for i in range(frame_count):
         f = frames[i]
         stats.append(mapper.integrate_stereo(f["left"], f["right"], f["calibration"],

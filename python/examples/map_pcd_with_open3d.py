@@ -9,6 +9,7 @@ The scan is taken as seen from the origin by a camera with PCL's axes (x right, 
 z forward), as PCL's own scans are; the map's world is z-up (x forward, y left)."""
 
 import sys
+from typing import Tuple
 
 import numpy as np
 import open3d as o3d
@@ -16,7 +17,8 @@ import open3d as o3d
 import planar_grid as pg
 
 
-def map_scan(pcd_path, resolution_m=0.05):
+def map_scan(pcd_path: str, resolution_m: float = 0.05
+             ) -> Tuple[pg.PlanarSegments, pg.Cuboids, pg.PlanarGridMap]:
     """Returns (planes, cuboids, map) of the scan in pcd_path, cells of resolution_m m."""
     camera = np.asarray(o3d.io.read_point_cloud(pcd_path, remove_nan_points=True).points)
     points = np.column_stack([camera[:, 2], -camera[:, 0], -camera[:, 1]])  # z up

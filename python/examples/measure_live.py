@@ -12,13 +12,14 @@ import statistics
 import sys
 import threading
 import time
+from typing import Any, Dict, Iterable, List
 
 import numpy as np
 
 import planar_grid as pg
 
 
-def summary(name, values):
+def summary(name: str, values: Iterable[float]) -> None:
     values = sorted(values)
     p95 = values[min(len(values) - 1, int(0.95 * len(values)))]
     print(f"{name}: mean {statistics.fmean(values):.2f} ms, median "
@@ -26,13 +27,15 @@ def summary(name, values):
           f"({len(values)} samples)")
 
 
-def main(config, frame_count):
+def main(config: str, frame_count: int) -> None:
     frames = pg.InputFrames(config)
     mapper = pg.Mapper(config)
     points = np.random.default_rng(0).uniform([-5, -30, -1], [95, 30, 4], (10000, 3))
-    waits, holds, done = [], [], threading.Event()
+    waits: List[float] = []
+    holds: List[float] = []
+    done = threading.Event()
 
-    def read():
+    def read() -> None:
         while not done.is_set():
             t0 = time.perf_counter()
             with mapper.read_map() as m:
@@ -43,7 +46,7 @@ def main(config, frame_count):
 
     reader = threading.Thread(target=read)
     reader.start()
-    stats = []
+    stats: List[Dict[str, Any]] = []
     for i in range(min(frame_count, len(frames))):
         f = frames[i]
         stats.append(mapper.integrate_stereo(f["left"], f["right"], f["calibration"],
@@ -56,7 +59,7 @@ def main(config, frame_count):
     summary("frame waited for readers", [s["lock_wait_ms"] for s in stats])
     summary("reader waited for the lock", waits)
     summary("reader held the lock (get_state at 10000 points)", holds)
-    copies = []
+    copies: List[float] = []
     with mapper.read_map() as m:
         for _ in range(5):
             t0 = time.perf_counter()

@@ -19,8 +19,10 @@ numpy and Open3D (Debian: python3-open3d).
 
 import argparse
 import sys
+from typing import Any, List, Optional, Sequence, Tuple
 
 import numpy as np
+import numpy.typing as npt
 
 import planar_grid as pg
 
@@ -38,7 +40,7 @@ BOX_EDGES = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7
                       [0, 4], [1, 5], [2, 6], [3, 7]])
 
 
-def occupancy_colours(probabilities):
+def occupancy_colours(probabilities: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """RGB in [0, 1] per probability: blue at 0, green at 0.5, red at 1, linear between."""
     p = np.clip(np.asarray(probabilities, dtype=float), 0.0, 1.0)[:, None]
     blue, green, red = np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.8, 0.0]), np.array([1.0, 0.0, 0.0])
@@ -47,18 +49,20 @@ def occupancy_colours(probabilities):
     return np.where(p < 0.5, low, high)
 
 
-def plane_colours(plane_ids):
+def plane_colours(plane_ids: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """RGB in [0, 1] per plane id from a fixed palette; grey for non-planar (-1)."""
     palette = np.array([[0.90, 0.10, 0.10], [0.12, 0.47, 0.71], [0.17, 0.63, 0.17],
                         [1.00, 0.50, 0.05], [0.58, 0.40, 0.74], [0.55, 0.34, 0.29],
                         [0.89, 0.47, 0.76], [0.74, 0.74, 0.13], [0.09, 0.75, 0.81]])
     ids = np.asarray(plane_ids)
-    colours = palette[np.mod(ids, len(palette))]
+    colours: npt.NDArray[np.float64] = palette[np.mod(ids, len(palette))]
     colours[ids < 0] = 0.6
     return colours
 
 
-def cuboid_mesh_arrays(cuboids, colours):
+def cuboid_mesh_arrays(cuboids: pg.Cuboids, colours: npt.NDArray[np.float64]
+                       ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int32],
+                                  npt.NDArray[np.float64]]:
     """The cuboids as one triangle mesh.
 
     Parameters
@@ -82,14 +86,16 @@ def cuboid_mesh_arrays(cuboids, colours):
     return vertices, triangles.astype(np.int32), np.repeat(colours, 8, axis=0)
 
 
-def cuboid_line_arrays(cuboids):
+def cuboid_line_arrays(cuboids: pg.Cuboids
+                       ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]:
     """The cuboids' 12 edges each: points (8 M, 3) in meters and lines (12 M, 2) int32."""
     m = len(cuboids)
     lines = (BOX_EDGES[None, :, :] + 8 * np.arange(m)[:, None, None]).reshape(-1, 2)
     return cuboids.corners.reshape(-1, 3), lines.astype(np.int32)
 
 
-def open3d_geometries(grid_map, colour_by="occupancy", occupied_voxels=False):
+def open3d_geometries(grid_map: pg.PlanarGridMap, colour_by: str = "occupancy",
+                      occupied_voxels: bool = False) -> List[Any]:
     """Open3D geometries of a map: the cuboid mesh, its edges and, optionally, the
     occupied voxel centres (grey points)."""
     import open3d as o3d
@@ -117,7 +123,8 @@ def open3d_geometries(grid_map, colour_by="occupancy", occupied_voxels=False):
     return geometries
 
 
-def save_screenshot(geometries, path, width=1280, height=800):
+def save_screenshot(geometries: Sequence[Any], path: str, width: int = 1280,
+                    height: int = 800) -> None:
     """Renders the geometries in a hidden Open3D window (needs an X display, e.g.
     xvfb-run) and writes a PNG."""
     import open3d as o3d
@@ -140,7 +147,7 @@ def save_screenshot(geometries, path, width=1280, height=800):
     vis.destroy_window()
 
 
-def main(argv=None):
+def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("map", help="the map file (.pgmap)")
     parser.add_argument("--colour-by", choices=("occupancy", "plane"), default="occupancy",

@@ -4,8 +4,10 @@ folder on PYTHONPATH and the data and source folders in the environment)."""
 
 import os
 import pathlib
+from typing import Optional
 
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 SOURCE_DIR = pathlib.Path(
@@ -14,7 +16,7 @@ DATA_DIR = pathlib.Path(os.environ.get("PLANAR_GRID_DATA_DIR", SOURCE_DIR / ".."
 
 
 @pytest.fixture
-def data_dir():
+def data_dir() -> pathlib.Path:
     """The real sensor data (../shared/data); read, never copied."""
     if not DATA_DIR.is_dir():
         pytest.fail(f"the shared data folder {DATA_DIR} is missing (PLANAR_GRID_DATA_DIR)")
@@ -22,23 +24,26 @@ def data_dir():
 
 
 @pytest.fixture
-def source_dir():
+def source_dir() -> pathlib.Path:
     """The repository."""
     return SOURCE_DIR
 
 
-def plane_patch(normal, d, size_m, spacing_m, rng=None, noise_m=0.0):
+def plane_patch(normal: npt.ArrayLike, d: float, size_m: float, spacing_m: float,
+                rng: Optional[np.random.Generator] = None,
+                noise_m: float = 0.0) -> npt.NDArray[np.float64]:
     """Points on the plane n . x + d = 0 (n unit): a square grid of side size_m around the
     plane's point nearest the origin, with Gaussian noise along n (sigma noise_m)."""
-    normal = np.asarray(normal, dtype=float)
-    normal = normal / np.linalg.norm(normal)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = np.cross(normal, helper)
+    n: npt.NDArray[np.float64] = np.asarray(normal, dtype=float)
+    n = n / np.linalg.norm(n)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(n, helper)
     u /= np.linalg.norm(u)
-    v = np.cross(normal, u)
+    v = np.cross(n, u)
     steps = np.arange(-size_m / 2, size_m / 2 + 1e-9, spacing_m)
     a, b = np.meshgrid(steps, steps)
-    points = -d * normal + a.reshape(-1, 1) * u + b.reshape(-1, 1) * v
+    points: npt.NDArray[np.float64] = -d * n + a.reshape(-1, 1) * u + b.reshape(-1, 1) * v
     if noise_m > 0.0:
-        points += rng.normal(0.0, noise_m, size=(len(points), 1)) * normal
+        assert rng is not None, "noise_m > 0 needs rng"
+        points += rng.normal(0.0, noise_m, size=(len(points), 1)) * n
     return points

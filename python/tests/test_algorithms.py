@@ -5,20 +5,22 @@ through the Python module, against known planes, boxes and the paper's formulas.
 import inspect
 import math
 import re
+from typing import Any, Dict, List, Type, cast
 
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 import planar_grid as pg
 from conftest import plane_patch
 
 
-def unit(v):
-    v = np.asarray(v, dtype=float)
-    return v / np.linalg.norm(v)
+def unit(v: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    a: npt.NDArray[np.float64] = np.asarray(v, dtype=float)
+    return a / np.linalg.norm(a)
 
 
-def test_tilted_plane_gives_its_normal_and_offset():
+def test_tilted_plane_gives_its_normal_and_offset() -> None:
     # 3 m x 3 m of a tilted plane with 5 mm noise, 3 m from the origin, plus 20 % outliers
     # spread over a 6 m cube: the one plane found must be the plane, normal within 1 deg
     # (the refit on ~3700 points with 5 mm noise is far better), d within 1 cm.
@@ -37,7 +39,7 @@ def test_tilted_plane_gives_its_normal_and_offset():
     assert abs(np.linalg.norm(found) - 1.0) < 1e-5
     # The normal points toward the sensor origin (0, 0, 0): d >= 0, so it is +normal.
     assert d_found >= 0.0
-    assert math.degrees(math.acos(min(1.0, found @ normal))) < 1.0
+    assert math.degrees(math.acos(min(1.0, float(found @ normal)))) < 1.0
     assert d_found == pytest.approx(d, abs=0.01)
     # Every plane point is within 4 sigma = 2 cm (the threshold), so all are inliers;
     # the outliers within 2 cm of the plane (a slab of 4 cm in a 6 m cube: < 1 %) may join.
@@ -51,7 +53,7 @@ def test_tilted_plane_gives_its_normal_and_offset():
     assert planes.centroids.shape == (1, 3)
 
 
-def test_floor_and_wall_are_two_planes_with_their_tilts():
+def test_floor_and_wall_are_two_planes_with_their_tilts() -> None:
     # A floor z = -1 and a wall x = 4 (seen from the origin): normals (0, 0, 1) and
     # (-1, 0, 0) toward the origin, tilts 0 and pi/2 (eq. 2).
     floor = plane_patch([0, 0, 1], 1.0, 4.0, 0.05)
@@ -73,7 +75,7 @@ def test_floor_and_wall_are_two_planes_with_their_tilts():
                                   len(floor) + np.flatnonzero(~wall_row))
 
 
-def test_segmentation_parameters_are_checked_by_the_library():
+def test_segmentation_parameters_are_checked_by_the_library() -> None:
     seg = pg.SACMultiPlaneSegmentation(max_planes=3)
     assert seg.max_planes == 3
     assert seg.distance_threshold_m == pytest.approx(0.05)
@@ -82,17 +84,20 @@ def test_segmentation_parameters_are_checked_by_the_library():
     assert seg.distance_threshold_m == pytest.approx(0.05)  # unchanged
     with pytest.raises(ValueError, match="probability must be in"):
         pg.SACMultiPlaneSegmentation(probability=1.5)
+    # A misspelt keyword on purpose, given through a dict (mypy checks no dict's keys).
+    misspelt: Dict[str, Any] = {"distance_threshold": 0.1}
     with pytest.raises(TypeError, match="distance_threshold=0.1"):
-        pg.SACMultiPlaneSegmentation(distance_threshold=0.1)
+        pg.SACMultiPlaneSegmentation(**misspelt)
     with pytest.raises(ValueError, match="method 'lmeds'"):
         seg.method = "lmeds"
     seg.method = "msac"
     assert seg.method == "msac"
-    seg.up_axis = (0, -1, 0)
+    # The stub types up_axis as its getter's ndarray; the setter takes any 3-vector.
+    setattr(seg, "up_axis", (0, -1, 0))
     np.testing.assert_array_equal(seg.up_axis, [0, -1, 0])
 
 
-def test_segmentation_of_degenerate_input_is_empty_and_bad_shapes_raise():
+def test_segmentation_of_degenerate_input_is_empty_and_bad_shapes_raise() -> None:
     seg = pg.SACMultiPlaneSegmentation()
     assert len(seg.segment(np.zeros((0, 3)))) == 0
     assert len(seg.segment(np.full((100, 3), np.nan))) == 0
@@ -100,7 +105,7 @@ def test_segmentation_of_degenerate_input_is_empty_and_bad_shapes_raise():
         seg.segment(np.zeros((10, 2)))
 
 
-def test_same_seed_gives_same_planes():
+def test_same_seed_gives_same_planes() -> None:
     rng = np.random.default_rng(3)
     points = np.vstack([plane_patch([0, 0, 1], 1.0, 4.0, 0.05, rng, 0.01),
                         rng.uniform(-2, 2, size=(2000, 3))])
@@ -111,14 +116,22 @@ def test_same_seed_gives_same_planes():
         np.testing.assert_array_equal(x, y)
 
 
-def box_frame_coordinates(cuboids, points):
+def as_inliers(indices: List[List[int]]) -> List[npt.NDArray[np.int64]]:
+    """Index lists given as PlanarSegments' inliers as they are: the binding converts
+    each to an array, the stub (pybind11's signature) names the arrays only."""
+    return cast(List[npt.NDArray[np.int64]], indices)
+
+
+def box_frame_coordinates(cuboids: pg.Cuboids,
+                          points: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     """Coordinates of every point in every box frame: (M, N, 3), along the columns of
     rotations, relative to the centres."""
     rel = points[None, :, :] - cuboids.centres[:, None, :]
-    return np.einsum("mnk,mkj->mnj", rel, cuboids.rotations)
+    local: npt.NDArray[np.float64] = np.einsum("mnk,mkj->mnj", rel, cuboids.rotations)
+    return local
 
 
-def test_wall_becomes_planar_cuboids_that_cover_every_point():
+def test_wall_becomes_planar_cuboids_that_cover_every_point() -> None:
     # A 2 m x 1 m wall at x = 3 (normal toward the origin: (-1, 0, 0)), points every
     # 0.05 m. With min_points_per_cell = 1 every point lies in some cuboid (the class's
     # guarantee); the faces lie on the wall and the boxes reach thickness_m behind it.
@@ -149,7 +162,7 @@ def test_wall_becomes_planar_cuboids_that_cover_every_point():
     np.testing.assert_allclose(cuboids.corners[:, 4:, 0], 3.1, atol=1e-5)
 
 
-def test_without_planes_every_point_is_in_a_non_planar_cuboid():
+def test_without_planes_every_point_is_in_a_non_planar_cuboid() -> None:
     rng = np.random.default_rng(1)
     points = rng.uniform(0.0, 1.0, size=(500, 3)) + [2.0, 0.0, 0.0]
     cuboids = pg.PlanarCuboidApproximation(min_points_per_cell=1).approximate(points)
@@ -160,27 +173,29 @@ def test_without_planes_every_point_is_in_a_non_planar_cuboid():
     assert inside.any(axis=0).all()
 
 
-def test_approximation_rejects_bad_planes_and_parameters():
+def test_approximation_rejects_bad_planes_and_parameters() -> None:
     points = np.zeros((10, 3))
     with pytest.raises(IndexError, match="inlier index 10, outside the 10 points"):
         pg.PlanarCuboidApproximation().approximate(
-            points, pg.PlanarSegments([[0, 0, 1, 0]], [[0, 10]]))
+            points, pg.PlanarSegments([[0, 0, 1, 0]], as_inliers([[0, 10]])))
     with pytest.raises(TypeError, match="PlanarSegments"):
         pg.PlanarCuboidApproximation().approximate(points, [[0, 0, 1, 0]])
     with pytest.raises(ValueError, match=r"thickness must be in \(0, 10\] m"):
         pg.PlanarCuboidApproximation(thickness_m=0.0)
     with pytest.raises(ValueError, match="2 inlier arrays for 1 planes"):
-        pg.PlanarSegments([[0, 0, 1, 0]], [[0], [1]])
+        pg.PlanarSegments([[0, 0, 1, 0]], as_inliers([[0], [1]]))
 
 
 # Eq. 4 and eq. 10 written out here from the paper, independently of the library.
-def eq4(r, r_bar, z, f, b, dd):
+def eq4(r: npt.NDArray[np.float64], r_bar: npt.NDArray[np.float64],
+        z: npt.NDArray[np.float64], f: float, b: float, dd: float) -> npt.NDArray[np.float64]:
     dz = z * z / (b * f) * dd
     dr = r_bar / z * dz
-    return np.exp(-0.5 * ((r - r_bar) / dr) ** 2)
+    p: npt.NDArray[np.float64] = np.exp(-0.5 * ((r - r_bar) / dr) ** 2)
+    return p
 
 
-def eq10(p, q, a):
+def eq10(p: float, q: float, a: float) -> float:
     q = min(max(q, 1e-9), 1 - 1e-9)
     kl = sum(x * math.log(x / y) for x, y in ((p, q), (1 - p, 1 - q)) if x > 0)
     e = abs(kl) + (a if p <= 0.5 and q <= 0.5 else 0.0)
@@ -190,7 +205,7 @@ def eq10(p, q, a):
 F_PX, B_M = 645.24, 0.5707  # the Karlsruhe rig
 
 
-def test_occupancy_of_features_follows_eq4_and_the_kl_rule():
+def test_occupancy_of_features_follows_eq4_and_the_kl_rule() -> None:
     # Camera frame (z forward). Two features share a 0.5 m neighbourhood cell at ~10 m
     # (r_bar is their mean range), one is alone in its cell (r = r_bar: p = 1, clamped to
     # 0.971). Frame 2 observes the same tracks again: p <- eq. 10 with q = p_new.
@@ -205,7 +220,7 @@ def test_occupancy_of_features_follows_eq4_and_the_kl_rule():
     np.testing.assert_allclose(kl.probabilities, expected, rtol=1e-5)
     np.testing.assert_array_equal(kept, np.flatnonzero(expected >= 0.5))
     np.testing.assert_allclose(
-        pg.range_occupancy_probability(r, r_bar, features[:, 2], F_PX, B_M, 0.5),
+        np.asarray(pg.range_occupancy_probability(r, r_bar, features[:, 2], F_PX, B_M, 0.5)),
         eq4(r, r_bar, features[:, 2], F_PX, B_M, 0.5), rtol=1e-12)
     np.testing.assert_array_equal(kl.assigned_track_ids, ids)
     assert kl.track_count == 3
@@ -222,7 +237,7 @@ def test_occupancy_of_features_follows_eq4_and_the_kl_rule():
     assert kl.track_count == 0
 
 
-def test_occupancy_filter_errors_carry_the_library_message():
+def test_occupancy_filter_errors_carry_the_library_message() -> None:
     with pytest.raises(ValueError, match="stereo parameters not set"):
         pg.KLDivergenceOccupancyFilter(0.0, B_M)
     kl = pg.KLDivergenceOccupancyFilter(F_PX, B_M, occupancy_thres=0.6, update_rule="log_odds")
@@ -237,7 +252,7 @@ def test_occupancy_filter_errors_carry_the_library_message():
         kl.update_rule = "bayes"
 
 
-def test_repr_is_the_constructor_call_with_every_parameter():
+def test_repr_is_the_constructor_call_with_every_parameter() -> None:
     # repr() names each parameter with its value; evaluated, it rebuilds an object of the
     # same parameters.
     objects = [pg.SACMultiPlaneSegmentation(max_planes=3, distance_threshold_m=0.02),
@@ -253,7 +268,7 @@ def test_repr_is_the_constructor_call_with_every_parameter():
 
 # A value other than the default, in range, for every parameter of each class: the
 # constructor takes each by name and the property reads it back.
-CONSTRUCTOR_VALUES = {
+CONSTRUCTOR_VALUES: Dict[Type[Any], Dict[str, object]] = {
     pg.SACMultiPlaneSegmentation: dict(
         distance_threshold_m=0.02, sample_distance_threshold_m=0.04,
         depth_noise_coefficient_per_m=0.001, max_planes=5, min_inliers=100,
@@ -273,7 +288,8 @@ CONSTRUCTOR_VALUES = {
         association_radius_m=0.1, update_rule="log_odds"),
 }
 # The stereo rig, the filter's leading (positional or keyword) arguments.
-LEADING = {pg.KLDivergenceOccupancyFilter: ["focal_length_px", "baseline_m"]}
+LEADING: Dict[Type[Any], List[str]] = {
+    pg.KLDivergenceOccupancyFilter: ["focal_length_px", "baseline_m"]}
 # The unit a parameter name's suffix states, and the word its documentation uses.
 UNITS = {"_m": "meters", "_rad": "radians", "_px": "pixels", "_nats": "nats",
          "_per_m": "1/m"}
@@ -282,16 +298,22 @@ PROBABILITIES = {"probability", "clamping_thres_min", "clamping_thres_max",
                  "occupancy_thres", "prob_hit", "prob_miss"}
 
 
-def default_object(cls):
+def default_object(cls: Type[Any]) -> object:
     return cls(F_PX, B_M) if cls is pg.KLDivergenceOccupancyFilter else cls()
 
 
-def read_back(value):
+def read_back(value: object) -> object:
     return value.tolist() if isinstance(value, np.ndarray) else value
 
 
-@pytest.mark.parametrize("cls", list(CONSTRUCTOR_VALUES), ids=lambda c: c.__name__)
-def test_constructor_signature_names_every_parameter_with_the_cpp_default(cls):
+def class_name(cls: Type[Any]) -> str:
+    """A parametrized class's test id."""
+    return cls.__name__
+
+
+@pytest.mark.parametrize("cls", list(CONSTRUCTOR_VALUES), ids=class_name)
+def test_constructor_signature_names_every_parameter_with_the_cpp_default(
+        cls: Type[Any]) -> None:
     signature = inspect.signature(cls)
     names = list(signature.parameters)
     assert set(names) == set(CONSTRUCTOR_VALUES[cls])
@@ -315,7 +337,7 @@ def test_constructor_signature_names_every_parameter_with_the_cpp_default(cls):
         assert (list(default) if isinstance(default, tuple) else default) == expected, name
 
 
-def test_signature_defaults_are_the_library_defaults():
+def test_signature_defaults_are_the_library_defaults() -> None:
     # A few of the C++ in-class initialisers, spelled out once here as the check.
     seg = inspect.signature(pg.SACMultiPlaneSegmentation).parameters
     assert seg["distance_threshold_m"].default == pytest.approx(0.05)
@@ -332,8 +354,9 @@ def test_signature_defaults_are_the_library_defaults():
         distance_threshold_m=0.02).sample_distance_threshold_m == pytest.approx(0.02)
 
 
-@pytest.mark.parametrize("cls", list(CONSTRUCTOR_VALUES), ids=lambda c: c.__name__)
-def test_constructor_docstring_lists_each_parameter_with_unit_and_default(cls):
+@pytest.mark.parametrize("cls", list(CONSTRUCTOR_VALUES), ids=class_name)
+def test_constructor_docstring_lists_each_parameter_with_unit_and_default(
+        cls: Type[Any]) -> None:
     doc = cls.__init__.__doc__
     # numpydoc entries: "name : type[, optional]" then the indented description.
     entries = dict(re.findall(r"^(\w+) : [^\n]*\n((?:    [^\n]*\n)+)", doc, re.M))
@@ -350,8 +373,8 @@ def test_constructor_docstring_lists_each_parameter_with_unit_and_default(cls):
             assert "probability" in text, name
 
 
-@pytest.mark.parametrize("cls", list(CONSTRUCTOR_VALUES), ids=lambda c: c.__name__)
-def test_constructor_values_read_back_and_show_in_repr(cls):
+@pytest.mark.parametrize("cls", list(CONSTRUCTOR_VALUES), ids=class_name)
+def test_constructor_values_read_back_and_show_in_repr(cls: Type[Any]) -> None:
     values = CONSTRUCTOR_VALUES[cls]
     obj = cls(**values)
     text = repr(obj)
@@ -369,8 +392,8 @@ def test_constructor_values_read_back_and_show_in_repr(cls):
         cls(*[values[n] for n in LEADING.get(cls, [])], 0.5)
 
 
-@pytest.mark.parametrize("cls", list(CONSTRUCTOR_VALUES), ids=lambda c: c.__name__)
-def test_unknown_keyword_is_a_type_error_naming_it(cls):
+@pytest.mark.parametrize("cls", list(CONSTRUCTOR_VALUES), ids=class_name)
+def test_unknown_keyword_is_a_type_error_naming_it(cls: Type[Any]) -> None:
     leading = {n: CONSTRUCTOR_VALUES[cls][n] for n in LEADING.get(cls, [])}
     with pytest.raises(TypeError, match="resolution_cm=5"):
         cls(**leading, resolution_cm=5)

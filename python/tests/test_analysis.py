@@ -2,6 +2,7 @@
 """planar_grid.analysis: the stack measures against a map of two parallel walls whose
 overlap is known."""
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 import planar_grid as pg
@@ -9,14 +10,15 @@ from planar_grid.analysis import (map_counts, parallel_plane_stacks,
                                   stacked_planar_cuboids)
 
 
-def wall(x_m, y_min_m, y_max_m, spacing_m=0.05):
+def wall(x_m: float, y_min_m: float, y_max_m: float,
+         spacing_m: float = 0.05) -> npt.NDArray[np.float64]:
     """Points of the wall x = x_m, y in [y_min_m, y_max_m], z in [0, 2] m."""
     y, z = np.meshgrid(np.arange(y_min_m, y_max_m + 1e-9, spacing_m),
                        np.arange(0.0, 2.0 + 1e-9, spacing_m))
     return np.column_stack([np.full(y.size, x_m), y.ravel(), z.ravel()])
 
 
-def walls_map(gap_m, y_min_m, y_max_m):
+def walls_map(gap_m: float, y_min_m: float, y_max_m: float) -> pg.PlanarGridMap:
     """Wall A at x = 3, y in [0, 4]; wall B at x = 3 - gap_m (nearer the sensor at the
     origin), y in [y_min_m, y_max_m]. A plane merge distance of 0.05 m and
     absorb_distance_m 0 keep B a plane of its own."""
@@ -31,7 +33,7 @@ def walls_map(gap_m, y_min_m, y_max_m):
     return m
 
 
-def test_a_wall_in_front_of_a_wider_one_is_a_stack():
+def test_a_wall_in_front_of_a_wider_one_is_a_stack() -> None:
     # B (2 m x 2 m) lies before the middle of A (4 m x 2 m): every cuboid of B lies over
     # A, and A's, whose centres are at y = 2, over B.
     m = walls_map(0.3, 1.0, 3.0)
@@ -45,7 +47,7 @@ def test_a_wall_in_front_of_a_wider_one_is_a_stack():
     assert counts["planes"] == 2 and counts["planar_cuboids"] == len(area)
 
 
-def test_walls_side_by_side_or_far_apart_are_no_stack():
+def test_walls_side_by_side_or_far_apart_are_no_stack() -> None:
     # Beside A, not before it: parallel, 0.3 m apart, no overlap.
     m = walls_map(0.3, 4.5, 6.5)
     area, stacked, _, _ = stacked_planar_cuboids(m)

@@ -12,9 +12,11 @@ import signal
 import subprocess
 import threading
 import time
+from typing import Any, Dict, Iterator, List, Optional, Tuple
 
 import distributed
 import numpy as np
+import numpy.typing as npt
 import psutil
 import pytest
 
@@ -23,9 +25,12 @@ import planar_grid.distributed as pgd
 
 FRAMES = 40
 
+# The batch fixture: map_segments' report, its progress lines and the output folder.
+Batch = Tuple[Dict[str, Any], List[str], pathlib.Path]
+
 
 @pytest.fixture(scope="module")
-def config(request):
+def config(request: pytest.FixtureRequest) -> str:
     source = pathlib.Path(os.environ.get("PLANAR_GRID_SOURCE_DIR",
                                          pathlib.Path(__file__).resolve().parents[2]))
     path = source / "config" / "karlsruhe.yaml"
@@ -36,7 +41,7 @@ def config(request):
 
 
 @pytest.fixture(scope="module")
-def absolute_config_text(config):
+def absolute_config_text(config: str) -> str:
     """karlsruhe.yaml with its data paths absolute, for copies in a temporary folder."""
     text = pathlib.Path(config).read_text(encoding="utf-8")
     data = os.path.realpath(os.path.join(os.path.dirname(config), "..", "..", "shared",
@@ -47,13 +52,14 @@ def absolute_config_text(config):
 
 
 @pytest.fixture(scope="module")
-def one_run(config):
+def one_run(config: str) -> pg.PlanarGridMap:
     """The map of one sequential run of frames 0-39."""
-    return pg.run_pipeline(config, frames=(0, FRAMES), write_outputs=False).map
+    m: pg.PlanarGridMap = pg.run_pipeline(config, frames=(0, FRAMES), write_outputs=False).map
+    return m
 
 
 @pytest.fixture(scope="module")
-def probes(one_run):
+def probes(one_run: pg.PlanarGridMap) -> npt.NDArray[np.float64]:
     """20,000 random points in the box of the main job's map that the one run observed
     (free or occupied), as scripts/measure_batch.py draws them; fixed seed."""
     return pgd.sample_observed_points(one_run, 20_000, [0.0, -52.8, -7.2],
@@ -61,31 +67,33 @@ def probes(one_run):
 
 
 @pytest.fixture(scope="module")
-def batch(config, tmp_path_factory):
+def batch(config: str, tmp_path_factory: pytest.TempPathFactory) -> Batch:
     """The 4-segment job on map_segments' own local cluster of 2 worker processes."""
     out = tmp_path_factory.mktemp("batch")
-    lines = []
+    lines: List[str] = []
     report = pgd.map_segments(config, frames=(0, FRAMES), num_segments=4, n_workers=2,
                               output_dir=out, progress=lines.append)
     return report, lines, out
 
 
 @pytest.fixture(scope="module")
-def cluster():
+def cluster() -> Iterator[distributed.LocalCluster]:
     """A local cluster of 2 single-threaded worker processes on 127.0.0.1, no
     dashboard, for the jobs given a scheduler address."""
-    c = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                 host="127.0.0.1", dashboard_address=None,
-                                 silence_logs=50)
+    # Dask's LocalCluster is not annotated: its calls are untyped (no-untyped-call).
+    c = distributed.LocalCluster(  # type: ignore[no-untyped-call]
+        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+        dashboard_address=None, silence_logs=50)
     yield c
-    c.close()
+    c.close()  # type: ignore[no-untyped-call]  # Dask's, not annotated
 
 
-def planar_count(m):
+def planar_count(m: pg.PlanarGridMap) -> int:
     return int(np.count_nonzero(m.cuboids.is_planar))
 
 
-def test_four_segments_agree_with_one_run(batch, one_run, probes):
+def test_four_segments_agree_with_one_run(batch: Batch, one_run: pg.PlanarGridMap,
+                                          probes: npt.NDArray[np.float64]) -> None:
     report, lines, out = batch
     merged = pg.PlanarGridMap.load(report["map"])
     # getState on the points the one run observed: 4 segments join as the halves of the
@@ -120,7 +128,8 @@ def test_four_segments_agree_with_one_run(batch, one_run, probes):
     assert left == []
 
 
-def test_the_facades_are_one_plane_each_after_the_merge(batch, one_run):
+def test_the_facades_are_one_plane_each_after_the_merge(batch: Batch,
+                                                       one_run: pg.PlanarGridMap) -> None:
     # A facade seen by several segments joins as one plane in the merge (association,
     # converged planes, absorbed rectangles, as in integration), not a stack of parallel
     # vertical planes a few decimetres apart (pgd.parallel_plane_stacks): the merged map
@@ -134,14 +143,18 @@ def test_the_facades_are_one_plane_each_after_the_merge(batch, one_run):
     assert sum(vertical) > int(np.count_nonzero(np.abs(merged.planes[:, 2]) <= 0.3))
 
 
-def test_killed_worker_task_runs_again_with_the_same_map(config, batch, cluster,
-                                                         tmp_path, probes):
+def test_killed_worker_task_runs_again_with_the_same_map(
+        config: str, batch: Batch, cluster: distributed.LocalCluster, tmp_path: pathlib.Path,
+        probes: npt.NDArray[np.float64]) -> None:
     expected = pg.PlanarGridMap.load(batch[0]["map"])
-    with distributed.Client(cluster.scheduler_address, set_as_default=False) as client:
+    # Dask's Client is not annotated (no-untyped-call).
+    with distributed.Client(  # type: ignore[no-untyped-call]
+            cluster.scheduler_address, set_as_default=False) as client:
         pids = client.run(os.getpid)
-        result, failure = {}, []
+        result: Dict[str, Dict[str, Any]] = {}
+        failure: List[BaseException] = []
 
-        def job():
+        def job() -> None:
             try:
                 result["report"] = pgd.map_segments(
                     config, frames=(0, FRAMES), num_segments=4,
@@ -154,17 +167,17 @@ def test_killed_worker_task_runs_again_with_the_same_map(config, batch, cluster,
         thread.start()
         # The tasks a worker executes now (the scheduler's processing() lists those
         # queued on it too); nested, so that it is pickled by value for the workers.
-        def executing(dask_worker):
+        def executing(dask_worker: distributed.Worker) -> List[str]:
             return [str(ts.key) for ts in dask_worker.state.executing]
 
         # A segment task seen executing, its worker killed 0.5 s later if the task is
         # still executing there then (a 10-frame segment runs for 1.5 s or more).
-        victim = None
+        victim: Optional[Tuple[str, str]] = None
         deadline = time.monotonic() + 60
         while victim is None and time.monotonic() < deadline and thread.is_alive():
-            seen = {w: [k for k in keys if k.startswith("segment-")]
-                    for w, keys in client.run(executing).items() if w in pids}
-            seen = {w: keys[0] for w, keys in seen.items() if keys}
+            segment_keys = {w: [k for k in keys if k.startswith("segment-")]
+                            for w, keys in client.run(executing).items() if w in pids}
+            seen = {w: keys[0] for w, keys in segment_keys.items() if keys}
             time.sleep(0.5)
             if seen:
                 now = client.run(executing)
@@ -184,13 +197,15 @@ def test_killed_worker_task_runs_again_with_the_same_map(config, batch, cluster,
     assert report["segments"][index]["worker"]["pid"] != pids[victim[0]]
     assert report["segments"][index]["start_time"] > killed_at
     merged = pg.PlanarGridMap.load(report["map"])
-    assert np.array_equal(merged.get_state(probes), expected.get_state(probes))
+    assert np.array_equal(np.asarray(merged.get_state(probes)),
+                          np.asarray(expected.get_state(probes)))
     for key in ("planes", "planar_cuboids", "non_planar_cuboids", "cells"):
         assert report[key] == batch[0][key], key
 
 
-def test_bad_input_names_it_and_keeps_the_maps_done(config, absolute_config_text,
-                                                    cluster, tmp_path):
+def test_bad_input_names_it_and_keeps_the_maps_done(config: str, absolute_config_text: str,
+                                                    cluster: distributed.LocalCluster,
+                                                    tmp_path: pathlib.Path) -> None:
     missing = tmp_path / "no_such_calib.txt"
     bad = tmp_path / "bad_calibration.yaml"
     text = absolute_config_text
@@ -217,7 +232,8 @@ def test_bad_input_names_it_and_keeps_the_maps_done(config, absolute_config_text
     assert not (tmp_path / "out" / "map.pgmap").exists()
 
 
-def test_frame_range_past_the_end_is_named(config, cluster, tmp_path):
+def test_frame_range_past_the_end_is_named(config: str, cluster: distributed.LocalCluster,
+                                           tmp_path: pathlib.Path) -> None:
     with pytest.raises(pgd.BatchError) as error:
         pgd.map_segments(config, segments=[(0, 5), (200, 210)],
                          scheduler_address=cluster.scheduler_address,
@@ -231,7 +247,8 @@ def test_frame_range_past_the_end_is_named(config, cluster, tmp_path):
                          output_dir=tmp_path, progress=False)
 
 
-def test_one_segment_is_the_map(config, cluster, tmp_path):
+def test_one_segment_is_the_map(config: str, cluster: distributed.LocalCluster,
+                                tmp_path: pathlib.Path) -> None:
     report = pgd.map_segments(config, frames=(0, 4), num_segments=1,
                               scheduler_address=cluster.scheduler_address,
                               output_dir=tmp_path, progress=False)
@@ -245,7 +262,7 @@ def test_one_segment_is_the_map(config, cluster, tmp_path):
                          scheduler_address=cluster.scheduler_address)
 
 
-def test_split_and_tree():
+def test_split_and_tree() -> None:
     assert pgd.split_frames(0, 10, 4) == [(0, 2), (2, 5), (5, 7), (7, 10)]
     assert pgd.split_frames(5, 8, 3) == [(5, 6), (6, 7), (7, 8)]
     with pytest.raises(ValueError):
@@ -257,20 +274,20 @@ def test_split_and_tree():
     assert pgd._merge_tree(5) == [[(0, 1), (2, 3), (4,)], [(0, 1), (2,)], [(0, 1)]]
 
 
-def batch_tool():
+def batch_tool() -> str:
     build = os.environ.get("PLANAR_GRID_BUILD_DIR")
     if build is None:
         pytest.fail("PLANAR_GRID_BUILD_DIR is not set (CTest sets it)")
     return os.path.join(build, "tools", "planar_grid_batch")
 
 
-def run_tool(*args, cwd):
+def run_tool(*args: str, cwd: pathlib.Path) -> "subprocess.CompletedProcess[str]":
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     return subprocess.run([batch_tool(), *args], capture_output=True, text=True,
                           cwd=cwd, env=env, timeout=120)
 
 
-def test_command_exit_statuses(config, tmp_path):
+def test_command_exit_statuses(config: str, tmp_path: pathlib.Path) -> None:
     # the build folder's command finds the build folder's package by itself
     version = run_tool("--version", cwd=tmp_path)
     assert version.returncode == 0 and version.stdout.strip() == \
@@ -292,7 +309,7 @@ def test_command_exit_statuses(config, tmp_path):
     assert "bad.yaml" in config_error.stderr, config_error.stderr
 
 
-def test_a_second_job_into_the_folder_is_refused(config, tmp_path):
+def test_a_second_job_into_the_folder_is_refused(config: str, tmp_path: pathlib.Path) -> None:
     # Another run holds the folder's lock (the pipeline's lock file, flock(2)): the job
     # is refused before its first task, naming the holder, and the command exits 5.
     out = tmp_path / "job"
@@ -322,7 +339,7 @@ def test_a_second_job_into_the_folder_is_refused(config, tmp_path):
     assert precious.read_text(encoding="utf-8") == "keep me"
 
 
-def test_a_configuration_given_twice_is_refused(config, tmp_path):
+def test_a_configuration_given_twice_is_refused(config: str, tmp_path: pathlib.Path) -> None:
     # One recording twice in one world frame would count each observation twice.
     for again in (config, os.path.join(os.path.dirname(config), ".",
                                        os.path.basename(config))):

@@ -6,6 +6,7 @@ tree (getState on probes, voxels, planar cuboids). Every cluster is stopped by t
 that starts it; CTest bounds the file's time."""
 import os
 import pathlib
+from typing import Any, Dict, List, Tuple
 
 import numpy as np
 import psutil
@@ -19,9 +20,12 @@ SEGMENTS = 3
 TILE_M = 20.0
 EVERYWHERE = (np.full(3, -np.inf), np.full(3, np.inf))
 
+# A job of the jobs fixture: map_segments' report, its progress lines and the output folder.
+Job = Tuple[Dict[str, Any], List[str], pathlib.Path]
+
 
 @pytest.fixture(scope="module")
-def config():
+def config() -> str:
     source = pathlib.Path(os.environ.get("PLANAR_GRID_SOURCE_DIR",
                                          pathlib.Path(__file__).resolve().parents[2]))
     data = pathlib.Path(os.environ.get("PLANAR_GRID_DATA_DIR",
@@ -32,15 +36,15 @@ def config():
 
 
 @pytest.fixture(scope="module")
-def jobs(config, tmp_path_factory):
+def jobs(config: str, tmp_path_factory: pytest.TempPathFactory) -> Dict[str, Job]:
     """The same 3 segments merged in the tree (its map also saved as 20 m tiles), by
     tile, and by tile with 4 tile keys per task, each job on map_segments' own local
     cluster of 2 worker processes."""
-    out = {}
+    out: Dict[str, Job] = {}
     for name, merge, per_task in (("tree", "tree", 1), ("tiles", "tiles", 1),
                                   ("grouped", "tiles", 4)):
         folder = tmp_path_factory.mktemp(name)
-        lines = []
+        lines: List[str] = []
         report = pgd.map_segments(config, frames=(0, FRAMES), num_segments=SEGMENTS,
                                   n_workers=2, output_dir=folder, tile_size_m=TILE_M,
                                   merge=merge, tiles_per_task=per_task,
@@ -49,11 +53,11 @@ def jobs(config, tmp_path_factory):
     return out
 
 
-def planar_count(m):
+def planar_count(m: pg.PlanarGridMap) -> int:
     return int(np.count_nonzero(m.cuboids.is_planar))
 
 
-def test_the_tile_merge_equals_the_tree_merge(jobs):
+def test_the_tile_merge_equals_the_tree_merge(jobs: Dict[str, Job]) -> None:
     tree_report, _, _ = jobs["tree"]
     report, lines, folder = jobs["tiles"]
     tree = pg.PlanarGridMap.load(tree_report["map"])
@@ -81,7 +85,7 @@ def test_the_tile_merge_equals_the_tree_merge(jobs):
     assert len(merged.planes) >= 1
 
 
-def test_the_report_lists_the_tile_tasks(jobs):
+def test_the_report_lists_the_tile_tasks(jobs: Dict[str, Job]) -> None:
     report, lines, folder = jobs["tiles"]
     assert report["merge"] == "tiles" and report["map"] is None
     assert report["merges"] == [] and report["frames"] == FRAMES
@@ -89,7 +93,7 @@ def test_the_report_lists_the_tile_tasks(jobs):
     index = pg.read_tile_index(folder / "tiles")
     keys = sorted(tuple(t["key"]) for t in index["tiles"])
     # one task per key any segment holds, over exactly the segments holding it
-    held = {}
+    held: Dict[Tuple[int, ...], List[str]] = {}
     for s in report["segments"]:
         assert os.path.isfile(os.path.join(s["tiles"], "index.pgtiles"))
         for key in s["tile_keys"]:
@@ -112,7 +116,7 @@ def test_the_report_lists_the_tile_tasks(jobs):
     assert left == []
 
 
-def test_tiles_grouped_into_tasks_are_the_same_files(jobs):
+def test_tiles_grouped_into_tasks_are_the_same_files(jobs: Dict[str, Job]) -> None:
     report, _, folder = jobs["tiles"]
     grouped, lines, grouped_folder = jobs["grouped"]
     index = pg.read_tile_index(folder / "tiles")
@@ -131,13 +135,14 @@ def test_tiles_grouped_into_tasks_are_the_same_files(jobs):
     assert lines[-1].startswith(f"[{tasks}/{tasks}]")
 
 
-def test_tiles_need_a_tile_size(config, tmp_path):
+def test_tiles_need_a_tile_size(config: str, tmp_path: pathlib.Path) -> None:
     with pytest.raises(ValueError, match="tile_size_m"):
         pgd.map_segments(config, merge="tiles", output_dir=tmp_path, progress=False)
     with pytest.raises(ValueError, match="merge"):
         pgd.map_segments(config, merge="octree", output_dir=tmp_path, progress=False)
     assert pgd.main(["--config", config, "--merge", "tiles", "--output",
                      str(tmp_path)]) == pgd.EXIT_USAGE
+    bad: Any  # 1.5 is no int: refused values on purpose, which the function checks
     for bad in (0, 1.5, True):
         with pytest.raises(ValueError, match="tiles_per_task"):
             pgd.map_segments(config, merge="tiles", tile_size_m=TILE_M,

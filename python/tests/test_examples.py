@@ -4,8 +4,11 @@ script run headless when Open3D is installed."""
 
 import importlib.util
 import os
+import pathlib
 import subprocess
 import sys
+import types
+from typing import Tuple
 
 import numpy as np
 import pytest
@@ -14,17 +17,20 @@ import planar_grid as pg
 from conftest import SOURCE_DIR, plane_patch
 
 EXAMPLE = SOURCE_DIR / "python" / "examples" / "show_map_cuboids.py"
+# The wall_map fixture: the map and the file it is saved in.
+WallMap = Tuple[pg.PlanarGridMap, pathlib.Path]
 
 
-def load_example():
+def load_example() -> types.ModuleType:
     spec = importlib.util.spec_from_file_location("show_map_cuboids", EXAMPLE)
+    assert spec is not None and spec.loader is not None, EXAMPLE
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
 
 
 @pytest.fixture
-def wall_map(tmp_path):
+def wall_map(tmp_path: pathlib.Path) -> WallMap:
     """A saved map of a wall at x = 3 whose cells have occupancy 0.9."""
     wall = plane_patch([-1.0, 0.0, 0.0], 3.0, 2.0, 0.05)
     planes = pg.SACMultiPlaneSegmentation(distance_threshold_m=0.02, min_inliers=100).segment(wall)
@@ -36,7 +42,7 @@ def wall_map(tmp_path):
     return m, path
 
 
-def test_mesh_triangles_face_out_of_every_box(wall_map):
+def test_mesh_triangles_face_out_of_every_box(wall_map: WallMap) -> None:
     example = load_example()
     m, _ = wall_map
     cuboids = m.cuboids
@@ -60,19 +66,19 @@ def test_mesh_triangles_face_out_of_every_box(wall_map):
     np.testing.assert_allclose(example.plane_colours([-1])[0], [0.6, 0.6, 0.6])
 
 
-def run_example(*args):
+def run_example(*args: object) -> "subprocess.CompletedProcess[str]":
     env = dict(os.environ)
     return subprocess.run([sys.executable, str(EXAMPLE), *map(str, args)], env=env,
                           capture_output=True, text=True, timeout=120)
 
 
-def test_example_reports_a_missing_map():
+def test_example_reports_a_missing_map() -> None:
     done = run_example("/nonexistent/map.pgmap", "--no-window")
     assert done.returncode == 1
     assert "/nonexistent/map.pgmap" in done.stderr
 
 
-def test_example_builds_the_open3d_geometry_headless(wall_map):
+def test_example_builds_the_open3d_geometry_headless(wall_map: WallMap) -> None:
     pytest.importorskip("open3d")  # the example is optional: Debian's python3-open3d
     m, path = wall_map
     done = run_example(path, "--no-window")
@@ -81,13 +87,15 @@ def test_example_builds_the_open3d_geometry_headless(wall_map):
     assert f"mesh of {12 * len(m.cuboids)} triangles" in done.stdout
 
 
-def test_office1_mapped_from_open3d_in_a_dozen_lines(data_dir, tmp_path):
+def test_office1_mapped_from_open3d_in_a_dozen_lines(data_dir: pathlib.Path,
+                                                     tmp_path: pathlib.Path) -> None:
     """python/examples/map_pcd_with_open3d.py on PCL's office1.pcd (loaded by Open3D):
     every scan point is in an occupied voxel, every planar cuboid lies on its plane, the
     planes hold their inliers, and the saved map loads back equal."""
     o3d = pytest.importorskip("open3d")  # the example needs Debian's python3-open3d
     spec = importlib.util.spec_from_file_location(
         "map_pcd_with_open3d", SOURCE_DIR / "python" / "examples" / "map_pcd_with_open3d.py")
+    assert spec is not None and spec.loader is not None
     example = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(example)
     scan = str(data_dir / "pcl_clouds" / "office1.pcd")

@@ -3,9 +3,12 @@
 its state, occupancy and ray queries, and the map file round trip."""
 
 import math
+import pathlib
 import pickle
+from typing import List
 
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 import planar_grid as pg
@@ -15,7 +18,7 @@ from conftest import plane_patch
 P_OCCUPIED, P_FREE = 0.971, 0.1192
 
 
-def wall_scan():
+def wall_scan() -> npt.NDArray[np.float64]:
     """A 2 m x 2 m wall of points at x = 5.02 m seen from the origin: voxel row x in
     [5.0, 5.1) at 0.1 m."""
     ys, zs = np.meshgrid(np.arange(-1.0, 1.0, 0.05), np.arange(-1.0, 1.0, 0.05))
@@ -23,23 +26,24 @@ def wall_scan():
 
 
 @pytest.fixture
-def scanned_map():
+def scanned_map() -> pg.PlanarGridMap:
     m = pg.PlanarGridMap(resolution_m=0.1)
     m.integrate_point_cloud(wall_scan(), sensor_origin=[0.0, 0.0, 0.0])
     return m
 
 
-def test_ray_cast_scan_gives_free_occupied_and_unknown_space(scanned_map):
+def test_ray_cast_scan_gives_free_occupied_and_unknown_space(
+        scanned_map: pg.PlanarGridMap) -> None:
     m = scanned_map
     # On a ray to the wall: free; at the wall: occupied; behind it and never seen: the
     # prior (unknown).
     queries = np.array([[2.55, 0.05, 0.05], [5.05, 0.05, 0.05], [7.0, 0.05, 0.05],
                         [0.0, 0.0, -3.0]])
     S = pg.SpaceState
-    np.testing.assert_array_equal(m.get_state(queries), [S.FREE, S.OCCUPIED, S.UNKNOWN,
-                                                         S.UNKNOWN])
-    np.testing.assert_allclose(m.get_occupancy(queries), [P_FREE, P_OCCUPIED, 0.5, 0.5],
-                               atol=1e-4)
+    np.testing.assert_array_equal(np.asarray(m.get_state(queries)),
+                                  [S.FREE, S.OCCUPIED, S.UNKNOWN, S.UNKNOWN])
+    np.testing.assert_allclose(np.asarray(m.get_occupancy(queries)),
+                               [P_FREE, P_OCCUPIED, 0.5, 0.5], atol=1e-4)
     # The wall is 20 x 20 voxels of the row x in [5.0, 5.1).
     occupied = m.voxel_centres(S.OCCUPIED)
     assert len(occupied) == 400 == m.voxel_counts["occupied"]
@@ -47,7 +51,7 @@ def test_ray_cast_scan_gives_free_occupied_and_unknown_space(scanned_map):
     assert m.voxel_counts["free"] > 0 and m.voxel_counts["unknown"] == 0  # unknown is the prior
 
 
-def test_rays_stop_at_the_wall(scanned_map):
+def test_rays_stop_at_the_wall(scanned_map: pg.PlanarGridMap) -> None:
     origins = [0.0, 0.05, 0.05]
     directions = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.1, 0.0]])
     hit, points = scanned_map.cast_rays(origins, directions, max_range_m=20.0)
@@ -70,13 +74,13 @@ def test_rays_stop_at_the_wall(scanned_map):
             scanned_map.cast_rays(origins, [1.0, 0.0, 0.0], bad_range)
 
 
-def test_set_state_and_errors():
+def test_set_state_and_errors() -> None:
     m = pg.PlanarGridMap(resolution_m=0.2, prior="free")
     assert m.params["prior"] == "free" and m.resolution_m == pytest.approx(0.2)
     m.set_state([[1.0, 1.0, 1.0]], "occupied")
     m.set_state([[2.0, 2.0, 2.0]], pg.SpaceState.UNKNOWN)
-    np.testing.assert_array_equal(m.get_state([[1.05, 1.05, 1.05], [2.1, 2.1, 2.1], [9, 9, 9]]),
-                                  [1, 2, 0])
+    points: List[List[float]] = [[1.05, 1.05, 1.05], [2.1, 2.1, 2.1], [9, 9, 9]]
+    np.testing.assert_array_equal(np.asarray(m.get_state(points)), [1, 2, 0])
     with pytest.raises(ValueError, match="state 7"):
         m.set_state([[0, 0, 0]], 7)
     with pytest.raises(ValueError, match="resolution"):
@@ -87,7 +91,7 @@ def test_set_state_and_errors():
         m.get_state(np.zeros(4))
 
 
-def surface_map():
+def surface_map() -> pg.PlanarGridMap:
     """A map with a wall of planar cuboids at x = 3 whose features have probability 0.9,
     and the wall's ray-cast scan."""
     wall = plane_patch([-1.0, 0.0, 0.0], 3.0, 2.0, 0.05)
@@ -101,7 +105,7 @@ def surface_map():
     return m
 
 
-def test_surface_cuboids_carry_the_feature_occupancy():
+def test_surface_cuboids_carry_the_feature_occupancy() -> None:
     m = surface_map()
     np.testing.assert_allclose(m.planes, [[-1.0, 0.0, 0.0, 3.0]], atol=1e-4)
     cuboids = m.cuboids
@@ -110,8 +114,8 @@ def test_surface_cuboids_carry_the_feature_occupancy():
     np.testing.assert_allclose(cuboids.probabilities, 0.9, atol=1e-6)
     # Inside the wall's box (behind the face at x = 3): the cuboid decides.
     inside = [[3.05, 0.02, 0.03]]
-    assert m.get_state(inside)[0] == pg.SpaceState.OCCUPIED
-    assert m.get_occupancy(inside)[0] == pytest.approx(0.9, abs=1e-6)
+    assert np.asarray(m.get_state(inside))[0] == pg.SpaceState.OCCUPIED
+    assert np.asarray(m.get_occupancy(inside))[0] == pytest.approx(0.9, abs=1e-6)
     hit, points = m.cast_rays([0.0, 0.02, 0.03], [1.0, 0.0, 0.0], 10.0)
     assert hit[0] and points[0][0] == pytest.approx(2.95, abs=0.06)
     memory = m.memory
@@ -119,7 +123,7 @@ def test_surface_cuboids_carry_the_feature_occupancy():
     assert m.cell_count > 0
 
 
-def test_map_saved_from_python_loads_back_identically(tmp_path):
+def test_map_saved_from_python_loads_back_identically(tmp_path: pathlib.Path) -> None:
     m = surface_map()
     path = tmp_path / "wall.pgmap"
     m.save(path)
@@ -128,14 +132,16 @@ def test_map_saved_from_python_loads_back_identically(tmp_path):
     for name in ("centres", "extents_m", "rotations", "probabilities", "plane_ids"):
         np.testing.assert_array_equal(getattr(loaded.cuboids, name), getattr(m.cuboids, name))
     grid = np.random.default_rng(0).uniform([-1, -2, -2], [8, 2, 2], size=(5000, 3))
-    np.testing.assert_array_equal(loaded.get_state(grid), m.get_state(grid))
-    np.testing.assert_array_equal(loaded.get_occupancy(grid), m.get_occupancy(grid))
+    np.testing.assert_array_equal(np.asarray(loaded.get_state(grid)),
+                                  np.asarray(m.get_state(grid)))
+    np.testing.assert_array_equal(np.asarray(loaded.get_occupancy(grid)),
+                                  np.asarray(m.get_occupancy(grid)))
     assert pickle.loads(pickle.dumps(m)) == m
     loaded.set_state([[-5.0, -5.0, -5.0]], "occupied")
     assert loaded != m
 
 
-def test_bad_map_files_raise_io_errors_naming_the_file(tmp_path):
+def test_bad_map_files_raise_io_errors_naming_the_file(tmp_path: pathlib.Path) -> None:
     missing = tmp_path / "missing.pgmap"
     with pytest.raises(pg.IOError, match="missing.pgmap") as error:
         pg.PlanarGridMap.load(missing)
@@ -150,7 +156,7 @@ def test_bad_map_files_raise_io_errors_naming_the_file(tmp_path):
         surface_map().export_mesh(tmp_path / "mesh.obj")
 
 
-def test_exports_write_files(tmp_path):
+def test_exports_write_files(tmp_path: pathlib.Path) -> None:
     m = surface_map()
     written = m.export_octomap(tmp_path / "m.bt")
     m.export_mesh(tmp_path / "m.ply")
@@ -168,7 +174,7 @@ def test_exports_write_files(tmp_path):
     assert (tmp_path / "m.ply").read_bytes().startswith(b"ply")
 
 
-def test_get_distance_is_exact_to_a_voxel_with_its_gradient():
+def test_get_distance_is_exact_to_a_voxel_with_its_gradient() -> None:
     m = pg.PlanarGridMap(resolution_m=0.1)
     m.set_state([[1.05, 0.05, 0.05]], "occupied")  # the voxel [1.0, 1.1] x [0, 0.1]^2
     points = np.array([[1.05, 0.05, 1.05],   # 0.95 above
@@ -193,7 +199,7 @@ def test_get_distance_is_exact_to_a_voxel_with_its_gradient():
         m.get_distance(points, max_distance_m=0.0)
 
 
-def test_is_collision_free_for_boxes_and_spheres(scanned_map):
+def test_is_collision_free_for_boxes_and_spheres(scanned_map: pg.PlanarGridMap) -> None:
     m = scanned_map  # an occupied wall at x in [5.0, 5.1), |y|, |z| < 1
     centres = np.array([[4.0, 0.0, 0.0], [4.6, 0.0, 0.0], [4.0, 0.0, 0.0]])
     # a 1.0 x 0.6 x 1.5 box: 0.5 m half length along x, or along y when turned 90 deg
@@ -214,7 +220,8 @@ def test_is_collision_free_for_boxes_and_spheres(scanned_map):
         m.is_collision_free(centres, half_extents=np.ones((2, 3)))
 
 
-def test_export_occupancy_grid_2d_reads_back_as_map_server(scanned_map, tmp_path):
+def test_export_occupancy_grid_2d_reads_back_as_map_server(scanned_map: pg.PlanarGridMap,
+                                                           tmp_path: pathlib.Path) -> None:
     m = scanned_map
     out = m.export_occupancy_grid_2d(tmp_path / "map.yaml", z_ref_m=-1.0, z_min_m=0.5,
                                      z_max_m=1.5)
@@ -228,14 +235,15 @@ def test_export_occupancy_grid_2d_reads_back_as_map_server(scanned_map, tmp_path
     assert header[0] == b"P5"
     w, h = (int(v) for v in header[2].split())
     image = np.frombuffer(header[4], dtype=np.uint8).reshape(h, w)
-    cells = out["cells"]
+    cells: npt.NDArray[np.int8] = out["cells"]
     assert cells.shape == (h, w)
     # the image's top row is the largest y
     expected = np.where(cells == 100, 0, np.where(cells == 0, 254, 205))
     np.testing.assert_array_equal(image, expected[::-1])
 
-    def cell(x, y):
-        return cells[int((y - origin[1]) // 0.1), int((x - origin[0]) // 0.1)]
+    def cell(x: float, y: float) -> np.int8:
+        value: np.int8 = cells[int((y - origin[1]) // 0.1), int((x - origin[0]) // 0.1)]
+        return value
 
     assert cell(5.05, 0.05) == 100   # the wall
     assert cell(2.55, 0.05) == 0     # seen free on the way to it
@@ -246,7 +254,8 @@ def test_export_occupancy_grid_2d_reads_back_as_map_server(scanned_map, tmp_path
         m.export_occupancy_grid_2d(tmp_path / "bad.yaml", z_min_m=1.0, z_max_m=0.5)
 
 
-def test_region_index_answers_as_the_map_inside_its_region(scanned_map):
+def test_region_index_answers_as_the_map_inside_its_region(
+        scanned_map: pg.PlanarGridMap) -> None:
     m = scanned_map
     region = pg.MapRegionIndex(m, [3.0, -1.0, -1.0], [6.0, 1.0, 1.0], max_distance_m=2.0)
     assert region.obstacle_count > 0
@@ -263,17 +272,18 @@ def test_region_index_answers_as_the_map_inside_its_region(scanned_map):
         m.is_collision_free(centres, half_extents=[0.5, 0.3, 0.75], yaw=0.0))
 
 
-def test_one_point_queries_take_a_3_vector_and_give_its_value(scanned_map):
+def test_one_point_queries_take_a_3_vector_and_give_its_value(
+        scanned_map: pg.PlanarGridMap) -> None:
     # A (3,) point gives a scalar (get_state, get_occupancy) or a (distance, (3,)
     # gradient) pair, equal to the row of the same point given as (1, 3).
     m = scanned_map
     for point in ([2.55, 0.05, 0.05], [5.05, 0.05, 0.05], [7.0, 0.05, 0.05]):
-        state = m.get_state(np.array(point))
+        state = np.asarray(m.get_state(np.array(point)))
         assert np.ndim(state) == 0
-        assert state == m.get_state(np.array([point]))[0]
-        occupancy = m.get_occupancy(point)
+        assert state == np.asarray(m.get_state(np.array([point])))[0]
+        occupancy = np.asarray(m.get_occupancy(point))
         assert np.ndim(occupancy) == 0
-        assert occupancy == m.get_occupancy([point])[0]
+        assert occupancy == np.asarray(m.get_occupancy([point]))[0]
         d, g = m.get_distance(point, max_distance_m=2.0)
         assert np.ndim(d) == 0 and np.shape(g) == (3,)
         rows_d, rows_g = m.get_distance([point], max_distance_m=2.0)
@@ -284,8 +294,9 @@ def test_one_point_queries_take_a_3_vector_and_give_its_value(scanned_map):
         m.get_state([1.0, 2.0])
 
 
-def test_the_map_documents_its_keywords_from_the_stage_table():
+def test_the_map_documents_its_keywords_from_the_stage_table() -> None:
     # The keyword arguments are map_integration's keys, documented from its table.
+    assert pg.PlanarGridMap.__doc__ is not None
     doc = " ".join(pg.PlanarGridMap.__doc__.split())
     keys = pg.PlanarGridMap().params
     rows = [row for row in pg.stage_parameters("map_integration") if row["key"] in keys]
@@ -295,7 +306,7 @@ def test_the_map_documents_its_keywords_from_the_stage_table():
         assert " ".join(row["description"].split()) in doc, row["key"]
 
 
-def test_the_map_defaults_are_the_pipelines_map_integration_defaults():
+def test_the_map_defaults_are_the_pipelines_map_integration_defaults() -> None:
     # One Params struct: every key PlanarGridMap() takes has map_integration's default,
     # read from the stage table that --list-stages prints.
     import re
@@ -322,7 +333,7 @@ def test_the_map_defaults_are_the_pipelines_map_integration_defaults():
     assert m.params["merge_rule"] == "density"
 
 
-def test_the_map_constructor_has_a_signature_with_the_params_defaults():
+def test_the_map_constructor_has_a_signature_with_the_params_defaults() -> None:
     # inspect.signature (IDEs, help()) shows every keyword with the default a
     # PlanarGridMap() really gets
     import inspect

@@ -4,8 +4,10 @@ plane, the voxel rules (by rank, and the newer map's by observation span), symme
 4x4 transform and the errors."""
 
 import pickle
+from typing import Sequence
 
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 import planar_grid as pg
@@ -14,7 +16,7 @@ from conftest import plane_patch
 S = pg.SpaceState
 
 
-def rigid(yaw_rad, translation_m):
+def rigid(yaw_rad: float, translation_m: Sequence[float]) -> npt.NDArray[np.float64]:
     """A (4, 4) rigid transform: a turn about z and a translation, meters."""
     c, s = np.cos(yaw_rad), np.sin(yaw_rad)
     t = np.eye(4)
@@ -23,11 +25,15 @@ def rigid(yaw_rad, translation_m):
     return t
 
 
-def moved(points, transform):
-    return points @ transform[:3, :3].T + transform[:3, 3]
+def moved(points: npt.NDArray[np.float64],
+          transform: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    result: npt.NDArray[np.float64] = points @ transform[:3, :3].T + transform[:3, 3]
+    return result
 
 
-def wall_map(y_shift_m, x_m=3.0, transform=np.eye(4), extra_wall=False):
+def wall_map(y_shift_m: float, x_m: float = 3.0,
+             transform: npt.NDArray[np.float64] = np.eye(4),
+             extra_wall: bool = False) -> pg.PlanarGridMap:
     """A map of the wall x = x_m (normal -x) over y in [-1, 1] + y_shift_m, z in
     [-1, 1], mapped in the frame `transform` (its points moved by it): its planar
     cuboids (features of probability 0.9) and its ray-cast scan from the origin. With
@@ -48,16 +54,17 @@ def wall_map(y_shift_m, x_m=3.0, transform=np.eye(4), extra_wall=False):
     return m
 
 
-def copy_of(m):
-    return pickle.loads(pickle.dumps(m))
+def copy_of(m: pg.PlanarGridMap) -> pg.PlanarGridMap:
+    copy: pg.PlanarGridMap = pickle.loads(pickle.dumps(m))
+    return copy
 
 
-def probes():
+def probes() -> npt.NDArray[np.float64]:
     return np.random.default_rng(1).uniform([-0.5, -2.5, -1.5], [4.5, 5.0, 1.5],
                                             size=(20000, 3))
 
 
-def test_a_wall_in_both_maps_becomes_one_plane():
+def test_a_wall_in_both_maps_becomes_one_plane() -> None:
     a = wall_map(0.0)
     b = wall_map(1.5, x_m=3.005, extra_wall=True)
     assert len(a.planes) == 1 and len(b.planes) == 2
@@ -72,11 +79,11 @@ def test_a_wall_in_both_maps_becomes_one_plane():
     np.testing.assert_allclose(planes[0, :3], [-1.0, 0.0, 0.0], atol=5e-3)
     np.testing.assert_allclose(planes[1], [0.0, -1.0, 0.0, 4.0], atol=1e-3)
     # the wall's cuboids cover both stretches, y in [-1, 2.5]
-    states = a.get_state([[3.05, -0.95, 0.0], [3.05, 2.45, 0.0]])
+    states = np.asarray(a.get_state([[3.05, -0.95, 0.0], [3.05, 2.45, 0.0]]))
     np.testing.assert_array_equal(states, [S.OCCUPIED, S.OCCUPIED])
 
 
-def test_voxels_merge_by_rank_and_the_order_does_not_matter():
+def test_voxels_merge_by_rank_and_the_order_does_not_matter() -> None:
     a = pg.PlanarGridMap(resolution_m=0.1)
     b = pg.PlanarGridMap(resolution_m=0.1)
     p_occ_free, p_free_unknown, p_free_never = [0.05, 0.05, 0.05], [1.05, 0.05, 0.05], [
@@ -89,19 +96,21 @@ def test_voxels_merge_by_rank_and_the_order_does_not_matter():
     ab.merge(b, np.eye(4))
     ba.merge(a, np.eye(4))
     # occupied > free > unknown (never observed here: the unknown prior)
-    np.testing.assert_array_equal(ab.get_state([p_occ_free, p_free_unknown, p_free_never]),
-                                  [S.OCCUPIED, S.FREE, S.FREE])
+    np.testing.assert_array_equal(
+        np.asarray(ab.get_state([p_occ_free, p_free_unknown, p_free_never])),
+        [S.OCCUPIED, S.FREE, S.FREE])
     assert ab == ba
     # maps of surfaces too: the same states and planes either way
     a, b = wall_map(0.0), wall_map(1.5, x_m=3.005, extra_wall=True)
     ab, ba = copy_of(a), copy_of(b)
     ab.merge(b, np.eye(4))
     ba.merge(a, np.eye(4))
-    np.testing.assert_array_equal(ab.get_state(probes()), ba.get_state(probes()))
+    np.testing.assert_array_equal(np.asarray(ab.get_state(probes())),
+                                  np.asarray(ba.get_state(probes())))
     assert len(ab.planes) == len(ba.planes) == 2
 
 
-def test_the_newer_map_wins_where_the_spans_are_ordered():
+def test_the_newer_map_wins_where_the_spans_are_ordered() -> None:
     older = pg.PlanarGridMap(resolution_m=0.1)
     newer = pg.PlanarGridMap(resolution_m=0.1)
     assert older.observation_span is None
@@ -121,15 +130,16 @@ def test_the_newer_map_wins_where_the_spans_are_ordered():
     no.merge(older, np.eye(4))
     # the newer observation wins; occlusion does not erase an observed state
     for m in (on, no):
-        np.testing.assert_array_equal(m.get_state([p_occ_free, p_free_occ, p_occ_unknown]),
-                                      [S.FREE, S.OCCUPIED, S.OCCUPIED])
+        np.testing.assert_array_equal(
+            np.asarray(m.get_state([p_occ_free, p_free_occ, p_occ_unknown])),
+            [S.FREE, S.OCCUPIED, S.OCCUPIED])
         assert m.observation_span == (1.0, 6.0)
     assert on == no
     # spans that overlap: no newer map, occupied wins
     newer.observation_span = (2.0, 6.0)
     ranked = copy_of(older)
     ranked.merge(newer, np.eye(4))
-    np.testing.assert_array_equal(ranked.get_state([p_occ_free, p_free_occ]),
+    np.testing.assert_array_equal(np.asarray(ranked.get_state([p_occ_free, p_free_occ])),
                                   [S.OCCUPIED, S.OCCUPIED])
     with pytest.raises(ValueError):
         newer.observation_span = (6.0, 2.0)
@@ -139,14 +149,14 @@ def test_the_newer_map_wins_where_the_spans_are_ordered():
     assert copy_of(newer).observation_span is None
 
 
-def test_merging_an_empty_map_changes_nothing():
+def test_merging_an_empty_map_changes_nothing() -> None:
     m = wall_map(0.0)
     before = copy_of(m)
     m.merge(pg.PlanarGridMap(resolution_m=0.1), np.eye(4))
     assert m == before
 
 
-def test_the_transform_moves_the_other_map_into_this_frame():
+def test_the_transform_moves_the_other_map_into_this_frame() -> None:
     # b mapped in a frame turned 0.4 rad and shifted: merged with this_T_other (the
     # inverse of that frame's pose), it lands where b mapped in this frame lands
     other_T_world = rigid(0.4, [1.23, -0.45, 0.31])
@@ -164,7 +174,7 @@ def test_the_transform_moves_the_other_map_into_this_frame():
     assert np.mean(wrong.get_state(probes()) == reference.get_state(probes())) < agree
 
 
-def test_merge_errors():
+def test_merge_errors() -> None:
     m = wall_map(0.0)
     before = copy_of(m)
     with pytest.raises(pg.Error, match="resolution_m"):

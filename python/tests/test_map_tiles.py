@@ -4,7 +4,11 @@ four tiles saved and loaded back whole, by box and by radius, and the errors; tw
 tile sets merged tile by tile (merge_tile_sets, and in steps) against the maps merged
 whole."""
 
+import pathlib
+from typing import Dict, List, Tuple
+
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 import planar_grid as pg
@@ -13,7 +17,7 @@ from conftest import plane_patch
 S = pg.SpaceState
 
 
-def wall_map():
+def wall_map() -> pg.PlanarGridMap:
     """A map of the wall x = 3 (normal -x) over y in [-1, 1], z in [-1, 1]: its planar
     cuboids (features of probability 0.9) and its ray-cast scan from the origin."""
     points = plane_patch([-1.0, 0.0, 0.0], 3.0, 2.0, 0.05)
@@ -27,12 +31,12 @@ def wall_map():
     return m
 
 
-def probes():
+def probes() -> npt.NDArray[np.float64]:
     return np.random.default_rng(1).uniform([-0.5, -1.5, -1.5], [4.0, 1.5, 1.5],
                                             size=(20000, 3))
 
 
-def test_all_tiles_give_back_the_map(tmp_path):
+def test_all_tiles_give_back_the_map(tmp_path: pathlib.Path) -> None:
     m = wall_map()
     # 0.5 m tiles: the wall at x = 3 (its voxels over y in [-1, 1.1)) crosses the
     # borders y = -0.5, 0, 0.5 and 1: five tiles of x in [3, 3.5)
@@ -43,15 +47,17 @@ def test_all_tiles_give_back_the_map(tmp_path):
     read = pg.read_tile_index(tmp_path)
     assert [t["file"] for t in read["tiles"]] == [t["file"] for t in index["tiles"]]
     loaded = pg.load_tiles(tmp_path, [-np.inf] * 3, [np.inf] * 3)
-    np.testing.assert_array_equal(loaded.get_state(probes()), m.get_state(probes()))
+    np.testing.assert_array_equal(np.asarray(loaded.get_state(probes())),
+                                  np.asarray(m.get_state(probes())))
     assert len(loaded.planes) == len(m.planes) == 1
     np.testing.assert_allclose(loaded.planes, m.planes, atol=1e-5)
     # the method forms
     same = pg.PlanarGridMap.load_tiles(tmp_path, [-np.inf] * 3, [np.inf] * 3)
-    np.testing.assert_array_equal(same.get_state(probes()), m.get_state(probes()))
+    np.testing.assert_array_equal(np.asarray(same.get_state(probes())),
+                                  np.asarray(m.get_state(probes())))
 
 
-def test_a_region_holds_the_map_inside_it(tmp_path):
+def test_a_region_holds_the_map_inside_it(tmp_path: pathlib.Path) -> None:
     m = wall_map()
     m.save_tiles(tmp_path, 0.5)
     part = pg.load_tiles(tmp_path, [2.5, 0.1, -2.0], [3.5, 0.4, 2.0])
@@ -59,16 +65,17 @@ def test_a_region_holds_the_map_inside_it(tmp_path):
     inside = inside[(inside[:, 0] >= 2.5) & (inside[:, 0] <= 3.5)
                     & (inside[:, 1] >= 0.1) & (inside[:, 1] <= 0.4)]
     assert len(inside) > 100
-    np.testing.assert_array_equal(part.get_state(inside), m.get_state(inside))
+    np.testing.assert_array_equal(np.asarray(part.get_state(inside)),
+                                  np.asarray(m.get_state(inside)))
     # the wall at y = -0.8 is in a tile that was not loaded
-    assert m.get_state([[3.0, -0.8, 0.0]])[0] == S.OCCUPIED
-    assert part.get_state([[3.0, -0.8, 0.0]])[0] == S.UNKNOWN
+    assert np.asarray(m.get_state([[3.0, -0.8, 0.0]]))[0] == S.OCCUPIED
+    assert np.asarray(part.get_state([[3.0, -0.8, 0.0]]))[0] == S.UNKNOWN
     disc = pg.load_tiles(tmp_path, [3.0, 0.25, 0.0], 0.2)
-    assert disc.get_state([[3.0, 0.25, 0.0]])[0] == S.OCCUPIED
+    assert np.asarray(disc.get_state([[3.0, 0.25, 0.0]]))[0] == S.OCCUPIED
     assert len(disc.planes) == 1
 
 
-def test_bad_sets_are_refused(tmp_path):
+def test_bad_sets_are_refused(tmp_path: pathlib.Path) -> None:
     with pytest.raises(pg.IOError, match="index.pgtiles: missing"):
         pg.load_tiles(tmp_path, [0, 0, 0], 1.0)
     m = wall_map()
@@ -83,7 +90,7 @@ def test_bad_sets_are_refused(tmp_path):
         pg.load_tiles(tmp_path, [0, 0], [1, 1, 1])
 
 
-def halves():
+def halves() -> List[pg.PlanarGridMap]:
     """The wall map's two overlapping halves (y < 0.3 and y >= -0.3), each mapped on
     its own, with the observation spans of two parts of one drive (frames 0-4, then
     5-9)."""
@@ -104,7 +111,7 @@ def halves():
     return out
 
 
-def test_tile_sets_merge_tile_by_tile(tmp_path):
+def test_tile_sets_merge_tile_by_tile(tmp_path: pathlib.Path) -> None:
     a, b = halves()
     folders = [tmp_path / "a", tmp_path / "b"]
     a.save_tiles(folders[0], 0.5)
@@ -117,7 +124,8 @@ def test_tile_sets_merge_tile_by_tile(tmp_path):
     whole.save_tiles(tmp_path / "whole", 0.5)
     oracle = pg.load_tiles(tmp_path / "whole", [-np.inf] * 3, [np.inf] * 3)
     merged = pg.load_tiles(tmp_path / "out", [-np.inf] * 3, [np.inf] * 3)
-    np.testing.assert_array_equal(merged.get_state(probes()), oracle.get_state(probes()))
+    np.testing.assert_array_equal(np.asarray(merged.get_state(probes())),
+                                  np.asarray(oracle.get_state(probes())))
     assert merged.voxel_counts == oracle.voxel_counts
     assert len(merged.planes) == len(oracle.planes) == 1
     assert index["generation"] == 1
@@ -128,7 +136,7 @@ def test_tile_sets_merge_tile_by_tile(tmp_path):
     # index; the tiles of the finished set are the same files
     prepared = pg.prepare_tile_merge(folders, tmp_path / "steps")
     assert prepared["tiles"] == [] and prepared["generation"] == 1
-    holders = {}
+    holders: Dict[Tuple[int, ...], List[pathlib.Path]] = {}
     for f in folders:
         for t in pg.read_tile_index(f)["tiles"]:
             holders.setdefault(tuple(t["key"]), []).append(f)
@@ -143,7 +151,7 @@ def test_tile_sets_merge_tile_by_tile(tmp_path):
         (tmp_path / "out" / "index.pgtiles").read_text()
 
 
-def test_tile_merge_errors_name_the_folder(tmp_path):
+def test_tile_merge_errors_name_the_folder(tmp_path: pathlib.Path) -> None:
     a, _ = halves()
     a.save_tiles(tmp_path / "a", 0.5)
     a.save_tiles(tmp_path / "coarse", 1.0)

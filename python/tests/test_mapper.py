@@ -2,7 +2,9 @@
 """planar_grid.Mapper on real Karlsruhe frames: the same map file as run_pipeline(), a
 reader thread that sees whole frames only, and bad input."""
 
+import pathlib
 import threading
+from typing import Callable, Dict, List
 
 import numpy as np
 import pytest
@@ -13,11 +15,12 @@ FRAMES = 3
 
 
 @pytest.fixture
-def main_job(source_dir, data_dir):
+def main_job(source_dir: pathlib.Path, data_dir: pathlib.Path) -> pathlib.Path:
     return source_dir / "config" / "karlsruhe.yaml"
 
 
-def test_mapper_writes_the_pipelines_map_file(main_job, tmp_path):
+def test_mapper_writes_the_pipelines_map_file(main_job: pathlib.Path,
+                                              tmp_path: pathlib.Path) -> None:
     # The user's code: the main job's frames fed one by one.
     frames = pg.InputFrames(main_job)
     mapper = pg.Mapper(main_job)
@@ -37,13 +40,14 @@ def test_mapper_writes_the_pipelines_map_file(main_job, tmp_path):
     assert mapper.map == result.map
 
 
-def test_a_reader_thread_sees_whole_frames(main_job):
+def test_a_reader_thread_sees_whole_frames(main_job: pathlib.Path) -> None:
     frames = pg.InputFrames(main_job)
     mapper = pg.Mapper(main_job)
     after_frames = [mapper.map.__getstate__()]
-    seen, done = [], threading.Event()
+    seen: List[bytes] = []
+    done = threading.Event()
 
-    def read():
+    def read() -> None:
         while True:
             with mapper.read_map() as m:
                 state = m.__getstate__()
@@ -64,7 +68,8 @@ def test_a_reader_thread_sees_whole_frames(main_job):
     assert seen[-1] == after_frames[-1]
 
 
-def test_a_mappers_map_refuses_changes_from_python(main_job, tmp_path):
+def test_a_mappers_map_refuses_changes_from_python(main_job: pathlib.Path,
+                                                   tmp_path: pathlib.Path) -> None:
     # Two reader threads changing the Mapper's map under the shared lock would corrupt
     # it: every changing method refuses, from mapper.map and from read_map() alike,
     # and the map is unchanged; a copy of it changes freely.
@@ -74,7 +79,7 @@ def test_a_mappers_map_refuses_changes_from_python(main_job, tmp_path):
     mapper.integrate_stereo(f["left"], f["right"], f["calibration"], f["world_T_camera"])
     before = mapper.map.__getstate__()
     point = np.array([[5.0, 0.0, 1.0]])
-    changes = {
+    changes: Dict[str, Callable[[pg.PlanarGridMap], None]] = {
         "set_state": lambda m: m.set_state(point, "occupied"),
         "integrate_point_cloud": lambda m: m.integrate_point_cloud(point, np.zeros(3)),
         "integrate_depth_image": lambda m: m.integrate_depth_image(
@@ -95,19 +100,21 @@ def test_a_mappers_map_refuses_changes_from_python(main_job, tmp_path):
     mapper.save(tmp_path / "map.pgmap")
     copy = pg.PlanarGridMap.load(tmp_path / "map.pgmap")
     copy.set_state(point, "occupied")
-    assert copy.get_state(point)[0] == pg.SpaceState.OCCUPIED
+    assert np.asarray(copy.get_state(point))[0] == pg.SpaceState.OCCUPIED
     # the Mapper still integrates
     f = frames[1]
     mapper.integrate_stereo(f["left"], f["right"], f["calibration"], f["world_T_camera"])
     assert mapper.map.__getstate__() != before
 
 
-def test_a_mapper_takes_the_configuration_as_a_dict(main_job, tmp_path, monkeypatch):
+def test_a_mapper_takes_the_configuration_as_a_dict(main_job: pathlib.Path,
+                                                    tmp_path: pathlib.Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
     # The file's content as yaml.safe_load gives it maps like the file; its relative
     # paths are the working folder's; a bad value names the dict.
     yaml = pytest.importorskip("yaml")
-    with open(main_job, encoding="utf-8") as f:
-        config = yaml.safe_load(f)
+    with open(main_job, encoding="utf-8") as stream:
+        config = yaml.safe_load(stream)
     monkeypatch.chdir(main_job.parent)
     frames = pg.InputFrames(config)
     assert len(frames) == len(pg.InputFrames(main_job))
@@ -130,7 +137,7 @@ def test_a_mapper_takes_the_configuration_as_a_dict(main_job, tmp_path, monkeypa
         pg.Mapper(config)
 
 
-def test_bad_input_raises(main_job):
+def test_bad_input_raises(main_job: pathlib.Path) -> None:
     frames = pg.InputFrames(main_job)
     f = frames[0]
     mapper = pg.Mapper(main_job)
@@ -163,7 +170,8 @@ def test_bad_input_raises(main_job):
     assert mapper.frame_count == 0
 
 
-def test_the_example_maps_a_frame(main_job, source_dir, tmp_path):
+def test_the_example_maps_a_frame(main_job: pathlib.Path, source_dir: pathlib.Path,
+                                  tmp_path: pathlib.Path) -> None:
     import subprocess
     import sys
     example = source_dir / "python" / "examples" / "map_live.py"
@@ -173,7 +181,8 @@ def test_the_example_maps_a_frame(main_job, source_dir, tmp_path):
     assert out.startswith("frame 0 (dense): ") and (tmp_path / "live.pgmap").stat().st_size > 1000
 
 
-def test_a_depth_image_is_mapped_through_its_camera(data_dir, tmp_path):
+def test_a_depth_image_is_mapped_through_its_camera(data_dir: pathlib.Path,
+                                                    tmp_path: pathlib.Path) -> None:
     # A wall 2 m ahead filling a 640 x 480 depth image (f = 525 px), in millimeters, seen
     # from the origin looking along z: occupied on the wall, free in front, unknown behind.
     config = tmp_path / "depth.yaml"
@@ -195,7 +204,8 @@ pipeline:
     depth = np.full((480, 640), 2000, dtype=np.uint16)
     stats = mapper.integrate_depth(depth, 525.0, 525.0, 320.0, 240.0, np.eye(4))
     assert stats["cuboids"] > 0
-    states = mapper.map.get_state(np.array([[0.0, 0.3, 2.0], [0.0, 0.0, 1.0], [0.0, 0.0, 3.0]]))
+    states = np.asarray(mapper.map.get_state(np.array([[0.0, 0.3, 2.0], [0.0, 0.0, 1.0],
+                                                       [0.0, 0.0, 3.0]])))
     assert list(states) == [int(pg.SpaceState.OCCUPIED), int(pg.SpaceState.FREE),
                             int(pg.SpaceState.UNKNOWN)]
     # The same wall in meters (float) gives the same map.

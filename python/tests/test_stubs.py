@@ -6,10 +6,12 @@ signatures pybind11 gives, and mypy checks a program that uses the package again
 import ast
 import inspect
 import os
+import pathlib
 import subprocess
 import sys
 import textwrap
 import types
+from typing import Callable, Iterator, List
 
 import planar_grid
 
@@ -17,12 +19,12 @@ PACKAGE_DIR = os.path.dirname(planar_grid.__file__)
 STUB = os.path.join(PACKAGE_DIR, "_planar_grid.pyi")
 
 
-def stub_tree():
+def stub_tree() -> ast.Module:
     with open(STUB, encoding="utf-8") as f:
         return ast.parse(f.read(), STUB)
 
 
-def test_every_public_name_is_in_the_stubs():
+def test_every_public_name_is_in_the_stubs() -> None:
     tree = stub_tree()
     declared = set()
     for node in tree.body:
@@ -36,12 +38,12 @@ def test_every_public_name_is_in_the_stubs():
     assert public - declared == set()
 
 
-def test_the_package_is_typed():
+def test_the_package_is_typed() -> None:
     # PEP 561: type checkers use an installed package's stubs and annotations
     assert os.path.isfile(os.path.join(PACKAGE_DIR, "py.typed"))
 
 
-def test_signatures_carry_parameter_names_and_types():
+def test_signatures_carry_parameter_names_and_types() -> None:
     # pybind11's signatures, not (*args, **kwargs): the map's queries name their points.
     tree = stub_tree()
     classes = {n.name: n for n in tree.body if isinstance(n, ast.ClassDef)}
@@ -52,7 +54,7 @@ def test_signatures_carry_parameter_names_and_types():
     assert methods["get_state"].args.args[1].annotation is not None
 
 
-def test_algorithm_constructors_carry_their_parameters():
+def test_algorithm_constructors_carry_their_parameters() -> None:
     # The constructors' keyword-only parameters (after pybind11's '*'), with types and
     # defaults, in the order of inspect.signature(), not (*args, **kwargs).
     tree = stub_tree()
@@ -72,7 +74,7 @@ def test_algorithm_constructors_carry_their_parameters():
         assert all(d is not None for d in init.args.kw_defaults), name
 
 
-def test_mypy_checks_a_program_against_the_stubs(tmp_path):
+def test_mypy_checks_a_program_against_the_stubs(tmp_path: pathlib.Path) -> None:
     program = tmp_path / "use_map.py"
     program.write_text(textwrap.dedent("""\
         import numpy as np
@@ -101,6 +103,7 @@ def test_mypy_checks_a_program_against_the_stubs(tmp_path):
         other: int = pg.PlanarGridMap.load("map.pgmap")
         """))
     env = dict(os.environ, MYPYPATH=os.path.dirname(PACKAGE_DIR))
+    run: Callable[[pathlib.Path], "subprocess.CompletedProcess[str]"]
     run = lambda path: subprocess.run(  # noqa: E731
         [sys.executable, "-m", "mypy", "--no-incremental", "--cache-dir", os.devnull,
          "--ignore-missing-imports", str(path)],
@@ -114,7 +117,7 @@ def test_mypy_checks_a_program_against_the_stubs(tmp_path):
     assert "misuse_map.py:6" in bad.stdout, bad.stdout
 
 
-def test_static_methods_are_static_with_their_signatures():
+def test_static_methods_are_static_with_their_signatures() -> None:
     tree = stub_tree()
     classes = {n.name: n for n in tree.body if isinstance(n, ast.ClassDef)}
     methods = {f.name: f for f in classes["PlanarGridMap"].body
@@ -126,7 +129,7 @@ def test_static_methods_are_static_with_their_signatures():
         assert args and args[0] != "self" and methods[name].args.vararg is None, (name, args)
 
 
-def test_prose_in_a_docstring_is_no_signature():
+def test_prose_in_a_docstring_is_no_signature() -> None:
     # "with mapper.read_map() as m:" in read_map's docstring is prose: a function gets
     # overloads in the stubs only where the binding has them (pybind11 writes
     # "Overloaded function." first).
@@ -139,7 +142,7 @@ def test_prose_in_a_docstring_is_no_signature():
             if (getattr(member, "__doc__", None) or "").find("Overloaded function") >= 0:
                 overloaded.add(qualified)
 
-    def walk(body, prefix):
+    def walk(body: List[ast.stmt], prefix: str) -> Iterator[str]:
         for node in body:
             if isinstance(node, ast.ClassDef):
                 yield from walk(node.body, node.name + ".")
@@ -154,3 +157,16 @@ def test_prose_in_a_docstring_is_no_signature():
                and c.name == "Mapper" for f in c.body if isinstance(f, ast.FunctionDef)}
     returns = methods["read_map"].returns
     assert returns is not None and ast.unparse(returns) == "MapReadLock"
+
+
+def test_the_examples_and_tests_pass_mypy_strict(source_dir: pathlib.Path) -> None:
+    # What a user's typed code meets: the examples and these tests, checked with
+    # --strict against the stubs (python/mypy.ini names the modules without types).
+    python = source_dir / "python"
+    env = dict(os.environ, MYPYPATH=os.path.dirname(PACKAGE_DIR))
+    run = subprocess.run(
+        [sys.executable, "-m", "mypy", "--strict", "--no-incremental", "--cache-dir",
+         os.devnull, "--config-file", str(python / "mypy.ini"), str(python / "examples"),
+         str(python / "tests")],
+        capture_output=True, text=True, env=env, cwd=str(python))
+    assert run.returncode == 0, run.stdout + run.stderr
