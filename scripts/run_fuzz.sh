@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: BSD-3-Clause
-# Fuzzes the readers of untrusted files with libFuzzer, so that no file can crash
-# them or make them read out of bounds: configures a clang
+# Fuzzes the readers of untrusted files and the live stereo input with libFuzzer, so
+# that no file or message can crash them or make them read out of bounds: configures a clang
 # build folder with -DPLANAR_GRID_BUILD_FUZZERS=ON (libraries instrumented with
 # -fsanitize=fuzzer-no-link,address,undefined), builds the targets of tests/fuzz/, runs
 # each for a fixed time from its seed corpus (tests/fuzz/corpus/<target>/, read only;
@@ -17,7 +17,7 @@ FUZZ_SECONDS=${FUZZ_SECONDS:-60}
 BUILD_DIR=${BUILD_DIR:-build-fuzz}
 JOBS=${JOBS:-2}
 targets=(fuzz_map_file fuzz_map_layers fuzz_pipeline_config fuzz_calibration fuzz_pose_files
-         fuzz_pcd_frame fuzz_checkpoint)
+         fuzz_pcd_frame fuzz_checkpoint fuzz_live_stereo)
 [ $# -gt 0 ] && targets=("$@")
 command -v clang++ >/dev/null || { echo "run_fuzz: clang++ not installed" >&2; exit 1; }
 
