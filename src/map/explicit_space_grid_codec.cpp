@@ -132,13 +132,8 @@ ExplicitSpaceGrid::serialize(std::vector<std::uint8_t>& bytes) const
   if (blocks.empty())
     out.putLeaf(prior);
   else {
-    Eigen::Vector3i lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
-    Eigen::Vector3i hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
-    for (const auto& stored : blocks) {
-      const Eigen::Vector3i b(stored.key.x, stored.key.y, stored.key.z);
-      lo = lo.cwiseMin(b);
-      hi = hi.cwiseMax(b);
-    }
+    Eigen::Vector3i lo, hi;
+    keyBounds(blocks, lo, hi);
     const std::int64_t extent = static_cast<std::int64_t>((hi - lo).maxCoeff()) + 1;
     int block_levels = 0; // root edge in blocks = 2^block_levels
     while ((std::int64_t{1} << block_levels) < extent)

@@ -169,16 +169,9 @@ ExplicitSpaceGrid::castRay(const Eigen::Vector3f& origin,
   // hundred keys to read, where the exact bounds (getBounds()) read every block.
   constexpr double LONG_WALK_VOXELS = 4096.0;
   if (max_t > LONG_WALK_VOXELS && params_.prior != SpaceState::OCCUPIED) {
-    const auto& supers = impl_->storage.supers;
-    if (supers.empty())
+    Eigen::Vector3i lo, hi;
+    if (!keyBounds(impl_->storage.supers, lo, hi))
       return false;
-    Eigen::Vector3i lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
-    Eigen::Vector3i hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
-    for (const auto& sb : supers) {
-      const Eigen::Vector3i k(sb.key.x, sb.key.y, sb.key.z);
-      lo = lo.cwiseMin(k);
-      hi = hi.cwiseMax(k);
-    }
     constexpr int SUPER_VOXELS_SHIFT = SUPER_SHIFT + BLOCK_SHIFT;
     double t_enter = 0.0;
     double t_exit = max_t;

@@ -82,6 +82,25 @@ struct BlockKeyHash {
   }
 };
 
+/** \brief The inclusive bounds \a lo, \a hi of the keys of \a items, each holding a
+ * BlockKey `key` (stored blocks, super-blocks; the bounds in the items' own units);
+ * false, and the bounds unset, when there are none. */
+template <typename Range>
+bool
+keyBounds(const Range& items, Eigen::Vector3i& lo, Eigen::Vector3i& hi)
+{
+  lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
+  hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
+  bool any = false;
+  for (const auto& item : items) {
+    const Eigen::Vector3i k(item.key.x, item.key.y, item.key.z);
+    lo = lo.cwiseMin(k);
+    hi = hi.cwiseMax(k);
+    any = true;
+  }
+  return any;
+}
+
 /** \brief 512 voxels x 2 bits; voxel i = x + 8 y + 64 z sits at bits 2 (i % 32) of
  * word i / 32. */
 using Payload = std::array<std::uint64_t, 16>;

@@ -76,16 +76,17 @@ SurfaceLayer::Impl::replaceNonPlanar(const std::vector<PlanarCuboid>& incoming,
     // always.
     std::vector<BinEntry> np_bins;
     std::vector<std::uint32_t> np_large, nearby;
+    // the new cells' bounds (also what removeNonPlanarCellsOnPlanes() tests again)
+    Eigen::AlignedBox3f incoming_box;
+    for (const PlanarCuboid& nw : incoming) {
+      Eigen::Vector3f lo, hi;
+      cuboidBounds(nw, lo, hi);
+      incoming_box.extend(lo);
+      incoming_box.extend(hi);
+    }
     if (!incoming.empty()) {
-      Eigen::Vector3f region_lo =
-        Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
-      Eigen::Vector3f region_hi = -region_lo;
-      for (const PlanarCuboid& nw : incoming) {
-        Eigen::Vector3f lo, hi;
-        cuboidBounds(nw, lo, hi);
-        region_lo = region_lo.cwiseMin((lo.array() - half_cell).matrix());
-        region_hi = region_hi.cwiseMax((hi.array() + half_cell).matrix());
-      }
+      const Eigen::Vector3f region_lo = incoming_box.min().array() - half_cell;
+      const Eigen::Vector3f region_hi = incoming_box.max().array() + half_cell;
       for (std::size_t k = 0; k < impl.non_planar.size(); ++k) {
         const auto index = static_cast<std::uint32_t>(k);
         const PlanarCuboid old = impl.nonPlanarCuboid(impl.non_planar[k]);
@@ -140,11 +141,8 @@ SurfaceLayer::Impl::replaceNonPlanar(const std::vector<PlanarCuboid>& incoming,
     for (const PlanarCuboid& c : incoming) {
       added.push_back(static_cast<std::uint32_t>(impl.non_planar.size()));
       impl.non_planar.emplace_back(c, impl.internAxes(c, axes_lookup));
-      Eigen::Vector3f lo, hi;
-      cuboidBounds(c, lo, hi);
-      impl.tidy_added.extend(lo);
-      impl.tidy_added.extend(hi);
     }
+    impl.tidy_added.extend(incoming_box);
     if (!doomed.empty())
       impl.pruneAxes();
     impl.non_planar.shrink_to_fit();
