@@ -73,6 +73,18 @@ struct Job {
   }
 };
 
+/** \a size bytes of image data: the fuzzer's bytes, then a texture seeded by one more
+ * byte that the feature matcher finds features in. */
+std::vector<std::uint8_t>
+pixels(FuzzedDataProvider& in, std::size_t size)
+{
+  std::vector<std::uint8_t> data = in.ConsumeBytes<std::uint8_t>(size);
+  const std::uint8_t seed = in.ConsumeIntegral<std::uint8_t>();
+  for (std::size_t k = data.size(); k < size; ++k)
+    data.push_back(static_cast<std::uint8_t>((k * 2654435761u + seed) >> 13));
+  return data;
+}
+
 /** An image message: most of the time of the cameras' size (96 x 48, so that the
  * frame can be mapped), else of a small or of any size; an encoding of the node's list
  * or any text; a step and data that may not match. */
@@ -110,11 +122,7 @@ image(FuzzedDataProvider& in)
   const std::size_t size = in.ConsumeBool() && wanted <= 48 * 96 * 4
                              ? wanted
                              : in.ConsumeIntegralInRange<std::size_t>(0, 48 * 96 * 4);
-  // The fuzzer's bytes, then a texture that the matcher finds features in.
-  msg.data = in.ConsumeBytes<std::uint8_t>(size);
-  const std::uint8_t seed = in.ConsumeIntegral<std::uint8_t>();
-  for (std::size_t k = msg.data.size(); k < size; ++k)
-    msg.data.push_back(static_cast<std::uint8_t>((k * 2654435761u + seed) >> 13));
+  msg.data = pixels(in, size);
   return msg;
 }
 
@@ -197,11 +205,7 @@ LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
       msg->encoding = "mono8";
       msg->step = 96;
     }
-    left_msg.data = in.ConsumeBytes<std::uint8_t>(48 * 96);
-    const std::uint8_t seed = in.ConsumeIntegral<std::uint8_t>();
-    for (std::size_t k = left_msg.data.size(); k < 48 * 96; ++k)
-      left_msg.data.push_back(
-        static_cast<std::uint8_t>((k * 2654435761u + seed) >> 13));
+    left_msg.data = pixels(in, 48 * 96);
     const int shift = in.ConsumeIntegralInRange<int>(2, 15);
     right_msg.data.resize(48 * 96);
     for (int v = 0; v < 48; ++v)
