@@ -44,6 +44,8 @@ validate(const SurfaceLayer::Params& p)
       "density)");
   check("cover_density", p.cover_density, ranges::COVER_DENSITY, "");
   check("absorb_distance_m", p.absorb_distance_m, ranges::ABSORB_DISTANCE, "m");
+  check("terrain_plane_tile_m", p.terrain_plane_tile_m, ranges::TERRAIN_PLANE_TILE,
+        "m");
 }
 
 } // namespace surface_layer_detail

@@ -87,6 +87,23 @@ reprojectRaster(const Raster& src,
   dst.dirty = true;
 }
 
+bool
+sameTerrainTile(double tile_m, const PlaneObservation& a, const PlaneObservation& b)
+{
+  const auto cos_level = static_cast<float>(std::cos(LEVEL_MAX_ANGLE_RAD));
+  if (!(tile_m > 0.0) || a.evidence == nullptr || b.evidence == nullptr
+      || !(a.evidence->weight > 0.0) || !(b.evidence->weight > 0.0)
+      || std::abs(a.model_coefficients.z()) < cos_level
+      || std::abs(b.model_coefficients.z()) < cos_level)
+    return true;
+  const PlaneMoments& ma = *a.evidence;
+  const PlaneMoments& mb = *b.evidence;
+  const Eigen::Vector3d ca = ma.anchor + ma.sum / ma.weight;
+  const Eigen::Vector3d cb = mb.anchor + mb.sum / mb.weight;
+  return std::floor(ca.x() / tile_m) == std::floor(cb.x() / tile_m)
+         && std::floor(ca.y() / tile_m) == std::floor(cb.y() / tile_m);
+}
+
 } // namespace surface_layer_detail
 
 using namespace surface_layer_detail;
@@ -223,10 +240,10 @@ SurfaceLayer::Impl::associateFramePlanes(const PlanarCuboids& cuboids,
       continue;
     const Eigen::Vector3f n = oriented[p].head<3>();
     const float d = oriented[p][3];
-    int best = static_cast<int>(association.findBest(
-      impl.planes.size(),
-      [&impl](std::size_t m) { return observation(impl.planes[m]); },
-      PlaneObservation{Eigen::Vector4f(n.x(), n.y(), n.z(), d), &frame_moments[p]}));
+    int best = static_cast<int>(findBestMapPlane(
+      impl.planes, association,
+      PlaneObservation{Eigen::Vector4f(n.x(), n.y(), n.z(), d), &frame_moments[p]},
+      params.terrain_plane_tile_m));
     if (best < 0) {
       MapPlane mp;
       mp.setFrame(n, d);
@@ -262,7 +279,10 @@ SurfaceLayer::Impl::mergeConvergedPlanes(std::vector<int>& touched,
         const MapPlane& a = impl.planes[t];
         const MapPlane& b = impl.planes[m];
         double rms = 0.0;
-        if (m == t || !association.match(observation(a), observation(b), rms)
+        if (m == t
+            || !sameTerrainTile(params.terrain_plane_tile_m, observation(a),
+                                observation(b))
+            || !association.match(observation(a), observation(b), rms)
             || !rastersTouch(a, b, r))
           continue;
         std::size_t keep = t, gone = m;

@@ -33,6 +33,7 @@ SurfaceLayer::serialize(std::vector<std::uint8_t>& bytes) const
   w.put(static_cast<std::uint8_t>(params_.merge_rule));
   w.put(params_.cover_density);
   w.put(params_.absorb_distance_m);
+  w.put(params_.terrain_plane_tile_m);
   w.put(static_cast<std::uint64_t>(impl.planes.size()));
   for (const auto& plane : impl.planes) {
     for (int k = 0; k < 3; ++k)
@@ -111,7 +112,7 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
   if (version == 1)
     throw IOError("surface layer: version 1 section (written before the map planes "
                   "kept their evidence moments) is not supported by this reader "
-                  "(versions 2 to 4); run the mapping again");
+                  "(versions 2 to 5); run the mapping again");
   if (version < 2 || version > VERSION)
     throw IOError("surface layer: unsupported version " + std::to_string(version));
   Params params;
@@ -135,6 +136,8 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
     params.cover_density = rd.get<double>();
   // versions 2 and 3 moved cells to parallel planes only within half a cell
   params.absorb_distance_m = version >= 4 ? rd.get<double>() : 0.0;
+  // versions 2 to 4 bounded no level plane to a tile
+  params.terrain_plane_tile_m = version >= 5 ? rd.get<double>() : 0.0;
   try {
     validate(params);
   } catch (const Exception& e) {
@@ -256,6 +259,7 @@ SurfaceLayer::operator==(const SurfaceLayer& other) const
       || a.plane_merge_angle_rad != b.plane_merge_angle_rad
       || a.plane_merge_distance_m != b.plane_merge_distance_m
       || a.absorb_distance_m != b.absorb_distance_m
+      || a.terrain_plane_tile_m != b.terrain_plane_tile_m
       || a.occupancy_thres != b.occupancy_thres
       || a.feature_distance_m != b.feature_distance_m
       || a.close_gaps_cells != b.close_gaps_cells || a.merge_rule != b.merge_rule

@@ -32,7 +32,7 @@ inline constexpr float MAX_COORDINATE_M = 1e7f;
 inline constexpr double MAX_BINS_PER_CUBOID = 4096.0;
 /** \brief Section magic ("PGSL") and version of serialize(). */
 inline constexpr std::uint32_t MAGIC = 0x4C534750u;
-inline constexpr std::uint32_t VERSION = 4;
+inline constexpr std::uint32_t VERSION = 5;
 /** \brief Largest Params::close_gaps_cells. */
 inline constexpr int MAX_CLOSE_GAPS_CELLS =
   static_cast<int>(surface_layer_ranges::CLOSE_GAPS.max);
@@ -351,6 +351,38 @@ PlaneAssociationCriteria associationCriteria(const SurfaceLayer::Params& params)
 
 /** \brief A map plane as the association sees it: its refined plane and evidence. */
 PlaneObservation observation(const MapPlane& plane);
+
+/** \brief True unless terrain tiles are on (\a tile_m > 0), both planes are level
+ * (normals within LEVEL_MAX_ANGLE_RAD of the world z axis) and their evidence's
+ * centroids lie in different tiles of \a tile_m (SurfaceLayer::Params::
+ * terrain_plane_tile_m); an observation without evidence is in every tile. */
+bool
+sameTerrainTile(double tile_m, const PlaneObservation& a, const PlaneObservation& b);
+
+/** \brief The plane of \a planes that \a observed matches at the smallest distance
+ * (PlaneAssociation::findBest()) among those in its terrain tile (sameTerrainTile()),
+ * the lowest index on a tie; -1 when none matches. */
+template <typename Planes>
+std::ptrdiff_t
+findBestMapPlane(const Planes& planes,
+                 const PlaneAssociation& association,
+                 const PlaneObservation& observed,
+                 double tile_m)
+{
+  std::ptrdiff_t best = -1;
+  double best_distance = std::numeric_limits<double>::infinity();
+  for (std::size_t m = 0; m < planes.size(); ++m) {
+    const PlaneObservation registered = observation(planes[m]);
+    double distance = 0.0;
+    if (sameTerrainTile(tile_m, registered, observed)
+        && association.match(registered, observed, distance)
+        && distance < best_distance) {
+      best = static_cast<std::ptrdiff_t>(m);
+      best_distance = distance;
+    }
+  }
+  return best;
+}
 
 /** \brief Adds the cells of raster \a src, laid out in \a src_frame, to \a dst
  * (another frame of about the same plane): every dst cell whose centre, projected

@@ -47,6 +47,8 @@ checkSameParams(const SurfaceLayer::Params& a, const SurfaceLayer::Params& b)
   add(difference("merge_rule", toString(a.merge_rule), toString(b.merge_rule), ""));
   add(difference("cover_density", a.cover_density, b.cover_density, ""));
   add(difference("absorb_distance_m", a.absorb_distance_m, b.absorb_distance_m, "m"));
+  add(difference("terrain_plane_tile_m", a.terrain_plane_tile_m, b.terrain_plane_tile_m,
+                 "m"));
   if (!differences.empty())
     throw Exception("SurfaceLayer::merge: the layers' parameters must be equal, but "
                     + differences);
@@ -190,9 +192,8 @@ SurfaceLayer::Impl::mergePlanes(const Impl& other,
   // become one here.
   for (const MapPlane& src : other.planes) {
     const IncomingPlane in = incomingPlane(src, this_T_other, identity);
-    const std::ptrdiff_t best = association.findBest(
-      planes.size(), [this](std::size_t m) { return observation(planes[m]); },
-      observation(in.plane));
+    const std::ptrdiff_t best = findBestMapPlane(
+      planes, association, observation(in.plane), params.terrain_plane_tile_m);
     int index = static_cast<int>(best);
     if (best < 0) {
       planes.push_back(in.settle(r));

@@ -79,6 +79,15 @@ SurfaceLayer::absorbOverlappingPlaneCells()
     const double wb = impl.planes[b].moments.weight;
     return wb > wa || (wb == wa && b < a);
   };
+  // With terrain tiles, two level planes (normals within LEVEL_MAX_ANGLE_RAD of the
+  // world z axis: road and pavement, floor and step) are not one surface seen at two
+  // depths: the step between them (a curb, a stair) is real, so neither absorbs the
+  // other.
+  std::vector<bool> level(impl.planes.size(), false);
+  const auto cos_level = static_cast<float>(std::cos(LEVEL_MAX_ANGLE_RAD));
+  for (std::size_t p = 0; p < impl.planes.size() && params_.terrain_plane_tile_m > 0.0;
+       ++p)
+    level[p] = std::abs(impl.planes[p].normal.z()) >= cos_level;
   std::vector<bool> emptied(impl.planes.size(), false);
   std::size_t total = 0;
   for (;;) {
@@ -107,6 +116,7 @@ SurfaceLayer::absorbOverlappingPlaneCells()
       const auto a = static_cast<std::size_t>(planar[x].plane_id);
       const auto b = static_cast<std::size_t>(planar[y].plane_id);
       if (a != b && (changed[a] || changed[b]) && stronger(b, a)
+          && !(level[a] && level[b])
           && boundsMeet(planar[x], planar[y], along_parallel))
         pairs.emplace_back(x, y);
     };

@@ -60,6 +60,7 @@ public:
     v.set("merge_rule", toString(p.surface.merge_rule));
     v.set("cover_density", p.surface.cover_density);
     v.set("absorb_distance_m", p.surface.absorb_distance_m);
+    v.set("terrain_plane_tile_m", p.surface.terrain_plane_tile_m);
     v.set("occupancy_thres", p.surface.occupancy_thres);
     v.set("feature_distance_m", p.surface.feature_distance_m);
     v.set("clear_non_planar", p.clear_non_planar);
@@ -294,6 +295,14 @@ mapIntegrationInfo()
                     "parallel plane's normal at which a plane's cells are that "
                     "surface seen at another depth (about twice eq. 4's depth "
                     "error bound)."),
+    ParamSpec::real("terrain_plane_tile_m", d.surface.terrain_plane_tile_m,
+                    surface::TERRAIN_PLANE_TILE, "m",
+                    "Side of the square tiles of the world's x, y plane that bound a "
+                    "level map plane (normal within 0.3 rad of z): > 0, a level plane "
+                    "joins and merges only with level planes of its tile and no two "
+                    "level planes absorb each other's cells, so the terrain stays "
+                    "planar per tile. Left out, it takes ground_removal's "
+                    "terrain_plane_tile_m. 0: level planes are unbounded."),
     ParamSpec::choice("sensor_model", "auto", {"auto", "pinhole", "rays"},
                       "How the explicit space layer sees a frame: pinhole = the "
                       "disparity image's camera (stereo), the depth image's camera "
@@ -334,6 +343,7 @@ mapIntegrationInfo()
     p.surface.merge_rule = surfaceMergeRuleFromString(v.getChoice("merge_rule"));
     p.surface.cover_density = v.getDouble("cover_density");
     p.surface.absorb_distance_m = v.getDouble("absorb_distance_m");
+    p.surface.terrain_plane_tile_m = v.getDouble("terrain_plane_tile_m");
     p.clear_non_planar = v.getBool("clear_non_planar");
     p.clear_planar = v.getBool("clear_planar");
     p.planes_replace_non_planar = v.getBool("planes_replace_non_planar");

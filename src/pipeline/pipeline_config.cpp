@@ -616,6 +616,10 @@ sharedStageParams()
      "min_cell_size_m", reason},
     {"map_integration", "thickness_m", "planar_cuboid_approximation", "thickness_m",
      reason},
+    {"map_integration", "terrain_plane_tile_m", "ground_removal",
+     "terrain_plane_tile_m",
+     "the map bounds its level planes to the tiles the ground removal splits the "
+     "terrain at; leave the map's key out to take the ground removal's value"},
   };
   return shared;
 }

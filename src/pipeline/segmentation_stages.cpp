@@ -3,14 +3,18 @@
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 #include <planar_grid/stereo/disparity_normals.h>
 
+#include <pcl/common/centroid.h>
 #include <pcl/common/point_tests.h>
 #include <pcl/common/transforms.h>
 #include <pcl/console/print.h>
+
+#include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <memory>
 #include <unordered_map>
 #include <unordered_set>
@@ -379,6 +383,7 @@ struct TerrainParams {
   double terrain_max_step_m{0.3};
   double terrain_height_m{0.2};
   double terrain_cell_m{1.0};
+  double terrain_plane_tile_m{0.0};
 };
 
 class GroundRemovalStage : public Stage {
@@ -529,7 +534,7 @@ public:
     std::vector<std::uint8_t> remove(cloud.size(), 0);
     for (std::size_t i = 0; i < cloud.size(); ++i) {
       if (in_plane[i] == 2) {
-        remove[i] = 1;
+        remove[i] = params_.terrain_plane_tile_m > 0.0 ? 0 : 1;
         continue;
       }
       if (in_plane[i] == 1 || !pcl::isFinite(cloud[i]))
@@ -541,6 +546,26 @@ public:
     for (std::size_t k = 0; k < frame.planes.size(); ++k)
       terrain_planes_ += terrain[k];
 
+    if (params_.terrain_plane_tile_m > 0.0) {
+      // A terrain plane keeps the inliers lying on it (not those standing above it,
+      // which stay as loose points for the non-planar cells), and stays a plane, one
+      // per tile: the approximation makes its planar cells, and the map knows them as
+      // terrain by their normal.
+      for (std::size_t k = 0; k < frame.planes.size(); ++k) {
+        if (!terrain[k])
+          continue;
+        auto& indices = frame.planes[k].inliers.indices;
+        indices.erase(std::remove_if(indices.begin(), indices.end(),
+                                     [&](int i) {
+                                       return standing[static_cast<std::size_t>(i)]
+                                              == STANDS;
+                                     }),
+                      indices.end());
+      }
+      splitTerrainIntoTiles(frame, terrain, remove);
+      removed_ = removePoints(frame, remove);
+      return;
+    }
     removed_ = removePoints(frame, remove);
     // The non-terrain planes keep their order; a plane already in place is not moved
     // onto itself (a self-move empties its coefficient and inlier vectors).
@@ -555,6 +580,69 @@ public:
     frame.planes.resize(kept);
   }
 
+  /** Replaces each terrain plane by one plane per square tile of the
+   * world's x, y plane (terrain_plane_tile_m; the map's tiles), each refitted to its
+   * own inliers (their covariance's smallest eigenvector, kept within
+   * terrain_max_slope_rad of the whole plane's normal; the whole plane's normal where
+   * the tile's inliers do not span a plane): a road that sags or rises over tens of
+   * meters is planar over a few meters. The inliers of a tile too small for a plane
+   * (fewer than 3) go as terrain. */
+  void splitTerrainIntoTiles(Frame& frame,
+                             const std::vector<std::uint8_t>& terrain,
+                             std::vector<std::uint8_t>& remove) const
+  {
+    const auto& cloud = *frame.cloud;
+    const double tile_m = params_.terrain_plane_tile_m;
+    PlanarSegments out;
+    for (std::size_t k = 0; k < frame.planes.size(); ++k) {
+      if (!terrain[k]) {
+        out.push_back(std::move(frame.planes[k]));
+        continue;
+      }
+      std::map<std::pair<std::int64_t, std::int64_t>, std::vector<int>> tiles;
+      for (const int i : frame.planes[k].inliers.indices) {
+        // the map's tiles (SurfaceLayer::Params::terrain_plane_tile_m): world x, y
+        const auto& p = cloud[static_cast<std::size_t>(i)];
+        tiles[{static_cast<std::int64_t>(std::floor(static_cast<double>(p.x) / tile_m)),
+               static_cast<std::int64_t>(
+                 std::floor(static_cast<double>(p.y) / tile_m))}]
+          .push_back(i);
+      }
+      const auto& values = frame.planes[k].model_coefficients.values;
+      Eigen::Vector3f plane_normal(values[0], values[1], values[2]);
+      for (auto& tile : tiles) {
+        if (tile.second.size() < 3) {
+          for (const int i : tile.second)
+            remove[static_cast<std::size_t>(i)] = 1;
+          continue;
+        }
+        Eigen::Vector4f centroid = Eigen::Vector4f::Zero();
+        Eigen::Matrix3f covariance = Eigen::Matrix3f::Zero();
+        if (pcl::computeMeanAndCovarianceMatrix(cloud, tile.second, covariance,
+                                                centroid)
+            == 0)
+          continue;
+        Eigen::Vector3f n = plane_normal;
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> solver(covariance);
+        const Eigen::Vector3f values3 = solver.eigenvalues();
+        if (values3[1] > 4.0f * values3[0] && values3[0] >= 0.0f) {
+          n = solver.eigenvectors().col(0);
+          if (n.dot(plane_normal) < 0.0f)
+            n = -n;
+          if (n.dot(plane_normal) < cos_slope_)
+            n = plane_normal;
+        }
+        PlanarSegment segment = frame.planes[k];
+        segment.inliers.indices = std::move(tile.second);
+        segment.centroid = centroid;
+        segment.model_coefficients.values = {n.x(), n.y(), n.z(),
+                                             -n.dot(centroid.head<3>())};
+        out.push_back(std::move(segment));
+      }
+    }
+    frame.planes = std::move(out);
+  }
+
   void getParameters(ParamValues& v) const override
   {
     v.set("eps_angle_rad", params_.eps_angle_rad);
@@ -563,6 +651,7 @@ public:
     v.set("terrain_max_step_m", params_.terrain_max_step_m);
     v.set("terrain_height_m", params_.terrain_height_m);
     v.set("terrain_cell_m", params_.terrain_cell_m);
+    v.set("terrain_plane_tile_m", params_.terrain_plane_tile_m);
   }
 
   void counters(const Frame& frame,
@@ -777,6 +866,15 @@ groundRemovalInfo()
                     "stay (0: no loose point is terrain, every inlier is)."),
     ParamSpec::real("terrain_cell_m", d.terrain_cell_m, 0.05, 100.0, "m",
                     "Cell of the terrain height map."),
+    ParamSpec::real("terrain_plane_tile_m", d.terrain_plane_tile_m, 0.0, 1000.0, "m",
+                    "The ground as planar cells: > 0 keeps the terrain planes and the "
+                    "inliers lying on them, split into square tiles of this side in "
+                    "the world's x, y plane and each tile's plane refitted to its "
+                    "inliers, so that the approximation makes them planar cells (the "
+                    "map's terrain cuboids: road, pavement, floor) and a sagging road "
+                    "is planar per tile; map_integration's terrain_plane_tile_m takes "
+                    "this value. Only the loose terrain points go. 0: the paper's "
+                    "rule, all terrain goes."),
   };
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     TerrainParams p;
@@ -786,6 +884,7 @@ groundRemovalInfo()
     p.terrain_max_step_m = v.getDouble("terrain_max_step_m");
     p.terrain_height_m = v.getDouble("terrain_height_m");
     p.terrain_cell_m = v.getDouble("terrain_cell_m");
+    p.terrain_plane_tile_m = v.getDouble("terrain_plane_tile_m");
     return std::make_unique<GroundRemovalStage>(p);
   };
   return info;

@@ -256,6 +256,66 @@ TEST(SurfaceLayer, DifferentPlanesStaySeparate)
   EXPECT_EQ(layer.getCuboids().size(), 3u); // [0, 3] x [0, 1] on the first wall
 }
 
+// Terrain tiles (terrain_plane_tile_m 4 m): a road seen as two level planes 0.05 m
+// apart in height (within plane_merge_distance_m), side by side in the tiles x in
+// [0, 4) and [4, 8), stays two map planes, each at its own height; without tiles the
+// second joins the first (one plane between the two heights). Walls are not level:
+// two views of one wall in the two tiles join either way.
+TEST(SurfaceLayer, TerrainTilesBoundLevelPlanes)
+{
+  const PlaneFrame near_road(Eigen::Vector3f::UnitZ(), 1.5f); // z = -1.5
+  const PlaneFrame far_road(Eigen::Vector3f::UnitZ(), 1.45f); // z = -1.45
+  const PlaneFrame wall = wallFrame();
+  const Cloud none;
+  for (const double tile_m : {0.0, 4.0}) {
+    SCOPED_TRACE(tile_m);
+    SurfaceLayer::Params params = defaultParams();
+    params.terrain_plane_tile_m = tile_m;
+    SurfaceLayer layer(params);
+    // u runs along x on both (the horizontal planes' u is x projected), v along y
+    layer.integrate({faceCuboid(near_road, 0, 0.5f, 4.0f, 0.5f, 3.5f),
+                     faceCuboid(wall, 1, 0.5f, 3.5f, 0.0f, 2.0f)},
+                    PlaneModels{near_road.model(), wall.model()}, none, {});
+    ASSERT_EQ(layer.getPlanes().size(), 2u);
+    layer.integrate({faceCuboid(far_road, 0, 4.0f, 7.5f, 0.5f, 3.5f),
+                     faceCuboid(wall, 1, 4.5f, 7.5f, 0.0f, 2.0f)},
+                    PlaneModels{far_road.model(), wall.model()}, none, {});
+    const PlaneModels& planes = layer.getPlanes();
+    // the level planes' heights at the middles of the two tiles, x = 2 and x = 6
+    std::vector<Eigen::Vector2f> road_heights;
+    std::size_t walls = 0;
+    for (const Eigen::Vector4f& p : planes) {
+      const auto height = [&p](float x) {
+        return -(p[3] + p.x() * x + p.y() * 2.0f) / p.z();
+      };
+      if (std::abs(p.z()) > 0.99f)
+        road_heights.emplace_back(height(2.0f), height(6.0f));
+      else
+        ++walls;
+    }
+    EXPECT_EQ(walls, 1u);
+    if (tile_m > 0.0) {
+      // each at its own height over its tile
+      ASSERT_EQ(road_heights.size(), 2u);
+      const bool near_first = road_heights[0].x() < road_heights[1].x();
+      EXPECT_NEAR(road_heights[near_first ? 0 : 1].x(), -1.5f, 1e-4f);
+      EXPECT_NEAR(road_heights[near_first ? 1 : 0].y(), -1.45f, 1e-4f);
+    } else {
+      // one plane fitted across both, off each by more than a millimetre
+      ASSERT_EQ(road_heights.size(), 1u);
+      EXPECT_GT(road_heights[0].x(), -1.5f + 1e-3f);
+      EXPECT_LT(road_heights[0].y(), -1.45f - 1e-3f);
+    }
+    // the parameter travels with the section
+    std::vector<std::uint8_t> bytes;
+    layer.serialize(bytes);
+    SurfaceLayer copy(defaultParams());
+    copy.deserialize(bytes.data(), bytes.size());
+    EXPECT_EQ(copy.getParams().terrain_plane_tile_m, tile_m);
+    EXPECT_TRUE(copy == layer);
+  }
+}
+
 // The distance of a frame's plane to a map plane is measured where the faces are: a
 // wall 500 m along from the world origin's foot point, seen again on a plane turned
 // by 0.01 rad about the face centre, differs in d by ~5 m, yet its faces lie on the
@@ -1023,9 +1083,9 @@ TEST(SurfaceLayer, RasterCellsAndEvidenceMatchBruteForce)
   ASSERT_EQ(layer.getCellCount(), oracle.size());
   std::vector<std::uint8_t> bytes;
   layer.serialize(bytes);
-  // header: magic, version, 6 f64 params, u32, u8, f64, f64; u64 planes; the plane's
-  // 8 f32 planes and 13 f64 moments; u64 cells
-  std::size_t at = 4 + 4 + 6 * 8 + 4 + 1 + 8 + 8 + 8 + 8 * 4 + 13 * 8;
+  // header: magic, version, 6 f64 params, u32, u8, f64, f64, f64; u64 planes; the
+  // plane's 8 f32 planes and 13 f64 moments; u64 cells
+  std::size_t at = 4 + 4 + 6 * 8 + 4 + 1 + 8 + 8 + 8 + 8 + 8 * 4 + 13 * 8;
   std::uint64_t cells = 0;
   std::memcpy(&cells, bytes.data() + at, 8);
   at += 8;
@@ -1489,16 +1549,18 @@ TEST(SurfaceLayer, SerializeRoundTrip)
     EXPECT_NE(std::string(e.what()).find("version 1"), std::string::npos) << e.what();
   }
   EXPECT_TRUE(paper_copy == paper); // unchanged
-  // version 2 sections (no density rule: no cover_density and no absorb_distance_m
-  // after the merge_rule byte) still load, with the default cover_density and
-  // absorb_distance_m 0; version 3 sections (no absorb_distance_m after the
-  // cover_density) with absorb_distance_m 0
+  // version 2 sections (no density rule: no cover_density, absorb_distance_m and
+  // terrain_plane_tile_m after the merge_rule byte) still load, with the default
+  // cover_density and absorb_distance_m 0; version 3 sections (no absorb_distance_m
+  // and terrain_plane_tile_m after the cover_density) with absorb_distance_m 0;
+  // version 4 sections (no terrain_plane_tile_m after the absorb_distance_m) with
+  // terrain_plane_tile_m 0
   std::vector<std::uint8_t> paper_bytes;
   paper.serialize(paper_bytes);
   const std::size_t density_at = 4 + 4 + 6 * 8 + 4 + 1;
   std::vector<std::uint8_t> version_2(paper_bytes.begin(),
                                       paper_bytes.begin() + density_at);
-  version_2.insert(version_2.end(), paper_bytes.begin() + density_at + 16,
+  version_2.insert(version_2.end(), paper_bytes.begin() + density_at + 24,
                    paper_bytes.end());
   version_2[4] = 2;
   SurfaceLayer from_version_2(defaultParams());
@@ -1506,13 +1568,22 @@ TEST(SurfaceLayer, SerializeRoundTrip)
   EXPECT_TRUE(from_version_2 == paper);
   std::vector<std::uint8_t> version_3(paper_bytes.begin(),
                                       paper_bytes.begin() + density_at + 8);
-  version_3.insert(version_3.end(), paper_bytes.begin() + density_at + 16,
+  version_3.insert(version_3.end(), paper_bytes.begin() + density_at + 24,
                    paper_bytes.end());
   version_3[4] = 3;
   SurfaceLayer from_version_3(defaultParams());
   from_version_3.deserialize(version_3.data(), version_3.size());
   EXPECT_TRUE(from_version_3 == paper);
   EXPECT_EQ(from_version_3.getParams().absorb_distance_m, 0.0);
+  std::vector<std::uint8_t> version_4(paper_bytes.begin(),
+                                      paper_bytes.begin() + density_at + 16);
+  version_4.insert(version_4.end(), paper_bytes.begin() + density_at + 24,
+                   paper_bytes.end());
+  version_4[4] = 4;
+  SurfaceLayer from_version_4(defaultParams());
+  from_version_4.deserialize(version_4.data(), version_4.size());
+  EXPECT_TRUE(from_version_4 == paper);
+  EXPECT_EQ(from_version_4.getParams().terrain_plane_tile_m, 0.0);
   // empty layer
   SurfaceLayer empty(defaultParams()), empty_copy(defaultParams());
   bytes.clear();

@@ -420,6 +420,8 @@ classParams()
      surfaceLayer([](L& p, double v) { p.feature_distance_m = v; })},
     {mi, "absorb_distance_m", sl::ABSORB_DISTANCE,
      surfaceLayer([](L& p, double v) { p.absorb_distance_m = v; })},
+    {mi, "terrain_plane_tile_m", sl::TERRAIN_PLANE_TILE,
+     surfaceLayer([](L& p, double v) { p.terrain_plane_tile_m = v; })},
     {mi, "max_range_m", esg::MAX_RANGE,
      spaceGrid([](G& p, double v) { p.max_range_m = v; })},
     {mi, "surface_margin_m", esg::SURFACE_MARGIN,

@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -254,4 +255,65 @@ TEST(TerrainRemoval, AGroundInlierStandingAboveTheTerrainHeightStays)
   EXPECT_EQ(paper.count(ROAD), 0u);
   EXPECT_EQ(paper.at(CAR), 60u * 5u) << "the rows at 0.4-0.8 m: the band goes whole";
   EXPECT_EQ(paper_low, 0u);
+}
+
+/** The ground as planar cells (terrain_plane_tile_m 4 m): a road 16 m x 8 m crowned
+ * 0.128 m over its length (z = 0.128 - 0.002 (x - 8)^2), given as one ground plane z =
+ * 0 with a 0.3 m band, stays in the cloud and becomes one plane per 4 m tile, each
+ * fitted to its own points (within 0.01 m of them, where the one plane is up to 0.128
+ * m off), facing the sensor above; every point is an inlier of exactly one tile's
+ * plane, inside that tile. With the default 0 (the paper's rule) the road goes. */
+TEST(TerrainRemoval, TerrainTilesKeepACrownedRoadAsLocalPlanes)
+{
+  const auto run = [](double tile_m, Street& s) {
+    auto cloud = std::make_shared<planar_grid::Frame::Cloud>();
+    for (float x = 0.05f; x < 16.0f; x += 0.1f)
+      for (float y = 0.05f; y < 8.0f; y += 0.1f)
+        addLabelled(*cloud, x, y, 0.128f - 0.002f * (x - 8.0f) * (x - 8.0f), ROAD);
+    setWorldCloud(s, cloud, "crowned road");
+    planar_grid::PlanarSegment ground;
+    ground.model_coefficients.values = {0.0f, 0.0f, 1.0f, 0.0f};
+    for (std::size_t i = 0; i < cloud->size(); ++i)
+      ground.inliers.indices.push_back(static_cast<int>(i));
+    s.frame.planes.push_back(ground);
+    const auto* ground_info = planar_grid::findStage("ground_removal");
+    planar_grid::ParamValues gp = planar_grid::defaultParams(ground_info->params);
+    gp.set("terrain_plane_tile_m", tile_m);
+    planar_grid::PipelineState state;
+    ground_info->create(gp)->process(s.frame, state);
+  };
+  Street paper;
+  run(0.0, paper);
+  EXPECT_EQ(paper.frame.cloud->size(), 0u);
+  EXPECT_TRUE(paper.frame.planes.empty());
+
+  Street s;
+  run(4.0, s);
+  const auto& cloud = *s.frame.cloud;
+  ASSERT_EQ(cloud.size(), 160u * 80u);
+  // 4 tiles along x, 2 across y
+  ASSERT_EQ(s.frame.planes.size(), 8u);
+  std::vector<int> seen(cloud.size(), 0);
+  const Eigen::Vector3f origin = cloud.sensor_origin_.head<3>();
+  for (const auto& plane : s.frame.planes) {
+    ASSERT_EQ(plane.model_coefficients.values.size(), 4u);
+    const Eigen::Vector4f c(plane.model_coefficients.values.data());
+    EXPECT_NEAR(c.head<3>().norm(), 1.0f, 1e-5f);
+    EXPECT_GT(c.head<3>().dot(origin) + c[3], 0.0f); // facing the sensor
+    ASSERT_FALSE(plane.inliers.indices.empty());
+    const auto& first = cloud[static_cast<std::size_t>(plane.inliers.indices[0])];
+    const float tile_x = std::floor(first.x / 4.0f);
+    const float tile_y = std::floor(first.y / 4.0f);
+    float worst = 0.0f;
+    for (const int i : plane.inliers.indices) {
+      const auto& p = cloud[static_cast<std::size_t>(i)];
+      ++seen[static_cast<std::size_t>(i)];
+      EXPECT_EQ(std::floor(p.x / 4.0f), tile_x);
+      EXPECT_EQ(std::floor(p.y / 4.0f), tile_y);
+      worst = std::max(worst, std::abs(c.head<3>().dot(p.getVector3fMap()) + c[3]));
+    }
+    EXPECT_LT(worst, 0.01f) << "tile " << tile_x << ", " << tile_y;
+  }
+  for (std::size_t i = 0; i < seen.size(); ++i)
+    ASSERT_EQ(seen[i], 1) << "point " << i;
 }

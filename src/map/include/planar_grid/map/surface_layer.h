@@ -47,7 +47,15 @@ inline constexpr ParamRange COVER_DENSITY = ParamRange::closed(0.5, 1.0);
 /** \brief Largest distance at which a parallel plane's cells are absorbed: [0, 10]
  * meters. */
 inline constexpr ParamRange ABSORB_DISTANCE = ParamRange::closed(0.0, 10.0);
+/** \brief Side of the tiles that bound a level plane: [0, 1000] meters (0: level
+ * planes are unbounded). */
+inline constexpr ParamRange TERRAIN_PLANE_TILE = ParamRange::closed(0.0, 1000.0);
 } // namespace surface_layer_ranges
+
+/** \brief A map plane whose normal is within this angle of the world z axis is level
+ * (terrain, a floor, a step, a table top; SurfaceLayer::Params::terrain_plane_tile_m):
+ * 0.3 rad, ground_removal's default terrain_max_slope_rad. */
+inline constexpr double LEVEL_MAX_ANGLE_RAD = 0.3;
 
 /** \brief Plane models [a, b, c, d] (unit normal, meters), aligned allocator
  * (fixed-size vectorizable Eigen types need it in std::vector).
@@ -215,6 +223,17 @@ public:
      * twice the stereo depth error (paper eq. 4) at the range the pipeline maps planes,
      * 0.3 m: two views of one wall, each off by up to that error. */
     double absorb_distance_m{0.5};
+    /** Side of the square tiles of the world's x, y plane that bound a level plane
+     * (normal within LEVEL_MAX_ANGLE_RAD of the z axis: road, pavement, floor),
+     * meters; in surface_layer_ranges::TERRAIN_PLANE_TILE. With a side > 0, a level
+     * frame plane joins only a level map plane whose evidence's centroid lies in the
+     * same tile as its own, two level map planes of different tiles never merge, and
+     * two level planes never absorb each other's cells (a curb, a stair is a real
+     * step): terrain stays piecewise planar, so a road that sags or crowns over tens
+     * of meters is not fitted by one plane. Give the frames' level planes split at the
+     * same tiles (the pipeline's ground_removal with terrain_as_planes). 0: level
+     * planes join, merge and absorb like any other. */
+    double terrain_plane_tile_m{0.0};
   };
 
   /** \brief Throws planar_grid::Exception for out-of-range parameters. */
@@ -335,8 +354,10 @@ public:
    * rectangle, e.g. where two views of one wall overlap); else it stays whole. Where
    * frames
    * found one surface as planes a few degrees apart (beyond plane_merge_angle_rad), or
-   * planes crossing near their line, the surface is then covered once. The planes' fits
-   * (moments) are not changed. \return the number of raster cells moved */
+   * planes crossing near their line, the surface is then covered once. Two level
+   * planes (normals within LEVEL_MAX_ANGLE_RAD of the world z axis: road and pavement,
+   * floor and step) never absorb each other: the step between them is real. The
+   * planes' fits (moments) are not changed. \return the number of raster cells moved */
   std::size_t absorbOverlappingPlaneCells();
 
   /** \brief The merged cuboids: every map plane's rectangles (plane_id = the map's
@@ -408,9 +429,9 @@ public:
                std::size_t& index) const;
 
   /** \brief Encodes the layer in a fixed little-endian layout: u32 magic "PGSL",
-   * u32 version 4, the six real Params as f64, close_gaps_cells as u32, merge_rule as
-   * u8 (0 paper, 1 min_rectangles, 2 density), cover_density and absorb_distance_m as
-   * f64; u64 planes, per
+   * u32 version 5, the six real Params as f64, close_gaps_cells as u32, merge_rule as
+   * u8 (0 paper, 1 min_rectangles, 2 density), cover_density, absorb_distance_m and
+   * terrain_plane_tile_m as f64; u64 planes, per
    * plane: the raster frame's plane f32 a, b, c, d, the refined plane f32 a, b, c, d,
    * the evidence moments as f64 (anchor[3], weight, sum[3], sum of outer products xx,
    * xy, xz, yy, yz, zz), u64 cells, per cell i32 i, i32 j, f32 probability sum, u16
@@ -429,7 +450,8 @@ public:
    * carried their evidence) are rejected: run the mapping again. Version 2 (no
    * density rule, no cover_density) is read with the default cover_density; versions
    * 2 and 3 (no absorb_distance_m) with absorb_distance_m 0 (only the non-parallel
-   * tolerance, as they were written).
+   * tolerance, as they were written); versions 2 to 4 (no terrain_plane_tile_m) with
+   * terrain_plane_tile_m 0.
    * \throws planar_grid::IOError on truncated, trailing or inconsistent data or
    * another version (layer unchanged) */
   void deserialize(const std::uint8_t* data, std::size_t size);
