@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <unordered_map>
@@ -254,12 +255,10 @@ binOf(const Eigen::Vector3f& p, float bin)
   return (p / bin).cast<double>().array().floor();
 }
 
-/** \brief Calls f(bin key) for the bins of edge \a bin (meters) that the bounding
- * box of \a c grown by \a grow (meters) meets; returns false (nothing called) when
- * they exceed MAX_BINS_PER_CUBOID. */
-template <typename F>
-bool
-forEachBin(const PlanarCuboid& c, float grow, float bin, F f)
+/** \brief True when the bounding box of \a c grown by \a grow (meters) meets more
+ * than MAX_BINS_PER_CUBOID bins of edge \a bin (meters). */
+inline bool
+spansTooManyBins(const PlanarCuboid& c, float grow, float bin)
 {
   Eigen::Vector3f lo, hi;
   cuboidBounds(c, lo, hi);
@@ -267,8 +266,24 @@ forEachBin(const PlanarCuboid& c, float grow, float bin, F f)
   hi.array() += grow;
   const Eigen::Vector3d a = binOf(lo, bin);
   const Eigen::Vector3d b = binOf(hi, bin);
-  if (!((b - a + Eigen::Vector3d::Ones()).prod() <= MAX_BINS_PER_CUBOID))
+  return !((b - a + Eigen::Vector3d::Ones()).prod() <= MAX_BINS_PER_CUBOID);
+}
+
+/** \brief Calls f(bin key) for the bins of edge \a bin (meters) that the bounding
+ * box of \a c grown by \a grow (meters) meets; returns false (nothing called) when
+ * they exceed MAX_BINS_PER_CUBOID (spansTooManyBins()). */
+template <typename F>
+bool
+forEachBin(const PlanarCuboid& c, float grow, float bin, F f)
+{
+  Eigen::Vector3f lo, hi;
+  if (spansTooManyBins(c, grow, bin))
     return false;
+  cuboidBounds(c, lo, hi);
+  lo.array() -= grow;
+  hi.array() += grow;
+  const Eigen::Vector3d a = binOf(lo, bin);
+  const Eigen::Vector3d b = binOf(hi, bin);
   for (auto x = static_cast<std::int64_t>(a.x()); x <= static_cast<std::int64_t>(b.x());
        ++x)
     for (auto y = static_cast<std::int64_t>(a.y());
@@ -299,6 +314,65 @@ binCuboids(const PlanarCuboids& cuboids,
       large.push_back(index);
   }
   std::stable_sort(bins.begin(), bins.end());
+}
+
+/** \brief binCuboids() for the pairs of which one cuboid is \a hot (hot(k) true for
+ * cuboid k): the other cuboids get entries only in the bins a hot cuboid meets, so a
+ * bin either holds a hot cuboid or is absent; the bins that hold a hot cuboid are
+ * binCuboids()' bins exactly. The large cuboids go to \a large as there. */
+template <typename Hot>
+void
+binCuboidsNearHot(const PlanarCuboids& cuboids,
+                  float grow,
+                  float bin,
+                  const Hot& hot,
+                  std::vector<BinEntry>& bins,
+                  std::vector<std::uint32_t>& large)
+{
+  bins.clear();
+  large.clear();
+  // the hot cuboids' bins, and the box of the bins they span
+  std::vector<std::uint64_t> reached;
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+  Eigen::Vector3f hi = -lo;
+  for (std::size_t k = 0; k < cuboids.size(); ++k) {
+    if (!hot(k))
+      continue;
+    const auto index = static_cast<std::uint32_t>(k);
+    if (!forEachBin(cuboids[k], grow, bin, [&](std::uint64_t key) {
+          bins.emplace_back(key, index);
+          reached.push_back(key);
+        })) {
+      large.push_back(index);
+      continue;
+    }
+    Eigen::Vector3f c_lo, c_hi;
+    cuboidBounds(cuboids[k], c_lo, c_hi);
+    lo = lo.cwiseMin(c_lo - Eigen::Vector3f::Constant(grow + bin));
+    hi = hi.cwiseMax(c_hi + Eigen::Vector3f::Constant(grow + bin));
+  }
+  std::sort(reached.begin(), reached.end());
+  reached.erase(std::unique(reached.begin(), reached.end()), reached.end());
+  for (std::size_t k = 0; k < cuboids.size(); ++k) {
+    if (hot(k))
+      continue;
+    const auto index = static_cast<std::uint32_t>(k);
+    Eigen::Vector3f c_lo, c_hi;
+    cuboidBounds(cuboids[k], c_lo, c_hi);
+    const bool near = (c_hi.array() + grow >= lo.array()).all()
+                      && (c_lo.array() - grow <= hi.array()).all();
+    if (spansTooManyBins(cuboids[k], grow, bin))
+      large.push_back(index);
+    else if (near)
+      forEachBin(cuboids[k], grow, bin, [&](std::uint64_t key) {
+        if (std::binary_search(reached.begin(), reached.end(), key))
+          bins.emplace_back(key, index);
+      });
+  }
+  // by key, then by index within a key, as binCuboids()
+  std::sort(bins.begin(), bins.end(), [](const BinEntry& a, const BinEntry& b) {
+    return a.key() < b.key() || (a.key() == b.key() && a.index < b.index);
+  });
 }
 
 /** \brief Raster index of a coordinate in cells, or false when beyond

@@ -106,11 +106,16 @@ SurfaceLayer::absorbOverlappingPlaneCells()
         rect_index[k] = rect_index[k - 1] + 1;
     // Candidate pairs (rectangle x, cuboid y of a stronger plane) whose bounds, grown
     // by half a cell or absorb_distance_m, meet and one of whose planes changed: one
-    // sweep over the cuboids' bins (8 cells), the cuboids spanning too many bins paired
-    // with all.
+    // sweep over the bins (8 cells) that a changed plane's cuboid meets, the cuboids
+    // spanning too many bins paired with all.
     std::vector<BinEntry> bins;
     std::vector<std::uint32_t> large;
-    binCuboids(planar, along_parallel, bin, bins, large);
+    binCuboidsNearHot(
+      planar, along_parallel, bin,
+      [&](std::size_t k) {
+        return changed[static_cast<std::size_t>(planar[k].plane_id)];
+      },
+      bins, large);
     std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
     const auto pair = [&](std::uint32_t x, std::uint32_t y) {
       const auto a = static_cast<std::size_t>(planar[x].plane_id);
@@ -120,17 +125,28 @@ SurfaceLayer::absorbOverlappingPlaneCells()
           && boundsMeet(planar[x], planar[y], along_parallel))
         pairs.emplace_back(x, y);
     };
-    // (a bin without a cuboid of a changed plane has no pair)
+    // (a bin without a cuboid of a changed plane has no pair; two level planes' cuboids
+    // pair with the bin's other planes' only)
+    std::vector<std::uint32_t> not_level;
     for (std::size_t s = 0; s < bins.size();) {
       std::size_t e = s;
       bool any_changed = false;
-      for (; e < bins.size() && bins[e].key() == bins[s].key(); ++e)
-        any_changed =
-          any_changed
-          || changed[static_cast<std::size_t>(planar[bins[e].index].plane_id)];
-      for (std::size_t x = s; any_changed && x < e; ++x)
+      not_level.clear();
+      for (; e < bins.size() && bins[e].key() == bins[s].key(); ++e) {
+        const auto p = static_cast<std::size_t>(planar[bins[e].index].plane_id);
+        any_changed = any_changed || changed[p];
+        if (!level[p])
+          not_level.push_back(bins[e].index);
+      }
+      for (std::size_t x = s; any_changed && x < e; ++x) {
+        if (level[static_cast<std::size_t>(planar[bins[x].index].plane_id)]) {
+          for (const std::uint32_t y : not_level)
+            pair(bins[x].index, y);
+          continue;
+        }
         for (std::size_t y = s; y < e; ++y)
           pair(bins[x].index, bins[y].index);
+      }
       s = e;
     }
     for (const auto l : large)
