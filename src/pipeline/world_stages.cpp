@@ -5,10 +5,11 @@
 #include <planar_grid/filters/fast_voxel_grid.h>
 
 #include <pcl/common/transforms.h>
-#include <pcl/filters/uniform_sampling.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <unordered_map>
 
 #include "stages.h"
 
@@ -139,6 +140,7 @@ public:
     if (frames < 0 || r.remaining() != 0)
       r.fail("invalid state");
     frames_since_downsample_ = frames;
+    sampled_cloud_ = nullptr; // the plane cloud was loaded: its leaves are rebuilt
   }
 
 private:
@@ -183,7 +185,7 @@ private:
   /** Drops the world cloud's and the plane cloud's points outside the box of
    * half-size window_radius_m around the sensor in x and y (every height), the
    * map_integration stage's rolling window. */
-  void cropToWindow(const Eigen::Vector3d& sensor, PipelineState& state) const
+  void cropToWindow(const Eigen::Vector3d& sensor, PipelineState& state)
   {
     const double r = window_radius_m_;
     const auto outside = [&](const auto& p) {
@@ -197,6 +199,69 @@ private:
     planes.erase(std::remove_if(planes.begin(), planes.end(), outside), planes.end());
     state.plane_cloud->width = static_cast<std::uint32_t>(planes.size());
     state.plane_cloud->height = 1;
+    sampled_cloud_ = nullptr; // the points moved: the leaves are rebuilt
+  }
+
+  /** A voxel of the plane cloud's sampling: floor(p / leaf_size_m) per axis. */
+  struct Leaf {
+    std::int32_t x, y, z;
+    bool operator==(const Leaf& o) const { return x == o.x && y == o.y && z == o.z; }
+  };
+  struct LeafHash {
+    std::size_t operator()(const Leaf& l) const
+    {
+      return static_cast<std::size_t>(
+        (static_cast<std::uint64_t>(static_cast<std::uint32_t>(l.x)) * 73856093U)
+        ^ (static_cast<std::uint64_t>(static_cast<std::uint32_t>(l.y)) * 19349669U)
+        ^ (static_cast<std::uint64_t>(static_cast<std::uint32_t>(l.z)) * 83492791U));
+    }
+  };
+
+  /** Keeps, per voxel of leaf_size_m, the plane cloud's point nearest the voxel's
+   * centre (the first one on a tie; labels are not averaged), as
+   * pcl::UniformSampling with the leaf size as its radius does over the whole cloud,
+   * but visiting only the points added since the last call: the points kept then
+   * hold their voxels (each the nearest of all the points seen there), so a new
+   * point only replaces its voxel's point when it is nearer. The kept points stay in
+   * the order their voxels were first seen. */
+  void samplePlaneCloud(pcl::PointCloud<pcl::PointXYZL>& cloud)
+  {
+    // single precision as pcl::UniformSampling computes the voxels and the distances
+    const auto leaf = static_cast<float>(leaf_size_m_);
+    const float inverse = 1.0f / leaf;
+    if (sampled_cloud_ != &cloud || sampled_points_ > cloud.size()) {
+      plane_leaves_.clear();
+      sampled_points_ = 0;
+    }
+    std::size_t kept = sampled_points_;
+    for (std::size_t i = sampled_points_; i < cloud.size(); ++i) {
+      const pcl::PointXYZL p = cloud[i];
+      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+        continue;
+      const Eigen::Array3f scaled = p.getArray3fMap() * inverse;
+      if (!(scaled.abs() < 2.0e9f).all())
+        continue; // beyond the voxel indices (1e7 m at a 5 mm leaf)
+      const Eigen::Array3f cell = scaled.floor();
+      const Leaf key{static_cast<std::int32_t>(cell.x()),
+                     static_cast<std::int32_t>(cell.y()),
+                     static_cast<std::int32_t>(cell.z())};
+      const auto [it, added] =
+        plane_leaves_.emplace(key, static_cast<std::uint32_t>(kept));
+      if (added) {
+        cloud[kept++] = p;
+        continue;
+      }
+      Eigen::Vector4f centre = Eigen::Vector4f::Zero();
+      centre.head<3>() = ((cell + 0.5f) * leaf).matrix();
+      pcl::PointXYZL& held = cloud[it->second];
+      if ((p.getVector4fMap() - centre).squaredNorm()
+          < (held.getVector4fMap() - centre).squaredNorm())
+        held = p;
+    }
+    cloud.resize(kept);
+    cloud.is_dense = true;
+    sampled_cloud_ = &cloud;
+    sampled_points_ = kept;
   }
 
   void downsample(PipelineState& state)
@@ -211,15 +276,8 @@ private:
     Frame::Cloud::Ptr out(new Frame::Cloud);
     grid.filter(*out);
     state.world_cloud = out;
-    if (!state.plane_cloud->empty()) {
-      // Labels must not be averaged: keep the point nearest each voxel's centre.
-      pcl::UniformSampling<pcl::PointXYZL> sampling;
-      sampling.setRadiusSearch(leaf_size_m_);
-      sampling.setInputCloud(state.plane_cloud);
-      pcl::PointCloud<pcl::PointXYZL>::Ptr planes(new pcl::PointCloud<pcl::PointXYZL>);
-      sampling.filter(*planes);
-      state.plane_cloud = planes;
-    }
+    // Labels must not be averaged: keep the point nearest each voxel's centre.
+    samplePlaneCloud(*state.plane_cloud);
   }
 
   double leaf_size_m_;
@@ -227,6 +285,12 @@ private:
   double window_radius_m_;
   PlaneAssociation association_;
   int frames_since_downsample_{0};
+  /** The plane cloud's voxels and the index of the point each keeps, valid for the
+   * first sampled_points_ points of the cloud at sampled_cloud_ (null: rebuilt at the
+   * next sampling, after a checkpoint's cloud or a crop). */
+  std::unordered_map<Leaf, std::uint32_t, LeafHash> plane_leaves_;
+  const pcl::PointCloud<pcl::PointXYZL>* sampled_cloud_{nullptr};
+  std::size_t sampled_points_{0};
 };
 
 } // namespace
