@@ -1558,32 +1558,22 @@ TEST(SurfaceLayer, SerializeRoundTrip)
   std::vector<std::uint8_t> paper_bytes;
   paper.serialize(paper_bytes);
   const std::size_t density_at = 4 + 4 + 6 * 8 + 4 + 1;
-  std::vector<std::uint8_t> version_2(paper_bytes.begin(),
-                                      paper_bytes.begin() + density_at);
-  version_2.insert(version_2.end(), paper_bytes.begin() + density_at + 24,
-                   paper_bytes.end());
-  version_2[4] = 2;
-  SurfaceLayer from_version_2(defaultParams());
-  from_version_2.deserialize(version_2.data(), version_2.size());
-  EXPECT_TRUE(from_version_2 == paper);
-  std::vector<std::uint8_t> version_3(paper_bytes.begin(),
-                                      paper_bytes.begin() + density_at + 8);
-  version_3.insert(version_3.end(), paper_bytes.begin() + density_at + 24,
-                   paper_bytes.end());
-  version_3[4] = 3;
-  SurfaceLayer from_version_3(defaultParams());
-  from_version_3.deserialize(version_3.data(), version_3.size());
-  EXPECT_TRUE(from_version_3 == paper);
-  EXPECT_EQ(from_version_3.getParams().absorb_distance_m, 0.0);
-  std::vector<std::uint8_t> version_4(paper_bytes.begin(),
-                                      paper_bytes.begin() + density_at + 16);
-  version_4.insert(version_4.end(), paper_bytes.begin() + density_at + 24,
-                   paper_bytes.end());
-  version_4[4] = 4;
-  SurfaceLayer from_version_4(defaultParams());
-  from_version_4.deserialize(version_4.data(), version_4.size());
-  EXPECT_TRUE(from_version_4 == paper);
-  EXPECT_EQ(from_version_4.getParams().terrain_plane_tile_m, 0.0);
+  // a section of an older version: the bytes up to density_at + kept, the version
+  // field set, the later parameters left out
+  const auto older = [&](std::uint8_t version, std::size_t kept) {
+    std::vector<std::uint8_t> bytes_of(paper_bytes.begin(),
+                                       paper_bytes.begin() + density_at + kept);
+    bytes_of.insert(bytes_of.end(), paper_bytes.begin() + density_at + 24,
+                    paper_bytes.end());
+    bytes_of[4] = version;
+    SurfaceLayer decoded(defaultParams());
+    decoded.deserialize(bytes_of.data(), bytes_of.size());
+    EXPECT_TRUE(decoded == paper) << "version " << static_cast<int>(version);
+    return decoded.getParams();
+  };
+  older(2, 0);
+  EXPECT_EQ(older(3, 8).absorb_distance_m, 0.0);
+  EXPECT_EQ(older(4, 16).terrain_plane_tile_m, 0.0);
   // empty layer
   SurfaceLayer empty(defaultParams()), empty_copy(defaultParams());
   bytes.clear();

@@ -133,6 +133,29 @@ removeTerrain(Street& s,
   return after;
 }
 
+/** Runs ground_removal alone on \a s with one given ground plane z = 0 whose inliers
+ * are the points at most \a band_m above it, with one ground_removal parameter set. */
+void
+removeTerrainOfGroundPlane(Street& s,
+                           float band_m,
+                           const std::string& key,
+                           double value)
+{
+  planar_grid::PlanarSegment ground;
+  ground.model_coefficients.values = {0.0f, 0.0f, 1.0f, 0.0f};
+  const auto& cloud = *s.frame.cloud;
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (cloud[i].z <= band_m + 1e-4f)
+      ground.inliers.indices.push_back(static_cast<int>(i));
+  s.frame.planes.push_back(ground);
+  const auto* ground_info = planar_grid::findStage("ground_removal");
+  ASSERT_NE(ground_info, nullptr);
+  planar_grid::ParamValues gp = planar_grid::defaultParams(ground_info->params);
+  gp.set(key, value);
+  planar_grid::PipelineState state;
+  ground_info->create(gp)->process(s.frame, state);
+}
+
 } // namespace
 
 TEST(TerrainRemoval, RoadCurbSidewalkLawnAndRampGoTheCarAndTheWallStay)
@@ -228,17 +251,7 @@ TEST(TerrainRemoval, AGroundInlierStandingAboveTheTerrainHeightStays)
     setWorldCloud(s, cloud, "guardrail");
     // The road plane z = 0 with a 0.3 m band: the road and the rail's rows at 0.1-0.3
     // m.
-    planar_grid::PlanarSegment ground;
-    ground.model_coefficients.values = {0.0f, 0.0f, 1.0f, 0.0f};
-    for (std::size_t i = 0; i < cloud->size(); ++i)
-      if ((*cloud)[i].z <= 0.3f + 1e-4f)
-        ground.inliers.indices.push_back(static_cast<int>(i));
-    s.frame.planes.push_back(ground);
-    const auto* ground_info = planar_grid::findStage("ground_removal");
-    planar_grid::ParamValues gp = planar_grid::defaultParams(ground_info->params);
-    gp.set("terrain_height_m", terrain_height_m);
-    planar_grid::PipelineState state;
-    ground_info->create(gp)->process(s.frame, state);
+    removeTerrainOfGroundPlane(s, 0.3f, "terrain_height_m", terrain_height_m);
     std::map<int, std::size_t> low_rail, after;
     for (const auto& p : s.frame.cloud->points) {
       ++after[static_cast<int>(p.intensity)];
@@ -271,16 +284,7 @@ TEST(TerrainRemoval, TerrainTilesKeepACrownedRoadAsLocalPlanes)
       for (float y = 0.05f; y < 8.0f; y += 0.1f)
         addLabelled(*cloud, x, y, 0.128f - 0.002f * (x - 8.0f) * (x - 8.0f), ROAD);
     setWorldCloud(s, cloud, "crowned road");
-    planar_grid::PlanarSegment ground;
-    ground.model_coefficients.values = {0.0f, 0.0f, 1.0f, 0.0f};
-    for (std::size_t i = 0; i < cloud->size(); ++i)
-      ground.inliers.indices.push_back(static_cast<int>(i));
-    s.frame.planes.push_back(ground);
-    const auto* ground_info = planar_grid::findStage("ground_removal");
-    planar_grid::ParamValues gp = planar_grid::defaultParams(ground_info->params);
-    gp.set("terrain_plane_tile_m", tile_m);
-    planar_grid::PipelineState state;
-    ground_info->create(gp)->process(s.frame, state);
+    removeTerrainOfGroundPlane(s, 0.3f, "terrain_plane_tile_m", tile_m);
   };
   Street paper;
   run(0.0, paper);
