@@ -319,7 +319,8 @@ binCuboids(const PlanarCuboids& cuboids,
 /** \brief binCuboids() for the pairs of which one cuboid is \a hot (hot(k) true for
  * cuboid k): the other cuboids get entries only in the bins a hot cuboid meets, so a
  * bin either holds a hot cuboid or is absent; the bins that hold a hot cuboid are
- * binCuboids()' bins exactly. The large cuboids go to \a large as there. */
+ * binCuboids()' bins exactly. The large cuboids go to \a large as there, but for
+ * those beyond every hot cuboid's reach, which pair with none. */
 template <typename Hot>
 void
 binCuboidsNearHot(const PlanarCuboids& cuboids,
@@ -359,11 +360,13 @@ binCuboidsNearHot(const PlanarCuboids& cuboids,
     const auto index = static_cast<std::uint32_t>(k);
     Eigen::Vector3f c_lo, c_hi;
     cuboidBounds(cuboids[k], c_lo, c_hi);
-    const bool near = (c_hi.array() + grow >= lo.array()).all()
-                      && (c_lo.array() - grow <= hi.array()).all();
+    // (a cuboid beyond every hot cuboid's reach pairs with none, large or not)
+    if (!((c_hi.array() + grow >= lo.array()).all()
+          && (c_lo.array() - grow <= hi.array()).all()))
+      continue;
     if (spansTooManyBins(cuboids[k], grow, bin))
       large.push_back(index);
-    else if (near)
+    else
       forEachBin(cuboids[k], grow, bin, [&](std::uint64_t key) {
         if (std::binary_search(reached.begin(), reached.end(), key))
           bins.emplace_back(key, index);
