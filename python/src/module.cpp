@@ -64,6 +64,12 @@ ValueError for an invalid argument or parameter.
     "A configuration error (planar_grid::ConfigError): str() reads "
     "'<file>:<line>:<col>: <message>'; the attributes file, line and column (1-based, "
     "0 when unknown) give the place.");
+  // The attributes' types, for the type stubs (tools/stubgen.py declares them).
+  py::dict config_error_attributes;
+  config_error_attributes["file"] = "str";
+  config_error_attributes["line"] = "int";
+  config_error_attributes["column"] = "int";
+  py::handle(config_error_type).attr("__annotations__") = config_error_attributes;
   io_error_type = addException(
     m, "IOError", py::make_tuple(py::handle(error_type), py::handle(PyExc_OSError)),
     "A missing, unreadable, truncated or corrupt file "

@@ -100,10 +100,9 @@ def test_configuration_errors_name_the_place(tmp_path: pathlib.Path) -> None:
     with pytest.raises(pg.ConfigError) as error:
         pg.run_pipeline(bad, write_outputs=False)
     assert isinstance(error.value, ValueError)
-    # file, line and column are the binding's attributes, which the stub does not declare.
-    file: str = getattr(error.value, "file")
+    file: str = error.value.file
     assert file.endswith("bad.yaml")
-    assert (getattr(error.value, "line"), getattr(error.value, "column")) == (3, 3)
+    assert (error.value.line, error.value.column) == (3, 3)
     assert str(error.value).startswith(f"{file}:3:3: ")
     assert "bogus_key_m" in str(error.value)
     with pytest.raises(pg.IOError, match="missing.yaml"):

@@ -22,6 +22,10 @@ one, under ``@overload``). Of the signatures a docstring gives, those with neith
 typed argument nor a return type are dropped when a typed one exists, and repeated ones
 once; pybind11 writes every real signature typed.
 
+An exception type made with PyErr_NewException has no place for its attributes'
+types: the module gives them as the type's ``__annotations__`` (``ConfigError``'s
+``file``, ``line`` and ``column``), and they are declared in the class's stub.
+
 pybind11 writes an array parameter as ``numpy.ndarray[numpy.float32]`` (its C++ type),
 but every array parameter of the module converts what numpy can (lists included:
 py::array::forcecast), so such parameters become ``numpy.typing.ArrayLike`` in the
@@ -105,6 +109,33 @@ def _array_like_parameters(path):
         f.write("\n".join(out))
 
 
+def _declare_annotated_attributes(path, module_name):
+    """Declares the attributes of the module's classes that carry ``__annotations__``
+    (their types as strings) in the classes' stubs, in place of the ``__annotations__``
+    class variable stubgen writes for them."""
+    import importlib
+    module = importlib.import_module(module_name)
+    with open(path, encoding="utf-8") as f:
+        lines = f.read().split("\n")
+    out = []
+    declared = False
+    for line in lines:
+        match = re.match(r"class (\w+)\((.*)\):( \.\.\.)?$", line)
+        if match:
+            annotations = getattr(getattr(module, match.group(1), None),
+                                  "__annotations__", None)
+            declared = isinstance(annotations, dict) and bool(annotations)
+            if declared:
+                out.append(f"class {match.group(1)}({match.group(2)}):")
+                out.extend(f"    {name}: {kind}" for name, kind in annotations.items())
+                continue
+        elif declared and line.strip().startswith("__annotations__:"):
+            continue
+        out.append(line)
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("\n".join(out))
+
+
 def _written_stub(argv):
     """The stub file stubgen writes for `-m MODULE -o DIR`, or None."""
     try:
@@ -120,4 +151,5 @@ if __name__ == "__main__":
     stub = _written_stub(sys.argv)
     if not status and stub and os.path.exists(stub):
         _array_like_parameters(stub)
+        _declare_annotated_attributes(stub, sys.argv[sys.argv.index("-m") + 1])
     sys.exit(status)
