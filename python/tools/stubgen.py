@@ -22,6 +22,12 @@ one, under ``@overload``). Of the signatures a docstring gives, those with neith
 typed argument nor a return type are dropped when a typed one exists, and repeated ones
 once; pybind11 writes every real signature typed.
 
+A property's type is read from its docstring before its getter's signature, and the
+prose of a docstring such as ``Mapper.map``'s (``... read_map() ...``) or
+``Cuboids.normals``' (``unit face normals (toward ...``) reads as a signature returning
+``Any``: a property whose getter has pybind11's signature line is typed by that line,
+unless that says only ``object``.
+
 An exception type made with PyErr_NewException has no place for its attributes'
 types: the module gives them as the type's ``__annotations__`` (``ConfigError``'s
 ``file``, ``line`` and ``column``), and they are declared in the class's stub.
@@ -64,6 +70,32 @@ def _static_aware_function_stub(module, name, obj, output, imports, sig_generato
 
 if _function_stub is not None:
     mypy.stubgenc.generate_c_function_stub = _static_aware_function_stub
+
+_property_stub = getattr(mypy.stubgenc, "generate_c_property_stub", None)
+# a getter's pybind11 signature line with a return type other than ``object`` (a
+# py::object, e.g. a map or None, stays as the docstring gives it)
+_GETTER_SIGNATURE = re.compile(r"^\(.*\) -> (?!object\s*$)\S", re.MULTILINE)
+
+
+class _TypedByGetter:
+    """A property seen through its getter alone (no docstring of its own)."""
+
+    __doc__ = None
+
+    def __init__(self, prop):
+        self.fget = prop.fget
+
+
+def _getter_typed_property_stub(name, obj, *args, **kwargs):
+    fget = getattr(obj, "fget", None)
+    if (type(obj).__name__ != "pybind11_static_property" and fget is not None
+            and _GETTER_SIGNATURE.match(getattr(fget, "__doc__", None) or "")):
+        obj = _TypedByGetter(obj)
+    _property_stub(name, obj, *args, **kwargs)
+
+
+if _property_stub is not None:
+    mypy.stubgenc.generate_c_property_stub = _getter_typed_property_stub
 
 _docstring_sig = getattr(mypy.stubgenc, "DocstringSignatureGenerator", None)
 
