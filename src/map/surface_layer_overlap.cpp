@@ -126,7 +126,24 @@ SurfaceLayer::absorbOverlappingPlaneCells()
         pairs.emplace_back(x, y);
     };
     // (a bin without a cuboid of a changed plane has no pair; two level planes' cuboids
-    // pair with the bin's other planes' only)
+    // pair with the bin's other planes' only). Two cuboids share every bin of the
+    // overlap of their bin ranges: the pair is taken in the first of them only (its
+    // indices the larger of the two lower bin indices per axis), not once per shared
+    // bin.
+    std::vector<Eigen::Vector3d> low_bin(planar.size());
+    for (const BinEntry& entry : bins) {
+      Eigen::Vector3f lo, hi;
+      cuboidBounds(planar[entry.index], lo, hi);
+      lo.array() -= along_parallel;
+      low_bin[entry.index] = binOf(lo, bin);
+    }
+    const auto firstShared = [&](std::uint32_t x, std::uint32_t y, std::uint64_t key) {
+      const Eigen::Vector3d first = low_bin[x].cwiseMax(low_bin[y]);
+      return binKey(static_cast<std::int64_t>(first.x()),
+                    static_cast<std::int64_t>(first.y()),
+                    static_cast<std::int64_t>(first.z()))
+             == key;
+    };
     std::vector<std::uint32_t> not_level;
     for (std::size_t s = 0; s < bins.size();) {
       std::size_t e = s;
@@ -138,14 +155,18 @@ SurfaceLayer::absorbOverlappingPlaneCells()
         if (!level[p])
           not_level.push_back(bins[e].index);
       }
+      const std::uint64_t key = bins[s].key();
       for (std::size_t x = s; any_changed && x < e; ++x) {
-        if (level[static_cast<std::size_t>(planar[bins[x].index].plane_id)]) {
+        const std::uint32_t i = bins[x].index;
+        if (level[static_cast<std::size_t>(planar[i].plane_id)]) {
           for (const std::uint32_t y : not_level)
-            pair(bins[x].index, y);
+            if (firstShared(i, y, key))
+              pair(i, y);
           continue;
         }
         for (std::size_t y = s; y < e; ++y)
-          pair(bins[x].index, bins[y].index);
+          if (firstShared(i, bins[y].index, key))
+            pair(i, bins[y].index);
       }
       s = e;
     }
