@@ -195,12 +195,29 @@ parseInput(const Reader& r, const YAML::Node& node)
   return input;
 }
 
+/** The `--set STAGE.KEY=VALUE` of \a overrides that set \a key of stage \a type (the
+ * last one), or empty. */
+std::string
+overrideOf(const std::vector<std::string>& overrides,
+           const std::string& type,
+           const std::string& key)
+{
+  std::string found;
+  const std::string prefix = type + "." + key + "=";
+  for (const auto& assignment : overrides)
+    if (assignment.compare(0, prefix.size(), prefix) == 0)
+      found = assignment;
+  return found;
+}
+
 /** Applies sharedStageParams(): a key the taking stage leaves out takes the other
- * stage's value; two values set apart are an error at the taking stage's key. */
+ * stage's value; two values set apart are an error at the taking stage's key (at its
+ * `--set` when \a overrides set it: its node's place is not in the file). */
 void
 shareStageParams(const YamlReader& r,
                  const YAML::Node& stage_nodes,
-                 std::vector<StageConfig>& stages)
+                 std::vector<StageConfig>& stages,
+                 const std::vector<std::string>& overrides)
 {
   const auto find = [&stages](const std::string& type) -> std::ptrdiff_t {
     for (std::size_t i = 0; i < stages.size(); ++i)
@@ -228,16 +245,22 @@ shareStageParams(const YamlReader& r,
     if (std::abs(to_value - from_value) > 1e-9 * std::max(1.0, std::abs(from_value))) {
       const bool from_set =
         from_params && from_params.IsMap() && from_params[shared.from_key];
-      r.fail(
-        to_params[shared.key],
+      const std::string from_override =
+        overrideOf(overrides, shared.from_stage, shared.from_key);
+      const std::string message =
         shared.stage + ": " + shared.key + " " + to_stage.params.toString(shared.key)
-          + " differs from " + shared.from_stage + "'s " + shared.from_key + " "
-          + from_stage.params.toString(shared.from_key)
-          + (from_set
-               ? " (line "
-                   + std::to_string(from_params[shared.from_key].Mark().line + 1) + ")"
-               : " (its default)")
-          + ": " + shared.reason);
+        + " differs from " + shared.from_stage + "'s " + shared.from_key + " "
+        + from_stage.params.toString(shared.from_key)
+        + (!from_override.empty() ? " (--set " + from_override + ")"
+           : from_set
+             ? " (line " + std::to_string(from_params[shared.from_key].Mark().line + 1)
+                 + ")"
+             : " (its default)")
+        + ": " + shared.reason;
+      const std::string to_override = overrideOf(overrides, shared.stage, shared.key);
+      if (!to_override.empty())
+        throw ConfigError("--set " + to_override, 0, 0, message);
+      r.fail(to_params[shared.key], message);
     }
   }
 }
@@ -367,7 +390,10 @@ checkDataFlow(const Reader& r,
 }
 
 PipelineConfig
-parseRoot(const YAML::Node& root, const std::string& source, const std::string& base)
+parseRoot(const YAML::Node& root,
+          const std::string& source,
+          const std::string& base,
+          const std::vector<std::string>& overrides)
 {
   const Reader r(source, base);
   if (!root || root.IsNull())
@@ -436,7 +462,7 @@ parseRoot(const YAML::Node& root, const std::string& source, const std::string& 
     config.stages.push_back(std::move(sc));
   }
   checkDataFlow(r, stages, config);
-  shareStageParams(r, stages, config.stages);
+  shareStageParams(r, stages, config.stages, overrides);
 
   if (const YAML::Node output = root["output"])
     config.output = parseOutput(r, output, config.input);
@@ -580,7 +606,7 @@ parsePipelineConfig(const std::string& yaml_text,
     for (const auto& assignment : overrides)
       applyOverride(root, assignment);
   try {
-    return parseRoot(root, source_name, base_folder);
+    return parseRoot(root, source_name, base_folder, overrides);
   } catch (const YAML::Exception& e) {
     // A conversion the schema checks did not foresee (found by fuzz_pipeline_config):
     // still an error at the node's line:col, never a yaml-cpp exception.

@@ -861,6 +861,33 @@ TEST(PipelineConfig, TheCellsAndTheMapShareTheMinimumCell)
   const auto t =
     errorOf(head + "  - type: map_integration\n    params: {thickness_m: 0.3}\n");
   EXPECT_NE(std::string(t.what()).find("thickness_m"), std::string::npos) << t.what();
+  // A value given by --set has no place in the file: the error names the --set, on
+  // either side.
+  const auto setError = [&](const std::string& map_stage,
+                            const std::vector<std::string>& overrides) {
+    try {
+      parsePipelineConfig(head + map_stage, "t", "/", overrides);
+    } catch (const planar_grid::ConfigError& error) {
+      return error;
+    }
+    ADD_FAILURE() << "accepted";
+    return planar_grid::ConfigError("", 0, 0, "");
+  };
+  const auto by_set =
+    setError("  - type: map_integration\n", {"map_integration.resolution_m=0.1"});
+  EXPECT_EQ(by_set.file(), "--set map_integration.resolution_m=0.1");
+  EXPECT_EQ(by_set.line(), 0);
+  EXPECT_NE(std::string(by_set.what()).find("min_cell_size_m 0.2 (line 9)"),
+            std::string::npos)
+    << by_set.what();
+  const auto against_set =
+    setError("  - type: map_integration\n    params:\n      resolution_m: 0.2\n",
+             {"planar_cuboid_approximation.min_cell_size_m=0.3"});
+  EXPECT_EQ(against_set.line(), 12);
+  EXPECT_NE(std::string(against_set.what())
+              .find("(--set planar_cuboid_approximation.min_cell_size_m=0.3)"),
+            std::string::npos)
+    << against_set.what();
 }
 
 TEST(PipelineConfig, EveryShippedConfigLoads)
