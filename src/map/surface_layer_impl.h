@@ -255,35 +255,33 @@ binOf(const Eigen::Vector3f& p, float bin)
   return (p / bin).cast<double>().array().floor();
 }
 
-/** \brief True when the bounding box of \a c grown by \a grow (meters) meets more
- * than MAX_BINS_PER_CUBOID bins of edge \a bin (meters). */
-inline bool
-spansTooManyBins(const PlanarCuboid& c, float grow, float bin)
+/** \brief The bins of edge \a bin (meters) that the bounding box of \a c grown by
+ * \a grow (meters) meets: indices \a first to \a last per axis. */
+inline void
+binRange(const PlanarCuboid& c,
+         float grow,
+         float bin,
+         Eigen::Vector3d& first,
+         Eigen::Vector3d& last)
 {
   Eigen::Vector3f lo, hi;
   cuboidBounds(c, lo, hi);
   lo.array() -= grow;
   hi.array() += grow;
-  const Eigen::Vector3d a = binOf(lo, bin);
-  const Eigen::Vector3d b = binOf(hi, bin);
-  return !((b - a + Eigen::Vector3d::Ones()).prod() <= MAX_BINS_PER_CUBOID);
+  first = binOf(lo, bin);
+  last = binOf(hi, bin);
 }
 
-/** \brief Calls f(bin key) for the bins of edge \a bin (meters) that the bounding
- * box of \a c grown by \a grow (meters) meets; returns false (nothing called) when
- * they exceed MAX_BINS_PER_CUBOID (spansTooManyBins()). */
+/** \brief Calls f(bin key) for the bins of binRange(); returns false (nothing called)
+ * when they exceed MAX_BINS_PER_CUBOID. */
 template <typename F>
 bool
 forEachBin(const PlanarCuboid& c, float grow, float bin, F f)
 {
-  Eigen::Vector3f lo, hi;
-  if (spansTooManyBins(c, grow, bin))
+  Eigen::Vector3d a, b;
+  binRange(c, grow, bin, a, b);
+  if (!((b - a + Eigen::Vector3d::Ones()).prod() <= MAX_BINS_PER_CUBOID))
     return false;
-  cuboidBounds(c, lo, hi);
-  lo.array() -= grow;
-  hi.array() += grow;
-  const Eigen::Vector3d a = binOf(lo, bin);
-  const Eigen::Vector3d b = binOf(hi, bin);
   for (auto x = static_cast<std::int64_t>(a.x()); x <= static_cast<std::int64_t>(b.x());
        ++x)
     for (auto y = static_cast<std::int64_t>(a.y());
@@ -364,13 +362,11 @@ binCuboidsNearHot(const PlanarCuboids& cuboids,
     if (!((c_hi.array() + grow >= lo.array()).all()
           && (c_lo.array() - grow <= hi.array()).all()))
       continue;
-    if (spansTooManyBins(cuboids[k], grow, bin))
+    if (!forEachBin(cuboids[k], grow, bin, [&](std::uint64_t key) {
+          if (std::binary_search(reached.begin(), reached.end(), key))
+            bins.emplace_back(key, index);
+        }))
       large.push_back(index);
-    else
-      forEachBin(cuboids[k], grow, bin, [&](std::uint64_t key) {
-        if (std::binary_search(reached.begin(), reached.end(), key))
-          bins.emplace_back(key, index);
-      });
   }
   // by key, then by index within a key, as binCuboids()
   std::sort(bins.begin(), bins.end(), [](const BinEntry& a, const BinEntry& b) {

@@ -132,10 +132,8 @@ SurfaceLayer::absorbOverlappingPlaneCells()
     // bin.
     std::vector<Eigen::Vector3d> low_bin(planar.size());
     for (const BinEntry& entry : bins) {
-      Eigen::Vector3f lo, hi;
-      cuboidBounds(planar[entry.index], lo, hi);
-      lo.array() -= along_parallel;
-      low_bin[entry.index] = binOf(lo, bin);
+      Eigen::Vector3d last;
+      binRange(planar[entry.index], along_parallel, bin, low_bin[entry.index], last);
     }
     const auto firstShared = [&](std::uint32_t x, std::uint32_t y, std::uint64_t key) {
       const Eigen::Vector3d first = low_bin[x].cwiseMax(low_bin[y]);
