@@ -599,8 +599,11 @@ public:
         out.push_back(std::move(frame.planes[k]));
         continue;
       }
+      // the inliers leave the whole plane, whose other fields each tile's plane copies
+      const std::vector<int> inliers = std::move(frame.planes[k].inliers.indices);
+      frame.planes[k].inliers.indices.clear();
       std::map<std::pair<std::int64_t, std::int64_t>, std::vector<int>> tiles;
-      for (const int i : frame.planes[k].inliers.indices) {
+      for (const int i : inliers) {
         // the map's tiles (SurfaceLayer::Params::terrain_plane_tile_m): world x, y
         const auto& p = cloud[static_cast<std::size_t>(i)];
         tiles[{static_cast<std::int64_t>(std::floor(static_cast<double>(p.x) / tile_m)),
