@@ -169,19 +169,19 @@ def _declare_annotated_attributes(path, module_name):
 
 
 def _written_stub(argv):
-    """The stub file stubgen writes for `-m MODULE -o DIR`, or None."""
+    """The module and the stub file stubgen writes for `-m MODULE -o DIR`, or None."""
     try:
         module = argv[argv.index("-m") + 1]
         folder = argv[argv.index("-o") + 1]
     except (ValueError, IndexError):
         return None
-    return os.path.join(folder, *module.split(".")) + ".pyi"
+    return module, os.path.join(folder, *module.split(".")) + ".pyi"
 
 
 if __name__ == "__main__":
     status = main()
-    stub = _written_stub(sys.argv)
-    if not status and stub and os.path.exists(stub):
-        _array_like_parameters(stub)
-        _declare_annotated_attributes(stub, sys.argv[sys.argv.index("-m") + 1])
+    written = _written_stub(sys.argv)
+    if not status and written and os.path.exists(written[1]):
+        _array_like_parameters(written[1])
+        _declare_annotated_attributes(written[1], written[0])
     sys.exit(status)
