@@ -427,6 +427,11 @@ measureLane(Lane& lane,
     evaluatePlanePrecision(cuboids, thres, r, truth, truth_region);
   pg.plane_area_m2 = precision.face_area_m2;
   pg.plane_precision = precision.ratio();
+  if (precision.face_area_m2 > 0.0) {
+    pg.plane_no_truth_share = precision.no_truth_area_m2 / precision.face_area_m2;
+    pg.plane_not_surface_share = precision.not_surface_area_m2 / precision.face_area_m2;
+    pg.plane_misoriented_share = precision.misoriented_area_m2 / precision.face_area_m2;
+  }
   lane.plane_precision_ms += msSince(precision_start);
 
   std::vector<ComparisonRow> rows{sg, og, ra, pg};
@@ -691,6 +696,16 @@ runComparison(const ComparisonConfig& config,
       lane.pipeline->finish();
     if (!truth)
       truth = buildTruth(ds, first_frame, reference, truth_kind);
+    if (config.save_maps) {
+      std::error_code ec;
+      fs::create_directories(config.output_folder, ec);
+      const std::string truth_file =
+        (fs::path(config.output_folder) / ("truth_" + ds.name + ".pcd")).string();
+      if (pcl::io::savePCDFileBinaryCompressed(truth_file, *truth->getPoints()) != 0)
+        throw IOError(truth_file + ": cannot write the truth points");
+      if (progress)
+        progress(ds.name + ": " + truth_kind + " points in " + truth_file);
+    }
 
     // The whole map after the last frame; times are means per frame.
     for (auto& lane : lanes) {
@@ -744,7 +759,10 @@ runComparison(const ComparisonConfig& config,
              << sg.range_nonground_completeness << "); own error SG " << sg.own_error
              << ", OG " << measured[1].own_error << ", RA " << measured[2].own_error
              << ", PG " << pg.own_error << "; PG plane precision " << pg.plane_precision
-             << " (of " << pg.plane_area_m2 << " m2); completeness measured in "
+             << " (of " << pg.plane_area_m2 << " m2; no truth "
+             << pg.plane_no_truth_share << ", not a surface "
+             << pg.plane_not_surface_share << ", misoriented "
+             << pg.plane_misoriented_share << "); completeness measured in "
              << std::setprecision(2) << lane.completeness_ms / 1000.0
              << " s, plane precision in " << lane.plane_precision_ms / 1000.0 << " s";
         if (!saved.empty())

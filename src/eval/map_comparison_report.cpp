@@ -39,7 +39,8 @@ saveComparisonCsv(const std::vector<ComparisonRow>& rows, const std::string& pat
          "map_completeness,map_covered_voxels,mapped_range_m,range_nonground_voxels,"
          "range_nonground_covered_voxels,range_nonground_completeness,"
          "range_planar_covered_voxels,range_planar_share,own_error,plane_precision,"
-         "plane_area_m2\n";
+         "plane_area_m2,plane_no_truth_share,plane_not_surface_share,"
+         "plane_misoriented_share\n";
   out << std::setprecision(10);
   // NaN (no truth voxels or samples; the planar share and plane precision of SG, OG
   // and RA) is an empty field, as are PG's planar counts and face area in the other
@@ -70,7 +71,9 @@ saveComparisonCsv(const std::vector<ComparisonRow>& rows, const std::string& pat
         << (pg ? std::to_string(r.range_planar_covered_voxels) : std::string()) << ","
         << ratio(r.range_planar_share) << "," << ratio(r.own_error) << ","
         << ratio(r.plane_precision) << ","
-        << (pg ? ratio(r.plane_area_m2) : std::string()) << "\n";
+        << (pg ? ratio(r.plane_area_m2) : std::string()) << ","
+        << ratio(r.plane_no_truth_share) << "," << ratio(r.plane_not_surface_share)
+        << "," << ratio(r.plane_misoriented_share) << "\n";
   }
   writeTextFileAtomically(path, out.str());
 }

@@ -23,17 +23,20 @@ namespace {
  * covariance for its points to span a surface rather than a line. */
 constexpr double MIN_MIDDLE_EIGENVALUE_RATIO = 1e-6;
 
+/** \brief What the truth around a face sample is. */
+enum class TruthSurface { NONE, NOT_A_SURFACE, SURFACE };
+
 /** \brief The unit PCA normal of the truth points \a indices (the eigenvector of the
- * smallest eigenvalue of their covariance), or false when they are too few or do not
- * form a surface (on a line, or the smallest eigenvalue not clearly below the middle
- * one). */
-bool
+ * smallest eigenvalue of their covariance) with SURFACE; NONE when they are too few,
+ * NOT_A_SURFACE when they do not form a surface (on a line, or the smallest eigenvalue
+ * not clearly below the middle one). */
+TruthSurface
 surfaceNormal(const GroundTruthSurface::PointCloud& points,
               const pcl::Indices& indices,
               Eigen::Vector3d& normal)
 {
   if (indices.size() < PLANE_PRECISION_MIN_POINTS)
-    return false;
+    return TruthSurface::NONE;
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (const auto i : indices)
     mean += points[static_cast<std::size_t>(i)].getVector3fMap().cast<double>();
@@ -48,15 +51,15 @@ surfaceNormal(const GroundTruthSurface::PointCloud& points,
   // Eigen sorts the eigenvalues of a self-adjoint matrix in increasing order.
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
   if (solver.info() != Eigen::Success)
-    return false;
+    return TruthSurface::NOT_A_SURFACE;
   const Eigen::Vector3d& eigenvalues = solver.eigenvalues();
   // Points on a line leave the two smaller eigenvalues at rounding noise, whose ratio
   // means nothing: the middle one must be a real spread next to the largest.
   if (!(eigenvalues(1) > MIN_MIDDLE_EIGENVALUE_RATIO * eigenvalues(2))
       || !(eigenvalues(0) < PLANE_PRECISION_MAX_EIGENVALUE_RATIO * eigenvalues(1)))
-    return false;
+    return TruthSurface::NOT_A_SURFACE;
   normal = solver.eigenvectors().col(0);
-  return true;
+  return TruthSurface::SURFACE;
 }
 
 } // namespace
@@ -74,6 +77,7 @@ evaluatePlanePrecision(const PlanarCuboids& cuboids,
                     "[0, 1], got "
                     + std::to_string(occupancy_thres));
   const double radius_m = std::max(2.0 * resolution_m, PLANE_PRECISION_MIN_RADIUS_M);
+  const double max_radius_m = std::max(radius_m, PLANE_PRECISION_MAX_RADIUS_M);
   const double min_cos = std::cos(PLANE_PRECISION_MAX_ANGLE_DEG * M_PI / 180.0);
   const GroundTruthSurface::PointCloudConstPtr points = truth.getPoints();
   PlanePrecision precision;
@@ -106,12 +110,33 @@ evaluatePlanePrecision(const PlanarCuboids& cuboids,
           continue;
         ++precision.samples;
         precision.face_area_m2 += sample_area_m2;
-        truth.radiusSearch(sample, radius_m, indices);
+        // A stereo reference is as thick as its depth noise: where its points do not
+        // form a surface in the first neighbourhood, wider ones (doubling) are asked
+        // before the sample is called not a surface.
         Eigen::Vector3d normal;
-        if (surfaceNormal(*points, indices, normal)
-            && std::abs(normal.dot(cell_normal)) >= min_cos) {
-          ++precision.precise_samples;
-          precision.precise_area_m2 += sample_area_m2;
+        truth.radiusSearch(sample, radius_m, indices);
+        TruthSurface found = surfaceNormal(*points, indices, normal);
+        for (double wider_m = 2.0 * radius_m;
+             found == TruthSurface::NOT_A_SURFACE && wider_m <= max_radius_m;
+             wider_m *= 2.0) {
+          truth.radiusSearch(sample, wider_m, indices);
+          found = surfaceNormal(*points, indices, normal);
+        }
+        switch (found) {
+          case TruthSurface::NONE:
+            precision.no_truth_area_m2 += sample_area_m2;
+            break;
+          case TruthSurface::NOT_A_SURFACE:
+            precision.not_surface_area_m2 += sample_area_m2;
+            break;
+          case TruthSurface::SURFACE:
+            if (std::abs(normal.dot(cell_normal)) >= min_cos) {
+              ++precision.precise_samples;
+              precision.precise_area_m2 += sample_area_m2;
+            } else {
+              precision.misoriented_area_m2 += sample_area_m2;
+            }
+            break;
         }
       }
     }

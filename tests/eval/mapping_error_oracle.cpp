@@ -109,8 +109,9 @@ oraclePlanePrecision(const pcl::PointCloud<pcl::PointXYZ>& truth,
                      double r,
                      const MappingErrorRegion& region)
 {
-  const float radius =
-    static_cast<float>(std::max(2.0 * r, planar_grid::PLANE_PRECISION_MIN_RADIUS_M));
+  const double first_radius =
+    std::max(2.0 * r, planar_grid::PLANE_PRECISION_MIN_RADIUS_M);
+  const double max_radius = planar_grid::PLANE_PRECISION_MAX_RADIUS_M;
   const double min_cos = std::cos(20.0 * M_PI / 180.0);
   PlanePrecision out;
   for (const auto& c : cuboids) {
@@ -132,29 +133,49 @@ oraclePlanePrecision(const pcl::PointCloud<pcl::PointXYZ>& truth,
           continue;
         ++out.samples;
         out.face_area_m2 += area;
-        std::vector<Eigen::Vector3d> near;
-        for (const auto& p : truth.points)
-          if ((p.getVector3fMap() - sample).squaredNorm() <= radius * radius)
-            near.push_back(p.getVector3fMap().cast<double>());
-        if (near.size() < 5)
-          continue;
-        Eigen::MatrixXd centred(static_cast<Eigen::Index>(near.size()), 3);
-        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-        for (const auto& p : near)
-          mean += p / static_cast<double>(near.size());
-        for (std::size_t k = 0; k < near.size(); ++k)
-          centred.row(static_cast<Eigen::Index>(k)) = (near[k] - mean).transpose();
-        // Singular values come in decreasing order: s(0) >= s(1) >= s(2).
-        const Eigen::JacobiSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinV);
-        const Eigen::Vector3d s = svd.singularValues();
-        if (!(s(1) * s(1) > 1e-6 * s(0) * s(0))
-            || !(s(2) * s(2)
-                 < planar_grid::PLANE_PRECISION_MAX_EIGENVALUE_RATIO * s(1) * s(1)))
-          continue;
-        const Eigen::Vector3d normal = svd.matrixV().col(2);
-        if (std::abs(normal.dot(c.normal.cast<double>().normalized())) >= min_cos) {
+        // 0: no truth, 1: not a surface, 2: a surface (normal set)
+        int found = 1;
+        Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+        for (double radius = first_radius;
+             found == 1 && radius <= std::max(first_radius, max_radius);
+             radius *= 2.0) {
+          std::vector<Eigen::Vector3d> near;
+          for (const auto& p : truth.points)
+            if ((p.getVector3fMap().cast<double>() - sample.cast<double>())
+                  .squaredNorm()
+                <= radius * radius)
+              near.push_back(p.getVector3fMap().cast<double>());
+          if (near.size() < 5) {
+            // only the first neighbourhood decides that there is no truth
+            found = radius == first_radius ? 0 : 1;
+            break;
+          }
+          Eigen::MatrixXd centred(static_cast<Eigen::Index>(near.size()), 3);
+          Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+          for (const auto& p : near)
+            mean += p / static_cast<double>(near.size());
+          for (std::size_t k = 0; k < near.size(); ++k)
+            centred.row(static_cast<Eigen::Index>(k)) = (near[k] - mean).transpose();
+          // Singular values come in decreasing order: s(0) >= s(1) >= s(2).
+          const Eigen::JacobiSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinV);
+          const Eigen::Vector3d s = svd.singularValues();
+          if (s(1) * s(1) > 1e-6 * s(0) * s(0)
+              && s(2) * s(2)
+                   < planar_grid::PLANE_PRECISION_MAX_EIGENVALUE_RATIO * s(1) * s(1)) {
+            found = 2;
+            normal = svd.matrixV().col(2);
+          }
+        }
+        if (found == 0) {
+          out.no_truth_area_m2 += area;
+        } else if (found == 1) {
+          out.not_surface_area_m2 += area;
+        } else if (std::abs(normal.dot(c.normal.cast<double>().normalized()))
+                   >= min_cos) {
           ++out.precise_samples;
           out.precise_area_m2 += area;
+        } else {
+          out.misoriented_area_m2 += area;
         }
       }
   }

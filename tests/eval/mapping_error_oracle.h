@@ -58,10 +58,13 @@ std::vector<OracleBox> oracleCuboids(const PlanarCuboids& cuboids, bool planar_o
 
 /** \brief Brute-force plane precision: the face samples of the occupied planar
  * cuboids (probability >= 0.5) on the lattice of evaluatePlanePrecision(), each
- * precise when the points of \a truth within max(2 r, 0.2 m) of it (a linear scan)
- * number >= 5, the squared singular values s0 <= s1 <= s2 of their centred matrix
- * satisfy s0 < 0.25 s1 and s1 > 1e-6 s2, and the singular vector of s0 is within 20
- * degrees of the cuboid's normal (either sign). */
+ * precise when the points of \a truth within max(2 r, PLANE_PRECISION_MIN_RADIUS_M)
+ * of it (a linear scan) number >= 5 and, in that radius or the first of its doublings
+ * up to PLANE_PRECISION_MAX_RADIUS_M where they do, the squared singular values
+ * s0 <= s1 <= s2 of their centred matrix satisfy s0 <
+ * PLANE_PRECISION_MAX_EIGENVALUE_RATIO s1 and s1 > 1e-6 s2, and the singular vector
+ * of s0 is within 20 degrees of the cuboid's normal (either sign); the imprecise area
+ * by cause as evaluatePlanePrecision() gives it. */
 PlanePrecision oraclePlanePrecision(const pcl::PointCloud<pcl::PointXYZ>& truth,
                                     const PlanarCuboids& cuboids,
                                     double r,

@@ -228,6 +228,10 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
     EXPECT_GT(pg.plane_area_m2, 0.0) << r;
     EXPECT_GT(pg.plane_precision, 0.9) << r;
     EXPECT_LE(pg.plane_precision, 1.0) << r;
+    EXPECT_NEAR(pg.plane_precision + pg.plane_no_truth_share
+                  + pg.plane_not_surface_share + pg.plane_misoriented_share,
+                1.0, 1e-9)
+      << r;
     for (const auto* row : {&sg, &og, &ra})
       EXPECT_TRUE(std::isnan(row->plane_precision)) << row->method;
     EXPECT_GT(pg.planar_samples, 0u);
@@ -313,7 +317,9 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
                            "map_covered_voxels,mapped_range_m,range_nonground_voxels,"
                            "range_nonground_covered_voxels,"
                            "range_nonground_completeness,range_planar_covered_voxels,"
-                           "range_planar_share,own_error,plane_precision,plane_area_m2";
+                           "range_planar_share,own_error,plane_precision,plane_area_m2,"
+                           "plane_no_truth_share,plane_not_surface_share,"
+                           "plane_misoriented_share";
   ASSERT_GE(header.size(), tail.size());
   EXPECT_EQ(header.substr(header.size() - tail.size()), tail);
   int lines = 0;
@@ -325,7 +331,7 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
       fields.push_back(field);
     if (line.back() == ',')
       fields.emplace_back();
-    ASSERT_EQ(fields.size(), 39u) << line;
+    ASSERT_EQ(fields.size(), 42u) << line;
     const bool pg = fields[4] == "PG";
     if (pg) {
       EXPECT_FALSE(fields[20].empty()) << line;
@@ -348,6 +354,15 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
     EXPECT_EQ(fields[36], "0") << line;
     EXPECT_EQ(fields[37].empty(), !pg) << line;
     EXPECT_EQ(fields[38].empty(), !pg) << line;
+    // PG's imprecise face area by cause: the shares sum to 1 - plane_precision.
+    for (int f = 39; f < 42; ++f)
+      EXPECT_EQ(fields[static_cast<std::size_t>(f)].empty(), !pg) << line;
+    if (pg) {
+      EXPECT_NEAR(std::stod(fields[37]) + std::stod(fields[39]) + std::stod(fields[40])
+                    + std::stod(fields[41]),
+                  1.0, 1e-6)
+        << line;
+    }
   }
   EXPECT_EQ(lines, 8);
   const std::string md = planar_grid::comparisonMarkdown(rows);

@@ -100,9 +100,8 @@ TEST(PlanePrecision, CellOnAFlatWallIsPrecise)
 TEST(PlanePrecision, TiltedCellOrCellInEmptySpaceIsNotPrecise)
 {
   const GroundTruthSurface truth(wallPoints());
-  // Turned 45 degrees about the vertical through the wall: every face sample near the
-  // wall sees its normal at 45 degrees, the others (more than 0.2 m from it) no
-  // points at all.
+  // Turned 45 degrees about the vertical through the wall: every face sample sees the
+  // wall's normal at 45 degrees.
   const float a45 = 0.25f * static_cast<float>(M_PI);
   PlanarCuboids tilted{planarCell(Eigen::Vector3f(1.0f, 1.0f, 1.0f),
                                   Eigen::Vector3f(-std::cos(a45), std::sin(a45), 0.0f),
@@ -114,6 +113,11 @@ TEST(PlanePrecision, TiltedCellOrCellInEmptySpaceIsNotPrecise)
   EXPECT_EQ(p.precise_samples, 0u);
   EXPECT_NEAR(p.face_area_m2, 0.8, AREA_TOLERANCE);
   EXPECT_DOUBLE_EQ(p.ratio(), 0.0);
+  // By cause: every sample lies within 0.36 m of the wall, inside its 0.4 m
+  // neighbourhood, and sees the wall's normal 45 degrees off.
+  EXPECT_NEAR(p.misoriented_area_m2, 0.8, AREA_TOLERANCE);
+  EXPECT_DOUBLE_EQ(p.no_truth_area_m2, 0.0);
+  EXPECT_DOUBLE_EQ(p.not_surface_area_m2, 0.0);
   // 1 m in front of the wall, parallel to it: no truth point within 0.2 m.
   PlanarCuboids empty_space{planarCell(Eigen::Vector3f(0.0f, 1.0f, 1.0f),
                                        -Eigen::Vector3f::UnitX(),
@@ -122,6 +126,8 @@ TEST(PlanePrecision, TiltedCellOrCellInEmptySpaceIsNotPrecise)
   EXPECT_EQ(p.samples, 80u);
   EXPECT_EQ(p.precise_samples, 0u);
   EXPECT_DOUBLE_EQ(p.ratio(), 0.0);
+  EXPECT_NEAR(p.no_truth_area_m2, 0.8, AREA_TOLERANCE);
+  EXPECT_DOUBLE_EQ(p.misoriented_area_m2, 0.0);
 }
 
 TEST(PlanePrecision, MixturesWeighByFaceArea)
@@ -188,10 +194,14 @@ TEST(PlanePrecision, NeedsASurfaceOfEnoughPoints)
   for (int j = 0; j <= 100; ++j)
     line->push_back(pcl::PointXYZ(1.0f, 0.02f * static_cast<float>(j), 1.0f));
   PlanarCuboids cells{cellOnWall()};
-  EXPECT_DOUBLE_EQ(planar_grid::evaluatePlanePrecision(cells, 0.5, RESOLUTION_M,
-                                                       GroundTruthSurface(line))
-                     .ratio(),
-                   0.0);
+  const PlanePrecision on_line = planar_grid::evaluatePlanePrecision(
+    cells, 0.5, RESOLUTION_M, GroundTruthSurface(line));
+  EXPECT_DOUBLE_EQ(on_line.ratio(), 0.0);
+  // Every sample lies within 0.4 m of the line and sees points that are no surface,
+  // in every neighbourhood up to PLANE_PRECISION_MAX_RADIUS_M.
+  EXPECT_NEAR(on_line.not_surface_area_m2, 0.8, AREA_TOLERANCE);
+  EXPECT_DOUBLE_EQ(on_line.no_truth_area_m2, 0.0);
+  EXPECT_DOUBLE_EQ(on_line.misoriented_area_m2, 0.0);
   Cloud::Ptr four(new Cloud);
   for (const float y : {0.95f, 1.05f})
     for (const float z : {0.95f, 1.05f})
@@ -232,51 +242,114 @@ TEST(PlanePrecision, DegenerateInputAndBadArguments)
     planar_grid::Exception);
 }
 
+/** \brief A wall x = 0 over y, z in [-2, 2] m sampled every 0.05 m, each point
+ * scattered across the wall by a normal distribution of \a sigma_m (a multi-view
+ * stereo reference is as thick as its depth noise). */
+Cloud::Ptr
+thickWall(float sigma_m)
+{
+  std::mt19937 rng(3);
+  std::normal_distribution<float> across(0.0f, sigma_m);
+  Cloud::Ptr wall(new Cloud);
+  for (int j = -40; j <= 40; ++j)
+    for (int i = -40; i <= 40; ++i)
+      for (int layer = 0; layer < 2; ++layer)
+        wall->push_back(pcl::PointXYZ(across(rng), 0.05f * static_cast<float>(i),
+                                      0.05f * static_cast<float>(j)));
+  return wall;
+}
+
+TEST(PlanePrecision, ThickReferenceOfAWallIsStillAWall)
+{
+  // Scattered 0.2 m across, the wall's points within 0.4 m of a face sample are no
+  // surface (smallest to middle eigenvalue about 0.6); within 0.8 m they are (0.3).
+  const GroundTruthSurface truth(thickWall(0.2f));
+  PlanarCuboids on_wall{planarCell(Eigen::Vector3f::Zero(), -Eigen::Vector3f::UnitX(),
+                                   Eigen::Vector3f::UnitY(), 1.0f, 1.0f)};
+  PlanePrecision p = planar_grid::evaluatePlanePrecision(on_wall, 0.5, 0.1, truth);
+  EXPECT_GT(p.ratio(), 0.95);
+  EXPECT_LT(p.not_surface_area_m2, 0.05);
+  // Turned 45 degrees, the same cell meets the wall's normal: misoriented, not
+  // "not a surface".
+  const float a45 = 0.25f * static_cast<float>(M_PI);
+  PlanarCuboids turned{planarCell(
+    Eigen::Vector3f::Zero(), Eigen::Vector3f(-std::cos(a45), std::sin(a45), 0.0f),
+    Eigen::Vector3f(std::sin(a45), std::cos(a45), 0.0f), 0.6f, 1.0f)};
+  p = planar_grid::evaluatePlanePrecision(turned, 0.5, 0.1, truth);
+  EXPECT_DOUBLE_EQ(p.ratio(), 0.0);
+  EXPECT_GT(p.misoriented_area_m2, 0.9 * p.face_area_m2);
+  // A cube of uniformly scattered points (a canopy, clutter) is no surface at any
+  // radius: the cell in it is not precise, whatever its normal.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> inside(-2.0f, 2.0f);
+  Cloud::Ptr canopy(new Cloud);
+  for (int k = 0; k < 40000; ++k)
+    canopy->push_back(pcl::PointXYZ(inside(rng), inside(rng), inside(rng)));
+  p =
+    planar_grid::evaluatePlanePrecision(on_wall, 0.5, 0.1, GroundTruthSurface(canopy));
+  EXPECT_DOUBLE_EQ(p.ratio(), 0.0);
+  EXPECT_NEAR(p.not_surface_area_m2, p.face_area_m2, AREA_TOLERANCE);
+}
+
 TEST(PlanePrecision, MatchesTheBruteForceOracle)
 {
   // A room corner: the floor z = 0 and the wall x = 0 over [0, 2] m, every 0.04 m,
-  // with 5 mm of noise; random planar cells near it, facing the floor's or the wall's
-  // normal turned by up to 40 degrees, at two cell sizes (neighbourhood radii 0.4 m
-  // and 0.5 m).
-  std::mt19937 rng(7);
-  std::normal_distribution<float> noise(0.0f, 0.005f);
-  Cloud::Ptr corner(new Cloud);
-  for (int j = 0; j <= 50; ++j)
-    for (int i = 0; i <= 50; ++i) {
-      const float s = 0.04f * static_cast<float>(i), t = 0.04f * static_cast<float>(j);
-      corner->push_back(pcl::PointXYZ(s, t, noise(rng)));
-      corner->push_back(pcl::PointXYZ(noise(rng), s, t));
+  // with 5 mm of noise, then with 0.15 m (a thick reference: the wider
+  // neighbourhoods decide); random planar cells near it, facing the floor's or the
+  // wall's normal turned by up to 40 degrees, at two cell sizes (neighbourhood radii
+  // from 0.4 m and 0.5 m).
+  for (const float sigma_m : {0.005f, 0.15f}) {
+    std::mt19937 rng(7);
+    std::normal_distribution<float> noise(0.0f, sigma_m);
+    Cloud::Ptr corner(new Cloud);
+    for (int j = 0; j <= 50; ++j)
+      for (int i = 0; i <= 50; ++i) {
+        const float s = 0.04f * static_cast<float>(i),
+                    t = 0.04f * static_cast<float>(j);
+        corner->push_back(pcl::PointXYZ(s, t, noise(rng)));
+        corner->push_back(pcl::PointXYZ(noise(rng), s, t));
+      }
+    const GroundTruthSurface truth(corner);
+    std::uniform_real_distribution<float> position(0.0f, 2.0f);
+    std::uniform_real_distribution<float> extent(0.1f, 0.7f);
+    std::uniform_real_distribution<float> turn(-0.7f, 0.7f); // about 40 degrees
+    std::uniform_int_distribution<int> which(0, 1);
+    PlanarCuboids cells;
+    for (int k = 0; k < 40; ++k) {
+      const bool wall = which(rng) == 1;
+      const Eigen::Vector3f base =
+        wall ? Eigen::Vector3f::UnitX() : Eigen::Vector3f::UnitZ();
+      const Eigen::Vector3f axis =
+        wall ? Eigen::Vector3f::UnitZ() : Eigen::Vector3f::UnitX();
+      const Eigen::Vector3f normal =
+        Eigen::AngleAxisf(turn(rng), Eigen::Vector3f::UnitY()) * base;
+      const Eigen::Vector3f horizontal = normal.cross(axis).normalized();
+      Eigen::Vector3f face(position(rng), position(rng), position(rng));
+      face[wall ? 0 : 2] = 0.3f * position(rng) - 0.1f; // within about 0.5 m of it
+      cells.push_back(planarCell(face, normal, horizontal, extent(rng), extent(rng)));
     }
-  const GroundTruthSurface truth(corner);
-  std::uniform_real_distribution<float> position(0.0f, 2.0f);
-  std::uniform_real_distribution<float> extent(0.1f, 0.7f);
-  std::uniform_real_distribution<float> turn(-0.7f, 0.7f); // about 40 degrees
-  std::uniform_int_distribution<int> which(0, 1);
-  PlanarCuboids cells;
-  for (int k = 0; k < 40; ++k) {
-    const bool wall = which(rng) == 1;
-    const Eigen::Vector3f base =
-      wall ? Eigen::Vector3f::UnitX() : Eigen::Vector3f::UnitZ();
-    const Eigen::Vector3f axis =
-      wall ? Eigen::Vector3f::UnitZ() : Eigen::Vector3f::UnitX();
-    const Eigen::Vector3f normal =
-      Eigen::AngleAxisf(turn(rng), Eigen::Vector3f::UnitY()) * base;
-    const Eigen::Vector3f horizontal = normal.cross(axis).normalized();
-    Eigen::Vector3f face(position(rng), position(rng), position(rng));
-    face[wall ? 0 : 2] = 0.3f * position(rng) - 0.1f; // within about 0.5 m of it
-    cells.push_back(planarCell(face, normal, horizontal, extent(rng), extent(rng)));
-  }
-  for (const double r : {0.1, 0.25}) {
-    const PlanePrecision p = planar_grid::evaluatePlanePrecision(cells, 0.5, r, truth);
-    const PlanePrecision oracle =
-      planar_grid::test::oraclePlanePrecision(*corner, cells, r);
-    EXPECT_EQ(p.samples, oracle.samples) << r;
-    EXPECT_EQ(p.precise_samples, oracle.precise_samples) << r;
-    EXPECT_NEAR(p.face_area_m2, oracle.face_area_m2, AREA_TOLERANCE) << r;
-    EXPECT_NEAR(p.precise_area_m2, oracle.precise_area_m2, AREA_TOLERANCE) << r;
-    // Both outcomes occur, so the comparison tests the angle and the spread.
-    EXPECT_GT(p.precise_samples, p.samples / 10) << r;
-    EXPECT_LT(p.precise_samples, p.samples - p.samples / 10) << r;
+    for (const double r : {0.1, 0.25}) {
+      const PlanePrecision p =
+        planar_grid::evaluatePlanePrecision(cells, 0.5, r, truth);
+      const PlanePrecision oracle =
+        planar_grid::test::oraclePlanePrecision(*corner, cells, r);
+      EXPECT_EQ(p.samples, oracle.samples) << r;
+      EXPECT_EQ(p.precise_samples, oracle.precise_samples) << r;
+      EXPECT_NEAR(p.face_area_m2, oracle.face_area_m2, AREA_TOLERANCE) << r;
+      EXPECT_NEAR(p.precise_area_m2, oracle.precise_area_m2, AREA_TOLERANCE) << r;
+      EXPECT_NEAR(p.no_truth_area_m2, oracle.no_truth_area_m2, AREA_TOLERANCE) << r;
+      EXPECT_NEAR(p.not_surface_area_m2, oracle.not_surface_area_m2, AREA_TOLERANCE)
+        << r;
+      EXPECT_NEAR(p.misoriented_area_m2, oracle.misoriented_area_m2, AREA_TOLERANCE)
+        << r;
+      EXPECT_NEAR(p.precise_area_m2 + p.no_truth_area_m2 + p.not_surface_area_m2
+                    + p.misoriented_area_m2,
+                  p.face_area_m2, AREA_TOLERANCE)
+        << r;
+      // Both outcomes occur, so the comparison tests the angle and the spread.
+      EXPECT_GT(p.precise_samples, p.samples / 10) << r << " " << sigma_m;
+      EXPECT_LT(p.precise_samples, p.samples - p.samples / 10) << r << " " << sigma_m;
+    }
   }
 }
 

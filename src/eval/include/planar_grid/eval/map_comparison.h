@@ -223,6 +223,14 @@ struct ComparisonRow {
    * normal (evaluatePlanePrecision()); NaN for SG, OG and RA and without planar
    * cells. */
   double plane_precision{std::numeric_limits<double>::quiet_NaN()};
+  /** \brief PG only: the rest of that face area by cause, shares in [0, 1] that sum
+   * to 1 - plane_precision (PlanePrecision): no truth around the sample (a cell in
+   * space the truth does not hold), truth that is not a surface (a corner, clutter),
+   * and a truth surface tilted beyond PLANE_PRECISION_MAX_ANGLE_DEG from the cell;
+   * NaN where plane_precision is. */
+  double plane_no_truth_share{std::numeric_limits<double>::quiet_NaN()};
+  double plane_not_surface_share{std::numeric_limits<double>::quiet_NaN()};
+  double plane_misoriented_share{std::numeric_limits<double>::quiet_NaN()};
 };
 
 /** \brief The depth to which the stages of \a pipeline make cells, meters: the

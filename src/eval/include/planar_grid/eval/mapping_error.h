@@ -225,14 +225,24 @@ constexpr std::size_t PLANE_PRECISION_MIN_POINTS = 5;
 /** \brief Largest ratio of the smallest to the middle eigenvalue of the covariance of
  * a face sample's truth points for them to form a surface (evaluatePlanePrecision()):
  * above it the points spread in three directions (a corner, clutter) and give no
- * normal. A stereo reference is a surface as thick as its depth noise (0.1-0.3 m):
- * over a 0.4 m neighbourhood a wall's ratio is about 0.1-0.4. \ingroup eval */
+ * normal. A stereo reference is a surface as thick as its depth noise: a flat wall
+ * whose points scatter with a standard deviation of 0.1 / 0.15 / 0.2 m across it
+ * reads about 0.3 / 0.5 / 0.6 over a 0.4 m neighbourhood, 0.1 / 0.2 / 0.3 over 0.8 m
+ * (hence PLANE_PRECISION_MAX_RADIUS_M). \ingroup eval */
 constexpr double PLANE_PRECISION_MAX_EIGENVALUE_RATIO = 0.5;
 /** \brief Smallest radius of a face sample's neighbourhood, meters; the radius is the
  * larger of this and 2 resolution_m (evaluatePlanePrecision()): wide enough that a
  * stereo reference's surface, as thick as its depth noise, still has a normal.
  * \ingroup eval */
 constexpr double PLANE_PRECISION_MIN_RADIUS_M = 0.4;
+/** \brief Largest radius of a face sample's neighbourhood, meters
+ * (evaluatePlanePrecision()): where the truth points of the first neighbourhood hold
+ * enough points but do not form a surface, the radius doubles up to this bound before
+ * the sample is called not a surface, so that a reference as thick as its depth noise
+ * (the multi-view stereo references scatter 0.1-0.2 m across a wall) still shows a
+ * wall, while clutter, a corner or a canopy stays no surface at every radius and a
+ * cell across a wall meets the wall's normal. \ingroup eval */
+constexpr double PLANE_PRECISION_MAX_RADIUS_M = 1.6;
 
 /** \brief Plane precision of PG's planar cells: their face area and the part of it
  * where the truth is a surface of the cell's orientation. \ingroup eval */
@@ -245,6 +255,15 @@ struct PlanePrecision {
   /** \brief Face samples counted and precise ones. */
   std::size_t samples{0};
   std::size_t precise_samples{0};
+  /** \brief Of the imprecise face area, square meters: the part with fewer than
+   * PLANE_PRECISION_MIN_POINTS truth points around it (a cell in space the truth
+   * does not hold), the part whose truth points do not form a surface (a corner,
+   * clutter, a line) and the part whose truth surface is tilted more than
+   * PLANE_PRECISION_MAX_ANGLE_DEG from the cell. They sum to face_area_m2 -
+   * precise_area_m2. */
+  double no_truth_area_m2{0.0};
+  double not_surface_area_m2{0.0};
+  double misoriented_area_m2{0.0};
 
   /** \brief precise_area_m2 / face_area_m2 in [0, 1]; NaN without face area. */
   [[nodiscard]] double ratio() const
@@ -268,8 +287,10 @@ struct PlanePrecision {
  * satisfy l0 < PLANE_PRECISION_MAX_EIGENVALUE_RATIO l1 and l1 > 1e-6 l2 (a surface,
  * not a cloud or a line), and the eigenvector of l0 (the PCA normal) is within
  * PLANE_PRECISION_MAX_ANGLE_DEG of the cuboid's normal, either sign (|cos| >=
- * cos(angle)). A sample with too few truth points (a cell in empty space) is not
- * precise.
+ * cos(angle)). Where the points are enough but no surface, the radius doubles up to
+ * PLANE_PRECISION_MAX_RADIUS_M and the first neighbourhood that is a surface decides
+ * (a thick reference); none: not a surface. A sample with too few truth points in the
+ * first neighbourhood (a cell in empty space) is not precise.
  * \param[in] cuboids PG's cuboids (world frame); the non-planar and the unoccupied
  * ones are ignored
  * \param[in] occupancy_thres probability in [0, 1]
