@@ -642,6 +642,11 @@ sharedStageParams()
      "min_cell_size_m", reason},
     {"map_integration", "thickness_m", "planar_cuboid_approximation", "thickness_m",
      reason},
+    {"multi_plane_segmentation", "min_sensor_height_m", "ground_removal",
+     "min_sensor_height_m",
+     "the segmentation spares as terrain the level planes the ground removal can "
+     "take as ground, those at least this far below the sensor; leave the "
+     "segmentation's key out to take the ground removal's value"},
     {"map_integration", "terrain_plane_tile_m", "ground_removal",
      "terrain_plane_tile_m",
      "the map bounds its level planes to the tiles the ground removal splits the "

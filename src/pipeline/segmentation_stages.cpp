@@ -77,6 +77,7 @@ public:
     segmentation_.setVisibilityMargin(v.getDouble("visibility_margin_m"));
     segmentation_.setVisibilityCell(v.getDouble("visibility_cell_m"));
     segmentation_.setMinSensorDistance(v.getDouble("min_sensor_distance_m"));
+    segmentation_.setMinTerrainSensorHeight(v.getDouble("min_sensor_height_m"));
     segmentation_.setMinClusterSize(v.getInt("min_cluster_size"));
     segmentation_.setClusterCell(v.getDouble("cluster_cell_m"));
     segmentation_.setMaxShellRatio(v.getDouble("max_shell_ratio"));
@@ -193,6 +194,7 @@ public:
     v.set("visibility_margin_m", s.getVisibilityMargin());
     v.set("visibility_cell_m", s.getVisibilityCell());
     v.set("min_sensor_distance_m", s.getMinSensorDistance());
+    v.set("min_sensor_height_m", s.getMinTerrainSensorHeight());
     v.set("min_cluster_size", s.getMinClusterSize());
     v.set("cluster_cell_m", s.getClusterCell());
     v.set("max_shell_ratio", s.getMaxShellRatio());
@@ -763,6 +765,14 @@ multiPlaneSegmentationInfo()
                     "contains the lines of sight, along which stereo smears every "
                     "object: a vertical sheet through a tree trunk, a horizontal one "
                     "at the camera's height); 0 = no test."),
+    ParamSpec::real("min_sensor_height_m", TerrainParams{}.min_sensor_height_m,
+                    ranges::MIN_TERRAIN_SENSOR_HEIGHT, "m",
+                    "The normal and cluster tests spare a level plane as terrain only "
+                    "when the sensor lies more than this above it (a level plane just "
+                    "below the camera is no ground: spared, it takes a stripe of every "
+                    "wall at its height); 0: every level plane below the sensor. Left "
+                    "out, it takes ground_removal's min_sensor_height_m (the same "
+                    "default)."),
     ParamSpec::integer("min_cluster_size", d.getMinClusterSize(),
                        ranges::MIN_CLUSTER_SIZE, "",
                        "Cluster test: the inliers of each connected cluster of a "

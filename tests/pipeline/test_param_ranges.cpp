@@ -250,6 +250,8 @@ classParams()
      segmentation([](S& s, double v) { s.setVisibilityCell(v); })},
     {mps, "min_sensor_distance_m", seg::MIN_SENSOR_DISTANCE,
      segmentation([](S& s, double v) { s.setMinSensorDistance(v); })},
+    {mps, "min_sensor_height_m", seg::MIN_TERRAIN_SENSOR_HEIGHT,
+     segmentation([](S& s, double v) { s.setMinTerrainSensorHeight(v); })},
     {mps, "min_cluster_size", seg::MIN_CLUSTER_SIZE,
      segmentation([](S& s, double v) { s.setMinClusterSize(toInt(v)); })},
     {mps, "cluster_cell_m", seg::CLUSTER_CELL,

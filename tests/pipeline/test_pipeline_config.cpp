@@ -890,6 +890,47 @@ TEST(PipelineConfig, TheCellsAndTheMapShareTheMinimumCell)
     << against_set.what();
 }
 
+TEST(PipelineConfig, TheSegmentationSparesTheGroundRemovalsTerrain)
+{
+  // The segmentation spares as terrain the level planes at least ground_removal's
+  // min_sensor_height_m below the sensor: left out, its key takes that value.
+  const std::string head = "input:\n  type: pcd_files\n  files: [a.pcd]\n"
+                           "  poses: {format: kitti, file: poses.txt}\npipeline:\n"
+                           "  - type: transform_to_world\n";
+  const std::string ground = "  - type: ground_removal\n"
+                             "    params: {min_sensor_height_m: 0.7}\n";
+  const auto c = parsePipelineConfig(
+    head + "  - type: multi_plane_segmentation\n" + ground, "t", "/");
+  ASSERT_EQ(c.stages.size(), 3u);
+  EXPECT_DOUBLE_EQ(c.stages[1].params.getDouble("min_sensor_height_m"), 0.7);
+  // By --set as well; and the ground removal's default when neither sets it.
+  const auto by_set = parsePipelineConfig(
+    head + "  - type: multi_plane_segmentation\n  - type: ground_removal\n", "t", "/",
+    {"ground_removal.min_sensor_height_m=1.2"});
+  EXPECT_DOUBLE_EQ(by_set.stages[1].params.getDouble("min_sensor_height_m"), 1.2);
+  const auto neither = parsePipelineConfig(
+    head + "  - type: multi_plane_segmentation\n  - type: ground_removal\n", "t", "/");
+  EXPECT_DOUBLE_EQ(neither.stages[1].params.getDouble("min_sensor_height_m"),
+                   neither.stages[2].params.getDouble("min_sensor_height_m"));
+  EXPECT_GT(neither.stages[1].params.getDouble("min_sensor_height_m"), 0.0);
+  // Without a ground removal the segmentation keeps its own value, 0 when set so
+  // (every level plane below the sensor is terrain).
+  const auto alone = parsePipelineConfig(head
+                                           + "  - type: multi_plane_segmentation\n"
+                                             "    params: {min_sensor_height_m: 0}\n",
+                                         "t", "/");
+  EXPECT_DOUBLE_EQ(alone.stages[1].params.getDouble("min_sensor_height_m"), 0.0);
+  // Two values apart are an error at the segmentation's key (line 8).
+  const auto e = errorOf(head
+                         + "  - type: multi_plane_segmentation\n"
+                           "    params: {min_sensor_height_m: 0.3}\n"
+                         + ground);
+  EXPECT_EQ(e.line(), 8);
+  EXPECT_NE(std::string(e.what()).find("ground_removal's min_sensor_height_m 0.7"),
+            std::string::npos)
+    << e.what();
+}
+
 TEST(PipelineConfig, EveryShippedConfigLoads)
 {
   // Every pipeline file in config/ and config/eval/ passes the loader's checks (stage

@@ -1237,6 +1237,86 @@ TEST(SACMultiPlaneSegmentation, GivenNormalsDecideTheInliers)
   EXPECT_TRUE(planes.empty());
 }
 
+/** \brief A level table top (31 x 31 points every 0.05 m at z = 0.9 m, facing up)
+ * beside a round drum (radius 1.5 m about (3, 0), 188 x 13 points from z = 0.6 to
+ * 1.2 m, facing out), seen from a sensor at height \a sensor_z, with the points'
+ * normals given. The level plane z = 0.9 holds the table and, by distance alone, a
+ * ring of 3 x 188 drum points; no other plane holds 800. */
+SACMultiPlaneSegmentation<pcl::PointXYZ>
+tableBesideDrum(float sensor_z,
+                pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud,
+                std::size_t& table_points)
+{
+  cloud.reset(new pcl::PointCloud<pcl::PointXYZ>);
+  auto normals = std::make_shared<pcl::PointCloud<pcl::Normal>>();
+  for (int j = -15; j <= 15; ++j)
+    for (int i = -15; i <= 15; ++i) {
+      cloud->push_back(pcl::PointXYZ(0.05f * static_cast<float>(i),
+                                     0.05f * static_cast<float>(j), 0.9f));
+      normals->push_back(pcl::Normal(0.0f, 0.0f, 1.0f));
+    }
+  table_points = cloud->size();
+  for (int k = 12; k <= 24; ++k)
+    for (int a = 0; a < 188; ++a) {
+      const float angle =
+        2.0f * static_cast<float>(M_PI) * static_cast<float>(a) / 188.0f;
+      cloud->push_back(pcl::PointXYZ(3.0f + 1.5f * std::cos(angle),
+                                     1.5f * std::sin(angle),
+                                     0.05f * static_cast<float>(k)));
+      normals->push_back(pcl::Normal(std::cos(angle), std::sin(angle), 0.0f));
+    }
+  cloud->sensor_origin_ = Eigen::Vector4f(0.0f, -3.0f, sensor_z, 1.0f);
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  seg.setInputCloud(cloud);
+  seg.setInputNormals(normals);
+  seg.setDistanceThreshold(0.06);
+  seg.setMinInliers(800);
+  seg.setMaxPlanes(2);
+  seg.setUpAxis(Eigen::Vector3f::UnitZ());
+  seg.setMaxNormalAngle(30 * DEG);
+  return seg;
+}
+
+TEST(SACMultiPlaneSegmentation, LevelPlaneJustBelowTheSensorIsNoTerrain)
+{
+  // How many of the level plane's inliers are the drum's (whose normals face
+  // sideways: the normal test takes them out unless the plane is spared as terrain).
+  const auto drumInLevelPlane = [](float sensor_z, double min_height) {
+    pcl::PointCloud<pcl::PointXYZ>::Ptr cloud;
+    std::size_t table = 0;
+    auto seg = tableBesideDrum(sensor_z, cloud, table);
+    seg.setMinTerrainSensorHeight(min_height);
+    PlanarSegments planes;
+    seg.segment(planes);
+    EXPECT_EQ(planes.size(), 1u) << sensor_z << " " << min_height;
+    if (planes.size() != 1u)
+      return std::size_t{0};
+    const auto& c = planes[0].model_coefficients.values;
+    EXPECT_GT(std::abs(c[2]), 0.999f);
+    std::size_t on_table = 0, on_drum = 0;
+    for (const int i : planes[0].inliers.indices)
+      (static_cast<std::size_t>(i) < table ? on_table : on_drum) += 1;
+    EXPECT_EQ(on_table, table);
+    return on_drum;
+  };
+  // The sensor 0.5 m above the table: spared by default, the plane takes the ring
+  // of drum points at its height.
+  EXPECT_EQ(drumInLevelPlane(1.4f, 0.0), 3u * 188u);
+  // Terrain lies at least 0.7 m below the sensor: the table is tested and keeps
+  // only its own points.
+  EXPECT_EQ(drumInLevelPlane(1.4f, 0.7), 0u);
+  // Seen from 2 m (1.1 m above it), the same plane is terrain again.
+  EXPECT_EQ(drumInLevelPlane(2.0f, 0.7), 3u * 188u);
+  // Out of range: an error, no planes.
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud;
+  std::size_t table = 0;
+  auto seg = tableBesideDrum(1.4f, cloud, table);
+  seg.setMinTerrainSensorHeight(-0.1);
+  PlanarSegments planes;
+  seg.segment(planes);
+  EXPECT_TRUE(planes.empty());
+}
+
 TEST(SACMultiPlaneSegmentation, VisibilityConflictsMatchBruteForce)
 {
   // Random points around a tilted plane seen from a sensor off the origin, denser in

@@ -484,6 +484,26 @@ public:
    * meters (0: no test). */
   double getMinSensorDistance() const { return min_sensor_distance_; }
 
+  /** \brief Sets how far below the sensor a level plane must lie for the normal and
+   * cluster tests to spare it as terrain. Terrain (a plane within 0.3 rad of the up
+   * axis) is spared because a road's disparity is the sparsest and noisiest of a
+   * street's surfaces and the terrain removal takes it whole; but a level plane just
+   * below the sensor is no ground: spared, it takes a stripe of every wall and object
+   * at its height (indoors, a plane at a table's height across a whole room; outdoors,
+   * the car roofs). With a height h > 0, a level plane is spared only when the input
+   * cloud's sensor_origin_ lies more than h above it (the sensor's least height above
+   * the ground, as ground_removal's min_sensor_height_m). Not in the paper.
+   * \param[in] height_m in meters, in
+   * sac_multi_plane_segmentation_ranges::MIN_TERRAIN_SENSOR_HEIGHT (default 0: every
+   * level plane below the sensor is spared) */
+  void setMinTerrainSensorHeight(double height_m)
+  {
+    min_terrain_sensor_height_ = height_m;
+  }
+  /** \brief Returns the least height of the sensor above a level plane that the
+   * normal and cluster tests spare as terrain, in meters. */
+  double getMinTerrainSensorHeight() const { return min_terrain_sensor_height_; }
+
   /** \brief Sets the cluster test. A plane's footprint (its inliers projected onto it,
    * in square cells of setClusterCell()) falls apart into connected clusters (cells up
    * to two apart along each axis are connected: a gap of one empty cell is bridged).
@@ -701,6 +721,7 @@ protected:
   /** \brief Smallest distance of a plane from the sensor origin, in meters (0: no
    * test). */
   double min_sensor_distance_{0.0};
+  double min_terrain_sensor_height_{0.0};
   /** \brief Fewest inliers of a footprint cluster (0: no test). */
   int min_cluster_size_{0};
   /** \brief Footprint cell edge of the cluster test, in meters. */

@@ -36,7 +36,7 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
   namespace ranges = sac_multi_plane_segmentation_ranges;
   // One message per range, written from the range once (static: the returned pointer
   // stays valid).
-  static const std::array<std::string, 26> messages{
+  static const std::array<std::string, 27> messages{
     paramRangeMessage("distance_threshold", ranges::DISTANCE_THRESHOLD, "m"),
     paramRangeMessage("sample_distance_threshold", ranges::SAMPLE_DISTANCE_THRESHOLD,
                       "m"),
@@ -59,6 +59,8 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
     paramRangeMessage("visibility_margin", ranges::VISIBILITY_MARGIN, "m"),
     paramRangeMessage("visibility_cell", ranges::VISIBILITY_CELL, "m"),
     paramRangeMessage("min_sensor_distance", ranges::MIN_SENSOR_DISTANCE, "m"),
+    paramRangeMessage("min_terrain_sensor_height", ranges::MIN_TERRAIN_SENSOR_HEIGHT,
+                      "m"),
     paramRangeMessage("min_cluster_size", ranges::MIN_CLUSTER_SIZE),
     paramRangeMessage("cluster_cell", ranges::CLUSTER_CELL, "m"),
     paramRangeMessage("max_shell_ratio", ranges::MAX_SHELL_RATIO),
@@ -68,7 +70,7 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
     paramRangeMessage("max_normal_angle", ranges::MAX_NORMAL_ANGLE, "rad"),
     paramRangeMessage("normal_cell", ranges::NORMAL_CELL, "m"),
     paramRangeMessage("min_normal_agreement", ranges::MIN_NORMAL_AGREEMENT)};
-  const std::array<bool, 26> valid{
+  const std::array<bool, 27> valid{
     ranges::DISTANCE_THRESHOLD.contains(distance_threshold_),
     !sample_distance_threshold_set_
       || ranges::SAMPLE_DISTANCE_THRESHOLD.contains(sample_distance_threshold_),
@@ -88,6 +90,7 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
     ranges::VISIBILITY_MARGIN.contains(visibility_margin_),
     ranges::VISIBILITY_CELL.contains(visibility_cell_),
     ranges::MIN_SENSOR_DISTANCE.contains(min_sensor_distance_),
+    ranges::MIN_TERRAIN_SENSOR_HEIGHT.contains(min_terrain_sensor_height_),
     ranges::MIN_CLUSTER_SIZE.contains(min_cluster_size_),
     ranges::CLUSTER_CELL.contains(cluster_cell_),
     ranges::MAX_SHELL_RATIO.contains(max_shell_ratio_),
@@ -255,6 +258,7 @@ SACMultiPlaneSegmentation<PointT>::collectDensePoints(const Eigen::Vector3f& ori
     dense.terrain_up = up_axis_.normalized();
     dense.terrain_origin = origin;
     dense.terrain_cos = std::cos(detail::TERRAIN_TILT);
+    dense.terrain_min_height = static_cast<float>(min_terrain_sensor_height_);
   }
   if (depth_noise_coefficient_ > 0.0) {
     // Eq. 11 at the stereo depth error of each point's range (eq. 4's Delta z).
@@ -606,11 +610,13 @@ SACMultiPlaneSegmentation<PointT>::passesPlaneTests(detail::DensePoints& dense,
       return false;
     }
   }
-  // Terrain (a plane within TERRAIN_TILT of the up axis, below the sensor) is spared:
+  // Terrain (a plane within TERRAIN_TILT of the up axis, more than
+  // min_terrain_sensor_height_ below the sensor) is spared:
   // the layers of a noisy road fall apart into clusters, and the terrain removal
   // takes them out whole.
   const bool terrain = plane.head<3>().dot(up) > std::cos(detail::TERRAIN_TILT)
-                       && plane.head<3>().dot(origin) + plane[3] > 0.0f;
+                       && plane.head<3>().dot(origin) + plane[3] > std::max(
+                            0.0f, static_cast<float>(min_terrain_sensor_height_));
   if (min_cluster_size_ > 0 && !terrain) {
     const std::size_t removed =
       detail::removeSmallClusters(dense, plane, static_cast<float>(cluster_cell_),

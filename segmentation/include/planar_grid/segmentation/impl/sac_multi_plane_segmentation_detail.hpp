@@ -188,11 +188,12 @@ struct DensePoints {
   /** Whether selectInliers() applies the normal test (the normals present). */
   bool use_normals{false};
   /** The normal test spares terrain: a plane whose unit normal lies within
-   * acos(terrain_cos) of terrain_up (either sign) with terrain_origin on its upper
-   * side. terrain_cos > 1: nothing is spared. */
+   * acos(terrain_cos) of terrain_up (either sign) with terrain_origin more than
+   * terrain_min_height above it. terrain_cos > 1: nothing is spared. */
   Eigen::Vector3f terrain_up{Eigen::Vector3f::UnitZ()};
   Eigen::Vector3f terrain_origin{Eigen::Vector3f::Zero()};
   float terrain_cos{2.0f};
+  float terrain_min_height{0.0f};
 
   /** \brief Whether the normal test applies to \a plane (the normals present and
    * the plane no terrain). */
@@ -201,8 +202,10 @@ struct DensePoints {
     if (!use_normals)
       return false;
     const float c = plane.head<3>().dot(terrain_up);
-    const float side = plane.head<3>().dot(terrain_origin) + plane[3];
-    return !(std::abs(c) > terrain_cos && c * side > 0.0f);
+    // the origin's height above the plane, along the plane's upward normal
+    const float height =
+      (c >= 0.0f ? 1.0f : -1.0f) * (plane.head<3>().dot(terrain_origin) + plane[3]);
+    return !(std::abs(c) > terrain_cos && height > std::max(0.0f, terrain_min_height));
   }
   pcl::Indices index;
   std::vector<std::uint8_t> mask;
