@@ -93,6 +93,7 @@ paramsDict(const PlanarGridMap::Params& p)
   d["cover_density"] = p.surface.cover_density;
   d["absorb_distance_m"] = p.surface.absorb_distance_m;
   d["terrain_plane_tile_m"] = p.surface.terrain_plane_tile_m;
+  d["terrain_cover_density"] = p.surface.terrain_cover_density;
   d["clear_non_planar"] = p.clear_non_planar;
   d["clear_planar"] = p.clear_planar;
   d["planes_replace_non_planar"] = p.planes_replace_non_planar;
@@ -141,7 +142,8 @@ Parameters
        "plane_merge_angle_rad", "plane_merge_distance_m", "occupancy_thres",
        "feature_distance_m", "close_gaps_cells", "merge_rule", "cover_density",
        "clear_non_planar", "clear_planar", "planes_replace_non_planar",
-       "planes_absorb_overlapping", "absorb_distance_m", "terrain_plane_tile_m"})
+       "planes_absorb_overlapping", "absorb_distance_m", "terrain_plane_tile_m",
+       "terrain_cover_density"})
     + R"doc(
 The defaults are the pipeline's map_integration defaults (one Params struct); a map
 built here with the keys of a configuration's map_integration stage matches the tool's.
@@ -170,7 +172,8 @@ bindMapConstructor(MapClass& cls)
                       int close_gaps_cells, const std::string& merge_rule,
                       double cover_density, bool clear_non_planar, bool clear_planar,
                       bool planes_replace_non_planar, bool planes_absorb_overlapping,
-                      double absorb_distance_m, double terrain_plane_tile_m) {
+                      double absorb_distance_m, double terrain_plane_tile_m,
+                      double terrain_cover_density) {
             Map::Params p;
             p.clear_non_planar = clear_non_planar;
             p.clear_planar = clear_planar;
@@ -188,6 +191,7 @@ bindMapConstructor(MapClass& cls)
             p.surface.cover_density = cover_density;
             p.surface.absorb_distance_m = absorb_distance_m;
             p.surface.terrain_plane_tile_m = terrain_plane_tile_m;
+            p.surface.terrain_cover_density = terrain_cover_density;
             try {
               p.space.prior = spaceStateFromString(prior);
             } catch (const planar_grid::Exception& e) {
@@ -222,7 +226,8 @@ bindMapConstructor(MapClass& cls)
           py::arg("planes_replace_non_planar") = d.planes_replace_non_planar,
           py::arg("planes_absorb_overlapping") = d.planes_absorb_overlapping,
           py::arg("absorb_distance_m") = d.surface.absorb_distance_m,
-          py::arg("terrain_plane_tile_m") = d.surface.terrain_plane_tile_m);
+          py::arg("terrain_plane_tile_m") = d.surface.terrain_plane_tile_m,
+          py::arg("terrain_cover_density") = d.surface.terrain_cover_density);
 }
 
 /** Reading and writing the map file. */

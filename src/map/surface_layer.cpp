@@ -46,6 +46,8 @@ validate(const SurfaceLayer::Params& p)
   check("absorb_distance_m", p.absorb_distance_m, ranges::ABSORB_DISTANCE, "m");
   check("terrain_plane_tile_m", p.terrain_plane_tile_m, ranges::TERRAIN_PLANE_TILE,
         "m");
+  check("terrain_cover_density", p.terrain_cover_density, ranges::TERRAIN_COVER_DENSITY,
+        "");
 }
 
 } // namespace surface_layer_detail

@@ -34,6 +34,7 @@ SurfaceLayer::serialize(std::vector<std::uint8_t>& bytes) const
   w.put(params_.cover_density);
   w.put(params_.absorb_distance_m);
   w.put(params_.terrain_plane_tile_m);
+  w.put(params_.terrain_cover_density);
   w.put(static_cast<std::uint64_t>(impl.planes.size()));
   for (const auto& plane : impl.planes) {
     for (int k = 0; k < 3; ++k)
@@ -112,7 +113,7 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
   if (version == 1)
     throw IOError("surface layer: version 1 section (written before the map planes "
                   "kept their evidence moments) is not supported by this reader "
-                  "(versions 2 to 5); run the mapping again");
+                  "(versions 2 to 6); run the mapping again");
   if (version < 2 || version > VERSION)
     throw IOError("surface layer: unsupported version " + std::to_string(version));
   Params params;
@@ -138,6 +139,8 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
   params.absorb_distance_m = version >= 4 ? rd.get<double>() : 0.0;
   // versions 2 to 4 bounded no level plane to a tile
   params.terrain_plane_tile_m = version >= 5 ? rd.get<double>() : 0.0;
+  // versions 2 to 5 covered the level planes at cover_density
+  params.terrain_cover_density = version >= 6 ? rd.get<double>() : params.cover_density;
   try {
     validate(params);
   } catch (const Exception& e) {
@@ -263,7 +266,8 @@ SurfaceLayer::operator==(const SurfaceLayer& other) const
       || a.occupancy_thres != b.occupancy_thres
       || a.feature_distance_m != b.feature_distance_m
       || a.close_gaps_cells != b.close_gaps_cells || a.merge_rule != b.merge_rule
-      || a.cover_density != b.cover_density)
+      || a.cover_density != b.cover_density
+      || a.terrain_cover_density != b.terrain_cover_density)
     return false;
   const Impl& x = *impl_;
   const Impl& y = *other.impl_;

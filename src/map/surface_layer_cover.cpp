@@ -161,8 +161,14 @@ rebuildPlane(MapPlane& plane, const SurfaceLayer::Params& params)
   std::vector<std::uint8_t> cls(n);
   for (std::size_t k = 0; k < n; ++k)
     cls[k] = value[k] >= params.occupancy_thres ? 1 : 0;
-  std::vector<RasterRectangle> cover =
-    mergeRasterRectangles(keys, cls, params.merge_rule, params.cover_density);
+  // With terrain tiles, the level planes (road, pavement, floor) take their own
+  // density: their rasters hold many unobserved cells that a loose cover would span.
+  const bool level_tile =
+    params.terrain_plane_tile_m > 0.0
+    && std::abs(plane.normal.z()) >= static_cast<float>(std::cos(LEVEL_MAX_ANGLE_RAD));
+  std::vector<RasterRectangle> cover = mergeRasterRectangles(
+    keys, cls, params.merge_rule,
+    level_tile ? params.terrain_cover_density : params.cover_density);
   std::sort(cover.begin(), cover.end(),
             [](const RasterRectangle& a, const RasterRectangle& b) {
               return a.j0 != b.j0 ? a.j0 < b.j0 : a.i0 < b.i0;

@@ -33,7 +33,7 @@ inline constexpr float MAX_COORDINATE_M = 1e7f;
 inline constexpr double MAX_BINS_PER_CUBOID = 4096.0;
 /** \brief Section magic ("PGSL") and version of serialize(). */
 inline constexpr std::uint32_t MAGIC = 0x4C534750u;
-inline constexpr std::uint32_t VERSION = 5;
+inline constexpr std::uint32_t VERSION = 6;
 /** \brief Largest Params::close_gaps_cells. */
 inline constexpr int MAX_CLOSE_GAPS_CELLS =
   static_cast<int>(surface_layer_ranges::CLOSE_GAPS.max);

@@ -49,6 +49,8 @@ checkSameParams(const SurfaceLayer::Params& a, const SurfaceLayer::Params& b)
   add(difference("absorb_distance_m", a.absorb_distance_m, b.absorb_distance_m, "m"));
   add(difference("terrain_plane_tile_m", a.terrain_plane_tile_m, b.terrain_plane_tile_m,
                  "m"));
+  add(difference("terrain_cover_density", a.terrain_cover_density,
+                 b.terrain_cover_density, ""));
   if (!differences.empty())
     throw Exception("SurfaceLayer::merge: the layers' parameters must be equal, but "
                     + differences);

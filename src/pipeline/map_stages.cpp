@@ -61,6 +61,7 @@ public:
     v.set("cover_density", p.surface.cover_density);
     v.set("absorb_distance_m", p.surface.absorb_distance_m);
     v.set("terrain_plane_tile_m", p.surface.terrain_plane_tile_m);
+    v.set("terrain_cover_density", p.surface.terrain_cover_density);
     v.set("occupancy_thres", p.surface.occupancy_thres);
     v.set("feature_distance_m", p.surface.feature_distance_m);
     v.set("clear_non_planar", p.clear_non_planar);
@@ -303,6 +304,12 @@ mapIntegrationInfo()
                     "level planes absorb each other's cells, so the terrain stays "
                     "planar per tile. Left out, it takes ground_removal's "
                     "terrain_plane_tile_m. 0: level planes are unbounded."),
+    ParamSpec::real("terrain_cover_density", d.surface.terrain_cover_density,
+                    surface::TERRAIN_COVER_DENSITY, "",
+                    "With terrain_plane_tile_m > 0 and merge_rule density, the "
+                    "cover_density of the level planes: a road or a floor, seen "
+                    "sparsely, leaves many unobserved cells in its tiles that a loose "
+                    "cover spans and marks occupied (1: observed cells only)."),
     ParamSpec::choice("sensor_model", "auto", {"auto", "pinhole", "rays"},
                       "How the explicit space layer sees a frame: pinhole = the "
                       "disparity image's camera (stereo), the depth image's camera "
@@ -344,6 +351,7 @@ mapIntegrationInfo()
     p.surface.cover_density = v.getDouble("cover_density");
     p.surface.absorb_distance_m = v.getDouble("absorb_distance_m");
     p.surface.terrain_plane_tile_m = v.getDouble("terrain_plane_tile_m");
+    p.surface.terrain_cover_density = v.getDouble("terrain_cover_density");
     p.clear_non_planar = v.getBool("clear_non_planar");
     p.clear_planar = v.getBool("clear_planar");
     p.planes_replace_non_planar = v.getBool("planes_replace_non_planar");

@@ -316,6 +316,84 @@ TEST(SurfaceLayer, TerrainTilesBoundLevelPlanes)
   }
 }
 
+// With terrain tiles the level planes take terrain_cover_density: a floor and a wall
+// observed over the same 2 m x 1 m of 0.1 m cells, one cell in nine missing (an
+// isolated hole every third row and column), covered by the density rule at 0.7.
+// With terrain_cover_density 1 the floor's rectangles hold no hole while the wall's
+// span some; without tiles the floor is covered like the wall.
+TEST(SurfaceLayer, TerrainCoverDensityCoversTheLevelPlanes)
+{
+  const PlaneFrame floor(Eigen::Vector3f::UnitZ(), 1.5f); // z = -1.5, u = x, v = y
+  const PlaneFrame wall = wallFrame();
+  const Cloud none;
+  const auto hole = [](int i, int j) {
+    return i % 3 == 1 && j % 3 == 1;
+  };
+  // how many holes of the plane on \a frame lie inside a cuboid
+  const auto coveredHoles = [&](const PlanarCuboids& out, const PlaneFrame& frame) {
+    int covered = 0;
+    for (int i = 5; i < 25; ++i)
+      for (int j = 5; j < 15; ++j) {
+        if (!hole(i, j))
+          continue;
+        const Eigen::Vector3f p =
+          frame.at(0.1f * i + 0.05f, 0.1f * j + 0.05f) - frame.n * 0.05f;
+        for (const auto& c : out)
+          if (c.contains(p)) {
+            ++covered;
+            break;
+          }
+      }
+    return covered;
+  };
+  for (const double tile_m : {0.0, 4.0}) {
+    SCOPED_TRACE(tile_m);
+    SurfaceLayer::Params params = defaultParams();
+    params.close_gaps_cells = 0;
+    params.merge_rule = planar_grid::SurfaceMergeRule::DENSITY;
+    params.cover_density = 0.7;
+    params.terrain_plane_tile_m = tile_m;
+    params.terrain_cover_density = 1.0;
+    SurfaceLayer layer(params);
+    PlanarCuboids cells;
+    for (int i = 5; i < 25; ++i)
+      for (int j = 5; j < 15; ++j)
+        if (!hole(i, j))
+          for (int id = 0; id < 2; ++id)
+            cells.push_back(faceCuboid(id == 0 ? floor : wall, id, 0.1f * i,
+                                       0.1f * i + 0.1f, 0.1f * j, 0.1f * j + 0.1f));
+    layer.integrate(cells, PlaneModels{floor.model(), wall.model()}, none, {});
+    ASSERT_EQ(layer.getPlanes().size(), 2u);
+    PlanarCuboids on_floor, on_wall;
+    for (const auto& c : layer.getCuboids())
+      (std::abs(c.normal.z()) > 0.99f ? on_floor : on_wall).push_back(c);
+    const int holes = 7 * 3; // i in 7, 10, ..., 25 and j in 7, 10, 13
+    EXPECT_GT(coveredHoles(on_wall, wall), holes / 2);
+    if (tile_m > 0.0)
+      EXPECT_EQ(coveredHoles(on_floor, floor), 0);
+    else
+      EXPECT_EQ(coveredHoles(on_floor, floor), coveredHoles(on_wall, wall));
+    // every observed floor cell is covered either way
+    for (int i = 5; i < 25; ++i)
+      for (int j = 5; j < 15; ++j)
+        if (!hole(i, j)) {
+          const Eigen::Vector3f p =
+            floor.at(0.1f * i + 0.05f, 0.1f * j + 0.05f) - floor.n * 0.05f;
+          EXPECT_TRUE(
+            std::any_of(on_floor.begin(), on_floor.end(),
+                        [&p](const PlanarCuboid& c) { return c.contains(p); }))
+            << i << " " << j;
+        }
+    // the parameter travels with the section
+    std::vector<std::uint8_t> bytes;
+    layer.serialize(bytes);
+    SurfaceLayer copy(defaultParams());
+    copy.deserialize(bytes.data(), bytes.size());
+    EXPECT_EQ(copy.getParams().terrain_cover_density, 1.0);
+    EXPECT_TRUE(copy == layer);
+  }
+}
+
 // The distance of a frame's plane to a map plane is measured where the faces are: a
 // wall 500 m along from the world origin's foot point, seen again on a plane turned
 // by 0.01 rad about the face centre, differs in d by ~5 m, yet its faces lie on the
@@ -1083,9 +1161,9 @@ TEST(SurfaceLayer, RasterCellsAndEvidenceMatchBruteForce)
   ASSERT_EQ(layer.getCellCount(), oracle.size());
   std::vector<std::uint8_t> bytes;
   layer.serialize(bytes);
-  // header: magic, version, 6 f64 params, u32, u8, f64, f64, f64; u64 planes; the
-  // plane's 8 f32 planes and 13 f64 moments; u64 cells
-  std::size_t at = 4 + 4 + 6 * 8 + 4 + 1 + 8 + 8 + 8 + 8 + 8 * 4 + 13 * 8;
+  // header: magic, version, 6 f64 params, u32, u8, f64, f64, f64, f64; u64 planes;
+  // the plane's 8 f32 planes and 13 f64 moments; u64 cells
+  std::size_t at = 4 + 4 + 6 * 8 + 4 + 1 + 8 + 8 + 8 + 8 + 8 + 8 * 4 + 13 * 8;
   std::uint64_t cells = 0;
   std::memcpy(&cells, bytes.data() + at, 8);
   at += 8;
@@ -1554,7 +1632,8 @@ TEST(SurfaceLayer, SerializeRoundTrip)
   // cover_density and absorb_distance_m 0; version 3 sections (no absorb_distance_m
   // and terrain_plane_tile_m after the cover_density) with absorb_distance_m 0;
   // version 4 sections (no terrain_plane_tile_m after the absorb_distance_m) with
-  // terrain_plane_tile_m 0
+  // terrain_plane_tile_m 0; version 5 sections (no terrain_cover_density after the
+  // terrain_plane_tile_m) with terrain_cover_density = cover_density
   std::vector<std::uint8_t> paper_bytes;
   paper.serialize(paper_bytes);
   const std::size_t density_at = 4 + 4 + 6 * 8 + 4 + 1;
@@ -1563,7 +1642,7 @@ TEST(SurfaceLayer, SerializeRoundTrip)
   const auto older = [&](std::uint8_t version, std::size_t kept) {
     std::vector<std::uint8_t> bytes_of(paper_bytes.begin(),
                                        paper_bytes.begin() + density_at + kept);
-    bytes_of.insert(bytes_of.end(), paper_bytes.begin() + density_at + 24,
+    bytes_of.insert(bytes_of.end(), paper_bytes.begin() + density_at + 32,
                     paper_bytes.end());
     bytes_of[4] = version;
     SurfaceLayer decoded(defaultParams());
@@ -1574,6 +1653,7 @@ TEST(SurfaceLayer, SerializeRoundTrip)
   older(2, 0);
   EXPECT_EQ(older(3, 8).absorb_distance_m, 0.0);
   EXPECT_EQ(older(4, 16).terrain_plane_tile_m, 0.0);
+  EXPECT_EQ(older(5, 24).terrain_cover_density, paper.getParams().cover_density);
   // empty layer
   SurfaceLayer empty(defaultParams()), empty_copy(defaultParams());
   bytes.clear();

@@ -424,6 +424,8 @@ classParams()
      surfaceLayer([](L& p, double v) { p.absorb_distance_m = v; })},
     {mi, "terrain_plane_tile_m", sl::TERRAIN_PLANE_TILE,
      surfaceLayer([](L& p, double v) { p.terrain_plane_tile_m = v; })},
+    {mi, "terrain_cover_density", sl::TERRAIN_COVER_DENSITY,
+     surfaceLayer([](L& p, double v) { p.terrain_cover_density = v; })},
     {mi, "max_range_m", esg::MAX_RANGE,
      spaceGrid([](G& p, double v) { p.max_range_m = v; })},
     {mi, "surface_margin_m", esg::SURFACE_MARGIN,

@@ -50,6 +50,8 @@ inline constexpr ParamRange ABSORB_DISTANCE = ParamRange::closed(0.0, 10.0);
 /** \brief Side of the tiles that bound a level plane: [0, 1000] meters (0: level
  * planes are unbounded). */
 inline constexpr ParamRange TERRAIN_PLANE_TILE = ParamRange::closed(0.0, 1000.0);
+/** \brief SurfaceLayer::Params::terrain_cover_density. */
+inline constexpr ParamRange TERRAIN_COVER_DENSITY = ParamRange::closed(0.5, 1.0);
 } // namespace surface_layer_ranges
 
 /** \brief A map plane whose normal is within this angle of the world z axis is level
@@ -231,9 +233,16 @@ public:
      * two level planes never absorb each other's cells (a curb, a stair is a real
      * step): terrain stays piecewise planar, so a road that sags or crowns over tens
      * of meters is not fitted by one plane. Give the frames' level planes split at the
-     * same tiles (the pipeline's ground_removal with terrain_as_planes). 0: level
-     * planes join, merge and absorb like any other. */
+     * same tiles (the pipeline's ground_removal with its terrain_plane_tile_m). 0:
+     * level planes join, merge and absorb like any other. */
     double terrain_plane_tile_m{0.0};
+    /** With terrain tiles (terrain_plane_tile_m > 0) and the DENSITY rule, the
+     * cover_density of the level planes; in surface_layer_ranges::
+     * TERRAIN_COVER_DENSITY. A road or a floor is seen sparsely and at a grazing
+     * angle, so its tiles' rasters hold many unobserved cells that a loose cover
+     * spans and marks occupied; walls keep cover_density. 1: the level planes'
+     * rectangles hold observed cells only. */
+    double terrain_cover_density{0.9};
   };
 
   /** \brief Throws planar_grid::Exception for out-of-range parameters. */
@@ -429,9 +438,9 @@ public:
                std::size_t& index) const;
 
   /** \brief Encodes the layer in a fixed little-endian layout: u32 magic "PGSL",
-   * u32 version 5, the six real Params as f64, close_gaps_cells as u32, merge_rule as
-   * u8 (0 paper, 1 min_rectangles, 2 density), cover_density, absorb_distance_m and
-   * terrain_plane_tile_m as f64; u64 planes, per
+   * u32 version 6, the six real Params as f64, close_gaps_cells as u32, merge_rule as
+   * u8 (0 paper, 1 min_rectangles, 2 density), cover_density, absorb_distance_m,
+   * terrain_plane_tile_m and terrain_cover_density as f64; u64 planes, per
    * plane: the raster frame's plane f32 a, b, c, d, the refined plane f32 a, b, c, d,
    * the evidence moments as f64 (anchor[3], weight, sum[3], sum of outer products xx,
    * xy, xz, yy, yz, zz), u64 cells, per cell i32 i, i32 j, f32 probability sum, u16
@@ -451,7 +460,8 @@ public:
    * density rule, no cover_density) is read with the default cover_density; versions
    * 2 and 3 (no absorb_distance_m) with absorb_distance_m 0 (only the non-parallel
    * tolerance, as they were written); versions 2 to 4 (no terrain_plane_tile_m) with
-   * terrain_plane_tile_m 0.
+   * terrain_plane_tile_m 0; versions 2 to 5 (no terrain_cover_density) with
+   * terrain_cover_density = cover_density, the density their covers were made with.
    * \throws planar_grid::IOError on truncated, trailing or inconsistent data or
    * another version (layer unchanged) */
   void deserialize(const std::uint8_t* data, std::size_t size);
