@@ -721,6 +721,8 @@ protected:
   /** \brief Smallest distance of a plane from the sensor origin, in meters (0: no
    * test). */
   double min_sensor_distance_{0.0};
+  /** \brief Least height of the sensor above a level plane that the normal and
+   * cluster tests spare as terrain, in meters (0: any level plane below it). */
   double min_terrain_sensor_height_{0.0};
   /** \brief Fewest inliers of a footprint cluster (0: no test). */
   int min_cluster_size_{0};
