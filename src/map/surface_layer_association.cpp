@@ -90,11 +90,9 @@ reprojectRaster(const Raster& src,
 bool
 sameTerrainTile(double tile_m, const PlaneObservation& a, const PlaneObservation& b)
 {
-  const auto cos_level = static_cast<float>(std::cos(LEVEL_MAX_ANGLE_RAD));
   if (!(tile_m > 0.0) || a.evidence == nullptr || b.evidence == nullptr
       || !(a.evidence->weight > 0.0) || !(b.evidence->weight > 0.0)
-      || std::abs(a.model_coefficients.z()) < cos_level
-      || std::abs(b.model_coefficients.z()) < cos_level)
+      || !isLevel(a.model_coefficients.z()) || !isLevel(b.model_coefficients.z()))
     return true;
   const PlaneMoments& ma = *a.evidence;
   const PlaneMoments& mb = *b.evidence;

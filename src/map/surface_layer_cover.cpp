@@ -164,8 +164,7 @@ rebuildPlane(MapPlane& plane, const SurfaceLayer::Params& params)
   // With terrain tiles, the level planes (road, pavement, floor) take their own
   // density: their rasters hold many unobserved cells that a loose cover would span.
   const bool level_tile =
-    params.terrain_plane_tile_m > 0.0
-    && std::abs(plane.normal.z()) >= static_cast<float>(std::cos(LEVEL_MAX_ANGLE_RAD));
+    params.terrain_plane_tile_m > 0.0 && isLevel(plane.normal.z());
   std::vector<RasterRectangle> cover = mergeRasterRectangles(
     keys, cls, params.merge_rule,
     level_tile ? params.terrain_cover_density : params.cover_density);

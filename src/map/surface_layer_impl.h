@@ -425,6 +425,16 @@ PlaneAssociationCriteria associationCriteria(const SurfaceLayer::Params& params)
 /** \brief A map plane as the association sees it: its refined plane and evidence. */
 PlaneObservation observation(const MapPlane& plane);
 
+/** \brief Whether a plane whose unit normal has the z component \a normal_z is
+ * level: within LEVEL_MAX_ANGLE_RAD of the world z axis, either sign (road, pavement,
+ * floor, a step). */
+inline bool
+isLevel(float normal_z)
+{
+  static const auto cos_level = static_cast<float>(std::cos(LEVEL_MAX_ANGLE_RAD));
+  return std::abs(normal_z) >= cos_level;
+}
+
 /** \brief True unless terrain tiles are on (\a tile_m > 0), both planes are level
  * (normals within LEVEL_MAX_ANGLE_RAD of the world z axis) and their evidence's
  * centroids lie in different tiles of \a tile_m (SurfaceLayer::Params::

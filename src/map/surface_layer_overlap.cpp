@@ -84,10 +84,9 @@ SurfaceLayer::absorbOverlappingPlaneCells()
   // depths: the step between them (a curb, a stair) is real, so neither absorbs the
   // other.
   std::vector<bool> level(impl.planes.size(), false);
-  const auto cos_level = static_cast<float>(std::cos(LEVEL_MAX_ANGLE_RAD));
   for (std::size_t p = 0; p < impl.planes.size() && params_.terrain_plane_tile_m > 0.0;
        ++p)
-    level[p] = std::abs(impl.planes[p].normal.z()) >= cos_level;
+    level[p] = isLevel(impl.planes[p].normal.z());
   std::vector<bool> emptied(impl.planes.size(), false);
   std::size_t total = 0;
   for (;;) {

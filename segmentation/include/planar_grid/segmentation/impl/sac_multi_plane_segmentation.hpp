@@ -611,12 +611,12 @@ SACMultiPlaneSegmentation<PointT>::passesPlaneTests(detail::DensePoints& dense,
     }
   }
   // Terrain (a plane within TERRAIN_TILT of the up axis, more than
-  // min_terrain_sensor_height_ below the sensor) is spared:
+  // min_terrain_sensor_height_ below the sensor) is spared, as by the normal test:
   // the layers of a noisy road fall apart into clusters, and the terrain removal
   // takes them out whole.
-  const bool terrain = plane.head<3>().dot(up) > std::cos(detail::TERRAIN_TILT)
-                       && plane.head<3>().dot(origin) + plane[3] > std::max(
-                            0.0f, static_cast<float>(min_terrain_sensor_height_));
+  const bool terrain =
+    detail::isTerrainPlane(plane, up, origin, std::cos(detail::TERRAIN_TILT),
+                           static_cast<float>(min_terrain_sensor_height_));
   if (min_cluster_size_ > 0 && !terrain) {
     const std::size_t removed =
       detail::removeSmallClusters(dense, plane, static_cast<float>(cluster_cell_),

@@ -36,6 +36,23 @@ orientTowards(Eigen::Vector4f& plane, const Eigen::Vector3f& origin)
     plane = -plane;
 }
 
+/** \brief Whether \a plane is terrain that the normal and cluster tests spare: its
+ * unit normal within acos(\a cos_tilt) of the unit \a up (either sign) and
+ * \a origin (the sensor) more than max(0, \a min_height) above it along the plane's
+ * upward normal. */
+inline bool
+isTerrainPlane(const Eigen::Vector4f& plane,
+               const Eigen::Vector3f& up,
+               const Eigen::Vector3f& origin,
+               float cos_tilt,
+               float min_height)
+{
+  const float c = plane.head<3>().dot(up);
+  const float height =
+    (c >= 0.0f ? 1.0f : -1.0f) * (plane.head<3>().dot(origin) + plane[3]);
+  return std::abs(c) > cos_tilt && height > std::max(0.0f, min_height);
+}
+
 /** \brief Least-squares plane (PCA) of the indexed points: the eigenvector of the
  * smallest eigenvalue of the covariance; false when fewer than 3 points. */
 template <typename PointT>
@@ -199,13 +216,9 @@ struct DensePoints {
    * the plane no terrain). */
   bool testsNormals(const Eigen::Vector4f& plane) const
   {
-    if (!use_normals)
-      return false;
-    const float c = plane.head<3>().dot(terrain_up);
-    // the origin's height above the plane, along the plane's upward normal
-    const float height =
-      (c >= 0.0f ? 1.0f : -1.0f) * (plane.head<3>().dot(terrain_origin) + plane[3]);
-    return !(std::abs(c) > terrain_cos && height > std::max(0.0f, terrain_min_height));
+    return use_normals
+           && !isTerrainPlane(plane, terrain_up, terrain_origin, terrain_cos,
+                              terrain_min_height);
   }
   pcl::Indices index;
   std::vector<std::uint8_t> mask;
