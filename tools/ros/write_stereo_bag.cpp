@@ -6,10 +6,10 @@
 //   /stereo/left/camera_info, /stereo/right/camera_info sensor_msgs/CameraInfo, P with
 //                                                       Tx = -f B in the right one
 //   /tf                                                 world -> camera, the input's
-//   pose
+//   pose (--parent-frame names another frame than world)
 // Frame k is stamped t0 + k / rate; the two images of a pair share their stamp.
 //   planar_grid_write_stereo_bag --config C.yaml --frames N --output out.bag [--rate
-//   HZ]
+//   HZ] [--parent-frame FRAME]
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/frame.h>
 #include <planar_grid/pipeline/frame_source.h>
@@ -32,11 +32,13 @@ namespace ros_messages = planar_grid::ros_messages;
 constexpr double T0 = 1268149800.0;
 
 tf2_msgs::TFMessage
-poseMessage(const Eigen::Isometry3d& world_T_camera, const ros::Time& stamp)
+poseMessage(const Eigen::Isometry3d& world_T_camera,
+            const std::string& parent_frame,
+            const ros::Time& stamp)
 {
   tf2_msgs::TFMessage message;
   message.transforms.push_back(planar_grid::ros_messages::transformStamped(
-    world_T_camera, "world", "camera", stamp));
+    world_T_camera, parent_frame, "camera", stamp));
   return message;
 }
 
@@ -46,6 +48,7 @@ int
 main(int argc, char** argv)
 {
   std::string config_path, output;
+  std::string parent_frame = "world";
   long frames = 0;
   double rate_hz = 9.4;
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -58,14 +61,17 @@ main(int argc, char** argv)
       output = argv[i + 1];
     else if (key == "--rate")
       rate_hz = std::strtod(argv[i + 1], nullptr);
+    else if (key == "--parent-frame")
+      parent_frame = argv[i + 1];
     else {
       std::cerr << "planar_grid_write_stereo_bag: unknown option " << key << "\n";
       return 2;
     }
   }
-  if (config_path.empty() || output.empty() || frames <= 0 || !(rate_hz > 0.0)) {
+  if (config_path.empty() || output.empty() || frames <= 0 || !(rate_hz > 0.0)
+      || parent_frame.empty()) {
     std::cerr << "usage: planar_grid_write_stereo_bag --config C.yaml --frames N "
-                 "--output out.bag [--rate HZ]\n";
+                 "--output out.bag [--rate HZ] [--parent-frame FRAME]\n";
     return 2;
   }
   try {
@@ -83,7 +89,7 @@ main(int argc, char** argv)
                                      + " has no pose");
       const auto& c = frame.calibration;
       const ros::Time stamp(T0 + static_cast<double>(k) / rate_hz);
-      bag.write("/tf", stamp, poseMessage(frame.world_T_camera, stamp));
+      bag.write("/tf", stamp, poseMessage(frame.world_T_camera, parent_frame, stamp));
       bag.write("/stereo/left/camera_info", stamp,
                 ros_messages::cameraInfo(c, 0.0, stamp, "camera"));
       bag.write("/stereo/right/camera_info", stamp,
