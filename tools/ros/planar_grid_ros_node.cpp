@@ -2,8 +2,11 @@
 // planar_grid_ros_node: live mapping in ROS 1 (docs/ROS.md). Subscribes to a rectified
 // stereo pair with its CameraInfos, or to a PointCloud2; takes each frame's pose from
 // TF (or from the pipeline's visual odometry, broadcast on TF); maps the frame with
-// planar_grid::Mapper on a worker thread; publishes the map after each frame.
+// planar_grid::Mapper on a worker thread; publishes the map after each frame, also as
+// octomap_msgs/Octomap. Takes octomap_server's parameter names where they mean the
+// same.
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/param_range.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/mapper.h>
 #include <planar_grid/pipeline/pipeline_config.h>
@@ -15,6 +18,8 @@
 #include <message_filters/synchronizer.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nlohmann/json.hpp>
+#include <octomap/OcTree.h>
+#include <octomap_msgs/Octomap.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
@@ -26,19 +31,25 @@
 #include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <deque>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <mutex>
+#include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "ros_messages.h"
 
@@ -71,9 +82,49 @@ struct NodeParams {
   int publish_every{1};
   /** Shortest time between two 2D maps, seconds (0: after every frame). */
   double map_2d_period_s{2.0};
+  /** Shortest time between two OctoMaps (~octomap_binary, ~octomap_full), seconds
+   * (0: after every frame). */
+  double octomap_period_s{2.0};
   /** Folder of ~save_map's files. */
   std::string output_folder{"."};
+  /** Publish the map topics latched (octomap_server's ~latch): a subscriber that comes
+   * later gets the last message at once. */
+  bool latch{true};
 };
+
+/** Reads the private parameter \a name into \a value when it is set.
+ * \param[in] expected what the parameter must hold, for the error ("a number, meters")
+ * \return whether it is set
+ * \throws planar_grid::Exception naming the parameter when it holds another type */
+template <typename T>
+bool
+readParam(const ros::NodeHandle& pnh,
+          const std::string& name,
+          T& value,
+          const std::string& expected)
+{
+  if (!pnh.hasParam(name))
+    return false;
+  if (!pnh.getParam(name, value))
+    throw planar_grid::Exception("planar_grid_ros_node: ~" + name + " must be "
+                                 + expected);
+  return true;
+}
+
+/** \throws planar_grid::Exception "~name must be in RANGE unit (given: value)" when
+ * \a value lies outside \a range. */
+void
+checkRange(const std::string& name,
+           double value,
+           const planar_grid::ParamRange& range,
+           const std::string& unit,
+           const std::string& note = "")
+{
+  if (!range.contains(value))
+    throw planar_grid::Exception(
+      "planar_grid_ros_node: " + planar_grid::paramRangeMessage("~" + name, range, unit)
+      + " (given: " + planar_grid::formatParamNumber(value) + ")" + note);
+}
 
 /** A colour per plane (golden-ratio hues), grey for non-planar cells. */
 std_msgs::ColorRGBA
@@ -106,24 +157,30 @@ public:
         "planar_grid_ros_node: the private parameter ~config (the pipeline's YAML "
         "file) is not set");
     config_ = planar_grid::loadPipelineConfig(params_.config_path);
+    applyMapParams();
     const auto& bag = config_.input.ros_bag;
-    if (!bag.parent_frame.empty())
+    if (!bag.parent_frame.empty()) {
       params_.fixed_frame = bag.parent_frame;
+      frame_source_ = "the configuration's poses.parent_frame";
+    }
     if (!bag.child_frame.empty())
       params_.sensor_frame = bag.child_frame;
-    pnh_.param("fixed_frame", params_.fixed_frame, params_.fixed_frame);
+    readFrameParams();
     pnh_.param("sensor_frame", params_.sensor_frame, params_.sensor_frame);
     pnh_.param("max_queued_frames", params_.max_queued_frames,
                params_.max_queued_frames);
     pnh_.param("tf_timeout", params_.tf_timeout_s, params_.tf_timeout_s);
     pnh_.param("publish_every", params_.publish_every, params_.publish_every);
     pnh_.param("map_2d_period", params_.map_2d_period_s, params_.map_2d_period_s);
+    pnh_.param("octomap_period", params_.octomap_period_s, params_.octomap_period_s);
     pnh_.param("output_folder", params_.output_folder, params_.output_folder);
+    readParam(pnh_, "latch", params_.latch, "true or false");
     if (params_.max_queued_frames < 0 || params_.publish_every < 1
-        || !(params_.tf_timeout_s >= 0.0) || !(params_.map_2d_period_s >= 0.0))
+        || !(params_.tf_timeout_s >= 0.0) || !(params_.map_2d_period_s >= 0.0)
+        || !(params_.octomap_period_s >= 0.0))
       throw planar_grid::Exception(
         "planar_grid_ros_node: ~max_queued_frames must be >= 0, ~publish_every >= 1 "
-        "and ~tf_timeout, ~map_2d_period >= 0");
+        "and ~tf_timeout, ~map_2d_period, ~octomap_period >= 0");
     mapper_ = std::make_unique<planar_grid::Mapper>(config_);
     for (const auto& stage : config_.stages)
       odometry_ = odometry_ || stage.type == "visual_odometry";
@@ -134,10 +191,19 @@ public:
       grid_params_.z_min_m = 0.3;
       grid_params_.z_max_m = 2.0;
     }
+    applyBandParams();
+    logEffectiveParams();
+    createOctoMapFolder();
 
-    markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("cuboids", 1, true);
-    occupied_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("occupied_cells", 1, true);
-    grid_pub_ = pnh_.advertise<nav_msgs::OccupancyGrid>("map_2d", 1, true);
+    markers_pub_ =
+      pnh_.advertise<visualization_msgs::MarkerArray>("cuboids", 1, params_.latch);
+    occupied_pub_ =
+      pnh_.advertise<sensor_msgs::PointCloud2>("occupied_cells", 1, params_.latch);
+    grid_pub_ = pnh_.advertise<nav_msgs::OccupancyGrid>("map_2d", 1, params_.latch);
+    octomap_binary_pub_ =
+      pnh_.advertise<octomap_msgs::Octomap>("octomap_binary", 1, params_.latch);
+    octomap_full_pub_ =
+      pnh_.advertise<octomap_msgs::Octomap>("octomap_full", 1, params_.latch);
     stats_pub_ = pnh_.advertise<std_msgs::String>("frame_stats", 100);
     save_srv_ = pnh_.advertiseService("save_map", &PlanarGridNode::onSave, this);
     reset_srv_ = pnh_.advertiseService("reset", &PlanarGridNode::onReset, this);
@@ -193,6 +259,10 @@ public:
     publish_cv_.notify_all();
     if (publisher_.joinable())
       publisher_.join();
+    if (!octomap_folder_.empty()) {
+      std::error_code ignored;
+      std::filesystem::remove_all(octomap_folder_, ignored);
+    }
     ROS_INFO_STREAM("planar_grid_ros_node: " << mapped_ << " frames mapped, "
                                              << dropped_ << " dropped, " << failed_
                                              << " failed");
@@ -205,6 +275,156 @@ private:
                                                     sensor_msgs::CameraInfo,
                                                     sensor_msgs::CameraInfo>;
   using Sync = message_filters::Synchronizer<SyncPolicy>;
+
+  /** Whether the pipeline has a stage of \a type. */
+  bool hasStage(const std::string& type) const
+  {
+    return std::any_of(config_.stages.begin(), config_.stages.end(),
+                       [&type](const auto& stage) { return stage.type == type; });
+  }
+
+  /** ~resolution and ~sensor_model/max_range (octomap_server's names): the map's voxel
+   * edge and the depth up to which a view marks space, meters. They replace the
+   * configuration's map_integration resolution_m and max_range_m (the resolution also
+   * planar_cuboid_approximation's min_cell_size_m, which the map's raster shares), and
+   * the configuration is validated again with them, as the pipeline tool's --set does.
+   * \throws planar_grid::Exception naming the parameter for a value out of range, a
+   * pipeline without map_integration, or a configuration they do not fit */
+  void applyMapParams()
+  {
+    double resolution_m = 0.0;
+    double max_range_m = 0.0;
+    const std::string number = "a number, meters";
+    const bool has_resolution = readParam(pnh_, "resolution", resolution_m, number);
+    const bool has_max_range =
+      readParam(pnh_, "sensor_model/max_range", max_range_m, number);
+    if (!has_resolution && !has_max_range)
+      return;
+    if (!hasStage("map_integration"))
+      throw planar_grid::Exception(
+        "planar_grid_ros_node: ~resolution and ~sensor_model/max_range set the "
+        "map_integration stage's resolution_m and max_range_m, and the pipeline of "
+        + params_.config_path + " has no map_integration stage");
+    std::vector<std::string> overrides;
+    if (has_resolution) {
+      checkRange("resolution", resolution_m,
+                 planar_grid::surface_layer_ranges::RESOLUTION, "m");
+      const std::string value = planar_grid::formatParamNumber(resolution_m);
+      overrides.push_back("map_integration.resolution_m=" + value);
+      if (hasStage("planar_cuboid_approximation"))
+        overrides.push_back("planar_cuboid_approximation.min_cell_size_m=" + value);
+      resolution_source_ = "~resolution";
+    }
+    if (has_max_range) {
+      checkRange("sensor_model/max_range", max_range_m,
+                 planar_grid::explicit_space_grid_ranges::MAX_RANGE, "m",
+                 "; octomap_server's -1 (no limit) has no counterpart: give the depth "
+                 "up to which a view marks space");
+      overrides.push_back("map_integration.max_range_m="
+                          + planar_grid::formatParamNumber(max_range_m));
+      max_range_source_ = "~sensor_model/max_range";
+    }
+    try {
+      config_ = planar_grid::loadPipelineConfig(params_.config_path, overrides);
+    } catch (const planar_grid::ConfigError& e) {
+      throw planar_grid::Exception(
+        "planar_grid_ros_node: ~resolution or ~sensor_model/max_range does not fit the "
+        "configuration "
+        + params_.config_path + ": " + e.what());
+    }
+  }
+
+  /** ~frame_id (octomap_server's name) or ~fixed_frame: the map's frame; either
+   * replaces the configuration's poses.parent_frame. Both set must agree.
+   * \throws planar_grid::Exception for two different frames or an empty one */
+  void readFrameParams()
+  {
+    std::string fixed_frame;
+    std::string frame_id;
+    const bool has_fixed_frame =
+      readParam(pnh_, "fixed_frame", fixed_frame, "a string (a TF frame)");
+    const bool has_frame_id =
+      readParam(pnh_, "frame_id", frame_id, "a string (a TF frame)");
+    if (has_fixed_frame && has_frame_id && fixed_frame != frame_id)
+      throw planar_grid::Exception(
+        "planar_grid_ros_node: ~frame_id ('" + frame_id + "') and ~fixed_frame ('"
+        + fixed_frame + "') both name the map's frame and differ: set one of them");
+    if (has_frame_id) {
+      params_.fixed_frame = frame_id;
+      frame_source_ = "~frame_id";
+    } else if (has_fixed_frame) {
+      params_.fixed_frame = fixed_frame;
+      frame_source_ = "~fixed_frame";
+    }
+    if (params_.fixed_frame.empty())
+      throw planar_grid::Exception("planar_grid_ros_node: the map's frame ("
+                                   + frame_source_ + ") is empty");
+  }
+
+  /** ~pointcloud_min_z and ~pointcloud_max_z (octomap_server's names): the ends of the
+   * 2D map's height band, meters above its reference (the terrain the views saw, or
+   * z_ref_m: output.map_grid_2d_band); they replace the configuration's z_min_m and
+   * z_max_m.
+   * \throws planar_grid::Exception for an end out of range or min >= max */
+  void applyBandParams()
+  {
+    const std::string number = "a number, meters";
+    const auto& range = planar_grid::occupancy_grid_2d_ranges::Z_BAND;
+    if (readParam(pnh_, "pointcloud_min_z", grid_params_.z_min_m, number)) {
+      checkRange("pointcloud_min_z", grid_params_.z_min_m, range, "m");
+      band_source_ = "~pointcloud_min_z";
+    }
+    if (readParam(pnh_, "pointcloud_max_z", grid_params_.z_max_m, number)) {
+      checkRange("pointcloud_max_z", grid_params_.z_max_m, range, "m");
+      band_source_ = band_source_.empty() ? "~pointcloud_max_z"
+                                          : "~pointcloud_min_z, ~pointcloud_max_z";
+    }
+    if (!(grid_params_.z_min_m < grid_params_.z_max_m))
+      throw planar_grid::Exception(
+        "planar_grid_ros_node: the 2D map's band must have ~pointcloud_min_z ("
+        + planar_grid::formatParamNumber(grid_params_.z_min_m)
+        + " m) below ~pointcloud_max_z ("
+        + planar_grid::formatParamNumber(grid_params_.z_max_m) + " m)");
+  }
+
+  /** Prints the values the node runs with, under octomap_server's names, and where
+   * each comes from. */
+  void logEffectiveParams() const
+  {
+    const auto stageValue = [this](const std::string& key) {
+      for (const auto& stage : config_.stages)
+        if (stage.type == "map_integration")
+          return planar_grid::formatParamNumber(stage.params.getDouble(key)) + " m";
+      return std::string("none (no map_integration stage)");
+    };
+    const std::string reference =
+      grid_params_.above_terrain
+        ? "above the terrain the views saw"
+        : "above z = " + planar_grid::formatParamNumber(grid_params_.z_ref_m) + " m";
+    ROS_INFO_STREAM(
+      "planar_grid_ros_node: frame_id "
+      << params_.fixed_frame << " (" << frame_source_ << "); resolution "
+      << stageValue("resolution_m") << " (" << resolution_source_
+      << "); sensor_model/max_range " << stageValue("max_range_m") << " ("
+      << max_range_source_ << "); pointcloud_min_z "
+      << planar_grid::formatParamNumber(grid_params_.z_min_m) << " m, pointcloud_max_z "
+      << planar_grid::formatParamNumber(grid_params_.z_max_m) << " m, " << reference
+      << " ("
+      << (band_source_.empty() ? std::string("the configuration's band") : band_source_)
+      << "); latch " << (params_.latch ? "true" : "false"));
+  }
+
+  /** A private folder for the OctoMap files the messages are read from (removed when
+   * the node ends), in the system's temporary folder (TMPDIR). */
+  void createOctoMapFolder()
+  {
+    std::string pattern =
+      (std::filesystem::temp_directory_path() / "planar_grid_ros_node.XXXXXX").string();
+    if (mkdtemp(pattern.data()) == nullptr)
+      throw planar_grid::Exception("planar_grid_ros_node: cannot create a folder like "
+                                   + pattern + ": " + std::strerror(errno));
+    octomap_folder_ = pattern;
+  }
 
   void onStereo(const sensor_msgs::ImageConstPtr& left,
                 const sensor_msgs::ImageConstPtr& right,
@@ -371,17 +591,39 @@ private:
     publish_cv_.notify_one();
   }
 
+  /** A map product published at most once per period: the map version it last
+   * took (published, or passed over without subscribers) and when. */
+  struct Throttled {
+    Clock::duration period;
+    std::uint64_t version{0};
+    Clock::time_point last{};
+
+    /** Whether \a map_version waits for this product. */
+    bool pending(std::uint64_t map_version) const { return version != map_version; }
+    /** When the product may be published again. */
+    Clock::time_point due() const { return last + period; }
+    /** Whether \a map_version is to be taken now: pending and the period over. */
+    bool ready(std::uint64_t map_version, Clock::time_point now) const
+    {
+      return pending(map_version) && now >= due();
+    }
+  };
+
   /** The publisher thread: the occupied cells after each frame (frames that come
-   * faster are coalesced) and the 2D map at most once per ~map_2d_period and after the
-   * last frame of a burst, read from the map under its shared lock (Mapper::readMap())
-   * while the worker maps the next frame. */
+   * faster are coalesced); the 2D map and the OctoMaps at most once per
+   * ~map_2d_period and ~octomap_period, and after the last frame of a burst. The
+   * occupied cells and the 2D map are read from the map under one shared lock
+   * (Mapper::readMap()), each OctoMap under its own, while the worker maps the next
+   * frame. */
   void publishSpace()
   {
+    const auto seconds = [](double s) {
+      return std::chrono::duration_cast<Clock::duration>(
+        std::chrono::duration<double>(s));
+    };
     std::uint64_t published = 0;
-    std::uint64_t grid_published = 0;
-    Clock::time_point last_grid{};
-    const auto period = std::chrono::duration_cast<Clock::duration>(
-      std::chrono::duration<double>(params_.map_2d_period_s));
+    Throttled grid{seconds(params_.map_2d_period_s)};
+    Throttled octomap{seconds(params_.octomap_period_s)};
     for (;;) {
       std::uint64_t version = 0;
       ros::Time stamp;
@@ -390,35 +632,51 @@ private:
         const auto ready = [&] {
           return stopping_publisher_ || map_version_ != published;
         };
-        if (grid_published == map_version_)
-          publish_cv_.wait(lock, ready);
+        // A 2D map or OctoMap held back by its period is published when it ends.
+        const bool grid_pending = grid.pending(map_version_);
+        const bool octomap_pending = octomap.pending(map_version_);
+        if (grid_pending || octomap_pending)
+          publish_cv_.wait_until(lock,
+                                 grid_pending && octomap_pending
+                                   ? std::min(grid.due(), octomap.due())
+                                   : (grid_pending ? grid.due() : octomap.due()),
+                                 ready);
         else
-          publish_cv_.wait_until(lock, last_grid + period, ready);
+          publish_cv_.wait(lock, ready);
         if (stopping_publisher_)
           return;
         version = map_version_;
         stamp = map_stamp_;
       }
+      const Clock::time_point now = Clock::now();
+      const bool grid_now = grid.ready(version, now);
+      const bool octomap_now = octomap.ready(version, now);
       const bool cells = version != published && occupied_pub_.getNumSubscribers() > 0;
-      const bool grid = version != grid_published && Clock::now() >= last_grid + period
-                        && grid_pub_.getNumSubscribers() > 0;
-      if (cells || grid) {
+      const bool grid_published = grid_now && grid_pub_.getNumSubscribers() > 0;
+      const bool octomap_published = octomap_now
+                                     && (octomap_binary_pub_.getNumSubscribers() > 0
+                                         || octomap_full_pub_.getNumSubscribers() > 0);
+      const auto timed = [](std::atomic<double>& ms, const auto& publish) {
+        const Clock::time_point start = Clock::now();
+        publish();
+        ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+      };
+      if (cells || grid_published) {
         const auto map = mapper_->readMap();
-        const auto timed = [](std::atomic<double>& ms, const auto& publish) {
-          const Clock::time_point start = Clock::now();
-          publish();
-          ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-        };
         if (cells)
           timed(occupied_ms_, [&] { publishOccupiedCells(*map, stamp); });
-        if (grid)
+        if (grid_published)
           timed(map_2d_ms_, [&] { publishGrid(*map, stamp); });
       }
+      if (octomap_published)
+        timed(octomap_ms_, [&] { publishOctoMaps(stamp); });
       published = version;
-      if (grid || Clock::now() >= last_grid + period) {
-        grid_published = version;
-        last_grid = Clock::now();
-      }
+      for (auto [taken, product] :
+           {std::pair{grid_now, &grid}, {octomap_now, &octomap}})
+        if (taken) {
+          product->version = version;
+          product->last = Clock::now();
+        }
     }
   }
 
@@ -517,6 +775,75 @@ private:
     grid_pub_.publish(msg);
   }
 
+  /** ~octomap_binary and ~octomap_full, each when it has subscribers. A failed
+   * export is logged and the next map version tries again. */
+  void publishOctoMaps(const ros::Time& stamp)
+  {
+    for (const bool binary : {true, false}) {
+      ros::Publisher& publisher = binary ? octomap_binary_pub_ : octomap_full_pub_;
+      if (publisher.getNumSubscribers() == 0)
+        continue;
+      try {
+        publisher.publish(octomapMessage(stamp, binary));
+      } catch (const std::exception& e) {
+        ROS_ERROR_STREAM("planar_grid_ros_node: " << publisher.getTopic() << ": "
+                                                  << e.what());
+      }
+    }
+  }
+
+  /** The map as octomap_msgs/Octomap: the tree PlanarGridMap::exportOctoMap() writes
+   * to map.bt (binary: each node's maximum-likelihood state) or map.ot (full: each
+   * node's log-odds, the cuboids' probabilities), written to the node's private folder
+   * under the map's shared lock, read back into an octomap::OcTree and serialized as
+   * octomap_msgs' conversions.h does (binaryMapToMsg: OcTree::writeBinaryData;
+   * fullMapToMsg: OcTree::writeData), with id "OcTree", the tree's resolution in
+   * meters, and the map's frame and the last mapped frame's stamp in the header.
+   * \throws planar_grid::IOError, planar_grid::Exception when the tree cannot be
+   * written or read back */
+  octomap_msgs::Octomap octomapMessage(const ros::Time& stamp, bool binary) const
+  {
+    const std::filesystem::path path = octomap_folder_ / (binary ? "map.bt" : "map.ot");
+    double resolution_m = 0.0;
+    {
+      const auto map = mapper_->readMap();
+      map->exportOctoMap(path.string());
+      resolution_m = map->getResolution();
+    }
+    std::ifstream in(path, std::ios::binary);
+    // Both formats are a text header ending in the line "data", then the tree as
+    // writeBinaryData() (.bt) or writeData() (.ot) wrote it. Read through the tree's
+    // own reader, without AbstractOcTree::read()'s messages on stderr.
+    std::string line;
+    while (std::getline(in, line) && line != "data") {
+    }
+    if (!in)
+      throw planar_grid::Exception("the OctoMap file " + path.string()
+                                   + " has no data line");
+    octomap::OcTree tree(resolution_m);
+    if (binary)
+      tree.readBinaryData(in);
+    else
+      tree.readData(in);
+    if (in.bad())
+      throw planar_grid::Exception("the OctoMap file " + path.string()
+                                   + " cannot be read");
+    octomap_msgs::Octomap msg;
+    msg.header.frame_id = params_.fixed_frame;
+    msg.header.stamp = stamp;
+    msg.binary = binary;
+    msg.id = tree.getTreeType();
+    msg.resolution = tree.getResolution();
+    std::stringstream data;
+    if (binary)
+      tree.writeBinaryData(data);
+    else
+      tree.writeData(data);
+    const std::string bytes = data.str();
+    msg.data.assign(bytes.begin(), bytes.end());
+    return msg;
+  }
+
   /** Whether the frame was dense: stereo_disparity gave it a disparity (every frame
    * without that stage, or with every frame dense). */
   static bool isKeyframe(const planar_grid::FrameStats& stats)
@@ -567,6 +894,7 @@ private:
     j["cuboids_ms"] = cuboids_ms_;
     j["last_occupied_cells_ms"] = occupied_ms_.load();
     j["last_map_2d_ms"] = map_2d_ms_.load();
+    j["last_octomap_ms"] = octomap_ms_.load();
     j["exclusive_ms"] = stats.exclusive_ms;
     j["planes"] = stats.planes;
     j["cuboids"] = stats.cuboids;
@@ -588,14 +916,19 @@ private:
       fs::create_directories(folder);
       const fs::path dir(folder);
       mapper_->save((dir / "map.pgmap").string());
+      planar_grid::OctoMapExportSummary octomap;
       {
         const auto map = mapper_->readMap();
-        map->exportOctoMap((dir / "map.bt").string());
+        octomap = map->exportOctoMap((dir / "map.bt").string());
         map->exportMesh((dir / "map_cuboids.ply").string());
       }
       response.success = true;
       response.message = "wrote map.pgmap, map.bt and map_cuboids.ply in " + folder
-                         + " (" + std::to_string(mapped_) + " frames)";
+                         + " (" + std::to_string(mapped_)
+                         + " frames); map.bt: " + std::to_string(octomap.nodes)
+                         + " nodes, " + std::to_string(octomap.leaf_nodes) + " leaves, "
+                         + std::to_string(octomap.occupied_leaves) + " occupied, "
+                         + std::to_string(octomap.free_leaves) + " free";
     } catch (const std::exception& e) {
       response.success = false;
       response.message = e.what();
@@ -626,6 +959,14 @@ private:
   planar_grid::OccupancyGrid2DParams grid_params_;
   std::unique_ptr<planar_grid::Mapper> mapper_;
   bool odometry_{false};
+  /** Where the map's frame, resolution, maximum range and 2D band come from, as the
+   * start-up line prints them ("" for the band: the configuration). */
+  std::string frame_source_{"default"};
+  std::string resolution_source_{"the configuration"};
+  std::string max_range_source_{"the configuration"};
+  std::string band_source_;
+  /** The node's private folder of the OctoMap files behind the messages. */
+  std::filesystem::path octomap_folder_;
   /** Wall time of the last frame's markers, ms. */
   double cuboids_ms_{0.0};
 
@@ -635,6 +976,7 @@ private:
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   ros::Publisher markers_pub_, occupied_pub_, grid_pub_, stats_pub_;
+  ros::Publisher octomap_binary_pub_, octomap_full_pub_;
   ros::ServiceServer save_srv_, reset_srv_;
   ros::Subscriber cloud_sub_;
   message_filters::Subscriber<sensor_msgs::Image> left_sub_, right_sub_;
@@ -661,8 +1003,8 @@ private:
   std::uint64_t map_version_{0};
   ros::Time map_stamp_;
   bool stopping_publisher_{false};
-  /** Wall time of the publisher's last occupied cells and 2D map, ms. */
-  std::atomic<double> occupied_ms_{0.0}, map_2d_ms_{0.0};
+  /** Wall time of the publisher's last occupied cells, 2D map and OctoMaps, ms. */
+  std::atomic<double> occupied_ms_{0.0}, map_2d_ms_{0.0}, octomap_ms_{0.0};
   std::thread publisher_;
 };
 
@@ -680,20 +1022,31 @@ constexpr const char* USAGE =
   "\n"
   "Private parameters:\n"
   "  ~config             the pipeline's YAML file (required)\n"
-  "  ~fixed_frame        world frame of the map and of the published topics\n"
-  "                      (default: the configuration's, else world)\n"
+  "  ~frame_id           world frame of the map and of the published topics\n"
+  "                      (default: the configuration's, else world); also\n"
+  "                      ~fixed_frame\n"
   "  ~sensor_frame       the camera's frame (default: the messages' frame_id)\n"
   "  ~max_queued_frames  frames kept waiting while one is mapped; 0: no limit (1)\n"
   "  ~tf_timeout         longest wait for a frame's transform, s (0.5)\n"
   "  ~publish_every      publish the map every N mapped frames (1)\n"
   "  ~map_2d_period      shortest time between two 2D maps, s (2.0)\n"
+  "  ~octomap_period     shortest time between two OctoMaps, s (2.0)\n"
   "  ~output_folder      folder of ~save_map's files (.)\n"
+  "  ~resolution         the map's voxel edge, m (the configuration's)\n"
+  "  ~sensor_model/max_range\n"
+  "                      depth up to which a view marks space, m (the\n"
+  "                      configuration's)\n"
+  "  ~pointcloud_min_z, ~pointcloud_max_z\n"
+  "                      the 2D map's height band above its reference, m\n"
+  "                      (the configuration's, else 0.3, 2.0 above the terrain)\n"
+  "  ~latch              publish the map topics latched (true)\n"
   "\n"
   "Subscribes: left/image_rect, right/image_rect, left/camera_info,\n"
   "  right/camera_info, or cloud (PointCloud2) for a pcd_files configuration\n"
   "  (or the configuration's ros_bag topics).\n"
   "Publishes: ~cuboids (MarkerArray), ~occupied_cells (PointCloud2), ~map_2d\n"
-  "  (OccupancyGrid), ~frame_stats (String, JSON per frame).\n"
+  "  (OccupancyGrid), ~octomap_binary, ~octomap_full (octomap_msgs/Octomap),\n"
+  "  ~frame_stats (String, JSON per frame).\n"
   "Services: ~save_map, ~reset (std_srvs/Trigger).\n"
   "\n"
   "Options:\n"

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: BSD-3-Clause
-"""The ROS node against a real ROS master (CTest RosNode.MapsABagLikeThePipeline).
+"""The ROS node against a real ROS master (CTest RosNode.*, docs/ROS.md).
 
 Writes the first frames of a stereo configuration to a bag (images, CameraInfo, poses on
 /tf), starts rosmaster on a free loopback port, planar_grid_ros_node with every frame
@@ -8,13 +8,21 @@ queued, and `rosbag play` of the bag at 1x (or --rate); checks that every frame 
 and each output topic published, saves the map through the node's service, runs
 planar_grid_pipeline on the same bag with the same configuration, and compares the two
 map.pgmap files byte for byte and the keyframes each made dense (stereo_disparity's
-frame_selection). Prints the latency from a pair's arrival to its markers (median, 95th
-percentile), of every frame and of the keyframes. Every process is stopped at the end,
-also on failure.
+frame_selection). The last octomap_msgs/Octomap messages of ~octomap_binary and
+~octomap_full (md5sum and definition upstream's) are rebuilt with liboctomap
+(planar_grid_octomap_check) and counted against the node's map.bt, its ~save_map answer
+and planar_grid_pipeline's report.json. Prints the latency from a pair's arrival to its
+markers (median, 95th percentile), of every frame and of the keyframes.
+
+--parameter NAME runs the node with one of octomap_server's parameters set beside a node
+without it on the same bag and checks what the parameter changes, and that bad values
+stop the node with an error naming it. Every process is stopped at the end, also on
+failure.
 """
 import argparse
 import json
 import os
+import re
 import signal
 import socket
 import statistics
@@ -53,6 +61,123 @@ def wait_until(condition, timeout_s, what):
     raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
 
 
+# octomap_msgs/Octomap's md5sum upstream (octomap_msgs 0.3's generated Octomap.h, and
+# what rosbag info shows for recorded octomap topics): the node's must be the same for
+# MoveIt and octomap_rviz_plugins to subscribe.
+OCTOMAP_MD5SUM = "9a45536b45c5e409cd49f04bb2d9999f"
+OCTOMAP_MSG_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "msg",
+                                "octomap_msgs", "Octomap.msg")
+# The tree counts that liboctomap gives a .bt file, in planar_grid_octomap_check's and
+# report.json's names.
+TREE_COUNTS = ("nodes", "leaf_nodes", "occupied_leaves", "free_leaves", "occupied_voxels",
+               "free_voxels")
+
+
+class RawTopic:
+    """A subscription that keeps the serialized bytes of the last message, its
+    connection header and the number received (rospy has no octomap_msgs module)."""
+
+    def __init__(self, topic):
+        import rospy
+        self.topic = topic
+        self.count = 0
+        self.last = None
+        self.connection_header = None
+        self.subscriber = rospy.Subscriber(topic, rospy.AnyMsg, self._keep)
+
+    def _keep(self, msg):
+        self.last = bytes(msg._buff)
+        self.connection_header = msg._connection_header
+        self.count += 1
+
+
+def check_octomaps(args, work, binary, full=None, bt=None, occupancy_thres=0.5):
+    """planar_grid_octomap_check on serialized messages and a .bt file: its JSON."""
+    command = [args.octomap_check, "--occupancy-thres", str(occupancy_thres)]
+    for name, data in (("binary", binary), ("full", full)):
+        if data is not None:
+            path = os.path.join(work, f"octomap_{name}.msg")
+            with open(path, "wb") as f:
+                f.write(data)
+            command += [f"--{name}-msg", path]
+    if bt is not None:
+        command += ["--bt", bt]
+    result = subprocess.run(command, check=True, timeout=120, stdout=subprocess.PIPE,
+                            text=True)
+    return json.loads(result.stdout)
+
+
+def wait_for_octomaps(args, work, topics, stamp, timeout_s=60, **kwargs):
+    """Waits until the last message of each raw OctoMap topic (binary, full) carries
+    \a stamp (the last mapped frame's): planar_grid_octomap_check's JSON of them."""
+    deadline = time.monotonic() + timeout_s
+    checked = None
+    while time.monotonic() < deadline:
+        if all(t.last is not None for t in topics):
+            checked = check_octomaps(args, work, topics[0].last,
+                                     topics[1].last if len(topics) > 1 else None, **kwargs)
+            kinds = ["binary", "full"][:len(topics)]
+            if all(abs(checked[k]["stamp"] - stamp) < 1e-6 for k in kinds):
+                return checked
+        time.sleep(0.5)
+    raise AssertionError(f"timed out after {timeout_s} s waiting for the OctoMaps of the "
+                         f"frame stamped {stamp:.3f} (last: {checked})")
+
+
+def occupancy_thres_of(config_path):
+    """map_integration's occupancy_thres in the configuration (its default 0.5)."""
+    with open(config_path) as f:
+        config = yaml.safe_load(f)
+    for stage in config.get("pipeline", []):
+        if stage.get("type") == "map_integration":
+            return float((stage.get("params") or {}).get("occupancy_thres", 0.5))
+    return 0.5
+
+
+def assert_upstream_octomap_type(topic):
+    """The topic's connection carries upstream's octomap_msgs/Octomap: its type, its
+    md5sum and its definition (the .msg file, then std_msgs/Header's)."""
+    header = topic.connection_header
+    assert header["type"] == "octomap_msgs/Octomap", f"{topic.topic}: {header['type']}"
+    assert header["md5sum"] == OCTOMAP_MD5SUM, (
+        f"{topic.topic}: md5sum {header['md5sum']}, upstream's {OCTOMAP_MD5SUM}")
+    with open(OCTOMAP_MSG_FILE) as f:
+        text = f.read()
+    definition = header["message_definition"]
+    assert definition.startswith(text) and "\nMSG: std_msgs/Header\n" in definition, (
+        f"{topic.topic}: the definition differs from {OCTOMAP_MSG_FILE}: {definition!r}")
+
+
+def assert_octomaps_equal_bt(checked, frame_id, resolution):
+    """The binary message's tree is the .bt file's (counts and data section, byte for
+    byte), the full message's tree in maximum likelihood too, both in frame_id at the
+    resolution (meters)."""
+    bt = checked["bt"]
+    for kind in ("binary", "full"):
+        msg = checked[kind]
+        assert msg["frame_id"] == frame_id, f"~octomap_{kind}: frame {msg['frame_id']}"
+        assert msg["id"] == "OcTree" and msg["binary"] == (kind == "binary"), msg
+        assert abs(msg["resolution"] - resolution) < 1e-9, msg
+    for name in TREE_COUNTS:
+        assert checked["binary"][name] == bt[name], (
+            f"~octomap_binary's tree has {name} {checked['binary'][name]}, map.bt "
+            f"{bt[name]}")
+        assert checked["full_max_likelihood"][name] == bt[name], (
+            f"~octomap_full's tree in maximum likelihood has {name} "
+            f"{checked['full_max_likelihood'][name]}, map.bt {bt[name]}")
+    assert checked["binary_data_equals_bt"], "~octomap_binary's data differ from map.bt's"
+    assert checked["full"]["leaf_nodes"] >= checked["binary"]["leaf_nodes"] > 0
+
+
+def saved_octomap_counts(message):
+    """The map.bt counts in ~save_map's answer."""
+    found = re.search(r"map\.bt: (\d+) nodes, (\d+) leaves, (\d+) occupied, (\d+) free",
+                      message)
+    assert found, f"no map.bt counts in ~save_map's answer: {message}"
+    return dict(zip(("nodes", "leaf_nodes", "occupied_leaves", "free_leaves"),
+                    map(int, found.groups())))
+
+
 def write_config(source_config, bag, output_folder, path):
     with open(source_config) as f:
         config = yaml.safe_load(f)
@@ -70,14 +195,16 @@ def write_config(source_config, bag, output_folder, path):
         yaml.safe_dump(config, f, sort_keys=False)
 
 
-def prepare(args, prefix, frames):
-    """A work folder with a bag of the configuration's first frames, the node's YAML
-    for it, and the environment of a ROS master on a free loopback port (also set in
-    this process, for rospy): (work, bag, config, env, port)."""
+def prepare(args, prefix, frames, parent_frame="world"):
+    """A work folder with a bag of the configuration's first frames (their poses on /tf
+    as parent_frame -> camera), the node's YAML for it (poses from world to camera),
+    and the environment of a ROS master on a free loopback port (also set in this
+    process, for rospy): (work, bag, config, env, port)."""
     work = tempfile.mkdtemp(prefix=prefix)
     bag = os.path.join(work, "pairs.bag")
     subprocess.run([args.write_bag, "--config", args.config, "--frames", str(frames),
-                    "--output", bag], check=True, timeout=120)
+                    "--output", bag, "--parent-frame", parent_frame], check=True,
+                   timeout=120)
     config = os.path.join(work, "ros.yaml")
     write_config(args.config, bag, os.path.join(work, "pipeline"), config)
     port = free_port()
@@ -143,6 +270,8 @@ def main():
     parser.add_argument("--node", required=True)
     parser.add_argument("--pipeline", required=True)
     parser.add_argument("--write-bag", required=True)
+    parser.add_argument("--octomap-check",
+                        help="planar_grid_octomap_check (default: beside --node)")
     parser.add_argument("--config", required=True)
     parser.add_argument("--frames", type=int, default=30)
     parser.add_argument("--max-queued-frames", type=int, default=0,
@@ -159,6 +288,9 @@ def main():
     parser.add_argument("--keep", action="store_true",
                         help="keep the work folder (bag, configuration, maps)")
     args = parser.parse_args()
+    if args.octomap_check is None:
+        args.octomap_check = os.path.join(os.path.dirname(args.node),
+                                          "planar_grid_octomap_check")
     if args.stop_while_waiting_for_tf:
         stop_while_waiting_for_tf(args)
         return
@@ -199,6 +331,11 @@ def main():
             rospy.Subscriber("/planar_grid/map_2d", message_type(OccupancyGrid), keep("map_2d")),
             rospy.Subscriber("/planar_grid/frame_stats", String, keep("frame_stats")),
         ]
+        # The OctoMaps, as MoveIt and octomap_rviz_plugins take them (not when
+        # measuring the latency).
+        octomaps = [] if measure_only else [RawTopic("/planar_grid/octomap_binary"),
+                                            RawTopic("/planar_grid/octomap_full")]
+        subscribers += [t.subscriber for t in octomaps]
         rospy.wait_for_service("/planar_grid/save_map", timeout=60)
         wait_until(lambda: all(s.get_num_connections() > 0 for s in subscribers), 30,
                    "the test's subscriptions to the node's topics")
@@ -243,6 +380,26 @@ def main():
         response = rospy.ServiceProxy("/planar_grid/save_map", Trigger)()
         assert response.success, response.message
         print("save_map:", response.message)
+        if not measure_only:
+            # The map no longer changes: the OctoMaps of the last frame are map.bt's tree.
+            stamp = received["cuboids"][-1].markers[0].header.stamp.to_sec()
+            octomap = wait_for_octomaps(args, work, octomaps, stamp,
+                                        bt=os.path.join(node_folder, "map.bt"),
+                                        occupancy_thres=occupancy_thres_of(config))
+            for topic in octomaps:
+                assert_upstream_octomap_type(topic)
+            assert_octomaps_equal_bt(octomap, "world", 0.1)
+            saved = saved_octomap_counts(response.message)
+            assert saved == {k: octomap["bt"][k] for k in saved}, (saved, octomap["bt"])
+            print(f"~octomap_binary ({octomaps[0].count} messages) and ~octomap_full "
+                  f"({octomaps[1].count}): upstream's md5sum {OCTOMAP_MD5SUM}; the last "
+                  f"rebuilt with liboctomap: {octomap['binary']['nodes']} nodes, "
+                  f"{octomap['binary']['leaf_nodes']} leaves "
+                  f"({octomap['binary']['occupied_leaves']} occupied), "
+                  f"{octomap['binary']['data_bytes']} bytes / "
+                  f"{octomap['full']['leaf_nodes']} leaves, "
+                  f"{octomap['full']['data_bytes']} bytes: map.bt's tree; both "
+                  f"published in {final['last_octomap_ms']:.1f} ms")
 
         def summary(values):
             values = sorted(values)
@@ -294,6 +451,11 @@ def main():
         f"{pipeline_keyframes}")
     assert sum(1 for s in stats if s["keyframe"]) == pipeline_keyframes
     print(f"both made the same {pipeline_keyframes} of {args.frames} frames dense")
+    for name in TREE_COUNTS:
+        assert report["map_octomap"][name] == octomap["binary"][name], (
+            f"report.json's map_octomap {name} {report['map_octomap'][name]}, the node's "
+            f"~octomap_binary {octomap['binary'][name]}")
+    print("the OctoMap messages' counts equal report.json's map_octomap")
     if not args.keep:
         subprocess.run(["rm", "-rf", work], check=False)
     print("1 passed, 0 failed")
