@@ -265,7 +265,240 @@ def stop_while_waiting_for_tf(args):
     print("1 passed, 0 failed")
 
 
+# octomap_server's parameters the node takes (docs/ROS.md), one test each: what the
+# variant node gets, and values the node must reject, with a part of its error.
+PARAMETERS = {
+    "frame_id": ({"frame_id": "map_test"},
+                 [({"frame_id": "map_test", "fixed_frame": "odom"},
+                   "both name the map's frame and differ"),
+                  ({"frame_id": 3}, "~frame_id must be a string")]),
+    "resolution": ({"resolution": 0.2},
+                   [({"resolution": 0.0}, "~resolution must be in [0.001, 10] m"),
+                    ({"resolution": "fine"}, "~resolution must be a number")]),
+    "max_range": ({"sensor_model/max_range": 5.0},
+                  [({"sensor_model/max_range": -1.0},
+                    "~sensor_model/max_range must be in (0, 1000] m")]),
+    "height_band": ({"pointcloud_min_z": 2.5, "pointcloud_max_z": 4.0},
+                    [({"pointcloud_min_z": 2.0, "pointcloud_max_z": 1.0},
+                      "below ~pointcloud_max_z"),
+                     ({"pointcloud_max_z": 5000.0},
+                      "~pointcloud_max_z must be in [-1000, 1000] m")]),
+    "latch": ({"latch": False}, [({"latch": "maybe"}, "~latch must be true or false")]),
+    "octomap_period": ({"octomap_period": 0.0},
+                       [({"octomap_period": -1.0}, "~octomap_period >= 0")]),
+}
+
+
+def param_arg(name, value):
+    """A private parameter on the node's command line (_name:=value, read as YAML)."""
+    if isinstance(value, bool):
+        value = "true" if value else "false"
+    return f"_{name}:={value}"
+
+
+class NodeRun:
+    """A planar_grid_ros_node under \a name with private parameters, its log, and the
+    test's subscriptions to its frame statistics, 2D map and binary OctoMap."""
+
+    def __init__(self, args, env, work, config, name, params):
+        import rospy
+        from nav_msgs.msg import OccupancyGrid
+        from std_msgs.msg import String
+        self.name = name
+        self.folder = os.path.join(work, name)
+        self.log_path = os.path.join(work, f"{name}.log")
+        self.stats = []
+        self.grids = []
+        with open(self.log_path, "w") as log:
+            self.process = subprocess.Popen(
+                [args.node, f"__name:={name}", f"_config:={config}", "_max_queued_frames:=0",
+                 "_tf_timeout:=0.2", f"_output_folder:={self.folder}"]
+                + [param_arg(k, v) for k, v in params.items()],
+                env=env, stdout=log, stderr=subprocess.STDOUT)
+        self.subscribers = [
+            rospy.Subscriber(f"/{name}/frame_stats", String,
+                             lambda m: self.stats.append(json.loads(m.data))),
+            rospy.Subscriber(f"/{name}/map_2d", OccupancyGrid, self.grids.append),
+        ]
+        self.octomap = RawTopic(f"/{name}/octomap_binary")
+        self.subscribers.append(self.octomap.subscriber)
+
+    def log(self):
+        with open(self.log_path) as f:
+            return f.read()
+
+    def mapped(self):
+        return self.stats[-1]["mapped"] if self.stats else 0
+
+    def last_grid(self, stamp, timeout_s=30):
+        """The 2D map of the frame stamped \a stamp (the last), once it came."""
+        wait_until(lambda: self.grids and abs(self.grids[-1].header.stamp.to_sec() - stamp)
+                   < 1e-6, timeout_s, f"{self.name}'s 2D map of the last frame")
+        return self.grids[-1]
+
+
+def expect_rejected(args, env, config, params, expected):
+    """The node started with \a params exits with status 1 and \a expected in its
+    error, within 30 s."""
+    result = subprocess.run([args.node, "__name:=planar_grid_rejected", f"_config:={config}"]
+                            + [param_arg(k, v) for k, v in params.items()], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            timeout=30)
+    assert result.returncode == 1 and expected in result.stdout, (
+        f"with {params} the node exited {result.returncode}; expected '{expected}' in: "
+        f"{result.stdout}")
+    print(f"rejected {params}: ...{expected}...")
+
+
+def count_messages(seconds, topics):
+    """--count-messages: a subscriber that comes late, in its own process: prints the
+    messages each topic gave within \a seconds as JSON."""
+    import rospy
+    rospy.init_node("planar_grid_late_subscriber", anonymous=True, disable_signals=True)
+    counts = {t: 0 for t in topics}
+
+    def keep(topic):
+        def count(_):
+            counts[topic] += 1
+        return count
+
+    subscribers = [rospy.Subscriber(t, rospy.AnyMsg, keep(t)) for t in topics]
+    time.sleep(seconds)
+    for subscriber in subscribers:
+        subscriber.unregister()
+    print(json.dumps(counts))
+    rospy.signal_shutdown("counted")
+
+
+def late_subscriber_counts(env, topics, seconds=3.0):
+    result = subprocess.run([sys.executable, os.path.abspath(__file__), "--count-messages",
+                             str(seconds)] + topics, env=env, stdout=subprocess.PIPE,
+                            text=True, timeout=60, check=True)
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def parameter_test(args):
+    """One of octomap_server's parameters (--parameter): a node with it set and a node
+    without it map the same bag; checks what it changes, that the start-up line prints
+    it, and that bad values stop the node with an error naming the parameter."""
+    name = args.parameter
+    variant_params, rejected = PARAMETERS[name]
+    # For frame_id, the poses come from map_test, which the configuration does not name.
+    parent_frame = "map_test" if name == "frame_id" else "world"
+    work, bag, config, env, port = prepare(args, f"planar_grid_ros_{name}_", args.frames,
+                                           parent_frame)
+    import rosbag
+    import rospy
+    with rosbag.Bag(bag) as recorded:
+        last_stamp = max(m.header.stamp.to_sec() for _, m, _ in
+                         recorded.read_messages(topics=["/stereo/left/image_rect"]))
+    master = player = None
+    nodes = []
+    try:
+        master = start_master(env, port)
+        for params, expected in rejected:
+            expect_rejected(args, env, config, params, expected)
+        rospy.init_node("planar_grid_test", anonymous=True, disable_signals=True)
+        nodes = [NodeRun(args, env, work, config, "planar_grid_default", {}),
+                 NodeRun(args, env, work, config, "planar_grid_variant", variant_params)]
+        default, variant = nodes
+        wait_until(lambda: all(s.get_num_connections() > 0 for n in nodes
+                               for s in n.subscribers), 60,
+                   "the test's subscriptions to the nodes' topics")
+        player = subprocess.Popen(["rosbag", "play", "--quiet", "-d", "2", bag], env=env,
+                                  stdout=subprocess.DEVNULL)
+        player.wait(timeout=120)
+        assert player.returncode == 0, f"rosbag play exited {player.returncode}"
+        wait_until(lambda: variant.mapped() == args.frames, 120,
+                   f"the variant node to map {args.frames} frames")
+        variant_grid = variant.last_grid(last_stamp)
+        variant_octomap = wait_for_octomaps(args, work, [variant.octomap], last_stamp)
+        # The start-up line with the effective values, read once the node has ended
+        # (its stdout, a file here, is flushed then).
+        printed = []
+        if name == "frame_id":
+            # The default node looks for world -> camera, which the bag does not have.
+            wait_until(lambda: default.log().count("planar_grid_ros_node: frame ")
+                       >= args.frames, 60,
+                f"the default node to fail {args.frames} frames")
+            assert not default.stats, "the default node mapped frames without world"
+            assert variant_grid.header.frame_id == "map_test", variant_grid.header
+            assert variant_octomap["binary"]["frame_id"] == "map_test", variant_octomap
+            printed.append("frame_id map_test (~frame_id)")
+            print(f"~frame_id map_test: {args.frames} frames mapped in map_test, the 2D "
+                  f"map and the OctoMap in map_test; without it all {args.frames} failed "
+                  f"(no TF from the configuration's world)")
+        else:
+            wait_until(lambda: default.mapped() == args.frames, 120,
+                       f"the default node to map {args.frames} frames")
+            default_grid = default.last_grid(last_stamp)
+            default_octomap = wait_for_octomaps(args, work, [default.octomap], last_stamp)
+            d, v = default_octomap["binary"], variant_octomap["binary"]
+            if name == "resolution":
+                assert abs(v["resolution"] - 0.2) < 1e-9 and abs(d["resolution"] - 0.1) < 1e-9
+                assert abs(variant_grid.info.resolution - 0.2) < 1e-6, variant_grid.info
+                assert abs(default_grid.info.resolution - 0.1) < 1e-6, default_grid.info
+                assert v["leaf_nodes"] < d["leaf_nodes"], (v, d)
+                printed.append("resolution 0.2 m (~resolution)")
+                print(f"~resolution 0.2: the OctoMap's tree at 0.2 m with {v['leaf_nodes']} "
+                      f"leaves (0.1 m and {d['leaf_nodes']} without), the 2D map's cells "
+                      f"0.2 m")
+            elif name == "max_range":
+                assert v["free_voxels"] < d["free_voxels"], (v, d)
+                printed.append("sensor_model/max_range 5 m (~sensor_model/max_range)")
+                print(f"~sensor_model/max_range 5: {v['free_voxels']} free voxels in the "
+                      f"OctoMap ({d['free_voxels']} with the configuration's 25 m)")
+            elif name == "height_band":
+                def occupied(grid):
+                    return sum(1 for c in grid.data if c == 100)
+                assert occupied(variant_grid) != occupied(default_grid), (
+                    occupied(variant_grid), occupied(default_grid))
+                printed.append("pointcloud_min_z 2.5 m, pointcloud_max_z 4 m")
+                print(f"~pointcloud_min_z 2.5, ~pointcloud_max_z 4: {occupied(variant_grid)} "
+                      f"occupied cells in the 2D map ({occupied(default_grid)} in the "
+                      f"configuration's 0.3-2.0 m band)")
+            elif name == "latch":
+                assert variant.octomap.count > 0 and variant.grids, "the variant published"
+                topics = [f"/{n.name}/{t}" for n in nodes for t in ("octomap_binary",
+                                                                     "map_2d")]
+                late = late_subscriber_counts(env, topics)
+                for t in ("octomap_binary", "map_2d"):
+                    assert late[f"/planar_grid_default/{t}"] == 1, late
+                    assert late[f"/planar_grid_variant/{t}"] == 0, late
+                printed.append("latch false")
+                print(f"~latch false: a subscriber that comes after the last frame gets "
+                      f"nothing in 3 s ({late}); latched (the default) the last message")
+            elif name == "octomap_period":
+                assert variant.octomap.count > default.octomap.count, (
+                    variant.octomap.count, default.octomap.count)
+                print(f"~octomap_period 0: {variant.octomap.count} OctoMaps for "
+                      f"{args.frames} frames ({default.octomap.count} with the default "
+                      f"2 s)")
+    finally:
+        stop(player, "rosbag play")
+        for node in nodes:
+            stop(node.process, node.name)
+        rospy.signal_shutdown("test done") if "rospy" in sys.modules else None
+        stop(master, "rosmaster")
+    for node in nodes:
+        assert node.process.returncode == 0, f"{node.name} exited {node.process.returncode}"
+    effective = [line for line in variant.log().splitlines()
+                 if "planar_grid_ros_node: frame_id" in line]
+    assert effective, f"no start-up line of the parameters in {variant.log_path}"
+    for text in printed:
+        assert text in effective[0], f"'{text}' not in the start-up line {effective[0]}"
+    print("the variant printed:",
+          re.sub(r"\x1b\[[0-9;]*m", "", effective[0]).split("planar_grid_ros_node: ")[-1])
+    if not args.keep:
+        subprocess.run(["rm", "-rf", work], check=False)
+    print("1 passed, 0 failed")
+
+
 def main():
+    if len(sys.argv) > 2 and sys.argv[1] == "--count-messages":
+        # A late subscriber for --parameter latch: --count-messages SECONDS TOPIC...
+        count_messages(float(sys.argv[2]), sys.argv[3:])
+        return
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--node", required=True)
     parser.add_argument("--pipeline", required=True)
@@ -285,6 +518,9 @@ def main():
                         help="instead: play the pairs without /tf to the node with a "
                         "~tf_timeout of a day, send SIGINT, and check that it exits at "
                         "once with status 0")
+    parser.add_argument("--parameter", choices=sorted(PARAMETERS),
+                        help="instead: a node with this octomap_server parameter set "
+                        "beside one without it, on --frames frames (docs/ROS.md)")
     parser.add_argument("--keep", action="store_true",
                         help="keep the work folder (bag, configuration, maps)")
     args = parser.parse_args()
@@ -293,6 +529,9 @@ def main():
                                           "planar_grid_octomap_check")
     if args.stop_while_waiting_for_tf:
         stop_while_waiting_for_tf(args)
+        return
+    if args.parameter:
+        parameter_test(args)
         return
     measure_only = args.max_queued_frames > 0
 
