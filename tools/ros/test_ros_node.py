@@ -275,7 +275,7 @@ PARAMETERS = {
     "resolution": ({"resolution": 0.2},
                    [({"resolution": 0.0}, "~resolution must be in [0.001, 10] m"),
                     ({"resolution": "fine"}, "~resolution must be a number")]),
-    "max_range": ({"sensor_model/max_range": 5.0},
+    "max_range": ({"sensor_model/max_range": 5},
                   [({"sensor_model/max_range": -1.0},
                     "~sensor_model/max_range must be in (0, 1000] m")]),
     "height_band": ({"pointcloud_min_z": 2.5, "pointcloud_max_z": 4.0},
