@@ -40,8 +40,9 @@ printHelp(const char* program)
     "and, unless --no-plots,\n  cells.png, efficiency.png, memory.png, error.png "
     "(and tilt.png for tilt-tagged datasets);\n  with places (the paper's Sec. "
     "IV-B) also places.csv and places_*.png, the means over the places;\n  with "
-    "--save-maps (or output.save_maps) PG's maps, pg_DATASET_Rm.pgmap,\n  and the "
-    "truth (or reference) points, truth_DATASET.pcd.\n");
+    "--save-maps (or output.save_maps) PG's maps, pg_DATASET_Rm.pgmap, SG's\n  "
+    "occupied voxel centres, sg_DATASET_Rm.pcd, and the truth (or reference)\n  "
+    "points, truth_DATASET.pcd.\n");
   print_info("  -h, --help  this help; --version  print the name and version\n");
 }
 

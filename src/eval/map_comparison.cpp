@@ -732,9 +732,18 @@ runComparison(const ComparisonConfig& config,
       if (config.save_maps && lane.pipeline->state().map) {
         std::error_code ec;
         fs::create_directories(config.output_folder, ec);
-        saved =
-          (fs::path(config.output_folder) / mapComparisonFile(ds.name, r)).string();
+        const std::string saved_name = mapComparisonFile(ds.name, r);
+        saved = (fs::path(config.output_folder) / saved_name).string();
         lane.pipeline->state().map->save(saved);
+        // SG's occupied voxels beside it, to compare the two maps point by point.
+        pcl::PointCloud<pcl::PointXYZ> sg_centres;
+        lane.sg->getOccupiedCentres(sg_centres);
+        const std::string sg_file =
+          (fs::path(config.output_folder)
+           / ("sg" + saved_name.substr(2, saved_name.size() - 8) + ".pcd"))
+            .string();
+        if (pcl::io::savePCDFileBinaryCompressed(sg_file, sg_centres) != 0)
+          throw IOError(sg_file + ": cannot write SG's occupied voxel centres");
       }
       if (progress) {
         const ComparisonRow& sg = measured[0];

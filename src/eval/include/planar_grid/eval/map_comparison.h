@@ -255,7 +255,8 @@ double mappedRange(const PipelineConfig& pipeline,
  * a first pass of a second front end over the frames builds the reference, since the
  * places need it while the frames run.
  * With ComparisonConfig::save_maps, PG's whole map of each dataset and cell size is
- * saved in the output folder as it is measured (mapComparisonFile names it).
+ * saved in the output folder as it is measured (mapComparisonFile names it), with
+ * SG's occupied voxel centres beside it ("sg_DATASET_Rm.pcd", binary compressed).
  * \param[in] progress called with a line of text per dataset and cell size
  * \return per dataset: the place rows (place >= 0; per place, cell size and method),
  * then one row per cell size and method for the whole map (place = -1)
