@@ -95,6 +95,7 @@ paramsDict(const PlanarGridMap::Params& p)
   d["terrain_plane_tile_m"] = p.surface.terrain_plane_tile_m;
   d["terrain_cover_density"] = p.surface.terrain_cover_density;
   d["clear_non_planar"] = p.clear_non_planar;
+  d["non_planar_min_occupied"] = p.non_planar_min_occupied;
   d["clear_planar"] = p.clear_planar;
   d["planes_replace_non_planar"] = p.planes_replace_non_planar;
   d["planes_absorb_overlapping"] = p.planes_absorb_overlapping;
@@ -136,14 +137,26 @@ probability (occupied when >= occupancy_thres); elsewhere the voxel's state deci
 Parameters
 ----------
 )doc"
-    + stageParameterDocs(
-      "map_integration",
-      {"resolution_m", "max_range_m", "surface_margin_m", "prior", "thickness_m",
-       "plane_merge_angle_rad", "plane_merge_distance_m", "occupancy_thres",
-       "feature_distance_m", "close_gaps_cells", "merge_rule", "cover_density",
-       "clear_non_planar", "clear_planar", "planes_replace_non_planar",
-       "planes_absorb_overlapping", "absorb_distance_m", "terrain_plane_tile_m",
-       "terrain_cover_density"})
+    + stageParameterDocs("map_integration", {"resolution_m",
+                                             "max_range_m",
+                                             "surface_margin_m",
+                                             "prior",
+                                             "thickness_m",
+                                             "plane_merge_angle_rad",
+                                             "plane_merge_distance_m",
+                                             "occupancy_thres",
+                                             "feature_distance_m",
+                                             "close_gaps_cells",
+                                             "merge_rule",
+                                             "cover_density",
+                                             "clear_non_planar",
+                                             "clear_planar",
+                                             "planes_replace_non_planar",
+                                             "planes_absorb_overlapping",
+                                             "absorb_distance_m",
+                                             "terrain_plane_tile_m",
+                                             "terrain_cover_density",
+                                             "non_planar_min_occupied"})
     + R"doc(
 The defaults are the pipeline's map_integration defaults (one Params struct); a map
 built here with the keys of a configuration's map_integration stage matches the tool's.
@@ -173,9 +186,10 @@ bindMapConstructor(MapClass& cls)
                       double cover_density, bool clear_non_planar, bool clear_planar,
                       bool planes_replace_non_planar, bool planes_absorb_overlapping,
                       double absorb_distance_m, double terrain_plane_tile_m,
-                      double terrain_cover_density) {
+                      double terrain_cover_density, double non_planar_min_occupied) {
             Map::Params p;
             p.clear_non_planar = clear_non_planar;
+            p.non_planar_min_occupied = non_planar_min_occupied;
             p.clear_planar = clear_planar;
             p.planes_replace_non_planar = planes_replace_non_planar;
             p.planes_absorb_overlapping = planes_absorb_overlapping;
@@ -227,7 +241,8 @@ bindMapConstructor(MapClass& cls)
           py::arg("planes_absorb_overlapping") = d.planes_absorb_overlapping,
           py::arg("absorb_distance_m") = d.surface.absorb_distance_m,
           py::arg("terrain_plane_tile_m") = d.surface.terrain_plane_tile_m,
-          py::arg("terrain_cover_density") = d.surface.terrain_cover_density);
+          py::arg("terrain_cover_density") = d.surface.terrain_cover_density,
+          py::arg("non_planar_min_occupied") = d.non_planar_min_occupied);
 }
 
 /** Reading and writing the map file. */

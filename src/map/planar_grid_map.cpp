@@ -256,6 +256,12 @@ PlanarGridMap::PlanarGridMap(const Params& params) :
     params_(withSharedResolution(params)), surface_(params_.surface),
     space_(params_.space)
 {
+  if (!planar_grid_map_ranges::NON_PLANAR_MIN_OCCUPIED.contains(
+        params_.non_planar_min_occupied))
+    throw Exception("PlanarGridMap: invalid parameter "
+                    + paramRangeMessage("non_planar_min_occupied",
+                                        planar_grid_map_ranges::NON_PLANAR_MIN_OCCUPIED)
+                    + ", got " + formatParamNumber(params_.non_planar_min_occupied));
   invalidateQueryCache();
 }
 
@@ -287,7 +293,7 @@ PlanarGridMap::integrateDepthImage(const DepthImage& depth,
            && v >= -depth.fy * reach && v <= height + depth.fy * reach;
   };
   if (params_.clear_non_planar)
-    clearNonPlanarCells(in_view);
+    clearNonPlanarCells(in_view, params_.non_planar_min_occupied);
   if (params_.clear_planar)
     clearPlanarCells(in_view, world_T_camera.translation().cast<float>());
 }
@@ -304,8 +310,10 @@ PlanarGridMap::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& points,
   const auto in_view = [&](const Eigen::Vector3f& centre, float radius) {
     return (centre - sensor_origin).norm() - radius <= max_range;
   };
+  // A scan's reach is a ball, not a frustum: a cell beside its rays is no more
+  // observed than one behind a surface, so only the free rule applies.
   if (params_.clear_non_planar)
-    clearNonPlanarCells(in_view);
+    clearNonPlanarCells(in_view, 0.0);
   if (params_.clear_planar)
     clearPlanarCells(in_view, sensor_origin);
 }
@@ -339,6 +347,14 @@ std::size_t
 PlanarGridMap::clearNonPlanarCells(
   const std::function<bool(const Eigen::Vector3f&, float)>& in_view)
 {
+  return clearNonPlanarCells(in_view, params_.non_planar_min_occupied);
+}
+
+std::size_t
+PlanarGridMap::clearNonPlanarCells(
+  const std::function<bool(const Eigen::Vector3f&, float)>& in_view,
+  double min_occupied)
+{
   invalidateQueryCache();
   // A voxel tested lies within a voxel diagonal of the cell (its centre's voxel), and
   // a view may mark a voxel whose centre is outside the view.
@@ -353,14 +369,20 @@ PlanarGridMap::clearNonPlanarCells(
       return false;
     const ExplicitSpaceGrid::VoxelKey centre_key = space_.toKey(cuboid.centre);
     std::size_t voxels = 1;
-    std::size_t free = space_.getState(centre_key) == SpaceState::FREE ? 1 : 0;
+    const SpaceState centre_state = space_.getState(centre_key);
+    std::size_t free = centre_state == SpaceState::FREE ? 1 : 0;
+    std::size_t occupied = centre_state == SpaceState::OCCUPIED ? 1 : 0;
     forEachVoxelInCuboid(cuboid, params_.resolution_m, [&](const Eigen::Vector3i& key) {
       if (key == centre_key)
         return;
       ++voxels;
-      free += space_.getState(key) == SpaceState::FREE ? 1 : 0;
+      const SpaceState state = space_.getState(key);
+      free += state == SpaceState::FREE ? 1 : 0;
+      occupied += state == SpaceState::OCCUPIED ? 1 : 0;
     });
-    return 2 * free > voxels;
+    return 2 * free > voxels
+           || static_cast<double>(occupied)
+                < min_occupied * static_cast<double>(voxels);
   });
 }
 

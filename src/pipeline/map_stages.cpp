@@ -65,6 +65,7 @@ public:
     v.set("occupancy_thres", p.surface.occupancy_thres);
     v.set("feature_distance_m", p.surface.feature_distance_m);
     v.set("clear_non_planar", p.clear_non_planar);
+    v.set("non_planar_min_occupied", p.non_planar_min_occupied);
     v.set("clear_planar", p.clear_planar);
     v.set("planes_replace_non_planar", p.planes_replace_non_planar);
     v.set("planes_absorb_overlapping", p.planes_absorb_overlapping);
@@ -276,6 +277,12 @@ mapIntegrationInfo()
                     "Remove the non-planar cells a later view sees through (more "
                     "than half of their voxels observed free), as OctoMap's misses "
                     "clear a voxel hit before."),
+    ParamSpec::real("non_planar_min_occupied", d.non_planar_min_occupied,
+                    planar_grid_map_ranges::NON_PLANAR_MIN_OCCUPIED, "share",
+                    "clear_non_planar: also remove a non-planar cell in a view when "
+                    "the space layer holds fewer than this share of its voxels "
+                    "occupied (free, or behind the surface from every view); 0: only "
+                    "the free rule."),
     ParamSpec::flag("clear_planar", d.clear_planar,
                     "Remove the planes' raster cells a later view sees through (the "
                     "voxel of the cell and the one behind it observed free): a car "
@@ -353,6 +360,7 @@ mapIntegrationInfo()
     p.surface.terrain_plane_tile_m = v.getDouble("terrain_plane_tile_m");
     p.surface.terrain_cover_density = v.getDouble("terrain_cover_density");
     p.clear_non_planar = v.getBool("clear_non_planar");
+    p.non_planar_min_occupied = v.getDouble("non_planar_min_occupied");
     p.clear_planar = v.getBool("clear_planar");
     p.planes_replace_non_planar = v.getBool("planes_replace_non_planar");
     p.planes_absorb_overlapping = v.getBool("planes_absorb_overlapping");

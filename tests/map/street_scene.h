@@ -53,6 +53,10 @@ params()
   p.resolution_m = 0.1;
   p.space.max_range_m = 15.0;
   p.space.prior = SpaceState::UNKNOWN;
+  // The box is given as its eight solid octants, whose insides no view observes: the
+  // occupied rule of the clearing would take them (tested on its own in
+  // test_planar_grid_map.cpp); the tests of this scene compare maps and merges.
+  p.non_planar_min_occupied = 0.0;
   return p;
 }
 

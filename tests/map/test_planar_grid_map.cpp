@@ -643,6 +643,7 @@ TEST_F(PlanarGridMapTest, ClearingRemovesTheNonPlanarCellsAViewSeesThrough)
   for (const bool clear : {true, false}) {
     PlanarGridMap::Params p = params();
     p.clear_non_planar = clear;
+    p.non_planar_min_occupied = 0.0;
     PlanarGridMap map(p);
     map.integrateSurface(cuboids, PlaneModels{}, pcl::PointCloud<pcl::PointXYZ>(), {});
     ASSERT_EQ(nonPlanarCentres(map).size(), 4u);
@@ -659,52 +660,99 @@ TEST_F(PlanarGridMapTest, ClearingRemovesTheNonPlanarCellsAViewSeesThrough)
   }
 }
 
-TEST_F(PlanarGridMapTest, ClearingNeedsMoreThanHalfOfACellFree)
+TEST_F(PlanarGridMapTest, ClearingRemovesTheNonPlanarCellsNoViewHoldsOccupied)
 {
-  // Cubes of 0.3 and 0.5 m stepping through the wall face at z = 5: their voxels
-  // (those whose centres they contain, and the voxel of their centre) are counted by
-  // brute force over the space layer, and a cube is cleared exactly when more than
-  // half of them are free.
+  // The wall view of the test above: with non_planar_min_occupied the cell behind the
+  // wall (never observed) goes as well as the one seen through; the cell on the wall
+  // stays, and so does the one outside the view (not tested).
+  const Eigen::Vector3f seen_through(0.05f, 0.05f, 2.55f);
+  const Eigen::Vector3f on_wall(0.05f, 0.05f, 5.05f);
+  const Eigen::Vector3f behind(0.05f, 0.05f, 7.05f);
+  const Eigen::Vector3f outside(20.05f, 0.05f, 2.55f);
   PlanarCuboids cuboids;
-  for (const float edge : {0.3f, 0.5f})
-    for (int step = 0; step < 12; ++step)
-      cuboids.push_back(
-        nonPlanarCube(Eigen::Vector3f(-2.0f + 0.35f * static_cast<float>(step), 0.0f,
-                                      4.4f + 0.1f * static_cast<float>(step)),
-                      edge));
-  PlanarGridMap map(params());
+  for (const auto& centre : {seen_through, on_wall, behind, outside})
+    cuboids.push_back(nonPlanarCube(centre, 0.1f));
+  PlanarGridMap::Params p = params();
+  ASSERT_DOUBLE_EQ(p.non_planar_min_occupied, 0.75); // the default
+  PlanarGridMap map(p);
   map.integrateSurface(cuboids, PlaneModels{}, pcl::PointCloud<pcl::PointXYZ>(), {});
-  const auto& space = map.getSpaceLayer();
   map.integrateDepthImage(wallView(5.0f), Eigen::Isometry3d::Identity());
   const auto kept = nonPlanarCentres(map);
-  std::size_t cleared = 0, partly_free_kept = 0;
-  for (const auto& cube : cuboids) {
-    std::set<std::array<int, 3>> voxels;
-    voxels.insert({static_cast<int>(std::floor(cube.centre.x() / 0.1f)),
-                   static_cast<int>(std::floor(cube.centre.y() / 0.1f)),
-                   static_cast<int>(std::floor(cube.centre.z() / 0.1f))});
-    for (int i = -40; i <= 40; ++i)
-      for (int j = -10; j <= 10; ++j)
-        for (int k = 30; k <= 70; ++k)
-          if (cube.contains(Eigen::Vector3f((i + 0.5f) * 0.1f, (j + 0.5f) * 0.1f,
-                                            (k + 0.5f) * 0.1f)))
-            voxels.insert({i, j, k});
-    std::size_t free = 0;
-    for (const auto& v : voxels)
-      free += space.getState(ExplicitSpaceGrid::VoxelKey(v[0], v[1], v[2]))
-              == SpaceState::FREE;
-    const bool expect_cleared = 2 * free > voxels.size();
-    EXPECT_EQ(!holds(kept, cube.centre), expect_cleared)
-      << cube.centre.transpose() << " edge " << cube.width_m << ": " << free << " of "
-      << voxels.size() << " free";
-    cleared += expect_cleared;
-    partly_free_kept += !expect_cleared && free > 0;
+  EXPECT_FALSE(holds(kept, seen_through));
+  EXPECT_TRUE(holds(kept, on_wall));
+  EXPECT_FALSE(holds(kept, behind));
+  EXPECT_TRUE(holds(kept, outside));
+  EXPECT_EQ(kept.size(), 2u);
+  // Out of its range, the parameter is refused.
+  for (const double bad : {-0.1, 1.5, std::nan("")}) {
+    p.non_planar_min_occupied = bad;
+    EXPECT_THROW(PlanarGridMap{p}, planar_grid::Exception) << bad;
   }
-  // The steps cover both outcomes, and cubes kept although some of their voxels are
-  // free.
-  EXPECT_GE(cleared, 4u);
-  EXPECT_GE(cuboids.size() - cleared, 4u);
-  EXPECT_GE(partly_free_kept, 2u);
+}
+
+TEST_F(PlanarGridMapTest, ClearingFollowsTheFreeAndOccupiedSharesOfACell)
+{
+  // Cubes of 0.1, 0.3 and 0.5 m stepping through the wall face at z = 5 (their faces
+  // off the voxel centres, so that which voxels they contain is unambiguous): their
+  // voxels (those whose centres they contain, and the voxel of their centre) are
+  // counted by brute force over the space layer, and a cube is cleared exactly when
+  // more than half of them are free or, with non_planar_min_occupied, fewer than that
+  // share of them occupied.
+  PlanarCuboids cuboids;
+  for (const float edge : {0.1f, 0.3f, 0.5f})
+    for (int step = 0; step < 12; ++step)
+      cuboids.push_back(nonPlanarCube(
+        Eigen::Vector3f(-1.987f + 0.35f * static_cast<float>(step),
+                        edge > 0.4f ? 1.013f : (edge > 0.2f ? 0.013f : -0.987f),
+                        4.413f + 0.1f * static_cast<float>(step)),
+        edge));
+  for (const double min_occupied : {0.0, 0.3, 0.75}) {
+    PlanarGridMap::Params p = params();
+    p.non_planar_min_occupied = min_occupied;
+    PlanarGridMap map(p);
+    map.integrateSurface(cuboids, PlaneModels{}, pcl::PointCloud<pcl::PointXYZ>(), {});
+    const auto& space = map.getSpaceLayer();
+    map.integrateDepthImage(wallView(5.0f), Eigen::Isometry3d::Identity());
+    const auto kept = nonPlanarCentres(map);
+    std::size_t cleared = 0, partly_free_kept = 0;
+    for (const auto& cube : cuboids) {
+      std::set<std::array<int, 3>> voxels;
+      voxels.insert({static_cast<int>(std::floor(cube.centre.x() / 0.1f)),
+                     static_cast<int>(std::floor(cube.centre.y() / 0.1f)),
+                     static_cast<int>(std::floor(cube.centre.z() / 0.1f))});
+      for (int i = -40; i <= 40; ++i)
+        for (int j = -15; j <= 15; ++j)
+          for (int k = 30; k <= 70; ++k)
+            if (cube.contains(Eigen::Vector3f((i + 0.5f) * 0.1f, (j + 0.5f) * 0.1f,
+                                              (k + 0.5f) * 0.1f)))
+              voxels.insert({i, j, k});
+      std::size_t free = 0, occupied = 0;
+      for (const auto& v : voxels) {
+        const SpaceState state =
+          space.getState(ExplicitSpaceGrid::VoxelKey(v[0], v[1], v[2]));
+        free += state == SpaceState::FREE;
+        occupied += state == SpaceState::OCCUPIED;
+      }
+      const bool expect_cleared =
+        2 * free > voxels.size()
+        || static_cast<double>(occupied)
+             < min_occupied * static_cast<double>(voxels.size());
+      EXPECT_EQ(!holds(kept, cube.centre), expect_cleared)
+        << cube.centre.transpose() << " edge " << cube.width_m << ": " << free
+        << " free, " << occupied << " occupied of " << voxels.size() << ", min "
+        << min_occupied;
+      cleared += expect_cleared;
+      partly_free_kept += !expect_cleared && free > 0;
+    }
+    // The steps cover both outcomes (the one-voxel cube in the wall's voxel is kept
+    // by every rule), and without the occupied rule cubes are kept although some of
+    // their voxels are free.
+    EXPECT_GE(cleared, 4u) << min_occupied;
+    EXPECT_GE(cuboids.size() - cleared, min_occupied == 0.0 ? 4u : 1u) << min_occupied;
+    if (min_occupied == 0.0) {
+      EXPECT_GE(partly_free_kept, 2u);
+    }
+  }
 }
 
 TEST_F(PlanarGridMapTest, ClearingInTheViewEqualsClearingEverywhere)
@@ -722,8 +770,11 @@ TEST_F(PlanarGridMapTest, ClearingInTheViewEqualsClearingEverywhere)
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.rotate(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY()));
   pose.translation() = Eigen::Vector3d(0.4, -0.2, 0.5);
+  // The occupied rule (non_planar_min_occupied) would remove every cell outside the
+  // view, whose voxels no view holds occupied: the free rule alone is compared.
   PlanarGridMap::Params p = params();
   p.space.max_range_m = 20.0;
+  p.non_planar_min_occupied = 0.0;
   PlanarGridMap culled(p);
   p.clear_non_planar = false;
   PlanarGridMap everywhere(p);

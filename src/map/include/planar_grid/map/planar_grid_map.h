@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_range.h>
 #include <planar_grid/map/explicit_space_grid.h>
 #include <planar_grid/map/map_queries.h>
 #include <planar_grid/map/octomap_export_summary.h>
@@ -17,6 +18,15 @@
 #include <vector>
 
 namespace planar_grid {
+
+/** \brief The valid range of each numeric PlanarGridMap::Params member of its own
+ * (the layers' are in explicit_space_grid_ranges and surface_layer_ranges): the
+ * PlanarGridMap constructor tests the values against them and the pipeline's
+ * map_integration stage table takes them as its ranges. \ingroup map */
+namespace planar_grid_map_ranges {
+/** \brief Smallest occupied share of a non-planar cell's voxels: [0, 1]. */
+inline constexpr ParamRange NON_PLANAR_MIN_OCCUPIED = ParamRange::closed(0.0, 1.0);
+} // namespace planar_grid_map_ranges
 
 namespace map_queries {
 struct QueryCache;
@@ -103,8 +113,20 @@ public:
      * more than half of them, is removed. The view saw through it: the cell was
      * stereo noise or an object that has moved, as OctoMap's misses clear a voxel
      * hit before. The voxels of a cell are those whose centres it contains and the
-     * voxel of its centre. Planar cells: clear_planar. */
+     * voxel of its centre. See also non_planar_min_occupied. Planar cells:
+     * clear_planar. */
     bool clear_non_planar{true};
+    /** With clear_non_planar, after each depth image (a pinhole view) a non-planar
+     * cell in the view is also removed when the space layer holds fewer than this
+     * share of its voxels occupied (the rest free, or never observed: behind the
+     * surfaces from every view): a box of one frame's stereo points spans the space
+     * between and behind them, which the views show is no surface. The space layer
+     * keeps its occupied voxels, so getState() still reports them. Scans
+     * (integratePointCloud) apply the free rule alone: their reach is a ball, and a
+     * cell beside their rays is no more observed than one behind a surface. 0 keeps
+     * only the free rule; in planar_grid_map_ranges::NON_PLANAR_MIN_OCCUPIED
+     * (share). */
+    double non_planar_min_occupied{0.75};
     /** Ray clearing of the planar cells (a car that drove away): after each view, a
      * plane's raster cell in the view, seen within 60 degrees of its plane's normal,
      * is removed when the space layer holds the voxel of its centre on the plane and
@@ -259,11 +281,18 @@ public:
 
   /** \brief Removes the non-planar cells for which \a in_view (called with a cell's
    * centre and bounding radius, meters, world frame) returns true and whose voxels
-   * the space layer holds observed free, more than half of them (see
-   * Params::clear_non_planar; called by the integrations, public for maps whose
-   * space layer is filled otherwise). \return the number of cells removed */
+   * the space layer holds observed free, more than half of them, or occupied, fewer
+   * than Params::non_planar_min_occupied of them (see Params::clear_non_planar;
+   * called by the integrations, public for maps whose space layer is filled
+   * otherwise). \return the number of cells removed */
   std::size_t clearNonPlanarCells(
     const std::function<bool(const Eigen::Vector3f&, float)>& in_view);
+
+  /** \brief clearNonPlanarCells(in_view) with \a min_occupied (share, [0, 1]) in
+   * place of Params::non_planar_min_occupied; 0 applies the free rule alone. */
+  std::size_t
+  clearNonPlanarCells(const std::function<bool(const Eigen::Vector3f&, float)>& in_view,
+                      double min_occupied);
 
   /** \brief Removes the planes' raster cells for which \a in_view (called with a
    * cell's centre on its plane and a radius of resolution_m, meters, world frame)
