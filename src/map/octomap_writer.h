@@ -84,6 +84,20 @@ writeBinaryQuietly(const octomap::OcTree& tree, const std::string& path)
   return !out.fail();
 }
 
+/** \brief Converts \a tree to maximum likelihood when \a max_likelihood (what the
+ * binary format keeps), updates its inner nodes and prunes it completely, so that
+ * nodes whose voxels differ in log-odds but not in state collapse too (writeBinary's
+ * own prune() stops at the first depth where nothing collapses). */
+inline void
+finish(octomap::OcTree& tree, bool max_likelihood)
+{
+  if (max_likelihood)
+    tree.toMaxLikelihood();
+  tree.updateInnerOccupancy();
+  if (tree.getRoot() != nullptr)
+    pruneSubtree(tree, tree.getRoot());
+}
+
 /** \brief Prunes \a tree completely and writes it atomically: ".ot" as OctoMap's full
  * format (AbstractOcTree::write: every node's log-odds as a float), anything else as
  * the binary format (OcTree::writeBinary: the maximum-likelihood free / occupied state
@@ -97,11 +111,7 @@ inline OctoMapExportSummary
 write(octomap::OcTree& tree, const std::string& path)
 {
   const bool full = isFullFormat(path);
-  if (!full)
-    tree.toMaxLikelihood();
-  tree.updateInnerOccupancy();
-  if (tree.getRoot() != nullptr)
-    pruneSubtree(tree, tree.getRoot());
+  finish(tree, !full);
   writeFileAtomically(path, [&tree, full](const std::string& temporary) {
     // The tree is in maximum likelihood and pruned already: what writeBinary() would
     // do before writing changes nothing.

@@ -502,8 +502,29 @@ PlanarGridMap::serialize(std::string& bytes) const
 OctoMapExportSummary
 PlanarGridMap::exportOctoMap(const std::string& path) const
 {
+  octomap::OcTree tree(getResolution());
+  const std::size_t skipped = fillOcTree(tree);
+  OctoMapExportSummary summary = octomap_writer::write(tree, path);
+  summary.skipped_voxels = skipped;
+  return summary;
+}
+
+OctoMapExportSummary
+PlanarGridMap::toOcTree(octomap::OcTree& tree, bool max_likelihood) const
+{
+  tree.clear();
+  tree.setResolution(getResolution());
+  const std::size_t skipped = fillOcTree(tree);
+  octomap_writer::finish(tree, max_likelihood);
+  OctoMapExportSummary summary = octomap_writer::summarize(tree);
+  summary.skipped_voxels = skipped;
+  return summary;
+}
+
+std::size_t
+PlanarGridMap::fillOcTree(octomap::OcTree& tree) const
+{
   const double res = getResolution();
-  octomap::OcTree tree(res);
   tree.setOccupancyThres(params_.surface.occupancy_thres);
   std::size_t skipped = space_.insertIntoOcTree(tree);
   const int offset = static_cast<int>(tree.coordToKey(0.0)); // the key of coordinate 0
@@ -532,12 +553,10 @@ PlanarGridMap::exportOctoMap(const std::string& path) const
     });
   }
   if (skipped > 0)
-    PCL_WARN("[planar_grid::PlanarGridMap::exportOctoMap] %zu voxels outside "
-             "OctoMap's 2^16-voxel key range left out.\n",
+    PCL_WARN("[planar_grid::PlanarGridMap] %zu voxels outside OctoMap's 2^16-voxel "
+             "key range left out of the OctoMap.\n",
              skipped);
-  OctoMapExportSummary summary = octomap_writer::write(tree, path);
-  summary.skipped_voxels = skipped;
-  return summary;
+  return skipped;
 }
 
 void

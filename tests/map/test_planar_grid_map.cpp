@@ -18,6 +18,7 @@
 #include <memory>
 #include <random>
 #include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -535,6 +536,32 @@ TEST_F(PlanarGridMapTest, OctoMapExportKeepsObservedSpaceAndCuboidProbabilities)
       EXPECT_EQ(expected.count({key.x(), key.y(), key.z()}), 1u) << key.transpose();
     }
     EXPECT_EQ(leaves, expected.size()) << name;
+
+    // In memory, the same tree: written by liboctomap, the bytes of the file (the
+    // binary format) or the same nodes and log-odds (the full format).
+    octomap::OcTree in_memory(0.5);
+    const planar_grid::OctoMapExportSummary built =
+      map.toOcTree(in_memory, name == "map.bt");
+    EXPECT_DOUBLE_EQ(in_memory.getResolution(), res);
+    EXPECT_EQ(built.nodes, written.nodes) << name;
+    EXPECT_EQ(built.leaf_nodes, written.leaf_nodes) << name;
+    EXPECT_EQ(built.occupied_voxels, written.occupied_voxels) << name;
+    EXPECT_EQ(built.free_voxels, written.free_voxels) << name;
+    std::ostringstream from_memory, from_file;
+    octomap::OcTree reread(res);
+    if (name == "map.bt") {
+      ASSERT_TRUE(in_memory.writeBinaryData(from_memory));
+      ASSERT_TRUE(reread.readBinary(file));
+      ASSERT_TRUE(reread.writeBinaryData(from_file));
+    } else {
+      ASSERT_TRUE(in_memory.writeData(from_memory));
+      std::unique_ptr<octomap::OcTree> full(
+        dynamic_cast<octomap::OcTree*>(octomap::AbstractOcTree::read(file)));
+      ASSERT_TRUE(full);
+      ASSERT_TRUE(full->writeData(from_file));
+    }
+    EXPECT_GT(from_memory.str().size(), 100u) << name;
+    EXPECT_TRUE(from_memory.str() == from_file.str()) << name;
   }
 }
 

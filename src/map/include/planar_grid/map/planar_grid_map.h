@@ -463,6 +463,18 @@ public:
    * \return the nodes, leaves and voxels the file holds
    * \throws planar_grid::IOError when the file cannot be written */
   OctoMapExportSummary exportOctoMap(const std::string& path) const;
+
+  /** \brief The map as the OctoMap octree exportOctoMap() writes, in memory (e.g. to
+   * send as an octomap_msgs/Octomap without a file): \a tree is cleared, takes
+   * resolution_m and the surface layer's occupancy_thres, and is filled and pruned as
+   * exportOctoMap() does. Uses liboctomap (link octomap; the header
+   * <octomap/OcTree.h> is the caller's).
+   * \param[out] tree the octree, replaced
+   * \param[in] max_likelihood true: each voxel's maximum-likelihood state, what the
+   * binary format (.bt, OcTree::writeBinary) keeps; false: each voxel's log-odds, what
+   * the full format (.ot) keeps
+   * \return the nodes, leaves and voxels the tree holds */
+  OctoMapExportSummary toOcTree(octomap::OcTree& tree, bool max_likelihood) const;
   /** \brief Writes the cuboids as .ply or .vtk (SurfaceLayer::exportMesh). */
   void exportMesh(const std::string& path) const { surface_.exportMesh(path); }
 
@@ -478,6 +490,9 @@ public:
   }
 
 private:
+  /** \brief Inserts both layers into \a tree (exportOctoMap()'s rule, unpruned);
+   * \return the voxels left out, outside OctoMap's key range */
+  std::size_t fillOcTree(octomap::OcTree& tree) const;
   /** \brief The parameters (validated). */
   Params params_;
   /** \brief The surface layer. */
