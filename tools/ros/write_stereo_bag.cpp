@@ -6,10 +6,11 @@
 //   /stereo/left/camera_info, /stereo/right/camera_info sensor_msgs/CameraInfo, P with
 //                                                       Tx = -f B in the right one
 //   /tf                                                 world -> camera, the input's
-//   pose (--parent-frame names another frame than world)
+//   pose (--parent-frame names another frame than world; --no-tf writes no /tf, as a
+//   stereo camera alone records, and needs no poses in the configuration)
 // Frame k is stamped t0 + k / rate; the two images of a pair share their stamp.
 //   planar_grid_write_stereo_bag --config C.yaml --frames N --output out.bag [--rate
-//   HZ] [--parent-frame FRAME]
+//   HZ] [--parent-frame FRAME] [--no-tf]
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/frame.h>
 #include <planar_grid/pipeline/frame_source.h>
@@ -51,8 +52,18 @@ main(int argc, char** argv)
   std::string parent_frame = "world";
   long frames = 0;
   double rate_hz = 9.4;
-  for (int i = 1; i + 1 < argc; i += 2) {
+  bool write_tf = true;
+  bool usage_error = false;
+  for (int i = 1; i < argc; ++i) {
     const std::string key = argv[i];
+    if (key == "--no-tf") {
+      write_tf = false;
+      continue;
+    }
+    if (i + 1 >= argc) {
+      usage_error = true;
+      break;
+    }
     if (key == "--config")
       config_path = argv[i + 1];
     else if (key == "--frames")
@@ -67,11 +78,12 @@ main(int argc, char** argv)
       std::cerr << "planar_grid_write_stereo_bag: unknown option " << key << "\n";
       return 2;
     }
+    ++i;
   }
-  if (config_path.empty() || output.empty() || frames <= 0 || !(rate_hz > 0.0)
-      || parent_frame.empty()) {
+  if (usage_error || config_path.empty() || output.empty() || frames <= 0
+      || !(rate_hz > 0.0) || parent_frame.empty()) {
     std::cerr << "usage: planar_grid_write_stereo_bag --config C.yaml --frames N "
-                 "--output out.bag [--rate HZ] [--parent-frame FRAME]\n";
+                 "--output out.bag [--rate HZ] [--parent-frame FRAME] [--no-tf]\n";
     return 2;
   }
   try {
@@ -84,12 +96,13 @@ main(int argc, char** argv)
     for (long k = 0; k < frames; ++k) {
       planar_grid::Frame frame;
       source->load(static_cast<std::size_t>(k), frame);
-      if (!frame.has_pose)
+      if (write_tf && !frame.has_pose)
         throw planar_grid::Exception(config_path + ": frame " + std::to_string(k)
                                      + " has no pose");
       const auto& c = frame.calibration;
       const ros::Time stamp(T0 + static_cast<double>(k) / rate_hz);
-      bag.write("/tf", stamp, poseMessage(frame.world_T_camera, parent_frame, stamp));
+      if (write_tf)
+        bag.write("/tf", stamp, poseMessage(frame.world_T_camera, parent_frame, stamp));
       bag.write("/stereo/left/camera_info", stamp,
                 ros_messages::cameraInfo(c, 0.0, stamp, "camera"));
       bag.write("/stereo/right/camera_info", stamp,
