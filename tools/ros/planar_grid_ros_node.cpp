@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // planar_grid_ros_node: live mapping in ROS 1 (docs/ROS.md). Subscribes to a rectified
 // stereo pair with its CameraInfos, or to a PointCloud2; takes each frame's pose from
-// TF (or from the pipeline's visual odometry, broadcast on TF); maps the frame with
+// TF (or from the pipeline's visual odometry, published on TF and as
+// nav_msgs/Odometry); maps the frame with
 // planar_grid::Mapper on a worker thread; publishes the map after each frame, also as
 // octomap_msgs/Octomap. Takes octomap_server's parameter names where they mean the
 // same.
@@ -17,6 +18,7 @@
 #include <message_filters/sync_policies/approximate_time.h>
 #include <message_filters/synchronizer.h>
 #include <nav_msgs/OccupancyGrid.h>
+#include <nav_msgs/Odometry.h>
 #include <nlohmann/json.hpp>
 #include <octomap/OcTree.h>
 #include <octomap_msgs/Octomap.h>
@@ -193,6 +195,14 @@ public:
     }
     applyBandParams();
     logEffectiveParams();
+    if (odometry_)
+      ROS_INFO_STREAM("planar_grid_ros_node: each frame's pose from the pipeline's "
+                      "visual_odometry stage, published on /tf ("
+                      << params_.fixed_frame << " -> "
+                      << (params_.sensor_frame.empty()
+                            ? std::string("the images' frame")
+                            : params_.sensor_frame)
+                      << ") and on " << pnh_.resolveName("odometry"));
     createOctoMapFolder();
 
     markers_pub_ =
@@ -205,6 +215,8 @@ public:
     octomap_full_pub_ =
       pnh_.advertise<octomap_msgs::Octomap>("octomap_full", 1, params_.latch);
     stats_pub_ = pnh_.advertise<std_msgs::String>("frame_stats", 100);
+    if (odometry_)
+      odometry_pub_ = pnh_.advertise<nav_msgs::Odometry>("odometry", 100);
     save_srv_ = pnh_.advertiseService("save_map", &PlanarGridNode::onSave, this);
     reset_srv_ = pnh_.advertiseService("reset", &PlanarGridNode::onReset, this);
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, nh_);
@@ -478,6 +490,7 @@ private:
           queue_.clear();
           lock.unlock();
           mapper_->reset();
+          has_previous_pose_ = false;
           lock.lock();
           reset_requested_ = false;
           reset_cv_.notify_all();
@@ -549,7 +562,7 @@ private:
           *frame.left_info, *frame.right_info, "right CameraInfo");
       if (odometry_) {
         stats = mapper_->integrateStereo(left, right, calibration);
-        broadcastPose(header, stats.world_T_camera);
+        publishPose(header, stats.world_T_camera);
       } else
         stats = mapper_->integrateStereo(left, right, calibration, lookUpPose(header));
     }
@@ -565,12 +578,51 @@ private:
       std::chrono::duration<double, std::milli>(Clock::now() - publish_start).count());
   }
 
-  void broadcastPose(const std_msgs::Header& header, const Eigen::Isometry3d& pose)
+  /** The pose the visual odometry estimated for the frame, \a world_T_camera (meters,
+   * the map's z-up frame): on /tf as fixed_frame -> sensor frame and on ~odometry as
+   * nav_msgs/Odometry (header.frame_id the map's frame, child_frame_id the sensor
+   * frame), both stamped with the left image's stamp. The Odometry's twist is the
+   * motion from the previous mapped frame to this one divided by the time between
+   * their stamps, in the sensor frame (m/s, rad/s; zero for the first frame after a
+   * start or a reset); its covariances are not estimated and stay zero. */
+  void publishPose(const std_msgs::Header& header,
+                   const Eigen::Isometry3d& world_T_camera)
   {
-    tf_broadcaster_.sendTransform(planar_grid::ros_messages::transformStamped(
-      pose, params_.fixed_frame,
-      params_.sensor_frame.empty() ? header.frame_id : params_.sensor_frame,
-      header.stamp));
+    const geometry_msgs::TransformStamped transform =
+      planar_grid::ros_messages::transformStamped(
+        world_T_camera, params_.fixed_frame,
+        params_.sensor_frame.empty() ? header.frame_id : params_.sensor_frame,
+        header.stamp);
+    tf_broadcaster_.sendTransform(transform);
+    nav_msgs::Odometry odometry;
+    odometry.header = transform.header;
+    odometry.child_frame_id = transform.child_frame_id;
+    odometry.pose.pose.position.x = transform.transform.translation.x;
+    odometry.pose.pose.position.y = transform.transform.translation.y;
+    odometry.pose.pose.position.z = transform.transform.translation.z;
+    odometry.pose.pose.orientation = transform.transform.rotation;
+    if (has_previous_pose_ && header.stamp > previous_stamp_) {
+      const double dt_s = (header.stamp - previous_stamp_).toSec();
+      const Eigen::Vector3d linear =
+        world_T_camera.linear().transpose()
+        * (world_T_camera.translation() - previous_pose_.translation()) / dt_s;
+      // The axis of the rotation between the two frames is the same vector in either
+      // camera's coordinates, so the rotation vector is the angular velocity in the
+      // current one.
+      const Eigen::AngleAxisd rotation(previous_pose_.linear().transpose()
+                                       * world_T_camera.linear());
+      const Eigen::Vector3d angular = rotation.axis() * (rotation.angle() / dt_s);
+      odometry.twist.twist.linear.x = linear.x();
+      odometry.twist.twist.linear.y = linear.y();
+      odometry.twist.twist.linear.z = linear.z();
+      odometry.twist.twist.angular.x = angular.x();
+      odometry.twist.twist.angular.y = angular.y();
+      odometry.twist.twist.angular.z = angular.z();
+    }
+    odometry_pub_.publish(odometry);
+    previous_pose_ = world_T_camera;
+    previous_stamp_ = header.stamp;
+    has_previous_pose_ = true;
   }
 
   /** The map's cuboids, occupied voxels and 2D obstacle map, each only when its topic
@@ -899,6 +951,17 @@ private:
     j["planes"] = stats.planes;
     j["cuboids"] = stats.cuboids;
     j["map_cuboids"] = stats.map_cuboids;
+    if (odometry_)
+      for (const auto& stage : stats.stages)
+        if (stage.type == "visual_odometry")
+          for (const auto& [name, value] : stage.counters) {
+            // The frame's motion from its inliers, or the constant-velocity prediction
+            // when there were too few (flagged).
+            if (name == "inliers")
+              j["odometry_inliers"] = static_cast<std::int64_t>(value);
+            else if (name == "flagged")
+              j["odometry_flagged"] = value > 0.0;
+          }
     std_msgs::String msg;
     msg.data = j.dump();
     stats_pub_.publish(msg);
@@ -977,6 +1040,12 @@ private:
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   ros::Publisher markers_pub_, occupied_pub_, grid_pub_, stats_pub_;
   ros::Publisher octomap_binary_pub_, octomap_full_pub_;
+  /** ~odometry: the visual odometry's pose per frame (with a visual_odometry stage). */
+  ros::Publisher odometry_pub_;
+  /** The last pose published on ~odometry and its stamp (the worker's own). */
+  Eigen::Isometry3d previous_pose_{Eigen::Isometry3d::Identity()};
+  ros::Time previous_stamp_;
+  bool has_previous_pose_{false};
   ros::ServiceServer save_srv_, reset_srv_;
   ros::Subscriber cloud_sub_;
   message_filters::Subscriber<sensor_msgs::Image> left_sub_, right_sub_;
@@ -1018,7 +1087,9 @@ constexpr const char* USAGE =
   "Live mapping in ROS 1: maps each rectified stereo pair (or PointCloud2) with the\n"
   "pipeline of FILE.yaml, its pose from TF or from the pipeline's visual odometry, "
   "and\n"
-  "publishes the map after each frame.\n"
+  "publishes the map after each frame. A stereo camera alone:\n"
+  "       ROS_PACKAGE_PATH=PREFIX/share roslaunch planar_grid "
+  "planar_grid_stereo.launch\n"
   "\n"
   "Private parameters:\n"
   "  ~config             the pipeline's YAML file (required)\n"
@@ -1046,7 +1117,9 @@ constexpr const char* USAGE =
   "  (or the configuration's ros_bag topics).\n"
   "Publishes: ~cuboids (MarkerArray), ~occupied_cells (PointCloud2), ~map_2d\n"
   "  (OccupancyGrid), ~octomap_binary, ~octomap_full (octomap_msgs/Octomap),\n"
-  "  ~frame_stats (String, JSON per frame).\n"
+  "  ~frame_stats (String, JSON per frame); with a visual_odometry stage the pose\n"
+  "  it estimated on /tf (frame_id -> the images' frame) and ~odometry\n"
+  "  (nav_msgs/Odometry), stamped with the image's stamp.\n"
   "Services: ~save_map, ~reset (std_srvs/Trigger).\n"
   "\n"
   "Options:\n"
