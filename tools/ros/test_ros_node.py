@@ -16,8 +16,15 @@ markers (median, 95th percentile), of every frame and of the keyframes.
 
 --parameter NAME runs the node with one of octomap_server's parameters set beside a node
 without it on the same bag and checks what the parameter changes, and that bad values
-stop the node with an error naming it. Every process is stopped at the end, also on
-failure.
+stop the node with an error naming it.
+
+--stereo-launch FILE starts planar_grid_stereo.launch with roslaunch (its configuration,
+--stereo-config, has a visual_odometry stage) on a bag of the frames' images and
+CameraInfos alone, and checks the poses the node estimated on /tf and ~odometry (one per
+frame, the image's stamp) against planar_grid_pipeline's on the same bag, their RTE
+against the sequence's ground truth (planar_grid_trajectory_check) and the two maps.
+
+Every process is stopped at the end, also on failure.
 """
 import argparse
 import json
@@ -26,6 +33,7 @@ import re
 import signal
 import socket
 import statistics
+import struct
 import subprocess
 import sys
 import tempfile
@@ -494,6 +502,235 @@ def parameter_test(args):
     print("1 passed, 0 failed")
 
 
+def transforms_of(raw):
+    """The transforms of a serialized tf2_msgs/TFMessage (rospy.AnyMsg's bytes; Debian
+    packages no Python tf2_msgs): (parent, child, stamp in s, (x, y, z), (qx, qy, qz,
+    qw)) each."""
+    offset = 0
+
+    def take(fmt):
+        nonlocal offset
+        values = struct.unpack_from(fmt, raw, offset)
+        offset += struct.calcsize(fmt)
+        return values
+
+    def string():
+        nonlocal offset
+        (length,) = take("<I")
+        text = raw[offset:offset + length].decode()
+        offset += length
+        return text
+
+    (count,) = take("<I")
+    transforms = []
+    for _ in range(count):
+        _seq, secs, nsecs = take("<III")
+        parent = string()
+        child = string()
+        translation = take("<3d")
+        rotation = take("<4d")
+        transforms.append((parent, child, secs + nsecs * 1e-9, translation, rotation))
+    return transforms
+
+
+def write_tum(path, poses):
+    """Poses (stamp s, (x, y, z), (qx, qy, qz, qw)) as a TUM trajectory file, every
+    double in full (repr)."""
+    with open(path, "w") as f:
+        for stamp, t, q in poses:
+            f.write(" ".join(repr(float(v)) for v in (stamp, *t, *q)) + "\n")
+
+
+def package_folder(args, work):
+    """A ROS package folder as `cmake --install` lays out share/planar_grid (package.xml,
+    the launch and RViz files, the stereo configuration and a link to the node), for
+    roslaunch to find with ROS_PACKAGE_PATH: the folder given to ROS_PACKAGE_PATH."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    share = os.path.join(work, "share")
+    package = os.path.join(share, "planar_grid")
+    os.makedirs(package)
+    for source in (os.path.join(here, "package.xml"), args.stereo_launch,
+                   os.path.join(here, "planar_grid.rviz"), args.stereo_config,
+                   os.path.abspath(args.node)):
+        os.symlink(os.path.abspath(source),
+                   os.path.join(package, os.path.basename(source)))
+    return share
+
+
+def stereo_odometry_test(args):
+    """A stereo camera alone (--stereo-launch): roslaunch starts planar_grid_stereo.launch
+    with its configuration, rosbag plays the frames' images and CameraInfos (no /tf),
+    and the node's poses come from its visual odometry. Checks that every frame is
+    mapped and posed once on /tf and once on ~odometry with the image's stamp, that
+    planar_grid_pipeline with the same configuration on the same bag makes the same map
+    and poses, and that the node's trajectory has the pipeline's RTE against the
+    sequence's ground truth (planar_grid_trajectory_check, docs/ODOMETRY.md's metric)."""
+    work = tempfile.mkdtemp(prefix="planar_grid_ros_stereo_")
+    bag = os.path.join(work, "stereo.bag")
+    subprocess.run([args.write_bag, "--config", args.config, "--frames", str(args.frames),
+                    "--rate", str(args.bag_rate), "--no-tf", "--output", bag], check=True,
+                   timeout=120)
+    with open(args.config) as f:
+        source = yaml.safe_load(f)
+    ground_truth = os.path.join(os.path.dirname(os.path.abspath(args.config)),
+                                source["input"]["poses"]["file"])
+    with open(args.stereo_config) as f:
+        stereo_config = yaml.safe_load(f)
+    bag_topics = [stereo_config["input"][k] for k in ("left_image", "right_image",
+                                                      "left_camera_info",
+                                                      "right_camera_info")]
+    import rosbag
+    with rosbag.Bag(bag) as recorded:
+        topics = sorted(recorded.get_type_and_topic_info().topics)
+        image_stamps = [m.header.stamp.to_sec() for _, m, _ in
+                        recorded.read_messages(topics=[bag_topics[0]])]
+    assert topics == sorted(bag_topics), f"the bag holds {topics}, not only {bag_topics}"
+    share = package_folder(args, work)
+    port = free_port()
+    env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_IP="127.0.0.1",
+               ROS_HOME=os.path.join(work, "ros_home"),
+               ROS_LOG_DIR=os.path.join(work, "log"), ROS_PACKAGE_PATH=share)
+    os.environ.update(env)
+    import rospy
+    from nav_msgs.msg import Odometry
+    from std_msgs.msg import String
+    from std_srvs.srv import Trigger
+
+    node_folder = os.path.join(work, "node")
+    launch_log = os.path.join(work, "roslaunch.log")
+    master = launch = player = None
+    try:
+        master = start_master(env, port)
+        # The camera's topics are not the configuration's: the launch file's arguments
+        # remap them.
+        camera_topics = {k: t.replace("/stereo/", "/camera/") for k, t in
+                         zip(("left_image", "right_image", "left_camera_info",
+                              "right_camera_info"), bag_topics)}
+        with open(launch_log, "w") as log:
+            # roslaunch without --wait: it takes the running master (rosmaster --core
+            # sets no /run_id, for which --wait would poll without end).
+            launch = subprocess.Popen(
+                ["roslaunch", "planar_grid", os.path.basename(args.stereo_launch),
+                 "rviz:=false", "max_queued_frames:=0", f"output_folder:={node_folder}"]
+                + [f"{k}:={t}" for k, t in camera_topics.items()],
+                env=env, stdout=log, stderr=subprocess.STDOUT)
+        rospy.init_node("planar_grid_test", anonymous=True, disable_signals=True)
+        stats, odometry, tf = [], [], []
+        subscribers = [
+            rospy.Subscriber("/planar_grid/frame_stats", String,
+                             lambda m: stats.append(json.loads(m.data))),
+            rospy.Subscriber("/planar_grid/odometry", Odometry, odometry.append),
+            rospy.Subscriber("/tf", rospy.AnyMsg,
+                             lambda m: tf.extend(transforms_of(bytes(m._buff)))),
+        ]
+        rospy.wait_for_service("/planar_grid/save_map", timeout=60)
+        wait_until(lambda: all(s.get_num_connections() > 0 for s in subscribers), 30,
+                   "the test's subscriptions to the node's frame_stats, odometry and /tf")
+        player = subprocess.Popen(["rosbag", "play", "--quiet", "-d", "2", "-r",
+                                   str(args.rate), bag]
+                                  + [f"{t}:={camera_topics[k]}" for k, t in
+                                     zip(camera_topics, bag_topics)],
+                                  env=env, stdout=subprocess.DEVNULL)
+        player.wait(timeout=120)
+        assert player.returncode == 0, f"rosbag play exited {player.returncode}"
+        wait_until(lambda: stats and stats[-1]["mapped"] + stats[-1]["failed"]
+                   + stats[-1]["dropped"] >= args.frames, 180,
+                   f"the node to map {args.frames} frames")
+        final = stats[-1]
+        assert final["failed"] == 0 and final["dropped"] == 0, final
+        assert final["mapped"] == args.frames and final["unpaired"] == 0, final
+        wait_until(lambda: len(odometry) >= args.frames, 30,
+                   f"{args.frames} messages on ~odometry")
+        response = rospy.ServiceProxy("/planar_grid/save_map", Trigger)()
+        assert response.success, response.message
+        print("save_map:", response.message)
+        time.sleep(1.0)  # nothing more may come on /tf or ~odometry
+    finally:
+        stop(player, "rosbag play")
+        stop(launch, "roslaunch")
+        rospy.signal_shutdown("test done") if "rospy" in sys.modules else None
+        stop(master, "rosmaster")
+    with open(launch_log) as f:
+        launched = f.read()
+    assert launch.returncode == 0, f"roslaunch exited {launch.returncode}: {launch_log}"
+    assert "process has died" not in launched, f"the node died: {launch_log}"
+    assert "from the pipeline's visual_odometry stage" in launched, launched
+    assert f"mapping the pair {camera_topics['left_image']}" in launched, launched
+
+    # One pose per mapped frame on each topic, with the frames' image stamps in order.
+    camera = [t for t in tf if t[1] == "camera"]
+    assert all(t[0] == "world" for t in camera), {t[0] for t in camera}
+    assert len(camera) == args.frames, f"{len(camera)} poses on /tf for {args.frames} frames"
+    assert len(odometry) == args.frames, (
+        f"{len(odometry)} poses on ~odometry for {args.frames} frames")
+    for k, (t, o) in enumerate(zip(camera, odometry)):
+        assert abs(t[2] - image_stamps[k]) < 1e-6, (k, t[2], image_stamps[k])
+        assert o.header.stamp.to_sec() == t[2], (k, o.header.stamp.to_sec(), t[2])
+        assert o.header.frame_id == "world" and o.child_frame_id == "camera", o.header
+        p, q = o.pose.pose.position, o.pose.pose.orientation
+        assert (p.x, p.y, p.z) == t[3] and (q.x, q.y, q.z, q.w) == t[4], (k, o.pose, t)
+    assert all("odometry_flagged" in s and "odometry_inliers" in s for s in stats), stats[0]
+    flagged = sum(1 for s in stats if s["odometry_flagged"])
+    speeds = sorted(o.twist.twist.linear.z for o in odometry[1:])
+    assert odometry[0].twist.twist.linear.z == 0.0 and speeds[len(speeds) // 2] > 0.0
+    print(f"{args.frames} frames mapped ({final['keyframes']} keyframes); /tf and "
+          f"~odometry each carried {args.frames} poses world -> camera, one per frame "
+          f"with its image's stamp; median forward speed {speeds[len(speeds) // 2]:.2f} m/s; "
+          f"{flagged} frames flagged by the odometry, median inliers "
+          f"{statistics.median(s['odometry_inliers'] for s in stats):.0f}")
+    node_tf = os.path.join(work, "node_tf.txt")
+    node_odometry = os.path.join(work, "node_odometry.txt")
+    write_tum(node_tf, [(t[2], t[3], t[4]) for t in camera])
+    write_tum(node_odometry, [
+        (o.header.stamp.to_sec(),
+         (o.pose.pose.position.x, o.pose.pose.position.y, o.pose.pose.position.z),
+         (o.pose.pose.orientation.x, o.pose.pose.orientation.y,
+          o.pose.pose.orientation.z, o.pose.pose.orientation.w)) for o in odometry])
+
+    # planar_grid_pipeline with the same configuration on the same bag.
+    stereo_config["input"]["file"] = bag
+    stereo_config["output"] = {"folder": os.path.join(work, "pipeline"),
+                               "trajectory": "trajectory.txt", "report": "report.json",
+                               "map": "map.pgmap"}
+    pipeline_config = os.path.join(work, "pipeline.yaml")
+    with open(pipeline_config, "w") as f:
+        yaml.safe_dump(stereo_config, f, sort_keys=False)
+    subprocess.run([args.pipeline, "--config", pipeline_config, "--no-snapshot"],
+                   check=True, timeout=600, stdout=subprocess.DEVNULL)
+    pipeline_trajectory = os.path.join(work, "pipeline", "trajectory.txt")
+    result = subprocess.run([args.trajectory_check, "--ground-truth", ground_truth,
+                             "--kitti", f"pipeline={pipeline_trajectory}",
+                             "--tum", f"node_tf={node_tf}",
+                             "--tum", f"node_odometry={node_odometry}"],
+                            check=True, timeout=120, stdout=subprocess.PIPE, text=True)
+    errors = json.loads(result.stdout)
+    pipeline = errors["pipeline"]
+    for name in ("node_tf", "node_odometry"):
+        node = errors[name]
+        difference = abs(node["rte_percent"] - pipeline["rte_percent"])
+        assert difference <= 0.001 * pipeline["rte_percent"], (
+            f"{name}: RTE {node['rte_percent']:.4f} %, planar_grid_pipeline's "
+            f"{pipeline['rte_percent']:.4f} %: more than 0.1 % apart")
+        print(f"{name}: RTE {node['rte_percent']:.4f} % (planar_grid_pipeline "
+              f"{pipeline['rte_percent']:.4f} %, {difference:.2e} points apart), ATE "
+              f"{node['ate_m']:.4f} m ({pipeline['ate_m']:.4f}); path "
+              f"{node['path_length_m']:.2f} m (ground truth "
+              f"{node['path_length_ground_truth_m']:.2f} m); poses at most "
+              f"{node['max_position_difference_m']:.2e} m and "
+              f"{node['max_rotation_difference_rad']:.2e} rad from the pipeline's")
+    with open(os.path.join(node_folder, "map.pgmap"), "rb") as f:
+        node_map = f.read()
+    with open(os.path.join(work, "pipeline", "map.pgmap"), "rb") as f:
+        pipeline_map = f.read()
+    assert len(node_map) > 1000 and node_map == pipeline_map, (
+        f"the node's map.pgmap ({len(node_map)} bytes) differs from planar_grid_pipeline's "
+        f"({len(pipeline_map)} bytes); both in {work}")
+    print("the node's map.pgmap equals planar_grid_pipeline's, byte for byte")
+    if not args.keep:
+        subprocess.run(["rm", "-rf", work], check=False)
+    print("1 passed, 0 failed")
+
+
 def main():
     if len(sys.argv) > 2 and sys.argv[1] == "--count-messages":
         # A late subscriber for --parameter latch: --count-messages SECONDS TOPIC...
@@ -512,6 +749,9 @@ def main():
                         "dropped, and only the latency is measured (no map comparison)")
     parser.add_argument("--rate", type=float, default=1.0,
                         help="rosbag play's rate (1: the recording's pace)")
+    parser.add_argument("--bag-rate", type=float, default=9.4,
+                        help="--stereo-launch: the camera's frame rate in the bag, Hz "
+                        "(frame k stamped k / rate after the first)")
     parser.add_argument("--cpu", type=int, default=-1,
                         help="pin the node to this CPU (taskset -c); -1: not pinned")
     parser.add_argument("--stop-while-waiting-for-tf", action="store_true",
@@ -521,14 +761,31 @@ def main():
     parser.add_argument("--parameter", choices=sorted(PARAMETERS),
                         help="instead: a node with this octomap_server parameter set "
                         "beside one without it, on --frames frames (docs/ROS.md)")
+    parser.add_argument("--stereo-launch",
+                        help="instead: roslaunch this launch file (planar_grid_stereo.launch) "
+                        "with its configuration, --stereo-config, on a bag of --config's "
+                        "images and CameraInfos without /tf, and check the visual "
+                        "odometry's poses against planar_grid_pipeline's and the ground "
+                        "truth")
+    parser.add_argument("--stereo-config",
+                        help="the launch file's default configuration (its topics; "
+                        "planar_grid_pipeline runs it on the bag)")
+    parser.add_argument("--trajectory-check",
+                        help="planar_grid_trajectory_check (default: beside --node)")
     parser.add_argument("--keep", action="store_true",
                         help="keep the work folder (bag, configuration, maps)")
     args = parser.parse_args()
     if args.octomap_check is None:
         args.octomap_check = os.path.join(os.path.dirname(args.node),
                                           "planar_grid_octomap_check")
+    if args.trajectory_check is None:
+        args.trajectory_check = os.path.join(os.path.dirname(args.node),
+                                             "planar_grid_trajectory_check")
     if args.stop_while_waiting_for_tf:
         stop_while_waiting_for_tf(args)
+        return
+    if args.stereo_launch:
+        stereo_odometry_test(args)
         return
     if args.parameter:
         parameter_test(args)
