@@ -394,7 +394,7 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
 }
 #endif
 
-/** Exit statuses by class of failure (printHelp(), README). */
+/** Exit statuses by class of failure (printHelp(), docs/OUTPUTS.md). */
 constexpr int EXIT_USAGE = 2;
 constexpr int EXIT_CONFIG = 3;
 constexpr int EXIT_INPUT = 4;
