@@ -28,6 +28,8 @@ PACKAGES=(
   libroscpp-dev libtf2-ros-dev libmessage-filters-dev libvisualization-msgs-dev
   libnav-msgs-dev libstd-srvs-dev
   python3-genmsg python3-gencpp ros-std-msgs  # octomap_msgs/Octomap's header, generated
+  # dynamic_reconfigure: the server's headers and the .cfg generator
+  libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   python3-rosmaster python3-rospy python3-rosbag python3-rosgraph python3-roslaunch python3-yaml
   python3-std-srvs python3-visualization-msgs python3-nav-msgs python3-sensor-msgs
 )

@@ -5,13 +5,16 @@
 // nav_msgs/Odometry); maps the frame with
 // planar_grid::Mapper on a worker thread; publishes the map after each frame, also as
 // octomap_msgs/Octomap. Takes octomap_server's parameter names where they mean the
-// same.
+// same; the ones that can change while it runs also through dynamic_reconfigure.
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/core/param_range.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/mapper.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/version.h>
+#ifdef PLANAR_GRID_HAVE_DYNAMIC_RECONFIGURE
+#include <planar_grid/PlanarGridConfig.h>
+#endif
 
 #include <geometry_msgs/TransformStamped.h>
 #include <message_filters/subscriber.h>
@@ -23,6 +26,9 @@
 #include <octomap/OcTree.h>
 #include <octomap_msgs/Octomap.h>
 #include <ros/ros.h>
+#ifdef PLANAR_GRID_HAVE_DYNAMIC_RECONFIGURE
+#include <dynamic_reconfigure/server.h>
+#endif
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -68,7 +74,9 @@ struct PendingFrame {
   std::uint64_t sequence{0};
 };
 
-/** The node's parameters (private namespace); each defaults from the configuration. */
+/** The node's parameters (private namespace); each defaults from the configuration.
+ * tf_timeout_s, publish_every, map_2d_period_s and octomap_period_s change while the
+ * node runs (dynamic_reconfigure); the others are fixed at start. */
 struct NodeParams {
   std::string config_path;
   /** The world frame of the map and of the published topics. */
@@ -251,6 +259,13 @@ public:
       ROS_INFO_STREAM("planar_grid_ros_node: mapping the pair "
                       << left_sub_.getTopic() << " / " << right_sub_.getTopic());
     }
+#ifdef PLANAR_GRID_HAVE_DYNAMIC_RECONFIGURE
+    startReconfigureServer();
+    ROS_INFO_STREAM("planar_grid_ros_node: dynamic_reconfigure on "
+                    << pnh_.getNamespace()
+                    << ": pointcloud_min_z, pointcloud_max_z, publish_every, "
+                       "map_2d_period, octomap_period, tf_timeout");
+#endif
     worker_ = std::thread([this] { work(); });
     publisher_ = std::thread([this] { publishSpace(); });
   }
@@ -287,6 +302,101 @@ private:
                                                     sensor_msgs::CameraInfo,
                                                     sensor_msgs::CameraInfo>;
   using Sync = message_filters::Synchronizer<SyncPolicy>;
+
+  /** The parameters, with the values dynamic_reconfigure last set, read under their
+   * lock. */
+  NodeParams liveParams() const
+  {
+    const std::lock_guard<std::mutex> lock(live_mutex_);
+    return params_;
+  }
+
+  /** The 2D map's band (~pointcloud_min_z, ~pointcloud_max_z as last set), read under
+   * its lock. */
+  planar_grid::OccupancyGrid2DParams gridParams() const
+  {
+    const std::lock_guard<std::mutex> lock(live_mutex_);
+    return grid_params_;
+  }
+
+#ifdef PLANAR_GRID_HAVE_DYNAMIC_RECONFIGURE
+  /** The dynamic_reconfigure server on the node's private namespace, holding the
+   * values the node runs with (its start parameters and the configuration's), so that
+   * rqt_reconfigure and `dynparam get` show them. */
+  void startReconfigureServer()
+  {
+    reconfigure_server_ =
+      std::make_unique<dynamic_reconfigure::Server<planar_grid::PlanarGridConfig>>(
+        reconfigure_mutex_, pnh_);
+    planar_grid::PlanarGridConfig config;
+    config.pointcloud_min_z = grid_params_.z_min_m;
+    config.pointcloud_max_z = grid_params_.z_max_m;
+    config.publish_every = params_.publish_every;
+    config.map_2d_period = params_.map_2d_period_s;
+    config.octomap_period = params_.octomap_period_s;
+    config.tf_timeout = params_.tf_timeout_s;
+    reconfigure_server_->updateConfig(config);
+    reconfigure_server_->setCallback(
+      [this](planar_grid::PlanarGridConfig& c, std::uint32_t) { onReconfigure(c); });
+  }
+
+  /** A dynamic_reconfigure request: takes the new values (the server has clamped
+   * each to its range) for the next frame and the next publication, logs what
+   * changed, and asks for the 2D map again when its band changed. A band upside down
+   * (min not below max) is refused: the band keeps its values, which the server then
+   * reports back. */
+  void onReconfigure(planar_grid::PlanarGridConfig& config)
+  {
+    std::ostringstream changes;
+    bool band_changed = false;
+    {
+      const std::lock_guard<std::mutex> lock(live_mutex_);
+      if (!(config.pointcloud_min_z < config.pointcloud_max_z)) {
+        ROS_WARN_STREAM(
+          "planar_grid_ros_node: dynamic_reconfigure: the 2D map's band "
+          "must have pointcloud_min_z ("
+          << planar_grid::formatParamNumber(config.pointcloud_min_z)
+          << " m) below pointcloud_max_z ("
+          << planar_grid::formatParamNumber(config.pointcloud_max_z)
+          << " m): the band stays "
+          << planar_grid::formatParamNumber(grid_params_.z_min_m) << " to "
+          << planar_grid::formatParamNumber(grid_params_.z_max_m) << " m");
+        config.pointcloud_min_z = grid_params_.z_min_m;
+        config.pointcloud_max_z = grid_params_.z_max_m;
+      }
+      const auto note = [&changes](const char* name, double before, double after,
+                                   const char* unit) {
+        if (before != after)
+          changes << (changes.tellp() > 0 ? ", " : "") << name << " "
+                  << planar_grid::formatParamNumber(after) << unit;
+      };
+      note("pointcloud_min_z", grid_params_.z_min_m, config.pointcloud_min_z, " m");
+      note("pointcloud_max_z", grid_params_.z_max_m, config.pointcloud_max_z, " m");
+      note("publish_every", params_.publish_every, config.publish_every, "");
+      note("map_2d_period", params_.map_2d_period_s, config.map_2d_period, " s");
+      note("octomap_period", params_.octomap_period_s, config.octomap_period, " s");
+      note("tf_timeout", params_.tf_timeout_s, config.tf_timeout, " s");
+      band_changed = grid_params_.z_min_m != config.pointcloud_min_z
+                     || grid_params_.z_max_m != config.pointcloud_max_z;
+      grid_params_.z_min_m = config.pointcloud_min_z;
+      grid_params_.z_max_m = config.pointcloud_max_z;
+      params_.publish_every = config.publish_every;
+      params_.map_2d_period_s = config.map_2d_period;
+      params_.octomap_period_s = config.octomap_period;
+      params_.tf_timeout_s = config.tf_timeout;
+    }
+    if (changes.tellp() > 0)
+      ROS_INFO_STREAM("planar_grid_ros_node: dynamic_reconfigure: " << changes.str());
+    {
+      // The publisher thread takes the new periods now (it may be waiting for the end
+      // of an old one) and publishes the 2D map in its new band.
+      const std::lock_guard<std::mutex> lock(publish_mutex_);
+      reconfigured_ = true;
+      grid_refresh_ = grid_refresh_ || band_changed;
+    }
+    publish_cv_.notify_one();
+  }
+#endif
 
   /** Whether the pipeline has a stage of \a type. */
   bool hasStage(const std::string& type) const
@@ -519,7 +629,7 @@ private:
     const auto deadline =
       Clock::now()
       + std::chrono::duration_cast<Clock::duration>(
-        std::chrono::duration<double>(std::min(params_.tf_timeout_s, 1e9)));
+        std::chrono::duration<double>(std::min(liveParams().tf_timeout_s, 1e9)));
     const ros::Duration slice(0.05);
     while (!tf_buffer_.canTransform(params_.fixed_frame, sensor, header.stamp, slice)) {
       if (stopRequested())
@@ -571,7 +681,7 @@ private:
     if (keyframe)
       ++keyframes_;
     const Clock::time_point publish_start = Clock::now();
-    if (mapped_ % static_cast<std::uint64_t>(params_.publish_every) == 0)
+    if (mapped_ % static_cast<std::uint64_t>(liveParams().publish_every) == 0)
       publishMap(header.stamp);
     publishStats(
       frame, stats, keyframe,
@@ -674,15 +784,15 @@ private:
         std::chrono::duration<double>(s));
     };
     std::uint64_t published = 0;
-    Throttled grid{seconds(params_.map_2d_period_s)};
-    Throttled octomap{seconds(params_.octomap_period_s)};
+    Throttled grid{seconds(liveParams().map_2d_period_s)};
+    Throttled octomap{seconds(liveParams().octomap_period_s)};
     for (;;) {
       std::uint64_t version = 0;
       ros::Time stamp;
       {
         std::unique_lock<std::mutex> lock(publish_mutex_);
         const auto ready = [&] {
-          return stopping_publisher_ || map_version_ != published;
+          return stopping_publisher_ || map_version_ != published || reconfigured_;
         };
         // A 2D map or OctoMap held back by its period is published when it ends.
         const bool grid_pending = grid.pending(map_version_);
@@ -697,6 +807,19 @@ private:
           publish_cv_.wait(lock, ready);
         if (stopping_publisher_)
           return;
+        if (reconfigured_) {
+          // The periods as dynamic_reconfigure set them count from now on, also for
+          // a map version that waits; a new 2D band makes the map's 2D map again.
+          reconfigured_ = false;
+          const NodeParams live = liveParams();
+          grid.period = seconds(live.map_2d_period_s);
+          octomap.period = seconds(live.octomap_period_s);
+          if (grid_refresh_) {
+            grid_refresh_ = false;
+            grid.version = 0;
+            grid.last = Clock::time_point{};
+          }
+        }
         version = map_version_;
         stamp = map_stamp_;
       }
@@ -810,7 +933,8 @@ private:
    * (PlanarGridMap::computeOccupancyGrid2D): 0 free, 100 occupied, -1 unknown. */
   void publishGrid(const planar_grid::PlanarGridMap& map, const ros::Time& stamp)
   {
-    const planar_grid::OccupancyGrid2D grid = map.computeOccupancyGrid2D(grid_params_);
+    const planar_grid::OccupancyGrid2DParams band = gridParams();
+    const planar_grid::OccupancyGrid2D grid = map.computeOccupancyGrid2D(band);
     nav_msgs::OccupancyGrid msg;
     msg.header.frame_id = params_.fixed_frame;
     msg.header.stamp = stamp;
@@ -820,8 +944,7 @@ private:
     msg.info.height = static_cast<std::uint32_t>(grid.height);
     msg.info.origin.position.x = grid.origin.x();
     msg.info.origin.position.y = grid.origin.y();
-    msg.info.origin.position.z =
-      grid_params_.above_terrain ? 0.0 : grid_params_.z_ref_m;
+    msg.info.origin.position.z = band.above_terrain ? 0.0 : band.z_ref_m;
     msg.info.origin.orientation.w = 1.0;
     msg.data = grid.cells;
     grid_pub_.publish(msg);
@@ -1019,7 +1142,15 @@ private:
   ros::NodeHandle& pnh_;
   NodeParams params_;
   planar_grid::PipelineConfig config_;
+  /** The 2D map's band; with params_' live values, guarded by live_mutex_ once the
+   * node runs. */
   planar_grid::OccupancyGrid2DParams grid_params_;
+  mutable std::mutex live_mutex_;
+#ifdef PLANAR_GRID_HAVE_DYNAMIC_RECONFIGURE
+  boost::recursive_mutex reconfigure_mutex_;
+  std::unique_ptr<dynamic_reconfigure::Server<planar_grid::PlanarGridConfig>>
+    reconfigure_server_;
+#endif
   std::unique_ptr<planar_grid::Mapper> mapper_;
   bool odometry_{false};
   /** Where the map's frame, resolution, maximum range and 2D band come from, as the
@@ -1072,6 +1203,10 @@ private:
   std::uint64_t map_version_{0};
   ros::Time map_stamp_;
   bool stopping_publisher_{false};
+  /** dynamic_reconfigure changed the parameters; the 2D band among them: publish the
+   * current map's 2D map again. */
+  bool reconfigured_{false};
+  bool grid_refresh_{false};
   /** Wall time of the publisher's last occupied cells, 2D map and OctoMaps, ms. */
   std::atomic<double> occupied_ms_{0.0}, map_2d_ms_{0.0}, octomap_ms_{0.0};
   std::thread publisher_;
@@ -1111,6 +1246,9 @@ constexpr const char* USAGE =
   "                      the 2D map's height band above its reference, m\n"
   "                      (the configuration's, else 0.3, 2.0 above the terrain)\n"
   "  ~latch              publish the map topics latched (true)\n"
+  "  dynamic_reconfigure changes ~pointcloud_min_z, ~pointcloud_max_z,\n"
+  "  ~publish_every, ~map_2d_period, ~octomap_period and ~tf_timeout while it runs\n"
+  "  (when built with it).\n"
   "\n"
   "Subscribes: left/image_rect, right/image_rect, left/camera_info,\n"
   "  right/camera_info, or cloud (PointCloud2) for a pcd_files configuration\n"
