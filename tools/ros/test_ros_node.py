@@ -502,6 +502,119 @@ def parameter_test(args):
     print("1 passed, 0 failed")
 
 
+def dynamic_reconfigure_test(args):
+    """dynamic_reconfigure (--dynamic-reconfigure): a node (planar_grid_live) whose
+    parameters change while it maps, beside a node started with the 2D band it gets
+    (planar_grid_band). The server reports the values the node runs with; after the
+    first half of the frames publish_every 1000 and octomap_period 3600 stop its cuboid
+    markers and OctoMaps for the second half (the other node publishes the last frame's
+    OctoMap); a band upside down is refused; the band of the other node makes the live
+    node publish, without a new frame, the other node's 2D map cell for cell."""
+    work, bag, config, env, port = prepare(args, "planar_grid_ros_reconfigure_",
+                                           args.frames)
+    import rosbag
+    import rospy
+    from dynamic_reconfigure.client import Client
+    with rosbag.Bag(bag) as recorded:
+        stamps = sorted(m.header.stamp.to_sec() for _, m, _ in
+                        recorded.read_messages(topics=["/stereo/left/image_rect"]))
+        start = recorded.get_start_time()
+    half = args.frames // 2
+    # rosbag play's offsets (s from the bag's start): the first half, then the rest.
+    split_s = (stamps[half - 1] + stamps[half]) / 2 - start
+    band = {"pointcloud_min_z": 2.5, "pointcloud_max_z": 4.0}
+    master = player = None
+    nodes = []
+    try:
+        master = start_master(env, port)
+        rospy.init_node("planar_grid_test", anonymous=True, disable_signals=True)
+        nodes = [NodeRun(args, env, work, config, "planar_grid_live", {}),
+                 NodeRun(args, env, work, config, "planar_grid_band", band)]
+        live, fixed = nodes
+        cuboids = RawTopic("/planar_grid_live/cuboids")
+        wait_until(lambda: cuboids.subscriber.get_num_connections() > 0
+                   and all(s.get_num_connections() > 0 for n in nodes
+                           for s in n.subscribers), 60,
+                   "the test's subscriptions to the nodes' topics")
+        client = Client("/planar_grid_live", timeout=30)
+        started = client.get_configuration(timeout=30)
+        expected = {"pointcloud_min_z": 0.3, "pointcloud_max_z": 2.0, "publish_every": 1,
+                    "map_2d_period": 2.0, "octomap_period": 2.0, "tf_timeout": 0.2}
+        for name, value in expected.items():
+            assert abs(started[name] - value) < 1e-9, (name, started[name], value)
+        print(f"the server reports the values the node runs with: {expected}")
+
+        def play(*window):
+            player = subprocess.Popen(["rosbag", "play", "--quiet", *window, bag], env=env,
+                                      stdout=subprocess.DEVNULL)
+            player.wait(timeout=120)
+            assert player.returncode == 0, f"rosbag play exited {player.returncode}"
+
+        play("-d", "2", "-u", f"{split_s:.3f}")
+        wait_until(lambda: live.mapped() == half and fixed.mapped() == half, 120,
+                   f"both nodes to map the first {half} frames")
+        wait_until(lambda: cuboids.count >= half and live.octomap.count > 0, 30,
+                   "the live node's markers and OctoMaps of the first half")
+        answer = client.update_configuration({"publish_every": 1000, "octomap_period": 3600})
+        assert answer["publish_every"] == 1000 and answer["octomap_period"] == 3600, answer
+        time.sleep(2.0)  # an OctoMap under way when the answer came is out by now
+        before = (cuboids.count, live.octomap.count)
+        play("-s", f"{split_s:.3f}")
+        wait_until(lambda: live.mapped() == args.frames and fixed.mapped() == args.frames,
+                   120, f"both nodes to map all {args.frames} frames")
+        wait_for_octomaps(args, work, [fixed.octomap], stamps[-1])
+        time.sleep(3.0)
+        after = (cuboids.count, live.octomap.count)
+        assert after == before, (
+            f"publish_every 1000 and octomap_period 3600: markers and OctoMaps went from "
+            f"{before} to {after} in the second half")
+        print(f"publish_every 1000, octomap_period 3600 after frame {half}: no markers and "
+              f"no OctoMap for frames {half + 1}-{args.frames} (markers {before[0]}, "
+              f"OctoMaps {before[1]}, from the first half); the node started with the "
+              f"defaults published the last frame's OctoMap")
+
+        answer = client.update_configuration({"pointcloud_min_z": 3.0, "pointcloud_max_z": 1.0})
+        assert (answer["pointcloud_min_z"], answer["pointcloud_max_z"]) == (0.3, 2.0), answer
+        grids = len(live.grids)
+        answer = client.update_configuration(band)
+        assert all(answer[k] == v for k, v in band.items()), answer
+        wait_until(lambda: len(live.grids) > grids, 30,
+                   "the live node's 2D map in its new band")
+        fixed_grid = fixed.last_grid(stamps[-1])
+
+        def occupied(grid):
+            return sum(1 for c in grid.data if c == 100)
+
+        def layout(grid):
+            return (grid.info.resolution, grid.info.width, grid.info.height,
+                    grid.info.origin)
+
+        # The same cells (map_load_time is the stamp of each node's last published frame).
+        assert (layout(live.grids[-1]) == layout(fixed_grid)
+                and live.grids[-1].data == fixed_grid.data), (
+            f"the live node's 2D map in 2.5-4 m: {occupied(live.grids[-1])} occupied cells, "
+            f"the node started with the band {occupied(fixed_grid)}")
+        print(f"a band upside down (3 over 1 m) refused; pointcloud_min_z 2.5, "
+              f"pointcloud_max_z 4 while it runs: a new 2D map at once, without a new "
+              f"frame, equal to the one of the node started with them "
+              f"({occupied(fixed_grid)} occupied cells; {occupied(live.grids[grids - 1])} "
+              f"in 0.3-2 m)")
+    finally:
+        stop(player, "rosbag play")
+        for node in nodes:
+            stop(node.process, node.name)
+        rospy.signal_shutdown("test done") if "rospy" in sys.modules else None
+        stop(master, "rosmaster")
+    for node in nodes:
+        assert node.process.returncode == 0, f"{node.name} exited {node.process.returncode}"
+    log = live.log()
+    assert "the band stays 0.3 to 2 m" in log, log
+    assert "dynamic_reconfigure: publish_every 1000, octomap_period 3600 s" in log, log
+    if not args.keep:
+        subprocess.run(["rm", "-rf", work], check=False)
+    print("1 passed, 0 failed")
+
+
 def transforms_of(raw):
     """The transforms of a serialized tf2_msgs/TFMessage (rospy.AnyMsg's bytes; Debian
     packages no Python tf2_msgs): (parent, child, stamp in s, (x, y, z), (qx, qy, qz,
@@ -772,6 +885,9 @@ def main():
                         "planar_grid_pipeline runs it on the bag)")
     parser.add_argument("--trajectory-check",
                         help="planar_grid_trajectory_check (default: beside --node)")
+    parser.add_argument("--dynamic-reconfigure", action="store_true",
+                        help="instead: change the node's parameters while it maps, "
+                        "through its dynamic_reconfigure server")
     parser.add_argument("--keep", action="store_true",
                         help="keep the work folder (bag, configuration, maps)")
     args = parser.parse_args()
@@ -786,6 +902,9 @@ def main():
         return
     if args.stereo_launch:
         stereo_odometry_test(args)
+        return
+    if args.dynamic_reconfigure:
+        dynamic_reconfigure_test(args)
         return
     if args.parameter:
         parameter_test(args)
