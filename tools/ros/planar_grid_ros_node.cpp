@@ -51,7 +51,6 @@
 #include <cstring>
 #include <deque>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <mutex>
 #include <sstream>
@@ -211,7 +210,6 @@ public:
                             ? std::string("the images' frame")
                             : params_.sensor_frame)
                       << ") and on " << pnh_.resolveName("odometry"));
-    createOctoMapFolder();
 
     markers_pub_ =
       pnh_.advertise<visualization_msgs::MarkerArray>("cuboids", 1, params_.latch);
@@ -286,10 +284,6 @@ public:
     publish_cv_.notify_all();
     if (publisher_.joinable())
       publisher_.join();
-    if (!octomap_folder_.empty()) {
-      std::error_code ignored;
-      std::filesystem::remove_all(octomap_folder_, ignored);
-    }
     ROS_INFO_STREAM("planar_grid_ros_node: " << mapped_ << " frames mapped, "
                                              << dropped_ << " dropped, " << failed_
                                              << " failed");
@@ -534,18 +528,6 @@ private:
       << " ("
       << (band_source_.empty() ? std::string("the configuration's band") : band_source_)
       << "); latch " << (params_.latch ? "true" : "false"));
-  }
-
-  /** A private folder for the OctoMap files the messages are read from (removed when
-   * the node ends), in the system's temporary folder (TMPDIR). */
-  void createOctoMapFolder()
-  {
-    std::string pattern =
-      (std::filesystem::temp_directory_path() / "planar_grid_ros_node.XXXXXX").string();
-    if (mkdtemp(pattern.data()) == nullptr)
-      throw planar_grid::Exception("planar_grid_ros_node: cannot create a folder like "
-                                   + pattern + ": " + std::strerror(errno));
-    octomap_folder_ = pattern;
   }
 
   void onStereo(const sensor_msgs::ImageConstPtr& left,
@@ -969,40 +951,18 @@ private:
 
   /** The map as octomap_msgs/Octomap: the tree PlanarGridMap::exportOctoMap() writes
    * to map.bt (binary: each node's maximum-likelihood state) or map.ot (full: each
-   * node's log-odds, the cuboids' probabilities), written to the node's private folder
-   * under the map's shared lock, read back into an octomap::OcTree and serialized as
-   * octomap_msgs' conversions.h does (binaryMapToMsg: OcTree::writeBinaryData;
-   * fullMapToMsg: OcTree::writeData), with id "OcTree", the tree's resolution in
-   * meters, and the map's frame and the last mapped frame's stamp in the header.
-   * \throws planar_grid::IOError, planar_grid::Exception when the tree cannot be
-   * written or read back */
+   * node's log-odds, the cuboids' probabilities), built in memory under the map's
+   * shared lock (PlanarGridMap::toOcTree) and serialized as octomap_msgs'
+   * conversions.h does (binaryMapToMsg: OcTree::writeBinaryData; fullMapToMsg:
+   * OcTree::writeData), with id "OcTree", the tree's resolution in meters, and the
+   * map's frame and the last mapped frame's stamp in the header. */
   octomap_msgs::Octomap octomapMessage(const ros::Time& stamp, bool binary) const
   {
-    const std::filesystem::path path = octomap_folder_ / (binary ? "map.bt" : "map.ot");
-    double resolution_m = 0.0;
+    octomap::OcTree tree(0.1);
     {
       const auto map = mapper_->readMap();
-      map->exportOctoMap(path.string());
-      resolution_m = map->getResolution();
+      map->toOcTree(tree, binary);
     }
-    std::ifstream in(path, std::ios::binary);
-    // Both formats are a text header ending in the line "data", then the tree as
-    // writeBinaryData() (.bt) or writeData() (.ot) wrote it. Read through the tree's
-    // own reader, without AbstractOcTree::read()'s messages on stderr.
-    std::string line;
-    while (std::getline(in, line) && line != "data") {
-    }
-    if (!in)
-      throw planar_grid::Exception("the OctoMap file " + path.string()
-                                   + " has no data line");
-    octomap::OcTree tree(resolution_m);
-    if (binary)
-      tree.readBinaryData(in);
-    else
-      tree.readData(in);
-    if (in.bad())
-      throw planar_grid::Exception("the OctoMap file " + path.string()
-                                   + " cannot be read");
     octomap_msgs::Octomap msg;
     msg.header.frame_id = params_.fixed_frame;
     msg.header.stamp = stamp;
@@ -1159,8 +1119,6 @@ private:
   std::string resolution_source_{"the configuration"};
   std::string max_range_source_{"the configuration"};
   std::string band_source_;
-  /** The node's private folder of the OctoMap files behind the messages. */
-  std::filesystem::path octomap_folder_;
   /** Wall time of the last frame's markers, ms. */
   double cuboids_ms_{0.0};
 
