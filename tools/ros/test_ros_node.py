@@ -60,6 +60,18 @@ def stop(process, name):
         process.wait(timeout=15)
 
 
+def stop_all(player, processes, master):
+    """Stops rosbag play, then each (process, name) of processes, this process's rospy
+    node if it started one, and the rosmaster last (the nodes unregister from it on
+    their way out)."""
+    stop(player, "rosbag play")
+    for process, name in processes:
+        stop(process, name)
+    if "rospy" in sys.modules:
+        sys.modules["rospy"].signal_shutdown("test done")
+    stop(master, "rosmaster")
+
+
 def wait_until(condition, timeout_s, what):
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
@@ -264,10 +276,7 @@ def stop_while_waiting_for_tf(args):
         assert node.returncode == 0, f"the node exited {node.returncode} on SIGINT"
         print(f"the node stopped {stopped_s:.2f} s after SIGINT while waiting for TF")
     finally:
-        stop(player, "rosbag play")
-        stop(node, "planar_grid_ros_node")
-        rospy.signal_shutdown("test done") if "rospy" in sys.modules else None
-        stop(master, "rosmaster")
+        stop_all(player, [(node, "planar_grid_ros_node")], master)
     if not args.keep:
         subprocess.run(["rm", "-rf", work], check=False)
     print("1 passed, 0 failed")
@@ -483,11 +492,7 @@ def parameter_test(args):
                       f"{args.frames} frames ({default.octomap.count} with the default "
                       f"2 s)")
     finally:
-        stop(player, "rosbag play")
-        for node in nodes:
-            stop(node.process, node.name)
-        rospy.signal_shutdown("test done") if "rospy" in sys.modules else None
-        stop(master, "rosmaster")
+        stop_all(player, [(node.process, node.name) for node in nodes], master)
     for node in nodes:
         assert node.process.returncode == 0, f"{node.name} exited {node.process.returncode}"
     effective = [line for line in variant.log().splitlines()
@@ -600,11 +605,7 @@ def dynamic_reconfigure_test(args):
               f"({occupied(fixed_grid)} occupied cells; {occupied(live.grids[grids - 1])} "
               f"in 0.3-2 m)")
     finally:
-        stop(player, "rosbag play")
-        for node in nodes:
-            stop(node.process, node.name)
-        rospy.signal_shutdown("test done") if "rospy" in sys.modules else None
-        stop(master, "rosmaster")
+        stop_all(player, [(node.process, node.name) for node in nodes], master)
     for node in nodes:
         assert node.process.returncode == 0, f"{node.name} exited {node.process.returncode}"
     log = live.log()
@@ -759,10 +760,7 @@ def stereo_odometry_test(args):
         print("save_map:", response.message)
         time.sleep(1.0)  # nothing more may come on /tf or ~odometry
     finally:
-        stop(player, "rosbag play")
-        stop(launch, "roslaunch")
-        rospy.signal_shutdown("test done") if "rospy" in sys.modules else None
-        stop(master, "rosmaster")
+        stop_all(player, [(launch, "roslaunch")], master)
     with open(launch_log) as f:
         launched = f.read()
     assert launch.returncode == 0, f"roslaunch exited {launch.returncode}: {launch_log}"
@@ -1036,10 +1034,7 @@ def main():
               f" {final['last_map_2d_ms']:.1f} ms;"
               f" final map {final['map_cuboids']} cuboids")
     finally:
-        stop(player, "rosbag play")
-        stop(node, "planar_grid_ros_node")
-        rospy.signal_shutdown("test done") if "rospy" in sys.modules else None
-        stop(master, "rosmaster")
+        stop_all(player, [(node, "planar_grid_ros_node")], master)
     assert node.returncode == 0, f"planar_grid_ros_node exited {node.returncode}"
     if measure_only:
         if not args.keep:
