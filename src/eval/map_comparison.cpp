@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The paper's comparison (Sec. IV-B, Figs. 12-14): SG, OG, RA and PG on the same frames
 // at several minimum cell sizes, in one process.
+#include <planar_grid/core/atomic_file.h>
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/eval/map_comparison.h>
 #include <planar_grid/eval/mapping_error.h>
@@ -39,6 +40,17 @@ namespace {
 namespace fs = std::filesystem;
 
 using detail::isFrontEnd;
+
+/** Writes \a points to \a path as a binary compressed PCD, atomically (a failed
+ * write leaves no half file). \throws planar_grid::IOError naming the file */
+void
+savePointsAtomically(const std::string& path,
+                     const pcl::PointCloud<pcl::PointXYZ>& points)
+{
+  writeFileAtomically(path, [&points](const std::string& temporary) {
+    return pcl::io::savePCDFileBinaryCompressed(temporary, points) == 0;
+  });
+}
 
 /** The pipeline stage \a sc at cell size \a r: its parameters marked CELL_SIZE in
  * its table are set to r, those marked POINTS_PER_AREA scaled by (0.1 / r)^2, those
@@ -701,8 +713,7 @@ runComparison(const ComparisonConfig& config,
       fs::create_directories(config.output_folder, ec);
       const std::string truth_file =
         (fs::path(config.output_folder) / ("truth_" + ds.name + ".pcd")).string();
-      if (pcl::io::savePCDFileBinaryCompressed(truth_file, *truth->getPoints()) != 0)
-        throw IOError(truth_file + ": cannot write the truth points");
+      savePointsAtomically(truth_file, *truth->getPoints());
       if (progress)
         progress(ds.name + ": " + truth_kind + " points in " + truth_file);
     }
@@ -732,18 +743,15 @@ runComparison(const ComparisonConfig& config,
       if (config.save_maps && lane.pipeline->state().map) {
         std::error_code ec;
         fs::create_directories(config.output_folder, ec);
-        const std::string saved_name = mapComparisonFile(ds.name, r);
-        saved = (fs::path(config.output_folder) / saved_name).string();
+        saved =
+          (fs::path(config.output_folder) / mapComparisonFile(ds.name, r)).string();
         lane.pipeline->state().map->save(saved);
         // SG's occupied voxels beside it, to compare the two maps point by point.
         pcl::PointCloud<pcl::PointXYZ> sg_centres;
         lane.sg->getOccupiedCentres(sg_centres);
-        const std::string sg_file =
-          (fs::path(config.output_folder)
-           / ("sg" + saved_name.substr(2, saved_name.size() - 8) + ".pcd"))
-            .string();
-        if (pcl::io::savePCDFileBinaryCompressed(sg_file, sg_centres) != 0)
-          throw IOError(sg_file + ": cannot write SG's occupied voxel centres");
+        savePointsAtomically(
+          (fs::path(config.output_folder) / sgComparisonFile(ds.name, r)).string(),
+          sg_centres);
       }
       if (progress) {
         const ComparisonRow& sg = measured[0];

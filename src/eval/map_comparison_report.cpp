@@ -14,8 +14,15 @@
 
 namespace planar_grid {
 
+namespace {
+
+/** "PREFIX_DATASET_Rm.EXTENSION", characters other than letters, digits, '-', '_'
+ * and '.' in the dataset's name replaced by '_'. */
 std::string
-mapComparisonFile(const std::string& dataset, double resolution_m)
+comparisonFile(const char* prefix,
+               const std::string& dataset,
+               double resolution_m,
+               const char* extension)
 {
   std::string name = dataset;
   for (char& c : name)
@@ -23,8 +30,22 @@ mapComparisonFile(const std::string& dataset, double resolution_m)
         && c != '.')
       c = '_';
   std::ostringstream file;
-  file << "pg_" << name << "_" << resolution_m << "m.pgmap";
+  file << prefix << "_" << name << "_" << resolution_m << "m." << extension;
   return file.str();
+}
+
+} // namespace
+
+std::string
+mapComparisonFile(const std::string& dataset, double resolution_m)
+{
+  return comparisonFile("pg", dataset, resolution_m, "pgmap");
+}
+
+std::string
+sgComparisonFile(const std::string& dataset, double resolution_m)
+{
+  return comparisonFile("sg", dataset, resolution_m, "pcd");
 }
 
 void

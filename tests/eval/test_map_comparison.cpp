@@ -190,13 +190,14 @@ TEST_F(MapComparisonTest, TiltedWallAgainstItsTruth)
               pg.cells)
       << r;
     // SG's occupied voxels are saved beside it.
+    EXPECT_EQ(planar_grid::sgComparisonFile("tilted wall", r),
+              r < 0.15 ? "sg_tilted_wall_0.1m.pcd" : "sg_tilted_wall_0.2m.pcd");
     pcl::PointCloud<pcl::PointXYZ> sg_saved;
-    ASSERT_EQ(pcl::io::loadPCDFile(
-                (dir_ / "maps"
-                 / (r < 0.15 ? "sg_tilted_wall_0.1m.pcd" : "sg_tilted_wall_0.2m.pcd"))
-                  .string(),
-                sg_saved),
-              0);
+    ASSERT_EQ(
+      pcl::io::loadPCDFile(
+        (dir_ / "maps" / planar_grid::sgComparisonFile("tilted wall", r)).string(),
+        sg_saved),
+      0);
     EXPECT_EQ(sg_saved.size(), sg.cells) << r;
     pcl::PointCloud<pcl::PointXYZ>::Ptr input(
       new pcl::PointCloud<pcl::PointXYZ>(cloud));

@@ -256,7 +256,8 @@ double mappedRange(const PipelineConfig& pipeline,
  * places need it while the frames run.
  * With ComparisonConfig::save_maps, PG's whole map of each dataset and cell size is
  * saved in the output folder as it is measured (mapComparisonFile names it), with
- * SG's occupied voxel centres beside it ("sg_DATASET_Rm.pcd", binary compressed).
+ * SG's occupied voxel centres beside it (sgComparisonFile, binary compressed PCD);
+ * every file is written atomically.
  * \param[in] progress called with a line of text per dataset and cell size
  * \return per dataset: the place rows (place >= 0; per place, cell size and method),
  * then one row per cell size and method for the whole map (place = -1)
@@ -269,6 +270,11 @@ runComparison(const ComparisonConfig& config,
  * (ComparisonConfig::save_maps): "pg_DATASET_Rm.pgmap", characters other than
  * letters, digits, '-', '_' and '.' in the dataset's name replaced by '_'. */
 std::string mapComparisonFile(const std::string& dataset, double resolution_m);
+
+/** \brief The file name of SG's occupied voxel centres of \a dataset at cell size \a
+ * resolution_m (ComparisonConfig::save_maps): "sg_DATASET_Rm.pcd", the dataset's name
+ * as mapComparisonFile() writes it. */
+std::string sgComparisonFile(const std::string& dataset, double resolution_m);
 
 /** \brief Writes the rows as CSV (header line, one row per line), atomically.
  * \throws planar_grid::IOError */
