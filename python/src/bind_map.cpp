@@ -96,6 +96,7 @@ paramsDict(const PlanarGridMap::Params& p)
   d["terrain_cover_density"] = p.surface.terrain_cover_density;
   d["clear_non_planar"] = p.clear_non_planar;
   d["non_planar_min_occupied"] = p.non_planar_min_occupied;
+  d["merge_non_planar"] = p.merge_non_planar;
   d["clear_planar"] = p.clear_planar;
   d["planes_replace_non_planar"] = p.planes_replace_non_planar;
   d["planes_absorb_overlapping"] = p.planes_absorb_overlapping;
@@ -156,7 +157,8 @@ Parameters
                                              "absorb_distance_m",
                                              "terrain_plane_tile_m",
                                              "terrain_cover_density",
-                                             "non_planar_min_occupied"})
+                                             "non_planar_min_occupied",
+                                             "merge_non_planar"})
     + R"doc(
 The defaults are the pipeline's map_integration defaults (one Params struct); a map
 built here with the keys of a configuration's map_integration stage matches the tool's.
@@ -186,10 +188,12 @@ bindMapConstructor(MapClass& cls)
                       double cover_density, bool clear_non_planar, bool clear_planar,
                       bool planes_replace_non_planar, bool planes_absorb_overlapping,
                       double absorb_distance_m, double terrain_plane_tile_m,
-                      double terrain_cover_density, double non_planar_min_occupied) {
+                      double terrain_cover_density, double non_planar_min_occupied,
+                      bool merge_non_planar) {
             Map::Params p;
             p.clear_non_planar = clear_non_planar;
             p.non_planar_min_occupied = non_planar_min_occupied;
+            p.merge_non_planar = merge_non_planar;
             p.clear_planar = clear_planar;
             p.planes_replace_non_planar = planes_replace_non_planar;
             p.planes_absorb_overlapping = planes_absorb_overlapping;
@@ -242,7 +246,8 @@ bindMapConstructor(MapClass& cls)
           py::arg("absorb_distance_m") = d.surface.absorb_distance_m,
           py::arg("terrain_plane_tile_m") = d.surface.terrain_plane_tile_m,
           py::arg("terrain_cover_density") = d.surface.terrain_cover_density,
-          py::arg("non_planar_min_occupied") = d.non_planar_min_occupied);
+          py::arg("non_planar_min_occupied") = d.non_planar_min_occupied,
+          py::arg("merge_non_planar") = d.merge_non_planar);
 }
 
 /** Reading and writing the map file. */

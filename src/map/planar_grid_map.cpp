@@ -62,6 +62,45 @@ constexpr std::size_t MAX_HEADER_BYTES = 64 * 1024;
 constexpr float PROB_OCCUPIED_VOXEL = 0.971f;
 constexpr float PROB_FREE_VOXEL = 0.1192f;
 
+/** Share of a merged non-planar box the merged cells fill (mergeNonPlanarCells()). */
+constexpr double NON_PLANAR_MERGE_MIN_FILL = 0.8;
+
+/** True when both axes of \a cuboid are (up to float rounding) world axes. */
+bool
+hasWorldAxes(const PlanarCuboid& cuboid)
+{
+  constexpr float TOLERANCE = 1e-5f;
+  return std::abs(cuboid.normal.cwiseAbs().maxCoeff() - 1.0f) < TOLERANCE
+         && std::abs(cuboid.horizontal_axis.cwiseAbs().maxCoeff() - 1.0f) < TOLERANCE;
+}
+
+/** Snaps a cuboid with world axes to the voxel lattice of edge \a resolution_m: each
+ * bound to the nearest multiple of it, at least one cell (the centre's) along each
+ * axis. */
+void
+snapToLattice(PlanarCuboid& cuboid, float resolution_m)
+{
+  const Eigen::Vector3f vertical = cuboid.verticalAxis();
+  const Eigen::Vector3f half =
+    (cuboid.horizontal_axis * (0.5f * cuboid.width_m)).cwiseAbs()
+    + (vertical * (0.5f * cuboid.height_m)).cwiseAbs()
+    + (cuboid.normal * (0.5f * cuboid.thickness_m)).cwiseAbs();
+  Eigen::Vector3f lo = ((cuboid.centre - half) / resolution_m).array().round();
+  Eigen::Vector3f hi = ((cuboid.centre + half) / resolution_m).array().round();
+  for (int i = 0; i < 3; ++i)
+    if (hi[i] <= lo[i]) {
+      lo[i] = std::floor(cuboid.centre[i] / resolution_m);
+      hi[i] = lo[i] + 1.0f;
+    }
+  lo *= resolution_m;
+  hi *= resolution_m;
+  cuboid.centre = 0.5f * (lo + hi);
+  const Eigen::Vector3f size = hi - lo;
+  cuboid.width_m = std::abs(cuboid.horizontal_axis.dot(size));
+  cuboid.height_m = std::abs(vertical.dot(size));
+  cuboid.thickness_m = std::abs(cuboid.normal.dot(size));
+}
+
 /** Bounds of the cuboid probabilities written to OctoMap as log-odds (finite). */
 constexpr float MIN_EXPORTED_PROBABILITY = 1e-4f;
 
@@ -271,8 +310,11 @@ PlanarGridMap::integrateDepthImage(const DepthImage& depth,
 {
   invalidateQueryCache();
   space_.integrateDepthImage(depth, world_T_camera);
-  if (!(params_.clear_non_planar || params_.clear_planar) || depth.width <= 0
-      || depth.height <= 0 || !(depth.fx > 0.0f) || !(depth.fy > 0.0f))
+  const bool merge_non_planar =
+    params_.merge_non_planar && params_.non_planar_min_occupied > 0.0;
+  if (!(params_.clear_non_planar || params_.clear_planar || merge_non_planar)
+      || depth.width <= 0 || depth.height <= 0 || !(depth.fx > 0.0f)
+      || !(depth.fy > 0.0f))
     return;
   const Eigen::Isometry3f camera_T_world = world_T_camera.inverse().cast<float>();
   const auto max_range = static_cast<float>(params_.space.max_range_m);
@@ -294,6 +336,8 @@ PlanarGridMap::integrateDepthImage(const DepthImage& depth,
   };
   if (params_.clear_non_planar)
     clearNonPlanarCells(in_view, params_.non_planar_min_occupied);
+  if (merge_non_planar)
+    mergeNonPlanarCells(in_view);
   if (params_.clear_planar)
     clearPlanarCells(in_view, world_T_camera.translation().cast<float>());
 }
@@ -316,6 +360,29 @@ PlanarGridMap::integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& points,
     clearNonPlanarCells(in_view, 0.0);
   if (params_.clear_planar)
     clearPlanarCells(in_view, sensor_origin);
+}
+
+void
+PlanarGridMap::integrateSurface(const PlanarCuboids& cuboids,
+                                const PlaneModels& planes,
+                                const pcl::PointCloud<pcl::PointXYZ>& features,
+                                const std::vector<float>& probabilities)
+{
+  invalidateQueryCache();
+  if (params_.merge_non_planar) {
+    PlanarCuboids snapped = cuboids;
+    const auto r = static_cast<float>(params_.resolution_m);
+    for (PlanarCuboid& cuboid : snapped)
+      if (!cuboid.is_planar && hasWorldAxes(cuboid) && cuboid.centre.allFinite())
+        snapToLattice(cuboid, r);
+    surface_.integrate(snapped, planes, features, probabilities);
+  } else {
+    surface_.integrate(cuboids, planes, features, probabilities);
+  }
+  if (params_.planes_absorb_overlapping)
+    surface_.absorbOverlappingPlaneCells();
+  if (params_.planes_replace_non_planar)
+    removeNonPlanarCellsOnPlanes();
 }
 
 std::size_t
@@ -356,34 +423,67 @@ PlanarGridMap::clearNonPlanarCells(
   double min_occupied)
 {
   invalidateQueryCache();
+  return surface_.removeNonPlanarCells([&](const PlanarCuboid& cuboid) {
+    if (!cuboidInView(cuboid, in_view))
+      return false;
+    const VoxelShares shares = voxelShares(cuboid);
+    return 2 * shares.free > shares.voxels
+           || static_cast<double>(shares.occupied)
+                < min_occupied * static_cast<double>(shares.voxels);
+  });
+}
+
+std::size_t
+PlanarGridMap::mergeNonPlanarCells(
+  const std::function<bool(const Eigen::Vector3f&, float)>& in_view)
+{
+  invalidateQueryCache();
+  const double min_occupied = params_.non_planar_min_occupied;
+  return surface_.mergeNonPlanarCells(
+    [&](const PlanarCuboid& cuboid) { return cuboidInView(cuboid, in_view); },
+    [&](const PlanarCuboid& box) {
+      const VoxelShares shares = voxelShares(box);
+      return 2 * shares.free <= shares.voxels
+             && static_cast<double>(shares.occupied)
+                  >= min_occupied * static_cast<double>(shares.voxels);
+    },
+    NON_PLANAR_MERGE_MIN_FILL);
+}
+
+bool
+PlanarGridMap::cuboidInView(
+  const PlanarCuboid& cuboid,
+  const std::function<bool(const Eigen::Vector3f&, float)>& in_view) const
+{
   // A voxel tested lies within a voxel diagonal of the cell (its centre's voxel), and
   // a view may mark a voxel whose centre is outside the view.
   const auto voxel_diagonal = static_cast<float>(std::sqrt(3.0) * params_.resolution_m);
-  return surface_.removeNonPlanarCells([&](const PlanarCuboid& cuboid) {
-    const float radius =
-      0.5f
-        * std::sqrt(cuboid.width_m * cuboid.width_m + cuboid.height_m * cuboid.height_m
-                    + cuboid.thickness_m * cuboid.thickness_m)
-      + voxel_diagonal;
-    if (!in_view(cuboid.centre, radius))
-      return false;
-    const ExplicitSpaceGrid::VoxelKey centre_key = space_.toKey(cuboid.centre);
-    std::size_t voxels = 1;
-    const SpaceState centre_state = space_.getState(centre_key);
-    std::size_t free = centre_state == SpaceState::FREE ? 1 : 0;
-    std::size_t occupied = centre_state == SpaceState::OCCUPIED ? 1 : 0;
-    forEachVoxelInCuboid(cuboid, params_.resolution_m, [&](const Eigen::Vector3i& key) {
-      if (key == centre_key)
-        return;
-      ++voxels;
-      const SpaceState state = space_.getState(key);
-      free += state == SpaceState::FREE ? 1 : 0;
-      occupied += state == SpaceState::OCCUPIED ? 1 : 0;
-    });
-    return 2 * free > voxels
-           || static_cast<double>(occupied)
-                < min_occupied * static_cast<double>(voxels);
+  const float radius =
+    0.5f
+      * std::sqrt(cuboid.width_m * cuboid.width_m + cuboid.height_m * cuboid.height_m
+                  + cuboid.thickness_m * cuboid.thickness_m)
+    + voxel_diagonal;
+  return in_view(cuboid.centre, radius);
+}
+
+PlanarGridMap::VoxelShares
+PlanarGridMap::voxelShares(const PlanarCuboid& cuboid) const
+{
+  const ExplicitSpaceGrid::VoxelKey centre_key = space_.toKey(cuboid.centre);
+  VoxelShares shares;
+  shares.voxels = 1;
+  const SpaceState centre_state = space_.getState(centre_key);
+  shares.free = centre_state == SpaceState::FREE ? 1 : 0;
+  shares.occupied = centre_state == SpaceState::OCCUPIED ? 1 : 0;
+  forEachVoxelInCuboid(cuboid, params_.resolution_m, [&](const Eigen::Vector3i& key) {
+    if (key == centre_key)
+      return;
+    ++shares.voxels;
+    const SpaceState state = space_.getState(key);
+    shares.free += state == SpaceState::FREE ? 1 : 0;
+    shares.occupied += state == SpaceState::OCCUPIED ? 1 : 0;
   });
+  return shares;
 }
 
 SpaceState

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <limits>
 #include <mutex>
+#include <set>
+#include <tuple>
 #include <utility>
 
 #include "surface_layer_impl.h"
@@ -168,6 +170,151 @@ SurfaceLayer::removeNonPlanarCells(
   impl.non_planar.shrink_to_fit();
   impl.invalidate();
   return removed;
+}
+
+std::size_t
+SurfaceLayer::mergeNonPlanarCells(
+  const std::function<bool(const PlanarCuboid&)>& candidate,
+  const std::function<bool(const PlanarCuboid&)>& accept,
+  double min_fill)
+{
+  Impl& impl = *impl_;
+  std::lock_guard<std::mutex> lock(impl.mutex);
+  const std::size_t before = impl.non_planar.size();
+  const auto slack = static_cast<float>(0.5 * params_.resolution_m);
+  // A cell's extent in its own axes: (horizontal, vertical, normal) coordinates.
+  struct Span {
+    std::uint32_t cell;
+    std::uint32_t axes;
+    Eigen::Vector3f lo;
+    Eigen::Vector3f hi;
+  };
+  const auto spanOf = [&](std::uint32_t k) {
+    const NonPlanarCell& cell = impl.non_planar[k];
+    const BoxAxes& axes = impl.np_axes[cell.axes];
+    const Eigen::Vector3f vertical = axes.normal.cross(axes.horizontal_axis);
+    const Eigen::Vector3f local(axes.horizontal_axis.dot(cell.centre),
+                                vertical.dot(cell.centre),
+                                axes.normal.dot(cell.centre));
+    const Eigen::Vector3f half =
+      0.5f * Eigen::Vector3f(cell.width_m, cell.height_m, cell.thickness_m);
+    return Span{k, cell.axes, local - half, local + half};
+  };
+  const auto boxOf = [&](std::uint32_t axes_index, const Eigen::Vector3f& lo,
+                         const Eigen::Vector3f& hi) {
+    const BoxAxes& axes = impl.np_axes[axes_index];
+    const Eigen::Vector3f vertical = axes.normal.cross(axes.horizontal_axis);
+    const Eigen::Vector3f mid = 0.5f * (lo + hi);
+    PlanarCuboid c;
+    c.centre =
+      axes.horizontal_axis * mid.x() + vertical * mid.y() + axes.normal * mid.z();
+    c.normal = axes.normal;
+    c.horizontal_axis = axes.horizontal_axis;
+    const Eigen::Vector3f size = hi - lo;
+    c.width_m = size.x();
+    c.height_m = size.y();
+    c.thickness_m = size.z();
+    return c;
+  };
+
+  std::vector<std::uint32_t> live;
+  for (std::size_t k = 0; k < before; ++k)
+    if (candidate(impl.nonPlanarCuboid(impl.non_planar[k])))
+      live.push_back(static_cast<std::uint32_t>(k));
+  std::vector<char> removed(before, 0);
+  // The volume the cells merged into a cell held (its own volume for a cell merged
+  // in an earlier call): a merged box must be at least min_fill of it.
+  std::vector<float> filled(before, 0.0f);
+  for (const std::uint32_t k : live) {
+    const NonPlanarCell& cell = impl.non_planar[k];
+    filled[k] = cell.width_m * cell.height_m * cell.thickness_m;
+  }
+  // A cell's generation rises when it grows, so that a pair refused once is tested
+  // again only when one of its cells changed.
+  std::vector<std::uint32_t> generation(before, 0);
+  std::set<std::array<std::uint32_t, 4>> refused;
+  std::vector<Span> spans;
+  std::vector<std::tuple<float, std::uint32_t, std::uint32_t>> pairs;
+  std::vector<char> used(before, 0);
+  bool merged = true;
+  while (merged && live.size() > 1) {
+    merged = false;
+    spans.clear();
+    for (const std::uint32_t k : live)
+      spans.push_back(spanOf(k));
+    std::sort(spans.begin(), spans.end(), [](const Span& a, const Span& b) {
+      return std::tie(a.axes, a.lo.x(), a.cell) < std::tie(b.axes, b.lo.x(), b.cell);
+    });
+    // Sweep along the horizontal axis; the other two axes are tested per pair.
+    pairs.clear();
+    for (std::size_t i = 0; i < spans.size(); ++i)
+      for (std::size_t j = i + 1; j < spans.size() && spans[j].axes == spans[i].axes
+                                  && spans[j].lo.x() <= spans[i].hi.x() + slack;
+           ++j) {
+        const Span& a = spans[i];
+        const Span& b = spans[j];
+        if (b.lo.y() > a.hi.y() + slack || a.lo.y() > b.hi.y() + slack
+            || b.lo.z() > a.hi.z() + slack || a.lo.z() > b.hi.z() + slack)
+          continue;
+        const std::uint32_t first = std::min(a.cell, b.cell);
+        const std::uint32_t second = std::max(a.cell, b.cell);
+        if (refused.count({first, generation[first], second, generation[second]}) > 0)
+          continue;
+        const Eigen::Vector3f size = a.hi.cwiseMax(b.hi) - a.lo.cwiseMin(b.lo);
+        pairs.emplace_back(size.prod(), first, second);
+      }
+    std::sort(pairs.begin(), pairs.end());
+    std::fill(used.begin(), used.end(), 0);
+    for (const auto& [volume, first, second] : pairs) {
+      (void)volume;
+      if (used[first] || used[second])
+        continue;
+      const Span a = spanOf(first);
+      const Span b = spanOf(second);
+      const Eigen::Vector3f lo = a.lo.cwiseMin(b.lo);
+      const Eigen::Vector3f hi = a.hi.cwiseMax(b.hi);
+      const Eigen::Vector3f overlap =
+        (a.hi.cwiseMin(b.hi) - a.lo.cwiseMax(b.lo)).cwiseMax(0.0f);
+      const float fill = filled[first] + filled[second] - overlap.prod();
+      const PlanarCuboid box = boxOf(a.axes, lo, hi);
+      if (static_cast<double>(fill) < min_fill * static_cast<double>((hi - lo).prod())
+          || !accept(box)) {
+        refused.insert({first, generation[first], second, generation[second]});
+        continue;
+      }
+      NonPlanarCell& cell = impl.non_planar[first];
+      const NonPlanarCell& gone = impl.non_planar[second];
+      cell.centre = box.centre;
+      cell.width_m = box.width_m;
+      cell.height_m = box.height_m;
+      cell.thickness_m = box.thickness_m;
+      cell.feature_count += gone.feature_count;
+      cell.probability_sum += gone.probability_sum;
+      filled[first] = fill;
+      ++generation[first];
+      removed[second] = 1;
+      used[first] = used[second] = 1;
+      Eigen::Vector3f box_lo, box_hi;
+      cuboidBounds(box, box_lo, box_hi);
+      impl.tidy_added.extend(box_lo);
+      impl.tidy_added.extend(box_hi);
+      merged = true;
+    }
+    live.erase(std::remove_if(live.begin(), live.end(),
+                              [&](std::uint32_t k) { return removed[k] != 0; }),
+               live.end());
+  }
+  std::size_t kept = 0;
+  for (std::size_t k = 0; k < before; ++k)
+    if (!removed[k])
+      impl.non_planar[kept++] = impl.non_planar[k];
+  if (kept == before)
+    return 0;
+  impl.non_planar.erase(impl.non_planar.begin() + static_cast<std::ptrdiff_t>(kept),
+                        impl.non_planar.end());
+  impl.non_planar.shrink_to_fit();
+  impl.invalidate();
+  return before - kept;
 }
 
 std::size_t

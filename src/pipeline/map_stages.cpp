@@ -66,6 +66,7 @@ public:
     v.set("feature_distance_m", p.surface.feature_distance_m);
     v.set("clear_non_planar", p.clear_non_planar);
     v.set("non_planar_min_occupied", p.non_planar_min_occupied);
+    v.set("merge_non_planar", p.merge_non_planar);
     v.set("clear_planar", p.clear_planar);
     v.set("planes_replace_non_planar", p.planes_replace_non_planar);
     v.set("planes_absorb_overlapping", p.planes_absorb_overlapping);
@@ -283,6 +284,11 @@ mapIntegrationInfo()
                     "the space layer holds fewer than this share of its voxels "
                     "occupied (free, or behind the surface from every view); 0: only "
                     "the free rule."),
+    ParamSpec::flag("merge_non_planar", d.merge_non_planar,
+                    "After each depth image, merge two touching non-planar cells in "
+                    "the view into their bounding box when the space layer holds at "
+                    "least non_planar_min_occupied of its voxels occupied and at most "
+                    "half free (off when that share is 0)."),
     ParamSpec::flag("clear_planar", d.clear_planar,
                     "Remove the planes' raster cells a later view sees through (the "
                     "voxel of the cell and the one behind it observed free): a car "
@@ -361,6 +367,7 @@ mapIntegrationInfo()
     p.surface.terrain_cover_density = v.getDouble("terrain_cover_density");
     p.clear_non_planar = v.getBool("clear_non_planar");
     p.non_planar_min_occupied = v.getDouble("non_planar_min_occupied");
+    p.merge_non_planar = v.getBool("merge_non_planar");
     p.clear_planar = v.getBool("clear_planar");
     p.planes_replace_non_planar = v.getBool("planes_replace_non_planar");
     p.planes_absorb_overlapping = v.getBool("planes_absorb_overlapping");

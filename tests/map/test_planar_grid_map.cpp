@@ -623,6 +623,19 @@ nonPlanarCube(const Eigen::Vector3f& centre, float edge_m)
   return c;
 }
 
+/** The world-axis bounds (low and high corners, meters) of \a c. */
+std::pair<Eigen::Vector3f, Eigen::Vector3f>
+cuboidBounds(const PlanarCuboid& c)
+{
+  const auto corners = c.corners();
+  Eigen::Vector3f lo = corners[0], hi = corners[0];
+  for (const auto& corner : corners) {
+    lo = lo.cwiseMin(corner);
+    hi = hi.cwiseMax(corner);
+  }
+  return {lo, hi};
+}
+
 /** The non-planar cells' centres of \a map. */
 std::vector<Eigen::Vector3f>
 nonPlanarCentres(const PlanarGridMap& map)
@@ -736,6 +749,7 @@ TEST_F(PlanarGridMapTest, ClearingFollowsTheFreeAndOccupiedSharesOfACell)
   for (const double min_occupied : {0.0, 0.3, 0.75}) {
     PlanarGridMap::Params p = params();
     p.non_planar_min_occupied = min_occupied;
+    p.merge_non_planar = false; // the clearing alone, on the cubes as given
     PlanarGridMap map(p);
     map.integrateSurface(cuboids, PlaneModels{}, pcl::PointCloud<pcl::PointXYZ>(), {});
     const auto& space = map.getSpaceLayer();
@@ -780,6 +794,169 @@ TEST_F(PlanarGridMapTest, ClearingFollowsTheFreeAndOccupiedSharesOfACell)
       EXPECT_GE(partly_free_kept, 2u);
     }
   }
+}
+
+TEST_F(PlanarGridMapTest, MergingJoinsTheBoxesOfOneObjectIntoOne)
+{
+  // Ten one-voxel boxes in a row on a wall 2.55 m before the camera (a point in every
+  // voxel of its face), each a fraction of
+  // a cell off the voxel lattice, and one box diagonally beyond the row's end: snapped
+  // to the lattice, the row tiles one 1.0 x 0.1 x 0.1 m box whose voxels the view
+  // holds occupied; the diagonal box would fill 11 of the 22 voxels of a box with the
+  // row and stays apart. Without merging, the eleven boxes stay where they were.
+  PlanarCuboids cuboids;
+  for (int i = 0; i < 10; ++i)
+    cuboids.push_back(nonPlanarCube(
+      Eigen::Vector3f(0.07f + 0.1f * static_cast<float>(i), 0.04f, 2.53f), 0.1f));
+  const Eigen::Vector3f diagonal(1.05f, 0.15f, 2.55f);
+  cuboids.push_back(nonPlanarCube(diagonal, 0.1f));
+  for (const bool merge : {true, false}) {
+    PlanarGridMap::Params p = params();
+    p.merge_non_planar = merge;
+    PlanarGridMap map(p);
+    map.integrateSurface(cuboids, PlaneModels{}, pcl::PointCloud<pcl::PointXYZ>(), {});
+    map.integrateDepthImage(wallView(2.55f), Eigen::Isometry3d::Identity());
+    std::vector<PlanarCuboid> cells;
+    for (const auto& c : map.getSurfaceLayer().getCuboids())
+      if (!c.is_planar)
+        cells.push_back(c);
+    if (!merge) {
+      ASSERT_EQ(cells.size(), cuboids.size());
+      for (const auto& c : cuboids)
+        EXPECT_TRUE(holds(nonPlanarCentres(map), c.centre)) << c.centre.transpose();
+      continue;
+    }
+    ASSERT_EQ(cells.size(), 2u);
+    std::sort(cells.begin(), cells.end(),
+              [](const PlanarCuboid& a, const PlanarCuboid& b) {
+                return a.centre.x() < b.centre.x();
+              });
+    const auto [lo, hi] = cuboidBounds(cells[0]);
+    EXPECT_TRUE(lo.isApprox(Eigen::Vector3f(0.0f, 0.0f, 2.5f), 1e-5f))
+      << lo.transpose();
+    EXPECT_TRUE(hi.isApprox(Eigen::Vector3f(1.0f, 0.1f, 2.6f), 1e-5f))
+      << hi.transpose();
+    EXPECT_TRUE(cells[1].centre.isApprox(diagonal, 1e-5f))
+      << cells[1].centre.transpose();
+    EXPECT_NEAR(cells[1].width_m, 0.1f, 1e-5f);
+  }
+}
+
+TEST_F(PlanarGridMapTest, MergingKeepsEveryVoxelAndTheEvidenceOfEveryBox)
+{
+  // Random boxes of 1-3 voxels along each axis about the face of the wall 2.55 m away
+  // (free space before it, unknown behind): after the clearing, merging (a) covers
+  // every voxel the kept boxes covered, (b) leaves every box at least
+  // non_planar_min_occupied occupied and at most half free (counted by brute force),
+  // (c) keeps the volume within the kept boxes' over 0.8, and (d) leaves no two boxes
+  // that tile their bounding box and pass (b) unmerged.
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> cell_x(-10, 10), cell_y(-8, 8), cell_z(23, 27),
+    size(1, 3);
+  PlanarCuboids cuboids;
+  for (int n = 0; n < 300; ++n) {
+    PlanarCuboid c = nonPlanarCube(Eigen::Vector3f::Zero(), 0.1f);
+    const Eigen::Vector3i lo(cell_x(rng), cell_y(rng), cell_z(rng));
+    const Eigen::Vector3i extent(size(rng), size(rng), size(rng));
+    c.width_m = 0.1f * static_cast<float>(extent.x());
+    c.height_m = 0.1f * static_cast<float>(extent.y());
+    c.thickness_m = 0.1f * static_cast<float>(extent.z());
+    c.centre = 0.1f * (lo.cast<float>() + 0.5f * extent.cast<float>());
+    cuboids.push_back(c);
+  }
+  PlanarGridMap map(params());
+  map.integrateDepthImage(wallView(2.55f), Eigen::Isometry3d::Identity());
+  map.integrateSurface(cuboids, PlaneModels{}, pcl::PointCloud<pcl::PointXYZ>(), {});
+  const auto everywhere = [](const Eigen::Vector3f&, float) {
+    return true;
+  };
+  map.clearNonPlanarCells(everywhere);
+  const auto boxes = [&map] {
+    std::vector<PlanarCuboid> out;
+    for (const auto& c : map.getSurfaceLayer().getCuboids())
+      if (!c.is_planar)
+        out.push_back(c);
+    return out;
+  };
+  using Key = std::array<int, 3>;
+  const auto voxelsOf = [](const PlanarCuboid& c) {
+    const auto [lo, hi] = cuboidBounds(c);
+    std::vector<Key> out;
+    for (int i = static_cast<int>(std::lround(lo.x() * 10.0f));
+         i < static_cast<int>(std::lround(hi.x() * 10.0f)); ++i)
+      for (int j = static_cast<int>(std::lround(lo.y() * 10.0f));
+           j < static_cast<int>(std::lround(hi.y() * 10.0f)); ++j)
+        for (int k = static_cast<int>(std::lround(lo.z() * 10.0f));
+             k < static_cast<int>(std::lround(hi.z() * 10.0f)); ++k)
+          out.push_back({i, j, k});
+    return out;
+  };
+  const auto& space = map.getSpaceLayer();
+  const auto passes = [&](const std::vector<Key>& voxels) {
+    std::size_t free = 0, occupied = 0;
+    for (const auto& v : voxels) {
+      const SpaceState state =
+        space.getState(ExplicitSpaceGrid::VoxelKey(v[0], v[1], v[2]));
+      free += state == SpaceState::FREE;
+      occupied += state == SpaceState::OCCUPIED;
+    }
+    return 2 * free <= voxels.size()
+           && static_cast<double>(occupied)
+                >= 0.75 * static_cast<double>(voxels.size());
+  };
+  const auto kept = boxes();
+  std::set<Key> kept_voxels;
+  double kept_volume = 0.0;
+  for (const auto& c : kept) {
+    const auto voxels = voxelsOf(c);
+    kept_voxels.insert(voxels.begin(), voxels.end());
+    kept_volume += static_cast<double>(voxels.size());
+  }
+  ASSERT_GE(kept.size(), 20u);
+  const std::size_t removed = map.mergeNonPlanarCells(everywhere);
+  const auto merged = boxes();
+  EXPECT_EQ(merged.size() + removed, kept.size());
+  EXPECT_GE(removed, 5u);
+  std::set<Key> merged_voxels;
+  double merged_volume = 0.0;
+  for (const auto& c : merged) {
+    const auto voxels = voxelsOf(c);
+    EXPECT_TRUE(passes(voxels)) << c.centre.transpose();
+    merged_voxels.insert(voxels.begin(), voxels.end());
+    merged_volume += static_cast<double>(voxels.size());
+  }
+  for (const auto& v : kept_voxels)
+    EXPECT_EQ(merged_voxels.count(v), 1u) << v[0] << " " << v[1] << " " << v[2];
+  EXPECT_LE(merged_volume, kept_volume / 0.8 + 1e-6);
+  // (d) over the boxes no merge changed (a merged box counts its parts' volume, not
+  // its own, toward a later merge's fill).
+  const auto unchanged = [&](const PlanarCuboid& c) {
+    for (const auto& k : kept)
+      if (k.centre.isApprox(c.centre, 1e-5f) && std::abs(k.width_m - c.width_m) < 1e-5f
+          && std::abs(k.height_m - c.height_m) < 1e-5f
+          && std::abs(k.thickness_m - c.thickness_m) < 1e-5f)
+        return true;
+    return false;
+  };
+  for (std::size_t a = 0; a < merged.size(); ++a)
+    for (std::size_t b = a + 1; b < merged.size(); ++b) {
+      if (!unchanged(merged[a]) || !unchanged(merged[b]))
+        continue;
+      const auto [lo_a, hi_a] = cuboidBounds(merged[a]);
+      const auto [lo_b, hi_b] = cuboidBounds(merged[b]);
+      PlanarCuboid both = merged[a];
+      const Eigen::Vector3f lo = lo_a.cwiseMin(lo_b), hi = hi_a.cwiseMax(hi_b);
+      both.centre = 0.5f * (lo + hi);
+      both.width_m = hi.x() - lo.x();
+      both.height_m = hi.y() - lo.y();
+      both.thickness_m = hi.z() - lo.z();
+      const auto voxels_a = voxelsOf(merged[a]), voxels_b = voxelsOf(merged[b]);
+      std::set<Key> together(voxels_a.begin(), voxels_a.end());
+      together.insert(voxels_b.begin(), voxels_b.end());
+      const auto voxels = voxelsOf(both);
+      EXPECT_FALSE(together.size() == voxels.size() && passes(voxels))
+        << merged[a].centre.transpose() << " and " << merged[b].centre.transpose();
+    }
 }
 
 TEST_F(PlanarGridMapTest, ClearingInTheViewEqualsClearingEverywhere)
@@ -958,6 +1135,7 @@ TEST_F(PlanarGridMapTest, PlanesReplaceTheNonPlanarCellsOnThem)
   for (const bool replace : {true, false}) {
     PlanarGridMap::Params p = params();
     p.planes_replace_non_planar = replace;
+    p.merge_non_planar = false; // the boxes where they are given, off the lattice
     // the boxes first, then the plane (found by a later frame) ...
     PlanarGridMap later(p);
     later.integrateSurface(boxes, PlaneModels{}, pcl::PointCloud<pcl::PointXYZ>(), {});
@@ -1004,7 +1182,9 @@ TEST_F(PlanarGridMapTest, PlanesReplaceExactlyTheCellsLyingOnThem)
   PlanarCuboids boxes;
   for (int k = 0; k < 400; ++k)
     boxes.push_back(nonPlanarCube(Eigen::Vector3f(x(rng), y(rng), z(rng)), edge(rng)));
-  PlanarGridMap map(params());
+  PlanarGridMap::Params p = params();
+  p.merge_non_planar = false; // the boxes where they are given, off the lattice
+  PlanarGridMap map(p);
   map.integrateSurface(walls, planes, pcl::PointCloud<pcl::PointXYZ>(), {});
   map.integrateSurface(boxes, PlaneModels{}, pcl::PointCloud<pcl::PointXYZ>(), {});
   PlanarCuboids planar;

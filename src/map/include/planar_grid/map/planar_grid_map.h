@@ -127,6 +127,20 @@ public:
      * only the free rule; in planar_grid_map_ranges::NON_PLANAR_MIN_OCCUPIED
      * (share). */
     double non_planar_min_occupied{0.75};
+    /** Fig. 7's boxes on the map's voxel lattice, merged across frames. Each frame's
+     * boxes bound that frame's points, so one object seen in many frames is many
+     * boxes offset from each other by fractions of a cell. (1) integrateSurface()
+     * snaps a non-planar cuboid whose axes are the world's to the lattice of the space
+     * layer's voxels: each bound to the nearest multiple of resolution_m, at least one
+     * cell along each axis. (2) After each depth image, and after its clearing, two
+     * non-planar cells in the view with equal axes whose extents touch (at most
+     * resolution_m / 2 apart along each axis) become their bounding box when the two
+     * fill at least 0.8 of it and the space layer holds at least
+     * non_planar_min_occupied of its voxels occupied and at most half of them free,
+     * the evidence that keeps a cell (SurfaceLayer::mergeNonPlanarCells()). The merge
+     * is off when non_planar_min_occupied is 0 (the views' occupied voxels are the
+     * evidence); scans do not merge. */
+    bool merge_non_planar{true};
     /** Ray clearing of the planar cells (a car that drove away): after each view, a
      * plane's raster cell in the view, seen within 60 degrees of its plane's normal,
      * is removed when the space layer holds the voxel of its centre on the plane and
@@ -170,19 +184,12 @@ public:
   [[nodiscard]] double getResolution() const { return params_.resolution_m; }
 
   /** \brief Merges one frame's cells and feature occupancies into the surface layer
-   * (see SurfaceLayer::integrate()). */
+   * (see SurfaceLayer::integrate()); with Params::merge_non_planar, the non-planar
+   * cuboids whose axes are the world's are first snapped to the voxel lattice. */
   void integrateSurface(const PlanarCuboids& cuboids,
                         const PlaneModels& planes,
                         const pcl::PointCloud<pcl::PointXYZ>& features,
-                        const std::vector<float>& probabilities)
-  {
-    invalidateQueryCache();
-    surface_.integrate(cuboids, planes, features, probabilities);
-    if (params_.planes_absorb_overlapping)
-      surface_.absorbOverlappingPlaneCells();
-    if (params_.planes_replace_non_planar)
-      removeNonPlanarCellsOnPlanes();
-  }
+                        const std::vector<float>& probabilities);
 
   /** \brief Merges another map into this one: the map of another recording (or of
    * another part of one), mapped on its own, so that many recordings can be mapped in
@@ -293,6 +300,16 @@ public:
   std::size_t
   clearNonPlanarCells(const std::function<bool(const Eigen::Vector3f&, float)>& in_view,
                       double min_occupied);
+
+  /** \brief Merges the non-planar cells for which \a in_view (called with a cell's
+   * centre and bounding radius, meters, world frame) returns true, pairwise into their
+   * bounding boxes, where the space layer holds at least
+   * Params::non_planar_min_occupied of a box's voxels occupied and at most half of
+   * them free (see Params::merge_non_planar; called by integrateDepthImage(), public
+   * for maps whose space layer is filled otherwise). \return the number of cells
+   * removed by merging */
+  std::size_t mergeNonPlanarCells(
+    const std::function<bool(const Eigen::Vector3f&, float)>& in_view);
 
   /** \brief Removes the planes' raster cells for which \a in_view (called with a
    * cell's centre on its plane and a radius of resolution_m, meters, world frame)
@@ -493,6 +510,20 @@ private:
   /** \brief Inserts both layers into \a tree (exportOctoMap()'s rule, unpruned);
    * \return the voxels left out, outside OctoMap's key range */
   std::size_t fillOcTree(octomap::OcTree& tree) const;
+  /** \brief The space layer's voxels of a cuboid (those whose centres it contains and
+   * the voxel of its centre), and how many of them are free and occupied. */
+  struct VoxelShares {
+    std::size_t voxels{0};
+    std::size_t free{0};
+    std::size_t occupied{0};
+  };
+  /** \brief Counts the space layer's states over \a cuboid's voxels. */
+  [[nodiscard]] VoxelShares voxelShares(const PlanarCuboid& cuboid) const;
+  /** \brief \a in_view of \a cuboid's centre, with its half diagonal grown by a voxel
+   * diagonal as the radius (a view may mark a voxel whose centre is outside it). */
+  [[nodiscard]] bool
+  cuboidInView(const PlanarCuboid& cuboid,
+               const std::function<bool(const Eigen::Vector3f&, float)>& in_view) const;
   /** \brief The parameters (validated). */
   Params params_;
   /** \brief The surface layer. */

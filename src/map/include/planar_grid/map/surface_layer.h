@@ -319,6 +319,28 @@ public:
   std::size_t
   removeNonPlanarCells(const std::function<bool(const PlanarCuboid&)>& remove);
 
+  /** \brief Merges touching non-planar cells of one orientation into their bounding
+   * box (Fig. 7's boxes across frames). In rounds, until a round merges nothing:
+   * every pair of cells with equal axes for which \a candidate holds, whose extents
+   * along each of the three axes overlap or lie at most resolution_m / 2 apart, is a
+   * candidate; smallest bounding box first, each cell at most once per round, a pair
+   * becomes its bounding box when the cells merged into it fill at least \a min_fill
+   * of its volume and \a accept(bounding box) returns true. The merged
+   * cell sums the two cells' features (its probability is their features' mean).
+   * Planar cells are not changed.
+   * \param[in] candidate called once per non-planar cell per call with its cuboid
+   * (centre, axes and size in meters; probability and point_count unset)
+   * \param[in] accept called with the bounding box of a candidate pair (the same
+   * fields)
+   * \param[in] min_fill share of the bounding box's volume the merged cells' volumes
+   * must fill (their overlaps counted once), in [0, 1]; a cell merged in an earlier
+   * call counts as filled
+   * \return the number of cells removed (the cell count before less after) */
+  std::size_t
+  mergeNonPlanarCells(const std::function<bool(const PlanarCuboid&)>& candidate,
+                      const std::function<bool(const PlanarCuboid&)>& accept,
+                      double min_fill);
+
   /** \brief Removes the planes' observed raster cells for which \a remove returns
    * true, with their feature evidence; a plane left without cells is removed. The
    * planes' least-squares models are not changed.
