@@ -656,6 +656,21 @@ holds(const std::vector<Eigen::Vector3f>& centres, const Eigen::Vector3f& centre
   return false;
 }
 
+/** How many of \a voxels (keys as {i, j, k}) \a space holds free, and occupied. */
+template <typename Voxels>
+std::pair<std::size_t, std::size_t>
+freeAndOccupied(const ExplicitSpaceGrid& space, const Voxels& voxels)
+{
+  std::size_t free = 0, occupied = 0;
+  for (const auto& v : voxels) {
+    const SpaceState state =
+      space.getState(ExplicitSpaceGrid::VoxelKey(v[0], v[1], v[2]));
+    free += state == SpaceState::FREE;
+    occupied += state == SpaceState::OCCUPIED;
+  }
+  return {free, occupied};
+}
+
 /** A 64 x 48 pinhole view (f = 50 px) of a wall at depth \a depth_m everywhere. */
 planar_grid::DepthImage
 wallView(float depth_m)
@@ -767,13 +782,7 @@ TEST_F(PlanarGridMapTest, ClearingFollowsTheFreeAndOccupiedSharesOfACell)
             if (cube.contains(Eigen::Vector3f((i + 0.5f) * 0.1f, (j + 0.5f) * 0.1f,
                                               (k + 0.5f) * 0.1f)))
               voxels.insert({i, j, k});
-      std::size_t free = 0, occupied = 0;
-      for (const auto& v : voxels) {
-        const SpaceState state =
-          space.getState(ExplicitSpaceGrid::VoxelKey(v[0], v[1], v[2]));
-        free += state == SpaceState::FREE;
-        occupied += state == SpaceState::OCCUPIED;
-      }
+      const auto [free, occupied] = freeAndOccupied(space, voxels);
       const bool expect_cleared =
         2 * free > voxels.size()
         || static_cast<double>(occupied)
@@ -893,13 +902,7 @@ TEST_F(PlanarGridMapTest, MergingKeepsEveryVoxelAndTheEvidenceOfEveryBox)
   };
   const auto& space = map.getSpaceLayer();
   const auto passes = [&](const std::vector<Key>& voxels) {
-    std::size_t free = 0, occupied = 0;
-    for (const auto& v : voxels) {
-      const SpaceState state =
-        space.getState(ExplicitSpaceGrid::VoxelKey(v[0], v[1], v[2]));
-      free += state == SpaceState::FREE;
-      occupied += state == SpaceState::OCCUPIED;
-    }
+    const auto [free, occupied] = freeAndOccupied(space, voxels);
     return 2 * free <= voxels.size()
            && static_cast<double>(occupied)
                 >= 0.75 * static_cast<double>(voxels.size());
