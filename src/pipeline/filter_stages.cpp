@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/filters/depth_error_filter.h>
 #include <planar_grid/filters/fast_statistical_outlier_removal.h>
 #include <planar_grid/filters/fast_voxel_grid.h>
 
@@ -112,41 +113,49 @@ public:
   {
     if (!hasPoints(frame, "depth_error_filter"))
       return;
-    // Eq. 4: Delta z = z^2 Delta d / (B f) <= max  <=>  z <= sqrt(max / Delta z(1 m)).
     const double error_at_1m = frame.calibration.depthError(1.0, disparity_error_px_);
     if (!(std::isfinite(error_at_1m) && error_at_1m > 0.0))
       throw Exception("stage 'depth_error_filter' needs a stereo calibration (frame "
                       + frame.name + " has none)");
-    const auto max_depth =
-      static_cast<float>(std::sqrt(max_depth_error_m_ / error_at_1m));
-    const auto max_plane_depth =
-      static_cast<float>(std::sqrt(max_plane_depth_error_m_ / error_at_1m));
-    max_depth_m_ = max_depth;
-    max_plane_depth_m_ = max_plane_depth;
-    const Eigen::RowVector4f depth_row = cameraTCloud(frame).matrix().row(2);
-    const auto& cloud = *frame.cloud;
+    // The finite points beyond each bound (eq. 4), by DepthErrorFilter.
+    DepthErrorFilter<Frame::Cloud::PointType> filter;
+    filter.setCalibration(frame.calibration);
+    filter.setDisparityError(disparity_error_px_);
+    filter.setCameraTransform(cameraTCloud(frame));
+    filter.setInputCloud(frame.cloud);
+    filter.setNegative(true);
+    const auto beyondBound = [&](double max_depth_error_m, float& max_depth) {
+      filter.setMaxDepthError(max_depth_error_m);
+      max_depth = static_cast<float>(filter.getMaxDepth());
+      pcl::Indices beyond;
+      filter.filter(beyond);
+      std::vector<std::uint8_t> mask(frame.cloud->size(), 0);
+      for (const auto index : beyond)
+        mask[static_cast<std::size_t>(index)] = 1;
+      return mask;
+    };
     // Per frame, not kept in the stage: the stage may be listed more than once.
     // The points between the two bounds stay, for the planes alone.
-    std::vector<std::uint8_t> far(cloud.size(), 0);
+    const std::vector<std::uint8_t> beyond =
+      beyondBound(max_depth_error_m_, max_depth_m_);
+    std::vector<std::uint8_t> far;
+    if (max_plane_depth_error_m_ > max_depth_error_m_) {
+      far = beyondBound(max_plane_depth_error_m_, max_plane_depth_m_);
+    } else {
+      far = beyond;
+      max_plane_depth_m_ = max_depth_m_;
+    }
+    const float max_depth = max_depth_m_;
+    const float max_plane_depth = max_plane_depth_m_;
     inlier_only_ = 0;
-    for (std::size_t i = 0; i < cloud.size(); ++i) {
-      if (!pcl::isFinite(cloud[i]))
-        continue;
-      const float depth = depth_row.dot(cloud[i].getVector4fMap());
-      far[i] = depth > max_plane_depth;
-      inlier_only_ += depth > max_depth && !far[i];
-    }
+    for (std::size_t i = 0; i < far.size(); ++i)
+      inlier_only_ += beyond[i] && !far[i];
     kept_far_ = 0;
-    if (far_levels_ > 0) {
-      // Every point beyond the cell bound may make a far cell; the ones between the
-      // two bounds also stay in the cloud, and multi_plane_segmentation takes out of
-      // the far cloud those a plane takes.
-      std::vector<std::uint8_t> beyond(cloud.size(), 0);
-      for (std::size_t i = 0; i < cloud.size(); ++i)
-        beyond[i] = pcl::isFinite(cloud[i])
-                    && depth_row.dot(cloud[i].getVector4fMap()) > max_depth;
+    // Every point beyond the cell bound may make a far cell; the ones between the two
+    // bounds also stay in the cloud, and multi_plane_segmentation takes out of the far
+    // cloud those a plane takes.
+    if (far_levels_ > 0)
       keepFarPoints(frame, beyond, error_at_1m);
-    }
     removed_ = removePoints(frame, far);
     if (max_plane_depth > max_depth)
       frame.inlier_only_depth_m = std::min(frame.inlier_only_depth_m, max_depth);
@@ -227,9 +236,11 @@ depthErrorFilterInfo()
     "are dropped there, so that they make no non-planar cells. Needs stereo input (its "
     "calibration).";
   info.params = {
-    ParamSpec::real("disparity_error_px", 0.5, 0.01, 10.0, "px",
+    ParamSpec::real("disparity_error_px", 0.5,
+                    depth_error_filter_ranges::DISPARITY_ERROR, "px",
                     "Delta d of eq. 4 (the paper's 0.5 px)."),
-    ParamSpec::real("max_depth_error_m", 0.3, 0.001, 100.0, "m",
+    ParamSpec::real("max_depth_error_m", 0.3,
+                    depth_error_filter_ranges::MAX_DEPTH_ERROR, "m",
                     "Largest depth error Delta z of a point that is kept."),
     ParamSpec::real("max_plane_depth_error_m", 0.0, 0.0, 100.0, "m",
                     "Largest depth error Delta z of a point that may still join a "
