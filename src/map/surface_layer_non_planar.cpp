@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The surface layer's non-planar cells (Fig. 7): keys, the orientation table, and the
 // replacement of the cells a newer frame overlaps.
+#include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/surface_layer.h>
 
 #include <algorithm>
@@ -178,6 +179,10 @@ SurfaceLayer::mergeNonPlanarCells(
   const std::function<bool(const PlanarCuboid&)>& accept,
   double min_fill)
 {
+  if (!(min_fill >= 0.0 && min_fill <= 1.0))
+    throw Exception(
+      "SurfaceLayer::mergeNonPlanarCells: min_fill must be in [0, 1], got "
+      + formatParamNumber(min_fill));
   Impl& impl = *impl_;
   std::lock_guard<std::mutex> lock(impl.mutex);
   const std::size_t before = impl.non_planar.size();
@@ -222,8 +227,9 @@ SurfaceLayer::mergeNonPlanarCells(
     if (candidate(impl.nonPlanarCuboid(impl.non_planar[k])))
       live.push_back(static_cast<std::uint32_t>(k));
   std::vector<char> removed(before, 0);
-  // The volume the cells merged into a cell held (its own volume for a cell merged
-  // in an earlier call): a merged box must be at least min_fill of it.
+  // The volume each cell's parts fill (overlaps counted once): at the start its own
+  // volume, so that a cell merged in an earlier call counts as filled. A merged box
+  // must be filled to at least min_fill.
   std::vector<float> filled(before, 0.0f);
   for (const std::uint32_t k : live) {
     const NonPlanarCell& cell = impl.non_planar[k];
@@ -266,7 +272,7 @@ SurfaceLayer::mergeNonPlanarCells(
     std::sort(pairs.begin(), pairs.end());
     std::fill(used.begin(), used.end(), 0);
     for (const auto& [volume, first, second] : pairs) {
-      (void)volume;
+      static_cast<void>(volume); // the sort key
       if (used[first] || used[second])
         continue;
       const Span a = spanOf(first);

@@ -960,6 +960,19 @@ TEST_F(PlanarGridMapTest, MergingKeepsEveryVoxelAndTheEvidenceOfEveryBox)
       EXPECT_FALSE(together.size() == voxels.size() && passes(voxels))
         << merged[a].centre.transpose() << " and " << merged[b].centre.transpose();
     }
+  // A fill share outside [0, 1] is refused, the layer unchanged.
+  planar_grid::SurfaceLayer layer(map.getSurfaceLayer().getParams());
+  layer.integrate(cuboids, PlaneModels{}, pcl::PointCloud<pcl::PointXYZ>(), {});
+  const std::size_t cells = layer.getCuboids().size();
+  const auto all = [](const PlanarCuboid&) {
+    return true;
+  };
+  for (const double bad : {-0.1, 1.5, std::nan("")}) {
+    EXPECT_THROW(layer.mergeNonPlanarCells(all, all, bad), planar_grid::Exception)
+      << bad;
+    EXPECT_EQ(layer.getCuboids().size(), cells);
+  }
+  EXPECT_LT(layer.mergeNonPlanarCells(all, all, 0.0), cells);
 }
 
 TEST_F(PlanarGridMapTest, ClearingInTheViewEqualsClearingEverywhere)

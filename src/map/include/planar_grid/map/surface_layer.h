@@ -335,7 +335,9 @@ public:
    * \param[in] min_fill share of the bounding box's volume the merged cells' volumes
    * must fill (their overlaps counted once), in [0, 1]; a cell merged in an earlier
    * call counts as filled
-   * \return the number of cells removed (the cell count before less after) */
+   * \return the number of cells removed (the cell count before less after)
+   * \throws planar_grid::Exception for \a min_fill outside [0, 1] (the layer unchanged)
+   */
   std::size_t
   mergeNonPlanarCells(const std::function<bool(const PlanarCuboid&)>& candidate,
                       const std::function<bool(const PlanarCuboid&)>& accept,
