@@ -27,6 +27,7 @@
 
 #include "cast_ray_check.h"
 #include "octomap_writer.h"
+#include "surface_layer_impl.h"
 
 namespace planar_grid {
 
@@ -80,13 +81,10 @@ hasWorldAxes(const PlanarCuboid& cuboid)
 void
 snapToLattice(PlanarCuboid& cuboid, float resolution_m)
 {
-  const Eigen::Vector3f vertical = cuboid.verticalAxis();
-  const Eigen::Vector3f half =
-    (cuboid.horizontal_axis * (0.5f * cuboid.width_m)).cwiseAbs()
-    + (vertical * (0.5f * cuboid.height_m)).cwiseAbs()
-    + (cuboid.normal * (0.5f * cuboid.thickness_m)).cwiseAbs();
-  Eigen::Vector3f lo = ((cuboid.centre - half) / resolution_m).array().round();
-  Eigen::Vector3f hi = ((cuboid.centre + half) / resolution_m).array().round();
+  Eigen::Vector3f lo, hi;
+  surface_layer_detail::cuboidBounds(cuboid, lo, hi);
+  lo = (lo / resolution_m).array().round();
+  hi = (hi / resolution_m).array().round();
   for (int i = 0; i < 3; ++i)
     if (hi[i] <= lo[i]) {
       lo[i] = std::floor(cuboid.centre[i] / resolution_m);
@@ -97,7 +95,7 @@ snapToLattice(PlanarCuboid& cuboid, float resolution_m)
   cuboid.centre = 0.5f * (lo + hi);
   const Eigen::Vector3f size = hi - lo;
   cuboid.width_m = std::abs(cuboid.horizontal_axis.dot(size));
-  cuboid.height_m = std::abs(vertical.dot(size));
+  cuboid.height_m = std::abs(cuboid.verticalAxis().dot(size));
   cuboid.thickness_m = std::abs(cuboid.normal.dot(size));
 }
 
@@ -426,10 +424,7 @@ PlanarGridMap::clearNonPlanarCells(
   return surface_.removeNonPlanarCells([&](const PlanarCuboid& cuboid) {
     if (!cuboidInView(cuboid, in_view))
       return false;
-    const VoxelShares shares = voxelShares(cuboid);
-    return 2 * shares.free > shares.voxels
-           || static_cast<double>(shares.occupied)
-                < min_occupied * static_cast<double>(shares.voxels);
+    return !voxelShares(cuboid).heldOccupied(min_occupied);
   });
 }
 
@@ -442,10 +437,7 @@ PlanarGridMap::mergeNonPlanarCells(
   return surface_.mergeNonPlanarCells(
     [&](const PlanarCuboid& cuboid) { return cuboidInView(cuboid, in_view); },
     [&](const PlanarCuboid& box) {
-      const VoxelShares shares = voxelShares(box);
-      return 2 * shares.free <= shares.voxels
-             && static_cast<double>(shares.occupied)
-                  >= min_occupied * static_cast<double>(shares.voxels);
+      return voxelShares(box).heldOccupied(min_occupied);
     },
     NON_PLANAR_MERGE_MIN_FILL);
 }

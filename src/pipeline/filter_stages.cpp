@@ -138,18 +138,20 @@ public:
     // The points between the two bounds stay, for the planes alone.
     const std::vector<std::uint8_t> beyond =
       beyondBound(max_depth_error_m_, max_depth_m_);
-    std::vector<std::uint8_t> far;
-    if (max_plane_depth_error_m_ > max_depth_error_m_) {
-      far = beyondBound(max_plane_depth_error_m_, max_plane_depth_m_);
-    } else {
-      far = beyond;
+    // With one bound the points beyond it are the far ones: no second pass.
+    const bool two_bounds = max_plane_depth_error_m_ > max_depth_error_m_;
+    std::vector<std::uint8_t> beyond_plane_bound;
+    if (two_bounds)
+      beyond_plane_bound = beyondBound(max_plane_depth_error_m_, max_plane_depth_m_);
+    else
       max_plane_depth_m_ = max_depth_m_;
-    }
+    const std::vector<std::uint8_t>& far = two_bounds ? beyond_plane_bound : beyond;
     const float max_depth = max_depth_m_;
     const float max_plane_depth = max_plane_depth_m_;
     inlier_only_ = 0;
-    for (std::size_t i = 0; i < far.size(); ++i)
-      inlier_only_ += beyond[i] && !far[i];
+    if (two_bounds)
+      for (std::size_t i = 0; i < far.size(); ++i)
+        inlier_only_ += beyond[i] && !far[i];
     kept_far_ = 0;
     // Every point beyond the cell bound may make a far cell; the ones between the two
     // bounds also stay in the cloud, and multi_plane_segmentation takes out of the far

@@ -516,6 +516,15 @@ private:
     std::size_t voxels{0};
     std::size_t free{0};
     std::size_t occupied{0};
+    /** \brief True when at most half of the voxels are free and at least
+     * \a min_occupied (share) of them occupied: the evidence that keeps a non-planar
+     * cell (clearNonPlanarCells()) and lets two merge (mergeNonPlanarCells()). */
+    [[nodiscard]] bool heldOccupied(double min_occupied) const
+    {
+      return 2 * free <= voxels
+             && static_cast<double>(occupied)
+                  >= min_occupied * static_cast<double>(voxels);
+    }
   };
   /** \brief Counts the space layer's states over \a cuboid's voxels. */
   [[nodiscard]] VoxelShares voxelShares(const PlanarCuboid& cuboid) const;
