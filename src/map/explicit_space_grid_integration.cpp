@@ -322,360 +322,374 @@ observeCube(const VoxelKernel& kernel,
     }
 }
 
-} // namespace
+/** \brief One depth image's camera in the grid: intrinsics, pose, ranges and the voxel
+ * axes, computed once per view. */
+struct ViewGeometry {
+  int W, H;
+  float fx, fy, cx, cy;
+  /** \brief The image's far pixel edges, W - 0.5 and H - 0.5, pixels. */
+  float u_end, v_end;
+  /** \brief Voxel edge, meters. */
+  float res;
+  float max_range, margin;
+  /** \brief Farthest camera depth the view can change, meters. */
+  float z_far;
+  bool mark_occluded;
+  /** \brief Pixel footprint of a voxel's half diagonal at depth 1 m, pixels. */
+  float half_diag_px;
+  int max_r;
+  Eigen::Isometry3f w_T_c;
+  Eigen::Matrix3f R_cw;
+  Eigen::Vector3f t_cw;
+  /** \brief The voxel axes in the camera frame, one voxel edge long, meters. */
+  Eigen::Vector3f ex, ey, ez;
+};
 
-void
-ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
-                                       const Eigen::Isometry3d& world_T_camera)
+/** \brief How a cube of voxels is observed as a whole. */
+enum class Cube { NONE, FREE, OCCLUDED, SPLIT };
+
+/** \brief The pixel region a cube projects to. */
+struct CubeInfo {
+  int r{0};                       // footprint radius of its voxels, pixels
+  int u0{0}, v0{0}, u1{0}, v1{0}; // pixel region (clamped)
+};
+
+/** \brief Classifies the cube of s^3 voxels whose min corner is \a c (camera frame,
+ * meters) through the depth pyramid, filling \a info unless the cube is NONE. */
+Cube
+classifyCube(const ViewGeometry& view,
+             const DepthPyramid& pyr,
+             const Eigen::Vector3f& c,
+             float s,
+             CubeInfo& info)
 {
-  if (depth.width <= 0 || depth.height <= 0 || depth.depth_m.empty()) {
-    PCL_WARN("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] Empty depth image, "
-             "nothing integrated.\n");
-    return;
-  }
-  if (depth.depth_m.size()
-        != static_cast<std::size_t>(depth.width)
-             * static_cast<std::size_t>(depth.height)
-      || !(depth.fx > 0.0f) || !(depth.fy > 0.0f) || !std::isfinite(depth.fx)
-      || !std::isfinite(depth.fy) || !std::isfinite(depth.cx)
-      || !std::isfinite(depth.cy) || !world_T_camera.matrix().allFinite()) {
-    PCL_ERROR("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] Inconsistent "
-              "depth image (%d x %d with %zu depths, fx %g, fy %g) or pose; nothing "
-              "integrated.\n",
-              depth.width, depth.height, depth.depth_m.size(),
-              static_cast<double>(depth.fx), static_cast<double>(depth.fy));
-    return;
-  }
-
-  BlockStorage& storage = impl_->storage;
-  IntegrationWorkspace& workspace = impl_->workspace;
-  DepthPyramid& pyr = workspace.pyramid;
-  float max_valid_depth = 0.0f;
-  pyr.build(depth, max_valid_depth);
-
-  const float res = static_cast<float>(params_.resolution_m);
-  const float max_range = static_cast<float>(params_.max_range_m);
-  const float margin =
-    params_.surface_margin_m > 0.0
-      ? static_cast<float>(params_.surface_margin_m)
-      : static_cast<float>(params_.resolution_m * std::sqrt(3.0) / 2.0);
-  const auto prior = priorCode(params_.prior);
-  const bool mark_occluded = params_.prior != SpaceState::UNKNOWN;
-  // With an unknown prior, occlusion changes nothing: only space up to the farthest
-  // measurement can change.
-  const float z_far =
-    mark_occluded ? max_range : std::min(max_range, max_valid_depth + margin);
-  const int W = depth.width, H = depth.height;
-  const float fx = depth.fx, fy = depth.fy, cx = depth.cx, cy = depth.cy;
-
-  const Eigen::Isometry3f w_T_c = world_T_camera.cast<float>();
-  const Eigen::Matrix3f R_cw = w_T_c.linear().transpose();
-  const Eigen::Vector3f t_cw = -(R_cw * w_T_c.translation());
-
-  // Voxels of the measured surface: every valid pixel within max_range back-projected.
-  // Done first into a list, applied after the free / occluded pass so that it wins.
-  if (max_valid_depth > 0.0f && z_far > NEAR_Z) {
-    // Frustum bounding box in the world frame.
-    Eigen::Vector3f lo = w_T_c.translation(), hi = lo;
-    for (const float u : {-0.5f, static_cast<float>(W) - 0.5f})
-      for (const float v : {-0.5f, static_cast<float>(H) - 0.5f}) {
-        const Eigen::Vector3f pc((u - cx) / fx * z_far, (v - cy) / fy * z_far, z_far);
-        const Eigen::Vector3f pw = w_T_c * pc;
-        lo = lo.cwiseMin(pw);
-        hi = hi.cwiseMax(pw);
-      }
-    const double span =
-      static_cast<double>((hi - lo).maxCoeff()) / params_.resolution_m;
-    if (span > 1e6
-        || std::abs(lo.cast<double>().maxCoeff()) / params_.resolution_m > 1e9
-        || std::abs(lo.cast<double>().minCoeff()) / params_.resolution_m > 1e9
-        || std::abs(hi.cast<double>().maxCoeff()) / params_.resolution_m > 1e9
-        || std::abs(hi.cast<double>().minCoeff()) / params_.resolution_m > 1e9) {
-      PCL_ERROR("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] Frustum of "
-                "%g voxels across or far from the origin; nothing integrated.\n",
-                span);
-      return;
+  const Eigen::Vector3f sx = s * view.ex, sy = s * view.ey, sz = s * view.ez;
+  // corner i = ((c + sx if i & 1) + sy if i & 2) + sz if i & 4, coordinate by
+  // coordinate
+  Corners p;
+  const auto corners = [](float c, float x, float y, float z, float* out) {
+    const float base[4] = {c, c + x, c + y, (c + x) + y};
+    for (int i = 0; i < 4; ++i) {
+      out[i] = base[i];
+      out[i + 4] = base[i] + z;
     }
-    const VoxelKey klo = toKey(lo), khi = toKey(hi);
-    const BlockKey blo{blockOf(klo.x()), blockOf(klo.y()), blockOf(klo.z())};
-    const BlockKey bhi{blockOf(khi.x()), blockOf(khi.y()), blockOf(khi.z())};
-
-    const float block_edge = res * BLOCK_EDGE;
-    const Eigen::Vector3f ex = R_cw.col(0) * res, ey = R_cw.col(1) * res,
-                          ez = R_cw.col(2) * res;
-    const float half_diag_px = std::max(fx, fy) * res * 0.8660254f;
-    const float u_end = static_cast<float>(W) - 0.5f,
-                v_end = static_cast<float>(H) - 0.5f;
-    const int max_r = std::max(W, H);
-
-    enum class Cube { NONE, FREE, OCCLUDED, SPLIT };
-    struct CubeInfo {
-      int r{0};                       // footprint radius of its voxels, pixels
-      int u0{0}, v0{0}, u1{0}, v1{0}; // pixel region (clamped)
-    };
-    // Classifies the cube of s^3 voxels whose min corner is c (camera frame).
-    const auto classify = [&](const Eigen::Vector3f& c, float s, CubeInfo& info) {
-      const Eigen::Vector3f sx = s * ex, sy = s * ey, sz = s * ez;
-      // corner i = ((c + sx if i & 1) + sy if i & 2) + sz if i & 4, coordinate by
-      // coordinate
-      Corners p;
-      const auto corners = [](float c, float x, float y, float z, float* out) {
-        const float base[4] = {c, c + x, c + y, (c + x) + y};
-        for (int i = 0; i < 4; ++i) {
-          out[i] = base[i];
-          out[i + 4] = base[i] + z;
-        }
-      };
-      corners(c.x(), sx.x(), sy.x(), sz.x(), p.x);
-      corners(c.y(), sx.y(), sy.y(), sz.y(), p.y);
-      corners(c.z(), sx.z(), sy.z(), sz.z(), p.z);
-      float zmin, zmax;
-      minMax8(p.z, zmin, zmax);
-      if (zmax <= NEAR_Z || zmin > z_far)
-        return Cube::NONE;
-      if (zmin <= NEAR_Z) { // straddles the camera plane: voxel by voxel
-        info = {max_r, 0, 0, W - 1, H - 1};
-        return Cube::SPLIT;
-      }
-      float umin, umax, vmin, vmax;
-      projectCorners(p, fx, fy, cx, cy, umin, umax, vmin, vmax);
-      if (umax < -0.5f || vmax < -0.5f || umin >= u_end || vmin >= v_end)
-        return Cube::NONE;
-      const bool inside =
-        umin >= -0.5f && vmin >= -0.5f && umax < u_end && vmax < v_end;
-      info.r = std::min(static_cast<int>(std::ceil(half_diag_px / zmin)), max_r);
-      info.u0 = static_cast<int>(std::floor(umin + 0.5f)) - info.r;
-      info.v0 = static_cast<int>(std::floor(vmin + 0.5f)) - info.r;
-      info.u1 = static_cast<int>(std::floor(umax + 0.5f)) + info.r;
-      info.v1 = static_cast<int>(std::floor(vmax + 0.5f)) + info.r;
-      pyr.clampRect(info.u0, info.v0, info.u1, info.v1);
-      float mn, mx;
-      pyr.queryRect(info.u0, info.v0, info.u1, info.v1, mn, mx);
-      if (std::isinf(mn))
-        return Cube::NONE; // no measurement under the cube: no information
-      if (zmax < mn - margin) {
-        if (!inside || zmax > max_range)
-          return Cube::SPLIT;
-        // every voxel's footprint must hold a measurement: it contains a whole cell
-        // of level j
-        const int r_far = static_cast<int>(half_diag_px / zmax);
-        int j = 0;
-        while ((2 << j) <= r_far + 1)
-          ++j;
-        return pyr.noHoles(j, info.u0, info.v0, info.u1, info.v1) ? Cube::FREE
-                                                                  : Cube::SPLIT;
-      }
-      if (zmin > mx + margin) { // behind every measurement of the region
-        if (!mark_occluded)
-          return Cube::NONE;
-        return inside && zmax <= max_range
-                   && pyr.noHoles(0, info.u0, info.v0, info.u1, info.v1)
-                 ? Cube::OCCLUDED
-                 : Cube::SPLIT;
-      }
+  };
+  corners(c.x(), sx.x(), sy.x(), sz.x(), p.x);
+  corners(c.y(), sx.y(), sy.y(), sz.y(), p.y);
+  corners(c.z(), sx.z(), sy.z(), sz.z(), p.z);
+  float zmin, zmax;
+  minMax8(p.z, zmin, zmax);
+  if (zmax <= NEAR_Z || zmin > view.z_far)
+    return Cube::NONE;
+  if (zmin <= NEAR_Z) { // straddles the camera plane: voxel by voxel
+    info = {view.max_r, 0, 0, view.W - 1, view.H - 1};
+    return Cube::SPLIT;
+  }
+  float umin, umax, vmin, vmax;
+  projectCorners(p, view.fx, view.fy, view.cx, view.cy, umin, umax, vmin, vmax);
+  if (umax < -0.5f || vmax < -0.5f || umin >= view.u_end || vmin >= view.v_end)
+    return Cube::NONE;
+  const bool inside =
+    umin >= -0.5f && vmin >= -0.5f && umax < view.u_end && vmax < view.v_end;
+  info.r = std::min(static_cast<int>(std::ceil(view.half_diag_px / zmin)), view.max_r);
+  info.u0 = static_cast<int>(std::floor(umin + 0.5f)) - info.r;
+  info.v0 = static_cast<int>(std::floor(vmin + 0.5f)) - info.r;
+  info.u1 = static_cast<int>(std::floor(umax + 0.5f)) + info.r;
+  info.v1 = static_cast<int>(std::floor(vmax + 0.5f)) + info.r;
+  pyr.clampRect(info.u0, info.v0, info.u1, info.v1);
+  float mn, mx;
+  pyr.queryRect(info.u0, info.v0, info.u1, info.v1, mn, mx);
+  if (std::isinf(mn))
+    return Cube::NONE; // no measurement under the cube: no information
+  if (zmax < mn - view.margin) {
+    if (!inside || zmax > view.max_range)
       return Cube::SPLIT;
-    };
-    const VoxelKernel kernel{
-      fx,        fy,     cx, cy, u_end,         v_end,
-      max_range, margin, W,  H,  mark_occluded, pyr.min_level[0].data(),
-      &pyr,      ex,     ey, ez};
-    // Every footprint radius is at least that of a voxel at z_far.
-    pyr.buildSpans(pyr.levelFor(
-      std::min(static_cast<int>(std::ceil(half_diag_px / z_far)), max_r) + 1));
-    // Voxel-by-voxel observations of the 4^3 cube at local offset o of a block whose
-    // min corner is c0, as bits (x + 8 y) of words z of the free / occluded masks.
-    const auto perVoxel = [&](const Eigen::Vector3f& c0, int ox, int oy, int oz,
-                              const CubeInfo& info, BlockResult& res) {
-      // at most 3 x 3 cells per footprint
-      const CubeQuery cube{c0, ox, oy, oz, pyr.levelFor(info.r + 1), info.r};
-      observeCube(kernel, cube, res.free, res.occluded);
-    };
-    // Bits of the 4^3 cube at local offset o in the masks.
-    const auto cubeBits = [](std::array<std::uint64_t, BLOCK_EDGE>& mask, int ox,
-                             int oy, int oz) {
-      const std::uint64_t rows = std::uint64_t{0xF0F0F0F} << (ox + 8 * oy);
-      for (int z = oz; z < oz + 4; ++z)
-        mask[static_cast<std::size_t>(z)] |= rows;
-    };
-    // The observations of block (bx, by, bz); false when the view says nothing of it.
-    // Inward unit normals of the frustum's side planes (through the camera centre,
-    // along the image border u = -0.5, u = W - 0.5, v = -0.5, v = H - 0.5).
-    const std::array<Eigen::Vector3f, 4> side_normals{
-      Eigen::Vector3f(fx, 0.0f, cx + 0.5f).normalized(),
-      Eigen::Vector3f(-fx, 0.0f, u_end - cx).normalized(),
-      Eigen::Vector3f(0.0f, fy, cy + 0.5f).normalized(),
-      Eigen::Vector3f(0.0f, -fy, v_end - cy).normalized()};
-    const Eigen::Vector3f block_half = (ex + ey + ez) * (0.5f * BLOCK_EDGE);
-    // half block diagonal plus slack for rounding
-    const float reject_radius = block_half.norm() * 1.01f + 1e-3f;
-    // A voxel already free stays free whatever a view says of it (observed free
-    // writes free, occluded changes only never-observed voxels): the 4^3 cubes free
-    // in the storage are not observed. Pending setState() edits are not in the
-    // storage; with any, every cube is observed.
-    const bool skip_stored_free = storage.edits.empty();
-    const auto observeBlock = [&](int bx, int by, int bz, BlockResult& res,
-                                  Counters& counters) {
-      const Eigen::Vector3f c0 =
-        R_cw
-          * Eigen::Vector3f(static_cast<float>(bx) * block_edge,
-                            static_cast<float>(by) * block_edge,
-                            static_cast<float>(bz) * block_edge)
-        + t_cw;
-      // Blocks whose bounding sphere lies (with slack) beyond the depth range or
-      // outside a side plane of the frustum project outside the image: classify()
-      // would say NONE; skip its 8 projections.
-      const Eigen::Vector3f centre = c0 + block_half;
-      if (centre.z() + reject_radius <= NEAR_Z || centre.z() - reject_radius > z_far)
-        return false;
-      if (centre.z() - reject_radius > NEAR_Z)
-        for (const auto& n : side_normals)
-          if (n.dot(centre) < -reject_radius)
-            return false;
-      const std::uint32_t stored_free =
-        skip_stored_free ? storage.storedFreeCubes({bx, by, bz}) : 0u;
-      if (stored_free == 0xFFu)
-        return false;
-      CubeInfo info;
-      const Cube kind = classify(c0, static_cast<float>(BLOCK_EDGE), info);
-      if (kind == Cube::NONE)
-        return false;
-      ++counters.visited;
-      res.key = {bx, by, bz};
-      if (kind == Cube::FREE) {
-        ++counters.fast;
-        res.kind = BlockResult::ALL_FREE;
-        return true;
-      }
-      if (kind == Cube::OCCLUDED) {
-        res.kind = BlockResult::ALL_OCCLUDED;
-        return true;
-      }
-      res.kind = BlockResult::MASKS;
-      res.free.fill(0);
-      res.occluded.fill(0);
-      bool any = false;
-      for (int c = 0; c < 8; ++c) {
-        if ((stored_free >> c) & 1u)
-          continue;
-        const int ox = (c & 1) * 4, oy = ((c >> 1) & 1) * 4, oz = ((c >> 2) & 1) * 4;
-        const Eigen::Vector3f cc = c0 + static_cast<float>(ox) * ex
-                                   + static_cast<float>(oy) * ey
-                                   + static_cast<float>(oz) * ez;
-        CubeInfo sub;
-        const Cube sk = classify(cc, 4.0f, sub);
-        if (sk == Cube::NONE)
-          continue;
-        if (sk == Cube::FREE) {
-          cubeBits(res.free, ox, oy, oz);
-          any = true;
-        } else if (sk == Cube::OCCLUDED) {
-          cubeBits(res.occluded, ox, oy, oz);
-          any = true;
-        } else {
-          ++counters.slow;
-          perVoxel(c0, ox, oy, oz, sub, res);
-        }
-      }
-      if (!any)
-        for (int z = 0; z < BLOCK_EDGE; ++z)
-          any = any || res.free[static_cast<std::size_t>(z)] != 0
-                || res.occluded[static_cast<std::size_t>(z)] != 0;
-      return any;
-    };
+    // every voxel's footprint must hold a measurement: it contains a whole cell
+    // of level j
+    const int r_far = static_cast<int>(view.half_diag_px / zmax);
+    int j = 0;
+    while ((2 << j) <= r_far + 1)
+      ++j;
+    return pyr.noHoles(j, info.u0, info.v0, info.u1, info.v1) ? Cube::FREE
+                                                              : Cube::SPLIT;
+  }
+  if (zmin > mx + view.margin) { // behind every measurement of the region
+    if (!view.mark_occluded)
+      return Cube::NONE;
+    return inside && zmax <= view.max_range
+               && pyr.noHoles(0, info.u0, info.v0, info.u1, info.v1)
+             ? Cube::OCCLUDED
+             : Cube::SPLIT;
+  }
+  return Cube::SPLIT;
+}
 
-    // Observe the blocks of the frustum's bounding box (slabs of z split between the
-    // threads, each slab's blocks in x-fastest order: the concatenation is the
-    // single-threaded order), then apply the observations one block at a time.
-    const int n_slabs = bhi.z - blo.z + 1;
-    const int n_threads = std::max(1, std::min(num_threads_, n_slabs));
-    auto& per_thread = workspace.results;
-    per_thread.resize(static_cast<std::size_t>(n_threads));
-    std::vector<Counters> counters(static_cast<std::size_t>(n_threads));
-    const auto work = [&](int t) {
-      auto& out = per_thread[static_cast<std::size_t>(t)];
-      out.clear();
-      const int z0 =
-        blo.z + static_cast<int>(static_cast<long long>(n_slabs) * t / n_threads);
-      const int z1 =
-        blo.z + static_cast<int>(static_cast<long long>(n_slabs) * (t + 1) / n_threads);
-      BlockResult res;
-      for (int bz = z0; bz < z1; ++bz)
-        for (int by = blo.y; by <= bhi.y; ++by)
-          for (int bx = blo.x; bx <= bhi.x; ++bx)
-            if (observeBlock(bx, by, bz, res, counters[static_cast<std::size_t>(t)]))
-              out.push_back(res);
-    };
-    if (n_threads == 1)
-      work(0);
-    else {
-      std::vector<std::thread> threads;
-      for (int t = 1; t < n_threads; ++t)
-        threads.emplace_back(work, t);
-      work(0);
-      for (auto& th : threads)
-        th.join();
-    }
+/** \brief Sets the bits of the 4^3 cube at local offset o in a block's mask. */
+inline void
+setCubeBits(std::array<std::uint64_t, BLOCK_EDGE>& mask, int ox, int oy, int oz)
+{
+  const std::uint64_t rows = std::uint64_t{0xF0F0F0F} << (ox + 8 * oy);
+  for (int z = oz; z < oz + 4; ++z)
+    mask[static_cast<std::size_t>(z)] |= rows;
+}
 
-    // The observations go to the edit buffer, block by block; the occupied voxels
-    // below are written over them, and both reach the storage at once.
-    const auto free_code = static_cast<std::uint8_t>(SpaceState::FREE);
-    const auto unknown_code = static_cast<std::uint8_t>(SpaceState::UNKNOWN);
-    constexpr std::uint64_t LOW = 0x5555555555555555ULL;
-    for (const auto& list : per_thread)
-      for (const BlockResult& res : list) {
-        const std::uint32_t e = storage.open(res.key, prior);
-        if (res.kind == BlockResult::ALL_FREE) {
-          // Whole block in front of the surface: free without per-voxel work (observed
-          // free is never the code of the prior).
-          storage.edits[e].uniform = free_code;
-          continue;
-        }
-        Payload& words = storage.mixedPayload(e);
-        for (int k = 0; k < 16; ++k) {
-          // voxels 32 k .. 32 k + 31: half of mask word k / 2
-          const int shift = (k & 1) * 32;
-          const std::uint64_t fs =
-            res.kind == BlockResult::ALL_OCCLUDED
-              ? 0
-              : spreadBits(static_cast<std::uint32_t>(
-                res.free[static_cast<std::size_t>(k >> 1)] >> shift));
-          const std::uint64_t os =
-            res.kind == BlockResult::ALL_OCCLUDED
-              ? LOW
-              : spreadBits(static_cast<std::uint32_t>(
-                res.occluded[static_cast<std::size_t>(k >> 1)] >> shift));
-          std::uint64_t w = words[static_cast<std::size_t>(k)];
-          const std::uint64_t x = w ^ pattern(prior);
-          const std::uint64_t at_prior = ~(x | (x >> 1)) & LOW;
-          // occluded turns only the never-observed voxels unknown
-          const std::uint64_t occ = os & at_prior;
-          w &= ~((fs | occ) * 3);  // free = 00
-          w |= occ * unknown_code; // unknown = 10
-          words[static_cast<std::size_t>(k)] = w;
-        }
-      }
-    Counters total;
-    for (const auto& c : counters) {
-      total.visited += c.visited;
-      total.fast += c.fast;
-      total.slow += c.slow;
+/** \brief What one view says of each block of the grid: whole blocks and 4^3 cubes
+ * through the depth pyramid, the rest voxel by voxel. Safe to call from several
+ * threads at once (it reads the view, the pyramid and the storage). */
+class BlockObserver {
+public:
+  BlockObserver(const ViewGeometry& view,
+                const DepthPyramid& pyr,
+                const BlockStorage& storage) :
+      view_(view),
+      pyr_(pyr), storage_(storage), kernel_{view.fx,
+                                            view.fy,
+                                            view.cx,
+                                            view.cy,
+                                            view.u_end,
+                                            view.v_end,
+                                            view.max_range,
+                                            view.margin,
+                                            view.W,
+                                            view.H,
+                                            view.mark_occluded,
+                                            pyr.min_level[0].data(),
+                                            &pyr,
+                                            view.ex,
+                                            view.ey,
+                                            view.ez},
+      // Inward unit normals of the frustum's side planes (through the camera centre,
+      // along the image border u = -0.5, u = W - 0.5, v = -0.5, v = H - 0.5).
+      side_normals_{Eigen::Vector3f(view.fx, 0.0f, view.cx + 0.5f).normalized(),
+                    Eigen::Vector3f(-view.fx, 0.0f, view.u_end - view.cx).normalized(),
+                    Eigen::Vector3f(0.0f, view.fy, view.cy + 0.5f).normalized(),
+                    Eigen::Vector3f(0.0f, -view.fy, view.v_end - view.cy).normalized()},
+      block_half_((view.ex + view.ey + view.ez) * (0.5f * BLOCK_EDGE)),
+      // half block diagonal plus slack for rounding
+      reject_radius_(block_half_.norm() * 1.01f + 1e-3f),
+      // A voxel already free stays free whatever a view says of it (observed free
+      // writes free, occluded changes only never-observed voxels): the 4^3 cubes free
+      // in the storage are not observed. Pending setState() edits are not in the
+      // storage; with any, every cube is observed.
+      skip_stored_free_(storage.edits.empty())
+  {}
+
+  /** \brief The observations of block (bx, by, bz) into \a res; false when the view
+   * says nothing of it. */
+  bool observe(int bx, int by, int bz, BlockResult& res, Counters& counters) const
+  {
+    const float block_edge = view_.res * BLOCK_EDGE;
+    const Eigen::Vector3f c0 = view_.R_cw
+                                 * Eigen::Vector3f(static_cast<float>(bx) * block_edge,
+                                                   static_cast<float>(by) * block_edge,
+                                                   static_cast<float>(bz) * block_edge)
+                               + view_.t_cw;
+    if (outsideFrustum(c0 + block_half_))
+      return false;
+    const std::uint32_t stored_free =
+      skip_stored_free_ ? storage_.storedFreeCubes({bx, by, bz}) : 0u;
+    if (stored_free == 0xFFu)
+      return false;
+    CubeInfo info;
+    const Cube kind =
+      classifyCube(view_, pyr_, c0, static_cast<float>(BLOCK_EDGE), info);
+    if (kind == Cube::NONE)
+      return false;
+    ++counters.visited;
+    res.key = {bx, by, bz};
+    if (kind == Cube::FREE) {
+      ++counters.fast;
+      res.kind = BlockResult::ALL_FREE;
+      return true;
     }
-    PCL_DEBUG("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] %zu blocks "
-              "seen, %zu free as a whole, %zu 4^3 cubes voxel by voxel.\n",
-              total.visited, total.fast, total.slow);
+    if (kind == Cube::OCCLUDED) {
+      res.kind = BlockResult::ALL_OCCLUDED;
+      return true;
+    }
+    return observeCubes(c0, stored_free, res, counters);
   }
 
-  // Occupied: the voxel of every measured pixel within max_range. The keys of a row
-  // come first, from a loop the compiler vectorises; neighbouring pixels mostly fall
-  // in one voxel, which is written once per run of them.
+private:
+  /** \brief Whether a block whose centre is \a centre (camera frame) lies, with its
+   * bounding sphere and slack, beyond the depth range or outside a side plane of the
+   * frustum: it projects outside the image, and classifyCube() would say NONE. */
+  bool outsideFrustum(const Eigen::Vector3f& centre) const
+  {
+    if (centre.z() + reject_radius_ <= NEAR_Z
+        || centre.z() - reject_radius_ > view_.z_far)
+      return true;
+    if (centre.z() - reject_radius_ > NEAR_Z)
+      for (const auto& n : side_normals_)
+        if (n.dot(centre) < -reject_radius_)
+          return true;
+    return false;
+  }
+
+  /** \brief The block at \a c0 cube by cube (cubes free in the storage skipped), into
+   * the masks of \a res; false when no voxel is observed. */
+  bool observeCubes(const Eigen::Vector3f& c0,
+                    std::uint32_t stored_free,
+                    BlockResult& res,
+                    Counters& counters) const
+  {
+    res.kind = BlockResult::MASKS;
+    res.free.fill(0);
+    res.occluded.fill(0);
+    bool any = false;
+    for (int c = 0; c < 8; ++c) {
+      if ((stored_free >> c) & 1u)
+        continue;
+      const int ox = (c & 1) * 4, oy = ((c >> 1) & 1) * 4, oz = ((c >> 2) & 1) * 4;
+      const Eigen::Vector3f cc = c0 + static_cast<float>(ox) * view_.ex
+                                 + static_cast<float>(oy) * view_.ey
+                                 + static_cast<float>(oz) * view_.ez;
+      CubeInfo sub;
+      const Cube sk = classifyCube(view_, pyr_, cc, 4.0f, sub);
+      if (sk == Cube::NONE)
+        continue;
+      if (sk == Cube::FREE) {
+        setCubeBits(res.free, ox, oy, oz);
+        any = true;
+      } else if (sk == Cube::OCCLUDED) {
+        setCubeBits(res.occluded, ox, oy, oz);
+        any = true;
+      } else {
+        ++counters.slow;
+        // at most 3 x 3 cells per footprint
+        const CubeQuery cube{c0, ox, oy, oz, pyr_.levelFor(sub.r + 1), sub.r};
+        observeCube(kernel_, cube, res.free, res.occluded);
+      }
+    }
+    if (!any)
+      for (int z = 0; z < BLOCK_EDGE; ++z)
+        any = any || res.free[static_cast<std::size_t>(z)] != 0
+              || res.occluded[static_cast<std::size_t>(z)] != 0;
+    return any;
+  }
+
+  const ViewGeometry& view_;
+  const DepthPyramid& pyr_;
+  const BlockStorage& storage_;
+  const VoxelKernel kernel_;
+  const std::array<Eigen::Vector3f, 4> side_normals_;
+  const Eigen::Vector3f block_half_;
+  const float reject_radius_;
+  const bool skip_stored_free_;
+};
+
+/** \brief Observes the blocks from \a blo to \a bhi (slabs of z split between up to
+ * \a num_threads threads, each slab's blocks in x-fastest order: the concatenation is
+ * the single-threaded order) into \a per_thread; returns the summed counters. */
+Counters
+observeBlocks(const BlockObserver& observer,
+              const BlockKey& blo,
+              const BlockKey& bhi,
+              int num_threads,
+              std::vector<std::vector<BlockResult>>& per_thread)
+{
+  const int n_slabs = bhi.z - blo.z + 1;
+  const int n_threads = std::max(1, std::min(num_threads, n_slabs));
+  per_thread.resize(static_cast<std::size_t>(n_threads));
+  std::vector<Counters> counters(static_cast<std::size_t>(n_threads));
+  const auto work = [&](int t) {
+    auto& out = per_thread[static_cast<std::size_t>(t)];
+    out.clear();
+    const int z0 =
+      blo.z + static_cast<int>(static_cast<long long>(n_slabs) * t / n_threads);
+    const int z1 =
+      blo.z + static_cast<int>(static_cast<long long>(n_slabs) * (t + 1) / n_threads);
+    BlockResult res;
+    for (int bz = z0; bz < z1; ++bz)
+      for (int by = blo.y; by <= bhi.y; ++by)
+        for (int bx = blo.x; bx <= bhi.x; ++bx)
+          if (observer.observe(bx, by, bz, res, counters[static_cast<std::size_t>(t)]))
+            out.push_back(res);
+  };
+  if (n_threads == 1)
+    work(0);
+  else {
+    std::vector<std::thread> threads;
+    for (int t = 1; t < n_threads; ++t)
+      threads.emplace_back(work, t);
+    work(0);
+    for (auto& th : threads)
+      th.join();
+  }
+  Counters total;
+  for (const auto& c : counters) {
+    total.visited += c.visited;
+    total.fast += c.fast;
+    total.slow += c.slow;
+  }
+  return total;
+}
+
+/** \brief Puts the observations into the edit buffer, block by block: free writes
+ * free, occluded turns only the never-observed voxels unknown. */
+void
+applyObservations(const std::vector<std::vector<BlockResult>>& per_thread,
+                  std::uint8_t prior,
+                  BlockStorage& storage)
+{
+  const auto free_code = static_cast<std::uint8_t>(SpaceState::FREE);
+  const auto unknown_code = static_cast<std::uint8_t>(SpaceState::UNKNOWN);
+  constexpr std::uint64_t LOW = 0x5555555555555555ULL;
+  for (const auto& list : per_thread)
+    for (const BlockResult& res : list) {
+      const std::uint32_t e = storage.open(res.key, prior);
+      if (res.kind == BlockResult::ALL_FREE) {
+        // Whole block in front of the surface: free without per-voxel work (observed
+        // free is never the code of the prior).
+        storage.edits[e].uniform = free_code;
+        continue;
+      }
+      Payload& words = storage.mixedPayload(e);
+      for (int k = 0; k < 16; ++k) {
+        // voxels 32 k .. 32 k + 31: half of mask word k / 2
+        const int shift = (k & 1) * 32;
+        const std::uint64_t fs =
+          res.kind == BlockResult::ALL_OCCLUDED
+            ? 0
+            : spreadBits(static_cast<std::uint32_t>(
+              res.free[static_cast<std::size_t>(k >> 1)] >> shift));
+        const std::uint64_t os =
+          res.kind == BlockResult::ALL_OCCLUDED
+            ? LOW
+            : spreadBits(static_cast<std::uint32_t>(
+              res.occluded[static_cast<std::size_t>(k >> 1)] >> shift));
+        std::uint64_t w = words[static_cast<std::size_t>(k)];
+        const std::uint64_t x = w ^ pattern(prior);
+        const std::uint64_t at_prior = ~(x | (x >> 1)) & LOW;
+        // occluded turns only the never-observed voxels unknown
+        const std::uint64_t occ = os & at_prior;
+        w &= ~((fs | occ) * 3);  // free = 00
+        w |= occ * unknown_code; // unknown = 10
+        words[static_cast<std::size_t>(k)] = w;
+      }
+    }
+}
+
+/** \brief Writes occupied the voxel of every measured pixel within max_range into the
+ * edit buffer. The keys of a row come first, from a loop the compiler vectorises;
+ * neighbouring pixels mostly fall in one voxel, which is written once per run of
+ * them. */
+void
+markMeasuredVoxels(const ViewGeometry& view,
+                   double resolution_m,
+                   std::uint8_t prior,
+                   IntegrationWorkspace& workspace,
+                   BlockStorage& storage)
+{
+  const DepthPyramid& pyr = workspace.pyramid;
+  const int W = view.W, H = view.H;
   BlockStorage::Cursor cursor(storage, prior);
   const auto occupied_code = static_cast<std::uint8_t>(SpaceState::OCCUPIED);
-  const float inv_res = 1.0f / res;
+  const float inv_res = 1.0f / view.res;
   const auto w = static_cast<std::size_t>(W);
   std::vector<float>& column_x = workspace.column_x; // (u - cx) / fx
   column_x.resize(w);
   for (int u = 0; u < W; ++u)
-    column_x[static_cast<std::size_t>(u)] = (static_cast<float>(u) - cx) / fx;
+    column_x[static_cast<std::size_t>(u)] = (static_cast<float>(u) - view.cx) / view.fx;
   workspace.row_kx.resize(w);
   workspace.row_ky.resize(w);
   workspace.row_kz.resize(w);
@@ -684,23 +698,24 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
   int* const row_ky = workspace.row_ky.data();
   int* const row_kz = workspace.row_kz.data();
   int* const row_ok = workspace.row_ok.data();
-  const RowKeys kernel_keys{w_T_c.linear(), w_T_c.translation(), column_x.data(),
-                            max_range, inv_res};
+  const RowKeys kernel_keys{view.w_T_c.linear(), view.w_T_c.translation(),
+                            column_x.data(), view.max_range, inv_res};
   // Every pixel's coordinates, (x, y, z) = z ((u - cx) / fx, (v - cy) / fy, 1) with
   // z in [0, max_range], lie within |t| + z (|(u - cx) / fx| + |(v - cy) / fy| + 1)
   // of the origin; below 2^29 voxels, with room for rounding, no conversion overflows.
   const float column_reach =
     std::max(std::abs(column_x.front()), std::abs(column_x.back()));
   const float row_reach =
-    std::max(std::abs(cy / fy), std::abs((static_cast<float>(H - 1) - cy) / fy));
+    std::max(std::abs(view.cy / view.fy),
+             std::abs((static_cast<float>(H - 1) - view.cy) / view.fy));
   const double reach_voxels =
     (static_cast<double>(kernel_keys.t.cwiseAbs().maxCoeff())
-     + static_cast<double>(max_range)
+     + static_cast<double>(view.max_range)
          * (static_cast<double>(column_reach) + static_cast<double>(row_reach) + 1.0))
-    / params_.resolution_m;
+    / resolution_m;
   const bool clamp = !(reach_voxels < MAX_KEY / 2.0);
   for (int v = 0; v < H; ++v) {
-    const float yn = (static_cast<float>(v) - cy) / fy;
+    const float yn = (static_cast<float>(v) - view.cy) / view.fy;
     const float* row = &pyr.min_level[0][static_cast<std::size_t>(v) * w];
     if (clamp)
       rowKeys<true>(row, W, yn, kernel_keys, row_kx, row_ky, row_kz, row_ok);
@@ -725,6 +740,125 @@ ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
         storage.setEdit(e, i, occupied_code);
       }
   }
+}
+
+/** \brief Whether the depth image and the pose can be integrated (sizes agree, the
+ * intrinsics positive and finite, the pose finite); false after a warning or an
+ * error message. */
+bool
+checkDepthImage(const DepthImage& depth, const Eigen::Isometry3d& world_T_camera)
+{
+  if (depth.width <= 0 || depth.height <= 0 || depth.depth_m.empty()) {
+    PCL_WARN("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] Empty depth image, "
+             "nothing integrated.\n");
+    return false;
+  }
+  if (depth.depth_m.size()
+        != static_cast<std::size_t>(depth.width)
+             * static_cast<std::size_t>(depth.height)
+      || !(depth.fx > 0.0f) || !(depth.fy > 0.0f) || !std::isfinite(depth.fx)
+      || !std::isfinite(depth.fy) || !std::isfinite(depth.cx)
+      || !std::isfinite(depth.cy) || !world_T_camera.matrix().allFinite()) {
+    PCL_ERROR("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] Inconsistent "
+              "depth image (%d x %d with %zu depths, fx %g, fy %g) or pose; nothing "
+              "integrated.\n",
+              depth.width, depth.height, depth.depth_m.size(),
+              static_cast<double>(depth.fx), static_cast<double>(depth.fy));
+    return false;
+  }
+  return true;
+}
+
+} // namespace
+
+void
+ExplicitSpaceGrid::integrateDepthImage(const DepthImage& depth,
+                                       const Eigen::Isometry3d& world_T_camera)
+{
+  if (!checkDepthImage(depth, world_T_camera))
+    return;
+
+  BlockStorage& storage = impl_->storage;
+  IntegrationWorkspace& workspace = impl_->workspace;
+  DepthPyramid& pyr = workspace.pyramid;
+  float max_valid_depth = 0.0f;
+  pyr.build(depth, max_valid_depth);
+
+  ViewGeometry view;
+  view.res = static_cast<float>(params_.resolution_m);
+  view.max_range = static_cast<float>(params_.max_range_m);
+  view.margin = params_.surface_margin_m > 0.0
+                  ? static_cast<float>(params_.surface_margin_m)
+                  : static_cast<float>(params_.resolution_m * std::sqrt(3.0) / 2.0);
+  const auto prior = priorCode(params_.prior);
+  view.mark_occluded = params_.prior != SpaceState::UNKNOWN;
+  // With an unknown prior, occlusion changes nothing: only space up to the farthest
+  // measurement can change.
+  view.z_far = view.mark_occluded
+                 ? view.max_range
+                 : std::min(view.max_range, max_valid_depth + view.margin);
+  view.W = depth.width;
+  view.H = depth.height;
+  view.fx = depth.fx;
+  view.fy = depth.fy;
+  view.cx = depth.cx;
+  view.cy = depth.cy;
+  view.u_end = static_cast<float>(view.W) - 0.5f;
+  view.v_end = static_cast<float>(view.H) - 0.5f;
+  view.max_r = std::max(view.W, view.H);
+  view.half_diag_px = std::max(view.fx, view.fy) * view.res * 0.8660254f;
+  view.w_T_c = world_T_camera.cast<float>();
+  view.R_cw = view.w_T_c.linear().transpose();
+  view.t_cw = -(view.R_cw * view.w_T_c.translation());
+  view.ex = view.R_cw.col(0) * view.res;
+  view.ey = view.R_cw.col(1) * view.res;
+  view.ez = view.R_cw.col(2) * view.res;
+
+  // Voxels of the measured surface: every valid pixel within max_range back-projected.
+  // Done after the free / occluded pass so that it wins.
+  if (max_valid_depth > 0.0f && view.z_far > NEAR_Z) {
+    // Frustum bounding box in the world frame.
+    Eigen::Vector3f lo = view.w_T_c.translation(), hi = lo;
+    for (const float u : {-0.5f, view.u_end})
+      for (const float v : {-0.5f, view.v_end}) {
+        const Eigen::Vector3f pc((u - view.cx) / view.fx * view.z_far,
+                                 (v - view.cy) / view.fy * view.z_far, view.z_far);
+        const Eigen::Vector3f pw = view.w_T_c * pc;
+        lo = lo.cwiseMin(pw);
+        hi = hi.cwiseMax(pw);
+      }
+    const double span =
+      static_cast<double>((hi - lo).maxCoeff()) / params_.resolution_m;
+    if (span > 1e6
+        || std::abs(lo.cast<double>().maxCoeff()) / params_.resolution_m > 1e9
+        || std::abs(lo.cast<double>().minCoeff()) / params_.resolution_m > 1e9
+        || std::abs(hi.cast<double>().maxCoeff()) / params_.resolution_m > 1e9
+        || std::abs(hi.cast<double>().minCoeff()) / params_.resolution_m > 1e9) {
+      PCL_ERROR("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] Frustum of "
+                "%g voxels across or far from the origin; nothing integrated.\n",
+                span);
+      return;
+    }
+    const VoxelKey klo = toKey(lo), khi = toKey(hi);
+    const BlockKey blo{blockOf(klo.x()), blockOf(klo.y()), blockOf(klo.z())};
+    const BlockKey bhi{blockOf(khi.x()), blockOf(khi.y()), blockOf(khi.z())};
+
+    // Every footprint radius is at least that of a voxel at z_far.
+    pyr.buildSpans(pyr.levelFor(
+      std::min(static_cast<int>(std::ceil(view.half_diag_px / view.z_far)), view.max_r)
+      + 1));
+    const BlockObserver observer(view, pyr, storage);
+    // The observations go to the edit buffer, block by block; the occupied voxels
+    // below are written over them, and both reach the storage at once.
+    const Counters total =
+      observeBlocks(observer, blo, bhi, num_threads_, workspace.results);
+    applyObservations(workspace.results, prior, storage);
+    PCL_DEBUG("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] %zu blocks "
+              "seen, %zu free as a whole, %zu 4^3 cubes voxel by voxel.\n",
+              total.visited, total.fast, total.slow);
+  }
+
+  markMeasuredVoxels(view, params_.resolution_m, prior, workspace, storage);
   storage.commit(prior);
 }
 
