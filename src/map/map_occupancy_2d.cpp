@@ -90,23 +90,86 @@ validate(const OccupancyGrid2DParams& p)
          + std::to_string(p.free_thresh) + ", " + std::to_string(p.occupied_thresh));
 }
 
-} // namespace
+/** \brief The cells of a 2D grid over the map: which cells a cuboid's or a voxel's
+ * footprint covers. */
+struct GridCells {
+  const OccupancyGrid2D& grid;
+  /** \brief The grid's cell edge, meters. */
+  double r;
+  /** \brief The voxels' edge, meters. */
+  double vr;
 
+  std::size_t index(int col, int row) const
+  {
+    return static_cast<std::size_t>(row) * static_cast<std::size_t>(grid.width)
+           + static_cast<std::size_t>(col);
+  }
+
+  /** \brief Calls f(col, row, x, y) for every cell whose centre lies in the XY
+   * bounding box of cuboid \a c. */
+  template <typename F> void forCellsOf(const PlanarCuboid& c, F&& f) const
+  {
+    Eigen::Vector2d blo = Eigen::Vector2d::Constant(std::numeric_limits<double>::max());
+    Eigen::Vector2d bhi = -blo;
+    for (const auto& corner : c.corners()) {
+      blo = blo.cwiseMin(corner.head<2>().cast<double>());
+      bhi = bhi.cwiseMax(corner.head<2>().cast<double>());
+    }
+    const int c0 =
+      std::max(0, static_cast<int>(std::ceil((blo.x() - grid.origin.x()) / r - 0.5)));
+    const int c1 =
+      std::min(grid.width - 1,
+               static_cast<int>(std::floor((bhi.x() - grid.origin.x()) / r - 0.5)));
+    const int r0 =
+      std::max(0, static_cast<int>(std::ceil((blo.y() - grid.origin.y()) / r - 0.5)));
+    const int r1 =
+      std::min(grid.height - 1,
+               static_cast<int>(std::floor((bhi.y() - grid.origin.y()) / r - 0.5)));
+    for (int row = r0; row <= r1; ++row)
+      for (int col = c0; col <= c1; ++col)
+        f(col, row, grid.origin.x() + (col + 0.5) * r,
+          grid.origin.y() + (row + 0.5) * r);
+  }
+
+  /** \brief Calls f(cell index) for every cell whose square meets voxel \a key's
+   * footprint. */
+  template <typename F>
+  void forFootprint(const ExplicitSpaceGrid::VoxelKey& key, F&& f) const
+  {
+    const double x0 = key.x() * vr, y0 = key.y() * vr;
+    const double eps = 1e-6;
+    const int c0 =
+      std::max(0, static_cast<int>(std::floor((x0 - grid.origin.x()) / r + eps)));
+    const int c1 =
+      std::min(grid.width - 1,
+               static_cast<int>(std::ceil((x0 + vr - grid.origin.x()) / r - eps)) - 1);
+    const int r0 =
+      std::max(0, static_cast<int>(std::floor((y0 - grid.origin.y()) / r + eps)));
+    const int r1 =
+      std::min(grid.height - 1,
+               static_cast<int>(std::ceil((y0 + vr - grid.origin.y()) / r - eps)) - 1);
+    for (int row = r0; row <= r1; ++row)
+      for (int col = c0; col <= c1; ++col)
+        f(index(col, row));
+  }
+};
+
+/** \brief The grid over \a params' bounds, or over the map's (its voxels' and
+ * cuboids' XY extent) without them, every cell unknown.
+ * \throws Exception for an empty map without bounds, or over 1e8 cells. */
 OccupancyGrid2D
-PlanarGridMap::computeOccupancyGrid2D(const OccupancyGrid2DParams& params) const
+emptyGrid(const OccupancyGrid2DParams& params,
+          double r,
+          double vr,
+          const ExplicitSpaceGrid& space,
+          const PlanarCuboids& cuboids)
 {
-  validate(params);
-  const double r =
-    params.resolution_m > 0.0 ? params.resolution_m : params_.resolution_m;
-  const double vr = params_.resolution_m;
-  const PlanarCuboids cuboids = surface_.getCuboids();
-
   Eigen::Vector2d lo = params.min_xy, hi = params.max_xy;
   if (!params.use_bounds) {
     lo.setConstant(std::numeric_limits<double>::infinity());
     hi = -lo;
     ExplicitSpaceGrid::VoxelKey klo, khi;
-    if (space_.getBounds(klo, khi)) {
+    if (space.getBounds(klo, khi)) {
       lo = lo.cwiseMin(klo.head<2>().cast<double>() * vr);
       hi = hi.cwiseMax((khi.head<2>().cast<double>() + Eigen::Vector2d::Ones()) * vr);
     }
@@ -133,61 +196,33 @@ PlanarGridMap::computeOccupancyGrid2D(const OccupancyGrid2DParams& params) const
                       "resolution_m");
   grid.width = std::max(1, static_cast<int>(cells.x()));
   grid.height = std::max(1, static_cast<int>(cells.y()));
-  const std::size_t n = static_cast<std::size_t>(grid.width) * grid.height;
-  grid.cells.assign(n, OccupancyGrid2D::UNKNOWN);
-  std::vector<float> terrain(n, std::numeric_limits<float>::quiet_NaN());
-  std::vector<std::uint8_t> steep(n, 0), seen_free(n, 0), occupied(n, 0);
+  grid.cells.assign(static_cast<std::size_t>(grid.width) * grid.height,
+                    OccupancyGrid2D::UNKNOWN);
+  return grid;
+}
 
-  const auto cellIndex = [&](int col, int row) {
-    return static_cast<std::size_t>(row) * static_cast<std::size_t>(grid.width)
-           + static_cast<std::size_t>(col);
-  };
-  // Calls f(col, row, x, y) for every cell whose centre lies in the XY bounding box of
-  // cuboid c.
-  const auto forCellsOf = [&](const PlanarCuboid& c, auto&& f) {
-    Eigen::Vector2d blo = Eigen::Vector2d::Constant(std::numeric_limits<double>::max());
-    Eigen::Vector2d bhi = -blo;
-    for (const auto& corner : c.corners()) {
-      blo = blo.cwiseMin(corner.head<2>().cast<double>());
-      bhi = bhi.cwiseMax(corner.head<2>().cast<double>());
-    }
-    const int c0 =
-      std::max(0, static_cast<int>(std::ceil((blo.x() - grid.origin.x()) / r - 0.5)));
-    const int c1 =
-      std::min(grid.width - 1,
-               static_cast<int>(std::floor((bhi.x() - grid.origin.x()) / r - 0.5)));
-    const int r0 =
-      std::max(0, static_cast<int>(std::ceil((blo.y() - grid.origin.y()) / r - 0.5)));
-    const int r1 =
-      std::min(grid.height - 1,
-               static_cast<int>(std::floor((bhi.y() - grid.origin.y()) / r - 0.5)));
-    for (int row = r0; row <= r1; ++row)
-      for (int col = c0; col <= c1; ++col)
-        f(col, row, grid.origin.x() + (col + 0.5) * r,
-          grid.origin.y() + (row + 0.5) * r);
-  };
+/** \brief What the projection knows per cell before the cells get their value. */
+struct CellMarks {
+  /** \brief Height of the terrain under the cell, meters (NaN: none known). */
+  std::vector<float> terrain;
+  std::vector<std::uint8_t> steep, seen_free, occupied;
 
-  // Calls f(cell index) for every cell whose square meets voxel key's footprint.
-  const auto forFootprint = [&](const ExplicitSpaceGrid::VoxelKey& key, auto&& f) {
-    const double x0 = key.x() * vr, y0 = key.y() * vr;
-    const double eps = 1e-6;
-    const int c0 =
-      std::max(0, static_cast<int>(std::floor((x0 - grid.origin.x()) / r + eps)));
-    const int c1 =
-      std::min(grid.width - 1,
-               static_cast<int>(std::ceil((x0 + vr - grid.origin.x()) / r - eps)) - 1);
-    const int r0 =
-      std::max(0, static_cast<int>(std::floor((y0 - grid.origin.y()) / r + eps)));
-    const int r1 =
-      std::min(grid.height - 1,
-               static_cast<int>(std::ceil((y0 + vr - grid.origin.y()) / r - eps)) - 1);
-    for (int row = r0; row <= r1; ++row)
-      for (int col = c0; col <= c1; ++col)
-        f(cellIndex(col, row));
-  };
+  explicit CellMarks(std::size_t n) :
+      terrain(n, std::numeric_limits<float>::quiet_NaN()), steep(n, 0), seen_free(n, 0),
+      occupied(n, 0)
+  {}
+};
 
-  // Terrain: planar cuboids within terrain_max_angle_rad of horizontal that reach
-  // below the band of the fixed reference.
+/** \brief Terrain: planar cuboids within terrain_max_angle_rad of horizontal that
+ * reach below the band of the fixed reference. A walkable one (within max_slope_rad)
+ * marks its cells free and raises their terrain to its top; a steeper one marks them
+ * steep. Returns which cuboids are terrain. */
+std::vector<std::uint8_t>
+markTerrainCuboids(const OccupancyGrid2DParams& params,
+                   const PlanarCuboids& cuboids,
+                   const GridCells& cells,
+                   CellMarks& marks)
+{
   const double cos_terrain = std::cos(params.terrain_max_angle_rad);
   const double cos_slope = std::cos(params.max_slope_rad);
   const double fixed_lo = params.z_ref_m + params.z_min_m;
@@ -199,114 +234,146 @@ PlanarGridMap::computeOccupancyGrid2D(const OccupancyGrid2DParams& params) const
       continue;
     is_terrain[i] = 1;
     const bool walkable = nz >= cos_slope;
-    forCellsOf(c, [&](int col, int row, double x, double y) {
+    cells.forCellsOf(c, [&](int col, int row, double x, double y) {
       double t0, t1;
       if (!columnInterval(c, x, y, t0, t1) || t0 > fixed_lo)
         return;
-      const std::size_t k = cellIndex(col, row);
+      const std::size_t k = cells.index(col, row);
       if (walkable) {
-        seen_free[k] = 1;
-        if (!(terrain[k] >= t1))
-          terrain[k] = static_cast<float>(t1);
+        marks.seen_free[k] = 1;
+        if (!(marks.terrain[k] >= t1))
+          marks.terrain[k] = static_cast<float>(t1);
       } else {
-        steep[k] = 1;
+        marks.steep[k] = 1;
       }
     });
   }
-  if (params.above_terrain) {
-    // The terrain the space layer saw, where no walkable terrain cuboid is.
-    std::vector<float> seen(n, std::numeric_limits<float>::quiet_NaN());
-    // An occupied voxel with free space above it: within a vertical run of occupied
-    // voxels only the run's top one can be.
-    space_.forEachVoxelRun(
-      [&](const ExplicitSpaceGrid::VoxelKey& key, int length, SpaceState state) {
-        if (state != SpaceState::OCCUPIED)
-          return;
-        const int top_z = key.z() + length - 1;
-        if (space_.getState(ExplicitSpaceGrid::VoxelKey(key.x(), key.y(), top_z + 1))
-            != SpaceState::FREE)
-          return;
-        const auto top = static_cast<float>((top_z + 1) * vr);
-        forFootprint(key, [&](std::size_t k) {
-          if (!(seen[k] <= top))
-            seen[k] = top;
-        });
+  return is_terrain;
+}
+
+/** \brief The terrain the space layer saw, where no walkable terrain cuboid is: per
+ * tile of terrain_tile_m, the 20th percentile of the tops of the occupied voxels with
+ * free space above them, for the tile's cells without terrain. */
+void
+fillTerrainFromVoxels(const OccupancyGrid2DParams& params,
+                      const ExplicitSpaceGrid& space,
+                      const GridCells& cells,
+                      std::vector<float>& terrain)
+{
+  const OccupancyGrid2D& grid = cells.grid;
+  std::vector<float> seen(terrain.size(), std::numeric_limits<float>::quiet_NaN());
+  // An occupied voxel with free space above it: within a vertical run of occupied
+  // voxels only the run's top one can be.
+  space.forEachVoxelRun(
+    [&](const ExplicitSpaceGrid::VoxelKey& key, int length, SpaceState state) {
+      if (state != SpaceState::OCCUPIED)
+        return;
+      const int top_z = key.z() + length - 1;
+      if (space.getState(ExplicitSpaceGrid::VoxelKey(key.x(), key.y(), top_z + 1))
+          != SpaceState::FREE)
+        return;
+      const auto top = static_cast<float>((top_z + 1) * cells.vr);
+      cells.forFootprint(key, [&](std::size_t k) {
+        if (!(seen[k] <= top))
+          seen[k] = top;
       });
-    const int tile =
-      std::max(1, static_cast<int>(std::lround(params.terrain_tile_m / r)));
-    std::vector<float> values;
-    for (int row0 = 0; row0 < grid.height; row0 += tile)
-      for (int col0 = 0; col0 < grid.width; col0 += tile) {
-        values.clear();
-        const int row1 = std::min(grid.height, row0 + tile);
-        const int col1 = std::min(grid.width, col0 + tile);
-        for (int row = row0; row < row1; ++row)
-          for (int col = col0; col < col1; ++col)
-            if (std::isfinite(seen[cellIndex(col, row)]))
-              values.push_back(seen[cellIndex(col, row)]);
-        if (values.empty())
-          continue;
-        auto pick = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 5);
-        std::nth_element(values.begin(), pick, values.end());
-        for (int row = row0; row < row1; ++row)
-          for (int col = col0; col < col1; ++col)
-            if (!std::isfinite(terrain[cellIndex(col, row)]))
-              terrain[cellIndex(col, row)] = *pick;
-      }
-  }
+    });
+  const int tile =
+    std::max(1, static_cast<int>(std::lround(params.terrain_tile_m / cells.r)));
+  std::vector<float> values;
+  for (int row0 = 0; row0 < grid.height; row0 += tile)
+    for (int col0 = 0; col0 < grid.width; col0 += tile) {
+      values.clear();
+      const int row1 = std::min(grid.height, row0 + tile);
+      const int col1 = std::min(grid.width, col0 + tile);
+      for (int row = row0; row < row1; ++row)
+        for (int col = col0; col < col1; ++col)
+          if (std::isfinite(seen[cells.index(col, row)]))
+            values.push_back(seen[cells.index(col, row)]);
+      if (values.empty())
+        continue;
+      auto pick = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 5);
+      std::nth_element(values.begin(), pick, values.end());
+      for (int row = row0; row < row1; ++row)
+        for (int col = col0; col < col1; ++col)
+          if (!std::isfinite(terrain[cells.index(col, row)]))
+            terrain[cells.index(col, row)] = *pick;
+    }
+}
+
+} // namespace
+
+OccupancyGrid2D
+PlanarGridMap::computeOccupancyGrid2D(const OccupancyGrid2DParams& params) const
+{
+  validate(params);
+  const double r =
+    params.resolution_m > 0.0 ? params.resolution_m : params_.resolution_m;
+  const double vr = params_.resolution_m;
+  const PlanarCuboids cuboids = surface_.getCuboids();
+  OccupancyGrid2D grid = emptyGrid(params, r, vr, space_, cuboids);
+  const std::size_t n = grid.cells.size();
+  const GridCells cells{grid, r, vr};
+  CellMarks marks(n);
+  const std::vector<std::uint8_t> is_terrain =
+    markTerrainCuboids(params, cuboids, cells, marks);
+  if (params.above_terrain)
+    fillTerrainFromVoxels(params, space_, cells, marks.terrain);
   const auto band = [&](std::size_t k, double& b0, double& b1) {
-    const double ref = params.above_terrain && std::isfinite(terrain[k])
-                         ? static_cast<double>(terrain[k])
+    const double ref = params.above_terrain && std::isfinite(marks.terrain[k])
+                         ? static_cast<double>(marks.terrain[k])
                          : params.z_ref_m;
     b0 = ref + params.z_min_m;
     b1 = ref + params.z_max_m;
   };
 
+  const double fixed_lo = params.z_ref_m + params.z_min_m;
   const auto thres = static_cast<float>(surface_.getParams().occupancy_thres);
   for (std::size_t i = 0; i < cuboids.size(); ++i) {
     const PlanarCuboid& c = cuboids[i];
     if (!(c.probability >= thres))
       continue;
     // A terrain cuboid below the band is floor, not an obstacle.
-    forCellsOf(c, [&](int col, int row, double x, double y) {
+    cells.forCellsOf(c, [&](int col, int row, double x, double y) {
       double t0, t1, b0, b1;
       if (!columnInterval(c, x, y, t0, t1))
         return;
-      const std::size_t k = cellIndex(col, row);
+      const std::size_t k = cells.index(col, row);
       band(k, b0, b1);
       if (is_terrain[i] && t0 <= fixed_lo && t1 < b0)
         return;
       if (t1 >= b0 && t0 <= b1)
-        occupied[k] = 1;
+        marks.occupied[k] = 1;
     });
   }
 
   // Voxels: every cell whose square meets the voxel's footprint, one vertical run of
   // voxels in one state at a time.
-  space_.forEachVoxelRun([&](const ExplicitSpaceGrid::VoxelKey& key, int length,
-                             SpaceState s) {
-    if (s == SpaceState::UNKNOWN)
-      return;
-    std::vector<std::uint8_t>& mark = s == SpaceState::OCCUPIED ? occupied : seen_free;
-    forFootprint(key, [&](std::size_t k) {
-      if (mark[k])
+  space_.forEachVoxelRun(
+    [&](const ExplicitSpaceGrid::VoxelKey& key, int length, SpaceState s) {
+      if (s == SpaceState::UNKNOWN)
         return;
-      double b0, b1;
-      band(k, b0, b1);
-      for (int dz = 0; dz < length; ++dz) {
-        const double z0 = (key.z() + dz) * vr;
-        if (!(z0 + vr < b0 || z0 > b1)) {
-          mark[k] = 1;
+      std::vector<std::uint8_t>& mark =
+        s == SpaceState::OCCUPIED ? marks.occupied : marks.seen_free;
+      cells.forFootprint(key, [&](std::size_t k) {
+        if (mark[k])
           return;
+        double b0, b1;
+        band(k, b0, b1);
+        for (int dz = 0; dz < length; ++dz) {
+          const double z0 = (key.z() + dz) * vr;
+          if (!(z0 + vr < b0 || z0 > b1)) {
+            mark[k] = 1;
+            return;
+          }
         }
-      }
+      });
     });
-  });
 
   for (std::size_t k = 0; k < n; ++k) {
-    if (occupied[k] || steep[k])
+    if (marks.occupied[k] || marks.steep[k])
       grid.cells[k] = OccupancyGrid2D::OCCUPIED;
-    else if (seen_free[k])
+    else if (marks.seen_free[k])
       grid.cells[k] = OccupancyGrid2D::FREE;
   }
   return grid;
