@@ -18,63 +18,62 @@ using namespace surface_layer_detail;
 
 namespace {
 
-/** \brief Rebuilds the cover of one plane: the gap closing, the occupancy per cell
- * (features' mean, else the propagated neighbours' mean, else 0.5), then the cover of
- * Params::merge_rule over cells of one occupancy class, with each rectangle's mean
- * probability and feature count, sorted by first row, then first column. */
-void
-rebuildPlane(MapPlane& plane, const SurfaceLayer::Params& params)
+/** \brief A plane's cells for its cover: the raster's cells and those the gap
+ * closing adds, sorted by key, each with its feature count and occupancy (the
+ * features' mean; NaN for a featureless or filled cell). */
+struct CoverCells {
+  std::vector<std::uint64_t> keys;
+  std::vector<float> value;
+  std::vector<std::uint32_t> count;
+};
+
+/** \brief The cells of \a raster and those closeRasterGaps() fills, with their
+ * evidence. */
+CoverCells
+coverCells(const Raster& raster, int close_gaps_cells)
 {
-  std::vector<RasterRect>().swap(plane.rects);
-  plane.dirty = false;
-  plane.tidy_pending = true;
-  if (plane.raster.empty())
-    return;
   // the raster's cells, sorted, with their evidence
   std::vector<std::uint64_t> observed;
   std::vector<float> sums;
   std::vector<std::uint16_t> counts;
-  plane.raster.forEachCell([&](std::uint64_t key, float sum, std::uint16_t features) {
+  raster.forEachCell([&](std::uint64_t key, float sum, std::uint16_t features) {
     observed.push_back(key);
     sums.push_back(sum);
     counts.push_back(features);
   });
-  const std::vector<std::uint64_t> filled =
-    closeRasterGaps(observed, params.close_gaps_cells);
+  const std::vector<std::uint64_t> filled = closeRasterGaps(observed, close_gaps_cells);
   const std::size_t n = observed.size() + filled.size();
-  std::vector<std::uint64_t> keys;
-  keys.reserve(n);
-  // Occupancy (paper, end of III-F): features' mean; featureless and filled cells take
-  // the mean of their valued 8-neighbours, layer by layer outward; unreachable cells
-  // 0.5.
-  std::vector<float> value;
-  std::vector<std::uint32_t> count;
-  value.reserve(n);
-  count.reserve(n);
+  CoverCells cells;
+  cells.keys.reserve(n);
+  cells.value.reserve(n);
+  cells.count.reserve(n);
   for (std::size_t a = 0, b = 0; a < observed.size() || b < filled.size();) {
     if (b == filled.size() || (a < observed.size() && observed[a] < filled[b])) {
-      keys.push_back(observed[a]);
+      cells.keys.push_back(observed[a]);
       const std::uint32_t features = counts[a];
-      count.push_back(features);
-      value.push_back(features > 0
-                        ? static_cast<float>(static_cast<double>(sums[a]) / features)
-                        : std::numeric_limits<float>::quiet_NaN());
+      cells.count.push_back(features);
+      cells.value.push_back(
+        features > 0 ? static_cast<float>(static_cast<double>(sums[a]) / features)
+                     : std::numeric_limits<float>::quiet_NaN());
       ++a;
     } else {
-      keys.push_back(filled[b++]);
-      count.push_back(0);
-      value.push_back(std::numeric_limits<float>::quiet_NaN());
+      cells.keys.push_back(filled[b++]);
+      cells.count.push_back(0);
+      cells.value.push_back(std::numeric_limits<float>::quiet_NaN());
     }
   }
-  std::size_t valued_cells = 0;
-  for (std::size_t k = 0; k < n; ++k)
-    valued_cells += count[k] > 0 ? 1 : 0;
-  // neighbours only matter when valued and featureless cells coexist
-  const bool propagate = valued_cells > 0 && valued_cells < n;
-  // The 8 neighbours (row below, same row, row above; by column), -1 when absent,
-  // by one sweep over the rows with a pointer into the row below and the row above.
-  std::vector<std::array<std::ptrdiff_t, 8>> neighbours(propagate ? n : 0);
-  for (std::size_t start = 0; propagate && start < n;) {
+  return cells;
+}
+
+/** \brief The 8 neighbours of each of the sorted cells \a keys (row below, same row,
+ * row above; by column), -1 when absent, by one sweep over the rows with a pointer
+ * into the row below and the row above. */
+std::vector<std::array<std::ptrdiff_t, 8>>
+cellNeighbours(const std::vector<std::uint64_t>& keys)
+{
+  const std::size_t n = keys.size();
+  std::vector<std::array<std::ptrdiff_t, 8>> neighbours(n);
+  for (std::size_t start = 0; start < n;) {
     const std::int64_t j = rasterCellJ(keys[start]);
     std::size_t end = start;
     while (end < n && rasterCellJ(keys[end]) == j)
@@ -118,64 +117,80 @@ rebuildPlane(MapPlane& plane, const SurfaceLayer::Params& params)
     }
     start = end;
   }
-  std::vector<std::size_t> layer, next;
-  for (std::size_t k = 0; propagate && k < n; ++k)
-    if (std::isnan(value[k]))
-      for (const auto nb : neighbours[k])
-        if (nb >= 0 && !std::isnan(value[static_cast<std::size_t>(nb)])) {
-          layer.push_back(k);
-          break;
-        }
-  std::vector<float> layer_values;
-  std::vector<std::uint8_t> queued(propagate ? n : 0, 0);
-  for (const auto k : layer)
-    queued[k] = 1;
-  while (!layer.empty()) {
-    layer_values.assign(layer.size(), 0.0f);
-    for (std::size_t l = 0; l < layer.size(); ++l) {
-      double sum = 0.0;
-      int valued = 0;
-      for (const auto nb : neighbours[layer[l]])
-        if (nb >= 0 && !std::isnan(value[static_cast<std::size_t>(nb)])) {
-          sum += value[static_cast<std::size_t>(nb)];
-          ++valued;
-        }
-      layer_values[l] = static_cast<float>(sum / valued);
-    }
-    for (std::size_t l = 0; l < layer.size(); ++l)
-      value[layer[l]] = layer_values[l];
-    next.clear();
+  return neighbours;
+}
+
+/** \brief Occupancy of the cells without a value (paper, end of III-F): featureless
+ * and filled cells take the mean of their valued 8-neighbours, layer by layer
+ * outward; unreachable cells 0.5. \a keys: the sorted cells, \a count: their
+ * feature counts. */
+void
+propagateOccupancy(const std::vector<std::uint64_t>& keys,
+                   const std::vector<std::uint32_t>& count,
+                   std::vector<float>& value)
+{
+  const std::size_t n = keys.size();
+  std::size_t valued_cells = 0;
+  for (std::size_t k = 0; k < n; ++k)
+    valued_cells += count[k] > 0 ? 1 : 0;
+  // neighbours only matter when valued and featureless cells coexist
+  if (valued_cells > 0 && valued_cells < n) {
+    const std::vector<std::array<std::ptrdiff_t, 8>> neighbours = cellNeighbours(keys);
+    std::vector<std::size_t> layer, next;
+    for (std::size_t k = 0; k < n; ++k)
+      if (std::isnan(value[k]))
+        for (const auto nb : neighbours[k])
+          if (nb >= 0 && !std::isnan(value[static_cast<std::size_t>(nb)])) {
+            layer.push_back(k);
+            break;
+          }
+    std::vector<float> layer_values;
+    std::vector<std::uint8_t> queued(n, 0);
     for (const auto k : layer)
-      for (const auto nb : neighbours[k])
-        if (nb >= 0 && std::isnan(value[static_cast<std::size_t>(nb)])
-            && queued[static_cast<std::size_t>(nb)] == 0) {
-          queued[static_cast<std::size_t>(nb)] = 1;
-          next.push_back(static_cast<std::size_t>(nb));
-        }
-    std::swap(layer, next);
+      queued[k] = 1;
+    while (!layer.empty()) {
+      layer_values.assign(layer.size(), 0.0f);
+      for (std::size_t l = 0; l < layer.size(); ++l) {
+        double sum = 0.0;
+        int valued = 0;
+        for (const auto nb : neighbours[layer[l]])
+          if (nb >= 0 && !std::isnan(value[static_cast<std::size_t>(nb)])) {
+            sum += value[static_cast<std::size_t>(nb)];
+            ++valued;
+          }
+        layer_values[l] = static_cast<float>(sum / valued);
+      }
+      for (std::size_t l = 0; l < layer.size(); ++l)
+        value[layer[l]] = layer_values[l];
+      next.clear();
+      for (const auto k : layer)
+        for (const auto nb : neighbours[k])
+          if (nb >= 0 && std::isnan(value[static_cast<std::size_t>(nb)])
+              && queued[static_cast<std::size_t>(nb)] == 0) {
+            queued[static_cast<std::size_t>(nb)] = 1;
+            next.push_back(static_cast<std::size_t>(nb));
+          }
+      std::swap(layer, next);
+    }
   }
   for (auto& v : value)
     if (std::isnan(v))
       v = 0.5f;
+}
 
-  std::vector<std::uint8_t> cls(n);
-  for (std::size_t k = 0; k < n; ++k)
-    cls[k] = value[k] >= params.occupancy_thres ? 1 : 0;
-  // With terrain tiles, the level planes (road, pavement, floor) take their own
-  // density: their rasters hold many unobserved cells that a loose cover would span.
-  const bool level_tile =
-    params.terrain_plane_tile_m > 0.0 && isLevel(plane.normal.z());
-  std::vector<RasterRectangle> cover = mergeRasterRectangles(
-    keys, cls, params.merge_rule,
-    level_tile ? params.terrain_cover_density : params.cover_density);
-  std::sort(cover.begin(), cover.end(),
-            [](const RasterRectangle& a, const RasterRectangle& b) {
-              return a.j0 != b.j0 ? a.j0 < b.j0 : a.i0 < b.i0;
-            });
+/** \brief The plane's rectangles from the cover: each rectangle's mean probability
+ * and feature count over the cells it holds. */
+void
+coverRectangles(const std::vector<RasterRectangle>& cover,
+                const CoverCells& cells,
+                MapPlane& plane)
+{
+  const std::vector<std::uint64_t>& keys = cells.keys;
+  const std::size_t n = keys.size();
   plane.rects.reserve(cover.size());
   for (const RasterRectangle& rect : cover) {
     double sum = 0.0;
-    std::uint64_t features = 0, cells = 0;
+    std::uint64_t features = 0, held = 0;
     for (std::int64_t j = rect.j0; j < rect.j1; ++j) {
       auto k = static_cast<std::size_t>(
         std::lower_bound(keys.begin(), keys.end(),
@@ -184,17 +199,49 @@ rebuildPlane(MapPlane& plane, const SurfaceLayer::Params& params)
       // the DENSITY cover may hold unobserved cells: only the raster's count
       for (; k < n && rasterCellJ(keys[k]) == j && rasterCellI(keys[k]) < rect.i1;
            ++k) {
-        sum += value[k];
-        features += count[k];
-        ++cells;
+        sum += cells.value[k];
+        features += cells.count[k];
+        ++held;
       }
     }
     plane.rects.push_back(
       RasterRect{rect.i0, rect.i1, rect.j0, rect.j1,
-                 static_cast<float>(cells > 0 ? sum / static_cast<double>(cells) : 0.5),
+                 static_cast<float>(held > 0 ? sum / static_cast<double>(held) : 0.5),
                  static_cast<std::uint32_t>(std::min<std::uint64_t>(
                    features, std::numeric_limits<std::uint32_t>::max()))});
   }
+}
+
+/** \brief Rebuilds the cover of one plane: the gap closing, the occupancy per cell
+ * (features' mean, else the propagated neighbours' mean, else 0.5), then the cover of
+ * Params::merge_rule over cells of one occupancy class, with each rectangle's mean
+ * probability and feature count, sorted by first row, then first column. */
+void
+rebuildPlane(MapPlane& plane, const SurfaceLayer::Params& params)
+{
+  std::vector<RasterRect>().swap(plane.rects);
+  plane.dirty = false;
+  plane.tidy_pending = true;
+  if (plane.raster.empty())
+    return;
+  CoverCells cells = coverCells(plane.raster, params.close_gaps_cells);
+  propagateOccupancy(cells.keys, cells.count, cells.value);
+  const std::size_t n = cells.keys.size();
+  std::vector<std::uint8_t> cls(n);
+  for (std::size_t k = 0; k < n; ++k)
+    cls[k] = cells.value[k] >= params.occupancy_thres ? 1 : 0;
+  // With terrain tiles, the level planes (road, pavement, floor) take their own
+  // density: their rasters hold many unobserved cells that a loose cover would span.
+  const bool level_tile =
+    params.terrain_plane_tile_m > 0.0 && isLevel(plane.normal.z());
+  std::vector<RasterRectangle> cover = mergeRasterRectangles(
+    cells.keys, cls, params.merge_rule,
+    level_tile ? params.terrain_cover_density : params.cover_density);
+  std::sort(cover.begin(), cover.end(),
+            [](const RasterRectangle& a, const RasterRectangle& b) {
+              return a.j0 != b.j0 ? a.j0 < b.j0 : a.i0 < b.i0;
+            });
+  coverRectangles(cover, cells, plane);
 }
 
 } // namespace
