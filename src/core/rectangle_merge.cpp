@@ -107,6 +107,303 @@ paperCover(const std::vector<std::uint64_t>& keys, const std::vector<std::uint8_
   return rects;
 }
 
+constexpr std::uint32_t NONE = std::numeric_limits<std::uint32_t>::max();
+
+/** \brief One component's cells in their box of w x h cells, and the cuts between
+ * them: cut_right[c] separates cell c = (x, y) from (x + 1, y); cut_up[c] from
+ * (x, y + 1). */
+struct PartitionGrid {
+  std::int64_t w, h;
+  std::size_t W, H;
+  std::vector<std::uint8_t> inside, cut_right, cut_up;
+
+  PartitionGrid(const std::vector<std::uint64_t>& keys,
+                std::int64_t i_lo,
+                std::int64_t j_lo,
+                std::int64_t w_cells,
+                std::int64_t h_cells) :
+      w(w_cells),
+      h(h_cells), W(static_cast<std::size_t>(w_cells)),
+      H(static_cast<std::size_t>(h_cells)), inside(W * H, 0), cut_right(W * H, 0),
+      cut_up(W * H, 0)
+  {
+    for (const auto key : keys)
+      inside[static_cast<std::size_t>(rasterCellJ(key) - j_lo) * W
+             + static_cast<std::size_t>(rasterCellI(key) - i_lo)] = 1;
+  }
+
+  bool in(std::int64_t x, std::int64_t y) const
+  {
+    return x >= 0 && y >= 0 && x < w && y < h
+           && inside[static_cast<std::size_t>(y) * W + static_cast<std::size_t>(x)]
+                != 0;
+  }
+
+  std::size_t cell(std::int64_t x, std::int64_t y) const
+  {
+    return static_cast<std::size_t>(y) * W + static_cast<std::size_t>(x);
+  }
+
+  /** \brief Of the cells sharing grid point (x, y), x in [0, w], y in [0, h] (the
+   * cells (x - 1, y - 1), (x, y - 1), (x - 1, y), (x, y)), how many are inside. */
+  int countIn(std::int64_t x, std::int64_t y) const
+  {
+    return (in(x - 1, y - 1) ? 1 : 0) + (in(x, y - 1) ? 1 : 0) + (in(x - 1, y) ? 1 : 0)
+           + (in(x, y) ? 1 : 0);
+  }
+
+  /** \brief Whether a vertical cut meets grid point (x, y). */
+  bool verticalCutAt(std::int64_t x, std::int64_t y) const
+  {
+    return (in(x - 1, y) && in(x, y) && cut_right[cell(x - 1, y)] != 0)
+           || (in(x - 1, y - 1) && in(x, y - 1) && cut_right[cell(x - 1, y - 1)] != 0);
+  }
+
+  /** \brief Whether any cut meets grid point (x, y). */
+  bool touchesCut(std::int64_t x, std::int64_t y) const
+  {
+    return verticalCutAt(x, y)
+           || (in(x - 1, y - 1) && in(x - 1, y) && cut_up[cell(x - 1, y - 1)] != 0)
+           || (in(x, y - 1) && in(x, y) && cut_up[cell(x, y - 1)] != 0);
+  }
+};
+
+/** \brief A reflex (concave) corner: a grid point with 3 of its 4 cells inside. */
+struct Reflex {
+  std::int64_t x, y;
+  int dx, dy; // directions of its horizontal and vertical extensions
+};
+
+/** \brief A chord: a grid-line segment through the interior joining two reflex
+ * corners that face each other. */
+struct Chord {
+  std::int64_t fixed, lo, hi; // y (x) of the line, x (y) range of the points
+  std::int32_t a, b;          // its reflex corners
+};
+
+/** \brief The reflex corners of the component. */
+std::vector<Reflex>
+reflexCorners(const PartitionGrid& g)
+{
+  std::vector<Reflex> reflex;
+  for (std::int64_t y = 0; y <= g.h; ++y)
+    for (std::int64_t x = 0; x <= g.w; ++x)
+      if (g.countIn(x, y) == 3) {
+        const bool west_out = !g.in(x - 1, y - 1) || !g.in(x - 1, y);
+        const bool south_out = !g.in(x - 1, y - 1) || !g.in(x, y - 1);
+        reflex.push_back(Reflex{x, y, west_out ? 1 : -1, south_out ? 1 : -1});
+      }
+  return reflex;
+}
+
+/** \brief The horizontal and vertical chords: from each reflex corner extending +x
+ * (+y), a walk through interior points to the first boundary point; a chord when
+ * that is a reflex corner extending the other way. */
+void
+findChords(const PartitionGrid& g,
+           const std::vector<Reflex>& reflex,
+           std::vector<Chord>& horizontal,
+           std::vector<Chord>& vertical)
+{
+  // a point's reflex index, -1 otherwise
+  std::vector<std::int32_t> reflex_at((g.W + 1) * (g.H + 1), -1);
+  for (std::size_t k = 0; k < reflex.size(); ++k)
+    reflex_at[static_cast<std::size_t>(reflex[k].y) * (g.W + 1)
+              + static_cast<std::size_t>(reflex[k].x)] = static_cast<std::int32_t>(k);
+  const auto reflexAt = [&](std::int64_t x, std::int64_t y) {
+    return reflex_at[static_cast<std::size_t>(y) * (g.W + 1)
+                     + static_cast<std::size_t>(x)];
+  };
+  for (std::size_t k = 0; k < reflex.size(); ++k) {
+    const Reflex& p = reflex[k];
+    if (p.dx == 1) {
+      std::int64_t x = p.x + 1;
+      while (x <= g.w && g.in(x - 1, p.y - 1) && g.in(x - 1, p.y)
+             && g.countIn(x, p.y) == 4)
+        ++x;
+      if (x <= g.w && g.in(x - 1, p.y - 1) && g.in(x - 1, p.y) && reflexAt(x, p.y) >= 0
+          && reflex[static_cast<std::size_t>(reflexAt(x, p.y))].dx == -1)
+        horizontal.push_back(
+          Chord{p.y, p.x, x, static_cast<std::int32_t>(k), reflexAt(x, p.y)});
+    }
+    if (p.dy == 1) {
+      std::int64_t y = p.y + 1;
+      while (y <= g.h && g.in(p.x - 1, y - 1) && g.in(p.x, y - 1)
+             && g.countIn(p.x, y) == 4)
+        ++y;
+      if (y <= g.h && g.in(p.x - 1, y - 1) && g.in(p.x, y - 1) && reflexAt(p.x, y) >= 0
+          && reflex[static_cast<std::size_t>(reflexAt(p.x, y))].dy == -1)
+        vertical.push_back(
+          Chord{p.x, p.y, y, static_cast<std::int32_t>(k), reflexAt(p.x, y)});
+    }
+  }
+}
+
+/** \brief A largest set of pairwise non-intersecting chords: the bipartite
+ * intersection graph (touching counts: a shared corner can take only one chord), a
+ * maximum matching (augmenting paths, iterative), and Koenig's theorem: Z = the
+ * vertices reachable from unmatched horizontal chords by alternating paths; the set
+ * is (horizontal in Z) + (vertical not in Z). Sets \a take_h and \a take_v. */
+void
+independentChords(const std::vector<Chord>& horizontal,
+                  const std::vector<Chord>& vertical,
+                  std::vector<std::uint8_t>& take_h,
+                  std::vector<std::uint8_t>& take_v)
+{
+  std::vector<std::vector<std::uint32_t>> adjacent(horizontal.size());
+  for (std::size_t a = 0; a < horizontal.size(); ++a)
+    for (std::size_t b = 0; b < vertical.size(); ++b)
+      if (vertical[b].fixed >= horizontal[a].lo && vertical[b].fixed <= horizontal[a].hi
+          && horizontal[a].fixed >= vertical[b].lo
+          && horizontal[a].fixed <= vertical[b].hi)
+        adjacent[a].push_back(static_cast<std::uint32_t>(b));
+  std::vector<std::uint32_t> match_h(horizontal.size(), NONE),
+    match_v(vertical.size(), NONE);
+  std::vector<std::uint32_t> seen(vertical.size(), NONE);
+  std::vector<std::pair<std::uint32_t, std::size_t>> stack; // (h, next edge)
+  for (std::size_t root = 0; root < horizontal.size(); ++root) {
+    stack.assign(1, {static_cast<std::uint32_t>(root), 0});
+    bool found = false;
+    while (!stack.empty() && !found) {
+      auto& [a, next] = stack.back();
+      if (next == adjacent[a].size()) {
+        stack.pop_back();
+        continue;
+      }
+      const std::uint32_t b = adjacent[a][next++];
+      if (seen[b] == static_cast<std::uint32_t>(root))
+        continue;
+      seen[b] = static_cast<std::uint32_t>(root);
+      if (match_v[b] == NONE) {
+        // augment along the stack: each h on it takes the v it went through
+        std::uint32_t v = b;
+        for (auto it = stack.rbegin(); it != stack.rend(); ++it) {
+          const std::uint32_t u = it->first;
+          const std::uint32_t previous = match_h[u];
+          match_h[u] = v;
+          match_v[v] = u;
+          v = previous;
+        }
+        found = true;
+      } else {
+        stack.push_back({match_v[b], 0});
+      }
+    }
+  }
+  std::vector<std::uint8_t> z_h(horizontal.size(), 0), z_v(vertical.size(), 0);
+  std::vector<std::uint32_t> queue;
+  for (std::size_t a = 0; a < horizontal.size(); ++a)
+    if (match_h[a] == NONE) {
+      z_h[a] = 1;
+      queue.push_back(static_cast<std::uint32_t>(a));
+    }
+  for (std::size_t q = 0; q < queue.size(); ++q)
+    for (const auto b : adjacent[queue[q]])
+      if (z_v[b] == 0) {
+        z_v[b] = 1;
+        const std::uint32_t a = match_v[b];
+        if (a != NONE && z_h[a] == 0) {
+          z_h[a] = 1;
+          queue.push_back(a);
+        }
+      }
+  take_h = z_h;
+  take_v.assign(vertical.size(), 0);
+  for (std::size_t b = 0; b < vertical.size(); ++b)
+    take_v[b] = z_v[b] == 0 ? 1 : 0;
+}
+
+/** \brief Cuts the chords taken, then every reflex corner not yet resolved
+ * horizontally to the boundary or the first cut (a cut touching a reflex corner lies
+ * on one of its extensions: it is resolved). */
+void
+cutCorners(const std::vector<Reflex>& reflex,
+           const std::vector<Chord>& horizontal,
+           const std::vector<Chord>& vertical,
+           const std::vector<std::uint8_t>& take_h,
+           const std::vector<std::uint8_t>& take_v,
+           PartitionGrid& g)
+{
+  std::vector<std::uint8_t> resolved(reflex.size(), 0);
+  for (std::size_t a = 0; a < horizontal.size(); ++a)
+    if (take_h[a] != 0) {
+      const Chord& c = horizontal[a];
+      for (std::int64_t x = c.lo; x < c.hi; ++x)
+        g.cut_up[g.cell(x, c.fixed - 1)] = 1;
+      resolved[static_cast<std::size_t>(c.a)] =
+        resolved[static_cast<std::size_t>(c.b)] = 1;
+    }
+  for (std::size_t b = 0; b < vertical.size(); ++b)
+    if (take_v[b] != 0) {
+      const Chord& c = vertical[b];
+      for (std::int64_t y = c.lo; y < c.hi; ++y)
+        g.cut_right[g.cell(c.fixed - 1, y)] = 1;
+      resolved[static_cast<std::size_t>(c.a)] =
+        resolved[static_cast<std::size_t>(c.b)] = 1;
+    }
+  for (std::size_t k = 0; k < reflex.size(); ++k) {
+    if (resolved[k] != 0 || g.touchesCut(reflex[k].x, reflex[k].y))
+      continue;
+    const Reflex& p = reflex[k];
+    for (std::int64_t x = p.x;;) {
+      const std::int64_t column = p.dx == 1 ? x : x - 1;
+      if (!g.in(column, p.y - 1) || !g.in(column, p.y)
+          || g.cut_up[g.cell(column, p.y - 1)] != 0)
+        break;
+      g.cut_up[g.cell(column, p.y - 1)] = 1;
+      x += p.dx;
+      if (g.countIn(x, p.y) != 4 || g.verticalCutAt(x, p.y))
+        break;
+    }
+  }
+}
+
+/** \brief The regions between the cuts, as rectangles offset by (i_lo, j_lo); empty
+ * when a region is not a rectangle. */
+std::vector<RasterRectangle>
+regionsBetweenCuts(const PartitionGrid& g, std::int64_t i_lo, std::int64_t j_lo)
+{
+  std::vector<std::uint32_t> region(g.W * g.H, NONE);
+  std::vector<RasterRectangle> rects;
+  std::vector<std::size_t> queue;
+  for (std::int64_t y0 = 0; y0 < g.h; ++y0)
+    for (std::int64_t x0 = 0; x0 < g.w; ++x0) {
+      if (!g.in(x0, y0) || region[g.cell(x0, y0)] != NONE)
+        continue;
+      const auto id = static_cast<std::uint32_t>(rects.size());
+      std::int64_t x_min = x0, x_max = x0, y_min = y0, y_max = y0;
+      std::size_t cells = 0;
+      queue.assign(1, g.cell(x0, y0));
+      region[g.cell(x0, y0)] = id;
+      for (std::size_t q = 0; q < queue.size(); ++q) {
+        const auto x = static_cast<std::int64_t>(queue[q] % g.W);
+        const auto y = static_cast<std::int64_t>(queue[q] / g.W);
+        ++cells;
+        x_min = std::min(x_min, x);
+        x_max = std::max(x_max, x);
+        y_min = std::min(y_min, y);
+        y_max = std::max(y_max, y);
+        const auto visit = [&](std::int64_t nx, std::int64_t ny, bool blocked) {
+          if (!blocked && g.in(nx, ny) && region[g.cell(nx, ny)] == NONE) {
+            region[g.cell(nx, ny)] = id;
+            queue.push_back(g.cell(nx, ny));
+          }
+        };
+        visit(x + 1, y, x + 1 < g.w && g.cut_right[g.cell(x, y)] != 0);
+        visit(x - 1, y, x > 0 && g.cut_right[g.cell(x - 1, y)] != 0);
+        visit(x, y + 1, y + 1 < g.h && g.cut_up[g.cell(x, y)] != 0);
+        visit(x, y - 1, y > 0 && g.cut_up[g.cell(x, y - 1)] != 0);
+      }
+      if (static_cast<std::int64_t>(cells) != (x_max - x_min + 1) * (y_max - y_min + 1))
+        return {};
+      rects.push_back(RasterRectangle{static_cast<std::int32_t>(i_lo + x_min),
+                                      static_cast<std::int32_t>(i_lo + x_max + 1),
+                                      static_cast<std::int32_t>(j_lo + y_min),
+                                      static_cast<std::int32_t>(j_lo + y_max + 1)});
+    }
+  return rects;
+}
+
 /** \brief A minimum partition into rectangles of one 4-connected component \a keys
  * (inside the box of w x h cells at (i_lo, j_lo)), by the classical construction for
  * rectilinear polygons with holes (Lipski et al. 1979; Ohtsuki 1982; Ferrari et al.
@@ -126,227 +423,14 @@ minimumPartition(const std::vector<std::uint64_t>& keys,
                  std::int64_t w,
                  std::int64_t h)
 {
-  const auto W = static_cast<std::size_t>(w);
-  const auto H = static_cast<std::size_t>(h);
-  std::vector<std::uint8_t> inside(W * H, 0);
-  for (const auto key : keys)
-    inside[static_cast<std::size_t>(rasterCellJ(key) - j_lo) * W
-           + static_cast<std::size_t>(rasterCellI(key) - i_lo)] = 1;
-  const auto in = [&](std::int64_t x, std::int64_t y) {
-    return x >= 0 && y >= 0 && x < w && y < h
-           && inside[static_cast<std::size_t>(y) * W + static_cast<std::size_t>(x)]
-                != 0;
-  };
-  // Cuts: cut_right[c] separates cell c = (x, y) from (x + 1, y); cut_up[c] from
-  // (x, y + 1).
-  std::vector<std::uint8_t> cut_right(W * H, 0), cut_up(W * H, 0);
-  const auto cell = [W](std::int64_t x, std::int64_t y) {
-    return static_cast<std::size_t>(y) * W + static_cast<std::size_t>(x);
-  };
-  // Grid point (x, y), x in [0, w], y in [0, h], is the corner shared by the cells
-  // (x - 1, y - 1), (x, y - 1), (x - 1, y), (x, y).
-  const auto count_in = [&](std::int64_t x, std::int64_t y) {
-    return (in(x - 1, y - 1) ? 1 : 0) + (in(x, y - 1) ? 1 : 0) + (in(x - 1, y) ? 1 : 0)
-           + (in(x, y) ? 1 : 0);
-  };
-  struct Reflex {
-    std::int64_t x, y;
-    int dx, dy; // directions of its horizontal and vertical extensions
-  };
-  std::vector<Reflex> reflex;
-  for (std::int64_t y = 0; y <= h; ++y)
-    for (std::int64_t x = 0; x <= w; ++x)
-      if (count_in(x, y) == 3) {
-        const bool west_out = !in(x - 1, y - 1) || !in(x - 1, y);
-        const bool south_out = !in(x - 1, y - 1) || !in(x, y - 1);
-        reflex.push_back(Reflex{x, y, west_out ? 1 : -1, south_out ? 1 : -1});
-      }
-  // a point's reflex index, -1 otherwise
-  std::vector<std::int32_t> reflex_at((W + 1) * (H + 1), -1);
-  for (std::size_t k = 0; k < reflex.size(); ++k)
-    reflex_at[static_cast<std::size_t>(reflex[k].y) * (W + 1)
-              + static_cast<std::size_t>(reflex[k].x)] = static_cast<std::int32_t>(k);
-  const auto reflexAt = [&](std::int64_t x, std::int64_t y) {
-    return reflex_at[static_cast<std::size_t>(y) * (W + 1)
-                     + static_cast<std::size_t>(x)];
-  };
-  // Chords: from each reflex corner extending +x (+y), walk through interior points
-  // to the first boundary point; a chord when that is a reflex corner.
-  struct Chord {
-    std::int64_t fixed, lo, hi; // y (x) of the line, x (y) range of the points
-    std::int32_t a, b;          // its reflex corners
-  };
+  PartitionGrid grid(keys, i_lo, j_lo, w, h);
+  const std::vector<Reflex> reflex = reflexCorners(grid);
   std::vector<Chord> horizontal, vertical;
-  for (std::size_t k = 0; k < reflex.size(); ++k) {
-    const Reflex& p = reflex[k];
-    if (p.dx == 1) {
-      std::int64_t x = p.x + 1;
-      while (x <= w && in(x - 1, p.y - 1) && in(x - 1, p.y) && count_in(x, p.y) == 4)
-        ++x;
-      if (x <= w && in(x - 1, p.y - 1) && in(x - 1, p.y) && reflexAt(x, p.y) >= 0
-          && reflex[static_cast<std::size_t>(reflexAt(x, p.y))].dx == -1)
-        horizontal.push_back(
-          Chord{p.y, p.x, x, static_cast<std::int32_t>(k), reflexAt(x, p.y)});
-    }
-    if (p.dy == 1) {
-      std::int64_t y = p.y + 1;
-      while (y <= h && in(p.x - 1, y - 1) && in(p.x, y - 1) && count_in(p.x, y) == 4)
-        ++y;
-      if (y <= h && in(p.x - 1, y - 1) && in(p.x, y - 1) && reflexAt(p.x, y) >= 0
-          && reflex[static_cast<std::size_t>(reflexAt(p.x, y))].dy == -1)
-        vertical.push_back(
-          Chord{p.x, p.y, y, static_cast<std::int32_t>(k), reflexAt(p.x, y)});
-    }
-  }
-  // Bipartite intersection graph (touching counts: a shared corner can take only
-  // one chord) and a maximum matching (augmenting paths, iterative).
-  std::vector<std::vector<std::uint32_t>> adjacent(horizontal.size());
-  for (std::size_t a = 0; a < horizontal.size(); ++a)
-    for (std::size_t b = 0; b < vertical.size(); ++b)
-      if (vertical[b].fixed >= horizontal[a].lo && vertical[b].fixed <= horizontal[a].hi
-          && horizontal[a].fixed >= vertical[b].lo
-          && horizontal[a].fixed <= vertical[b].hi)
-        adjacent[a].push_back(static_cast<std::uint32_t>(b));
-  constexpr std::uint32_t NONE = std::numeric_limits<std::uint32_t>::max();
-  std::vector<std::uint32_t> match_h(horizontal.size(), NONE),
-    match_v(vertical.size(), NONE);
-  {
-    std::vector<std::uint32_t> seen(vertical.size(), NONE);
-    std::vector<std::pair<std::uint32_t, std::size_t>> stack; // (h, next edge)
-    for (std::size_t root = 0; root < horizontal.size(); ++root) {
-      stack.assign(1, {static_cast<std::uint32_t>(root), 0});
-      bool found = false;
-      while (!stack.empty() && !found) {
-        auto& [a, next] = stack.back();
-        if (next == adjacent[a].size()) {
-          stack.pop_back();
-          continue;
-        }
-        const std::uint32_t b = adjacent[a][next++];
-        if (seen[b] == static_cast<std::uint32_t>(root))
-          continue;
-        seen[b] = static_cast<std::uint32_t>(root);
-        if (match_v[b] == NONE) {
-          // augment along the stack: each h on it takes the v it went through
-          std::uint32_t v = b;
-          for (auto it = stack.rbegin(); it != stack.rend(); ++it) {
-            const std::uint32_t u = it->first;
-            const std::uint32_t previous = match_h[u];
-            match_h[u] = v;
-            match_v[v] = u;
-            v = previous;
-          }
-          found = true;
-        } else {
-          stack.push_back({match_v[b], 0});
-        }
-      }
-    }
-  }
-  // Koenig: Z = vertices reachable from unmatched horizontal chords by alternating
-  // paths; the largest independent set is (horizontal in Z) + (vertical not in Z).
-  std::vector<std::uint8_t> z_h(horizontal.size(), 0), z_v(vertical.size(), 0);
-  {
-    std::vector<std::uint32_t> queue;
-    for (std::size_t a = 0; a < horizontal.size(); ++a)
-      if (match_h[a] == NONE) {
-        z_h[a] = 1;
-        queue.push_back(static_cast<std::uint32_t>(a));
-      }
-    for (std::size_t q = 0; q < queue.size(); ++q)
-      for (const auto b : adjacent[queue[q]])
-        if (z_v[b] == 0) {
-          z_v[b] = 1;
-          const std::uint32_t a = match_v[b];
-          if (a != NONE && z_h[a] == 0) {
-            z_h[a] = 1;
-            queue.push_back(a);
-          }
-        }
-  }
-  std::vector<std::uint8_t> resolved(reflex.size(), 0);
-  for (std::size_t a = 0; a < horizontal.size(); ++a)
-    if (z_h[a] != 0) {
-      const Chord& c = horizontal[a];
-      for (std::int64_t x = c.lo; x < c.hi; ++x)
-        cut_up[cell(x, c.fixed - 1)] = 1;
-      resolved[static_cast<std::size_t>(c.a)] =
-        resolved[static_cast<std::size_t>(c.b)] = 1;
-    }
-  for (std::size_t b = 0; b < vertical.size(); ++b)
-    if (z_v[b] == 0) {
-      const Chord& c = vertical[b];
-      for (std::int64_t y = c.lo; y < c.hi; ++y)
-        cut_right[cell(c.fixed - 1, y)] = 1;
-      resolved[static_cast<std::size_t>(c.a)] =
-        resolved[static_cast<std::size_t>(c.b)] = 1;
-    }
-  // Every other reflex corner: a horizontal cut to the boundary or the first cut.
-  // (A cut touching a reflex corner lies on one of its extensions: it is resolved.)
-  const auto verticalCutAt = [&](std::int64_t x, std::int64_t y) {
-    return (in(x - 1, y) && in(x, y) && cut_right[cell(x - 1, y)] != 0)
-           || (in(x - 1, y - 1) && in(x, y - 1) && cut_right[cell(x - 1, y - 1)] != 0);
-  };
-  const auto touchesCut = [&](std::int64_t x, std::int64_t y) {
-    return verticalCutAt(x, y)
-           || (in(x - 1, y - 1) && in(x - 1, y) && cut_up[cell(x - 1, y - 1)] != 0)
-           || (in(x, y - 1) && in(x, y) && cut_up[cell(x, y - 1)] != 0);
-  };
-  for (std::size_t k = 0; k < reflex.size(); ++k) {
-    if (resolved[k] != 0 || touchesCut(reflex[k].x, reflex[k].y))
-      continue;
-    const Reflex& p = reflex[k];
-    for (std::int64_t x = p.x;;) {
-      const std::int64_t column = p.dx == 1 ? x : x - 1;
-      if (!in(column, p.y - 1) || !in(column, p.y)
-          || cut_up[cell(column, p.y - 1)] != 0)
-        break;
-      cut_up[cell(column, p.y - 1)] = 1;
-      x += p.dx;
-      if (count_in(x, p.y) != 4 || verticalCutAt(x, p.y))
-        break;
-    }
-  }
-  // The regions between cuts; each must be a rectangle.
-  std::vector<std::uint32_t> region(W * H, NONE);
-  std::vector<RasterRectangle> rects;
-  std::vector<std::size_t> queue;
-  for (std::int64_t y0 = 0; y0 < h; ++y0)
-    for (std::int64_t x0 = 0; x0 < w; ++x0) {
-      if (!in(x0, y0) || region[cell(x0, y0)] != NONE)
-        continue;
-      const auto id = static_cast<std::uint32_t>(rects.size());
-      std::int64_t x_min = x0, x_max = x0, y_min = y0, y_max = y0;
-      std::size_t cells = 0;
-      queue.assign(1, cell(x0, y0));
-      region[cell(x0, y0)] = id;
-      for (std::size_t q = 0; q < queue.size(); ++q) {
-        const auto x = static_cast<std::int64_t>(queue[q] % W);
-        const auto y = static_cast<std::int64_t>(queue[q] / W);
-        ++cells;
-        x_min = std::min(x_min, x);
-        x_max = std::max(x_max, x);
-        y_min = std::min(y_min, y);
-        y_max = std::max(y_max, y);
-        const auto visit = [&](std::int64_t nx, std::int64_t ny, bool blocked) {
-          if (!blocked && in(nx, ny) && region[cell(nx, ny)] == NONE) {
-            region[cell(nx, ny)] = id;
-            queue.push_back(cell(nx, ny));
-          }
-        };
-        visit(x + 1, y, x + 1 < w && cut_right[cell(x, y)] != 0);
-        visit(x - 1, y, x > 0 && cut_right[cell(x - 1, y)] != 0);
-        visit(x, y + 1, y + 1 < h && cut_up[cell(x, y)] != 0);
-        visit(x, y - 1, y > 0 && cut_up[cell(x, y - 1)] != 0);
-      }
-      if (static_cast<std::int64_t>(cells) != (x_max - x_min + 1) * (y_max - y_min + 1))
-        return {};
-      rects.push_back(RasterRectangle{static_cast<std::int32_t>(i_lo + x_min),
-                                      static_cast<std::int32_t>(i_lo + x_max + 1),
-                                      static_cast<std::int32_t>(j_lo + y_min),
-                                      static_cast<std::int32_t>(j_lo + y_max + 1)});
-    }
-  return rects;
+  findChords(grid, reflex, horizontal, vertical);
+  std::vector<std::uint8_t> take_h, take_v;
+  independentChords(horizontal, vertical, take_h, take_v);
+  cutCorners(reflex, horizontal, vertical, take_h, take_v, grid);
+  return regionsBetweenCuts(grid, i_lo, j_lo);
 }
 
 } // namespace
