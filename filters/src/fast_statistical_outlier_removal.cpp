@@ -52,6 +52,287 @@ constexpr std::size_t MAX_DROPPED = 16;
  * few candidates, large enough that most points of a surface are answered by cells. */
 constexpr double CELL_EDGE_PER_KTH_DISTANCE = 1.25;
 
+/** \brief The cell edge for the cell search: CELL_EDGE_PER_KTH_DISTANCE times the
+ * median k-th neighbour distance of a sample of 256 points (the tree's answers);
+ * \a median_kth_sq receives that median, squared. Not positive and finite when the
+ * sample gives no edge. */
+template <typename Tree>
+double
+cellEdge(const std::vector<float>& xyz,
+         const Tree& tree,
+         std::size_t k,
+         float& median_kth_sq)
+{
+  const std::size_t n = xyz.size() / 3;
+  std::vector<float> kth_sq;
+  std::vector<std::uint32_t> nn_indices(k);
+  std::vector<float> nn_dists(k);
+  const std::size_t step = std::max<std::size_t>(1, n / 256);
+  for (std::size_t j = 0; j < n; j += step) {
+    nanoflann::KNNResultSet<float, std::uint32_t> result(k);
+    result.init(nn_indices.data(), nn_dists.data());
+    tree.findNeighbors(result, &xyz[3 * j], nanoflann::SearchParams());
+    kth_sq.push_back(nn_dists[result.size() - 1]);
+  }
+  const auto median = kth_sq.begin() + static_cast<std::ptrdiff_t>(kth_sq.size() / 2);
+  std::nth_element(kth_sq.begin(), median, kth_sq.end());
+  median_kth_sq = *median;
+  return CELL_EDGE_PER_KTH_DISTANCE * std::sqrt(static_cast<double>(*median));
+}
+
+/** \brief The points sorted into cubic cells: every point's cell, the points in cell
+ * order with their coordinates copied in that order, and the cells as a sorted key
+ * list with the range of their points. The cells of one x, y column are consecutive
+ * keys (z is the lowest field), so a column of cells is one search. */
+struct CellIndex {
+  double edge{0.0};
+  /** \brief Cell coordinates of point j at 3 j .. 3 j + 2. */
+  std::vector<std::int64_t> cell;
+  /** \brief The points in cell order. */
+  std::vector<std::uint32_t> order;
+  std::vector<float> sorted_x, sorted_y, sorted_z;
+  std::vector<std::uint64_t> cell_keys;
+  /** \brief Cell c's points are order[cell_begin[c] .. cell_begin[c + 1]). */
+  std::vector<std::uint32_t> cell_begin;
+
+  /** \brief Sorts the points of \a xyz into cells of edge \a cell_edge (meters);
+   * false when a cell's key would not fit 21 bits per axis (the cloud is too
+   * large). */
+  bool build(const std::vector<float>& xyz, double cell_edge)
+  {
+    edge = cell_edge;
+    const std::size_t n = xyz.size() / 3;
+    // Keys of the cells up to 2 away from any point stay within 21 bits per axis.
+    constexpr double MAX_CELL = static_cast<double>((1 << 20) - 3);
+    cell.resize(3 * n);
+    struct KeyedPoint {
+      std::uint64_t key;
+      std::uint32_t index;
+    };
+    std::vector<KeyedPoint> sorted(n);
+    for (std::size_t j = 0; j < n; ++j) {
+      for (std::size_t d = 0; d < 3; ++d) {
+        const double c = std::floor(static_cast<double>(xyz[3 * j + d]) / edge);
+        if (!(std::abs(c) <= MAX_CELL))
+          return false;
+        cell[3 * j + d] = static_cast<std::int64_t>(c);
+      }
+      sorted[j] = {cellKey(cell[3 * j], cell[3 * j + 1], cell[3 * j + 2]),
+                   static_cast<std::uint32_t>(j)};
+    }
+    std::sort(sorted.begin(), sorted.end(),
+              [](const KeyedPoint& a, const KeyedPoint& b) { return a.key < b.key; });
+    order.resize(n);
+    sorted_x.resize(n);
+    sorted_y.resize(n);
+    sorted_z.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::uint32_t j = sorted[i].index;
+      order[i] = j;
+      sorted_x[i] = xyz[3 * j];
+      sorted_y[i] = xyz[3 * j + 1];
+      sorted_z[i] = xyz[3 * j + 2];
+      if (i == 0 || sorted[i].key != sorted[i - 1].key) {
+        cell_keys.push_back(sorted[i].key);
+        cell_begin.push_back(static_cast<std::uint32_t>(i));
+      }
+    }
+    cell_begin.push_back(static_cast<std::uint32_t>(n));
+    return true;
+  }
+};
+
+/** \brief Answers points' k nearest neighbours from the candidates of the cells
+ * around their cell (the points of the 3 x 3 x 3 or 5 x 5 x 5 cells, gathered once
+ * per cell). */
+class CellNeighbours {
+public:
+  CellNeighbours(const std::vector<float>& xyz,
+                 const CellIndex& index,
+                 std::size_t k,
+                 int mean_k) :
+      xyz_(xyz),
+      index_(index), k_(k), mean_k_(mean_k)
+  {}
+
+  /** \brief Gathers the candidates of the cells within \a reach of cell \a c,
+   * coordinate by coordinate, so that the distance loop runs over contiguous arrays.
+   * The cells are found column by column (one search each, starting where the
+   * previous column's ended: the columns come in increasing key order), then their
+   * points appended z slice by z slice, y row by y row, x cell by x cell, so that the
+   * candidates (and the order in which the selected distances are summed) are those
+   * of a cell by cell walk in that order. */
+  void gather(const std::int64_t* c, std::int64_t reach)
+  {
+    constexpr std::size_t NO_CELL = std::numeric_limits<std::size_t>::max();
+    const auto& cell_keys = index_.cell_keys;
+    const auto width = static_cast<std::size_t>(2 * reach + 1);
+    found_.assign(width * width * width, NO_CELL);
+    auto from = cell_keys.begin();
+    for (std::int64_t dx = -reach; dx <= reach; ++dx)
+      for (std::int64_t dy = -reach; dy <= reach; ++dy) {
+        const std::uint64_t first = cellKey(c[0] + dx, c[1] + dy, c[2] - reach);
+        from = std::lower_bound(from, cell_keys.end(), first);
+        for (; from != cell_keys.end() && *from - first < width; ++from) {
+          const auto dz = static_cast<std::size_t>(*from - first);
+          const auto row = static_cast<std::size_t>(dy + reach);
+          const auto col = static_cast<std::size_t>(dx + reach);
+          found_[(dz * width + row) * width + col] =
+            static_cast<std::size_t>(from - cell_keys.begin());
+        }
+      }
+    cand_x_.clear();
+    cand_y_.clear();
+    cand_z_.clear();
+    for (const std::size_t cell_index : found_) {
+      if (cell_index == NO_CELL)
+        continue;
+      const auto b = static_cast<std::ptrdiff_t>(index_.cell_begin[cell_index]);
+      const auto e = static_cast<std::ptrdiff_t>(index_.cell_begin[cell_index + 1]);
+      cand_x_.insert(cand_x_.end(), index_.sorted_x.begin() + b,
+                     index_.sorted_x.begin() + e);
+      cand_y_.insert(cand_y_.end(), index_.sorted_y.begin() + b,
+                     index_.sorted_y.begin() + e);
+      cand_z_.insert(cand_z_.end(), index_.sorted_z.begin() + b,
+                     index_.sorted_z.begin() + e);
+    }
+    d2_.resize(cand_x_.size());
+    near_.resize(cand_x_.size());
+  }
+
+  /** \brief Answers point \a j from the candidates gathered for its cell \a c within
+   * \a reach into mean_distance[j] and done[j]; false when fewer than k candidates
+   * lie within the guard. \a bound_sq, the previous point's k-th distance squared
+   * times BOUND_PER_KTH_SQ, limits the selection and is updated. */
+  bool answer(std::uint32_t j,
+              const std::int64_t* c,
+              std::int64_t reach,
+              float& bound_sq,
+              std::vector<float>& mean_distance,
+              std::vector<char>& done)
+  {
+    const std::size_t m = cand_x_.size();
+    if (m < k_)
+      return false;
+    const float* q = &xyz_[3 * j];
+    // Distance from q to the outside of the cells, with a margin for the rounding of
+    // the single precision distances; only candidates within it can be among the k
+    // nearest.
+    const double r = static_cast<double>(reach);
+    const double edge = index_.edge;
+    double guard = std::numeric_limits<double>::max();
+    for (std::size_t d = 0; d < 3; ++d) {
+      const double lo = static_cast<double>(c[d]) * edge;
+      const double x = static_cast<double>(q[d]);
+      guard = std::min(guard, r * edge + std::min(x - lo, lo + edge - x));
+    }
+    // In single precision: the margin is far larger than the rounding of the bound.
+    const auto guard_sq = static_cast<float>(guard * guard * (1.0 - 2e-6));
+    const std::size_t inside = candidatesWithin(q, guard_sq, bound_sq);
+    if (inside < k_)
+      return false;
+    const float kth = keepKSmallest(inside);
+    double dist_sum = 0.0;
+    for (std::size_t t = 0; t < inside; ++t)
+      dist_sum += near_[t] >= 0.0f ? std::sqrt(near_[t]) : 0.0f;
+    mean_distance[j] = static_cast<float>(dist_sum / mean_k_);
+    done[j] = 1;
+    bound_sq = BOUND_PER_KTH_SQ * kth;
+    return true;
+  }
+
+private:
+  /** \brief The squared distances from \a q to the candidates below \a bound_sq (and
+   * within \a guard_sq) into near_[0 .. returned count). When at least k are, they
+   * hold the k nearest: every other candidate is farther than all of them. Too few
+   * below the bound: the bound doubled (the distances are kept), up to the guard. */
+  std::size_t candidatesWithin(const float* q, float guard_sq, float bound_sq)
+  {
+    const std::size_t m = cand_x_.size();
+    // The squared distance as nanoflann's L2_Simple_Adaptor computes it: single
+    // precision, summed over x, y, z in that order.
+    const float tight_sq = std::min(guard_sq, bound_sq);
+    const float qx = q[0], qy = q[1], qz = q[2];
+    // The distances in a loop of their own, which the compiler vectorises (the same
+    // operations per candidate), then the ones below the bound.
+    const float *cx = cand_x_.data(), *cy = cand_y_.data(), *cz = cand_z_.data();
+    float* const dist = d2_.data();
+    float* const near = near_.data();
+    for (std::size_t t = 0; t < m; ++t) {
+      const float ex = qx - cx[t], ey = qy - cy[t], ez = qz - cz[t];
+      float sq = ex * ex;
+      sq += ey * ey;
+      sq += ez * ez;
+      dist[t] = sq;
+    }
+    std::size_t inside = 0;
+    for (std::size_t t = 0; t < m; ++t) {
+      near[inside] = dist[t];
+      inside += dist[t] < tight_sq ? 1 : 0;
+    }
+    for (float wider_sq = tight_sq; inside < k_ && wider_sq < guard_sq;) {
+      wider_sq = wider_sq > 0.0f ? std::min(guard_sq, 2.0f * wider_sq) : guard_sq;
+      inside = 0;
+      for (std::size_t t = 0; t < m; ++t) {
+        near[inside] = dist[t];
+        inside += dist[t] < wider_sq ? 1 : 0;
+      }
+    }
+    return inside;
+  }
+
+  /** \brief Of near_[0 .. inside), marks all but the k smallest with -1 and returns
+   * the k-th: the few largest are found in one pass and taken out (most points), or
+   * the k-th is selected when many are left. */
+  float keepKSmallest(std::size_t inside)
+  {
+    float kth = 0.0f;
+    const std::size_t drop = inside - k_;
+    if (drop <= MAX_DROPPED) {
+      // The drop largest so far, ascending, and where they are.
+      float top[MAX_DROPPED];
+      std::size_t at[MAX_DROPPED];
+      std::size_t filled = 0;
+      for (std::size_t t = 0; t < inside && drop > 0; ++t) {
+        const float v = near_[t];
+        std::size_t p;
+        if (filled < drop) {
+          for (p = filled++; p > 0 && top[p - 1] > v; --p) {
+            top[p] = top[p - 1];
+            at[p] = at[p - 1];
+          }
+        } else if (v > top[0]) {
+          for (p = 0; p + 1 < drop && top[p + 1] < v; ++p) {
+            top[p] = top[p + 1];
+            at[p] = at[p + 1];
+          }
+        } else
+          continue;
+        top[p] = v;
+        at[p] = t;
+      }
+      for (std::size_t q = 0; q < drop; ++q)
+        near_[at[q]] = -1.0f;
+      for (std::size_t t = 0; t < inside; ++t)
+        kth = std::max(kth, near_[t]);
+    } else {
+      const auto it = near_.begin() + static_cast<std::ptrdiff_t>(k_ - 1);
+      std::nth_element(near_.begin(), it,
+                       near_.begin() + static_cast<std::ptrdiff_t>(inside));
+      kth = *it;
+      std::fill(it + 1, near_.begin() + static_cast<std::ptrdiff_t>(inside), -1.0f);
+    }
+    return kth;
+  }
+
+  const std::vector<float>& xyz_;
+  const CellIndex& index_;
+  const std::size_t k_;
+  const int mean_k_;
+  std::vector<std::size_t> found_;
+  std::vector<float> cand_x_, cand_y_, cand_z_, d2_, near_;
+};
+
 /** \brief Mean distances of the queried points to their k - 1 nearest other points,
  * found among the points of the 3 x 3 x 3 cells around each point's cell, or else of
  * the 5 x 5 x 5 cells.
@@ -72,239 +353,44 @@ meanDistancesInCells(const std::vector<float>& xyz,
                      std::vector<float>& mean_distance,
                      std::vector<char>& done)
 {
-  const std::size_t n = xyz.size() / 3;
-  // The cell edge from the median k-th neighbour distance of a sample.
-  std::vector<float> kth_sq;
-  std::vector<std::uint32_t> nn_indices(k);
-  std::vector<float> nn_dists(k);
-  const std::size_t step = std::max<std::size_t>(1, n / 256);
-  for (std::size_t j = 0; j < n; j += step) {
-    nanoflann::KNNResultSet<float, std::uint32_t> result(k);
-    result.init(nn_indices.data(), nn_dists.data());
-    tree.findNeighbors(result, &xyz[3 * j], nanoflann::SearchParams());
-    kth_sq.push_back(nn_dists[result.size() - 1]);
-  }
-  const auto median = kth_sq.begin() + static_cast<std::ptrdiff_t>(kth_sq.size() / 2);
-  std::nth_element(kth_sq.begin(), median, kth_sq.end());
-  const double edge =
-    CELL_EDGE_PER_KTH_DISTANCE * std::sqrt(static_cast<double>(*median));
+  float median_kth_sq = 0.0f;
+  const double edge = cellEdge(xyz, tree, k, median_kth_sq);
   if (!(edge > 0.0) || !std::isfinite(edge))
     return;
-
-  // Every point's cell, and the points sorted by cell.
-  // Keys of the cells up to 2 away from any point stay within 21 bits per axis.
-  constexpr double MAX_CELL = static_cast<double>((1 << 20) - 3);
-  std::vector<std::int64_t> cell(3 * n);
-  std::vector<std::uint64_t> keys(n);
-  for (std::size_t j = 0; j < n; ++j) {
-    for (std::size_t d = 0; d < 3; ++d) {
-      const double c = std::floor(static_cast<double>(xyz[3 * j + d]) / edge);
-      if (!(std::abs(c) <= MAX_CELL))
-        return; // the cloud is too large for the keys: the tree answers all
-      cell[3 * j + d] = static_cast<std::int64_t>(c);
-    }
-    keys[j] = cellKey(cell[3 * j], cell[3 * j + 1], cell[3 * j + 2]);
-  }
-  // The points sorted by cell, their coordinates copied in that order, and the cells
-  // as a sorted key list with the range of their points: the cells of one x, y column
-  // are consecutive keys (z is the lowest field), so a column of cells is one search.
-  struct KeyedPoint {
-    std::uint64_t key;
-    std::uint32_t index;
-  };
-  std::vector<KeyedPoint> sorted(n);
-  for (std::size_t j = 0; j < n; ++j)
-    sorted[j] = {keys[j], static_cast<std::uint32_t>(j)};
-  std::sort(sorted.begin(), sorted.end(),
-            [](const KeyedPoint& a, const KeyedPoint& b) { return a.key < b.key; });
-  std::vector<std::uint32_t> order(n);
-  std::vector<float> sorted_x(n), sorted_y(n), sorted_z(n);
-  std::vector<std::uint64_t> cell_keys;
-  std::vector<std::uint32_t> cell_begin;
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::uint32_t j = sorted[i].index;
-    order[i] = j;
-    sorted_x[i] = xyz[3 * j];
-    sorted_y[i] = xyz[3 * j + 1];
-    sorted_z[i] = xyz[3 * j + 2];
-    if (i == 0 || sorted[i].key != sorted[i - 1].key) {
-      cell_keys.push_back(sorted[i].key);
-      cell_begin.push_back(static_cast<std::uint32_t>(i));
-    }
-  }
-  cell_begin.push_back(static_cast<std::uint32_t>(n));
-
-  // The candidates of one cell, coordinate by coordinate, so that the distance loop
-  // runs over contiguous arrays. The cells are found column by column (one search
-  // each, starting where the previous column's ended: the columns come in increasing
-  // key order), then their points appended z slice by z slice, y row by y row, x
-  // cell by x cell, so that the candidates (and the order in which the selected
-  // distances are summed) are those of a cell by cell walk in that order.
-  constexpr std::size_t NO_CELL = std::numeric_limits<std::size_t>::max();
-  std::vector<std::size_t> found;
-  std::vector<float> cand_x, cand_y, cand_z, d2, near;
-  const auto gather = [&](const std::int64_t* c, std::int64_t reach) {
-    const auto width = static_cast<std::size_t>(2 * reach + 1);
-    found.assign(width * width * width, NO_CELL);
-    auto from = cell_keys.begin();
-    for (std::int64_t dx = -reach; dx <= reach; ++dx)
-      for (std::int64_t dy = -reach; dy <= reach; ++dy) {
-        const std::uint64_t first = cellKey(c[0] + dx, c[1] + dy, c[2] - reach);
-        from = std::lower_bound(from, cell_keys.end(), first);
-        for (; from != cell_keys.end() && *from - first < width; ++from) {
-          const auto dz = static_cast<std::size_t>(*from - first);
-          const auto row = static_cast<std::size_t>(dy + reach);
-          const auto col = static_cast<std::size_t>(dx + reach);
-          found[(dz * width + row) * width + col] =
-            static_cast<std::size_t>(from - cell_keys.begin());
-        }
-      }
-    cand_x.clear();
-    cand_y.clear();
-    cand_z.clear();
-    for (const std::size_t cell_index : found) {
-      if (cell_index == NO_CELL)
-        continue;
-      const auto b = static_cast<std::ptrdiff_t>(cell_begin[cell_index]);
-      const auto e = static_cast<std::ptrdiff_t>(cell_begin[cell_index + 1]);
-      cand_x.insert(cand_x.end(), sorted_x.begin() + b, sorted_x.begin() + e);
-      cand_y.insert(cand_y.end(), sorted_y.begin() + b, sorted_y.begin() + e);
-      cand_z.insert(cand_z.end(), sorted_z.begin() + b, sorted_z.begin() + e);
-    }
-    d2.resize(cand_x.size());
-    near.resize(cand_x.size());
-  };
+  CellIndex index;
+  if (!index.build(xyz, edge))
+    return; // the cloud is too large for the keys: the tree answers all
+  CellNeighbours neighbours(xyz, index, k, mean_k);
   // The k-th distance of the previous point of the same cell, squared: a close
   // neighbour's k-th distance is nearly the same, so the candidates below
   // BOUND_PER_KTH_SQ times it usually hold the k nearest, and the selection runs over
   // those few.
-  const float first_bound_sq = BOUND_PER_KTH_SQ * *median;
-  // Answers point j from the candidates of the cells within \a reach of its cell c;
-  // false when fewer than k candidates lie within the guard.
-  const auto answer = [&](std::uint32_t j, const std::int64_t* c, std::int64_t reach,
-                          float& bound_sq) {
-    const std::size_t m = cand_x.size();
-    if (m < k)
-      return false;
-    const float* q = &xyz[3 * j];
-    // Distance from q to the outside of the cells, with a margin for the rounding of
-    // the single precision distances; only candidates within it can be among the k
-    // nearest.
-    const double r = static_cast<double>(reach);
-    double guard = std::numeric_limits<double>::max();
-    for (std::size_t d = 0; d < 3; ++d) {
-      const double lo = static_cast<double>(c[d]) * edge;
-      const double x = static_cast<double>(q[d]);
-      guard = std::min(guard, r * edge + std::min(x - lo, lo + edge - x));
-    }
-    // In single precision: the margin is far larger than the rounding of the bound.
-    const auto guard_sq = static_cast<float>(guard * guard * (1.0 - 2e-6));
-    // The candidates below the bound (and within the guard). When at least k are,
-    // they hold the k nearest: every other candidate is farther than all of them.
-    // The squared distance as nanoflann's L2_Simple_Adaptor computes it: single
-    // precision, summed over x, y, z in that order.
-    const float tight_sq = std::min(guard_sq, bound_sq);
-    const float qx = q[0], qy = q[1], qz = q[2];
-    // The distances in a loop of their own, which the compiler vectorises (the same
-    // operations per candidate), then the ones below the bound.
-    const float *cx = cand_x.data(), *cy = cand_y.data(), *cz = cand_z.data();
-    float* const dist = d2.data();
-    for (std::size_t t = 0; t < m; ++t) {
-      const float ex = qx - cx[t], ey = qy - cy[t], ez = qz - cz[t];
-      float sq = ex * ex;
-      sq += ey * ey;
-      sq += ez * ez;
-      dist[t] = sq;
-    }
-    std::size_t inside = 0;
-    for (std::size_t t = 0; t < m; ++t) {
-      near[inside] = dist[t];
-      inside += dist[t] < tight_sq ? 1 : 0;
-    }
-    // Too few below the bound: the bound doubled (the distances are kept), up to the
-    // guard.
-    for (float wider_sq = tight_sq; inside < k && wider_sq < guard_sq;) {
-      wider_sq = wider_sq > 0.0f ? std::min(guard_sq, 2.0f * wider_sq) : guard_sq;
-      inside = 0;
-      for (std::size_t t = 0; t < m; ++t) {
-        near[inside] = d2[t];
-        inside += d2[t] < wider_sq ? 1 : 0;
-      }
-    }
-    if (inside < k)
-      return false;
-    // The k smallest: the few largest are found in one pass and taken out (most
-    // points), or the k-th is selected when many are left.
-    float kth = 0.0f;
-    const std::size_t drop = inside - k;
-    if (drop <= MAX_DROPPED) {
-      // The drop largest so far, ascending, and where they are.
-      float top[MAX_DROPPED];
-      std::size_t at[MAX_DROPPED];
-      std::size_t filled = 0;
-      for (std::size_t t = 0; t < inside && drop > 0; ++t) {
-        const float v = near[t];
-        std::size_t p;
-        if (filled < drop) {
-          for (p = filled++; p > 0 && top[p - 1] > v; --p) {
-            top[p] = top[p - 1];
-            at[p] = at[p - 1];
-          }
-        } else if (v > top[0]) {
-          for (p = 0; p + 1 < drop && top[p + 1] < v; ++p) {
-            top[p] = top[p + 1];
-            at[p] = at[p + 1];
-          }
-        } else
-          continue;
-        top[p] = v;
-        at[p] = t;
-      }
-      for (std::size_t q = 0; q < drop; ++q)
-        near[at[q]] = -1.0f;
-      for (std::size_t t = 0; t < inside; ++t)
-        kth = std::max(kth, near[t]);
-    } else {
-      const auto it = near.begin() + static_cast<std::ptrdiff_t>(k - 1);
-      std::nth_element(near.begin(), it,
-                       near.begin() + static_cast<std::ptrdiff_t>(inside));
-      kth = *it;
-      std::fill(it + 1, near.begin() + static_cast<std::ptrdiff_t>(inside), -1.0f);
-    }
-    double dist_sum = 0.0;
-    for (std::size_t t = 0; t < inside; ++t)
-      dist_sum += near[t] >= 0.0f ? std::sqrt(near[t]) : 0.0f;
-    mean_distance[j] = static_cast<float>(dist_sum / mean_k);
-    done[j] = 1;
-    bound_sq = BOUND_PER_KTH_SQ * kth;
-    return true;
-  };
-
+  const float first_bound_sq = BOUND_PER_KTH_SQ * median_kth_sq;
   std::vector<std::uint32_t> missed;
-  for (std::size_t cell_index = 0; cell_index < cell_keys.size(); ++cell_index) {
-    const std::size_t run_begin = cell_begin[cell_index];
-    const std::size_t run_end = cell_begin[cell_index + 1];
-    if (std::none_of(order.begin() + static_cast<std::ptrdiff_t>(run_begin),
-                     order.begin() + static_cast<std::ptrdiff_t>(run_end),
+  for (std::size_t cell_index = 0; cell_index < index.cell_keys.size(); ++cell_index) {
+    const std::size_t run_begin = index.cell_begin[cell_index];
+    const std::size_t run_end = index.cell_begin[cell_index + 1];
+    const auto run = index.order.begin() + static_cast<std::ptrdiff_t>(run_begin);
+    if (std::none_of(run, run + static_cast<std::ptrdiff_t>(run_end - run_begin),
                      [&queried](std::uint32_t j) { return queried[j] != 0; }))
       continue;
-    const std::int64_t* c = &cell[3 * order[run_begin]];
+    const std::int64_t* c = &index.cell[3 * index.order[run_begin]];
     // The 3 x 3 x 3 cells answer most points; the 5 x 5 x 5 cells most of the rest,
     // where the points are sparse (and so are the candidates).
-    gather(c, 1);
+    neighbours.gather(c, 1);
     missed.clear();
     float bound_sq = first_bound_sq;
     for (std::size_t i = run_begin; i < run_end; ++i) {
-      const std::uint32_t j = order[i];
-      if (queried[j] && !answer(j, c, 1, bound_sq))
+      const std::uint32_t j = index.order[i];
+      if (queried[j] && !neighbours.answer(j, c, 1, bound_sq, mean_distance, done))
         missed.push_back(j);
     }
     if (missed.empty())
       continue;
-    gather(c, 2);
+    neighbours.gather(c, 2);
     bound_sq = first_bound_sq;
     for (const std::uint32_t j : missed)
-      answer(j, c, 2, bound_sq);
+      neighbours.answer(j, c, 2, bound_sq, mean_distance, done);
   }
 }
 
