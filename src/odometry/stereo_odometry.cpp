@@ -206,6 +206,175 @@ invalidResult(std::size_t correspondences,
   return result;
 }
 
+/** \brief Matched points of two frames: source the current frame's, target the
+ * previous frame's (the registration model estimates target = T * source, which is
+ * previous_T_current, eq. 8), and their key points when both frames have them. */
+struct Correspondences {
+  std::shared_ptr<Cloud> source{std::make_shared<Cloud>()};
+  std::shared_ptr<Cloud> target{std::make_shared<Cloud>()};
+  /** \brief Previous left, previous right, current left, current right. */
+  std::vector<StereoKeypoints> keypoints;
+};
+
+/** \brief The finite 3D points of \a matches (query: previous, train: current). */
+Correspondences
+correspondencesOf(const StereoFeatures& previous,
+                  const StereoFeatures& current,
+                  const std::vector<cv::DMatch>& matches)
+{
+  Correspondences corr;
+  corr.source->reserve(matches.size());
+  corr.target->reserve(matches.size());
+  for (const auto& match : matches) {
+    const auto query = static_cast<std::size_t>(match.queryIdx);
+    const auto train = static_cast<std::size_t>(match.trainIdx);
+    if (query >= previous.points.size() || train >= current.points.size())
+      continue;
+    const pcl::PointXYZ& p = previous.points[query];
+    const pcl::PointXYZ& c = current.points[train];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)
+        || !std::isfinite(c.x) || !std::isfinite(c.y) || !std::isfinite(c.z))
+      continue;
+    corr.target->push_back(p);
+    corr.source->push_back(c);
+    if (query < previous.keypoints_left.size()
+        && query < previous.keypoints_right.size()
+        && train < current.keypoints_left.size()
+        && train < current.keypoints_right.size())
+      corr.keypoints.push_back(
+        {&previous.keypoints_left[query], &previous.keypoints_right[query],
+         &current.keypoints_left[train], &current.keypoints_right[train]});
+  }
+  return corr;
+}
+
+/** \brief RANSAC on the correspondences (thresholds scaled with the depth error),
+ * then least squares on the inliers, the inliers of the refined motion re-selected and
+ * refined once more. False when RANSAC finds no motion. */
+bool
+ransacMotion(const Correspondences& corr,
+             const StereoOdometry::Params& params,
+             Eigen::Matrix4d& transform,
+             pcl::Indices& inliers)
+{
+  const Cloud& source = *corr.source;
+  const Cloud& target = *corr.target;
+  const std::size_t correspondences = source.size();
+  // Per-correspondence threshold scale: the stereo depth error grows with z^2.
+  std::vector<float> scales(correspondences, 1.0f);
+  std::vector<float> weights(correspondences, 1.0f);
+  if (params.reference_depth_m > 0.0) {
+    for (std::size_t i = 0; i < correspondences; ++i) {
+      const double depth = std::max(source[i].z, target[i].z);
+      const double ratio = std::max(1.0, depth / params.reference_depth_m);
+      scales[i] = static_cast<float>(ratio * ratio);
+      weights[i] = 1.0f / (scales[i] * scales[i]);
+    }
+  }
+  auto model = std::make_shared<ScaledRegistrationModel>(corr.source, corr.target,
+                                                         scales, params.seed);
+  pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, params.distance_threshold_m);
+  ransac.setMaxIterations(params.max_iterations);
+  ransac.setProbability(params.probability);
+  if (!ransac.computeModel())
+    return false;
+  ransac.getInliers(inliers);
+  pcl::registration::TransformationEstimationSVD<pcl::PointXYZ, pcl::PointXYZ, double>
+    svd;
+  transform = Eigen::Matrix4d::Identity();
+  for (int pass = 0; pass < 2 && inliers.size() >= 3; ++pass) {
+    if (params.reference_depth_m > 0.0)
+      transform = weightedRigidTransform(source, target, inliers, weights);
+    else
+      svd.estimateRigidTransformation(source, inliers, target, inliers, transform);
+    pcl::Indices refined;
+    model->selectWithinDistance(toCoefficients(transform), params.distance_threshold_m,
+                                refined);
+    if (refined.size() < 3)
+      break;
+    inliers.swap(refined);
+  }
+  return true;
+}
+
+/** \brief The refinement of a RANSAC motion on the key points: the stereo
+ * reprojection error (twice, re-selecting the inliers), then the rotation from the
+ * left images' epipolar geometry with the translation (and the disparity offset) from
+ * the stereo reprojection, kept when it stays close to the first. */
+class ReprojectionRefinement {
+public:
+  ReprojectionRefinement(const StereoOdometry::Params& params,
+                         const StereoCalibration& calibration,
+                         const std::vector<StereoKeypoints>& keypoints,
+                         const OffsetEstimate& prior) :
+      params_(params),
+      calibration_(calibration), keypoints_(keypoints), prior_(prior)
+  {}
+
+  /** \brief Refines \a motion, \a inliers and \a offset in place; returns whether the
+   * epipolar refinement was kept. */
+  bool
+  refine(Eigen::Isometry3d& motion, pcl::Indices& inliers, OffsetEstimate& offset) const
+  {
+    const bool estimate_offset = params_.estimate_disparity_offset;
+    for (int round = 0; round < 2; ++round) {
+      motion = refineReprojection(motion, calibration_, keypoints_, inliers, false,
+                                  estimate_offset, prior_, offset);
+      pcl::Indices selected = selectInliers(motion, offset.offset_px);
+      if (selected.size() < 3)
+        break;
+      inliers.swap(selected);
+    }
+    if (!params_.epipolar_refinement || inliers.size() < 5
+        || motion.translation().norm() < params_.epipolar_min_translation_m)
+      return false;
+    Eigen::Matrix3d rotation = motion.linear();
+    Eigen::Vector3d direction = motion.translation().normalized();
+    refineEpipolar(rotation, direction, calibration_, keypoints_, inliers,
+                   params_.epipolar_threshold_px);
+    const double rotation_change =
+      Eigen::AngleAxisd(rotation * motion.linear().transpose()).angle();
+    const double direction_cosine = direction.dot(motion.translation().normalized());
+    if (!rotation.allFinite() || !direction.allFinite()
+        || rotation_change > params_.epipolar_max_rotation_change_rad
+        || direction_cosine < std::cos(15.0 * M_PI / 180.0))
+      return false;
+    Eigen::Isometry3d epipolar = motion;
+    epipolar.linear() = rotation;
+    OffsetEstimate epipolar_offset = offset;
+    epipolar = refineReprojection(epipolar, calibration_, keypoints_, inliers, true,
+                                  estimate_offset, prior_, epipolar_offset);
+    pcl::Indices selected = selectInliers(epipolar, epipolar_offset.offset_px);
+    if (selected.size() < 3)
+      return false;
+    motion = epipolar;
+    offset = epipolar_offset;
+    inliers.swap(selected);
+    return true;
+  }
+
+private:
+  /** \brief The correspondences whose largest stereo reprojection error under
+   * \a motion is below reprojection_threshold_px. */
+  pcl::Indices selectInliers(const Eigen::Isometry3d& motion, double offset_px) const
+  {
+    pcl::Indices selected;
+    for (std::size_t i = 0; i < keypoints_.size(); ++i) {
+      Eigen::Matrix<double, 8, 1> residuals;
+      if (reprojectionResiduals(motion, calibration_, offset_px, keypoints_[i],
+                                residuals)
+          && residuals.cwiseAbs().maxCoeff() < params_.reprojection_threshold_px)
+        selected.push_back(static_cast<pcl::index_t>(i));
+    }
+    return selected;
+  }
+
+  const StereoOdometry::Params& params_;
+  const StereoCalibration& calibration_;
+  const std::vector<StereoKeypoints>& keypoints_;
+  const OffsetEstimate prior_;
+};
+
 } // namespace
 
 StereoOdometry::StereoOdometry(const Params& params) : params_(params)
@@ -273,47 +442,22 @@ StereoOdometry::estimate(const StereoFeatures& previous,
 {
   std::vector<cv::DMatch> matches;
   matchDescriptors(previous, current, matches);
-
-  // Source: current points; target: previous points. The registration model estimates
-  // target = T * source, which is previous_T_current (eq. 8).
-  auto source = std::make_shared<Cloud>();
-  auto target = std::make_shared<Cloud>();
-  std::vector<StereoKeypoints> keypoints;
-  source->reserve(matches.size());
-  target->reserve(matches.size());
-  for (const auto& match : matches) {
-    const auto query = static_cast<std::size_t>(match.queryIdx);
-    const auto train = static_cast<std::size_t>(match.trainIdx);
-    if (query >= previous.points.size() || train >= current.points.size())
-      continue;
-    const pcl::PointXYZ& p = previous.points[query];
-    const pcl::PointXYZ& c = current.points[train];
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)
-        || !std::isfinite(c.x) || !std::isfinite(c.y) || !std::isfinite(c.z))
-      continue;
-    target->push_back(p);
-    source->push_back(c);
-    if (query < previous.keypoints_left.size()
-        && query < previous.keypoints_right.size()
-        && train < current.keypoints_left.size()
-        && train < current.keypoints_right.size())
-      keypoints.push_back(
-        {&previous.keypoints_left[query], &previous.keypoints_right[query],
-         &current.keypoints_left[train], &current.keypoints_right[train]});
-  }
-  const std::size_t correspondences = source->size();
-  const bool use_keypoints = has_calibration_ && keypoints.size() == correspondences;
+  Correspondences corr = correspondencesOf(previous, current, matches);
+  Cloud& source = *corr.source;
+  Cloud& target = *corr.target;
+  const std::size_t correspondences = source.size();
+  const bool use_keypoints =
+    has_calibration_ && corr.keypoints.size() == correspondences;
   // With a disparity offset the 3D points of the RANSAC are triangulated again from
   // their key points with it.
   if (use_keypoints && disparity_offset_px != 0.0) {
     for (std::size_t i = 0; i < correspondences; ++i) {
+      const StereoKeypoints& k = corr.keypoints[i];
       Eigen::Vector3d p, c;
-      if (triangulate(*keypoints[i][0], *keypoints[i][1], calibration_,
-                      disparity_offset_px, p)
-          && triangulate(*keypoints[i][2], *keypoints[i][3], calibration_,
-                         disparity_offset_px, c)) {
-        (*target)[i].getVector3fMap() = p.cast<float>();
-        (*source)[i].getVector3fMap() = c.cast<float>();
+      if (triangulate(*k[0], *k[1], calibration_, disparity_offset_px, p)
+          && triangulate(*k[2], *k[3], calibration_, disparity_offset_px, c)) {
+        target[i].getVector3fMap() = p.cast<float>();
+        source[i].getVector3fMap() = c.cast<float>();
       }
     }
   }
@@ -322,116 +466,31 @@ StereoOdometry::estimate(const StereoFeatures& previous,
     return invalidResult(correspondences, 0,
                          "Only " + std::to_string(correspondences)
                            + " correspondences; a rigid motion needs at least 3.");
-  if (isColinear(*source) || isColinear(*target))
+  if (isColinear(source) || isColinear(target))
     return invalidResult(correspondences, 0,
                          "The " + std::to_string(correspondences)
                            + " matched points lie on one line; the motion is not "
                              "observable.");
-
-  // Per-correspondence threshold scale: the stereo depth error grows with z^2.
-  std::vector<float> scales(correspondences, 1.0f);
-  std::vector<float> weights(correspondences, 1.0f);
-  if (params_.reference_depth_m > 0.0) {
-    for (std::size_t i = 0; i < correspondences; ++i) {
-      const double depth = std::max((*source)[i].z, (*target)[i].z);
-      const double ratio = std::max(1.0, depth / params_.reference_depth_m);
-      scales[i] = static_cast<float>(ratio * ratio);
-      weights[i] = 1.0f / (scales[i] * scales[i]);
-    }
-  }
-  auto model =
-    std::make_shared<ScaledRegistrationModel>(source, target, scales, params_.seed);
-  pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, params_.distance_threshold_m);
-  ransac.setMaxIterations(params_.max_iterations);
-  ransac.setProbability(params_.probability);
-  if (!ransac.computeModel())
+  Eigen::Matrix4d transform;
+  pcl::Indices inliers;
+  if (!ransacMotion(corr, params_, transform, inliers))
     return invalidResult(correspondences, 0,
                          "RANSAC found no motion among "
                            + std::to_string(correspondences) + " correspondences.");
-  pcl::Indices inliers;
-  ransac.getInliers(inliers);
-
-  // Refine on the inliers (least squares, SVD), re-select the inliers of the refined
-  // motion and refine once more.
-  pcl::registration::TransformationEstimationSVD<pcl::PointXYZ, pcl::PointXYZ, double>
-    svd;
-  Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();
-  for (int pass = 0; pass < 2 && inliers.size() >= 3; ++pass) {
-    if (params_.reference_depth_m > 0.0)
-      transform = weightedRigidTransform(*source, *target, inliers, weights);
-    else
-      svd.estimateRigidTransformation(*source, inliers, *target, inliers, transform);
-    pcl::Indices refined;
-    model->selectWithinDistance(toCoefficients(transform), params_.distance_threshold_m,
-                                refined);
-    if (refined.size() < 3)
-      break;
-    inliers.swap(refined);
-  }
 
   bool epipolar_refined = false;
   // The disparity offset's prior, and its estimate once refined.
   const OffsetEstimate prior{disparity_offset_px, disparity_offset_information};
   OffsetEstimate offset = prior;
-  const bool estimate_offset = params_.estimate_disparity_offset;
   if (has_calibration_ && inliers.size() >= 3) {
     if (!use_keypoints) {
       PCL_WARN("[planar_grid::StereoOdometry::estimate] Key points missing; the "
                "reprojection refinement is skipped.\n");
     } else {
-      // The correspondences whose largest stereo reprojection error under a motion is
-      // below reprojection_threshold_px.
-      const auto select_inliers = [&](const Eigen::Isometry3d& motion,
-                                      double offset_px) {
-        pcl::Indices selected;
-        for (std::size_t i = 0; i < correspondences; ++i) {
-          Eigen::Matrix<double, 8, 1> residuals;
-          if (reprojectionResiduals(motion, calibration_, offset_px, keypoints[i],
-                                    residuals)
-              && residuals.cwiseAbs().maxCoeff() < params_.reprojection_threshold_px)
-            selected.push_back(static_cast<pcl::index_t>(i));
-        }
-        return selected;
-      };
       Eigen::Isometry3d motion(transform);
-      for (int round = 0; round < 2; ++round) {
-        motion = refineReprojection(motion, calibration_, keypoints, inliers, false,
-                                    estimate_offset, prior, offset);
-        pcl::Indices selected = select_inliers(motion, offset.offset_px);
-        if (selected.size() < 3)
-          break;
-        inliers.swap(selected);
-      }
-
-      // Rotation from the epipolar geometry of the left images, translation (and the
-      // disparity offset) from the stereo reprojection with that rotation.
-      if (params_.epipolar_refinement && inliers.size() >= 5
-          && motion.translation().norm() >= params_.epipolar_min_translation_m) {
-        Eigen::Matrix3d rotation = motion.linear();
-        Eigen::Vector3d direction = motion.translation().normalized();
-        refineEpipolar(rotation, direction, calibration_, keypoints, inliers,
-                       params_.epipolar_threshold_px);
-        const double rotation_change =
-          Eigen::AngleAxisd(rotation * motion.linear().transpose()).angle();
-        const double direction_cosine =
-          direction.dot(motion.translation().normalized());
-        if (rotation.allFinite() && direction.allFinite()
-            && rotation_change <= params_.epipolar_max_rotation_change_rad
-            && direction_cosine >= std::cos(15.0 * M_PI / 180.0)) {
-          Eigen::Isometry3d epipolar = motion;
-          epipolar.linear() = rotation;
-          OffsetEstimate epipolar_offset = offset;
-          epipolar = refineReprojection(epipolar, calibration_, keypoints, inliers,
-                                        true, estimate_offset, prior, epipolar_offset);
-          pcl::Indices selected = select_inliers(epipolar, epipolar_offset.offset_px);
-          if (selected.size() >= 3) {
-            motion = epipolar;
-            offset = epipolar_offset;
-            inliers.swap(selected);
-            epipolar_refined = true;
-          }
-        }
-      }
+      const ReprojectionRefinement refinement(params_, calibration_, corr.keypoints,
+                                              prior);
+      epipolar_refined = refinement.refine(motion, inliers, offset);
       transform = motion.matrix();
     }
   }
@@ -442,7 +501,7 @@ StereoOdometry::estimate(const StereoFeatures& previous,
                            + std::to_string(correspondences)
                            + " correspondences are inliers; min_inliers is "
                            + std::to_string(params_.min_inliers) + ".");
-  Cloud inlier_cloud(*source, inliers);
+  Cloud inlier_cloud(source, inliers);
   if (isColinear(inlier_cloud))
     return invalidResult(correspondences, inliers.size(),
                          "The " + std::to_string(inliers.size())
