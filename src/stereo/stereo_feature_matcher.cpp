@@ -206,84 +206,81 @@ StereoFeatureMatcher::StereoFeatureMatcher(const Params& params) : params_(param
         "px");
 }
 
-void
-StereoFeatureMatcher::match(const cv::Mat& left,
-                            const cv::Mat& right,
-                            const StereoCalibration& calibration,
-                            StereoFeatures& features) const
-{
-  features = StereoFeatures();
-  if (left.empty() || right.empty())
-    throw Exception("StereoFeatureMatcher::match: empty input image");
-  if (left.size() != right.size())
-    throw Exception("StereoFeatureMatcher::match: the left and right images differ in "
-                    "size");
-  if ((left.type() != CV_8UC1 && left.type() != CV_8UC3) || left.type() != right.type())
-    throw Exception("StereoFeatureMatcher::match: images must both be CV_8UC1 or both "
-                    "CV_8UC3");
-  calibration.validate("StereoFeatureMatcher::match");
+namespace {
 
-  const cv::Mat grey_left = detail::toGrey(left);
-  const cv::Mat grey_right = detail::toGrey(right);
-  const bool grid = params_.feature_type == FeatureType::ORB_GRID;
-  std::vector<cv::KeyPoint> keypoints_left, keypoints_right;
-  cv::Mat descriptors_left, descriptors_right;
-  if (grid) {
+/** \brief Key points and descriptors of one grey image pair: FAST corners per grid
+ * cell with upright one-level ORB descriptors (orb_grid), or the detector's own
+ * (SIFT, ORB). */
+void
+detectAndDescribe(const cv::Mat& grey_left,
+                  const cv::Mat& grey_right,
+                  const StereoFeatureMatcher::Params& params,
+                  std::vector<cv::KeyPoint>& keypoints_left,
+                  std::vector<cv::KeyPoint>& keypoints_right,
+                  cv::Mat& descriptors_left,
+                  cv::Mat& descriptors_right)
+{
+  if (params.feature_type == FeatureType::ORB_GRID) {
     const int cells =
-      ((left.cols + params_.bucket_size_px - 1) / params_.bucket_size_px)
-      * ((left.rows + params_.bucket_size_px - 1) / params_.bucket_size_px);
-    const int per_cell = (params_.max_features + cells - 1) / cells;
+      ((grey_left.cols + params.bucket_size_px - 1) / params.bucket_size_px)
+      * ((grey_left.rows + params.bucket_size_px - 1) / params.bucket_size_px);
+    const int per_cell = (params.max_features + cells - 1) / cells;
     // The right image keeps twice as many corners per cell: its cells hold other scene
     // parts than the left ones (disparity), and a left corner whose right twin was cut
     // cannot be matched.
-    detectGridFastKeypoints(grey_left, params_.bucket_size_px, per_cell,
-                            params_.fast_threshold, ORB_GRID_BORDER_PX, keypoints_left);
-    detectGridFastKeypoints(grey_right, params_.bucket_size_px, 2 * per_cell,
-                            params_.fast_threshold, ORB_GRID_BORDER_PX,
-                            keypoints_right);
+    detectGridFastKeypoints(grey_left, params.bucket_size_px, per_cell,
+                            params.fast_threshold, ORB_GRID_BORDER_PX, keypoints_left);
+    detectGridFastKeypoints(grey_right, params.bucket_size_px, 2 * per_cell,
+                            params.fast_threshold, ORB_GRID_BORDER_PX, keypoints_right);
     // One level, upright (the key points carry angle 0); edgeThreshold = the border
     // above, so cv::ORB drops none of the key points.
     const cv::Ptr<cv::ORB> orb =
-      cv::ORB::create(params_.max_features, 1.2f, 1, ORB_GRID_BORDER_PX, 0, 2,
-                      cv::ORB::HARRIS_SCORE, ORB_PATCH_SIZE_PX, params_.fast_threshold);
+      cv::ORB::create(params.max_features, 1.2f, 1, ORB_GRID_BORDER_PX, 0, 2,
+                      cv::ORB::HARRIS_SCORE, ORB_PATCH_SIZE_PX, params.fast_threshold);
     orb->compute(grey_left, keypoints_left, descriptors_left);
     orb->compute(grey_right, keypoints_right, descriptors_right);
-  } else {
-    cv::Ptr<cv::Feature2D> detector;
-    if (params_.feature_type == FeatureType::SIFT)
-      detector = cv::SIFT::create(params_.max_features);
-    else
-      detector = cv::ORB::create(params_.max_features);
-    detector->detectAndCompute(grey_left, cv::noArray(), keypoints_left,
-                               descriptors_left);
-    detector->detectAndCompute(grey_right, cv::noArray(), keypoints_right,
-                               descriptors_right);
-  }
-  if (keypoints_left.empty() || keypoints_right.empty())
     return;
+  }
+  cv::Ptr<cv::Feature2D> detector;
+  if (params.feature_type == FeatureType::SIFT)
+    detector = cv::SIFT::create(params.max_features);
+  else
+    detector = cv::ORB::create(params.max_features);
+  detector->detectAndCompute(grey_left, cv::noArray(), keypoints_left,
+                             descriptors_left);
+  detector->detectAndCompute(grey_right, cv::noArray(), keypoints_right,
+                             descriptors_right);
+}
 
+/** \brief The right key point each left key point keeps (-1: none): the best
+ * descriptor on the epipolar band (rows within max_row_difference_px, disparity in
+ * (0, max_disparity_px]) that passes Lowe's ratio test, and that no other left key
+ * point matches more closely (uniqueness). */
+std::vector<int>
+epipolarMatches(const std::vector<cv::KeyPoint>& keypoints_left,
+                const std::vector<cv::KeyPoint>& keypoints_right,
+                const cv::Mat& descriptors_left,
+                const cv::Mat& descriptors_right,
+                int height,
+                const StereoFeatureMatcher::Params& params)
+{
   // Right key points bucketed by integer row, so that each left key point only looks at
   // the rows within max_row_difference_px of its own.
-  const int height = left.rows;
   std::vector<std::vector<int>> rows(static_cast<std::size_t>(height));
   for (std::size_t j = 0; j < keypoints_right.size(); ++j) {
     const int row =
       std::clamp(static_cast<int>(std::lround(keypoints_right[j].pt.y)), 0, height - 1);
     rows[static_cast<std::size_t>(row)].push_back(static_cast<int>(j));
   }
-
-  const float max_dy = static_cast<float>(params_.max_row_difference_px);
-  const float max_disparity = static_cast<float>(params_.max_disparity_px);
-  const float ratio = static_cast<float>(params_.ratio);
+  const float max_dy = static_cast<float>(params.max_row_difference_px);
+  const float max_disparity = static_cast<float>(params.max_disparity_px);
+  const float ratio = static_cast<float>(params.ratio);
   const float infinity = std::numeric_limits<float>::infinity();
-
   // Best right match per left key point (-1: none), and the owner of each right key
   // point (uniqueness: the left key point with the smallest distance keeps it).
   std::vector<int> match_of_left(keypoints_left.size(), -1);
-  std::vector<float> distance_of_left(keypoints_left.size(), infinity);
   std::vector<int> owner_of_right(keypoints_right.size(), -1);
   std::vector<float> owner_distance(keypoints_right.size(), infinity);
-
   for (std::size_t i = 0; i < keypoints_left.size(); ++i) {
     const cv::Point2f& pl = keypoints_left[i].pt;
     const int first_row = std::max(0, static_cast<int>(std::floor(pl.y - max_dy)) - 1);
@@ -313,14 +310,54 @@ StereoFeatureMatcher::match(const cv::Mat& left,
     if (best_j < 0 || !(best < ratio * second))
       continue;
     match_of_left[i] = best_j;
-    distance_of_left[i] = best;
     const std::size_t j = static_cast<std::size_t>(best_j);
     if (best < owner_distance[j]) {
       owner_distance[j] = best;
       owner_of_right[j] = static_cast<int>(i);
     }
   }
+  for (std::size_t i = 0; i < keypoints_left.size(); ++i) {
+    const int j = match_of_left[i];
+    if (j >= 0 && owner_of_right[static_cast<std::size_t>(j)] != static_cast<int>(i))
+      match_of_left[i] = -1;
+  }
+  return match_of_left;
+}
 
+} // namespace
+
+void
+StereoFeatureMatcher::match(const cv::Mat& left,
+                            const cv::Mat& right,
+                            const StereoCalibration& calibration,
+                            StereoFeatures& features) const
+{
+  features = StereoFeatures();
+  if (left.empty() || right.empty())
+    throw Exception("StereoFeatureMatcher::match: empty input image");
+  if (left.size() != right.size())
+    throw Exception("StereoFeatureMatcher::match: the left and right images differ in "
+                    "size");
+  if ((left.type() != CV_8UC1 && left.type() != CV_8UC3) || left.type() != right.type())
+    throw Exception("StereoFeatureMatcher::match: images must both be CV_8UC1 or both "
+                    "CV_8UC3");
+  calibration.validate("StereoFeatureMatcher::match");
+
+  const cv::Mat grey_left = detail::toGrey(left);
+  const cv::Mat grey_right = detail::toGrey(right);
+  std::vector<cv::KeyPoint> keypoints_left, keypoints_right;
+  cv::Mat descriptors_left, descriptors_right;
+  detectAndDescribe(grey_left, grey_right, params_, keypoints_left, keypoints_right,
+                    descriptors_left, descriptors_right);
+  if (keypoints_left.empty() || keypoints_right.empty())
+    return;
+  const std::vector<int> match_of_left =
+    epipolarMatches(keypoints_left, keypoints_right, descriptors_left,
+                    descriptors_right, left.rows, params_);
+
+  // The matches triangulated (orb_grid: the right column refined to sub-pixel first)
+  // within max_disparity_px and max_range_m.
+  const bool grid = params_.feature_type == FeatureType::ORB_GRID;
   const double f = calibration.focal_length_px;
   const double fb = f * calibration.baseline_m;
   const double max_range_sq = params_.max_range_m * params_.max_range_m;
@@ -328,7 +365,7 @@ StereoFeatureMatcher::match(const cv::Mat& left,
   kept.reserve(keypoints_left.size());
   for (std::size_t i = 0; i < keypoints_left.size(); ++i) {
     const int j = match_of_left[i];
-    if (j < 0 || owner_of_right[static_cast<std::size_t>(j)] != static_cast<int>(i))
+    if (j < 0)
       continue;
     const cv::KeyPoint& kl = keypoints_left[i];
     cv::KeyPoint kr = keypoints_right[static_cast<std::size_t>(j)];
