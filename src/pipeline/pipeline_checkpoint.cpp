@@ -332,111 +332,105 @@ PipelineRunner::writeCheckpoint(std::size_t next_frame, const RunReport& report)
   });
 }
 
-std::size_t
-PipelineRunner::resumeFrom(const std::string& path)
+namespace {
+
+/** \brief The bytes of checkpoint \a path, its CRC-32 (the last 4 bytes) checked.
+ * \throws IOError when it cannot be read, is truncated or its checksum differs. */
+std::string
+readCheckpointBytes(const std::string& path, const std::string& what)
 {
-  input("resumeFrom()");
   std::ifstream file(path, std::ios::binary);
   if (!file)
     throw IOError("checkpoint " + path + ": cannot be opened for reading");
   std::ostringstream content;
   content << file.rdbuf();
-  const std::string text = content.str();
+  std::string text = content.str();
   const auto* data = reinterpret_cast<const std::uint8_t*>(text.data());
-  const std::string what = "checkpoint " + path;
   if (text.size() < 12)
     throw IOError(what + ": truncated (" + std::to_string(text.size()) + " bytes)");
   std::uint32_t stored_crc = 0;
   std::memcpy(&stored_crc, data + text.size() - 4, 4);
   if (crc32(data, text.size() - 4) != stored_crc)
     throw IOError(what + ": checksum mismatch: the file is corrupt or truncated");
+  return text;
+}
 
-  ByteReader r(data, text.size() - 4, what);
-  if (r.get<std::uint32_t>() != CHECKPOINT_MAGIC)
-    r.fail("not a planar_grid_pipeline checkpoint");
-  const auto version = r.get<std::uint32_t>();
-  if (version < 1 || version > CHECKPOINT_VERSION)
-    r.fail("version " + std::to_string(version)
-           + " is not supported (this reader knows 1 to "
-           + std::to_string(CHECKPOINT_VERSION) + ")");
-  const std::string written_fingerprint = r.getString("fingerprint");
-  // The files first: a changed calibration also changes the fingerprint, and the
-  // message should name the file.
-  if (version >= 2) {
-    std::vector<InputStamp> written(r.getCount(4 * 8, "input file"));
-    for (auto& stamp : written) {
-      stamp.what = r.getString("input file");
-      stamp.path = r.getString("input file");
-      stamp.size = r.get<std::uint64_t>();
-      stamp.hash = r.get<std::uint64_t>();
-    }
-    const std::vector<InputStamp> now = stampInputFiles(config_);
-    const auto restart = ": resume with the files the checkpoint's run read, or start "
-                         "a new run without --resume";
-    for (const auto& stamp : now) {
-      const auto it =
-        std::find_if(written.begin(), written.end(),
-                     [&stamp](const InputStamp& w) { return w.what == stamp.what; });
-      if (it == written.end())
-        r.fail("written by a run that did not read " + stamp.what + ", and this run "
-               + "reads " + stamp.path + restart);
-      if (it->path != stamp.path)
-        r.fail("written by a run whose " + stamp.what.substr(4) + " was " + it->path
-               + ", and this run's is " + stamp.path + restart);
-      if (it->size != stamp.size || it->hash != stamp.hash)
-        r.fail(stamp.what + " " + stamp.path
-               + " changed since the checkpoint was written ("
-               + std::to_string(it->size) + " bytes then, " + std::to_string(stamp.size)
-               + " bytes now; its content differs)" + restart);
-    }
-    for (const auto& stamp : written)
-      if (std::none_of(now.begin(), now.end(),
-                       [&stamp](const InputStamp& n) { return n.what == stamp.what; }))
-        r.fail("written by a run that read " + stamp.what + " " + stamp.path
-               + ", which this run does not read" + restart);
-  } else {
-    PCL_WARN("[planar_grid::PipelineRunner::resumeFrom] %s: a version 1 checkpoint, "
-             "which does not record its input files: a calibration, poses or "
-             "configuration file changed since is not found.\n",
-             path.c_str());
+/** \brief Reads one stamp (what, path, size, hash) of a file. */
+template <typename Stamp>
+void
+getStamp(ByteReader& r, const char* item, Stamp& stamp)
+{
+  stamp.what = r.getString(item);
+  stamp.path = r.getString(item);
+  stamp.size = r.get<std::uint64_t>();
+  stamp.hash = r.get<std::uint64_t>();
+}
+
+/** \brief Reads the input files' stamps a checkpoint recorded and compares them with
+ * \a now, this run's: a file read by one run and not the other, at another path or
+ * with other bytes fails \a r. */
+template <typename Stamp>
+void
+checkInputStamps(ByteReader& r, const std::vector<Stamp>& now)
+{
+  std::vector<Stamp> written(r.getCount(4 * 8, "input file"));
+  for (auto& stamp : written)
+    getStamp(r, "input file", stamp);
+  const auto restart = ": resume with the files the checkpoint's run read, or start "
+                       "a new run without --resume";
+  for (const auto& stamp : now) {
+    const auto it =
+      std::find_if(written.begin(), written.end(),
+                   [&stamp](const Stamp& w) { return w.what == stamp.what; });
+    if (it == written.end())
+      r.fail("written by a run that did not read " + stamp.what + ", and this run "
+             + "reads " + stamp.path + restart);
+    if (it->path != stamp.path)
+      r.fail("written by a run whose " + stamp.what.substr(4) + " was " + it->path
+             + ", and this run's is " + stamp.path + restart);
+    if (it->size != stamp.size || it->hash != stamp.hash)
+      r.fail(stamp.what + " " + stamp.path
+             + " changed since the checkpoint was written (" + std::to_string(it->size)
+             + " bytes then, " + std::to_string(stamp.size)
+             + " bytes now; its content differs)" + restart);
   }
-  if (written_fingerprint != fingerprint())
-    r.fail("written by a different pipeline (its stages, parameters or input differ "
-           "from this configuration's); resume with the configuration that wrote it");
+  for (const auto& stamp : written)
+    if (std::none_of(now.begin(), now.end(),
+                     [&stamp](const Stamp& n) { return n.what == stamp.what; }))
+      r.fail("written by a run that read " + stamp.what + " " + stamp.path
+             + ", which this run does not read" + restart);
+}
 
-  auto resume = std::make_unique<ResumeData>();
-  resume->first_frame = static_cast<std::size_t>(r.get<std::uint64_t>());
-  resume->next_frame = static_cast<std::size_t>(r.get<std::uint64_t>());
-  if (resume->next_frame <= resume->first_frame || resume->next_frame > source_->size())
-    r.fail("frame positions " + std::to_string(resume->first_frame) + ".."
-           + std::to_string(resume->next_frame) + " do not fit the input's "
-           + std::to_string(source_->size()) + " frames");
-  if (version >= 3) {
-    // The map holds what these files held: a file changed since would leave the
-    // resumed map unlike a new run's.
-    resume->frame_stamps.resize(r.getCount(4 * 8, "frame file"));
-    for (auto& stamp : resume->frame_stamps) {
-      stamp.what = r.getString("frame file");
-      stamp.path = r.getString("frame file");
-      stamp.size = r.get<std::uint64_t>();
-      stamp.hash = r.get<std::uint64_t>();
-      const auto [size, hash] = sizeAndHash(stamp.path, stamp.what);
-      if (size != stamp.size || hash != stamp.hash)
-        r.fail(stamp.what + " " + stamp.path
-               + " changed since the checkpoint was written ("
-               + std::to_string(stamp.size) + " bytes then, " + std::to_string(size)
-               + " bytes now; its content differs): the map holds what it held; start "
-                 "a new run without --resume");
-    }
+/** \brief Reads the frame files' stamps (version 3) and checks each file against
+ * its stamp: the map holds what these files held, and a file changed since would
+ * leave the resumed map unlike a new run's. */
+template <typename Stamp>
+void
+readFrameStamps(ByteReader& r, std::vector<Stamp>& stamps)
+{
+  stamps.resize(r.getCount(4 * 8, "frame file"));
+  for (auto& stamp : stamps) {
+    getStamp(r, "frame file", stamp);
+    const auto [size, hash] = sizeAndHash(stamp.path, stamp.what);
+    if (size != stamp.size || hash != stamp.hash)
+      r.fail(stamp.what + " " + stamp.path
+             + " changed since the checkpoint was written ("
+             + std::to_string(stamp.size) + " bytes then, " + std::to_string(size)
+             + " bytes now; its content differs): the map holds what it held; start "
+               "a new run without --resume");
   }
+}
 
-  RunReport& report = resume->report;
+/** \brief Reads the report up to the checkpoint: frames, times, checkpoints, each of
+ * the \a stage_count stages' figures and counters, the memory samples. */
+void
+readRunReport(ByteReader& r, std::size_t stage_count, RunReport& report)
+{
   report.frames = static_cast<std::size_t>(r.get<std::uint64_t>());
   report.load_ms = r.get<double>();
   report.seconds = r.get<double>();
   report.checkpoints_written = static_cast<std::size_t>(r.get<std::uint64_t>());
-  const std::size_t stage_count = r.getCount(8, "stage report");
-  if (stage_count != stages_.size())
+  if (r.getCount(8, "stage report") != stage_count)
     r.fail("stage count differs");
   for (std::size_t s = 0; s < stage_count; ++s) {
     StageReport sr;
@@ -458,12 +452,14 @@ PipelineRunner::resumeFrom(const std::string& path)
     const auto frame = static_cast<std::size_t>(r.get<std::uint64_t>());
     report.rss_samples.emplace_back(frame, r.get<std::uint64_t>());
   }
+}
 
-  const std::size_t poses = r.getCount(12 * 8, "pose");
-  for (std::size_t k = 0; k < poses; ++k)
-    resume->trajectory.push_back(getPose(r));
-
-  PipelineState& state = resume->state;
+/** \brief Reads the shared state: the world and plane clouds, the plane models and
+ * their inlier counts, the cuboids and the map (decoded here, with every check of a
+ * map file, so that a corrupt map is reported before the run starts). */
+void
+readSharedState(ByteReader& r, const std::string& path, PipelineState& state)
+{
   const std::size_t world_points = r.getCount(16, "world cloud point");
   state.world_cloud->resize(world_points);
   for (auto& p : state.world_cloud->points) {
@@ -492,12 +488,56 @@ PipelineRunner::resumeFrom(const std::string& path)
     state.plane_inlier_counts.push_back(
       static_cast<std::size_t>(r.get<std::uint64_t>()));
   getCuboids(r, state.cuboids);
-  if (r.get<std::uint8_t>() != 0) {
-    // Decoded here, with every check of a map file, so that a corrupt map is reported
-    // before the run starts.
+  if (r.get<std::uint8_t>() != 0)
     state.map = std::make_shared<PlanarGridMap>(
       PlanarGridMap::deserialize(r.getString("map"), path + " (embedded map)"));
-  }
+}
+
+} // namespace
+
+std::size_t
+PipelineRunner::resumeFrom(const std::string& path)
+{
+  input("resumeFrom()");
+  const std::string what = "checkpoint " + path;
+  const std::string text = readCheckpointBytes(path, what);
+  ByteReader r(reinterpret_cast<const std::uint8_t*>(text.data()), text.size() - 4,
+               what);
+  if (r.get<std::uint32_t>() != CHECKPOINT_MAGIC)
+    r.fail("not a planar_grid_pipeline checkpoint");
+  const auto version = r.get<std::uint32_t>();
+  if (version < 1 || version > CHECKPOINT_VERSION)
+    r.fail("version " + std::to_string(version)
+           + " is not supported (this reader knows 1 to "
+           + std::to_string(CHECKPOINT_VERSION) + ")");
+  const std::string written_fingerprint = r.getString("fingerprint");
+  // The files first: a changed calibration also changes the fingerprint, and the
+  // message should name the file.
+  if (version >= 2)
+    checkInputStamps(r, stampInputFiles(config_));
+  else
+    PCL_WARN("[planar_grid::PipelineRunner::resumeFrom] %s: a version 1 checkpoint, "
+             "which does not record its input files: a calibration, poses or "
+             "configuration file changed since is not found.\n",
+             path.c_str());
+  if (written_fingerprint != fingerprint())
+    r.fail("written by a different pipeline (its stages, parameters or input differ "
+           "from this configuration's); resume with the configuration that wrote it");
+
+  auto resume = std::make_unique<ResumeData>();
+  resume->first_frame = static_cast<std::size_t>(r.get<std::uint64_t>());
+  resume->next_frame = static_cast<std::size_t>(r.get<std::uint64_t>());
+  if (resume->next_frame <= resume->first_frame || resume->next_frame > source_->size())
+    r.fail("frame positions " + std::to_string(resume->first_frame) + ".."
+           + std::to_string(resume->next_frame) + " do not fit the input's "
+           + std::to_string(source_->size()) + " frames");
+  if (version >= 3)
+    readFrameStamps(r, resume->frame_stamps);
+  readRunReport(r, stages_.size(), resume->report);
+  const std::size_t poses = r.getCount(12 * 8, "pose");
+  for (std::size_t k = 0; k < poses; ++k)
+    resume->trajectory.push_back(getPose(r));
+  readSharedState(r, path, resume->state);
 
   const std::size_t stage_states = r.getCount(16, "stage state");
   if (stage_states != stages_.size())
