@@ -480,26 +480,101 @@ logLevel(int argc, char** argv)
   return level;
 }
 
-int
-run(int argc, char** argv)
+/** \brief The informational options (--help, --list-stages, --stage-reference,
+ * --print-default-pipeline): true with the exit status in \a status when one was
+ * given (or no argument at all). */
+bool
+informationalRequest(int argc, char** argv, int& status)
 {
+  status = EXIT_SUCCESS;
   if (argc < 2 || find_switch(argc, argv, "-h") || find_switch(argc, argv, "--help")) {
     printHelp(argv[0]);
-    return argc < 2 ? EXIT_USAGE : EXIT_SUCCESS;
+    status = argc < 2 ? EXIT_USAGE : EXIT_SUCCESS;
+    return true;
   }
   if (find_switch(argc, argv, "--list-stages")) {
     listStages();
-    return EXIT_SUCCESS;
+    return true;
   }
   if (find_switch(argc, argv, "--stage-reference")) {
     std::cout << planar_grid::stageReferenceMarkdown();
-    return EXIT_SUCCESS;
+    return true;
   }
   if (find_switch(argc, argv, "--print-default-pipeline")) {
     std::cout << planar_grid::defaultPipelineYaml();
-    return EXIT_SUCCESS;
+    return true;
   }
-  // Every argument must be a known option: a typo is an error, not a default.
+  return false;
+}
+
+/** \brief A run as the command line asks for it: the configuration with the
+ * command line's overrides, the frames, the memory limit and the switches. */
+struct RunOptions {
+  std::string config_path;
+  std::string frames_text;
+  planar_grid::PipelineConfig config;
+  planar_grid::MemoryLimit memory_limit;
+  bool resume{false};
+  bool sequential{false};
+  bool show_info{false};
+};
+
+/** \brief The output folder of --output, checked; false when the option is not
+ * given. \throws UsageError for an empty or unexpanded folder. */
+bool
+outputFolderOption(int argc, char** argv, std::string& folder)
+{
+  if (parse_argument(argc, argv, "--output", folder) < 0)
+    return false;
+  // An empty folder name (an unset shell variable in a script) would otherwise fall
+  // back to the YAML's output.folder and replace the outputs there.
+  if (folder.empty())
+    throw planar_grid::cli::UsageError("--output '' is empty: give the folder to write "
+                                       "the outputs into (or leave the option out to "
+                                       "use output.folder of the YAML)");
+  if (planar_grid::needsShellExpansion(folder))
+    throw planar_grid::cli::UsageError("--output '" + folder
+                                       + "': '~' or a $VARIABLE the shell did not "
+                                         "expand (quoted?); give the path itself");
+  return true;
+}
+
+/** \brief Clears the snapshots --no-snapshot turns off, or that a build without the
+ * viewer cannot take; with snapshots to take, makes sure of a display first (VTK
+ * needs an X server; an Xvfb is started if there is none). */
+void
+settleSnapshots(int argc, char** argv, planar_grid::OutputConfig& output)
+{
+  // Every PNG snapshot the output block names.
+  std::vector<std::string*> snapshots{
+    &output.snapshot, &output.planes_snapshot, &output.cuboids_snapshot,
+    &output.cuboids_street_snapshot, &output.map_snapshot};
+  const auto any_snapshot = [&snapshots] {
+    return std::any_of(snapshots.begin(), snapshots.end(),
+                       [](const std::string* name) { return !name->empty(); });
+  };
+  if (find_switch(argc, argv, "--no-snapshot"))
+    for (std::string* name : snapshots)
+      name->clear();
+#ifdef PLANAR_GRID_WITH_VIEWER
+  if (any_snapshot())
+    planar_grid::ensureDisplay(argc, argv);
+#else
+  if (any_snapshot()) {
+    print_warn(
+      "Built without the viewer (PLANAR_GRID_BUILD_VIEWER=OFF): no snapshot.\n");
+    for (std::string* name : snapshots)
+      name->clear();
+  }
+#endif
+}
+
+/** \brief The run's options from the command line. Every argument must be a known
+ * option: a typo is an error, not a default. \throws UsageError, or the
+ * configuration's errors. */
+RunOptions
+parseRunOptions(int argc, char** argv)
+{
   const std::vector<std::string> with_value{
     "--config",       "--frames",    "--output", "--checkpoint-every",
     "--memory-limit", "--log-level", "--set"};
@@ -507,30 +582,21 @@ run(int argc, char** argv)
     "--no-snapshot", "--resume", "--sequential", "-v", "-q", "--quiet"};
   planar_grid::cli::checkArguments(argc, argv, with_value, switches);
   setVerbosityLevel(logLevel(argc, argv));
-  const bool show_info = isVerbosityLevelEnabled(L_INFO);
-
-  std::string config_path, frames_text, output_folder;
-  if (parse_argument(argc, argv, "--config", config_path) < 0 || config_path.empty())
+  RunOptions options;
+  options.show_info = isVerbosityLevelEnabled(L_INFO);
+  if (parse_argument(argc, argv, "--config", options.config_path) < 0
+      || options.config_path.empty())
     throw planar_grid::cli::UsageError("--config FILE.yaml is required (see --help)");
-  parse_argument(argc, argv, "--frames", frames_text);
-  const bool output_given = parse_argument(argc, argv, "--output", output_folder) >= 0;
-  // An empty folder name (an unset shell variable in a script) would otherwise fall
-  // back to the YAML's output.folder and replace the outputs there.
-  if (output_given && output_folder.empty())
-    throw planar_grid::cli::UsageError("--output '' is empty: give the folder to write "
-                                       "the outputs into (or leave the option out to "
-                                       "use output.folder of the YAML)");
-  if (output_given && planar_grid::needsShellExpansion(output_folder))
-    throw planar_grid::cli::UsageError("--output '" + output_folder
-                                       + "': '~' or a $VARIABLE the shell did not "
-                                         "expand (quoted?); give the path itself");
+  parse_argument(argc, argv, "--frames", options.frames_text);
+  std::string output_folder;
+  const bool output_given = outputFolderOption(argc, argv, output_folder);
 
   std::vector<std::string> overrides; // every --set, in order
   for (int i = 1; i + 1 < argc; ++i)
     if (std::string(argv[i]) == "--set")
       overrides.emplace_back(argv[++i]);
-  planar_grid::PipelineConfig config =
-    planar_grid::loadPipelineConfig(config_path, overrides);
+  options.config = planar_grid::loadPipelineConfig(options.config_path, overrides);
+  planar_grid::PipelineConfig& config = options.config;
   if (output_given)
     config.output.folder = output_folder;
   std::string every_text;
@@ -543,93 +609,93 @@ run(int argc, char** argv)
                                          + "' must be a non-negative integer");
     config.output.checkpoint_every_n_frames = static_cast<std::size_t>(every);
   }
-  planar_grid::MemoryLimit memory_limit = planar_grid::machineMemoryLimit();
+  options.memory_limit = planar_grid::machineMemoryLimit();
   std::string limit_text;
   if (parse_argument(argc, argv, "--memory-limit", limit_text) >= 0) {
     try {
-      memory_limit.bytes = planar_grid::parseMemorySize(limit_text);
+      options.memory_limit.bytes = planar_grid::parseMemorySize(limit_text);
     } catch (const planar_grid::Exception& e) {
       throw planar_grid::cli::UsageError(std::string("--memory-limit: ") + e.what());
     }
-    memory_limit.source = "--memory-limit " + limit_text;
+    options.memory_limit.source = "--memory-limit " + limit_text;
   }
-  const bool resume = find_switch(argc, argv, "--resume");
-  // Every PNG snapshot the output block names.
-  std::vector<std::string*> snapshots{
-    &config.output.snapshot, &config.output.planes_snapshot,
-    &config.output.cuboids_snapshot, &config.output.cuboids_street_snapshot,
-    &config.output.map_snapshot};
-  const auto any_snapshot = [&snapshots] {
-    return std::any_of(snapshots.begin(), snapshots.end(),
-                       [](const std::string* name) { return !name->empty(); });
-  };
-  if (find_switch(argc, argv, "--no-snapshot"))
-    for (std::string* name : snapshots)
-      name->clear();
+  options.resume = find_switch(argc, argv, "--resume");
+  options.sequential = find_switch(argc, argv, "--sequential");
+  // Before the long run.
+  settleSnapshots(argc, argv, config.output);
+  return options;
+}
 
-#ifdef PLANAR_GRID_WITH_VIEWER
-  // Before the long run: VTK needs an X server; start an Xvfb if there is none.
-  if (any_snapshot())
-    planar_grid::ensureDisplay(argc, argv);
-#else
-  if (any_snapshot()) {
-    print_warn(
-      "Built without the viewer (PLANAR_GRID_BUILD_VIEWER=OFF): no snapshot.\n");
-    for (std::string* name : snapshots)
-      name->clear();
-  }
-#endif
-
+/** \brief Prints the configuration's stages and their parameters (info level). */
+void
+printConfiguration(const RunOptions& options)
+{
   print_info("Configuration: ");
-  printValue(config_path);
-  print_info(" (%zu stages)\n", config.stages.size());
-  for (const auto& sc : config.stages) {
+  printValue(options.config_path);
+  print_info(" (%zu stages)\n", options.config.stages.size());
+  for (const auto& sc : options.config.stages) {
     std::string params;
     for (const auto& [key, value] : sc.params.values())
       params += (params.empty() ? "" : ", ") + key + "=" + sc.params.toString(key);
     print_info("  %-28s %s\n", sc.type.c_str(), params.c_str());
   }
+}
 
-  planar_grid::PipelineRunner runner(config);
-  runner.setFrameOverlap(!find_switch(argc, argv, "--sequential"));
-  std::size_t begin = 0, end = runner.frameCount();
-  if (!frames_text.empty()) {
-    parseFrameRange(frames_text, runner.frameCount(), begin, end);
-    try {
-      runner.setFrameRange(begin, end);
-    } catch (const planar_grid::Exception& e) { // empty or past the input's end
-      throw planar_grid::cli::UsageError(e.what());
-    }
+/** \brief The frame range of --frames (all frames without it) set on \a runner. */
+void
+setFrames(const RunOptions& options,
+          planar_grid::PipelineRunner& runner,
+          std::size_t& begin,
+          std::size_t& end)
+{
+  begin = 0;
+  end = runner.frameCount();
+  if (options.frames_text.empty())
+    return;
+  parseFrameRange(options.frames_text, runner.frameCount(), begin, end);
+  try {
+    runner.setFrameRange(begin, end);
+  } catch (const planar_grid::Exception& e) { // empty or past the input's end
+    throw planar_grid::cli::UsageError(e.what());
   }
-  {
-    // Before anything is written or mapped: a run that cannot fit is refused now.
-    const planar_grid::MemoryEstimate estimate = runner.estimateMemory();
-    print_info("Memory estimate: ");
-    printValue(estimate.summary());
-    print_info("; limit %s\n", memory_limit.bytes == 0
-                                 ? "none"
-                                 : (planar_grid::formatBytes(memory_limit.bytes) + " ("
-                                    + memory_limit.source + ")")
-                                     .c_str());
-    planar_grid::checkMemoryEstimate(estimate, memory_limit);
-    runner.setMemoryLimit({}); // checked here; run() need not estimate again
-  }
+}
+
+/** \brief Refuses a run whose memory estimate exceeds the limit, before anything is
+ * written or mapped. */
+void
+checkMemory(const RunOptions& options, planar_grid::PipelineRunner& runner)
+{
+  const planar_grid::MemoryEstimate estimate = runner.estimateMemory();
+  const planar_grid::MemoryLimit& limit = options.memory_limit;
+  print_info("Memory estimate: ");
+  printValue(estimate.summary());
+  print_info(
+    "; limit %s\n",
+    limit.bytes == 0
+      ? "none"
+      : (planar_grid::formatBytes(limit.bytes) + " (" + limit.source + ")").c_str());
+  planar_grid::checkMemoryEstimate(estimate, limit);
+  runner.setMemoryLimit({}); // checked here; run() need not estimate again
+}
+
+/** \brief The checkpoint: checked to be a file name now (not at the first checkpoint,
+ * after the frames before it ran), resumed from with --resume, and written every
+ * output.checkpoint_every_n_frames frames. */
+void
+setCheckpoint(const RunOptions& options, planar_grid::PipelineRunner& runner)
+{
+  const planar_grid::OutputConfig& output = options.config.output;
   const std::string checkpoint_path =
-    config.output.checkpoint.empty()
-      ? std::string()
-      : planar_grid::outputPath(config.output, config.output.checkpoint);
-  {
-    // Known now, not at the first checkpoint, after the frames before it ran.
-    std::error_code ec;
-    if ((resume || config.output.checkpoint_every_n_frames > 0)
-        && !checkpoint_path.empty()
-        && std::filesystem::is_directory(checkpoint_path, ec))
-      throw planar_grid::OutputError(
-        checkpoint_path
-        + ": the checkpoint (output.checkpoint) is a folder, "
-          "not a file: it cannot be written or read there");
-  }
-  if (resume) {
+    output.checkpoint.empty() ? std::string()
+                              : planar_grid::outputPath(output, output.checkpoint);
+  std::error_code ec;
+  if ((options.resume || output.checkpoint_every_n_frames > 0)
+      && !checkpoint_path.empty() && std::filesystem::is_directory(checkpoint_path, ec))
+    throw planar_grid::OutputError(
+      checkpoint_path
+      + ": the checkpoint (output.checkpoint) is a folder, "
+        "not a file: it cannot be written or read there");
+  if (options.resume) {
     if (checkpoint_path.empty())
       throw planar_grid::Exception("--resume needs output.checkpoint (a file name)");
     const std::size_t next = runner.resumeFrom(checkpoint_path);
@@ -637,12 +703,20 @@ run(int argc, char** argv)
     printValue(checkpoint_path);
     print_info(" at frame position %zu\n", next);
   }
-  if (config.output.checkpoint_every_n_frames > 0) {
-    runner.setCheckpoint(checkpoint_path, config.output.checkpoint_every_n_frames);
-    print_info("Checkpoint every %zu frames: ",
-               config.output.checkpoint_every_n_frames);
+  if (output.checkpoint_every_n_frames > 0) {
+    runner.setCheckpoint(checkpoint_path, output.checkpoint_every_n_frames);
+    print_info("Checkpoint every %zu frames: ", output.checkpoint_every_n_frames);
     printValue(checkpoint_path + "\n");
   }
+}
+
+/** \brief Prints the input's kind, the frames and the read-ahead (info level). */
+void
+printInput(const planar_grid::PipelineConfig& config,
+           const planar_grid::PipelineRunner& runner,
+           std::size_t begin,
+           std::size_t end)
+{
   const bool stereo =
     config.input.type == planar_grid::InputConfig::Type::STEREO_SEQUENCE;
   const char* input_kind =
@@ -655,12 +729,14 @@ run(int argc, char** argv)
       "  loading and up to the first %zu stages run up to two frames ahead on a "
       "second thread (as many as balance the threads' measured times)\n",
       ahead);
+}
 
-  // An output that would replace a file the run reads, or that names a folder, is
-  // found now rather than after the last frame.
-  planar_grid::checkOutputPaths(config.output, runner.inputFiles(),
-                                config.output.checkpoint_every_n_frames > 0);
-
+/** \brief Runs the frames and writes the outputs as one set into the output folder
+ * (replacing the previous ones only when all are written). */
+void
+runAndWrite(const RunOptions& options, planar_grid::PipelineRunner& runner)
+{
+  const planar_grid::PipelineConfig& config = options.config;
   // The outputs replace the previous ones in the folder as one set (staged, then
   // committed); opening the set here also finishes a commit a killed run left, removes
   // its leftovers, and finds an unwritable folder before the first frame.
@@ -669,7 +745,7 @@ run(int argc, char** argv)
   writing_outputs = false;
 
   ProgressBar bar(::isatty(STDERR_FILENO) != 0);
-  if (show_info)
+  if (options.show_info)
     runner.setProgressCallback([&bar](std::size_t done, std::size_t total, double s) {
       bar.update(done, total, s);
     });
@@ -691,7 +767,7 @@ run(int argc, char** argv)
   planar_grid::cli::releaseFreedMemory();
 #ifdef PLANAR_GRID_WITH_VIEWER
   planar_grid::cli::preferLowMemorySoftwareRendering();
-  saveSnapshots(config, config_path, runner, report, outputs);
+  saveSnapshots(config, options.config_path, runner, report, outputs);
 #endif
   planar_grid::writeRunReport(config.output, report, outputs);
   outputs.commit();
@@ -699,11 +775,33 @@ run(int argc, char** argv)
   if (stop_requested.load())
     print_warn(
       "A stop signal came after the last frame: the outputs were completed.\n");
-  if (show_info) {
+  if (options.show_info) {
     std::cout << "\n" << report.timingTable() << "\nOutputs:\n";
     for (const auto& [kind, path] : report.outputs)
       std::cout << "  " << kind << ": " << path << "\n";
   }
+}
+
+int
+run(int argc, char** argv)
+{
+  int status = EXIT_SUCCESS;
+  if (informationalRequest(argc, argv, status))
+    return status;
+  const RunOptions options = parseRunOptions(argc, argv);
+  printConfiguration(options);
+  planar_grid::PipelineRunner runner(options.config);
+  runner.setFrameOverlap(!options.sequential);
+  std::size_t begin = 0, end = 0;
+  setFrames(options, runner, begin, end);
+  checkMemory(options, runner);
+  setCheckpoint(options, runner);
+  printInput(options.config, runner, begin, end);
+  // An output that would replace a file the run reads, or that names a folder, is
+  // found now rather than after the last frame.
+  planar_grid::checkOutputPaths(options.config.output, runner.inputFiles(),
+                                options.config.output.checkpoint_every_n_frames > 0);
+  runAndWrite(options, runner);
   return EXIT_SUCCESS;
 }
 
