@@ -166,15 +166,14 @@ distancesOf(const FloatArray& points, Query query)
                         arrays[1].attr("__getitem__")(0));
 }
 
-} // namespace
+/** \brief The map's Python class, registered by bindMap(). */
+using MapClass = py::class_<PlanarGridMap, std::shared_ptr<PlanarGridMap>>;
 
+/** \brief get_state, get_occupancy and cast_rays. */
 void
-bindMapQueries(py::module_& m)
+bindStateQueries(MapClass& cls)
 {
   using Map = PlanarGridMap;
-  // The class is registered by bindMap(); the queries are added to it here.
-  auto cls = py::reinterpret_borrow<py::class_<Map, std::shared_ptr<Map>>>(
-    m.attr("PlanarGridMap"));
   cls
     .def(
       "get_state",
@@ -285,7 +284,15 @@ Raises
 ValueError
     For a zero or non-finite direction, a non-finite origin, or a negative or NaN
     max_range_m, naming the ray.
-)doc")
+)doc");
+}
+
+/** \brief get_distance and is_collision_free. */
+void
+bindDistanceQueries(MapClass& cls)
+{
+  using Map = PlanarGridMap;
+  cls
     .def(
       "get_distance",
       [](const Map& self, const FloatArray& points, double max_distance_m,
@@ -364,7 +371,13 @@ Returns
 numpy.ndarray, shape (N,), bool
     True where the body touches no obstacle (False also for a non-finite body).
 )doc");
+}
 
+/** \brief MapRegionIndex: the distance and collision queries over one region. */
+void
+bindRegionIndex(py::module_& m)
+{
+  using Map = PlanarGridMap;
   py::class_<MapRegionIndex>(
     m, "MapRegionIndex",
     R"doc(The distance and collision queries of a map over one region (a planner's local
@@ -422,6 +435,18 @@ unknown_is_occupied : bool
       "the region grown by the cap is not free.")
     .def_property_readonly("obstacle_count", &MapRegionIndex::getObstacleCount,
                            "Number of obstacle boxes indexed.");
+}
+
+} // namespace
+
+void
+bindMapQueries(py::module_& m)
+{
+  // The class is registered by bindMap(); the queries are added to it here.
+  auto cls = py::reinterpret_borrow<MapClass>(m.attr("PlanarGridMap"));
+  bindStateQueries(cls);
+  bindDistanceQueries(cls);
+  bindRegionIndex(m);
 }
 
 } // namespace python
