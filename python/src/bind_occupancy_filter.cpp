@@ -23,25 +23,14 @@ public:
   using KLDivergenceOccupancyFilter<pcl::PointXYZ>::checkParameters;
 };
 
-} // namespace
+using Filter = OccupancyFilter;
+using FilterClass = py::class_<Filter, std::unique_ptr<Filter>>;
 
+/** \brief The filter's parameters: the stereo rig first, then the keyword arguments,
+ * each a read-write property with its range. */
 void
-bindOccupancyFilter(py::module_& m)
+bindFilterParameters(FilterClass& cls)
 {
-  using Filter = OccupancyFilter;
-  using Class = py::class_<Filter, std::unique_ptr<Filter>>;
-  Class cls(m, "KLDivergenceOccupancyFilter",
-            R"doc(Occupancy probability of stereo key features across frames.
-
-planar_grid::KLDivergenceOccupancyFilter<pcl::PointXYZ>: each feature's probability of
-eq. 4 (a Gaussian of its range around the mean range of its neighbourhood, with the
-stereo depth error z^2 dd / (B f)), updated across frames by the Kullback-Leibler rule
-of eqs. 5-10 (or OctoMap's log-odds rule). Each filter() call is one frame.
-
-The stereo rig (focal_length_px, baseline_m) comes first, positional or by name; the
-other parameters are keyword arguments with the C++ class's defaults (listed under
-__init__). All are read-write properties.
-)doc");
   // The parameters' getters and setters, for the ones named get<Name>/set<Name>.
 #define PLANAR_GRID_FILTER_PARAM(type, field, name, doc)   \
   param<type>(                                             \
@@ -121,6 +110,12 @@ __init__). All are read-write properties.
           "the update of a re-observed track, 'kl_divergence' (eqs. 5-10) or "
           "'log_odds' (OctoMap's)")));
 #undef PLANAR_GRID_FILTER_PARAM
+}
+
+/** \brief filter(), the tracks' probabilities and ids, and reset(). */
+void
+bindFilterMethods(FilterClass& cls)
+{
   cls
     .def(
       "filter",
@@ -226,7 +221,12 @@ ValueError
       "for an unknown track.")
     .def("reset", &Filter::reset,
          "Forgets every track; the next filter() is a first frame.");
+}
 
+/** \brief Eqs. 4-6 and 10 as numpy-broadcast functions. */
+void
+bindOccupancyFunctions(py::module_& m)
+{
   m.def(
     "range_occupancy_probability", py::vectorize(&rangeOccupancyProbability),
     py::arg("range_m"), py::arg("mean_range_m"), py::arg("depth_m"),
@@ -271,6 +271,28 @@ Returns
 numpy.ndarray or float
     The updated probability in (0, 1] (not clamped).
 )doc");
+}
+
+} // namespace
+
+void
+bindOccupancyFilter(py::module_& m)
+{
+  FilterClass cls(m, "KLDivergenceOccupancyFilter",
+                  R"doc(Occupancy probability of stereo key features across frames.
+
+planar_grid::KLDivergenceOccupancyFilter<pcl::PointXYZ>: each feature's probability of
+eq. 4 (a Gaussian of its range around the mean range of its neighbourhood, with the
+stereo depth error z^2 dd / (B f)), updated across frames by the Kullback-Leibler rule
+of eqs. 5-10 (or OctoMap's log-odds rule). Each filter() call is one frame.
+
+The stereo rig (focal_length_px, baseline_m) comes first, positional or by name; the
+other parameters are keyword arguments with the C++ class's defaults (listed under
+__init__). All are read-write properties.
+)doc");
+  bindFilterParameters(cls);
+  bindFilterMethods(cls);
+  bindOccupancyFunctions(m);
 }
 
 } // namespace python
