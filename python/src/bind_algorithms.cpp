@@ -211,28 +211,14 @@ coefficients and inliers are used by PlanarCuboidApproximation.approximate().
       "numpy.ndarray, shape (K,), int64: points of the sample cloud on each plane.");
 }
 
-void
-bindCuboids(py::module_& m)
-{
-  py::class_<Cuboids>(m, "Cuboids",
-                      R"doc(Oriented cuboids (planar_grid::PlanarCuboid), as arrays.
+/** \brief The Python class of the cuboid arrays. */
+using CuboidsClass = py::class_<Cuboids>;
 
-One row per cuboid; len() is their number M. Each box is spanned by the unit
-horizontal axis, the vertical axis (normal x horizontal axis) and the unit normal,
-with extents width, height and thickness along them about its centre. A planar
-cuboid's normal points toward the sensor and its face is at the measured surface; the
-box reaches thickness_m behind it. Returned by PlanarCuboidApproximation.approximate(),
-PlanarGridMap.cuboids and run_pipeline().
-)doc")
-    .def("__len__", [](const Cuboids& c) { return c.cuboids.size(); })
-    .def("__repr__",
-         [](const Cuboids& c) {
-           const auto planar =
-             std::count_if(c.cuboids.begin(), c.cuboids.end(),
-                           [](const PlanarCuboid& q) { return q.is_planar; });
-           return "<planar_grid.Cuboids: " + std::to_string(c.cuboids.size())
-                  + " cuboids, " + std::to_string(planar) + " planar>";
-         })
+/** \brief The cuboids' centres, normals, axes, extents, rotations and corners. */
+void
+bindCuboidGeometry(CuboidsClass& cls)
+{
+  cls
     .def_property_readonly(
       "centres",
       [](const Cuboids& c) {
@@ -313,7 +299,14 @@ PlanarGridMap.cuboids and run_pipeline().
       },
       "numpy.ndarray, shape (M, 8, 3), float64: the corners, meters: the face's four "
       "(-w,-h), (+w,-h), (+w,+h), (-w,+h) in (horizontal, vertical) half-extents, then "
-      "the same four at the back.")
+      "the same four at the back.");
+}
+
+/** \brief The cuboids' axis-aligned bounds. */
+void
+bindCuboidBounds(CuboidsClass& cls)
+{
+  cls
     .def_property_readonly(
       "min_bounds",
       [](const Cuboids& c) {
@@ -339,7 +332,14 @@ PlanarGridMap.cuboids and run_pipeline().
         });
       },
       "numpy.ndarray, shape (M, 3), float64: axis-aligned upper corner of each box, "
-      "meters.")
+      "meters.");
+}
+
+/** \brief The cuboids' planes, point counts, probabilities and volumes. */
+void
+bindCuboidAttributes(CuboidsClass& cls)
+{
+  cls
     .def_property_readonly(
       "plane_ids",
       [](const Cuboids& c) {
@@ -385,27 +385,38 @@ PlanarGridMap.cuboids and run_pipeline().
 }
 
 void
-bindSegmentation(py::module_& m)
+bindCuboids(py::module_& m)
 {
-  using Class = py::class_<Segmentation, std::unique_ptr<Segmentation>>;
-  Class cls(m, "SACMultiPlaneSegmentation",
-            R"doc(Multi-plane segmentation by repeated sample consensus.
+  CuboidsClass cls(m, "Cuboids",
+                   R"doc(Oriented cuboids (planar_grid::PlanarCuboid), as arrays.
 
-planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZ>: the multi-RANSAC of the paper
-(Zhang et al., Sec. III-C, eqs. 1-3) with the dense inlier selection of eq. 11. Plane
-hypotheses come from ``sample_points`` (e.g. stereo key features) when given, else from
-a seeded subsample of the points; each plane's dense inliers are the points within
-``distance_threshold_m`` of it that no earlier plane took.
-
-The parameters are the constructor's keyword arguments, e.g.
-``SACMultiPlaneSegmentation(distance_threshold_m=0.02, min_inliers=300, seed=0)``, with
-the C++ class's defaults (listed under __init__), and read-write properties.
-
-Notes
------
-Deterministic: the same points, parameters and seed give the same planes. Degenerate
-input (no points, only NaN, colinear points) gives no plane.
+One row per cuboid; len() is their number M. Each box is spanned by the unit
+horizontal axis, the vertical axis (normal x horizontal axis) and the unit normal,
+with extents width, height and thickness along them about its centre. A planar
+cuboid's normal points toward the sensor and its face is at the measured surface; the
+box reaches thickness_m behind it. Returned by PlanarCuboidApproximation.approximate(),
+PlanarGridMap.cuboids and run_pipeline().
 )doc");
+  cls.def("__len__", [](const Cuboids& c) { return c.cuboids.size(); })
+    .def("__repr__", [](const Cuboids& c) {
+      const auto planar =
+        std::count_if(c.cuboids.begin(), c.cuboids.end(),
+                      [](const PlanarCuboid& q) { return q.is_planar; });
+      return "<planar_grid.Cuboids: " + std::to_string(c.cuboids.size()) + " cuboids, "
+             + std::to_string(planar) + " planar>";
+    });
+  bindCuboidGeometry(cls);
+  bindCuboidBounds(cls);
+  bindCuboidAttributes(cls);
+}
+
+using SegmentationClass = py::class_<Segmentation, std::unique_ptr<Segmentation>>;
+
+/** \brief The segmentation's parameters: keyword arguments and read-write
+ * properties with their ranges. */
+void
+bindSegmentationParameters(SegmentationClass& cls)
+{
   ParamBinder<Segmentation, std::unique_ptr<Segmentation>>(
     cls, "SACMultiPlaneSegmentation",
     [](const Segmentation& s) { return s.checkParameters(); })
@@ -510,6 +521,12 @@ input (no points, only NaN, colinear points) gives no plane.
           "points subsampled for the hypotheses when no sample points are "
           "given, in "
             + formatParamRange(sac_multi_plane_segmentation_ranges::MAX_SAMPLE_SIZE))));
+}
+
+/** \brief segment(). */
+void
+bindSegmentationMethods(SegmentationClass& cls)
+{
   cls.def(
     "segment",
     [](Segmentation& self, const FloatArray& points, const py::object& sample_points,
@@ -553,6 +570,31 @@ Raises
 ValueError
     For points of another shape.
 )doc");
+}
+
+void
+bindSegmentation(py::module_& m)
+{
+  SegmentationClass cls(m, "SACMultiPlaneSegmentation",
+                        R"doc(Multi-plane segmentation by repeated sample consensus.
+
+planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZ>: the multi-RANSAC of the paper
+(Zhang et al., Sec. III-C, eqs. 1-3) with the dense inlier selection of eq. 11. Plane
+hypotheses come from ``sample_points`` (e.g. stereo key features) when given, else from
+a seeded subsample of the points; each plane's dense inliers are the points within
+``distance_threshold_m`` of it that no earlier plane took.
+
+The parameters are the constructor's keyword arguments, e.g.
+``SACMultiPlaneSegmentation(distance_threshold_m=0.02, min_inliers=300, seed=0)``, with
+the C++ class's defaults (listed under __init__), and read-write properties.
+
+Notes
+-----
+Deterministic: the same points, parameters and seed give the same planes. Degenerate
+input (no points, only NaN, colinear points) gives no plane.
+)doc");
+  bindSegmentationParameters(cls);
+  bindSegmentationMethods(cls);
 }
 
 void
