@@ -223,11 +223,8 @@ toPaths(const py::iterable& folders)
   return out;
 }
 
-/** merge_tile_sets, prepare_tile_merge, merge_tile and write_tile_index. */
-void
-bindTileMerge(py::module_& m)
-{
-  constexpr const char* order_doc = R"doc(
+/** \brief What merge_tile_sets() and merge_tile() do where the maps disagree. */
+constexpr const char* TILE_MERGE_ORDER_DOC = R"doc(
 Where the maps disagree: in the space layer, when one tile's observation span (its
 frames) lies wholly after the others', its observations win voxel by voxel; otherwise
 occupied > free > unknown > never observed. In the surface layer, a plane of a later
@@ -235,6 +232,11 @@ folder joins the plane the association matches (one plane, refitted), else is ad
 non-planar cells of all are kept. The planes' tidying after a merge
 (planes_absorb_overlapping, planes_replace_non_planar) is skipped, as load_tiles()
 skips it: tile covers are cut at the borders.)doc";
+
+/** \brief merge_tile_sets: one call merges whole folders of tiles. */
+void
+bindMergeTileSets(py::module_& m)
+{
   m.def(
     "merge_tile_sets",
     [](const py::iterable& folders, const py::object& output_folder) {
@@ -256,7 +258,7 @@ identity in the order of folders and written as one tile, then the index is writ
 removed). load_tiles() of the result gives the maps merged whole and saved as tiles:
 the same voxels and planes, the same cuboids except near tile borders where a plane
 met another map's plane in some tiles only, and without the planes' tidying.)doc")
-     + order_doc + R"doc(
+     + TILE_MERGE_ORDER_DOC + R"doc(
 
 Parameters
 ----------
@@ -280,6 +282,12 @@ planar_grid.IOError
     For a bad index or tile, or a file that cannot be written (the message names it).
 )doc")
       .c_str());
+}
+
+/** \brief prepare_tile_merge and merge_tile: a merge tile by tile, for many workers. */
+void
+bindTileByTileMerge(py::module_& m)
+{
   m.def(
     "prepare_tile_merge",
     [](const py::iterable& folders, const py::object& output_folder) {
@@ -333,7 +341,7 @@ planar_grid.Error, planar_grid.IOError
 named as save_tiles() names the tiles of set generation; the index is not touched.
 The tiles of the folders that hold the key are merged with the identity, in the order
 of folders, into an empty map of the first folder's parameters.)doc")
-     + order_doc + R"doc(
+     + TILE_MERGE_ORDER_DOC + R"doc(
 
 Parameters
 ----------
@@ -360,6 +368,12 @@ planar_grid.IOError
     For a bad index or tile, or a file that cannot be written.
 )doc")
       .c_str());
+}
+
+/** \brief write_tile_index. */
+void
+bindWriteTileIndex(py::module_& m)
+{
   m.def(
     "write_tile_index",
     [](const py::object& folder, const py::dict& index) {
@@ -394,6 +408,15 @@ planar_grid.IOError
     folder is then unchanged.
 )doc")
       .c_str());
+}
+
+/** merge_tile_sets, prepare_tile_merge, merge_tile and write_tile_index. */
+void
+bindTileMerge(py::module_& m)
+{
+  bindMergeTileSets(m);
+  bindTileByTileMerge(m);
+  bindWriteTileIndex(m);
 }
 
 } // namespace
