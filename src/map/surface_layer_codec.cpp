@@ -99,24 +99,13 @@ unitVector(const Eigen::Vector3f& v)
 {
   return v.allFinite() && std::abs(v.norm() - 1.0f) < 1e-3f;
 }
-} // namespace
 
-void
-SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
+/** \brief The parameters of a section of \a version (2 to VERSION), the fields older
+ * versions lack at the values those versions behaved with. */
+SurfaceLayer::Params
+readParams(ByteReader& rd, std::uint32_t version)
 {
-  if (data == nullptr && size > 0)
-    throw IOError("surface layer: null data");
-  ByteReader rd(data, size, "surface layer");
-  if (rd.get<std::uint32_t>() != MAGIC)
-    throw IOError("surface layer: bad magic (not a surface layer section)");
-  const auto version = rd.get<std::uint32_t>();
-  if (version == 1)
-    throw IOError("surface layer: version 1 section (written before the map planes "
-                  "kept their evidence moments) is not supported by this reader "
-                  "(versions 2 to 6); run the mapping again");
-  if (version < 2 || version > VERSION)
-    throw IOError("surface layer: unsupported version " + std::to_string(version));
-  Params params;
+  SurfaceLayer::Params params;
   params.resolution_m = rd.get<double>();
   params.thickness_m = rd.get<double>();
   params.plane_merge_angle_rad = rd.get<double>();
@@ -141,6 +130,121 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
   params.terrain_plane_tile_m = version >= 5 ? rd.get<double>() : 0.0;
   // versions 2 to 5 covered the level planes at cover_density
   params.terrain_cover_density = version >= 6 ? rd.get<double>() : params.cover_density;
+  return params;
+}
+
+/** \brief Plane \a p: its frame and refined plane (within \a cos_angle of each other),
+ * its evidence moments and its raster's cells (sorted, unique, in range). */
+MapPlane
+readPlane(ByteReader& rd, std::size_t p, double cos_angle)
+{
+  const std::string which = "surface layer: plane " + std::to_string(p);
+  Eigen::Vector3f frame_normal, normal;
+  for (int k = 0; k < 3; ++k)
+    frame_normal[k] = rd.get<float>();
+  const auto frame_d = rd.get<float>();
+  for (int k = 0; k < 3; ++k)
+    normal[k] = rd.get<float>();
+  const auto d = rd.get<float>();
+  if (!unitVector(frame_normal) || !unitVector(normal) || !std::isfinite(frame_d)
+      || !std::isfinite(d) || std::abs(frame_d) > MAX_COORDINATE_M
+      || std::abs(d) > MAX_COORDINATE_M)
+    throw IOError(which + " has a non-unit normal or a bad offset");
+  if (!(normal.dot(frame_normal) >= cos_angle))
+    throw IOError(which
+                  + ": its plane is more than plane_merge_angle_rad from its "
+                    "raster frame");
+  MapPlane mp;
+  mp.setFrame(frame_normal, frame_d);
+  mp.setRefined(normal, d);
+  PlaneMoments& m = mp.moments;
+  for (int k = 0; k < 3; ++k)
+    m.anchor[k] = rd.get<double>();
+  m.weight = rd.get<double>();
+  for (int k = 0; k < 3; ++k)
+    m.sum[k] = rd.get<double>();
+  for (double& v : m.sum_sq_upper)
+    v = rd.get<double>();
+  if (!m.anchor.allFinite() || m.anchor.cwiseAbs().maxCoeff() > MAX_COORDINATE_M
+      || !(m.weight > 0.0) || !std::isfinite(m.weight) || !m.sum.allFinite()
+      || !m.sumSq().allFinite())
+    throw IOError(which + " has invalid evidence moments");
+  const std::size_t cell_count = rd.getCount(CELL_BYTES, "cell");
+  std::vector<std::uint64_t> keys;
+  std::vector<float> sums;
+  std::vector<std::uint16_t> counts;
+  keys.reserve(cell_count);
+  sums.reserve(cell_count);
+  counts.reserve(cell_count);
+  for (std::size_t c = 0; c < cell_count; ++c) {
+    const auto i = rd.get<std::int32_t>();
+    const auto j = rd.get<std::int32_t>();
+    const auto sum = rd.get<float>();
+    const auto count = rd.get<std::uint16_t>();
+    if (std::abs(static_cast<double>(i)) > MAX_CELL_INDEX
+        || std::abs(static_cast<double>(j)) > MAX_CELL_INDEX)
+      throw IOError(which + ": cell index out of range");
+    const std::uint64_t key = rasterCellKey(i, j);
+    if (!keys.empty() && !(key > keys.back()))
+      throw IOError(which + ": cells not sorted or duplicated");
+    checkSum(sum, count, "cell");
+    keys.push_back(key);
+    sums.push_back(sum);
+    counts.push_back(count);
+  }
+  mp.raster.assign(keys, sums, counts);
+  return mp;
+}
+
+/** \brief Non-planar cell \a k's box and evidence (finite, unit orthogonal axes,
+ * extents in range). */
+void
+readNonPlanarCell(ByteReader& rd,
+                  std::size_t k,
+                  PlanarCuboid& c,
+                  double& probability_sum,
+                  std::uint32_t& feature_count)
+{
+  for (int a = 0; a < 3; ++a)
+    c.centre[a] = rd.get<float>();
+  for (int a = 0; a < 3; ++a)
+    c.normal[a] = rd.get<float>();
+  for (int a = 0; a < 3; ++a)
+    c.horizontal_axis[a] = rd.get<float>();
+  c.width_m = rd.get<float>();
+  c.height_m = rd.get<float>();
+  c.thickness_m = rd.get<float>();
+  probability_sum = rd.get<double>();
+  feature_count = rd.get<std::uint32_t>();
+  const auto extent_ok = [](float e) {
+    return std::isfinite(e) && e >= 0.0f && e <= MAX_COORDINATE_M;
+  };
+  if (!finiteVector(c.centre) || !unitVector(c.normal) || !unitVector(c.horizontal_axis)
+      || std::abs(c.normal.dot(c.horizontal_axis)) > 1e-3f || !extent_ok(c.width_m)
+      || !extent_ok(c.height_m) || !extent_ok(c.thickness_m))
+    throw IOError("surface layer: non-planar cell " + std::to_string(k)
+                  + " has invalid geometry");
+  checkSum(probability_sum, feature_count, "non-planar cell");
+}
+
+} // namespace
+
+void
+SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
+{
+  if (data == nullptr && size > 0)
+    throw IOError("surface layer: null data");
+  ByteReader rd(data, size, "surface layer");
+  if (rd.get<std::uint32_t>() != MAGIC)
+    throw IOError("surface layer: bad magic (not a surface layer section)");
+  const auto version = rd.get<std::uint32_t>();
+  if (version == 1)
+    throw IOError("surface layer: version 1 section (written before the map planes "
+                  "kept their evidence moments) is not supported by this reader "
+                  "(versions 2 to 6); run the mapping again");
+  if (version < 2 || version > VERSION)
+    throw IOError("surface layer: unsupported version " + std::to_string(version));
+  const Params params = readParams(rd, version);
   try {
     validate(params);
   } catch (const Exception& e) {
@@ -152,62 +256,8 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
   impl->planes.reserve(plane_count);
   impl->plane_models.reserve(plane_count);
   for (std::size_t p = 0; p < plane_count; ++p) {
-    const std::string which = "surface layer: plane " + std::to_string(p);
-    Eigen::Vector3f frame_normal, normal;
-    for (int k = 0; k < 3; ++k)
-      frame_normal[k] = rd.get<float>();
-    const auto frame_d = rd.get<float>();
-    for (int k = 0; k < 3; ++k)
-      normal[k] = rd.get<float>();
-    const auto d = rd.get<float>();
-    if (!unitVector(frame_normal) || !unitVector(normal) || !std::isfinite(frame_d)
-        || !std::isfinite(d) || std::abs(frame_d) > MAX_COORDINATE_M
-        || std::abs(d) > MAX_COORDINATE_M)
-      throw IOError(which + " has a non-unit normal or a bad offset");
-    if (!(normal.dot(frame_normal) >= cos_angle))
-      throw IOError(which
-                    + ": its plane is more than plane_merge_angle_rad from its "
-                      "raster frame");
-    MapPlane mp;
-    mp.setFrame(frame_normal, frame_d);
-    mp.setRefined(normal, d);
-    PlaneMoments& m = mp.moments;
-    for (int k = 0; k < 3; ++k)
-      m.anchor[k] = rd.get<double>();
-    m.weight = rd.get<double>();
-    for (int k = 0; k < 3; ++k)
-      m.sum[k] = rd.get<double>();
-    for (double& v : m.sum_sq_upper)
-      v = rd.get<double>();
-    if (!m.anchor.allFinite() || m.anchor.cwiseAbs().maxCoeff() > MAX_COORDINATE_M
-        || !(m.weight > 0.0) || !std::isfinite(m.weight) || !m.sum.allFinite()
-        || !m.sumSq().allFinite())
-      throw IOError(which + " has invalid evidence moments");
-    const std::size_t cell_count = rd.getCount(CELL_BYTES, "cell");
-    std::vector<std::uint64_t> keys;
-    std::vector<float> sums;
-    std::vector<std::uint16_t> counts;
-    keys.reserve(cell_count);
-    sums.reserve(cell_count);
-    counts.reserve(cell_count);
-    for (std::size_t c = 0; c < cell_count; ++c) {
-      const auto i = rd.get<std::int32_t>();
-      const auto j = rd.get<std::int32_t>();
-      const auto sum = rd.get<float>();
-      const auto count = rd.get<std::uint16_t>();
-      if (std::abs(static_cast<double>(i)) > MAX_CELL_INDEX
-          || std::abs(static_cast<double>(j)) > MAX_CELL_INDEX)
-        throw IOError(which + ": cell index out of range");
-      const std::uint64_t key = rasterCellKey(i, j);
-      if (!keys.empty() && !(key > keys.back()))
-        throw IOError(which + ": cells not sorted or duplicated");
-      checkSum(sum, count, "cell");
-      keys.push_back(key);
-      sums.push_back(sum);
-      counts.push_back(count);
-    }
-    mp.raster.assign(keys, sums, counts);
-    impl->plane_models.emplace_back(normal.x(), normal.y(), normal.z(), d);
+    MapPlane mp = readPlane(rd, p, cos_angle);
+    impl->plane_models.emplace_back(mp.normal.x(), mp.normal.y(), mp.normal.z(), mp.d);
     impl->planes.push_back(std::move(mp));
   }
   const std::size_t non_planar_count = rd.getCount(NON_PLANAR_BYTES, "non-planar cell");
@@ -216,27 +266,9 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
   std::map<AxesKey, std::uint32_t> axes_lookup;
   for (std::size_t k = 0; k < non_planar_count; ++k) {
     PlanarCuboid c;
-    for (int a = 0; a < 3; ++a)
-      c.centre[a] = rd.get<float>();
-    for (int a = 0; a < 3; ++a)
-      c.normal[a] = rd.get<float>();
-    for (int a = 0; a < 3; ++a)
-      c.horizontal_axis[a] = rd.get<float>();
-    c.width_m = rd.get<float>();
-    c.height_m = rd.get<float>();
-    c.thickness_m = rd.get<float>();
-    const auto probability_sum = rd.get<double>();
-    const auto feature_count = rd.get<std::uint32_t>();
-    const auto extent_ok = [](float e) {
-      return std::isfinite(e) && e >= 0.0f && e <= MAX_COORDINATE_M;
-    };
-    if (!finiteVector(c.centre) || !unitVector(c.normal)
-        || !unitVector(c.horizontal_axis)
-        || std::abs(c.normal.dot(c.horizontal_axis)) > 1e-3f || !extent_ok(c.width_m)
-        || !extent_ok(c.height_m) || !extent_ok(c.thickness_m))
-      throw IOError("surface layer: non-planar cell " + std::to_string(k)
-                    + " has invalid geometry");
-    checkSum(probability_sum, feature_count, "non-planar cell");
+    double probability_sum = 0.0;
+    std::uint32_t feature_count = 0;
+    readNonPlanarCell(rd, k, c, probability_sum, feature_count);
     const auto key = nonPlanarKey(c, params.resolution_m);
     if (!non_planar_keys.emplace(key, static_cast<std::uint32_t>(k)).second)
       throw IOError("surface layer: duplicate non-planar cell " + std::to_string(k));
