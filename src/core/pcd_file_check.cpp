@@ -246,20 +246,14 @@ countDataLines(const std::string& path, std::uint64_t offset)
   return lines + !blank;
 }
 
-} // namespace
-
-PCDFileInfo
-checkPCDFile(const std::string& path)
+/** \brief The header's text checked before PCL reads it: not a map file, a PCD
+ * header with a DATA line, a valid viewpoint, no layout line after POINTS, and no
+ * more points declared than a file of \a file_size bytes can hold. */
+void
+checkHeaderText(const std::string& path,
+                const HeaderText& text,
+                std::uintmax_t file_size)
 {
-  const std::uintmax_t file_size = checkInputFile(path, "a PCD file");
-
-  HeaderText text;
-  {
-    std::ifstream in(path, std::ios::binary);
-    if (!in)
-      throw IOError(path + ": cannot be opened: " + std::strerror(errno));
-    text = readHeaderText(in);
-  }
   if (text.first_line == MAP_MAGIC_LINE)
     throw IOError(path
                   + ": not a PCD file: it is a planar grid map (.pgmap) file; "
@@ -281,7 +275,6 @@ checkPCDFile(const std::string& path)
                   + " line after POINTS (the order is FIELDS, SIZE, TYPE, COUNT, "
                     "WIDTH, HEIGHT, VIEWPOINT, POINTS, DATA): PCL's reader would write "
                     "the points past the buffer it sized at POINTS");
-
   // PCL's header reader allocates the declared points' bytes: no file holds more than
   // its size in binary data, about 88 times it compressed, less as ASCII text.
   if (declaredBytes(text)
@@ -290,23 +283,15 @@ checkPCDFile(const std::string& path)
                   + "', WIDTH '" + text.width + "', HEIGHT '" + text.height
                   + "') than a file of " + std::to_string(file_size)
                   + " bytes can hold");
+}
 
-  pcl::PCDReader reader;
-  pcl::PCLPointCloud2 header;
-  PCDFileInfo info;
-  int pcd_version = 0;
-  unsigned int data_idx = 0;
-  int read = -1;
-  try {
-    read = reader.readHeader(path, header, info.sensor_origin, info.sensor_orientation,
-                             pcd_version, info.data_type, data_idx);
-  } catch (const std::exception& e) {
-    // PCL's reader indexes and converts the header's words unchecked
-    // (std::out_of_range, std::invalid_argument, std::length_error).
-    throw IOError(path + ": not a readable PCD file (bad header: " + e.what() + ")");
-  }
-  if (read < 0)
-    throw IOError(path + ": not a readable PCD file (bad header)");
+/** \brief The fields of the header PCL read into \a info: each of a known type and a
+ * non-zero count, inside the point, adding up to the point; x, y and z among them. */
+void
+checkFields(const std::string& path,
+            const pcl::PCLPointCloud2& header,
+            PCDFileInfo& info)
+{
   if (header.fields.empty())
     throw IOError(path + ": not a PCD file: the header has no FIELDS");
   for (const auto& field : header.fields) {
@@ -336,6 +321,77 @@ checkPCDFile(const std::string& path)
     throw IOError(path + ": has no x, y, z fields (its fields: " + list
                   + "): its points have no position");
   }
+}
+
+/** \brief Binary compressed data: two little-endian uint32 (compressed, uncompressed
+ * size), then the LZF-compressed data. PCL allocates the uncompressed size before it
+ * reads: the sizes must fit the file, the points and LZF's ratio. \a declared is the
+ * header's declaration with the point size, for the messages. */
+void
+checkCompressedSizes(const std::string& path,
+                     std::uint64_t data_idx,
+                     std::uint64_t after_header,
+                     const PCDFileInfo& info,
+                     const std::string& declared)
+{
+  const std::uint64_t points = info.points;
+  const std::uint64_t point_bytes = info.point_bytes;
+  std::uint32_t sizes[2] = {0, 0};
+  std::ifstream in(path, std::ios::binary);
+  in.seekg(static_cast<std::streamoff>(data_idx));
+  if (after_header < sizeof(sizes)
+      || !in.read(reinterpret_cast<char*>(sizes), sizeof(sizes)))
+    throw IOError(path + ": truncated: no compressed data sizes after the header");
+  if (sizes[0] > after_header - sizeof(sizes))
+    throw IOError(path + ": truncated: the compressed data are "
+                  + std::to_string(sizes[0]) + " bytes, the file has "
+                  + std::to_string(after_header - sizeof(sizes)) + " after the header");
+  if (points > 0 && static_cast<std::uint64_t>(sizes[1]) / point_bytes != points)
+    throw IOError(path + ": the compressed data unpack to " + std::to_string(sizes[1])
+                  + " bytes, but " + declared);
+  if (points > 0 && sizes[1] % point_bytes != 0)
+    throw IOError(path + ": the compressed data unpack to " + std::to_string(sizes[1])
+                  + " bytes, not a whole number of " + std::to_string(point_bytes)
+                  + "-byte points");
+  if (static_cast<std::uint64_t>(sizes[1]) > MAX_LZF_RATIO * sizes[0] + 1024)
+    throw IOError(path + ": corrupt compressed data: " + std::to_string(sizes[0])
+                  + " compressed bytes cannot unpack to the " + std::to_string(sizes[1])
+                  + " bytes the file declares (LZF packs at most about 88:1)");
+}
+
+} // namespace
+
+PCDFileInfo
+checkPCDFile(const std::string& path)
+{
+  const std::uintmax_t file_size = checkInputFile(path, "a PCD file");
+
+  HeaderText text;
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (!in)
+      throw IOError(path + ": cannot be opened: " + std::strerror(errno));
+    text = readHeaderText(in);
+  }
+  checkHeaderText(path, text, file_size);
+
+  pcl::PCDReader reader;
+  pcl::PCLPointCloud2 header;
+  PCDFileInfo info;
+  int pcd_version = 0;
+  unsigned int data_idx = 0;
+  int read = -1;
+  try {
+    read = reader.readHeader(path, header, info.sensor_origin, info.sensor_orientation,
+                             pcd_version, info.data_type, data_idx);
+  } catch (const std::exception& e) {
+    // PCL's reader indexes and converts the header's words unchecked
+    // (std::out_of_range, std::invalid_argument, std::length_error).
+    throw IOError(path + ": not a readable PCD file (bad header: " + e.what() + ")");
+  }
+  if (read < 0)
+    throw IOError(path + ": not a readable PCD file (bad header)");
+  checkFields(path, header, info);
   info.points = static_cast<std::uint64_t>(header.width) * header.height;
   const std::uint64_t points = info.points;
   const std::uint64_t point_bytes = info.point_bytes;
@@ -374,29 +430,7 @@ checkPCDFile(const std::string& path)
                     + declared(false) + ": the rest would be ignored");
     return info;
   }
-  // Binary compressed: two little-endian uint32 (compressed, uncompressed size), then
-  // the LZF-compressed data. PCL allocates the uncompressed size before it reads.
-  std::uint32_t sizes[2] = {0, 0};
-  std::ifstream in(path, std::ios::binary);
-  in.seekg(static_cast<std::streamoff>(data_idx));
-  if (after_header < sizeof(sizes)
-      || !in.read(reinterpret_cast<char*>(sizes), sizeof(sizes)))
-    throw IOError(path + ": truncated: no compressed data sizes after the header");
-  if (sizes[0] > after_header - sizeof(sizes))
-    throw IOError(path + ": truncated: the compressed data are "
-                  + std::to_string(sizes[0]) + " bytes, the file has "
-                  + std::to_string(after_header - sizeof(sizes)) + " after the header");
-  if (points > 0 && static_cast<std::uint64_t>(sizes[1]) / point_bytes != points)
-    throw IOError(path + ": the compressed data unpack to " + std::to_string(sizes[1])
-                  + " bytes, but " + declared(true));
-  if (points > 0 && sizes[1] % point_bytes != 0)
-    throw IOError(path + ": the compressed data unpack to " + std::to_string(sizes[1])
-                  + " bytes, not a whole number of " + std::to_string(point_bytes)
-                  + "-byte points");
-  if (static_cast<std::uint64_t>(sizes[1]) > MAX_LZF_RATIO * sizes[0] + 1024)
-    throw IOError(path + ": corrupt compressed data: " + std::to_string(sizes[0])
-                  + " compressed bytes cannot unpack to the " + std::to_string(sizes[1])
-                  + " bytes the file declares (LZF packs at most about 88:1)");
+  checkCompressedSizes(path, data_idx, after_header, info, declared(true));
   return info;
 }
 
