@@ -253,23 +253,13 @@ buildHierarchy(ObstacleIndex& index)
   index.boxes.swap(sorted);
 }
 
-/** \brief Gathers the obstacles of \a map for one mode. */
-std::unique_ptr<ObstacleIndex>
-buildIndex(const PlanarGridMap& map,
-           bool unknown_is_occupied,
-           const Eigen::AlignedBox3f* keep = nullptr)
+/** \brief The map's occupied cuboids as obstacle boxes; with \a keep, only those
+ * whose bounding box meets it. */
+void
+addCuboidObstacles(const PlanarGridMap& map,
+                   const Eigen::AlignedBox3f* keep,
+                   ObstacleIndex& index)
 {
-  auto index = std::make_unique<ObstacleIndex>();
-  // With keep, the obstacles whose bounding box misses it are left out, voxels by
-  // whole blocks (block keys [keep_lo, keep_hi]).
-  Eigen::Vector3i keep_lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
-  Eigen::Vector3i keep_hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
-  const double r = map.getResolution();
-  if (keep != nullptr)
-    for (int k = 0; k < 3; ++k) {
-      keep_lo[k] = blockOf(static_cast<int>(std::floor(keep->min()[k] / r)));
-      keep_hi[k] = blockOf(static_cast<int>(std::floor(keep->max()[k] / r)));
-    }
   const auto thres =
     static_cast<float>(map.getSurfaceLayer().getParams().occupancy_thres);
   for (const PlanarCuboid& c : map.getSurfaceLayer().getCuboids()) {
@@ -288,16 +278,28 @@ buildIndex(const PlanarGridMap& map,
           || ((b.centre - h).array() > keep->max().array()).any())
         continue;
     }
-    index->boxes.push_back(b);
+    index.boxes.push_back(b);
   }
+}
 
-  const ExplicitSpaceGrid& space = map.getSpaceLayer();
-  const bool unknown_prior = space.getParams().prior == SpaceState::UNKNOWN;
-  // With the unknown prior, unknown space is everything not observed: the complement
-  // of the observed free and occupied voxels (inside the stored bounds; beyond them
-  // the whole outside). With the free prior it is the occluded voxels stored.
-  const bool complement = unknown_is_occupied && unknown_prior;
+/** \brief The voxels' obstacle masks per block (and, to complement the unknown
+ * space, the observed voxels' masks), within the blocks [keep_lo, keep_hi]. */
+struct VoxelMasks {
   std::unordered_map<std::int64_t, Mask> obstacle, known;
+};
+
+/** \brief Marks the voxels that are obstacles, and the observed ones when
+ * \a complement (the unknown space is then what was not observed). Only the states
+ * that matter are visited: whole blocks of free space are skipped unless the free
+ * voxels are needed. */
+VoxelMasks
+voxelMasks(const ExplicitSpaceGrid& space,
+           bool unknown_is_occupied,
+           bool complement,
+           const Eigen::Vector3i& keep_lo,
+           const Eigen::Vector3i& keep_hi)
+{
+  VoxelMasks masks;
   // The voxels come block by block: the masks of the current block are looked up once.
   std::int64_t last_key = std::numeric_limits<std::int64_t>::min();
   Mask* last_known = nullptr;
@@ -312,16 +314,14 @@ buildIndex(const PlanarGridMap& map,
     const std::int64_t key = packBlock(bx, by, bz);
     if (key != last_key) {
       last_key = key;
-      last_obstacle = &obstacle[key];
-      last_known = complement ? &known[key] : nullptr;
+      last_obstacle = &masks.obstacle[key];
+      last_known = complement ? &masks.known[key] : nullptr;
     }
     if (complement)
       (*last_known)[static_cast<std::size_t>(lz)] |= bit;
     if (is_obstacle)
       (*last_obstacle)[static_cast<std::size_t>(lz)] |= bit;
   };
-  // Only the states that matter are visited: whole blocks of free space are skipped
-  // unless the free voxels are needed (to complement them).
   space.forEachVoxelIn(SpaceState::OCCUPIED,
                        [&](const ExplicitSpaceGrid::VoxelKey& k) { mark(k, true); });
   if (complement)
@@ -330,32 +330,52 @@ buildIndex(const PlanarGridMap& map,
   else if (unknown_is_occupied)
     space.forEachVoxelIn(SpaceState::UNKNOWN,
                          [&](const ExplicitSpaceGrid::VoxelKey& k) { mark(k, true); });
+  return masks;
+}
 
-  std::vector<std::int64_t> blocks;
-  if (complement) {
-    ExplicitSpaceGrid::VoxelKey lo, hi;
-    index->outside_is_obstacle = true;
-    if (!space.getBounds(lo, hi)) {
-      index->everything_is_obstacle = true;
-      return index;
-    }
-    index->known_lo = (lo.cast<double>() * r).cast<float>();
-    index->known_hi = ((hi.cast<double>() + Eigen::Vector3d::Ones()) * r).cast<float>();
-    // Every block inside the bounds: never-observed blocks are whole obstacles.
-    for (int bz = std::max(blockOf(lo.z()), keep_lo.z());
-         bz <= std::min(blockOf(hi.z()), keep_hi.z()); ++bz)
-      for (int by = std::max(blockOf(lo.y()), keep_lo.y());
-           by <= std::min(blockOf(hi.y()), keep_hi.y()); ++by)
-        for (int bx = std::max(blockOf(lo.x()), keep_lo.x());
-             bx <= std::min(blockOf(hi.x()), keep_hi.x()); ++bx) {
-          const std::int64_t key = packBlock(bx, by, bz);
-          auto& m = obstacle[key];
-          const auto it = known.find(key);
-          for (std::size_t z = 0; z < 8; ++z)
-            m[z] |= it == known.end() ? ~std::uint64_t{0} : ~it->second[z];
-        }
+/** \brief With the unknown prior, every block inside the stored bounds: the voxels
+ * never observed are obstacles (never-observed blocks whole ones), and so is the whole
+ * outside. False when nothing was observed (everything is an obstacle). */
+bool
+complementUnknown(const ExplicitSpaceGrid& space,
+                  double r,
+                  const Eigen::Vector3i& keep_lo,
+                  const Eigen::Vector3i& keep_hi,
+                  VoxelMasks& masks,
+                  ObstacleIndex& index)
+{
+  ExplicitSpaceGrid::VoxelKey lo, hi;
+  index.outside_is_obstacle = true;
+  if (!space.getBounds(lo, hi)) {
+    index.everything_is_obstacle = true;
+    return false;
   }
-  index->boxes.reserve(index->boxes.size() + 8 * obstacle.size());
+  index.known_lo = (lo.cast<double>() * r).cast<float>();
+  index.known_hi = ((hi.cast<double>() + Eigen::Vector3d::Ones()) * r).cast<float>();
+  for (int bz = std::max(blockOf(lo.z()), keep_lo.z());
+       bz <= std::min(blockOf(hi.z()), keep_hi.z()); ++bz)
+    for (int by = std::max(blockOf(lo.y()), keep_lo.y());
+         by <= std::min(blockOf(hi.y()), keep_hi.y()); ++by)
+      for (int bx = std::max(blockOf(lo.x()), keep_lo.x());
+           bx <= std::min(blockOf(hi.x()), keep_hi.x()); ++bx) {
+        const std::int64_t key = packBlock(bx, by, bz);
+        auto& m = masks.obstacle[key];
+        const auto it = masks.known.find(key);
+        for (std::size_t z = 0; z < 8; ++z)
+          m[z] |= it == masks.known.end() ? ~std::uint64_t{0} : ~it->second[z];
+      }
+  return true;
+}
+
+/** \brief The obstacle voxels as boxes: whole blocks along x become one box; other
+ * blocks give one box per run of obstacle voxels along x in each row. */
+void
+addVoxelObstacles(std::unordered_map<std::int64_t, Mask>& obstacle,
+                  double r,
+                  ObstacleIndex& index)
+{
+  std::vector<std::int64_t> blocks;
+  index.boxes.reserve(index.boxes.size() + 8 * obstacle.size());
   blocks.reserve(obstacle.size());
   for (const auto& kv : obstacle)
     blocks.push_back(kv.first);
@@ -366,42 +386,70 @@ buildIndex(const PlanarGridMap& map,
     unpackBlock(b, bx, by, bz);
     return std::make_tuple(az, ay, ax) < std::make_tuple(bz, by, bx);
   });
-  // Whole blocks along x become one box; other blocks give one box per run of
-  // obstacle voxels along x in each row.
+  const auto isFull = [](const Mask& m) {
+    return std::all_of(m.begin(), m.end(),
+                       [](std::uint64_t w) { return w == ~std::uint64_t{0}; });
+  };
   std::size_t i = 0;
   while (i < blocks.size()) {
     int bx, by, bz;
     unpackBlock(blocks[i], bx, by, bz);
     const Mask& m = obstacle[blocks[i]];
-    const bool full = std::all_of(
-      m.begin(), m.end(), [](std::uint64_t w) { return w == ~std::uint64_t{0}; });
-    if (full) {
-      std::size_t j = i + 1;
-      int last = bx;
-      while (j < blocks.size()) {
-        int nx, ny, nz;
-        unpackBlock(blocks[j], nx, ny, nz);
-        const Mask& n = obstacle[blocks[j]];
-        if (ny != by || nz != bz || nx != last + 1
-            || !std::all_of(n.begin(), n.end(),
-                            [](std::uint64_t w) { return w == ~std::uint64_t{0}; }))
-          break;
-        last = nx;
-        ++j;
-      }
-      ObstacleBox b;
-      const Eigen::Vector3d lo(bx * BLOCK * r, by * BLOCK * r, bz * BLOCK * r);
-      const Eigen::Vector3d hi((last + 1) * BLOCK * r, (by + 1) * BLOCK * r,
-                               (bz + 1) * BLOCK * r);
-      b.centre = (0.5 * (lo + hi)).cast<float>();
-      b.half = (0.5 * (hi - lo)).cast<float>();
-      index->boxes.push_back(b);
-      i = j;
+    if (!isFull(m)) {
+      addBlockBoxes(index, r, m, bx, by, bz);
+      ++i;
       continue;
     }
-    addBlockBoxes(*index, r, m, bx, by, bz);
-    ++i;
+    std::size_t j = i + 1;
+    int last = bx;
+    while (j < blocks.size()) {
+      int nx, ny, nz;
+      unpackBlock(blocks[j], nx, ny, nz);
+      if (ny != by || nz != bz || nx != last + 1 || !isFull(obstacle[blocks[j]]))
+        break;
+      last = nx;
+      ++j;
+    }
+    ObstacleBox b;
+    const Eigen::Vector3d lo(bx * BLOCK * r, by * BLOCK * r, bz * BLOCK * r);
+    const Eigen::Vector3d hi((last + 1) * BLOCK * r, (by + 1) * BLOCK * r,
+                             (bz + 1) * BLOCK * r);
+    b.centre = (0.5 * (lo + hi)).cast<float>();
+    b.half = (0.5 * (hi - lo)).cast<float>();
+    index.boxes.push_back(b);
+    i = j;
   }
+}
+
+/** \brief Gathers the obstacles of \a map for one mode. */
+std::unique_ptr<ObstacleIndex>
+buildIndex(const PlanarGridMap& map,
+           bool unknown_is_occupied,
+           const Eigen::AlignedBox3f* keep = nullptr)
+{
+  auto index = std::make_unique<ObstacleIndex>();
+  // With keep, the obstacles whose bounding box misses it are left out, voxels by
+  // whole blocks (block keys [keep_lo, keep_hi]).
+  Eigen::Vector3i keep_lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
+  Eigen::Vector3i keep_hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
+  const double r = map.getResolution();
+  if (keep != nullptr)
+    for (int k = 0; k < 3; ++k) {
+      keep_lo[k] = blockOf(static_cast<int>(std::floor(keep->min()[k] / r)));
+      keep_hi[k] = blockOf(static_cast<int>(std::floor(keep->max()[k] / r)));
+    }
+  addCuboidObstacles(map, keep, *index);
+  const ExplicitSpaceGrid& space = map.getSpaceLayer();
+  const bool unknown_prior = space.getParams().prior == SpaceState::UNKNOWN;
+  // With the unknown prior, unknown space is everything not observed: the complement
+  // of the observed free and occupied voxels (inside the stored bounds; beyond them
+  // the whole outside). With the free prior it is the occluded voxels stored.
+  const bool complement = unknown_is_occupied && unknown_prior;
+  VoxelMasks masks =
+    voxelMasks(space, unknown_is_occupied, complement, keep_lo, keep_hi);
+  if (complement && !complementUnknown(space, r, keep_lo, keep_hi, masks, *index))
+    return index;
+  addVoxelObstacles(masks.obstacle, r, *index);
   buildHierarchy(*index);
   return index;
 }
