@@ -68,60 +68,80 @@ public:
     points_.resize(far.size());
     for (std::size_t i = 0; i < far.size(); ++i)
       points_[i] = cloud_T_camera * far[i].getVector3fMap() - origin;
-
-    // Terrain: with a ground plane, a point at most terrain_height above the lowest
-    // far point of its column (terrain_cell_m wide), or above terrain_max_rise where
-    // that column's lowest point is higher (its foot unseen), is road, verge or lawn.
     terrain_.assign(far.size(), 0);
-    if (frame.has_ground) {
-      const Eigen::Vector4f g = frame.ground_coefficients;
-      const float origin_height = g.head<3>().dot(origin) + g[3];
-      heights_.resize(far.size());
-      for (std::size_t i = 0; i < far.size(); ++i)
-        heights_[i] = g.head<3>().dot(points_[i]) + origin_height;
-      const double inv = 1.0 / terrain_cell_m_;
-      columns_.resize(far.size());
-      for (std::size_t i = 0; i < far.size(); ++i) {
-        const auto x = static_cast<std::int64_t>(std::floor(e1.dot(points_[i]) * inv));
-        const auto y = static_cast<std::int64_t>(std::floor(e2.dot(points_[i]) * inv));
-        columns_[i] = (static_cast<std::uint64_t>(x + (1 << 30)) << 32)
-                      | static_cast<std::uint64_t>(y + (1 << 30));
-      }
-      column_low_.clear();
-      for (std::size_t i = 0; i < far.size(); ++i) {
-        const auto it = column_low_.emplace(columns_[i], heights_[i]).first;
-        it->second = std::min(it->second, heights_[i]);
-      }
-      for (std::size_t i = 0; i < far.size(); ++i) {
-        const float base = std::min(column_low_[columns_[i]], terrain_max_rise_m_);
-        terrain_[i] = heights_[i] <= base + terrain_height_m_ ? 1 : 0;
-        terrain_points_ += terrain_[i];
-      }
-    }
+    if (frame.has_ground)
+      markTerrain(frame.ground_coefficients, origin, e1, e2);
+    if (terrain_points_ > 0)
+      keepNonTerrain(frame, far);
+    makeCells(frame, e1, up, e2, origin);
+  }
 
-    // The frame keeps the far points the cells are made of (a new cloud: the old one
-    // may be shared with copies of the frame); points_ keeps the same ones, in order.
-    if (terrain_points_ > 0) {
-      auto kept = std::make_shared<Frame::Cloud>();
-      std::vector<std::uint8_t> kept_levels;
-      kept->reserve(far.size() - terrain_points_);
-      kept_levels.reserve(far.size() - terrain_points_);
-      for (std::size_t i = 0; i < far.size(); ++i)
-        if (!terrain_[i]) {
-          points_[kept->size()] = points_[i];
-          kept->push_back(far[i]);
-          kept_levels.push_back(frame.far_levels[i]);
-        }
-      points_.resize(kept->size());
-      frame.far_cloud = std::move(kept);
-      frame.far_levels = std::move(kept_levels);
+private:
+  /** \brief Terrain: a point at most terrain_height above the lowest far point of its
+   * column (terrain_cell_m wide) of the ground plane \a g, or above terrain_max_rise
+   * where that column's lowest point is higher (its foot unseen), is road, verge or
+   * lawn. */
+  void markTerrain(const Eigen::Vector4f& g,
+                   const Eigen::Vector3f& origin,
+                   const Eigen::Vector3f& e1,
+                   const Eigen::Vector3f& e2)
+  {
+    const std::size_t n = points_.size();
+    const float origin_height = g.head<3>().dot(origin) + g[3];
+    heights_.resize(n);
+    for (std::size_t i = 0; i < n; ++i)
+      heights_[i] = g.head<3>().dot(points_[i]) + origin_height;
+    const double inv = 1.0 / terrain_cell_m_;
+    columns_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto x = static_cast<std::int64_t>(std::floor(e1.dot(points_[i]) * inv));
+      const auto y = static_cast<std::int64_t>(std::floor(e2.dot(points_[i]) * inv));
+      columns_[i] = (static_cast<std::uint64_t>(x + (1 << 30)) << 32)
+                    | static_cast<std::uint64_t>(y + (1 << 30));
     }
+    column_low_.clear();
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto it = column_low_.emplace(columns_[i], heights_[i]).first;
+      it->second = std::min(it->second, heights_[i]);
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      const float base = std::min(column_low_[columns_[i]], terrain_max_rise_m_);
+      terrain_[i] = heights_[i] <= base + terrain_height_m_ ? 1 : 0;
+      terrain_points_ += terrain_[i];
+    }
+  }
 
-    // Cells: a lattice of edge min_cell_size x 2^level per level, anchored at the
-    // sensor's position (cells of one frame never straddle the lattice of another
-    // level); a cell with at least min_points_per_cell points is one non-planar box:
-    // the whole lattice cell, or with fit_to_points the bounds of its points rounded
-    // out to min_cell_size (inside the lattice cell, at least min_cell_size a side).
+  /** \brief The frame keeps the far points the cells are made of (a new cloud: the old
+   * one may be shared with copies of the frame); points_ keeps the same ones, in
+   * order. */
+  void keepNonTerrain(Frame& frame, const Frame::Cloud& far)
+  {
+    auto kept = std::make_shared<Frame::Cloud>();
+    std::vector<std::uint8_t> kept_levels;
+    kept->reserve(far.size() - terrain_points_);
+    kept_levels.reserve(far.size() - terrain_points_);
+    for (std::size_t i = 0; i < far.size(); ++i)
+      if (!terrain_[i]) {
+        points_[kept->size()] = points_[i];
+        kept->push_back(far[i]);
+        kept_levels.push_back(frame.far_levels[i]);
+      }
+    points_.resize(kept->size());
+    frame.far_cloud = std::move(kept);
+    frame.far_levels = std::move(kept_levels);
+  }
+
+  /** \brief Cells: a lattice of edge min_cell_size x 2^level per level, anchored at
+   * the sensor's position (cells of one frame never straddle the lattice of another
+   * level); a cell with at least min_points_per_cell points is one non-planar box:
+   * the whole lattice cell, or with fit_to_points the bounds of its points rounded
+   * out to min_cell_size (inside the lattice cell, at least min_cell_size a side). */
+  void makeCells(Frame& frame,
+                 const Eigen::Vector3f& e1,
+                 const Eigen::Vector3f& up,
+                 const Eigen::Vector3f& e2,
+                 const Eigen::Vector3f& origin)
+  {
     keys_.clear();
     for (std::size_t i = 0; i < points_.size(); ++i) {
       const std::uint8_t level = frame.far_levels[i];
@@ -155,28 +175,8 @@ public:
           lo[d] = static_cast<double>(k) * cell;
           hi[d] = lo[d] + cell;
         }
-        if (fit_to_points_ && level > 0) {
-          Eigen::Vector3f p_min = Eigen::Vector3f::Constant(
-                            std::numeric_limits<float>::max()),
-                          p_max = -p_min;
-          for (std::size_t j = a; j < b; ++j) {
-            const Eigen::Vector3f p = axes_t * points_[keys_[j].second];
-            p_min = p_min.cwiseMin(p);
-            p_max = p_max.cwiseMax(p);
-          }
-          const double r = min_cell_size_m_;
-          for (int d = 0; d < 3; ++d) {
-            // sub-cells of r inside the lattice cell: [lo + r i, lo + r (i + 1))
-            const auto n = static_cast<int>(std::lround(cell / r));
-            const auto sub = [&](float c) {
-              return std::clamp(static_cast<int>(std::floor((c - lo[d]) / r)), 0,
-                                n - 1);
-            };
-            const int first = sub(p_min[d]), last = sub(p_max[d]);
-            hi[d] = lo[d] + r * (last + 1);
-            lo[d] += r * first;
-          }
-        }
+        if (fit_to_points_ && level > 0)
+          fitToPoints(axes_t, a, b, cell, lo, hi);
         const Eigen::Vector3d mid = 0.5 * (lo + hi), size = hi - lo;
         PlanarCuboid c;
         c.normal = -e2;
@@ -195,6 +195,37 @@ public:
     }
   }
 
+  /** \brief The lattice cell [lo, hi) shrunk to the bounds of its points keys_[a..b)
+   * rounded out to sub-cells of min_cell_size (in the cell's axes \a axes_t). */
+  void fitToPoints(const Eigen::Matrix3f& axes_t,
+                   std::size_t a,
+                   std::size_t b,
+                   double cell,
+                   Eigen::Vector3d& lo,
+                   Eigen::Vector3d& hi) const
+  {
+    Eigen::Vector3f p_min =
+                      Eigen::Vector3f::Constant(std::numeric_limits<float>::max()),
+                    p_max = -p_min;
+    for (std::size_t j = a; j < b; ++j) {
+      const Eigen::Vector3f p = axes_t * points_[keys_[j].second];
+      p_min = p_min.cwiseMin(p);
+      p_max = p_max.cwiseMax(p);
+    }
+    const double r = min_cell_size_m_;
+    for (int d = 0; d < 3; ++d) {
+      // sub-cells of r inside the lattice cell: [lo + r i, lo + r (i + 1))
+      const auto n = static_cast<int>(std::lround(cell / r));
+      const auto sub = [&](float c) {
+        return std::clamp(static_cast<int>(std::floor((c - lo[d]) / r)), 0, n - 1);
+      };
+      const int first = sub(p_min[d]), last = sub(p_max[d]);
+      hi[d] = lo[d] + r * (last + 1);
+      lo[d] += r * first;
+    }
+  }
+
+public:
   bool countsCloudPoints() const override { return false; }
 
   void counters(const Frame& /*frame*/,
