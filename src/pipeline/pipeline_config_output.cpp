@@ -150,74 +150,38 @@ parseGrid2DBand(const Reader& r, const YAML::Node& node)
   return band;
 }
 
-} // namespace
-
-OutputConfig
-parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
+/** \brief output.folder checked now, not after the last frame (the tool checks a
+ * --output folder the same way when it opens the output set, still before the first
+ * frame): not empty, nothing for a shell to expand, not a file. */
+void
+checkOutputFolder(const Reader& r, const YAML::Node& node, const OutputConfig& out)
 {
-  OutputConfig out;
-  r.checkKeys(node,
-              {"folder",
-               "cloud",
-               "planes",
-               "report",
-               "trajectory",
-               "snapshot",
-               "planes_snapshot",
-               "cuboids_snapshot",
-               "cuboids_street_snapshot",
-               "snapshot_camera",
-               "street_view",
-               "snapshot_size_px",
-               "map",
-               "map_octomap",
-               "map_mesh",
-               "map_grid_2d",
-               "map_grid_2d_band",
-               "map_snapshot",
-               "checkpoint",
-               "checkpoint_every_n_frames"},
-              "output");
-  out.folder = r.optionalString(node, "folder", out.folder, "output");
-  {
-    // Known now, not after the last frame (the tool checks a --output folder the same
-    // way when it opens the output set, still before the first frame).
-    std::error_code ec;
-    // An empty name would write the outputs into the current folder.
-    if (node["folder"] && out.folder.empty())
-      r.fail(node["folder"], "output.folder is empty: name the folder to write the "
-                             "outputs into");
-    // A shell expands these; a YAML file does not, and the run would create a folder
-    // named "~" or "$HOME" in the working folder.
-    if (node["folder"] && needsShellExpansion(out.folder))
-      r.fail(node["folder"], "output.folder '" + out.folder
-                               + "': a configuration does not expand '~' or $VARIABLES "
-                                 "as a shell does; give the path itself");
-    if (node["folder"] && fs::exists(out.folder, ec)
-        && !fs::is_directory(out.folder, ec))
-      r.fail(node["folder"], "output.folder '" + out.folder
-                               + "' is a file, not a folder: the outputs cannot be "
-                                 "written there");
-  }
-  out.cloud = r.optionalString(node, "cloud", out.cloud, "output");
-  out.report = r.optionalString(node, "report", out.report, "output");
-  out.trajectory = r.optionalString(node, "trajectory", out.trajectory, "output");
-  out.snapshot = r.optionalString(node, "snapshot", out.snapshot, "output");
-  out.planes = r.optionalString(node, "planes", out.planes, "output");
-  out.planes_snapshot =
-    r.optionalString(node, "planes_snapshot", out.planes_snapshot, "output");
-  out.cuboids_snapshot =
-    r.optionalString(node, "cuboids_snapshot", out.cuboids_snapshot, "output");
-  out.map = r.optionalString(node, "map", out.map, "output");
-  out.map_octomap = r.optionalString(node, "map_octomap", out.map_octomap, "output");
-  out.map_mesh = r.optionalString(node, "map_mesh", out.map_mesh, "output");
-  out.map_grid_2d = r.optionalString(node, "map_grid_2d", out.map_grid_2d, "output");
-  if (const YAML::Node band = node["map_grid_2d_band"]) {
-    if (out.map_grid_2d.empty())
-      r.fail(band, "output.map_grid_2d_band is not used: set output.map_grid_2d");
-    out.map_grid_2d_band = parseGrid2DBand(r, band);
-  }
-  out.map_snapshot = r.optionalString(node, "map_snapshot", out.map_snapshot, "output");
+  std::error_code ec;
+  // An empty name would write the outputs into the current folder.
+  if (node["folder"] && out.folder.empty())
+    r.fail(node["folder"], "output.folder is empty: name the folder to write the "
+                           "outputs into");
+  // A shell expands these; a YAML file does not, and the run would create a folder
+  // named "~" or "$HOME" in the working folder.
+  if (node["folder"] && needsShellExpansion(out.folder))
+    r.fail(node["folder"], "output.folder '" + out.folder
+                             + "': a configuration does not expand '~' or $VARIABLES "
+                               "as a shell does; give the path itself");
+  if (node["folder"] && fs::exists(out.folder, ec) && !fs::is_directory(out.folder, ec))
+    r.fail(node["folder"], "output.folder '" + out.folder
+                             + "' is a file, not a folder: the outputs cannot be "
+                               "written there");
+}
+
+/** \brief The snapshots' camera: snapshot_camera, the street snapshot and its camera
+ * (street_view, used only by a street camera, which follows the trajectory unless
+ * fixed). */
+void
+parseSnapshotCameras(const Reader& r,
+                     const YAML::Node& node,
+                     const InputConfig& input,
+                     OutputConfig& out)
+{
   out.snapshot_camera =
     r.optionalString(node, "snapshot_camera", out.snapshot_camera, "output");
   if (out.snapshot_camera != "top" && out.snapshot_camera != "oblique"
@@ -244,10 +208,15 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
            "the street camera follows the trajectory, and input.poses is none: set "
            "input.poses or a fixed camera (output.street_view.position_m and "
            "focal_point_m)");
-  if (out.report.empty())
-    r.fail(node["report"], "output.report must name a file");
-  // A name leaving the folder would fail only after the last frame; the extension
-  // chooses the format, or is the one the programs that read the file expect.
+}
+
+/** \brief Every output's name is a file name inside output.folder with an extension
+ * its format allows: a name leaving the folder would fail only after the last frame;
+ * the extension chooses the format, or is the one the programs that read the file
+ * expect. */
+void
+checkOutputNames(const Reader& r, const YAML::Node& node, const OutputConfig& out)
+{
   struct OutputName {
     const char* key;
     const std::string* name;
@@ -282,7 +251,13 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
       r.fail(node[o.key], "output." + std::string(o.key) + " must end in " + allowed);
     }
   }
-  out.checkpoint = r.optionalString(node, "checkpoint", out.checkpoint, "output");
+}
+
+/** \brief output.checkpoint_every_n_frames, in [0, 1000000], with a checkpoint file
+ * when not 0. */
+void
+parseCheckpointEvery(const Reader& r, const YAML::Node& node, OutputConfig& out)
+{
   if (const YAML::Node every = node["checkpoint_every_n_frames"]) {
     long long v = -1;
     try {
@@ -297,6 +272,12 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
       r.fail(every,
              "output.checkpoint_every_n_frames needs output.checkpoint (a file)");
   }
+}
+
+/** \brief output.snapshot_size_px: [width, height], each in [16, 8192]. */
+void
+parseSnapshotSize(const Reader& r, const YAML::Node& node, OutputConfig& out)
+{
   if (const YAML::Node size = node["snapshot_size_px"]) {
     if (!size.IsSequence() || size.size() != 2)
       r.fail(size, "output.snapshot_size_px must be [width, height]");
@@ -312,6 +293,64 @@ parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
       out.snapshot_size_px[i] = v;
     }
   }
+}
+
+} // namespace
+
+OutputConfig
+parseOutput(const Reader& r, const YAML::Node& node, const InputConfig& input)
+{
+  OutputConfig out;
+  r.checkKeys(node,
+              {"folder",
+               "cloud",
+               "planes",
+               "report",
+               "trajectory",
+               "snapshot",
+               "planes_snapshot",
+               "cuboids_snapshot",
+               "cuboids_street_snapshot",
+               "snapshot_camera",
+               "street_view",
+               "snapshot_size_px",
+               "map",
+               "map_octomap",
+               "map_mesh",
+               "map_grid_2d",
+               "map_grid_2d_band",
+               "map_snapshot",
+               "checkpoint",
+               "checkpoint_every_n_frames"},
+              "output");
+  out.folder = r.optionalString(node, "folder", out.folder, "output");
+  checkOutputFolder(r, node, out);
+  out.cloud = r.optionalString(node, "cloud", out.cloud, "output");
+  out.report = r.optionalString(node, "report", out.report, "output");
+  out.trajectory = r.optionalString(node, "trajectory", out.trajectory, "output");
+  out.snapshot = r.optionalString(node, "snapshot", out.snapshot, "output");
+  out.planes = r.optionalString(node, "planes", out.planes, "output");
+  out.planes_snapshot =
+    r.optionalString(node, "planes_snapshot", out.planes_snapshot, "output");
+  out.cuboids_snapshot =
+    r.optionalString(node, "cuboids_snapshot", out.cuboids_snapshot, "output");
+  out.map = r.optionalString(node, "map", out.map, "output");
+  out.map_octomap = r.optionalString(node, "map_octomap", out.map_octomap, "output");
+  out.map_mesh = r.optionalString(node, "map_mesh", out.map_mesh, "output");
+  out.map_grid_2d = r.optionalString(node, "map_grid_2d", out.map_grid_2d, "output");
+  if (const YAML::Node band = node["map_grid_2d_band"]) {
+    if (out.map_grid_2d.empty())
+      r.fail(band, "output.map_grid_2d_band is not used: set output.map_grid_2d");
+    out.map_grid_2d_band = parseGrid2DBand(r, band);
+  }
+  out.map_snapshot = r.optionalString(node, "map_snapshot", out.map_snapshot, "output");
+  parseSnapshotCameras(r, node, input, out);
+  if (out.report.empty())
+    r.fail(node["report"], "output.report must name a file");
+  checkOutputNames(r, node, out);
+  out.checkpoint = r.optionalString(node, "checkpoint", out.checkpoint, "output");
+  parseCheckpointEvery(r, node, out);
+  parseSnapshotSize(r, node, out);
   return out;
 }
 
