@@ -289,6 +289,214 @@ buildTruth(const DatasetConfig& ds,
   return std::make_unique<GroundTruthSurface>(truth_points);
 }
 
+/** What one measurement of a lane compares against: the truth, its voxels at the
+ * lane's cell size, the mapped views, the tolerance, and the region (null: the whole
+ * map; the completeness then counts every truth voxel). */
+struct LaneTruth {
+  const GroundTruthSurface& truth;
+  const TruthVoxels& voxels;
+  const MappedViews& mapped;
+  double tolerance_m;
+  const MappingErrorRegion* region;
+  const MappingErrorRegion& truth_region;
+};
+
+/** \brief The error figures of \a e in \a row (and, in a region, its cell count). */
+void
+applyError(ComparisonRow& row, const MappingError& e, const LaneTruth& t)
+{
+  row.samples = e.samples;
+  row.erroneous = e.erroneous;
+  row.own_error = e.ownError();
+  if (t.region)
+    row.cells = e.cells;
+}
+
+/** \brief The completeness figures of \a c in \a row. SG's, OG's and RA's maps are
+ * their occupied cells alone: the whole map's completeness is theirs; PG's is
+ * measured on both layers apart. */
+void
+applyCompleteness(ComparisonRow& row, const Completeness& c, const LaneTruth& t)
+{
+  row.truth_voxels = c.truth_voxels;
+  row.covered_voxels = c.covered;
+  row.completeness = c.ratio();
+  row.map_covered_voxels = c.covered;
+  row.map_completeness = c.ratio();
+  row.nonground_voxels = c.nonground_voxels;
+  row.nonground_covered_voxels = c.nonground_covered;
+  row.nonground_completeness = c.nongroundRatio();
+  row.mapped_range_m = t.mapped.max_depth_m;
+  row.range_nonground_voxels = c.range_nonground_voxels;
+  row.range_nonground_covered_voxels = c.range_nonground_covered;
+  row.range_nonground_completeness = c.rangeNongroundRatio();
+}
+
+/** \brief The truth voxels of \a lane at its cell size, their mapped range grown
+ * with the views mapped since the last measurement. */
+const TruthVoxels&
+laneTruthVoxels(Lane& lane, const GroundTruthSurface& truth, const MappedViews& mapped)
+{
+  if (!lane.truth_voxels) {
+    lane.truth_voxels = std::make_unique<TruthVoxels>(truth, lane.resolution_m);
+    lane.truth_voxels->setMappedRange(mapped.max_depth_m);
+  }
+  for (; lane.views_added < mapped.views.size(); ++lane.views_added)
+    lane.truth_voxels->addView(mapped.views[lane.views_added]);
+  return *lane.truth_voxels;
+}
+
+/** \brief SG's row: its occupied voxels. */
+ComparisonRow
+measureSG(Lane& lane, const ComparisonRow& base, double ms, const LaneTruth& t)
+{
+  using Clock = std::chrono::steady_clock;
+  ComparisonRow sg = base;
+  sg.method = "SG";
+  sg.cells = lane.sg->getOccupiedCount();
+  sg.all_cells = lane.sg->getVoxelCount();
+  sg.memory_bytes = lane.sg->getMemoryBytes();
+  sg.ms_per_frame = ms;
+  applyError(sg,
+             t.region ? evaluateVoxels(*lane.sg, t.truth, t.tolerance_m, *t.region)
+                      : evaluateVoxels(*lane.sg, t.truth, t.tolerance_m),
+             t);
+  const auto start = Clock::now();
+  applyCompleteness(
+    sg, evaluateCompleteness(*lane.sg, t.voxels, t.tolerance_m, t.truth_region), t);
+  lane.completeness_ms += msSince(start);
+  return sg;
+}
+
+/** \brief OG's row: OctoMap's occupied leaves after pruning. */
+ComparisonRow
+measureOG(Lane& lane, const ComparisonRow& base, double ms, const LaneTruth& t)
+{
+  using Clock = std::chrono::steady_clock;
+  ComparisonRow og = base;
+  og.method = "OG";
+  lane.og->prune();
+  for (auto it = lane.og->begin_leafs(); it != lane.og->end_leafs(); ++it) {
+    ++og.all_cells;
+    og.cells += lane.og->isNodeOccupied(*it);
+  }
+  og.memory_bytes = lane.og->memoryUsage();
+  og.ms_per_frame = ms;
+  applyError(og,
+             t.region ? evaluateOcTree(*lane.og, t.truth, t.tolerance_m, *t.region)
+                      : evaluateOcTree(*lane.og, t.truth, t.tolerance_m),
+             t);
+  const auto start = Clock::now();
+  applyCompleteness(
+    og, evaluateCompleteness(*lane.og, t.voxels, t.tolerance_m, t.truth_region), t);
+  lane.completeness_ms += msSince(start);
+  return og;
+}
+
+/** \brief RA's row: SG's voxels merged into boxes here; its time is SG's plus the
+ * merge's spread over \a ra_divisor frames. */
+ComparisonRow
+measureRA(Lane& lane,
+          const ComparisonRow& base,
+          double sg_ms,
+          double ra_divisor,
+          const LaneTruth& t)
+{
+  using Clock = std::chrono::steady_clock;
+  const double r = lane.resolution_m;
+  ComparisonRow ra = base;
+  ra.method = "RA";
+  AxisAlignedBoxes boxes;
+  const auto merge_start = Clock::now();
+  RectangularCuboidApproximation().compute(*lane.sg, boxes);
+  ra.ms_per_frame = sg_ms + msSince(merge_start) / ra_divisor;
+  for (const auto& b : boxes)
+    ra.cells += b.occupied;
+  ra.all_cells = boxes.size();
+  ra.memory_bytes = RectangularCuboidApproximation::getMemoryBytes(boxes);
+  applyError(ra,
+             t.region ? evaluateBoxes(boxes, r, t.truth, t.tolerance_m, *t.region)
+                      : evaluateBoxes(boxes, r, t.truth, t.tolerance_m),
+             t);
+  const auto start = Clock::now();
+  applyCompleteness(
+    ra, evaluateCompleteness(boxes, r, t.voxels, t.tolerance_m, t.truth_region), t);
+  lane.completeness_ms += msSince(start);
+  return ra;
+}
+
+/** \brief PG's row: its occupied cuboids' error (and its planar ones' apart), the
+ * completeness of its cuboids and of its whole map, the planar share and the plane
+ * precision. \a planar_counts gets its planar cuboids (count, occupied). */
+ComparisonRow
+measurePG(Lane& lane,
+          const ComparisonRow& base,
+          double ms,
+          const LaneTruth& t,
+          std::pair<std::size_t, std::size_t>& planar_counts)
+{
+  using Clock = std::chrono::steady_clock;
+  const double r = lane.resolution_m;
+  ComparisonRow pg = base;
+  pg.method = "PG";
+  pg.ms_per_frame = ms;
+  if (!lane.pipeline->state().map)
+    throw Exception("dataset " + base.dataset
+                    + ": the pipeline has no map_integration stage (PG is its map)");
+  const PlanarGridMap& map = *lane.pipeline->state().map;
+  const PlanarCuboids& cuboids = map.getSurfaceLayer().getCuboids();
+  const double thres = map.getParams().surface.occupancy_thres;
+  for (const auto& c : cuboids)
+    pg.cells += c.probability >= thres;
+  pg.all_cells = cuboids.size();
+  pg.memory_bytes = map.getMemory().total_bytes;
+  applyError(pg,
+             t.region
+               ? evaluateCuboids(cuboids, thres, r, t.truth, t.tolerance_m, *t.region)
+               : evaluateCuboids(cuboids, thres, r, t.truth, t.tolerance_m),
+             t);
+  PlanarCuboids planar;
+  planar_counts = {0, 0};
+  for (const auto& c : cuboids)
+    if (c.is_planar) {
+      planar.push_back(c);
+      planar_counts.second += c.probability >= thres;
+    }
+  planar_counts.first = planar.size();
+  const MappingError planar_error =
+    t.region ? evaluateCuboids(planar, thres, r, t.truth, t.tolerance_m, *t.region)
+             : evaluateCuboids(planar, thres, r, t.truth, t.tolerance_m);
+  pg.planar_samples = planar_error.samples;
+  pg.planar_erroneous = planar_error.erroneous;
+  const auto completeness_start = Clock::now();
+  applyCompleteness(
+    pg, evaluateCompleteness(cuboids, thres, t.voxels, t.tolerance_m, t.truth_region),
+    t);
+  const Completeness planar_share =
+    evaluatePlanarShare(cuboids, thres, t.voxels, t.tolerance_m, t.truth_region);
+  pg.planar_covered_voxels = planar_share.covered;
+  pg.planar_share = planar_share.ratio();
+  pg.range_planar_covered_voxels = planar_share.range_nonground_covered;
+  pg.range_planar_share = planar_share.rangeNongroundRatio();
+  const Completeness whole_map =
+    evaluateMapCompleteness(map, t.voxels, t.tolerance_m, t.truth_region);
+  pg.map_covered_voxels = whole_map.covered;
+  pg.map_completeness = whole_map.ratio();
+  lane.completeness_ms += msSince(completeness_start);
+  const auto precision_start = Clock::now();
+  const PlanePrecision precision =
+    evaluatePlanePrecision(cuboids, thres, r, t.truth, t.truth_region);
+  pg.plane_area_m2 = precision.face_area_m2;
+  pg.plane_precision = precision.ratio();
+  if (precision.face_area_m2 > 0.0) {
+    pg.plane_no_truth_share = precision.no_truth_area_m2 / precision.face_area_m2;
+    pg.plane_not_surface_share = precision.not_surface_area_m2 / precision.face_area_m2;
+    pg.plane_misoriented_share = precision.misoriented_area_m2 / precision.face_area_m2;
+  }
+  lane.plane_precision_ms += msSince(precision_start);
+  return pg;
+}
+
 /** SG, OG, RA and PG of \a lane as they stand, against \a truth: over the whole map
  * (\a region null) or the cells reaching into \a region (the paper's places). RA is
  * merged from SG here; \a ra_divisor spreads its merge time (frames of the mean). The
@@ -306,147 +514,18 @@ measureLane(Lane& lane,
             std::pair<std::size_t, std::size_t>& planar_counts)
 {
   using Clock = std::chrono::steady_clock;
-  const double r = lane.resolution_m;
-  const auto apply = [region](ComparisonRow& row, const MappingError& e) {
-    row.samples = e.samples;
-    row.erroneous = e.erroneous;
-    row.own_error = e.ownError();
-    if (region)
-      row.cells = e.cells;
-  };
   // The completeness counts the truth voxels in the region (all without one) against
   // every occupied cell of the map; its time is kept apart from the methods'.
   const MappingErrorRegion everywhere;
-  const MappingErrorRegion& truth_region = region ? *region : everywhere;
-  auto completeness_start = Clock::now();
-  if (!lane.truth_voxels) {
-    lane.truth_voxels = std::make_unique<TruthVoxels>(truth, r);
-    lane.truth_voxels->setMappedRange(mapped.max_depth_m);
-  }
-  // The range grows with the frames mapped: the views since the last measurement.
-  for (; lane.views_added < mapped.views.size(); ++lane.views_added)
-    lane.truth_voxels->addView(mapped.views[lane.views_added]);
-  const TruthVoxels& truth_voxels = *lane.truth_voxels;
-  // SG's, OG's and RA's maps are their occupied cells alone: the whole map's
-  // completeness is theirs; PG's is measured on both layers below.
-  const auto applyCompleteness = [&](ComparisonRow& row, const Completeness& c) {
-    row.truth_voxels = c.truth_voxels;
-    row.covered_voxels = c.covered;
-    row.completeness = c.ratio();
-    row.map_covered_voxels = c.covered;
-    row.map_completeness = c.ratio();
-    row.nonground_voxels = c.nonground_voxels;
-    row.nonground_covered_voxels = c.nonground_covered;
-    row.nonground_completeness = c.nongroundRatio();
-    row.mapped_range_m = mapped.max_depth_m;
-    row.range_nonground_voxels = c.range_nonground_voxels;
-    row.range_nonground_covered_voxels = c.range_nonground_covered;
-    row.range_nonground_completeness = c.rangeNongroundRatio();
-  };
+  const auto completeness_start = Clock::now();
+  const TruthVoxels& truth_voxels = laneTruthVoxels(lane, truth, mapped);
   lane.completeness_ms += msSince(completeness_start);
-
-  ComparisonRow sg = base;
-  sg.method = "SG";
-  sg.cells = lane.sg->getOccupiedCount();
-  sg.all_cells = lane.sg->getVoxelCount();
-  sg.memory_bytes = lane.sg->getMemoryBytes();
-  sg.ms_per_frame = ms.sg;
-  apply(sg, region ? evaluateVoxels(*lane.sg, truth, tolerance_m, *region)
-                   : evaluateVoxels(*lane.sg, truth, tolerance_m));
-  completeness_start = Clock::now();
-  applyCompleteness(
-    sg, evaluateCompleteness(*lane.sg, truth_voxels, tolerance_m, truth_region));
-  lane.completeness_ms += msSince(completeness_start);
-
-  ComparisonRow og = base;
-  og.method = "OG";
-  lane.og->prune();
-  for (auto it = lane.og->begin_leafs(); it != lane.og->end_leafs(); ++it) {
-    ++og.all_cells;
-    og.cells += lane.og->isNodeOccupied(*it);
-  }
-  og.memory_bytes = lane.og->memoryUsage();
-  og.ms_per_frame = ms.og;
-  apply(og, region ? evaluateOcTree(*lane.og, truth, tolerance_m, *region)
-                   : evaluateOcTree(*lane.og, truth, tolerance_m));
-  completeness_start = Clock::now();
-  applyCompleteness(
-    og, evaluateCompleteness(*lane.og, truth_voxels, tolerance_m, truth_region));
-  lane.completeness_ms += msSince(completeness_start);
-
-  ComparisonRow ra = base;
-  ra.method = "RA";
-  AxisAlignedBoxes boxes;
-  const auto t = Clock::now();
-  RectangularCuboidApproximation().compute(*lane.sg, boxes);
-  // RA's map is built from the voxel grid: its time is SG's plus the merge.
-  ra.ms_per_frame = ms.sg + msSince(t) / ra_divisor;
-  for (const auto& b : boxes)
-    ra.cells += b.occupied;
-  ra.all_cells = boxes.size();
-  ra.memory_bytes = RectangularCuboidApproximation::getMemoryBytes(boxes);
-  apply(ra, region ? evaluateBoxes(boxes, r, truth, tolerance_m, *region)
-                   : evaluateBoxes(boxes, r, truth, tolerance_m));
-  completeness_start = Clock::now();
-  applyCompleteness(
-    ra, evaluateCompleteness(boxes, r, truth_voxels, tolerance_m, truth_region));
-  lane.completeness_ms += msSince(completeness_start);
-
-  ComparisonRow pg = base;
-  pg.method = "PG";
-  pg.ms_per_frame = ms.pg;
-  if (!lane.pipeline->state().map)
-    throw Exception("dataset " + base.dataset
-                    + ": the pipeline has no map_integration stage (PG is its map)");
-  const PlanarGridMap& map = *lane.pipeline->state().map;
-  const PlanarCuboids& cuboids = map.getSurfaceLayer().getCuboids();
-  const double thres = map.getParams().surface.occupancy_thres;
-  for (const auto& c : cuboids)
-    pg.cells += c.probability >= thres;
-  pg.all_cells = cuboids.size();
-  pg.memory_bytes = map.getMemory().total_bytes;
-  apply(pg, region ? evaluateCuboids(cuboids, thres, r, truth, tolerance_m, *region)
-                   : evaluateCuboids(cuboids, thres, r, truth, tolerance_m));
-  PlanarCuboids planar;
-  planar_counts = {0, 0};
-  for (const auto& c : cuboids)
-    if (c.is_planar) {
-      planar.push_back(c);
-      planar_counts.second += c.probability >= thres;
-    }
-  planar_counts.first = planar.size();
-  const MappingError planar_error =
-    region ? evaluateCuboids(planar, thres, r, truth, tolerance_m, *region)
-           : evaluateCuboids(planar, thres, r, truth, tolerance_m);
-  pg.planar_samples = planar_error.samples;
-  pg.planar_erroneous = planar_error.erroneous;
-  completeness_start = Clock::now();
-  applyCompleteness(
-    pg, evaluateCompleteness(cuboids, thres, truth_voxels, tolerance_m, truth_region));
-  const Completeness planar_share =
-    evaluatePlanarShare(cuboids, thres, truth_voxels, tolerance_m, truth_region);
-  pg.planar_covered_voxels = planar_share.covered;
-  pg.planar_share = planar_share.ratio();
-  pg.range_planar_covered_voxels = planar_share.range_nonground_covered;
-  pg.range_planar_share = planar_share.rangeNongroundRatio();
-  const Completeness whole_map =
-    evaluateMapCompleteness(map, truth_voxels, tolerance_m, truth_region);
-  pg.map_covered_voxels = whole_map.covered;
-  pg.map_completeness = whole_map.ratio();
-  lane.completeness_ms += msSince(completeness_start);
-  const auto precision_start = Clock::now();
-  const PlanePrecision precision =
-    evaluatePlanePrecision(cuboids, thres, r, truth, truth_region);
-  pg.plane_area_m2 = precision.face_area_m2;
-  pg.plane_precision = precision.ratio();
-  if (precision.face_area_m2 > 0.0) {
-    pg.plane_no_truth_share = precision.no_truth_area_m2 / precision.face_area_m2;
-    pg.plane_not_surface_share = precision.not_surface_area_m2 / precision.face_area_m2;
-    pg.plane_misoriented_share = precision.misoriented_area_m2 / precision.face_area_m2;
-  }
-  lane.plane_precision_ms += msSince(precision_start);
-
-  std::vector<ComparisonRow> rows{sg, og, ra, pg};
+  const LaneTruth t{truth,       truth_voxels, mapped,
+                    tolerance_m, region,       region ? *region : everywhere};
+  const ComparisonRow sg = measureSG(lane, base, ms.sg, t);
+  std::vector<ComparisonRow> rows{sg, measureOG(lane, base, ms.og, t),
+                                  measureRA(lane, base, ms.sg, ra_divisor, t),
+                                  measurePG(lane, base, ms.pg, t, planar_counts)};
   for (ComparisonRow& row : rows) {
     row.efficiency =
       sg.cells > 0
@@ -551,243 +630,300 @@ everyFrameDense(const PipelineConfig& front, bool& thinned)
 
 } // namespace
 
+namespace {
+
+/** \brief One lane per cell size of \a config: the mapping stages of \a ds at that
+ * size (SG and OG get the cloud PG's approximation gets, or with range_adaptive_cells
+ * the far points it maps; PG's time is its stages' but the accumulated cloud's), and
+ * SG's and OG's maps. */
+std::vector<Lane>
+makeLanes(const ComparisonConfig& config, const DatasetConfig& ds)
+{
+  std::vector<Lane> lanes(config.resolutions_m.size());
+  for (std::size_t k = 0; k < lanes.size(); ++k) {
+    Lane& lane = lanes[k];
+    lane.resolution_m = config.resolutions_m[k];
+    const PipelineConfig mapping = pipelinePart(ds, false, lane.resolution_m);
+    for (const auto& sc : mapping.stages)
+      lane.types.push_back(sc.type);
+    lane.pipeline =
+      std::make_unique<PipelineRunner>(mapping, PipelineRunner::FrameSupply::CALLER);
+    const bool range_adaptive =
+      std::find(lane.types.begin(), lane.types.end(), "range_adaptive_cells")
+      != lane.types.end();
+    const std::string baseline_stage =
+      range_adaptive ? "range_adaptive_cells" : "planar_cuboid_approximation";
+    lane.pipeline->setStageCallback(
+      [&lane, baseline_stage](std::size_t s, Frame& frame) {
+        if (lane.types[s] == baseline_stage)
+          insertBaselines(lane, frame);
+      });
+    lane.pipeline->setFrameCallback(
+      [&lane](std::size_t, Frame&, const std::vector<double>& stage_ms) {
+        for (std::size_t s = 0; s < stage_ms.size(); ++s)
+          if (lane.types[s] != "accumulate")
+            lane.frame_ms.pg += stage_ms[s];
+      });
+    StandardVoxelGrid::Params sg;
+    sg.resolution_m = lane.resolution_m;
+    lane.sg = std::make_unique<StandardVoxelGrid>(sg);
+    lane.og = std::make_unique<octomap::OcTree>(lane.resolution_m);
+  }
+  return lanes;
+}
+
+/** \brief Maps \a frame (after the front end) at every cell size: the mapping stages,
+ * then SG and OG when no stage gave them the cloud; \a kl_ms, the KL filter's time,
+ * is PG's work too. */
+void
+mapFrameInLanes(std::vector<Lane>& lanes,
+                const Frame& frame,
+                double kl_ms,
+                const std::string& dataset)
+{
+  for (Lane& lane : lanes) {
+    Frame f = frame;
+    if (frame.cloud)
+      f.cloud.reset(new Frame::Cloud(*frame.cloud));
+    lane.frame_ms = MethodTimes();
+    lane.frame_ms.pg = kl_ms;
+    lane.inserted = false;
+    try {
+      lane.pipeline->processFrame(f);
+    } catch (const Exception& e) {
+      throw Exception("dataset " + dataset + ", cell size "
+                      + std::to_string(lane.resolution_m) + " m: " + e.what());
+    }
+    if (!lane.inserted)
+      insertBaselines(lane, f);
+    lane.pg_ms += lane.frame_ms.pg;
+    lane.sg_ms += lane.frame_ms.sg;
+    lane.og_ms += lane.frame_ms.og;
+  }
+}
+
+/** \brief The row every measurement of \a ds at cell size \a r starts from. */
+ComparisonRow
+baseRow(const ComparisonConfig& config,
+        const DatasetConfig& ds,
+        double r,
+        std::size_t frames,
+        const std::string& truth_kind)
+{
+  ComparisonRow base;
+  base.dataset = ds.name;
+  base.environment = config.environment;
+  base.resolution_m = r;
+  base.frames = frames;
+  base.tilt_deg = ds.tilt_deg;
+  base.truth_kind = truth_kind;
+  return base;
+}
+
+/** \brief The progress line of a lane's whole-map rows (SG, OG, RA, PG). */
+std::string
+progressLine(const std::string& dataset,
+             const Lane& lane,
+             std::size_t frames,
+             const std::vector<ComparisonRow>& measured,
+             const std::pair<std::size_t, std::size_t>& planar_counts,
+             const std::string& saved)
+{
+  const ComparisonRow& sg = measured[0];
+  const ComparisonRow& pg = measured[3];
+  std::ostringstream line;
+  line << std::fixed << std::setprecision(2) << dataset << " @ " << lane.resolution_m
+       << " m, " << frames << " frames: cells SG " << sg.cells << ", OG "
+       << measured[1].cells << ", RA " << measured[2].cells << ", PG " << pg.cells
+       << " (of " << pg.all_cells << "; planar " << planar_counts.first << ", occupied "
+       << planar_counts.second << "); error SG " << sg.error << ", PG " << pg.error
+       << " (planar "
+       << static_cast<double>(pg.planar_erroneous)
+            / static_cast<double>(std::max<std::size_t>(sg.cells, 1))
+       << "); completeness SG " << sg.completeness << ", OG "
+       << measured[1].completeness << ", RA " << measured[2].completeness << ", PG "
+       << pg.completeness << " cuboids, " << pg.map_completeness << " whole map (of "
+       << sg.truth_voxels << " truth voxels); PG planar share " << pg.planar_share
+       << " (of " << pg.nonground_voxels << " non-ground), " << pg.range_planar_share
+       << " within the mapped " << pg.mapped_range_m << " m (of "
+       << pg.range_nonground_voxels << "; SG's non-ground completeness there "
+       << sg.range_nonground_completeness << "); own error SG " << sg.own_error
+       << ", OG " << measured[1].own_error << ", RA " << measured[2].own_error
+       << ", PG " << pg.own_error << "; PG plane precision " << pg.plane_precision
+       << " (of " << pg.plane_area_m2 << " m2; no truth " << pg.plane_no_truth_share
+       << ", not a surface " << pg.plane_not_surface_share << ", misoriented "
+       << pg.plane_misoriented_share << "); completeness measured in "
+       << std::setprecision(2) << lane.completeness_ms / 1000.0
+       << " s, plane precision in " << lane.plane_precision_ms / 1000.0 << " s";
+  if (!saved.empty())
+    line << "; PG map " << saved;
+  return line.str();
+}
+
+/** \brief Saves \a lane's PG map, and SG's occupied voxels beside it (to compare
+ * the two maps point by point); returns the map's path. */
+std::string
+saveLaneMaps(const ComparisonConfig& config, const std::string& dataset, Lane& lane)
+{
+  std::error_code ec;
+  fs::create_directories(config.output_folder, ec);
+  const std::string saved =
+    (fs::path(config.output_folder) / mapComparisonFile(dataset, lane.resolution_m))
+      .string();
+  lane.pipeline->state().map->save(saved);
+  pcl::PointCloud<pcl::PointXYZ> sg_centres;
+  lane.sg->getOccupiedCentres(sg_centres);
+  savePointsAtomically(
+    (fs::path(config.output_folder) / sgComparisonFile(dataset, lane.resolution_m))
+      .string(),
+    sg_centres);
+  return saved;
+}
+
+/** \brief Every method at every cell size of one dataset: the places while the
+ * frames run, then the whole maps after the last frame. */
+void
+compareDataset(const ComparisonConfig& config,
+               const DatasetConfig& ds,
+               const std::function<void(const std::string&)>& progress,
+               std::vector<ComparisonRow>& rows)
+{
+  // The front end has no size parameter; it is configured at the first cell size.
+  const PipelineConfig front_config =
+    pipelinePart(ds, true, config.resolutions_m.front());
+  PipelineRunner front(front_config);
+  const std::size_t end =
+    ds.frame_count > 0 ? std::min(front.frameCount(), ds.first_frame + ds.frame_count)
+                       : front.frameCount();
+  if (ds.first_frame >= end)
+    throw Exception("dataset " + ds.name + ": no frames in the range");
+  const std::size_t total = (end - ds.first_frame + ds.frame_step - 1) / ds.frame_step;
+  const std::vector<std::size_t> places = placeFrames(total, ds.places);
+  // One frame at a time: the methods' times are measured without a second thread.
+  front.setFrameRange(ds.first_frame, end, ds.frame_step);
+  front.setFrameOverlap(false);
+  std::vector<Lane> lanes = makeLanes(config, ds);
+
+  // The places are measured while the frames run, so a reference built from all
+  // frames must exist first: a pass of a second front end over the frames builds it
+  // (the same deterministic stages give the same points). A front end that maps
+  // only every n-th frame densely gets its reference from a pass over every frame.
+  ReferenceVoxels reference(ds.truth.leaf_size_m);
+  bool thinned = false;
+  const PipelineConfig reference_config = everyFrameDense(front_config, thinned);
+  const bool reference_first =
+    ds.truth.type == TruthConfig::Type::REFERENCE && (!places.empty() || thinned);
+  if (reference_first) {
+    PipelineRunner pre(reference_config);
+    pre.setFrameRange(ds.first_frame, end, ds.frame_step);
+    pre.setFrameOverlap(false);
+    pre.setFrameCallback(
+      [&reference](std::size_t, Frame& frame, const std::vector<double>&) {
+        reference.addFrame(worldPoints(frame));
+      });
+    pre.run();
+    if (progress)
+      progress(ds.name + ": reference of " + std::to_string(total)
+               + " frames built for the places");
+  }
+
+  for (auto& lane : lanes)
+    lane.pipeline->start();
+
+  std::unique_ptr<GroundTruthSurface> truth;
+  std::string truth_kind;
+  Frame first_frame;
+  MappedViews mapped;
+  std::size_t frames = 0;
+  std::size_t next_place = 0;
+  // Each frame, after the front end: the mapping stages and SG and OG at every cell
+  // size, then the place it may be.
+  front.setFrameCallback([&](std::size_t i, Frame& frame,
+                             const std::vector<double>& front_ms) {
+    double kl_ms = 0.0;
+    for (std::size_t st = 0; st < front_ms.size(); ++st)
+      if (front_config.stages[st].type == "kl_occupancy_filter")
+        kl_ms += front_ms[st]; // the occupancy of the features is PG's work
+    if (frames == 0) {
+      first_frame = frame;
+      mapped.max_depth_m = mappedRange(ds.pipeline, frame.calibration);
+    }
+    mapped.views.push_back(rangeView(frame));
+    if (ds.truth.type == TruthConfig::Type::REFERENCE && !reference_first)
+      reference.addFrame(worldPoints(frame));
+    mapFrameInLanes(lanes, frame, kl_ms, ds.name);
+
+    // A place (paper Sec. IV-B): the cells near the camera, this frame's times.
+    if (next_place < places.size() && places[next_place] == frames) {
+      if (!truth)
+        truth = buildTruth(ds, first_frame, reference, truth_kind);
+      MappingErrorRegion region;
+      region.centre_m = frame.world_T_camera.translation().cast<float>();
+      region.max_distance_m = ds.place_radius_m;
+      for (Lane& lane : lanes) {
+        ComparisonRow base =
+          baseRow(config, ds, lane.resolution_m, frames + 1, truth_kind);
+        base.place = static_cast<int>(next_place);
+        base.frame = i;
+        base.region_radius_m = ds.place_radius_m;
+        std::pair<std::size_t, std::size_t> planar_counts;
+        for (const auto& row : measureLane(lane, base, *truth, mapped,
+                                           config.tolerance_cells * lane.resolution_m,
+                                           ds.place_radius_m > 0.0 ? &region : nullptr,
+                                           lane.frame_ms, 1.0, planar_counts))
+          rows.push_back(row);
+      }
+      ++next_place;
+    }
+    ++frames;
+  });
+  front.run();
+  for (auto& lane : lanes)
+    lane.pipeline->finish();
+  if (!truth)
+    truth = buildTruth(ds, first_frame, reference, truth_kind);
+  if (config.save_maps) {
+    std::error_code ec;
+    fs::create_directories(config.output_folder, ec);
+    const std::string truth_file =
+      (fs::path(config.output_folder) / ("truth_" + ds.name + ".pcd")).string();
+    savePointsAtomically(truth_file, *truth->getPoints());
+    if (progress)
+      progress(ds.name + ": " + truth_kind + " points in " + truth_file);
+  }
+
+  // The whole map after the last frame; times are means per frame.
+  for (auto& lane : lanes) {
+    const double r = lane.resolution_m;
+    const auto n = static_cast<double>(frames);
+    ComparisonRow base = baseRow(config, ds, r, frames, truth_kind);
+    base.frame = ds.first_frame + (frames - 1) * ds.frame_step;
+    MethodTimes mean;
+    mean.sg = lane.sg_ms / n;
+    mean.og = lane.og_ms / n;
+    mean.pg = lane.pg_ms / n;
+    std::pair<std::size_t, std::size_t> planar_counts;
+    const std::vector<ComparisonRow> measured =
+      measureLane(lane, base, *truth, mapped, config.tolerance_cells * r, nullptr, mean,
+                  n, planar_counts);
+    rows.insert(rows.end(), measured.begin(), measured.end());
+    std::string saved;
+    if (config.save_maps && lane.pipeline->state().map)
+      saved = saveLaneMaps(config, ds.name, lane);
+    if (progress)
+      progress(progressLine(ds.name, lane, frames, measured, planar_counts, saved));
+  }
+}
+
+} // namespace
+
 std::vector<ComparisonRow>
 runComparison(const ComparisonConfig& config,
               const std::function<void(const std::string&)>& progress)
 {
   std::vector<ComparisonRow> rows;
-  for (const auto& ds : config.datasets) {
-    // The front end has no size parameter; it is configured at the first cell size.
-    const PipelineConfig front_config =
-      pipelinePart(ds, true, config.resolutions_m.front());
-    PipelineRunner front(front_config);
-    const std::size_t end =
-      ds.frame_count > 0 ? std::min(front.frameCount(), ds.first_frame + ds.frame_count)
-                         : front.frameCount();
-    if (ds.first_frame >= end)
-      throw Exception("dataset " + ds.name + ": no frames in the range");
-    const std::size_t total =
-      (end - ds.first_frame + ds.frame_step - 1) / ds.frame_step;
-    const std::vector<std::size_t> places = placeFrames(total, ds.places);
-    // One frame at a time: the methods' times are measured without a second thread.
-    front.setFrameRange(ds.first_frame, end, ds.frame_step);
-    front.setFrameOverlap(false);
-
-    std::vector<Lane> lanes(config.resolutions_m.size());
-    for (std::size_t k = 0; k < lanes.size(); ++k) {
-      Lane& lane = lanes[k];
-      lane.resolution_m = config.resolutions_m[k];
-      const PipelineConfig mapping = pipelinePart(ds, false, lane.resolution_m);
-      for (const auto& sc : mapping.stages)
-        lane.types.push_back(sc.type);
-      lane.pipeline =
-        std::make_unique<PipelineRunner>(mapping, PipelineRunner::FrameSupply::CALLER);
-      // SG and OG get the cloud PG's approximation gets; PG's time is its stages'
-      // but the accumulated cloud's.
-      // With range_adaptive_cells, after it: SG and OG get the far points it maps.
-      const bool range_adaptive =
-        std::find(lane.types.begin(), lane.types.end(), "range_adaptive_cells")
-        != lane.types.end();
-      const std::string baseline_stage =
-        range_adaptive ? "range_adaptive_cells" : "planar_cuboid_approximation";
-      lane.pipeline->setStageCallback(
-        [&lane, baseline_stage](std::size_t s, Frame& frame) {
-          if (lane.types[s] == baseline_stage)
-            insertBaselines(lane, frame);
-        });
-      lane.pipeline->setFrameCallback(
-        [&lane](std::size_t, Frame&, const std::vector<double>& stage_ms) {
-          for (std::size_t s = 0; s < stage_ms.size(); ++s)
-            if (lane.types[s] != "accumulate")
-              lane.frame_ms.pg += stage_ms[s];
-        });
-      StandardVoxelGrid::Params sg;
-      sg.resolution_m = lane.resolution_m;
-      lane.sg = std::make_unique<StandardVoxelGrid>(sg);
-      lane.og = std::make_unique<octomap::OcTree>(lane.resolution_m);
-    }
-
-    // The places are measured while the frames run, so a reference built from all
-    // frames must exist first: a pass of a second front end over the frames builds it
-    // (the same deterministic stages give the same points). A front end that maps
-    // only every n-th frame densely gets its reference from a pass over every frame.
-    ReferenceVoxels reference(ds.truth.leaf_size_m);
-    bool thinned = false;
-    const PipelineConfig reference_config = everyFrameDense(front_config, thinned);
-    const bool reference_first =
-      ds.truth.type == TruthConfig::Type::REFERENCE && (!places.empty() || thinned);
-    if (reference_first) {
-      PipelineRunner pre(reference_config);
-      pre.setFrameRange(ds.first_frame, end, ds.frame_step);
-      pre.setFrameOverlap(false);
-      pre.setFrameCallback(
-        [&reference](std::size_t, Frame& frame, const std::vector<double>&) {
-          reference.addFrame(worldPoints(frame));
-        });
-      pre.run();
-      if (progress)
-        progress(ds.name + ": reference of " + std::to_string(total)
-                 + " frames built for the places");
-    }
-
-    for (auto& lane : lanes)
-      lane.pipeline->start();
-
-    std::unique_ptr<GroundTruthSurface> truth;
-    std::string truth_kind;
-    Frame first_frame;
-    MappedViews mapped;
-    std::size_t frames = 0;
-    std::size_t next_place = 0;
-    // Each frame, after the front end: the mapping stages and SG and OG at every cell
-    // size, then the place it may be.
-    front.setFrameCallback([&](std::size_t i, Frame& frame,
-                               const std::vector<double>& front_ms) {
-      double kl_ms = 0.0;
-      for (std::size_t st = 0; st < front_ms.size(); ++st)
-        if (front_config.stages[st].type == "kl_occupancy_filter")
-          kl_ms += front_ms[st]; // the occupancy of the features is PG's work
-      if (frames == 0) {
-        first_frame = frame;
-        mapped.max_depth_m = mappedRange(ds.pipeline, frame.calibration);
-      }
-      mapped.views.push_back(rangeView(frame));
-      if (ds.truth.type == TruthConfig::Type::REFERENCE && !reference_first)
-        reference.addFrame(worldPoints(frame));
-      for (Lane& lane : lanes) {
-        Frame f = frame;
-        if (frame.cloud)
-          f.cloud.reset(new Frame::Cloud(*frame.cloud));
-        lane.frame_ms = MethodTimes();
-        lane.frame_ms.pg = kl_ms;
-        lane.inserted = false;
-        try {
-          lane.pipeline->processFrame(f);
-        } catch (const Exception& e) {
-          throw Exception("dataset " + ds.name + ", cell size "
-                          + std::to_string(lane.resolution_m) + " m: " + e.what());
-        }
-        if (!lane.inserted)
-          insertBaselines(lane, f);
-        lane.pg_ms += lane.frame_ms.pg;
-        lane.sg_ms += lane.frame_ms.sg;
-        lane.og_ms += lane.frame_ms.og;
-      }
-
-      // A place (paper Sec. IV-B): the cells near the camera, this frame's times.
-      if (next_place < places.size() && places[next_place] == frames) {
-        if (!truth)
-          truth = buildTruth(ds, first_frame, reference, truth_kind);
-        MappingErrorRegion region;
-        region.centre_m = frame.world_T_camera.translation().cast<float>();
-        region.max_distance_m = ds.place_radius_m;
-        for (Lane& lane : lanes) {
-          ComparisonRow base;
-          base.dataset = ds.name;
-          base.environment = config.environment;
-          base.resolution_m = lane.resolution_m;
-          base.frames = frames + 1;
-          base.tilt_deg = ds.tilt_deg;
-          base.truth_kind = truth_kind;
-          base.place = static_cast<int>(next_place);
-          base.frame = i;
-          base.region_radius_m = ds.place_radius_m;
-          std::pair<std::size_t, std::size_t> planar_counts;
-          for (const auto& row : measureLane(
-                 lane, base, *truth, mapped, config.tolerance_cells * lane.resolution_m,
-                 ds.place_radius_m > 0.0 ? &region : nullptr, lane.frame_ms, 1.0,
-                 planar_counts))
-            rows.push_back(row);
-        }
-        ++next_place;
-      }
-      ++frames;
-    });
-    front.run();
-    for (auto& lane : lanes)
-      lane.pipeline->finish();
-    if (!truth)
-      truth = buildTruth(ds, first_frame, reference, truth_kind);
-    if (config.save_maps) {
-      std::error_code ec;
-      fs::create_directories(config.output_folder, ec);
-      const std::string truth_file =
-        (fs::path(config.output_folder) / ("truth_" + ds.name + ".pcd")).string();
-      savePointsAtomically(truth_file, *truth->getPoints());
-      if (progress)
-        progress(ds.name + ": " + truth_kind + " points in " + truth_file);
-    }
-
-    // The whole map after the last frame; times are means per frame.
-    for (auto& lane : lanes) {
-      const double r = lane.resolution_m;
-      const auto n = static_cast<double>(frames);
-      ComparisonRow base;
-      base.dataset = ds.name;
-      base.environment = config.environment;
-      base.resolution_m = r;
-      base.frames = frames;
-      base.tilt_deg = ds.tilt_deg;
-      base.truth_kind = truth_kind;
-      base.frame = ds.first_frame + (frames - 1) * ds.frame_step;
-      MethodTimes mean;
-      mean.sg = lane.sg_ms / n;
-      mean.og = lane.og_ms / n;
-      mean.pg = lane.pg_ms / n;
-      std::pair<std::size_t, std::size_t> planar_counts;
-      const std::vector<ComparisonRow> measured =
-        measureLane(lane, base, *truth, mapped, config.tolerance_cells * r, nullptr,
-                    mean, n, planar_counts);
-      rows.insert(rows.end(), measured.begin(), measured.end());
-      std::string saved;
-      if (config.save_maps && lane.pipeline->state().map) {
-        std::error_code ec;
-        fs::create_directories(config.output_folder, ec);
-        saved =
-          (fs::path(config.output_folder) / mapComparisonFile(ds.name, r)).string();
-        lane.pipeline->state().map->save(saved);
-        // SG's occupied voxels beside it, to compare the two maps point by point.
-        pcl::PointCloud<pcl::PointXYZ> sg_centres;
-        lane.sg->getOccupiedCentres(sg_centres);
-        savePointsAtomically(
-          (fs::path(config.output_folder) / sgComparisonFile(ds.name, r)).string(),
-          sg_centres);
-      }
-      if (progress) {
-        const ComparisonRow& sg = measured[0];
-        const ComparisonRow& pg = measured[3];
-        std::ostringstream line;
-        line << std::fixed << std::setprecision(2) << ds.name << " @ " << r << " m, "
-             << frames << " frames: cells SG " << sg.cells << ", OG "
-             << measured[1].cells << ", RA " << measured[2].cells << ", PG " << pg.cells
-             << " (of " << pg.all_cells << "; planar " << planar_counts.first
-             << ", occupied " << planar_counts.second << "); error SG " << sg.error
-             << ", PG " << pg.error << " (planar "
-             << static_cast<double>(pg.planar_erroneous)
-                  / static_cast<double>(std::max<std::size_t>(sg.cells, 1))
-             << "); completeness SG " << sg.completeness << ", OG "
-             << measured[1].completeness << ", RA " << measured[2].completeness
-             << ", PG " << pg.completeness << " cuboids, " << pg.map_completeness
-             << " whole map (of " << sg.truth_voxels
-             << " truth voxels); PG planar share " << pg.planar_share << " (of "
-             << pg.nonground_voxels << " non-ground), " << pg.range_planar_share
-             << " within the mapped " << pg.mapped_range_m << " m (of "
-             << pg.range_nonground_voxels << "; SG's non-ground completeness there "
-             << sg.range_nonground_completeness << "); own error SG " << sg.own_error
-             << ", OG " << measured[1].own_error << ", RA " << measured[2].own_error
-             << ", PG " << pg.own_error << "; PG plane precision " << pg.plane_precision
-             << " (of " << pg.plane_area_m2 << " m2; no truth "
-             << pg.plane_no_truth_share << ", not a surface "
-             << pg.plane_not_surface_share << ", misoriented "
-             << pg.plane_misoriented_share << "); completeness measured in "
-             << std::setprecision(2) << lane.completeness_ms / 1000.0
-             << " s, plane precision in " << lane.plane_precision_ms / 1000.0 << " s";
-        if (!saved.empty())
-          line << "; PG map " << saved;
-        progress(line.str());
-      }
-    }
-  }
+  for (const auto& ds : config.datasets)
+    compareDataset(config, ds, progress, rows);
   return rows;
 }
 
