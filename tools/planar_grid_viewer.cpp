@@ -171,93 +171,85 @@ parseNumbers(const std::string& text, std::vector<double>& values)
   }
 }
 
-/** \brief Reads every option; throws planar_grid::Exception on a malformed one
- * (a malformed number is an error, never 0).
- * \param[out] help set when -h/--help was given */
-ViewerOptions
-parseOptions(int argc, char** argv, bool& help)
-{
-  using pcl::console::find_argument;
-  using pcl::console::parse_argument;
-  using planar_grid::Exception;
-  ViewerOptions options;
-  help = pcl::console::find_switch(argc, argv, "-h")
-         || pcl::console::find_switch(argc, argv, "--help");
-  if (help)
-    return options;
-
-  // argv indices accounted for; anything else is an unknown argument.
+/** \brief The command line's arguments, with the indices accounted for; anything
+ * else is an unknown argument. */
+struct Arguments {
+  int argc;
+  char** argv;
   std::set<int> used;
-  const auto option_with_value = [&](const char* name) {
-    const int index = find_argument(argc, argv, name);
+
+  /** \brief Whether option \a name is given; it must have a value. */
+  bool withValue(const char* name)
+  {
+    const int index = pcl::console::find_argument(argc, argv, name);
     if (index < 0)
       return false;
     if (index + 1 >= argc)
-      throw Exception(std::string(name) + " needs a value");
+      throw planar_grid::Exception(std::string(name) + " needs a value");
     used.insert(index);
     used.insert(index + 1);
     return true;
-  };
+  }
 
-  for (const int index :
-       pcl::console::parse_file_extension_argument(argc, argv, ".pcd")) {
-    options.clouds.emplace_back(argv[index]);
-    used.insert(index);
+  /** \brief The value of option \a name (given). */
+  std::string valueOf(const char* name) const
+  {
+    return argv[pcl::console::find_argument(argc, argv, name) + 1];
   }
-  for (const int index :
-       pcl::console::parse_file_extension_argument(argc, argv, ".pgmap")) {
-    options.maps.emplace_back(argv[index]);
-    used.insert(index);
-  }
-  for (const int index :
-       pcl::console::parse_file_extension_argument(argc, argv, ".ply")) {
-    options.meshes.emplace_back(argv[index]);
-    used.insert(index);
-  }
-  for (const char* extension : {".bt", ".ot"})
+
+  /** \brief The arguments ending in \a extension, accounted for. */
+  std::vector<std::string> filesEndingIn(const char* extension)
+  {
+    std::vector<std::string> files;
     for (const int index :
          pcl::console::parse_file_extension_argument(argc, argv, extension)) {
-      options.octrees.emplace_back(argv[index]);
+      files.emplace_back(argv[index]);
       used.insert(index);
     }
-
-  if (option_with_value("--snapshot")) {
-    parse_argument(argc, argv, "--snapshot", options.snapshot);
-    if (std::filesystem::path(options.snapshot).extension() != ".png")
-      throw Exception("--snapshot expects a .png file, got '" + options.snapshot + "'");
+    return files;
   }
+};
 
-  if (option_with_value("--camera")) {
-    parse_argument(argc, argv, "--camera", options.camera_name);
-    if (options.camera_name == "top") {
-      options.preset = planar_grid::CameraPreset::TOP;
-    } else if (options.camera_name == "oblique") {
-      options.preset = planar_grid::CameraPreset::OBLIQUE;
-    } else if (options.camera_name == "street") {
-      options.street_camera = true;
-    } else {
-      std::vector<double> values;
-      if (!parseNumbers(options.camera_name, values) || values.size() != 9)
-        throw Exception("--camera expects top, oblique, street or 9 comma-separated "
-                        "numbers "
-                        "px,py,pz,fx,fy,fz,ux,uy,uz; got '"
-                        + options.camera_name + "'");
-      options.explicit_camera = true;
-      options.camera.position = Eigen::Vector3d(values[0], values[1], values[2]);
-      options.camera.focal_point = Eigen::Vector3d(values[3], values[4], values[5]);
-      options.camera.view_up = Eigen::Vector3d(values[6], values[7], values[8]);
-    }
+/** \brief --camera: a preset (top, oblique), the street camera, or 9 numbers
+ * (position, focal point, view up). */
+void
+parseCamera(Arguments& args, ViewerOptions& options)
+{
+  using planar_grid::Exception;
+  if (!args.withValue("--camera"))
+    return;
+  options.camera_name = args.valueOf("--camera");
+  if (options.camera_name == "top") {
+    options.preset = planar_grid::CameraPreset::TOP;
+  } else if (options.camera_name == "oblique") {
+    options.preset = planar_grid::CameraPreset::OBLIQUE;
+  } else if (options.camera_name == "street") {
+    options.street_camera = true;
+  } else {
+    std::vector<double> values;
+    if (!parseNumbers(options.camera_name, values) || values.size() != 9)
+      throw Exception("--camera expects top, oblique, street or 9 comma-separated "
+                      "numbers "
+                      "px,py,pz,fx,fy,fz,ux,uy,uz; got '"
+                      + options.camera_name + "'");
+    options.explicit_camera = true;
+    options.camera.position = Eigen::Vector3d(values[0], values[1], values[2]);
+    options.camera.focal_point = Eigen::Vector3d(values[3], values[4], values[5]);
+    options.camera.view_up = Eigen::Vector3d(values[6], values[7], values[8]);
   }
+}
 
-  if (option_with_value("--trajectory"))
-    parse_argument(argc, argv, "--trajectory", options.trajectory);
-  // The street camera's placement: each option only with --camera street, where it is
-  // used, so that a forgotten --camera street is not silently ignored.
+/** \brief The street camera's placement: each option only with --camera street, where
+ * it is used, so that a forgotten --camera street is not silently ignored. */
+void
+parseStreetCamera(Arguments& args, ViewerOptions& options)
+{
+  using planar_grid::Exception;
   const auto street_option = [&](const char* name, double& value, double min,
                                  double max) {
-    if (!option_with_value(name))
+    if (!args.withValue(name))
       return;
-    const std::string text = argv[find_argument(argc, argv, name) + 1];
+    const std::string text = args.valueOf(name);
     std::vector<double> values;
     if (!parseNumbers(text, values) || values.size() != 1 || !(values[0] >= min)
         || !(values[0] <= max)) {
@@ -273,8 +265,8 @@ parseOptions(int argc, char** argv, bool& help)
   street_option("--pose-fraction", options.street.pose_fraction, 0.0, 1.0);
   street_option("--pitch-rad", options.street.pitch_rad, 0.0, 1.6);
   street_option("--look-ahead-m", options.street.look_ahead_m, 1.0, 1000.0);
-  if (option_with_value("--up")) {
-    const std::string text = argv[find_argument(argc, argv, "--up") + 1];
+  if (args.withValue("--up")) {
+    const std::string text = args.valueOf("--up");
     std::vector<double> values;
     if (!parseNumbers(text, values) || values.size() != 3
         || Eigen::Vector3d(values[0], values[1], values[2]).norm() == 0.0)
@@ -287,59 +279,53 @@ parseOptions(int argc, char** argv, bool& help)
   if (options.street_camera && options.trajectory.empty())
     throw Exception("--camera street needs --trajectory <poses.txt> (KITTI format, "
                     "e.g. the pipeline's trajectory.txt)");
+}
 
-  if (option_with_value("--size")) {
-    std::string size;
-    parse_argument(argc, argv, "--size", size);
-    if (!parseSize(size, options.width_px, options.height_px))
-      throw Exception("--size expects <W>x<H> with positive integers in px (e.g. "
-                      "1600x1000); got '"
-                      + size + "'");
-  }
+/** \brief --color: the clouds' and the maps' colouring; false when not given. */
+bool
+parseColor(Arguments& args, ViewerOptions& options)
+{
+  if (!args.withValue("--color"))
+    return false;
+  options.color_name = args.valueOf("--color");
+  if (options.color_name == "height")
+    options.color = planar_grid::ColorMode::HEIGHT;
+  else if (options.color_name == "intensity")
+    options.color = planar_grid::ColorMode::INTENSITY;
+  else if (options.color_name == "solid") {
+    options.color = planar_grid::ColorMode::SOLID;
+    options.map_color = planar_grid::CuboidColorMode::SOLID;
+  } else if (options.color_name == "label") {
+    options.color = planar_grid::ColorMode::LABEL;
+    options.map_color = planar_grid::CuboidColorMode::PLANE;
+  } else if (options.color_name == "occupancy")
+    options.map_color = planar_grid::CuboidColorMode::OCCUPANCY;
+  else
+    throw planar_grid::Exception(
+      "--color expects height, intensity, solid, label or occupancy; got '"
+      + options.color_name + "'");
+  return true;
+}
 
-  bool color_given = false;
-  if (option_with_value("--color")) {
-    parse_argument(argc, argv, "--color", options.color_name);
-    color_given = true;
-    if (options.color_name == "height")
-      options.color = planar_grid::ColorMode::HEIGHT;
-    else if (options.color_name == "intensity")
-      options.color = planar_grid::ColorMode::INTENSITY;
-    else if (options.color_name == "solid") {
-      options.color = planar_grid::ColorMode::SOLID;
-      options.map_color = planar_grid::CuboidColorMode::SOLID;
-    } else if (options.color_name == "label") {
-      options.color = planar_grid::ColorMode::LABEL;
-      options.map_color = planar_grid::CuboidColorMode::PLANE;
-    } else if (options.color_name == "occupancy")
-      options.map_color = planar_grid::CuboidColorMode::OCCUPANCY;
-    else
-      throw Exception("--color expects height, intensity, solid, label or occupancy; "
-                      "got '"
-                      + options.color_name + "'");
-  }
-
-  if (option_with_value("--point-size")) {
-    // parse_argument returns -1 for a value with junk in it ("2px") or out of range.
-    if (parse_argument(argc, argv, "--point-size", options.point_size_px) < 0
-        || !(options.point_size_px > 0.0))
-      throw Exception(std::string("--point-size expects a number > 0 (px); got '")
-                      + argv[find_argument(argc, argv, "--point-size") + 1] + "'");
-  }
-
-  // A tile folder (saveTiles(): a folder holding the tile index) opens as one map.
-  for (int i = 1; i < argc; ++i) {
+/** \brief The tile folders among the remaining arguments (a folder holding the tile
+ * index opens as one map); then no argument may remain, some input must be given,
+ * and a given colouring must apply to one of the inputs. */
+void
+checkInputs(Arguments& args, ViewerOptions& options, bool color_given)
+{
+  using planar_grid::Exception;
+  for (int i = 1; i < args.argc; ++i) {
     std::error_code ec;
-    if (used.count(i) == 0
+    if (args.used.count(i) == 0
         && std::filesystem::is_regular_file(
-          std::filesystem::path(argv[i]) / planar_grid::MAP_TILE_INDEX_NAME, ec)) {
-      options.maps.emplace_back(argv[i]);
-      used.insert(i);
+          std::filesystem::path(args.argv[i]) / planar_grid::MAP_TILE_INDEX_NAME, ec)) {
+      options.maps.emplace_back(args.argv[i]);
+      args.used.insert(i);
     }
   }
-  for (int i = 1; i < argc; ++i)
-    if (used.count(i) == 0)
-      throw Exception(std::string("unknown argument '") + argv[i]
+  for (int i = 1; i < args.argc; ++i)
+    if (args.used.count(i) == 0)
+      throw Exception(std::string("unknown argument '") + args.argv[i]
                       + "' (inputs must be .pcd, .pgmap, .ply, .bt or .ot files; see "
                         "--help)");
   if (options.clouds.empty() && options.maps.empty() && options.meshes.empty()
@@ -356,6 +342,53 @@ parseOptions(int argc, char** argv, bool& help)
   if (color_given && options.color_name == "occupancy" && options.maps.empty())
     throw Exception("--color occupancy colours the cuboids of .pgmap maps, and none is "
                     "given; point clouds take height, intensity, solid or label");
+}
+
+/** \brief Reads every option; throws planar_grid::Exception on a malformed one
+ * (a malformed number is an error, never 0).
+ * \param[out] help set when -h/--help was given */
+ViewerOptions
+parseOptions(int argc, char** argv, bool& help)
+{
+  using planar_grid::Exception;
+  ViewerOptions options;
+  help = pcl::console::find_switch(argc, argv, "-h")
+         || pcl::console::find_switch(argc, argv, "--help");
+  if (help)
+    return options;
+  Arguments args{argc, argv, {}};
+  options.clouds = args.filesEndingIn(".pcd");
+  options.maps = args.filesEndingIn(".pgmap");
+  options.meshes = args.filesEndingIn(".ply");
+  for (const char* extension : {".bt", ".ot"})
+    for (const std::string& file : args.filesEndingIn(extension))
+      options.octrees.push_back(file);
+  if (args.withValue("--snapshot")) {
+    options.snapshot = args.valueOf("--snapshot");
+    if (std::filesystem::path(options.snapshot).extension() != ".png")
+      throw Exception("--snapshot expects a .png file, got '" + options.snapshot + "'");
+  }
+  parseCamera(args, options);
+  if (args.withValue("--trajectory"))
+    options.trajectory = args.valueOf("--trajectory");
+  parseStreetCamera(args, options);
+  if (args.withValue("--size")) {
+    const std::string size = args.valueOf("--size");
+    if (!parseSize(size, options.width_px, options.height_px))
+      throw Exception("--size expects <W>x<H> with positive integers in px (e.g. "
+                      "1600x1000); got '"
+                      + size + "'");
+  }
+  const bool color_given = parseColor(args, options);
+  if (args.withValue("--point-size")) {
+    // parse_argument returns -1 for a value with junk in it ("2px") or out of range.
+    if (pcl::console::parse_argument(argc, argv, "--point-size", options.point_size_px)
+          < 0
+        || !(options.point_size_px > 0.0))
+      throw Exception(std::string("--point-size expects a number > 0 (px); got '")
+                      + args.valueOf("--point-size") + "'");
+  }
+  checkInputs(args, options, color_given);
   return options;
 }
 
