@@ -528,6 +528,23 @@ protected:
    * \return the number of valid points */
   std::size_t integrate();
 
+  /** \brief Pass 1 of integrate(): the range, depth and neighbourhood cell of every
+   * valid indexed point, and the cells' range sums. \return the number of valid
+   * points */
+  std::size_t sumNeighbourhoodRanges();
+
+  /** \brief Eq. 4 for indexed point \a k (valid), by the range error model, clamped
+   * to [clamping_thres_min, clamping_thres_max]. */
+  double featureProbability(std::size_t k) const;
+
+  /** \brief The track of point \a index (new, or updated by eqs. 5-10 once a frame)
+   * with the new observation \a p_new at \a position; sets the point's probability
+   * and track id. \a by_position: associate by position, not by the given ids. */
+  void updateTrack(std::size_t index,
+                   double p_new,
+                   const Eigen::Vector3f& position,
+                   bool by_position);
+
   /** \brief Finds the nearest stored track within association_radius_m of \a position
    * not yet observed in this frame. \return its id, or -1 */
   std::int64_t associate(const Eigen::Vector3f& position) const;

@@ -419,7 +419,7 @@ KLDivergenceOccupancyFilter<PointT>::associate(const Eigen::Vector3f& position) 
 
 template <typename PointT>
 std::size_t
-KLDivergenceOccupancyFilter<PointT>::integrate()
+KLDivergenceOccupancyFilter<PointT>::sumNeighbourhoodRanges()
 {
   const PointCloud& cloud = *input_;
   const pcl::Indices& indices = *indices_;
@@ -447,7 +447,6 @@ KLDivergenceOccupancyFilter<PointT>::integrate()
   const std::size_t mask = capacity - 1;
   const double inv_size = 1.0 / params_.neighbourhood_size_m;
 
-  // Pass 1: range, depth and cell of every valid point; the cells' range sums.
   const bool range_model = params_.range_error_model == RangeErrorModel::RANGE;
   std::size_t valid = 0;
   for (std::size_t k = 0; k < n; ++k) {
@@ -480,6 +479,100 @@ KLDivergenceOccupancyFilter<PointT>::integrate()
     cell_slots_[k] = static_cast<std::uint32_t>(slot);
     ++valid;
   }
+  return valid;
+}
+
+template <typename PointT>
+double
+KLDivergenceOccupancyFilter<PointT>::featureProbability(std::size_t k) const
+{
+  const CellSum& cell = cells_[cell_slots_[k]];
+  const double mean_range_m = cell.range_sum_m / cell.count;
+  double p_eq4 = 0.0;
+  switch (params_.range_error_model) {
+    case RangeErrorModel::STEREO:
+      p_eq4 = rangeOccupancyProbability(ranges_m_[k], mean_range_m, depths_m_[k],
+                                        focal_length_px_, baseline_m_,
+                                        params_.disparity_error_px);
+      break;
+    case RangeErrorModel::DEPTH_QUADRATIC:
+      // dz = k z^2, dr = (r_bar / z) dz = r_bar k z.
+      p_eq4 = sampledGaussianOccupancy(
+        ranges_m_[k], mean_range_m,
+        mean_range_m * params_.depth_error_coefficient_per_m * depths_m_[k]);
+      break;
+    case RangeErrorModel::RANGE:
+      p_eq4 =
+        sampledGaussianOccupancy(ranges_m_[k], mean_range_m, params_.range_error_m);
+      break;
+  }
+  return std::min(std::max(p_eq4, params_.clamping_thres_min),
+                  params_.clamping_thres_max);
+}
+
+template <typename PointT>
+void
+KLDivergenceOccupancyFilter<PointT>::updateTrack(std::size_t index,
+                                                 double p_new,
+                                                 const Eigen::Vector3f& position,
+                                                 bool by_position)
+{
+  std::int64_t id = -1;
+  if (by_position)
+    id = associate(position);
+  else
+    id = track_ids_[index];
+  if (by_position && id < 0)
+    id = next_track_id_; // a new track
+  if (id < 0) {
+    probabilities_[index] = static_cast<float>(p_new);
+    return;
+  }
+  next_track_id_ = std::max(next_track_id_, id + 1);
+  assigned_track_ids_[index] = id;
+
+  const auto found = tracks_.find(id);
+  if (found == tracks_.end()) {
+    Track& track = tracks_[id];
+    track.log_odds = static_cast<float>(toLogOdds(p_new));
+    track.position = position;
+    track.observations = 1;
+    track.last_frame = frame_count_;
+    if (by_position)
+      association_cells_[associationKey(position)].push_back(id);
+    probabilities_[index] = static_cast<float>(p_new);
+    return;
+  }
+  Track& track = found->second;
+  if (track.last_frame != frame_count_) {
+    const double p_min = params_.clamping_thres_min;
+    const double p_max = params_.clamping_thres_max;
+    const double q = p_new * motion_likelihood_; // eq. 7
+    double log_odds = track.log_odds;
+    if (params_.update_rule == OccupancyUpdateRule::KL_DIVERGENCE) {
+      const double p = toProbability(log_odds);
+      const double updated = klDivergenceUpdate(p, q, params_.kl_offset_nats);
+      log_odds = toLogOdds(std::min(std::max(updated, p_min), p_max));
+    } else {
+      log_odds += q >= 0.5 ? toLogOdds(params_.prob_hit) : toLogOdds(params_.prob_miss);
+      log_odds = std::min(std::max(log_odds, toLogOdds(p_min)), toLogOdds(p_max));
+    }
+    track.log_odds = static_cast<float>(log_odds);
+    if (by_position)
+      moveAssociation(id, associationKey(track.position), associationKey(position));
+    track.position = position;
+    ++track.observations;
+    track.last_frame = frame_count_;
+  }
+  probabilities_[index] = static_cast<float>(toProbability(track.log_odds));
+}
+
+template <typename PointT>
+std::size_t
+KLDivergenceOccupancyFilter<PointT>::integrate()
+{
+  // Pass 1: range, depth and cell of every valid point; the cells' range sums.
+  const std::size_t valid = sumNeighbourhoodRanges();
   if (valid == 0)
     return 0;
 
@@ -493,88 +586,14 @@ KLDivergenceOccupancyFilter<PointT>::integrate()
     association_cells_valid_ = false; // positions change without the hash
   }
 
-  const double p_min = params_.clamping_thres_min;
-  const double p_max = params_.clamping_thres_max;
-  const double log_odds_min = toLogOdds(p_min);
-  const double log_odds_max = toLogOdds(p_max);
-  const double log_odds_hit = toLogOdds(params_.prob_hit);
-  const double log_odds_miss = toLogOdds(params_.prob_miss);
-  const double m = motion_likelihood_;
-
   // Pass 2: eq. 4, then the track's first value or its update (eqs. 5-10).
-  for (std::size_t k = 0; k < n; ++k) {
+  const pcl::Indices& indices = *indices_;
+  for (std::size_t k = 0; k < indices.size(); ++k) {
     if (!(depths_m_[k] > 0.0))
       continue;
-    const std::size_t index = static_cast<std::size_t>(indices[k]);
-    const CellSum& cell = cells_[cell_slots_[k]];
-    const double mean_range_m = cell.range_sum_m / cell.count;
-    double p_eq4 = 0.0;
-    switch (params_.range_error_model) {
-      case RangeErrorModel::STEREO:
-        p_eq4 = rangeOccupancyProbability(ranges_m_[k], mean_range_m, depths_m_[k],
-                                          focal_length_px_, baseline_m_,
-                                          params_.disparity_error_px);
-        break;
-      case RangeErrorModel::DEPTH_QUADRATIC:
-        // dz = k z^2, dr = (r_bar / z) dz = r_bar k z.
-        p_eq4 = sampledGaussianOccupancy(
-          ranges_m_[k], mean_range_m,
-          mean_range_m * params_.depth_error_coefficient_per_m * depths_m_[k]);
-        break;
-      case RangeErrorModel::RANGE:
-        p_eq4 =
-          sampledGaussianOccupancy(ranges_m_[k], mean_range_m, params_.range_error_m);
-        break;
-    }
-    const double p_new = std::min(std::max(p_eq4, p_min), p_max);
-    const Eigen::Vector3f position = cloud[index].getVector3fMap();
-
-    std::int64_t id = -1;
-    if (by_position)
-      id = associate(position);
-    else
-      id = track_ids_[index];
-    if (by_position && id < 0)
-      id = next_track_id_; // a new track
-    if (id < 0) {
-      probabilities_[index] = static_cast<float>(p_new);
-      continue;
-    }
-    next_track_id_ = std::max(next_track_id_, id + 1);
-    assigned_track_ids_[index] = id;
-
-    const auto found = tracks_.find(id);
-    if (found == tracks_.end()) {
-      Track& track = tracks_[id];
-      track.log_odds = static_cast<float>(toLogOdds(p_new));
-      track.position = position;
-      track.observations = 1;
-      track.last_frame = frame_count_;
-      if (by_position)
-        association_cells_[associationKey(position)].push_back(id);
-      probabilities_[index] = static_cast<float>(p_new);
-      continue;
-    }
-    Track& track = found->second;
-    if (track.last_frame != frame_count_) {
-      const double q = p_new * m; // eq. 7
-      double log_odds = track.log_odds;
-      if (params_.update_rule == OccupancyUpdateRule::KL_DIVERGENCE) {
-        const double p = toProbability(log_odds);
-        const double updated = klDivergenceUpdate(p, q, params_.kl_offset_nats);
-        log_odds = toLogOdds(std::min(std::max(updated, p_min), p_max));
-      } else {
-        log_odds += q >= 0.5 ? log_odds_hit : log_odds_miss;
-        log_odds = std::min(std::max(log_odds, log_odds_min), log_odds_max);
-      }
-      track.log_odds = static_cast<float>(log_odds);
-      if (by_position)
-        moveAssociation(id, associationKey(track.position), associationKey(position));
-      track.position = position;
-      ++track.observations;
-      track.last_frame = frame_count_;
-    }
-    probabilities_[index] = static_cast<float>(toProbability(track.log_odds));
+    const auto index = static_cast<std::size_t>(indices[k]);
+    updateTrack(index, featureProbability(k), (*input_)[index].getVector3fMap(),
+                by_position);
   }
   return valid;
 }
