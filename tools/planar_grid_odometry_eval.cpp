@@ -252,6 +252,155 @@ trajectoryErrors(const std::string& sequence,
   return json;
 }
 
+/** \brief --step_analysis: the same estimator on near-only and far-only features of
+ * the frame pair (\a previous, \a current) of frame \a frame; the pair counts in its
+ * section when the chained, near and far estimates are all valid. */
+void
+addStepAnalysis(std::vector<SectionSteps>& sections,
+                std::size_t frame,
+                const planar_grid::OdometryResult& result,
+                const StereoFeatures& previous,
+                const StereoFeatures& current,
+                const StereoOdometry& band_odometry,
+                const planar_grid::Trajectory& ground_truth)
+{
+  const planar_grid::OdometryResult near = band_odometry.estimate(
+    disparityBand(previous, 40.0, 1e9), disparityBand(current, 40.0, 1e9));
+  const planar_grid::OdometryResult far = band_odometry.estimate(
+    disparityBand(previous, 0.0, 20.0), disparityBand(current, 0.0, 20.0));
+  for (SectionSteps& section : sections)
+    if (near.valid && far.valid && frame >= section.first_frame
+        && frame <= section.last_frame) {
+      ++section.pairs;
+      section.ins +=
+        (ground_truth[frame].translation() - ground_truth[frame - 1].translation())
+          .norm();
+      section.estimated += result.previous_T_current.translation().norm();
+      section.near += near.previous_T_current.translation().norm();
+      section.far += far.previous_T_current.translation().norm();
+    }
+}
+
+/** \brief Karlsruhe's diagnostics in \a json: the heading change over the sequence
+ * (the INS's from its track, over the first and last 5 steps; straight at both ends),
+ * the errors left when the estimated step directions are re-chained with the INS step
+ * lengths (direction errors only), the epipolar-refined frames, and the errors
+ * against the INS moved by \a lever_arm_m. Returns the direction-only (RTE, ATE). */
+std::pair<double, double>
+addKarlsruheDiagnostics(nlohmann::json& json,
+                        const planar_grid::VisualOdometry& odometry,
+                        const planar_grid::Trajectory& ground_truth,
+                        const std::vector<double>& lever_arm_m)
+{
+  const planar_grid::Trajectory& estimated = odometry.getTrajectory();
+  json["heading_change_estimated_deg"] = headingChangeDeg(estimated, true, 5);
+  json["heading_change_ins_track_deg"] = headingChangeDeg(ground_truth, false, 5);
+  const auto direction_only = rteAndAte(
+    planar_grid::withReferenceStepLengths(estimated, ground_truth), ground_truth);
+  json["rte_with_ins_step_lengths_percent"] = direction_only.first;
+  json["ate_with_ins_step_lengths_m"] = direction_only.second;
+  std::size_t epipolar = 0;
+  for (const auto& result : odometry.getResults())
+    epipolar += result.epipolar_refined ? 1 : 0;
+  json["epipolar_refined_frames"] = epipolar;
+  if (lever_arm_m.size() == 2) {
+    const planar_grid::Trajectory moved =
+      planar_grid::offsetAlongTrack(ground_truth, lever_arm_m[0], lever_arm_m[1]);
+    const auto with_arm = rteAndAte(estimated, moved);
+    const auto with_arm_direction =
+      rteAndAte(planar_grid::withReferenceStepLengths(estimated, moved), moved);
+    json["ins_lever_arm_m"] = lever_arm_m;
+    json["lever_arm_rte_percent"] = with_arm.first;
+    json["lever_arm_ate_m"] = with_arm.second;
+    json["lever_arm_rte_with_ins_step_lengths_percent"] = with_arm_direction.first;
+    json["lever_arm_ate_with_ins_step_lengths_m"] = with_arm_direction.second;
+  }
+  return direction_only;
+}
+
+/** \brief Per frame: the estimate's figures and step lengths against the INS, and
+ * the estimated and INS positions. */
+void
+addPerFrame(nlohmann::json& json,
+            const planar_grid::VisualOdometry& odometry,
+            const planar_grid::Trajectory& ground_truth,
+            const std::vector<double>& odometry_ms)
+{
+  const planar_grid::Trajectory& estimated = odometry.getTrajectory();
+  for (std::size_t i = 1; i < estimated.size(); ++i) {
+    const planar_grid::OdometryResult& result = odometry.getResults()[i];
+    json["per_frame"].push_back(
+      {{"frame", i},
+       {"valid", result.valid},
+       {"correspondences", result.correspondences},
+       {"inliers", result.inliers},
+       {"epipolar_refined", result.epipolar_refined},
+       {"step_estimated_m",
+        (estimated[i].translation() - estimated[i - 1].translation()).norm()},
+       {"step_gt_m",
+        (ground_truth[i].translation() - ground_truth[i - 1].translation()).norm()},
+       {"odometry_ms", odometry_ms[i - 1]}});
+  }
+  for (std::size_t i = 0; i < estimated.size(); ++i) {
+    const Eigen::Vector3d p = estimated[i].translation();
+    const Eigen::Vector3d g = ground_truth[i].translation();
+    json["positions_estimated_m"].push_back({p.x(), p.y(), p.z()});
+    json["positions_gt_m"].push_back({g.x(), g.y(), g.z()});
+  }
+}
+
+/** \brief Prints Karlsruhe's summary: the flagged and epipolar-refined frames, the
+ * heading change and direction-only errors, the step analysis per section (also in
+ * \a json) and the lever arm's errors. */
+void
+printKarlsruheSummary(nlohmann::json& json,
+                      const planar_grid::VisualOdometry& odometry,
+                      const std::pair<double, double>& direction_only,
+                      const std::vector<SectionSteps>& sections,
+                      bool step_analysis,
+                      const std::vector<double>& lever_arm_m)
+{
+  const std::size_t epipolar = json["epipolar_refined_frames"].get<std::size_t>();
+  std::string flagged;
+  for (const std::size_t frame : odometry.getFlaggedFrames())
+    flagged += " " + std::to_string(frame);
+  pcl::console::print_info("  flagged frames: %zu%s; epipolar-refined frames: %zu\n",
+                           odometry.getFlaggedFrames().size(), flagged.c_str(),
+                           epipolar);
+  pcl::console::print_info(
+    "  heading change: estimated %.2f deg, INS track %.2f deg; with the INS step "
+    "lengths (direction errors only): RTE %.3f %%, ATE %.3f m\n",
+    json["heading_change_estimated_deg"].get<double>(),
+    json["heading_change_ins_track_deg"].get<double>(), direction_only.first,
+    direction_only.second);
+  for (const SectionSteps& section : sections) {
+    if (!step_analysis)
+      break;
+    json["step_analysis"].push_back({{"first_frame", section.first_frame},
+                                     {"last_frame", section.last_frame},
+                                     {"section", section.what},
+                                     {"pairs", section.pairs},
+                                     {"ins_m", section.ins},
+                                     {"estimated_m", section.estimated},
+                                     {"near_only_m", section.near},
+                                     {"far_only_m", section.far}});
+    const double ins = section.ins > 0.0 ? section.ins : 1.0;
+    pcl::console::print_info(
+      "  frames %3zu-%3zu (%s): %zu pairs, INS %.2f m; estimated x%.3f, near-only "
+      "x%.3f, far-only x%.3f of the INS\n",
+      section.first_frame, section.last_frame, section.what, section.pairs, section.ins,
+      section.estimated / ins, section.near / ins, section.far / ins);
+  }
+  if (lever_arm_m.size() == 2)
+    pcl::console::print_info(
+      "  against the INS moved %.2f m forward, %.2f m left: RTE %.3f %%, ATE %.3f m; "
+      "with its step lengths: RTE %.3f %%, ATE %.3f m\n",
+      lever_arm_m[0], lever_arm_m[1], json["lever_arm_rte_percent"].get<double>(),
+      json["lever_arm_ate_m"].get<double>(),
+      json["lever_arm_rte_with_ins_step_lengths_percent"].get<double>(),
+      json["lever_arm_ate_with_ins_step_lengths_m"].get<double>());
+}
+
 nlohmann::json
 runKarlsruhe(const std::string& data_dir,
              const StereoFeatureMatcher& matcher,
@@ -304,75 +453,17 @@ runKarlsruhe(const std::string& data_dir,
       "frame %3zu: %4zu features [%6.1f ms], %4zu matches, %4zu inliers [%5.1f ms]%s\n",
       frame, current.size(), feature_ms.back(), result.correspondences, result.inliers,
       elapsed, result.valid ? "" : " FLAGGED");
-    if (step_analysis && frame > 0 && result.valid) {
-      const planar_grid::OdometryResult near = band_odometry.estimate(
-        disparityBand(previous, 40.0, 1e9), disparityBand(current, 40.0, 1e9));
-      const planar_grid::OdometryResult far = band_odometry.estimate(
-        disparityBand(previous, 0.0, 20.0), disparityBand(current, 0.0, 20.0));
-      for (SectionSteps& section : sections)
-        if (near.valid && far.valid && frame >= section.first_frame
-            && frame <= section.last_frame) {
-          ++section.pairs;
-          section.ins +=
-            (ground_truth[frame].translation() - ground_truth[frame - 1].translation())
-              .norm();
-          section.estimated += result.previous_T_current.translation().norm();
-          section.near += near.previous_T_current.translation().norm();
-          section.far += far.previous_T_current.translation().norm();
-        }
-    }
+    if (step_analysis && frame > 0 && result.valid)
+      addStepAnalysis(sections, frame, result, previous, current, band_odometry,
+                      ground_truth);
     previous = std::move(current);
   }
 
-  const planar_grid::Trajectory& estimated = odometry.getTrajectory();
   nlohmann::json json = trajectoryErrors("karlsruhe_2010_03_09_drive_0023", odometry,
                                          ground_truth, "Karlsruhe");
-  // Diagnostics: the heading change over the sequence (the INS's from its track, over
-  // the first and last 5 steps; straight at both ends), and the errors left when the
-  // estimated step directions are re-chained with the INS step lengths (direction
-  // errors only).
-  json["heading_change_estimated_deg"] = headingChangeDeg(estimated, true, 5);
-  json["heading_change_ins_track_deg"] = headingChangeDeg(ground_truth, false, 5);
-  const auto direction_only = rteAndAte(
-    planar_grid::withReferenceStepLengths(estimated, ground_truth), ground_truth);
-  json["rte_with_ins_step_lengths_percent"] = direction_only.first;
-  json["ate_with_ins_step_lengths_m"] = direction_only.second;
-  std::size_t epipolar = 0;
-  for (const auto& result : odometry.getResults())
-    epipolar += result.epipolar_refined ? 1 : 0;
-  json["epipolar_refined_frames"] = epipolar;
-  if (lever_arm_m.size() == 2) {
-    const planar_grid::Trajectory moved =
-      planar_grid::offsetAlongTrack(ground_truth, lever_arm_m[0], lever_arm_m[1]);
-    const auto with_arm = rteAndAte(estimated, moved);
-    const auto with_arm_direction =
-      rteAndAte(planar_grid::withReferenceStepLengths(estimated, moved), moved);
-    json["ins_lever_arm_m"] = lever_arm_m;
-    json["lever_arm_rte_percent"] = with_arm.first;
-    json["lever_arm_ate_m"] = with_arm.second;
-    json["lever_arm_rte_with_ins_step_lengths_percent"] = with_arm_direction.first;
-    json["lever_arm_ate_with_ins_step_lengths_m"] = with_arm_direction.second;
-  }
-  for (std::size_t i = 1; i < estimated.size(); ++i) {
-    const planar_grid::OdometryResult& result = odometry.getResults()[i];
-    json["per_frame"].push_back(
-      {{"frame", i},
-       {"valid", result.valid},
-       {"correspondences", result.correspondences},
-       {"inliers", result.inliers},
-       {"epipolar_refined", result.epipolar_refined},
-       {"step_estimated_m",
-        (estimated[i].translation() - estimated[i - 1].translation()).norm()},
-       {"step_gt_m",
-        (ground_truth[i].translation() - ground_truth[i - 1].translation()).norm()},
-       {"odometry_ms", odometry_ms[i - 1]}});
-  }
-  for (std::size_t i = 0; i < estimated.size(); ++i) {
-    const Eigen::Vector3d p = estimated[i].translation();
-    const Eigen::Vector3d g = ground_truth[i].translation();
-    json["positions_estimated_m"].push_back({p.x(), p.y(), p.z()});
-    json["positions_gt_m"].push_back({g.x(), g.y(), g.z()});
-  }
+  const std::pair<double, double> direction_only =
+    addKarlsruheDiagnostics(json, odometry, ground_truth, lever_arm_m);
+  addPerFrame(json, odometry, ground_truth, odometry_ms);
   json["features_per_frame_mean"] = mean(features);
   json["inliers_per_frame_mean"] = mean(inliers);
   json["feature_extraction_and_stereo_matching"] = timingJson(feature_ms);
@@ -382,44 +473,8 @@ runKarlsruhe(const std::string& data_dir,
                            "median %.1f ms, max %.1f ms\n",
                            mean(feature_ms), mean(odometry_ms), median(odometry_ms),
                            json["odometry"]["max_ms"].get<double>());
-  std::string flagged;
-  for (const std::size_t frame : odometry.getFlaggedFrames())
-    flagged += " " + std::to_string(frame);
-  pcl::console::print_info("  flagged frames: %zu%s; epipolar-refined frames: %zu\n",
-                           odometry.getFlaggedFrames().size(), flagged.c_str(),
-                           epipolar);
-  pcl::console::print_info(
-    "  heading change: estimated %.2f deg, INS track %.2f deg; with the INS step "
-    "lengths (direction errors only): RTE %.3f %%, ATE %.3f m\n",
-    json["heading_change_estimated_deg"].get<double>(),
-    json["heading_change_ins_track_deg"].get<double>(), direction_only.first,
-    direction_only.second);
-  for (const SectionSteps& section : sections) {
-    if (!step_analysis)
-      break;
-    json["step_analysis"].push_back({{"first_frame", section.first_frame},
-                                     {"last_frame", section.last_frame},
-                                     {"section", section.what},
-                                     {"pairs", section.pairs},
-                                     {"ins_m", section.ins},
-                                     {"estimated_m", section.estimated},
-                                     {"near_only_m", section.near},
-                                     {"far_only_m", section.far}});
-    const double ins = section.ins > 0.0 ? section.ins : 1.0;
-    pcl::console::print_info(
-      "  frames %3zu-%3zu (%s): %zu pairs, INS %.2f m; estimated x%.3f, near-only "
-      "x%.3f, far-only x%.3f of the INS\n",
-      section.first_frame, section.last_frame, section.what, section.pairs, section.ins,
-      section.estimated / ins, section.near / ins, section.far / ins);
-  }
-  if (lever_arm_m.size() == 2)
-    pcl::console::print_info(
-      "  against the INS moved %.2f m forward, %.2f m left: RTE %.3f %%, ATE %.3f m; "
-      "with its step lengths: RTE %.3f %%, ATE %.3f m\n",
-      lever_arm_m[0], lever_arm_m[1], json["lever_arm_rte_percent"].get<double>(),
-      json["lever_arm_ate_m"].get<double>(),
-      json["lever_arm_rte_with_ins_step_lengths_percent"].get<double>(),
-      json["lever_arm_ate_with_ins_step_lengths_m"].get<double>());
+  printKarlsruheSummary(json, odometry, direction_only, sections, step_analysis,
+                        lever_arm_m);
   return json;
 }
 
