@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
+#include <planar_grid/segmentation/terrain_removal.h>
 #include <planar_grid/stereo/disparity_normals.h>
 
 #include <pcl/common/centroid.h>
@@ -377,23 +378,14 @@ private:
   std::size_t far_joined_{0};
 };
 
-/** Parameters of the terrain removal (ground_removal stage). */
-struct TerrainParams {
-  double eps_angle_rad{0.2};
-  double min_sensor_height_m{0.3};
-  double terrain_max_slope_rad{0.3};
-  double terrain_max_step_m{0.3};
-  double terrain_height_m{0.2};
-  double terrain_cell_m{1.0};
-  double terrain_plane_tile_m{0.0};
-};
+using TerrainParams = TerrainRemoval<pcl::PointXYZI>::Params;
 
+/** The ground_removal stage: planar_grid::TerrainRemoval on the frame's cloud and
+ * planes (up axis and sensor origin the frame's); the ground's coefficients are kept
+ * with the frame and the terrain points leave its cloud. */
 class GroundRemovalStage : public Stage {
 public:
-  explicit GroundRemovalStage(const TerrainParams& p) :
-      params_(p), cos_eps_(static_cast<float>(std::cos(p.eps_angle_rad))),
-      cos_slope_(static_cast<float>(std::cos(p.terrain_max_slope_rad)))
-  {}
+  explicit GroundRemovalStage(const TerrainParams& p) : terrain_(p) {}
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
@@ -402,261 +394,27 @@ public:
     terrain_planes_ = 0;
     if (!hasPoints(frame, "ground_removal"))
       return;
-    const Eigen::Vector3f up = upAxis(frame);
-    const Eigen::Vector3f origin = sensorOrigin(frame);
-    // The dominant plane (planes are sorted by inlier count) that faces up within
-    // eps_angle and lies at least min_sensor_height below the sensor.
-    const auto upward = [&](std::size_t k, Eigen::Vector4f& c) {
-      const auto& values = frame.planes[k].model_coefficients.values;
-      if (values.size() != 4)
-        return false;
-      c = Eigen::Vector4f(values[0], values[1], values[2], values[3]);
-      if (c.head<3>().dot(up) < 0.0f)
-        c = -c; // normal up: the sensor's signed distance is its height above the plane
-      return true;
-    };
-    std::size_t ground = frame.planes.size();
-    Eigen::Vector4f coefficients = Eigen::Vector4f::Zero();
-    for (std::size_t k = 0; k < frame.planes.size(); ++k) {
-      Eigen::Vector4f c;
-      if (!upward(k, c) || c.head<3>().dot(up) < cos_eps_
-          || c.head<3>().dot(origin) + c[3] < params_.min_sensor_height_m)
-        continue;
-      ground = k;
-      coefficients = c;
-      break;
-    }
-    if (ground == frame.planes.size())
+    terrain_.setUpAxis(upAxis(frame));
+    terrain_.setSensorOrigin(sensorOrigin(frame));
+    std::vector<std::uint8_t> remove;
+    if (!terrain_.segment(*frame.cloud, frame.planes, remove))
       return;
     frame.has_ground = true;
-    frame.ground_coefficients = coefficients;
-    auto& cloud = *frame.cloud;
-    const auto height = [&](std::size_t i) {
-      return coefficients.head<3>().dot(cloud[i].getVector3fMap()) + coefficients[3];
-    };
-
-    // Terrain planes: the ground, and every plane within terrain_max_slope of the up
-    // axis whose lowest inlier is within terrain_max_step of a terrain plane already
-    // found (sidewalks, lawns, ramps rising from the road); repeated until none joins.
-    std::vector<std::uint8_t> terrain(frame.planes.size(), 0);
-    terrain[ground] = 1;
-    std::vector<float> lowest(frame.planes.size(), 0.0f), level(frame.planes.size());
-    for (std::size_t k = 0; k < frame.planes.size(); ++k) {
-      float lo = std::numeric_limits<float>::max();
-      double sum = 0.0;
-      for (const auto i : frame.planes[k].inliers.indices) {
-        const float h = height(static_cast<std::size_t>(i));
-        lo = std::min(lo, h);
-        sum += h;
-      }
-      lowest[k] = lo;
-      level[k] = frame.planes[k].inliers.indices.empty()
-                   ? 0.0f
-                   : static_cast<float>(
-                     sum / static_cast<double>(frame.planes[k].inliers.indices.size()));
-    }
-    for (bool joined = params_.terrain_max_slope_rad > 0.0; joined;) {
-      joined = false;
-      for (std::size_t k = 0; k < frame.planes.size(); ++k) {
-        Eigen::Vector4f c;
-        if (terrain[k] || !upward(k, c) || c.head<3>().dot(up) < cos_slope_)
-          continue;
-        for (std::size_t t = 0; t < frame.planes.size(); ++t)
-          if (terrain[t] && lowest[k] <= level[t] + params_.terrain_max_step_m) {
-            terrain[k] = 1;
-            joined = true;
-            break;
-          }
-      }
-    }
-
-    // The terrain's height per cell of terrain_cell_m (in the ground plane's frame):
-    // the highest mean height of the terrain planes' inliers in that cell. A point that
-    // is in no plane is terrain when it is at most terrain_height above it (or above
-    // the ground plane where no terrain plane reaches).
-    Eigen::Vector3f a1 = up.unitOrthogonal();
-    const Eigen::Vector3f normal = coefficients.head<3>();
-    a1 = (a1 - normal * normal.dot(a1)).normalized();
-    const Eigen::Vector3f a2 = normal.cross(a1);
-    const float inv_cell = static_cast<float>(1.0 / params_.terrain_cell_m);
-    const auto cellOf = [&](std::size_t i) {
-      const Eigen::Vector3f p = cloud[i].getVector3fMap();
-      const auto x = static_cast<std::int64_t>(std::floor(a1.dot(p) * inv_cell));
-      const auto y = static_cast<std::int64_t>(std::floor(a2.dot(p) * inv_cell));
-      return (static_cast<std::uint64_t>(x + (1 << 30)) << 32)
-             | static_cast<std::uint64_t>(y + (1 << 30));
-    };
-    struct Level {
-      double sum{0.0};
-      std::size_t count{0};
-    };
-    // A terrain plane's inlier is terrain unless it stands more than terrain_height
-    // above that plane: where eq. 11's band (the depth error) is wider than that, the
-    // foot of a guardrail, a post or a bush falls in the road's band and stays, and
-    // does not raise the terrain's height either. terrain_height 0 is the paper's rule:
-    // every inlier of the ground goes. An inlier of several terrain planes stands
-    // when it stands above each of them.
-    const auto terrain_height = static_cast<float>(params_.terrain_height_m);
-    enum : std::uint8_t { UNSEEN, STANDS, LIES };
-    std::vector<std::uint8_t> standing(cloud.size(), UNSEEN);
-    for (std::size_t k = 0; terrain_height > 0.0f && k < frame.planes.size(); ++k) {
-      Eigen::Vector4f c;
-      if (!terrain[k] || !upward(k, c))
-        continue;
-      const float norm = c.head<3>().norm();
-      for (const auto i : frame.planes[k].inliers.indices) {
-        const auto j = static_cast<std::size_t>(i);
-        const bool above =
-          (c.head<3>().dot(cloud[j].getVector3fMap()) + c[3]) / norm > terrain_height;
-        if (standing[j] != LIES)
-          standing[j] = above ? STANDS : LIES;
-      }
-    }
-    std::unordered_map<std::uint64_t, float> cell_level;
-    std::unordered_map<std::uint64_t, Level> plane_cell;
-    std::vector<std::uint8_t> in_plane(cloud.size(), 0);
-    for (std::size_t k = 0; k < frame.planes.size(); ++k) {
-      plane_cell.clear();
-      for (const auto i : frame.planes[k].inliers.indices) {
-        if (terrain[k] && standing[static_cast<std::size_t>(i)] == STANDS)
-          continue; // a loose point
-        in_plane[static_cast<std::size_t>(i)] = terrain[k] ? 2 : 1;
-        if (terrain[k]) {
-          Level& l = plane_cell[cellOf(static_cast<std::size_t>(i))];
-          l.sum += height(static_cast<std::size_t>(i));
-          ++l.count;
-        }
-      }
-      for (const auto& kv : plane_cell) {
-        const auto mean = static_cast<float>(kv.second.sum / kv.second.count);
-        const auto it = cell_level.emplace(kv.first, mean).first;
-        it->second = std::max(it->second, mean);
-      }
-    }
-    std::vector<std::uint8_t> remove(cloud.size(), 0);
-    for (std::size_t i = 0; i < cloud.size(); ++i) {
-      if (in_plane[i] == 2) {
-        remove[i] = params_.terrain_plane_tile_m > 0.0 ? 0 : 1;
-        continue;
-      }
-      if (in_plane[i] == 1 || !pcl::isFinite(cloud[i]))
-        continue;
-      const auto it = cell_level.find(cellOf(i));
-      const float base = it == cell_level.end() ? 0.0f : std::max(0.0f, it->second);
-      remove[i] = height(i) <= base + terrain_height ? 1 : 0;
-    }
-    for (std::size_t k = 0; k < frame.planes.size(); ++k)
-      terrain_planes_ += terrain[k];
-
-    if (params_.terrain_plane_tile_m > 0.0) {
-      // A terrain plane keeps the inliers lying on it (not those standing above it,
-      // which stay as loose points for the non-planar cells), and stays a plane, one
-      // per tile: the approximation makes its planar cells, and the map knows them as
-      // terrain by their normal.
-      for (std::size_t k = 0; k < frame.planes.size(); ++k) {
-        if (!terrain[k])
-          continue;
-        auto& indices = frame.planes[k].inliers.indices;
-        indices.erase(std::remove_if(indices.begin(), indices.end(),
-                                     [&](int i) {
-                                       return standing[static_cast<std::size_t>(i)]
-                                              == STANDS;
-                                     }),
-                      indices.end());
-      }
-      splitTerrainIntoTiles(frame, terrain, remove);
-      removed_ = removePoints(frame, remove);
-      return;
-    }
+    frame.ground_coefficients = terrain_.getGroundCoefficients();
+    terrain_planes_ = terrain_.getTerrainPlaneCount();
     removed_ = removePoints(frame, remove);
-    // The non-terrain planes keep their order; a plane already in place is not moved
-    // onto itself (a self-move empties its coefficient and inlier vectors).
-    std::size_t kept = 0;
-    for (std::size_t k = 0; k < frame.planes.size(); ++k) {
-      if (terrain[k])
-        continue;
-      if (kept != k)
-        frame.planes[kept] = std::move(frame.planes[k]);
-      ++kept;
-    }
-    frame.planes.resize(kept);
-  }
-
-  /** Replaces each terrain plane by one plane per square tile of the
-   * world's x, y plane (terrain_plane_tile_m; the map's tiles), each refitted to its
-   * own inliers (their covariance's smallest eigenvector, kept within
-   * terrain_max_slope_rad of the whole plane's normal; the whole plane's normal where
-   * the tile's inliers do not span a plane): a road that sags or rises over tens of
-   * meters is planar over a few meters. The inliers of a tile too small for a plane
-   * (fewer than 3) go as terrain. */
-  void splitTerrainIntoTiles(Frame& frame,
-                             const std::vector<std::uint8_t>& terrain,
-                             std::vector<std::uint8_t>& remove) const
-  {
-    const auto& cloud = *frame.cloud;
-    const double tile_m = params_.terrain_plane_tile_m;
-    PlanarSegments out;
-    for (std::size_t k = 0; k < frame.planes.size(); ++k) {
-      if (!terrain[k]) {
-        out.push_back(std::move(frame.planes[k]));
-        continue;
-      }
-      // the inliers leave the whole plane, whose other fields each tile's plane copies
-      const std::vector<int> inliers = std::move(frame.planes[k].inliers.indices);
-      frame.planes[k].inliers.indices.clear();
-      std::map<std::pair<std::int64_t, std::int64_t>, std::vector<int>> tiles;
-      for (const int i : inliers) {
-        // the map's tiles (SurfaceLayer::Params::terrain_plane_tile_m): world x, y
-        const auto& p = cloud[static_cast<std::size_t>(i)];
-        tiles[{static_cast<std::int64_t>(std::floor(static_cast<double>(p.x) / tile_m)),
-               static_cast<std::int64_t>(
-                 std::floor(static_cast<double>(p.y) / tile_m))}]
-          .push_back(i);
-      }
-      const auto& values = frame.planes[k].model_coefficients.values;
-      Eigen::Vector3f plane_normal(values[0], values[1], values[2]);
-      for (auto& tile : tiles) {
-        if (tile.second.size() < 3) {
-          for (const int i : tile.second)
-            remove[static_cast<std::size_t>(i)] = 1;
-          continue;
-        }
-        Eigen::Vector4f centroid = Eigen::Vector4f::Zero();
-        Eigen::Matrix3f covariance = Eigen::Matrix3f::Zero();
-        if (pcl::computeMeanAndCovarianceMatrix(cloud, tile.second, covariance,
-                                                centroid)
-            == 0)
-          continue;
-        Eigen::Vector3f n = plane_normal;
-        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> solver(covariance);
-        const Eigen::Vector3f values3 = solver.eigenvalues();
-        if (values3[1] > 4.0f * values3[0] && values3[0] >= 0.0f) {
-          n = solver.eigenvectors().col(0);
-          if (n.dot(plane_normal) < 0.0f)
-            n = -n;
-          if (n.dot(plane_normal) < cos_slope_)
-            n = plane_normal;
-        }
-        PlanarSegment segment = frame.planes[k];
-        segment.inliers.indices = std::move(tile.second);
-        segment.centroid = centroid;
-        segment.model_coefficients.values = {n.x(), n.y(), n.z(),
-                                             -n.dot(centroid.head<3>())};
-        out.push_back(std::move(segment));
-      }
-    }
-    frame.planes = std::move(out);
   }
 
   void getParameters(ParamValues& v) const override
   {
-    v.set("eps_angle_rad", params_.eps_angle_rad);
-    v.set("min_sensor_height_m", params_.min_sensor_height_m);
-    v.set("terrain_max_slope_rad", params_.terrain_max_slope_rad);
-    v.set("terrain_max_step_m", params_.terrain_max_step_m);
-    v.set("terrain_height_m", params_.terrain_height_m);
-    v.set("terrain_cell_m", params_.terrain_cell_m);
-    v.set("terrain_plane_tile_m", params_.terrain_plane_tile_m);
+    const TerrainParams& p = terrain_.getParams();
+    v.set("eps_angle_rad", p.eps_angle_rad);
+    v.set("min_sensor_height_m", p.min_sensor_height_m);
+    v.set("terrain_max_slope_rad", p.terrain_max_slope_rad);
+    v.set("terrain_max_step_m", p.terrain_max_step_m);
+    v.set("terrain_height_m", p.terrain_height_m);
+    v.set("terrain_cell_m", p.terrain_cell_m);
+    v.set("terrain_plane_tile_m", p.terrain_plane_tile_m);
   }
 
   void counters(const Frame& frame,
@@ -668,9 +426,7 @@ public:
   }
 
 private:
-  TerrainParams params_;
-  float cos_eps_;
-  float cos_slope_;
+  TerrainRemoval<pcl::PointXYZI> terrain_;
   std::size_t removed_{0};
   std::size_t terrain_planes_{0};
 };
@@ -851,7 +607,8 @@ groundRemovalInfo()
   StageInfo info;
   info.type = "ground_removal";
   info.description =
-    "Removes the terrain before the approximation (paper Sec. III-F, its second "
+    "planar_grid::TerrainRemoval: removes the terrain before the approximation (paper "
+    "Sec. III-F, its second "
     "assumption): the ground is the dominant plane from multi_plane_segmentation whose "
     "normal is within eps_angle_rad of the up axis and that lies at least "
     "min_sensor_height_m below the sensor (its coefficients are kept with the frame); "
@@ -863,23 +620,28 @@ groundRemovalInfo()
     "stay.";
   const TerrainParams d;
   info.params = {
-    ParamSpec::real("eps_angle_rad", d.eps_angle_rad, 0.0, 1.5708, "rad",
-                    "Largest angle between the ground normal and the up axis."),
-    ParamSpec::real("min_sensor_height_m", d.min_sensor_height_m, 0.0, 100.0, "m",
+    ParamSpec::real("eps_angle_rad", d.eps_angle_rad, terrain_removal_ranges::ANGLE,
+                    "rad", "Largest angle between the ground normal and the up axis."),
+    ParamSpec::real("min_sensor_height_m", d.min_sensor_height_m,
+                    terrain_removal_ranges::MIN_SENSOR_HEIGHT, "m",
                     "The sensor must be at least this high above the ground plane."),
-    ParamSpec::real("terrain_max_slope_rad", d.terrain_max_slope_rad, 0.0, 1.5708,
-                    "rad",
+    ParamSpec::real("terrain_max_slope_rad", d.terrain_max_slope_rad,
+                    terrain_removal_ranges::ANGLE, "rad",
                     "Largest angle between a terrain plane's normal and the up axis "
                     "(0: the ground plane is the only terrain plane)."),
-    ParamSpec::real("terrain_max_step_m", d.terrain_max_step_m, 0.0, 10.0, "m",
+    ParamSpec::real("terrain_max_step_m", d.terrain_max_step_m,
+                    terrain_removal_ranges::HEIGHT, "m",
                     "Largest step from a terrain plane up to the next (a curb)."),
-    ParamSpec::real("terrain_height_m", d.terrain_height_m, 0.0, 10.0, "m",
+    ParamSpec::real("terrain_height_m", d.terrain_height_m,
+                    terrain_removal_ranges::HEIGHT, "m",
                     "Points in no plane up to this height above the terrain are "
                     "terrain, and a terrain plane's inliers higher above it than this "
                     "stay (0: no loose point is terrain, every inlier is)."),
-    ParamSpec::real("terrain_cell_m", d.terrain_cell_m, 0.05, 100.0, "m",
+    ParamSpec::real("terrain_cell_m", d.terrain_cell_m,
+                    terrain_removal_ranges::TERRAIN_CELL, "m",
                     "Cell of the terrain height map."),
-    ParamSpec::real("terrain_plane_tile_m", d.terrain_plane_tile_m, 0.0, 1000.0, "m",
+    ParamSpec::real("terrain_plane_tile_m", d.terrain_plane_tile_m,
+                    terrain_removal_ranges::PLANE_TILE, "m",
                     "The ground as planar cells: > 0 keeps the terrain planes and the "
                     "inliers lying on them, split into square tiles of this side in "
                     "the world's x, y plane and each tile's plane refitted to its "
