@@ -252,6 +252,36 @@ trajectoryErrors(const std::string& sequence,
   return json;
 }
 
+/** \brief Matches the stereo pair (\a left_path, \a right_path) into \a current and
+ * adds it to \a odometry as frame \a frame, timing both (\a match_ms, \a odometry_ms)
+ * and printing the frame's line. */
+const planar_grid::OdometryResult&
+trackFrame(const StereoFeatureMatcher& matcher,
+           const planar_grid::StereoCameraModel& model,
+           const std::string& left_path,
+           const std::string& right_path,
+           std::size_t frame,
+           planar_grid::VisualOdometry& odometry,
+           StereoFeatures& current,
+           double& match_ms,
+           double& odometry_ms)
+{
+  const cv::Mat left = readImage(left_path);
+  const cv::Mat right = readImage(right_path);
+  pcl::console::TicToc timer;
+  timer.tic();
+  matcher.match(left, right, model.calibration, current);
+  match_ms = timer.toc();
+  timer.tic();
+  const planar_grid::OdometryResult& result = odometry.addFrame(current);
+  odometry_ms = timer.toc();
+  pcl::console::print_info(
+    "frame %3zu: %4zu features [%6.1f ms], %4zu matches, %4zu inliers [%5.1f ms]%s\n",
+    frame, current.size(), match_ms, result.correspondences, result.inliers,
+    odometry_ms, result.valid ? "" : " FLAGGED");
+  return result;
+}
+
 /** \brief --step_analysis: the same estimator on near-only and far-only features of
  * the frame pair (\a previous, \a current) of frame \a frame; the pair counts in its
  * section when the chained, near and far estimates are all valid. */
@@ -432,27 +462,20 @@ runKarlsruhe(const std::string& data_dir,
                                      {61, 100, "90 deg right turn, 5 m/s"},
                                      {101, 111, "after the turn, 6 m/s"}};
   StereoFeatures previous;
-  pcl::console::TicToc timer;
   for (std::size_t frame = 0; frame < ground_truth.size(); ++frame) {
     const int index = static_cast<int>(frame);
-    const cv::Mat left = readImage(formatPath(dir + "/left/I1_%06d.png", index));
-    const cv::Mat right = readImage(formatPath(dir + "/right/I2_%06d.png", index));
     StereoFeatures current;
-    timer.tic();
-    matcher.match(left, right, model.calibration, current);
-    feature_ms.push_back(timer.toc());
-    timer.tic();
-    const planar_grid::OdometryResult& result = odometry.addFrame(current);
-    const double elapsed = timer.toc();
+    double match_ms = 0.0, elapsed = 0.0;
+    const planar_grid::OdometryResult& result =
+      trackFrame(matcher, model, formatPath(dir + "/left/I1_%06d.png", index),
+                 formatPath(dir + "/right/I2_%06d.png", index), frame, odometry,
+                 current, match_ms, elapsed);
+    feature_ms.push_back(match_ms);
     features.push_back(static_cast<double>(current.size()));
     if (frame > 0) {
       odometry_ms.push_back(elapsed);
       inliers.push_back(static_cast<double>(result.inliers));
     }
-    pcl::console::print_info(
-      "frame %3zu: %4zu features [%6.1f ms], %4zu matches, %4zu inliers [%5.1f ms]%s\n",
-      frame, current.size(), feature_ms.back(), result.correspondences, result.inliers,
-      elapsed, result.valid ? "" : " FLAGGED");
     if (step_analysis && frame > 0 && result.valid)
       addStepAnalysis(sections, frame, result, previous, current, band_odometry,
                       ground_truth);
@@ -502,23 +525,16 @@ runKitti(const std::string& data_dir,
   if (reprojection)
     odometry.setCalibration(model.calibration);
   std::vector<double> feature_ms, odometry_ms, features;
-  pcl::console::TicToc timer;
   for (std::size_t frame = 0; frame < ground_truth.size(); ++frame) {
     const int index = static_cast<int>(frame);
-    const cv::Mat left = readImage(formatPath(dir + "/image_l/%06d.png", index));
-    const cv::Mat right = readImage(formatPath(dir + "/image_r/%06d.png", index));
     StereoFeatures current;
-    timer.tic();
-    matcher.match(left, right, model.calibration, current);
-    feature_ms.push_back(timer.toc());
-    timer.tic();
-    const planar_grid::OdometryResult& result = odometry.addFrame(current);
-    odometry_ms.push_back(timer.toc());
+    double match_ms = 0.0, elapsed = 0.0;
+    trackFrame(matcher, model, formatPath(dir + "/image_l/%06d.png", index),
+               formatPath(dir + "/image_r/%06d.png", index), frame, odometry, current,
+               match_ms, elapsed);
+    feature_ms.push_back(match_ms);
+    odometry_ms.push_back(elapsed);
     features.push_back(static_cast<double>(current.size()));
-    pcl::console::print_info(
-      "frame %3zu: %4zu features [%6.1f ms], %4zu matches, %4zu inliers [%5.1f ms]%s\n",
-      frame, current.size(), feature_ms.back(), result.correspondences, result.inliers,
-      odometry_ms.back(), result.valid ? "" : " FLAGGED");
   }
   const planar_grid::Trajectory& estimated = odometry.getTrajectory();
   nlohmann::json json =

@@ -61,6 +61,7 @@ inline constexpr ParamRange PLANE_TILE = ParamRange::closed(0.0, 1000.0);
  * \tparam PointT a point type with x, y, z \ingroup segmentation */
 template <typename PointT> class TerrainRemoval {
 public:
+  /** \brief The input cloud's type. */
   using PointCloud = pcl::PointCloud<PointT>;
 
   /** \brief The parameters; the ranges are terrain_removal_ranges'. */
@@ -84,7 +85,9 @@ public:
     double terrain_plane_tile_m{0.0};
   };
 
+  /** \brief A removal with the default parameters. */
   TerrainRemoval() = default;
+  /** \brief A removal with \a params (checked by segment()). */
   explicit TerrainRemoval(const Params& params) : params_(params) {}
 
   /** \brief Sets the parameters (checked by segment()). */
