@@ -4,6 +4,7 @@
 
 #include <pcl/point_types.h>
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -133,6 +134,48 @@ TEST(TerrainRemoval, FindsTheGroundAndTheSidewalkAndKeepsWhatStandsOnThem)
   ASSERT_EQ(planes.size(), 2u);
   EXPECT_FLOAT_EQ(planes[0].model_coefficients.values[0], -1.0f);
   EXPECT_LT(planes[1].model_coefficients.values[0], -0.5f);
+  ASSERT_EQ(terrain.size(), street.cloud.size());
+  for (std::size_t i = 0; i < terrain.size(); ++i) {
+    const Street::Kind k = street.kinds[i];
+    const bool expected = k == Street::ROAD || k == Street::SIDEWALK
+                          || k == Street::LOW_ON_ROAD || k == Street::LOW_ON_SIDEWALK;
+    EXPECT_EQ(terrain[i] != 0, expected) << "point " << i << " of kind " << k;
+  }
+}
+
+TEST(TerrainRemoval, FindsATiltedGroundGivenWithItsNormalDown)
+{
+  // The whole street turned by 0.1 rad about y and 0.05 rad about x (a road on a
+  // slope, within eps_angle_rad of the up axis, which stays +z), the road's
+  // coefficients given with the normal pointing down: the ground comes back as the
+  // turned road with its normal up, and every point's fate is the level street's.
+  Street street;
+  const Eigen::Matrix3f turn = (Eigen::AngleAxisf(0.1f, Eigen::Vector3f::UnitY())
+                                * Eigen::AngleAxisf(0.05f, Eigen::Vector3f::UnitX()))
+                                 .toRotationMatrix();
+  for (auto& p : street.cloud)
+    p.getVector3fMap() = turn * p.getVector3fMap();
+  street.sensor = turn * street.sensor;
+  for (auto& plane : street.planes) {
+    auto& c = plane.model_coefficients.values;
+    const Eigen::Vector3f n = turn * Eigen::Vector3f(c[0], c[1], c[2]);
+    c = {n.x(), n.y(), n.z(), c[3]};
+  }
+  for (auto& c : street.planes[0].model_coefficients.values)
+    c = -c;
+  Removal removal = streetRemoval(street);
+  PlanarSegments planes = street.planes;
+  std::vector<std::uint8_t> terrain;
+  ASSERT_TRUE(removal.segment(street.cloud, planes, terrain));
+  const Eigen::Vector4f g = removal.getGroundCoefficients();
+  const Eigen::Vector3f normal = turn * Eigen::Vector3f::UnitZ();
+  EXPECT_NEAR(g[0], normal.x(), 1e-6f);
+  EXPECT_NEAR(g[1], normal.y(), 1e-6f);
+  EXPECT_NEAR(g[2], normal.z(), 1e-6f);
+  EXPECT_NEAR(g[3], 0.0f, 1e-6f);
+  EXPECT_NEAR(g.head<3>().dot(street.sensor) + g[3], 1.6f, 1e-5f);
+  EXPECT_EQ(removal.getTerrainPlaneCount(), 2u);
+  ASSERT_EQ(planes.size(), 2u);
   ASSERT_EQ(terrain.size(), street.cloud.size());
   for (std::size_t i = 0; i < terrain.size(); ++i) {
     const Street::Kind k = street.kinds[i];
