@@ -118,6 +118,21 @@ streetRemoval(const Street& street, double tile_m = 0.0)
   return removal;
 }
 
+/** Each point of \a street flagged terrain exactly when its kind is: the road, the
+ * sidewalk and the loose points just above them go; the box, the wall, the ramp, the
+ * post's foot and the points higher above the sidewalk stay. */
+void
+expectTerrainOfTheStreet(const Street& street, const std::vector<std::uint8_t>& terrain)
+{
+  ASSERT_EQ(terrain.size(), street.cloud.size());
+  for (std::size_t i = 0; i < terrain.size(); ++i) {
+    const Street::Kind k = street.kinds[i];
+    const bool expected = k == Street::ROAD || k == Street::SIDEWALK
+                          || k == Street::LOW_ON_ROAD || k == Street::LOW_ON_SIDEWALK;
+    EXPECT_EQ(terrain[i] != 0, expected) << "point " << i << " of kind " << k;
+  }
+}
+
 TEST(TerrainRemoval, FindsTheGroundAndTheSidewalkAndKeepsWhatStandsOnThem)
 {
   Street street;
@@ -134,13 +149,7 @@ TEST(TerrainRemoval, FindsTheGroundAndTheSidewalkAndKeepsWhatStandsOnThem)
   ASSERT_EQ(planes.size(), 2u);
   EXPECT_FLOAT_EQ(planes[0].model_coefficients.values[0], -1.0f);
   EXPECT_LT(planes[1].model_coefficients.values[0], -0.5f);
-  ASSERT_EQ(terrain.size(), street.cloud.size());
-  for (std::size_t i = 0; i < terrain.size(); ++i) {
-    const Street::Kind k = street.kinds[i];
-    const bool expected = k == Street::ROAD || k == Street::SIDEWALK
-                          || k == Street::LOW_ON_ROAD || k == Street::LOW_ON_SIDEWALK;
-    EXPECT_EQ(terrain[i] != 0, expected) << "point " << i << " of kind " << k;
-  }
+  expectTerrainOfTheStreet(street, terrain);
 }
 
 TEST(TerrainRemoval, FindsATiltedGroundGivenWithItsNormalDown)
@@ -176,13 +185,7 @@ TEST(TerrainRemoval, FindsATiltedGroundGivenWithItsNormalDown)
   EXPECT_NEAR(g.head<3>().dot(street.sensor) + g[3], 1.6f, 1e-5f);
   EXPECT_EQ(removal.getTerrainPlaneCount(), 2u);
   ASSERT_EQ(planes.size(), 2u);
-  ASSERT_EQ(terrain.size(), street.cloud.size());
-  for (std::size_t i = 0; i < terrain.size(); ++i) {
-    const Street::Kind k = street.kinds[i];
-    const bool expected = k == Street::ROAD || k == Street::SIDEWALK
-                          || k == Street::LOW_ON_ROAD || k == Street::LOW_ON_SIDEWALK;
-    EXPECT_EQ(terrain[i] != 0, expected) << "point " << i << " of kind " << k;
-  }
+  expectTerrainOfTheStreet(street, terrain);
 }
 
 TEST(TerrainRemoval, APlaneAboveTheStepIsNoTerrain)

@@ -137,6 +137,12 @@ private:
    * plane has no four coefficients. */
   bool upward(const PlanarSegments& planes, std::size_t k, Eigen::Vector4f& c) const;
 
+  /** \brief The signed height of \a p above the ground plane, meters. */
+  float heightAboveGround(const PointT& p) const
+  {
+    return ground_.template head<3>().dot(p.getVector3fMap()) + ground_[3];
+  }
+
   /** \brief The index of the ground plane among \a planes, or planes.size(). */
   std::size_t findGround(const PlanarSegments& planes) const;
 
@@ -175,6 +181,8 @@ private:
   Params params_;
   Eigen::Vector3f up_{Eigen::Vector3f::UnitZ()};
   Eigen::Vector3f origin_{Eigen::Vector3f::Zero()};
+  /** \brief up_ normalized, set by segment(). */
+  Eigen::Vector3f unit_up_{Eigen::Vector3f::UnitZ()};
   Eigen::Vector4f ground_{Eigen::Vector4f::Zero()};
   std::size_t terrain_plane_count_{0};
 };

@@ -74,7 +74,7 @@ TerrainRemoval<PointT>::upward(const PlanarSegments& planes,
   if (values.size() != 4)
     return false;
   c = Eigen::Vector4f(values[0], values[1], values[2], values[3]);
-  if (c.head<3>().dot(up_.normalized()) < 0.0f)
+  if (c.head<3>().dot(unit_up_) < 0.0f)
     c = -c; // normal up: the sensor's signed distance is its height above the plane
   return true;
 }
@@ -84,10 +84,9 @@ std::size_t
 TerrainRemoval<PointT>::findGround(const PlanarSegments& planes) const
 {
   const auto cos_eps = static_cast<float>(std::cos(params_.eps_angle_rad));
-  const Eigen::Vector3f up = up_.normalized();
   for (std::size_t k = 0; k < planes.size(); ++k) {
     Eigen::Vector4f c;
-    if (!upward(planes, k, c) || c.head<3>().dot(up) < cos_eps
+    if (!upward(planes, k, c) || c.head<3>().dot(unit_up_) < cos_eps
         || c.head<3>().dot(origin_) + c[3] < params_.min_sensor_height_m)
       continue;
     return k;
@@ -101,9 +100,6 @@ TerrainRemoval<PointT>::terrainPlanes(const PointCloud& cloud,
                                       const PlanarSegments& planes,
                                       std::size_t ground) const
 {
-  const auto height = [&](std::size_t i) {
-    return ground_.head<3>().dot(cloud[i].getVector3fMap()) + ground_[3];
-  };
   std::vector<std::uint8_t> terrain(planes.size(), 0);
   terrain[ground] = 1;
   std::vector<float> lowest(planes.size(), 0.0f), level(planes.size());
@@ -111,7 +107,7 @@ TerrainRemoval<PointT>::terrainPlanes(const PointCloud& cloud,
     float lo = std::numeric_limits<float>::max();
     double sum = 0.0;
     for (const auto i : planes[k].inliers.indices) {
-      const float h = height(static_cast<std::size_t>(i));
+      const float h = heightAboveGround(cloud[static_cast<std::size_t>(i)]);
       lo = std::min(lo, h);
       sum += h;
     }
@@ -122,12 +118,11 @@ TerrainRemoval<PointT>::terrainPlanes(const PointCloud& cloud,
                    sum / static_cast<double>(planes[k].inliers.indices.size()));
   }
   const auto cos_slope = static_cast<float>(std::cos(params_.terrain_max_slope_rad));
-  const Eigen::Vector3f up = up_.normalized();
   for (bool joined = params_.terrain_max_slope_rad > 0.0; joined;) {
     joined = false;
     for (std::size_t k = 0; k < planes.size(); ++k) {
       Eigen::Vector4f c;
-      if (terrain[k] || !upward(planes, k, c) || c.head<3>().dot(up) < cos_slope)
+      if (terrain[k] || !upward(planes, k, c) || c.head<3>().dot(unit_up_) < cos_slope)
         continue;
       for (std::size_t t = 0; t < planes.size(); ++t)
         if (terrain[t] && lowest[k] <= level[t] + params_.terrain_max_step_m) {
@@ -177,12 +172,9 @@ TerrainRemoval<PointT>::terrainPoints(const PointCloud& cloud,
                                       const std::vector<std::uint8_t>& standing) const
 {
   using namespace terrain_removal_detail;
-  const auto height = [&](std::size_t i) {
-    return ground_.head<3>().dot(cloud[i].getVector3fMap()) + ground_[3];
-  };
   // The terrain's height per cell of terrain_cell_m (in the ground plane's frame): the
   // highest mean height of the terrain planes' inliers in that cell.
-  Eigen::Vector3f a1 = up_.normalized().unitOrthogonal();
+  Eigen::Vector3f a1 = unit_up_.unitOrthogonal();
   const Eigen::Vector3f normal = ground_.head<3>();
   a1 = (a1 - normal * normal.dot(a1)).normalized();
   const Eigen::Vector3f a2 = normal.cross(a1);
@@ -203,7 +195,7 @@ TerrainRemoval<PointT>::terrainPoints(const PointCloud& cloud,
       in_plane[j] = terrain[k] ? 2 : 1;
       if (terrain[k]) {
         Level& l = plane_cell[cellKey(cloud[j].getVector3fMap(), a1, a2, inv_cell)];
-        l.sum += height(j);
+        l.sum += heightAboveGround(cloud[j]);
         ++l.count;
       }
     }
@@ -227,7 +219,7 @@ TerrainRemoval<PointT>::terrainPoints(const PointCloud& cloud,
     const auto it =
       cell_level.find(cellKey(cloud[i].getVector3fMap(), a1, a2, inv_cell));
     const float base = it == cell_level.end() ? 0.0f : std::max(0.0f, it->second);
-    remove[i] = height(i) <= base + terrain_height ? 1 : 0;
+    remove[i] = heightAboveGround(cloud[i]) <= base + terrain_height ? 1 : 0;
   }
   return remove;
 }
@@ -299,6 +291,7 @@ TerrainRemoval<PointT>::segment(const PointCloud& cloud,
                                 std::vector<std::uint8_t>& terrain)
 {
   checkParameters();
+  unit_up_ = up_.normalized();
   terrain.assign(cloud.size(), 0);
   terrain_plane_count_ = 0;
   const std::size_t ground = findGround(planes);
