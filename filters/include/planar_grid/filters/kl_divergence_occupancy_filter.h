@@ -537,13 +537,20 @@ protected:
    * to [clamping_thres_min, clamping_thres_max]. */
   double featureProbability(std::size_t k) const;
 
+  /** \brief The constants of a frame's track updates: the clamping bounds as
+   * probabilities and log-odds, and the log-odds rule's steps. */
+  struct TrackUpdate {
+    double p_min, p_max, log_odds_min, log_odds_max, log_odds_hit, log_odds_miss;
+  };
+
   /** \brief The track of point \a index (new, or updated by eqs. 5-10 once a frame)
    * with the new observation \a p_new at \a position; sets the point's probability
    * and track id. \a by_position: associate by position, not by the given ids. */
   void updateTrack(std::size_t index,
                    double p_new,
                    const Eigen::Vector3f& position,
-                   bool by_position);
+                   bool by_position,
+                   const TrackUpdate& update);
 
   /** \brief Finds the nearest stored track within association_radius_m of \a position
    * not yet observed in this frame. \return its id, or -1 */

@@ -515,7 +515,8 @@ void
 KLDivergenceOccupancyFilter<PointT>::updateTrack(std::size_t index,
                                                  double p_new,
                                                  const Eigen::Vector3f& position,
-                                                 bool by_position)
+                                                 bool by_position,
+                                                 const TrackUpdate& update)
 {
   std::int64_t id = -1;
   if (by_position)
@@ -545,17 +546,15 @@ KLDivergenceOccupancyFilter<PointT>::updateTrack(std::size_t index,
   }
   Track& track = found->second;
   if (track.last_frame != frame_count_) {
-    const double p_min = params_.clamping_thres_min;
-    const double p_max = params_.clamping_thres_max;
     const double q = p_new * motion_likelihood_; // eq. 7
     double log_odds = track.log_odds;
     if (params_.update_rule == OccupancyUpdateRule::KL_DIVERGENCE) {
       const double p = toProbability(log_odds);
       const double updated = klDivergenceUpdate(p, q, params_.kl_offset_nats);
-      log_odds = toLogOdds(std::min(std::max(updated, p_min), p_max));
+      log_odds = toLogOdds(std::min(std::max(updated, update.p_min), update.p_max));
     } else {
-      log_odds += q >= 0.5 ? toLogOdds(params_.prob_hit) : toLogOdds(params_.prob_miss);
-      log_odds = std::min(std::max(log_odds, toLogOdds(p_min)), toLogOdds(p_max));
+      log_odds += q >= 0.5 ? update.log_odds_hit : update.log_odds_miss;
+      log_odds = std::min(std::max(log_odds, update.log_odds_min), update.log_odds_max);
     }
     track.log_odds = static_cast<float>(log_odds);
     if (by_position)
@@ -587,13 +586,19 @@ KLDivergenceOccupancyFilter<PointT>::integrate()
   }
 
   // Pass 2: eq. 4, then the track's first value or its update (eqs. 5-10).
+  const TrackUpdate update{params_.clamping_thres_min,
+                           params_.clamping_thres_max,
+                           toLogOdds(params_.clamping_thres_min),
+                           toLogOdds(params_.clamping_thres_max),
+                           toLogOdds(params_.prob_hit),
+                           toLogOdds(params_.prob_miss)};
   const pcl::Indices& indices = *indices_;
   for (std::size_t k = 0; k < indices.size(); ++k) {
     if (!(depths_m_[k] > 0.0))
       continue;
     const auto index = static_cast<std::size_t>(indices[k]);
     updateTrack(index, featureProbability(k), (*input_)[index].getVector3fMap(),
-                by_position);
+                by_position, update);
   }
   return valid;
 }
