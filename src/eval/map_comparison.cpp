@@ -346,11 +346,21 @@ laneTruthVoxels(Lane& lane, const GroundTruthSurface& truth, const MappedViews& 
   return *lane.truth_voxels;
 }
 
+/** \brief The completeness \a evaluate() gives, in \a row; its time goes to the
+ * lane's completeness time, apart from the method's. */
+template <typename Evaluate>
+void
+addCompleteness(Lane& lane, ComparisonRow& row, const LaneTruth& t, Evaluate&& evaluate)
+{
+  const auto start = std::chrono::steady_clock::now();
+  applyCompleteness(row, evaluate(), t);
+  lane.completeness_ms += msSince(start);
+}
+
 /** \brief SG's row: its occupied voxels. */
 ComparisonRow
 measureSG(Lane& lane, const ComparisonRow& base, double ms, const LaneTruth& t)
 {
-  using Clock = std::chrono::steady_clock;
   ComparisonRow sg = base;
   sg.method = "SG";
   sg.cells = lane.sg->getOccupiedCount();
@@ -361,10 +371,9 @@ measureSG(Lane& lane, const ComparisonRow& base, double ms, const LaneTruth& t)
              t.region ? evaluateVoxels(*lane.sg, t.truth, t.tolerance_m, *t.region)
                       : evaluateVoxels(*lane.sg, t.truth, t.tolerance_m),
              t);
-  const auto start = Clock::now();
-  applyCompleteness(
-    sg, evaluateCompleteness(*lane.sg, t.voxels, t.tolerance_m, t.truth_region), t);
-  lane.completeness_ms += msSince(start);
+  addCompleteness(lane, sg, t, [&] {
+    return evaluateCompleteness(*lane.sg, t.voxels, t.tolerance_m, t.truth_region);
+  });
   return sg;
 }
 
@@ -372,7 +381,6 @@ measureSG(Lane& lane, const ComparisonRow& base, double ms, const LaneTruth& t)
 ComparisonRow
 measureOG(Lane& lane, const ComparisonRow& base, double ms, const LaneTruth& t)
 {
-  using Clock = std::chrono::steady_clock;
   ComparisonRow og = base;
   og.method = "OG";
   lane.og->prune();
@@ -386,10 +394,9 @@ measureOG(Lane& lane, const ComparisonRow& base, double ms, const LaneTruth& t)
              t.region ? evaluateOcTree(*lane.og, t.truth, t.tolerance_m, *t.region)
                       : evaluateOcTree(*lane.og, t.truth, t.tolerance_m),
              t);
-  const auto start = Clock::now();
-  applyCompleteness(
-    og, evaluateCompleteness(*lane.og, t.voxels, t.tolerance_m, t.truth_region), t);
-  lane.completeness_ms += msSince(start);
+  addCompleteness(lane, og, t, [&] {
+    return evaluateCompleteness(*lane.og, t.voxels, t.tolerance_m, t.truth_region);
+  });
   return og;
 }
 
@@ -418,10 +425,9 @@ measureRA(Lane& lane,
              t.region ? evaluateBoxes(boxes, r, t.truth, t.tolerance_m, *t.region)
                       : evaluateBoxes(boxes, r, t.truth, t.tolerance_m),
              t);
-  const auto start = Clock::now();
-  applyCompleteness(
-    ra, evaluateCompleteness(boxes, r, t.voxels, t.tolerance_m, t.truth_region), t);
-  lane.completeness_ms += msSince(start);
+  addCompleteness(lane, ra, t, [&] {
+    return evaluateCompleteness(boxes, r, t.voxels, t.tolerance_m, t.truth_region);
+  });
   return ra;
 }
 
