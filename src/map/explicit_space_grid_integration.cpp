@@ -467,6 +467,7 @@ public:
       block_half_((view.ex + view.ey + view.ez) * (0.5f * BLOCK_EDGE)),
       // half block diagonal plus slack for rounding
       reject_radius_(block_half_.norm() * 1.01f + 1e-3f),
+      block_edge_(view.res * BLOCK_EDGE),
       // A voxel already free stays free whatever a view says of it (observed free
       // writes free, occluded changes only never-observed voxels): the 4^3 cubes free
       // in the storage are not observed. Pending setState() edits are not in the
@@ -478,11 +479,10 @@ public:
    * says nothing of it. */
   bool observe(int bx, int by, int bz, BlockResult& res, Counters& counters) const
   {
-    const float block_edge = view_.res * BLOCK_EDGE;
     const Eigen::Vector3f c0 = view_.R_cw
-                                 * Eigen::Vector3f(static_cast<float>(bx) * block_edge,
-                                                   static_cast<float>(by) * block_edge,
-                                                   static_cast<float>(bz) * block_edge)
+                                 * Eigen::Vector3f(static_cast<float>(bx) * block_edge_,
+                                                   static_cast<float>(by) * block_edge_,
+                                                   static_cast<float>(bz) * block_edge_)
                                + view_.t_cw;
     if (outsideFrustum(c0 + block_half_))
       return false;
@@ -574,6 +574,8 @@ private:
   const std::array<Eigen::Vector3f, 4> side_normals_;
   const Eigen::Vector3f block_half_;
   const float reject_radius_;
+  /** \brief A block's edge, meters. */
+  const float block_edge_;
   const bool skip_stored_free_;
 };
 
