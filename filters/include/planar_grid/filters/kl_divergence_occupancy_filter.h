@@ -540,7 +540,18 @@ protected:
   /** \brief The constants of a frame's track updates: the clamping bounds as
    * probabilities and log-odds, and the log-odds rule's steps. */
   struct TrackUpdate {
-    double p_min, p_max, log_odds_min, log_odds_max, log_odds_hit, log_odds_miss;
+    /** \brief clamping_thres_min, probability. */
+    double p_min;
+    /** \brief clamping_thres_max, probability. */
+    double p_max;
+    /** \brief clamping_thres_min as log-odds. */
+    double log_odds_min;
+    /** \brief clamping_thres_max as log-odds. */
+    double log_odds_max;
+    /** \brief The log-odds rule's step for a hit (prob_hit as log-odds). */
+    double log_odds_hit;
+    /** \brief The log-odds rule's step for a miss (prob_miss as log-odds). */
+    double log_odds_miss;
   };
 
   /** \brief The track of point \a index (new, or updated by eqs. 5-10 once a frame)
