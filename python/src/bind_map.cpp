@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "param_kwargs.h"
 #include "planar_grid_python.h"
 
 namespace planar_grid {
@@ -75,32 +76,14 @@ toSpaceState(const py::handle& state)
   return static_cast<SpaceState>(value);
 }
 
-py::dict
-paramsDict(const PlanarGridMap::Params& p)
+/** The keys of the map's parameter table, in its order. */
+std::vector<std::string>
+mapParameterKeys()
 {
-  py::dict d;
-  d["resolution_m"] = p.resolution_m;
-  d["max_range_m"] = p.space.max_range_m;
-  d["surface_margin_m"] = p.space.surface_margin_m;
-  d["prior"] = toString(p.space.prior);
-  d["thickness_m"] = p.surface.thickness_m;
-  d["plane_merge_angle_rad"] = p.surface.plane_merge_angle_rad;
-  d["plane_merge_distance_m"] = p.surface.plane_merge_distance_m;
-  d["occupancy_thres"] = p.surface.occupancy_thres;
-  d["feature_distance_m"] = p.surface.feature_distance_m;
-  d["close_gaps_cells"] = p.surface.close_gaps_cells;
-  d["merge_rule"] = toString(p.surface.merge_rule);
-  d["cover_density"] = p.surface.cover_density;
-  d["absorb_distance_m"] = p.surface.absorb_distance_m;
-  d["terrain_plane_tile_m"] = p.surface.terrain_plane_tile_m;
-  d["terrain_cover_density"] = p.surface.terrain_cover_density;
-  d["clear_non_planar"] = p.clear_non_planar;
-  d["non_planar_min_occupied"] = p.non_planar_min_occupied;
-  d["merge_non_planar"] = p.merge_non_planar;
-  d["clear_planar"] = p.clear_planar;
-  d["planes_replace_non_planar"] = p.planes_replace_non_planar;
-  d["planes_absorb_overlapping"] = p.planes_absorb_overlapping;
-  return d;
+  std::vector<std::string> keys;
+  for (const auto& declaration : PlanarGridMap::getParamDeclarations())
+    keys.push_back(declaration.key);
+  return keys;
 }
 
 /** SpaceState, an IntEnum of the module. */
@@ -138,28 +121,7 @@ probability (occupied when >= occupancy_thres); elsewhere the voxel's state deci
 Parameters
 ----------
 )doc"
-    + stageParameterDocs("map_integration", {"resolution_m",
-                                             "max_range_m",
-                                             "surface_margin_m",
-                                             "prior",
-                                             "thickness_m",
-                                             "plane_merge_angle_rad",
-                                             "plane_merge_distance_m",
-                                             "occupancy_thres",
-                                             "feature_distance_m",
-                                             "close_gaps_cells",
-                                             "merge_rule",
-                                             "cover_density",
-                                             "clear_non_planar",
-                                             "clear_planar",
-                                             "planes_replace_non_planar",
-                                             "planes_absorb_overlapping",
-                                             "absorb_distance_m",
-                                             "terrain_plane_tile_m",
-                                             "terrain_cover_density",
-                                             "non_planar_min_occupied",
-                                             "merge_non_planar"})
-    + R"doc(
+    + stageParameterDocs("map_integration", mapParameterKeys()) + R"doc(
 The defaults are the pipeline's map_integration defaults (one Params struct); a map
 built here with the keys of a configuration's map_integration stage matches the tool's.
 
@@ -175,79 +137,30 @@ Maps are not copied (copy.copy raises); pickling goes through the map file forma
   return doc;
 }
 
-/** The constructor, its keyword arguments and defaults from Map::Params. */
+/** The constructor: its keyword arguments, their types, defaults and conversion, and
+ * its signature, all from the map's parameter table (PlanarGridMap::Params). */
 void
 bindMapConstructor(MapClass& cls)
 {
-  const Map::Params d;
-  cls.def(py::init([](double resolution_m, double max_range_m, double surface_margin_m,
-                      const std::string& prior, double thickness_m,
-                      double plane_merge_angle_rad, double plane_merge_distance_m,
-                      double occupancy_thres, double feature_distance_m,
-                      int close_gaps_cells, const std::string& merge_rule,
-                      double cover_density, bool clear_non_planar, bool clear_planar,
-                      bool planes_replace_non_planar, bool planes_absorb_overlapping,
-                      double absorb_distance_m, double terrain_plane_tile_m,
-                      double terrain_cover_density, double non_planar_min_occupied,
-                      bool merge_non_planar) {
-            Map::Params p;
-            p.clear_non_planar = clear_non_planar;
-            p.non_planar_min_occupied = non_planar_min_occupied;
-            p.merge_non_planar = merge_non_planar;
-            p.clear_planar = clear_planar;
-            p.planes_replace_non_planar = planes_replace_non_planar;
-            p.planes_absorb_overlapping = planes_absorb_overlapping;
-            p.resolution_m = resolution_m;
-            p.space.max_range_m = max_range_m;
-            p.space.surface_margin_m = surface_margin_m;
-            p.surface.thickness_m = thickness_m;
-            p.surface.plane_merge_angle_rad = plane_merge_angle_rad;
-            p.surface.plane_merge_distance_m = plane_merge_distance_m;
-            p.surface.occupancy_thres = occupancy_thres;
-            p.surface.feature_distance_m = feature_distance_m;
-            p.surface.close_gaps_cells = close_gaps_cells;
-            p.surface.cover_density = cover_density;
-            p.surface.absorb_distance_m = absorb_distance_m;
-            p.surface.terrain_plane_tile_m = terrain_plane_tile_m;
-            p.surface.terrain_cover_density = terrain_cover_density;
+  const auto& table = Map::getParamDeclarations();
+  const std::string doc =
+    keywordSignature(table, "planar_grid._planar_grid.PlanarGridMap") + "\n\n"
+    + wrapText("An empty map. Every keyword argument is a key of map_integration, "
+               "with its default (the class's Parameters).",
+               0, 88);
+  py::options options;
+  options.disable_function_signatures();
+  cls.def(py::init([](const py::kwargs& kwargs) {
+            const Map::Params params =
+              paramsFromKwargs(Map::getParamDeclarations(), kwargs, "PlanarGridMap");
             try {
-              p.space.prior = spaceStateFromString(prior);
-            } catch (const planar_grid::Exception& e) {
-              throw py::value_error(std::string("PlanarGridMap: prior: ") + e.what());
-            }
-            try {
-              p.surface.merge_rule = surfaceMergeRuleFromString(merge_rule);
-            } catch (const planar_grid::Exception& e) {
-              throw py::value_error(std::string("PlanarGridMap: merge_rule: ")
-                                    + e.what());
-            }
-            try {
-              return std::make_shared<Map>(p);
+              return std::make_shared<Map>(params);
             } catch (const planar_grid::Exception& e) {
               throw py::value_error(std::string("PlanarGridMap: ") + e.what());
             }
           }),
-          py::kw_only(), py::arg("resolution_m") = d.resolution_m,
-          py::arg("max_range_m") = d.space.max_range_m,
-          py::arg("surface_margin_m") = d.space.surface_margin_m,
-          py::arg("prior") = toString(d.space.prior),
-          py::arg("thickness_m") = d.surface.thickness_m,
-          py::arg("plane_merge_angle_rad") = d.surface.plane_merge_angle_rad,
-          py::arg("plane_merge_distance_m") = d.surface.plane_merge_distance_m,
-          py::arg("occupancy_thres") = d.surface.occupancy_thres,
-          py::arg("feature_distance_m") = d.surface.feature_distance_m,
-          py::arg("close_gaps_cells") = d.surface.close_gaps_cells,
-          py::arg("merge_rule") = toString(d.surface.merge_rule),
-          py::arg("cover_density") = d.surface.cover_density,
-          py::arg("clear_non_planar") = d.clear_non_planar,
-          py::arg("clear_planar") = d.clear_planar,
-          py::arg("planes_replace_non_planar") = d.planes_replace_non_planar,
-          py::arg("planes_absorb_overlapping") = d.planes_absorb_overlapping,
-          py::arg("absorb_distance_m") = d.surface.absorb_distance_m,
-          py::arg("terrain_plane_tile_m") = d.surface.terrain_plane_tile_m,
-          py::arg("terrain_cover_density") = d.surface.terrain_cover_density,
-          py::arg("non_planar_min_occupied") = d.non_planar_min_occupied,
-          py::arg("merge_non_planar") = d.merge_non_planar);
+          doc.c_str());
+  cls.attr("__signature__") = keywordSignatureObject(table);
 }
 
 /** Reading and writing the map file. */
@@ -543,7 +456,10 @@ bindMapContents(MapClass& cls)
     .def_property_readonly("resolution_m", &Map::getResolution,
                            "float: the minimum cell size, meters.")
     .def_property_readonly(
-      "params", [](const Map& self) { return paramsDict(self.getParams()); },
+      "params",
+      [](const Map& self) {
+        return paramsDict(Map::getParamDeclarations(), self.getParams());
+      },
       "dict: the parameters, by the constructor's keyword names.")
     .def_property_readonly(
       "memory",

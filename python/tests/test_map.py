@@ -2,6 +2,7 @@
 """PlanarGridMap through the Python module: a map of known geometry built from Python,
 its state, occupancy and ray queries, and the map file round trip."""
 
+import inspect
 import math
 import pathlib
 import pickle
@@ -345,3 +346,46 @@ def test_the_map_constructor_has_a_signature_with_the_params_defaults() -> None:
         assert parameter.default == params[name], name
     # and a class with a positional argument
     assert list(inspect.signature(pg.Mapper).parameters) == ["config"]
+
+
+def test_keyword_arguments_are_the_generated_map_integration_table(source_dir: pathlib.Path) -> None:
+    # One declaration per parameter: the constructor's keywords, their defaults, the
+    # params dict and docs/STAGES.md's map_integration table (the tool's generated
+    # reference) are made from the same C++ table.
+    text = (source_dir / "docs" / "STAGES.md").read_text()
+    section = text.split("## map_integration", 1)[1].split("\n## ", 1)[0]
+    reference = {}
+    for row in section.splitlines():
+        cells = [c.strip() for c in row.split("|")]
+        if len(cells) > 4 and cells[1].startswith("`") and cells[3].startswith("`"):
+            reference[cells[1].strip("`")] = cells[3].strip("`")
+    signature = inspect.signature(pg.PlanarGridMap)
+    defaults = pg.PlanarGridMap().params
+    assert list(defaults) == list(signature.parameters)
+    assert len(defaults) >= 20
+    for key, value in defaults.items():
+        parameter = signature.parameters[key]
+        assert parameter.kind is inspect.Parameter.KEYWORD_ONLY, key
+        assert parameter.default == value and type(parameter.default) is type(value), key
+        written = reference[key]
+        if isinstance(value, bool):
+            assert written == ("true" if value else "false"), key
+        elif isinstance(value, (int, float)):
+            assert float(written) == pytest.approx(value, rel=1e-9), key
+        else:
+            assert written == value, key
+        assert key in (pg.PlanarGridMap.__doc__ or ""), key
+    # The stage's own keys (how it sees a frame) are not the map's.
+    assert set(reference) - set(defaults) == {
+        "sensor_model", "depth_width_px", "depth_height_px", "depth_focal_length_px",
+        "window_radius_m"}
+    # Each keyword reaches the map with its type; others are refused by name.
+    m = pg.PlanarGridMap(close_gaps_cells=3, merge_rule="paper", clear_planar=True)
+    assert m.params["close_gaps_cells"] == 3 and m.params["merge_rule"] == "paper"
+    assert m.params["clear_planar"] is True
+    with pytest.raises(TypeError, match="unexpected keyword argument 'resolution'"):
+        pg.PlanarGridMap(resolution=0.2)  # type: ignore[call-arg]
+    with pytest.raises(TypeError, match="close_gaps_cells: expected int, got float"):
+        pg.PlanarGridMap(close_gaps_cells=1.5)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="merge_rule: "):
+        pg.PlanarGridMap(merge_rule="largest")

@@ -17,26 +17,86 @@ namespace stages {
 
 namespace {
 
+/** How the explicit space layer sees a frame. */
+enum class SensorModel {
+  AUTO,    // the disparity image's pinhole camera for stereo, rays for point clouds
+  PINHOLE, // a pinhole camera: the disparity's, or a virtual one for point clouds
+  RAYS     // a ray from the sensor origin to every point of the working cloud
+};
+
+const char*
+sensorModelName(SensorModel model)
+{
+  return model == SensorModel::RAYS      ? "rays"
+         : model == SensorModel::PINHOLE ? "pinhole"
+                                         : "auto";
+}
+
+SensorModel
+sensorModelFromName(const std::string& name)
+{
+  if (name == "rays")
+    return SensorModel::RAYS;
+  if (name == "pinhole")
+    return SensorModel::PINHOLE;
+  if (name == "auto")
+    return SensorModel::AUTO;
+  throw Exception("Unknown sensor model '" + name + "' (auto, pinhole, rays)");
+}
+
+/** The stage's own parameters, beside the map's: how it sees a frame, and the window.
+ */
+struct MapStageParams {
+  SensorModel sensor_model{SensorModel::AUTO};
+  int depth_width_px{640};
+  int depth_height_px{480};
+  double depth_focal_length_px{525.0};
+  double window_radius_m{0.0};
+};
+
+const ParamDeclarations<MapStageParams>&
+mapStageParamDeclarations()
+{
+  using P = MapStageParams;
+  static const ParamDeclarations<P> table = {
+    declareChoice<P>(
+      "sensor_model", [](auto& p) -> auto& { return p.sensor_model; },
+      {"auto", "pinhole", "rays"}, sensorModelName, sensorModelFromName,
+      "How the explicit space layer sees a frame: pinhole = the disparity image's "
+      "camera (stereo), the depth image's camera (Mapper::integrateDepth) or a virtual "
+      "depth camera (other point clouds, the depth_* keys); rays = a ray from the "
+      "sensor origin to every point of the working cloud, for any field of view (a 360 "
+      "degree LiDAR scan); auto = pinhole for stereo and depth images, rays for point "
+      "clouds."),
+    declareInteger<P>(
+      "depth_width_px", [](auto& p) -> auto& { return p.depth_width_px; },
+      ParamRange::closed(1, 100000), "px",
+      "sensor_model pinhole, point clouds: width of the virtual depth camera."),
+    declareInteger<P>(
+      "depth_height_px", [](auto& p) -> auto& { return p.depth_height_px; },
+      ParamRange::closed(1, 100000), "px",
+      "sensor_model pinhole, point clouds: height of the virtual depth camera."),
+    declareReal<P>(
+      "depth_focal_length_px", [](auto& p) -> auto& { return p.depth_focal_length_px; },
+      ParamRange::closed(1.0, 100000.0), "px",
+      "sensor_model pinhole, point clouds: focal length of the virtual depth camera."),
+    declareReal<P>(
+      "window_radius_m", [](auto& p) -> auto& { return p.window_radius_m; },
+      ParamRange::closed(0.0, 1e6), "m",
+      "Rolling window of a long run: after each frame the map keeps only the box of "
+      "half-size window_radius_m around the sensor in x and y (world z up; every "
+      "height) and frees the rest of both layers (PlanarGridMap::removeOutside). 0: "
+      "off, the map grows with the run."),
+  };
+  return table;
+}
+
 class MapIntegrationStage : public Stage {
 public:
-  /** How the explicit space layer sees a frame. */
-  enum class SensorModel {
-    AUTO,    // the disparity image's pinhole camera for stereo, rays for point clouds
-    PINHOLE, // a pinhole camera: the disparity's, or a virtual one for point clouds
-    RAYS     // a ray from the sensor origin to every point of the working cloud
-  };
-
   MapIntegrationStage(const PlanarGridMap::Params& params,
-                      SensorModel sensor_model,
-                      int depth_width_px,
-                      int depth_height_px,
-                      double depth_focal_length_px,
-                      double window_radius_m) :
+                      const MapStageParams& stage_params) :
       params_(params),
-      sensor_model_(sensor_model), depth_width_px_(depth_width_px),
-      depth_height_px_(depth_height_px),
-      depth_focal_length_px_(static_cast<float>(depth_focal_length_px)),
-      window_radius_m_(window_radius_m)
+      stage_params_(stage_params)
   {
     PlanarGridMap check(params_); // rejects bad parameters when the run is built
   }
@@ -48,36 +108,8 @@ public:
 
   void getParameters(ParamValues& v) const override
   {
-    const PlanarGridMap::Params& p = params_;
-    v.set("resolution_m", p.resolution_m);
-    v.set("max_range_m", p.space.max_range_m);
-    v.set("surface_margin_m", p.space.surface_margin_m);
-    v.set("prior", toString(p.space.prior));
-    v.set("thickness_m", p.surface.thickness_m);
-    v.set("plane_merge_angle_rad", p.surface.plane_merge_angle_rad);
-    v.set("plane_merge_distance_m", p.surface.plane_merge_distance_m);
-    v.set("close_gaps_cells", p.surface.close_gaps_cells);
-    v.set("merge_rule", toString(p.surface.merge_rule));
-    v.set("cover_density", p.surface.cover_density);
-    v.set("absorb_distance_m", p.surface.absorb_distance_m);
-    v.set("terrain_plane_tile_m", p.surface.terrain_plane_tile_m);
-    v.set("terrain_cover_density", p.surface.terrain_cover_density);
-    v.set("occupancy_thres", p.surface.occupancy_thres);
-    v.set("feature_distance_m", p.surface.feature_distance_m);
-    v.set("clear_non_planar", p.clear_non_planar);
-    v.set("non_planar_min_occupied", p.non_planar_min_occupied);
-    v.set("merge_non_planar", p.merge_non_planar);
-    v.set("clear_planar", p.clear_planar);
-    v.set("planes_replace_non_planar", p.planes_replace_non_planar);
-    v.set("planes_absorb_overlapping", p.planes_absorb_overlapping);
-    v.set("sensor_model",
-          std::string(sensor_model_ == SensorModel::RAYS      ? "rays"
-                      : sensor_model_ == SensorModel::PINHOLE ? "pinhole"
-                                                              : "auto"));
-    v.set("depth_width_px", depth_width_px_);
-    v.set("depth_height_px", depth_height_px_);
-    v.set("depth_focal_length_px", static_cast<double>(depth_focal_length_px_));
-    v.set("window_radius_m", window_radius_m_);
+    reportParams(PlanarGridMap::getParamDeclarations(), params_, v);
+    reportParams(mapStageParamDeclarations(), stage_params_, v);
   }
 
   void process(Frame& frame, PipelineState& state) override
@@ -108,9 +140,10 @@ public:
 
     // The explicit space layer: the view's depth image through its pinhole camera, or
     // a ray from the sensor origin to every point.
-    const bool rays = sensor_model_ == SensorModel::RAYS
-                      || (sensor_model_ == SensorModel::AUTO && frame.disparity.empty()
-                          && frame.depth_camera.width_px <= 0);
+    const bool rays =
+      stage_params_.sensor_model == SensorModel::RAYS
+      || (stage_params_.sensor_model == SensorModel::AUTO && frame.disparity.empty()
+          && frame.depth_camera.width_px <= 0);
     if (rays) {
       // Every measured point: the ground and the points of no cell too.
       const Frame::Cloud& measured =
@@ -132,11 +165,11 @@ public:
     // The frame's place in its recording orders the map's views against those of
     // another segment's map when the two are merged.
     map.noteObservationOrder(frame.file_index);
-    if (window_radius_m_ > 0.0) {
+    if (stage_params_.window_radius_m > 0.0) {
       // The rolling window: the map keeps the box of half-size window_radius_m around
       // the sensor in x and y (world z up), every height.
       const Eigen::Vector3f sensor = frame.world_T_camera.translation().cast<float>();
-      const auto half = static_cast<float>(window_radius_m_);
+      const auto half = static_cast<float>(stage_params_.window_radius_m);
       const float inf = std::numeric_limits<float>::infinity();
       map.removeOutside(Eigen::AlignedBox3f(
         Eigen::Vector3f(sensor.x() - half, sensor.y() - half, -inf),
@@ -184,13 +217,17 @@ private:
       camera_cloud_.push_back(q);
     }
     PinholeView camera = frame.depth_camera;
-    if (camera.width_px <= 0) // the virtual camera, its principal point in the centre
-      camera = {depth_width_px_,
-                depth_height_px_,
-                depth_focal_length_px_,
-                depth_focal_length_px_,
-                0.5f * static_cast<float>(depth_width_px_),
-                0.5f * static_cast<float>(depth_height_px_)};
+    if (camera.width_px <= 0) {
+      // the virtual camera, its principal point in the centre
+      const auto focal_length_px =
+        static_cast<float>(stage_params_.depth_focal_length_px);
+      camera = {stage_params_.depth_width_px,
+                stage_params_.depth_height_px,
+                focal_length_px,
+                focal_length_px,
+                0.5f * static_cast<float>(stage_params_.depth_width_px),
+                0.5f * static_cast<float>(stage_params_.depth_height_px)};
+    }
     depth_ = DepthImage::fromPointCloud(
       camera_cloud_, camera.width_px, camera.height_px,
       static_cast<float>(camera.fx_px), static_cast<float>(camera.fy_px),
@@ -199,11 +236,7 @@ private:
   }
 
   PlanarGridMap::Params params_;
-  SensorModel sensor_model_;
-  int depth_width_px_;
-  int depth_height_px_;
-  float depth_focal_length_px_;
-  double window_radius_m_;
+  MapStageParams stage_params_;
   PlaneModels planes_;
   pcl::PointCloud<pcl::PointXYZ> features_world_;
   pcl::PointCloud<pcl::PointXYZ> camera_cloud_;
@@ -229,156 +262,16 @@ mapIntegrationInfo()
     "free, occupied or unknown (occluded) from the depth image. Needs "
     "transform_to_world before it; the output section writes the map file.";
   info.needs_poses = true;
-  const PlanarGridMap::Params d;
-  namespace space = explicit_space_grid_ranges;
-  namespace surface = surface_layer_ranges;
-  info.params = {
-    ParamSpec::real("resolution_m", d.resolution_m, surface::RESOLUTION, "m",
-                    "Minimum cell size of both layers (the paper's 0.1 m).")
-      .scalesWithCellSize(),
-    ParamSpec::real("max_range_m", d.space.max_range_m, space::MAX_RANGE, "m",
-                    "Depth up to which a view marks space."),
-    ParamSpec::real("surface_margin_m", d.space.surface_margin_m, space::SURFACE_MARGIN,
-                    "m",
-                    "Half-thickness of the measured surface; 0: half a voxel "
-                    "diagonal."),
-    ParamSpec::choice("prior", toString(d.space.prior), {"unknown", "free"},
-                      "State of space never inside a view (the paper: free)."),
-    ParamSpec::real("thickness_m", d.surface.thickness_m, surface::THICKNESS, "m",
-                    "Extrusion of the map's planar cuboids behind their face.")
-      .scalesWithCellSize(),
-    ParamSpec::real("plane_merge_angle_rad", d.surface.plane_merge_angle_rad,
-                    surface::PLANE_MERGE_ANGLE, "rad",
-                    "Largest normal angle between one plane's views."),
-    ParamSpec::real("plane_merge_distance_m", d.surface.plane_merge_distance_m,
-                    surface::PLANE_MERGE_DISTANCE, "m",
-                    "Largest RMS distance of a view's faces (and of the plane's "
-                    "evidence) to the least-squares plane of both."),
-    ParamSpec::integer("close_gaps_cells", d.surface.close_gaps_cells,
-                       surface::CLOSE_GAPS, "cells",
-                       "Gaps of up to this many cells between observed cells of a "
-                       "plane's row or column are filled before the merge; 0: none."),
-    ParamSpec::choice("merge_rule", toString(d.surface.merge_rule),
-                      {"paper", "min_rectangles", "density"},
-                      "Cover of a plane's cells: the paper's runs stacked by equal "
-                      "extent (Fig. 6b), the fewest exact rectangles, or rectangles "
-                      "grown while at least cover_density of their cells are the "
-                      "plane's (the paper's D_T applied to the merge)."),
-    ParamSpec::real("cover_density", d.surface.cover_density, surface::COVER_DENSITY,
-                    "share",
-                    "merge_rule density: smallest share of a rectangle's cells "
-                    "observed on the plane."),
-    ParamSpec::real("occupancy_thres", d.surface.occupancy_thres,
-                    surface::OCCUPANCY_THRES, "probability",
-                    "Cells at or above it are occupied."),
-    ParamSpec::real("feature_distance_m", d.surface.feature_distance_m,
-                    surface::FEATURE_DISTANCE, "m",
-                    "A feature counts for a plane cell within this distance."),
-    ParamSpec::flag("clear_non_planar", d.clear_non_planar,
-                    "Remove the non-planar cells a later view sees through (more "
-                    "than half of their voxels observed free), as OctoMap's misses "
-                    "clear a voxel hit before."),
-    ParamSpec::real("non_planar_min_occupied", d.non_planar_min_occupied,
-                    planar_grid_map_ranges::NON_PLANAR_MIN_OCCUPIED, "share",
-                    "clear_non_planar: also remove a non-planar cell in a view when "
-                    "the space layer holds fewer than this share of its voxels "
-                    "occupied (free, or behind the surface from every view); 0: only "
-                    "the free rule."),
-    ParamSpec::flag("merge_non_planar", d.merge_non_planar,
-                    "After each depth image, merge two touching non-planar cells in "
-                    "the view into their bounding box when the space layer holds at "
-                    "least non_planar_min_occupied of its voxels occupied and at most "
-                    "half free (off when that share is 0)."),
-    ParamSpec::flag("clear_planar", d.clear_planar,
-                    "Remove the planes' raster cells a later view sees through (the "
-                    "voxel of the cell and the one behind it observed free): a car "
-                    "that drove away, a door that opened."),
-    ParamSpec::flag("planes_replace_non_planar", d.planes_replace_non_planar,
-                    "Remove the non-planar cells lying on a map plane (centre and "
-                    "footprint within half a cell of its planar cuboids): the plane "
-                    "represents that surface."),
-    ParamSpec::flag("planes_absorb_overlapping", d.planes_absorb_overlapping,
-                    "Move a map plane's rectangles lying on a plane with more "
-                    "evidence (every cell's face within half a cell of its planar "
-                    "cuboids, or within absorb_distance_m along the normal of a "
-                    "parallel one) to that plane: a surface found as planes a few "
-                    "degrees or decimetres apart is covered once."),
-    ParamSpec::real("absorb_distance_m", d.surface.absorb_distance_m,
-                    surface::ABSORB_DISTANCE, "m",
-                    "planes_absorb_overlapping: largest distance along a stronger "
-                    "parallel plane's normal at which a plane's cells are that "
-                    "surface seen at another depth (about twice eq. 4's depth "
-                    "error bound)."),
-    ParamSpec::real("terrain_plane_tile_m", d.surface.terrain_plane_tile_m,
-                    surface::TERRAIN_PLANE_TILE, "m",
-                    "Side of the square tiles of the world's x, y plane that bound a "
-                    "level map plane (normal within 0.3 rad of z): > 0, a level plane "
-                    "joins and merges only with level planes of its tile and no two "
-                    "level planes absorb each other's cells, so the terrain stays "
-                    "planar per tile. Left out, it takes ground_removal's "
-                    "terrain_plane_tile_m. 0: level planes are unbounded."),
-    ParamSpec::real("terrain_cover_density", d.surface.terrain_cover_density,
-                    surface::TERRAIN_COVER_DENSITY, "",
-                    "With terrain_plane_tile_m > 0 and merge_rule density, the "
-                    "cover_density of the level planes: a road or a floor, seen "
-                    "sparsely, leaves many unobserved cells in its tiles that a loose "
-                    "cover spans and marks occupied (1: observed cells only)."),
-    ParamSpec::choice("sensor_model", "auto", {"auto", "pinhole", "rays"},
-                      "How the explicit space layer sees a frame: pinhole = the "
-                      "disparity image's camera (stereo), the depth image's camera "
-                      "(Mapper::integrateDepth) or a virtual depth camera (other point "
-                      "clouds, the depth_* keys); rays = a ray from the sensor origin "
-                      "to every point of the working cloud, for any field of view (a "
-                      "360 degree LiDAR scan); auto = pinhole for stereo and depth "
-                      "images, rays for point clouds."),
-    ParamSpec::integer("depth_width_px", 640, 1, 100000, "px",
-                       "sensor_model pinhole, point clouds: width of the virtual depth "
-                       "camera."),
-    ParamSpec::integer(
-      "depth_height_px", 480, 1, 100000, "px",
-      "sensor_model pinhole, point clouds: height of the virtual depth "
-      "camera."),
-    ParamSpec::real("depth_focal_length_px", 525.0, 1.0, 100000.0, "px",
-                    "sensor_model pinhole, point clouds: focal length of the virtual "
-                    "depth camera."),
-    ParamSpec::real("window_radius_m", 0.0, 0.0, 1e6, "m",
-                    "Rolling window of a long run: after each frame the map keeps "
-                    "only the box of half-size window_radius_m around the sensor in "
-                    "x and y (world z up; every height) and frees the rest of both "
-                    "layers (PlanarGridMap::removeOutside). 0: off, the map grows "
-                    "with the run."),
-  };
+  // The map's own parameters, then those of the stage: how it sees a frame.
+  info.params = paramSpecs(PlanarGridMap::getParamDeclarations());
+  const std::vector<ParamSpec> stage_specs = paramSpecs(mapStageParamDeclarations());
+  info.params.insert(info.params.end(), stage_specs.begin(), stage_specs.end());
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     PlanarGridMap::Params p;
-    p.resolution_m = v.getDouble("resolution_m");
-    p.space.max_range_m = v.getDouble("max_range_m");
-    p.space.surface_margin_m = v.getDouble("surface_margin_m");
-    p.space.prior = spaceStateFromString(v.getChoice("prior"));
-    p.surface.thickness_m = v.getDouble("thickness_m");
-    p.surface.plane_merge_angle_rad = v.getDouble("plane_merge_angle_rad");
-    p.surface.plane_merge_distance_m = v.getDouble("plane_merge_distance_m");
-    p.surface.occupancy_thres = v.getDouble("occupancy_thres");
-    p.surface.feature_distance_m = v.getDouble("feature_distance_m");
-    p.surface.close_gaps_cells = v.getInt("close_gaps_cells");
-    p.surface.merge_rule = surfaceMergeRuleFromString(v.getChoice("merge_rule"));
-    p.surface.cover_density = v.getDouble("cover_density");
-    p.surface.absorb_distance_m = v.getDouble("absorb_distance_m");
-    p.surface.terrain_plane_tile_m = v.getDouble("terrain_plane_tile_m");
-    p.surface.terrain_cover_density = v.getDouble("terrain_cover_density");
-    p.clear_non_planar = v.getBool("clear_non_planar");
-    p.non_planar_min_occupied = v.getDouble("non_planar_min_occupied");
-    p.merge_non_planar = v.getBool("merge_non_planar");
-    p.clear_planar = v.getBool("clear_planar");
-    p.planes_replace_non_planar = v.getBool("planes_replace_non_planar");
-    p.planes_absorb_overlapping = v.getBool("planes_absorb_overlapping");
-    const std::string model = v.getChoice("sensor_model");
-    const auto sensor_model = model == "rays" ? MapIntegrationStage::SensorModel::RAYS
-                              : model == "pinhole"
-                                ? MapIntegrationStage::SensorModel::PINHOLE
-                                : MapIntegrationStage::SensorModel::AUTO;
-    return std::make_unique<MapIntegrationStage>(
-      p, sensor_model, v.getInt("depth_width_px"), v.getInt("depth_height_px"),
-      v.getDouble("depth_focal_length_px"), v.getDouble("window_radius_m"));
+    assignParams(PlanarGridMap::getParamDeclarations(), v, p);
+    MapStageParams stage_params;
+    assignParams(mapStageParamDeclarations(), v, stage_params);
+    return std::make_unique<MapIntegrationStage>(p, stage_params);
   };
   return info;
 }

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_declaration.h>
 #include <planar_grid/core/param_range.h>
 #include <planar_grid/map/explicit_space_grid.h>
 #include <planar_grid/map/map_queries.h>
@@ -165,6 +166,13 @@ public:
      * (SurfaceLayer::absorbOverlappingPlaneCells()). */
     bool planes_absorb_overlapping{true};
   };
+
+  /** \brief The one declaration of every member of Params: key (with unit), range,
+   * unit and meaning, in the order documented. The pipeline's map_integration stage,
+   * its reference (docs/STAGES.md) and the Python PlanarGridMap's keyword arguments
+   * are made from it; the defaults are Params' initializers.
+   * \return the table (built once) */
+  static const ParamDeclarations<Params>& getParamDeclarations();
 
   /** \brief Builds an empty map; getParams() returns \a params with both layers'
    * resolution_m set to params.resolution_m.

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/exceptions.h>
+#include <planar_grid/core/param_declaration.h>
 #include <planar_grid/core/param_range.h>
 
 #include <map>
@@ -39,21 +41,9 @@ struct ParamSpec {
   /** \brief Allowed values for CHOICE. */
   std::vector<std::string> choices;
 
-  /** \brief How a parameter follows the map's minimum cell size r, for tools that run
-   * one configuration at several cell sizes (planar_grid_eval, paper Sec. IV-B). */
-  enum class CellSizeScaling {
-    /** Independent of the cell size. */
-    NONE,
-    /** A length that is the cell size (a voxel edge, a minimum cell, a thickness):
-     * set to r, in meters. */
-    CELL_SIZE,
-    /** A count of points on a surface, given for 0.1 m cells: scaled by (0.1 / r)^2
-     * (the same area holds that many fewer voxels), at least 10. */
-    POINTS_PER_AREA,
-    /** A length given for 0.1 m cells that spans several of them (a neighbourhood
-     * radius): scaled by r / 0.1, in meters. */
-    LENGTH
-  };
+  /** \brief How a parameter follows the map's minimum cell size r (the algorithms'
+   * declarations use the same enumeration). */
+  using CellSizeScaling = planar_grid::CellSizeScaling;
   /** \brief How the parameter follows the cell size (NONE by default). */
   CellSizeScaling cell_size_scaling{CellSizeScaling::NONE};
 
@@ -208,5 +198,85 @@ ParamValues defaultParams(const std::vector<ParamSpec>& specs);
 /** \brief A human-readable description of a table: one line per key with type, default,
  * range (an interval, "(0, 10]") and unit. */
 std::string describeParams(const std::vector<ParamSpec>& specs);
+
+/** \brief A stage parameter from an algorithm's declaration, its default the value
+ * of \a defaults.
+ * \param[in] declaration the member's declaration
+ * \param[in] defaults the algorithm's default parameters
+ * \return the specification */
+template <typename Params>
+ParamSpec
+toParamSpec(const ParamDeclaration<Params>& declaration, const Params& defaults)
+{
+  using Type = typename ParamDeclaration<Params>::Type;
+  const ParamValue value = declaration.get(defaults);
+  ParamSpec spec;
+  switch (declaration.type) {
+    case Type::DOUBLE:
+      spec =
+        ParamSpec::real(declaration.key, std::get<double>(value), declaration.range,
+                        declaration.unit, declaration.description);
+      break;
+    case Type::INT:
+      spec =
+        ParamSpec::integer(declaration.key, std::get<int>(value), declaration.range,
+                           declaration.unit, declaration.description);
+      break;
+    case Type::BOOL:
+      spec = ParamSpec::flag(declaration.key, std::get<bool>(value),
+                             declaration.description);
+      break;
+    case Type::CHOICE:
+      spec = ParamSpec::choice(declaration.key, std::get<std::string>(value),
+                               declaration.choices, declaration.description);
+      break;
+  }
+  spec.cell_size_scaling = declaration.cell_size_scaling;
+  return spec;
+}
+
+/** \brief A stage's parameter list from an algorithm's table, in the table's order,
+ * with the defaults of \a defaults (a default-constructed Params: the class's
+ * defaults are the pipeline's). */
+template <typename Params>
+std::vector<ParamSpec>
+paramSpecs(const ParamDeclarations<Params>& table, const Params& defaults = Params{})
+{
+  std::vector<ParamSpec> specs;
+  specs.reserve(table.size());
+  for (const auto& declaration : table)
+    specs.push_back(toParamSpec(declaration, defaults));
+  return specs;
+}
+
+/** \brief Writes the parsed values of \a table's keys into \a params.
+ * \throws planar_grid::Exception for a key of the table that \a values lacks (a
+ * stage whose parameter list was not made from the table), or a choice name the
+ * member's parser refuses */
+template <typename Params>
+void
+assignParams(const ParamDeclarations<Params>& table,
+             const ParamValues& values,
+             Params& params)
+{
+  for (const auto& declaration : table) {
+    const auto it = values.values().find(declaration.key);
+    if (it == values.values().end())
+      throw Exception("assignParams: no value for '" + declaration.key + "'");
+    declaration.set(params, it->second);
+  }
+}
+
+/** \brief Stores the values of \a params for \a table's keys in \a values (a stage's
+ * echo of its effective parameters). */
+template <typename Params>
+void
+reportParams(const ParamDeclarations<Params>& table,
+             const Params& params,
+             ParamValues& values)
+{
+  for (const auto& declaration : table)
+    values.set(declaration.key, declaration.get(params));
+}
 
 } // namespace planar_grid

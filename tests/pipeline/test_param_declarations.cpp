@@ -1,0 +1,134 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The map's parameters are declared once (PlanarGridMap::getParamDeclarations()): the
+// map_integration stage's list, its parsing into the map and its echo come from it.
+#include <planar_grid/map/planar_grid_map.h>
+#include <planar_grid/pipeline/param_table.h>
+#include <planar_grid/pipeline/stage.h>
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <string>
+#include <variant>
+#include <vector>
+
+namespace {
+
+using planar_grid::ParamSpec;
+using planar_grid::ParamValue;
+using planar_grid::ParamValues;
+using planar_grid::PlanarGridMap;
+using Declaration = planar_grid::ParamDeclaration<PlanarGridMap::Params>;
+
+const planar_grid::StageInfo&
+mapStage()
+{
+  const auto& registry = planar_grid::stageRegistry();
+  const auto it = std::find_if(registry.begin(), registry.end(), [](const auto& info) {
+    return info.type == "map_integration";
+  });
+  if (it == registry.end())
+    throw std::runtime_error("no map_integration stage");
+  return *it;
+}
+
+/** A valid value of \a d other than its default, as YAML text and as a value. */
+std::pair<std::string, ParamValue>
+otherValue(const Declaration& d)
+{
+  const ParamValue value = d.get(PlanarGridMap::Params{});
+  switch (d.type) {
+    case Declaration::Type::BOOL:
+      return {std::get<bool>(value) ? "false" : "true", !std::get<bool>(value)};
+    case Declaration::Type::CHOICE:
+      for (const auto& name : d.choices)
+        if (name != std::get<std::string>(value))
+          return {name, name};
+      break;
+    case Declaration::Type::INT: {
+      const int v = std::get<int>(value);
+      for (const int candidate : {v + 1, v - 1})
+        if (d.range.contains(candidate))
+          return {std::to_string(candidate), candidate};
+      break;
+    }
+    case Declaration::Type::DOUBLE: {
+      const double v = std::get<double>(value);
+      // Values whose decimal text is exact enough to compare after YAML.
+      for (const double candidate : {v * 2.0, v * 0.5, v + 0.25, 0.5, 1.0})
+        if (candidate != v && d.range.contains(candidate))
+          return {planar_grid::formatParamNumber(candidate), candidate};
+      break;
+    }
+  }
+  throw std::runtime_error("no other value for " + d.key);
+}
+
+TEST(ParamDeclarations, MapIntegrationListsEveryMapParameterAsDeclared)
+{
+  const auto& table = PlanarGridMap::getParamDeclarations();
+  const auto& params = mapStage().params;
+  ASSERT_GE(table.size(), 20u);
+  for (const Declaration& d : table) {
+    SCOPED_TRACE(d.key);
+    const auto spec = std::find_if(params.begin(), params.end(),
+                                   [&d](const ParamSpec& s) { return s.key == d.key; });
+    ASSERT_NE(spec, params.end()) << "the stage does not list it";
+    EXPECT_EQ(static_cast<int>(spec->type), static_cast<int>(d.type));
+    EXPECT_EQ(spec->unit, d.unit);
+    EXPECT_EQ(spec->description, d.description);
+    EXPECT_EQ(spec->choices, d.choices);
+    EXPECT_EQ(spec->cell_size_scaling, d.cell_size_scaling);
+    if (d.type == Declaration::Type::DOUBLE || d.type == Declaration::Type::INT) {
+      EXPECT_EQ(spec->range.min, d.range.min);
+      EXPECT_EQ(spec->range.max, d.range.max);
+      EXPECT_EQ(spec->range.min_open, d.range.min_open);
+      EXPECT_EQ(spec->range.max_open, d.range.max_open);
+    }
+    // The stage's default is the class's: the member's initializer.
+    const ParamValues stage_defaults = planar_grid::defaultParams({*spec});
+    EXPECT_EQ(stage_defaults.values().at(d.key), d.get(PlanarGridMap::Params{}));
+  }
+  // Every key is declared once.
+  for (std::size_t i = 0; i < table.size(); ++i)
+    for (std::size_t j = i + 1; j < table.size(); ++j)
+      EXPECT_NE(table[i].key, table[j].key);
+}
+
+TEST(ParamDeclarations, EachValueReachesTheMapAndTheStageEcho)
+{
+  const auto& info = mapStage();
+  for (const Declaration& d : PlanarGridMap::getParamDeclarations()) {
+    SCOPED_TRACE(d.key);
+    const auto [text, value] = otherValue(d);
+    const ParamValues parsed = planar_grid::parseParams(
+      YAML::Load("{" + d.key + ": " + text + "}"), info.params, "map.yaml", info.type);
+    // Into the map: this member changes, every other keeps its default.
+    PlanarGridMap::Params params;
+    planar_grid::assignParams(PlanarGridMap::getParamDeclarations(), parsed, params);
+    const PlanarGridMap map(params);
+    for (const Declaration& other : PlanarGridMap::getParamDeclarations())
+      EXPECT_EQ(other.get(map.getParams()),
+                other.key == d.key ? value : other.get(PlanarGridMap::Params{}))
+        << other.key;
+    // Through the stage, whose echo reports it.
+    const auto stage = info.create(parsed);
+    ParamValues held;
+    stage->getParameters(held);
+    EXPECT_EQ(held.values().at(d.key), value);
+  }
+}
+
+TEST(ParamDeclarations, AChoiceThatIsNoneOfTheNamesIsRefused)
+{
+  PlanarGridMap::Params params;
+  for (const Declaration& d : PlanarGridMap::getParamDeclarations())
+    if (d.type == Declaration::Type::CHOICE) {
+      SCOPED_TRACE(d.key);
+      EXPECT_THROW(d.set(params, std::string("no_such_name")), planar_grid::Exception);
+      EXPECT_EQ(d.get(params), d.get(PlanarGridMap::Params{}));
+    }
+}
+
+} // namespace
