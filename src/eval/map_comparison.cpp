@@ -5,7 +5,6 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/eval/map_comparison.h>
 #include <planar_grid/eval/mapping_error.h>
-#include <planar_grid/eval/rectangular_cuboid_approximation.h>
 #include <planar_grid/eval/standard_voxel_grid.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 #include <planar_grid/pipeline/stage.h>
@@ -14,7 +13,6 @@
 #include <pcl/io/pcd_io.h>
 
 #include <octomap/octomap.h>
-#include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -27,11 +25,11 @@
 #include <memory>
 #include <set>
 #include <sstream>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
 #include "map_comparison_impl.h"
+#include "map_comparison_lane.h"
 
 namespace planar_grid {
 
@@ -39,7 +37,15 @@ namespace {
 
 namespace fs = std::filesystem;
 
+using detail::buildTruth;
 using detail::isFrontEnd;
+using detail::Lane;
+using detail::MappedViews;
+using detail::measureLane;
+using detail::MethodTimes;
+using detail::msSince;
+using detail::rangeView;
+using detail::ReferenceVoxels;
 
 /** Writes \a points to \a path as a binary compressed PCD, atomically (a failed
  * write leaves no half file). \throws planar_grid::IOError naming the file */
@@ -96,13 +102,6 @@ pipelinePart(const DatasetConfig& ds, bool front, double r)
   return part;
 }
 
-double
-msSince(std::chrono::steady_clock::time_point t)
-{
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t)
-    .count();
-}
-
 /** Appends the valid points of \a cloud, moved by \a world_T, to \a out. */
 void
 appendWorldPoints(const Frame::Cloud& cloud,
@@ -131,417 +130,6 @@ worldPoints(const Frame& frame)
     world_T = frame.world_T_camera.matrix().cast<float>();
   appendWorldPoints(*frame.cloud, world_T, out);
   return out;
-}
-
-/** The REFERENCE truth: voxels of all frames' points with the number of frames that
- * saw each. */
-class ReferenceVoxels {
-public:
-  explicit ReferenceVoxels(double leaf_m) : leaf_m_(leaf_m) {}
-
-  void addFrame(const pcl::PointCloud<pcl::PointXYZ>& points)
-  {
-    ++frame_;
-    for (const auto& p : points.points) {
-      const auto key = keyOf(p.getVector3fMap());
-      Voxel& v = voxels_[key];
-      if (v.last_frame != frame_) {
-        v.last_frame = frame_;
-        ++v.views;
-      }
-      v.sum += p.getVector3fMap().cast<double>();
-      ++v.points;
-    }
-  }
-
-  /** The mean point of every voxel seen by at least \a min_views frames. */
-  void getPoints(std::size_t min_views, pcl::PointCloud<pcl::PointXYZ>& out) const
-  {
-    out.clear();
-    for (const auto& kv : voxels_)
-      if (kv.second.views >= min_views) {
-        const Eigen::Vector3d c = kv.second.sum / static_cast<double>(kv.second.points);
-        out.push_back(pcl::PointXYZ(static_cast<float>(c.x()),
-                                    static_cast<float>(c.y()),
-                                    static_cast<float>(c.z())));
-      }
-  }
-
-private:
-  struct Voxel {
-    Eigen::Vector3d sum{Eigen::Vector3d::Zero()};
-    std::uint32_t points{0};
-    std::uint32_t views{0};
-    std::uint32_t last_frame{0};
-  };
-
-  std::uint64_t keyOf(const Eigen::Vector3f& p) const
-  {
-    std::uint64_t key = 0;
-    for (int k = 0; k < 3; ++k) {
-      const auto i = static_cast<std::int64_t>(std::floor(p[k] / leaf_m_)) + (1 << 20);
-      key = (key << 21) | (static_cast<std::uint64_t>(i) & 0x1FFFFF);
-    }
-    return key;
-  }
-
-  double leaf_m_;
-  std::uint32_t frame_{0};
-  std::unordered_map<std::uint64_t, Voxel> voxels_;
-};
-
-/** Milliseconds of each method's own work, to be reported per frame. */
-struct MethodTimes {
-  double sg{0.0}, og{0.0}, pg{0.0};
-};
-
-/** One cell size: PG's mapping stages (a pipeline fed the front end's frames), and
- * the SG and OG maps. */
-struct Lane {
-  double resolution_m{0.1};
-  /** The mapping stages at this cell size; its state holds PG's map. */
-  std::unique_ptr<PipelineRunner> pipeline;
-  /** The stage types of \a pipeline, in order. */
-  std::vector<std::string> types;
-  std::unique_ptr<StandardVoxelGrid> sg;
-  std::unique_ptr<octomap::OcTree> og;
-  double pg_ms{0.0}, sg_ms{0.0}, og_ms{0.0};
-  /** The current frame's times, and whether SG and OG have its cloud. */
-  MethodTimes frame_ms;
-  bool inserted{false};
-  /** The truth voxelized at the lane's cell size (built when first measured). */
-  std::unique_ptr<TruthVoxels> truth_voxels;
-  /** Time spent on the completeness and planar share (and the truth voxels), ms. */
-  double completeness_ms{0.0};
-  /** Time spent on PG's plane precision, ms. */
-  double plane_precision_ms{0.0};
-  /** The views of the frames mapped so far already added to truth_voxels' range. */
-  std::size_t views_added{0};
-};
-
-/** The frames mapped so far, for the mapped range, and its depth. */
-struct MappedViews {
-  double max_depth_m{std::numeric_limits<double>::infinity()};
-  std::vector<RangeView, Eigen::aligned_allocator<RangeView>> views;
-};
-
-/** The view of \a frame for the mapped range: its pose and, for stereo input, its
- * image (the calibration's size, else the left image's). */
-RangeView
-rangeView(const Frame& frame)
-{
-  RangeView view;
-  view.world_T_camera = frame.world_T_camera;
-  const StereoCalibration& c = frame.calibration;
-  if (c.focal_length_px > 0.0) {
-    view.focal_length_px = c.focal_length_px;
-    view.cx_px = c.cx_px;
-    view.cy_px = c.cy_px;
-    view.width_px = c.width > 0 ? c.width : frame.left.cols;
-    view.height_px = c.height > 0 ? c.height : frame.left.rows;
-  }
-  return view;
-}
-
-/** The ground truth of \a ds (TruthConfig); \a first_frame gives the DISPARITY truth
- * its calibration and pose, \a reference holds the REFERENCE voxels. */
-std::unique_ptr<GroundTruthSurface>
-buildTruth(const DatasetConfig& ds,
-           const Frame& first_frame,
-           const ReferenceVoxels& reference,
-           std::string& truth_kind)
-{
-  pcl::PointCloud<pcl::PointXYZ>::Ptr truth_points(new pcl::PointCloud<pcl::PointXYZ>);
-  truth_kind = "truth";
-  switch (ds.truth.type) {
-    case TruthConfig::Type::POINTS:
-      if (pcl::io::loadPCDFile(ds.truth.file, *truth_points) != 0)
-        throw IOError(ds.truth.file + ": cannot read the truth points (PCD)");
-      break;
-    case TruthConfig::Type::DISPARITY: {
-      const cv::Mat gt = cv::imread(ds.truth.file, cv::IMREAD_UNCHANGED);
-      if (gt.empty() || gt.type() != CV_8UC1)
-        throw IOError(ds.truth.file + ": not an 8-bit disparity image");
-      const StereoCalibration& c = first_frame.calibration;
-      const Eigen::Matrix4f world_T = first_frame.world_T_camera.matrix().cast<float>();
-      for (int v = 0; v < gt.rows; ++v)
-        for (int u = 0; u < gt.cols; ++u) {
-          const int d = gt.at<std::uint8_t>(v, u);
-          if (d == 0)
-            continue;
-          const double z = c.depthFromDisparity(d);
-          const Eigen::Vector4f p(
-            static_cast<float>((u - c.cx_px) * z / c.focal_length_px),
-            static_cast<float>((v - c.cy_px) * z / c.focal_length_px),
-            static_cast<float>(z), 1.0f);
-          const Eigen::Vector4f q = world_T * p;
-          truth_points->push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
-        }
-      break;
-    }
-    case TruthConfig::Type::REFERENCE:
-      reference.getPoints(ds.truth.min_views, *truth_points);
-      truth_kind = "reference";
-      break;
-  }
-  if (truth_points->empty())
-    throw Exception("dataset " + ds.name + ": the truth has no points");
-  return std::make_unique<GroundTruthSurface>(truth_points);
-}
-
-/** What one measurement of a lane compares against: the truth, its voxels at the
- * lane's cell size, the mapped views, the tolerance, and the region (null: the whole
- * map; the completeness then counts every truth voxel). */
-struct LaneTruth {
-  const GroundTruthSurface& truth;
-  const TruthVoxels& voxels;
-  const MappedViews& mapped;
-  double tolerance_m;
-  const MappingErrorRegion* region;
-  const MappingErrorRegion& truth_region;
-};
-
-/** \brief The error figures of \a e in \a row (and, in a region, its cell count). */
-void
-applyError(ComparisonRow& row, const MappingError& e, const LaneTruth& t)
-{
-  row.samples = e.samples;
-  row.erroneous = e.erroneous;
-  row.own_error = e.ownError();
-  if (t.region)
-    row.cells = e.cells;
-}
-
-/** \brief The completeness figures of \a c in \a row. SG's, OG's and RA's maps are
- * their occupied cells alone: the whole map's completeness is theirs; PG's is
- * measured on both layers apart. */
-void
-applyCompleteness(ComparisonRow& row, const Completeness& c, const LaneTruth& t)
-{
-  row.truth_voxels = c.truth_voxels;
-  row.covered_voxels = c.covered;
-  row.completeness = c.ratio();
-  row.map_covered_voxels = c.covered;
-  row.map_completeness = c.ratio();
-  row.nonground_voxels = c.nonground_voxels;
-  row.nonground_covered_voxels = c.nonground_covered;
-  row.nonground_completeness = c.nongroundRatio();
-  row.mapped_range_m = t.mapped.max_depth_m;
-  row.range_nonground_voxels = c.range_nonground_voxels;
-  row.range_nonground_covered_voxels = c.range_nonground_covered;
-  row.range_nonground_completeness = c.rangeNongroundRatio();
-}
-
-/** \brief The truth voxels of \a lane at its cell size, their mapped range grown
- * with the views mapped since the last measurement. */
-const TruthVoxels&
-laneTruthVoxels(Lane& lane, const GroundTruthSurface& truth, const MappedViews& mapped)
-{
-  if (!lane.truth_voxels) {
-    lane.truth_voxels = std::make_unique<TruthVoxels>(truth, lane.resolution_m);
-    lane.truth_voxels->setMappedRange(mapped.max_depth_m);
-  }
-  for (; lane.views_added < mapped.views.size(); ++lane.views_added)
-    lane.truth_voxels->addView(mapped.views[lane.views_added]);
-  return *lane.truth_voxels;
-}
-
-/** \brief The completeness \a evaluate() gives, in \a row; its time goes to the
- * lane's completeness time, apart from the method's. */
-template <typename Evaluate>
-void
-addCompleteness(Lane& lane, ComparisonRow& row, const LaneTruth& t, Evaluate&& evaluate)
-{
-  const auto start = std::chrono::steady_clock::now();
-  applyCompleteness(row, evaluate(), t);
-  lane.completeness_ms += msSince(start);
-}
-
-/** \brief SG's row: its occupied voxels. */
-ComparisonRow
-measureSG(Lane& lane, const ComparisonRow& base, double ms, const LaneTruth& t)
-{
-  ComparisonRow sg = base;
-  sg.method = "SG";
-  sg.cells = lane.sg->getOccupiedCount();
-  sg.all_cells = lane.sg->getVoxelCount();
-  sg.memory_bytes = lane.sg->getMemoryBytes();
-  sg.ms_per_frame = ms;
-  applyError(sg,
-             t.region ? evaluateVoxels(*lane.sg, t.truth, t.tolerance_m, *t.region)
-                      : evaluateVoxels(*lane.sg, t.truth, t.tolerance_m),
-             t);
-  addCompleteness(lane, sg, t, [&] {
-    return evaluateCompleteness(*lane.sg, t.voxels, t.tolerance_m, t.truth_region);
-  });
-  return sg;
-}
-
-/** \brief OG's row: OctoMap's occupied leaves after pruning. */
-ComparisonRow
-measureOG(Lane& lane, const ComparisonRow& base, double ms, const LaneTruth& t)
-{
-  ComparisonRow og = base;
-  og.method = "OG";
-  lane.og->prune();
-  for (auto it = lane.og->begin_leafs(); it != lane.og->end_leafs(); ++it) {
-    ++og.all_cells;
-    og.cells += lane.og->isNodeOccupied(*it);
-  }
-  og.memory_bytes = lane.og->memoryUsage();
-  og.ms_per_frame = ms;
-  applyError(og,
-             t.region ? evaluateOcTree(*lane.og, t.truth, t.tolerance_m, *t.region)
-                      : evaluateOcTree(*lane.og, t.truth, t.tolerance_m),
-             t);
-  addCompleteness(lane, og, t, [&] {
-    return evaluateCompleteness(*lane.og, t.voxels, t.tolerance_m, t.truth_region);
-  });
-  return og;
-}
-
-/** \brief RA's row: SG's voxels merged into boxes here; its time is SG's plus the
- * merge's spread over \a ra_divisor frames. */
-ComparisonRow
-measureRA(Lane& lane,
-          const ComparisonRow& base,
-          double sg_ms,
-          double ra_divisor,
-          const LaneTruth& t)
-{
-  using Clock = std::chrono::steady_clock;
-  const double r = lane.resolution_m;
-  ComparisonRow ra = base;
-  ra.method = "RA";
-  AxisAlignedBoxes boxes;
-  const auto merge_start = Clock::now();
-  RectangularCuboidApproximation().compute(*lane.sg, boxes);
-  ra.ms_per_frame = sg_ms + msSince(merge_start) / ra_divisor;
-  for (const auto& b : boxes)
-    ra.cells += b.occupied;
-  ra.all_cells = boxes.size();
-  ra.memory_bytes = RectangularCuboidApproximation::getMemoryBytes(boxes);
-  applyError(ra,
-             t.region ? evaluateBoxes(boxes, r, t.truth, t.tolerance_m, *t.region)
-                      : evaluateBoxes(boxes, r, t.truth, t.tolerance_m),
-             t);
-  addCompleteness(lane, ra, t, [&] {
-    return evaluateCompleteness(boxes, r, t.voxels, t.tolerance_m, t.truth_region);
-  });
-  return ra;
-}
-
-/** \brief PG's row: its occupied cuboids' error (and its planar ones' apart), the
- * completeness of its cuboids and of its whole map, the planar share and the plane
- * precision. \a planar_counts gets its planar cuboids (count, occupied). */
-ComparisonRow
-measurePG(Lane& lane,
-          const ComparisonRow& base,
-          double ms,
-          const LaneTruth& t,
-          std::pair<std::size_t, std::size_t>& planar_counts)
-{
-  using Clock = std::chrono::steady_clock;
-  const double r = lane.resolution_m;
-  ComparisonRow pg = base;
-  pg.method = "PG";
-  pg.ms_per_frame = ms;
-  if (!lane.pipeline->state().map)
-    throw Exception("dataset " + base.dataset
-                    + ": the pipeline has no map_integration stage (PG is its map)");
-  const PlanarGridMap& map = *lane.pipeline->state().map;
-  const PlanarCuboids& cuboids = map.getSurfaceLayer().getCuboids();
-  const double thres = map.getParams().surface.occupancy_thres;
-  for (const auto& c : cuboids)
-    pg.cells += c.probability >= thres;
-  pg.all_cells = cuboids.size();
-  pg.memory_bytes = map.getMemory().total_bytes;
-  applyError(pg,
-             t.region
-               ? evaluateCuboids(cuboids, thres, r, t.truth, t.tolerance_m, *t.region)
-               : evaluateCuboids(cuboids, thres, r, t.truth, t.tolerance_m),
-             t);
-  PlanarCuboids planar;
-  planar_counts = {0, 0};
-  for (const auto& c : cuboids)
-    if (c.is_planar) {
-      planar.push_back(c);
-      planar_counts.second += c.probability >= thres;
-    }
-  planar_counts.first = planar.size();
-  const MappingError planar_error =
-    t.region ? evaluateCuboids(planar, thres, r, t.truth, t.tolerance_m, *t.region)
-             : evaluateCuboids(planar, thres, r, t.truth, t.tolerance_m);
-  pg.planar_samples = planar_error.samples;
-  pg.planar_erroneous = planar_error.erroneous;
-  const auto completeness_start = Clock::now();
-  applyCompleteness(
-    pg, evaluateCompleteness(cuboids, thres, t.voxels, t.tolerance_m, t.truth_region),
-    t);
-  const Completeness planar_share =
-    evaluatePlanarShare(cuboids, thres, t.voxels, t.tolerance_m, t.truth_region);
-  pg.planar_covered_voxels = planar_share.covered;
-  pg.planar_share = planar_share.ratio();
-  pg.range_planar_covered_voxels = planar_share.range_nonground_covered;
-  pg.range_planar_share = planar_share.rangeNongroundRatio();
-  const Completeness whole_map =
-    evaluateMapCompleteness(map, t.voxels, t.tolerance_m, t.truth_region);
-  pg.map_covered_voxels = whole_map.covered;
-  pg.map_completeness = whole_map.ratio();
-  lane.completeness_ms += msSince(completeness_start);
-  const auto precision_start = Clock::now();
-  const PlanePrecision precision =
-    evaluatePlanePrecision(cuboids, thres, r, t.truth, t.truth_region);
-  pg.plane_area_m2 = precision.face_area_m2;
-  pg.plane_precision = precision.ratio();
-  if (precision.face_area_m2 > 0.0) {
-    pg.plane_no_truth_share = precision.no_truth_area_m2 / precision.face_area_m2;
-    pg.plane_not_surface_share = precision.not_surface_area_m2 / precision.face_area_m2;
-    pg.plane_misoriented_share = precision.misoriented_area_m2 / precision.face_area_m2;
-  }
-  lane.plane_precision_ms += msSince(precision_start);
-  return pg;
-}
-
-/** SG, OG, RA and PG of \a lane as they stand, against \a truth: over the whole map
- * (\a region null) or the cells reaching into \a region (the paper's places). RA is
- * merged from SG here; \a ra_divisor spreads its merge time (frames of the mean). The
- * memory is always the whole map's. Rows in the order SG, OG, RA, PG; \a planar gets
- * PG's planar cuboids (count, occupied) for the progress line. */
-std::vector<ComparisonRow>
-measureLane(Lane& lane,
-            const ComparisonRow& base,
-            const GroundTruthSurface& truth,
-            const MappedViews& mapped,
-            double tolerance_m,
-            const MappingErrorRegion* region,
-            const MethodTimes& ms,
-            double ra_divisor,
-            std::pair<std::size_t, std::size_t>& planar_counts)
-{
-  using Clock = std::chrono::steady_clock;
-  // The completeness counts the truth voxels in the region (all without one) against
-  // every occupied cell of the map; its time is kept apart from the methods'.
-  const MappingErrorRegion everywhere;
-  const auto completeness_start = Clock::now();
-  const TruthVoxels& truth_voxels = laneTruthVoxels(lane, truth, mapped);
-  lane.completeness_ms += msSince(completeness_start);
-  const LaneTruth t{truth,       truth_voxels, mapped,
-                    tolerance_m, region,       region ? *region : everywhere};
-  const ComparisonRow sg = measureSG(lane, base, ms.sg, t);
-  std::vector<ComparisonRow> rows{sg, measureOG(lane, base, ms.og, t),
-                                  measureRA(lane, base, ms.sg, ra_divisor, t),
-                                  measurePG(lane, base, ms.pg, t, planar_counts)};
-  for (ComparisonRow& row : rows) {
-    row.efficiency =
-      sg.cells > 0
-        ? 1.0 - static_cast<double>(row.cells) / static_cast<double>(sg.cells)
-        : 0.0;
-    row.error = sg.cells > 0
-                  ? static_cast<double>(row.erroneous) / static_cast<double>(sg.cells)
-                  : 0.0;
-  }
-  return rows;
 }
 
 /** The places of \a frames processed frames: \a places of them evenly spaced, the
