@@ -744,6 +744,7 @@ bindAlgorithms(py::module_& m)
   bindCuboids(m);
   bindSegmentation(m);
   bindApproximation(m);
+  bindTerrainRemoval(m);
 }
 
 } // namespace python

@@ -73,6 +73,30 @@ castArgument(const py::handle& value, const std::string& where, const char* type
 
 } // namespace detail
 
+/** \brief \a value converted to \a declaration's type, as pybind11 converts an
+ * argument of that type (a float takes an int; an int no float).
+ * \throws py::type_error naming \a where when it does not convert */
+template <typename Params>
+ParamValue
+convertArgument(const ParamDeclaration<Params>& declaration,
+                const py::handle& value,
+                const std::string& where)
+{
+  using Type = typename ParamDeclaration<Params>::Type;
+  const char* type = paramPythonType(declaration);
+  switch (declaration.type) {
+    case Type::DOUBLE:
+      return detail::castArgument<double>(value, where, type);
+    case Type::INT:
+      return detail::castArgument<int>(value, where, type);
+    case Type::BOOL:
+      return detail::castArgument<bool>(value, where, type);
+    case Type::CHOICE:
+      break;
+  }
+  return detail::castArgument<std::string>(value, where, type);
+}
+
 /** \brief Params from the keyword arguments: the defaults of a default-constructed
  * Params, each given key converted and set. The result is not range-checked (the
  * class's constructor does that).
@@ -87,7 +111,6 @@ paramsFromKwargs(const ParamDeclarations<Params>& table,
                  const py::kwargs& kwargs,
                  const std::string& class_name)
 {
-  using Type = typename ParamDeclaration<Params>::Type;
   Params params;
   std::size_t used = 0;
   for (const auto& declaration : table) {
@@ -95,24 +118,8 @@ paramsFromKwargs(const ParamDeclarations<Params>& table,
     if (!kwargs.contains(key))
       continue;
     ++used;
-    const py::handle value = kwargs[key];
     const std::string where = class_name + ": " + declaration.key;
-    const char* type = paramPythonType(declaration);
-    ParamValue converted;
-    switch (declaration.type) {
-      case Type::DOUBLE:
-        converted = detail::castArgument<double>(value, where, type);
-        break;
-      case Type::INT:
-        converted = detail::castArgument<int>(value, where, type);
-        break;
-      case Type::BOOL:
-        converted = detail::castArgument<bool>(value, where, type);
-        break;
-      case Type::CHOICE:
-        converted = detail::castArgument<std::string>(value, where, type);
-        break;
-    }
+    const ParamValue converted = convertArgument(declaration, kwargs[key], where);
     try {
       declaration.set(params, converted);
     } catch (const planar_grid::Exception& e) {
@@ -164,6 +171,78 @@ keywordSignatureObject(const ParamDeclarations<Params>& table)
                 py::arg("default") = paramToPython(declaration.get(defaults)),
                 py::arg("annotation") = builtins.attr(paramPythonType(declaration))));
   return inspect.attr("Signature")(parameters);
+}
+
+/** \brief Binds an algorithm's declared parameters on its Python class \a cls: a
+ * read-write property per key (type, meaning, unit and range in its docstring), a
+ * constructor taking them as keyword arguments with the C++ defaults, __signature__
+ * and __repr__ (a constructor call that rebuilds the object). A value out of its
+ * declared range raises ValueError and leaves the object as it was.
+ * \param[in] cls the class (T held by Holder, default-constructible)
+ * \param[in] class_name the Python name, for messages and repr
+ * \param[in] table the declarations (a static table: the bindings keep a reference)
+ * \param[in] get_params T -> const Params& (T::getParams)
+ * \param[in] set_params (T&, const Params&) (T::setParams) */
+template <typename T, typename Holder, typename Params, typename Get, typename Set>
+void
+bindDeclaredParams(py::class_<T, Holder>& cls,
+                   const std::string& class_name,
+                   const ParamDeclarations<Params>& table,
+                   Get get_params,
+                   Set set_params)
+{
+  for (const auto& declaration : table) {
+    using Type = typename ParamDeclaration<Params>::Type;
+    const bool numeric =
+      declaration.type == Type::DOUBLE || declaration.type == Type::INT;
+    const std::string doc =
+      std::string(paramPythonType(declaration)) + ": " + declaration.description
+      + (numeric ? " In " + formatParamRange(declaration.range, declaration.unit) + "."
+                 : std::string());
+    cls.def_property(
+      declaration.key.c_str(),
+      [declaration, get_params](const T& object) {
+        return paramToPython(declaration.get(get_params(object)));
+      },
+      [declaration, get_params, set_params, class_name,
+       &table](T& object, const py::object& value) {
+        Params params = get_params(object);
+        declaration.set(params, convertArgument(declaration, value,
+                                                class_name + ": " + declaration.key));
+        const std::string bad = checkDeclaredRanges(table, params);
+        if (!bad.empty())
+          throw py::value_error(class_name + ": invalid parameter: " + bad);
+        set_params(object, params);
+      },
+      doc.c_str());
+  }
+  const std::string init_doc =
+    keywordSignature(table, "planar_grid._planar_grid." + class_name) + "\n\n"
+    + "Every keyword argument is a parameter (the properties), with the C++ default.";
+  {
+    py::options options;
+    options.disable_function_signatures();
+    cls.def(py::init([class_name, &table, set_params](const py::kwargs& kwargs) {
+              const Params params = paramsFromKwargs(table, kwargs, class_name);
+              const std::string bad = checkDeclaredRanges(table, params);
+              if (!bad.empty())
+                throw py::value_error(class_name + ": invalid parameter: " + bad);
+              Holder object(new T());
+              set_params(*object, params);
+              return object;
+            }),
+            init_doc.c_str());
+  }
+  cls.attr("__signature__") = keywordSignatureObject(table);
+  cls.def("__repr__", [class_name, &table, get_params](const T& object) {
+    std::string text = "planar_grid." + class_name + "(";
+    const Params& params = get_params(object);
+    for (std::size_t i = 0; i < table.size(); ++i)
+      text +=
+        (i == 0 ? "" : ", ") + table[i].key + "="
+        + py::repr(paramToPython(table[i].get(params))).template cast<std::string>();
+    return text + ")";
+  });
 }
 
 } // namespace python

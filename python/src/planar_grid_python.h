@@ -436,6 +436,8 @@ private:
 /** \brief Binds SACMultiPlaneSegmentation, PlanarCuboidApproximation and their result
  * types. */
 void bindAlgorithms(py::module_& m);
+/** \brief Binds TerrainRemoval. */
+void bindTerrainRemoval(py::module_& m);
 /** \brief Binds KLDivergenceOccupancyFilter and the occupancy functions of its
  * equations. */
 void bindOccupancyFilter(py::module_& m);

@@ -4,6 +4,7 @@ through the Python module, against known planes, boxes and the paper's formulas.
 
 import inspect
 import math
+import pathlib
 import re
 from typing import Any, Dict, List, Type, cast
 
@@ -402,3 +403,87 @@ def test_unknown_keyword_is_a_type_error_naming_it(cls: Type[Any]) -> None:
                   if p.annotation is float and n not in leading)
     with pytest.raises(TypeError, match="incompatible constructor arguments"):
         cls(**leading, **{number: "not a number"})
+
+
+def floor_wall_pebbles() -> npt.NDArray[np.float64]:
+    """A floor z = -1 (1 m below the origin), a wall x = 4 standing on it and 200 loose
+    pebbles 3-10 cm above the floor: rows floor, then wall, then pebbles."""
+    floor = plane_patch([0, 0, 1], 1.0, 4.0, 0.05)
+    wall = plane_patch([-1, 0, 0], 4.0, 3.0, 0.05)
+    wall = wall[wall[:, 2] > -0.9]
+    rng = np.random.default_rng(3)
+    pebbles = np.column_stack([rng.uniform(-1.5, 1.5, 200), rng.uniform(-1.5, 1.5, 200),
+                               rng.uniform(-0.97, -0.9, 200)])
+    return np.vstack([floor, wall, pebbles])
+
+
+def test_terrain_removal_takes_the_floor_and_what_lies_on_it() -> None:
+    points = floor_wall_pebbles()
+    n_floor, n_pebbles = 81 * 81, 200
+    n_wall = len(points) - n_floor - n_pebbles
+    planes = pg.SACMultiPlaneSegmentation(distance_threshold_m=0.02, min_inliers=300,
+                                          seed=0).segment(points)
+    assert len(planes) == 2
+    is_terrain, kept, ground = pg.TerrainRemoval().segment(points, planes)
+    # The floor and the pebbles on it are terrain; the wall (its foot too) is not.
+    assert is_terrain.dtype == np.bool_ and is_terrain.shape == (len(points),)
+    assert is_terrain[:n_floor].all() and is_terrain[-n_pebbles:].all()
+    assert not is_terrain[n_floor:n_floor + n_wall].any()
+    assert len(kept) == 1
+    np.testing.assert_allclose(kept.normals[0], [-1, 0, 0], atol=1e-3)
+    # The ground's normal is up, so that the sensor's signed distance is its height.
+    assert ground is not None
+    np.testing.assert_allclose(ground, [0, 0, 1, 1], atol=1e-3)
+
+    # The sensor must stand min_sensor_height_m above the ground: at 1.5 m it does not.
+    is_terrain, kept, ground = pg.TerrainRemoval(min_sensor_height_m=1.5).segment(
+        points, planes)
+    assert ground is None and not is_terrain.any() and len(kept) == 2
+
+    # The ground as planar cells: the floor (x, y in [-2, 2]) stays as four planes, one
+    # per 3 m tile of x, y; only the loose pebbles go.
+    is_terrain, kept, ground = pg.TerrainRemoval(terrain_plane_tile_m=3.0).segment(
+        points, planes)
+    assert ground is not None
+    assert not is_terrain[:n_floor + n_wall].any() and is_terrain[-n_pebbles:].all()
+    level = [i for i in range(len(kept)) if abs(kept.normals[i][2]) > 0.999]
+    assert len(level) == 4 and len(kept) == 5
+    assert sum(len(kept.inliers[i]) for i in level) == n_floor
+    # No plane keeps a terrain point, so the planes re-index onto the points kept
+    # (docs/PYTHON.md) and the approximation makes the floor's cells.
+    keep = np.flatnonzero(~is_terrain)
+    index = np.full(len(points), -1)
+    index[keep] = np.arange(len(keep))
+    remapped = pg.PlanarSegments(kept.model_coefficients, [index[i] for i in kept.inliers])
+    assert all((i >= 0).all() for i in remapped.inliers)
+    cuboids = pg.PlanarCuboidApproximation().approximate(points[keep], remapped)
+    assert set(cuboids.plane_ids[cuboids.is_planar]) == set(range(5))
+
+
+def test_terrain_removal_parameters_are_the_ground_removal_stage_keys(
+        source_dir: pathlib.Path) -> None:
+    # Declared once in C++: the keywords, their defaults and the generated reference.
+    text = (source_dir / "docs" / "STAGES.md").read_text()
+    section = text.split("## ground_removal", 1)[1].split("\n## ", 1)[0]
+    reference = {}
+    for row in section.splitlines():
+        cells = [c.strip() for c in row.split("|")]
+        if len(cells) > 4 and cells[1].startswith("`") and cells[3].startswith("`"):
+            reference[cells[1].strip("`")] = float(cells[3].strip("`"))
+    signature = inspect.signature(pg.TerrainRemoval)
+    assert list(signature.parameters) == list(reference)
+    removal = pg.TerrainRemoval()
+    for key, value in reference.items():
+        assert signature.parameters[key].default == pytest.approx(value), key
+        assert getattr(removal, key) == pytest.approx(value), key
+    # A value out of its range is refused by name and leaves the object as it was.
+    with pytest.raises(ValueError, match=r"terrain_cell_m must be in \[0.05, 100\] m"):
+        removal.terrain_cell_m = 0.0
+    assert removal.terrain_cell_m == pytest.approx(reference["terrain_cell_m"])
+    with pytest.raises(ValueError, match="eps_angle_rad must be in"):
+        pg.TerrainRemoval(eps_angle_rad=2.0)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'eps_angle'"):
+        pg.TerrainRemoval(**cast(Dict[str, Any], {"eps_angle": 0.1}))
+    removal.terrain_plane_tile_m = 4
+    rebuilt = eval(repr(removal), {"planar_grid": pg})
+    assert rebuilt.terrain_plane_tile_m == 4.0 and repr(rebuilt) == repr(removal)

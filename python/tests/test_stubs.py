@@ -60,7 +60,7 @@ def test_algorithm_constructors_carry_their_parameters() -> None:
     tree = stub_tree()
     classes = {n.name: n for n in tree.body if isinstance(n, ast.ClassDef)}
     for name in ["SACMultiPlaneSegmentation", "PlanarCuboidApproximation",
-                 "KLDivergenceOccupancyFilter"]:
+                 "KLDivergenceOccupancyFilter", "TerrainRemoval"]:
         init = next(f for f in classes[name].body
                     if isinstance(f, ast.FunctionDef) and f.name == "__init__")
         assert init.args.vararg is None and init.args.kwarg is None, name

@@ -378,7 +378,7 @@ private:
   std::size_t far_joined_{0};
 };
 
-using TerrainParams = TerrainRemoval<pcl::PointXYZI>::Params;
+using TerrainParams = TerrainRemovalParams;
 
 /** The ground_removal stage: planar_grid::TerrainRemoval on the frame's cloud and
  * planes (up axis and sensor origin the frame's); the ground's coefficients are kept
@@ -407,14 +407,7 @@ public:
 
   void getParameters(ParamValues& v) const override
   {
-    const TerrainParams& p = terrain_.getParams();
-    v.set("eps_angle_rad", p.eps_angle_rad);
-    v.set("min_sensor_height_m", p.min_sensor_height_m);
-    v.set("terrain_max_slope_rad", p.terrain_max_slope_rad);
-    v.set("terrain_max_step_m", p.terrain_max_step_m);
-    v.set("terrain_height_m", p.terrain_height_m);
-    v.set("terrain_cell_m", p.terrain_cell_m);
-    v.set("terrain_plane_tile_m", p.terrain_plane_tile_m);
+    reportParams(terrainRemovalParamDeclarations(), terrain_.getParams(), v);
   }
 
   void counters(const Frame& frame,
@@ -618,48 +611,10 @@ groundRemovalInfo()
     "terrain_height_m above the terrain (per terrain_cell_m cell). Inliers of the "
     "other planes (walls, down to their feet) and points higher up (cars, poles) "
     "stay.";
-  const TerrainParams d;
-  info.params = {
-    ParamSpec::real("eps_angle_rad", d.eps_angle_rad, terrain_removal_ranges::ANGLE,
-                    "rad", "Largest angle between the ground normal and the up axis."),
-    ParamSpec::real("min_sensor_height_m", d.min_sensor_height_m,
-                    terrain_removal_ranges::MIN_SENSOR_HEIGHT, "m",
-                    "The sensor must be at least this high above the ground plane."),
-    ParamSpec::real("terrain_max_slope_rad", d.terrain_max_slope_rad,
-                    terrain_removal_ranges::ANGLE, "rad",
-                    "Largest angle between a terrain plane's normal and the up axis "
-                    "(0: the ground plane is the only terrain plane)."),
-    ParamSpec::real("terrain_max_step_m", d.terrain_max_step_m,
-                    terrain_removal_ranges::HEIGHT, "m",
-                    "Largest step from a terrain plane up to the next (a curb)."),
-    ParamSpec::real("terrain_height_m", d.terrain_height_m,
-                    terrain_removal_ranges::HEIGHT, "m",
-                    "Points in no plane up to this height above the terrain are "
-                    "terrain, and a terrain plane's inliers higher above it than this "
-                    "stay (0: no loose point is terrain, every inlier is)."),
-    ParamSpec::real("terrain_cell_m", d.terrain_cell_m,
-                    terrain_removal_ranges::TERRAIN_CELL, "m",
-                    "Cell of the terrain height map."),
-    ParamSpec::real("terrain_plane_tile_m", d.terrain_plane_tile_m,
-                    terrain_removal_ranges::PLANE_TILE, "m",
-                    "The ground as planar cells: > 0 keeps the terrain planes and the "
-                    "inliers lying on them, split into square tiles of this side in "
-                    "the world's x, y plane and each tile's plane refitted to its "
-                    "inliers, so that the approximation makes them planar cells (the "
-                    "map's terrain cuboids: road, pavement, floor) and a sagging road "
-                    "is planar per tile; map_integration's terrain_plane_tile_m takes "
-                    "this value. Only the loose terrain points go. 0: the paper's "
-                    "rule, all terrain goes."),
-  };
+  info.params = paramSpecs(terrainRemovalParamDeclarations());
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     TerrainParams p;
-    p.eps_angle_rad = v.getDouble("eps_angle_rad");
-    p.min_sensor_height_m = v.getDouble("min_sensor_height_m");
-    p.terrain_max_slope_rad = v.getDouble("terrain_max_slope_rad");
-    p.terrain_max_step_m = v.getDouble("terrain_max_step_m");
-    p.terrain_height_m = v.getDouble("terrain_height_m");
-    p.terrain_cell_m = v.getDouble("terrain_cell_m");
-    p.terrain_plane_tile_m = v.getDouble("terrain_plane_tile_m");
+    assignParams(terrainRemovalParamDeclarations(), v, p);
     return std::make_unique<GroundRemovalStage>(p);
   };
   return info;

@@ -1,9 +1,13 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The map's parameters are declared once (PlanarGridMap::getParamDeclarations()): the
-// map_integration stage's list, its parsing into the map and its echo come from it.
+// An algorithm's parameters are declared once (PlanarGridMap::getParamDeclarations(),
+// TerrainRemoval::getParamDeclarations()): its stage's list, the parsing into the class
+// and the stage's echo come from that table.
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/param_table.h>
 #include <planar_grid/pipeline/stage.h>
+#include <planar_grid/segmentation/terrain_removal.h>
+
+#include <pcl/point_types.h>
 
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
@@ -19,25 +23,34 @@ using planar_grid::ParamSpec;
 using planar_grid::ParamValue;
 using planar_grid::ParamValues;
 using planar_grid::PlanarGridMap;
-using Declaration = planar_grid::ParamDeclaration<PlanarGridMap::Params>;
+using MapDeclaration = planar_grid::ParamDeclaration<PlanarGridMap::Params>;
+using TerrainDeclaration =
+  planar_grid::ParamDeclaration<planar_grid::TerrainRemovalParams>;
+
+const planar_grid::StageInfo&
+stage(const std::string& type)
+{
+  const auto& registry = planar_grid::stageRegistry();
+  const auto it = std::find_if(registry.begin(), registry.end(),
+                               [&type](const auto& info) { return info.type == type; });
+  if (it == registry.end())
+    throw std::runtime_error("no stage " + type);
+  return *it;
+}
 
 const planar_grid::StageInfo&
 mapStage()
 {
-  const auto& registry = planar_grid::stageRegistry();
-  const auto it = std::find_if(registry.begin(), registry.end(), [](const auto& info) {
-    return info.type == "map_integration";
-  });
-  if (it == registry.end())
-    throw std::runtime_error("no map_integration stage");
-  return *it;
+  return stage("map_integration");
 }
 
 /** A valid value of \a d other than its default, as YAML text and as a value. */
+template <typename Params>
 std::pair<std::string, ParamValue>
-otherValue(const Declaration& d)
+otherValue(const planar_grid::ParamDeclaration<Params>& d)
 {
-  const ParamValue value = d.get(PlanarGridMap::Params{});
+  using Declaration = planar_grid::ParamDeclaration<Params>;
+  const ParamValue value = d.get(Params{});
   switch (d.type) {
     case Declaration::Type::BOOL:
       return {std::get<bool>(value) ? "false" : "true", !std::get<bool>(value)};
@@ -65,11 +78,14 @@ otherValue(const Declaration& d)
   throw std::runtime_error("no other value for " + d.key);
 }
 
-TEST(ParamDeclarations, MapIntegrationListsEveryMapParameterAsDeclared)
+/** Every declaration of \a table is in \a stage_params as declared, with the
+ * class's default; every key once. */
+template <typename Params>
+void
+expectListedAsDeclared(const planar_grid::ParamDeclarations<Params>& table,
+                       const std::vector<ParamSpec>& params)
 {
-  const auto& table = PlanarGridMap::getParamDeclarations();
-  const auto& params = mapStage().params;
-  ASSERT_GE(table.size(), 20u);
+  using Declaration = planar_grid::ParamDeclaration<Params>;
   for (const Declaration& d : table) {
     SCOPED_TRACE(d.key);
     const auto spec = std::find_if(params.begin(), params.end(),
@@ -88,18 +104,70 @@ TEST(ParamDeclarations, MapIntegrationListsEveryMapParameterAsDeclared)
     }
     // The stage's default is the class's: the member's initializer.
     const ParamValues stage_defaults = planar_grid::defaultParams({*spec});
-    EXPECT_EQ(stage_defaults.values().at(d.key), d.get(PlanarGridMap::Params{}));
+    EXPECT_EQ(stage_defaults.values().at(d.key), d.get(Params{}));
   }
-  // Every key is declared once.
   for (std::size_t i = 0; i < table.size(); ++i)
     for (std::size_t j = i + 1; j < table.size(); ++j)
       EXPECT_NE(table[i].key, table[j].key);
 }
 
+TEST(ParamDeclarations, MapIntegrationListsEveryMapParameterAsDeclared)
+{
+  ASSERT_GE(PlanarGridMap::getParamDeclarations().size(), 20u);
+  expectListedAsDeclared(PlanarGridMap::getParamDeclarations(), mapStage().params);
+}
+
+TEST(ParamDeclarations, GroundRemovalIsTerrainRemovalsTable)
+{
+  const auto& table =
+    planar_grid::TerrainRemoval<pcl::PointXYZ>::getParamDeclarations();
+  ASSERT_EQ(table.size(), 7u);
+  expectListedAsDeclared(table, stage("ground_removal").params);
+  // The stage lists nothing else, and each value reaches the class and the echo.
+  EXPECT_EQ(stage("ground_removal").params.size(), table.size());
+  for (const TerrainDeclaration& d : table) {
+    SCOPED_TRACE(d.key);
+    const auto [text, value] = otherValue(d);
+    const auto& info = stage("ground_removal");
+    const ParamValues parsed = planar_grid::parseParams(
+      YAML::Load("{" + d.key + ": " + text + "}"), info.params, "g.yaml", info.type);
+    planar_grid::TerrainRemovalParams params;
+    planar_grid::assignParams(table, parsed, params);
+    const planar_grid::TerrainRemoval<pcl::PointXYZ> removal(params);
+    EXPECT_EQ(d.get(removal.getParams()), value);
+    ParamValues held;
+    info.create(parsed)->getParameters(held);
+    EXPECT_EQ(held.values().at(d.key), value);
+  }
+}
+
+TEST(ParamDeclarations, RangesAreCheckedFromTheTable)
+{
+  const auto& table =
+    planar_grid::TerrainRemoval<pcl::PointXYZ>::getParamDeclarations();
+  planar_grid::TerrainRemovalParams params;
+  EXPECT_EQ(planar_grid::checkDeclaredRanges(table, params), "");
+  params.terrain_cell_m = 0.0;
+  EXPECT_EQ(planar_grid::checkDeclaredRanges(table, params),
+            "terrain_cell_m must be in [0.05, 100] m, got 0");
+  // The class's own check is the table's.
+  planar_grid::TerrainRemoval<pcl::PointXYZ> removal(params);
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  planar_grid::PlanarSegments planes;
+  std::vector<std::uint8_t> terrain;
+  try {
+    removal.segment(cloud, planes, terrain);
+    ADD_FAILURE() << "no error";
+  } catch (const planar_grid::Exception& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "TerrainRemoval: terrain_cell_m must be in [0.05, 100] m, got 0");
+  }
+}
+
 TEST(ParamDeclarations, EachValueReachesTheMapAndTheStageEcho)
 {
   const auto& info = mapStage();
-  for (const Declaration& d : PlanarGridMap::getParamDeclarations()) {
+  for (const MapDeclaration& d : PlanarGridMap::getParamDeclarations()) {
     SCOPED_TRACE(d.key);
     const auto [text, value] = otherValue(d);
     const ParamValues parsed = planar_grid::parseParams(
@@ -108,7 +176,7 @@ TEST(ParamDeclarations, EachValueReachesTheMapAndTheStageEcho)
     PlanarGridMap::Params params;
     planar_grid::assignParams(PlanarGridMap::getParamDeclarations(), parsed, params);
     const PlanarGridMap map(params);
-    for (const Declaration& other : PlanarGridMap::getParamDeclarations())
+    for (const MapDeclaration& other : PlanarGridMap::getParamDeclarations())
       EXPECT_EQ(other.get(map.getParams()),
                 other.key == d.key ? value : other.get(PlanarGridMap::Params{}))
         << other.key;
@@ -123,8 +191,8 @@ TEST(ParamDeclarations, EachValueReachesTheMapAndTheStageEcho)
 TEST(ParamDeclarations, AChoiceThatIsNoneOfTheNamesIsRefused)
 {
   PlanarGridMap::Params params;
-  for (const Declaration& d : PlanarGridMap::getParamDeclarations())
-    if (d.type == Declaration::Type::CHOICE) {
+  for (const MapDeclaration& d : PlanarGridMap::getParamDeclarations())
+    if (d.type == MapDeclaration::Type::CHOICE) {
       SCOPED_TRACE(d.key);
       EXPECT_THROW(d.set(params, std::string("no_such_name")), planar_grid::Exception);
       EXPECT_EQ(d.get(params), d.get(PlanarGridMap::Params{}));

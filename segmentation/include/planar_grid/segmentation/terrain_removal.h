@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_declaration.h>
 #include <planar_grid/core/param_range.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 
@@ -28,6 +29,32 @@ inline constexpr ParamRange TERRAIN_CELL = ParamRange::closed(0.05, 100.0);
 /** \brief terrain_plane_tile_m, meters (0: the terrain planes go). */
 inline constexpr ParamRange PLANE_TILE = ParamRange::closed(0.0, 1000.0);
 } // namespace terrain_removal_ranges
+
+/** \brief TerrainRemoval's parameters; their ranges are terrain_removal_ranges' and
+ * their declarations terrainRemovalParamDeclarations(). \ingroup segmentation */
+struct TerrainRemovalParams {
+  /** \brief Largest angle between the ground's normal and the up axis, radians. */
+  double eps_angle_rad{0.2};
+  /** \brief The sensor is at least this high above the ground plane, meters. */
+  double min_sensor_height_m{0.3};
+  /** \brief Largest angle between a terrain plane's normal and the up axis,
+   * radians (0: the ground plane is the only terrain plane). */
+  double terrain_max_slope_rad{0.3};
+  /** \brief Largest step from a terrain plane up to the next (a curb), meters. */
+  double terrain_max_step_m{0.3};
+  /** \brief Points in no plane up to this height above the terrain are terrain,
+   * and a terrain plane's inliers higher above it stay, meters (0: no loose point
+   * is terrain, every inlier is). */
+  double terrain_height_m{0.2};
+  /** \brief Cell of the terrain height map, meters. */
+  double terrain_cell_m{1.0};
+  /** \brief Side of the terrain planes' tiles, meters (0: the terrain planes go). */
+  double terrain_plane_tile_m{0.0};
+};
+
+/** \brief The one declaration of each TerrainRemovalParams member (key with unit,
+ * range, meaning), in the order documented. \ingroup segmentation */
+const ParamDeclarations<TerrainRemovalParams>& terrainRemovalParamDeclarations();
 
 /** \brief Removes the terrain (the ground and what lies on it) from a cloud and its
  * planes, before the cuboid approximation.
@@ -64,26 +91,16 @@ public:
   /** \brief The input cloud's type. */
   using PointCloud = pcl::PointCloud<PointT>;
 
-  /** \brief The parameters; the ranges are terrain_removal_ranges'. */
-  struct Params {
-    /** \brief Largest angle between the ground's normal and the up axis, radians. */
-    double eps_angle_rad{0.2};
-    /** \brief The sensor is at least this high above the ground plane, meters. */
-    double min_sensor_height_m{0.3};
-    /** \brief Largest angle between a terrain plane's normal and the up axis,
-     * radians (0: the ground plane is the only terrain plane). */
-    double terrain_max_slope_rad{0.3};
-    /** \brief Largest step from a terrain plane up to the next (a curb), meters. */
-    double terrain_max_step_m{0.3};
-    /** \brief Points in no plane up to this height above the terrain are terrain,
-     * and a terrain plane's inliers higher above it stay, meters (0: no loose point
-     * is terrain, every inlier is). */
-    double terrain_height_m{0.2};
-    /** \brief Cell of the terrain height map, meters. */
-    double terrain_cell_m{1.0};
-    /** \brief Side of the terrain planes' tiles, meters (0: the terrain planes go). */
-    double terrain_plane_tile_m{0.0};
-  };
+  /** \brief The parameters (TerrainRemovalParams). */
+  using Params = TerrainRemovalParams;
+
+  /** \brief Each parameter's one declaration (key, range, unit, meaning): the
+   * ground_removal stage, its reference and the Python keywords are made from it.
+   * \return terrainRemovalParamDeclarations() */
+  static const ParamDeclarations<Params>& getParamDeclarations()
+  {
+    return terrainRemovalParamDeclarations();
+  }
 
   /** \brief A removal with the default parameters. */
   TerrainRemoval() = default;

@@ -43,21 +43,9 @@ template <typename PointT>
 void
 TerrainRemoval<PointT>::checkParameters() const
 {
-  namespace ranges = terrain_removal_ranges;
-  const auto check = [](const char* name, double value, const ParamRange& range,
-                        const char* unit) {
-    if (!range.contains(value))
-      throw Exception("TerrainRemoval: " + paramRangeMessage(name, range, unit)
-                      + ", got " + std::to_string(value));
-  };
-  check("eps_angle_rad", params_.eps_angle_rad, ranges::ANGLE, "rad");
-  check("min_sensor_height_m", params_.min_sensor_height_m, ranges::MIN_SENSOR_HEIGHT,
-        "m");
-  check("terrain_max_slope_rad", params_.terrain_max_slope_rad, ranges::ANGLE, "rad");
-  check("terrain_max_step_m", params_.terrain_max_step_m, ranges::HEIGHT, "m");
-  check("terrain_height_m", params_.terrain_height_m, ranges::HEIGHT, "m");
-  check("terrain_cell_m", params_.terrain_cell_m, ranges::TERRAIN_CELL, "m");
-  check("terrain_plane_tile_m", params_.terrain_plane_tile_m, ranges::PLANE_TILE, "m");
+  const std::string bad = checkDeclaredRanges(getParamDeclarations(), params_);
+  if (!bad.empty())
+    throw Exception("TerrainRemoval: " + bad);
   if (!(up_.norm() > 0.0f) || !up_.allFinite())
     throw Exception("TerrainRemoval: the up axis must be finite and not zero");
   if (!origin_.allFinite())

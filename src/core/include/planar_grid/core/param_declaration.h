@@ -197,4 +197,30 @@ declareChoice(std::string key,
   return declaration;
 }
 
+/** \brief The first member of \a params outside its declared range, as
+ * paramRangeMessage() writes it with the value ("terrain_cell_m must be in
+ * [0.05, 100] m, got 0"); empty when every number lies in its range. Choices and
+ * flags have no range to check.
+ * \param[in] table the declarations
+ * \param[in] params the values
+ * \return the message, or "" \ingroup core */
+template <typename Params>
+std::string
+checkDeclaredRanges(const ParamDeclarations<Params>& table, const Params& params)
+{
+  using Type = typename ParamDeclaration<Params>::Type;
+  for (const auto& declaration : table) {
+    if (declaration.type != Type::DOUBLE && declaration.type != Type::INT)
+      continue;
+    const ParamValue value = declaration.get(params);
+    const double number = declaration.type == Type::DOUBLE
+                            ? std::get<double>(value)
+                            : static_cast<double>(std::get<int>(value));
+    if (!declaration.range.contains(number))
+      return paramRangeMessage(declaration.key, declaration.range, declaration.unit)
+             + ", got " + formatParamNumber(number);
+  }
+  return "";
+}
+
 } // namespace planar_grid
