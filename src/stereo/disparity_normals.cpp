@@ -116,8 +116,16 @@ estimateDisparityNormals(
       static_cast<double>(sv), static_cast<double>(su), static_cast<double>(sv),
       static_cast<double>(n);
     const Eigen::Vector3d rhs(sud, svd, sd);
+    // The sums of the pixel offsets are exact integers: the samples are collinear (no
+    // plane fits them) exactly when the determinant of their normal matrix is zero.
+    // It is computed exactly: with at most 15 x 15 samples of offsets |du|, |dv| <= 200
+    // px, every sum is below 2^24 and every product of three below 2^62.
+    const std::int64_t det = suu * (svv * n - sv * sv) - suv * (suv * n - sv * su)
+                             + su * (suv * sv - svv * su);
+    if (det == 0)
+      continue;
     const Eigen::LDLT<Eigen::Matrix3d> ldlt(normal_matrix);
-    if (ldlt.info() != Eigen::Success || !(ldlt.rcond() > 1e-9))
+    if (ldlt.info() != Eigen::Success)
       continue;
     const Eigen::Vector3d abc = ldlt.solve(rhs);
     const double a = abc[0], b = abc[1];
