@@ -44,8 +44,7 @@ sensorModelFromName(const std::string& name)
   throw Exception("Unknown sensor model '" + name + "' (auto, pinhole, rays)");
 }
 
-/** The stage's own parameters, beside the map's: how it sees a frame, and the window.
- */
+/** The stage's own parameters beside the map's: how it sees a frame, the window. */
 struct MapStageParams {
   SensorModel sensor_model{SensorModel::AUTO};
   int depth_width_px{640};
