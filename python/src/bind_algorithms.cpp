@@ -683,13 +683,7 @@ all-NaN input gives no cuboid.
             "None");
         segments = planes.cast<Planes*>()->segments;
       }
-      for (std::size_t i = 0; i < segments.size(); ++i)
-        for (const int index : segments[i].inliers.indices)
-          if (index < 0 || static_cast<std::size_t>(index) >= cloud->size())
-            throw py::index_error("PlanarCuboidApproximation: plane "
-                                  + std::to_string(i) + " has the inlier index "
-                                  + std::to_string(index) + ", outside the "
-                                  + std::to_string(cloud->size()) + " points");
+      checkInlierIndices(segments, cloud->size(), "PlanarCuboidApproximation");
       const Eigen::Vector3f origin = toVector3f(sensor_origin, "sensor_origin");
       self.setSensorOrigin(origin);
       if (const char* bad = self.checkParameters())

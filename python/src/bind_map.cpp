@@ -142,25 +142,18 @@ Maps are not copied (copy.copy raises); pickling goes through the map file forma
 void
 bindMapConstructor(MapClass& cls)
 {
-  const auto& table = Map::getParamDeclarations();
-  const std::string doc =
-    keywordSignature(table, "planar_grid._planar_grid.PlanarGridMap") + "\n\n"
-    + wrapText("An empty map. Every keyword argument is a key of map_integration, "
-               "with its default (the class's Parameters).",
-               0, 88);
-  py::options options;
-  options.disable_function_signatures();
-  cls.def(py::init([](const py::kwargs& kwargs) {
-            const Map::Params params =
-              paramsFromKwargs(Map::getParamDeclarations(), kwargs, "PlanarGridMap");
-            try {
-              return std::make_shared<Map>(params);
-            } catch (const planar_grid::Exception& e) {
-              throw py::value_error(std::string("PlanarGridMap: ") + e.what());
-            }
-          }),
-          doc.c_str());
-  cls.attr("__signature__") = keywordSignatureObject(table);
+  bindKeywordConstructor(
+    cls, "PlanarGridMap", Map::getParamDeclarations(),
+    [](const Map::Params& params) {
+      try {
+        return std::make_shared<Map>(params);
+      } catch (const planar_grid::Exception& e) {
+        throw py::value_error(std::string("PlanarGridMap: ") + e.what());
+      }
+    },
+    wrapText("An empty map. Every keyword argument is a key of map_integration, with "
+             "its default (the class's Parameters).",
+             0, 88));
 }
 
 /** Reading and writing the map file. */

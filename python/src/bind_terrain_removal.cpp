@@ -51,12 +51,7 @@ the same defaults) and read-write properties.
     [](Removal& self, const FloatArray& points, const Planes& planes,
        const DoubleArray& up_axis, const DoubleArray& sensor_origin) {
       const auto cloud = toCloud(points, "points");
-      for (const auto& segment : planes.segments)
-        for (const int index : segment.inliers.indices)
-          if (index < 0 || static_cast<std::size_t>(index) >= cloud->size())
-            throw py::value_error("TerrainRemoval.segment: a plane's inlier "
-                                  + std::to_string(index) + " is not one of the "
-                                  + std::to_string(cloud->size()) + " points");
+      checkInlierIndices(planes.segments, cloud->size(), "TerrainRemoval.segment");
       self.setUpAxis(toVector3f(up_axis, "up_axis"));
       self.setSensorOrigin(toVector3f(sensor_origin, "sensor_origin"));
       Planes kept = planes;
@@ -106,7 +101,9 @@ tuple of (numpy.ndarray, PlanarSegments, numpy.ndarray or None)
 Raises
 ------
 ValueError
-    For arrays of another shape, a plane inlier that is no point, or a zero up axis.
+    For arrays of another shape or a zero up axis.
+IndexError
+    For a plane inlier outside the points.
 )doc");
 }
 

@@ -125,5 +125,19 @@ wrapText(const std::string& text, std::size_t indent, std::size_t width)
   return out;
 }
 
+void
+checkInlierIndices(const PlanarSegments& planes,
+                   std::size_t point_count,
+                   const std::string& who)
+{
+  for (std::size_t i = 0; i < planes.size(); ++i)
+    for (const int index : planes[i].inliers.indices)
+      if (index < 0 || static_cast<std::size_t>(index) >= point_count)
+        throw py::index_error(who + ": plane " + std::to_string(i)
+                              + " has the inlier index " + std::to_string(index)
+                              + ", outside the " + std::to_string(point_count)
+                              + " points");
+}
+
 } // namespace python
 } // namespace planar_grid

@@ -173,6 +173,37 @@ keywordSignatureObject(const ParamDeclarations<Params>& table)
   return inspect.attr("Signature")(parameters);
 }
 
+/** \brief Binds the constructor of \a cls from \a table: it takes every key as a
+ * keyword argument with the C++ default (paramsFromKwargs()) and returns \a make of
+ * the Params; its docstring starts with the signature line (keywordSignature()), then
+ * \a summary, and the class gets its inspect.Signature.
+ * \param[in] cls the class
+ * \param[in] class_name the Python name, for messages and the signature
+ * \param[in] table the declarations (a static table: the binding keeps a reference)
+ * \param[in] make const Params& -> Holder, which checks the values as the class does
+ * \param[in] summary the docstring after the signature line */
+template <typename T, typename Holder, typename Params, typename Make>
+void
+bindKeywordConstructor(py::class_<T, Holder>& cls,
+                       const std::string& class_name,
+                       const ParamDeclarations<Params>& table,
+                       Make make,
+                       const std::string& summary)
+{
+  const std::string doc =
+    keywordSignature(table, "planar_grid._planar_grid." + class_name) + "\n\n"
+    + summary;
+  {
+    py::options options;
+    options.disable_function_signatures();
+    cls.def(py::init([class_name, &table, make](const py::kwargs& kwargs) -> Holder {
+              return make(paramsFromKwargs(table, kwargs, class_name));
+            }),
+            doc.c_str());
+  }
+  cls.attr("__signature__") = keywordSignatureObject(table);
+}
+
 /** \brief Binds an algorithm's declared parameters on its Python class \a cls: a
  * read-write property per key (type, meaning, unit and range in its docstring), a
  * constructor taking them as keyword arguments with the C++ defaults, __signature__
@@ -216,24 +247,17 @@ bindDeclaredParams(py::class_<T, Holder>& cls,
       },
       doc.c_str());
   }
-  const std::string init_doc =
-    keywordSignature(table, "planar_grid._planar_grid." + class_name) + "\n\n"
-    + "Every keyword argument is a parameter (the properties), with the C++ default.";
-  {
-    py::options options;
-    options.disable_function_signatures();
-    cls.def(py::init([class_name, &table, set_params](const py::kwargs& kwargs) {
-              const Params params = paramsFromKwargs(table, kwargs, class_name);
-              const std::string bad = checkDeclaredRanges(table, params);
-              if (!bad.empty())
-                throw py::value_error(class_name + ": invalid parameter: " + bad);
-              Holder object(new T());
-              set_params(*object, params);
-              return object;
-            }),
-            init_doc.c_str());
-  }
-  cls.attr("__signature__") = keywordSignatureObject(table);
+  bindKeywordConstructor(
+    cls, class_name, table,
+    [class_name, &table, set_params](const Params& params) {
+      const std::string bad = checkDeclaredRanges(table, params);
+      if (!bad.empty())
+        throw py::value_error(class_name + ": invalid parameter: " + bad);
+      Holder object(new T());
+      set_params(*object, params);
+      return object;
+    },
+    "Every keyword argument is a parameter (the properties), with the C++ default.");
   cls.def("__repr__", [class_name, &table, get_params](const T& object) {
     std::string text = "planar_grid." + class_name + "(";
     const Params& params = get_params(object);

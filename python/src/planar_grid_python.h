@@ -54,6 +54,13 @@ toPoints(const FloatArray& points, const char* name);
 /** \brief A (3,) array as a vector. \throws py::value_error naming \a name */
 Eigen::Vector3f toVector3f(const DoubleArray& vector, const char* name);
 
+/** \brief Checks that every inlier of \a planes indexes one of \a point_count points
+ * (the cloud the planes are used with).
+ * \throws py::index_error naming \a who, the plane and the index */
+void checkInlierIndices(const PlanarSegments& planes,
+                        std::size_t point_count,
+                        const std::string& who);
+
 /** \brief A vector as a (3,) float64 array. */
 inline DoubleArray
 toArray(const Eigen::Vector3f& vector)

@@ -449,6 +449,9 @@ def test_terrain_removal_takes_the_floor_and_what_lies_on_it() -> None:
     level = [i for i in range(len(kept)) if abs(kept.normals[i][2]) > 0.999]
     assert len(level) == 4 and len(kept) == 5
     assert sum(len(kept.inliers[i]) for i in level) == n_floor
+    # Planes that index points not given are refused, as the approximation refuses them.
+    with pytest.raises(IndexError, match="plane 0 has the inlier index"):
+        pg.TerrainRemoval().segment(points[:100], planes)
     # No plane keeps a terrain point, so the planes re-index onto the points kept
     # (docs/PYTHON.md) and the approximation makes the floor's cells.
     keep = np.flatnonzero(~is_terrain)
