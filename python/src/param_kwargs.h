@@ -222,6 +222,12 @@ bindDeclaredParams(py::class_<T, Holder>& cls,
                    Get get_params,
                    Set set_params)
 {
+  // The declared ranges, checked before a value reaches the object.
+  const auto check = [class_name, &table](const Params& params) {
+    const std::string bad = checkDeclaredRanges(table, params);
+    if (!bad.empty())
+      throw py::value_error(class_name + ": invalid parameter: " + bad);
+  };
   for (const auto& declaration : table) {
     using Type = typename ParamDeclaration<Params>::Type;
     const bool numeric =
@@ -236,23 +242,19 @@ bindDeclaredParams(py::class_<T, Holder>& cls,
         return paramToPython(declaration.get(get_params(object)));
       },
       [declaration, get_params, set_params, class_name,
-       &table](T& object, const py::object& value) {
+       check](T& object, const py::object& value) {
         Params params = get_params(object);
         declaration.set(params, convertArgument(declaration, value,
                                                 class_name + ": " + declaration.key));
-        const std::string bad = checkDeclaredRanges(table, params);
-        if (!bad.empty())
-          throw py::value_error(class_name + ": invalid parameter: " + bad);
+        check(params);
         set_params(object, params);
       },
       doc.c_str());
   }
   bindKeywordConstructor(
     cls, class_name, table,
-    [class_name, &table, set_params](const Params& params) {
-      const std::string bad = checkDeclaredRanges(table, params);
-      if (!bad.empty())
-        throw py::value_error(class_name + ": invalid parameter: " + bad);
+    [check, set_params](const Params& params) {
+      check(params);
       Holder object(new T());
       set_params(*object, params);
       return object;
