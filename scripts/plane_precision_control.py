@@ -22,7 +22,10 @@ map must score the map above every turned copy, lower the more it is turned; whe
 leaned copy scores higher, the reference's local normals lean against the cells by
 about that angle, and the precision measures the reference as much as the map.
 
-Prints one line per copy: the angle and its plane precision."""
+Prints one line per copy: the angle and its plane precision. With --planes N, then
+the N planes of the largest face area: their cells, face area (m^2), unit normal, tilt
+from the up axis (deg), extent along the up axis (m), precise share and the median
+angle between the cells' and the truth normals (deg)."""
 import argparse
 import struct
 import sys
@@ -181,6 +184,8 @@ def main() -> None:
     parser.add_argument("truth", help="its truth or reference points, a .pcd file")
     parser.add_argument("--up", default="0,0,1",
                         help="the world's up axis, x,y,z (KITTI's poses: 0,-1,0)")
+    parser.add_argument("--planes", type=int, default=0,
+                        help="also list the N planes of the largest face area")
     args = parser.parse_args()
     try:
         up = np.array([float(v) for v in args.up.split(",")])
@@ -194,6 +199,7 @@ def main() -> None:
     c = m.cuboids
     keep = (np.asarray(c.is_planar) & (np.asarray(c.plane_ids) >= 0)
             & (np.asarray(c.probabilities) >= 0.5))
+    ids = np.asarray(c.plane_ids)[keep]
     centres = np.asarray(c.centres)[keep]
     normals = np.asarray(c.normals)[keep]
     extents = np.sort(np.asarray(c.extents_m)[keep], axis=1)
@@ -209,6 +215,30 @@ def main() -> None:
     for name, lean, yaw in copies:
         print(f"{name:>16}: plane precision "
               f"{precision(truth, turned(normals, up, lean, yaw), areas):.3f}")
+    if args.planes > 0:
+        print_planes(ids, centres, normals, areas, truth, up, args.planes)
+
+
+def print_planes(ids: np.ndarray, centres: np.ndarray, normals: np.ndarray,
+                 areas: np.ndarray, truth: List[Optional[np.ndarray]], up: np.ndarray,
+                 count: int) -> None:
+    """The --planes listing of the \a count planes of the largest face area."""
+    angles = np.array([np.degrees(np.arccos(min(1.0, abs(float(t @ n)))))
+                       if t is not None else np.nan for t, n in zip(truth, normals)])
+    planes = sorted(np.unique(ids), key=lambda p: -areas[ids == p].sum())[:count]
+    print("plane  cells  area m^2  normal              tilt deg  up extent m    "
+          "precise  median angle deg")
+    for p in planes:
+        s = ids == p
+        n = normals[s][0]
+        heights = centres[s] @ up
+        known = s & np.isfinite(angles)
+        precise = areas[known & (angles < MAX_ANGLE_DEG)].sum() / areas[s].sum()
+        median = np.median(angles[known]) if known.any() else float("nan")
+        tilt = np.degrees(np.arccos(min(1.0, abs(float(n @ up)))))
+        print(f"{p:5d} {int(s.sum()):6d} {areas[s].sum():9.2f}  "
+              f"({n[0]:+.2f}, {n[1]:+.2f}, {n[2]:+.2f})  {tilt:8.1f}  "
+              f"{heights.min():+5.2f}..{heights.max():+5.2f}  {precise:7.2f}  {median:16.1f}")
 
 
 if __name__ == "__main__":
