@@ -1,10 +1,11 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // An algorithm's parameters are declared once (PlanarGridMap::getParamDeclarations(),
-// TerrainRemoval::getParamDeclarations()): its stage's list, the parsing into the class
-// and the stage's echo come from that table.
+// TerrainRemoval::getParamDeclarations(), ...): its stage's list, the parsing into the
+// class and the stage's echo come from that table.
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/param_table.h>
 #include <planar_grid/pipeline/stage.h>
+#include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 #include <planar_grid/segmentation/terrain_removal.h>
 
 #include <pcl/point_types.h>
@@ -111,6 +112,111 @@ expectListedAsDeclared(const planar_grid::ParamDeclarations<Params>& table,
       EXPECT_NE(table[i].key, table[j].key);
 }
 
+/** The stage's keys in their order. */
+std::vector<std::string>
+keysOf(const std::vector<ParamSpec>& params)
+{
+  std::vector<std::string> keys;
+  for (const auto& spec : params)
+    keys.push_back(spec.key);
+  return keys;
+}
+
+/** A non-default value of each declaration of \a table, given to \a stage_type as
+ * YAML, reaches the class (\a make_class builds it from the parsed Params and
+ * \a get_params reads them back) with every other member at its default, and comes
+ * back in the stage's echo. */
+template <typename Params, typename MakeClass, typename GetParams>
+void
+expectEachValueReachesTheClassAndTheEcho(
+  const planar_grid::ParamDeclarations<Params>& table,
+  const std::string& stage_type,
+  MakeClass make_class,
+  GetParams get_params)
+{
+  const auto& info = stage(stage_type);
+  for (const auto& d : table) {
+    SCOPED_TRACE(d.key);
+    const auto [text, value] = otherValue(d);
+    const ParamValues parsed = planar_grid::parseParams(
+      YAML::Load("{" + d.key + ": " + text + "}"), info.params, "s.yaml", info.type);
+    Params params;
+    planar_grid::assignParams(table, parsed, params);
+    const auto object = make_class(params);
+    for (const auto& other : table)
+      EXPECT_EQ(other.get(get_params(object)),
+                other.key == d.key ? value : other.get(Params{}))
+        << other.key;
+    ParamValues held;
+    info.create(parsed)->getParameters(held);
+    EXPECT_EQ(held.values().at(d.key), value);
+  }
+}
+
+TEST(ParamDeclarations, MultiPlaneSegmentationIsTheSegmentationsTableAndItsOwn)
+{
+  using Segmentation = planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZ>;
+  const auto& table = Segmentation::getParamDeclarations();
+  const auto& params = stage("multi_plane_segmentation").params;
+  ASSERT_EQ(table.size(), 30u);
+  expectListedAsDeclared(table, params);
+  // A default-constructed class holds the table's defaults (the pipeline's).
+  const Segmentation defaults;
+  for (const auto& d : table)
+    EXPECT_EQ(d.get(defaults.getParams()), d.get(Segmentation::Params{})) << d.key;
+  EXPECT_EQ(defaults.getMaxNormalAngle(), 0.5);
+  EXPECT_EQ(defaults.getSampleDistanceThreshold(), 0.1);
+  // The stage's own keys stand beside the class keys they go with, in the order
+  // docs/STAGES.md documents.
+  const std::vector<std::string> expected{"distance_threshold_m",
+                                          "depth_noise_disparity_px",
+                                          "depth_noise_along_sight",
+                                          "sample_distance_threshold_m",
+                                          "max_planes",
+                                          "min_inliers",
+                                          "min_sample_inliers",
+                                          "min_remaining_fraction",
+                                          "max_iterations",
+                                          "method",
+                                          "optimize_coefficients",
+                                          "dense_hypothesis",
+                                          "lo_iterations",
+                                          "merge_planes",
+                                          "merge_angle_rad",
+                                          "merge_distance_m",
+                                          "sample",
+                                          "seed",
+                                          "max_visibility_conflict_ratio",
+                                          "visibility_margin_m",
+                                          "visibility_cell_m",
+                                          "min_sensor_distance_m",
+                                          "min_sensor_height_m",
+                                          "min_cluster_size",
+                                          "cluster_cell_m",
+                                          "max_shell_ratio",
+                                          "shell_width_m",
+                                          "count_inlier_only_points",
+                                          "inlier_only_distance_threshold_m",
+                                          "max_normal_angle_rad",
+                                          "normal_cell_m",
+                                          "normal_source",
+                                          "normal_window_m",
+                                          "min_normal_agreement"};
+  EXPECT_EQ(keysOf(params), expected);
+  expectEachValueReachesTheClassAndTheEcho(
+    table, "multi_plane_segmentation",
+    [](const Segmentation::Params& p) { return Segmentation(p); },
+    [](const Segmentation& s) { return s.getParams(); });
+  // The class's setters write the same members.
+  Segmentation segmentation;
+  segmentation.setMaxNormalAngle(0.0);
+  segmentation.setMinTerrainSensorHeight(1.5);
+  segmentation.setSeed(9u);
+  EXPECT_EQ(segmentation.getParams().max_normal_angle_rad, 0.0);
+  EXPECT_EQ(segmentation.getParams().min_sensor_height_m, 1.5);
+  EXPECT_EQ(segmentation.getParams().seed, 9u);
+}
+
 TEST(ParamDeclarations, MapIntegrationListsEveryMapParameterAsDeclared)
 {
   ASSERT_GE(PlanarGridMap::getParamDeclarations().size(), 20u);
@@ -188,15 +294,27 @@ TEST(ParamDeclarations, EachValueReachesTheMapAndTheStageEcho)
   }
 }
 
-TEST(ParamDeclarations, AChoiceThatIsNoneOfTheNamesIsRefused)
+/** Setting a choice of \a table to a name that is none of its choices throws and
+ * leaves the member as it was. */
+template <typename Params>
+void
+expectUnknownChoiceRefused(const planar_grid::ParamDeclarations<Params>& table)
 {
-  PlanarGridMap::Params params;
-  for (const MapDeclaration& d : PlanarGridMap::getParamDeclarations())
-    if (d.type == MapDeclaration::Type::CHOICE) {
+  using Declaration = planar_grid::ParamDeclaration<Params>;
+  Params params;
+  for (const Declaration& d : table)
+    if (d.type == Declaration::Type::CHOICE) {
       SCOPED_TRACE(d.key);
       EXPECT_THROW(d.set(params, std::string("no_such_name")), planar_grid::Exception);
-      EXPECT_EQ(d.get(params), d.get(PlanarGridMap::Params{}));
+      EXPECT_EQ(d.get(params), d.get(Params{}));
     }
+}
+
+TEST(ParamDeclarations, AChoiceThatIsNoneOfTheNamesIsRefused)
+{
+  expectUnknownChoiceRefused(PlanarGridMap::getParamDeclarations());
+  expectUnknownChoiceRefused(
+    planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZ>::getParamDeclarations());
 }
 
 } // namespace
