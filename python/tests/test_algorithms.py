@@ -287,7 +287,7 @@ CONSTRUCTOR_VALUES: Dict[Type[Any], Dict[str, object]] = {
         focal_length_px=500.0, baseline_m=0.1, disparity_error_px=1.0,
         neighbourhood_size_m=0.3, clamping_thres_min=0.2, clamping_thres_max=0.9,
         occupancy_thres=0.6, kl_offset_nats=0.5, prob_hit=0.8, prob_miss=0.3,
-        association_radius_m=0.1, update_rule="log_odds"),
+        association_radius_m=0.3, update_rule="log_odds"),
 }
 # The stereo rig, the filter's leading (positional or keyword) arguments.
 LEADING: Dict[Type[Any], List[str]] = {

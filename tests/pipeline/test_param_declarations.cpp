@@ -2,6 +2,7 @@
 // An algorithm's parameters are declared once (PlanarGridMap::getParamDeclarations(),
 // TerrainRemoval::getParamDeclarations(), ...): its stage's list, the parsing into the
 // class and the stage's echo come from that table.
+#include <planar_grid/filters/kl_divergence_occupancy_filter.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/param_table.h>
 #include <planar_grid/pipeline/stage.h>
@@ -14,6 +15,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <memory>
 #include <string>
 #include <variant>
 #include <vector>
@@ -70,7 +72,7 @@ otherValue(const planar_grid::ParamDeclaration<Params>& d)
     case Declaration::Type::DOUBLE: {
       const double v = std::get<double>(value);
       // Values whose decimal text is exact enough to compare after YAML.
-      for (const double candidate : {v * 2.0, v * 0.5, v + 0.25, 0.5, 1.0})
+      for (const double candidate : {v * 2.0, v * 0.5, v + 0.25, 0.5, 1.0, 0.75})
         if (candidate != v && d.range.contains(candidate))
           return {planar_grid::formatParamNumber(candidate), candidate};
       break;
@@ -217,6 +219,50 @@ TEST(ParamDeclarations, MultiPlaneSegmentationIsTheSegmentationsTableAndItsOwn)
   EXPECT_EQ(segmentation.getParams().seed, 9u);
 }
 
+TEST(ParamDeclarations, KLOccupancyFilterIsTheFiltersTableAndItsOwn)
+{
+  using Filter = planar_grid::KLDivergenceOccupancyFilter<pcl::PointXYZ>;
+  const auto& table = Filter::getParamDeclarations();
+  const auto& params = stage("kl_occupancy_filter").params;
+  ASSERT_EQ(table.size(), 12u);
+  expectListedAsDeclared(table, params);
+  // A default-constructed filter holds the table's defaults (the pipeline's).
+  const Filter defaults;
+  for (const auto& d : table)
+    EXPECT_EQ(d.get(defaults.getParams()), d.get(Filter::Params{})) << d.key;
+  EXPECT_EQ(defaults.getAssociationRadius(), 0.1);
+  // The stage's sensor model follows the update rule; its matching and motion keys
+  // come last, in the order docs/STAGES.md documents.
+  const std::vector<std::string> expected{"update_rule",
+                                          "range_error_model",
+                                          "disparity_error_px",
+                                          "depth_error_coefficient_per_m",
+                                          "range_error_m",
+                                          "association_radius_m",
+                                          "neighbourhood_size_m",
+                                          "clamping_thres_min",
+                                          "clamping_thres_max",
+                                          "occupancy_thres",
+                                          "kl_offset_nats",
+                                          "prob_hit",
+                                          "prob_miss",
+                                          "match_ratio",
+                                          "search_radius_px",
+                                          "max_hamming_distance_bits",
+                                          "use_motion_likelihood",
+                                          "sigma_translation_m",
+                                          "sigma_rotation_rad"};
+  EXPECT_EQ(keysOf(params), expected);
+  expectEachValueReachesTheClassAndTheEcho(
+    table, "kl_occupancy_filter",
+    [](const Filter::Params& p) {
+      auto filter = std::make_unique<Filter>();
+      filter->setParams(p);
+      return filter;
+    },
+    [](const std::unique_ptr<Filter>& f) { return f->getParams(); });
+}
+
 TEST(ParamDeclarations, MapIntegrationListsEveryMapParameterAsDeclared)
 {
   ASSERT_GE(PlanarGridMap::getParamDeclarations().size(), 20u);
@@ -315,6 +361,8 @@ TEST(ParamDeclarations, AChoiceThatIsNoneOfTheNamesIsRefused)
   expectUnknownChoiceRefused(PlanarGridMap::getParamDeclarations());
   expectUnknownChoiceRefused(
     planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZ>::getParamDeclarations());
+  expectUnknownChoiceRefused(
+    planar_grid::KLDivergenceOccupancyFilter<pcl::PointXYZ>::getParamDeclarations());
 }
 
 } // namespace
