@@ -2,6 +2,9 @@
 // An algorithm's parameters are declared once (PlanarGridMap::getParamDeclarations(),
 // TerrainRemoval::getParamDeclarations(), ...): its stage's list, the parsing into the
 // class and the stage's echo come from that table.
+#include <planar_grid/filters/depth_error_filter.h>
+#include <planar_grid/filters/fast_statistical_outlier_removal.h>
+#include <planar_grid/filters/fast_voxel_grid.h>
 #include <planar_grid/filters/kl_divergence_occupancy_filter.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/param_table.h>
@@ -261,6 +264,65 @@ TEST(ParamDeclarations, KLOccupancyFilterIsTheFiltersTableAndItsOwn)
       return filter;
     },
     [](const std::unique_ptr<Filter>& f) { return f->getParams(); });
+}
+
+TEST(ParamDeclarations, FilterStagesAreTheFiltersTables)
+{
+  using VoxelGrid = planar_grid::FastVoxelGrid<pcl::PointXYZ>;
+  using OutlierRemoval = planar_grid::FastStatisticalOutlierRemoval<pcl::PointXYZ>;
+  using DepthError = planar_grid::DepthErrorFilter<pcl::PointXYZ>;
+  // voxel_grid and statistical_outlier_removal are their filter's table alone.
+  ASSERT_EQ(VoxelGrid::getParamDeclarations().size(), 2u);
+  expectListedAsDeclared(VoxelGrid::getParamDeclarations(), stage("voxel_grid").params);
+  EXPECT_EQ(stage("voxel_grid").params.size(), 2u);
+  ASSERT_EQ(OutlierRemoval::getParamDeclarations().size(), 2u);
+  expectListedAsDeclared(OutlierRemoval::getParamDeclarations(),
+                         stage("statistical_outlier_removal").params);
+  EXPECT_EQ(stage("statistical_outlier_removal").params.size(), 2u);
+  // depth_error_filter: the filter's two, then the stage's own two.
+  ASSERT_EQ(DepthError::getParamDeclarations().size(), 2u);
+  expectListedAsDeclared(DepthError::getParamDeclarations(),
+                         stage("depth_error_filter").params);
+  EXPECT_EQ(keysOf(stage("depth_error_filter").params),
+            (std::vector<std::string>{"disparity_error_px", "max_depth_error_m",
+                                      "max_plane_depth_error_m", "far_levels"}));
+  // A default-constructed filter holds the table's defaults (the pipeline's).
+  const VoxelGrid grid;
+  for (const auto& d : VoxelGrid::getParamDeclarations())
+    EXPECT_EQ(d.get(grid.getParams()), d.get(VoxelGrid::Params{})) << d.key;
+  EXPECT_EQ(grid.getLeafSize().x(), 0.05f);
+  const OutlierRemoval removal;
+  for (const auto& d : OutlierRemoval::getParamDeclarations())
+    EXPECT_EQ(d.get(removal.getParams()), d.get(OutlierRemoval::Params{})) << d.key;
+  EXPECT_EQ(removal.getMeanK(), 20);
+  const DepthError depth;
+  for (const auto& d : DepthError::getParamDeclarations())
+    EXPECT_EQ(d.get(depth.getParams()), d.get(DepthError::Params{})) << d.key;
+  // Each value reaches the filter and the stage's echo.
+  expectEachValueReachesTheClassAndTheEcho(
+    VoxelGrid::getParamDeclarations(), "voxel_grid",
+    [](const VoxelGrid::Params& p) {
+      auto filter = std::make_unique<VoxelGrid>();
+      filter->setParams(p);
+      return filter;
+    },
+    [](const std::unique_ptr<VoxelGrid>& f) { return f->getParams(); });
+  expectEachValueReachesTheClassAndTheEcho(
+    OutlierRemoval::getParamDeclarations(), "statistical_outlier_removal",
+    [](const OutlierRemoval::Params& p) {
+      auto filter = std::make_unique<OutlierRemoval>();
+      filter->setParams(p);
+      return filter;
+    },
+    [](const std::unique_ptr<OutlierRemoval>& f) { return f->getParams(); });
+  expectEachValueReachesTheClassAndTheEcho(
+    DepthError::getParamDeclarations(), "depth_error_filter",
+    [](const DepthError::Params& p) {
+      auto filter = std::make_unique<DepthError>();
+      filter->setParams(p);
+      return filter;
+    },
+    [](const std::unique_ptr<DepthError>& f) { return f->getParams(); });
 }
 
 TEST(ParamDeclarations, MapIntegrationListsEveryMapParameterAsDeclared)
