@@ -437,6 +437,23 @@ meanNeighbourDistances(const std::vector<float>& xyz,
 
 } // namespace detail
 
+const ParamDeclarations<FastStatisticalOutlierRemovalParams>&
+fastStatisticalOutlierRemovalParamDeclarations()
+{
+  using P = FastStatisticalOutlierRemovalParams;
+  namespace ranges = fast_statistical_outlier_removal_ranges;
+  static const ParamDeclarations<P> table = {
+    declareInteger<P>(
+      "mean_k", [](auto& p) -> auto& { return p.mean_k; }, ranges::MEAN_K, "",
+      "Neighbours per point."),
+    declareReal<P>(
+      "stddev_mul_thresh", [](auto& p) -> auto& { return p.stddev_mul_thresh; },
+      ranges::STDDEV_MUL_THRESH, "",
+      "Standard-deviation multiplier of the distance threshold."),
+  };
+  return table;
+}
+
 } // namespace planar_grid
 
 #ifndef PCL_NO_PRECOMPILE

@@ -119,6 +119,63 @@ klDivergenceUpdate(double p, double q, double offset_nats)
   return std::exp(-energy);
 }
 
+const ParamDeclarations<KLDivergenceOccupancyFilterParams>&
+klDivergenceOccupancyFilterParamDeclarations()
+{
+  using P = KLDivergenceOccupancyFilterParams;
+  namespace ranges = kl_divergence_occupancy_filter_ranges;
+  const auto update_rule_name = [](OccupancyUpdateRule rule) {
+    return toString(rule);
+  };
+  static const ParamDeclarations<P> table = {
+    declareChoice<P>(
+      "update_rule", [](auto& p) -> auto& { return p.update_rule; },
+      {"kl_divergence", "log_odds"}, update_rule_name, occupancyUpdateRuleFromString,
+      "Update of a re-observed feature: eqs. 5-10 or OctoMap's log-odds."),
+    declareReal<P>(
+      "disparity_error_px", [](auto& p) -> auto& { return p.disparity_error_px; },
+      ranges::DISPARITY_ERROR, "px", "dd of eq. 4 (stereo)."),
+    declareReal<P>(
+      "depth_error_coefficient_per_m",
+      [](auto& p) -> auto& { return p.depth_error_coefficient_per_m; },
+      ranges::DEPTH_ERROR_COEFFICIENT, "1/m",
+      "k of dz = k z^2 (depth_quadratic); the default is 4 cm at 5 m, the Kinect's "
+      "(Khoshelham and Elberink 2012)."),
+    declareReal<P>(
+      "range_error_m", [](auto& p) -> auto& { return p.range_error_m; },
+      ranges::RANGE_ERROR, "m",
+      "dr of eq. 4 (range): the sensor's range standard deviation."),
+    declareReal<P>(
+      "association_radius_m", [](auto& p) -> auto& { return p.association_radius_m; },
+      ranges::ASSOCIATION_RADIUS, "m",
+      "Features without descriptors: a feature continues the nearest track within "
+      "this distance in the world."),
+    declareReal<P>(
+      "neighbourhood_size_m", [](auto& p) -> auto& { return p.neighbourhood_size_m; },
+      ranges::NEIGHBOURHOOD_SIZE, "m", "Cell over which r_bar of eq. 4 is averaged."),
+    declareReal<P>(
+      "clamping_thres_min", [](auto& p) -> auto& { return p.clamping_thres_min; },
+      ranges::CLAMPING_THRES_MIN, "probability", "Lower clamp of the probability."),
+    declareReal<P>(
+      "clamping_thres_max", [](auto& p) -> auto& { return p.clamping_thres_max; },
+      ranges::CLAMPING_THRES_MAX, "probability", "Upper clamp of the probability."),
+    declareReal<P>(
+      "occupancy_thres", [](auto& p) -> auto& { return p.occupancy_thres; },
+      ranges::OCCUPANCY_THRES, "probability",
+      "A feature is occupied when its probability reaches it."),
+    declareReal<P>(
+      "kl_offset_nats", [](auto& p) -> auto& { return p.kl_offset_nats; },
+      ranges::KL_OFFSET, "nats", "A of eq. 10."),
+    declareReal<P>(
+      "prob_hit", [](auto& p) -> auto& { return p.prob_hit; }, ranges::PROB_HIT,
+      "probability", "Log-odds rule: a hit (q >= 0.5)."),
+    declareReal<P>(
+      "prob_miss", [](auto& p) -> auto& { return p.prob_miss; }, ranges::PROB_MISS,
+      "probability", "Log-odds rule: a miss (q < 0.5)."),
+  };
+  return table;
+}
+
 } // namespace planar_grid
 
 #ifndef PCL_NO_PRECOMPILE

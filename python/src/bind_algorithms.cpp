@@ -429,13 +429,13 @@ bindSegmentationParameters(SegmentationClass& cls)
                       "inlier, meters, in "
                         + formatParamRange(
                           sac_multi_plane_segmentation_ranges::DISTANCE_THRESHOLD)),
-        unsetParam<double>(
+        param<double>(
           "sample_distance_threshold_m", &Segmentation::getSampleDistanceThreshold,
           &Segmentation::setSampleDistanceThreshold,
           "inlier threshold of the sample consensus on the sample points, meters, in "
             + formatParamRange(
               sac_multi_plane_segmentation_ranges::SAMPLE_DISTANCE_THRESHOLD)
-            + "; until set (None) it is distance_threshold_m"),
+            + "; it does not follow distance_threshold_m"),
         param<double>(
           "depth_noise_coefficient_per_m", &Segmentation::getDepthNoiseCoefficient,
           &Segmentation::setDepthNoiseCoefficient,
@@ -520,7 +520,34 @@ bindSegmentationParameters(SegmentationClass& cls)
           &Segmentation::setMaxSampleSize,
           "points subsampled for the hypotheses when no sample points are "
           "given, in "
-            + formatParamRange(sac_multi_plane_segmentation_ranges::MAX_SAMPLE_SIZE))));
+            + formatParamRange(sac_multi_plane_segmentation_ranges::MAX_SAMPLE_SIZE)),
+        param<double>(
+          "max_normal_angle_rad", &Segmentation::getMaxNormalAngle,
+          &Segmentation::setMaxNormalAngle,
+          "normal test: a point is an inlier only when its surface normal (estimated "
+          "on a grid of normal_cell_m) lies within this angle of the plane's, "
+          "radians, in "
+            + formatParamRange(sac_multi_plane_segmentation_ranges::MAX_NORMAL_ANGLE)
+            + "; 0 = the paper's distance-only eq. 11"),
+        param<double>(
+          "normal_cell_m", &Segmentation::getNormalCell, &Segmentation::setNormalCell,
+          "cell edge of the normal estimation, meters, in "
+            + formatParamRange(sac_multi_plane_segmentation_ranges::NORMAL_CELL)),
+        param<double>(
+          "min_normal_agreement", &Segmentation::getMinNormalAgreement,
+          &Segmentation::setMinNormalAgreement,
+          "normal test: a hypothesis whose support agrees with its normal less often "
+          "than this is dropped, in "
+            + formatParamRange(
+              sac_multi_plane_segmentation_ranges::MIN_NORMAL_AGREEMENT)
+            + "; 0 = no test"),
+        param<double>(
+          "min_sensor_height_m", &Segmentation::getMinTerrainSensorHeight,
+          &Segmentation::setMinTerrainSensorHeight,
+          "the normal test spares a level plane as terrain only when the sensor "
+          "origin lies more than this above it, meters, in "
+            + formatParamRange(
+              sac_multi_plane_segmentation_ranges::MIN_TERRAIN_SENSOR_HEIGHT))));
 }
 
 /** \brief segment(). */

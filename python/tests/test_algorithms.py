@@ -277,7 +277,8 @@ CONSTRUCTOR_VALUES: Dict[Type[Any], Dict[str, object]] = {
         probability=0.95, method="msac", optimize_coefficients=False,
         dense_hypothesis=False, lo_iterations=10, merge_planes=False,
         merge_angle_rad=0.2, merge_distance_m=0.05, up_axis=[0.0, -1.0, 0.0], seed=7,
-        max_sample_size=5000),
+        max_sample_size=5000, max_normal_angle_rad=0.3, normal_cell_m=0.1,
+        min_normal_agreement=0.5, min_sensor_height_m=1.0),
     pg.PlanarCuboidApproximation: dict(
         min_cell_size_m=0.05, density_threshold=0.8, non_planar_density_threshold=0.7,
         min_width_m=0.2, min_height_m=0.3, thickness_m=0.05, min_points_per_cell=1,
@@ -286,7 +287,7 @@ CONSTRUCTOR_VALUES: Dict[Type[Any], Dict[str, object]] = {
         focal_length_px=500.0, baseline_m=0.1, disparity_error_px=1.0,
         neighbourhood_size_m=0.3, clamping_thres_min=0.2, clamping_thres_max=0.9,
         occupancy_thres=0.6, kl_offset_nats=0.5, prob_hit=0.8, prob_miss=0.3,
-        association_radius_m=0.1, update_rule="log_odds"),
+        association_radius_m=0.3, update_rule="log_odds"),
 }
 # The stereo rig, the filter's leading (positional or keyword) arguments.
 LEADING: Dict[Type[Any], List[str]] = {
@@ -350,9 +351,10 @@ def test_signature_defaults_are_the_library_defaults() -> None:
     kl = inspect.signature(pg.KLDivergenceOccupancyFilter).parameters
     assert kl["occupancy_thres"].default == pytest.approx(0.5)
     assert kl["update_rule"].default == "kl_divergence"
-    # Left at None, the sample threshold follows the distance threshold.
+    # The sample threshold is the pipeline's 0.1 m; it does not follow the distance
+    # threshold.
     assert pg.SACMultiPlaneSegmentation(
-        distance_threshold_m=0.02).sample_distance_threshold_m == pytest.approx(0.02)
+        distance_threshold_m=0.02).sample_distance_threshold_m == pytest.approx(0.1)
 
 
 @pytest.mark.parametrize("cls", list(CONSTRUCTOR_VALUES), ids=class_name)

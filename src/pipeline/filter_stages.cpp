@@ -23,17 +23,13 @@ namespace {
 // 4 bytes per point per listed filter stage).
 class VoxelGridStage : public Stage {
 public:
-  VoxelGridStage(double leaf_size_m, int min_points_per_voxel) :
-      leaf_size_m_(static_cast<float>(leaf_size_m)),
-      min_points_per_voxel_(static_cast<unsigned int>(min_points_per_voxel))
-  {}
+  explicit VoxelGridStage(const FastVoxelGridParams& params) : params_(params) {}
 
   bool isFrameLocal() const override { return true; }
 
   void getParameters(ParamValues& v) const override
   {
-    v.set("leaf_size_m", static_cast<double>(leaf_size_m_));
-    v.set("min_points_per_voxel", static_cast<int>(min_points_per_voxel_));
+    reportParams(fastVoxelGridParamDeclarations(), params_, v);
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -41,8 +37,7 @@ public:
     if (!hasPoints(frame, "voxel_grid"))
       return;
     FastVoxelGrid<pcl::PointXYZI> filter;
-    filter.setLeafSize(leaf_size_m_, leaf_size_m_, leaf_size_m_);
-    filter.setMinimumPointsNumberPerVoxel(min_points_per_voxel_);
+    filter.setParams(params_);
     Frame::Cloud::Ptr out(new Frame::Cloud);
     filter.setInputCloud(frame.cloud);
     filter.filter(*out);
@@ -50,22 +45,21 @@ public:
   }
 
 private:
-  float leaf_size_m_;
-  unsigned int min_points_per_voxel_;
+  FastVoxelGridParams params_;
 };
 
 class StatisticalOutlierRemovalStage : public Stage {
 public:
-  StatisticalOutlierRemovalStage(int mean_k, double stddev_mul_thresh) :
-      mean_k_(mean_k), stddev_mul_thresh_(stddev_mul_thresh)
+  explicit StatisticalOutlierRemovalStage(
+    const FastStatisticalOutlierRemovalParams& params) :
+      params_(params)
   {}
 
   bool isFrameLocal() const override { return true; }
 
   void getParameters(ParamValues& v) const override
   {
-    v.set("mean_k", mean_k_);
-    v.set("stddev_mul_thresh", stddev_mul_thresh_);
+    reportParams(fastStatisticalOutlierRemovalParamDeclarations(), params_, v);
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -73,8 +67,7 @@ public:
     if (!hasPoints(frame, "statistical_outlier_removal"))
       return;
     FastStatisticalOutlierRemoval<pcl::PointXYZI> filter;
-    filter.setMeanK(mean_k_);
-    filter.setStddevMulThresh(stddev_mul_thresh_);
+    filter.setParams(params_);
     Frame::Cloud::Ptr out(new Frame::Cloud);
     filter.setInputCloud(frame.cloud);
     filter.filter(*out);
@@ -82,45 +75,72 @@ public:
   }
 
 private:
-  int mean_k_;
-  double stddev_mul_thresh_;
+  FastStatisticalOutlierRemovalParams params_;
 };
+
+/** depth_error_filter's own parameters beside DepthErrorFilter's: the second bound and
+ * the far levels kept for range_adaptive_cells. */
+struct DepthErrorStageParams {
+  double max_plane_depth_error_m{0.0};
+  int far_levels{0};
+};
+
+const ParamDeclarations<DepthErrorStageParams>&
+depthErrorStageParamDeclarations()
+{
+  using P = DepthErrorStageParams;
+  static const ParamDeclarations<P> table = {
+    declareReal<P>(
+      "max_plane_depth_error_m",
+      [](auto& p) -> auto& { return p.max_plane_depth_error_m; },
+      ParamRange::closed(0.0, 100.0), "m",
+      "Largest depth error Delta z of a point that may still join a plane (needs "
+      "multi_plane_segmentation later in the pipeline); at or below max_depth_error_m "
+      "(0, the default): none."),
+    declareInteger<P>(
+      "far_levels", [](auto& p) -> auto& { return p.far_levels; },
+      ParamRange::closed(0, 4), "",
+      "Range-adaptive cells: the dropped points whose depth error is within "
+      "max_depth_error_m x 2^far_levels are kept aside for range_adaptive_cells, which "
+      "maps level l (error within max_depth_error_m x 2^l) at cells 2^l times its "
+      "minimum; 0 (the default): dropped. With max_plane_depth_error_m, the points "
+      "between the two bounds are kept aside too, and multi_plane_segmentation takes "
+      "out the ones a plane takes."),
+  };
+  return table;
+}
 
 class DepthErrorFilterStage : public Stage {
 public:
-  DepthErrorFilterStage(double disparity_error_px,
-                        double max_depth_error_m,
-                        double max_plane_depth_error_m,
-                        int far_levels) :
-      disparity_error_px_(disparity_error_px),
-      max_depth_error_m_(max_depth_error_m),
-      max_plane_depth_error_m_(std::max(max_depth_error_m, max_plane_depth_error_m)),
-      far_levels_(far_levels)
+  DepthErrorFilterStage(const DepthErrorFilterParams& params,
+                        const DepthErrorStageParams& stage_params) :
+      params_(params),
+      stage_params_(stage_params),
+      max_plane_depth_error_m_(
+        std::max(params.max_depth_error_m, stage_params.max_plane_depth_error_m))
   {}
 
   bool isFrameLocal() const override { return true; }
 
   void getParameters(ParamValues& v) const override
   {
-    // max_plane_depth_error_m is held raised to max_depth_error_m, so it is not
-    // read back.
-    v.set("disparity_error_px", disparity_error_px_);
-    v.set("max_depth_error_m", max_depth_error_m_);
-    v.set("far_levels", far_levels_);
+    reportParams(depthErrorFilterParamDeclarations(), params_, v);
+    reportParams(depthErrorStageParamDeclarations(), stage_params_, v);
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
     if (!hasPoints(frame, "depth_error_filter"))
       return;
-    const double error_at_1m = frame.calibration.depthError(1.0, disparity_error_px_);
+    const double error_at_1m =
+      frame.calibration.depthError(1.0, params_.disparity_error_px);
     if (!(std::isfinite(error_at_1m) && error_at_1m > 0.0))
       throw Exception("stage 'depth_error_filter' needs a stereo calibration (frame "
                       + frame.name + " has none)");
     // The finite points beyond each bound (eq. 4), by DepthErrorFilter.
     DepthErrorFilter<Frame::Cloud::PointType> filter;
+    filter.setParams(params_);
     filter.setCalibration(frame.calibration);
-    filter.setDisparityError(disparity_error_px_);
     filter.setCameraTransform(cameraTCloud(frame));
     filter.setInputCloud(frame.cloud);
     filter.setNegative(true);
@@ -137,9 +157,9 @@ public:
     // Per frame, not kept in the stage: the stage may be listed more than once.
     // The points between the two bounds stay, for the planes alone.
     const std::vector<std::uint8_t> beyond =
-      beyondBound(max_depth_error_m_, max_depth_m_);
+      beyondBound(params_.max_depth_error_m, max_depth_m_);
     // With one bound the points beyond it are the far ones: no second pass.
-    const bool two_bounds = max_plane_depth_error_m_ > max_depth_error_m_;
+    const bool two_bounds = max_plane_depth_error_m_ > params_.max_depth_error_m;
     std::vector<std::uint8_t> beyond_plane_bound;
     if (two_bounds)
       beyond_plane_bound = beyondBound(max_plane_depth_error_m_, max_plane_depth_m_);
@@ -156,7 +176,7 @@ public:
     // Every point beyond the cell bound may make a far cell; the ones between the two
     // bounds also stay in the cloud, and multi_plane_segmentation takes out of the far
     // cloud those a plane takes.
-    if (far_levels_ > 0)
+    if (stage_params_.far_levels > 0)
       keepFarPoints(frame, beyond, error_at_1m);
     removed_ = removePoints(frame, far);
     if (max_plane_depth > max_depth)
@@ -168,9 +188,9 @@ public:
   {
     values.emplace_back("max_depth_m", static_cast<double>(max_depth_m_));
     values.emplace_back("far_points", static_cast<double>(removed_));
-    if (far_levels_ > 0)
+    if (stage_params_.far_levels > 0)
       values.emplace_back("far_points_kept", static_cast<double>(kept_far_));
-    if (max_plane_depth_error_m_ > max_depth_error_m_) {
+    if (max_plane_depth_error_m_ > params_.max_depth_error_m) {
       values.emplace_back("max_plane_depth_m", static_cast<double>(max_plane_depth_m_));
       values.emplace_back("inlier_only_points", static_cast<double>(inlier_only_));
     }
@@ -188,10 +208,11 @@ private:
     std::vector<std::uint8_t> levels;
     // Level l holds the depths whose error is in (max 2^(l-1), max 2^l]: depth bounds
     // sqrt(max 2^l / error at 1 m).
-    std::vector<float> level_depth(static_cast<std::size_t>(far_levels_) + 1);
-    for (int l = 0; l <= far_levels_; ++l)
+    std::vector<float> level_depth(static_cast<std::size_t>(stage_params_.far_levels)
+                                   + 1);
+    for (int l = 0; l <= stage_params_.far_levels; ++l)
       level_depth[static_cast<std::size_t>(l)] = static_cast<float>(
-        std::sqrt(max_depth_error_m_ * std::ldexp(1.0, l) / error_at_1m));
+        std::sqrt(params_.max_depth_error_m * std::ldexp(1.0, l) / error_at_1m));
     for (std::size_t i = 0; i < cloud.size(); ++i) {
       if (!far[i])
         continue;
@@ -210,10 +231,10 @@ private:
     frame.far_levels = std::move(levels);
   }
 
-  double disparity_error_px_;
-  double max_depth_error_m_;
+  DepthErrorFilterParams params_;
+  DepthErrorStageParams stage_params_;
+  /** The plane bound, raised to max_depth_error_m. */
   double max_plane_depth_error_m_;
-  int far_levels_;
   std::size_t kept_far_{0};
   float max_depth_m_{0.0f};
   float max_plane_depth_m_{0.0f};
@@ -237,30 +258,15 @@ depthErrorFilterInfo()
     "nearer points and the key features make (eq. 11), and the ones no plane takes "
     "are dropped there, so that they make no non-planar cells. Needs stereo input (its "
     "calibration).";
-  info.params = {
-    ParamSpec::real("disparity_error_px", 0.5,
-                    depth_error_filter_ranges::DISPARITY_ERROR, "px",
-                    "Delta d of eq. 4 (the paper's 0.5 px)."),
-    ParamSpec::real("max_depth_error_m", 0.3,
-                    depth_error_filter_ranges::MAX_DEPTH_ERROR, "m",
-                    "Largest depth error Delta z of a point that is kept."),
-    ParamSpec::real("max_plane_depth_error_m", 0.0, 0.0, 100.0, "m",
-                    "Largest depth error Delta z of a point that may still join a "
-                    "plane (needs multi_plane_segmentation later in the pipeline); at "
-                    "or below max_depth_error_m (0, the default): none."),
-    ParamSpec::integer("far_levels", 0, 0, 4, "",
-                       "Range-adaptive cells: the dropped points whose depth error is "
-                       "within max_depth_error_m x 2^far_levels are kept aside for "
-                       "range_adaptive_cells, which maps level l (error within "
-                       "max_depth_error_m x 2^l) at cells 2^l times its minimum; 0 "
-                       "(the default): dropped. With max_plane_depth_error_m, the "
-                       "points between the two bounds are kept aside too, and "
-                       "multi_plane_segmentation takes out the ones a plane takes."),
-  };
+  info.params = paramSpecs(depthErrorFilterParamDeclarations());
+  const auto stage_params = paramSpecs(depthErrorStageParamDeclarations());
+  info.params.insert(info.params.end(), stage_params.begin(), stage_params.end());
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
-    return std::make_unique<DepthErrorFilterStage>(
-      v.getDouble("disparity_error_px"), v.getDouble("max_depth_error_m"),
-      v.getDouble("max_plane_depth_error_m"), v.getInt("far_levels"));
+    DepthErrorFilterParams params;
+    assignParams(depthErrorFilterParamDeclarations(), v, params);
+    DepthErrorStageParams stage_params;
+    assignParams(depthErrorStageParamDeclarations(), v, stage_params);
+    return std::make_unique<DepthErrorFilterStage>(params, stage_params);
   };
   return info;
 }
@@ -273,18 +279,11 @@ voxelGridInfo()
   info.description =
     "One centroid per occupied voxel of the working cloud: pcl::VoxelGrid's output "
     "(FastVoxelGrid).";
-  info.params = {
-    ParamSpec::real("leaf_size_m", 0.05, 0.001, 10.0, "m",
-                    "Voxel edge length (the pipeline's value; the filter class has "
-                    "none that fits a stereo cloud).")
-      .scalesWithCellSize(),
-    ParamSpec::integer("min_points_per_voxel", 1, 1, 100000, "",
-                       "Voxels with fewer points are dropped (1 keeps every voxel, as "
-                       "the class's 0 does)."),
-  };
+  info.params = paramSpecs(fastVoxelGridParamDeclarations());
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
-    return std::make_unique<VoxelGridStage>(v.getDouble("leaf_size_m"),
-                                            v.getInt("min_points_per_voxel"));
+    FastVoxelGridParams params;
+    assignParams(fastVoxelGridParamDeclarations(), v, params);
+    return std::make_unique<VoxelGridStage>(params);
   };
   return info;
 }
@@ -299,18 +298,11 @@ statisticalOutlierRemovalInfo()
     "points kept, nanoflann's kd-tree): drops points whose mean distance to their k "
     "nearest neighbours exceeds the global mean by more than stddev_mul_thresh "
     "standard deviations.";
-  info.params = {
-    ParamSpec::integer("mean_k", 20, fast_statistical_outlier_removal_ranges::MEAN_K,
-                       "",
-                       "Neighbours per point (the pipeline's value; the class keeps "
-                       "pcl::StatisticalOutlierRemoval's 1)."),
-    ParamSpec::real("stddev_mul_thresh", 2.0, 0.0, 100.0, "",
-                    "Standard-deviation multiplier of the distance threshold (the "
-                    "pipeline's value; the class keeps PCL's 0)."),
-  };
+  info.params = paramSpecs(fastStatisticalOutlierRemovalParamDeclarations());
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
-    return std::make_unique<StatisticalOutlierRemovalStage>(
-      v.getInt("mean_k"), v.getDouble("stddev_mul_thresh"));
+    FastStatisticalOutlierRemovalParams params;
+    assignParams(fastStatisticalOutlierRemovalParamDeclarations(), v, params);
+    return std::make_unique<StatisticalOutlierRemovalStage>(params);
   };
   return info;
 }

@@ -20,42 +20,106 @@ namespace stages {
 
 namespace {
 
+/** The range error of eq. 4 by sensor; AUTO follows the frame's features. */
+enum class ErrorModel {
+  AUTO,   // stereo for stereo input; depth camera for key features of a cloud's
+          // image; range sensor for point features (no descriptors)
+  STEREO, // the paper's: the frame's stereo calibration and disparity_error_px
+  DEPTH_QUADRATIC, // dz = k z^2 (depth_error_coefficient_per_m)
+  RANGE            // dr = range_error_m
+};
+
+const char*
+errorModelName(ErrorModel model)
+{
+  return model == ErrorModel::STEREO            ? "stereo"
+         : model == ErrorModel::DEPTH_QUADRATIC ? "depth_quadratic"
+         : model == ErrorModel::RANGE           ? "range"
+                                                : "auto";
+}
+
+ErrorModel
+errorModelFromName(const std::string& name)
+{
+  if (name == "auto")
+    return ErrorModel::AUTO;
+  if (name == "stereo")
+    return ErrorModel::STEREO;
+  if (name == "depth_quadratic")
+    return ErrorModel::DEPTH_QUADRATIC;
+  if (name == "range")
+    return ErrorModel::RANGE;
+  throw Exception("Unknown range_error_model '" + name
+                  + "' (auto, stereo, depth_quadratic, range)");
+}
+
+/** The stage's own parameters beside the filter's: the sensor model it picks per
+ * frame, the frame-to-frame matching and the motion model. */
+struct KLStageParams {
+  ErrorModel range_error_model{ErrorModel::AUTO};
+  double match_ratio{StereoOdometry::Params().ratio};
+  double search_radius_px{20.0};
+  int max_hamming_distance_bits{64};
+  bool use_motion_likelihood{false};
+  double sigma_translation_m{ConstantVelocityMotionModel::Params().sigma_translation_m};
+  double sigma_rotation_rad{ConstantVelocityMotionModel::Params().sigma_rotation_rad};
+};
+
+const ParamDeclarations<KLStageParams>&
+klStageParamDeclarations()
+{
+  using P = KLStageParams;
+  static const ParamDeclarations<P> table = {
+    declareChoice<P>(
+      "range_error_model", [](auto& p) -> auto& { return p.range_error_model; },
+      {"auto", "stereo", "depth_quadratic", "range"}, errorModelName,
+      errorModelFromName,
+      "dr of eq. 4: stereo = the paper's (r_bar / z) z^2 / (B f) dd with the frame's "
+      "calibration; depth_quadratic = (r_bar / z) k z^2 (a depth camera); range = "
+      "range_error_m (a LiDAR); auto = stereo for stereo input, depth_quadratic for "
+      "key features of a cloud's image, range for point features."),
+    declareReal<P>(
+      "match_ratio", [](auto& p) -> auto& { return p.match_ratio; },
+      stereo_odometry_ranges::RATIO, "",
+      "Lowe's ratio of the frame-to-frame descriptor matching."),
+    declareReal<P>(
+      "search_radius_px", [](auto& p) -> auto& { return p.search_radius_px; },
+      ParamRange::closed(0.0, 10000.0), "px",
+      "Frames with poses and a pinhole calibration: a previous feature is matched only "
+      "to the features within this distance of its projection by the motion between "
+      "the two poses (guided matching); 0: to every feature of the frame."),
+    declareInteger<P>(
+      "max_hamming_distance_bits",
+      [](auto& p) -> auto& { return p.max_hamming_distance_bits; },
+      ParamRange::closed(0, 256), "bits",
+      "Binary descriptors (ORB): a pair of features farther apart than this many bits "
+      "is no match; 0: no limit."),
+    declareFlag<P>(
+      "use_motion_likelihood", [](auto& p) -> auto& { return p.use_motion_likelihood; },
+      "m of eq. 9 from the poses' motion against a constant-velocity model (for "
+      "estimated poses); false: m = 1 (given poses)."),
+    declareReal<P>(
+      "sigma_translation_m", [](auto& p) -> auto& { return p.sigma_translation_m; },
+      constant_velocity_motion_model_ranges::SIGMA_TRANSLATION, "m",
+      "Q_k of eq. 9: standard deviation of each translation component."),
+    declareReal<P>(
+      "sigma_rotation_rad", [](auto& p) -> auto& { return p.sigma_rotation_rad; },
+      constant_velocity_motion_model_ranges::SIGMA_ROTATION, "rad",
+      "Q_k of eq. 9: standard deviation of each rotation component."),
+  };
+  return table;
+}
+
 class KLOccupancyFilterStage : public Stage {
 public:
-  /** The range error of eq. 4 by sensor; AUTO follows the frame's features. */
-  enum class ErrorModel {
-    AUTO,   // stereo for stereo input; depth camera for key features of a cloud's
-            // image; range sensor for point features (no descriptors)
-    STEREO, // the paper's: the frame's stereo calibration and disparity_error_px
-    DEPTH_QUADRATIC, // dz = k z^2 (depth_error_coefficient_per_m)
-    RANGE            // dr = range_error_m
-  };
-
-  /** The filter's parameters, the frame-to-frame matching and the motion model from
-   * the stage's parameters (see klOccupancyFilterInfo()). */
-  explicit KLOccupancyFilterStage(const ParamValues& v) :
-      matcher_(matchingParams(v)), search_radius_px_(v.getDouble("search_radius_px")),
-      max_hamming_distance_(v.getInt("max_hamming_distance_bits")),
-      motion_model_(motionParams(v)),
-      use_motion_likelihood_(v.getBool("use_motion_likelihood"))
+  /** The filter's parameters, and the stage's: the sensor model, the frame-to-frame
+   * matching and the motion model (see klOccupancyFilterInfo()). */
+  KLOccupancyFilterStage(const KLDivergenceOccupancyFilterParams& params,
+                         const KLStageParams& stage_params) :
+      stage_params_(stage_params),
+      matcher_(matchingParams(stage_params)), motion_model_(motionParams(stage_params))
   {
-    const std::string& model = v.getChoice("range_error_model");
-    error_model_ = model == "stereo"            ? ErrorModel::STEREO
-                   : model == "depth_quadratic" ? ErrorModel::DEPTH_QUADRATIC
-                   : model == "range"           ? ErrorModel::RANGE
-                                                : ErrorModel::AUTO;
-    filter_.setUpdateRule(occupancyUpdateRuleFromString(v.getChoice("update_rule")));
-    filter_.setDisparityError(v.getDouble("disparity_error_px"));
-    filter_.setDepthErrorCoefficient(v.getDouble("depth_error_coefficient_per_m"));
-    filter_.setRangeError(v.getDouble("range_error_m"));
-    filter_.setAssociationRadius(v.getDouble("association_radius_m"));
-    filter_.setNeighbourhoodSize(v.getDouble("neighbourhood_size_m"));
-    filter_.setClampingThresMin(v.getDouble("clamping_thres_min"));
-    filter_.setClampingThresMax(v.getDouble("clamping_thres_max"));
-    filter_.setOccupancyThres(v.getDouble("occupancy_thres"));
-    filter_.setKLOffset(v.getDouble("kl_offset_nats"));
-    filter_.setProbHit(v.getDouble("prob_hit"));
-    filter_.setProbMiss(v.getDouble("prob_miss"));
+    filter_.setParams(params);
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -66,7 +130,7 @@ public:
       && static_cast<std::size_t>(frame.features.descriptors.rows)
            == frame.features.size();
     RangeErrorModel model = RangeErrorModel::STEREO;
-    switch (error_model_) {
+    switch (stage_params_.range_error_model) {
       case ErrorModel::AUTO:
         model = stereo        ? RangeErrorModel::STEREO
                 : descriptors ? RangeErrorModel::DEPTH_QUADRATIC
@@ -108,22 +172,25 @@ public:
       // With both frames' poses (given, or estimated by an earlier stage) and a
       // pinhole calibration, a previous feature is searched only near where the motion
       // projects it; otherwise among all the frame's features.
-      if (search_radius_px_ > 0.0 && frame.has_pose && has_previous_pose_
+      if (stage_params_.search_radius_px > 0.0 && frame.has_pose && has_previous_pose_
           && frame.calibration.focal_length_px > 0.0)
         matcher_.matchDescriptorsProjected(
           previous_, frame.features, frame.world_T_camera.inverse() * previous_pose_,
-          frame.calibration, search_radius_px_, matches_);
+          frame.calibration, stage_params_.search_radius_px, matches_);
       else
         matcher_.matchDescriptors(previous_, frame.features, matches_);
-      // Binary descriptors: a pair farther apart than max_hamming_distance_bits is no
-      // match, whatever the ratio test says (a search window may hold one candidate).
-      if (max_hamming_distance_ > 0 && frame.features.descriptors.depth() == CV_8U)
-        matches_.erase(std::remove_if(matches_.begin(), matches_.end(),
-                                      [this](const cv::DMatch& m) {
-                                        return m.distance > static_cast<float>(
-                                                 max_hamming_distance_);
-                                      }),
-                       matches_.end());
+      // Binary descriptors: a pair farther apart than
+      // max_hamming_distance_bits is no match, whatever the ratio
+      // test says (a search window may hold one candidate).
+      if (stage_params_.max_hamming_distance_bits > 0
+          && frame.features.descriptors.depth() == CV_8U)
+        matches_.erase(
+          std::remove_if(matches_.begin(), matches_.end(),
+                         [this](const cv::DMatch& m) {
+                           return m.distance > static_cast<float>(
+                                    stage_params_.max_hamming_distance_bits);
+                         }),
+          matches_.end());
       for (const auto& m : matches_) {
         ids[static_cast<std::size_t>(m.trainIdx)] =
           previous_ids_[static_cast<std::size_t>(m.queryIdx)];
@@ -136,7 +203,7 @@ public:
 
     // m of eq. 9: the likelihood of this frame's motion under the motion model, when
     // the poses are estimated; 1 when they are given (GPS/INS, files).
-    if (use_motion_likelihood_ && frame.has_pose && has_previous_pose_) {
+    if (stage_params_.use_motion_likelihood && frame.has_pose && has_previous_pose_) {
       const Eigen::Isometry3d motion = previous_pose_.inverse() * frame.world_T_camera;
       motion_likelihood_ = motion_model_.motionLikelihood(motion);
       motion_model_.addMotion(motion);
@@ -258,55 +325,32 @@ public:
 
   void getParameters(ParamValues& v) const override
   {
-    v.set("update_rule", toString(filter_.getUpdateRule()));
-    v.set("range_error_model",
-          std::string(error_model_ == ErrorModel::STEREO            ? "stereo"
-                      : error_model_ == ErrorModel::DEPTH_QUADRATIC ? "depth_quadratic"
-                      : error_model_ == ErrorModel::RANGE           ? "range"
-                                                                    : "auto"));
-    v.set("disparity_error_px", filter_.getDisparityError());
-    v.set("depth_error_coefficient_per_m", filter_.getDepthErrorCoefficient());
-    v.set("range_error_m", filter_.getRangeError());
-    v.set("association_radius_m", filter_.getAssociationRadius());
-    v.set("neighbourhood_size_m", filter_.getNeighbourhoodSize());
-    v.set("clamping_thres_min", filter_.getClampingThresMin());
-    v.set("clamping_thres_max", filter_.getClampingThresMax());
-    v.set("occupancy_thres", filter_.getOccupancyThres());
-    v.set("kl_offset_nats", filter_.getKLOffset());
-    v.set("prob_hit", filter_.getProbHit());
-    v.set("prob_miss", filter_.getProbMiss());
-    v.set("match_ratio", matcher_.getParams().ratio);
-    v.set("search_radius_px", search_radius_px_);
-    v.set("max_hamming_distance_bits", max_hamming_distance_);
-    v.set("use_motion_likelihood", use_motion_likelihood_);
-    v.set("sigma_translation_m", motion_model_.getParams().sigma_translation_m);
-    v.set("sigma_rotation_rad", motion_model_.getParams().sigma_rotation_rad);
+    reportParams(klDivergenceOccupancyFilterParamDeclarations(), filter_.getParams(),
+                 v);
+    reportParams(klStageParamDeclarations(), stage_params_, v);
   }
 
 private:
-  static StereoOdometry::Params matchingParams(const ParamValues& v)
+  static StereoOdometry::Params matchingParams(const KLStageParams& p)
   {
     StereoOdometry::Params matching;
-    matching.ratio = v.getDouble("match_ratio");
+    matching.ratio = p.match_ratio;
     return matching;
   }
 
-  static ConstantVelocityMotionModel::Params motionParams(const ParamValues& v)
+  static ConstantVelocityMotionModel::Params motionParams(const KLStageParams& p)
   {
     ConstantVelocityMotionModel::Params motion;
-    motion.sigma_translation_m = v.getDouble("sigma_translation_m");
-    motion.sigma_rotation_rad = v.getDouble("sigma_rotation_rad");
+    motion.sigma_translation_m = p.sigma_translation_m;
+    motion.sigma_rotation_rad = p.sigma_rotation_rad;
     return motion;
   }
 
-  ErrorModel error_model_{ErrorModel::AUTO};
+  KLStageParams stage_params_;
   RangeErrorModel model_{RangeErrorModel::STEREO};
   KLDivergenceOccupancyFilter<pcl::PointXYZ> filter_;
   StereoOdometry matcher_;
-  double search_radius_px_;
-  int max_hamming_distance_;
   ConstantVelocityMotionModel motion_model_;
-  bool use_motion_likelihood_;
   StereoFeatures previous_;
   std::vector<std::int64_t> previous_ids_;
   std::vector<cv::DMatch> matches_;
@@ -336,75 +380,18 @@ klOccupancyFilterInfo()
     "features without descriptors by position in the world) are updated with the "
     "Kullback-Leibler rule (eqs. 5-10) or OctoMap's log-odds rule. Needs "
     "feature_matching (stereo) or cloud_features (point clouds) before it.";
-  const KLDivergenceOccupancyFilter<pcl::PointXYZ> d;
-  const ConstantVelocityMotionModel::Params md;
-  namespace ranges = kl_divergence_occupancy_filter_ranges;
-  info.params = {
-    ParamSpec::choice("update_rule", toString(d.getUpdateRule()),
-                      {"kl_divergence", "log_odds"},
-                      "Update of a re-observed feature: eqs. 5-10 or OctoMap's "
-                      "log-odds."),
-    ParamSpec::choice("range_error_model", "auto",
-                      {"auto", "stereo", "depth_quadratic", "range"},
-                      "dr of eq. 4: stereo = the paper's (r_bar / z) z^2 / (B f) dd "
-                      "with the frame's calibration; depth_quadratic = (r_bar / z) k "
-                      "z^2 (a depth camera); range = range_error_m (a LiDAR); auto = "
-                      "stereo for stereo input, depth_quadratic for key features of a "
-                      "cloud's image, range for point features."),
-    ParamSpec::real("disparity_error_px", d.getDisparityError(),
-                    ranges::DISPARITY_ERROR, "px", "dd of eq. 4 (stereo)."),
-    ParamSpec::real("depth_error_coefficient_per_m", d.getDepthErrorCoefficient(),
-                    ranges::DEPTH_ERROR_COEFFICIENT, "1/m",
-                    "k of dz = k z^2 (depth_quadratic); the default is 4 cm at 5 m, "
-                    "the Kinect's (Khoshelham and Elberink 2012)."),
-    ParamSpec::real("range_error_m", d.getRangeError(), ranges::RANGE_ERROR, "m",
-                    "dr of eq. 4 (range): the sensor's range standard deviation."),
-    ParamSpec::real("association_radius_m", 0.1, ranges::ASSOCIATION_RADIUS, "m",
-                    "Features without descriptors: a feature continues the nearest "
-                    "track within this distance in the world (the pipeline's value; "
-                    "the class defaults to "
-                      + formatParamNumber(d.getAssociationRadius()) + " m)."),
-    ParamSpec::real("neighbourhood_size_m", d.getNeighbourhoodSize(),
-                    ranges::NEIGHBOURHOOD_SIZE, "m",
-                    "Cell over which r_bar of eq. 4 is averaged."),
-    ParamSpec::real("clamping_thres_min", d.getClampingThresMin(),
-                    ranges::CLAMPING_THRES_MIN, "probability",
-                    "Lower clamp of the probability."),
-    ParamSpec::real("clamping_thres_max", d.getClampingThresMax(),
-                    ranges::CLAMPING_THRES_MAX, "probability",
-                    "Upper clamp of the probability."),
-    ParamSpec::real("occupancy_thres", d.getOccupancyThres(), ranges::OCCUPANCY_THRES,
-                    "probability",
-                    "A feature is occupied when its probability reaches it."),
-    ParamSpec::real("kl_offset_nats", d.getKLOffset(), ranges::KL_OFFSET, "nats",
-                    "A of eq. 10."),
-    ParamSpec::real("prob_hit", d.getProbHit(), ranges::PROB_HIT, "probability",
-                    "Log-odds rule: a hit (q >= 0.5)."),
-    ParamSpec::real("prob_miss", d.getProbMiss(), ranges::PROB_MISS, "probability",
-                    "Log-odds rule: a miss (q < 0.5)."),
-    ParamSpec::real("match_ratio", StereoOdometry::Params().ratio,
-                    stereo_odometry_ranges::RATIO, "",
-                    "Lowe's ratio of the frame-to-frame descriptor matching."),
-    ParamSpec::real("search_radius_px", 20.0, 0.0, 10000.0, "px",
-                    "Frames with poses and a pinhole calibration: a previous feature "
-                    "is matched only to the features within this distance of its "
-                    "projection by the motion between the two poses (guided "
-                    "matching); 0: to every feature of the frame."),
-    ParamSpec::integer("max_hamming_distance_bits", 64, 0, 256, "bits",
-                       "Binary descriptors (ORB): a pair of features farther apart "
-                       "than this many bits is no match; 0: no limit."),
-    ParamSpec::flag("use_motion_likelihood", false,
-                    "m of eq. 9 from the poses' motion against a constant-velocity "
-                    "model (for estimated poses); false: m = 1 (given poses)."),
-    ParamSpec::real("sigma_translation_m", md.sigma_translation_m,
-                    constant_velocity_motion_model_ranges::SIGMA_TRANSLATION, "m",
-                    "Q_k of eq. 9: standard deviation of each translation component."),
-    ParamSpec::real("sigma_rotation_rad", md.sigma_rotation_rad,
-                    constant_velocity_motion_model_ranges::SIGMA_ROTATION, "rad",
-                    "Q_k of eq. 9: standard deviation of each rotation component."),
-  };
+  // The filter's table with the stage's sensor model after the update rule and its
+  // matching and motion keys last.
+  info.params = paramSpecs(klDivergenceOccupancyFilterParamDeclarations());
+  const auto local = paramSpecs(klStageParamDeclarations());
+  insertParamSpec(info.params, "update_rule", local.front());
+  info.params.insert(info.params.end(), local.begin() + 1, local.end());
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
-    return std::make_unique<KLOccupancyFilterStage>(v);
+    KLDivergenceOccupancyFilterParams params;
+    assignParams(klDivergenceOccupancyFilterParamDeclarations(), v, params);
+    KLStageParams stage_params;
+    assignParams(klStageParamDeclarations(), v, stage_params);
+    return std::make_unique<KLOccupancyFilterStage>(params, stage_params);
   };
   return info;
 }

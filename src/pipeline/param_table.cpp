@@ -46,6 +46,19 @@ formatParamType(const ParamSpec& spec, const std::string& choice_separator)
   return "one of " + formatParamChoices(spec, choice_separator);
 }
 
+void
+insertParamSpec(std::vector<ParamSpec>& specs,
+                const std::string& after,
+                const ParamSpec& spec)
+{
+  const auto it = std::find_if(specs.begin(), specs.end(),
+                               [&](const ParamSpec& s) { return s.key == after; });
+  if (it == specs.end())
+    throw Exception("insertParamSpec: no key '" + after + "' to put '" + spec.key
+                    + "' after");
+  specs.insert(it + 1, spec);
+}
+
 ParamSpec
 ParamSpec::real(const std::string& key,
                 double default_value,

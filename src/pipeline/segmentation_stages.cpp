@@ -28,70 +28,114 @@ namespace stages {
 
 namespace {
 
-/** The YAML names of the sample consensus estimators, in SACMethod's order. */
-const std::vector<std::string>&
-sacMethodNames()
+/** Where multi_plane_segmentation draws its plane hypotheses from. */
+enum class PlaneSample {
+  FEATURES, // the frame's 3D key features (the paper)
+  CLOUD     // a subsample of the frame's cloud
+};
+
+const char*
+planeSampleName(PlaneSample sample)
 {
-  static const std::vector<std::string> names{"ransac", "msac", "prosac"};
-  return names;
+  return sample == PlaneSample::CLOUD ? "cloud" : "features";
 }
 
-const std::string&
-sacMethodName(SACMethod method)
+PlaneSample
+planeSampleFromName(const std::string& name)
 {
-  return sacMethodNames()[static_cast<std::size_t>(method)];
+  if (name == "features")
+    return PlaneSample::FEATURES;
+  if (name == "cloud")
+    return PlaneSample::CLOUD;
+  throw Exception("Unknown sample '" + name + "' (features, cloud)");
 }
 
-SACMethod
-sacMethodFromName(const std::string& name)
+/** Where the normal test's normals come from. */
+enum class NormalSource {
+  AUTO, // the frame's disparity image; no normal test without one
+  CLOUD // the segmentation's grid normals of the cloud
+};
+
+const char*
+normalSourceName(NormalSource source)
 {
-  const auto& names = sacMethodNames();
-  const auto it = std::find(names.begin(), names.end(), name);
-  // The parser admits only the table's choices, which are these names.
-  return static_cast<SACMethod>(it == names.end() ? 0 : it - names.begin());
+  return source == NormalSource::CLOUD ? "cloud" : "auto";
+}
+
+NormalSource
+normalSourceFromName(const std::string& name)
+{
+  if (name == "auto")
+    return NormalSource::AUTO;
+  if (name == "cloud")
+    return NormalSource::CLOUD;
+  throw Exception("Unknown normal_source '" + name + "' (auto, cloud)");
+}
+
+/** The stage's own parameters beside SACMultiPlaneSegmentation's: the frame's data it
+ * feeds the class (the stereo depth noise, the sample, the disparity normals). */
+struct MultiPlaneStageParams {
+  double depth_noise_disparity_px{0.0};
+  PlaneSample sample{PlaneSample::FEATURES};
+  NormalSource normal_source{NormalSource::AUTO};
+  double normal_window_m{DisparityNormalParams{}.window_radius_m};
+};
+
+const ParamDeclarations<MultiPlaneStageParams>&
+multiPlaneStageParamDeclarations()
+{
+  using P = MultiPlaneStageParams;
+  static const ParamDeclarations<P> table = {
+    declareReal<P>(
+      "depth_noise_disparity_px",
+      [](auto& p) -> auto& { return p.depth_noise_disparity_px; },
+      ParamRange::closed(0.0, 10.0), "px",
+      "Stereo input: Delta d of eq. 4; a dense point is an inlier within max(d_T, "
+      "Delta z) with Delta z = r^2 Delta d / (B f) at its range r (0: fixed d_T)."),
+    declareChoice<P>(
+      "sample", [](auto& p) -> auto& { return p.sample; }, {"features", "cloud"},
+      planeSampleName, planeSampleFromName,
+      "Hypotheses from the 3D key features (paper) or the cloud; on pcd_files input "
+      "the default is cloud (no stereo features)."),
+    declareChoice<P>(
+      "normal_source", [](auto& p) -> auto& { return p.normal_source; },
+      {"auto", "cloud"}, normalSourceName, normalSourceFromName,
+      "Where the normal test's normals come from: auto, the frame's disparity image (a "
+      "plane fitted to the disparities around each point's pixel, "
+      "planar_grid::estimateDisparityNormals); frames without one (point clouds, depth "
+      "images) get no normal test; cloud, the points of the normal_cell_m grid, for "
+      "every input (for clouds whose noise is well below normal_cell_m)."),
+    declareReal<P>(
+      "normal_window_m", [](auto& p) -> auto& { return p.normal_window_m; },
+      disparity_normals_ranges::WINDOW_RADIUS, "m",
+      "Disparity normals: half-width of the window around a point's pixel, on the "
+      "surface at the point's depth (f r / z pixels, 4 to 60)."),
+  };
+  return table;
+}
+
+/** The stage's parameter list: the class's table in its order, each stage key
+ * beside the class key it goes with. */
+std::vector<ParamSpec>
+multiPlaneSegmentationParamSpecs()
+{
+  auto specs = paramSpecs(sacMultiPlaneSegmentationParamDeclarations());
+  const auto local = paramSpecs(multiPlaneStageParamDeclarations());
+  insertParamSpec(specs, "distance_threshold_m", local.at(0));
+  insertParamSpec(specs, "merge_distance_m", local.at(1));
+  insertParamSpec(specs, "normal_cell_m", local.at(2));
+  insertParamSpec(specs, "normal_source", local.at(3));
+  return specs;
 }
 
 class MultiPlaneSegmentationStage : public Stage {
 public:
-  MultiPlaneSegmentationStage(const ParamValues& v) :
-      use_features_(v.getChoice("sample") == "features"),
-      depth_noise_disparity_px_(v.getDouble("depth_noise_disparity_px"))
+  MultiPlaneSegmentationStage(const SACMultiPlaneSegmentationParams& params,
+                              const MultiPlaneStageParams& stage_params) :
+      segmentation_(params),
+      params_(params), stage_params_(stage_params)
   {
-    segmentation_.setDistanceThreshold(v.getDouble("distance_threshold_m"));
-    segmentation_.setSampleDistanceThreshold(
-      v.getDouble("sample_distance_threshold_m"));
-    segmentation_.setMaxPlanes(v.getInt("max_planes"));
-    segmentation_.setMinInliers(v.getInt("min_inliers"));
-    segmentation_.setMinSampleInliers(v.getInt("min_sample_inliers"));
-    segmentation_.setMinRemainingFraction(v.getDouble("min_remaining_fraction"));
-    segmentation_.setMaxIterations(v.getInt("max_iterations"));
-    segmentation_.setMethodType(sacMethodFromName(v.getChoice("method")));
-    segmentation_.setOptimizeCoefficients(v.getBool("optimize_coefficients"));
-    segmentation_.setDenseHypothesis(v.getBool("dense_hypothesis"));
-    segmentation_.setLocalOptimizationIterations(v.getInt("lo_iterations"));
-    segmentation_.setMergePlanes(v.getBool("merge_planes"));
-    segmentation_.setMergeAngleThreshold(v.getDouble("merge_angle_rad"));
-    segmentation_.setMergeDistanceThreshold(v.getDouble("merge_distance_m"));
-    segmentation_.setSeed(static_cast<unsigned>(v.getInt("seed")));
-    segmentation_.setMaxVisibilityConflictRatio(
-      v.getDouble("max_visibility_conflict_ratio"));
-    segmentation_.setVisibilityMargin(v.getDouble("visibility_margin_m"));
-    segmentation_.setVisibilityCell(v.getDouble("visibility_cell_m"));
-    segmentation_.setMinSensorDistance(v.getDouble("min_sensor_distance_m"));
-    segmentation_.setMinTerrainSensorHeight(v.getDouble("min_sensor_height_m"));
-    segmentation_.setMinClusterSize(v.getInt("min_cluster_size"));
-    segmentation_.setClusterCell(v.getDouble("cluster_cell_m"));
-    segmentation_.setMaxShellRatio(v.getDouble("max_shell_ratio"));
-    segmentation_.setShellWidth(v.getDouble("shell_width_m"));
-    segmentation_.setCountInlierOnlyPoints(v.getBool("count_inlier_only_points"));
-    segmentation_.setInlierOnlyDistanceThreshold(
-      v.getDouble("inlier_only_distance_threshold_m"));
-    segmentation_.setDepthNoiseAlongSight(v.getBool("depth_noise_along_sight"));
-    max_normal_angle_rad_ = v.getDouble("max_normal_angle_rad");
-    segmentation_.setNormalCell(v.getDouble("normal_cell_m"));
-    segmentation_.setMinNormalAgreement(v.getDouble("min_normal_agreement"));
-    use_disparity_normals_ = v.getChoice("normal_source") == "auto";
-    disparity_normals_.window_radius_m = v.getDouble("normal_window_m");
+    disparity_normals_.window_radius_m = stage_params_.normal_window_m;
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -108,19 +152,19 @@ public:
     // Eq. 4's stereo depth error Delta z = z^2 Delta d / (B f) widens eq. 11 with
     // range: the coefficient is Delta z at 1 m (none without a stereo calibration).
     const double coefficient =
-      depth_noise_disparity_px_ > 0.0
-        ? frame.calibration.depthError(1.0, depth_noise_disparity_px_)
+      stage_params_.depth_noise_disparity_px > 0.0
+        ? frame.calibration.depthError(1.0, stage_params_.depth_noise_disparity_px)
         : 0.0;
     segmentation_.setDepthNoiseCoefficient(
       std::isfinite(coefficient) && coefficient > 0.0 ? coefficient : 0.0);
     pcl::PointCloud<pcl::PointXYZI>::Ptr sample;
     // A frame with fewer than 3 features (blur, fog, no texture) cannot sample a plane
     // from them: its planes are sampled from its points, as with sample: points.
-    if (use_features_ && frame.features.size() < 3)
+    if (sampleFeatures() && frame.features.size() < 3)
       PCL_WARN("[planar_grid::multi_plane_segmentation] frame %s has %zu matched "
                "features, too few to sample planes from: sampled from its points.\n",
                frame.name.c_str(), frame.features.size());
-    if (use_features_ && frame.features.size() >= 3) {
+    if (sampleFeatures() && frame.features.size() >= 3) {
       // The features are in the camera frame; bring them to the cloud's frame.
       sample.reset(new pcl::PointCloud<pcl::PointXYZI>);
       sample->resize(frame.features.points.size());
@@ -145,9 +189,10 @@ public:
     segmentation_.setInlierOnlyIndices(inlier_only);
     // auto: the normal test on the frames with a disparity image only; the normals a
     // grid fits to a noisy stereo or depth cloud turn with its depth noise.
-    const bool test_normals = max_normal_angle_rad_ > 0.0
-                              && (!use_disparity_normals_ || !frame.disparity.empty());
-    segmentation_.setMaxNormalAngle(test_normals ? max_normal_angle_rad_ : 0.0);
+    const bool test_normals = params_.max_normal_angle_rad > 0.0
+                              && (stage_params_.normal_source != NormalSource::AUTO
+                                  || !frame.disparity.empty());
+    segmentation_.setMaxNormalAngle(test_normals ? params_.max_normal_angle_rad : 0.0);
     segmentation_.setInputNormals(test_normals ? disparityNormals(frame) : nullptr);
     segmentation_.segment(frame.planes);
     if (inlier_only) {
@@ -172,41 +217,8 @@ public:
 
   void getParameters(ParamValues& v) const override
   {
-    const auto& s = segmentation_;
-    v.set("distance_threshold_m", s.getDistanceThreshold());
-    v.set("depth_noise_disparity_px", depth_noise_disparity_px_);
-    v.set("depth_noise_along_sight", s.getDepthNoiseAlongSight());
-    v.set("sample_distance_threshold_m", s.getSampleDistanceThreshold());
-    v.set("max_planes", s.getMaxPlanes());
-    v.set("min_inliers", s.getMinInliers());
-    v.set("min_sample_inliers", s.getMinSampleInliers());
-    v.set("min_remaining_fraction", s.getMinRemainingFraction());
-    v.set("max_iterations", s.getMaxIterations());
-    v.set("method", sacMethodName(s.getMethodType()));
-    v.set("optimize_coefficients", s.getOptimizeCoefficients());
-    v.set("dense_hypothesis", s.getDenseHypothesis());
-    v.set("lo_iterations", s.getLocalOptimizationIterations());
-    v.set("merge_planes", s.getMergePlanes());
-    v.set("merge_angle_rad", s.getMergeAngleThreshold());
-    v.set("merge_distance_m", s.getMergeDistanceThreshold());
-    v.set("sample", std::string(use_features_ ? "features" : "cloud"));
-    v.set("seed", static_cast<int>(s.getSeed()));
-    v.set("max_visibility_conflict_ratio", s.getMaxVisibilityConflictRatio());
-    v.set("visibility_margin_m", s.getVisibilityMargin());
-    v.set("visibility_cell_m", s.getVisibilityCell());
-    v.set("min_sensor_distance_m", s.getMinSensorDistance());
-    v.set("min_sensor_height_m", s.getMinTerrainSensorHeight());
-    v.set("min_cluster_size", s.getMinClusterSize());
-    v.set("cluster_cell_m", s.getClusterCell());
-    v.set("max_shell_ratio", s.getMaxShellRatio());
-    v.set("shell_width_m", s.getShellWidth());
-    v.set("count_inlier_only_points", s.getCountInlierOnlyPoints());
-    v.set("inlier_only_distance_threshold_m", s.getInlierOnlyDistanceThreshold());
-    v.set("max_normal_angle_rad", max_normal_angle_rad_);
-    v.set("normal_cell_m", s.getNormalCell());
-    v.set("min_normal_agreement", s.getMinNormalAgreement());
-    v.set("normal_source", std::string(use_disparity_normals_ ? "auto" : "cloud"));
-    v.set("normal_window_m", disparity_normals_.window_radius_m);
+    reportParams(sacMultiPlaneSegmentationParamDeclarations(), params_, v);
+    reportParams(multiPlaneStageParamDeclarations(), stage_params_, v);
   }
 
   void counters(const Frame& frame,
@@ -245,7 +257,7 @@ public:
       values.emplace_back("cluster_removed",
                           static_cast<double>(segmentation_.getClusterRemovedCount()));
     }
-    if (max_normal_angle_rad_ > 0.0) {
+    if (params_.max_normal_angle_rad > 0.0) {
       values.emplace_back("normal_dropped",
                           static_cast<double>(segmentation_.getNormalRejectedCount()));
       values.emplace_back("normal_removed",
@@ -260,12 +272,15 @@ public:
   }
 
 private:
+  /** Whether the hypotheses come from the frame's key features. */
+  bool sampleFeatures() const { return stage_params_.sample == PlaneSample::FEATURES; }
+
   /** The normals of the normal test from the frame's disparity image (in the cloud's
    * frame), or nullptr where the segmentation fits them to the cloud (normal_source
    * cloud, or no disparity image). */
   pcl::PointCloud<pcl::Normal>::ConstPtr disparityNormals(const Frame& frame) const
   {
-    if (!use_disparity_normals_ || frame.disparity.empty()
+    if (stage_params_.normal_source != NormalSource::AUTO || frame.disparity.empty()
         || !(frame.calibration.focal_length_px > 0.0)
         || !(frame.calibration.baseline_m > 0.0))
       return nullptr;
@@ -368,11 +383,10 @@ private:
   }
 
   SACMultiPlaneSegmentation<pcl::PointXYZI> segmentation_;
-  double max_normal_angle_rad_{0.0};
-  bool use_disparity_normals_{true};
+  /** The configured parameters (process() turns the normal test off per frame). */
+  SACMultiPlaneSegmentationParams params_;
+  MultiPlaneStageParams stage_params_;
   DisparityNormalParams disparity_normals_;
-  bool use_features_;
-  double depth_noise_disparity_px_;
   std::size_t inlier_only_{0};
   std::size_t inlier_only_taken_{0};
   std::size_t far_joined_{0};
@@ -437,159 +451,13 @@ multiPlaneSegmentationInfo()
     "plane model, dense inliers within distance_threshold_m (d_T) of each plane. Up "
     "axis: "
     "world +z after transform_to_world, else the camera's -y.";
-  // The defaults are the class's, except where a row says otherwise.
-  const SACMultiPlaneSegmentation<pcl::PointXYZI> d;
-  namespace ranges = sac_multi_plane_segmentation_ranges;
-  info.params = {
-    ParamSpec::real(
-      "distance_threshold_m", d.getDistanceThreshold(), ranges::DISTANCE_THRESHOLD, "m",
-      "d_T of eq. 11: dense points this close to a plane are its inliers."),
-    ParamSpec::real(
-      "depth_noise_disparity_px", 0.0, 0.0, 10.0, "px",
-      "Stereo input: Delta d of eq. 4; a dense point is an inlier within max(d_T, "
-      "Delta z) with Delta z = r^2 Delta d / (B f) at its range r (0: fixed d_T)."),
-    ParamSpec::flag(
-      "depth_noise_along_sight", d.getDepthNoiseAlongSight(),
-      "With depth_noise_disparity_px: a point is an inlier within max(d_T, Delta z "
-      "|n . u|), Delta z projected on the plane's normal n from the point's line of "
-      "sight u (stereo displaces points along it): a road seen at a grazing angle "
-      "keeps about d_T and no longer takes what stands on it at range."),
-    ParamSpec::real(
-      "sample_distance_threshold_m", 0.1, ranges::SAMPLE_DISTANCE_THRESHOLD, "m",
-      "RANSAC inlier threshold on the sample (stereo features are noisier). The "
-      "pipeline's value; the class defaults to its dense distance threshold."),
-    ParamSpec::integer("max_planes", d.getMaxPlanes(), ranges::MAX_PLANES, "",
-                       "Most planes per frame."),
-    ParamSpec::integer("min_inliers", d.getMinInliers(), ranges::MIN_INLIERS, "",
-                       "A plane needs at least this many dense inliers.")
-      .scalesWithCellSize(ParamSpec::CellSizeScaling::POINTS_PER_AREA),
-    ParamSpec::integer("min_sample_inliers", d.getMinSampleInliers(),
-                       ranges::MIN_SAMPLE_INLIERS, "",
-                       "A hypothesis needs at least this many sample inliers."),
-    ParamSpec::real("min_remaining_fraction", d.getMinRemainingFraction(),
-                    ranges::MIN_REMAINING_FRACTION, "",
-                    "Stop when less than this fraction of the sample remains."),
-    ParamSpec::integer("max_iterations", d.getMaxIterations(), ranges::MAX_ITERATIONS,
-                       "", "RANSAC iterations per plane."),
-    ParamSpec::choice("method", sacMethodName(d.getMethodType()), sacMethodNames(),
-                      "PCL sample consensus estimator."),
-    ParamSpec::flag("optimize_coefficients", d.getOptimizeCoefficients(),
-                    "Least-squares refit of each plane on its dense inliers."),
-    ParamSpec::flag("dense_hypothesis", d.getDenseHypothesis(),
-                    "Each round also hypothesises a plane from a dense subsample; the "
-                    "one with more inliers is kept."),
-    ParamSpec::integer("lo_iterations", d.getLocalOptimizationIterations(),
-                       ranges::LO_ITERATIONS, "",
-                       "Local optimisation (LO-RANSAC) samples per plane; 0 = off."),
-    ParamSpec::flag("merge_planes", d.getMergePlanes(), "Merge near-duplicate planes."),
-    ParamSpec::real("merge_angle_rad", d.getMergeAngleThreshold(),
-                    ranges::MERGE_ANGLE_THRESHOLD, "rad",
-                    "Planes whose normals differ less than this may merge."),
-    ParamSpec::real("merge_distance_m", d.getMergeDistanceThreshold(),
-                    ranges::MERGE_DISTANCE_THRESHOLD, "m",
-                    "... and whose offsets differ less than this."),
-    ParamSpec::choice("sample", "features", {"features", "cloud"},
-                      "Hypotheses from the 3D key features (paper) or the cloud; on "
-                      "pcd_files input the default is cloud (no stereo features)."),
-    ParamSpec::integer("seed", static_cast<int>(d.getSeed()), 0, 2147483647, "",
-                       "Random seed (reproducible runs)."),
-    ParamSpec::real("max_visibility_conflict_ratio", d.getMaxVisibilityConflictRatio(),
-                    ranges::MAX_VISIBILITY_CONFLICT_RATIO, "",
-                    "Visibility test: where, around a 3 x 3 cell neighbourhood of a "
-                    "plane's footprint, more than this many points per inlier are seen "
-                    "through the plane or hide it from the camera (a slab through a "
-                    "tree's canopy), those inliers leave the plane; 0 = no test."),
-    ParamSpec::real("visibility_margin_m", d.getVisibilityMargin(),
-                    ranges::VISIBILITY_MARGIN, "m",
-                    "A point conflicts with a plane only this much (plus its eq. 11 "
-                    "threshold) off it."),
-    ParamSpec::real("visibility_cell_m", d.getVisibilityCell(), ranges::VISIBILITY_CELL,
-                    "m",
-                    "Cell edge of a plane's footprint in the visibility and the shell "
-                    "tests."),
-    ParamSpec::real("min_sensor_distance_m", d.getMinSensorDistance(),
-                    ranges::MIN_SENSOR_DISTANCE, "m",
-                    "Sensor plane test: a plane passing closer than this to the "
-                    "sensor is dropped and its inliers go to no later plane (it "
-                    "contains the lines of sight, along which stereo smears every "
-                    "object: a vertical sheet through a tree trunk, a horizontal one "
-                    "at the camera's height); 0 = no test."),
-    ParamSpec::real("min_sensor_height_m", TerrainParams{}.min_sensor_height_m,
-                    ranges::MIN_TERRAIN_SENSOR_HEIGHT, "m",
-                    "The normal and cluster tests spare a level plane as terrain only "
-                    "when the sensor lies more than this above it (a level plane just "
-                    "below the camera is no ground: spared, it takes a stripe of every "
-                    "wall at its height); 0: every level plane below the sensor. Left "
-                    "out, it takes ground_removal's min_sensor_height_m (the same "
-                    "default)."),
-    ParamSpec::integer("min_cluster_size", d.getMinClusterSize(),
-                       ranges::MIN_CLUSTER_SIZE, "",
-                       "Cluster test: the inliers of each connected cluster of a "
-                       "plane's footprint (cluster_cell_m cells, a one-cell gap "
-                       "bridged) holding fewer than this many leave the plane (a plane "
-                       "through separate trunks, or slicing car bodies); 0 = no test.")
-      .scalesWithCellSize(ParamSpec::CellSizeScaling::POINTS_PER_AREA),
-    ParamSpec::real("cluster_cell_m", d.getClusterCell(), ranges::CLUSTER_CELL, "m",
-                    "Footprint cell edge of the cluster test (at least the voxel "
-                    "edge of a voxelised cloud).")
-      .scalesWithCellSize(ParamSpec::CellSizeScaling::CELL_SIZE),
-    ParamSpec::real("max_shell_ratio", d.getMaxShellRatio(), ranges::MAX_SHELL_RATIO,
-                    "",
-                    "Shell test: where, around a 3 x 3 cell neighbourhood of a plane's "
-                    "footprint, twice the smaller of the two sides' counts of points "
-                    "just beyond the eq. 11 threshold t (between t and t + max(t, "
-                    "shell_width_m) off the plane) exceeds this many per inlier (a "
-                    "slab through a canopy, a stripe across a facade or a car), those "
-                    "inliers leave the plane; 0 = no test."),
-    ParamSpec::real("shell_width_m", d.getShellWidth(), ranges::SHELL_WIDTH, "m",
-                    "Smallest width of the shell test's shell (a voxelised cloud's "
-                    "surface points lie in layers one voxel apart).")
-      .scalesWithCellSize(ParamSpec::CellSizeScaling::CELL_SIZE),
-    ParamSpec::flag("count_inlier_only_points", d.getCountInlierOnlyPoints(),
-                    "The points beyond depth_error_filter's cell bound (kept by its "
-                    "max_plane_depth_error_m) count towards min_inliers, so that a "
-                    "plane the key features make may stand on them alone; false: a "
-                    "plane needs min_inliers nearer points, which they only extend."),
-    ParamSpec::real("inlier_only_distance_threshold_m",
-                    d.getInlierOnlyDistanceThreshold(),
-                    ranges::INLIER_ONLY_DISTANCE_THRESHOLD, "m",
-                    "Those points join a plane within the smaller of this and their "
-                    "eq. 11 threshold (a planar cell is as thick as its inliers' "
-                    "spread); 0: eq. 11's."),
-    ParamSpec::real("max_normal_angle_rad", 0.5, ranges::MAX_NORMAL_ANGLE, "rad",
-                    "Normal test: a point is an inlier only when its surface normal "
-                    "(fitted to the points of the 3 x 3 x 3 normal_cell_m cells around "
-                    "it, or to the disparities around its pixel, normal_source) lies "
-                    "within this angle of the plane's normal; a point without a normal "
-                    "(too few neighbours) is judged by distance alone (a canopy's or a "
-                    "pole's points scatter in normal, a wall's agree). Terrain planes "
-                    "(within 0.3 rad of level, below the sensor) are spared. The "
-                    "pipeline's value; the class defaults to 0 (no test)."),
-    ParamSpec::real("normal_cell_m", d.getNormalCell(), ranges::NORMAL_CELL, "m",
-                    "Cell edge of the normal estimation (about twice the voxel edge: "
-                    "a stereo surface is as thick as its depth noise).")
-      .scalesWithCellSize(ParamSpec::CellSizeScaling::LENGTH),
-    ParamSpec::choice("normal_source", "auto", {"auto", "cloud"},
-                      "Where the normal test's normals come from: auto, the frame's "
-                      "disparity image (a plane fitted to the disparities around each "
-                      "point's pixel, planar_grid::estimateDisparityNormals); frames "
-                      "without one (point clouds, depth images) get no normal test; "
-                      "cloud, the points of the normal_cell_m grid, for every input "
-                      "(for clouds whose noise is well below normal_cell_m)."),
-    ParamSpec::real("normal_window_m", DisparityNormalParams{}.window_radius_m,
-                    disparity_normals_ranges::WINDOW_RADIUS, "m",
-                    "Disparity normals: half-width of the window around a point's "
-                    "pixel, on the surface at the point's depth (f r / z pixels, 4 to "
-                    "60)."),
-    ParamSpec::real(
-      "min_normal_agreement", 0.35, ranges::MIN_NORMAL_AGREEMENT, "",
-      "Normal test: a hypothesis whose inliers by distance agree with its "
-      "normal less often than this is dropped (a plane through "
-      "vegetation, clutter, or across a surface at an angle). The "
-      "pipeline's value; the class defaults to 0 (no test)."),
-  };
+  info.params = multiPlaneSegmentationParamSpecs();
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
-    return std::make_unique<MultiPlaneSegmentationStage>(v);
+    SACMultiPlaneSegmentationParams params;
+    assignParams(sacMultiPlaneSegmentationParamDeclarations(), v, params);
+    MultiPlaneStageParams stage_params;
+    assignParams(multiPlaneStageParamDeclarations(), v, stage_params);
+    return std::make_unique<MultiPlaneSegmentationStage>(params, stage_params);
   };
   return info;
 }

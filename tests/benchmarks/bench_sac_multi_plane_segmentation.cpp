@@ -191,9 +191,16 @@ segmentOnce(const Frame& f, const Setting& setting)
   seg.setUpAxis(Eigen::Vector3f(0.0f, -1.0f, 0.0f));
   if (setting.features)
     seg.setSampleCloud(f.features);
-  if (setting.sample_threshold_m > 0.0)
-    seg.setSampleDistanceThreshold(setting.sample_threshold_m);
+  // 0: the sample threshold is d_T, as in PCL's loop.
+  seg.setSampleDistanceThreshold(setting.sample_threshold_m > 0.0
+                                   ? setting.sample_threshold_m
+                                   : DISTANCE_THRESHOLD_M);
   seg.setDistanceThreshold(DISTANCE_THRESHOLD_M);
+  // The paper's distance-only eq. 11, as PCL's loop (the class's default normal
+  // test is the pipeline's).
+  seg.setMaxNormalAngle(0.0);
+  seg.setMinNormalAgreement(0.0);
+  seg.setMinTerrainSensorHeight(0.0);
   seg.setMaxIterations(MAX_ITERATIONS);
   seg.setMaxPlanes(setting.max_planes);
   seg.setMinInliers(setting.min_inliers);

@@ -67,6 +67,12 @@ inline void
 segmentAndRemoveGround(const Cloud::Ptr& cloud, Scene& out)
 {
   planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZI> seg;
+  // Eq. 11 by distance alone, the sample threshold d_T (the class's defaults are
+  // the pipeline's normal test and 0.1 m sample threshold).
+  seg.setMaxNormalAngle(0.0);
+  seg.setMinNormalAgreement(0.0);
+  seg.setMinTerrainSensorHeight(0.0);
+  seg.setSampleDistanceThreshold(DISTANCE_THRESHOLD_M);
   seg.setInputCloud(cloud);
   seg.setUpAxis(Eigen::Vector3f(0.0f, -1.0f, 0.0f));
   seg.setDistanceThreshold(DISTANCE_THRESHOLD_M);

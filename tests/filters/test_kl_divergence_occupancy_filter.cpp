@@ -420,6 +420,7 @@ TYPED_TEST(KLDivergenceOccupancyFilterTyped, AssociationByPosition)
     first_truth[i] = i;
 
   auto by_position = TestFixture::makeFilter();
+  by_position.setAssociationRadius(0.2);
   auto by_id = TestFixture::makeFilter();
   TestFixture::frame(by_position, first, {});
   TestFixture::frame(by_id, first, first_truth);
@@ -636,7 +637,7 @@ TYPED_TEST(KLDivergenceOccupancyFilterTyped, SettersAndGettersMatchParams)
   EXPECT_EQ(filter.getKLOffset(), 1.07);
   EXPECT_EQ(filter.getUpdateRule(), OccupancyUpdateRule::KL_DIVERGENCE);
   EXPECT_EQ(filter.getRangeErrorModel(), planar_grid::RangeErrorModel::STEREO);
-  EXPECT_EQ(filter.getAssociationRadius(), 0.2);
+  EXPECT_EQ(filter.getAssociationRadius(), 0.1);
   EXPECT_EQ(filter.getDepthErrorCoefficient(), 0.0016);
   EXPECT_EQ(filter.getRangeError(), 0.03);
   EXPECT_NEAR(filter.getClampingThresMinLogOdds(), std::log(0.1192 / 0.8808), 1e-12);

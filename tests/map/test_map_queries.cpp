@@ -544,6 +544,12 @@ karlsruheMap(PlanarGridMap& map)
   grid.setLeafSize(0.1f, 0.1f, 0.1f);
   grid.filter(*world);
   SACMultiPlaneSegmentation<pcl::PointXYZI> seg;
+  // Eq. 11 by distance alone, the sample threshold d_T (the class's defaults are
+  // the pipeline's normal test and 0.1 m sample threshold).
+  seg.setMaxNormalAngle(0.0);
+  seg.setMinNormalAgreement(0.0);
+  seg.setMinTerrainSensorHeight(0.0);
+  seg.setSampleDistanceThreshold(0.05);
   seg.setInputCloud(world);
   seg.setUpAxis(Eigen::Vector3f::UnitZ());
   seg.setDistanceThreshold(0.05);

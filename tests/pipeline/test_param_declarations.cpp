@@ -1,10 +1,15 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // An algorithm's parameters are declared once (PlanarGridMap::getParamDeclarations(),
-// TerrainRemoval::getParamDeclarations()): its stage's list, the parsing into the class
-// and the stage's echo come from that table.
+// TerrainRemoval::getParamDeclarations(), ...): its stage's list, the parsing into the
+// class and the stage's echo come from that table.
+#include <planar_grid/filters/depth_error_filter.h>
+#include <planar_grid/filters/fast_statistical_outlier_removal.h>
+#include <planar_grid/filters/fast_voxel_grid.h>
+#include <planar_grid/filters/kl_divergence_occupancy_filter.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/param_table.h>
 #include <planar_grid/pipeline/stage.h>
+#include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 #include <planar_grid/segmentation/terrain_removal.h>
 
 #include <pcl/point_types.h>
@@ -13,6 +18,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <memory>
 #include <string>
 #include <variant>
 #include <vector>
@@ -69,7 +75,7 @@ otherValue(const planar_grid::ParamDeclaration<Params>& d)
     case Declaration::Type::DOUBLE: {
       const double v = std::get<double>(value);
       // Values whose decimal text is exact enough to compare after YAML.
-      for (const double candidate : {v * 2.0, v * 0.5, v + 0.25, 0.5, 1.0})
+      for (const double candidate : {v * 2.0, v * 0.5, v + 0.25, 0.5, 1.0, 0.75})
         if (candidate != v && d.range.contains(candidate))
           return {planar_grid::formatParamNumber(candidate), candidate};
       break;
@@ -109,6 +115,214 @@ expectListedAsDeclared(const planar_grid::ParamDeclarations<Params>& table,
   for (std::size_t i = 0; i < table.size(); ++i)
     for (std::size_t j = i + 1; j < table.size(); ++j)
       EXPECT_NE(table[i].key, table[j].key);
+}
+
+/** The stage's keys in their order. */
+std::vector<std::string>
+keysOf(const std::vector<ParamSpec>& params)
+{
+  std::vector<std::string> keys;
+  for (const auto& spec : params)
+    keys.push_back(spec.key);
+  return keys;
+}
+
+/** A non-default value of each declaration of \a table, given to \a stage_type as
+ * YAML, reaches the class (\a make_class builds it from the parsed Params and
+ * \a get_params reads them back) with every other member at its default, and comes
+ * back in the stage's echo. */
+template <typename Params, typename MakeClass, typename GetParams>
+void
+expectEachValueReachesTheClassAndTheEcho(
+  const planar_grid::ParamDeclarations<Params>& table,
+  const std::string& stage_type,
+  MakeClass make_class,
+  GetParams get_params)
+{
+  const auto& info = stage(stage_type);
+  for (const auto& d : table) {
+    SCOPED_TRACE(d.key);
+    const auto [text, value] = otherValue(d);
+    const ParamValues parsed = planar_grid::parseParams(
+      YAML::Load("{" + d.key + ": " + text + "}"), info.params, "s.yaml", info.type);
+    Params params;
+    planar_grid::assignParams(table, parsed, params);
+    const auto object = make_class(params);
+    for (const auto& other : table)
+      EXPECT_EQ(other.get(get_params(object)),
+                other.key == d.key ? value : other.get(Params{}))
+        << other.key;
+    ParamValues held;
+    info.create(parsed)->getParameters(held);
+    EXPECT_EQ(held.values().at(d.key), value);
+  }
+}
+
+TEST(ParamDeclarations, MultiPlaneSegmentationIsTheSegmentationsTableAndItsOwn)
+{
+  using Segmentation = planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZ>;
+  const auto& table = Segmentation::getParamDeclarations();
+  const auto& params = stage("multi_plane_segmentation").params;
+  ASSERT_EQ(table.size(), 30u);
+  expectListedAsDeclared(table, params);
+  // A default-constructed class holds the table's defaults (the pipeline's).
+  const Segmentation defaults;
+  for (const auto& d : table)
+    EXPECT_EQ(d.get(defaults.getParams()), d.get(Segmentation::Params{})) << d.key;
+  EXPECT_EQ(defaults.getMaxNormalAngle(), 0.5);
+  EXPECT_EQ(defaults.getSampleDistanceThreshold(), 0.1);
+  // The stage's own keys stand beside the class keys they go with, in the order
+  // docs/STAGES.md documents.
+  const std::vector<std::string> expected{"distance_threshold_m",
+                                          "depth_noise_disparity_px",
+                                          "depth_noise_along_sight",
+                                          "sample_distance_threshold_m",
+                                          "max_planes",
+                                          "min_inliers",
+                                          "min_sample_inliers",
+                                          "min_remaining_fraction",
+                                          "max_iterations",
+                                          "method",
+                                          "optimize_coefficients",
+                                          "dense_hypothesis",
+                                          "lo_iterations",
+                                          "merge_planes",
+                                          "merge_angle_rad",
+                                          "merge_distance_m",
+                                          "sample",
+                                          "seed",
+                                          "max_visibility_conflict_ratio",
+                                          "visibility_margin_m",
+                                          "visibility_cell_m",
+                                          "min_sensor_distance_m",
+                                          "min_sensor_height_m",
+                                          "min_cluster_size",
+                                          "cluster_cell_m",
+                                          "max_shell_ratio",
+                                          "shell_width_m",
+                                          "count_inlier_only_points",
+                                          "inlier_only_distance_threshold_m",
+                                          "max_normal_angle_rad",
+                                          "normal_cell_m",
+                                          "normal_source",
+                                          "normal_window_m",
+                                          "min_normal_agreement"};
+  EXPECT_EQ(keysOf(params), expected);
+  expectEachValueReachesTheClassAndTheEcho(
+    table, "multi_plane_segmentation",
+    [](const Segmentation::Params& p) { return Segmentation(p); },
+    [](const Segmentation& s) { return s.getParams(); });
+  // The class's setters write the same members.
+  Segmentation segmentation;
+  segmentation.setMaxNormalAngle(0.0);
+  segmentation.setMinTerrainSensorHeight(1.5);
+  segmentation.setSeed(9u);
+  EXPECT_EQ(segmentation.getParams().max_normal_angle_rad, 0.0);
+  EXPECT_EQ(segmentation.getParams().min_sensor_height_m, 1.5);
+  EXPECT_EQ(segmentation.getParams().seed, 9u);
+}
+
+TEST(ParamDeclarations, KLOccupancyFilterIsTheFiltersTableAndItsOwn)
+{
+  using Filter = planar_grid::KLDivergenceOccupancyFilter<pcl::PointXYZ>;
+  const auto& table = Filter::getParamDeclarations();
+  const auto& params = stage("kl_occupancy_filter").params;
+  ASSERT_EQ(table.size(), 12u);
+  expectListedAsDeclared(table, params);
+  // A default-constructed filter holds the table's defaults (the pipeline's).
+  const Filter defaults;
+  for (const auto& d : table)
+    EXPECT_EQ(d.get(defaults.getParams()), d.get(Filter::Params{})) << d.key;
+  EXPECT_EQ(defaults.getAssociationRadius(), 0.1);
+  // The stage's sensor model follows the update rule; its matching and motion keys
+  // come last, in the order docs/STAGES.md documents.
+  const std::vector<std::string> expected{"update_rule",
+                                          "range_error_model",
+                                          "disparity_error_px",
+                                          "depth_error_coefficient_per_m",
+                                          "range_error_m",
+                                          "association_radius_m",
+                                          "neighbourhood_size_m",
+                                          "clamping_thres_min",
+                                          "clamping_thres_max",
+                                          "occupancy_thres",
+                                          "kl_offset_nats",
+                                          "prob_hit",
+                                          "prob_miss",
+                                          "match_ratio",
+                                          "search_radius_px",
+                                          "max_hamming_distance_bits",
+                                          "use_motion_likelihood",
+                                          "sigma_translation_m",
+                                          "sigma_rotation_rad"};
+  EXPECT_EQ(keysOf(params), expected);
+  expectEachValueReachesTheClassAndTheEcho(
+    table, "kl_occupancy_filter",
+    [](const Filter::Params& p) {
+      auto filter = std::make_unique<Filter>();
+      filter->setParams(p);
+      return filter;
+    },
+    [](const std::unique_ptr<Filter>& f) { return f->getParams(); });
+}
+
+TEST(ParamDeclarations, FilterStagesAreTheFiltersTables)
+{
+  using VoxelGrid = planar_grid::FastVoxelGrid<pcl::PointXYZ>;
+  using OutlierRemoval = planar_grid::FastStatisticalOutlierRemoval<pcl::PointXYZ>;
+  using DepthError = planar_grid::DepthErrorFilter<pcl::PointXYZ>;
+  // voxel_grid and statistical_outlier_removal are their filter's table alone.
+  ASSERT_EQ(VoxelGrid::getParamDeclarations().size(), 2u);
+  expectListedAsDeclared(VoxelGrid::getParamDeclarations(), stage("voxel_grid").params);
+  EXPECT_EQ(stage("voxel_grid").params.size(), 2u);
+  ASSERT_EQ(OutlierRemoval::getParamDeclarations().size(), 2u);
+  expectListedAsDeclared(OutlierRemoval::getParamDeclarations(),
+                         stage("statistical_outlier_removal").params);
+  EXPECT_EQ(stage("statistical_outlier_removal").params.size(), 2u);
+  // depth_error_filter: the filter's two, then the stage's own two.
+  ASSERT_EQ(DepthError::getParamDeclarations().size(), 2u);
+  expectListedAsDeclared(DepthError::getParamDeclarations(),
+                         stage("depth_error_filter").params);
+  EXPECT_EQ(keysOf(stage("depth_error_filter").params),
+            (std::vector<std::string>{"disparity_error_px", "max_depth_error_m",
+                                      "max_plane_depth_error_m", "far_levels"}));
+  // A default-constructed filter holds the table's defaults (the pipeline's).
+  const VoxelGrid grid;
+  for (const auto& d : VoxelGrid::getParamDeclarations())
+    EXPECT_EQ(d.get(grid.getParams()), d.get(VoxelGrid::Params{})) << d.key;
+  EXPECT_EQ(grid.getLeafSize().x(), 0.05f);
+  const OutlierRemoval removal;
+  for (const auto& d : OutlierRemoval::getParamDeclarations())
+    EXPECT_EQ(d.get(removal.getParams()), d.get(OutlierRemoval::Params{})) << d.key;
+  EXPECT_EQ(removal.getMeanK(), 20);
+  const DepthError depth;
+  for (const auto& d : DepthError::getParamDeclarations())
+    EXPECT_EQ(d.get(depth.getParams()), d.get(DepthError::Params{})) << d.key;
+  // Each value reaches the filter and the stage's echo.
+  expectEachValueReachesTheClassAndTheEcho(
+    VoxelGrid::getParamDeclarations(), "voxel_grid",
+    [](const VoxelGrid::Params& p) {
+      auto filter = std::make_unique<VoxelGrid>();
+      filter->setParams(p);
+      return filter;
+    },
+    [](const std::unique_ptr<VoxelGrid>& f) { return f->getParams(); });
+  expectEachValueReachesTheClassAndTheEcho(
+    OutlierRemoval::getParamDeclarations(), "statistical_outlier_removal",
+    [](const OutlierRemoval::Params& p) {
+      auto filter = std::make_unique<OutlierRemoval>();
+      filter->setParams(p);
+      return filter;
+    },
+    [](const std::unique_ptr<OutlierRemoval>& f) { return f->getParams(); });
+  expectEachValueReachesTheClassAndTheEcho(
+    DepthError::getParamDeclarations(), "depth_error_filter",
+    [](const DepthError::Params& p) {
+      auto filter = std::make_unique<DepthError>();
+      filter->setParams(p);
+      return filter;
+    },
+    [](const std::unique_ptr<DepthError>& f) { return f->getParams(); });
 }
 
 TEST(ParamDeclarations, MapIntegrationListsEveryMapParameterAsDeclared)
@@ -188,15 +402,29 @@ TEST(ParamDeclarations, EachValueReachesTheMapAndTheStageEcho)
   }
 }
 
-TEST(ParamDeclarations, AChoiceThatIsNoneOfTheNamesIsRefused)
+/** Setting a choice of \a table to a name that is none of its choices throws and
+ * leaves the member as it was. */
+template <typename Params>
+void
+expectUnknownChoiceRefused(const planar_grid::ParamDeclarations<Params>& table)
 {
-  PlanarGridMap::Params params;
-  for (const MapDeclaration& d : PlanarGridMap::getParamDeclarations())
-    if (d.type == MapDeclaration::Type::CHOICE) {
+  using Declaration = planar_grid::ParamDeclaration<Params>;
+  Params params;
+  for (const Declaration& d : table)
+    if (d.type == Declaration::Type::CHOICE) {
       SCOPED_TRACE(d.key);
       EXPECT_THROW(d.set(params, std::string("no_such_name")), planar_grid::Exception);
-      EXPECT_EQ(d.get(params), d.get(PlanarGridMap::Params{}));
+      EXPECT_EQ(d.get(params), d.get(Params{}));
     }
+}
+
+TEST(ParamDeclarations, AChoiceThatIsNoneOfTheNamesIsRefused)
+{
+  expectUnknownChoiceRefused(PlanarGridMap::getParamDeclarations());
+  expectUnknownChoiceRefused(
+    planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZ>::getParamDeclarations());
+  expectUnknownChoiceRefused(
+    planar_grid::KLDivergenceOccupancyFilter<pcl::PointXYZ>::getParamDeclarations());
 }
 
 } // namespace

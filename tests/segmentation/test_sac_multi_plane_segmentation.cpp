@@ -32,6 +32,23 @@ using planar_grid::SACMultiPlaneSegmentation;
 
 constexpr double DEG = M_PI / 180.0;
 
+/** The paper's multi-RANSAC, which these tests were written for: eq. 11 by distance
+ * alone (no normal test), every level plane below the sensor spared as terrain, and
+ * the sample threshold equal to d_T. The class's defaults are the pipeline's tuned
+ * ones (normal test on, a 0.1 m sample threshold), which the tests of those features
+ * set where they use them. */
+planar_grid::SACMultiPlaneSegmentationParams
+paperParams(double distance_threshold_m = 0.05)
+{
+  planar_grid::SACMultiPlaneSegmentationParams params;
+  params.distance_threshold_m = distance_threshold_m;
+  params.sample_distance_threshold_m = distance_threshold_m;
+  params.max_normal_angle_rad = 0.0;
+  params.min_normal_agreement = 0.0;
+  params.min_sensor_height_m = 0.0;
+  return params;
+}
+
 /** A synthetic scene with known planes and per-point truth labels (-1 = outlier). */
 template <typename PointT> struct Scene {
   typename pcl::PointCloud<PointT>::Ptr cloud{new pcl::PointCloud<PointT>};
@@ -173,7 +190,7 @@ TYPED_TEST_SUITE(SACMultiPlaneSegmentationTyped, PointTypes);
 TYPED_TEST(SACMultiPlaneSegmentationTyped, SyntheticSceneFindsEveryPlane)
 {
   const auto scene = makeScene<TypeParam>(42);
-  SACMultiPlaneSegmentation<TypeParam> seg;
+  SACMultiPlaneSegmentation<TypeParam> seg(paperParams());
   seg.setInputCloud(scene.cloud);
   seg.setSeed(7);
   PlanarSegments planes;
@@ -204,7 +221,7 @@ TEST(SACMultiPlaneSegmentation, MethodsMSACAndPROSACFindEveryPlane)
 {
   const auto scene = makeScene<pcl::PointXYZ>(42);
   for (auto method : {planar_grid::SACMethod::MSAC, planar_grid::SACMethod::PROSAC}) {
-    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
     seg.setInputCloud(scene.cloud);
     seg.setMethodType(method);
     PlanarSegments planes;
@@ -222,7 +239,7 @@ TEST(SACMultiPlaneSegmentation, Eq3SignConventionForDownwardNormal)
   const double t30 = std::tan(30 * DEG);
   addPatch(scene, 0, {-1, -1, 2}, {0, 2, 0}, Eigen::Vector3d(2, 0, 2 * t30), 2000, 0.01,
            rng);
-  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
   seg.setInputCloud(scene.cloud);
   PlanarSegments planes;
   seg.segment(planes);
@@ -245,7 +262,7 @@ TEST(SACMultiPlaneSegmentation, SampleCloudGivesSamePlanesAsDensePath)
   for (int k = 0; k < 500; ++k)
     sample->push_back((*scene.cloud)[pick(rng)]);
 
-  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
   seg.setInputCloud(scene.cloud);
   PlanarSegments dense_planes, sample_planes;
   seg.segment(dense_planes);
@@ -275,7 +292,7 @@ TEST(SACMultiPlaneSegmentation, SameSeedGivesIdenticalOutput)
   std::vector<pcl::ModelCoefficients> c1, c2;
   std::vector<pcl::PointIndices> i1, i2;
   for (auto* out : {&c1, &c2}) {
-    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
     seg.setInputCloud(scene.cloud);
     seg.setSeed(1234);
     seg.segment(*out, out == &c1 ? i1 : i2);
@@ -304,9 +321,8 @@ TEST(SACMultiPlaneSegmentation, MergesNearDuplicatePlanes)
            Eigen::Vector3d(-4 * std::sin(r), 4 * std::cos(r), 0), {0, 0, 2}, 1500,
            0.0003, rng);
   for (bool merge : {true, false}) {
-    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams(0.002));
     seg.setInputCloud(scene.cloud);
-    seg.setDistanceThreshold(0.002);
     seg.setMinInliers(200);
     seg.setMergePlanes(merge);
     PlanarSegments planes;
@@ -337,7 +353,7 @@ TEST(SACMultiPlaneSegmentation, DenseInlierSelectionMatchesBruteForce)
   }
   const double d_t = 0.05;
   for (int max_planes : {1, 2}) {
-    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
     seg.setInputCloud(scene.cloud);
     seg.setMergePlanes(false);
     seg.setMaxPlanes(max_planes);
@@ -560,7 +576,7 @@ TEST(SACMultiPlaneSegmentation, DenseHypothesisIncreasesCoverageWithPrecisionKep
     return double(inliers) / scene.cloud->size();
   };
 
-  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
   seg.setInputCloud(scene.cloud);
   seg.setSampleCloud(sample);
   seg.setMergePlanes(false);
@@ -611,7 +627,7 @@ TEST(SACMultiPlaneSegmentation, DepthNoiseWidensEq11WithRangeOnly)
     cloud->push_back(pcl::PointXYZ(x, 0.5f, 2.85f));
   const std::size_t per_wall = (cloud->size() - 20) / 2;
   const auto run = [&](double coefficient) {
-    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
     seg.setInputCloud(cloud);
     seg.setDistanceThreshold(0.05);
     seg.setMinInliers(500);
@@ -646,7 +662,7 @@ TEST(SACMultiPlaneSegmentation, DepthNoiseWidensEq11WithRangeOnly)
   EXPECT_GE(near_ranged->inliers.indices.size(), per_wall * 98 / 100);
   EXPECT_LE(near_ranged->inliers.indices.size(), per_wall);
   // A negative or non-finite coefficient is refused.
-  SACMultiPlaneSegmentation<pcl::PointXYZ> bad;
+  SACMultiPlaneSegmentation<pcl::PointXYZ> bad(paperParams());
   bad.setInputCloud(cloud);
   bad.setDepthNoiseCoefficient(-1.0);
   PlanarSegments none;
@@ -680,7 +696,7 @@ TEST(SACMultiPlaneSegmentation, DepthNoiseAlongSightKeepsWhatStandsOnTheRoad)
       add(Eigen::Vector3d(x, 6.0, z));
   const std::size_t rail = cloud->size() - road;
   const auto run = [&](bool along_sight) {
-    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
     seg.setInputCloud(cloud);
     seg.setDistanceThreshold(0.05);
     seg.setDepthNoiseCoefficient(c);
@@ -735,7 +751,7 @@ TEST(SACMultiPlaneSegmentation, DegenerateSamplesAreRejectedQuietly)
     sample->push_back(makePoint<pcl::PointXYZ>({t, 0.5 * t - 1.0, 0.5}));
   }
   for (bool dense_hypothesis : {false, true}) {
-    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
     seg.setInputCloud(scene.cloud);
     seg.setSampleCloud(sample);
     seg.setDenseHypothesis(dense_hypothesis);
@@ -756,7 +772,7 @@ TEST(SACMultiPlaneSegmentation, RespectsIndices)
   for (std::size_t k = 0; k < scene.labels.size(); ++k)
     if (scene.labels[k] == 0 || scene.labels[k] == 1)
       indices->push_back(static_cast<int>(k));
-  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
   seg.setInputCloud(scene.cloud);
   seg.setIndices(indices);
   PlanarSegments planes;
@@ -776,7 +792,7 @@ TEST(SACMultiPlaneSegmentation, OfficeKinectCloudFindsFloorAndWalls)
     std::string(PLANAR_GRID_DATA_DIR) + "/pcl_clouds/office1.pcd";
   if (pcl::io::loadPCDFile(path, *cloud) != 0)
     GTEST_SKIP() << "missing " << path;
-  SACMultiPlaneSegmentation<pcl::PointXYZRGB> seg;
+  SACMultiPlaneSegmentation<pcl::PointXYZRGB> seg(paperParams());
   seg.setInputCloud(cloud);
   const Eigen::Vector3f up(0, -1, 0);
   seg.setUpAxis(up);
@@ -842,7 +858,7 @@ TEST(SACMultiPlaneSegmentation, RtabmapStereoFindsFloorAndWalls)
     finite += pcl::isFinite(p) ? 1 : 0;
   ASSERT_GT(finite, 10000u);
 
-  SACMultiPlaneSegmentation<pcl::PointXYZI> seg;
+  SACMultiPlaneSegmentation<pcl::PointXYZI> seg(paperParams());
   seg.setInputCloud(cloud);
   seg.setUpAxis(Eigen::Vector3f(0.0f, -1.0f, 0.0f));
   PlanarSegments planes;
@@ -879,7 +895,7 @@ TEST(SACMultiPlaneSegmentation, DegenerateInputsGiveEmptyOutput)
 {
   using Cloud = pcl::PointCloud<pcl::PointXYZ>;
   PlanarSegments planes(1);
-  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
   seg.segment(planes); // no input
   EXPECT_TRUE(planes.empty());
 
@@ -948,7 +964,7 @@ TEST(SACMultiPlaneSegmentation, InvalidParametersGiveEmptyOutput)
       [](auto& s) { s.setMinNormalAgreement(1.5); },
     };
   for (std::size_t i = 0; i < invalid.size(); ++i) {
-    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
     seg.setInputCloud(scene.cloud);
     invalid[i](seg);
     PlanarSegments planes(1);
@@ -982,7 +998,7 @@ wallAndCanopy()
 SACMultiPlaneSegmentation<pcl::PointXYZ>
 wallAndCanopySegmentation(const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud)
 {
-  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
   seg.setInputCloud(cloud);
   seg.setDistanceThreshold(0.05);
   seg.setMinInliers(400);
@@ -1266,10 +1282,9 @@ tableBesideDrum(float sensor_z,
       normals->push_back(pcl::Normal(std::cos(angle), std::sin(angle), 0.0f));
     }
   cloud->sensor_origin_ = Eigen::Vector4f(0.0f, -3.0f, sensor_z, 1.0f);
-  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams(0.06));
   seg.setInputCloud(cloud);
   seg.setInputNormals(normals);
-  seg.setDistanceThreshold(0.06);
   seg.setMinInliers(800);
   seg.setMaxPlanes(2);
   seg.setUpAxis(Eigen::Vector3f::UnitZ());
@@ -1403,7 +1418,7 @@ TEST(SACMultiPlaneSegmentation, VisibilityConflictsMatchBruteForce)
 PlanarSegments
 segmentWallAndCanopyWithShellTest(double max_shell_ratio)
 {
-  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
   seg.setInputCloud(wallAndCanopy());
   seg.setDistanceThreshold(0.05);
   seg.setMinInliers(400);
@@ -1443,7 +1458,7 @@ TEST(SACMultiPlaneSegmentation, SensorPlaneTestTakesOutSmearsThroughTheSensor)
   const auto cloud = wallAndSmearedTrunk();
   const std::size_t wall_points = cloud->size() - 1500; // the wall's come first
   const auto segment = [&](double min_sensor_distance, std::size_t& dropped) {
-    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
     seg.setInputCloud(cloud);
     seg.setDistanceThreshold(0.05);
     seg.setMinInliers(400);
@@ -1543,7 +1558,7 @@ TEST(SACMultiPlaneSegmentation, ClusterTestTakesOutPlanesThroughSeparateTrunks)
 {
   const TrunkRow scene = wallTrunkRowAndPavedFloor();
   const auto segment = [&](int min_cluster_size, std::size_t& dropped) {
-    SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+    SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
     seg.setInputCloud(scene.cloud);
     seg.setUpAxis(Eigen::Vector3f(0, -1, 0));
     seg.setDistanceThreshold(0.05);
@@ -1794,7 +1809,7 @@ TEST(SACMultiPlaneSegmentation, InlierOnlyPointsExtendPlanesButMakeNone)
   for (std::size_t i = near_points; i < scene.cloud->size(); ++i)
     inlier_only->push_back(static_cast<pcl::index_t>(i));
 
-  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
   seg.setInputCloud(scene.cloud);
   seg.setMinInliers(500);
   seg.setSeed(7);
@@ -1838,7 +1853,7 @@ TEST(SACMultiPlaneSegmentation, InlierOnlyPointsCountForAPlaneTheSampleMakes)
   addPatch(features, 0, {4, -3, -1}, {0, 0, 2.5}, {0, 6, 0}, 40, 0.0, rng);
   addPatch(features, 1, {-5, 20, -1}, {8.5, 0, 0}, {0, 0, 2.5}, 40, 0.0, rng);
 
-  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
   seg.setInputCloud(scene.cloud);
   seg.setInlierOnlyIndices(inlier_only);
   seg.setSampleCloud(features.cloud);
@@ -1877,7 +1892,7 @@ TEST(SACMultiPlaneSegmentation, InlierOnlyPointsJoinWithinTheirOwnThreshold)
   pcl::IndicesPtr inlier_only(new pcl::Indices);
   for (std::size_t i = near_points; i < scene.cloud->size(); ++i)
     inlier_only->push_back(static_cast<pcl::index_t>(i));
-  SACMultiPlaneSegmentation<pcl::PointXYZ> seg;
+  SACMultiPlaneSegmentation<pcl::PointXYZ> seg(paperParams());
   seg.setInputCloud(scene.cloud);
   seg.setInlierOnlyIndices(inlier_only);
   seg.setInlierOnlyDistanceThreshold(0.01);

@@ -645,6 +645,12 @@ TEST(PlanarCuboidApproximation, OfficeCloudFarFewerCuboidsThanVoxels)
   down.filter(voxels);
 
   planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZRGB> seg;
+  // Eq. 11 by distance alone, the sample threshold d_T (the class's defaults are
+  // the pipeline's normal test and 0.1 m sample threshold).
+  seg.setMaxNormalAngle(0.0);
+  seg.setMinNormalAgreement(0.0);
+  seg.setMinTerrainSensorHeight(0.0);
+  seg.setSampleDistanceThreshold(0.05);
   seg.setInputCloud(cloud);
   seg.setUpAxis(Eigen::Vector3f(0, -1, 0));
   seg.setMinInliers(200);

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_declaration.h>
 #include <planar_grid/core/param_range.h>
 #include <planar_grid/core/stereo_calibration.h>
 
@@ -20,6 +21,19 @@ inline constexpr ParamRange DISPARITY_ERROR = ParamRange::closed(0.01, 10.0);
 /** \brief Largest depth error kept, m: [0.001, 100]. */
 inline constexpr ParamRange MAX_DEPTH_ERROR = ParamRange::closed(0.001, 100.0);
 } // namespace depth_error_filter_ranges
+
+/** \brief DepthErrorFilter's parameters; their declarations are
+ * depthErrorFilterParamDeclarations(). \ingroup filters */
+struct DepthErrorFilterParams {
+  /** \brief Disparity error Delta d of eq. 4, px (the paper's 0.5). */
+  double disparity_error_px{0.5};
+  /** \brief Largest depth error Delta z of a point kept, m. */
+  double max_depth_error_m{0.3};
+};
+
+/** \brief The one declaration of each DepthErrorFilterParams member (key with unit,
+ * range, meaning). \ingroup filters */
+const ParamDeclarations<DepthErrorFilterParams>& depthErrorFilterParamDeclarations();
 
 /** \brief Keeps the points whose stereo depth error is within a bound (paper, eq. 4).
  *
@@ -43,6 +57,16 @@ public:
   /** \brief The filtered cloud type, pcl::PointCloud<PointT>. */
   using PointCloud = typename pcl::FilterIndices<PointT>::PointCloud;
 
+  /** \brief The parameters (DepthErrorFilterParams). */
+  using Params = DepthErrorFilterParams;
+
+  /** \brief Each parameter's one declaration: the depth_error_filter stage and its
+   * reference are made from it. \return depthErrorFilterParamDeclarations() */
+  static const ParamDeclarations<Params>& getParamDeclarations()
+  {
+    return depthErrorFilterParamDeclarations();
+  }
+
   /** \param[in] extract_removed_indices keep the removed indices (getRemovedIndices())
    */
   explicit DepthErrorFilter(bool extract_removed_indices = false) :
@@ -60,23 +84,28 @@ public:
   /** \brief The calibration. */
   const StereoCalibration& getCalibration() const { return calibration_; }
 
+  /** \brief Sets both parameters (checked by filter() and getMaxDepth()). */
+  void setParams(const Params& params) { params_ = params; }
+  /** \brief The parameters. */
+  const Params& getParams() const { return params_; }
+
   /** \brief Disparity error Delta d of eq. 4, px (the paper's 0.5 px by default; in
    * depth_error_filter_ranges::DISPARITY_ERROR). */
   void setDisparityError(double disparity_error_px)
   {
-    disparity_error_px_ = disparity_error_px;
+    params_.disparity_error_px = disparity_error_px;
   }
   /** \brief The disparity error, px. */
-  double getDisparityError() const { return disparity_error_px_; }
+  double getDisparityError() const { return params_.disparity_error_px; }
 
   /** \brief Largest depth error Delta z of a point kept, m (0.3 by default; in
    * depth_error_filter_ranges::MAX_DEPTH_ERROR). */
   void setMaxDepthError(double max_depth_error_m)
   {
-    max_depth_error_m_ = max_depth_error_m;
+    params_.max_depth_error_m = max_depth_error_m;
   }
   /** \brief The bound, m. */
-  double getMaxDepthError() const { return max_depth_error_m_; }
+  double getMaxDepthError() const { return params_.max_depth_error_m; }
 
   /** \brief Rigid transform from the cloud's frame to the camera's (z along the
    * optical axis), m; the identity by default. */
@@ -100,8 +129,8 @@ protected:
 
 private:
   StereoCalibration calibration_;
-  double disparity_error_px_{0.5};
-  double max_depth_error_m_{0.3};
+  /** \brief The parameters. */
+  Params params_;
   Eigen::Affine3f camera_T_cloud_{Eigen::Affine3f::Identity()};
 };
 

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_declaration.h>
 #include <planar_grid/core/param_range.h>
 
 #include <pcl/filters/filter_indices.h>
@@ -17,7 +18,26 @@ namespace fast_statistical_outlier_removal_ranges {
 /** \brief Nearest neighbours whose mean distance is tested: [1, inf), as
  * pcl::StatisticalOutlierRemoval takes it. */
 inline constexpr ParamRange MEAN_K = ParamRange::openMax(1, ParamRange::UNBOUNDED);
+/** \brief Multiplier of the standard deviation in the threshold: [0, 100]. */
+inline constexpr ParamRange STDDEV_MUL_THRESH = ParamRange::closed(0.0, 100.0);
 } // namespace fast_statistical_outlier_removal_ranges
+
+/** \brief FastStatisticalOutlierRemoval's parameters; their declarations are
+ * fastStatisticalOutlierRemovalParamDeclarations(). The defaults are the pipeline's
+ * statistical_outlier_removal stage's (pcl::StatisticalOutlierRemoval's 1 and 0
+ * remove next to nothing). \ingroup filters */
+struct FastStatisticalOutlierRemovalParams {
+  /** \brief Nearest neighbours whose mean distance is tested. */
+  int mean_k{20};
+  /** \brief Multiplier of the standard deviation of the mean distances in the
+   * threshold mean + stddev_mul_thresh * stddev. */
+  double stddev_mul_thresh{2.0};
+};
+
+/** \brief The one declaration of each FastStatisticalOutlierRemovalParams member (key,
+ * range, meaning). \ingroup filters */
+const ParamDeclarations<FastStatisticalOutlierRemovalParams>&
+fastStatisticalOutlierRemovalParamDeclarations();
 
 /** \brief pcl::StatisticalOutlierRemoval's filter with a faster neighbour search: the
  * same points kept, in the same order, for the same parameters.
@@ -49,6 +69,17 @@ public:
   /** \brief The filtered cloud type, pcl::PointCloud<PointT>. */
   using PointCloud = typename pcl::FilterIndices<PointT>::PointCloud;
 
+  /** \brief The parameters (FastStatisticalOutlierRemovalParams). */
+  using Params = FastStatisticalOutlierRemovalParams;
+
+  /** \brief Each parameter's one declaration: the statistical_outlier_removal stage
+   * and its reference are made from it.
+   * \return fastStatisticalOutlierRemovalParamDeclarations() */
+  static const ParamDeclarations<Params>& getParamDeclarations()
+  {
+    return fastStatisticalOutlierRemovalParamDeclarations();
+  }
+
   /** \param[in] extract_removed_indices keep the removed indices (getRemovedIndices())
    */
   explicit FastStatisticalOutlierRemoval(bool extract_removed_indices = false) :
@@ -57,17 +88,23 @@ public:
     this->filter_name_ = "FastStatisticalOutlierRemoval";
   }
 
+  /** \brief Sets both parameters (mean_k is checked by filter()). */
+  void setParams(const Params& params) { params_ = params; }
+  /** \brief The parameters. */
+  const Params& getParams() const { return params_; }
+
   /** \brief Number of nearest neighbours whose mean distance is tested (in
-   * fast_statistical_outlier_removal_ranges::MEAN_K; 1 by default, as PCL). */
-  void setMeanK(int mean_k) { mean_k_ = mean_k; }
+   * fast_statistical_outlier_removal_ranges::MEAN_K; 20 by default, the pipeline's;
+   * pcl::StatisticalOutlierRemoval's is 1). */
+  void setMeanK(int mean_k) { params_.mean_k = mean_k; }
   /** \brief The number of neighbours. */
-  int getMeanK() const { return mean_k_; }
+  int getMeanK() const { return params_.mean_k; }
 
   /** \brief Multiplier of the standard deviation of the mean distances in the
-   * threshold mean + std_mul * stddev (0 by default, as PCL). */
-  void setStddevMulThresh(double std_mul) { std_mul_ = std_mul; }
+   * threshold mean + std_mul * stddev (2 by default, the pipeline's; PCL's is 0). */
+  void setStddevMulThresh(double std_mul) { params_.stddev_mul_thresh = std_mul; }
   /** \brief The multiplier. */
-  double getStddevMulThresh() const { return std_mul_; }
+  double getStddevMulThresh() const { return params_.stddev_mul_thresh; }
 
 protected:
   /** \brief Indices of the kept points (or, with setNegative(true), the outliers).
@@ -75,8 +112,8 @@ protected:
   void applyFilter(pcl::Indices& indices) override;
 
 private:
-  int mean_k_{1};
-  double std_mul_{0.0};
+  /** \brief The parameters. */
+  Params params_;
 };
 
 } // namespace planar_grid

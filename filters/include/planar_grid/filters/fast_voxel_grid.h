@@ -1,12 +1,40 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_declaration.h>
+#include <planar_grid/core/param_range.h>
+
 #include <pcl/filters/filter.h>
 #include <pcl/point_cloud.h>
 
 #include <Eigen/Core>
 
 namespace planar_grid {
+
+/** \brief The valid range of each FastVoxelGridParams member, declared once for the
+ * voxel_grid stage (the filter itself, as pcl::VoxelGrid, takes any positive leaf).
+ * \ingroup filters */
+namespace fast_voxel_grid_ranges {
+/** \brief Voxel edge, meters: [0.001, 10]. */
+inline constexpr ParamRange LEAF_SIZE = ParamRange::closed(0.001, 10.0);
+/** \brief Fewest points of a voxel that gives a point: [1, 100000]. */
+inline constexpr ParamRange MIN_POINTS_PER_VOXEL = ParamRange::closed(1, 100000);
+} // namespace fast_voxel_grid_ranges
+
+/** \brief FastVoxelGrid's parameters for a cubic voxel; their declarations are
+ * fastVoxelGridParamDeclarations(). The defaults are the pipeline's voxel_grid
+ * stage's. \ingroup filters */
+struct FastVoxelGridParams {
+  /** \brief Voxel edge along x, y and z, meters (0.05: a stereo cloud at the map's
+   * 0.1 m cells). */
+  double leaf_size_m{0.05};
+  /** \brief Voxels with fewer points give none (1 keeps every voxel, as 0 does). */
+  int min_points_per_voxel{1};
+};
+
+/** \brief The one declaration of each FastVoxelGridParams member (key with unit,
+ * range, meaning). \ingroup filters */
+const ParamDeclarations<FastVoxelGridParams>& fastVoxelGridParamDeclarations();
 
 /** \brief pcl::VoxelGrid's filter without its second pass over the cloud: the same
  * output cloud, point for point and bit for bit, for the same leaf size and minimum
@@ -37,24 +65,56 @@ public:
   /** \brief The filtered cloud type, pcl::PointCloud<PointT>. */
   using PointCloud = typename pcl::Filter<PointT>::PointCloud;
 
-  FastVoxelGrid() { this->filter_name_ = "FastVoxelGrid"; }
+  /** \brief The parameters of a cubic voxel (FastVoxelGridParams). */
+  using Params = FastVoxelGridParams;
 
-  /** \brief The voxel edges along x, y and z, meters (> 0). */
+  /** \brief Each parameter's one declaration: the voxel_grid stage and its reference
+   * are made from it. \return fastVoxelGridParamDeclarations() */
+  static const ParamDeclarations<Params>& getParamDeclarations()
+  {
+    return fastVoxelGridParamDeclarations();
+  }
+
+  /** \brief A filter with the default Params (0.05 m voxels, every voxel kept). */
+  FastVoxelGrid()
+  {
+    this->filter_name_ = "FastVoxelGrid";
+    setParams(Params{});
+  }
+
+  /** \brief Sets a cubic voxel of params.leaf_size_m and the minimum point count. */
+  void setParams(const Params& params)
+  {
+    const auto leaf = static_cast<float>(params.leaf_size_m);
+    setLeafSize(leaf, leaf, leaf);
+    params_ = params;
+  }
+  /** \brief The parameters as set (after setLeafSize(), leaf_size_m is the edge along
+   * x). */
+  const Params& getParams() const { return params_; }
+
+  /** \brief The voxel edges along x, y and z, meters (> 0; 0.05 by default, the
+   * pipeline's). */
   void setLeafSize(float lx, float ly, float lz)
   {
     leaf_size_ = Eigen::Array4f(lx, ly, lz, 1.0f);
     inverse_leaf_size_ = Eigen::Array4f::Ones() / leaf_size_;
+    params_.leaf_size_m = static_cast<double>(lx);
   }
   /** \brief The voxel edges, meters. */
   Eigen::Vector3f getLeafSize() const { return leaf_size_.head<3>().matrix(); }
 
-  /** \brief Voxels with fewer points than this give no point (0 by default). */
+  /** \brief Voxels with fewer points than this give no point (1 by default; 0 and 1
+   * keep every voxel). */
   void setMinimumPointsNumberPerVoxel(unsigned int min_points_per_voxel)
   {
-    min_points_per_voxel_ = min_points_per_voxel;
+    params_.min_points_per_voxel = static_cast<int>(min_points_per_voxel);
   }
   /** \brief The minimum number of points per voxel. */
-  unsigned int getMinimumPointsNumberPerVoxel() const { return min_points_per_voxel_; }
+  unsigned int getMinimumPointsNumberPerVoxel() const
+  {
+    return static_cast<unsigned int>(params_.min_points_per_voxel);
+  }
 
 protected:
   /** \brief The centroids of the occupied voxels of the input (its indices, when
@@ -63,9 +123,12 @@ protected:
   void applyFilter(PointCloud& output) override;
 
 private:
+  /** \brief The voxel edges, meters (set by the constructor). */
   Eigen::Array4f leaf_size_{Eigen::Array4f::Ones()};
+  /** \brief Their inverses, 1/m. */
   Eigen::Array4f inverse_leaf_size_{Eigen::Array4f::Ones()};
-  unsigned int min_points_per_voxel_{0};
+  /** \brief The parameters as set. */
+  Params params_;
 };
 
 } // namespace planar_grid

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_declaration.h>
 #include <planar_grid/core/param_range.h>
 
 #include <pcl/filters/filter_indices.h>
@@ -137,6 +138,65 @@ double bernoulliKLDivergence(double p, double q);
  * \ingroup filters */
 double klDivergenceUpdate(double p, double q, double offset_nats);
 
+/** \brief KLDivergenceOccupancyFilter's parameters with their defaults and valid
+ * ranges (checked when filter() starts); their declarations are
+ * klDivergenceOccupancyFilterParamDeclarations(), except range_error_model, which a
+ * caller chooses per sensor (the kl_occupancy_filter stage per frame). The defaults
+ * are the pipeline's. \ingroup filters */
+struct KLDivergenceOccupancyFilterParams {
+  /** dd of eq. 4: disparity error, pixels; in
+   * kl_divergence_occupancy_filter_ranges::DISPARITY_ERROR. The paper's 0.5. */
+  double disparity_error_px{0.5};
+  /** Edge of the neighbourhood cell over which r_bar is averaged, meters; in
+   * kl_divergence_occupancy_filter_ranges::NEIGHBOURHOOD_SIZE. */
+  double neighbourhood_size_m{0.5};
+  /** Lower clamp of the probability (OctoMap's clamping_thres_min); in
+   * kl_divergence_occupancy_filter_ranges::CLAMPING_THRES_MIN.
+   * 0.1192 = log-odds -2. */
+  double clamping_thres_min{0.1192};
+  /** Upper clamp of the probability (OctoMap's clamping_thres_max); in
+   * kl_divergence_occupancy_filter_ranges::CLAMPING_THRES_MAX.
+   * 0.971 = log-odds 3.5. */
+  double clamping_thres_max{0.971};
+  /** A feature is kept when its probability >= occupancy_thres; in
+   * kl_divergence_occupancy_filter_ranges::OCCUPANCY_THRES. 0.5 = log-odds 0. */
+  double occupancy_thres{0.5};
+  /** A of eq. 10, nats; in kl_divergence_occupancy_filter_ranges::KL_OFFSET.
+   * exp(-1.07) = 0.343. */
+  double kl_offset_nats{1.07};
+  /** The update rule of a re-observed track. */
+  OccupancyUpdateRule update_rule{OccupancyUpdateRule::KL_DIVERGENCE};
+  /** Log-odds rule: probability of a hit (q >= 0.5), in
+   * kl_divergence_occupancy_filter_ranges::PROB_HIT; OctoMap's 0.7 =
+   * log-odds 0.847. */
+  double prob_hit{0.7};
+  /** Log-odds rule: probability of a miss (q < 0.5), in
+   * kl_divergence_occupancy_filter_ranges::PROB_MISS; OctoMap's 0.4 =
+   * log-odds -0.405. */
+  double prob_miss{0.4};
+  /** Association without track ids: largest distance to a stored track, in the
+   * input's units (meters); in
+   * kl_divergence_occupancy_filter_ranges::ASSOCIATION_RADIUS. The pipeline's 0.1 m
+   * (features without descriptors, associated in the world frame). */
+  double association_radius_m{0.1};
+  /** The sensor model of eq. 4's range error. */
+  RangeErrorModel range_error_model{RangeErrorModel::STEREO};
+  /** DEPTH_QUADRATIC: k of Delta z = k z^2, 1/m; in
+   * kl_divergence_occupancy_filter_ranges::DEPTH_ERROR_COEFFICIENT. 0.0016 / m is 4
+   * cm at 5 m, the Kinect's random depth error measured by Khoshelham and Elberink
+   * (Sensors 12(2), 2012). */
+  double depth_error_coefficient_per_m{0.0016};
+  /** RANGE: Delta r, meters; in kl_divergence_occupancy_filter_ranges::RANGE_ERROR.
+   * 0.03 m is the +-3 cm range accuracy of common 16-32 beam 3D LiDARs. */
+  double range_error_m{0.03};
+};
+
+/** \brief The one declaration of each KLDivergenceOccupancyFilterParams member but
+ * range_error_model (key with unit, range, meaning), in the order documented.
+ * \ingroup filters */
+const ParamDeclarations<KLDivergenceOccupancyFilterParams>&
+klDivergenceOccupancyFilterParamDeclarations();
+
 /** \brief Occupancy probability of stereo key feature points (paper Sec. III-D, eq. 4)
  * updated across frames with the Kullback-Leibler rule (Sec. III-E, eqs. 5-10), as a
  * pcl::FilterIndices: filter() keeps the features whose track probability reaches the
@@ -212,53 +272,16 @@ public:
   using PointCloudConstPtr = typename PointCloud::ConstPtr;
 
   /** \brief Parameters with their defaults and valid ranges (checked when filter()
-   * starts). */
-  struct Params {
-    /** dd of eq. 4: disparity error, pixels; in
-     * kl_divergence_occupancy_filter_ranges::DISPARITY_ERROR. The paper's 0.5. */
-    double disparity_error_px{0.5};
-    /** Edge of the neighbourhood cell over which r_bar is averaged, meters; in
-     * kl_divergence_occupancy_filter_ranges::NEIGHBOURHOOD_SIZE. */
-    double neighbourhood_size_m{0.5};
-    /** Lower clamp of the probability (OctoMap's clamping_thres_min); in
-     * kl_divergence_occupancy_filter_ranges::CLAMPING_THRES_MIN.
-     * 0.1192 = log-odds -2. */
-    double clamping_thres_min{0.1192};
-    /** Upper clamp of the probability (OctoMap's clamping_thres_max); in
-     * kl_divergence_occupancy_filter_ranges::CLAMPING_THRES_MAX.
-     * 0.971 = log-odds 3.5. */
-    double clamping_thres_max{0.971};
-    /** A feature is kept when its probability >= occupancy_thres; in
-     * kl_divergence_occupancy_filter_ranges::OCCUPANCY_THRES. 0.5 = log-odds 0. */
-    double occupancy_thres{0.5};
-    /** A of eq. 10, nats; in kl_divergence_occupancy_filter_ranges::KL_OFFSET.
-     * exp(-1.07) = 0.343. */
-    double kl_offset_nats{1.07};
-    /** The update rule of a re-observed track. */
-    OccupancyUpdateRule update_rule{OccupancyUpdateRule::KL_DIVERGENCE};
-    /** Log-odds rule: probability of a hit (q >= 0.5), in
-     * kl_divergence_occupancy_filter_ranges::PROB_HIT; OctoMap's 0.7 =
-     * log-odds 0.847. */
-    double prob_hit{0.7};
-    /** Log-odds rule: probability of a miss (q < 0.5), in
-     * kl_divergence_occupancy_filter_ranges::PROB_MISS; OctoMap's 0.4 =
-     * log-odds -0.405. */
-    double prob_miss{0.4};
-    /** Association without track ids: largest distance to a stored track, in the
-     * input's units (meters); in
-     * kl_divergence_occupancy_filter_ranges::ASSOCIATION_RADIUS. */
-    double association_radius_m{0.2};
-    /** The sensor model of eq. 4's range error. */
-    RangeErrorModel range_error_model{RangeErrorModel::STEREO};
-    /** DEPTH_QUADRATIC: k of Delta z = k z^2, 1/m; in
-     * kl_divergence_occupancy_filter_ranges::DEPTH_ERROR_COEFFICIENT. 0.0016 / m is 4
-     * cm at 5 m, the Kinect's random depth error measured by Khoshelham and Elberink
-     * (Sensors 12(2), 2012). */
-    double depth_error_coefficient_per_m{0.0016};
-    /** RANGE: Delta r, meters; in kl_divergence_occupancy_filter_ranges::RANGE_ERROR.
-     * 0.03 m is the +-3 cm range accuracy of common 16-32 beam 3D LiDARs. */
-    double range_error_m{0.03};
-  };
+   * starts): KLDivergenceOccupancyFilterParams. */
+  using Params = KLDivergenceOccupancyFilterParams;
+
+  /** \brief Each parameter's one declaration (key, range, unit, meaning): the
+   * kl_occupancy_filter stage and its reference are made from it.
+   * \return klDivergenceOccupancyFilterParamDeclarations() */
+  static const ParamDeclarations<Params>& getParamDeclarations()
+  {
+    return klDivergenceOccupancyFilterParamDeclarations();
+  }
 
   /** \brief Empty filter with the default Params; stereo parameters must be set.
    * \param[in] extract_removed_indices whether filter() also records the removed
@@ -371,7 +394,7 @@ public:
   /** \brief Sets the largest distance from a feature to the stored track it joins,
    * for association by position (no track ids).
    * \param[in] association_radius_m in the input's units (meters), in
-   * kl_divergence_occupancy_filter_ranges::ASSOCIATION_RADIUS (default 0.2) */
+   * kl_divergence_occupancy_filter_ranges::ASSOCIATION_RADIUS (default 0.1) */
   void setAssociationRadius(double association_radius_m)
   {
     params_.association_radius_m = association_radius_m;

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_declaration.h>
 #include <planar_grid/core/param_range.h>
 #include <planar_grid/segmentation/planar_segment.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation_ranges.h>
@@ -45,6 +46,84 @@ enum class SACMethod {
   PROSAC
 };
 
+/** \brief The parameters of SACMultiPlaneSegmentation that the pipeline's
+ * multi_plane_segmentation stage sets, named by their keys (with the unit as suffix);
+ * their ranges are sac_multi_plane_segmentation_ranges' and their declarations
+ * sacMultiPlaneSegmentationParamDeclarations(). The defaults are the pipeline's
+ * tuned values (Karlsruhe stereo); each setter of the class documents its member.
+ * The class's other parameters (probability, the depth noise coefficient, the up
+ * axis, the input subsample size) have setters only. \ingroup segmentation */
+struct SACMultiPlaneSegmentationParams {
+  /** \brief d_T of eq. 11, meters (the paper's value). */
+  double distance_threshold_m{0.05};
+  /** \brief Whether the depth noise is projected on each plane's normal. */
+  bool depth_noise_along_sight{false};
+  /** \brief Sample consensus threshold on the sample cloud, meters. */
+  double sample_distance_threshold_m{0.1};
+  /** \brief Largest number of planes. */
+  int max_planes{8};
+  /** \brief Fewest dense inliers of a kept plane. */
+  int min_inliers{500};
+  /** \brief Fewest sample inliers of a hypothesis. */
+  int min_sample_inliers{15};
+  /** \brief Remaining sample fraction below which the loop stops. */
+  double min_remaining_fraction{0.05};
+  /** \brief Sample consensus iteration cap. */
+  int max_iterations{1000};
+  /** \brief Sample consensus estimator. */
+  SACMethod method{SACMethod::RANSAC};
+  /** \brief Refit planes to their dense inliers. */
+  bool optimize_coefficients{true};
+  /** \brief Also hypothesise each plane from a dense subsample. */
+  bool dense_hypothesis{true};
+  /** \brief Local optimisation (LO-RANSAC) iterations per plane (0: none). */
+  int lo_iterations{50};
+  /** \brief Merge near-duplicate planes. */
+  bool merge_planes{true};
+  /** \brief Merge angle threshold, radians. */
+  double merge_angle_rad{0.1};
+  /** \brief Merge offset threshold, meters. */
+  double merge_distance_m{0.1};
+  /** \brief Seed of the subsample and shuffles. */
+  unsigned seed{0};
+  /** \brief Largest ratio of visibility conflicts to inliers (0: no test). */
+  double max_visibility_conflict_ratio{0.0};
+  /** \brief Distance off a plane, beyond eq. 11, of a conflicting point, meters. */
+  double visibility_margin_m{0.3};
+  /** \brief Footprint cell edge of the visibility and shell tests, meters. */
+  double visibility_cell_m{0.2};
+  /** \brief Smallest distance of a plane from the sensor origin, meters (0: no
+   * test). */
+  double min_sensor_distance_m{0.0};
+  /** \brief Least height of the sensor above a level plane that the normal and
+   * cluster tests spare as terrain, meters (0: any level plane below it). */
+  double min_sensor_height_m{0.3};
+  /** \brief Fewest inliers of a footprint cluster (0: no test). */
+  int min_cluster_size{0};
+  /** \brief Footprint cell edge of the cluster test, meters. */
+  double cluster_cell_m{0.2};
+  /** \brief Largest ratio of shell points to inliers (0: no test). */
+  double max_shell_ratio{0.0};
+  /** \brief Smallest shell width of the shell test, meters. */
+  double shell_width_m{0.1};
+  /** \brief Whether the inlier-only points count towards min_inliers. */
+  bool count_inlier_only_points{true};
+  /** \brief Largest distance of an inlier-only point, meters (0: eq. 11's). */
+  double inlier_only_distance_threshold_m{0.0};
+  /** \brief Largest angle of the normal test, radians (0: no test). */
+  double max_normal_angle_rad{0.5};
+  /** \brief Cell edge of the grid normal estimation, meters. */
+  double normal_cell_m{0.2};
+  /** \brief Smallest share of a hypothesis' support agreeing in normal (0: no
+   * test). */
+  double min_normal_agreement{0.35};
+};
+
+/** \brief The one declaration of each SACMultiPlaneSegmentationParams member (key
+ * with unit, range, meaning), in the order documented. \ingroup segmentation */
+const ParamDeclarations<SACMultiPlaneSegmentationParams>&
+sacMultiPlaneSegmentationParamDeclarations();
+
 /** \brief Multi-plane segmentation by repeated sample consensus (the multi-RANSAC of
  * Sec. III-C of the paper ("Efficient Planar Surface-Based 3D Mapping Method for Mobile
  * Robots Using Stereo Vision"), eqs. 1-3) with the dense inlier selection of Sec.
@@ -68,6 +147,12 @@ enum class SACMethod {
  * removed). The loop stops after max_planes planes, when the sample consensus finds
  * fewer than min_sample_inliers, when fewer than min_remaining_fraction of the sample
  * points remain, or after 3 max_planes rounds. Near-duplicate planes are then merged.
+ *
+ * Defaults: the pipeline's tuned values (SACMultiPlaneSegmentationParams). Beyond the
+ * paper they turn on the normal test (setMaxNormalAngle() 0.5 rad with
+ * setMinNormalAgreement() 0.35, normals estimated on a 0.2 m grid unless given) and
+ * draw the hypotheses at 0.1 m on the noisier sample cloud; setMaxNormalAngle(0)
+ * gives the paper's distance-only eq. 11.
  *
  * Determinism: PCL's estimators are built with random = false (fixed seed 12345);
  * setSeed() seeds a std::mt19937 that draws the input subsample and shuffles the sample
@@ -95,8 +180,27 @@ public:
   /** \brief Surface normals, one per input point (pcl::Normal). */
   using NormalCloudConstPtr = std::shared_ptr<const pcl::PointCloud<pcl::Normal>>;
 
+  /** \brief The parameters the pipeline sets (SACMultiPlaneSegmentationParams). */
+  using Params = SACMultiPlaneSegmentationParams;
+
+  /** \brief Each parameter's one declaration (key, range, unit, meaning): the
+   * multi_plane_segmentation stage and its reference are made from it.
+   * \return sacMultiPlaneSegmentationParamDeclarations() */
+  static const ParamDeclarations<Params>& getParamDeclarations()
+  {
+    return sacMultiPlaneSegmentationParamDeclarations();
+  }
+
+  /** \brief A segmentation with the default parameters. */
   SACMultiPlaneSegmentation() = default;
+  /** \brief A segmentation with \a params (checked by segment()). */
+  explicit SACMultiPlaneSegmentation(const Params& params) : params_(params) {}
   ~SACMultiPlaneSegmentation() override = default;
+
+  /** \brief Sets the parameters of Params at once (checked by segment()). */
+  void setParams(const Params& params) { params_ = params; }
+  /** \brief The parameters of Params. */
+  const Params& getParams() const { return params_; }
 
   /** \brief Sets the sparse cloud the plane hypotheses are drawn from (e.g. stereo
    * feature points in the input cloud's frame); nullptr (the default) hypothesises
@@ -129,9 +233,12 @@ public:
    * alone; with false it needs min_inliers of the other points, which the inlier-only
    * points then only extend.
    * \param[in] count whether they count */
-  void setCountInlierOnlyPoints(bool count) { count_inlier_only_ = count; }
+  void setCountInlierOnlyPoints(bool count)
+  {
+    params_.count_inlier_only_points = count;
+  }
   /** \brief Returns whether the inlier-only points count towards min_inliers. */
-  bool getCountInlierOnlyPoints() const { return count_inlier_only_; }
+  bool getCountInlierOnlyPoints() const { return params_.count_inlier_only_points; }
 
   /** \brief Sets the largest point-to-plane distance of an inlier-only point: they join
    * a plane within the smaller of it and their eq. 11 threshold (with the depth
@@ -142,13 +249,13 @@ public:
    * 11's threshold) */
   void setInlierOnlyDistanceThreshold(double distance_m)
   {
-    inlier_only_distance_threshold_ = distance_m;
+    params_.inlier_only_distance_threshold_m = distance_m;
   }
   /** \brief Returns the inlier-only points' distance threshold, in meters (0: eq.
    * 11's). */
   double getInlierOnlyDistanceThreshold() const
   {
-    return inlier_only_distance_threshold_;
+    return params_.inlier_only_distance_threshold_m;
   }
 
   /** \brief Sets d_T of eq. 11, the largest point-to-plane distance of a dense inlier.
@@ -157,10 +264,10 @@ public:
    * value) */
   void setDistanceThreshold(double distance_threshold_m)
   {
-    distance_threshold_ = distance_threshold_m;
+    params_.distance_threshold_m = distance_threshold_m;
   }
   /** \brief Returns d_T of eq. 11, in meters. */
-  double getDistanceThreshold() const { return distance_threshold_; }
+  double getDistanceThreshold() const { return params_.distance_threshold_m; }
 
   /** \brief Sets the stereo depth noise of the dense points, so that eq. 11's
    * threshold grows with range as the depth error of Sec. III-D does: a dense point at
@@ -189,66 +296,67 @@ public:
    * depth error, whatever the plane */
   void setDepthNoiseAlongSight(bool along_sight)
   {
-    depth_noise_along_sight_ = along_sight;
+    params_.depth_noise_along_sight = along_sight;
   }
   /** \brief Returns whether the depth noise is projected on each plane's normal. */
-  bool getDepthNoiseAlongSight() const { return depth_noise_along_sight_; }
+  bool getDepthNoiseAlongSight() const { return params_.depth_noise_along_sight; }
 
   /** \brief Sets the inlier threshold of the sample consensus on the sample cloud.
    * \param[in] distance_threshold_m in meters, in
-   * sac_multi_plane_segmentation_ranges::SAMPLE_DISTANCE_THRESHOLD (default: unset,
-   * i.e. equal to the distance threshold). Stereo features are noisier than the dense
-   * cloud, so a larger value can help. */
+   * sac_multi_plane_segmentation_ranges::SAMPLE_DISTANCE_THRESHOLD (default 0.1, twice
+   * the default d_T: stereo features are noisier than the dense cloud). It does not
+   * follow setDistanceThreshold(); a user who hypothesises from the input cloud itself
+   * (no sample cloud) may set it to d_T. */
   void setSampleDistanceThreshold(double distance_threshold_m)
   {
-    sample_distance_threshold_ = distance_threshold_m;
-    sample_distance_threshold_set_ = true;
+    params_.sample_distance_threshold_m = distance_threshold_m;
   }
-  /** \brief Returns the sample consensus threshold in meters (the distance threshold
-   * unless set). */
+  /** \brief Returns the sample consensus threshold, in meters. */
   double getSampleDistanceThreshold() const
   {
-    return sample_distance_threshold_set_ ? sample_distance_threshold_
-                                          : distance_threshold_;
+    return params_.sample_distance_threshold_m;
   }
 
   /** \brief Sets the largest number of planes returned (before merging).
    * \param[in] max_planes in sac_multi_plane_segmentation_ranges::MAX_PLANES (default
    * 8) */
-  void setMaxPlanes(int max_planes) { max_planes_ = max_planes; }
+  void setMaxPlanes(int max_planes) { params_.max_planes = max_planes; }
   /** \brief Returns the largest number of planes. */
-  int getMaxPlanes() const { return max_planes_; }
+  int getMaxPlanes() const { return params_.max_planes; }
 
   /** \brief Sets the fewest dense inliers a plane needs to be kept.
    * \param[in] min_inliers in sac_multi_plane_segmentation_ranges::MIN_INLIERS (default
    * 500) */
-  void setMinInliers(int min_inliers) { min_inliers_ = min_inliers; }
+  void setMinInliers(int min_inliers) { params_.min_inliers = min_inliers; }
   /** \brief Returns the fewest dense inliers of a plane. */
-  int getMinInliers() const { return min_inliers_; }
+  int getMinInliers() const { return params_.min_inliers; }
 
   /** \brief Sets the fewest sample inliers a hypothesis needs; fewer ends the loop.
    * \param[in] min_sample_inliers in
    * sac_multi_plane_segmentation_ranges::MIN_SAMPLE_INLIERS (default 15) */
   void setMinSampleInliers(int min_sample_inliers)
   {
-    min_sample_inliers_ = min_sample_inliers;
+    params_.min_sample_inliers = min_sample_inliers;
   }
   /** \brief Returns the fewest sample inliers of a hypothesis. */
-  int getMinSampleInliers() const { return min_sample_inliers_; }
+  int getMinSampleInliers() const { return params_.min_sample_inliers; }
 
   /** \brief Sets the remaining fraction of sample points below which the loop stops.
    * \param[in] fraction in sac_multi_plane_segmentation_ranges::MIN_REMAINING_FRACTION
    * (default 0.05) */
-  void setMinRemainingFraction(double fraction) { min_remaining_fraction_ = fraction; }
+  void setMinRemainingFraction(double fraction)
+  {
+    params_.min_remaining_fraction = fraction;
+  }
   /** \brief Returns the remaining-fraction stop criterion, in [0, 1). */
-  double getMinRemainingFraction() const { return min_remaining_fraction_; }
+  double getMinRemainingFraction() const { return params_.min_remaining_fraction; }
 
   /** \brief Sets the sample consensus iteration cap per plane.
    * \param[in] max_iterations in sac_multi_plane_segmentation_ranges::MAX_ITERATIONS
    * (default 1000) */
-  void setMaxIterations(int max_iterations) { max_iterations_ = max_iterations; }
+  void setMaxIterations(int max_iterations) { params_.max_iterations = max_iterations; }
   /** \brief Returns the sample consensus iteration cap per plane. */
-  int getMaxIterations() const { return max_iterations_; }
+  int getMaxIterations() const { return params_.max_iterations; }
 
   /** \brief Sets the probability of drawing at least one outlier-free sample.
    * \param[in] probability in sac_multi_plane_segmentation_ranges::PROBABILITY (default
@@ -259,17 +367,20 @@ public:
 
   /** \brief Sets the sample consensus estimator.
    * \param[in] method RANSAC (default), MSAC or PROSAC */
-  void setMethodType(SACMethod method) { method_ = method; }
+  void setMethodType(SACMethod method) { params_.method = method; }
   /** \brief Returns the sample consensus estimator. */
-  SACMethod getMethodType() const { return method_; }
+  SACMethod getMethodType() const { return params_.method; }
 
   /** \brief Sets whether each hypothesis is re-estimated on the dense points near it
    * (local RANSAC, see the class description) and each plane refitted (PCA, least
    * squares) to its dense inliers, which are then reselected with the refitted plane.
    * \param[in] optimize default true */
-  void setOptimizeCoefficients(bool optimize) { optimize_coefficients_ = optimize; }
+  void setOptimizeCoefficients(bool optimize)
+  {
+    params_.optimize_coefficients = optimize;
+  }
   /** \brief Returns whether planes are refitted to their dense inliers. */
-  bool getOptimizeCoefficients() const { return optimize_coefficients_; }
+  bool getOptimizeCoefficients() const { return params_.optimize_coefficients; }
 
   /** \brief Sets whether every round also hypothesises a plane from the dense points:
    * a plain RANSAC at d_T (the same iteration cap and probability) on a seeded
@@ -283,10 +394,10 @@ public:
    * (the paper's feature-only multi-RANSAC) */
   void setDenseHypothesis(bool dense_hypothesis)
   {
-    dense_hypothesis_ = dense_hypothesis;
+    params_.dense_hypothesis = dense_hypothesis;
   }
   /** \brief Returns whether every round also hypothesises from the dense points. */
-  bool getDenseHypothesis() const { return dense_hypothesis_; }
+  bool getDenseHypothesis() const { return params_.dense_hypothesis; }
 
   /** \brief Sets the iterations of the local optimisation of each kept hypothesis (the
    * LO step of LO-RANSAC, Chum et al. 2003): minimal samples drawn from the plane's
@@ -296,38 +407,38 @@ public:
    * (default 50; 0 disables it) */
   void setLocalOptimizationIterations(int lo_iterations)
   {
-    lo_iterations_ = lo_iterations;
+    params_.lo_iterations = lo_iterations;
   }
   /** \brief Returns the local optimisation iterations per plane. */
-  int getLocalOptimizationIterations() const { return lo_iterations_; }
+  int getLocalOptimizationIterations() const { return params_.lo_iterations; }
 
   /** \brief Sets whether near-duplicate planes are merged (inliers united, refitted).
    * The united inliers are one surface's (e.g. the layers of a road that is not quite
    * planar), but need not all lie within d_T of the refitted plane.
    * \param[in] merge default true */
-  void setMergePlanes(bool merge) { merge_planes_ = merge; }
+  void setMergePlanes(bool merge) { params_.merge_planes = merge; }
   /** \brief Returns whether near-duplicate planes are merged. */
-  bool getMergePlanes() const { return merge_planes_; }
+  bool getMergePlanes() const { return params_.merge_planes; }
 
   /** \brief Sets the largest angle between the normals of two planes that merge.
    * \param[in] eps_angle_rad in radians, in
    * sac_multi_plane_segmentation_ranges::MERGE_ANGLE_THRESHOLD (default 0.1) */
   void setMergeAngleThreshold(double eps_angle_rad)
   {
-    merge_angle_threshold_ = eps_angle_rad;
+    params_.merge_angle_rad = eps_angle_rad;
   }
   /** \brief Returns the merge angle threshold, in radians. */
-  double getMergeAngleThreshold() const { return merge_angle_threshold_; }
+  double getMergeAngleThreshold() const { return params_.merge_angle_rad; }
 
   /** \brief Sets the largest difference of the Hessian offsets d of two planes that
    * merge. \param[in] distance_threshold_m in meters, in
    * sac_multi_plane_segmentation_ranges::MERGE_DISTANCE_THRESHOLD (default 0.1) */
   void setMergeDistanceThreshold(double distance_threshold_m)
   {
-    merge_distance_threshold_ = distance_threshold_m;
+    params_.merge_distance_m = distance_threshold_m;
   }
   /** \brief Returns the merge offset threshold, in meters. */
-  double getMergeDistanceThreshold() const { return merge_distance_threshold_; }
+  double getMergeDistanceThreshold() const { return params_.merge_distance_m; }
 
   /** \brief Sets the visibility test. An opaque surface hides what lies behind it
    * from the sensor. A point conflicts with a plane when it lies off the plane by more
@@ -348,29 +459,29 @@ public:
    * test) */
   void setMaxVisibilityConflictRatio(double ratio)
   {
-    max_visibility_conflict_ratio_ = ratio;
+    params_.max_visibility_conflict_ratio = ratio;
   }
   /** \brief Returns the largest ratio of visibility conflicts to inliers of a
    * footprint neighbourhood (0: no test). */
   double getMaxVisibilityConflictRatio() const
   {
-    return max_visibility_conflict_ratio_;
+    return params_.max_visibility_conflict_ratio;
   }
 
   /** \brief Sets how far off a plane, beyond its eq. 11 threshold, a point must lie to
    * conflict with it. \param[in] margin_m in meters, in
    * sac_multi_plane_segmentation_ranges::VISIBILITY_MARGIN (default 0.3) */
-  void setVisibilityMargin(double margin_m) { visibility_margin_ = margin_m; }
+  void setVisibilityMargin(double margin_m) { params_.visibility_margin_m = margin_m; }
   /** \brief Returns the visibility margin, in meters. */
-  double getVisibilityMargin() const { return visibility_margin_; }
+  double getVisibilityMargin() const { return params_.visibility_margin_m; }
 
   /** \brief Sets the edge of the square cells of a plane's footprint in the
    * visibility and the shell tests. \param[in] cell_m in meters, in
    * sac_multi_plane_segmentation_ranges::VISIBILITY_CELL (default 0.2) */
-  void setVisibilityCell(double cell_m) { visibility_cell_ = cell_m; }
+  void setVisibilityCell(double cell_m) { params_.visibility_cell_m = cell_m; }
   /** \brief Returns the footprint cell edge of the visibility and the shell tests, in
    * meters. */
-  double getVisibilityCell() const { return visibility_cell_; }
+  double getVisibilityCell() const { return params_.visibility_cell_m; }
 
   /** \brief Sets the shell test. A surface's points lie within its eq. 11 threshold t
    * (up to stereo noise), while a plane that cuts through a thicker structure, a slab
@@ -389,19 +500,19 @@ public:
    * Gaussian noise whose standard deviation reaches t it is 0.40. Not in the paper.
    * \param[in] ratio shell points per inlier, in
    * sac_multi_plane_segmentation_ranges::MAX_SHELL_RATIO (default 0: no test) */
-  void setMaxShellRatio(double ratio) { max_shell_ratio_ = ratio; }
+  void setMaxShellRatio(double ratio) { params_.max_shell_ratio = ratio; }
   /** \brief Returns the largest ratio of shell points to inliers of a footprint
    * neighbourhood (0: no test). */
-  double getMaxShellRatio() const { return max_shell_ratio_; }
+  double getMaxShellRatio() const { return params_.max_shell_ratio; }
 
   /** \brief Sets the smallest width of the shell of the shell test: the shell reaches
    * max(t, width) beyond each point's eq. 11 threshold t. On a voxelised cloud the
    * points of a surface lie in layers one voxel apart, so the shell should be at least
    * one voxel wide. \param[in] width_m in meters, in
    * sac_multi_plane_segmentation_ranges::SHELL_WIDTH (default 0.1) */
-  void setShellWidth(double width_m) { shell_width_ = width_m; }
+  void setShellWidth(double width_m) { params_.shell_width_m = width_m; }
   /** \brief Returns the smallest shell width of the shell test, in meters. */
-  double getShellWidth() const { return shell_width_; }
+  double getShellWidth() const { return params_.shell_width_m; }
 
   /** \brief Returns how many planes the last segment() dropped in the shell test. */
   std::size_t getShellRejectedCount() const { return shell_rejected_; }
@@ -422,10 +533,13 @@ public:
    * front of the sensor lies farther. Not in the paper.
    * \param[in] distance_m in meters, in
    * sac_multi_plane_segmentation_ranges::MIN_SENSOR_DISTANCE (default 0: no test) */
-  void setMinSensorDistance(double distance_m) { min_sensor_distance_ = distance_m; }
+  void setMinSensorDistance(double distance_m)
+  {
+    params_.min_sensor_distance_m = distance_m;
+  }
   /** \brief Returns the smallest distance of a plane from the sensor origin, in
    * meters (0: no test). */
-  double getMinSensorDistance() const { return min_sensor_distance_; }
+  double getMinSensorDistance() const { return params_.min_sensor_distance_m; }
 
   /** \brief Sets how far below the sensor a level plane must lie for the normal and
    * cluster tests to spare it as terrain. Terrain (a plane within 0.3 rad of the up
@@ -437,15 +551,17 @@ public:
    * cloud's sensor_origin_ lies more than h above it (the sensor's least height above
    * the ground, as ground_removal's min_sensor_height_m). Not in the paper.
    * \param[in] height_m in meters, in
-   * sac_multi_plane_segmentation_ranges::MIN_TERRAIN_SENSOR_HEIGHT (default 0: every
-   * level plane below the sensor is spared) */
+   * sac_multi_plane_segmentation_ranges::MIN_TERRAIN_SENSOR_HEIGHT (default 0.3, as
+   * ground_removal's; 0: every level plane below the sensor is spared). A cloud whose
+   * sensor_origin_ is not set (PCL's default, the origin) spares the level planes more
+   * than this below the origin. */
   void setMinTerrainSensorHeight(double height_m)
   {
-    min_terrain_sensor_height_ = height_m;
+    params_.min_sensor_height_m = height_m;
   }
   /** \brief Returns the least height of the sensor above a level plane that the
    * normal and cluster tests spare as terrain, in meters. */
-  double getMinTerrainSensorHeight() const { return min_terrain_sensor_height_; }
+  double getMinTerrainSensorHeight() const { return params_.min_sensor_height_m; }
 
   /** \brief Sets the cluster test. A plane's footprint (its inliers projected onto it,
    * in square cells of setClusterCell()) falls apart into connected clusters (cells up
@@ -458,16 +574,16 @@ public:
    * Applied after the visibility and the shell tests. Not in the paper.
    * \param[in] size inliers, in sac_multi_plane_segmentation_ranges::MIN_CLUSTER_SIZE
    * (default 0: no test) */
-  void setMinClusterSize(int size) { min_cluster_size_ = size; }
+  void setMinClusterSize(int size) { params_.min_cluster_size = size; }
   /** \brief Returns the fewest inliers of a footprint cluster (0: no test). */
-  int getMinClusterSize() const { return min_cluster_size_; }
+  int getMinClusterSize() const { return params_.min_cluster_size; }
 
   /** \brief Sets the edge of the footprint cells of the cluster test; on a voxelised
    * cloud at least the voxel edge. \param[in] cell_m in meters, in
    * sac_multi_plane_segmentation_ranges::CLUSTER_CELL (default 0.2) */
-  void setClusterCell(double cell_m) { cluster_cell_ = cell_m; }
+  void setClusterCell(double cell_m) { params_.cluster_cell_m = cell_m; }
   /** \brief Returns the footprint cell edge of the cluster test, in meters. */
-  double getClusterCell() const { return cluster_cell_; }
+  double getClusterCell() const { return params_.cluster_cell_m; }
 
   /** \brief Returns how many planes the last segment() dropped in the cluster
    * test. */
@@ -512,12 +628,16 @@ public:
    * (1 - cos(angle) of random directions agree: 13 % at 30 degrees). Terrain planes
    * (within 0.3 rad of the up axis, the sensor above them) are spared, as by the
    * cluster test. Not in the paper; PCL's SACSegmentationFromNormals weighs the same
-   * angle into its distance.
+   * angle into its distance. The test is on by default: without setInputNormals()
+   * segment() estimates the normals on a grid of setNormalCell() (0.2 m, for street
+   * scale stereo or LiDAR clouds), so any cloud works; for a cloud of another scale
+   * set the cell (or give normals), and set 0 for the paper's distance-only eq. 11.
    * \param[in] angle_rad radians, in
-   * sac_multi_plane_segmentation_ranges::MAX_NORMAL_ANGLE (default 0: no test) */
-  void setMaxNormalAngle(double angle_rad) { max_normal_angle_ = angle_rad; }
+   * sac_multi_plane_segmentation_ranges::MAX_NORMAL_ANGLE (default 0.5; 0: no
+   * test) */
+  void setMaxNormalAngle(double angle_rad) { params_.max_normal_angle_rad = angle_rad; }
   /** \brief Returns the largest angle of the normal test, in radians (0: no test). */
-  double getMaxNormalAngle() const { return max_normal_angle_; }
+  double getMaxNormalAngle() const { return params_.max_normal_angle_rad; }
 
   /** \brief Sets the edge of the cubic cells of the normal estimation (without
    * setInputNormals()): each point's normal is fitted to the points of the 3 x 3 x 3
@@ -525,9 +645,9 @@ public:
    * the voxel edge (a stereo surface is as thick as its depth noise).
    * \param[in] cell_m meters, in sac_multi_plane_segmentation_ranges::NORMAL_CELL
    * (default 0.2) */
-  void setNormalCell(double cell_m) { normal_cell_ = cell_m; }
+  void setNormalCell(double cell_m) { params_.normal_cell_m = cell_m; }
   /** \brief Returns the cell edge of the normal estimation, in meters. */
-  double getNormalCell() const { return normal_cell_; }
+  double getNormalCell() const { return params_.normal_cell_m; }
 
   /** \brief Sets the support test of the normal test: a hypothesis whose eq. 11
    * inliers by distance alone that have a normal agree with its normal less often
@@ -536,10 +656,11 @@ public:
    * support that disagrees leaves the search (it would give the same plane again);
    * the points that agree or have no normal stay. Needs
    * setMaxNormalAngle() > 0. \param[in] ratio in
-   * sac_multi_plane_segmentation_ranges::MIN_NORMAL_AGREEMENT (default 0: no test) */
-  void setMinNormalAgreement(double ratio) { min_normal_agreement_ = ratio; }
+   * sac_multi_plane_segmentation_ranges::MIN_NORMAL_AGREEMENT (default 0.35; 0: no
+   * test) */
+  void setMinNormalAgreement(double ratio) { params_.min_normal_agreement = ratio; }
   /** \brief Returns the smallest share of agreeing support of a hypothesis. */
-  double getMinNormalAgreement() const { return min_normal_agreement_; }
+  double getMinNormalAgreement() const { return params_.min_normal_agreement; }
 
   /** \brief Returns how many hypotheses the last segment() dropped because their
    * support scattered in normal (setMinNormalAgreement()). */
@@ -556,9 +677,9 @@ public:
 
   /** \brief Sets the seed of the subsample and of the per-round sample shuffles.
    * \param[in] seed any value (default 0) */
-  void setSeed(unsigned seed) { seed_ = seed; }
+  void setSeed(unsigned seed) { params_.seed = seed; }
   /** \brief Returns the seed. */
-  unsigned getSeed() const { return seed_; }
+  unsigned getSeed() const { return params_.seed; }
 
   /** \brief Sets the size of the input subsample used when no sample cloud is set.
    * \param[in] max_sample_size in sac_multi_plane_segmentation_ranges::MAX_SAMPLE_SIZE
@@ -605,72 +726,16 @@ protected:
   PointCloudConstPtr sample_cloud_;
   /** \brief Points that may join planes but make none (setInlierOnlyIndices()). */
   pcl::IndicesConstPtr inlier_only_indices_;
-  /** \brief Whether the inlier-only points count towards min_inliers. */
-  bool count_inlier_only_{true};
-  /** \brief Largest distance of an inlier-only point, in meters (0: eq. 11's). */
-  double inlier_only_distance_threshold_{0.0};
-  /** \brief d_T of eq. 11, in meters. */
-  double distance_threshold_{0.05};
+  /** \brief The parameters the pipeline sets. */
+  Params params_;
   /** \brief Delta d / (B f) of the range-dependent eq. 11 threshold, in 1/m. */
   double depth_noise_coefficient_{0.0};
-  /** \brief Whether the depth noise is projected on each plane's normal. */
-  bool depth_noise_along_sight_{false};
-  /** \brief Sample consensus threshold, in meters (when set). */
-  double sample_distance_threshold_{0.05};
-  /** \brief Whether sample_distance_threshold_ was set. */
-  bool sample_distance_threshold_set_{false};
-  /** \brief Largest number of planes. */
-  int max_planes_{8};
-  /** \brief Fewest dense inliers of a kept plane. */
-  int min_inliers_{500};
-  /** \brief Fewest sample inliers of a hypothesis. */
-  int min_sample_inliers_{15};
-  /** \brief Remaining sample fraction below which the loop stops. */
-  double min_remaining_fraction_{0.05};
-  /** \brief Sample consensus iteration cap. */
-  int max_iterations_{1000};
   /** \brief Sample consensus probability. */
   double probability_{0.99};
-  /** \brief Sample consensus estimator. */
-  SACMethod method_{SACMethod::RANSAC};
-  /** \brief Refit planes to their dense inliers. */
-  bool optimize_coefficients_{true};
-  /** \brief Also hypothesise each plane from a dense subsample. */
-  bool dense_hypothesis_{true};
-  /** \brief Local optimisation (LO-RANSAC) iterations per plane. */
-  int lo_iterations_{50};
-  /** \brief Merge near-duplicate planes. */
-  bool merge_planes_{true};
-  /** \brief Merge angle threshold, in radians. */
-  double merge_angle_threshold_{0.1};
-  /** \brief Merge offset threshold, in meters. */
-  double merge_distance_threshold_{0.1};
   /** \brief Up axis of eqs. 2-3. */
   Eigen::Vector3f up_axis_{0.0f, 0.0f, 1.0f};
-  /** \brief Seed of the subsample and shuffles. */
-  unsigned seed_{0};
   /** \brief Input subsample size without a sample cloud, in points. */
   int max_sample_size_{20000};
-  /** \brief Largest ratio of visibility conflicts to inliers (0: no test). */
-  double max_visibility_conflict_ratio_{0.0};
-  /** \brief Distance off a plane, beyond eq. 11, of a conflicting point, in meters. */
-  double visibility_margin_{0.3};
-  /** \brief Footprint cell edge of the visibility test, in meters. */
-  double visibility_cell_{0.2};
-  /** \brief Largest ratio of shell points to inliers (0: no test). */
-  double max_shell_ratio_{0.0};
-  /** \brief Smallest shell width of the shell test, in meters. */
-  double shell_width_{0.1};
-  /** \brief Smallest distance of a plane from the sensor origin, in meters (0: no
-   * test). */
-  double min_sensor_distance_{0.0};
-  /** \brief Least height of the sensor above a level plane that the normal and
-   * cluster tests spare as terrain, in meters (0: any level plane below it). */
-  double min_terrain_sensor_height_{0.0};
-  /** \brief Fewest inliers of a footprint cluster (0: no test). */
-  int min_cluster_size_{0};
-  /** \brief Footprint cell edge of the cluster test, in meters. */
-  double cluster_cell_{0.2};
   /** \brief Planes the last segment() dropped in the cluster test. */
   std::size_t cluster_rejected_{0};
   /** \brief Inliers the last segment()'s cluster test took out. */
@@ -689,12 +754,6 @@ protected:
   std::size_t visibility_removed_{0};
   /** \brief Surface normals of the input points, or nullptr. */
   NormalCloudConstPtr normals_;
-  /** \brief Largest angle of the normal test, in radians (0: no test). */
-  double max_normal_angle_{0.0};
-  /** \brief Cell edge of the grid normal estimation, in meters. */
-  double normal_cell_{0.2};
-  /** \brief Smallest share of a hypothesis' support agreeing in normal (0: no test). */
-  double min_normal_agreement_{0.0};
   /** \brief Hypotheses the last segment() dropped for scattered normals. */
   std::size_t normal_rejected_{0};
   /** \brief Distance inliers of kept planes the normal test took out. */

@@ -16,24 +16,24 @@ template <typename PointT>
 double
 DepthErrorFilter<PointT>::getMaxDepth() const
 {
-  if (!depth_error_filter_ranges::DISPARITY_ERROR.contains(disparity_error_px_))
+  if (!depth_error_filter_ranges::DISPARITY_ERROR.contains(params_.disparity_error_px))
     throw Exception("DepthErrorFilter: "
                     + paramRangeMessage("disparity_error_px",
                                         depth_error_filter_ranges::DISPARITY_ERROR)
-                    + ", got " + formatParamNumber(disparity_error_px_));
-  if (!depth_error_filter_ranges::MAX_DEPTH_ERROR.contains(max_depth_error_m_))
+                    + ", got " + formatParamNumber(params_.disparity_error_px));
+  if (!depth_error_filter_ranges::MAX_DEPTH_ERROR.contains(params_.max_depth_error_m))
     throw Exception("DepthErrorFilter: "
                     + paramRangeMessage("max_depth_error_m",
                                         depth_error_filter_ranges::MAX_DEPTH_ERROR)
-                    + ", got " + formatParamNumber(max_depth_error_m_));
+                    + ", got " + formatParamNumber(params_.max_depth_error_m));
   // Eq. 4: Delta z = z^2 Delta d / (B f) <= max  <=>  z <= sqrt(max / Delta z(1 m)).
-  const double error_at_1m = calibration_.depthError(1.0, disparity_error_px_);
+  const double error_at_1m = calibration_.depthError(1.0, params_.disparity_error_px);
   if (!(std::isfinite(error_at_1m) && error_at_1m > 0.0))
     throw Exception("DepthErrorFilter: the calibration's baseline_m and "
                     "focal_length_px must be finite and positive (got "
                     + formatParamNumber(calibration_.baseline_m) + " m and "
                     + formatParamNumber(calibration_.focal_length_px) + " px)");
-  return std::sqrt(max_depth_error_m_ / error_at_1m);
+  return std::sqrt(params_.max_depth_error_m / error_at_1m);
 }
 
 template <typename PointT>

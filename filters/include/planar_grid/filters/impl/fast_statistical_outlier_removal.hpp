@@ -37,11 +37,11 @@ template <typename PointT>
 void
 FastStatisticalOutlierRemoval<PointT>::applyFilter(pcl::Indices& indices)
 {
-  if (!fast_statistical_outlier_removal_ranges::MEAN_K.contains(mean_k_))
+  if (!fast_statistical_outlier_removal_ranges::MEAN_K.contains(params_.mean_k))
     throw Exception(
       "FastStatisticalOutlierRemoval: "
       + paramRangeMessage("mean_k", fast_statistical_outlier_removal_ranges::MEAN_K)
-      + ", got " + std::to_string(mean_k_));
+      + ", got " + std::to_string(params_.mean_k));
   const auto& cloud = *this->input_;
   const pcl::Indices& input_indices = *this->indices_;
   // Every finite point of the cloud is searched, as by PCL's searcher; packed in
@@ -64,7 +64,7 @@ FastStatisticalOutlierRemoval<PointT>::applyFilter(pcl::Indices& indices)
     if (packed_of[static_cast<std::size_t>(index)] != NOT_FINITE)
       queried[packed_of[static_cast<std::size_t>(index)]] = 1;
   std::vector<float> mean_distance;
-  detail::meanNeighbourDistances(xyz, queried, mean_k_, mean_distance);
+  detail::meanNeighbourDistances(xyz, queried, params_.mean_k, mean_distance);
 
   std::vector<float> distances(input_indices.size(), 0.0f);
   int valid_distances = 0;
@@ -86,7 +86,7 @@ FastStatisticalOutlierRemoval<PointT>::applyFilter(pcl::Indices& indices)
   const double mean = sum / static_cast<double>(valid_distances);
   const double variance = (sq_sum - sum * sum / static_cast<double>(valid_distances))
                           / (static_cast<double>(valid_distances) - 1.0);
-  const double threshold = mean + std_mul_ * std::sqrt(variance);
+  const double threshold = mean + params_.stddev_mul_thresh * std::sqrt(variance);
 
   indices.clear();
   indices.reserve(input_indices.size());

@@ -176,7 +176,7 @@ FastVoxelGrid<PointT>::applyFilter(PointCloud& output)
     std::size_t e = b + 1;
     while (e < n && entries[e].idx == entries[b].idx)
       ++e;
-    if (e - b >= min_points_per_voxel_)
+    if (e - b >= getMinimumPointsNumberPerVoxel())
       runs.emplace_back(static_cast<unsigned int>(b), static_cast<unsigned int>(e));
     b = e;
   }

@@ -72,34 +72,35 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
     paramRangeMessage("normal_cell", ranges::NORMAL_CELL, "m"),
     paramRangeMessage("min_normal_agreement", ranges::MIN_NORMAL_AGREEMENT)};
   const std::array<bool, 27> valid{
-    ranges::DISTANCE_THRESHOLD.contains(distance_threshold_),
-    !sample_distance_threshold_set_
-      || ranges::SAMPLE_DISTANCE_THRESHOLD.contains(sample_distance_threshold_),
+    ranges::DISTANCE_THRESHOLD.contains(params_.distance_threshold_m),
+    ranges::SAMPLE_DISTANCE_THRESHOLD.contains(params_.sample_distance_threshold_m),
     ranges::DEPTH_NOISE_COEFFICIENT.contains(depth_noise_coefficient_),
-    ranges::MAX_PLANES.contains(max_planes_),
-    ranges::MIN_INLIERS.contains(min_inliers_),
-    ranges::MIN_SAMPLE_INLIERS.contains(min_sample_inliers_),
-    ranges::MIN_REMAINING_FRACTION.contains(min_remaining_fraction_),
-    ranges::MAX_ITERATIONS.contains(max_iterations_),
+    ranges::MAX_PLANES.contains(params_.max_planes),
+    ranges::MIN_INLIERS.contains(params_.min_inliers),
+    ranges::MIN_SAMPLE_INLIERS.contains(params_.min_sample_inliers),
+    ranges::MIN_REMAINING_FRACTION.contains(params_.min_remaining_fraction),
+    ranges::MAX_ITERATIONS.contains(params_.max_iterations),
     ranges::PROBABILITY.contains(probability_),
-    ranges::MERGE_ANGLE_THRESHOLD.contains(merge_angle_threshold_),
-    ranges::MERGE_DISTANCE_THRESHOLD.contains(merge_distance_threshold_),
+    ranges::MERGE_ANGLE_THRESHOLD.contains(params_.merge_angle_rad),
+    ranges::MERGE_DISTANCE_THRESHOLD.contains(params_.merge_distance_m),
     up_axis_.allFinite() && up_axis_.norm() > 0.0f,
     ranges::MAX_SAMPLE_SIZE.contains(max_sample_size_),
-    ranges::LO_ITERATIONS.contains(lo_iterations_),
-    ranges::MAX_VISIBILITY_CONFLICT_RATIO.contains(max_visibility_conflict_ratio_),
-    ranges::VISIBILITY_MARGIN.contains(visibility_margin_),
-    ranges::VISIBILITY_CELL.contains(visibility_cell_),
-    ranges::MIN_SENSOR_DISTANCE.contains(min_sensor_distance_),
-    ranges::MIN_TERRAIN_SENSOR_HEIGHT.contains(min_terrain_sensor_height_),
-    ranges::MIN_CLUSTER_SIZE.contains(min_cluster_size_),
-    ranges::CLUSTER_CELL.contains(cluster_cell_),
-    ranges::MAX_SHELL_RATIO.contains(max_shell_ratio_),
-    ranges::SHELL_WIDTH.contains(shell_width_),
-    ranges::INLIER_ONLY_DISTANCE_THRESHOLD.contains(inlier_only_distance_threshold_),
-    ranges::MAX_NORMAL_ANGLE.contains(max_normal_angle_),
-    ranges::NORMAL_CELL.contains(normal_cell_),
-    ranges::MIN_NORMAL_AGREEMENT.contains(min_normal_agreement_)};
+    ranges::LO_ITERATIONS.contains(params_.lo_iterations),
+    ranges::MAX_VISIBILITY_CONFLICT_RATIO.contains(
+      params_.max_visibility_conflict_ratio),
+    ranges::VISIBILITY_MARGIN.contains(params_.visibility_margin_m),
+    ranges::VISIBILITY_CELL.contains(params_.visibility_cell_m),
+    ranges::MIN_SENSOR_DISTANCE.contains(params_.min_sensor_distance_m),
+    ranges::MIN_TERRAIN_SENSOR_HEIGHT.contains(params_.min_sensor_height_m),
+    ranges::MIN_CLUSTER_SIZE.contains(params_.min_cluster_size),
+    ranges::CLUSTER_CELL.contains(params_.cluster_cell_m),
+    ranges::MAX_SHELL_RATIO.contains(params_.max_shell_ratio),
+    ranges::SHELL_WIDTH.contains(params_.shell_width_m),
+    ranges::INLIER_ONLY_DISTANCE_THRESHOLD.contains(
+      params_.inlier_only_distance_threshold_m),
+    ranges::MAX_NORMAL_ANGLE.contains(params_.max_normal_angle_rad),
+    ranges::NORMAL_CELL.contains(params_.normal_cell_m),
+    ranges::MIN_NORMAL_AGREEMENT.contains(params_.min_normal_agreement)};
   for (std::size_t i = 0; i < valid.size(); ++i)
     if (!valid[i])
       return messages[i].c_str();
@@ -229,7 +230,7 @@ SACMultiPlaneSegmentation<PointT>::collectDensePoints(const Eigen::Vector3f& ori
         inlier_only[i] = 0; // each index once
         addPoint(static_cast<pcl::index_t>(i));
       }
-  if (max_normal_angle_ > 0.0) {
+  if (params_.max_normal_angle_rad > 0.0) {
     // The normal test's normals: the given ones, else fitted on a grid of the points.
     if (normals_) {
       const std::size_t n = dense.size();
@@ -248,10 +249,10 @@ SACMultiPlaneSegmentation<PointT>::collectDensePoints(const Eigen::Vector3f& ori
       }
     } else {
       detail::estimateGridNormals(
-        dense.x, dense.y, dense.z, static_cast<float>(normal_cell_),
+        dense.x, dense.y, dense.z, static_cast<float>(params_.normal_cell_m),
         detail::MIN_NORMAL_POINTS, dense.nx, dense.ny, dense.nz);
     }
-    dense.min_normal_cos = static_cast<float>(std::cos(max_normal_angle_));
+    dense.min_normal_cos = static_cast<float>(std::cos(params_.max_normal_angle_rad));
     dense.use_normals = true;
     // Terrain planes are spared, as by the cluster test: a road's disparity is the
     // sparsest and noisiest of a street's surfaces, and ground_removal takes the
@@ -259,7 +260,7 @@ SACMultiPlaneSegmentation<PointT>::collectDensePoints(const Eigen::Vector3f& ori
     dense.terrain_up = up_axis_.normalized();
     dense.terrain_origin = origin;
     dense.terrain_cos = std::cos(detail::TERRAIN_TILT);
-    dense.terrain_min_height = static_cast<float>(min_terrain_sensor_height_);
+    dense.terrain_min_height = static_cast<float>(params_.min_sensor_height_m);
   }
   if (depth_noise_coefficient_ > 0.0) {
     // Eq. 11 at the stereo depth error of each point's range (eq. 4's Delta z).
@@ -271,16 +272,16 @@ SACMultiPlaneSegmentation<PointT>::collectDensePoints(const Eigen::Vector3f& ori
       dense.threshold[k] = std::max(d_t, coefficient * r2);
     }
   }
-  if (inlier_only_distance_threshold_ > 0.0 && dense.primary < dense.size()) {
+  if (params_.inlier_only_distance_threshold_m > 0.0 && dense.primary < dense.size()) {
     // A planar cell spans its inliers' depth along the normal: the inlier-only points
     // join within a bound of their own, so that their noise does not thicken it.
     if (dense.threshold.empty())
       dense.threshold.assign(dense.size(), d_t);
-    const auto cap = static_cast<float>(inlier_only_distance_threshold_);
+    const auto cap = static_cast<float>(params_.inlier_only_distance_threshold_m);
     for (std::size_t k = dense.primary; k < dense.size(); ++k)
       dense.threshold[k] = std::min(dense.threshold[k], cap);
   }
-  if (depth_noise_along_sight_ && depth_noise_coefficient_ > 0.0) {
+  if (params_.depth_noise_along_sight && depth_noise_coefficient_ > 0.0) {
     // The thresholds above are each point's largest; selectInliers() projects the
     // depth error on each plane's normal within them.
     const auto coefficient = static_cast<float>(depth_noise_coefficient_);
@@ -343,9 +344,9 @@ SACMultiPlaneSegmentation<PointT>::estimateSamplePlane(
   std::shuffle(remaining.begin(), remaining.end(), rng);
   auto model =
     std::make_shared<detail::QuietPlaneModel<PointT>>(sample_cloud, remaining);
-  model->setEarlyExit(method_ == SACMethod::RANSAC);
+  model->setEarlyExit(params_.method == SACMethod::RANSAC);
   std::shared_ptr<pcl::SampleConsensus<PointT>> sac;
-  switch (method_) {
+  switch (params_.method) {
     case SACMethod::MSAC:
       sac = std::make_shared<pcl::MEstimatorSampleConsensus<PointT>>(model);
       break;
@@ -358,7 +359,7 @@ SACMultiPlaneSegmentation<PointT>::estimateSamplePlane(
       break;
   }
   sac->setDistanceThreshold(sample_t);
-  sac->setMaxIterations(max_iterations_);
+  sac->setMaxIterations(params_.max_iterations);
   sac->setProbability(probability_);
   if (!sac->computeModel())
     return false;
@@ -366,7 +367,7 @@ SACMultiPlaneSegmentation<PointT>::estimateSamplePlane(
   sac->getModelCoefficients(coefficients);
   sac->getInliers(sac_inliers);
   if (coefficients.size() != 4 || !coefficients.allFinite()
-      || static_cast<int>(sac_inliers.size()) < min_sample_inliers_)
+      || static_cast<int>(sac_inliers.size()) < params_.min_sample_inliers)
     return false;
   plane = coefficients.head<4>();
   plane /= plane.head<3>().norm();
@@ -415,7 +416,7 @@ SACMultiPlaneSegmentation<PointT>::refineOnDenseSlab(detail::DensePoints& dense,
   }
   Eigen::Vector4f local_plane;
   if (detail::ransacPlane(buffers.local_x, buffers.local_y, buffers.local_z, d_t,
-                          max_iterations_, probability_, rng, local_plane)
+                          params_.max_iterations, probability_, rng, local_plane)
       > 0) {
     plane = local_plane;
     detail::orientTowards(plane, origin);
@@ -435,7 +436,7 @@ SACMultiPlaneSegmentation<PointT>::tryDenseHypothesis(detail::DensePoints& dense
   // unassigned dense points; the plane with more eq. 11 inliers over the store is
   // kept. It finds the large planes the sample has few points on (a road with little
   // texture).
-  if (!dense_hypothesis_ || dense.primary < 3)
+  if (!params_.dense_hypothesis || dense.primary < 3)
     return false;
   const std::size_t n = dense.primary;
   const std::size_t wanted = std::min(n, detail::LOCAL_SAMPLE_SIZE);
@@ -451,7 +452,7 @@ SACMultiPlaneSegmentation<PointT>::tryDenseHypothesis(detail::DensePoints& dense
   }
   Eigen::Vector4f dense_plane;
   if (detail::ransacPlane(buffers.local_x, buffers.local_y, buffers.local_z, d_t,
-                          max_iterations_, probability_, rng, dense_plane)
+                          params_.max_iterations, probability_, rng, dense_plane)
         > 0
       && dense.selectInliers(dense_plane, d_t) > dense.selectInliers(plane, d_t)) {
     plane = dense_plane;
@@ -471,14 +472,14 @@ SACMultiPlaneSegmentation<PointT>::selectDenseInliers(detail::DensePoints& dense
                                                       pcl::Indices& inliers) const
 {
   // Local optimisation (LO-RANSAC) of the kept hypothesis on all unassigned points.
-  if (lo_iterations_ > 0) {
-    detail::optimizePlane(dense.x, dense.y, dense.z, dense.primary, d_t, lo_iterations_,
-                          rng, plane);
+  if (params_.lo_iterations > 0) {
+    detail::optimizePlane(dense.x, dense.y, dense.z, dense.primary, d_t,
+                          params_.lo_iterations, rng, plane);
     detail::orientTowards(plane, origin);
   }
   // Eq. 11 over the unassigned dense points; refit (PCA) and reselect.
   std::size_t count = dense.selectInliers(plane, d_t);
-  if (optimize_coefficients_ && count >= 3) {
+  if (params_.optimize_coefficients && count >= 3) {
     dense.selected(inliers);
     Eigen::Vector4f refit, centroid;
     if (detail::fitPlanePCA(*input_, inliers, refit, centroid)) {
@@ -517,7 +518,7 @@ SACMultiPlaneSegmentation<PointT>::supportCount(const detail::DensePoints& dense
                                                 std::size_t count) const
 {
   // The mask holds the plane's inliers wherever this is called.
-  if (count_inlier_only_ || dense.primary == dense.size())
+  if (params_.count_inlier_only_points || dense.primary == dense.size())
     return count;
   return static_cast<std::size_t>(std::count(
     dense.mask.begin(), dense.mask.begin() + static_cast<std::ptrdiff_t>(dense.primary),
@@ -532,16 +533,16 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
   resetRejectionCounts();
   const Eigen::Vector3f origin = input_->sensor_origin_.template head<3>();
   const Eigen::Vector3f up = up_axis_.normalized();
-  const auto d_t = static_cast<float>(distance_threshold_);
+  const auto d_t = static_cast<float>(params_.distance_threshold_m);
   const auto sample_t = static_cast<float>(getSampleDistanceThreshold());
-  std::mt19937 rng(seed_);
+  std::mt19937 rng(params_.seed);
 
   detail::DensePoints dense;
   collectDensePoints(origin, d_t, dense);
   // Every finite input point, for the visibility test (dense loses the planes'
   // inliers as they are taken).
   detail::DensePoints all;
-  if (max_visibility_conflict_ratio_ > 0.0 || max_shell_ratio_ > 0.0)
+  if (params_.max_visibility_conflict_ratio > 0.0 || params_.max_shell_ratio > 0.0)
     all = dense;
   if (dense.size() < 3) {
     PCL_WARN("[planar_grid::%s::segment] Fewer than 3 finite input points (%zu).\n",
@@ -570,12 +571,13 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
   std::vector<std::uint8_t> sample_taken(sample_cloud->size(), 0);
   pcl::Indices sac_inliers;
   RoundBuffers buffers;
-  const int max_rounds = 3 * max_planes_;
+  const int max_rounds = 3 * params_.max_planes;
   for (int round = 0;
-       round < max_rounds && static_cast<int>(planes.size()) < max_planes_; ++round) {
+       round < max_rounds && static_cast<int>(planes.size()) < params_.max_planes;
+       ++round) {
     if (remaining.size() < 3
         || static_cast<double>(remaining.size())
-             < min_remaining_fraction_ * initial_sample)
+             < params_.min_remaining_fraction * initial_sample)
       break;
     // What is left of the sample may be colinear (e.g. features along one edge): every
     // minimal sample would be degenerate, so stop instead of drawing in vain.
@@ -591,7 +593,7 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
       break;
 
     PlanarSegment segment;
-    if (optimize_coefficients_)
+    if (params_.optimize_coefficients)
       refineOnDenseSlab(dense, sample_t, d_t, origin, rng, buffers, plane);
     const bool dense_won = tryDenseHypothesis(dense, d_t, origin, rng, buffers, plane);
     std::size_t count =
@@ -623,13 +625,13 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
   }
 
   // Merge near-duplicate planes (normals within eps_angle, offsets within distance).
-  if (merge_planes_)
+  if (params_.merge_planes)
     mergeDuplicatePlanes(planes, origin);
   // Per-plane extras: sorted inliers, centroid, eqs. 2-3 tilt, headers.
   describePlanes(planes, up);
   if (planes.empty())
     PCL_WARN("[planar_grid::%s::segment] No plane with >= %d inliers.\n",
-             getClassName().c_str(), min_inliers_);
+             getClassName().c_str(), params_.min_inliers);
 }
 
 } // namespace planar_grid

@@ -38,7 +38,7 @@ SACMultiPlaneSegmentation<PointT>::passesNormalAgreement(detail::DensePoints& de
   const std::size_t agreeing = known - disagreeing;
   if (known == 0
       || static_cast<double>(agreeing)
-           >= min_normal_agreement_ * static_cast<double>(known)) {
+           >= params_.min_normal_agreement * static_cast<double>(known)) {
     normal_removed_ += disagreeing;
     return true;
   }
@@ -64,30 +64,31 @@ SACMultiPlaneSegmentation<PointT>::passesPlaneTests(detail::DensePoints& dense,
                                                     float d_t,
                                                     std::size_t& count)
 {
-  if (static_cast<int>(supportCount(dense, count)) < min_inliers_) {
+  if (static_cast<int>(supportCount(dense, count)) < params_.min_inliers) {
     PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with %zu < %d inliers.\n",
-              getClassName().c_str(), count, min_inliers_);
+              getClassName().c_str(), count, params_.min_inliers);
     return false;
   }
-  if (min_sensor_distance_ > 0.0) {
+  if (params_.min_sensor_distance_m > 0.0) {
     const std::size_t removed = detail::removeSensorPlane(
-      dense, plane, origin, static_cast<float>(min_sensor_distance_));
+      dense, plane, origin, static_cast<float>(params_.min_sensor_distance_m));
     if (removed > 0) {
       PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane passing within %g m of "
                 "the sensor (%zu inliers).\n",
-                getClassName().c_str(), min_sensor_distance_, removed);
+                getClassName().c_str(), params_.min_sensor_distance_m, removed);
       sensor_plane_removed_ += removed;
       ++sensor_plane_rejected_;
       return false;
     }
   }
-  if (max_visibility_conflict_ratio_ > 0.0) {
+  if (params_.max_visibility_conflict_ratio > 0.0) {
     const std::size_t removed = detail::removeVisibilityConflicts(
-      dense, all, d_t, plane, origin, static_cast<float>(visibility_margin_),
-      static_cast<float>(visibility_cell_), max_visibility_conflict_ratio_);
+      dense, all, d_t, plane, origin, static_cast<float>(params_.visibility_margin_m),
+      static_cast<float>(params_.visibility_cell_m),
+      params_.max_visibility_conflict_ratio);
     visibility_removed_ += removed;
     count -= removed;
-    if (static_cast<int>(supportCount(dense, count)) < min_inliers_) {
+    if (static_cast<int>(supportCount(dense, count)) < params_.min_inliers) {
       PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with visibility "
                 "conflicts at %zu of its inliers (%zu left).\n",
                 getClassName().c_str(), removed, count);
@@ -95,13 +96,13 @@ SACMultiPlaneSegmentation<PointT>::passesPlaneTests(detail::DensePoints& dense,
       return false;
     }
   }
-  if (max_shell_ratio_ > 0.0) {
-    const std::size_t removed =
-      detail::removeShellCells(dense, all, d_t, plane, static_cast<float>(shell_width_),
-                               static_cast<float>(visibility_cell_), max_shell_ratio_);
+  if (params_.max_shell_ratio > 0.0) {
+    const std::size_t removed = detail::removeShellCells(
+      dense, all, d_t, plane, static_cast<float>(params_.shell_width_m),
+      static_cast<float>(params_.visibility_cell_m), params_.max_shell_ratio);
     shell_removed_ += removed;
     count -= removed;
-    if (static_cast<int>(supportCount(dense, count)) < min_inliers_) {
+    if (static_cast<int>(supportCount(dense, count)) < params_.min_inliers) {
       PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with points beyond its "
                 "threshold at %zu of its inliers (%zu left).\n",
                 getClassName().c_str(), removed, count);
@@ -110,22 +111,22 @@ SACMultiPlaneSegmentation<PointT>::passesPlaneTests(detail::DensePoints& dense,
     }
   }
   // Terrain (a plane within TERRAIN_TILT of the up axis, more than
-  // min_terrain_sensor_height_ below the sensor) is spared, as by the normal test:
+  // params_.min_sensor_height_m below the sensor) is spared, as by the normal test:
   // the layers of a noisy road fall apart into clusters, and the terrain removal
   // takes them out whole.
   const bool terrain =
     detail::isTerrainPlane(plane, up, origin, std::cos(detail::TERRAIN_TILT),
-                           static_cast<float>(min_terrain_sensor_height_));
-  if (min_cluster_size_ > 0 && !terrain) {
-    const std::size_t removed =
-      detail::removeSmallClusters(dense, plane, static_cast<float>(cluster_cell_),
-                                  static_cast<std::size_t>(min_cluster_size_));
+                           static_cast<float>(params_.min_sensor_height_m));
+  if (params_.min_cluster_size > 0 && !terrain) {
+    const std::size_t removed = detail::removeSmallClusters(
+      dense, plane, static_cast<float>(params_.cluster_cell_m),
+      static_cast<std::size_t>(params_.min_cluster_size));
     cluster_removed_ += removed;
     count -= removed;
-    if (static_cast<int>(supportCount(dense, count)) < min_inliers_) {
+    if (static_cast<int>(supportCount(dense, count)) < params_.min_inliers) {
       PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane whose footprint falls "
                 "apart into clusters of < %d inliers (%zu left).\n",
-                getClassName().c_str(), min_cluster_size_, count);
+                getClassName().c_str(), params_.min_cluster_size, count);
       ++cluster_rejected_;
       // The fragments would give the same plane again: they leave the search.
       dense.selectInliers(plane, d_t);
@@ -142,7 +143,7 @@ SACMultiPlaneSegmentation<PointT>::mergeDuplicatePlanes(
   PlanarSegments& planes,
   const Eigen::Vector3f& origin) const
 {
-  const double cos_eps = std::cos(merge_angle_threshold_);
+  const double cos_eps = std::cos(params_.merge_angle_rad);
   bool merged = true;
   while (merged) {
     merged = false;
@@ -152,15 +153,14 @@ SACMultiPlaneSegmentation<PointT>::mergeDuplicatePlanes(
         const auto& cj = planes[j].model_coefficients.values;
         const double dot = ci[0] * cj[0] + ci[1] * cj[1] + ci[2] * cj[2];
         const double d_j = dot < 0.0 ? -cj[3] : cj[3];
-        if (std::abs(dot) < cos_eps
-            || std::abs(ci[3] - d_j) > merge_distance_threshold_)
+        if (std::abs(dot) < cos_eps || std::abs(ci[3] - d_j) > params_.merge_distance_m)
           continue;
         PlanarSegment& a = planes[i];
         PlanarSegment& b = planes[j];
         auto& ind = a.inliers.indices;
         ind.insert(ind.end(), b.inliers.indices.begin(), b.inliers.indices.end());
         Eigen::Vector4f refit, centroid;
-        if (optimize_coefficients_
+        if (params_.optimize_coefficients
             && detail::fitPlanePCA(*input_, ind, refit, centroid)) {
           detail::orientTowards(refit, origin);
           a.model_coefficients.values.assign(refit.data(), refit.data() + 4);

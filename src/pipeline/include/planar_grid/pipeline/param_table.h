@@ -199,6 +199,17 @@ ParamValues defaultParams(const std::vector<ParamSpec>& specs);
  * range (an interval, "(0, 10]") and unit. */
 std::string describeParams(const std::vector<ParamSpec>& specs);
 
+/** \brief Inserts \a spec into a stage's parameter list right after the key \a after,
+ * so that a stage's own key stands beside the algorithm's key it goes with.
+ * \param[in,out] specs the list
+ * \param[in] after the key that \a spec follows
+ * \param[in] spec the parameter
+ * \throws planar_grid::Exception when \a specs has no key \a after (a programming
+ * error) */
+void insertParamSpec(std::vector<ParamSpec>& specs,
+                     const std::string& after,
+                     const ParamSpec& spec);
+
 /** \brief A stage parameter from an algorithm's declaration, its default the value
  * of \a defaults.
  * \param[in] declaration the member's declaration
