@@ -2,9 +2,11 @@
 // The declaration of every SACMultiPlaneSegmentationParams member: the
 // multi_plane_segmentation stage and the stage reference are made from it.
 #include <planar_grid/core/exceptions.h>
-#include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
+#include <planar_grid/segmentation/sac_multi_plane_segmentation_params.h>
+#include <planar_grid/segmentation/sac_multi_plane_segmentation_ranges.h>
 
 #include <algorithm>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -39,8 +41,10 @@ sacMethodFromName(const std::string& name)
   return static_cast<SACMethod>(it - names.begin());
 }
 
+/** The hypotheses' parameters: eq. 11, the sample consensus, the refinement and the
+ * merge of near-duplicate planes. */
 ParamDeclarations<Params>
-makeParamDeclarations()
+hypothesisDeclarations()
 {
   namespace ranges = sac_multi_plane_segmentation_ranges;
   using Scaling = CellSizeScaling;
@@ -108,6 +112,17 @@ makeParamDeclarations()
     declareInteger<Params>(
       "seed", [](auto& p) -> auto& { return p.seed; },
       ParamRange::closed(0, 2147483647), "", "Random seed (reproducible runs)."),
+  };
+}
+
+/** The dense inliers' tests: visibility, sensor distance and height, clusters, shells,
+ * the inlier-only points and the normal test. */
+ParamDeclarations<Params>
+inlierTestDeclarations()
+{
+  namespace ranges = sac_multi_plane_segmentation_ranges;
+  using Scaling = CellSizeScaling;
+  return {
     declareReal<Params>(
       "max_visibility_conflict_ratio",
       [](auto& p) -> auto& { return p.max_visibility_conflict_ratio; },
@@ -203,6 +218,16 @@ makeParamDeclarations()
       "often than this is dropped (a plane through vegetation, clutter, or across a "
       "surface at an angle); 0 = no test."),
   };
+}
+
+ParamDeclarations<Params>
+makeParamDeclarations()
+{
+  ParamDeclarations<Params> table = hypothesisDeclarations();
+  ParamDeclarations<Params> tests = inlierTestDeclarations();
+  table.insert(table.end(), std::make_move_iterator(tests.begin()),
+               std::make_move_iterator(tests.end()));
+  return table;
 }
 
 } // namespace
