@@ -11,6 +11,7 @@
 #include <planar_grid/pipeline/stage.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 #include <planar_grid/segmentation/terrain_removal.h>
+#include <planar_grid/surface/planar_cuboid_approximation.h>
 
 #include <pcl/point_types.h>
 
@@ -323,6 +324,24 @@ TEST(ParamDeclarations, FilterStagesAreTheFiltersTables)
       return filter;
     },
     [](const std::unique_ptr<DepthError>& f) { return f->getParams(); });
+}
+
+TEST(ParamDeclarations, PlanarCuboidApproximationIsTheApproximationsTable)
+{
+  using Approximation = planar_grid::PlanarCuboidApproximation<pcl::PointXYZ>;
+  const auto& table = Approximation::getParamDeclarations();
+  const auto& params = stage("planar_cuboid_approximation").params;
+  ASSERT_EQ(table.size(), 7u);
+  expectListedAsDeclared(table, params);
+  EXPECT_EQ(params.size(), table.size());
+  const Approximation defaults;
+  for (const auto& d : table)
+    EXPECT_EQ(d.get(defaults.getParams()), d.get(Approximation::Params{})) << d.key;
+  EXPECT_EQ(defaults.getNonPlanarDensityThreshold(), 0.25);
+  expectEachValueReachesTheClassAndTheEcho(
+    table, "planar_cuboid_approximation",
+    [](const Approximation::Params& p) { return std::make_unique<Approximation>(p); },
+    [](const std::unique_ptr<Approximation>& a) { return a->getParams(); });
 }
 
 TEST(ParamDeclarations, MapIntegrationListsEveryMapParameterAsDeclared)
