@@ -7,6 +7,7 @@
 #include <planar_grid/filters/fast_voxel_grid.h>
 #include <planar_grid/filters/kl_divergence_occupancy_filter.h>
 #include <planar_grid/map/planar_grid_map.h>
+#include <planar_grid/odometry/stereo_odometry.h>
 #include <planar_grid/pipeline/param_table.h>
 #include <planar_grid/pipeline/stage.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
@@ -342,6 +343,35 @@ TEST(ParamDeclarations, PlanarCuboidApproximationIsTheApproximationsTable)
     table, "planar_cuboid_approximation",
     [](const Approximation::Params& p) { return std::make_unique<Approximation>(p); },
     [](const std::unique_ptr<Approximation>& a) { return a->getParams(); });
+}
+
+TEST(ParamDeclarations, VisualOdometryIsStereoOdometrysTableAndItsOwn)
+{
+  using Odometry = planar_grid::StereoOdometry;
+  const auto& table = Odometry::getParamDeclarations();
+  const auto& params = stage("visual_odometry").params;
+  ASSERT_EQ(table.size(), 12u);
+  expectListedAsDeclared(table, params);
+  const std::vector<std::string> expected{"ratio",
+                                          "distance_threshold_m",
+                                          "reprojection_threshold_px",
+                                          "max_iterations",
+                                          "min_inliers",
+                                          "reprojection_refinement",
+                                          "epipolar_refinement",
+                                          "epipolar_threshold_px",
+                                          "seed",
+                                          "estimate_disparity_offset",
+                                          "disparity_offset_px",
+                                          "disparity_offset_sigma_px",
+                                          "disparity_offset_memory",
+                                          "initial_height_m",
+                                          "initial_pitch_rad"};
+  EXPECT_EQ(keysOf(params), expected);
+  expectEachValueReachesTheClassAndTheEcho(
+    table, "visual_odometry",
+    [](const Odometry::Params& p) { return std::make_unique<Odometry>(p); },
+    [](const std::unique_ptr<Odometry>& o) { return o->getParams(); });
 }
 
 TEST(ParamDeclarations, MapIntegrationListsEveryMapParameterAsDeclared)
