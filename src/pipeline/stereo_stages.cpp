@@ -225,17 +225,7 @@ public:
 
   void getParameters(ParamValues& v) const override
   {
-    const StereoFeatureMatcher::Params& p = matcher_.getParams();
-    v.set("feature_type", featureTypeName(p.feature_type));
-    v.set("max_features", p.max_features);
-    v.set("ratio", p.ratio);
-    v.set("max_row_difference_px", p.max_row_difference_px);
-    v.set("max_disparity_px", p.max_disparity_px);
-    v.set("max_range_m", p.max_range_m);
-    v.set("bucket_size_px", p.bucket_size_px);
-    v.set("fast_threshold", p.fast_threshold);
-    v.set("subpixel_window_px", p.subpixel_window_px);
-    v.set("subpixel_search_px", p.subpixel_search_px);
+    reportParams(StereoFeatureMatcher::getParamDeclarations(), matcher_.getParams(), v);
   }
 
   void counters(const Frame& frame,
@@ -249,23 +239,6 @@ private:
 };
 
 } // namespace
-
-const std::vector<std::string>&
-featureTypeNames()
-{
-  static const std::vector<std::string> names{"sift", "orb", "orb_grid"};
-  return names;
-}
-
-std::string
-featureTypeName(FeatureType type)
-{
-  for (const auto& name : featureTypeNames())
-    if (featureTypeFromString(name) == type)
-      return name;
-  throw Exception("feature type " + std::to_string(static_cast<int>(type))
-                  + " has no YAML name");
-}
 
 StageInfo
 stereoDisparityInfo()
@@ -415,56 +388,10 @@ featureMatchingInfo()
     "Debian's OpenCV) matched left to right along the epipolar row with Lowe's ratio "
     "test and triangulated to 3D.";
   info.needs_stereo = true;
-  const StereoFeatureMatcher::Params f;
-  namespace ranges = stereo_feature_matcher_ranges;
-  info.params = {
-    ParamSpec::choice("feature_type", featureTypeName(f.feature_type),
-                      featureTypeNames(),
-                      "Detector and descriptor: sift (sub-pixel, slow), orb (OpenCV "
-                      "defaults, quantised disparities), orb_grid (fast front end for "
-                      "the odometry)."),
-    ParamSpec::integer("max_features", f.max_features, ranges::MAX_FEATURES, "",
-                       "Most key points detected per image (orb_grid: in the left "
-                       "image, spread evenly over the grid cells; the right image "
-                       "keeps up to twice as many)."),
-    ParamSpec::real("ratio", f.ratio, ranges::RATIO, "",
-                    "Lowe's ratio test: best / second-best distance below this."),
-    ParamSpec::real("max_row_difference_px", f.max_row_difference_px,
-                    ranges::MAX_ROW_DIFFERENCE, "px",
-                    "Largest row difference of a match (rectified images)."),
-    ParamSpec::real("max_disparity_px", f.max_disparity_px, ranges::MAX_DISPARITY, "px",
-                    "Largest disparity accepted."),
-    ParamSpec::real("max_range_m", f.max_range_m, ranges::MAX_RANGE, "m",
-                    "Features farther than this are dropped."),
-    ParamSpec::integer("bucket_size_px", f.bucket_size_px, ranges::BUCKET_SIZE, "px",
-                       "orb_grid: side of the square grid cells; each keeps its "
-                       "strongest FAST corners (even coverage)."),
-    ParamSpec::integer("fast_threshold", f.fast_threshold, ranges::FAST_THRESHOLD,
-                       "grey levels",
-                       "orb_grid: cv::FAST segment-test threshold (8-bit intensity "
-                       "difference)."),
-    ParamSpec::integer("subpixel_window_px", f.subpixel_window_px,
-                       ranges::SUBPIXEL_WINDOW, "px",
-                       "orb_grid: window side of the sub-pixel disparity refinement "
-                       "(zero-mean SSD parabola along the row); odd."),
-    ParamSpec::integer("subpixel_search_px", f.subpixel_search_px,
-                       ranges::SUBPIXEL_SEARCH, "px",
-                       "orb_grid: the refinement searches +- this many columns around "
-                       "the matched right key point; a minimum at the end drops the "
-                       "match."),
-  };
+  info.params = paramSpecs(StereoFeatureMatcher::getParamDeclarations());
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     StereoFeatureMatcher::Params p;
-    p.feature_type = featureTypeFromString(v.getChoice("feature_type"));
-    p.max_features = v.getInt("max_features");
-    p.ratio = v.getDouble("ratio");
-    p.max_row_difference_px = v.getDouble("max_row_difference_px");
-    p.max_disparity_px = v.getDouble("max_disparity_px");
-    p.max_range_m = v.getDouble("max_range_m");
-    p.bucket_size_px = v.getInt("bucket_size_px");
-    p.fast_threshold = v.getInt("fast_threshold");
-    p.subpixel_window_px = v.getInt("subpixel_window_px");
-    p.subpixel_search_px = v.getInt("subpixel_search_px");
+    assignParams(StereoFeatureMatcher::getParamDeclarations(), v, p);
     return std::make_unique<FeatureMatchingStage>(p);
   };
   return info;

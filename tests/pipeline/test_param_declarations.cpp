@@ -12,6 +12,7 @@
 #include <planar_grid/pipeline/stage.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 #include <planar_grid/segmentation/terrain_removal.h>
+#include <planar_grid/stereo/stereo_feature_matcher.h>
 #include <planar_grid/surface/planar_cuboid_approximation.h>
 
 #include <pcl/point_types.h>
@@ -69,7 +70,8 @@ otherValue(const planar_grid::ParamDeclaration<Params>& d)
       break;
     case Declaration::Type::INT: {
       const int v = std::get<int>(value);
-      for (const int candidate : {v + 1, v - 1})
+      // + 2 first: an odd window size stays odd.
+      for (const int candidate : {v + 2, v + 1, v - 1})
         if (d.range.contains(candidate))
           return {std::to_string(candidate), candidate};
       break;
@@ -374,6 +376,20 @@ TEST(ParamDeclarations, VisualOdometryIsStereoOdometrysTableAndItsOwn)
     [](const std::unique_ptr<Odometry>& o) { return o->getParams(); });
 }
 
+TEST(ParamDeclarations, FeatureMatchingIsTheMatchersTable)
+{
+  using Matcher = planar_grid::StereoFeatureMatcher;
+  const auto& table = Matcher::getParamDeclarations();
+  const auto& params = stage("feature_matching").params;
+  ASSERT_EQ(table.size(), 10u);
+  expectListedAsDeclared(table, params);
+  EXPECT_EQ(params.size(), table.size());
+  expectEachValueReachesTheClassAndTheEcho(
+    table, "feature_matching",
+    [](const Matcher::Params& p) { return std::make_unique<Matcher>(p); },
+    [](const std::unique_ptr<Matcher>& m) { return m->getParams(); });
+}
+
 TEST(ParamDeclarations, MapIntegrationListsEveryMapParameterAsDeclared)
 {
   ASSERT_GE(PlanarGridMap::getParamDeclarations().size(), 20u);
@@ -474,6 +490,7 @@ TEST(ParamDeclarations, AChoiceThatIsNoneOfTheNamesIsRefused)
     planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZ>::getParamDeclarations());
   expectUnknownChoiceRefused(
     planar_grid::KLDivergenceOccupancyFilter<pcl::PointXYZ>::getParamDeclarations());
+  expectUnknownChoiceRefused(planar_grid::StereoFeatureMatcher::getParamDeclarations());
 }
 
 } // namespace
