@@ -12,6 +12,7 @@
 #include <planar_grid/pipeline/stage.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 #include <planar_grid/segmentation/terrain_removal.h>
+#include <planar_grid/stereo/disparity_estimator.h>
 #include <planar_grid/stereo/stereo_feature_matcher.h>
 #include <planar_grid/surface/planar_cuboid_approximation.h>
 
@@ -21,6 +22,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <map>
 #include <memory>
 #include <string>
 #include <variant>
@@ -131,8 +133,9 @@ keysOf(const std::vector<ParamSpec>& params)
   return keys;
 }
 
-/** A non-default value of each declaration of \a table, given to \a stage_type as
- * YAML, reaches the class (\a make_class builds it from the parsed Params and
+/** A non-default value of each declaration of \a table (\a other_values where the
+ * class ties it to another parameter), given to \a stage_type as YAML, reaches the
+ * class (\a make_class builds it from the parsed Params and
  * \a get_params reads them back) with every other member at its default, and comes
  * back in the stage's echo. */
 template <typename Params, typename MakeClass, typename GetParams>
@@ -141,12 +144,15 @@ expectEachValueReachesTheClassAndTheEcho(
   const planar_grid::ParamDeclarations<Params>& table,
   const std::string& stage_type,
   MakeClass make_class,
-  GetParams get_params)
+  GetParams get_params,
+  const std::map<std::string, std::pair<std::string, ParamValue>>& other_values = {})
 {
   const auto& info = stage(stage_type);
   for (const auto& d : table) {
     SCOPED_TRACE(d.key);
-    const auto [text, value] = otherValue(d);
+    const auto given = other_values.find(d.key);
+    const auto [text, value] =
+      given != other_values.end() ? given->second : otherValue(d);
     const ParamValues parsed = planar_grid::parseParams(
       YAML::Load("{" + d.key + ": " + text + "}"), info.params, "s.yaml", info.type);
     Params params;
@@ -388,6 +394,33 @@ TEST(ParamDeclarations, FeatureMatchingIsTheMatchersTable)
     table, "feature_matching",
     [](const Matcher::Params& p) { return std::make_unique<Matcher>(p); },
     [](const std::unique_ptr<Matcher>& m) { return m->getParams(); });
+}
+
+TEST(ParamDeclarations, StereoDisparityIsTheEstimatorsTableAndItsOwn)
+{
+  using Estimator = planar_grid::DisparityEstimator;
+  const auto& table = Estimator::getParamDeclarations();
+  const auto& params = stage("stereo_disparity").params;
+  ASSERT_EQ(table.size(), 19u);
+  expectListedAsDeclared(table, params);
+  // The estimator's keys, then the stage's range and frame selection.
+  std::vector<std::string> expected;
+  for (const auto& d : table)
+    expected.push_back(d.key);
+  for (const char* key :
+       {"max_range_m", "frame_selection", "every_n_frames", "keyframe_translation_m",
+        "keyframe_rotation_rad", "keyframe_max_gap_frames"})
+    expected.emplace_back(key);
+  EXPECT_EQ(keysOf(params), expected);
+  // The disparity count is a multiple of 16 * downscale (128 at the defaults), and p2
+  // exceeds p1 (8 * 5^2 = 200 when left at 0).
+  expectEachValueReachesTheClassAndTheEcho(
+    table, "stereo_disparity",
+    [](const Estimator::Params& p) { return std::make_unique<Estimator>(p); },
+    [](const std::unique_ptr<Estimator>& e) { return e->getParams(); },
+    {{"num_disparities_px", {"144", 144}},
+     {"downscale", {"2", 2}},
+     {"p2", {"1000", 1000}}});
 }
 
 TEST(ParamDeclarations, MapIntegrationListsEveryMapParameterAsDeclared)
