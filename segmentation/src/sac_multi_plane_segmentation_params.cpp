@@ -39,8 +39,10 @@ sacMethodFromName(const std::string& name)
   return static_cast<SACMethod>(it - names.begin());
 }
 
+/** The declarations of the plane search: eq. 11's thresholds, the sample consensus,
+ * the merge and the seed. */
 ParamDeclarations<Params>
-makeParamDeclarations()
+searchParamDeclarations()
 {
   namespace ranges = sac_multi_plane_segmentation_ranges;
   using Scaling = CellSizeScaling;
@@ -108,6 +110,17 @@ makeParamDeclarations()
     declareInteger<Params>(
       "seed", [](auto& p) -> auto& { return p.seed; },
       ParamRange::closed(0, 2147483647), "", "Random seed (reproducible runs)."),
+  };
+}
+
+/** The declarations of the tests a plane must pass (visibility, sensor plane, cluster,
+ * shell, normal) and of the inlier-only points. */
+ParamDeclarations<Params>
+planeTestParamDeclarations()
+{
+  namespace ranges = sac_multi_plane_segmentation_ranges;
+  using Scaling = CellSizeScaling;
+  return {
     declareReal<Params>(
       "max_visibility_conflict_ratio",
       [](auto& p) -> auto& { return p.max_visibility_conflict_ratio; },
@@ -203,6 +216,15 @@ makeParamDeclarations()
       "often than this is dropped (a plane through vegetation, clutter, or across a "
       "surface at an angle); 0 = no test."),
   };
+}
+
+ParamDeclarations<Params>
+makeParamDeclarations()
+{
+  auto table = searchParamDeclarations();
+  const auto tests = planeTestParamDeclarations();
+  table.insert(table.end(), tests.begin(), tests.end());
+  return table;
 }
 
 } // namespace
