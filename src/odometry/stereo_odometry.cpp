@@ -521,4 +521,64 @@ StereoOdometry::estimate(const StereoFeatures& previous,
   return result;
 }
 
+const ParamDeclarations<StereoOdometry::Params>&
+StereoOdometry::getParamDeclarations()
+{
+  using P = StereoOdometry::Params;
+  namespace ranges = stereo_odometry_ranges;
+  static const ParamDeclarations<P> table = {
+    declareReal<P>(
+      "ratio", [](auto& p) -> auto& { return p.ratio; }, ranges::RATIO, "",
+      "Lowe's ratio test."),
+    declareReal<P>(
+      "distance_threshold_m", [](auto& p) -> auto& { return p.distance_threshold_m; },
+      ranges::DISTANCE_THRESHOLD, "m",
+      "RANSAC inlier threshold between matched 3D features."),
+    declareReal<P>(
+      "reprojection_threshold_px",
+      [](auto& p) -> auto& { return p.reprojection_threshold_px; },
+      ranges::REPROJECTION_THRESHOLD, "px",
+      "Inlier threshold of the reprojection refinement."),
+    declareInteger<P>(
+      "max_iterations", [](auto& p) -> auto& { return p.max_iterations; },
+      ranges::MAX_ITERATIONS, "", "Most RANSAC iterations."),
+    declareInteger<P>(
+      "min_inliers", [](auto& p) -> auto& { return p.min_inliers; },
+      ranges::MIN_INLIERS, "",
+      "Fewest inliers for a valid motion; else the frame is flagged."),
+    declareFlag<P>(
+      "epipolar_refinement", [](auto& p) -> auto& { return p.epipolar_refinement; },
+      "Then take the rotation from the epipolar geometry of the left images (free of "
+      "disparity errors) and refit the translation; needs reprojection_refinement."),
+    declareReal<P>(
+      "epipolar_threshold_px", [](auto& p) -> auto& { return p.epipolar_threshold_px; },
+      ranges::EPIPOLAR_THRESHOLD, "px", "Huber threshold of the Sampson distance."),
+    declareInteger<P>(
+      "seed", [](auto& p) -> auto& { return p.seed; },
+      ParamRange::closed(0, 2147483647), "", "RANSAC seed (reproducible runs)."),
+    declareFlag<P>(
+      "estimate_disparity_offset",
+      [](auto& p) -> auto& { return p.estimate_disparity_offset; },
+      "Estimate the features' disparity offset (true = measured + offset) with the "
+      "motion; needs reprojection_refinement."),
+    declareReal<P>(
+      "disparity_offset_px", [](auto& p) -> auto& { return p.disparity_offset_px; },
+      ranges::DISPARITY_OFFSET, "px",
+      "The offset's prior mean at the first frame pair, or the offset used when it is "
+      "not estimated."),
+    declareReal<P>(
+      "disparity_offset_sigma_px",
+      [](auto& p) -> auto& { return p.disparity_offset_sigma_px; },
+      ranges::DISPARITY_OFFSET_SIGMA, "px",
+      "Standard deviation of the offset's first prior."),
+    declareReal<P>(
+      "disparity_offset_memory",
+      [](auto& p) -> auto& { return p.disparity_offset_memory; },
+      ranges::DISPARITY_OFFSET_MEMORY, "",
+      "Share of the offset's information carried to the next frame pair: 1 = one "
+      "offset for the run, 0 = each pair on its own."),
+  };
+  return table;
+}
+
 } // namespace planar_grid

@@ -25,28 +25,104 @@ enum class FeatureSource {
   POINTS // the cloud's points, one per cube of point_spacing_m
 };
 
+const char*
+featureSourceName(FeatureSource source)
+{
+  return source == FeatureSource::IMAGE    ? "image"
+         : source == FeatureSource::POINTS ? "points"
+                                           : "auto";
+}
+
+FeatureSource
+featureSourceFromName(const std::string& name)
+{
+  if (name == "auto")
+    return FeatureSource::AUTO;
+  if (name == "image")
+    return FeatureSource::IMAGE;
+  if (name == "points")
+    return FeatureSource::POINTS;
+  throw Exception("Unknown source '" + name + "' (auto, image, points)");
+}
+
+/** The detector's parameters on a cloud's image: orb_grid, 1000 key points (the
+ * matcher's stereo defaults are sift and 2000). */
+StereoFeatureMatcher::Params
+cloudDetectorDefaults()
+{
+  StereoFeatureMatcher::Params detector;
+  detector.feature_type = FeatureType::ORB_GRID;
+  detector.max_features = 1000;
+  return detector;
+}
+
+/** The stage's parameters: the source, the five StereoFeatureMatcher parameters that
+ * detect key points on a cloud's image (with this stage's defaults and meanings:
+ * no right image, no disparity), and the spacing of point features. */
+struct CloudFeaturesParams {
+  FeatureSource source{FeatureSource::AUTO};
+  StereoFeatureMatcher::Params detector{cloudDetectorDefaults()};
+  double point_spacing_m{0.1};
+};
+
+const ParamDeclarations<CloudFeaturesParams>&
+cloudFeaturesParamDeclarations()
+{
+  using P = CloudFeaturesParams;
+  namespace ranges = stereo_feature_matcher_ranges;
+  const auto feature_type_name = [](FeatureType type) {
+    return featureTypeName(type);
+  };
+  static const ParamDeclarations<P> table = {
+    declareChoice<P>(
+      "source", [](auto& p) -> auto& { return p.source; }, {"auto", "image", "points"},
+      featureSourceName, featureSourceFromName,
+      "image: key points on the organized cloud's image (an error when a frame has "
+      "none); points: the cloud's points; auto: image when the frame's cloud is "
+      "organized and carries colour or intensity, points otherwise."),
+    declareChoice<P>(
+      "feature_type", [](auto& p) -> auto& { return p.detector.feature_type; },
+      featureTypeNames(), feature_type_name, featureTypeFromString,
+      "Detector and descriptor on the image: orb_grid (FAST corners bucketed over a "
+      "grid, upright ORB), orb (OpenCV defaults), sift. The stage's value; the matcher "
+      "defaults to sift."),
+    declareInteger<P>(
+      "max_features", [](auto& p) -> auto& { return p.detector.max_features; },
+      ranges::MAX_FEATURES, "",
+      "Most key points detected on the image (orb_grid: spread evenly over the grid "
+      "cells). The stage's value; the matcher defaults to "
+        + std::to_string(StereoFeatureMatcher::Params().max_features) + "."),
+    declareInteger<P>(
+      "bucket_size_px", [](auto& p) -> auto& { return p.detector.bucket_size_px; },
+      ranges::BUCKET_SIZE, "px", "orb_grid: side of the square grid cells."),
+    declareInteger<P>(
+      "fast_threshold", [](auto& p) -> auto& { return p.detector.fast_threshold; },
+      ranges::FAST_THRESHOLD, "grey levels",
+      "orb_grid: cv::FAST segment-test threshold."),
+    declareReal<P>(
+      "max_range_m", [](auto& p) -> auto& { return p.detector.max_range_m; },
+      ranges::MAX_RANGE, "m",
+      "Features farther than this from the sensor are dropped."),
+    declareReal<P>(
+      "point_spacing_m", [](auto& p) -> auto& { return p.point_spacing_m; },
+      ParamRange::closed(0.005, 100.0), "m",
+      "source points: edge of the cubes of which one point each is a feature."),
+  };
+  return table;
+}
+
 class CloudFeaturesStage : public Stage {
 public:
-  CloudFeaturesStage(FeatureSource source,
-                     const StereoFeatureMatcher::Params& detector,
-                     double point_spacing_m) :
-      source_(source),
-      params_(detector), point_spacing_m_(point_spacing_m)
+  explicit CloudFeaturesStage(const CloudFeaturesParams& p) :
+      stage_params_(p), source_(p.source), params_(p.detector),
+      point_spacing_m_(p.point_spacing_m)
   {}
 
   bool isFrameLocal() const override { return true; }
 
   void getParameters(ParamValues& v) const override
   {
-    v.set("source", std::string(source_ == FeatureSource::IMAGE    ? "image"
-                                : source_ == FeatureSource::POINTS ? "points"
-                                                                   : "auto"));
-    v.set("feature_type", featureTypeName(params_.feature_type));
-    v.set("max_features", params_.max_features);
-    v.set("bucket_size_px", params_.bucket_size_px);
-    v.set("fast_threshold", params_.fast_threshold);
-    v.set("max_range_m", params_.max_range_m);
-    v.set("point_spacing_m", point_spacing_m_);
+    reportParams(cloudFeaturesParamDeclarations(), stage_params_, v);
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -119,6 +195,7 @@ private:
     }
   }
 
+  CloudFeaturesParams stage_params_;
   FeatureSource source_;
   StereoFeatureMatcher::Params params_;
   double point_spacing_m_;
@@ -141,46 +218,11 @@ cloudFeaturesInfo()
     "the point of their pixel; on any other cloud (a LiDAR scan), its points, one per "
     "cube of point_spacing_m (pcl::UniformSampling), without descriptors. Put it "
     "before voxel_grid and the other filters, which unorganize the cloud.";
-  const StereoFeatureMatcher::Params f;
-  namespace ranges = stereo_feature_matcher_ranges;
-  info.params = {
-    ParamSpec::choice("source", "auto", {"auto", "image", "points"},
-                      "image: key points on the organized cloud's image (an error "
-                      "when a frame has none); points: the cloud's points; auto: "
-                      "image when the frame's cloud is organized and carries colour or "
-                      "intensity, points otherwise."),
-    ParamSpec::choice("feature_type", "orb_grid", featureTypeNames(),
-                      "Detector and descriptor on the image: orb_grid (FAST corners "
-                      "bucketed over a grid, upright ORB), orb (OpenCV defaults), "
-                      "sift. The stage's value; the matcher defaults to sift."),
-    ParamSpec::integer("max_features", 1000, ranges::MAX_FEATURES, "",
-                       "Most key points detected on the image (orb_grid: spread "
-                       "evenly over the grid cells). The stage's value; the matcher "
-                       "defaults to "
-                         + std::to_string(f.max_features) + "."),
-    ParamSpec::integer("bucket_size_px", f.bucket_size_px, ranges::BUCKET_SIZE, "px",
-                       "orb_grid: side of the square grid cells."),
-    ParamSpec::integer("fast_threshold", f.fast_threshold, ranges::FAST_THRESHOLD,
-                       "grey levels", "orb_grid: cv::FAST segment-test threshold."),
-    ParamSpec::real("max_range_m", f.max_range_m, ranges::MAX_RANGE, "m",
-                    "Features farther than this from the sensor are dropped."),
-    ParamSpec::real("point_spacing_m", 0.1, 0.005, 100.0, "m",
-                    "source points: edge of the cubes of which one point each is a "
-                    "feature."),
-  };
+  info.params = paramSpecs(cloudFeaturesParamDeclarations());
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
-    StereoFeatureMatcher::Params p;
-    p.feature_type = featureTypeFromString(v.getChoice("feature_type"));
-    p.max_features = v.getInt("max_features");
-    p.bucket_size_px = v.getInt("bucket_size_px");
-    p.fast_threshold = v.getInt("fast_threshold");
-    p.max_range_m = v.getDouble("max_range_m");
-    const std::string source = v.getChoice("source");
-    return std::make_unique<CloudFeaturesStage>(source == "image" ? FeatureSource::IMAGE
-                                                : source == "points"
-                                                  ? FeatureSource::POINTS
-                                                  : FeatureSource::AUTO,
-                                                p, v.getDouble("point_spacing_m"));
+    CloudFeaturesParams p;
+    assignParams(cloudFeaturesParamDeclarations(), v, p);
+    return std::make_unique<CloudFeaturesStage>(p);
   };
   return info;
 }

@@ -9,16 +9,45 @@ namespace stages {
 
 namespace {
 
+/** The stage's own parameters beside StereoOdometry's: the refinement switch the
+ * VisualOdometry takes, and the first camera's pose in the world. */
+struct OdometryStageParams {
+  bool reprojection_refinement{true};
+  double initial_height_m{0.0};
+  double initial_pitch_rad{0.0};
+};
+
+const ParamDeclarations<OdometryStageParams>&
+odometryStageParamDeclarations()
+{
+  using P = OdometryStageParams;
+  static const ParamDeclarations<P> table = {
+    declareFlag<P>(
+      "reprojection_refinement",
+      [](auto& p) -> auto& { return p.reprojection_refinement; },
+      "Refine the motion on the stereo reprojection error."),
+    declareReal<P>(
+      "initial_height_m", [](auto& p) -> auto& { return p.initial_height_m; },
+      ParamRange::closed(0.0, 10.0), "m",
+      "Height of the first camera above the world origin (the road)."),
+    declareReal<P>(
+      "initial_pitch_rad", [](auto& p) -> auto& { return p.initial_pitch_rad; },
+      ParamRange::closed(-1.5, 1.5), "rad",
+      "Downward pitch of the first camera from level (> 0 down)."),
+  };
+  return table;
+}
+
 class VisualOdometryStage : public Stage {
 public:
   VisualOdometryStage(const StereoOdometry::Params& params,
-                      bool reprojection_refinement,
-                      double initial_height_m,
-                      double initial_pitch_rad) :
+                      const OdometryStageParams& stage_params) :
       odometry_(params, ConstantVelocityMotionModel::Params()),
-      reprojection_refinement_(reprojection_refinement),
-      initial_height_m_(initial_height_m), initial_pitch_rad_(initial_pitch_rad)
+      stage_params_(stage_params),
+      reprojection_refinement_(stage_params.reprojection_refinement)
   {
+    const double initial_height_m = stage_params.initial_height_m;
+    const double initial_pitch_rad = stage_params.initial_pitch_rad;
     // The first camera, level along world +x at initial_height_m above the world origin
     // and pitched down by initial_pitch_rad: camera x right = -y, y down = -z, z
     // forward = +x (world z up), then the pitch about the camera's x axis.
@@ -51,22 +80,9 @@ public:
 
   void getParameters(ParamValues& v) const override
   {
-    const StereoOdometry::Params& p = odometry_.getStereoOdometry().getParams();
-    v.set("ratio", p.ratio);
-    v.set("distance_threshold_m", p.distance_threshold_m);
-    v.set("reprojection_threshold_px", p.reprojection_threshold_px);
-    v.set("max_iterations", p.max_iterations);
-    v.set("min_inliers", p.min_inliers);
-    v.set("reprojection_refinement", reprojection_refinement_);
-    v.set("epipolar_refinement", p.epipolar_refinement);
-    v.set("epipolar_threshold_px", p.epipolar_threshold_px);
-    v.set("seed", static_cast<int>(p.seed));
-    v.set("estimate_disparity_offset", p.estimate_disparity_offset);
-    v.set("disparity_offset_px", p.disparity_offset_px);
-    v.set("disparity_offset_sigma_px", p.disparity_offset_sigma_px);
-    v.set("disparity_offset_memory", p.disparity_offset_memory);
-    v.set("initial_height_m", initial_height_m_);
-    v.set("initial_pitch_rad", initial_pitch_rad_);
+    reportParams(StereoOdometry::getParamDeclarations(),
+                 odometry_.getStereoOdometry().getParams(), v);
+    reportParams(odometryStageParamDeclarations(), stage_params_, v);
   }
 
   void counters(const Frame& /*frame*/,
@@ -97,9 +113,8 @@ public:
 
 private:
   VisualOdometry odometry_;
+  OdometryStageParams stage_params_;
   bool reprojection_refinement_;
-  double initial_height_m_;
-  double initial_pitch_rad_;
   bool calibration_set_{false};
   Eigen::Isometry3d world_T_first_{Eigen::Isometry3d::Identity()};
   OdometryResult last_;
@@ -121,67 +136,18 @@ visualOdometryInfo()
     "when input.poses.format is odometry; the world frame has z up with its origin "
     "initial_height_m below the first camera.";
   info.needs_stereo = true;
-  const StereoOdometry::Params d;
-  namespace ranges = stereo_odometry_ranges;
-  info.params = {
-    ParamSpec::real("ratio", d.ratio, ranges::RATIO, "", "Lowe's ratio test."),
-    ParamSpec::real("distance_threshold_m", d.distance_threshold_m,
-                    ranges::DISTANCE_THRESHOLD, "m",
-                    "RANSAC inlier threshold between matched 3D features."),
-    ParamSpec::real("reprojection_threshold_px", d.reprojection_threshold_px,
-                    ranges::REPROJECTION_THRESHOLD, "px",
-                    "Inlier threshold of the reprojection refinement."),
-    ParamSpec::integer("max_iterations", d.max_iterations, ranges::MAX_ITERATIONS, "",
-                       "Most RANSAC iterations."),
-    ParamSpec::integer("min_inliers", d.min_inliers, ranges::MIN_INLIERS, "",
-                       "Fewest inliers for a valid motion; else the frame is flagged."),
-    ParamSpec::flag("reprojection_refinement", true,
-                    "Refine the motion on the stereo reprojection error."),
-    ParamSpec::flag("epipolar_refinement", d.epipolar_refinement,
-                    "Then take the rotation from the epipolar geometry of the left "
-                    "images (free of disparity errors) and refit the translation; "
-                    "needs reprojection_refinement."),
-    ParamSpec::real("epipolar_threshold_px", d.epipolar_threshold_px,
-                    ranges::EPIPOLAR_THRESHOLD, "px",
-                    "Huber threshold of the Sampson distance."),
-    ParamSpec::integer("seed", static_cast<int>(d.seed), 0, 2147483647, "",
-                       "RANSAC seed (reproducible runs)."),
-    ParamSpec::flag("estimate_disparity_offset", d.estimate_disparity_offset,
-                    "Estimate the features' disparity offset (true = measured + "
-                    "offset) with the motion; needs reprojection_refinement."),
-    ParamSpec::real("disparity_offset_px", d.disparity_offset_px,
-                    ranges::DISPARITY_OFFSET, "px",
-                    "The offset's prior mean at the first frame pair, or the offset "
-                    "used when it is not estimated."),
-    ParamSpec::real("disparity_offset_sigma_px", d.disparity_offset_sigma_px,
-                    ranges::DISPARITY_OFFSET_SIGMA, "px",
-                    "Standard deviation of the offset's first prior."),
-    ParamSpec::real("disparity_offset_memory", d.disparity_offset_memory,
-                    ranges::DISPARITY_OFFSET_MEMORY, "",
-                    "Share of the offset's information carried to the next frame "
-                    "pair: 1 = one offset for the run, 0 = each pair on its own."),
-    ParamSpec::real("initial_height_m", 0.0, 0.0, 10.0, "m",
-                    "Height of the first camera above the world origin (the road)."),
-    ParamSpec::real("initial_pitch_rad", 0.0, -1.5, 1.5, "rad",
-                    "Downward pitch of the first camera from level (> 0 down)."),
-  };
+  // StereoOdometry's keys, the refinement switch after min_inliers, the first
+  // camera's pose last.
+  info.params = paramSpecs(StereoOdometry::getParamDeclarations());
+  const auto local = paramSpecs(odometryStageParamDeclarations());
+  insertParamSpec(info.params, "min_inliers", local.front());
+  info.params.insert(info.params.end(), local.begin() + 1, local.end());
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     StereoOdometry::Params p;
-    p.ratio = v.getDouble("ratio");
-    p.distance_threshold_m = v.getDouble("distance_threshold_m");
-    p.reprojection_threshold_px = v.getDouble("reprojection_threshold_px");
-    p.max_iterations = v.getInt("max_iterations");
-    p.min_inliers = v.getInt("min_inliers");
-    p.epipolar_refinement = v.getBool("epipolar_refinement");
-    p.epipolar_threshold_px = v.getDouble("epipolar_threshold_px");
-    p.seed = static_cast<unsigned>(v.getInt("seed"));
-    p.estimate_disparity_offset = v.getBool("estimate_disparity_offset");
-    p.disparity_offset_px = v.getDouble("disparity_offset_px");
-    p.disparity_offset_sigma_px = v.getDouble("disparity_offset_sigma_px");
-    p.disparity_offset_memory = v.getDouble("disparity_offset_memory");
-    return std::make_unique<VisualOdometryStage>(
-      p, v.getBool("reprojection_refinement"), v.getDouble("initial_height_m"),
-      v.getDouble("initial_pitch_rad"));
+    assignParams(StereoOdometry::getParamDeclarations(), v, p);
+    OdometryStageParams stage_params;
+    assignParams(odometryStageParamDeclarations(), v, stage_params);
+    return std::make_unique<VisualOdometryStage>(p, stage_params);
   };
   return info;
 }

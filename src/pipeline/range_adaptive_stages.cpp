@@ -22,25 +22,68 @@ namespace stages {
 
 namespace {
 
+/** The stage's parameters (no library class takes them). */
+struct RangeAdaptiveCellsParams {
+  double min_cell_size_m{0.1};
+  int min_points_per_cell{10};
+  double terrain_height_m{0.3};
+  double terrain_cell_m{1.0};
+  double terrain_max_rise_m{1.0};
+  bool fit_to_points{true};
+};
+
+const ParamDeclarations<RangeAdaptiveCellsParams>&
+rangeAdaptiveCellsParamDeclarations()
+{
+  using P = RangeAdaptiveCellsParams;
+  static const ParamDeclarations<P> table = {
+    declareReal<P>(
+      "min_cell_size_m", [](auto& p) -> auto& { return p.min_cell_size_m; },
+      ParamRange::closed(0.01, 10.0), "m",
+      "The minimum cell; level l's cells are 2^l times it.")
+      .scalesWithCellSize(),
+    declareInteger<P>(
+      "min_points_per_cell", [](auto& p) -> auto& { return p.min_points_per_cell; },
+      ParamRange::closed(1, 1000000), "",
+      "Cells with fewer far points are dropped (the far points are not thinned by "
+      "voxel_grid or statistical_outlier_removal)."),
+    declareReal<P>(
+      "terrain_height_m", [](auto& p) -> auto& { return p.terrain_height_m; },
+      ParamRange::closed(0.0, 10.0), "m",
+      "Far points this close above their column's lowest point are terrain."),
+    declareReal<P>(
+      "terrain_cell_m", [](auto& p) -> auto& { return p.terrain_cell_m; },
+      ParamRange::closed(0.05, 100.0), "m",
+      "Side of the terrain columns, in the ground plane."),
+    declareReal<P>(
+      "terrain_max_rise_m", [](auto& p) -> auto& { return p.terrain_max_rise_m; },
+      ParamRange::closed(0.0, 100.0), "m",
+      "Highest terrain above the ground plane: a column whose lowest point is higher "
+      "(a crown or a wall whose foot is hidden) keeps its points above this plus "
+      "terrain_height_m."),
+    declareFlag<P>(
+      "fit_to_points", [](auto& p) -> auto& { return p.fit_to_points; },
+      "Each cell is the box of its points, rounded out to min_cell_size_m inside its "
+      "lattice cell, instead of the whole lattice cell: the part of a far wall in a "
+      "cell is a slab as thick as its points' depth spread, not the whole cell."),
+  };
+  return table;
+}
+
 class RangeAdaptiveCellsStage : public Stage {
 public:
-  explicit RangeAdaptiveCellsStage(const ParamValues& v) :
-      min_cell_size_m_(v.getDouble("min_cell_size_m")),
-      min_points_per_cell_(static_cast<std::size_t>(v.getInt("min_points_per_cell"))),
-      terrain_height_m_(static_cast<float>(v.getDouble("terrain_height_m"))),
-      terrain_cell_m_(v.getDouble("terrain_cell_m")),
-      terrain_max_rise_m_(static_cast<float>(v.getDouble("terrain_max_rise_m"))),
-      fit_to_points_(v.getBool("fit_to_points"))
+  explicit RangeAdaptiveCellsStage(const RangeAdaptiveCellsParams& p) :
+      params_(p), min_cell_size_m_(p.min_cell_size_m),
+      min_points_per_cell_(static_cast<std::size_t>(p.min_points_per_cell)),
+      terrain_height_m_(static_cast<float>(p.terrain_height_m)),
+      terrain_cell_m_(p.terrain_cell_m),
+      terrain_max_rise_m_(static_cast<float>(p.terrain_max_rise_m)),
+      fit_to_points_(p.fit_to_points)
   {}
 
   void getParameters(ParamValues& v) const override
   {
-    v.set("min_cell_size_m", min_cell_size_m_);
-    v.set("min_points_per_cell", static_cast<int>(min_points_per_cell_));
-    v.set("terrain_height_m", static_cast<double>(terrain_height_m_));
-    v.set("terrain_cell_m", terrain_cell_m_);
-    v.set("terrain_max_rise_m", static_cast<double>(terrain_max_rise_m_));
-    v.set("fit_to_points", fit_to_points_);
+    reportParams(rangeAdaptiveCellsParamDeclarations(), params_, v);
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -237,6 +280,7 @@ public:
   }
 
 private:
+  RangeAdaptiveCellsParams params_;
   double min_cell_size_m_;
   std::size_t min_points_per_cell_;
   float terrain_height_m_;
@@ -268,30 +312,11 @@ rangeAdaptiveCellsInfo()
     "coarse cells instead of nothing. With a ground plane (ground_removal), the far "
     "terrain goes: points within terrain_height_m above the lowest far point of their "
     "column. Appends to the frame's cells; put it after planar_cuboid_approximation.";
-  info.params = {
-    ParamSpec::real("min_cell_size_m", 0.1, 0.01, 10.0, "m",
-                    "The minimum cell; level l's cells are 2^l times it.")
-      .scalesWithCellSize(),
-    ParamSpec::integer("min_points_per_cell", 10, 1, 1000000, "",
-                       "Cells with fewer far points are dropped (the far points are "
-                       "not thinned by voxel_grid or statistical_outlier_removal)."),
-    ParamSpec::real("terrain_height_m", 0.3, 0.0, 10.0, "m",
-                    "Far points this close above their column's lowest point are "
-                    "terrain."),
-    ParamSpec::real("terrain_cell_m", 1.0, 0.05, 100.0, "m",
-                    "Side of the terrain columns, in the ground plane."),
-    ParamSpec::real("terrain_max_rise_m", 1.0, 0.0, 100.0, "m",
-                    "Highest terrain above the ground plane: a column whose lowest "
-                    "point is higher (a crown or a wall whose foot is hidden) keeps "
-                    "its points above this plus terrain_height_m."),
-    ParamSpec::flag("fit_to_points", true,
-                    "Each cell is the box of its points, rounded out to "
-                    "min_cell_size_m inside its lattice cell, instead of the whole "
-                    "lattice cell: the part of a far wall in a cell is a slab as thick "
-                    "as its points' depth spread, not the whole cell."),
-  };
+  info.params = paramSpecs(rangeAdaptiveCellsParamDeclarations());
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
-    return std::make_unique<RangeAdaptiveCellsStage>(v);
+    RangeAdaptiveCellsParams p;
+    assignParams(rangeAdaptiveCellsParamDeclarations(), v, p);
+    return std::make_unique<RangeAdaptiveCellsStage>(p);
   };
   return info;
 }

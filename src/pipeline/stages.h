@@ -17,11 +17,6 @@ namespace stages {
 // stereo_stages.cpp
 StageInfo stereoDisparityInfo();
 StageInfo featureMatchingInfo();
-/** The YAML names of the feature types (feature_type of feature_matching and
- * cloud_features), each the name featureTypeFromString() reads. */
-const std::vector<std::string>& featureTypeNames();
-/** The YAML name of \a type. */
-std::string featureTypeName(FeatureType type);
 
 // cloud_feature_stages.cpp
 StageInfo cloudFeaturesInfo();

@@ -46,6 +46,77 @@ struct DenseFrameSelection {
   int keyframe_max_gap_frames{5};
 };
 
+/** The stage's own parameters beside DisparityEstimator's: the cloud's range and
+ * which frames are dense. */
+struct StereoDisparityStageParams {
+  double max_range_m{40.0};
+  DenseFrameSelection selection;
+};
+
+const char*
+frameSelectionName(bool keyframes)
+{
+  return keyframes ? "keyframes" : "every_n_frames";
+}
+
+bool
+frameSelectionFromName(const std::string& name)
+{
+  if (name == "keyframes")
+    return true;
+  if (name == "every_n_frames")
+    return false;
+  throw Exception("Unknown frame_selection '" + name + "' (every_n_frames, keyframes)");
+}
+
+const ParamDeclarations<StereoDisparityStageParams>&
+stereoDisparityStageParamDeclarations()
+{
+  using P = StereoDisparityStageParams;
+  static const ParamDeclarations<P> table = {
+    declareReal<P>(
+      "max_range_m", [](auto& p) -> auto& { return p.max_range_m; },
+      point_cloud_from_disparity_ranges::MAX_RANGE, "m",
+      "Points farther than this are invalid (stereo error grows as z^2)."),
+    declareChoice<P>(
+      "frame_selection", [](auto& p) -> auto& { return p.selection.keyframes; },
+      {"every_n_frames", "keyframes"}, frameSelectionName, frameSelectionFromName,
+      "Which frames are dense (get the disparity and the cloud): every_n_frames by "
+      "position, or keyframes by the camera's motion since the last keyframe (needs "
+      "the frame's pose when this stage runs: input poses, the live mapper's pose, or "
+      "visual_odometry listed before it; a run's first frame is a keyframe). The "
+      "other frames carry their key features alone (feature_matching, "
+      "kl_occupancy_filter and visual_odometry run on every frame) and add no points, "
+      "planes, cells or free space to the map."),
+    declareInteger<P>(
+      "every_n_frames", [](auto& p) -> auto& { return p.selection.every_n_frames; },
+      EVERY_N_FRAMES, "frames",
+      "frame_selection every_n_frames: the frames whose sequence number (0-based "
+      "position in the input, or in the live mapper's calls) is a multiple of n are "
+      "dense. 1 = every frame."),
+    declareReal<P>(
+      "keyframe_translation_m",
+      [](auto& p) -> auto& { return p.selection.keyframe_translation_m; },
+      KEYFRAME_TRANSLATION, "m",
+      "frame_selection keyframes: a frame whose camera is this far from the last "
+      "keyframe's is a keyframe."),
+    declareReal<P>(
+      "keyframe_rotation_rad",
+      [](auto& p) -> auto& { return p.selection.keyframe_rotation_rad; },
+      KEYFRAME_ROTATION, "rad",
+      "frame_selection keyframes: a frame whose camera turned this much from the last "
+      "keyframe's (angle of the relative rotation) is a keyframe."),
+    declareInteger<P>(
+      "keyframe_max_gap_frames",
+      [](auto& p) -> auto& { return p.selection.keyframe_max_gap_frames; },
+      KEYFRAME_MAX_GAP, "frames",
+      "frame_selection keyframes: the frame this many frames after the last keyframe "
+      "is a keyframe whatever the motion (a robot standing still still maps what "
+      "moves); 1 = every frame."),
+  };
+  return table;
+}
+
 /** The estimator's parameters without its per-call thread switch: the stage sets
  * OpenCV's thread count once for the run instead. */
 DisparityEstimator::Params
@@ -58,10 +129,11 @@ withoutThreadSwitch(DisparityEstimator::Params params)
 class StereoDisparityStage : public Stage {
 public:
   StereoDisparityStage(const DisparityEstimator::Params& params,
-                       double max_range_m,
-                       const DenseFrameSelection& selection) :
-      estimator_(withoutThreadSwitch(params)),
-      num_threads_(params.num_threads), max_range_m_(max_range_m), selection_(selection)
+                       const StereoDisparityStageParams& stage_params) :
+      params_(params),
+      stage_params_(stage_params), estimator_(withoutThreadSwitch(params)),
+      num_threads_(params.num_threads), max_range_m_(stage_params.max_range_m),
+      selection_(stage_params.selection)
   {}
   StereoDisparityStage(const StereoDisparityStage&) = delete;
   StereoDisparityStage& operator=(const StereoDisparityStage&) = delete;
@@ -106,33 +178,9 @@ public:
 
   void getParameters(ParamValues& v) const override
   {
-    const DisparityEstimator::Params& p = estimator_.getParams();
-    v.set("algorithm", toString(p.algorithm));
-    v.set("downscale", p.downscale);
-    v.set("row_downscale", p.row_downscale);
-    v.set("num_threads", num_threads_);
-    v.set("min_disparity_px", p.min_disparity_px);
-    v.set("num_disparities_px", p.num_disparities_px);
-    v.set("block_size_px", p.block_size_px);
-    v.set("p1", p.p1);
-    v.set("p2", p.p2);
-    v.set("disp12_max_diff_px", p.disp12_max_diff_px);
-    v.set("pre_filter_cap", p.pre_filter_cap);
-    v.set("uniqueness_ratio_percent", p.uniqueness_ratio_percent);
-    v.set("speckle_window_size_px", p.speckle_window_size_px);
-    v.set("speckle_range_px", p.speckle_range_px);
-    v.set("full_dp", p.full_dp);
-    v.set("bm_pre_filter", toString(p.bm_pre_filter));
-    v.set("bm_pre_filter_cap", p.bm_pre_filter_cap);
-    v.set("bm_pre_filter_size_px", p.bm_pre_filter_size_px);
-    v.set("bm_texture_threshold", p.bm_texture_threshold);
-    v.set("max_range_m", max_range_m_);
-    v.set("frame_selection", selection_.keyframes ? std::string("keyframes")
-                                                  : std::string("every_n_frames"));
-    v.set("every_n_frames", selection_.every_n_frames);
-    v.set("keyframe_translation_m", selection_.keyframe_translation_m);
-    v.set("keyframe_rotation_rad", selection_.keyframe_rotation_rad);
-    v.set("keyframe_max_gap_frames", selection_.keyframe_max_gap_frames);
+    // The configured parameters: the estimator holds them without the thread count.
+    reportParams(DisparityEstimator::getParamDeclarations(), params_, v);
+    reportParams(stereoDisparityStageParamDeclarations(), stage_params_, v);
   }
 
   void process(Frame& frame, PipelineState& /*state*/) override
@@ -198,6 +246,8 @@ private:
     previous_threads_ = 0;
   }
 
+  DisparityEstimator::Params params_;
+  StereoDisparityStageParams stage_params_;
   DisparityEstimator estimator_;
   int num_threads_;
   int previous_threads_{0};
@@ -225,17 +275,7 @@ public:
 
   void getParameters(ParamValues& v) const override
   {
-    const StereoFeatureMatcher::Params& p = matcher_.getParams();
-    v.set("feature_type", featureTypeName(p.feature_type));
-    v.set("max_features", p.max_features);
-    v.set("ratio", p.ratio);
-    v.set("max_row_difference_px", p.max_row_difference_px);
-    v.set("max_disparity_px", p.max_disparity_px);
-    v.set("max_range_m", p.max_range_m);
-    v.set("bucket_size_px", p.bucket_size_px);
-    v.set("fast_threshold", p.fast_threshold);
-    v.set("subpixel_window_px", p.subpixel_window_px);
-    v.set("subpixel_search_px", p.subpixel_search_px);
+    reportParams(StereoFeatureMatcher::getParamDeclarations(), matcher_.getParams(), v);
   }
 
   void counters(const Frame& frame,
@@ -250,23 +290,6 @@ private:
 
 } // namespace
 
-const std::vector<std::string>&
-featureTypeNames()
-{
-  static const std::vector<std::string> names{"sift", "orb", "orb_grid"};
-  return names;
-}
-
-std::string
-featureTypeName(FeatureType type)
-{
-  for (const auto& name : featureTypeNames())
-    if (featureTypeFromString(name) == type)
-      return name;
-  throw Exception("feature type " + std::to_string(static_cast<int>(type))
-                  + " has no YAML name");
-}
-
 StageInfo
 stereoDisparityInfo()
 {
@@ -277,129 +300,15 @@ stereoDisparityInfo()
     "StereoBM), optionally at half resolution, reprojected to an organized cloud in "
     "the left camera frame (x right, y down, z forward; NaN = invalid).";
   info.needs_stereo = true;
-  const DisparityEstimator::Params d;
-  const DenseFrameSelection dense;
-  namespace ranges = disparity_estimator_ranges;
-  info.params = {
-    ParamSpec::choice("algorithm", toString(d.algorithm),
-                      {"sgbm", "sgbm_3way", "sgbm_hh", "sgbm_hh4", "block_matching"},
-                      "OpenCV matcher: StereoSGBM 5-path (single-threaded), 3-way "
-                      "(parallel), 8-path, 4-path, or StereoBM (local SAD, parallel)."),
-    ParamSpec::integer("downscale", d.downscale, ranges::DOWNSCALE, "",
-                       "Image scale divisor: 2 matches half-resolution images; the "
-                       "output stays full resolution, in full-resolution px."),
-    ParamSpec::integer("row_downscale", d.row_downscale, ranges::ROW_DOWNSCALE, "",
-                       "Row divisor (with downscale 1): 2 matches the images at half "
-                       "their rows and full width, so disparities keep their 1/16 px "
-                       "step at half the matching cost; the output stays full size."),
-    ParamSpec::integer("num_threads", d.num_threads, ranges::NUM_THREADS, "",
-                       "OpenCV threads for the whole run (OpenCV's setting is "
-                       "process-wide: every stage's OpenCV calls use it), set before "
-                       "the first frame and restored after the last; speed only, "
-                       "never the result; 0 = leave OpenCV's setting."),
-    ParamSpec::integer("min_disparity_px", d.min_disparity_px, ranges::MIN_DISPARITY,
-                       "px", "Smallest disparity searched; a multiple of downscale."),
-    ParamSpec::integer("num_disparities_px", d.num_disparities_px,
-                       ranges::NUM_DISPARITIES, "px",
-                       "Number of disparities searched; a multiple of 16 * downscale."),
-    ParamSpec::integer("block_size_px", d.block_size_px, ranges::BLOCK_SIZE, "px",
-                       "Matched block side in matched-image px; odd, 1..11 for the "
-                       "SGBM modes, 5..21 for block_matching."),
-    ParamSpec::integer(
-      "p1", d.p1, ranges::P1, "",
-      "SGBM penalty for 1 px disparity changes; 0 = 8*channels*block^2."),
-    ParamSpec::integer("p2", d.p2, ranges::P2, "",
-                       "SGBM penalty for larger changes; 0 = 32*channels*block^2."),
-    ParamSpec::integer("disp12_max_diff_px", d.disp12_max_diff_px,
-                       ranges::DISP12_MAX_DIFF, "px",
-                       "Left-right consistency tolerance; -1 disables the check."),
-    ParamSpec::integer("pre_filter_cap", d.pre_filter_cap, ranges::PRE_FILTER_CAP, "",
-                       "SGBM modes: clip of the x-derivative pre-filter."),
-    ParamSpec::integer("uniqueness_ratio_percent", d.uniqueness_ratio_percent,
-                       ranges::UNIQUENESS_RATIO, "percent",
-                       "Margin by which the best cost must win."),
-    ParamSpec::integer("speckle_window_size_px", d.speckle_window_size_px,
-                       ranges::SPECKLE_WINDOW_SIZE, "px",
-                       "Largest speckle region removed as noise; 0 disables."),
-    ParamSpec::integer("speckle_range_px", d.speckle_range_px, ranges::SPECKLE_RANGE,
-                       "px", "Largest disparity variation inside a speckle component."),
-    ParamSpec::flag("full_dp", d.full_dp,
-                    "Legacy: true = algorithm sgbm_hh (only with algorithm sgbm)."),
-    ParamSpec::choice("bm_pre_filter", toString(d.bm_pre_filter),
-                      {"xsobel", "normalized_response"},
-                      "block_matching: pre-filter of both images."),
-    ParamSpec::integer("bm_pre_filter_cap", d.bm_pre_filter_cap,
-                       ranges::BM_PRE_FILTER_CAP, "",
-                       "block_matching: clip of the pre-filter output (above 31 "
-                       "OpenCV 4.6's StereoBM is not repeatable)."),
-    ParamSpec::integer("bm_pre_filter_size_px", d.bm_pre_filter_size_px,
-                       ranges::BM_PRE_FILTER_SIZE, "px",
-                       "block_matching: normalized_response window side; odd."),
-    ParamSpec::integer("bm_texture_threshold", d.bm_texture_threshold,
-                       ranges::BM_TEXTURE_THRESHOLD, "",
-                       "block_matching: blocks with less pre-filtered texture (sum of "
-                       "absolute values) are invalid; 0 disables."),
-    ParamSpec::real(
-      "max_range_m", 40.0, point_cloud_from_disparity_ranges::MAX_RANGE, "m",
-      "Points farther than this are invalid (stereo error grows as z^2)."),
-    ParamSpec::choice(
-      "frame_selection", "every_n_frames", {"every_n_frames", "keyframes"},
-      "Which frames are dense (get the disparity and the cloud): every_n_frames by "
-      "position, or keyframes by the camera's motion since the last keyframe (needs "
-      "the frame's pose when this stage runs: input poses, the live mapper's pose, or "
-      "visual_odometry listed before it; a run's first frame is a keyframe). The "
-      "other frames carry their key features alone (feature_matching, "
-      "kl_occupancy_filter and visual_odometry run on every frame) and add no points, "
-      "planes, cells or free space to the map."),
-    ParamSpec::integer(
-      "every_n_frames", dense.every_n_frames, EVERY_N_FRAMES, "frames",
-      "frame_selection every_n_frames: the frames whose sequence number (0-based "
-      "position in the input, or in the live mapper's calls) is a multiple of n are "
-      "dense. 1 = every frame."),
-    ParamSpec::real("keyframe_translation_m", dense.keyframe_translation_m,
-                    KEYFRAME_TRANSLATION, "m",
-                    "frame_selection keyframes: a frame whose camera is this far from "
-                    "the last keyframe's is a keyframe."),
-    ParamSpec::real("keyframe_rotation_rad", dense.keyframe_rotation_rad,
-                    KEYFRAME_ROTATION, "rad",
-                    "frame_selection keyframes: a frame whose camera turned this much "
-                    "from the last keyframe's (angle of the relative rotation) is a "
-                    "keyframe."),
-    ParamSpec::integer("keyframe_max_gap_frames", dense.keyframe_max_gap_frames,
-                       KEYFRAME_MAX_GAP, "frames",
-                       "frame_selection keyframes: the frame this many frames after "
-                       "the last keyframe is a keyframe whatever the motion (a robot "
-                       "standing still still maps what moves); 1 = every frame."),
-  };
+  info.params = paramSpecs(DisparityEstimator::getParamDeclarations());
+  const auto stage_params = paramSpecs(stereoDisparityStageParamDeclarations());
+  info.params.insert(info.params.end(), stage_params.begin(), stage_params.end());
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     DisparityEstimator::Params p;
-    p.algorithm = disparityAlgorithmFromString(v.getChoice("algorithm"));
-    p.downscale = v.getInt("downscale");
-    p.row_downscale = v.getInt("row_downscale");
-    p.num_threads = v.getInt("num_threads");
-    p.min_disparity_px = v.getInt("min_disparity_px");
-    p.num_disparities_px = v.getInt("num_disparities_px");
-    p.block_size_px = v.getInt("block_size_px");
-    p.p1 = v.getInt("p1");
-    p.p2 = v.getInt("p2");
-    p.disp12_max_diff_px = v.getInt("disp12_max_diff_px");
-    p.pre_filter_cap = v.getInt("pre_filter_cap");
-    p.uniqueness_ratio_percent = v.getInt("uniqueness_ratio_percent");
-    p.speckle_window_size_px = v.getInt("speckle_window_size_px");
-    p.speckle_range_px = v.getInt("speckle_range_px");
-    p.full_dp = v.getBool("full_dp");
-    p.bm_pre_filter = blockMatchingPreFilterFromString(v.getChoice("bm_pre_filter"));
-    p.bm_pre_filter_cap = v.getInt("bm_pre_filter_cap");
-    p.bm_pre_filter_size_px = v.getInt("bm_pre_filter_size_px");
-    p.bm_texture_threshold = v.getInt("bm_texture_threshold");
-    DenseFrameSelection selection;
-    selection.keyframes = v.getChoice("frame_selection") == "keyframes";
-    selection.every_n_frames = v.getInt("every_n_frames");
-    selection.keyframe_translation_m = v.getDouble("keyframe_translation_m");
-    selection.keyframe_rotation_rad = v.getDouble("keyframe_rotation_rad");
-    selection.keyframe_max_gap_frames = v.getInt("keyframe_max_gap_frames");
-    return std::make_unique<StereoDisparityStage>(p, v.getDouble("max_range_m"),
-                                                  selection);
+    assignParams(DisparityEstimator::getParamDeclarations(), v, p);
+    StereoDisparityStageParams stage_params;
+    assignParams(stereoDisparityStageParamDeclarations(), v, stage_params);
+    return std::make_unique<StereoDisparityStage>(p, stage_params);
   };
   return info;
 }
@@ -415,56 +324,10 @@ featureMatchingInfo()
     "Debian's OpenCV) matched left to right along the epipolar row with Lowe's ratio "
     "test and triangulated to 3D.";
   info.needs_stereo = true;
-  const StereoFeatureMatcher::Params f;
-  namespace ranges = stereo_feature_matcher_ranges;
-  info.params = {
-    ParamSpec::choice("feature_type", featureTypeName(f.feature_type),
-                      featureTypeNames(),
-                      "Detector and descriptor: sift (sub-pixel, slow), orb (OpenCV "
-                      "defaults, quantised disparities), orb_grid (fast front end for "
-                      "the odometry)."),
-    ParamSpec::integer("max_features", f.max_features, ranges::MAX_FEATURES, "",
-                       "Most key points detected per image (orb_grid: in the left "
-                       "image, spread evenly over the grid cells; the right image "
-                       "keeps up to twice as many)."),
-    ParamSpec::real("ratio", f.ratio, ranges::RATIO, "",
-                    "Lowe's ratio test: best / second-best distance below this."),
-    ParamSpec::real("max_row_difference_px", f.max_row_difference_px,
-                    ranges::MAX_ROW_DIFFERENCE, "px",
-                    "Largest row difference of a match (rectified images)."),
-    ParamSpec::real("max_disparity_px", f.max_disparity_px, ranges::MAX_DISPARITY, "px",
-                    "Largest disparity accepted."),
-    ParamSpec::real("max_range_m", f.max_range_m, ranges::MAX_RANGE, "m",
-                    "Features farther than this are dropped."),
-    ParamSpec::integer("bucket_size_px", f.bucket_size_px, ranges::BUCKET_SIZE, "px",
-                       "orb_grid: side of the square grid cells; each keeps its "
-                       "strongest FAST corners (even coverage)."),
-    ParamSpec::integer("fast_threshold", f.fast_threshold, ranges::FAST_THRESHOLD,
-                       "grey levels",
-                       "orb_grid: cv::FAST segment-test threshold (8-bit intensity "
-                       "difference)."),
-    ParamSpec::integer("subpixel_window_px", f.subpixel_window_px,
-                       ranges::SUBPIXEL_WINDOW, "px",
-                       "orb_grid: window side of the sub-pixel disparity refinement "
-                       "(zero-mean SSD parabola along the row); odd."),
-    ParamSpec::integer("subpixel_search_px", f.subpixel_search_px,
-                       ranges::SUBPIXEL_SEARCH, "px",
-                       "orb_grid: the refinement searches +- this many columns around "
-                       "the matched right key point; a minimum at the end drops the "
-                       "match."),
-  };
+  info.params = paramSpecs(StereoFeatureMatcher::getParamDeclarations());
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
     StereoFeatureMatcher::Params p;
-    p.feature_type = featureTypeFromString(v.getChoice("feature_type"));
-    p.max_features = v.getInt("max_features");
-    p.ratio = v.getDouble("ratio");
-    p.max_row_difference_px = v.getDouble("max_row_difference_px");
-    p.max_disparity_px = v.getDouble("max_disparity_px");
-    p.max_range_m = v.getDouble("max_range_m");
-    p.bucket_size_px = v.getInt("bucket_size_px");
-    p.fast_threshold = v.getInt("fast_threshold");
-    p.subpixel_window_px = v.getInt("subpixel_window_px");
-    p.subpixel_search_px = v.getInt("subpixel_search_px");
+    assignParams(StereoFeatureMatcher::getParamDeclarations(), v, p);
     return std::make_unique<FeatureMatchingStage>(p);
   };
   return info;

@@ -14,18 +14,10 @@ namespace {
 
 class PlanarCuboidApproximationStage : public Stage {
 public:
-  explicit PlanarCuboidApproximationStage(const ParamValues& v) :
-      min_cell_size_m_(v.getDouble("min_cell_size_m"))
-  {
-    approximation_.setMinCellSize(min_cell_size_m_);
-    approximation_.setDensityThreshold(v.getDouble("density_threshold"));
-    approximation_.setNonPlanarDensityThreshold(
-      v.getDouble("non_planar_density_threshold"));
-    approximation_.setMinWidth(v.getDouble("min_width_m"));
-    approximation_.setMinHeight(v.getDouble("min_height_m"));
-    approximation_.setThickness(v.getDouble("thickness_m"));
-    approximation_.setMinPointsPerCell(v.getInt("min_points_per_cell"));
-  }
+  explicit PlanarCuboidApproximationStage(
+    const PlanarCuboidApproximationParams& params) :
+      approximation_(params)
+  {}
 
   void process(Frame& frame, PipelineState& /*state*/) override
   {
@@ -57,14 +49,8 @@ public:
 
   void getParameters(ParamValues& v) const override
   {
-    const auto& a = approximation_;
-    v.set("min_cell_size_m", a.getMinCellSize());
-    v.set("density_threshold", a.getDensityThreshold());
-    v.set("non_planar_density_threshold", a.getNonPlanarDensityThreshold());
-    v.set("min_width_m", a.getMinWidth());
-    v.set("min_height_m", a.getMinHeight());
-    v.set("thickness_m", a.getThickness());
-    v.set("min_points_per_cell", a.getMinPointsPerCell());
+    reportParams(planarCuboidApproximationParamDeclarations(),
+                 approximation_.getParams(), v);
   }
 
   void counters(const Frame& frame,
@@ -85,7 +71,7 @@ private:
   std::size_t countOccupiedVoxels(const Frame::Cloud& cloud)
   {
     keys_.clear();
-    const double inv = 1.0 / min_cell_size_m_;
+    const double inv = 1.0 / approximation_.getMinCellSize();
     for (const auto& p : cloud.points) {
       if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
         continue;
@@ -99,7 +85,6 @@ private:
   }
 
   PlanarCuboidApproximation<pcl::PointXYZI> approximation_;
-  double min_cell_size_m_;
   std::unordered_set<std::int64_t> keys_;
   std::size_t voxels_{0};
 };
@@ -120,37 +105,11 @@ planarCuboidApproximationInfo()
     "into the largest rectangles and extruded behind the surface; the rest is split "
     "the "
     "same way, never merged. Reports the occupied voxels at the same size (SG).";
-  // The defaults are the class's, except where a row says otherwise.
-  const PlanarCuboidApproximation<pcl::PointXYZI> d;
-  namespace ranges = planar_cuboid_approximation_ranges;
-  info.params = {
-    ParamSpec::real(
-      "min_cell_size_m", d.getMinCellSize(), ranges::MIN_CELL_SIZE, "m",
-      "Smallest cell side and raster resolution (the paper's minimum grid).")
-      .scalesWithCellSize(),
-    ParamSpec::real("density_threshold", d.getDensityThreshold(),
-                    ranges::DENSITY_THRESHOLD, "",
-                    "D_T: a unit whose occupied-area fraction D is below it is split."),
-    ParamSpec::real("non_planar_density_threshold", 0.25,
-                    ranges::NON_PLANAR_DENSITY_THRESHOLD, "",
-                    "Occupied share of its 3D lattice a non-planar box (Fig. 7) must "
-                    "reach before it stops splitting (0: density_threshold). The "
-                    "pipeline's value; the class defaults to 0."),
-    ParamSpec::real("min_width_m", d.getMinWidth(), ranges::MIN_WIDTH, "m",
-                    "W_T: a unit is split only while wider than this.")
-      .scalesWithCellSize(),
-    ParamSpec::real("min_height_m", d.getMinHeight(), ranges::MIN_HEIGHT, "m",
-                    "H_T: a unit is split only while higher than this.")
-      .scalesWithCellSize(),
-    ParamSpec::real("thickness_m", d.getThickness(), ranges::THICKNESS, "m",
-                    "Extrusion behind the surface along the normal.")
-      .scalesWithCellSize(),
-    ParamSpec::integer("min_points_per_cell", d.getMinPointsPerCell(),
-                       ranges::MIN_POINTS_PER_CELL, "",
-                       "Cells with fewer points are dropped."),
-  };
+  info.params = paramSpecs(planarCuboidApproximationParamDeclarations());
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
-    return std::make_unique<PlanarCuboidApproximationStage>(v);
+    PlanarCuboidApproximationParams params;
+    assignParams(planarCuboidApproximationParamDeclarations(), v, params);
+    return std::make_unique<PlanarCuboidApproximationStage>(params);
   };
   return info;
 }

@@ -49,25 +49,64 @@ public:
   }
 };
 
+/** The accumulate stage's parameters: its voxel grid, and the plane association it
+ * builds from two of them (associationCriteria()). */
+struct AccumulateParams {
+  double leaf_size_m{0.1};
+  int downsample_every_n_frames{5};
+  double plane_merge_angle_rad{PlaneAssociationCriteria{}.eps_angle_rad};
+  double plane_merge_distance_m{0.2};
+  double window_radius_m{0.0};
+};
+
+const ParamDeclarations<AccumulateParams>&
+accumulateParamDeclarations()
+{
+  using P = AccumulateParams;
+  static const ParamDeclarations<P> table = {
+    declareReal<P>(
+      "leaf_size_m", [](auto& p) -> auto& { return p.leaf_size_m; },
+      ParamRange::closed(0.0, 10.0), "m",
+      "Voxel edge of the accumulated cloud; 0 keeps every point.")
+      .scalesWithCellSize(),
+    declareInteger<P>(
+      "downsample_every_n_frames",
+      [](auto& p) -> auto& { return p.downsample_every_n_frames; },
+      ParamRange::closed(1, 100000), "",
+      "How often the accumulated cloud is downsampled."),
+    declareReal<P>(
+      "plane_merge_angle_rad", [](auto& p) -> auto& { return p.plane_merge_angle_rad; },
+      ParamRange::closed(0.0, 1.5708), "rad",
+      "A frame's plane joins a run-wide plane whose normal is this close..."),
+    declareReal<P>(
+      "plane_merge_distance_m",
+      [](auto& p) -> auto& { return p.plane_merge_distance_m; },
+      ParamRange::closed(0.0, 10.0), "m",
+      "... and whose offset d is this close; else it starts a new one (the pipeline's "
+      "value, for this offset distance; PlaneAssociationCriteria's 0.15 m default is "
+      "for its evidence distance)."),
+    declareReal<P>(
+      "window_radius_m", [](auto& p) -> auto& { return p.window_radius_m; },
+      ParamRange::closed(0.0, 1e6), "m",
+      "Rolling window of the accumulated clouds: at each downsampling only the points "
+      "within window_radius_m of the sensor in x and y (world z up) are kept, as "
+      "map_integration's window_radius_m keeps the map's; 0 keeps everything."),
+  };
+  return table;
+}
+
 class AccumulateStage : public Stage {
 public:
-  AccumulateStage(double leaf_size_m,
-                  int downsample_every_n_frames,
-                  double plane_merge_angle_rad,
-                  double plane_merge_distance_m,
-                  double window_radius_m) :
-      leaf_size_m_(leaf_size_m),
-      every_(downsample_every_n_frames), window_radius_m_(window_radius_m),
-      association_(associationCriteria(plane_merge_angle_rad, plane_merge_distance_m))
+  explicit AccumulateStage(const AccumulateParams& p) :
+      params_(p), leaf_size_m_(p.leaf_size_m), every_(p.downsample_every_n_frames),
+      window_radius_m_(p.window_radius_m),
+      association_(
+        associationCriteria(p.plane_merge_angle_rad, p.plane_merge_distance_m))
   {}
 
   void getParameters(ParamValues& v) const override
   {
-    v.set("leaf_size_m", leaf_size_m_);
-    v.set("downsample_every_n_frames", every_);
-    v.set("plane_merge_angle_rad", association_.getCriteria().eps_angle_rad);
-    v.set("plane_merge_distance_m", association_.getCriteria().distance_threshold_m);
-    v.set("window_radius_m", window_radius_m_);
+    reportParams(accumulateParamDeclarations(), params_, v);
   }
 
   void process(Frame& frame, PipelineState& state) override
@@ -280,6 +319,7 @@ private:
     samplePlaneCloud(*state.plane_cloud);
   }
 
+  AccumulateParams params_;
   double leaf_size_m_;
   int every_;
   double window_radius_m_;
@@ -321,32 +361,11 @@ accumulateInfo()
                      "(FastVoxelGrid, pcl::VoxelGrid's output) every few frames so "
                      "memory stays bounded by the "
                      "scene, not the run.";
-  const PlaneAssociationCriteria association;
-  info.params = {
-    ParamSpec::real("leaf_size_m", 0.1, 0.0, 10.0, "m",
-                    "Voxel edge of the accumulated cloud; 0 keeps every point.")
-      .scalesWithCellSize(),
-    ParamSpec::integer("downsample_every_n_frames", 5, 1, 100000, "",
-                       "How often the accumulated cloud is downsampled."),
-    ParamSpec::real(
-      "plane_merge_angle_rad", association.eps_angle_rad, 0.0, 1.5708, "rad",
-      "A frame's plane joins a run-wide plane whose normal is this close..."),
-    ParamSpec::real("plane_merge_distance_m", 0.2, 0.0, 10.0, "m",
-                    "... and whose offset d is this close; else it starts a new one "
-                    "(the pipeline's value, for this offset distance; "
-                    "PlaneAssociationCriteria's 0.15 m default is for its "
-                    "evidence distance)."),
-    ParamSpec::real("window_radius_m", 0.0, 0.0, 1e6, "m",
-                    "Rolling window of the accumulated clouds: at each downsampling "
-                    "only the points within window_radius_m of the sensor in x and y "
-                    "(world z up) are kept, as map_integration's window_radius_m "
-                    "keeps the map's; 0 keeps everything."),
-  };
+  info.params = paramSpecs(accumulateParamDeclarations());
   info.create = [](const ParamValues& v) -> std::unique_ptr<Stage> {
-    return std::make_unique<AccumulateStage>(
-      v.getDouble("leaf_size_m"), v.getInt("downsample_every_n_frames"),
-      v.getDouble("plane_merge_angle_rad"), v.getDouble("plane_merge_distance_m"),
-      v.getDouble("window_radius_m"));
+    AccumulateParams p;
+    assignParams(accumulateParamDeclarations(), v, p);
+    return std::make_unique<AccumulateStage>(p);
   };
   return info;
 }

@@ -473,4 +473,102 @@ DisparityEstimator::compute(const cv::Mat& left,
   padded(cv::Rect(0, 0, left.cols, left.rows)).copyTo(disparity);
 }
 
+const ParamDeclarations<DisparityEstimator::Params>&
+DisparityEstimator::getParamDeclarations()
+{
+  using P = DisparityEstimator::Params;
+  namespace ranges = disparity_estimator_ranges;
+  const auto algorithm_name = [](DisparityAlgorithm a) {
+    return toString(a);
+  };
+  const auto pre_filter_name = [](BlockMatchingPreFilter f) {
+    return toString(f);
+  };
+  static const ParamDeclarations<P> table = {
+    declareChoice<P>(
+      "algorithm", [](auto& p) -> auto& { return p.algorithm; },
+      {"sgbm", "sgbm_3way", "sgbm_hh", "sgbm_hh4", "block_matching"}, algorithm_name,
+      disparityAlgorithmFromString,
+      "OpenCV matcher: StereoSGBM 5-path (single-threaded), 3-way (parallel), 8-path, "
+      "4-path, or StereoBM (local SAD, parallel)."),
+    declareInteger<P>(
+      "downscale", [](auto& p) -> auto& { return p.downscale; }, ranges::DOWNSCALE, "",
+      "Image scale divisor: 2 matches half-resolution images; the output stays full "
+      "resolution, in full-resolution px."),
+    declareInteger<P>(
+      "row_downscale", [](auto& p) -> auto& { return p.row_downscale; },
+      ranges::ROW_DOWNSCALE, "",
+      "Row divisor (with downscale 1): 2 matches the images at half their rows and "
+      "full width, so disparities keep their 1/16 px step at half the matching cost; "
+      "the output stays full size."),
+    declareInteger<P>(
+      "num_threads", [](auto& p) -> auto& { return p.num_threads; },
+      ranges::NUM_THREADS, "",
+      "OpenCV threads for the whole run (OpenCV's setting is process-wide: every "
+      "stage's OpenCV calls use it), set before the first frame and restored after the "
+      "last; speed only, never the result; 0 = leave OpenCV's setting."),
+    declareInteger<P>(
+      "min_disparity_px", [](auto& p) -> auto& { return p.min_disparity_px; },
+      ranges::MIN_DISPARITY, "px",
+      "Smallest disparity searched; a multiple of downscale."),
+    declareInteger<P>(
+      "num_disparities_px", [](auto& p) -> auto& { return p.num_disparities_px; },
+      ranges::NUM_DISPARITIES, "px",
+      "Number of disparities searched; a multiple of 16 * downscale."),
+    declareInteger<P>(
+      "block_size_px", [](auto& p) -> auto& { return p.block_size_px; },
+      ranges::BLOCK_SIZE, "px",
+      "Matched block side in matched-image px; odd, 1..11 for the SGBM modes, 5..21 "
+      "for block_matching."),
+    declareInteger<P>(
+      "p1", [](auto& p) -> auto& { return p.p1; }, ranges::P1, "",
+      "SGBM penalty for 1 px disparity changes; 0 = 8*channels*block^2."),
+    declareInteger<P>(
+      "p2", [](auto& p) -> auto& { return p.p2; }, ranges::P2, "",
+      "SGBM penalty for larger changes; 0 = 32*channels*block^2."),
+    declareInteger<P>(
+      "disp12_max_diff_px", [](auto& p) -> auto& { return p.disp12_max_diff_px; },
+      ranges::DISP12_MAX_DIFF, "px",
+      "Left-right consistency tolerance; -1 disables the check."),
+    declareInteger<P>(
+      "pre_filter_cap", [](auto& p) -> auto& { return p.pre_filter_cap; },
+      ranges::PRE_FILTER_CAP, "", "SGBM modes: clip of the x-derivative pre-filter."),
+    declareInteger<P>(
+      "uniqueness_ratio_percent",
+      [](auto& p) -> auto& { return p.uniqueness_ratio_percent; },
+      ranges::UNIQUENESS_RATIO, "percent", "Margin by which the best cost must win."),
+    declareInteger<P>(
+      "speckle_window_size_px",
+      [](auto& p) -> auto& { return p.speckle_window_size_px; },
+      ranges::SPECKLE_WINDOW_SIZE, "px",
+      "Largest speckle region removed as noise; 0 disables."),
+    declareInteger<P>(
+      "speckle_range_px", [](auto& p) -> auto& { return p.speckle_range_px; },
+      ranges::SPECKLE_RANGE, "px",
+      "Largest disparity variation inside a speckle component."),
+    declareFlag<P>(
+      "full_dp", [](auto& p) -> auto& { return p.full_dp; },
+      "Legacy: true = algorithm sgbm_hh (only with algorithm sgbm)."),
+    declareChoice<P>(
+      "bm_pre_filter", [](auto& p) -> auto& { return p.bm_pre_filter; },
+      {"xsobel", "normalized_response"}, pre_filter_name,
+      blockMatchingPreFilterFromString, "block_matching: pre-filter of both images."),
+    declareInteger<P>(
+      "bm_pre_filter_cap", [](auto& p) -> auto& { return p.bm_pre_filter_cap; },
+      ranges::BM_PRE_FILTER_CAP, "",
+      "block_matching: clip of the pre-filter output (above 31 OpenCV 4.6's StereoBM "
+      "is not repeatable)."),
+    declareInteger<P>(
+      "bm_pre_filter_size_px", [](auto& p) -> auto& { return p.bm_pre_filter_size_px; },
+      ranges::BM_PRE_FILTER_SIZE, "px",
+      "block_matching: normalized_response window side; odd."),
+    declareInteger<P>(
+      "bm_texture_threshold", [](auto& p) -> auto& { return p.bm_texture_threshold; },
+      ranges::BM_TEXTURE_THRESHOLD, "",
+      "block_matching: blocks with less pre-filtered texture (sum of absolute values) "
+      "are invalid; 0 disables."),
+  };
+  return table;
+}
+
 } // namespace planar_grid

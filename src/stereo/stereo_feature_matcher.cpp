@@ -119,6 +119,75 @@ featureTypeFromString(const std::string& name)
                   + "'; known types: sift, orb, orb_grid");
 }
 
+const std::vector<std::string>&
+featureTypeNames()
+{
+  static const std::vector<std::string> names{"sift", "orb", "orb_grid"};
+  return names;
+}
+
+std::string
+featureTypeName(FeatureType type)
+{
+  for (const auto& name : featureTypeNames())
+    if (featureTypeFromString(name) == type)
+      return name;
+  throw Exception("feature type " + std::to_string(static_cast<int>(type))
+                  + " has no name");
+}
+
+const ParamDeclarations<StereoFeatureMatcher::Params>&
+StereoFeatureMatcher::getParamDeclarations()
+{
+  using P = StereoFeatureMatcher::Params;
+  namespace ranges = stereo_feature_matcher_ranges;
+  static const ParamDeclarations<P> table = {
+    declareChoice<P>(
+      "feature_type", [](auto& p) -> auto& { return p.feature_type; },
+      featureTypeNames(), featureTypeName, featureTypeFromString,
+      "Detector and descriptor: sift (sub-pixel, slow), orb (OpenCV defaults, "
+      "quantised disparities), orb_grid (fast front end for the odometry)."),
+    declareInteger<P>(
+      "max_features", [](auto& p) -> auto& { return p.max_features; },
+      ranges::MAX_FEATURES, "",
+      "Most key points detected per image (orb_grid: in the left image, spread evenly "
+      "over the grid cells; the right image keeps up to twice as many)."),
+    declareReal<P>(
+      "ratio", [](auto& p) -> auto& { return p.ratio; }, ranges::RATIO, "",
+      "Lowe's ratio test: best / second-best distance below this."),
+    declareReal<P>(
+      "max_row_difference_px", [](auto& p) -> auto& { return p.max_row_difference_px; },
+      ranges::MAX_ROW_DIFFERENCE, "px",
+      "Largest row difference of a match (rectified images)."),
+    declareReal<P>(
+      "max_disparity_px", [](auto& p) -> auto& { return p.max_disparity_px; },
+      ranges::MAX_DISPARITY, "px", "Largest disparity accepted."),
+    declareReal<P>(
+      "max_range_m", [](auto& p) -> auto& { return p.max_range_m; }, ranges::MAX_RANGE,
+      "m", "Features farther than this are dropped."),
+    declareInteger<P>(
+      "bucket_size_px", [](auto& p) -> auto& { return p.bucket_size_px; },
+      ranges::BUCKET_SIZE, "px",
+      "orb_grid: side of the square grid cells; each keeps its strongest FAST corners "
+      "(even coverage)."),
+    declareInteger<P>(
+      "fast_threshold", [](auto& p) -> auto& { return p.fast_threshold; },
+      ranges::FAST_THRESHOLD, "grey levels",
+      "orb_grid: cv::FAST segment-test threshold (8-bit intensity difference)."),
+    declareInteger<P>(
+      "subpixel_window_px", [](auto& p) -> auto& { return p.subpixel_window_px; },
+      ranges::SUBPIXEL_WINDOW, "px",
+      "orb_grid: window side of the sub-pixel disparity refinement (zero-mean SSD "
+      "parabola along the row); odd."),
+    declareInteger<P>(
+      "subpixel_search_px", [](auto& p) -> auto& { return p.subpixel_search_px; },
+      ranges::SUBPIXEL_SEARCH, "px",
+      "orb_grid: the refinement searches +- this many columns around the matched right "
+      "key point; a minimum at the end drops the match."),
+  };
+  return table;
+}
+
 void
 detectGridFastKeypoints(const cv::Mat& grey,
                         int bucket_size_px,

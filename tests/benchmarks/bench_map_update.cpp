@@ -74,6 +74,8 @@ BM_PlanarGridMapUpdate(benchmark::State& state)
     planar_grid::PlanarGridMap map(params);
     // Cells (Sec. III-F).
     planar_grid::PlanarCuboidApproximation<pcl::PointXYZI> approximation;
+    // A non-planar box stops at D_T (the class's 0.25 is the pipeline's).
+    approximation.setNonPlanarDensityThreshold(0.0);
     approximation.setInputCloud(scene.cloud);
     approximation.setPlanes(scene.planes);
     approximation.setMinCellSize(RESOLUTION_M);

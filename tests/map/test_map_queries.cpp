@@ -559,6 +559,8 @@ karlsruheMap(PlanarGridMap& map)
   PlanarSegments segments;
   seg.segment(segments);
   PlanarCuboidApproximation<pcl::PointXYZI> approx;
+  // A non-planar box stops at D_T (the class's 0.25 is the pipeline's).
+  approx.setNonPlanarDensityThreshold(0.0);
   approx.setInputCloud(world);
   approx.setPlanes(segments);
   approx.setUpAxis(Eigen::Vector3f::UnitZ());

@@ -1875,6 +1875,8 @@ approximate(const pcl::PointCloud<pcl::PointXYZI>::Ptr& cloud,
   planar_grid::PlanarSegments segments;
   seg.segment(segments);
   planar_grid::PlanarCuboidApproximation<pcl::PointXYZI> approx;
+  // A non-planar box stops at D_T (the class's 0.25 is the pipeline's).
+  approx.setNonPlanarDensityThreshold(0.0);
   approx.setInputCloud(cloud);
   approx.setPlanes(segments);
   approx.setUpAxis(Eigen::Vector3f::UnitZ());

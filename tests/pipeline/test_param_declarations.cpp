@@ -7,10 +7,14 @@
 #include <planar_grid/filters/fast_voxel_grid.h>
 #include <planar_grid/filters/kl_divergence_occupancy_filter.h>
 #include <planar_grid/map/planar_grid_map.h>
+#include <planar_grid/odometry/stereo_odometry.h>
 #include <planar_grid/pipeline/param_table.h>
 #include <planar_grid/pipeline/stage.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
 #include <planar_grid/segmentation/terrain_removal.h>
+#include <planar_grid/stereo/disparity_estimator.h>
+#include <planar_grid/stereo/stereo_feature_matcher.h>
+#include <planar_grid/surface/planar_cuboid_approximation.h>
 
 #include <pcl/point_types.h>
 
@@ -18,6 +22,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <map>
 #include <memory>
 #include <string>
 #include <variant>
@@ -67,7 +72,8 @@ otherValue(const planar_grid::ParamDeclaration<Params>& d)
       break;
     case Declaration::Type::INT: {
       const int v = std::get<int>(value);
-      for (const int candidate : {v + 1, v - 1})
+      // + 2 first: an odd window size stays odd.
+      for (const int candidate : {v + 2, v + 1, v - 1})
         if (d.range.contains(candidate))
           return {std::to_string(candidate), candidate};
       break;
@@ -127,8 +133,9 @@ keysOf(const std::vector<ParamSpec>& params)
   return keys;
 }
 
-/** A non-default value of each declaration of \a table, given to \a stage_type as
- * YAML, reaches the class (\a make_class builds it from the parsed Params and
+/** A non-default value of each declaration of \a table (\a other_values where the
+ * class ties it to another parameter), given to \a stage_type as YAML, reaches the
+ * class (\a make_class builds it from the parsed Params and
  * \a get_params reads them back) with every other member at its default, and comes
  * back in the stage's echo. */
 template <typename Params, typename MakeClass, typename GetParams>
@@ -137,12 +144,15 @@ expectEachValueReachesTheClassAndTheEcho(
   const planar_grid::ParamDeclarations<Params>& table,
   const std::string& stage_type,
   MakeClass make_class,
-  GetParams get_params)
+  GetParams get_params,
+  const std::map<std::string, std::pair<std::string, ParamValue>>& other_values = {})
 {
   const auto& info = stage(stage_type);
   for (const auto& d : table) {
     SCOPED_TRACE(d.key);
-    const auto [text, value] = otherValue(d);
+    const auto given = other_values.find(d.key);
+    const auto [text, value] =
+      given != other_values.end() ? given->second : otherValue(d);
     const ParamValues parsed = planar_grid::parseParams(
       YAML::Load("{" + d.key + ": " + text + "}"), info.params, "s.yaml", info.type);
     Params params;
@@ -325,6 +335,94 @@ TEST(ParamDeclarations, FilterStagesAreTheFiltersTables)
     [](const std::unique_ptr<DepthError>& f) { return f->getParams(); });
 }
 
+TEST(ParamDeclarations, PlanarCuboidApproximationIsTheApproximationsTable)
+{
+  using Approximation = planar_grid::PlanarCuboidApproximation<pcl::PointXYZ>;
+  const auto& table = Approximation::getParamDeclarations();
+  const auto& params = stage("planar_cuboid_approximation").params;
+  ASSERT_EQ(table.size(), 7u);
+  expectListedAsDeclared(table, params);
+  EXPECT_EQ(params.size(), table.size());
+  const Approximation defaults;
+  for (const auto& d : table)
+    EXPECT_EQ(d.get(defaults.getParams()), d.get(Approximation::Params{})) << d.key;
+  EXPECT_EQ(defaults.getNonPlanarDensityThreshold(), 0.25);
+  expectEachValueReachesTheClassAndTheEcho(
+    table, "planar_cuboid_approximation",
+    [](const Approximation::Params& p) { return std::make_unique<Approximation>(p); },
+    [](const std::unique_ptr<Approximation>& a) { return a->getParams(); });
+}
+
+TEST(ParamDeclarations, VisualOdometryIsStereoOdometrysTableAndItsOwn)
+{
+  using Odometry = planar_grid::StereoOdometry;
+  const auto& table = Odometry::getParamDeclarations();
+  const auto& params = stage("visual_odometry").params;
+  ASSERT_EQ(table.size(), 12u);
+  expectListedAsDeclared(table, params);
+  const std::vector<std::string> expected{"ratio",
+                                          "distance_threshold_m",
+                                          "reprojection_threshold_px",
+                                          "max_iterations",
+                                          "min_inliers",
+                                          "reprojection_refinement",
+                                          "epipolar_refinement",
+                                          "epipolar_threshold_px",
+                                          "seed",
+                                          "estimate_disparity_offset",
+                                          "disparity_offset_px",
+                                          "disparity_offset_sigma_px",
+                                          "disparity_offset_memory",
+                                          "initial_height_m",
+                                          "initial_pitch_rad"};
+  EXPECT_EQ(keysOf(params), expected);
+  expectEachValueReachesTheClassAndTheEcho(
+    table, "visual_odometry",
+    [](const Odometry::Params& p) { return std::make_unique<Odometry>(p); },
+    [](const std::unique_ptr<Odometry>& o) { return o->getParams(); });
+}
+
+TEST(ParamDeclarations, FeatureMatchingIsTheMatchersTable)
+{
+  using Matcher = planar_grid::StereoFeatureMatcher;
+  const auto& table = Matcher::getParamDeclarations();
+  const auto& params = stage("feature_matching").params;
+  ASSERT_EQ(table.size(), 10u);
+  expectListedAsDeclared(table, params);
+  EXPECT_EQ(params.size(), table.size());
+  expectEachValueReachesTheClassAndTheEcho(
+    table, "feature_matching",
+    [](const Matcher::Params& p) { return std::make_unique<Matcher>(p); },
+    [](const std::unique_ptr<Matcher>& m) { return m->getParams(); });
+}
+
+TEST(ParamDeclarations, StereoDisparityIsTheEstimatorsTableAndItsOwn)
+{
+  using Estimator = planar_grid::DisparityEstimator;
+  const auto& table = Estimator::getParamDeclarations();
+  const auto& params = stage("stereo_disparity").params;
+  ASSERT_EQ(table.size(), 19u);
+  expectListedAsDeclared(table, params);
+  // The estimator's keys, then the stage's range and frame selection.
+  std::vector<std::string> expected;
+  for (const auto& d : table)
+    expected.push_back(d.key);
+  for (const char* key :
+       {"max_range_m", "frame_selection", "every_n_frames", "keyframe_translation_m",
+        "keyframe_rotation_rad", "keyframe_max_gap_frames"})
+    expected.emplace_back(key);
+  EXPECT_EQ(keysOf(params), expected);
+  // The disparity count is a multiple of 16 * downscale (128 at the defaults), and p2
+  // exceeds p1 (8 * 5^2 = 200 when left at 0).
+  expectEachValueReachesTheClassAndTheEcho(
+    table, "stereo_disparity",
+    [](const Estimator::Params& p) { return std::make_unique<Estimator>(p); },
+    [](const std::unique_ptr<Estimator>& e) { return e->getParams(); },
+    {{"num_disparities_px", {"144", 144}},
+     {"downscale", {"2", 2}},
+     {"p2", {"1000", 1000}}});
+}
+
 TEST(ParamDeclarations, MapIntegrationListsEveryMapParameterAsDeclared)
 {
   ASSERT_GE(PlanarGridMap::getParamDeclarations().size(), 20u);
@@ -425,6 +523,7 @@ TEST(ParamDeclarations, AChoiceThatIsNoneOfTheNamesIsRefused)
     planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZ>::getParamDeclarations());
   expectUnknownChoiceRefused(
     planar_grid::KLDivergenceOccupancyFilter<pcl::PointXYZ>::getParamDeclarations());
+  expectUnknownChoiceRefused(planar_grid::StereoFeatureMatcher::getParamDeclarations());
 }
 
 } // namespace

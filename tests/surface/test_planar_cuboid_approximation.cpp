@@ -26,6 +26,16 @@
 
 namespace {
 
+/** The paper's splitting, which these tests were written for: a non-planar box stops at
+ * D_T. The class's default (0.25) is the pipeline's. */
+planar_grid::PlanarCuboidApproximationParams
+paperParams()
+{
+  planar_grid::PlanarCuboidApproximationParams params;
+  params.non_planar_density_threshold = 0.0;
+  return params;
+}
+
 using planar_grid::PlanarCuboid;
 using planar_grid::PlanarCuboidApproximation;
 using planar_grid::PlanarCuboids;
@@ -230,7 +240,7 @@ TYPED_TEST(PlanarCuboidApproximationTyped, TiltedWallIsOneCuboid)
     typename pcl::PointCloud<TypeParam>::Ptr cloud(new pcl::PointCloud<TypeParam>);
     std::mt19937 rng(1);
     const auto inliers = addGridWall(*cloud, patch, 4.0f, 2.5f, 0.02f, 0.005, rng);
-    PlanarCuboidApproximation<TypeParam> approx;
+    PlanarCuboidApproximation<TypeParam> approx(paperParams());
     approx.setInputCloud(cloud);
     approx.setPlanes(PlanarSegments{segmentOf(patch, inliers)});
     PlanarCuboids cuboids;
@@ -283,7 +293,7 @@ TEST(PlanarCuboidApproximation, WindowHoleIsNotCovered)
     addRandomPatch(*cloud, patch, 4.0f, 2.5f, 2500.0, 0.003, rng, [](float s, float t) {
       return !(s > 1.55f && s < 2.45f && t > 0.85f && t < 1.75f);
     });
-  PlanarCuboidApproximation<pcl::PointXYZ> approx;
+  PlanarCuboidApproximation<pcl::PointXYZ> approx(paperParams());
   approx.setInputCloud(cloud);
   approx.setPlanes(PlanarSegments{segmentOf(patch, inliers)});
   PlanarCuboids cuboids;
@@ -320,7 +330,7 @@ TEST(PlanarCuboidApproximation, LShapeMergesHorizontallyFirst)
   const auto inliers =
     addRandomPatch(*cloud, patch, 4.0f, 3.0f, 2500.0, 0.002, rng,
                    [](float s, float t) { return t < 1.0f || s < 1.0f; });
-  PlanarCuboidApproximation<pcl::PointXYZ> approx;
+  PlanarCuboidApproximation<pcl::PointXYZ> approx(paperParams());
   approx.setInputCloud(cloud);
   approx.setPlanes(PlanarSegments{segmentOf(patch, inliers)});
   PlanarCuboids cuboids;
@@ -361,7 +371,7 @@ TEST(PlanarCuboidApproximation, MixedSceneEveryPointCovered)
       Eigen::Vector3f(anywhere(rng), anywhere(rng), anywhere(rng))));
   cloud->push_back(makePoint<pcl::PointXYZ>(Eigen::Vector3f(NAN, 0, 0)));
 
-  PlanarCuboidApproximation<pcl::PointXYZ> approx;
+  PlanarCuboidApproximation<pcl::PointXYZ> approx(paperParams());
   approx.setInputCloud(cloud);
   approx.setPlanes(PlanarSegments{segmentOf(patch, inliers)});
   approx.setMinPointsPerCell(1);
@@ -407,7 +417,7 @@ TEST(PlanarCuboidApproximation, NonPlanarCellsAreNeverMerged)
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
   std::mt19937 rng(5);
   addGridWall(*cloud, patch, 4.0f, 2.5f, 0.02f, 0.005, rng);
-  PlanarCuboidApproximation<pcl::PointXYZ> approx;
+  PlanarCuboidApproximation<pcl::PointXYZ> approx(paperParams());
   approx.setInputCloud(cloud);
   // 1: the corner cells of the raster can hold only 1-2 points (the raster origin is
   // the min point); with the default 3 they would be dropped, uncovered.
@@ -468,7 +478,7 @@ TEST(PlanarCuboidApproximation, NonPlanarBoxesStayWithinOneCellOfTheirPoints)
     cloud->push_back(makePoint<pcl::PointXYZ>(
       Eigen::Vector3f(4.0f + cube(rng), 3.0f + cube(rng), cube(rng))));
   const float cell = 0.1f;
-  PlanarCuboidApproximation<pcl::PointXYZ> approx;
+  PlanarCuboidApproximation<pcl::PointXYZ> approx(paperParams());
   approx.setInputCloud(cloud);
   approx.setMinCellSize(cell);
   approx.setMinPointsPerCell(1);
@@ -530,12 +540,12 @@ TEST(PlanarCuboidApproximation, DegenerateInputs)
   using Cloud = pcl::PointCloud<pcl::PointXYZ>;
   PlanarCuboids cuboids(3);
   {
-    PlanarCuboidApproximation<pcl::PointXYZ> approx; // no input
+    PlanarCuboidApproximation<pcl::PointXYZ> approx(paperParams()); // no input
     approx.approximate(cuboids);
     EXPECT_TRUE(cuboids.empty());
   }
   Cloud::Ptr cloud(new Cloud);
-  PlanarCuboidApproximation<pcl::PointXYZ> approx;
+  PlanarCuboidApproximation<pcl::PointXYZ> approx(paperParams());
   approx.setInputCloud(cloud); // empty
   approx.approximate(cuboids);
   EXPECT_TRUE(cuboids.empty());
@@ -579,7 +589,7 @@ TEST(PlanarCuboidApproximation, DegenerateInputs)
 
   // Invalid parameters: empty output.
   const auto expectEmpty = [&](const char* what, auto set) {
-    PlanarCuboidApproximation<pcl::PointXYZ> bad;
+    PlanarCuboidApproximation<pcl::PointXYZ> bad(paperParams());
     bad.setInputCloud(cloud);
     set(bad);
     PlanarCuboids out(1);
@@ -612,7 +622,7 @@ TEST(PlanarCuboidApproximation, DegenerateInputs)
 // The horizontal reference and the frame convention (documented in the header).
 TEST(PlanarCuboidApproximation, HorizontalReferenceConvention)
 {
-  PlanarCuboidApproximation<pcl::PointXYZ> approx;
+  PlanarCuboidApproximation<pcl::PointXYZ> approx(paperParams());
   EXPECT_NEAR((approx.getHorizontalReference() - Eigen::Vector3f::UnitX()).norm(), 0.0f,
               1e-6f);
   approx.setUpAxis(Eigen::Vector3f(0, -1, 0));
@@ -658,7 +668,7 @@ TEST(PlanarCuboidApproximation, OfficeCloudFarFewerCuboidsThanVoxels)
   seg.segment(planes);
   ASSERT_GE(planes.size(), 2u);
 
-  PlanarCuboidApproximation<pcl::PointXYZRGB> approx;
+  PlanarCuboidApproximation<pcl::PointXYZRGB> approx(paperParams());
   approx.setInputCloud(cloud);
   approx.setUpAxis(Eigen::Vector3f(0, -1, 0));
   approx.setPlanes(planes);
@@ -758,7 +768,7 @@ TEST(PlanarCuboidApproximation, PlanesFromPCLRansacGiveTheSameCuboids)
   }
 
   PlanarCuboids from_pcl, from_segments;
-  PlanarCuboidApproximation<pcl::PointXYZ> approx;
+  PlanarCuboidApproximation<pcl::PointXYZ> approx(paperParams());
   approx.setInputCloud(cloud);
   approx.setPlanes(model_coefficients, inliers);
   ASSERT_EQ(approx.getPlanes().size(), 2u);
@@ -825,7 +835,7 @@ TEST(PlanarCuboidApproximation, ReconstructGivesEachCuboidAsAClosedBoxMesh)
   cloud->header.frame_id = "world";
   cloud->header.stamp = 1234567;
   const Patch patch = wall(20 * DEG, 0.0);
-  PlanarCuboidApproximation<pcl::PointXYZ> approx;
+  PlanarCuboidApproximation<pcl::PointXYZ> approx(paperParams());
   approx.setInputCloud(cloud);
   approx.setPlanes(PlanarSegments{segmentOf(patch, wall_inliers)});
   PlanarCuboids cuboids;
@@ -889,7 +899,7 @@ TEST(PlanarCuboidApproximation, ReconstructGivesEachCuboidAsAClosedBoxMesh)
   }
 
   // No input: an empty mesh.
-  PlanarCuboidApproximation<pcl::PointXYZ> empty;
+  PlanarCuboidApproximation<pcl::PointXYZ> empty(paperParams());
   empty.reconstruct(mesh);
   EXPECT_EQ(mesh.cloud.width * mesh.cloud.height, 0u);
   EXPECT_TRUE(mesh.polygons.empty());

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_declaration.h>
 #include <planar_grid/core/param_range.h>
 #include <planar_grid/core/planar_cuboid.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>
@@ -44,6 +45,33 @@ inline constexpr ParamRange THICKNESS = ParamRange::openMin(0.0, 10.0);
 /** \brief Fewest points of an output cuboid: [1, 1000000]. */
 inline constexpr ParamRange MIN_POINTS_PER_CELL = ParamRange::closed(1, 1000000);
 } // namespace planar_cuboid_approximation_ranges
+
+/** \brief PlanarCuboidApproximation's parameters, named by their keys; their ranges
+ * are planar_cuboid_approximation_ranges' and their declarations
+ * planarCuboidApproximationParamDeclarations(). The defaults are the pipeline's
+ * planar_cuboid_approximation stage's; each setter documents its member.
+ * \ingroup surface */
+struct PlanarCuboidApproximationParams {
+  /** \brief Raster resolution and smallest unit side, meters (the paper's 0.1). */
+  double min_cell_size_m{0.1};
+  /** \brief D_T of Fig. 8. */
+  double density_threshold{0.9};
+  /** \brief Occupied lattice share of a non-planar box (0: D_T). */
+  double non_planar_density_threshold{0.25};
+  /** \brief W_T of Fig. 8, meters. */
+  double min_width_m{0.1};
+  /** \brief H_T of Fig. 8, meters. */
+  double min_height_m{0.1};
+  /** \brief Smallest extrusion, meters. */
+  double thickness_m{0.1};
+  /** \brief Fewest points of an output cuboid. */
+  int min_points_per_cell{3};
+};
+
+/** \brief The one declaration of each PlanarCuboidApproximationParams member (key
+ * with unit, range, meaning), in the order documented. \ingroup surface */
+const ParamDeclarations<PlanarCuboidApproximationParams>&
+planarCuboidApproximationParamDeclarations();
 
 /** \brief Grid approximation and combination of Sec. III-F (Figs. 6-8) of the paper
  * ("Efficient Planar Surface-Based 3D Mapping Method for Mobile Robots Using Stereo
@@ -111,8 +139,27 @@ public:
   /** \brief Shared pointer to a const input cloud. */
   using PointCloudConstPtr = typename PointCloud::ConstPtr;
 
+  /** \brief The parameters (PlanarCuboidApproximationParams). */
+  using Params = PlanarCuboidApproximationParams;
+
+  /** \brief Each parameter's one declaration (key, range, unit, meaning): the
+   * planar_cuboid_approximation stage and its reference are made from it.
+   * \return planarCuboidApproximationParamDeclarations() */
+  static const ParamDeclarations<Params>& getParamDeclarations()
+  {
+    return planarCuboidApproximationParamDeclarations();
+  }
+
+  /** \brief An approximation with the default parameters. */
   PlanarCuboidApproximation() = default;
+  /** \brief An approximation with \a params (checked by approximate()). */
+  explicit PlanarCuboidApproximation(const Params& params) : params_(params) {}
   ~PlanarCuboidApproximation() override = default;
+
+  /** \brief Sets the parameters at once (checked by approximate()). */
+  void setParams(const Params& params) { params_ = params; }
+  /** \brief The parameters. */
+  const Params& getParams() const { return params_; }
 
   /** \brief Sets the planes of the input cloud (e.g. from SACMultiPlaneSegmentation);
    * their inliers index the input cloud. A point in the inliers of several planes
@@ -160,9 +207,12 @@ public:
   /** \brief Sets the raster resolution, which is also the smallest unit side.
    * \param[in] min_cell_size_m in meters, in
    * planar_cuboid_approximation_ranges::MIN_CELL_SIZE (default 0.1) */
-  void setMinCellSize(double min_cell_size_m) { min_cell_size_ = min_cell_size_m; }
+  void setMinCellSize(double min_cell_size_m)
+  {
+    params_.min_cell_size_m = min_cell_size_m;
+  }
   /** \brief Returns the raster resolution, in meters. */
-  double getMinCellSize() const { return min_cell_size_; }
+  double getMinCellSize() const { return params_.min_cell_size_m; }
 
   /** \brief Sets D_T of Fig. 8: a unit splits only while its split density
    * D = S_PO / S_PA (occupied raster area over unit area) is below it.
@@ -170,44 +220,47 @@ public:
    * planar_cuboid_approximation_ranges::DENSITY_THRESHOLD (default 0.9) */
   void setDensityThreshold(double density_threshold)
   {
-    density_threshold_ = density_threshold;
+    params_.density_threshold = density_threshold;
   }
   /** \brief Returns D_T, in (0, 1]. */
-  double getDensityThreshold() const { return density_threshold_; }
+  double getDensityThreshold() const { return params_.density_threshold; }
   /** \brief Sets the share of occupied lattice voxels a non-planar box (Fig. 7) must
    * reach before it stops splitting in 3D: lower values give fewer, emptier boxes.
    * \param[in] density_threshold in
-   * planar_cuboid_approximation_ranges::NON_PLANAR_DENSITY_THRESHOLD; 0 (the default)
-   * for D_T */
+   * planar_cuboid_approximation_ranges::NON_PLANAR_DENSITY_THRESHOLD (default 0.25,
+   * the pipeline's: emptier, fewer boxes than at D_T); 0 for D_T */
   void setNonPlanarDensityThreshold(double density_threshold)
   {
-    non_planar_density_threshold_ = density_threshold;
+    params_.non_planar_density_threshold = density_threshold;
   }
   /** \brief Returns the non-planar box density threshold (0: D_T). */
-  double getNonPlanarDensityThreshold() const { return non_planar_density_threshold_; }
+  double getNonPlanarDensityThreshold() const
+  {
+    return params_.non_planar_density_threshold;
+  }
 
   /** \brief Sets W_T of Fig. 8: a unit splits only while its width W > W_T.
    * \param[in] min_width_m in meters, in planar_cuboid_approximation_ranges::MIN_WIDTH
    * (default 0.1, i.e. split down to single raster cells; a unit never splits below one
    * raster cell) */
-  void setMinWidth(double min_width_m) { min_width_ = min_width_m; }
+  void setMinWidth(double min_width_m) { params_.min_width_m = min_width_m; }
   /** \brief Returns W_T, in meters. */
-  double getMinWidth() const { return min_width_; }
+  double getMinWidth() const { return params_.min_width_m; }
 
   /** \brief Sets H_T of Fig. 8: a unit splits only while its height H > H_T.
    * \param[in] min_height_m in meters, in
    * planar_cuboid_approximation_ranges::MIN_HEIGHT (default 0.1) */
-  void setMinHeight(double min_height_m) { min_height_ = min_height_m; }
+  void setMinHeight(double min_height_m) { params_.min_height_m = min_height_m; }
   /** \brief Returns H_T, in meters. */
-  double getMinHeight() const { return min_height_; }
+  double getMinHeight() const { return params_.min_height_m; }
 
   /** \brief Sets the smallest extrusion of a planar cuboid behind its face, and the
    * smallest depth of a non-planar cuboid (Fig. 6(c)).
    * \param[in] thickness_m in meters, in planar_cuboid_approximation_ranges::THICKNESS
    * (default 0.1) */
-  void setThickness(double thickness_m) { thickness_ = thickness_m; }
+  void setThickness(double thickness_m) { params_.thickness_m = thickness_m; }
   /** \brief Returns the smallest thickness, in meters. */
-  double getThickness() const { return thickness_; }
+  double getThickness() const { return params_.thickness_m; }
 
   /** \brief Sets the fewest points of an output cuboid (a merged planar rectangle or
    * a non-planar part).
@@ -215,10 +268,10 @@ public:
    * planar_cuboid_approximation_ranges::MIN_POINTS_PER_CELL (default 3) */
   void setMinPointsPerCell(int min_points_per_cell)
   {
-    min_points_per_cell_ = min_points_per_cell;
+    params_.min_points_per_cell = min_points_per_cell;
   }
   /** \brief Returns the fewest points of a cuboid. */
-  int getMinPointsPerCell() const { return min_points_per_cell_; }
+  int getMinPointsPerCell() const { return params_.min_points_per_cell; }
 
   /** \brief Returns the fixed horizontal reference e1 used for non-planar cuboids and
    * for horizontal planes: the first of the x, y, z unit axes whose component
@@ -293,7 +346,8 @@ protected:
                           PlanarCuboids& cuboids);
 
   /** \brief Sizes the raster for the (u, v) extent; returns the raster cell size in
-   * meters (min_cell_size_, doubled while the raster would exceed MAX_RASTER_CELLS). */
+   * meters (params_.min_cell_size_m, doubled while the raster would exceed
+   * MAX_RASTER_CELLS). */
   double setUpRaster(float u_min, float u_max, float v_min, float v_max);
 
   /** \brief Returns the class name for messages. */
@@ -312,20 +366,8 @@ protected:
   Eigen::Vector3f sensor_origin_{Eigen::Vector3f::Zero()};
   /** \brief Whether sensor_origin_ was set. */
   bool sensor_origin_set_{false};
-  /** \brief Raster resolution and smallest unit side, in meters. */
-  double min_cell_size_{0.1};
-  /** \brief D_T of Fig. 8, in (0, 1]. */
-  double density_threshold_{0.9};
-  /** \brief Occupied share a non-planar box must reach, in (0, 1]; 0: D_T. */
-  double non_planar_density_threshold_{0.0};
-  /** \brief W_T of Fig. 8, in meters. */
-  double min_width_{0.1};
-  /** \brief H_T of Fig. 8, in meters. */
-  double min_height_{0.1};
-  /** \brief Smallest thickness, in meters. */
-  double thickness_{0.1};
-  /** \brief Fewest points of a cuboid. */
-  int min_points_per_cell_{3};
+  /** \brief The parameters of Params. */
+  Params params_;
 
   // Scratch buffers, reused across planes and calls (no per-point allocations).
   /** \brief Per input point: 0 excluded, 1 available, 2 taken by a plane. */

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_declaration.h>
 #include <planar_grid/core/param_range.h>
 #include <planar_grid/odometry/trajectory_io.h>
 #include <planar_grid/stereo/stereo_feature_matcher.h>
@@ -211,6 +212,11 @@ public:
      */
     unsigned seed{12345u};
   };
+
+  /** \brief The one declaration (key with unit, range, meaning) of each Params member
+   * that the visual_odometry stage sets, in the order documented; the stage, its
+   * reference and the defaults (the members' initializers) are made from it. */
+  static const ParamDeclarations<Params>& getParamDeclarations();
 
   /** \brief Throws planar_grid::Exception for out-of-range parameters. */
   explicit StereoOdometry(const Params& params);

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_declaration.h>
 #include <planar_grid/core/param_range.h>
 
 #include <opencv2/core/mat.hpp>
@@ -199,6 +200,11 @@ public:
      * disparity_estimator_ranges::BM_TEXTURE_THRESHOLD. */
     int bm_texture_threshold{10};
   };
+
+  /** \brief The one declaration (key with unit, range, meaning) of each Params
+   * member, in the order documented: the stereo_disparity stage, its reference and
+   * the defaults (the members' initializers) are made from it. */
+  static const ParamDeclarations<Params>& getParamDeclarations();
 
   /** \brief Builds the matcher.
    * \param[in] params the parameters

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/param_declaration.h>
 #include <planar_grid/core/param_range.h>
 #include <planar_grid/core/stereo_calibration.h>
 
@@ -66,6 +67,13 @@ enum class FeatureType {
 /** \brief Parses "sift", "orb" or "orb_grid"; throws planar_grid::Exception otherwise.
  */
 FeatureType featureTypeFromString(const std::string& name);
+
+/** \brief The names of the feature types ("sift", "orb", "orb_grid"), each the name
+ * featureTypeFromString() reads. \ingroup stereo */
+const std::vector<std::string>& featureTypeNames();
+
+/** \brief The name of \a type (one of featureTypeNames()). \ingroup stereo */
+std::string featureTypeName(FeatureType type);
 
 /** \brief Key feature points matched left to right and triangulated (paper Sec. III-C:
  * the 3D features that feed the plane and occupancy estimation). Parallel arrays: the
@@ -188,6 +196,11 @@ public:
 
   /** \brief Throws planar_grid::Exception for out-of-range parameters (the ORB_GRID
    * ones are checked for every feature type). */
+  /** \brief The one declaration (key with unit, range, meaning) of each Params
+   * member, in the order documented: the feature_matching stage, its reference and
+   * the defaults (the members' initializers) are made from it. */
+  static const ParamDeclarations<Params>& getParamDeclarations();
+
   explicit StereoFeatureMatcher(const Params& params);
   /** \brief Uses the default Params. (Two constructors rather than a default argument:
    * GCC rejects `= Params()` for a nested struct with member initialisers.) */

@@ -61,13 +61,13 @@ PlanarCuboidApproximation<PointT>::checkParameters() const
     "up_axis must be finite and non-zero",
     "sensor_origin must be finite"};
   const std::array<bool, 9> valid{
-    ranges::MIN_CELL_SIZE.contains(min_cell_size_),
-    ranges::DENSITY_THRESHOLD.contains(density_threshold_),
-    ranges::NON_PLANAR_DENSITY_THRESHOLD.contains(non_planar_density_threshold_),
-    ranges::MIN_WIDTH.contains(min_width_),
-    ranges::MIN_HEIGHT.contains(min_height_),
-    ranges::THICKNESS.contains(thickness_),
-    ranges::MIN_POINTS_PER_CELL.contains(min_points_per_cell_),
+    ranges::MIN_CELL_SIZE.contains(params_.min_cell_size_m),
+    ranges::DENSITY_THRESHOLD.contains(params_.density_threshold),
+    ranges::NON_PLANAR_DENSITY_THRESHOLD.contains(params_.non_planar_density_threshold),
+    ranges::MIN_WIDTH.contains(params_.min_width_m),
+    ranges::MIN_HEIGHT.contains(params_.min_height_m),
+    ranges::THICKNESS.contains(params_.thickness_m),
+    ranges::MIN_POINTS_PER_CELL.contains(params_.min_points_per_cell),
     up_axis_.allFinite() && up_axis_.norm() > 0.0f,
     getSensorOrigin().allFinite()};
   for (std::size_t i = 0; i < valid.size(); ++i)
@@ -193,7 +193,7 @@ PlanarCuboidApproximation<PointT>::setUpRaster(float u_min,
                                                float v_min,
                                                float v_max)
 {
-  double cell = min_cell_size_;
+  double cell = params_.min_cell_size_m;
   double nu = std::floor((static_cast<double>(u_max) - u_min) / cell) + 1.0;
   double nv = std::floor((static_cast<double>(v_max) - v_min) / cell) + 1.0;
   while (nu * nv > static_cast<double>(MAX_RASTER_CELLS)) {
@@ -201,7 +201,7 @@ PlanarCuboidApproximation<PointT>::setUpRaster(float u_min,
     nu = std::floor((static_cast<double>(u_max) - u_min) / cell) + 1.0;
     nv = std::floor((static_cast<double>(v_max) - v_min) / cell) + 1.0;
   }
-  if (cell != min_cell_size_)
+  if (cell != params_.min_cell_size_m)
     PCL_WARN("[planar_grid::%s::approximate] A cluster spans %g x %g m; its raster "
              "cell is coarsened to %g m.\n",
              getClassName().c_str(), static_cast<double>(u_max - u_min),
@@ -258,8 +258,9 @@ PlanarCuboidApproximation<PointT>::splitUnits(double cell_m)
     const double area = static_cast<double>(unit.side) * unit.side;
     const double density = static_cast<double>(occupied) / area;
     const double size_m = unit.side * cell_m;
-    const bool split = density < density_threshold_ && size_m > min_width_ + 1e-9
-                       && size_m > min_height_ + 1e-9 && unit.side > 1;
+    const bool split = density < params_.density_threshold
+                       && size_m > params_.min_width_m + 1e-9
+                       && size_m > params_.min_height_m + 1e-9 && unit.side > 1;
     if (!split) {
       units_.push_back(unit);
       continue;
@@ -432,10 +433,10 @@ PlanarCuboidApproximation<PointT>::approximatePlane(int plane_id,
     e.hi = e.hi.cwiseMax(coords_[k]);
   }
   const float cell_f = static_cast<float>(cell);
-  const float thickness = static_cast<float>(thickness_);
+  const float thickness = static_cast<float>(params_.thickness_m);
   for (std::size_t r = 0; r < rects.size(); ++r) {
     const Extent& e = extents[r];
-    if (e.count < static_cast<std::size_t>(min_points_per_cell_))
+    if (e.count < static_cast<std::size_t>(params_.min_points_per_cell))
       continue;
     // Tighten to the inliers; keep at least one raster cell, inside the rectangle.
     const auto tighten = [cell_f](float lo, float hi, float r_lo, float r_hi) {
@@ -470,7 +471,7 @@ PlanarCuboidApproximation<PointT>::approximatePlane(int plane_id,
   // Inliers of dropped rectangles join the non-planar remainder.
   for (std::size_t k = 0; k < m; ++k)
     if (extents[label_[cell_of_point_[k]]].count
-        < static_cast<std::size_t>(min_points_per_cell_)) {
+        < static_cast<std::size_t>(params_.min_points_per_cell)) {
       state_[plane_points_[k]] = 3;
       remainder_.push_back(plane_points_[k]);
     }
@@ -551,7 +552,7 @@ PlanarCuboidApproximation<PointT>::approximateRemainder(PlanarCuboids& cuboids)
       while (end != last && coords_[*end].z() - coords_[*(end - 1)].z() <= cell_f)
         ++end;
       const auto count = static_cast<std::size_t>(end - begin);
-      if (count >= static_cast<std::size_t>(min_points_per_cell_))
+      if (count >= static_cast<std::size_t>(params_.min_points_per_cell))
         splitNonPlanarPart(begin, end, cell_f, cuboids);
       begin = end;
     }
@@ -569,10 +570,10 @@ PlanarCuboidApproximation<PointT>::splitNonPlanarPart(
   const Eigen::Vector3f up = up_axis_.normalized();
   const Eigen::Vector3f e1 = getHorizontalReference();
   const Eigen::Vector3f e2 = up.cross(e1);
-  const float thickness = static_cast<float>(thickness_);
-  const double box_density = non_planar_density_threshold_ > 0.0
-                               ? non_planar_density_threshold_
-                               : density_threshold_;
+  const float thickness = static_cast<float>(params_.thickness_m);
+  const double box_density = params_.non_planar_density_threshold > 0.0
+                               ? params_.non_planar_density_threshold
+                               : params_.density_threshold;
   Eigen::Vector3f lo = coords_[*first];
   for (auto it = first; it != last; ++it)
     lo = lo.cwiseMin(coords_[*it]);
