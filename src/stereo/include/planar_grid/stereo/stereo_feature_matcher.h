@@ -194,13 +194,13 @@ public:
     int subpixel_search_px{2};
   };
 
-  /** \brief Throws planar_grid::Exception for out-of-range parameters (the ORB_GRID
-   * ones are checked for every feature type). */
   /** \brief The one declaration (key with unit, range, meaning) of each Params
    * member, in the order documented: the feature_matching stage, its reference and
    * the defaults (the members' initializers) are made from it. */
   static const ParamDeclarations<Params>& getParamDeclarations();
 
+  /** \brief Throws planar_grid::Exception for out-of-range parameters (the ORB_GRID
+   * ones are checked for every feature type). */
   explicit StereoFeatureMatcher(const Params& params);
   /** \brief Uses the default Params. (Two constructors rather than a default argument:
    * GCC rejects `= Params()` for a nested struct with member initialisers.) */
