@@ -22,31 +22,16 @@ namespace {
 using Segmentation = SACMultiPlaneSegmentation<pcl::PointXYZ>;
 using Approximation = PlanarCuboidApproximation<pcl::PointXYZ>;
 
-std::string
-methodName(SACMethod method)
-{
-  switch (method) {
-    case SACMethod::MSAC:
-      return "msac";
-    case SACMethod::PROSAC:
-      return "prosac";
-    case SACMethod::RANSAC:
-      break;
-  }
-  return "ransac";
-}
-
+/** The estimator named \a name, or a ValueError that lists the names. */
 SACMethod
 methodFromName(const std::string& name)
 {
-  if (name == "ransac")
-    return SACMethod::RANSAC;
-  if (name == "msac")
-    return SACMethod::MSAC;
-  if (name == "prosac")
-    return SACMethod::PROSAC;
-  throw py::value_error("SACMultiPlaneSegmentation: method '" + name
-                        + "' must be ransac, msac or prosac");
+  try {
+    return sacMethodFromName(name);
+  } catch (const Exception&) {
+    throw py::value_error("SACMultiPlaneSegmentation: method '" + name
+                          + "' must be ransac, msac or prosac");
+  }
 }
 
 /** (K, n) float64 array from a per-item function filling n values. */
@@ -474,7 +459,8 @@ bindSegmentationParameters(SegmentationClass& cls)
           "probability of drawing one outlier-free sample, in "
             + formatParamRange(sac_multi_plane_segmentation_ranges::PROBABILITY)),
         param<std::string>(
-          "method", [](const Segmentation& s) { return methodName(s.getMethodType()); },
+          "method",
+          [](const Segmentation& s) { return sacMethodName(s.getMethodType()); },
           [](Segmentation& s, const std::string& name) {
             s.setMethodType(methodFromName(name));
           },

@@ -24,23 +24,6 @@ sacMethodNames()
   return names;
 }
 
-const std::string&
-sacMethodName(SACMethod method)
-{
-  return sacMethodNames()[static_cast<std::size_t>(method)];
-}
-
-SACMethod
-sacMethodFromName(const std::string& name)
-{
-  const auto& names = sacMethodNames();
-  const auto it = std::find(names.begin(), names.end(), name);
-  if (it == names.end())
-    throw Exception("Unknown sample consensus method '" + name
-                    + "' (ransac, msac, prosac)");
-  return static_cast<SACMethod>(it - names.begin());
-}
-
 /** The hypotheses' parameters: eq. 11, the sample consensus, the refinement and the
  * merge of near-duplicate planes. */
 ParamDeclarations<Params>
@@ -231,6 +214,23 @@ makeParamDeclarations()
 }
 
 } // namespace
+
+const std::string&
+sacMethodName(SACMethod method)
+{
+  return sacMethodNames()[static_cast<std::size_t>(method)];
+}
+
+SACMethod
+sacMethodFromName(const std::string& name)
+{
+  const auto& names = sacMethodNames();
+  const auto it = std::find(names.begin(), names.end(), name);
+  if (it == names.end())
+    throw Exception("Unknown sample consensus method '" + name
+                    + "' (ransac, msac, prosac)");
+  return static_cast<SACMethod>(it - names.begin());
+}
 
 const ParamDeclarations<SACMultiPlaneSegmentationParams>&
 sacMultiPlaneSegmentationParamDeclarations()

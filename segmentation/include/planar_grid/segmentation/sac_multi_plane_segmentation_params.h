@@ -4,6 +4,8 @@
 
 #include <planar_grid/core/param_declaration.h>
 
+#include <string>
+
 namespace planar_grid {
 
 /** \brief The sample consensus estimator used for every plane hypothesis.
@@ -17,6 +19,14 @@ enum class SACMethod {
    * order (a seeded shuffle unless the sample cloud is already sorted). */
   PROSAC
 };
+
+/** \brief The name of \a method: "ransac", "msac" or "prosac" (the stage key
+ * multi_plane_segmentation.method and the Python keyword). \ingroup segmentation */
+const std::string& sacMethodName(SACMethod method);
+
+/** \brief The estimator named \a name ("ransac", "msac" or "prosac").
+ * \throws planar_grid::Exception for any other name */
+SACMethod sacMethodFromName(const std::string& name);
 
 /** \brief The parameters of SACMultiPlaneSegmentation that the pipeline's
  * multi_plane_segmentation stage sets, named by their keys (with the unit as suffix);
