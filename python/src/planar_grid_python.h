@@ -134,16 +134,10 @@ struct Cuboids {
 /** \brief One parameter of a bound class, for ParamBinder: its Python name, the type
  * \a V of its value, \a get(const T&) that reads it, \a set(T&, V) that writes it, and
  * its meaning with unit and range (ParamBinder adds the type and the default, read from
- * the C++ object). With \a UnsetByDefault the constructor's default is None, which
- * leaves the parameter unset: the C++ object's own rule then gives its value (e.g. a
- * threshold that equals another one until set), and \a doc states that rule. */
-template <typename V, bool UnsetByDefault, typename Get, typename Set> struct Param {
-  /** \brief The value type of the property. */
+ * the C++ object). */
+template <typename V, typename Get, typename Set> struct Param {
+  /** \brief The value type of the property and of the constructor argument. */
   using Value = V;
-  /** \brief The type of the constructor argument. */
-  using Init = std::conditional_t<UnsetByDefault, std::optional<V>, V>;
-  /** \brief Whether the constructor's default is None (unset). */
-  static constexpr bool UNSET_BY_DEFAULT = UnsetByDefault;
   /** \brief The name of the property and of the constructor argument. */
   const char* name;
   /** \brief Reads the value from the object. */
@@ -158,16 +152,8 @@ template <typename V, bool UnsetByDefault, typename Get, typename Set> struct Pa
 /** \brief A parameter whose constructor default is the value of a default-constructed
  * C++ object. */
 template <typename V, typename Get, typename Set>
-Param<V, false, Get, Set>
+Param<V, Get, Set>
 param(const char* name, Get get, Set set, std::string doc)
-{
-  return {name, std::move(get), std::move(set), std::move(doc)};
-}
-
-/** \brief A parameter whose constructor default is None (left unset; see Param). */
-template <typename V, typename Get, typename Set>
-Param<V, true, Get, Set>
-unsetParam(const char* name, Get get, Set set, std::string doc)
 {
   return {name, std::move(get), std::move(set), std::move(doc)};
 }
@@ -283,18 +269,14 @@ private:
     return python;
   }
 
-  /** \brief The constructor default of \a p: the value of \a defaults, or None. An
-   * array as a tuple, so that the signature shows no mutable default. */
+  /** \brief The constructor default of \a p: the value of \a defaults. An array as a
+   * tuple, so that the signature shows no mutable default. */
   template <typename P> static py::object defaultOf(const P& p, const T& defaults)
   {
-    if constexpr (P::UNSET_BY_DEFAULT)
-      return py::none();
-    else {
-      py::object value = toPython(std::invoke(p.get, defaults));
-      if (py::isinstance<py::list>(value))
-        value = py::tuple(value);
-      return value;
-    }
+    py::object value = toPython(std::invoke(p.get, defaults));
+    if (py::isinstance<py::list>(value))
+      value = py::tuple(value);
+    return value;
   }
 
   /** \brief Binds \a p as a property and adds it to the constructor's docstring. */
@@ -308,11 +290,9 @@ private:
     if (keyword) {
       const std::string value =
         py::repr(defaultOf(p, defaults)).template cast<std::string>();
-      if (!P::UNSET_BY_DEFAULT)
-        property_doc += " (default " + value + ")";
+      property_doc += " (default " + value + ")";
       argument_doc += ". Default " + value + ".";
-      init_doc += std::string(p.name) + " : " + type
-                  + (P::UNSET_BY_DEFAULT ? " or None" : "") + ", optional\n";
+      init_doc += std::string(p.name) + " : " + type + ", optional\n";
     } else {
       argument_doc += ".";
       init_doc += std::string(p.name) + " : " + type + "\n";
@@ -341,25 +321,16 @@ private:
       return py::repr(toPython(std::invoke(get, object))).template cast<std::string>();
     });
     Parameter parameter{p.name, pythonType<V>(), py::none(), keyword};
-    if (keyword) {
+    if (keyword)
       parameter.default_value = defaultOf(p, defaults);
-      if (P::UNSET_BY_DEFAULT)
-        parameter.annotation =
-          py::module_::import("typing").attr("Optional")[parameter.annotation];
-    }
     parameters_.push_back(std::move(parameter));
   }
 
-  /** \brief Sets one constructor argument; None for a parameter unset by default
-   * leaves it unset. */
+  /** \brief Sets one constructor argument. */
   template <typename P, typename I>
   static void setInitial(T& object, const P& p, const I& value)
   {
-    if constexpr (P::UNSET_BY_DEFAULT) {
-      if (value)
-        std::invoke(p.set, object, *value);
-    } else
-      std::invoke(p.set, object, value);
+    std::invoke(p.set, object, value);
   }
 
   /** \brief Binds the constructor and __signature__ (inspect.signature() cannot read
@@ -374,8 +345,8 @@ private:
   {
     const Check check = check_;
     const std::string class_name = class_name_;
-    auto make = [leading, keywords, check, class_name](typename L::Init... lead,
-                                                       typename K::Init... keyword) {
+    auto make = [leading, keywords, check, class_name](typename L::Value... lead,
+                                                       typename K::Value... keyword) {
       auto object = std::make_unique<T>();
       (setInitial(*object, std::get<I>(leading), lead), ...);
       (setInitial(*object, std::get<J>(keywords), keyword), ...);
