@@ -533,7 +533,15 @@ bindSegmentationParameters(SegmentationClass& cls)
           "the normal test spares a level plane as terrain only when the sensor "
           "origin lies more than this above it, meters, in "
             + formatParamRange(
-              sac_multi_plane_segmentation_ranges::MIN_TERRAIN_SENSOR_HEIGHT))));
+              sac_multi_plane_segmentation_ranges::MIN_TERRAIN_SENSOR_HEIGHT)),
+        param<double>(
+          "max_terrain_below_ratio", &Segmentation::getMaxTerrainBelowRatio,
+          &Segmentation::setMaxTerrainBelowRatio,
+          "the normal test spares a level plane as terrain only when at most this "
+          "many points per inlier lie more than 0.3 m below it, under its inliers, in "
+            + formatParamRange(
+              sac_multi_plane_segmentation_ranges::MAX_TERRAIN_BELOW_RATIO)
+            + "; 1 = no test")));
 }
 
 /** \brief segment(). */

@@ -278,7 +278,8 @@ CONSTRUCTOR_VALUES: Dict[Type[Any], Dict[str, object]] = {
         dense_hypothesis=False, lo_iterations=10, merge_planes=False,
         merge_angle_rad=0.2, merge_distance_m=0.05, up_axis=[0.0, -1.0, 0.0], seed=7,
         max_sample_size=5000, max_normal_angle_rad=0.3, normal_cell_m=0.1,
-        min_normal_agreement=0.5, min_sensor_height_m=1.0),
+        min_normal_agreement=0.5, min_sensor_height_m=1.0,
+        max_terrain_below_ratio=0.5),
     pg.PlanarCuboidApproximation: dict(
         min_cell_size_m=0.05, density_threshold=0.8, non_planar_density_threshold=0.7,
         min_width_m=0.2, min_height_m=0.3, thickness_m=0.05, min_points_per_cell=1,

@@ -138,6 +138,16 @@ inlierTestDeclarations()
       "ground: spared, it takes a stripe of every wall at its height); 0: every level "
       "plane below the sensor. Left out, it takes ground_removal's min_sensor_height_m "
       "(the same default)."),
+    declareReal<Params>(
+      "max_terrain_below_ratio",
+      [](auto& p) -> auto& { return p.max_terrain_below_ratio; },
+      ranges::MAX_TERRAIN_BELOW_RATIO, "",
+      "The normal and cluster tests spare a level plane as terrain only when the "
+      "frame's points more than 0.3 m below it, in the 0.3 m squares its inliers cover "
+      "(seen along the up axis), number at most this many per inlier: a slab through "
+      "car bonnets, a table top or a plane in mid-air has the road, the floor or the "
+      "walls' lower parts under it and is tested like a wall, so the ground removal "
+      "does not take what stands under it; 1 = no test."),
     declareInteger<Params>(
       "min_cluster_size", [](auto& p) -> auto& { return p.min_cluster_size; },
       ranges::MIN_CLUSTER_SIZE, "",

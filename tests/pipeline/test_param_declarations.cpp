@@ -173,7 +173,7 @@ TEST(ParamDeclarations, MultiPlaneSegmentationIsTheSegmentationsTableAndItsOwn)
   using Segmentation = planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZ>;
   const auto& table = Segmentation::getParamDeclarations();
   const auto& params = stage("multi_plane_segmentation").params;
-  ASSERT_EQ(table.size(), 30u);
+  ASSERT_EQ(table.size(), 31u);
   expectListedAsDeclared(table, params);
   // A default-constructed class holds the table's defaults (the pipeline's).
   const Segmentation defaults;
@@ -206,6 +206,7 @@ TEST(ParamDeclarations, MultiPlaneSegmentationIsTheSegmentationsTableAndItsOwn)
                                           "visibility_cell_m",
                                           "min_sensor_distance_m",
                                           "min_sensor_height_m",
+                                          "max_terrain_below_ratio",
                                           "min_cluster_size",
                                           "cluster_cell_m",
                                           "max_shell_ratio",

@@ -252,6 +252,8 @@ classParams()
      segmentation([](S& s, double v) { s.setMinSensorDistance(v); })},
     {mps, "min_sensor_height_m", seg::MIN_TERRAIN_SENSOR_HEIGHT,
      segmentation([](S& s, double v) { s.setMinTerrainSensorHeight(v); })},
+    {mps, "max_terrain_below_ratio", seg::MAX_TERRAIN_BELOW_RATIO,
+     segmentation([](S& s, double v) { s.setMaxTerrainBelowRatio(v); })},
     {mps, "min_cluster_size", seg::MIN_CLUSTER_SIZE,
      segmentation([](S& s, double v) { s.setMinClusterSize(toInt(v)); })},
     {mps, "cluster_cell_m", seg::CLUSTER_CELL,

@@ -1332,6 +1332,56 @@ TEST(SACMultiPlaneSegmentation, LevelPlaneJustBelowTheSensorIsNoTerrain)
   EXPECT_TRUE(planes.empty());
 }
 
+TEST(SACMultiPlaneSegmentation, LevelPlaneWithTheFloorUnderItIsNoTerrain)
+{
+  // The table beside the drum seen from 1.1 m above the table (the height rule spares
+  // it), now standing on a floor: 41 x 41 points every 0.1 m at z = 0, facing up.
+  // Returns the planes' counts of drum points, the level plane at z = 0.9 first.
+  const auto drumInPlanes = [](bool floor, double max_below_ratio) {
+    pcl::PointCloud<pcl::PointXYZ>::Ptr cloud;
+    std::size_t table = 0;
+    auto seg = tableBesideDrum(2.0f, cloud, table);
+    const std::size_t drum_end = cloud->size();
+    auto normals =
+      std::make_shared<pcl::PointCloud<pcl::Normal>>(*seg.getInputNormals());
+    for (int j = -20; floor && j <= 20; ++j)
+      for (int i = -20; i <= 20; ++i) {
+        cloud->push_back(pcl::PointXYZ(0.1f * static_cast<float>(i),
+                                       0.1f * static_cast<float>(j), 0.0f));
+        normals->push_back(pcl::Normal(0.0f, 0.0f, 1.0f));
+      }
+    seg.setInputCloud(cloud);
+    seg.setInputNormals(normals);
+    seg.setMaxPlanes(3);
+    seg.setMinTerrainSensorHeight(0.7);
+    seg.setMaxTerrainBelowRatio(max_below_ratio);
+    PlanarSegments planes;
+    seg.segment(planes);
+    std::vector<std::size_t> on_drum;
+    for (const auto& plane : planes) {
+      const auto& c = plane.model_coefficients.values;
+      EXPECT_GT(std::abs(c[2]), 0.999f);
+      std::size_t drum = 0;
+      for (const int i : plane.inliers.indices)
+        drum += static_cast<std::size_t>(i) >= table
+                && static_cast<std::size_t>(i) < drum_end;
+      on_drum.push_back(drum);
+    }
+    EXPECT_EQ(planes.size(), floor ? 2u : 1u);
+    return on_drum;
+  };
+  using Counts = std::vector<std::size_t>;
+  // No floor test: the table is spared as terrain and takes the drum's ring; the
+  // floor (z = 0, 2 m below the sensor) is terrain and holds no drum point.
+  EXPECT_EQ(drumInPlanes(true, 1.0), (Counts{0u, 3u * 188u}));
+  // With the test, a third of the points lie under the table: it is tested like a
+  // wall and keeps its own points; the floor, with nothing under it, is still terrain.
+  EXPECT_EQ(drumInPlanes(true, 0.05), (Counts{0u, 0u}));
+  // Without the floor nothing lies under the table (the drum's lowest ring is 0.3 m
+  // below it, within the margin): terrain again.
+  EXPECT_EQ(drumInPlanes(false, 0.05), (Counts{3u * 188u}));
+}
+
 TEST(SACMultiPlaneSegmentation, VisibilityConflictsMatchBruteForce)
 {
   // Random points around a tilted plane seen from a sensor off the origin, denser in

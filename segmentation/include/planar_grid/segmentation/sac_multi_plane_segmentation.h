@@ -473,6 +473,27 @@ public:
    * normal and cluster tests spare as terrain, in meters. */
   double getMinTerrainSensorHeight() const { return params_.min_sensor_height_m; }
 
+  /** \brief Sets the floor test of terrain: a level plane that the height rule of
+   * setMinTerrainSensorHeight() would spare is spared only when the input's points
+   * (those not given as inlier-only, before any plane took its inliers) lying more
+   * than 0.3 m below it, within the 0.3 m squares (across the up axis) that its
+   * selected points cover, number at most \a ratio per selected point. A road or a
+   * floor has only its noise under it; a slab fitted through the bonnets of parked
+   * cars, a table top or a plane through clutter in mid-air has the road, the floor or
+   * the walls' lower parts. A plane not spared passes the normal and cluster tests
+   * like a wall, and the ground removal, which takes the terrain planes and what
+   * stands on them, does not see it as terrain. Not in the paper.
+   * \param[in] ratio points per inlier, in
+   * sac_multi_plane_segmentation_ranges::MAX_TERRAIN_BELOW_RATIO (default 0.05; 1: no
+   * test, every level plane the height rule admits is spared). */
+  void setMaxTerrainBelowRatio(double ratio)
+  {
+    params_.max_terrain_below_ratio = ratio;
+  }
+  /** \brief Returns the largest number of points below a level plane, per inlier,
+   * for the normal and cluster tests to spare it as terrain. */
+  double getMaxTerrainBelowRatio() const { return params_.max_terrain_below_ratio; }
+
   /** \brief Sets the cluster test. A plane's footprint (its inliers projected onto it,
    * in square cells of setClusterCell()) falls apart into connected clusters (cells up
    * to two apart along each axis are connected: a gap of one empty cell is bridged).
@@ -762,7 +783,6 @@ private:
                         const detail::DensePoints& all,
                         const Eigen::Vector4f& plane,
                         const Eigen::Vector3f& origin,
-                        const Eigen::Vector3f& up,
                         float d_t,
                         std::size_t& count);
 

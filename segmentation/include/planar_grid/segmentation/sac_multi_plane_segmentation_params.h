@@ -80,6 +80,10 @@ struct SACMultiPlaneSegmentationParams {
   /** \brief Least height of the sensor above a level plane that the normal and
    * cluster tests spare as terrain, meters (0: any level plane below it). */
   double min_sensor_height_m{0.3};
+  /** \brief Largest ratio of the points more than 0.3 m below a level plane, under
+   * its inliers, to its inliers, for the normal and cluster tests to spare it as
+   * terrain (1: no test). */
+  double max_terrain_below_ratio{0.05};
   /** \brief Fewest inliers of a footprint cluster (0: no test). */
   int min_cluster_size{0};
   /** \brief Footprint cell edge of the cluster test, meters. */

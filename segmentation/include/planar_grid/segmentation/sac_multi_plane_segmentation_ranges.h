@@ -50,6 +50,8 @@ inline constexpr ParamRange VISIBILITY_CELL = ParamRange::openMin(0.0, 100.0);
 inline constexpr ParamRange MIN_SENSOR_DISTANCE = ParamRange::closed(0.0, 100.0);
 /** \brief setMinTerrainSensorHeight(), meters. */
 inline constexpr ParamRange MIN_TERRAIN_SENSOR_HEIGHT = ParamRange::closed(0.0, 100.0);
+/** \brief setMaxTerrainBelowRatio(), points per inlier: [0, 1]. */
+inline constexpr ParamRange MAX_TERRAIN_BELOW_RATIO = ParamRange::closed(0.0, 1.0);
 /** \brief Cluster test, fewest inliers of a cluster: [0, 100000000]. */
 inline constexpr ParamRange MIN_CLUSTER_SIZE = ParamRange::closed(0, 100000000);
 /** \brief Footprint cell edge of the cluster test: (0, 100] meters. */

@@ -37,7 +37,7 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
   namespace ranges = sac_multi_plane_segmentation_ranges;
   // One message per range, written from the range once (static: the returned pointer
   // stays valid).
-  static const std::array<std::string, 27> messages{
+  static const std::array<std::string, 28> messages{
     paramRangeMessage("distance_threshold", ranges::DISTANCE_THRESHOLD, "m"),
     paramRangeMessage("sample_distance_threshold", ranges::SAMPLE_DISTANCE_THRESHOLD,
                       "m"),
@@ -62,6 +62,7 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
     paramRangeMessage("min_sensor_distance", ranges::MIN_SENSOR_DISTANCE, "m"),
     paramRangeMessage("min_terrain_sensor_height", ranges::MIN_TERRAIN_SENSOR_HEIGHT,
                       "m"),
+    paramRangeMessage("max_terrain_below_ratio", ranges::MAX_TERRAIN_BELOW_RATIO),
     paramRangeMessage("min_cluster_size", ranges::MIN_CLUSTER_SIZE),
     paramRangeMessage("cluster_cell", ranges::CLUSTER_CELL, "m"),
     paramRangeMessage("max_shell_ratio", ranges::MAX_SHELL_RATIO),
@@ -71,7 +72,7 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
     paramRangeMessage("max_normal_angle", ranges::MAX_NORMAL_ANGLE, "rad"),
     paramRangeMessage("normal_cell", ranges::NORMAL_CELL, "m"),
     paramRangeMessage("min_normal_agreement", ranges::MIN_NORMAL_AGREEMENT)};
-  const std::array<bool, 27> valid{
+  const std::array<bool, 28> valid{
     ranges::DISTANCE_THRESHOLD.contains(params_.distance_threshold_m),
     ranges::SAMPLE_DISTANCE_THRESHOLD.contains(params_.sample_distance_threshold_m),
     ranges::DEPTH_NOISE_COEFFICIENT.contains(depth_noise_coefficient_),
@@ -92,6 +93,7 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
     ranges::VISIBILITY_CELL.contains(params_.visibility_cell_m),
     ranges::MIN_SENSOR_DISTANCE.contains(params_.min_sensor_distance_m),
     ranges::MIN_TERRAIN_SENSOR_HEIGHT.contains(params_.min_sensor_height_m),
+    ranges::MAX_TERRAIN_BELOW_RATIO.contains(params_.max_terrain_below_ratio),
     ranges::MIN_CLUSTER_SIZE.contains(params_.min_cluster_size),
     ranges::CLUSTER_CELL.contains(params_.cluster_cell_m),
     ranges::MAX_SHELL_RATIO.contains(params_.max_shell_ratio),
@@ -254,14 +256,17 @@ SACMultiPlaneSegmentation<PointT>::collectDensePoints(const Eigen::Vector3f& ori
     }
     dense.min_normal_cos = static_cast<float>(std::cos(params_.max_normal_angle_rad));
     dense.use_normals = true;
-    // Terrain planes are spared, as by the cluster test: a road's disparity is the
-    // sparsest and noisiest of a street's surfaces, and ground_removal takes the
-    // terrain out whole.
-    dense.terrain_up = up_axis_.normalized();
-    dense.terrain_origin = origin;
-    dense.terrain_cos = std::cos(detail::TERRAIN_TILT);
-    dense.terrain_min_height = static_cast<float>(params_.min_sensor_height_m);
   }
+  // Terrain planes are spared by the normal and cluster tests: a road's disparity is
+  // the sparsest and noisiest of a street's surfaces, and ground_removal takes the
+  // terrain out whole. A level plane with the frame's floor under it is no terrain.
+  dense.terrain_up = up_axis_.normalized();
+  dense.terrain_origin = origin;
+  dense.terrain_cos = std::cos(detail::TERRAIN_TILT);
+  dense.terrain_min_height = static_cast<float>(params_.min_sensor_height_m);
+  dense.terrain_max_below_ratio = static_cast<float>(params_.max_terrain_below_ratio);
+  if (params_.max_terrain_below_ratio < 1.0)
+    dense.setTerrainFrame();
   if (depth_noise_coefficient_ > 0.0) {
     // Eq. 11 at the stereo depth error of each point's range (eq. 4's Delta z).
     const auto coefficient = static_cast<float>(depth_noise_coefficient_);
@@ -614,7 +619,7 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
     }
     // The visibility and shell tests read every point's threshold for this plane.
     all.setPlaneThresholds(plane);
-    if (!passesPlaneTests(dense, all, plane, origin, up, d_t, count))
+    if (!passesPlaneTests(dense, all, plane, origin, d_t, count))
       continue;
     dense.selected(segment.inliers.indices);
     dense.removeSelected();

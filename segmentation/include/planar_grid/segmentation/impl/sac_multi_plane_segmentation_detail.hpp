@@ -20,6 +20,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -52,6 +53,18 @@ isTerrainPlane(const Eigen::Vector4f& plane,
     (c >= 0.0f ? 1.0f : -1.0f) * (plane.head<3>().dot(origin) + plane[3]);
   return std::abs(c) > cos_tilt && height > std::max(0.0f, min_height);
 }
+
+/** \brief Depth below a terrain plane beyond which a point of the frame counts as
+ * lying under it (DensePoints::isTerrain()), meters: a road's noise and a kerb's step
+ * stay within it. */
+constexpr float TERRAIN_BELOW_MARGIN = 0.3f;
+
+/** \brief Cell edge of a terrain plane's footprint in DensePoints::isTerrain(),
+ * meters. */
+constexpr float TERRAIN_BELOW_CELL = 0.3f;
+
+/** \brief Most footprint cells of a frame (DensePoints::setTerrainFrame()). */
+constexpr std::size_t MAX_FOOTPRINT_CELLS = std::size_t{1} << 22;
 
 /** \brief Least-squares plane (PCA) of the indexed points: the eigenvector of the
  * smallest eigenvalue of the covariance; false when fewer than 3 points. */
@@ -211,14 +224,104 @@ struct DensePoints {
   Eigen::Vector3f terrain_origin{Eigen::Vector3f::Zero()};
   float terrain_cos{2.0f};
   float terrain_min_height{0.0f};
+  /** Largest ratio of the frame's points lying more than TERRAIN_BELOW_MARGIN below
+   * a level plane, under its selected points' footprint, to those points (the frame
+   * holds a floor under it: a table, a shelf, a slab in mid-air that cuts the walls);
+   * 1: no test. */
+  float terrain_max_below_ratio{1.0f};
+  /** The frame's primary points as collected, before any plane took its inliers
+   * (what lies below a plane), and the index of each one's footprint cell. */
+  std::vector<float> frame_x, frame_y, frame_z;
+  std::vector<std::uint32_t> frame_cell;
+
+  /** \brief Keeps the primary points as the frame for isTerrain() and lays its grid
+   * of footprint cells (TERRAIN_BELOW_CELL squares across terrain_up, coarser when
+   * the points span more than MAX_FOOTPRINT_CELLS of them) over every point. Call
+   * after collecting the points and setting terrain_up. */
+  void setTerrainFrame()
+  {
+    frame_x.assign(x.begin(), x.begin() + static_cast<std::ptrdiff_t>(primary));
+    frame_y.assign(y.begin(), y.begin() + static_cast<std::ptrdiff_t>(primary));
+    frame_z.assign(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(primary));
+    cell_e1_ = terrain_up.unitOrthogonal();
+    cell_e2_ = terrain_up.cross(cell_e1_);
+    float u_min = std::numeric_limits<float>::max(), v_min = u_min;
+    float u_max = std::numeric_limits<float>::lowest(), v_max = u_max;
+    for (std::size_t k = 0; k < size(); ++k) {
+      const Eigen::Vector3f p(x[k], y[k], z[k]);
+      u_min = std::min(u_min, cell_e1_.dot(p));
+      u_max = std::max(u_max, cell_e1_.dot(p));
+      v_min = std::min(v_min, cell_e2_.dot(p));
+      v_max = std::max(v_max, cell_e2_.dot(p));
+    }
+    cell_u0_ = u_min;
+    cell_v0_ = v_min;
+    cell_size_ = TERRAIN_BELOW_CELL;
+    const auto cellsAlong = [&](float extent) {
+      return static_cast<std::size_t>(std::max(0.0f, extent) / cell_size_) + 1;
+    };
+    while (cellsAlong(u_max - u_min) * cellsAlong(v_max - v_min) > MAX_FOOTPRINT_CELLS)
+      cell_size_ *= 2.0f;
+    cells_u_ = cellsAlong(u_max - u_min);
+    cells_v_ = cellsAlong(v_max - v_min);
+    footprint_.assign(cells_u_ * cells_v_, 0);
+    frame_cell.resize(primary);
+    for (std::size_t k = 0; k < primary; ++k)
+      frame_cell[k] = cellOf(x[k], y[k], z[k]);
+    terrain_cache_valid_ = false;
+  }
+
+  /** \brief Whether \a plane is terrain: level and far enough below terrain_origin
+   * (isTerrainPlane()), and, with the selected points (mask) as its footprint of
+   * cells (setTerrainFrame()), at most terrain_max_below_ratio frame points per
+   * selected point more than TERRAIN_BELOW_MARGIN below it inside that footprint. The
+   * answer for the last plane asked is kept: asked again (the normal agreement and
+   * the cluster test of the same plane), it is the same. */
+  bool isTerrain(const Eigen::Vector4f& plane)
+  {
+    if (!isTerrainPlane(plane, terrain_up, terrain_origin, terrain_cos,
+                        terrain_min_height))
+      return false;
+    if (terrain_max_below_ratio >= 1.0f || frame_x.empty())
+      return true;
+    if (terrain_cache_valid_ && plane == terrain_cache_plane_)
+      return terrain_cache_;
+    // The normal oriented up: a point below the plane has a negative distance.
+    const float s = plane.head<3>().dot(terrain_up) >= 0.0f ? 1.0f : -1.0f;
+    const float a = s * plane[0], b = s * plane[1], c = s * plane[2];
+    const float d = s * plane[3] + TERRAIN_BELOW_MARGIN;
+    const std::size_t n = frame_x.size();
+    std::size_t below_anywhere = 0;
+    for (std::size_t k = 0; k < n; ++k)
+      below_anywhere += (a * frame_x[k] + b * frame_y[k] + c * frame_z[k] + d < 0.0f);
+    std::size_t selected = 0;
+    for (const auto m : mask)
+      selected += m;
+    const float bound = terrain_max_below_ratio * static_cast<float>(selected);
+    bool terrain = static_cast<float>(below_anywhere) <= bound;
+    if (!terrain) {
+      // Only the points under the plane's own footprint count.
+      for (std::size_t k = 0; k < mask.size(); ++k)
+        if (mask[k])
+          footprint_[cellOf(x[k], y[k], z[k])] = 1;
+      std::size_t below = 0;
+      for (std::size_t k = 0; k < n; ++k)
+        below += (a * frame_x[k] + b * frame_y[k] + c * frame_z[k] + d < 0.0f)
+                 && footprint_[frame_cell[k]];
+      std::fill(footprint_.begin(), footprint_.end(), std::uint8_t{0});
+      terrain = static_cast<float>(below) <= bound;
+    }
+    terrain_cache_plane_ = plane;
+    terrain_cache_ = terrain;
+    terrain_cache_valid_ = true;
+    return terrain;
+  }
 
   /** \brief Whether the normal test applies to \a plane (the normals present and
    * the plane no terrain). */
-  bool testsNormals(const Eigen::Vector4f& plane) const
+  bool testsNormals(const Eigen::Vector4f& plane)
   {
-    return use_normals
-           && !isTerrainPlane(plane, terrain_up, terrain_origin, terrain_cos,
-                              terrain_min_height);
+    return use_normals && !isTerrain(plane);
   }
   pcl::Indices index;
   std::vector<std::uint8_t> mask;
@@ -402,6 +505,30 @@ struct DensePoints {
     mask.resize(w);
     primary -= removed_primary;
   }
+
+private:
+  /** \brief Index of the footprint cell of a point (clamped into the grid). */
+  std::uint32_t cellOf(float px, float py, float pz) const
+  {
+    const Eigen::Vector3f p(px, py, pz);
+    const auto along = [&](float w, float w0, std::size_t cells) {
+      const float i = std::floor((w - w0) / cell_size_);
+      return static_cast<std::size_t>(
+        std::min(std::max(i, 0.0f), static_cast<float>(cells - 1)));
+    };
+    return static_cast<std::uint32_t>(along(cell_e1_.dot(p), cell_u0_, cells_u_)
+                                        * cells_v_
+                                      + along(cell_e2_.dot(p), cell_v0_, cells_v_));
+  }
+
+  Eigen::Vector3f cell_e1_{Eigen::Vector3f::UnitX()},
+    cell_e2_{Eigen::Vector3f::UnitY()};
+  float cell_u0_{0.0f}, cell_v0_{0.0f}, cell_size_{TERRAIN_BELOW_CELL};
+  std::size_t cells_u_{1}, cells_v_{1};
+  std::vector<std::uint8_t> footprint_;
+  Eigen::Vector4f terrain_cache_plane_{Eigen::Vector4f::Zero()};
+  bool terrain_cache_{false};
+  bool terrain_cache_valid_{false};
 };
 
 /** \brief Surface normals of struct-of-arrays points from a grid of moments: the

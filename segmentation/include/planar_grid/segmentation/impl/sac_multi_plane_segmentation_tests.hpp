@@ -60,7 +60,6 @@ SACMultiPlaneSegmentation<PointT>::passesPlaneTests(detail::DensePoints& dense,
                                                     const detail::DensePoints& all,
                                                     const Eigen::Vector4f& plane,
                                                     const Eigen::Vector3f& origin,
-                                                    const Eigen::Vector3f& up,
                                                     float d_t,
                                                     std::size_t& count)
 {
@@ -114,9 +113,7 @@ SACMultiPlaneSegmentation<PointT>::passesPlaneTests(detail::DensePoints& dense,
   // params_.min_sensor_height_m below the sensor) is spared, as by the normal test:
   // the layers of a noisy road fall apart into clusters, and the terrain removal
   // takes them out whole.
-  const bool terrain =
-    detail::isTerrainPlane(plane, up, origin, std::cos(detail::TERRAIN_TILT),
-                           static_cast<float>(params_.min_sensor_height_m));
+  const bool terrain = dense.isTerrain(plane);
   if (params_.min_cluster_size > 0 && !terrain) {
     const std::size_t removed = detail::removeSmallClusters(
       dense, plane, static_cast<float>(params_.cluster_cell_m),
