@@ -4,6 +4,7 @@
 //   map_live config/karlsruhe.yaml 10 live.pgmap
 #include <planar_grid/pipeline/frame_source.h>
 #include <planar_grid/pipeline/mapper.h>
+#include <planar_grid/pipeline/pipeline_config.h>
 
 #include <algorithm>
 #include <cstdlib>
@@ -20,7 +21,7 @@ main(int argc, char** argv)
   try {
     const auto config = planar_grid::loadPipelineConfig(argv[1]);
     const auto camera = planar_grid::createFrameSource(config.input);
-    planar_grid::Mapper mapper(config);
+    planar_grid::Mapper mapper(planar_grid::toMapperConfig(config));
     const std::size_t n = std::min<std::size_t>(std::stoul(argv[2]), camera->size());
     for (std::size_t i = 0; i < n; ++i) {
       planar_grid::Frame frame;

@@ -191,14 +191,38 @@ toPipelineConfig(const py::object& config)
   return loadPipelineConfig(path);
 }
 
+/** A Mapper's stages given as a configuration file, a dict of a file's content
+ * (toPipelineConfig()), a dict holding only its `pipeline` key, or that key's list of
+ * {type, params} (parseMapperConfig(): no input section; messages name "<stages>"). */
+MapperConfig
+toStages(const py::object& config)
+{
+  const bool is_list = py::isinstance<py::list>(config);
+  if (is_list || (py::isinstance<py::dict>(config) && !config.contains("input"))) {
+    py::object document = config;
+    if (is_list) {
+      py::dict wrapped;
+      wrapped["pipeline"] = config;
+      document = wrapped;
+    }
+    const std::string text = py::str(
+      py::module_::import("json").attr("dumps")(document, py::arg("indent") = 2));
+    const std::string folder = py::str(py::module_::import("os").attr("getcwd")());
+    py::gil_scoped_release release;
+    return parseMapperConfig(text, "<stages>", folder);
+  }
+  return toMapperConfig(toPipelineConfig(config));
+}
+
 /** The docstring of the Mapper class. */
 constexpr const char* MAPPER_DOC = R"doc(Builds a map frame by frame from your data.
 
-The C++ planar_grid::Mapper: each call runs one frame through the pipeline a YAML
-configuration describes (the stages planar_grid_pipeline and run_pipeline() run), so the
-same frames give the same map file, byte for byte. The configuration's input section
-only says what the pipeline takes (stereo pairs or point clouds) and where the poses
-come from; its files are not read. The pipeline needs a map_integration stage.
+The C++ planar_grid::Mapper: each call runs one frame through the stages of a pipeline
+(those of a YAML configuration: the stages planar_grid_pipeline and run_pipeline() run,
+so the same frames give the same map file, byte for byte). No input file is read. The
+mapper takes stereo pairs when a stage reads stereo images (stereo_disparity,
+feature_matching), else point clouds and depth images. The pipeline needs a
+map_integration stage.
 
 Threads: integrate_stereo() and integrate_cloud() release the GIL while the frame is
 integrated; calls from several threads (and reset()) run one frame at a time. Another
@@ -210,15 +234,18 @@ that integrates.
 
 Parameters
 ----------
-config : str, os.PathLike or dict
+config : str, os.PathLike, dict or list
     The configuration file (schema: config/example.yaml), or its content as a dict
-    (e.g. the file's yaml.safe_load with a parameter changed); a dict's relative paths
-    are resolved against the working folder.
+    (e.g. the file's yaml.safe_load with a parameter changed); or the stages alone: a
+    dict with only the key ``pipeline``, or its list of ``{"type": ..., "params":
+    {...}}`` dicts, in run order (keys left out take their defaults; no input section).
+    A dict's relative paths are resolved against the working folder.
 
 Raises
 ------
 planar_grid.ConfigError
-    (a ValueError) for a bad configuration; a dict's errors name "<config dict>".
+    (a ValueError) for a bad configuration; a dict's errors name "<config dict>", the
+    stages' "<stages>".
 TypeError
     For a dict holding values JSON cannot write (e.g. numpy scalars: use float()).
 planar_grid.Error
@@ -469,8 +496,9 @@ bindMapperState(MapperClass& cls)
       },
       "numpy.ndarray, shape (F, 4, 4): world_T_camera of each integrated frame.")
     .def("__repr__", [](const Mapper& self) {
-      return "<planar_grid.Mapper: " + self.getConfig().source_file + ", "
-             + std::to_string(self.getFrameCount()) + " frames>";
+      const std::string& name = self.getConfig().name;
+      return "<planar_grid.Mapper: " + (name.empty() ? std::string("<stages>") : name)
+             + ", " + std::to_string(self.getFrameCount()) + " frames>";
     });
 }
 
@@ -541,9 +569,9 @@ bindMapper(py::module_& m)
   bindMapReadLock(m);
   MapperClass cls(m, "Mapper", MAPPER_DOC);
   cls.def(py::init([](const py::object& config) {
-            const PipelineConfig parsed = toPipelineConfig(config);
+            const MapperConfig stages = toStages(config);
             py::gil_scoped_release release;
-            return std::make_unique<Mapper>(parsed);
+            return std::make_unique<Mapper>(stages);
           }),
           py::arg("config"));
   bindMapperImageFrames(cls);

@@ -137,6 +137,42 @@ def test_a_mapper_takes_the_configuration_as_a_dict(main_job: pathlib.Path,
         pg.Mapper(config)
 
 
+def test_a_mapper_takes_the_stages_alone(main_job: pathlib.Path,
+                                         tmp_path: pathlib.Path) -> None:
+    # The file's stage list, with no input section (as a list or as {"pipeline": ...}),
+    # maps like the file; keys left out take their defaults; bad stages name "<stages>".
+    yaml = pytest.importorskip("yaml")
+    with open(main_job, encoding="utf-8") as stream:
+        stages = yaml.safe_load(stream)["pipeline"]
+    frames = pg.InputFrames(main_job)
+    mappers = [pg.Mapper(stages), pg.Mapper({"pipeline": stages}), pg.Mapper(main_job)]
+    assert repr(mappers[0]) == "<planar_grid.Mapper: <stages>, 0 frames>"
+    for i in range(2):
+        f = frames[i]
+        for mapper in mappers:
+            mapper.integrate_stereo(f["left"], f["right"], f["calibration"],
+                                    f["world_T_camera"])
+    for k, mapper in enumerate(mappers):
+        mapper.save(tmp_path / f"{k}.pgmap")
+    expected = (tmp_path / "2.pgmap").read_bytes()
+    assert (tmp_path / "0.pgmap").read_bytes() == expected
+    assert (tmp_path / "1.pgmap").read_bytes() == expected
+
+    # A point-cloud pipeline: no stage reads stereo images.
+    clouds = pg.Mapper([{"type": "voxel_grid", "params": {"leaf_size_m": 0.05}},
+                        {"type": "transform_to_world"},
+                        {"type": "multi_plane_segmentation"},
+                        {"type": "planar_cuboid_approximation"},
+                        {"type": "map_integration"}])
+    with pytest.raises(pg.Error, match="takes point clouds"):
+        clouds.integrate_stereo(frames[0]["left"], frames[0]["right"],
+                                frames[0]["calibration"], np.eye(4))
+    with pytest.raises(pg.ConfigError, match=r"<stages>:\d+:\d+: .*'map_integration' needs"):
+        pg.Mapper([{"type": "map_integration"}])
+    with pytest.raises(pg.ConfigError, match=r"<stages>:\d+:\d+: .*'output'"):
+        pg.Mapper({"pipeline": stages, "output": {}})
+
+
 def test_bad_input_raises(main_job: pathlib.Path) -> None:
     frames = pg.InputFrames(main_job)
     f = frames[0]

@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/mapper.h>
-#include <planar_grid/pipeline/stage.h>
 
 #include <pcl/common/io.h>
 #include <pcl/console/print.h>
@@ -12,6 +11,7 @@
 #include <limits>
 #include <string>
 
+#include "stage_run.h"
 #include "stereo_pair_check.h"
 
 namespace planar_grid {
@@ -31,13 +31,12 @@ contains(const std::vector<StageData>& data, StageData d)
   return std::find(data.begin(), data.end(), d) != data.end();
 }
 
+/** The frames a mapper takes, in messages. */
 std::string
-inputName(InputConfig::Type type)
+inputName(bool stereo)
 {
-  return type == InputConfig::Type::STEREO_SEQUENCE ? "stereo pairs (input.type "
-                                                      "stereo_sequence)"
-                                                    : "point clouds (input.type "
-                                                      "pcd_files)";
+  return stereo ? "stereo pairs (a stage of it reads stereo images)"
+                : "point clouds (no stage of it reads stereo images)";
 }
 
 /** The value of counter \a name in \a counters, 0 when absent. */
@@ -53,13 +52,45 @@ counterValue(const std::vector<std::pair<std::string, double>>& counters,
 
 } // namespace
 
-Mapper::Mapper(const PipelineConfig& config) :
-    config_(config), runner_(config_, PipelineRunner::FrameSupply::CALLER)
+Mapper::Mapper(const MapperConfig& config) : config_(config)
 {
+  // Every stage's needs must come from the frames or an earlier stage; the poses come
+  // with the frames unless a stage estimates them, which integrate() checks per frame.
+  std::vector<const StageInfo*> infos;
+  for (const StageSpec& spec : config_.stages) {
+    const StageInfo* info = findStage(spec.type);
+    if (!info)
+      throw ConfigError(config_.name, spec.line, spec.column,
+                        "unknown stage type '" + spec.type
+                          + "'; known types: " + knownStageTypes());
+    infos.push_back(info);
+    takes_stereo_ = takes_stereo_ || contains(info->needs, StageData::STEREO_IMAGES);
+  }
+  std::vector<StageData> available{
+    takes_stereo_ ? StageData::STEREO_IMAGES : StageData::CLOUD, StageData::POSES};
   bool has_map = false;
-  for (const auto& sc : config_.stages) {
-    // The runner has built every stage, so each type is in the registry.
-    const StageInfo& info = *findStage(sc.type);
+  for (std::size_t s = 0; s < config_.stages.size(); ++s) {
+    StageSpec& spec = config_.stages[s];
+    const StageInfo& info = *infos[s];
+    // The keys the spec leaves out take the table's defaults.
+    ParamValues params = defaultParams(info.params);
+    for (const auto& [key, value] : spec.params.values()) {
+      if (params.values().count(key) == 0)
+        throw ConfigError(config_.name, spec.line, spec.column,
+                          "stage '" + spec.type + "' has no parameter '" + key
+                            + "'; its parameters:\n" + describeParams(info.params));
+      params.set(key, value);
+    }
+    spec.params = std::move(params);
+    for (const StageData need : info.needs)
+      if (!contains(available, need))
+        throw ConfigError(config_.name, spec.line, spec.column,
+                          "stage '" + spec.type + "' needs " + stageDataName(need)
+                            + ", which neither the frames nor an earlier stage give");
+    for (const StageData d : info.produces)
+      available.push_back(d);
+    stages_.push_back(stages::createStage(spec.type, spec.params, config_.name,
+                                          spec.line, spec.column));
     const bool writes_map = contains(info.produces, StageData::MAP);
     writes_map_.push_back(writes_map);
     has_map = has_map || writes_map;
@@ -67,38 +98,41 @@ Mapper::Mapper(const PipelineConfig& config) :
     needs_poses_ = needs_poses_ || contains(info.needs, StageData::POSES);
   }
   if (!has_map)
-    throw Exception("Mapper: the pipeline of " + config_.source_file
+    throw Exception("Mapper: " + pipelineName()
                     + " has no map_integration stage, so it builds no map");
-  // Readers are locked out from the first stage that changes the map to the first
-  // stage after it that does not (or the end of the frame): processFrame() runs every
-  // stage on this thread, right after its callback.
-  runner_.setStageCallback([this](std::size_t s, Frame& /*frame*/) {
-    if (writes_map_[s] && !write_lock_.owns_lock()) {
-      const auto t = std::chrono::steady_clock::now();
-      write_lock_.lock();
-      locked_at_ = std::chrono::steady_clock::now();
-      lock_wait_ms_ +=
-        std::chrono::duration<double, std::milli>(locked_at_ - t).count();
-    } else if (!writes_map_[s] && write_lock_.owns_lock()) {
-      exclusive_ms_ += msSince(locked_at_);
-      write_lock_.unlock();
-    }
-  });
-  runner_.start();
+  start();
 }
-
-Mapper::Mapper(const std::string& config_path) : Mapper(loadPipelineConfig(config_path))
-{}
 
 Mapper::~Mapper() = default;
 
-void
-Mapper::requireInput(InputConfig::Type type, const char* call) const
+std::string
+Mapper::pipelineName() const
 {
-  if (config_.input.type != type)
-    throw Exception(std::string("Mapper::") + call + ": the pipeline of "
-                    + config_.source_file + " takes " + inputName(config_.input.type)
-                    + ", not " + inputName(type));
+  return config_.name.empty() ? std::string("the mapper's pipeline")
+                              : "the pipeline of " + config_.name;
+}
+
+void
+Mapper::start()
+{
+  stage_reports_.clear();
+  for (const StageSpec& spec : config_.stages) {
+    StageReport sr;
+    sr.type = spec.type;
+    stage_reports_.push_back(sr);
+  }
+  state_ = PipelineState();
+  trajectory_.clear();
+  for (auto& stage : stages_)
+    stage->start(state_);
+}
+
+void
+Mapper::requireInput(bool stereo, const char* call) const
+{
+  if (takes_stereo_ != stereo)
+    throw Exception(std::string("Mapper::") + call + ": " + pipelineName() + " takes "
+                    + inputName(takes_stereo_) + ", not " + inputName(stereo));
 }
 
 FrameStats
@@ -125,7 +159,7 @@ Mapper::integrateStereoPair(const cv::Mat& left,
                             const Eigen::Isometry3d* world_T_camera)
 {
   const std::lock_guard<std::mutex> frame_lock(frame_mutex_);
-  requireInput(InputConfig::Type::STEREO_SEQUENCE, "integrateStereo");
+  requireInput(true, "integrateStereo");
   const auto size = [](const cv::Mat& image) {
     return std::to_string(image.cols) + "x" + std::to_string(image.rows) + " px";
   };
@@ -200,7 +234,7 @@ Mapper::integrateCloud(const Frame::Cloud& cloud,
                        const Eigen::Isometry3d& world_T_sensor)
 {
   const std::lock_guard<std::mutex> frame_lock(frame_mutex_);
-  requireInput(InputConfig::Type::PCD_FILES, "integrateCloud");
+  requireInput(false, "integrateCloud");
   if (cloud.empty())
     throw Exception("Mapper::integrateCloud: the cloud is empty");
   Frame frame;
@@ -217,7 +251,7 @@ Mapper::integrateDepth(const cv::Mat& depth,
                        const Eigen::Isometry3d& world_T_camera)
 {
   const std::lock_guard<std::mutex> frame_lock(frame_mutex_);
-  requireInput(InputConfig::Type::PCD_FILES, "integrateDepth");
+  requireInput(false, "integrateDepth");
   if (depth.empty())
     throw Exception("Mapper::integrateDepth: the depth image is empty");
   if (depth.type() != CV_16UC1 && depth.type() != CV_32FC1)
@@ -278,11 +312,11 @@ Mapper::integrate(Frame& frame, const Eigen::Isometry3d* world_T_camera)
 {
   const auto start = std::chrono::steady_clock::now();
   if (world_T_camera && estimates_poses_)
-    throw Exception("Mapper: the pipeline of " + config_.source_file
+    throw Exception("Mapper: " + pipelineName()
                     + " estimates the poses (visual_odometry stage), which would "
                       "replace the pose given; call without world_T_camera");
   if (!world_T_camera && needs_poses_ && !estimates_poses_)
-    throw Exception("Mapper: no pose given, and the pipeline of " + config_.source_file
+    throw Exception("Mapper: no pose given, and " + pipelineName()
                     + " has no visual_odometry stage to estimate it: pass "
                       "world_T_camera");
   frame.has_pose = world_T_camera != nullptr;
@@ -293,11 +327,32 @@ Mapper::integrate(Frame& frame, const Eigen::Isometry3d* world_T_camera)
   frame.file_index = static_cast<int>(sequence_number);
   frame.name = "#" + std::to_string(sequence_number);
 
-  const std::vector<StageReport> before = runner_.report().stages;
+  const std::vector<StageReport> before = stage_reports_;
   lock_wait_ms_ = 0.0;
   exclusive_ms_ = 0.0;
+  // Readers are locked out from the first stage that changes the map to the first
+  // stage after it that does not (or the end of the frame); every stage runs on this
+  // thread, right after this callback.
+  const stages::StageCallback lock_map = [this](std::size_t s, Frame& /*frame*/) {
+    if (writes_map_[s] && !write_lock_.owns_lock()) {
+      const auto t = std::chrono::steady_clock::now();
+      write_lock_.lock();
+      locked_at_ = std::chrono::steady_clock::now();
+      lock_wait_ms_ +=
+        std::chrono::duration<double, std::milli>(locked_at_ - t).count();
+    } else if (!writes_map_[s] && write_lock_.owns_lock()) {
+      exclusive_ms_ += msSince(locked_at_);
+      write_lock_.unlock();
+    }
+  };
+  std::vector<stages::StageSample> samples;
+  samples.reserve(stages_.size());
   try {
-    runner_.processFrame(frame);
+    stages::CloudCount last_count;
+    for (std::size_t s = 0; s < stages_.size(); ++s)
+      samples.push_back(stages::runStage(*stages_[s], s, config_.stages[s].type,
+                                         lock_map, frame, state_, sequence_number,
+                                         last_count));
   } catch (...) {
     if (write_lock_.owns_lock())
       write_lock_.unlock();
@@ -307,11 +362,16 @@ Mapper::integrate(Frame& frame, const Eigen::Isometry3d* world_T_camera)
     exclusive_ms_ += msSince(locked_at_);
     write_lock_.unlock();
   }
+  for (std::size_t s = 0; s < samples.size(); ++s)
+    stages::addSample(stage_reports_[s], samples[s]);
+  // After the stages: visual_odometry sets the pose of frames given none.
+  if (frame.has_pose)
+    trajectory_.push_back(frame.world_T_camera);
   ++frames_;
 
   FrameStats stats;
   stats.sequence_number = frame.sequence_number;
-  const std::vector<StageReport>& after = runner_.report().stages;
+  const std::vector<StageReport>& after = stage_reports_;
   for (std::size_t s = 0; s < after.size(); ++s) {
     const StageReport& a = after[s];
     const StageReport& b = before[s];
@@ -328,7 +388,7 @@ Mapper::integrate(Frame& frame, const Eigen::Isometry3d* world_T_camera)
   stats.cuboids = frame.cuboids.size();
   stats.world_T_camera = frame.world_T_camera;
   // Only this thread changes the map, and its queries are safe beside the readers'.
-  stats.map_cuboids = runner_.state().map->getSurfaceLayer().getCuboidCount();
+  stats.map_cuboids = state_.map->getSurfaceLayer().getCuboidCount();
   stats.lock_wait_ms = lock_wait_ms_;
   stats.exclusive_ms = exclusive_ms_;
   stats.total_ms = msSince(start);
@@ -338,7 +398,7 @@ Mapper::integrate(Frame& frame, const Eigen::Isometry3d* world_T_camera)
 Mapper::MapReader
 Mapper::readMap() const
 {
-  return MapReader(map_mutex_, runner_.state().map);
+  return MapReader(map_mutex_, state_.map);
 }
 
 void
@@ -352,7 +412,7 @@ Mapper::reset()
 {
   const std::lock_guard<std::mutex> frame_lock(frame_mutex_);
   const std::unique_lock<WriterPreferringSharedMutex> lock(map_mutex_);
-  runner_.start();
+  start();
   frames_ = 0;
 }
 

@@ -418,26 +418,15 @@ checkDataFlow(const Reader& r,
   }
 }
 
-PipelineConfig
-parseRoot(const YAML::Node& root,
-          const std::string& source,
-          const std::string& base,
-          const std::vector<std::string>& overrides)
+/** Parses the stage list `pipeline:` of \a root into \a config's stages and checks
+ * them against \a config's input (what it gives the first stage, the poses). */
+void
+parseStages(const Reader& r,
+            const YAML::Node& root,
+            PipelineConfig& config,
+            const std::vector<std::string>& overrides)
 {
-  const Reader r(source, base);
-  if (!root || root.IsNull())
-    throw ConfigError(source, 0, 0,
-                      "the file is empty; expected input:, pipeline:, output:");
-  r.checkKeys(root, {"input", "pipeline", "output"}, "the top level");
-  PipelineConfig config;
-  config.source_file = source;
-
-  const YAML::Node input = root["input"];
-  if (!input)
-    r.fail(root, "the top level needs the key 'input'");
-  r.requireMap(input, "input");
-  config.input = parseInput(r, input);
-
+  const std::string& source = config.source_file;
   const YAML::Node stages = root["pipeline"];
   if (!stages)
     r.fail(root, "the top level needs the key 'pipeline' (a list of {type, params})");
@@ -492,10 +481,71 @@ parseRoot(const YAML::Node& root,
   }
   checkDataFlow(r, stages, config);
   shareStageParams(r, stages, config.stages, overrides);
+}
+
+PipelineConfig
+parseRoot(const YAML::Node& root,
+          const std::string& source,
+          const std::string& base,
+          const std::vector<std::string>& overrides)
+{
+  const Reader r(source, base);
+  if (!root || root.IsNull())
+    throw ConfigError(source, 0, 0,
+                      "the file is empty; expected input:, pipeline:, output:");
+  r.checkKeys(root, {"input", "pipeline", "output"}, "the top level");
+  PipelineConfig config;
+  config.source_file = source;
+
+  const YAML::Node input = root["input"];
+  if (!input)
+    r.fail(root, "the top level needs the key 'input'");
+  r.requireMap(input, "input");
+  config.input = parseInput(r, input);
+
+  parseStages(r, root, config, overrides);
 
   if (const YAML::Node output = root["output"])
     config.output = parseOutput(r, output, config.input);
   return config;
+}
+
+/** The stages of a document holding only `pipeline:`, checked as a file's are
+ * against the frames a Mapper takes: stereo pairs when a stage reads stereo images,
+ * else point clouds, each with its pose unless a visual_odometry stage makes it. */
+MapperConfig
+parseMapperRoot(const YAML::Node& root,
+                const std::string& source,
+                const std::string& base,
+                const std::vector<std::string>& overrides)
+{
+  const Reader r(source, base);
+  if (!root || root.IsNull())
+    throw ConfigError(source, 0, 0, "the stages are empty; expected pipeline:");
+  r.checkKeys(root, {"pipeline"}, "a mapper's stages");
+  PipelineConfig config;
+  config.source_file = source;
+  bool stereo = false, odometry = false;
+  if (const YAML::Node stages = root["pipeline"]; stages && stages.IsSequence())
+    for (const auto& stage : stages) {
+      // Malformed entries are reported by parseStages().
+      if (!stage.IsMap() || !stage["type"] || !stage["type"].IsScalar())
+        continue;
+      const StageInfo* info = findStage(stage["type"].Scalar());
+      stereo = stereo
+               || (info
+                   && std::find(info->needs.begin(), info->needs.end(),
+                                StageData::STEREO_IMAGES)
+                        != info->needs.end());
+      odometry = odometry || stage["type"].Scalar() == "visual_odometry";
+    }
+  config.input.type =
+    stereo ? InputConfig::Type::STEREO_SEQUENCE : InputConfig::Type::PCD_FILES;
+  // The caller gives each frame's pose (as a tf chain would: from outside the
+  // pipeline), unless the visual_odometry stage estimates it.
+  config.input.poses_format = odometry ? PoseFormat::ODOMETRY : PoseFormat::TF;
+  parseStages(r, root, config, overrides);
+  return toMapperConfig(config);
 }
 
 } // namespace
@@ -644,6 +694,20 @@ parsePipelineConfig(const std::string& yaml_text,
   }
 }
 
+MapperConfig
+parseMapperConfig(const std::string& yaml_text,
+                  const std::string& source_name,
+                  const std::string& base_folder)
+{
+  const YAML::Node root = loadYamlDocument(yaml_text, source_name);
+  try {
+    return parseMapperRoot(root, source_name, base_folder, {});
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(source_name, e.mark.is_null() ? 0 : e.mark.line + 1,
+                      e.mark.is_null() ? 0 : e.mark.column + 1, e.msg);
+  }
+}
+
 PipelineConfig
 loadPipelineConfig(const std::string& path)
 {
@@ -682,6 +746,22 @@ sharedStageParams()
      "terrain at; leave the map's key out to take the ground removal's value"},
   };
   return shared;
+}
+
+MapperConfig
+toMapperConfig(const PipelineConfig& config)
+{
+  MapperConfig mapper;
+  mapper.name = config.source_file;
+  for (const StageConfig& sc : config.stages)
+    mapper.stages.push_back({sc.type, sc.params, sc.line, sc.column});
+  return mapper;
+}
+
+MapperConfig
+loadMapperConfig(const std::string& path)
+{
+  return toMapperConfig(loadPipelineConfig(path));
 }
 
 } // namespace planar_grid

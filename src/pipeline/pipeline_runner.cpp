@@ -26,11 +26,18 @@
 #include <thread>
 
 #include "resume_data.h"
+#include "stage_run.h"
 #include "stages.h"
 
 namespace planar_grid {
 
 namespace {
+
+using stages::addSample;
+using stages::CloudCount;
+using stages::runStage;
+using stages::StageSample;
+using stages::threadCpuMs;
 
 /** \a value for report.json: an integer when \a is_count and \a value is a whole number
  * a double holds exactly (every count is), else a float. */
@@ -74,41 +81,6 @@ peakResidentMemoryBytes()
   return static_cast<std::uint64_t>(usage.ru_maxrss) * 1024u;
 }
 
-/** What one stage did to one frame, recorded where it ran and added to the report on
- * the main thread in frame order. */
-struct StageSample {
-  double ms{0.0};
-  double cpu_ms{0.0};
-  std::uint64_t points_in{0};
-  std::uint64_t points_out{0};
-  std::vector<std::pair<std::string, double>> counters;
-};
-
-/** The valid points of the cloud a stage left behind. The next stage starts from the
- * same cloud, unchanged (nothing runs between two stages of a frame), so its count of
- * the points in is this one. */
-struct CloudCount {
-  const Frame::Cloud* cloud{nullptr};
-  const void* data{nullptr};
-  std::size_t size{0};
-  std::uint64_t valid{0};
-
-  bool counts(const Frame::Cloud& c) const
-  {
-    return &c == cloud && c.points.data() == data && c.size() == size;
-  }
-};
-
-/** CPU time of the calling thread, milliseconds. */
-double
-threadCpuMs()
-{
-  timespec t{};
-  if (::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t) != 0)
-    return 0.0;
-  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
-}
-
 /** CPU time of the whole process (user and system, every thread), milliseconds. */
 double
 processCpuMs()
@@ -131,62 +103,6 @@ struct PreparedFrame {
   double cpu_ms{0.0};
   std::vector<StageSample> samples;
 };
-
-/** Runs stage \a s (\a stage) on \a frame, after \a callback when it is set, and
- * records its time, points and counters; failures name the frame, its position \a i
- * and the stage. */
-StageSample
-runStage(Stage& stage,
-         std::size_t s,
-         const std::string& type,
-         const PipelineRunner::StageCallback& callback,
-         Frame& frame,
-         PipelineState& state,
-         std::size_t i,
-         CloudCount& last_count)
-{
-  using Clock = std::chrono::steady_clock;
-  if (callback)
-    callback(s, frame);
-  StageSample sample;
-  const bool counts = stage.countsCloudPoints();
-  if (counts && frame.cloud)
-    sample.points_in = last_count.counts(*frame.cloud)
-                         ? last_count.valid
-                         : stages::countValidPoints(*frame.cloud);
-  const double cpu_start = threadCpuMs();
-  const auto t = Clock::now();
-  try {
-    stage.process(frame, state);
-  } catch (const Exception& e) {
-    throw Exception("frame " + frame.name + " (" + std::to_string(i) + "), stage '"
-                    + type + "': " + e.what());
-  }
-  sample.ms = std::chrono::duration<double, std::milli>(Clock::now() - t).count();
-  sample.cpu_ms = threadCpuMs() - cpu_start;
-  if (counts && frame.cloud) {
-    sample.points_out = stages::countValidPoints(*frame.cloud);
-    last_count = {frame.cloud.get(), frame.cloud->points.data(), frame.cloud->size(),
-                  sample.points_out};
-  } else
-    last_count = {};
-  stage.counters(frame, sample.counters);
-  return sample;
-}
-
-void
-addSample(StageReport& sr, const StageSample& sample)
-{
-  sr.total_ms += sample.ms;
-  sr.max_ms = std::max(sr.max_ms, sample.ms);
-  ++sr.frames;
-  sr.cpu_ms += sample.cpu_ms;
-  ++sr.cpu_frames;
-  sr.points_in += sample.points_in;
-  sr.points_out += sample.points_out;
-  for (const auto& [name, value] : sample.counters)
-    sr.addCounter(name, value);
-}
 
 /** Adds frame \a i's stage samples to \a report, its pose to \a trajectory, and
  * calls \a callback with each stage's milliseconds. */
@@ -304,22 +220,9 @@ balancedReadAhead(const RunReport& report, std::size_t ahead)
 PipelineRunner::PipelineRunner(const PipelineConfig& config, FrameSupply supply) :
     config_(config)
 {
-  for (const auto& sc : config_.stages) {
-    const StageInfo* info = findStage(sc.type);
-    if (!info)
-      throw ConfigError(config_.source_file, sc.line, sc.column,
-                        "unknown stage type '" + sc.type
-                          + "'; known types: " + knownStageTypes());
-    try {
-      stages_.push_back(info->create(sc.params));
-    } catch (const ConfigError&) {
-      throw;
-    } catch (const Exception& e) {
-      // A combination of parameters the stage rejects (e.g. SGBM constraints).
-      throw ConfigError(config_.source_file, sc.line, sc.column,
-                        "stage '" + sc.type + "': " + e.what());
-    }
-  }
+  for (const auto& sc : config_.stages)
+    stages_.push_back(
+      stages::createStage(sc.type, sc.params, config_.source_file, sc.line, sc.column));
   if (supply == FrameSupply::INPUT) {
     source_ = createFrameSource(config_.input);
     end_ = source_->size();
@@ -628,17 +531,6 @@ PipelineRunner::frameLocalPrefix() const
     while (front < stages_.size() && stages_[front]->isFrameLocal())
       ++front;
   return front;
-}
-
-void
-StageReport::addCounter(const std::string& name, double value)
-{
-  for (auto& [key, sum] : counters)
-    if (key == name) {
-      sum += value;
-      return;
-    }
-  counters.emplace_back(name, value);
 }
 
 std::string

@@ -63,7 +63,7 @@ struct Job {
           "  - type: multi_plane_segmentation\n"
           "  - type: planar_cuboid_approximation\n  - type: map_integration\n",
       "fuzz_live_stereo.yaml", "/");
-    mapper = std::make_unique<planar_grid::Mapper>(config);
+    mapper = std::make_unique<planar_grid::Mapper>(planar_grid::toMapperConfig(config));
   }
   ~Job()
   {

@@ -23,6 +23,8 @@
 #include <set>
 #include <string>
 #include <thread>
+#include <utility>
+#include <variant>
 #include <vector>
 
 namespace fs = std::filesystem;
@@ -123,7 +125,7 @@ TEST_F(MapperTest, KarlsruheFramesGiveThePipelineRunnersMapFile)
   runner.state().map->save((dir_ / "runner.pgmap").string());
 
   const auto source = planar_grid::createFrameSource(config.input);
-  planar_grid::Mapper mapper(config);
+  planar_grid::Mapper mapper(planar_grid::toMapperConfig(config));
   std::vector<planar_grid::FrameStats> stats;
   for (std::size_t i = 0; i < source->size(); ++i) {
     planar_grid::Frame frame;
@@ -172,7 +174,7 @@ TEST_F(MapperTest, AReaderThreadSeesTheMapAfterWholeFramesOnly)
   // frame 2, never one in between.
   const auto config = mainJob(2);
   std::vector<planar_grid::Frame> frames = loadFrames(config);
-  planar_grid::Mapper mapper(config);
+  planar_grid::Mapper mapper(planar_grid::toMapperConfig(config));
 
   const auto serialized = [&mapper] {
     std::string bytes;
@@ -216,7 +218,7 @@ TEST_F(MapperTest, AReaderThreadSeesTheMapAfterWholeFramesOnly)
 
 TEST_F(MapperTest, BadInputThrowsWithAClearMessage)
 {
-  planar_grid::Mapper mapper(mainJob(1));
+  planar_grid::Mapper mapper(planar_grid::toMapperConfig(mainJob(1)));
   const auto source = planar_grid::createFrameSource(mainJob(1).input);
   planar_grid::Frame frame;
   source->load(0, frame);
@@ -267,14 +269,15 @@ TEST_F(MapperTest, BadInputThrowsWithAClearMessage)
     "the right image is the left image");
   planar_grid::Mapper::PointCloud cloud;
   cloud.push_back(pcl::PointXYZ(1.0f, 0.0f, 2.0f));
-  expectThrowWith([&] { mapper.integrateCloud(cloud, pose); },
-                  "takes stereo pairs (input.type stereo_sequence), not point clouds");
+  expectThrowWith(
+    [&] { mapper.integrateCloud(cloud, pose); },
+    "takes stereo pairs (a stage of it reads stereo images), not point clouds");
   // None of them changed the map.
   EXPECT_EQ(mapper.getFrameCount(), 0u);
   EXPECT_EQ(mapper.readMap()->getSurfaceLayer().getCuboidCount(), 0u);
 
   // A pipeline whose visual_odometry stage estimates the poses refuses a given one.
-  planar_grid::Mapper odometry(odometryJob(1));
+  planar_grid::Mapper odometry(planar_grid::toMapperConfig(odometryJob(1)));
   expectThrowWith(
     [&] { odometry.integrateStereo(frame.left, frame.right, calibration, pose); },
     "estimates the poses (visual_odometry stage)");
@@ -284,7 +287,7 @@ TEST_F(MapperTest, BadInputThrowsWithAClearMessage)
   while (!no_map.stages.empty() && no_map.stages.back().type != "map_integration")
     no_map.stages.pop_back();
   no_map.stages.pop_back();
-  expectThrowWith([&] { planar_grid::Mapper m(no_map); },
+  expectThrowWith([&] { planar_grid::Mapper m(planar_grid::toMapperConfig(no_map)); },
                   "has no map_integration stage");
 }
 
@@ -297,7 +300,7 @@ TEST_F(MapperTest, VisualOdometryGivesThePoseWhenNoneIsGiven)
   const auto source = planar_grid::createFrameSource(config.input);
   planar_grid::Frame frame;
   source->load(0, frame);
-  planar_grid::Mapper mapper(config);
+  planar_grid::Mapper mapper(planar_grid::toMapperConfig(config));
   const auto stats = mapper.integrateStereo(frame.left, frame.right, frame.calibration);
   EXPECT_TRUE(stats.world_T_camera.translation().isApprox(Eigen::Vector3d(0, 0, 1.57)));
   const Eigen::Vector3d forward = stats.world_T_camera.linear().col(2);
@@ -339,7 +342,7 @@ pipeline:
   planar_grid::Frame frame;
   source->load(0, frame);
   ASSERT_TRUE(frame.cloud && frame.has_pose);
-  planar_grid::Mapper mapper(config);
+  planar_grid::Mapper mapper(planar_grid::toMapperConfig(config));
   const auto stats = mapper.integrateCloud(*frame.cloud, frame.world_T_camera);
   EXPECT_GT(stats.cuboids, 0u);
   std::string a, b;
@@ -352,7 +355,7 @@ pipeline:
       mapper.integrateStereo(cv::Mat(2, 2, CV_8UC1), cv::Mat(2, 2, CV_8UC1),
                              planar_grid::StereoCalibration(), frame.world_T_camera);
     },
-    "takes point clouds (input.type pcd_files), not stereo pairs");
+    "takes point clouds (no stage of it reads stereo images), not stereo pairs");
   expectThrowWith(
     [&] {
       mapper.integrateCloud(planar_grid::Mapper::PointCloud(), frame.world_T_camera);
@@ -362,16 +365,11 @@ pipeline:
 
 namespace {
 
-/** A point-cloud pipeline on office1.pcd whose map sees point clouds through a
- * virtual pinhole camera of \a width x \a height px, focal length \a focal px and its
- * principal point in the image's centre (map_integration's depth_* keys). */
-planar_grid::PipelineConfig
-depthPipeline(int width, int height, double focal)
+/** The stages of depthPipeline(), as its `pipeline:` section. */
+std::string
+depthStages(int width, int height, double focal)
 {
-  return planar_grid::parsePipelineConfig(
-    "input:\n  type: pcd_files\n  files: " + std::string(PLANAR_GRID_DATA_DIR)
-      + "/pcl_clouds/office1.pcd\n" + R"(
-pipeline:
+  return R"(pipeline:
   - type: voxel_grid
     params: {leaf_size_m: 0.05}
   - type: transform_to_world
@@ -381,12 +379,132 @@ pipeline:
     params: {min_cell_size_m: 0.1, thickness_m: 0.1}
   - type: map_integration
     params: {prior: unknown, sensor_model: pinhole, depth_width_px: )"
-      + std::to_string(width) + ", depth_height_px: " + std::to_string(height)
-      + ", depth_focal_length_px: " + std::to_string(focal) + "}\n",
+         + std::to_string(width) + ", depth_height_px: " + std::to_string(height)
+         + ", depth_focal_length_px: " + std::to_string(focal) + "}\n";
+}
+
+/** A point-cloud pipeline on office1.pcd whose map sees point clouds through a
+ * virtual pinhole camera of \a width x \a height px, focal length \a focal px and its
+ * principal point in the image's centre (map_integration's depth_* keys). */
+planar_grid::PipelineConfig
+depthPipeline(int width, int height, double focal)
+{
+  return planar_grid::parsePipelineConfig(
+    "input:\n  type: pcd_files\n  files: " + std::string(PLANAR_GRID_DATA_DIR)
+      + "/pcl_clouds/office1.pcd\n" + depthStages(width, height, focal),
     "depth.yaml", "/");
 }
 
 } // namespace
+
+namespace {
+
+/** A stage of \a type with the parameters \a params, the others at their defaults. */
+planar_grid::StageSpec
+stageSpec(
+  const std::string& type,
+  const std::vector<
+    std::pair<std::string, std::variant<double, int, bool, std::string>>>& params = {})
+{
+  planar_grid::StageSpec spec;
+  spec.type = type;
+  for (const auto& [key, value] : params)
+    spec.params.set(key, value);
+  return spec;
+}
+
+} // namespace
+
+TEST_F(MapperTest, AMapperIsBuiltFromStagesWithoutAConfigurationFile)
+{
+  // depthPipeline()'s stages written in code, the keys the file leaves out at their
+  // defaults (the loader's defaults for a point-cloud input and the map's cell size
+  // taken from planar_cuboid_approximation written out): the same map from the same
+  // depth image.
+  planar_grid::MapperConfig stages;
+  stages.stages = {
+    stageSpec("voxel_grid", {{"leaf_size_m", 0.05}}), stageSpec("transform_to_world"),
+    stageSpec("multi_plane_segmentation", {{"distance_threshold_m", 0.03},
+                                           {"max_planes", 4},
+                                           {"min_inliers", 300},
+                                           {"sample", std::string("cloud")}}),
+    stageSpec("planar_cuboid_approximation",
+              {{"min_cell_size_m", 0.1}, {"thickness_m", 0.1}}),
+    stageSpec("map_integration", {{"resolution_m", 0.1},
+                                  {"thickness_m", 0.1},
+                                  {"prior", std::string("unknown")},
+                                  {"sensor_model", std::string("pinhole")},
+                                  {"depth_width_px", 640},
+                                  {"depth_height_px", 480},
+                                  {"depth_focal_length_px", 525.0}})};
+  planar_grid::Mapper from_code(stages);
+  planar_grid::Mapper from_file(
+    planar_grid::toMapperConfig(depthPipeline(640, 480, 525.0)));
+  // The file's stages alone, without its input section.
+  planar_grid::Mapper from_stages(
+    planar_grid::parseMapperConfig(depthStages(640, 480, 525.0), "stages.yaml", "/"));
+  EXPECT_EQ(from_stages.getConfig().name, "stages.yaml");
+  EXPECT_FALSE(from_code.takesStereo());
+  EXPECT_TRUE(from_code.getConfig().name.empty());
+  ASSERT_EQ(from_code.getConfig().stages.size(), 5u);
+  // The keys left out hold their defaults.
+  EXPECT_EQ(from_code.getConfig().stages[1].params.values().size(),
+            planar_grid::findStage("transform_to_world")->params.size());
+  const planar_grid::PinholeView camera{640, 480, 525.0, 525.0, 320.0, 240.0};
+  const cv::Mat wall(480, 640, CV_16UC1, cv::Scalar(2000));
+  for (planar_grid::Mapper* mapper : {&from_code, &from_file, &from_stages})
+    mapper->integrateDepth(wall, camera, Eigen::Isometry3d::Identity());
+  std::string a, b, c;
+  from_code.readMap()->serialize(a);
+  from_file.readMap()->serialize(b);
+  from_stages.readMap()->serialize(c);
+  EXPECT_TRUE(c == b) << "the file's stages alone map otherwise than the file";
+  EXPECT_GT(from_code.readMap()->getSurfaceLayer().getCuboidCount(), 0u);
+  EXPECT_TRUE(a == b) << "the stages written in code map otherwise than the file's";
+  ASSERT_EQ(from_code.getStageReports().size(), 5u);
+  EXPECT_EQ(from_code.getStageReports()[4].type, "map_integration");
+  EXPECT_EQ(from_code.getStageReports()[4].frames, 1u);
+
+  // What cannot be built is refused, naming the stage.
+  const auto refused = [](std::vector<planar_grid::StageSpec> specs,
+                          const std::string& text) {
+    planar_grid::MapperConfig config;
+    config.stages = std::move(specs);
+    expectThrowWith([&] { planar_grid::Mapper m(config); }, text);
+  };
+  refused({stageSpec("no_such_stage")}, "unknown stage type 'no_such_stage'");
+  refused({stageSpec("voxel_grid", {{"leaf_size", 0.05}})},
+          "stage 'voxel_grid' has no parameter 'leaf_size'");
+  refused({stageSpec("map_integration")},
+          "stage 'map_integration' needs a world-frame cloud");
+  refused({stageSpec("voxel_grid")}, "the mapper's pipeline has no map_integration");
+  // A stage list is checked as a file's stages are, and holds nothing else.
+  expectThrowWith(
+    [] {
+      planar_grid::parseMapperConfig("pipeline:\n  - type: map_integration\n", "s",
+                                     "/");
+    },
+    "s:2:11: stage 'map_integration' needs");
+  expectThrowWith(
+    [&] {
+      planar_grid::parseMapperConfig(depthStages(640, 480, 525.0) + "input: {}\n", "s",
+                                     "/");
+    },
+    "'input'");
+  try {
+    planar_grid::MapperConfig config;
+    config.name = "live.yaml";
+    config.stages = {stageSpec("no_such_stage")};
+    config.stages[0].line = 7;
+    config.stages[0].column = 5;
+    planar_grid::Mapper m(config);
+    ADD_FAILURE() << "an unknown stage type was accepted";
+  } catch (const planar_grid::ConfigError& e) {
+    EXPECT_EQ(e.file(), "live.yaml");
+    EXPECT_EQ(e.line(), 7);
+    EXPECT_EQ(e.column(), 5);
+  }
+}
 
 TEST_F(MapperTest, ADepthImageIsMappedThroughItsOwnCamera)
 {
@@ -396,7 +514,7 @@ TEST_F(MapperTest, ADepthImageIsMappedThroughItsOwnCamera)
   const auto config = depthPipeline(640, 480, 525.0);
   const planar_grid::PinholeView camera{640, 480, 525.0, 525.0, 320.0, 240.0};
   const Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  planar_grid::Mapper wall(config);
+  planar_grid::Mapper wall(planar_grid::toMapperConfig(config));
   const auto stats =
     wall.integrateDepth(cv::Mat(480, 640, CV_16UC1, cv::Scalar(2000)), camera, pose);
   EXPECT_GT(stats.cuboids, 0u);
@@ -445,7 +563,9 @@ TEST_F(MapperTest, ADepthImageIsMappedThroughItsOwnCamera)
       }
     }
   ASSERT_GT(valid, 25000u);
-  planar_grid::Mapper from_depth(config), from_cloud(depthPipeline(320, 240, 262.5));
+  planar_grid::Mapper from_depth(planar_grid::toMapperConfig(config));
+  planar_grid::Mapper from_cloud(
+    planar_grid::toMapperConfig(depthPipeline(320, 240, 262.5)));
   from_depth.integrateDepth(depth, half, frame.world_T_camera);
   from_cloud.integrateCloud(cloud, frame.world_T_camera);
   std::string a, b;
@@ -474,7 +594,7 @@ TEST_F(MapperTest, ADepthImageIsMappedThroughItsOwnCamera)
                                 pose);
     },
     "no valid pixel");
-  planar_grid::Mapper stereo(mainJob(1));
+  planar_grid::Mapper stereo(planar_grid::toMapperConfig(mainJob(1)));
   expectThrowWith([&] { stereo.integrateDepth(depth, camera, pose); },
                   "takes stereo pairs");
 }
@@ -486,7 +606,7 @@ TEST_F(MapperTest, CallsFromTwoThreadsRunOneFrameAtATime)
   // a reset and one more frame is that frame's map alone.
   const auto config = mainJob(3);
   std::vector<planar_grid::Frame> frames = loadFrames(config);
-  planar_grid::Mapper mapper(config);
+  planar_grid::Mapper mapper(planar_grid::toMapperConfig(config));
   const auto integrate_all = [&] {
     for (const auto& frame : frames)
       mapper.integrateStereo(frame.left, frame.right, frame.calibration,
@@ -516,7 +636,7 @@ TEST_F(MapperTest, CallsFromTwoThreadsRunOneFrameAtATime)
   mapper.reset();
   mapper.integrateStereo(frames[0].left, frames[0].right, frames[0].calibration,
                          frames[0].world_T_camera);
-  planar_grid::Mapper fresh(config);
+  planar_grid::Mapper fresh(planar_grid::toMapperConfig(config));
   fresh.integrateStereo(frames[0].left, frames[0].right, frames[0].calibration,
                         frames[0].world_T_camera);
   std::string after_reset, alone;
@@ -532,7 +652,7 @@ TEST_F(MapperTest, ReadersInALoopDelayAFrameByAtMostTheReadsUnderWay)
   // comes, not for every read that starts while it waits.
   const auto config = mainJob(2);
   std::vector<planar_grid::Frame> frames = loadFrames(config);
-  planar_grid::Mapper mapper(config);
+  planar_grid::Mapper mapper(planar_grid::toMapperConfig(config));
   std::atomic<bool> stop{false};
   const auto read_loop = [&] {
     const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);

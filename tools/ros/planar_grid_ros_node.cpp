@@ -64,7 +64,7 @@ PlanarGridNode::PlanarGridNode(ros::NodeHandle& nh, ros::NodeHandle& pnh) :
     throw planar_grid::Exception(
       "planar_grid_ros_node: ~max_queued_frames must be >= 0, ~publish_every >= 1 "
       "and ~tf_timeout, ~map_2d_period, ~octomap_period >= 0");
-  mapper_ = std::make_unique<planar_grid::Mapper>(config_);
+  mapper_ = std::make_unique<planar_grid::Mapper>(planar_grid::toMapperConfig(config_));
   for (const auto& stage : config_.stages)
     odometry_ = odometry_ || stage.type == "visual_odometry";
   grid_params_ = config_.output.map_grid_2d_band;

@@ -4,9 +4,11 @@
 #include <planar_grid/core/stereo_calibration.h>
 #include <planar_grid/core/writer_preferring_shared_mutex.h>
 #include <planar_grid/map/planar_grid_map.h>
+#include <planar_grid/odometry/trajectory_io.h>
 #include <planar_grid/pipeline/frame.h>
-#include <planar_grid/pipeline/pipeline_config.h>
-#include <planar_grid/pipeline/pipeline_runner.h>
+#include <planar_grid/pipeline/mapper_config.h>
+#include <planar_grid/pipeline/stage.h>
+#include <planar_grid/pipeline/stage_report.h>
 
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -71,18 +73,20 @@ struct FrameStats {
 };
 
 /** \brief Builds a map frame by frame from the caller's data: each call runs one
- * frame through the configured pipeline (PipelineRunner::processFrame(), the stages
- * planar_grid_pipeline runs) and returns that frame's statistics, so that the same
- * frames give the same map, byte for byte, as a planar_grid_pipeline run of the
- * configuration over them.
+ * frame through the mapper's stages and returns that frame's statistics. The stages
+ * and their parameters are a MapperConfig; built from a pipeline configuration
+ * (loadMapperConfig()), the same frames give the same map, byte for byte, as a
+ * planar_grid_pipeline run of that configuration over them, which runs the same
+ * stages.
  *
- * The configuration's input section only says what kind of frames the pipeline takes
- * (stereo pairs or point clouds) and where the poses come from; no file of it is read.
+ * The mapper owns its stages, the state they carry from frame to frame, the map and
+ * the map's lock; it reads no file. It takes stereo pairs when a stage reads stereo
+ * images (stereo_disparity, feature_matching), else point clouds and depth images.
  * Each frame carries its pose world_T_camera (meters, z-up world, camera x right, y
- * down, z forward), or none when the pipeline's visual_odometry stage estimates it.
- * The pipeline must have a map_integration stage. A frame whose stage throws may
- * leave part of its work in the map and the stages' state, as a failed run of
- * planar_grid_pipeline does; reset() starts over.
+ * down, z forward), or none when the visual_odometry stage estimates it. One stage
+ * must make the map (map_integration). A frame whose stage throws may leave part of
+ * its work in the map and the stages' state, as a failed run of planar_grid_pipeline
+ * does; reset() starts over.
  *
  * Thread safety: the integrate calls and reset() may come from any thread; they run
  * one at a time, each whole, in the order they take the mapper's frame lock (a second
@@ -130,16 +134,15 @@ public:
     const PlanarGridMap* map_;
   };
 
-  /** \brief Builds the pipeline of \a config and starts its run (an empty map).
-   * \param[in] config the pipeline (e.g. loadPipelineConfig()); its input files are
-   * not read
-   * \throws planar_grid::ConfigError for a bad configuration;
-   * planar_grid::Exception when the pipeline has no map_integration stage */
-  explicit Mapper(const PipelineConfig& config);
-
-  /** \brief As Mapper(loadPipelineConfig(config_path)).
-   * \throws planar_grid::ConfigError, planar_grid::IOError as loadPipelineConfig() */
-  explicit Mapper(const std::string& config_path);
+  /** \brief Builds the stages of \a config and starts with an empty map.
+   * \param[in] config the stages, in run order (e.g. loadMapperConfig() of a pipeline
+   * file, or written in code)
+   * \throws planar_grid::ConfigError, naming the stage (and config.name, line and
+   * column when given), for an unknown stage type, a key its table lacks, parameters
+   * the stage rejects, or a stage that needs data (StageInfo::needs) that neither the
+   * frames nor an earlier stage give; planar_grid::Exception when no stage makes the
+   * map (map_integration) */
+  explicit Mapper(const MapperConfig& config);
 
   Mapper(const Mapper&) = delete;
   Mapper& operator=(const Mapper&) = delete;
@@ -214,7 +217,7 @@ public:
    * reset(), which starts a new one. */
   [[nodiscard]] std::shared_ptr<const PlanarGridMap> getMap() const
   {
-    return runner_.state().map;
+    return state_.map;
   }
 
   /** \brief Writes the map file (.pgmap, PlanarGridMap::save()) under a shared lock;
@@ -232,15 +235,19 @@ public:
 
   /** \brief The poses of the integrated frames (world_T_camera), in order. Read it from
    * the thread that integrates. */
-  const Trajectory& getTrajectory() const { return runner_.trajectory(); }
+  const Trajectory& getTrajectory() const { return trajectory_; }
 
-  /** \brief The per-stage sums over the integrated frames (PipelineRunner's report so
-   * far, without the map summary finish() adds). Read it from the thread that
-   * integrates. */
-  const RunReport& getReport() const { return runner_.report(); }
+  /** \brief Per stage, in run order, its sums over the frames integrated since
+   * construction or reset() (times, points, counters), as a planar_grid_pipeline run
+   * reports them. Read it from the thread that integrates. */
+  const std::vector<StageReport>& getStageReports() const { return stage_reports_; }
 
-  /** \brief The configuration. */
-  const PipelineConfig& getConfig() const { return config_; }
+  /** \brief The stages the mapper was built from. */
+  const MapperConfig& getConfig() const { return config_; }
+
+  /** \brief Whether the mapper takes stereo pairs (integrateStereo()), rather than
+   * point clouds and depth images (integrateCloud(), integrateDepth()). */
+  bool takesStereo() const { return takes_stereo_; }
 
 private:
   /** \brief Checks a stereo pair and runs it through the stages; no pose: the
@@ -254,13 +261,28 @@ private:
    * odometry's); the common end of the integrate calls. */
   FrameStats integrate(Frame& frame, const Eigen::Isometry3d* world_T_camera);
 
-  /** \brief Throws unless the pipeline takes frames of \a type. */
-  void requireInput(InputConfig::Type type, const char* call) const;
+  /** \brief Throws unless the mapper takes stereo pairs (\a stereo) or clouds. */
+  void requireInput(bool stereo, const char* call) const;
 
-  /** \brief The configuration. */
-  PipelineConfig config_;
-  /** \brief The pipeline, taking the caller's frames. */
-  PipelineRunner runner_;
+  /** \brief Clears the map, the state, the trajectory and the sums, and starts every
+   * stage. */
+  void start();
+
+  /** \brief "the pipeline", and the configuration's name when it has one. */
+  std::string pipelineName() const;
+
+  /** \brief The stages the mapper was built from. */
+  MapperConfig config_;
+  /** \brief The stages, in run order. */
+  std::vector<std::unique_ptr<Stage>> stages_;
+  /** \brief What the stages carry across frames, the map among it. */
+  PipelineState state_;
+  /** \brief The poses of the integrated frames. */
+  Trajectory trajectory_;
+  /** \brief Per stage, its sums over the integrated frames. */
+  std::vector<StageReport> stage_reports_;
+  /** \brief Whether a stage reads stereo images: the mapper takes stereo pairs. */
+  bool takes_stereo_{false};
   /** \brief Per stage: whether it changes the map (readers are locked out). */
   std::vector<bool> writes_map_;
   /** \brief Whether a stage estimates the poses (visual_odometry). */

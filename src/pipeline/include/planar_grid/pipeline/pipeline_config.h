@@ -2,6 +2,7 @@
 #pragma once
 
 #include <planar_grid/map/map_queries.h>
+#include <planar_grid/pipeline/mapper_config.h>
 #include <planar_grid/pipeline/param_table.h>
 #include <planar_grid/stereo/calibration_io.h>
 
@@ -330,5 +331,31 @@ PipelineConfig parsePipelineConfig(const std::string& yaml_text,
                                    const std::string& source_name,
                                    const std::string& base_folder,
                                    const std::vector<std::string>& overrides = {});
+
+/** \brief The stages of \a config as a Mapper takes them (Mapper::Mapper()): each
+ * stage's type and parameters, and where the file gives it (for messages); the input
+ * and output sections are left out. \ingroup pipeline */
+MapperConfig toMapperConfig(const PipelineConfig& config);
+
+/** \brief As toMapperConfig(loadPipelineConfig(path)): a live mapper of a pipeline
+ * file, e.g. `Mapper mapper(loadMapperConfig("config/karlsruhe_live.yaml"))`. The
+ * file's input section is checked as for a run, but none of its files is read.
+ * \throws planar_grid::ConfigError, planar_grid::IOError as loadPipelineConfig() */
+MapperConfig loadMapperConfig(const std::string& path);
+
+/** \brief The stages of a YAML document holding only the key `pipeline` (the list of
+ * {type, params} of a configuration file, checked as strictly): no input or output
+ * section. The frames they take are stereo pairs when a stage reads stereo images and
+ * point clouds otherwise, each with its pose unless a visual_odometry stage estimates
+ * it; the stages' needs are checked against those, and a point-cloud pipeline's
+ * multi_plane_segmentation samples the cloud unless it says otherwise, as in a file.
+ * \param[in] yaml_text the document, e.g. `pipeline: [{type: stereo_disparity}, ...]`
+ * \param[in] source_name names the document in messages (MapperConfig::name)
+ * \param[in] base_folder resolves relative paths
+ * \throws planar_grid::ConfigError at source_name:line:col for another top-level key
+ * or a bad stage, as loadPipelineConfig() */
+MapperConfig parseMapperConfig(const std::string& yaml_text,
+                               const std::string& source_name,
+                               const std::string& base_folder);
 
 } // namespace planar_grid
