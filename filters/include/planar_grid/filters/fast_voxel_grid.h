@@ -44,6 +44,13 @@ namespace detail {
 /** \brief A point's linear voxel index and its index in the cloud: the element
  * pcl::VoxelGrid sorts, with its order (the voxel index alone). */
 struct VoxelEntry {
+  /** \brief Uninitialized: a buffer of entries grows without being zero-filled (each
+   * entry is written before it is read). */
+  VoxelEntry() {}
+  VoxelEntry(unsigned int voxel_index, unsigned int point_index) :
+      idx(voxel_index), cloud_point_index(point_index)
+  {}
+
   unsigned int idx;
   unsigned int cloud_point_index;
 
@@ -53,6 +60,12 @@ struct VoxelEntry {
 /** \brief A finite point's voxel, integer coordinates in leaves from the origin, and
  * its index in the cloud. */
 struct PointVoxel {
+  /** \brief Uninitialized, as VoxelEntry. */
+  PointVoxel() {}
+  PointVoxel(int voxel_x, int voxel_y, int voxel_z, unsigned int point_index) :
+      x(voxel_x), y(voxel_y), z(voxel_z), cloud_point_index(point_index)
+  {}
+
   int x, y, z;
   unsigned int cloud_point_index;
 };
