@@ -20,11 +20,11 @@ namespace {
 
 // The PCL filters are made for each frame: a filter kept in the stage keeps, until the
 // next frame, its input cloud and the index list PCLBase makes for it (one cloud and
-// 4 bytes per point per listed filter stage). The voxel grid is the exception: it
-// takes the whole dense cloud of each frame, whose index list and voxel buffers (about
-// 20 bytes per pixel) would otherwise be allocated, and their fresh pages faulted in,
-// for every frame. It drops its input cloud after each frame and its buffers after
-// the last.
+// 4 bytes per point per listed filter stage). The voxel grid and the depth error filter
+// are the exceptions: they take the whole dense cloud of each frame, whose index list
+// and buffers (up to 28 bytes per pixel) would otherwise be allocated, and their fresh
+// pages faulted in, for every frame. They drop the input cloud after each frame and
+// the buffers after the last.
 class VoxelGridStage : public Stage {
 public:
   explicit VoxelGridStage(const FastVoxelGridParams& params) : params_(params) {}
