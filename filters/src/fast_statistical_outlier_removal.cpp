@@ -147,11 +147,7 @@ struct CellIndex {
  * per cell). */
 class CellNeighbours {
 public:
-  CellNeighbours(const std::vector<float>& xyz,
-                 const CellIndex& index,
-                 std::size_t k,
-                 int mean_k) :
-      xyz_(xyz),
+  CellNeighbours(const CellIndex& index, std::size_t k, int mean_k) :
       index_(index), k_(k), mean_k_(mean_k)
   {}
 
@@ -200,11 +196,12 @@ public:
     near_.resize(cand_x_.size());
   }
 
-  /** \brief Answers point \a j from the candidates gathered for its cell \a c within
-   * \a reach into mean_distance[j] and done[j]; false when fewer than k candidates
-   * lie within the guard. \a bound_sq, the previous point's k-th distance squared
-   * times BOUND_PER_KTH_SQ, limits the selection and is updated. */
-  bool answer(std::uint32_t j,
+  /** \brief Answers the point at \a i in cell order (point j = order[i]) from the
+   * candidates gathered for its cell \a c within \a reach into mean_distance[j] and
+   * done[j]; false when fewer than k candidates lie within the guard. \a bound_sq,
+   * the previous point's k-th distance squared times BOUND_PER_KTH_SQ, limits the
+   * selection and is updated. */
+  bool answer(std::size_t i,
               const std::int64_t* c,
               std::int64_t reach,
               float& bound_sq,
@@ -214,7 +211,9 @@ public:
     const std::size_t m = cand_x_.size();
     if (m < k_)
       return false;
-    const float* q = &xyz_[3 * j];
+    const std::uint32_t j = index_.order[i];
+    // The point's coordinates from the arrays in cell order, read in sequence.
+    const float q[3] = {index_.sorted_x[i], index_.sorted_y[i], index_.sorted_z[i]};
     // Distance from q to the outside of the cells, with a margin for the rounding of
     // the single precision distances; only candidates within it can be among the k
     // nearest.
@@ -232,9 +231,11 @@ public:
     if (inside < k_)
       return false;
     const float kth = keepKSmallest(inside);
+    // A dropped candidate (-1) adds sqrt(0) = +0, which leaves the sum unchanged:
+    // the sum of the k kept, in candidate order, without a branch.
     double dist_sum = 0.0;
     for (std::size_t t = 0; t < inside; ++t)
-      dist_sum += near_[t] >= 0.0f ? std::sqrt(near_[t]) : 0.0f;
+      dist_sum += std::sqrt(std::max(near_[t], 0.0f));
     mean_distance[j] = static_cast<float>(dist_sum / mean_k_);
     done[j] = 1;
     bound_sq = BOUND_PER_KTH_SQ * kth;
@@ -325,7 +326,6 @@ private:
     return kth;
   }
 
-  const std::vector<float>& xyz_;
   const CellIndex& index_;
   const std::size_t k_;
   const int mean_k_;
@@ -360,13 +360,13 @@ meanDistancesInCells(const std::vector<float>& xyz,
   CellIndex index;
   if (!index.build(xyz, edge))
     return; // the cloud is too large for the keys: the tree answers all
-  CellNeighbours neighbours(xyz, index, k, mean_k);
+  CellNeighbours neighbours(index, k, mean_k);
   // The k-th distance of the previous point of the same cell, squared: a close
   // neighbour's k-th distance is nearly the same, so the candidates below
   // BOUND_PER_KTH_SQ times it usually hold the k nearest, and the selection runs over
   // those few.
   const float first_bound_sq = BOUND_PER_KTH_SQ * median_kth_sq;
-  std::vector<std::uint32_t> missed;
+  std::vector<std::size_t> missed; // positions in cell order
   for (std::size_t cell_index = 0; cell_index < index.cell_keys.size(); ++cell_index) {
     const std::size_t run_begin = index.cell_begin[cell_index];
     const std::size_t run_end = index.cell_begin[cell_index + 1];
@@ -380,17 +380,16 @@ meanDistancesInCells(const std::vector<float>& xyz,
     neighbours.gather(c, 1);
     missed.clear();
     float bound_sq = first_bound_sq;
-    for (std::size_t i = run_begin; i < run_end; ++i) {
-      const std::uint32_t j = index.order[i];
-      if (queried[j] && !neighbours.answer(j, c, 1, bound_sq, mean_distance, done))
-        missed.push_back(j);
-    }
+    for (std::size_t i = run_begin; i < run_end; ++i)
+      if (queried[index.order[i]]
+          && !neighbours.answer(i, c, 1, bound_sq, mean_distance, done))
+        missed.push_back(i);
     if (missed.empty())
       continue;
     neighbours.gather(c, 2);
     bound_sq = first_bound_sq;
-    for (const std::uint32_t j : missed)
-      neighbours.answer(j, c, 2, bound_sq, mean_distance, done);
+    for (const std::size_t i : missed)
+      neighbours.answer(i, c, 2, bound_sq, mean_distance, done);
   }
 }
 

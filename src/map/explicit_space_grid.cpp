@@ -59,32 +59,44 @@ DepthImage::fromDisparity(const float* disparity,
                           std::size_t row_stride_bytes,
                           const StereoCalibration& calibration)
 {
-  if (width <= 0 || height <= 0 || disparity == nullptr)
+  DepthImage image;
+  image.assignFromDisparity(disparity, width, height, row_stride_bytes, calibration);
+  return image;
+}
+
+void
+DepthImage::assignFromDisparity(const float* disparity,
+                                int image_width,
+                                int image_height,
+                                std::size_t row_stride_bytes,
+                                const StereoCalibration& calibration)
+{
+  if (image_width <= 0 || image_height <= 0 || disparity == nullptr)
     throw Exception("DepthImage::fromDisparity: image size must be positive, got "
-                    + std::to_string(width) + "x" + std::to_string(height));
-  if (row_stride_bytes < static_cast<std::size_t>(width) * sizeof(float))
+                    + std::to_string(image_width) + "x" + std::to_string(image_height));
+  if (row_stride_bytes < static_cast<std::size_t>(image_width) * sizeof(float))
     throw Exception("DepthImage::fromDisparity: row stride "
                     + std::to_string(row_stride_bytes)
                     + " bytes is shorter than a row");
   if (!(calibration.focal_length_px > 0.0) || !(calibration.baseline_m > 0.0))
     throw Exception("DepthImage::fromDisparity: the calibration needs focal_length_px "
                     "> 0 and baseline_m > 0");
-  DepthImage image;
-  image.width = width;
-  image.height = height;
-  image.fx = image.fy = static_cast<float>(calibration.focal_length_px);
-  image.cx = static_cast<float>(calibration.cx_px);
-  image.cy = static_cast<float>(calibration.cy_px);
-  image.depth_m.resize(static_cast<std::size_t>(width)
-                       * static_cast<std::size_t>(height));
+  width = image_width;
+  height = image_height;
+  fx = fy = static_cast<float>(calibration.focal_length_px);
+  cx = static_cast<float>(calibration.cx_px);
+  cy = static_cast<float>(calibration.cy_px);
+  // Every element is written below: the buffer is neither reallocated nor cleared
+  // when the size is unchanged.
+  depth_m.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
   const auto fb =
     static_cast<float>(calibration.focal_length_px * calibration.baseline_m);
   const auto* bytes = reinterpret_cast<const unsigned char*>(disparity);
   for (int v = 0; v < height; ++v) {
     const auto* row = reinterpret_cast<const float*>(
       bytes + static_cast<std::size_t>(v) * row_stride_bytes);
-    float* out = image.depth_m.data()
-                 + static_cast<std::size_t>(v) * static_cast<std::size_t>(width);
+    float* out =
+      depth_m.data() + static_cast<std::size_t>(v) * static_cast<std::size_t>(width);
     // Two branch-free loops the compiler vectorises: f B / d everywhere, then NaN
     // where the disparity is not finite and positive.
     for (int u = 0; u < width; ++u)
@@ -94,7 +106,6 @@ DepthImage::fromDisparity(const float* disparity,
                  ? out[u]
                  : std::numeric_limits<float>::quiet_NaN();
   }
-  return image;
 }
 
 std::size_t

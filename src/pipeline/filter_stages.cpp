@@ -20,7 +20,11 @@ namespace {
 
 // The PCL filters are made for each frame: a filter kept in the stage keeps, until the
 // next frame, its input cloud and the index list PCLBase makes for it (one cloud and
-// 4 bytes per point per listed filter stage).
+// 4 bytes per point per listed filter stage). The voxel grid and the depth error filter
+// are the exceptions: they take the whole dense cloud of each frame, whose index list
+// and buffers (up to 28 bytes per pixel) would otherwise be allocated, and their fresh
+// pages faulted in, for every frame. They drop the input cloud after each frame and
+// the buffers after the last.
 class VoxelGridStage : public Stage {
 public:
   explicit VoxelGridStage(const FastVoxelGridParams& params) : params_(params) {}
@@ -36,16 +40,22 @@ public:
   {
     if (!hasPoints(frame, "voxel_grid"))
       return;
-    FastVoxelGrid<pcl::PointXYZI> filter;
-    filter.setParams(params_);
+    if (!filter_) {
+      filter_ = std::make_unique<FastVoxelGrid<pcl::PointXYZI>>();
+      filter_->setParams(params_);
+    }
     Frame::Cloud::Ptr out(new Frame::Cloud);
-    filter.setInputCloud(frame.cloud);
-    filter.filter(*out);
+    filter_->setInputCloud(frame.cloud);
+    filter_->filter(*out);
+    filter_->setInputCloud(Frame::Cloud::ConstPtr());
     frame.cloud = out;
   }
 
+  void finish(PipelineState& /*state*/) override { filter_.reset(); }
+
 private:
   FastVoxelGridParams params_;
+  std::unique_ptr<FastVoxelGrid<pcl::PointXYZI>> filter_;
 };
 
 class StatisticalOutlierRemovalStage : public Stage {
@@ -137,35 +147,38 @@ public:
     if (!(std::isfinite(error_at_1m) && error_at_1m > 0.0))
       throw Exception("stage 'depth_error_filter' needs a stereo calibration (frame "
                       + frame.name + " has none)");
-    // The finite points beyond each bound (eq. 4), by DepthErrorFilter.
-    DepthErrorFilter<Frame::Cloud::PointType> filter;
+    // The finite points beyond each bound (eq. 4), by DepthErrorFilter. The filter,
+    // its index list and the masks stay with the stage from frame to frame (dense
+    // clouds of one size: nothing is allocated again); the filter drops the cloud
+    // after the frame.
+    if (!filter_)
+      filter_ = std::make_unique<DepthErrorFilter<Frame::Cloud::PointType>>();
+    DepthErrorFilter<Frame::Cloud::PointType>& filter = *filter_;
     filter.setParams(params_);
     filter.setCalibration(frame.calibration);
     filter.setCameraTransform(cameraTCloud(frame));
     filter.setInputCloud(frame.cloud);
     filter.setNegative(true);
-    const auto beyondBound = [&](double max_depth_error_m, float& max_depth) {
+    const auto beyondBound = [&](double max_depth_error_m, float& max_depth,
+                                 std::vector<std::uint8_t>& mask) {
       filter.setMaxDepthError(max_depth_error_m);
       max_depth = static_cast<float>(filter.getMaxDepth());
-      pcl::Indices beyond;
-      filter.filter(beyond);
-      std::vector<std::uint8_t> mask(frame.cloud->size(), 0);
-      for (const auto index : beyond)
+      filter.filter(beyond_indices_);
+      mask.assign(frame.cloud->size(), 0);
+      for (const auto index : beyond_indices_)
         mask[static_cast<std::size_t>(index)] = 1;
-      return mask;
     };
-    // Per frame, not kept in the stage: the stage may be listed more than once.
     // The points between the two bounds stay, for the planes alone.
-    const std::vector<std::uint8_t> beyond =
-      beyondBound(params_.max_depth_error_m, max_depth_m_);
+    beyondBound(params_.max_depth_error_m, max_depth_m_, beyond_);
+    const std::vector<std::uint8_t>& beyond = beyond_;
     // With one bound the points beyond it are the far ones: no second pass.
     const bool two_bounds = max_plane_depth_error_m_ > params_.max_depth_error_m;
-    std::vector<std::uint8_t> beyond_plane_bound;
     if (two_bounds)
-      beyond_plane_bound = beyondBound(max_plane_depth_error_m_, max_plane_depth_m_);
+      beyondBound(max_plane_depth_error_m_, max_plane_depth_m_, beyond_plane_bound_);
     else
       max_plane_depth_m_ = max_depth_m_;
-    const std::vector<std::uint8_t>& far = two_bounds ? beyond_plane_bound : beyond;
+    filter.setInputCloud(Frame::Cloud::ConstPtr());
+    const std::vector<std::uint8_t>& far = two_bounds ? beyond_plane_bound_ : beyond;
     const float max_depth = max_depth_m_;
     const float max_plane_depth = max_plane_depth_m_;
     inlier_only_ = 0;
@@ -181,6 +194,14 @@ public:
     removed_ = removePoints(frame, far);
     if (max_plane_depth > max_depth)
       frame.inlier_only_depth_m = std::min(frame.inlier_only_depth_m, max_depth);
+  }
+
+  void finish(PipelineState& /*state*/) override
+  {
+    filter_.reset();
+    beyond_indices_ = pcl::Indices();
+    beyond_ = std::vector<std::uint8_t>();
+    beyond_plane_bound_ = std::vector<std::uint8_t>();
   }
 
   void counters(const Frame& /*frame*/,
@@ -235,6 +256,11 @@ private:
   DepthErrorStageParams stage_params_;
   /** The plane bound, raised to max_depth_error_m. */
   double max_plane_depth_error_m_;
+  /** The filter, the indices it returns and the masks of the points beyond each bound,
+   * kept from one frame to the next. */
+  std::unique_ptr<DepthErrorFilter<Frame::Cloud::PointType>> filter_;
+  pcl::Indices beyond_indices_;
+  std::vector<std::uint8_t> beyond_, beyond_plane_bound_;
   std::size_t kept_far_{0};
   float max_depth_m_{0.0f};
   float max_plane_depth_m_{0.0f};

@@ -195,9 +195,9 @@ private:
   void depthFromDisparity(const Frame& frame)
   {
     const cv::Mat& disparity = frame.disparity;
-    depth_ =
-      DepthImage::fromDisparity(disparity.ptr<float>(0), disparity.cols, disparity.rows,
-                                disparity.step, frame.calibration);
+    // In place: the frames' depth images share one buffer.
+    depth_.assignFromDisparity(disparity.ptr<float>(0), disparity.cols, disparity.rows,
+                               disparity.step, frame.calibration);
     depth_pixels_ = depth_.countValid();
   }
 

@@ -36,6 +36,13 @@ constexpr int ORB_PATCH_SIZE_PX = 31;
  * sample inside the image. */
 constexpr int ORB_GRID_BORDER_PX = 16;
 
+/** \brief The windows and costs of refineRightColumn(), kept from one match to the
+ * next so that a frame's matches allocate them once. */
+struct RefineScratch {
+  cv::Mat left_window, right_strip;
+  std::vector<double> cost;
+};
+
 /** \brief Sub-pixel column of the right image's match of the left key point \a left_pt
  * (rectified pair, so on the left key point's row): the zero-mean SSD between the
  * window around \a left_pt and the right image's windows at integer shifts
@@ -51,14 +58,17 @@ refineRightColumn(const cv::Mat& left,
                   float right_x,
                   int window_px,
                   int search_px,
+                  RefineScratch& scratch,
                   float& refined_x)
 {
-  cv::Mat left_window, right_strip;
+  cv::Mat& left_window = scratch.left_window;
+  cv::Mat& right_strip = scratch.right_strip;
   cv::getRectSubPix(left, cv::Size(window_px, window_px), left_pt, left_window, CV_32F);
   cv::getRectSubPix(right, cv::Size(window_px + 2 * search_px, window_px),
                     cv::Point2f(right_x, left_pt.y), right_strip, CV_32F);
   const int shifts = 2 * search_px + 1;
-  std::vector<double> cost(static_cast<std::size_t>(shifts));
+  std::vector<double>& cost = scratch.cost;
+  cost.assign(static_cast<std::size_t>(shifts), 0.0);
   const double n = static_cast<double>(window_px) * window_px;
   for (int k = 0; k < shifts; ++k) {
     // Zero-mean SSD = sum (l - r)^2 - n (mean_l - mean_r)^2: robust to a brightness
@@ -213,30 +223,56 @@ detectGridFastKeypoints(const cv::Mat& grey,
   if (grey.type() != CV_8UC1)
     throw Exception(prefix + "the image must be CV_8UC1");
 
+  // cv::FAST tests no pixel within 3 px of the image's edge, and its non-maximum
+  // suppression compares a corner with its 8 neighbours. A corner kept here (at least
+  // border_px from the edge) and its neighbours are decided by the pixels within 4 px
+  // of it, so cv::FAST over the image less a margin of border_px - 4 px finds the same
+  // corners there, with the same scores, in the same order, without testing the
+  // margin's pixels.
+  const int margin =
+    std::max(0, std::min({border_px - 4, (grey.cols - 1) / 2, (grey.rows - 1) / 2}));
+  const cv::Rect inner(margin, margin, grey.cols - 2 * margin, grey.rows - 2 * margin);
   std::vector<cv::KeyPoint> corners;
-  cv::FAST(grey, corners, fast_threshold, true);
+  cv::FAST(grey(inner), corners, fast_threshold, true);
+  for (cv::KeyPoint& corner : corners) {
+    corner.pt.x += static_cast<float>(margin);
+    corner.pt.y += static_cast<float>(margin);
+  }
   const int cols = (grey.cols + bucket_size_px - 1) / bucket_size_px;
   const int rows = (grey.rows + bucket_size_px - 1) / bucket_size_px;
-  std::vector<std::vector<cv::KeyPoint>> cells(static_cast<std::size_t>(cols * rows));
-  for (const cv::KeyPoint& corner : corners) {
-    const int x = static_cast<int>(corner.pt.x);
-    const int y = static_cast<int>(corner.pt.y);
+  const auto n_cells = static_cast<std::size_t>(cols * rows);
+  // The corners sorted into their cells by a counting sort, in cv::FAST's order within
+  // each cell: every cell's corners are one range of one array.
+  std::vector<std::size_t> cell_of(corners.size(), n_cells); // n_cells: in the border
+  std::vector<std::size_t> cell_begin(n_cells + 1, 0);
+  for (std::size_t i = 0; i < corners.size(); ++i) {
+    const int x = static_cast<int>(corners[i].pt.x);
+    const int y = static_cast<int>(corners[i].pt.y);
     if (x < border_px || y < border_px || x >= grey.cols - border_px
         || y >= grey.rows - border_px)
       continue;
-    cells[static_cast<std::size_t>((y / bucket_size_px) * cols + x / bucket_size_px)]
-      .push_back(corner);
+    cell_of[i] =
+      static_cast<std::size_t>((y / bucket_size_px) * cols + x / bucket_size_px);
+    ++cell_begin[cell_of[i] + 1];
   }
+  for (std::size_t c = 0; c < n_cells; ++c)
+    cell_begin[c + 1] += cell_begin[c];
+  std::vector<cv::KeyPoint> sorted(cell_begin[n_cells]);
+  std::vector<std::size_t> next(cell_begin.begin(), cell_begin.end() - 1);
+  for (std::size_t i = 0; i < corners.size(); ++i)
+    if (cell_of[i] < n_cells)
+      sorted[next[cell_of[i]]++] = corners[i];
   const auto cap = static_cast<std::size_t>(max_per_cell);
-  for (std::vector<cv::KeyPoint>& cell : cells) {
+  for (std::size_t c = 0; c < n_cells; ++c) {
+    const auto first = sorted.begin() + static_cast<std::ptrdiff_t>(cell_begin[c]);
+    const auto last = sorted.begin() + static_cast<std::ptrdiff_t>(cell_begin[c + 1]);
     // Stable: equal responses keep cv::FAST's order, so the result is deterministic.
-    std::stable_sort(cell.begin(), cell.end(),
-                     [](const cv::KeyPoint& a, const cv::KeyPoint& b) {
-                       return a.response > b.response;
-                     });
-    if (cell.size() > cap)
-      cell.resize(cap);
-    for (cv::KeyPoint& k : cell) {
+    std::stable_sort(first, last, [](const cv::KeyPoint& a, const cv::KeyPoint& b) {
+      return a.response > b.response;
+    });
+    for (auto it = first; it != last && static_cast<std::size_t>(it - first) < cap;
+         ++it) {
+      cv::KeyPoint k = *it;
       k.size = static_cast<float>(ORB_PATCH_SIZE_PX);
       k.angle = 0.0f;
       k.octave = 0;
@@ -432,6 +468,7 @@ StereoFeatureMatcher::match(const cv::Mat& left,
   const double max_range_sq = params_.max_range_m * params_.max_range_m;
   std::vector<int> kept;
   kept.reserve(keypoints_left.size());
+  RefineScratch scratch;
   for (std::size_t i = 0; i < keypoints_left.size(); ++i) {
     const int j = match_of_left[i];
     if (j < 0)
@@ -442,7 +479,7 @@ StereoFeatureMatcher::match(const cv::Mat& left,
       float refined_x = 0.0f;
       if (!refineRightColumn(grey_left, grey_right, kl.pt, kr.pt.x,
                              params_.subpixel_window_px, params_.subpixel_search_px,
-                             refined_x))
+                             scratch, refined_x))
         continue;
       kr.pt = cv::Point2f(refined_x, kl.pt.y);
     }

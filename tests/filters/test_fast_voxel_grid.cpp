@@ -224,3 +224,29 @@ TEST(FastVoxelGrid, CoordinatesBeyondTheIntRangeGiveWhatPCLGives)
     filteredBy<planar_grid::FastVoxelGrid<pcl::PointXYZ>, pcl::PointXYZ>(far, 0.1f, 0);
   expectSameBytes(through, *far, "5 points 10^12 m away");
 }
+
+// One filter kept for a stream of clouds (as the voxel_grid stage keeps it) reuses its
+// buffers: a large cloud, a smaller one, the large one again, after releaseBuffers()
+// too, each give PCL's output.
+TEST(FastVoxelGrid, OneFilterForManyCloudsGivesWhatPCLGives)
+{
+  const auto large = loadCloud<pcl::PointXYZ>("table_scene_mug_stereo_textured.pcd");
+  pcl::PointCloud<pcl::PointXYZ>::Ptr small(new pcl::PointCloud<pcl::PointXYZ>);
+  for (std::size_t i = 0; i < large->size(); i += 7)
+    small->push_back((*large)[i]);
+  small->is_dense = false;
+  planar_grid::FastVoxelGrid<pcl::PointXYZ> grid;
+  grid.setLeafSize(0.01f, 0.01f, 0.01f);
+  int step = 0;
+  for (const auto& cloud : {large, small, large, small, large}) {
+    if (step == 3)
+      grid.releaseBuffers();
+    const auto expected =
+      filteredBy<pcl::VoxelGrid<pcl::PointXYZ>, pcl::PointXYZ>(cloud, 0.01f, 0);
+    ASSERT_GT(expected.size(), 100u);
+    grid.setInputCloud(cloud);
+    pcl::PointCloud<pcl::PointXYZ> got;
+    grid.filter(got);
+    expectSameBytes(got, expected, "cloud " + std::to_string(step++));
+  }
+}

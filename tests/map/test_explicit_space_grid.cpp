@@ -1314,6 +1314,37 @@ TEST(DepthImage, FromDisparityIsFocalTimesBaselineOverDisparity)
                planar_grid::Exception);
 }
 
+// assignFromDisparity() fills an image in place: the same depths as fromDisparity(),
+// in the buffer of the previous image when the size is unchanged; an invalid input
+// throws and leaves the image as it was.
+TEST(DepthImage, AssignFromDisparityReusesTheImage)
+{
+  planar_grid::StereoCalibration calib;
+  calib.focal_length_px = 100.0;
+  calib.baseline_m = 0.5;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float first[6] = {10.0f, 5.0f, nan, 20.0f, 0.0f, 25.0f};
+  const float second[6] = {nan, 50.0f, 2.0f, -3.0f, 10.0f, 5.0f};
+  DepthImage image;
+  image.assignFromDisparity(first, 3, 2, 3 * sizeof(float), calib);
+  const float* buffer = image.depth_m.data();
+  image.assignFromDisparity(second, 3, 2, 3 * sizeof(float), calib);
+  EXPECT_EQ(image.depth_m.data(), buffer);
+  const DepthImage expected =
+    DepthImage::fromDisparity(second, 3, 2, 3 * sizeof(float), calib);
+  ASSERT_EQ(image.depth_m.size(), expected.depth_m.size());
+  for (std::size_t i = 0; i < expected.depth_m.size(); ++i)
+    if (std::isnan(expected.depth_m[i]))
+      EXPECT_TRUE(std::isnan(image.depth_m[i])) << i;
+    else
+      EXPECT_EQ(image.depth_m[i], expected.depth_m[i]) << i;
+  EXPECT_THROW(image.assignFromDisparity(first, 3, 2, 8, calib),
+               planar_grid::Exception);
+  EXPECT_EQ(image.width, 3);
+  EXPECT_EQ(image.depth_m.data(), buffer);
+  EXPECT_FLOAT_EQ(image.at(1, 0), 1.0f); // f B / 50 px = 50 px m / 50 px
+}
+
 TEST(ExplicitSpaceGrid, ManyMixedBlocksRoundTrip)
 {
   // 9,216 blocks, each a checkerboard of occupied and prior voxels: 512 leaves per

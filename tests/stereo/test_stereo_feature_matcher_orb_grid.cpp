@@ -277,6 +277,53 @@ TEST(GridFastKeypoints, BorderIsRespected)
   }
 }
 
+// The detector runs cv::FAST on the image less a margin of border_px - 4 px: the same
+// key points, bit for bit and in the same order, as cv::FAST over the whole image, its
+// corners within border_px of an edge dropped, then each cell's strongest (a stable
+// sort by response) kept. Checked on both Karlsruhe frame 10 images, for borders at,
+// below and above the 4 px the margin leaves, and on an image narrower than two
+// borders.
+TEST_F(StereoFeatureMatcherORBGrid, KeypointsEqualThoseOfFASTOverTheWholeImage)
+{
+  const auto reference = [](const cv::Mat& grey, int bucket, int per_cell, int border) {
+    std::vector<cv::KeyPoint> all;
+    cv::FAST(grey, all, 10, true);
+    const int cols = (grey.cols + bucket - 1) / bucket;
+    const int rows = (grey.rows + bucket - 1) / bucket;
+    std::vector<std::vector<cv::KeyPoint>> cells(static_cast<std::size_t>(cols * rows));
+    for (const cv::KeyPoint& k : all) {
+      const int x = static_cast<int>(k.pt.x), y = static_cast<int>(k.pt.y);
+      if (x < border || y < border || x >= grey.cols - border
+          || y >= grey.rows - border)
+        continue;
+      cells[static_cast<std::size_t>(y / bucket * cols + x / bucket)].push_back(k);
+    }
+    std::vector<cv::KeyPoint> kept;
+    for (auto& cell : cells) {
+      std::stable_sort(cell.begin(), cell.end(),
+                       [](const cv::KeyPoint& a, const cv::KeyPoint& b) {
+                         return a.response > b.response;
+                       });
+      for (std::size_t i = 0; i < cell.size() && i < static_cast<std::size_t>(per_cell);
+           ++i)
+        kept.push_back(cell[i]);
+    }
+    return kept;
+  };
+  cv::Mat narrow_left = left_(cv::Rect(0, 0, 40, 372));
+  for (const cv::Mat* image : {&left_, &right_, &narrow_left})
+    for (const int border : {0, 3, 4, 5, 16, 25}) {
+      std::vector<cv::KeyPoint> keypoints;
+      planar_grid::detectGridFastKeypoints(*image, 32, 8, 10, border, keypoints);
+      const std::vector<cv::KeyPoint> expected = reference(*image, 32, 8, border);
+      ASSERT_EQ(keypoints.size(), expected.size()) << "border " << border;
+      for (std::size_t i = 0; i < expected.size(); ++i) {
+        EXPECT_EQ(keypoints[i].pt, expected[i].pt) << "border " << border << ", " << i;
+        EXPECT_EQ(keypoints[i].response, expected[i].response);
+      }
+    }
+}
+
 // Degenerate input: blank images have no corners and give no features; an empty image
 // gives no corners.
 TEST(GridFastKeypoints, BlankAndEmptyImagesGiveNothing)

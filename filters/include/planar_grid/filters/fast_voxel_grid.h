@@ -9,6 +9,9 @@
 
 #include <Eigen/Core>
 
+#include <utility>
+#include <vector>
+
 namespace planar_grid {
 
 /** \brief The valid range of each FastVoxelGridParams member, declared once for the
@@ -36,6 +39,39 @@ struct FastVoxelGridParams {
  * range, meaning). \ingroup filters */
 const ParamDeclarations<FastVoxelGridParams>& fastVoxelGridParamDeclarations();
 
+namespace detail {
+
+/** \brief A point's linear voxel index and its index in the cloud: the element
+ * pcl::VoxelGrid sorts, with its order (the voxel index alone). */
+struct VoxelEntry {
+  /** \brief Uninitialized: a buffer of entries grows without being zero-filled (each
+   * entry is written before it is read). */
+  VoxelEntry() {}
+  VoxelEntry(unsigned int voxel_index, unsigned int point_index) :
+      idx(voxel_index), cloud_point_index(point_index)
+  {}
+
+  unsigned int idx;
+  unsigned int cloud_point_index;
+
+  bool operator<(const VoxelEntry& other) const { return idx < other.idx; }
+};
+
+/** \brief A finite point's voxel, integer coordinates in leaves from the origin, and
+ * its index in the cloud. */
+struct PointVoxel {
+  /** \brief Uninitialized, as VoxelEntry. */
+  PointVoxel() {}
+  PointVoxel(int voxel_x, int voxel_y, int voxel_z, unsigned int point_index) :
+      x(voxel_x), y(voxel_y), z(voxel_z), cloud_point_index(point_index)
+  {}
+
+  int x, y, z;
+  unsigned int cloud_point_index;
+};
+
+} // namespace detail
+
 /** \brief pcl::VoxelGrid's filter without its second pass over the cloud: the same
  * output cloud, point for point and bit for bit, for the same leaf size and minimum
  * point count.
@@ -55,8 +91,10 @@ const ParamDeclarations<FastVoxelGridParams>& fastVoxelGridParamDeclarations();
  * bounding box pass and kept compact), the index entries' reallocation checks and
  * zero-filling, and the calls to floorf. Not supported (pcl::VoxelGrid has them): a
  * filter field and limits, the leaf layout, and centroids of x, y, z only. A cloud
- * without finite points gives an empty output. Timings on the main job in
- * docs/BENCHMARKS.md.
+ * without finite points gives an empty output. The working buffers stay with the
+ * filter from one filter() call to the next (releaseBuffers() frees them), so that a
+ * filter kept for a stream of clouds allocates nothing after the largest one. Timings
+ * on the main job in docs/BENCHMARKS.md.
  * Precompiled for the point types of PLANAR_GRID_POINT_TYPES; any other type is
  * instantiated from the impl/ header when PCL_NO_PRECOMPILE is defined, as with PCL.
  * \ingroup filters */
@@ -116,6 +154,15 @@ public:
     return static_cast<unsigned int>(params_.min_points_per_voxel);
   }
 
+  /** \brief Frees the working buffers that filter() keeps for the next cloud (their
+   * size follows the largest cloud filtered). */
+  void releaseBuffers()
+  {
+    voxels_ = std::vector<detail::PointVoxel>();
+    entries_ = std::vector<detail::VoxelEntry>();
+    runs_ = std::vector<std::pair<unsigned int, unsigned int>>();
+  }
+
 protected:
   /** \brief The centroids of the occupied voxels of the input (its indices, when
    * set). When the bounding box has more voxels than a 32-bit index holds, the output
@@ -129,6 +176,13 @@ private:
   Eigen::Array4f inverse_leaf_size_{Eigen::Array4f::Ones()};
   /** \brief The parameters as set. */
   Params params_;
+  /** \brief Working buffers of applyFilter(), kept between calls: the voxel of every
+   * finite point, the sorted index entries, the runs of one voxel. Never shrunk, so
+   * that they are neither reallocated nor zero-filled again for a cloud no larger
+   * than one before. */
+  std::vector<detail::PointVoxel> voxels_;
+  std::vector<detail::VoxelEntry> entries_;
+  std::vector<std::pair<unsigned int, unsigned int>> runs_;
 };
 
 } // namespace planar_grid

@@ -23,22 +23,6 @@ namespace planar_grid {
 
 namespace detail {
 
-/** \brief A point's linear voxel index and its index in the cloud: the element
- * pcl::VoxelGrid sorts, with its order (the voxel index alone). */
-struct VoxelEntry {
-  unsigned int idx;
-  unsigned int cloud_point_index;
-
-  bool operator<(const VoxelEntry& other) const { return idx < other.idx; }
-};
-
-/** \brief A finite point's voxel, integer coordinates in leaves from the origin, and
- * its index in the cloud. */
-struct PointVoxel {
-  int x, y, z;
-  unsigned int cloud_point_index;
-};
-
 /** \brief Leaf coordinates of this magnitude and more (2^23) are integers already in
  * single precision; below it, the differences of two voxel coordinates are exact. */
 constexpr float EXACT_LIMIT = 8388608.0f;
@@ -64,11 +48,12 @@ FastVoxelGrid<PointT>::applyFilter(PointCloud& output)
   output.is_dense = true;
 
   // One pass over the points: the bounding box of the finite ones (as
-  // pcl::getMinMax3D) and their voxels, in index order. The buffers are left
-  // uninitialized: each holds one frame's points, written once.
+  // pcl::getMinMax3D) and their voxels, in index order. The buffers grow to the
+  // largest cloud and are never shrunk: each element is written before it is read.
   const Eigen::Array4f inv = inverse_leaf_size_;
-  const std::unique_ptr<detail::PointVoxel[]> voxels(
-    new detail::PointVoxel[indices.size()]);
+  if (voxels_.size() < indices.size())
+    voxels_.resize(indices.size());
+  detail::PointVoxel* const voxels = voxels_.data();
   std::size_t n = 0;
   Eigen::Array4f min_p = Eigen::Array4f::Constant(std::numeric_limits<float>::max());
   Eigen::Array4f max_p = Eigen::Array4f::Constant(std::numeric_limits<float>::lowest());
@@ -144,7 +129,9 @@ FastVoxelGrid<PointT>::applyFilter(PointCloud& output)
   // bounding box's first voxel in single precision, which equals the integer
   // difference below 2^23 (rounding is monotone, so that voxel is the floor of the
   // smallest point's coordinate); beyond, the voxels are taken again its way.
-  const std::unique_ptr<detail::VoxelEntry[]> entries(new detail::VoxelEntry[n]);
+  if (entries_.size() < n)
+    entries_.resize(n);
+  detail::VoxelEntry* const entries = entries_.data();
   if (exact)
     for (std::size_t j = 0; j < n; ++j) {
       const detail::PointVoxel& v = voxels[j];
@@ -166,12 +153,12 @@ FastVoxelGrid<PointT>::applyFilter(PointCloud& output)
                     voxels[j].cloud_point_index};
     }
   boost::sort::spreadsort::integer_sort(
-    entries.get(), entries.get() + n,
+    entries, entries + n,
     [](const detail::VoxelEntry& e, unsigned offset) { return e.idx >> offset; });
 
   // The runs of one voxel index with enough points, then their centroids.
-  std::vector<std::pair<unsigned int, unsigned int>> runs;
-  runs.reserve(n / 4 + 1);
+  std::vector<std::pair<unsigned int, unsigned int>>& runs = runs_;
+  runs.clear();
   for (std::size_t b = 0; b < n;) {
     std::size_t e = b + 1;
     while (e < n && entries[e].idx == entries[b].idx)

@@ -93,6 +93,15 @@ struct DepthImage {
                                   std::size_t row_stride_bytes,
                                   const StereoCalibration& calibration);
 
+  /** \brief fromDisparity() into this image, in place: a depth image filled frame after
+   * frame keeps its buffer (no allocation when the size is unchanged). The arguments
+   * and exceptions are fromDisparity()'s; on an exception the image is unchanged. */
+  void assignFromDisparity(const float* disparity,
+                           int image_width,
+                           int image_height,
+                           std::size_t row_stride_bytes,
+                           const StereoCalibration& calibration);
+
   /** \brief Number of pixels with a measurement (finite depth > 0). */
   [[nodiscard]] std::size_t countValid() const;
 
