@@ -25,26 +25,6 @@ enum class FeatureSource {
   POINTS // the cloud's points, one per cube of point_spacing_m
 };
 
-const char*
-featureSourceName(FeatureSource source)
-{
-  return source == FeatureSource::IMAGE    ? "image"
-         : source == FeatureSource::POINTS ? "points"
-                                           : "auto";
-}
-
-FeatureSource
-featureSourceFromName(const std::string& name)
-{
-  if (name == "auto")
-    return FeatureSource::AUTO;
-  if (name == "image")
-    return FeatureSource::IMAGE;
-  if (name == "points")
-    return FeatureSource::POINTS;
-  throw Exception("Unknown source '" + name + "' (auto, image, points)");
-}
-
 /** The detector's parameters on a cloud's image: orb_grid, 1000 key points (the
  * matcher's stereo defaults are sift and 2000). */
 StereoFeatureMatcher::Params
@@ -74,9 +54,11 @@ cloudFeaturesParamDeclarations()
     return featureTypeName(type);
   };
   static const ParamDeclarations<P> table = {
-    declareChoice<P>(
-      "source", [](auto& p) -> auto& { return p.source; }, {"auto", "image", "points"},
-      featureSourceName, featureSourceFromName,
+    declareNamedChoice<P, FeatureSource>(
+      "source", [](auto& p) -> auto& { return p.source; },
+      {{"auto", FeatureSource::AUTO},
+       {"image", FeatureSource::IMAGE},
+       {"points", FeatureSource::POINTS}},
       "image: key points on the organized cloud's image (an error when a frame has "
       "none); points: the cloud's points; auto: image when the frame's cloud is "
       "organized and carries colour or intensity, points otherwise."),

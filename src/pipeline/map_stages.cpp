@@ -24,26 +24,6 @@ enum class SensorModel {
   RAYS     // a ray from the sensor origin to every point of the working cloud
 };
 
-const char*
-sensorModelName(SensorModel model)
-{
-  return model == SensorModel::RAYS      ? "rays"
-         : model == SensorModel::PINHOLE ? "pinhole"
-                                         : "auto";
-}
-
-SensorModel
-sensorModelFromName(const std::string& name)
-{
-  if (name == "rays")
-    return SensorModel::RAYS;
-  if (name == "pinhole")
-    return SensorModel::PINHOLE;
-  if (name == "auto")
-    return SensorModel::AUTO;
-  throw Exception("Unknown sensor model '" + name + "' (auto, pinhole, rays)");
-}
-
 /** The stage's own parameters beside the map's: how it sees a frame, the window. */
 struct MapStageParams {
   SensorModel sensor_model{SensorModel::AUTO};
@@ -58,9 +38,11 @@ mapStageParamDeclarations()
 {
   using P = MapStageParams;
   static const ParamDeclarations<P> table = {
-    declareChoice<P>(
+    declareNamedChoice<P, SensorModel>(
       "sensor_model", [](auto& p) -> auto& { return p.sensor_model; },
-      {"auto", "pinhole", "rays"}, sensorModelName, sensorModelFromName,
+      {{"auto", SensorModel::AUTO},
+       {"pinhole", SensorModel::PINHOLE},
+       {"rays", SensorModel::RAYS}},
       "How the explicit space layer sees a frame: pinhole = the disparity image's "
       "camera (stereo), the depth image's camera (Mapper::integrateDepth) or a virtual "
       "depth camera (other point clouds, the depth_* keys); rays = a ray from the "

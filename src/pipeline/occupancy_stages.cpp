@@ -29,30 +29,6 @@ enum class ErrorModel {
   RANGE            // dr = range_error_m
 };
 
-const char*
-errorModelName(ErrorModel model)
-{
-  return model == ErrorModel::STEREO            ? "stereo"
-         : model == ErrorModel::DEPTH_QUADRATIC ? "depth_quadratic"
-         : model == ErrorModel::RANGE           ? "range"
-                                                : "auto";
-}
-
-ErrorModel
-errorModelFromName(const std::string& name)
-{
-  if (name == "auto")
-    return ErrorModel::AUTO;
-  if (name == "stereo")
-    return ErrorModel::STEREO;
-  if (name == "depth_quadratic")
-    return ErrorModel::DEPTH_QUADRATIC;
-  if (name == "range")
-    return ErrorModel::RANGE;
-  throw Exception("Unknown range_error_model '" + name
-                  + "' (auto, stereo, depth_quadratic, range)");
-}
-
 /** The stage's own parameters beside the filter's: the sensor model it picks per
  * frame, the frame-to-frame matching and the motion model. */
 struct KLStageParams {
@@ -70,10 +46,12 @@ klStageParamDeclarations()
 {
   using P = KLStageParams;
   static const ParamDeclarations<P> table = {
-    declareChoice<P>(
+    declareNamedChoice<P, ErrorModel>(
       "range_error_model", [](auto& p) -> auto& { return p.range_error_model; },
-      {"auto", "stereo", "depth_quadratic", "range"}, errorModelName,
-      errorModelFromName,
+      {{"auto", ErrorModel::AUTO},
+       {"stereo", ErrorModel::STEREO},
+       {"depth_quadratic", ErrorModel::DEPTH_QUADRATIC},
+       {"range", ErrorModel::RANGE}},
       "dr of eq. 4: stereo = the paper's (r_bar / z) z^2 / (B f) dd with the frame's "
       "calibration; depth_quadratic = (r_bar / z) k z^2 (a depth camera); range = "
       "range_error_m (a LiDAR); auto = stereo for stereo input, depth_quadratic for "

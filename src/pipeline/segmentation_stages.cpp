@@ -34,43 +34,11 @@ enum class PlaneSample {
   CLOUD     // a subsample of the frame's cloud
 };
 
-const char*
-planeSampleName(PlaneSample sample)
-{
-  return sample == PlaneSample::CLOUD ? "cloud" : "features";
-}
-
-PlaneSample
-planeSampleFromName(const std::string& name)
-{
-  if (name == "features")
-    return PlaneSample::FEATURES;
-  if (name == "cloud")
-    return PlaneSample::CLOUD;
-  throw Exception("Unknown sample '" + name + "' (features, cloud)");
-}
-
 /** Where the normal test's normals come from. */
 enum class NormalSource {
   AUTO, // the frame's disparity image; no normal test without one
   CLOUD // the segmentation's grid normals of the cloud
 };
-
-const char*
-normalSourceName(NormalSource source)
-{
-  return source == NormalSource::CLOUD ? "cloud" : "auto";
-}
-
-NormalSource
-normalSourceFromName(const std::string& name)
-{
-  if (name == "auto")
-    return NormalSource::AUTO;
-  if (name == "cloud")
-    return NormalSource::CLOUD;
-  throw Exception("Unknown normal_source '" + name + "' (auto, cloud)");
-}
 
 /** The stage's own parameters beside SACMultiPlaneSegmentation's: the frame's data it
  * feeds the class (the stereo depth noise, the sample, the disparity normals). */
@@ -92,14 +60,14 @@ multiPlaneStageParamDeclarations()
       ParamRange::closed(0.0, 10.0), "px",
       "Stereo input: Delta d of eq. 4; a dense point is an inlier within max(d_T, "
       "Delta z) with Delta z = r^2 Delta d / (B f) at its range r (0: fixed d_T)."),
-    declareChoice<P>(
-      "sample", [](auto& p) -> auto& { return p.sample; }, {"features", "cloud"},
-      planeSampleName, planeSampleFromName,
+    declareNamedChoice<P, PlaneSample>(
+      "sample", [](auto& p) -> auto& { return p.sample; },
+      {{"features", PlaneSample::FEATURES}, {"cloud", PlaneSample::CLOUD}},
       "Hypotheses from the 3D key features (paper) or the cloud; on pcd_files input "
       "the default is cloud (no stereo features)."),
-    declareChoice<P>(
+    declareNamedChoice<P, NormalSource>(
       "normal_source", [](auto& p) -> auto& { return p.normal_source; },
-      {"auto", "cloud"}, normalSourceName, normalSourceFromName,
+      {{"auto", NormalSource::AUTO}, {"cloud", NormalSource::CLOUD}},
       "Where the normal test's normals come from: auto, the frame's disparity image (a "
       "plane fitted to the disparities around each point's pixel, "
       "planar_grid::estimateDisparityNormals); frames without one (point clouds, depth "

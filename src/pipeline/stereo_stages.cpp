@@ -53,22 +53,6 @@ struct StereoDisparityStageParams {
   DenseFrameSelection selection;
 };
 
-const char*
-frameSelectionName(bool keyframes)
-{
-  return keyframes ? "keyframes" : "every_n_frames";
-}
-
-bool
-frameSelectionFromName(const std::string& name)
-{
-  if (name == "keyframes")
-    return true;
-  if (name == "every_n_frames")
-    return false;
-  throw Exception("Unknown frame_selection '" + name + "' (every_n_frames, keyframes)");
-}
-
 const ParamDeclarations<StereoDisparityStageParams>&
 stereoDisparityStageParamDeclarations()
 {
@@ -78,9 +62,9 @@ stereoDisparityStageParamDeclarations()
       "max_range_m", [](auto& p) -> auto& { return p.max_range_m; },
       point_cloud_from_disparity_ranges::MAX_RANGE, "m",
       "Points farther than this are invalid (stereo error grows as z^2)."),
-    declareChoice<P>(
+    declareNamedChoice<P, bool>(
       "frame_selection", [](auto& p) -> auto& { return p.selection.keyframes; },
-      {"every_n_frames", "keyframes"}, frameSelectionName, frameSelectionFromName,
+      {{"every_n_frames", false}, {"keyframes", true}},
       "Which frames are dense (get the disparity and the cloud): every_n_frames by "
       "position, or keyframes by the camera's motion since the last keyframe (needs "
       "the frame's pose when this stage runs: input poses, the live mapper's pose, or "

@@ -528,3 +528,33 @@ TEST(ParamDeclarations, AChoiceThatIsNoneOfTheNamesIsRefused)
 }
 
 } // namespace
+
+namespace {
+
+enum class Shade { LIGHT, DARK };
+
+struct ShadeParams {
+  Shade shade{Shade::LIGHT};
+};
+
+} // namespace
+
+TEST(ParamDeclarations, NamedChoiceReadsAndWritesEveryNameOfItsOneTable)
+{
+  const auto declaration = planar_grid::declareNamedChoice<ShadeParams, Shade>(
+    "shade", [](auto& p) -> auto& { return p.shade; },
+    {{"light", Shade::LIGHT}, {"dark", Shade::DARK}}, "Which shade.");
+  EXPECT_EQ(declaration.choices, (std::vector<std::string>{"light", "dark"}));
+  ShadeParams params;
+  EXPECT_EQ(std::get<std::string>(declaration.get(params)), "light");
+  declaration.set(params, ParamValue(std::string("dark")));
+  EXPECT_EQ(params.shade, Shade::DARK);
+  EXPECT_EQ(std::get<std::string>(declaration.get(params)), "dark");
+  try {
+    declaration.set(params, ParamValue(std::string("grey")));
+    FAIL() << "a name that is none of the table's was accepted";
+  } catch (const planar_grid::Exception& e) {
+    EXPECT_EQ(std::string(e.what()), "Unknown shade 'grey' (light, dark)");
+  }
+  EXPECT_EQ(params.shade, Shade::DARK);
+}

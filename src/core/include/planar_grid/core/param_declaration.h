@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <planar_grid/core/exceptions.h>
 #include <planar_grid/core/param_range.h>
 
 #include <functional>
@@ -195,6 +196,44 @@ declareChoice(std::string key,
     access(params) = from_name(std::get<std::string>(value));
   };
   return declaration;
+}
+
+/** \brief Declares a member of an enumeration (or any value type) written as one of
+ * the names of \a names, the one table of both directions: the choices are its names
+ * in order, a value's name is the first entry holding it, and a name that is none
+ * throws planar_grid::Exception ("Unknown KEY 'NAME' (a, b, c)").
+ * \param[in] key key
+ * \param[in] access `[](auto& p) -> auto& { return p.member; }`
+ * \param[in] names each name with its value, in the order documented
+ * \param[in] description what it does
+ * \return the declaration \ingroup core */
+template <typename Params, typename Value, typename Access>
+ParamDeclaration<Params>
+declareNamedChoice(std::string key,
+                   Access access,
+                   std::vector<std::pair<std::string, Value>> names,
+                   std::string description)
+{
+  std::vector<std::string> choices;
+  std::string listed;
+  for (const auto& entry : names) {
+    listed += (choices.empty() ? "" : ", ") + entry.first;
+    choices.push_back(entry.first);
+  }
+  const auto to_name = [names](const Value& value) -> const std::string& {
+    for (const auto& entry : names)
+      if (entry.second == value)
+        return entry.first;
+    return names.front().first;
+  };
+  const auto from_name = [names, key, listed](const std::string& name) {
+    for (const auto& entry : names)
+      if (entry.first == name)
+        return entry.second;
+    throw Exception("Unknown " + key + " '" + name + "' (" + listed + ")");
+  };
+  return declareChoice<Params>(std::move(key), access, std::move(choices), to_name,
+                               from_name, std::move(description));
 }
 
 /** \brief The first member of \a params outside its declared range, as
