@@ -47,13 +47,17 @@ struct VoxelEntry {
   /** \brief Uninitialized: a buffer of entries grows without being zero-filled (each
    * entry is written before it is read). */
   VoxelEntry() {}
+  /** \brief The entry of the point \a point_index in voxel \a voxel_index. */
   VoxelEntry(unsigned int voxel_index, unsigned int point_index) :
       idx(voxel_index), cloud_point_index(point_index)
   {}
 
+  /** \brief Linear voxel index. */
   unsigned int idx;
+  /** \brief Index of the point in the cloud. */
   unsigned int cloud_point_index;
 
+  /** \brief pcl::VoxelGrid's order: by voxel index alone. */
   bool operator<(const VoxelEntry& other) const { return idx < other.idx; }
 };
 
@@ -62,11 +66,19 @@ struct VoxelEntry {
 struct PointVoxel {
   /** \brief Uninitialized, as VoxelEntry. */
   PointVoxel() {}
+  /** \brief The point \a point_index in the voxel (\a voxel_x, \a voxel_y,
+   * \a voxel_z). */
   PointVoxel(int voxel_x, int voxel_y, int voxel_z, unsigned int point_index) :
       x(voxel_x), y(voxel_y), z(voxel_z), cloud_point_index(point_index)
   {}
 
-  int x, y, z;
+  /** \brief Voxel x coordinate, in leaves from the origin. */
+  int x;
+  /** \brief Voxel y coordinate, in leaves from the origin. */
+  int y;
+  /** \brief Voxel z coordinate, in leaves from the origin. */
+  int z;
+  /** \brief Index of the point in the cloud. */
   unsigned int cloud_point_index;
 };
 
