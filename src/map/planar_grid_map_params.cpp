@@ -115,7 +115,8 @@ makeParamDeclarations()
       surface::ABSORB_DISTANCE, "m",
       "planes_absorb_overlapping: largest distance along a stronger parallel plane's "
       "normal at which a plane's cells are that surface seen at another depth (about "
-      "twice eq. 4's depth error bound)."),
+      "twice eq. 4's depth error bound); also the largest gap at which two parallel "
+      "planes of comparable evidence, one stacked over the other, merge into one."),
     declareReal<Params>(
       "terrain_plane_tile_m",
       [](auto& p) -> auto& { return p.surface.terrain_plane_tile_m; },

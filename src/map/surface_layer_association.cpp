@@ -157,6 +157,69 @@ rastersTouch(const MapPlane& a, const MapPlane& b, double r)
   return false;
 }
 
+/** \brief Smallest share of the smaller plane's observed cells lying over the other
+ * plane's observed cells, within the absorb distance of it, for two parallel planes to
+ * be one surface mapped twice (mergeConvergedPlanes()). */
+constexpr double STACKED_MIN_OVERLAP_SHARE = 0.25;
+
+/** \brief Smallest ratio of the weaker plane's evidence (moments weight) to the
+ * stronger's for two stacked planes to merge: two estimates of one surface. A small
+ * plane in front of a well-observed one (an object before a wall, or a fragment) is
+ * left to absorbOverlappingPlaneCells(), which moves only the cells lying on the
+ * other plane. */
+constexpr double STACKED_MIN_WEIGHT_RATIO = 0.25;
+
+/** \brief True when \a a and \a b, parallel (normals within the cosine \a
+ * cos_parallel, facing the same way) and of comparable evidence (the weaker's weight at
+ * least STACKED_MIN_WEIGHT_RATIO of the stronger's), are one surface mapped as two
+ * planes a little apart: at least STACKED_MIN_OVERLAP_SHARE of the smaller raster's
+ * observed cells, placed on their own refined plane, lie within \a max_gap_m of the
+ * other's refined plane and project into an observed cell of it. Two level planes are
+ * never stacked (a step, a curb is real). */
+bool
+stackedPlanes(const MapPlane& a,
+              const MapPlane& b,
+              double r,
+              double cos_parallel,
+              double max_gap_m)
+{
+  const double weak = std::min(a.moments.weight, b.moments.weight);
+  const double strong = std::max(a.moments.weight, b.moments.weight);
+  if (a.raster.empty() || b.raster.empty()
+      || !(weak >= STACKED_MIN_WEIGHT_RATIO * strong)
+      || static_cast<double>(a.normal.dot(b.normal)) < cos_parallel
+      || (isLevel(a.normal.z()) && isLevel(b.normal.z())))
+    return false;
+  const MapPlane& small = a.raster.size() <= b.raster.size() ? a : b;
+  const MapPlane& big = &small == &a ? b : a;
+  const RasterFrame small_frame = small.frame(), big_frame = big.frame();
+  const float along = small.normal.dot(small.frame_normal);
+  if (!(along > 0.5f))
+    return false;
+  const double inv_r = 1.0 / r;
+  const std::size_t n = small.raster.size();
+  const auto needed = static_cast<std::size_t>(
+    std::ceil(STACKED_MIN_OVERLAP_SHARE * static_cast<double>(n)));
+  std::size_t over = 0, seen = 0;
+  for (const auto key : small.raster.keys()) {
+    ++seen;
+    Eigen::Vector3f p = small_frame.cellCentre(rasterCellI(key), rasterCellJ(key), r);
+    p -= small.frame_normal * ((small.normal.dot(p) + small.d) / along);
+    if (std::abs(static_cast<double>(big.normal.dot(p) + big.d)) <= max_gap_m) {
+      const Eigen::Vector2d f = big_frame.toRaster(p, inv_r);
+      std::int64_t ci = 0, cj = 0;
+      if (cellIndex(f.x(), ci) && cellIndex(f.y(), cj)
+          && big.raster.contains(
+            rasterCellKey(static_cast<std::int32_t>(ci), static_cast<std::int32_t>(cj)))
+          && ++over >= needed)
+        return true;
+    }
+    if (over + (n - seen) < needed)
+      return false;
+  }
+  return false;
+}
+
 /** \brief Moves the raster of \a plane into a frame of its refined plane (when the
  * refined normal has drifted from the frame's). */
 void
@@ -264,9 +327,11 @@ SurfaceLayer::Impl::mergeConvergedPlanes(std::vector<int>& touched,
   Impl& impl = *this;
   const double r = params.resolution_m;
   const double cos_angle = std::cos(params.plane_merge_angle_rad);
+  const double max_gap = std::max(0.5 * r, params.absorb_distance_m);
   const PlaneAssociation association(associationCriteria(params));
   // 6. Map planes that converged merge (SurfaceLayer's documentation): a touched plane
-  // and any other that one plane explains and whose rasters overlap or touch. The plane
+  // and any other that one plane explains and whose rasters overlap or touch, or that
+  // lies stacked over it (one surface mapped twice a little apart). The plane
   // with more evidence survives (lower index on a tie). Each merge removes a plane, so
   // this ends.
   for (bool merged = true; merged;) {
@@ -279,9 +344,11 @@ SurfaceLayer::Impl::mergeConvergedPlanes(std::vector<int>& touched,
         double rms = 0.0;
         if (m == t
             || !sameTerrainTile(params.terrain_plane_tile_m, observation(a),
-                                observation(b))
-            || !association.match(observation(a), observation(b), rms)
-            || !rastersTouch(a, b, r))
+                                observation(b)))
+          continue;
+        const bool converged = association.match(observation(a), observation(b), rms)
+                               && rastersTouch(a, b, r);
+        if (!converged && !stackedPlanes(a, b, r, cos_angle, max_gap))
           continue;
         std::size_t keep = t, gone = m;
         if (b.moments.weight > a.moments.weight

@@ -234,10 +234,11 @@ TEST(SurfaceLayer, OverlappingFramesOfOneWallMergeIntoOnePlane)
 TEST(SurfaceLayer, DifferentPlanesStaySeparate)
 {
   const PlaneFrame a = wallFrame();
-  // 0.3 rad away (tolerance 0.1 rad), and a parallel wall 0.5 m behind (0.15 m).
+  // 0.3 rad away (tolerance 0.1 rad), and a parallel wall 0.7 m behind (0.15 m, and
+  // beyond the absorb_distance_m of 0.5 m within which a stacked plane merges).
   const PlaneFrame turned(Eigen::AngleAxisf(0.3f, Eigen::Vector3f::UnitZ()) * a.n,
                           5.0f);
-  const PlaneFrame behind(a.n, 5.5f);
+  const PlaneFrame behind(a.n, 5.7f);
   SurfaceLayer layer(defaultParams());
   const Cloud none;
   layer.integrate({faceCuboid(a, 0, 0, 1, 0, 1), faceCuboid(turned, 1, 0, 1, 0, 1),
@@ -397,9 +398,11 @@ TEST(SurfaceLayer, TerrainCoverDensityCoversTheLevelPlanes)
 // The distance of a frame's plane to a map plane is measured where the faces are: a
 // wall 500 m along from the world origin's foot point, seen again on a plane turned
 // by 0.01 rad about the face centre, differs in d by ~5 m, yet its faces lie on the
-// first ones: one map plane. A parallel wall 0.32 m in front stays separate: with the
-// map plane's evidence (weight 8 m^2) its face (4 m^2) fits a plane 0.32 x 8 / 12 =
-// 0.21 m from it (> 0.15 m).
+// first ones: one map plane. A parallel wall 0.32 m in front is not associated: with
+// the map plane's evidence (weight 8 m^2) its face (4 m^2) fits a plane 0.32 x 8 / 12
+// = 0.21 m from it (> 0.15 m). (Lying over the first, it would merge as a stacked
+// plane within absorb_distance_m: StackedParallelPlanesMerge. Here that distance is
+// 0.2 m, so that only the association decides.)
 TEST(SurfaceLayer, PlaneDistanceIsMeasuredWhereTheFacesAre)
 {
   const PlaneFrame wall = wallFrame();
@@ -407,7 +410,9 @@ TEST(SurfaceLayer, PlaneDistanceIsMeasuredWhereTheFacesAre)
   const Eigen::Vector3f n_b = Eigen::AngleAxisf(0.01f, wall.v) * wall.n;
   const PlaneFrame turned(n_b, -n_b.dot(centre));
   ASSERT_GT(std::abs(turned.d - wall.d), 4.0f); // the d offsets differ by metres
-  SurfaceLayer layer(defaultParams());
+  SurfaceLayer::Params params = defaultParams();
+  params.absorb_distance_m = 0.2;
+  SurfaceLayer layer(params);
   layer.integrate({faceCuboid(wall, 0, 500, 502, 0, 2)}, PlaneModels{wall.model()},
                   Cloud(), {});
   PlanarCuboid cb = faceCuboid(turned, 0, 0, 2, 0, 2);
@@ -421,6 +426,58 @@ TEST(SurfaceLayer, PlaneDistanceIsMeasuredWhereTheFacesAre)
   EXPECT_EQ(layer.getPlanes().size(), 2u);
 }
 
+// One surface mapped twice a little apart merges: a wall [0, 4] x [0, 2] (0.1 m
+// cells) and, in a second frame, a plane turned 0.08 rad about the wall's v axis
+// (within plane_merge_angle_rad, 0.1) whose face [1, 3] x [0, 2] lies 0.3 m in front
+// of it at its middle. The association does not join them (the joint plane is more
+// than plane_merge_distance_m, 0.15 m, from the faces), but every cell of the second
+// lies over an observed cell of the first within absorb_distance_m (0.5 m): one map
+// plane, the wall's 800 cells. It stays two planes when the second lies beside the
+// wall (no cell over it), 0.7 m in front, turned 0.3 rad, or, parallel 0.45 m in
+// front, over less than a quarter of its cells ([3.6, 5.6]: 0.4 of 2 m; [3.2, 5.2],
+// 0.8 of 2 m, merges), when its evidence is less than a quarter of the wall's, or when
+// both are level (a floor and a step 0.3 m up: the step is real).
+TEST(SurfaceLayer, StackedParallelPlanesMerge)
+{
+  const PlaneFrame wall = wallFrame();
+  const auto second = [&wall](float angle_rad, float gap_m, float u0, float u1) {
+    const Eigen::Vector3f n = Eigen::AngleAxisf(angle_rad, wall.v) * wall.n;
+    const Eigen::Vector3f middle = wall.at(0.5f * (u0 + u1), 1.0f) + wall.n * gap_m;
+    const PlaneFrame turned(n, -n.dot(middle));
+    PlanarCuboid c = faceCuboid(wall, 0, u0, u1, 0, 2);
+    c.normal = n;
+    c.horizontal_axis = (wall.u - n * n.dot(wall.u)).normalized();
+    c.centre = middle - n * 0.05f;
+    return std::make_pair(c, turned.model());
+  };
+  const auto planesAfter = [&](const std::pair<PlanarCuboid, Eigen::Vector4f>& b,
+                               const PlaneFrame& a_frame, bool level) {
+    SurfaceLayer layer(defaultParams());
+    layer.integrate({faceCuboid(a_frame, 0, 0, 4, 0, 2)}, PlaneModels{a_frame.model()},
+                    Cloud(), {});
+    if (level) {
+      const PlaneFrame step(a_frame.n, a_frame.d - 0.3f);
+      layer.integrate({faceCuboid(step, 0, 1, 3, 0, 2)}, PlaneModels{step.model()},
+                      Cloud(), {});
+    } else
+      layer.integrate({b.first}, PlaneModels{b.second}, Cloud(), {});
+    return std::make_pair(layer.getPlanes().size(), layer.getCellCount());
+  };
+  const auto stacked = planesAfter(second(0.08f, 0.3f, 1, 3), wall, false);
+  EXPECT_EQ(stacked.first, 1u);
+  EXPECT_EQ(stacked.second, 800u);
+  EXPECT_EQ(planesAfter(second(0.08f, 0.3f, 5, 7), wall, false).first, 2u);
+  EXPECT_EQ(planesAfter(second(0.08f, 0.7f, 1, 3), wall, false).first, 2u);
+  EXPECT_EQ(planesAfter(second(0.3f, 0.3f, 1, 3), wall, false).first, 2u);
+  EXPECT_EQ(planesAfter(second(0.0f, 0.45f, 3.6f, 5.6f), wall, false).first, 2u);
+  EXPECT_EQ(planesAfter(second(0.0f, 0.45f, 3.2f, 5.2f), wall, false).first, 1u);
+  // 1.6 m^2 of evidence against the wall's 8: an object in front of it, or a fragment
+  // left to absorbOverlappingPlaneCells()
+  EXPECT_EQ(planesAfter(second(0.08f, 0.3f, 1.6f, 2.4f), wall, false).first, 2u);
+  const PlaneFrame floor(Eigen::Vector3f::UnitZ(), 1.5f);
+  EXPECT_EQ(planesAfter({}, floor, true).first, 2u);
+}
+
 // Planes that converge merge. Offsets o along the wall's normal (toward the sensor),
 // weights = face areas: frame 1 sees [0, 2] x [0, 4] at o = +0.14 m (weight 8), frame
 // 2 sees [0, 2] x [1, 2], inside it, at o = -0.14 (weight 2): the plane fitted to
@@ -432,14 +489,18 @@ TEST(SurfaceLayer, PlaneDistanceIsMeasuredWhereTheFacesAre)
 // first's evidence (~0.13 m) and the second's (~0.09 m), and the rasters overlap:
 // they merge into one plane. Its raster is the union [0, 5] x [0, 2] + [0, 2] x
 // [2, 4] = 1400 cells (all frames share the wall's in-plane axes: no resampling),
-// covered by 2 rectangles.
+// covered by 2 rectangles. (absorb_distance_m is 0.2 m here, below the 0.28 m
+// between frames 1 and 2, so that frame 2's plane does not merge at once as a plane
+// stacked over the first: StackedParallelPlanesMerge.)
 TEST(SurfaceLayer, MapPlanesThatConvergeMerge)
 {
   const PlaneFrame wall = wallFrame();
   const auto at = [&wall](float o) {
     return PlaneFrame(wall.n, wall.d - o);
   };
-  SurfaceLayer layer(defaultParams());
+  SurfaceLayer::Params params = defaultParams();
+  params.absorb_distance_m = 0.2;
+  SurfaceLayer layer(params);
   layer.integrate({faceCuboid(at(0.14f), 0, 0, 2, 0, 4)},
                   PlaneModels{at(0.14f).model()}, Cloud(), {});
   layer.integrate({faceCuboid(at(-0.14f), 0, 0, 2, 1, 2)},

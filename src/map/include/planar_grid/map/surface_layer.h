@@ -102,7 +102,12 @@ SurfaceMergeRule surfaceMergeRuleFromString(const std::string& name);
  * - Map planes that converge are merged: after a frame, a plane it touched and any
  *   other plane that pass the same test and whose rasters overlap or are adjacent (a
  *   cell centre of one projects into or next to an observed cell of the other)
- *   become one. The plane with more evidence (lower index on a tie) survives; the
+ *   become one; so do two planes stacked over each other (one surface mapped twice a
+ *   little apart): normals within plane_merge_angle_rad (facing the same way), not
+ *   both level, the weaker's evidence at least a quarter of the stronger's, and at
+ *   least a quarter of the smaller raster's observed cells, placed on their plane,
+ *   within absorb_distance_m of the other plane and projecting into an observed cell
+ *   of it. The plane with more evidence (lower index on a tie) survives; the
  *   other's raster is re-projected into the survivor's frame (every cell whose
  *   centre falls in an observed cell of the other is observed; the feature sums of a
  *   cell go to the cell containing its centre) and its moments are added.
@@ -218,12 +223,14 @@ public:
     double cover_density{0.9};
     /** Largest distance along a stronger plane's normal at which the cells of a
      * plane parallel to it (normals within plane_merge_angle_rad, facing the same
-     * way) are the same
-     * surface seen at another depth and move to it (absorbOverlappingPlaneCells()),
-     * meters; in surface_layer_ranges::ABSORB_DISTANCE; below resolution_m / 2 it is
-     * resolution_m / 2, the tolerance for planes that are not parallel. 0.5 m is about
-     * twice the stereo depth error (paper eq. 4) at the range the pipeline maps planes,
-     * 0.3 m: two views of one wall, each off by up to that error. */
+     * way) are the same surface seen at another depth and move to it
+     * (absorbOverlappingPlaneCells()), and the largest gap at which two such planes
+     * of comparable evidence, one stacked over the other, merge (the class
+     * documentation), meters; in surface_layer_ranges::ABSORB_DISTANCE; below
+     * resolution_m / 2 it is resolution_m / 2, the tolerance for planes that are not
+     * parallel. 0.5 m is about twice the stereo depth error (paper eq. 4) at the range
+     * the pipeline maps planes, 0.3 m: two views of one wall, each off by up to that
+     * error. */
     double absorb_distance_m{0.5};
     /** Side of the square tiles of the world's x, y plane that bound a level plane
      * (normal within LEVEL_MAX_ANGLE_RAD of the z axis: road, pavement, floor),
