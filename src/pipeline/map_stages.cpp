@@ -10,28 +10,11 @@
 #include <cmath>
 #include <limits>
 
+#include "map_stage_params.h"
 #include "stages.h"
 
 namespace planar_grid {
 namespace stages {
-
-namespace {
-
-/** How the explicit space layer sees a frame. */
-enum class SensorModel {
-  AUTO,    // the disparity image's pinhole camera for stereo, rays for point clouds
-  PINHOLE, // a pinhole camera: the disparity's, or a virtual one for point clouds
-  RAYS     // a ray from the sensor origin to every point of the working cloud
-};
-
-/** The stage's own parameters beside the map's: how it sees a frame, the window. */
-struct MapStageParams {
-  SensorModel sensor_model{SensorModel::AUTO};
-  int depth_width_px{640};
-  int depth_height_px{480};
-  double depth_focal_length_px{525.0};
-  double window_radius_m{0.0};
-};
 
 const ParamDeclarations<MapStageParams>&
 mapStageParamDeclarations()
@@ -71,6 +54,8 @@ mapStageParamDeclarations()
   };
   return table;
 }
+
+namespace {
 
 class MapIntegrationStage : public Stage {
 public:

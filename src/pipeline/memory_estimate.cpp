@@ -2,7 +2,9 @@
 // The memory a run needs, bounded before its first frame, and the machine's limit.
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/explicit_space_grid.h>
+#include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/memory_estimate.h>
+#include <planar_grid/pipeline/param_table.h>
 
 #include <sys/resource.h>
 #include <unistd.h>
@@ -15,6 +17,8 @@
 #include <sstream>
 #include <utility>
 #include <vector>
+
+#include "map_stage_params.h"
 
 namespace planar_grid {
 
@@ -238,8 +242,13 @@ estimateRunMemory(const PipelineConfig& config,
   if (map == nullptr)
     return estimate;
   estimate.has_map = true;
-  estimate.resolution_m = map->params.getDouble("resolution_m");
-  estimate.max_range_m = map->params.getDouble("max_range_m");
+  // The map's and the stage's parameters as the stage reads them.
+  PlanarGridMap::Params map_params;
+  assignParams(PlanarGridMap::getParamDeclarations(), map->params, map_params);
+  stages::MapStageParams stage_params;
+  assignParams(stages::mapStageParamDeclarations(), map->params, stage_params);
+  estimate.resolution_m = map_params.resolution_m;
+  estimate.max_range_m = map_params.space.max_range_m;
   // The key that set the cell size: the map's own, else the cells' it took.
   const auto mark = [&](const StageConfig& stage, const std::string& key) {
     const auto it = stage.param_marks.find(key);
@@ -261,20 +270,20 @@ estimateRunMemory(const PipelineConfig& config,
   const double super_m = block_m * 8.0;
   const double range = estimate.max_range_m;
   // The view's model, as map_integration chooses it.
-  const std::string model = map->params.getChoice("sensor_model");
+  const stages::SensorModel model = stage_params.sensor_model;
   const bool stereo = config.input.type == InputConfig::Type::STEREO_SEQUENCE;
   ViewRegion view;
   view.range_m = range;
-  if (model == "pinhole" && !stereo) {
+  if (model == stages::SensorModel::PINHOLE && !stereo) {
     view.pinhole = true;
-    view.camera.width_px = map->params.getInt("depth_width_px");
-    view.camera.height_px = map->params.getInt("depth_height_px");
-    view.camera.fx_px = view.camera.fy_px =
-      map->params.getDouble("depth_focal_length_px");
+    view.camera.width_px = stage_params.depth_width_px;
+    view.camera.height_px = stage_params.depth_height_px;
+    view.camera.fx_px = view.camera.fy_px = stage_params.depth_focal_length_px;
     view.camera.cx_px = 0.5 * view.camera.width_px;
     view.camera.cy_px = 0.5 * view.camera.height_px;
-  } else if (model != "rays" && stereo && camera != nullptr && camera->width_px > 0
-             && camera->height_px > 0 && camera->fx_px > 0.0 && camera->fy_px > 0.0) {
+  } else if (model != stages::SensorModel::RAYS && stereo && camera != nullptr
+             && camera->width_px > 0 && camera->height_px > 0 && camera->fx_px > 0.0
+             && camera->fy_px > 0.0) {
     view.pinhole = true;
     view.camera = *camera;
   }
@@ -306,7 +315,7 @@ estimateRunMemory(const PipelineConfig& config,
   estimate.map_blocks = saturatingMul(estimate.view_blocks, frames);
   estimate.map_super_blocks = std::min(
     estimate.map_blocks, saturatingMul(blocksIn(view_super_volume, super_m), frames));
-  const double window = map->params.getDouble("window_radius_m");
+  const double window = stage_params.window_radius_m;
   if (!poses.empty()) {
     // Cells of 2^k blocks, k chosen so that the frames' boxes hold at most about 4
     // million cells to test.
