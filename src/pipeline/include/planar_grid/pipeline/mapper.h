@@ -113,8 +113,9 @@ struct FrameStats {
  * frame through the mapper's stages and returns that frame's statistics. The stages
  * and their parameters are a MapperConfig; built from a pipeline configuration
  * (loadMapperConfig()), the same frames give the same map, byte for byte, as a
- * planar_grid_pipeline run of that configuration over them, which runs the same
- * stages.
+ * planar_grid_pipeline run of that configuration over them: that run's PipelineRunner
+ * drives a Mapper of the same stages through the engine calls below (prepareFrame(),
+ * integrateFrame()), on which the live calls run too.
  *
  * The mapper owns its stages, the state they carry from frame to frame, the map and
  * the map's lock; it reads no file. It takes stereo pairs when a stage reads stereo
