@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <utility>
 
 #include "stage_run.h"
 #include "stereo_pair_check.h"
@@ -52,8 +53,26 @@ counterValue(const std::vector<std::pair<std::string, double>>& counters,
 
 } // namespace
 
-Mapper::Mapper(const MapperConfig& config) : config_(config)
+Mapper::Mapper(const MapperConfig& config) : Mapper(config, StageChecks::LIVE) {}
+
+Mapper::Mapper(const MapperConfig& config, StageChecks checks) : config_(config)
 {
+  if (checks == StageChecks::PIPELINE) {
+    // The loader checked the stages against the input and filled in their parameters.
+    for (const StageSpec& spec : config_.stages) {
+      stages_.push_back(stages::createStage(spec.type, spec.params, config_.name,
+                                            spec.line, spec.column));
+      const StageInfo* info = findStage(spec.type);
+      const bool writes_map = contains(info->produces, StageData::MAP);
+      writes_map_.push_back(writes_map);
+      takes_stereo_ = takes_stereo_ || contains(info->needs, StageData::STEREO_IMAGES);
+      estimates_poses_ = estimates_poses_ || contains(info->produces, StageData::POSES);
+      needs_poses_ = needs_poses_ || contains(info->needs, StageData::POSES);
+    }
+    // Starting a stage may change what the process shares (e.g. OpenCV's thread
+    // count), so the stages start with the run, at reset().
+    return;
+  }
   // Every stage's needs must come from the frames or an earlier stage; the poses come
   // with the frames unless a stage estimates them, which integrate() checks per frame.
   std::vector<const StageInfo*> infos;
@@ -125,6 +144,7 @@ Mapper::start()
   trajectory_.clear();
   for (auto& stage : stages_)
     stage->start(state_);
+  started_ = true;
 }
 
 void
@@ -328,46 +348,8 @@ Mapper::integrate(Frame& frame, const Eigen::Isometry3d* world_T_camera)
   frame.name = "#" + std::to_string(sequence_number);
 
   const std::vector<StageReport> before = stage_reports_;
-  lock_wait_ms_ = 0.0;
-  exclusive_ms_ = 0.0;
-  // Readers are locked out from the first stage that changes the map to the first
-  // stage after it that does not (or the end of the frame); every stage runs on this
-  // thread, right after this callback.
-  const stages::StageCallback lock_map = [this](std::size_t s, Frame& /*frame*/) {
-    if (writes_map_[s] && !write_lock_.owns_lock()) {
-      const auto t = std::chrono::steady_clock::now();
-      write_lock_.lock();
-      locked_at_ = std::chrono::steady_clock::now();
-      lock_wait_ms_ +=
-        std::chrono::duration<double, std::milli>(locked_at_ - t).count();
-    } else if (!writes_map_[s] && write_lock_.owns_lock()) {
-      exclusive_ms_ += msSince(locked_at_);
-      write_lock_.unlock();
-    }
-  };
-  std::vector<stages::StageSample> samples;
-  samples.reserve(stages_.size());
-  try {
-    stages::CloudCount last_count;
-    for (std::size_t s = 0; s < stages_.size(); ++s)
-      samples.push_back(stages::runStage(*stages_[s], s, config_.stages[s].type,
-                                         lock_map, frame, state_, sequence_number,
-                                         last_count));
-  } catch (...) {
-    if (write_lock_.owns_lock())
-      write_lock_.unlock();
-    throw;
-  }
-  if (write_lock_.owns_lock()) {
-    exclusive_ms_ += msSince(locked_at_);
-    write_lock_.unlock();
-  }
-  for (std::size_t s = 0; s < samples.size(); ++s)
-    stages::addSample(stage_reports_[s], samples[s]);
-  // After the stages: visual_odometry sets the pose of frames given none.
-  if (frame.has_pose)
-    trajectory_.push_back(frame.world_T_camera);
-  ++frames_;
+  StageProgress progress;
+  runStages(frame, progress, StageCallback());
 
   FrameStats stats;
   stats.sequence_number = frame.sequence_number;
@@ -378,6 +360,7 @@ Mapper::integrate(Frame& frame, const Eigen::Isometry3d* world_T_camera)
     FrameStageStats st;
     st.type = a.type;
     st.ms = a.total_ms - b.total_ms;
+    st.cpu_ms = a.cpu_ms - b.cpu_ms;
     st.points_in = a.points_in - b.points_in;
     st.points_out = a.points_out - b.points_out;
     for (const auto& [name, value] : a.counters)
@@ -393,6 +376,130 @@ Mapper::integrate(Frame& frame, const Eigen::Isometry3d* world_T_camera)
   stats.exclusive_ms = exclusive_ms_;
   stats.total_ms = msSince(start);
   return stats;
+}
+
+void
+Mapper::runStages(Frame& frame, StageProgress& progress, const StageCallback& callback)
+{
+  lock_wait_ms_ = 0.0;
+  exclusive_ms_ = 0.0;
+  // Readers are locked out from the first stage that changes the map to the first
+  // stage after it that does not (or the end of the frame); every stage runs on this
+  // thread, right after this callback.
+  const stages::StageCallback lock_map = [this, &callback](std::size_t s, Frame& f) {
+    if (writes_map_[s] && !write_lock_.owns_lock()) {
+      const auto t = std::chrono::steady_clock::now();
+      write_lock_.lock();
+      locked_at_ = std::chrono::steady_clock::now();
+      lock_wait_ms_ +=
+        std::chrono::duration<double, std::milli>(locked_at_ - t).count();
+    } else if (!writes_map_[s] && write_lock_.owns_lock()) {
+      exclusive_ms_ += msSince(locked_at_);
+      write_lock_.unlock();
+    }
+    if (callback)
+      callback(s, f);
+  };
+  const std::size_t first = progress.stages.size();
+  progress.stages.reserve(stages_.size());
+  try {
+    for (std::size_t s = first; s < stages_.size(); ++s)
+      stages::runStage(*stages_[s], s, config_.stages[s].type, lock_map, frame, state_,
+                       frame.sequence_number, progress);
+  } catch (...) {
+    if (write_lock_.owns_lock())
+      write_lock_.unlock();
+    throw;
+  }
+  if (write_lock_.owns_lock()) {
+    exclusive_ms_ += msSince(locked_at_);
+    write_lock_.unlock();
+  }
+  for (std::size_t s = 0; s < progress.stages.size(); ++s)
+    stages::addSample(stage_reports_[s], progress.stages[s]);
+  // After the stages: visual_odometry sets the pose of frames given none.
+  if (frame.has_pose)
+    trajectory_.push_back(frame.world_T_camera);
+  ++frames_;
+}
+
+std::size_t
+Mapper::getFrameLocalStageCount() const
+{
+  std::size_t front = 0;
+  while (front < stages_.size() && stages_[front]->isFrameLocal())
+    ++front;
+  return front;
+}
+
+void
+Mapper::prepareFrame(Frame& frame,
+                     std::size_t stage_end,
+                     StageProgress& progress,
+                     const StageCallback& callback)
+{
+  if (stage_end > getFrameLocalStageCount())
+    throw Exception("Mapper::prepareFrame: stage " + std::to_string(stage_end - 1)
+                    + " is past the " + std::to_string(getFrameLocalStageCount())
+                    + " leading frame-local stages of " + pipelineName());
+  // Those stages touch nothing but their frame: the state they are given is never
+  // read, and it is not the one integrateFrame() changes on the other thread.
+  for (std::size_t s = progress.stages.size(); s < stage_end; ++s)
+    stages::runStage(*stages_[s], s, config_.stages[s].type, callback, frame,
+                     unused_state_, frame.sequence_number, progress);
+}
+
+void
+Mapper::integrateFrame(Frame& frame,
+                       StageProgress& progress,
+                       const StageCallback& callback)
+{
+  const std::lock_guard<std::mutex> frame_lock(frame_mutex_);
+  if (!started_)
+    throw Exception("Mapper::integrateFrame: the stages of " + pipelineName()
+                    + " have not started; call reset() before the first frame");
+  runStages(frame, progress, callback);
+}
+
+std::vector<double>
+Mapper::finish()
+{
+  const std::lock_guard<std::mutex> frame_lock(frame_mutex_);
+  std::vector<double> ms(stages_.size(), 0.0);
+  for (std::size_t s = 0; s < stages_.size(); ++s) {
+    const auto t = std::chrono::steady_clock::now();
+    stages_[s]->finish(state_);
+    ms[s] = msSince(t);
+  }
+  return ms;
+}
+
+std::vector<std::vector<std::uint8_t>>
+Mapper::saveStageStates() const
+{
+  std::vector<std::vector<std::uint8_t>> states(stages_.size());
+  for (std::size_t s = 0; s < stages_.size(); ++s)
+    stages_[s]->saveState(states[s]);
+  return states;
+}
+
+void
+Mapper::resume(PipelineState state,
+               Trajectory trajectory,
+               const std::vector<std::vector<std::uint8_t>>& stage_states,
+               std::size_t frames)
+{
+  if (stage_states.size() != stages_.size())
+    throw Exception("Mapper::resume: " + std::to_string(stage_states.size())
+                    + " stage states for the " + std::to_string(stages_.size())
+                    + " stages of " + pipelineName());
+  const std::lock_guard<std::mutex> frame_lock(frame_mutex_);
+  const std::unique_lock<WriterPreferringSharedMutex> lock(map_mutex_);
+  state_ = std::move(state);
+  trajectory_ = std::move(trajectory);
+  for (std::size_t s = 0; s < stages_.size(); ++s)
+    stages_[s]->loadState(stage_states[s].data(), stage_states[s].size());
+  frames_ = frames;
 }
 
 Mapper::MapReader

@@ -198,8 +198,8 @@ PipelineRunner::setCheckpoint(const std::string& path, std::size_t every_n_frame
     if (path.empty())
       throw ConfigError(config_.source_file, 0, 0,
                         "checkpoints need a file name (output.checkpoint)");
-    for (std::size_t s = 0; s < stages_.size(); ++s)
-      if (!stages_[s]->supportsCheckpoint())
+    for (std::size_t s = 0; s < mapper_->getStageCount(); ++s)
+      if (!mapper_->getStage(s).supportsCheckpoint())
         throw ConfigError(config_.source_file, config_.stages[s].line,
                           config_.stages[s].column,
                           "stage '" + config_.stages[s].type
@@ -280,46 +280,47 @@ PipelineRunner::writeCheckpoint(std::size_t next_frame, const RunReport& report)
     w.put(rss);
   }
 
-  w.put(static_cast<std::uint64_t>(trajectory_.size()));
-  for (const auto& pose : trajectory_)
+  const Trajectory& trajectory = mapper_->getTrajectory();
+  w.put(static_cast<std::uint64_t>(trajectory.size()));
+  for (const auto& pose : trajectory)
     putPose(w, pose);
 
   // The shared state.
-  const auto& world = *state_.world_cloud;
+  const PipelineState& state = mapper_->getState();
+  const auto& world = *state.world_cloud;
   w.put(static_cast<std::uint64_t>(world.size()));
   for (const auto& p : world.points) {
     putVector3(w, p.getVector3fMap());
     w.put(p.intensity);
   }
-  const auto& planes = *state_.plane_cloud;
+  const auto& planes = *state.plane_cloud;
   w.put(static_cast<std::uint64_t>(planes.size()));
   for (const auto& p : planes.points) {
     putVector3(w, p.getVector3fMap());
     w.put(p.label);
   }
-  w.put(static_cast<std::uint64_t>(state_.plane_models.size()));
-  for (const auto& m : state_.plane_models)
+  w.put(static_cast<std::uint64_t>(state.plane_models.size()));
+  for (const auto& m : state.plane_models)
     for (int k = 0; k < 4; ++k)
       w.put(m[k]);
-  w.put(static_cast<std::uint64_t>(state_.plane_inlier_counts.size()));
-  for (const auto n : state_.plane_inlier_counts)
+  w.put(static_cast<std::uint64_t>(state.plane_inlier_counts.size()));
+  for (const auto n : state.plane_inlier_counts)
     w.put(static_cast<std::uint64_t>(n));
-  putCuboids(w, state_.cuboids);
-  w.put(static_cast<std::uint8_t>(state_.map != nullptr));
-  if (state_.map) {
+  putCuboids(w, state.cuboids);
+  w.put(static_cast<std::uint8_t>(state.map != nullptr));
+  if (state.map) {
     std::string map_bytes;
-    state_.map->serialize(map_bytes);
+    state.map->serialize(map_bytes);
     w.putString(map_bytes);
   }
 
   // Each stage's own state.
-  w.put(static_cast<std::uint64_t>(stages_.size()));
-  std::vector<std::uint8_t> stage_bytes;
-  for (std::size_t s = 0; s < stages_.size(); ++s) {
+  const std::vector<std::vector<std::uint8_t>> stage_states =
+    mapper_->saveStageStates();
+  w.put(static_cast<std::uint64_t>(stage_states.size()));
+  for (std::size_t s = 0; s < stage_states.size(); ++s) {
     w.putString(config_.stages[s].type);
-    stage_bytes.clear();
-    stages_[s]->saveState(stage_bytes);
-    w.putVector(stage_bytes);
+    w.putVector(stage_states[s]);
   }
   w.put(crc32(bytes.data(), bytes.size()));
 
@@ -533,14 +534,14 @@ PipelineRunner::resumeFrom(const std::string& path)
            + std::to_string(source_->size()) + " frames");
   if (version >= 3)
     readFrameStamps(r, resume->frame_stamps);
-  readRunReport(r, stages_.size(), resume->report);
+  readRunReport(r, mapper_->getStageCount(), resume->report);
   const std::size_t poses = r.getCount(12 * 8, "pose");
   for (std::size_t k = 0; k < poses; ++k)
     resume->trajectory.push_back(getPose(r));
   readSharedState(r, path, resume->state);
 
   const std::size_t stage_states = r.getCount(16, "stage state");
-  if (stage_states != stages_.size())
+  if (stage_states != mapper_->getStageCount())
     r.fail("stage count differs");
   for (std::size_t s = 0; s < stage_states; ++s) {
     if (r.getString("stage type") != config_.stages[s].type)

@@ -34,9 +34,6 @@ namespace planar_grid {
 namespace {
 
 using stages::addSample;
-using stages::CloudCount;
-using stages::runStage;
-using stages::StageSample;
 using stages::threadCpuMs;
 
 /** \a value for report.json: an integer when \a is_count and \a value is a whole number
@@ -97,28 +94,24 @@ processCpuMs()
 /** A loaded frame after the leading frame-local stages. */
 struct PreparedFrame {
   Frame frame;
-  CloudCount last_count;
+  /** What the stages did to it so far. */
+  StageProgress progress;
   double load_ms{0.0};
   /** CPU time of the thread that loaded the frame and ran those stages. */
   double cpu_ms{0.0};
-  std::vector<StageSample> samples;
 };
 
-/** Adds frame \a i's stage samples to \a report, its pose to \a trajectory, and
- * calls \a callback with each stage's milliseconds. */
+/** Adds frame \a i's stage samples to \a report and calls \a callback with each
+ * stage's milliseconds (the mapper has added the frame's pose to its trajectory). */
 void
 endFrame(RunReport& report,
-         Trajectory& trajectory,
          const PipelineRunner::FrameCallback& callback,
          std::size_t i,
          Frame& frame,
-         const std::vector<StageSample>& samples)
+         const std::vector<FrameStageStats>& samples)
 {
   for (std::size_t s = 0; s < samples.size(); ++s)
     addSample(report.stages[s], samples[s]);
-  // After the stages: visual_odometry sets the pose of frames whose input has none.
-  if (frame.has_pose)
-    trajectory.push_back(frame.world_T_camera);
   ++report.frames;
   if (callback) {
     std::vector<double> ms(samples.size());
@@ -218,11 +211,9 @@ balancedReadAhead(const RunReport& report, std::size_t ahead)
 } // namespace
 
 PipelineRunner::PipelineRunner(const PipelineConfig& config, FrameSupply supply) :
-    config_(config)
+    config_(config), mapper_(std::make_unique<Mapper>(toMapperConfig(config_),
+                                                      Mapper::StageChecks::PIPELINE))
 {
-  for (const auto& sc : config_.stages)
-    stages_.push_back(
-      stages::createStage(sc.type, sc.params, config_.source_file, sc.line, sc.column));
   if (supply == FrameSupply::INPUT) {
     source_ = createFrameSource(config_.input);
     end_ = source_->size();
@@ -296,23 +287,15 @@ PipelineRunner::start()
     sr.type = sc.type;
     report_.stages.push_back(sr);
   }
-  state_ = PipelineState();
-  trajectory_.clear();
-  for (auto& stage : stages_)
-    stage->start(state_);
+  mapper_->reset();
 }
 
 void
 PipelineRunner::processFrame(Frame& frame)
 {
-  CloudCount last_count;
-  std::vector<StageSample> samples;
-  samples.reserve(stages_.size());
-  for (std::size_t s = 0; s < stages_.size(); ++s)
-    samples.push_back(runStage(*stages_[s], s, config_.stages[s].type, stage_callback_,
-                               frame, state_, frame.sequence_number, last_count));
-  endFrame(report_, trajectory_, frame_callback_, frame.sequence_number, frame,
-           samples);
+  StageProgress progress;
+  mapper_->integrateFrame(frame, progress, stage_callback_);
+  endFrame(report_, frame_callback_, frame.sequence_number, frame, progress.stages);
 }
 
 MemoryEstimate
@@ -366,11 +349,8 @@ PipelineRunner::run()
     report_.rss_samples = std::move(resume.report.rss_samples);
     report_.checkpoints_written = resume.report.checkpoints_written;
     previous_seconds_ = resume.report.seconds;
-    state_ = std::move(resume.state);
-    trajectory_ = std::move(resume.trajectory);
-    for (std::size_t s = 0; s < stages_.size(); ++s)
-      stages_[s]->loadState(resume.stage_states[s].data(),
-                            resume.stage_states[s].size());
+    mapper_->resume(std::move(resume.state), std::move(resume.trajectory),
+                    resume.stage_states, resume.report.frames);
     first = resume.next_frame;
     report_.resumed_at_frame = first;
     if (!resume.frame_stamps.empty()) {
@@ -391,18 +371,15 @@ PipelineRunner::run()
   // its count) is never one that a later frame runs on the other thread at the same
   // time.
   std::size_t ahead = frameLocalPrefix();
-  PipelineState unused; // one prepare() runs at a time: each waits for the previous
-  const auto prepare = [this, &source, &unused](std::size_t i, std::size_t n) {
+  // One prepare() runs at a time: each waits for the previous.
+  const auto prepare = [this, &source](std::size_t i, std::size_t n) {
     auto prepared = std::make_unique<PreparedFrame>();
     const double cpu_start = threadCpuMs();
     const auto load_start = Clock::now();
     source.load(i, prepared->frame);
     prepared->frame.sequence_number = i;
     prepared->load_ms = msSince(load_start);
-    for (std::size_t s = 0; s < n; ++s)
-      prepared->samples.push_back(runStage(*stages_[s], s, config_.stages[s].type,
-                                           stage_callback_, prepared->frame, unused, i,
-                                           prepared->last_count));
+    mapper_->prepareFrame(prepared->frame, n, prepared->progress, stage_callback_);
     prepared->cpu_ms = threadCpuMs() - cpu_start;
     return prepared;
   };
@@ -444,12 +421,8 @@ PipelineRunner::run()
     launchMore();
     Frame& frame = prepared->frame;
     report_.load_ms += prepared->load_ms;
-    std::vector<StageSample>& samples = prepared->samples;
-    for (std::size_t s = samples.size(); s < stages_.size(); ++s)
-      samples.push_back(runStage(*stages_[s], s, config_.stages[s].type,
-                                 stage_callback_, frame, state_, i,
-                                 prepared->last_count));
-    endFrame(report_, trajectory_, frame_callback_, i, frame, samples);
+    mapper_->integrateFrame(frame, prepared->progress, stage_callback_);
+    endFrame(report_, frame_callback_, i, frame, prepared->progress.stages);
     ++report_.timed_frames;
     report_.read_ahead_cpu_ms += prepared->cpu_ms;
     report_.mapping_cpu_ms += threadCpuMs() - mapping_cpu_start;
@@ -483,16 +456,14 @@ PipelineRunner::run()
 RunReport
 PipelineRunner::finish()
 {
-  using Clock = std::chrono::steady_clock;
-  for (std::size_t s = 0; s < stages_.size(); ++s) {
-    const auto t = Clock::now();
-    stages_[s]->finish(state_);
-    report_.stages[s].total_ms += msSince(t);
-  }
-  report_.world_cloud_points = state_.world_cloud ? state_.world_cloud->size() : 0;
-  report_.planes = state_.plane_models.size();
-  if (state_.map) {
-    const PlanarGridMap& map = *state_.map;
+  const std::vector<double> finish_ms = mapper_->finish();
+  for (std::size_t s = 0; s < finish_ms.size(); ++s)
+    report_.stages[s].total_ms += finish_ms[s];
+  const PipelineState& state = mapper_->getState();
+  report_.world_cloud_points = state.world_cloud ? state.world_cloud->size() : 0;
+  report_.planes = state.plane_models.size();
+  if (state.map) {
+    const PlanarGridMap& map = *state.map;
     const auto& space = map.getSpaceLayer();
     const auto& surface = map.getSurfaceLayer();
     const PlanarCuboids cuboids = surface.getCuboids();
@@ -526,11 +497,7 @@ PipelineRunner::finish()
 std::size_t
 PipelineRunner::frameLocalPrefix() const
 {
-  std::size_t front = 0;
-  if (overlap_)
-    while (front < stages_.size() && stages_[front]->isFrameLocal())
-      ++front;
-  return front;
+  return overlap_ ? mapper_->getFrameLocalStageCount() : 0;
 }
 
 std::string

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <utility>
 
 #include "stages.h"
 
@@ -34,7 +35,7 @@ threadCpuMs()
   return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
 }
 
-StageSample
+void
 runStage(Stage& stage,
          std::size_t s,
          const std::string& type,
@@ -42,12 +43,14 @@ runStage(Stage& stage,
          Frame& frame,
          PipelineState& state,
          std::size_t i,
-         CloudCount& last_count)
+         StageProgress& progress)
 {
   using Clock = std::chrono::steady_clock;
   if (callback)
     callback(s, frame);
-  StageSample sample;
+  CloudCount& last_count = progress.last_count;
+  FrameStageStats sample;
+  sample.type = type;
   const bool counts = stage.countsCloudPoints();
   if (counts && frame.cloud)
     sample.points_in = last_count.counts(*frame.cloud) ? last_count.valid
@@ -69,11 +72,11 @@ runStage(Stage& stage,
   } else
     last_count = {};
   stage.counters(frame, sample.counters);
-  return sample;
+  progress.stages.push_back(std::move(sample));
 }
 
 void
-addSample(StageReport& sr, const StageSample& sample)
+addSample(StageReport& sr, const FrameStageStats& sample)
 {
   sr.total_ms += sample.ms;
   sr.max_ms = std::max(sr.max_ms, sample.ms);

@@ -677,3 +677,76 @@ TEST_F(MapperTest, ReadersInALoopDelayAFrameByAtMostTheReadsUnderWay)
   for (const double w : waits)
     EXPECT_LT(w, 1000.0);
 }
+
+TEST_F(MapperTest, ThePipelineRunnerDrivesAMapper)
+{
+  // Three frames of the main job run by a PipelineRunner, its two leading frame-local
+  // stages (stereo_disparity, feature_matching) a frame or two ahead on the second
+  // thread: every frame goes through the runner's Mapper, whose own sums then equal
+  // the run's report, and a Mapper fed the same frames through the same engine calls
+  // on one thread gives the same map file, byte for byte.
+  const auto config = mainJob(3);
+  planar_grid::PipelineRunner runner(config);
+  ASSERT_EQ(runner.frameLocalPrefix(), 2u);
+  const planar_grid::RunReport report = runner.run();
+  ASSERT_EQ(report.frames, 3u);
+  const planar_grid::Mapper& driven = runner.mapper();
+  EXPECT_EQ(driven.getFrameCount(), 3u);
+  EXPECT_EQ(driven.getTrajectory().size(), 3u);
+  ASSERT_EQ(driven.getStageReports().size(), report.stages.size());
+  for (std::size_t s = 0; s < report.stages.size(); ++s) {
+    const auto& mapped = driven.getStageReports()[s];
+    EXPECT_EQ(mapped.type, report.stages[s].type);
+    EXPECT_EQ(mapped.frames, 3u) << mapped.type;
+    EXPECT_EQ(mapped.points_in, report.stages[s].points_in) << mapped.type;
+    EXPECT_EQ(mapped.points_out, report.stages[s].points_out) << mapped.type;
+    EXPECT_EQ(mapped.counters, report.stages[s].counters) << mapped.type;
+  }
+  ASSERT_TRUE(driven.getMap());
+  driven.getMap()->save((dir_ / "runner.pgmap").string());
+
+  planar_grid::Mapper mapper(planar_grid::toMapperConfig(config),
+                             planar_grid::Mapper::StageChecks::PIPELINE);
+  ASSERT_EQ(mapper.getFrameLocalStageCount(), 2u);
+  std::vector<planar_grid::Frame> frames = loadFrames(config);
+  ASSERT_EQ(frames.size(), 3u);
+  // The stages have not started: a frame is refused until reset().
+  planar_grid::StageProgress refused;
+  expectThrowWith([&] { mapper.integrateFrame(frames[0], refused, {}); },
+                  "call reset() before the first frame");
+  mapper.reset();
+  std::vector<std::size_t> stages_seen;
+  const planar_grid::Mapper::StageCallback record = [&](std::size_t s,
+                                                        planar_grid::Frame&) {
+    stages_seen.push_back(s);
+  };
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    frames[i].sequence_number = i;
+    planar_grid::StageProgress progress;
+    // A stage that keeps state across frames never runs ahead.
+    expectThrowWith([&] { mapper.prepareFrame(frames[i], 3, progress, record); },
+                    "past the 2 leading frame-local stages");
+    mapper.prepareFrame(frames[i], 2, progress, record);
+    ASSERT_EQ(progress.stages.size(), 2u);
+    EXPECT_EQ(progress.stages[0].type, "stereo_disparity");
+    EXPECT_EQ(mapper.getFrameCount(), i) << "prepareFrame() counted the frame";
+    mapper.integrateFrame(frames[i], progress, record);
+    EXPECT_EQ(progress.stages.size(), config.stages.size());
+    EXPECT_EQ(mapper.getFrameCount(), i + 1);
+  }
+  // Each stage ran once per frame, in order.
+  ASSERT_EQ(stages_seen.size(), 3 * config.stages.size());
+  for (std::size_t k = 0; k < stages_seen.size(); ++k)
+    EXPECT_EQ(stages_seen[k], k % config.stages.size());
+  mapper.save((dir_ / "mapper.pgmap").string());
+  const std::string expected = fileBytes(dir_ / "runner.pgmap");
+  EXPECT_GT(expected.size(), 10000u);
+  EXPECT_TRUE(fileBytes(dir_ / "mapper.pgmap") == expected)
+    << "the engine-fed mapper's map file differs from the runner's";
+  ASSERT_EQ(mapper.getTrajectory().size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i)
+    EXPECT_TRUE(mapper.getTrajectory()[i].matrix()
+                == driven.getTrajectory()[i].matrix());
+  // Stage finish() times, one per stage.
+  EXPECT_EQ(mapper.finish().size(), config.stages.size());
+}

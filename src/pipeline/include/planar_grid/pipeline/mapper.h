@@ -19,6 +19,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <shared_mutex>
@@ -29,12 +30,16 @@
 namespace planar_grid {
 
 /** \brief What one stage did to one frame (Mapper::integrateStereo(),
- * Mapper::integrateCloud()). \ingroup pipeline */
+ * Mapper::integrateCloud(), Mapper::integrateFrame()). \ingroup pipeline */
 struct FrameStageStats {
   /** \brief Stage type. */
   std::string type;
   /** \brief Wall time of the stage on the frame, milliseconds. */
   double ms{0.0};
+  /** \brief CPU time of the thread that ran the stage on the frame
+   * (CLOCK_THREAD_CPUTIME_ID), milliseconds; work the stage hands to other threads is
+   * not in it. */
+  double cpu_ms{0.0};
   /** \brief Valid points entering the stage (stages that work on the cloud; else 0). */
   std::uint64_t points_in{0};
   /** \brief Valid points leaving the stage. */
@@ -42,6 +47,38 @@ struct FrameStageStats {
   /** \brief The stage's named figures on this frame (Stage::counters), e.g.
    * feature_matching: "features", multi_plane_segmentation: "planes". */
   std::vector<std::pair<std::string, double>> counters;
+};
+
+/** \brief A frame's way through a mapper's stages so far (Mapper::prepareFrame(),
+ * Mapper::integrateFrame()): what each stage it went through did, from the first stage
+ * on, and the count of the valid points the last one left, which the next stage starts
+ * from. Start each frame with an empty one. \ingroup pipeline */
+struct StageProgress {
+  /** \brief The count of the valid points of the cloud a stage left behind. The next
+   * stage starts from the same cloud, unchanged, so its count of the points in is this
+   * one. */
+  struct CloudCount {
+    /** \brief The cloud counted (nullptr: none). */
+    const Frame::Cloud* cloud{nullptr};
+    /** \brief Its points' storage when counted. */
+    const void* data{nullptr};
+    /** \brief Its size when counted. */
+    std::size_t size{0};
+    /** \brief Its valid points. */
+    std::uint64_t valid{0};
+
+    /** \brief Whether \a c is the cloud counted, unchanged. */
+    bool counts(const Frame::Cloud& c) const
+    {
+      return &c == cloud && c.points.data() == data && c.size() == size;
+    }
+  };
+
+  /** \brief One entry per stage the frame went through, in order: the next stage to
+   * run is stages.size(). */
+  std::vector<FrameStageStats> stages;
+  /** \brief The valid points of the cloud the last stage left. */
+  CloudCount last_count;
 };
 
 /** \brief What the pipeline did to one frame of a Mapper. \ingroup pipeline */
@@ -76,8 +113,9 @@ struct FrameStats {
  * frame through the mapper's stages and returns that frame's statistics. The stages
  * and their parameters are a MapperConfig; built from a pipeline configuration
  * (loadMapperConfig()), the same frames give the same map, byte for byte, as a
- * planar_grid_pipeline run of that configuration over them, which runs the same
- * stages.
+ * planar_grid_pipeline run of that configuration over them: that run's PipelineRunner
+ * drives a Mapper of the same stages through the engine calls below (prepareFrame(),
+ * integrateFrame()), on which the live calls run too.
  *
  * The mapper owns its stages, the state they carry from frame to frame, the map and
  * the map's lock; it reads no file. It takes stereo pairs when a stage reads stereo
@@ -109,6 +147,26 @@ public:
   using ConstPtr = std::shared_ptr<const Mapper>;
   /** \brief The point cloud type of integrateCloud(). */
   using PointCloud = pcl::PointCloud<pcl::PointXYZ>;
+  /** \brief Called right before a stage processes a frame (prepareFrame(),
+   * integrateFrame()): the stage's index and the frame as the stages before it left
+   * it. */
+  using StageCallback = std::function<void(std::size_t, Frame&)>;
+
+  /** \brief What the constructor checks of the stages beyond their types and
+   * parameters. */
+  enum class StageChecks {
+    /** Every stage's needs (StageInfo::needs) come from the caller's frames (stereo
+     * pairs or clouds, with poses) or an earlier stage, and a stage makes the map
+     * (map_integration); the parameters a stage leaves out take its table's defaults,
+     * and a key its table lacks is an error. The stages start at once. For the live
+     * calls (integrateStereo(), integrateCloud(), integrateDepth()). */
+    LIVE,
+    /** None: the frames come from a pipeline's input, whose loader
+     * (loadPipelineConfig()) checked the stages' needs against it and filled in their
+     * parameters; a pipeline without a map (a front end) is accepted. The stages start
+     * at the first reset(). For integrateFrame(), as PipelineRunner drives it. */
+    PIPELINE
+  };
 
   /** \brief The map, read under a shared lock held until this object is destroyed:
    * the map cannot change while it lives. Keep it no longer than the read, and do not
@@ -143,6 +201,17 @@ public:
    * frames nor an earlier stage give; planar_grid::Exception when no stage makes the
    * map (map_integration) */
   explicit Mapper(const MapperConfig& config);
+
+  /** \brief Builds the stages of \a config with the checks \a checks.
+   * \param[in] config the stages, in run order
+   * \param[in] checks StageChecks::LIVE as the other constructor; StageChecks::PIPELINE
+   * for the stages of a pipeline configuration (toMapperConfig()), whose frames come
+   * through integrateFrame()
+   * \throws planar_grid::ConfigError, naming the stage, for an unknown stage type or
+   * parameters the stage rejects, and with StageChecks::LIVE as the other constructor
+   * \throws planar_grid::Exception with StageChecks::LIVE when no stage makes the map
+   */
+  Mapper(const MapperConfig& config, StageChecks checks);
 
   Mapper(const Mapper&) = delete;
   Mapper& operator=(const Mapper&) = delete;
@@ -249,6 +318,92 @@ public:
    * point clouds and depth images (integrateCloud(), integrateDepth()). */
   bool takesStereo() const { return takes_stereo_; }
 
+  /** \name The engine beneath a batch run (PipelineRunner)
+   * A frame the caller has loaded (a Frame, with its pose or none) runs through the
+   * stages in two parts: prepareFrame() runs the leading frame-local stages, which
+   * touch only their frame, and may do so on another thread, a frame or two ahead;
+   * integrateFrame() runs the rest, which carry state across frames and change the map.
+   * The checks and the frame numbering of the live calls are the caller's: the frame
+   * keeps its name, its position (Frame::sequence_number) and its pose. */
+  ///@{
+
+  /** \brief Number of stages. */
+  [[nodiscard]] std::size_t getStageCount() const { return stages_.size(); }
+
+  /** \brief Stage \a s, in run order (e.g. to ask Stage::supportsCheckpoint()).
+   * \param[in] s the stage's index, < getStageCount() */
+  [[nodiscard]] const Stage& getStage(std::size_t s) const { return *stages_.at(s); }
+
+  /** \brief Number of leading stages that are frame-local (Stage::isFrameLocal(): in
+   * the main job stereo_disparity and feature_matching): they read and write only the
+   * frame and their own members, so prepareFrame() may run them on another thread
+   * while integrateFrame() runs earlier frames through the stages after them. */
+  [[nodiscard]] std::size_t getFrameLocalStageCount() const;
+
+  /** \brief Runs stages progress.stages.size() to \a stage_end - 1 on \a frame,
+   * without the map or the state carried across frames, and appends what each did to
+   * \a progress. Safe on another thread while integrateFrame() runs other frames
+   * through the stages from \a stage_end on; one prepareFrame() at a time, the frames
+   * in their order.
+   * \param[in,out] frame a loaded frame; its name and sequence_number are named in
+   * errors
+   * \param[in] stage_end one past the last stage to run, <= getFrameLocalStageCount()
+   * \param[in,out] progress the frame's way through the stages so far (empty for a new
+   * frame)
+   * \param[in] callback called right before each stage (none when empty)
+   * \throws planar_grid::Exception naming the frame and stage when a stage fails, or
+   * when \a stage_end is past the frame-local stages */
+  void prepareFrame(Frame& frame,
+                    std::size_t stage_end,
+                    StageProgress& progress,
+                    const StageCallback& callback);
+
+  /** \brief Runs the stages from progress.stages.size() to the end on \a frame, as
+   * the live calls do (the map's lock, the sums of getStageReports()), then appends its
+   * pose to the trajectory (when Frame::has_pose, which visual_odometry sets) and
+   * counts the frame. The frame carries its pose: Frame::has_pose and
+   * Frame::world_T_camera (meters), or none when a stage estimates it. Nothing is
+   * checked of the frame or its pose, and its name and sequence_number stay as they
+   * are. \param[in,out] frame a loaded frame, after prepareFrame() of the same \a
+   * progress or none \param[in,out] progress the frame's way through the stages so far;
+   * on return one entry per stage \param[in] callback called right before each stage
+   * (none when empty), on this thread \throws planar_grid::Exception naming the frame
+   * and stage when a stage fails, or before the stages have started
+   * (StageChecks::PIPELINE: call reset() first) */
+  void
+  integrateFrame(Frame& frame, StageProgress& progress, const StageCallback& callback);
+
+  /** \brief Ends the run: calls every stage's Stage::finish() (e.g. to complete the
+   * state carried across frames), in order.
+   * \return each stage's wall time in it, milliseconds, in stage order */
+  std::vector<double> finish();
+
+  /** \brief Each stage's state carried across frames (Stage::saveState()), in stage
+   * order, for a checkpoint. Read it from the thread that integrates, between frames.
+   */
+  [[nodiscard]] std::vector<std::vector<std::uint8_t>> saveStageStates() const;
+
+  /** \brief Continues a run from a checkpoint, after reset(): the state carried across
+   * frames (the map among it), the trajectory, each stage's state (saveStageStates()
+   * of the same stages) and the number of frames run. getStageReports() counts from
+   * here.
+   * \param[in] state the state the checkpoint's run had
+   * \param[in] trajectory its poses
+   * \param[in] stage_states one per stage, in order
+   * \param[in] frames the frames it ran
+   * \throws planar_grid::Exception when the number of stage states differs from
+   * getStageCount(), or a stage rejects its state */
+  void resume(PipelineState state,
+              Trajectory trajectory,
+              const std::vector<std::vector<std::uint8_t>>& stage_states,
+              std::size_t frames);
+
+  /** \brief The state the stages carry across frames (the map, the accumulated clouds
+   * and planes). Read it from the thread that integrates, between frames. */
+  [[nodiscard]] const PipelineState& getState() const { return state_; }
+
+  ///@}
+
 private:
   /** \brief Checks a stereo pair and runs it through the stages; no pose: the
    * odometry's. */
@@ -260,6 +415,11 @@ private:
   /** \brief Runs \a frame through the stages with \a world_T_camera (none: the
    * odometry's); the common end of the integrate calls. */
   FrameStats integrate(Frame& frame, const Eigen::Isometry3d* world_T_camera);
+
+  /** \brief Runs \a frame through the stages from progress.stages.size() on, holding
+   * readers out of the map while a stage changes it, adds them to the sums and counts
+   * the frame; the frame lock is the caller's. */
+  void runStages(Frame& frame, StageProgress& progress, const StageCallback& callback);
 
   /** \brief Throws unless the mapper takes stereo pairs (\a stereo) or clouds. */
   void requireInput(bool stereo, const char* call) const;
@@ -283,12 +443,17 @@ private:
   std::vector<StageReport> stage_reports_;
   /** \brief Whether a stage reads stereo images: the mapper takes stereo pairs. */
   bool takes_stereo_{false};
+  /** \brief The state given to the stages prepareFrame() runs, which never read it. */
+  PipelineState unused_state_;
   /** \brief Per stage: whether it changes the map (readers are locked out). */
   std::vector<bool> writes_map_;
   /** \brief Whether a stage estimates the poses (visual_odometry). */
   bool estimates_poses_{false};
   /** \brief Whether a stage needs the poses. */
   bool needs_poses_{false};
+  /** \brief Whether the stages have started (the constructor, or reset() with
+   * StageChecks::PIPELINE). */
+  bool started_{false};
   /** \brief Frames integrated since the start of the run. */
   std::atomic<std::size_t> frames_{0};
   /** \brief Held through each integrate call and reset(): one frame at a time. */

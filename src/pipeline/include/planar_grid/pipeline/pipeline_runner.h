@@ -2,6 +2,7 @@
 #pragma once
 
 #include <planar_grid/pipeline/frame_source.h>
+#include <planar_grid/pipeline/mapper.h>
 #include <planar_grid/pipeline/memory_estimate.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/stage.h>
@@ -105,7 +106,13 @@ struct RunReport {
 /** \brief Runs a configured pipeline over a range of frames: run() reads them from
  * the configured input; start(), processFrame() and finish() take frames the caller
  * supplies (one input feeding several pipelines, as planar_grid_eval feeds one front
- * end's frames to the mapping stages at each cell size). \ingroup pipeline */
+ * end's frames to the mapping stages at each cell size).
+ *
+ * The runner is the frame source, the read-ahead thread, the checkpoints and the
+ * report around a Mapper, which owns the stages, the state they carry across frames
+ * and the map: each frame runs through the mapper's stages (Mapper::prepareFrame() for
+ * the stages that run ahead, Mapper::integrateFrame() for the rest), as the live calls
+ * of the tool's library, the ROS node and Python do. \ingroup pipeline */
 class PipelineRunner {
 public:
   /** \brief Called after each frame: frames done, frames in total, seconds elapsed. */
@@ -274,10 +281,15 @@ public:
   const RunReport& report() const { return report_; }
 
   /** \brief The shared state (accumulated world cloud) after run(). */
-  const PipelineState& state() const { return state_; }
+  const PipelineState& state() const { return mapper_->getState(); }
 
   /** \brief The poses of the frames that ran (world_T_camera), in order. */
-  const Trajectory& trajectory() const { return trajectory_; }
+  const Trajectory& trajectory() const { return mapper_->getTrajectory(); }
+
+  /** \brief The mapper that runs the stages: the runner hands it each frame of the
+   * run (Mapper::prepareFrame() ahead, Mapper::integrateFrame()). Its map is the run's
+   * (state().map). */
+  const Mapper& mapper() const { return *mapper_; }
 
 private:
   struct ResumeData;
@@ -305,7 +317,8 @@ private:
 
   PipelineConfig config_;
   std::unique_ptr<FrameSource> source_;
-  std::vector<std::unique_ptr<Stage>> stages_;
+  /** \brief The stages, the state they carry across frames and the map. */
+  std::unique_ptr<Mapper> mapper_;
   std::size_t begin_{0};
   std::size_t end_{0};
   std::size_t step_{1};
@@ -317,8 +330,6 @@ private:
   /** \brief When the run began, and the seconds of the run a checkpoint continues. */
   std::chrono::steady_clock::time_point run_start_;
   double previous_seconds_{0.0};
-  PipelineState state_;
-  Trajectory trajectory_;
   std::string checkpoint_path_;
   std::size_t checkpoint_every_{0};
   /** \brief The input files' stamps when the checkpoints were set up, before the
