@@ -214,4 +214,13 @@ TEST(FastStatisticalOutlierRemoval, ZeroNeighboursIsAnError)
   sor.setMeanK(0);
   pcl::Indices kept;
   EXPECT_THROW(sor.filter(kept), planar_grid::Exception);
+  // a multiplier that is not a number has no threshold; a finite one, even negative
+  // (stricter than the mean), filters as PCL's does
+  sor.setMeanK(1);
+  sor.setStddevMulThresh(std::numeric_limits<double>::quiet_NaN());
+  EXPECT_THROW(sor.filter(kept), planar_grid::Exception);
+  sor.setStddevMulThresh(std::numeric_limits<double>::infinity());
+  EXPECT_THROW(sor.filter(kept), planar_grid::Exception);
+  sor.setStddevMulThresh(-1.0);
+  EXPECT_NO_THROW(sor.filter(kept));
 }

@@ -195,6 +195,34 @@ TEST(FastVoxelGrid, CentroidsOfKnownVoxels)
   EXPECT_TRUE(out.empty());
 }
 
+TEST(FastVoxelGrid, AVoxelEdgeThatIsNotPositiveAndFiniteIsAnError)
+{
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  cloud->push_back({0.25f, 0.25f, 0.25f});
+  cloud->push_back({0.75f, 0.25f, 0.25f});
+  planar_grid::FastVoxelGrid<pcl::PointXYZ> grid;
+  grid.setInputCloud(cloud);
+  pcl::PointCloud<pcl::PointXYZ> out;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  for (const float bad : {0.0f, -1.0f, nan, inf}) {
+    SCOPED_TRACE(bad);
+    grid.setLeafSize(1.0f, 1.0f, bad); // one axis is enough
+    EXPECT_THROW(grid.filter(out), planar_grid::Exception);
+    planar_grid::FastVoxelGridParams params;
+    params.leaf_size_m = static_cast<double>(bad);
+    grid.setParams(params);
+    EXPECT_THROW(grid.filter(out), planar_grid::Exception);
+  }
+  // any positive edge filters, as pcl::VoxelGrid's: one 1 m voxel, two of 0.5 m
+  grid.setLeafSize(1.0f, 1.0f, 1.0f);
+  grid.filter(out);
+  EXPECT_EQ(out.size(), 1u);
+  grid.setLeafSize(0.5f, 0.5f, 0.5f);
+  grid.filter(out);
+  EXPECT_EQ(out.size(), 2u);
+}
+
 TEST(FastVoxelGrid, CoordinatesBeyondTheIntRangeGiveWhatPCLGives)
 {
   // One point 10^9 m away among near ones: its voxel coordinate (10^10 leaves) fits

@@ -88,7 +88,7 @@ public:
     this->filter_name_ = "FastStatisticalOutlierRemoval";
   }
 
-  /** \brief Sets both parameters (mean_k is checked by filter()). */
+  /** \brief Sets both parameters (checked by filter()). */
   void setParams(const Params& params) { params_ = params; }
   /** \brief The parameters. */
   const Params& getParams() const { return params_; }
@@ -101,14 +101,16 @@ public:
   int getMeanK() const { return params_.mean_k; }
 
   /** \brief Multiplier of the standard deviation of the mean distances in the
-   * threshold mean + std_mul * stddev (2 by default, the pipeline's; PCL's is 0). */
+   * threshold mean + std_mul * stddev (finite, else filter() throws
+   * planar_grid::Exception; 2 by default, the pipeline's; PCL's is 0). */
   void setStddevMulThresh(double std_mul) { params_.stddev_mul_thresh = std_mul; }
   /** \brief The multiplier. */
   double getStddevMulThresh() const { return params_.stddev_mul_thresh; }
 
 protected:
   /** \brief Indices of the kept points (or, with setNegative(true), the outliers).
-   * \throws planar_grid::Exception for mean_k < 1 */
+   * \throws planar_grid::Exception for mean_k < 1 or a stddev_mul_thresh that is not
+   * finite */
   void applyFilter(pcl::Indices& indices) override;
 
 private:

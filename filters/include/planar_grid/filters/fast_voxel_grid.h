@@ -143,8 +143,8 @@ public:
    * x). */
   const Params& getParams() const { return params_; }
 
-  /** \brief The voxel edges along x, y and z, meters (> 0; 0.05 by default, the
-   * pipeline's). */
+  /** \brief The voxel edges along x, y and z, meters (finite and > 0, else filter()
+   * throws planar_grid::Exception; 0.05 by default, the pipeline's). */
   void setLeafSize(float lx, float ly, float lz)
   {
     leaf_size_ = Eigen::Array4f(lx, ly, lz, 1.0f);
@@ -178,7 +178,8 @@ public:
 protected:
   /** \brief The centroids of the occupied voxels of the input (its indices, when
    * set). When the bounding box has more voxels than a 32-bit index holds, the output
-   * is a copy of the input, as for pcl::VoxelGrid (which warns; so does this). */
+   * is a copy of the input, as for pcl::VoxelGrid (which warns; so does this).
+   * \throws planar_grid::Exception for a voxel edge that is not finite and > 0 */
   void applyFilter(PointCloud& output) override;
 
 private:

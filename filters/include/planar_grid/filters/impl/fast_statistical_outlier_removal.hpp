@@ -42,6 +42,10 @@ FastStatisticalOutlierRemoval<PointT>::applyFilter(pcl::Indices& indices)
       "FastStatisticalOutlierRemoval: "
       + paramRangeMessage("mean_k", fast_statistical_outlier_removal_ranges::MEAN_K)
       + ", got " + std::to_string(params_.mean_k));
+  if (!std::isfinite(params_.stddev_mul_thresh))
+    throw Exception(
+      "FastStatisticalOutlierRemoval: stddev_mul_thresh must be finite, got "
+      + std::to_string(params_.stddev_mul_thresh));
   const auto& cloud = *this->input_;
   const pcl::Indices& input_indices = *this->indices_;
   // Every finite point of the cloud is searched, as by PCL's searcher; packed in

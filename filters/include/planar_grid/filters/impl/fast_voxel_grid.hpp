@@ -4,6 +4,7 @@
 // type when PCL_NO_PRECOMPILE is defined (as PCL's own impl/*.hpp).
 #pragma once
 
+#include <planar_grid/core/exceptions.h>
 #include <planar_grid/filters/fast_voxel_grid.h>
 
 #include <pcl/common/centroid.h>
@@ -16,6 +17,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -42,6 +44,11 @@ template <typename PointT>
 void
 FastVoxelGrid<PointT>::applyFilter(PointCloud& output)
 {
+  for (int d = 0; d < 3; ++d)
+    if (!(leaf_size_[d] > 0.0f) || !std::isfinite(leaf_size_[d]))
+      throw Exception("FastVoxelGrid: the voxel edge along " + std::string(1, "xyz"[d])
+                      + " must be finite and > 0, got " + std::to_string(leaf_size_[d])
+                      + " m");
   const PointCloud& cloud = *this->input_;
   const pcl::Indices& indices = *this->indices_;
   output.height = 1;
