@@ -101,11 +101,14 @@ Mapper::Mapper(const MapperConfig& config, StageChecks checks) : config_(config)
       params.set(key, value);
     }
     spec.params = std::move(params);
-    for (const StageData need : info.needs)
-      if (!contains(available, need))
+    for (const StageNeed& need : stageNeeds(info, spec.params))
+      if (!contains(available, need.data))
         throw ConfigError(config_.name, spec.line, spec.column,
-                          "stage '" + spec.type + "' needs " + stageDataName(need)
-                            + ", which neither the frames nor an earlier stage give");
+                          "stage '" + spec.type + "' needs " + stageDataName(need.data)
+                            + ", which neither the frames nor an earlier stage give"
+                            + (need.param.empty()
+                                 ? std::string()
+                                 : "; or use " + need.param + ": " + need.alternative));
     for (const StageData d : info.produces)
       available.push_back(d);
     stages_.push_back(stages::createStage(spec.type, spec.params, config_.name,

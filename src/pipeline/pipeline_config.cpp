@@ -309,31 +309,6 @@ inputData(const InputConfig& input)
   return given;
 }
 
-/** A stage's need; a need that comes from a parameter's value names the parameter and
- * a value without the need (for the error's location and hint). */
-struct StageNeed {
-  StageData data;
-  std::string param;
-  std::string alternative;
-};
-
-/** The stage's needs with its parameters: planes hypothesised from the key features
- * need them, keyframes chosen by motion need the poses. */
-std::vector<StageNeed>
-stageNeeds(const StageInfo& info, const StageConfig& sc)
-{
-  std::vector<StageNeed> needs;
-  for (const StageData d : info.needs)
-    needs.push_back({d, "", ""});
-  if (sc.type == "multi_plane_segmentation"
-      && sc.params.getChoice("sample") == "features")
-    needs.push_back({StageData::FEATURES, "sample", "cloud"});
-  if (sc.type == "stereo_disparity"
-      && sc.params.getChoice("frame_selection") == "keyframes")
-    needs.push_back({StageData::POSES, "frame_selection", "every_n_frames"});
-  return needs;
-}
-
 /** Checks, in list order, that every stage's needs are given by the input or an
  * earlier stage, and that only repeatable stages are listed twice; the error is at the
  * stage's type and names what is missing and which stage produces it. */
@@ -368,7 +343,7 @@ checkDataFlow(const Reader& r,
         }
     // What the input can never give comes first (a missing stage of the same
     // pipeline is the lesser error); then the order.
-    const std::vector<StageNeed> needs = stageNeeds(info, sc);
+    const std::vector<StageNeed> needs = stageNeeds(info, sc.params);
     const YAML::Node params_node = stage_nodes[i]["params"];
     for (const bool input_only : {true, false})
       for (const StageNeed& stage_need : needs) {

@@ -111,6 +111,21 @@ findStage(const std::string& type)
   return nullptr;
 }
 
+std::vector<StageNeed>
+stageNeeds(const StageInfo& info, const ParamValues& params)
+{
+  std::vector<StageNeed> needs;
+  for (const StageData d : info.needs)
+    needs.push_back({d, "", ""});
+  if (info.type == "multi_plane_segmentation"
+      && params.getChoice("sample") == "features")
+    needs.push_back({StageData::FEATURES, "sample", "cloud"});
+  if (info.type == "stereo_disparity"
+      && params.getChoice("frame_selection") == "keyframes")
+    needs.push_back({StageData::POSES, "frame_selection", "every_n_frames"});
+  return needs;
+}
+
 std::string
 knownStageTypes()
 {

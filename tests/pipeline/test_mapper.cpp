@@ -478,6 +478,13 @@ TEST_F(MapperTest, AMapperIsBuiltFromStagesWithoutAConfigurationFile)
   refused({stageSpec("map_integration")},
           "stage 'map_integration' needs a world-frame cloud");
   refused({stageSpec("voxel_grid")}, "the mapper's pipeline has no map_integration");
+  // A need a parameter's value makes is checked too: planes hypothesised from the key
+  // features need feature_matching before them.
+  refused(
+    {stageSpec("stereo_disparity"),
+     stageSpec("multi_plane_segmentation", {{"sample", std::string("features")}})},
+    "stage 'multi_plane_segmentation' needs key features, which neither the "
+    "frames nor an earlier stage give; or use sample: cloud");
   // A stage list is checked as a file's stages are, and holds nothing else.
   expectThrowWith(
     [] {

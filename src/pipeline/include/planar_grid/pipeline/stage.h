@@ -168,9 +168,9 @@ struct StageInfo {
   /** \brief Needs stereo images, not a PCD input (a summary for --list-stages; the
    * loader checks `needs`). */
   bool needs_stereo{false};
-  /** \brief What the stage needs from the input or an earlier stage (the registry
-   * declares it; multi_plane_segmentation with `sample: features` needs FEATURES
-   * too). */
+  /** \brief What the stage needs from the input or an earlier stage, whatever its
+   * parameters (the registry declares it; stageNeeds() adds what parameter values
+   * need). */
   std::vector<StageData> needs;
   /** \brief What the stage adds for the later ones. */
   std::vector<StageData> produces;
@@ -192,6 +192,25 @@ const StageInfo* findStage(const std::string& type);
 
 /** \brief The known stage types, comma-separated (for error messages). */
 std::string knownStageTypes();
+
+/** \brief One thing a configured stage needs from the frames or an earlier stage.
+ * \ingroup pipeline */
+struct StageNeed {
+  /** \brief The data needed. */
+  StageData data;
+  /** \brief The parameter whose value makes the need (empty: the stage type's own
+   * need, StageInfo::needs). */
+  std::string param;
+  /** \brief A value of \a param without the need (for the error's hint). */
+  std::string alternative;
+};
+
+/** \brief What stage \a info needs with its parameters \a params (every key of its
+ * table present): StageInfo::needs, and the needs parameter values make
+ * (multi_plane_segmentation with `sample: features` needs the key features;
+ * stereo_disparity with `frame_selection: keyframes` needs the poses). The pipeline
+ * loader and Mapper check a stage list's data flow with it. */
+std::vector<StageNeed> stageNeeds(const StageInfo& info, const ParamValues& params);
 
 /** \brief The reference page of every stage and parameter, in Markdown
  * (docs/STAGES.md): for each stage of stageRegistry() its description, role, needs and
