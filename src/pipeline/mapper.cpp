@@ -59,16 +59,8 @@ Mapper::Mapper(const MapperConfig& config, StageChecks checks) : config_(config)
 {
   if (checks == StageChecks::PIPELINE) {
     // The loader checked the stages against the input and filled in their parameters.
-    for (const StageSpec& spec : config_.stages) {
-      stages_.push_back(stages::createStage(spec.type, spec.params, config_.name,
-                                            spec.line, spec.column));
-      const StageInfo* info = findStage(spec.type);
-      const bool writes_map = contains(info->produces, StageData::MAP);
-      writes_map_.push_back(writes_map);
-      takes_stereo_ = takes_stereo_ || contains(info->needs, StageData::STEREO_IMAGES);
-      estimates_poses_ = estimates_poses_ || contains(info->produces, StageData::POSES);
-      needs_poses_ = needs_poses_ || contains(info->needs, StageData::POSES);
-    }
+    for (const StageSpec& spec : config_.stages)
+      addStage(spec, *findStage(spec.type));
     // Starting a stage may change what the process shares (e.g. OpenCV's thread
     // count), so the stages start with the run, at reset().
     return;
@@ -111,13 +103,8 @@ Mapper::Mapper(const MapperConfig& config, StageChecks checks) : config_(config)
                                  : "; or use " + need.param + ": " + need.alternative));
     for (const StageData d : info.produces)
       available.push_back(d);
-    stages_.push_back(stages::createStage(spec.type, spec.params, config_.name,
-                                          spec.line, spec.column));
-    const bool writes_map = contains(info.produces, StageData::MAP);
-    writes_map_.push_back(writes_map);
-    has_map = has_map || writes_map;
-    estimates_poses_ = estimates_poses_ || contains(info.produces, StageData::POSES);
-    needs_poses_ = needs_poses_ || contains(info.needs, StageData::POSES);
+    addStage(spec, info);
+    has_map = has_map || writes_map_.back();
   }
   if (!has_map)
     throw Exception("Mapper: " + pipelineName()
@@ -126,6 +113,17 @@ Mapper::Mapper(const MapperConfig& config, StageChecks checks) : config_(config)
 }
 
 Mapper::~Mapper() = default;
+
+void
+Mapper::addStage(const StageSpec& spec, const StageInfo& info)
+{
+  stages_.push_back(
+    stages::createStage(spec.type, spec.params, config_.name, spec.line, spec.column));
+  writes_map_.push_back(contains(info.produces, StageData::MAP));
+  takes_stereo_ = takes_stereo_ || contains(info.needs, StageData::STEREO_IMAGES);
+  estimates_poses_ = estimates_poses_ || contains(info.produces, StageData::POSES);
+  needs_poses_ = needs_poses_ || contains(info.needs, StageData::POSES);
+}
 
 std::string
 Mapper::pipelineName() const

@@ -424,6 +424,10 @@ private:
   /** \brief Throws unless the mapper takes stereo pairs (\a stereo) or clouds. */
   void requireInput(bool stereo, const char* call) const;
 
+  /** \brief Builds the stage of \a spec (of registry entry \a info, its parameters
+   * complete) at the end of the stages and records what it reads and writes. */
+  void addStage(const StageSpec& spec, const StageInfo& info);
+
   /** \brief Clears the map, the state, the trajectory and the sums, and starts every
    * stage. */
   void start();
