@@ -104,6 +104,13 @@ makeParamDeclarations()
       "Remove the non-planar cells lying on a map plane (centre and footprint within "
       "half a cell of its planar cuboids): the plane represents that surface."),
     declareFlag<Params>(
+      "skip_isolated_non_planar",
+      [](auto& p) -> auto& { return p.surface.skip_isolated_non_planar; },
+      "Leave out of the cuboids a non-planar cell of one voxel that no other cell "
+      "touches (none within one cell of its centre): a speckle of stereo noise, as "
+      "PCL's RadiusOutlierRemoval drops a lone point. It stays stored, so a neighbour "
+      "seen later brings it back."),
+    declareFlag<Params>(
       "planes_absorb_overlapping",
       [](auto& p) -> auto& { return p.planes_absorb_overlapping; },
       "Move a map plane's rectangles lying on a plane with more evidence (every cell's "

@@ -290,9 +290,19 @@ SurfaceLayer::getCuboidCount() const
 {
   std::lock_guard<std::mutex> lock(impl_->mutex);
   impl_->ensureCovers(params_);
-  std::size_t n = impl_->non_planar.size();
+  impl_->ensureIsolated(params_);
+  std::size_t n = impl_->non_planar.size() - impl_->isolated.size();
   for (const auto& plane : impl_->planes)
     n += plane.rects.size();
+  return n;
+}
+
+std::size_t
+SurfaceLayer::getRasterCellCount() const
+{
+  std::size_t n = 0;
+  for (const auto& plane : impl_->planes)
+    n += plane.raster.size();
   return n;
 }
 
@@ -320,7 +330,8 @@ SurfaceLayer::getMemoryBytes() const
   bytes += vectorBytes(impl.planes) + vectorBytes(impl.plane_models);
   for (const auto& plane : impl.planes)
     bytes += plane.raster.bytes() + vectorBytes(plane.rects);
-  bytes += vectorBytes(impl.non_planar) + vectorBytes(impl.np_axes);
+  bytes += vectorBytes(impl.non_planar) + vectorBytes(impl.np_axes)
+           + vectorBytes(impl.isolated);
   bytes += vectorBytes(impl.index.cuboids) + hashMapBytes(impl.index.bins)
            + vectorBytes(impl.index.large);
   for (const auto& kv : impl.index.bins)

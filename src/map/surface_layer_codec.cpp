@@ -35,6 +35,7 @@ SurfaceLayer::serialize(std::vector<std::uint8_t>& bytes) const
   w.put(params_.absorb_distance_m);
   w.put(params_.terrain_plane_tile_m);
   w.put(params_.terrain_cover_density);
+  w.put(static_cast<std::uint8_t>(params_.skip_isolated_non_planar ? 1 : 0));
   w.put(static_cast<std::uint64_t>(impl.planes.size()));
   for (const auto& plane : impl.planes) {
     for (int k = 0; k < 3; ++k)
@@ -130,6 +131,15 @@ readParams(ByteReader& rd, std::uint32_t version)
   params.terrain_plane_tile_m = version >= 5 ? rd.get<double>() : 0.0;
   // versions 2 to 5 covered the level planes at cover_density
   params.terrain_cover_density = version >= 6 ? rd.get<double>() : params.cover_density;
+  // versions 2 to 6 reported every non-planar cell
+  params.skip_isolated_non_planar = false;
+  if (version >= 7) {
+    const auto skip = rd.get<std::uint8_t>();
+    if (skip > 1)
+      throw IOError("surface layer: skip_isolated_non_planar " + std::to_string(skip)
+                    + " is neither 0 nor 1");
+    params.skip_isolated_non_planar = skip == 1;
+  }
   return params;
 }
 
@@ -299,7 +309,8 @@ SurfaceLayer::operator==(const SurfaceLayer& other) const
       || a.feature_distance_m != b.feature_distance_m
       || a.close_gaps_cells != b.close_gaps_cells || a.merge_rule != b.merge_rule
       || a.cover_density != b.cover_density
-      || a.terrain_cover_density != b.terrain_cover_density)
+      || a.terrain_cover_density != b.terrain_cover_density
+      || a.skip_isolated_non_planar != b.skip_isolated_non_planar)
     return false;
   const Impl& x = *impl_;
   const Impl& y = *other.impl_;

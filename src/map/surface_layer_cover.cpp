@@ -293,8 +293,8 @@ SurfaceLayer::Impl::ensureCovers(const Params& params)
       rebuildPlane(plane, params);
 }
 
-/** \brief Appends every plane's rectangles, then the non-planar cells; caller holds
- * the mutex. */
+/** \brief Appends every plane's rectangles, then the non-planar cells but the isolated
+ * ones (ensureIsolated()); caller holds the mutex. */
 void
 SurfaceLayer::Impl::buildCuboids(const Params& params, PlanarCuboids& out)
 {
@@ -304,7 +304,14 @@ SurfaceLayer::Impl::buildCuboids(const Params& params, PlanarCuboids& out)
     total += plane.rects.size();
   out.reserve(out.size() + total);
   buildPlanarCuboids(params, out);
-  for (const auto& cell : non_planar) {
+  ensureIsolated(params);
+  std::size_t next_isolated = 0;
+  for (std::size_t k = 0; k < non_planar.size(); ++k) {
+    if (next_isolated < isolated.size() && isolated[next_isolated] == k) {
+      ++next_isolated;
+      continue;
+    }
+    const NonPlanarCell& cell = non_planar[k];
     PlanarCuboid c = nonPlanarCuboid(cell);
     c.probability = cell.feature_count > 0
                       ? static_cast<float>(cell.probability_sum / cell.feature_count)

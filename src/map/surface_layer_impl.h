@@ -33,7 +33,7 @@ inline constexpr float MAX_COORDINATE_M = 1e7f;
 inline constexpr double MAX_BINS_PER_CUBOID = 4096.0;
 /** \brief Section magic ("PGSL") and version of serialize(). */
 inline constexpr std::uint32_t MAGIC = 0x4C534750u;
-inline constexpr std::uint32_t VERSION = 6;
+inline constexpr std::uint32_t VERSION = 7;
 /** \brief Largest Params::close_gaps_cells. */
 inline constexpr int MAX_CLOSE_GAPS_CELLS =
   static_cast<int>(surface_layer_ranges::CLOSE_GAPS.max);
@@ -560,8 +560,19 @@ struct SurfaceLayer::Impl {
   /** The query index (built under mutex by ensureIndex(), freed by integrate()). */
   surface_layer_detail::CuboidQueryIndex index;
 
-  /** Frees the query index. */
-  void invalidate() { index.clear(); }
+  /** Indices (ascending) of the non-planar cells getCuboids() leaves out as isolated
+   * (Params::skip_isolated_non_planar); valid while isolated_valid (built under mutex
+   * by ensureIsolated(), reset by invalidate()). */
+  std::vector<std::uint32_t> isolated;
+  bool isolated_valid{false};
+
+  /** Frees the query index and the isolated cells' list (both are stale). */
+  void invalidate()
+  {
+    index.clear();
+    isolated_valid = false;
+    std::vector<std::uint32_t>().swap(isolated);
+  }
   /** Sets plane_models (getPlanes()) to the planes' refined planes. */
   void updatePlaneModels()
   {
@@ -665,6 +676,9 @@ struct SurfaceLayer::Impl {
   void buildPlanarCuboids(const Params& params, PlanarCuboids& out);
   /** Builds the query index over all cuboids; caller holds the mutex. */
   void ensureIndex(const Params& params);
+  /** Finds the isolated non-planar cells (Params::skip_isolated_non_planar) unless
+   * known; caller holds the mutex. */
+  void ensureIsolated(const Params& params);
 };
 
 } // namespace planar_grid

@@ -51,6 +51,11 @@ checkSameParams(const SurfaceLayer::Params& a, const SurfaceLayer::Params& b)
                  "m"));
   add(difference("terrain_cover_density", a.terrain_cover_density,
                  b.terrain_cover_density, ""));
+  const auto flag = [](bool on) {
+    return std::string(on ? "true" : "false");
+  };
+  add(difference("skip_isolated_non_planar", flag(a.skip_isolated_non_planar),
+                 flag(b.skip_isolated_non_planar), ""));
   if (!differences.empty())
     throw Exception("SurfaceLayer::merge: the layers' parameters must be equal, but "
                     + differences);

@@ -448,4 +448,61 @@ SurfaceLayer::removeNonPlanarCellsOnPlanes()
   });
 }
 
+void
+SurfaceLayer::Impl::ensureIsolated(const Params& params)
+{
+  if (isolated_valid)
+    return;
+  isolated.clear();
+  isolated_valid = true;
+  if (!params.skip_isolated_non_planar || non_planar.empty())
+    return;
+  const double r = params.resolution_m;
+  const double one_voxel = 1.5 * r * r * r;
+  std::vector<std::uint32_t> singles;
+  for (std::size_t k = 0; k < non_planar.size(); ++k) {
+    const NonPlanarCell& cell = non_planar[k];
+    if (static_cast<double>(cell.width_m) * cell.height_m * cell.thickness_m
+        <= one_voxel)
+      singles.push_back(static_cast<std::uint32_t>(k));
+  }
+  if (singles.empty())
+    return;
+  // Every cuboid (the planes' rectangles, then the non-planar cells), binned by its
+  // bounds grown by one cell, so that the bin of a single's centre lists every
+  // cuboid within one cell of it.
+  PlanarCuboids cuboids;
+  buildPlanarCuboids(params, cuboids);
+  const std::size_t first_non_planar = cuboids.size();
+  cuboids.reserve(cuboids.size() + non_planar.size());
+  for (const auto& cell : non_planar)
+    cuboids.push_back(nonPlanarCuboid(cell));
+  const auto reach = static_cast<float>(r);
+  const auto bin = static_cast<float>(4.0 * r);
+  std::vector<BinEntry> bins;
+  std::vector<std::uint32_t> large;
+  binCuboids(cuboids, reach, bin, bins, large);
+  for (const auto k : singles) {
+    const std::size_t self = first_non_planar + k;
+    const Eigen::Vector3f& p = cuboids[self].centre;
+    // a neighbouring lattice voxel lies within half a cell of p; the next one out
+    // 1.5 cells away
+    const auto touches = [&](std::uint32_t j) {
+      return j != self && cuboids[j].contains(p, reach);
+    };
+    const Eigen::Vector3d b = binOf(p, bin);
+    const std::uint64_t key =
+      binKey(static_cast<std::int64_t>(b.x()), static_cast<std::int64_t>(b.y()),
+             static_cast<std::int64_t>(b.z()));
+    const auto range = std::equal_range(bins.begin(), bins.end(), BinEntry(key, 0));
+    const bool touched =
+      std::any_of(range.first, range.second,
+                  [&](const BinEntry& e) { return touches(e.index); })
+      || std::any_of(large.begin(), large.end(), touches);
+    if (!touched)
+      isolated.push_back(k);
+  }
+  isolated.shrink_to_fit();
+}
+
 } // namespace planar_grid

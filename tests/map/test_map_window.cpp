@@ -120,6 +120,9 @@ params(SpaceState prior)
   PlanarGridMap::Params p;
   p.resolution_m = R;
   p.space.prior = prior;
+  // the window must keep every cell inside exactly, including a lone one-voxel
+  // non-planar cell whose neighbours it removes
+  p.surface.skip_isolated_non_planar = false;
   return p;
 }
 

@@ -1222,9 +1222,9 @@ TEST(SurfaceLayer, RasterCellsAndEvidenceMatchBruteForce)
   ASSERT_EQ(layer.getCellCount(), oracle.size());
   std::vector<std::uint8_t> bytes;
   layer.serialize(bytes);
-  // header: magic, version, 6 f64 params, u32, u8, f64, f64, f64, f64; u64 planes;
-  // the plane's 8 f32 planes and 13 f64 moments; u64 cells
-  std::size_t at = 4 + 4 + 6 * 8 + 4 + 1 + 8 + 8 + 8 + 8 + 8 + 8 * 4 + 13 * 8;
+  // header: magic, version, 6 f64 params, u32, u8, f64, f64, f64, f64, u8; u64
+  // planes; the plane's 8 f32 planes and 13 f64 moments; u64 cells
+  std::size_t at = 4 + 4 + 6 * 8 + 4 + 1 + 8 + 8 + 8 + 8 + 1 + 8 + 8 * 4 + 13 * 8;
   std::uint64_t cells = 0;
   std::memcpy(&cells, bytes.data() + at, 8);
   at += 8;
@@ -1640,7 +1640,8 @@ TEST(SurfaceLayer, SerializeRoundTrip)
   SurfaceLayer::Params paper_params;
   paper_params.close_gaps_cells = 5;
   paper_params.merge_rule = planar_grid::SurfaceMergeRule::PAPER;
-  paper_params.absorb_distance_m = 0.0; // what versions 2 and 3 are read with
+  paper_params.absorb_distance_m = 0.0;          // what versions 2 and 3 are read with
+  paper_params.skip_isolated_non_planar = false; // and versions 2 to 6
   SurfaceLayer paper(paper_params);
   for (unsigned seed = 11; seed <= 13; ++seed) {
     makeFrame(seed, cuboids, planes, features, probabilities);
@@ -1694,7 +1695,9 @@ TEST(SurfaceLayer, SerializeRoundTrip)
   // and terrain_plane_tile_m after the cover_density) with absorb_distance_m 0;
   // version 4 sections (no terrain_plane_tile_m after the absorb_distance_m) with
   // terrain_plane_tile_m 0; version 5 sections (no terrain_cover_density after the
-  // terrain_plane_tile_m) with terrain_cover_density = cover_density
+  // terrain_plane_tile_m) with terrain_cover_density = cover_density; version 6
+  // sections (no skip_isolated_non_planar after the terrain_cover_density) with it
+  // false
   std::vector<std::uint8_t> paper_bytes;
   paper.serialize(paper_bytes);
   const std::size_t density_at = 4 + 4 + 6 * 8 + 4 + 1;
@@ -1703,7 +1706,7 @@ TEST(SurfaceLayer, SerializeRoundTrip)
   const auto older = [&](std::uint8_t version, std::size_t kept) {
     std::vector<std::uint8_t> bytes_of(paper_bytes.begin(),
                                        paper_bytes.begin() + density_at + kept);
-    bytes_of.insert(bytes_of.end(), paper_bytes.begin() + density_at + 32,
+    bytes_of.insert(bytes_of.end(), paper_bytes.begin() + density_at + 33,
                     paper_bytes.end());
     bytes_of[4] = version;
     SurfaceLayer decoded(defaultParams());
@@ -1715,6 +1718,12 @@ TEST(SurfaceLayer, SerializeRoundTrip)
   EXPECT_EQ(older(3, 8).absorb_distance_m, 0.0);
   EXPECT_EQ(older(4, 16).terrain_plane_tile_m, 0.0);
   EXPECT_EQ(older(5, 24).terrain_cover_density, paper.getParams().cover_density);
+  EXPECT_FALSE(older(6, 32).skip_isolated_non_planar);
+  // a flag byte other than 0 or 1 is refused
+  std::vector<std::uint8_t> bad_flag = paper_bytes;
+  bad_flag[density_at + 32] = 2;
+  SurfaceLayer bad_target(defaultParams());
+  EXPECT_THROW(bad_target.deserialize(bad_flag.data(), bad_flag.size()), IOError);
   // empty layer
   SurfaceLayer empty(defaultParams()), empty_copy(defaultParams());
   bytes.clear();
@@ -2059,6 +2068,116 @@ TEST(SurfaceLayer, KarlsruheFramesMergeIntoFewerCuboids)
     }
   std::printf("planar faces covered: %zu / %zu\n", covered, total);
   EXPECT_GE(covered, total * 95 / 100);
+}
+
+/** A non-planar lattice box of nx x ny x nz voxels of 0.1 m whose lowest voxel has
+ * the centre \a first (world axes). */
+PlanarCuboid
+latticeBox(const Eigen::Vector3f& first, int nx = 1, int ny = 1, int nz = 1)
+{
+  PlanarCuboid c;
+  c.normal = Eigen::Vector3f::UnitZ();
+  c.horizontal_axis = Eigen::Vector3f::UnitX();
+  c.width_m = 0.1f * static_cast<float>(nx);
+  c.height_m = 0.1f * static_cast<float>(ny);
+  c.thickness_m = 0.1f * static_cast<float>(nz);
+  c.centre =
+    first
+    + 0.05f
+        * Eigen::Vector3f(static_cast<float>(nx - 1), static_cast<float>(ny - 1),
+                          static_cast<float>(nz - 1));
+  c.plane_id = -1;
+  c.is_planar = false;
+  c.point_count = 5;
+  return c;
+}
+
+/** Centres of the non-planar cuboids of \a cuboids, rounded to millimetres. */
+std::vector<std::array<int, 3>>
+nonPlanarCentres(const PlanarCuboids& cuboids)
+{
+  std::vector<std::array<int, 3>> centres;
+  for (const auto& c : cuboids)
+    if (!c.is_planar)
+      centres.push_back({static_cast<int>(std::lround(c.centre.x() * 1000.0f)),
+                         static_cast<int>(std::lround(c.centre.y() * 1000.0f)),
+                         static_cast<int>(std::lround(c.centre.z() * 1000.0f))});
+  std::sort(centres.begin(), centres.end());
+  return centres;
+}
+
+TEST(SurfaceLayer, IsolatedOneVoxelNonPlanarCellsAreLeftOut)
+{
+  // a 2 m wall facing -y with its face at y = 1 (the box reaches to y = 1.1)
+  const Eigen::Vector3f wall_face(20.0f, 1.0f, 1.0f);
+  const PlanarCuboid wall = [&] {
+    PlanarCuboid c;
+    c.normal = -Eigen::Vector3f::UnitY();
+    c.horizontal_axis = Eigen::Vector3f::UnitX();
+    c.width_m = 2.0f;
+    c.height_m = 2.0f;
+    c.thickness_m = 0.1f;
+    c.centre = wall_face - c.normal * 0.05f;
+    c.plane_id = 0;
+    c.is_planar = true;
+    return c;
+  }();
+  const PlaneModels planes{Eigen::Vector4f(0.0f, -1.0f, 0.0f, 1.0f)};
+  const PlanarCuboids frame{
+    wall,
+    latticeBox({2.05f, 0.05f, 1.05f}), // alone
+    latticeBox({5.05f, 0.05f, 1.05f}),
+    latticeBox({5.15f, 0.05f, 1.05f}), // face pair
+    latticeBox({8.05f, 0.05f, 1.05f}),
+    latticeBox({8.15f, 0.15f, 1.15f}), // corner pair
+    latticeBox({11.05f, 0.05f, 1.05f}),
+    latticeBox({11.25f, 0.05f, 1.05f}),    // one apart
+    latticeBox({14.05f, 0.05f, 1.05f}, 2), // two voxels
+    latticeBox({20.05f, 0.95f, 1.05f}),    // on the wall
+  };
+  const auto mm = [](float x, float y, float z) {
+    return std::array<int, 3>{static_cast<int>(std::lround(x * 1000.0f)),
+                              static_cast<int>(std::lround(y * 1000.0f)),
+                              static_cast<int>(std::lround(z * 1000.0f))};
+  };
+  std::vector<std::array<int, 3>> kept{
+    mm(5.05f, 0.05f, 1.05f), mm(5.15f, 0.05f, 1.05f), mm(8.05f, 0.05f, 1.05f),
+    mm(8.15f, 0.15f, 1.15f), mm(14.1f, 0.05f, 1.05f), mm(20.05f, 0.95f, 1.05f)};
+  std::sort(kept.begin(), kept.end());
+
+  SurfaceLayer::Params params = defaultParams();
+  ASSERT_TRUE(params.skip_isolated_non_planar);
+  SurfaceLayer layer(params);
+  layer.integrate(frame, planes, Cloud(), {});
+  const PlanarCuboids cuboids = layer.getCuboids();
+  EXPECT_EQ(nonPlanarCentres(cuboids), kept);
+  EXPECT_EQ(layer.getCuboidCount(), cuboids.size());
+  // the left-out cells stay stored
+  params.skip_isolated_non_planar = false;
+  SurfaceLayer every(params);
+  every.integrate(frame, planes, Cloud(), {});
+  EXPECT_EQ(every.getCellCount(), layer.getCellCount());
+  EXPECT_EQ(nonPlanarCentres(every.getCuboids()).size(), 9u);
+  EXPECT_EQ(every.getCuboidCount(), cuboids.size() + 3);
+  // nothing reaches a left-out cell
+  EXPECT_EQ(layer.findCuboid({2.05f, 0.05f, 1.05f}), nullptr);
+  EXPECT_NE(every.findCuboid({2.05f, 0.05f, 1.05f}), nullptr);
+
+  // a neighbour seen later brings the lone cell back
+  layer.integrate({latticeBox({2.05f, 0.05f, 1.15f})}, PlaneModels{}, Cloud(), {});
+  kept.push_back(mm(2.05f, 0.05f, 1.05f));
+  kept.push_back(mm(2.05f, 0.05f, 1.15f));
+  std::sort(kept.begin(), kept.end());
+  EXPECT_EQ(nonPlanarCentres(layer.getCuboids()), kept);
+
+  // the setting travels with the layer; sections before it reported every cell
+  std::vector<std::uint8_t> bytes;
+  every.serialize(bytes);
+  SurfaceLayer copy(defaultParams());
+  copy.deserialize(bytes.data(), bytes.size());
+  EXPECT_FALSE(copy.getParams().skip_isolated_non_planar);
+  EXPECT_EQ(copy.getCuboidCount(), every.getCuboidCount());
+  EXPECT_TRUE(copy == every);
 }
 
 } // namespace

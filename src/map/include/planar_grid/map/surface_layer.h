@@ -250,6 +250,13 @@ public:
      * spans and marks occupied; walls keep cover_density. 1: the level planes'
      * rectangles hold observed cells only. */
     double terrain_cover_density{0.9};
+    /** getCuboids() leaves out a non-planar cell of one voxel (volume at most 1.5
+     * resolution_m^3) that no other cuboid touches (none within resolution_m of its
+     * centre): a speckle of the stereo noise, not an object (the split boxes of
+     * Fig. 7 are clusters of points). As PCL's RadiusOutlierRemoval drops a point
+     * without neighbours. The cell stays stored with its evidence, so a neighbour
+     * seen later brings it back; getCellCount() and getMemoryBytes() count it. */
+    bool skip_isolated_non_planar{true};
   };
 
   /** \brief Throws planar_grid::Exception for out-of-range parameters. */
@@ -406,7 +413,9 @@ public:
    * rectangles (the covers of the planes changed since the last query are rebuilt
    * first) and returned by value: the layer does not hold the list, and
    * getMemoryBytes() does not count it. Bind the result (const auto& cuboids =
-   * layer.getCuboids()) rather than calling it in a loop. */
+   * layer.getCuboids()) rather than calling it in a loop. With
+   * Params::skip_isolated_non_planar the isolated one-voxel non-planar cells are left
+   * out. */
   PlanarCuboids getCuboids() const;
   /** \brief getCuboids().size(), without building the list. */
   [[nodiscard]] std::size_t getCuboidCount() const;
@@ -416,10 +425,14 @@ public:
   /** \brief Number of cells: observed raster cells over all planes (not the cells
    * filled by the gap closing) plus non-planar cells. */
   [[nodiscard]] std::size_t getCellCount() const;
+  /** \brief Observed raster cells over all planes (getCellCount() without the
+   * non-planar cells). */
+  [[nodiscard]] std::size_t getRasterCellCount() const;
   /** \brief Bytes held: vector capacities (planes, rasters, cached rectangles,
    * non-planar cells and their index) and, while held, the query index of
    * findCuboid() and castRay() (its copy of the cuboids, hash-map buckets and
-   * nodes). Allocator overhead per allocation is not counted. */
+   * nodes) and the list of the isolated non-planar cells getCuboids() leaves out (4 B
+   * each). Allocator overhead per allocation is not counted. */
   [[nodiscard]] std::size_t getMemoryBytes() const;
 
   /** \brief What removeOutside() removed. */
@@ -469,9 +482,10 @@ public:
                std::size_t& index) const;
 
   /** \brief Encodes the layer in a fixed little-endian layout: u32 magic "PGSL",
-   * u32 version 6, the six real Params as f64, close_gaps_cells as u32, merge_rule as
+   * u32 version 7, the six real Params as f64, close_gaps_cells as u32, merge_rule as
    * u8 (0 paper, 1 min_rectangles, 2 density), cover_density, absorb_distance_m,
-   * terrain_plane_tile_m and terrain_cover_density as f64; u64 planes, per
+   * terrain_plane_tile_m and terrain_cover_density as f64,
+   * skip_isolated_non_planar as u8 (0 or 1); u64 planes, per
    * plane: the raster frame's plane f32 a, b, c, d, the refined plane f32 a, b, c, d,
    * the evidence moments as f64 (anchor[3], weight, sum[3], sum of outer products xx,
    * xy, xz, yy, yz, zz), u64 cells, per cell i32 i, i32 j, f32 probability sum, u16
@@ -492,7 +506,9 @@ public:
    * 2 and 3 (no absorb_distance_m) with absorb_distance_m 0 (only the non-parallel
    * tolerance, as they were written); versions 2 to 4 (no terrain_plane_tile_m) with
    * terrain_plane_tile_m 0; versions 2 to 5 (no terrain_cover_density) with
-   * terrain_cover_density = cover_density, the density their covers were made with.
+   * terrain_cover_density = cover_density, the density their covers were made with;
+   * versions 2 to 6 (no skip_isolated_non_planar) with it false, as they reported
+   * every cell.
    * \throws planar_grid::IOError on truncated, trailing or inconsistent data or
    * another version (layer unchanged) */
   void deserialize(const std::uint8_t* data, std::size_t size);
