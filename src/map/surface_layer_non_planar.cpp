@@ -10,6 +10,7 @@
 #include <mutex>
 #include <set>
 #include <tuple>
+#include <unordered_map>
 #include <utility>
 
 #include "surface_layer_impl.h"
@@ -459,49 +460,89 @@ SurfaceLayer::Impl::ensureIsolated(const Params& params)
     return;
   const double r = params.resolution_m;
   const double one_voxel = 1.5 * r * r * r;
-  std::vector<std::uint32_t> singles;
+  const auto reach = static_cast<float>(r);
+  const auto bin = static_cast<float>(4.0 * r);
+  // The one-voxel cells, by the bin of their centre.
+  const auto binOfCentre = [bin](const Eigen::Vector3f& p) {
+    const Eigen::Vector3d b = binOf(p, bin);
+    return binKey(static_cast<std::int64_t>(b.x()), static_cast<std::int64_t>(b.y()),
+                  static_cast<std::int64_t>(b.z()));
+  };
+  std::vector<BinEntry> singles;
   for (std::size_t k = 0; k < non_planar.size(); ++k) {
     const NonPlanarCell& cell = non_planar[k];
     if (static_cast<double>(cell.width_m) * cell.height_m * cell.thickness_m
         <= one_voxel)
-      singles.push_back(static_cast<std::uint32_t>(k));
+      singles.emplace_back(binOfCentre(cell.centre), static_cast<std::uint32_t>(k));
   }
   if (singles.empty())
     return;
-  // Every cuboid (the planes' rectangles, then the non-planar cells), binned by its
-  // bounds grown by one cell, so that the bin of a single's centre lists every
-  // cuboid within one cell of it.
-  PlanarCuboids cuboids;
-  buildPlanarCuboids(params, cuboids);
-  const std::size_t first_non_planar = cuboids.size();
-  cuboids.reserve(cuboids.size() + non_planar.size());
-  for (const auto& cell : non_planar)
-    cuboids.push_back(nonPlanarCuboid(cell));
-  const auto reach = static_cast<float>(r);
-  const auto bin = static_cast<float>(4.0 * r);
-  std::vector<BinEntry> bins;
-  std::vector<std::uint32_t> large;
-  binCuboids(cuboids, reach, bin, bins, large);
-  for (const auto k : singles) {
-    const std::size_t self = first_non_planar + k;
-    const Eigen::Vector3f& p = cuboids[self].centre;
-    // a neighbouring lattice voxel lies within half a cell of p; the next one out
-    // 1.5 cells away
-    const auto touches = [&](std::uint32_t j) {
-      return j != self && cuboids[j].contains(p, reach);
-    };
-    const Eigen::Vector3d b = binOf(p, bin);
-    const std::uint64_t key =
-      binKey(static_cast<std::int64_t>(b.x()), static_cast<std::int64_t>(b.y()),
-             static_cast<std::int64_t>(b.z()));
-    const auto range = std::equal_range(bins.begin(), bins.end(), BinEntry(key, 0));
-    const bool touched =
-      std::any_of(range.first, range.second,
-                  [&](const BinEntry& e) { return touches(e.index); })
-      || std::any_of(large.begin(), large.end(), touches);
-    if (!touched)
-      isolated.push_back(k);
+  std::sort(singles.begin(), singles.end(), [](const BinEntry& a, const BinEntry& b) {
+    return a.key() < b.key() || (a.key() == b.key() && a.index < b.index);
+  });
+  // bin key -> the singles' range [first, last) in that bin
+  std::unordered_map<std::uint64_t, std::pair<std::uint32_t, std::uint32_t>> ranges;
+  ranges.reserve(singles.size());
+  for (std::size_t s = 0; s < singles.size();) {
+    std::size_t e = s + 1;
+    while (e < singles.size() && singles[e].key() == singles[s].key())
+      ++e;
+    ranges.emplace(singles[s].key(), std::make_pair(static_cast<std::uint32_t>(s),
+                                                    static_cast<std::uint32_t>(e)));
+    s = e;
   }
+  // Each cuboid, grown by one cell, marks the singles whose centres it holds: a
+  // neighbouring lattice voxel lies within half a cell of a single's centre, the next
+  // one out 1.5 cells away. Only the bins the grown cuboid meets are looked at.
+  std::vector<std::uint8_t> touched(singles.size(), 0);
+  const auto mark = [&](const PlanarCuboid& c, std::uint32_t self) {
+    const auto markIn = [&](std::size_t s) {
+      if (!touched[s] && singles[s].index != self
+          && c.contains(non_planar[singles[s].index].centre, reach))
+        touched[s] = 1;
+    };
+    const bool binned = forEachBin(c, reach, bin, [&](std::uint64_t key) {
+      const auto it = ranges.find(key);
+      if (it != ranges.end())
+        for (std::uint32_t s = it->second.first; s < it->second.second; ++s)
+          markIn(s);
+    });
+    if (!binned)
+      for (std::size_t s = 0; s < singles.size(); ++s)
+        markIn(s);
+  };
+  // The planes' rectangles (large and thin, their bins many) are tested plane by
+  // plane against the singles near the plane: a rectangle's face lies on its plane and
+  // its box reaches thickness behind, so a centre it holds within one cell lies
+  // within thickness + one cell of the plane (half a cell more for rounding).
+  PlanarCuboids planar;
+  buildPlanarCuboids(params, planar);
+  for (std::size_t first = 0; first < planar.size();) {
+    const int plane_id = planar[first].plane_id;
+    std::size_t last = first;
+    float thickness = 0.0f;
+    while (last < planar.size() && planar[last].plane_id == plane_id)
+      thickness = std::max(thickness, planar[last++].thickness_m);
+    const MapPlane& plane = planes[static_cast<std::size_t>(plane_id)];
+    const float near = thickness + 1.5f * reach;
+    for (std::size_t s = 0; s < singles.size(); ++s) {
+      if (touched[s])
+        continue;
+      const Eigen::Vector3f& p = non_planar[singles[s].index].centre;
+      if (std::abs(plane.normal.dot(p) + plane.d) > near)
+        continue;
+      for (std::size_t j = first; j < last && !touched[s]; ++j)
+        if (planar[j].contains(p, reach))
+          touched[s] = 1;
+    }
+    first = last;
+  }
+  for (std::size_t k = 0; k < non_planar.size(); ++k)
+    mark(nonPlanarCuboid(non_planar[k]), static_cast<std::uint32_t>(k));
+  for (std::size_t s = 0; s < singles.size(); ++s)
+    if (!touched[s])
+      isolated.push_back(singles[s].index);
+  std::sort(isolated.begin(), isolated.end());
   isolated.shrink_to_fit();
 }
 
