@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/core/pcd_file_check.h>
+#include <planar_grid/pipeline/ros_messages.h>
 
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/common/io.h>
@@ -24,7 +25,6 @@
 
 #include "cloud_blob.h"
 #include "ros_bag_input.h"
-#include "ros_messages.h"
 #include "stereo_pair_check.h"
 
 namespace planar_grid {

@@ -1,8 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "ros_messages.h"
-
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/core/pcd_file_check.h>
+#include <planar_grid/pipeline/ros_messages.h>
 
 #include <pcl/PCLPointCloud2.h>
 

@@ -11,6 +11,7 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/mapper.h>
 #include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/ros_messages.h>
 
 #include <pcl/console/print.h>
 
@@ -29,8 +30,6 @@
 #include <memory>
 #include <string>
 #include <vector>
-
-#include "ros_messages.h"
 
 namespace {
 

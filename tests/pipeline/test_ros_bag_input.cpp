@@ -5,6 +5,7 @@
 #include <planar_grid/pipeline/frame_source.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
+#include <planar_grid/pipeline/ros_messages.h>
 #include <planar_grid/pipeline/run_outputs.h>
 #include <planar_grid/stereo/calibration_io.h>
 
@@ -30,7 +31,6 @@
 #include <string>
 
 #include "main_job_stages.h"
-#include "ros_messages.h"
 
 namespace fs = std::filesystem;
 using planar_grid::parsePipelineConfig;

@@ -5,6 +5,7 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/mapper.h>
+#include <planar_grid/pipeline/ros_messages.h>
 
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/OccupancyGrid.h>
@@ -27,7 +28,6 @@
 #include <utility>
 
 #include "planar_grid_ros_node.h"
-#include "ros_messages.h"
 
 namespace ros_node {
 

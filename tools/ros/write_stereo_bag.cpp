@@ -15,6 +15,7 @@
 #include <planar_grid/pipeline/frame.h>
 #include <planar_grid/pipeline/frame_source.h>
 #include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/ros_messages.h>
 
 #include <rosbag/bag.h>
 #include <tf2_msgs/TFMessage.h>
@@ -22,8 +23,6 @@
 #include <cstdlib>
 #include <iostream>
 #include <string>
-
-#include "ros_messages.h"
 
 namespace {
 

@@ -16,8 +16,9 @@
 
 /** \file
  * The ROS 1 messages the pipeline reads, as its own types: one owner for the ROS bag
- * input (ros_bag_source.cpp) and the ROS node (tools/ros). Built with the ROS bag
- * input only (PLANAR_GRID_HAVE_ROS_BAG). Not installed. */
+ * input (ros_bag_source.cpp), the ROS node and the bag tools (tools/ros). Built and
+ * installed with the ROS bag input only (PLANAR_GRID_HAVE_ROS_BAG); including it needs
+ * the ROS message headers (sensor_msgs, geometry_msgs). */
 
 namespace planar_grid {
 namespace ros_messages {
