@@ -41,8 +41,16 @@ cellKey(std::int64_t x, std::int64_t y, std::int64_t z)
 }
 
 /** The squared distance bound of a point's selection as a multiple of its
- * neighbour's squared k-th distance. */
-constexpr float BOUND_PER_KTH_SQ = 1.3f;
+ * neighbour's squared k-th distance: the neighbour's k-th distance itself, which
+ * holds about k candidates, so that the selection has few to take out. */
+constexpr float BOUND_PER_KTH_SQ = 1.0f;
+
+/** When fewer than k candidates lie below the bound, it is widened by this factor
+ * (squared distances) up to WIDEN_FINE_STEPS times, then doubled: small steps keep
+ * the candidates taken near k, doubling bounds the passes when the bound was far too
+ * small. */
+constexpr float WIDEN_FINE_FACTOR = 1.1f;
+constexpr int WIDEN_FINE_STEPS = 4;
 
 /** Most candidates taken out above the k nearest in one pass; with more, the k-th is
  * selected instead. */
@@ -246,7 +254,7 @@ private:
   /** \brief The squared distances from \a q to the candidates below \a bound_sq (and
    * within \a guard_sq) into near_[0 .. returned count). When at least k are, they
    * hold the k nearest: every other candidate is farther than all of them. Too few
-   * below the bound: the bound doubled (the distances are kept), up to the guard. */
+   * below the bound: the bound widened (the distances are kept), up to the guard. */
   std::size_t candidatesWithin(const float* q, float guard_sq, float bound_sq)
   {
     const std::size_t m = cand_x_.size();
@@ -271,8 +279,10 @@ private:
       near[inside] = dist[t];
       inside += dist[t] < tight_sq ? 1 : 0;
     }
-    for (float wider_sq = tight_sq; inside < k_ && wider_sq < guard_sq;) {
-      wider_sq = wider_sq > 0.0f ? std::min(guard_sq, 2.0f * wider_sq) : guard_sq;
+    int steps = 0;
+    for (float wider_sq = tight_sq; inside < k_ && wider_sq < guard_sq; ++steps) {
+      const float factor = steps < WIDEN_FINE_STEPS ? WIDEN_FINE_FACTOR : 2.0f;
+      wider_sq = wider_sq > 0.0f ? std::min(guard_sq, factor * wider_sq) : guard_sq;
       inside = 0;
       for (std::size_t t = 0; t < m; ++t) {
         near[inside] = dist[t];
