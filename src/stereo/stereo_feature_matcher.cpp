@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 #include "grey_image.h"
@@ -263,16 +264,27 @@ detectGridFastKeypoints(const cv::Mat& grey,
     if (cell_of[i] < n_cells)
       sorted[next[cell_of[i]]++] = corners[i];
   const auto cap = static_cast<std::size_t>(max_per_cell);
+  // Each cell's strongest corners, equal responses in cv::FAST's order (so the result
+  // is deterministic): the first cap of its corners ordered by response, then by
+  // position in the array. Only those first cap are ordered (a partial sort of small
+  // records, without the temporary buffer of a stable sort of the key points).
+  struct Ranked {
+    float response;
+    std::uint32_t position;
+  };
+  const auto stronger = [](const Ranked& a, const Ranked& b) {
+    return a.response > b.response
+           || (a.response == b.response && a.position < b.position);
+  };
+  std::vector<Ranked> ranked;
   for (std::size_t c = 0; c < n_cells; ++c) {
-    const auto first = sorted.begin() + static_cast<std::ptrdiff_t>(cell_begin[c]);
-    const auto last = sorted.begin() + static_cast<std::ptrdiff_t>(cell_begin[c + 1]);
-    // Stable: equal responses keep cv::FAST's order, so the result is deterministic.
-    std::stable_sort(first, last, [](const cv::KeyPoint& a, const cv::KeyPoint& b) {
-      return a.response > b.response;
-    });
-    for (auto it = first; it != last && static_cast<std::size_t>(it - first) < cap;
-         ++it) {
-      cv::KeyPoint k = *it;
+    ranked.clear();
+    for (std::size_t i = cell_begin[c]; i < cell_begin[c + 1]; ++i)
+      ranked.push_back({sorted[i].response, static_cast<std::uint32_t>(i)});
+    const auto kept = static_cast<std::ptrdiff_t>(std::min(cap, ranked.size()));
+    std::partial_sort(ranked.begin(), ranked.begin() + kept, ranked.end(), stronger);
+    for (auto it = ranked.begin(); it != ranked.begin() + kept; ++it) {
+      cv::KeyPoint k = sorted[it->position];
       k.size = static_cast<float>(ORB_PATCH_SIZE_PX);
       k.angle = 0.0f;
       k.octave = 0;
