@@ -28,7 +28,7 @@ struct PackedPoints {
 /** Points per leaf of the kd-tree. The tree answers only a sample and the few points
  * the cells cannot, so its build dominates: larger leaves mean fewer levels to
  * partition, and any leaf size gives the same exact neighbours. */
-constexpr std::size_t TREE_LEAF_SIZE = 64;
+constexpr std::size_t TREE_LEAF_SIZE = 256;
 
 /** Integer cell coordinates packed into one key, 21 bits per axis. */
 std::uint64_t
