@@ -258,33 +258,36 @@ detectGridFastKeypoints(const cv::Mat& grey,
   }
   for (std::size_t c = 0; c < n_cells; ++c)
     cell_begin[c + 1] += cell_begin[c];
-  std::vector<cv::KeyPoint> sorted(cell_begin[n_cells]);
+  // Each cell's corners as small records of their response and index in cv::FAST's
+  // output (so in cv::FAST's order within each cell).
+  struct Ranked {
+    float response;
+    std::uint32_t index;
+  };
+  std::vector<Ranked> ranked(cell_begin[n_cells]);
   std::vector<std::size_t> next(cell_begin.begin(), cell_begin.end() - 1);
   for (std::size_t i = 0; i < corners.size(); ++i)
     if (cell_of[i] < n_cells)
-      sorted[next[cell_of[i]]++] = corners[i];
+      ranked[next[cell_of[i]]++] = {corners[i].response, static_cast<std::uint32_t>(i)};
   const auto cap = static_cast<std::size_t>(max_per_cell);
   // Each cell's strongest corners, equal responses in cv::FAST's order (so the result
   // is deterministic): the first cap of its corners ordered by response, then by
-  // position in the array. Only those first cap are ordered (a partial sort of small
-  // records, without the temporary buffer of a stable sort of the key points).
-  struct Ranked {
-    float response;
-    std::uint32_t position;
-  };
+  // index. That order is total, so selecting the first cap and sorting only those
+  // gives them exactly (without a stable sort's temporary buffer and without ordering
+  // the cell's weaker corners).
   const auto stronger = [](const Ranked& a, const Ranked& b) {
-    return a.response > b.response
-           || (a.response == b.response && a.position < b.position);
+    return a.response > b.response || (a.response == b.response && a.index < b.index);
   };
-  std::vector<Ranked> ranked;
   for (std::size_t c = 0; c < n_cells; ++c) {
-    ranked.clear();
-    for (std::size_t i = cell_begin[c]; i < cell_begin[c + 1]; ++i)
-      ranked.push_back({sorted[i].response, static_cast<std::uint32_t>(i)});
-    const auto kept = static_cast<std::ptrdiff_t>(std::min(cap, ranked.size()));
-    std::partial_sort(ranked.begin(), ranked.begin() + kept, ranked.end(), stronger);
-    for (auto it = ranked.begin(); it != ranked.begin() + kept; ++it) {
-      cv::KeyPoint k = sorted[it->position];
+    const auto first = ranked.begin() + static_cast<std::ptrdiff_t>(cell_begin[c]);
+    const auto last = ranked.begin() + static_cast<std::ptrdiff_t>(cell_begin[c + 1]);
+    const auto kept =
+      first + std::min<std::ptrdiff_t>(last - first, static_cast<std::ptrdiff_t>(cap));
+    if (kept != last)
+      std::nth_element(first, kept, last, stronger);
+    std::sort(first, kept, stronger);
+    for (auto it = first; it != kept; ++it) {
+      cv::KeyPoint k = corners[it->index];
       k.size = static_cast<float>(ORB_PATCH_SIZE_PX);
       k.angle = 0.0f;
       k.octave = 0;
