@@ -28,7 +28,7 @@ struct PackedPoints {
 /** Points per leaf of the kd-tree. The tree answers only a sample and the few points
  * the cells cannot, so its build dominates: larger leaves mean fewer levels to
  * partition, and any leaf size gives the same exact neighbours. */
-constexpr std::size_t TREE_LEAF_SIZE = 64;
+constexpr std::size_t TREE_LEAF_SIZE = 256;
 
 /** Integer cell coordinates packed into one key, 21 bits per axis. */
 std::uint64_t
@@ -41,8 +41,16 @@ cellKey(std::int64_t x, std::int64_t y, std::int64_t z)
 }
 
 /** The squared distance bound of a point's selection as a multiple of its
- * neighbour's squared k-th distance. */
-constexpr float BOUND_PER_KTH_SQ = 1.3f;
+ * neighbour's squared k-th distance: the neighbour's k-th distance itself, which
+ * holds about k candidates, so that the selection has few to take out. */
+constexpr float BOUND_PER_KTH_SQ = 1.0f;
+
+/** When fewer than k candidates lie below the bound, it is widened by this factor
+ * (squared distances) up to WIDEN_FINE_STEPS times, then doubled: small steps keep
+ * the candidates taken near k, doubling bounds the passes when the bound was far too
+ * small. */
+constexpr float WIDEN_FINE_FACTOR = 1.1f;
+constexpr int WIDEN_FINE_STEPS = 4;
 
 /** Most candidates taken out above the k nearest in one pass; with more, the k-th is
  * selected instead. */
@@ -95,6 +103,65 @@ struct CellIndex {
   /** \brief Cell c's points are order[cell_begin[c] .. cell_begin[c + 1]). */
   std::vector<std::uint32_t> cell_begin;
 
+  /** \brief A point's cell key and index, and the key's rank within the cells' bounding
+   * box (for the radix sort). */
+  struct KeyedPoint {
+    std::uint64_t key;
+    std::uint32_t index;
+    std::uint32_t rank;
+  };
+
+  /** \brief Sorts \a points by key. When the cells' bounding box (\a lowest ..
+   * \a highest cell coordinates) has fewer than 2^32 cells, by a least significant
+   * digit radix sort of each key's rank in the box (x, then y, then z, as the keys
+   * order them), 11 bits a pass; otherwise by std::sort. The order of the points of one
+   * cell is left open: every answer is the same for any order. */
+  static void sortByKey(std::vector<KeyedPoint>& points,
+                        const std::int64_t* lowest,
+                        const std::int64_t* highest)
+  {
+    const auto width = [&](std::size_t d) {
+      return static_cast<std::uint64_t>(highest[d] - lowest[d]) + 1;
+    };
+    // Each width is below 2^21, so the products below fit 64 bits.
+    const std::uint64_t box = width(0) * width(1) * width(2);
+    if (points.empty() || box > (std::uint64_t{1} << 32)) {
+      std::sort(points.begin(), points.end(),
+                [](const KeyedPoint& a, const KeyedPoint& b) { return a.key < b.key; });
+      return;
+    }
+    constexpr std::uint64_t OFFSET = std::uint64_t{1} << 20;
+    constexpr std::uint64_t FIELD = (std::uint64_t{1} << 21) - 1;
+    for (KeyedPoint& p : points) {
+      const std::uint64_t x =
+        (p.key >> 42) - static_cast<std::uint64_t>(lowest[0] + OFFSET);
+      const std::uint64_t y =
+        ((p.key >> 21) & FIELD) - static_cast<std::uint64_t>(lowest[1] + OFFSET);
+      const std::uint64_t z =
+        (p.key & FIELD) - static_cast<std::uint64_t>(lowest[2] + OFFSET);
+      p.rank = static_cast<std::uint32_t>((x * width(1) + y) * width(2) + z);
+    }
+    constexpr unsigned DIGIT_BITS = 11;
+    constexpr std::size_t BUCKETS = std::size_t{1} << DIGIT_BITS;
+    std::vector<KeyedPoint> buffer(points.size());
+    std::vector<std::size_t> count(BUCKETS);
+    for (unsigned shift = 0; shift < 32 && (box - 1) >> shift != 0;
+         shift += DIGIT_BITS) {
+      std::fill(count.begin(), count.end(), 0);
+      for (const KeyedPoint& p : points)
+        ++count[(p.rank >> shift) & (BUCKETS - 1)];
+      std::size_t start = 0;
+      for (std::size_t& c : count) {
+        const std::size_t here = c;
+        c = start;
+        start += here;
+      }
+      for (const KeyedPoint& p : points)
+        buffer[count[(p.rank >> shift) & (BUCKETS - 1)]++] = p;
+      points.swap(buffer);
+    }
+  }
+
   /** \brief Sorts the points of \a xyz into cells of edge \a cell_edge (meters);
    * false when a cell's key would not fit 21 bits per axis (the cloud is too
    * large). */
@@ -105,23 +172,22 @@ struct CellIndex {
     // Keys of the cells up to 2 away from any point stay within 21 bits per axis.
     constexpr double MAX_CELL = static_cast<double>((1 << 20) - 3);
     cell.resize(3 * n);
-    struct KeyedPoint {
-      std::uint64_t key;
-      std::uint32_t index;
-    };
     std::vector<KeyedPoint> sorted(n);
+    std::int64_t lowest[3] = {0, 0, 0}, highest[3] = {0, 0, 0};
     for (std::size_t j = 0; j < n; ++j) {
       for (std::size_t d = 0; d < 3; ++d) {
         const double c = std::floor(static_cast<double>(xyz[3 * j + d]) / edge);
         if (!(std::abs(c) <= MAX_CELL))
           return false;
-        cell[3 * j + d] = static_cast<std::int64_t>(c);
+        const auto ci = static_cast<std::int64_t>(c);
+        cell[3 * j + d] = ci;
+        lowest[d] = j == 0 ? ci : std::min(lowest[d], ci);
+        highest[d] = j == 0 ? ci : std::max(highest[d], ci);
       }
       sorted[j] = {cellKey(cell[3 * j], cell[3 * j + 1], cell[3 * j + 2]),
-                   static_cast<std::uint32_t>(j)};
+                   static_cast<std::uint32_t>(j), 0};
     }
-    std::sort(sorted.begin(), sorted.end(),
-              [](const KeyedPoint& a, const KeyedPoint& b) { return a.key < b.key; });
+    sortByKey(sorted, lowest, highest);
     order.resize(n);
     sorted_x.resize(n);
     sorted_y.resize(n);
@@ -246,7 +312,7 @@ private:
   /** \brief The squared distances from \a q to the candidates below \a bound_sq (and
    * within \a guard_sq) into near_[0 .. returned count). When at least k are, they
    * hold the k nearest: every other candidate is farther than all of them. Too few
-   * below the bound: the bound doubled (the distances are kept), up to the guard. */
+   * below the bound: the bound widened (the distances are kept), up to the guard. */
   std::size_t candidatesWithin(const float* q, float guard_sq, float bound_sq)
   {
     const std::size_t m = cand_x_.size();
@@ -271,8 +337,10 @@ private:
       near[inside] = dist[t];
       inside += dist[t] < tight_sq ? 1 : 0;
     }
-    for (float wider_sq = tight_sq; inside < k_ && wider_sq < guard_sq;) {
-      wider_sq = wider_sq > 0.0f ? std::min(guard_sq, 2.0f * wider_sq) : guard_sq;
+    int steps = 0;
+    for (float wider_sq = tight_sq; inside < k_ && wider_sq < guard_sq; ++steps) {
+      const float factor = steps < WIDEN_FINE_STEPS ? WIDEN_FINE_FACTOR : 2.0f;
+      wider_sq = wider_sq > 0.0f ? std::min(guard_sq, factor * wider_sq) : guard_sq;
       inside = 0;
       for (std::size_t t = 0; t < m; ++t) {
         near[inside] = dist[t];

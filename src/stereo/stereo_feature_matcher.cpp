@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 #include "grey_image.h"
@@ -257,22 +258,36 @@ detectGridFastKeypoints(const cv::Mat& grey,
   }
   for (std::size_t c = 0; c < n_cells; ++c)
     cell_begin[c + 1] += cell_begin[c];
-  std::vector<cv::KeyPoint> sorted(cell_begin[n_cells]);
+  // Each cell's corners as small records of their response and index in cv::FAST's
+  // output (so in cv::FAST's order within each cell).
+  struct Ranked {
+    float response;
+    std::uint32_t index;
+  };
+  std::vector<Ranked> ranked(cell_begin[n_cells]);
   std::vector<std::size_t> next(cell_begin.begin(), cell_begin.end() - 1);
   for (std::size_t i = 0; i < corners.size(); ++i)
     if (cell_of[i] < n_cells)
-      sorted[next[cell_of[i]]++] = corners[i];
+      ranked[next[cell_of[i]]++] = {corners[i].response, static_cast<std::uint32_t>(i)};
   const auto cap = static_cast<std::size_t>(max_per_cell);
+  // Each cell's strongest corners, equal responses in cv::FAST's order (so the result
+  // is deterministic): the first cap of its corners ordered by response, then by
+  // index. That order is total, so selecting the first cap and sorting only those
+  // gives them exactly (without a stable sort's temporary buffer and without ordering
+  // the cell's weaker corners).
+  const auto stronger = [](const Ranked& a, const Ranked& b) {
+    return a.response > b.response || (a.response == b.response && a.index < b.index);
+  };
   for (std::size_t c = 0; c < n_cells; ++c) {
-    const auto first = sorted.begin() + static_cast<std::ptrdiff_t>(cell_begin[c]);
-    const auto last = sorted.begin() + static_cast<std::ptrdiff_t>(cell_begin[c + 1]);
-    // Stable: equal responses keep cv::FAST's order, so the result is deterministic.
-    std::stable_sort(first, last, [](const cv::KeyPoint& a, const cv::KeyPoint& b) {
-      return a.response > b.response;
-    });
-    for (auto it = first; it != last && static_cast<std::size_t>(it - first) < cap;
-         ++it) {
-      cv::KeyPoint k = *it;
+    const auto first = ranked.begin() + static_cast<std::ptrdiff_t>(cell_begin[c]);
+    const auto last = ranked.begin() + static_cast<std::ptrdiff_t>(cell_begin[c + 1]);
+    const auto kept =
+      first + std::min<std::ptrdiff_t>(last - first, static_cast<std::ptrdiff_t>(cap));
+    if (kept != last)
+      std::nth_element(first, kept, last, stronger);
+    std::sort(first, kept, stronger);
+    for (auto it = first; it != kept; ++it) {
+      cv::KeyPoint k = corners[it->index];
       k.size = static_cast<float>(ORB_PATCH_SIZE_PX);
       k.angle = 0.0f;
       k.octave = 0;
@@ -370,12 +385,29 @@ epipolarMatches(const std::vector<cv::KeyPoint>& keypoints_left,
                 const StereoFeatureMatcher::Params& params)
 {
   // Right key points bucketed by integer row, so that each left key point only looks at
-  // the rows within max_row_difference_px of its own.
-  std::vector<std::vector<int>> rows(static_cast<std::size_t>(height));
+  // the rows within max_row_difference_px of its own: one array in row order (a
+  // counting sort, so each row keeps the key points' order), the coordinates copied
+  // beside each index so that the band test reads them in sequence.
+  struct RowPoint {
+    float x, y;
+    int j;
+  };
+  const auto height_rows = static_cast<std::size_t>(height);
+  std::vector<std::size_t> row_of(keypoints_right.size());
+  std::vector<std::size_t> row_begin(height_rows + 1, 0);
   for (std::size_t j = 0; j < keypoints_right.size(); ++j) {
-    const int row =
-      std::clamp(static_cast<int>(std::lround(keypoints_right[j].pt.y)), 0, height - 1);
-    rows[static_cast<std::size_t>(row)].push_back(static_cast<int>(j));
+    row_of[j] = static_cast<std::size_t>(std::clamp(
+      static_cast<int>(std::lround(keypoints_right[j].pt.y)), 0, height - 1));
+    ++row_begin[row_of[j] + 1];
+  }
+  for (std::size_t r = 0; r < height_rows; ++r)
+    row_begin[r + 1] += row_begin[r];
+  std::vector<RowPoint> by_row(keypoints_right.size());
+  {
+    std::vector<std::size_t> next(row_begin.begin(), row_begin.end() - 1);
+    for (std::size_t j = 0; j < keypoints_right.size(); ++j)
+      by_row[next[row_of[j]]++] = {keypoints_right[j].pt.x, keypoints_right[j].pt.y,
+                                   static_cast<int>(j)};
   }
   const float max_dy = static_cast<float>(params.max_row_difference_px);
   const float max_disparity = static_cast<float>(params.max_disparity_px);
@@ -393,22 +425,25 @@ epipolarMatches(const std::vector<cv::KeyPoint>& keypoints_left,
       std::min(height - 1, static_cast<int>(std::ceil(pl.y + max_dy)) + 1);
     float best = infinity, second = infinity;
     int best_j = -1;
-    for (int row = first_row; row <= last_row; ++row) {
-      for (const int j : rows[static_cast<std::size_t>(row)]) {
-        const cv::Point2f& pr = keypoints_right[static_cast<std::size_t>(j)].pt;
-        const float disparity = pl.x - pr.x;
-        if (std::abs(pl.y - pr.y) > max_dy || !(disparity > 0.0f)
-            || disparity > max_disparity)
-          continue;
-        const float distance = descriptorDistance(descriptors_left, static_cast<int>(i),
-                                                  descriptors_right, j);
-        if (distance < best) {
-          second = best;
-          best = distance;
-          best_j = j;
-        } else if (distance < second) {
-          second = distance;
-        }
+    // The rows first_row .. last_row are one range of by_row, in row order.
+    const std::size_t band_begin =
+      first_row <= last_row ? row_begin[static_cast<std::size_t>(first_row)] : 0;
+    const std::size_t band_end =
+      first_row <= last_row ? row_begin[static_cast<std::size_t>(last_row) + 1] : 0;
+    for (std::size_t b = band_begin; b < band_end; ++b) {
+      const RowPoint& pr = by_row[b];
+      const float disparity = pl.x - pr.x;
+      if (std::abs(pl.y - pr.y) > max_dy || !(disparity > 0.0f)
+          || disparity > max_disparity)
+        continue;
+      const float distance = descriptorDistance(descriptors_left, static_cast<int>(i),
+                                                descriptors_right, pr.j);
+      if (distance < best) {
+        second = best;
+        best = distance;
+        best_j = pr.j;
+      } else if (distance < second) {
+        second = distance;
       }
     }
     // Lowe's ratio test; a single candidate on the epipolar band passes (second = inf).
