@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "../benchmarks/karlsruhe_frame.h"
+#include "wall_cuboid.h"
 
 namespace {
 
@@ -2109,19 +2110,9 @@ nonPlanarCentres(const PlanarCuboids& cuboids)
 TEST(SurfaceLayer, IsolatedOneVoxelNonPlanarCellsAreLeftOut)
 {
   // a 2 m wall facing -y with its face at y = 1 (the box reaches to y = 1.1)
-  const Eigen::Vector3f wall_face(20.0f, 1.0f, 1.0f);
-  const PlanarCuboid wall = [&] {
-    PlanarCuboid c;
-    c.normal = -Eigen::Vector3f::UnitY();
-    c.horizontal_axis = Eigen::Vector3f::UnitX();
-    c.width_m = 2.0f;
-    c.height_m = 2.0f;
-    c.thickness_m = 0.1f;
-    c.centre = wall_face - c.normal * 0.05f;
-    c.plane_id = 0;
-    c.is_planar = true;
-    return c;
-  }();
+  const PlanarCuboid wall =
+    planar_grid_test::wallCuboid({20.0f, 1.0f, 1.0f}, -Eigen::Vector3f::UnitY(),
+                                 Eigen::Vector3f::UnitX(), 2.0f, 2.0f, 0);
   const PlaneModels planes{Eigen::Vector4f(0.0f, -1.0f, 0.0f, 1.0f)};
   const PlanarCuboids frame{
     wall,
