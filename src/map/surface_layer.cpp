@@ -315,10 +315,7 @@ SurfaceLayer::getPlanes() const
 std::size_t
 SurfaceLayer::getCellCount() const
 {
-  std::size_t n = impl_->non_planar.size();
-  for (const auto& plane : impl_->planes)
-    n += plane.raster.size();
-  return n;
+  return getRasterCellCount() + impl_->non_planar.size();
 }
 
 std::size_t
