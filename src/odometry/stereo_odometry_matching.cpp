@@ -2,6 +2,7 @@
 // The descriptor matching of StereoOdometry between two frames' stereo features: by
 // descriptor alone, or among the current features near each previous feature's
 // projection by a predicted motion.
+#include <planar_grid/core/counting_sort.h>
 #include <planar_grid/odometry/stereo_odometry.h>
 
 #include <pcl/console/print.h>
@@ -131,23 +132,15 @@ StereoOdometry::matchDescriptorsProjected(const StereoFeatures& previous,
   };
   const long cols = cellOf(std::max(0.0f, max_u)) + 1;
   const long rows = cellOf(std::max(0.0f, max_v)) + 1;
-  std::vector<std::uint32_t> start(static_cast<std::size_t>(cols * rows) + 1, 0);
   std::vector<std::uint32_t> cell_of(n_train);
   for (std::size_t j = 0; j < n_train; ++j) {
     const cv::Point2f& pt = current.keypoints_left[j].pt;
     const long c = std::min(cols - 1, std::max(0L, cellOf(pt.x)));
     const long r = std::min(rows - 1, std::max(0L, cellOf(pt.y)));
     cell_of[j] = static_cast<std::uint32_t>(r * cols + c);
-    ++start[cell_of[j] + 1];
   }
-  for (std::size_t k = 1; k < start.size(); ++k)
-    start[k] += start[k - 1];
-  std::vector<std::uint32_t> sorted(n_train);
-  {
-    std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
-    for (std::size_t j = 0; j < n_train; ++j)
-      sorted[next[cell_of[j]]++] = static_cast<std::uint32_t>(j);
-  }
+  std::vector<std::uint32_t> start, sorted;
+  countingSort(cell_of, static_cast<std::size_t>(cols * rows), start, sorted);
 
   // One pass over the (previous, current) pairs within the radius: each previous
   // feature's best and second-best candidate, and each current feature's best

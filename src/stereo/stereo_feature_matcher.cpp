@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/byte_io.h>
+#include <planar_grid/core/counting_sort.h>
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/stereo/stereo_feature_matcher.h>
 
@@ -245,7 +246,6 @@ detectGridFastKeypoints(const cv::Mat& grey,
   // The corners sorted into their cells by a counting sort, in cv::FAST's order within
   // each cell: every cell's corners are one range of one array.
   std::vector<std::size_t> cell_of(corners.size(), n_cells); // n_cells: in the border
-  std::vector<std::size_t> cell_begin(n_cells + 1, 0);
   for (std::size_t i = 0; i < corners.size(); ++i) {
     const int x = static_cast<int>(corners[i].pt.x);
     const int y = static_cast<int>(corners[i].pt.y);
@@ -254,21 +254,19 @@ detectGridFastKeypoints(const cv::Mat& grey,
       continue;
     cell_of[i] =
       static_cast<std::size_t>((y / bucket_size_px) * cols + x / bucket_size_px);
-    ++cell_begin[cell_of[i] + 1];
   }
-  for (std::size_t c = 0; c < n_cells; ++c)
-    cell_begin[c + 1] += cell_begin[c];
+  std::vector<std::size_t> cell_begin, in_cells;
+  countingSort(cell_of, n_cells, cell_begin, in_cells);
   // Each cell's corners as small records of their response and index in cv::FAST's
   // output (so in cv::FAST's order within each cell).
   struct Ranked {
     float response;
     std::uint32_t index;
   };
-  std::vector<Ranked> ranked(cell_begin[n_cells]);
-  std::vector<std::size_t> next(cell_begin.begin(), cell_begin.end() - 1);
-  for (std::size_t i = 0; i < corners.size(); ++i)
-    if (cell_of[i] < n_cells)
-      ranked[next[cell_of[i]]++] = {corners[i].response, static_cast<std::uint32_t>(i)};
+  std::vector<Ranked> ranked(in_cells.size());
+  for (std::size_t k = 0; k < in_cells.size(); ++k)
+    ranked[k] = {corners[in_cells[k]].response,
+                 static_cast<std::uint32_t>(in_cells[k])};
   const auto cap = static_cast<std::size_t>(max_per_cell);
   // Each cell's strongest corners, equal responses in cv::FAST's order (so the result
   // is deterministic): the first cap of its corners ordered by response, then by
@@ -392,22 +390,16 @@ epipolarMatches(const std::vector<cv::KeyPoint>& keypoints_left,
     float x, y;
     int j;
   };
-  const auto height_rows = static_cast<std::size_t>(height);
   std::vector<std::size_t> row_of(keypoints_right.size());
-  std::vector<std::size_t> row_begin(height_rows + 1, 0);
-  for (std::size_t j = 0; j < keypoints_right.size(); ++j) {
+  for (std::size_t j = 0; j < keypoints_right.size(); ++j)
     row_of[j] = static_cast<std::size_t>(std::clamp(
       static_cast<int>(std::lround(keypoints_right[j].pt.y)), 0, height - 1));
-    ++row_begin[row_of[j] + 1];
-  }
-  for (std::size_t r = 0; r < height_rows; ++r)
-    row_begin[r + 1] += row_begin[r];
-  std::vector<RowPoint> by_row(keypoints_right.size());
-  {
-    std::vector<std::size_t> next(row_begin.begin(), row_begin.end() - 1);
-    for (std::size_t j = 0; j < keypoints_right.size(); ++j)
-      by_row[next[row_of[j]]++] = {keypoints_right[j].pt.x, keypoints_right[j].pt.y,
-                                   static_cast<int>(j)};
+  std::vector<std::size_t> row_begin, in_rows;
+  countingSort(row_of, static_cast<std::size_t>(height), row_begin, in_rows);
+  std::vector<RowPoint> by_row(in_rows.size());
+  for (std::size_t b = 0; b < in_rows.size(); ++b) {
+    const cv::Point2f& pt = keypoints_right[in_rows[b]].pt;
+    by_row[b] = {pt.x, pt.y, static_cast<int>(in_rows[b])};
   }
   const float max_dy = static_cast<float>(params.max_row_difference_px);
   const float max_disparity = static_cast<float>(params.max_disparity_px);

@@ -1,16 +1,20 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/atomic_file.h>
+#include <planar_grid/core/counting_sort.h>
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/core/stereo_calibration.h>
 
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <random>
 #include <stdexcept>
 #include <string>
 
@@ -295,4 +299,36 @@ TEST(StereoCalibration, APrincipalPointFarFromTheCentreIsWarnedAbout)
   EXPECT_NE(left.principalPointWarning(1344, 372, "c").find("width"),
             std::string::npos);
   EXPECT_EQ(full.principalPointWarning(0, 0, "c"), "");
+}
+
+TEST(CountingSort, EqualsAStableSortByBucketWithoutTheItemsOutOfRange)
+{
+  std::mt19937 rng(7);
+  for (const std::size_t n_buckets :
+       {std::size_t{1}, std::size_t{5}, std::size_t{64}}) {
+    // buckets n_buckets and n_buckets + 1 are out of range: those items are left out
+    std::uniform_int_distribution<std::uint32_t> bucket(
+      0, static_cast<std::uint32_t>(n_buckets + 1));
+    for (const std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{300}}) {
+      std::vector<std::uint32_t> bucket_of(n);
+      for (auto& b : bucket_of)
+        b = bucket(rng);
+      std::vector<std::uint32_t> expected;
+      for (std::uint32_t i = 0; i < n; ++i)
+        if (bucket_of[i] < n_buckets)
+          expected.push_back(i);
+      std::stable_sort(
+        expected.begin(), expected.end(),
+        [&](std::uint32_t a, std::uint32_t b) { return bucket_of[a] < bucket_of[b]; });
+      std::vector<std::uint32_t> begin, order;
+      planar_grid::countingSort(bucket_of, n_buckets, begin, order);
+      EXPECT_EQ(order, expected) << n_buckets << " buckets, " << n << " items";
+      ASSERT_EQ(begin.size(), n_buckets + 1);
+      EXPECT_EQ(begin.front(), 0u);
+      EXPECT_EQ(begin.back(), expected.size());
+      for (std::size_t b = 0; b < n_buckets; ++b)
+        for (std::uint32_t k = begin[b]; k < begin[b + 1]; ++k)
+          EXPECT_EQ(bucket_of[order[k]], b);
+    }
+  }
 }
