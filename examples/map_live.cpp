@@ -29,7 +29,7 @@ main(int argc, char** argv)
       const planar_grid::FrameStats stats = mapper.integrateStereo(
         frame.left, frame.right, frame.calibration, frame.world_T_camera);
       std::cout << "frame " << i << ": " << stats.total_ms << " ms, " << stats.cuboids
-                << " cells, map " << stats.map_cuboids << " cuboids\n";
+                << " cells, map " << stats.map_cells << " cells\n";
     }
     mapper.save(argv[3]);
   } catch (const std::exception& e) {

@@ -36,5 +36,5 @@ if __name__ == "__main__":
         stereo = [stage for stage in s["stages"] if stage["type"] == "stereo_disparity"]
         dense = not stereo or stereo[0].get("dense_frames", 1.0) > 0.0
         print(f"frame {s['sequence_number']}{' (dense)' if dense else ''}: "
-              f"{s['total_ms']:.0f} ms, {s['cuboids']} cells, map {s['map_cuboids']} "
-              f"cuboids, readers locked out {s['exclusive_ms']:.1f} ms")
+              f"{s['total_ms']:.0f} ms, {s['cuboids']} cells, map {s['map_cells']} "
+              f"cells, readers locked out {s['exclusive_ms']:.1f} ms")

@@ -143,7 +143,7 @@ toDict(const FrameStats& stats)
   d["exclusive_ms"] = stats.exclusive_ms;
   d["planes"] = stats.planes;
   d["cuboids"] = stats.cuboids;
-  d["map_cuboids"] = stats.map_cuboids;
+  d["map_cells"] = stats.map_cells;
   d["world_T_camera"] = toMatrix(stats.world_T_camera);
   py::list stages;
   for (const auto& s : stats.stages) {
@@ -323,7 +323,8 @@ Returns
 -------
 dict
     The frame's statistics: sequence_number, total_ms, lock_wait_ms, exclusive_ms,
-    planes and cuboids (the frame's), map_cuboids, world_T_camera (4, 4), and stages:
+    planes and cuboids (the frame's), map_cells (the map's surface cells), world_T_camera
+    (4, 4), and stages:
     a list of dicts with type, ms, points_in, points_out and the stage's counters.
 
 Raises

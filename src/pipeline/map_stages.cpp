@@ -141,9 +141,10 @@ public:
         Eigen::Vector3f(sensor.x() - half, sensor.y() - half, -inf),
         Eigen::Vector3f(sensor.x() + half, sensor.y() + half, inf)));
     }
-    cuboids_ = map.getSurfaceLayer().getCuboidCount();
-    // The block count is O(1); the map's bytes (a walk over every block) are
-    // reported once, at the end of the run.
+    // Both counts are cheap: the cells are counted, not merged into cuboids (the
+    // covers are built when the cuboids are read), and the block count is O(1); the
+    // map's cuboids and bytes are reported once, at the end of the run.
+    cells_ = map.getSurfaceLayer().getCellCount();
     space_blocks_ = map.getSpaceLayer().getBlockCount();
   }
 
@@ -153,7 +154,7 @@ public:
                 std::vector<std::pair<std::string, double>>& values) const override
   {
     values.emplace_back("depth_pixels", static_cast<double>(depth_pixels_));
-    values.emplace_back("map_cuboids", static_cast<double>(cuboids_));
+    values.emplace_back("map_cells", static_cast<double>(cells_));
     values.emplace_back("space_blocks", static_cast<double>(space_blocks_));
   }
 
@@ -210,7 +211,7 @@ private:
   std::vector<float> probabilities_;
   DepthImage depth_;
   std::size_t depth_pixels_{0};
-  std::size_t cuboids_{0};
+  std::size_t cells_{0};
   std::size_t space_blocks_{0};
 };
 

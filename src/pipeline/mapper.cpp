@@ -372,7 +372,7 @@ Mapper::integrate(Frame& frame, const Eigen::Isometry3d* world_T_camera)
   stats.cuboids = frame.cuboids.size();
   stats.world_T_camera = frame.world_T_camera;
   // Only this thread changes the map, and its queries are safe beside the readers'.
-  stats.map_cuboids = state_.map->getSurfaceLayer().getCuboidCount();
+  stats.map_cells = state_.map->getSurfaceLayer().getCellCount();
   stats.lock_wait_ms = lock_wait_ms_;
   stats.exclusive_ms = exclusive_ms_;
   stats.total_ms = msSince(start);

@@ -380,7 +380,10 @@ PlanarGridNode::publishStats(const PendingFrame& frame,
   j["exclusive_ms"] = stats.exclusive_ms;
   j["planes"] = stats.planes;
   j["cuboids"] = stats.cuboids;
-  j["map_cuboids"] = stats.map_cuboids;
+  j["map_cells"] = stats.map_cells;
+  // This thread is the map's only writer, so its count is the frame's; the covers it
+  // builds are those the cuboid markers use.
+  j["map_cuboids"] = mapper_->getMap()->getSurfaceLayer().getCuboidCount();
   if (odometry_)
     for (const auto& stage : stats.stages)
       if (stage.type == "visual_odometry")

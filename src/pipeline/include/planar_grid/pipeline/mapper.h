@@ -100,8 +100,13 @@ struct FrameStats {
   std::size_t planes{0};
   /** \brief Cells (cuboids) of the frame. */
   std::size_t cuboids{0};
-  /** \brief Cuboids of the map after the frame. */
-  std::size_t map_cuboids{0};
+  /** \brief Cells of the map's surface layer after the frame:
+   * SurfaceLayer::getCellCount(), each plane's observed raster cells and the
+   * non-planar cells. Counting them builds nothing; the map's cuboids, which merge
+   * the raster cells into rectangles, come from
+   * getMap()->getSurfaceLayer().getCuboidCount() when they are wanted (it rebuilds
+   * the covers of the planes the frames changed). */
+  std::size_t map_cells{0};
   /** \brief The frame's pose world_T_camera (meters), the caller's or the visual
    * odometry's. */
   Eigen::Isometry3d world_T_camera{Eigen::Isometry3d::Identity()};
