@@ -136,7 +136,8 @@ TEST_F(MapperTest, KarlsruheFramesGiveThePipelineRunnersMapFile)
     EXPECT_TRUE(stats.back().world_T_camera.matrix() == frame.world_T_camera.matrix());
     EXPECT_GT(stats.back().cuboids, 0u);
     EXPECT_GT(stats.back().map_cells, 0u);
-    EXPECT_EQ(stats.back().map_cells, mapper.getMap()->getSurfaceLayer().getCellCount());
+    EXPECT_EQ(stats.back().map_cells,
+              mapper.getMap()->getSurfaceLayer().getCellCount());
   }
   EXPECT_EQ(mapper.getFrameCount(), 2u);
   mapper.save((dir_ / "mapper.pgmap").string());
