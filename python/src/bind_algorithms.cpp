@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "param_kwargs.h"
 #include "planar_grid_python.h"
 
 namespace planar_grid {
@@ -21,18 +22,6 @@ namespace {
 
 using Segmentation = SACMultiPlaneSegmentation<pcl::PointXYZ>;
 using Approximation = PlanarCuboidApproximation<pcl::PointXYZ>;
-
-/** The estimator named \a name, or a ValueError that lists the names. */
-SACMethod
-methodFromName(const std::string& name)
-{
-  try {
-    return sacMethodFromName(name);
-  } catch (const Exception&) {
-    throw py::value_error("SACMultiPlaneSegmentation: method '" + name
-                          + "' must be ransac, msac or prosac");
-  }
-}
 
 /** (K, n) float64 array from a per-item function filling n values. */
 template <typename Container, typename Fill>
@@ -397,153 +386,6 @@ PlanarGridMap.cuboids and run_pipeline().
 
 using SegmentationClass = py::class_<Segmentation, std::unique_ptr<Segmentation>>;
 
-/** \brief The segmentation's parameters: keyword arguments and read-write
- * properties with their ranges. */
-void
-bindSegmentationParameters(SegmentationClass& cls)
-{
-  ParamBinder<Segmentation, std::unique_ptr<Segmentation>>(
-    cls, "SACMultiPlaneSegmentation",
-    [](const Segmentation& s) { return s.checkParameters(); })
-    .bind(
-      std::make_tuple(),
-      std::make_tuple(
-        param<double>("distance_threshold_m", &Segmentation::getDistanceThreshold,
-                      &Segmentation::setDistanceThreshold,
-                      "d_T of eq. 11, the largest point-to-plane distance of a dense "
-                      "inlier, meters, in "
-                        + formatParamRange(
-                          sac_multi_plane_segmentation_ranges::DISTANCE_THRESHOLD)),
-        param<double>(
-          "sample_distance_threshold_m", &Segmentation::getSampleDistanceThreshold,
-          &Segmentation::setSampleDistanceThreshold,
-          "inlier threshold of the sample consensus on the sample points, meters, in "
-            + formatParamRange(
-              sac_multi_plane_segmentation_ranges::SAMPLE_DISTANCE_THRESHOLD)
-            + "; it does not follow distance_threshold_m"),
-        param<double>(
-          "depth_noise_coefficient_per_m", &Segmentation::getDepthNoiseCoefficient,
-          &Segmentation::setDepthNoiseCoefficient,
-          "Delta d / (B f), 1/m, in "
-            + formatParamRange(
-              sac_multi_plane_segmentation_ranges::DEPTH_NOISE_COEFFICIENT)
-            + ": a point at range r from the sensor origin is an "
-              "inlier within max(d_T, coefficient r^2); 0 keeps the paper's fixed d_T"),
-        param<int>(
-          "max_planes", &Segmentation::getMaxPlanes, &Segmentation::setMaxPlanes,
-          "the most planes returned (before merging), in "
-            + formatParamRange(sac_multi_plane_segmentation_ranges::MAX_PLANES)),
-        param<int>(
-          "min_inliers", &Segmentation::getMinInliers, &Segmentation::setMinInliers,
-          "the fewest dense inliers of a kept plane, points, in "
-            + formatParamRange(sac_multi_plane_segmentation_ranges::MIN_INLIERS)),
-        param<int>("min_sample_inliers", &Segmentation::getMinSampleInliers,
-                   &Segmentation::setMinSampleInliers,
-                   "the fewest sample inliers of a hypothesis, points; fewer ends the "
-                   "search, in "
-                     + formatParamRange(
-                       sac_multi_plane_segmentation_ranges::MIN_SAMPLE_INLIERS)),
-        param<double>("min_remaining_fraction", &Segmentation::getMinRemainingFraction,
-                      &Segmentation::setMinRemainingFraction,
-                      "the search stops when less than this fraction of the sample "
-                      "remains, in "
-                        + formatParamRange(
-                          sac_multi_plane_segmentation_ranges::MIN_REMAINING_FRACTION)),
-        param<int>(
-          "max_iterations", &Segmentation::getMaxIterations,
-          &Segmentation::setMaxIterations,
-          "sample consensus iterations per plane, in "
-            + formatParamRange(sac_multi_plane_segmentation_ranges::MAX_ITERATIONS)),
-        param<double>(
-          "probability", &Segmentation::getProbability, &Segmentation::setProbability,
-          "probability of drawing one outlier-free sample, in "
-            + formatParamRange(sac_multi_plane_segmentation_ranges::PROBABILITY)),
-        param<std::string>(
-          "method",
-          [](const Segmentation& s) { return sacMethodName(s.getMethodType()); },
-          [](Segmentation& s, const std::string& name) {
-            s.setMethodType(methodFromName(name));
-          },
-          "the estimator, 'ransac', 'msac' or 'prosac' (PCL's)"),
-        param<bool>("optimize_coefficients", &Segmentation::getOptimizeCoefficients,
-                    &Segmentation::setOptimizeCoefficients,
-                    "re-estimate each hypothesis on the dense points and refit each "
-                    "plane to its inliers"),
-        param<bool>("dense_hypothesis", &Segmentation::getDenseHypothesis,
-                    &Segmentation::setDenseHypothesis,
-                    "each round also hypothesises a plane from the dense points"),
-        param<int>(
-          "lo_iterations", &Segmentation::getLocalOptimizationIterations,
-          &Segmentation::setLocalOptimizationIterations,
-          "local optimisation (LO-RANSAC) samples per plane, in "
-            + formatParamRange(sac_multi_plane_segmentation_ranges::LO_ITERATIONS)),
-        param<bool>("merge_planes", &Segmentation::getMergePlanes,
-                    &Segmentation::setMergePlanes, "merge near-duplicate planes"),
-        param<double>("merge_angle_rad", &Segmentation::getMergeAngleThreshold,
-                      &Segmentation::setMergeAngleThreshold,
-                      "largest angle between the normals of two planes that merge, "
-                      "radians, in "
-                        + formatParamRange(
-                          sac_multi_plane_segmentation_ranges::MERGE_ANGLE_THRESHOLD)),
-        param<double>(
-          "merge_distance_m", &Segmentation::getMergeDistanceThreshold,
-          &Segmentation::setMergeDistanceThreshold,
-          "largest difference of the offsets d of two planes that merge, "
-          "meters, in "
-            + formatParamRange(
-              sac_multi_plane_segmentation_ranges::MERGE_DISTANCE_THRESHOLD)),
-        param<DoubleArray>(
-          "up_axis", [](const Segmentation& s) { return toArray(s.getUpAxis()); },
-          [](Segmentation& s, const DoubleArray& axis) {
-            s.setUpAxis(toVector3f(axis, "up_axis"));
-          },
-          "shape (3,), the up direction of eqs. 2-3, non-zero ((0, -1, 0) in a camera "
-          "frame)"),
-        param<unsigned>("seed", &Segmentation::getSeed, &Segmentation::setSeed,
-                        "seed of the subsample and the sample shuffles"),
-        param<int>(
-          "max_sample_size", &Segmentation::getMaxSampleSize,
-          &Segmentation::setMaxSampleSize,
-          "points subsampled for the hypotheses when no sample points are "
-          "given, in "
-            + formatParamRange(sac_multi_plane_segmentation_ranges::MAX_SAMPLE_SIZE)),
-        param<double>(
-          "max_normal_angle_rad", &Segmentation::getMaxNormalAngle,
-          &Segmentation::setMaxNormalAngle,
-          "normal test: a point is an inlier only when its surface normal (estimated "
-          "on a grid of normal_cell_m) lies within this angle of the plane's, "
-          "radians, in "
-            + formatParamRange(sac_multi_plane_segmentation_ranges::MAX_NORMAL_ANGLE)
-            + "; 0 = the paper's distance-only eq. 11"),
-        param<double>(
-          "normal_cell_m", &Segmentation::getNormalCell, &Segmentation::setNormalCell,
-          "cell edge of the normal estimation, meters, in "
-            + formatParamRange(sac_multi_plane_segmentation_ranges::NORMAL_CELL)),
-        param<double>(
-          "min_normal_agreement", &Segmentation::getMinNormalAgreement,
-          &Segmentation::setMinNormalAgreement,
-          "normal test: a hypothesis whose support agrees with its normal less often "
-          "than this is dropped, in "
-            + formatParamRange(
-              sac_multi_plane_segmentation_ranges::MIN_NORMAL_AGREEMENT)
-            + "; 0 = no test"),
-        param<double>(
-          "min_sensor_height_m", &Segmentation::getMinTerrainSensorHeight,
-          &Segmentation::setMinTerrainSensorHeight,
-          "the normal test spares a level plane as terrain only when the sensor "
-          "origin lies more than this above it, meters, in "
-            + formatParamRange(
-              sac_multi_plane_segmentation_ranges::MIN_TERRAIN_SENSOR_HEIGHT)),
-        param<double>(
-          "max_terrain_below_ratio", &Segmentation::getMaxTerrainBelowRatio,
-          &Segmentation::setMaxTerrainBelowRatio,
-          "the normal test spares a level plane as terrain only when at most this "
-          "many points per inlier lie more than 0.3 m below it, under its inliers, in "
-            + formatParamRange(
-              sac_multi_plane_segmentation_ranges::MAX_TERRAIN_BELOW_RATIO)
-            + "; 1 = no test")));
-}
-
 /** \brief segment(). */
 void
 bindSegmentationMethods(SegmentationClass& cls)
@@ -551,15 +393,29 @@ bindSegmentationMethods(SegmentationClass& cls)
   cls.def(
     "segment",
     [](Segmentation& self, const FloatArray& points, const py::object& sample_points,
-       const DoubleArray& sensor_origin) {
+       const DoubleArray& sensor_origin, const DoubleArray& up_axis,
+       double depth_noise_coefficient_per_m) {
       auto cloud = toCloud(points, "points");
       cloud->sensor_origin_.head<3>() = toVector3f(sensor_origin, "sensor_origin");
+      const Eigen::Vector3f up = toVector3f(up_axis, "up_axis");
+      if (!(up.norm() > 0.0f))
+        throw py::value_error("SACMultiPlaneSegmentation.segment: up_axis must not be "
+                              "zero");
+      if (!sac_multi_plane_segmentation_ranges::DEPTH_NOISE_COEFFICIENT.contains(
+            depth_noise_coefficient_per_m))
+        throw py::value_error(
+          "SACMultiPlaneSegmentation.segment: "
+          + paramRangeMessage(
+            "depth_noise_coefficient_per_m",
+            sac_multi_plane_segmentation_ranges::DEPTH_NOISE_COEFFICIENT, "1/m"));
       pcl::PointCloud<pcl::PointXYZ>::Ptr sample;
       if (!sample_points.is_none())
         sample = toCloud(sample_points.cast<FloatArray>(), "sample_points");
       Planes planes;
       {
         py::gil_scoped_release release;
+        self.setUpAxis(up);
+        self.setDepthNoiseCoefficient(depth_noise_coefficient_per_m);
         self.setInputCloud(cloud);
         self.setSampleCloud(sample);
         self.segment(planes.segments);
@@ -570,6 +426,8 @@ bindSegmentationMethods(SegmentationClass& cls)
     },
     py::arg("points"), py::kw_only(), py::arg("sample_points") = py::none(),
     py::arg("sensor_origin") = std::vector<double>{0.0, 0.0, 0.0},
+    py::arg("up_axis") = std::vector<double>{0.0, 0.0, 1.0},
+    py::arg("depth_noise_coefficient_per_m") = 0.0,
     R"doc(Segments the points into planes.
 
 Parameters
@@ -579,7 +437,14 @@ points : array_like, shape (N, 3)
 sample_points : array_like, shape (S, 3), optional
     Sparse points the hypotheses are drawn from (e.g. stereo key features), meters.
 sensor_origin : array_like, shape (3,), optional
-    The normals point toward it, meters (default (0, 0, 0)).
+    The sensor's position, meters (default (0, 0, 0)): the normals point toward it.
+up_axis : array_like, shape (3,), optional
+    The up direction of eqs. 2-3 (need not be unit length; default (0, 0, 1);
+    (0, -1, 0) for points in a camera frame).
+depth_noise_coefficient_per_m : float, optional
+    The sensor's stereo depth noise, Delta d / (B f) of eq. 4, 1/m, >= 0: a point at
+    range r from sensor_origin is an inlier within max(distance_threshold_m,
+    coefficient r^2). 0 (the default) keeps the paper's fixed threshold.
 
 Returns
 -------
@@ -589,7 +454,7 @@ PlanarSegments
 Raises
 ------
 ValueError
-    For points of another shape.
+    For points of another shape, a zero up axis or a negative coefficient.
 )doc");
 }
 
@@ -606,15 +471,20 @@ a seeded subsample of the points; each plane's dense inliers are the points with
 ``distance_threshold_m`` of it that no earlier plane took.
 
 The parameters are the constructor's keyword arguments, e.g.
-``SACMultiPlaneSegmentation(distance_threshold_m=0.02, min_inliers=300, seed=0)``, with
-the C++ class's defaults (listed under __init__), and read-write properties.
+``SACMultiPlaneSegmentation(distance_threshold_m=0.02, min_inliers=300, seed=0)``:
+the keys of the pipeline's multi_plane_segmentation stage that the class declares
+(docs/STAGES.md), with the same defaults, and read-write properties. What describes
+the sensor (its origin, the up axis, its depth noise) goes to segment().
 
 Notes
 -----
 Deterministic: the same points, parameters and seed give the same planes. Degenerate
 input (no points, only NaN, colinear points) gives no plane.
 )doc");
-  bindSegmentationParameters(cls);
+  bindDeclaredParams(
+    cls, "SACMultiPlaneSegmentation", Segmentation::getParamDeclarations(),
+    [](const Segmentation& s) -> const Segmentation::Params& { return s.getParams(); },
+    [](Segmentation& s, const Segmentation::Params& p) { s.setParams(p); });
   bindSegmentationMethods(cls);
 }
 

@@ -9,6 +9,7 @@
 
 #include <pybind11/pybind11.h>
 
+#include <cstddef>
 #include <string>
 #include <utility>
 #include <variant>
@@ -17,6 +18,10 @@ namespace planar_grid {
 namespace python {
 
 namespace py = pybind11;
+
+/** \brief \a text wrapped at word boundaries into lines of at most \a width characters
+ * after \a indent spaces (docstrings; planar_grid_python.h). */
+std::string wrapText(const std::string& text, std::size_t indent, std::size_t width);
 
 /** \brief A parameter value as a Python float, int, bool or str. */
 inline py::object
@@ -139,6 +144,57 @@ paramsFromKwargs(const ParamDeclarations<Params>& table,
   return params;
 }
 
+/** \brief \a unit spelled out for a docstring: meters for m, radians for rad,
+ * pixels for px, seconds for s; another unit as it is. */
+inline std::string
+unitWord(const std::string& unit)
+{
+  if (unit == "m")
+    return "meters";
+  if (unit == "rad")
+    return "radians";
+  if (unit == "px")
+    return "pixels";
+  if (unit == "s")
+    return "seconds";
+  return unit;
+}
+
+/** \brief The numpydoc "Parameters" entries of the constructor's keyword arguments,
+ * one per declaration in the table's order: `key : type, optional` (a choice's type
+ * is the set of its names), then the
+ * description, "Default X." (the default-constructed Params' value) and, for a
+ * number, its unit and range; each description indented by four spaces, in lines of
+ * at most 88 characters. */
+template <typename Params>
+std::string
+declaredParameterDocs(const ParamDeclarations<Params>& table)
+{
+  using Type = typename ParamDeclaration<Params>::Type;
+  const Params defaults{};
+  std::string out;
+  for (const auto& declaration : table) {
+    std::string text =
+      declaration.description + " Default "
+      + py::repr(paramToPython(declaration.get(defaults))).template cast<std::string>()
+      + ".";
+    if (declaration.type == Type::DOUBLE || declaration.type == Type::INT) {
+      const std::string unit = unitWord(declaration.unit);
+      text += " In " + formatParamRange(declaration.range)
+              + (unit.empty() ? std::string() : " " + unit) + ".";
+    }
+    std::string type = paramPythonType(declaration);
+    if (declaration.type == Type::CHOICE) {
+      type.clear();
+      for (const auto& choice : declaration.choices)
+        type += (type.empty() ? "{'" : ", '") + choice + "'";
+      type += "}";
+    }
+    out += declaration.key + " : " + type + ", optional\n" + wrapText(text, 4, 88);
+  }
+  return out;
+}
+
 /** \brief The constructor's signature line, as pybind11 writes one (and stubgen reads
  * it): `__init__(self: QUALNAME, *, key: type = default, ...) -> None`. */
 template <typename Params>
@@ -244,8 +300,13 @@ bindDeclaredParams(py::class_<T, Holder>& cls,
       [declaration, get_params, set_params, class_name,
        check](T& object, const py::object& value) {
         Params params = get_params(object);
-        declaration.set(params, convertArgument(declaration, value,
-                                                class_name + ": " + declaration.key));
+        const std::string where = class_name + ": " + declaration.key;
+        const ParamValue converted = convertArgument(declaration, value, where);
+        try {
+          declaration.set(params, converted);
+        } catch (const planar_grid::Exception& e) {
+          throw py::value_error(where + ": " + e.what());
+        }
         check(params);
         set_params(object, params);
       },
@@ -259,7 +320,9 @@ bindDeclaredParams(py::class_<T, Holder>& cls,
       set_params(*object, params);
       return object;
     },
-    "Every keyword argument is a parameter (the properties), with the C++ default.");
+    "Every keyword argument is a parameter (the properties), with the C++ default.\n\n"
+    "Parameters\n----------\n"
+      + declaredParameterDocs(table));
   cls.def("__repr__", [class_name, &table, get_params](const T& object) {
     std::string text = "planar_grid." + class_name + "(";
     const Params& params = get_params(object);

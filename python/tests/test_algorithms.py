@@ -80,22 +80,45 @@ def test_segmentation_parameters_are_checked_by_the_library() -> None:
     seg = pg.SACMultiPlaneSegmentation(max_planes=3)
     assert seg.max_planes == 3
     assert seg.distance_threshold_m == pytest.approx(0.05)
-    with pytest.raises(ValueError, match=r"distance_threshold must be in \(0, 1\] m"):
+    with pytest.raises(ValueError, match=r"distance_threshold_m must be in \(0, 1\] m"):
         seg.distance_threshold_m = -1.0
     assert seg.distance_threshold_m == pytest.approx(0.05)  # unchanged
     with pytest.raises(ValueError, match="probability must be in"):
         pg.SACMultiPlaneSegmentation(probability=1.5)
     # A misspelt keyword on purpose, given through a dict (mypy checks no dict's keys).
     misspelt: Dict[str, Any] = {"distance_threshold": 0.1}
-    with pytest.raises(TypeError, match="distance_threshold=0.1"):
+    with pytest.raises(TypeError, match="distance_threshold"):
         pg.SACMultiPlaneSegmentation(**misspelt)
     with pytest.raises(ValueError, match="method 'lmeds'"):
         seg.method = "lmeds"
     seg.method = "msac"
     assert seg.method == "msac"
-    # The stub types up_axis as its getter's ndarray; the setter takes any 3-vector.
-    setattr(seg, "up_axis", (0, -1, 0))
-    np.testing.assert_array_equal(seg.up_axis, [0, -1, 0])
+    # What describes the sensor goes to segment(), checked there.
+    with pytest.raises(ValueError, match="up_axis must not be zero"):
+        seg.segment(np.zeros((10, 3)), up_axis=(0, 0, 0))
+    with pytest.raises(ValueError, match="depth_noise_coefficient_per_m must be in"):
+        seg.segment(np.zeros((10, 3)), depth_noise_coefficient_per_m=-1.0)
+
+
+def test_segment_takes_the_up_axis_and_the_depth_noise_of_the_sensor() -> None:
+    # Eq. 2's tilt is measured from the up axis: a floor z = -1 is level for +z and
+    # upright for +x.
+    floor = plane_patch([0, 0, 1], 1.0, 4.0, 0.05)
+    seg = pg.SACMultiPlaneSegmentation(distance_threshold_m=0.02, min_inliers=300)
+    assert seg.segment(floor).tilt_rad[0] == pytest.approx(0.0, abs=1e-3)
+    assert seg.segment(floor, up_axis=(2, 0, 0)).tilt_rad[0] == pytest.approx(
+        math.pi / 2, abs=1e-3)
+    # A wall 8 m away whose points scatter 5 cm along the plane's normal: within d_T = 2
+    # cm alone a third are inliers; with the stereo noise of eq. 4 (coefficient c:
+    # max(d_T, c r^2) >= 0.256 m from 8 m, over 5 sigma) all are. Distance alone
+    # (eq. 11): the points' own normals scatter at this noise.
+    rng = np.random.default_rng(4)
+    wall = plane_patch([-1, 0, 0], 8.0, 3.0, 0.05, rng, noise_m=0.05)
+    seg.max_normal_angle_rad = 0.0
+    fixed = seg.segment(wall)
+    widened = seg.segment(wall, depth_noise_coefficient_per_m=0.004)
+    assert len(widened) == 1 and len(widened.inliers[0]) == len(wall)
+    assert len(fixed) == 0 or len(fixed.inliers[0]) < 0.5 * len(wall)
 
 
 def test_segmentation_of_degenerate_input_is_empty_and_bad_shapes_raise() -> None:
@@ -271,15 +294,18 @@ def test_repr_is_the_constructor_call_with_every_parameter() -> None:
 # constructor takes each by name and the property reads it back.
 CONSTRUCTOR_VALUES: Dict[Type[Any], Dict[str, object]] = {
     pg.SACMultiPlaneSegmentation: dict(
-        distance_threshold_m=0.02, sample_distance_threshold_m=0.04,
-        depth_noise_coefficient_per_m=0.001, max_planes=5, min_inliers=100,
+        distance_threshold_m=0.02, depth_noise_along_sight=True,
+        sample_distance_threshold_m=0.04, max_planes=5, min_inliers=100,
         min_sample_inliers=10, min_remaining_fraction=0.1, max_iterations=200,
         probability=0.95, method="msac", optimize_coefficients=False,
         dense_hypothesis=False, lo_iterations=10, merge_planes=False,
-        merge_angle_rad=0.2, merge_distance_m=0.05, up_axis=[0.0, -1.0, 0.0], seed=7,
-        max_sample_size=5000, max_normal_angle_rad=0.3, normal_cell_m=0.1,
-        min_normal_agreement=0.5, min_sensor_height_m=1.0,
-        max_terrain_below_ratio=0.5),
+        merge_angle_rad=0.2, merge_distance_m=0.05, seed=7, max_sample_size=5000,
+        max_visibility_conflict_ratio=0.2, visibility_margin_m=0.2,
+        visibility_cell_m=0.1, min_sensor_distance_m=0.5, min_sensor_height_m=1.0,
+        max_terrain_below_ratio=0.5, min_cluster_size=50, cluster_cell_m=0.1,
+        max_shell_ratio=0.3, shell_width_m=0.2, count_inlier_only_points=False,
+        inlier_only_distance_threshold_m=0.1, max_normal_angle_rad=0.3,
+        normal_cell_m=0.1, min_normal_agreement=0.5),
     pg.PlanarCuboidApproximation: dict(
         min_cell_size_m=0.05, density_threshold=0.8, non_planar_density_threshold=0.7,
         min_width_m=0.2, min_height_m=0.3, thickness_m=0.05, min_points_per_cell=1,
@@ -345,7 +371,8 @@ def test_signature_defaults_are_the_library_defaults() -> None:
     seg = inspect.signature(pg.SACMultiPlaneSegmentation).parameters
     assert seg["distance_threshold_m"].default == pytest.approx(0.05)
     assert seg["max_planes"].default == 8 and seg["min_inliers"].default == 500
-    assert seg["method"].default == "ransac" and seg["up_axis"].default == (0, 0, 1)
+    assert seg["method"].default == "ransac" and seg["max_sample_size"].default == 20000
+    assert seg["probability"].default == pytest.approx(0.99)
     approx = inspect.signature(pg.PlanarCuboidApproximation).parameters
     assert approx["min_cell_size_m"].default == pytest.approx(0.1)
     assert approx["min_points_per_cell"].default == 3
@@ -399,12 +426,13 @@ def test_constructor_values_read_back_and_show_in_repr(cls: Type[Any]) -> None:
 @pytest.mark.parametrize("cls", list(CONSTRUCTOR_VALUES), ids=class_name)
 def test_unknown_keyword_is_a_type_error_naming_it(cls: Type[Any]) -> None:
     leading = {n: CONSTRUCTOR_VALUES[cls][n] for n in LEADING.get(cls, [])}
-    with pytest.raises(TypeError, match="resolution_cm=5"):
+    with pytest.raises(TypeError, match="resolution_cm"):
         cls(**leading, resolution_cm=5)
     # A value of another type for a known keyword is a TypeError too.
     number = next(n for n, p in inspect.signature(cls).parameters.items()
                   if p.annotation is float and n not in leading)
-    with pytest.raises(TypeError, match="incompatible constructor arguments"):
+    with pytest.raises(TypeError,
+                       match="incompatible constructor arguments|expected float"):
         cls(**leading, **{number: "not a number"})
 
 

@@ -67,6 +67,11 @@ hypothesisDeclarations()
     declareInteger<Params>(
       "max_iterations", [](auto& p) -> auto& { return p.max_iterations; },
       ranges::MAX_ITERATIONS, "", "RANSAC iterations per plane."),
+    declareReal<Params>(
+      "probability", [](auto& p) -> auto& { return p.probability; },
+      ranges::PROBABILITY, "",
+      "The probability of drawing at least one outlier-free sample: the sample "
+      "consensus stops once its best hypothesis makes that likely."),
     declareChoice<Params>(
       "method", [](auto& p) -> auto& { return p.method; }, sacMethodNames(),
       sacMethodName, sacMethodFromName, "PCL sample consensus estimator."),
@@ -94,7 +99,13 @@ hypothesisDeclarations()
       "... and whose offsets differ less than this."),
     declareInteger<Params>(
       "seed", [](auto& p) -> auto& { return p.seed; },
-      ParamRange::closed(0, 2147483647), "", "Random seed (reproducible runs)."),
+      ParamRange::closed(0, 2147483647), "",
+      "Random seed: the same seed gives the same planes."),
+    declareInteger<Params>(
+      "max_sample_size", [](auto& p) -> auto& { return p.max_sample_size; },
+      ranges::MAX_SAMPLE_SIZE, "",
+      "Hypotheses from the cloud (no sample cloud set; the stage's sample: cloud) "
+      "come from a seeded subsample of this many of its points."),
   };
 }
 
@@ -136,8 +147,7 @@ inlierTestDeclarations()
       "The normal and cluster tests spare a level plane as terrain only when the "
       "sensor lies more than this above it (a level plane just below the camera is no "
       "ground: spared, it takes a stripe of every wall at its height); 0: every level "
-      "plane below the sensor. Left out, it takes ground_removal's min_sensor_height_m "
-      "(the same default)."),
+      "plane below the sensor."),
     declareReal<Params>(
       "max_terrain_below_ratio",
       [](auto& p) -> auto& { return p.max_terrain_below_ratio; },

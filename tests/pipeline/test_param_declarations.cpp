@@ -173,7 +173,7 @@ TEST(ParamDeclarations, MultiPlaneSegmentationIsTheSegmentationsTableAndItsOwn)
   using Segmentation = planar_grid::SACMultiPlaneSegmentation<pcl::PointXYZ>;
   const auto& table = Segmentation::getParamDeclarations();
   const auto& params = stage("multi_plane_segmentation").params;
-  ASSERT_EQ(table.size(), 31u);
+  ASSERT_EQ(table.size(), 33u);
   expectListedAsDeclared(table, params);
   // A default-constructed class holds the table's defaults (the pipeline's).
   const Segmentation defaults;
@@ -192,6 +192,7 @@ TEST(ParamDeclarations, MultiPlaneSegmentationIsTheSegmentationsTableAndItsOwn)
                                           "min_sample_inliers",
                                           "min_remaining_fraction",
                                           "max_iterations",
+                                          "probability",
                                           "method",
                                           "optimize_coefficients",
                                           "dense_hypothesis",
@@ -201,6 +202,7 @@ TEST(ParamDeclarations, MultiPlaneSegmentationIsTheSegmentationsTableAndItsOwn)
                                           "merge_distance_m",
                                           "sample",
                                           "seed",
+                                          "max_sample_size",
                                           "max_visibility_conflict_ratio",
                                           "visibility_margin_m",
                                           "visibility_cell_m",
@@ -228,6 +230,10 @@ TEST(ParamDeclarations, MultiPlaneSegmentationIsTheSegmentationsTableAndItsOwn)
   segmentation.setMaxNormalAngle(0.0);
   segmentation.setMinTerrainSensorHeight(1.5);
   segmentation.setSeed(9u);
+  segmentation.setProbability(0.95);
+  segmentation.setMaxSampleSize(5000);
+  EXPECT_EQ(segmentation.getParams().probability, 0.95);
+  EXPECT_EQ(segmentation.getParams().max_sample_size, 5000);
   EXPECT_EQ(segmentation.getParams().max_normal_angle_rad, 0.0);
   EXPECT_EQ(segmentation.getParams().min_sensor_height_m, 1.5);
   EXPECT_EQ(segmentation.getParams().seed, 9u);

@@ -271,9 +271,9 @@ public:
   /** \brief Sets the probability of drawing at least one outlier-free sample.
    * \param[in] probability in sac_multi_plane_segmentation_ranges::PROBABILITY (default
    * 0.99) */
-  void setProbability(double probability) { probability_ = probability; }
+  void setProbability(double probability) { params_.probability = probability; }
   /** \brief Returns the sample consensus probability, in (0, 1). */
-  double getProbability() const { return probability_; }
+  double getProbability() const { return params_.probability; }
 
   /** \brief Sets the sample consensus estimator.
    * \param[in] method RANSAC (default), MSAC or PROSAC */
@@ -615,9 +615,12 @@ public:
   /** \brief Sets the size of the input subsample used when no sample cloud is set.
    * \param[in] max_sample_size in sac_multi_plane_segmentation_ranges::MAX_SAMPLE_SIZE
    * (default 20000 points) */
-  void setMaxSampleSize(int max_sample_size) { max_sample_size_ = max_sample_size; }
+  void setMaxSampleSize(int max_sample_size)
+  {
+    params_.max_sample_size = max_sample_size;
+  }
   /** \brief Returns the size of the input subsample, in points. */
-  int getMaxSampleSize() const { return max_sample_size_; }
+  int getMaxSampleSize() const { return params_.max_sample_size; }
 
   /** \brief Segments the input cloud (within the indices) into planes.
    * \param[out] planes the planes, sorted by descending dense inlier count; empty on
@@ -661,12 +664,8 @@ protected:
   Params params_;
   /** \brief Delta d / (B f) of the range-dependent eq. 11 threshold, in 1/m. */
   double depth_noise_coefficient_{0.0};
-  /** \brief Sample consensus probability. */
-  double probability_{0.99};
   /** \brief Up axis of eqs. 2-3. */
   Eigen::Vector3f up_axis_{0.0f, 0.0f, 1.0f};
-  /** \brief Input subsample size without a sample cloud, in points. */
-  int max_sample_size_{20000};
   /** \brief Planes the last segment() dropped in the cluster test. */
   std::size_t cluster_rejected_{0};
   /** \brief Inliers the last segment()'s cluster test took out. */

@@ -33,8 +33,9 @@ SACMethod sacMethodFromName(const std::string& name);
  * their ranges are sac_multi_plane_segmentation_ranges' and their declarations
  * sacMultiPlaneSegmentationParamDeclarations(). The defaults are the pipeline's
  * tuned values (Karlsruhe stereo); each setter of the class documents its member.
- * The class's other parameters (probability, the depth noise coefficient, the up
- * axis, the input subsample size) have setters only. \ingroup segmentation */
+ * What describes the sensor of a frame (the depth noise coefficient, the up axis)
+ * has setters only: the stage sets it from each frame's calibration and pose.
+ * \ingroup segmentation */
 struct SACMultiPlaneSegmentationParams {
   /** \brief d_T of eq. 11, meters (the paper's value). */
   double distance_threshold_m{0.05};
@@ -52,6 +53,8 @@ struct SACMultiPlaneSegmentationParams {
   double min_remaining_fraction{0.05};
   /** \brief Sample consensus iteration cap. */
   int max_iterations{1000};
+  /** \brief Probability of drawing at least one outlier-free sample, (0, 1). */
+  double probability{0.99};
   /** \brief Sample consensus estimator. */
   SACMethod method{SACMethod::RANSAC};
   /** \brief Refit planes to their dense inliers. */
@@ -68,6 +71,9 @@ struct SACMultiPlaneSegmentationParams {
   double merge_distance_m{0.1};
   /** \brief Seed of the subsample and shuffles. */
   unsigned seed{0};
+  /** \brief Size of the input subsample the hypotheses come from when no sample
+   * cloud is set, points. */
+  int max_sample_size{20000};
   /** \brief Largest ratio of visibility conflicts to inliers (0: no test). */
   double max_visibility_conflict_ratio{0.0};
   /** \brief Distance off a plane, beyond eq. 11, of a conflicting point, meters. */

@@ -81,11 +81,11 @@ SACMultiPlaneSegmentation<PointT>::checkParameters() const
     ranges::MIN_SAMPLE_INLIERS.contains(params_.min_sample_inliers),
     ranges::MIN_REMAINING_FRACTION.contains(params_.min_remaining_fraction),
     ranges::MAX_ITERATIONS.contains(params_.max_iterations),
-    ranges::PROBABILITY.contains(probability_),
+    ranges::PROBABILITY.contains(params_.probability),
     ranges::MERGE_ANGLE_THRESHOLD.contains(params_.merge_angle_rad),
     ranges::MERGE_DISTANCE_THRESHOLD.contains(params_.merge_distance_m),
     up_axis_.allFinite() && up_axis_.norm() > 0.0f,
-    ranges::MAX_SAMPLE_SIZE.contains(max_sample_size_),
+    ranges::MAX_SAMPLE_SIZE.contains(params_.max_sample_size),
     ranges::LO_ITERATIONS.contains(params_.lo_iterations),
     ranges::MAX_VISIBILITY_CONFLICT_RATIO.contains(
       params_.max_visibility_conflict_ratio),
@@ -325,7 +325,7 @@ SACMultiPlaneSegmentation<PointT>::drawSample(const detail::DensePoints& dense,
   }
   sample.assign(dense.index.begin(),
                 dense.index.begin() + static_cast<std::ptrdiff_t>(dense.primary));
-  const auto wanted = std::min(sample.size(), std::size_t(max_sample_size_));
+  const auto wanted = std::min(sample.size(), std::size_t(params_.max_sample_size));
   for (std::size_t k = 0; k < wanted; ++k) { // partial Fisher-Yates
     std::uniform_int_distribution<std::size_t> pick(k, sample.size() - 1);
     std::swap(sample[k], sample[pick(rng)]);
@@ -365,7 +365,7 @@ SACMultiPlaneSegmentation<PointT>::estimateSamplePlane(
   }
   sac->setDistanceThreshold(sample_t);
   sac->setMaxIterations(params_.max_iterations);
-  sac->setProbability(probability_);
+  sac->setProbability(params_.probability);
   if (!sac->computeModel())
     return false;
   Eigen::VectorXf coefficients;
@@ -421,7 +421,7 @@ SACMultiPlaneSegmentation<PointT>::refineOnDenseSlab(detail::DensePoints& dense,
   }
   Eigen::Vector4f local_plane;
   if (detail::ransacPlane(buffers.local_x, buffers.local_y, buffers.local_z, d_t,
-                          params_.max_iterations, probability_, rng, local_plane)
+                          params_.max_iterations, params_.probability, rng, local_plane)
       > 0) {
     plane = local_plane;
     detail::orientTowards(plane, origin);
@@ -457,7 +457,7 @@ SACMultiPlaneSegmentation<PointT>::tryDenseHypothesis(detail::DensePoints& dense
   }
   Eigen::Vector4f dense_plane;
   if (detail::ransacPlane(buffers.local_x, buffers.local_y, buffers.local_z, d_t,
-                          params_.max_iterations, probability_, rng, dense_plane)
+                          params_.max_iterations, params_.probability, rng, dense_plane)
         > 0
       && dense.selectInliers(dense_plane, d_t) > dense.selectInliers(plane, d_t)) {
     plane = dense_plane;
