@@ -6,7 +6,7 @@ import inspect
 import math
 import pathlib
 import pickle
-from typing import List
+from typing import List, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -389,3 +389,89 @@ def test_keyword_arguments_are_the_generated_map_integration_table(source_dir: p
         pg.PlanarGridMap(close_gaps_cells=1.5)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="merge_rule: "):
         pg.PlanarGridMap(merge_rule="largest")
+
+
+WallFrame = Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], pg.Cuboids,
+                  npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]
+
+
+def wall_frame() -> WallFrame:
+    """A wall at z = 3 (normal -z, toward a camera at the origin looking along +z): its
+    points, planes, cuboids, features (probability 0.8) and a 64 x 48 depth image of it
+    (3 m at every pixel; fx = fy = 50 px)."""
+    wall = plane_patch([0.0, 0.0, -1.0], 3.0, 3.0, 0.05)
+    planes = pg.SACMultiPlaneSegmentation(distance_threshold_m=0.02,
+                                          min_inliers=100).segment(wall)
+    cuboids = pg.PlanarCuboidApproximation().approximate(wall, planes)
+    features = wall[::11]
+    probabilities = np.full(len(features), 0.8)
+    depth = np.full((48, 64), 3.0)
+    return wall, planes.model_coefficients, cuboids, features, probabilities, depth
+
+
+def test_integrate_gives_the_map_of_the_calls_it_stands_for() -> None:
+    wall, planes, cuboids, features, probabilities, depth = wall_frame()
+    pose = np.eye(4)
+    # A depth image, then rays: each frame in one call and step by step.
+    one_call = pg.PlanarGridMap(resolution_m=0.1)
+    steps = pg.PlanarGridMap(resolution_m=0.1)
+    removed = one_call.integrate(cuboids, planes, pose, features=features,
+                                 probabilities=probabilities, depth=depth,
+                                 fx=50.0, fy=50.0, cx=32.0, cy=24.0,
+                                 observation_order=4.0)
+    assert removed == dict(space_blocks=0, space_voxels=0, plane_cells=0, planes=0,
+                           non_planar_cells=0)
+    steps.integrate_surface(cuboids, planes, features, probabilities)
+    steps.integrate_depth_image(depth, 50.0, 50.0, 32.0, 24.0, world_T_camera=pose)
+    steps.note_observation_order(4.0)
+    assert one_call == steps
+    assert pickle.dumps(one_call) == pickle.dumps(steps)
+    pose[:3, 3] = [0.2, 0.0, 0.0]
+    one_call.integrate(cuboids, planes, pose, points=wall, observation_order=5.0)
+    steps.integrate_surface(cuboids, planes, np.zeros((0, 3)), np.zeros(0))
+    steps.integrate_point_cloud(wall, sensor_origin=[0.2, 0.0, 0.0])
+    steps.note_observation_order(5.0)
+    assert one_call == steps
+    assert pickle.dumps(one_call) == pickle.dumps(steps)
+    assert one_call.observation_span == (4.0, 5.0)
+    assert len(one_call.cuboids) > 0 and one_call.voxel_counts["free"] > 0
+
+
+def test_integrate_rolling_window_keeps_the_box_around_the_sensor() -> None:
+    wall, planes, cuboids, _, _, _ = wall_frame()
+    m = pg.PlanarGridMap(resolution_m=0.1)
+    m.integrate(cuboids, planes, np.eye(4), points=wall)
+    pose = np.eye(4)
+    pose[:3, 3] = [2.0, 0.0, 0.0]
+    # The box x in [1, 3], y in [-1, 1], every height: the wall's part with x < 1 goes.
+    removed = m.integrate(cuboids, planes, pose, points=wall, window_half_size_m=1.0)
+    assert removed["space_voxels"] > 0 and removed["plane_cells"] > 0
+    occupied = m.voxel_centres(pg.SpaceState.OCCUPIED)
+    assert len(occupied) > 0
+    assert (occupied[:, 0] >= 1.0).all() and (np.abs(occupied[:, 1]) <= 1.0).all()
+
+
+def test_integrate_rejects_a_bad_frame_and_leaves_the_map_unchanged() -> None:
+    wall, planes, cuboids, features, probabilities, depth = wall_frame()
+    m = pg.PlanarGridMap(resolution_m=0.1)
+    m.integrate(cuboids, planes, np.eye(4), points=wall)
+    before = pickle.dumps(m)
+    bad_pose = np.eye(4)
+    bad_pose[0, 3] = math.nan
+    with pytest.raises(pg.Error, match="no space measurement"):
+        m.integrate(cuboids, planes, np.eye(4))
+    with pytest.raises(pg.Error, match="both a depth image and rays"):
+        m.integrate(cuboids, planes, np.eye(4), points=wall, depth=depth, fx=50.0,
+                    fy=50.0, cx=32.0, cy=24.0)
+    with pytest.raises(pg.Error, match="feature points but"):
+        m.integrate(cuboids, planes, np.eye(4), points=wall, features=features,
+                    probabilities=probabilities[1:])
+    with pytest.raises(pg.Error, match="observation order must be finite"):
+        m.integrate(cuboids, planes, np.eye(4), points=wall, observation_order=math.nan)
+    with pytest.raises(ValueError, match="rigid transform"):
+        m.integrate(cuboids, planes, bad_pose, points=wall)
+    with pytest.raises(pg.Error, match="window_half_size_m"):
+        m.integrate(cuboids, planes, np.eye(4), points=wall, window_half_size_m=-1.0)
+    with pytest.raises(ValueError, match="intrinsics"):
+        m.integrate(cuboids, planes, np.eye(4), depth=depth, fx=50.0)
+    assert pickle.dumps(m) == before

@@ -6,10 +6,6 @@
 
 #include <pcl/common/transforms.h>
 
-#include <algorithm>
-#include <cmath>
-#include <limits>
-
 #include "map_stage_params.h"
 #include "stages.h"
 
@@ -88,7 +84,7 @@ public:
                       "before it");
     PlanarGridMap& map = *state.map;
 
-    // The surface layer: the frame's cells, planes and feature occupancies.
+    // The surface layer's input: the frame's cells, planes and feature occupancies.
     planes_.clear();
     for (const auto& plane : frame.planes)
       planes_.emplace_back(plane.model_coefficients.values.size() == 4
@@ -102,10 +98,17 @@ public:
                                frame.world_T_camera.cast<float>().matrix());
       probabilities_ = frame.feature_probabilities;
     }
-    map.integrateSurface(frame.cuboids, planes_, features_world_, probabilities_);
+    MapFrame map_frame;
+    map_frame.cuboids = &frame.cuboids;
+    map_frame.planes = &planes_;
+    map_frame.features = &features_world_;
+    map_frame.probabilities = &probabilities_;
+    map_frame.world_T_sensor = frame.world_T_camera;
+    map_frame.observation_order = static_cast<double>(frame.file_index);
+    map_frame.window_half_size_m = stage_params_.window_radius_m;
 
-    // The explicit space layer: the view's depth image through its pinhole camera, or
-    // a ray from the sensor origin to every point.
+    // The explicit space layer's input: the view's depth image through its pinhole
+    // camera, or a ray from the sensor origin to every point.
     const bool rays =
       stage_params_.sensor_model == SensorModel::RAYS
       || (stage_params_.sensor_model == SensorModel::AUTO && frame.disparity.empty()
@@ -119,28 +122,15 @@ public:
       for (const auto& p : measured.points)
         rays_cloud_.push_back(pcl::PointXYZ(p.x, p.y, p.z));
       depth_pixels_ = rays_cloud_.size();
-      map.integratePointCloud(rays_cloud_,
-                              frame.world_T_camera.translation().cast<float>());
+      map_frame.rays = &rays_cloud_;
     } else {
       if (!frame.disparity.empty())
         depthFromDisparity(frame);
       else
         depthFromCloud(frame);
-      map.integrateDepthImage(depth_, frame.world_T_camera);
+      map_frame.depth = &depth_;
     }
-    // The frame's place in its recording orders the map's views against those of
-    // another segment's map when the two are merged.
-    map.noteObservationOrder(frame.file_index);
-    if (stage_params_.window_radius_m > 0.0) {
-      // The rolling window: the map keeps the box of half-size window_radius_m around
-      // the sensor in x and y (world z up), every height.
-      const Eigen::Vector3f sensor = frame.world_T_camera.translation().cast<float>();
-      const auto half = static_cast<float>(stage_params_.window_radius_m);
-      const float inf = std::numeric_limits<float>::infinity();
-      map.removeOutside(Eigen::AlignedBox3f(
-        Eigen::Vector3f(sensor.x() - half, sensor.y() - half, -inf),
-        Eigen::Vector3f(sensor.x() + half, sensor.y() + half, inf)));
-    }
+    map.integrate(map_frame);
     // Both counts are cheap: the cells are counted, not merged into cuboids (the
     // covers are built when the cuboids are read), and the block count is O(1); the
     // map's cuboids and bytes are reported once, at the end of the run.

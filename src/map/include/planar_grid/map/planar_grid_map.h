@@ -4,6 +4,7 @@
 #include <planar_grid/core/param_declaration.h>
 #include <planar_grid/core/param_range.h>
 #include <planar_grid/map/explicit_space_grid.h>
+#include <planar_grid/map/map_frame.h>
 #include <planar_grid/map/map_queries.h>
 #include <planar_grid/map/octomap_export_summary.h>
 #include <planar_grid/map/surface_layer.h>
@@ -283,6 +284,31 @@ public:
    * through (those within max_range_m of \a sensor_origin are tested). */
   void integratePointCloud(const pcl::PointCloud<pcl::PointXYZ>& points,
                            const Eigen::Vector3f& sensor_origin);
+
+  /** \brief Integrates one frame into the map (Sec. III-F, Fig. 5c), the steps of a
+   * frame in their order:
+   * 1. integrateSurface() with the frame's cuboids, plane models, feature points and
+   *    probabilities (all world frame);
+   * 2. the explicit space layer: integrateDepthImage(*frame.depth,
+   *    frame.world_T_sensor) for a depth image, or integratePointCloud(*frame.rays,
+   *    sensor origin) for a scan, the sensor origin being world_T_sensor's
+   *    translation; each then clears (and merges) the non-planar cells its view holds
+   *    as Params asks;
+   * 3. noteObservationOrder(frame.observation_order);
+   * 4. with frame.window_half_size_m > 0, removeOutside() of the box of that
+   *    half-size around the sensor origin in x and y, unbounded in z.
+   * The result is that of the four calls made in this order.
+   * Data-dependent problems are reported as those calls report them (an inconsistent
+   * depth image, e.g. fewer depths than width x height, integrates nothing into the
+   * space layer after a PCL_ERROR).
+   * \param[in] frame the frame's measurements (MapFrame documents their shapes,
+   * units and frames)
+   * \return what the rolling window removed (all zero when it is off)
+   * \throws planar_grid::Exception before the map changes when frame sets neither or
+   * both of depth and rays, when the numbers of feature points and probabilities
+   * differ, for a non-finite world_T_sensor or observation_order, or for a negative
+   * or non-finite window_half_size_m */
+  MapWindowRemoval integrate(const MapFrame& frame);
 
   /** \brief Removes the non-planar cells that lie on a plane of the map
    * (SurfaceLayer::removeNonPlanarCellsOnPlanes(); called by integrateSurface() with
