@@ -254,6 +254,11 @@ TEST_F(MapFrameTest, InvalidFramesThrowAndLeaveTheMapUnchanged)
 
   const SceneFrame f = sceneFrame(1);
   const std::vector<float> short_probabilities(f.probabilities.size() - 1, 0.7f);
+  DepthImage short_depth = f.depth;
+  short_depth.depth_m.pop_back();
+  DepthImage empty_depth;
+  DepthImage zero_focal_length = f.depth;
+  zero_focal_length.fy = 0.0f;
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
   const std::vector<std::pair<std::string, std::function<void(MapFrame&)>>> cases = {
@@ -264,6 +269,18 @@ TEST_F(MapFrameTest, InvalidFramesThrowAndLeaveTheMapUnchanged)
     {"both measurements",
      [&](MapFrame& m) {
        m.rays = &f.rays;
+     }},
+    {"fewer depths than pixels",
+     [&](MapFrame& m) {
+       m.depth = &short_depth;
+     }},
+    {"an empty depth image",
+     [&](MapFrame& m) {
+       m.depth = &empty_depth;
+     }},
+    {"a zero focal length",
+     [&](MapFrame& m) {
+       m.depth = &zero_focal_length;
      }},
     {"fewer probabilities than features",
      [&](MapFrame& m) {

@@ -298,14 +298,13 @@ public:
    * 4. with frame.window_half_size_m > 0, removeOutside() of the box of that
    *    half-size around the sensor origin in x and y, unbounded in z.
    * The result is that of the four calls made in this order.
-   * Data-dependent problems are reported as those calls report them (an inconsistent
-   * depth image, e.g. fewer depths than width x height, integrates nothing into the
-   * space layer after a PCL_ERROR).
    * \param[in] frame the frame's measurements (MapFrame documents their shapes,
    * units and frames)
    * \return what the rolling window removed (all zero when it is off)
    * \throws planar_grid::Exception before the map changes when frame sets neither or
-   * both of depth and rays, when the numbers of feature points and probabilities
+   * both of depth and rays, for a depth image whose depths are not width x height (>
+   * 0) or whose intrinsics are not finite with positive focal lengths, when the
+   * numbers of feature points and probabilities
    * differ, for a non-finite world_T_sensor or observation_order, or for a negative
    * or non-finite window_half_size_m */
   MapWindowRemoval integrate(const MapFrame& frame);
