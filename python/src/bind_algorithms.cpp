@@ -503,67 +503,26 @@ rectangles, which are extruded ``thickness_m`` behind their face; the remaining 
 become non-planar boxes (Fig. 7).
 
 The parameters are the constructor's keyword arguments, e.g.
-``PlanarCuboidApproximation(min_cell_size_m=0.05, thickness_m=0.05)``, with the C++
-class's defaults (listed under __init__), and read-write properties.
+``PlanarCuboidApproximation(min_cell_size_m=0.05, thickness_m=0.05)``: the keys of the
+pipeline's planar_cuboid_approximation stage (docs/STAGES.md), with the same defaults,
+and read-write properties. What describes the sensor (its origin, the up axis) goes
+to approximate().
 
 Notes
 -----
 With min_points_per_cell = 1 every finite input point lies in some cuboid. Empty or
 all-NaN input gives no cuboid.
 )doc");
-  ParamBinder<Approximation, std::unique_ptr<Approximation>>(
-    cls, "PlanarCuboidApproximation",
-    [](const Approximation& a) { return a.checkParameters(); })
-    .bind(
-      std::make_tuple(),
-      std::make_tuple(
-        param<double>(
-          "min_cell_size_m", &Approximation::getMinCellSize,
-          &Approximation::setMinCellSize,
-          "raster resolution and smallest unit side, meters, in "
-            + formatParamRange(planar_cuboid_approximation_ranges::MIN_CELL_SIZE)),
-        param<double>(
-          "density_threshold", &Approximation::getDensityThreshold,
-          &Approximation::setDensityThreshold,
-          "D_T of Fig. 8; a unit splits while its occupied share is below "
-          "it, in "
-            + formatParamRange(planar_cuboid_approximation_ranges::DENSITY_THRESHOLD)),
-        param<double>(
-          "non_planar_density_threshold", &Approximation::getNonPlanarDensityThreshold,
-          &Approximation::setNonPlanarDensityThreshold,
-          "occupied share a non-planar box must reach before it stops "
-          "splitting, in "
-            + formatParamRange(
-              planar_cuboid_approximation_ranges::NON_PLANAR_DENSITY_THRESHOLD)
-            + "; 0 for density_threshold"),
-        param<double>(
-          "min_width_m", &Approximation::getMinWidth, &Approximation::setMinWidth,
-          "W_T of Fig. 8, meters, in "
-            + formatParamRange(planar_cuboid_approximation_ranges::MIN_WIDTH)),
-        param<double>(
-          "min_height_m", &Approximation::getMinHeight, &Approximation::setMinHeight,
-          "H_T of Fig. 8, meters, in "
-            + formatParamRange(planar_cuboid_approximation_ranges::MIN_HEIGHT)),
-        param<double>(
-          "thickness_m", &Approximation::getThickness, &Approximation::setThickness,
-          "smallest extrusion behind a planar face and smallest depth of a "
-          "non-planar box, meters, in "
-            + formatParamRange(planar_cuboid_approximation_ranges::THICKNESS)),
-        param<int>("min_points_per_cell", &Approximation::getMinPointsPerCell,
-                   &Approximation::setMinPointsPerCell,
-                   "the fewest points of an output cuboid, in "
-                     + formatParamRange(
-                       planar_cuboid_approximation_ranges::MIN_POINTS_PER_CELL)),
-        param<DoubleArray>(
-          "up_axis", [](const Approximation& a) { return toArray(a.getUpAxis()); },
-          [](Approximation& a, const DoubleArray& axis) {
-            a.setUpAxis(toVector3f(axis, "up_axis"));
-          },
-          "shape (3,), the up direction, non-zero")));
+  bindDeclaredParams(
+    cls, "PlanarCuboidApproximation", Approximation::getParamDeclarations(),
+    [](const Approximation& a) -> const Approximation::Params& {
+      return a.getParams();
+    },
+    [](Approximation& a, const Approximation::Params& p) { a.setParams(p); });
   cls.def(
     "approximate",
     [](Approximation& self, const FloatArray& points, const py::object& planes,
-       const DoubleArray& sensor_origin) {
+       const DoubleArray& sensor_origin, const DoubleArray& up_axis) {
       auto cloud = toCloud(points, "points");
       PlanarSegments segments;
       if (!planes.is_none()) {
@@ -576,7 +535,12 @@ all-NaN input gives no cuboid.
       }
       checkInlierIndices(segments, cloud->size(), "PlanarCuboidApproximation");
       const Eigen::Vector3f origin = toVector3f(sensor_origin, "sensor_origin");
+      const Eigen::Vector3f up = toVector3f(up_axis, "up_axis");
+      if (!(up.norm() > 0.0f))
+        throw py::value_error("PlanarCuboidApproximation.approximate: up_axis must not "
+                              "be zero");
       self.setSensorOrigin(origin);
+      self.setUpAxis(up);
       if (const char* bad = self.checkParameters())
         throw py::value_error(
           std::string("PlanarCuboidApproximation: invalid parameter: ") + bad);
@@ -593,6 +557,7 @@ all-NaN input gives no cuboid.
     },
     py::arg("points"), py::arg("planes") = py::none(), py::kw_only(),
     py::arg("sensor_origin") = std::vector<double>{0.0, 0.0, 0.0},
+    py::arg("up_axis") = std::vector<double>{0.0, 0.0, 1.0},
     R"doc(Builds the cuboids of the points and their planes.
 
 Parameters
@@ -605,6 +570,11 @@ planes : PlanarSegments, optional
 sensor_origin : array_like, shape (3,), optional
     Decides the front of each plane: boxes are extruded away from it, meters (default
     (0, 0, 0)).
+up_axis : array_like, shape (3,), optional
+    The up direction (need not be unit length; default (0, 0, 1); (0, -1, 0) for
+    points in a camera frame): a plane's raster rows run along its direction
+    perpendicular to it (a wall's cells are upright rectangles), and the non-planar
+    boxes stand upright along it.
 
 Returns
 -------
@@ -614,7 +584,7 @@ Cuboids
 Raises
 ------
 ValueError
-    For points of another shape.
+    For points of another shape or a zero up axis.
 IndexError
     For a plane inlier outside the points.
 )doc");

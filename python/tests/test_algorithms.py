@@ -100,6 +100,24 @@ def test_segmentation_parameters_are_checked_by_the_library() -> None:
         seg.segment(np.zeros((10, 3)), depth_noise_coefficient_per_m=-1.0)
 
 
+def test_approximate_stands_the_cells_along_the_up_axis() -> None:
+    # A wall x = 4 (3 m square, 5 cm grid): its cells' vertical axis (rotations[:, :, 1])
+    # is the up axis given, +z or +y, and their horizontal axis the wall's other one.
+    wall = plane_patch([-1, 0, 0], 4.0, 3.0, 0.05)
+    planes = pg.SACMultiPlaneSegmentation(distance_threshold_m=0.02,
+                                          min_inliers=300).segment(wall)
+    approx = pg.PlanarCuboidApproximation(min_cell_size_m=0.1)
+    for up, side in (([0, 0, 1], [0, 1, 0]), ([0, 3, 0], [0, 0, 1])):
+        cuboids = approx.approximate(wall, planes, up_axis=up)
+        assert len(cuboids) > 0 and all(cuboids.is_planar)
+        np.testing.assert_allclose(np.abs(cuboids.rotations[:, :, 1]),
+                                   np.tile(np.abs(unit(up)), (len(cuboids), 1)), atol=1e-5)
+        np.testing.assert_allclose(np.abs(cuboids.rotations[:, :, 0]),
+                                   np.tile(side, (len(cuboids), 1)), atol=1e-5)
+    with pytest.raises(ValueError, match="up_axis must not be zero"):
+        approx.approximate(wall, planes, up_axis=(0, 0, 0))
+
+
 def test_segment_takes_the_up_axis_and_the_depth_noise_of_the_sensor() -> None:
     # Eq. 2's tilt is measured from the up axis: a floor z = -1 is level for +z and
     # upright for +x.
@@ -204,7 +222,7 @@ def test_approximation_rejects_bad_planes_and_parameters() -> None:
             points, pg.PlanarSegments([[0, 0, 1, 0]], as_inliers([[0, 10]])))
     with pytest.raises(TypeError, match="PlanarSegments"):
         pg.PlanarCuboidApproximation().approximate(points, [[0, 0, 1, 0]])
-    with pytest.raises(ValueError, match=r"thickness must be in \(0, 10\] m"):
+    with pytest.raises(ValueError, match=r"thickness_m must be in \(0, 10\] m"):
         pg.PlanarCuboidApproximation(thickness_m=0.0)
     with pytest.raises(ValueError, match="2 inlier arrays for 1 planes"):
         pg.PlanarSegments([[0, 0, 1, 0]], as_inliers([[0], [1]]))
@@ -308,8 +326,7 @@ CONSTRUCTOR_VALUES: Dict[Type[Any], Dict[str, object]] = {
         normal_cell_m=0.1, min_normal_agreement=0.5),
     pg.PlanarCuboidApproximation: dict(
         min_cell_size_m=0.05, density_threshold=0.8, non_planar_density_threshold=0.7,
-        min_width_m=0.2, min_height_m=0.3, thickness_m=0.05, min_points_per_cell=1,
-        up_axis=[0.0, -1.0, 0.0]),
+        min_width_m=0.2, min_height_m=0.3, thickness_m=0.05, min_points_per_cell=1),
     pg.KLDivergenceOccupancyFilter: dict(
         focal_length_px=500.0, baseline_m=0.1, disparity_error_px=1.0,
         neighbourhood_size_m=0.3, clamping_thres_min=0.2, clamping_thres_max=0.9,
