@@ -332,84 +332,90 @@ features : array_like, shape (F, 3)
     Key feature points in the world frame, meters (may be empty).
 probabilities : array_like, shape (F,)
     One occupancy probability per feature, in [0, 1].
-)doc")
-    .def(
-      "integrate",
-      [](Map& self, const Cuboids& cuboids, const DoubleArray& planes,
-         const DoubleArray& world_T_sensor, const py::object& features,
-         const py::object& probabilities, const py::object& depth,
-         std::optional<double> fx, std::optional<double> fy, std::optional<double> cx,
-         std::optional<double> cy, const py::object& points, double observation_order,
-         double window_half_size_m) {
-        requireWritable(self, "integrate");
-        const PlaneModels models = toPlaneModels(planes);
-        MapFrame frame;
-        frame.cuboids = &cuboids.cuboids;
-        frame.planes = &models;
-        pcl::PointCloud<pcl::PointXYZ>::Ptr feature_cloud;
-        std::vector<float> prob;
-        if (!features.is_none()) {
-          const FloatArray f = FloatArray::ensure(features);
-          if (!f)
-            throw py::value_error("features must be an (F, 3) array of points");
-          feature_cloud = toCloud(f, "features");
-          frame.features = feature_cloud.get();
-        }
-        if (!probabilities.is_none()) {
-          const DoubleArray p = DoubleArray::ensure(probabilities);
-          if (!p || p.ndim() != 1)
-            throw py::value_error(
-              "probabilities must be a (F,) array, one per feature");
-          prob.assign(p.data(), p.data() + p.shape(0));
-          frame.probabilities = &prob;
-        }
-        frame.world_T_sensor = toIsometry(world_T_sensor, "world_T_sensor");
-        DepthImage image;
-        if (!depth.is_none()) {
-          const FloatArray d = FloatArray::ensure(depth);
-          if (!d || d.ndim() != 2)
-            throw py::value_error("depth must be an (H, W) array of depths in meters");
-          if (!fx || !fy || !cx || !cy)
-            throw py::value_error("a depth image needs its intrinsics fx, fy, cx, cy");
-          image.height = static_cast<int>(d.shape(0));
-          image.width = static_cast<int>(d.shape(1));
-          image.fx = static_cast<float>(*fx);
-          image.fy = static_cast<float>(*fy);
-          image.cx = static_cast<float>(*cx);
-          image.cy = static_cast<float>(*cy);
-          image.depth_m.assign(d.data(), d.data() + d.size());
-          frame.depth = &image;
-        }
-        pcl::PointCloud<pcl::PointXYZ>::Ptr rays;
-        if (!points.is_none()) {
-          const FloatArray r = FloatArray::ensure(points);
-          if (!r)
-            throw py::value_error("points must be an (N, 3) array of points");
-          rays = toCloud(r, "points");
-          frame.rays = rays.get();
-        }
-        frame.observation_order = observation_order;
-        frame.window_half_size_m = window_half_size_m;
-        MapWindowRemoval removed;
-        {
-          py::gil_scoped_release release;
-          removed = self.integrate(frame);
-        }
-        py::dict out;
-        out["space_blocks"] = removed.space_blocks;
-        out["space_voxels"] = removed.space_voxels;
-        out["plane_cells"] = removed.plane_cells;
-        out["planes"] = removed.planes;
-        out["non_planar_cells"] = removed.non_planar_cells;
-        return out;
-      },
-      py::arg("cuboids"), py::arg("planes"), py::arg("world_T_sensor"), py::kw_only(),
-      py::arg("features") = py::none(), py::arg("probabilities") = py::none(),
-      py::arg("depth") = py::none(), py::arg("fx") = py::none(),
-      py::arg("fy") = py::none(), py::arg("cx") = py::none(),
-      py::arg("cy") = py::none(), py::arg("points") = py::none(),
-      py::arg("observation_order") = 0.0, py::arg("window_half_size_m") = 0.0,
-      R"doc(Integrates one frame into the map in one call (paper Sec. III-F, Fig. 5c).
+)doc");
+}
+
+/** PlanarGridMap.integrate(): one frame into both layers (PlanarGridMap::integrate()).
+ */
+void
+bindFrameIntegration(MapClass& cls)
+{
+  cls.def(
+    "integrate",
+    [](Map& self, const Cuboids& cuboids, const DoubleArray& planes,
+       const DoubleArray& world_T_sensor, const py::object& features,
+       const py::object& probabilities, const py::object& depth,
+       std::optional<double> fx, std::optional<double> fy, std::optional<double> cx,
+       std::optional<double> cy, const py::object& points, double observation_order,
+       double window_half_size_m) {
+      requireWritable(self, "integrate");
+      const PlaneModels models = toPlaneModels(planes);
+      MapFrame frame;
+      frame.cuboids = &cuboids.cuboids;
+      frame.planes = &models;
+      pcl::PointCloud<pcl::PointXYZ>::Ptr feature_cloud;
+      std::vector<float> prob;
+      if (!features.is_none()) {
+        const FloatArray f = FloatArray::ensure(features);
+        if (!f)
+          throw py::value_error("features must be an (F, 3) array of points");
+        feature_cloud = toCloud(f, "features");
+        frame.features = feature_cloud.get();
+      }
+      if (!probabilities.is_none()) {
+        const DoubleArray p = DoubleArray::ensure(probabilities);
+        if (!p || p.ndim() != 1)
+          throw py::value_error("probabilities must be a (F,) array, one per feature");
+        prob.assign(p.data(), p.data() + p.shape(0));
+        frame.probabilities = &prob;
+      }
+      frame.world_T_sensor = toIsometry(world_T_sensor, "world_T_sensor");
+      DepthImage image;
+      if (!depth.is_none()) {
+        const FloatArray d = FloatArray::ensure(depth);
+        if (!d || d.ndim() != 2)
+          throw py::value_error("depth must be an (H, W) array of depths in meters");
+        if (!fx || !fy || !cx || !cy)
+          throw py::value_error("a depth image needs its intrinsics fx, fy, cx, cy");
+        image.height = static_cast<int>(d.shape(0));
+        image.width = static_cast<int>(d.shape(1));
+        image.fx = static_cast<float>(*fx);
+        image.fy = static_cast<float>(*fy);
+        image.cx = static_cast<float>(*cx);
+        image.cy = static_cast<float>(*cy);
+        image.depth_m.assign(d.data(), d.data() + d.size());
+        frame.depth = &image;
+      }
+      pcl::PointCloud<pcl::PointXYZ>::Ptr rays;
+      if (!points.is_none()) {
+        const FloatArray r = FloatArray::ensure(points);
+        if (!r)
+          throw py::value_error("points must be an (N, 3) array of points");
+        rays = toCloud(r, "points");
+        frame.rays = rays.get();
+      }
+      frame.observation_order = observation_order;
+      frame.window_half_size_m = window_half_size_m;
+      MapWindowRemoval removed;
+      {
+        py::gil_scoped_release release;
+        removed = self.integrate(frame);
+      }
+      py::dict out;
+      out["space_blocks"] = removed.space_blocks;
+      out["space_voxels"] = removed.space_voxels;
+      out["plane_cells"] = removed.plane_cells;
+      out["planes"] = removed.planes;
+      out["non_planar_cells"] = removed.non_planar_cells;
+      return out;
+    },
+    py::arg("cuboids"), py::arg("planes"), py::arg("world_T_sensor"), py::kw_only(),
+    py::arg("features") = py::none(), py::arg("probabilities") = py::none(),
+    py::arg("depth") = py::none(), py::arg("fx") = py::none(),
+    py::arg("fy") = py::none(), py::arg("cx") = py::none(), py::arg("cy") = py::none(),
+    py::arg("points") = py::none(), py::arg("observation_order") = 0.0,
+    py::arg("window_half_size_m") = 0.0,
+    R"doc(Integrates one frame into the map in one call (paper Sec. III-F, Fig. 5c).
 
 In order: integrate_surface() with the cuboids, planes, features and probabilities;
 the space layer from the one measurement given, integrate_depth_image() for ``depth``
@@ -818,6 +824,7 @@ bindMap(py::module_& m)
   bindMapConstructor(cls);
   bindMapFile(cls);
   bindMapIntegration(cls);
+  bindFrameIntegration(cls);
   bindMapMerge(cls);
   bindMapContents(cls);
   bindMapExport(cls);

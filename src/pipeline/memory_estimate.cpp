@@ -222,6 +222,70 @@ MemoryEstimate::summary() const
   return text.str();
 }
 
+namespace {
+
+/** \brief Lowers \a estimate's bound of the map's blocks (map_bound, map_blocks,
+ * map_super_blocks), set to every frame's view, to the union of the views at the
+ * known \a poses (the frames' cells, rasterised), or to the rolling window's box of
+ * half-size \a window (m, 0: none), where either is smaller. */
+void
+boundByPoses(const ViewRegion& view,
+             const Trajectory& poses,
+             std::size_t frames,
+             double block_m,
+             double window,
+             MemoryEstimate& estimate)
+{
+  if (poses.empty())
+    return;
+  // Cells of 2^k blocks, k chosen so that the frames' boxes hold at most about 4
+  // million cells to test.
+  double box_volume = 0.0;
+  for (const auto& pose : poses) {
+    Eigen::Vector3d lo, hi;
+    view.bounds(pose, lo, hi);
+    box_volume += (hi - lo).array().abs().prod();
+  }
+  int k = 0;
+  while (k < 20 && box_volume / std::pow(block_m * std::ldexp(1.0, k), 3.0) > 4.0e6)
+    ++k;
+  const double cell_m = block_m * std::ldexp(1.0, k);
+  std::vector<std::uint64_t> union_cells;
+  int z_min = 0, z_max = 0;
+  if (unionCells(view, poses, cell_m, union_cells, z_min, z_max)
+      && !union_cells.empty()) {
+    const std::uint64_t blocks_per_cell = std::uint64_t{1} << (3 * k);
+    const std::uint64_t blocks = saturatingMul(union_cells.size(), blocks_per_cell);
+    const std::uint64_t supers =
+      k >= 3 ? saturatingMul(union_cells.size(), std::uint64_t{1} << (3 * (k - 3)))
+             : coarserCells(union_cells, 3 - k);
+    if (blocks < estimate.map_blocks) {
+      estimate.map_bound = "swept path of the " + std::to_string(frames) + " poses";
+      estimate.map_blocks = blocks;
+      estimate.map_super_blocks = std::min(supers, blocks);
+    }
+    if (window > 0.0) {
+      // The window keeps a box of 2 window_radius_m in x and y, every height the
+      // views reach.
+      const auto across =
+        static_cast<std::uint64_t>(std::ceil(2.0 * window / cell_m)) + 1;
+      const auto high = static_cast<std::uint64_t>(z_max - z_min + 1);
+      const std::uint64_t window_cells = saturatingMul(across * across, high);
+      const std::uint64_t window_blocks = saturatingMul(window_cells, blocks_per_cell);
+      if (window_blocks < estimate.map_blocks) {
+        estimate.map_bound = "window (window_radius_m " + std::to_string(window) + ")";
+        estimate.map_blocks = window_blocks;
+        estimate.map_super_blocks = std::min(
+          window_blocks,
+          k >= 3 ? saturatingMul(window_cells, std::uint64_t{1} << (3 * (k - 3)))
+                 : window_cells);
+      }
+    }
+  }
+}
+
+} // namespace
+
 MemoryEstimate
 estimateRunMemory(const PipelineConfig& config,
                   const PinholeView* camera,
@@ -315,55 +379,7 @@ estimateRunMemory(const PipelineConfig& config,
   estimate.map_blocks = saturatingMul(estimate.view_blocks, frames);
   estimate.map_super_blocks = std::min(
     estimate.map_blocks, saturatingMul(blocksIn(view_super_volume, super_m), frames));
-  const double window = stage_params.window_radius_m;
-  if (!poses.empty()) {
-    // Cells of 2^k blocks, k chosen so that the frames' boxes hold at most about 4
-    // million cells to test.
-    double box_volume = 0.0;
-    for (const auto& pose : poses) {
-      Eigen::Vector3d lo, hi;
-      view.bounds(pose, lo, hi);
-      box_volume += (hi - lo).array().abs().prod();
-    }
-    int k = 0;
-    while (k < 20 && box_volume / std::pow(block_m * std::ldexp(1.0, k), 3.0) > 4.0e6)
-      ++k;
-    const double cell_m = block_m * std::ldexp(1.0, k);
-    std::vector<std::uint64_t> union_cells;
-    int z_min = 0, z_max = 0;
-    if (unionCells(view, poses, cell_m, union_cells, z_min, z_max)
-        && !union_cells.empty()) {
-      const std::uint64_t blocks_per_cell = std::uint64_t{1} << (3 * k);
-      const std::uint64_t blocks = saturatingMul(union_cells.size(), blocks_per_cell);
-      const std::uint64_t supers =
-        k >= 3 ? saturatingMul(union_cells.size(), std::uint64_t{1} << (3 * (k - 3)))
-               : coarserCells(union_cells, 3 - k);
-      if (blocks < estimate.map_blocks) {
-        estimate.map_bound = "swept path of the " + std::to_string(frames) + " poses";
-        estimate.map_blocks = blocks;
-        estimate.map_super_blocks = std::min(supers, blocks);
-      }
-      if (window > 0.0) {
-        // The window keeps a box of 2 window_radius_m in x and y, every height the
-        // views reach.
-        const auto across =
-          static_cast<std::uint64_t>(std::ceil(2.0 * window / cell_m)) + 1;
-        const auto high = static_cast<std::uint64_t>(z_max - z_min + 1);
-        const std::uint64_t window_cells = saturatingMul(across * across, high);
-        const std::uint64_t window_blocks =
-          saturatingMul(window_cells, blocks_per_cell);
-        if (window_blocks < estimate.map_blocks) {
-          estimate.map_bound =
-            "window (window_radius_m " + std::to_string(window) + ")";
-          estimate.map_blocks = window_blocks;
-          estimate.map_super_blocks = std::min(
-            window_blocks,
-            k >= 3 ? saturatingMul(window_cells, std::uint64_t{1} << (3 * (k - 3)))
-                   : window_cells);
-        }
-      }
-    }
-  }
+  boundByPoses(view, poses, frames, block_m, stage_params.window_radius_m, estimate);
   // Beyond 2^50 blocks the bytes would overflow: far beyond any limit anyway.
   estimate.map_bytes = estimate.map_blocks >= (std::uint64_t{1} << 50)
                          ? std::numeric_limits<std::uint64_t>::max()
