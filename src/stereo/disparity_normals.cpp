@@ -86,17 +86,20 @@ estimateDisparityNormals(
       const std::int64_t dv_int = row - vi;
       const auto dv = static_cast<double>(dv_int);
       std::int64_t row_n = 0, row_su = 0, row_suu = 0;
+      // Without a branch: a pixel that does not take part adds 0 to every sum, which
+      // leaves each sum as it was (none of them is ever -0), so the sums are those of
+      // the taking part pixels alone, in the same order.
       for (int i = i_first; i <= i_last; ++i) {
         const long col = ui + static_cast<long>(i) * stride;
         const double d = line[col];
-        if (!(d > 0.0) || std::abs(d - own) > gate)
-          continue;
+        const bool takes_part = d > 0.0 && !(std::abs(d - own) > gate);
         const std::int64_t du_int = col - ui;
         const auto du = static_cast<double>(du_int);
-        const double e = d - own; // centred: better conditioned sums
-        ++row_n;
-        row_su += du_int;
-        row_suu += du_int * du_int;
+        const double e = takes_part ? d - own : 0.0; // centred: better conditioned sums
+        const std::int64_t m = takes_part ? 1 : 0;
+        row_n += m;
+        row_su += m * du_int;
+        row_suu += m * du_int * du_int;
         sd += e;
         sud += du * e;
         svd += dv * e;
