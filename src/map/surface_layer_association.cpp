@@ -2,7 +2,7 @@
 // The surface layer's plane association: frame planes join map planes (the shared
 // PlaneAssociation with the evidence criteria), map planes that converged merge, and
 // drifted planes take a new raster frame.
-#include <planar_grid/core/plane_association.h>
+#include <planar_grid/map/plane_association.h>
 #include <planar_grid/map/surface_layer.h>
 
 #include <pcl/console/print.h>

@@ -3,8 +3,8 @@
 // (private to the map module; the public API is planar_grid/map/surface_layer.h).
 #pragma once
 
-#include <planar_grid/core/plane_association.h>
 #include <planar_grid/core/rectangle_merge.h>
+#include <planar_grid/map/plane_association.h>
 #include <planar_grid/map/surface_layer.h>
 
 #include <algorithm>

@@ -2,7 +2,7 @@
 // SurfaceLayer::merge(): the planes and non-planar cells of another layer (another
 // recording's map) join this one through the association integrate() uses.
 #include <planar_grid/core/exceptions.h>
-#include <planar_grid/core/plane_association.h>
+#include <planar_grid/map/plane_association.h>
 #include <planar_grid/map/surface_layer.h>
 
 #include <algorithm>

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/byte_io.h>
 #include <planar_grid/core/exceptions.h>
-#include <planar_grid/core/plane_association.h>
 #include <planar_grid/filters/fast_voxel_grid.h>
+#include <planar_grid/map/plane_association.h>
 
 #include <pcl/common/transforms.h>
 

@@ -18,7 +18,7 @@ namespace planar_grid {
  * area (centre - anchor), sum_sq = sum of area ((centre - anchor)(centre - anchor)^T
  * + width^2 / 12 h h^T + height^2 / 12 v v^T), the exact first and second moments of
  * the face rectangles (h, v their horizontal and vertical axes). sum_sq is symmetric;
- * its upper triangle is stored (xx, xy, xz, yy, yz, zz). \ingroup core */
+ * its upper triangle is stored (xx, xy, xz, yy, yz, zz). \ingroup map */
 struct PlaneMoments {
   /** The first face's centre, world frame, meters. */
   Eigen::Vector3d anchor{Eigen::Vector3d::Zero()};
@@ -63,14 +63,14 @@ struct PlaneMoments {
  * \param[out] normal unit normal
  * \param[out] d offset, meters (|d| <= 1e7)
  * \return false (outputs untouched) without evidence or for non-finite results
- * \ingroup core */
+ * \ingroup map */
 bool fitPlane(const PlaneMoments& m,
               const Eigen::Vector3f& current_normal,
               double cos_max_angle,
               Eigen::Vector3d& normal,
               double& d);
 
-/** \brief Which normals may belong to one surface. \ingroup core */
+/** \brief Which normals may belong to one surface. \ingroup map */
 enum class PlaneOrientation : std::uint8_t {
   /** Only normals pointing the same way (toward the sensors that saw the plane): the
    * two faces of a wall stay two planes. */
@@ -79,7 +79,7 @@ enum class PlaneOrientation : std::uint8_t {
   EITHER = 1
 };
 
-/** \brief How far an observed plane is from a registered one. \ingroup core */
+/** \brief How far an observed plane is from a registered one. \ingroup map */
 enum class PlaneDistance : std::uint8_t {
   /** |d_registered - d_observed| of the coefficients (the observed plane oriented
    * like the registered one), meters. */
@@ -94,7 +94,7 @@ enum class PlaneDistance : std::uint8_t {
 
 /** \brief When an observed plane is the same physical surface as a registered plane
  * (the association of the planes of many frames into one set of planes). Defaults:
- * the surface layer's. \ingroup core */
+ * the surface layer's. \ingroup map */
 struct PlaneAssociationCriteria {
   /** Largest angle between the normals, radians; in [0, pi/2]. */
   double eps_angle_rad{0.1};
@@ -108,7 +108,7 @@ struct PlaneAssociationCriteria {
 
 /** \brief A plane as the association sees it: its coefficients [a, b, c, d] (unit
  * normal, d in meters) and, for PlaneDistance::EVIDENCE_RMS, its evidence.
- * \ingroup core */
+ * \ingroup map */
 struct PlaneObservation {
   /** [a, b, c, d], unit normal, d in meters. */
   Eigen::Vector4f model_coefficients{Eigen::Vector4f::Zero()};
@@ -119,7 +119,7 @@ struct PlaneObservation {
 /** \brief Association of observed planes with registered ones (one surface, one
  * plane), by PlaneAssociationCriteria: the test of one pair (match()) and the search
  * for the best registered plane (findBest()). The callers keep their planes; this
- * class holds the criteria only. \ingroup core */
+ * class holds the criteria only. \ingroup map */
 class PlaneAssociation {
 public:
   /** \brief Keeps \a criteria (not validated: the callers validate their
@@ -179,7 +179,7 @@ private:
  * \param[in] registered_weight its weight (>= 0)
  * \param[in] observed [a, b, c, d], unit normal, d in meters
  * \param[in] observed_weight its weight (>= 0)
- * \ingroup core */
+ * \ingroup map */
 Eigen::Vector4f averageModelCoefficients(const Eigen::Vector4f& registered,
                                          float registered_weight,
                                          Eigen::Vector4f observed,

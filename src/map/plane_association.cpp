@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include <planar_grid/core/plane_association.h>
+#include <planar_grid/map/plane_association.h>
 
 #include <Eigen/Eigenvalues>
 
