@@ -72,6 +72,7 @@ rangeAdaptiveCellsParamDeclarations();
  * cell. \ingroup surface */
 class RangeAdaptiveCells {
 public:
+  /** \brief The parameters (RangeAdaptiveCellsParams). */
   using Params = RangeAdaptiveCellsParams;
   /** \brief Points, meters. */
   using Points =
