@@ -5,6 +5,7 @@
 #include <planar_grid/odometry/cloud_registration.h>
 #include <planar_grid/odometry/floor_alignment.h>
 #include <planar_grid/pipeline/frame_source.h>
+#include <planar_grid/pipeline/stereo_pair_check.h>
 #include <planar_grid/stereo/calibration_io.h>
 
 #include <pcl/PCLPointCloud2.h>
@@ -27,7 +28,6 @@
 #include <utility>
 
 #include "ros_bag_input.h"
-#include "stereo_pair_check.h"
 
 namespace planar_grid {
 

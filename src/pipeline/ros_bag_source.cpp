@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/pipeline/stereo_pair_check.h>
 #include <planar_grid/ros_bag/ros_bag_file.h>
 #include <planar_grid/ros_bag/ros_messages.h>
 #include <planar_grid/ros_bag/transform_table.h>
@@ -20,7 +21,6 @@
 #include <sstream>
 
 #include "ros_bag_input.h"
-#include "stereo_pair_check.h"
 
 namespace planar_grid {
 

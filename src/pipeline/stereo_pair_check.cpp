@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "stereo_pair_check.h"
+#include <planar_grid/pipeline/stereo_pair_check.h>
 
 #include <planar_grid/core/exceptions.h>
 
