@@ -72,7 +72,7 @@ if(PLANAR_GRID_BUILD_VIEWER)
   list(APPEND _pg_recommends xvfb xauth)
 endif()
 if(PLANAR_GRID_HAVE_ROS_BAG)
-  # The bag input's libraries, linked by their files (src/pipeline/CMakeLists.txt).
+  # The bag library's ROS libraries, linked by their files (src/ros_bag/CMakeLists.txt).
   list(APPEND _pg_recommends librosbag-storage-dev libroscpp-core-dev libconsole-bridge-dev)
 endif()
 if(PLANAR_GRID_BUILD_PYTHON)

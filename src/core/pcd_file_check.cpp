@@ -5,7 +5,9 @@
 
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/common/io.h>
+#include <pcl/conversions.h>
 #include <pcl/io/pcd_io.h>
+#include <pcl/point_types_conversion.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -570,6 +572,36 @@ convertFieldsToFloat(pcl::PCLPointCloud2& blob,
   blob.point_step = step;
   blob.row_step = step * blob.width;
   blob.data = std::move(data);
+}
+
+void
+intensityCloudFromBlob(const pcl::PCLPointCloud2& blob,
+                       pcl::PointCloud<pcl::PointXYZI>& cloud)
+{
+  cloud.clear();
+  // PCL's conversion indexes point 0 even of an empty cloud (UB that UBSan reports).
+  if (static_cast<std::size_t>(blob.width) * blob.height == 0)
+    return;
+  const auto has = [&blob](const std::string& name) {
+    return std::any_of(blob.fields.begin(), blob.fields.end(),
+                       [&name](const pcl::PCLPointField& f) { return f.name == name; });
+  };
+  if (has("intensity"))
+    pcl::fromPCLPointCloud2(blob, cloud);
+  else if (has("rgb") || has("rgba")) {
+    pcl::PointCloud<pcl::PointXYZRGB> colour;
+    pcl::fromPCLPointCloud2(blob, colour);
+    cloud.resize(colour.size());
+    for (std::size_t i = 0; i < colour.size(); ++i)
+      pcl::PointXYZRGBtoXYZI(colour[i], cloud[i]);
+    cloud.width = colour.width;
+    cloud.height = colour.height;
+    cloud.is_dense = colour.is_dense;
+  } else {
+    pcl::PointCloud<pcl::PointXYZ> xyz;
+    pcl::fromPCLPointCloud2(blob, xyz);
+    pcl::copyPointCloud(xyz, cloud);
+  }
 }
 
 } // namespace planar_grid

@@ -5,6 +5,7 @@
 #include <planar_grid/odometry/cloud_registration.h>
 #include <planar_grid/odometry/floor_alignment.h>
 #include <planar_grid/pipeline/frame_source.h>
+#include <planar_grid/pipeline/stereo_pair_check.h>
 #include <planar_grid/stereo/calibration_io.h>
 
 #include <pcl/PCLPointCloud2.h>
@@ -14,7 +15,6 @@
 #include <pcl/console/time.h>
 #include <pcl/conversions.h>
 #include <pcl/io/pcd_io.h>
-#include <pcl/point_types_conversion.h>
 
 #include <glob.h>
 #include <opencv2/imgcodecs.hpp>
@@ -27,9 +27,7 @@
 #include <sstream>
 #include <utility>
 
-#include "cloud_blob.h"
 #include "ros_bag_input.h"
-#include "stereo_pair_check.h"
 
 namespace planar_grid {
 
@@ -756,35 +754,6 @@ createFrameSource(const InputConfig& input)
       Eigen::Vector3d(input.repeat_offset_m[0], input.repeat_offset_m[1],
                       input.repeat_offset_m[2]));
   return source;
-}
-
-void
-intensityCloudFromBlob(const pcl::PCLPointCloud2& blob, Frame::Cloud& cloud)
-{
-  cloud.clear();
-  // PCL's conversion indexes point 0 even of an empty cloud (UB that UBSan reports).
-  if (static_cast<std::size_t>(blob.width) * blob.height == 0)
-    return;
-  const auto has = [&blob](const std::string& name) {
-    return std::any_of(blob.fields.begin(), blob.fields.end(),
-                       [&name](const pcl::PCLPointField& f) { return f.name == name; });
-  };
-  if (has("intensity"))
-    pcl::fromPCLPointCloud2(blob, cloud);
-  else if (has("rgb") || has("rgba")) {
-    pcl::PointCloud<pcl::PointXYZRGB> colour;
-    pcl::fromPCLPointCloud2(blob, colour);
-    cloud.resize(colour.size());
-    for (std::size_t i = 0; i < colour.size(); ++i)
-      pcl::PointXYZRGBtoXYZI(colour[i], cloud[i]);
-    cloud.width = colour.width;
-    cloud.height = colour.height;
-    cloud.is_dense = colour.is_dense;
-  } else {
-    pcl::PointCloud<pcl::PointXYZ> xyz;
-    pcl::fromPCLPointCloud2(blob, xyz);
-    pcl::copyPointCloud(xyz, cloud);
-  }
 }
 
 } // namespace planar_grid

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/mapper.h>
+#include <planar_grid/pipeline/stereo_pair_check.h>
 
 #include <pcl/common/io.h>
 #include <pcl/console/print.h>
@@ -13,7 +14,6 @@
 #include <utility>
 
 #include "stage_run.h"
-#include "stereo_pair_check.h"
 
 namespace planar_grid {
 

@@ -1,14 +1,12 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
-#include <planar_grid/core/pcd_file_check.h>
-#include <planar_grid/pipeline/ros_messages.h>
+#include <planar_grid/pipeline/stereo_pair_check.h>
+#include <planar_grid/ros_bag/ros_bag_file.h>
+#include <planar_grid/ros_bag/ros_messages.h>
+#include <planar_grid/ros_bag/transform_table.h>
 
-#include <pcl/PCLPointCloud2.h>
-#include <pcl/common/io.h>
 #include <pcl/console/print.h>
-#include <pcl/conversions.h>
 
-#include <opencv2/imgproc.hpp>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -19,13 +17,10 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <map>
 #include <mutex>
 #include <sstream>
 
-#include "cloud_blob.h"
 #include "ros_bag_input.h"
-#include "stereo_pair_check.h"
 
 namespace planar_grid {
 
@@ -48,158 +43,6 @@ stampText(double t)
   out << t << " s";
   return out.str();
 }
-
-/** One open bag: its file name for messages, its topics and their message types. */
-class BagFile {
-public:
-  explicit BagFile(const std::string& path) : path_(path)
-  {
-    try {
-      bag_.open(path, rosbag::bagmode::Read);
-    } catch (const rosbag::BagException& e) {
-      throw IOError(path + ": cannot read the ROS bag (" + e.what() + ")");
-    }
-    rosbag::View all(bag_);
-    for (const rosbag::ConnectionInfo* c : all.getConnections())
-      types_[c->topic] = c->datatype;
-  }
-
-  const std::string& path() const { return path_; }
-
-  rosbag::Bag& bag() { return bag_; }
-
-  bool has(const std::string& topic) const { return types_.count(topic) > 0; }
-
-  /** Throws unless \a topic is in the bag with messages of \a type; \a key is the
-   * input key that names it. */
-  void require(const std::string& topic,
-               const std::string& type,
-               const std::string& key) const
-  {
-    const auto found = types_.find(topic);
-    if (found == types_.end()) {
-      std::string topics;
-      for (const auto& [name, datatype] : types_)
-        topics += (topics.empty() ? "" : ", ") + name + " (" + datatype + ")";
-      throw IOError(path_ + ": topic '" + topic + "' (" + key
-                    + ") is not in the bag; its topics: "
-                    + (topics.empty() ? "none" : topics));
-    }
-    if (found->second != type)
-      throw IOError(path_ + ": topic '" + topic + "' (" + key + ") holds "
-                    + found->second + " messages; " + type + " is needed");
-  }
-
-private:
-  std::string path_;
-  rosbag::Bag bag_;
-  std::map<std::string, std::string> types_;
-};
-
-/** The transforms of /tf and /tf_static, by child frame: parent_T_child over time. */
-class TransformTable {
-public:
-  struct Sample {
-    double stamp;
-    Eigen::Isometry3d parent_T_child;
-  };
-  struct Edge {
-    std::string parent;
-    bool is_static{false};
-    std::vector<Sample, Eigen::aligned_allocator<Sample>> samples;
-  };
-
-  void add(const tf2_msgs::TFMessage& message, bool is_static, const std::string& where)
-  {
-    for (const auto& t : message.transforms) {
-      Edge& edge = edges_[t.child_frame_id];
-      if (!edge.parent.empty() && edge.parent != t.header.frame_id)
-        throw IOError(where + ": frame '" + t.child_frame_id + "' has two parents, '"
-                      + edge.parent + "' and '" + t.header.frame_id + "'");
-      edge.parent = t.header.frame_id;
-      edge.is_static = edge.is_static || is_static;
-      const Eigen::Isometry3d pose = ros_messages::isometryFromTransform(
-        t.transform,
-        where + ": '" + t.header.frame_id + "' -> '" + t.child_frame_id + "'");
-      edge.samples.push_back({seconds(t.header.stamp), pose});
-    }
-  }
-
-  void sort()
-  {
-    for (auto& [child, edge] : edges_)
-      std::stable_sort(
-        edge.samples.begin(), edge.samples.end(),
-        [](const Sample& a, const Sample& b) { return a.stamp < b.stamp; });
-  }
-
-  /** parent_T_child at \a t through the chain of frames from \a child up to \a parent;
-   * each moving transform is interpolated between its samples (linear, slerp), or the
-   * nearest sample within \a tolerance outside them. */
-  Eigen::Isometry3d lookup(const std::string& parent,
-                           const std::string& child,
-                           double t,
-                           double tolerance,
-                           const std::string& where) const
-  {
-    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    std::string frame = child;
-    std::string chain = child;
-    while (frame != parent) {
-      const auto found = edges_.find(frame);
-      if (found == edges_.end() || chain.size() > 100000) {
-        std::string known;
-        for (const auto& [name, edge] : edges_)
-          known += (known.empty() ? "" : ", ") + edge.parent + " -> " + name;
-        throw IOError(where + ": no chain of transforms from '" + parent + "' to '"
-                      + child + "' (followed " + chain
-                      + " up to its root); the transforms: "
-                      + (known.empty() ? "none" : known));
-      }
-      pose = at(found->second, frame, t, tolerance, where) * pose;
-      frame = found->second.parent;
-      chain += " <- " + frame;
-    }
-    return pose;
-  }
-
-private:
-  Eigen::Isometry3d at(const Edge& edge,
-                       const std::string& child,
-                       double t,
-                       double tolerance,
-                       const std::string& where) const
-  {
-    const auto& s = edge.samples;
-    if (edge.is_static)
-      return s.back().parent_T_child;
-    if (t <= s.front().stamp || t >= s.back().stamp) {
-      const Sample& end = t <= s.front().stamp ? s.front() : s.back();
-      if (std::abs(t - end.stamp) <= tolerance)
-        return end.parent_T_child;
-      throw IOError(where + ": no transform '" + edge.parent + "' -> '" + child
-                    + "' at " + stampText(t) + ": its samples span "
-                    + stampText(s.front().stamp) + " to " + stampText(s.back().stamp)
-                    + " (input.poses.max_time_difference_s " + std::to_string(tolerance)
-                    + " s)");
-    }
-    const auto after =
-      std::upper_bound(s.begin(), s.end(), t,
-                       [](double v, const Sample& sample) { return v < sample.stamp; });
-    const Sample& b = *after;
-    const Sample& a = *(after - 1);
-    const double w = b.stamp > a.stamp ? (t - a.stamp) / (b.stamp - a.stamp) : 0.0;
-    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    pose.linear() = Eigen::Quaterniond(a.parent_T_child.linear())
-                      .slerp(w, Eigen::Quaterniond(b.parent_T_child.linear()))
-                      .toRotationMatrix();
-    pose.translation() =
-      (1.0 - w) * a.parent_T_child.translation() + w * b.parent_T_child.translation();
-    return pose;
-  }
-
-  std::map<std::string, Edge> edges_;
-};
 
 /** The frames of a ROS bag: stereo pairs or clouds, kept as the bag's messages and
  * read when loaded. */
@@ -466,7 +309,7 @@ private:
   InputConfig::RosBag config_;
   /** rosbag reads through one file handle: loads are serialised. */
   mutable std::mutex mutex_;
-  mutable BagFile bag_;
+  mutable RosBagFile bag_;
   std::string name_;
   bool stereo_{true};
   StereoCalibration calibration_;

@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "stereo_pair_check.h"
-
 #include <planar_grid/core/exceptions.h>
+#include <planar_grid/pipeline/stereo_pair_check.h>
 
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>

@@ -5,8 +5,8 @@
 #include <planar_grid/pipeline/frame_source.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
-#include <planar_grid/pipeline/ros_messages.h>
 #include <planar_grid/pipeline/run_outputs.h>
+#include <planar_grid/ros_bag/ros_messages.h>
 #include <planar_grid/stereo/calibration_io.h>
 
 #include <pcl/PCLPointCloud2.h>

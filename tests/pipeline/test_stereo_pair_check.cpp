@@ -6,6 +6,7 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
+#include <planar_grid/pipeline/stereo_pair_check.h>
 #include <planar_grid/stereo/calibration_io.h>
 
 #include <gtest/gtest.h>
@@ -13,8 +14,6 @@
 
 #include <string>
 #include <vector>
-
-#include "stereo_pair_check.h"
 
 namespace {
 

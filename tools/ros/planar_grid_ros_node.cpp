@@ -14,7 +14,7 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/mapper.h>
 #include <planar_grid/pipeline/pipeline_config.h>
-#include <planar_grid/pipeline/ros_messages.h>
+#include <planar_grid/ros_bag/ros_messages.h>
 #include <planar_grid/version.h>
 
 #include <geometry_msgs/TransformStamped.h>

@@ -5,7 +5,7 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/mapper.h>
-#include <planar_grid/pipeline/ros_messages.h>
+#include <planar_grid/ros_bag/ros_messages.h>
 
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/OccupancyGrid.h>

@@ -15,7 +15,7 @@
 #include <planar_grid/pipeline/frame.h>
 #include <planar_grid/pipeline/frame_source.h>
 #include <planar_grid/pipeline/pipeline_config.h>
-#include <planar_grid/pipeline/ros_messages.h>
+#include <planar_grid/ros_bag/ros_messages.h>
 
 #include <rosbag/bag.h>
 #include <tf2_msgs/TFMessage.h>

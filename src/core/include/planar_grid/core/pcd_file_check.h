@@ -1,6 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
 #include <Eigen/Geometry>
 
 #include <cstdint>
@@ -83,5 +86,16 @@ void checkPointCloudBlob(const pcl::PCLPointCloud2& blob, const std::string& whe
 void convertFieldsToFloat(pcl::PCLPointCloud2& blob,
                           const std::vector<std::string>& names,
                           const std::string& where);
+
+/** \brief Converts a PCL blob (a PCD file's or a PointCloud2 message's) to an
+ * intensity cloud with the fields it has, so that PCL does not warn once per missing
+ * field: an intensity field is kept, colour (rgb or rgba) becomes the grey intensity
+ * (pcl::PointXYZRGBtoXYZI), bare x/y/z get intensity 0. The blob's x/y/z are checked by
+ * the caller (checkPointCloudBlob(), convertFieldsToFloat()).
+ * \param[in] blob the cloud
+ * \param[out] cloud its points; empty for an empty blob
+ * \ingroup core */
+void intensityCloudFromBlob(const pcl::PCLPointCloud2& blob,
+                            pcl::PointCloud<pcl::PointXYZI>& cloud);
 
 } // namespace planar_grid

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/core/pcd_file_check.h>
-#include <planar_grid/pipeline/ros_messages.h>
+#include <planar_grid/ros_bag/ros_messages.h>
 
 #include <pcl/PCLPointCloud2.h>
 
@@ -9,8 +9,6 @@
 
 #include <algorithm>
 #include <cmath>
-
-#include "cloud_blob.h"
 
 namespace planar_grid {
 namespace ros_messages {
@@ -85,7 +83,7 @@ toPCLBlob(const sensor_msgs::PointCloud2& msg)
 void
 cloudFromMessage(const sensor_msgs::PointCloud2& msg,
                  const std::string& where,
-                 Frame::Cloud& cloud)
+                 pcl::PointCloud<pcl::PointXYZI>& cloud)
 {
   pcl::PCLPointCloud2 blob = toPCLBlob(msg);
   const auto has = [&blob](const std::string& name) {

@@ -12,7 +12,7 @@ namespace planar_grid {
  * points of both images matched both ways (cross-checked), kept when they lie on the
  * same row (|dy| <= 1 px), counted by the sign of the disparity x_left - x_right. In a
  * pair in the right order nearly every match has a positive disparity; swapped
- * images give negative ones; one image given twice gives zero. */
+ * images give negative ones; one image given twice gives zero. \ingroup pipeline */
 struct StereoPairOrder {
   /** \brief Matches with a disparity above 0.5 px. */
   std::size_t positive{0};
@@ -24,7 +24,8 @@ struct StereoPairOrder {
 
 /** \brief Counts the matched features of \a left and \a right by disparity sign.
  * \param[in] left, right 8-bit grey images of one size (a rectified pair)
- * \return the counts (all zero for images without texture) */
+ * \return the counts (all zero for images without texture)
+ * \ingroup pipeline */
 StereoPairOrder countStereoPairOrder(const cv::Mat& left, const cv::Mat& right);
 
 /** \brief Throws planar_grid::IOError naming both images when the pair is one image
@@ -33,7 +34,10 @@ StereoPairOrder countStereoPairOrder(const cv::Mat& left, const cv::Mat& right);
  * Nothing is thrown for a pair whose features say nothing (too little texture).
  * \param[in] left, right 8-bit grey images of one size (a rectified pair)
  * \param[in] left_path, right_path the files, for the message
- * \param[in] remedy what to exchange, for the message of a swapped pair */
+ * \param[in] remedy what to exchange, for the message of a swapped pair
+ * \note The stereo inputs (stereo_sequence, ros_bag) run it on their first pair, before
+ * any frame is mapped.
+ * \ingroup pipeline */
 void checkStereoPairOrder(const cv::Mat& left,
                           const cv::Mat& right,
                           const std::string& left_path,

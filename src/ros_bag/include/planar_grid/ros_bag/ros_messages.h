@@ -2,7 +2,9 @@
 #pragma once
 
 #include <planar_grid/core/stereo_calibration.h>
-#include <planar_grid/pipeline/frame.h>
+
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
 
 #include <Eigen/Geometry>
 #include <geometry_msgs/Transform.h>
@@ -16,9 +18,10 @@
 
 /** \file
  * The ROS 1 messages the pipeline reads, as its own types: one owner for the ROS bag
- * input (ros_bag_source.cpp), the ROS node and the bag tools (tools/ros). Built and
- * installed with the ROS bag input only (PLANAR_GRID_HAVE_ROS_BAG); including it needs
- * the ROS message headers (sensor_msgs, geometry_msgs). */
+ * input of the pipeline, the ROS node and the bag tools (tools/ros). Part of the
+ * planar_grid_ros_bag library, which is built and installed with the ROS bag input only
+ * (PLANAR_GRID_WITH_ROS_BAG and Debian's ROS 1 packages); including it needs the ROS
+ * message headers (sensor_msgs, geometry_msgs). \ingroup ros_bag */
 
 namespace planar_grid {
 namespace ros_messages {
@@ -38,7 +41,7 @@ cv::Mat greyImage(const sensor_msgs::Image& image, const std::string& where);
  * that does not match the data, or an x/y/z/intensity field with COUNT > 1 */
 void cloudFromMessage(const sensor_msgs::PointCloud2& msg,
                       const std::string& where,
-                      Frame::Cloud& cloud);
+                      pcl::PointCloud<pcl::PointXYZI>& cloud);
 
 /** \brief The calibration of a rectified pair from its two CameraInfo projection
  * matrices P: f = P_left[0][0], cx = P_left[0][2], cy = P_left[1][2] (px),
