@@ -176,53 +176,45 @@ protected:
     EXPECT_TRUE(a == b);
     EXPECT_EQ(bytes(a), bytes(b));
   }
+
+  /** Four frames through integrate() and through the steps it replaces, the window
+   * off for the first two and 5 m after (the camera has moved on): the same map after
+   * each frame, the window cut the map, and the scene reached both layers (the
+   * comparison is not of two empty maps). \a first_order: the first frame's order. */
+  void expectIntegrateEqualsTheSteps(bool rays, double first_order)
+  {
+    PlanarGridMap one_call(params());
+    PlanarGridMap steps(params());
+    bool window_removed = false;
+    for (int k = 0; k < 4; ++k) {
+      const SceneFrame f = sceneFrame(k);
+      const double window = k < 2 ? 0.0 : 5.0;
+      const planar_grid::MapWindowRemoval removed =
+        one_call.integrate(mapFrame(f, rays, first_order + k, window));
+      if (window == 0.0) {
+        EXPECT_EQ(removed.space_voxels, 0u);
+      }
+      window_removed = window_removed || removed.space_voxels > 0;
+      integrateStepByStep(steps, f, rays, first_order + k, window);
+      expectSameMap(one_call, steps);
+    }
+    EXPECT_TRUE(window_removed);
+    EXPECT_GT(one_call.getSurfaceLayer().getCuboidCount(), 0u);
+    EXPECT_GT(one_call.getSpaceLayer().getVoxelCount(SpaceState::FREE), 0u);
+    EXPECT_GT(one_call.getSpaceLayer().getVoxelCount(SpaceState::OCCUPIED), 0u);
+    EXPECT_EQ(one_call.getObservationSpan().first, first_order);
+    EXPECT_EQ(one_call.getObservationSpan().last, first_order + 3.0);
+  }
 };
 
 TEST_F(MapFrameTest, IntegrateEqualsTheStepsItReplacesForDepthImages)
 {
-  PlanarGridMap one_call(params());
-  PlanarGridMap steps(params());
-  bool window_removed = false;
-  for (int k = 0; k < 4; ++k) {
-    const SceneFrame f = sceneFrame(k);
-    // window off, then a 5 m window once the camera has moved on
-    const double window = k < 2 ? 0.0 : 5.0;
-    const planar_grid::MapWindowRemoval removed =
-      one_call.integrate(mapFrame(f, false, k, window));
-    if (window == 0.0) {
-      EXPECT_EQ(removed.space_voxels, 0u);
-    }
-    window_removed = window_removed || removed.space_voxels > 0;
-    integrateStepByStep(steps, f, false, k, window);
-    expectSameMap(one_call, steps);
-  }
-  EXPECT_TRUE(window_removed); // the window cut the map where the camera had been
-  // The scene reached both layers (the comparison is not of two empty maps).
-  EXPECT_GT(one_call.getSurfaceLayer().getCuboidCount(), 0u);
-  EXPECT_GT(one_call.getSpaceLayer().getVoxelCount(SpaceState::FREE), 0u);
-  EXPECT_GT(one_call.getSpaceLayer().getVoxelCount(SpaceState::OCCUPIED), 0u);
-  EXPECT_EQ(one_call.getObservationSpan().first, 0.0);
-  EXPECT_EQ(one_call.getObservationSpan().last, 3.0);
+  expectIntegrateEqualsTheSteps(false, 0.0);
 }
 
 TEST_F(MapFrameTest, IntegrateEqualsTheStepsItReplacesForRays)
 {
-  PlanarGridMap one_call(params());
-  PlanarGridMap steps(params());
-  bool window_removed = false;
-  for (int k = 0; k < 4; ++k) {
-    const SceneFrame f = sceneFrame(k);
-    const double window = k < 2 ? 0.0 : 5.0;
-    const planar_grid::MapWindowRemoval removed =
-      one_call.integrate(mapFrame(f, true, 10.0 + k, window));
-    window_removed = window_removed || removed.space_voxels > 0;
-    integrateStepByStep(steps, f, true, 10.0 + k, window);
-    expectSameMap(one_call, steps);
-  }
-  EXPECT_TRUE(window_removed); // the window cut the map where the camera had been
-  EXPECT_GT(one_call.getSurfaceLayer().getCuboidCount(), 0u);
-  EXPECT_GT(one_call.getSpaceLayer().getVoxelCount(SpaceState::FREE), 0u);
-  EXPECT_GT(one_call.getSpaceLayer().getVoxelCount(SpaceState::OCCUPIED), 0u);
+  expectIntegrateEqualsTheSteps(true, 10.0);
 }
 
 TEST_F(MapFrameTest, AbsentInputsAreEmpty)
