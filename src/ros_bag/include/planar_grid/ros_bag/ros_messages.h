@@ -28,6 +28,7 @@ namespace ros_messages {
 
 /** \brief A sensor_msgs/Image as an 8-bit grey image (copied out of the message);
  * colour encodings (bgr8, rgb8, bgra8, rgba8) are turned grey with cv::cvtColor.
+ * \param[in] image the message: mono8, bgr8, rgb8, bgra8 or rgba8
  * \param[in] where the message's origin, for the error text
  * \return a CV_8UC1 image of the message's size, px
  * \throws planar_grid::IOError for another encoding or a size that does not match
@@ -47,6 +48,8 @@ void cloudFromMessage(const sensor_msgs::PointCloud2& msg,
  * matrices P: f = P_left[0][0], cx = P_left[0][2], cy = P_left[1][2] (px),
  * B = -P_right[0][3] / P_right[0][0] (m; ROS stores Tx = -f B in the right P); the
  * image size from the left CameraInfo (0 x 0: not given).
+ * \param[in] left the left camera's CameraInfo
+ * \param[in] right the right camera's CameraInfo
  * \param[in] right_where the right CameraInfo's origin, for the error text
  * \throws planar_grid::IOError when the two sizes differ, when the two P differ in f,
  * cx or cy (the pair is not rectified) or the calibration is invalid */
