@@ -117,6 +117,16 @@ DepthImage::countValid() const
   return n;
 }
 
+bool
+DepthImage::isConsistent() const
+{
+  return width > 0 && height > 0
+         && depth_m.size()
+              == static_cast<std::size_t>(width) * static_cast<std::size_t>(height)
+         && fx > 0.0f && fy > 0.0f && std::isfinite(fx) && std::isfinite(fy)
+         && std::isfinite(cx) && std::isfinite(cy);
+}
+
 DepthImage
 DepthImage::fromPointCloud(const pcl::PointCloud<pcl::PointXYZ>& cloud,
                            int width,

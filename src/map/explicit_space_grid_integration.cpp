@@ -168,12 +168,7 @@ checkDepthImage(const DepthImage& depth, const Eigen::Isometry3d& world_T_camera
              "nothing integrated.\n");
     return false;
   }
-  if (depth.depth_m.size()
-        != static_cast<std::size_t>(depth.width)
-             * static_cast<std::size_t>(depth.height)
-      || !(depth.fx > 0.0f) || !(depth.fy > 0.0f) || !std::isfinite(depth.fx)
-      || !std::isfinite(depth.fy) || !std::isfinite(depth.cx)
-      || !std::isfinite(depth.cy) || !world_T_camera.matrix().allFinite()) {
+  if (!depth.isConsistent() || !world_T_camera.matrix().allFinite()) {
     PCL_ERROR("[planar_grid::ExplicitSpaceGrid::integrateDepthImage] Inconsistent "
               "depth image (%d x %d with %zu depths, fx %g, fy %g) or pose; nothing "
               "integrated.\n",

@@ -21,22 +21,12 @@ checkMapFrame(const MapFrame& frame)
                     + (frame.depth == nullptr
                          ? "no space measurement: set the frame's depth image or rays"
                          : "both a depth image and rays: set exactly one"));
-  if (frame.depth) {
+  if (frame.depth && !frame.depth->isConsistent()) {
     const DepthImage& depth = *frame.depth;
-    if (depth.width <= 0 || depth.height <= 0
-        || depth.depth_m.size()
-             != static_cast<std::size_t>(depth.width)
-                  * static_cast<std::size_t>(depth.height))
-      throw Exception(where + "the depth image holds "
-                      + std::to_string(depth.depth_m.size()) + " depths for "
-                      + std::to_string(depth.width) + " x "
-                      + std::to_string(depth.height) + " pixels (both > 0)");
-    if (!(depth.fx > 0.0f) || !(depth.fy > 0.0f) || !std::isfinite(depth.fx)
-        || !std::isfinite(depth.fy) || !std::isfinite(depth.cx)
-        || !std::isfinite(depth.cy))
-      throw Exception(where
-                      + "the depth image's intrinsics must be finite, with "
-                        "positive focal lengths");
+    throw Exception(where + "inconsistent depth image: " + std::to_string(depth.width)
+                    + " x " + std::to_string(depth.height) + " pixels (both > 0) with "
+                    + std::to_string(depth.depth_m.size())
+                    + " depths, or intrinsics not finite with positive focal lengths");
   }
   const std::size_t features = frame.features ? frame.features->size() : 0;
   const std::size_t probabilities =

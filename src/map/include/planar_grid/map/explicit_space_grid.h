@@ -105,6 +105,10 @@ struct DepthImage {
   /** \brief Number of pixels with a measurement (finite depth > 0). */
   [[nodiscard]] std::size_t countValid() const;
 
+  /** \brief Whether the image can be integrated: width and height > 0, width x height
+   * depths, finite intrinsics and positive focal lengths. */
+  [[nodiscard]] bool isConsistent() const;
+
   /** \brief Renders points given in the camera frame into a depth image with a
    * z-buffer (the nearest point wins per pixel); works for organized and unorganized
    * clouds. Points behind the camera or non-finite are skipped.
