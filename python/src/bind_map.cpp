@@ -75,6 +75,24 @@ toPlaneModels(const DoubleArray& planes)
   return models;
 }
 
+/** The depth image of an (H, W) array of depths (meters) and its intrinsics (px).
+ * \throws py::value_error for an array of another dimension */
+DepthImage
+toDepthImage(const FloatArray& depth, double fx, double fy, double cx, double cy)
+{
+  if (depth.ndim() != 2)
+    throw py::value_error("depth must be an (H, W) array of depths in meters");
+  DepthImage image;
+  image.height = static_cast<int>(depth.shape(0));
+  image.width = static_cast<int>(depth.shape(1));
+  image.fx = static_cast<float>(fx);
+  image.fy = static_cast<float>(fy);
+  image.cx = static_cast<float>(cx);
+  image.cy = static_cast<float>(cy);
+  image.depth_m.assign(depth.data(), depth.data() + depth.size());
+  return image;
+}
+
 /** A state given as SpaceState, int (0 free, 1 occupied, 2 unknown) or name. */
 SpaceState
 toSpaceState(const py::handle& state)
@@ -92,16 +110,6 @@ toSpaceState(const py::handle& state)
       "state " + std::to_string(value)
       + " must be SpaceState.FREE (0), OCCUPIED (1) or UNKNOWN (2)");
   return static_cast<SpaceState>(value);
-}
-
-/** The keys of the map's parameter table, in its order. */
-std::vector<std::string>
-mapParameterKeys()
-{
-  std::vector<std::string> keys;
-  for (const auto& declaration : PlanarGridMap::getParamDeclarations())
-    keys.push_back(declaration.key);
-  return keys;
 }
 
 /** SpaceState, an IntEnum of the module. */
@@ -139,7 +147,7 @@ probability (occupied when >= occupancy_thres); elsewhere the voxel's state deci
 Parameters
 ----------
 )doc"
-    + stageParameterDocs("map_integration", mapParameterKeys()) + R"doc(
+    + declaredParameterDocs(Map::getParamDeclarations()) + R"doc(
 The defaults are the pipeline's map_integration defaults (one Params struct); a map
 built here with the keys of a configuration's map_integration stage matches the tool's.
 
@@ -273,16 +281,7 @@ sensor_origin : array_like, shape (3,)
       [](Map& self, const FloatArray& depth, double fx, double fy, double cx, double cy,
          const DoubleArray& world_T_camera) {
         requireWritable(self, "integrate_depth_image");
-        if (depth.ndim() != 2)
-          throw py::value_error("depth must be an (H, W) array of depths in meters");
-        DepthImage image;
-        image.height = static_cast<int>(depth.shape(0));
-        image.width = static_cast<int>(depth.shape(1));
-        image.fx = static_cast<float>(fx);
-        image.fy = static_cast<float>(fy);
-        image.cx = static_cast<float>(cx);
-        image.cy = static_cast<float>(cy);
-        image.depth_m.assign(depth.data(), depth.data() + depth.size());
+        const DepthImage image = toDepthImage(depth, fx, fy, cx, cy);
         const Eigen::Isometry3d pose = toIsometry(world_T_camera, "world_T_camera");
         py::gil_scoped_release release;
         self.integrateDepthImage(image, pose);
@@ -373,17 +372,11 @@ bindFrameIntegration(MapClass& cls)
       DepthImage image;
       if (!depth.is_none()) {
         const FloatArray d = FloatArray::ensure(depth);
-        if (!d || d.ndim() != 2)
+        if (!d)
           throw py::value_error("depth must be an (H, W) array of depths in meters");
         if (!fx || !fy || !cx || !cy)
           throw py::value_error("a depth image needs its intrinsics fx, fy, cx, cy");
-        image.height = static_cast<int>(d.shape(0));
-        image.width = static_cast<int>(d.shape(1));
-        image.fx = static_cast<float>(*fx);
-        image.fy = static_cast<float>(*fy);
-        image.cx = static_cast<float>(*cx);
-        image.cy = static_cast<float>(*cy);
-        image.depth_m.assign(d.data(), d.data() + d.size());
+        image = toDepthImage(d, *fx, *fy, *cx, *cy);
         frame.depth = &image;
       }
       pcl::PointCloud<pcl::PointXYZ>::Ptr rays;

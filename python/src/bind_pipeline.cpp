@@ -31,51 +31,6 @@ struct PipelineResult {
   Trajectory trajectory;
 };
 
-} // namespace
-
-std::string
-stageParameterDocs(const std::string& stage_type, const std::vector<std::string>& keys)
-{
-  const StageInfo* info = findStage(stage_type);
-  if (!info)
-    throw Exception("stageParameterDocs: unknown stage type '" + stage_type + "'");
-  std::string out;
-  for (const std::string& key : keys) {
-    const auto spec = std::find_if(info->params.begin(), info->params.end(),
-                                   [&key](const ParamSpec& p) { return p.key == key; });
-    if (spec == info->params.end())
-      throw Exception("stageParameterDocs: stage '" + stage_type + "' has no '" + key
-                      + "'");
-    std::string type;
-    std::string text =
-      spec->description + " Default "
-      + (spec->type == ParamSpec::Type::CHOICE ? "\"" + spec->default_value + "\""
-                                               : spec->default_value);
-    switch (spec->type) {
-      case ParamSpec::Type::DOUBLE:
-      case ParamSpec::Type::INT:
-        type = spec->type == ParamSpec::Type::DOUBLE ? "float" : "int";
-        text += (spec->unit.empty() ? "" : " " + spec->unit)
-                + "; a configuration accepts " + formatParamRange(spec->range) + ".";
-        break;
-      case ParamSpec::Type::BOOL:
-        type = "bool";
-        text += ".";
-        break;
-      case ParamSpec::Type::CHOICE:
-        for (const auto& c : spec->choices)
-          type += (type.empty() ? "{\"" : ", \"") + c + "\"";
-        type += "}";
-        text += ".";
-        break;
-    }
-    out += key + " : " + type + ", optional\n" + wrapText(text, 4, 88);
-  }
-  return out;
-}
-
-namespace {
-
 /** run_pipeline()'s memory_limit: the machine's limit for None, else a count of bytes
  * or a size text ("16G", "none"); ValueError for a negative count or a bad text. */
 MemoryLimit

@@ -199,14 +199,6 @@ pythonType()
  * after \a indent spaces (docstrings). */
 std::string wrapText(const std::string& text, std::size_t indent, std::size_t width);
 
-/** \brief The numpydoc "Parameters" entries of \a keys, taken from the parameter table
- * of the pipeline stage \a stage_type (its description, type, default, unit and the
- * range the configuration accepts), for a class whose keyword arguments are that
- * stage's keys.
- * \throws planar_grid::Exception for an unknown stage or a key not in its table */
-std::string stageParameterDocs(const std::string& stage_type,
-                               const std::vector<std::string>& keys);
-
 /** \brief Binds the parameters of \a T, each given once as a Param, as the class's
  * Python interface: read-write properties, a constructor that takes them as named
  * arguments with their types and defaults, __repr__, and __signature__.
