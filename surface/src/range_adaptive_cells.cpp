@@ -88,9 +88,8 @@ RangeAdaptiveCells::compute(const Points& points,
   for (std::size_t i = 0; i < points.size(); ++i)
     relative_[i] = points[i] - origin_;
   is_terrain.assign(points.size(), 0);
-  terrain_ = &is_terrain;
   if (has_ground_)
-    markTerrain(e1, e2);
+    markTerrain(e1, e2, is_terrain);
   // The points the cells are made of, in order.
   kept_levels_.clear();
   std::size_t kept = 0;
@@ -104,7 +103,9 @@ RangeAdaptiveCells::compute(const Points& points,
 }
 
 void
-RangeAdaptiveCells::markTerrain(const Eigen::Vector3f& e1, const Eigen::Vector3f& e2)
+RangeAdaptiveCells::markTerrain(const Eigen::Vector3f& e1,
+                                const Eigen::Vector3f& e2,
+                                std::vector<std::uint8_t>& is_terrain)
 {
   const Eigen::Vector4f& g = ground_;
   const std::size_t n = relative_.size();
@@ -127,10 +128,9 @@ RangeAdaptiveCells::markTerrain(const Eigen::Vector3f& e1, const Eigen::Vector3f
   }
   const auto max_rise = static_cast<float>(params_.terrain_max_rise_m);
   const auto band = static_cast<float>(params_.terrain_height_m);
-  std::vector<std::uint8_t>& terrain = *terrain_;
   for (std::size_t i = 0; i < n; ++i) {
     const float base = std::min(column_low_[columns_[i]], max_rise);
-    terrain[i] = heights_[i] <= base + band ? 1 : 0;
+    is_terrain[i] = heights_[i] <= base + band ? 1 : 0;
   }
 }
 

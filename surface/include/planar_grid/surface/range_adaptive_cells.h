@@ -137,7 +137,9 @@ public:
                       PlanarCuboids& cells);
 
 private:
-  void markTerrain(const Eigen::Vector3f& e1, const Eigen::Vector3f& e2);
+  void markTerrain(const Eigen::Vector3f& e1,
+                   const Eigen::Vector3f& e2,
+                   std::vector<std::uint8_t>& is_terrain);
   std::size_t
   makeCells(const Eigen::Vector3f& e1, const Eigen::Vector3f& e2, PlanarCuboids& cells);
   void fitToPoints(const Eigen::Matrix3f& axes_t,
@@ -156,7 +158,6 @@ private:
   Points relative_;
   std::vector<std::uint8_t> kept_levels_;
   std::vector<float> heights_;
-  std::vector<std::uint8_t>* terrain_{nullptr};
   std::vector<std::uint64_t> columns_;
   std::unordered_map<std::uint64_t, float> column_low_;
   std::vector<std::pair<std::uint64_t, std::uint32_t>> keys_;
