@@ -393,7 +393,7 @@ ExplicitSpaceGrid::getMemoryBytes() const
   bytes += heap(storage.supers.capacity() * sizeof(SuperBlock));
   for (const auto& sb : storage.supers)
     bytes +=
-      heap(sb.offsets.capacity() * sizeof(std::uint32_t)) + heap(sb.data.capacity());
+      heap(sb.offsets.capacity() * sizeof(std::uint16_t)) + heap(sb.data.capacity());
   bytes += heap(storage.directory.capacityBytes());
   return bytes;
 }
@@ -429,7 +429,7 @@ ExplicitSpaceGrid::storageBytesBound(std::uint64_t blocks, std::uint64_t super_b
   // (<= 4 per entry).
   constexpr std::uint64_t MALLOC_OVERHEAD = 16;
   constexpr std::uint64_t SLOT_BYTES = sizeof(BlockKey) + sizeof(std::uint32_t);
-  constexpr std::uint64_t PER_BLOCK = MAX_COMPACT_BYTES + sizeof(std::uint32_t);
+  constexpr std::uint64_t PER_BLOCK = MAX_COMPACT_BYTES + sizeof(std::uint16_t);
   constexpr std::uint64_t PER_SUPER_BLOCK =
     2 * sizeof(SuperBlock) + 2 * MALLOC_OVERHEAD + 4 * SLOT_BYTES;
   return sizeof(Impl) + blocks * PER_BLOCK + super_blocks * PER_SUPER_BLOCK

@@ -71,6 +71,31 @@ cubeMask(int c)
   return 0x00FF00FF00FF00FFULL << (8 * (c & 1));
 }
 
+/** \brief The 16 bits of 8 2-bit codes, code \a one where bit k of \a bits is set and
+ * \a zero elsewhere: the bits spread to the low bit of each 2-bit lane, times the
+ * codes' difference. */
+inline std::uint32_t
+expandBits(unsigned bits, std::uint32_t zero, std::uint32_t one)
+{
+  std::uint32_t b = bits & 0xFFu;
+  b = (b | (b << 4)) & 0x0F0Fu;
+  b = (b | (b << 2)) & 0x3333u;
+  b = (b | (b << 1)) & 0x5555u;
+  return cellPattern(zero) ^ (b * (zero ^ one));
+}
+
+/** \brief Bit k set where code k of the 8 2-bit codes \a v is \a code. */
+inline unsigned
+gatherBits(std::uint32_t v, std::uint32_t code)
+{
+  const std::uint32_t x = v ^ cellPattern(code);
+  std::uint32_t b = ~(x | (x >> 1)) & 0x5555u;
+  b = (b | (b >> 1)) & 0x3333u;
+  b = (b | (b >> 2)) & 0x0F0Fu;
+  b = (b | (b >> 4)) & 0x00FFu;
+  return b;
+}
+
 /** \brief Walks the compact block at \a data in cube and cell order: \a uniform(c, d,
  * code, voxels) for a uniform cube (d = -1, 64 voxels) or a uniform cell of a mixed
  * cube (8 voxels), \a mixed(c, d, v) for a mixed cell with its 8 codes \a v. */
@@ -79,23 +104,36 @@ void
 walkCompact(const std::uint8_t* data, Uniform&& uniform, Mixed&& mixed)
 {
   const unsigned mixed_cubes = data[0];
-  const unsigned cube_codes = load16(data + 1);
-  const std::uint8_t* head = data + 3;
-  const std::uint8_t* tail = data + 3 + 3 * __builtin_popcount(mixed_cubes);
+  const unsigned header = data[1];
+  const bool two_codes = (header & TWO_CODES) != 0;
+  // A node's code: 2 bits of a code word, or 1 bit choosing one of the two codes.
+  const unsigned per_node = two_codes ? 1u : 2u;
+  const std::uint32_t code0 = header & 3u, code1 = (header >> 2) & 3u;
+  const auto codeOf = [&](unsigned word, int k) -> unsigned {
+    if (two_codes)
+      return (word >> k) & 1u ? code1 : code0;
+    return (word >> (2 * k)) & 3u;
+  };
+  const unsigned cube_codes = two_codes ? data[2] : load16(data + 2);
+  const std::uint8_t* head = data + (two_codes ? 3 : 4);
+  const std::uint8_t* tail =
+    head + (1 + per_node) * static_cast<unsigned>(__builtin_popcount(mixed_cubes));
   for (int c = 0; c < 8; ++c) {
     if (!((mixed_cubes >> c) & 1u)) {
-      uniform(c, -1, (cube_codes >> (2 * c)) & 3u, 64);
+      uniform(c, -1, codeOf(cube_codes, c), 64);
       continue;
     }
     const unsigned mixed_cells = head[0];
-    const unsigned cell_codes = load16(head + 1);
-    head += 3;
+    const unsigned cell_codes = two_codes ? head[1] : load16(head + 1);
+    head += 1 + per_node;
     for (int d = 0; d < 8; ++d) {
       if ((mixed_cells >> d) & 1u) {
-        mixed(c, d, static_cast<std::uint32_t>(load16(tail)));
-        tail += 2;
+        mixed(c, d,
+              two_codes ? expandBits(tail[0], code0, code1)
+                        : static_cast<std::uint32_t>(load16(tail)));
+        tail += per_node;
       } else {
-        uniform(c, d, (cell_codes >> (2 * d)) & 3u, 8);
+        uniform(c, d, codeOf(cell_codes, d), 8);
       }
     }
   }
@@ -134,10 +172,25 @@ isUniform(const Payload& p, std::uint8_t& code)
 std::size_t
 encodeCompact(const Payload& p, std::uint8_t* out)
 {
+  // The codes present: two of them (the usual edge of observed space) are written one
+  // bit per node.
+  const std::array<std::size_t, 4> n = countCodes(p);
+  std::uint32_t code0 = 4, code1 = 4;
+  int present = 0;
+  for (std::uint32_t s = 0; s < 4; ++s)
+    if (n[s] > 0) {
+      ++present;
+      (code0 == 4 ? code0 : code1) = s;
+    }
+  const bool two_codes = present == 2;
   // A cube is uniform when its bits in its 4 words all repeat its first voxel's code;
   // only the mixed cubes' cells are read.
   std::array<std::uint32_t, 64> cells; // cube c, cell d at 8 c + d
   std::uint32_t mixed_cubes = 0, cube_codes = 0;
+  // The bits of a node of code s: 1 bit (s is code1) or the 2-bit code.
+  const auto nodeBits = [&](std::uint32_t s, int k) -> std::uint32_t {
+    return two_codes ? static_cast<std::uint32_t>(s == code1) << k : s << (2 * k);
+  };
   for (int c = 0; c < 8; ++c) {
     const std::uint64_t mask = cubeMask(c);
     const std::uint32_t code =
@@ -147,7 +200,7 @@ encodeCompact(const Payload& p, std::uint8_t* out)
     for (int z = 0; z < 4; ++z)
       uniform = uniform && (p[cubeWord(c, z)] & mask) == expected;
     if (uniform) {
-      cube_codes |= code << (2 * c);
+      cube_codes |= nodeBits(code, c);
       continue;
     }
     mixed_cubes |= 1u << c;
@@ -155,27 +208,36 @@ encodeCompact(const Payload& p, std::uint8_t* out)
       cells[static_cast<std::size_t>(8 * c + d)] = cellValue(p, cellOrigin(c, d));
   }
   out[0] = static_cast<std::uint8_t>(mixed_cubes);
-  out[1] = static_cast<std::uint8_t>(cube_codes);
-  out[2] = static_cast<std::uint8_t>(cube_codes >> 8);
+  out[1] = static_cast<std::uint8_t>(two_codes ? TWO_CODES | code0 | (code1 << 2) : 0);
+  out[2] = static_cast<std::uint8_t>(cube_codes);
   std::size_t head = 3;
-  std::size_t tail = 3 + 3 * static_cast<std::size_t>(__builtin_popcount(mixed_cubes));
+  if (!two_codes)
+    out[head++] = static_cast<std::uint8_t>(cube_codes >> 8);
+  const std::size_t per_node = two_codes ? 1 : 2;
+  std::size_t tail =
+    head + (1 + per_node) * static_cast<std::size_t>(__builtin_popcount(mixed_cubes));
   for (int c = 0; c < 8; ++c) {
     if (!((mixed_cubes >> c) & 1u))
       continue;
     std::uint32_t mixed_cells = 0, cell_codes = 0;
     for (int d = 0; d < 8; ++d) {
       const std::uint32_t v = cells[static_cast<std::size_t>(8 * c + d)];
-      if (v == cellPattern(v & 3u))
-        cell_codes |= (v & 3u) << (2 * d);
-      else {
-        mixed_cells |= 1u << d;
+      if (v == cellPattern(v & 3u)) {
+        cell_codes |= nodeBits(v & 3u, d);
+        continue;
+      }
+      mixed_cells |= 1u << d;
+      if (two_codes) {
+        out[tail++] = static_cast<std::uint8_t>(gatherBits(v, code1));
+      } else {
         out[tail++] = static_cast<std::uint8_t>(v);
         out[tail++] = static_cast<std::uint8_t>(v >> 8);
       }
     }
     out[head++] = static_cast<std::uint8_t>(mixed_cells);
     out[head++] = static_cast<std::uint8_t>(cell_codes);
-    out[head++] = static_cast<std::uint8_t>(cell_codes >> 8);
+    if (!two_codes)
+      out[head++] = static_cast<std::uint8_t>(cell_codes >> 8);
   }
   return tail;
 }
@@ -357,9 +419,16 @@ BlockStorage::rebuild(SuperBlock& sb,
   sb.codes = codes;
   sb.mixed = mixed;
   std::uint16_t before = 0;
+  std::vector<std::uint16_t> offsets(new_offsets.size());
   for (std::size_t w = 0; w < 8; ++w) {
     sb.rank[w] = before;
-    before = static_cast<std::uint16_t>(before + __builtin_popcountll(mixed[w]));
+    const auto in_word = static_cast<std::uint16_t>(__builtin_popcountll(mixed[w]));
+    // offsets after the start of the word's first compact form: at most 63 forms
+    // before a form of the same word, below 2^16 bytes
+    sb.base[w] = in_word > 0 ? new_offsets[before] : 0;
+    for (std::uint16_t r = before; r < before + in_word; ++r)
+      offsets[r] = static_cast<std::uint16_t>(new_offsets[r] - sb.base[w]);
+    before = static_cast<std::uint16_t>(before + in_word);
   }
   // a mixed block's code field is 0, never a prior code (2 or 3): counted as stored
   constexpr std::uint64_t LOW = 0x5555555555555555ULL;
@@ -370,7 +439,7 @@ BlockStorage::rebuild(SuperBlock& sb,
   }
   sb.stored = static_cast<std::uint16_t>(stored);
   // exact-size arrays: the memory held is the information's
-  std::vector<std::uint32_t>(new_offsets.begin(), new_offsets.end()).swap(sb.offsets);
+  offsets.swap(sb.offsets);
   std::vector<std::uint8_t>(new_data.begin(), new_data.end()).swap(sb.data);
 }
 

@@ -126,19 +126,32 @@ struct DenseBlock {
   }
 };
 
-// Compact form of a mixed block, a fixed two-level octree below the block:
-//   byte 0     mask of the mixed 4^3 cubes (bit c: the cube at (4 (c & 1),
-//              4 ((c >> 1) & 1), 4 (c >> 2)))
-//   bytes 1-2  the 2-bit code of each uniform cube (bits 2 c; 0 for a mixed cube)
-//   3 bytes per mixed cube, in cube order: mask of its mixed 2^3 cells (bit d: the
-//              cell at offset (2 (d & 1), 2 ((d >> 1) & 1), 2 (d >> 2)) in the cube),
-//              then the 2-bit codes of its uniform cells (bits 2 d; 0 when mixed)
-//   2 bytes per mixed cell, in cube then cell order: the codes of its 8 voxels
-//              (voxel (x, y, z) of the cell at bits 2 (x + 2 y + 4 z))
+// Compact form of a mixed block, a fixed two-level octree below the block. Byte 0 is
+// the mask of the mixed 4^3 cubes (bit c: the cube at (4 (c & 1), 4 ((c >> 1) & 1),
+// 4 (c >> 2))); byte 1 says how a node's code is written:
+//  - A block of two codes a < b (most mixed blocks: the edge of the observed space,
+//    free against unknown) has byte 1 = TWO_CODES | a | b << 2, and one bit per code
+//    (0 a, 1 b):
+//      byte 2      the bit of each uniform cube (bit c; 0 for a mixed cube)
+//      2 bytes per mixed cube, in cube order: mask of its mixed 2^3 cells (bit d: the
+//                  cell at offset (2 (d & 1), 2 ((d >> 1) & 1), 2 (d >> 2)) in the
+//                  cube), then the bits of its uniform cells (bit d)
+//      1 byte per mixed cell, in cube then cell order: its 8 voxels' bits (voxel
+//                  (x, y, z) of the cell at bit x + 2 y + 4 z)
+//  - A block of three or four codes has byte 1 = 0 and 2-bit codes:
+//      bytes 2-3   the code of each uniform cube (bits 2 c; 0 for a mixed cube)
+//      3 bytes per mixed cube: its mask of mixed cells, then its uniform cells' codes
+//      2 bytes per mixed cell: the codes of its 8 voxels (voxel (x, y, z) at bits
+//                  2 (x + 2 y + 4 z))
 // The encoding of a payload is unique, so equal blocks have equal bytes.
 
-/** \brief Largest compact block: 3 + 8 x 3 + 64 x 2 bytes. */
-constexpr std::size_t MAX_COMPACT_BYTES = 155;
+/** \brief Flag of byte 1 of a compact block of two codes. */
+constexpr std::uint8_t TWO_CODES = 0x10;
+/** \brief Largest compact block: 4 + 8 x 3 + 64 x 2 bytes (three or four codes, every
+ * cell mixed). */
+constexpr std::size_t MAX_COMPACT_BYTES = 156;
+
+static_assert(64 * MAX_COMPACT_BYTES < 65536, "a word's offsets fit 16 bits");
 
 /** \brief The little-endian 16-bit word at \a b (the compact form's code words). */
 inline unsigned
@@ -156,9 +169,15 @@ inline std::size_t
 compactSize(const std::uint8_t* data)
 {
   const int n_cubes = __builtin_popcount(data[0]);
-  std::size_t n = 3 + 3 * static_cast<std::size_t>(n_cubes);
+  if (data[1] & TWO_CODES) {
+    std::size_t n = 3 + 2 * static_cast<std::size_t>(n_cubes);
+    for (int k = 0; k < n_cubes; ++k)
+      n += static_cast<std::size_t>(__builtin_popcount(data[3 + 2 * k]));
+    return n;
+  }
+  std::size_t n = 4 + 3 * static_cast<std::size_t>(n_cubes);
   for (int k = 0; k < n_cubes; ++k)
-    n += 2 * static_cast<std::size_t>(__builtin_popcount(data[3 + 3 * k]));
+    n += 2 * static_cast<std::size_t>(__builtin_popcount(data[4 + 3 * k]));
   return n;
 }
 
@@ -168,24 +187,66 @@ compactGet(const std::uint8_t* data, int x, int y, int z)
 {
   const unsigned c =
     static_cast<unsigned>((x >> 2) | ((y >> 2) << 1) | ((z >> 2) << 2));
-  const unsigned mixed_cubes = data[0];
-  if (!((mixed_cubes >> c) & 1u))
-    return static_cast<std::uint8_t>((load16(data + 1) >> (2 * c)) & 3u);
-  const int r = __builtin_popcount(mixed_cubes & ((1u << c) - 1u));
-  const std::uint8_t* cube = data + 3 + 3 * r;
   const unsigned d = static_cast<unsigned>(((x >> 1) & 1) | (((y >> 1) & 1) << 1)
                                            | (((z >> 1) & 1) << 2));
+  const unsigned v = static_cast<unsigned>((x & 1) + 2 * (y & 1) + 4 * (z & 1));
+  const unsigned mixed_cubes = data[0];
+  const int r = __builtin_popcount(mixed_cubes & ((1u << c) - 1u));
+  const unsigned header = data[1];
+  if (header & TWO_CODES) {
+    unsigned bit;
+    if (!((mixed_cubes >> c) & 1u))
+      bit = (static_cast<unsigned>(data[2]) >> c) & 1u;
+    else {
+      const std::uint8_t* cube = data + 3 + 2 * r;
+      const unsigned mixed_cells = cube[0];
+      if (!((mixed_cells >> d) & 1u))
+        bit = (static_cast<unsigned>(cube[1]) >> d) & 1u;
+      else {
+        int before = __builtin_popcount(mixed_cells & ((1u << d) - 1u));
+        for (int k = 0; k < r; ++k)
+          before += __builtin_popcount(data[3 + 2 * k]);
+        const std::uint8_t cell =
+          data[3 + 2 * __builtin_popcount(mixed_cubes) + before];
+        bit = (static_cast<unsigned>(cell) >> v) & 1u;
+      }
+    }
+    return static_cast<std::uint8_t>((header >> (2 * bit)) & 3u);
+  }
+  if (!((mixed_cubes >> c) & 1u))
+    return static_cast<std::uint8_t>((load16(data + 2) >> (2 * c)) & 3u);
+  const std::uint8_t* cube = data + 4 + 3 * r;
   const unsigned mixed_cells = cube[0];
   if (!((mixed_cells >> d) & 1u))
     return static_cast<std::uint8_t>((load16(cube + 1) >> (2 * d)) & 3u);
   int before = __builtin_popcount(mixed_cells & ((1u << d) - 1u));
   for (int k = 0; k < r; ++k)
-    before += __builtin_popcount(data[3 + 3 * k]);
+    before += __builtin_popcount(data[4 + 3 * k]);
   const std::uint8_t* cell =
-    data + 3 + 3 * __builtin_popcount(mixed_cubes) + 2 * before;
-  const unsigned v = load16(cell);
-  return static_cast<std::uint8_t>((v >> (2 * ((x & 1) + 2 * (y & 1) + 4 * (z & 1))))
-                                   & 3u);
+    data + 4 + 3 * __builtin_popcount(mixed_cubes) + 2 * before;
+  return static_cast<std::uint8_t>((load16(cell) >> (2 * v)) & 3u);
+}
+
+/** \brief The uniform 4^3 cubes of code \a code of the compact block at \a data: bit
+ * c for the cube at (4 (c & 1), 4 ((c >> 1) & 1), 4 (c >> 2)). */
+inline std::uint32_t
+compactUniformCubes(const std::uint8_t* data, std::uint32_t code)
+{
+  const unsigned mixed_cubes = data[0], header = data[1];
+  std::uint32_t cubes = 0;
+  if (header & TWO_CODES) {
+    // bit c of byte 2 picks the second code; a mixed cube's bit is 0
+    if ((header & 3u) == code)
+      cubes = ~static_cast<unsigned>(data[2]);
+    else if (((header >> 2) & 3u) == code)
+      cubes = data[2];
+    return cubes & ~mixed_cubes & 0xFFu;
+  }
+  const unsigned cube_codes = load16(data + 2);
+  for (unsigned c = 0; c < 8; ++c)
+    if (!((mixed_cubes >> c) & 1u) && ((cube_codes >> (2 * c)) & 3u) == code)
+      cubes |= 1u << c;
+  return cubes;
 }
 
 /** \brief Decodes the compact block at \a data into \a p. */
@@ -304,10 +365,14 @@ struct SuperBlock {
   std::array<std::uint64_t, 8> mixed{};
   /** \brief Mixed blocks in the words of \a mixed before word w. */
   std::array<std::uint16_t, 8> rank{};
+  /** \brief Start in \a data of the compact forms of the mixed blocks of word w of
+   * \a mixed (64 blocks, at most 64 x MAX_COMPACT_BYTES bytes after it). */
+  std::array<std::uint32_t, 8> base{};
   /** \brief Blocks not at the prior (uniform ones of another code, and mixed ones). */
   std::uint16_t stored{0};
-  /** \brief Start of each mixed block's compact form in \a data, in block order. */
-  std::vector<std::uint32_t> offsets;
+  /** \brief Start of each mixed block's compact form in \a data after the \a base of
+   * its word of \a mixed, in block order. */
+  std::vector<std::uint16_t> offsets;
   /** \brief The compact forms. */
   std::vector<std::uint8_t> data;
 
@@ -327,7 +392,7 @@ struct SuperBlock {
     const std::uint64_t below = (std::uint64_t{1} << (j & 63)) - 1;
     const auto r =
       rank[w] + static_cast<std::size_t>(__builtin_popcountll(mixed[w] & below));
-    return data.data() + offsets[r];
+    return data.data() + base[w] + offsets[r];
   }
   /** \brief Code of voxel (x, y, z) (local to block j). */
   std::uint8_t get(int j, int x, int y, int z) const
@@ -431,14 +496,7 @@ struct BlockStorage {
     const int j = indexInSuper(bk);
     if (!sb->isMixed(j))
       return sb->code(j) == free_code ? 0xFFu : 0u;
-    // the compact form's uniform cubes: those not in its mask of mixed cubes
-    const std::uint8_t* data = sb->compact(j);
-    const unsigned mixed_cubes = data[0], cube_codes = load16(data + 1);
-    std::uint32_t cubes = 0;
-    for (unsigned c = 0; c < 8; ++c)
-      if (!((mixed_cubes >> c) & 1u) && ((cube_codes >> (2 * c)) & 3u) == free_code)
-        cubes |= 1u << c;
-    return cubes;
+    return compactUniformCubes(sb->compact(j), free_code);
   }
 
   /** \brief The edit of block \a bk, loaded from the storage on first use (out of

@@ -422,23 +422,38 @@ TEST(ExplicitSpaceGrid, CountsAndMemoryConsistent)
   EXPECT_EQ(grid.getVoxelCount(SpaceState::FREE), 512u);
   const std::size_t uniform_bytes = grid.getMemoryBytes();
   EXPECT_GT(uniform_bytes, empty_bytes);
-  // one voxel occupied: the block needs its compact form, 3 bytes for its 4^3 cubes, 3
-  // for the one mixed cube's 2^3 cells and 2 for the one mixed cell's 8 voxels, plus
-  // its 4-byte offset; each of the two arrays is one allocation (16 bytes counted for
-  // the allocator's header and rounding)
+  // one voxel occupied: the block needs its compact form; it holds two states, so a
+  // node is one bit: 3 bytes for its 4^3 cubes (mask, header, cube bits), 2 for the
+  // one mixed cube's 2^3 cells and 1 for the one mixed cell's 8 voxels, plus its
+  // 2-byte offset; each of the two arrays is one allocation (16 bytes counted for the
+  // allocator's header and rounding)
   grid.setState(Key(3, 3, 3), SpaceState::OCCUPIED);
   EXPECT_EQ(grid.getVoxelCount(SpaceState::FREE), 511u);
   EXPECT_EQ(grid.getVoxelCount(SpaceState::OCCUPIED), 1u);
-  EXPECT_EQ(grid.getMemoryBytes(), uniform_bytes + (8u + 16u) + (4u + 16u));
-  // a checkerboard: every 2^3 cell mixed, the largest compact form (3 + 8 x 3 + 64 x 2
-  // bytes)
+  EXPECT_EQ(grid.getMemoryBytes(), uniform_bytes + (6u + 16u) + (2u + 16u));
+  // a checkerboard of two states: every 2^3 cell mixed, the largest two-state form
+  // (3 + 8 x 2 + 64 x 1 bytes)
   for (int z = 0; z < 8; ++z)
     for (int y = 0; y < 8; ++y)
       for (int x = 0; x < 8; ++x)
         grid.setState(Key(x, y, z),
                       (x + y + z) % 2 ? SpaceState::OCCUPIED : SpaceState::FREE);
   EXPECT_EQ(grid.getVoxelCount(SpaceState::OCCUPIED), 256u);
-  EXPECT_EQ(grid.getMemoryBytes(), uniform_bytes + (155u + 16u) + (4u + 16u));
+  EXPECT_EQ(grid.getMemoryBytes(), uniform_bytes + (83u + 16u) + (2u + 16u));
+  // three states in every 2^3 cell: 2-bit codes, the largest compact form (4 + 8 x 3 +
+  // 64 x 2 bytes)
+  const SpaceState three[3] = {SpaceState::FREE, SpaceState::OCCUPIED,
+                               SpaceState::UNKNOWN};
+  for (int z = 0; z < 8; ++z)
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x)
+        grid.setState(Key(x, y, z), three[(x + y + z) % 3]);
+  EXPECT_EQ(grid.getVoxelCount(SpaceState::OCCUPIED), 171u);
+  EXPECT_EQ(grid.getMemoryBytes(), uniform_bytes + (156u + 16u) + (2u + 16u));
+  for (int z = 0; z < 8; ++z)
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x)
+        ASSERT_EQ(grid.getState(Key(x, y, z)), three[(x + y + z) % 3]);
   for (int z = 0; z < 8; ++z)
     for (int y = 0; y < 8; ++y)
       for (int x = 0; x < 8; ++x)

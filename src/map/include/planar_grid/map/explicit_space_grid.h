@@ -166,8 +166,10 @@ struct DepthImage {
  * grouped in super-blocks of 8 x 8 x 8 blocks (64^3 voxels), found through a flat
  * open-addressing table: a super-block holds the 2-bit code of each uniform block, a
  * bit per mixed block and the mixed blocks' compact forms back to back, each a fixed
- * two-level octree (the 4^3 cubes, then the 2^3 cells of each mixed cube, then 2 bytes
- * for each mixed cell's 8 voxels; 8 to 155 bytes). A query decodes only the bytes on
+ * two-level octree (the 4^3 cubes, then the 2^3 cells of each mixed cube, then each
+ * mixed cell's 8 voxels). A block holding two states (the usual edge of the observed
+ * space) writes one bit per node and per voxel, 6 to 83 bytes; one holding three or
+ * four writes their 2-bit codes, 9 to 156 bytes. A query decodes only the bytes on
  * its voxel's path (O(1)); writes edit decoded blocks and rebuild each touched
  * super-block once per view.
  * \ingroup map */
