@@ -169,8 +169,8 @@ void
 bindMapConstructor(MapClass& cls)
 {
   bindKeywordConstructor(
-    cls, "PlanarGridMap", Map::getParamDeclarations(),
-    [](const Map::Params& params) {
+    cls, "PlanarGridMap", Map::getParamDeclarations(), {},
+    [](const Map::Params& params, const std::vector<double>&) {
       try {
         return std::make_shared<Map>(params);
       } catch (const planar_grid::Exception& e) {

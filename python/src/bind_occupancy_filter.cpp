@@ -6,9 +6,11 @@
 
 #include <pybind11/stl.h>
 
+#include <functional>
 #include <string>
 #include <vector>
 
+#include "param_kwargs.h"
 #include "planar_grid_python.h"
 
 namespace planar_grid {
@@ -26,90 +28,46 @@ public:
 using Filter = OccupancyFilter;
 using FilterClass = py::class_<Filter, std::unique_ptr<Filter>>;
 
-/** \brief The filter's parameters: the stereo rig first, then the keyword arguments,
- * each a read-write property with its range. */
+/** \brief The declarations of the filter's parameters that Python takes: the
+ * library's table without the depth-camera and range-sensor models' keys (Python's
+ * filter is the paper's stereo one; the pipeline's kl_occupancy_filter stage chooses
+ * the model). */
+const ParamDeclarations<Filter::Params>&
+stereoParamDeclarations()
+{
+  static const ParamDeclarations<Filter::Params> table = [] {
+    ParamDeclarations<Filter::Params> stereo;
+    for (const auto& declaration : Filter::getParamDeclarations())
+      if (declaration.key != "depth_error_coefficient_per_m"
+          && declaration.key != "range_error_m")
+        stereo.push_back(declaration);
+    return stereo;
+  }();
+  return table;
+}
+
+/** \brief The filter's parameters: the stereo rig first, then the keyword arguments of
+ * its declared table, each a read-write property with its range. */
 void
 bindFilterParameters(FilterClass& cls)
 {
-  // The parameters' getters and setters, for the ones named get<Name>/set<Name>.
-#define PLANAR_GRID_FILTER_PARAM(type, field, name, doc)   \
-  param<type>(                                             \
-    #field, [](const Filter& f) { return f.get##name(); }, \
-    [](Filter& f, type value) { f.set##name(value); }, doc)
-  ParamBinder<Filter, std::unique_ptr<Filter>>(
-    cls, "KLDivergenceOccupancyFilter",
-    [](const Filter& f) { return f.checkParameters(); })
-    .bind(
-      std::make_tuple(param<double>(
-                        "focal_length_px",
-                        [](const Filter& f) { return f.getFocalLength(); },
-                        [](Filter& f, double focal_length_px) {
-                          f.setStereoParameters(focal_length_px, f.getBaseline());
-                        },
-                        "f of the rectified stereo rig (eq. 4), pixels, > 0"),
-                      param<double>(
-                        "baseline_m", [](const Filter& f) { return f.getBaseline(); },
-                        [](Filter& f, double baseline_m) {
-                          f.setStereoParameters(f.getFocalLength(), baseline_m);
-                        },
-                        "B of the rectified stereo rig (eq. 4), meters, > 0")),
-      std::make_tuple(
-        PLANAR_GRID_FILTER_PARAM(
-          double, disparity_error_px, DisparityError,
-          "dd of eq. 4, the disparity error, pixels, in "
-            + formatParamRange(kl_divergence_occupancy_filter_ranges::DISPARITY_ERROR)),
-        PLANAR_GRID_FILTER_PARAM(
-          double, neighbourhood_size_m, NeighbourhoodSize,
-          "edge of the cell over which the mean range is taken, "
-          "meters, in "
-            + formatParamRange(
-              kl_divergence_occupancy_filter_ranges::NEIGHBOURHOOD_SIZE)),
-        PLANAR_GRID_FILTER_PARAM(
-          double, clamping_thres_min, ClampingThresMin,
-          "lower clamp of a track's probability, in "
-            + formatParamRange(
-              kl_divergence_occupancy_filter_ranges::CLAMPING_THRES_MIN)),
-        PLANAR_GRID_FILTER_PARAM(
-          double, clamping_thres_max, ClampingThresMax,
-          "upper clamp of a track's probability, in "
-            + formatParamRange(
-              kl_divergence_occupancy_filter_ranges::CLAMPING_THRES_MAX)),
-        PLANAR_GRID_FILTER_PARAM(
-          double, occupancy_thres, OccupancyThres,
-          "a feature is kept when its probability reaches it, "
-          "probability in "
-            + formatParamRange(kl_divergence_occupancy_filter_ranges::OCCUPANCY_THRES)),
-        PLANAR_GRID_FILTER_PARAM(
-          double, kl_offset_nats, KLOffset,
-          "A of eq. 10, nats, in "
-            + formatParamRange(kl_divergence_occupancy_filter_ranges::KL_OFFSET)),
-        PLANAR_GRID_FILTER_PARAM(
-          double, prob_hit, ProbHit,
-          "log-odds rule, probability of a hit, in "
-            + formatParamRange(kl_divergence_occupancy_filter_ranges::PROB_HIT)),
-        PLANAR_GRID_FILTER_PARAM(
-          double, prob_miss, ProbMiss,
-          "log-odds rule, probability of a miss, in "
-            + formatParamRange(kl_divergence_occupancy_filter_ranges::PROB_MISS)),
-        PLANAR_GRID_FILTER_PARAM(
-          double, association_radius_m, AssociationRadius,
-          "without track ids, a feature joins the nearest track "
-          "within this distance, meters, in "
-            + formatParamRange(
-              kl_divergence_occupancy_filter_ranges::ASSOCIATION_RADIUS)),
-        param<std::string>(
-          "update_rule", [](const Filter& f) { return toString(f.getUpdateRule()); },
-          [](Filter& f, const std::string& name) {
-            try {
-              f.setUpdateRule(occupancyUpdateRuleFromString(name));
-            } catch (const planar_grid::Exception& e) {
-              throw py::value_error(
-                std::string("KLDivergenceOccupancyFilter: update_rule: ") + e.what());
-            }
-          },
-          "the update of a re-observed track, 'kl_divergence' (eqs. 5-10) or "
-          "'log_odds' (OctoMap's)")));
-#undef PLANAR_GRID_FILTER_PARAM
+  const std::vector<LeadingParam<Filter>> rig{
+    {"focal_length_px", "f of the rectified stereo rig (eq. 4), pixels, > 0.",
+     [](const Filter& f) { return f.getFocalLength(); },
+     [](Filter& f, double focal_length_px) {
+       f.setStereoParameters(focal_length_px, f.getBaseline());
+     }},
+    {"baseline_m", "B of the rectified stereo rig (eq. 4), meters, > 0.",
+     [](const Filter& f) { return f.getBaseline(); },
+     [](Filter& f, double baseline_m) {
+       f.setStereoParameters(f.getFocalLength(), baseline_m);
+     }}};
+  bindDeclaredParams(
+    cls, "KLDivergenceOccupancyFilter", stereoParamDeclarations(),
+    [](const Filter& f) -> const Filter::Params& { return f.getParams(); },
+    [](Filter& f, const Filter::Params& p) { f.setParams(p); }, rig,
+    std::function<const char*(const Filter&)>(
+      [](const Filter& f) { return f.checkParameters(); }));
 }
 
 /** \brief filter(), the tracks' probabilities and ids, and reset(). */

@@ -10,9 +10,11 @@
 #include <pybind11/pybind11.h>
 
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <utility>
 #include <variant>
+#include <vector>
 
 namespace planar_grid {
 namespace python {
@@ -59,6 +61,20 @@ paramsDict(const ParamDeclarations<Params>& table, const Params& params)
     dict[declaration.key.c_str()] = paramToPython(declaration.get(params));
   return dict;
 }
+
+/** \brief A parameter outside the class's declared table that the constructor takes
+ * first, by position or by name, without a default (the stereo rig of an occupancy
+ * filter): a float read-write property. */
+template <typename T> struct LeadingParam {
+  /** \brief The property's and the argument's name. */
+  std::string key;
+  /** \brief Meaning, unit and range (the numpydoc entry and the property's doc). */
+  std::string description;
+  /** \brief Reads the value. */
+  std::function<double(const T&)> get;
+  /** \brief Writes the value (the object's check runs after it). */
+  std::function<void(T&, double)> set;
+};
 
 namespace detail {
 
@@ -113,7 +129,7 @@ convertArgument(const ParamDeclaration<Params>& declaration,
 template <typename Params>
 Params
 paramsFromKwargs(const ParamDeclarations<Params>& table,
-                 const py::kwargs& kwargs,
+                 const py::dict& kwargs,
                  const std::string& class_name)
 {
   Params params;
@@ -199,10 +215,15 @@ declaredParameterDocs(const ParamDeclarations<Params>& table)
  * it): `__init__(self: QUALNAME, *, key: type = default, ...) -> None`. */
 template <typename Params>
 std::string
-keywordSignature(const ParamDeclarations<Params>& table, const std::string& qualname)
+keywordSignature(const ParamDeclarations<Params>& table,
+                 const std::string& qualname,
+                 const std::vector<std::string>& leading = {})
 {
   const Params defaults{};
-  std::string text = "__init__(self: " + qualname + ", *";
+  std::string text = "__init__(self: " + qualname;
+  for (const auto& key : leading)
+    text += ", " + key + ": float";
+  text += ", *";
   for (const auto& declaration : table)
     text +=
       ", " + declaration.key + ": " + paramPythonType(declaration) + " = "
@@ -214,13 +235,17 @@ keywordSignature(const ParamDeclarations<Params>& table, const std::string& qual
  * docstring signatures): every key keyword-only, annotated, with its default. */
 template <typename Params>
 py::object
-keywordSignatureObject(const ParamDeclarations<Params>& table)
+keywordSignatureObject(const ParamDeclarations<Params>& table,
+                       const std::vector<std::string>& leading = {})
 {
   const Params defaults{};
   const py::module_ inspect = py::module_::import("inspect");
   const py::module_ builtins = py::module_::import("builtins");
   const py::object parameter = inspect.attr("Parameter");
   py::list parameters;
+  for (const auto& key : leading)
+    parameters.append(parameter(key, parameter.attr("POSITIONAL_OR_KEYWORD"),
+                                py::arg("annotation") = builtins.attr("float")));
   for (const auto& declaration : table)
     parameters.append(
       parameter(declaration.key, parameter.attr("KEYWORD_ONLY"),
@@ -229,61 +254,133 @@ keywordSignatureObject(const ParamDeclarations<Params>& table)
   return inspect.attr("Signature")(parameters);
 }
 
-/** \brief Binds the constructor of \a cls from \a table: it takes every key as a
- * keyword argument with the C++ default (paramsFromKwargs()) and returns \a make of
- * the Params; its docstring starts with the signature line (keywordSignature()), then
- * \a summary, and the class gets its inspect.Signature.
+/** \brief The values of the leading arguments, \a args by position then the rest of
+ * their keys popped from \a kwargs.
+ * \throws py::type_error for too many positional arguments, a key given twice or one
+ * missing, or a value that is no float */
+template <typename T>
+std::vector<double>
+takeLeadingArguments(const std::vector<LeadingParam<T>>& leading,
+                     const py::args& args,
+                     py::dict& kwargs,
+                     const std::string& class_name)
+{
+  if (args.size() > leading.size())
+    throw py::type_error(class_name + "() takes " + std::to_string(leading.size())
+                         + " positional arguments but " + std::to_string(args.size())
+                         + " were given");
+  std::vector<double> values;
+  for (std::size_t i = 0; i < leading.size(); ++i) {
+    const std::string& key = leading[i].key;
+    const std::string where = class_name + ": " + key;
+    if (i < args.size()) {
+      if (kwargs.contains(key))
+        throw py::type_error(class_name + "() got multiple values for argument '" + key
+                             + "'");
+      values.push_back(detail::castArgument<double>(args[i], where, "float"));
+    } else if (kwargs.contains(key)) {
+      values.push_back(
+        detail::castArgument<double>(kwargs[key.c_str()], where, "float"));
+      PyDict_DelItemString(kwargs.ptr(), key.c_str());
+    } else
+      throw py::type_error(class_name + "() missing required argument: '" + key + "'");
+  }
+  return values;
+}
+
+/** \brief Binds the constructor of \a cls from \a table: it takes the \a leading keys
+ * first, by position or by name, then every key of the table as a keyword argument
+ * with the C++ default (paramsFromKwargs()), and returns \a make of the Params and the
+ * leading values; its docstring starts with the signature line (keywordSignature()),
+ * then \a summary, and the class gets its inspect.Signature.
  * \param[in] cls the class
  * \param[in] class_name the Python name, for messages and the signature
  * \param[in] table the declarations (a static table: the binding keeps a reference)
- * \param[in] make const Params& -> Holder, which checks the values as the class does
+ * \param[in] leading the arguments before the table's (none for most classes)
+ * \param[in] make (const Params&, const std::vector<double>& leading values) ->
+ * Holder, which checks the values as the class does
  * \param[in] summary the docstring after the signature line */
 template <typename T, typename Holder, typename Params, typename Make>
 void
 bindKeywordConstructor(py::class_<T, Holder>& cls,
                        const std::string& class_name,
                        const ParamDeclarations<Params>& table,
+                       const std::vector<LeadingParam<T>>& leading,
                        Make make,
                        const std::string& summary)
 {
+  std::vector<std::string> keys;
+  for (const auto& param : leading)
+    keys.push_back(param.key);
   const std::string doc =
-    keywordSignature(table, "planar_grid._planar_grid." + class_name) + "\n\n"
+    keywordSignature(table, "planar_grid._planar_grid." + class_name, keys) + "\n\n"
     + summary;
   {
     py::options options;
     options.disable_function_signatures();
-    cls.def(py::init([class_name, &table, make](const py::kwargs& kwargs) -> Holder {
-              return make(paramsFromKwargs(table, kwargs, class_name));
+    cls.def(py::init([class_name, &table, leading, make](const py::args& args,
+                                                         const py::kwargs& kwargs) {
+              py::dict rest(kwargs);
+              const std::vector<double> values =
+                takeLeadingArguments(leading, args, rest, class_name);
+              return make(paramsFromKwargs(table, rest, class_name), values);
             }),
             doc.c_str());
   }
-  cls.attr("__signature__") = keywordSignatureObject(table);
+  cls.attr("__signature__") = keywordSignatureObject(table, keys);
 }
 
 /** \brief Binds an algorithm's declared parameters on its Python class \a cls: a
  * read-write property per key (type, meaning, unit and range in its docstring), a
  * constructor taking them as keyword arguments with the C++ defaults, __signature__
  * and __repr__ (a constructor call that rebuilds the object). A value out of its
- * declared range raises ValueError and leaves the object as it was.
+ * declared range, or one \a object_check refuses, raises ValueError and leaves the
+ * object as it was.
  * \param[in] cls the class (T held by Holder, default-constructible)
  * \param[in] class_name the Python name, for messages and repr
  * \param[in] table the declarations (a static table: the bindings keep a reference)
  * \param[in] get_params T -> const Params& (T::getParams)
- * \param[in] set_params (T&, const Params&) (T::setParams) */
+ * \param[in] set_params (T&, const Params&) (T::setParams)
+ * \param[in] leading parameters outside the table that the constructor takes first,
+ * each a float property too (the stereo rig of an occupancy filter)
+ * \param[in] object_check const T& -> nullptr or what is wrong, run after every write
+ * (the class's own check of what the table's ranges do not say; none by default) */
 template <typename T, typename Holder, typename Params, typename Get, typename Set>
 void
 bindDeclaredParams(py::class_<T, Holder>& cls,
                    const std::string& class_name,
                    const ParamDeclarations<Params>& table,
                    Get get_params,
-                   Set set_params)
+                   Set set_params,
+                   const std::vector<LeadingParam<T>>& leading = {},
+                   std::function<const char*(const T&)> object_check = nullptr)
 {
-  // The declared ranges, checked before a value reaches the object.
+  // The declared ranges, checked before a value reaches the object, then the object's
+  // own check after it.
   const auto check = [class_name, &table](const Params& params) {
     const std::string bad = checkDeclaredRanges(table, params);
     if (!bad.empty())
       throw py::value_error(class_name + ": invalid parameter: " + bad);
   };
+  const auto checkObject = [class_name, object_check](const T& object) {
+    const char* bad = object_check ? object_check(object) : nullptr;
+    if (bad != nullptr)
+      throw py::value_error(class_name + ": invalid parameter: " + bad);
+  };
+  for (const auto& param : leading)
+    cls.def_property(
+      param.key.c_str(), param.get,
+      [param, checkObject](T& object, double value) {
+        const double old = param.get(object);
+        param.set(object, value);
+        try {
+          checkObject(object);
+        } catch (const py::value_error&) {
+          param.set(object, old);
+          throw;
+        }
+      },
+      ("float: " + param.description).c_str());
   for (const auto& declaration : table) {
     using Type = typename ParamDeclaration<Params>::Type;
     const bool numeric =
@@ -297,9 +394,10 @@ bindDeclaredParams(py::class_<T, Holder>& cls,
       [declaration, get_params](const T& object) {
         return paramToPython(declaration.get(get_params(object)));
       },
-      [declaration, get_params, set_params, class_name,
-       check](T& object, const py::object& value) {
-        Params params = get_params(object);
+      [declaration, get_params, set_params, class_name, check,
+       checkObject](T& object, const py::object& value) {
+        const Params old = get_params(object);
+        Params params = old;
         const std::string where = class_name + ": " + declaration.key;
         const ParamValue converted = convertArgument(declaration, value, where);
         try {
@@ -309,27 +407,51 @@ bindDeclaredParams(py::class_<T, Holder>& cls,
         }
         check(params);
         set_params(object, params);
+        try {
+          checkObject(object);
+        } catch (const py::value_error&) {
+          set_params(object, old);
+          throw;
+        }
       },
       doc.c_str());
   }
+  std::string docs;
+  for (const auto& param : leading)
+    docs += param.key + " : float\n" + wrapText(param.description, 4, 88);
   bindKeywordConstructor(
-    cls, class_name, table,
-    [check, set_params](const Params& params) {
+    cls, class_name, table, leading,
+    [check, checkObject, set_params, leading](const Params& params,
+                                              const std::vector<double>& values) {
       check(params);
       Holder object(new T());
       set_params(*object, params);
+      for (std::size_t i = 0; i < leading.size(); ++i)
+        leading[i].set(*object, values[i]);
+      checkObject(*object);
       return object;
     },
-    "Every keyword argument is a parameter (the properties), with the C++ default.\n\n"
-    "Parameters\n----------\n"
-      + declaredParameterDocs(table));
-  cls.def("__repr__", [class_name, &table, get_params](const T& object) {
+    std::string(leading.empty() ? "Every keyword argument is a parameter (the "
+                                  "properties), with the C++ default.\n\n"
+                                : "The leading arguments come first, by position or "
+                                  "by name; every other argument is a keyword, with "
+                                  "the C++ default. All are properties.\n\n")
+      + "Parameters\n----------\n" + docs + declaredParameterDocs(table));
+  cls.def("__repr__", [class_name, &table, get_params, leading](const T& object) {
     std::string text = "planar_grid." + class_name + "(";
+    const char* separator = "";
+    for (const auto& param : leading) {
+      text += separator + param.key + "="
+              + py::repr(py::float_(param.get(object))).template cast<std::string>();
+      separator = ", ";
+    }
     const Params& params = get_params(object);
-    for (std::size_t i = 0; i < table.size(); ++i)
+    for (const auto& declaration : table) {
       text +=
-        (i == 0 ? "" : ", ") + table[i].key + "="
-        + py::repr(paramToPython(table[i].get(params))).template cast<std::string>();
+        separator + declaration.key + "="
+        + py::repr(paramToPython(declaration.get(params))).template cast<std::string>();
+      separator = ", ";
+    }
     return text + ")";
   });
 }

@@ -294,6 +294,28 @@ def test_occupancy_filter_errors_carry_the_library_message() -> None:
         kl.update_rule = "bayes"
 
 
+def test_occupancy_filter_stereo_rig_is_positional_or_keyword() -> None:
+    # The rig by position, by name in any order, or mixed; not twice, not missing.
+    by_name = pg.KLDivergenceOccupancyFilter(baseline_m=B_M, focal_length_px=F_PX)
+    mixed = pg.KLDivergenceOccupancyFilter(F_PX, baseline_m=B_M)
+    assert repr(by_name) == repr(mixed) == repr(pg.KLDivergenceOccupancyFilter(F_PX, B_M))
+    with pytest.raises(TypeError, match="multiple values for argument 'focal_length_px'"):
+        pg.KLDivergenceOccupancyFilter(F_PX, B_M, focal_length_px=F_PX)
+    with pytest.raises(TypeError, match="missing required argument: 'baseline_m'"):
+        pg.KLDivergenceOccupancyFilter(F_PX)
+    with pytest.raises(TypeError, match="takes 2 positional arguments but 3 were given"):
+        pg.KLDivergenceOccupancyFilter(F_PX, B_M, 0.5)
+    with pytest.raises(TypeError, match="focal_length_px: expected float"):
+        pg.KLDivergenceOccupancyFilter("f", B_M)
+    # The other sensors' keys are the pipeline's, not keywords of the stereo filter.
+    with pytest.raises(TypeError, match="unexpected keyword argument 'range_error_m'"):
+        pg.KLDivergenceOccupancyFilter(F_PX, B_M, range_error_m=0.1)
+    # A rig the filter refuses leaves the old value.
+    with pytest.raises(ValueError, match="stereo parameters not set"):
+        mixed.baseline_m = -1.0
+    assert mixed.baseline_m == pytest.approx(B_M)
+
+
 def test_repr_is_the_constructor_call_with_every_parameter() -> None:
     # repr() names each parameter with its value; evaluated, it rebuilds an object of the
     # same parameters.
