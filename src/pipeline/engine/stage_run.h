@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Running one stage on one frame and building the stages, for Mapper, which runs the
-// stages of the live calls and of PipelineRunner (internal to the pipeline module).
+// stages of the live calls and of PipelineRunner (internal to the engine).
 #pragma once
 
 #include <planar_grid/pipeline/frame.h>
