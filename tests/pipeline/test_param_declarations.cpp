@@ -8,6 +8,7 @@
 #include <planar_grid/filters/kl_divergence_occupancy_filter.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/odometry/stereo_odometry.h>
+#include <planar_grid/pipeline/param_parser.h>
 #include <planar_grid/pipeline/param_table.h>
 #include <planar_grid/pipeline/stage.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>

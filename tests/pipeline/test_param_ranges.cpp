@@ -10,6 +10,7 @@
 #include <planar_grid/map/explicit_space_grid.h>
 #include <planar_grid/map/surface_layer.h>
 #include <planar_grid/odometry/stereo_odometry.h>
+#include <planar_grid/pipeline/param_parser.h>
 #include <planar_grid/pipeline/param_table.h>
 #include <planar_grid/pipeline/stage.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation.h>

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/planar_grid_map.h>
+#include <planar_grid/pipeline/param_parser.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_config_writer.h>
 #include <planar_grid/pipeline/stage.h>

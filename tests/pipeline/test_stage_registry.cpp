@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
+#include <planar_grid/pipeline/param_parser.h>
 #include <planar_grid/pipeline/param_table.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/pipeline_config_writer.h>

@@ -27,7 +27,7 @@
 #include <sstream>
 #include <utility>
 
-#include "ros_bag_input.h"
+#include "ros_bag_source.h"
 
 namespace planar_grid {
 
@@ -737,6 +737,29 @@ private:
   Trajectory poses_;
   std::string description_;
 };
+
+bool
+rosBagSupported()
+{
+#ifdef PLANAR_GRID_HAVE_ROS_BAG
+  return true;
+#else
+  return false;
+#endif
+}
+
+// Without the ROS bag library (src/ros_bag) the configuration already refuses a bag
+// input; a configuration made in code is refused here.
+#ifndef PLANAR_GRID_HAVE_ROS_BAG
+std::unique_ptr<FrameSource>
+createRosBagSource(const InputConfig& input)
+{
+  throw ConfigError("", 0, 0,
+                    input.ros_bag.file
+                      + ": this build of PlanarGrid has no ROS bag support "
+                        "(librosbag-storage-dev was not found when it was configured)");
+}
+#endif
 
 std::unique_ptr<FrameSource>
 createFrameSource(const InputConfig& input)

@@ -26,15 +26,10 @@
 #include <thread>
 
 #include "resume_data.h"
-#include "stage_run.h"
-#include "stages.h"
 
 namespace planar_grid {
 
 namespace {
-
-using stages::addSample;
-using stages::threadCpuMs;
 
 /** \a value for report.json: an integer when \a is_count and \a value is a whole number
  * a double holds exactly (every count is), else a float. */
@@ -111,7 +106,7 @@ endFrame(RunReport& report,
          const std::vector<FrameStageStats>& samples)
 {
   for (std::size_t s = 0; s < samples.size(); ++s)
-    addSample(report.stages[s], samples[s]);
+    report.stages[s].add(samples[s]);
   ++report.frames;
   if (callback) {
     std::vector<double> ms(samples.size());

@@ -3,6 +3,7 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/explicit_space_grid.h>
 #include <planar_grid/map/planar_grid_map.h>
+#include <planar_grid/pipeline/map_stage_params.h>
 #include <planar_grid/pipeline/memory_estimate.h>
 #include <planar_grid/pipeline/param_table.h>
 
@@ -17,8 +18,6 @@
 #include <sstream>
 #include <utility>
 #include <vector>
-
-#include "map_stage_params.h"
 
 namespace planar_grid {
 

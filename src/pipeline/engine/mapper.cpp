@@ -417,7 +417,7 @@ Mapper::runStages(Frame& frame, StageProgress& progress, const StageCallback& ca
     write_lock_.unlock();
   }
   for (std::size_t s = 0; s < progress.stages.size(); ++s)
-    stages::addSample(stage_reports_[s], progress.stages[s]);
+    stage_reports_[s].add(progress.stages[s]);
   // After the stages: visual_odometry sets the pose of frames given none.
   if (frame.has_pose)
     trajectory_.push_back(frame.world_T_camera);

@@ -24,7 +24,19 @@ StageReport::addCounter(const std::string& name, double value)
   counters.emplace_back(name, value);
 }
 
-namespace stages {
+void
+StageReport::add(const FrameStageStats& sample)
+{
+  total_ms += sample.ms;
+  max_ms = std::max(max_ms, sample.ms);
+  ++frames;
+  cpu_ms += sample.cpu_ms;
+  ++cpu_frames;
+  points_in += sample.points_in;
+  points_out += sample.points_out;
+  for (const auto& [name, value] : sample.counters)
+    addCounter(name, value);
+}
 
 double
 threadCpuMs()
@@ -34,6 +46,8 @@ threadCpuMs()
     return 0.0;
   return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
 }
+
+namespace stages {
 
 void
 runStage(Stage& stage,
@@ -73,20 +87,6 @@ runStage(Stage& stage,
     last_count = {};
   stage.counters(frame, sample.counters);
   progress.stages.push_back(std::move(sample));
-}
-
-void
-addSample(StageReport& sr, const FrameStageStats& sample)
-{
-  sr.total_ms += sample.ms;
-  sr.max_ms = std::max(sr.max_ms, sample.ms);
-  ++sr.frames;
-  sr.cpu_ms += sample.cpu_ms;
-  ++sr.cpu_frames;
-  sr.points_in += sample.points_in;
-  sr.points_out += sample.points_out;
-  for (const auto& [name, value] : sample.counters)
-    sr.addCounter(name, value);
 }
 
 std::unique_ptr<Stage>

@@ -1,4 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
+#include "ros_bag_source.h"
+
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/pipeline/stereo_pair_check.h>
 #include <planar_grid/ros_bag/ros_bag_file.h>
@@ -19,8 +21,6 @@
 #include <filesystem>
 #include <mutex>
 #include <sstream>
-
-#include "ros_bag_input.h"
 
 namespace planar_grid {
 

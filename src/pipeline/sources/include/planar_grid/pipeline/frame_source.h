@@ -3,7 +3,7 @@
 
 #include <planar_grid/odometry/trajectory_io.h>
 #include <planar_grid/pipeline/frame.h>
-#include <planar_grid/pipeline/pipeline_config.h>
+#include <planar_grid/pipeline/input_config.h>
 
 #include <memory>
 #include <string>

@@ -29,26 +29,6 @@
 
 namespace planar_grid {
 
-/** \brief What one stage did to one frame (Mapper::integrateStereo(),
- * Mapper::integrateCloud(), Mapper::integrateFrame()). \ingroup pipeline */
-struct FrameStageStats {
-  /** \brief Stage type. */
-  std::string type;
-  /** \brief Wall time of the stage on the frame, milliseconds. */
-  double ms{0.0};
-  /** \brief CPU time of the thread that ran the stage on the frame
-   * (CLOCK_THREAD_CPUTIME_ID), milliseconds; work the stage hands to other threads is
-   * not in it. */
-  double cpu_ms{0.0};
-  /** \brief Valid points entering the stage (stages that work on the cloud; else 0). */
-  std::uint64_t points_in{0};
-  /** \brief Valid points leaving the stage. */
-  std::uint64_t points_out{0};
-  /** \brief The stage's named figures on this frame (Stage::counters), e.g.
-   * feature_matching: "features", multi_plane_segmentation: "planes". */
-  std::vector<std::pair<std::string, double>> counters;
-};
-
 /** \brief A frame's way through a mapper's stages so far (Mapper::prepareFrame(),
  * Mapper::integrateFrame()): what each stage it went through did, from the first stage
  * on, and the count of the valid points the last one left, which the next stage starts

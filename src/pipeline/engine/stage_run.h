@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Running one stage on one frame and building the stages, for Mapper, which runs the
-// stages of the live calls and of PipelineRunner (internal to the pipeline module).
+// stages of the live calls and of PipelineRunner (internal to the engine).
 #pragma once
 
 #include <planar_grid/pipeline/frame.h>
@@ -27,9 +27,6 @@ using StageCallback = Mapper::StageCallback;
 /** \brief The count of the valid points of the cloud a stage left behind. */
 using CloudCount = StageProgress::CloudCount;
 
-/** \brief CPU time of the calling thread, milliseconds. */
-double threadCpuMs();
-
 /** \brief Runs stage \a s (\a stage, of type \a type) on \a frame, after \a callback
  * when it is set, and appends its time, points and counters to \a progress; failures
  * name the frame, its position \a i and the stage. */
@@ -41,9 +38,6 @@ void runStage(Stage& stage,
               PipelineState& state,
               std::size_t i,
               StageProgress& progress);
-
-/** \brief Adds what a stage did to one frame, \a sample, to the stage's sums \a sr. */
-void addSample(StageReport& sr, const FrameStageStats& sample);
 
 /** \brief Builds a stage of type \a type from its parameters.
  * \throws planar_grid::ConfigError at \a source, \a line, \a column for an unknown

@@ -3,10 +3,10 @@
 #include <planar_grid/core/byte_io.h>
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/planar_grid_map.h>
+#include <planar_grid/pipeline/map_stage_params.h>
 
 #include <pcl/common/transforms.h>
 
-#include "map_stage_params.h"
 #include "stages.h"
 
 namespace planar_grid {

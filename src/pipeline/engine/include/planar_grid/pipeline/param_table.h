@@ -10,10 +10,6 @@
 #include <variant>
 #include <vector>
 
-namespace YAML {
-class Node;
-}
-
 namespace planar_grid {
 
 /** \brief One parameter of a pipeline stage: its YAML key (with the unit as suffix),
@@ -179,18 +175,6 @@ public:
 private:
   std::map<std::string, std::variant<double, int, bool, std::string>> values_;
 };
-
-/** \brief Parses a stage's `params:` map strictly against its table: an unknown key, a
- * value of the wrong type, or an out-of-range value is a planar_grid::ConfigError at
- * the value's file:line:col, saying what was expected. Missing keys take their
- * defaults. \param[in] node the `params` map (may be null/absent: all defaults)
- * \param[in] specs the stage's table
- * \param[in] file the YAML file, for messages
- * \param[in] stage_type the stage, for messages */
-ParamValues parseParams(const YAML::Node& node,
-                        const std::vector<ParamSpec>& specs,
-                        const std::string& file,
-                        const std::string& stage_type);
 
 /** \brief The defaults of a table, as ParamValues. */
 ParamValues defaultParams(const std::vector<ParamSpec>& specs);

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Private to the pipeline library: the decoded content of a checkpoint
+// Private to the batch library: the decoded content of a checkpoint
 // (pipeline_checkpoint.cpp), applied by PipelineRunner::run() (pipeline_runner.cpp).
 #pragma once
 

@@ -10,16 +10,6 @@
 
 namespace planar_grid {
 
-bool
-rosBagSupported()
-{
-#ifdef PLANAR_GRID_HAVE_ROS_BAG
-  return true;
-#else
-  return false;
-#endif
-}
-
 InputConfig
 parseRosBagInput(const YamlReader& r, const YAML::Node& node)
 {
@@ -103,16 +93,5 @@ parseRosBagInput(const YamlReader& r, const YAML::Node& node)
   }
   return input;
 }
-
-#ifndef PLANAR_GRID_HAVE_ROS_BAG
-std::unique_ptr<FrameSource>
-createRosBagSource(const InputConfig& input)
-{
-  throw ConfigError("", 0, 0,
-                    input.ros_bag.file
-                      + ": this build of PlanarGrid has no ROS bag support "
-                        "(librosbag-storage-dev was not found when it was configured)");
-}
-#endif
 
 } // namespace planar_grid

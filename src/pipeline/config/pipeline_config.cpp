@@ -2,6 +2,7 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/core/input_file.h>
 #include <planar_grid/core/output_transaction.h>
+#include <planar_grid/pipeline/param_parser.h>
 #include <planar_grid/pipeline/pipeline_config.h>
 #include <planar_grid/pipeline/stage.h>
 #include <planar_grid/pipeline/yaml_reader.h>
