@@ -300,16 +300,16 @@ def test_occupancy_filter_stereo_rig_is_positional_or_keyword() -> None:
     mixed = pg.KLDivergenceOccupancyFilter(F_PX, baseline_m=B_M)
     assert repr(by_name) == repr(mixed) == repr(pg.KLDivergenceOccupancyFilter(F_PX, B_M))
     with pytest.raises(TypeError, match="multiple values for argument 'focal_length_px'"):
-        pg.KLDivergenceOccupancyFilter(F_PX, B_M, focal_length_px=F_PX)
+        pg.KLDivergenceOccupancyFilter(F_PX, B_M, focal_length_px=F_PX)  # type: ignore[misc]
     with pytest.raises(TypeError, match="missing required argument: 'baseline_m'"):
-        pg.KLDivergenceOccupancyFilter(F_PX)
+        pg.KLDivergenceOccupancyFilter(F_PX)  # type: ignore[call-arg]
     with pytest.raises(TypeError, match="takes 2 positional arguments but 3 were given"):
-        pg.KLDivergenceOccupancyFilter(F_PX, B_M, 0.5)
+        pg.KLDivergenceOccupancyFilter(F_PX, B_M, 0.5)  # type: ignore[misc, arg-type]
     with pytest.raises(TypeError, match="focal_length_px: expected float"):
-        pg.KLDivergenceOccupancyFilter("f", B_M)
+        pg.KLDivergenceOccupancyFilter("f", B_M)  # type: ignore[arg-type]
     # The other sensors' keys are the pipeline's, not keywords of the stereo filter.
     with pytest.raises(TypeError, match="unexpected keyword argument 'range_error_m'"):
-        pg.KLDivergenceOccupancyFilter(F_PX, B_M, range_error_m=0.1)
+        pg.KLDivergenceOccupancyFilter(F_PX, B_M, range_error_m=0.1)  # type: ignore[call-arg]
     # A rig the filter refuses leaves the old value.
     with pytest.raises(ValueError, match="stereo parameters not set"):
         mixed.baseline_m = -1.0
