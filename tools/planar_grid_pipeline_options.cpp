@@ -44,7 +44,9 @@ printHelp(const char* program)
              "                         replace a parameter of the YAML's one stage of\n"
              "                         that type (repeatable; checked as the file's\n"
              "                         values are: exit 3 when wrong), e.g.\n"
-             "                         --set stereo_disparity.row_downscale=2\n");
+             "                         --set stereo_disparity.row_downscale=2;\n"
+             "                         --set cell_size_m=0.2 sets the top-level\n"
+             "                         minimum cell every cell-size key follows\n");
   print_info(
     "    --frames A:B         run frames A..B-1 (0-based positions in the input);\n"
     "                         A: or :B leave a side open (default: all frames)\n");

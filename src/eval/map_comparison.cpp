@@ -58,37 +58,6 @@ savePointsAtomically(const std::string& path,
   });
 }
 
-/** The pipeline stage \a sc at cell size \a r: its parameters marked CELL_SIZE in
- * its table are set to r, those marked POINTS_PER_AREA scaled by (0.1 / r)^2, those
- * marked LENGTH by r / 0.1 (ParamSpec::CellSizeScaling). */
-StageConfig
-stageAtResolution(const StageConfig& sc, double r)
-{
-  const StageInfo* info = findStage(sc.type);
-  if (!info)
-    throw Exception("unknown stage type '" + sc.type + "'");
-  StageConfig scaled_stage = sc;
-  ParamValues& params = scaled_stage.params;
-  for (const ParamSpec& spec : info->params)
-    switch (spec.cell_size_scaling) {
-      case ParamSpec::CellSizeScaling::NONE:
-        break;
-      case ParamSpec::CellSizeScaling::CELL_SIZE:
-        params.set(spec.key, r);
-        break;
-      case ParamSpec::CellSizeScaling::POINTS_PER_AREA: {
-        // The same surface area: the voxel count falls with the square of the size.
-        const double scaled = params.getInt(spec.key) * (0.1 / r) * (0.1 / r);
-        params.set(spec.key, std::max(10, static_cast<int>(std::lround(scaled))));
-        break;
-      }
-      case ParamSpec::CellSizeScaling::LENGTH:
-        params.set(spec.key, params.getDouble(spec.key) * (r / 0.1));
-        break;
-    }
-  return scaled_stage;
-}
-
 /** The pipeline of \a ds with its front-end stages (\a front true) or its mapping
  * stages (false) only, at cell size \a r. */
 PipelineConfig
@@ -96,9 +65,11 @@ pipelinePart(const DatasetConfig& ds, bool front, double r)
 {
   PipelineConfig part = ds.pipeline;
   part.stages.clear();
+  // The file's stages are at its own cell_size_m when it has one.
+  const double from = ds.pipeline.cell_size_m > 0.0 ? ds.pipeline.cell_size_m : 0.1;
   for (const auto& sc : ds.pipeline.stages)
     if (isFrontEnd(sc.type) == front)
-      part.stages.push_back(stageAtResolution(sc, r));
+      part.stages.push_back(stageAtCellSize(sc, r, from));
   return part;
 }
 

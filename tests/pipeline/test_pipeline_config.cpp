@@ -891,6 +891,113 @@ TEST(PipelineConfig, TheCellsAndTheMapShareTheMinimumCell)
     << against_set.what();
 }
 
+TEST(PipelineConfig, OneCellSizeKeySetsEveryKeyOfTheMinimumCell)
+{
+  // A PCD input with poses and every stage with keys that follow the cell size.
+  const std::string stages = "pipeline:\n"
+                             "  - type: voxel_grid\n"
+                             "  - type: transform_to_world\n"
+                             "  - type: multi_plane_segmentation\n"
+                             "  - type: planar_cuboid_approximation\n"
+                             "  - type: map_integration\n"
+                             "  - type: accumulate\n";
+  const std::string head = "input:\n  type: pcd_files\n  files: [a.pcd]\n"
+                           "  poses: {format: kitti, file: poses.txt}\n";
+  const auto base = parsePipelineConfig(head + stages, "t", "/");
+  const auto c = parsePipelineConfig(head + "cell_size_m: 0.2\n" + stages, "t", "/");
+  EXPECT_DOUBLE_EQ(base.cell_size_m, 0.0);
+  EXPECT_DOUBLE_EQ(c.cell_size_m, 0.2);
+  ASSERT_EQ(c.stages.size(), base.stages.size());
+  // Every key of every stage, against the rule: the cell's keys take 0.2, lengths
+  // double, counts per area fall to a quarter (at least 10); the rest is unchanged.
+  int followed = 0;
+  for (std::size_t i = 0; i < c.stages.size(); ++i) {
+    const planar_grid::StageInfo* info = planar_grid::findStage(c.stages[i].type);
+    ASSERT_NE(info, nullptr);
+    for (const auto& spec : info->params) {
+      const auto& got = c.stages[i].params;
+      const auto& was = base.stages[i].params;
+      const std::string where = c.stages[i].type + "." + spec.key;
+      using Scaling = planar_grid::ParamSpec::CellSizeScaling;
+      switch (spec.cell_size_scaling) {
+        case Scaling::CELL_SIZE:
+          EXPECT_DOUBLE_EQ(got.getDouble(spec.key), 0.2) << where;
+          ++followed;
+          break;
+        case Scaling::LENGTH:
+          EXPECT_DOUBLE_EQ(got.getDouble(spec.key), 2.0 * was.getDouble(spec.key))
+            << where;
+          ++followed;
+          break;
+        case Scaling::POINTS_PER_AREA:
+          EXPECT_EQ(
+            got.getInt(spec.key),
+            std::max(10, static_cast<int>(std::lround(was.getInt(spec.key) / 4.0))))
+            << where;
+          ++followed;
+          break;
+        case Scaling::NONE:
+          EXPECT_EQ(got.toString(spec.key), was.toString(spec.key)) << where;
+          break;
+      }
+    }
+  }
+  EXPECT_GE(followed, 10);
+  // Known values: the map and the cells at 0.2 m, 500 inliers a quarter.
+  EXPECT_DOUBLE_EQ(c.stages[4].params.getDouble("resolution_m"), 0.2);
+  EXPECT_DOUBLE_EQ(c.stages[3].params.getDouble("min_cell_size_m"), 0.2);
+  EXPECT_EQ(c.stages[2].params.getInt("min_inliers"), 125);
+  // The same value given for a key of the cell is fine; another one is an error at
+  // that key (line 8: voxel_grid's params), or at its --set.
+  const std::string with_leaf = "pipeline:\n  - type: voxel_grid\n"
+                                "    params: {leaf_size_m: LEAF}\n"
+                                "  - type: transform_to_world\n";
+  const auto leaf = [&](const std::string& value) {
+    std::string text = with_leaf;
+    text.replace(text.find("LEAF"), 4, value);
+    return head + "cell_size_m: 0.2\n" + text;
+  };
+  EXPECT_NO_THROW(parsePipelineConfig(leaf("0.2"), "t", "/"));
+  const auto e = errorOf(leaf("0.05"));
+  EXPECT_EQ(e.line(), 8);
+  EXPECT_NE(std::string(e.what()).find("differs from cell_size_m 0.2 (line 5)"),
+            std::string::npos)
+    << e.what();
+  try {
+    parsePipelineConfig(head + "cell_size_m: 0.2\n" + stages, "t", "/",
+                        {"map_integration.resolution_m=0.1"});
+    ADD_FAILURE() << "a --set against cell_size_m was accepted";
+  } catch (const ConfigError& error) {
+    EXPECT_EQ(error.file(), "--set map_integration.resolution_m=0.1");
+  }
+  // --set cell_size_m=R: the same as the file's key, checked where it is written.
+  const auto by_set = parsePipelineConfig(head + stages, "t", "/", {"cell_size_m=0.2"});
+  for (std::size_t i = 0; i < c.stages.size(); ++i)
+    for (const auto& spec : planar_grid::findStage(c.stages[i].type)->params)
+      EXPECT_EQ(by_set.stages[i].params.toString(spec.key),
+                c.stages[i].params.toString(spec.key))
+        << c.stages[i].type << "." << spec.key;
+  for (const std::string bad : {"cell_size_m=0", "cell_size_m=x", "cell_size_m="}) {
+    try {
+      parsePipelineConfig(head + stages, "t", "/", {bad});
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const ConfigError& error) {
+      EXPECT_EQ(error.file(), "--set " + bad);
+    }
+  }
+  // Out of its range, or not a number: an error at the key.
+  for (const std::string bad : {"0", "-0.1", "11", "fine"}) {
+    const auto b = errorOf(head + "cell_size_m: " + bad + "\n" + stages);
+    EXPECT_EQ(b.line(), 5) << bad;
+    EXPECT_NE(std::string(b.what()).find("cell_size_m"), std::string::npos) << b.what();
+  }
+  // A mapper's stages take it too.
+  const auto mapper =
+    planar_grid::parseMapperConfig("cell_size_m: 0.3\n" + stages, "t", "/");
+  ASSERT_EQ(mapper.stages.size(), 6u);
+  EXPECT_DOUBLE_EQ(mapper.stages[4].params.getDouble("resolution_m"), 0.3);
+}
+
 TEST(PipelineConfig, TheSegmentationSparesTheGroundRemovalsTerrain)
 {
   // The segmentation spares as terrain the level planes at least ground_removal's

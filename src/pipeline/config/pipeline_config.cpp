@@ -394,6 +394,60 @@ checkDataFlow(const Reader& r,
   }
 }
 
+/** Sets the stages' keys of the minimum cell from the top-level cell_size_m \a cell
+ * (stageAtCellSize()). A key that takes the cell size set apart in the file (or by
+ * `--set`) to another value is an error at that key; a scaled key that leaves its
+ * range is an error at cell_size_m. */
+void
+applyCellSize(const Reader& r,
+              const YAML::Node& cell,
+              const YAML::Node& stage_nodes,
+              PipelineConfig& config,
+              const std::vector<std::string>& overrides)
+{
+  const double cell_size_m = r.realValue(cell, CELL_SIZE_RANGE, "m", "cell_size_m");
+  std::string given = "line " + std::to_string(cell.Mark().line + 1);
+  for (const auto& assignment : overrides)
+    if (assignment.rfind("cell_size_m=", 0) == 0)
+      given = "--set " + assignment;
+  const std::string at =
+    "cell_size_m " + formatParamNumber(cell_size_m) + " (" + given + ")";
+  for (std::size_t i = 0; i < config.stages.size(); ++i) {
+    StageConfig& stage = config.stages[i];
+    const StageInfo* info = findStage(stage.type);
+    const YAML::Node params = stage_nodes[i]["params"];
+    for (const ParamSpec& spec : info->params) {
+      if (spec.cell_size_scaling != ParamSpec::CellSizeScaling::CELL_SIZE)
+        continue;
+      const double value = stage.params.getDouble(spec.key);
+      if (std::abs(value - cell_size_m) <= 1e-9 * std::max(1.0, cell_size_m))
+        continue;
+      const std::string message =
+        stage.type + ": " + spec.key + " " + stage.params.toString(spec.key)
+        + " differs from " + at
+        + ": the keys of the minimum cell take cell_size_m; leave the key out";
+      const std::string override_text = overrideOf(overrides, stage.type, spec.key);
+      if (!override_text.empty())
+        throw ConfigError("--set " + override_text, 0, 0, message);
+      if (params && params.IsMap() && params[spec.key])
+        r.fail(params[spec.key], message);
+    }
+    stage = stageAtCellSize(stage, cell_size_m);
+    for (const ParamSpec& spec : info->params) {
+      if (spec.cell_size_scaling == ParamSpec::CellSizeScaling::NONE)
+        continue;
+      const double value = spec.type == ParamSpec::Type::INT
+                             ? static_cast<double>(stage.params.getInt(spec.key))
+                             : stage.params.getDouble(spec.key);
+      if (!spec.range.contains(value))
+        r.fail(cell, at + " makes " + stage.type + "." + spec.key + " "
+                       + stage.params.toString(spec.key) + ", outside "
+                       + formatParamRange(spec.range, spec.unit));
+    }
+  }
+  config.cell_size_m = cell_size_m;
+}
+
 /** Parses the stage list `pipeline:` of \a root into \a config's stages and checks
  * them against \a config's input (what it gives the first stage, the poses). */
 void
@@ -457,6 +511,8 @@ parseStages(const Reader& r,
   }
   checkDataFlow(r, stages, config);
   shareStageParams(r, stages, config.stages, overrides);
+  if (const YAML::Node cell = root["cell_size_m"])
+    applyCellSize(r, cell, stages, config, overrides);
 }
 
 PipelineConfig
@@ -469,7 +525,7 @@ parseRoot(const YAML::Node& root,
   if (!root || root.IsNull())
     throw ConfigError(source, 0, 0,
                       "the file is empty; expected input:, pipeline:, output:");
-  r.checkKeys(root, {"input", "pipeline", "output"}, "the top level");
+  r.checkKeys(root, {"input", "cell_size_m", "pipeline", "output"}, "the top level");
   PipelineConfig config;
   config.source_file = source;
 
@@ -498,7 +554,7 @@ parseMapperRoot(const YAML::Node& root,
   const Reader r(source, base);
   if (!root || root.IsNull())
     throw ConfigError(source, 0, 0, "the stages are empty; expected pipeline:");
-  r.checkKeys(root, {"pipeline"}, "a mapper's stages");
+  r.checkKeys(root, {"cell_size_m", "pipeline"}, "a mapper's stages");
   PipelineConfig config;
   config.source_file = source;
   bool stereo = false, odometry = false;
@@ -598,6 +654,20 @@ applyOverride(YAML::Node& root, const std::string& assignment)
   const std::string where = "--set " + assignment;
   const std::size_t dot = assignment.find('.');
   const std::size_t equals = assignment.find('=');
+  if (assignment.compare(0, equals, "cell_size_m") == 0) {
+    // The one top-level key --set takes: checked here, where its text is.
+    const std::string value = assignment.substr(equals + 1);
+    double cell_size_m = 0.0;
+    std::istringstream in(value);
+    if (!(in >> cell_size_m) || !(in >> std::ws).eof()
+        || !CELL_SIZE_RANGE.contains(cell_size_m))
+      throw ConfigError(where, 0, 0,
+                        "cell_size_m must be a number in "
+                          + formatParamRange(CELL_SIZE_RANGE, "m") + ", got '" + value
+                          + "'");
+    root["cell_size_m"] = cell_size_m;
+    return;
+  }
   if (dot == std::string::npos || equals == std::string::npos || dot == 0
       || equals < dot + 2)
     throw ConfigError(where, 0, 0,
@@ -698,6 +768,35 @@ loadPipelineConfig(const std::string& path, const std::vector<std::string>& over
   const std::string base =
     p.has_parent_path() ? p.parent_path().string() : std::string(".");
   return parsePipelineConfig(text, path, base, overrides);
+}
+
+StageConfig
+stageAtCellSize(const StageConfig& stage, double cell_size_m, double from_cell_size_m)
+{
+  const StageInfo* info = findStage(stage.type);
+  if (!info)
+    throw Exception("unknown stage type '" + stage.type + "'");
+  const double ratio = cell_size_m / from_cell_size_m;
+  StageConfig scaled = stage;
+  ParamValues& params = scaled.params;
+  for (const ParamSpec& spec : info->params)
+    switch (spec.cell_size_scaling) {
+      case ParamSpec::CellSizeScaling::NONE:
+        break;
+      case ParamSpec::CellSizeScaling::CELL_SIZE:
+        params.set(spec.key, cell_size_m);
+        break;
+      case ParamSpec::CellSizeScaling::POINTS_PER_AREA: {
+        // The same surface area: the voxel count falls with the square of the size.
+        const double count = params.getInt(spec.key) / (ratio * ratio);
+        params.set(spec.key, std::max(10, static_cast<int>(std::lround(count))));
+        break;
+      }
+      case ParamSpec::CellSizeScaling::LENGTH:
+        params.set(spec.key, params.getDouble(spec.key) * ratio);
+        break;
+    }
+  return scaled;
 }
 
 const std::vector<SharedStageParam>&

@@ -42,11 +42,14 @@ scalingNote(const ParamSpec& spec)
     case ParamSpec::CellSizeScaling::NONE:
       return "";
     case ParamSpec::CellSizeScaling::CELL_SIZE:
-      return " *Follows the cell size r in planar_grid_eval (set to r).*";
+      return " *Follows the cell size r (top-level `cell_size_m`, planar_grid_eval): "
+             "set to r.*";
     case ParamSpec::CellSizeScaling::POINTS_PER_AREA:
-      return " *Follows the cell size r in planar_grid_eval (scaled by (0.1 / r)^2).*";
+      return " *Follows the cell size r (top-level `cell_size_m`, planar_grid_eval): "
+             "scaled by (0.1 / r)^2.*";
     case ParamSpec::CellSizeScaling::LENGTH:
-      return " *Follows the cell size r in planar_grid_eval (scaled by r / 0.1).*";
+      return " *Follows the cell size r (top-level `cell_size_m`, planar_grid_eval): "
+             "scaled by r / 0.1.*";
   }
   return "";
 }

@@ -159,7 +159,30 @@ struct PipelineConfig {
   std::vector<StageConfig> stages;
   /** \brief What the run writes. */
   OutputConfig output;
+  /** \brief The file's top-level cell_size_m, meters, which the stages' keys of the
+   * minimum cell were set from (stageAtCellSize()); 0 when the file has none (each
+   * stage's own values). */
+  double cell_size_m{0.0};
 };
+
+/** \brief Valid range of a pipeline file's top-level cell_size_m, meters. */
+inline constexpr ParamRange CELL_SIZE_RANGE = ParamRange::closed(0.01, 10.0);
+
+/** \brief \a stage moved from the minimum cell \a from_cell_size_m to \a cell_size_m:
+ * the keys its table marks CELL_SIZE take \a cell_size_m, those marked LENGTH are
+ * scaled by cell_size_m / from_cell_size_m and those marked POINTS_PER_AREA by
+ * (from_cell_size_m / cell_size_m)^2 (at least 10) (ParamSpec::CellSizeScaling). A
+ * pipeline file's top-level cell_size_m moves its stages from the paper's 0.1 m cell
+ * the defaults are tuned for; planar_grid_eval moves a pipeline to each of its cell
+ * sizes.
+ * \param[in] stage the stage, its params complete
+ * \param[in] cell_size_m the cell, meters, in CELL_SIZE_RANGE
+ * \param[in] from_cell_size_m the cell the stage's values are for, meters (> 0)
+ * \return the stage with its keys set
+ * \throws planar_grid::Exception for an unknown stage type \ingroup pipeline */
+StageConfig stageAtCellSize(const StageConfig& stage,
+                            double cell_size_m,
+                            double from_cell_size_m = 0.1);
 
 /** \brief Loads and validates a pipeline YAML file strictly: unknown keys,
  * unknown stage types (the message lists the known ones), wrong types and out-of-range
