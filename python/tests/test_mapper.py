@@ -139,14 +139,17 @@ def test_a_mapper_takes_the_configuration_as_a_dict(main_job: pathlib.Path,
 
 def test_a_mapper_takes_the_stages_alone(main_job: pathlib.Path,
                                          tmp_path: pathlib.Path) -> None:
-    # The file's stage list, with no input section (as a list or as {"pipeline": ...}),
-    # maps like the file; keys left out take their defaults; bad stages name "<stages>".
+    # The file's stage list and its cell size, with no input section, maps like the
+    # file; the list alone keeps each stage's own cell keys (a coarser voxel grid, so
+    # another map); keys left out take their defaults; bad stages name "<stages>".
     yaml = pytest.importorskip("yaml")
     with open(main_job, encoding="utf-8") as stream:
-        stages = yaml.safe_load(stream)["pipeline"]
+        document = yaml.safe_load(stream)
+    stages = document["pipeline"]
     frames = pg.InputFrames(main_job)
-    mappers = [pg.Mapper(stages), pg.Mapper({"pipeline": stages}), pg.Mapper(main_job)]
-    assert repr(mappers[0]) == "<planar_grid.Mapper: <stages>, 0 frames>"
+    mappers = [pg.Mapper({"cell_size_m": document["cell_size_m"], "pipeline": stages}),
+               pg.Mapper(main_job), pg.Mapper(stages)]
+    assert repr(mappers[2]) == "<planar_grid.Mapper: <stages>, 0 frames>"
     for i in range(2):
         f = frames[i]
         for mapper in mappers:
@@ -154,9 +157,9 @@ def test_a_mapper_takes_the_stages_alone(main_job: pathlib.Path,
                                     f["world_T_camera"])
     for k, mapper in enumerate(mappers):
         mapper.save(tmp_path / f"{k}.pgmap")
-    expected = (tmp_path / "2.pgmap").read_bytes()
+    expected = (tmp_path / "1.pgmap").read_bytes()
     assert (tmp_path / "0.pgmap").read_bytes() == expected
-    assert (tmp_path / "1.pgmap").read_bytes() == expected
+    assert (tmp_path / "2.pgmap").read_bytes() != expected
 
     # A point-cloud pipeline: no stage reads stereo images.
     clouds = pg.Mapper([{"type": "voxel_grid", "params": {"leaf_size_m": 0.05}},

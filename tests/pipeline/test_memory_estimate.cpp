@@ -148,23 +148,20 @@ TEST(MemoryEstimate, MapIsBoundedByFramesSweptPathAndWindow)
 
 TEST(MemoryEstimate, RefusalNamesTheKeyTheEstimateAndTheLimit)
 {
-  // The main job's file at 0.01 m: the error points at map_integration's resolution_m
-  // value, found here by reading the file (1-based line; the value's column is 21).
+  // The main job's file at 0.01 m: the error points at the top-level cell_size_m
+  // every key of the cell follows, found here by reading the file (1-based line; the
+  // value's column is 14).
   int resolution_line = 0;
   {
     std::ifstream file(SOURCE_DIR + "/config/karlsruhe.yaml");
     std::string line;
-    bool in_map_integration = false;
-    for (int n = 1; std::getline(file, line) && resolution_line == 0; ++n) {
-      if (line.find("- type:") != std::string::npos)
-        in_map_integration = line.find("type: map_integration") != std::string::npos;
-      else if (in_map_integration && line.rfind("      resolution_m: ", 0) == 0)
+    for (int n = 1; std::getline(file, line) && resolution_line == 0; ++n)
+      if (line.rfind("cell_size_m: ", 0) == 0)
         resolution_line = n;
-    }
   }
   ASSERT_GT(resolution_line, 0);
   const std::string position =
-    "karlsruhe.yaml:" + std::to_string(resolution_line) + ":21";
+    "karlsruhe.yaml:" + std::to_string(resolution_line) + ":14";
   const auto config = mainJob(0.01, 25.0);
   PinholeView k;
   k.width_px = 1344;
@@ -174,9 +171,9 @@ TEST(MemoryEstimate, RefusalNamesTheKeyTheEstimateAndTheLimit)
   k.cy_px = 194.1291;
   const MemoryEstimate e =
     planar_grid::estimateRunMemory(config, &k, planar_grid::Trajectory(), 112);
-  EXPECT_EQ(e.key, "map_integration.resolution_m");
+  EXPECT_EQ(e.key, "cell_size_m");
   EXPECT_EQ(e.line, resolution_line);
-  EXPECT_EQ(e.column, 21);
+  EXPECT_EQ(e.column, 14);
   // One view alone: the frustum (6253 m^3) in blocks of 0.08 m holds over 12 million.
   EXPECT_GT(e.view_blocks, 12000000u);
   planar_grid::MemoryLimit limit{std::uint64_t{4} << 30, "a test limit"};

@@ -312,7 +312,8 @@ estimateRunMemory(const PipelineConfig& config,
   assignParams(stages::mapStageParamDeclarations(), map->params, stage_params);
   estimate.resolution_m = map_params.resolution_m;
   estimate.max_range_m = map_params.space.max_range_m;
-  // The key that set the cell size: the map's own, else the cells' it took.
+  // The key that set the cell size: the file's cell_size_m, else the map's own, else
+  // the cells' it took.
   const auto mark = [&](const StageConfig& stage, const std::string& key) {
     const auto it = stage.param_marks.find(key);
     if (it == stage.param_marks.end())
@@ -322,7 +323,12 @@ estimateRunMemory(const PipelineConfig& config,
     estimate.column = it->second.second;
     return true;
   };
-  if (!mark(*map, "resolution_m") && !(cells && mark(*cells, "min_cell_size_m"))) {
+  if (config.cell_size_m > 0.0) {
+    estimate.key = "cell_size_m";
+    estimate.line = config.cell_size_line;
+    estimate.column = config.cell_size_column;
+  } else if (!mark(*map, "resolution_m")
+             && !(cells && mark(*cells, "min_cell_size_m"))) {
     estimate.key = "map_integration.resolution_m";
     estimate.line = map->line;
     estimate.column = map->column;

@@ -446,6 +446,10 @@ applyCellSize(const Reader& r,
     }
   }
   config.cell_size_m = cell_size_m;
+  if (given.rfind("line ", 0) == 0) {
+    config.cell_size_line = cell.Mark().line + 1;
+    config.cell_size_column = cell.Mark().column + 1;
+  }
 }
 
 /** Parses the stage list `pipeline:` of \a root into \a config's stages and checks

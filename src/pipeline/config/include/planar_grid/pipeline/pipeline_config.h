@@ -163,6 +163,11 @@ struct PipelineConfig {
    * minimum cell were set from (stageAtCellSize()); 0 when the file has none (each
    * stage's own values). */
   double cell_size_m{0.0};
+  /** \brief 1-based line and column of cell_size_m's value in the file (0 when it
+   * has none, or when `--set cell_size_m=...` gave it). */
+  int cell_size_line{0};
+  /** \brief See cell_size_line. */
+  int cell_size_column{0};
 };
 
 /** \brief Valid range of a pipeline file's top-level cell_size_m, meters. */
