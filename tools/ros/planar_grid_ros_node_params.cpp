@@ -154,9 +154,15 @@ PlanarGridNode::applyMapParams()
     checkRange("resolution", resolution_m,
                planar_grid::surface_layer_ranges::RESOLUTION, "m");
     const std::string value = planar_grid::formatParamNumber(resolution_m);
-    overrides.push_back("map_integration.resolution_m=" + value);
-    if (hasStage("planar_cuboid_approximation"))
-      overrides.push_back("planar_cuboid_approximation.min_cell_size_m=" + value);
+    // A file with a top-level cell_size_m: every key of the cell follows it; else
+    // the map's and the cells' own keys.
+    if (config_.cell_size_m > 0.0)
+      overrides.push_back("cell_size_m=" + value);
+    else {
+      overrides.push_back("map_integration.resolution_m=" + value);
+      if (hasStage("planar_cuboid_approximation"))
+        overrides.push_back("planar_cuboid_approximation.min_cell_size_m=" + value);
+    }
     resolution_source_ = "~resolution";
   }
   if (has_max_range) {
