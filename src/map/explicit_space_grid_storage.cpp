@@ -104,36 +104,29 @@ void
 walkCompact(const std::uint8_t* data, Uniform&& uniform, Mixed&& mixed)
 {
   const unsigned mixed_cubes = data[0];
-  const unsigned header = data[1];
-  const bool two_codes = (header & TWO_CODES) != 0;
-  // A node's code: 2 bits of a code word, or 1 bit choosing one of the two codes.
-  const unsigned per_node = two_codes ? 1u : 2u;
-  const std::uint32_t code0 = header & 3u, code1 = (header >> 2) & 3u;
-  const auto codeOf = [&](unsigned word, int k) -> unsigned {
-    if (two_codes)
-      return (word >> k) & 1u ? code1 : code0;
-    return (word >> (2 * k)) & 3u;
-  };
-  const unsigned cube_codes = two_codes ? data[2] : load16(data + 2);
-  const std::uint8_t* head = data + (two_codes ? 3 : 4);
+  const CompactLayout layout(data[1]);
+  // The two codes a mixed cell's bits choose between (a block of two codes).
+  const std::uint32_t code0 = layout.code(0u, 0), code1 = layout.code(1u, 0);
+  const unsigned cube_codes = layout.word(data + 2);
+  const std::uint8_t* head = data + layout.cubes_end;
   const std::uint8_t* tail =
-    head + (1 + per_node) * static_cast<unsigned>(__builtin_popcount(mixed_cubes));
+    data + layout.cubeRecord(static_cast<unsigned>(__builtin_popcount(mixed_cubes)));
   for (int c = 0; c < 8; ++c) {
     if (!((mixed_cubes >> c) & 1u)) {
-      uniform(c, -1, codeOf(cube_codes, c), 64);
+      uniform(c, -1, layout.code(cube_codes, static_cast<unsigned>(c)), 64);
       continue;
     }
     const unsigned mixed_cells = head[0];
-    const unsigned cell_codes = two_codes ? head[1] : load16(head + 1);
-    head += 1 + per_node;
+    const unsigned cell_codes = layout.word(head + 1);
+    head += layout.cube_bytes;
     for (int d = 0; d < 8; ++d) {
       if ((mixed_cells >> d) & 1u) {
         mixed(c, d,
-              two_codes ? expandBits(tail[0], code0, code1)
-                        : static_cast<std::uint32_t>(load16(tail)));
-        tail += per_node;
+              layout.two_codes ? expandBits(tail[0], code0, code1)
+                               : static_cast<std::uint32_t>(load16(tail)));
+        tail += layout.cell_bytes;
       } else {
-        uniform(c, d, codeOf(cell_codes, d), 8);
+        uniform(c, d, layout.code(cell_codes, static_cast<unsigned>(d)), 8);
       }
     }
   }
@@ -207,15 +200,16 @@ encodeCompact(const Payload& p, std::uint8_t* out)
     for (int d = 0; d < 8; ++d)
       cells[static_cast<std::size_t>(8 * c + d)] = cellValue(p, cellOrigin(c, d));
   }
+  const CompactLayout layout(
+    static_cast<std::uint8_t>(two_codes ? TWO_CODES | code0 | (code1 << 2) : 0));
   out[0] = static_cast<std::uint8_t>(mixed_cubes);
-  out[1] = static_cast<std::uint8_t>(two_codes ? TWO_CODES | code0 | (code1 << 2) : 0);
+  out[1] = layout.header;
   out[2] = static_cast<std::uint8_t>(cube_codes);
-  std::size_t head = 3;
   if (!two_codes)
-    out[head++] = static_cast<std::uint8_t>(cube_codes >> 8);
-  const std::size_t per_node = two_codes ? 1 : 2;
+    out[3] = static_cast<std::uint8_t>(cube_codes >> 8);
+  std::size_t head = layout.cubes_end;
   std::size_t tail =
-    head + (1 + per_node) * static_cast<std::size_t>(__builtin_popcount(mixed_cubes));
+    layout.cubeRecord(static_cast<unsigned>(__builtin_popcount(mixed_cubes)));
   for (int c = 0; c < 8; ++c) {
     if (!((mixed_cubes >> c) & 1u))
       continue;

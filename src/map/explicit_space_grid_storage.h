@@ -164,20 +164,46 @@ load16(const std::uint8_t* b)
  * (<= MAX_COMPACT_BYTES) written to \a out. */
 std::size_t encodeCompact(const Payload& p, std::uint8_t* out);
 
+/** \brief Where the parts of a compact block lie and how its node codes are written,
+ * from its byte 1: nodes of 1 bit (two codes) or 2 bits; the cubes' codes end at byte
+ * 3 or 4; a mixed cube's record (its mask of mixed cells, then its uniform cells'
+ * codes) takes 2 or 3 bytes; a mixed cell's 8 voxels 1 or 2 bytes. */
+struct CompactLayout {
+  explicit CompactLayout(std::uint8_t header_byte) :
+      header(header_byte), two_codes((header_byte & TWO_CODES) != 0),
+      cubes_end(two_codes ? 3u : 4u), cube_bytes(two_codes ? 2u : 3u),
+      cell_bytes(two_codes ? 1u : 2u)
+  {}
+
+  /** \brief The word of 8 node codes at \a p: one byte of bits, or 16 bits of codes. */
+  unsigned word(const std::uint8_t* p) const { return two_codes ? p[0] : load16(p); }
+  /** \brief Code of node \a k of \a w (a word()): its bit picks one of the header's two
+   * codes, or its own 2 bits. */
+  std::uint8_t code(unsigned w, unsigned k) const
+  {
+    return static_cast<std::uint8_t>(two_codes ? (header >> (2 * ((w >> k) & 1u))) & 3u
+                                               : (w >> (2 * k)) & 3u);
+  }
+  /** \brief Start of mixed cube \a r's record (r: its rank among the mixed cubes). */
+  unsigned cubeRecord(unsigned r) const { return cubes_end + cube_bytes * r; }
+
+  std::uint8_t header;
+  bool two_codes;
+  unsigned cubes_end;
+  unsigned cube_bytes;
+  unsigned cell_bytes;
+};
+
 /** \brief Bytes of the compact block at \a data. */
 inline std::size_t
 compactSize(const std::uint8_t* data)
 {
-  const int n_cubes = __builtin_popcount(data[0]);
-  if (data[1] & TWO_CODES) {
-    std::size_t n = 3 + 2 * static_cast<std::size_t>(n_cubes);
-    for (int k = 0; k < n_cubes; ++k)
-      n += static_cast<std::size_t>(__builtin_popcount(data[3 + 2 * k]));
-    return n;
-  }
-  std::size_t n = 4 + 3 * static_cast<std::size_t>(n_cubes);
-  for (int k = 0; k < n_cubes; ++k)
-    n += 2 * static_cast<std::size_t>(__builtin_popcount(data[4 + 3 * k]));
+  const CompactLayout layout(data[1]);
+  const auto n_cubes = static_cast<unsigned>(__builtin_popcount(data[0]));
+  std::size_t n = layout.cubeRecord(n_cubes);
+  for (unsigned k = 0; k < n_cubes; ++k)
+    n += layout.cell_bytes
+         * static_cast<std::size_t>(__builtin_popcount(data[layout.cubeRecord(k)]));
   return n;
 }
 
@@ -185,46 +211,29 @@ compactSize(const std::uint8_t* data)
 inline std::uint8_t
 compactGet(const std::uint8_t* data, int x, int y, int z)
 {
+  const CompactLayout layout(data[1]);
   const unsigned c =
     static_cast<unsigned>((x >> 2) | ((y >> 2) << 1) | ((z >> 2) << 2));
+  const unsigned mixed_cubes = data[0];
+  if (!((mixed_cubes >> c) & 1u))
+    return layout.code(layout.word(data + 2), c);
+  const auto r =
+    static_cast<unsigned>(__builtin_popcount(mixed_cubes & ((1u << c) - 1u)));
+  const std::uint8_t* cube = data + layout.cubeRecord(r);
   const unsigned d = static_cast<unsigned>(((x >> 1) & 1) | (((y >> 1) & 1) << 1)
                                            | (((z >> 1) & 1) << 2));
-  const unsigned v = static_cast<unsigned>((x & 1) + 2 * (y & 1) + 4 * (z & 1));
-  const unsigned mixed_cubes = data[0];
-  const int r = __builtin_popcount(mixed_cubes & ((1u << c) - 1u));
-  const unsigned header = data[1];
-  if (header & TWO_CODES) {
-    unsigned bit;
-    if (!((mixed_cubes >> c) & 1u))
-      bit = (static_cast<unsigned>(data[2]) >> c) & 1u;
-    else {
-      const std::uint8_t* cube = data + 3 + 2 * r;
-      const unsigned mixed_cells = cube[0];
-      if (!((mixed_cells >> d) & 1u))
-        bit = (static_cast<unsigned>(cube[1]) >> d) & 1u;
-      else {
-        int before = __builtin_popcount(mixed_cells & ((1u << d) - 1u));
-        for (int k = 0; k < r; ++k)
-          before += __builtin_popcount(data[3 + 2 * k]);
-        const std::uint8_t cell =
-          data[3 + 2 * __builtin_popcount(mixed_cubes) + before];
-        bit = (static_cast<unsigned>(cell) >> v) & 1u;
-      }
-    }
-    return static_cast<std::uint8_t>((header >> (2 * bit)) & 3u);
-  }
-  if (!((mixed_cubes >> c) & 1u))
-    return static_cast<std::uint8_t>((load16(data + 2) >> (2 * c)) & 3u);
-  const std::uint8_t* cube = data + 4 + 3 * r;
   const unsigned mixed_cells = cube[0];
   if (!((mixed_cells >> d) & 1u))
-    return static_cast<std::uint8_t>((load16(cube + 1) >> (2 * d)) & 3u);
-  int before = __builtin_popcount(mixed_cells & ((1u << d) - 1u));
-  for (int k = 0; k < r; ++k)
-    before += __builtin_popcount(data[4 + 3 * k]);
+    return layout.code(layout.word(cube + 1), d);
+  auto before =
+    static_cast<unsigned>(__builtin_popcount(mixed_cells & ((1u << d) - 1u)));
+  for (unsigned k = 0; k < r; ++k)
+    before += static_cast<unsigned>(__builtin_popcount(data[layout.cubeRecord(k)]));
   const std::uint8_t* cell =
-    data + 4 + 3 * __builtin_popcount(mixed_cubes) + 2 * before;
-  return static_cast<std::uint8_t>((load16(cell) >> (2 * v)) & 3u);
+    data + layout.cubeRecord(static_cast<unsigned>(__builtin_popcount(mixed_cubes)))
+    + layout.cell_bytes * before;
+  return layout.code(layout.word(cell),
+                     static_cast<unsigned>((x & 1) + 2 * (y & 1) + 4 * (z & 1)));
 }
 
 /** \brief The uniform 4^3 cubes of code \a code of the compact block at \a data: bit
@@ -232,19 +241,11 @@ compactGet(const std::uint8_t* data, int x, int y, int z)
 inline std::uint32_t
 compactUniformCubes(const std::uint8_t* data, std::uint32_t code)
 {
-  const unsigned mixed_cubes = data[0], header = data[1];
+  const CompactLayout layout(data[1]);
+  const unsigned mixed_cubes = data[0], cube_codes = layout.word(data + 2);
   std::uint32_t cubes = 0;
-  if (header & TWO_CODES) {
-    // bit c of byte 2 picks the second code; a mixed cube's bit is 0
-    if ((header & 3u) == code)
-      cubes = ~static_cast<unsigned>(data[2]);
-    else if (((header >> 2) & 3u) == code)
-      cubes = data[2];
-    return cubes & ~mixed_cubes & 0xFFu;
-  }
-  const unsigned cube_codes = load16(data + 2);
   for (unsigned c = 0; c < 8; ++c)
-    if (!((mixed_cubes >> c) & 1u) && ((cube_codes >> (2 * c)) & 3u) == code)
+    if (!((mixed_cubes >> c) & 1u) && layout.code(cube_codes, c) == code)
       cubes |= 1u << c;
   return cubes;
 }
