@@ -225,15 +225,13 @@ parseInput(const Reader& r, const YAML::Node& node)
   return input;
 }
 
-/** The `--set STAGE.KEY=VALUE` of \a overrides that set \a key of stage \a type (the
- * last one), or empty. */
+/** The `--set NAME=VALUE` of \a overrides that set \a name (STAGE.KEY, or a top-level
+ * key) (the last one), or empty. */
 std::string
-overrideOf(const std::vector<std::string>& overrides,
-           const std::string& type,
-           const std::string& key)
+overrideOf(const std::vector<std::string>& overrides, const std::string& name)
 {
   std::string found;
-  const std::string prefix = type + "." + key + "=";
+  const std::string prefix = name + "=";
   for (const auto& assignment : overrides)
     if (assignment.compare(0, prefix.size(), prefix) == 0)
       found = assignment;
@@ -276,7 +274,7 @@ shareStageParams(const YamlReader& r,
       const bool from_set =
         from_params && from_params.IsMap() && from_params[shared.from_key];
       const std::string from_override =
-        overrideOf(overrides, shared.from_stage, shared.from_key);
+        overrideOf(overrides, shared.from_stage + "." + shared.from_key);
       const std::string message =
         shared.stage + ": " + shared.key + " " + to_stage.params.toString(shared.key)
         + " differs from " + shared.from_stage + "'s " + shared.from_key + " "
@@ -287,7 +285,8 @@ shareStageParams(const YamlReader& r,
                  + ")"
              : " (its default)")
         + ": " + shared.reason;
-      const std::string to_override = overrideOf(overrides, shared.stage, shared.key);
+      const std::string to_override =
+        overrideOf(overrides, shared.stage + "." + shared.key);
       if (!to_override.empty())
         throw ConfigError("--set " + to_override, 0, 0, message);
       r.fail(to_params[shared.key], message);
@@ -406,12 +405,12 @@ applyCellSize(const Reader& r,
               const std::vector<std::string>& overrides)
 {
   const double cell_size_m = r.realValue(cell, CELL_SIZE_RANGE, "m", "cell_size_m");
-  std::string given = "line " + std::to_string(cell.Mark().line + 1);
-  for (const auto& assignment : overrides)
-    if (assignment.rfind("cell_size_m=", 0) == 0)
-      given = "--set " + assignment;
+  const std::string from_set = overrideOf(overrides, "cell_size_m");
   const std::string at =
-    "cell_size_m " + formatParamNumber(cell_size_m) + " (" + given + ")";
+    "cell_size_m " + formatParamNumber(cell_size_m) + " ("
+    + (from_set.empty() ? "line " + std::to_string(cell.Mark().line + 1)
+                        : "--set " + from_set)
+    + ")";
   for (std::size_t i = 0; i < config.stages.size(); ++i) {
     StageConfig& stage = config.stages[i];
     const StageInfo* info = findStage(stage.type);
@@ -426,7 +425,8 @@ applyCellSize(const Reader& r,
         stage.type + ": " + spec.key + " " + stage.params.toString(spec.key)
         + " differs from " + at
         + ": the keys of the minimum cell take cell_size_m; leave the key out";
-      const std::string override_text = overrideOf(overrides, stage.type, spec.key);
+      const std::string override_text =
+        overrideOf(overrides, stage.type + "." + spec.key);
       if (!override_text.empty())
         throw ConfigError("--set " + override_text, 0, 0, message);
       if (params && params.IsMap() && params[spec.key])
@@ -446,7 +446,7 @@ applyCellSize(const Reader& r,
     }
   }
   config.cell_size_m = cell_size_m;
-  if (given.rfind("line ", 0) == 0) {
+  if (from_set.empty()) {
     config.cell_size_line = cell.Mark().line + 1;
     config.cell_size_column = cell.Mark().column + 1;
   }
@@ -658,7 +658,8 @@ applyOverride(YAML::Node& root, const std::string& assignment)
   const std::string where = "--set " + assignment;
   const std::size_t dot = assignment.find('.');
   const std::size_t equals = assignment.find('=');
-  if (assignment.compare(0, equals, "cell_size_m") == 0) {
+  if (equals != std::string::npos
+      && assignment.compare(0, equals, "cell_size_m") == 0) {
     // The one top-level key --set takes: checked here, where its text is.
     const std::string value = assignment.substr(equals + 1);
     double cell_size_m = 0.0;
@@ -676,7 +677,7 @@ applyOverride(YAML::Node& root, const std::string& assignment)
       || equals < dot + 2)
     throw ConfigError(where, 0, 0,
                       "expected STAGE.KEY=VALUE, e.g. "
-                      "stereo_disparity.num_disparities_px=96");
+                      "stereo_disparity.num_disparities_px=96, or cell_size_m=R");
   const std::string type = assignment.substr(0, dot);
   const std::string key = assignment.substr(dot + 1, equals - dot - 1);
   const std::string value = assignment.substr(equals + 1);
