@@ -380,7 +380,7 @@ ExplicitSpaceGrid::getMemoryBytes() const
   // Pending setState() edits go to the storage first (content unchanged).
   impl_->storage.settle(priorCode(params_.prior));
   // Every allocation of the storage: the super-block array's capacity, each
-  // super-block's two arrays, the directory's slots, plus MALLOC_OVERHEAD per heap
+  // super-block's array, the directory's slots, plus MALLOC_OVERHEAD per heap
   // allocation (the allocator's chunk header and rounding). The scratch buffers of
   // integration (depth pyramid, observations, edit buffer) are working memory of one
   // view, not the map's.
@@ -392,8 +392,7 @@ ExplicitSpaceGrid::getMemoryBytes() const
   };
   bytes += heap(storage.supers.capacity() * sizeof(SuperBlock));
   for (const auto& sb : storage.supers)
-    bytes +=
-      heap(sb.offsets.capacity() * sizeof(std::uint16_t)) + heap(sb.data.capacity());
+    bytes += heap(sb.data.capacity());
   bytes += heap(storage.directory.capacityBytes());
   return bytes;
 }
@@ -425,13 +424,13 @@ ExplicitSpaceGrid::storageBytesBound(std::uint64_t blocks, std::uint64_t super_b
 {
   // As getMemoryBytes() counts: a mixed block's compact form (at most
   // MAX_COMPACT_BYTES) and its offset; a super-block in the array (doubling: up to
-  // twice), its two exact-size arrays' allocator overhead, and the directory's slots
+  // twice), its exact-size array's allocator overhead, and the directory's slots
   // (<= 4 per entry).
   constexpr std::uint64_t MALLOC_OVERHEAD = 16;
   constexpr std::uint64_t SLOT_BYTES = sizeof(BlockKey) + sizeof(std::uint32_t);
   constexpr std::uint64_t PER_BLOCK = MAX_COMPACT_BYTES + sizeof(std::uint16_t);
   constexpr std::uint64_t PER_SUPER_BLOCK =
-    2 * sizeof(SuperBlock) + 2 * MALLOC_OVERHEAD + 4 * SLOT_BYTES;
+    2 * sizeof(SuperBlock) + MALLOC_OVERHEAD + 4 * SLOT_BYTES;
   return sizeof(Impl) + blocks * PER_BLOCK + super_blocks * PER_SUPER_BLOCK
          + 2 * MALLOC_OVERHEAD;
 }

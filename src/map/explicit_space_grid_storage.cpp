@@ -412,18 +412,24 @@ BlockStorage::rebuild(SuperBlock& sb,
   }
   sb.codes = codes;
   sb.mixed = mixed;
-  std::uint16_t before = 0;
-  std::vector<std::uint16_t> offsets(new_offsets.size());
+  // The offsets first, then the forms: after the start of the word's first compact
+  // form, at most 63 forms come before a form of the same word, below 2^16 bytes.
+  const std::size_t n_mixed = new_offsets.size();
+  std::vector<std::uint8_t> data(2 * n_mixed + new_data.size());
+  std::size_t before = 0;
   for (std::size_t w = 0; w < 8; ++w) {
-    sb.rank[w] = before;
-    const auto in_word = static_cast<std::uint16_t>(__builtin_popcountll(mixed[w]));
-    // offsets after the start of the word's first compact form: at most 63 forms
-    // before a form of the same word, below 2^16 bytes
+    const auto in_word = static_cast<std::size_t>(__builtin_popcountll(mixed[w]));
     sb.base[w] = in_word > 0 ? new_offsets[before] : 0;
-    for (std::uint16_t r = before; r < before + in_word; ++r)
-      offsets[r] = static_cast<std::uint16_t>(new_offsets[r] - sb.base[w]);
-    before = static_cast<std::uint16_t>(before + in_word);
+    for (std::size_t r = before; r < before + in_word; ++r) {
+      const std::uint32_t offset = new_offsets[r] - sb.base[w];
+      data[2 * r] = static_cast<std::uint8_t>(offset & 0xffu);
+      data[2 * r + 1] = static_cast<std::uint8_t>(offset >> 8);
+    }
+    before += in_word;
   }
+  std::copy(new_data.begin(), new_data.end(),
+            data.begin() + 2 * static_cast<std::ptrdiff_t>(n_mixed));
+  sb.mixed_count = static_cast<std::uint16_t>(n_mixed);
   // a mixed block's code field is 0, never a prior code (2 or 3): counted as stored
   constexpr std::uint64_t LOW = 0x5555555555555555ULL;
   int stored = 0;
@@ -432,9 +438,8 @@ BlockStorage::rebuild(SuperBlock& sb,
     stored += __builtin_popcountll((x | (x >> 1)) & LOW);
   }
   sb.stored = static_cast<std::uint16_t>(stored);
-  // exact-size arrays: the memory held is the information's
-  offsets.swap(sb.offsets);
-  std::vector<std::uint8_t>(new_data.begin(), new_data.end()).swap(sb.data);
+  // an exact-size array: the memory held is the information's
+  data.swap(sb.data);
 }
 
 std::vector<StoredBlock>

@@ -347,34 +347,32 @@ private:
   std::size_t size_{0};
 };
 
-/** \brief Blocks setState() edits before it writes them to the storage. */
 /** \brief log2 of the edge of a super-block, in blocks. */
 constexpr int SUPER_SHIFT = 3;
 /** \brief Blocks per super-block (8 x 8 x 8). */
 constexpr int SUPER_BLOCKS = 512;
 
 /** \brief 8 x 8 x 8 blocks (64^3 voxels): the 2-bit code of each uniform block, a bit
- * per mixed block, and the mixed blocks' compact forms back to back. A block at the
+ * per mixed block, and the mixed blocks' compact forms in one array. A block at the
  * grid's prior code is not stored (it is never-observed space). */
 struct SuperBlock {
   /** \brief Super-block coordinates: floor(block key / 8). */
   BlockKey key{0, 0, 0};
+  /** \brief Blocks not at the prior (uniform ones of another code, and mixed ones). */
+  std::uint16_t stored{0};
+  /** \brief Mixed blocks (the set bits of \a mixed). */
+  std::uint16_t mixed_count{0};
   /** \brief Code of block j = x + 8 y + 64 z at bits 2 (j % 32) of word j / 32; 0 for
    * a mixed block. */
   std::array<std::uint64_t, 16> codes{};
   /** \brief Bit j % 64 of word j / 64: block j is mixed. */
   std::array<std::uint64_t, 8> mixed{};
-  /** \brief Mixed blocks in the words of \a mixed before word w. */
-  std::array<std::uint16_t, 8> rank{};
-  /** \brief Start in \a data of the compact forms of the mixed blocks of word w of
-   * \a mixed (64 blocks, at most 64 x MAX_COMPACT_BYTES bytes after it). */
+  /** \brief Start, after the offsets in \a data, of the compact forms of the mixed
+   * blocks of word w of \a mixed (64 blocks, at most 64 x MAX_COMPACT_BYTES bytes
+   * after it). */
   std::array<std::uint32_t, 8> base{};
-  /** \brief Blocks not at the prior (uniform ones of another code, and mixed ones). */
-  std::uint16_t stored{0};
-  /** \brief Start of each mixed block's compact form in \a data after the \a base of
-   * its word of \a mixed, in block order. */
-  std::vector<std::uint16_t> offsets;
-  /** \brief The compact forms. */
+  /** \brief One allocation: a 16-bit little-endian offset per mixed block in block
+   * order (from the \a base of its word of \a mixed), then the compact forms. */
   std::vector<std::uint8_t> data;
 
   bool isMixed(int j) const
@@ -391,9 +389,11 @@ struct SuperBlock {
   {
     const auto w = static_cast<std::size_t>(j >> 6);
     const std::uint64_t below = (std::uint64_t{1} << (j & 63)) - 1;
-    const auto r =
-      rank[w] + static_cast<std::size_t>(__builtin_popcountll(mixed[w] & below));
-    return data.data() + base[w] + offsets[r];
+    auto r = static_cast<std::size_t>(__builtin_popcountll(mixed[w] & below));
+    for (std::size_t k = 0; k < w; ++k)
+      r += static_cast<std::size_t>(__builtin_popcountll(mixed[k]));
+    const std::uint8_t* forms = data.data() + 2 * std::size_t{mixed_count};
+    return forms + base[w] + load16(data.data() + 2 * r);
   }
   /** \brief Code of voxel (x, y, z) (local to block j). */
   std::uint8_t get(int j, int x, int y, int z) const

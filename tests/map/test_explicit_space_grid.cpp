@@ -425,12 +425,12 @@ TEST(ExplicitSpaceGrid, CountsAndMemoryConsistent)
   // one voxel occupied: the block needs its compact form; it holds two states, so a
   // node is one bit: 3 bytes for its 4^3 cubes (mask, header, cube bits), 2 for the
   // one mixed cube's 2^3 cells and 1 for the one mixed cell's 8 voxels, plus its
-  // 2-byte offset; each of the two arrays is one allocation (16 bytes counted for the
-  // allocator's header and rounding)
+  // 2-byte offset, in one allocation (16 bytes counted for the allocator's header and
+  // rounding)
   grid.setState(Key(3, 3, 3), SpaceState::OCCUPIED);
   EXPECT_EQ(grid.getVoxelCount(SpaceState::FREE), 511u);
   EXPECT_EQ(grid.getVoxelCount(SpaceState::OCCUPIED), 1u);
-  EXPECT_EQ(grid.getMemoryBytes(), uniform_bytes + (6u + 16u) + (2u + 16u));
+  EXPECT_EQ(grid.getMemoryBytes(), uniform_bytes + 6u + 2u + 16u);
   // a checkerboard of two states: every 2^3 cell mixed, the largest two-state form
   // (3 + 8 x 2 + 64 x 1 bytes)
   for (int z = 0; z < 8; ++z)
@@ -439,7 +439,7 @@ TEST(ExplicitSpaceGrid, CountsAndMemoryConsistent)
         grid.setState(Key(x, y, z),
                       (x + y + z) % 2 ? SpaceState::OCCUPIED : SpaceState::FREE);
   EXPECT_EQ(grid.getVoxelCount(SpaceState::OCCUPIED), 256u);
-  EXPECT_EQ(grid.getMemoryBytes(), uniform_bytes + (83u + 16u) + (2u + 16u));
+  EXPECT_EQ(grid.getMemoryBytes(), uniform_bytes + 83u + 2u + 16u);
   // three states in every 2^3 cell: 2-bit codes, the largest compact form (4 + 8 x 3 +
   // 64 x 2 bytes)
   const SpaceState three[3] = {SpaceState::FREE, SpaceState::OCCUPIED,
@@ -449,7 +449,7 @@ TEST(ExplicitSpaceGrid, CountsAndMemoryConsistent)
       for (int x = 0; x < 8; ++x)
         grid.setState(Key(x, y, z), three[(x + y + z) % 3]);
   EXPECT_EQ(grid.getVoxelCount(SpaceState::OCCUPIED), 171u);
-  EXPECT_EQ(grid.getMemoryBytes(), uniform_bytes + (156u + 16u) + (2u + 16u));
+  EXPECT_EQ(grid.getMemoryBytes(), uniform_bytes + 156u + 2u + 16u);
   for (int z = 0; z < 8; ++z)
     for (int y = 0; y < 8; ++y)
       for (int x = 0; x < 8; ++x)
