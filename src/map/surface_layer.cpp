@@ -94,8 +94,6 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
   impl.reanchorDrifted(frame.touched, params_);
   // no spare capacity: the map holds what it uses
   impl.planes.shrink_to_fit();
-  impl.updatePlaneModels();
-  impl.plane_models.shrink_to_fit();
   impl.invalidate();
 }
 
@@ -306,10 +304,15 @@ SurfaceLayer::getRasterCellCount() const
   return n;
 }
 
-const PlaneModels&
+PlaneModels
 SurfaceLayer::getPlanes() const
 {
-  return impl_->plane_models;
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  PlaneModels models;
+  models.reserve(impl_->planes.size());
+  for (const auto& plane : impl_->planes)
+    models.emplace_back(plane.normal.x(), plane.normal.y(), plane.normal.z(), plane.d);
+  return models;
 }
 
 std::size_t
@@ -324,7 +327,7 @@ SurfaceLayer::getMemoryBytes() const
   std::lock_guard<std::mutex> lock(impl_->mutex);
   const Impl& impl = *impl_;
   std::size_t bytes = sizeof(SurfaceLayer) + sizeof(Impl);
-  bytes += vectorBytes(impl.planes) + vectorBytes(impl.plane_models);
+  bytes += vectorBytes(impl.planes);
   for (const auto& plane : impl.planes)
     bytes += plane.raster.bytes() + vectorBytes(plane.rects);
   bytes += vectorBytes(impl.non_planar) + vectorBytes(impl.np_axes)

@@ -44,9 +44,8 @@ SurfaceLayer::Impl::removePlaneCellsIf(
       continue;
     cells += dropped;
     plane.raster.assign(keep_keys, keep_sums, keep_counts);
-    // assign() keeps the evidence arrays' capacity: the memory follows the content.
-    plane.raster.probability_sums.shrink_to_fit();
-    plane.raster.feature_counts.shrink_to_fit();
+    // assign() keeps the evidence array's capacity: the memory follows the content.
+    plane.raster.evidence_records.shrink_to_fit();
     std::vector<RasterRect>().swap(plane.rects);
     plane.dirty = true;
   }
@@ -62,8 +61,6 @@ SurfaceLayer::Impl::removePlaneCellsIf(
   if (removed_planes > 0) {
     tidy_all = true;
     planes.shrink_to_fit();
-    updatePlaneModels();
-    plane_models.shrink_to_fit();
   }
   return {cells, removed_planes};
 }

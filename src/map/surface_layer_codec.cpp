@@ -264,12 +264,8 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
   auto impl = std::make_unique<Impl>();
   const std::size_t plane_count = rd.getCount(PLANE_BYTES, "plane");
   impl->planes.reserve(plane_count);
-  impl->plane_models.reserve(plane_count);
-  for (std::size_t p = 0; p < plane_count; ++p) {
-    MapPlane mp = readPlane(rd, p, cos_angle);
-    impl->plane_models.emplace_back(mp.normal.x(), mp.normal.y(), mp.normal.z(), mp.d);
-    impl->planes.push_back(std::move(mp));
-  }
+  for (std::size_t p = 0; p < plane_count; ++p)
+    impl->planes.push_back(readPlane(rd, p, cos_angle));
   const std::size_t non_planar_count = rd.getCount(NON_PLANAR_BYTES, "non-planar cell");
   std::unordered_map<NonPlanarKey, std::uint32_t, NonPlanarKeyHash> non_planar_keys;
   impl->non_planar.reserve(non_planar_count);

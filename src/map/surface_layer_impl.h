@@ -540,8 +540,6 @@ struct SurfaceLayer::Impl {
   std::vector<surface_layer_detail::MapPlane,
               Eigen::aligned_allocator<surface_layer_detail::MapPlane>>
     planes;
-  /** The refined planes, as returned by getPlanes(). */
-  PlaneModels plane_models;
   std::vector<surface_layer_detail::NonPlanarCell> non_planar;
   /** The distinct orientations of the non-planar cells. */
   std::vector<surface_layer_detail::BoxAxes> np_axes;
@@ -572,14 +570,6 @@ struct SurfaceLayer::Impl {
     index.clear();
     isolated_valid = false;
     std::vector<std::uint32_t>().swap(isolated);
-  }
-  /** Sets plane_models (getPlanes()) to the planes' refined planes. */
-  void updatePlaneModels()
-  {
-    plane_models.resize(planes.size());
-    for (std::size_t p = 0; p < planes.size(); ++p)
-      plane_models[p] = Eigen::Vector4f(planes[p].normal.x(), planes[p].normal.y(),
-                                        planes[p].normal.z(), planes[p].d);
   }
   /** The cuboid of non-planar cell \a cell (plane_id -1; probability and point_count
    * unset). */

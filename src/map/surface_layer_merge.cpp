@@ -177,8 +177,6 @@ SurfaceLayer::merge(const SurfaceLayer& other, const Eigen::Isometry3d& this_T_o
   impl.mergeNonPlanar(*other.impl_, this_T_other, params_);
   // no spare capacity: the map holds what it uses
   impl.planes.shrink_to_fit();
-  impl.updatePlaneModels();
-  impl.plane_models.shrink_to_fit();
   impl.invalidate();
 }
 

@@ -541,7 +541,6 @@ SurfaceLayer::absorbOverlappingPlaneCells()
       impl.planes.erase(impl.planes.begin() + static_cast<std::ptrdiff_t>(a));
       impl.tidy_all = true;
     }
-  impl.updatePlaneModels();
   impl.invalidate();
   return total;
 }

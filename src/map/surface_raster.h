@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <utility>
 #include <vector>
@@ -67,8 +68,8 @@ struct CellEvidence {
  * (rasterCellKey of the tile indices i >> 3, j >> 3), a 64-bit mask of the observed
  * cells (bit (j & 7) * 8 + (i & 7)) and a mask of the cells with feature evidence (24
  * bytes per tile), sorted by key; the evidence (probability sum f32, feature count u16:
- * 6 bytes) only for the cells in the evidence masks, in tile order, then bit order. A
- * cell is in the evidence mask when its count or its sum is not zero. */
+ * 6 bytes, in one array) only for the cells in the evidence masks, in tile order, then
+ * bit order. A cell is in the evidence mask when its count or its sum is not zero. */
 struct Raster {
   struct Tile {
     std::uint64_t key;
@@ -76,10 +77,39 @@ struct Raster {
     std::uint64_t evidence;
   };
   std::vector<Tile> tiles;
-  /** Sum of the probabilities of the features in the cell. */
-  std::vector<float> probability_sums;
-  /** Number of features in the cell (saturating at MAX_FEATURE_COUNT). */
-  std::vector<std::uint16_t> feature_counts;
+  /** Per cell with evidence: the bits of its probability sum (the sum of the
+   * probabilities of its features) as two 16-bit halves, low half first, then its
+   * feature count (saturating at MAX_FEATURE_COUNT). */
+  std::vector<std::uint16_t> evidence_records;
+
+  /** 16-bit words of one evidence record. */
+  static constexpr std::size_t RECORD_WORDS = 3;
+
+  /** Probability sum of evidence record \a r. */
+  float probabilitySum(std::size_t r) const
+  {
+    const std::uint32_t bits =
+      static_cast<std::uint32_t>(evidence_records[RECORD_WORDS * r])
+      | (static_cast<std::uint32_t>(evidence_records[RECORD_WORDS * r + 1]) << 16);
+    float sum;
+    std::memcpy(&sum, &bits, sizeof(sum));
+    return sum;
+  }
+  /** Feature count of evidence record \a r. */
+  std::uint16_t featureCount(std::size_t r) const
+  {
+    return evidence_records[RECORD_WORDS * r + 2];
+  }
+  /** Appends the evidence record (\a sum, \a count) to \a out. */
+  static void
+  appendRecord(std::vector<std::uint16_t>& out, float sum, std::uint16_t count)
+  {
+    std::uint32_t bits;
+    std::memcpy(&bits, &sum, sizeof(bits));
+    out.push_back(static_cast<std::uint16_t>(bits & 0xffffu));
+    out.push_back(static_cast<std::uint16_t>(bits >> 16));
+    out.push_back(count);
+  }
 
   static std::uint64_t tileKey(std::uint64_t cell)
   {
@@ -201,10 +231,8 @@ struct Raster {
       masks[t] = mask;
       records += static_cast<std::size_t>(popcount64(mask));
     }
-    std::vector<float> sums;
-    std::vector<std::uint16_t> counts;
-    sums.reserve(records);
-    counts.reserve(records);
+    std::vector<std::uint16_t> updated;
+    updated.reserve(RECORD_WORDS * records);
     std::size_t old = 0, e = 0;
     for (std::size_t t = 0; t < tiles.size(); ++t) {
       for (std::uint64_t rest = masks[t]; rest != 0; rest &= rest - 1) {
@@ -212,8 +240,8 @@ struct Raster {
         float sum = 0.0f;
         std::uint16_t count = 0;
         if ((tiles[t].evidence & bit) != 0) {
-          sum = probability_sums[old];
-          count = feature_counts[old];
+          sum = probabilitySum(old);
+          count = featureCount(old);
           ++old;
         }
         while (e < evidence.size()
@@ -223,13 +251,11 @@ struct Raster {
                && order(evidence[e]) == std::make_pair(tiles[t].key, bit);
              ++e)
           addFeatures(sum, count, evidence[e].sum, evidence[e].count);
-        sums.push_back(sum);
-        counts.push_back(count);
+        appendRecord(updated, sum, count);
       }
       tiles[t].evidence = masks[t];
     }
-    probability_sums.swap(sums);
-    feature_counts.swap(counts);
+    evidence_records.swap(updated);
   }
 
   /** Calls f(key, probability sum, feature count) for every observed cell, sorted by
@@ -263,8 +289,8 @@ struct Raster {
               const std::size_t r =
                 base[t - g]
                 + static_cast<std::size_t>(popcount64(tile.evidence & (bit - 1)));
-              sum = probability_sums[r];
-              count = feature_counts[r];
+              sum = probabilitySum(r);
+              count = featureCount(r);
             }
             f(rasterCellKey(static_cast<std::int32_t>(i0 + col), j), sum, count);
           }
@@ -321,8 +347,7 @@ struct Raster {
               const std::vector<std::uint16_t>& counts)
   {
     tiles.clear();
-    probability_sums.clear();
-    feature_counts.clear();
+    evidence_records.clear();
     insert(keys);
     std::vector<std::pair<std::pair<std::uint64_t, std::uint64_t>, std::size_t>>
       records;
@@ -330,15 +355,13 @@ struct Raster {
       if (counts[k] != 0 || std::signbit(sums[k]) || sums[k] != 0.0f)
         records.push_back({{tileKey(keys[k]), tileBit(keys[k])}, k});
     std::sort(records.begin(), records.end());
-    probability_sums.reserve(records.size());
-    feature_counts.reserve(records.size());
+    evidence_records.reserve(RECORD_WORDS * records.size());
     std::size_t t = 0;
     for (const auto& r : records) {
       while (tiles[t].key != r.first.first)
         ++t;
       tiles[t].evidence |= r.first.second;
-      probability_sums.push_back(sums[r.second]);
-      feature_counts.push_back(counts[r.second]);
+      appendRecord(evidence_records, sums[r.second], counts[r.second]);
     }
   }
 
@@ -350,13 +373,13 @@ struct Raster {
       if (tiles[t].key != o.tiles[t].key || tiles[t].observed != o.tiles[t].observed
           || tiles[t].evidence != o.tiles[t].evidence)
         return false;
-    return probability_sums == o.probability_sums && feature_counts == o.feature_counts;
+    return evidence_records == o.evidence_records;
   }
 
   std::size_t bytes() const
   {
-    return tiles.capacity() * sizeof(Tile) + probability_sums.capacity() * sizeof(float)
-           + feature_counts.capacity() * sizeof(std::uint16_t);
+    return tiles.capacity() * sizeof(Tile)
+           + evidence_records.capacity() * sizeof(std::uint16_t);
   }
 };
 

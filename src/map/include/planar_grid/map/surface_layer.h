@@ -420,8 +420,9 @@ public:
   /** \brief getCuboids().size(), without building the list. */
   [[nodiscard]] std::size_t getCuboidCount() const;
   /** \brief The map's planes [a, b, c, d] (unit normal toward the sensors that saw
-   * them, d in meters), world frame: each the least-squares plane of its evidence. */
-  const PlaneModels& getPlanes() const;
+   * them, d in meters), world frame: each the least-squares plane of its evidence;
+   * a copy, index p the map's plane p (the plane_id of its cuboids). */
+  PlaneModels getPlanes() const;
   /** \brief Number of cells: observed raster cells over all planes (not the cells
    * filled by the gap closing) plus non-planar cells. */
   [[nodiscard]] std::size_t getCellCount() const;
