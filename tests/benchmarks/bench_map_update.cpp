@@ -12,7 +12,12 @@
 // BM_OctoMapInsertPointCloud: octomap::OcTree(0.1)::insertPointCloud of every finite
 //   SGBM point of the same frame (max range 25 m, OctoMap's default sensor model), on a
 //   fresh tree each iteration.
-// Counters: bytes = the map's getMemory().total_bytes / OcTree::memoryUsage(); cells.
+// BM_BonxaiInsertPointCloud (only with PLANAR_GRID_BONXAI_DIR, a Bonxai source
+//   checkout): Bonxai::ProbabilisticMap(0.1)::insertPointCloud of the same points from
+//   the same origin to the same range (its default sensor model, OctoMap's), on a fresh
+//   map each iteration.
+// Counters: bytes = the map's getMemory().total_bytes / OcTree::memoryUsage() /
+//   Bonxai's VoxelGrid::memUsage(); cells.
 #include <planar_grid/filters/kl_divergence_occupancy_filter.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/stereo/stereo_feature_matcher.h>
@@ -20,6 +25,9 @@
 
 #include <benchmark/benchmark.h>
 #include <octomap/OcTree.h>
+#ifdef PLANAR_GRID_WITH_BONXAI
+#include <bonxai_map/probabilistic_map.hpp>
+#endif
 
 #include <cmath>
 #include <limits>
@@ -140,6 +148,34 @@ BM_OctoMapInsertPointCloud(benchmark::State& state)
   state.counters["points"] = static_cast<double>(points.size());
 }
 BENCHMARK(BM_OctoMapInsertPointCloud)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+#ifdef PLANAR_GRID_WITH_BONXAI
+void
+BM_BonxaiInsertPointCloud(benchmark::State& state)
+{
+  const auto& scene = planar_grid::bench::karlsruhe(FRAME);
+  if (!scene.ok) {
+    state.SkipWithError("Karlsruhe data not found");
+    return;
+  }
+  std::vector<Eigen::Vector3d> points;
+  points.reserve(scene.dense->size());
+  for (const auto& p : scene.dense->points)
+    points.emplace_back(p.x, p.y, p.z);
+  std::size_t bytes = 0, voxels = 0;
+  for (auto _ : state) {
+    Bonxai::ProbabilisticMap map(RESOLUTION_M);
+    map.insertPointCloud(points, Eigen::Vector3d::Zero().eval(), MAP_MAX_RANGE_M);
+    benchmark::DoNotOptimize(map);
+    bytes = map.grid().memUsage();
+    voxels = map.grid().activeCellsCount();
+  }
+  state.counters["bytes"] = static_cast<double>(bytes);
+  state.counters["voxels"] = static_cast<double>(voxels);
+  state.counters["points"] = static_cast<double>(points.size());
+}
+BENCHMARK(BM_BonxaiInsertPointCloud)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+#endif
 
 } // namespace
 
