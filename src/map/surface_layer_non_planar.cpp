@@ -223,6 +223,31 @@ SurfaceLayer::mergeNonPlanarCells(
     return c;
   };
 
+  // The axis along which the spans' starts spread the most, in units of their mean
+  // extent (plus slack): the sweep's window on it holds the fewest other spans.
+  const auto sweepAxis = [](const std::vector<Span>& all, float grow) {
+    Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+    Eigen::Vector3f hi =
+      Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest());
+    Eigen::Vector3d extent = Eigen::Vector3d::Zero();
+    for (const Span& span : all) {
+      lo = lo.cwiseMin(span.lo);
+      hi = hi.cwiseMax(span.lo);
+      extent += (span.hi - span.lo).cast<double>();
+    }
+    int best = 0;
+    double best_spread = -1.0;
+    for (int a = 0; a < 3; ++a) {
+      const double window = extent[a] / static_cast<double>(all.size()) + grow;
+      const double spread = static_cast<double>(hi[a] - lo[a]) / window;
+      if (spread > best_spread) {
+        best_spread = spread;
+        best = a;
+      }
+    }
+    return best;
+  };
+
   std::vector<std::uint32_t> live;
   for (std::size_t k = 0; k < before; ++k)
     if (candidate(impl.nonPlanarCuboid(impl.non_planar[k])))
@@ -243,33 +268,70 @@ SurfaceLayer::mergeNonPlanarCells(
   std::vector<Span> spans;
   std::vector<std::tuple<float, std::uint32_t, std::uint32_t>> pairs;
   std::vector<char> used(before, 0);
+  // The cells that grew in the last pass. Only a pair with one of them can be new: a
+  // pair of two unchanged cells was enumerated in that pass, and was refused then
+  // (refused stays refused) or skipped because one of its cells merged (it changed).
+  std::vector<char> changed(before, 1);
   bool merged = true;
+  bool first_pass = true;
   while (merged && live.size() > 1) {
     merged = false;
     spans.clear();
     for (const std::uint32_t k : live)
       spans.push_back(spanOf(k));
-    std::sort(spans.begin(), spans.end(), [](const Span& a, const Span& b) {
-      return std::tie(a.axes, a.lo.x(), a.cell) < std::tie(b.axes, b.lo.x(), b.cell);
-    });
-    // Sweep along the horizontal axis; the other two axes are tested per pair.
+    // Sweep along the axis on which the cells lie farthest apart for their size (the
+    // depth of a street, the length of a corridor), so that few cells share a cell's
+    // window on it; the other two axes are tested per pair. Every axis gives the same
+    // pairs: those overlapping within slack on all three.
+    const int d = sweepAxis(spans, slack);
+    const int e = (d + 1) % 3, f = (d + 2) % 3;
+    const auto order = [d](const Span& a, const Span& b) {
+      return std::tie(a.axes, a.lo[d], a.cell) < std::tie(b.axes, b.lo[d], b.cell);
+    };
+    std::sort(spans.begin(), spans.end(), order);
+    const auto addPair = [&](const Span& a, const Span& b) {
+      if (b.lo[e] > a.hi[e] + slack || a.lo[e] > b.hi[e] + slack
+          || b.lo[f] > a.hi[f] + slack || a.lo[f] > b.hi[f] + slack)
+        return;
+      const std::uint32_t first = std::min(a.cell, b.cell);
+      const std::uint32_t second = std::max(a.cell, b.cell);
+      if (refused.count({first, generation[first], second, generation[second]}) > 0)
+        return;
+      const Eigen::Vector3f size = a.hi.cwiseMax(b.hi) - a.lo.cwiseMin(b.lo);
+      pairs.emplace_back(size.prod(), first, second);
+    };
     pairs.clear();
-    for (std::size_t i = 0; i < spans.size(); ++i)
-      for (std::size_t j = i + 1; j < spans.size() && spans[j].axes == spans[i].axes
-                                  && spans[j].lo.x() <= spans[i].hi.x() + slack;
-           ++j) {
-        const Span& a = spans[i];
-        const Span& b = spans[j];
-        if (b.lo.y() > a.hi.y() + slack || a.lo.y() > b.hi.y() + slack
-            || b.lo.z() > a.hi.z() + slack || a.lo.z() > b.hi.z() + slack)
+    if (first_pass) {
+      for (std::size_t i = 0; i < spans.size(); ++i)
+        for (std::size_t j = i + 1; j < spans.size() && spans[j].axes == spans[i].axes
+                                    && spans[j].lo[d] <= spans[i].hi[d] + slack;
+             ++j)
+          addPair(spans[i], spans[j]);
+    } else {
+      // Each grown cell against the cells whose start on the sweep axis lies within
+      // its reach (widened by the longest span, and by slack once more for rounding);
+      // a pair of two grown cells is added by the lower cell index.
+      float longest = 0.0f;
+      for (const Span& span : spans)
+        longest = std::max(longest, span.hi[d] - span.lo[d]);
+      for (const Span& c : spans) {
+        if (!changed[c.cell])
           continue;
-        const std::uint32_t first = std::min(a.cell, b.cell);
-        const std::uint32_t second = std::max(a.cell, b.cell);
-        if (refused.count({first, generation[first], second, generation[second]}) > 0)
-          continue;
-        const Eigen::Vector3f size = a.hi.cwiseMax(b.hi) - a.lo.cwiseMin(b.lo);
-        pairs.emplace_back(size.prod(), first, second);
+        Span from = c;
+        from.lo[d] = c.lo[d] - longest - 2.0f * slack;
+        from.cell = 0;
+        auto it = std::lower_bound(spans.begin(), spans.end(), from, order);
+        for (; it != spans.end() && it->axes == c.axes && it->lo[d] <= c.hi[d] + slack;
+             ++it) {
+          if (it->cell == c.cell || (changed[it->cell] && it->cell < c.cell)
+              || c.lo[d] > it->hi[d] + slack)
+            continue;
+          addPair(c, *it);
+        }
       }
+    }
+    first_pass = false;
+    std::fill(changed.begin(), changed.end(), 0);
     std::sort(pairs.begin(), pairs.end());
     std::fill(used.begin(), used.end(), 0);
     for (const auto& [volume, first, second] : pairs) {
@@ -299,6 +361,7 @@ SurfaceLayer::mergeNonPlanarCells(
       cell.probability_sum += gone.probability_sum;
       filled[first] = fill;
       ++generation[first];
+      changed[first] = 1;
       removed[second] = 1;
       used[first] = used[second] = 1;
       Eigen::Vector3f box_lo, box_hi;

@@ -23,6 +23,7 @@
 #include <map>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "../benchmarks/karlsruhe_frame.h"
@@ -2169,6 +2170,128 @@ TEST(SurfaceLayer, IsolatedOneVoxelNonPlanarCellsAreLeftOut)
   EXPECT_FALSE(copy.getParams().skip_isolated_non_planar);
   EXPECT_EQ(copy.getCuboidCount(), every.getCuboidCount());
   EXPECT_TRUE(copy == every);
+}
+
+// The merge of the non-planar cells against a brute-force oracle of its rule: every
+// round, every pair of cells overlapping within half a cell on all three axes, smallest
+// bounding box first, each cell at most once per round; a pair becomes its bounding
+// box when the cells fill min_fill of it and accept() agrees; rounds until none
+// merges. Random lattice boxes, so that many merge over several rounds.
+TEST(SurfaceLayer, NonPlanarMergeMatchesAllPairsOracle)
+{
+  SurfaceLayer::Params params = defaultParams();
+  params.resolution_m = 0.1;
+  params.skip_isolated_non_planar = false;
+  for (const unsigned seed : {3u, 11u, 29u}) {
+    std::mt19937 rng(seed);
+    std::uniform_int_distribution<int> position(0, 30), edge(1, 4);
+    PlanarCuboids cuboids;
+    for (int k = 0; k < 500; ++k) {
+      PlanarCuboid c;
+      c.normal = Eigen::Vector3f::UnitZ();
+      c.horizontal_axis = Eigen::Vector3f::UnitX();
+      const Eigen::Vector3f size(0.1f * static_cast<float>(edge(rng)),
+                                 0.1f * static_cast<float>(edge(rng)),
+                                 0.1f * static_cast<float>(edge(rng)));
+      const Eigen::Vector3f corner(0.1f * static_cast<float>(position(rng)),
+                                   0.1f * static_cast<float>(position(rng)),
+                                   0.1f * static_cast<float>(position(rng)));
+      c.centre = corner + 0.5f * size;
+      c.width_m = size.x();
+      c.height_m = size.y();
+      c.thickness_m = size.z();
+      c.is_planar = false;
+      c.plane_id = -1;
+      cuboids.push_back(c);
+    }
+    SurfaceLayer layer(params);
+    layer.integrate(cuboids, PlaneModels{}, Cloud(), {});
+    const PlanarCuboids start = layer.getCuboids();
+    // The oracle, on the same cells in the same order (local axes = world axes).
+    struct Cell {
+      Eigen::Vector3f centre, size;
+      float filled;
+      bool alive;
+      Eigen::Vector3f lo() const { return centre - 0.5f * size; }
+      Eigen::Vector3f hi() const { return centre + 0.5f * size; }
+    };
+    std::vector<Cell> cells;
+    for (const auto& c : start) {
+      const Eigen::Vector3f size(c.width_m, c.height_m, c.thickness_m);
+      cells.push_back({c.centre, size, size.prod(), true});
+    }
+    const float slack = 0.05f;
+    const double min_fill = 0.6;
+    const auto accept = [](const PlanarCuboid& box) {
+      return box.width_m * box.height_m * box.thickness_m <= 0.25f;
+    };
+    int rounds = 0;
+    for (bool merged = true; merged;) {
+      merged = false;
+      std::vector<std::tuple<float, std::size_t, std::size_t>> pairs;
+      for (std::size_t a = 0; a < cells.size(); ++a)
+        for (std::size_t b = a + 1; b < cells.size(); ++b) {
+          if (!cells[a].alive || !cells[b].alive)
+            continue;
+          const Eigen::Vector3f lo_a = cells[a].lo(), hi_a = cells[a].hi();
+          const Eigen::Vector3f lo_b = cells[b].lo(), hi_b = cells[b].hi();
+          bool overlap = true;
+          for (int d = 0; d < 3; ++d)
+            overlap =
+              overlap && lo_b[d] <= hi_a[d] + slack && lo_a[d] <= hi_b[d] + slack;
+          if (overlap)
+            pairs.emplace_back((hi_a.cwiseMax(hi_b) - lo_a.cwiseMin(lo_b)).prod(), a,
+                               b);
+        }
+      std::sort(pairs.begin(), pairs.end());
+      std::vector<char> used(cells.size(), 0);
+      for (const auto& [volume, a, b] : pairs) {
+        static_cast<void>(volume);
+        if (used[a] || used[b])
+          continue;
+        const Eigen::Vector3f lo = cells[a].lo().cwiseMin(cells[b].lo());
+        const Eigen::Vector3f hi = cells[a].hi().cwiseMax(cells[b].hi());
+        const Eigen::Vector3f overlap = (cells[a].hi().cwiseMin(cells[b].hi())
+                                         - cells[a].lo().cwiseMax(cells[b].lo()))
+                                          .cwiseMax(0.0f);
+        const float fill = cells[a].filled + cells[b].filled - overlap.prod();
+        PlanarCuboid box;
+        box.centre = 0.5f * (lo + hi);
+        box.width_m = (hi - lo).x();
+        box.height_m = (hi - lo).y();
+        box.thickness_m = (hi - lo).z();
+        if (static_cast<double>(fill) < min_fill * static_cast<double>((hi - lo).prod())
+            || !accept(box))
+          continue;
+        cells[a].centre = box.centre;
+        cells[a].size = hi - lo;
+        cells[a].filled = fill;
+        cells[b].alive = false;
+        used[a] = used[b] = 1;
+        merged = true;
+      }
+      ++rounds;
+    }
+    const auto all = [](const PlanarCuboid&) {
+      return true;
+    };
+    layer.mergeNonPlanarCells(all, accept, min_fill);
+    const PlanarCuboids got = layer.getCuboids();
+    std::vector<Cell> expected;
+    for (const auto& c : cells)
+      if (c.alive)
+        expected.push_back(c);
+    EXPECT_GE(rounds, 3) << "seed " << seed;
+    EXPECT_LT(5 * expected.size(), 4 * start.size()) << "seed " << seed;
+    ASSERT_EQ(got.size(), expected.size()) << "seed " << seed;
+    for (std::size_t k = 0; k < got.size(); ++k) {
+      EXPECT_TRUE(got[k].centre.isApprox(expected[k].centre, 1e-6f))
+        << "seed " << seed << " cell " << k;
+      EXPECT_NEAR(got[k].width_m, expected[k].size.x(), 1e-6f);
+      EXPECT_NEAR(got[k].height_m, expected[k].size.y(), 1e-6f);
+      EXPECT_NEAR(got[k].thickness_m, expected[k].size.z(), 1e-6f);
+    }
+  }
 }
 
 } // namespace
