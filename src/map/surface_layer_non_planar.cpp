@@ -38,6 +38,100 @@ nonPlanarKey(const PlanarCuboid& c, double resolution_m)
 
 using namespace surface_layer_detail;
 
+namespace {
+
+/** A non-planar cell's extent in its own axes: (horizontal, vertical, normal)
+ * coordinates, meters; \a axes its index into the orientation table. */
+struct Span {
+  std::uint32_t cell;
+  std::uint32_t axes;
+  Eigen::Vector3f lo;
+  Eigen::Vector3f hi;
+};
+
+/** The axis along which the spans' starts spread the most, in units of their mean
+ * extent plus \a slack: a sweep's window on it holds the fewest other spans (the depth
+ * of a street, the length of a corridor). */
+int
+sweepAxis(const std::vector<Span>& spans, float slack)
+{
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+  Eigen::Vector3f hi = Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest());
+  Eigen::Vector3d extent = Eigen::Vector3d::Zero();
+  for (const Span& span : spans) {
+    lo = lo.cwiseMin(span.lo);
+    hi = hi.cwiseMax(span.lo);
+    extent += (span.hi - span.lo).cast<double>();
+  }
+  int best = 0;
+  double best_spread = -1.0;
+  for (int a = 0; a < 3; ++a) {
+    const double window = extent[a] / static_cast<double>(spans.size()) + slack;
+    const double spread = static_cast<double>(hi[a] - lo[a]) / window;
+    if (spread > best_spread) {
+      best_spread = spread;
+      best = a;
+    }
+  }
+  return best;
+}
+
+/** Calls \a add(a, b) once for every pair of \a spans (sorted here) of one orientation
+ * that overlap within \a slack on all three axes and of which one has \a changed set
+ * (indexed by Span::cell); with \a all_changed every overlapping pair. A sweep along
+ * sweepAxis() tests the other two axes per pair; every axis gives the same pairs. */
+template <typename Add>
+void
+mergeCandidatePairs(std::vector<Span>& spans,
+                    const std::vector<char>& changed,
+                    bool all_changed,
+                    float slack,
+                    const Add& add)
+{
+  if (spans.size() < 2)
+    return;
+  const int d = sweepAxis(spans, slack);
+  const int e = (d + 1) % 3, f = (d + 2) % 3;
+  const auto order = [d](const Span& a, const Span& b) {
+    return std::tie(a.axes, a.lo[d], a.cell) < std::tie(b.axes, b.lo[d], b.cell);
+  };
+  std::sort(spans.begin(), spans.end(), order);
+  const auto test = [&](const Span& a, const Span& b) {
+    if (b.lo[e] > a.hi[e] + slack || a.lo[e] > b.hi[e] + slack
+        || b.lo[f] > a.hi[f] + slack || a.lo[f] > b.hi[f] + slack)
+      return;
+    add(a, b);
+  };
+  if (all_changed) {
+    for (std::size_t i = 0; i < spans.size(); ++i)
+      for (std::size_t j = i + 1; j < spans.size() && spans[j].axes == spans[i].axes
+                                  && spans[j].lo[d] <= spans[i].hi[d] + slack;
+           ++j)
+        test(spans[i], spans[j]);
+    return;
+  }
+  // Each changed span against the spans whose start on the sweep axis lies within its
+  // reach (widened by the longest span, and by slack once more for rounding); a pair of
+  // two changed spans is added by the lower cell index.
+  float longest = 0.0f;
+  for (const Span& span : spans)
+    longest = std::max(longest, span.hi[d] - span.lo[d]);
+  for (const Span& c : spans) {
+    if (!changed[c.cell])
+      continue;
+    Span from = c;
+    from.lo[d] = c.lo[d] - longest - 2.0f * slack;
+    from.cell = 0;
+    for (auto it = std::lower_bound(spans.begin(), spans.end(), from, order);
+         it != spans.end() && it->axes == c.axes && it->lo[d] <= c.hi[d] + slack; ++it)
+      if (it->cell != c.cell && !(changed[it->cell] && it->cell < c.cell)
+          && !(c.lo[d] > it->hi[d] + slack))
+        test(c, *it);
+  }
+}
+
+} // namespace
+
 void
 SurfaceLayer::Impl::pruneAxes()
 {
@@ -188,13 +282,6 @@ SurfaceLayer::mergeNonPlanarCells(
   std::lock_guard<std::mutex> lock(impl.mutex);
   const std::size_t before = impl.non_planar.size();
   const auto slack = static_cast<float>(0.5 * params_.resolution_m);
-  // A cell's extent in its own axes: (horizontal, vertical, normal) coordinates.
-  struct Span {
-    std::uint32_t cell;
-    std::uint32_t axes;
-    Eigen::Vector3f lo;
-    Eigen::Vector3f hi;
-  };
   const auto spanOf = [&](std::uint32_t k) {
     const NonPlanarCell& cell = impl.non_planar[k];
     const BoxAxes& axes = impl.np_axes[cell.axes];
@@ -221,31 +308,6 @@ SurfaceLayer::mergeNonPlanarCells(
     c.height_m = size.y();
     c.thickness_m = size.z();
     return c;
-  };
-
-  // The axis along which the spans' starts spread the most, in units of their mean
-  // extent (plus slack): the sweep's window on it holds the fewest other spans.
-  const auto sweepAxis = [](const std::vector<Span>& all, float grow) {
-    Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
-    Eigen::Vector3f hi =
-      Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest());
-    Eigen::Vector3d extent = Eigen::Vector3d::Zero();
-    for (const Span& span : all) {
-      lo = lo.cwiseMin(span.lo);
-      hi = hi.cwiseMax(span.lo);
-      extent += (span.hi - span.lo).cast<double>();
-    }
-    int best = 0;
-    double best_spread = -1.0;
-    for (int a = 0; a < 3; ++a) {
-      const double window = extent[a] / static_cast<double>(all.size()) + grow;
-      const double spread = static_cast<double>(hi[a] - lo[a]) / window;
-      if (spread > best_spread) {
-        best_spread = spread;
-        best = a;
-      }
-    }
-    return best;
   };
 
   std::vector<std::uint32_t> live;
@@ -279,57 +341,16 @@ SurfaceLayer::mergeNonPlanarCells(
     spans.clear();
     for (const std::uint32_t k : live)
       spans.push_back(spanOf(k));
-    // Sweep along the axis on which the cells lie farthest apart for their size (the
-    // depth of a street, the length of a corridor), so that few cells share a cell's
-    // window on it; the other two axes are tested per pair. Every axis gives the same
-    // pairs: those overlapping within slack on all three.
-    const int d = sweepAxis(spans, slack);
-    const int e = (d + 1) % 3, f = (d + 2) % 3;
-    const auto order = [d](const Span& a, const Span& b) {
-      return std::tie(a.axes, a.lo[d], a.cell) < std::tie(b.axes, b.lo[d], b.cell);
-    };
-    std::sort(spans.begin(), spans.end(), order);
-    const auto addPair = [&](const Span& a, const Span& b) {
-      if (b.lo[e] > a.hi[e] + slack || a.lo[e] > b.hi[e] + slack
-          || b.lo[f] > a.hi[f] + slack || a.lo[f] > b.hi[f] + slack)
-        return;
-      const std::uint32_t first = std::min(a.cell, b.cell);
-      const std::uint32_t second = std::max(a.cell, b.cell);
-      if (refused.count({first, generation[first], second, generation[second]}) > 0)
-        return;
-      const Eigen::Vector3f size = a.hi.cwiseMax(b.hi) - a.lo.cwiseMin(b.lo);
-      pairs.emplace_back(size.prod(), first, second);
-    };
     pairs.clear();
-    if (first_pass) {
-      for (std::size_t i = 0; i < spans.size(); ++i)
-        for (std::size_t j = i + 1; j < spans.size() && spans[j].axes == spans[i].axes
-                                    && spans[j].lo[d] <= spans[i].hi[d] + slack;
-             ++j)
-          addPair(spans[i], spans[j]);
-    } else {
-      // Each grown cell against the cells whose start on the sweep axis lies within
-      // its reach (widened by the longest span, and by slack once more for rounding);
-      // a pair of two grown cells is added by the lower cell index.
-      float longest = 0.0f;
-      for (const Span& span : spans)
-        longest = std::max(longest, span.hi[d] - span.lo[d]);
-      for (const Span& c : spans) {
-        if (!changed[c.cell])
-          continue;
-        Span from = c;
-        from.lo[d] = c.lo[d] - longest - 2.0f * slack;
-        from.cell = 0;
-        auto it = std::lower_bound(spans.begin(), spans.end(), from, order);
-        for (; it != spans.end() && it->axes == c.axes && it->lo[d] <= c.hi[d] + slack;
-             ++it) {
-          if (it->cell == c.cell || (changed[it->cell] && it->cell < c.cell)
-              || c.lo[d] > it->hi[d] + slack)
-            continue;
-          addPair(c, *it);
-        }
-      }
-    }
+    mergeCandidatePairs(
+      spans, changed, first_pass, slack, [&](const Span& a, const Span& b) {
+        const std::uint32_t first = std::min(a.cell, b.cell);
+        const std::uint32_t second = std::max(a.cell, b.cell);
+        if (refused.count({first, generation[first], second, generation[second]}) > 0)
+          return;
+        const Eigen::Vector3f size = a.hi.cwiseMax(b.hi) - a.lo.cwiseMin(b.lo);
+        pairs.emplace_back(size.prod(), first, second);
+      });
     first_pass = false;
     std::fill(changed.begin(), changed.end(), 0);
     std::sort(pairs.begin(), pairs.end());
