@@ -162,12 +162,15 @@ isUniform(const Payload& p, std::uint8_t& code)
   return true;
 }
 
+namespace {
+
+/** \brief Writes one form of \a p (whose code counts are \a n, at least two codes
+ * present): one bit per node for two codes, else 2-bit codes. Returns its bytes. */
 std::size_t
-encodeCompact(const Payload& p, std::uint8_t* out)
+encodeForm(const Payload& p, const std::array<std::size_t, 4>& n, std::uint8_t* out)
 {
   // The codes present: two of them (the usual edge of observed space) are written one
   // bit per node.
-  const std::array<std::size_t, 4> n = countCodes(p);
   std::uint32_t code0 = 4, code1 = 4;
   int present = 0;
   for (std::uint32_t s = 0; s < 4; ++s)
@@ -236,8 +239,19 @@ encodeCompact(const Payload& p, std::uint8_t* out)
   return tail;
 }
 
+/** \brief Per 2-bit field of \a w, both bits set where the field holds \a code. */
+inline std::uint64_t
+fieldsEqual(std::uint64_t w, std::uint8_t code)
+{
+  constexpr std::uint64_t LOW = 0x5555555555555555ULL;
+  const std::uint64_t x = w ^ pattern(code);
+  const std::uint64_t eq = ~(x | (x >> 1)) & LOW;
+  return eq | (eq << 1);
+}
+
+/** \brief Decodes the one form at \a data into \a p. */
 void
-decodeCompact(const std::uint8_t* data, Payload& p)
+decodeForm(const std::uint8_t* data, Payload& p)
 {
   p.fill(0);
   walkCompact(
@@ -256,9 +270,77 @@ decodeCompact(const std::uint8_t* data, Payload& p)
     [&p](int c, int d, std::uint32_t v) { putCell(p, cellOrigin(c, d), v); });
 }
 
+} // namespace
+
+std::size_t
+encodeCompact(const Payload& p, std::uint8_t* out)
+{
+  const std::array<std::size_t, 4> n = countCodes(p);
+  std::size_t size = encodeForm(p, n, out);
+  if ((n[0] > 0) + (n[1] > 0) + (n[2] > 0) + (n[3] > 0) <= 2)
+    return size;
+  // Three or four codes: c0 against the most frequent other code, then the rest.
+  std::array<std::uint8_t, 2 * MAX_COMPACT_BYTES> layered;
+  for (std::uint8_t c0 = 0; c0 < 4; ++c0) {
+    if (n[c0] == 0)
+      continue;
+    std::uint8_t other = c0 == 0 ? 1 : 0;
+    for (std::uint8_t s = 0; s < 4; ++s)
+      if (s != c0 && n[s] > n[other])
+        other = s;
+    Payload first, second;
+    for (std::size_t w = 0; w < p.size(); ++w) {
+      const std::uint64_t is_c0 = fieldsEqual(p[w], c0);
+      first[w] = (pattern(c0) & is_c0) | (pattern(other) & ~is_c0);
+      second[w] = (pattern(other) & is_c0) | (p[w] & ~is_c0);
+    }
+    std::array<std::size_t, 4> n_first{}, n_second = n;
+    n_first[c0] = n[c0];
+    n_first[other] = BLOCK_VOXELS - n[c0];
+    n_second[other] += n[c0];
+    n_second[c0] = 0;
+    const std::size_t first_bytes = encodeForm(first, n_first, layered.data());
+    if (first_bytes >= size)
+      continue;
+    const std::size_t bytes =
+      first_bytes + encodeForm(second, n_second, layered.data() + first_bytes);
+    if (bytes >= size)
+      continue;
+    layered[1] =
+      static_cast<std::uint8_t>(layered[1] | LAYERED | (c0 > other ? C0_IS_SECOND : 0));
+    std::copy(layered.begin(), layered.begin() + static_cast<std::ptrdiff_t>(bytes),
+              out);
+    size = bytes;
+  }
+  return size;
+}
+
+void
+decodeCompact(const std::uint8_t* data, Payload& p)
+{
+  decodeForm(data, p);
+  if (!(data[1] & LAYERED))
+    return;
+  const std::uint8_t c0 = layeredCode(data);
+  Payload second;
+  decodeForm(data + formSize(data), second);
+  for (std::size_t w = 0; w < p.size(); ++w) {
+    const std::uint64_t is_c0 = fieldsEqual(p[w], c0);
+    p[w] = (p[w] & is_c0) | (second[w] & ~is_c0);
+  }
+}
+
 void
 countCompact(const std::uint8_t* data, std::array<std::size_t, 4>& n)
 {
+  if (data[1] & LAYERED) {
+    Payload p;
+    decodeCompact(data, p);
+    const std::array<std::size_t, 4> m = countCodes(p);
+    for (std::size_t s = 0; s < 4; ++s)
+      n[s] += m[s];
+    return;
+  }
   walkCompact(
     data,
     [&n](int, int, unsigned code, int voxels) {

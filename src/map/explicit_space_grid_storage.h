@@ -143,10 +143,22 @@ struct DenseBlock {
 //      3 bytes per mixed cube: its mask of mixed cells, then its uniform cells' codes
 //      2 bytes per mixed cell: the codes of its 8 voxels (voxel (x, y, z) at bits
 //                  2 (x + 2 y + 4 z))
-// The encoding of a payload is unique, so equal blocks have equal bytes.
+//  - A block of three or four codes may instead be written in two layers, when that
+//    is shorter (a road: free space above, the surface, unknown below): a form of two
+//    codes, c0 against one other code, then right after it a form (of two codes, or
+//    of 2-bit codes) of the voxels that are not c0, where the c0 voxels take that
+//    other code. The first form's byte 1 has LAYERED set, and C0_IS_SECOND when c0 is
+//    its second code b. A voxel is c0 when the first form says so, else what the
+//    second says.
+// The encoding of a payload is unique (the shortest of these forms, the 2-bit form
+// on a tie, then the lowest c0), so equal blocks have equal bytes.
 
 /** \brief Flag of byte 1 of a compact block of two codes. */
 constexpr std::uint8_t TWO_CODES = 0x10;
+/** \brief Flag of byte 1 of the first of the two forms of a layered block. */
+constexpr std::uint8_t LAYERED = 0x40;
+/** \brief Flag of byte 1 of a layered block: c0 is the first form's second code. */
+constexpr std::uint8_t C0_IS_SECOND = 0x20;
 /** \brief Largest compact block: 4 + 8 x 3 + 64 x 2 bytes (three or four codes, every
  * cell mixed). */
 constexpr std::size_t MAX_COMPACT_BYTES = 156;
@@ -194,9 +206,9 @@ struct CompactLayout {
   unsigned cell_bytes;
 };
 
-/** \brief Bytes of the compact block at \a data. */
+/** \brief Bytes of the one form at \a data (the first of a layered block). */
 inline std::size_t
-compactSize(const std::uint8_t* data)
+formSize(const std::uint8_t* data)
 {
   const CompactLayout layout(data[1]);
   const auto n_cubes = static_cast<unsigned>(__builtin_popcount(data[0]));
@@ -207,9 +219,25 @@ compactSize(const std::uint8_t* data)
   return n;
 }
 
-/** \brief Code of local voxel (x, y, z) of the compact block at \a data. */
+/** \brief Bytes of the compact block at \a data. */
+inline std::size_t
+compactSize(const std::uint8_t* data)
+{
+  const std::size_t n = formSize(data);
+  return (data[1] & LAYERED) ? n + formSize(data + n) : n;
+}
+
+/** \brief The code c0 of the layered block at \a data. */
 inline std::uint8_t
-compactGet(const std::uint8_t* data, int x, int y, int z)
+layeredCode(const std::uint8_t* data)
+{
+  const unsigned h = data[1];
+  return static_cast<std::uint8_t>((h >> ((h & C0_IS_SECOND) ? 2 : 0)) & 3u);
+}
+
+/** \brief Code of local voxel (x, y, z) of the one form at \a data. */
+inline std::uint8_t
+formGet(const std::uint8_t* data, int x, int y, int z)
 {
   const CompactLayout layout(data[1]);
   const unsigned c =
@@ -236,10 +264,20 @@ compactGet(const std::uint8_t* data, int x, int y, int z)
                      static_cast<unsigned>((x & 1) + 2 * (y & 1) + 4 * (z & 1)));
 }
 
-/** \brief The uniform 4^3 cubes of code \a code of the compact block at \a data: bit
- * c for the cube at (4 (c & 1), 4 ((c >> 1) & 1), 4 (c >> 2)). */
+/** \brief Code of local voxel (x, y, z) of the compact block at \a data. */
+inline std::uint8_t
+compactGet(const std::uint8_t* data, int x, int y, int z)
+{
+  const std::uint8_t code = formGet(data, x, y, z);
+  if (!(data[1] & LAYERED) || code == layeredCode(data))
+    return code;
+  return formGet(data + formSize(data), x, y, z);
+}
+
+/** \brief The uniform 4^3 cubes of code \a code of the one form at \a data: bit c for
+ * the cube at (4 (c & 1), 4 ((c >> 1) & 1), 4 (c >> 2)). */
 inline std::uint32_t
-compactUniformCubes(const std::uint8_t* data, std::uint32_t code)
+formUniformCubes(const std::uint8_t* data, std::uint32_t code)
 {
   const CompactLayout layout(data[1]);
   const unsigned mixed_cubes = data[0], cube_codes = layout.word(data + 2);
@@ -248,6 +286,22 @@ compactUniformCubes(const std::uint8_t* data, std::uint32_t code)
     if (!((mixed_cubes >> c) & 1u) && layout.code(cube_codes, c) == code)
       cubes |= 1u << c;
   return cubes;
+}
+
+/** \brief The uniform 4^3 cubes of code \a code of the compact block at \a data: bit
+ * c for the cube at (4 (c & 1), 4 ((c >> 1) & 1), 4 (c >> 2)). */
+inline std::uint32_t
+compactUniformCubes(const std::uint8_t* data, std::uint32_t code)
+{
+  if (!(data[1] & LAYERED))
+    return formUniformCubes(data, code);
+  const std::uint32_t c0 = layeredCode(data);
+  if (code == c0)
+    return formUniformCubes(data, c0);
+  // the cubes without c0 in the first form, and of the code in the second
+  const unsigned h = data[1];
+  const std::uint32_t other = (h >> ((h & C0_IS_SECOND) ? 0 : 2)) & 3u;
+  return formUniformCubes(data, other) & formUniformCubes(data + formSize(data), code);
 }
 
 /** \brief Decodes the compact block at \a data into \a p. */

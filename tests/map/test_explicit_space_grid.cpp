@@ -454,6 +454,27 @@ TEST(ExplicitSpaceGrid, CountsAndMemoryConsistent)
     for (int y = 0; y < 8; ++y)
       for (int x = 0; x < 8; ++x)
         ASSERT_EQ(grid.getState(Key(x, y, z)), three[(x + y + z) % 3]);
+  // a road: free space above, the occupied surface at z = 4, unknown below. Its 2-bit
+  // form takes 4 + 4 x 3 + 16 x 2 = 48 bytes (the 4 upper cubes mixed, 4 mixed cells
+  // in each); written in two layers it takes 30: unknown against the rest, every cube
+  // uniform (3 bytes), then the rest (unknown voxels taking free) as occupied in free,
+  // 3 + 4 x 2 + 16 x 1 = 27 bytes
+  const auto road = [](int z) {
+    return z > 4    ? SpaceState::FREE
+           : z == 4 ? SpaceState::OCCUPIED
+                    : SpaceState::UNKNOWN;
+  };
+  for (int z = 0; z < 8; ++z)
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x)
+        grid.setState(Key(x, y, z), road(z));
+  EXPECT_EQ(grid.getVoxelCount(SpaceState::FREE), 192u);
+  EXPECT_EQ(grid.getVoxelCount(SpaceState::OCCUPIED), 64u);
+  EXPECT_EQ(grid.getMemoryBytes(), uniform_bytes + 30u + 2u + 16u);
+  for (int z = 0; z < 8; ++z)
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x)
+        ASSERT_EQ(grid.getState(Key(x, y, z)), road(z));
   for (int z = 0; z < 8; ++z)
     for (int y = 0; y < 8; ++y)
       for (int x = 0; x < 8; ++x)
