@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cstdint>
 #include <vector>
 
@@ -272,15 +273,91 @@ decodeForm(const std::uint8_t* data, Payload& p)
 
 } // namespace
 
+namespace {
+
+/** \brief A set of a block's voxels: bit x + 8 y of word z. */
+using VoxelMask = std::array<std::uint64_t, 8>;
+
+/** \brief The low bits of the 32 2-bit lanes of \a lanes (each lane 0 or 1), packed. */
+inline std::uint64_t
+packLanes(std::uint64_t lanes)
+{
+  std::uint64_t x = lanes & 0x5555555555555555ULL;
+  x = (x | (x >> 1)) & 0x3333333333333333ULL;
+  x = (x | (x >> 2)) & 0x0F0F0F0F0F0F0F0FULL;
+  x = (x | (x >> 4)) & 0x00FF00FF00FF00FFULL;
+  x = (x | (x >> 8)) & 0x0000FFFF0000FFFFULL;
+  return (x | (x >> 16)) & 0x00000000FFFFFFFFULL;
+}
+
+/** \brief The voxels of \a p of code \a code. */
+VoxelMask
+voxelsOf(const Payload& p, std::uint8_t code)
+{
+  VoxelMask m;
+  for (std::size_t z = 0; z < 8; ++z)
+    m[z] = packLanes(fieldsEqual(p[2 * z], code))
+           | (packLanes(fieldsEqual(p[2 * z + 1], code)) << 32);
+  return m;
+}
+
+/** \brief Bytes of the one form of a block whose voxels the \a count sets \a parts
+ * split (its codes): a node (4^3 cube, 2^3 cell) is uniform when one part holds all
+ * of it. Two parts: 3 + 2 per mixed cube + 1 per mixed cell; more: 4 + 3 per mixed
+ * cube + 2 per mixed cell (encodeForm()). */
+std::size_t
+formBytes(const VoxelMask* parts, int count)
+{
+  // Per part: whole 2 x 2 x 2 cells at (even x, even y) of each cell layer, then whole
+  // cubes at x, y in {0, 4} of each cube layer.
+  std::array<std::uint64_t, 4> uniform_cells{};
+  std::array<std::uint64_t, 2> uniform_cubes{};
+  for (int k = 0; k < count; ++k) {
+    const VoxelMask& m = parts[k];
+    std::array<std::uint64_t, 4> cells;
+    for (std::size_t zc = 0; zc < 4; ++zc) {
+      std::uint64_t w = m[2 * zc] & m[2 * zc + 1];
+      w &= w >> 1;
+      cells[zc] = w & (w >> 8);
+      uniform_cells[zc] |= cells[zc];
+    }
+    for (std::size_t zq = 0; zq < 2; ++zq) {
+      std::uint64_t w = cells[2 * zq] & cells[2 * zq + 1];
+      w &= w >> 2;
+      uniform_cubes[zq] |= w & (w >> 16);
+    }
+  }
+  constexpr std::uint64_t CELL_CORNERS = 0x0055005500550055ULL; // even x, even y
+  constexpr std::uint64_t CUBE_CORNERS = 0x0000001100000011ULL; // x, y in {0, 4}
+  std::size_t mixed_cells = 0, mixed_cubes = 0;
+  for (const auto w : uniform_cells)
+    mixed_cells += static_cast<std::size_t>(__builtin_popcountll(~w & CELL_CORNERS));
+  for (const auto w : uniform_cubes)
+    mixed_cubes += static_cast<std::size_t>(__builtin_popcountll(~w & CUBE_CORNERS));
+  return count == 2 ? 3 + 2 * mixed_cubes + mixed_cells
+                    : 4 + 3 * mixed_cubes + 2 * mixed_cells;
+}
+
+} // namespace
+
 std::size_t
 encodeCompact(const Payload& p, std::uint8_t* out)
 {
   const std::array<std::size_t, 4> n = countCodes(p);
-  std::size_t size = encodeForm(p, n, out);
   if ((n[0] > 0) + (n[1] > 0) + (n[2] > 0) + (n[3] > 0) <= 2)
-    return size;
-  // Three or four codes: c0 against the most frequent other code, then the rest.
-  std::array<std::uint8_t, 2 * MAX_COMPACT_BYTES> layered;
+    return encodeForm(p, n, out);
+  // Three or four codes: the 2-bit form, or two layers: c0 against the most frequent
+  // other code, then the rest with the c0 voxels taking that code. The sizes come from
+  // the codes' voxel sets; only the shortest form is written.
+  std::array<VoxelMask, 4> voxels{}, all_parts;
+  int all_count = 0;
+  for (std::uint8_t s = 0; s < 4; ++s)
+    if (n[s] > 0) {
+      voxels[s] = voxelsOf(p, s);
+      all_parts[static_cast<std::size_t>(all_count++)] = voxels[s];
+    }
+  std::size_t best = formBytes(all_parts.data(), all_count);
+  int best_c0 = -1, best_other = -1;
   for (std::uint8_t c0 = 0; c0 < 4; ++c0) {
     if (n[c0] == 0)
       continue;
@@ -288,31 +365,51 @@ encodeCompact(const Payload& p, std::uint8_t* out)
     for (std::uint8_t s = 0; s < 4; ++s)
       if (s != c0 && n[s] > n[other])
         other = s;
-    Payload first, second;
-    for (std::size_t w = 0; w < p.size(); ++w) {
-      const std::uint64_t is_c0 = fieldsEqual(p[w], c0);
-      first[w] = (pattern(c0) & is_c0) | (pattern(other) & ~is_c0);
-      second[w] = (pattern(other) & is_c0) | (p[w] & ~is_c0);
+    VoxelMask rest;
+    for (std::size_t z = 0; z < 8; ++z)
+      rest[z] = ~voxels[c0][z];
+    const VoxelMask first[2] = {voxels[c0], rest};
+    std::array<VoxelMask, 3> second;
+    int second_count = 0;
+    for (std::uint8_t s = 0; s < 4; ++s) {
+      if (s == c0 || n[s] == 0)
+        continue;
+      VoxelMask& m = second[static_cast<std::size_t>(second_count++)];
+      m = voxels[s];
+      if (s == other)
+        for (std::size_t z = 0; z < 8; ++z)
+          m[z] |= voxels[c0][z];
     }
-    std::array<std::size_t, 4> n_first{}, n_second = n;
-    n_first[c0] = n[c0];
-    n_first[other] = BLOCK_VOXELS - n[c0];
-    n_second[other] += n[c0];
-    n_second[c0] = 0;
-    const std::size_t first_bytes = encodeForm(first, n_first, layered.data());
-    if (first_bytes >= size)
-      continue;
     const std::size_t bytes =
-      first_bytes + encodeForm(second, n_second, layered.data() + first_bytes);
-    if (bytes >= size)
-      continue;
-    layered[1] =
-      static_cast<std::uint8_t>(layered[1] | LAYERED | (c0 > other ? C0_IS_SECOND : 0));
-    std::copy(layered.begin(), layered.begin() + static_cast<std::ptrdiff_t>(bytes),
-              out);
-    size = bytes;
+      formBytes(first, 2) + formBytes(second.data(), second_count);
+    if (bytes < best) {
+      best = bytes;
+      best_c0 = c0;
+      best_other = other;
+    }
   }
-  return size;
+  if (best_c0 < 0)
+    return encodeForm(p, n, out);
+  const auto c0 = static_cast<std::uint8_t>(best_c0);
+  const auto other = static_cast<std::uint8_t>(best_other);
+  Payload first, second;
+  for (std::size_t w = 0; w < p.size(); ++w) {
+    const std::uint64_t is_c0 = fieldsEqual(p[w], c0);
+    first[w] = (pattern(c0) & is_c0) | (pattern(other) & ~is_c0);
+    second[w] = (pattern(other) & is_c0) | (p[w] & ~is_c0);
+  }
+  std::array<std::size_t, 4> n_first{}, n_second = n;
+  n_first[c0] = n[c0];
+  n_first[other] = BLOCK_VOXELS - n[c0];
+  n_second[other] += n[c0];
+  n_second[c0] = 0;
+  const std::size_t first_bytes = encodeForm(first, n_first, out);
+  out[1] =
+    static_cast<std::uint8_t>(out[1] | LAYERED | (c0 > other ? C0_IS_SECOND : 0));
+  const std::size_t bytes =
+    first_bytes + encodeForm(second, n_second, out + first_bytes);
+  assert(bytes == best);
+  return bytes;
 }
 
 void
