@@ -167,13 +167,16 @@ TEST(PlaneRegistry, DistanceBoundaryBothSides)
               expected);
     EXPECT_EQ(registry.size(), static_cast<std::size_t>(expected + 1));
   }
-  // Two registered planes both within the threshold: the nearest offset wins.
+  // The nearest offset wins: d = -1.2 joins plane 1 (-1.3, 0.1 m away; plane 0 is
+  // 0.2 m away), which becomes -1.25; d = -1.1 is within 0.2 m of both (0.1 m and
+  // 0.15 m) and joins plane 0, which becomes -1.05.
   PlaneRegistry registry(keepEveryPoint());
   ASSERT_EQ(registry.associate(Eigen::Vector4f(0.0f, 0.0f, 1.0f, -1.0f), 10), 0);
   ASSERT_EQ(registry.associate(Eigen::Vector4f(0.0f, 0.0f, 1.0f, -1.3f), 10), 1);
   EXPECT_EQ(registry.associate(Eigen::Vector4f(0.0f, 0.0f, 1.0f, -1.2f), 10), 1);
   EXPECT_EQ(registry.associate(Eigen::Vector4f(0.0f, 0.0f, 1.0f, -1.1f), 10), 0);
-  // Parameters other than the defaults: 0.5 m joins at 0.4 m.
+  // Parameters other than the defaults: with 0.5 m, d = -1.7 joins plane 1 (-1.25,
+  // 0.45 m away; plane 0 is 0.65 m away).
   PlaneRegistry::Params wide = keepEveryPoint();
   wide.distance_threshold_m = 0.5;
   registry.setParams(wide);
@@ -409,4 +412,35 @@ TEST(PlaneRegistry, SetPlanesRoundTrip)
                                   PlaneRegistry::PointCloud()),
                planar_grid::Exception);
   EXPECT_EQ(restored.size(), 2u); // unchanged
+}
+
+// A new leaf size applies to every point at the next downsampling: (0.9, 0.9, 0.9),
+// kept alone in voxel (0, 0, 0) of a 1 m leaf, lies in voxel (1, 1, 1) of a 0.5 m leaf,
+// so a later (0.1, 0.1, 0.1), in voxel (0, 0, 0), does not replace it; both stay. The
+// planes stay registered.
+TEST(PlaneRegistry, NewLeafSizeAppliesToEveryPoint)
+{
+  PlaneRegistry::Params params = keepEveryPoint();
+  params.leaf_size_m = 1.0;
+  PlaneRegistry registry(params);
+  Cloud cloud;
+  cloud.push_back(pcl::PointXYZ(0.9f, 0.9f, 0.9f));
+  pcl::PointIndices first;
+  first.indices = {0};
+  ASSERT_EQ(registry.addPlane(cloud, coefficients(0.0f, 0.0f, 1.0f, 0.0f), first), 0);
+  registry.downsample();
+  ASSERT_EQ(registry.getInlierCloud().size(), 1u);
+
+  params.leaf_size_m = 0.5;
+  registry.setParams(params);
+  EXPECT_EQ(registry.getParams().leaf_size_m, 0.5);
+  EXPECT_EQ(registry.size(), 1u);
+  cloud.push_back(pcl::PointXYZ(0.1f, 0.1f, 0.1f));
+  pcl::PointIndices second;
+  second.indices = {1};
+  ASSERT_EQ(registry.addPlane(cloud, coefficients(0.0f, 0.0f, 1.0f, 0.0f), second), 0);
+  registry.downsample();
+  using Point = std::tuple<float, float, float, std::uint32_t>;
+  EXPECT_EQ(sortedPoints(registry.getInlierCloud()),
+            (std::vector<Point>{{0.1f, 0.1f, 0.1f, 0u}, {0.9f, 0.9f, 0.9f, 0u}}));
 }

@@ -49,7 +49,9 @@ struct PlaneRegistryParams {
 
 /** \brief The run-wide planes of a sequence of frames: each frame's planes are
  * associated with the planes registered so far, so that one physical surface seen in
- * many frames is one plane with one id.
+ * many frames is one plane with one id. The paper segments the planes of each frame
+ * (Sec. III-C) and does not say how those of successive frames relate; this
+ * association by coefficients is ours (docs/METHOD.md).
  *
  * addPlane() takes a plane of a frame (its model_coefficients [a, b, c, d] and its
  * inliers in the frame's cloud, all in the world frame) and returns its run-wide id:
@@ -70,16 +72,15 @@ struct PlaneRegistryParams {
  * coefficients, with a non-finite or zero normal, or with an inlier index outside the
  * cloud.
  *
- * Usage:
+ * Usage (the planes of each frame's world-frame cloud as parallel vectors, as
+ * SACMultiPlaneSegmentation::segment() gives them):
  * \code
  * planar_grid::PlaneRegistry planes;
- * for (each frame) {
- *   // model_coefficients[k] and inliers[k]: the planes of the frame's world-frame
- * cloud std::vector<int> plane_ids; planes.addPlanes(*cloud, model_coefficients,
- * inliers, plane_ids);
- * }
+ * std::vector<int> plane_ids; // per plane of the frame, its run-wide id
+ * planes.addPlanes(*cloud, model_coefficients, inliers, plane_ids);
+ * // ... every frame, then
  * planes.downsample();
- * const auto& labelled = planes.getInlierCloud(); // label = plane_ids' values
+ * const auto& labelled = planes.getInlierCloud(); // labels: the run-wide ids
  * \endcode
  * \ingroup map */
 class PlaneRegistry {
