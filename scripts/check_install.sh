@@ -47,6 +47,7 @@ for f in lib/cmake/PlanarGrid/PlanarGridConfig.cmake \
          include/planar_grid/segmentation/sac_multi_plane_segmentation.h \
          include/planar_grid/segmentation/impl/sac_multi_plane_segmentation.hpp \
          include/planar_grid/segmentation/impl/sac_multi_plane_segmentation_detail.hpp \
+         include/planar_grid/surface/rectangle_merge.h \
          bin/planar_grid_pipeline; do
   [ -e "$prefix/$f" ] || { echo "check_install: $f was not installed" >&2; exit 1; }
 done

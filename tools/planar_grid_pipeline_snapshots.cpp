@@ -155,7 +155,8 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
            return frames_and_points;
          });
 
-  if (!state.plane_cloud->empty())
+  const planar_grid::PlaneRegistry& planes = *state.planes;
+  if (!planes.getInlierCloud().empty())
     render(
       config.output.planes_snapshot, "planes_snapshot", all_street,
       [&](planar_grid::SceneRenderer& r) {
@@ -165,17 +166,17 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
         // colour each; smaller ones (car sides, bushes) stay grey so the facades
         // stand out.
         constexpr std::size_t COLOURED_PLANES = 24;
-        std::vector<std::size_t> order(state.plane_inlier_counts.size());
+        std::vector<std::size_t> order(planes.size());
         std::iota(order.begin(), order.end(), 0);
-        std::sort(order.begin(), order.end(), [&state](std::size_t a, std::size_t b) {
-          return state.plane_inlier_counts[a] > state.plane_inlier_counts[b];
+        std::sort(order.begin(), order.end(), [&planes](std::size_t a, std::size_t b) {
+          return planes.getInlierCounts()[a] > planes.getInlierCounts()[b];
         });
         std::vector<int> colour_of(order.size(), -1);
         for (std::size_t k = 0; k < std::min(order.size(), COLOURED_PLANES); ++k)
           colour_of[order[k]] = static_cast<int>(k);
         pcl::PointCloud<pcl::PointXYZI> labelled;
-        labelled.reserve(state.plane_cloud->size());
-        for (const auto& p : state.plane_cloud->points) {
+        labelled.reserve(planes.getInlierCloud().size());
+        for (const auto& p : planes.getInlierCloud().points) {
           if (p.label >= colour_of.size() || colour_of[p.label] < 0)
             continue;
           pcl::PointXYZI q;
@@ -184,7 +185,7 @@ saveSnapshots(const planar_grid::PipelineConfig& config,
           labelled.push_back(q);
         }
         r.addPointCloud(labelled, planar_grid::ColorMode::LABEL, 2.0);
-        return frames_and_points + ", " + std::to_string(state.plane_models.size())
+        return frames_and_points + ", " + std::to_string(planes.size())
                + " planes (the 24 largest coloured)";
       });
 

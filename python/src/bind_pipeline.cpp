@@ -239,13 +239,15 @@ PipelineRunner's state, trajectory and RunReport).
       "for stereo input).")
     .def_property_readonly(
       "plane_cloud",
-      [](const PipelineResult& r) { return cloudToArray(*r.state.plane_cloud); },
+      [](const PipelineResult& r) {
+        return cloudToArray(r.state.planes->getInlierCloud());
+      },
       "numpy.ndarray, shape (M, 3), float64: the accumulated inliers of the non-ground "
       "planes, meters.")
     .def_property_readonly(
       "plane_labels",
       [](const PipelineResult& r) {
-        const auto& cloud = *r.state.plane_cloud;
+        const auto& cloud = r.state.planes->getInlierCloud();
         py::array_t<std::int64_t> out(static_cast<py::ssize_t>(cloud.size()));
         std::int64_t* o = out.mutable_data();
         for (std::size_t i = 0; i < cloud.size(); ++i)
@@ -257,7 +259,7 @@ PipelineRunner's state, trajectory and RunReport).
     .def_property_readonly(
       "plane_models",
       [](const PipelineResult& r) {
-        const auto& planes = r.state.plane_models;
+        const auto& planes = r.state.planes->getModelCoefficients();
         py::array_t<double> out(
           {static_cast<py::ssize_t>(planes.size()), py::ssize_t{4}});
         auto o = out.mutable_unchecked<2>();

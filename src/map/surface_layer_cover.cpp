@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The surface layer's cover: each map plane's raster closed over gaps, its cells'
-// occupancy, the rectangles of the merge rule (planar_grid/core/rectangle_merge.h)
+// occupancy, the rectangles of the merge rule (planar_grid/surface/rectangle_merge.h)
 // and their cuboids.
-#include <planar_grid/core/rectangle_merge.h>
 #include <planar_grid/map/surface_layer.h>
+#include <planar_grid/surface/rectangle_merge.h>
 
 #include <algorithm>
 #include <cmath>

@@ -3,9 +3,9 @@
 // (private to the map module; the public API is planar_grid/map/surface_layer.h).
 #pragma once
 
-#include <planar_grid/core/rectangle_merge.h>
 #include <planar_grid/map/plane_association.h>
 #include <planar_grid/map/surface_layer.h>
+#include <planar_grid/surface/rectangle_merge.h>
 
 #include <algorithm>
 #include <array>

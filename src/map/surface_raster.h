@@ -3,7 +3,7 @@
 // their feature evidence (private to the map module).
 #pragma once
 
-#include <planar_grid/core/rectangle_merge.h>
+#include <planar_grid/surface/rectangle_merge.h>
 
 #include <algorithm>
 #include <cmath>

@@ -111,7 +111,7 @@ TEST(AccumulateStage, PlaneCloudIsTheUniformSamplingOfEveryInlier)
       Labelled::Ptr expected(new Labelled);
       sampling.filter(*expected);
       ASSERT_GT(expected->size(), 100u);
-      EXPECT_EQ(sortedPoints(*state.plane_cloud), sortedPoints(*expected))
+      EXPECT_EQ(sortedPoints(state.planes->getInlierCloud()), sortedPoints(*expected))
         << "frame " << f;
       all = expected; // the oracle goes on from its own sampling, as the stage did
     }

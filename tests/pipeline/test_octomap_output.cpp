@@ -163,7 +163,7 @@ TEST_F(OctoMapOutputTest, CloudOutputsTakeTheFormatOfTheirExtension)
   planar_grid::PipelineRunner runner(config);
   planar_grid::RunReport report = runner.run();
   planar_grid::writeRunOutputs(config.output, runner, report);
-  const auto& planes = *runner.state().plane_cloud;
+  const auto& planes = runner.state().planes->getInlierCloud();
   ASSERT_GT(planes.size(), 100u);
   pcl::PointCloud<pcl::PointXYZL> from_ply;
   ASSERT_EQ(pcl::io::loadPLYFile((dir_ / "planes.ply").string(), from_ply), 0);

@@ -459,7 +459,7 @@ TEST_F(PipelineRunnerTest, GroundRemovalOnRealFramesTakesOutALevelRoad)
   // counters are sums over the 2 frames; 2 of the frame planes were the ground.
   const double frame_planes = segmentation.counters[0].second - 2.0;
   EXPECT_LT(static_cast<double>(report.planes), frame_planes);
-  EXPECT_FALSE(runner.state().plane_cloud->empty());
+  EXPECT_FALSE(runner.state().planes->getInlierCloud().empty());
 
   // The cuboid approximation: counters are cuboids, planar cuboids, and the occupied
   // 0.1 m voxels of the same points (the standard grid). The paper's combination
@@ -653,8 +653,9 @@ TEST_F(PipelineRunnerTest, ResumedRunGivesTheSameMapAsAnUninterruptedOne)
   ASSERT_EQ(wa.size(), wb.size());
   for (std::size_t i = 0; i < wa.size(); ++i)
     ASSERT_EQ(wa[i].getVector4fMap(), wb[i].getVector4fMap()) << i;
-  EXPECT_EQ(straight.state().plane_models.size(), resumed.state().plane_models.size());
-  EXPECT_EQ(straight.state().plane_cloud->size(), resumed.state().plane_cloud->size());
+  EXPECT_EQ(straight.state().planes->size(), resumed.state().planes->size());
+  EXPECT_EQ(straight.state().planes->getInlierCloud().size(),
+            resumed.state().planes->getInlierCloud().size());
   ASSERT_EQ(straight.trajectory().size(), resumed.trajectory().size());
   for (std::size_t i = 0; i < straight.trajectory().size(); ++i)
     EXPECT_TRUE(straight.trajectory()[i].isApprox(resumed.trajectory()[i], 0.0));
@@ -864,10 +865,11 @@ TEST_F(PipelineRunnerTest, OverlappedFramesGiveTheSameResultsAsASequentialRun)
   ASSERT_EQ(wa.size(), wb.size());
   for (std::size_t i = 0; i < wa.size(); ++i)
     ASSERT_EQ(wa[i].getVector4fMap(), wb[i].getVector4fMap()) << i;
-  ASSERT_EQ(overlapped.state().plane_models.size(),
-            sequential.state().plane_models.size());
-  for (std::size_t p = 0; p < overlapped.state().plane_models.size(); ++p)
-    EXPECT_EQ(overlapped.state().plane_models[p], sequential.state().plane_models[p]);
+  const auto& overlapped_planes = overlapped.state().planes->getModelCoefficients();
+  const auto& sequential_planes = sequential.state().planes->getModelCoefficients();
+  ASSERT_EQ(overlapped_planes.size(), sequential_planes.size());
+  for (std::size_t p = 0; p < overlapped_planes.size(); ++p)
+    EXPECT_EQ(overlapped_planes[p], sequential_planes[p]);
   ASSERT_EQ(overlapped.trajectory().size(), 4u);
   for (std::size_t i = 0; i < 4; ++i)
     EXPECT_TRUE(overlapped.trajectory()[i].matrix()
@@ -909,7 +911,8 @@ TEST_F(PipelineRunnerTest, TheMainJobsStagesGiveTheSameMapOverlappedAndSequentia
   ASSERT_EQ(wa.size(), wb.size());
   for (std::size_t i = 0; i < wa.size(); ++i)
     ASSERT_EQ(wa[i].getVector4fMap(), wb[i].getVector4fMap()) << i;
-  ASSERT_EQ(overlapped.state().plane_models, sequential.state().plane_models);
+  ASSERT_EQ(overlapped.state().planes->getModelCoefficients(),
+            sequential.state().planes->getModelCoefficients());
   ASSERT_EQ(overlapped.trajectory().size(), 10u);
   for (std::size_t i = 0; i < 10; ++i)
     EXPECT_TRUE(overlapped.trajectory()[i].matrix()

@@ -293,18 +293,19 @@ PipelineRunner::writeCheckpoint(std::size_t next_frame, const RunReport& report)
     putVector3(w, p.getVector3fMap());
     w.put(p.intensity);
   }
-  const auto& planes = *state.plane_cloud;
-  w.put(static_cast<std::uint64_t>(planes.size()));
-  for (const auto& p : planes.points) {
+  const PlaneRegistry& planes = *state.planes;
+  const auto& inliers = planes.getInlierCloud();
+  w.put(static_cast<std::uint64_t>(inliers.size()));
+  for (const auto& p : inliers.points) {
     putVector3(w, p.getVector3fMap());
     w.put(p.label);
   }
-  w.put(static_cast<std::uint64_t>(state.plane_models.size()));
-  for (const auto& m : state.plane_models)
+  w.put(static_cast<std::uint64_t>(planes.getModelCoefficients().size()));
+  for (const auto& m : planes.getModelCoefficients())
     for (int k = 0; k < 4; ++k)
       w.put(m[k]);
-  w.put(static_cast<std::uint64_t>(state.plane_inlier_counts.size()));
-  for (const auto n : state.plane_inlier_counts)
+  w.put(static_cast<std::uint64_t>(planes.getInlierCounts().size()));
+  for (const auto n : planes.getInlierCounts())
     w.put(static_cast<std::uint64_t>(n));
   putCuboids(w, state.cuboids);
   w.put(static_cast<std::uint8_t>(state.map != nullptr));
@@ -468,26 +469,36 @@ readSharedState(ByteReader& r, const std::string& path, PipelineState& state)
     p.intensity = r.get<float>();
   }
   const std::size_t plane_points = r.getCount(16, "plane cloud point");
-  state.plane_cloud->resize(plane_points);
-  for (auto& p : state.plane_cloud->points) {
+  PlaneRegistry::PointCloud inliers;
+  inliers.resize(plane_points);
+  for (auto& p : inliers.points) {
     p.getVector3fMap() = getPoint(r);
     p.label = r.get<std::uint32_t>();
   }
   const std::size_t models = r.getCount(16, "plane model");
+  PlaneRegistry::PlaneModels model_coefficients;
+  model_coefficients.reserve(models);
   for (std::size_t k = 0; k < models; ++k) {
     Eigen::Vector4f m;
     for (int c = 0; c < 4; ++c)
       m[c] = r.get<float>();
     if (!m.allFinite())
       r.fail("non-finite plane model");
-    state.plane_models.push_back(m);
+    model_coefficients.push_back(m);
   }
   const std::size_t counts = r.getCount(8, "plane inlier count");
   if (counts != models)
     r.fail("plane models and inlier counts of different lengths");
+  std::vector<std::size_t> inlier_counts;
+  inlier_counts.reserve(counts);
   for (std::size_t k = 0; k < counts; ++k)
-    state.plane_inlier_counts.push_back(
-      static_cast<std::size_t>(r.get<std::uint64_t>()));
+    inlier_counts.push_back(static_cast<std::size_t>(r.get<std::uint64_t>()));
+  for (const auto& p : inliers.points)
+    if (p.label >= models)
+      r.fail("plane cloud label " + std::to_string(p.label) + " beyond the "
+             + std::to_string(models) + " plane models");
+  state.planes->setPlanes(std::move(model_coefficients), std::move(inlier_counts),
+                          std::move(inliers));
   getCuboids(r, state.cuboids);
   if (r.get<std::uint8_t>() != 0)
     state.map = std::make_shared<PlanarGridMap>(

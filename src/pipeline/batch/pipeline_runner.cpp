@@ -456,7 +456,7 @@ PipelineRunner::finish()
     report_.stages[s].total_ms += finish_ms[s];
   const PipelineState& state = mapper_->getState();
   report_.world_cloud_points = state.world_cloud ? state.world_cloud->size() : 0;
-  report_.planes = state.plane_models.size();
+  report_.planes = state.planes->size();
   if (state.map) {
     const PlanarGridMap& map = *state.map;
     const auto& space = map.getSpaceLayer();

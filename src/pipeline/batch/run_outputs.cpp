@@ -161,11 +161,11 @@ writeOutputs(const OutputConfig& output,
         }));
   }
   if (!output.planes.empty()) {
-    const auto& planes = runner.state().plane_cloud;
-    if (planes && !planes->empty())
+    const auto& planes = runner.state().planes;
+    if (planes && !planes->getInlierCloud().empty())
       report.outputs.emplace_back(
         "planes", write(output.planes, [&planes](const std::string& path) {
-          writeCloudFile(path, *planes);
+          writeCloudFile(path, planes->getInlierCloud());
         }));
   }
   if (const auto& map = runner.state().map) {

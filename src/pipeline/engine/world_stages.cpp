@@ -2,14 +2,14 @@
 #include <planar_grid/core/byte_io.h>
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/filters/fast_voxel_grid.h>
-#include <planar_grid/map/plane_association.h>
+#include <planar_grid/map/plane_registry.h>
 
 #include <pcl/common/transforms.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <unordered_map>
+#include <memory>
 
 #include "stages.h"
 
@@ -49,13 +49,13 @@ public:
   }
 };
 
-/** The accumulate stage's parameters: its voxel grid, and the plane association it
- * builds from two of them (associationCriteria()). */
+/** The accumulate stage's parameters: its voxel grid and window, and the run-wide
+ * planes' (planesParams()). */
 struct AccumulateParams {
-  double leaf_size_m{0.1};
+  double leaf_size_m{PlaneRegistryParams{}.leaf_size_m};
   int downsample_every_n_frames{5};
-  double plane_merge_angle_rad{PlaneAssociationCriteria{}.eps_angle_rad};
-  double plane_merge_distance_m{0.2};
+  double plane_merge_angle_rad{PlaneRegistryParams{}.eps_angle_rad};
+  double plane_merge_distance_m{PlaneRegistryParams{}.distance_threshold_m};
   double window_radius_m{0.0};
 };
 
@@ -63,11 +63,11 @@ const ParamDeclarations<AccumulateParams>&
 accumulateParamDeclarations()
 {
   using P = AccumulateParams;
+  namespace ranges = plane_registry_ranges;
   static const ParamDeclarations<P> table = {
     declareReal<P>(
-      "leaf_size_m", [](auto& p) -> auto& { return p.leaf_size_m; },
-      ParamRange::closed(0.0, 10.0), "m",
-      "Voxel edge of the accumulated cloud; 0 keeps every point.")
+      "leaf_size_m", [](auto& p) -> auto& { return p.leaf_size_m; }, ranges::LEAF_SIZE,
+      "m", "Voxel edge of the accumulated cloud; 0 keeps every point.")
       .scalesWithCellSize(),
     declareInteger<P>(
       "downsample_every_n_frames",
@@ -76,12 +76,12 @@ accumulateParamDeclarations()
       "How often the accumulated cloud is downsampled."),
     declareReal<P>(
       "plane_merge_angle_rad", [](auto& p) -> auto& { return p.plane_merge_angle_rad; },
-      ParamRange::closed(0.0, 1.5708), "rad",
+      ranges::EPS_ANGLE, "rad",
       "A frame's plane joins a run-wide plane whose normal is this close..."),
     declareReal<P>(
       "plane_merge_distance_m",
       [](auto& p) -> auto& { return p.plane_merge_distance_m; },
-      ParamRange::closed(0.0, 10.0), "m",
+      ranges::DISTANCE_THRESHOLD, "m",
       "... and whose offset d is this close; else it starts a new one (the pipeline's "
       "value, for this offset distance; PlaneAssociationCriteria's 0.15 m default is "
       "for its evidence distance)."),
@@ -98,10 +98,8 @@ accumulateParamDeclarations()
 class AccumulateStage : public Stage {
 public:
   explicit AccumulateStage(const AccumulateParams& p) :
-      params_(p), leaf_size_m_(p.leaf_size_m), every_(p.downsample_every_n_frames),
-      window_radius_m_(p.window_radius_m),
-      association_(
-        associationCriteria(p.plane_merge_angle_rad, p.plane_merge_distance_m))
+      params_(p), every_(p.downsample_every_n_frames),
+      window_radius_m_(p.window_radius_m), planes_params_(planesParams(p))
   {}
 
   void getParameters(ParamValues& v) const override
@@ -127,24 +125,11 @@ public:
       if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
         world.push_back(p);
     // The planes' inliers, labelled with the run-wide plane they belong to.
-    auto& planes = *state.plane_cloud;
+    PlaneRegistry& planes = registry(state);
     std::vector<int> run_wide_id(frame.planes.size(), -1);
-    for (std::size_t k = 0; k < frame.planes.size(); ++k) {
-      const auto& plane = frame.planes[k];
-      if (plane.model_coefficients.values.size() != 4)
-        continue;
-      const auto id = static_cast<std::uint32_t>(
-        associatePlane(Eigen::Vector4f(plane.model_coefficients.values.data()),
-                       plane.inliers.indices.size(), state));
-      run_wide_id[k] = static_cast<int>(id);
-      for (const auto i : plane.inliers.indices) {
-        const auto& p = (*frame.cloud)[static_cast<std::size_t>(i)];
-        pcl::PointXYZL q;
-        q.getVector3fMap() = p.getVector3fMap();
-        q.label = id;
-        planes.push_back(q);
-      }
-    }
+    for (std::size_t k = 0; k < frame.planes.size(); ++k)
+      run_wide_id[k] = planes.addPlane(*frame.cloud, frame.planes[k].model_coefficients,
+                                       frame.planes[k].inliers);
     // The frame's cells, relabelled with the run-wide plane ids, unless a map merges
     // them across frames (map_integration).
     for (auto cuboid : state.map ? PlanarCuboids() : frame.cuboids) {
@@ -179,158 +164,69 @@ public:
     if (frames < 0 || r.remaining() != 0)
       r.fail("invalid state");
     frames_since_downsample_ = frames;
-    sampled_cloud_ = nullptr; // the plane cloud was loaded: its leaves are rebuilt
   }
 
 private:
-  /** The accumulate stage's association criteria: normals within
-   * plane_merge_angle_rad in either orientation, offsets d within
-   * plane_merge_distance_m. */
-  static PlaneAssociationCriteria associationCriteria(double plane_merge_angle_rad,
-                                                      double plane_merge_distance_m)
+  /** The run-wide planes' parameters: the association's two tolerances and the
+   * accumulated cloud's voxel edge. */
+  static PlaneRegistryParams planesParams(const AccumulateParams& p)
   {
-    PlaneAssociationCriteria criteria;
-    criteria.eps_angle_rad = plane_merge_angle_rad;
-    criteria.distance_threshold_m = plane_merge_distance_m;
-    criteria.orientation = PlaneOrientation::EITHER;
-    criteria.distance = PlaneDistance::OFFSET;
-    return criteria;
+    PlaneRegistryParams params;
+    params.eps_angle_rad = p.plane_merge_angle_rad;
+    params.distance_threshold_m = p.plane_merge_distance_m;
+    params.leaf_size_m = p.leaf_size_m;
+    return params;
   }
 
-  /** The run-wide plane with the same coefficients within tolerance (the nearest
-   * offset, the lowest id on a tie), updated by the inlier-weighted mean; a new one
-   * when none matches. Returns its id. */
-  std::size_t associatePlane(const Eigen::Vector4f& c,
-                             std::size_t inliers,
-                             PipelineState& state) const
+  /** The state's run-wide planes with this stage's parameters: a state from a
+   * checkpoint or from a caller holds the planes without them. */
+  PlaneRegistry& registry(PipelineState& state) const
   {
-    const std::ptrdiff_t found = association_.findBest(
-      state.plane_models.size(),
-      [&state](std::size_t k) { return PlaneObservation{state.plane_models[k]}; },
-      PlaneObservation{c});
-    if (found < 0) {
-      state.plane_models.push_back(c);
-      state.plane_inlier_counts.push_back(inliers);
-      return state.plane_models.size() - 1;
-    }
-    const auto best = static_cast<std::size_t>(found);
-    state.plane_models[best] = averageModelCoefficients(
-      state.plane_models[best], static_cast<float>(state.plane_inlier_counts[best]), c,
-      static_cast<float>(inliers));
-    state.plane_inlier_counts[best] += inliers;
-    return best;
+    if (!state.planes)
+      state.planes = std::make_shared<PlaneRegistry>(planes_params_);
+    else
+      state.planes->setParams(planes_params_);
+    return *state.planes;
   }
 
-  /** Drops the world cloud's and the plane cloud's points outside the box of
-   * half-size window_radius_m around the sensor in x and y (every height), the
-   * map_integration stage's rolling window. */
-  void cropToWindow(const Eigen::Vector3d& sensor, PipelineState& state)
+  /** Drops the world cloud's and the planes' points outside the box of half-size
+   * window_radius_m around the sensor in x and y (every height), the map_integration
+   * stage's rolling window. */
+  void cropToWindow(const Eigen::Vector3d& sensor, PipelineState& state) const
   {
     const double r = window_radius_m_;
-    const auto outside = [&](const auto& p) {
+    const auto outside = [&](const Frame::Cloud::PointType& p) {
       return !(std::abs(p.x - sensor.x()) <= r && std::abs(p.y - sensor.y()) <= r);
     };
     auto& world = state.world_cloud->points;
     world.erase(std::remove_if(world.begin(), world.end(), outside), world.end());
     state.world_cloud->width = static_cast<std::uint32_t>(world.size());
     state.world_cloud->height = 1;
-    auto& planes = state.plane_cloud->points;
-    planes.erase(std::remove_if(planes.begin(), planes.end(), outside), planes.end());
-    state.plane_cloud->width = static_cast<std::uint32_t>(planes.size());
-    state.plane_cloud->height = 1;
-    sampled_cloud_ = nullptr; // the points moved: the leaves are rebuilt
-  }
-
-  /** A voxel of the plane cloud's sampling: floor(p / leaf_size_m) per axis. */
-  struct Leaf {
-    std::int32_t x, y, z;
-    bool operator==(const Leaf& o) const { return x == o.x && y == o.y && z == o.z; }
-  };
-  struct LeafHash {
-    std::size_t operator()(const Leaf& l) const
-    {
-      return static_cast<std::size_t>(
-        (static_cast<std::uint64_t>(static_cast<std::uint32_t>(l.x)) * 73856093U)
-        ^ (static_cast<std::uint64_t>(static_cast<std::uint32_t>(l.y)) * 19349669U)
-        ^ (static_cast<std::uint64_t>(static_cast<std::uint32_t>(l.z)) * 83492791U));
-    }
-  };
-
-  /** Keeps, per voxel of leaf_size_m, the plane cloud's point nearest the voxel's
-   * centre (the first one on a tie; labels are not averaged), as
-   * pcl::UniformSampling with the leaf size as its radius does over the whole cloud,
-   * but visiting only the points added since the last call: the points kept then
-   * hold their voxels (each the nearest of all the points seen there), so a new
-   * point only replaces its voxel's point when it is nearer. The kept points stay in
-   * the order their voxels were first seen. */
-  void samplePlaneCloud(pcl::PointCloud<pcl::PointXYZL>& cloud)
-  {
-    // single precision as pcl::UniformSampling computes the voxels and the distances
-    const auto leaf = static_cast<float>(leaf_size_m_);
-    const float inverse = 1.0f / leaf;
-    if (sampled_cloud_ != &cloud || sampled_points_ > cloud.size()) {
-      plane_leaves_.clear();
-      sampled_points_ = 0;
-    }
-    std::size_t kept = sampled_points_;
-    for (std::size_t i = sampled_points_; i < cloud.size(); ++i) {
-      const pcl::PointXYZL p = cloud[i];
-      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-        continue;
-      const Eigen::Array3f scaled = p.getArray3fMap() * inverse;
-      if (!(scaled.abs() < 2.0e9f).all())
-        continue; // beyond the voxel indices (1e7 m at a 5 mm leaf)
-      const Eigen::Array3f cell = scaled.floor();
-      const Leaf key{static_cast<std::int32_t>(cell.x()),
-                     static_cast<std::int32_t>(cell.y()),
-                     static_cast<std::int32_t>(cell.z())};
-      const auto [it, added] =
-        plane_leaves_.emplace(key, static_cast<std::uint32_t>(kept));
-      if (added) {
-        cloud[kept++] = p;
-        continue;
-      }
-      Eigen::Vector4f centre = Eigen::Vector4f::Zero();
-      centre.head<3>() = ((cell + 0.5f) * leaf).matrix();
-      pcl::PointXYZL& held = cloud[it->second];
-      if ((p.getVector4fMap() - centre).squaredNorm()
-          < (held.getVector4fMap() - centre).squaredNorm())
-        held = p;
-    }
-    cloud.resize(kept);
-    cloud.is_dense = true;
-    sampled_cloud_ = &cloud;
-    sampled_points_ = kept;
+    registry(state).cropToWindow(sensor, r);
   }
 
   void downsample(PipelineState& state)
   {
     frames_since_downsample_ = 0;
-    if (leaf_size_m_ <= 0.0 || state.world_cloud->empty())
+    if (params_.leaf_size_m <= 0.0 || state.world_cloud->empty())
       return;
     FastVoxelGrid<pcl::PointXYZI> grid;
-    const auto leaf = static_cast<float>(leaf_size_m_);
+    const auto leaf = static_cast<float>(params_.leaf_size_m);
     grid.setLeafSize(leaf, leaf, leaf);
     grid.setInputCloud(state.world_cloud);
     Frame::Cloud::Ptr out(new Frame::Cloud);
     grid.filter(*out);
     state.world_cloud = out;
-    // Labels must not be averaged: keep the point nearest each voxel's centre.
-    samplePlaneCloud(*state.plane_cloud);
+    // Labels must not be averaged: the planes keep the point nearest each voxel's
+    // centre.
+    registry(state).downsample();
   }
 
   AccumulateParams params_;
-  double leaf_size_m_;
   int every_;
   double window_radius_m_;
-  PlaneAssociation association_;
+  PlaneRegistryParams planes_params_;
   int frames_since_downsample_{0};
-  /** The plane cloud's voxels and the index of the point each keeps, valid for the
-   * first sampled_points_ points of the cloud at sampled_cloud_ (null: rebuilt at the
-   * next sampling, after a checkpoint's cloud or a crop). */
-  std::unordered_map<Leaf, std::uint32_t, LeafHash> plane_leaves_;
-  const pcl::PointCloud<pcl::PointXYZL>* sampled_cloud_{nullptr};
-  std::size_t sampled_points_{0};
 };
 
 } // namespace

@@ -3,7 +3,7 @@
 
 #include <planar_grid/core/param_range.h>
 #include <planar_grid/core/planar_cuboid.h>
-#include <planar_grid/core/rectangle_merge.h>
+#include <planar_grid/surface/rectangle_merge.h>
 
 #include <pcl/memory.h>
 #include <pcl/point_cloud.h>

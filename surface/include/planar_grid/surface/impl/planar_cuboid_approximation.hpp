@@ -2,8 +2,8 @@
 #pragma once
 
 #include <planar_grid/core/exceptions.h>
-#include <planar_grid/core/rectangle_merge.h>
 #include <planar_grid/surface/planar_cuboid_approximation.h>
+#include <planar_grid/surface/rectangle_merge.h>
 
 #include <pcl/PolygonMesh.h>
 #include <pcl/common/point_tests.h>

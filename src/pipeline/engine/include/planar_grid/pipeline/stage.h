@@ -3,6 +3,7 @@
 
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/planar_grid_map.h>
+#include <planar_grid/map/plane_registry.h>
 #include <planar_grid/pipeline/frame.h>
 #include <planar_grid/pipeline/param_table.h>
 
@@ -14,20 +15,16 @@
 
 namespace planar_grid {
 
-/** \brief What the stages share across frames: the accumulated world cloud.
+/** \brief What the stages share across frames: the accumulated world cloud, the
+ * run-wide planes, the cells and the map.
  * \ingroup pipeline */
 struct PipelineState {
   /** \brief The accumulated cloud in the world frame (accumulate stage). */
   Frame::Cloud::Ptr world_cloud{new Frame::Cloud};
-  /** \brief The accumulated inliers of the non-ground planes, world frame, labelled
-   * with the run-wide plane id (accumulate stage, after multi_plane_segmentation). */
-  pcl::PointCloud<pcl::PointXYZL>::Ptr plane_cloud{new pcl::PointCloud<pcl::PointXYZL>};
-  /** \brief The run-wide planes [a, b, c, d] (unit normal, metres) in the world frame;
-   * the label of a plane is its index. A frame's plane joins the run-wide plane with
-   * the same coefficients within tolerance instead of starting a new one. */
-  std::vector<Eigen::Vector4f, Eigen::aligned_allocator<Eigen::Vector4f>> plane_models;
-  /** \brief Dense inliers merged into each run-wide plane so far (its weight). */
-  std::vector<std::size_t> plane_inlier_counts;
+  /** \brief The run-wide planes (accumulate stage, which sets their parameters): the
+   * non-ground planes of every frame associated into one set, world frame, with their
+   * inlier counts and their accumulated inliers labelled with the run-wide plane id. */
+  PlaneRegistry::Ptr planes{std::make_shared<PlaneRegistry>()};
   /** \brief The accumulated cells of every frame in the world frame as produced;
    * plane_id is the run-wide plane id (-1 non-planar). Only filled when no
    * map_integration stage keeps a map (which merges cells across frames instead). */

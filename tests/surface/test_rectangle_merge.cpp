@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <planar_grid/core/exceptions.h>
-#include <planar_grid/core/rectangle_merge.h>
+#include <planar_grid/surface/rectangle_merge.h>
 
 #include <gtest/gtest.h>
 

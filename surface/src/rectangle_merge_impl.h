@@ -3,7 +3,7 @@
 // MIN_RECTANGLES and DENSITY covers.
 #pragma once
 
-#include <planar_grid/core/rectangle_merge.h>
+#include <planar_grid/surface/rectangle_merge.h>
 
 #include <cstddef>
 #include <cstdint>

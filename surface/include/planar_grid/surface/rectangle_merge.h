@@ -8,7 +8,7 @@
 namespace planar_grid {
 
 /** \brief How a raster of cells is covered by rectangles (the merge of the paper's
- * Fig. 6b and two covers with fewer rectangles). \ingroup core */
+ * Fig. 6b and two covers with fewer rectangles). \ingroup surface */
 enum class RectangleMergeRule : std::uint8_t {
   /** The paper's rule (Fig. 6b): maximal runs of one class along the raster's
    * horizontal axis i, then runs with exactly equal extent [i0, i1) and class in
@@ -47,15 +47,15 @@ enum class RectangleMergeRule : std::uint8_t {
   DENSITY = 2
 };
 
-/** \brief "paper", "min_rectangles" or "density". \ingroup core */
+/** \brief "paper", "min_rectangles" or "density". \ingroup surface */
 std::string toString(RectangleMergeRule rule);
 
 /** \brief Parses "paper", "min_rectangles" or "density".
- * \throws planar_grid::Exception for any other name \ingroup core */
+ * \throws planar_grid::Exception for any other name \ingroup surface */
 RectangleMergeRule rectangleMergeRuleFromString(const std::string& name);
 
 /** \brief A rectangle of raster cells [i0, i1) x [j0, j1) (i the column along the
- * raster's horizontal axis, j the row). \ingroup core */
+ * raster's horizontal axis, j the row). \ingroup surface */
 struct RasterRectangle {
   /** First column, in cells. */
   std::int32_t i0;
@@ -71,11 +71,11 @@ struct RasterRectangle {
  * cells (2e9: the int32 range of RasterRectangle and rasterCellKey() with a margin, so
  * that an index plus one, a neighbour or one past the last cell, never overflows).
  * Callers that turn coordinates into raster indices reject, or skip, a cell beyond
- * it. \ingroup core */
+ * it. \ingroup surface */
 inline constexpr double MAX_CELL_INDEX = 2.0e9;
 
 /** \brief Key of raster cell (i, j) of a sparse raster: keys order the cells by row
- * j, then column i (both signed). \ingroup core */
+ * j, then column i (both signed). \ingroup surface */
 inline std::uint64_t
 rasterCellKey(std::int32_t i, std::int32_t j)
 {
@@ -83,7 +83,7 @@ rasterCellKey(std::int32_t i, std::int32_t j)
          | static_cast<std::uint64_t>(static_cast<std::uint32_t>(i) ^ 0x80000000u);
 }
 
-/** \brief Column i of a rasterCellKey(). \ingroup core */
+/** \brief Column i of a rasterCellKey(). \ingroup surface */
 inline std::int32_t
 rasterCellI(std::uint64_t key)
 {
@@ -91,7 +91,7 @@ rasterCellI(std::uint64_t key)
                                    ^ 0x80000000u);
 }
 
-/** \brief Row j of a rasterCellKey(). \ingroup core */
+/** \brief Row j of a rasterCellKey(). \ingroup surface */
 inline std::int32_t
 rasterCellJ(std::uint64_t key)
 {

@@ -2,7 +2,7 @@
 // The DENSITY rule of the rectangle merge: rectangles grown per component while at
 // least a given share of their cells is of the seed's class, small ones absorbed.
 #include <planar_grid/core/exceptions.h>
-#include <planar_grid/core/rectangle_merge.h>
+#include <planar_grid/surface/rectangle_merge.h>
 
 #include <algorithm>
 #include <cstddef>

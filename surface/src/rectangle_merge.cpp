@@ -2,7 +2,7 @@
 // The rectangle merge of a plane's raster cells: gap closing, the paper's cover and the
 // MIN_RECTANGLES cover (minimum partition per component), and the rule names.
 #include <planar_grid/core/exceptions.h>
-#include <planar_grid/core/rectangle_merge.h>
+#include <planar_grid/surface/rectangle_merge.h>
 
 #include <algorithm>
 #include <cstddef>
