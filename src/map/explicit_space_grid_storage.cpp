@@ -85,16 +85,34 @@ expandBits(unsigned bits, std::uint32_t zero, std::uint32_t one)
   return cellPattern(zero) ^ (b * (zero ^ one));
 }
 
+/** \brief Per 2-bit field of \a w, both bits set where the field holds \a code. */
+inline std::uint64_t
+fieldsEqual(std::uint64_t w, std::uint8_t code)
+{
+  constexpr std::uint64_t LOW = 0x5555555555555555ULL;
+  const std::uint64_t x = w ^ pattern(code);
+  const std::uint64_t eq = ~(x | (x >> 1)) & LOW;
+  return eq | (eq << 1);
+}
+
+/** \brief The low bits of the 32 2-bit lanes of \a lanes (each lane 0 or 1), packed. */
+inline std::uint64_t
+packLanes(std::uint64_t lanes)
+{
+  std::uint64_t x = lanes & 0x5555555555555555ULL;
+  x = (x | (x >> 1)) & 0x3333333333333333ULL;
+  x = (x | (x >> 2)) & 0x0F0F0F0F0F0F0F0FULL;
+  x = (x | (x >> 4)) & 0x00FF00FF00FF00FFULL;
+  x = (x | (x >> 8)) & 0x0000FFFF0000FFFFULL;
+  return (x | (x >> 16)) & 0x00000000FFFFFFFFULL;
+}
+
 /** \brief Bit k set where code k of the 8 2-bit codes \a v is \a code. */
 inline unsigned
 gatherBits(std::uint32_t v, std::uint32_t code)
 {
-  const std::uint32_t x = v ^ cellPattern(code);
-  std::uint32_t b = ~(x | (x >> 1)) & 0x5555u;
-  b = (b | (b >> 1)) & 0x3333u;
-  b = (b | (b >> 2)) & 0x0F0Fu;
-  b = (b | (b >> 4)) & 0x00FFu;
-  return b;
+  return static_cast<unsigned>(
+    packLanes(fieldsEqual(v, static_cast<std::uint8_t>(code))) & 0xFFu);
 }
 
 /** \brief Walks the compact block at \a data in cube and cell order: \a uniform(c, d,
@@ -240,16 +258,6 @@ encodeForm(const Payload& p, const std::array<std::size_t, 4>& n, std::uint8_t* 
   return tail;
 }
 
-/** \brief Per 2-bit field of \a w, both bits set where the field holds \a code. */
-inline std::uint64_t
-fieldsEqual(std::uint64_t w, std::uint8_t code)
-{
-  constexpr std::uint64_t LOW = 0x5555555555555555ULL;
-  const std::uint64_t x = w ^ pattern(code);
-  const std::uint64_t eq = ~(x | (x >> 1)) & LOW;
-  return eq | (eq << 1);
-}
-
 /** \brief Decodes the one form at \a data into \a p. */
 void
 decodeForm(const std::uint8_t* data, Payload& p)
@@ -271,24 +279,8 @@ decodeForm(const std::uint8_t* data, Payload& p)
     [&p](int c, int d, std::uint32_t v) { putCell(p, cellOrigin(c, d), v); });
 }
 
-} // namespace
-
-namespace {
-
 /** \brief A set of a block's voxels: bit x + 8 y of word z. */
 using VoxelMask = std::array<std::uint64_t, 8>;
-
-/** \brief The low bits of the 32 2-bit lanes of \a lanes (each lane 0 or 1), packed. */
-inline std::uint64_t
-packLanes(std::uint64_t lanes)
-{
-  std::uint64_t x = lanes & 0x5555555555555555ULL;
-  x = (x | (x >> 1)) & 0x3333333333333333ULL;
-  x = (x | (x >> 2)) & 0x0F0F0F0F0F0F0F0FULL;
-  x = (x | (x >> 4)) & 0x00FF00FF00FF00FFULL;
-  x = (x | (x >> 8)) & 0x0000FFFF0000FFFFULL;
-  return (x | (x >> 16)) & 0x00000000FFFFFFFFULL;
-}
 
 /** \brief The voxels of \a p of code \a code. */
 VoxelMask

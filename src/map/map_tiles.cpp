@@ -65,7 +65,7 @@ isEmpty(const PlanarGridMap& map)
 {
   ExplicitSpaceGrid::VoxelKey lo, hi;
   return !map.getSpaceLayer().getBounds(lo, hi)
-         && map.getSurfaceLayer().getPlanes().empty()
+         && map.getSurfaceLayer().getPlaneCount() == 0
          && map.getSurfaceLayer().getCellCount() == 0;
 }
 

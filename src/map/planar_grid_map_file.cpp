@@ -188,7 +188,7 @@ PlanarGridMap::serialize(std::string& bytes) const
          << "voxels " << space_.getVoxelCount(SpaceState::FREE) << " "
          << space_.getVoxelCount(SpaceState::OCCUPIED) << " "
          << space_.getVoxelCount(SpaceState::UNKNOWN) << "\n"
-         << "planes " << surface_.getPlanes().size() << "\n"
+         << "planes " << surface_.getPlaneCount() << "\n"
          << "cuboids " << surface_.getCuboidCount() << "\n"
          << "space_bytes " << space_bytes << "\n"
          << "surface_bytes " << surface_bytes << "\n";
@@ -373,7 +373,7 @@ PlanarGridMap::deserialize(const std::string& bytes, const std::string& path)
       || map.space_.getVoxelCount(SpaceState::OCCUPIED) != voxels[1]
       || map.space_.getVoxelCount(SpaceState::UNKNOWN) != voxels[2])
     header.fail("the decoded voxel counts differ from the header's 'voxels'");
-  if (map.surface_.getPlanes().size() != planes
+  if (map.surface_.getPlaneCount() != planes
       || map.surface_.getCuboidCount() != cuboids)
     header.fail("the decoded plane or cuboid count differs from the header's");
   if (old_free_prior)

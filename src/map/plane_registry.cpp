@@ -2,7 +2,6 @@
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/map/plane_registry.h>
 
-#include <algorithm>
 #include <cmath>
 #include <string>
 #include <utility>
@@ -94,15 +93,7 @@ void
 PlaneRegistry::cropToWindow(const Eigen::Vector3d& sensor_origin,
                             double window_half_size_m)
 {
-  const double r = window_half_size_m;
-  const auto outside = [&](const pcl::PointXYZL& p) {
-    return !(std::abs(p.x - sensor_origin.x()) <= r
-             && std::abs(p.y - sensor_origin.y()) <= r);
-  };
-  auto& points = inlier_cloud_.points;
-  points.erase(std::remove_if(points.begin(), points.end(), outside), points.end());
-  inlier_cloud_.width = static_cast<std::uint32_t>(points.size());
-  inlier_cloud_.height = 1;
+  cropToWindowXY(inlier_cloud_, sensor_origin, window_half_size_m);
   resetLeaves(); // the points moved: the voxels' indices no longer hold
 }
 

@@ -304,6 +304,13 @@ SurfaceLayer::getRasterCellCount() const
   return n;
 }
 
+std::size_t
+SurfaceLayer::getPlaneCount() const
+{
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->planes.size();
+}
+
 PlaneModels
 SurfaceLayer::getPlanes() const
 {

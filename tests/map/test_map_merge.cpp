@@ -74,6 +74,7 @@ TEST(PlanarGridMapMerge, TheSceneMakesOnePlanePerSurface)
   // the end wall as four planes, and the box as non-planar cells.
   const PlanarGridMap full = mapFrames(0, FRAMES);
   EXPECT_EQ(full.getSurfaceLayer().getPlanes().size(), 4u);
+  EXPECT_EQ(full.getSurfaceLayer().getPlaneCount(), 4u);
   std::size_t non_planar = 0;
   for (const PlanarCuboid& c : full.getSurfaceLayer().getCuboids())
     non_planar += c.is_planar ? 0 : 1;

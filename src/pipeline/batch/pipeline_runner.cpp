@@ -470,7 +470,7 @@ PipelineRunner::finish()
       {"resolution_m", map.getResolution()},
       {"cuboids", static_cast<double>(cuboids.size())},
       {"planar_cuboids", static_cast<double>(planar)},
-      {"planes", static_cast<double>(surface.getPlanes().size())},
+      {"planes", static_cast<double>(surface.getPlaneCount())},
       {"plane_cells", static_cast<double>(surface.getCellCount())},
       {"raster_cells", static_cast<double>(surface.getRasterCellCount())},
       {"free_voxels", static_cast<double>(space.getVoxelCount(SpaceState::FREE))},

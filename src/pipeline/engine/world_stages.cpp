@@ -194,15 +194,8 @@ private:
    * stage's rolling window. */
   void cropToWindow(const Eigen::Vector3d& sensor, PipelineState& state) const
   {
-    const double r = window_radius_m_;
-    const auto outside = [&](const Frame::Cloud::PointType& p) {
-      return !(std::abs(p.x - sensor.x()) <= r && std::abs(p.y - sensor.y()) <= r);
-    };
-    auto& world = state.world_cloud->points;
-    world.erase(std::remove_if(world.begin(), world.end(), outside), world.end());
-    state.world_cloud->width = static_cast<std::uint32_t>(world.size());
-    state.world_cloud->height = 1;
-    registry(state).cropToWindow(sensor, r);
+    cropToWindowXY(*state.world_cloud, sensor, window_radius_m_);
+    registry(state).cropToWindow(sensor, window_radius_m_);
   }
 
   void downsample(PipelineState& state)

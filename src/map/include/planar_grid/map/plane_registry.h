@@ -249,6 +249,19 @@ private:
   std::size_t sampled_points_{0};
 };
 
+/** \brief Drops the points of \a cloud outside the box of half-size
+ * \a window_half_size_m around \a sensor_origin in x and y, at every height (world z
+ * up), keeping the others' order; the cloud becomes unorganized. The rolling window of
+ * the accumulated clouds (PlaneRegistry::cropToWindow(), the pipeline's accumulate
+ * stage). \ingroup map
+ * \param[in,out] cloud points in the world frame, meters
+ * \param[in] sensor_origin the sensor's position, world frame, meters
+ * \param[in] window_half_size_m half the box's side, meters (>= 0) */
+template <typename PointT>
+void cropToWindowXY(pcl::PointCloud<PointT>& cloud,
+                    const Eigen::Vector3d& sensor_origin,
+                    double window_half_size_m);
+
 } // namespace planar_grid
 
 #include <planar_grid/map/impl/plane_registry.hpp>

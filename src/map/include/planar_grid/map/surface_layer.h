@@ -423,6 +423,8 @@ public:
    * them, d in meters), world frame: each the least-squares plane of its evidence;
    * a copy, index p the map's plane p (the plane_id of its cuboids). */
   PlaneModels getPlanes() const;
+  /** \brief getPlanes().size(), without building the list. */
+  [[nodiscard]] std::size_t getPlaneCount() const;
   /** \brief Number of cells: observed raster cells over all planes (not the cells
    * filled by the gap closing) plus non-planar cells. */
   [[nodiscard]] std::size_t getCellCount() const;

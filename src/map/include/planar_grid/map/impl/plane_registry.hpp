@@ -5,6 +5,9 @@
 
 #include <pcl/console/print.h>
 
+#include <algorithm>
+#include <cmath>
+
 namespace planar_grid {
 
 template <typename PointT>
@@ -52,6 +55,23 @@ PlaneRegistry::addPlanes(const pcl::PointCloud<PointT>& cloud,
   plane_ids.reserve(model_coefficients.size());
   for (std::size_t k = 0; k < model_coefficients.size(); ++k)
     plane_ids.push_back(addPlane(cloud, model_coefficients[k], inliers[k]));
+}
+
+template <typename PointT>
+void
+cropToWindowXY(pcl::PointCloud<PointT>& cloud,
+               const Eigen::Vector3d& sensor_origin,
+               double window_half_size_m)
+{
+  const double r = window_half_size_m;
+  const auto outside = [&](const PointT& p) {
+    return !(std::abs(p.x - sensor_origin.x()) <= r
+             && std::abs(p.y - sensor_origin.y()) <= r);
+  };
+  auto& points = cloud.points;
+  points.erase(std::remove_if(points.begin(), points.end(), outside), points.end());
+  cloud.width = static_cast<std::uint32_t>(points.size());
+  cloud.height = 1;
 }
 
 } // namespace planar_grid
