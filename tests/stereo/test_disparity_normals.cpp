@@ -5,7 +5,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <random>
 #include <vector>
@@ -169,53 +168,6 @@ TEST(DisparityNormals, UndefinedWhereThereIsNothingToFit)
   ASSERT_EQ(normals.size(), points.size());
   for (const auto& n : normals)
     EXPECT_FALSE(n.allFinite());
-}
-
-TEST(DisparityNormals, ManyPointsAtOnceGiveEachPointsOwnNormalBitForBit)
-{
-  // Windows of one size inside the image are summed several at a time; each point's
-  // normal must be the one it gets alone (one point is always summed alone), bit for
-  // bit, whatever its neighbours: noisy planes at every depth, holes, and windows cut
-  // by the image's border.
-  const StereoCalibration c = calibration();
-  const Eigen::Vector3d n = Eigen::Vector3d(0.3, -0.2, -1.0).normalized();
-  cv::Mat disparity = renderPlane(c, n, 12.0, 0.4, 7);
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  for (int v = 0; v < c.height; ++v)
-    for (int u = 0; u < c.width; ++u)
-      if (unit(rng) < 0.15)
-        disparity.at<float>(v, u) = unit(rng) < 0.5
-                                      ? std::numeric_limits<float>::quiet_NaN()
-                                      : static_cast<float>(0.5 + 100.0 * unit(rng));
-  // Most points on the plane (their windows take part), the rest at any depth; some
-  // project beyond the border.
-  Points points;
-  for (int k = 0; k < 3000; ++k) {
-    const Eigen::Vector3d ray(
-      (-20.0 + (c.width + 40.0) * unit(rng) - c.cx_px) / c.focal_length_px,
-      (-20.0 + (c.height + 40.0) * unit(rng) - c.cy_px) / c.focal_length_px, 1.0);
-    const double on_plane = -12.0 / n.dot(ray);
-    const double z = unit(rng) < 0.8 && on_plane > 1.0 && on_plane < 40.0
-                       ? on_plane
-                       : 1.0 + 39.0 * unit(rng);
-    points.emplace_back((z * ray).cast<float>());
-  }
-  points.emplace_back(Eigen::Vector3f(0.0f, 0.0f, -1.0f));
-  const DisparityNormalParams params;
-  Points together;
-  estimateDisparityNormals(disparity, c, points, params, together);
-  ASSERT_EQ(together.size(), points.size());
-  std::size_t defined = 0, differing = 0;
-  for (std::size_t k = 0; k < points.size(); ++k) {
-    Points alone;
-    estimateDisparityNormals(disparity, c, Points{points[k]}, params, alone);
-    defined += together[k].allFinite() ? 1 : 0;
-    differing +=
-      std::memcmp(alone[0].data(), together[k].data(), sizeof(float) * 3) == 0 ? 0 : 1;
-  }
-  EXPECT_EQ(differing, 0u);
-  EXPECT_GT(defined, points.size() / 2); // the test reaches real windows
 }
 
 TEST(DisparityNormals, BadInputIsAnError)
