@@ -5,6 +5,7 @@
 #include <planar_grid/core/atomic_file.h>
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/eval/map_comparison.h>
+#include <planar_grid/eval/map_comparison_config.h>
 
 #include "cli.h"
 #ifdef PLANAR_GRID_WITH_VIEWER

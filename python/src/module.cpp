@@ -134,6 +134,7 @@ ValueError
   planar_grid::python::bindAlgorithms(m);
   planar_grid::python::bindOccupancyFilter(m);
   planar_grid::python::bindMap(m);
+  planar_grid::python::bindMapIntegration(m);
   planar_grid::python::bindMapQueries(m);
   planar_grid::python::bindMapTiles(m);
   planar_grid::python::bindPipeline(m);

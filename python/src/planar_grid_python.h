@@ -16,6 +16,7 @@
 #include <pybind11/pybind11.h>
 
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <utility>
@@ -23,7 +24,8 @@
 
 namespace planar_grid {
 class PlanarGridMap;
-}
+enum class SpaceState : std::uint8_t;
+} // namespace planar_grid
 
 namespace planar_grid {
 namespace python {
@@ -79,6 +81,10 @@ void markMapperOwned(const std::shared_ptr<const PlanarGridMap>& map);
 /** \brief \throws planar_grid::Exception (planar_grid.Error) naming \a method when
  * \a map is a Mapper's (markMapperOwned()). */
 void requireWritable(const PlanarGridMap& map, const char* method);
+
+/** \brief A state given as SpaceState, int (0 free, 1 occupied, 2 unknown) or name.
+ * \throws py::value_error for another value */
+SpaceState toSpaceState(const py::handle& state);
 
 /** \brief A path given as str or os.PathLike, as text. */
 inline std::string
@@ -139,9 +145,12 @@ void bindTerrainRemoval(py::module_& m);
 /** \brief Binds KLDivergenceOccupancyFilter and the occupancy functions of its
  * equations. */
 void bindOccupancyFilter(py::module_& m);
-/** \brief Binds PlanarGridMap (construction, the map file, integration, its cuboids,
- * planes and memory) and SpaceState. */
+/** \brief Binds PlanarGridMap (construction, the map file, merging, its cuboids,
+ * planes and memory, export) and SpaceState. */
 void bindMap(py::module_& m);
+/** \brief Adds the integration methods (point clouds, depth images, surfaces, whole
+ * frames, voxel states) to PlanarGridMap (bound by bindMap()). */
+void bindMapIntegration(py::module_& m);
 /** \brief Adds the point, ray, distance and collision queries to PlanarGridMap (bound
  * by bindMap()) and binds MapRegionIndex. */
 void bindMapQueries(py::module_& m);

@@ -3,6 +3,7 @@
 // on a scene with known truth SG, OG, RA and PG give the figures an oracle predicts.
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/eval/map_comparison.h>
+#include <planar_grid/eval/map_comparison_config.h>
 #include <planar_grid/eval/standard_voxel_grid.h>
 #include <planar_grid/map/planar_grid_map.h>
 #include <planar_grid/pipeline/stage.h>

@@ -3,6 +3,7 @@
 
 #include <planar_grid/core/param_range.h>
 #include <planar_grid/segmentation/planar_segment.h>
+#include <planar_grid/segmentation/plane_test_counts.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation_params.h>
 #include <planar_grid/segmentation/sac_multi_plane_segmentation_ranges.h>
 
@@ -425,10 +426,10 @@ public:
   double getShellWidth() const { return params_.shell_width_m; }
 
   /** \brief Returns how many planes the last segment() dropped in the shell test. */
-  std::size_t getShellRejectedCount() const { return shell_rejected_; }
+  std::size_t getShellRejectedCount() const { return counts_.shell_rejected; }
   /** \brief Returns how many inliers the last segment()'s shell test took out of the
    * planes it kept or dropped. */
-  std::size_t getShellRemovedCount() const { return shell_removed_; }
+  std::size_t getShellRemovedCount() const { return counts_.shell_removed; }
 
   /** \brief Sets the sensor plane test. Stereo measures depth along the lines of
    * sight, and its error (eq. 4) grows with the square of the range, so the points of
@@ -518,24 +519,30 @@ public:
 
   /** \brief Returns how many planes the last segment() dropped in the cluster
    * test. */
-  std::size_t getClusterRejectedCount() const { return cluster_rejected_; }
+  std::size_t getClusterRejectedCount() const { return counts_.cluster_rejected; }
   /** \brief Returns how many inliers the last segment()'s cluster test took out of
    * the planes it kept or dropped. */
-  std::size_t getClusterRemovedCount() const { return cluster_removed_; }
+  std::size_t getClusterRemovedCount() const { return counts_.cluster_removed; }
 
   /** \brief Returns how many planes the last segment() dropped in the sensor plane
    * test. */
-  std::size_t getSensorPlaneRejectedCount() const { return sensor_plane_rejected_; }
+  std::size_t getSensorPlaneRejectedCount() const
+  {
+    return counts_.sensor_plane_rejected;
+  }
   /** \brief Returns how many inliers the last segment()'s sensor plane test took out
    * (the inliers of the planes it dropped). */
-  std::size_t getSensorPlaneRemovedCount() const { return sensor_plane_removed_; }
+  std::size_t getSensorPlaneRemovedCount() const
+  {
+    return counts_.sensor_plane_removed;
+  }
 
   /** \brief Returns how many planes the last segment() dropped in the visibility
    * test. */
-  std::size_t getVisibilityRejectedCount() const { return visibility_rejected_; }
+  std::size_t getVisibilityRejectedCount() const { return counts_.visibility_rejected; }
   /** \brief Returns how many inliers the last segment()'s visibility test took out of
    * the planes it kept or dropped. */
-  std::size_t getVisibilityRemovedCount() const { return visibility_removed_; }
+  std::size_t getVisibilityRemovedCount() const { return counts_.visibility_removed; }
 
   /** \brief Sets the surface normals of the input cloud, one per input point (as
    * pcl::SACSegmentationFromNormals takes them; e.g. from
@@ -595,10 +602,10 @@ public:
 
   /** \brief Returns how many hypotheses the last segment() dropped because their
    * support scattered in normal (setMinNormalAgreement()). */
-  std::size_t getNormalRejectedCount() const { return normal_rejected_; }
+  std::size_t getNormalRejectedCount() const { return counts_.normal_rejected; }
   /** \brief Returns how many eq. 11 inliers (by distance) the last segment()'s
    * normal test took out of the hypotheses that passed its support test. */
-  std::size_t getNormalRemovedCount() const { return normal_removed_; }
+  std::size_t getNormalRemovedCount() const { return counts_.normal_removed; }
 
   /** \brief Sets the up axis of eqs. 2-3 (the paper's z axis); it is normalised.
    * \param[in] axis non-zero (default (0, 0, 1); (0, -1, 0) for a camera frame) */
@@ -666,28 +673,10 @@ protected:
   double depth_noise_coefficient_{0.0};
   /** \brief Up axis of eqs. 2-3. */
   Eigen::Vector3f up_axis_{0.0f, 0.0f, 1.0f};
-  /** \brief Planes the last segment() dropped in the cluster test. */
-  std::size_t cluster_rejected_{0};
-  /** \brief Inliers the last segment()'s cluster test took out. */
-  std::size_t cluster_removed_{0};
-  /** \brief Planes the last segment() dropped in the sensor plane test. */
-  std::size_t sensor_plane_rejected_{0};
-  /** \brief Inliers the last segment()'s sensor plane test took out. */
-  std::size_t sensor_plane_removed_{0};
-  /** \brief Planes the last segment() dropped in the shell test. */
-  std::size_t shell_rejected_{0};
-  /** \brief Inliers the last segment()'s shell test took out. */
-  std::size_t shell_removed_{0};
-  /** \brief Planes the last segment() dropped in the visibility test. */
-  std::size_t visibility_rejected_{0};
-  /** \brief Inliers the last segment()'s visibility test took out. */
-  std::size_t visibility_removed_{0};
+  /** \brief What the last segment()'s plane tests took out. */
+  PlaneTestCounts counts_;
   /** \brief Surface normals of the input points, or nullptr. */
   NormalCloudConstPtr normals_;
-  /** \brief Hypotheses the last segment() dropped for scattered normals. */
-  std::size_t normal_rejected_{0};
-  /** \brief Distance inliers of kept planes the normal test took out. */
-  std::size_t normal_removed_{0};
 
 private:
   /** \brief Buffers that the rounds of applySegmentation() reuse. */
@@ -697,9 +686,6 @@ private:
     /** \brief A subsample of dense points (struct of arrays), in meters. */
     std::vector<float> local_x, local_y, local_z;
   };
-
-  /** \brief Zeroes the counts of the planes and inliers each plane test dropped. */
-  void resetRejectionCounts();
 
   /** \brief Fills \a dense with the finite input points within the indices (the
    * inlier-only ones last) and, where eq. 11 varies per point, their thresholds.

@@ -180,22 +180,6 @@ constexpr std::size_t MIN_NORMAL_POINTS = 6;
 
 template <typename PointT>
 void
-SACMultiPlaneSegmentation<PointT>::resetRejectionCounts()
-{
-  visibility_rejected_ = 0;
-  visibility_removed_ = 0;
-  shell_rejected_ = 0;
-  shell_removed_ = 0;
-  sensor_plane_rejected_ = 0;
-  sensor_plane_removed_ = 0;
-  cluster_rejected_ = 0;
-  cluster_removed_ = 0;
-  normal_rejected_ = 0;
-  normal_removed_ = 0;
-}
-
-template <typename PointT>
-void
 SACMultiPlaneSegmentation<PointT>::collectDensePoints(const Eigen::Vector3f& origin,
                                                       float d_t,
                                                       detail::DensePoints& dense) const
@@ -535,7 +519,7 @@ void
 SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
 {
   planes.clear();
-  resetRejectionCounts();
+  counts_ = PlaneTestCounts{};
   const Eigen::Vector3f origin = input_->sensor_origin_.template head<3>();
   const Eigen::Vector3f up = up_axis_.normalized();
   const auto d_t = static_cast<float>(params_.distance_threshold_m);
@@ -614,7 +598,7 @@ SACMultiPlaneSegmentation<PointT>::applySegmentation(PlanarSegments& planes)
     removeSampleOnPlane(*sample_cloud, plane, sample_t, sample_taken, remaining);
 
     if (dense.testsNormals(plane) && !passesNormalAgreement(dense, plane, d_t)) {
-      ++normal_rejected_;
+      ++counts_.normal_rejected;
       continue;
     }
     // The visibility and shell tests read every point's threshold for this plane.

@@ -39,7 +39,7 @@ SACMultiPlaneSegmentation<PointT>::passesNormalAgreement(detail::DensePoints& de
   if (known == 0
       || static_cast<double>(agreeing)
            >= params_.min_normal_agreement * static_cast<double>(known)) {
-    normal_removed_ += disagreeing;
+    counts_.normal_removed += disagreeing;
     return true;
   }
   PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane whose support scatters in "
@@ -75,8 +75,8 @@ SACMultiPlaneSegmentation<PointT>::passesPlaneTests(detail::DensePoints& dense,
       PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane passing within %g m of "
                 "the sensor (%zu inliers).\n",
                 getClassName().c_str(), params_.min_sensor_distance_m, removed);
-      sensor_plane_removed_ += removed;
-      ++sensor_plane_rejected_;
+      counts_.sensor_plane_removed += removed;
+      ++counts_.sensor_plane_rejected;
       return false;
     }
   }
@@ -85,13 +85,13 @@ SACMultiPlaneSegmentation<PointT>::passesPlaneTests(detail::DensePoints& dense,
       dense, all, d_t, plane, origin, static_cast<float>(params_.visibility_margin_m),
       static_cast<float>(params_.visibility_cell_m),
       params_.max_visibility_conflict_ratio);
-    visibility_removed_ += removed;
+    counts_.visibility_removed += removed;
     count -= removed;
     if (static_cast<int>(supportCount(dense, count)) < params_.min_inliers) {
       PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with visibility "
                 "conflicts at %zu of its inliers (%zu left).\n",
                 getClassName().c_str(), removed, count);
-      ++visibility_rejected_;
+      ++counts_.visibility_rejected;
       return false;
     }
   }
@@ -99,13 +99,13 @@ SACMultiPlaneSegmentation<PointT>::passesPlaneTests(detail::DensePoints& dense,
     const std::size_t removed = detail::removeShellCells(
       dense, all, d_t, plane, static_cast<float>(params_.shell_width_m),
       static_cast<float>(params_.visibility_cell_m), params_.max_shell_ratio);
-    shell_removed_ += removed;
+    counts_.shell_removed += removed;
     count -= removed;
     if (static_cast<int>(supportCount(dense, count)) < params_.min_inliers) {
       PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane with points beyond its "
                 "threshold at %zu of its inliers (%zu left).\n",
                 getClassName().c_str(), removed, count);
-      ++shell_rejected_;
+      ++counts_.shell_rejected;
       return false;
     }
   }
@@ -117,13 +117,13 @@ SACMultiPlaneSegmentation<PointT>::passesPlaneTests(detail::DensePoints& dense,
     const std::size_t removed = detail::removeSmallClusters(
       dense, plane, static_cast<float>(params_.cluster_cell_m),
       static_cast<std::size_t>(params_.min_cluster_size));
-    cluster_removed_ += removed;
+    counts_.cluster_removed += removed;
     count -= removed;
     if (static_cast<int>(supportCount(dense, count)) < params_.min_inliers) {
       PCL_DEBUG("[planar_grid::%s::segment] Dropped a plane whose footprint falls "
                 "apart into clusters of < %d inliers (%zu left).\n",
                 getClassName().c_str(), params_.min_cluster_size, count);
-      ++cluster_rejected_;
+      ++counts_.cluster_rejected;
       // The fragments would give the same plane again: they leave the search.
       dense.selectInliers(plane, d_t);
       dense.removeSelected();

@@ -98,12 +98,6 @@ struct ComparisonConfig {
   bool save_maps{false};
 };
 
-/** \brief Reads an evaluation configuration (schema in config/eval_outdoor.yaml).
- * Strict like the pipeline's: unknown keys, wrong types and out-of-range values are
- * ConfigError at file:line:col; the pipeline files are loaded too.
- * \throws planar_grid::ConfigError, planar_grid::IOError */
-ComparisonConfig loadComparisonConfig(const std::string& path);
-
 /** \brief The figures of one method on one dataset at one cell size (a row of the CSV).
  * \ingroup eval */
 struct ComparisonRow {

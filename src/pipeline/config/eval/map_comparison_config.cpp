@@ -2,6 +2,7 @@
 // The comparison configuration file: its YAML schema, parsed strictly.
 #include <planar_grid/core/exceptions.h>
 #include <planar_grid/eval/map_comparison.h>
+#include <planar_grid/eval/map_comparison_config.h>
 #include <planar_grid/eval/mapping_error.h>
 #include <planar_grid/pipeline/pipeline_runner.h>
 #include <planar_grid/pipeline/stage.h>
@@ -16,15 +17,20 @@
 #include <utility>
 #include <vector>
 
-#include "map_comparison_impl.h"
-
 namespace planar_grid {
 
 namespace {
 
 namespace fs = std::filesystem;
 
-using detail::isFrontEnd;
+/** Whether the stage registry declares \a type a front-end stage, which does not
+ * depend on the cell size and so runs once per frame for all sizes. */
+bool
+isFrontEnd(const std::string& type)
+{
+  const StageInfo* info = findStage(type);
+  return info && info->role == StageRole::FRONT_END;
+}
 
 ComparisonConfig
 parseComparison(const YAML::Node& root, const std::string& path)
