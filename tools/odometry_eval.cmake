@@ -4,6 +4,6 @@
 # tools/CMakeLists.txt.
 add_executable(planar_grid_odometry_eval planar_grid_odometry_eval.cpp)
 target_link_libraries(planar_grid_odometry_eval PRIVATE
-  planar_grid_odometry planar_grid_stereo planar_grid_core pcl_common
+  planar_grid_odometry planar_grid_stereo planar_grid_calibration_io planar_grid_core pcl_common
   nlohmann_json::nlohmann_json ${OpenCV_LIBS})
 planar_grid_set_warnings(planar_grid_odometry_eval)
