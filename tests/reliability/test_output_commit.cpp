@@ -167,17 +167,17 @@ protected:
 
 TEST_F(OutputCommitTest, FullDiskKeepsTheOldOutputsAndNamesTheFile)
 {
-  ASSERT_EQ(run("0:2"), 0) << bytesOf(log_);
+  ASSERT_EQ(run("0:1"), 0) << bytesOf(log_);
   const auto old_set = contents(out_);
   ASSERT_GE(old_set.size(), 7u); // 6 outputs and the list of the set
   const std::size_t mesh_bytes = old_set.at("map_cuboids.ply").size();
   ASSERT_GT(mesh_bytes, 10000u);
 
-  // Three frames need more room than there is: a write fails, the run exits 5 (an
+  // Two frames need more room than there is: a write fails, the run exits 5 (an
   // output error) naming the output (its place in the folder, not the staging copy)
   // and the cause.
   const rlim_t limit = mesh_bytes / 2;
-  EXPECT_EQ(run("0:3", limit), 5);
+  EXPECT_EQ(run("0:2", limit), 5);
   std::string log = bytesOf(log_);
   EXPECT_NE(log.find(out_.string() + "/"), std::string::npos) << log;
   EXPECT_NE(log.find(": cannot write: "), std::string::npos) << log;
@@ -188,7 +188,7 @@ TEST_F(OutputCommitTest, FullDiskKeepsTheOldOutputsAndNamesTheFile)
 
   // PCL's PLY writer does not check its stream: its short file is caught all the same.
   std::ofstream(yaml_) << config(out_, true);
-  EXPECT_EQ(run("0:3", limit), 5);
+  EXPECT_EQ(run("0:2", limit), 5);
   log = bytesOf(log_);
   EXPECT_NE(log.find(out_.string() + "/map_cuboids.ply: cannot write: File too large"),
             std::string::npos)
@@ -210,16 +210,16 @@ TEST_F(OutputCommitTest, RealFullDiskKeepsTheOldOutputs)
   } unmount{disk};
   const fs::path out = disk / "out";
   std::ofstream(yaml_) << config(out);
-  ASSERT_EQ(run("0:2"), 0) << bytesOf(log_);
+  ASSERT_EQ(run("0:1"), 0) << bytesOf(log_);
   const auto old_set = contents(out);
-  // Room for the old set and half of it again: the 3-frame set does not fit beside it.
+  // Room for the old set and half of it again: the 2-frame set does not fit beside it.
   struct statvfs info {};
   ASSERT_EQ(::statvfs(disk.c_str(), &info), 0);
   const auto used_kib = (info.f_blocks - info.f_bfree) * info.f_frsize / 1024;
   const std::string size = "size=" + std::to_string(used_kib * 3 / 2) + "k";
   ASSERT_EQ(::mount("tmpfs", disk.c_str(), "tmpfs", MS_REMOUNT, size.c_str()), 0);
 
-  EXPECT_EQ(run("0:3"), 5);
+  EXPECT_EQ(run("0:2"), 5);
   const std::string log = bytesOf(log_);
   EXPECT_NE(log.find(out.string() + "/"), std::string::npos) << log;
   EXPECT_NE(log.find(": cannot write: No space left on device (the disk of "
@@ -234,12 +234,13 @@ TEST_F(OutputCommitTest, RealFullDiskKeepsTheOldOutputs)
 
 TEST_F(OutputCommitTest, KilledWhileWritingOutputsLeavesTheOldOrTheNewSet)
 {
-  // The new set (two frames), from a run never killed, in another folder; the old set
-  // is one frame's. Each run costs seconds under the sanitizers, so the sets are short.
+  // The new set (frame 11's), from a run never killed, in another folder; the old set
+  // is frame 10's. Each run costs seconds under the sanitizers, so each set is one
+  // frame's.
   const fs::path reference = dir_ / "reference";
   std::ofstream(dir_ / "reference.yaml") << config(reference);
   ASSERT_EQ(exitCode(start({"--config", (dir_ / "reference.yaml").string(), "--frames",
-                            "0:2", "--no-snapshot", "--sequential"},
+                            "1:2", "--no-snapshot", "--sequential"},
                            log_)),
             0)
     << bytesOf(log_);
@@ -249,7 +250,7 @@ TEST_F(OutputCommitTest, KilledWhileWritingOutputsLeavesTheOldOrTheNewSet)
   auto old_set = contents(out_);
   ASSERT_FALSE(sameOutputs(old_set, new_set));
 
-  // Kill (SIGKILL) the 2-frame run into the same folder the moment inotify reports its
+  // Kill (SIGKILL) the frame 11 run into the same folder the moment inotify reports its
   // k-th output staged, or its commit journal, then let the next transaction on the
   // folder finish or drop the commit.
   int old_seen = 0, new_seen = 0;
@@ -259,7 +260,7 @@ TEST_F(OutputCommitTest, KilledWhileWritingOutputsLeavesTheOldOrTheNewSet)
     ASSERT_GE(watch, 0);
     ::inotify_add_watch(watch, out_.c_str(), IN_CREATE | IN_MOVED_TO);
     const pid_t pid = start(
-      {"--config", yaml_.string(), "--frames", "0:2", "--no-snapshot", "--sequential"},
+      {"--config", yaml_.string(), "--frames", "1:2", "--no-snapshot", "--sequential"},
       log_);
     int staged = 0, status = 0;
     bool killed = false, exited = false;
@@ -307,8 +308,8 @@ TEST_F(OutputCommitTest, KilledWhileWritingOutputsLeavesTheOldOrTheNewSet)
   std::cout << "[          ] kills that left the old set: " << old_seen
             << ", the new set: " << new_seen << std::endl;
 
-  // The 2-frame run, not killed, commits its set over the old one.
-  ASSERT_EQ(exitCode(start({"--config", yaml_.string(), "--frames", "0:2",
+  // The frame 11 run, not killed, commits its set over the old one.
+  ASSERT_EQ(exitCode(start({"--config", yaml_.string(), "--frames", "1:2",
                             "--no-snapshot", "--sequential"},
                            log_)),
             0);
@@ -320,7 +321,7 @@ TEST_F(OutputCommitTest, KilledWhileWritingOutputsLeavesTheOldOrTheNewSet)
 
 TEST_F(OutputCommitTest, StopSignalEndsTheRunAfterAFrameAndKeepsTheOldOutputs)
 {
-  ASSERT_EQ(run("0:2"), 0) << bytesOf(log_);
+  ASSERT_EQ(run("0:1"), 0) << bytesOf(log_);
   const auto old_set = contents(out_);
   ASSERT_GE(old_set.size(), 7u);
 
