@@ -3,7 +3,7 @@
 map's planar cells beside that of copies of them turned by known angles.
 
     PYTHONPATH=build/python /usr/bin/python3 scripts/plane_precision_control.py \
-        MAP.pgmap TRUTH.pcd [--up 0,0,1]
+        MAP.pgmap TRUTH.pcd [--up 0,0,1] [--planes N] [--region BOX]
 
 MAP.pgmap and TRUTH.pcd are what `planar_grid_eval --save-maps` writes
 (pg_DATASET_Rm.pgmap, truth_DATASET.pcd). The truth normal at each occupied planar cell
@@ -25,7 +25,10 @@ about that angle, and the precision measures the reference as much as the map.
 Prints one line per copy: the angle and its plane precision. With --planes N, then
 the N planes of the largest face area: their cells, face area (m^2), unit normal, tilt
 from the up axis (deg), extent along the up axis (m), precise share and the median
-angle between the cells' and the truth normals (deg)."""
+angle between the cells' and the truth normals (deg). With --region XMIN,XMAX,YMIN,YMAX,
+ZMIN,ZMAX (m, the map's world), then the face area and precise share of the cells whose
+centres lie inside that box and of the rest, each for all planar cells and for the
+level ones (within 10 degrees of level)."""
 import argparse
 import struct
 import sys
@@ -186,8 +189,18 @@ def main() -> None:
                         help="the world's up axis, x,y,z (KITTI's poses: 0,-1,0)")
     parser.add_argument("--planes", type=int, default=0,
                         help="also list the N planes of the largest face area")
+    parser.add_argument("--region", default="",
+                        help="a box XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX (m): the precision "
+                             "inside it and outside")
     args = parser.parse_args()
     try:
+        region = None
+        if args.region:
+            region = np.array([float(v) for v in args.region.split(",")])
+        if region is not None and (region.shape != (6,)
+                                   or np.any(region[0::2] > region[1::2])):
+            raise ValueError(f"--region must be XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX with each "
+                             f"minimum at most its maximum, got {args.region}")
         up = np.array([float(v) for v in args.up.split(",")])
         if up.shape != (3,) or not np.linalg.norm(up) > 0:
             raise ValueError(f"--up must be three numbers not all 0, got {args.up}")
@@ -217,6 +230,24 @@ def main() -> None:
               f"{precision(truth, turned(normals, up, lean, yaw), areas):.3f}")
     if args.planes > 0:
         print_planes(ids, centres, normals, areas, truth, up, args.planes)
+    if region is not None:
+        print_region(centres, normals, areas, truth, up, region)
+
+
+def print_region(centres: np.ndarray, normals: np.ndarray, areas: np.ndarray,
+                 truth: List[Optional[np.ndarray]], up: np.ndarray,
+                 region: np.ndarray) -> None:
+    """The --region lines: face area and precise share inside the box and outside."""
+    inside = np.all((centres >= region[0::2]) & (centres <= region[1::2]), axis=1)
+    level = np.abs(normals @ up) >= np.cos(np.radians(10.0))
+    min_cos = np.cos(np.radians(MAX_ANGLE_DEG))
+    precise = np.array([t is not None and abs(float(t @ n)) >= min_cos
+                        for t, n in zip(truth, normals)], dtype=bool)
+    for name, s in (("inside, all", inside), ("inside, level", inside & level),
+                    ("outside, all", ~inside), ("outside, level", ~inside & level)):
+        area = areas[s].sum()
+        share = areas[s & precise].sum() / area if area > 0 else float("nan")
+        print(f"{name:>16}: {int(s.sum()):6d} cells, {area:7.2f} m^2, precise {share:.3f}")
 
 
 def print_planes(ids: np.ndarray, centres: np.ndarray, normals: np.ndarray,
