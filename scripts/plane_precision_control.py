@@ -4,6 +4,7 @@ map's planar cells beside that of copies of them turned by known angles.
 
     PYTHONPATH=build/python /usr/bin/python3 scripts/plane_precision_control.py \
         MAP.pgmap TRUTH.pcd [--up 0,0,1] [--planes N] [--region BOX]
+        [--small-planes K]
 
 MAP.pgmap and TRUTH.pcd are what `planar_grid_eval --save-maps` writes
 (pg_DATASET_Rm.pgmap, truth_DATASET.pcd). The truth normal at each occupied planar cell
@@ -28,7 +29,8 @@ from the up axis (deg), extent along the up axis (m), precise share and the medi
 angle between the cells' and the truth normals (deg). With --region XMIN,XMAX,YMIN,YMAX,
 ZMIN,ZMAX (m, the map's world), then the face area and precise share of the cells whose
 centres lie inside that box and of the rest, each for all planar cells and for the
-level ones (within 10 degrees of level)."""
+level ones (within 10 degrees of level). With --small-planes K, then the planes of at most
+K occupied planar cuboids against the rest: their count, face area and precise share."""
 import argparse
 import struct
 import sys
@@ -192,6 +194,9 @@ def main() -> None:
     parser.add_argument("--region", default="",
                         help="a box XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX (m): the precision "
                              "inside it and outside")
+    parser.add_argument("--small-planes", type=int, default=0,
+                        help="also split the precision between the planes of at most K "
+                             "occupied planar cuboids and the rest")
     args = parser.parse_args()
     try:
         region = None
@@ -232,6 +237,8 @@ def main() -> None:
         print_planes(ids, centres, normals, areas, truth, up, args.planes)
     if region is not None:
         print_region(centres, normals, areas, truth, up, region)
+    if args.small_planes > 0:
+        print_small_planes(ids, normals, areas, truth, args.small_planes)
 
 
 def print_region(centres: np.ndarray, normals: np.ndarray, areas: np.ndarray,
@@ -248,6 +255,23 @@ def print_region(centres: np.ndarray, normals: np.ndarray, areas: np.ndarray,
         area = areas[s].sum()
         share = areas[s & precise].sum() / area if area > 0 else float("nan")
         print(f"{name:>16}: {int(s.sum()):6d} cells, {area:7.2f} m^2, precise {share:.3f}")
+
+
+def print_small_planes(ids: np.ndarray, normals: np.ndarray, areas: np.ndarray,
+                       truth: List[Optional[np.ndarray]], max_cuboids: int) -> None:
+    """The --small-planes lines: the planes of at most \a max_cuboids cuboids, the rest."""
+    plane_ids, counts = np.unique(ids, return_counts=True)
+    small_ids = plane_ids[counts <= max_cuboids]
+    small = np.isin(ids, small_ids)
+    min_cos = np.cos(np.radians(MAX_ANGLE_DEG))
+    precise = np.array([t is not None and abs(float(t @ n)) >= min_cos
+                        for t, n in zip(truth, normals)], dtype=bool)
+    for name, s, planes in ((f"<= {max_cuboids} cuboids", small, len(small_ids)),
+                            ("the rest", ~small, len(plane_ids) - len(small_ids))):
+        area = areas[s].sum()
+        share = areas[s & precise].sum() / area if area > 0 else float("nan")
+        print(f"{name:>16}: {planes:4d} planes, {int(s.sum()):6d} cells, {area:7.2f} m^2, "
+              f"precise {share:.3f}")
 
 
 def print_planes(ids: np.ndarray, centres: np.ndarray, normals: np.ndarray,
