@@ -241,15 +241,20 @@ def main() -> None:
         print_small_planes(ids, normals, areas, truth, args.small_planes)
 
 
+def precise_cells(truth: List[Optional[np.ndarray]], normals: np.ndarray) -> np.ndarray:
+    """Per cell: whether its truth normal lies within MAX_ANGLE_DEG of its normal."""
+    min_cos = np.cos(np.radians(MAX_ANGLE_DEG))
+    return np.array([t is not None and abs(float(t @ n)) >= min_cos
+                     for t, n in zip(truth, normals)], dtype=bool)
+
+
 def print_region(centres: np.ndarray, normals: np.ndarray, areas: np.ndarray,
                  truth: List[Optional[np.ndarray]], up: np.ndarray,
                  region: np.ndarray) -> None:
     """The --region lines: face area and precise share inside the box and outside."""
     inside = np.all((centres >= region[0::2]) & (centres <= region[1::2]), axis=1)
     level = np.abs(normals @ up) >= np.cos(np.radians(10.0))
-    min_cos = np.cos(np.radians(MAX_ANGLE_DEG))
-    precise = np.array([t is not None and abs(float(t @ n)) >= min_cos
-                        for t, n in zip(truth, normals)], dtype=bool)
+    precise = precise_cells(truth, normals)
     for name, s in (("inside, all", inside), ("inside, level", inside & level),
                     ("outside, all", ~inside), ("outside, level", ~inside & level)):
         area = areas[s].sum()
@@ -263,9 +268,7 @@ def print_small_planes(ids: np.ndarray, normals: np.ndarray, areas: np.ndarray,
     plane_ids, counts = np.unique(ids, return_counts=True)
     small_ids = plane_ids[counts <= max_cuboids]
     small = np.isin(ids, small_ids)
-    min_cos = np.cos(np.radians(MAX_ANGLE_DEG))
-    precise = np.array([t is not None and abs(float(t @ n)) >= min_cos
-                        for t, n in zip(truth, normals)], dtype=bool)
+    precise = precise_cells(truth, normals)
     for name, s, planes in ((f"<= {max_cuboids} cuboids", small, len(small_ids)),
                             ("the rest", ~small, len(plane_ids) - len(small_ids))):
         area = areas[s].sum()
