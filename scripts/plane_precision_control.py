@@ -177,10 +177,7 @@ def turned(normals: np.ndarray, up: np.ndarray, lean_deg: float, yaw_deg: float
 
 def precision(truth: List[Optional[np.ndarray]], normals: np.ndarray,
               areas: np.ndarray) -> float:
-    min_cos = np.cos(np.radians(MAX_ANGLE_DEG))
-    precise = sum(a for t, n, a in zip(truth, normals, areas)
-                  if t is not None and abs(float(t @ n)) >= min_cos)
-    return float(precise / areas.sum()) if areas.sum() > 0 else float("nan")
+    return precise_share(areas, precise_cells(truth, normals), np.ones(len(areas), bool))
 
 
 def main() -> None:
@@ -248,6 +245,12 @@ def precise_cells(truth: List[Optional[np.ndarray]], normals: np.ndarray) -> np.
                      for t, n in zip(truth, normals)], dtype=bool)
 
 
+def precise_share(areas: np.ndarray, precise: np.ndarray, s: np.ndarray) -> float:
+    """The share of the face area of the cells \a s that is precise (nan: no area)."""
+    area = areas[s].sum()
+    return float(areas[s & precise].sum() / area) if area > 0 else float("nan")
+
+
 def print_region(centres: np.ndarray, normals: np.ndarray, areas: np.ndarray,
                  truth: List[Optional[np.ndarray]], up: np.ndarray,
                  region: np.ndarray) -> None:
@@ -257,9 +260,8 @@ def print_region(centres: np.ndarray, normals: np.ndarray, areas: np.ndarray,
     precise = precise_cells(truth, normals)
     for name, s in (("inside, all", inside), ("inside, level", inside & level),
                     ("outside, all", ~inside), ("outside, level", ~inside & level)):
-        area = areas[s].sum()
-        share = areas[s & precise].sum() / area if area > 0 else float("nan")
-        print(f"{name:>16}: {int(s.sum()):6d} cells, {area:7.2f} m^2, precise {share:.3f}")
+        print(f"{name:>16}: {int(s.sum()):6d} cells, {areas[s].sum():7.2f} m^2, "
+              f"precise {precise_share(areas, precise, s):.3f}")
 
 
 def print_small_planes(ids: np.ndarray, normals: np.ndarray, areas: np.ndarray,
@@ -271,10 +273,8 @@ def print_small_planes(ids: np.ndarray, normals: np.ndarray, areas: np.ndarray,
     precise = precise_cells(truth, normals)
     for name, s, planes in ((f"<= {max_cuboids} cuboids", small, len(small_ids)),
                             ("the rest", ~small, len(plane_ids) - len(small_ids))):
-        area = areas[s].sum()
-        share = areas[s & precise].sum() / area if area > 0 else float("nan")
-        print(f"{name:>16}: {planes:4d} planes, {int(s.sum()):6d} cells, {area:7.2f} m^2, "
-              f"precise {share:.3f}")
+        print(f"{name:>16}: {planes:4d} planes, {int(s.sum()):6d} cells, "
+              f"{areas[s].sum():7.2f} m^2, precise {precise_share(areas, precise, s):.3f}")
 
 
 def print_planes(ids: np.ndarray, centres: np.ndarray, normals: np.ndarray,
