@@ -301,7 +301,7 @@ def test_the_map_documents_its_keywords_from_the_stage_table() -> None:
     doc = " ".join(pg.PlanarGridMap.__doc__.split())
     keys = pg.PlanarGridMap().params
     rows = [row for row in pg.stage_parameters("map_integration") if row["key"] in keys]
-    assert len(rows) == len(keys) == 22
+    assert len(rows) == len(keys) == 23
     for row in rows:
         assert f"{row['key']} : " in doc, row["key"]
         assert " ".join(row["description"].split()) in doc, row["key"]
@@ -326,7 +326,7 @@ def test_the_map_defaults_are_the_pipelines_map_integration_defaults() -> None:
             assert defaults[key] == value, key
         else:
             assert float(defaults[key]) == pytest.approx(value), key
-    assert len(params) == 22
+    assert len(params) == 23
     # A configuration's map_integration keys give the tool's map.
     m = pg.PlanarGridMap(plane_merge_distance_m=0.2, merge_rule="density",
                          cover_density=0.7, planes_absorb_overlapping=False)

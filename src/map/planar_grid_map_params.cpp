@@ -110,6 +110,13 @@ makeParamDeclarations()
       "touches (none within one cell of its centre): a speckle of stereo noise, as "
       "PCL's RadiusOutlierRemoval drops a lone point. It stays stored, so a neighbour "
       "seen later brings it back."),
+    declareInteger<Params>(
+      "min_plane_cells", [](auto& p) -> auto& { return p.surface.min_plane_cells; },
+      surface::MIN_PLANE_CELLS, "cells",
+      "A map plane of fewer observed cells that a frame did not see goes, each of its "
+      "cells becoming a non-planar box of one cell: a plane of a cell or two at the "
+      "map's cell size is more often a fragment of clutter than a surface, and its "
+      "record outweighs its cells. 0: planes are never demoted."),
     declareFlag<Params>(
       "planes_absorb_overlapping",
       [](auto& p) -> auto& { return p.planes_absorb_overlapping; },

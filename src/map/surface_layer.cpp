@@ -48,6 +48,7 @@ validate(const SurfaceLayer::Params& p)
         "m");
   check("terrain_cover_density", p.terrain_cover_density, ranges::TERRAIN_COVER_DENSITY,
         "");
+  check("min_plane_cells", p.min_plane_cells, ranges::MIN_PLANE_CELLS, "cells");
 }
 
 } // namespace surface_layer_detail
@@ -92,6 +93,9 @@ SurfaceLayer::integrate(const PlanarCuboids& cuboids,
   // 6. Map planes that converged merge; 7. drifted planes take a new raster frame.
   impl.mergeConvergedPlanes(frame.touched, params_);
   impl.reanchorDrifted(frame.touched, params_);
+  // 8. Small planes the frame did not see become non-planar boxes.
+  impl.demoteSmallPlanes(frame.touched, params_,
+                         static_cast<std::size_t>(params_.min_plane_cells));
   // no spare capacity: the map holds what it uses
   impl.planes.shrink_to_fit();
   impl.invalidate();

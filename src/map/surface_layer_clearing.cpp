@@ -1,8 +1,15 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Planar raster cells removed one by one: SurfaceLayer::removePlaneCells() (the map's
 // clearing of the cells a view sees through, PlanarGridMap::clearPlanarCells()) and the
-// rule they share with the rolling window (SurfaceLayer::removeOutside()).
+// rule they share with the rolling window (SurfaceLayer::removeOutside()), and the
+// small planes a frame did not see turned into non-planar boxes (Params::
+// min_plane_cells).
 #include <planar_grid/map/surface_layer.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <utility>
+#include <vector>
 
 #include "surface_layer_impl.h"
 
@@ -63,6 +70,66 @@ SurfaceLayer::Impl::removePlaneCellsIf(
     planes.shrink_to_fit();
   }
   return {cells, removed_planes};
+}
+
+std::size_t
+SurfaceLayer::Impl::demoteSmallPlanes(const std::vector<int>& touched,
+                                      const Params& params,
+                                      std::size_t min_cells)
+{
+  if (min_cells == 0)
+    return 0;
+  std::vector<std::uint8_t> keep(planes.size(), 1);
+  bool any = false;
+  for (std::size_t p = 0; p < planes.size(); ++p) {
+    if (planes[p].raster.size() >= min_cells
+        || std::binary_search(touched.begin(), touched.end(), static_cast<int>(p)))
+      continue;
+    keep[p] = 0;
+    any = true;
+  }
+  if (!any)
+    return 0;
+  const auto thickness = static_cast<float>(params.thickness_m);
+  std::vector<PlanarCuboid> boxes;
+  std::vector<std::pair<std::uint32_t, float>> evidence;
+  for (std::size_t p = 0; p < planes.size(); ++p) {
+    if (keep[p])
+      continue;
+    const MapPlane& plane = planes[p];
+    const RasterFrame frame = plane.frame();
+    const FacePlacement placement(frame, plane.normal);
+    plane.raster.forEachCell([&](std::uint64_t key, float sum, std::uint16_t count) {
+      const std::int32_t i = rasterCellI(key);
+      const std::int32_t j = rasterCellJ(key);
+      const RasterRect cell{
+        i, i + 1, j, j + 1, count > 0 ? sum / static_cast<float>(count) : 0.5f, count};
+      PlanarCuboid box =
+        rectCuboid(plane, frame, placement, cell, -1, params.resolution_m, thickness);
+      box.is_planar = false;
+      boxes.push_back(box);
+      evidence.emplace_back(count, sum);
+    });
+  }
+  std::size_t kept = 0;
+  for (std::size_t p = 0; p < planes.size(); ++p) {
+    if (!keep[p])
+      continue;
+    if (kept != p)
+      planes[kept] = std::move(planes[p]);
+    ++kept;
+  }
+  const std::size_t removed = planes.size() - kept;
+  planes.erase(planes.begin() + static_cast<std::ptrdiff_t>(kept), planes.end());
+  tidy_all = true;
+  std::vector<std::uint32_t> added;
+  replaceNonPlanar(boxes, params, added);
+  for (std::size_t k = 0; k < added.size(); ++k) {
+    NonPlanarCell& cell = non_planar[added[k]];
+    cell.feature_count = evidence[k].first;
+    cell.probability_sum = evidence[k].second;
+  }
+  return removed;
 }
 
 std::size_t

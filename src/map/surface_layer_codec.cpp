@@ -36,6 +36,7 @@ SurfaceLayer::serialize(std::vector<std::uint8_t>& bytes) const
   w.put(params_.terrain_plane_tile_m);
   w.put(params_.terrain_cover_density);
   w.put(static_cast<std::uint8_t>(params_.skip_isolated_non_planar ? 1 : 0));
+  w.put(static_cast<std::uint32_t>(params_.min_plane_cells));
   w.put(static_cast<std::uint64_t>(impl.planes.size()));
   for (const auto& plane : impl.planes) {
     for (int k = 0; k < 3; ++k)
@@ -139,6 +140,15 @@ readParams(ByteReader& rd, std::uint32_t version)
       throw IOError("surface layer: skip_isolated_non_planar " + std::to_string(skip)
                     + " is neither 0 nor 1");
     params.skip_isolated_non_planar = skip == 1;
+  }
+  // versions 2 to 7 demoted no plane
+  params.min_plane_cells = 0;
+  if (version >= 8) {
+    const auto min_cells = rd.get<std::uint32_t>();
+    if (!surface_layer_ranges::MIN_PLANE_CELLS.contains(static_cast<double>(min_cells)))
+      throw IOError("surface layer: min_plane_cells " + std::to_string(min_cells)
+                    + " out of range");
+    params.min_plane_cells = static_cast<int>(min_cells);
   }
   return params;
 }
@@ -306,7 +316,8 @@ SurfaceLayer::operator==(const SurfaceLayer& other) const
       || a.close_gaps_cells != b.close_gaps_cells || a.merge_rule != b.merge_rule
       || a.cover_density != b.cover_density
       || a.terrain_cover_density != b.terrain_cover_density
-      || a.skip_isolated_non_planar != b.skip_isolated_non_planar)
+      || a.skip_isolated_non_planar != b.skip_isolated_non_planar
+      || a.min_plane_cells != b.min_plane_cells)
     return false;
   const Impl& x = *impl_;
   const Impl& y = *other.impl_;

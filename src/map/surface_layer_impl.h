@@ -33,7 +33,7 @@ inline constexpr float MAX_COORDINATE_M = 1e7f;
 inline constexpr double MAX_BINS_PER_CUBOID = 4096.0;
 /** \brief Section magic ("PGSL") and version of serialize(). */
 inline constexpr std::uint32_t MAGIC = 0x4C534750u;
-inline constexpr std::uint32_t VERSION = 7;
+inline constexpr std::uint32_t VERSION = 8;
 /** \brief Largest Params::close_gaps_cells. */
 inline constexpr int MAX_CLOSE_GAPS_CELLS =
   static_cast<int>(surface_layer_ranges::CLOSE_GAPS.max);
@@ -655,6 +655,14 @@ struct SurfaceLayer::Impl {
   void mergeNonPlanar(const Impl& other,
                       const Eigen::Isometry3d& this_T_other,
                       const Params& params);
+
+  /** Moves the planes of fewer than \a min_cells observed raster cells that the
+   * frame did not touch (not in \a touched, sorted) to non-planar boxes, one per
+   * observed cell with its feature evidence (step 8 of integrate()); the planes go
+   * (later planes' indices shift down). 0: none. Returns the planes moved. */
+  std::size_t demoteSmallPlanes(const std::vector<int>& touched,
+                                const Params& params,
+                                std::size_t min_cells);
 
   /** Rebuilds dirty planes' covers; caller holds the mutex. */
   void ensureCovers(const Params& params);

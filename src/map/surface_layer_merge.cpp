@@ -51,6 +51,7 @@ checkSameParams(const SurfaceLayer::Params& a, const SurfaceLayer::Params& b)
                  "m"));
   add(difference("terrain_cover_density", a.terrain_cover_density,
                  b.terrain_cover_density, ""));
+  add(difference("min_plane_cells", a.min_plane_cells, b.min_plane_cells, "cells"));
   const auto flag = [](bool on) {
     return std::string(on ? "true" : "false");
   };

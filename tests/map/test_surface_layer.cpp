@@ -1224,9 +1224,9 @@ TEST(SurfaceLayer, RasterCellsAndEvidenceMatchBruteForce)
   ASSERT_EQ(layer.getCellCount(), oracle.size());
   std::vector<std::uint8_t> bytes;
   layer.serialize(bytes);
-  // header: magic, version, 6 f64 params, u32, u8, f64, f64, f64, f64, u8; u64
+  // header: magic, version, 6 f64 params, u32, u8, f64, f64, f64, f64, u8, u32; u64
   // planes; the plane's 8 f32 planes and 13 f64 moments; u64 cells
-  std::size_t at = 4 + 4 + 6 * 8 + 4 + 1 + 8 + 8 + 8 + 8 + 1 + 8 + 8 * 4 + 13 * 8;
+  std::size_t at = 4 + 4 + 6 * 8 + 4 + 1 + 8 + 8 + 8 + 8 + 1 + 4 + 8 + 8 * 4 + 13 * 8;
   std::uint64_t cells = 0;
   std::memcpy(&cells, bytes.data() + at, 8);
   at += 8;
@@ -1644,6 +1644,7 @@ TEST(SurfaceLayer, SerializeRoundTrip)
   paper_params.merge_rule = planar_grid::SurfaceMergeRule::PAPER;
   paper_params.absorb_distance_m = 0.0;          // what versions 2 and 3 are read with
   paper_params.skip_isolated_non_planar = false; // and versions 2 to 6
+  paper_params.min_plane_cells = 0;              // and versions 2 to 7
   SurfaceLayer paper(paper_params);
   for (unsigned seed = 11; seed <= 13; ++seed) {
     makeFrame(seed, cuboids, planes, features, probabilities);
@@ -1699,7 +1700,7 @@ TEST(SurfaceLayer, SerializeRoundTrip)
   // terrain_plane_tile_m 0; version 5 sections (no terrain_cover_density after the
   // terrain_plane_tile_m) with terrain_cover_density = cover_density; version 6
   // sections (no skip_isolated_non_planar after the terrain_cover_density) with it
-  // false
+  // false; version 7 sections (no min_plane_cells after the flag) with 0
   std::vector<std::uint8_t> paper_bytes;
   paper.serialize(paper_bytes);
   const std::size_t density_at = 4 + 4 + 6 * 8 + 4 + 1;
@@ -1708,7 +1709,7 @@ TEST(SurfaceLayer, SerializeRoundTrip)
   const auto older = [&](std::uint8_t version, std::size_t kept) {
     std::vector<std::uint8_t> bytes_of(paper_bytes.begin(),
                                        paper_bytes.begin() + density_at + kept);
-    bytes_of.insert(bytes_of.end(), paper_bytes.begin() + density_at + 33,
+    bytes_of.insert(bytes_of.end(), paper_bytes.begin() + density_at + 37,
                     paper_bytes.end());
     bytes_of[4] = version;
     SurfaceLayer decoded(defaultParams());
@@ -1721,11 +1722,17 @@ TEST(SurfaceLayer, SerializeRoundTrip)
   EXPECT_EQ(older(4, 16).terrain_plane_tile_m, 0.0);
   EXPECT_EQ(older(5, 24).terrain_cover_density, paper.getParams().cover_density);
   EXPECT_FALSE(older(6, 32).skip_isolated_non_planar);
+  EXPECT_EQ(older(7, 33).min_plane_cells, 0);
   // a flag byte other than 0 or 1 is refused
   std::vector<std::uint8_t> bad_flag = paper_bytes;
   bad_flag[density_at + 32] = 2;
   SurfaceLayer bad_target(defaultParams());
   EXPECT_THROW(bad_target.deserialize(bad_flag.data(), bad_flag.size()), IOError);
+  // so is a min_plane_cells beyond its range
+  std::vector<std::uint8_t> bad_count = paper_bytes;
+  const std::uint32_t too_many = 1000001;
+  std::memcpy(bad_count.data() + density_at + 33, &too_many, sizeof(too_many));
+  EXPECT_THROW(bad_target.deserialize(bad_count.data(), bad_count.size()), IOError);
   // empty layer
   SurfaceLayer empty(defaultParams()), empty_copy(defaultParams());
   bytes.clear();
@@ -1921,6 +1928,98 @@ TEST(SurfaceLayer, NonPlanarCellsOfANewFrameReplaceOverlappedOnes)
     EXPECT_TRUE(copy == layer);
     copy.integrate(first, {}, Cloud(), {});
     EXPECT_EQ(copy.getCellCount(), first.size());
+  }
+}
+
+// A plane of fewer than min_plane_cells observed cells that a frame did not see
+// becomes one non-planar box per cell, with the cell's feature evidence: a floor patch
+// of three 0.1 m cells beside a 1 m x 1 m wall, the second frame seeing the wall only.
+// The patch stays a plane when the second frame sees it too, when it holds
+// min_plane_cells cells, or with min_plane_cells 0.
+TEST(SurfaceLayer, SmallPlanesAFrameDidNotSeeBecomeNonPlanarBoxes)
+{
+  const PlaneFrame wall = wallFrame();
+  const PlaneFrame floor(Eigen::Vector3f::UnitZ(), 1.5f); // z = -1.5, u = x, v = y
+  PlanarCuboids wall_cells;
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 10; ++j)
+      wall_cells.push_back(
+        faceCuboid(wall, 0, 0.1f * i, 0.1f * i + 0.1f, 0.1f * j, 0.1f * j + 0.1f));
+  struct Case {
+    const char* name;
+    int min_plane_cells;
+    int patch_cells;
+    bool seen_again;
+    bool demoted;
+  };
+  for (const Case& t :
+       {Case{"unseen", 4, 3, false, true}, Case{"seen again", 4, 3, true, false},
+        Case{"at the minimum", 4, 4, false, false},
+        Case{"no minimum", 0, 1, false, false}}) {
+    SCOPED_TRACE(t.name);
+    SurfaceLayer::Params params = defaultParams();
+    params.resolution_m = 0.1;
+    params.thickness_m = 0.1;
+    params.skip_isolated_non_planar = false;
+    params.min_plane_cells = t.min_plane_cells;
+    SurfaceLayer layer(params);
+    PlanarCuboids first = wall_cells;
+    PlanarCuboids patch;
+    for (int i = 0; i < t.patch_cells; ++i)
+      patch.push_back(
+        faceCuboid(floor, 1, 2.0f + 0.1f * i, 2.1f + 0.1f * i, 0.0f, 0.1f));
+    first.insert(first.end(), patch.begin(), patch.end());
+    // one feature on the patch's first cell, occupied with probability 0.8
+    Cloud feature;
+    const Eigen::Vector3f on_first = floor.at(2.05f, 0.05f);
+    feature.push_back(pcl::PointXYZ(on_first.x(), on_first.y(), on_first.z()));
+    const PlaneModels models{wall.model(), floor.model()};
+    layer.integrate(first, models, feature, {0.8f});
+    ASSERT_EQ(layer.getPlaneCount(), 2u);
+    PlanarCuboids second = wall_cells;
+    if (t.seen_again)
+      second.insert(second.end(), patch.begin(), patch.end());
+    layer.integrate(second, models, Cloud(), {});
+    const PlanarCuboids out = layer.getCuboids();
+    std::vector<PlanarCuboid> boxes;
+    for (const PlanarCuboid& c : out)
+      if (!c.is_planar)
+        boxes.push_back(c);
+    if (!t.demoted) {
+      EXPECT_EQ(layer.getPlaneCount(), 2u);
+      EXPECT_TRUE(boxes.empty());
+      continue;
+    }
+    ASSERT_EQ(layer.getPlaneCount(), 1u);
+    EXPECT_NEAR(std::abs(layer.getPlanes()[0].y()), 1.0f, 1e-4f);
+    // the wall's cells are untouched: its cuboids still cover exactly 1 m^2
+    float wall_area = 0.0f;
+    for (const PlanarCuboid& c : out)
+      if (c.is_planar)
+        wall_area += c.width_m * c.height_m;
+    EXPECT_NEAR(wall_area, 1.0f, 1e-4f);
+    ASSERT_EQ(boxes.size(), patch.size());
+    for (const PlanarCuboid& cell : patch) {
+      const auto match = std::find_if(boxes.begin(), boxes.end(), [&](const auto& b) {
+        return b.centre.isApprox(cell.centre, 1e-4f);
+      });
+      ASSERT_NE(match, boxes.end()) << cell.centre.transpose();
+      EXPECT_EQ(match->plane_id, -1);
+      EXPECT_NEAR(match->width_m, 0.1f, 1e-5f);
+      EXPECT_NEAR(match->height_m, 0.1f, 1e-5f);
+      EXPECT_NEAR(match->thickness_m, 0.1f, 1e-5f);
+      EXPECT_NEAR(std::abs(match->normal.z()), 1.0f, 1e-5f);
+      const bool has_feature = cell.contains(on_first - floor.n * 0.05f);
+      EXPECT_EQ(match->point_count, has_feature ? 1u : 0u);
+      EXPECT_NEAR(match->probability, has_feature ? 0.8f : 0.5f, 1e-5f);
+    }
+    // the parameter travels with the section, and the decoded layer is the same
+    std::vector<std::uint8_t> bytes;
+    layer.serialize(bytes);
+    SurfaceLayer copy(defaultParams());
+    copy.deserialize(bytes.data(), bytes.size());
+    EXPECT_EQ(copy.getParams().min_plane_cells, t.min_plane_cells);
+    EXPECT_TRUE(copy == layer);
   }
 }
 

@@ -429,6 +429,8 @@ classParams()
      surfaceLayer([](L& p, double v) { p.terrain_plane_tile_m = v; })},
     {mi, "terrain_cover_density", sl::TERRAIN_COVER_DENSITY,
      surfaceLayer([](L& p, double v) { p.terrain_cover_density = v; })},
+    {mi, "min_plane_cells", sl::MIN_PLANE_CELLS,
+     surfaceLayer([](L& p, double v) { p.min_plane_cells = toInt(v); })},
     {mi, "max_range_m", esg::MAX_RANGE,
      spaceGrid([](G& p, double v) { p.max_range_m = v; })},
     {mi, "surface_margin_m", esg::SURFACE_MARGIN,

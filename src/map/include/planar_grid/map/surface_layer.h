@@ -52,6 +52,8 @@ inline constexpr ParamRange ABSORB_DISTANCE = ParamRange::closed(0.0, 10.0);
 inline constexpr ParamRange TERRAIN_PLANE_TILE = ParamRange::closed(0.0, 1000.0);
 /** \brief SurfaceLayer::Params::terrain_cover_density. */
 inline constexpr ParamRange TERRAIN_COVER_DENSITY = ParamRange::closed(0.5, 1.0);
+/** \brief SurfaceLayer::Params::min_plane_cells: [0, 1000000] cells. */
+inline constexpr ParamRange MIN_PLANE_CELLS = ParamRange::closed(0, 1000000);
 } // namespace surface_layer_ranges
 
 /** \brief A map plane whose normal is within this angle of the world z axis is level
@@ -168,6 +170,10 @@ SurfaceMergeRule surfaceMergeRuleFromString(const std::string& name);
  *   cells and its point_count the number of features in it. A non-planar cuboid's
  *   probability is the mean of its frame's features inside the box, 0.5 without any
  *   (neighbours of non-planar cells are not defined on a raster).
+ * - Small planes: after a frame, a map plane of fewer than min_plane_cells observed
+ *   cells that none of the frame's planes joined becomes non-planar cells, one box
+ *   per observed cell (its face on the refined plane, thickness_m deep) holding the
+ *   cell's feature evidence, and the plane goes.
  * - Memory: a raster is a sorted array of tiles of 8 x 8 cells (tile key, a 64-bit
  *   mask of the observed cells and one of the cells with features: 24 B per tile)
  *   and the evidence (probability sum f32, feature count u16: 6 B) of the cells with
@@ -257,6 +263,17 @@ public:
      * without neighbours. The cell stays stored with its evidence, so a neighbour
      * seen later brings it back; getCellCount() and getMemoryBytes() count it. */
     bool skip_isolated_non_planar{true};
+    /** Smallest number of observed raster cells of a map plane that a frame did not
+     * see (none of the frame's planes joined it); in surface_layer_ranges::
+     * MIN_PLANE_CELLS. After integrate(), such a plane of fewer cells goes, and each
+     * of its observed cells becomes a non-planar box of one cell (resolution_m square
+     * on the plane, thickness_m deep) with the cell's feature evidence: a plane of a
+     * cell or two at the map's cell size is a fragment of clutter or of a surface
+     * seen from afar more often than a surface, and its record (about 200 bytes)
+     * outweighs its cells. A plane that frames keep seeing keeps growing; a surface
+     * seen again later makes a new plane, which replaces the boxes on it
+     * (removeNonPlanarCellsOnPlanes()). 0: planes are never demoted. */
+    int min_plane_cells{4};
   };
 
   /** \brief Throws planar_grid::Exception for out-of-range parameters. */
@@ -485,10 +502,10 @@ public:
                std::size_t& index) const;
 
   /** \brief Encodes the layer in a fixed little-endian layout: u32 magic "PGSL",
-   * u32 version 7, the six real Params as f64, close_gaps_cells as u32, merge_rule as
+   * u32 version 8, the six real Params as f64, close_gaps_cells as u32, merge_rule as
    * u8 (0 paper, 1 min_rectangles, 2 density), cover_density, absorb_distance_m,
    * terrain_plane_tile_m and terrain_cover_density as f64,
-   * skip_isolated_non_planar as u8 (0 or 1); u64 planes, per
+   * skip_isolated_non_planar as u8 (0 or 1), min_plane_cells as u32; u64 planes, per
    * plane: the raster frame's plane f32 a, b, c, d, the refined plane f32 a, b, c, d,
    * the evidence moments as f64 (anchor[3], weight, sum[3], sum of outer products xx,
    * xy, xz, yy, yz, zz), u64 cells, per cell i32 i, i32 j, f32 probability sum, u16
@@ -511,7 +528,8 @@ public:
    * terrain_plane_tile_m 0; versions 2 to 5 (no terrain_cover_density) with
    * terrain_cover_density = cover_density, the density their covers were made with;
    * versions 2 to 6 (no skip_isolated_non_planar) with it false, as they reported
-   * every cell.
+   * every cell; versions 2 to 7 (no min_plane_cells) with min_plane_cells 0, as they
+   * demoted no plane.
    * \throws planar_grid::IOError on truncated, trailing or inconsistent data or
    * another version (layer unchanged) */
   void deserialize(const std::uint8_t* data, std::size_t size);
