@@ -388,16 +388,21 @@ TEST_F(PipelineRunnerTest, PCDFilesWithViewpointPoses)
   EXPECT_NEAR(runner.trajectory()[0].translation().norm(), 0.0, 1e-6);
 }
 
+/** The feature_matching stage with the ORB grid features of the main job, a fraction
+ * of SIFT's time, for the tests whose checks do not depend on the feature type. */
+const std::string ORB_GRID_FEATURES =
+  "  - type: feature_matching\n    params: {feature_type: orb_grid}\n";
+
 /** The paper's stages (stereo, features, planes, ground, cells, accumulate) as YAML,
- * with the feature occupancy and the map when \a with_map. */
+ * with the feature occupancy and the map when \a with_map, and \a features as the
+ * feature_matching stage (SIFT, the stage's default, unless given). */
 static std::string
-paperStages(bool with_map)
+paperStages(bool with_map, const std::string& features = "  - type: feature_matching\n")
 {
   return std::string("pipeline:\n"
                      "  - type: stereo_disparity\n"
-                     "    params: {num_disparities_px: 128, max_range_m: 30.0}\n"
-                     "  - type: feature_matching\n")
-         + (with_map ? "  - type: kl_occupancy_filter\n" : "")
+                     "    params: {num_disparities_px: 128, max_range_m: 30.0}\n")
+         + features + (with_map ? "  - type: kl_occupancy_filter\n" : "")
          + "  - type: voxel_grid\n"
            "    params: {leaf_size_m: 0.1}\n"
            "  - type: transform_to_world\n"
@@ -488,7 +493,7 @@ TEST_F(PipelineRunnerTest, OccupancyAndMapOnRealFrames)
   // Frames 10-11 through the whole paper pipeline with the occupancy of the features
   // and the map: the map file is written, loads back equal, and its figures are in the
   // report.
-  const std::string stages = paperStages(true) + R"(output:
+  const std::string stages = paperStages(true, ORB_GRID_FEATURES) + R"(output:
   folder: )" + (dir_ / "out").string()
                              + R"(
   snapshot: ""
@@ -584,7 +589,9 @@ TEST_F(PipelineRunnerTest, VisualOdometryPosesFollowTheInsTrack)
       "  calibration: {format: karlsruhe, file: "
     + KARLSRUHE
     + "/calib.txt}\n  poses: {format: odometry}\n"
-      "pipeline:\n  - type: feature_matching\n  - type: visual_odometry\n"
+      "pipeline:\n"
+    + ORB_GRID_FEATURES
+    + "  - type: visual_odometry\n"
       "    params: {initial_height_m: 1.57, initial_pitch_rad: 0.09}\n";
   planar_grid::PipelineRunner runner(parsePipelineConfig(yaml, "t.yaml", "/"));
   const auto report = runner.run();
@@ -618,7 +625,8 @@ TEST_F(PipelineRunnerTest, ResumedRunGivesTheSameMapAsAnUninterruptedOne)
   // report covers all three frames.
   std::string input = karlsruheInput();
   input.replace(input.find("frame_count: 2"), 14, "frame_count: 3");
-  const auto config = parsePipelineConfig(input + paperStages(true), "t.yaml", "/");
+  const auto config =
+    parsePipelineConfig(input + paperStages(true, ORB_GRID_FEATURES), "t.yaml", "/");
   const std::string checkpoint = (dir_ / "ck" / "checkpoint.pgck").string();
 
   planar_grid::PipelineRunner straight(config);
@@ -674,9 +682,8 @@ TEST_F(PipelineRunnerTest, ResumedOdometryRunGivesTheSameTrajectoryAndMap)
     + "/right/I2_%06d.png\n  first_index: 10\n  frame_count: 3\n"
       "  calibration: {format: karlsruhe, file: "
     + KARLSRUHE + "/calib.txt}\n  poses: {format: odometry}\n";
-  std::string stages = paperStages(true);
-  const std::string features = "  - type: feature_matching\n";
-  stages.insert(stages.find(features) + features.size(),
+  std::string stages = paperStages(true, ORB_GRID_FEATURES);
+  stages.insert(stages.find(ORB_GRID_FEATURES) + ORB_GRID_FEATURES.size(),
                 "  - type: visual_odometry\n"
                 "    params: {initial_height_m: 1.57, initial_pitch_rad: 0.09}\n");
   const auto config = parsePipelineConfig(input + stages, "t.yaml", "/");
@@ -808,7 +815,8 @@ TEST_F(PipelineRunnerTest, OverlappedFramesGiveTheSameResultsAsASequentialRun)
   // planes, the poses and every stage's points and counters are identical.
   std::string input = karlsruheInput();
   input.replace(input.find("frame_count: 2"), 14, "frame_count: 4");
-  const auto config = parsePipelineConfig(input + paperStages(true), "t.yaml", "/");
+  const auto config =
+    parsePipelineConfig(input + paperStages(true, ORB_GRID_FEATURES), "t.yaml", "/");
 
   planar_grid::PipelineRunner overlapped(config);
   EXPECT_EQ(overlapped.frameLocalPrefix(), 2u); // stereo_disparity, feature_matching
@@ -928,7 +936,8 @@ TEST_F(PipelineRunnerTest, FrontEndFeedingCallerFramesGivesTheRunsMap)
   // frames. The map bytes, the world cloud and the poses are identical.
   std::string input = karlsruheInput();
   input.replace(input.find("frame_count: 2"), 14, "frame_count: 3");
-  const auto config = parsePipelineConfig(input + paperStages(true), "t.yaml", "/");
+  const auto config =
+    parsePipelineConfig(input + paperStages(true, ORB_GRID_FEATURES), "t.yaml", "/");
   planar_grid::PipelineRunner whole(config);
   whole.setFrameRange(0, 3, 2);
   std::vector<std::pair<std::size_t, std::size_t>> progress;
