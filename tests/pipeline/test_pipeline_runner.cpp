@@ -20,6 +20,7 @@
 #include <fstream>
 #include <iostream>
 #include <iterator>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -48,8 +49,8 @@ protected:
   void TearDown() override { fs::remove_all(dir_); }
 
   /** The Karlsruhe input with absolute paths, optionally other left images / poses. */
-  std::string karlsruheInput(const std::string& left = "",
-                             const std::string& poses_file = "") const
+  static std::string karlsruheInput(const std::string& left = "",
+                                    const std::string& poses_file = "")
   {
     return "input:\n  type: stereo_sequence\n  left_images: "
            + (left.empty() ? KARLSRUHE + "/left/I1_%06d.png" : left)
@@ -61,6 +62,21 @@ protected:
            + (poses_file.empty() ? ", camera_height_m: 1.57, camera_pitch_rad: 0.09"
                                  : "")
            + "}\n";
+  }
+
+  /** A sequential run of Karlsruhe frames 10-13 through the paper pipeline with the
+   * map (the ORB grid features), made once for the suite on first use: the
+   * uninterrupted run that the overlapped and the resumed runs are compared with. */
+  struct SequentialPaperRun {
+    SequentialPaperRun();
+    planar_grid::PipelineConfig config;
+    std::unique_ptr<planar_grid::PipelineRunner> runner;
+    planar_grid::RunReport report;
+  };
+  static const SequentialPaperRun& sequentialPaperRun()
+  {
+    static const SequentialPaperRun run;
+    return run;
   }
 
   fs::path dir_;
@@ -418,6 +434,17 @@ paperStages(bool with_map, const std::string& features = "  - type: feature_matc
            "    params: {leaf_size_m: 0.1}\n";
 }
 
+PipelineRunnerTest::SequentialPaperRun::SequentialPaperRun()
+{
+  std::string input = karlsruheInput();
+  input.replace(input.find("frame_count: 2"), 14, "frame_count: 4");
+  config =
+    parsePipelineConfig(input + paperStages(true, ORB_GRID_FEATURES), "t.yaml", "/");
+  runner = std::make_unique<planar_grid::PipelineRunner>(config);
+  runner->setFrameOverlap(false);
+  report = runner->run();
+}
+
 TEST_F(PipelineRunnerTest, GroundRemovalOnRealFramesTakesOutALevelRoad)
 {
   // Frames 10-11 with the paper's stages: planes from the SIFT features, then the
@@ -619,18 +646,15 @@ TEST_F(PipelineRunnerTest, VisualOdometryPosesFollowTheInsTrack)
 
 TEST_F(PipelineRunnerTest, ResumedRunGivesTheSameMapAsAnUninterruptedOne)
 {
-  // No lost work: Karlsruhe frames 10-12 through the paper pipeline with the
-  // map, once straight through and once stopped after frame 10 (checkpoint) and resumed
-  // by a new runner; the maps, clouds, planes and poses are identical, and the resumed
-  // report covers all three frames.
-  std::string input = karlsruheInput();
-  input.replace(input.find("frame_count: 2"), 14, "frame_count: 3");
-  const auto config =
-    parsePipelineConfig(input + paperStages(true, ORB_GRID_FEATURES), "t.yaml", "/");
+  // No lost work: Karlsruhe frames 10-13 through the paper pipeline with the
+  // map, once straight through (the suite's sequential run) and once stopped after
+  // frame 10 (checkpoint) and resumed by a new runner; the maps, clouds, planes and
+  // poses are identical, and the resumed report covers all four frames.
+  const SequentialPaperRun& shared = sequentialPaperRun();
+  const auto& config = shared.config;
+  const planar_grid::PipelineRunner& straight = *shared.runner;
+  const auto& straight_report = shared.report;
   const std::string checkpoint = (dir_ / "ck" / "checkpoint.pgck").string();
-
-  planar_grid::PipelineRunner straight(config);
-  const auto straight_report = straight.run();
 
   planar_grid::PipelineRunner first(config);
   first.setFrameRange(0, 1);
@@ -642,9 +666,9 @@ TEST_F(PipelineRunnerTest, ResumedRunGivesTheSameMapAsAnUninterruptedOne)
   EXPECT_EQ(resumed.resumeFrom(checkpoint), 1u);
   const auto report = resumed.run();
   EXPECT_EQ(report.resumed_at_frame, 1u);
-  EXPECT_EQ(report.frames, 3u);
+  EXPECT_EQ(report.frames, 4u);
   for (const auto& stage : report.stages)
-    EXPECT_EQ(stage.frames, 3u) << stage.type;
+    EXPECT_EQ(stage.frames, 4u) << stage.type;
   // The KL filter's counters continue: the same sums as the straight run.
   ASSERT_EQ(report.stages[2].type, "kl_occupancy_filter");
   EXPECT_EQ(report.stages[2].counters, straight_report.stages[2].counters);
@@ -811,20 +835,16 @@ TEST_F(PipelineRunnerTest, OverlappedFramesGiveTheSameResultsAsASequentialRun)
 {
   // Karlsruhe frames 10-13 through the paper pipeline with the map: once with the
   // stereo and feature stages of frame t + 1 running on a second thread while frame t
-  // is mapped (the default) and once sequentially. The map bytes, the clouds, the
-  // planes, the poses and every stage's points and counters are identical.
-  std::string input = karlsruheInput();
-  input.replace(input.find("frame_count: 2"), 14, "frame_count: 4");
-  const auto config =
-    parsePipelineConfig(input + paperStages(true, ORB_GRID_FEATURES), "t.yaml", "/");
-
-  planar_grid::PipelineRunner overlapped(config);
+  // is mapped (the default) and once sequentially (the suite's sequential run). The map
+  // bytes, the clouds, the planes, the poses and every stage's points and counters are
+  // identical.
+  const SequentialPaperRun& shared = sequentialPaperRun();
+  planar_grid::PipelineRunner overlapped(shared.config);
   EXPECT_EQ(overlapped.frameLocalPrefix(), 2u); // stereo_disparity, feature_matching
   const auto a_report = overlapped.run();
-  planar_grid::PipelineRunner sequential(config);
-  sequential.setFrameOverlap(false);
+  const planar_grid::PipelineRunner& sequential = *shared.runner;
   EXPECT_EQ(sequential.frameLocalPrefix(), 0u);
-  const auto b_report = sequential.run();
+  const auto& b_report = shared.report;
 
   ASSERT_EQ(a_report.frames, 4u);
   ASSERT_EQ(b_report.frames, 4u);
