@@ -358,7 +358,8 @@ TEST_F(PipelineRunnerTest, FrameWithTooFewFeaturesSamplesItsPlanesFromItsPoints)
   // FAST at threshold 255 finds no key point: sample: features has nothing to draw
   // from, and the frame's planes come from its points instead of ending the run.
   const std::string stages =
-    "pipeline:\n  - type: stereo_disparity\n  - type: feature_matching\n"
+    "pipeline:\n  - type: stereo_disparity\n    params: {max_range_m: 30.0}\n"
+    "  - type: feature_matching\n"
     "    params: {feature_type: orb_grid, fast_threshold: 255}\n"
     "  - type: voxel_grid\n    params: {leaf_size_m: 0.1}\n"
     "  - type: transform_to_world\n  - type: multi_plane_segmentation\n"
@@ -759,8 +760,8 @@ TEST_F(PipelineRunnerTest, CorruptOrForeignCheckpointsAreRefused)
 {
   std::string input = karlsruheInput();
   input.replace(input.find("frame_count: 2"), 14, "frame_count: 1");
-  const std::string stages = "pipeline:\n  - type: feature_matching\n"
-                             "  - type: kl_occupancy_filter\n";
+  const std::string stages =
+    "pipeline:\n" + ORB_GRID_FEATURES + "  - type: kl_occupancy_filter\n";
   const auto config = parsePipelineConfig(input + stages, "t.yaml", "/");
   const std::string checkpoint = (dir_ / "checkpoint.pgck").string();
   {
