@@ -58,18 +58,23 @@ SurfaceLayer::Impl::removePlaneCellsIf(
   }
   if (cells == 0)
     return {0, 0};
-  // A plane left without cells goes (later planes' indices shift down); the planes
-  // that keep cells keep their fits (moments).
+  // the planes that keep cells keep their fits (moments)
+  return {cells, erasePlanesWithoutCells()};
+}
+
+std::size_t
+SurfaceLayer::Impl::erasePlanesWithoutCells()
+{
   const std::size_t before = planes.size();
   planes.erase(std::remove_if(planes.begin(), planes.end(),
                               [](const MapPlane& p) { return p.raster.empty(); }),
                planes.end());
-  const std::size_t removed_planes = before - planes.size();
-  if (removed_planes > 0) {
+  const std::size_t removed = before - planes.size();
+  if (removed > 0) {
     tidy_all = true;
     planes.shrink_to_fit();
   }
-  return {cells, removed_planes};
+  return removed;
 }
 
 std::size_t
@@ -79,24 +84,14 @@ SurfaceLayer::Impl::demoteSmallPlanes(const std::vector<int>& touched,
 {
   if (min_cells == 0)
     return 0;
-  std::vector<std::uint8_t> keep(planes.size(), 1);
-  bool any = false;
-  for (std::size_t p = 0; p < planes.size(); ++p) {
-    if (planes[p].raster.size() >= min_cells
-        || std::binary_search(touched.begin(), touched.end(), static_cast<int>(p)))
-      continue;
-    keep[p] = 0;
-    any = true;
-  }
-  if (!any)
-    return 0;
   const auto thickness = static_cast<float>(params.thickness_m);
   std::vector<PlanarCuboid> boxes;
   std::vector<std::pair<std::uint32_t, float>> evidence;
   for (std::size_t p = 0; p < planes.size(); ++p) {
-    if (keep[p])
+    MapPlane& plane = planes[p];
+    if (plane.raster.size() >= min_cells
+        || std::binary_search(touched.begin(), touched.end(), static_cast<int>(p)))
       continue;
-    const MapPlane& plane = planes[p];
     const RasterFrame frame = plane.frame();
     const FacePlacement placement(frame, plane.normal);
     plane.raster.forEachCell([&](std::uint64_t key, float sum, std::uint16_t count) {
@@ -110,18 +105,11 @@ SurfaceLayer::Impl::demoteSmallPlanes(const std::vector<int>& touched,
       boxes.push_back(box);
       evidence.emplace_back(count, sum);
     });
+    plane.raster = Raster();
   }
-  std::size_t kept = 0;
-  for (std::size_t p = 0; p < planes.size(); ++p) {
-    if (!keep[p])
-      continue;
-    if (kept != p)
-      planes[kept] = std::move(planes[p]);
-    ++kept;
-  }
-  const std::size_t removed = planes.size() - kept;
-  planes.erase(planes.begin() + static_cast<std::ptrdiff_t>(kept), planes.end());
-  tidy_all = true;
+  if (boxes.empty())
+    return 0;
+  const std::size_t removed = erasePlanesWithoutCells();
   std::vector<std::uint32_t> added;
   replaceNonPlanar(boxes, params, added);
   for (std::size_t k = 0; k < added.size(); ++k) {

@@ -141,15 +141,11 @@ readParams(ByteReader& rd, std::uint32_t version)
                     + " is neither 0 nor 1");
     params.skip_isolated_non_planar = skip == 1;
   }
-  // versions 2 to 7 demoted no plane
-  params.min_plane_cells = 0;
-  if (version >= 8) {
-    const auto min_cells = rd.get<std::uint32_t>();
-    if (!surface_layer_ranges::MIN_PLANE_CELLS.contains(static_cast<double>(min_cells)))
-      throw IOError("surface layer: min_plane_cells " + std::to_string(min_cells)
-                    + " out of range");
-    params.min_plane_cells = static_cast<int>(min_cells);
-  }
+  // versions 2 to 7 demoted no plane; the range is validate()'s
+  params.min_plane_cells =
+    version >= 8 ? static_cast<int>(std::min<std::uint32_t>(
+      rd.get<std::uint32_t>(), std::numeric_limits<std::int32_t>::max()))
+                 : 0;
   return params;
 }
 
@@ -261,7 +257,8 @@ SurfaceLayer::deserialize(const std::uint8_t* data, std::size_t size)
   if (version == 1)
     throw IOError("surface layer: version 1 section (written before the map planes "
                   "kept their evidence moments) is not supported by this reader "
-                  "(versions 2 to 6); run the mapping again");
+                  "(versions 2 to "
+                  + std::to_string(VERSION) + "); run the mapping again");
   if (version < 2 || version > VERSION)
     throw IOError("surface layer: unsupported version " + std::to_string(version));
   const Params params = readParams(rd, version);

@@ -608,6 +608,10 @@ struct SurfaceLayer::Impl {
   std::pair<std::size_t, std::size_t> removePlaneCellsIf(
     const std::function<bool(const Eigen::Vector3f&, const Eigen::Vector3f&)>& remove,
     double resolution_m);
+  /** Erases the planes left without raster cells (later planes' indices shift down;
+   * every non-planar cell is tested again by the next removeNonPlanarCellsOnPlanes())
+   * and frees the spare capacity. Returns the planes erased. */
+  std::size_t erasePlanesWithoutCells();
 
   // integrate(), step by step
   /** Orients the frame's planes like their cuboids, and joins each to the map plane
