@@ -30,7 +30,7 @@ PLACES = [
      rf"The main job's final map: {NUMBER} cuboids, [0-9.]+ MB \(`map.pgmap`, {NUMBER} B\)",
      ["cuboids", "map_file_bytes"]),
     ("docs/BENCHMARKS.md",
-     rf"today's main job has {NUMBER} cuboids \({NUMBER}",
+     rf"the main job now has {NUMBER} cuboids \({NUMBER}",
      ["cuboids", "planar_cuboids"]),
     ("docs/EVALUATION.md",
      rf"main job: planar cuboid >= 15 raster cells \| [0-9.]+ \({NUMBER} / {NUMBER}\)",
@@ -50,7 +50,7 @@ PLACES = [
      ["cuboids", "planar_cuboids", "planes"]),
     ("docs/MAP.md", rf"the map spans\s+[0-9.]+ m x [0-9.]+ m; {NUMBER} bytes\)",
      ["map_file_bytes"]),
-    ("docs/RELIABILITY.md", rf"Today's main job, one pass: {NUMBER} cuboids", ["cuboids"]),
+    ("docs/RELIABILITY.md", rf"The main job, one pass: {NUMBER} cuboids", ["cuboids"]),
 ]
 
 
