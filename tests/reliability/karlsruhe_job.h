@@ -37,7 +37,7 @@ karlsruheJob(int frame_count,
            "  - type: stereo_disparity\n"
            "    params: {num_disparities_px: 128, max_range_m: 30.0}\n"
            "  - type: feature_matching\n"
-           "    params: {feature_type: orb_grid, max_features: 4000, "
+           "    params: {feature_type: orb_grid, max_features: 2000, "
            "max_disparity_px: 128, max_range_m: 30.0}\n"
            "  - type: kl_occupancy_filter\n"
            "  - type: voxel_grid\n    params: {leaf_size_m: 0.1}\n"
