@@ -14,6 +14,10 @@
 #                a process with a failure: UBSan halts on error); any sanitizer report
 #                or compiler warning fails. The ROS node (glue
 #                between roscpp and Mapper, whose code the suites cover) is not built here.
+# Both builds compile the libraries, tools and Python module in unity batches
+# (CMAKE_UNITY_BUILD: eight sources per translation unit, each header and template
+# instantiation compiled once per batch instead of once per file), the tests one file
+# per unit.
 # Each phase prints its wall time, and a table of all of them ends the run.
 #   bash scripts/run_tests.sh
 # BUILD_DIR (default build), ASAN_BUILD_DIR (default build-asan), JOBS (default 2);
@@ -42,7 +46,7 @@ build_warning_free() {
 
 release_build() {
   # shellcheck disable=SC2086
-  configure_build "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release -DPLANAR_GRID_BUILD_TESTS=OFF \
+  configure_build "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release -DPLANAR_GRID_BUILD_TESTS=OFF -DCMAKE_UNITY_BUILD=ON \
     -DPLANAR_GRID_BUILD_PYTHON_TESTS=ON -DPLANAR_GRID_BUILD_ROS_TESTS=ON ${CMAKE_ARGS:-}
   build_warning_free "$BUILD_DIR"
 }
@@ -71,7 +75,7 @@ sanitizer_build() {
   # compile and link time of -O2 -g; the tests' own sources at -O0, the code under test
   # at -O1; shared libraries keep the test links small.
   # shellcheck disable=SC2086
-  configure_build "$ASAN_BUILD_DIR" -DPLANAR_GRID_SANITIZE=ON \
+  configure_build "$ASAN_BUILD_DIR" -DPLANAR_GRID_SANITIZE=ON -DCMAKE_UNITY_BUILD=ON \
     -DPLANAR_GRID_BUILD_TESTS=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" \
     "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DBUILD_SHARED_LIBS=ON \

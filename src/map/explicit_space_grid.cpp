@@ -18,13 +18,6 @@ namespace planar_grid {
 
 using namespace explicit_space;
 
-namespace {
-
-/** \brief Blocks setState() edits before it writes them to the storage. */
-constexpr std::size_t MAX_PENDING_BLOCKS = 4096;
-
-} // namespace
-
 std::string
 toString(SpaceState state)
 {

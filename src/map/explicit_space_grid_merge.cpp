@@ -21,10 +21,6 @@ using namespace explicit_space;
 
 namespace {
 
-/** \brief Blocks edited before they are written to the super-blocks (the bound of
- * setState()'s edit buffer). */
-constexpr std::size_t MAX_PENDING_BLOCKS = 4096;
-
 /** \brief The merged code of two observations of one voxel, \a a this grid's and \a b
  * the other's, by the rule of \a order (ExplicitSpaceGrid::merge()). */
 std::uint8_t

@@ -30,6 +30,9 @@ constexpr std::uint8_t NEVER_OBSERVED = 3;
 constexpr std::uint8_t MIXED = 4;
 /** \brief Largest |voxel key| handled, so that block arithmetic never overflows. */
 constexpr double MAX_KEY = 1073741824.0; // 2^30
+/** \brief Blocks edited before they are written to the super-blocks (the bound of the
+ * edit buffer of setState() and merge()). */
+constexpr std::size_t MAX_PENDING_BLOCKS = 4096;
 
 /** \brief A 64-bit word holding 32 copies of the 2-bit code \a s. */
 constexpr std::uint64_t

@@ -19,7 +19,7 @@ namespace planar_grid {
 namespace {
 
 /** A header is a few hundred bytes; anything longer is not a PLY header. */
-constexpr std::size_t MAX_HEADER_BYTES = 64 * 1024;
+constexpr std::size_t MAX_PLY_HEADER_BYTES = 64 * 1024;
 
 /** Bytes of a PLY scalar type, 0 for an unknown name (both spellings of the spec). */
 std::size_t
@@ -54,7 +54,7 @@ checkPLYFile(const std::string& path)
     throw IOError(path + ": cannot be opened: " + std::strerror(errno));
 
   std::string header(
-    static_cast<std::size_t>(std::min<std::uintmax_t>(file_size, MAX_HEADER_BYTES)),
+    static_cast<std::size_t>(std::min<std::uintmax_t>(file_size, MAX_PLY_HEADER_BYTES)),
     '\0');
   in.read(header.data(), static_cast<std::streamsize>(header.size()));
   header.resize(static_cast<std::size_t>(in.gcount()));
@@ -64,7 +64,7 @@ checkPLYFile(const std::string& path)
     throw IOError(path + ": not a PLY file: the first line is not 'ply'");
   if (end == std::string::npos)
     throw IOError(path + ": not a PLY file: no 'end_header' line in the first "
-                  + std::to_string(MAX_HEADER_BYTES) + " bytes");
+                  + std::to_string(MAX_PLY_HEADER_BYTES) + " bytes");
   std::size_t data_offset = header.find('\n', end);
   data_offset = data_offset == std::string::npos ? header.size() : data_offset + 1;
 

@@ -27,7 +27,7 @@ constexpr const char* FULL_HEADER = "# Octomap OcTree file";
 /** OctoMap's tree depth: leaves at depth 16 below the root. */
 constexpr int TREE_DEPTH = 16;
 /** The header is a few short lines; a longer one is not an OctoMap file. */
-constexpr std::size_t MAX_HEADER_BYTES = 64 * 1024;
+constexpr std::size_t MAX_OCTOMAP_HEADER_BYTES = 64 * 1024;
 
 /** The parsed header and where the node stream starts. */
 struct Header {
@@ -114,7 +114,7 @@ readHeader(const std::string& path, const std::vector<char>& bytes)
   Header header;
   std::size_t pos = 0;
   const auto nextLine = [&]() {
-    const std::size_t end = std::min(bytes.size(), MAX_HEADER_BYTES);
+    const std::size_t end = std::min(bytes.size(), MAX_OCTOMAP_HEADER_BYTES);
     std::string line;
     while (pos < end && bytes[pos] != '\n')
       line.push_back(bytes[pos++]);
