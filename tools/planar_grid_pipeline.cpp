@@ -18,12 +18,16 @@
 
 #include <signal.h>
 #include <unistd.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 
 #include <algorithm>
 #include <atomic>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <string>
@@ -278,10 +282,29 @@ run(int argc, char** argv)
   return EXIT_SUCCESS;
 }
 
+/** One malloc arena for the whole run, unless the environment chooses one
+ * (MALLOC_ARENA_MAX, or glibc.malloc.arena_max in GLIBC_TUNABLES). The read-ahead
+ * thread allocates each frame's images, disparity and clouds and the mapping thread
+ * frees them; with an arena per thread glibc keeps the freed blocks of both resident,
+ * which raises the run's peak resident memory (docs/BENCHMARKS.md, "One malloc
+ * arena"). The threads allocate per frame, not per point, so they seldom meet at
+ * its lock. */
+void
+useOneMallocArena()
+{
+#ifdef __GLIBC__
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  if (std::getenv("MALLOC_ARENA_MAX") == nullptr
+      && (tunables == nullptr || std::strstr(tunables, "arena_max") == nullptr))
+    mallopt(M_ARENA_MAX, 1);
+#endif
+}
+
 } // namespace
 
 int
 main(int argc, char** argv)
 {
+  useOneMallocArena();
   return planar_grid::cli::runMain("planar_grid_pipeline", run, argc, argv, exitStatus);
 }
