@@ -10,7 +10,8 @@
 # and shared (BUILD_SHARED_LIBS) builds.
 # Then the Debian package (cpack -G DEB, cmake/PlanarGridPackaging.cmake): extracted with
 # dpkg-deb -x into a temporary root, its tools run, the examples build against
-# <root>/usr, its Python module maps the scan, and every package it Depends on or
+# <root>/usr (from /usr instead when the package is installed for real, below), its
+# Python module maps the scan, and every package it Depends on or
 # Recommends is installed or installable here (apt-cache policy; and apt-get install -s,
 # a simulation, resolves them). As root on CI (CI=true) or with PLANAR_GRID_APT_INSTALL=1,
 # it is then installed for real with apt-get, used from /usr, and purged.
@@ -273,7 +274,17 @@ fi
 # The tools find our libraries without LD_LIBRARY_PATH: linked in (static libraries), or
 # through their run path $ORIGIN/../lib (shared ones), which points into the root.
 check_tools "$root/usr"
-check_examples "$root/usr" "$work/examples-deb"
+# The examples against the package's files: here in the extracted root, or, when the
+# package is installed for real below, from /usr (the same files; built once).
+apt_check=false
+if [ "$(id -u)" = 0 ] && { [ "${CI:-}" = true ] || [ "${PLANAR_GRID_APT_INSTALL:-0}" = 1 ]; }; then
+  apt_check=true
+fi
+if $apt_check; then
+  echo "check_install: the examples build against the package when it is installed in /usr"
+else
+  check_examples "$root/usr" "$work/examples-deb"
+fi
 # The .pc files locate their prefix from their own folder.
 [ "$(PKG_CONFIG_PATH="$root/usr/$pc_subdir" pkg-config --variable=includedir planar_grid)" \
   -ef "$root/usr/include" ] \
@@ -406,7 +417,7 @@ print('check_install: /usr/bin/python3 imports', pg.__file__, 'and loads the map
   [ ${#left[@]} -eq 0 ] || { echo "check_install: files left after the purge: ${left[*]}" >&2; return 1; }
   echo "check_install: installed ${#installed_files[@]} paths, used, purged; none left"
 }
-if [ "$(id -u)" = 0 ] && { [ "${CI:-}" = true ] || [ "${PLANAR_GRID_APT_INSTALL:-0}" = 1 ]; }; then
+if $apt_check; then
   if dpkg-query -W -f='${Status}' planar-grid 2>/dev/null | grep -q 'ok installed'; then
     echo "check_install: planar-grid is already installed here: the package was not installed over it" >&2
     exit 1
