@@ -373,7 +373,7 @@ compareDataset(const ComparisonConfig& config,
   // frames must exist first: a pass of a second front end over the frames builds it
   // (the same deterministic stages give the same points). A front end that maps
   // only every n-th frame densely gets its reference from a pass over every frame.
-  ReferenceVoxels reference(ds.truth.leaf_size_m);
+  ReferenceVoxels reference(ds.truth.leaf_size_m, ds.truth.max_range_m);
   bool thinned = false;
   const PipelineConfig reference_config = everyFrameDense(front_config, thinned);
   const bool reference_first =
@@ -384,7 +384,8 @@ compareDataset(const ComparisonConfig& config,
     pre.setFrameOverlap(false);
     pre.setFrameCallback(
       [&reference](std::size_t, Frame& frame, const std::vector<double>&) {
-        reference.addFrame(worldPoints(frame));
+        reference.addFrame(worldPoints(frame),
+                           frame.world_T_camera.translation().cast<float>());
       });
     pre.run();
     if (progress)
@@ -415,7 +416,8 @@ compareDataset(const ComparisonConfig& config,
     }
     mapped.views.push_back(rangeView(frame));
     if (ds.truth.type == TruthConfig::Type::REFERENCE && !reference_first)
-      reference.addFrame(worldPoints(frame));
+      reference.addFrame(worldPoints(frame),
+                         frame.world_T_camera.translation().cast<float>());
     mapFrameInLanes(lanes, frame, kl_ms, ds.name);
 
     // A place (paper Sec. IV-B): the cells near the camera, this frame's times.

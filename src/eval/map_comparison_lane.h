@@ -37,15 +37,22 @@ msSince(std::chrono::steady_clock::time_point t)
 }
 
 /** The REFERENCE truth: voxels of all frames' points with the number of frames that
- * saw each. */
+ * saw each; a point farther than max_range_m from its frame's camera is left out. */
 class ReferenceVoxels {
 public:
-  explicit ReferenceVoxels(double leaf_m) : leaf_m_(leaf_m) {}
+  ReferenceVoxels(double leaf_m, double max_range_m) :
+      leaf_m_(leaf_m), max_range_sq_(max_range_m * max_range_m)
+  {}
 
-  void addFrame(const pcl::PointCloud<pcl::PointXYZ>& points)
+  /** \brief Adds one frame's \a points (world frame, m) seen from \a sensor_origin. */
+  void addFrame(const pcl::PointCloud<pcl::PointXYZ>& points,
+                const Eigen::Vector3f& sensor_origin)
   {
     ++frame_;
     for (const auto& p : points.points) {
+      if (!(static_cast<double>((p.getVector3fMap() - sensor_origin).squaredNorm())
+            <= max_range_sq_))
+        continue;
       const auto key = keyOf(p.getVector3fMap());
       Voxel& v = voxels_[key];
       if (v.last_frame != frame_) {
@@ -89,6 +96,7 @@ private:
   }
 
   double leaf_m_;
+  double max_range_sq_;
   std::uint32_t frame_{0};
   std::unordered_map<std::uint64_t, Voxel> voxels_;
 };

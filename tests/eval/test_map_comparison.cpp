@@ -646,6 +646,51 @@ TEST(StageTables, DeclareTheFrontEndTheEvaluationRunsOncePerFrame)
 
 namespace {
 
+TEST_F(MapComparisonTest, TheReferenceTakesThePointsWithinItsRange)
+{
+  // One frame of two walls seen from the origin, 4-4.6 m and 8-8.3 m away. A reference
+  // of range 6 m holds the near wall alone: the same truth voxels as a reference of the
+  // near wall's frame without a range, and fewer than both walls without one.
+  auto near_wall = wall(0.0, 0.0, 0.02);
+  auto both = near_wall;
+  for (const auto& p : near_wall.points)
+    both.push_back(pcl::PointXYZ(p.x + 4.0f, p.y, p.z));
+  ASSERT_EQ(pcl::io::savePCDFileBinary((dir_ / "near.pcd").string(), near_wall), 0);
+  ASSERT_EQ(pcl::io::savePCDFileBinary((dir_ / "both.pcd").string(), both), 0);
+  const auto truthVoxels = [&](const std::string& frame, const std::string& range) {
+    const std::string pipeline =
+      write(frame + ".yaml", planarPipeline((dir_ / (frame + ".pcd")).string()));
+    const auto config = planar_grid::loadComparisonConfig(
+      write("e.yaml", "resolutions_m: [0.2]\ndatasets:\n  - name: walls\n"
+                      "    pipeline: "
+                        + pipeline + "\n    truth: {type: reference, min_views: 1"
+                        + range + "}\n"));
+    for (const auto& r : planar_grid::runComparison(config, nullptr))
+      if (r.place < 0 && r.method == "SG")
+        return r.truth_voxels;
+    ADD_FAILURE() << "no SG row";
+    return std::size_t{0};
+  };
+  const std::size_t near_alone = truthVoxels("near", "");
+  EXPECT_GT(near_alone, 100u);
+  EXPECT_EQ(truthVoxels("both", ", max_range_m: 6.0"), near_alone);
+  EXPECT_GT(truthVoxels("both", ""), near_alone + 100);
+  // The range belongs to the reference only, and is a distance.
+  for (const std::string& truth :
+       {std::string("{type: reference, max_range_m: 0}"),
+        "{type: points, file: " + (dir_ / "near.pcd").string() + ", max_range_m: 5}"}) {
+    try {
+      planar_grid::loadComparisonConfig(write(
+        "r.yaml", "datasets:\n  - name: a\n    pipeline: "
+                    + (dir_ / "near.yaml").string() + "\n    truth: " + truth + "\n"));
+      ADD_FAILURE() << "no ConfigError for truth " << truth;
+    } catch (const planar_grid::ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("max_range_m"), std::string::npos)
+        << e.what();
+    }
+  }
+}
+
 TEST_F(MapComparisonTest, TheReferenceHasEveryFrameWhenTheMethodsMapFewer)
 {
   // Four Karlsruhe frames through stereo and the planar stages, dense on every frame

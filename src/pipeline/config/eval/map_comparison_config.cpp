@@ -118,7 +118,7 @@ parseComparison(const YAML::Node& root, const std::string& path)
       r.fail(node, "dataset " + ds.name
                      + " needs a truth (type: points, disparity or "
                        "reference)");
-    r.checkKeys(truth, {"type", "file", "leaf_size_m", "min_views"},
+    r.checkKeys(truth, {"type", "file", "leaf_size_m", "min_views", "max_range_m"},
                 "dataset " + ds.name + ".truth");
     const std::string type = r.string(truth, "type", "truth");
     if (type == "points")
@@ -138,9 +138,14 @@ parseComparison(const YAML::Node& root, const std::string& path)
         r.realValue(truth["leaf_size_m"], 0.005, 1.0, "truth.leaf_size_m");
     if (truth["min_views"])
       ds.truth.min_views = count(truth["min_views"], 1, "truth.min_views");
-    if ((truth["leaf_size_m"] || truth["min_views"])
+    if (truth["max_range_m"])
+      ds.truth.max_range_m =
+        r.realValue(truth["max_range_m"], 0.1, 1000.0, "truth.max_range_m");
+    if ((truth["leaf_size_m"] || truth["min_views"] || truth["max_range_m"])
         && ds.truth.type != TruthConfig::Type::REFERENCE)
-      r.fail(truth, "truth.leaf_size_m and truth.min_views are for type reference");
+      r.fail(truth,
+             "truth.leaf_size_m, truth.min_views and truth.max_range_m are for type "
+             "reference");
     if (node["tilt_deg"])
       ds.tilt_deg = r.realValue(node["tilt_deg"], 0.0, 90.0, "tilt_deg");
     // The front end comes first: the split into shared and per-size stages needs it.

@@ -36,6 +36,11 @@ struct TruthConfig {
   std::string file;
   /** \brief Voxel size of the REFERENCE cloud, meters. */
   double leaf_size_m{0.05};
+  /** \brief Farthest distance from its frame's camera of a point the REFERENCE
+   * takes, meters (+inf: every point). Stereo depth error grows with the square of the
+   * depth (eq. 4), so a shorter range gives a thinner reference of the surfaces the
+   * camera passed near. */
+  double max_range_m{std::numeric_limits<double>::infinity()};
   /** \brief Frames that must see a REFERENCE voxel (1: every point counts). */
   std::size_t min_views{2};
 };
