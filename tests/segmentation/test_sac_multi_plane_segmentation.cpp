@@ -1382,6 +1382,61 @@ TEST(SACMultiPlaneSegmentation, LevelPlaneWithTheFloorUnderItIsNoTerrain)
   EXPECT_EQ(drumInPlanes(false, 0.05), (Counts{3u * 188u}));
 }
 
+TEST(SACMultiPlaneSegmentation, NormalsOnRequestGiveTheSameSegmentation)
+{
+  // The table beside the drum on a floor, with the floor test (the table tested, the
+  // floor spared as terrain): the normals given one per point, then the same normals
+  // on request. The planes are the same to the bit; each point is asked at most once,
+  // and most of the floor's points never.
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud;
+  std::size_t table = 0;
+  auto seg = tableBesideDrum(2.0f, cloud, table);
+  const std::size_t floor_begin = cloud->size();
+  auto normals = std::make_shared<pcl::PointCloud<pcl::Normal>>(*seg.getInputNormals());
+  for (int j = -20; j <= 20; ++j)
+    for (int i = -20; i <= 20; ++i) {
+      cloud->push_back(pcl::PointXYZ(0.1f * static_cast<float>(i),
+                                     0.1f * static_cast<float>(j), 0.0f));
+      normals->push_back(pcl::Normal(0.0f, 0.0f, 1.0f));
+    }
+  seg.setInputCloud(cloud);
+  seg.setMaxPlanes(3);
+  seg.setMinTerrainSensorHeight(0.7);
+  seg.setMaxTerrainBelowRatio(0.05);
+  seg.setInputNormals(normals);
+  PlanarSegments given;
+  seg.segment(given);
+  ASSERT_EQ(given.size(), 2u);
+
+  std::vector<int> asked(cloud->size(), 0);
+  seg.setNormalFunction([&](pcl::index_t i) {
+    const auto k = static_cast<std::size_t>(i);
+    ++asked.at(k);
+    const pcl::Normal& n = (*normals)[k];
+    return Eigen::Vector3f(n.normal_x, n.normal_y, n.normal_z);
+  });
+  EXPECT_EQ(seg.getInputNormals(), nullptr);
+  PlanarSegments on_request;
+  seg.segment(on_request);
+  ASSERT_EQ(on_request.size(), given.size());
+  for (std::size_t p = 0; p < given.size(); ++p) {
+    EXPECT_EQ(on_request[p].model_coefficients.values,
+              given[p].model_coefficients.values)
+      << p;
+    EXPECT_EQ(on_request[p].inliers.indices, given[p].inliers.indices) << p;
+  }
+  EXPECT_LE(*std::max_element(asked.begin(), asked.end()), 1);
+  const auto floor_asked = static_cast<std::size_t>(std::count(
+    asked.begin() + static_cast<std::ptrdiff_t>(floor_begin), asked.end(), 1));
+  EXPECT_LT(floor_asked, (cloud->size() - floor_begin) / 2) << floor_asked;
+  // Normals given again replace the function.
+  seg.setInputNormals(normals);
+  std::fill(asked.begin(), asked.end(), 0);
+  seg.segment(on_request);
+  EXPECT_EQ(std::count(asked.begin(), asked.end(), 1), 0);
+  EXPECT_EQ(on_request.size(), given.size());
+}
+
 TEST(SACMultiPlaneSegmentation, VisibilityConflictsMatchBruteForce)
 {
   // Random points around a tilted plane seen from a sensor off the origin, denser in

@@ -133,6 +133,16 @@ TEST(DisparityNormals, NoisyDisparityGivesNormalsWithinAFewDegrees)
     }
   ASSERT_GT(defined, 20u);
   EXPECT_GE(within5, defined * 95 / 100);
+  // One point at a time, the same normals to the bit (NaN where there is none).
+  const planar_grid::DisparityNormalEstimator estimator(disparity, c,
+                                                        DisparityNormalParams{});
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3f one = estimator.compute(points[i]);
+    if (normals[i].allFinite())
+      EXPECT_EQ(one, normals[i]) << i;
+    else
+      EXPECT_FALSE(one.allFinite()) << i;
+  }
 }
 
 TEST(DisparityNormals, ObjectInFrontDoesNotTiltTheWall)
@@ -153,6 +163,28 @@ TEST(DisparityNormals, ObjectInFrontDoesNotTiltTheWall)
   ASSERT_TRUE(normals[0].allFinite());
   EXPECT_LT(angleDeg(normals[0], Eigen::Vector3d(0, 0, 1)), 0.05);
   ASSERT_GT(post - wall, 0.2 * wall);
+}
+
+TEST(DisparityNormals, WindowCutByTheImageBorderStillFits)
+{
+  // A wall 10 m ahead fills the image; points 1 px inside the middle of each border:
+  // their window (at least 4 px a side) loses the rows or columns beyond the border
+  // and fits the rest, two thirds of it.
+  const StereoCalibration c = calibration();
+  const cv::Mat disparity = renderPlane(c, Eigen::Vector3d(0, 0, -1), 10.0, 0.0, 4);
+  const auto at = [&c](double u, double v) {
+    return Eigen::Vector3f(static_cast<float>((u - c.cx_px) * 10.0 / c.focal_length_px),
+                           static_cast<float>((v - c.cy_px) * 10.0 / c.focal_length_px),
+                           10.0f);
+  };
+  const Points points{at(c.width / 2, 1), at(c.width / 2, c.height - 2),
+                      at(1, c.height / 2), at(c.width - 2, c.height / 2)};
+  Points normals;
+  estimateDisparityNormals(disparity, c, points, DisparityNormalParams{}, normals);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    ASSERT_TRUE(normals[i].allFinite()) << i;
+    EXPECT_LT(angleDeg(normals[i], Eigen::Vector3d(0, 0, 1)), 0.05) << i;
+  }
 }
 
 TEST(DisparityNormals, UndefinedWhereThereIsNothingToFit)
@@ -187,6 +219,12 @@ TEST(DisparityNormals, BadInputIsAnError)
   DisparityNormalParams bad;
   bad.window_radius_m = 0.0;
   EXPECT_THROW(estimateDisparityNormals(disparity, c, points, bad, normals),
+               planar_grid::Exception);
+  // The estimator of one point at a time checks the same, once.
+  EXPECT_THROW(planar_grid::DisparityNormalEstimator(cv::Mat(10, 10, CV_8UC1), c,
+                                                     DisparityNormalParams{}),
+               planar_grid::Exception);
+  EXPECT_THROW(planar_grid::DisparityNormalEstimator(disparity, c, bad),
                planar_grid::Exception);
   bad = DisparityNormalParams{};
   bad.min_window_radius_px = 10;

@@ -161,8 +161,11 @@ public:
                               && (stage_params_.normal_source != NormalSource::AUTO
                                   || !frame.disparity.empty());
     segmentation_.setMaxNormalAngle(test_normals ? params_.max_normal_angle_rad : 0.0);
-    segmentation_.setInputNormals(test_normals ? disparityNormals(frame) : nullptr);
+    segmentation_.setNormalFunction(test_normals ? disparityNormalFunction(frame)
+                                                 : nullptr);
     segmentation_.segment(frame.planes);
+    // The function holds the frame's cloud and disparity image.
+    segmentation_.setNormalFunction(nullptr);
     if (inlier_only) {
       // The inlier-only points no plane took make no cells.
       std::vector<std::uint8_t> drop(frame.cloud->size(), 0);
@@ -244,31 +247,26 @@ private:
   bool sampleFeatures() const { return stage_params_.sample == PlaneSample::FEATURES; }
 
   /** The normals of the normal test from the frame's disparity image (in the cloud's
-   * frame), or nullptr where the segmentation fits them to the cloud (normal_source
-   * cloud, or no disparity image). */
-  pcl::PointCloud<pcl::Normal>::ConstPtr disparityNormals(const Frame& frame) const
+   * frame), each fitted when the test first asks for it; empty where the segmentation
+   * fits them to the cloud (normal_source cloud, or no disparity image). */
+  SACMultiPlaneSegmentation<pcl::PointXYZI>::NormalFunction
+  disparityNormalFunction(const Frame& frame) const
   {
     if (stage_params_.normal_source != NormalSource::AUTO || frame.disparity.empty()
         || !(frame.calibration.focal_length_px > 0.0)
         || !(frame.calibration.baseline_m > 0.0))
       return nullptr;
-    const auto& cloud = *frame.cloud;
     const Eigen::Affine3f camera_T_cloud = cameraTCloud(frame);
-    std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> points(
-      cloud.size());
-    for (std::size_t i = 0; i < cloud.size(); ++i)
-      points[i] = camera_T_cloud * cloud[i].getVector3fMap();
-    std::vector<Eigen::Vector3f, Eigen::aligned_allocator<Eigen::Vector3f>> normals;
-    estimateDisparityNormals(frame.disparity, frame.calibration, points,
-                             disparity_normals_, normals);
     const Eigen::Matrix3f cloud_R_camera = camera_T_cloud.linear().transpose();
-    auto out = std::make_shared<pcl::PointCloud<pcl::Normal>>();
-    out->resize(cloud.size());
-    for (std::size_t i = 0; i < cloud.size(); ++i) {
-      const Eigen::Vector3f n = cloud_R_camera * normals[i];
-      (*out)[i] = pcl::Normal(n.x(), n.y(), n.z());
-    }
-    return out;
+    const DisparityNormalEstimator estimator(frame.disparity, frame.calibration,
+                                             disparity_normals_);
+    return [estimator, cloud = Frame::Cloud::ConstPtr(frame.cloud), camera_T_cloud,
+            cloud_R_camera](pcl::index_t i) -> Eigen::Vector3f {
+      const Eigen::Vector3f point =
+        camera_T_cloud * (*cloud)[static_cast<std::size_t>(i)].getVector3fMap();
+      const Eigen::Vector3f normal = cloud_R_camera * estimator.compute(point);
+      return normal;
+    };
   }
 
   /** The far points (depth_error_filter's far_levels, not thinned by voxel_grid) that

@@ -20,9 +20,11 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace pcl {
@@ -550,11 +552,33 @@ public:
    * a NaN normal marks a point whose normal is unknown (judged by distance alone).
    * Without them (nullptr, the default) and with the normal test on, segment()
    * estimates them on a grid of setNormalCell() (detail::estimateGridNormals). A cloud
-   * of another size than the input is an error of segment(). \param[in] normals unit
-   * normals, any sign, or nullptr */
-  void setInputNormals(const NormalCloudConstPtr& normals) { normals_ = normals; }
+   * of another size than the input is an error of segment(). Replaces a function of
+   * setNormalFunction(). \param[in] normals unit normals, any sign, or nullptr */
+  void setInputNormals(const NormalCloudConstPtr& normals)
+  {
+    normals_ = normals;
+    normal_function_ = nullptr;
+  }
   /** \brief Returns the normals set by setInputNormals(), or nullptr. */
   NormalCloudConstPtr getInputNormals() const { return normals_; }
+
+  /** \brief The surface normal of input point `index` (an index into the input
+   * cloud), any sign, any length; NaN (or zero) where it is unknown. */
+  using NormalFunction = std::function<Eigen::Vector3f(pcl::index_t index)>;
+  /** \brief Sets a function that gives the normal test its normals on request, in
+   * place of setInputNormals()' one per input point: segment() calls it at most once
+   * per point, and only for the points the test examines (a hypothesis' eq. 11
+   * inliers; never those of a terrain plane, which the test spares). For normals that
+   * cost to compute (a fit in the disparity image, DisparityNormalEstimator) and a
+   * cloud most of whose points are ground. The normals are those setInputNormals()
+   * would give for the same values, and so is the segmentation. Replaces normals of
+   * setInputNormals(); an empty function gives the estimate on a grid.
+   * \param[in] normal_function called from segment()'s thread */
+  void setNormalFunction(NormalFunction normal_function)
+  {
+    normal_function_ = std::move(normal_function);
+    normals_.reset();
+  }
 
   /** \brief Sets the normal test. Eq. 11 asks only how far a point lies from a plane:
    * a plane slicing a tree's canopy, a row of poles or a cluttered volume finds as many
@@ -677,6 +701,8 @@ protected:
   PlaneTestCounts counts_;
   /** \brief Surface normals of the input points, or nullptr. */
   NormalCloudConstPtr normals_;
+  /** \brief Surface normals of input points on request, or empty. */
+  NormalFunction normal_function_;
 
 private:
   /** \brief Buffers that the rounds of applySegmentation() reuse. */

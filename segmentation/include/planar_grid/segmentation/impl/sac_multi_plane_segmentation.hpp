@@ -218,21 +218,23 @@ SACMultiPlaneSegmentation<PointT>::collectDensePoints(const Eigen::Vector3f& ori
       }
   if (params_.max_normal_angle_rad > 0.0) {
     // The normal test's normals: the given ones, else fitted on a grid of the points.
+    const std::size_t n = dense.size();
     if (normals_) {
-      const std::size_t n = dense.size();
       dense.nx.resize(n);
       dense.ny.resize(n);
       dense.nz.resize(n);
       for (std::size_t k = 0; k < n; ++k) {
         const pcl::Normal& normal =
           (*normals_)[static_cast<std::size_t>(dense.index[k])];
-        const Eigen::Vector3f v(normal.normal_x, normal.normal_y, normal.normal_z);
-        const float length = v.norm();
-        const bool valid = v.allFinite() && length > 0.0f;
-        dense.nx[k] = valid ? v.x() / length : std::numeric_limits<float>::quiet_NaN();
-        dense.ny[k] = valid ? v.y() / length : std::numeric_limits<float>::quiet_NaN();
-        dense.nz[k] = valid ? v.z() / length : std::numeric_limits<float>::quiet_NaN();
+        dense.setNormal(
+          k, Eigen::Vector3f(normal.normal_x, normal.normal_y, normal.normal_z));
       }
+    } else if (normal_function_) {
+      // Asked for when the normal test first examines a point.
+      for (auto* v : {&dense.nx, &dense.ny, &dense.nz})
+        v->assign(n, std::numeric_limits<float>::quiet_NaN());
+      dense.normal_known.assign(n, 0);
+      dense.normal_of = normal_function_;
     } else {
       detail::estimateGridNormals(
         dense.x, dense.y, dense.z, static_cast<float>(params_.normal_cell_m),

@@ -20,6 +20,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <random>
 #include <vector>
@@ -212,6 +213,11 @@ struct DensePoints {
   /** Per-point unit surface normals (NaN where unknown: too few neighbours to tell);
    * empty: no normal test. */
   std::vector<float> nx, ny, nz;
+  /** Normals on request (setNormalFunction()): the normal of an input index, set
+   * into nx, ny, nz the first time the normal test examines the point; normal_known
+   * says which are. Empty: nx, ny, nz hold every point's normal. */
+  std::function<Eigen::Vector3f(pcl::index_t)> normal_of;
+  std::vector<std::uint8_t> normal_known;
   /** Cosine of the largest angle between a point's normal and an inlier's plane
    * normal (either side); used when the normals are present. */
   float min_normal_cos{0.0f};
@@ -366,9 +372,34 @@ struct DensePoints {
     return count;
   }
 
-  /** \brief The number of selected points without a normal (NaN). */
-  std::size_t countSelectedWithoutNormal() const
+  /** \brief Sets the unit normal of point \a k from \a v (any length), NaN when \a v
+   * is not finite or zero. */
+  void setNormal(std::size_t k, const Eigen::Vector3f& v)
   {
+    const float length = v.norm();
+    const bool valid = v.allFinite() && length > 0.0f;
+    nx[k] = valid ? v.x() / length : std::numeric_limits<float>::quiet_NaN();
+    ny[k] = valid ? v.y() / length : std::numeric_limits<float>::quiet_NaN();
+    nz[k] = valid ? v.z() / length : std::numeric_limits<float>::quiet_NaN();
+  }
+
+  /** \brief With normals on request, asks normal_of for the selected points whose
+   * normal is not known yet. */
+  void requestSelectedNormals()
+  {
+    if (!normal_of)
+      return;
+    for (std::size_t k = 0; k < size(); ++k)
+      if (mask[k] && !normal_known[k]) {
+        setNormal(k, normal_of(index[k]));
+        normal_known[k] = 1;
+      }
+  }
+
+  /** \brief The number of selected points without a normal (NaN). */
+  std::size_t countSelectedWithoutNormal()
+  {
+    requestSelectedNormals();
     std::size_t count = 0;
     for (std::size_t k = 0; k < size(); ++k)
       count += mask[k] && !std::isfinite(nx[k]) ? 1 : 0;
@@ -384,6 +415,7 @@ struct DensePoints {
   std::size_t deselectOffNormal(const Eigen::Vector4f& plane,
                                 bool keep_off_normal = false)
   {
+    requestSelectedNormals();
     std::size_t removed = 0;
     const float a = plane[0], b = plane[1], c = plane[2];
     for (std::size_t k = 0; k < size(); ++k) {
@@ -486,6 +518,8 @@ struct DensePoints {
         ny[w] = ny[k];
         nz[w] = nz[k];
       }
+      if (!normal_known.empty())
+        normal_known[w] = normal_known[k];
       index[w] = index[k];
       mask[w] = mask[k];
       ++w;
@@ -493,6 +527,8 @@ struct DensePoints {
     if (!nx.empty())
       for (auto* v : {&nx, &ny, &nz})
         v->resize(w);
+    if (!normal_known.empty())
+      normal_known.resize(w);
     x.resize(w);
     y.resize(w);
     z.resize(w);

@@ -40,6 +40,31 @@ struct DisparityNormalParams {
   double min_valid_fraction{0.5};
 };
 
+/** \brief The surface normal of one point at a time from a disparity image: the fit of
+ * estimateDisparityNormals() for a single point, for callers that need the normals of
+ * only some points (the normal test of SACMultiPlaneSegmentation asks for a plane's
+ * inliers alone). The image is shared (cv::Mat's reference count), not copied.
+ * \ingroup stereo */
+class DisparityNormalEstimator {
+public:
+  /** \brief Checks the inputs once (estimateDisparityNormals()' image, calibration and
+   * parameters).
+   * \throws planar_grid::Exception as estimateDisparityNormals() */
+  DisparityNormalEstimator(const cv::Mat& disparity,
+                           const StereoCalibration& calibration,
+                           const DisparityNormalParams& params);
+
+  /** \brief The unit normal (camera frame, toward the camera) of \a point_camera
+   * (left camera frame, meters), or NaN where estimateDisparityNormals() gives NaN.
+   * Equal to estimateDisparityNormals()' normal of the same point, bit for bit. */
+  Eigen::Vector3f compute(const Eigen::Vector3f& point_camera) const;
+
+private:
+  cv::Mat disparity_;
+  StereoCalibration calibration_;
+  DisparityNormalParams params_;
+};
+
 /** \brief Surface normals of points seen in a rectified stereo pair, from the disparity
  * image around each point's pixel. A plane in space is a plane in (u, v, disparity):
  * with d = a u + b v + c fitted by least squares over the window, the plane's normal
