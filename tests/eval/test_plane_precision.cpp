@@ -22,14 +22,14 @@ using planar_grid::PlanarCuboids;
 using planar_grid::PlanePrecision;
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 
-constexpr double RESOLUTION_M = 0.1;
+constexpr double MAP_RESOLUTION_M = 0.1;
 /** \brief Sums of a few face areas (products of floats) agree to this, m^2 or ratio. */
 constexpr double AREA_TOLERANCE = 1e-6;
 
 /** \brief The wall x = 1 m over y, z in [0, 2] m, sampled every 0.02 m (101 x 101
  * points): about 300 points within the 0.2 m neighbourhood radius of a sample on it. */
 Cloud::Ptr
-wallPoints()
+wallAtOneMetre()
 {
   Cloud::Ptr cloud(new Cloud);
   for (int k = 0; k <= 100; ++k)
@@ -72,10 +72,10 @@ cellOnWall()
 
 TEST(PlanePrecision, CellOnAFlatWallIsPrecise)
 {
-  const GroundTruthSurface truth(wallPoints());
+  const GroundTruthSurface truth(wallAtOneMetre());
   PlanarCuboids cells{cellOnWall()};
   PlanePrecision p =
-    planar_grid::evaluatePlanePrecision(cells, 0.5, RESOLUTION_M, truth);
+    planar_grid::evaluatePlanePrecision(cells, 0.5, MAP_RESOLUTION_M, truth);
   EXPECT_EQ(p.samples, 80u);
   EXPECT_EQ(p.precise_samples, 80u);
   EXPECT_NEAR(p.face_area_m2, 0.8, AREA_TOLERANCE);
@@ -84,7 +84,7 @@ TEST(PlanePrecision, CellOnAFlatWallIsPrecise)
   // The normal's sign does not matter (a cell facing +x is on the same surface).
   cells[0].normal = Eigen::Vector3f::UnitX();
   cells[0].centre = Eigen::Vector3f(1.0f, 1.0f, 1.0f) - 0.05f * cells[0].normal;
-  p = planar_grid::evaluatePlanePrecision(cells, 0.5, RESOLUTION_M, truth);
+  p = planar_grid::evaluatePlanePrecision(cells, 0.5, MAP_RESOLUTION_M, truth);
   EXPECT_DOUBLE_EQ(p.ratio(), 1.0);
   // 15 degrees off the wall's normal is within the 20 degree bound.
   const float a15 = 15.0f * static_cast<float>(M_PI) / 180.0f;
@@ -92,14 +92,14 @@ TEST(PlanePrecision, CellOnAFlatWallIsPrecise)
     planarCell(Eigen::Vector3f(1.0f, 1.0f, 1.0f),
                Eigen::Vector3f(-std::cos(a15), std::sin(a15), 0.0f),
                Eigen::Vector3f(std::sin(a15), std::cos(a15), 0.0f), 0.4f, 0.8f);
-  p = planar_grid::evaluatePlanePrecision(cells, 0.5, RESOLUTION_M, truth);
+  p = planar_grid::evaluatePlanePrecision(cells, 0.5, MAP_RESOLUTION_M, truth);
   EXPECT_EQ(p.samples, 32u);
   EXPECT_DOUBLE_EQ(p.ratio(), 1.0);
 }
 
 TEST(PlanePrecision, TiltedCellOrCellInEmptySpaceIsNotPrecise)
 {
-  const GroundTruthSurface truth(wallPoints());
+  const GroundTruthSurface truth(wallAtOneMetre());
   // Turned 45 degrees about the vertical through the wall: every face sample sees the
   // wall's normal at 45 degrees.
   const float a45 = 0.25f * static_cast<float>(M_PI);
@@ -108,7 +108,7 @@ TEST(PlanePrecision, TiltedCellOrCellInEmptySpaceIsNotPrecise)
                                   Eigen::Vector3f(std::sin(a45), std::cos(a45), 0.0f),
                                   1.0f, 0.8f)};
   PlanePrecision p =
-    planar_grid::evaluatePlanePrecision(tilted, 0.5, RESOLUTION_M, truth);
+    planar_grid::evaluatePlanePrecision(tilted, 0.5, MAP_RESOLUTION_M, truth);
   EXPECT_EQ(p.samples, 80u);
   EXPECT_EQ(p.precise_samples, 0u);
   EXPECT_NEAR(p.face_area_m2, 0.8, AREA_TOLERANCE);
@@ -122,7 +122,7 @@ TEST(PlanePrecision, TiltedCellOrCellInEmptySpaceIsNotPrecise)
   PlanarCuboids empty_space{planarCell(Eigen::Vector3f(0.0f, 1.0f, 1.0f),
                                        -Eigen::Vector3f::UnitX(),
                                        Eigen::Vector3f::UnitY(), 1.0f, 0.8f)};
-  p = planar_grid::evaluatePlanePrecision(empty_space, 0.5, RESOLUTION_M, truth);
+  p = planar_grid::evaluatePlanePrecision(empty_space, 0.5, MAP_RESOLUTION_M, truth);
   EXPECT_EQ(p.samples, 80u);
   EXPECT_EQ(p.precise_samples, 0u);
   EXPECT_DOUBLE_EQ(p.ratio(), 0.0);
@@ -132,13 +132,13 @@ TEST(PlanePrecision, TiltedCellOrCellInEmptySpaceIsNotPrecise)
 
 TEST(PlanePrecision, MixturesWeighByFaceArea)
 {
-  const GroundTruthSurface truth(wallPoints());
+  const GroundTruthSurface truth(wallAtOneMetre());
   // Half and half: the cell on the wall and one of the same size in empty space.
   PlanarCuboids cells{cellOnWall(), planarCell(Eigen::Vector3f(0.0f, 1.0f, 1.0f),
                                                -Eigen::Vector3f::UnitX(),
                                                Eigen::Vector3f::UnitY(), 1.0f, 0.8f)};
   PlanePrecision p =
-    planar_grid::evaluatePlanePrecision(cells, 0.5, RESOLUTION_M, truth);
+    planar_grid::evaluatePlanePrecision(cells, 0.5, MAP_RESOLUTION_M, truth);
   EXPECT_EQ(p.samples, 160u);
   EXPECT_EQ(p.precise_samples, 80u);
   EXPECT_NEAR(p.ratio(), 0.5, AREA_TOLERANCE);
@@ -147,7 +147,7 @@ TEST(PlanePrecision, MixturesWeighByFaceArea)
   // 80 / 105.
   cells[1].width_m = 0.45f;
   cells[1].height_m = 0.45f;
-  p = planar_grid::evaluatePlanePrecision(cells, 0.5, RESOLUTION_M, truth);
+  p = planar_grid::evaluatePlanePrecision(cells, 0.5, MAP_RESOLUTION_M, truth);
   EXPECT_EQ(p.samples, 80u + 25u);
   EXPECT_NEAR(p.face_area_m2, 0.8 + 0.2025, AREA_TOLERANCE);
   EXPECT_NEAR(p.ratio(), 0.8 / 1.0025, AREA_TOLERANCE);
@@ -159,14 +159,14 @@ TEST(PlanePrecision, MixturesWeighByFaceArea)
   PlanarCuboid free_cell = cells[1];
   free_cell.probability = 0.3f;
   PlanarCuboids ignored{cellOnWall(), box, free_cell};
-  p = planar_grid::evaluatePlanePrecision(ignored, 0.5, RESOLUTION_M, truth);
+  p = planar_grid::evaluatePlanePrecision(ignored, 0.5, MAP_RESOLUTION_M, truth);
   EXPECT_EQ(p.samples, 80u);
   EXPECT_DOUBLE_EQ(p.ratio(), 1.0);
 }
 
 TEST(PlanePrecision, RegionCountsItsFaceSamplesOnly)
 {
-  const GroundTruthSurface truth(wallPoints());
+  const GroundTruthSurface truth(wallAtOneMetre());
   // The wall cell and the empty-space one; a region y <= 1.0 keeps the 5 left columns
   // of each (y = 0.55 ... 0.95), x >= 0.5 the wall cell alone.
   PlanarCuboids cells{cellOnWall(), planarCell(Eigen::Vector3f(0.0f, 1.0f, 1.0f),
@@ -175,13 +175,14 @@ TEST(PlanePrecision, RegionCountsItsFaceSamplesOnly)
   MappingErrorRegion left;
   left.max_m.y() = 1.0f;
   PlanePrecision p =
-    planar_grid::evaluatePlanePrecision(cells, 0.5, RESOLUTION_M, truth, left);
+    planar_grid::evaluatePlanePrecision(cells, 0.5, MAP_RESOLUTION_M, truth, left);
   EXPECT_EQ(p.samples, 80u);
   EXPECT_EQ(p.precise_samples, 40u);
   EXPECT_NEAR(p.face_area_m2, 0.8, AREA_TOLERANCE);
   MappingErrorRegion near_wall;
   near_wall.min_m.x() = 0.5f;
-  p = planar_grid::evaluatePlanePrecision(cells, 0.5, RESOLUTION_M, truth, near_wall);
+  p =
+    planar_grid::evaluatePlanePrecision(cells, 0.5, MAP_RESOLUTION_M, truth, near_wall);
   EXPECT_EQ(p.samples, 80u);
   EXPECT_DOUBLE_EQ(p.ratio(), 1.0);
 }
@@ -195,7 +196,7 @@ TEST(PlanePrecision, NeedsASurfaceOfEnoughPoints)
     line->push_back(pcl::PointXYZ(1.0f, 0.02f * static_cast<float>(j), 1.0f));
   PlanarCuboids cells{cellOnWall()};
   const PlanePrecision on_line = planar_grid::evaluatePlanePrecision(
-    cells, 0.5, RESOLUTION_M, GroundTruthSurface(line));
+    cells, 0.5, MAP_RESOLUTION_M, GroundTruthSurface(line));
   EXPECT_DOUBLE_EQ(on_line.ratio(), 0.0);
   // Every sample lies within 0.4 m of the line and sees points that are no surface,
   // in every neighbourhood up to PLANE_PRECISION_MAX_RADIUS_M.
@@ -206,13 +207,13 @@ TEST(PlanePrecision, NeedsASurfaceOfEnoughPoints)
   for (const float y : {0.95f, 1.05f})
     for (const float z : {0.95f, 1.05f})
       four->push_back(pcl::PointXYZ(1.0f, y, z));
-  EXPECT_EQ(planar_grid::evaluatePlanePrecision(cells, 0.5, RESOLUTION_M,
+  EXPECT_EQ(planar_grid::evaluatePlanePrecision(cells, 0.5, MAP_RESOLUTION_M,
                                                 GroundTruthSurface(four))
               .precise_samples,
             0u);
   // Five: the samples within 0.2 m of all five (a disc about (1, 1, 1)) are precise.
   four->push_back(pcl::PointXYZ(1.0f, 1.0f, 1.0f));
-  EXPECT_GT(planar_grid::evaluatePlanePrecision(cells, 0.5, RESOLUTION_M,
+  EXPECT_GT(planar_grid::evaluatePlanePrecision(cells, 0.5, MAP_RESOLUTION_M,
                                                 GroundTruthSurface(four))
               .precise_samples,
             0u);
@@ -220,9 +221,9 @@ TEST(PlanePrecision, NeedsASurfaceOfEnoughPoints)
 
 TEST(PlanePrecision, DegenerateInputAndBadArguments)
 {
-  const GroundTruthSurface truth(wallPoints());
+  const GroundTruthSurface truth(wallAtOneMetre());
   const PlanePrecision none =
-    planar_grid::evaluatePlanePrecision(PlanarCuboids(), 0.5, RESOLUTION_M, truth);
+    planar_grid::evaluatePlanePrecision(PlanarCuboids(), 0.5, MAP_RESOLUTION_M, truth);
   EXPECT_EQ(none.samples, 0u);
   EXPECT_DOUBLE_EQ(none.face_area_m2, 0.0);
   EXPECT_TRUE(std::isnan(none.ratio()));
@@ -230,15 +231,16 @@ TEST(PlanePrecision, DegenerateInputAndBadArguments)
   PlanarCuboids cells{cellOnWall(), cellOnWall()};
   cells[1].centre.x() = std::nanf("");
   EXPECT_EQ(
-    planar_grid::evaluatePlanePrecision(cells, 0.5, RESOLUTION_M, truth).samples, 80u);
+    planar_grid::evaluatePlanePrecision(cells, 0.5, MAP_RESOLUTION_M, truth).samples,
+    80u);
   EXPECT_THROW(planar_grid::evaluatePlanePrecision(cells, 0.5, 0.0, truth),
                planar_grid::Exception);
   EXPECT_THROW(planar_grid::evaluatePlanePrecision(cells, 0.5, -0.1, truth),
                planar_grid::Exception);
-  EXPECT_THROW(planar_grid::evaluatePlanePrecision(cells, 1.5, RESOLUTION_M, truth),
+  EXPECT_THROW(planar_grid::evaluatePlanePrecision(cells, 1.5, MAP_RESOLUTION_M, truth),
                planar_grid::Exception);
   EXPECT_THROW(
-    planar_grid::evaluatePlanePrecision(cells, std::nan(""), RESOLUTION_M, truth),
+    planar_grid::evaluatePlanePrecision(cells, std::nan(""), MAP_RESOLUTION_M, truth),
     planar_grid::Exception);
 }
 

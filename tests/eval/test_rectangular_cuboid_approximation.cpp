@@ -22,7 +22,7 @@ using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 using Key = std::tuple<int, int, int>;
 
 StandardVoxelGrid::Params
-params(double resolution_m)
+gridParams(double resolution_m)
 {
   StandardVoxelGrid::Params p;
   p.resolution_m = resolution_m;
@@ -75,7 +75,7 @@ countOccupied(const AxisAlignedBoxes& boxes)
  * through the origin; points every r / 4 at sub-voxel centres, so that the unrotated
  * wall fills exactly the voxels x = 20, y in [0, n), z in [0, m). */
 Cloud
-wall(int n, int m, double yaw_rad)
+voxelWall(int n, int m, double yaw_rad)
 {
   const double r = 0.1, step = r / 4.0;
   const double c = std::cos(yaw_rad), s = std::sin(yaw_rad);
@@ -97,7 +97,7 @@ TEST(RectangularCuboidApproximation, CoversEveryObservedVoxelOnceByClass)
   for (unsigned seed : {1u, 2u, 3u}) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<float> coord(-1.0f, 1.0f);
-    StandardVoxelGrid grid(params(0.1));
+    StandardVoxelGrid grid(gridParams(0.1));
     for (int scan = 0; scan < 5; ++scan) {
       Cloud cloud;
       for (int i = 0; i < 300; ++i)
@@ -130,7 +130,7 @@ TEST(RectangularCuboidApproximation, GreedyOrderOnHandBuiltGrid)
   // (z = 0): free voxels x = 0..2 in both rows, occupied x = 3 in both rows: the
   // greedy merge gives one 3 x 2 x 1 free box at (0, 0, 0) and one 1 x 2 x 1
   // occupied box at (3, 0, 0).
-  StandardVoxelGrid::Params p = params(1.0);
+  StandardVoxelGrid::Params p = gridParams(1.0);
   StandardVoxelGrid grid(p);
   Cloud cloud;
   cloud.push_back(pcl::PointXYZ(3.5f, 0.5f, 0.5f));
@@ -155,8 +155,8 @@ TEST(RectangularCuboidApproximation, AxisAlignedWallIsOneBox)
 {
   // A 24 x 16-voxel wall seen from (0.05, 1.25, 0.85): its 384 voxels are occupied and
   // form one 1 x 24 x 16 box.
-  StandardVoxelGrid grid(params(0.1));
-  grid.insertPointCloud(wall(24, 16, 0.0), Eigen::Vector3f(0.05f, 1.25f, 0.85f));
+  StandardVoxelGrid grid(gridParams(0.1));
+  grid.insertPointCloud(voxelWall(24, 16, 0.0), Eigen::Vector3f(0.05f, 1.25f, 0.85f));
   ASSERT_EQ(grid.getOccupiedCount(), 24u * 16u);
   AxisAlignedBoxes boxes;
   RectangularCuboidApproximation().compute(grid, boxes);
@@ -176,8 +176,8 @@ TEST(RectangularCuboidApproximation, RotatedWallNeedsManyBoxes)
   // voxels of the wall (the wall advances 1 / tan 30 = 1.7 rows in y per voxel in x),
   // so about one box per row of the staircase (~21 rows) where the aligned wall
   // needed 1.
-  StandardVoxelGrid grid(params(0.1));
-  grid.insertPointCloud(wall(24, 16, 30.0 * M_PI / 180.0),
+  StandardVoxelGrid grid(gridParams(0.1));
+  grid.insertPointCloud(voxelWall(24, 16, 30.0 * M_PI / 180.0),
                         Eigen::Vector3f(0.05f, 1.25f, 0.85f));
   AxisAlignedBoxes boxes;
   RectangularCuboidApproximation().compute(grid, boxes);
@@ -190,7 +190,7 @@ TEST(RectangularCuboidApproximation, RotatedWallNeedsManyBoxes)
 
 TEST(RectangularCuboidApproximation, EmptyGridAndMemory)
 {
-  StandardVoxelGrid grid(params(0.1));
+  StandardVoxelGrid grid(gridParams(0.1));
   AxisAlignedBoxes boxes(3); // replaced
   RectangularCuboidApproximation().compute(grid, boxes);
   EXPECT_TRUE(boxes.empty());

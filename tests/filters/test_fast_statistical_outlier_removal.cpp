@@ -15,9 +15,11 @@
 #include <limits>
 #include <string>
 
+#include "../test_constants.h"
+
 namespace {
 
-const std::string CLOUDS = std::string(PLANAR_GRID_DATA_DIR) + "/pcl_clouds";
+using planar_grid_test::CLOUDS;
 
 /** A real Kinect / stereo scan, voxelized (unorganized, as in the pipeline). */
 pcl::PointCloud<pcl::PointXYZ>::Ptr

@@ -17,9 +17,11 @@
 #include <random>
 #include <string>
 
+#include "../test_constants.h"
+
 namespace {
 
-const std::string CLOUDS = std::string(PLANAR_GRID_DATA_DIR) + "/pcl_clouds";
+using planar_grid_test::CLOUDS;
 
 template <typename PointT>
 typename pcl::PointCloud<PointT>::Ptr

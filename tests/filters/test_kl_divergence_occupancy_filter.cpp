@@ -25,6 +25,8 @@
 #include <utility>
 #include <vector>
 
+#include "../test_constants.h"
+
 namespace {
 
 using planar_grid::KLDivergenceOccupancyFilter;
@@ -732,8 +734,7 @@ TYPED_TEST(KLDivergenceOccupancyFilterTyped, InvalidSettersGiveEmptyOutput)
 
 namespace {
 
-const std::string KARLSRUHE_DIR =
-  std::string(PLANAR_GRID_DATA_DIR) + "/karlsruhe_2010_03_09_drive_0023";
+using planar_grid_test::KARLSRUHE_DIR;
 
 /** \brief The stereo features (the default StereoFeatureMatcher) of Karlsruhe frames
  * 10 and 11. */

@@ -46,6 +46,11 @@ constexpr float WALL_HEIGHT = 4.0f;
 const Eigen::AlignedBox3f BOX(Eigen::Vector3f(7.8f, 0.8f, 0.0f),
                               Eigen::Vector3f(8.2f, 1.2f, 0.4f));
 
+constexpr float INF = std::numeric_limits<float>::infinity();
+/** All of space: the region whose tiles are every tile of a tiled map. */
+const Eigen::AlignedBox3f EVERYWHERE(Eigen::Vector3f::Constant(-INF),
+                                     Eigen::Vector3f::Constant(INF));
+
 inline PlanarGridMap::Params
 params()
 {

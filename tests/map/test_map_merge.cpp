@@ -20,7 +20,14 @@
 namespace {
 
 // The synthetic street (street_scene.h): its surfaces, frames, views and probes.
-using namespace planar_grid_test::street;
+namespace street = planar_grid_test::street;
+using planar_grid::ExplicitSpaceGrid;
+using planar_grid::PlanarCuboid;
+using planar_grid::PlanarCuboids;
+using planar_grid::PlanarGridMap;
+using planar_grid::PlaneModels;
+using planar_grid::SpaceState;
+using planar_grid_test::wallCuboid;
 
 /** Share of the probes observed by either map (a state other than UNKNOWN) where the
  * two maps agree; \a observed receives their number. With \a interior, only the
@@ -34,7 +41,7 @@ agreement(const PlanarGridMap& a,
 {
   std::size_t same = 0;
   observed = 0;
-  for (const Eigen::Vector3f& p : probes()) {
+  for (const Eigen::Vector3f& p : street::probes()) {
     const SpaceState sa = a.getState(p), sb = b.getState(p);
     if (sa == SpaceState::UNKNOWN && sb == SpaceState::UNKNOWN)
       continue;
@@ -72,7 +79,7 @@ TEST(PlanarGridMapMerge, TheSceneMakesOnePlanePerSurface)
 {
   // The truth the other tests rely on: the whole drive maps the ground, two walls and
   // the end wall as four planes, and the box as non-planar cells.
-  const PlanarGridMap full = mapFrames(0, FRAMES);
+  const PlanarGridMap full = street::mapFrames(0, street::FRAMES);
   EXPECT_EQ(full.getSurfaceLayer().getPlanes().size(), 4u);
   EXPECT_EQ(full.getSurfaceLayer().getPlaneCount(), 4u);
   std::size_t non_planar = 0;
@@ -86,20 +93,20 @@ TEST(PlanarGridMapMerge, TheSceneMakesOnePlanePerSurface)
 
 TEST(PlanarGridMapMerge, AnEmptyMapChangesNothing)
 {
-  PlanarGridMap map = mapFrames(0, FRAMES / 2);
-  const std::string before = bytesOf(map);
-  map.merge(PlanarGridMap(params()), Eigen::Isometry3d::Identity());
-  EXPECT_EQ(bytesOf(map), before);
+  PlanarGridMap map = street::mapFrames(0, street::FRAMES / 2);
+  const std::string before = street::bytesOf(map);
+  map.merge(PlanarGridMap(street::params()), Eigen::Isometry3d::Identity());
+  EXPECT_EQ(street::bytesOf(map), before);
 
   // and the other way round: an empty map takes the map's planes, cells and voxels
-  PlanarGridMap empty(params());
-  const PlanarGridMap reference = copyOf(map);
+  PlanarGridMap empty(street::params());
+  const PlanarGridMap reference = street::copyOf(map);
   empty.merge(map, Eigen::Isometry3d::Identity());
   EXPECT_TRUE(empty.getSpaceLayer() == reference.getSpaceLayer());
   EXPECT_EQ(empty.getSurfaceLayer().getPlanes().size(),
             reference.getSurfaceLayer().getPlanes().size());
   EXPECT_EQ(cuboidSet(empty), cuboidSet(reference));
-  EXPECT_EQ(bytesOf(map), before); // the merged-in map is unchanged
+  EXPECT_EQ(street::bytesOf(map), before); // the merged-in map is unchanged
 }
 
 TEST(PlanarGridMapMerge, ACopyDoublesTheEvidenceNotTheCells)
@@ -107,8 +114,8 @@ TEST(PlanarGridMapMerge, ACopyDoublesTheEvidenceNotTheCells)
   // A map merged with a copy of itself (one recording mapped twice): every plane
   // joins its copy and every cell its copy, so the planes, cells and voxels are those
   // of the map; the evidence doubles, and its means (the probabilities) stay.
-  PlanarGridMap map = mapFrames(0, FRAMES / 2);
-  const PlanarGridMap copy = copyOf(map);
+  PlanarGridMap map = street::mapFrames(0, street::FRAMES / 2);
+  const PlanarGridMap copy = street::copyOf(map);
   map.merge(copy, Eigen::Isometry3d::Identity());
   EXPECT_EQ(map.getSurfaceLayer().getPlanes().size(),
             copy.getSurfaceLayer().getPlanes().size());
@@ -120,11 +127,11 @@ TEST(PlanarGridMapMerge, ACopyDoublesTheEvidenceNotTheCells)
 
 TEST(PlanarGridMapMerge, MergingAIntoBEqualsMergingBIntoA)
 {
-  const PlanarGridMap a = mapFrames(0, FRAMES / 2);
-  const PlanarGridMap b = mapFrames(FRAMES / 2, FRAMES);
-  PlanarGridMap ab = copyOf(a);
+  const PlanarGridMap a = street::mapFrames(0, street::FRAMES / 2);
+  const PlanarGridMap b = street::mapFrames(street::FRAMES / 2, street::FRAMES);
+  PlanarGridMap ab = street::copyOf(a);
   ab.merge(b, Eigen::Isometry3d::Identity());
-  PlanarGridMap ba = copyOf(b);
+  PlanarGridMap ba = street::copyOf(b);
   ba.merge(a, Eigen::Isometry3d::Identity());
   EXPECT_EQ(ab.getSurfaceLayer().getPlanes().size(),
             ba.getSurfaceLayer().getPlanes().size());
@@ -137,9 +144,9 @@ TEST(PlanarGridMapMerge, MergingAIntoBEqualsMergingBIntoA)
 
 TEST(PlanarGridMapMerge, TwoHalvesOfADriveGiveTheMapOfTheWholeDrive)
 {
-  const PlanarGridMap full = mapFrames(0, FRAMES);
-  PlanarGridMap merged = mapFrames(0, FRAMES / 2);
-  const PlanarGridMap second = mapFrames(FRAMES / 2, FRAMES);
+  const PlanarGridMap full = street::mapFrames(0, street::FRAMES);
+  PlanarGridMap merged = street::mapFrames(0, street::FRAMES / 2);
+  const PlanarGridMap second = street::mapFrames(street::FRAMES / 2, street::FRAMES);
   // each half saw the ground and both walls: three planes each, and only the second
   // half saw the end wall
   ASSERT_EQ(merged.getSurfaceLayer().getPlanes().size(), 3u);
@@ -162,7 +169,7 @@ TEST(PlanarGridMapMerge, TwoHalvesOfADriveGiveTheMapOfTheWholeDrive)
   EXPECT_EQ(merged.getSpaceLayer().getVoxelCount(SpaceState::OCCUPIED),
             full.getSpaceLayer().getVoxelCount(SpaceState::OCCUPIED));
   EXPECT_EQ(merged.getObservationSpan().first, 0.0);
-  EXPECT_EQ(merged.getObservationSpan().last, FRAMES - 1.0);
+  EXPECT_EQ(merged.getObservationSpan().last, street::FRAMES - 1.0);
   std::size_t observed = 0;
   const double share = agreement(full, merged, observed);
   RecordProperty("agreement_percent", std::to_string(100.0 * share));
@@ -181,13 +188,14 @@ TEST(PlanarGridMapMerge, FourSegmentsMergedInATreeGiveTheDrivesVoxels)
 {
   // The drive in four segments merged as planar_grid.distributed merges them:
   // neighbours first, in either argument order, then the two halves.
-  const PlanarGridMap full = mapFrames(0, FRAMES);
+  const PlanarGridMap full = street::mapFrames(0, street::FRAMES);
   std::vector<PlanarGridMap> segments;
   for (int s = 0; s < 4; ++s)
-    segments.push_back(mapFrames(s * FRAMES / 4, (s + 1) * FRAMES / 4));
-  PlanarGridMap left = copyOf(segments[1]);
+    segments.push_back(
+      street::mapFrames(s * street::FRAMES / 4, (s + 1) * street::FRAMES / 4));
+  PlanarGridMap left = street::copyOf(segments[1]);
   left.merge(segments[0], Eigen::Isometry3d::Identity());
-  PlanarGridMap right = copyOf(segments[2]);
+  PlanarGridMap right = street::copyOf(segments[2]);
   right.merge(segments[3], Eigen::Isometry3d::Identity());
   right.merge(left, Eigen::Isometry3d::Identity());
   EXPECT_TRUE(right.getSpaceLayer() == full.getSpaceLayer());
@@ -195,7 +203,7 @@ TEST(PlanarGridMapMerge, FourSegmentsMergedInATreeGiveTheDrivesVoxels)
   // The same segments without their order (maps from files without a span): occupied
   // wins where they disagree, which adds occupied voxels the drive's map does not hold
   // and removes none.
-  PlanarGridMap unordered(params());
+  PlanarGridMap unordered(street::params());
   for (PlanarGridMap& segment : segments) {
     segment.setObservationSpan(PlanarGridMap::ObservationSpan());
     unordered.merge(segment, Eigen::Isometry3d::Identity());
@@ -219,30 +227,30 @@ TEST(PlanarGridMapMerge, FourSegmentsMergedInATreeGiveTheDrivesVoxels)
 
 TEST(PlanarGridMapMerge, TheObservationSpanIsSavedAndUnionedAndOptional)
 {
-  PlanarGridMap a = mapFrames(2, 5);
+  PlanarGridMap a = street::mapFrames(2, 5);
   EXPECT_EQ(a.getObservationSpan().first, 2.0);
   EXPECT_EQ(a.getObservationSpan().last, 4.0);
-  const PlanarGridMap loaded = copyOf(a);
+  const PlanarGridMap loaded = street::copyOf(a);
   EXPECT_EQ(loaded.getObservationSpan().first, 2.0);
   EXPECT_EQ(loaded.getObservationSpan().last, 4.0);
-  EXPECT_NE(bytesOf(a).find("\nobservation_span 2 4\n"), std::string::npos);
+  EXPECT_NE(street::bytesOf(a).find("\nobservation_span 2 4\n"), std::string::npos);
   // merging the empty map (no span) leaves the span; the union otherwise
-  a.merge(PlanarGridMap(params()), Eigen::Isometry3d::Identity());
+  a.merge(PlanarGridMap(street::params()), Eigen::Isometry3d::Identity());
   EXPECT_EQ(a.getObservationSpan().first, 2.0);
   EXPECT_EQ(a.getObservationSpan().last, 4.0);
-  a.merge(mapFrames(7, 8), Eigen::Isometry3d::Identity());
+  a.merge(street::mapFrames(7, 8), Eigen::Isometry3d::Identity());
   EXPECT_EQ(a.getObservationSpan().first, 2.0);
   EXPECT_EQ(a.getObservationSpan().last, 7.0);
   // a map without a span writes no line (the file of the versions before it) and
   // reads back without one
-  PlanarGridMap none = mapFrames(0, 1);
+  PlanarGridMap none = street::mapFrames(0, 1);
   none.setObservationSpan(PlanarGridMap::ObservationSpan());
-  EXPECT_EQ(bytesOf(none).find("observation_span"), std::string::npos);
-  EXPECT_TRUE(copyOf(none).getObservationSpan().empty());
+  EXPECT_EQ(street::bytesOf(none).find("observation_span"), std::string::npos);
+  EXPECT_TRUE(street::copyOf(none).getObservationSpan().empty());
   EXPECT_THROW(none.noteObservationOrder(std::numeric_limits<double>::quiet_NaN()),
                planar_grid::Exception);
   // a bad span line is refused by name
-  std::string bytes = bytesOf(a);
+  std::string bytes = street::bytesOf(a);
   const std::string line = "observation_span 2 7\n";
   const std::size_t at = bytes.find(line);
   ASSERT_NE(at, std::string::npos);
@@ -268,10 +276,12 @@ TEST(PlanarGridMapMerge, TheTransformMovesTheOtherMapIntoThisFrame)
     Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.1, -0.05, 1.0).normalized())
       .toRotationMatrix();
   other_T_world.translation() = Eigen::Vector3d(1.234, -0.567, 0.089);
-  PlanarGridMap reference = mapFrames(0, FRAMES / 2);
-  reference.merge(mapFrames(FRAMES / 2, FRAMES), Eigen::Isometry3d::Identity());
-  PlanarGridMap merged = mapFrames(0, FRAMES / 2);
-  merged.merge(mapFrames(FRAMES / 2, FRAMES, other_T_world), other_T_world.inverse());
+  PlanarGridMap reference = street::mapFrames(0, street::FRAMES / 2);
+  reference.merge(street::mapFrames(street::FRAMES / 2, street::FRAMES),
+                  Eigen::Isometry3d::Identity());
+  PlanarGridMap merged = street::mapFrames(0, street::FRAMES / 2);
+  merged.merge(street::mapFrames(street::FRAMES / 2, street::FRAMES, other_T_world),
+               other_T_world.inverse());
   EXPECT_EQ(merged.getSurfaceLayer().getPlanes().size(),
             reference.getSurfaceLayer().getPlanes().size());
   for (const Eigen::Vector4f& plane : merged.getSurfaceLayer().getPlanes()) {
@@ -287,8 +297,8 @@ TEST(PlanarGridMapMerge, TheTransformMovesTheOtherMapIntoThisFrame)
   EXPECT_GT(observed, 50000u);
   EXPECT_GE(agreement(reference, merged, observed), 0.95);
   // without the transform the second half lands elsewhere
-  PlanarGridMap wrong = mapFrames(0, FRAMES / 2);
-  wrong.merge(mapFrames(FRAMES / 2, FRAMES, other_T_world),
+  PlanarGridMap wrong = street::mapFrames(0, street::FRAMES / 2);
+  wrong.merge(street::mapFrames(street::FRAMES / 2, street::FRAMES, other_T_world),
               Eigen::Isometry3d::Identity());
   EXPECT_LT(agreement(reference, wrong, observed, true), 0.95);
 }
@@ -298,12 +308,12 @@ TEST(PlanarGridMapMerge, AWholeVoxelTranslationMovesTheVoxelsExactly)
   // The second half's space layer moved by whole voxels (8 on x: whole 8^3 blocks; -3
   // on y and 5 on z: not) and merged back with the inverse translation gives exactly
   // the layer merged without moving.
-  const PlanarGridMap first = mapFrames(0, FRAMES / 2);
-  const PlanarGridMap second = mapFrames(FRAMES / 2, FRAMES);
+  const PlanarGridMap first = street::mapFrames(0, street::FRAMES / 2);
+  const PlanarGridMap second = street::mapFrames(street::FRAMES / 2, street::FRAMES);
   for (const Eigen::Vector3i& offset :
        {Eigen::Vector3i(8, 0, 0), Eigen::Vector3i(8, -3, 5)}) {
     SCOPED_TRACE(offset.transpose());
-    PlanarGridMap shifted(params());
+    PlanarGridMap shifted(street::params());
     shifted.setObservationSpan(second.getObservationSpan());
     second.getSpaceLayer().forEachVoxel(
       [&](const ExplicitSpaceGrid::VoxelKey& key, SpaceState state) {
@@ -311,7 +321,7 @@ TEST(PlanarGridMapMerge, AWholeVoxelTranslationMovesTheVoxelsExactly)
       });
     Eigen::Isometry3d this_T_other = Eigen::Isometry3d::Identity();
     this_T_other.translation() = -0.1 * offset.cast<double>();
-    PlanarGridMap reference = copyOf(first), merged = copyOf(first);
+    PlanarGridMap reference = street::copyOf(first), merged = street::copyOf(first);
     reference.merge(second, Eigen::Isometry3d::Identity());
     merged.merge(shifted, this_T_other);
     EXPECT_TRUE(merged.getSpaceLayer() == reference.getSpaceLayer());
@@ -324,7 +334,7 @@ TEST(PlanarGridMapMerge, TheSpaceLayersCombineByRank)
   // occupied > free > unknown (occluded) > never observed, against a brute-force table.
   for (const SpaceState prior : {SpaceState::UNKNOWN, SpaceState::FREE}) {
     SCOPED_TRACE(planar_grid::toString(prior));
-    PlanarGridMap::Params p = params();
+    PlanarGridMap::Params p = street::params();
     p.space.prior = prior;
     PlanarGridMap a(p), b(p);
     // state index 3: never observed (not set)
@@ -372,7 +382,7 @@ TEST(PlanarGridMapMerge, TheNewerMapsObservationsWin)
   // both argument orders. Spans that overlap fall back to the rank.
   for (const SpaceState prior : {SpaceState::UNKNOWN, SpaceState::FREE}) {
     SCOPED_TRACE(planar_grid::toString(prior));
-    PlanarGridMap::Params p = params();
+    PlanarGridMap::Params p = street::params();
     p.space.prior = prior;
     PlanarGridMap older(p), newer(p);
     older.noteObservationOrder(10.0);
@@ -406,7 +416,7 @@ TEST(PlanarGridMapMerge, TheNewerMapsObservationsWin)
       }
       return n;
     };
-    PlanarGridMap on = copyOf(older), no = copyOf(newer);
+    PlanarGridMap on = street::copyOf(older), no = street::copyOf(newer);
     on.merge(newer, Eigen::Isometry3d::Identity());
     no.merge(older, Eigen::Isometry3d::Identity());
     EXPECT_EQ(wrong(on, ordered), 0u);
@@ -418,13 +428,13 @@ TEST(PlanarGridMapMerge, TheNewerMapsObservationsWin)
     Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
     turn.linear() =
       Eigen::AngleAxisd(1e-9, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    PlanarGridMap resampled = copyOf(older);
+    PlanarGridMap resampled = street::copyOf(older);
     resampled.merge(newer, turn);
     EXPECT_EQ(wrong(resampled, ordered), 0u);
     // overlapping spans: no newer map, the rank decides
-    PlanarGridMap overlapping = copyOf(newer);
+    PlanarGridMap overlapping = street::copyOf(newer);
     overlapping.noteObservationOrder(15.0);
-    PlanarGridMap ranked = copyOf(older);
+    PlanarGridMap ranked = street::copyOf(older);
     ranked.merge(overlapping, Eigen::Isometry3d::Identity());
     EXPECT_EQ(wrong(ranked, by_rank), 0u);
   }
@@ -445,7 +455,7 @@ TEST(PlanarGridMapMerge, AWallSeenByBothMapsBecomesOnePlane)
       map.integrateSurface(cuboids, planes, {}, {});
     }
   };
-  PlanarGridMap a(params()), b(params());
+  PlanarGridMap a(street::params()), b(street::params());
   wall(2.0f, 0.0f, 3, a);  // y in [-1, 1.6]
   wall(2.01f, 3.5f, 3, b); // y in [2.5, 5.1]
   wall(-4.0f, 0.0f, 1, b); // another wall (normal -x too, 6 m behind)
@@ -475,8 +485,8 @@ TEST(PlanarGridMapMerge, AWallSeenByBothMapsBecomesOnePlane)
 
 TEST(PlanarGridMapMerge, MismatchedParametersAreRefusedAndLeaveTheMapUnchanged)
 {
-  PlanarGridMap map = mapFrames(0, 2);
-  const std::string before = bytesOf(map);
+  PlanarGridMap map = street::mapFrames(0, 2);
+  const std::string before = street::bytesOf(map);
   const auto refused = [&](const PlanarGridMap::Params& p, const std::string& name) {
     PlanarGridMap other(p);
     try {
@@ -485,28 +495,28 @@ TEST(PlanarGridMapMerge, MismatchedParametersAreRefusedAndLeaveTheMapUnchanged)
     } catch (const planar_grid::Exception& e) {
       EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
     }
-    EXPECT_EQ(bytesOf(map), before) << name;
+    EXPECT_EQ(street::bytesOf(map), before) << name;
   };
-  PlanarGridMap::Params p = params();
+  PlanarGridMap::Params p = street::params();
   p.resolution_m = 0.2;
   refused(p, "resolution_m");
-  p = params();
+  p = street::params();
   p.space.prior = SpaceState::FREE;
   refused(p, "prior");
-  p = params();
+  p = street::params();
   p.surface.thickness_m = 0.2;
   refused(p, "thickness_m");
-  p = params();
+  p = street::params();
   p.surface.plane_merge_angle_rad = 0.2;
   refused(p, "plane_merge_angle_rad");
-  p = params();
+  p = street::params();
   p.surface.merge_rule = planar_grid::SurfaceMergeRule::PAPER;
   refused(p, "merge_rule");
-  p = params();
+  p = street::params();
   p.surface.close_gaps_cells = 3;
   refused(p, "close_gaps_cells");
   // the parameters of later integration are this map's: no refusal
-  p = params();
+  p = street::params();
   p.space.max_range_m = 30.0;
   p.clear_planar = true;
   EXPECT_NO_THROW(map.merge(PlanarGridMap(p), Eigen::Isometry3d::Identity()));
@@ -514,11 +524,12 @@ TEST(PlanarGridMapMerge, MismatchedParametersAreRefusedAndLeaveTheMapUnchanged)
   EXPECT_THROW(map.merge(map, Eigen::Isometry3d::Identity()), planar_grid::Exception);
   Eigen::Isometry3d scaled = Eigen::Isometry3d::Identity();
   scaled.linear() *= 2.0;
-  EXPECT_THROW(map.merge(PlanarGridMap(params()), scaled), planar_grid::Exception);
+  EXPECT_THROW(map.merge(PlanarGridMap(street::params()), scaled),
+               planar_grid::Exception);
   Eigen::Isometry3d nan = Eigen::Isometry3d::Identity();
   nan.translation().x() = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_THROW(map.merge(PlanarGridMap(params()), nan), planar_grid::Exception);
-  EXPECT_EQ(bytesOf(map), before);
+  EXPECT_THROW(map.merge(PlanarGridMap(street::params()), nan), planar_grid::Exception);
+  EXPECT_EQ(street::bytesOf(map), before);
 }
 
 } // namespace

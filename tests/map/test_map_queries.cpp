@@ -27,13 +27,14 @@
 #include <vector>
 
 #include "../benchmarks/karlsruhe_frame.h"
+#include "../test_constants.h"
 #include "map_queries_oracle.h"
 
 namespace planar_grid {
 namespace {
 
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
-constexpr double PI = 3.14159265358979323846;
+using planar_grid_test::PI;
 
 PlanarGridMap::Params
 mapParams(SpaceState prior)

@@ -15,7 +15,6 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
-#include <limits>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -32,9 +31,8 @@ using planar_grid::PlanarCuboid;
 using planar_grid::PlanarGridMap;
 using planar_grid::SpaceState;
 
-constexpr float INF = std::numeric_limits<float>::infinity();
-const Eigen::AlignedBox3f EVERYWHERE(Eigen::Vector3f::Constant(-INF),
-                                     Eigen::Vector3f::Constant(INF));
+using street::EVERYWHERE;
+using street::INF;
 
 /** A fresh folder under the test temporary folder, removed at the end. */
 class MapTilesTest : public ::testing::Test {

@@ -11,7 +11,6 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
-#include <limits>
 #include <string>
 #include <vector>
 
@@ -29,9 +28,7 @@ using planar_grid::PlanarCuboid;
 using planar_grid::PlanarGridMap;
 using planar_grid::SpaceState;
 
-constexpr float INF = std::numeric_limits<float>::infinity();
-const Eigen::AlignedBox3f EVERYWHERE(Eigen::Vector3f::Constant(-INF),
-                                     Eigen::Vector3f::Constant(INF));
+using street::EVERYWHERE;
 /** 5 m tiles cut the street (x in [-2, 20], y in [-3, 3]) into 5 x 2 squares and
  * more: every wall crosses 4 borders, the ground 9. */
 constexpr double TILE_M = 5.0;
@@ -113,7 +110,7 @@ stateDifferences(const PlanarGridMap& a, const PlanarGridMap& b)
 /** The planar (or non-planar) cuboids as vectors of their geometry and probability
  * (m, unit vectors, probability in [0, 1]), sorted. */
 std::vector<Eigen::Matrix<float, 13, 1>>
-cuboidSet(const PlanarGridMap& map, bool planar)
+sortedCuboids(const PlanarGridMap& map, bool planar)
 {
   std::vector<Eigen::Matrix<float, 13, 1>> out;
   for (const PlanarCuboid& c : map.getSurfaceLayer().getCuboids()) {
@@ -200,10 +197,11 @@ TEST_F(MapTilesMergeTest, PerTileMergeEqualsTheWholeMapsMergedWithoutTidying)
   const auto differ = stateDifferences(merged, oracle);
   EXPECT_EQ(differ.size(), 0u)
     << (differ.empty() ? Eigen::Vector3f::Zero() : differ[0]).transpose();
-  const auto planar = cuboidSet(merged, true), oracle_planar = cuboidSet(oracle, true);
+  const auto planar = sortedCuboids(merged, true),
+             oracle_planar = sortedCuboids(oracle, true);
   EXPECT_EQ(planar.size(), oracle_planar.size());
   EXPECT_EQ(unmatched(planar, oracle_planar), 0u);
-  EXPECT_TRUE(sameSet(cuboidSet(merged, false), cuboidSet(oracle, false)));
+  EXPECT_TRUE(sameSet(sortedCuboids(merged, false), sortedCuboids(oracle, false)));
   EXPECT_EQ(merged.getSurfaceLayer().getPlanes().size(),
             oracle.getSurfaceLayer().getPlanes().size());
   RecordProperty("planar_cuboids", std::to_string(planar.size()));
@@ -236,19 +234,19 @@ TEST_F(MapTilesMergeTest, TheTidyingTheTileMergeSkipsIsAllThatDiffers)
   pcl::PointCloud<pcl::PointXYZ> feature;
   feature.push_back(pcl::PointXYZ(18.5f, 1.0f, 0.0f));
   maps[0].integrateSurface({cell}, {}, feature, {0.9f});
-  ASSERT_EQ(cuboidSet(maps[0], false).size(), 9u); // the box's 8 cells and this one
+  ASSERT_EQ(sortedCuboids(maps[0], false).size(), 9u); // the box's 8 cells and this one
 
   planar_grid::saveTiles(mergedWhole(maps, street::params()), folder("whole"), TILE_M);
   const PlanarGridMap oracle = planar_grid::loadTiles(folder("whole"), EVERYWHERE);
-  ASSERT_EQ(cuboidSet(oracle, false).size(), 8u);
+  ASSERT_EQ(sortedCuboids(oracle, false).size(), 8u);
   planar_grid::mergeTileSets({saved(maps[0], "s0"), saved(maps[1], "s1")},
                              folder("out"));
   PlanarGridMap merged = planar_grid::loadTiles(folder("out"), EVERYWHERE);
   EXPECT_TRUE(merged.getSpaceLayer() == oracle.getSpaceLayer());
-  EXPECT_TRUE(sameSet(cuboidSet(merged, true), cuboidSet(oracle, true)));
-  const auto non_planar = cuboidSet(merged, false);
+  EXPECT_TRUE(sameSet(sortedCuboids(merged, true), sortedCuboids(oracle, true)));
+  const auto non_planar = sortedCuboids(merged, false);
   EXPECT_EQ(non_planar.size(), 9u);
-  EXPECT_EQ(unmatched(non_planar, cuboidSet(oracle, false)), 1u);
+  EXPECT_EQ(unmatched(non_planar, sortedCuboids(oracle, false)), 1u);
   // The states differ only inside the cell (its upper half, above the ground's
   // cuboid, which is 0.1 m thick below z = 0).
   const Eigen::AlignedBox3f box(cell.centre - Eigen::Vector3f::Constant(0.1f),
@@ -259,7 +257,7 @@ TEST_F(MapTilesMergeTest, TheTidyingTheTileMergeSkipsIsAllThatDiffers)
     EXPECT_TRUE(box.contains(p)) << p.transpose();
 
   EXPECT_EQ(merged.removeNonPlanarCellsOnPlanes(), 1u);
-  EXPECT_TRUE(sameSet(cuboidSet(merged, false), cuboidSet(oracle, false)));
+  EXPECT_TRUE(sameSet(sortedCuboids(merged, false), sortedCuboids(oracle, false)));
   EXPECT_TRUE(stateDifferences(merged, oracle).empty());
 }
 
@@ -276,8 +274,8 @@ TEST_F(MapTilesMergeTest, AnEmptySetChangesNothing)
     EXPECT_EQ(index.tiles.size(), planar_grid::readTileIndex(set).tiles.size());
     const PlanarGridMap merged = planar_grid::loadTiles(folder("out"), EVERYWHERE);
     EXPECT_TRUE(merged.getSpaceLayer() == alone.getSpaceLayer());
-    EXPECT_TRUE(sameSet(cuboidSet(merged, true), cuboidSet(alone, true)));
-    EXPECT_TRUE(sameSet(cuboidSet(merged, false), cuboidSet(alone, false)));
+    EXPECT_TRUE(sameSet(sortedCuboids(merged, true), sortedCuboids(alone, true)));
+    EXPECT_TRUE(sameSet(sortedCuboids(merged, false), sortedCuboids(alone, false)));
     EXPECT_EQ(merged.getSurfaceLayer().getPlanes().size(),
               alone.getSurfaceLayer().getPlanes().size());
   }
@@ -357,7 +355,7 @@ TEST_F(MapTilesMergeTest, AHalfWrittenOutputLeavesThePreviousSetReadable)
   EXPECT_TRUE(fs::exists(out + "/" + tile.file));
   const PlanarGridMap during = planar_grid::loadTiles(out, EVERYWHERE);
   EXPECT_TRUE(during.getSpaceLayer() == before.getSpaceLayer());
-  EXPECT_TRUE(sameSet(cuboidSet(during, true), cuboidSet(before, true)));
+  EXPECT_TRUE(sameSet(sortedCuboids(during, true), sortedCuboids(before, true)));
   EXPECT_EQ(planar_grid::readTileIndex(out).generation, 1u);
 
   // An index naming a file that is not there is refused, and the folder still reads

@@ -115,7 +115,7 @@ fill(PlanarGridMap& map)
 }
 
 PlanarGridMap::Params
-params(SpaceState prior)
+windowMapParams(SpaceState prior)
 {
   PlanarGridMap::Params p;
   p.resolution_m = R;
@@ -182,7 +182,7 @@ class MapWindowTest : public ::testing::TestWithParam<SpaceState> {};
 TEST_P(MapWindowTest, RemoveOutsideKeepsTheBoxExactlyAndForgetsTheRest)
 {
   const SpaceState prior = GetParam();
-  PlanarGridMap map(params(prior));
+  PlanarGridMap map(windowMapParams(prior));
   fill(map);
   const PlanarGridMap before = copyOf(map);
   ASSERT_TRUE(before == map);
@@ -308,7 +308,7 @@ TEST_P(MapWindowTest, RemoveOutsideKeepsTheBoxExactlyAndForgetsTheRest)
 
 TEST_P(MapWindowTest, MapAfterRemovalRoundTripsThroughItsFile)
 {
-  PlanarGridMap map(params(GetParam()));
+  PlanarGridMap map(windowMapParams(GetParam()));
   fill(map);
   map.removeOutside(KEEP);
   const std::string file =
@@ -332,7 +332,7 @@ TEST_P(MapWindowTest, MapAfterRemovalRoundTripsThroughItsFile)
 
 TEST_P(MapWindowTest, UnboundedBoxRemovesNothingAndEmptyBoxRemovesEverything)
 {
-  PlanarGridMap map(params(GetParam()));
+  PlanarGridMap map(windowMapParams(GetParam()));
   fill(map);
   const PlanarGridMap before = copyOf(map);
   const float inf = std::numeric_limits<float>::infinity();
@@ -354,10 +354,10 @@ TEST_P(MapWindowTest, UnboundedBoxRemovesNothingAndEmptyBoxRemovesEverything)
   EXPECT_EQ(map.getSpaceLayer().getBlockCount(), 0u);
   EXPECT_EQ(map.getSurfaceLayer().getCellCount(), 0u);
   EXPECT_TRUE(map.getSurfaceLayer().getCuboids().empty());
-  EXPECT_TRUE(map == PlanarGridMap(params(GetParam())));
+  EXPECT_TRUE(map == PlanarGridMap(windowMapParams(GetParam())));
   EXPECT_TRUE(copyOf(map) == map);
   EXPECT_LE(map.getMemory().space_bytes,
-            PlanarGridMap(params(GetParam())).getMemory().space_bytes);
+            PlanarGridMap(windowMapParams(GetParam())).getMemory().space_bytes);
 }
 
 std::string

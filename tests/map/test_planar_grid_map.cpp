@@ -890,10 +890,10 @@ TEST_F(PlanarGridMapTest, MergingKeepsEveryVoxelAndTheEvidenceOfEveryBox)
         out.push_back(c);
     return out;
   };
-  using Key = std::array<int, 3>;
+  using VoxelCoords = std::array<int, 3>;
   const auto voxelsOf = [](const PlanarCuboid& c) {
     const auto [lo, hi] = cuboidBounds(c);
-    std::vector<Key> out;
+    std::vector<VoxelCoords> out;
     for (int i = static_cast<int>(std::lround(lo.x() * 10.0f));
          i < static_cast<int>(std::lround(hi.x() * 10.0f)); ++i)
       for (int j = static_cast<int>(std::lround(lo.y() * 10.0f));
@@ -904,14 +904,14 @@ TEST_F(PlanarGridMapTest, MergingKeepsEveryVoxelAndTheEvidenceOfEveryBox)
     return out;
   };
   const auto& space = map.getSpaceLayer();
-  const auto passes = [&](const std::vector<Key>& voxels) {
+  const auto passes = [&](const std::vector<VoxelCoords>& voxels) {
     const auto [free, occupied] = freeAndOccupied(space, voxels);
     return 2 * free <= voxels.size()
            && static_cast<double>(occupied)
                 >= 0.75 * static_cast<double>(voxels.size());
   };
   const auto kept = boxes();
-  std::set<Key> kept_voxels;
+  std::set<VoxelCoords> kept_voxels;
   double kept_volume = 0.0;
   for (const auto& c : kept) {
     const auto voxels = voxelsOf(c);
@@ -923,7 +923,7 @@ TEST_F(PlanarGridMapTest, MergingKeepsEveryVoxelAndTheEvidenceOfEveryBox)
   const auto merged = boxes();
   EXPECT_EQ(merged.size() + removed, kept.size());
   EXPECT_GE(removed, 5u);
-  std::set<Key> merged_voxels;
+  std::set<VoxelCoords> merged_voxels;
   double merged_volume = 0.0;
   for (const auto& c : merged) {
     const auto voxels = voxelsOf(c);
@@ -957,7 +957,7 @@ TEST_F(PlanarGridMapTest, MergingKeepsEveryVoxelAndTheEvidenceOfEveryBox)
       both.height_m = hi.y() - lo.y();
       both.thickness_m = hi.z() - lo.z();
       const auto voxels_a = voxelsOf(merged[a]), voxels_b = voxelsOf(merged[b]);
-      std::set<Key> together(voxels_a.begin(), voxels_a.end());
+      std::set<VoxelCoords> together(voxels_a.begin(), voxels_a.end());
       together.insert(voxels_b.begin(), voxels_b.end());
       const auto voxels = voxelsOf(both);
       EXPECT_FALSE(together.size() == voxels.size() && passes(voxels))

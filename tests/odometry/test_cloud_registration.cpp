@@ -18,12 +18,13 @@
 #include <utility>
 #include <vector>
 
+#include "../test_constants.h"
 #include "reprojected_view.h"
 #include "synthetic_room.h"
 
 namespace {
 
-constexpr double PI = 3.14159265358979323846;
+using planar_grid_test::PI;
 
 /** \brief Angle of the rotation between two poses, radians. */
 double

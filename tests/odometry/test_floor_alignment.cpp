@@ -7,11 +7,12 @@
 
 #include <cmath>
 
+#include "../test_constants.h"
 #include "synthetic_room.h"
 
 namespace {
 
-constexpr double PI = 3.14159265358979323846;
+using planar_grid_test::PI;
 
 /** \brief world_T_camera of a camera 1.2 m above the floor at (0.5, -0.3), looking
  * along +x, pitched 20 deg down and rolled 5 deg (optical frame: x right, y down, z

@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include "../test_constants.h"
+
 namespace {
 
 using planar_grid::ConstantVelocityMotionModel;
@@ -28,8 +30,7 @@ using planar_grid::StereoOdometry;
 using planar_grid::Trajectory;
 using planar_grid::VisualOdometry;
 
-const std::string KARLSRUHE_DIR =
-  std::string(PLANAR_GRID_DATA_DIR) + "/karlsruhe_2010_03_09_drive_0023";
+using planar_grid_test::KARLSRUHE_DIR;
 const double DEG = M_PI / 180.0;
 
 /** \brief Rotation angle of a transform, degrees. */

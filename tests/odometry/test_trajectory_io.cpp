@@ -16,11 +16,13 @@
 #include <iterator>
 #include <string>
 
+#include "../test_constants.h"
+
 namespace {
 
 namespace fs = std::filesystem;
 
-constexpr double PI = 3.14159265358979323846;
+using planar_grid_test::PI;
 
 /** \brief The real Karlsruhe GPS/INS file (112 frames, data README). */
 std::string

@@ -11,11 +11,9 @@
 #include <sstream>
 #include <string>
 
-namespace planar_grid_test {
+#include "../test_constants.h"
 
-/** The Karlsruhe sequence the main job maps. */
-inline const std::string KARLSRUHE =
-  std::string(PLANAR_GRID_DATA_DIR) + "/karlsruhe_2010_03_09_drive_0023";
+namespace planar_grid_test {
 
 /** The `pipeline:` block of config/karlsruhe.yaml as written there (from its
  * "pipeline:" line up to its "output:" line), so that the tests follow the main job. */
@@ -51,12 +49,12 @@ mainJobImageInput(int first_index, int frame_count)
   mount.precision(17);
   mount << "camera_height_m: " << main_job.camera_height_m
         << ", camera_pitch_rad: " << main_job.camera_pitch_rad;
-  return "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE
-         + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE
+  return "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE_DIR
+         + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE_DIR
          + "/right/I2_%06d.png\n  first_index: " + std::to_string(first_index)
          + "\n  frame_count: " + std::to_string(frame_count)
-         + "\n  calibration: {format: karlsruhe, file: " + KARLSRUHE
-         + "/calib.txt}\n  poses: {format: karlsruhe_insdata, file: " + KARLSRUHE
+         + "\n  calibration: {format: karlsruhe, file: " + KARLSRUHE_DIR
+         + "/calib.txt}\n  poses: {format: karlsruhe_insdata, file: " + KARLSRUHE_DIR
          + "/insdata.txt, " + mount.str() + "}\n";
 }
 

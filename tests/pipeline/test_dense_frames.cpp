@@ -15,10 +15,11 @@
 #include <string>
 #include <vector>
 
+#include "../test_constants.h"
+
 namespace {
 
-const std::string KARLSRUHE =
-  std::string(PLANAR_GRID_DATA_DIR) + "/karlsruhe_2010_03_09_drive_0023";
+using planar_grid_test::KARLSRUHE_DIR;
 
 /** Karlsruhe frames \a first to \a first + \a frame_count - 1 (sequence numbers from 0)
  * with the INS poses, through stereo (with the stereo_disparity parameters
@@ -28,12 +29,12 @@ planar_grid::PipelineConfig
 denseFrames(const std::string& selection, int frame_count = 6, int first = 10)
 {
   const std::string yaml =
-    "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE
-    + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE
+    "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE_DIR
+    + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE_DIR
     + "/right/I2_%06d.png\n  first_index: " + std::to_string(first)
     + "\n  frame_count: " + std::to_string(frame_count) + "\n"
-    + "  calibration: {format: karlsruhe, file: " + KARLSRUHE + "/calib.txt}\n"
-    + "  poses: {format: karlsruhe_insdata, file: " + KARLSRUHE
+    + "  calibration: {format: karlsruhe, file: " + KARLSRUHE_DIR + "/calib.txt}\n"
+    + "  poses: {format: karlsruhe_insdata, file: " + KARLSRUHE_DIR
     + "/insdata.txt, camera_height_m: 1.57, camera_pitch_rad: 0.09}\n" + "pipeline:\n"
     + "  - type: stereo_disparity\n"
     + "    params: {algorithm: sgbm_3way, num_disparities_px: 128, max_range_m: 30.0, "
@@ -156,10 +157,10 @@ TEST(DenseFrames, KeyframesNeedThePoseBeforeTheStereoStageAndNoEveryNFrames)
   }
   // Poses from visual odometry listed after the stereo stage come too late.
   const std::string yaml =
-    "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE
-    + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE
+    "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE_DIR
+    + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE_DIR
     + "/right/I2_%06d.png\n  first_index: 10\n  frame_count: 3\n"
-    + "  calibration: {format: karlsruhe, file: " + KARLSRUHE + "/calib.txt}\n"
+    + "  calibration: {format: karlsruhe, file: " + KARLSRUHE_DIR + "/calib.txt}\n"
     + "  poses: {format: odometry}\n" + "pipeline:\n" + "  - type: stereo_disparity\n"
     + "    params: {num_disparities_px: 128, frame_selection: keyframes}\n"
     + "  - type: feature_matching\n" + "  - type: visual_odometry\n"

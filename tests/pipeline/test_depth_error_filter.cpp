@@ -17,33 +17,35 @@
 #include <string>
 #include <vector>
 
+#include "../test_constants.h"
+
 namespace {
 
-enum Label : int { SIDE_WALL, FACADE, TREE, BEYOND };
+enum BoundsLabel : int { SIDE_WALL, FACADE, TREE, BEYOND };
 
 // Karlsruhe's rig: B f = 368.3 px m, so at 0.5 px the depth error is 0.3 m at 14.86 m
 // and 0.45 m at 18.20 m (eq. 4: Delta z = z^2 Delta d / (B f)).
-constexpr double FOCAL_PX = 645.24;
-constexpr double BASELINE_M = 0.5707;
+using planar_grid_test::KARLSRUHE_BASELINE_M;
+using planar_grid_test::KARLSRUHE_FOCAL_PX;
 // The cell bound: the depth whose error is 0.3 m.
 const float CELL_BOUND_M =
-  static_cast<float>(std::sqrt(0.3 / 0.5 * FOCAL_PX * BASELINE_M));
+  static_cast<float>(std::sqrt(0.3 / 0.5 * KARLSRUHE_FOCAL_PX * KARLSRUHE_BASELINE_M));
 
-struct Scene {
+struct BoundsScene {
   planar_grid::Frame frame;
   std::map<int, std::size_t> count;
 };
 
-Scene
-makeScene()
+BoundsScene
+makeBoundsScene()
 {
-  Scene s;
+  BoundsScene s;
   auto cloud = std::make_shared<planar_grid::Frame::Cloud>();
   std::mt19937 rng(11);
   std::normal_distribution<float> unit(0.0f, 1.0f);
-  const auto add = [&](const Eigen::Vector3f& p, Label l) {
-    const float sigma =
-      static_cast<float>(p.z() * p.z() / (FOCAL_PX * BASELINE_M) * 0.5);
+  const auto add = [&](const Eigen::Vector3f& p, BoundsLabel l) {
+    const float sigma = static_cast<float>(
+      p.z() * p.z() / (KARLSRUHE_FOCAL_PX * KARLSRUHE_BASELINE_M) * 0.5);
     pcl::PointXYZI q;
     q.getVector3fMap() = p + sigma * unit(rng) * p.normalized();
     q.intensity = static_cast<float>(l);
@@ -74,8 +76,8 @@ makeScene()
       add({x, y, 22.0f}, BEYOND);
   s.frame.cloud = cloud;
   s.frame.name = "scene";
-  s.frame.calibration.focal_length_px = FOCAL_PX;
-  s.frame.calibration.baseline_m = BASELINE_M;
+  s.frame.calibration.focal_length_px = KARLSRUHE_FOCAL_PX;
+  s.frame.calibration.baseline_m = KARLSRUHE_BASELINE_M;
   // Key features: 40 exact points on each wall.
   std::uniform_real_distribution<float> u01(0.0f, 1.0f);
   const auto feature = [&](float x, float y, float z) {
@@ -112,7 +114,7 @@ depthOf(const planar_grid::Frame::Cloud& cloud, int label, float min_depth_m)
 /** depth_error_filter (0.3 m; \a plane_bound_m for the planes), the segmentation on
  * the features with config/karlsruhe.yaml's tests, and the approximation. */
 void
-run(Scene& s, double plane_bound_m, bool count_inlier_only)
+run(BoundsScene& s, double plane_bound_m, bool count_inlier_only)
 {
   planar_grid::PipelineState state;
   const auto* filter = planar_grid::findStage("depth_error_filter");
@@ -143,7 +145,7 @@ run(Scene& s, double plane_bound_m, bool count_inlier_only)
 
 TEST(DepthErrorFilter, PointsBetweenTheBoundsExtendThePlanesOfTheNearerPoints)
 {
-  Scene s = makeScene();
+  BoundsScene s = makeBoundsScene();
   run(s, 0.45, false);
   EXPECT_FALSE(std::isfinite(s.frame.inlier_only_depth_m));
   const auto left = countLabels(*s.frame.cloud);
@@ -178,7 +180,7 @@ TEST(DepthErrorFilter, PointsBetweenTheBoundsExtendThePlanesOfTheNearerPoints)
 
 TEST(DepthErrorFilter, CountedThePointsBetweenTheBoundsCarryAPlaneTheFeaturesMake)
 {
-  Scene s = makeScene();
+  BoundsScene s = makeBoundsScene();
   run(s, 0.45, true);
   const auto left = countLabels(*s.frame.cloud);
   EXPECT_EQ(depthOf(*s.frame.cloud, TREE, CELL_BOUND_M), 0u) << "no features, no plane";
@@ -199,7 +201,7 @@ TEST(DepthErrorFilter, CountedThePointsBetweenTheBoundsCarryAPlaneTheFeaturesMak
 
 TEST(DepthErrorFilter, WithOneBoundNothingBeyondItIsKept)
 {
-  Scene s = makeScene();
+  BoundsScene s = makeBoundsScene();
   run(s, 0.0, true);
   EXPECT_EQ(depthOf(*s.frame.cloud, SIDE_WALL, CELL_BOUND_M), 0u);
   EXPECT_EQ(depthOf(*s.frame.cloud, TREE, CELL_BOUND_M), 0u);
@@ -211,7 +213,7 @@ TEST(DepthErrorFilter, WithOneBoundNothingBeyondItIsKept)
 
 TEST(DepthErrorFilter, ThePlaneBoundNeedsTheSegmentation)
 {
-  Scene s = makeScene();
+  BoundsScene s = makeBoundsScene();
   planar_grid::PipelineState state;
   const auto* filter = planar_grid::findStage("depth_error_filter");
   const auto* cuboids = planar_grid::findStage("planar_cuboid_approximation");

@@ -26,11 +26,13 @@
 #include <unordered_map>
 #include <vector>
 
+#include "../test_constants.h"
+
 namespace fs = std::filesystem;
 
 namespace {
 
-const std::string CLOUDS = std::string(PLANAR_GRID_DATA_DIR) + "/pcl_clouds";
+using planar_grid_test::CLOUDS;
 const std::string OFFICE1 = CLOUDS + "/office1.pcd";
 
 /** \brief A stage of the registry with its default parameters and \a overrides. */

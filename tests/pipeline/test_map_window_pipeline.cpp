@@ -19,9 +19,9 @@
 
 namespace {
 
-constexpr int FRAMES = 2; // per pass: few, so that the test stays short under ASan
-constexpr int PASSES = 3; // each 100 m further along x than the one before
-constexpr double WINDOW_M = 30.0; // beyond max_range_m (25 m): a view's reach
+constexpr int FRAMES_PER_PASS = 2; // few, so that the test stays short under ASan
+constexpr int PASSES = 3;          // each 100 m further along x than the one before
+constexpr double WINDOW_M = 30.0;  // beyond max_range_m (25 m): a view's reach
 
 struct WindowRun {
   /** The map's bytes after the last frame of each pass. */
@@ -36,7 +36,7 @@ struct WindowRun {
   std::size_t cloud_points{0};
 };
 
-/** Runs the main job's stages over FRAMES frames x PASSES passes, with
+/** Runs the main job's stages over FRAMES_PER_PASS frames x PASSES passes, with
  * window_radius_m \a window_m (0: none). */
 WindowRun
 run(double window_m)
@@ -55,7 +55,7 @@ run(double window_m)
   if (window_m > 0.0 && at_accumulate != std::string::npos)
     stages.insert(at_accumulate + accumulate_stage.size(),
                   "      window_radius_m: " + std::to_string(window_m) + "\n");
-  const std::string yaml = planar_grid_test::mainJobImageInput(0, FRAMES)
+  const std::string yaml = planar_grid_test::mainJobImageInput(0, FRAMES_PER_PASS)
                            + "  repeat: {count: " + std::to_string(PASSES)
                            + ", offset_m: [100, 0, 0]}\n" + stages;
   planar_grid::PipelineRunner runner(
@@ -63,12 +63,12 @@ run(double window_m)
   WindowRun result;
   runner.setFrameCallback(
     [&](std::size_t i, planar_grid::Frame& frame, const std::vector<double>&) {
-      if ((i + 1) % FRAMES == 0)
+      if ((i + 1) % FRAMES_PER_PASS == 0)
         result.bytes_after_pass.push_back(runner.state().map->getMemory().total_bytes);
       result.sensor = frame.world_T_camera.translation().head<2>().cast<float>();
     });
   const auto report = runner.run();
-  EXPECT_EQ(report.frames, static_cast<std::size_t>(FRAMES * PASSES));
+  EXPECT_EQ(report.frames, static_cast<std::size_t>(FRAMES_PER_PASS * PASSES));
   result.cloud_points = runner.state().world_cloud->size();
   result.cloud_min_x = std::numeric_limits<float>::infinity();
   for (const auto& p : runner.state().world_cloud->points)

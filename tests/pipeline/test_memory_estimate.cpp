@@ -13,13 +13,15 @@
 #include <fstream>
 #include <string>
 
+#include "../test_constants.h"
+
 using planar_grid::ExplicitSpaceGrid;
 using planar_grid::MemoryEstimate;
 using planar_grid::PinholeView;
 
 namespace {
 
-const std::string SOURCE_DIR = PLANAR_GRID_SOURCE_DIR;
+using planar_grid_test::SOURCE_DIR;
 
 /** A camera whose frustum is a square-based pyramid: 100 x 100 px, f = 50 px, the
  * principal point in the middle, so that x and y both span [-z, z] (90 degrees). */

@@ -30,15 +30,16 @@
 #include <vector>
 
 #include "../odometry/reprojected_view.h"
+#include "../test_constants.h"
 
 namespace fs = std::filesystem;
 using planar_grid::parsePipelineConfig;
 
 namespace {
 
-constexpr double PI = 3.14159265358979323846;
-const std::string DATA = PLANAR_GRID_DATA_DIR;
-const std::string CLOUDS = DATA + "/pcl_clouds";
+using planar_grid_test::CLOUDS;
+using planar_grid_test::DATA;
+using planar_grid_test::PI;
 
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 

@@ -22,12 +22,14 @@
 #include <string>
 #include <utility>
 
+#include "../test_constants.h"
+
 using planar_grid::ConfigError;
 using planar_grid::parsePipelineConfig;
 
 namespace {
 
-const std::string SOURCE_DIR = PLANAR_GRID_SOURCE_DIR;
+using planar_grid_test::SOURCE_DIR;
 
 // A valid stereo input block; the tests append a pipeline to it.
 const std::string INPUT = R"(input:

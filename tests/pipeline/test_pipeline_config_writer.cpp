@@ -9,12 +9,14 @@
 
 #include <string>
 
+#include "../test_constants.h"
+
 using planar_grid::PipelineConfig;
 using planar_grid::pipelineConfigToYaml;
 
 namespace {
 
-const std::string SOURCE_DIR = PLANAR_GRID_SOURCE_DIR;
+using planar_grid_test::SOURCE_DIR;
 
 /** Expects \a a and \a b to be the same configuration, field by field. */
 void

@@ -24,6 +24,7 @@
 #include <utility>
 #include <vector>
 
+#include "../test_constants.h"
 #include "main_job_stages.h"
 
 namespace fs = std::filesystem;
@@ -31,8 +32,8 @@ using planar_grid::parsePipelineConfig;
 
 namespace {
 
-const std::string DATA = PLANAR_GRID_DATA_DIR;
-const std::string KARLSRUHE = DATA + "/karlsruhe_2010_03_09_drive_0023";
+using planar_grid_test::DATA;
+using planar_grid_test::KARLSRUHE_DIR;
 
 /** A fresh temporary folder per test, removed afterwards. */
 class PipelineRunnerTest : public ::testing::Test {
@@ -53,12 +54,13 @@ protected:
                                     const std::string& poses_file = "")
   {
     return "input:\n  type: stereo_sequence\n  left_images: "
-           + (left.empty() ? KARLSRUHE + "/left/I1_%06d.png" : left)
-           + "\n  right_images: " + KARLSRUHE + "/right/I2_%06d.png\n"
+           + (left.empty() ? KARLSRUHE_DIR + "/left/I1_%06d.png" : left)
+           + "\n  right_images: " + KARLSRUHE_DIR + "/right/I2_%06d.png\n"
            + "  first_index: 10\n  frame_count: 2\n"
-           + "  calibration: {format: karlsruhe, file: " + KARLSRUHE + "/calib.txt}\n"
-           + "  poses: {format: " + (poses_file.empty() ? "karlsruhe_insdata" : "kitti")
-           + ", file: " + (poses_file.empty() ? KARLSRUHE + "/insdata.txt" : poses_file)
+           + "  calibration: {format: karlsruhe, file: " + KARLSRUHE_DIR
+           + "/calib.txt}\n" + "  poses: {format: "
+           + (poses_file.empty() ? "karlsruhe_insdata" : "kitti") + ", file: "
+           + (poses_file.empty() ? KARLSRUHE_DIR + "/insdata.txt" : poses_file)
            + (poses_file.empty() ? ", camera_height_m: 1.57, camera_pitch_rad: 0.09"
                                  : "")
            + "}\n";
@@ -202,7 +204,7 @@ TEST_F(PipelineRunnerTest, MissingImageNamesTheFile)
   // Frame 11's left image is missing: the error names it, before the first frame runs
   // (the runner checks every frame's images when it opens the input).
   fs::create_directories(dir_ / "left");
-  fs::copy_file(KARLSRUHE + "/left/I1_000010.png", dir_ / "left/I1_000010.png");
+  fs::copy_file(KARLSRUHE_DIR + "/left/I1_000010.png", dir_ / "left/I1_000010.png");
   auto config = parsePipelineConfig(
     karlsruheInput((dir_ / "left/I1_%06d.png").string()) + STAGES, "t.yaml", "/");
   try {
@@ -219,7 +221,7 @@ TEST_F(PipelineRunnerTest, UnreadableAndMismatchedImagesAreErrors)
   fs::create_directories(dir_ / "left");
   // Frame 10: not an image; the first frame is read when the input is opened.
   std::ofstream(dir_ / "left/I1_000010.png") << "not a png";
-  const cv::Mat small = cv::imread(KARLSRUHE + "/left/I1_000011.png",
+  const cv::Mat small = cv::imread(KARLSRUHE_DIR + "/left/I1_000011.png",
                                    cv::IMREAD_GRAYSCALE)(cv::Rect(0, 0, 640, 300));
   cv::imwrite((dir_ / "left/I1_000011.png").string(), small);
   auto config = parsePipelineConfig(
@@ -231,7 +233,7 @@ TEST_F(PipelineRunnerTest, UnreadableAndMismatchedImagesAreErrors)
     EXPECT_NE(std::string(e.what()).find("cannot read"), std::string::npos) << e.what();
   }
   // Frame 11: a left image of another size than the right one, found when it is read.
-  fs::copy_file(KARLSRUHE + "/left/I1_000010.png", dir_ / "left/I1_000010.png",
+  fs::copy_file(KARLSRUHE_DIR + "/left/I1_000010.png", dir_ / "left/I1_000010.png",
                 fs::copy_options::overwrite_existing);
   planar_grid::PipelineRunner runner(config);
   runner.setFrameRange(1, 2);
@@ -611,11 +613,11 @@ TEST_F(PipelineRunnerTest, VisualOdometryPosesFollowTheInsTrack)
   // length agrees with the GPS/INS step within 0.15 m (INS steps here are 1.26-1.39 m;
   // the odometry's steps are within 5% on this sequence, docs/ODOMETRY.md).
   const std::string yaml =
-    "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE
-    + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE
+    "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE_DIR
+    + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE_DIR
     + "/right/I2_%06d.png\n  first_index: 10\n  frame_count: 3\n"
       "  calibration: {format: karlsruhe, file: "
-    + KARLSRUHE
+    + KARLSRUHE_DIR
     + "/calib.txt}\n  poses: {format: odometry}\n"
       "pipeline:\n"
     + ORB_GRID_FEATURES
@@ -630,7 +632,7 @@ TEST_F(PipelineRunnerTest, VisualOdometryPosesFollowTheInsTrack)
   // Camera z (forward) along world +x, tilted 0.09 rad down.
   EXPECT_NEAR(trajectory[0].rotation().col(2).x(), std::cos(0.09), 1e-9);
   EXPECT_NEAR(trajectory[0].rotation().col(2).z(), -std::sin(0.09), 1e-9);
-  const auto ins = planar_grid::loadKarlsruheInsData(KARLSRUHE + "/insdata.txt");
+  const auto ins = planar_grid::loadKarlsruheInsData(KARLSRUHE_DIR + "/insdata.txt");
   for (std::size_t k = 1; k < 3; ++k) {
     const double step =
       (trajectory[k].translation() - trajectory[k - 1].translation()).norm();
@@ -702,11 +704,11 @@ TEST_F(PipelineRunnerTest, ResumedOdometryRunGivesTheSameTrajectoryAndMap)
   // the odometry's previous features, trajectory and motion model come from the
   // checkpoint, so the trajectory and the map bytes equal the straight run's.
   const std::string input =
-    "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE
-    + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE
+    "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE_DIR
+    + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE_DIR
     + "/right/I2_%06d.png\n  first_index: 10\n  frame_count: 3\n"
       "  calibration: {format: karlsruhe, file: "
-    + KARLSRUHE + "/calib.txt}\n  poses: {format: odometry}\n";
+    + KARLSRUHE_DIR + "/calib.txt}\n  poses: {format: odometry}\n";
   std::string stages = paperStages(true, ORB_GRID_FEATURES);
   stages.insert(stages.find(ORB_GRID_FEATURES) + ORB_GRID_FEATURES.size(),
                 "  - type: visual_odometry\n"
@@ -818,11 +820,11 @@ TEST_F(PipelineRunnerTest, CorruptOrForeignCheckpointsAreRefused)
   // A pipeline with the visual odometry (its state is checkpointed too) accepts
   // checkpoints; a checkpoint without a file name is a configuration error.
   const auto odometry = parsePipelineConfig(
-    "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE
-      + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE
+    "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE_DIR
+      + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE_DIR
       + "/right/I2_%06d.png\n  frame_count: 2\n  calibration: {format: karlsruhe, "
         "file: "
-      + KARLSRUHE
+      + KARLSRUHE_DIR
       + "/calib.txt}\n  poses: {format: odometry}\n"
         "pipeline:\n  - type: feature_matching\n  - type: visual_odometry\n",
     "t.yaml", "/");
@@ -1028,7 +1030,7 @@ TEST_F(PipelineRunnerTest, AFailingFrameAheadStopsTheRunAfterTheFramesBeforeIt)
   const fs::path left = dir_ / "left";
   fs::create_directories(left);
   for (const int index : {10, 11})
-    fs::copy_file(KARLSRUHE + "/left/I1_0000" + std::to_string(index) + ".png",
+    fs::copy_file(KARLSRUHE_DIR + "/left/I1_0000" + std::to_string(index) + ".png",
                   left / ("I1_0000" + std::to_string(index) + ".png"));
   std::ofstream(left / "I1_000012.png") << "not a png";
   std::string input = karlsruheInput((left / "I1_%06d.png").string());

@@ -16,34 +16,37 @@
 #include <tuple>
 #include <vector>
 
+#include "../test_constants.h"
+
 namespace {
 
-enum Label : int { NEAR_ROAD, ROAD, GUARDRAIL, WALL, STRAY };
+enum FarLabel : int { NEAR_ROAD, FAR_ROAD, GUARDRAIL, FAR_WALL, STRAY };
 
-constexpr double FOCAL_PX = 645.24;
-constexpr double BASELINE_M = 0.5707;
+using planar_grid_test::KARLSRUHE_BASELINE_M;
+using planar_grid_test::KARLSRUHE_FOCAL_PX;
 constexpr double CAMERA_HEIGHT_M = 1.6;
 
 /** The depth whose eq. 4 error (0.5 px) is \a error_m. */
 float
 depthOfError(double error_m)
 {
-  return static_cast<float>(std::sqrt(error_m / 0.5 * FOCAL_PX * BASELINE_M));
+  return static_cast<float>(
+    std::sqrt(error_m / 0.5 * KARLSRUHE_FOCAL_PX * KARLSRUHE_BASELINE_M));
 }
 
-struct Scene {
+struct FarScene {
   planar_grid::Frame frame;
   std::map<int, std::size_t> count;
 };
 
 /** Camera frame: x right, y down, z forward; the road is y = +1.6. Points every 0.05 m;
  * the intensity holds the label. */
-Scene
-makeScene()
+FarScene
+makeFarScene()
 {
-  Scene s;
+  FarScene s;
   auto cloud = std::make_shared<planar_grid::Frame::Cloud>();
-  const auto add = [&](float x, float y, float z, Label l) {
+  const auto add = [&](float x, float y, float z, FarLabel l) {
     pcl::PointXYZI p;
     p.x = x;
     p.y = y;
@@ -55,7 +58,7 @@ makeScene()
   const auto road_y = static_cast<float>(CAMERA_HEIGHT_M);
   for (float z = 5.0f; z < 35.0f; z += 0.05f)
     for (float x = -4.0f; x < 4.0f; x += 0.05f)
-      add(x, road_y, z, z < 14.0f ? NEAR_ROAD : ROAD);
+      add(x, road_y, z, z < 14.0f ? NEAR_ROAD : FAR_ROAD);
   // A guardrail 0.4-0.8 m above the road at x = -3.5 from 16 to 28 m ahead.
   for (float z = 16.0f; z < 28.0f; z += 0.05f)
     for (float h = 0.4f; h < 0.8f; h += 0.05f)
@@ -63,14 +66,14 @@ makeScene()
   // A wall at 24 m ahead, 2-5 m above the road (its foot hidden).
   for (float x = 0.0f; x < 3.0f; x += 0.05f)
     for (float h = 2.0f; h < 5.0f; h += 0.05f)
-      add(x, road_y - h, 24.0f, WALL);
+      add(x, road_y - h, 24.0f, FAR_WALL);
   // Isolated strays above the road, each far from every other point.
   for (int k = 0; k < 5; ++k)
     add(2.0f, road_y - 1.5f, 17.0f + 2.0f * static_cast<float>(k), STRAY);
   s.frame.cloud = cloud;
   s.frame.name = "far scene";
-  s.frame.calibration.focal_length_px = FOCAL_PX;
-  s.frame.calibration.baseline_m = BASELINE_M;
+  s.frame.calibration.focal_length_px = KARLSRUHE_FOCAL_PX;
+  s.frame.calibration.baseline_m = KARLSRUHE_BASELINE_M;
   // The road as ground_removal reports it: camera frame, normal up (-y), the camera's
   // signed distance its height.
   s.frame.has_ground = true;
@@ -80,7 +83,7 @@ makeScene()
 }
 
 void
-runFilter(Scene& s, int far_levels)
+runFilter(FarScene& s, int far_levels)
 {
   planar_grid::PipelineState state;
   const auto* filter = planar_grid::findStage("depth_error_filter");
@@ -92,7 +95,7 @@ runFilter(Scene& s, int far_levels)
 }
 
 void
-runCells(Scene& s, int min_points_per_cell, bool fit_to_points = true)
+runCells(FarScene& s, int min_points_per_cell, bool fit_to_points = true)
 {
   planar_grid::PipelineState state;
   const auto* cells = planar_grid::findStage("range_adaptive_cells");
@@ -110,7 +113,7 @@ runCells(Scene& s, int min_points_per_cell, bool fit_to_points = true)
 // (21.02, 29.72] m level 2; deeper points and the nearer ones are not kept aside.
 TEST(RangeAdaptiveCells, FarLevelsFollowTheDepthError)
 {
-  Scene s = makeScene();
+  FarScene s = makeFarScene();
   runFilter(s, 2);
   ASSERT_TRUE(s.frame.far_cloud);
   const auto& far = *s.frame.far_cloud;
@@ -121,7 +124,7 @@ TEST(RangeAdaptiveCells, FarLevelsFollowTheDepthError)
   for (const auto& p : s.frame.cloud->points)
     EXPECT_FALSE(std::isfinite(p.z) && p.z > bound)
       << "a far point stayed in the cloud";
-  Scene all = makeScene();
+  FarScene all = makeFarScene();
   for (const auto& p : all.frame.cloud->points)
     expected += p.z > bound && p.z <= level2;
   EXPECT_EQ(far.size(), expected);
@@ -133,7 +136,7 @@ TEST(RangeAdaptiveCells, FarLevelsFollowTheDepthError)
     EXPECT_LE(z, level2);
   }
   // Without far levels nothing is kept aside.
-  Scene none = makeScene();
+  FarScene none = makeFarScene();
   runFilter(none, 0);
   EXPECT_TRUE(!none.frame.far_cloud || none.frame.far_cloud->empty());
 }
@@ -144,7 +147,7 @@ TEST(RangeAdaptiveCells, FarLevelsFollowTheDepthError)
 // its level with enough points is inside a cell; the isolated strays make none.
 TEST(RangeAdaptiveCells, FarStructuresBecomeCoarseCellsAndTheFarRoadGoes)
 {
-  Scene s = makeScene();
+  FarScene s = makeFarScene();
   runFilter(s, 2);
   const std::size_t near_cells = s.frame.cuboids.size();
   const planar_grid::Frame::Cloud::ConstPtr far_before = s.frame.far_cloud;
@@ -159,9 +162,9 @@ TEST(RangeAdaptiveCells, FarStructuresBecomeCoarseCellsAndTheFarRoadGoes)
     ++before[static_cast<int>(p.intensity)];
   for (const auto& p : s.frame.far_cloud->points)
     ++after[static_cast<int>(p.intensity)];
-  EXPECT_EQ(after.count(ROAD), 0u);
+  EXPECT_EQ(after.count(FAR_ROAD), 0u);
   EXPECT_EQ(after[GUARDRAIL], before[GUARDRAIL]);
-  EXPECT_EQ(after[WALL], before[WALL]);
+  EXPECT_EQ(after[FAR_WALL], before[FAR_WALL]);
   EXPECT_EQ(after[STRAY], before[STRAY]);
   const float level1 = depthOfError(0.6);
   std::set<std::tuple<float, float, float>> centres;
@@ -183,7 +186,7 @@ TEST(RangeAdaptiveCells, FarStructuresBecomeCoarseCellsAndTheFarRoadGoes)
     for (std::size_t i = 0; i < far.size(); ++i) {
       const auto label = static_cast<int>(far[i].intensity);
       inside += c.contains(far[i].getVector3fMap(), 1e-4f);
-      EXPECT_FALSE(label == ROAD && c.contains(far[i].getVector3fMap(), -1e-4f))
+      EXPECT_FALSE(label == FAR_ROAD && c.contains(far[i].getVector3fMap(), -1e-4f))
         << "a road point inside a cell at " << c.centre.transpose();
       EXPECT_FALSE(label == STRAY && c.contains(far[i].getVector3fMap(), 0.0f))
         << "a stray point made a cell";
@@ -195,7 +198,7 @@ TEST(RangeAdaptiveCells, FarStructuresBecomeCoarseCellsAndTheFarRoadGoes)
   std::size_t structure = 0, covered = 0;
   for (const auto& p : far.points) {
     const auto label = static_cast<int>(p.intensity);
-    if (label != GUARDRAIL && label != WALL)
+    if (label != GUARDRAIL && label != FAR_WALL)
       continue;
     ++structure;
     for (std::size_t k = near_cells; k < s.frame.cuboids.size(); ++k)
@@ -214,10 +217,10 @@ TEST(RangeAdaptiveCells, FarStructuresBecomeCoarseCellsAndTheFarRoadGoes)
 // wall seen face-on at 24 m is one 0.1 m step thick instead of its 0.4 m cell.
 TEST(RangeAdaptiveCells, FittedCellsAreTheBoundsOfTheirPointsInsideTheLatticeCells)
 {
-  Scene lattice = makeScene();
+  FarScene lattice = makeFarScene();
   runFilter(lattice, 2);
   const std::size_t near_cells = lattice.frame.cuboids.size();
-  Scene fitted = lattice;
+  FarScene fitted = lattice;
   runCells(lattice, 10, false);
   runCells(fitted, 10, true);
   ASSERT_EQ(fitted.frame.cuboids.size(), lattice.frame.cuboids.size());
@@ -292,7 +295,7 @@ TEST(RangeAdaptiveCells, FittedCellsAreTheBoundsOfTheirPointsInsideTheLatticeCel
 // no far points the stage adds nothing.
 TEST(RangeAdaptiveCells, WithoutGroundTheRoadStaysAndWithoutFarPointsNothingIsAdded)
 {
-  Scene s = makeScene();
+  FarScene s = makeFarScene();
   runFilter(s, 2);
   s.frame.has_ground = false;
   runCells(s, 10);
@@ -302,7 +305,7 @@ TEST(RangeAdaptiveCells, WithoutGroundTheRoadStaysAndWithoutFarPointsNothingIsAd
       std::abs(c.centre.y() - static_cast<float>(CAMERA_HEIGHT_M)) < c.height_m;
   EXPECT_GT(on_road, 0u);
 
-  Scene none = makeScene();
+  FarScene none = makeFarScene();
   runFilter(none, 0);
   const std::size_t before = none.frame.cuboids.size();
   runCells(none, 10);
@@ -316,7 +319,7 @@ TEST(RangeAdaptiveCells, WithoutGroundTheRoadStaysAndWithoutFarPointsNothingIsAd
 // far road stays in the far cloud for range_adaptive_cells' terrain rule.
 TEST(RangeAdaptiveCells, FarPointsOnAPlaneMakeNoFarCell)
 {
-  Scene s = makeScene();
+  FarScene s = makeFarScene();
   planar_grid::PipelineState state;
   const auto* filter = planar_grid::findStage("depth_error_filter");
   ASSERT_NE(filter, nullptr);
@@ -331,11 +334,11 @@ TEST(RangeAdaptiveCells, FarPointsOnAPlaneMakeNoFarCell)
   for (const auto& p : far_before->points)
     ++before[static_cast<int>(p.intensity)];
   ASSERT_GT(before[GUARDRAIL], 0u);
-  ASSERT_GT(before[WALL], 0u);
+  ASSERT_GT(before[FAR_WALL], 0u);
 
   // Key features, the planes' hypotheses: every tenth point of the road, the guardrail
   // and the wall (the far points make no hypotheses of the cloud's).
-  const Scene all = makeScene();
+  const FarScene all = makeFarScene();
   for (std::size_t i = 0; i < all.frame.cloud->size(); i += 10) {
     const auto& p = (*all.frame.cloud)[i];
     if (static_cast<int>(p.intensity) == STRAY)
@@ -356,7 +359,7 @@ TEST(RangeAdaptiveCells, FarPointsOnAPlaneMakeNoFarCell)
   segmentation->create(sp)->process(s.frame, state);
 
   // The guardrail (x = -3.5) and the wall (z = 24) are planes of their own.
-  const auto planeOf = [&](Label label) {
+  const auto planeOf = [&](FarLabel label) {
     std::size_t best = 0, count = 0;
     for (std::size_t k = 0; k < s.frame.planes.size(); ++k) {
       std::size_t n = 0;
@@ -371,7 +374,7 @@ TEST(RangeAdaptiveCells, FarPointsOnAPlaneMakeNoFarCell)
     return std::make_pair(best, count);
   };
   const auto rail = planeOf(GUARDRAIL);
-  const auto wall = planeOf(WALL);
+  const auto wall = planeOf(FAR_WALL);
   ASSERT_GT(rail.second, 0u);
   ASSERT_GT(wall.second, 0u);
   EXPECT_GT(std::abs(s.frame.planes[rail.first].model_coefficients.values[0]), 0.99f);
@@ -383,12 +386,12 @@ TEST(RangeAdaptiveCells, FarPointsOnAPlaneMakeNoFarCell)
   for (const auto& p : s.frame.far_cloud->points)
     ++after[static_cast<int>(p.intensity)];
   EXPECT_EQ(after[GUARDRAIL], 0u);
-  EXPECT_EQ(after[WALL], 0u);
-  EXPECT_EQ(after[ROAD], before[ROAD]);
+  EXPECT_EQ(after[FAR_WALL], 0u);
+  EXPECT_EQ(after[FAR_ROAD], before[FAR_ROAD]);
   EXPECT_EQ(after[STRAY], before[STRAY]);
   // The input far cloud is not changed in place (frame copies share it).
   EXPECT_EQ(far_before->size(),
-            before[ROAD] + before[GUARDRAIL] + before[WALL] + before[STRAY]);
+            before[FAR_ROAD] + before[GUARDRAIL] + before[FAR_WALL] + before[STRAY]);
 
   const std::size_t cells_before = s.frame.cuboids.size();
   runCells(s, 10);

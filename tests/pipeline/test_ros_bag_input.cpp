@@ -30,6 +30,7 @@
 #include <iterator>
 #include <string>
 
+#include "../test_constants.h"
 #include "main_job_stages.h"
 
 namespace fs = std::filesystem;
@@ -37,8 +38,8 @@ using planar_grid::parsePipelineConfig;
 
 namespace {
 
-const std::string DATA = PLANAR_GRID_DATA_DIR;
-const std::string KARLSRUHE = DATA + "/karlsruhe_2010_03_09_drive_0023";
+using planar_grid_test::DATA;
+using planar_grid_test::KARLSRUHE_DIR;
 const std::string ROOM_SCAN = DATA + "/pcl_clouds/room_scan1.pcd";
 /** The stamp of the first frame, seconds. */
 constexpr double T0 = 1268149800.0;
@@ -121,8 +122,8 @@ protected:
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     model_ = planar_grid::loadStereoCalibration(
-      planar_grid::CalibrationFormat::KARLSRUHE, KARLSRUHE + "/calib.txt");
-    const cv::Mat first = cv::imread(KARLSRUHE + "/left/I1_000010.png");
+      planar_grid::CalibrationFormat::KARLSRUHE, KARLSRUHE_DIR + "/calib.txt");
+    const cv::Mat first = cv::imread(KARLSRUHE_DIR + "/left/I1_000010.png");
     model_.calibration.width = first.cols;
     model_.calibration.height = first.rows;
   }
@@ -152,9 +153,10 @@ protected:
         bag.write("/right/camera_info", ros::Time(t),
                   cameraInfo(c, -c.focal_length_px * c.baseline_m, t));
       bag.write("/left/image_rect", ros::Time(t),
-                imageMessage(KARLSRUHE + "/left/I1_" + index, t, "camera"));
-      bag.write("/right/image_rect", ros::Time(t + 0.002),
-                imageMessage(KARLSRUHE + "/right/I2_" + index, t + 0.002, "camera"));
+                imageMessage(KARLSRUHE_DIR + "/left/I1_" + index, t, "camera"));
+      bag.write(
+        "/right/image_rect", ros::Time(t + 0.002),
+        imageMessage(KARLSRUHE_DIR + "/right/I2_" + index, t + 0.002, "camera"));
       if (!poses.empty()) {
         tf2_msgs::TFMessage tf;
         tf.transforms.push_back(
@@ -229,12 +231,12 @@ TEST_F(RosBagInputTest, StereoBagGivesTheFramesOfTheImageFiles)
 {
   // The directory run: the same pairs, the insdata poses.
   const std::string files_input =
-    "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE
-    + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE
+    "input:\n  type: stereo_sequence\n  left_images: " + KARLSRUHE_DIR
+    + "/left/I1_%06d.png\n  right_images: " + KARLSRUHE_DIR
     + "/right/I2_%06d.png\n  first_index: 10\n  frame_count: 2\n"
       "  calibration: {format: karlsruhe, file: "
-    + KARLSRUHE + "/calib.txt}\n  poses: {format: karlsruhe_insdata, file: " + KARLSRUHE
-    + "/insdata.txt, camera_height_m: 1.57, camera_pitch_rad: 0.09}\n";
+    + KARLSRUHE_DIR + "/calib.txt}\n  poses: {format: karlsruhe_insdata, file: "
+    + KARLSRUHE_DIR + "/insdata.txt, camera_height_m: 1.57, camera_pitch_rad: 0.09}\n";
   planar_grid::PipelineRunner files(
     parsePipelineConfig(files_input + STAGES, "t.yaml", "/"));
   files.run();
@@ -320,9 +322,10 @@ TEST_F(RosBagInputTest, MainJobMapFromBagEqualsMapFromImageFiles)
       bag.write("/right/camera_info", ros::Time(t),
                 cameraInfo(c, -c.focal_length_px * c.baseline_m, t));
       bag.write("/left/image_rect", ros::Time(t),
-                imageMessage(KARLSRUHE + "/left/I1_" + index, t, "camera"));
-      bag.write("/right/image_rect", ros::Time(t + 0.002),
-                imageMessage(KARLSRUHE + "/right/I2_" + index, t + 0.002, "camera"));
+                imageMessage(KARLSRUHE_DIR + "/left/I1_" + index, t, "camera"));
+      bag.write(
+        "/right/image_rect", ros::Time(t + 0.002),
+        imageMessage(KARLSRUHE_DIR + "/right/I2_" + index, t + 0.002, "camera"));
       tf2_msgs::TFMessage tf;
       tf.transforms.push_back(transform("world", "camera", frame.world_T_camera, t));
       bag.write("/tf", ros::Time(t), tf);

@@ -16,11 +16,13 @@
 #include <string>
 #include <variant>
 
+#include "../test_constants.h"
+
 namespace {
 
 using planar_grid::ParamValues;
 
-const std::string SOURCE_DIR = PLANAR_GRID_SOURCE_DIR;
+using planar_grid_test::SOURCE_DIR;
 
 /** The text of a file, or "" when it cannot be read. */
 std::string

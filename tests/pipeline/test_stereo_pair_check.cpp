@@ -15,9 +15,11 @@
 #include <string>
 #include <vector>
 
+#include "../test_constants.h"
+
 namespace {
 
-const std::string DATA = PLANAR_GRID_DATA_DIR;
+using planar_grid_test::DATA;
 
 struct Pair {
   std::string left, right;

@@ -35,7 +35,7 @@ namespace {
 /** Karlsruhe frames 10-12 through the paper pipeline with the map; every output but
  * the snapshots, or (\a mesh_only) the mesh and the report only. */
 std::string
-config(const fs::path& output, bool mesh_only = false)
+commitJobConfig(const fs::path& output, bool mesh_only = false)
 {
   return planar_grid::test::karlsruheJob(
     3, output,
@@ -87,7 +87,7 @@ exitCode(pid_t pid)
 }
 
 std::string
-bytesOf(const fs::path& file)
+fileBytes(const fs::path& file)
 {
   std::ifstream in(file.string(), std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in),
@@ -104,7 +104,7 @@ contents(const fs::path& folder)
   for (const auto& e : fs::recursive_directory_iterator(folder))
     if (e.is_regular_file()
         && e.path().filename() != planar_grid::OutputTransaction::LOCK)
-      files[fs::relative(e.path(), folder).string()] = bytesOf(e.path());
+      files[fs::relative(e.path(), folder).string()] = fileBytes(e.path());
   return files;
 }
 
@@ -148,7 +148,7 @@ protected:
     fs::create_directories(dir_);
     out_ = dir_ / "out";
     yaml_ = dir_ / "run.yaml";
-    std::ofstream(yaml_) << config(out_);
+    std::ofstream(yaml_) << commitJobConfig(out_);
   }
   void TearDown() override { fs::remove_all(dir_); }
 
@@ -167,7 +167,7 @@ protected:
 
 TEST_F(OutputCommitTest, FullDiskKeepsTheOldOutputsAndNamesTheFile)
 {
-  ASSERT_EQ(run("0:1"), 0) << bytesOf(log_);
+  ASSERT_EQ(run("0:1"), 0) << fileBytes(log_);
   const auto old_set = contents(out_);
   ASSERT_GE(old_set.size(), 7u); // 6 outputs and the list of the set
   const std::size_t mesh_bytes = old_set.at("map_cuboids.ply").size();
@@ -178,7 +178,7 @@ TEST_F(OutputCommitTest, FullDiskKeepsTheOldOutputsAndNamesTheFile)
   // and the cause.
   const rlim_t limit = mesh_bytes / 2;
   EXPECT_EQ(run("0:2", limit), 5);
-  std::string log = bytesOf(log_);
+  std::string log = fileBytes(log_);
   EXPECT_NE(log.find(out_.string() + "/"), std::string::npos) << log;
   EXPECT_NE(log.find(": cannot write: "), std::string::npos) << log;
   EXPECT_NE(log.find("file size limit"), std::string::npos) << log;
@@ -187,9 +187,9 @@ TEST_F(OutputCommitTest, FullDiskKeepsTheOldOutputsAndNamesTheFile)
   EXPECT_EQ(contents(out_), old_set); // byte for byte, nothing left over
 
   // PCL's PLY writer does not check its stream: its short file is caught all the same.
-  std::ofstream(yaml_) << config(out_, true);
+  std::ofstream(yaml_) << commitJobConfig(out_, true);
   EXPECT_EQ(run("0:2", limit), 5);
-  log = bytesOf(log_);
+  log = fileBytes(log_);
   EXPECT_NE(log.find(out_.string() + "/map_cuboids.ply: cannot write: File too large"),
             std::string::npos)
     << log;
@@ -209,8 +209,8 @@ TEST_F(OutputCommitTest, RealFullDiskKeepsTheOldOutputs)
     ~Unmount() { ::umount2(path.c_str(), MNT_DETACH); }
   } unmount{disk};
   const fs::path out = disk / "out";
-  std::ofstream(yaml_) << config(out);
-  ASSERT_EQ(run("0:1"), 0) << bytesOf(log_);
+  std::ofstream(yaml_) << commitJobConfig(out);
+  ASSERT_EQ(run("0:1"), 0) << fileBytes(log_);
   const auto old_set = contents(out);
   // Room for the old set and half of it again: the 2-frame set does not fit beside it.
   struct statvfs info {};
@@ -220,7 +220,7 @@ TEST_F(OutputCommitTest, RealFullDiskKeepsTheOldOutputs)
   ASSERT_EQ(::mount("tmpfs", disk.c_str(), "tmpfs", MS_REMOUNT, size.c_str()), 0);
 
   EXPECT_EQ(run("0:2"), 5);
-  const std::string log = bytesOf(log_);
+  const std::string log = fileBytes(log_);
   EXPECT_NE(log.find(out.string() + "/"), std::string::npos) << log;
   EXPECT_NE(log.find(": cannot write: No space left on device (the disk of "
                      + out.string() + " is full)"),
@@ -238,15 +238,15 @@ TEST_F(OutputCommitTest, KilledWhileWritingOutputsLeavesTheOldOrTheNewSet)
   // is frame 10's. Each run costs seconds under the sanitizers, so each set is one
   // frame's.
   const fs::path reference = dir_ / "reference";
-  std::ofstream(dir_ / "reference.yaml") << config(reference);
+  std::ofstream(dir_ / "reference.yaml") << commitJobConfig(reference);
   ASSERT_EQ(exitCode(start({"--config", (dir_ / "reference.yaml").string(), "--frames",
                             "1:2", "--no-snapshot", "--sequential"},
                            log_)),
             0)
-    << bytesOf(log_);
+    << fileBytes(log_);
   const auto new_set = contents(reference);
   // The old set.
-  ASSERT_EQ(run("0:1"), 0) << bytesOf(log_);
+  ASSERT_EQ(run("0:1"), 0) << fileBytes(log_);
   auto old_set = contents(out_);
   ASSERT_FALSE(sameOutputs(old_set, new_set));
 
@@ -298,7 +298,7 @@ TEST_F(OutputCommitTest, KilledWhileWritingOutputsLeavesTheOldOrTheNewSet)
     new_seen += is_new;
     // Back to the old set for the next kill: the run also removes the killed run's
     // staging folder (contents() would show it).
-    ASSERT_EQ(run("0:1"), 0) << bytesOf(log_);
+    ASSERT_EQ(run("0:1"), 0) << fileBytes(log_);
     const auto again = contents(out_);
     ASSERT_TRUE(sameOutputs(again, old_set));
     old_set = again;
@@ -321,7 +321,7 @@ TEST_F(OutputCommitTest, KilledWhileWritingOutputsLeavesTheOldOrTheNewSet)
 
 TEST_F(OutputCommitTest, StopSignalEndsTheRunAfterAFrameAndKeepsTheOldOutputs)
 {
-  ASSERT_EQ(run("0:1"), 0) << bytesOf(log_);
+  ASSERT_EQ(run("0:1"), 0) << fileBytes(log_);
   const auto old_set = contents(out_);
   ASSERT_GE(old_set.size(), 7u);
 
@@ -336,14 +336,14 @@ TEST_F(OutputCommitTest, StopSignalEndsTheRunAfterAFrameAndKeepsTheOldOutputs)
       log_);
     bool first_frame = false;
     for (int waited_ms = 0; !first_frame && waited_ms < 600000; waited_ms += 10) {
-      first_frame = bytesOf(log_).find("frame 1/8") != std::string::npos;
+      first_frame = fileBytes(log_).find("frame 1/8") != std::string::npos;
       if (!first_frame)
         ::usleep(10000);
     }
-    ASSERT_TRUE(first_frame) << bytesOf(log_);
+    ASSERT_TRUE(first_frame) << fileBytes(log_);
     ASSERT_EQ(::kill(pid, signal), 0);
     EXPECT_EQ(exitCode(pid), 128 + signal);
-    const std::string log = bytesOf(log_);
+    const std::string log = fileBytes(log_);
     EXPECT_NE(log.find(std::string(signal == SIGINT ? "SIGINT" : "SIGTERM")
                        + ": stopped on request after frame "),
               std::string::npos)
@@ -365,7 +365,7 @@ TEST(PipelineRunLock, SecondRunIntoTheFolderFailsAtOnceNamingTheHolder)
   fs::remove_all(dir);
   fs::create_directories(dir);
   const fs::path folder = dir / "out";
-  std::ofstream(dir / "job.yaml") << config(folder);
+  std::ofstream(dir / "job.yaml") << commitJobConfig(folder);
   std::string what;
   {
     // This process holds the folder as a running pipeline would.
@@ -373,7 +373,7 @@ TEST(PipelineRunLock, SecondRunIntoTheFolderFailsAtOnceNamingTheHolder)
     const pid_t pid =
       start({"--config", (dir / "job.yaml").string(), "--no-snapshot"}, dir / "log");
     EXPECT_EQ(exitCode(pid), 5);
-    what = bytesOf(dir / "log");
+    what = fileBytes(dir / "log");
     // Refused before the first frame: no progress line, no checkpoint, no output.
     EXPECT_EQ(what.find("frame 1/3"), std::string::npos) << what;
     EXPECT_TRUE(outputs(folder).empty());
@@ -398,7 +398,7 @@ TEST(PipelineOwnXvfb, FailingRunWithoutDisplayExitsWithItsOwnCodeAndLeavesNoXvfb
     fs::temp_directory_path() / ("planar_grid_own_xvfb_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
-  std::ofstream(dir / "job.yaml") << config(dir / "out", false);
+  std::ofstream(dir / "job.yaml") << commitJobConfig(dir / "out", false);
   // Xvfb servers started with -displayfd (only ours are) and alive now.
   const auto own_servers = [] {
     std::vector<std::string> pids;
@@ -406,8 +406,8 @@ TEST(PipelineOwnXvfb, FailingRunWithoutDisplayExitsWithItsOwnCodeAndLeavesNoXvfb
       const std::string name = e.path().filename().string();
       if (name.find_first_not_of("0123456789") != std::string::npos)
         continue;
-      const std::string cmdline = bytesOf(e.path() / "cmdline");
-      const std::string stat = bytesOf(e.path() / "stat");
+      const std::string cmdline = fileBytes(e.path() / "cmdline");
+      const std::string stat = fileBytes(e.path() / "stat");
       const bool zombie = stat.find(") Z ") != std::string::npos;
       if (!zombie && cmdline.rfind("Xvfb", 0) == 0
           && cmdline.find("-displayfd") != std::string::npos)
@@ -435,7 +435,7 @@ TEST(PipelineOwnXvfb, FailingRunWithoutDisplayExitsWithItsOwnCodeAndLeavesNoXvfb
     ::_exit(127);
   }
   EXPECT_EQ(exitCode(pid), 2); // a command-line error
-  const std::string log = bytesOf(dir / "log");
+  const std::string log = fileBytes(dir / "log");
   EXPECT_NE(log.find("frame range 2:1 is empty"), std::string::npos) << log;
   EXPECT_EQ(log.find("xvfb-run"), std::string::npos) << log;
   // The kernel sends the server SIGTERM when the tool ends; it is gone once it has

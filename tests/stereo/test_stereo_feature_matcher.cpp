@@ -17,6 +17,8 @@
 #include <utility>
 #include <vector>
 
+#include "../test_constants.h"
+
 namespace {
 
 using planar_grid::FeatureType;
@@ -24,8 +26,7 @@ using planar_grid::StereoCalibration;
 using planar_grid::StereoFeatureMatcher;
 using planar_grid::StereoFeatures;
 
-const std::string KARLSRUHE_DIR =
-  std::string(PLANAR_GRID_DATA_DIR) + "/karlsruhe_2010_03_09_drive_0023";
+using planar_grid_test::KARLSRUHE_DIR;
 
 /** \brief Karlsruhe frame 10 and its calibration, loaded once per test. */
 class StereoFeatureMatcherKarlsruhe : public ::testing::Test {

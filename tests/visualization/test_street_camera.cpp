@@ -7,13 +7,15 @@
 
 #include <cmath>
 
+#include "../test_constants.h"
+
 namespace {
 
 using planar_grid::CameraParameters;
 using planar_grid::PoseVector;
 using planar_grid::StreetCameraParameters;
 
-constexpr double PI = 3.14159265358979323846;
+using planar_grid_test::PI;
 
 /** \brief Angle of \a v below the horizontal plane of \a up (radians, > 0 downwards).
  */
