@@ -14,10 +14,9 @@
 #                a process with a failure: UBSan halts on error); any sanitizer report
 #                or compiler warning fails. The ROS node (glue
 #                between roscpp and Mapper, whose code the suites cover) is not built here.
-# Both builds compile the libraries, tools and Python module in unity batches
+# Both builds compile the libraries, tools, Python module and tests in unity batches
 # (CMAKE_UNITY_BUILD: eight sources per translation unit, each header and template
-# instantiation compiled once per batch instead of once per file), the tests one file
-# per unit.
+# instantiation compiled once per batch instead of once per file).
 # Each phase prints its wall time, and a table of all of them ends the run.
 #   bash scripts/run_tests.sh
 # BUILD_DIR (default build), ASAN_BUILD_DIR (default build-asan), JOBS (default 2);
