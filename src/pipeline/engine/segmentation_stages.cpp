@@ -264,8 +264,7 @@ private:
             cloud_R_camera](pcl::index_t i) -> Eigen::Vector3f {
       const Eigen::Vector3f point =
         camera_T_cloud * (*cloud)[static_cast<std::size_t>(i)].getVector3fMap();
-      const Eigen::Vector3f normal = cloud_R_camera * estimator.compute(point);
-      return normal;
+      return cloud_R_camera * estimator.compute(point);
     };
   }
 
